@@ -1,0 +1,130 @@
+"""Assemble a model's full derivation (one object) and cache it on disk."""
+from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import sympy as sp
+
+from ..model import Model, load_model
+from . import hamilton, lagrange
+from .paper import PaperForms, paper_forms
+from .symbols import ModelSymbols, model_symbols
+
+
+@dataclass
+class HamiltonianForm:
+    M_inv: sp.Matrix
+    H: sp.Expr
+    qdot: sp.Matrix       # dH/dp = M^-1 p, in (q, p)
+    pdot: sp.Matrix       # -dH/dq, in (q, p)
+    dL_dq: sp.Matrix      # dL/dq in (q, q'): p' once q' = M^-1 p is substituted
+
+
+@dataclass
+class Derivation:
+    model: Model
+    symbols: ModelSymbols
+    tips: list[sp.Matrix]          # Cartesian position of each link's tip
+    centres: list[sp.Matrix]       # Cartesian position of each body's mass centre
+    M: sp.Matrix                   # mass matrix, M q'' = F
+    F: sp.Matrix                   # forcing
+    T: sp.Expr
+    V: sp.Expr
+    hamiltonian: HamiltonianForm | None = None
+    paper: PaperForms | None = None
+    polar_sines: list[sp.Expr] = field(default_factory=list)
+    seconds: float = 0.0           # time the derivation took when it was computed
+
+    @property
+    def L(self) -> sp.Expr:
+        return self.T - self.V
+
+    @property
+    def energy(self) -> sp.Expr:
+        return self.T + self.V
+
+    @property
+    def name(self) -> str:
+        return self.model.name
+
+
+def compute(model: Model) -> Derivation:
+    start = time.perf_counter()
+    s = model_symbols(model)
+    M = lagrange.mass_matrix(model, s)
+    V = lagrange.potential_energy(model, s)
+    d = Derivation(model=model, symbols=s,
+                   tips=lagrange.tip_positions(model, s),
+                   centres=lagrange.mass_centres(model, s),
+                   M=M, F=lagrange.forcing(M, V, s),
+                   T=lagrange.kinetic_energy(M, s), V=V)
+    k = 0
+    for link in model.links:
+        n = len(link.chart.coordinates)
+        sine = link.chart.polar_sine_of(list(s.q[k:k + n]))
+        if sine is not None:
+            d.polar_sines.append(sine)
+        k += n
+    if "hamiltonian" in model.forms:
+        M_inv = hamilton.inverse_mass_matrix(M)
+        H = hamilton.hamiltonian(M_inv, V, s)
+        d.hamiltonian = HamiltonianForm(M_inv, H, *hamilton.hamilton_equations(H, s),
+                                        hamilton.lagrangian_gradient(M, V, s))
+    if "paper" in model.forms:
+        d.paper = paper_forms(model, s)
+    d.seconds = time.perf_counter() - start
+    return d
+
+
+# -- the disk cache ---------------------------------------------------------
+
+def cache_dir() -> Path:
+    root = os.environ.get("DERIVE_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "derive")
+    return Path(root)
+
+
+def _code_hash() -> str:
+    """The derivation code itself is part of the key: editing it invalidates the cache."""
+    h = hashlib.sha256()
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        h.update(path.read_bytes())
+    h.update((Path(__file__).parent.parent / "model" / "description.py").read_bytes())
+    return h.hexdigest()
+
+
+def cache_key(model: Model) -> str:
+    text = "\0".join([model.content_hash, sp.__version__, _code_hash()])
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+_memory: dict[str, Derivation] = {}
+
+
+def derive(name: str | Model, use_cache: bool = True) -> Derivation:
+    """The derivation of a model, from memory, the disk cache, or computed now."""
+    model = load_model(name) if isinstance(name, str) else name
+    key = cache_key(model)
+    if use_cache and key in _memory:
+        return _memory[key]
+    path = cache_dir() / "derivations" / f"{model.name}-{key}.pickle"
+    if use_cache and path.is_file():
+        try:
+            d = pickle.loads(path.read_bytes())
+            _memory[key] = d
+            return d
+        except Exception:   # a corrupt or foreign cache file: recompute below
+            pass
+    d = compute(model)
+    if use_cache:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".tmp{os.getpid()}")
+        tmp.write_bytes(pickle.dumps(d, protocol=pickle.HIGHEST_PROTOCOL))
+        tmp.replace(path)
+        _memory[key] = d
+    return d

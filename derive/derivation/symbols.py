@@ -1,0 +1,45 @@
+"""The plain SymPy symbols of a model: coordinates, rates, momenta, parameters.
+
+Everything is derived with plain Symbols (never ``q(t)``), so nothing has to be
+substituted before printing or lambdifying.  The time derivative is applied by
+the chain rule with the rates as explicit symbols (see lagrange.py).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from ..model import Model
+
+
+@dataclass(frozen=True)
+class ModelSymbols:
+    q: tuple[sp.Symbol, ...]        # generalized coordinates
+    qd: tuple[sp.Symbol, ...]       # their rates
+    p: tuple[sp.Symbol, ...]        # canonical momenta (Hamiltonian form)
+    params: tuple[sp.Symbol, ...]   # in the model's parameter order
+
+    def param(self, name: str) -> sp.Symbol:
+        return next(s for s in self.params if s.name == name)
+
+    @property
+    def state(self) -> tuple[sp.Symbol, ...]:
+        return self.q + self.qd
+
+    @property
+    def hamiltonian_state(self) -> tuple[sp.Symbol, ...]:
+        return self.q + self.p
+
+
+def model_symbols(model: Model) -> ModelSymbols:
+    q = tuple(sp.Symbol(n, real=True) for n in model.coordinate_names)
+    qd = tuple(sp.Symbol(n, real=True) for n in model.rate_names)
+    p = tuple(sp.Symbol(f"p_{n}", real=True) for n in model.coordinate_names)
+    params = tuple(sp.Symbol(n, positive=True) for n in model.parameters)
+    return ModelSymbols(q, qd, p, params)
+
+
+def parse_quantity(text: str, symbols: ModelSymbols) -> sp.Expr:
+    """A length, mass, inertia or fraction from a description: a parameter or a number."""
+    return sp.sympify(text, locals={s.name: s for s in symbols.params}, rational=True)

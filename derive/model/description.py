@@ -1,0 +1,180 @@
+"""Read and validate model and chart descriptions (TOML) into plain objects."""
+from __future__ import annotations
+
+import hashlib
+import tomllib
+from dataclasses import dataclass, field
+from functools import cache
+from pathlib import Path
+
+import sympy as sp
+
+CATALOG = Path(__file__).parent / "catalog"
+CHARTS_FILE = CATALOG / "charts.toml"
+
+
+class ModelError(ValueError):
+    """A model or chart description is wrong; the message names what."""
+
+
+@dataclass(frozen=True)
+class Chart:
+    name: str
+    dimension: int
+    coordinates: tuple[str, ...]
+    latex: tuple[str, ...]
+    unit: tuple[str, ...]
+    polar_sine: str | None
+    singular_axis: str | None
+    source: str
+
+    def unit_vector(self, coords: list[sp.Symbol]) -> sp.Matrix:
+        """The link direction e(u, v) with this chart's coordinates replaced by ``coords``."""
+        local = {name: sym for name, sym in zip(self.coordinates, coords)}
+        return sp.Matrix([sp.sympify(c, locals=local) for c in self.unit])
+
+    def polar_sine_of(self, coords: list[sp.Symbol]) -> sp.Expr | None:
+        if self.polar_sine is None:
+            return None
+        local = {name: sym for name, sym in zip(self.coordinates, coords)}
+        return sp.sympify(self.polar_sine, locals=local)
+
+
+@dataclass(frozen=True)
+class Body:
+    kind: str            # "point" or "rod"
+    mass: str            # parameter name
+    com: str = "1"       # centre of mass along the link, fraction of its length
+    inertia: str = "0"   # moment of inertia about the centre of mass
+
+
+@dataclass(frozen=True)
+class Link:
+    chart: Chart
+    length: str
+    body: Body
+
+
+@dataclass(frozen=True)
+class Model:
+    name: str
+    title: str
+    source: str
+    dimension: int
+    parameters: tuple[str, ...]
+    forms: tuple[str, ...]
+    links: tuple[Link, ...]
+    text: str = field(repr=False)   # the description as read, for hashing
+
+    @property
+    def content_hash(self) -> str:
+        charts = CHARTS_FILE.read_text()
+        return hashlib.sha256((self.text + "\0" + charts).encode()).hexdigest()
+
+    @property
+    def coordinate_names(self) -> list[str]:
+        return [f"{c}{i}" for i, link in enumerate(self.links, 1) for c in link.chart.coordinates]
+
+    @property
+    def rate_names(self) -> list[str]:
+        return [f"{c}_dot" for c in self.coordinate_names]
+
+    @property
+    def state_names(self) -> list[str]:
+        return self.coordinate_names + self.rate_names
+
+
+def _require(table: dict, key: str, kind: type, where: str):
+    if key not in table:
+        raise ModelError(f"{where}: missing key '{key}'")
+    value = table[key]
+    if not isinstance(value, kind):
+        raise ModelError(f"{where}: '{key}' must be {kind.__name__}, got {type(value).__name__}")
+    return value
+
+
+def _no_unknown(table: dict, known: set[str], where: str) -> None:
+    unknown = sorted(set(table) - known)
+    if unknown:
+        raise ModelError(f"{where}: unknown key '{unknown[0]}'")
+
+
+@cache
+def _charts() -> dict[str, dict]:
+    return tomllib.loads(CHARTS_FILE.read_text())
+
+
+def load_chart(name: str) -> Chart:
+    charts = _charts()
+    if name not in charts:
+        raise ModelError(f"unknown chart '{name}' (known: {', '.join(sorted(charts))})")
+    t = charts[name]
+    where = f"chart '{name}'"
+    _no_unknown(t, {"dimension", "coordinates", "latex", "unit", "polar_sine",
+                    "singular_axis", "source"}, where)
+    chart = Chart(name=name, dimension=_require(t, "dimension", int, where),
+                  coordinates=tuple(_require(t, "coordinates", list, where)),
+                  latex=tuple(_require(t, "latex", list, where)),
+                  unit=tuple(_require(t, "unit", list, where)),
+                  polar_sine=t.get("polar_sine"), singular_axis=t.get("singular_axis"),
+                  source=t.get("source", ""))
+    if len(chart.unit) != chart.dimension:
+        raise ModelError(f"{where}: unit has {len(chart.unit)} components, dimension is {chart.dimension}")
+    return chart
+
+
+def model_names() -> list[str]:
+    return sorted(p.stem for p in CATALOG.glob("*.toml") if p.stem != "charts")
+
+
+def _parse_body(t: dict, where: str) -> Body:
+    _no_unknown(t, {"kind", "mass", "com", "inertia"}, where)
+    kind = _require(t, "kind", str, where)
+    if kind not in ("point", "rod"):
+        raise ModelError(f"{where}: body kind must be 'point' or 'rod', got '{kind}'")
+    mass = _require(t, "mass", str, where)
+    if kind == "point":
+        if "com" in t or "inertia" in t:
+            raise ModelError(f"{where}: a point body has no 'com' or 'inertia'")
+        return Body(kind, mass)
+    return Body(kind, mass, _require(t, "com", str, where), _require(t, "inertia", str, where))
+
+
+def parse_model(text: str, origin: str) -> Model:
+    try:
+        t = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ModelError(f"{origin}: not valid TOML ({exc})") from None
+    _no_unknown(t, {"name", "title", "source", "dimension", "parameters", "forms", "links"}, origin)
+    dimension = _require(t, "dimension", int, origin)
+    params = tuple(_require(t, "parameters", list, origin))
+    links = []
+    for i, lt in enumerate(_require(t, "links", list, origin), 1):
+        where = f"{origin}: link {i}"
+        _no_unknown(lt, {"chart", "length", "body"}, where)
+        chart = load_chart(_require(lt, "chart", str, where))
+        if chart.dimension != dimension:
+            raise ModelError(f"{where}: chart '{chart.name}' is {chart.dimension}-D in a {dimension}-D model")
+        link = Link(chart, _require(lt, "length", str, where),
+                    _parse_body(_require(lt, "body", dict, where), where + " body"))
+        for p in (link.length, link.body.mass, link.body.inertia):
+            if not p.lstrip("-").replace("/", "").isdigit() and p not in params:
+                raise ModelError(f"{where}: '{p}' is not a declared parameter")
+        links.append(link)
+    if "g" not in params:
+        raise ModelError(f"{origin}: parameters must include the gravity 'g'")
+    forms = tuple(t.get("forms", ["lagrangian"]))
+    for f in forms:
+        if f not in ("lagrangian", "hamiltonian", "paper"):
+            raise ModelError(f"{origin}: unknown form '{f}'")
+    return Model(name=_require(t, "name", str, origin), title=t.get("title", ""),
+                 source=t.get("source", ""), dimension=dimension, parameters=params,
+                 forms=forms, links=tuple(links), text=text)
+
+
+@cache
+def load_model(name: str) -> Model:
+    path = CATALOG / f"{name}.toml"
+    if name == "charts" or not path.is_file():
+        raise ModelError(f"unknown model '{name}' (known: {', '.join(model_names())})")
+    return parse_model(path.read_text(), path.name)

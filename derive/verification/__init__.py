@@ -1,0 +1,1 @@
+"""Stage 3, verification: every printed formula of the seeds against the derivation."""
