@@ -24,6 +24,7 @@ class Chart:
     coordinates: tuple[str, ...]
     latex: tuple[str, ...]
     unit: tuple[str, ...]
+    inverse: tuple[str, ...]
     polar_sine: str | None
     singular_axis: str | None
     source: str
@@ -32,6 +33,11 @@ class Chart:
         """The link direction e(u, v) with this chart's coordinates replaced by ``coords``."""
         local = {name: sym for name, sym in zip(self.coordinates, coords)}
         return sp.Matrix([sp.sympify(c, locals=local) for c in self.unit])
+
+    def coordinates_of(self, e) -> list[sp.Expr]:
+        """The chart's coordinates of a unit vector ``e`` (robust atan2 forms)."""
+        local = dict(zip("xyz", e))
+        return [sp.sympify(c, locals=local) for c in self.inverse]
 
     def polar_sine_of(self, coords: list[sp.Symbol]) -> sp.Expr | None:
         if self.polar_sine is None:
@@ -110,16 +116,20 @@ def load_chart(name: str) -> Chart:
         raise ModelError(f"unknown chart '{name}' (known: {', '.join(sorted(charts))})")
     t = charts[name]
     where = f"chart '{name}'"
-    _no_unknown(t, {"dimension", "coordinates", "latex", "unit", "polar_sine",
+    _no_unknown(t, {"dimension", "coordinates", "latex", "unit", "inverse", "polar_sine",
                     "singular_axis", "source"}, where)
     chart = Chart(name=name, dimension=_require(t, "dimension", int, where),
                   coordinates=tuple(_require(t, "coordinates", list, where)),
                   latex=tuple(_require(t, "latex", list, where)),
                   unit=tuple(_require(t, "unit", list, where)),
+                  inverse=tuple(_require(t, "inverse", list, where)),
                   polar_sine=t.get("polar_sine"), singular_axis=t.get("singular_axis"),
                   source=t.get("source", ""))
     if len(chart.unit) != chart.dimension:
         raise ModelError(f"{where}: unit has {len(chart.unit)} components, dimension is {chart.dimension}")
+    if len(chart.inverse) != len(chart.coordinates):
+        raise ModelError(f"{where}: inverse has {len(chart.inverse)} entries for "
+                         f"{len(chart.coordinates)} coordinates")
     return chart
 
 

@@ -1,0 +1,125 @@
+"""The `derive` command line: one subcommand per pipeline stage, plus `run`."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from .model import ModelError, model_names
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+
+
+class UsageError(Exception):
+    """Bad input from the user: reported as one line, exit status 2."""
+
+
+def _derive_all(models: list[str]) -> tuple[float, list[tuple[str, float, bool]]]:
+    from .derivation import derive
+    from .derivation.derivation import cache_dir, cache_key
+    from .model import load_model
+    rows, start = [], time.perf_counter()
+    for name in models:
+        model = load_model(name)
+        warm = any((cache_dir() / "derivations").glob(f"{name}-{cache_key(model)}.pickle"))
+        t0 = time.perf_counter()
+        derive(name)
+        rows.append((name, time.perf_counter() - t0, warm))
+    return time.perf_counter() - start, rows
+
+
+def cmd_derive(args) -> int:
+    models = args.models or model_names()
+    for m in models:
+        if m not in model_names():
+            raise UsageError(f"unknown model '{m}' (known: {', '.join(model_names())})")
+    total, rows = _derive_all(models)
+    for name, seconds, warm in rows:
+        print(f"{name:15s} {seconds:7.2f} s  ({'cache' if warm else 'derived'})")
+    print(f"derived {len(rows)} models in {total:.2f} s")
+    return 0
+
+
+def cmd_verify(args) -> int:
+    from .verification import claims, physics
+    start = time.perf_counter()
+    derive_seconds, rows = _derive_all(model_names())
+    results = claims.run_all()
+    checks = physics.run_all()
+    seconds = time.perf_counter() - start
+    failed = [r for r in results if r.verdict not in ("match", "erratum")]
+    failed_checks = [c for c in checks if not c.passed]
+    if args.json:
+        print(json.dumps([{"seed": r.seed, "equation": r.equation, "verdict": r.verdict,
+                           "summary": r.summary} for r in results], indent=1))
+    else:
+        width = max(len(r.equation) for r in results)
+        print(f"{'seed':28s} {'equation':{width}s}  verdict   summary")
+        for r in results:
+            print(f"{r.seed:28s} {r.equation:{width}s}  {r.verdict:8s}  {r.summary}")
+        print()
+        for c in checks:
+            print(f"{'ok  ' if c.passed else 'FAIL'} {c.name}: {c.detail}")
+        n_err = sum(r.verdict == "erratum" for r in results)
+        cache = "warm" if all(w for _, _, w in rows) else "cold"
+        print(f"\n{len(results)} seed formulas: {len(results) - n_err - len(failed)} match, "
+              f"{n_err} errata, {len(failed)} failed; {len(checks) - len(failed_checks)}/"
+              f"{len(checks)} physics checks pass; {seconds:.1f} s "
+              f"({cache} derivation cache, derivation {derive_seconds:.1f} s)")
+    return 1 if failed or failed_checks else 0
+
+
+def cmd_generate(args) -> int:
+    from .codegen.generate import generate_all
+    changed, diff = generate_all(REPO_ROOT, check=args.check)
+    if args.check:
+        if changed:
+            sys.stdout.write(diff)
+            print(f"generated/ is stale: {len(changed)} file(s) differ; run `derive generate`",
+                  file=sys.stderr)
+            return 1
+        print("generated/ is up to date")
+        return 0
+    print(f"wrote {len(changed)} changed file(s)" if changed else "generated/ already up to date")
+    for path in changed:
+        print(f"  {path}")
+    return 0
+
+
+class _OneLineParser(argparse.ArgumentParser):
+    """argparse, but a usage mistake is one line on stderr and exit status 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _OneLineParser(
+        prog="derive", description="Derive, verify and generate code for double pendulums.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("derive", help="derive the equations of motion (cached)")
+    p.add_argument("models", nargs="*", help=f"models (default: all of {', '.join(model_names())})")
+    p.set_defaults(func=cmd_derive)
+    p = sub.add_parser("verify", help="check every seed formula against the derivation")
+    p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.set_defaults(func=cmd_verify)
+    p = sub.add_parser("generate", help="regenerate generated/ from derive/ and templates/")
+    p.add_argument("--check", action="store_true",
+                   help="write nothing; exit 1 with a diff when generated/ is stale")
+    p.set_defaults(func=cmd_generate)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except (UsageError, ModelError) as exc:
+        print(f"derive: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("derive: interrupted", file=sys.stderr)
+        return 130

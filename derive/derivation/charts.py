@@ -1,0 +1,59 @@
+"""Changing charts (seed 000 §5.2): coordinates and rates of one model's chart
+expressed through another's, for models that share links and differ in charts.
+
+Coordinates go through the Cartesian unit vector and the target chart's robust
+inverse (charts.toml, the forms of (5.2)-(5.5) that keep the quadrant).  Rates
+follow (5.11)-(5.14): the link velocity is the same in both charts,
+    e' = J_a a' = J_b b',
+and the columns of a spherical chart's Jacobian are orthogonal, so
+    b'_k = (e' . de/db_k) / |de/db_k|^2        (|de/dphi|^2 = sin^2 theta).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from ..model import Model
+from .symbols import ModelSymbols, model_symbols
+
+
+@dataclass
+class ChartChange:
+    source: str
+    target: str
+    source_symbols: ModelSymbols
+    target_symbols: ModelSymbols
+    coordinates: list[sp.Expr]   # target q in terms of source q
+    target_q: list[sp.Symbol]    # stand-ins for the target q inside `rates`
+    rates: list[sp.Expr]         # target q' in terms of source (q, q') and target_q
+
+
+def _link_slices(model: Model):
+    k = 0
+    for link in model.links:
+        n = len(link.chart.coordinates)
+        yield link, slice(k, k + n)
+        k += n
+
+
+def chart_change(source: Model, target: Model) -> ChartChange:
+    if [len(l.chart.coordinates) for l in source.links] != [len(l.chart.coordinates) for l in target.links]:
+        raise ValueError(f"'{source.name}' and '{target.name}' do not have the same links")
+    a, b = model_symbols(source), model_symbols(target)
+    # Two models may share coordinate names (second and rotated chart), so the
+    # target coordinates inside the rate formulas get names of their own.
+    target_q = [sp.Symbol(f"{s.name}_new", real=True) for s in b.q]
+    coords, rates = [], []
+    for (la, sa), (lb, sb) in zip(_link_slices(source), _link_slices(target)):
+        qa, qb = list(a.q[sa]), target_q[sb]
+        e_a = la.chart.unit_vector(qa)
+        coords += lb.chart.coordinates_of(list(e_a))
+        velocity = e_a.jacobian(qa) * sp.Matrix(a.qd[sa])
+        J_b = lb.chart.unit_vector(qb).jacobian(qb)
+        gram = (J_b.T * J_b).applyfunc(sp.trigsimp)
+        if not gram.is_diagonal():
+            raise ValueError(f"chart '{lb.chart.name}' is not orthogonal; (5.11)-(5.14) do not apply")
+        for k in range(len(qb)):
+            rates.append(sp.trigsimp(velocity.dot(J_b[:, k])) / gram[k, k])
+    return ChartChange(source.name, target.name, a, b, coords, target_q, rates)

@@ -1,0 +1,57 @@
+"""Model descriptions: the catalogue loads, and bad descriptions are named errors."""
+import pytest
+
+from derive.model import ModelError, load_model, model_names
+from derive.model.description import parse_model
+
+GOOD = """
+name = "toy"
+dimension = 2
+parameters = ["m1", "l1", "g"]
+[[links]]
+chart = "planar"
+length = "l1"
+body = { kind = "point", mass = "m1" }
+"""
+
+
+def test_catalogue_has_the_seed_models():
+    assert set(model_names()) >= {"planar", "compound", "spherical_std", "spherical_alt", "spherical_rot"}
+
+
+@pytest.mark.parametrize("name,states,params", [
+    ("planar", ["theta1", "theta2", "theta1_dot", "theta2_dot"], ["m1", "m2", "l1", "l2", "g"]),
+    ("compound", ["theta1", "theta2", "theta1_dot", "theta2_dot"], ["m1", "m2", "l1", "l2", "L1", "L2", "g"]),
+    ("spherical_std", ["theta1", "phi1", "theta2", "phi2", "theta1_dot", "phi1_dot", "theta2_dot", "phi2_dot"],
+     ["m1", "m2", "l1", "l2", "g"]),
+    ("spherical_alt", ["vartheta1", "varphi1", "vartheta2", "varphi2", "vartheta1_dot", "varphi1_dot",
+                       "vartheta2_dot", "varphi2_dot"], ["m1", "m2", "l1", "l2", "g"]),
+])
+def test_state_and_parameter_order(name, states, params):
+    model = load_model(name)
+    assert model.state_names == states
+    assert list(model.parameters) == params
+
+
+def test_a_new_model_is_a_description():
+    model = parse_model(GOOD, "toy.toml")
+    assert model.state_names == ["theta1", "theta1_dot"]
+
+
+@pytest.mark.parametrize("edit,message", [
+    (lambda t: t.replace('chart = "planar"', 'chart = "hyperbolic"'), "unknown chart 'hyperbolic'"),
+    (lambda t: t.replace('mass = "m1"', 'mass = "m9"'), "'m9' is not a declared parameter"),
+    (lambda t: t.replace('dimension = 2', 'dimension = 3'), "is 2-D in a 3-D model"),
+    (lambda t: t + "colour = 1\n", "unknown key 'colour'"),
+    (lambda t: t.replace('kind = "point"', 'kind = "blob"'), "body kind must be 'point' or 'rod'"),
+    (lambda t: t.replace('"m1", "l1", "g"', '"m1", "l1"'), "must include the gravity 'g'"),
+    (lambda t: t.replace("dimension = 2", "dimension = [2"), "not valid TOML"),
+])
+def test_bad_descriptions_are_named(edit, message):
+    with pytest.raises(ModelError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        parse_model(edit(GOOD), "toy.toml")
+
+
+def test_unknown_model():
+    with pytest.raises(ModelError, match="unknown model 'nope'"):
+        load_model("nope")
