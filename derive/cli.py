@@ -95,6 +95,38 @@ class _OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
+def _writable(path: Path) -> Path:
+    if path.exists() and path.is_dir():
+        raise UsageError(f"output path '{path}' is a directory")
+    if not path.parent.exists():
+        raise UsageError(f"cannot write '{path}': directory '{path.parent}' does not exist")
+    return path
+
+
+def cmd_latex(args) -> int:
+    if args.model not in model_names():
+        raise UsageError(f"unknown model '{args.model}' (known: {', '.join(model_names())})")
+    out = _writable(Path(args.output or f"{args.model}.tex"))
+    from .derivation import derive
+    from .report.latex import render
+    from .verification import claims
+    d = derive(args.model)
+    results = [r for r in claims.run_all() if getattr(r, "model", args.model) == args.model]
+    try:
+        out.write_text(render(d, results))
+    except OSError as exc:
+        raise UsageError(f"cannot write '{out}': {exc.strerror}") from None
+    print(f"wrote {out} ({len(results)} verified formulas)")
+    if args.pdf:
+        import subprocess
+        run = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", out.name],
+                             cwd=out.parent, capture_output=True, text=True)
+        if run.returncode != 0:
+            raise UsageError(f"pdflatex failed on {out}; see {out.with_suffix('.log')}")
+        print(f"wrote {out.with_suffix('.pdf')}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _OneLineParser(
         prog="derive", description="Derive, verify and generate code for double pendulums.")
@@ -109,6 +141,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--check", action="store_true",
                    help="write nothing; exit 1 with a diff when generated/ is stale")
     p.set_defaults(func=cmd_generate)
+    p = sub.add_parser("latex", help="write the derivation of a model as a standalone .tex")
+    p.add_argument("model", help="model name")
+    p.add_argument("-o", "--output", help="output .tex path (default: MODEL.tex)")
+    p.add_argument("--pdf", action="store_true", help="also run pdflatex")
+    p.set_defaults(func=cmd_latex)
     return parser
 
 
