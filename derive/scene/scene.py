@@ -1,0 +1,246 @@
+"""Read and validate a scene file (TOML)."""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..model import ModelError, load_model
+
+ATLAS = "spherical"             # the spherical pendulum run through the chart atlas
+SPHERICAL_CHART_MODELS = ("spherical_std", "spherical_alt", "spherical_rot")
+METHODS = ("rk4", "dopri5", "dop853", "gauss4", "midpoint")
+FIXED_STEP = ("rk4", "gauss4", "midpoint")
+SCALARS = ("float", "double", "long double")
+TRAJECTORY_FORMATS = ("csv", "npz")
+PLOTS = ("paths", "energy", "animation")
+POSITIVE_PARAMETERS = ("m1", "m2", "l1", "l2", "g")   # must be > 0; inertias may be 0
+
+
+class SceneError(ValueError):
+    """A scene is wrong; the message names the key and the problem."""
+
+
+@dataclass
+class Scene:
+    source: str
+    title: str
+    model: str                       # a catalogue model, or "spherical" for the atlas
+    parameters: dict[str, float]
+    initial: dict                    # {"state": {name: value}} or {"cartesian": [12 or 8 numbers]}
+    t_start: float
+    t_stop: float
+    outputs: int
+    target: float | None             # accuracy target (final-state error), or None
+    method: str | None
+    step: float | None
+    rtol: float | None
+    atol: float | None
+    scalar: str
+    backend: str
+    output_dir: Path
+    trajectory: tuple[str, ...] = ()
+    plots: tuple[str, ...] = ()
+    extra: dict = field(default_factory=dict)
+
+
+def _table(t: dict, key: str, where: str, required: bool = True) -> dict:
+    if key not in t:
+        if required:
+            raise SceneError(f"{where}: missing table [{key}]")
+        return {}
+    if not isinstance(t[key], dict):
+        raise SceneError(f"{where}: '{key}' must be a table")
+    return t[key]
+
+
+def _known(t: dict, known: tuple[str, ...], where: str) -> None:
+    for key in t:
+        if key not in known:
+            raise SceneError(f"{where}: unknown key '{key}' (allowed: {', '.join(known)})")
+
+
+def _number(value, key: str, positive: bool = False, nonnegative: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SceneError(f"'{key}' must be a number, got {type(value).__name__} {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise SceneError(f"'{key}' must be finite, got {value}")
+    if positive and value <= 0:
+        raise SceneError(f"'{key}' must be positive, got {value:g}")
+    if nonnegative and value < 0:
+        raise SceneError(f"'{key}' must not be negative, got {value:g}")
+    return value
+
+
+def _choice(value, key: str, choices: tuple[str, ...]) -> str:
+    if not isinstance(value, str) or value not in choices:
+        raise SceneError(f"'{key}' must be one of {', '.join(choices)}; got {value!r}")
+    return value
+
+
+def _parameter_names(model: str) -> tuple[str, ...]:
+    name = "spherical_std" if model == ATLAS else model
+    return load_model(name).parameters
+
+
+def _parse_pendulum(t: dict) -> tuple[str, dict[str, float]]:
+    _known(t, ("model", "parameters"), "[pendulum]")
+    if "model" not in t:
+        raise SceneError("[pendulum]: missing key 'model'")
+    model = t["model"]
+    if not isinstance(model, str):
+        raise SceneError(f"'pendulum.model' must be a string, got {model!r}")
+    try:
+        names = _parameter_names(model)
+    except ModelError as exc:
+        raise SceneError(f"'pendulum.model': {exc} or '{ATLAS}'") from None
+    given = _table(t, "parameters", "[pendulum]")
+    for key in given:
+        if key not in names:
+            raise SceneError(f"'pendulum.parameters.{key}': unknown parameter of '{model}' "
+                             f"(its parameters: {', '.join(names)})")
+    params = {}
+    for name in names:
+        if name not in given:
+            raise SceneError(f"'pendulum.parameters.{name}' is missing")
+        params[name] = _number(given[name], f"pendulum.parameters.{name}",
+                               positive=name in POSITIVE_PARAMETERS, nonnegative=True)
+    return model, params
+
+
+def _parse_initial(t: dict, model: str) -> dict:
+    _known(t, ("state", "cartesian"), "[initial]")
+    if ("state" in t) == ("cartesian" in t):
+        raise SceneError("[initial]: give exactly one of 'state' or 'cartesian'")
+    if "cartesian" in t:
+        return {"cartesian": _parse_cartesian(t["cartesian"], model)}
+    state = t["state"]
+    names = load_model("spherical_std" if model == ATLAS else model).state_names
+    if isinstance(state, dict):
+        if model == ATLAS:
+            return {"state": _atlas_state(state)}
+        for key in state:
+            if key not in names:
+                raise SceneError(f"'initial.state.{key}': not a state of '{model}' "
+                                 f"(its states: {', '.join(names)})")
+        return {"state": {n: _number(state.get(n, 0.0), f"initial.state.{n}") for n in names}}
+    if isinstance(state, list):
+        if len(state) != len(names):
+            raise SceneError(f"'initial.state' has {len(state)} values; '{model}' needs "
+                             f"{len(names)} ({', '.join(names)})")
+        return {"state": {n: _number(v, f"initial.state[{i}]") for i, (n, v) in
+                          enumerate(zip(names, state))}}
+    raise SceneError("'initial.state' must be a table of named values or a list")
+
+
+def _atlas_state(state: dict) -> dict:
+    """The atlas accepts a state in any of its charts: the names say which."""
+    for chart_model in SPHERICAL_CHART_MODELS:
+        names = load_model(chart_model).state_names
+        if set(state) <= set(names) and set(state) & set(load_model(chart_model).coordinate_names):
+            values = {n: _number(state.get(n, 0.0), f"initial.state.{n}") for n in names}
+            return {"chart": chart_model, **values}
+    raise SceneError(f"'initial.state': names {', '.join(sorted(state))} are not the state of "
+                     f"one spherical chart (e.g. theta1, phi1, theta2, phi2 and their _dot)")
+
+
+def _parse_cartesian(value, model: str) -> list[float]:
+    dim = 3 if model.startswith("spherical") else 2
+    keys = ("x1", "x2", "v1", "v2")
+    if not isinstance(value, dict):
+        raise SceneError("'initial.cartesian' must be a table with x1, x2, v1, v2")
+    _known(value, keys, "[initial.cartesian]")
+    numbers = []
+    for k in keys:
+        if k not in value:
+            raise SceneError(f"'initial.cartesian.{k}' is missing")
+        vec = value[k]
+        if not isinstance(vec, list) or len(vec) != dim:
+            raise SceneError(f"'initial.cartesian.{k}' must be a list of {dim} numbers")
+        numbers += [_number(x, f"initial.cartesian.{k}") for x in vec]
+    return numbers
+
+
+def _parse_time(t: dict) -> tuple[float, float, int]:
+    _known(t, ("start", "stop", "outputs"), "[time]")
+    if "stop" not in t:
+        raise SceneError("[time]: missing key 'stop'")
+    start = _number(t.get("start", 0.0), "time.start")
+    stop = _number(t["stop"], "time.stop")
+    if stop <= start:
+        raise SceneError(f"'time.stop' ({stop:g}) must be after 'time.start' ({start:g})")
+    outputs = t.get("outputs", 1001)
+    if isinstance(outputs, bool) or not isinstance(outputs, int) or outputs < 2:
+        raise SceneError(f"'time.outputs' must be a whole number >= 2, got {outputs!r}")
+    return start, stop, outputs
+
+
+def _parse_accuracy(t: dict) -> dict:
+    _known(t, ("target", "method", "step", "rtol", "atol", "scalar", "backend"), "[accuracy]")
+    out = {"target": None, "method": None, "step": None, "rtol": None, "atol": None}
+    if "target" in t and "method" in t:
+        raise SceneError("[accuracy]: give either 'target' or 'method', not both")
+    if "target" in t:
+        out["target"] = _number(t["target"], "accuracy.target", positive=True)
+    elif "method" in t:
+        method = out["method"] = _choice(t["method"], "accuracy.method", METHODS)
+        if method in FIXED_STEP:
+            if "step" not in t:
+                raise SceneError(f"[accuracy]: method '{method}' needs 'step'")
+            out["step"] = _number(t["step"], "accuracy.step", positive=True)
+        else:
+            out["rtol"] = _number(t.get("rtol", 1e-9), "accuracy.rtol", positive=True)
+            out["atol"] = _number(t.get("atol", 1e-12), "accuracy.atol", positive=True)
+    else:
+        out["target"] = 1e-8
+    for key in ("step", "rtol", "atol"):
+        if key in t and out[key] is None:
+            raise SceneError(f"'accuracy.{key}' does not apply here")
+    out["scalar"] = _choice(t.get("scalar", "double"), "accuracy.scalar", SCALARS)
+    out["backend"] = _choice(t.get("backend", "c"), "accuracy.backend", ("c", "numpy"))
+    return out
+
+
+def _parse_output(t: dict) -> dict:
+    _known(t, ("directory", "trajectory", "plots"), "[output]")
+    directory = t.get("directory", "out")
+    if not isinstance(directory, str) or not directory:
+        raise SceneError("'output.directory' must be a non-empty string")
+    lists = {}
+    for key, allowed in (("trajectory", TRAJECTORY_FORMATS), ("plots", PLOTS)):
+        value = t.get(key, [])
+        if not isinstance(value, list):
+            raise SceneError(f"'output.{key}' must be a list")
+        lists[key] = tuple(_choice(v, f"output.{key}", allowed) for v in value)
+    return {"output_dir": Path(directory), **lists}
+
+
+def parse_scene(text: str, source: str = "<scene>") -> Scene:
+    try:
+        t = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{source}: not valid TOML: {exc}") from None
+    _known(t, ("title", "pendulum", "initial", "time", "accuracy", "output"), source)
+    model, params = _parse_pendulum(_table(t, "pendulum", source))
+    initial = _parse_initial(_table(t, "initial", source), model)
+    start, stop, outputs = _parse_time(_table(t, "time", source))
+    accuracy = _parse_accuracy(_table(t, "accuracy", source, required=False))
+    output = _parse_output(_table(t, "output", source, required=False))
+    title = t.get("title", Path(source).stem)
+    if not isinstance(title, str):
+        raise SceneError("'title' must be a string")
+    return Scene(source=source, title=title, model=model, parameters=params, initial=initial,
+                 t_start=start, t_stop=stop, outputs=outputs, **accuracy, **output)
+
+
+def load_scene(path: str | Path) -> Scene:
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise SceneError(f"scene file '{path}' does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(f"cannot read scene file '{path}': {exc}") from None
+    return parse_scene(text, str(path))
