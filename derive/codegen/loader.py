@@ -1,0 +1,203 @@
+"""Python access to the generated C: compile into a cache, call from NumPy.
+
+``load("planar")`` compiles ``generated/c/planar.c`` into a shared library in
+``cache_dir()/c-build/<key>/``, where the key is the SHA-256 of the source,
+the header, the compiler (path and ``--version``) and the flags, so a change to
+any of them rebuilds and nothing else does.  The library is opened with
+ctypes; its kernels are read from the header (prototypes of the ``_batch``
+entry points and the ``<MODEL>_<KERNEL>_<ARG>_SIZE/_RANK/_ROWS/_COLS`` macros)
+and returned as NumPy-callable objects backed by the batch entry points:
+
+    m = load("planar")
+    ydot = m.rhs(y, p)               # y (..., 4), p (..., 5) or (5,) -> (..., 4)
+    ydot, status = m.rhs(y, p, status=True)
+    m.rhs_f(y, p), m.rhs_l(y, p)     # float and long double variants
+
+Leading axes broadcast; a parameter vector shared by all states is passed
+with stride 0, without copying.
+"""
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+from functools import lru_cache
+from math import prod
+from pathlib import Path
+
+import numpy as np
+
+from ..derivation import cache_dir
+
+GENERATED_C = Path(__file__).resolve().parents[2] / "generated" / "c"
+DEFAULT_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
+
+_VARIANTS = {"": (np.float64, ctypes.c_double), "_f": (np.float32, ctypes.c_float),
+             "_l": (np.longdouble, ctypes.c_longdouble)}
+_PROTO = re.compile(r"^int (\w+?)_batch(_f|_l)?\(long n, (.*)\);$", re.M)
+_DEFINE = re.compile(r"^#define (\w+) (-?\d+)$", re.M)
+
+
+class LoaderError(RuntimeError):
+    pass
+
+
+def default_compiler() -> str:
+    return os.environ.get("CC") or "cc"
+
+
+@lru_cache(maxsize=None)
+def compiler_identity(cc: str) -> str:
+    path = shutil.which(cc)
+    if path is None:
+        raise LoaderError(f"C compiler '{cc}' not found (set CC or install gcc/clang)")
+    version = subprocess.run([path, "--version"], capture_output=True, text=True).stdout
+    return f"{path}\n{version}"
+
+
+def build_key(source: Path, cc: str, flags: tuple[str, ...]) -> str:
+    h = hashlib.sha256()
+    for part in (source.read_bytes(), source.with_suffix(".h").read_bytes(),
+                 compiler_identity(cc).encode(), "\0".join(flags).encode()):
+        h.update(hashlib.sha256(part).digest())
+    return h.hexdigest()
+
+
+def build(source: Path, cc: str | None = None, flags: tuple[str, ...] = DEFAULT_FLAGS,
+          cache: Path | None = None) -> Path:
+    """Compile `source` (and its header beside it) into the cache; return the library path."""
+    source = Path(source).resolve()
+    cc = cc or default_compiler()
+    key = build_key(source, cc, tuple(flags))
+    root = Path(cache) if cache is not None else cache_dir() / "c-build"
+    lib = root / key[:32] / f"lib{source.stem}.so"
+    if lib.is_file():
+        return lib
+    lib.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
+        out = Path(tmp) / lib.name
+        cmd = [cc, *flags, "-I", str(source.parent), str(source), "-o", str(out), "-lm"]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise LoaderError(f"compiling {source.name} failed ({' '.join(cmd)}):\n{proc.stderr}")
+        os.replace(out, lib)
+    return lib
+
+
+class CKernel:
+    """One batch entry point, called with NumPy arrays."""
+
+    def __init__(self, lib, cname: str, suffix: str, inputs, outputs):
+        self.name = cname
+        self.dtype, ctype = _VARIANTS[suffix]
+        self.inputs = inputs          # [(name, size)]
+        self.outputs = outputs        # [(name, size, shape)]
+        ptr = ctypes.POINTER(ctype)
+        self._ptr = ptr
+        fn = getattr(lib, f"{cname}_batch{suffix}")
+        fn.restype = ctypes.c_int
+        fn.argtypes = ([ctypes.c_long] + [ptr, ctypes.c_long] * len(inputs)
+                       + [ptr] * len(outputs) + [ctypes.POINTER(ctypes.c_int)])
+        self._fn = fn
+
+    def __repr__(self) -> str:
+        ins = ", ".join(f"{n}[{s}]" for n, s in self.inputs)
+        return f"<CKernel {self.name}({ins}) {np.dtype(self.dtype).name}>"
+
+    def __call__(self, *args, status: bool = False):
+        if len(args) != len(self.inputs):
+            raise TypeError(f"{self.name} takes {len(self.inputs)} arrays "
+                            f"({', '.join(n for n, _ in self.inputs)}), got {len(args)}")
+        arrays = []
+        for a, (name, size) in zip(args, self.inputs):
+            a = np.asarray(a, dtype=self.dtype)
+            if a.ndim == 0 or a.shape[-1] != size:
+                raise ValueError(f"{self.name}: {name} must have shape (..., {size}), got {a.shape}")
+            arrays.append(a)
+        batch = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
+        n = prod(batch)
+        call, keep = [n], []
+        for a, (_, size) in zip(arrays, self.inputs):
+            if a.shape[:-1] == batch:
+                a, stride = np.ascontiguousarray(a), size
+            elif prod(a.shape[:-1]) == 1:
+                a, stride = np.ascontiguousarray(a.reshape(size)), 0
+            else:
+                a, stride = np.ascontiguousarray(np.broadcast_to(a, batch + (size,))), size
+            keep.append(a)
+            call += [a.ctypes.data_as(self._ptr), stride]
+        outs = [np.empty((n, size), self.dtype) for _, size, _ in self.outputs]
+        call += [o.ctypes.data_as(self._ptr) for o in outs]
+        st = np.zeros(n, np.intc) if status else None
+        call.append(st.ctypes.data_as(ctypes.POINTER(ctypes.c_int)) if status else None)
+        self._fn(*call)
+        results = [o.reshape(batch + shape) for o, (_, _, shape) in zip(outs, self.outputs)]
+        result = results[0] if len(results) == 1 else tuple(results)
+        if status:
+            return result, st.reshape(batch)
+        return result
+
+
+class CompiledModel:
+    """The kernels of one generated C file, as attributes (rhs, rhs_f, rhs_l, ...)."""
+
+    def __init__(self, model: str, lib_path: Path, header: str):
+        self.model = model
+        self.path = lib_path
+        self.lib = ctypes.CDLL(str(lib_path))
+        self.kernels: dict[str, CKernel] = {}
+        macros = {m: int(v) for m, v in _DEFINE.findall(header)}
+        prefix = model.upper()
+        for cname, suffix, argtext in _PROTO.findall(header):
+            if not cname.startswith(model + "_"):
+                continue
+            kname = cname[len(model) + 1:]
+            inputs, outputs = [], []
+            for arg in argtext.split(", "):
+                words = arg.replace("*", " ").split()
+                name = words[-1]
+                if name == "status" or (len(words) == 2 and words[0] == "long"):
+                    continue
+                m = f"{prefix}_{kname.upper()}_{name.upper()}"
+                size, rank = macros[f"{m}_SIZE"], macros[f"{m}_RANK"]
+                if words[0] == "const":
+                    inputs.append((name, size))
+                else:
+                    shape = ((), (size,))[rank] if rank < 2 else (macros[f"{m}_ROWS"], macros[f"{m}_COLS"])
+                    outputs.append((name, size, shape))
+            self.kernels[kname + suffix] = CKernel(self.lib, cname, suffix, inputs, outputs)
+        self.names = {}
+        for table, count in re.findall(rf"^extern const char \*const {model}_(\w+)\[{prefix}_N_(\w+)\];$",
+                                       header, re.M):
+            arr = (ctypes.c_char_p * macros[f"{prefix}_N_{count}"]).in_dll(self.lib, f"{model}_{table}")
+            self.names[table] = tuple(s.decode() for s in arr)
+
+    def __getattr__(self, name: str) -> CKernel:
+        kernels = self.__dict__.get("kernels", {})
+        if name in kernels:
+            return kernels[name]
+        raise AttributeError(f"model '{self.__dict__.get('model')}' has no kernel '{name}' "
+                             f"(known: {', '.join(sorted(kernels))})")
+
+    def __dir__(self):
+        return sorted(set(super().__dir__()) | set(self.kernels))
+
+
+_loaded: dict[Path, CompiledModel] = {}
+
+
+def load(model: str, generated: Path | None = None, cc: str | None = None,
+         flags: tuple[str, ...] = DEFAULT_FLAGS, cache: Path | None = None) -> CompiledModel:
+    """Compile (if needed) and open generated/c/<model>.c; return its kernels."""
+    folder = Path(generated) if generated is not None else GENERATED_C
+    source = folder / f"{model}.c"
+    if not source.is_file():
+        raise LoaderError(f"no generated C for model '{model}' at {source}; run `derive generate`")
+    lib = build(source, cc, flags, cache)
+    if lib not in _loaded:
+        _loaded[lib] = CompiledModel(model, lib, source.with_suffix(".h").read_text())
+    return _loaded[lib]

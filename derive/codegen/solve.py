@@ -1,0 +1,191 @@
+"""The linear solve of M q'' = F, done inside the generated code.
+
+Nothing here inverts a matrix symbolically.  The entries of M and F become
+named stages (computed once in the generated code), and the solution is
+written in terms of those names:
+
+* two coordinates: the closed-form 2x2 inverse (Cramer), seed 001 below (3);
+* the double spherical pendulum: the seed's reduced system (3.27)
+  A~ x + B~ w + G~ = 0 with x = S q'', S = diag(1, sin u1, 1, sin u2),
+  solved by the block inverse (3.35)-(3.39): x = D^ A^ f~, f~ = -(B~ w + G~),
+  then q''_j = x_j / S_jj.
+
+The Jacobian of the rhs differentiates the implicit system instead of the
+solution: from M q'' = F, d q''/d y_k = M^-1 (dF/dy_k - (dM/dy_k) q''),
+reusing the in-code solve and the q'' already computed; for the reduced
+system, dx = A~^-1 (df~/dy_k - (dA~/dy_k) x) and
+d q''_j = (dx_j - (dS_jj/dy_k) q''_j) / S_jj.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+
+def _sym(name: str) -> sp.Symbol:
+    return sp.Symbol(name, real=True)
+
+
+@dataclass
+class Solution:
+    symbols: list[sp.Expr]                    # the solution, as stage symbols
+    stages: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
+
+
+class MassMatrixStages:
+    """The entries of a symmetric M as stages M<i><j> (upper triangle, non-zero only)."""
+
+    def __init__(self, M: sp.Matrix):
+        if not M.is_square or M != M.T:
+            raise ValueError("the mass matrix must be square and symmetric")
+        self.n = n = M.rows
+        self.stages: list[tuple[sp.Symbol, sp.Expr]] = []
+        entry = {}
+        for i in range(n):
+            for j in range(i, n):
+                if M[i, j] == 0:
+                    entry[i, j] = entry[j, i] = sp.S.Zero
+                elif M[i, j].is_number:
+                    entry[i, j] = entry[j, i] = M[i, j]
+                else:
+                    sym = _sym(f"M{i}{j}")
+                    self.stages.append((sym, M[i, j]))
+                    entry[i, j] = entry[j, i] = sym
+        self.entry = sp.Matrix(n, n, lambda i, j: entry[i, j])
+        self.symbols_flat = list(self.entry)
+        self.inverse_stages: list[tuple[sp.Symbol, sp.Expr]] = []
+        if n == 2:
+            m = self.entry
+            det, rdet = _sym("det"), _sym("rdet")
+            self.inverse_stages = [(det, m[0, 0] * m[1, 1] - m[0, 1] ** 2), (rdet, 1 / det)]
+            self.rdet = rdet
+
+    def apply(self, b: list[sp.Expr]) -> list[sp.Expr]:
+        """M^-1 b in closed form (2x2 only): adj(M) b / det."""
+        if self.n != 2:
+            raise ValueError(f"no closed-form inverse for a {self.n}x{self.n} mass matrix")
+        m = self.entry
+        return [(m[1, 1] * b[0] - m[0, 1] * b[1]) * self.rdet,
+                (m[0, 0] * b[1] - m[0, 1] * b[0]) * self.rdet]
+
+    def solve(self, b: list[sp.Expr], prefix: str) -> Solution:
+        """Stages for M^-1 b named <prefix>0, <prefix>1 (with det and rdet before them)."""
+        syms = [_sym(f"{prefix}{i}") for i in range(self.n)]
+        return Solution(syms, list(self.inverse_stages) + list(zip(syms, self.apply(b))))
+
+
+class MassMatrixDynamics:
+    """q'' = M^-1 F with the closed-form 2x2 inverse."""
+    method = "closed-form 2x2 inverse"
+
+    def __init__(self, d):
+        self.s = d.symbols
+        self.M, self.F = d.M, d.F
+        self.mass = MassMatrixStages(d.M)
+        fsyms = [_sym(f"F{i}") for i in range(len(d.F))]
+        self.forcing_stages = list(zip(fsyms, d.F))
+        sol = self.mass.solve(fsyms, "qdd")
+        self.qdd = sol.symbols
+        self.stages = self.mass.stages + self.forcing_stages + sol.stages
+
+    def derivative(self, yk: sp.Symbol) -> tuple[list[sp.Expr], list]:
+        """d q''/d y_k = M^-1 (dF/dy_k - (dM/dy_k) q'')."""
+        r = [self.F[i].diff(yk) - sum(self.M[i, j].diff(yk) * self.qdd[j]
+                                      for j in range(len(self.qdd)))
+             for i in range(len(self.qdd))]
+        if all(e == 0 for e in r):
+            return [sp.S.Zero] * len(r), []
+        return self.mass.apply(r), []
+
+
+class ReducedDynamics:
+    """The seed's reduced system and block inverse, (3.27)-(3.40)."""
+    method = "the block inverse of seed 000 (3.35)-(3.39) on the reduced system (3.27)"
+
+    def __init__(self, d):
+        P = d.paper
+        self.s = s = d.symbols
+        A = P.A_red
+        if A.shape != (4, 4):
+            raise ValueError("the reduced system must be 4x4")
+        a, b = A[0, 0], A[2, 2]
+        if A[0:2, 0:2] != a * sp.eye(2) or A[2:4, 2:4] != b * sp.eye(2) or A[2:4, 0:2] != A[0:2, 2:4].T:
+            raise ValueError(f"model '{d.name}': A~ is not of the form [[a I, Q], [Q^T, b I]] (3.28)")
+        self.Q_expr = A[0:2, 2:4]
+        self.S = P.S
+        self.sines = [P.S[j, j] for j in range(4)]
+        Aa, Ab = _sym("Aa"), _sym("Ab")
+        Qs = sp.Matrix(2, 2, lambda i, j: _sym(f"Q{i}{j}"))
+        stages = [(Aa, a), (Ab, b)] + [(Qs[i, j], self.Q_expr[i, j]) for i in range(2) for j in range(2)]
+        ab = _sym("AaAb")
+        stages.append((ab, Aa * Ab))
+        # D1 = ab I - Q Q^T, D2 = ab I - Q^T Q  (3.38), symmetric 2x2
+        D1 = ab * sp.eye(2) - Qs * Qs.T
+        D2 = ab * sp.eye(2) - Qs.T * Qs
+        self.Dinv = []
+        for name, D in (("D1", D1), ("D2", D2)):
+            e00, e01, e11 = _sym(f"{name}_00"), _sym(f"{name}_01"), _sym(f"{name}_11")
+            r = _sym(f"r{name}")
+            stages += [(e00, D[0, 0]), (e01, D[0, 1]), (e11, D[1, 1]), (r, 1 / (e00 * e11 - e01 ** 2))]
+            self.Dinv.append(sp.Matrix([[e11, -e01], [-e01, e00]]) * r)
+        self.A_hat = sp.Matrix(sp.BlockMatrix([[Ab * sp.eye(2), -Qs], [-Qs.T, Aa * sp.eye(2)]]))
+        self.A_sym = sp.Matrix(sp.BlockMatrix([[Aa * sp.eye(2), Qs], [Qs.T, Ab * sp.eye(2)]]))
+        self.f_expr = -(P.B_red * P.w + P.G_red)
+        fs = [_sym(f"f{i}") for i in range(4)]
+        stages += list(zip(fs, self.f_expr))
+        xs = [_sym(f"xr{i}") for i in range(4)]
+        stages += list(zip(xs, self.apply(fs)))
+        self.x = xs
+        self.rs = []                           # 1 / S_jj, as stages where S_jj != 1
+        for j, sj in enumerate(self.sines):
+            if sj == 1:
+                self.rs.append(sp.S.One)
+            else:
+                r = _sym(f"rs{j}")
+                stages.append((r, 1 / sj))
+                self.rs.append(r)
+        qsyms = [_sym(f"qdd{j}") for j in range(4)]
+        for j in range(4):
+            stages.append((qsyms[j], xs[j] * self.rs[j]))
+        self.qdd = qsyms
+        self.stages = stages
+
+    def apply(self, r: list[sp.Expr]) -> list[sp.Expr]:
+        """A~^-1 r = D^ A^ r (3.39)."""
+        g = self.A_hat * sp.Matrix(r)
+        return list(self.Dinv[0] * g[0:2, 0]) + list(self.Dinv[1] * g[2:4, 0])
+
+    def derivative(self, yk: sp.Symbol) -> tuple[list[sp.Expr], list]:
+        dA = sp.Matrix(sp.BlockMatrix([[sp.zeros(2), self.Q_expr.diff(yk)],
+                                       [self.Q_expr.T.diff(yk), sp.zeros(2)]]))
+        r = self.f_expr.diff(yk) - dA * sp.Matrix(self.x)
+        dx = self.apply(list(r)) if any(e != 0 for e in r) else [sp.S.Zero] * 4
+        out = []
+        for j in range(4):
+            ds = self.sines[j].diff(yk)
+            out.append((dx[j] - ds * self.qdd[j]) * self.rs[j] if ds != 0 else dx[j] * self.rs[j])
+        return out, []
+
+
+@dataclass
+class Jacobian:
+    exprs: list[sp.Expr]
+    stages: list[tuple[sp.Symbol, sp.Expr]]
+
+
+def jacobian(dyn, s) -> Jacobian:
+    """J of y' = (q', q''(y)) with respect to y, row-major."""
+    nq, n = len(s.q), len(s.state)
+    cols, stages = [], []
+    for yk in s.state:
+        col, st = dyn.derivative(yk)
+        cols.append(col)
+        stages += st
+    J = sp.zeros(n, n)
+    for i in range(nq):
+        J[i, nq + i] = 1
+    for k in range(n):
+        for i in range(nq):
+            J[nq + i, k] = cols[k][i]
+    return Jacobian(list(J), stages)

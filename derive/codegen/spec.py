@@ -1,0 +1,324 @@
+"""Kernel specifications: what each generated function computes, as SymPy data.
+
+A kernel is named inputs (vectors of symbols, one symbol per array slot),
+named outputs (arrays of expressions in row-major order), an ordered list of
+*stages* (intermediate symbols defined by expressions of the inputs and of
+earlier stages; the in-code linear solve lives here) and *guards* (the polar
+sines: the chart is singular where one of them is small).
+
+``model_spec(derivation)`` builds the kernels of one model.  It is the same
+function for every model and looks only at what the derivation has: a
+Hamiltonian form, the seed's reduced (paper) forms, polar sines, and which
+other models share its link structure (chart conversions).
+"""
+from __future__ import annotations
+
+import keyword
+import re
+from dataclasses import dataclass, field
+from math import prod
+
+import sympy as sp
+from sympy.core.function import AppliedUndef
+
+from ..model import load_model, model_names
+from . import charts, solve
+
+
+class SpecError(ValueError):
+    """A kernel specification is inconsistent; the message names the kernel and symbol."""
+
+
+@dataclass(frozen=True)
+class Vector:
+    """An input vector kind: its symbols in slot order and the names of its slots."""
+    key: str                          # 'state', 'param', 'canonical'
+    count: str                        # size macro stem: STATES, PARAMS, CANONICAL
+    table: str                        # name table: state_names, param_names, ...
+    symbols: tuple[sp.Symbol, ...]
+    doc: str
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.symbols)
+
+    @property
+    def size(self) -> int:
+        return len(self.symbols)
+
+
+@dataclass(frozen=True)
+class Input:
+    name: str                         # argument name in the generated code
+    vector: Vector
+
+    @property
+    def size(self) -> int:
+        return self.vector.size
+
+
+@dataclass(frozen=True)
+class Output:
+    name: str
+    shape: tuple[int, ...]
+    exprs: tuple[sp.Expr, ...]        # row-major
+    doc: str
+
+    @property
+    def size(self) -> int:
+        return prod(self.shape)
+
+
+@dataclass(frozen=True)
+class Kernel:
+    name: str
+    doc: str
+    inputs: tuple[Input, ...]
+    outputs: tuple[Output, ...]
+    stages: tuple[tuple[sp.Symbol, sp.Expr], ...] = ()
+    guards: tuple[sp.Expr, ...] = ()  # chart singular where |guard| < POLAR_SINE_MIN
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    name: str
+    title: str
+    source: str
+    vectors: tuple[Vector, ...]
+    kernels: tuple[Kernel, ...] = field(default=())
+
+    @property
+    def has_guards(self) -> bool:
+        return any(k.guards for k in self.kernels)
+
+
+# -- checks -------------------------------------------------------------------
+
+_IDENT = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+_TEMP = re.compile(r"^t[0-9]+$")          # reserved for CSE temporaries
+RESERVED = frozenset(keyword.kwlist) | {
+    # C keywords and names the generated C or Python code uses itself
+    "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else",
+    "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long", "register",
+    "restrict", "return", "short", "signed", "sizeof", "static", "struct", "switch", "typedef",
+    "union", "unsigned", "void", "volatile", "while", "status", "k", "n", "i", "numpy", "shape",
+    "dtype", "out", "self", "all", "point_status", "arrays", "value", "size", "name", "kernel", "args",
+}
+
+
+def _where(model: str, kernel: Kernel) -> str:
+    return f"model '{model}', kernel '{kernel.name}'"
+
+
+def check_kernel(model: str, kernel: Kernel) -> None:
+    """Raise SpecError with a readable message when a kernel cannot be generated."""
+    where = _where(model, kernel)
+    names: dict[str, str] = {}
+
+    def claim(name: str, what: str) -> None:
+        if not _IDENT.match(name) or name in RESERVED or _TEMP.match(name):
+            raise SpecError(f"{where}: the {what} name '{name}' is not a usable identifier "
+                            "(reserved word, CSE temporary name t<N>, or not [A-Za-z][A-Za-z0-9_]*)")
+        if name in names and names[name] != what:
+            raise SpecError(f"{where}: the name '{name}' is used both as {names[name]} and as {what}")
+        names[name] = what
+
+    known: set[sp.Symbol] = set()
+    for inp in kernel.inputs:
+        claim(inp.name, "input")
+        for s in inp.vector.symbols:
+            claim(s.name, f"slot of input '{inp.name}'")
+            known.add(s)
+    for out in kernel.outputs:
+        claim(out.name, "output")
+        if len(out.exprs) != out.size:
+            raise SpecError(f"{where}: output '{out.name}' has shape {out.shape} "
+                            f"but {len(out.exprs)} expressions")
+
+    def inputs_text() -> str:
+        return "; ".join(f"{i.name} = ({', '.join(i.vector.names)})" for i in kernel.inputs)
+
+    def check_expr(expr: sp.Expr, what: str) -> None:
+        expr = sp.sympify(expr)
+        undef = sorted(expr.atoms(AppliedUndef), key=str)
+        if undef:
+            raise SpecError(f"{where}: {what} contains the function '{undef[0]}'; "
+                            "replace q(t) by plain symbols before generating code")
+        if expr.atoms(sp.Derivative):
+            raise SpecError(f"{where}: {what} contains an unevaluated derivative")
+        for bad in (sp.zoo, sp.oo, -sp.oo, sp.nan, sp.I):
+            if expr.has(bad):
+                raise SpecError(f"{where}: {what} contains the non-real number {bad}")
+        free = sorted(expr.free_symbols - known, key=lambda s: s.name)
+        if free:
+            raise SpecError(f"{where}: {what} uses '{free[0].name}', which is no input "
+                            f"and no earlier stage (inputs: {inputs_text()})")
+
+    for sym, expr in kernel.stages:
+        check_expr(expr, f"stage '{sym.name}'")
+        if sym in known:
+            raise SpecError(f"{where}: stage '{sym.name}' is defined twice or shadows an input")
+        claim(sym.name, "stage")
+        known.add(sym)
+    for j, g in enumerate(kernel.guards):
+        check_expr(g, f"guard {j}")
+    for out in kernel.outputs:
+        for j, e in enumerate(out.exprs):
+            check_expr(e, f"output '{out.name}'[{j}]")
+
+
+def check_spec(spec: ModelSpec) -> None:
+    seen: dict[str, Kernel] = {}
+    stages: dict[sp.Symbol, sp.Expr] = {}
+    for k in spec.kernels:
+        if k.name in seen:
+            raise SpecError(f"model '{spec.name}': two kernels are named '{k.name}'")
+        seen[k.name] = k
+        check_kernel(spec.name, k)
+        for sym, expr in k.stages:
+            if sym in stages and stages[sym] != expr:
+                raise SpecError(f"{_where(spec.name, k)}: stage '{sym.name}' is defined "
+                                "differently in another kernel of the same file")
+            stages[sym] = expr
+
+
+# -- building the kernels of a model -----------------------------------------
+
+def _vectors(d) -> tuple[Vector, Vector, Vector | None]:
+    s = d.symbols
+    state = Vector("state", "STATES", "state_names", s.state,
+                   "the state: coordinates, then their rates")
+    params = Vector("param", "PARAMS", "param_names", s.params, "the parameters")
+    canonical = None
+    if d.hamiltonian is not None:
+        canonical = Vector("canonical", "CANONICAL", "canonical_names", s.q + s.p,
+                           "the canonical state: coordinates, then their momenta")
+    return state, params, canonical
+
+
+def dynamics(d) -> solve.Dynamics:
+    """The in-code solve of M q'' = F: the seed's block inverse when the paper forms
+    are there, the closed-form 2x2 otherwise."""
+    if d.paper is not None:
+        return solve.ReducedDynamics(d)
+    if len(d.symbols.q) == 2:
+        return solve.MassMatrixDynamics(d)
+    raise SpecError(f"model '{d.name}': no in-code solve for {len(d.symbols.q)} coordinates "
+                    "without the reduced (paper) forms")
+
+
+def model_spec(d) -> ModelSpec:
+    model, s = d.model, d.symbols
+    state, params, canonical = _vectors(d)
+    y, p = Input("y", state), Input("p", params)
+    nq, n, dim = len(s.q), len(s.state), model.dimension
+    guards = tuple(d.polar_sines)
+    dyn = dynamics(d)
+    mass = solve.MassMatrixStages(d.M)
+    kernels = []
+
+    ydot = list(s.qd) + list(dyn.qdd)
+    kernels.append(Kernel(
+        "rhs", "The first-order state derivative y' = f(y; p): (q', q'') with M q'' = F "
+               f"solved in the code ({dyn.method}).",
+        (y, p), (Output("ydot", (n,), tuple(ydot), "y' in state order"),),
+        tuple(dyn.stages), guards))
+
+    kernels.append(Kernel(
+        "mass_matrix", "The mass matrix M(q) of M q'' = F (reads the coordinates of y only).",
+        (y, p), (Output("M", (nq, nq), tuple(mass.symbols_flat), "M, row-major"),),
+        tuple(mass.stages), guards))
+
+    kernels.append(Kernel(
+        "forcing", "The forcing F(q, q') of M q'' = F.",
+        (y, p), (Output("F", (nq,), tuple(d.F), "F"),)))
+
+    kernels.append(Kernel(
+        "energy", "The total energy T + V.",
+        (y, p), (Output("E", (), (d.energy,), "T + V"),)))
+
+    pos = [c for tip in d.tips for c in tip]
+    kernels.append(Kernel(
+        "positions", f"Cartesian positions of the bobs (link tips), shape ({len(d.tips)}, {dim}); "
+                     "gravity points along -" + "xyz"[dim - 1] + ".",
+        (y, p), (Output("pos", (len(d.tips), dim), tuple(pos), "tip k, axis j at [k][j]"),)))
+
+    jac = solve.jacobian(dyn, s)
+    kernels.append(Kernel(
+        "jacobian", "The Jacobian of rhs with respect to y, J[i][k] = d f_i / d y_k, by "
+                    "differentiating M q'' = F implicitly and reusing the solve of rhs.",
+        (y, p), (Output("J", (n, n), tuple(jac.exprs), "row-major"),),
+        tuple(dyn.stages) + tuple(jac.stages), guards))
+
+    if canonical is not None:
+        x = Input("x", canonical)
+        h = d.hamiltonian
+        qdot = mass.solve(list(s.p), "v")
+        pdot = [e.xreplace(dict(zip(s.qd, qdot.symbols))) for e in h.dL_dq]
+        kernels.append(Kernel(
+            "hamiltonian_rhs", "Hamilton's equations x' = (q', p') for x = (q, p): "
+                               "q' = M^-1 p (solved in the code), p' = dL/dq at that q' (seed 001 (3)).",
+            (x, p), (Output("xdot", (n,), tuple(qdot.symbols) + tuple(pdot), "x' in canonical order"),),
+            tuple(mass.stages) + tuple(qdot.stages)))
+        momenta = [sum(d.M[i, j] * s.qd[j] for j in range(nq)) for i in range(nq)]
+        kernels.append(Kernel(
+            "to_canonical", "The canonical state x = (q, M q') of a state y = (q, q').",
+            (y, p), (Output("x", (n,), tuple(s.q) + tuple(momenta), "x in canonical order"),)))
+        vel = mass.solve(list(s.p), "v")
+        kernels.append(Kernel(
+            "from_canonical", "The state y = (q, M^-1 p) of a canonical state x = (q, p).",
+            (x, p), (Output("y", (n,), tuple(s.q) + tuple(vel.symbols), "y in state order"),),
+            tuple(mass.stages) + tuple(vel.stages)))
+
+    if guards:
+        kernels.append(Kernel(
+            "polar_sines", "The chart-quality indicator: the polar sine of each link; "
+                           "the chart is singular where one vanishes.",
+            (Input("y", state),), (Output("sines", (len(guards),), guards, "one per link"),), (), guards))
+        for target in conversion_targets(model):
+            conv = charts.conversion(model, load_model(target), s)
+            kernels.append(Kernel(
+                f"to_{target}", f"The same configuration and motion in the chart of model "
+                                f"'{target}' (seed 000 (5.1)-(5.14), robust atan2 forms; rates "
+                                "via the chart Jacobians).",
+                (Input("y", state),),
+                (Output("y_out", (n,), tuple(conv.exprs), f"state of '{target}'"),),
+                tuple(conv.stages), tuple(conv.guards)))
+
+    vectors = (state, params) + ((canonical,) if canonical is not None else ())
+    spec = ModelSpec(model.name, model.title, model.source, vectors,
+                     tuple(_normalise(k) for k in kernels))
+    check_spec(spec)
+    return spec
+
+
+def _multiple_angles(expr: sp.Expr) -> sp.Expr:
+    """sin(2u) -> 2 sin(u) cos(u): one trigonometric call fewer, the same accuracy."""
+    expr = sp.sympify(expr)
+    reps = {f: sp.expand_trig(f) for f in expr.atoms(sp.sin, sp.cos)
+            if f.args[0].is_Mul and f.args[0].args[0].is_Integer}
+    return expr.xreplace(reps) if reps else expr
+
+
+def _normalise(k: Kernel) -> Kernel:
+    return Kernel(k.name, k.doc, k.inputs,
+                  tuple(Output(o.name, o.shape, tuple(_multiple_angles(e) for e in o.exprs), o.doc)
+                        for o in k.outputs),
+                  tuple((s, _multiple_angles(e)) for s, e in k.stages),
+                  tuple(_multiple_angles(g) for g in k.guards))
+
+
+def conversion_targets(model) -> list[str]:
+    """Other models with the same link structure in different spherical charts."""
+    if not all(charts.is_spherical(link.chart) for link in model.links):
+        return []
+    out = []
+    for name in model_names():
+        if name == model.name:
+            continue
+        other = load_model(name)
+        if (other.dimension == model.dimension and len(other.links) == len(model.links)
+                and all(charts.is_spherical(link.chart) for link in other.links)
+                and [l.chart.name for l in other.links] != [l.chart.name for l in model.links]):
+            out.append(name)
+    return out
