@@ -15,6 +15,9 @@ from typing import Iterable
 
 import mpmath
 import sympy as sp
+from sympy.polys.domains import QQ
+from sympy.polys.orderings import lex
+from sympy.polys.rings import ring
 
 DIGITS = 40           # working precision of the numeric comparison
 TOLERANCE_DIGITS = 30  # agreement demanded: relative 1e-30
@@ -83,3 +86,157 @@ def numeric_max_error(a, b, symbols, n_points: int = 20, seed: int = 1,
             scale = max(abs(x), abs(y), 1)
             worst = max(worst, float(abs(x - y) / scale))
     return worst
+
+
+# -- a faster exact test for rational trigonometric expressions ---------------
+#
+# trig_is_zero's tangent half-angle substitution doubles every degree and then
+# needs ``together`` on a large nested rational expression, which is slow for
+# expressions with inverses in them (the block inverse of (3.39), Hamilton's
+# equations).  The same decision can be made in the polynomial ring
+#     Q[R_k, s_x, c_x, other symbols] / (R_k^2 - f_k, s_x^2 + c_x^2 - 1):
+# replace sin x -> s_x, cos x -> c_x, bring the expression to one fraction
+# without gcd computations, and reduce the numerator modulo the relations.
+# The leading monomials R_k^2, s_x^2 are pairwise coprime, so the relations
+# are a Groebner basis and the remainder is a normal form: it is 0 exactly when
+# the expression vanishes identically.  (The circle s^2 + c^2 = 1 is Zariski
+# dense in its complexification, and each R_k = sqrt(f_k) is assumed not to be
+# a rational function of the sines and cosines, which holds for the polar
+# sines used here, so a + b R_k = 0 forces a = b = 0.)
+
+def _trig_symbols(angles):
+    subs, pairs = {}, []
+    for x in angles:
+        s, c = sp.Symbol(f"_s_{x.name}"), sp.Symbol(f"_c_{x.name}")
+        subs[sp.sin(x)], subs[sp.cos(x)] = s, c
+        pairs.append((s, c))
+    return subs, pairs
+
+
+class _Fractions:
+    """Convert a SymPy expression to a ring numerator over a factored denominator.
+
+    The denominator is kept as {factor: power} with the factors as they come
+    (no gcds): sums take the least common multiple of the factor sets, so
+    repeated denominators such as det(D1) or m2 do not pile up.
+    """
+
+    def __init__(self, ring_, gens):
+        self.ring = ring_
+        self.gens = dict(zip(gens, ring_.gens))
+        self.memo: dict = {}
+
+    def __call__(self, e):
+        if e not in self.memo:
+            self.memo[e] = self._convert(e)
+        return self.memo[e]
+
+    def _scaled(self, num, den: dict, target: dict):
+        for f, k in target.items():
+            if k > den.get(f, 0):
+                num = num * f ** (k - den.get(f, 0))
+        return num
+
+    def _convert(self, e):
+        if e in self.gens:
+            return self.gens[e], {}
+        if e.is_Rational:
+            return self.ring(QQ(int(e.p), int(e.q))), {}
+        if e.is_Add:
+            parts = [self(a) for a in e.args]
+            den: dict = {}
+            for _, d in parts:
+                for f, k in d.items():
+                    den[f] = max(den.get(f, 0), k)
+            return sum((self._scaled(n, d, den) for n, d in parts), self.ring.zero), den
+        if e.is_Mul:
+            num, den = self.ring.one, {}
+            for a in e.args:
+                n, d = self(a)
+                num = num * n
+                for f, k in d.items():
+                    den[f] = den.get(f, 0) + k
+            return num, den
+        if e.is_Pow and e.exp.is_Integer:
+            n, d = self(e.base)
+            k = int(e.exp)
+            if k >= 0:
+                return n**k, {f: j * k for f, j in d.items()}
+            num = self.ring.one
+            for f, j in d.items():
+                num = num * f ** (-j * k)
+            return num, ({n: -k} if n != self.ring.one else {})
+        raise ValueError(f"not rational in the ring's generators: {e}")
+
+
+def circle_is_zero(expr, angles: Iterable[sp.Symbol], roots=()) -> bool:
+    """True iff ``expr`` vanishes identically (same decision as :func:`trig_is_zero`).
+
+    ``expr`` is rational in the sines and cosines of ``angles``, in other
+    symbols, and in root symbols R with R**2 = f (``roots`` = [(R, f), ...],
+    f rational in the sines and cosines; R is the positive root).
+    """
+    angles = list(angles)
+    subs, pairs = _trig_symbols(angles)
+    expr = sp.expand_trig(sp.sympify(expr)).xreplace(subs)
+    leftover = [f for f in expr.atoms(sp.Function) if f.free_symbols & set(angles)]
+    if leftover:
+        raise ValueError(f"not rational in sin/cos of the angles: {leftover[0]}")
+    root_syms = [r for r, _ in roots]
+    trig_gens = [g for pair in pairs for g in pair]
+    known = set(root_syms) | set(trig_gens)
+    others = sorted(expr.free_symbols - known, key=lambda s: s.name)
+    gens = root_syms + trig_gens + others
+    ring_, *_ = ring(gens, QQ, lex)
+    to_ring = _Fractions(ring_, gens)
+    numerator, _ = to_ring(expr)
+    if numerator == 0:
+        return True
+    relations = [ring_(to_ring(s**2 + c**2 - 1)[0]) for s, c in pairs]
+    for r, f in roots:
+        n, d = to_ring(sp.expand_trig(sp.sympify(f)).xreplace(subs))
+        if d:   # R^2 - f must be monic in R for the division to be a normal form
+            raise ValueError("root radicand must be a polynomial in the sines and cosines")
+        relations.insert(0, to_ring(r)[0] ** 2 - n)
+    return numerator.rem(relations) == 0
+
+
+def circle_matrix_is_zero(m, angles, roots=()) -> bool:
+    m = sp.Matrix(m) if not isinstance(m, sp.Expr) else sp.Matrix([m])
+    return all(circle_is_zero(e, angles, roots) for e in m)
+
+
+def trig_angles(*exprs) -> list[sp.Symbol]:
+    """The symbols that occur inside a sine or cosine (the angles of a trig test)."""
+    found: set = set()
+    for e in exprs:
+        m = sp.Matrix(e) if not isinstance(e, sp.Expr) else sp.Matrix([e])
+        for entry in m:
+            for f in entry.atoms(sp.sin, sp.cos):
+                found |= f.free_symbols
+    return sorted(found, key=lambda s: s.name)
+
+
+# -- fast numeric evaluation --------------------------------------------------
+#
+# ``evaluate`` substitutes and calls N on every entry; compiling the
+# expression once with lambdify(modules="mpmath") gives the same 40-digit
+# values far faster when many points are needed.
+
+def mp_function(expr, symbols):
+    """Compile ``expr`` (expression or matrix) to point -> list of mpmath numbers."""
+    m = sp.Matrix(expr) if not isinstance(expr, sp.Expr) else sp.Matrix([expr])
+    symbols = list(symbols)
+    f = sp.lambdify(symbols, list(m), modules="mpmath")
+
+    def at(point: dict) -> list:
+        with mpmath.workdps(DIGITS):
+            return [mpmath.mpmathify(v) for v in f(*[point[s] for s in symbols])]
+    return at
+
+
+def relative_error(xs, ys) -> float:
+    """max |x - y| / max(|x|, |y|, 1) over paired values."""
+    with mpmath.workdps(DIGITS):
+        return max((float(abs(x - y) / max(abs(x), abs(y), 1)) for x, y in zip(xs, ys)),
+                   default=0.0)
