@@ -1,0 +1,1 @@
+"""Stage 6, measurement: work-precision benchmarks, peers, and the trust horizon."""
