@@ -260,6 +260,7 @@ def model_spec(d) -> ModelSpec:
                                "q' = M^-1 p (solved in the code), p' = dL/dq at that q' (seed 001 (3)).",
             (x, p), (Output("xdot", (n,), tuple(qdot.symbols) + tuple(pdot), "x' in canonical order"),),
             tuple(mass.stages) + tuple(qdot.stages)))
+        kernels.append(_hamiltonian_jacobian(d, x, p, mass, qdot))
         momenta = [sum(d.M[i, j] * s.qd[j] for j in range(nq)) for i in range(nq)]
         kernels.append(Kernel(
             "to_canonical", "The canonical state x = (q, M q') of a state y = (q, q').",
@@ -290,6 +291,47 @@ def model_spec(d) -> ModelSpec:
                      tuple(_normalise(k) for k in kernels))
     check_spec(spec)
     return spec
+
+
+def _hamiltonian_jacobian(d, x: Input, p: Input, mass, qdot) -> Kernel:
+    """J of hamiltonian_rhs with respect to x = (q, p), by the chain rule through the
+    in-code solve v = q' = M^-1 p: dv/dq_k = -M^-1 (dM/dq_k) v, dv/dp = M^-1, and
+    p' = dL/dq(q, v) gives dp'/dx_k = d(dL/dq)/dq_k + sum_j d(dL/dq)/dq'_j dv_j/dx_k.
+    Used by the implicit Gauss-Legendre integrators (owned by derive/integration)."""
+    s, h = d.symbols, d.hamiltonian
+    nq, n = len(s.q), 2 * len(s.q)
+    v = list(qdot.symbols)
+    at_v = dict(zip(s.qd, v))
+    cols = []
+    for k, qk in enumerate(s.q):
+        r = [-sum(d.M[i, j].diff(qk) * v[j] for j in range(nq)) for i in range(nq)]
+        cols.append(mass.apply(r) if any(e != 0 for e in r) else [sp.S.Zero] * nq)
+    for k in range(nq):
+        cols.append(mass.apply([sp.S.One if i == k else sp.S.Zero for i in range(nq)]))
+    stages, dv = [], [[None] * n for _ in range(nq)]
+    for k in range(n):
+        for j in range(nq):
+            e = sp.sympify(cols[k][j])
+            if e.is_number:
+                dv[j][k] = e
+            else:
+                dv[j][k] = sp.Symbol(f"dv{j}_{k}", real=True)
+                stages.append((dv[j][k], e))
+    J = sp.zeros(n, n)
+    for i in range(nq):
+        g = h.dL_dq[i]
+        for k in range(n):
+            J[i, k] = dv[i][k]
+            e = sum(g.diff(s.qd[j]).xreplace(at_v) * dv[j][k] for j in range(nq))
+            if k < nq:
+                e += g.diff(s.q[k]).xreplace(at_v)
+            J[nq + i, k] = e
+    return Kernel(
+        "hamiltonian_jacobian", "The Jacobian of hamiltonian_rhs with respect to x = (q, p), "
+                                "J[i][k] = d x'_i / d x_k, by the chain rule through q' = M^-1 p "
+                                "(solved in the code).",
+        (x, p), (Output("J", (n, n), tuple(J), "row-major"),),
+        tuple(mass.stages) + tuple(qdot.stages) + tuple(stages))
 
 
 def _multiple_angles(expr: sp.Expr) -> sp.Expr:

@@ -21,33 +21,34 @@ const char *const compound_canonical_names[COMPOUND_N_CANONICAL] = {
     "theta1", "theta2", "p_theta1", "p_theta2"
 };
 
-/* compound_rhs (double). Total ops: 51 */
+/* compound_rhs (double). Total ops: 50 */
 int compound_rhs(const double *restrict y, const double *restrict p, double *restrict ydot)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const double t0 = (1.0/2.0)*p[1];
-    const double t1 = p[3]*t0;
-    const double t2 = y[0] - y[1];
-    const double t3 = cos(t2);
-    const double M01 = p[2]*t1*t3;
-    const double t4 = p[3]*p[3]*p[1];
-    const double M11 = p[5] + (1.0/4.0)*t4;
-    const double t5 = sin(t2);
-    const double t6 = y[3]*y[3];
-    const double t7 = (1.0/2.0)*t6;
-    const double t8 = p[3]*p[1];
-    const double t9 = t7*t8;
-    const double t10 = sin(y[0]);
-    const double t11 = p[6]*p[1];
-    const double t12 = (1.0/2.0)*p[0];
-    const double t13 = p[6]*t12;
-    const double t14 = t10*t11 + t10*t13;
-    const double F0 = -p[2]*(t14 + t5*t9);
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const double t0 = y[0] - y[1];
+    const double t1 = cos(t0);
+    const double t2 = p[2]*p[1];
+    const double t3 = p[3]*t2;
+    const double t4 = (1.0/2.0)*t3;
+    const double M01 = t1*t4;
+    const double t5 = p[3]*p[3]*p[1];
+    const double M11 = p[5] + (1.0/4.0)*t5;
+    const double t6 = sin(y[0]);
+    const double t7 = (1.0/2.0)*p[0];
+    const double t8 = p[6]*p[1] + p[6]*t7;
+    const double t9 = t6*t8;
+    const double t10 = sin(t0);
+    const double t11 = y[3]*y[3];
+    const double t12 = (1.0/2.0)*p[1];
+    const double t13 = p[3]*t12;
+    const double t14 = t11*t13;
+    const double F0 = -p[2]*(t10*t14 + t9);
     const double t15 = sin(y[1]);
     const double t16 = p[6]*t15;
     const double t17 = y[2]*y[2];
-    const double F1 = t1*(p[2]*t17*t5 - t16);
+    const double F1 = t13*(p[2]*t10*t17 - t16);
     const double t18 = p[2]*p[2];
     const double t19 = p[1]*t18;
     const double t20 = p[0]*t18;
@@ -61,9 +62,10 @@ int compound_rhs(const double *restrict y, const double *restrict p, double *res
     ydot[2] = qdd0;
     ydot[3] = qdd1;
     for (k = 0; k < COMPOUND_RHS_YDOT_SIZE; ++k) {
-        if (!isfinite(ydot[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += ydot[k] - ydot[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -82,33 +84,34 @@ int compound_rhs_batch(long n, const double *restrict y, long y_stride, const do
     return all;
 }
 
-/* compound_rhs_f (float). Total ops: 51 */
+/* compound_rhs_f (float). Total ops: 50 */
 int compound_rhs_f(const float *restrict y, const float *restrict p, float *restrict ydot)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const float t0 = (1.0F/2.0F)*p[1];
-    const float t1 = p[3]*t0;
-    const float t2 = y[0] - y[1];
-    const float t3 = cosf(t2);
-    const float M01 = p[2]*t1*t3;
-    const float t4 = p[3]*p[3]*p[1];
-    const float M11 = p[5] + (1.0F/4.0F)*t4;
-    const float t5 = sinf(t2);
-    const float t6 = y[3]*y[3];
-    const float t7 = (1.0F/2.0F)*t6;
-    const float t8 = p[3]*p[1];
-    const float t9 = t7*t8;
-    const float t10 = sinf(y[0]);
-    const float t11 = p[6]*p[1];
-    const float t12 = (1.0F/2.0F)*p[0];
-    const float t13 = p[6]*t12;
-    const float t14 = t10*t11 + t10*t13;
-    const float F0 = -p[2]*(t14 + t5*t9);
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const float t0 = y[0] - y[1];
+    const float t1 = cosf(t0);
+    const float t2 = p[2]*p[1];
+    const float t3 = p[3]*t2;
+    const float t4 = (1.0F/2.0F)*t3;
+    const float M01 = t1*t4;
+    const float t5 = p[3]*p[3]*p[1];
+    const float M11 = p[5] + (1.0F/4.0F)*t5;
+    const float t6 = sinf(y[0]);
+    const float t7 = (1.0F/2.0F)*p[0];
+    const float t8 = p[6]*p[1] + p[6]*t7;
+    const float t9 = t6*t8;
+    const float t10 = sinf(t0);
+    const float t11 = y[3]*y[3];
+    const float t12 = (1.0F/2.0F)*p[1];
+    const float t13 = p[3]*t12;
+    const float t14 = t11*t13;
+    const float F0 = -p[2]*(t10*t14 + t9);
     const float t15 = sinf(y[1]);
     const float t16 = p[6]*t15;
     const float t17 = y[2]*y[2];
-    const float F1 = t1*(p[2]*t17*t5 - t16);
+    const float F1 = t13*(p[2]*t10*t17 - t16);
     const float t18 = p[2]*p[2];
     const float t19 = p[1]*t18;
     const float t20 = p[0]*t18;
@@ -122,9 +125,10 @@ int compound_rhs_f(const float *restrict y, const float *restrict p, float *rest
     ydot[2] = qdd0;
     ydot[3] = qdd1;
     for (k = 0; k < COMPOUND_RHS_YDOT_SIZE; ++k) {
-        if (!isfinite(ydot[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += ydot[k] - ydot[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -143,33 +147,34 @@ int compound_rhs_batch_f(long n, const float *restrict y, long y_stride, const f
     return all;
 }
 
-/* compound_rhs_l (long double). Total ops: 51 */
+/* compound_rhs_l (long double). Total ops: 50 */
 int compound_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict ydot)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const long double t0 = (1.0L/2.0L)*p[1];
-    const long double t1 = p[3]*t0;
-    const long double t2 = y[0] - y[1];
-    const long double t3 = cosl(t2);
-    const long double M01 = p[2]*t1*t3;
-    const long double t4 = p[3]*p[3]*p[1];
-    const long double M11 = p[5] + (1.0L/4.0L)*t4;
-    const long double t5 = sinl(t2);
-    const long double t6 = y[3]*y[3];
-    const long double t7 = (1.0L/2.0L)*t6;
-    const long double t8 = p[3]*p[1];
-    const long double t9 = t7*t8;
-    const long double t10 = sinl(y[0]);
-    const long double t11 = p[6]*p[1];
-    const long double t12 = (1.0L/2.0L)*p[0];
-    const long double t13 = p[6]*t12;
-    const long double t14 = t10*t11 + t10*t13;
-    const long double F0 = -p[2]*(t14 + t5*t9);
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const long double t0 = y[0] - y[1];
+    const long double t1 = cosl(t0);
+    const long double t2 = p[2]*p[1];
+    const long double t3 = p[3]*t2;
+    const long double t4 = (1.0L/2.0L)*t3;
+    const long double M01 = t1*t4;
+    const long double t5 = p[3]*p[3]*p[1];
+    const long double M11 = p[5] + (1.0L/4.0L)*t5;
+    const long double t6 = sinl(y[0]);
+    const long double t7 = (1.0L/2.0L)*p[0];
+    const long double t8 = p[6]*p[1] + p[6]*t7;
+    const long double t9 = t6*t8;
+    const long double t10 = sinl(t0);
+    const long double t11 = y[3]*y[3];
+    const long double t12 = (1.0L/2.0L)*p[1];
+    const long double t13 = p[3]*t12;
+    const long double t14 = t11*t13;
+    const long double F0 = -p[2]*(t10*t14 + t9);
     const long double t15 = sinl(y[1]);
     const long double t16 = p[6]*t15;
     const long double t17 = y[2]*y[2];
-    const long double F1 = t1*(p[2]*t17*t5 - t16);
+    const long double F1 = t13*(p[2]*t10*t17 - t16);
     const long double t18 = p[2]*p[2];
     const long double t19 = p[1]*t18;
     const long double t20 = p[0]*t18;
@@ -183,9 +188,10 @@ int compound_rhs_l(const long double *restrict y, const long double *restrict p,
     ydot[2] = qdd0;
     ydot[3] = qdd1;
     for (k = 0; k < COMPOUND_RHS_YDOT_SIZE; ++k) {
-        if (!isfinite(ydot[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += ydot[k] - ydot[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -209,25 +215,28 @@ int compound_mass_matrix(const double *restrict y, const double *restrict p, dou
 {
     int status = COMPOUND_STATUS_OK;
     int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const double t0 = p[2]*p[2];
     const double t1 = p[1]*t0;
     const double t2 = p[0]*t0;
     const double M00 = p[4] + t1 + (1.0/4.0)*t2;
-    const double t3 = (1.0/2.0)*p[1];
-    const double t4 = p[3]*t3;
-    const double t5 = y[0] - y[1];
-    const double t6 = cos(t5);
-    const double M01 = p[2]*t4*t6;
-    const double t7 = p[3]*p[3]*p[1];
-    const double M11 = p[5] + (1.0/4.0)*t7;
+    const double t3 = y[0] - y[1];
+    const double t4 = cos(t3);
+    const double t5 = p[2]*p[1];
+    const double t6 = p[3]*t5;
+    const double t7 = (1.0/2.0)*t6;
+    const double M01 = t4*t7;
+    const double t8 = p[3]*p[3]*p[1];
+    const double M11 = p[5] + (1.0/4.0)*t8;
     M[0] = M00;
     M[1] = M01;
     M[2] = M01;
     M[3] = M11;
     for (k = 0; k < COMPOUND_MASS_MATRIX_M_SIZE; ++k) {
-        if (!isfinite(M[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += M[k] - M[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -251,25 +260,28 @@ int compound_mass_matrix_f(const float *restrict y, const float *restrict p, flo
 {
     int status = COMPOUND_STATUS_OK;
     int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const float t0 = p[2]*p[2];
     const float t1 = p[1]*t0;
     const float t2 = p[0]*t0;
     const float M00 = p[4] + t1 + (1.0F/4.0F)*t2;
-    const float t3 = (1.0F/2.0F)*p[1];
-    const float t4 = p[3]*t3;
-    const float t5 = y[0] - y[1];
-    const float t6 = cosf(t5);
-    const float M01 = p[2]*t4*t6;
-    const float t7 = p[3]*p[3]*p[1];
-    const float M11 = p[5] + (1.0F/4.0F)*t7;
+    const float t3 = y[0] - y[1];
+    const float t4 = cosf(t3);
+    const float t5 = p[2]*p[1];
+    const float t6 = p[3]*t5;
+    const float t7 = (1.0F/2.0F)*t6;
+    const float M01 = t4*t7;
+    const float t8 = p[3]*p[3]*p[1];
+    const float M11 = p[5] + (1.0F/4.0F)*t8;
     M[0] = M00;
     M[1] = M01;
     M[2] = M01;
     M[3] = M11;
     for (k = 0; k < COMPOUND_MASS_MATRIX_M_SIZE; ++k) {
-        if (!isfinite(M[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += M[k] - M[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -293,25 +305,28 @@ int compound_mass_matrix_l(const long double *restrict y, const long double *res
 {
     int status = COMPOUND_STATUS_OK;
     int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const long double t0 = p[2]*p[2];
     const long double t1 = p[1]*t0;
     const long double t2 = p[0]*t0;
     const long double M00 = p[4] + t1 + (1.0L/4.0L)*t2;
-    const long double t3 = (1.0L/2.0L)*p[1];
-    const long double t4 = p[3]*t3;
-    const long double t5 = y[0] - y[1];
-    const long double t6 = cosl(t5);
-    const long double M01 = p[2]*t4*t6;
-    const long double t7 = p[3]*p[3]*p[1];
-    const long double M11 = p[5] + (1.0L/4.0L)*t7;
+    const long double t3 = y[0] - y[1];
+    const long double t4 = cosl(t3);
+    const long double t5 = p[2]*p[1];
+    const long double t6 = p[3]*t5;
+    const long double t7 = (1.0L/2.0L)*t6;
+    const long double M01 = t4*t7;
+    const long double t8 = p[3]*p[3]*p[1];
+    const long double M11 = p[5] + (1.0L/4.0L)*t8;
     M[0] = M00;
     M[1] = M01;
     M[2] = M01;
     M[3] = M11;
     for (k = 0; k < COMPOUND_MASS_MATRIX_M_SIZE; ++k) {
-        if (!isfinite(M[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += M[k] - M[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -330,35 +345,34 @@ int compound_mass_matrix_batch_l(long n, const long double *restrict y, long y_s
     return all;
 }
 
-/* compound_forcing (double). Total ops: 26 */
+/* compound_forcing (double). Total ops: 23 */
 int compound_forcing(const double *restrict y, const double *restrict p, double *restrict F)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const double t0 = y[0] - y[1];
-    const double t1 = sin(t0);
-    const double t2 = y[3]*y[3];
-    const double t3 = (1.0/2.0)*t2;
-    const double t4 = p[3]*p[1];
-    const double t5 = t3*t4;
-    const double t6 = sin(y[0]);
-    const double t7 = p[6]*p[1];
-    const double t8 = (1.0/2.0)*p[0];
-    const double t9 = p[6]*t8;
-    const double t10 = t6*t7 + t6*t9;
-    const double F0 = -p[2]*(t1*t5 + t10);
-    const double t11 = (1.0/2.0)*p[1];
-    const double t12 = p[3]*t11;
-    const double t13 = sin(y[1]);
-    const double t14 = p[6]*t13;
-    const double t15 = y[2]*y[2];
-    const double F1 = t12*(p[2]*t1*t15 - t14);
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const double t0 = sin(y[0]);
+    const double t1 = (1.0/2.0)*p[0];
+    const double t2 = p[6]*p[1] + p[6]*t1;
+    const double t3 = t0*t2;
+    const double t4 = y[0] - y[1];
+    const double t5 = sin(t4);
+    const double t6 = y[3]*y[3];
+    const double t7 = (1.0/2.0)*p[1];
+    const double t8 = p[3]*t7;
+    const double t9 = t6*t8;
+    const double F0 = -p[2]*(t3 + t5*t9);
+    const double t10 = sin(y[1]);
+    const double t11 = p[6]*t10;
+    const double t12 = y[2]*y[2];
+    const double F1 = t8*(p[2]*t12*t5 - t11);
     F[0] = F0;
     F[1] = F1;
     for (k = 0; k < COMPOUND_FORCING_F_SIZE; ++k) {
-        if (!isfinite(F[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += F[k] - F[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -377,35 +391,34 @@ int compound_forcing_batch(long n, const double *restrict y, long y_stride, cons
     return all;
 }
 
-/* compound_forcing_f (float). Total ops: 26 */
+/* compound_forcing_f (float). Total ops: 23 */
 int compound_forcing_f(const float *restrict y, const float *restrict p, float *restrict F)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const float t0 = y[0] - y[1];
-    const float t1 = sinf(t0);
-    const float t2 = y[3]*y[3];
-    const float t3 = (1.0F/2.0F)*t2;
-    const float t4 = p[3]*p[1];
-    const float t5 = t3*t4;
-    const float t6 = sinf(y[0]);
-    const float t7 = p[6]*p[1];
-    const float t8 = (1.0F/2.0F)*p[0];
-    const float t9 = p[6]*t8;
-    const float t10 = t6*t7 + t6*t9;
-    const float F0 = -p[2]*(t1*t5 + t10);
-    const float t11 = (1.0F/2.0F)*p[1];
-    const float t12 = p[3]*t11;
-    const float t13 = sinf(y[1]);
-    const float t14 = p[6]*t13;
-    const float t15 = y[2]*y[2];
-    const float F1 = t12*(p[2]*t1*t15 - t14);
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const float t0 = sinf(y[0]);
+    const float t1 = (1.0F/2.0F)*p[0];
+    const float t2 = p[6]*p[1] + p[6]*t1;
+    const float t3 = t0*t2;
+    const float t4 = y[0] - y[1];
+    const float t5 = sinf(t4);
+    const float t6 = y[3]*y[3];
+    const float t7 = (1.0F/2.0F)*p[1];
+    const float t8 = p[3]*t7;
+    const float t9 = t6*t8;
+    const float F0 = -p[2]*(t3 + t5*t9);
+    const float t10 = sinf(y[1]);
+    const float t11 = p[6]*t10;
+    const float t12 = y[2]*y[2];
+    const float F1 = t8*(p[2]*t12*t5 - t11);
     F[0] = F0;
     F[1] = F1;
     for (k = 0; k < COMPOUND_FORCING_F_SIZE; ++k) {
-        if (!isfinite(F[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += F[k] - F[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -424,35 +437,34 @@ int compound_forcing_batch_f(long n, const float *restrict y, long y_stride, con
     return all;
 }
 
-/* compound_forcing_l (long double). Total ops: 26 */
+/* compound_forcing_l (long double). Total ops: 23 */
 int compound_forcing_l(const long double *restrict y, const long double *restrict p, long double *restrict F)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const long double t0 = y[0] - y[1];
-    const long double t1 = sinl(t0);
-    const long double t2 = y[3]*y[3];
-    const long double t3 = (1.0L/2.0L)*t2;
-    const long double t4 = p[3]*p[1];
-    const long double t5 = t3*t4;
-    const long double t6 = sinl(y[0]);
-    const long double t7 = p[6]*p[1];
-    const long double t8 = (1.0L/2.0L)*p[0];
-    const long double t9 = p[6]*t8;
-    const long double t10 = t6*t7 + t6*t9;
-    const long double F0 = -p[2]*(t1*t5 + t10);
-    const long double t11 = (1.0L/2.0L)*p[1];
-    const long double t12 = p[3]*t11;
-    const long double t13 = sinl(y[1]);
-    const long double t14 = p[6]*t13;
-    const long double t15 = y[2]*y[2];
-    const long double F1 = t12*(p[2]*t1*t15 - t14);
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const long double t0 = sinl(y[0]);
+    const long double t1 = (1.0L/2.0L)*p[0];
+    const long double t2 = p[6]*p[1] + p[6]*t1;
+    const long double t3 = t0*t2;
+    const long double t4 = y[0] - y[1];
+    const long double t5 = sinl(t4);
+    const long double t6 = y[3]*y[3];
+    const long double t7 = (1.0L/2.0L)*p[1];
+    const long double t8 = p[3]*t7;
+    const long double t9 = t6*t8;
+    const long double F0 = -p[2]*(t3 + t5*t9);
+    const long double t10 = sinl(y[1]);
+    const long double t11 = p[6]*t10;
+    const long double t12 = y[2]*y[2];
+    const long double F1 = t8*(p[2]*t12*t5 - t11);
     F[0] = F0;
     F[1] = F1;
     for (k = 0; k < COMPOUND_FORCING_F_SIZE; ++k) {
-        if (!isfinite(F[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += F[k] - F[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -471,35 +483,36 @@ int compound_forcing_batch_l(long n, const long double *restrict y, long y_strid
     return all;
 }
 
-/* compound_energy (double). Total ops: 41 */
+/* compound_energy (double). Total ops: 39 */
 int compound_energy(const double *restrict y, const double *restrict p, double *restrict E)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const double t0 = p[2]*p[2];
     const double t1 = p[1]*t0;
     const double t2 = p[0]*t0;
-    const double t3 = (1.0/2.0)*p[1];
+    const double t3 = p[2]*p[1];
     const double t4 = p[3]*p[3]*p[1];
-    const double t5 = y[3]*y[3];
-    const double t6 = (1.0/2.0)*t5;
-    const double t7 = (1.0/2.0)*p[0];
+    const double t5 = (1.0/2.0)*p[0];
+    const double t6 = y[3]*y[3];
+    const double t7 = (1.0/2.0)*p[1];
     const double t8 = y[2]*y[2];
-    const double t9 = (1.0/2.0)*t8;
-    const double t10 = p[3]*t3;
-    const double t11 = y[0] - y[1];
-    const double t12 = cos(t11);
-    const double M01 = p[2]*t10*t12;
+    const double t9 = y[0] - y[1];
+    const double t10 = cos(t9);
+    const double t11 = p[3]*t3;
+    const double t12 = (1.0/2.0)*t11;
+    const double M01 = t10*t12;
     const double t13 = M01*y[3];
-    const double t14 = cos(y[0]);
-    const double t15 = p[2]*t14;
-    const double t16 = cos(y[1]);
-    const double t17 = p[3]*t16;
-    E[0] = p[4]*t9 + p[5]*t6 - p[6]*(p[1]*t15 + t15*t7 + t17*t3) + t1*t9 + t13*y[2] + (1.0/8.0)*t2*t8 + (1.0/8.0)*t4*t5;
+    const double t14 = cos(y[1]);
+    const double t15 = p[3]*t14;
+    const double t16 = cos(y[0]);
+    E[0] = -p[6]*(t15*t7 + t16*(p[2]*t5 + t3)) + t13*y[2] + t6*((1.0/2.0)*p[5] + (1.0/8.0)*t4) + t8*((1.0/2.0)*p[4] + (1.0/2.0)*t1 + (1.0/8.0)*t2);
     for (k = 0; k < COMPOUND_ENERGY_E_SIZE; ++k) {
-        if (!isfinite(E[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += E[k] - E[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -518,35 +531,36 @@ int compound_energy_batch(long n, const double *restrict y, long y_stride, const
     return all;
 }
 
-/* compound_energy_f (float). Total ops: 41 */
+/* compound_energy_f (float). Total ops: 39 */
 int compound_energy_f(const float *restrict y, const float *restrict p, float *restrict E)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const float t0 = p[2]*p[2];
     const float t1 = p[1]*t0;
     const float t2 = p[0]*t0;
-    const float t3 = (1.0F/2.0F)*p[1];
+    const float t3 = p[2]*p[1];
     const float t4 = p[3]*p[3]*p[1];
-    const float t5 = y[3]*y[3];
-    const float t6 = (1.0F/2.0F)*t5;
-    const float t7 = (1.0F/2.0F)*p[0];
+    const float t5 = (1.0F/2.0F)*p[0];
+    const float t6 = y[3]*y[3];
+    const float t7 = (1.0F/2.0F)*p[1];
     const float t8 = y[2]*y[2];
-    const float t9 = (1.0F/2.0F)*t8;
-    const float t10 = p[3]*t3;
-    const float t11 = y[0] - y[1];
-    const float t12 = cosf(t11);
-    const float M01 = p[2]*t10*t12;
+    const float t9 = y[0] - y[1];
+    const float t10 = cosf(t9);
+    const float t11 = p[3]*t3;
+    const float t12 = (1.0F/2.0F)*t11;
+    const float M01 = t10*t12;
     const float t13 = M01*y[3];
-    const float t14 = cosf(y[0]);
-    const float t15 = p[2]*t14;
-    const float t16 = cosf(y[1]);
-    const float t17 = p[3]*t16;
-    E[0] = p[4]*t9 + p[5]*t6 - p[6]*(p[1]*t15 + t15*t7 + t17*t3) + t1*t9 + t13*y[2] + (1.0F/8.0F)*t2*t8 + (1.0F/8.0F)*t4*t5;
+    const float t14 = cosf(y[1]);
+    const float t15 = p[3]*t14;
+    const float t16 = cosf(y[0]);
+    E[0] = -p[6]*(t15*t7 + t16*(p[2]*t5 + t3)) + t13*y[2] + t6*((1.0F/2.0F)*p[5] + (1.0F/8.0F)*t4) + t8*((1.0F/2.0F)*p[4] + (1.0F/2.0F)*t1 + (1.0F/8.0F)*t2);
     for (k = 0; k < COMPOUND_ENERGY_E_SIZE; ++k) {
-        if (!isfinite(E[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += E[k] - E[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -565,35 +579,36 @@ int compound_energy_batch_f(long n, const float *restrict y, long y_stride, cons
     return all;
 }
 
-/* compound_energy_l (long double). Total ops: 41 */
+/* compound_energy_l (long double). Total ops: 39 */
 int compound_energy_l(const long double *restrict y, const long double *restrict p, long double *restrict E)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const long double t0 = p[2]*p[2];
     const long double t1 = p[1]*t0;
     const long double t2 = p[0]*t0;
-    const long double t3 = (1.0L/2.0L)*p[1];
+    const long double t3 = p[2]*p[1];
     const long double t4 = p[3]*p[3]*p[1];
-    const long double t5 = y[3]*y[3];
-    const long double t6 = (1.0L/2.0L)*t5;
-    const long double t7 = (1.0L/2.0L)*p[0];
+    const long double t5 = (1.0L/2.0L)*p[0];
+    const long double t6 = y[3]*y[3];
+    const long double t7 = (1.0L/2.0L)*p[1];
     const long double t8 = y[2]*y[2];
-    const long double t9 = (1.0L/2.0L)*t8;
-    const long double t10 = p[3]*t3;
-    const long double t11 = y[0] - y[1];
-    const long double t12 = cosl(t11);
-    const long double M01 = p[2]*t10*t12;
+    const long double t9 = y[0] - y[1];
+    const long double t10 = cosl(t9);
+    const long double t11 = p[3]*t3;
+    const long double t12 = (1.0L/2.0L)*t11;
+    const long double M01 = t10*t12;
     const long double t13 = M01*y[3];
-    const long double t14 = cosl(y[0]);
-    const long double t15 = p[2]*t14;
-    const long double t16 = cosl(y[1]);
-    const long double t17 = p[3]*t16;
-    E[0] = p[4]*t9 + p[5]*t6 - p[6]*(p[1]*t15 + t15*t7 + t17*t3) + t1*t9 + t13*y[2] + (1.0L/8.0L)*t2*t8 + (1.0L/8.0L)*t4*t5;
+    const long double t14 = cosl(y[1]);
+    const long double t15 = p[3]*t14;
+    const long double t16 = cosl(y[0]);
+    E[0] = -p[6]*(t15*t7 + t16*(p[2]*t5 + t3)) + t13*y[2] + t6*((1.0L/2.0L)*p[5] + (1.0L/8.0L)*t4) + t8*((1.0L/2.0L)*p[4] + (1.0L/2.0L)*t1 + (1.0L/8.0L)*t2);
     for (k = 0; k < COMPOUND_ENERGY_E_SIZE; ++k) {
-        if (!isfinite(E[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += E[k] - E[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -617,6 +632,7 @@ int compound_positions(const double *restrict y, const double *restrict p, doubl
 {
     int status = COMPOUND_STATUS_OK;
     int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const double t0 = sin(y[0]);
     const double t1 = p[2]*t0;
     const double t2 = cos(y[0]);
@@ -629,9 +645,10 @@ int compound_positions(const double *restrict y, const double *restrict p, doubl
     pos[2] = p[3]*t4 + t1;
     pos[3] = -t3 - t6;
     for (k = 0; k < COMPOUND_POSITIONS_POS_SIZE; ++k) {
-        if (!isfinite(pos[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += pos[k] - pos[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -655,6 +672,7 @@ int compound_positions_f(const float *restrict y, const float *restrict p, float
 {
     int status = COMPOUND_STATUS_OK;
     int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const float t0 = sinf(y[0]);
     const float t1 = p[2]*t0;
     const float t2 = cosf(y[0]);
@@ -667,9 +685,10 @@ int compound_positions_f(const float *restrict y, const float *restrict p, float
     pos[2] = p[3]*t4 + t1;
     pos[3] = -t3 - t6;
     for (k = 0; k < COMPOUND_POSITIONS_POS_SIZE; ++k) {
-        if (!isfinite(pos[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += pos[k] - pos[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -693,6 +712,7 @@ int compound_positions_l(const long double *restrict y, const long double *restr
 {
     int status = COMPOUND_STATUS_OK;
     int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const long double t0 = sinl(y[0]);
     const long double t1 = p[2]*t0;
     const long double t2 = cosl(y[0]);
@@ -705,9 +725,10 @@ int compound_positions_l(const long double *restrict y, const long double *restr
     pos[2] = p[3]*t4 + t1;
     pos[3] = -t3 - t6;
     for (k = 0; k < COMPOUND_POSITIONS_POS_SIZE; ++k) {
-        if (!isfinite(pos[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += pos[k] - pos[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -726,55 +747,59 @@ int compound_positions_batch_l(long n, const long double *restrict y, long y_str
     return all;
 }
 
-/* compound_jacobian (double). Total ops: 107 */
+/* compound_jacobian (double). Total ops: 105 */
 int compound_jacobian(const double *restrict y, const double *restrict p, double *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const double t0 = (1.0/2.0)*p[1];
-    const double t1 = p[3]*t0;
-    const double t2 = y[0] - y[1];
-    const double t3 = cos(t2);
-    const double M01 = p[2]*t1*t3;
-    const double t4 = p[3]*p[3]*p[1];
-    const double M11 = p[5] + (1.0/4.0)*t4;
-    const double t5 = sin(t2);
-    const double t6 = p[2]*t5;
-    const double t7 = t1*t6;
-    const double t8 = y[3]*y[3];
-    const double t9 = (1.0/2.0)*t8;
-    const double t10 = p[3]*p[1];
-    const double t11 = t10*t9;
-    const double t12 = sin(y[0]);
-    const double t13 = p[6]*p[1];
-    const double t14 = (1.0/2.0)*p[0];
-    const double t15 = p[6]*t14;
-    const double t16 = t12*t13 + t12*t15;
-    const double F0 = -p[2]*(t11*t5 + t16);
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const double t0 = y[0] - y[1];
+    const double t1 = cos(t0);
+    const double t2 = p[2]*p[1];
+    const double t3 = p[3]*t2;
+    const double t4 = (1.0/2.0)*t3;
+    const double M01 = t1*t4;
+    const double t5 = p[3]*p[3]*p[1];
+    const double M11 = p[5] + (1.0/4.0)*t5;
+    const double t6 = y[2]*y[2];
+    const double t7 = sin(t0);
+    const double t8 = t4*t7;
+    const double t9 = sin(y[0]);
+    const double t10 = (1.0/2.0)*p[0];
+    const double t11 = p[6]*p[1] + p[6]*t10;
+    const double t12 = t11*t9;
+    const double t13 = y[3]*y[3];
+    const double t14 = (1.0/2.0)*p[1];
+    const double t15 = p[3]*t14;
+    const double t16 = t13*t15;
+    const double F0 = -p[2]*(t12 + t16*t7);
     const double t17 = sin(y[1]);
     const double t18 = p[6]*t17;
-    const double t19 = y[2]*y[2];
-    const double F1 = t1*(p[2]*t19*t5 - t18);
-    const double t20 = p[2]*p[2];
-    const double t21 = p[1]*t20;
-    const double t22 = p[0]*t20;
-    const double M00 = p[4] + t21 + (1.0/4.0)*t22;
+    const double F1 = t15*(p[2]*t6*t7 - t18);
+    const double t19 = p[2]*p[2];
+    const double t20 = p[1]*t19;
+    const double t21 = p[0]*t19;
+    const double M00 = p[4] + t20 + (1.0/4.0)*t21;
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double qdd0 = rdet*(F0*M11 - F1*M01);
-    const double t23 = qdd0*t7;
-    const double t24 = p[2]*t19*t3;
-    const double t25 = t1*t24 + t23;
-    const double t26 = cos(y[0]);
+    const double t22 = qdd0*t8;
+    const double t23 = M01*t6 + t22;
     const double qdd1 = rdet*(-F0*M01 + F1*M00);
-    const double t27 = qdd1*t7;
-    const double t28 = -p[2]*(t11*t3 + t13*t26 + t15*t26) + t27;
-    const double t29 = (1.0/2.0)*p[2]*p[3]*p[1]*t3*t8 - t27;
-    const double t30 = cos(y[1]);
-    const double t31 = (1.0/2.0)*p[3]*p[1]*(-p[6]*t30 - t24) - t23;
-    const double t32 = rdet*t10*t6;
-    const double t33 = t32*y[2];
-    const double t34 = t32*y[3];
+    const double t24 = qdd1*t8;
+    const double t25 = cos(y[0]);
+    const double t26 = t11*t25;
+    const double t27 = -p[2]*(t1*t16 + t26) + t24;
+    const double t28 = (1.0/2.0)*p[2]*p[3]*p[1]*t1*t13 - t24;
+    const double t29 = cos(y[1]);
+    const double t30 = p[6]*t29;
+    const double t31 = (1.0/2.0)*p[3]*p[1]*(-p[2]*t1*t6 - t30) - t22;
+    const double t32 = M01*rdet;
+    const double t33 = t3*t7;
+    const double t34 = t33*y[2];
+    const double dv0_2 = M11*rdet;
+    const double t35 = t33*y[3];
+    const double dv1_3 = M00*rdet;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -783,18 +808,19 @@ int compound_jacobian(const double *restrict y, const double *restrict p, double
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = rdet*(-M01*t25 + M11*t28);
-    J[9] = rdet*(-M01*t31 + M11*t29);
-    J[10] = -M01*t33;
-    J[11] = -M11*t34;
-    J[12] = rdet*(M00*t25 - M01*t28);
-    J[13] = rdet*(M00*t31 - M01*t29);
-    J[14] = M00*t33;
-    J[15] = M01*t34;
+    J[8] = rdet*(-M01*t23 + M11*t27);
+    J[9] = rdet*(-M01*t31 + M11*t28);
+    J[10] = -t32*t34;
+    J[11] = -dv0_2*t35;
+    J[12] = rdet*(M00*t23 - M01*t27);
+    J[13] = rdet*(M00*t31 - M01*t28);
+    J[14] = dv1_3*t34;
+    J[15] = t32*t35;
     for (k = 0; k < COMPOUND_JACOBIAN_J_SIZE; ++k) {
-        if (!isfinite(J[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += J[k] - J[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -813,55 +839,59 @@ int compound_jacobian_batch(long n, const double *restrict y, long y_stride, con
     return all;
 }
 
-/* compound_jacobian_f (float). Total ops: 107 */
+/* compound_jacobian_f (float). Total ops: 105 */
 int compound_jacobian_f(const float *restrict y, const float *restrict p, float *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const float t0 = (1.0F/2.0F)*p[1];
-    const float t1 = p[3]*t0;
-    const float t2 = y[0] - y[1];
-    const float t3 = cosf(t2);
-    const float M01 = p[2]*t1*t3;
-    const float t4 = p[3]*p[3]*p[1];
-    const float M11 = p[5] + (1.0F/4.0F)*t4;
-    const float t5 = sinf(t2);
-    const float t6 = p[2]*t5;
-    const float t7 = t1*t6;
-    const float t8 = y[3]*y[3];
-    const float t9 = (1.0F/2.0F)*t8;
-    const float t10 = p[3]*p[1];
-    const float t11 = t10*t9;
-    const float t12 = sinf(y[0]);
-    const float t13 = p[6]*p[1];
-    const float t14 = (1.0F/2.0F)*p[0];
-    const float t15 = p[6]*t14;
-    const float t16 = t12*t13 + t12*t15;
-    const float F0 = -p[2]*(t11*t5 + t16);
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const float t0 = y[0] - y[1];
+    const float t1 = cosf(t0);
+    const float t2 = p[2]*p[1];
+    const float t3 = p[3]*t2;
+    const float t4 = (1.0F/2.0F)*t3;
+    const float M01 = t1*t4;
+    const float t5 = p[3]*p[3]*p[1];
+    const float M11 = p[5] + (1.0F/4.0F)*t5;
+    const float t6 = y[2]*y[2];
+    const float t7 = sinf(t0);
+    const float t8 = t4*t7;
+    const float t9 = sinf(y[0]);
+    const float t10 = (1.0F/2.0F)*p[0];
+    const float t11 = p[6]*p[1] + p[6]*t10;
+    const float t12 = t11*t9;
+    const float t13 = y[3]*y[3];
+    const float t14 = (1.0F/2.0F)*p[1];
+    const float t15 = p[3]*t14;
+    const float t16 = t13*t15;
+    const float F0 = -p[2]*(t12 + t16*t7);
     const float t17 = sinf(y[1]);
     const float t18 = p[6]*t17;
-    const float t19 = y[2]*y[2];
-    const float F1 = t1*(p[2]*t19*t5 - t18);
-    const float t20 = p[2]*p[2];
-    const float t21 = p[1]*t20;
-    const float t22 = p[0]*t20;
-    const float M00 = p[4] + t21 + (1.0F/4.0F)*t22;
+    const float F1 = t15*(p[2]*t6*t7 - t18);
+    const float t19 = p[2]*p[2];
+    const float t20 = p[1]*t19;
+    const float t21 = p[0]*t19;
+    const float M00 = p[4] + t20 + (1.0F/4.0F)*t21;
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float qdd0 = rdet*(F0*M11 - F1*M01);
-    const float t23 = qdd0*t7;
-    const float t24 = p[2]*t19*t3;
-    const float t25 = t1*t24 + t23;
-    const float t26 = cosf(y[0]);
+    const float t22 = qdd0*t8;
+    const float t23 = M01*t6 + t22;
     const float qdd1 = rdet*(-F0*M01 + F1*M00);
-    const float t27 = qdd1*t7;
-    const float t28 = -p[2]*(t11*t3 + t13*t26 + t15*t26) + t27;
-    const float t29 = (1.0F/2.0F)*p[2]*p[3]*p[1]*t3*t8 - t27;
-    const float t30 = cosf(y[1]);
-    const float t31 = (1.0F/2.0F)*p[3]*p[1]*(-p[6]*t30 - t24) - t23;
-    const float t32 = rdet*t10*t6;
-    const float t33 = t32*y[2];
-    const float t34 = t32*y[3];
+    const float t24 = qdd1*t8;
+    const float t25 = cosf(y[0]);
+    const float t26 = t11*t25;
+    const float t27 = -p[2]*(t1*t16 + t26) + t24;
+    const float t28 = (1.0F/2.0F)*p[2]*p[3]*p[1]*t1*t13 - t24;
+    const float t29 = cosf(y[1]);
+    const float t30 = p[6]*t29;
+    const float t31 = (1.0F/2.0F)*p[3]*p[1]*(-p[2]*t1*t6 - t30) - t22;
+    const float t32 = M01*rdet;
+    const float t33 = t3*t7;
+    const float t34 = t33*y[2];
+    const float dv0_2 = M11*rdet;
+    const float t35 = t33*y[3];
+    const float dv1_3 = M00*rdet;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -870,18 +900,19 @@ int compound_jacobian_f(const float *restrict y, const float *restrict p, float 
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = rdet*(-M01*t25 + M11*t28);
-    J[9] = rdet*(-M01*t31 + M11*t29);
-    J[10] = -M01*t33;
-    J[11] = -M11*t34;
-    J[12] = rdet*(M00*t25 - M01*t28);
-    J[13] = rdet*(M00*t31 - M01*t29);
-    J[14] = M00*t33;
-    J[15] = M01*t34;
+    J[8] = rdet*(-M01*t23 + M11*t27);
+    J[9] = rdet*(-M01*t31 + M11*t28);
+    J[10] = -t32*t34;
+    J[11] = -dv0_2*t35;
+    J[12] = rdet*(M00*t23 - M01*t27);
+    J[13] = rdet*(M00*t31 - M01*t28);
+    J[14] = dv1_3*t34;
+    J[15] = t32*t35;
     for (k = 0; k < COMPOUND_JACOBIAN_J_SIZE; ++k) {
-        if (!isfinite(J[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += J[k] - J[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -900,55 +931,59 @@ int compound_jacobian_batch_f(long n, const float *restrict y, long y_stride, co
     return all;
 }
 
-/* compound_jacobian_l (long double). Total ops: 107 */
+/* compound_jacobian_l (long double). Total ops: 105 */
 int compound_jacobian_l(const long double *restrict y, const long double *restrict p, long double *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const long double t0 = (1.0L/2.0L)*p[1];
-    const long double t1 = p[3]*t0;
-    const long double t2 = y[0] - y[1];
-    const long double t3 = cosl(t2);
-    const long double M01 = p[2]*t1*t3;
-    const long double t4 = p[3]*p[3]*p[1];
-    const long double M11 = p[5] + (1.0L/4.0L)*t4;
-    const long double t5 = sinl(t2);
-    const long double t6 = p[2]*t5;
-    const long double t7 = t1*t6;
-    const long double t8 = y[3]*y[3];
-    const long double t9 = (1.0L/2.0L)*t8;
-    const long double t10 = p[3]*p[1];
-    const long double t11 = t10*t9;
-    const long double t12 = sinl(y[0]);
-    const long double t13 = p[6]*p[1];
-    const long double t14 = (1.0L/2.0L)*p[0];
-    const long double t15 = p[6]*t14;
-    const long double t16 = t12*t13 + t12*t15;
-    const long double F0 = -p[2]*(t11*t5 + t16);
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const long double t0 = y[0] - y[1];
+    const long double t1 = cosl(t0);
+    const long double t2 = p[2]*p[1];
+    const long double t3 = p[3]*t2;
+    const long double t4 = (1.0L/2.0L)*t3;
+    const long double M01 = t1*t4;
+    const long double t5 = p[3]*p[3]*p[1];
+    const long double M11 = p[5] + (1.0L/4.0L)*t5;
+    const long double t6 = y[2]*y[2];
+    const long double t7 = sinl(t0);
+    const long double t8 = t4*t7;
+    const long double t9 = sinl(y[0]);
+    const long double t10 = (1.0L/2.0L)*p[0];
+    const long double t11 = p[6]*p[1] + p[6]*t10;
+    const long double t12 = t11*t9;
+    const long double t13 = y[3]*y[3];
+    const long double t14 = (1.0L/2.0L)*p[1];
+    const long double t15 = p[3]*t14;
+    const long double t16 = t13*t15;
+    const long double F0 = -p[2]*(t12 + t16*t7);
     const long double t17 = sinl(y[1]);
     const long double t18 = p[6]*t17;
-    const long double t19 = y[2]*y[2];
-    const long double F1 = t1*(p[2]*t19*t5 - t18);
-    const long double t20 = p[2]*p[2];
-    const long double t21 = p[1]*t20;
-    const long double t22 = p[0]*t20;
-    const long double M00 = p[4] + t21 + (1.0L/4.0L)*t22;
+    const long double F1 = t15*(p[2]*t6*t7 - t18);
+    const long double t19 = p[2]*p[2];
+    const long double t20 = p[1]*t19;
+    const long double t21 = p[0]*t19;
+    const long double M00 = p[4] + t20 + (1.0L/4.0L)*t21;
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double qdd0 = rdet*(F0*M11 - F1*M01);
-    const long double t23 = qdd0*t7;
-    const long double t24 = p[2]*t19*t3;
-    const long double t25 = t1*t24 + t23;
-    const long double t26 = cosl(y[0]);
+    const long double t22 = qdd0*t8;
+    const long double t23 = M01*t6 + t22;
     const long double qdd1 = rdet*(-F0*M01 + F1*M00);
-    const long double t27 = qdd1*t7;
-    const long double t28 = -p[2]*(t11*t3 + t13*t26 + t15*t26) + t27;
-    const long double t29 = (1.0L/2.0L)*p[2]*p[3]*p[1]*t3*t8 - t27;
-    const long double t30 = cosl(y[1]);
-    const long double t31 = (1.0L/2.0L)*p[3]*p[1]*(-p[6]*t30 - t24) - t23;
-    const long double t32 = rdet*t10*t6;
-    const long double t33 = t32*y[2];
-    const long double t34 = t32*y[3];
+    const long double t24 = qdd1*t8;
+    const long double t25 = cosl(y[0]);
+    const long double t26 = t11*t25;
+    const long double t27 = -p[2]*(t1*t16 + t26) + t24;
+    const long double t28 = (1.0L/2.0L)*p[2]*p[3]*p[1]*t1*t13 - t24;
+    const long double t29 = cosl(y[1]);
+    const long double t30 = p[6]*t29;
+    const long double t31 = (1.0L/2.0L)*p[3]*p[1]*(-p[2]*t1*t6 - t30) - t22;
+    const long double t32 = M01*rdet;
+    const long double t33 = t3*t7;
+    const long double t34 = t33*y[2];
+    const long double dv0_2 = M11*rdet;
+    const long double t35 = t33*y[3];
+    const long double dv1_3 = M00*rdet;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -957,18 +992,19 @@ int compound_jacobian_l(const long double *restrict y, const long double *restri
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = rdet*(-M01*t25 + M11*t28);
-    J[9] = rdet*(-M01*t31 + M11*t29);
-    J[10] = -M01*t33;
-    J[11] = -M11*t34;
-    J[12] = rdet*(M00*t25 - M01*t28);
-    J[13] = rdet*(M00*t31 - M01*t29);
-    J[14] = M00*t33;
-    J[15] = M01*t34;
+    J[8] = rdet*(-M01*t23 + M11*t27);
+    J[9] = rdet*(-M01*t31 + M11*t28);
+    J[10] = -t32*t34;
+    J[11] = -dv0_2*t35;
+    J[12] = rdet*(M00*t23 - M01*t27);
+    J[13] = rdet*(M00*t31 - M01*t28);
+    J[14] = dv1_3*t34;
+    J[15] = t32*t35;
     for (k = 0; k < COMPOUND_JACOBIAN_J_SIZE; ++k) {
-        if (!isfinite(J[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += J[k] - J[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -987,42 +1023,48 @@ int compound_jacobian_batch_l(long n, const long double *restrict y, long y_stri
     return all;
 }
 
-/* compound_hamiltonian_rhs (double). Total ops: 49 */
+/* compound_hamiltonian_rhs (double). Total ops: 50 */
 int compound_hamiltonian_rhs(const double *restrict x, const double *restrict p, double *restrict xdot)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const double t0 = (1.0/2.0)*p[1];
-    const double t1 = p[3]*t0;
-    const double t2 = x[0] - x[1];
-    const double t3 = cos(t2);
-    const double M01 = p[2]*t1*t3;
-    const double t4 = p[3]*p[3]*p[1];
-    const double M11 = p[5] + (1.0/4.0)*t4;
-    const double t5 = p[2]*p[2];
-    const double t6 = p[1]*t5;
-    const double t7 = p[0]*t5;
-    const double M00 = p[4] + t6 + (1.0/4.0)*t7;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const double t0 = x[0] - x[1];
+    const double t1 = cos(t0);
+    const double t2 = p[2]*p[1];
+    const double t3 = p[3]*t2;
+    const double t4 = (1.0/2.0)*t3;
+    const double M01 = t1*t4;
+    const double t5 = p[3]*p[3]*p[1];
+    const double M11 = p[5] + (1.0/4.0)*t5;
+    const double t6 = p[2]*p[2];
+    const double t7 = p[1]*t6;
+    const double t8 = p[0]*t6;
+    const double M00 = p[4] + t7 + (1.0/4.0)*t8;
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double v0 = rdet*(-M01*x[3] + M11*x[2]);
     const double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const double t8 = sin(t2);
     const double t9 = sin(x[0]);
-    const double t10 = p[6]*p[1];
-    const double t11 = (1.0/2.0)*p[0];
-    const double t12 = p[6]*t11;
-    const double t13 = t10*t9 + t12*t9;
-    const double t14 = sin(x[1]);
-    const double t15 = p[6]*t14;
+    const double t10 = (1.0/2.0)*p[0];
+    const double t11 = p[6]*p[1] + p[6]*t10;
+    const double t12 = t11*t9;
+    const double t13 = sin(t0);
+    const double t14 = (1.0/2.0)*p[1];
+    const double t15 = p[3]*t14;
+    const double t16 = v0*v1;
+    const double t17 = t15*t16;
+    const double t18 = sin(x[1]);
+    const double t19 = p[6]*t18;
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = -p[2]*(t1*t8*v0*v1 + t13);
-    xdot[3] = t1*(p[2]*t8*v0*v1 - t15);
+    xdot[2] = -p[2]*(t12 + t13*t17);
+    xdot[3] = t15*(p[2]*t13*v0*v1 - t19);
     for (k = 0; k < COMPOUND_HAMILTONIAN_RHS_XDOT_SIZE; ++k) {
-        if (!isfinite(xdot[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += xdot[k] - xdot[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1041,42 +1083,48 @@ int compound_hamiltonian_rhs_batch(long n, const double *restrict x, long x_stri
     return all;
 }
 
-/* compound_hamiltonian_rhs_f (float). Total ops: 49 */
+/* compound_hamiltonian_rhs_f (float). Total ops: 50 */
 int compound_hamiltonian_rhs_f(const float *restrict x, const float *restrict p, float *restrict xdot)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const float t0 = (1.0F/2.0F)*p[1];
-    const float t1 = p[3]*t0;
-    const float t2 = x[0] - x[1];
-    const float t3 = cosf(t2);
-    const float M01 = p[2]*t1*t3;
-    const float t4 = p[3]*p[3]*p[1];
-    const float M11 = p[5] + (1.0F/4.0F)*t4;
-    const float t5 = p[2]*p[2];
-    const float t6 = p[1]*t5;
-    const float t7 = p[0]*t5;
-    const float M00 = p[4] + t6 + (1.0F/4.0F)*t7;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const float t0 = x[0] - x[1];
+    const float t1 = cosf(t0);
+    const float t2 = p[2]*p[1];
+    const float t3 = p[3]*t2;
+    const float t4 = (1.0F/2.0F)*t3;
+    const float M01 = t1*t4;
+    const float t5 = p[3]*p[3]*p[1];
+    const float M11 = p[5] + (1.0F/4.0F)*t5;
+    const float t6 = p[2]*p[2];
+    const float t7 = p[1]*t6;
+    const float t8 = p[0]*t6;
+    const float M00 = p[4] + t7 + (1.0F/4.0F)*t8;
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float v0 = rdet*(-M01*x[3] + M11*x[2]);
     const float v1 = rdet*(M00*x[3] - M01*x[2]);
-    const float t8 = sinf(t2);
     const float t9 = sinf(x[0]);
-    const float t10 = p[6]*p[1];
-    const float t11 = (1.0F/2.0F)*p[0];
-    const float t12 = p[6]*t11;
-    const float t13 = t10*t9 + t12*t9;
-    const float t14 = sinf(x[1]);
-    const float t15 = p[6]*t14;
+    const float t10 = (1.0F/2.0F)*p[0];
+    const float t11 = p[6]*p[1] + p[6]*t10;
+    const float t12 = t11*t9;
+    const float t13 = sinf(t0);
+    const float t14 = (1.0F/2.0F)*p[1];
+    const float t15 = p[3]*t14;
+    const float t16 = v0*v1;
+    const float t17 = t15*t16;
+    const float t18 = sinf(x[1]);
+    const float t19 = p[6]*t18;
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = -p[2]*(t1*t8*v0*v1 + t13);
-    xdot[3] = t1*(p[2]*t8*v0*v1 - t15);
+    xdot[2] = -p[2]*(t12 + t13*t17);
+    xdot[3] = t15*(p[2]*t13*v0*v1 - t19);
     for (k = 0; k < COMPOUND_HAMILTONIAN_RHS_XDOT_SIZE; ++k) {
-        if (!isfinite(xdot[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += xdot[k] - xdot[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1095,42 +1143,48 @@ int compound_hamiltonian_rhs_batch_f(long n, const float *restrict x, long x_str
     return all;
 }
 
-/* compound_hamiltonian_rhs_l (long double). Total ops: 49 */
+/* compound_hamiltonian_rhs_l (long double). Total ops: 50 */
 int compound_hamiltonian_rhs_l(const long double *restrict x, const long double *restrict p, long double *restrict xdot)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const long double t0 = (1.0L/2.0L)*p[1];
-    const long double t1 = p[3]*t0;
-    const long double t2 = x[0] - x[1];
-    const long double t3 = cosl(t2);
-    const long double M01 = p[2]*t1*t3;
-    const long double t4 = p[3]*p[3]*p[1];
-    const long double M11 = p[5] + (1.0L/4.0L)*t4;
-    const long double t5 = p[2]*p[2];
-    const long double t6 = p[1]*t5;
-    const long double t7 = p[0]*t5;
-    const long double M00 = p[4] + t6 + (1.0L/4.0L)*t7;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const long double t0 = x[0] - x[1];
+    const long double t1 = cosl(t0);
+    const long double t2 = p[2]*p[1];
+    const long double t3 = p[3]*t2;
+    const long double t4 = (1.0L/2.0L)*t3;
+    const long double M01 = t1*t4;
+    const long double t5 = p[3]*p[3]*p[1];
+    const long double M11 = p[5] + (1.0L/4.0L)*t5;
+    const long double t6 = p[2]*p[2];
+    const long double t7 = p[1]*t6;
+    const long double t8 = p[0]*t6;
+    const long double M00 = p[4] + t7 + (1.0L/4.0L)*t8;
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double v0 = rdet*(-M01*x[3] + M11*x[2]);
     const long double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const long double t8 = sinl(t2);
     const long double t9 = sinl(x[0]);
-    const long double t10 = p[6]*p[1];
-    const long double t11 = (1.0L/2.0L)*p[0];
-    const long double t12 = p[6]*t11;
-    const long double t13 = t10*t9 + t12*t9;
-    const long double t14 = sinl(x[1]);
-    const long double t15 = p[6]*t14;
+    const long double t10 = (1.0L/2.0L)*p[0];
+    const long double t11 = p[6]*p[1] + p[6]*t10;
+    const long double t12 = t11*t9;
+    const long double t13 = sinl(t0);
+    const long double t14 = (1.0L/2.0L)*p[1];
+    const long double t15 = p[3]*t14;
+    const long double t16 = v0*v1;
+    const long double t17 = t15*t16;
+    const long double t18 = sinl(x[1]);
+    const long double t19 = p[6]*t18;
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = -p[2]*(t1*t8*v0*v1 + t13);
-    xdot[3] = t1*(p[2]*t8*v0*v1 - t15);
+    xdot[2] = -p[2]*(t12 + t13*t17);
+    xdot[3] = t15*(p[2]*t13*v0*v1 - t19);
     for (k = 0; k < COMPOUND_HAMILTONIAN_RHS_XDOT_SIZE; ++k) {
-        if (!isfinite(xdot[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += xdot[k] - xdot[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1149,31 +1203,304 @@ int compound_hamiltonian_rhs_batch_l(long n, const long double *restrict x, long
     return all;
 }
 
+/* compound_hamiltonian_jacobian (double). Total ops: 99 */
+int compound_hamiltonian_jacobian(const double *restrict x, const double *restrict p, double *restrict J)
+{
+    int status = COMPOUND_STATUS_OK;
+    int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const double t0 = x[0] - x[1];
+    const double t1 = cos(t0);
+    const double t2 = p[2]*p[1];
+    const double t3 = p[3]*t2;
+    const double t4 = (1.0/2.0)*t3;
+    const double M01 = t1*t4;
+    const double t5 = p[3]*p[3]*p[1];
+    const double M11 = p[5] + (1.0/4.0)*t5;
+    const double t6 = sin(t0);
+    const double t7 = t4*t6;
+    const double t8 = p[2]*p[2];
+    const double t9 = p[1]*t8;
+    const double t10 = p[0]*t8;
+    const double M00 = p[4] + (1.0/4.0)*t10 + t9;
+    const double det = M00*M11 - M01*M01;
+    const double rdet = 1.0/det;
+    const double v0 = rdet*(-M01*x[3] + M11*x[2]);
+    const double t11 = t7*v0;
+    const double v1 = rdet*(M00*x[3] - M01*x[2]);
+    const double t12 = M01*t11 - 1.0/2.0*M11*p[2]*p[3]*p[1]*t6*v1;
+    const double dv0_0 = -rdet*t12;
+    const double dv0_1 = rdet*t12;
+    const double dv0_2 = M11*rdet;
+    const double t13 = M01*rdet;
+    const double dv1_2 = -t13;
+    const double dv0_3 = dv1_2;
+    const double t14 = t7*v1;
+    const double t15 = M00*t11 - M01*t14;
+    const double dv1_0 = rdet*t15;
+    const double dv1_1 = -rdet*t15;
+    const double dv1_3 = M00*rdet;
+    const double t16 = (1.0/2.0)*p[0];
+    const double t17 = p[6]*p[1] + p[6]*t16;
+    const double t18 = cos(x[0]);
+    const double t19 = t17*t18;
+    const double t20 = (1.0/2.0)*p[1];
+    const double t21 = p[3]*t20;
+    const double t22 = v0*v1;
+    const double t23 = t21*t22;
+    const double t24 = dv0_0*t14 + dv1_0*t11;
+    const double t25 = dv0_1*t14 + dv1_1*t11;
+    const double t26 = dv0_2*t14 + dv1_2*t11;
+    const double t27 = dv0_3*t14 + dv1_3*t11;
+    const double t28 = cos(x[1]);
+    const double t29 = p[6]*t28;
+    J[0] = dv0_0;
+    J[1] = dv0_1;
+    J[2] = dv0_2;
+    J[3] = dv0_3;
+    J[4] = dv1_0;
+    J[5] = dv1_1;
+    J[6] = dv1_2;
+    J[7] = dv1_3;
+    J[8] = -p[2]*(t1*t23 + t19) - t24;
+    J[9] = (1.0/2.0)*p[2]*p[3]*p[1]*t1*v0*v1 - t25;
+    J[10] = -t26;
+    J[11] = -t27;
+    J[12] = M01*t22 + t24;
+    J[13] = t21*(-p[2]*t1*t22 - t29) + t25;
+    J[14] = t26;
+    J[15] = t27;
+    for (k = 0; k < COMPOUND_HAMILTONIAN_JACOBIAN_J_SIZE; ++k) {
+        check += J[k] - J[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
+    }
+    return status;
+}
+
+int compound_hamiltonian_jacobian_batch(long n, const double *restrict x, long x_stride, const double *restrict p, long p_stride, double *restrict J, int *restrict status)
+{
+    int all = COMPOUND_STATUS_OK;
+    long i;
+    for (i = 0; i < n; ++i) {
+        const int point_status = compound_hamiltonian_jacobian(x + i * x_stride, p + i * p_stride, J + i * COMPOUND_HAMILTONIAN_JACOBIAN_J_SIZE);
+        if (status) {
+            status[i] = point_status;
+        }
+        all |= point_status;
+    }
+    return all;
+}
+
+/* compound_hamiltonian_jacobian_f (float). Total ops: 99 */
+int compound_hamiltonian_jacobian_f(const float *restrict x, const float *restrict p, float *restrict J)
+{
+    int status = COMPOUND_STATUS_OK;
+    int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const float t0 = x[0] - x[1];
+    const float t1 = cosf(t0);
+    const float t2 = p[2]*p[1];
+    const float t3 = p[3]*t2;
+    const float t4 = (1.0F/2.0F)*t3;
+    const float M01 = t1*t4;
+    const float t5 = p[3]*p[3]*p[1];
+    const float M11 = p[5] + (1.0F/4.0F)*t5;
+    const float t6 = sinf(t0);
+    const float t7 = t4*t6;
+    const float t8 = p[2]*p[2];
+    const float t9 = p[1]*t8;
+    const float t10 = p[0]*t8;
+    const float M00 = p[4] + (1.0F/4.0F)*t10 + t9;
+    const float det = M00*M11 - M01*M01;
+    const float rdet = 1.0F/det;
+    const float v0 = rdet*(-M01*x[3] + M11*x[2]);
+    const float t11 = t7*v0;
+    const float v1 = rdet*(M00*x[3] - M01*x[2]);
+    const float t12 = M01*t11 - 1.0F/2.0F*M11*p[2]*p[3]*p[1]*t6*v1;
+    const float dv0_0 = -rdet*t12;
+    const float dv0_1 = rdet*t12;
+    const float dv0_2 = M11*rdet;
+    const float t13 = M01*rdet;
+    const float dv1_2 = -t13;
+    const float dv0_3 = dv1_2;
+    const float t14 = t7*v1;
+    const float t15 = M00*t11 - M01*t14;
+    const float dv1_0 = rdet*t15;
+    const float dv1_1 = -rdet*t15;
+    const float dv1_3 = M00*rdet;
+    const float t16 = (1.0F/2.0F)*p[0];
+    const float t17 = p[6]*p[1] + p[6]*t16;
+    const float t18 = cosf(x[0]);
+    const float t19 = t17*t18;
+    const float t20 = (1.0F/2.0F)*p[1];
+    const float t21 = p[3]*t20;
+    const float t22 = v0*v1;
+    const float t23 = t21*t22;
+    const float t24 = dv0_0*t14 + dv1_0*t11;
+    const float t25 = dv0_1*t14 + dv1_1*t11;
+    const float t26 = dv0_2*t14 + dv1_2*t11;
+    const float t27 = dv0_3*t14 + dv1_3*t11;
+    const float t28 = cosf(x[1]);
+    const float t29 = p[6]*t28;
+    J[0] = dv0_0;
+    J[1] = dv0_1;
+    J[2] = dv0_2;
+    J[3] = dv0_3;
+    J[4] = dv1_0;
+    J[5] = dv1_1;
+    J[6] = dv1_2;
+    J[7] = dv1_3;
+    J[8] = -p[2]*(t1*t23 + t19) - t24;
+    J[9] = (1.0F/2.0F)*p[2]*p[3]*p[1]*t1*v0*v1 - t25;
+    J[10] = -t26;
+    J[11] = -t27;
+    J[12] = M01*t22 + t24;
+    J[13] = t21*(-p[2]*t1*t22 - t29) + t25;
+    J[14] = t26;
+    J[15] = t27;
+    for (k = 0; k < COMPOUND_HAMILTONIAN_JACOBIAN_J_SIZE; ++k) {
+        check += J[k] - J[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
+    }
+    return status;
+}
+
+int compound_hamiltonian_jacobian_batch_f(long n, const float *restrict x, long x_stride, const float *restrict p, long p_stride, float *restrict J, int *restrict status)
+{
+    int all = COMPOUND_STATUS_OK;
+    long i;
+    for (i = 0; i < n; ++i) {
+        const int point_status = compound_hamiltonian_jacobian_f(x + i * x_stride, p + i * p_stride, J + i * COMPOUND_HAMILTONIAN_JACOBIAN_J_SIZE);
+        if (status) {
+            status[i] = point_status;
+        }
+        all |= point_status;
+    }
+    return all;
+}
+
+/* compound_hamiltonian_jacobian_l (long double). Total ops: 99 */
+int compound_hamiltonian_jacobian_l(const long double *restrict x, const long double *restrict p, long double *restrict J)
+{
+    int status = COMPOUND_STATUS_OK;
+    int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const long double t0 = x[0] - x[1];
+    const long double t1 = cosl(t0);
+    const long double t2 = p[2]*p[1];
+    const long double t3 = p[3]*t2;
+    const long double t4 = (1.0L/2.0L)*t3;
+    const long double M01 = t1*t4;
+    const long double t5 = p[3]*p[3]*p[1];
+    const long double M11 = p[5] + (1.0L/4.0L)*t5;
+    const long double t6 = sinl(t0);
+    const long double t7 = t4*t6;
+    const long double t8 = p[2]*p[2];
+    const long double t9 = p[1]*t8;
+    const long double t10 = p[0]*t8;
+    const long double M00 = p[4] + (1.0L/4.0L)*t10 + t9;
+    const long double det = M00*M11 - M01*M01;
+    const long double rdet = 1.0L/det;
+    const long double v0 = rdet*(-M01*x[3] + M11*x[2]);
+    const long double t11 = t7*v0;
+    const long double v1 = rdet*(M00*x[3] - M01*x[2]);
+    const long double t12 = M01*t11 - 1.0L/2.0L*M11*p[2]*p[3]*p[1]*t6*v1;
+    const long double dv0_0 = -rdet*t12;
+    const long double dv0_1 = rdet*t12;
+    const long double dv0_2 = M11*rdet;
+    const long double t13 = M01*rdet;
+    const long double dv1_2 = -t13;
+    const long double dv0_3 = dv1_2;
+    const long double t14 = t7*v1;
+    const long double t15 = M00*t11 - M01*t14;
+    const long double dv1_0 = rdet*t15;
+    const long double dv1_1 = -rdet*t15;
+    const long double dv1_3 = M00*rdet;
+    const long double t16 = (1.0L/2.0L)*p[0];
+    const long double t17 = p[6]*p[1] + p[6]*t16;
+    const long double t18 = cosl(x[0]);
+    const long double t19 = t17*t18;
+    const long double t20 = (1.0L/2.0L)*p[1];
+    const long double t21 = p[3]*t20;
+    const long double t22 = v0*v1;
+    const long double t23 = t21*t22;
+    const long double t24 = dv0_0*t14 + dv1_0*t11;
+    const long double t25 = dv0_1*t14 + dv1_1*t11;
+    const long double t26 = dv0_2*t14 + dv1_2*t11;
+    const long double t27 = dv0_3*t14 + dv1_3*t11;
+    const long double t28 = cosl(x[1]);
+    const long double t29 = p[6]*t28;
+    J[0] = dv0_0;
+    J[1] = dv0_1;
+    J[2] = dv0_2;
+    J[3] = dv0_3;
+    J[4] = dv1_0;
+    J[5] = dv1_1;
+    J[6] = dv1_2;
+    J[7] = dv1_3;
+    J[8] = -p[2]*(t1*t23 + t19) - t24;
+    J[9] = (1.0L/2.0L)*p[2]*p[3]*p[1]*t1*v0*v1 - t25;
+    J[10] = -t26;
+    J[11] = -t27;
+    J[12] = M01*t22 + t24;
+    J[13] = t21*(-p[2]*t1*t22 - t29) + t25;
+    J[14] = t26;
+    J[15] = t27;
+    for (k = 0; k < COMPOUND_HAMILTONIAN_JACOBIAN_J_SIZE; ++k) {
+        check += J[k] - J[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
+    }
+    return status;
+}
+
+int compound_hamiltonian_jacobian_batch_l(long n, const long double *restrict x, long x_stride, const long double *restrict p, long p_stride, long double *restrict J, int *restrict status)
+{
+    int all = COMPOUND_STATUS_OK;
+    long i;
+    for (i = 0; i < n; ++i) {
+        const int point_status = compound_hamiltonian_jacobian_l(x + i * x_stride, p + i * p_stride, J + i * COMPOUND_HAMILTONIAN_JACOBIAN_J_SIZE);
+        if (status) {
+            status[i] = point_status;
+        }
+        all |= point_status;
+    }
+    return all;
+}
+
 /* compound_to_canonical (double). Total ops: 22 */
 int compound_to_canonical(const double *restrict y, const double *restrict p, double *restrict x)
 {
     int status = COMPOUND_STATUS_OK;
     int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const double t0 = p[2]*p[2];
     const double t1 = p[1]*t0;
     const double t2 = p[0]*t0;
     const double M00 = p[4] + t1 + (1.0/4.0)*t2;
-    const double t3 = (1.0/2.0)*p[1];
-    const double t4 = p[3]*t3;
-    const double t5 = y[0] - y[1];
-    const double t6 = cos(t5);
-    const double M01 = p[2]*t4*t6;
-    const double t7 = M01*y[3];
-    const double t8 = p[3]*p[3]*p[1];
-    const double M11 = p[5] + (1.0/4.0)*t8;
+    const double t3 = y[0] - y[1];
+    const double t4 = cos(t3);
+    const double t5 = p[2]*p[1];
+    const double t6 = p[3]*t5;
+    const double t7 = (1.0/2.0)*t6;
+    const double M01 = t4*t7;
+    const double t8 = M01*y[3];
+    const double t9 = p[3]*p[3]*p[1];
+    const double M11 = p[5] + (1.0/4.0)*t9;
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = M00*y[2] + t7;
+    x[2] = M00*y[2] + t8;
     x[3] = M01*y[2] + M11*y[3];
     for (k = 0; k < COMPOUND_TO_CANONICAL_X_SIZE; ++k) {
-        if (!isfinite(x[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += x[k] - x[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1197,26 +1524,29 @@ int compound_to_canonical_f(const float *restrict y, const float *restrict p, fl
 {
     int status = COMPOUND_STATUS_OK;
     int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const float t0 = p[2]*p[2];
     const float t1 = p[1]*t0;
     const float t2 = p[0]*t0;
     const float M00 = p[4] + t1 + (1.0F/4.0F)*t2;
-    const float t3 = (1.0F/2.0F)*p[1];
-    const float t4 = p[3]*t3;
-    const float t5 = y[0] - y[1];
-    const float t6 = cosf(t5);
-    const float M01 = p[2]*t4*t6;
-    const float t7 = M01*y[3];
-    const float t8 = p[3]*p[3]*p[1];
-    const float M11 = p[5] + (1.0F/4.0F)*t8;
+    const float t3 = y[0] - y[1];
+    const float t4 = cosf(t3);
+    const float t5 = p[2]*p[1];
+    const float t6 = p[3]*t5;
+    const float t7 = (1.0F/2.0F)*t6;
+    const float M01 = t4*t7;
+    const float t8 = M01*y[3];
+    const float t9 = p[3]*p[3]*p[1];
+    const float M11 = p[5] + (1.0F/4.0F)*t9;
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = M00*y[2] + t7;
+    x[2] = M00*y[2] + t8;
     x[3] = M01*y[2] + M11*y[3];
     for (k = 0; k < COMPOUND_TO_CANONICAL_X_SIZE; ++k) {
-        if (!isfinite(x[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += x[k] - x[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1240,26 +1570,29 @@ int compound_to_canonical_l(const long double *restrict y, const long double *re
 {
     int status = COMPOUND_STATUS_OK;
     int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const long double t0 = p[2]*p[2];
     const long double t1 = p[1]*t0;
     const long double t2 = p[0]*t0;
     const long double M00 = p[4] + t1 + (1.0L/4.0L)*t2;
-    const long double t3 = (1.0L/2.0L)*p[1];
-    const long double t4 = p[3]*t3;
-    const long double t5 = y[0] - y[1];
-    const long double t6 = cosl(t5);
-    const long double M01 = p[2]*t4*t6;
-    const long double t7 = M01*y[3];
-    const long double t8 = p[3]*p[3]*p[1];
-    const long double M11 = p[5] + (1.0L/4.0L)*t8;
+    const long double t3 = y[0] - y[1];
+    const long double t4 = cosl(t3);
+    const long double t5 = p[2]*p[1];
+    const long double t6 = p[3]*t5;
+    const long double t7 = (1.0L/2.0L)*t6;
+    const long double M01 = t4*t7;
+    const long double t8 = M01*y[3];
+    const long double t9 = p[3]*p[3]*p[1];
+    const long double M11 = p[5] + (1.0L/4.0L)*t9;
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = M00*y[2] + t7;
+    x[2] = M00*y[2] + t8;
     x[3] = M01*y[2] + M11*y[3];
     for (k = 0; k < COMPOUND_TO_CANONICAL_X_SIZE; ++k) {
-        if (!isfinite(x[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += x[k] - x[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1283,17 +1616,19 @@ int compound_from_canonical(const double *restrict x, const double *restrict p, 
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const double t0 = (1.0/2.0)*p[1];
-    const double t1 = p[3]*t0;
-    const double t2 = x[0] - x[1];
-    const double t3 = cos(t2);
-    const double M01 = p[2]*t1*t3;
-    const double t4 = p[3]*p[3]*p[1];
-    const double M11 = p[5] + (1.0/4.0)*t4;
-    const double t5 = p[2]*p[2];
-    const double t6 = p[1]*t5;
-    const double t7 = p[0]*t5;
-    const double M00 = p[4] + t6 + (1.0/4.0)*t7;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const double t0 = x[0] - x[1];
+    const double t1 = cos(t0);
+    const double t2 = p[2]*p[1];
+    const double t3 = p[3]*t2;
+    const double t4 = (1.0/2.0)*t3;
+    const double M01 = t1*t4;
+    const double t5 = p[3]*p[3]*p[1];
+    const double M11 = p[5] + (1.0/4.0)*t5;
+    const double t6 = p[2]*p[2];
+    const double t7 = p[1]*t6;
+    const double t8 = p[0]*t6;
+    const double M00 = p[4] + t7 + (1.0/4.0)*t8;
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double v0 = rdet*(-M01*x[3] + M11*x[2]);
@@ -1303,9 +1638,10 @@ int compound_from_canonical(const double *restrict x, const double *restrict p, 
     y[2] = v0;
     y[3] = v1;
     for (k = 0; k < COMPOUND_FROM_CANONICAL_Y_SIZE; ++k) {
-        if (!isfinite(y[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += y[k] - y[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1329,17 +1665,19 @@ int compound_from_canonical_f(const float *restrict x, const float *restrict p, 
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const float t0 = (1.0F/2.0F)*p[1];
-    const float t1 = p[3]*t0;
-    const float t2 = x[0] - x[1];
-    const float t3 = cosf(t2);
-    const float M01 = p[2]*t1*t3;
-    const float t4 = p[3]*p[3]*p[1];
-    const float M11 = p[5] + (1.0F/4.0F)*t4;
-    const float t5 = p[2]*p[2];
-    const float t6 = p[1]*t5;
-    const float t7 = p[0]*t5;
-    const float M00 = p[4] + t6 + (1.0F/4.0F)*t7;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const float t0 = x[0] - x[1];
+    const float t1 = cosf(t0);
+    const float t2 = p[2]*p[1];
+    const float t3 = p[3]*t2;
+    const float t4 = (1.0F/2.0F)*t3;
+    const float M01 = t1*t4;
+    const float t5 = p[3]*p[3]*p[1];
+    const float M11 = p[5] + (1.0F/4.0F)*t5;
+    const float t6 = p[2]*p[2];
+    const float t7 = p[1]*t6;
+    const float t8 = p[0]*t6;
+    const float M00 = p[4] + t7 + (1.0F/4.0F)*t8;
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float v0 = rdet*(-M01*x[3] + M11*x[2]);
@@ -1349,9 +1687,10 @@ int compound_from_canonical_f(const float *restrict x, const float *restrict p, 
     y[2] = v0;
     y[3] = v1;
     for (k = 0; k < COMPOUND_FROM_CANONICAL_Y_SIZE; ++k) {
-        if (!isfinite(y[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += y[k] - y[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1375,17 +1714,19 @@ int compound_from_canonical_l(const long double *restrict x, const long double *
 {
     int status = COMPOUND_STATUS_OK;
     int k;
-    const long double t0 = (1.0L/2.0L)*p[1];
-    const long double t1 = p[3]*t0;
-    const long double t2 = x[0] - x[1];
-    const long double t3 = cosl(t2);
-    const long double M01 = p[2]*t1*t3;
-    const long double t4 = p[3]*p[3]*p[1];
-    const long double M11 = p[5] + (1.0L/4.0L)*t4;
-    const long double t5 = p[2]*p[2];
-    const long double t6 = p[1]*t5;
-    const long double t7 = p[0]*t5;
-    const long double M00 = p[4] + t6 + (1.0L/4.0L)*t7;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const long double t0 = x[0] - x[1];
+    const long double t1 = cosl(t0);
+    const long double t2 = p[2]*p[1];
+    const long double t3 = p[3]*t2;
+    const long double t4 = (1.0L/2.0L)*t3;
+    const long double M01 = t1*t4;
+    const long double t5 = p[3]*p[3]*p[1];
+    const long double M11 = p[5] + (1.0L/4.0L)*t5;
+    const long double t6 = p[2]*p[2];
+    const long double t7 = p[1]*t6;
+    const long double t8 = p[0]*t6;
+    const long double M00 = p[4] + t7 + (1.0L/4.0L)*t8;
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double v0 = rdet*(-M01*x[3] + M11*x[2]);
@@ -1395,9 +1736,10 @@ int compound_from_canonical_l(const long double *restrict x, const long double *
     y[2] = v0;
     y[3] = v1;
     for (k = 0; k < COMPOUND_FROM_CANONICAL_Y_SIZE; ++k) {
-        if (!isfinite(y[k])) {
-            status |= COMPOUND_STATUS_NONFINITE;
-        }
+        check += y[k] - y[k];
+    }
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
     }
     return status;
 }

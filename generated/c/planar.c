@@ -21,30 +21,32 @@ const char *const planar_canonical_names[PLANAR_N_CANONICAL] = {
     "theta1", "theta2", "p_theta1", "p_theta2"
 };
 
-/* planar_rhs (double). Total ops: 41 */
+/* planar_rhs (double). Total ops: 42 */
 int planar_rhs(const double *restrict y, const double *restrict p, double *restrict ydot)
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const double t0 = y[0] - y[1];
     const double t1 = cos(t0);
-    const double t2 = p[3]*p[1];
-    const double t3 = t1*t2;
-    const double M01 = p[2]*t3;
+    const double t2 = p[2]*p[1];
+    const double t3 = p[3]*t2;
+    const double M01 = t1*t3;
     const double M11 = p[3]*p[3]*p[1];
-    const double t4 = y[3]*y[3];
-    const double t5 = sin(t0);
-    const double t6 = t2*t5;
-    const double t7 = sin(y[0]);
-    const double t8 = p[4]*t7;
-    const double t9 = p[0]*t8 + p[1]*t8;
-    const double F0 = -p[2]*(t4*t6 + t9);
-    const double t10 = sin(y[1]);
-    const double t11 = p[4]*t10;
-    const double t12 = y[2]*y[2];
-    const double F1 = t2*(p[2]*t12*t5 - t11);
-    const double t13 = p[2]*p[2];
-    const double M00 = t13*(p[0] + p[1]);
+    const double t4 = sin(y[0]);
+    const double t5 = p[4]*p[0] + p[4]*p[1];
+    const double t6 = t4*t5;
+    const double t7 = sin(t0);
+    const double t8 = y[3]*y[3];
+    const double t9 = p[3]*p[1];
+    const double t10 = t8*t9;
+    const double F0 = -p[2]*(t10*t7 + t6);
+    const double t11 = sin(y[1]);
+    const double t12 = p[4]*t11;
+    const double t13 = y[2]*y[2];
+    const double F1 = t9*(p[2]*t13*t7 - t12);
+    const double t14 = p[2]*p[2];
+    const double M00 = t14*(p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double qdd0 = rdet*(F0*M11 - F1*M01);
@@ -54,9 +56,10 @@ int planar_rhs(const double *restrict y, const double *restrict p, double *restr
     ydot[2] = qdd0;
     ydot[3] = qdd1;
     for (k = 0; k < PLANAR_RHS_YDOT_SIZE; ++k) {
-        if (!isfinite(ydot[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += ydot[k] - ydot[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -75,30 +78,32 @@ int planar_rhs_batch(long n, const double *restrict y, long y_stride, const doub
     return all;
 }
 
-/* planar_rhs_f (float). Total ops: 41 */
+/* planar_rhs_f (float). Total ops: 42 */
 int planar_rhs_f(const float *restrict y, const float *restrict p, float *restrict ydot)
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const float t0 = y[0] - y[1];
     const float t1 = cosf(t0);
-    const float t2 = p[3]*p[1];
-    const float t3 = t1*t2;
-    const float M01 = p[2]*t3;
+    const float t2 = p[2]*p[1];
+    const float t3 = p[3]*t2;
+    const float M01 = t1*t3;
     const float M11 = p[3]*p[3]*p[1];
-    const float t4 = y[3]*y[3];
-    const float t5 = sinf(t0);
-    const float t6 = t2*t5;
-    const float t7 = sinf(y[0]);
-    const float t8 = p[4]*t7;
-    const float t9 = p[0]*t8 + p[1]*t8;
-    const float F0 = -p[2]*(t4*t6 + t9);
-    const float t10 = sinf(y[1]);
-    const float t11 = p[4]*t10;
-    const float t12 = y[2]*y[2];
-    const float F1 = t2*(p[2]*t12*t5 - t11);
-    const float t13 = p[2]*p[2];
-    const float M00 = t13*(p[0] + p[1]);
+    const float t4 = sinf(y[0]);
+    const float t5 = p[4]*p[0] + p[4]*p[1];
+    const float t6 = t4*t5;
+    const float t7 = sinf(t0);
+    const float t8 = y[3]*y[3];
+    const float t9 = p[3]*p[1];
+    const float t10 = t8*t9;
+    const float F0 = -p[2]*(t10*t7 + t6);
+    const float t11 = sinf(y[1]);
+    const float t12 = p[4]*t11;
+    const float t13 = y[2]*y[2];
+    const float F1 = t9*(p[2]*t13*t7 - t12);
+    const float t14 = p[2]*p[2];
+    const float M00 = t14*(p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float qdd0 = rdet*(F0*M11 - F1*M01);
@@ -108,9 +113,10 @@ int planar_rhs_f(const float *restrict y, const float *restrict p, float *restri
     ydot[2] = qdd0;
     ydot[3] = qdd1;
     for (k = 0; k < PLANAR_RHS_YDOT_SIZE; ++k) {
-        if (!isfinite(ydot[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += ydot[k] - ydot[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -129,30 +135,32 @@ int planar_rhs_batch_f(long n, const float *restrict y, long y_stride, const flo
     return all;
 }
 
-/* planar_rhs_l (long double). Total ops: 41 */
+/* planar_rhs_l (long double). Total ops: 42 */
 int planar_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict ydot)
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const long double t0 = y[0] - y[1];
     const long double t1 = cosl(t0);
-    const long double t2 = p[3]*p[1];
-    const long double t3 = t1*t2;
-    const long double M01 = p[2]*t3;
+    const long double t2 = p[2]*p[1];
+    const long double t3 = p[3]*t2;
+    const long double M01 = t1*t3;
     const long double M11 = p[3]*p[3]*p[1];
-    const long double t4 = y[3]*y[3];
-    const long double t5 = sinl(t0);
-    const long double t6 = t2*t5;
-    const long double t7 = sinl(y[0]);
-    const long double t8 = p[4]*t7;
-    const long double t9 = p[0]*t8 + p[1]*t8;
-    const long double F0 = -p[2]*(t4*t6 + t9);
-    const long double t10 = sinl(y[1]);
-    const long double t11 = p[4]*t10;
-    const long double t12 = y[2]*y[2];
-    const long double F1 = t2*(p[2]*t12*t5 - t11);
-    const long double t13 = p[2]*p[2];
-    const long double M00 = t13*(p[0] + p[1]);
+    const long double t4 = sinl(y[0]);
+    const long double t5 = p[4]*p[0] + p[4]*p[1];
+    const long double t6 = t4*t5;
+    const long double t7 = sinl(t0);
+    const long double t8 = y[3]*y[3];
+    const long double t9 = p[3]*p[1];
+    const long double t10 = t8*t9;
+    const long double F0 = -p[2]*(t10*t7 + t6);
+    const long double t11 = sinl(y[1]);
+    const long double t12 = p[4]*t11;
+    const long double t13 = y[2]*y[2];
+    const long double F1 = t9*(p[2]*t13*t7 - t12);
+    const long double t14 = p[2]*p[2];
+    const long double M00 = t14*(p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double qdd0 = rdet*(F0*M11 - F1*M01);
@@ -162,9 +170,10 @@ int planar_rhs_l(const long double *restrict y, const long double *restrict p, l
     ydot[2] = qdd0;
     ydot[3] = qdd1;
     for (k = 0; k < PLANAR_RHS_YDOT_SIZE; ++k) {
-        if (!isfinite(ydot[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += ydot[k] - ydot[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -188,22 +197,24 @@ int planar_mass_matrix(const double *restrict y, const double *restrict p, doubl
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const double t0 = p[2]*p[2];
     const double M00 = t0*(p[0] + p[1]);
     const double t1 = y[0] - y[1];
     const double t2 = cos(t1);
-    const double t3 = p[3]*p[1];
-    const double t4 = t2*t3;
-    const double M01 = p[2]*t4;
+    const double t3 = p[2]*p[1];
+    const double t4 = p[3]*t3;
+    const double M01 = t2*t4;
     const double M11 = p[3]*p[3]*p[1];
     M[0] = M00;
     M[1] = M01;
     M[2] = M01;
     M[3] = M11;
     for (k = 0; k < PLANAR_MASS_MATRIX_M_SIZE; ++k) {
-        if (!isfinite(M[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += M[k] - M[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -227,22 +238,24 @@ int planar_mass_matrix_f(const float *restrict y, const float *restrict p, float
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const float t0 = p[2]*p[2];
     const float M00 = t0*(p[0] + p[1]);
     const float t1 = y[0] - y[1];
     const float t2 = cosf(t1);
-    const float t3 = p[3]*p[1];
-    const float t4 = t2*t3;
-    const float M01 = p[2]*t4;
+    const float t3 = p[2]*p[1];
+    const float t4 = p[3]*t3;
+    const float M01 = t2*t4;
     const float M11 = p[3]*p[3]*p[1];
     M[0] = M00;
     M[1] = M01;
     M[2] = M01;
     M[3] = M11;
     for (k = 0; k < PLANAR_MASS_MATRIX_M_SIZE; ++k) {
-        if (!isfinite(M[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += M[k] - M[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -266,22 +279,24 @@ int planar_mass_matrix_l(const long double *restrict y, const long double *restr
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const long double t0 = p[2]*p[2];
     const long double M00 = t0*(p[0] + p[1]);
     const long double t1 = y[0] - y[1];
     const long double t2 = cosl(t1);
-    const long double t3 = p[3]*p[1];
-    const long double t4 = t2*t3;
-    const long double M01 = p[2]*t4;
+    const long double t3 = p[2]*p[1];
+    const long double t4 = p[3]*t3;
+    const long double M01 = t2*t4;
     const long double M11 = p[3]*p[3]*p[1];
     M[0] = M00;
     M[1] = M01;
     M[2] = M01;
     M[3] = M11;
     for (k = 0; k < PLANAR_MASS_MATRIX_M_SIZE; ++k) {
-        if (!isfinite(M[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += M[k] - M[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -305,25 +320,27 @@ int planar_forcing(const double *restrict y, const double *restrict p, double *r
 {
     int status = PLANAR_STATUS_OK;
     int k;
-    const double t0 = y[3]*y[3];
-    const double t1 = p[3]*p[1];
-    const double t2 = y[0] - y[1];
-    const double t3 = sin(t2);
-    const double t4 = t1*t3;
-    const double t5 = sin(y[0]);
-    const double t6 = p[4]*t5;
-    const double t7 = p[0]*t6 + p[1]*t6;
-    const double F0 = -p[2]*(t0*t4 + t7);
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const double t0 = sin(y[0]);
+    const double t1 = p[4]*p[0] + p[4]*p[1];
+    const double t2 = t0*t1;
+    const double t3 = y[0] - y[1];
+    const double t4 = sin(t3);
+    const double t5 = y[3]*y[3];
+    const double t6 = p[3]*p[1];
+    const double t7 = t5*t6;
+    const double F0 = -p[2]*(t2 + t4*t7);
     const double t8 = sin(y[1]);
     const double t9 = p[4]*t8;
     const double t10 = y[2]*y[2];
-    const double F1 = t1*(p[2]*t10*t3 - t9);
+    const double F1 = t6*(p[2]*t10*t4 - t9);
     F[0] = F0;
     F[1] = F1;
     for (k = 0; k < PLANAR_FORCING_F_SIZE; ++k) {
-        if (!isfinite(F[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += F[k] - F[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -347,25 +364,27 @@ int planar_forcing_f(const float *restrict y, const float *restrict p, float *re
 {
     int status = PLANAR_STATUS_OK;
     int k;
-    const float t0 = y[3]*y[3];
-    const float t1 = p[3]*p[1];
-    const float t2 = y[0] - y[1];
-    const float t3 = sinf(t2);
-    const float t4 = t1*t3;
-    const float t5 = sinf(y[0]);
-    const float t6 = p[4]*t5;
-    const float t7 = p[0]*t6 + p[1]*t6;
-    const float F0 = -p[2]*(t0*t4 + t7);
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const float t0 = sinf(y[0]);
+    const float t1 = p[4]*p[0] + p[4]*p[1];
+    const float t2 = t0*t1;
+    const float t3 = y[0] - y[1];
+    const float t4 = sinf(t3);
+    const float t5 = y[3]*y[3];
+    const float t6 = p[3]*p[1];
+    const float t7 = t5*t6;
+    const float F0 = -p[2]*(t2 + t4*t7);
     const float t8 = sinf(y[1]);
     const float t9 = p[4]*t8;
     const float t10 = y[2]*y[2];
-    const float F1 = t1*(p[2]*t10*t3 - t9);
+    const float F1 = t6*(p[2]*t10*t4 - t9);
     F[0] = F0;
     F[1] = F1;
     for (k = 0; k < PLANAR_FORCING_F_SIZE; ++k) {
-        if (!isfinite(F[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += F[k] - F[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -389,25 +408,27 @@ int planar_forcing_l(const long double *restrict y, const long double *restrict 
 {
     int status = PLANAR_STATUS_OK;
     int k;
-    const long double t0 = y[3]*y[3];
-    const long double t1 = p[3]*p[1];
-    const long double t2 = y[0] - y[1];
-    const long double t3 = sinl(t2);
-    const long double t4 = t1*t3;
-    const long double t5 = sinl(y[0]);
-    const long double t6 = p[4]*t5;
-    const long double t7 = p[0]*t6 + p[1]*t6;
-    const long double F0 = -p[2]*(t0*t4 + t7);
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const long double t0 = sinl(y[0]);
+    const long double t1 = p[4]*p[0] + p[4]*p[1];
+    const long double t2 = t0*t1;
+    const long double t3 = y[0] - y[1];
+    const long double t4 = sinl(t3);
+    const long double t5 = y[3]*y[3];
+    const long double t6 = p[3]*p[1];
+    const long double t7 = t5*t6;
+    const long double F0 = -p[2]*(t2 + t4*t7);
     const long double t8 = sinl(y[1]);
     const long double t9 = p[4]*t8;
     const long double t10 = y[2]*y[2];
-    const long double F1 = t1*(p[2]*t10*t3 - t9);
+    const long double F1 = t6*(p[2]*t10*t4 - t9);
     F[0] = F0;
     F[1] = F1;
     for (k = 0; k < PLANAR_FORCING_F_SIZE; ++k) {
-        if (!isfinite(F[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += F[k] - F[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -426,31 +447,32 @@ int planar_forcing_batch_l(long n, const long double *restrict y, long y_stride,
     return all;
 }
 
-/* planar_energy (double). Total ops: 32 */
+/* planar_energy (double). Total ops: 31 */
 int planar_energy(const double *restrict y, const double *restrict p, double *restrict E)
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const double t0 = p[2]*p[1];
     const double M11 = p[3]*p[3]*p[1];
-    const double t0 = y[3]*y[3];
-    const double t1 = p[2]*p[2];
+    const double t1 = y[3]*y[3];
     const double t2 = y[2]*y[2];
-    const double t3 = (1.0/2.0)*t1*t2;
-    const double t4 = y[0] - y[1];
-    const double t5 = cos(t4);
-    const double t6 = p[3]*p[1];
-    const double t7 = t5*t6;
-    const double M01 = p[2]*t7;
-    const double t8 = M01*y[3];
-    const double t9 = cos(y[0]);
-    const double t10 = p[2]*t9;
-    const double t11 = cos(y[1]);
-    const double t12 = p[3]*t11;
-    E[0] = (1.0/2.0)*M11*t0 - p[4]*(p[0]*t10 + p[1]*t10 + p[1]*t12) + p[0]*t3 + p[1]*t3 + t8*y[2];
+    const double t3 = y[0] - y[1];
+    const double t4 = cos(t3);
+    const double t5 = p[3]*t0;
+    const double M01 = t4*t5;
+    const double t6 = M01*y[3];
+    const double t7 = p[2]*p[2];
+    const double t8 = (1.0/2.0)*t7;
+    const double t9 = cos(y[1]);
+    const double t10 = p[3]*t9;
+    const double t11 = cos(y[0]);
+    E[0] = (1.0/2.0)*M11*t1 - p[4]*(p[1]*t10 + t11*(p[2]*p[0] + t0)) + t2*(p[0]*t8 + p[1]*t8) + t6*y[2];
     for (k = 0; k < PLANAR_ENERGY_E_SIZE; ++k) {
-        if (!isfinite(E[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += E[k] - E[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -469,31 +491,32 @@ int planar_energy_batch(long n, const double *restrict y, long y_stride, const d
     return all;
 }
 
-/* planar_energy_f (float). Total ops: 32 */
+/* planar_energy_f (float). Total ops: 31 */
 int planar_energy_f(const float *restrict y, const float *restrict p, float *restrict E)
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const float t0 = p[2]*p[1];
     const float M11 = p[3]*p[3]*p[1];
-    const float t0 = y[3]*y[3];
-    const float t1 = p[2]*p[2];
+    const float t1 = y[3]*y[3];
     const float t2 = y[2]*y[2];
-    const float t3 = (1.0F/2.0F)*t1*t2;
-    const float t4 = y[0] - y[1];
-    const float t5 = cosf(t4);
-    const float t6 = p[3]*p[1];
-    const float t7 = t5*t6;
-    const float M01 = p[2]*t7;
-    const float t8 = M01*y[3];
-    const float t9 = cosf(y[0]);
-    const float t10 = p[2]*t9;
-    const float t11 = cosf(y[1]);
-    const float t12 = p[3]*t11;
-    E[0] = (1.0F/2.0F)*M11*t0 - p[4]*(p[0]*t10 + p[1]*t10 + p[1]*t12) + p[0]*t3 + p[1]*t3 + t8*y[2];
+    const float t3 = y[0] - y[1];
+    const float t4 = cosf(t3);
+    const float t5 = p[3]*t0;
+    const float M01 = t4*t5;
+    const float t6 = M01*y[3];
+    const float t7 = p[2]*p[2];
+    const float t8 = (1.0F/2.0F)*t7;
+    const float t9 = cosf(y[1]);
+    const float t10 = p[3]*t9;
+    const float t11 = cosf(y[0]);
+    E[0] = (1.0F/2.0F)*M11*t1 - p[4]*(p[1]*t10 + t11*(p[2]*p[0] + t0)) + t2*(p[0]*t8 + p[1]*t8) + t6*y[2];
     for (k = 0; k < PLANAR_ENERGY_E_SIZE; ++k) {
-        if (!isfinite(E[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += E[k] - E[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -512,31 +535,32 @@ int planar_energy_batch_f(long n, const float *restrict y, long y_stride, const 
     return all;
 }
 
-/* planar_energy_l (long double). Total ops: 32 */
+/* planar_energy_l (long double). Total ops: 31 */
 int planar_energy_l(const long double *restrict y, const long double *restrict p, long double *restrict E)
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const long double t0 = p[2]*p[1];
     const long double M11 = p[3]*p[3]*p[1];
-    const long double t0 = y[3]*y[3];
-    const long double t1 = p[2]*p[2];
+    const long double t1 = y[3]*y[3];
     const long double t2 = y[2]*y[2];
-    const long double t3 = (1.0L/2.0L)*t1*t2;
-    const long double t4 = y[0] - y[1];
-    const long double t5 = cosl(t4);
-    const long double t6 = p[3]*p[1];
-    const long double t7 = t5*t6;
-    const long double M01 = p[2]*t7;
-    const long double t8 = M01*y[3];
-    const long double t9 = cosl(y[0]);
-    const long double t10 = p[2]*t9;
-    const long double t11 = cosl(y[1]);
-    const long double t12 = p[3]*t11;
-    E[0] = (1.0L/2.0L)*M11*t0 - p[4]*(p[0]*t10 + p[1]*t10 + p[1]*t12) + p[0]*t3 + p[1]*t3 + t8*y[2];
+    const long double t3 = y[0] - y[1];
+    const long double t4 = cosl(t3);
+    const long double t5 = p[3]*t0;
+    const long double M01 = t4*t5;
+    const long double t6 = M01*y[3];
+    const long double t7 = p[2]*p[2];
+    const long double t8 = (1.0L/2.0L)*t7;
+    const long double t9 = cosl(y[1]);
+    const long double t10 = p[3]*t9;
+    const long double t11 = cosl(y[0]);
+    E[0] = (1.0L/2.0L)*M11*t1 - p[4]*(p[1]*t10 + t11*(p[2]*p[0] + t0)) + t2*(p[0]*t8 + p[1]*t8) + t6*y[2];
     for (k = 0; k < PLANAR_ENERGY_E_SIZE; ++k) {
-        if (!isfinite(E[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += E[k] - E[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -560,6 +584,7 @@ int planar_positions(const double *restrict y, const double *restrict p, double 
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const double t0 = sin(y[0]);
     const double t1 = p[2]*t0;
     const double t2 = cos(y[0]);
@@ -572,9 +597,10 @@ int planar_positions(const double *restrict y, const double *restrict p, double 
     pos[2] = p[3]*t4 + t1;
     pos[3] = -t3 - t6;
     for (k = 0; k < PLANAR_POSITIONS_POS_SIZE; ++k) {
-        if (!isfinite(pos[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += pos[k] - pos[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -598,6 +624,7 @@ int planar_positions_f(const float *restrict y, const float *restrict p, float *
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const float t0 = sinf(y[0]);
     const float t1 = p[2]*t0;
     const float t2 = cosf(y[0]);
@@ -610,9 +637,10 @@ int planar_positions_f(const float *restrict y, const float *restrict p, float *
     pos[2] = p[3]*t4 + t1;
     pos[3] = -t3 - t6;
     for (k = 0; k < PLANAR_POSITIONS_POS_SIZE; ++k) {
-        if (!isfinite(pos[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += pos[k] - pos[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -636,6 +664,7 @@ int planar_positions_l(const long double *restrict y, const long double *restric
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const long double t0 = sinl(y[0]);
     const long double t1 = p[2]*t0;
     const long double t2 = cosl(y[0]);
@@ -648,9 +677,10 @@ int planar_positions_l(const long double *restrict y, const long double *restric
     pos[2] = p[3]*t4 + t1;
     pos[3] = -t3 - t6;
     for (k = 0; k < PLANAR_POSITIONS_POS_SIZE; ++k) {
-        if (!isfinite(pos[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += pos[k] - pos[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -674,43 +704,48 @@ int planar_jacobian(const double *restrict y, const double *restrict p, double *
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const double t0 = y[0] - y[1];
     const double t1 = cos(t0);
-    const double t2 = p[3]*p[1];
-    const double t3 = t1*t2;
-    const double M01 = p[2]*t3;
+    const double t2 = p[2]*p[1];
+    const double t3 = p[3]*t2;
+    const double M01 = t1*t3;
     const double M11 = p[3]*p[3]*p[1];
-    const double t4 = sin(t0);
-    const double t5 = t2*t4;
-    const double t6 = p[2]*t5;
-    const double t7 = y[3]*y[3];
-    const double t8 = sin(y[0]);
-    const double t9 = p[4]*t8;
-    const double t10 = p[0]*t9 + p[1]*t9;
-    const double F0 = -p[2]*(t10 + t5*t7);
-    const double t11 = sin(y[1]);
-    const double t12 = p[4]*t11;
-    const double t13 = y[2]*y[2];
-    const double F1 = t2*(p[2]*t13*t4 - t12);
-    const double t14 = p[2]*p[2];
-    const double M00 = t14*(p[0] + p[1]);
+    const double t4 = y[2]*y[2];
+    const double t5 = sin(t0);
+    const double t6 = t3*t5;
+    const double t7 = sin(y[0]);
+    const double t8 = p[4]*p[0] + p[4]*p[1];
+    const double t9 = t7*t8;
+    const double t10 = y[3]*y[3];
+    const double t11 = p[3]*p[1];
+    const double t12 = t10*t11;
+    const double F0 = -p[2]*(t12*t5 + t9);
+    const double t13 = sin(y[1]);
+    const double t14 = p[4]*t13;
+    const double F1 = t11*(p[2]*t4*t5 - t14);
+    const double t15 = p[2]*p[2];
+    const double M00 = t15*(p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double qdd0 = rdet*(F0*M11 - F1*M01);
-    const double t15 = qdd0*t6;
-    const double t16 = p[2]*t1*t13;
-    const double t17 = t15 + t16*t2;
+    const double t16 = qdd0*t6;
+    const double t17 = M01*t4 + t16;
     const double qdd1 = rdet*(-F0*M01 + F1*M00);
     const double t18 = qdd1*t6;
     const double t19 = cos(y[0]);
-    const double t20 = p[4]*t19;
-    const double t21 = -p[2]*(p[0]*t20 + p[1]*t20 + t3*t7) + t18;
-    const double t22 = p[2]*p[3]*p[1]*t1*t7 - t18;
+    const double t20 = t19*t8;
+    const double t21 = -p[2]*(t1*t12 + t20) + t18;
+    const double t22 = p[2]*p[3]*p[1]*t1*t10 - t18;
     const double t23 = cos(y[1]);
-    const double t24 = p[3]*p[1]*(-p[4]*t23 - t16) - t15;
-    const double t25 = 2*rdet*t6;
-    const double t26 = t25*y[2];
-    const double t27 = t25*y[3];
+    const double t24 = p[4]*t23;
+    const double t25 = p[3]*p[1]*(-p[2]*t1*t4 - t24) - t16;
+    const double t26 = M01*rdet;
+    const double t27 = 2*t6;
+    const double t28 = t27*y[2];
+    const double dv0_2 = M11*rdet;
+    const double t29 = t27*y[3];
+    const double dv1_3 = M00*rdet;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -720,17 +755,18 @@ int planar_jacobian(const double *restrict y, const double *restrict p, double *
     J[6] = 0;
     J[7] = 1;
     J[8] = rdet*(-M01*t17 + M11*t21);
-    J[9] = rdet*(-M01*t24 + M11*t22);
-    J[10] = -M01*t26;
-    J[11] = -M11*t27;
+    J[9] = rdet*(-M01*t25 + M11*t22);
+    J[10] = -t26*t28;
+    J[11] = -dv0_2*t29;
     J[12] = rdet*(M00*t17 - M01*t21);
-    J[13] = rdet*(M00*t24 - M01*t22);
-    J[14] = M00*t26;
-    J[15] = M01*t27;
+    J[13] = rdet*(M00*t25 - M01*t22);
+    J[14] = dv1_3*t28;
+    J[15] = t26*t29;
     for (k = 0; k < PLANAR_JACOBIAN_J_SIZE; ++k) {
-        if (!isfinite(J[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += J[k] - J[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -754,43 +790,48 @@ int planar_jacobian_f(const float *restrict y, const float *restrict p, float *r
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const float t0 = y[0] - y[1];
     const float t1 = cosf(t0);
-    const float t2 = p[3]*p[1];
-    const float t3 = t1*t2;
-    const float M01 = p[2]*t3;
+    const float t2 = p[2]*p[1];
+    const float t3 = p[3]*t2;
+    const float M01 = t1*t3;
     const float M11 = p[3]*p[3]*p[1];
-    const float t4 = sinf(t0);
-    const float t5 = t2*t4;
-    const float t6 = p[2]*t5;
-    const float t7 = y[3]*y[3];
-    const float t8 = sinf(y[0]);
-    const float t9 = p[4]*t8;
-    const float t10 = p[0]*t9 + p[1]*t9;
-    const float F0 = -p[2]*(t10 + t5*t7);
-    const float t11 = sinf(y[1]);
-    const float t12 = p[4]*t11;
-    const float t13 = y[2]*y[2];
-    const float F1 = t2*(p[2]*t13*t4 - t12);
-    const float t14 = p[2]*p[2];
-    const float M00 = t14*(p[0] + p[1]);
+    const float t4 = y[2]*y[2];
+    const float t5 = sinf(t0);
+    const float t6 = t3*t5;
+    const float t7 = sinf(y[0]);
+    const float t8 = p[4]*p[0] + p[4]*p[1];
+    const float t9 = t7*t8;
+    const float t10 = y[3]*y[3];
+    const float t11 = p[3]*p[1];
+    const float t12 = t10*t11;
+    const float F0 = -p[2]*(t12*t5 + t9);
+    const float t13 = sinf(y[1]);
+    const float t14 = p[4]*t13;
+    const float F1 = t11*(p[2]*t4*t5 - t14);
+    const float t15 = p[2]*p[2];
+    const float M00 = t15*(p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float qdd0 = rdet*(F0*M11 - F1*M01);
-    const float t15 = qdd0*t6;
-    const float t16 = p[2]*t1*t13;
-    const float t17 = t15 + t16*t2;
+    const float t16 = qdd0*t6;
+    const float t17 = M01*t4 + t16;
     const float qdd1 = rdet*(-F0*M01 + F1*M00);
     const float t18 = qdd1*t6;
     const float t19 = cosf(y[0]);
-    const float t20 = p[4]*t19;
-    const float t21 = -p[2]*(p[0]*t20 + p[1]*t20 + t3*t7) + t18;
-    const float t22 = p[2]*p[3]*p[1]*t1*t7 - t18;
+    const float t20 = t19*t8;
+    const float t21 = -p[2]*(t1*t12 + t20) + t18;
+    const float t22 = p[2]*p[3]*p[1]*t1*t10 - t18;
     const float t23 = cosf(y[1]);
-    const float t24 = p[3]*p[1]*(-p[4]*t23 - t16) - t15;
-    const float t25 = 2*rdet*t6;
-    const float t26 = t25*y[2];
-    const float t27 = t25*y[3];
+    const float t24 = p[4]*t23;
+    const float t25 = p[3]*p[1]*(-p[2]*t1*t4 - t24) - t16;
+    const float t26 = M01*rdet;
+    const float t27 = 2*t6;
+    const float t28 = t27*y[2];
+    const float dv0_2 = M11*rdet;
+    const float t29 = t27*y[3];
+    const float dv1_3 = M00*rdet;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -800,17 +841,18 @@ int planar_jacobian_f(const float *restrict y, const float *restrict p, float *r
     J[6] = 0;
     J[7] = 1;
     J[8] = rdet*(-M01*t17 + M11*t21);
-    J[9] = rdet*(-M01*t24 + M11*t22);
-    J[10] = -M01*t26;
-    J[11] = -M11*t27;
+    J[9] = rdet*(-M01*t25 + M11*t22);
+    J[10] = -t26*t28;
+    J[11] = -dv0_2*t29;
     J[12] = rdet*(M00*t17 - M01*t21);
-    J[13] = rdet*(M00*t24 - M01*t22);
-    J[14] = M00*t26;
-    J[15] = M01*t27;
+    J[13] = rdet*(M00*t25 - M01*t22);
+    J[14] = dv1_3*t28;
+    J[15] = t26*t29;
     for (k = 0; k < PLANAR_JACOBIAN_J_SIZE; ++k) {
-        if (!isfinite(J[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += J[k] - J[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -834,43 +876,48 @@ int planar_jacobian_l(const long double *restrict y, const long double *restrict
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const long double t0 = y[0] - y[1];
     const long double t1 = cosl(t0);
-    const long double t2 = p[3]*p[1];
-    const long double t3 = t1*t2;
-    const long double M01 = p[2]*t3;
+    const long double t2 = p[2]*p[1];
+    const long double t3 = p[3]*t2;
+    const long double M01 = t1*t3;
     const long double M11 = p[3]*p[3]*p[1];
-    const long double t4 = sinl(t0);
-    const long double t5 = t2*t4;
-    const long double t6 = p[2]*t5;
-    const long double t7 = y[3]*y[3];
-    const long double t8 = sinl(y[0]);
-    const long double t9 = p[4]*t8;
-    const long double t10 = p[0]*t9 + p[1]*t9;
-    const long double F0 = -p[2]*(t10 + t5*t7);
-    const long double t11 = sinl(y[1]);
-    const long double t12 = p[4]*t11;
-    const long double t13 = y[2]*y[2];
-    const long double F1 = t2*(p[2]*t13*t4 - t12);
-    const long double t14 = p[2]*p[2];
-    const long double M00 = t14*(p[0] + p[1]);
+    const long double t4 = y[2]*y[2];
+    const long double t5 = sinl(t0);
+    const long double t6 = t3*t5;
+    const long double t7 = sinl(y[0]);
+    const long double t8 = p[4]*p[0] + p[4]*p[1];
+    const long double t9 = t7*t8;
+    const long double t10 = y[3]*y[3];
+    const long double t11 = p[3]*p[1];
+    const long double t12 = t10*t11;
+    const long double F0 = -p[2]*(t12*t5 + t9);
+    const long double t13 = sinl(y[1]);
+    const long double t14 = p[4]*t13;
+    const long double F1 = t11*(p[2]*t4*t5 - t14);
+    const long double t15 = p[2]*p[2];
+    const long double M00 = t15*(p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double qdd0 = rdet*(F0*M11 - F1*M01);
-    const long double t15 = qdd0*t6;
-    const long double t16 = p[2]*t1*t13;
-    const long double t17 = t15 + t16*t2;
+    const long double t16 = qdd0*t6;
+    const long double t17 = M01*t4 + t16;
     const long double qdd1 = rdet*(-F0*M01 + F1*M00);
     const long double t18 = qdd1*t6;
     const long double t19 = cosl(y[0]);
-    const long double t20 = p[4]*t19;
-    const long double t21 = -p[2]*(p[0]*t20 + p[1]*t20 + t3*t7) + t18;
-    const long double t22 = p[2]*p[3]*p[1]*t1*t7 - t18;
+    const long double t20 = t19*t8;
+    const long double t21 = -p[2]*(t1*t12 + t20) + t18;
+    const long double t22 = p[2]*p[3]*p[1]*t1*t10 - t18;
     const long double t23 = cosl(y[1]);
-    const long double t24 = p[3]*p[1]*(-p[4]*t23 - t16) - t15;
-    const long double t25 = 2*rdet*t6;
-    const long double t26 = t25*y[2];
-    const long double t27 = t25*y[3];
+    const long double t24 = p[4]*t23;
+    const long double t25 = p[3]*p[1]*(-p[2]*t1*t4 - t24) - t16;
+    const long double t26 = M01*rdet;
+    const long double t27 = 2*t6;
+    const long double t28 = t27*y[2];
+    const long double dv0_2 = M11*rdet;
+    const long double t29 = t27*y[3];
+    const long double dv1_3 = M00*rdet;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -880,17 +927,18 @@ int planar_jacobian_l(const long double *restrict y, const long double *restrict
     J[6] = 0;
     J[7] = 1;
     J[8] = rdet*(-M01*t17 + M11*t21);
-    J[9] = rdet*(-M01*t24 + M11*t22);
-    J[10] = -M01*t26;
-    J[11] = -M11*t27;
+    J[9] = rdet*(-M01*t25 + M11*t22);
+    J[10] = -t26*t28;
+    J[11] = -dv0_2*t29;
     J[12] = rdet*(M00*t17 - M01*t21);
-    J[13] = rdet*(M00*t24 - M01*t22);
-    J[14] = M00*t26;
-    J[15] = M01*t27;
+    J[13] = rdet*(M00*t25 - M01*t22);
+    J[14] = dv1_3*t28;
+    J[15] = t26*t29;
     for (k = 0; k < PLANAR_JACOBIAN_J_SIZE; ++k) {
-        if (!isfinite(J[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += J[k] - J[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -909,16 +957,17 @@ int planar_jacobian_batch_l(long n, const long double *restrict y, long y_stride
     return all;
 }
 
-/* planar_hamiltonian_rhs (double). Total ops: 41 */
+/* planar_hamiltonian_rhs (double). Total ops: 42 */
 int planar_hamiltonian_rhs(const double *restrict x, const double *restrict p, double *restrict xdot)
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const double t0 = x[0] - x[1];
     const double t1 = cos(t0);
-    const double t2 = p[3]*p[1];
-    const double t3 = t1*t2;
-    const double M01 = p[2]*t3;
+    const double t2 = p[2]*p[1];
+    const double t3 = p[3]*t2;
+    const double M01 = t1*t3;
     const double M11 = p[3]*p[3]*p[1];
     const double t4 = p[2]*p[2];
     const double M00 = t4*(p[0] + p[1]);
@@ -926,21 +975,24 @@ int planar_hamiltonian_rhs(const double *restrict x, const double *restrict p, d
     const double rdet = 1.0/det;
     const double v0 = rdet*(-M01*x[3] + M11*x[2]);
     const double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const double t5 = sin(t0);
-    const double t6 = t2*t5;
-    const double t7 = sin(x[0]);
-    const double t8 = p[4]*t7;
-    const double t9 = p[0]*t8 + p[1]*t8;
-    const double t10 = sin(x[1]);
-    const double t11 = p[4]*t10;
+    const double t5 = sin(x[0]);
+    const double t6 = p[4]*p[0] + p[4]*p[1];
+    const double t7 = t5*t6;
+    const double t8 = sin(t0);
+    const double t9 = p[3]*p[1];
+    const double t10 = v0*v1;
+    const double t11 = t10*t9;
+    const double t12 = sin(x[1]);
+    const double t13 = p[4]*t12;
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = -p[2]*(t6*v0*v1 + t9);
-    xdot[3] = t2*(p[2]*t5*v0*v1 - t11);
+    xdot[2] = -p[2]*(t11*t8 + t7);
+    xdot[3] = t9*(p[2]*t8*v0*v1 - t13);
     for (k = 0; k < PLANAR_HAMILTONIAN_RHS_XDOT_SIZE; ++k) {
-        if (!isfinite(xdot[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += xdot[k] - xdot[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -959,16 +1011,17 @@ int planar_hamiltonian_rhs_batch(long n, const double *restrict x, long x_stride
     return all;
 }
 
-/* planar_hamiltonian_rhs_f (float). Total ops: 41 */
+/* planar_hamiltonian_rhs_f (float). Total ops: 42 */
 int planar_hamiltonian_rhs_f(const float *restrict x, const float *restrict p, float *restrict xdot)
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const float t0 = x[0] - x[1];
     const float t1 = cosf(t0);
-    const float t2 = p[3]*p[1];
-    const float t3 = t1*t2;
-    const float M01 = p[2]*t3;
+    const float t2 = p[2]*p[1];
+    const float t3 = p[3]*t2;
+    const float M01 = t1*t3;
     const float M11 = p[3]*p[3]*p[1];
     const float t4 = p[2]*p[2];
     const float M00 = t4*(p[0] + p[1]);
@@ -976,21 +1029,24 @@ int planar_hamiltonian_rhs_f(const float *restrict x, const float *restrict p, f
     const float rdet = 1.0F/det;
     const float v0 = rdet*(-M01*x[3] + M11*x[2]);
     const float v1 = rdet*(M00*x[3] - M01*x[2]);
-    const float t5 = sinf(t0);
-    const float t6 = t2*t5;
-    const float t7 = sinf(x[0]);
-    const float t8 = p[4]*t7;
-    const float t9 = p[0]*t8 + p[1]*t8;
-    const float t10 = sinf(x[1]);
-    const float t11 = p[4]*t10;
+    const float t5 = sinf(x[0]);
+    const float t6 = p[4]*p[0] + p[4]*p[1];
+    const float t7 = t5*t6;
+    const float t8 = sinf(t0);
+    const float t9 = p[3]*p[1];
+    const float t10 = v0*v1;
+    const float t11 = t10*t9;
+    const float t12 = sinf(x[1]);
+    const float t13 = p[4]*t12;
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = -p[2]*(t6*v0*v1 + t9);
-    xdot[3] = t2*(p[2]*t5*v0*v1 - t11);
+    xdot[2] = -p[2]*(t11*t8 + t7);
+    xdot[3] = t9*(p[2]*t8*v0*v1 - t13);
     for (k = 0; k < PLANAR_HAMILTONIAN_RHS_XDOT_SIZE; ++k) {
-        if (!isfinite(xdot[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += xdot[k] - xdot[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1009,16 +1065,17 @@ int planar_hamiltonian_rhs_batch_f(long n, const float *restrict x, long x_strid
     return all;
 }
 
-/* planar_hamiltonian_rhs_l (long double). Total ops: 41 */
+/* planar_hamiltonian_rhs_l (long double). Total ops: 42 */
 int planar_hamiltonian_rhs_l(const long double *restrict x, const long double *restrict p, long double *restrict xdot)
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const long double t0 = x[0] - x[1];
     const long double t1 = cosl(t0);
-    const long double t2 = p[3]*p[1];
-    const long double t3 = t1*t2;
-    const long double M01 = p[2]*t3;
+    const long double t2 = p[2]*p[1];
+    const long double t3 = p[3]*t2;
+    const long double M01 = t1*t3;
     const long double M11 = p[3]*p[3]*p[1];
     const long double t4 = p[2]*p[2];
     const long double M00 = t4*(p[0] + p[1]);
@@ -1026,21 +1083,24 @@ int planar_hamiltonian_rhs_l(const long double *restrict x, const long double *r
     const long double rdet = 1.0L/det;
     const long double v0 = rdet*(-M01*x[3] + M11*x[2]);
     const long double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const long double t5 = sinl(t0);
-    const long double t6 = t2*t5;
-    const long double t7 = sinl(x[0]);
-    const long double t8 = p[4]*t7;
-    const long double t9 = p[0]*t8 + p[1]*t8;
-    const long double t10 = sinl(x[1]);
-    const long double t11 = p[4]*t10;
+    const long double t5 = sinl(x[0]);
+    const long double t6 = p[4]*p[0] + p[4]*p[1];
+    const long double t7 = t5*t6;
+    const long double t8 = sinl(t0);
+    const long double t9 = p[3]*p[1];
+    const long double t10 = v0*v1;
+    const long double t11 = t10*t9;
+    const long double t12 = sinl(x[1]);
+    const long double t13 = p[4]*t12;
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = -p[2]*(t6*v0*v1 + t9);
-    xdot[3] = t2*(p[2]*t5*v0*v1 - t11);
+    xdot[2] = -p[2]*(t11*t8 + t7);
+    xdot[3] = t9*(p[2]*t8*v0*v1 - t13);
     for (k = 0; k < PLANAR_HAMILTONIAN_RHS_XDOT_SIZE; ++k) {
-        if (!isfinite(xdot[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += xdot[k] - xdot[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1059,18 +1119,271 @@ int planar_hamiltonian_rhs_batch_l(long n, const long double *restrict x, long x
     return all;
 }
 
+/* planar_hamiltonian_jacobian (double). Total ops: 89 */
+int planar_hamiltonian_jacobian(const double *restrict x, const double *restrict p, double *restrict J)
+{
+    int status = PLANAR_STATUS_OK;
+    int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const double t0 = x[0] - x[1];
+    const double t1 = cos(t0);
+    const double t2 = p[2]*p[1];
+    const double t3 = p[3]*t2;
+    const double M01 = t1*t3;
+    const double M11 = p[3]*p[3]*p[1];
+    const double t4 = sin(t0);
+    const double t5 = t3*t4;
+    const double t6 = p[2]*p[2];
+    const double M00 = t6*(p[0] + p[1]);
+    const double det = M00*M11 - M01*M01;
+    const double rdet = 1.0/det;
+    const double v0 = rdet*(-M01*x[3] + M11*x[2]);
+    const double t7 = t5*v0;
+    const double v1 = rdet*(M00*x[3] - M01*x[2]);
+    const double t8 = M01*t7 - M11*p[2]*p[3]*p[1]*t4*v1;
+    const double dv0_0 = -rdet*t8;
+    const double dv0_1 = rdet*t8;
+    const double dv0_2 = M11*rdet;
+    const double t9 = M01*rdet;
+    const double dv1_2 = -t9;
+    const double dv0_3 = dv1_2;
+    const double t10 = t5*v1;
+    const double t11 = M00*t7 - M01*t10;
+    const double dv1_0 = rdet*t11;
+    const double dv1_1 = -rdet*t11;
+    const double dv1_3 = M00*rdet;
+    const double t12 = p[4]*p[0] + p[4]*p[1];
+    const double t13 = cos(x[0]);
+    const double t14 = t12*t13;
+    const double t15 = p[3]*p[1];
+    const double t16 = v0*v1;
+    const double t17 = t15*t16;
+    const double t18 = dv0_0*t10 + dv1_0*t7;
+    const double t19 = dv0_1*t10 + dv1_1*t7;
+    const double t20 = dv0_2*t10 + dv1_2*t7;
+    const double t21 = dv0_3*t10 + dv1_3*t7;
+    const double t22 = cos(x[1]);
+    const double t23 = p[4]*t22;
+    J[0] = dv0_0;
+    J[1] = dv0_1;
+    J[2] = dv0_2;
+    J[3] = dv0_3;
+    J[4] = dv1_0;
+    J[5] = dv1_1;
+    J[6] = dv1_2;
+    J[7] = dv1_3;
+    J[8] = -p[2]*(t1*t17 + t14) - t18;
+    J[9] = p[2]*p[3]*p[1]*t1*v0*v1 - t19;
+    J[10] = -t20;
+    J[11] = -t21;
+    J[12] = M01*t16 + t18;
+    J[13] = t15*(-p[2]*t1*t16 - t23) + t19;
+    J[14] = t20;
+    J[15] = t21;
+    for (k = 0; k < PLANAR_HAMILTONIAN_JACOBIAN_J_SIZE; ++k) {
+        check += J[k] - J[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
+    }
+    return status;
+}
+
+int planar_hamiltonian_jacobian_batch(long n, const double *restrict x, long x_stride, const double *restrict p, long p_stride, double *restrict J, int *restrict status)
+{
+    int all = PLANAR_STATUS_OK;
+    long i;
+    for (i = 0; i < n; ++i) {
+        const int point_status = planar_hamiltonian_jacobian(x + i * x_stride, p + i * p_stride, J + i * PLANAR_HAMILTONIAN_JACOBIAN_J_SIZE);
+        if (status) {
+            status[i] = point_status;
+        }
+        all |= point_status;
+    }
+    return all;
+}
+
+/* planar_hamiltonian_jacobian_f (float). Total ops: 89 */
+int planar_hamiltonian_jacobian_f(const float *restrict x, const float *restrict p, float *restrict J)
+{
+    int status = PLANAR_STATUS_OK;
+    int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const float t0 = x[0] - x[1];
+    const float t1 = cosf(t0);
+    const float t2 = p[2]*p[1];
+    const float t3 = p[3]*t2;
+    const float M01 = t1*t3;
+    const float M11 = p[3]*p[3]*p[1];
+    const float t4 = sinf(t0);
+    const float t5 = t3*t4;
+    const float t6 = p[2]*p[2];
+    const float M00 = t6*(p[0] + p[1]);
+    const float det = M00*M11 - M01*M01;
+    const float rdet = 1.0F/det;
+    const float v0 = rdet*(-M01*x[3] + M11*x[2]);
+    const float t7 = t5*v0;
+    const float v1 = rdet*(M00*x[3] - M01*x[2]);
+    const float t8 = M01*t7 - M11*p[2]*p[3]*p[1]*t4*v1;
+    const float dv0_0 = -rdet*t8;
+    const float dv0_1 = rdet*t8;
+    const float dv0_2 = M11*rdet;
+    const float t9 = M01*rdet;
+    const float dv1_2 = -t9;
+    const float dv0_3 = dv1_2;
+    const float t10 = t5*v1;
+    const float t11 = M00*t7 - M01*t10;
+    const float dv1_0 = rdet*t11;
+    const float dv1_1 = -rdet*t11;
+    const float dv1_3 = M00*rdet;
+    const float t12 = p[4]*p[0] + p[4]*p[1];
+    const float t13 = cosf(x[0]);
+    const float t14 = t12*t13;
+    const float t15 = p[3]*p[1];
+    const float t16 = v0*v1;
+    const float t17 = t15*t16;
+    const float t18 = dv0_0*t10 + dv1_0*t7;
+    const float t19 = dv0_1*t10 + dv1_1*t7;
+    const float t20 = dv0_2*t10 + dv1_2*t7;
+    const float t21 = dv0_3*t10 + dv1_3*t7;
+    const float t22 = cosf(x[1]);
+    const float t23 = p[4]*t22;
+    J[0] = dv0_0;
+    J[1] = dv0_1;
+    J[2] = dv0_2;
+    J[3] = dv0_3;
+    J[4] = dv1_0;
+    J[5] = dv1_1;
+    J[6] = dv1_2;
+    J[7] = dv1_3;
+    J[8] = -p[2]*(t1*t17 + t14) - t18;
+    J[9] = p[2]*p[3]*p[1]*t1*v0*v1 - t19;
+    J[10] = -t20;
+    J[11] = -t21;
+    J[12] = M01*t16 + t18;
+    J[13] = t15*(-p[2]*t1*t16 - t23) + t19;
+    J[14] = t20;
+    J[15] = t21;
+    for (k = 0; k < PLANAR_HAMILTONIAN_JACOBIAN_J_SIZE; ++k) {
+        check += J[k] - J[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
+    }
+    return status;
+}
+
+int planar_hamiltonian_jacobian_batch_f(long n, const float *restrict x, long x_stride, const float *restrict p, long p_stride, float *restrict J, int *restrict status)
+{
+    int all = PLANAR_STATUS_OK;
+    long i;
+    for (i = 0; i < n; ++i) {
+        const int point_status = planar_hamiltonian_jacobian_f(x + i * x_stride, p + i * p_stride, J + i * PLANAR_HAMILTONIAN_JACOBIAN_J_SIZE);
+        if (status) {
+            status[i] = point_status;
+        }
+        all |= point_status;
+    }
+    return all;
+}
+
+/* planar_hamiltonian_jacobian_l (long double). Total ops: 89 */
+int planar_hamiltonian_jacobian_l(const long double *restrict x, const long double *restrict p, long double *restrict J)
+{
+    int status = PLANAR_STATUS_OK;
+    int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    const long double t0 = x[0] - x[1];
+    const long double t1 = cosl(t0);
+    const long double t2 = p[2]*p[1];
+    const long double t3 = p[3]*t2;
+    const long double M01 = t1*t3;
+    const long double M11 = p[3]*p[3]*p[1];
+    const long double t4 = sinl(t0);
+    const long double t5 = t3*t4;
+    const long double t6 = p[2]*p[2];
+    const long double M00 = t6*(p[0] + p[1]);
+    const long double det = M00*M11 - M01*M01;
+    const long double rdet = 1.0L/det;
+    const long double v0 = rdet*(-M01*x[3] + M11*x[2]);
+    const long double t7 = t5*v0;
+    const long double v1 = rdet*(M00*x[3] - M01*x[2]);
+    const long double t8 = M01*t7 - M11*p[2]*p[3]*p[1]*t4*v1;
+    const long double dv0_0 = -rdet*t8;
+    const long double dv0_1 = rdet*t8;
+    const long double dv0_2 = M11*rdet;
+    const long double t9 = M01*rdet;
+    const long double dv1_2 = -t9;
+    const long double dv0_3 = dv1_2;
+    const long double t10 = t5*v1;
+    const long double t11 = M00*t7 - M01*t10;
+    const long double dv1_0 = rdet*t11;
+    const long double dv1_1 = -rdet*t11;
+    const long double dv1_3 = M00*rdet;
+    const long double t12 = p[4]*p[0] + p[4]*p[1];
+    const long double t13 = cosl(x[0]);
+    const long double t14 = t12*t13;
+    const long double t15 = p[3]*p[1];
+    const long double t16 = v0*v1;
+    const long double t17 = t15*t16;
+    const long double t18 = dv0_0*t10 + dv1_0*t7;
+    const long double t19 = dv0_1*t10 + dv1_1*t7;
+    const long double t20 = dv0_2*t10 + dv1_2*t7;
+    const long double t21 = dv0_3*t10 + dv1_3*t7;
+    const long double t22 = cosl(x[1]);
+    const long double t23 = p[4]*t22;
+    J[0] = dv0_0;
+    J[1] = dv0_1;
+    J[2] = dv0_2;
+    J[3] = dv0_3;
+    J[4] = dv1_0;
+    J[5] = dv1_1;
+    J[6] = dv1_2;
+    J[7] = dv1_3;
+    J[8] = -p[2]*(t1*t17 + t14) - t18;
+    J[9] = p[2]*p[3]*p[1]*t1*v0*v1 - t19;
+    J[10] = -t20;
+    J[11] = -t21;
+    J[12] = M01*t16 + t18;
+    J[13] = t15*(-p[2]*t1*t16 - t23) + t19;
+    J[14] = t20;
+    J[15] = t21;
+    for (k = 0; k < PLANAR_HAMILTONIAN_JACOBIAN_J_SIZE; ++k) {
+        check += J[k] - J[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
+    }
+    return status;
+}
+
+int planar_hamiltonian_jacobian_batch_l(long n, const long double *restrict x, long x_stride, const long double *restrict p, long p_stride, long double *restrict J, int *restrict status)
+{
+    int all = PLANAR_STATUS_OK;
+    long i;
+    for (i = 0; i < n; ++i) {
+        const int point_status = planar_hamiltonian_jacobian_l(x + i * x_stride, p + i * p_stride, J + i * PLANAR_HAMILTONIAN_JACOBIAN_J_SIZE);
+        if (status) {
+            status[i] = point_status;
+        }
+        all |= point_status;
+    }
+    return all;
+}
+
 /* planar_to_canonical (double). Total ops: 16 */
 int planar_to_canonical(const double *restrict y, const double *restrict p, double *restrict x)
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const double t0 = p[2]*p[2];
     const double M00 = t0*(p[0] + p[1]);
     const double t1 = y[0] - y[1];
     const double t2 = cos(t1);
-    const double t3 = p[3]*p[1];
-    const double t4 = t2*t3;
-    const double M01 = p[2]*t4;
+    const double t3 = p[2]*p[1];
+    const double t4 = p[3]*t3;
+    const double M01 = t2*t4;
     const double t5 = M01*y[3];
     const double M11 = p[3]*p[3]*p[1];
     x[0] = y[0];
@@ -1078,9 +1391,10 @@ int planar_to_canonical(const double *restrict y, const double *restrict p, doub
     x[2] = M00*y[2] + t5;
     x[3] = M01*y[2] + M11*y[3];
     for (k = 0; k < PLANAR_TO_CANONICAL_X_SIZE; ++k) {
-        if (!isfinite(x[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += x[k] - x[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1104,13 +1418,14 @@ int planar_to_canonical_f(const float *restrict y, const float *restrict p, floa
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const float t0 = p[2]*p[2];
     const float M00 = t0*(p[0] + p[1]);
     const float t1 = y[0] - y[1];
     const float t2 = cosf(t1);
-    const float t3 = p[3]*p[1];
-    const float t4 = t2*t3;
-    const float M01 = p[2]*t4;
+    const float t3 = p[2]*p[1];
+    const float t4 = p[3]*t3;
+    const float M01 = t2*t4;
     const float t5 = M01*y[3];
     const float M11 = p[3]*p[3]*p[1];
     x[0] = y[0];
@@ -1118,9 +1433,10 @@ int planar_to_canonical_f(const float *restrict y, const float *restrict p, floa
     x[2] = M00*y[2] + t5;
     x[3] = M01*y[2] + M11*y[3];
     for (k = 0; k < PLANAR_TO_CANONICAL_X_SIZE; ++k) {
-        if (!isfinite(x[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += x[k] - x[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1144,13 +1460,14 @@ int planar_to_canonical_l(const long double *restrict y, const long double *rest
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const long double t0 = p[2]*p[2];
     const long double M00 = t0*(p[0] + p[1]);
     const long double t1 = y[0] - y[1];
     const long double t2 = cosl(t1);
-    const long double t3 = p[3]*p[1];
-    const long double t4 = t2*t3;
-    const long double M01 = p[2]*t4;
+    const long double t3 = p[2]*p[1];
+    const long double t4 = p[3]*t3;
+    const long double M01 = t2*t4;
     const long double t5 = M01*y[3];
     const long double M11 = p[3]*p[3]*p[1];
     x[0] = y[0];
@@ -1158,9 +1475,10 @@ int planar_to_canonical_l(const long double *restrict y, const long double *rest
     x[2] = M00*y[2] + t5;
     x[3] = M01*y[2] + M11*y[3];
     for (k = 0; k < PLANAR_TO_CANONICAL_X_SIZE; ++k) {
-        if (!isfinite(x[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += x[k] - x[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1184,11 +1502,12 @@ int planar_from_canonical(const double *restrict x, const double *restrict p, do
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const double t0 = x[0] - x[1];
     const double t1 = cos(t0);
-    const double t2 = p[3]*p[1];
-    const double t3 = t1*t2;
-    const double M01 = p[2]*t3;
+    const double t2 = p[2]*p[1];
+    const double t3 = p[3]*t2;
+    const double M01 = t1*t3;
     const double M11 = p[3]*p[3]*p[1];
     const double t4 = p[2]*p[2];
     const double M00 = t4*(p[0] + p[1]);
@@ -1201,9 +1520,10 @@ int planar_from_canonical(const double *restrict x, const double *restrict p, do
     y[2] = v0;
     y[3] = v1;
     for (k = 0; k < PLANAR_FROM_CANONICAL_Y_SIZE; ++k) {
-        if (!isfinite(y[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += y[k] - y[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1227,11 +1547,12 @@ int planar_from_canonical_f(const float *restrict x, const float *restrict p, fl
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const float t0 = x[0] - x[1];
     const float t1 = cosf(t0);
-    const float t2 = p[3]*p[1];
-    const float t3 = t1*t2;
-    const float M01 = p[2]*t3;
+    const float t2 = p[2]*p[1];
+    const float t3 = p[3]*t2;
+    const float M01 = t1*t3;
     const float M11 = p[3]*p[3]*p[1];
     const float t4 = p[2]*p[2];
     const float M00 = t4*(p[0] + p[1]);
@@ -1244,9 +1565,10 @@ int planar_from_canonical_f(const float *restrict x, const float *restrict p, fl
     y[2] = v0;
     y[3] = v1;
     for (k = 0; k < PLANAR_FROM_CANONICAL_Y_SIZE; ++k) {
-        if (!isfinite(y[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += y[k] - y[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1270,11 +1592,12 @@ int planar_from_canonical_l(const long double *restrict x, const long double *re
 {
     int status = PLANAR_STATUS_OK;
     int k;
+    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
     const long double t0 = x[0] - x[1];
     const long double t1 = cosl(t0);
-    const long double t2 = p[3]*p[1];
-    const long double t3 = t1*t2;
-    const long double M01 = p[2]*t3;
+    const long double t2 = p[2]*p[1];
+    const long double t3 = p[3]*t2;
+    const long double M01 = t1*t3;
     const long double M11 = p[3]*p[3]*p[1];
     const long double t4 = p[2]*p[2];
     const long double M00 = t4*(p[0] + p[1]);
@@ -1287,9 +1610,10 @@ int planar_from_canonical_l(const long double *restrict x, const long double *re
     y[2] = v0;
     y[3] = v1;
     for (k = 0; k < PLANAR_FROM_CANONICAL_Y_SIZE; ++k) {
-        if (!isfinite(y[k])) {
-            status |= PLANAR_STATUS_NONFINITE;
-        }
+        check += y[k] - y[k];
+    }
+    if (isnan(check)) {
+        status |= PLANAR_STATUS_NONFINITE;
     }
     return status;
 }

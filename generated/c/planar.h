@@ -60,7 +60,7 @@ extern const char *const planar_canonical_names[PLANAR_N_CANONICAL];
  *   in  y[4]: the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out ydot[4]: y' in state order
- * Total ops: 41
+ * Total ops: 42
  */
 #define PLANAR_RHS_Y_SIZE 4
 #define PLANAR_RHS_Y_RANK 1
@@ -125,7 +125,7 @@ int planar_forcing_batch_l(long n, const long double *restrict y, long y_stride,
  *   in  y[4]: the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out E[1]: T + V
- * Total ops: 32
+ * Total ops: 31
  */
 #define PLANAR_ENERGY_Y_SIZE 4
 #define PLANAR_ENERGY_Y_RANK 1
@@ -195,7 +195,7 @@ int planar_jacobian_batch_l(long n, const long double *restrict y, long y_stride
  *   in  x[4]: the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out xdot[4]: x' in canonical order
- * Total ops: 41
+ * Total ops: 42
  */
 #define PLANAR_HAMILTONIAN_RHS_X_SIZE 4
 #define PLANAR_HAMILTONIAN_RHS_X_RANK 1
@@ -209,6 +209,30 @@ int planar_hamiltonian_rhs_l(const long double *restrict x, const long double *r
 int planar_hamiltonian_rhs_batch(long n, const double *restrict x, long x_stride, const double *restrict p, long p_stride, double *restrict xdot, int *restrict status);
 int planar_hamiltonian_rhs_batch_f(long n, const float *restrict x, long x_stride, const float *restrict p, long p_stride, float *restrict xdot, int *restrict status);
 int planar_hamiltonian_rhs_batch_l(long n, const long double *restrict x, long x_stride, const long double *restrict p, long p_stride, long double *restrict xdot, int *restrict status);
+
+/* planar_hamiltonian_jacobian:
+ *   The Jacobian of hamiltonian_rhs with respect to x = (q, p), J[i][k] = d x'_i
+ *   / d x_k, by the chain rule through q' = M^-1 p (solved in the code).
+ *
+ *   in  x[4]: the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
+ *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
+ *   out J[16]: row-major
+ * Total ops: 89
+ */
+#define PLANAR_HAMILTONIAN_JACOBIAN_X_SIZE 4
+#define PLANAR_HAMILTONIAN_JACOBIAN_X_RANK 1
+#define PLANAR_HAMILTONIAN_JACOBIAN_P_SIZE 5
+#define PLANAR_HAMILTONIAN_JACOBIAN_P_RANK 1
+#define PLANAR_HAMILTONIAN_JACOBIAN_J_SIZE 16
+#define PLANAR_HAMILTONIAN_JACOBIAN_J_RANK 2
+#define PLANAR_HAMILTONIAN_JACOBIAN_J_ROWS 4
+#define PLANAR_HAMILTONIAN_JACOBIAN_J_COLS 4
+int planar_hamiltonian_jacobian(const double *restrict x, const double *restrict p, double *restrict J);
+int planar_hamiltonian_jacobian_f(const float *restrict x, const float *restrict p, float *restrict J);
+int planar_hamiltonian_jacobian_l(const long double *restrict x, const long double *restrict p, long double *restrict J);
+int planar_hamiltonian_jacobian_batch(long n, const double *restrict x, long x_stride, const double *restrict p, long p_stride, double *restrict J, int *restrict status);
+int planar_hamiltonian_jacobian_batch_f(long n, const float *restrict x, long x_stride, const float *restrict p, long p_stride, float *restrict J, int *restrict status);
+int planar_hamiltonian_jacobian_batch_l(long n, const long double *restrict x, long x_stride, const long double *restrict p, long p_stride, long double *restrict J, int *restrict status);
 
 /* planar_to_canonical:
  *   The canonical state x = (q, M q') of a state y = (q, q').

@@ -34,7 +34,7 @@ def rhs(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns ydot: (..., 4) y' in state order
-    Total ops: 51
+    Total ops: 50
     """
     (y, p), shape, dtype = _prepare("rhs", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -48,41 +48,60 @@ def rhs(y, p):
     L1 = p[..., 4]
     L2 = p[..., 5]
     g = p[..., 6]
-    t0 = (1/2)*m2
-    t1 = l2*t0
-    t2 = theta1 - theta2
-    t3 = numpy.cos(t2)
-    M01 = l1*t1*t3
-    t4 = l2*l2*m2
-    M11 = L2 + (1/4)*t4
-    t5 = numpy.sin(t2)
-    t6 = theta2_dot*theta2_dot
-    t7 = (1/2)*t6
-    t8 = l2*m2
-    t9 = t7*t8
-    t10 = numpy.sin(theta1)
-    t11 = g*m2
-    t12 = (1/2)*m1
-    t13 = g*t12
-    t14 = t10*t11 + t10*t13
-    F0 = -l1*(t14 + t5*t9)
+    t0 = theta1 - theta2
+    t1 = numpy.cos(t0)
+    t2 = l1*m2
+    t3 = l2*t2
+    del t2
+    t4 = (1/2)*t3
+    del t3
+    M01 = t4*t1
+    del t1, t4
+    t5 = l2*l2*m2
+    M11 = L2 + (1/4)*t5
+    del t5
+    t6 = numpy.sin(theta1)
+    t7 = (1/2)*m1
+    t8 = g*m2 + g*t7
+    del t7
+    t9 = t8*t6
+    del t6, t8
+    t10 = numpy.sin(t0)
+    del t0
+    t11 = theta2_dot*theta2_dot
+    t12 = (1/2)*m2
+    t13 = l2*t12
+    del t12
+    t14 = t13*t11
+    del t11
+    F0 = (-l1)*(t10*t14 + t9)
+    del t14, t9
     t15 = numpy.sin(theta2)
     t16 = g*t15
+    del t15
     t17 = theta1_dot*theta1_dot
-    F1 = t1*(l1*t17*t5 - t16)
+    F1 = t13*(l1*(t10*t17) - t16)
+    del t10, t13, t16, t17
     t18 = l1*l1
     t19 = m2*t18
     t20 = m1*t18
+    del t18
     M00 = L1 + t19 + (1/4)*t20
-    det = M00*M11 - M01*M01
+    del t19, t20
+    det = (M00*M11) - M01*M01
     rdet = 1.0/det
-    qdd0 = rdet*(F0*M11 - F1*M01)
-    qdd1 = rdet*(-F0*M01 + F1*M00)
+    del det
+    qdd0 = rdet*(M11*F0 - F1*M01)
+    del M11
+    qdd1 = rdet*(M00*F1 - F0*M01)
+    del F0, F1, M00, M01, rdet
     ydot = numpy.empty(shape + (4,), dtype)
     ydot[..., 0] = theta1_dot
     ydot[..., 1] = theta2_dot
     ydot[..., 2] = qdd0
+    del qdd0
     ydot[..., 3] = qdd1
+    del qdd1
     return ydot
 
 
@@ -106,19 +125,30 @@ def mass_matrix(y, p):
     t0 = l1*l1
     t1 = m2*t0
     t2 = m1*t0
+    del t0
     M00 = L1 + t1 + (1/4)*t2
-    t3 = (1/2)*m2
-    t4 = l2*t3
-    t5 = theta1 - theta2
-    t6 = numpy.cos(t5)
-    M01 = l1*t4*t6
-    t7 = l2*l2*m2
-    M11 = L2 + (1/4)*t7
+    del t1, t2
+    t3 = theta1 - theta2
+    t4 = numpy.cos(t3)
+    del t3
+    t5 = l1*m2
+    t6 = l2*t5
+    del t5
+    t7 = (1/2)*t6
+    del t6
+    M01 = t7*t4
+    del t4, t7
+    t8 = l2*l2*m2
+    M11 = L2 + (1/4)*t8
+    del t8
     M = numpy.empty(shape + (2, 2), dtype)
     M[..., 0, 0] = M00
+    del M00
     M[..., 0, 1] = M01
     M[..., 1, 0] = M01
+    del M01
     M[..., 1, 1] = M11
+    del M11
     return M
 
 
@@ -128,7 +158,7 @@ def forcing(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns F: (..., 2) F
-    Total ops: 26
+    Total ops: 23
     """
     (y, p), shape, dtype = _prepare("forcing", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -140,27 +170,34 @@ def forcing(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 6]
-    t0 = theta1 - theta2
-    t1 = numpy.sin(t0)
-    t2 = theta2_dot*theta2_dot
-    t3 = (1/2)*t2
-    t4 = l2*m2
-    t5 = t3*t4
-    t6 = numpy.sin(theta1)
-    t7 = g*m2
-    t8 = (1/2)*m1
-    t9 = g*t8
-    t10 = t6*t7 + t6*t9
-    F0 = -l1*(t1*t5 + t10)
-    t11 = (1/2)*m2
-    t12 = l2*t11
-    t13 = numpy.sin(theta2)
-    t14 = g*t13
-    t15 = theta1_dot*theta1_dot
-    F1 = t12*(l1*t1*t15 - t14)
+    t0 = numpy.sin(theta1)
+    t1 = (1/2)*m1
+    t2 = g*m2 + g*t1
+    del t1
+    t3 = t2*t0
+    del t0, t2
+    t4 = theta1 - theta2
+    t5 = numpy.sin(t4)
+    del t4
+    t6 = theta2_dot*theta2_dot
+    t7 = (1/2)*m2
+    t8 = l2*t7
+    del t7
+    t9 = t8*t6
+    del t6
+    F0 = (-l1)*(t3 + t5*t9)
+    del t3, t9
+    t10 = numpy.sin(theta2)
+    t11 = g*t10
+    del t10
+    t12 = theta1_dot*theta1_dot
+    F1 = t8*(l1*(t12*t5) - t11)
+    del t11, t12, t5, t8
     F = numpy.empty(shape + (2,), dtype)
     F[..., 0] = F0
+    del F0
     F[..., 1] = F1
+    del F1
     return F
 
 
@@ -170,7 +207,7 @@ def energy(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns E: (...) T + V
-    Total ops: 41
+    Total ops: 39
     """
     (y, p), shape, dtype = _prepare("energy", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -187,24 +224,30 @@ def energy(y, p):
     t0 = l1*l1
     t1 = m2*t0
     t2 = m1*t0
-    t3 = (1/2)*m2
+    del t0
+    t3 = l1*m2
     t4 = l2*l2*m2
-    t5 = theta2_dot*theta2_dot
-    t6 = (1/2)*t5
-    t7 = (1/2)*m1
+    t5 = (1/2)*m1
+    t6 = theta2_dot*theta2_dot
+    t7 = (1/2)*m2
     t8 = theta1_dot*theta1_dot
-    t9 = (1/2)*t8
-    t10 = l2*t3
-    t11 = theta1 - theta2
-    t12 = numpy.cos(t11)
-    M01 = l1*t10*t12
+    t9 = theta1 - theta2
+    t10 = numpy.cos(t9)
+    del t9
+    t11 = l2*t3
+    t12 = (1/2)*t11
+    del t11
+    M01 = t12*t10
+    del t10, t12
     t13 = M01*theta2_dot
-    t14 = numpy.cos(theta1)
-    t15 = l1*t14
-    t16 = numpy.cos(theta2)
-    t17 = l2*t16
+    del M01
+    t14 = numpy.cos(theta2)
+    t15 = l2*t14
+    del t14
+    t16 = numpy.cos(theta1)
     E = numpy.empty(shape + (), dtype)
-    E[...] = L1*t9 + L2*t6 - g*(m2*t15 + t15*t7 + t17*t3) + t1*t9 + t13*theta1_dot + (1/8)*t2*t8 + (1/8)*t4*t5
+    E[...] = t13*theta1_dot + ((1/2)*L2 + (1/8)*t4)*t6 + ((1/2)*L1 + (1/2)*t1 + (1/8)*t2)*t8 - g*(t7*t15 + (l1*t5 + t3)*t16)
+    del t1, t13, t15, t16, t2, t3, t4, t5, t6, t7, t8
     return E
 
 
@@ -224,16 +267,21 @@ def positions(y, p):
     l2 = p[..., 3]
     t0 = numpy.sin(theta1)
     t1 = l1*t0
+    del t0
     t2 = numpy.cos(theta1)
     t3 = l1*t2
+    del t2
     t4 = numpy.sin(theta2)
     t5 = numpy.cos(theta2)
     t6 = l2*t5
+    del t5
     pos = numpy.empty(shape + (2, 2), dtype)
     pos[..., 0, 0] = t1
     pos[..., 0, 1] = -t3
     pos[..., 1, 0] = l2*t4 + t1
+    del t1, t4
     pos[..., 1, 1] = -t3 - t6
+    del t3, t6
     return pos
 
 
@@ -244,7 +292,7 @@ def jacobian(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns J: (..., 4, 4) row-major
-    Total ops: 107
+    Total ops: 105
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -258,50 +306,76 @@ def jacobian(y, p):
     L1 = p[..., 4]
     L2 = p[..., 5]
     g = p[..., 6]
-    t0 = (1/2)*m2
-    t1 = l2*t0
-    t2 = theta1 - theta2
-    t3 = numpy.cos(t2)
-    M01 = l1*t1*t3
-    t4 = l2*l2*m2
-    M11 = L2 + (1/4)*t4
-    t5 = numpy.sin(t2)
-    t6 = l1*t5
-    t7 = t1*t6
-    t8 = theta2_dot*theta2_dot
-    t9 = (1/2)*t8
-    t10 = l2*m2
-    t11 = t10*t9
-    t12 = numpy.sin(theta1)
-    t13 = g*m2
-    t14 = (1/2)*m1
-    t15 = g*t14
-    t16 = t12*t13 + t12*t15
-    F0 = -l1*(t11*t5 + t16)
+    t0 = theta1 - theta2
+    t1 = numpy.cos(t0)
+    t2 = l1*m2
+    t3 = l2*t2
+    del t2
+    t4 = (1/2)*t3
+    M01 = t4*t1
+    t5 = l2*l2*m2
+    M11 = L2 + (1/4)*t5
+    del t5
+    t6 = theta1_dot*theta1_dot
+    t7 = numpy.sin(t0)
+    del t0
+    t8 = t4*t7
+    del t4
+    t9 = numpy.sin(theta1)
+    t10 = (1/2)*m1
+    t11 = g*m2 + g*t10
+    del t10
+    t12 = t11*t9
+    del t9
+    t13 = theta2_dot*theta2_dot
+    t14 = (1/2)*m2
+    t15 = l2*t14
+    del t14
+    t16 = t15*t13
+    F0 = (-l1)*(t12 + t16*t7)
+    del t12
     t17 = numpy.sin(theta2)
     t18 = g*t17
-    t19 = theta1_dot*theta1_dot
-    F1 = t1*(l1*t19*t5 - t18)
-    t20 = l1*l1
-    t21 = m2*t20
-    t22 = m1*t20
-    M00 = L1 + t21 + (1/4)*t22
-    det = M00*M11 - M01*M01
+    del t17
+    F1 = t15*(l1*(t6*t7) - t18)
+    del t15, t18
+    t19 = l1*l1
+    t20 = m2*t19
+    t21 = m1*t19
+    del t19
+    M00 = L1 + t20 + (1/4)*t21
+    del t20, t21
+    det = (M00*M11) - M01*M01
     rdet = 1.0/det
-    qdd0 = rdet*(F0*M11 - F1*M01)
-    t23 = qdd0*t7
-    t24 = l1*t19*t3
-    t25 = t1*t24 + t23
-    t26 = numpy.cos(theta1)
-    qdd1 = rdet*(-F0*M01 + F1*M00)
-    t27 = qdd1*t7
-    t28 = -l1*(t11*t3 + t13*t26 + t15*t26) + t27
-    t29 = (1/2)*l1*l2*m2*t3*t8 - t27
-    t30 = numpy.cos(theta2)
-    t31 = (1/2)*l2*m2*(-g*t30 - t24) - t23
-    t32 = rdet*t10*t6
-    t33 = t32*theta1_dot
-    t34 = t32*theta2_dot
+    del det
+    qdd0 = rdet*(M11*F0 - F1*M01)
+    t22 = qdd0*t8
+    del qdd0
+    t23 = M01*t6 + t22
+    qdd1 = rdet*(M00*F1 - F0*M01)
+    del F0, F1
+    t24 = qdd1*t8
+    del qdd1, t8
+    t25 = numpy.cos(theta1)
+    t26 = t11*t25
+    del t11, t25
+    t27 = t24 - l1*(t1*t16 + t26)
+    del t16, t26
+    t28 = ((1/2)*l1*l2*m2)*(t1*t13) - t24
+    del t13, t24
+    t29 = numpy.cos(theta2)
+    t30 = g*t29
+    del t29
+    t31 = ((1/2)*l2*m2)*(-l1*(t1*t6) - t30) - t22
+    del t1, t22, t30, t6
+    t32 = M01*rdet
+    t33 = t3*t7
+    del t3, t7
+    t34 = t33*theta1_dot
+    dv0_2 = M11*rdet
+    t35 = t33*theta2_dot
+    del t33
+    dv1_3 = M00*rdet
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -311,14 +385,20 @@ def jacobian(y, p):
     J[..., 1, 1] = 0
     J[..., 1, 2] = 0
     J[..., 1, 3] = 1
-    J[..., 2, 0] = rdet*(-M01*t25 + M11*t28)
-    J[..., 2, 1] = rdet*(-M01*t31 + M11*t29)
-    J[..., 2, 2] = -M01*t33
-    J[..., 2, 3] = -M11*t34
-    J[..., 3, 0] = rdet*(M00*t25 - M01*t28)
-    J[..., 3, 1] = rdet*(M00*t31 - M01*t29)
-    J[..., 3, 2] = M00*t33
-    J[..., 3, 3] = M01*t34
+    J[..., 2, 0] = rdet*(M11*t27 - M01*t23)
+    J[..., 2, 1] = rdet*(M11*t28 - M01*t31)
+    del M11
+    J[..., 2, 2] = -t32*t34
+    J[..., 2, 3] = -dv0_2*t35
+    del dv0_2
+    J[..., 3, 0] = rdet*(M00*t23 - M01*t27)
+    del t23, t27
+    J[..., 3, 1] = rdet*(M00*t31 - M01*t28)
+    del M00, M01, rdet, t28, t31
+    J[..., 3, 2] = dv1_3*t34
+    del dv1_3, t34
+    J[..., 3, 3] = t32*t35
+    del t32, t35
     return J
 
 
@@ -329,7 +409,7 @@ def hamiltonian_rhs(x, p):
     x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns xdot: (..., 4) x' in canonical order
-    Total ops: 49
+    Total ops: 50
     """
     (x, p), shape, dtype = _prepare("hamiltonian_rhs", (x, 4, "x"), (p, 7, "p"))
     theta1 = x[..., 0]
@@ -343,35 +423,176 @@ def hamiltonian_rhs(x, p):
     L1 = p[..., 4]
     L2 = p[..., 5]
     g = p[..., 6]
-    t0 = (1/2)*m2
-    t1 = l2*t0
-    t2 = theta1 - theta2
-    t3 = numpy.cos(t2)
-    M01 = l1*t1*t3
-    t4 = l2*l2*m2
-    M11 = L2 + (1/4)*t4
-    t5 = l1*l1
-    t6 = m2*t5
-    t7 = m1*t5
-    M00 = L1 + t6 + (1/4)*t7
-    det = M00*M11 - M01*M01
+    t0 = theta1 - theta2
+    t1 = numpy.cos(t0)
+    t2 = l1*m2
+    t3 = l2*t2
+    del t2
+    t4 = (1/2)*t3
+    del t3
+    M01 = t4*t1
+    del t1, t4
+    t5 = l2*l2*m2
+    M11 = L2 + (1/4)*t5
+    del t5
+    t6 = l1*l1
+    t7 = m2*t6
+    t8 = m1*t6
+    del t6
+    M00 = L1 + t7 + (1/4)*t8
+    del t7, t8
+    det = (M00*M11) - M01*M01
     rdet = 1.0/det
-    v0 = rdet*(-M01*p_theta2 + M11*p_theta1)
+    del det
+    v0 = rdet*(M11*p_theta1 - M01*p_theta2)
+    del M11
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
-    t8 = numpy.sin(t2)
+    del M00, M01, rdet
     t9 = numpy.sin(theta1)
-    t10 = g*m2
-    t11 = (1/2)*m1
-    t12 = g*t11
-    t13 = t10*t9 + t12*t9
-    t14 = numpy.sin(theta2)
-    t15 = g*t14
+    t10 = (1/2)*m1
+    t11 = g*m2 + g*t10
+    del t10
+    t12 = t11*t9
+    del t11, t9
+    t13 = numpy.sin(t0)
+    del t0
+    t14 = (1/2)*m2
+    t15 = l2*t14
+    del t14
+    t16 = v0*v1
+    t17 = t15*t16
+    del t16
+    t18 = numpy.sin(theta2)
+    t19 = g*t18
+    del t18
     xdot = numpy.empty(shape + (4,), dtype)
     xdot[..., 0] = v0
     xdot[..., 1] = v1
-    xdot[..., 2] = -l1*(t1*t8*v0*v1 + t13)
-    xdot[..., 3] = t1*(l1*t8*v0*v1 - t15)
+    xdot[..., 2] = (-l1)*(t12 + t13*t17)
+    del t12, t17
+    xdot[..., 3] = t15*(l1*(t13*v0*v1) - t19)
+    del t13, t15, t19, v0, v1
     return xdot
+
+
+def hamiltonian_jacobian(x, p):
+    """The Jacobian of hamiltonian_rhs with respect to x = (q, p), J[i][k] = d x'_i / d
+    x_k, by the chain rule through q' = M^-1 p (solved in the code).
+
+    x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
+    p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
+    returns J: (..., 4, 4) row-major
+    Total ops: 99
+    """
+    (x, p), shape, dtype = _prepare("hamiltonian_jacobian", (x, 4, "x"), (p, 7, "p"))
+    theta1 = x[..., 0]
+    theta2 = x[..., 1]
+    p_theta1 = x[..., 2]
+    p_theta2 = x[..., 3]
+    m1 = p[..., 0]
+    m2 = p[..., 1]
+    l1 = p[..., 2]
+    l2 = p[..., 3]
+    L1 = p[..., 4]
+    L2 = p[..., 5]
+    g = p[..., 6]
+    t0 = theta1 - theta2
+    t1 = numpy.cos(t0)
+    t2 = l1*m2
+    t3 = l2*t2
+    del t2
+    t4 = (1/2)*t3
+    del t3
+    M01 = t4*t1
+    t5 = l2*l2*m2
+    M11 = L2 + (1/4)*t5
+    del t5
+    t6 = numpy.sin(t0)
+    del t0
+    t7 = t4*t6
+    del t4
+    t8 = l1*l1
+    t9 = m2*t8
+    t10 = m1*t8
+    del t8
+    M00 = L1 + (1/4)*t10 + t9
+    del t10, t9
+    det = (M00*M11) - M01*M01
+    rdet = 1.0/det
+    del det
+    v0 = rdet*(M11*p_theta1 - M01*p_theta2)
+    t11 = t7*v0
+    v1 = rdet*(M00*p_theta2 - M01*p_theta1)
+    t12 = M01*t11 - ((1/2)*M11*l1*l2*m2)*(t6*v1)
+    del t6
+    dv0_0 = -rdet*t12
+    dv0_1 = rdet*t12
+    del t12
+    dv0_2 = M11*rdet
+    del M11
+    t13 = M01*rdet
+    dv1_2 = -t13
+    del t13
+    dv0_3 = dv1_2
+    t14 = t7*v1
+    del t7
+    t15 = M00*t11 - M01*t14
+    dv1_0 = rdet*t15
+    dv1_1 = -rdet*t15
+    del t15
+    dv1_3 = M00*rdet
+    del M00, rdet
+    t16 = (1/2)*m1
+    t17 = g*m2 + g*t16
+    del t16
+    t18 = numpy.cos(theta1)
+    t19 = t17*t18
+    del t17, t18
+    t20 = (1/2)*m2
+    t21 = l2*t20
+    del t20
+    t22 = v0*v1
+    t23 = t21*t22
+    t24 = dv0_0*t14 + dv1_0*t11
+    t25 = dv0_1*t14 + dv1_1*t11
+    t26 = dv0_2*t14 + dv1_2*t11
+    t27 = dv0_3*t14 + dv1_3*t11
+    del t11, t14
+    t28 = numpy.cos(theta2)
+    t29 = g*t28
+    del t28
+    J = numpy.empty(shape + (4, 4), dtype)
+    J[..., 0, 0] = dv0_0
+    del dv0_0
+    J[..., 0, 1] = dv0_1
+    del dv0_1
+    J[..., 0, 2] = dv0_2
+    del dv0_2
+    J[..., 0, 3] = dv0_3
+    del dv0_3
+    J[..., 1, 0] = dv1_0
+    del dv1_0
+    J[..., 1, 1] = dv1_1
+    del dv1_1
+    J[..., 1, 2] = dv1_2
+    del dv1_2
+    J[..., 1, 3] = dv1_3
+    del dv1_3
+    J[..., 2, 0] = -l1*(t1*t23 + t19) - t24
+    del t19, t23
+    J[..., 2, 1] = ((1/2)*l1*l2*m2)*(t1*v0*v1) - t25
+    del v0, v1
+    J[..., 2, 2] = -t26
+    J[..., 2, 3] = -t27
+    J[..., 3, 0] = M01*t22 + t24
+    del M01, t24
+    J[..., 3, 1] = t21*(-l1*(t1*t22) - t29) + t25
+    del t1, t21, t22, t25, t29
+    J[..., 3, 2] = t26
+    del t26
+    J[..., 3, 3] = t27
+    del t27
+    return J
 
 
 def to_canonical(y, p):
@@ -396,20 +617,30 @@ def to_canonical(y, p):
     t0 = l1*l1
     t1 = m2*t0
     t2 = m1*t0
+    del t0
     M00 = L1 + t1 + (1/4)*t2
-    t3 = (1/2)*m2
-    t4 = l2*t3
-    t5 = theta1 - theta2
-    t6 = numpy.cos(t5)
-    M01 = l1*t4*t6
-    t7 = M01*theta2_dot
-    t8 = l2*l2*m2
-    M11 = L2 + (1/4)*t8
+    del t1, t2
+    t3 = theta1 - theta2
+    t4 = numpy.cos(t3)
+    del t3
+    t5 = l1*m2
+    t6 = l2*t5
+    del t5
+    t7 = (1/2)*t6
+    del t6
+    M01 = t7*t4
+    del t4, t7
+    t8 = M01*theta2_dot
+    t9 = l2*l2*m2
+    M11 = L2 + (1/4)*t9
+    del t9
     x = numpy.empty(shape + (4,), dtype)
     x[..., 0] = theta1
     x[..., 1] = theta2
-    x[..., 2] = M00*theta1_dot + t7
+    x[..., 2] = M00*theta1_dot + t8
+    del M00, t8
     x[..., 3] = M01*theta1_dot + M11*theta2_dot
+    del M01, M11
     return x
 
 
@@ -432,24 +663,37 @@ def from_canonical(x, p):
     l2 = p[..., 3]
     L1 = p[..., 4]
     L2 = p[..., 5]
-    t0 = (1/2)*m2
-    t1 = l2*t0
-    t2 = theta1 - theta2
-    t3 = numpy.cos(t2)
-    M01 = l1*t1*t3
-    t4 = l2*l2*m2
-    M11 = L2 + (1/4)*t4
-    t5 = l1*l1
-    t6 = m2*t5
-    t7 = m1*t5
-    M00 = L1 + t6 + (1/4)*t7
-    det = M00*M11 - M01*M01
+    t0 = theta1 - theta2
+    t1 = numpy.cos(t0)
+    del t0
+    t2 = l1*m2
+    t3 = l2*t2
+    del t2
+    t4 = (1/2)*t3
+    del t3
+    M01 = t4*t1
+    del t1, t4
+    t5 = l2*l2*m2
+    M11 = L2 + (1/4)*t5
+    del t5
+    t6 = l1*l1
+    t7 = m2*t6
+    t8 = m1*t6
+    del t6
+    M00 = L1 + t7 + (1/4)*t8
+    del t7, t8
+    det = (M00*M11) - M01*M01
     rdet = 1.0/det
-    v0 = rdet*(-M01*p_theta2 + M11*p_theta1)
+    del det
+    v0 = rdet*(M11*p_theta1 - M01*p_theta2)
+    del M11
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
+    del M00, M01, rdet
     y = numpy.empty(shape + (4,), dtype)
     y[..., 0] = theta1
     y[..., 1] = theta2
     y[..., 2] = v0
+    del v0
     y[..., 3] = v1
+    del v1
     return y

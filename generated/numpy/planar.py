@@ -34,7 +34,7 @@ def rhs(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns ydot: (..., 4) y' in state order
-    Total ops: 41
+    Total ops: 42
     """
     (y, p), shape, dtype = _prepare("rhs", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -48,32 +48,47 @@ def rhs(y, p):
     g = p[..., 4]
     t0 = theta1 - theta2
     t1 = numpy.cos(t0)
-    t2 = l2*m2
-    t3 = t1*t2
-    M01 = l1*t3
+    t2 = l1*m2
+    t3 = l2*t2
+    del t2
+    M01 = t3*t1
+    del t1, t3
     M11 = l2*l2*m2
-    t4 = theta2_dot*theta2_dot
-    t5 = numpy.sin(t0)
-    t6 = t2*t5
-    t7 = numpy.sin(theta1)
-    t8 = g*t7
-    t9 = m1*t8 + m2*t8
-    F0 = -l1*(t4*t6 + t9)
-    t10 = numpy.sin(theta2)
-    t11 = g*t10
-    t12 = theta1_dot*theta1_dot
-    F1 = t2*(l1*t12*t5 - t11)
-    t13 = l1*l1
-    M00 = t13*(m1 + m2)
-    det = M00*M11 - M01*M01
+    t4 = numpy.sin(theta1)
+    t5 = g*m1 + g*m2
+    t6 = t5*t4
+    del t4, t5
+    t7 = numpy.sin(t0)
+    del t0
+    t8 = theta2_dot*theta2_dot
+    t9 = l2*m2
+    t10 = t9*t8
+    del t8
+    F0 = (-l1)*(t10*t7 + t6)
+    del t10, t6
+    t11 = numpy.sin(theta2)
+    t12 = g*t11
+    del t11
+    t13 = theta1_dot*theta1_dot
+    F1 = t9*(l1*(t13*t7) - t12)
+    del t12, t13, t7, t9
+    t14 = l1*l1
+    M00 = t14*(m1 + m2)
+    del t14
+    det = (M00*M11) - M01*M01
     rdet = 1.0/det
-    qdd0 = rdet*(F0*M11 - F1*M01)
-    qdd1 = rdet*(-F0*M01 + F1*M00)
+    del det
+    qdd0 = rdet*(M11*F0 - F1*M01)
+    del M11
+    qdd1 = rdet*(M00*F1 - F0*M01)
+    del F0, F1, M00, M01, rdet
     ydot = numpy.empty(shape + (4,), dtype)
     ydot[..., 0] = theta1_dot
     ydot[..., 1] = theta2_dot
     ydot[..., 2] = qdd0
+    del qdd0
     ydot[..., 3] = qdd1
+    del qdd1
     return ydot
 
 
@@ -94,17 +109,24 @@ def mass_matrix(y, p):
     l2 = p[..., 3]
     t0 = l1*l1
     M00 = t0*(m1 + m2)
+    del t0
     t1 = theta1 - theta2
     t2 = numpy.cos(t1)
-    t3 = l2*m2
-    t4 = t2*t3
-    M01 = l1*t4
+    del t1
+    t3 = l1*m2
+    t4 = l2*t3
+    del t3
+    M01 = t4*t2
+    del t2, t4
     M11 = l2*l2*m2
     M = numpy.empty(shape + (2, 2), dtype)
     M[..., 0, 0] = M00
+    del M00
     M[..., 0, 1] = M01
     M[..., 1, 0] = M01
+    del M01
     M[..., 1, 1] = M11
+    del M11
     return M
 
 
@@ -126,22 +148,30 @@ def forcing(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = theta2_dot*theta2_dot
-    t1 = l2*m2
-    t2 = theta1 - theta2
-    t3 = numpy.sin(t2)
-    t4 = t1*t3
-    t5 = numpy.sin(theta1)
-    t6 = g*t5
-    t7 = m1*t6 + m2*t6
-    F0 = -l1*(t0*t4 + t7)
+    t0 = numpy.sin(theta1)
+    t1 = g*m1 + g*m2
+    t2 = t1*t0
+    del t0, t1
+    t3 = theta1 - theta2
+    t4 = numpy.sin(t3)
+    del t3
+    t5 = theta2_dot*theta2_dot
+    t6 = l2*m2
+    t7 = t6*t5
+    del t5
+    F0 = (-l1)*(t2 + t4*t7)
+    del t2, t7
     t8 = numpy.sin(theta2)
     t9 = g*t8
+    del t8
     t10 = theta1_dot*theta1_dot
-    F1 = t1*(l1*t10*t3 - t9)
+    F1 = t6*(l1*(t10*t4) - t9)
+    del t10, t4, t6, t9
     F = numpy.empty(shape + (2,), dtype)
     F[..., 0] = F0
+    del F0
     F[..., 1] = F1
+    del F1
     return F
 
 
@@ -151,7 +181,7 @@ def energy(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns E: (...) T + V
-    Total ops: 32
+    Total ops: 31
     """
     (y, p), shape, dtype = _prepare("energy", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -163,23 +193,28 @@ def energy(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
+    t0 = l1*m2
     M11 = l2*l2*m2
-    t0 = theta2_dot*theta2_dot
-    t1 = l1*l1
+    t1 = theta2_dot*theta2_dot
     t2 = theta1_dot*theta1_dot
-    t3 = (1/2)*t1*t2
-    t4 = theta1 - theta2
-    t5 = numpy.cos(t4)
-    t6 = l2*m2
-    t7 = t5*t6
-    M01 = l1*t7
-    t8 = M01*theta2_dot
-    t9 = numpy.cos(theta1)
-    t10 = l1*t9
-    t11 = numpy.cos(theta2)
-    t12 = l2*t11
+    t3 = theta1 - theta2
+    t4 = numpy.cos(t3)
+    del t3
+    t5 = l2*t0
+    M01 = t5*t4
+    del t4, t5
+    t6 = M01*theta2_dot
+    del M01
+    t7 = l1*l1
+    t8 = (1/2)*t7
+    del t7
+    t9 = numpy.cos(theta2)
+    t10 = l2*t9
+    del t9
+    t11 = numpy.cos(theta1)
     E = numpy.empty(shape + (), dtype)
-    E[...] = (1/2)*M11*t0 - g*(m1*t10 + m2*t10 + m2*t12) + m1*t3 + m2*t3 + t8*theta1_dot
+    E[...] = ((1/2)*M11)*t1 + (m1*t8 + m2*t8)*t2 + t6*theta1_dot - g*(m2*t10 + (l1*m1 + t0)*t11)
+    del M11, t0, t1, t10, t11, t2, t6, t8
     return E
 
 
@@ -199,16 +234,21 @@ def positions(y, p):
     l2 = p[..., 3]
     t0 = numpy.sin(theta1)
     t1 = l1*t0
+    del t0
     t2 = numpy.cos(theta1)
     t3 = l1*t2
+    del t2
     t4 = numpy.sin(theta2)
     t5 = numpy.cos(theta2)
     t6 = l2*t5
+    del t5
     pos = numpy.empty(shape + (2, 2), dtype)
     pos[..., 0, 0] = t1
     pos[..., 0, 1] = -t3
     pos[..., 1, 0] = l2*t4 + t1
+    del t1, t4
     pos[..., 1, 1] = -t3 - t6
+    del t3, t6
     return pos
 
 
@@ -233,41 +273,64 @@ def jacobian(y, p):
     g = p[..., 4]
     t0 = theta1 - theta2
     t1 = numpy.cos(t0)
-    t2 = l2*m2
-    t3 = t1*t2
-    M01 = l1*t3
+    t2 = l1*m2
+    t3 = l2*t2
+    del t2
+    M01 = t3*t1
     M11 = l2*l2*m2
-    t4 = numpy.sin(t0)
-    t5 = t2*t4
-    t6 = l1*t5
-    t7 = theta2_dot*theta2_dot
-    t8 = numpy.sin(theta1)
-    t9 = g*t8
-    t10 = m1*t9 + m2*t9
-    F0 = -l1*(t10 + t5*t7)
-    t11 = numpy.sin(theta2)
-    t12 = g*t11
-    t13 = theta1_dot*theta1_dot
-    F1 = t2*(l1*t13*t4 - t12)
-    t14 = l1*l1
-    M00 = t14*(m1 + m2)
-    det = M00*M11 - M01*M01
+    t4 = theta1_dot*theta1_dot
+    t5 = numpy.sin(t0)
+    del t0
+    t6 = t3*t5
+    del t3
+    t7 = numpy.sin(theta1)
+    t8 = g*m1 + g*m2
+    t9 = t8*t7
+    del t7
+    t10 = theta2_dot*theta2_dot
+    t11 = l2*m2
+    t12 = t11*t10
+    F0 = (-l1)*(t12*t5 + t9)
+    del t9
+    t13 = numpy.sin(theta2)
+    t14 = g*t13
+    del t13
+    F1 = t11*(l1*(t4*t5) - t14)
+    del t11, t14, t5
+    t15 = l1*l1
+    M00 = t15*(m1 + m2)
+    del t15
+    det = (M00*M11) - M01*M01
     rdet = 1.0/det
-    qdd0 = rdet*(F0*M11 - F1*M01)
-    t15 = qdd0*t6
-    t16 = l1*t1*t13
-    t17 = t15 + t16*t2
-    qdd1 = rdet*(-F0*M01 + F1*M00)
+    del det
+    qdd0 = rdet*(M11*F0 - F1*M01)
+    t16 = qdd0*t6
+    del qdd0
+    t17 = M01*t4 + t16
+    qdd1 = rdet*(M00*F1 - F0*M01)
+    del F0, F1
     t18 = qdd1*t6
+    del qdd1
     t19 = numpy.cos(theta1)
-    t20 = g*t19
-    t21 = -l1*(m1*t20 + m2*t20 + t3*t7) + t18
-    t22 = l1*l2*m2*t1*t7 - t18
+    t20 = t8*t19
+    del t19, t8
+    t21 = t18 - l1*(t1*t12 + t20)
+    del t12, t20
+    t22 = (l1*l2*m2)*(t1*t10) - t18
+    del t10, t18
     t23 = numpy.cos(theta2)
-    t24 = l2*m2*(-g*t23 - t16) - t15
-    t25 = 2*rdet*t6
-    t26 = t25*theta1_dot
-    t27 = t25*theta2_dot
+    t24 = g*t23
+    del t23
+    t25 = (l2*m2)*(-l1*(t1*t4) - t24) - t16
+    del t1, t16, t24, t4
+    t26 = M01*rdet
+    t27 = 2*t6
+    del t6
+    t28 = t27*theta1_dot
+    dv0_2 = M11*rdet
+    t29 = t27*theta2_dot
+    del t27
+    dv1_3 = M00*rdet
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -277,14 +340,20 @@ def jacobian(y, p):
     J[..., 1, 1] = 0
     J[..., 1, 2] = 0
     J[..., 1, 3] = 1
-    J[..., 2, 0] = rdet*(-M01*t17 + M11*t21)
-    J[..., 2, 1] = rdet*(-M01*t24 + M11*t22)
-    J[..., 2, 2] = -M01*t26
-    J[..., 2, 3] = -M11*t27
+    J[..., 2, 0] = rdet*(M11*t21 - M01*t17)
+    J[..., 2, 1] = rdet*(M11*t22 - M01*t25)
+    del M11
+    J[..., 2, 2] = -t26*t28
+    J[..., 2, 3] = -dv0_2*t29
+    del dv0_2
     J[..., 3, 0] = rdet*(M00*t17 - M01*t21)
-    J[..., 3, 1] = rdet*(M00*t24 - M01*t22)
-    J[..., 3, 2] = M00*t26
-    J[..., 3, 3] = M01*t27
+    del t17, t21
+    J[..., 3, 1] = rdet*(M00*t25 - M01*t22)
+    del M00, M01, rdet, t22, t25
+    J[..., 3, 2] = dv1_3*t28
+    del dv1_3, t28
+    J[..., 3, 3] = t26*t29
+    del t26, t29
     return J
 
 
@@ -295,7 +364,7 @@ def hamiltonian_rhs(x, p):
     x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns xdot: (..., 4) x' in canonical order
-    Total ops: 41
+    Total ops: 42
     """
     (x, p), shape, dtype = _prepare("hamiltonian_rhs", (x, 4, "x"), (p, 5, "p"))
     theta1 = x[..., 0]
@@ -309,29 +378,150 @@ def hamiltonian_rhs(x, p):
     g = p[..., 4]
     t0 = theta1 - theta2
     t1 = numpy.cos(t0)
-    t2 = l2*m2
-    t3 = t1*t2
-    M01 = l1*t3
+    t2 = l1*m2
+    t3 = l2*t2
+    del t2
+    M01 = t3*t1
+    del t1, t3
     M11 = l2*l2*m2
     t4 = l1*l1
     M00 = t4*(m1 + m2)
-    det = M00*M11 - M01*M01
+    del t4
+    det = (M00*M11) - M01*M01
     rdet = 1.0/det
-    v0 = rdet*(-M01*p_theta2 + M11*p_theta1)
+    del det
+    v0 = rdet*(M11*p_theta1 - M01*p_theta2)
+    del M11
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
-    t5 = numpy.sin(t0)
-    t6 = t2*t5
-    t7 = numpy.sin(theta1)
-    t8 = g*t7
-    t9 = m1*t8 + m2*t8
-    t10 = numpy.sin(theta2)
-    t11 = g*t10
+    del M00, M01, rdet
+    t5 = numpy.sin(theta1)
+    t6 = g*m1 + g*m2
+    t7 = t6*t5
+    del t5, t6
+    t8 = numpy.sin(t0)
+    del t0
+    t9 = l2*m2
+    t10 = v0*v1
+    t11 = t9*t10
+    del t10
+    t12 = numpy.sin(theta2)
+    t13 = g*t12
+    del t12
     xdot = numpy.empty(shape + (4,), dtype)
     xdot[..., 0] = v0
     xdot[..., 1] = v1
-    xdot[..., 2] = -l1*(t6*v0*v1 + t9)
-    xdot[..., 3] = t2*(l1*t5*v0*v1 - t11)
+    xdot[..., 2] = (-l1)*(t11*t8 + t7)
+    del t11, t7
+    xdot[..., 3] = t9*(l1*(t8*v0*v1) - t13)
+    del t13, t8, t9, v0, v1
     return xdot
+
+
+def hamiltonian_jacobian(x, p):
+    """The Jacobian of hamiltonian_rhs with respect to x = (q, p), J[i][k] = d x'_i / d
+    x_k, by the chain rule through q' = M^-1 p (solved in the code).
+
+    x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
+    p: (..., 5) the parameters: (m1, m2, l1, l2, g)
+    returns J: (..., 4, 4) row-major
+    Total ops: 89
+    """
+    (x, p), shape, dtype = _prepare("hamiltonian_jacobian", (x, 4, "x"), (p, 5, "p"))
+    theta1 = x[..., 0]
+    theta2 = x[..., 1]
+    p_theta1 = x[..., 2]
+    p_theta2 = x[..., 3]
+    m1 = p[..., 0]
+    m2 = p[..., 1]
+    l1 = p[..., 2]
+    l2 = p[..., 3]
+    g = p[..., 4]
+    t0 = theta1 - theta2
+    t1 = numpy.cos(t0)
+    t2 = l1*m2
+    t3 = l2*t2
+    del t2
+    M01 = t3*t1
+    M11 = l2*l2*m2
+    t4 = numpy.sin(t0)
+    del t0
+    t5 = t3*t4
+    del t3
+    t6 = l1*l1
+    M00 = t6*(m1 + m2)
+    del t6
+    det = (M00*M11) - M01*M01
+    rdet = 1.0/det
+    del det
+    v0 = rdet*(M11*p_theta1 - M01*p_theta2)
+    t7 = t5*v0
+    v1 = rdet*(M00*p_theta2 - M01*p_theta1)
+    t8 = M01*t7 - (M11*l1*l2*m2)*(t4*v1)
+    del t4
+    dv0_0 = -rdet*t8
+    dv0_1 = rdet*t8
+    del t8
+    dv0_2 = M11*rdet
+    del M11
+    t9 = M01*rdet
+    dv1_2 = -t9
+    del t9
+    dv0_3 = dv1_2
+    t10 = t5*v1
+    del t5
+    t11 = M00*t7 - M01*t10
+    dv1_0 = rdet*t11
+    dv1_1 = -rdet*t11
+    del t11
+    dv1_3 = M00*rdet
+    del M00, rdet
+    t12 = g*m1 + g*m2
+    t13 = numpy.cos(theta1)
+    t14 = t12*t13
+    del t12, t13
+    t15 = l2*m2
+    t16 = v0*v1
+    t17 = t15*t16
+    t18 = dv0_0*t10 + dv1_0*t7
+    t19 = dv0_1*t10 + dv1_1*t7
+    t20 = dv0_2*t10 + dv1_2*t7
+    t21 = dv0_3*t10 + dv1_3*t7
+    del t10, t7
+    t22 = numpy.cos(theta2)
+    t23 = g*t22
+    del t22
+    J = numpy.empty(shape + (4, 4), dtype)
+    J[..., 0, 0] = dv0_0
+    del dv0_0
+    J[..., 0, 1] = dv0_1
+    del dv0_1
+    J[..., 0, 2] = dv0_2
+    del dv0_2
+    J[..., 0, 3] = dv0_3
+    del dv0_3
+    J[..., 1, 0] = dv1_0
+    del dv1_0
+    J[..., 1, 1] = dv1_1
+    del dv1_1
+    J[..., 1, 2] = dv1_2
+    del dv1_2
+    J[..., 1, 3] = dv1_3
+    del dv1_3
+    J[..., 2, 0] = -l1*(t1*t17 + t14) - t18
+    del t14, t17
+    J[..., 2, 1] = (l1*l2*m2)*(t1*v0*v1) - t19
+    del v0, v1
+    J[..., 2, 2] = -t20
+    J[..., 2, 3] = -t21
+    J[..., 3, 0] = M01*t16 + t18
+    del M01, t18
+    J[..., 3, 1] = t15*(-l1*(t1*t16) - t23) + t19
+    del t1, t15, t16, t19, t23
+    J[..., 3, 2] = t20
+    del t20
+    J[..., 3, 3] = t21
+    del t21
+    return J
 
 
 def to_canonical(y, p):
@@ -353,18 +543,24 @@ def to_canonical(y, p):
     l2 = p[..., 3]
     t0 = l1*l1
     M00 = t0*(m1 + m2)
+    del t0
     t1 = theta1 - theta2
     t2 = numpy.cos(t1)
-    t3 = l2*m2
-    t4 = t2*t3
-    M01 = l1*t4
+    del t1
+    t3 = l1*m2
+    t4 = l2*t3
+    del t3
+    M01 = t4*t2
+    del t2, t4
     t5 = M01*theta2_dot
     M11 = l2*l2*m2
     x = numpy.empty(shape + (4,), dtype)
     x[..., 0] = theta1
     x[..., 1] = theta2
     x[..., 2] = M00*theta1_dot + t5
+    del M00, t5
     x[..., 3] = M01*theta1_dot + M11*theta2_dot
+    del M01, M11
     return x
 
 
@@ -387,19 +583,28 @@ def from_canonical(x, p):
     l2 = p[..., 3]
     t0 = theta1 - theta2
     t1 = numpy.cos(t0)
-    t2 = l2*m2
-    t3 = t1*t2
-    M01 = l1*t3
+    del t0
+    t2 = l1*m2
+    t3 = l2*t2
+    del t2
+    M01 = t3*t1
+    del t1, t3
     M11 = l2*l2*m2
     t4 = l1*l1
     M00 = t4*(m1 + m2)
-    det = M00*M11 - M01*M01
+    del t4
+    det = (M00*M11) - M01*M01
     rdet = 1.0/det
-    v0 = rdet*(-M01*p_theta2 + M11*p_theta1)
+    del det
+    v0 = rdet*(M11*p_theta1 - M01*p_theta2)
+    del M11
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
+    del M00, M01, rdet
     y = numpy.empty(shape + (4,), dtype)
     y[..., 0] = theta1
     y[..., 1] = theta2
     y[..., 2] = v0
+    del v0
     y[..., 3] = v1
+    del v1
     return y
