@@ -66,22 +66,47 @@ def _lift_powers(defs: dict, roots: list[sp.Expr], fresh) -> list[sp.Expr]:
     return [lift(r) for r in roots]
 
 
-def _alias_stages(defs: dict, reduced: list, stages: set):
-    """A stage defined as a bare temporary takes over that temporary (no copies)."""
-    alias = {}
-    for sym in stages:
-        target = defs[sym]
-        if isinstance(target, sp.Symbol) and target.name.startswith("_cse") and target not in alias:
-            alias[target] = sym
-    if not alias:
-        return defs, reduced
-    out = {}
-    for sym, expr in defs.items():
-        if sym in stages and sym in alias.values() and defs[sym] in alias and alias[defs[sym]] == sym:
-            continue                      # placed where its temporary was
-        key = alias.get(sym, sym)
-        out[key] = expr.xreplace(alias)
-    return out, [sp.sympify(e).xreplace(alias) for e in reduced]
+def varying_symbols(spec: ModelSpec) -> set[sp.Symbol]:
+    """Symbols that change from state to state: the state inputs and every stage that
+    depends on them.  Parameters (and stages of parameters only) are constant over a batch."""
+    varying = {s for v in spec.vectors if v.key != "param" for s in v.symbols}
+    for k in spec.kernels:
+        for sym, expr in k.stages:
+            if sp.sympify(expr).free_symbols & varying:
+                varying.add(sym)
+    return varying
+
+
+def _split(term: sp.Expr, varying: set) -> tuple[sp.Expr, sp.Expr]:
+    """term = constant part * varying part."""
+    factors = term.args if term.is_Mul else (term,)
+    const = [f for f in factors if not (f.free_symbols & varying)]
+    var = [f for f in factors if f.free_symbols & varying]
+    return sp.Mul(*const), sp.Mul(*var)
+
+
+def collect_constants(expr: sp.Expr, varying: set, memo: dict) -> sp.Expr:
+    """a*V + b*V -> (a + b)*V when a, b are constant over a batch and V varies.
+
+    Expanded derivations repeat a state-dependent factor with several parameter
+    coefficients (g*m1*sin(theta1) + g*m2*sin(theta1)); collecting them saves
+    operations on every state (and whole-array operations in NumPy).
+    """
+    if expr in memo:
+        return memo[expr]
+    if expr.is_Atom:
+        return expr
+    args = tuple(collect_constants(a, varying, memo) for a in expr.args)
+    new = expr.func(*args) if args != expr.args else expr
+    if new.is_Add:
+        groups: dict[sp.Expr, list[sp.Expr]] = {}
+        for term in new.args:
+            const, var = _split(term, varying)
+            groups.setdefault(var, []).append(const)
+        if len(groups) < len(new.args):
+            new = sp.Add(*[sp.Add(*consts) * var for var, consts in groups.items()])
+    memo[expr] = new
+    return new
 
 
 def cse_file(spec: ModelSpec) -> list[Body]:
@@ -91,6 +116,7 @@ def cse_file(spec: ModelSpec) -> list[Body]:
         for sym, expr in k.stages:
             stage_defs.setdefault(sym, expr)
     stage_syms = list(stage_defs)
+    varying = varying_symbols(spec)
     roots: list[sp.Expr] = [stage_defs[s] for s in stage_syms]
     spans = []
     for k in spec.kernels:
@@ -99,13 +125,14 @@ def cse_file(spec: ModelSpec) -> list[Body]:
         for out in k.outputs:
             roots += list(out.exprs)
         spans.append((start, len(roots)))
+    memo: dict = {}
+    roots = [collect_constants(sp.sympify(r), varying, memo) for r in roots]
 
     fresh = _numbered("_cse")
     repl, reduced = sp.cse(roots, symbols=fresh, order="canonical")
     defs: dict[sp.Symbol, sp.Expr] = dict(repl)
     for sym, expr in zip(stage_syms, reduced):
         defs[sym] = expr
-    defs, reduced = _alias_stages(defs, reduced, set(stage_syms))
     reduced = _lift_powers(defs, reduced, _numbered("_pow"))
     position = {sym: i for i, sym in enumerate(list(defs))}
 
@@ -123,15 +150,40 @@ def cse_file(spec: ModelSpec) -> list[Body]:
                 visit(dep)
             order.append(sym)
 
+        mine = [sp.sympify(e) for e in mine]
         for expr in mine:
-            for dep in sorted(sp.sympify(expr).free_symbols & defs.keys(), key=position.__getitem__):
+            for dep in sorted(expr.free_symbols & defs.keys(), key=position.__getitem__):
                 visit(dep)
+        # a stage of this kernel defined as a bare temporary takes that temporary's
+        # place (no copies); done per kernel so stage names stay in their kernels
+        kstages = {s for s, _ in k.stages}
+        alias: dict[sp.Symbol, sp.Symbol] = {}
+        for sym in order:
+            target = defs[sym]
+            if sym in kstages and target.is_Symbol and target.name.startswith("_") \
+                    and target in done and target not in alias:
+                alias[target] = sym
+        owner = {v: k_ for k_, v in alias.items()}
+        order = [alias.get(s, s) for s in order if not (s in owner and defs[s] == owner[s])]
+        local = {s: defs[owner[s]].xreplace(alias) for s in owner}
+        mine = [e.xreplace(alias) for e in mine]
+        # every output and guard becomes a name or a number: stored once, checked
+        # from registers (no reload of the output array), printed once
+        lifted: dict[sp.Expr, sp.Symbol] = {}
+        for j, expr in enumerate(mine):
+            if not (expr.is_Symbol or expr.is_Number):
+                if expr not in lifted:
+                    lifted[expr] = sp.Symbol(f"_out{j}")
+                    local[lifted[expr]] = expr
+                    order.append(lifted[expr])
+                mine[j] = lifted[expr]
         rename, n = {}, 0
         for sym in order:
             if sym.name.startswith("_"):
                 rename[sym] = sp.Symbol(f"t{n}", real=True)
                 n += 1
-        assignments = [(rename.get(s, s), defs[s].xreplace(rename)) for s in order]
+        assignments = [(rename.get(s, s), (local[s] if s in local else defs[s].xreplace(alias))
+                        .xreplace(rename)) for s in order]
         mine = [sp.sympify(e).xreplace(rename) for e in mine]
         guards = mine[:len(k.guards)]
         outputs, i = [], len(k.guards)

@@ -97,8 +97,11 @@ class C(Language):
                         assigns.append({"target": f"{out.name}[{i}]", "value": pr.doprint_checked(e)})
                 guards = [f"!({pr.doprint_checked(sp.Abs(g))} >= ({v.ctype}){macro}_POLAR_SINE_MIN)"
                           for g in b.guards]
+                terms = [f"({a['value']} - {a['value']})" for a, e in
+                         zip(assigns, [e for exprs in b.outputs for e in exprs]) if not e.is_Number]
+                check = _wrap(" + ".join(terms), 84) if terms else []
                 variants.append({"ctype": v.ctype, "suffix": v.suffix, "locals": locals_,
-                                 "assigns": assigns, "guards": guards})
+                                 "assigns": assigns, "guards": guards, "check": check})
             kernels.append({
                 "name": k.name, "cname": f"{spec.name}_{k.name}", "macro": kmacro,
                 "doc": _wrap(k.doc, 76), "ops": b.ops, "args": args,
@@ -118,16 +121,39 @@ class NumPy(Language):
         for b in bodies:
             k = b.kernel
             slots = {s: s.name for inp in k.inputs for s in inp.vector.symbols}
-            pr = PyNumPyPrinter(slots)
-            used = set()
-            for _, e in b.assignments:
-                used |= e.free_symbols
-            for exprs in b.outputs + [b.guards]:
+            varying = {s for inp in k.inputs if inp.vector.key != "param" for s in inp.vector.symbols}
+            for sym, e in b.assignments:
+                if e.free_symbols & varying:
+                    varying.add(sym)
+            pr = PyNumPyPrinter(slots, varying)
+            # only what the outputs need (guards have no NumPy counterpart)
+            needed = set()
+            for exprs in b.outputs:
                 for e in exprs:
-                    used |= sp.sympify(e).free_symbols
+                    needed |= sp.sympify(e).free_symbols
+            kept = []
+            for sym, e in reversed(b.assignments):
+                if sym in needed:
+                    needed |= e.free_symbols
+                    kept.append((sym, e))
+            kept.reverse()
             unpack = [{"name": s.name, "source": f"{inp.name}[..., {i}]"}
-                      for inp in k.inputs for i, s in enumerate(inp.vector.symbols) if s in used]
-            outs = []
+                      for inp in k.inputs for i, s in enumerate(inp.vector.symbols) if s in needed]
+            # free each temporary after its last use: fewer live arrays, memory reused
+            local_syms = {s for s, _ in kept}
+            uses = [e.free_symbols for _, e in kept] + \
+                [sp.sympify(e).free_symbols for exprs in b.outputs for e in exprs]
+            last = {}
+            for i, used in enumerate(uses):
+                for s in used & local_syms:
+                    last[s] = i
+            dels = [[] for _ in uses]
+            for s, i in last.items():
+                dels[i].append(s.name)
+            dels = [", ".join(sorted(d)) for d in dels]
+            locals_ = [{"name": s.name, "value": pr.doprint_checked(e), "dels": dels[i]}
+                       for i, (s, e) in enumerate(kept)]
+            outs, pos = [], len(kept)
             for out, exprs in zip(k.outputs, b.outputs):
                 items = []
                 for flat, e in enumerate(exprs):
@@ -136,7 +162,8 @@ class NumPy(Language):
                         idx.insert(0, rest % dim)
                         rest //= dim
                     target = f"{out.name}[..., {', '.join(map(str, idx))}]" if idx else f"{out.name}[...]"
-                    items.append({"target": target, "value": pr.doprint_checked(e)})
+                    items.append({"target": target, "value": pr.doprint_checked(e), "dels": dels[pos]})
+                    pos += 1
                 outs.append({"name": out.name, "shape": list(out.shape), "cells": items,
                              "shape_py": repr(tuple(out.shape)),
                              "shape_doc": "(" + ", ".join(["..."] + [str(d) for d in out.shape]) + ")",
@@ -147,7 +174,7 @@ class NumPy(Language):
                             "doc": f"{i.vector.doc}: ({_slot_doc(i.vector)})"} for i in k.inputs],
                 "unpack": unpack,
                 "unpack_target": "(" + ", ".join(i.name for i in k.inputs) + ("," if len(k.inputs) == 1 else "") + ")",
-                "locals": [{"name": s.name, "value": pr.doprint_checked(e)} for s, e in b.assignments],
+                "locals": locals_,
                 "outputs": outs})
         ctx["kernels"] = kernels
         return {f"numpy/{spec.name}.py": render("numpy/module.py.jinja", ctx)}

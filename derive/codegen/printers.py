@@ -78,11 +78,53 @@ class CPrinter(_SlotMixin, C99CodePrinter):
 
 
 class PyNumPyPrinter(_SlotMixin, NumPyPrinter):
-    """NumPy with the module imported as `numpy`; x**-1 as 1/x, x**2 as x*x."""
+    """NumPy with the module imported as `numpy`; x**-1 as 1/x, x**2 as x*x.
 
-    def __init__(self, slots: dict):
+    `varying` are the symbols that hold one value per state (arrays over a
+    batch); everything else is constant over a batch.  Products and sums put
+    their constant part first, in parentheses, so Python's left-to-right
+    evaluation does the constant arithmetic once on scalars; sums write their
+    positive terms first so no array is negated just to be added.
+    """
+
+    def __init__(self, slots: dict, varying: set | None = None):
         super().__init__({"fully_qualified_modules": True})
         self._settings_slots = slots
+        self._varying = varying or set()
+
+    def _varies(self, expr) -> bool:
+        return bool(expr.free_symbols & self._varying)
+
+    def _print_Mul(self, expr):
+        if not self._varying or not self._varies(expr):
+            return super()._print_Mul(expr)
+        const = [f for f in expr.args if not self._varies(f)]
+        var = [f for f in expr.args if self._varies(f)]
+        if not const or (len(const) == 1 and const[0] in (sp.S.NegativeOne, sp.S.One)):
+            return super()._print_Mul(expr)
+        c = sp.Mul(*const)
+        text = self._print(c) if c.is_Atom and not c.could_extract_minus_sign() else f"({self._print(c)})"
+        v = sp.Mul(*var)
+        return f"{text}*{self.parenthesize(v, precedence(expr))}"
+
+    def _print_Add(self, expr, order=None):
+        if not self._varying or not self._varies(expr):
+            return super()._print_Add(expr, order=order)
+        terms = self._as_ordered_terms(expr, order=order)
+        const = [t for t in terms if not self._varies(t)]
+        pos = [t for t in terms if self._varies(t) and not t.could_extract_minus_sign()]
+        neg = [t for t in terms if self._varies(t) and t.could_extract_minus_sign()]
+        parts = []
+        if const:
+            c = sp.Add(*const)
+            parts.append(self._print(c) if c.is_Atom else f"({self._print(c)})")
+        for t in pos:
+            parts.append(self.parenthesize(t, precedence(expr)))
+        text = " + ".join(parts)
+        for t in neg:
+            body = self.parenthesize(-t, precedence(expr) + 1 if (-t).is_Add else precedence(expr))
+            text = f"{text} - {body}" if text else f"-{body}"
+        return text
 
     def _print_Pow(self, expr, rational=False):
         b, e = expr.base, expr.exp

@@ -102,7 +102,7 @@ RESERVED = frozenset(keyword.kwlist) | {
     "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long", "register",
     "restrict", "return", "short", "signed", "sizeof", "static", "struct", "switch", "typedef",
     "union", "unsigned", "void", "volatile", "while", "status", "k", "n", "i", "numpy", "shape",
-    "dtype", "out", "self", "all", "point_status", "arrays", "value", "size", "name", "kernel", "args",
+    "dtype", "out", "self", "all", "point_status", "check", "arrays", "value", "size", "name", "kernel", "args",
 }
 
 

@@ -25,8 +25,7 @@ const char *const compound_canonical_names[COMPOUND_N_CANONICAL] = {
 int compound_rhs(const double *restrict y, const double *restrict p, double *restrict ydot)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = y[0] - y[1];
     const double t1 = cos(t0);
     const double t2 = p[2]*p[1];
@@ -61,9 +60,8 @@ int compound_rhs(const double *restrict y, const double *restrict p, double *res
     ydot[1] = y[3];
     ydot[2] = qdd0;
     ydot[3] = qdd1;
-    for (k = 0; k < COMPOUND_RHS_YDOT_SIZE; ++k) {
-        check += ydot[k] - ydot[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[2] - y[2]) + (y[3] - y[3]) + (qdd0 - qdd0) + (qdd1 - qdd1);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -88,8 +86,7 @@ int compound_rhs_batch(long n, const double *restrict y, long y_stride, const do
 int compound_rhs_f(const float *restrict y, const float *restrict p, float *restrict ydot)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = y[0] - y[1];
     const float t1 = cosf(t0);
     const float t2 = p[2]*p[1];
@@ -124,9 +121,8 @@ int compound_rhs_f(const float *restrict y, const float *restrict p, float *rest
     ydot[1] = y[3];
     ydot[2] = qdd0;
     ydot[3] = qdd1;
-    for (k = 0; k < COMPOUND_RHS_YDOT_SIZE; ++k) {
-        check += ydot[k] - ydot[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[2] - y[2]) + (y[3] - y[3]) + (qdd0 - qdd0) + (qdd1 - qdd1);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -151,8 +147,7 @@ int compound_rhs_batch_f(long n, const float *restrict y, long y_stride, const f
 int compound_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict ydot)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = y[0] - y[1];
     const long double t1 = cosl(t0);
     const long double t2 = p[2]*p[1];
@@ -187,9 +182,8 @@ int compound_rhs_l(const long double *restrict y, const long double *restrict p,
     ydot[1] = y[3];
     ydot[2] = qdd0;
     ydot[3] = qdd1;
-    for (k = 0; k < COMPOUND_RHS_YDOT_SIZE; ++k) {
-        check += ydot[k] - ydot[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[2] - y[2]) + (y[3] - y[3]) + (qdd0 - qdd0) + (qdd1 - qdd1);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -214,8 +208,7 @@ int compound_rhs_batch_l(long n, const long double *restrict y, long y_stride, c
 int compound_mass_matrix(const double *restrict y, const double *restrict p, double *restrict M)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = p[2]*p[2];
     const double t1 = p[1]*t0;
     const double t2 = p[0]*t0;
@@ -232,9 +225,8 @@ int compound_mass_matrix(const double *restrict y, const double *restrict p, dou
     M[1] = M01;
     M[2] = M01;
     M[3] = M11;
-    for (k = 0; k < COMPOUND_MASS_MATRIX_M_SIZE; ++k) {
-        check += M[k] - M[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (M00 - M00) + (M01 - M01) + (M01 - M01) + (M11 - M11);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -259,8 +251,7 @@ int compound_mass_matrix_batch(long n, const double *restrict y, long y_stride, 
 int compound_mass_matrix_f(const float *restrict y, const float *restrict p, float *restrict M)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = p[2]*p[2];
     const float t1 = p[1]*t0;
     const float t2 = p[0]*t0;
@@ -277,9 +268,8 @@ int compound_mass_matrix_f(const float *restrict y, const float *restrict p, flo
     M[1] = M01;
     M[2] = M01;
     M[3] = M11;
-    for (k = 0; k < COMPOUND_MASS_MATRIX_M_SIZE; ++k) {
-        check += M[k] - M[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (M00 - M00) + (M01 - M01) + (M01 - M01) + (M11 - M11);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -304,8 +294,7 @@ int compound_mass_matrix_batch_f(long n, const float *restrict y, long y_stride,
 int compound_mass_matrix_l(const long double *restrict y, const long double *restrict p, long double *restrict M)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = p[2]*p[2];
     const long double t1 = p[1]*t0;
     const long double t2 = p[0]*t0;
@@ -322,9 +311,8 @@ int compound_mass_matrix_l(const long double *restrict y, const long double *res
     M[1] = M01;
     M[2] = M01;
     M[3] = M11;
-    for (k = 0; k < COMPOUND_MASS_MATRIX_M_SIZE; ++k) {
-        check += M[k] - M[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (M00 - M00) + (M01 - M01) + (M01 - M01) + (M11 - M11);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -349,8 +337,7 @@ int compound_mass_matrix_batch_l(long n, const long double *restrict y, long y_s
 int compound_forcing(const double *restrict y, const double *restrict p, double *restrict F)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = (1.0/2.0)*p[0];
     const double t2 = p[6]*p[1] + p[6]*t1;
@@ -361,16 +348,15 @@ int compound_forcing(const double *restrict y, const double *restrict p, double 
     const double t7 = (1.0/2.0)*p[1];
     const double t8 = p[3]*t7;
     const double t9 = t6*t8;
-    const double F0 = -p[2]*(t3 + t5*t9);
-    const double t10 = sin(y[1]);
-    const double t11 = p[6]*t10;
-    const double t12 = y[2]*y[2];
-    const double F1 = t8*(p[2]*t12*t5 - t11);
-    F[0] = F0;
-    F[1] = F1;
-    for (k = 0; k < COMPOUND_FORCING_F_SIZE; ++k) {
-        check += F[k] - F[k];
-    }
+    const double t10 = -p[2]*(t3 + t5*t9);
+    const double t11 = sin(y[1]);
+    const double t12 = p[6]*t11;
+    const double t13 = y[2]*y[2];
+    const double t14 = t8*(p[2]*t13*t5 - t12);
+    F[0] = t10;
+    F[1] = t14;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t10 - t10) + (t14 - t14);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -395,8 +381,7 @@ int compound_forcing_batch(long n, const double *restrict y, long y_stride, cons
 int compound_forcing_f(const float *restrict y, const float *restrict p, float *restrict F)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = (1.0F/2.0F)*p[0];
     const float t2 = p[6]*p[1] + p[6]*t1;
@@ -407,16 +392,15 @@ int compound_forcing_f(const float *restrict y, const float *restrict p, float *
     const float t7 = (1.0F/2.0F)*p[1];
     const float t8 = p[3]*t7;
     const float t9 = t6*t8;
-    const float F0 = -p[2]*(t3 + t5*t9);
-    const float t10 = sinf(y[1]);
-    const float t11 = p[6]*t10;
-    const float t12 = y[2]*y[2];
-    const float F1 = t8*(p[2]*t12*t5 - t11);
-    F[0] = F0;
-    F[1] = F1;
-    for (k = 0; k < COMPOUND_FORCING_F_SIZE; ++k) {
-        check += F[k] - F[k];
-    }
+    const float t10 = -p[2]*(t3 + t5*t9);
+    const float t11 = sinf(y[1]);
+    const float t12 = p[6]*t11;
+    const float t13 = y[2]*y[2];
+    const float t14 = t8*(p[2]*t13*t5 - t12);
+    F[0] = t10;
+    F[1] = t14;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t10 - t10) + (t14 - t14);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -441,8 +425,7 @@ int compound_forcing_batch_f(long n, const float *restrict y, long y_stride, con
 int compound_forcing_l(const long double *restrict y, const long double *restrict p, long double *restrict F)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = (1.0L/2.0L)*p[0];
     const long double t2 = p[6]*p[1] + p[6]*t1;
@@ -453,16 +436,15 @@ int compound_forcing_l(const long double *restrict y, const long double *restric
     const long double t7 = (1.0L/2.0L)*p[1];
     const long double t8 = p[3]*t7;
     const long double t9 = t6*t8;
-    const long double F0 = -p[2]*(t3 + t5*t9);
-    const long double t10 = sinl(y[1]);
-    const long double t11 = p[6]*t10;
-    const long double t12 = y[2]*y[2];
-    const long double F1 = t8*(p[2]*t12*t5 - t11);
-    F[0] = F0;
-    F[1] = F1;
-    for (k = 0; k < COMPOUND_FORCING_F_SIZE; ++k) {
-        check += F[k] - F[k];
-    }
+    const long double t10 = -p[2]*(t3 + t5*t9);
+    const long double t11 = sinl(y[1]);
+    const long double t12 = p[6]*t11;
+    const long double t13 = y[2]*y[2];
+    const long double t14 = t8*(p[2]*t13*t5 - t12);
+    F[0] = t10;
+    F[1] = t14;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t10 - t10) + (t14 - t14);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -487,8 +469,7 @@ int compound_forcing_batch_l(long n, const long double *restrict y, long y_strid
 int compound_energy(const double *restrict y, const double *restrict p, double *restrict E)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = p[2]*p[2];
     const double t1 = p[1]*t0;
     const double t2 = p[0]*t0;
@@ -502,15 +483,15 @@ int compound_energy(const double *restrict y, const double *restrict p, double *
     const double t10 = cos(t9);
     const double t11 = p[3]*t3;
     const double t12 = (1.0/2.0)*t11;
-    const double M01 = t10*t12;
-    const double t13 = M01*y[3];
-    const double t14 = cos(y[1]);
-    const double t15 = p[3]*t14;
-    const double t16 = cos(y[0]);
-    E[0] = -p[6]*(t15*t7 + t16*(p[2]*t5 + t3)) + t13*y[2] + t6*((1.0/2.0)*p[5] + (1.0/8.0)*t4) + t8*((1.0/2.0)*p[4] + (1.0/2.0)*t1 + (1.0/8.0)*t2);
-    for (k = 0; k < COMPOUND_ENERGY_E_SIZE; ++k) {
-        check += E[k] - E[k];
-    }
+    const double t13 = t10*t12;
+    const double t14 = t13*y[3];
+    const double t15 = cos(y[1]);
+    const double t16 = p[3]*t15;
+    const double t17 = cos(y[0]);
+    const double t18 = -p[6]*(t16*t7 + t17*(p[2]*t5 + t3)) + t14*y[2] + t6*((1.0/2.0)*p[5] + (1.0/8.0)*t4) + t8*((1.0/2.0)*p[4] + (1.0/2.0)*t1 + (1.0/8.0)*t2);
+    E[0] = t18;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t18 - t18);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -535,8 +516,7 @@ int compound_energy_batch(long n, const double *restrict y, long y_stride, const
 int compound_energy_f(const float *restrict y, const float *restrict p, float *restrict E)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = p[2]*p[2];
     const float t1 = p[1]*t0;
     const float t2 = p[0]*t0;
@@ -550,15 +530,15 @@ int compound_energy_f(const float *restrict y, const float *restrict p, float *r
     const float t10 = cosf(t9);
     const float t11 = p[3]*t3;
     const float t12 = (1.0F/2.0F)*t11;
-    const float M01 = t10*t12;
-    const float t13 = M01*y[3];
-    const float t14 = cosf(y[1]);
-    const float t15 = p[3]*t14;
-    const float t16 = cosf(y[0]);
-    E[0] = -p[6]*(t15*t7 + t16*(p[2]*t5 + t3)) + t13*y[2] + t6*((1.0F/2.0F)*p[5] + (1.0F/8.0F)*t4) + t8*((1.0F/2.0F)*p[4] + (1.0F/2.0F)*t1 + (1.0F/8.0F)*t2);
-    for (k = 0; k < COMPOUND_ENERGY_E_SIZE; ++k) {
-        check += E[k] - E[k];
-    }
+    const float t13 = t10*t12;
+    const float t14 = t13*y[3];
+    const float t15 = cosf(y[1]);
+    const float t16 = p[3]*t15;
+    const float t17 = cosf(y[0]);
+    const float t18 = -p[6]*(t16*t7 + t17*(p[2]*t5 + t3)) + t14*y[2] + t6*((1.0F/2.0F)*p[5] + (1.0F/8.0F)*t4) + t8*((1.0F/2.0F)*p[4] + (1.0F/2.0F)*t1 + (1.0F/8.0F)*t2);
+    E[0] = t18;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t18 - t18);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -583,8 +563,7 @@ int compound_energy_batch_f(long n, const float *restrict y, long y_stride, cons
 int compound_energy_l(const long double *restrict y, const long double *restrict p, long double *restrict E)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = p[2]*p[2];
     const long double t1 = p[1]*t0;
     const long double t2 = p[0]*t0;
@@ -598,15 +577,15 @@ int compound_energy_l(const long double *restrict y, const long double *restrict
     const long double t10 = cosl(t9);
     const long double t11 = p[3]*t3;
     const long double t12 = (1.0L/2.0L)*t11;
-    const long double M01 = t10*t12;
-    const long double t13 = M01*y[3];
-    const long double t14 = cosl(y[1]);
-    const long double t15 = p[3]*t14;
-    const long double t16 = cosl(y[0]);
-    E[0] = -p[6]*(t15*t7 + t16*(p[2]*t5 + t3)) + t13*y[2] + t6*((1.0L/2.0L)*p[5] + (1.0L/8.0L)*t4) + t8*((1.0L/2.0L)*p[4] + (1.0L/2.0L)*t1 + (1.0L/8.0L)*t2);
-    for (k = 0; k < COMPOUND_ENERGY_E_SIZE; ++k) {
-        check += E[k] - E[k];
-    }
+    const long double t13 = t10*t12;
+    const long double t14 = t13*y[3];
+    const long double t15 = cosl(y[1]);
+    const long double t16 = p[3]*t15;
+    const long double t17 = cosl(y[0]);
+    const long double t18 = -p[6]*(t16*t7 + t17*(p[2]*t5 + t3)) + t14*y[2] + t6*((1.0L/2.0L)*p[5] + (1.0L/8.0L)*t4) + t8*((1.0L/2.0L)*p[4] + (1.0L/2.0L)*t1 + (1.0L/8.0L)*t2);
+    E[0] = t18;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t18 - t18);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -631,8 +610,7 @@ int compound_energy_batch_l(long n, const long double *restrict y, long y_stride
 int compound_positions(const double *restrict y, const double *restrict p, double *restrict pos)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = p[2]*t0;
     const double t2 = cos(y[0]);
@@ -640,13 +618,15 @@ int compound_positions(const double *restrict y, const double *restrict p, doubl
     const double t4 = sin(y[1]);
     const double t5 = cos(y[1]);
     const double t6 = p[3]*t5;
+    const double t7 = -t3;
+    const double t8 = p[3]*t4 + t1;
+    const double t9 = -t3 - t6;
     pos[0] = t1;
-    pos[1] = -t3;
-    pos[2] = p[3]*t4 + t1;
-    pos[3] = -t3 - t6;
-    for (k = 0; k < COMPOUND_POSITIONS_POS_SIZE; ++k) {
-        check += pos[k] - pos[k];
-    }
+    pos[1] = t7;
+    pos[2] = t8;
+    pos[3] = t9;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t1 - t1) + (t7 - t7) + (t8 - t8) + (t9 - t9);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -671,8 +651,7 @@ int compound_positions_batch(long n, const double *restrict y, long y_stride, co
 int compound_positions_f(const float *restrict y, const float *restrict p, float *restrict pos)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = p[2]*t0;
     const float t2 = cosf(y[0]);
@@ -680,13 +659,15 @@ int compound_positions_f(const float *restrict y, const float *restrict p, float
     const float t4 = sinf(y[1]);
     const float t5 = cosf(y[1]);
     const float t6 = p[3]*t5;
+    const float t7 = -t3;
+    const float t8 = p[3]*t4 + t1;
+    const float t9 = -t3 - t6;
     pos[0] = t1;
-    pos[1] = -t3;
-    pos[2] = p[3]*t4 + t1;
-    pos[3] = -t3 - t6;
-    for (k = 0; k < COMPOUND_POSITIONS_POS_SIZE; ++k) {
-        check += pos[k] - pos[k];
-    }
+    pos[1] = t7;
+    pos[2] = t8;
+    pos[3] = t9;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t1 - t1) + (t7 - t7) + (t8 - t8) + (t9 - t9);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -711,8 +692,7 @@ int compound_positions_batch_f(long n, const float *restrict y, long y_stride, c
 int compound_positions_l(const long double *restrict y, const long double *restrict p, long double *restrict pos)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = p[2]*t0;
     const long double t2 = cosl(y[0]);
@@ -720,13 +700,15 @@ int compound_positions_l(const long double *restrict y, const long double *restr
     const long double t4 = sinl(y[1]);
     const long double t5 = cosl(y[1]);
     const long double t6 = p[3]*t5;
+    const long double t7 = -t3;
+    const long double t8 = p[3]*t4 + t1;
+    const long double t9 = -t3 - t6;
     pos[0] = t1;
-    pos[1] = -t3;
-    pos[2] = p[3]*t4 + t1;
-    pos[3] = -t3 - t6;
-    for (k = 0; k < COMPOUND_POSITIONS_POS_SIZE; ++k) {
-        check += pos[k] - pos[k];
-    }
+    pos[1] = t7;
+    pos[2] = t8;
+    pos[3] = t9;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t1 - t1) + (t7 - t7) + (t8 - t8) + (t9 - t9);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -751,19 +733,18 @@ int compound_positions_batch_l(long n, const long double *restrict y, long y_str
 int compound_jacobian(const double *restrict y, const double *restrict p, double *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = y[0] - y[1];
     const double t1 = cos(t0);
     const double t2 = p[2]*p[1];
     const double t3 = p[3]*t2;
     const double t4 = (1.0/2.0)*t3;
     const double M01 = t1*t4;
-    const double t5 = p[3]*p[3]*p[1];
-    const double M11 = p[5] + (1.0/4.0)*t5;
-    const double t6 = y[2]*y[2];
-    const double t7 = sin(t0);
-    const double t8 = t4*t7;
+    const double t5 = y[2]*y[2];
+    const double t6 = sin(t0);
+    const double t7 = t4*t6;
+    const double t8 = p[3]*p[3]*p[1];
+    const double M11 = p[5] + (1.0/4.0)*t8;
     const double t9 = sin(y[0]);
     const double t10 = (1.0/2.0)*p[0];
     const double t11 = p[6]*p[1] + p[6]*t10;
@@ -772,10 +753,10 @@ int compound_jacobian(const double *restrict y, const double *restrict p, double
     const double t14 = (1.0/2.0)*p[1];
     const double t15 = p[3]*t14;
     const double t16 = t13*t15;
-    const double F0 = -p[2]*(t12 + t16*t7);
+    const double F0 = -p[2]*(t12 + t16*t6);
     const double t17 = sin(y[1]);
     const double t18 = p[6]*t17;
-    const double F1 = t15*(p[2]*t6*t7 - t18);
+    const double F1 = t15*(p[2]*t5*t6 - t18);
     const double t19 = p[2]*p[2];
     const double t20 = p[1]*t19;
     const double t21 = p[0]*t19;
@@ -783,23 +764,31 @@ int compound_jacobian(const double *restrict y, const double *restrict p, double
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double qdd0 = rdet*(F0*M11 - F1*M01);
-    const double t22 = qdd0*t8;
-    const double t23 = M01*t6 + t22;
+    const double t22 = qdd0*t7;
+    const double t23 = M01*t5 + t22;
     const double qdd1 = rdet*(-F0*M01 + F1*M00);
-    const double t24 = qdd1*t8;
+    const double t24 = qdd1*t7;
     const double t25 = cos(y[0]);
     const double t26 = t11*t25;
     const double t27 = -p[2]*(t1*t16 + t26) + t24;
     const double t28 = (1.0/2.0)*p[2]*p[3]*p[1]*t1*t13 - t24;
     const double t29 = cos(y[1]);
     const double t30 = p[6]*t29;
-    const double t31 = (1.0/2.0)*p[3]*p[1]*(-p[2]*t1*t6 - t30) - t22;
+    const double t31 = (1.0/2.0)*p[3]*p[1]*(-p[2]*t1*t5 - t30) - t22;
     const double t32 = M01*rdet;
-    const double t33 = t3*t7;
+    const double t33 = t3*t6;
     const double t34 = t33*y[2];
-    const double dv0_2 = M11*rdet;
-    const double t35 = t33*y[3];
-    const double dv1_3 = M00*rdet;
+    const double t35 = M11*rdet;
+    const double t36 = t33*y[3];
+    const double t37 = M00*rdet;
+    const double t38 = rdet*(-M01*t23 + M11*t27);
+    const double t39 = rdet*(-M01*t31 + M11*t28);
+    const double t40 = -t32*t34;
+    const double t41 = -t35*t36;
+    const double t42 = rdet*(M00*t23 - M01*t27);
+    const double t43 = rdet*(M00*t31 - M01*t28);
+    const double t44 = t34*t37;
+    const double t45 = t32*t36;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -808,17 +797,17 @@ int compound_jacobian(const double *restrict y, const double *restrict p, double
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = rdet*(-M01*t23 + M11*t27);
-    J[9] = rdet*(-M01*t31 + M11*t28);
-    J[10] = -t32*t34;
-    J[11] = -dv0_2*t35;
-    J[12] = rdet*(M00*t23 - M01*t27);
-    J[13] = rdet*(M00*t31 - M01*t28);
-    J[14] = dv1_3*t34;
-    J[15] = t32*t35;
-    for (k = 0; k < COMPOUND_JACOBIAN_J_SIZE; ++k) {
-        check += J[k] - J[k];
-    }
+    J[8] = t38;
+    J[9] = t39;
+    J[10] = t40;
+    J[11] = t41;
+    J[12] = t42;
+    J[13] = t43;
+    J[14] = t44;
+    J[15] = t45;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t38 - t38) + (t39 - t39) + (t40 - t40) + (t41 - t41) + (t42 - t42) + (t43 - t43) +
+        (t44 - t44) + (t45 - t45);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -843,19 +832,18 @@ int compound_jacobian_batch(long n, const double *restrict y, long y_stride, con
 int compound_jacobian_f(const float *restrict y, const float *restrict p, float *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = y[0] - y[1];
     const float t1 = cosf(t0);
     const float t2 = p[2]*p[1];
     const float t3 = p[3]*t2;
     const float t4 = (1.0F/2.0F)*t3;
     const float M01 = t1*t4;
-    const float t5 = p[3]*p[3]*p[1];
-    const float M11 = p[5] + (1.0F/4.0F)*t5;
-    const float t6 = y[2]*y[2];
-    const float t7 = sinf(t0);
-    const float t8 = t4*t7;
+    const float t5 = y[2]*y[2];
+    const float t6 = sinf(t0);
+    const float t7 = t4*t6;
+    const float t8 = p[3]*p[3]*p[1];
+    const float M11 = p[5] + (1.0F/4.0F)*t8;
     const float t9 = sinf(y[0]);
     const float t10 = (1.0F/2.0F)*p[0];
     const float t11 = p[6]*p[1] + p[6]*t10;
@@ -864,10 +852,10 @@ int compound_jacobian_f(const float *restrict y, const float *restrict p, float 
     const float t14 = (1.0F/2.0F)*p[1];
     const float t15 = p[3]*t14;
     const float t16 = t13*t15;
-    const float F0 = -p[2]*(t12 + t16*t7);
+    const float F0 = -p[2]*(t12 + t16*t6);
     const float t17 = sinf(y[1]);
     const float t18 = p[6]*t17;
-    const float F1 = t15*(p[2]*t6*t7 - t18);
+    const float F1 = t15*(p[2]*t5*t6 - t18);
     const float t19 = p[2]*p[2];
     const float t20 = p[1]*t19;
     const float t21 = p[0]*t19;
@@ -875,23 +863,31 @@ int compound_jacobian_f(const float *restrict y, const float *restrict p, float 
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float qdd0 = rdet*(F0*M11 - F1*M01);
-    const float t22 = qdd0*t8;
-    const float t23 = M01*t6 + t22;
+    const float t22 = qdd0*t7;
+    const float t23 = M01*t5 + t22;
     const float qdd1 = rdet*(-F0*M01 + F1*M00);
-    const float t24 = qdd1*t8;
+    const float t24 = qdd1*t7;
     const float t25 = cosf(y[0]);
     const float t26 = t11*t25;
     const float t27 = -p[2]*(t1*t16 + t26) + t24;
     const float t28 = (1.0F/2.0F)*p[2]*p[3]*p[1]*t1*t13 - t24;
     const float t29 = cosf(y[1]);
     const float t30 = p[6]*t29;
-    const float t31 = (1.0F/2.0F)*p[3]*p[1]*(-p[2]*t1*t6 - t30) - t22;
+    const float t31 = (1.0F/2.0F)*p[3]*p[1]*(-p[2]*t1*t5 - t30) - t22;
     const float t32 = M01*rdet;
-    const float t33 = t3*t7;
+    const float t33 = t3*t6;
     const float t34 = t33*y[2];
-    const float dv0_2 = M11*rdet;
-    const float t35 = t33*y[3];
-    const float dv1_3 = M00*rdet;
+    const float t35 = M11*rdet;
+    const float t36 = t33*y[3];
+    const float t37 = M00*rdet;
+    const float t38 = rdet*(-M01*t23 + M11*t27);
+    const float t39 = rdet*(-M01*t31 + M11*t28);
+    const float t40 = -t32*t34;
+    const float t41 = -t35*t36;
+    const float t42 = rdet*(M00*t23 - M01*t27);
+    const float t43 = rdet*(M00*t31 - M01*t28);
+    const float t44 = t34*t37;
+    const float t45 = t32*t36;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -900,17 +896,17 @@ int compound_jacobian_f(const float *restrict y, const float *restrict p, float 
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = rdet*(-M01*t23 + M11*t27);
-    J[9] = rdet*(-M01*t31 + M11*t28);
-    J[10] = -t32*t34;
-    J[11] = -dv0_2*t35;
-    J[12] = rdet*(M00*t23 - M01*t27);
-    J[13] = rdet*(M00*t31 - M01*t28);
-    J[14] = dv1_3*t34;
-    J[15] = t32*t35;
-    for (k = 0; k < COMPOUND_JACOBIAN_J_SIZE; ++k) {
-        check += J[k] - J[k];
-    }
+    J[8] = t38;
+    J[9] = t39;
+    J[10] = t40;
+    J[11] = t41;
+    J[12] = t42;
+    J[13] = t43;
+    J[14] = t44;
+    J[15] = t45;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t38 - t38) + (t39 - t39) + (t40 - t40) + (t41 - t41) + (t42 - t42) + (t43 - t43) +
+        (t44 - t44) + (t45 - t45);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -935,19 +931,18 @@ int compound_jacobian_batch_f(long n, const float *restrict y, long y_stride, co
 int compound_jacobian_l(const long double *restrict y, const long double *restrict p, long double *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = y[0] - y[1];
     const long double t1 = cosl(t0);
     const long double t2 = p[2]*p[1];
     const long double t3 = p[3]*t2;
     const long double t4 = (1.0L/2.0L)*t3;
     const long double M01 = t1*t4;
-    const long double t5 = p[3]*p[3]*p[1];
-    const long double M11 = p[5] + (1.0L/4.0L)*t5;
-    const long double t6 = y[2]*y[2];
-    const long double t7 = sinl(t0);
-    const long double t8 = t4*t7;
+    const long double t5 = y[2]*y[2];
+    const long double t6 = sinl(t0);
+    const long double t7 = t4*t6;
+    const long double t8 = p[3]*p[3]*p[1];
+    const long double M11 = p[5] + (1.0L/4.0L)*t8;
     const long double t9 = sinl(y[0]);
     const long double t10 = (1.0L/2.0L)*p[0];
     const long double t11 = p[6]*p[1] + p[6]*t10;
@@ -956,10 +951,10 @@ int compound_jacobian_l(const long double *restrict y, const long double *restri
     const long double t14 = (1.0L/2.0L)*p[1];
     const long double t15 = p[3]*t14;
     const long double t16 = t13*t15;
-    const long double F0 = -p[2]*(t12 + t16*t7);
+    const long double F0 = -p[2]*(t12 + t16*t6);
     const long double t17 = sinl(y[1]);
     const long double t18 = p[6]*t17;
-    const long double F1 = t15*(p[2]*t6*t7 - t18);
+    const long double F1 = t15*(p[2]*t5*t6 - t18);
     const long double t19 = p[2]*p[2];
     const long double t20 = p[1]*t19;
     const long double t21 = p[0]*t19;
@@ -967,23 +962,31 @@ int compound_jacobian_l(const long double *restrict y, const long double *restri
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double qdd0 = rdet*(F0*M11 - F1*M01);
-    const long double t22 = qdd0*t8;
-    const long double t23 = M01*t6 + t22;
+    const long double t22 = qdd0*t7;
+    const long double t23 = M01*t5 + t22;
     const long double qdd1 = rdet*(-F0*M01 + F1*M00);
-    const long double t24 = qdd1*t8;
+    const long double t24 = qdd1*t7;
     const long double t25 = cosl(y[0]);
     const long double t26 = t11*t25;
     const long double t27 = -p[2]*(t1*t16 + t26) + t24;
     const long double t28 = (1.0L/2.0L)*p[2]*p[3]*p[1]*t1*t13 - t24;
     const long double t29 = cosl(y[1]);
     const long double t30 = p[6]*t29;
-    const long double t31 = (1.0L/2.0L)*p[3]*p[1]*(-p[2]*t1*t6 - t30) - t22;
+    const long double t31 = (1.0L/2.0L)*p[3]*p[1]*(-p[2]*t1*t5 - t30) - t22;
     const long double t32 = M01*rdet;
-    const long double t33 = t3*t7;
+    const long double t33 = t3*t6;
     const long double t34 = t33*y[2];
-    const long double dv0_2 = M11*rdet;
-    const long double t35 = t33*y[3];
-    const long double dv1_3 = M00*rdet;
+    const long double t35 = M11*rdet;
+    const long double t36 = t33*y[3];
+    const long double t37 = M00*rdet;
+    const long double t38 = rdet*(-M01*t23 + M11*t27);
+    const long double t39 = rdet*(-M01*t31 + M11*t28);
+    const long double t40 = -t32*t34;
+    const long double t41 = -t35*t36;
+    const long double t42 = rdet*(M00*t23 - M01*t27);
+    const long double t43 = rdet*(M00*t31 - M01*t28);
+    const long double t44 = t34*t37;
+    const long double t45 = t32*t36;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -992,17 +995,17 @@ int compound_jacobian_l(const long double *restrict y, const long double *restri
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = rdet*(-M01*t23 + M11*t27);
-    J[9] = rdet*(-M01*t31 + M11*t28);
-    J[10] = -t32*t34;
-    J[11] = -dv0_2*t35;
-    J[12] = rdet*(M00*t23 - M01*t27);
-    J[13] = rdet*(M00*t31 - M01*t28);
-    J[14] = dv1_3*t34;
-    J[15] = t32*t35;
-    for (k = 0; k < COMPOUND_JACOBIAN_J_SIZE; ++k) {
-        check += J[k] - J[k];
-    }
+    J[8] = t38;
+    J[9] = t39;
+    J[10] = t40;
+    J[11] = t41;
+    J[12] = t42;
+    J[13] = t43;
+    J[14] = t44;
+    J[15] = t45;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t38 - t38) + (t39 - t39) + (t40 - t40) + (t41 - t41) + (t42 - t42) + (t43 - t43) +
+        (t44 - t44) + (t45 - t45);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1027,8 +1030,7 @@ int compound_jacobian_batch_l(long n, const long double *restrict y, long y_stri
 int compound_hamiltonian_rhs(const double *restrict x, const double *restrict p, double *restrict xdot)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = x[0] - x[1];
     const double t1 = cos(t0);
     const double t2 = p[2]*p[1];
@@ -1056,13 +1058,14 @@ int compound_hamiltonian_rhs(const double *restrict x, const double *restrict p,
     const double t17 = t15*t16;
     const double t18 = sin(x[1]);
     const double t19 = p[6]*t18;
+    const double t20 = -p[2]*(t12 + t13*t17);
+    const double t21 = t15*(p[2]*t13*v0*v1 - t19);
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = -p[2]*(t12 + t13*t17);
-    xdot[3] = t15*(p[2]*t13*v0*v1 - t19);
-    for (k = 0; k < COMPOUND_HAMILTONIAN_RHS_XDOT_SIZE; ++k) {
-        check += xdot[k] - xdot[k];
-    }
+    xdot[2] = t20;
+    xdot[3] = t21;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (v0 - v0) + (v1 - v1) + (t20 - t20) + (t21 - t21);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1087,8 +1090,7 @@ int compound_hamiltonian_rhs_batch(long n, const double *restrict x, long x_stri
 int compound_hamiltonian_rhs_f(const float *restrict x, const float *restrict p, float *restrict xdot)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = x[0] - x[1];
     const float t1 = cosf(t0);
     const float t2 = p[2]*p[1];
@@ -1116,13 +1118,14 @@ int compound_hamiltonian_rhs_f(const float *restrict x, const float *restrict p,
     const float t17 = t15*t16;
     const float t18 = sinf(x[1]);
     const float t19 = p[6]*t18;
+    const float t20 = -p[2]*(t12 + t13*t17);
+    const float t21 = t15*(p[2]*t13*v0*v1 - t19);
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = -p[2]*(t12 + t13*t17);
-    xdot[3] = t15*(p[2]*t13*v0*v1 - t19);
-    for (k = 0; k < COMPOUND_HAMILTONIAN_RHS_XDOT_SIZE; ++k) {
-        check += xdot[k] - xdot[k];
-    }
+    xdot[2] = t20;
+    xdot[3] = t21;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (v0 - v0) + (v1 - v1) + (t20 - t20) + (t21 - t21);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1147,8 +1150,7 @@ int compound_hamiltonian_rhs_batch_f(long n, const float *restrict x, long x_str
 int compound_hamiltonian_rhs_l(const long double *restrict x, const long double *restrict p, long double *restrict xdot)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = x[0] - x[1];
     const long double t1 = cosl(t0);
     const long double t2 = p[2]*p[1];
@@ -1176,13 +1178,14 @@ int compound_hamiltonian_rhs_l(const long double *restrict x, const long double 
     const long double t17 = t15*t16;
     const long double t18 = sinl(x[1]);
     const long double t19 = p[6]*t18;
+    const long double t20 = -p[2]*(t12 + t13*t17);
+    const long double t21 = t15*(p[2]*t13*v0*v1 - t19);
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = -p[2]*(t12 + t13*t17);
-    xdot[3] = t15*(p[2]*t13*v0*v1 - t19);
-    for (k = 0; k < COMPOUND_HAMILTONIAN_RHS_XDOT_SIZE; ++k) {
-        check += xdot[k] - xdot[k];
-    }
+    xdot[2] = t20;
+    xdot[3] = t21;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (v0 - v0) + (v1 - v1) + (t20 - t20) + (t21 - t21);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1207,18 +1210,17 @@ int compound_hamiltonian_rhs_batch_l(long n, const long double *restrict x, long
 int compound_hamiltonian_jacobian(const double *restrict x, const double *restrict p, double *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = x[0] - x[1];
-    const double t1 = cos(t0);
+    const double t1 = sin(t0);
     const double t2 = p[2]*p[1];
     const double t3 = p[3]*t2;
     const double t4 = (1.0/2.0)*t3;
-    const double M01 = t1*t4;
-    const double t5 = p[3]*p[3]*p[1];
-    const double M11 = p[5] + (1.0/4.0)*t5;
-    const double t6 = sin(t0);
-    const double t7 = t4*t6;
+    const double t5 = t1*t4;
+    const double t6 = cos(t0);
+    const double M01 = t4*t6;
+    const double t7 = p[3]*p[3]*p[1];
+    const double M11 = p[5] + (1.0/4.0)*t7;
     const double t8 = p[2]*p[2];
     const double t9 = p[1]*t8;
     const double t10 = p[0]*t8;
@@ -1226,19 +1228,19 @@ int compound_hamiltonian_jacobian(const double *restrict x, const double *restri
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double v0 = rdet*(-M01*x[3] + M11*x[2]);
-    const double t11 = t7*v0;
+    const double t11 = t5*v0;
     const double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const double t12 = M01*t11 - 1.0/2.0*M11*p[2]*p[3]*p[1]*t6*v1;
+    const double t12 = M01*t11 - 1.0/2.0*M11*p[2]*p[3]*p[1]*t1*v1;
     const double dv0_0 = -rdet*t12;
     const double dv0_1 = rdet*t12;
     const double dv0_2 = M11*rdet;
     const double t13 = M01*rdet;
-    const double dv1_2 = -t13;
-    const double dv0_3 = dv1_2;
-    const double t14 = t7*v1;
+    const double dv0_3 = -t13;
+    const double t14 = t5*v1;
     const double t15 = M00*t11 - M01*t14;
     const double dv1_0 = rdet*t15;
     const double dv1_1 = -rdet*t15;
+    const double dv1_2 = dv0_3;
     const double dv1_3 = M00*rdet;
     const double t16 = (1.0/2.0)*p[0];
     const double t17 = p[6]*p[1] + p[6]*t16;
@@ -1254,6 +1256,12 @@ int compound_hamiltonian_jacobian(const double *restrict x, const double *restri
     const double t27 = dv0_3*t14 + dv1_3*t11;
     const double t28 = cos(x[1]);
     const double t29 = p[6]*t28;
+    const double t30 = -p[2]*(t19 + t23*t6) - t24;
+    const double t31 = (1.0/2.0)*p[2]*p[3]*p[1]*t6*v0*v1 - t25;
+    const double t32 = -t26;
+    const double t33 = -t27;
+    const double t34 = M01*t22 + t24;
+    const double t35 = t21*(-p[2]*t22*t6 - t29) + t25;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1262,17 +1270,19 @@ int compound_hamiltonian_jacobian(const double *restrict x, const double *restri
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = -p[2]*(t1*t23 + t19) - t24;
-    J[9] = (1.0/2.0)*p[2]*p[3]*p[1]*t1*v0*v1 - t25;
-    J[10] = -t26;
-    J[11] = -t27;
-    J[12] = M01*t22 + t24;
-    J[13] = t21*(-p[2]*t1*t22 - t29) + t25;
+    J[8] = t30;
+    J[9] = t31;
+    J[10] = t32;
+    J[11] = t33;
+    J[12] = t34;
+    J[13] = t35;
     J[14] = t26;
     J[15] = t27;
-    for (k = 0; k < COMPOUND_HAMILTONIAN_JACOBIAN_J_SIZE; ++k) {
-        check += J[k] - J[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) + (dv1_0 -
+        dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t30 - t30) + (t31 -
+        t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t26 - t26) + (t27 -
+        t27);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1297,18 +1307,17 @@ int compound_hamiltonian_jacobian_batch(long n, const double *restrict x, long x
 int compound_hamiltonian_jacobian_f(const float *restrict x, const float *restrict p, float *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = x[0] - x[1];
-    const float t1 = cosf(t0);
+    const float t1 = sinf(t0);
     const float t2 = p[2]*p[1];
     const float t3 = p[3]*t2;
     const float t4 = (1.0F/2.0F)*t3;
-    const float M01 = t1*t4;
-    const float t5 = p[3]*p[3]*p[1];
-    const float M11 = p[5] + (1.0F/4.0F)*t5;
-    const float t6 = sinf(t0);
-    const float t7 = t4*t6;
+    const float t5 = t1*t4;
+    const float t6 = cosf(t0);
+    const float M01 = t4*t6;
+    const float t7 = p[3]*p[3]*p[1];
+    const float M11 = p[5] + (1.0F/4.0F)*t7;
     const float t8 = p[2]*p[2];
     const float t9 = p[1]*t8;
     const float t10 = p[0]*t8;
@@ -1316,19 +1325,19 @@ int compound_hamiltonian_jacobian_f(const float *restrict x, const float *restri
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float v0 = rdet*(-M01*x[3] + M11*x[2]);
-    const float t11 = t7*v0;
+    const float t11 = t5*v0;
     const float v1 = rdet*(M00*x[3] - M01*x[2]);
-    const float t12 = M01*t11 - 1.0F/2.0F*M11*p[2]*p[3]*p[1]*t6*v1;
+    const float t12 = M01*t11 - 1.0F/2.0F*M11*p[2]*p[3]*p[1]*t1*v1;
     const float dv0_0 = -rdet*t12;
     const float dv0_1 = rdet*t12;
     const float dv0_2 = M11*rdet;
     const float t13 = M01*rdet;
-    const float dv1_2 = -t13;
-    const float dv0_3 = dv1_2;
-    const float t14 = t7*v1;
+    const float dv0_3 = -t13;
+    const float t14 = t5*v1;
     const float t15 = M00*t11 - M01*t14;
     const float dv1_0 = rdet*t15;
     const float dv1_1 = -rdet*t15;
+    const float dv1_2 = dv0_3;
     const float dv1_3 = M00*rdet;
     const float t16 = (1.0F/2.0F)*p[0];
     const float t17 = p[6]*p[1] + p[6]*t16;
@@ -1344,6 +1353,12 @@ int compound_hamiltonian_jacobian_f(const float *restrict x, const float *restri
     const float t27 = dv0_3*t14 + dv1_3*t11;
     const float t28 = cosf(x[1]);
     const float t29 = p[6]*t28;
+    const float t30 = -p[2]*(t19 + t23*t6) - t24;
+    const float t31 = (1.0F/2.0F)*p[2]*p[3]*p[1]*t6*v0*v1 - t25;
+    const float t32 = -t26;
+    const float t33 = -t27;
+    const float t34 = M01*t22 + t24;
+    const float t35 = t21*(-p[2]*t22*t6 - t29) + t25;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1352,17 +1367,19 @@ int compound_hamiltonian_jacobian_f(const float *restrict x, const float *restri
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = -p[2]*(t1*t23 + t19) - t24;
-    J[9] = (1.0F/2.0F)*p[2]*p[3]*p[1]*t1*v0*v1 - t25;
-    J[10] = -t26;
-    J[11] = -t27;
-    J[12] = M01*t22 + t24;
-    J[13] = t21*(-p[2]*t1*t22 - t29) + t25;
+    J[8] = t30;
+    J[9] = t31;
+    J[10] = t32;
+    J[11] = t33;
+    J[12] = t34;
+    J[13] = t35;
     J[14] = t26;
     J[15] = t27;
-    for (k = 0; k < COMPOUND_HAMILTONIAN_JACOBIAN_J_SIZE; ++k) {
-        check += J[k] - J[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) + (dv1_0 -
+        dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t30 - t30) + (t31 -
+        t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t26 - t26) + (t27 -
+        t27);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1387,18 +1404,17 @@ int compound_hamiltonian_jacobian_batch_f(long n, const float *restrict x, long 
 int compound_hamiltonian_jacobian_l(const long double *restrict x, const long double *restrict p, long double *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = x[0] - x[1];
-    const long double t1 = cosl(t0);
+    const long double t1 = sinl(t0);
     const long double t2 = p[2]*p[1];
     const long double t3 = p[3]*t2;
     const long double t4 = (1.0L/2.0L)*t3;
-    const long double M01 = t1*t4;
-    const long double t5 = p[3]*p[3]*p[1];
-    const long double M11 = p[5] + (1.0L/4.0L)*t5;
-    const long double t6 = sinl(t0);
-    const long double t7 = t4*t6;
+    const long double t5 = t1*t4;
+    const long double t6 = cosl(t0);
+    const long double M01 = t4*t6;
+    const long double t7 = p[3]*p[3]*p[1];
+    const long double M11 = p[5] + (1.0L/4.0L)*t7;
     const long double t8 = p[2]*p[2];
     const long double t9 = p[1]*t8;
     const long double t10 = p[0]*t8;
@@ -1406,19 +1422,19 @@ int compound_hamiltonian_jacobian_l(const long double *restrict x, const long do
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double v0 = rdet*(-M01*x[3] + M11*x[2]);
-    const long double t11 = t7*v0;
+    const long double t11 = t5*v0;
     const long double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const long double t12 = M01*t11 - 1.0L/2.0L*M11*p[2]*p[3]*p[1]*t6*v1;
+    const long double t12 = M01*t11 - 1.0L/2.0L*M11*p[2]*p[3]*p[1]*t1*v1;
     const long double dv0_0 = -rdet*t12;
     const long double dv0_1 = rdet*t12;
     const long double dv0_2 = M11*rdet;
     const long double t13 = M01*rdet;
-    const long double dv1_2 = -t13;
-    const long double dv0_3 = dv1_2;
-    const long double t14 = t7*v1;
+    const long double dv0_3 = -t13;
+    const long double t14 = t5*v1;
     const long double t15 = M00*t11 - M01*t14;
     const long double dv1_0 = rdet*t15;
     const long double dv1_1 = -rdet*t15;
+    const long double dv1_2 = dv0_3;
     const long double dv1_3 = M00*rdet;
     const long double t16 = (1.0L/2.0L)*p[0];
     const long double t17 = p[6]*p[1] + p[6]*t16;
@@ -1434,6 +1450,12 @@ int compound_hamiltonian_jacobian_l(const long double *restrict x, const long do
     const long double t27 = dv0_3*t14 + dv1_3*t11;
     const long double t28 = cosl(x[1]);
     const long double t29 = p[6]*t28;
+    const long double t30 = -p[2]*(t19 + t23*t6) - t24;
+    const long double t31 = (1.0L/2.0L)*p[2]*p[3]*p[1]*t6*v0*v1 - t25;
+    const long double t32 = -t26;
+    const long double t33 = -t27;
+    const long double t34 = M01*t22 + t24;
+    const long double t35 = t21*(-p[2]*t22*t6 - t29) + t25;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1442,17 +1464,19 @@ int compound_hamiltonian_jacobian_l(const long double *restrict x, const long do
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = -p[2]*(t1*t23 + t19) - t24;
-    J[9] = (1.0L/2.0L)*p[2]*p[3]*p[1]*t1*v0*v1 - t25;
-    J[10] = -t26;
-    J[11] = -t27;
-    J[12] = M01*t22 + t24;
-    J[13] = t21*(-p[2]*t1*t22 - t29) + t25;
+    J[8] = t30;
+    J[9] = t31;
+    J[10] = t32;
+    J[11] = t33;
+    J[12] = t34;
+    J[13] = t35;
     J[14] = t26;
     J[15] = t27;
-    for (k = 0; k < COMPOUND_HAMILTONIAN_JACOBIAN_J_SIZE; ++k) {
-        check += J[k] - J[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) + (dv1_0 -
+        dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t30 - t30) + (t31 -
+        t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t26 - t26) + (t27 -
+        t27);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1477,28 +1501,28 @@ int compound_hamiltonian_jacobian_batch_l(long n, const long double *restrict x,
 int compound_to_canonical(const double *restrict y, const double *restrict p, double *restrict x)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = p[2]*p[2];
     const double t1 = p[1]*t0;
     const double t2 = p[0]*t0;
-    const double M00 = p[4] + t1 + (1.0/4.0)*t2;
-    const double t3 = y[0] - y[1];
-    const double t4 = cos(t3);
-    const double t5 = p[2]*p[1];
-    const double t6 = p[3]*t5;
-    const double t7 = (1.0/2.0)*t6;
-    const double M01 = t4*t7;
-    const double t8 = M01*y[3];
-    const double t9 = p[3]*p[3]*p[1];
-    const double M11 = p[5] + (1.0/4.0)*t9;
+    const double t3 = p[4] + t1 + (1.0/4.0)*t2;
+    const double t4 = y[0] - y[1];
+    const double t5 = cos(t4);
+    const double t6 = p[2]*p[1];
+    const double t7 = p[3]*t6;
+    const double t8 = (1.0/2.0)*t7;
+    const double t9 = t5*t8;
+    const double t10 = t9*y[3];
+    const double t11 = p[3]*p[3]*p[1];
+    const double t12 = p[5] + (1.0/4.0)*t11;
+    const double t13 = t10 + t3*y[2];
+    const double t14 = t12*y[3] + t9*y[2];
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = M00*y[2] + t8;
-    x[3] = M01*y[2] + M11*y[3];
-    for (k = 0; k < COMPOUND_TO_CANONICAL_X_SIZE; ++k) {
-        check += x[k] - x[k];
-    }
+    x[2] = t13;
+    x[3] = t14;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[0] - y[0]) + (y[1] - y[1]) + (t13 - t13) + (t14 - t14);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1523,28 +1547,28 @@ int compound_to_canonical_batch(long n, const double *restrict y, long y_stride,
 int compound_to_canonical_f(const float *restrict y, const float *restrict p, float *restrict x)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = p[2]*p[2];
     const float t1 = p[1]*t0;
     const float t2 = p[0]*t0;
-    const float M00 = p[4] + t1 + (1.0F/4.0F)*t2;
-    const float t3 = y[0] - y[1];
-    const float t4 = cosf(t3);
-    const float t5 = p[2]*p[1];
-    const float t6 = p[3]*t5;
-    const float t7 = (1.0F/2.0F)*t6;
-    const float M01 = t4*t7;
-    const float t8 = M01*y[3];
-    const float t9 = p[3]*p[3]*p[1];
-    const float M11 = p[5] + (1.0F/4.0F)*t9;
+    const float t3 = p[4] + t1 + (1.0F/4.0F)*t2;
+    const float t4 = y[0] - y[1];
+    const float t5 = cosf(t4);
+    const float t6 = p[2]*p[1];
+    const float t7 = p[3]*t6;
+    const float t8 = (1.0F/2.0F)*t7;
+    const float t9 = t5*t8;
+    const float t10 = t9*y[3];
+    const float t11 = p[3]*p[3]*p[1];
+    const float t12 = p[5] + (1.0F/4.0F)*t11;
+    const float t13 = t10 + t3*y[2];
+    const float t14 = t12*y[3] + t9*y[2];
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = M00*y[2] + t8;
-    x[3] = M01*y[2] + M11*y[3];
-    for (k = 0; k < COMPOUND_TO_CANONICAL_X_SIZE; ++k) {
-        check += x[k] - x[k];
-    }
+    x[2] = t13;
+    x[3] = t14;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[0] - y[0]) + (y[1] - y[1]) + (t13 - t13) + (t14 - t14);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1569,28 +1593,28 @@ int compound_to_canonical_batch_f(long n, const float *restrict y, long y_stride
 int compound_to_canonical_l(const long double *restrict y, const long double *restrict p, long double *restrict x)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = p[2]*p[2];
     const long double t1 = p[1]*t0;
     const long double t2 = p[0]*t0;
-    const long double M00 = p[4] + t1 + (1.0L/4.0L)*t2;
-    const long double t3 = y[0] - y[1];
-    const long double t4 = cosl(t3);
-    const long double t5 = p[2]*p[1];
-    const long double t6 = p[3]*t5;
-    const long double t7 = (1.0L/2.0L)*t6;
-    const long double M01 = t4*t7;
-    const long double t8 = M01*y[3];
-    const long double t9 = p[3]*p[3]*p[1];
-    const long double M11 = p[5] + (1.0L/4.0L)*t9;
+    const long double t3 = p[4] + t1 + (1.0L/4.0L)*t2;
+    const long double t4 = y[0] - y[1];
+    const long double t5 = cosl(t4);
+    const long double t6 = p[2]*p[1];
+    const long double t7 = p[3]*t6;
+    const long double t8 = (1.0L/2.0L)*t7;
+    const long double t9 = t5*t8;
+    const long double t10 = t9*y[3];
+    const long double t11 = p[3]*p[3]*p[1];
+    const long double t12 = p[5] + (1.0L/4.0L)*t11;
+    const long double t13 = t10 + t3*y[2];
+    const long double t14 = t12*y[3] + t9*y[2];
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = M00*y[2] + t8;
-    x[3] = M01*y[2] + M11*y[3];
-    for (k = 0; k < COMPOUND_TO_CANONICAL_X_SIZE; ++k) {
-        check += x[k] - x[k];
-    }
+    x[2] = t13;
+    x[3] = t14;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[0] - y[0]) + (y[1] - y[1]) + (t13 - t13) + (t14 - t14);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1615,8 +1639,7 @@ int compound_to_canonical_batch_l(long n, const long double *restrict y, long y_
 int compound_from_canonical(const double *restrict x, const double *restrict p, double *restrict y)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = x[0] - x[1];
     const double t1 = cos(t0);
     const double t2 = p[2]*p[1];
@@ -1637,9 +1660,8 @@ int compound_from_canonical(const double *restrict x, const double *restrict p, 
     y[1] = x[1];
     y[2] = v0;
     y[3] = v1;
-    for (k = 0; k < COMPOUND_FROM_CANONICAL_Y_SIZE; ++k) {
-        check += y[k] - y[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (x[0] - x[0]) + (x[1] - x[1]) + (v0 - v0) + (v1 - v1);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1664,8 +1686,7 @@ int compound_from_canonical_batch(long n, const double *restrict x, long x_strid
 int compound_from_canonical_f(const float *restrict x, const float *restrict p, float *restrict y)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = x[0] - x[1];
     const float t1 = cosf(t0);
     const float t2 = p[2]*p[1];
@@ -1686,9 +1707,8 @@ int compound_from_canonical_f(const float *restrict x, const float *restrict p, 
     y[1] = x[1];
     y[2] = v0;
     y[3] = v1;
-    for (k = 0; k < COMPOUND_FROM_CANONICAL_Y_SIZE; ++k) {
-        check += y[k] - y[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (x[0] - x[0]) + (x[1] - x[1]) + (v0 - v0) + (v1 - v1);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1713,8 +1733,7 @@ int compound_from_canonical_batch_f(long n, const float *restrict x, long x_stri
 int compound_from_canonical_l(const long double *restrict x, const long double *restrict p, long double *restrict y)
 {
     int status = COMPOUND_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = x[0] - x[1];
     const long double t1 = cosl(t0);
     const long double t2 = p[2]*p[1];
@@ -1735,9 +1754,8 @@ int compound_from_canonical_l(const long double *restrict x, const long double *
     y[1] = x[1];
     y[2] = v0;
     y[3] = v1;
-    for (k = 0; k < COMPOUND_FROM_CANONICAL_Y_SIZE; ++k) {
-        check += y[k] - y[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (x[0] - x[0]) + (x[1] - x[1]) + (v0 - v0) + (v1 - v1);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }

@@ -25,8 +25,7 @@ const char *const planar_canonical_names[PLANAR_N_CANONICAL] = {
 int planar_rhs(const double *restrict y, const double *restrict p, double *restrict ydot)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = y[0] - y[1];
     const double t1 = cos(t0);
     const double t2 = p[2]*p[1];
@@ -55,9 +54,8 @@ int planar_rhs(const double *restrict y, const double *restrict p, double *restr
     ydot[1] = y[3];
     ydot[2] = qdd0;
     ydot[3] = qdd1;
-    for (k = 0; k < PLANAR_RHS_YDOT_SIZE; ++k) {
-        check += ydot[k] - ydot[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[2] - y[2]) + (y[3] - y[3]) + (qdd0 - qdd0) + (qdd1 - qdd1);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -82,8 +80,7 @@ int planar_rhs_batch(long n, const double *restrict y, long y_stride, const doub
 int planar_rhs_f(const float *restrict y, const float *restrict p, float *restrict ydot)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = y[0] - y[1];
     const float t1 = cosf(t0);
     const float t2 = p[2]*p[1];
@@ -112,9 +109,8 @@ int planar_rhs_f(const float *restrict y, const float *restrict p, float *restri
     ydot[1] = y[3];
     ydot[2] = qdd0;
     ydot[3] = qdd1;
-    for (k = 0; k < PLANAR_RHS_YDOT_SIZE; ++k) {
-        check += ydot[k] - ydot[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[2] - y[2]) + (y[3] - y[3]) + (qdd0 - qdd0) + (qdd1 - qdd1);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -139,8 +135,7 @@ int planar_rhs_batch_f(long n, const float *restrict y, long y_stride, const flo
 int planar_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict ydot)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = y[0] - y[1];
     const long double t1 = cosl(t0);
     const long double t2 = p[2]*p[1];
@@ -169,9 +164,8 @@ int planar_rhs_l(const long double *restrict y, const long double *restrict p, l
     ydot[1] = y[3];
     ydot[2] = qdd0;
     ydot[3] = qdd1;
-    for (k = 0; k < PLANAR_RHS_YDOT_SIZE; ++k) {
-        check += ydot[k] - ydot[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[2] - y[2]) + (y[3] - y[3]) + (qdd0 - qdd0) + (qdd1 - qdd1);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -196,8 +190,7 @@ int planar_rhs_batch_l(long n, const long double *restrict y, long y_stride, con
 int planar_mass_matrix(const double *restrict y, const double *restrict p, double *restrict M)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = p[2]*p[2];
     const double M00 = t0*(p[0] + p[1]);
     const double t1 = y[0] - y[1];
@@ -210,9 +203,8 @@ int planar_mass_matrix(const double *restrict y, const double *restrict p, doubl
     M[1] = M01;
     M[2] = M01;
     M[3] = M11;
-    for (k = 0; k < PLANAR_MASS_MATRIX_M_SIZE; ++k) {
-        check += M[k] - M[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (M00 - M00) + (M01 - M01) + (M01 - M01) + (M11 - M11);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -237,8 +229,7 @@ int planar_mass_matrix_batch(long n, const double *restrict y, long y_stride, co
 int planar_mass_matrix_f(const float *restrict y, const float *restrict p, float *restrict M)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = p[2]*p[2];
     const float M00 = t0*(p[0] + p[1]);
     const float t1 = y[0] - y[1];
@@ -251,9 +242,8 @@ int planar_mass_matrix_f(const float *restrict y, const float *restrict p, float
     M[1] = M01;
     M[2] = M01;
     M[3] = M11;
-    for (k = 0; k < PLANAR_MASS_MATRIX_M_SIZE; ++k) {
-        check += M[k] - M[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (M00 - M00) + (M01 - M01) + (M01 - M01) + (M11 - M11);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -278,8 +268,7 @@ int planar_mass_matrix_batch_f(long n, const float *restrict y, long y_stride, c
 int planar_mass_matrix_l(const long double *restrict y, const long double *restrict p, long double *restrict M)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = p[2]*p[2];
     const long double M00 = t0*(p[0] + p[1]);
     const long double t1 = y[0] - y[1];
@@ -292,9 +281,8 @@ int planar_mass_matrix_l(const long double *restrict y, const long double *restr
     M[1] = M01;
     M[2] = M01;
     M[3] = M11;
-    for (k = 0; k < PLANAR_MASS_MATRIX_M_SIZE; ++k) {
-        check += M[k] - M[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (M00 - M00) + (M01 - M01) + (M01 - M01) + (M11 - M11);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -319,8 +307,7 @@ int planar_mass_matrix_batch_l(long n, const long double *restrict y, long y_str
 int planar_forcing(const double *restrict y, const double *restrict p, double *restrict F)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = p[4]*p[0] + p[4]*p[1];
     const double t2 = t0*t1;
@@ -329,16 +316,15 @@ int planar_forcing(const double *restrict y, const double *restrict p, double *r
     const double t5 = y[3]*y[3];
     const double t6 = p[3]*p[1];
     const double t7 = t5*t6;
-    const double F0 = -p[2]*(t2 + t4*t7);
-    const double t8 = sin(y[1]);
-    const double t9 = p[4]*t8;
-    const double t10 = y[2]*y[2];
-    const double F1 = t6*(p[2]*t10*t4 - t9);
-    F[0] = F0;
-    F[1] = F1;
-    for (k = 0; k < PLANAR_FORCING_F_SIZE; ++k) {
-        check += F[k] - F[k];
-    }
+    const double t8 = -p[2]*(t2 + t4*t7);
+    const double t9 = sin(y[1]);
+    const double t10 = p[4]*t9;
+    const double t11 = y[2]*y[2];
+    const double t12 = t6*(p[2]*t11*t4 - t10);
+    F[0] = t8;
+    F[1] = t12;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t8 - t8) + (t12 - t12);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -363,8 +349,7 @@ int planar_forcing_batch(long n, const double *restrict y, long y_stride, const 
 int planar_forcing_f(const float *restrict y, const float *restrict p, float *restrict F)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = p[4]*p[0] + p[4]*p[1];
     const float t2 = t0*t1;
@@ -373,16 +358,15 @@ int planar_forcing_f(const float *restrict y, const float *restrict p, float *re
     const float t5 = y[3]*y[3];
     const float t6 = p[3]*p[1];
     const float t7 = t5*t6;
-    const float F0 = -p[2]*(t2 + t4*t7);
-    const float t8 = sinf(y[1]);
-    const float t9 = p[4]*t8;
-    const float t10 = y[2]*y[2];
-    const float F1 = t6*(p[2]*t10*t4 - t9);
-    F[0] = F0;
-    F[1] = F1;
-    for (k = 0; k < PLANAR_FORCING_F_SIZE; ++k) {
-        check += F[k] - F[k];
-    }
+    const float t8 = -p[2]*(t2 + t4*t7);
+    const float t9 = sinf(y[1]);
+    const float t10 = p[4]*t9;
+    const float t11 = y[2]*y[2];
+    const float t12 = t6*(p[2]*t11*t4 - t10);
+    F[0] = t8;
+    F[1] = t12;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t8 - t8) + (t12 - t12);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -407,8 +391,7 @@ int planar_forcing_batch_f(long n, const float *restrict y, long y_stride, const
 int planar_forcing_l(const long double *restrict y, const long double *restrict p, long double *restrict F)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = p[4]*p[0] + p[4]*p[1];
     const long double t2 = t0*t1;
@@ -417,16 +400,15 @@ int planar_forcing_l(const long double *restrict y, const long double *restrict 
     const long double t5 = y[3]*y[3];
     const long double t6 = p[3]*p[1];
     const long double t7 = t5*t6;
-    const long double F0 = -p[2]*(t2 + t4*t7);
-    const long double t8 = sinl(y[1]);
-    const long double t9 = p[4]*t8;
-    const long double t10 = y[2]*y[2];
-    const long double F1 = t6*(p[2]*t10*t4 - t9);
-    F[0] = F0;
-    F[1] = F1;
-    for (k = 0; k < PLANAR_FORCING_F_SIZE; ++k) {
-        check += F[k] - F[k];
-    }
+    const long double t8 = -p[2]*(t2 + t4*t7);
+    const long double t9 = sinl(y[1]);
+    const long double t10 = p[4]*t9;
+    const long double t11 = y[2]*y[2];
+    const long double t12 = t6*(p[2]*t11*t4 - t10);
+    F[0] = t8;
+    F[1] = t12;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t8 - t8) + (t12 - t12);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -451,26 +433,25 @@ int planar_forcing_batch_l(long n, const long double *restrict y, long y_stride,
 int planar_energy(const double *restrict y, const double *restrict p, double *restrict E)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = p[2]*p[1];
-    const double M11 = p[3]*p[3]*p[1];
-    const double t1 = y[3]*y[3];
-    const double t2 = y[2]*y[2];
-    const double t3 = y[0] - y[1];
-    const double t4 = cos(t3);
-    const double t5 = p[3]*t0;
-    const double M01 = t4*t5;
-    const double t6 = M01*y[3];
-    const double t7 = p[2]*p[2];
-    const double t8 = (1.0/2.0)*t7;
-    const double t9 = cos(y[1]);
-    const double t10 = p[3]*t9;
-    const double t11 = cos(y[0]);
-    E[0] = (1.0/2.0)*M11*t1 - p[4]*(p[1]*t10 + t11*(p[2]*p[0] + t0)) + t2*(p[0]*t8 + p[1]*t8) + t6*y[2];
-    for (k = 0; k < PLANAR_ENERGY_E_SIZE; ++k) {
-        check += E[k] - E[k];
-    }
+    const double t1 = p[3]*p[3]*p[1];
+    const double t2 = y[3]*y[3];
+    const double t3 = y[2]*y[2];
+    const double t4 = y[0] - y[1];
+    const double t5 = cos(t4);
+    const double t6 = p[3]*t0;
+    const double t7 = t5*t6;
+    const double t8 = t7*y[3];
+    const double t9 = p[2]*p[2];
+    const double t10 = (1.0/2.0)*t9;
+    const double t11 = cos(y[1]);
+    const double t12 = p[3]*t11;
+    const double t13 = cos(y[0]);
+    const double t14 = -p[4]*(p[1]*t12 + t13*(p[2]*p[0] + t0)) + (1.0/2.0)*t1*t2 + t3*(p[0]*t10 + p[1]*t10) + t8*y[2];
+    E[0] = t14;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t14 - t14);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -495,26 +476,25 @@ int planar_energy_batch(long n, const double *restrict y, long y_stride, const d
 int planar_energy_f(const float *restrict y, const float *restrict p, float *restrict E)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = p[2]*p[1];
-    const float M11 = p[3]*p[3]*p[1];
-    const float t1 = y[3]*y[3];
-    const float t2 = y[2]*y[2];
-    const float t3 = y[0] - y[1];
-    const float t4 = cosf(t3);
-    const float t5 = p[3]*t0;
-    const float M01 = t4*t5;
-    const float t6 = M01*y[3];
-    const float t7 = p[2]*p[2];
-    const float t8 = (1.0F/2.0F)*t7;
-    const float t9 = cosf(y[1]);
-    const float t10 = p[3]*t9;
-    const float t11 = cosf(y[0]);
-    E[0] = (1.0F/2.0F)*M11*t1 - p[4]*(p[1]*t10 + t11*(p[2]*p[0] + t0)) + t2*(p[0]*t8 + p[1]*t8) + t6*y[2];
-    for (k = 0; k < PLANAR_ENERGY_E_SIZE; ++k) {
-        check += E[k] - E[k];
-    }
+    const float t1 = p[3]*p[3]*p[1];
+    const float t2 = y[3]*y[3];
+    const float t3 = y[2]*y[2];
+    const float t4 = y[0] - y[1];
+    const float t5 = cosf(t4);
+    const float t6 = p[3]*t0;
+    const float t7 = t5*t6;
+    const float t8 = t7*y[3];
+    const float t9 = p[2]*p[2];
+    const float t10 = (1.0F/2.0F)*t9;
+    const float t11 = cosf(y[1]);
+    const float t12 = p[3]*t11;
+    const float t13 = cosf(y[0]);
+    const float t14 = -p[4]*(p[1]*t12 + t13*(p[2]*p[0] + t0)) + (1.0F/2.0F)*t1*t2 + t3*(p[0]*t10 + p[1]*t10) + t8*y[2];
+    E[0] = t14;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t14 - t14);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -539,26 +519,25 @@ int planar_energy_batch_f(long n, const float *restrict y, long y_stride, const 
 int planar_energy_l(const long double *restrict y, const long double *restrict p, long double *restrict E)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = p[2]*p[1];
-    const long double M11 = p[3]*p[3]*p[1];
-    const long double t1 = y[3]*y[3];
-    const long double t2 = y[2]*y[2];
-    const long double t3 = y[0] - y[1];
-    const long double t4 = cosl(t3);
-    const long double t5 = p[3]*t0;
-    const long double M01 = t4*t5;
-    const long double t6 = M01*y[3];
-    const long double t7 = p[2]*p[2];
-    const long double t8 = (1.0L/2.0L)*t7;
-    const long double t9 = cosl(y[1]);
-    const long double t10 = p[3]*t9;
-    const long double t11 = cosl(y[0]);
-    E[0] = (1.0L/2.0L)*M11*t1 - p[4]*(p[1]*t10 + t11*(p[2]*p[0] + t0)) + t2*(p[0]*t8 + p[1]*t8) + t6*y[2];
-    for (k = 0; k < PLANAR_ENERGY_E_SIZE; ++k) {
-        check += E[k] - E[k];
-    }
+    const long double t1 = p[3]*p[3]*p[1];
+    const long double t2 = y[3]*y[3];
+    const long double t3 = y[2]*y[2];
+    const long double t4 = y[0] - y[1];
+    const long double t5 = cosl(t4);
+    const long double t6 = p[3]*t0;
+    const long double t7 = t5*t6;
+    const long double t8 = t7*y[3];
+    const long double t9 = p[2]*p[2];
+    const long double t10 = (1.0L/2.0L)*t9;
+    const long double t11 = cosl(y[1]);
+    const long double t12 = p[3]*t11;
+    const long double t13 = cosl(y[0]);
+    const long double t14 = -p[4]*(p[1]*t12 + t13*(p[2]*p[0] + t0)) + (1.0L/2.0L)*t1*t2 + t3*(p[0]*t10 + p[1]*t10) + t8*y[2];
+    E[0] = t14;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t14 - t14);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -583,8 +562,7 @@ int planar_energy_batch_l(long n, const long double *restrict y, long y_stride, 
 int planar_positions(const double *restrict y, const double *restrict p, double *restrict pos)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = p[2]*t0;
     const double t2 = cos(y[0]);
@@ -592,13 +570,15 @@ int planar_positions(const double *restrict y, const double *restrict p, double 
     const double t4 = sin(y[1]);
     const double t5 = cos(y[1]);
     const double t6 = p[3]*t5;
+    const double t7 = -t3;
+    const double t8 = p[3]*t4 + t1;
+    const double t9 = -t3 - t6;
     pos[0] = t1;
-    pos[1] = -t3;
-    pos[2] = p[3]*t4 + t1;
-    pos[3] = -t3 - t6;
-    for (k = 0; k < PLANAR_POSITIONS_POS_SIZE; ++k) {
-        check += pos[k] - pos[k];
-    }
+    pos[1] = t7;
+    pos[2] = t8;
+    pos[3] = t9;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t1 - t1) + (t7 - t7) + (t8 - t8) + (t9 - t9);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -623,8 +603,7 @@ int planar_positions_batch(long n, const double *restrict y, long y_stride, cons
 int planar_positions_f(const float *restrict y, const float *restrict p, float *restrict pos)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = p[2]*t0;
     const float t2 = cosf(y[0]);
@@ -632,13 +611,15 @@ int planar_positions_f(const float *restrict y, const float *restrict p, float *
     const float t4 = sinf(y[1]);
     const float t5 = cosf(y[1]);
     const float t6 = p[3]*t5;
+    const float t7 = -t3;
+    const float t8 = p[3]*t4 + t1;
+    const float t9 = -t3 - t6;
     pos[0] = t1;
-    pos[1] = -t3;
-    pos[2] = p[3]*t4 + t1;
-    pos[3] = -t3 - t6;
-    for (k = 0; k < PLANAR_POSITIONS_POS_SIZE; ++k) {
-        check += pos[k] - pos[k];
-    }
+    pos[1] = t7;
+    pos[2] = t8;
+    pos[3] = t9;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t1 - t1) + (t7 - t7) + (t8 - t8) + (t9 - t9);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -663,8 +644,7 @@ int planar_positions_batch_f(long n, const float *restrict y, long y_stride, con
 int planar_positions_l(const long double *restrict y, const long double *restrict p, long double *restrict pos)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = p[2]*t0;
     const long double t2 = cosl(y[0]);
@@ -672,13 +652,15 @@ int planar_positions_l(const long double *restrict y, const long double *restric
     const long double t4 = sinl(y[1]);
     const long double t5 = cosl(y[1]);
     const long double t6 = p[3]*t5;
+    const long double t7 = -t3;
+    const long double t8 = p[3]*t4 + t1;
+    const long double t9 = -t3 - t6;
     pos[0] = t1;
-    pos[1] = -t3;
-    pos[2] = p[3]*t4 + t1;
-    pos[3] = -t3 - t6;
-    for (k = 0; k < PLANAR_POSITIONS_POS_SIZE; ++k) {
-        check += pos[k] - pos[k];
-    }
+    pos[1] = t7;
+    pos[2] = t8;
+    pos[3] = t9;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t1 - t1) + (t7 - t7) + (t8 - t8) + (t9 - t9);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -703,17 +685,16 @@ int planar_positions_batch_l(long n, const long double *restrict y, long y_strid
 int planar_jacobian(const double *restrict y, const double *restrict p, double *restrict J)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = y[0] - y[1];
     const double t1 = cos(t0);
     const double t2 = p[2]*p[1];
     const double t3 = p[3]*t2;
     const double M01 = t1*t3;
-    const double M11 = p[3]*p[3]*p[1];
     const double t4 = y[2]*y[2];
     const double t5 = sin(t0);
     const double t6 = t3*t5;
+    const double M11 = p[3]*p[3]*p[1];
     const double t7 = sin(y[0]);
     const double t8 = p[4]*p[0] + p[4]*p[1];
     const double t9 = t7*t8;
@@ -743,9 +724,17 @@ int planar_jacobian(const double *restrict y, const double *restrict p, double *
     const double t26 = M01*rdet;
     const double t27 = 2*t6;
     const double t28 = t27*y[2];
-    const double dv0_2 = M11*rdet;
-    const double t29 = t27*y[3];
-    const double dv1_3 = M00*rdet;
+    const double t29 = M11*rdet;
+    const double t30 = t27*y[3];
+    const double t31 = M00*rdet;
+    const double t32 = rdet*(-M01*t17 + M11*t21);
+    const double t33 = rdet*(-M01*t25 + M11*t22);
+    const double t34 = -t26*t28;
+    const double t35 = -t29*t30;
+    const double t36 = rdet*(M00*t17 - M01*t21);
+    const double t37 = rdet*(M00*t25 - M01*t22);
+    const double t38 = t28*t31;
+    const double t39 = t26*t30;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -754,17 +743,17 @@ int planar_jacobian(const double *restrict y, const double *restrict p, double *
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = rdet*(-M01*t17 + M11*t21);
-    J[9] = rdet*(-M01*t25 + M11*t22);
-    J[10] = -t26*t28;
-    J[11] = -dv0_2*t29;
-    J[12] = rdet*(M00*t17 - M01*t21);
-    J[13] = rdet*(M00*t25 - M01*t22);
-    J[14] = dv1_3*t28;
-    J[15] = t26*t29;
-    for (k = 0; k < PLANAR_JACOBIAN_J_SIZE; ++k) {
-        check += J[k] - J[k];
-    }
+    J[8] = t32;
+    J[9] = t33;
+    J[10] = t34;
+    J[11] = t35;
+    J[12] = t36;
+    J[13] = t37;
+    J[14] = t38;
+    J[15] = t39;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) + (t37 - t37) +
+        (t38 - t38) + (t39 - t39);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -789,17 +778,16 @@ int planar_jacobian_batch(long n, const double *restrict y, long y_stride, const
 int planar_jacobian_f(const float *restrict y, const float *restrict p, float *restrict J)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = y[0] - y[1];
     const float t1 = cosf(t0);
     const float t2 = p[2]*p[1];
     const float t3 = p[3]*t2;
     const float M01 = t1*t3;
-    const float M11 = p[3]*p[3]*p[1];
     const float t4 = y[2]*y[2];
     const float t5 = sinf(t0);
     const float t6 = t3*t5;
+    const float M11 = p[3]*p[3]*p[1];
     const float t7 = sinf(y[0]);
     const float t8 = p[4]*p[0] + p[4]*p[1];
     const float t9 = t7*t8;
@@ -829,9 +817,17 @@ int planar_jacobian_f(const float *restrict y, const float *restrict p, float *r
     const float t26 = M01*rdet;
     const float t27 = 2*t6;
     const float t28 = t27*y[2];
-    const float dv0_2 = M11*rdet;
-    const float t29 = t27*y[3];
-    const float dv1_3 = M00*rdet;
+    const float t29 = M11*rdet;
+    const float t30 = t27*y[3];
+    const float t31 = M00*rdet;
+    const float t32 = rdet*(-M01*t17 + M11*t21);
+    const float t33 = rdet*(-M01*t25 + M11*t22);
+    const float t34 = -t26*t28;
+    const float t35 = -t29*t30;
+    const float t36 = rdet*(M00*t17 - M01*t21);
+    const float t37 = rdet*(M00*t25 - M01*t22);
+    const float t38 = t28*t31;
+    const float t39 = t26*t30;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -840,17 +836,17 @@ int planar_jacobian_f(const float *restrict y, const float *restrict p, float *r
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = rdet*(-M01*t17 + M11*t21);
-    J[9] = rdet*(-M01*t25 + M11*t22);
-    J[10] = -t26*t28;
-    J[11] = -dv0_2*t29;
-    J[12] = rdet*(M00*t17 - M01*t21);
-    J[13] = rdet*(M00*t25 - M01*t22);
-    J[14] = dv1_3*t28;
-    J[15] = t26*t29;
-    for (k = 0; k < PLANAR_JACOBIAN_J_SIZE; ++k) {
-        check += J[k] - J[k];
-    }
+    J[8] = t32;
+    J[9] = t33;
+    J[10] = t34;
+    J[11] = t35;
+    J[12] = t36;
+    J[13] = t37;
+    J[14] = t38;
+    J[15] = t39;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) + (t37 - t37) +
+        (t38 - t38) + (t39 - t39);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -875,17 +871,16 @@ int planar_jacobian_batch_f(long n, const float *restrict y, long y_stride, cons
 int planar_jacobian_l(const long double *restrict y, const long double *restrict p, long double *restrict J)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = y[0] - y[1];
     const long double t1 = cosl(t0);
     const long double t2 = p[2]*p[1];
     const long double t3 = p[3]*t2;
     const long double M01 = t1*t3;
-    const long double M11 = p[3]*p[3]*p[1];
     const long double t4 = y[2]*y[2];
     const long double t5 = sinl(t0);
     const long double t6 = t3*t5;
+    const long double M11 = p[3]*p[3]*p[1];
     const long double t7 = sinl(y[0]);
     const long double t8 = p[4]*p[0] + p[4]*p[1];
     const long double t9 = t7*t8;
@@ -915,9 +910,17 @@ int planar_jacobian_l(const long double *restrict y, const long double *restrict
     const long double t26 = M01*rdet;
     const long double t27 = 2*t6;
     const long double t28 = t27*y[2];
-    const long double dv0_2 = M11*rdet;
-    const long double t29 = t27*y[3];
-    const long double dv1_3 = M00*rdet;
+    const long double t29 = M11*rdet;
+    const long double t30 = t27*y[3];
+    const long double t31 = M00*rdet;
+    const long double t32 = rdet*(-M01*t17 + M11*t21);
+    const long double t33 = rdet*(-M01*t25 + M11*t22);
+    const long double t34 = -t26*t28;
+    const long double t35 = -t29*t30;
+    const long double t36 = rdet*(M00*t17 - M01*t21);
+    const long double t37 = rdet*(M00*t25 - M01*t22);
+    const long double t38 = t28*t31;
+    const long double t39 = t26*t30;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -926,17 +929,17 @@ int planar_jacobian_l(const long double *restrict y, const long double *restrict
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = rdet*(-M01*t17 + M11*t21);
-    J[9] = rdet*(-M01*t25 + M11*t22);
-    J[10] = -t26*t28;
-    J[11] = -dv0_2*t29;
-    J[12] = rdet*(M00*t17 - M01*t21);
-    J[13] = rdet*(M00*t25 - M01*t22);
-    J[14] = dv1_3*t28;
-    J[15] = t26*t29;
-    for (k = 0; k < PLANAR_JACOBIAN_J_SIZE; ++k) {
-        check += J[k] - J[k];
-    }
+    J[8] = t32;
+    J[9] = t33;
+    J[10] = t34;
+    J[11] = t35;
+    J[12] = t36;
+    J[13] = t37;
+    J[14] = t38;
+    J[15] = t39;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) + (t37 - t37) +
+        (t38 - t38) + (t39 - t39);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -961,8 +964,7 @@ int planar_jacobian_batch_l(long n, const long double *restrict y, long y_stride
 int planar_hamiltonian_rhs(const double *restrict x, const double *restrict p, double *restrict xdot)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = x[0] - x[1];
     const double t1 = cos(t0);
     const double t2 = p[2]*p[1];
@@ -984,13 +986,14 @@ int planar_hamiltonian_rhs(const double *restrict x, const double *restrict p, d
     const double t11 = t10*t9;
     const double t12 = sin(x[1]);
     const double t13 = p[4]*t12;
+    const double t14 = -p[2]*(t11*t8 + t7);
+    const double t15 = t9*(p[2]*t8*v0*v1 - t13);
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = -p[2]*(t11*t8 + t7);
-    xdot[3] = t9*(p[2]*t8*v0*v1 - t13);
-    for (k = 0; k < PLANAR_HAMILTONIAN_RHS_XDOT_SIZE; ++k) {
-        check += xdot[k] - xdot[k];
-    }
+    xdot[2] = t14;
+    xdot[3] = t15;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (v0 - v0) + (v1 - v1) + (t14 - t14) + (t15 - t15);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1015,8 +1018,7 @@ int planar_hamiltonian_rhs_batch(long n, const double *restrict x, long x_stride
 int planar_hamiltonian_rhs_f(const float *restrict x, const float *restrict p, float *restrict xdot)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = x[0] - x[1];
     const float t1 = cosf(t0);
     const float t2 = p[2]*p[1];
@@ -1038,13 +1040,14 @@ int planar_hamiltonian_rhs_f(const float *restrict x, const float *restrict p, f
     const float t11 = t10*t9;
     const float t12 = sinf(x[1]);
     const float t13 = p[4]*t12;
+    const float t14 = -p[2]*(t11*t8 + t7);
+    const float t15 = t9*(p[2]*t8*v0*v1 - t13);
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = -p[2]*(t11*t8 + t7);
-    xdot[3] = t9*(p[2]*t8*v0*v1 - t13);
-    for (k = 0; k < PLANAR_HAMILTONIAN_RHS_XDOT_SIZE; ++k) {
-        check += xdot[k] - xdot[k];
-    }
+    xdot[2] = t14;
+    xdot[3] = t15;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (v0 - v0) + (v1 - v1) + (t14 - t14) + (t15 - t15);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1069,8 +1072,7 @@ int planar_hamiltonian_rhs_batch_f(long n, const float *restrict x, long x_strid
 int planar_hamiltonian_rhs_l(const long double *restrict x, const long double *restrict p, long double *restrict xdot)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = x[0] - x[1];
     const long double t1 = cosl(t0);
     const long double t2 = p[2]*p[1];
@@ -1092,13 +1094,14 @@ int planar_hamiltonian_rhs_l(const long double *restrict x, const long double *r
     const long double t11 = t10*t9;
     const long double t12 = sinl(x[1]);
     const long double t13 = p[4]*t12;
+    const long double t14 = -p[2]*(t11*t8 + t7);
+    const long double t15 = t9*(p[2]*t8*v0*v1 - t13);
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = -p[2]*(t11*t8 + t7);
-    xdot[3] = t9*(p[2]*t8*v0*v1 - t13);
-    for (k = 0; k < PLANAR_HAMILTONIAN_RHS_XDOT_SIZE; ++k) {
-        check += xdot[k] - xdot[k];
-    }
+    xdot[2] = t14;
+    xdot[3] = t15;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (v0 - v0) + (v1 - v1) + (t14 - t14) + (t15 - t15);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1123,34 +1126,33 @@ int planar_hamiltonian_rhs_batch_l(long n, const long double *restrict x, long x
 int planar_hamiltonian_jacobian(const double *restrict x, const double *restrict p, double *restrict J)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = x[0] - x[1];
-    const double t1 = cos(t0);
+    const double t1 = sin(t0);
     const double t2 = p[2]*p[1];
     const double t3 = p[3]*t2;
-    const double M01 = t1*t3;
+    const double t4 = t1*t3;
+    const double t5 = cos(t0);
+    const double M01 = t3*t5;
     const double M11 = p[3]*p[3]*p[1];
-    const double t4 = sin(t0);
-    const double t5 = t3*t4;
     const double t6 = p[2]*p[2];
     const double M00 = t6*(p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double v0 = rdet*(-M01*x[3] + M11*x[2]);
-    const double t7 = t5*v0;
+    const double t7 = t4*v0;
     const double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const double t8 = M01*t7 - M11*p[2]*p[3]*p[1]*t4*v1;
+    const double t8 = M01*t7 - M11*p[2]*p[3]*p[1]*t1*v1;
     const double dv0_0 = -rdet*t8;
     const double dv0_1 = rdet*t8;
     const double dv0_2 = M11*rdet;
     const double t9 = M01*rdet;
-    const double dv1_2 = -t9;
-    const double dv0_3 = dv1_2;
-    const double t10 = t5*v1;
+    const double dv0_3 = -t9;
+    const double t10 = t4*v1;
     const double t11 = M00*t7 - M01*t10;
     const double dv1_0 = rdet*t11;
     const double dv1_1 = -rdet*t11;
+    const double dv1_2 = dv0_3;
     const double dv1_3 = M00*rdet;
     const double t12 = p[4]*p[0] + p[4]*p[1];
     const double t13 = cos(x[0]);
@@ -1164,6 +1166,12 @@ int planar_hamiltonian_jacobian(const double *restrict x, const double *restrict
     const double t21 = dv0_3*t10 + dv1_3*t7;
     const double t22 = cos(x[1]);
     const double t23 = p[4]*t22;
+    const double t24 = -p[2]*(t14 + t17*t5) - t18;
+    const double t25 = p[2]*p[3]*p[1]*t5*v0*v1 - t19;
+    const double t26 = -t20;
+    const double t27 = -t21;
+    const double t28 = M01*t16 + t18;
+    const double t29 = t15*(-p[2]*t16*t5 - t23) + t19;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1172,17 +1180,19 @@ int planar_hamiltonian_jacobian(const double *restrict x, const double *restrict
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = -p[2]*(t1*t17 + t14) - t18;
-    J[9] = p[2]*p[3]*p[1]*t1*v0*v1 - t19;
-    J[10] = -t20;
-    J[11] = -t21;
-    J[12] = M01*t16 + t18;
-    J[13] = t15*(-p[2]*t1*t16 - t23) + t19;
+    J[8] = t24;
+    J[9] = t25;
+    J[10] = t26;
+    J[11] = t27;
+    J[12] = t28;
+    J[13] = t29;
     J[14] = t20;
     J[15] = t21;
-    for (k = 0; k < PLANAR_HAMILTONIAN_JACOBIAN_J_SIZE; ++k) {
-        check += J[k] - J[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) + (dv1_0 -
+        dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t24 - t24) + (t25 -
+        t25) + (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t20 - t20) + (t21 -
+        t21);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1207,34 +1217,33 @@ int planar_hamiltonian_jacobian_batch(long n, const double *restrict x, long x_s
 int planar_hamiltonian_jacobian_f(const float *restrict x, const float *restrict p, float *restrict J)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = x[0] - x[1];
-    const float t1 = cosf(t0);
+    const float t1 = sinf(t0);
     const float t2 = p[2]*p[1];
     const float t3 = p[3]*t2;
-    const float M01 = t1*t3;
+    const float t4 = t1*t3;
+    const float t5 = cosf(t0);
+    const float M01 = t3*t5;
     const float M11 = p[3]*p[3]*p[1];
-    const float t4 = sinf(t0);
-    const float t5 = t3*t4;
     const float t6 = p[2]*p[2];
     const float M00 = t6*(p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float v0 = rdet*(-M01*x[3] + M11*x[2]);
-    const float t7 = t5*v0;
+    const float t7 = t4*v0;
     const float v1 = rdet*(M00*x[3] - M01*x[2]);
-    const float t8 = M01*t7 - M11*p[2]*p[3]*p[1]*t4*v1;
+    const float t8 = M01*t7 - M11*p[2]*p[3]*p[1]*t1*v1;
     const float dv0_0 = -rdet*t8;
     const float dv0_1 = rdet*t8;
     const float dv0_2 = M11*rdet;
     const float t9 = M01*rdet;
-    const float dv1_2 = -t9;
-    const float dv0_3 = dv1_2;
-    const float t10 = t5*v1;
+    const float dv0_3 = -t9;
+    const float t10 = t4*v1;
     const float t11 = M00*t7 - M01*t10;
     const float dv1_0 = rdet*t11;
     const float dv1_1 = -rdet*t11;
+    const float dv1_2 = dv0_3;
     const float dv1_3 = M00*rdet;
     const float t12 = p[4]*p[0] + p[4]*p[1];
     const float t13 = cosf(x[0]);
@@ -1248,6 +1257,12 @@ int planar_hamiltonian_jacobian_f(const float *restrict x, const float *restrict
     const float t21 = dv0_3*t10 + dv1_3*t7;
     const float t22 = cosf(x[1]);
     const float t23 = p[4]*t22;
+    const float t24 = -p[2]*(t14 + t17*t5) - t18;
+    const float t25 = p[2]*p[3]*p[1]*t5*v0*v1 - t19;
+    const float t26 = -t20;
+    const float t27 = -t21;
+    const float t28 = M01*t16 + t18;
+    const float t29 = t15*(-p[2]*t16*t5 - t23) + t19;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1256,17 +1271,19 @@ int planar_hamiltonian_jacobian_f(const float *restrict x, const float *restrict
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = -p[2]*(t1*t17 + t14) - t18;
-    J[9] = p[2]*p[3]*p[1]*t1*v0*v1 - t19;
-    J[10] = -t20;
-    J[11] = -t21;
-    J[12] = M01*t16 + t18;
-    J[13] = t15*(-p[2]*t1*t16 - t23) + t19;
+    J[8] = t24;
+    J[9] = t25;
+    J[10] = t26;
+    J[11] = t27;
+    J[12] = t28;
+    J[13] = t29;
     J[14] = t20;
     J[15] = t21;
-    for (k = 0; k < PLANAR_HAMILTONIAN_JACOBIAN_J_SIZE; ++k) {
-        check += J[k] - J[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) + (dv1_0 -
+        dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t24 - t24) + (t25 -
+        t25) + (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t20 - t20) + (t21 -
+        t21);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1291,34 +1308,33 @@ int planar_hamiltonian_jacobian_batch_f(long n, const float *restrict x, long x_
 int planar_hamiltonian_jacobian_l(const long double *restrict x, const long double *restrict p, long double *restrict J)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = x[0] - x[1];
-    const long double t1 = cosl(t0);
+    const long double t1 = sinl(t0);
     const long double t2 = p[2]*p[1];
     const long double t3 = p[3]*t2;
-    const long double M01 = t1*t3;
+    const long double t4 = t1*t3;
+    const long double t5 = cosl(t0);
+    const long double M01 = t3*t5;
     const long double M11 = p[3]*p[3]*p[1];
-    const long double t4 = sinl(t0);
-    const long double t5 = t3*t4;
     const long double t6 = p[2]*p[2];
     const long double M00 = t6*(p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double v0 = rdet*(-M01*x[3] + M11*x[2]);
-    const long double t7 = t5*v0;
+    const long double t7 = t4*v0;
     const long double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const long double t8 = M01*t7 - M11*p[2]*p[3]*p[1]*t4*v1;
+    const long double t8 = M01*t7 - M11*p[2]*p[3]*p[1]*t1*v1;
     const long double dv0_0 = -rdet*t8;
     const long double dv0_1 = rdet*t8;
     const long double dv0_2 = M11*rdet;
     const long double t9 = M01*rdet;
-    const long double dv1_2 = -t9;
-    const long double dv0_3 = dv1_2;
-    const long double t10 = t5*v1;
+    const long double dv0_3 = -t9;
+    const long double t10 = t4*v1;
     const long double t11 = M00*t7 - M01*t10;
     const long double dv1_0 = rdet*t11;
     const long double dv1_1 = -rdet*t11;
+    const long double dv1_2 = dv0_3;
     const long double dv1_3 = M00*rdet;
     const long double t12 = p[4]*p[0] + p[4]*p[1];
     const long double t13 = cosl(x[0]);
@@ -1332,6 +1348,12 @@ int planar_hamiltonian_jacobian_l(const long double *restrict x, const long doub
     const long double t21 = dv0_3*t10 + dv1_3*t7;
     const long double t22 = cosl(x[1]);
     const long double t23 = p[4]*t22;
+    const long double t24 = -p[2]*(t14 + t17*t5) - t18;
+    const long double t25 = p[2]*p[3]*p[1]*t5*v0*v1 - t19;
+    const long double t26 = -t20;
+    const long double t27 = -t21;
+    const long double t28 = M01*t16 + t18;
+    const long double t29 = t15*(-p[2]*t16*t5 - t23) + t19;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1340,17 +1362,19 @@ int planar_hamiltonian_jacobian_l(const long double *restrict x, const long doub
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = -p[2]*(t1*t17 + t14) - t18;
-    J[9] = p[2]*p[3]*p[1]*t1*v0*v1 - t19;
-    J[10] = -t20;
-    J[11] = -t21;
-    J[12] = M01*t16 + t18;
-    J[13] = t15*(-p[2]*t1*t16 - t23) + t19;
+    J[8] = t24;
+    J[9] = t25;
+    J[10] = t26;
+    J[11] = t27;
+    J[12] = t28;
+    J[13] = t29;
     J[14] = t20;
     J[15] = t21;
-    for (k = 0; k < PLANAR_HAMILTONIAN_JACOBIAN_J_SIZE; ++k) {
-        check += J[k] - J[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) + (dv1_0 -
+        dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t24 - t24) + (t25 -
+        t25) + (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t20 - t20) + (t21 -
+        t21);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1375,24 +1399,24 @@ int planar_hamiltonian_jacobian_batch_l(long n, const long double *restrict x, l
 int planar_to_canonical(const double *restrict y, const double *restrict p, double *restrict x)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = p[2]*p[2];
-    const double M00 = t0*(p[0] + p[1]);
-    const double t1 = y[0] - y[1];
-    const double t2 = cos(t1);
-    const double t3 = p[2]*p[1];
-    const double t4 = p[3]*t3;
-    const double M01 = t2*t4;
-    const double t5 = M01*y[3];
-    const double M11 = p[3]*p[3]*p[1];
+    const double t1 = t0*(p[0] + p[1]);
+    const double t2 = y[0] - y[1];
+    const double t3 = cos(t2);
+    const double t4 = p[2]*p[1];
+    const double t5 = p[3]*t4;
+    const double t6 = t3*t5;
+    const double t7 = t6*y[3];
+    const double t8 = p[3]*p[3]*p[1];
+    const double t9 = t1*y[2] + t7;
+    const double t10 = t6*y[2] + t8*y[3];
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = M00*y[2] + t5;
-    x[3] = M01*y[2] + M11*y[3];
-    for (k = 0; k < PLANAR_TO_CANONICAL_X_SIZE; ++k) {
-        check += x[k] - x[k];
-    }
+    x[2] = t9;
+    x[3] = t10;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[0] - y[0]) + (y[1] - y[1]) + (t9 - t9) + (t10 - t10);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1417,24 +1441,24 @@ int planar_to_canonical_batch(long n, const double *restrict y, long y_stride, c
 int planar_to_canonical_f(const float *restrict y, const float *restrict p, float *restrict x)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = p[2]*p[2];
-    const float M00 = t0*(p[0] + p[1]);
-    const float t1 = y[0] - y[1];
-    const float t2 = cosf(t1);
-    const float t3 = p[2]*p[1];
-    const float t4 = p[3]*t3;
-    const float M01 = t2*t4;
-    const float t5 = M01*y[3];
-    const float M11 = p[3]*p[3]*p[1];
+    const float t1 = t0*(p[0] + p[1]);
+    const float t2 = y[0] - y[1];
+    const float t3 = cosf(t2);
+    const float t4 = p[2]*p[1];
+    const float t5 = p[3]*t4;
+    const float t6 = t3*t5;
+    const float t7 = t6*y[3];
+    const float t8 = p[3]*p[3]*p[1];
+    const float t9 = t1*y[2] + t7;
+    const float t10 = t6*y[2] + t8*y[3];
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = M00*y[2] + t5;
-    x[3] = M01*y[2] + M11*y[3];
-    for (k = 0; k < PLANAR_TO_CANONICAL_X_SIZE; ++k) {
-        check += x[k] - x[k];
-    }
+    x[2] = t9;
+    x[3] = t10;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[0] - y[0]) + (y[1] - y[1]) + (t9 - t9) + (t10 - t10);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1459,24 +1483,24 @@ int planar_to_canonical_batch_f(long n, const float *restrict y, long y_stride, 
 int planar_to_canonical_l(const long double *restrict y, const long double *restrict p, long double *restrict x)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = p[2]*p[2];
-    const long double M00 = t0*(p[0] + p[1]);
-    const long double t1 = y[0] - y[1];
-    const long double t2 = cosl(t1);
-    const long double t3 = p[2]*p[1];
-    const long double t4 = p[3]*t3;
-    const long double M01 = t2*t4;
-    const long double t5 = M01*y[3];
-    const long double M11 = p[3]*p[3]*p[1];
+    const long double t1 = t0*(p[0] + p[1]);
+    const long double t2 = y[0] - y[1];
+    const long double t3 = cosl(t2);
+    const long double t4 = p[2]*p[1];
+    const long double t5 = p[3]*t4;
+    const long double t6 = t3*t5;
+    const long double t7 = t6*y[3];
+    const long double t8 = p[3]*p[3]*p[1];
+    const long double t9 = t1*y[2] + t7;
+    const long double t10 = t6*y[2] + t8*y[3];
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = M00*y[2] + t5;
-    x[3] = M01*y[2] + M11*y[3];
-    for (k = 0; k < PLANAR_TO_CANONICAL_X_SIZE; ++k) {
-        check += x[k] - x[k];
-    }
+    x[2] = t9;
+    x[3] = t10;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[0] - y[0]) + (y[1] - y[1]) + (t9 - t9) + (t10 - t10);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1501,8 +1525,7 @@ int planar_to_canonical_batch_l(long n, const long double *restrict y, long y_st
 int planar_from_canonical(const double *restrict x, const double *restrict p, double *restrict y)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    double check;
     const double t0 = x[0] - x[1];
     const double t1 = cos(t0);
     const double t2 = p[2]*p[1];
@@ -1519,9 +1542,8 @@ int planar_from_canonical(const double *restrict x, const double *restrict p, do
     y[1] = x[1];
     y[2] = v0;
     y[3] = v1;
-    for (k = 0; k < PLANAR_FROM_CANONICAL_Y_SIZE; ++k) {
-        check += y[k] - y[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (x[0] - x[0]) + (x[1] - x[1]) + (v0 - v0) + (v1 - v1);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1546,8 +1568,7 @@ int planar_from_canonical_batch(long n, const double *restrict x, long x_stride,
 int planar_from_canonical_f(const float *restrict x, const float *restrict p, float *restrict y)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    float check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    float check;
     const float t0 = x[0] - x[1];
     const float t1 = cosf(t0);
     const float t2 = p[2]*p[1];
@@ -1564,9 +1585,8 @@ int planar_from_canonical_f(const float *restrict x, const float *restrict p, fl
     y[1] = x[1];
     y[2] = v0;
     y[3] = v1;
-    for (k = 0; k < PLANAR_FROM_CANONICAL_Y_SIZE; ++k) {
-        check += y[k] - y[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (x[0] - x[0]) + (x[1] - x[1]) + (v0 - v0) + (v1 - v1);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1591,8 +1611,7 @@ int planar_from_canonical_batch_f(long n, const float *restrict x, long x_stride
 int planar_from_canonical_l(const long double *restrict x, const long double *restrict p, long double *restrict y)
 {
     int status = PLANAR_STATUS_OK;
-    int k;
-    long double check = 0; /* x - x is 0 for finite x, NaN for inf and NaN */
+    long double check;
     const long double t0 = x[0] - x[1];
     const long double t1 = cosl(t0);
     const long double t2 = p[2]*p[1];
@@ -1609,9 +1628,8 @@ int planar_from_canonical_l(const long double *restrict x, const long double *re
     y[1] = x[1];
     y[2] = v0;
     y[3] = v1;
-    for (k = 0; k < PLANAR_FROM_CANONICAL_Y_SIZE; ++k) {
-        check += y[k] - y[k];
-    }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (x[0] - x[0]) + (x[1] - x[1]) + (v0 - v0) + (v1 - v1);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }

@@ -18,103 +18,100 @@ const char *const spherical_rot_param_names[SPHERICAL_ROT_N_PARAMS] = {
     "m1", "m2", "l1", "l2", "g"
 };
 
-/* spherical_rot_rhs (double). Total ops: 198 */
+/* spherical_rot_rhs (double). Total ops: 196 */
 int spherical_rot_rhs(const double *restrict y, const double *restrict p, double *restrict ydot)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = sin(y[2]);
     const double Ab = p[3]*p[3];
     const double t2 = y[1] - y[3];
-    const double t3 = cos(t2);
-    const double t4 = p[2]*p[3];
-    const double Q11 = t3*t4;
-    const double t5 = sin(t2);
-    const double e2_1 = cos(y[2]);
-    const double t6 = e2_1*p[3];
-    const double t7 = p[2]*t6;
-    const double t8 = t5*t7;
-    const double Q10 = -t8;
-    const double e1_1 = cos(y[0]);
-    const double t9 = e1_1*p[2];
-    const double t10 = p[3]*t5;
-    const double Q01 = t10*t9;
-    const double t11 = Q01*Q01;
-    const double t12 = t0*t1;
-    const double t13 = e1_1*e2_1;
-    const double t14 = t12 + t13*t3;
-    const double Q00 = t14*t4;
-    const double t15 = 1.0/p[1];
-    const double t16 = p[2]*p[2];
-    const double t17 = p[0] + p[1];
-    const double M00 = t16*t17;
-    const double Aa = M00*t15;
+    const double t3 = sin(t2);
+    const double t4 = cos(y[2]);
+    const double t5 = p[3]*t4;
+    const double t6 = p[2]*t5;
+    const double t7 = t3*t6;
+    const double Q10 = -t7;
+    const double t8 = cos(t2);
+    const double t9 = p[2]*p[3];
+    const double Q11 = t8*t9;
+    const double t10 = cos(y[0]);
+    const double t11 = p[2]*t10;
+    const double t12 = p[3]*t3;
+    const double Q01 = t11*t12;
+    const double t13 = Q01*Q01;
+    const double t14 = 1.0/p[1];
+    const double t15 = p[2]*p[2];
+    const double t16 = p[0] + p[1];
+    const double t17 = t15*t16;
+    const double Aa = t14*t17;
     const double AaAb = Aa*Ab;
     const double t18 = -AaAb;
-    const double t19 = Q00*Q00 + t18;
-    const double D1_00 = -t11 - t19;
+    const double t19 = t0*t1;
+    const double t20 = t10*t4;
+    const double t21 = t19 + t20*t8;
+    const double Q00 = t21*t9;
+    const double t22 = Q00*Q00 + t18;
+    const double D1_00 = -t13 - t22;
     const double D1_01 = -Q00*Q10 - Q01*Q11;
-    const double t20 = Q10*Q10;
-    const double t21 = Q11*Q11 + t18;
-    const double D1_11 = -t20 - t21;
+    const double t23 = Q10*Q10;
+    const double t24 = Q11*Q11 + t18;
+    const double D1_11 = -t23 - t24;
     const double rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01);
-    const double t22 = 2*y[7];
-    const double t23 = t22*y[6];
-    const double t24 = cos(y[1]);
-    const double t25 = p[4]*t24;
-    const double t26 = t15*t17;
-    const double t27 = p[2]*t26;
-    const double t28 = t4*t5;
-    const double t29 = y[7]*y[7];
-    const double t30 = t1*t29;
-    const double t31 = y[6]*y[6];
-    const double t32 = t31*t4;
-    const double t33 = t32*t5;
-    const double t34 = t3*t7;
-    const double t35 = e1_1*y[4];
-    const double t36 = 2*y[5];
-    const double t37 = Aa*t36;
-    const double f1 = -t1*t33 - t23*t34 - t25*t27 - t28*t30 - t35*t37;
-    const double t38 = sin(y[3]);
-    const double t39 = p[4]*t38*t6;
-    const double t40 = e2_1*t1;
-    const double t41 = y[5]*y[5];
-    const double t42 = e2_1*t0;
-    const double t43 = t41*t42;
-    const double t44 = Q11*t43;
+    const double t25 = 2*y[7];
+    const double t26 = t25*y[6];
+    const double t27 = cos(y[1]);
+    const double t28 = p[4]*t14*t16;
+    const double t29 = p[2]*t28;
+    const double t30 = t3*t9;
+    const double t31 = y[7]*y[7];
+    const double t32 = t1*t31;
+    const double t33 = y[6]*y[6];
+    const double t34 = t33*t9;
+    const double t35 = t3*t34;
+    const double t36 = t6*t8;
+    const double t37 = t10*y[4];
+    const double t38 = t37*y[5];
+    const double t39 = 2*Aa;
+    const double f1 = -t1*t35 - t26*t36 - t27*t29 - t30*t32 - t38*t39;
+    const double t40 = sin(y[3]);
+    const double t41 = t1*t4;
+    const double t42 = y[5]*y[5];
+    const double t43 = t0*t4;
+    const double t44 = t42*t43;
     const double t45 = 2*y[4];
     const double t46 = t45*y[5];
-    const double t47 = t46*t9;
-    const double t48 = t5*t6;
+    const double t47 = t11*t3;
+    const double t48 = t47*t5;
     const double t49 = y[4]*y[4];
-    const double t50 = t4*(e1_1*t1 - t3*t42);
-    const double f2 = Ab*t29*t40 - t39 + t44 + t47*t48 - t49*t50;
-    const double t51 = cos(y[3]);
-    const double t52 = p[4]*t51;
-    const double t53 = e2_1*y[6];
-    const double t54 = Ab*t22;
-    const double t55 = t3*t9;
-    const double t56 = p[3]*t55;
-    const double f3 = p[2]*p[3]*t0*t41*t5 + p[2]*p[3]*t0*t49*t5 - p[3]*t52 - t46*t56 - t53*t54;
-    const double t57 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
-    const double t58 = sin(y[1]);
-    const double t59 = p[4]*t58;
-    const double t60 = t59*t9;
-    const double t61 = t23*t6;
-    const double t62 = t5*t9;
-    const double t63 = e1_1*t1;
-    const double t64 = -t3*t63 + t42;
-    const double f0 = e1_1*p[2]*p[3]*t1*t29*t3 + e1_1*t0*t15*t16*t17*t41 - t26*t60 - t32*t64 - t61*t62;
+    const double t50 = t43*t8;
+    const double t51 = t9*(t1*t10 - t50);
+    const double f2 = Ab*t31*t41 + Q11*t44 - p[4]*t40*t5 + t46*t48 - t49*t51;
+    const double t52 = cos(y[3]);
+    const double t53 = p[4]*t52;
+    const double t54 = t4*y[6];
+    const double t55 = Ab*t25;
+    const double t56 = t11*t8;
+    const double t57 = p[3]*t56;
+    const double f3 = p[2]*p[3]*t0*t3*t42 + p[2]*p[3]*t0*t3*t49 - p[3]*t53 - t46*t57 - t54*t55;
+    const double t58 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
+    const double t59 = sin(y[1]);
+    const double t60 = t11*t28;
+    const double t61 = t26*t5;
+    const double t62 = t1*t10;
+    const double t63 = t62*t8;
+    const double t64 = t43 - t63;
+    const double f0 = p[2]*p[3]*t1*t10*t31*t8 + t0*t10*t14*t15*t16*t42 - t34*t64 - t47*t61 - t59*t60;
     const double t65 = Ab*f0 - Q00*f2 - Q01*f3;
-    const double xr0 = -D1_01*t57 + D1_11*rD1*t65;
+    const double xr0 = -D1_01*t58 + D1_11*rD1*t65;
     const double qdd0 = xr0;
-    const double xr1 = D1_00*t57 - D1_01*rD1*t65;
+    const double xr1 = D1_00*t58 - D1_01*rD1*t65;
     const double rs1 = 1.0/t0;
     const double qdd1 = rs1*xr1;
-    const double D2_00 = -t19 - t20;
+    const double D2_00 = -t22 - t23;
     const double D2_01 = -Q00*Q01 - Q10*Q11;
-    const double D2_11 = -t11 - t21;
+    const double D2_11 = -t13 - t24;
     const double rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01);
     const double t66 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
     const double t67 = Aa*f2 - Q00*f0 - Q10*f1;
@@ -137,10 +134,11 @@ int spherical_rot_rhs(const double *restrict y, const double *restrict p, double
     if (!(fabs(t1) >= (double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_RHS_YDOT_SIZE; ++k) {
-        if (!isfinite(ydot[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[4] - y[4]) + (y[5] - y[5]) + (y[6] - y[6]) + (y[7] - y[7]) + (qdd0 - qdd0) +
+        (qdd1 - qdd1) + (qdd2 - qdd2) + (qdd3 - qdd3);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -159,103 +157,100 @@ int spherical_rot_rhs_batch(long n, const double *restrict y, long y_stride, con
     return all;
 }
 
-/* spherical_rot_rhs_f (float). Total ops: 198 */
+/* spherical_rot_rhs_f (float). Total ops: 196 */
 int spherical_rot_rhs_f(const float *restrict y, const float *restrict p, float *restrict ydot)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = sinf(y[2]);
     const float Ab = p[3]*p[3];
     const float t2 = y[1] - y[3];
-    const float t3 = cosf(t2);
-    const float t4 = p[2]*p[3];
-    const float Q11 = t3*t4;
-    const float t5 = sinf(t2);
-    const float e2_1 = cosf(y[2]);
-    const float t6 = e2_1*p[3];
-    const float t7 = p[2]*t6;
-    const float t8 = t5*t7;
-    const float Q10 = -t8;
-    const float e1_1 = cosf(y[0]);
-    const float t9 = e1_1*p[2];
-    const float t10 = p[3]*t5;
-    const float Q01 = t10*t9;
-    const float t11 = Q01*Q01;
-    const float t12 = t0*t1;
-    const float t13 = e1_1*e2_1;
-    const float t14 = t12 + t13*t3;
-    const float Q00 = t14*t4;
-    const float t15 = 1.0F/p[1];
-    const float t16 = p[2]*p[2];
-    const float t17 = p[0] + p[1];
-    const float M00 = t16*t17;
-    const float Aa = M00*t15;
+    const float t3 = sinf(t2);
+    const float t4 = cosf(y[2]);
+    const float t5 = p[3]*t4;
+    const float t6 = p[2]*t5;
+    const float t7 = t3*t6;
+    const float Q10 = -t7;
+    const float t8 = cosf(t2);
+    const float t9 = p[2]*p[3];
+    const float Q11 = t8*t9;
+    const float t10 = cosf(y[0]);
+    const float t11 = p[2]*t10;
+    const float t12 = p[3]*t3;
+    const float Q01 = t11*t12;
+    const float t13 = Q01*Q01;
+    const float t14 = 1.0F/p[1];
+    const float t15 = p[2]*p[2];
+    const float t16 = p[0] + p[1];
+    const float t17 = t15*t16;
+    const float Aa = t14*t17;
     const float AaAb = Aa*Ab;
     const float t18 = -AaAb;
-    const float t19 = Q00*Q00 + t18;
-    const float D1_00 = -t11 - t19;
+    const float t19 = t0*t1;
+    const float t20 = t10*t4;
+    const float t21 = t19 + t20*t8;
+    const float Q00 = t21*t9;
+    const float t22 = Q00*Q00 + t18;
+    const float D1_00 = -t13 - t22;
     const float D1_01 = -Q00*Q10 - Q01*Q11;
-    const float t20 = Q10*Q10;
-    const float t21 = Q11*Q11 + t18;
-    const float D1_11 = -t20 - t21;
+    const float t23 = Q10*Q10;
+    const float t24 = Q11*Q11 + t18;
+    const float D1_11 = -t23 - t24;
     const float rD1 = 1.0F/(D1_00*D1_11 - D1_01*D1_01);
-    const float t22 = 2*y[7];
-    const float t23 = t22*y[6];
-    const float t24 = cosf(y[1]);
-    const float t25 = p[4]*t24;
-    const float t26 = t15*t17;
-    const float t27 = p[2]*t26;
-    const float t28 = t4*t5;
-    const float t29 = y[7]*y[7];
-    const float t30 = t1*t29;
-    const float t31 = y[6]*y[6];
-    const float t32 = t31*t4;
-    const float t33 = t32*t5;
-    const float t34 = t3*t7;
-    const float t35 = e1_1*y[4];
-    const float t36 = 2*y[5];
-    const float t37 = Aa*t36;
-    const float f1 = -t1*t33 - t23*t34 - t25*t27 - t28*t30 - t35*t37;
-    const float t38 = sinf(y[3]);
-    const float t39 = p[4]*t38*t6;
-    const float t40 = e2_1*t1;
-    const float t41 = y[5]*y[5];
-    const float t42 = e2_1*t0;
-    const float t43 = t41*t42;
-    const float t44 = Q11*t43;
+    const float t25 = 2*y[7];
+    const float t26 = t25*y[6];
+    const float t27 = cosf(y[1]);
+    const float t28 = p[4]*t14*t16;
+    const float t29 = p[2]*t28;
+    const float t30 = t3*t9;
+    const float t31 = y[7]*y[7];
+    const float t32 = t1*t31;
+    const float t33 = y[6]*y[6];
+    const float t34 = t33*t9;
+    const float t35 = t3*t34;
+    const float t36 = t6*t8;
+    const float t37 = t10*y[4];
+    const float t38 = t37*y[5];
+    const float t39 = 2*Aa;
+    const float f1 = -t1*t35 - t26*t36 - t27*t29 - t30*t32 - t38*t39;
+    const float t40 = sinf(y[3]);
+    const float t41 = t1*t4;
+    const float t42 = y[5]*y[5];
+    const float t43 = t0*t4;
+    const float t44 = t42*t43;
     const float t45 = 2*y[4];
     const float t46 = t45*y[5];
-    const float t47 = t46*t9;
-    const float t48 = t5*t6;
+    const float t47 = t11*t3;
+    const float t48 = t47*t5;
     const float t49 = y[4]*y[4];
-    const float t50 = t4*(e1_1*t1 - t3*t42);
-    const float f2 = Ab*t29*t40 - t39 + t44 + t47*t48 - t49*t50;
-    const float t51 = cosf(y[3]);
-    const float t52 = p[4]*t51;
-    const float t53 = e2_1*y[6];
-    const float t54 = Ab*t22;
-    const float t55 = t3*t9;
-    const float t56 = p[3]*t55;
-    const float f3 = p[2]*p[3]*t0*t41*t5 + p[2]*p[3]*t0*t49*t5 - p[3]*t52 - t46*t56 - t53*t54;
-    const float t57 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
-    const float t58 = sinf(y[1]);
-    const float t59 = p[4]*t58;
-    const float t60 = t59*t9;
-    const float t61 = t23*t6;
-    const float t62 = t5*t9;
-    const float t63 = e1_1*t1;
-    const float t64 = -t3*t63 + t42;
-    const float f0 = e1_1*p[2]*p[3]*t1*t29*t3 + e1_1*t0*t15*t16*t17*t41 - t26*t60 - t32*t64 - t61*t62;
+    const float t50 = t43*t8;
+    const float t51 = t9*(t1*t10 - t50);
+    const float f2 = Ab*t31*t41 + Q11*t44 - p[4]*t40*t5 + t46*t48 - t49*t51;
+    const float t52 = cosf(y[3]);
+    const float t53 = p[4]*t52;
+    const float t54 = t4*y[6];
+    const float t55 = Ab*t25;
+    const float t56 = t11*t8;
+    const float t57 = p[3]*t56;
+    const float f3 = p[2]*p[3]*t0*t3*t42 + p[2]*p[3]*t0*t3*t49 - p[3]*t53 - t46*t57 - t54*t55;
+    const float t58 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
+    const float t59 = sinf(y[1]);
+    const float t60 = t11*t28;
+    const float t61 = t26*t5;
+    const float t62 = t1*t10;
+    const float t63 = t62*t8;
+    const float t64 = t43 - t63;
+    const float f0 = p[2]*p[3]*t1*t10*t31*t8 + t0*t10*t14*t15*t16*t42 - t34*t64 - t47*t61 - t59*t60;
     const float t65 = Ab*f0 - Q00*f2 - Q01*f3;
-    const float xr0 = -D1_01*t57 + D1_11*rD1*t65;
+    const float xr0 = -D1_01*t58 + D1_11*rD1*t65;
     const float qdd0 = xr0;
-    const float xr1 = D1_00*t57 - D1_01*rD1*t65;
+    const float xr1 = D1_00*t58 - D1_01*rD1*t65;
     const float rs1 = 1.0F/t0;
     const float qdd1 = rs1*xr1;
-    const float D2_00 = -t19 - t20;
+    const float D2_00 = -t22 - t23;
     const float D2_01 = -Q00*Q01 - Q10*Q11;
-    const float D2_11 = -t11 - t21;
+    const float D2_11 = -t13 - t24;
     const float rD2 = 1.0F/(D2_00*D2_11 - D2_01*D2_01);
     const float t66 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
     const float t67 = Aa*f2 - Q00*f0 - Q10*f1;
@@ -278,10 +273,11 @@ int spherical_rot_rhs_f(const float *restrict y, const float *restrict p, float 
     if (!(fabsf(t1) >= (float)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_RHS_YDOT_SIZE; ++k) {
-        if (!isfinite(ydot[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[4] - y[4]) + (y[5] - y[5]) + (y[6] - y[6]) + (y[7] - y[7]) + (qdd0 - qdd0) +
+        (qdd1 - qdd1) + (qdd2 - qdd2) + (qdd3 - qdd3);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -300,103 +296,100 @@ int spherical_rot_rhs_batch_f(long n, const float *restrict y, long y_stride, co
     return all;
 }
 
-/* spherical_rot_rhs_l (long double). Total ops: 198 */
+/* spherical_rot_rhs_l (long double). Total ops: 196 */
 int spherical_rot_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict ydot)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = sinl(y[2]);
     const long double Ab = p[3]*p[3];
     const long double t2 = y[1] - y[3];
-    const long double t3 = cosl(t2);
-    const long double t4 = p[2]*p[3];
-    const long double Q11 = t3*t4;
-    const long double t5 = sinl(t2);
-    const long double e2_1 = cosl(y[2]);
-    const long double t6 = e2_1*p[3];
-    const long double t7 = p[2]*t6;
-    const long double t8 = t5*t7;
-    const long double Q10 = -t8;
-    const long double e1_1 = cosl(y[0]);
-    const long double t9 = e1_1*p[2];
-    const long double t10 = p[3]*t5;
-    const long double Q01 = t10*t9;
-    const long double t11 = Q01*Q01;
-    const long double t12 = t0*t1;
-    const long double t13 = e1_1*e2_1;
-    const long double t14 = t12 + t13*t3;
-    const long double Q00 = t14*t4;
-    const long double t15 = 1.0L/p[1];
-    const long double t16 = p[2]*p[2];
-    const long double t17 = p[0] + p[1];
-    const long double M00 = t16*t17;
-    const long double Aa = M00*t15;
+    const long double t3 = sinl(t2);
+    const long double t4 = cosl(y[2]);
+    const long double t5 = p[3]*t4;
+    const long double t6 = p[2]*t5;
+    const long double t7 = t3*t6;
+    const long double Q10 = -t7;
+    const long double t8 = cosl(t2);
+    const long double t9 = p[2]*p[3];
+    const long double Q11 = t8*t9;
+    const long double t10 = cosl(y[0]);
+    const long double t11 = p[2]*t10;
+    const long double t12 = p[3]*t3;
+    const long double Q01 = t11*t12;
+    const long double t13 = Q01*Q01;
+    const long double t14 = 1.0L/p[1];
+    const long double t15 = p[2]*p[2];
+    const long double t16 = p[0] + p[1];
+    const long double t17 = t15*t16;
+    const long double Aa = t14*t17;
     const long double AaAb = Aa*Ab;
     const long double t18 = -AaAb;
-    const long double t19 = Q00*Q00 + t18;
-    const long double D1_00 = -t11 - t19;
+    const long double t19 = t0*t1;
+    const long double t20 = t10*t4;
+    const long double t21 = t19 + t20*t8;
+    const long double Q00 = t21*t9;
+    const long double t22 = Q00*Q00 + t18;
+    const long double D1_00 = -t13 - t22;
     const long double D1_01 = -Q00*Q10 - Q01*Q11;
-    const long double t20 = Q10*Q10;
-    const long double t21 = Q11*Q11 + t18;
-    const long double D1_11 = -t20 - t21;
+    const long double t23 = Q10*Q10;
+    const long double t24 = Q11*Q11 + t18;
+    const long double D1_11 = -t23 - t24;
     const long double rD1 = 1.0L/(D1_00*D1_11 - D1_01*D1_01);
-    const long double t22 = 2*y[7];
-    const long double t23 = t22*y[6];
-    const long double t24 = cosl(y[1]);
-    const long double t25 = p[4]*t24;
-    const long double t26 = t15*t17;
-    const long double t27 = p[2]*t26;
-    const long double t28 = t4*t5;
-    const long double t29 = y[7]*y[7];
-    const long double t30 = t1*t29;
-    const long double t31 = y[6]*y[6];
-    const long double t32 = t31*t4;
-    const long double t33 = t32*t5;
-    const long double t34 = t3*t7;
-    const long double t35 = e1_1*y[4];
-    const long double t36 = 2*y[5];
-    const long double t37 = Aa*t36;
-    const long double f1 = -t1*t33 - t23*t34 - t25*t27 - t28*t30 - t35*t37;
-    const long double t38 = sinl(y[3]);
-    const long double t39 = p[4]*t38*t6;
-    const long double t40 = e2_1*t1;
-    const long double t41 = y[5]*y[5];
-    const long double t42 = e2_1*t0;
-    const long double t43 = t41*t42;
-    const long double t44 = Q11*t43;
+    const long double t25 = 2*y[7];
+    const long double t26 = t25*y[6];
+    const long double t27 = cosl(y[1]);
+    const long double t28 = p[4]*t14*t16;
+    const long double t29 = p[2]*t28;
+    const long double t30 = t3*t9;
+    const long double t31 = y[7]*y[7];
+    const long double t32 = t1*t31;
+    const long double t33 = y[6]*y[6];
+    const long double t34 = t33*t9;
+    const long double t35 = t3*t34;
+    const long double t36 = t6*t8;
+    const long double t37 = t10*y[4];
+    const long double t38 = t37*y[5];
+    const long double t39 = 2*Aa;
+    const long double f1 = -t1*t35 - t26*t36 - t27*t29 - t30*t32 - t38*t39;
+    const long double t40 = sinl(y[3]);
+    const long double t41 = t1*t4;
+    const long double t42 = y[5]*y[5];
+    const long double t43 = t0*t4;
+    const long double t44 = t42*t43;
     const long double t45 = 2*y[4];
     const long double t46 = t45*y[5];
-    const long double t47 = t46*t9;
-    const long double t48 = t5*t6;
+    const long double t47 = t11*t3;
+    const long double t48 = t47*t5;
     const long double t49 = y[4]*y[4];
-    const long double t50 = t4*(e1_1*t1 - t3*t42);
-    const long double f2 = Ab*t29*t40 - t39 + t44 + t47*t48 - t49*t50;
-    const long double t51 = cosl(y[3]);
-    const long double t52 = p[4]*t51;
-    const long double t53 = e2_1*y[6];
-    const long double t54 = Ab*t22;
-    const long double t55 = t3*t9;
-    const long double t56 = p[3]*t55;
-    const long double f3 = p[2]*p[3]*t0*t41*t5 + p[2]*p[3]*t0*t49*t5 - p[3]*t52 - t46*t56 - t53*t54;
-    const long double t57 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
-    const long double t58 = sinl(y[1]);
-    const long double t59 = p[4]*t58;
-    const long double t60 = t59*t9;
-    const long double t61 = t23*t6;
-    const long double t62 = t5*t9;
-    const long double t63 = e1_1*t1;
-    const long double t64 = -t3*t63 + t42;
-    const long double f0 = e1_1*p[2]*p[3]*t1*t29*t3 + e1_1*t0*t15*t16*t17*t41 - t26*t60 - t32*t64 - t61*t62;
+    const long double t50 = t43*t8;
+    const long double t51 = t9*(t1*t10 - t50);
+    const long double f2 = Ab*t31*t41 + Q11*t44 - p[4]*t40*t5 + t46*t48 - t49*t51;
+    const long double t52 = cosl(y[3]);
+    const long double t53 = p[4]*t52;
+    const long double t54 = t4*y[6];
+    const long double t55 = Ab*t25;
+    const long double t56 = t11*t8;
+    const long double t57 = p[3]*t56;
+    const long double f3 = p[2]*p[3]*t0*t3*t42 + p[2]*p[3]*t0*t3*t49 - p[3]*t53 - t46*t57 - t54*t55;
+    const long double t58 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
+    const long double t59 = sinl(y[1]);
+    const long double t60 = t11*t28;
+    const long double t61 = t26*t5;
+    const long double t62 = t1*t10;
+    const long double t63 = t62*t8;
+    const long double t64 = t43 - t63;
+    const long double f0 = p[2]*p[3]*t1*t10*t31*t8 + t0*t10*t14*t15*t16*t42 - t34*t64 - t47*t61 - t59*t60;
     const long double t65 = Ab*f0 - Q00*f2 - Q01*f3;
-    const long double xr0 = -D1_01*t57 + D1_11*rD1*t65;
+    const long double xr0 = -D1_01*t58 + D1_11*rD1*t65;
     const long double qdd0 = xr0;
-    const long double xr1 = D1_00*t57 - D1_01*rD1*t65;
+    const long double xr1 = D1_00*t58 - D1_01*rD1*t65;
     const long double rs1 = 1.0L/t0;
     const long double qdd1 = rs1*xr1;
-    const long double D2_00 = -t19 - t20;
+    const long double D2_00 = -t22 - t23;
     const long double D2_01 = -Q00*Q01 - Q10*Q11;
-    const long double D2_11 = -t11 - t21;
+    const long double D2_11 = -t13 - t24;
     const long double rD2 = 1.0L/(D2_00*D2_11 - D2_01*D2_01);
     const long double t66 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
     const long double t67 = Aa*f2 - Q00*f0 - Q10*f1;
@@ -419,10 +412,11 @@ int spherical_rot_rhs_l(const long double *restrict y, const long double *restri
     if (!(fabsl(t1) >= (long double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_RHS_YDOT_SIZE; ++k) {
-        if (!isfinite(ydot[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[4] - y[4]) + (y[5] - y[5]) + (y[6] - y[6]) + (y[7] - y[7]) + (qdd0 - qdd0) +
+        (qdd1 - qdd1) + (qdd2 - qdd2) + (qdd3 - qdd3);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -441,11 +435,11 @@ int spherical_rot_rhs_batch_l(long n, const long double *restrict y, long y_stri
     return all;
 }
 
-/* spherical_rot_mass_matrix (double). Total ops: 33 */
+/* spherical_rot_mass_matrix (double). Total ops: 32 */
 int spherical_rot_mass_matrix(const double *restrict y, const double *restrict p, double *restrict M)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = sin(y[2]);
     const double t2 = p[2]*p[2];
@@ -454,28 +448,27 @@ int spherical_rot_mass_matrix(const double *restrict y, const double *restrict p
     const double t4 = t0*t1;
     const double t5 = y[1] - y[3];
     const double t6 = cos(t5);
-    const double e1_1 = cos(y[0]);
-    const double e2_1 = cos(y[2]);
-    const double t7 = e1_1*e2_1;
-    const double t8 = t4 + t6*t7;
-    const double t9 = p[2]*p[3];
-    const double Q00 = t8*t9;
-    const double M02 = Q00*p[1];
-    const double t10 = e1_1*t1;
-    const double t11 = sin(t5);
-    const double t12 = t11*t9;
-    const double t13 = p[1]*t12;
-    const double M03 = t10*t13;
-    const double t14 = t0*t0;
-    const double M11 = M00*t14;
-    const double t15 = e2_1*t0;
-    const double t16 = t13*t15;
-    const double M12 = -t16;
-    const double Q11 = t6*t9;
-    const double t17 = Q11*t4;
-    const double M13 = p[1]*t17;
-    const double Ab = p[3]*p[3];
-    const double M22 = Ab*p[1];
+    const double t7 = cos(y[0]);
+    const double t8 = cos(y[2]);
+    const double t9 = t7*t8;
+    const double t10 = t4 + t6*t9;
+    const double t11 = p[2]*p[1];
+    const double t12 = p[3]*t11;
+    const double M02 = t10*t12;
+    const double t13 = t1*t7;
+    const double t14 = sin(t5);
+    const double t15 = p[3]*t14;
+    const double t16 = t11*t15;
+    const double M03 = t13*t16;
+    const double t17 = t0*t0;
+    const double M11 = M00*t17;
+    const double t18 = t0*t8;
+    const double t19 = t16*t18;
+    const double M12 = -t19;
+    const double t20 = t4*t6;
+    const double M13 = t12*t20;
+    const double t21 = p[3]*p[3];
+    const double M22 = p[1]*t21;
     const double M33 = M22*t1*t1;
     M[0] = M00;
     M[1] = 0;
@@ -499,10 +492,11 @@ int spherical_rot_mass_matrix(const double *restrict y, const double *restrict p
     if (!(fabs(t1) >= (double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_MASS_MATRIX_M_SIZE; ++k) {
-        if (!isfinite(M[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (M00 - M00) + (M02 - M02) + (M03 - M03) + (M11 - M11) + (M12 - M12) + (M13 - M13) +
+        (M02 - M02) + (M12 - M12) + (M22 - M22) + (M03 - M03) + (M13 - M13) + (M33 - M33);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -521,11 +515,11 @@ int spherical_rot_mass_matrix_batch(long n, const double *restrict y, long y_str
     return all;
 }
 
-/* spherical_rot_mass_matrix_f (float). Total ops: 33 */
+/* spherical_rot_mass_matrix_f (float). Total ops: 32 */
 int spherical_rot_mass_matrix_f(const float *restrict y, const float *restrict p, float *restrict M)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = sinf(y[2]);
     const float t2 = p[2]*p[2];
@@ -534,28 +528,27 @@ int spherical_rot_mass_matrix_f(const float *restrict y, const float *restrict p
     const float t4 = t0*t1;
     const float t5 = y[1] - y[3];
     const float t6 = cosf(t5);
-    const float e1_1 = cosf(y[0]);
-    const float e2_1 = cosf(y[2]);
-    const float t7 = e1_1*e2_1;
-    const float t8 = t4 + t6*t7;
-    const float t9 = p[2]*p[3];
-    const float Q00 = t8*t9;
-    const float M02 = Q00*p[1];
-    const float t10 = e1_1*t1;
-    const float t11 = sinf(t5);
-    const float t12 = t11*t9;
-    const float t13 = p[1]*t12;
-    const float M03 = t10*t13;
-    const float t14 = t0*t0;
-    const float M11 = M00*t14;
-    const float t15 = e2_1*t0;
-    const float t16 = t13*t15;
-    const float M12 = -t16;
-    const float Q11 = t6*t9;
-    const float t17 = Q11*t4;
-    const float M13 = p[1]*t17;
-    const float Ab = p[3]*p[3];
-    const float M22 = Ab*p[1];
+    const float t7 = cosf(y[0]);
+    const float t8 = cosf(y[2]);
+    const float t9 = t7*t8;
+    const float t10 = t4 + t6*t9;
+    const float t11 = p[2]*p[1];
+    const float t12 = p[3]*t11;
+    const float M02 = t10*t12;
+    const float t13 = t1*t7;
+    const float t14 = sinf(t5);
+    const float t15 = p[3]*t14;
+    const float t16 = t11*t15;
+    const float M03 = t13*t16;
+    const float t17 = t0*t0;
+    const float M11 = M00*t17;
+    const float t18 = t0*t8;
+    const float t19 = t16*t18;
+    const float M12 = -t19;
+    const float t20 = t4*t6;
+    const float M13 = t12*t20;
+    const float t21 = p[3]*p[3];
+    const float M22 = p[1]*t21;
     const float M33 = M22*t1*t1;
     M[0] = M00;
     M[1] = 0;
@@ -579,10 +572,11 @@ int spherical_rot_mass_matrix_f(const float *restrict y, const float *restrict p
     if (!(fabsf(t1) >= (float)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_MASS_MATRIX_M_SIZE; ++k) {
-        if (!isfinite(M[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (M00 - M00) + (M02 - M02) + (M03 - M03) + (M11 - M11) + (M12 - M12) + (M13 - M13) +
+        (M02 - M02) + (M12 - M12) + (M22 - M22) + (M03 - M03) + (M13 - M13) + (M33 - M33);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -601,11 +595,11 @@ int spherical_rot_mass_matrix_batch_f(long n, const float *restrict y, long y_st
     return all;
 }
 
-/* spherical_rot_mass_matrix_l (long double). Total ops: 33 */
+/* spherical_rot_mass_matrix_l (long double). Total ops: 32 */
 int spherical_rot_mass_matrix_l(const long double *restrict y, const long double *restrict p, long double *restrict M)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = sinl(y[2]);
     const long double t2 = p[2]*p[2];
@@ -614,28 +608,27 @@ int spherical_rot_mass_matrix_l(const long double *restrict y, const long double
     const long double t4 = t0*t1;
     const long double t5 = y[1] - y[3];
     const long double t6 = cosl(t5);
-    const long double e1_1 = cosl(y[0]);
-    const long double e2_1 = cosl(y[2]);
-    const long double t7 = e1_1*e2_1;
-    const long double t8 = t4 + t6*t7;
-    const long double t9 = p[2]*p[3];
-    const long double Q00 = t8*t9;
-    const long double M02 = Q00*p[1];
-    const long double t10 = e1_1*t1;
-    const long double t11 = sinl(t5);
-    const long double t12 = t11*t9;
-    const long double t13 = p[1]*t12;
-    const long double M03 = t10*t13;
-    const long double t14 = t0*t0;
-    const long double M11 = M00*t14;
-    const long double t15 = e2_1*t0;
-    const long double t16 = t13*t15;
-    const long double M12 = -t16;
-    const long double Q11 = t6*t9;
-    const long double t17 = Q11*t4;
-    const long double M13 = p[1]*t17;
-    const long double Ab = p[3]*p[3];
-    const long double M22 = Ab*p[1];
+    const long double t7 = cosl(y[0]);
+    const long double t8 = cosl(y[2]);
+    const long double t9 = t7*t8;
+    const long double t10 = t4 + t6*t9;
+    const long double t11 = p[2]*p[1];
+    const long double t12 = p[3]*t11;
+    const long double M02 = t10*t12;
+    const long double t13 = t1*t7;
+    const long double t14 = sinl(t5);
+    const long double t15 = p[3]*t14;
+    const long double t16 = t11*t15;
+    const long double M03 = t13*t16;
+    const long double t17 = t0*t0;
+    const long double M11 = M00*t17;
+    const long double t18 = t0*t8;
+    const long double t19 = t16*t18;
+    const long double M12 = -t19;
+    const long double t20 = t4*t6;
+    const long double M13 = t12*t20;
+    const long double t21 = p[3]*p[3];
+    const long double M22 = p[1]*t21;
     const long double M33 = M22*t1*t1;
     M[0] = M00;
     M[1] = 0;
@@ -659,10 +652,11 @@ int spherical_rot_mass_matrix_l(const long double *restrict y, const long double
     if (!(fabsl(t1) >= (long double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_MASS_MATRIX_M_SIZE; ++k) {
-        if (!isfinite(M[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (M00 - M00) + (M02 - M02) + (M03 - M03) + (M11 - M11) + (M12 - M12) + (M13 - M13) +
+        (M02 - M02) + (M12 - M12) + (M22 - M22) + (M03 - M03) + (M13 - M13) + (M33 - M33);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -681,71 +675,74 @@ int spherical_rot_mass_matrix_batch_l(long n, const long double *restrict y, lon
     return all;
 }
 
-/* spherical_rot_forcing (double). Total ops: 124 */
+/* spherical_rot_forcing (double). Total ops: 115 */
 int spherical_rot_forcing(const double *restrict y, const double *restrict p, double *restrict F)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
-    const double t0 = p[2]*p[2];
-    const double t1 = sin(y[0]);
-    const double t2 = sin(y[2]);
-    const double t3 = y[1] - y[3];
-    const double t4 = cos(t3);
-    const double e1_1 = cos(y[0]);
-    const double t5 = sin(y[1]);
-    const double t6 = p[4]*t5;
-    const double t7 = e1_1*p[2];
-    const double t8 = t6*t7;
-    const double t9 = sin(t3);
+    double check;
+    const double t0 = cos(y[0]);
+    const double t1 = sin(y[1]);
+    const double t2 = y[7]*y[7];
+    const double t3 = sin(y[0]);
+    const double t4 = cos(y[2]);
+    const double t5 = t3*t4;
+    const double t6 = y[1] - y[3];
+    const double t7 = cos(t6);
+    const double t8 = sin(y[2]);
+    const double t9 = t0*t8;
     const double t10 = t7*t9;
-    const double t11 = y[7]*y[7];
-    const double t12 = y[5]*y[5];
+    const double t11 = p[2]*p[1];
+    const double t12 = p[3]*t11;
     const double t13 = y[6]*y[6];
-    const double t14 = p[2]*p[3];
-    const double t15 = t13*t14;
-    const double t16 = p[0]*t7;
-    const double e2_1 = cos(y[2]);
-    const double t17 = e2_1*t1;
-    const double t18 = p[1]*t17;
-    const double t19 = e2_1*p[3];
-    const double t20 = 2*y[7];
-    const double t21 = t20*y[6];
-    const double t22 = t19*t21;
-    const double t23 = p[1]*t22;
-    const double t24 = cos(y[1]);
-    const double t25 = p[4]*t24;
-    const double t26 = 2*y[4];
-    const double t27 = t26*y[5];
-    const double t28 = t27*t7;
-    const double t29 = p[1]*t28;
-    const double t30 = p[3]*t9;
-    const double t31 = p[1]*t2;
-    const double t32 = t30*t31;
-    const double t33 = e1_1*t2;
-    const double t34 = sin(y[3]);
-    const double t35 = p[4]*t19*t34;
-    const double t36 = e2_1*t2;
-    const double Q11 = t14*t4;
-    const double t37 = t12*t17;
-    const double t38 = Q11*t37;
-    const double t39 = t19*t9;
-    const double Ab = p[3]*p[3];
-    const double M22 = Ab*p[1];
-    const double t40 = y[4]*y[4];
-    const double t41 = t14*t40;
-    const double t42 = Q11*t40;
-    const double t43 = cos(y[3]);
-    const double t44 = p[4]*t43;
-    const double t45 = t4*t7;
-    const double t46 = t27*t45;
-    F[0] = e1_1*p[2]*p[3]*p[1]*t11*t2*t4 + e1_1*p[2]*p[3]*p[1]*t13*t2*t4 + e1_1*p[0]*t0*t1*t12 + e1_1*p[1]*t0*t1*t12 - p[1]*t8 - t10*t23 - t15*t18 - t16*t6;
-    F[1] = -p[2]*t1*(p[0]*t25 + p[1]*t25 + t11*t32 + t13*t32 + t16*t27 + t23*t4 + t29);
-    F[2] = M22*t11*t36 - p[1]*t33*t41 - p[1]*t35 + p[1]*t38 + t18*t42 + t29*t39;
-    F[3] = p[3]*t31*(p[2]*t1*t12*t9 + p[2]*t1*t40*t9 - t22 - t44 - t46);
-    for (k = 0; k < SPHERICAL_ROT_FORCING_F_SIZE; ++k) {
-        if (!isfinite(F[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    const double t14 = t12*t13;
+    const double t15 = p[4]*p[0];
+    const double t16 = p[4]*p[1];
+    const double t17 = p[3]*t4;
+    const double t18 = t17*y[6];
+    const double t19 = sin(t6);
+    const double t20 = 2*t11;
+    const double t21 = t19*t20;
+    const double t22 = p[2]*p[2];
+    const double t23 = p[0]*t22;
+    const double t24 = p[1]*t22;
+    const double t25 = y[5]*y[5];
+    const double t26 = t25*t3;
+    const double t27 = 2*y[7];
+    const double t28 = t27*y[6];
+    const double t29 = t17*t28;
+    const double t30 = cos(y[1]);
+    const double t31 = t0*y[4];
+    const double t32 = t31*y[5];
+    const double t33 = p[2]*p[0];
+    const double t34 = p[3]*t19;
+    const double t35 = p[1]*t8;
+    const double t36 = t34*t35;
+    const double t37 = sin(y[3]);
+    const double t38 = t4*t8;
+    const double t39 = t5*t7;
+    const double t40 = p[3]*p[3];
+    const double t41 = p[1]*t40;
+    const double t42 = y[4]*y[4];
+    const double t43 = t12*t42;
+    const double t44 = cos(y[3]);
+    const double t45 = p[4]*t44;
+    const double t46 = 2*y[4];
+    const double t47 = t46*y[5];
+    const double t48 = p[2]*t0;
+    const double t49 = t48*t7;
+    const double t50 = t47*t49;
+    const double t51 = t0*t1*(-p[2]*t15 - p[2]*t16) - t0*t18*t21*y[7] + t0*t26*(t23 + t24) + t10*t12*t2 + t10*t14 - t14*t5;
+    const double t52 = -p[2]*t3*(p[1]*t29*t7 + t13*t36 + t2*t36 + t30*(t15 + t16) + t32*(t20 + 2*t33));
+    const double t53 = t12*t25*t39 - t16*t17*t37 + t17*t21*t32 + t2*t38*t41 + t39*t43 - t43*t9;
+    const double t54 = p[3]*t35*(p[2]*t19*t25*t3 + p[2]*t19*t3*t42 - t29 - t45 - t50);
+    F[0] = t51;
+    F[1] = t52;
+    F[2] = t53;
+    F[3] = t54;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t51 - t51) + (t52 - t52) + (t53 - t53) + (t54 - t54);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -764,71 +761,74 @@ int spherical_rot_forcing_batch(long n, const double *restrict y, long y_stride,
     return all;
 }
 
-/* spherical_rot_forcing_f (float). Total ops: 124 */
+/* spherical_rot_forcing_f (float). Total ops: 115 */
 int spherical_rot_forcing_f(const float *restrict y, const float *restrict p, float *restrict F)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
-    const float t0 = p[2]*p[2];
-    const float t1 = sinf(y[0]);
-    const float t2 = sinf(y[2]);
-    const float t3 = y[1] - y[3];
-    const float t4 = cosf(t3);
-    const float e1_1 = cosf(y[0]);
-    const float t5 = sinf(y[1]);
-    const float t6 = p[4]*t5;
-    const float t7 = e1_1*p[2];
-    const float t8 = t6*t7;
-    const float t9 = sinf(t3);
+    float check;
+    const float t0 = cosf(y[0]);
+    const float t1 = sinf(y[1]);
+    const float t2 = y[7]*y[7];
+    const float t3 = sinf(y[0]);
+    const float t4 = cosf(y[2]);
+    const float t5 = t3*t4;
+    const float t6 = y[1] - y[3];
+    const float t7 = cosf(t6);
+    const float t8 = sinf(y[2]);
+    const float t9 = t0*t8;
     const float t10 = t7*t9;
-    const float t11 = y[7]*y[7];
-    const float t12 = y[5]*y[5];
+    const float t11 = p[2]*p[1];
+    const float t12 = p[3]*t11;
     const float t13 = y[6]*y[6];
-    const float t14 = p[2]*p[3];
-    const float t15 = t13*t14;
-    const float t16 = p[0]*t7;
-    const float e2_1 = cosf(y[2]);
-    const float t17 = e2_1*t1;
-    const float t18 = p[1]*t17;
-    const float t19 = e2_1*p[3];
-    const float t20 = 2*y[7];
-    const float t21 = t20*y[6];
-    const float t22 = t19*t21;
-    const float t23 = p[1]*t22;
-    const float t24 = cosf(y[1]);
-    const float t25 = p[4]*t24;
-    const float t26 = 2*y[4];
-    const float t27 = t26*y[5];
-    const float t28 = t27*t7;
-    const float t29 = p[1]*t28;
-    const float t30 = p[3]*t9;
-    const float t31 = p[1]*t2;
-    const float t32 = t30*t31;
-    const float t33 = e1_1*t2;
-    const float t34 = sinf(y[3]);
-    const float t35 = p[4]*t19*t34;
-    const float t36 = e2_1*t2;
-    const float Q11 = t14*t4;
-    const float t37 = t12*t17;
-    const float t38 = Q11*t37;
-    const float t39 = t19*t9;
-    const float Ab = p[3]*p[3];
-    const float M22 = Ab*p[1];
-    const float t40 = y[4]*y[4];
-    const float t41 = t14*t40;
-    const float t42 = Q11*t40;
-    const float t43 = cosf(y[3]);
-    const float t44 = p[4]*t43;
-    const float t45 = t4*t7;
-    const float t46 = t27*t45;
-    F[0] = e1_1*p[2]*p[3]*p[1]*t11*t2*t4 + e1_1*p[2]*p[3]*p[1]*t13*t2*t4 + e1_1*p[0]*t0*t1*t12 + e1_1*p[1]*t0*t1*t12 - p[1]*t8 - t10*t23 - t15*t18 - t16*t6;
-    F[1] = -p[2]*t1*(p[0]*t25 + p[1]*t25 + t11*t32 + t13*t32 + t16*t27 + t23*t4 + t29);
-    F[2] = M22*t11*t36 - p[1]*t33*t41 - p[1]*t35 + p[1]*t38 + t18*t42 + t29*t39;
-    F[3] = p[3]*t31*(p[2]*t1*t12*t9 + p[2]*t1*t40*t9 - t22 - t44 - t46);
-    for (k = 0; k < SPHERICAL_ROT_FORCING_F_SIZE; ++k) {
-        if (!isfinite(F[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    const float t14 = t12*t13;
+    const float t15 = p[4]*p[0];
+    const float t16 = p[4]*p[1];
+    const float t17 = p[3]*t4;
+    const float t18 = t17*y[6];
+    const float t19 = sinf(t6);
+    const float t20 = 2*t11;
+    const float t21 = t19*t20;
+    const float t22 = p[2]*p[2];
+    const float t23 = p[0]*t22;
+    const float t24 = p[1]*t22;
+    const float t25 = y[5]*y[5];
+    const float t26 = t25*t3;
+    const float t27 = 2*y[7];
+    const float t28 = t27*y[6];
+    const float t29 = t17*t28;
+    const float t30 = cosf(y[1]);
+    const float t31 = t0*y[4];
+    const float t32 = t31*y[5];
+    const float t33 = p[2]*p[0];
+    const float t34 = p[3]*t19;
+    const float t35 = p[1]*t8;
+    const float t36 = t34*t35;
+    const float t37 = sinf(y[3]);
+    const float t38 = t4*t8;
+    const float t39 = t5*t7;
+    const float t40 = p[3]*p[3];
+    const float t41 = p[1]*t40;
+    const float t42 = y[4]*y[4];
+    const float t43 = t12*t42;
+    const float t44 = cosf(y[3]);
+    const float t45 = p[4]*t44;
+    const float t46 = 2*y[4];
+    const float t47 = t46*y[5];
+    const float t48 = p[2]*t0;
+    const float t49 = t48*t7;
+    const float t50 = t47*t49;
+    const float t51 = t0*t1*(-p[2]*t15 - p[2]*t16) - t0*t18*t21*y[7] + t0*t26*(t23 + t24) + t10*t12*t2 + t10*t14 - t14*t5;
+    const float t52 = -p[2]*t3*(p[1]*t29*t7 + t13*t36 + t2*t36 + t30*(t15 + t16) + t32*(t20 + 2*t33));
+    const float t53 = t12*t25*t39 - t16*t17*t37 + t17*t21*t32 + t2*t38*t41 + t39*t43 - t43*t9;
+    const float t54 = p[3]*t35*(p[2]*t19*t25*t3 + p[2]*t19*t3*t42 - t29 - t45 - t50);
+    F[0] = t51;
+    F[1] = t52;
+    F[2] = t53;
+    F[3] = t54;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t51 - t51) + (t52 - t52) + (t53 - t53) + (t54 - t54);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -847,71 +847,74 @@ int spherical_rot_forcing_batch_f(long n, const float *restrict y, long y_stride
     return all;
 }
 
-/* spherical_rot_forcing_l (long double). Total ops: 124 */
+/* spherical_rot_forcing_l (long double). Total ops: 115 */
 int spherical_rot_forcing_l(const long double *restrict y, const long double *restrict p, long double *restrict F)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
-    const long double t0 = p[2]*p[2];
-    const long double t1 = sinl(y[0]);
-    const long double t2 = sinl(y[2]);
-    const long double t3 = y[1] - y[3];
-    const long double t4 = cosl(t3);
-    const long double e1_1 = cosl(y[0]);
-    const long double t5 = sinl(y[1]);
-    const long double t6 = p[4]*t5;
-    const long double t7 = e1_1*p[2];
-    const long double t8 = t6*t7;
-    const long double t9 = sinl(t3);
+    long double check;
+    const long double t0 = cosl(y[0]);
+    const long double t1 = sinl(y[1]);
+    const long double t2 = y[7]*y[7];
+    const long double t3 = sinl(y[0]);
+    const long double t4 = cosl(y[2]);
+    const long double t5 = t3*t4;
+    const long double t6 = y[1] - y[3];
+    const long double t7 = cosl(t6);
+    const long double t8 = sinl(y[2]);
+    const long double t9 = t0*t8;
     const long double t10 = t7*t9;
-    const long double t11 = y[7]*y[7];
-    const long double t12 = y[5]*y[5];
+    const long double t11 = p[2]*p[1];
+    const long double t12 = p[3]*t11;
     const long double t13 = y[6]*y[6];
-    const long double t14 = p[2]*p[3];
-    const long double t15 = t13*t14;
-    const long double t16 = p[0]*t7;
-    const long double e2_1 = cosl(y[2]);
-    const long double t17 = e2_1*t1;
-    const long double t18 = p[1]*t17;
-    const long double t19 = e2_1*p[3];
-    const long double t20 = 2*y[7];
-    const long double t21 = t20*y[6];
-    const long double t22 = t19*t21;
-    const long double t23 = p[1]*t22;
-    const long double t24 = cosl(y[1]);
-    const long double t25 = p[4]*t24;
-    const long double t26 = 2*y[4];
-    const long double t27 = t26*y[5];
-    const long double t28 = t27*t7;
-    const long double t29 = p[1]*t28;
-    const long double t30 = p[3]*t9;
-    const long double t31 = p[1]*t2;
-    const long double t32 = t30*t31;
-    const long double t33 = e1_1*t2;
-    const long double t34 = sinl(y[3]);
-    const long double t35 = p[4]*t19*t34;
-    const long double t36 = e2_1*t2;
-    const long double Q11 = t14*t4;
-    const long double t37 = t12*t17;
-    const long double t38 = Q11*t37;
-    const long double t39 = t19*t9;
-    const long double Ab = p[3]*p[3];
-    const long double M22 = Ab*p[1];
-    const long double t40 = y[4]*y[4];
-    const long double t41 = t14*t40;
-    const long double t42 = Q11*t40;
-    const long double t43 = cosl(y[3]);
-    const long double t44 = p[4]*t43;
-    const long double t45 = t4*t7;
-    const long double t46 = t27*t45;
-    F[0] = e1_1*p[2]*p[3]*p[1]*t11*t2*t4 + e1_1*p[2]*p[3]*p[1]*t13*t2*t4 + e1_1*p[0]*t0*t1*t12 + e1_1*p[1]*t0*t1*t12 - p[1]*t8 - t10*t23 - t15*t18 - t16*t6;
-    F[1] = -p[2]*t1*(p[0]*t25 + p[1]*t25 + t11*t32 + t13*t32 + t16*t27 + t23*t4 + t29);
-    F[2] = M22*t11*t36 - p[1]*t33*t41 - p[1]*t35 + p[1]*t38 + t18*t42 + t29*t39;
-    F[3] = p[3]*t31*(p[2]*t1*t12*t9 + p[2]*t1*t40*t9 - t22 - t44 - t46);
-    for (k = 0; k < SPHERICAL_ROT_FORCING_F_SIZE; ++k) {
-        if (!isfinite(F[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    const long double t14 = t12*t13;
+    const long double t15 = p[4]*p[0];
+    const long double t16 = p[4]*p[1];
+    const long double t17 = p[3]*t4;
+    const long double t18 = t17*y[6];
+    const long double t19 = sinl(t6);
+    const long double t20 = 2*t11;
+    const long double t21 = t19*t20;
+    const long double t22 = p[2]*p[2];
+    const long double t23 = p[0]*t22;
+    const long double t24 = p[1]*t22;
+    const long double t25 = y[5]*y[5];
+    const long double t26 = t25*t3;
+    const long double t27 = 2*y[7];
+    const long double t28 = t27*y[6];
+    const long double t29 = t17*t28;
+    const long double t30 = cosl(y[1]);
+    const long double t31 = t0*y[4];
+    const long double t32 = t31*y[5];
+    const long double t33 = p[2]*p[0];
+    const long double t34 = p[3]*t19;
+    const long double t35 = p[1]*t8;
+    const long double t36 = t34*t35;
+    const long double t37 = sinl(y[3]);
+    const long double t38 = t4*t8;
+    const long double t39 = t5*t7;
+    const long double t40 = p[3]*p[3];
+    const long double t41 = p[1]*t40;
+    const long double t42 = y[4]*y[4];
+    const long double t43 = t12*t42;
+    const long double t44 = cosl(y[3]);
+    const long double t45 = p[4]*t44;
+    const long double t46 = 2*y[4];
+    const long double t47 = t46*y[5];
+    const long double t48 = p[2]*t0;
+    const long double t49 = t48*t7;
+    const long double t50 = t47*t49;
+    const long double t51 = t0*t1*(-p[2]*t15 - p[2]*t16) - t0*t18*t21*y[7] + t0*t26*(t23 + t24) + t10*t12*t2 + t10*t14 - t14*t5;
+    const long double t52 = -p[2]*t3*(p[1]*t29*t7 + t13*t36 + t2*t36 + t30*(t15 + t16) + t32*(t20 + 2*t33));
+    const long double t53 = t12*t25*t39 - t16*t17*t37 + t17*t21*t32 + t2*t38*t41 + t39*t43 - t43*t9;
+    const long double t54 = p[3]*t35*(p[2]*t19*t25*t3 + p[2]*t19*t3*t42 - t29 - t45 - t50);
+    F[0] = t51;
+    F[1] = t52;
+    F[2] = t53;
+    F[3] = t54;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t51 - t51) + (t52 - t52) + (t53 - t53) + (t54 - t54);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -930,58 +933,56 @@ int spherical_rot_forcing_batch_l(long n, const long double *restrict y, long y_
     return all;
 }
 
-/* spherical_rot_energy (double). Total ops: 79 */
+/* spherical_rot_energy (double). Total ops: 75 */
 int spherical_rot_energy(const double *restrict y, const double *restrict p, double *restrict E)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = sin(y[2]);
     const double t2 = t0*t1;
-    const double t3 = p[2]*p[3];
-    const double t4 = y[7]*y[7];
-    const double t5 = y[6]*y[6];
-    const double e1_1 = cos(y[0]);
-    const double t6 = e1_1*t1;
-    const double t7 = y[1] - y[3];
-    const double t8 = sin(t7);
-    const double t9 = t3*t8;
-    const double t10 = p[1]*t9;
-    const double M03 = t10*t6;
-    const double e2_1 = cos(y[2]);
-    const double t11 = e2_1*t0;
-    const double t12 = t10*t11;
-    const double t13 = cos(t7);
-    const double Q11 = t13*t3;
-    const double t14 = Q11*t2;
-    const double M13 = p[1]*t14;
-    const double Ab = p[3]*p[3];
-    const double M22 = Ab*p[1];
-    const double M33 = M22*t1*t1;
-    const double t15 = p[2]*p[2];
-    const double t16 = p[0]*t15;
-    const double t17 = y[4]*y[4];
-    const double t18 = (1.0/2.0)*t17;
-    const double t19 = p[1]*t15;
-    const double t20 = p[1]*y[4]*y[6];
-    const double t21 = y[5]*y[5];
-    const double t22 = t0*t0;
-    const double t23 = (1.0/2.0)*t21*t22;
-    const double t24 = e2_1*p[3];
-    const double t25 = e1_1*p[2];
-    const double t26 = t13*t25;
-    const double t27 = t24*t26;
-    const double t28 = sin(y[1]);
-    const double e1_2 = t0*t28;
-    const double t29 = e1_2*p[2];
-    const double t30 = sin(y[3]);
-    const double e2_2 = t1*t30;
-    const double t31 = e2_2*p[3];
-    E[0] = M03*y[7]*y[4] + M13*y[5]*y[7] + (1.0/2.0)*M22*t5 + (1.0/2.0)*M33*t4 + p[4]*(p[0]*t29 + p[1]*t29 + p[1]*t31) - t12*y[5]*y[6] + t16*t18 + t16*t23 + t18*t19 + t19*t23 + t2*t20*t3 + t20*t27;
-    for (k = 0; k < SPHERICAL_ROT_ENERGY_E_SIZE; ++k) {
-        if (!isfinite(E[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    const double t3 = y[1] - y[3];
+    const double t4 = cos(t3);
+    const double t5 = y[7]*y[7];
+    const double t6 = y[5]*y[5];
+    const double t7 = y[6]*y[6];
+    const double t8 = cos(y[0]);
+    const double t9 = t8*y[4];
+    const double t10 = y[4]*y[4];
+    const double t11 = p[2]*p[1];
+    const double t12 = p[3]*t11;
+    const double t13 = t1*t8;
+    const double t14 = sin(t3);
+    const double t15 = p[3]*t14;
+    const double t16 = t11*t15;
+    const double t17 = t13*t16;
+    const double t18 = t0*t0;
+    const double t19 = cos(y[2]);
+    const double t20 = t0*t19;
+    const double t21 = t16*t20;
+    const double t22 = t2*t4;
+    const double t23 = t12*t22;
+    const double t24 = p[3]*p[3];
+    const double t25 = p[1]*t24;
+    const double t26 = t1*t1*t25;
+    const double t27 = sin(y[1]);
+    const double t28 = t0*t27;
+    const double t29 = p[3]*t19;
+    const double t30 = t29*y[6];
+    const double t31 = p[2]*p[0];
+    const double t32 = p[2]*p[2];
+    const double t33 = p[0]*t32;
+    const double t34 = p[1]*t32;
+    const double t35 = (1.0/2.0)*t33 + (1.0/2.0)*t34;
+    const double t36 = sin(y[3]);
+    const double t37 = t1*t36;
+    const double t38 = p[3]*t37;
+    const double t39 = p[4]*(p[1]*t38 + t28*(t11 + t31)) + t10*t35 + t11*t30*t4*t9 + t12*t2*y[4]*y[6] + t17*y[7]*y[4] + t18*t35*t6 - t21*y[5]*y[6] + t23*y[5]*y[7] + (1.0/2.0)*t25*t7 + (1.0/2.0)*t26*t5;
+    E[0] = t39;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t39 - t39);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1000,58 +1001,56 @@ int spherical_rot_energy_batch(long n, const double *restrict y, long y_stride, 
     return all;
 }
 
-/* spherical_rot_energy_f (float). Total ops: 79 */
+/* spherical_rot_energy_f (float). Total ops: 75 */
 int spherical_rot_energy_f(const float *restrict y, const float *restrict p, float *restrict E)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = sinf(y[2]);
     const float t2 = t0*t1;
-    const float t3 = p[2]*p[3];
-    const float t4 = y[7]*y[7];
-    const float t5 = y[6]*y[6];
-    const float e1_1 = cosf(y[0]);
-    const float t6 = e1_1*t1;
-    const float t7 = y[1] - y[3];
-    const float t8 = sinf(t7);
-    const float t9 = t3*t8;
-    const float t10 = p[1]*t9;
-    const float M03 = t10*t6;
-    const float e2_1 = cosf(y[2]);
-    const float t11 = e2_1*t0;
-    const float t12 = t10*t11;
-    const float t13 = cosf(t7);
-    const float Q11 = t13*t3;
-    const float t14 = Q11*t2;
-    const float M13 = p[1]*t14;
-    const float Ab = p[3]*p[3];
-    const float M22 = Ab*p[1];
-    const float M33 = M22*t1*t1;
-    const float t15 = p[2]*p[2];
-    const float t16 = p[0]*t15;
-    const float t17 = y[4]*y[4];
-    const float t18 = (1.0F/2.0F)*t17;
-    const float t19 = p[1]*t15;
-    const float t20 = p[1]*y[4]*y[6];
-    const float t21 = y[5]*y[5];
-    const float t22 = t0*t0;
-    const float t23 = (1.0F/2.0F)*t21*t22;
-    const float t24 = e2_1*p[3];
-    const float t25 = e1_1*p[2];
-    const float t26 = t13*t25;
-    const float t27 = t24*t26;
-    const float t28 = sinf(y[1]);
-    const float e1_2 = t0*t28;
-    const float t29 = e1_2*p[2];
-    const float t30 = sinf(y[3]);
-    const float e2_2 = t1*t30;
-    const float t31 = e2_2*p[3];
-    E[0] = M03*y[7]*y[4] + M13*y[5]*y[7] + (1.0F/2.0F)*M22*t5 + (1.0F/2.0F)*M33*t4 + p[4]*(p[0]*t29 + p[1]*t29 + p[1]*t31) - t12*y[5]*y[6] + t16*t18 + t16*t23 + t18*t19 + t19*t23 + t2*t20*t3 + t20*t27;
-    for (k = 0; k < SPHERICAL_ROT_ENERGY_E_SIZE; ++k) {
-        if (!isfinite(E[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    const float t3 = y[1] - y[3];
+    const float t4 = cosf(t3);
+    const float t5 = y[7]*y[7];
+    const float t6 = y[5]*y[5];
+    const float t7 = y[6]*y[6];
+    const float t8 = cosf(y[0]);
+    const float t9 = t8*y[4];
+    const float t10 = y[4]*y[4];
+    const float t11 = p[2]*p[1];
+    const float t12 = p[3]*t11;
+    const float t13 = t1*t8;
+    const float t14 = sinf(t3);
+    const float t15 = p[3]*t14;
+    const float t16 = t11*t15;
+    const float t17 = t13*t16;
+    const float t18 = t0*t0;
+    const float t19 = cosf(y[2]);
+    const float t20 = t0*t19;
+    const float t21 = t16*t20;
+    const float t22 = t2*t4;
+    const float t23 = t12*t22;
+    const float t24 = p[3]*p[3];
+    const float t25 = p[1]*t24;
+    const float t26 = t1*t1*t25;
+    const float t27 = sinf(y[1]);
+    const float t28 = t0*t27;
+    const float t29 = p[3]*t19;
+    const float t30 = t29*y[6];
+    const float t31 = p[2]*p[0];
+    const float t32 = p[2]*p[2];
+    const float t33 = p[0]*t32;
+    const float t34 = p[1]*t32;
+    const float t35 = (1.0F/2.0F)*t33 + (1.0F/2.0F)*t34;
+    const float t36 = sinf(y[3]);
+    const float t37 = t1*t36;
+    const float t38 = p[3]*t37;
+    const float t39 = p[4]*(p[1]*t38 + t28*(t11 + t31)) + t10*t35 + t11*t30*t4*t9 + t12*t2*y[4]*y[6] + t17*y[7]*y[4] + t18*t35*t6 - t21*y[5]*y[6] + t23*y[5]*y[7] + (1.0F/2.0F)*t25*t7 + (1.0F/2.0F)*t26*t5;
+    E[0] = t39;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t39 - t39);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1070,58 +1069,56 @@ int spherical_rot_energy_batch_f(long n, const float *restrict y, long y_stride,
     return all;
 }
 
-/* spherical_rot_energy_l (long double). Total ops: 79 */
+/* spherical_rot_energy_l (long double). Total ops: 75 */
 int spherical_rot_energy_l(const long double *restrict y, const long double *restrict p, long double *restrict E)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = sinl(y[2]);
     const long double t2 = t0*t1;
-    const long double t3 = p[2]*p[3];
-    const long double t4 = y[7]*y[7];
-    const long double t5 = y[6]*y[6];
-    const long double e1_1 = cosl(y[0]);
-    const long double t6 = e1_1*t1;
-    const long double t7 = y[1] - y[3];
-    const long double t8 = sinl(t7);
-    const long double t9 = t3*t8;
-    const long double t10 = p[1]*t9;
-    const long double M03 = t10*t6;
-    const long double e2_1 = cosl(y[2]);
-    const long double t11 = e2_1*t0;
-    const long double t12 = t10*t11;
-    const long double t13 = cosl(t7);
-    const long double Q11 = t13*t3;
-    const long double t14 = Q11*t2;
-    const long double M13 = p[1]*t14;
-    const long double Ab = p[3]*p[3];
-    const long double M22 = Ab*p[1];
-    const long double M33 = M22*t1*t1;
-    const long double t15 = p[2]*p[2];
-    const long double t16 = p[0]*t15;
-    const long double t17 = y[4]*y[4];
-    const long double t18 = (1.0L/2.0L)*t17;
-    const long double t19 = p[1]*t15;
-    const long double t20 = p[1]*y[4]*y[6];
-    const long double t21 = y[5]*y[5];
-    const long double t22 = t0*t0;
-    const long double t23 = (1.0L/2.0L)*t21*t22;
-    const long double t24 = e2_1*p[3];
-    const long double t25 = e1_1*p[2];
-    const long double t26 = t13*t25;
-    const long double t27 = t24*t26;
-    const long double t28 = sinl(y[1]);
-    const long double e1_2 = t0*t28;
-    const long double t29 = e1_2*p[2];
-    const long double t30 = sinl(y[3]);
-    const long double e2_2 = t1*t30;
-    const long double t31 = e2_2*p[3];
-    E[0] = M03*y[7]*y[4] + M13*y[5]*y[7] + (1.0L/2.0L)*M22*t5 + (1.0L/2.0L)*M33*t4 + p[4]*(p[0]*t29 + p[1]*t29 + p[1]*t31) - t12*y[5]*y[6] + t16*t18 + t16*t23 + t18*t19 + t19*t23 + t2*t20*t3 + t20*t27;
-    for (k = 0; k < SPHERICAL_ROT_ENERGY_E_SIZE; ++k) {
-        if (!isfinite(E[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    const long double t3 = y[1] - y[3];
+    const long double t4 = cosl(t3);
+    const long double t5 = y[7]*y[7];
+    const long double t6 = y[5]*y[5];
+    const long double t7 = y[6]*y[6];
+    const long double t8 = cosl(y[0]);
+    const long double t9 = t8*y[4];
+    const long double t10 = y[4]*y[4];
+    const long double t11 = p[2]*p[1];
+    const long double t12 = p[3]*t11;
+    const long double t13 = t1*t8;
+    const long double t14 = sinl(t3);
+    const long double t15 = p[3]*t14;
+    const long double t16 = t11*t15;
+    const long double t17 = t13*t16;
+    const long double t18 = t0*t0;
+    const long double t19 = cosl(y[2]);
+    const long double t20 = t0*t19;
+    const long double t21 = t16*t20;
+    const long double t22 = t2*t4;
+    const long double t23 = t12*t22;
+    const long double t24 = p[3]*p[3];
+    const long double t25 = p[1]*t24;
+    const long double t26 = t1*t1*t25;
+    const long double t27 = sinl(y[1]);
+    const long double t28 = t0*t27;
+    const long double t29 = p[3]*t19;
+    const long double t30 = t29*y[6];
+    const long double t31 = p[2]*p[0];
+    const long double t32 = p[2]*p[2];
+    const long double t33 = p[0]*t32;
+    const long double t34 = p[1]*t32;
+    const long double t35 = (1.0L/2.0L)*t33 + (1.0L/2.0L)*t34;
+    const long double t36 = sinl(y[3]);
+    const long double t37 = t1*t36;
+    const long double t38 = p[3]*t37;
+    const long double t39 = p[4]*(p[1]*t38 + t28*(t11 + t31)) + t10*t35 + t11*t30*t4*t9 + t12*t2*y[4]*y[6] + t17*y[7]*y[4] + t18*t35*t6 - t21*y[5]*y[6] + t23*y[5]*y[7] + (1.0L/2.0L)*t25*t7 + (1.0L/2.0L)*t26*t5;
+    E[0] = t39;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t39 - t39);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1144,34 +1141,37 @@ int spherical_rot_energy_batch_l(long n, const long double *restrict y, long y_s
 int spherical_rot_positions(const double *restrict y, const double *restrict p, double *restrict pos)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = cos(y[1]);
-    const double e1_0 = t0*t1;
-    const double t2 = e1_0*p[2];
-    const double e1_1 = cos(y[0]);
-    const double t3 = e1_1*p[2];
-    const double t4 = sin(y[1]);
-    const double e1_2 = t0*t4;
-    const double t5 = e1_2*p[2];
-    const double t6 = sin(y[2]);
-    const double t7 = cos(y[3]);
-    const double e2_0 = t6*t7;
-    const double e2_1 = cos(y[2]);
-    const double t8 = e2_1*p[3];
-    const double t9 = sin(y[3]);
-    const double e2_2 = t6*t9;
-    const double t10 = e2_2*p[3];
-    pos[0] = t2;
-    pos[1] = t3;
-    pos[2] = t5;
-    pos[3] = e2_0*p[3] + t2;
-    pos[4] = t3 + t8;
-    pos[5] = t10 + t5;
-    for (k = 0; k < SPHERICAL_ROT_POSITIONS_POS_SIZE; ++k) {
-        if (!isfinite(pos[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    const double t2 = t0*t1;
+    const double t3 = p[2]*t2;
+    const double t4 = cos(y[0]);
+    const double t5 = p[2]*t4;
+    const double t6 = sin(y[1]);
+    const double t7 = t0*t6;
+    const double t8 = p[2]*t7;
+    const double t9 = sin(y[2]);
+    const double t10 = cos(y[3]);
+    const double t11 = t10*t9;
+    const double t12 = cos(y[2]);
+    const double t13 = p[3]*t12;
+    const double t14 = sin(y[3]);
+    const double t15 = t14*t9;
+    const double t16 = p[3]*t15;
+    const double t17 = p[3]*t11 + t3;
+    const double t18 = t13 + t5;
+    const double t19 = t16 + t8;
+    pos[0] = t3;
+    pos[1] = t5;
+    pos[2] = t8;
+    pos[3] = t17;
+    pos[4] = t18;
+    pos[5] = t19;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t3 - t3) + (t5 - t5) + (t8 - t8) + (t17 - t17) + (t18 - t18) + (t19 - t19);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1194,34 +1194,37 @@ int spherical_rot_positions_batch(long n, const double *restrict y, long y_strid
 int spherical_rot_positions_f(const float *restrict y, const float *restrict p, float *restrict pos)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = cosf(y[1]);
-    const float e1_0 = t0*t1;
-    const float t2 = e1_0*p[2];
-    const float e1_1 = cosf(y[0]);
-    const float t3 = e1_1*p[2];
-    const float t4 = sinf(y[1]);
-    const float e1_2 = t0*t4;
-    const float t5 = e1_2*p[2];
-    const float t6 = sinf(y[2]);
-    const float t7 = cosf(y[3]);
-    const float e2_0 = t6*t7;
-    const float e2_1 = cosf(y[2]);
-    const float t8 = e2_1*p[3];
-    const float t9 = sinf(y[3]);
-    const float e2_2 = t6*t9;
-    const float t10 = e2_2*p[3];
-    pos[0] = t2;
-    pos[1] = t3;
-    pos[2] = t5;
-    pos[3] = e2_0*p[3] + t2;
-    pos[4] = t3 + t8;
-    pos[5] = t10 + t5;
-    for (k = 0; k < SPHERICAL_ROT_POSITIONS_POS_SIZE; ++k) {
-        if (!isfinite(pos[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    const float t2 = t0*t1;
+    const float t3 = p[2]*t2;
+    const float t4 = cosf(y[0]);
+    const float t5 = p[2]*t4;
+    const float t6 = sinf(y[1]);
+    const float t7 = t0*t6;
+    const float t8 = p[2]*t7;
+    const float t9 = sinf(y[2]);
+    const float t10 = cosf(y[3]);
+    const float t11 = t10*t9;
+    const float t12 = cosf(y[2]);
+    const float t13 = p[3]*t12;
+    const float t14 = sinf(y[3]);
+    const float t15 = t14*t9;
+    const float t16 = p[3]*t15;
+    const float t17 = p[3]*t11 + t3;
+    const float t18 = t13 + t5;
+    const float t19 = t16 + t8;
+    pos[0] = t3;
+    pos[1] = t5;
+    pos[2] = t8;
+    pos[3] = t17;
+    pos[4] = t18;
+    pos[5] = t19;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t3 - t3) + (t5 - t5) + (t8 - t8) + (t17 - t17) + (t18 - t18) + (t19 - t19);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1244,34 +1247,37 @@ int spherical_rot_positions_batch_f(long n, const float *restrict y, long y_stri
 int spherical_rot_positions_l(const long double *restrict y, const long double *restrict p, long double *restrict pos)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = cosl(y[1]);
-    const long double e1_0 = t0*t1;
-    const long double t2 = e1_0*p[2];
-    const long double e1_1 = cosl(y[0]);
-    const long double t3 = e1_1*p[2];
-    const long double t4 = sinl(y[1]);
-    const long double e1_2 = t0*t4;
-    const long double t5 = e1_2*p[2];
-    const long double t6 = sinl(y[2]);
-    const long double t7 = cosl(y[3]);
-    const long double e2_0 = t6*t7;
-    const long double e2_1 = cosl(y[2]);
-    const long double t8 = e2_1*p[3];
-    const long double t9 = sinl(y[3]);
-    const long double e2_2 = t6*t9;
-    const long double t10 = e2_2*p[3];
-    pos[0] = t2;
-    pos[1] = t3;
-    pos[2] = t5;
-    pos[3] = e2_0*p[3] + t2;
-    pos[4] = t3 + t8;
-    pos[5] = t10 + t5;
-    for (k = 0; k < SPHERICAL_ROT_POSITIONS_POS_SIZE; ++k) {
-        if (!isfinite(pos[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    const long double t2 = t0*t1;
+    const long double t3 = p[2]*t2;
+    const long double t4 = cosl(y[0]);
+    const long double t5 = p[2]*t4;
+    const long double t6 = sinl(y[1]);
+    const long double t7 = t0*t6;
+    const long double t8 = p[2]*t7;
+    const long double t9 = sinl(y[2]);
+    const long double t10 = cosl(y[3]);
+    const long double t11 = t10*t9;
+    const long double t12 = cosl(y[2]);
+    const long double t13 = p[3]*t12;
+    const long double t14 = sinl(y[3]);
+    const long double t15 = t14*t9;
+    const long double t16 = p[3]*t15;
+    const long double t17 = p[3]*t11 + t3;
+    const long double t18 = t13 + t5;
+    const long double t19 = t16 + t8;
+    pos[0] = t3;
+    pos[1] = t5;
+    pos[2] = t8;
+    pos[3] = t17;
+    pos[4] = t18;
+    pos[5] = t19;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t3 - t3) + (t5 - t5) + (t8 - t8) + (t17 - t17) + (t18 - t18) + (t19 - t19);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1290,198 +1296,227 @@ int spherical_rot_positions_batch_l(long n, const long double *restrict y, long 
     return all;
 }
 
-/* spherical_rot_jacobian (double). Total ops: 704 */
+/* spherical_rot_jacobian (double). Total ops: 700 */
 int spherical_rot_jacobian(const double *restrict y, const double *restrict p, double *restrict J)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = sin(y[2]);
     const double t2 = 1.0/p[1];
     const double t3 = p[2]*p[2];
     const double t4 = p[0] + p[1];
-    const double Ab = p[3]*p[3];
-    const double t5 = y[1] - y[3];
-    const double t6 = cos(t5);
-    const double t7 = p[2]*p[3];
-    const double Q11 = t6*t7;
-    const double e1_1 = cos(y[0]);
-    const double t8 = e1_1*p[2];
-    const double t9 = sin(t5);
-    const double t10 = p[3]*t9;
-    const double Q01 = t10*t8;
-    const double t11 = y[5]*y[5];
-    const double t12 = y[4]*y[4];
-    const double t13 = t0*y[4];
-    const double t14 = t7*t9;
+    const double t5 = cos(y[0]);
+    const double t6 = p[2]*t5;
+    const double t7 = y[1] - y[3];
+    const double t8 = sin(t7);
+    const double t9 = p[3]*t8;
+    const double Q01 = t6*t9;
+    const double t10 = y[5]*y[5];
+    const double t11 = y[4]*y[4];
+    const double t12 = t0*y[4];
+    const double t13 = p[2]*p[3];
+    const double t14 = t13*t8;
     const double t15 = t0*t14;
-    const double t16 = 2*y[5];
-    const double t17 = Q11*t16;
-    const double e2_1 = cos(y[2]);
-    const double t18 = e2_1*p[3];
-    const double t19 = p[2]*t18;
-    const double t20 = t19*t9;
-    const double Q10 = -t20;
-    const double t21 = Q01*Q01;
-    const double t22 = t0*t1;
-    const double t23 = e1_1*e2_1;
-    const double t24 = t22 + t23*t6;
-    const double Q00 = t24*t7;
-    const double M00 = t3*t4;
-    const double Aa = M00*t2;
+    const double t16 = cos(t7);
+    const double Q11 = t13*t16;
+    const double t17 = 2*y[5];
+    const double t18 = Q11*t17;
+    const double Ab = p[3]*p[3];
+    const double t19 = cos(y[2]);
+    const double t20 = p[3]*t19;
+    const double t21 = p[2]*t20;
+    const double t22 = t21*t8;
+    const double Q10 = -t22;
+    const double t23 = Q01*Q01;
+    const double t24 = t3*t4;
+    const double Aa = t2*t24;
     const double AaAb = Aa*Ab;
     const double t25 = -AaAb;
-    const double t26 = Q00*Q00 + t25;
-    const double D1_00 = -t21 - t26;
+    const double t26 = t0*t1;
+    const double t27 = t19*t5;
+    const double t28 = t16*t27 + t26;
+    const double Q00 = t13*t28;
+    const double t29 = Q00*Q00 + t25;
+    const double D1_00 = -t23 - t29;
     const double D1_01 = -Q00*Q10 - Q01*Q11;
-    const double t27 = Q10*Q10;
-    const double t28 = Q11*Q11 + t25;
-    const double D1_11 = -t27 - t28;
+    const double t30 = Q10*Q10;
+    const double t31 = Q11*Q11 + t25;
+    const double D1_11 = -t30 - t31;
     const double rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01);
-    const double t29 = 2*y[7];
-    const double t30 = t29*y[6];
-    const double t31 = cos(y[1]);
-    const double t32 = p[4]*t31;
-    const double t33 = t2*t4;
-    const double t34 = p[2]*t33;
-    const double t35 = y[7]*y[7];
-    const double t36 = t1*t35;
-    const double t37 = y[6]*y[6];
-    const double t38 = t37*t7;
-    const double t39 = t38*t9;
-    const double t40 = t19*t6;
-    const double t41 = e1_1*y[4];
-    const double t42 = Aa*t16;
-    const double f1 = -t1*t39 - t14*t36 - t30*t40 - t32*t34 - t41*t42;
-    const double t43 = sin(y[3]);
-    const double t44 = p[4]*t18*t43;
-    const double t45 = e2_1*t1;
-    const double t46 = e2_1*t0;
-    const double t47 = t11*t46;
-    const double t48 = Q11*t47;
-    const double t49 = 2*y[4];
-    const double t50 = t49*y[5];
-    const double t51 = t50*t8;
-    const double t52 = t18*t9;
-    const double t53 = t7*(e1_1*t1 - t46*t6);
-    const double f2 = Ab*t35*t45 - t12*t53 - t44 + t48 + t51*t52;
-    const double t54 = cos(y[3]);
-    const double t55 = p[4]*t54;
-    const double t56 = e2_1*y[6];
-    const double t57 = Ab*t29;
-    const double t58 = t6*t8;
-    const double t59 = p[3]*t58;
-    const double f3 = p[2]*p[3]*t0*t11*t9 + p[2]*p[3]*t0*t12*t9 - p[3]*t55 - t50*t59 - t56*t57;
-    const double t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
-    const double t61 = sin(y[1]);
-    const double t62 = p[4]*t61;
-    const double t63 = t62*t8;
-    const double t64 = t18*t30;
-    const double t65 = t8*t9;
-    const double t66 = e1_1*t1;
-    const double t67 = t46 - t6*t66;
-    const double f0 = e1_1*p[2]*p[3]*t1*t35*t6 + e1_1*t0*t11*t2*t3*t4 - t33*t63 - t38*t67 - t64*t65;
-    const double t68 = Ab*f0 - Q00*f2 - Q01*f3;
-    const double xr0 = -D1_01*t60 + D1_11*rD1*t68;
-    const double t69 = Q01*t11 + Q01*t12 + t13*t17 + t15*xr0;
-    const double t70 = t12*t7;
-    const double t71 = t14*t46;
-    const double t72 = -t24;
-    const double t73 = e1_1*e2_1*p[2]*p[3]*t11*t6 - t50*t71 - t53*xr0 - t70*t72;
-    const double t74 = 2*Ab*t0*t2*t3*t4*y[5]*y[4] - Q10*t73 - Q11*t69;
-    const double t75 = D1_01*rD1;
-    const double e1_2 = t0*t61;
-    const double t76 = e1_2*p[2];
-    const double D2_00 = -t26 - t27;
+    const double t32 = 2*y[7];
+    const double t33 = t32*y[6];
+    const double t34 = cos(y[1]);
+    const double t35 = p[4]*t2*t4;
+    const double t36 = p[2]*t35;
+    const double t37 = y[7]*y[7];
+    const double t38 = t1*t37;
+    const double t39 = y[6]*y[6];
+    const double t40 = t13*t39;
+    const double t41 = t40*t8;
+    const double t42 = t16*t21;
+    const double t43 = t5*y[4];
+    const double t44 = t43*y[5];
+    const double t45 = 2*Aa;
+    const double f1 = -t1*t41 - t14*t38 - t33*t42 - t34*t36 - t44*t45;
+    const double t46 = sin(y[3]);
+    const double t47 = t1*t19;
+    const double t48 = t0*t19;
+    const double t49 = t10*t48;
+    const double t50 = 2*y[4];
+    const double t51 = t50*y[5];
+    const double t52 = t6*t8;
+    const double t53 = t20*t52;
+    const double t54 = t16*t48;
+    const double t55 = t13*(t1*t5 - t54);
+    const double f2 = Ab*t37*t47 + Q11*t49 - p[4]*t20*t46 - t11*t55 + t51*t53;
+    const double t56 = cos(y[3]);
+    const double t57 = p[4]*t56;
+    const double t58 = t19*y[6];
+    const double t59 = Ab*t32;
+    const double t60 = t16*t6;
+    const double t61 = p[3]*t60;
+    const double f3 = p[2]*p[3]*t0*t10*t8 + p[2]*p[3]*t0*t11*t8 - p[3]*t57 - t51*t61 - t58*t59;
+    const double t62 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
+    const double t63 = sin(y[1]);
+    const double t64 = t35*t6;
+    const double t65 = t20*t33;
+    const double t66 = t1*t5;
+    const double t67 = t16*t66;
+    const double t68 = t48 - t67;
+    const double f0 = p[2]*p[3]*t1*t16*t37*t5 + t0*t10*t2*t3*t4*t5 - t40*t68 - t52*t65 - t63*t64;
+    const double t69 = Ab*f0 - Q00*f2 - Q01*f3;
+    const double xr0 = -D1_01*t62 + D1_11*rD1*t69;
+    const double t70 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0;
+    const double t71 = t14*t48;
+    const double t72 = -t28;
+    const double t73 = t11*t13;
+    const double t74 = p[2]*p[3]*t10*t16*t19*t5 - t51*t71 - t55*xr0 - t72*t73;
+    const double t75 = 2*Ab*t0*t2*t3*t4*y[5]*y[4] - Q10*t74 - Q11*t70;
+    const double t76 = D1_01*rD1;
+    const double t77 = t0*t63;
+    const double t78 = p[2]*t77;
+    const double D2_00 = -t29 - t30;
     const double D2_01 = -Q00*Q01 - Q10*Q11;
-    const double D2_11 = -t21 - t28;
+    const double D2_11 = -t23 - t31;
     const double rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01);
-    const double t77 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
-    const double t78 = Aa*f2 - Q00*f0 - Q10*f1;
-    const double xr3 = D2_00*t77 - D2_01*rD2*t78;
-    const double t79 = t14*xr3;
-    const double t80 = t22*t6 + t23;
-    const double xr2 = -D2_01*t77 + D2_11*rD2*t78;
-    const double t81 = Aa*t11*(2*e1_1*e1_1 - 1) - Q11*t22*t35 + p[4]*t33*t76 + t0*t79 + t30*t71 - t38*t80 - t53*xr2;
-    const double t82 = Ab*t81 - Q00*t73 - Q01*t69;
-    const double t83 = Q11*t12;
-    const double xr1 = D1_00*t60 - D1_01*rD1*t68;
-    const double t84 = t14*xr1;
-    const double t85 = Q01*t50 + Q11*t0*t11 + t0*t83 - t59*xr0 + t84;
-    const double t86 = t50*t58;
-    const double t87 = t18*t65;
-    const double t88 = -t14*t47 + t18*t86 + t40*xr1 - t46*t70*t9 + t87*xr0;
-    const double t89 = -Q11*t1*t37 - Q11*t36 + t20*t30 + t40*xr2 + t79;
-    const double t90 = t34*t62 + t89;
-    const double t91 = Ab*t90 - Q10*t88 - Q11*t85;
-    const double t92 = t14*t66;
-    const double t93 = t35*t92 + t39*t66 + t58*t64 + t59*xr3 - t87*xr2;
-    const double t94 = -t32*t33*t8 - t93;
-    const double t95 = Ab*t94 - Q00*t88 - Q01*t85;
-    const double t96 = t1*y[6];
-    const double t97 = t57*t96;
-    const double t98 = t1*t14;
-    const double t99 = 2*p[2]*p[3]*t1*t6*y[7]*y[6] - t20*t35 - t20*t37 - t98*xr2;
-    const double t100 = Q11*t22;
-    const double t101 = t67*t7;
-    const double t102 = Ab*t35*(2*e2_1*e2_1 - 1) + p[4]*p[3]*t1*t43 - t1*t84 - t100*t11 - t101*xr0 - t50*t92 - t70*t80;
-    const double t103 = Ab*t99 - Q10*t102 - Q11*t97;
-    const double t104 = t18*t58;
-    const double t105 = -t101*xr2 + t104*t35 + t30*t92 - t38*t72;
-    const double t106 = Ab*t105 - Q00*t102 - Q01*t97;
-    const double t107 = -t89;
-    const double t108 = p[4]*p[3]*t43 - t85;
-    const double t109 = -t18*t55 - t88;
+    const double t79 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
+    const double t80 = Aa*f2 - Q00*f0 - Q10*f1;
+    const double xr3 = D2_00*t79 - D2_01*rD2*t80;
+    const double t81 = t14*xr3;
+    const double t82 = t16*t26;
+    const double t83 = t27 + t82;
+    const double xr2 = -D2_01*t79 + D2_11*rD2*t80;
+    const double t84 = Aa*t10*(2*t5*t5 - 1) - Q11*t26*t37 + t0*t81 + t33*t71 + t35*t78 - t40*t83 - t55*xr2;
+    const double t85 = Ab*t84 - Q00*t74 - Q01*t70;
+    const double t86 = t0*t10;
+    const double xr1 = D1_00*t62 - D1_01*rD1*t69;
+    const double t87 = t14*xr1;
+    const double t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 - t61*xr0 + t87;
+    const double t89 = t51*t60;
+    const double t90 = -t14*t49 + t20*t89 + t42*xr1 - t48*t73*t8 + t53*xr0;
+    const double t91 = -Q11*t1*t39 - Q11*t38 + t22*t33 + t42*xr2 + t81;
+    const double t92 = t36*t63 + t91;
+    const double t93 = Ab*t92 - Q10*t90 - Q11*t88;
+    const double t94 = t14*t66;
+    const double t95 = t37*t94 + t41*t66 - t53*xr2 + t60*t65 + t61*xr3;
+    const double t96 = -t34*t64 - t95;
+    const double t97 = Ab*t96 - Q00*t90 - Q01*t88;
+    const double t98 = t1*y[6];
+    const double t99 = t59*t98;
+    const double t100 = t1*t14;
+    const double t101 = 2*p[2]*p[3]*t1*t16*y[7]*y[6] - t100*xr2 - t22*t37 - t22*t39;
+    const double t102 = t13*t68;
+    const double t103 = Ab*t37*(2*t19*t19 - 1) - Q11*t10*t26 + p[4]*p[3]*t1*t46 - t1*t87 - t102*xr0 - t51*t94 - t73*t83;
+    const double t104 = Ab*t101 - Q10*t103 - Q11*t99;
+    const double t105 = -t102*xr2 + t20*t37*t60 + t33*t94 - t40*t72;
+    const double t106 = Ab*t105 - Q00*t103 - Q01*t99;
+    const double t107 = -t91;
+    const double t108 = p[4]*p[3]*t46 - t88;
+    const double t109 = -t20*t57 - t90;
     const double t110 = Ab*t107 - Q10*t109 - Q11*t108;
-    const double t111 = Ab*t93 - Q00*t109 - Q01*t108;
-    const double t112 = 2*p[2]*p[3]*t0*t9*y[4] - t16*t59;
-    const double t113 = t16*t87 - t49*t53;
+    const double t111 = Ab*t95 - Q00*t109 - Q01*t108;
+    const double t112 = 2*p[2]*p[3]*t0*t8*y[4] - t17*t61;
+    const double t113 = t17*t53 - t50*t55;
     const double t114 = -Q00*t113 - Q01*t112;
-    const double t115 = e1_1*t42;
-    const double t116 = -Ab*t115 - Q10*t113 - Q11*t112;
-    const double t117 = 2*Aa*t41;
-    const double t118 = t15*t16 - t49*t59;
-    const double t119 = t17*t46 + t49*t87;
-    const double t120 = -Ab*t117 - Q10*t119 - Q11*t118;
-    const double t121 = 2*Ab*e1_1*t0*t2*t3*t4*y[5] - Q00*t119 - Q01*t118;
-    const double t122 = e2_1*t57;
-    const double t123 = -2*t14*t96 - t29*t40;
-    const double t124 = Ab*t123 + Q11*t122;
-    const double t125 = 2*y[6];
-    const double t126 = -t101*t125 - t29*t87;
-    const double t127 = Ab*t126 + Q01*t122;
-    const double t128 = Ab*t56;
-    const double t129 = 2*t128;
-    const double t130 = t45*t57;
-    const double t131 = -t125*t40 - t29*t98;
-    const double t132 = Ab*t131 - Q10*t130 + Q11*t129;
-    const double t133 = 2*Q01;
-    const double t134 = Q11*t29*t66 - t125*t87;
-    const double t135 = Ab*t134 - Q00*t130 + t128*t133;
+    const double t115 = Aa*t17;
+    const double t116 = t115*t5;
+    const double t117 = -Ab*t116 - Q10*t113 - Q11*t112;
+    const double t118 = t43*t45;
+    const double t119 = t15*t17 - t50*t61;
+    const double t120 = t18*t48 + t50*t53;
+    const double t121 = -Ab*t118 - Q10*t120 - Q11*t119;
+    const double t122 = 2*Ab*t0*t2*t3*t4*t5*y[5] - Q00*t120 - Q01*t119;
+    const double t123 = t19*t59;
+    const double t124 = -2*t14*t98 - t32*t42;
+    const double t125 = Ab*t124 + Q11*t123;
+    const double t126 = 2*y[6];
+    const double t127 = -t102*t126 - t32*t53;
+    const double t128 = Ab*t127 + Q01*t123;
+    const double t129 = Ab*t58;
+    const double t130 = 2*t129;
+    const double t131 = t47*t59;
+    const double t132 = -t100*t32 - t126*t42;
+    const double t133 = Ab*t132 - Q10*t131 + Q11*t130;
+    const double t134 = 2*Q01;
+    const double t135 = Q11*t32*t66 - t126*t53;
+    const double t136 = Ab*t135 - Q00*t131 + t129*t134;
     const double rs1 = 1.0/t0;
     const double qdd1 = rs1*xr1;
-    const double t136 = D1_00*rD1;
-    const double t137 = t13*t42;
-    const double t138 = Aa*t69 - Q01*t81 - Q11*t137;
-    const double t139 = D2_01*rD2;
-    const double t140 = Aa*t73 - Q00*t81 - Q10*t137;
-    const double t141 = Aa*t85 - Q01*t94 - Q11*t90;
-    const double t142 = Aa*t88 - Q00*t94 - Q10*t90;
-    const double t143 = 2*Aa*Ab*t1*y[7]*y[6] - Q01*t105 - Q11*t99;
-    const double t144 = Aa*t102 - Q00*t105 - Q10*t99;
-    const double t145 = Aa*t108 - Q01*t93 - Q11*t107;
-    const double t146 = Aa*t109 - Q00*t93 - Q10*t107;
-    const double t147 = Aa*t112 + Q11*t115;
-    const double t148 = Aa*t113 + Q10*t115;
-    const double t149 = -Aa*e1_1*t0*t133*y[5] + Aa*t118 + Q11*t117;
-    const double t150 = Aa*t119 - Q00*t0*t115 + Q10*t117;
-    const double t151 = -Q00*t126 - Q10*t123;
-    const double t152 = -Aa*t122 - Q01*t126 - Q11*t123;
-    const double t153 = -Aa*t129 - Q01*t134 - Q11*t131;
-    const double t154 = 2*Aa*Ab*e2_1*t1*y[7] - Q00*t134 - Q10*t131;
-    const double t155 = D2_00*rD2;
+    const double t137 = D1_00*rD1;
+    const double t138 = t115*t12;
+    const double t139 = Aa*t70 - Q01*t84 - Q11*t138;
+    const double t140 = D2_01*rD2;
+    const double t141 = Aa*t74 - Q00*t84 - Q10*t138;
+    const double t142 = Aa*t88 - Q01*t96 - Q11*t92;
+    const double t143 = Aa*t90 - Q00*t96 - Q10*t92;
+    const double t144 = 2*Aa*Ab*t1*y[7]*y[6] - Q01*t105 - Q11*t101;
+    const double t145 = Aa*t103 - Q00*t105 - Q10*t101;
+    const double t146 = Aa*t108 - Q01*t95 - Q11*t107;
+    const double t147 = Aa*t109 - Q00*t95 - Q10*t107;
+    const double t148 = Aa*t112 + Q11*t116;
+    const double t149 = Aa*t113 + Q10*t116;
+    const double t150 = -Aa*t0*t134*t5*y[5] + Aa*t119 + Q11*t118;
+    const double t151 = Aa*t120 - Q00*t0*t116 + Q10*t118;
+    const double t152 = -Q00*t127 - Q10*t124;
+    const double t153 = -Aa*t123 - Q01*t127 - Q11*t124;
+    const double t154 = -Aa*t130 - Q01*t135 - Q11*t132;
+    const double t155 = 2*Aa*Ab*t1*t19*y[7] - Q00*t135 - Q10*t132;
+    const double t156 = D2_00*rD2;
     const double rs3 = 1.0/t1;
     const double qdd3 = rs3*xr3;
+    const double t157 = D1_11*rD1*t85 - t75*t76;
+    const double t158 = D1_11*rD1*t97 - t76*t93;
+    const double t159 = D1_11*rD1*t106 - t104*t76;
+    const double t160 = D1_11*rD1*t111 - t110*t76;
+    const double t161 = D1_11*rD1*t114 - t117*t76;
+    const double t162 = D1_11*rD1*t122 - t121*t76;
+    const double t163 = D1_11*rD1*t128 - t125*t76;
+    const double t164 = D1_11*rD1*t136 - t133*t76;
+    const double t165 = rs1*(D1_00*rD1*t75 - qdd1*t5 - t76*t85);
+    const double t166 = rs1*(t137*t93 - t76*t97);
+    const double t167 = rs1*(t104*t137 - t106*t76);
+    const double t168 = rs1*(t110*t137 - t111*t76);
+    const double t169 = rs1*(-t114*t76 + t117*t137);
+    const double t170 = rs1*(t121*t137 - t122*t76);
+    const double t171 = rs1*(t125*t137 - t128*t76);
+    const double t172 = rs1*(t133*t137 - t136*t76);
+    const double t173 = D2_11*rD2*t141 - t139*t140;
+    const double t174 = D2_11*rD2*t143 - t140*t142;
+    const double t175 = D2_11*rD2*t145 - t140*t144;
+    const double t176 = D2_11*rD2*t147 - t140*t146;
+    const double t177 = D2_11*rD2*t149 - t140*t148;
+    const double t178 = D2_11*rD2*t151 - t140*t150;
+    const double t179 = D2_11*rD2*t152 - t140*t153;
+    const double t180 = D2_11*rD2*t155 - t140*t154;
+    const double t181 = rs3*(t139*t156 - t140*t141);
+    const double t182 = rs3*(-t140*t143 + t142*t156);
+    const double t183 = rs3*(D2_00*rD2*t144 - qdd3*t19 - t140*t145);
+    const double t184 = rs3*(-t140*t147 + t146*t156);
+    const double t185 = rs3*(-t140*t149 + t148*t156);
+    const double t186 = rs3*(-t140*t151 + t150*t156);
+    const double t187 = rs3*(-t140*t152 + t153*t156);
+    const double t188 = rs3*(-t140*t155 + t154*t156);
     J[0] = 0;
     J[1] = 0;
     J[2] = 0;
@@ -1514,48 +1549,54 @@ int spherical_rot_jacobian(const double *restrict y, const double *restrict p, d
     J[29] = 0;
     J[30] = 0;
     J[31] = 1;
-    J[32] = D1_11*rD1*t82 - t74*t75;
-    J[33] = D1_11*rD1*t95 - t75*t91;
-    J[34] = D1_11*rD1*t106 - t103*t75;
-    J[35] = D1_11*rD1*t111 - t110*t75;
-    J[36] = D1_11*rD1*t114 - t116*t75;
-    J[37] = D1_11*rD1*t121 - t120*t75;
-    J[38] = D1_11*rD1*t127 - t124*t75;
-    J[39] = D1_11*rD1*t135 - t132*t75;
-    J[40] = rs1*(D1_00*rD1*t74 - e1_1*qdd1 - t75*t82);
-    J[41] = rs1*(t136*t91 - t75*t95);
-    J[42] = rs1*(t103*t136 - t106*t75);
-    J[43] = rs1*(t110*t136 - t111*t75);
-    J[44] = rs1*(-t114*t75 + t116*t136);
-    J[45] = rs1*(t120*t136 - t121*t75);
-    J[46] = rs1*(t124*t136 - t127*t75);
-    J[47] = rs1*(t132*t136 - t135*t75);
-    J[48] = D2_11*rD2*t140 - t138*t139;
-    J[49] = D2_11*rD2*t142 - t139*t141;
-    J[50] = D2_11*rD2*t144 - t139*t143;
-    J[51] = D2_11*rD2*t146 - t139*t145;
-    J[52] = D2_11*rD2*t148 - t139*t147;
-    J[53] = D2_11*rD2*t150 - t139*t149;
-    J[54] = D2_11*rD2*t151 - t139*t152;
-    J[55] = D2_11*rD2*t154 - t139*t153;
-    J[56] = rs3*(t138*t155 - t139*t140);
-    J[57] = rs3*(-t139*t142 + t141*t155);
-    J[58] = rs3*(D2_00*rD2*t143 - e2_1*qdd3 - t139*t144);
-    J[59] = rs3*(-t139*t146 + t145*t155);
-    J[60] = rs3*(-t139*t148 + t147*t155);
-    J[61] = rs3*(-t139*t150 + t149*t155);
-    J[62] = rs3*(-t139*t151 + t152*t155);
-    J[63] = rs3*(-t139*t154 + t153*t155);
+    J[32] = t157;
+    J[33] = t158;
+    J[34] = t159;
+    J[35] = t160;
+    J[36] = t161;
+    J[37] = t162;
+    J[38] = t163;
+    J[39] = t164;
+    J[40] = t165;
+    J[41] = t166;
+    J[42] = t167;
+    J[43] = t168;
+    J[44] = t169;
+    J[45] = t170;
+    J[46] = t171;
+    J[47] = t172;
+    J[48] = t173;
+    J[49] = t174;
+    J[50] = t175;
+    J[51] = t176;
+    J[52] = t177;
+    J[53] = t178;
+    J[54] = t179;
+    J[55] = t180;
+    J[56] = t181;
+    J[57] = t182;
+    J[58] = t183;
+    J[59] = t184;
+    J[60] = t185;
+    J[61] = t186;
+    J[62] = t187;
+    J[63] = t188;
     if (!(fabs(t0) >= (double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
     if (!(fabs(t1) >= (double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_JACOBIAN_J_SIZE; ++k) {
-        if (!isfinite(J[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t157 - t157) + (t158 - t158) + (t159 - t159) + (t160 - t160) + (t161 - t161) +
+        (t162 - t162) + (t163 - t163) + (t164 - t164) + (t165 - t165) + (t166 - t166) +
+        (t167 - t167) + (t168 - t168) + (t169 - t169) + (t170 - t170) + (t171 - t171) +
+        (t172 - t172) + (t173 - t173) + (t174 - t174) + (t175 - t175) + (t176 - t176) +
+        (t177 - t177) + (t178 - t178) + (t179 - t179) + (t180 - t180) + (t181 - t181) +
+        (t182 - t182) + (t183 - t183) + (t184 - t184) + (t185 - t185) + (t186 - t186) +
+        (t187 - t187) + (t188 - t188);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1574,198 +1615,227 @@ int spherical_rot_jacobian_batch(long n, const double *restrict y, long y_stride
     return all;
 }
 
-/* spherical_rot_jacobian_f (float). Total ops: 704 */
+/* spherical_rot_jacobian_f (float). Total ops: 700 */
 int spherical_rot_jacobian_f(const float *restrict y, const float *restrict p, float *restrict J)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = sinf(y[2]);
     const float t2 = 1.0F/p[1];
     const float t3 = p[2]*p[2];
     const float t4 = p[0] + p[1];
-    const float Ab = p[3]*p[3];
-    const float t5 = y[1] - y[3];
-    const float t6 = cosf(t5);
-    const float t7 = p[2]*p[3];
-    const float Q11 = t6*t7;
-    const float e1_1 = cosf(y[0]);
-    const float t8 = e1_1*p[2];
-    const float t9 = sinf(t5);
-    const float t10 = p[3]*t9;
-    const float Q01 = t10*t8;
-    const float t11 = y[5]*y[5];
-    const float t12 = y[4]*y[4];
-    const float t13 = t0*y[4];
-    const float t14 = t7*t9;
+    const float t5 = cosf(y[0]);
+    const float t6 = p[2]*t5;
+    const float t7 = y[1] - y[3];
+    const float t8 = sinf(t7);
+    const float t9 = p[3]*t8;
+    const float Q01 = t6*t9;
+    const float t10 = y[5]*y[5];
+    const float t11 = y[4]*y[4];
+    const float t12 = t0*y[4];
+    const float t13 = p[2]*p[3];
+    const float t14 = t13*t8;
     const float t15 = t0*t14;
-    const float t16 = 2*y[5];
-    const float t17 = Q11*t16;
-    const float e2_1 = cosf(y[2]);
-    const float t18 = e2_1*p[3];
-    const float t19 = p[2]*t18;
-    const float t20 = t19*t9;
-    const float Q10 = -t20;
-    const float t21 = Q01*Q01;
-    const float t22 = t0*t1;
-    const float t23 = e1_1*e2_1;
-    const float t24 = t22 + t23*t6;
-    const float Q00 = t24*t7;
-    const float M00 = t3*t4;
-    const float Aa = M00*t2;
+    const float t16 = cosf(t7);
+    const float Q11 = t13*t16;
+    const float t17 = 2*y[5];
+    const float t18 = Q11*t17;
+    const float Ab = p[3]*p[3];
+    const float t19 = cosf(y[2]);
+    const float t20 = p[3]*t19;
+    const float t21 = p[2]*t20;
+    const float t22 = t21*t8;
+    const float Q10 = -t22;
+    const float t23 = Q01*Q01;
+    const float t24 = t3*t4;
+    const float Aa = t2*t24;
     const float AaAb = Aa*Ab;
     const float t25 = -AaAb;
-    const float t26 = Q00*Q00 + t25;
-    const float D1_00 = -t21 - t26;
+    const float t26 = t0*t1;
+    const float t27 = t19*t5;
+    const float t28 = t16*t27 + t26;
+    const float Q00 = t13*t28;
+    const float t29 = Q00*Q00 + t25;
+    const float D1_00 = -t23 - t29;
     const float D1_01 = -Q00*Q10 - Q01*Q11;
-    const float t27 = Q10*Q10;
-    const float t28 = Q11*Q11 + t25;
-    const float D1_11 = -t27 - t28;
+    const float t30 = Q10*Q10;
+    const float t31 = Q11*Q11 + t25;
+    const float D1_11 = -t30 - t31;
     const float rD1 = 1.0F/(D1_00*D1_11 - D1_01*D1_01);
-    const float t29 = 2*y[7];
-    const float t30 = t29*y[6];
-    const float t31 = cosf(y[1]);
-    const float t32 = p[4]*t31;
-    const float t33 = t2*t4;
-    const float t34 = p[2]*t33;
-    const float t35 = y[7]*y[7];
-    const float t36 = t1*t35;
-    const float t37 = y[6]*y[6];
-    const float t38 = t37*t7;
-    const float t39 = t38*t9;
-    const float t40 = t19*t6;
-    const float t41 = e1_1*y[4];
-    const float t42 = Aa*t16;
-    const float f1 = -t1*t39 - t14*t36 - t30*t40 - t32*t34 - t41*t42;
-    const float t43 = sinf(y[3]);
-    const float t44 = p[4]*t18*t43;
-    const float t45 = e2_1*t1;
-    const float t46 = e2_1*t0;
-    const float t47 = t11*t46;
-    const float t48 = Q11*t47;
-    const float t49 = 2*y[4];
-    const float t50 = t49*y[5];
-    const float t51 = t50*t8;
-    const float t52 = t18*t9;
-    const float t53 = t7*(e1_1*t1 - t46*t6);
-    const float f2 = Ab*t35*t45 - t12*t53 - t44 + t48 + t51*t52;
-    const float t54 = cosf(y[3]);
-    const float t55 = p[4]*t54;
-    const float t56 = e2_1*y[6];
-    const float t57 = Ab*t29;
-    const float t58 = t6*t8;
-    const float t59 = p[3]*t58;
-    const float f3 = p[2]*p[3]*t0*t11*t9 + p[2]*p[3]*t0*t12*t9 - p[3]*t55 - t50*t59 - t56*t57;
-    const float t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
-    const float t61 = sinf(y[1]);
-    const float t62 = p[4]*t61;
-    const float t63 = t62*t8;
-    const float t64 = t18*t30;
-    const float t65 = t8*t9;
-    const float t66 = e1_1*t1;
-    const float t67 = t46 - t6*t66;
-    const float f0 = e1_1*p[2]*p[3]*t1*t35*t6 + e1_1*t0*t11*t2*t3*t4 - t33*t63 - t38*t67 - t64*t65;
-    const float t68 = Ab*f0 - Q00*f2 - Q01*f3;
-    const float xr0 = -D1_01*t60 + D1_11*rD1*t68;
-    const float t69 = Q01*t11 + Q01*t12 + t13*t17 + t15*xr0;
-    const float t70 = t12*t7;
-    const float t71 = t14*t46;
-    const float t72 = -t24;
-    const float t73 = e1_1*e2_1*p[2]*p[3]*t11*t6 - t50*t71 - t53*xr0 - t70*t72;
-    const float t74 = 2*Ab*t0*t2*t3*t4*y[5]*y[4] - Q10*t73 - Q11*t69;
-    const float t75 = D1_01*rD1;
-    const float e1_2 = t0*t61;
-    const float t76 = e1_2*p[2];
-    const float D2_00 = -t26 - t27;
+    const float t32 = 2*y[7];
+    const float t33 = t32*y[6];
+    const float t34 = cosf(y[1]);
+    const float t35 = p[4]*t2*t4;
+    const float t36 = p[2]*t35;
+    const float t37 = y[7]*y[7];
+    const float t38 = t1*t37;
+    const float t39 = y[6]*y[6];
+    const float t40 = t13*t39;
+    const float t41 = t40*t8;
+    const float t42 = t16*t21;
+    const float t43 = t5*y[4];
+    const float t44 = t43*y[5];
+    const float t45 = 2*Aa;
+    const float f1 = -t1*t41 - t14*t38 - t33*t42 - t34*t36 - t44*t45;
+    const float t46 = sinf(y[3]);
+    const float t47 = t1*t19;
+    const float t48 = t0*t19;
+    const float t49 = t10*t48;
+    const float t50 = 2*y[4];
+    const float t51 = t50*y[5];
+    const float t52 = t6*t8;
+    const float t53 = t20*t52;
+    const float t54 = t16*t48;
+    const float t55 = t13*(t1*t5 - t54);
+    const float f2 = Ab*t37*t47 + Q11*t49 - p[4]*t20*t46 - t11*t55 + t51*t53;
+    const float t56 = cosf(y[3]);
+    const float t57 = p[4]*t56;
+    const float t58 = t19*y[6];
+    const float t59 = Ab*t32;
+    const float t60 = t16*t6;
+    const float t61 = p[3]*t60;
+    const float f3 = p[2]*p[3]*t0*t10*t8 + p[2]*p[3]*t0*t11*t8 - p[3]*t57 - t51*t61 - t58*t59;
+    const float t62 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
+    const float t63 = sinf(y[1]);
+    const float t64 = t35*t6;
+    const float t65 = t20*t33;
+    const float t66 = t1*t5;
+    const float t67 = t16*t66;
+    const float t68 = t48 - t67;
+    const float f0 = p[2]*p[3]*t1*t16*t37*t5 + t0*t10*t2*t3*t4*t5 - t40*t68 - t52*t65 - t63*t64;
+    const float t69 = Ab*f0 - Q00*f2 - Q01*f3;
+    const float xr0 = -D1_01*t62 + D1_11*rD1*t69;
+    const float t70 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0;
+    const float t71 = t14*t48;
+    const float t72 = -t28;
+    const float t73 = t11*t13;
+    const float t74 = p[2]*p[3]*t10*t16*t19*t5 - t51*t71 - t55*xr0 - t72*t73;
+    const float t75 = 2*Ab*t0*t2*t3*t4*y[5]*y[4] - Q10*t74 - Q11*t70;
+    const float t76 = D1_01*rD1;
+    const float t77 = t0*t63;
+    const float t78 = p[2]*t77;
+    const float D2_00 = -t29 - t30;
     const float D2_01 = -Q00*Q01 - Q10*Q11;
-    const float D2_11 = -t21 - t28;
+    const float D2_11 = -t23 - t31;
     const float rD2 = 1.0F/(D2_00*D2_11 - D2_01*D2_01);
-    const float t77 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
-    const float t78 = Aa*f2 - Q00*f0 - Q10*f1;
-    const float xr3 = D2_00*t77 - D2_01*rD2*t78;
-    const float t79 = t14*xr3;
-    const float t80 = t22*t6 + t23;
-    const float xr2 = -D2_01*t77 + D2_11*rD2*t78;
-    const float t81 = Aa*t11*(2*e1_1*e1_1 - 1) - Q11*t22*t35 + p[4]*t33*t76 + t0*t79 + t30*t71 - t38*t80 - t53*xr2;
-    const float t82 = Ab*t81 - Q00*t73 - Q01*t69;
-    const float t83 = Q11*t12;
-    const float xr1 = D1_00*t60 - D1_01*rD1*t68;
-    const float t84 = t14*xr1;
-    const float t85 = Q01*t50 + Q11*t0*t11 + t0*t83 - t59*xr0 + t84;
-    const float t86 = t50*t58;
-    const float t87 = t18*t65;
-    const float t88 = -t14*t47 + t18*t86 + t40*xr1 - t46*t70*t9 + t87*xr0;
-    const float t89 = -Q11*t1*t37 - Q11*t36 + t20*t30 + t40*xr2 + t79;
-    const float t90 = t34*t62 + t89;
-    const float t91 = Ab*t90 - Q10*t88 - Q11*t85;
-    const float t92 = t14*t66;
-    const float t93 = t35*t92 + t39*t66 + t58*t64 + t59*xr3 - t87*xr2;
-    const float t94 = -t32*t33*t8 - t93;
-    const float t95 = Ab*t94 - Q00*t88 - Q01*t85;
-    const float t96 = t1*y[6];
-    const float t97 = t57*t96;
-    const float t98 = t1*t14;
-    const float t99 = 2*p[2]*p[3]*t1*t6*y[7]*y[6] - t20*t35 - t20*t37 - t98*xr2;
-    const float t100 = Q11*t22;
-    const float t101 = t67*t7;
-    const float t102 = Ab*t35*(2*e2_1*e2_1 - 1) + p[4]*p[3]*t1*t43 - t1*t84 - t100*t11 - t101*xr0 - t50*t92 - t70*t80;
-    const float t103 = Ab*t99 - Q10*t102 - Q11*t97;
-    const float t104 = t18*t58;
-    const float t105 = -t101*xr2 + t104*t35 + t30*t92 - t38*t72;
-    const float t106 = Ab*t105 - Q00*t102 - Q01*t97;
-    const float t107 = -t89;
-    const float t108 = p[4]*p[3]*t43 - t85;
-    const float t109 = -t18*t55 - t88;
+    const float t79 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
+    const float t80 = Aa*f2 - Q00*f0 - Q10*f1;
+    const float xr3 = D2_00*t79 - D2_01*rD2*t80;
+    const float t81 = t14*xr3;
+    const float t82 = t16*t26;
+    const float t83 = t27 + t82;
+    const float xr2 = -D2_01*t79 + D2_11*rD2*t80;
+    const float t84 = Aa*t10*(2*t5*t5 - 1) - Q11*t26*t37 + t0*t81 + t33*t71 + t35*t78 - t40*t83 - t55*xr2;
+    const float t85 = Ab*t84 - Q00*t74 - Q01*t70;
+    const float t86 = t0*t10;
+    const float xr1 = D1_00*t62 - D1_01*rD1*t69;
+    const float t87 = t14*xr1;
+    const float t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 - t61*xr0 + t87;
+    const float t89 = t51*t60;
+    const float t90 = -t14*t49 + t20*t89 + t42*xr1 - t48*t73*t8 + t53*xr0;
+    const float t91 = -Q11*t1*t39 - Q11*t38 + t22*t33 + t42*xr2 + t81;
+    const float t92 = t36*t63 + t91;
+    const float t93 = Ab*t92 - Q10*t90 - Q11*t88;
+    const float t94 = t14*t66;
+    const float t95 = t37*t94 + t41*t66 - t53*xr2 + t60*t65 + t61*xr3;
+    const float t96 = -t34*t64 - t95;
+    const float t97 = Ab*t96 - Q00*t90 - Q01*t88;
+    const float t98 = t1*y[6];
+    const float t99 = t59*t98;
+    const float t100 = t1*t14;
+    const float t101 = 2*p[2]*p[3]*t1*t16*y[7]*y[6] - t100*xr2 - t22*t37 - t22*t39;
+    const float t102 = t13*t68;
+    const float t103 = Ab*t37*(2*t19*t19 - 1) - Q11*t10*t26 + p[4]*p[3]*t1*t46 - t1*t87 - t102*xr0 - t51*t94 - t73*t83;
+    const float t104 = Ab*t101 - Q10*t103 - Q11*t99;
+    const float t105 = -t102*xr2 + t20*t37*t60 + t33*t94 - t40*t72;
+    const float t106 = Ab*t105 - Q00*t103 - Q01*t99;
+    const float t107 = -t91;
+    const float t108 = p[4]*p[3]*t46 - t88;
+    const float t109 = -t20*t57 - t90;
     const float t110 = Ab*t107 - Q10*t109 - Q11*t108;
-    const float t111 = Ab*t93 - Q00*t109 - Q01*t108;
-    const float t112 = 2*p[2]*p[3]*t0*t9*y[4] - t16*t59;
-    const float t113 = t16*t87 - t49*t53;
+    const float t111 = Ab*t95 - Q00*t109 - Q01*t108;
+    const float t112 = 2*p[2]*p[3]*t0*t8*y[4] - t17*t61;
+    const float t113 = t17*t53 - t50*t55;
     const float t114 = -Q00*t113 - Q01*t112;
-    const float t115 = e1_1*t42;
-    const float t116 = -Ab*t115 - Q10*t113 - Q11*t112;
-    const float t117 = 2*Aa*t41;
-    const float t118 = t15*t16 - t49*t59;
-    const float t119 = t17*t46 + t49*t87;
-    const float t120 = -Ab*t117 - Q10*t119 - Q11*t118;
-    const float t121 = 2*Ab*e1_1*t0*t2*t3*t4*y[5] - Q00*t119 - Q01*t118;
-    const float t122 = e2_1*t57;
-    const float t123 = -2*t14*t96 - t29*t40;
-    const float t124 = Ab*t123 + Q11*t122;
-    const float t125 = 2*y[6];
-    const float t126 = -t101*t125 - t29*t87;
-    const float t127 = Ab*t126 + Q01*t122;
-    const float t128 = Ab*t56;
-    const float t129 = 2*t128;
-    const float t130 = t45*t57;
-    const float t131 = -t125*t40 - t29*t98;
-    const float t132 = Ab*t131 - Q10*t130 + Q11*t129;
-    const float t133 = 2*Q01;
-    const float t134 = Q11*t29*t66 - t125*t87;
-    const float t135 = Ab*t134 - Q00*t130 + t128*t133;
+    const float t115 = Aa*t17;
+    const float t116 = t115*t5;
+    const float t117 = -Ab*t116 - Q10*t113 - Q11*t112;
+    const float t118 = t43*t45;
+    const float t119 = t15*t17 - t50*t61;
+    const float t120 = t18*t48 + t50*t53;
+    const float t121 = -Ab*t118 - Q10*t120 - Q11*t119;
+    const float t122 = 2*Ab*t0*t2*t3*t4*t5*y[5] - Q00*t120 - Q01*t119;
+    const float t123 = t19*t59;
+    const float t124 = -2*t14*t98 - t32*t42;
+    const float t125 = Ab*t124 + Q11*t123;
+    const float t126 = 2*y[6];
+    const float t127 = -t102*t126 - t32*t53;
+    const float t128 = Ab*t127 + Q01*t123;
+    const float t129 = Ab*t58;
+    const float t130 = 2*t129;
+    const float t131 = t47*t59;
+    const float t132 = -t100*t32 - t126*t42;
+    const float t133 = Ab*t132 - Q10*t131 + Q11*t130;
+    const float t134 = 2*Q01;
+    const float t135 = Q11*t32*t66 - t126*t53;
+    const float t136 = Ab*t135 - Q00*t131 + t129*t134;
     const float rs1 = 1.0F/t0;
     const float qdd1 = rs1*xr1;
-    const float t136 = D1_00*rD1;
-    const float t137 = t13*t42;
-    const float t138 = Aa*t69 - Q01*t81 - Q11*t137;
-    const float t139 = D2_01*rD2;
-    const float t140 = Aa*t73 - Q00*t81 - Q10*t137;
-    const float t141 = Aa*t85 - Q01*t94 - Q11*t90;
-    const float t142 = Aa*t88 - Q00*t94 - Q10*t90;
-    const float t143 = 2*Aa*Ab*t1*y[7]*y[6] - Q01*t105 - Q11*t99;
-    const float t144 = Aa*t102 - Q00*t105 - Q10*t99;
-    const float t145 = Aa*t108 - Q01*t93 - Q11*t107;
-    const float t146 = Aa*t109 - Q00*t93 - Q10*t107;
-    const float t147 = Aa*t112 + Q11*t115;
-    const float t148 = Aa*t113 + Q10*t115;
-    const float t149 = -Aa*e1_1*t0*t133*y[5] + Aa*t118 + Q11*t117;
-    const float t150 = Aa*t119 - Q00*t0*t115 + Q10*t117;
-    const float t151 = -Q00*t126 - Q10*t123;
-    const float t152 = -Aa*t122 - Q01*t126 - Q11*t123;
-    const float t153 = -Aa*t129 - Q01*t134 - Q11*t131;
-    const float t154 = 2*Aa*Ab*e2_1*t1*y[7] - Q00*t134 - Q10*t131;
-    const float t155 = D2_00*rD2;
+    const float t137 = D1_00*rD1;
+    const float t138 = t115*t12;
+    const float t139 = Aa*t70 - Q01*t84 - Q11*t138;
+    const float t140 = D2_01*rD2;
+    const float t141 = Aa*t74 - Q00*t84 - Q10*t138;
+    const float t142 = Aa*t88 - Q01*t96 - Q11*t92;
+    const float t143 = Aa*t90 - Q00*t96 - Q10*t92;
+    const float t144 = 2*Aa*Ab*t1*y[7]*y[6] - Q01*t105 - Q11*t101;
+    const float t145 = Aa*t103 - Q00*t105 - Q10*t101;
+    const float t146 = Aa*t108 - Q01*t95 - Q11*t107;
+    const float t147 = Aa*t109 - Q00*t95 - Q10*t107;
+    const float t148 = Aa*t112 + Q11*t116;
+    const float t149 = Aa*t113 + Q10*t116;
+    const float t150 = -Aa*t0*t134*t5*y[5] + Aa*t119 + Q11*t118;
+    const float t151 = Aa*t120 - Q00*t0*t116 + Q10*t118;
+    const float t152 = -Q00*t127 - Q10*t124;
+    const float t153 = -Aa*t123 - Q01*t127 - Q11*t124;
+    const float t154 = -Aa*t130 - Q01*t135 - Q11*t132;
+    const float t155 = 2*Aa*Ab*t1*t19*y[7] - Q00*t135 - Q10*t132;
+    const float t156 = D2_00*rD2;
     const float rs3 = 1.0F/t1;
     const float qdd3 = rs3*xr3;
+    const float t157 = D1_11*rD1*t85 - t75*t76;
+    const float t158 = D1_11*rD1*t97 - t76*t93;
+    const float t159 = D1_11*rD1*t106 - t104*t76;
+    const float t160 = D1_11*rD1*t111 - t110*t76;
+    const float t161 = D1_11*rD1*t114 - t117*t76;
+    const float t162 = D1_11*rD1*t122 - t121*t76;
+    const float t163 = D1_11*rD1*t128 - t125*t76;
+    const float t164 = D1_11*rD1*t136 - t133*t76;
+    const float t165 = rs1*(D1_00*rD1*t75 - qdd1*t5 - t76*t85);
+    const float t166 = rs1*(t137*t93 - t76*t97);
+    const float t167 = rs1*(t104*t137 - t106*t76);
+    const float t168 = rs1*(t110*t137 - t111*t76);
+    const float t169 = rs1*(-t114*t76 + t117*t137);
+    const float t170 = rs1*(t121*t137 - t122*t76);
+    const float t171 = rs1*(t125*t137 - t128*t76);
+    const float t172 = rs1*(t133*t137 - t136*t76);
+    const float t173 = D2_11*rD2*t141 - t139*t140;
+    const float t174 = D2_11*rD2*t143 - t140*t142;
+    const float t175 = D2_11*rD2*t145 - t140*t144;
+    const float t176 = D2_11*rD2*t147 - t140*t146;
+    const float t177 = D2_11*rD2*t149 - t140*t148;
+    const float t178 = D2_11*rD2*t151 - t140*t150;
+    const float t179 = D2_11*rD2*t152 - t140*t153;
+    const float t180 = D2_11*rD2*t155 - t140*t154;
+    const float t181 = rs3*(t139*t156 - t140*t141);
+    const float t182 = rs3*(-t140*t143 + t142*t156);
+    const float t183 = rs3*(D2_00*rD2*t144 - qdd3*t19 - t140*t145);
+    const float t184 = rs3*(-t140*t147 + t146*t156);
+    const float t185 = rs3*(-t140*t149 + t148*t156);
+    const float t186 = rs3*(-t140*t151 + t150*t156);
+    const float t187 = rs3*(-t140*t152 + t153*t156);
+    const float t188 = rs3*(-t140*t155 + t154*t156);
     J[0] = 0;
     J[1] = 0;
     J[2] = 0;
@@ -1798,48 +1868,54 @@ int spherical_rot_jacobian_f(const float *restrict y, const float *restrict p, f
     J[29] = 0;
     J[30] = 0;
     J[31] = 1;
-    J[32] = D1_11*rD1*t82 - t74*t75;
-    J[33] = D1_11*rD1*t95 - t75*t91;
-    J[34] = D1_11*rD1*t106 - t103*t75;
-    J[35] = D1_11*rD1*t111 - t110*t75;
-    J[36] = D1_11*rD1*t114 - t116*t75;
-    J[37] = D1_11*rD1*t121 - t120*t75;
-    J[38] = D1_11*rD1*t127 - t124*t75;
-    J[39] = D1_11*rD1*t135 - t132*t75;
-    J[40] = rs1*(D1_00*rD1*t74 - e1_1*qdd1 - t75*t82);
-    J[41] = rs1*(t136*t91 - t75*t95);
-    J[42] = rs1*(t103*t136 - t106*t75);
-    J[43] = rs1*(t110*t136 - t111*t75);
-    J[44] = rs1*(-t114*t75 + t116*t136);
-    J[45] = rs1*(t120*t136 - t121*t75);
-    J[46] = rs1*(t124*t136 - t127*t75);
-    J[47] = rs1*(t132*t136 - t135*t75);
-    J[48] = D2_11*rD2*t140 - t138*t139;
-    J[49] = D2_11*rD2*t142 - t139*t141;
-    J[50] = D2_11*rD2*t144 - t139*t143;
-    J[51] = D2_11*rD2*t146 - t139*t145;
-    J[52] = D2_11*rD2*t148 - t139*t147;
-    J[53] = D2_11*rD2*t150 - t139*t149;
-    J[54] = D2_11*rD2*t151 - t139*t152;
-    J[55] = D2_11*rD2*t154 - t139*t153;
-    J[56] = rs3*(t138*t155 - t139*t140);
-    J[57] = rs3*(-t139*t142 + t141*t155);
-    J[58] = rs3*(D2_00*rD2*t143 - e2_1*qdd3 - t139*t144);
-    J[59] = rs3*(-t139*t146 + t145*t155);
-    J[60] = rs3*(-t139*t148 + t147*t155);
-    J[61] = rs3*(-t139*t150 + t149*t155);
-    J[62] = rs3*(-t139*t151 + t152*t155);
-    J[63] = rs3*(-t139*t154 + t153*t155);
+    J[32] = t157;
+    J[33] = t158;
+    J[34] = t159;
+    J[35] = t160;
+    J[36] = t161;
+    J[37] = t162;
+    J[38] = t163;
+    J[39] = t164;
+    J[40] = t165;
+    J[41] = t166;
+    J[42] = t167;
+    J[43] = t168;
+    J[44] = t169;
+    J[45] = t170;
+    J[46] = t171;
+    J[47] = t172;
+    J[48] = t173;
+    J[49] = t174;
+    J[50] = t175;
+    J[51] = t176;
+    J[52] = t177;
+    J[53] = t178;
+    J[54] = t179;
+    J[55] = t180;
+    J[56] = t181;
+    J[57] = t182;
+    J[58] = t183;
+    J[59] = t184;
+    J[60] = t185;
+    J[61] = t186;
+    J[62] = t187;
+    J[63] = t188;
     if (!(fabsf(t0) >= (float)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
     if (!(fabsf(t1) >= (float)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_JACOBIAN_J_SIZE; ++k) {
-        if (!isfinite(J[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t157 - t157) + (t158 - t158) + (t159 - t159) + (t160 - t160) + (t161 - t161) +
+        (t162 - t162) + (t163 - t163) + (t164 - t164) + (t165 - t165) + (t166 - t166) +
+        (t167 - t167) + (t168 - t168) + (t169 - t169) + (t170 - t170) + (t171 - t171) +
+        (t172 - t172) + (t173 - t173) + (t174 - t174) + (t175 - t175) + (t176 - t176) +
+        (t177 - t177) + (t178 - t178) + (t179 - t179) + (t180 - t180) + (t181 - t181) +
+        (t182 - t182) + (t183 - t183) + (t184 - t184) + (t185 - t185) + (t186 - t186) +
+        (t187 - t187) + (t188 - t188);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1858,198 +1934,227 @@ int spherical_rot_jacobian_batch_f(long n, const float *restrict y, long y_strid
     return all;
 }
 
-/* spherical_rot_jacobian_l (long double). Total ops: 704 */
+/* spherical_rot_jacobian_l (long double). Total ops: 700 */
 int spherical_rot_jacobian_l(const long double *restrict y, const long double *restrict p, long double *restrict J)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = sinl(y[2]);
     const long double t2 = 1.0L/p[1];
     const long double t3 = p[2]*p[2];
     const long double t4 = p[0] + p[1];
-    const long double Ab = p[3]*p[3];
-    const long double t5 = y[1] - y[3];
-    const long double t6 = cosl(t5);
-    const long double t7 = p[2]*p[3];
-    const long double Q11 = t6*t7;
-    const long double e1_1 = cosl(y[0]);
-    const long double t8 = e1_1*p[2];
-    const long double t9 = sinl(t5);
-    const long double t10 = p[3]*t9;
-    const long double Q01 = t10*t8;
-    const long double t11 = y[5]*y[5];
-    const long double t12 = y[4]*y[4];
-    const long double t13 = t0*y[4];
-    const long double t14 = t7*t9;
+    const long double t5 = cosl(y[0]);
+    const long double t6 = p[2]*t5;
+    const long double t7 = y[1] - y[3];
+    const long double t8 = sinl(t7);
+    const long double t9 = p[3]*t8;
+    const long double Q01 = t6*t9;
+    const long double t10 = y[5]*y[5];
+    const long double t11 = y[4]*y[4];
+    const long double t12 = t0*y[4];
+    const long double t13 = p[2]*p[3];
+    const long double t14 = t13*t8;
     const long double t15 = t0*t14;
-    const long double t16 = 2*y[5];
-    const long double t17 = Q11*t16;
-    const long double e2_1 = cosl(y[2]);
-    const long double t18 = e2_1*p[3];
-    const long double t19 = p[2]*t18;
-    const long double t20 = t19*t9;
-    const long double Q10 = -t20;
-    const long double t21 = Q01*Q01;
-    const long double t22 = t0*t1;
-    const long double t23 = e1_1*e2_1;
-    const long double t24 = t22 + t23*t6;
-    const long double Q00 = t24*t7;
-    const long double M00 = t3*t4;
-    const long double Aa = M00*t2;
+    const long double t16 = cosl(t7);
+    const long double Q11 = t13*t16;
+    const long double t17 = 2*y[5];
+    const long double t18 = Q11*t17;
+    const long double Ab = p[3]*p[3];
+    const long double t19 = cosl(y[2]);
+    const long double t20 = p[3]*t19;
+    const long double t21 = p[2]*t20;
+    const long double t22 = t21*t8;
+    const long double Q10 = -t22;
+    const long double t23 = Q01*Q01;
+    const long double t24 = t3*t4;
+    const long double Aa = t2*t24;
     const long double AaAb = Aa*Ab;
     const long double t25 = -AaAb;
-    const long double t26 = Q00*Q00 + t25;
-    const long double D1_00 = -t21 - t26;
+    const long double t26 = t0*t1;
+    const long double t27 = t19*t5;
+    const long double t28 = t16*t27 + t26;
+    const long double Q00 = t13*t28;
+    const long double t29 = Q00*Q00 + t25;
+    const long double D1_00 = -t23 - t29;
     const long double D1_01 = -Q00*Q10 - Q01*Q11;
-    const long double t27 = Q10*Q10;
-    const long double t28 = Q11*Q11 + t25;
-    const long double D1_11 = -t27 - t28;
+    const long double t30 = Q10*Q10;
+    const long double t31 = Q11*Q11 + t25;
+    const long double D1_11 = -t30 - t31;
     const long double rD1 = 1.0L/(D1_00*D1_11 - D1_01*D1_01);
-    const long double t29 = 2*y[7];
-    const long double t30 = t29*y[6];
-    const long double t31 = cosl(y[1]);
-    const long double t32 = p[4]*t31;
-    const long double t33 = t2*t4;
-    const long double t34 = p[2]*t33;
-    const long double t35 = y[7]*y[7];
-    const long double t36 = t1*t35;
-    const long double t37 = y[6]*y[6];
-    const long double t38 = t37*t7;
-    const long double t39 = t38*t9;
-    const long double t40 = t19*t6;
-    const long double t41 = e1_1*y[4];
-    const long double t42 = Aa*t16;
-    const long double f1 = -t1*t39 - t14*t36 - t30*t40 - t32*t34 - t41*t42;
-    const long double t43 = sinl(y[3]);
-    const long double t44 = p[4]*t18*t43;
-    const long double t45 = e2_1*t1;
-    const long double t46 = e2_1*t0;
-    const long double t47 = t11*t46;
-    const long double t48 = Q11*t47;
-    const long double t49 = 2*y[4];
-    const long double t50 = t49*y[5];
-    const long double t51 = t50*t8;
-    const long double t52 = t18*t9;
-    const long double t53 = t7*(e1_1*t1 - t46*t6);
-    const long double f2 = Ab*t35*t45 - t12*t53 - t44 + t48 + t51*t52;
-    const long double t54 = cosl(y[3]);
-    const long double t55 = p[4]*t54;
-    const long double t56 = e2_1*y[6];
-    const long double t57 = Ab*t29;
-    const long double t58 = t6*t8;
-    const long double t59 = p[3]*t58;
-    const long double f3 = p[2]*p[3]*t0*t11*t9 + p[2]*p[3]*t0*t12*t9 - p[3]*t55 - t50*t59 - t56*t57;
-    const long double t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
-    const long double t61 = sinl(y[1]);
-    const long double t62 = p[4]*t61;
-    const long double t63 = t62*t8;
-    const long double t64 = t18*t30;
-    const long double t65 = t8*t9;
-    const long double t66 = e1_1*t1;
-    const long double t67 = t46 - t6*t66;
-    const long double f0 = e1_1*p[2]*p[3]*t1*t35*t6 + e1_1*t0*t11*t2*t3*t4 - t33*t63 - t38*t67 - t64*t65;
-    const long double t68 = Ab*f0 - Q00*f2 - Q01*f3;
-    const long double xr0 = -D1_01*t60 + D1_11*rD1*t68;
-    const long double t69 = Q01*t11 + Q01*t12 + t13*t17 + t15*xr0;
-    const long double t70 = t12*t7;
-    const long double t71 = t14*t46;
-    const long double t72 = -t24;
-    const long double t73 = e1_1*e2_1*p[2]*p[3]*t11*t6 - t50*t71 - t53*xr0 - t70*t72;
-    const long double t74 = 2*Ab*t0*t2*t3*t4*y[5]*y[4] - Q10*t73 - Q11*t69;
-    const long double t75 = D1_01*rD1;
-    const long double e1_2 = t0*t61;
-    const long double t76 = e1_2*p[2];
-    const long double D2_00 = -t26 - t27;
+    const long double t32 = 2*y[7];
+    const long double t33 = t32*y[6];
+    const long double t34 = cosl(y[1]);
+    const long double t35 = p[4]*t2*t4;
+    const long double t36 = p[2]*t35;
+    const long double t37 = y[7]*y[7];
+    const long double t38 = t1*t37;
+    const long double t39 = y[6]*y[6];
+    const long double t40 = t13*t39;
+    const long double t41 = t40*t8;
+    const long double t42 = t16*t21;
+    const long double t43 = t5*y[4];
+    const long double t44 = t43*y[5];
+    const long double t45 = 2*Aa;
+    const long double f1 = -t1*t41 - t14*t38 - t33*t42 - t34*t36 - t44*t45;
+    const long double t46 = sinl(y[3]);
+    const long double t47 = t1*t19;
+    const long double t48 = t0*t19;
+    const long double t49 = t10*t48;
+    const long double t50 = 2*y[4];
+    const long double t51 = t50*y[5];
+    const long double t52 = t6*t8;
+    const long double t53 = t20*t52;
+    const long double t54 = t16*t48;
+    const long double t55 = t13*(t1*t5 - t54);
+    const long double f2 = Ab*t37*t47 + Q11*t49 - p[4]*t20*t46 - t11*t55 + t51*t53;
+    const long double t56 = cosl(y[3]);
+    const long double t57 = p[4]*t56;
+    const long double t58 = t19*y[6];
+    const long double t59 = Ab*t32;
+    const long double t60 = t16*t6;
+    const long double t61 = p[3]*t60;
+    const long double f3 = p[2]*p[3]*t0*t10*t8 + p[2]*p[3]*t0*t11*t8 - p[3]*t57 - t51*t61 - t58*t59;
+    const long double t62 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
+    const long double t63 = sinl(y[1]);
+    const long double t64 = t35*t6;
+    const long double t65 = t20*t33;
+    const long double t66 = t1*t5;
+    const long double t67 = t16*t66;
+    const long double t68 = t48 - t67;
+    const long double f0 = p[2]*p[3]*t1*t16*t37*t5 + t0*t10*t2*t3*t4*t5 - t40*t68 - t52*t65 - t63*t64;
+    const long double t69 = Ab*f0 - Q00*f2 - Q01*f3;
+    const long double xr0 = -D1_01*t62 + D1_11*rD1*t69;
+    const long double t70 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0;
+    const long double t71 = t14*t48;
+    const long double t72 = -t28;
+    const long double t73 = t11*t13;
+    const long double t74 = p[2]*p[3]*t10*t16*t19*t5 - t51*t71 - t55*xr0 - t72*t73;
+    const long double t75 = 2*Ab*t0*t2*t3*t4*y[5]*y[4] - Q10*t74 - Q11*t70;
+    const long double t76 = D1_01*rD1;
+    const long double t77 = t0*t63;
+    const long double t78 = p[2]*t77;
+    const long double D2_00 = -t29 - t30;
     const long double D2_01 = -Q00*Q01 - Q10*Q11;
-    const long double D2_11 = -t21 - t28;
+    const long double D2_11 = -t23 - t31;
     const long double rD2 = 1.0L/(D2_00*D2_11 - D2_01*D2_01);
-    const long double t77 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
-    const long double t78 = Aa*f2 - Q00*f0 - Q10*f1;
-    const long double xr3 = D2_00*t77 - D2_01*rD2*t78;
-    const long double t79 = t14*xr3;
-    const long double t80 = t22*t6 + t23;
-    const long double xr2 = -D2_01*t77 + D2_11*rD2*t78;
-    const long double t81 = Aa*t11*(2*e1_1*e1_1 - 1) - Q11*t22*t35 + p[4]*t33*t76 + t0*t79 + t30*t71 - t38*t80 - t53*xr2;
-    const long double t82 = Ab*t81 - Q00*t73 - Q01*t69;
-    const long double t83 = Q11*t12;
-    const long double xr1 = D1_00*t60 - D1_01*rD1*t68;
-    const long double t84 = t14*xr1;
-    const long double t85 = Q01*t50 + Q11*t0*t11 + t0*t83 - t59*xr0 + t84;
-    const long double t86 = t50*t58;
-    const long double t87 = t18*t65;
-    const long double t88 = -t14*t47 + t18*t86 + t40*xr1 - t46*t70*t9 + t87*xr0;
-    const long double t89 = -Q11*t1*t37 - Q11*t36 + t20*t30 + t40*xr2 + t79;
-    const long double t90 = t34*t62 + t89;
-    const long double t91 = Ab*t90 - Q10*t88 - Q11*t85;
-    const long double t92 = t14*t66;
-    const long double t93 = t35*t92 + t39*t66 + t58*t64 + t59*xr3 - t87*xr2;
-    const long double t94 = -t32*t33*t8 - t93;
-    const long double t95 = Ab*t94 - Q00*t88 - Q01*t85;
-    const long double t96 = t1*y[6];
-    const long double t97 = t57*t96;
-    const long double t98 = t1*t14;
-    const long double t99 = 2*p[2]*p[3]*t1*t6*y[7]*y[6] - t20*t35 - t20*t37 - t98*xr2;
-    const long double t100 = Q11*t22;
-    const long double t101 = t67*t7;
-    const long double t102 = Ab*t35*(2*e2_1*e2_1 - 1) + p[4]*p[3]*t1*t43 - t1*t84 - t100*t11 - t101*xr0 - t50*t92 - t70*t80;
-    const long double t103 = Ab*t99 - Q10*t102 - Q11*t97;
-    const long double t104 = t18*t58;
-    const long double t105 = -t101*xr2 + t104*t35 + t30*t92 - t38*t72;
-    const long double t106 = Ab*t105 - Q00*t102 - Q01*t97;
-    const long double t107 = -t89;
-    const long double t108 = p[4]*p[3]*t43 - t85;
-    const long double t109 = -t18*t55 - t88;
+    const long double t79 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
+    const long double t80 = Aa*f2 - Q00*f0 - Q10*f1;
+    const long double xr3 = D2_00*t79 - D2_01*rD2*t80;
+    const long double t81 = t14*xr3;
+    const long double t82 = t16*t26;
+    const long double t83 = t27 + t82;
+    const long double xr2 = -D2_01*t79 + D2_11*rD2*t80;
+    const long double t84 = Aa*t10*(2*t5*t5 - 1) - Q11*t26*t37 + t0*t81 + t33*t71 + t35*t78 - t40*t83 - t55*xr2;
+    const long double t85 = Ab*t84 - Q00*t74 - Q01*t70;
+    const long double t86 = t0*t10;
+    const long double xr1 = D1_00*t62 - D1_01*rD1*t69;
+    const long double t87 = t14*xr1;
+    const long double t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 - t61*xr0 + t87;
+    const long double t89 = t51*t60;
+    const long double t90 = -t14*t49 + t20*t89 + t42*xr1 - t48*t73*t8 + t53*xr0;
+    const long double t91 = -Q11*t1*t39 - Q11*t38 + t22*t33 + t42*xr2 + t81;
+    const long double t92 = t36*t63 + t91;
+    const long double t93 = Ab*t92 - Q10*t90 - Q11*t88;
+    const long double t94 = t14*t66;
+    const long double t95 = t37*t94 + t41*t66 - t53*xr2 + t60*t65 + t61*xr3;
+    const long double t96 = -t34*t64 - t95;
+    const long double t97 = Ab*t96 - Q00*t90 - Q01*t88;
+    const long double t98 = t1*y[6];
+    const long double t99 = t59*t98;
+    const long double t100 = t1*t14;
+    const long double t101 = 2*p[2]*p[3]*t1*t16*y[7]*y[6] - t100*xr2 - t22*t37 - t22*t39;
+    const long double t102 = t13*t68;
+    const long double t103 = Ab*t37*(2*t19*t19 - 1) - Q11*t10*t26 + p[4]*p[3]*t1*t46 - t1*t87 - t102*xr0 - t51*t94 - t73*t83;
+    const long double t104 = Ab*t101 - Q10*t103 - Q11*t99;
+    const long double t105 = -t102*xr2 + t20*t37*t60 + t33*t94 - t40*t72;
+    const long double t106 = Ab*t105 - Q00*t103 - Q01*t99;
+    const long double t107 = -t91;
+    const long double t108 = p[4]*p[3]*t46 - t88;
+    const long double t109 = -t20*t57 - t90;
     const long double t110 = Ab*t107 - Q10*t109 - Q11*t108;
-    const long double t111 = Ab*t93 - Q00*t109 - Q01*t108;
-    const long double t112 = 2*p[2]*p[3]*t0*t9*y[4] - t16*t59;
-    const long double t113 = t16*t87 - t49*t53;
+    const long double t111 = Ab*t95 - Q00*t109 - Q01*t108;
+    const long double t112 = 2*p[2]*p[3]*t0*t8*y[4] - t17*t61;
+    const long double t113 = t17*t53 - t50*t55;
     const long double t114 = -Q00*t113 - Q01*t112;
-    const long double t115 = e1_1*t42;
-    const long double t116 = -Ab*t115 - Q10*t113 - Q11*t112;
-    const long double t117 = 2*Aa*t41;
-    const long double t118 = t15*t16 - t49*t59;
-    const long double t119 = t17*t46 + t49*t87;
-    const long double t120 = -Ab*t117 - Q10*t119 - Q11*t118;
-    const long double t121 = 2*Ab*e1_1*t0*t2*t3*t4*y[5] - Q00*t119 - Q01*t118;
-    const long double t122 = e2_1*t57;
-    const long double t123 = -2*t14*t96 - t29*t40;
-    const long double t124 = Ab*t123 + Q11*t122;
-    const long double t125 = 2*y[6];
-    const long double t126 = -t101*t125 - t29*t87;
-    const long double t127 = Ab*t126 + Q01*t122;
-    const long double t128 = Ab*t56;
-    const long double t129 = 2*t128;
-    const long double t130 = t45*t57;
-    const long double t131 = -t125*t40 - t29*t98;
-    const long double t132 = Ab*t131 - Q10*t130 + Q11*t129;
-    const long double t133 = 2*Q01;
-    const long double t134 = Q11*t29*t66 - t125*t87;
-    const long double t135 = Ab*t134 - Q00*t130 + t128*t133;
+    const long double t115 = Aa*t17;
+    const long double t116 = t115*t5;
+    const long double t117 = -Ab*t116 - Q10*t113 - Q11*t112;
+    const long double t118 = t43*t45;
+    const long double t119 = t15*t17 - t50*t61;
+    const long double t120 = t18*t48 + t50*t53;
+    const long double t121 = -Ab*t118 - Q10*t120 - Q11*t119;
+    const long double t122 = 2*Ab*t0*t2*t3*t4*t5*y[5] - Q00*t120 - Q01*t119;
+    const long double t123 = t19*t59;
+    const long double t124 = -2*t14*t98 - t32*t42;
+    const long double t125 = Ab*t124 + Q11*t123;
+    const long double t126 = 2*y[6];
+    const long double t127 = -t102*t126 - t32*t53;
+    const long double t128 = Ab*t127 + Q01*t123;
+    const long double t129 = Ab*t58;
+    const long double t130 = 2*t129;
+    const long double t131 = t47*t59;
+    const long double t132 = -t100*t32 - t126*t42;
+    const long double t133 = Ab*t132 - Q10*t131 + Q11*t130;
+    const long double t134 = 2*Q01;
+    const long double t135 = Q11*t32*t66 - t126*t53;
+    const long double t136 = Ab*t135 - Q00*t131 + t129*t134;
     const long double rs1 = 1.0L/t0;
     const long double qdd1 = rs1*xr1;
-    const long double t136 = D1_00*rD1;
-    const long double t137 = t13*t42;
-    const long double t138 = Aa*t69 - Q01*t81 - Q11*t137;
-    const long double t139 = D2_01*rD2;
-    const long double t140 = Aa*t73 - Q00*t81 - Q10*t137;
-    const long double t141 = Aa*t85 - Q01*t94 - Q11*t90;
-    const long double t142 = Aa*t88 - Q00*t94 - Q10*t90;
-    const long double t143 = 2*Aa*Ab*t1*y[7]*y[6] - Q01*t105 - Q11*t99;
-    const long double t144 = Aa*t102 - Q00*t105 - Q10*t99;
-    const long double t145 = Aa*t108 - Q01*t93 - Q11*t107;
-    const long double t146 = Aa*t109 - Q00*t93 - Q10*t107;
-    const long double t147 = Aa*t112 + Q11*t115;
-    const long double t148 = Aa*t113 + Q10*t115;
-    const long double t149 = -Aa*e1_1*t0*t133*y[5] + Aa*t118 + Q11*t117;
-    const long double t150 = Aa*t119 - Q00*t0*t115 + Q10*t117;
-    const long double t151 = -Q00*t126 - Q10*t123;
-    const long double t152 = -Aa*t122 - Q01*t126 - Q11*t123;
-    const long double t153 = -Aa*t129 - Q01*t134 - Q11*t131;
-    const long double t154 = 2*Aa*Ab*e2_1*t1*y[7] - Q00*t134 - Q10*t131;
-    const long double t155 = D2_00*rD2;
+    const long double t137 = D1_00*rD1;
+    const long double t138 = t115*t12;
+    const long double t139 = Aa*t70 - Q01*t84 - Q11*t138;
+    const long double t140 = D2_01*rD2;
+    const long double t141 = Aa*t74 - Q00*t84 - Q10*t138;
+    const long double t142 = Aa*t88 - Q01*t96 - Q11*t92;
+    const long double t143 = Aa*t90 - Q00*t96 - Q10*t92;
+    const long double t144 = 2*Aa*Ab*t1*y[7]*y[6] - Q01*t105 - Q11*t101;
+    const long double t145 = Aa*t103 - Q00*t105 - Q10*t101;
+    const long double t146 = Aa*t108 - Q01*t95 - Q11*t107;
+    const long double t147 = Aa*t109 - Q00*t95 - Q10*t107;
+    const long double t148 = Aa*t112 + Q11*t116;
+    const long double t149 = Aa*t113 + Q10*t116;
+    const long double t150 = -Aa*t0*t134*t5*y[5] + Aa*t119 + Q11*t118;
+    const long double t151 = Aa*t120 - Q00*t0*t116 + Q10*t118;
+    const long double t152 = -Q00*t127 - Q10*t124;
+    const long double t153 = -Aa*t123 - Q01*t127 - Q11*t124;
+    const long double t154 = -Aa*t130 - Q01*t135 - Q11*t132;
+    const long double t155 = 2*Aa*Ab*t1*t19*y[7] - Q00*t135 - Q10*t132;
+    const long double t156 = D2_00*rD2;
     const long double rs3 = 1.0L/t1;
     const long double qdd3 = rs3*xr3;
+    const long double t157 = D1_11*rD1*t85 - t75*t76;
+    const long double t158 = D1_11*rD1*t97 - t76*t93;
+    const long double t159 = D1_11*rD1*t106 - t104*t76;
+    const long double t160 = D1_11*rD1*t111 - t110*t76;
+    const long double t161 = D1_11*rD1*t114 - t117*t76;
+    const long double t162 = D1_11*rD1*t122 - t121*t76;
+    const long double t163 = D1_11*rD1*t128 - t125*t76;
+    const long double t164 = D1_11*rD1*t136 - t133*t76;
+    const long double t165 = rs1*(D1_00*rD1*t75 - qdd1*t5 - t76*t85);
+    const long double t166 = rs1*(t137*t93 - t76*t97);
+    const long double t167 = rs1*(t104*t137 - t106*t76);
+    const long double t168 = rs1*(t110*t137 - t111*t76);
+    const long double t169 = rs1*(-t114*t76 + t117*t137);
+    const long double t170 = rs1*(t121*t137 - t122*t76);
+    const long double t171 = rs1*(t125*t137 - t128*t76);
+    const long double t172 = rs1*(t133*t137 - t136*t76);
+    const long double t173 = D2_11*rD2*t141 - t139*t140;
+    const long double t174 = D2_11*rD2*t143 - t140*t142;
+    const long double t175 = D2_11*rD2*t145 - t140*t144;
+    const long double t176 = D2_11*rD2*t147 - t140*t146;
+    const long double t177 = D2_11*rD2*t149 - t140*t148;
+    const long double t178 = D2_11*rD2*t151 - t140*t150;
+    const long double t179 = D2_11*rD2*t152 - t140*t153;
+    const long double t180 = D2_11*rD2*t155 - t140*t154;
+    const long double t181 = rs3*(t139*t156 - t140*t141);
+    const long double t182 = rs3*(-t140*t143 + t142*t156);
+    const long double t183 = rs3*(D2_00*rD2*t144 - qdd3*t19 - t140*t145);
+    const long double t184 = rs3*(-t140*t147 + t146*t156);
+    const long double t185 = rs3*(-t140*t149 + t148*t156);
+    const long double t186 = rs3*(-t140*t151 + t150*t156);
+    const long double t187 = rs3*(-t140*t152 + t153*t156);
+    const long double t188 = rs3*(-t140*t155 + t154*t156);
     J[0] = 0;
     J[1] = 0;
     J[2] = 0;
@@ -2082,48 +2187,54 @@ int spherical_rot_jacobian_l(const long double *restrict y, const long double *r
     J[29] = 0;
     J[30] = 0;
     J[31] = 1;
-    J[32] = D1_11*rD1*t82 - t74*t75;
-    J[33] = D1_11*rD1*t95 - t75*t91;
-    J[34] = D1_11*rD1*t106 - t103*t75;
-    J[35] = D1_11*rD1*t111 - t110*t75;
-    J[36] = D1_11*rD1*t114 - t116*t75;
-    J[37] = D1_11*rD1*t121 - t120*t75;
-    J[38] = D1_11*rD1*t127 - t124*t75;
-    J[39] = D1_11*rD1*t135 - t132*t75;
-    J[40] = rs1*(D1_00*rD1*t74 - e1_1*qdd1 - t75*t82);
-    J[41] = rs1*(t136*t91 - t75*t95);
-    J[42] = rs1*(t103*t136 - t106*t75);
-    J[43] = rs1*(t110*t136 - t111*t75);
-    J[44] = rs1*(-t114*t75 + t116*t136);
-    J[45] = rs1*(t120*t136 - t121*t75);
-    J[46] = rs1*(t124*t136 - t127*t75);
-    J[47] = rs1*(t132*t136 - t135*t75);
-    J[48] = D2_11*rD2*t140 - t138*t139;
-    J[49] = D2_11*rD2*t142 - t139*t141;
-    J[50] = D2_11*rD2*t144 - t139*t143;
-    J[51] = D2_11*rD2*t146 - t139*t145;
-    J[52] = D2_11*rD2*t148 - t139*t147;
-    J[53] = D2_11*rD2*t150 - t139*t149;
-    J[54] = D2_11*rD2*t151 - t139*t152;
-    J[55] = D2_11*rD2*t154 - t139*t153;
-    J[56] = rs3*(t138*t155 - t139*t140);
-    J[57] = rs3*(-t139*t142 + t141*t155);
-    J[58] = rs3*(D2_00*rD2*t143 - e2_1*qdd3 - t139*t144);
-    J[59] = rs3*(-t139*t146 + t145*t155);
-    J[60] = rs3*(-t139*t148 + t147*t155);
-    J[61] = rs3*(-t139*t150 + t149*t155);
-    J[62] = rs3*(-t139*t151 + t152*t155);
-    J[63] = rs3*(-t139*t154 + t153*t155);
+    J[32] = t157;
+    J[33] = t158;
+    J[34] = t159;
+    J[35] = t160;
+    J[36] = t161;
+    J[37] = t162;
+    J[38] = t163;
+    J[39] = t164;
+    J[40] = t165;
+    J[41] = t166;
+    J[42] = t167;
+    J[43] = t168;
+    J[44] = t169;
+    J[45] = t170;
+    J[46] = t171;
+    J[47] = t172;
+    J[48] = t173;
+    J[49] = t174;
+    J[50] = t175;
+    J[51] = t176;
+    J[52] = t177;
+    J[53] = t178;
+    J[54] = t179;
+    J[55] = t180;
+    J[56] = t181;
+    J[57] = t182;
+    J[58] = t183;
+    J[59] = t184;
+    J[60] = t185;
+    J[61] = t186;
+    J[62] = t187;
+    J[63] = t188;
     if (!(fabsl(t0) >= (long double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
     if (!(fabsl(t1) >= (long double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_JACOBIAN_J_SIZE; ++k) {
-        if (!isfinite(J[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t157 - t157) + (t158 - t158) + (t159 - t159) + (t160 - t160) + (t161 - t161) +
+        (t162 - t162) + (t163 - t163) + (t164 - t164) + (t165 - t165) + (t166 - t166) +
+        (t167 - t167) + (t168 - t168) + (t169 - t169) + (t170 - t170) + (t171 - t171) +
+        (t172 - t172) + (t173 - t173) + (t174 - t174) + (t175 - t175) + (t176 - t176) +
+        (t177 - t177) + (t178 - t178) + (t179 - t179) + (t180 - t180) + (t181 - t181) +
+        (t182 - t182) + (t183 - t183) + (t184 - t184) + (t185 - t185) + (t186 - t186) +
+        (t187 - t187) + (t188 - t188);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2146,7 +2257,7 @@ int spherical_rot_jacobian_batch_l(long n, const long double *restrict y, long y
 int spherical_rot_polar_sines(const double *restrict y, double *restrict sines)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = sin(y[2]);
     sines[0] = t0;
@@ -2157,10 +2268,10 @@ int spherical_rot_polar_sines(const double *restrict y, double *restrict sines)
     if (!(fabs(t1) >= (double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_POLAR_SINES_SINES_SIZE; ++k) {
-        if (!isfinite(sines[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t0 - t0) + (t1 - t1);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2183,7 +2294,7 @@ int spherical_rot_polar_sines_batch(long n, const double *restrict y, long y_str
 int spherical_rot_polar_sines_f(const float *restrict y, float *restrict sines)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = sinf(y[2]);
     sines[0] = t0;
@@ -2194,10 +2305,10 @@ int spherical_rot_polar_sines_f(const float *restrict y, float *restrict sines)
     if (!(fabsf(t1) >= (float)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_POLAR_SINES_SINES_SIZE; ++k) {
-        if (!isfinite(sines[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t0 - t0) + (t1 - t1);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2220,7 +2331,7 @@ int spherical_rot_polar_sines_batch_f(long n, const float *restrict y, long y_st
 int spherical_rot_polar_sines_l(const long double *restrict y, long double *restrict sines)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = sinl(y[2]);
     sines[0] = t0;
@@ -2231,10 +2342,10 @@ int spherical_rot_polar_sines_l(const long double *restrict y, long double *rest
     if (!(fabsl(t1) >= (long double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_POLAR_SINES_SINES_SIZE; ++k) {
-        if (!isfinite(sines[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t0 - t0) + (t1 - t1);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2257,61 +2368,68 @@ int spherical_rot_polar_sines_batch_l(long n, const long double *restrict y, lon
 int spherical_rot_to_spherical_alt(const double *restrict y, double *restrict y_out)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
-    const double t0 = sin(y[0]);
-    const double t1 = cos(y[1]);
-    const double e1_0 = t0*t1;
-    const double t2 = sin(y[1]);
-    const double e1_2 = t0*t2;
+    double check;
     const double e1_1 = cos(y[0]);
-    const double t3 = e1_1*e1_1;
-    const double spherical_alt_vartheta1 = atan2(sqrt(e1_2*e1_2 + t3), e1_0);
+    const double t0 = e1_1*e1_1;
+    const double t1 = sin(y[0]);
+    const double t2 = cos(y[1]);
+    const double e1_0 = t1*t2;
+    const double t3 = sin(y[1]);
+    const double e1_2 = t1*t3;
+    const double spherical_alt_vartheta1 = atan2(sqrt(e1_2*e1_2 + t0), e1_0);
     const double t4 = sin(spherical_alt_vartheta1);
-    const double t5 = sin(y[2]);
-    const double t6 = cos(y[3]);
-    const double e2_0 = t5*t6;
-    const double t7 = sin(y[3]);
-    const double e2_2 = t5*t7;
     const double e2_1 = cos(y[2]);
-    const double t8 = e2_1*e2_1;
-    const double spherical_alt_vartheta2 = atan2(sqrt(e2_2*e2_2 + t8), e2_0);
+    const double t5 = e2_1*e2_1;
+    const double t6 = sin(y[2]);
+    const double t7 = cos(y[3]);
+    const double e2_0 = t6*t7;
+    const double t8 = sin(y[3]);
+    const double e2_2 = t6*t8;
+    const double spherical_alt_vartheta2 = atan2(sqrt(e2_2*e2_2 + t5), e2_0);
     const double t9 = sin(spherical_alt_vartheta2);
     const double spherical_alt_varphi1 = atan2(e1_2, e1_1);
     const double spherical_alt_varphi2 = atan2(e2_2, e2_1);
     const double t10 = cos(spherical_alt_varphi1);
     const double t11 = cos(spherical_alt_vartheta1);
     const double t12 = sin(spherical_alt_varphi1);
-    const double de1_0 = e1_1*t1*y[4] - e1_2*y[5];
-    const double t13 = t0*y[4];
+    const double de1_0 = e1_1*t2*y[4] - e1_2*y[5];
+    const double t13 = t1*y[4];
     const double de1_1 = -t13;
     const double t14 = e1_1*y[4];
-    const double de1_2 = e1_0*y[5] + t14*t2;
+    const double de1_2 = e1_0*y[5] + t14*t3;
     const double t15 = cos(spherical_alt_varphi2);
     const double t16 = cos(spherical_alt_vartheta2);
     const double t17 = sin(spherical_alt_varphi2);
-    const double de2_0 = e2_1*t6*y[6] - e2_2*y[7];
-    const double t18 = t5*y[6];
+    const double de2_0 = e2_1*t7*y[6] - e2_2*y[7];
+    const double t18 = t6*y[6];
     const double de2_1 = -t18;
     const double t19 = e2_1*y[6];
-    const double de2_2 = e2_0*y[7] + t19*t7;
+    const double de2_2 = e2_0*y[7] + t19*t8;
+    const double t20 = -de1_0*t4 + de1_1*t10*t11 + de1_2*t11*t12;
+    const double t21 = (-de1_1*t12 + de1_2*t10)/t4;
+    const double t22 = -de2_0*t9 + de2_1*t15*t16 + de2_2*t16*t17;
+    const double t23 = (-de2_1*t17 + de2_2*t15)/t9;
     y_out[0] = spherical_alt_vartheta1;
     y_out[1] = spherical_alt_varphi1;
     y_out[2] = spherical_alt_vartheta2;
     y_out[3] = spherical_alt_varphi2;
-    y_out[4] = -de1_0*t4 + de1_1*t10*t11 + de1_2*t11*t12;
-    y_out[5] = (-de1_1*t12 + de1_2*t10)/t4;
-    y_out[6] = -de2_0*t9 + de2_1*t15*t16 + de2_2*t16*t17;
-    y_out[7] = (-de2_1*t17 + de2_2*t15)/t9;
+    y_out[4] = t20;
+    y_out[5] = t21;
+    y_out[6] = t22;
+    y_out[7] = t23;
     if (!(fabs(t4) >= (double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
     if (!(fabs(t9) >= (double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_TO_SPHERICAL_ALT_Y_OUT_SIZE; ++k) {
-        if (!isfinite(y_out[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (spherical_alt_vartheta1 - spherical_alt_vartheta1) + (spherical_alt_varphi1 -
+        spherical_alt_varphi1) + (spherical_alt_vartheta2 - spherical_alt_vartheta2) +
+        (spherical_alt_varphi2 - spherical_alt_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
+        t22) + (t23 - t23);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2334,61 +2452,68 @@ int spherical_rot_to_spherical_alt_batch(long n, const double *restrict y, long 
 int spherical_rot_to_spherical_alt_f(const float *restrict y, float *restrict y_out)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
-    const float t0 = sinf(y[0]);
-    const float t1 = cosf(y[1]);
-    const float e1_0 = t0*t1;
-    const float t2 = sinf(y[1]);
-    const float e1_2 = t0*t2;
+    float check;
     const float e1_1 = cosf(y[0]);
-    const float t3 = e1_1*e1_1;
-    const float spherical_alt_vartheta1 = atan2f(sqrtf(e1_2*e1_2 + t3), e1_0);
+    const float t0 = e1_1*e1_1;
+    const float t1 = sinf(y[0]);
+    const float t2 = cosf(y[1]);
+    const float e1_0 = t1*t2;
+    const float t3 = sinf(y[1]);
+    const float e1_2 = t1*t3;
+    const float spherical_alt_vartheta1 = atan2f(sqrtf(e1_2*e1_2 + t0), e1_0);
     const float t4 = sinf(spherical_alt_vartheta1);
-    const float t5 = sinf(y[2]);
-    const float t6 = cosf(y[3]);
-    const float e2_0 = t5*t6;
-    const float t7 = sinf(y[3]);
-    const float e2_2 = t5*t7;
     const float e2_1 = cosf(y[2]);
-    const float t8 = e2_1*e2_1;
-    const float spherical_alt_vartheta2 = atan2f(sqrtf(e2_2*e2_2 + t8), e2_0);
+    const float t5 = e2_1*e2_1;
+    const float t6 = sinf(y[2]);
+    const float t7 = cosf(y[3]);
+    const float e2_0 = t6*t7;
+    const float t8 = sinf(y[3]);
+    const float e2_2 = t6*t8;
+    const float spherical_alt_vartheta2 = atan2f(sqrtf(e2_2*e2_2 + t5), e2_0);
     const float t9 = sinf(spherical_alt_vartheta2);
     const float spherical_alt_varphi1 = atan2f(e1_2, e1_1);
     const float spherical_alt_varphi2 = atan2f(e2_2, e2_1);
     const float t10 = cosf(spherical_alt_varphi1);
     const float t11 = cosf(spherical_alt_vartheta1);
     const float t12 = sinf(spherical_alt_varphi1);
-    const float de1_0 = e1_1*t1*y[4] - e1_2*y[5];
-    const float t13 = t0*y[4];
+    const float de1_0 = e1_1*t2*y[4] - e1_2*y[5];
+    const float t13 = t1*y[4];
     const float de1_1 = -t13;
     const float t14 = e1_1*y[4];
-    const float de1_2 = e1_0*y[5] + t14*t2;
+    const float de1_2 = e1_0*y[5] + t14*t3;
     const float t15 = cosf(spherical_alt_varphi2);
     const float t16 = cosf(spherical_alt_vartheta2);
     const float t17 = sinf(spherical_alt_varphi2);
-    const float de2_0 = e2_1*t6*y[6] - e2_2*y[7];
-    const float t18 = t5*y[6];
+    const float de2_0 = e2_1*t7*y[6] - e2_2*y[7];
+    const float t18 = t6*y[6];
     const float de2_1 = -t18;
     const float t19 = e2_1*y[6];
-    const float de2_2 = e2_0*y[7] + t19*t7;
+    const float de2_2 = e2_0*y[7] + t19*t8;
+    const float t20 = -de1_0*t4 + de1_1*t10*t11 + de1_2*t11*t12;
+    const float t21 = (-de1_1*t12 + de1_2*t10)/t4;
+    const float t22 = -de2_0*t9 + de2_1*t15*t16 + de2_2*t16*t17;
+    const float t23 = (-de2_1*t17 + de2_2*t15)/t9;
     y_out[0] = spherical_alt_vartheta1;
     y_out[1] = spherical_alt_varphi1;
     y_out[2] = spherical_alt_vartheta2;
     y_out[3] = spherical_alt_varphi2;
-    y_out[4] = -de1_0*t4 + de1_1*t10*t11 + de1_2*t11*t12;
-    y_out[5] = (-de1_1*t12 + de1_2*t10)/t4;
-    y_out[6] = -de2_0*t9 + de2_1*t15*t16 + de2_2*t16*t17;
-    y_out[7] = (-de2_1*t17 + de2_2*t15)/t9;
+    y_out[4] = t20;
+    y_out[5] = t21;
+    y_out[6] = t22;
+    y_out[7] = t23;
     if (!(fabsf(t4) >= (float)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
     if (!(fabsf(t9) >= (float)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_TO_SPHERICAL_ALT_Y_OUT_SIZE; ++k) {
-        if (!isfinite(y_out[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (spherical_alt_vartheta1 - spherical_alt_vartheta1) + (spherical_alt_varphi1 -
+        spherical_alt_varphi1) + (spherical_alt_vartheta2 - spherical_alt_vartheta2) +
+        (spherical_alt_varphi2 - spherical_alt_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
+        t22) + (t23 - t23);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2411,61 +2536,68 @@ int spherical_rot_to_spherical_alt_batch_f(long n, const float *restrict y, long
 int spherical_rot_to_spherical_alt_l(const long double *restrict y, long double *restrict y_out)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
-    const long double t0 = sinl(y[0]);
-    const long double t1 = cosl(y[1]);
-    const long double e1_0 = t0*t1;
-    const long double t2 = sinl(y[1]);
-    const long double e1_2 = t0*t2;
+    long double check;
     const long double e1_1 = cosl(y[0]);
-    const long double t3 = e1_1*e1_1;
-    const long double spherical_alt_vartheta1 = atan2l(sqrtl(e1_2*e1_2 + t3), e1_0);
+    const long double t0 = e1_1*e1_1;
+    const long double t1 = sinl(y[0]);
+    const long double t2 = cosl(y[1]);
+    const long double e1_0 = t1*t2;
+    const long double t3 = sinl(y[1]);
+    const long double e1_2 = t1*t3;
+    const long double spherical_alt_vartheta1 = atan2l(sqrtl(e1_2*e1_2 + t0), e1_0);
     const long double t4 = sinl(spherical_alt_vartheta1);
-    const long double t5 = sinl(y[2]);
-    const long double t6 = cosl(y[3]);
-    const long double e2_0 = t5*t6;
-    const long double t7 = sinl(y[3]);
-    const long double e2_2 = t5*t7;
     const long double e2_1 = cosl(y[2]);
-    const long double t8 = e2_1*e2_1;
-    const long double spherical_alt_vartheta2 = atan2l(sqrtl(e2_2*e2_2 + t8), e2_0);
+    const long double t5 = e2_1*e2_1;
+    const long double t6 = sinl(y[2]);
+    const long double t7 = cosl(y[3]);
+    const long double e2_0 = t6*t7;
+    const long double t8 = sinl(y[3]);
+    const long double e2_2 = t6*t8;
+    const long double spherical_alt_vartheta2 = atan2l(sqrtl(e2_2*e2_2 + t5), e2_0);
     const long double t9 = sinl(spherical_alt_vartheta2);
     const long double spherical_alt_varphi1 = atan2l(e1_2, e1_1);
     const long double spherical_alt_varphi2 = atan2l(e2_2, e2_1);
     const long double t10 = cosl(spherical_alt_varphi1);
     const long double t11 = cosl(spherical_alt_vartheta1);
     const long double t12 = sinl(spherical_alt_varphi1);
-    const long double de1_0 = e1_1*t1*y[4] - e1_2*y[5];
-    const long double t13 = t0*y[4];
+    const long double de1_0 = e1_1*t2*y[4] - e1_2*y[5];
+    const long double t13 = t1*y[4];
     const long double de1_1 = -t13;
     const long double t14 = e1_1*y[4];
-    const long double de1_2 = e1_0*y[5] + t14*t2;
+    const long double de1_2 = e1_0*y[5] + t14*t3;
     const long double t15 = cosl(spherical_alt_varphi2);
     const long double t16 = cosl(spherical_alt_vartheta2);
     const long double t17 = sinl(spherical_alt_varphi2);
-    const long double de2_0 = e2_1*t6*y[6] - e2_2*y[7];
-    const long double t18 = t5*y[6];
+    const long double de2_0 = e2_1*t7*y[6] - e2_2*y[7];
+    const long double t18 = t6*y[6];
     const long double de2_1 = -t18;
     const long double t19 = e2_1*y[6];
-    const long double de2_2 = e2_0*y[7] + t19*t7;
+    const long double de2_2 = e2_0*y[7] + t19*t8;
+    const long double t20 = -de1_0*t4 + de1_1*t10*t11 + de1_2*t11*t12;
+    const long double t21 = (-de1_1*t12 + de1_2*t10)/t4;
+    const long double t22 = -de2_0*t9 + de2_1*t15*t16 + de2_2*t16*t17;
+    const long double t23 = (-de2_1*t17 + de2_2*t15)/t9;
     y_out[0] = spherical_alt_vartheta1;
     y_out[1] = spherical_alt_varphi1;
     y_out[2] = spherical_alt_vartheta2;
     y_out[3] = spherical_alt_varphi2;
-    y_out[4] = -de1_0*t4 + de1_1*t10*t11 + de1_2*t11*t12;
-    y_out[5] = (-de1_1*t12 + de1_2*t10)/t4;
-    y_out[6] = -de2_0*t9 + de2_1*t15*t16 + de2_2*t16*t17;
-    y_out[7] = (-de2_1*t17 + de2_2*t15)/t9;
+    y_out[4] = t20;
+    y_out[5] = t21;
+    y_out[6] = t22;
+    y_out[7] = t23;
     if (!(fabsl(t4) >= (long double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
     if (!(fabsl(t9) >= (long double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_TO_SPHERICAL_ALT_Y_OUT_SIZE; ++k) {
-        if (!isfinite(y_out[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (spherical_alt_vartheta1 - spherical_alt_vartheta1) + (spherical_alt_varphi1 -
+        spherical_alt_varphi1) + (spherical_alt_vartheta2 - spherical_alt_vartheta2) +
+        (spherical_alt_varphi2 - spherical_alt_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
+        t22) + (t23 - t23);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2488,61 +2620,68 @@ int spherical_rot_to_spherical_alt_batch_l(long n, const long double *restrict y
 int spherical_rot_to_spherical_std(const double *restrict y, double *restrict y_out)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
-    const double t0 = sin(y[0]);
-    const double t1 = cos(y[1]);
-    const double e1_0 = t0*t1;
-    const double t2 = sin(y[1]);
-    const double e1_2 = t0*t2;
+    double check;
     const double e1_1 = cos(y[0]);
-    const double t3 = e1_1*e1_1;
-    const double spherical_std_theta1 = atan2(sqrt(e1_0*e1_0 + t3), -e1_2);
+    const double t0 = e1_1*e1_1;
+    const double t1 = sin(y[0]);
+    const double t2 = cos(y[1]);
+    const double e1_0 = t1*t2;
+    const double t3 = sin(y[1]);
+    const double e1_2 = t1*t3;
+    const double spherical_std_theta1 = atan2(sqrt(e1_0*e1_0 + t0), -e1_2);
     const double t4 = sin(spherical_std_theta1);
-    const double t5 = sin(y[2]);
-    const double t6 = cos(y[3]);
-    const double e2_0 = t5*t6;
-    const double t7 = sin(y[3]);
-    const double e2_2 = t5*t7;
     const double e2_1 = cos(y[2]);
-    const double t8 = e2_1*e2_1;
-    const double spherical_std_theta2 = atan2(sqrt(e2_0*e2_0 + t8), -e2_2);
+    const double t5 = e2_1*e2_1;
+    const double t6 = sin(y[2]);
+    const double t7 = cos(y[3]);
+    const double e2_0 = t6*t7;
+    const double t8 = sin(y[3]);
+    const double e2_2 = t6*t8;
+    const double spherical_std_theta2 = atan2(sqrt(e2_0*e2_0 + t5), -e2_2);
     const double t9 = sin(spherical_std_theta2);
     const double spherical_std_phi1 = atan2(e1_1, e1_0);
     const double spherical_std_phi2 = atan2(e2_1, e2_0);
     const double t10 = cos(spherical_std_phi1);
     const double t11 = cos(spherical_std_theta1);
     const double t12 = sin(spherical_std_phi1);
-    const double de1_0 = e1_1*t1*y[4] - e1_2*y[5];
-    const double t13 = t0*y[4];
+    const double de1_0 = e1_1*t2*y[4] - e1_2*y[5];
+    const double t13 = t1*y[4];
     const double de1_1 = -t13;
     const double t14 = e1_1*y[4];
-    const double de1_2 = e1_0*y[5] + t14*t2;
+    const double de1_2 = e1_0*y[5] + t14*t3;
     const double t15 = cos(spherical_std_phi2);
     const double t16 = cos(spherical_std_theta2);
     const double t17 = sin(spherical_std_phi2);
-    const double de2_0 = e2_1*t6*y[6] - e2_2*y[7];
-    const double t18 = t5*y[6];
+    const double de2_0 = e2_1*t7*y[6] - e2_2*y[7];
+    const double t18 = t6*y[6];
     const double de2_1 = -t18;
     const double t19 = e2_1*y[6];
-    const double de2_2 = e2_0*y[7] + t19*t7;
+    const double de2_2 = e2_0*y[7] + t19*t8;
+    const double t20 = de1_0*t10*t11 + de1_1*t11*t12 + de1_2*t4;
+    const double t21 = (-de1_0*t12 + de1_1*t10)/t4;
+    const double t22 = de2_0*t15*t16 + de2_1*t16*t17 + de2_2*t9;
+    const double t23 = (-de2_0*t17 + de2_1*t15)/t9;
     y_out[0] = spherical_std_theta1;
     y_out[1] = spherical_std_phi1;
     y_out[2] = spherical_std_theta2;
     y_out[3] = spherical_std_phi2;
-    y_out[4] = de1_0*t10*t11 + de1_1*t11*t12 + de1_2*t4;
-    y_out[5] = (-de1_0*t12 + de1_1*t10)/t4;
-    y_out[6] = de2_0*t15*t16 + de2_1*t16*t17 + de2_2*t9;
-    y_out[7] = (-de2_0*t17 + de2_1*t15)/t9;
+    y_out[4] = t20;
+    y_out[5] = t21;
+    y_out[6] = t22;
+    y_out[7] = t23;
     if (!(fabs(t4) >= (double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
     if (!(fabs(t9) >= (double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_TO_SPHERICAL_STD_Y_OUT_SIZE; ++k) {
-        if (!isfinite(y_out[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (spherical_std_theta1 - spherical_std_theta1) + (spherical_std_phi1 -
+        spherical_std_phi1) + (spherical_std_theta2 - spherical_std_theta2) +
+        (spherical_std_phi2 - spherical_std_phi2) + (t20 - t20) + (t21 - t21) + (t22 - t22)
+        + (t23 - t23);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2565,61 +2704,68 @@ int spherical_rot_to_spherical_std_batch(long n, const double *restrict y, long 
 int spherical_rot_to_spherical_std_f(const float *restrict y, float *restrict y_out)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
-    const float t0 = sinf(y[0]);
-    const float t1 = cosf(y[1]);
-    const float e1_0 = t0*t1;
-    const float t2 = sinf(y[1]);
-    const float e1_2 = t0*t2;
+    float check;
     const float e1_1 = cosf(y[0]);
-    const float t3 = e1_1*e1_1;
-    const float spherical_std_theta1 = atan2f(sqrtf(e1_0*e1_0 + t3), -e1_2);
+    const float t0 = e1_1*e1_1;
+    const float t1 = sinf(y[0]);
+    const float t2 = cosf(y[1]);
+    const float e1_0 = t1*t2;
+    const float t3 = sinf(y[1]);
+    const float e1_2 = t1*t3;
+    const float spherical_std_theta1 = atan2f(sqrtf(e1_0*e1_0 + t0), -e1_2);
     const float t4 = sinf(spherical_std_theta1);
-    const float t5 = sinf(y[2]);
-    const float t6 = cosf(y[3]);
-    const float e2_0 = t5*t6;
-    const float t7 = sinf(y[3]);
-    const float e2_2 = t5*t7;
     const float e2_1 = cosf(y[2]);
-    const float t8 = e2_1*e2_1;
-    const float spherical_std_theta2 = atan2f(sqrtf(e2_0*e2_0 + t8), -e2_2);
+    const float t5 = e2_1*e2_1;
+    const float t6 = sinf(y[2]);
+    const float t7 = cosf(y[3]);
+    const float e2_0 = t6*t7;
+    const float t8 = sinf(y[3]);
+    const float e2_2 = t6*t8;
+    const float spherical_std_theta2 = atan2f(sqrtf(e2_0*e2_0 + t5), -e2_2);
     const float t9 = sinf(spherical_std_theta2);
     const float spherical_std_phi1 = atan2f(e1_1, e1_0);
     const float spherical_std_phi2 = atan2f(e2_1, e2_0);
     const float t10 = cosf(spherical_std_phi1);
     const float t11 = cosf(spherical_std_theta1);
     const float t12 = sinf(spherical_std_phi1);
-    const float de1_0 = e1_1*t1*y[4] - e1_2*y[5];
-    const float t13 = t0*y[4];
+    const float de1_0 = e1_1*t2*y[4] - e1_2*y[5];
+    const float t13 = t1*y[4];
     const float de1_1 = -t13;
     const float t14 = e1_1*y[4];
-    const float de1_2 = e1_0*y[5] + t14*t2;
+    const float de1_2 = e1_0*y[5] + t14*t3;
     const float t15 = cosf(spherical_std_phi2);
     const float t16 = cosf(spherical_std_theta2);
     const float t17 = sinf(spherical_std_phi2);
-    const float de2_0 = e2_1*t6*y[6] - e2_2*y[7];
-    const float t18 = t5*y[6];
+    const float de2_0 = e2_1*t7*y[6] - e2_2*y[7];
+    const float t18 = t6*y[6];
     const float de2_1 = -t18;
     const float t19 = e2_1*y[6];
-    const float de2_2 = e2_0*y[7] + t19*t7;
+    const float de2_2 = e2_0*y[7] + t19*t8;
+    const float t20 = de1_0*t10*t11 + de1_1*t11*t12 + de1_2*t4;
+    const float t21 = (-de1_0*t12 + de1_1*t10)/t4;
+    const float t22 = de2_0*t15*t16 + de2_1*t16*t17 + de2_2*t9;
+    const float t23 = (-de2_0*t17 + de2_1*t15)/t9;
     y_out[0] = spherical_std_theta1;
     y_out[1] = spherical_std_phi1;
     y_out[2] = spherical_std_theta2;
     y_out[3] = spherical_std_phi2;
-    y_out[4] = de1_0*t10*t11 + de1_1*t11*t12 + de1_2*t4;
-    y_out[5] = (-de1_0*t12 + de1_1*t10)/t4;
-    y_out[6] = de2_0*t15*t16 + de2_1*t16*t17 + de2_2*t9;
-    y_out[7] = (-de2_0*t17 + de2_1*t15)/t9;
+    y_out[4] = t20;
+    y_out[5] = t21;
+    y_out[6] = t22;
+    y_out[7] = t23;
     if (!(fabsf(t4) >= (float)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
     if (!(fabsf(t9) >= (float)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_TO_SPHERICAL_STD_Y_OUT_SIZE; ++k) {
-        if (!isfinite(y_out[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (spherical_std_theta1 - spherical_std_theta1) + (spherical_std_phi1 -
+        spherical_std_phi1) + (spherical_std_theta2 - spherical_std_theta2) +
+        (spherical_std_phi2 - spherical_std_phi2) + (t20 - t20) + (t21 - t21) + (t22 - t22)
+        + (t23 - t23);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2642,61 +2788,68 @@ int spherical_rot_to_spherical_std_batch_f(long n, const float *restrict y, long
 int spherical_rot_to_spherical_std_l(const long double *restrict y, long double *restrict y_out)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
-    int k;
-    const long double t0 = sinl(y[0]);
-    const long double t1 = cosl(y[1]);
-    const long double e1_0 = t0*t1;
-    const long double t2 = sinl(y[1]);
-    const long double e1_2 = t0*t2;
+    long double check;
     const long double e1_1 = cosl(y[0]);
-    const long double t3 = e1_1*e1_1;
-    const long double spherical_std_theta1 = atan2l(sqrtl(e1_0*e1_0 + t3), -e1_2);
+    const long double t0 = e1_1*e1_1;
+    const long double t1 = sinl(y[0]);
+    const long double t2 = cosl(y[1]);
+    const long double e1_0 = t1*t2;
+    const long double t3 = sinl(y[1]);
+    const long double e1_2 = t1*t3;
+    const long double spherical_std_theta1 = atan2l(sqrtl(e1_0*e1_0 + t0), -e1_2);
     const long double t4 = sinl(spherical_std_theta1);
-    const long double t5 = sinl(y[2]);
-    const long double t6 = cosl(y[3]);
-    const long double e2_0 = t5*t6;
-    const long double t7 = sinl(y[3]);
-    const long double e2_2 = t5*t7;
     const long double e2_1 = cosl(y[2]);
-    const long double t8 = e2_1*e2_1;
-    const long double spherical_std_theta2 = atan2l(sqrtl(e2_0*e2_0 + t8), -e2_2);
+    const long double t5 = e2_1*e2_1;
+    const long double t6 = sinl(y[2]);
+    const long double t7 = cosl(y[3]);
+    const long double e2_0 = t6*t7;
+    const long double t8 = sinl(y[3]);
+    const long double e2_2 = t6*t8;
+    const long double spherical_std_theta2 = atan2l(sqrtl(e2_0*e2_0 + t5), -e2_2);
     const long double t9 = sinl(spherical_std_theta2);
     const long double spherical_std_phi1 = atan2l(e1_1, e1_0);
     const long double spherical_std_phi2 = atan2l(e2_1, e2_0);
     const long double t10 = cosl(spherical_std_phi1);
     const long double t11 = cosl(spherical_std_theta1);
     const long double t12 = sinl(spherical_std_phi1);
-    const long double de1_0 = e1_1*t1*y[4] - e1_2*y[5];
-    const long double t13 = t0*y[4];
+    const long double de1_0 = e1_1*t2*y[4] - e1_2*y[5];
+    const long double t13 = t1*y[4];
     const long double de1_1 = -t13;
     const long double t14 = e1_1*y[4];
-    const long double de1_2 = e1_0*y[5] + t14*t2;
+    const long double de1_2 = e1_0*y[5] + t14*t3;
     const long double t15 = cosl(spherical_std_phi2);
     const long double t16 = cosl(spherical_std_theta2);
     const long double t17 = sinl(spherical_std_phi2);
-    const long double de2_0 = e2_1*t6*y[6] - e2_2*y[7];
-    const long double t18 = t5*y[6];
+    const long double de2_0 = e2_1*t7*y[6] - e2_2*y[7];
+    const long double t18 = t6*y[6];
     const long double de2_1 = -t18;
     const long double t19 = e2_1*y[6];
-    const long double de2_2 = e2_0*y[7] + t19*t7;
+    const long double de2_2 = e2_0*y[7] + t19*t8;
+    const long double t20 = de1_0*t10*t11 + de1_1*t11*t12 + de1_2*t4;
+    const long double t21 = (-de1_0*t12 + de1_1*t10)/t4;
+    const long double t22 = de2_0*t15*t16 + de2_1*t16*t17 + de2_2*t9;
+    const long double t23 = (-de2_0*t17 + de2_1*t15)/t9;
     y_out[0] = spherical_std_theta1;
     y_out[1] = spherical_std_phi1;
     y_out[2] = spherical_std_theta2;
     y_out[3] = spherical_std_phi2;
-    y_out[4] = de1_0*t10*t11 + de1_1*t11*t12 + de1_2*t4;
-    y_out[5] = (-de1_0*t12 + de1_1*t10)/t4;
-    y_out[6] = de2_0*t15*t16 + de2_1*t16*t17 + de2_2*t9;
-    y_out[7] = (-de2_0*t17 + de2_1*t15)/t9;
+    y_out[4] = t20;
+    y_out[5] = t21;
+    y_out[6] = t22;
+    y_out[7] = t23;
     if (!(fabsl(t4) >= (long double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
     if (!(fabsl(t9) >= (long double)SPHERICAL_ROT_POLAR_SINE_MIN)) {
         status |= SPHERICAL_ROT_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_ROT_TO_SPHERICAL_STD_Y_OUT_SIZE; ++k) {
-        if (!isfinite(y_out[k])) {
-            status |= SPHERICAL_ROT_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (spherical_std_theta1 - spherical_std_theta1) + (spherical_std_phi1 -
+        spherical_std_phi1) + (spherical_std_theta2 - spherical_std_theta2) +
+        (spherical_std_phi2 - spherical_std_phi2) + (t20 - t20) + (t21 - t21) + (t22 - t22)
+        + (t23 - t23);
+    if (isnan(check)) {
+        status |= SPHERICAL_ROT_STATUS_NONFINITE;
     }
     return status;
 }

@@ -22,100 +22,100 @@ const char *const spherical_std_param_names[SPHERICAL_STD_N_PARAMS] = {
 int spherical_std_rhs(const double *restrict y, const double *restrict p, double *restrict ydot)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = sin(y[2]);
     const double Ab = p[3]*p[3];
     const double t2 = y[1] - y[3];
-    const double t3 = cos(t2);
-    const double t4 = p[2]*p[3];
-    const double Q11 = t3*t4;
-    const double t5 = sin(t2);
-    const double t6 = cos(y[2]);
-    const double t7 = p[3]*t6;
-    const double t8 = p[2]*t7;
-    const double t9 = t5*t8;
-    const double Q10 = -t9;
+    const double t3 = sin(t2);
+    const double t4 = cos(y[2]);
+    const double t5 = p[3]*t4;
+    const double t6 = p[2]*t5;
+    const double t7 = t3*t6;
+    const double Q10 = -t7;
+    const double t8 = cos(t2);
+    const double t9 = p[2]*p[3];
+    const double Q11 = t8*t9;
     const double t10 = cos(y[0]);
     const double t11 = p[2]*t10;
     const double t12 = p[3]*t11;
-    const double Q01 = t12*t5;
+    const double Q01 = t12*t3;
     const double t13 = Q01*Q01;
-    const double t14 = t0*t1;
-    const double t15 = t10*t6;
-    const double t16 = t14 + t15*t3;
-    const double Q00 = t16*t4;
-    const double t17 = 1.0/p[1];
-    const double t18 = p[2]*p[2];
-    const double t19 = p[0] + p[1];
-    const double M00 = t18*t19;
-    const double Aa = M00*t17;
+    const double t14 = 1.0/p[1];
+    const double t15 = p[2]*p[2];
+    const double t16 = p[0] + p[1];
+    const double t17 = t15*t16;
+    const double Aa = t14*t17;
     const double AaAb = Aa*Ab;
-    const double t20 = -AaAb;
-    const double t21 = Q00*Q00 + t20;
-    const double D1_00 = -t13 - t21;
+    const double t18 = -AaAb;
+    const double t19 = t0*t1;
+    const double t20 = t10*t4;
+    const double t21 = t19 + t20*t8;
+    const double Q00 = t21*t9;
+    const double t22 = Q00*Q00 + t18;
+    const double D1_00 = -t13 - t22;
     const double D1_01 = -Q00*Q10 - Q01*Q11;
-    const double t22 = Q10*Q10;
-    const double t23 = Q11*Q11 + t20;
-    const double D1_11 = -t22 - t23;
+    const double t23 = Q10*Q10;
+    const double t24 = Q11*Q11 + t18;
+    const double D1_11 = -t23 - t24;
     const double rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01);
-    const double t24 = 2*y[7];
-    const double t25 = t24*y[6];
-    const double t26 = t4*t5;
-    const double t27 = y[7]*y[7];
-    const double t28 = t1*t27;
-    const double t29 = y[6]*y[6];
-    const double t30 = t29*t4;
-    const double t31 = t30*t5;
-    const double t32 = t3*t8;
-    const double t33 = t10*y[4];
-    const double t34 = 2*y[5];
-    const double t35 = Aa*t34;
-    const double f1 = -t1*t31 - t25*t32 - t26*t28 - t33*t35;
-    const double t36 = p[3]*t1;
-    const double t37 = p[4]*t36;
-    const double t38 = t1*t6;
-    const double t39 = y[5]*y[5];
-    const double t40 = t0*t6;
-    const double t41 = t39*t40;
-    const double t42 = Q11*t41;
+    const double t25 = 2*y[7];
+    const double t26 = t25*y[6];
+    const double t27 = t3*t9;
+    const double t28 = y[7]*y[7];
+    const double t29 = t1*t28;
+    const double t30 = y[6]*y[6];
+    const double t31 = t30*t9;
+    const double t32 = t3*t31;
+    const double t33 = t6*t8;
+    const double t34 = t10*y[4];
+    const double t35 = y[5]*t34;
+    const double t36 = 2*Aa;
+    const double f1 = -t1*t32 - t26*t33 - t27*t29 - t35*t36;
+    const double t37 = p[3]*t1;
+    const double t38 = p[4]*t37;
+    const double t39 = t1*t4;
+    const double t40 = y[5]*y[5];
+    const double t41 = t0*t4;
+    const double t42 = t40*t41;
     const double t43 = 2*y[4];
     const double t44 = y[5]*t43;
-    const double t45 = t11*t5;
-    const double t46 = t45*t7;
+    const double t45 = t11*t3;
+    const double t46 = t45*t5;
     const double t47 = y[4]*y[4];
-    const double t48 = t4*(t1*t10 - t3*t40);
-    const double f2 = Ab*t27*t38 - t37 + t42 + t44*t46 - t47*t48;
-    const double t49 = t6*y[6];
-    const double t50 = Ab*t24;
-    const double t51 = t0*t39;
-    const double t52 = t4*t47;
-    const double t53 = t5*t52;
-    const double t54 = t12*t3;
-    const double f3 = t0*t53 + t26*t51 - t44*t54 - t49*t50;
-    const double t55 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
-    const double t56 = p[2]*t0;
-    const double t57 = p[4]*t56;
-    const double t58 = t17*t19;
-    const double t59 = t25*t7;
+    const double t48 = t41*t8;
+    const double t49 = t9*(t1*t10 - t48);
+    const double f2 = Ab*t28*t39 + Q11*t42 - t38 + t44*t46 - t47*t49;
+    const double t50 = t4*y[6];
+    const double t51 = Ab*t25;
+    const double t52 = t0*t40;
+    const double t53 = t47*t9;
+    const double t54 = t3*t53;
+    const double t55 = t12*t8;
+    const double f3 = t0*t54 + t27*t52 - t44*t55 - t50*t51;
+    const double t56 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
+    const double t57 = p[2]*t0;
+    const double t58 = p[4]*t14*t16;
+    const double t59 = t26*t5;
     const double t60 = t1*t10;
-    const double t61 = -t3*t60 + t40;
-    const double f0 = p[2]*p[3]*t1*t10*t27*t3 + t0*t10*t17*t18*t19*t39 - t30*t61 - t45*t59 - t57*t58;
-    const double t62 = Ab*f0 - Q00*f2 - Q01*f3;
-    const double xr0 = -D1_01*t55 + D1_11*rD1*t62;
+    const double t61 = t60*t8;
+    const double t62 = t41 - t61;
+    const double f0 = p[2]*p[3]*t1*t10*t28*t8 + t0*t10*t14*t15*t16*t40 - t31*t62 - t45*t59 - t57*t58;
+    const double t63 = Ab*f0 - Q00*f2 - Q01*f3;
+    const double xr0 = -D1_01*t56 + D1_11*rD1*t63;
     const double qdd0 = xr0;
-    const double xr1 = D1_00*t55 - D1_01*rD1*t62;
+    const double xr1 = D1_00*t56 - D1_01*rD1*t63;
     const double rs1 = 1.0/t0;
     const double qdd1 = rs1*xr1;
-    const double D2_00 = -t21 - t22;
+    const double D2_00 = -t22 - t23;
     const double D2_01 = -Q00*Q01 - Q10*Q11;
-    const double D2_11 = -t13 - t23;
+    const double D2_11 = -t13 - t24;
     const double rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01);
-    const double t63 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
-    const double t64 = Aa*f2 - Q00*f0 - Q10*f1;
-    const double xr2 = -D2_01*t63 + D2_11*rD2*t64;
+    const double t64 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
+    const double t65 = Aa*f2 - Q00*f0 - Q10*f1;
+    const double xr2 = -D2_01*t64 + D2_11*rD2*t65;
     const double qdd2 = xr2;
-    const double xr3 = D2_00*t63 - D2_01*rD2*t64;
+    const double xr3 = D2_00*t64 - D2_01*rD2*t65;
     const double rs3 = 1.0/t1;
     const double qdd3 = rs3*xr3;
     ydot[0] = y[4];
@@ -132,10 +132,11 @@ int spherical_std_rhs(const double *restrict y, const double *restrict p, double
     if (!(fabs(t1) >= (double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_RHS_YDOT_SIZE; ++k) {
-        if (!isfinite(ydot[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[4] - y[4]) + (y[5] - y[5]) + (y[6] - y[6]) + (y[7] - y[7]) + (qdd0 - qdd0) +
+        (qdd1 - qdd1) + (qdd2 - qdd2) + (qdd3 - qdd3);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -158,100 +159,100 @@ int spherical_std_rhs_batch(long n, const double *restrict y, long y_stride, con
 int spherical_std_rhs_f(const float *restrict y, const float *restrict p, float *restrict ydot)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = sinf(y[2]);
     const float Ab = p[3]*p[3];
     const float t2 = y[1] - y[3];
-    const float t3 = cosf(t2);
-    const float t4 = p[2]*p[3];
-    const float Q11 = t3*t4;
-    const float t5 = sinf(t2);
-    const float t6 = cosf(y[2]);
-    const float t7 = p[3]*t6;
-    const float t8 = p[2]*t7;
-    const float t9 = t5*t8;
-    const float Q10 = -t9;
+    const float t3 = sinf(t2);
+    const float t4 = cosf(y[2]);
+    const float t5 = p[3]*t4;
+    const float t6 = p[2]*t5;
+    const float t7 = t3*t6;
+    const float Q10 = -t7;
+    const float t8 = cosf(t2);
+    const float t9 = p[2]*p[3];
+    const float Q11 = t8*t9;
     const float t10 = cosf(y[0]);
     const float t11 = p[2]*t10;
     const float t12 = p[3]*t11;
-    const float Q01 = t12*t5;
+    const float Q01 = t12*t3;
     const float t13 = Q01*Q01;
-    const float t14 = t0*t1;
-    const float t15 = t10*t6;
-    const float t16 = t14 + t15*t3;
-    const float Q00 = t16*t4;
-    const float t17 = 1.0F/p[1];
-    const float t18 = p[2]*p[2];
-    const float t19 = p[0] + p[1];
-    const float M00 = t18*t19;
-    const float Aa = M00*t17;
+    const float t14 = 1.0F/p[1];
+    const float t15 = p[2]*p[2];
+    const float t16 = p[0] + p[1];
+    const float t17 = t15*t16;
+    const float Aa = t14*t17;
     const float AaAb = Aa*Ab;
-    const float t20 = -AaAb;
-    const float t21 = Q00*Q00 + t20;
-    const float D1_00 = -t13 - t21;
+    const float t18 = -AaAb;
+    const float t19 = t0*t1;
+    const float t20 = t10*t4;
+    const float t21 = t19 + t20*t8;
+    const float Q00 = t21*t9;
+    const float t22 = Q00*Q00 + t18;
+    const float D1_00 = -t13 - t22;
     const float D1_01 = -Q00*Q10 - Q01*Q11;
-    const float t22 = Q10*Q10;
-    const float t23 = Q11*Q11 + t20;
-    const float D1_11 = -t22 - t23;
+    const float t23 = Q10*Q10;
+    const float t24 = Q11*Q11 + t18;
+    const float D1_11 = -t23 - t24;
     const float rD1 = 1.0F/(D1_00*D1_11 - D1_01*D1_01);
-    const float t24 = 2*y[7];
-    const float t25 = t24*y[6];
-    const float t26 = t4*t5;
-    const float t27 = y[7]*y[7];
-    const float t28 = t1*t27;
-    const float t29 = y[6]*y[6];
-    const float t30 = t29*t4;
-    const float t31 = t30*t5;
-    const float t32 = t3*t8;
-    const float t33 = t10*y[4];
-    const float t34 = 2*y[5];
-    const float t35 = Aa*t34;
-    const float f1 = -t1*t31 - t25*t32 - t26*t28 - t33*t35;
-    const float t36 = p[3]*t1;
-    const float t37 = p[4]*t36;
-    const float t38 = t1*t6;
-    const float t39 = y[5]*y[5];
-    const float t40 = t0*t6;
-    const float t41 = t39*t40;
-    const float t42 = Q11*t41;
+    const float t25 = 2*y[7];
+    const float t26 = t25*y[6];
+    const float t27 = t3*t9;
+    const float t28 = y[7]*y[7];
+    const float t29 = t1*t28;
+    const float t30 = y[6]*y[6];
+    const float t31 = t30*t9;
+    const float t32 = t3*t31;
+    const float t33 = t6*t8;
+    const float t34 = t10*y[4];
+    const float t35 = y[5]*t34;
+    const float t36 = 2*Aa;
+    const float f1 = -t1*t32 - t26*t33 - t27*t29 - t35*t36;
+    const float t37 = p[3]*t1;
+    const float t38 = p[4]*t37;
+    const float t39 = t1*t4;
+    const float t40 = y[5]*y[5];
+    const float t41 = t0*t4;
+    const float t42 = t40*t41;
     const float t43 = 2*y[4];
     const float t44 = y[5]*t43;
-    const float t45 = t11*t5;
-    const float t46 = t45*t7;
+    const float t45 = t11*t3;
+    const float t46 = t45*t5;
     const float t47 = y[4]*y[4];
-    const float t48 = t4*(t1*t10 - t3*t40);
-    const float f2 = Ab*t27*t38 - t37 + t42 + t44*t46 - t47*t48;
-    const float t49 = t6*y[6];
-    const float t50 = Ab*t24;
-    const float t51 = t0*t39;
-    const float t52 = t4*t47;
-    const float t53 = t5*t52;
-    const float t54 = t12*t3;
-    const float f3 = t0*t53 + t26*t51 - t44*t54 - t49*t50;
-    const float t55 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
-    const float t56 = p[2]*t0;
-    const float t57 = p[4]*t56;
-    const float t58 = t17*t19;
-    const float t59 = t25*t7;
+    const float t48 = t41*t8;
+    const float t49 = t9*(t1*t10 - t48);
+    const float f2 = Ab*t28*t39 + Q11*t42 - t38 + t44*t46 - t47*t49;
+    const float t50 = t4*y[6];
+    const float t51 = Ab*t25;
+    const float t52 = t0*t40;
+    const float t53 = t47*t9;
+    const float t54 = t3*t53;
+    const float t55 = t12*t8;
+    const float f3 = t0*t54 + t27*t52 - t44*t55 - t50*t51;
+    const float t56 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
+    const float t57 = p[2]*t0;
+    const float t58 = p[4]*t14*t16;
+    const float t59 = t26*t5;
     const float t60 = t1*t10;
-    const float t61 = -t3*t60 + t40;
-    const float f0 = p[2]*p[3]*t1*t10*t27*t3 + t0*t10*t17*t18*t19*t39 - t30*t61 - t45*t59 - t57*t58;
-    const float t62 = Ab*f0 - Q00*f2 - Q01*f3;
-    const float xr0 = -D1_01*t55 + D1_11*rD1*t62;
+    const float t61 = t60*t8;
+    const float t62 = t41 - t61;
+    const float f0 = p[2]*p[3]*t1*t10*t28*t8 + t0*t10*t14*t15*t16*t40 - t31*t62 - t45*t59 - t57*t58;
+    const float t63 = Ab*f0 - Q00*f2 - Q01*f3;
+    const float xr0 = -D1_01*t56 + D1_11*rD1*t63;
     const float qdd0 = xr0;
-    const float xr1 = D1_00*t55 - D1_01*rD1*t62;
+    const float xr1 = D1_00*t56 - D1_01*rD1*t63;
     const float rs1 = 1.0F/t0;
     const float qdd1 = rs1*xr1;
-    const float D2_00 = -t21 - t22;
+    const float D2_00 = -t22 - t23;
     const float D2_01 = -Q00*Q01 - Q10*Q11;
-    const float D2_11 = -t13 - t23;
+    const float D2_11 = -t13 - t24;
     const float rD2 = 1.0F/(D2_00*D2_11 - D2_01*D2_01);
-    const float t63 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
-    const float t64 = Aa*f2 - Q00*f0 - Q10*f1;
-    const float xr2 = -D2_01*t63 + D2_11*rD2*t64;
+    const float t64 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
+    const float t65 = Aa*f2 - Q00*f0 - Q10*f1;
+    const float xr2 = -D2_01*t64 + D2_11*rD2*t65;
     const float qdd2 = xr2;
-    const float xr3 = D2_00*t63 - D2_01*rD2*t64;
+    const float xr3 = D2_00*t64 - D2_01*rD2*t65;
     const float rs3 = 1.0F/t1;
     const float qdd3 = rs3*xr3;
     ydot[0] = y[4];
@@ -268,10 +269,11 @@ int spherical_std_rhs_f(const float *restrict y, const float *restrict p, float 
     if (!(fabsf(t1) >= (float)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_RHS_YDOT_SIZE; ++k) {
-        if (!isfinite(ydot[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[4] - y[4]) + (y[5] - y[5]) + (y[6] - y[6]) + (y[7] - y[7]) + (qdd0 - qdd0) +
+        (qdd1 - qdd1) + (qdd2 - qdd2) + (qdd3 - qdd3);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -294,100 +296,100 @@ int spherical_std_rhs_batch_f(long n, const float *restrict y, long y_stride, co
 int spherical_std_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict ydot)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = sinl(y[2]);
     const long double Ab = p[3]*p[3];
     const long double t2 = y[1] - y[3];
-    const long double t3 = cosl(t2);
-    const long double t4 = p[2]*p[3];
-    const long double Q11 = t3*t4;
-    const long double t5 = sinl(t2);
-    const long double t6 = cosl(y[2]);
-    const long double t7 = p[3]*t6;
-    const long double t8 = p[2]*t7;
-    const long double t9 = t5*t8;
-    const long double Q10 = -t9;
+    const long double t3 = sinl(t2);
+    const long double t4 = cosl(y[2]);
+    const long double t5 = p[3]*t4;
+    const long double t6 = p[2]*t5;
+    const long double t7 = t3*t6;
+    const long double Q10 = -t7;
+    const long double t8 = cosl(t2);
+    const long double t9 = p[2]*p[3];
+    const long double Q11 = t8*t9;
     const long double t10 = cosl(y[0]);
     const long double t11 = p[2]*t10;
     const long double t12 = p[3]*t11;
-    const long double Q01 = t12*t5;
+    const long double Q01 = t12*t3;
     const long double t13 = Q01*Q01;
-    const long double t14 = t0*t1;
-    const long double t15 = t10*t6;
-    const long double t16 = t14 + t15*t3;
-    const long double Q00 = t16*t4;
-    const long double t17 = 1.0L/p[1];
-    const long double t18 = p[2]*p[2];
-    const long double t19 = p[0] + p[1];
-    const long double M00 = t18*t19;
-    const long double Aa = M00*t17;
+    const long double t14 = 1.0L/p[1];
+    const long double t15 = p[2]*p[2];
+    const long double t16 = p[0] + p[1];
+    const long double t17 = t15*t16;
+    const long double Aa = t14*t17;
     const long double AaAb = Aa*Ab;
-    const long double t20 = -AaAb;
-    const long double t21 = Q00*Q00 + t20;
-    const long double D1_00 = -t13 - t21;
+    const long double t18 = -AaAb;
+    const long double t19 = t0*t1;
+    const long double t20 = t10*t4;
+    const long double t21 = t19 + t20*t8;
+    const long double Q00 = t21*t9;
+    const long double t22 = Q00*Q00 + t18;
+    const long double D1_00 = -t13 - t22;
     const long double D1_01 = -Q00*Q10 - Q01*Q11;
-    const long double t22 = Q10*Q10;
-    const long double t23 = Q11*Q11 + t20;
-    const long double D1_11 = -t22 - t23;
+    const long double t23 = Q10*Q10;
+    const long double t24 = Q11*Q11 + t18;
+    const long double D1_11 = -t23 - t24;
     const long double rD1 = 1.0L/(D1_00*D1_11 - D1_01*D1_01);
-    const long double t24 = 2*y[7];
-    const long double t25 = t24*y[6];
-    const long double t26 = t4*t5;
-    const long double t27 = y[7]*y[7];
-    const long double t28 = t1*t27;
-    const long double t29 = y[6]*y[6];
-    const long double t30 = t29*t4;
-    const long double t31 = t30*t5;
-    const long double t32 = t3*t8;
-    const long double t33 = t10*y[4];
-    const long double t34 = 2*y[5];
-    const long double t35 = Aa*t34;
-    const long double f1 = -t1*t31 - t25*t32 - t26*t28 - t33*t35;
-    const long double t36 = p[3]*t1;
-    const long double t37 = p[4]*t36;
-    const long double t38 = t1*t6;
-    const long double t39 = y[5]*y[5];
-    const long double t40 = t0*t6;
-    const long double t41 = t39*t40;
-    const long double t42 = Q11*t41;
+    const long double t25 = 2*y[7];
+    const long double t26 = t25*y[6];
+    const long double t27 = t3*t9;
+    const long double t28 = y[7]*y[7];
+    const long double t29 = t1*t28;
+    const long double t30 = y[6]*y[6];
+    const long double t31 = t30*t9;
+    const long double t32 = t3*t31;
+    const long double t33 = t6*t8;
+    const long double t34 = t10*y[4];
+    const long double t35 = y[5]*t34;
+    const long double t36 = 2*Aa;
+    const long double f1 = -t1*t32 - t26*t33 - t27*t29 - t35*t36;
+    const long double t37 = p[3]*t1;
+    const long double t38 = p[4]*t37;
+    const long double t39 = t1*t4;
+    const long double t40 = y[5]*y[5];
+    const long double t41 = t0*t4;
+    const long double t42 = t40*t41;
     const long double t43 = 2*y[4];
     const long double t44 = y[5]*t43;
-    const long double t45 = t11*t5;
-    const long double t46 = t45*t7;
+    const long double t45 = t11*t3;
+    const long double t46 = t45*t5;
     const long double t47 = y[4]*y[4];
-    const long double t48 = t4*(t1*t10 - t3*t40);
-    const long double f2 = Ab*t27*t38 - t37 + t42 + t44*t46 - t47*t48;
-    const long double t49 = t6*y[6];
-    const long double t50 = Ab*t24;
-    const long double t51 = t0*t39;
-    const long double t52 = t4*t47;
-    const long double t53 = t5*t52;
-    const long double t54 = t12*t3;
-    const long double f3 = t0*t53 + t26*t51 - t44*t54 - t49*t50;
-    const long double t55 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
-    const long double t56 = p[2]*t0;
-    const long double t57 = p[4]*t56;
-    const long double t58 = t17*t19;
-    const long double t59 = t25*t7;
+    const long double t48 = t41*t8;
+    const long double t49 = t9*(t1*t10 - t48);
+    const long double f2 = Ab*t28*t39 + Q11*t42 - t38 + t44*t46 - t47*t49;
+    const long double t50 = t4*y[6];
+    const long double t51 = Ab*t25;
+    const long double t52 = t0*t40;
+    const long double t53 = t47*t9;
+    const long double t54 = t3*t53;
+    const long double t55 = t12*t8;
+    const long double f3 = t0*t54 + t27*t52 - t44*t55 - t50*t51;
+    const long double t56 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
+    const long double t57 = p[2]*t0;
+    const long double t58 = p[4]*t14*t16;
+    const long double t59 = t26*t5;
     const long double t60 = t1*t10;
-    const long double t61 = -t3*t60 + t40;
-    const long double f0 = p[2]*p[3]*t1*t10*t27*t3 + t0*t10*t17*t18*t19*t39 - t30*t61 - t45*t59 - t57*t58;
-    const long double t62 = Ab*f0 - Q00*f2 - Q01*f3;
-    const long double xr0 = -D1_01*t55 + D1_11*rD1*t62;
+    const long double t61 = t60*t8;
+    const long double t62 = t41 - t61;
+    const long double f0 = p[2]*p[3]*t1*t10*t28*t8 + t0*t10*t14*t15*t16*t40 - t31*t62 - t45*t59 - t57*t58;
+    const long double t63 = Ab*f0 - Q00*f2 - Q01*f3;
+    const long double xr0 = -D1_01*t56 + D1_11*rD1*t63;
     const long double qdd0 = xr0;
-    const long double xr1 = D1_00*t55 - D1_01*rD1*t62;
+    const long double xr1 = D1_00*t56 - D1_01*rD1*t63;
     const long double rs1 = 1.0L/t0;
     const long double qdd1 = rs1*xr1;
-    const long double D2_00 = -t21 - t22;
+    const long double D2_00 = -t22 - t23;
     const long double D2_01 = -Q00*Q01 - Q10*Q11;
-    const long double D2_11 = -t13 - t23;
+    const long double D2_11 = -t13 - t24;
     const long double rD2 = 1.0L/(D2_00*D2_11 - D2_01*D2_01);
-    const long double t63 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
-    const long double t64 = Aa*f2 - Q00*f0 - Q10*f1;
-    const long double xr2 = -D2_01*t63 + D2_11*rD2*t64;
+    const long double t64 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
+    const long double t65 = Aa*f2 - Q00*f0 - Q10*f1;
+    const long double xr2 = -D2_01*t64 + D2_11*rD2*t65;
     const long double qdd2 = xr2;
-    const long double xr3 = D2_00*t63 - D2_01*rD2*t64;
+    const long double xr3 = D2_00*t64 - D2_01*rD2*t65;
     const long double rs3 = 1.0L/t1;
     const long double qdd3 = rs3*xr3;
     ydot[0] = y[4];
@@ -404,10 +406,11 @@ int spherical_std_rhs_l(const long double *restrict y, const long double *restri
     if (!(fabsl(t1) >= (long double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_RHS_YDOT_SIZE; ++k) {
-        if (!isfinite(ydot[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (y[4] - y[4]) + (y[5] - y[5]) + (y[6] - y[6]) + (y[7] - y[7]) + (qdd0 - qdd0) +
+        (qdd1 - qdd1) + (qdd2 - qdd2) + (qdd3 - qdd3);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -426,11 +429,11 @@ int spherical_std_rhs_batch_l(long n, const long double *restrict y, long y_stri
     return all;
 }
 
-/* spherical_std_mass_matrix (double). Total ops: 33 */
+/* spherical_std_mass_matrix (double). Total ops: 31 */
 int spherical_std_mass_matrix(const double *restrict y, const double *restrict p, double *restrict M)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = sin(y[2]);
     const double t2 = p[2]*p[2];
@@ -443,24 +446,22 @@ int spherical_std_mass_matrix(const double *restrict y, const double *restrict p
     const double t8 = cos(y[2]);
     const double t9 = t7*t8;
     const double t10 = t4 + t6*t9;
-    const double t11 = p[2]*p[3];
-    const double Q00 = t10*t11;
-    const double M02 = Q00*p[1];
-    const double t12 = t1*t7;
-    const double t13 = sin(t5);
-    const double t14 = t11*t13;
-    const double t15 = p[1]*t14;
-    const double M03 = t12*t15;
+    const double t11 = p[2]*p[1];
+    const double t12 = p[3]*t11;
+    const double M02 = t10*t12;
+    const double t13 = t1*t7;
+    const double t14 = sin(t5);
+    const double t15 = t12*t14;
+    const double M03 = t13*t15;
     const double t16 = t0*t0;
     const double M11 = M00*t16;
     const double t17 = t0*t8;
     const double t18 = t15*t17;
     const double M12 = -t18;
-    const double Q11 = t11*t6;
-    const double t19 = Q11*t4;
-    const double M13 = p[1]*t19;
-    const double Ab = p[3]*p[3];
-    const double M22 = Ab*p[1];
+    const double t19 = t4*t6;
+    const double M13 = t12*t19;
+    const double t20 = p[3]*p[3];
+    const double M22 = p[1]*t20;
     const double M33 = M22*t1*t1;
     M[0] = M00;
     M[1] = 0;
@@ -484,10 +485,11 @@ int spherical_std_mass_matrix(const double *restrict y, const double *restrict p
     if (!(fabs(t1) >= (double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_MASS_MATRIX_M_SIZE; ++k) {
-        if (!isfinite(M[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (M00 - M00) + (M02 - M02) + (M03 - M03) + (M11 - M11) + (M12 - M12) + (M13 - M13) +
+        (M02 - M02) + (M12 - M12) + (M22 - M22) + (M03 - M03) + (M13 - M13) + (M33 - M33);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -506,11 +508,11 @@ int spherical_std_mass_matrix_batch(long n, const double *restrict y, long y_str
     return all;
 }
 
-/* spherical_std_mass_matrix_f (float). Total ops: 33 */
+/* spherical_std_mass_matrix_f (float). Total ops: 31 */
 int spherical_std_mass_matrix_f(const float *restrict y, const float *restrict p, float *restrict M)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = sinf(y[2]);
     const float t2 = p[2]*p[2];
@@ -523,24 +525,22 @@ int spherical_std_mass_matrix_f(const float *restrict y, const float *restrict p
     const float t8 = cosf(y[2]);
     const float t9 = t7*t8;
     const float t10 = t4 + t6*t9;
-    const float t11 = p[2]*p[3];
-    const float Q00 = t10*t11;
-    const float M02 = Q00*p[1];
-    const float t12 = t1*t7;
-    const float t13 = sinf(t5);
-    const float t14 = t11*t13;
-    const float t15 = p[1]*t14;
-    const float M03 = t12*t15;
+    const float t11 = p[2]*p[1];
+    const float t12 = p[3]*t11;
+    const float M02 = t10*t12;
+    const float t13 = t1*t7;
+    const float t14 = sinf(t5);
+    const float t15 = t12*t14;
+    const float M03 = t13*t15;
     const float t16 = t0*t0;
     const float M11 = M00*t16;
     const float t17 = t0*t8;
     const float t18 = t15*t17;
     const float M12 = -t18;
-    const float Q11 = t11*t6;
-    const float t19 = Q11*t4;
-    const float M13 = p[1]*t19;
-    const float Ab = p[3]*p[3];
-    const float M22 = Ab*p[1];
+    const float t19 = t4*t6;
+    const float M13 = t12*t19;
+    const float t20 = p[3]*p[3];
+    const float M22 = p[1]*t20;
     const float M33 = M22*t1*t1;
     M[0] = M00;
     M[1] = 0;
@@ -564,10 +564,11 @@ int spherical_std_mass_matrix_f(const float *restrict y, const float *restrict p
     if (!(fabsf(t1) >= (float)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_MASS_MATRIX_M_SIZE; ++k) {
-        if (!isfinite(M[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (M00 - M00) + (M02 - M02) + (M03 - M03) + (M11 - M11) + (M12 - M12) + (M13 - M13) +
+        (M02 - M02) + (M12 - M12) + (M22 - M22) + (M03 - M03) + (M13 - M13) + (M33 - M33);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -586,11 +587,11 @@ int spherical_std_mass_matrix_batch_f(long n, const float *restrict y, long y_st
     return all;
 }
 
-/* spherical_std_mass_matrix_l (long double). Total ops: 33 */
+/* spherical_std_mass_matrix_l (long double). Total ops: 31 */
 int spherical_std_mass_matrix_l(const long double *restrict y, const long double *restrict p, long double *restrict M)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = sinl(y[2]);
     const long double t2 = p[2]*p[2];
@@ -603,24 +604,22 @@ int spherical_std_mass_matrix_l(const long double *restrict y, const long double
     const long double t8 = cosl(y[2]);
     const long double t9 = t7*t8;
     const long double t10 = t4 + t6*t9;
-    const long double t11 = p[2]*p[3];
-    const long double Q00 = t10*t11;
-    const long double M02 = Q00*p[1];
-    const long double t12 = t1*t7;
-    const long double t13 = sinl(t5);
-    const long double t14 = t11*t13;
-    const long double t15 = p[1]*t14;
-    const long double M03 = t12*t15;
+    const long double t11 = p[2]*p[1];
+    const long double t12 = p[3]*t11;
+    const long double M02 = t10*t12;
+    const long double t13 = t1*t7;
+    const long double t14 = sinl(t5);
+    const long double t15 = t12*t14;
+    const long double M03 = t13*t15;
     const long double t16 = t0*t0;
     const long double M11 = M00*t16;
     const long double t17 = t0*t8;
     const long double t18 = t15*t17;
     const long double M12 = -t18;
-    const long double Q11 = t11*t6;
-    const long double t19 = Q11*t4;
-    const long double M13 = p[1]*t19;
-    const long double Ab = p[3]*p[3];
-    const long double M22 = Ab*p[1];
+    const long double t19 = t4*t6;
+    const long double M13 = t12*t19;
+    const long double t20 = p[3]*p[3];
+    const long double M22 = p[1]*t20;
     const long double M33 = M22*t1*t1;
     M[0] = M00;
     M[1] = 0;
@@ -644,10 +643,11 @@ int spherical_std_mass_matrix_l(const long double *restrict y, const long double
     if (!(fabsl(t1) >= (long double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_MASS_MATRIX_M_SIZE; ++k) {
-        if (!isfinite(M[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (M00 - M00) + (M02 - M02) + (M03 - M03) + (M11 - M11) + (M12 - M12) + (M13 - M13) +
+        (M02 - M02) + (M12 - M12) + (M22 - M22) + (M03 - M03) + (M13 - M13) + (M33 - M33);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -666,64 +666,71 @@ int spherical_std_mass_matrix_batch_l(long n, const long double *restrict y, lon
     return all;
 }
 
-/* spherical_std_forcing (double). Total ops: 108 */
+/* spherical_std_forcing (double). Total ops: 100 */
 int spherical_std_forcing(const double *restrict y, const double *restrict p, double *restrict F)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
-    const double t0 = p[2]*p[2];
-    const double t1 = sin(y[0]);
-    const double t2 = sin(y[2]);
-    const double t3 = y[1] - y[3];
-    const double t4 = cos(t3);
-    const double t5 = cos(y[0]);
-    const double t6 = sin(t3);
-    const double t7 = p[2]*t1;
-    const double t8 = p[4]*t7;
-    const double t9 = cos(y[2]);
-    const double t10 = p[3]*t9;
-    const double t11 = 2*y[7];
-    const double t12 = t11*y[6];
-    const double t13 = t10*t12;
-    const double t14 = y[7]*y[7];
-    const double t15 = y[5]*y[5];
-    const double t16 = y[6]*y[6];
-    const double t17 = p[2]*p[3];
-    const double t18 = t16*t17;
-    const double t19 = t1*t9;
-    const double t20 = p[1]*t19;
-    const double t21 = p[2]*t5;
-    const double t22 = p[1]*t21;
-    const double t23 = 2*y[4];
-    const double t24 = y[5]*t23;
-    const double t25 = p[0]*t21;
-    const double t26 = t22*t24;
-    const double t27 = p[3]*t2;
-    const double t28 = p[1]*t27;
-    const double t29 = t28*t6;
-    const double t30 = p[1]*t10;
-    const double t31 = t2*t5;
-    const double t32 = p[4]*t27;
-    const double t33 = t2*t9;
-    const double Q11 = t17*t4;
-    const double t34 = t15*t19;
-    const double t35 = Q11*t34;
-    const double t36 = y[4]*y[4];
-    const double t37 = t17*t36;
-    const double Ab = p[3]*p[3];
-    const double M22 = Ab*p[1];
-    const double t38 = Q11*t36;
-    const double t39 = t6*t7;
-    const double t40 = t21*t4;
-    const double t41 = t24*t40;
-    F[0] = p[2]*p[3]*p[1]*t14*t2*t4*t5 + p[2]*p[3]*p[1]*t16*t2*t4*t5 + p[0]*t0*t1*t15*t5 - p[0]*t8 + p[1]*t0*t1*t15*t5 - p[1]*t8 - t13*t22*t6 - t18*t20;
-    F[1] = -t7*(t12*t30*t4 + t14*t29 + t16*t29 + t24*t25 + t26);
-    F[2] = M22*t14*t33 - p[1]*t31*t37 - p[1]*t32 + p[1]*t35 + t10*t26*t6 + t20*t38;
-    F[3] = t28*(-t13 + t15*t39 + t36*t39 - t41);
-    for (k = 0; k < SPHERICAL_STD_FORCING_F_SIZE; ++k) {
-        if (!isfinite(F[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    double check;
+    const double t0 = sin(y[0]);
+    const double t1 = cos(y[0]);
+    const double t2 = y[7]*y[7];
+    const double t3 = cos(y[2]);
+    const double t4 = t0*t3;
+    const double t5 = y[1] - y[3];
+    const double t6 = cos(t5);
+    const double t7 = sin(y[2]);
+    const double t8 = t1*t7;
+    const double t9 = t6*t8;
+    const double t10 = y[5]*y[5];
+    const double t11 = t0*t10;
+    const double t12 = p[2]*p[1];
+    const double t13 = p[3]*t12;
+    const double t14 = y[6]*y[6];
+    const double t15 = t13*t14;
+    const double t16 = p[2]*p[0];
+    const double t17 = p[3]*t3;
+    const double t18 = t17*y[6];
+    const double t19 = sin(t5);
+    const double t20 = 2*t12;
+    const double t21 = t19*t20;
+    const double t22 = p[2]*p[2];
+    const double t23 = p[0]*t22;
+    const double t24 = p[1]*t22;
+    const double t25 = p[2]*t0;
+    const double t26 = 2*y[7];
+    const double t27 = t26*y[6];
+    const double t28 = t1*y[4];
+    const double t29 = y[5]*t28;
+    const double t30 = p[3]*t7;
+    const double t31 = p[1]*t30;
+    const double t32 = t19*t31;
+    const double t33 = p[1]*t17;
+    const double t34 = p[4]*t30;
+    const double t35 = t3*t7;
+    const double t36 = t4*t6;
+    const double t37 = p[3]*p[3];
+    const double t38 = p[1]*t37;
+    const double t39 = y[4]*y[4];
+    const double t40 = t13*t39;
+    const double t41 = t17*t27;
+    const double t42 = t19*t25;
+    const double t43 = 2*y[4];
+    const double t44 = y[5]*t43;
+    const double t45 = p[2]*t1;
+    const double t46 = t45*t6;
+    const double t47 = t44*t46;
+    const double t48 = -y[7]*t1*t18*t21 + t0*(-p[4]*t12 - p[4]*t16) + t1*t11*(t23 + t24) + t13*t2*t9 - t15*t4 + t15*t9;
+    const double t49 = -t25*(t14*t32 + t2*t32 + t27*t33*t6 + t29*(2*t16 + t20));
+    const double t50 = -p[1]*t34 + t10*t13*t36 + t17*t21*t29 + t2*t35*t38 + t36*t40 - t40*t8;
+    const double t51 = t31*(t10*t42 + t39*t42 - t41 - t47);
+    F[0] = t48;
+    F[1] = t49;
+    F[2] = t50;
+    F[3] = t51;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t48 - t48) + (t49 - t49) + (t50 - t50) + (t51 - t51);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -742,64 +749,71 @@ int spherical_std_forcing_batch(long n, const double *restrict y, long y_stride,
     return all;
 }
 
-/* spherical_std_forcing_f (float). Total ops: 108 */
+/* spherical_std_forcing_f (float). Total ops: 100 */
 int spherical_std_forcing_f(const float *restrict y, const float *restrict p, float *restrict F)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
-    const float t0 = p[2]*p[2];
-    const float t1 = sinf(y[0]);
-    const float t2 = sinf(y[2]);
-    const float t3 = y[1] - y[3];
-    const float t4 = cosf(t3);
-    const float t5 = cosf(y[0]);
-    const float t6 = sinf(t3);
-    const float t7 = p[2]*t1;
-    const float t8 = p[4]*t7;
-    const float t9 = cosf(y[2]);
-    const float t10 = p[3]*t9;
-    const float t11 = 2*y[7];
-    const float t12 = t11*y[6];
-    const float t13 = t10*t12;
-    const float t14 = y[7]*y[7];
-    const float t15 = y[5]*y[5];
-    const float t16 = y[6]*y[6];
-    const float t17 = p[2]*p[3];
-    const float t18 = t16*t17;
-    const float t19 = t1*t9;
-    const float t20 = p[1]*t19;
-    const float t21 = p[2]*t5;
-    const float t22 = p[1]*t21;
-    const float t23 = 2*y[4];
-    const float t24 = y[5]*t23;
-    const float t25 = p[0]*t21;
-    const float t26 = t22*t24;
-    const float t27 = p[3]*t2;
-    const float t28 = p[1]*t27;
-    const float t29 = t28*t6;
-    const float t30 = p[1]*t10;
-    const float t31 = t2*t5;
-    const float t32 = p[4]*t27;
-    const float t33 = t2*t9;
-    const float Q11 = t17*t4;
-    const float t34 = t15*t19;
-    const float t35 = Q11*t34;
-    const float t36 = y[4]*y[4];
-    const float t37 = t17*t36;
-    const float Ab = p[3]*p[3];
-    const float M22 = Ab*p[1];
-    const float t38 = Q11*t36;
-    const float t39 = t6*t7;
-    const float t40 = t21*t4;
-    const float t41 = t24*t40;
-    F[0] = p[2]*p[3]*p[1]*t14*t2*t4*t5 + p[2]*p[3]*p[1]*t16*t2*t4*t5 + p[0]*t0*t1*t15*t5 - p[0]*t8 + p[1]*t0*t1*t15*t5 - p[1]*t8 - t13*t22*t6 - t18*t20;
-    F[1] = -t7*(t12*t30*t4 + t14*t29 + t16*t29 + t24*t25 + t26);
-    F[2] = M22*t14*t33 - p[1]*t31*t37 - p[1]*t32 + p[1]*t35 + t10*t26*t6 + t20*t38;
-    F[3] = t28*(-t13 + t15*t39 + t36*t39 - t41);
-    for (k = 0; k < SPHERICAL_STD_FORCING_F_SIZE; ++k) {
-        if (!isfinite(F[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    float check;
+    const float t0 = sinf(y[0]);
+    const float t1 = cosf(y[0]);
+    const float t2 = y[7]*y[7];
+    const float t3 = cosf(y[2]);
+    const float t4 = t0*t3;
+    const float t5 = y[1] - y[3];
+    const float t6 = cosf(t5);
+    const float t7 = sinf(y[2]);
+    const float t8 = t1*t7;
+    const float t9 = t6*t8;
+    const float t10 = y[5]*y[5];
+    const float t11 = t0*t10;
+    const float t12 = p[2]*p[1];
+    const float t13 = p[3]*t12;
+    const float t14 = y[6]*y[6];
+    const float t15 = t13*t14;
+    const float t16 = p[2]*p[0];
+    const float t17 = p[3]*t3;
+    const float t18 = t17*y[6];
+    const float t19 = sinf(t5);
+    const float t20 = 2*t12;
+    const float t21 = t19*t20;
+    const float t22 = p[2]*p[2];
+    const float t23 = p[0]*t22;
+    const float t24 = p[1]*t22;
+    const float t25 = p[2]*t0;
+    const float t26 = 2*y[7];
+    const float t27 = t26*y[6];
+    const float t28 = t1*y[4];
+    const float t29 = y[5]*t28;
+    const float t30 = p[3]*t7;
+    const float t31 = p[1]*t30;
+    const float t32 = t19*t31;
+    const float t33 = p[1]*t17;
+    const float t34 = p[4]*t30;
+    const float t35 = t3*t7;
+    const float t36 = t4*t6;
+    const float t37 = p[3]*p[3];
+    const float t38 = p[1]*t37;
+    const float t39 = y[4]*y[4];
+    const float t40 = t13*t39;
+    const float t41 = t17*t27;
+    const float t42 = t19*t25;
+    const float t43 = 2*y[4];
+    const float t44 = y[5]*t43;
+    const float t45 = p[2]*t1;
+    const float t46 = t45*t6;
+    const float t47 = t44*t46;
+    const float t48 = -y[7]*t1*t18*t21 + t0*(-p[4]*t12 - p[4]*t16) + t1*t11*(t23 + t24) + t13*t2*t9 - t15*t4 + t15*t9;
+    const float t49 = -t25*(t14*t32 + t2*t32 + t27*t33*t6 + t29*(2*t16 + t20));
+    const float t50 = -p[1]*t34 + t10*t13*t36 + t17*t21*t29 + t2*t35*t38 + t36*t40 - t40*t8;
+    const float t51 = t31*(t10*t42 + t39*t42 - t41 - t47);
+    F[0] = t48;
+    F[1] = t49;
+    F[2] = t50;
+    F[3] = t51;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t48 - t48) + (t49 - t49) + (t50 - t50) + (t51 - t51);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -818,64 +832,71 @@ int spherical_std_forcing_batch_f(long n, const float *restrict y, long y_stride
     return all;
 }
 
-/* spherical_std_forcing_l (long double). Total ops: 108 */
+/* spherical_std_forcing_l (long double). Total ops: 100 */
 int spherical_std_forcing_l(const long double *restrict y, const long double *restrict p, long double *restrict F)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
-    const long double t0 = p[2]*p[2];
-    const long double t1 = sinl(y[0]);
-    const long double t2 = sinl(y[2]);
-    const long double t3 = y[1] - y[3];
-    const long double t4 = cosl(t3);
-    const long double t5 = cosl(y[0]);
-    const long double t6 = sinl(t3);
-    const long double t7 = p[2]*t1;
-    const long double t8 = p[4]*t7;
-    const long double t9 = cosl(y[2]);
-    const long double t10 = p[3]*t9;
-    const long double t11 = 2*y[7];
-    const long double t12 = t11*y[6];
-    const long double t13 = t10*t12;
-    const long double t14 = y[7]*y[7];
-    const long double t15 = y[5]*y[5];
-    const long double t16 = y[6]*y[6];
-    const long double t17 = p[2]*p[3];
-    const long double t18 = t16*t17;
-    const long double t19 = t1*t9;
-    const long double t20 = p[1]*t19;
-    const long double t21 = p[2]*t5;
-    const long double t22 = p[1]*t21;
-    const long double t23 = 2*y[4];
-    const long double t24 = y[5]*t23;
-    const long double t25 = p[0]*t21;
-    const long double t26 = t22*t24;
-    const long double t27 = p[3]*t2;
-    const long double t28 = p[1]*t27;
-    const long double t29 = t28*t6;
-    const long double t30 = p[1]*t10;
-    const long double t31 = t2*t5;
-    const long double t32 = p[4]*t27;
-    const long double t33 = t2*t9;
-    const long double Q11 = t17*t4;
-    const long double t34 = t15*t19;
-    const long double t35 = Q11*t34;
-    const long double t36 = y[4]*y[4];
-    const long double t37 = t17*t36;
-    const long double Ab = p[3]*p[3];
-    const long double M22 = Ab*p[1];
-    const long double t38 = Q11*t36;
-    const long double t39 = t6*t7;
-    const long double t40 = t21*t4;
-    const long double t41 = t24*t40;
-    F[0] = p[2]*p[3]*p[1]*t14*t2*t4*t5 + p[2]*p[3]*p[1]*t16*t2*t4*t5 + p[0]*t0*t1*t15*t5 - p[0]*t8 + p[1]*t0*t1*t15*t5 - p[1]*t8 - t13*t22*t6 - t18*t20;
-    F[1] = -t7*(t12*t30*t4 + t14*t29 + t16*t29 + t24*t25 + t26);
-    F[2] = M22*t14*t33 - p[1]*t31*t37 - p[1]*t32 + p[1]*t35 + t10*t26*t6 + t20*t38;
-    F[3] = t28*(-t13 + t15*t39 + t36*t39 - t41);
-    for (k = 0; k < SPHERICAL_STD_FORCING_F_SIZE; ++k) {
-        if (!isfinite(F[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    long double check;
+    const long double t0 = sinl(y[0]);
+    const long double t1 = cosl(y[0]);
+    const long double t2 = y[7]*y[7];
+    const long double t3 = cosl(y[2]);
+    const long double t4 = t0*t3;
+    const long double t5 = y[1] - y[3];
+    const long double t6 = cosl(t5);
+    const long double t7 = sinl(y[2]);
+    const long double t8 = t1*t7;
+    const long double t9 = t6*t8;
+    const long double t10 = y[5]*y[5];
+    const long double t11 = t0*t10;
+    const long double t12 = p[2]*p[1];
+    const long double t13 = p[3]*t12;
+    const long double t14 = y[6]*y[6];
+    const long double t15 = t13*t14;
+    const long double t16 = p[2]*p[0];
+    const long double t17 = p[3]*t3;
+    const long double t18 = t17*y[6];
+    const long double t19 = sinl(t5);
+    const long double t20 = 2*t12;
+    const long double t21 = t19*t20;
+    const long double t22 = p[2]*p[2];
+    const long double t23 = p[0]*t22;
+    const long double t24 = p[1]*t22;
+    const long double t25 = p[2]*t0;
+    const long double t26 = 2*y[7];
+    const long double t27 = t26*y[6];
+    const long double t28 = t1*y[4];
+    const long double t29 = y[5]*t28;
+    const long double t30 = p[3]*t7;
+    const long double t31 = p[1]*t30;
+    const long double t32 = t19*t31;
+    const long double t33 = p[1]*t17;
+    const long double t34 = p[4]*t30;
+    const long double t35 = t3*t7;
+    const long double t36 = t4*t6;
+    const long double t37 = p[3]*p[3];
+    const long double t38 = p[1]*t37;
+    const long double t39 = y[4]*y[4];
+    const long double t40 = t13*t39;
+    const long double t41 = t17*t27;
+    const long double t42 = t19*t25;
+    const long double t43 = 2*y[4];
+    const long double t44 = y[5]*t43;
+    const long double t45 = p[2]*t1;
+    const long double t46 = t45*t6;
+    const long double t47 = t44*t46;
+    const long double t48 = -y[7]*t1*t18*t21 + t0*(-p[4]*t12 - p[4]*t16) + t1*t11*(t23 + t24) + t13*t2*t9 - t15*t4 + t15*t9;
+    const long double t49 = -t25*(t14*t32 + t2*t32 + t27*t33*t6 + t29*(2*t16 + t20));
+    const long double t50 = -p[1]*t34 + t10*t13*t36 + t17*t21*t29 + t2*t35*t38 + t36*t40 - t40*t8;
+    const long double t51 = t31*(t10*t42 + t39*t42 - t41 - t47);
+    F[0] = t48;
+    F[1] = t49;
+    F[2] = t50;
+    F[3] = t51;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t48 - t48) + (t49 - t49) + (t50 - t50) + (t51 - t51);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -894,53 +915,51 @@ int spherical_std_forcing_batch_l(long n, const long double *restrict y, long y_
     return all;
 }
 
-/* spherical_std_energy (double). Total ops: 73 */
+/* spherical_std_energy (double). Total ops: 69 */
 int spherical_std_energy(const double *restrict y, const double *restrict p, double *restrict E)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = sin(y[2]);
     const double t2 = t0*t1;
     const double t3 = y[1] - y[3];
     const double t4 = cos(t3);
-    const double t5 = p[2]*p[3];
-    const double t6 = cos(y[2]);
-    const double t7 = p[3]*t6;
-    const double t8 = y[7]*y[7];
-    const double t9 = y[6]*y[6];
-    const double t10 = cos(y[0]);
-    const double t11 = t1*t10;
-    const double t12 = sin(t3);
-    const double t13 = t12*t5;
-    const double t14 = p[1]*t13;
-    const double M03 = t11*t14;
-    const double t15 = t0*t6;
-    const double t16 = t14*t15;
-    const double Q11 = t4*t5;
-    const double t17 = Q11*t2;
-    const double M13 = p[1]*t17;
-    const double Ab = p[3]*p[3];
-    const double M22 = Ab*p[1];
-    const double M33 = M22*t1*t1;
-    const double t18 = p[2]*t10;
-    const double t19 = p[1]*t18;
-    const double t20 = p[0]*t18;
-    const double t21 = p[1]*t7;
-    const double t22 = p[2]*p[2];
-    const double t23 = p[0]*t22;
-    const double t24 = y[4]*y[4];
-    const double t25 = (1.0/2.0)*t24;
-    const double t26 = p[1]*t22;
-    const double t27 = y[4]*y[6];
-    const double t28 = y[5]*y[5];
-    const double t29 = t0*t0;
-    const double t30 = (1.0/2.0)*t28*t29;
-    E[0] = M03*y[7]*y[4] + M13*y[5]*y[7] + (1.0/2.0)*M22*t9 + (1.0/2.0)*M33*t8 - p[4]*(t19 + t20 + t21) + p[1]*t2*t27*t5 - y[5]*t16*y[6] + t19*t27*t4*t7 + t23*t25 + t23*t30 + t25*t26 + t26*t30;
-    for (k = 0; k < SPHERICAL_STD_ENERGY_E_SIZE; ++k) {
-        if (!isfinite(E[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    const double t5 = cos(y[0]);
+    const double t6 = y[7]*y[7];
+    const double t7 = y[5]*y[5];
+    const double t8 = y[6]*y[6];
+    const double t9 = t5*y[4];
+    const double t10 = y[4]*y[4];
+    const double t11 = p[2]*p[1];
+    const double t12 = p[3]*t11;
+    const double t13 = t1*t5;
+    const double t14 = sin(t3);
+    const double t15 = t12*t14;
+    const double t16 = t13*t15;
+    const double t17 = t0*t0;
+    const double t18 = cos(y[2]);
+    const double t19 = t0*t18;
+    const double t20 = t15*t19;
+    const double t21 = t2*t4;
+    const double t22 = t12*t21;
+    const double t23 = p[3]*p[3];
+    const double t24 = p[1]*t23;
+    const double t25 = t1*t1*t24;
+    const double t26 = p[2]*p[0];
+    const double t27 = p[3]*t18;
+    const double t28 = t27*y[6];
+    const double t29 = p[1]*t27;
+    const double t30 = p[2]*p[2];
+    const double t31 = p[0]*t30;
+    const double t32 = p[1]*t30;
+    const double t33 = (1.0/2.0)*t31 + (1.0/2.0)*t32;
+    const double t34 = -p[4]*(t29 + t5*(t11 + t26)) + y[5]*y[7]*t22 - y[5]*t20*y[6] + y[7]*t16*y[4] + t10*t33 + t11*t28*t4*t9 + t12*t2*y[4]*y[6] + t17*t33*t7 + (1.0/2.0)*t24*t8 + (1.0/2.0)*t25*t6;
+    E[0] = t34;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t34 - t34);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -959,53 +978,51 @@ int spherical_std_energy_batch(long n, const double *restrict y, long y_stride, 
     return all;
 }
 
-/* spherical_std_energy_f (float). Total ops: 73 */
+/* spherical_std_energy_f (float). Total ops: 69 */
 int spherical_std_energy_f(const float *restrict y, const float *restrict p, float *restrict E)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = sinf(y[2]);
     const float t2 = t0*t1;
     const float t3 = y[1] - y[3];
     const float t4 = cosf(t3);
-    const float t5 = p[2]*p[3];
-    const float t6 = cosf(y[2]);
-    const float t7 = p[3]*t6;
-    const float t8 = y[7]*y[7];
-    const float t9 = y[6]*y[6];
-    const float t10 = cosf(y[0]);
-    const float t11 = t1*t10;
-    const float t12 = sinf(t3);
-    const float t13 = t12*t5;
-    const float t14 = p[1]*t13;
-    const float M03 = t11*t14;
-    const float t15 = t0*t6;
-    const float t16 = t14*t15;
-    const float Q11 = t4*t5;
-    const float t17 = Q11*t2;
-    const float M13 = p[1]*t17;
-    const float Ab = p[3]*p[3];
-    const float M22 = Ab*p[1];
-    const float M33 = M22*t1*t1;
-    const float t18 = p[2]*t10;
-    const float t19 = p[1]*t18;
-    const float t20 = p[0]*t18;
-    const float t21 = p[1]*t7;
-    const float t22 = p[2]*p[2];
-    const float t23 = p[0]*t22;
-    const float t24 = y[4]*y[4];
-    const float t25 = (1.0F/2.0F)*t24;
-    const float t26 = p[1]*t22;
-    const float t27 = y[4]*y[6];
-    const float t28 = y[5]*y[5];
-    const float t29 = t0*t0;
-    const float t30 = (1.0F/2.0F)*t28*t29;
-    E[0] = M03*y[7]*y[4] + M13*y[5]*y[7] + (1.0F/2.0F)*M22*t9 + (1.0F/2.0F)*M33*t8 - p[4]*(t19 + t20 + t21) + p[1]*t2*t27*t5 - y[5]*t16*y[6] + t19*t27*t4*t7 + t23*t25 + t23*t30 + t25*t26 + t26*t30;
-    for (k = 0; k < SPHERICAL_STD_ENERGY_E_SIZE; ++k) {
-        if (!isfinite(E[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    const float t5 = cosf(y[0]);
+    const float t6 = y[7]*y[7];
+    const float t7 = y[5]*y[5];
+    const float t8 = y[6]*y[6];
+    const float t9 = t5*y[4];
+    const float t10 = y[4]*y[4];
+    const float t11 = p[2]*p[1];
+    const float t12 = p[3]*t11;
+    const float t13 = t1*t5;
+    const float t14 = sinf(t3);
+    const float t15 = t12*t14;
+    const float t16 = t13*t15;
+    const float t17 = t0*t0;
+    const float t18 = cosf(y[2]);
+    const float t19 = t0*t18;
+    const float t20 = t15*t19;
+    const float t21 = t2*t4;
+    const float t22 = t12*t21;
+    const float t23 = p[3]*p[3];
+    const float t24 = p[1]*t23;
+    const float t25 = t1*t1*t24;
+    const float t26 = p[2]*p[0];
+    const float t27 = p[3]*t18;
+    const float t28 = t27*y[6];
+    const float t29 = p[1]*t27;
+    const float t30 = p[2]*p[2];
+    const float t31 = p[0]*t30;
+    const float t32 = p[1]*t30;
+    const float t33 = (1.0F/2.0F)*t31 + (1.0F/2.0F)*t32;
+    const float t34 = -p[4]*(t29 + t5*(t11 + t26)) + y[5]*y[7]*t22 - y[5]*t20*y[6] + y[7]*t16*y[4] + t10*t33 + t11*t28*t4*t9 + t12*t2*y[4]*y[6] + t17*t33*t7 + (1.0F/2.0F)*t24*t8 + (1.0F/2.0F)*t25*t6;
+    E[0] = t34;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t34 - t34);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1024,53 +1041,51 @@ int spherical_std_energy_batch_f(long n, const float *restrict y, long y_stride,
     return all;
 }
 
-/* spherical_std_energy_l (long double). Total ops: 73 */
+/* spherical_std_energy_l (long double). Total ops: 69 */
 int spherical_std_energy_l(const long double *restrict y, const long double *restrict p, long double *restrict E)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = sinl(y[2]);
     const long double t2 = t0*t1;
     const long double t3 = y[1] - y[3];
     const long double t4 = cosl(t3);
-    const long double t5 = p[2]*p[3];
-    const long double t6 = cosl(y[2]);
-    const long double t7 = p[3]*t6;
-    const long double t8 = y[7]*y[7];
-    const long double t9 = y[6]*y[6];
-    const long double t10 = cosl(y[0]);
-    const long double t11 = t1*t10;
-    const long double t12 = sinl(t3);
-    const long double t13 = t12*t5;
-    const long double t14 = p[1]*t13;
-    const long double M03 = t11*t14;
-    const long double t15 = t0*t6;
-    const long double t16 = t14*t15;
-    const long double Q11 = t4*t5;
-    const long double t17 = Q11*t2;
-    const long double M13 = p[1]*t17;
-    const long double Ab = p[3]*p[3];
-    const long double M22 = Ab*p[1];
-    const long double M33 = M22*t1*t1;
-    const long double t18 = p[2]*t10;
-    const long double t19 = p[1]*t18;
-    const long double t20 = p[0]*t18;
-    const long double t21 = p[1]*t7;
-    const long double t22 = p[2]*p[2];
-    const long double t23 = p[0]*t22;
-    const long double t24 = y[4]*y[4];
-    const long double t25 = (1.0L/2.0L)*t24;
-    const long double t26 = p[1]*t22;
-    const long double t27 = y[4]*y[6];
-    const long double t28 = y[5]*y[5];
-    const long double t29 = t0*t0;
-    const long double t30 = (1.0L/2.0L)*t28*t29;
-    E[0] = M03*y[7]*y[4] + M13*y[5]*y[7] + (1.0L/2.0L)*M22*t9 + (1.0L/2.0L)*M33*t8 - p[4]*(t19 + t20 + t21) + p[1]*t2*t27*t5 - y[5]*t16*y[6] + t19*t27*t4*t7 + t23*t25 + t23*t30 + t25*t26 + t26*t30;
-    for (k = 0; k < SPHERICAL_STD_ENERGY_E_SIZE; ++k) {
-        if (!isfinite(E[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    const long double t5 = cosl(y[0]);
+    const long double t6 = y[7]*y[7];
+    const long double t7 = y[5]*y[5];
+    const long double t8 = y[6]*y[6];
+    const long double t9 = t5*y[4];
+    const long double t10 = y[4]*y[4];
+    const long double t11 = p[2]*p[1];
+    const long double t12 = p[3]*t11;
+    const long double t13 = t1*t5;
+    const long double t14 = sinl(t3);
+    const long double t15 = t12*t14;
+    const long double t16 = t13*t15;
+    const long double t17 = t0*t0;
+    const long double t18 = cosl(y[2]);
+    const long double t19 = t0*t18;
+    const long double t20 = t15*t19;
+    const long double t21 = t2*t4;
+    const long double t22 = t12*t21;
+    const long double t23 = p[3]*p[3];
+    const long double t24 = p[1]*t23;
+    const long double t25 = t1*t1*t24;
+    const long double t26 = p[2]*p[0];
+    const long double t27 = p[3]*t18;
+    const long double t28 = t27*y[6];
+    const long double t29 = p[1]*t27;
+    const long double t30 = p[2]*p[2];
+    const long double t31 = p[0]*t30;
+    const long double t32 = p[1]*t30;
+    const long double t33 = (1.0L/2.0L)*t31 + (1.0L/2.0L)*t32;
+    const long double t34 = -p[4]*(t29 + t5*(t11 + t26)) + y[5]*y[7]*t22 - y[5]*t20*y[6] + y[7]*t16*y[4] + t10*t33 + t11*t28*t4*t9 + t12*t2*y[4]*y[6] + t17*t33*t7 + (1.0L/2.0L)*t24*t8 + (1.0L/2.0L)*t25*t6;
+    E[0] = t34;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t34 - t34);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1093,33 +1108,37 @@ int spherical_std_energy_batch_l(long n, const long double *restrict y, long y_s
 int spherical_std_positions(const double *restrict y, const double *restrict p, double *restrict pos)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = cos(y[1]);
-    const double e1_0 = t0*t1;
-    const double t2 = e1_0*p[2];
-    const double t3 = sin(y[1]);
-    const double e1_1 = t0*t3;
-    const double t4 = e1_1*p[2];
-    const double t5 = cos(y[0]);
+    const double t2 = t0*t1;
+    const double t3 = p[2]*t2;
+    const double t4 = sin(y[1]);
+    const double t5 = t0*t4;
     const double t6 = p[2]*t5;
-    const double t7 = sin(y[2]);
-    const double t8 = cos(y[3]);
-    const double e2_0 = t7*t8;
-    const double t9 = sin(y[3]);
-    const double e2_1 = t7*t9;
-    const double t10 = cos(y[2]);
-    const double t11 = p[3]*t10;
-    pos[0] = t2;
-    pos[1] = t4;
-    pos[2] = -t6;
-    pos[3] = e2_0*p[3] + t2;
-    pos[4] = e2_1*p[3] + t4;
-    pos[5] = -t11 - t6;
-    for (k = 0; k < SPHERICAL_STD_POSITIONS_POS_SIZE; ++k) {
-        if (!isfinite(pos[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    const double t7 = cos(y[0]);
+    const double t8 = p[2]*t7;
+    const double t9 = sin(y[2]);
+    const double t10 = cos(y[3]);
+    const double t11 = t10*t9;
+    const double t12 = sin(y[3]);
+    const double t13 = t12*t9;
+    const double t14 = cos(y[2]);
+    const double t15 = p[3]*t14;
+    const double t16 = -t8;
+    const double t17 = p[3]*t11 + t3;
+    const double t18 = p[3]*t13 + t6;
+    const double t19 = -t15 - t8;
+    pos[0] = t3;
+    pos[1] = t6;
+    pos[2] = t16;
+    pos[3] = t17;
+    pos[4] = t18;
+    pos[5] = t19;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t3 - t3) + (t6 - t6) + (t16 - t16) + (t17 - t17) + (t18 - t18) + (t19 - t19);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1142,33 +1161,37 @@ int spherical_std_positions_batch(long n, const double *restrict y, long y_strid
 int spherical_std_positions_f(const float *restrict y, const float *restrict p, float *restrict pos)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = cosf(y[1]);
-    const float e1_0 = t0*t1;
-    const float t2 = e1_0*p[2];
-    const float t3 = sinf(y[1]);
-    const float e1_1 = t0*t3;
-    const float t4 = e1_1*p[2];
-    const float t5 = cosf(y[0]);
+    const float t2 = t0*t1;
+    const float t3 = p[2]*t2;
+    const float t4 = sinf(y[1]);
+    const float t5 = t0*t4;
     const float t6 = p[2]*t5;
-    const float t7 = sinf(y[2]);
-    const float t8 = cosf(y[3]);
-    const float e2_0 = t7*t8;
-    const float t9 = sinf(y[3]);
-    const float e2_1 = t7*t9;
-    const float t10 = cosf(y[2]);
-    const float t11 = p[3]*t10;
-    pos[0] = t2;
-    pos[1] = t4;
-    pos[2] = -t6;
-    pos[3] = e2_0*p[3] + t2;
-    pos[4] = e2_1*p[3] + t4;
-    pos[5] = -t11 - t6;
-    for (k = 0; k < SPHERICAL_STD_POSITIONS_POS_SIZE; ++k) {
-        if (!isfinite(pos[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    const float t7 = cosf(y[0]);
+    const float t8 = p[2]*t7;
+    const float t9 = sinf(y[2]);
+    const float t10 = cosf(y[3]);
+    const float t11 = t10*t9;
+    const float t12 = sinf(y[3]);
+    const float t13 = t12*t9;
+    const float t14 = cosf(y[2]);
+    const float t15 = p[3]*t14;
+    const float t16 = -t8;
+    const float t17 = p[3]*t11 + t3;
+    const float t18 = p[3]*t13 + t6;
+    const float t19 = -t15 - t8;
+    pos[0] = t3;
+    pos[1] = t6;
+    pos[2] = t16;
+    pos[3] = t17;
+    pos[4] = t18;
+    pos[5] = t19;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t3 - t3) + (t6 - t6) + (t16 - t16) + (t17 - t17) + (t18 - t18) + (t19 - t19);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1191,33 +1214,37 @@ int spherical_std_positions_batch_f(long n, const float *restrict y, long y_stri
 int spherical_std_positions_l(const long double *restrict y, const long double *restrict p, long double *restrict pos)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = cosl(y[1]);
-    const long double e1_0 = t0*t1;
-    const long double t2 = e1_0*p[2];
-    const long double t3 = sinl(y[1]);
-    const long double e1_1 = t0*t3;
-    const long double t4 = e1_1*p[2];
-    const long double t5 = cosl(y[0]);
+    const long double t2 = t0*t1;
+    const long double t3 = p[2]*t2;
+    const long double t4 = sinl(y[1]);
+    const long double t5 = t0*t4;
     const long double t6 = p[2]*t5;
-    const long double t7 = sinl(y[2]);
-    const long double t8 = cosl(y[3]);
-    const long double e2_0 = t7*t8;
-    const long double t9 = sinl(y[3]);
-    const long double e2_1 = t7*t9;
-    const long double t10 = cosl(y[2]);
-    const long double t11 = p[3]*t10;
-    pos[0] = t2;
-    pos[1] = t4;
-    pos[2] = -t6;
-    pos[3] = e2_0*p[3] + t2;
-    pos[4] = e2_1*p[3] + t4;
-    pos[5] = -t11 - t6;
-    for (k = 0; k < SPHERICAL_STD_POSITIONS_POS_SIZE; ++k) {
-        if (!isfinite(pos[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    const long double t7 = cosl(y[0]);
+    const long double t8 = p[2]*t7;
+    const long double t9 = sinl(y[2]);
+    const long double t10 = cosl(y[3]);
+    const long double t11 = t10*t9;
+    const long double t12 = sinl(y[3]);
+    const long double t13 = t12*t9;
+    const long double t14 = cosl(y[2]);
+    const long double t15 = p[3]*t14;
+    const long double t16 = -t8;
+    const long double t17 = p[3]*t11 + t3;
+    const long double t18 = p[3]*t13 + t6;
+    const long double t19 = -t15 - t8;
+    pos[0] = t3;
+    pos[1] = t6;
+    pos[2] = t16;
+    pos[3] = t17;
+    pos[4] = t18;
+    pos[5] = t19;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t3 - t3) + (t6 - t6) + (t16 - t16) + (t17 - t17) + (t18 - t18) + (t19 - t19);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1240,182 +1267,215 @@ int spherical_std_positions_batch_l(long n, const long double *restrict y, long 
 int spherical_std_jacobian(const double *restrict y, const double *restrict p, double *restrict J)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = sin(y[2]);
     const double t2 = 1.0/p[1];
     const double t3 = p[2]*p[2];
     const double t4 = p[0] + p[1];
-    const double Ab = p[3]*p[3];
     const double t5 = y[1] - y[3];
-    const double t6 = cos(t5);
-    const double t7 = p[2]*p[3];
-    const double Q11 = t6*t7;
-    const double t8 = sin(t5);
-    const double t9 = cos(y[0]);
-    const double t10 = p[2]*t9;
-    const double t11 = p[3]*t10;
-    const double Q01 = t11*t8;
-    const double t12 = y[5]*y[5];
-    const double t13 = y[4]*y[4];
-    const double de1_2 = t0*y[4];
-    const double t14 = t7*t8;
+    const double t6 = sin(t5);
+    const double t7 = cos(y[0]);
+    const double t8 = p[2]*t7;
+    const double t9 = p[3]*t8;
+    const double Q01 = t6*t9;
+    const double t10 = y[5]*y[5];
+    const double t11 = y[4]*y[4];
+    const double t12 = t0*y[4];
+    const double t13 = p[2]*p[3];
+    const double t14 = t13*t6;
     const double t15 = t0*t14;
-    const double t16 = 2*y[5];
-    const double t17 = Q11*t16;
-    const double t18 = cos(y[2]);
-    const double t19 = p[3]*t18;
-    const double t20 = p[2]*t19;
-    const double t21 = t20*t8;
-    const double Q10 = -t21;
-    const double t22 = Q01*Q01;
-    const double t23 = t0*t1;
-    const double t24 = t18*t9;
-    const double t25 = t23 + t24*t6;
-    const double Q00 = t25*t7;
-    const double M00 = t3*t4;
-    const double Aa = M00*t2;
+    const double t16 = cos(t5);
+    const double Q11 = t13*t16;
+    const double t17 = 2*y[5];
+    const double t18 = Q11*t17;
+    const double Ab = p[3]*p[3];
+    const double t19 = cos(y[2]);
+    const double t20 = p[3]*t19;
+    const double t21 = p[2]*t20;
+    const double t22 = t21*t6;
+    const double Q10 = -t22;
+    const double t23 = Q01*Q01;
+    const double t24 = t3*t4;
+    const double Aa = t2*t24;
     const double AaAb = Aa*Ab;
-    const double t26 = -AaAb;
-    const double t27 = Q00*Q00 + t26;
-    const double D1_00 = -t22 - t27;
+    const double t25 = -AaAb;
+    const double t26 = t0*t1;
+    const double t27 = t19*t7;
+    const double t28 = t16*t27 + t26;
+    const double Q00 = t13*t28;
+    const double t29 = Q00*Q00 + t25;
+    const double D1_00 = -t23 - t29;
     const double D1_01 = -Q00*Q10 - Q01*Q11;
-    const double t28 = Q10*Q10;
-    const double t29 = Q11*Q11 + t26;
-    const double D1_11 = -t28 - t29;
+    const double t30 = Q10*Q10;
+    const double t31 = Q11*Q11 + t25;
+    const double D1_11 = -t30 - t31;
     const double rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01);
-    const double t30 = 2*y[7];
-    const double t31 = t30*y[6];
-    const double t32 = y[7]*y[7];
-    const double t33 = t1*t32;
-    const double t34 = y[6]*y[6];
-    const double t35 = t34*t7;
-    const double t36 = t35*t8;
-    const double t37 = t20*t6;
-    const double t38 = t9*y[4];
-    const double t39 = Aa*t16;
-    const double f1 = -t1*t36 - t14*t33 - t31*t37 - t38*t39;
-    const double t40 = p[3]*t1;
-    const double t41 = p[4]*t40;
-    const double t42 = t1*t18;
-    const double t43 = t0*t18;
-    const double t44 = t12*t43;
-    const double t45 = Q11*t44;
-    const double t46 = 2*y[4];
-    const double t47 = y[5]*t46;
-    const double t48 = t10*t8;
-    const double t49 = t19*t48;
-    const double t50 = t7*(t1*t9 - t43*t6);
-    const double f2 = Ab*t32*t42 - t13*t50 - t41 + t45 + t47*t49;
-    const double t51 = t18*y[6];
-    const double t52 = Ab*t30;
-    const double t53 = t0*t12;
-    const double t54 = t13*t7;
-    const double t55 = t54*t8;
-    const double t56 = t11*t6;
-    const double f3 = t0*t55 + t14*t53 - t47*t56 - t51*t52;
-    const double t57 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
-    const double t58 = p[2]*t0;
-    const double t59 = p[4]*t58;
-    const double t60 = t2*t4;
-    const double t61 = t19*t31;
-    const double t62 = t1*t9;
-    const double t63 = t43 - t6*t62;
-    const double f0 = p[2]*p[3]*t1*t32*t6*t9 + t0*t12*t2*t3*t4*t9 - t35*t63 - t48*t61 - t59*t60;
-    const double t64 = Ab*f0 - Q00*f2 - Q01*f3;
-    const double xr0 = -D1_01*t57 + D1_11*rD1*t64;
-    const double t65 = Q01*t12 + Q01*t13 + de1_2*t17 + t15*xr0;
-    const double t66 = -t25;
-    const double t67 = p[2]*p[3]*t12*t18*t6*t9 - t14*t43*t47 - t50*xr0 - t54*t66;
-    const double t68 = 2*Ab*y[5]*t0*t2*t3*t4*y[4] - Q10*t67 - Q11*t65;
-    const double t69 = D1_01*rD1;
-    const double t70 = t23*t6 + t24;
-    const double D2_00 = -t27 - t28;
+    const double t32 = 2*y[7];
+    const double t33 = t32*y[6];
+    const double t34 = y[7]*y[7];
+    const double t35 = t1*t34;
+    const double t36 = y[6]*y[6];
+    const double t37 = t13*t36;
+    const double t38 = t37*t6;
+    const double t39 = t16*t21;
+    const double t40 = t7*y[4];
+    const double t41 = y[5]*t40;
+    const double t42 = 2*Aa;
+    const double f1 = -t1*t38 - t14*t35 - t33*t39 - t41*t42;
+    const double t43 = p[3]*t1;
+    const double t44 = p[4]*t43;
+    const double t45 = t1*t19;
+    const double t46 = t0*t19;
+    const double t47 = t10*t46;
+    const double t48 = 2*y[4];
+    const double t49 = y[5]*t48;
+    const double t50 = t6*t8;
+    const double t51 = t20*t50;
+    const double t52 = t16*t46;
+    const double t53 = t13*(t1*t7 - t52);
+    const double f2 = Ab*t34*t45 + Q11*t47 - t11*t53 - t44 + t49*t51;
+    const double t54 = t19*y[6];
+    const double t55 = Ab*t32;
+    const double t56 = t0*t10;
+    const double t57 = t11*t13;
+    const double t58 = t57*t6;
+    const double t59 = t16*t9;
+    const double f3 = t0*t58 + t14*t56 - t49*t59 - t54*t55;
+    const double t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
+    const double t61 = p[2]*t0;
+    const double t62 = p[4]*t2*t4;
+    const double t63 = t20*t33;
+    const double t64 = t1*t7;
+    const double t65 = t16*t64;
+    const double t66 = t46 - t65;
+    const double f0 = p[2]*p[3]*t1*t16*t34*t7 + t0*t10*t2*t3*t4*t7 - t37*t66 - t50*t63 - t61*t62;
+    const double t67 = Ab*f0 - Q00*f2 - Q01*f3;
+    const double xr0 = -D1_01*t60 + D1_11*rD1*t67;
+    const double t68 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0;
+    const double t69 = -t28;
+    const double t70 = p[2]*p[3]*t10*t16*t19*t7 - t14*t46*t49 - t53*xr0 - t57*t69;
+    const double t71 = 2*Ab*y[5]*t0*t2*t3*t4*y[4] - Q10*t70 - Q11*t68;
+    const double t72 = D1_01*rD1;
+    const double t73 = t16*t26;
+    const double t74 = t27 + t73;
+    const double D2_00 = -t29 - t30;
     const double D2_01 = -Q00*Q01 - Q10*Q11;
-    const double D2_11 = -t22 - t29;
+    const double D2_11 = -t23 - t31;
     const double rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01);
-    const double t71 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
-    const double t72 = Aa*f2 - Q00*f0 - Q10*f1;
-    const double xr2 = -D2_01*t71 + D2_11*rD2*t72;
-    const double xr3 = D2_00*t71 - D2_01*rD2*t72;
-    const double t73 = -Q11*t23*t32 - p[4]*t10*t60 + 2*p[2]*p[3]*y[7]*t0*t18*t8*y[6] + p[2]*p[3]*t0*t8*xr3 + t12*t2*t3*t4*(2*t9*t9 - 1) - t35*t70 - t50*xr2;
-    const double t74 = Ab*t73 - Q00*t67 - Q01*t65;
-    const double t75 = Q11*t13;
-    const double xr1 = D1_00*t57 - D1_01*rD1*t64;
-    const double t76 = t14*xr1;
-    const double t77 = Q01*t47 + Q11*t53 + t0*t75 - t56*xr0 + t76;
-    const double t78 = -Q11*t1*t34 - Q11*t33 + t14*xr3 + t21*t31 + t37*xr2;
-    const double t79 = t10*t6;
-    const double t80 = t47*t79;
-    const double t81 = -t14*t44 + t19*t80 + t37*xr1 - t43*t55 + t49*xr0;
-    const double t82 = Ab*t78 - Q10*t81 - Q11*t77;
-    const double t83 = t14*t62;
-    const double t84 = -p[2]*p[3]*t18*t8*t9*xr2 + t32*t83 + t36*t62 + t56*xr3 + t61*t79;
-    const double t85 = -t84;
-    const double t86 = Ab*t85 - Q00*t81 - Q01*t77;
-    const double de2_2 = t1*y[6];
-    const double t87 = de2_2*t52;
-    const double t88 = t1*t14;
-    const double t89 = 2*p[2]*p[3]*y[7]*t1*t6*y[6] - t21*t32 - t21*t34 - t88*xr2;
-    const double t90 = Q11*t23;
-    const double t91 = t63*t7;
-    const double t92 = Ab*t32*(2*t18*t18 - 1) - p[4]*t19 - t1*t76 - t12*t90 - t47*t83 - t54*t70 - t91*xr0;
-    const double t93 = Ab*t89 - Q10*t92 - Q11*t87;
-    const double t94 = t19*t32*t79 + t31*t83 - t35*t66 - t91*xr2;
-    const double t95 = Ab*t94 - Q00*t92 - Q01*t87;
-    const double t96 = -t78;
-    const double t97 = -t77;
-    const double t98 = -t81;
-    const double t99 = Ab*t96 - Q10*t98 - Q11*t97;
-    const double t100 = Ab*t84 - Q00*t98 - Q01*t97;
-    const double t101 = 2*p[2]*p[3]*t0*t8*y[4] - t16*t56;
-    const double t102 = t16*t49 - t46*t50;
-    const double t103 = -Q00*t102 - Q01*t101;
-    const double t104 = t39*t9;
-    const double t105 = -Ab*t104 - Q10*t102 - Q11*t101;
-    const double t106 = 2*Aa*t38;
-    const double t107 = t15*t16 - t46*t56;
-    const double t108 = t17*t43 + t46*t49;
-    const double t109 = -Ab*t106 - Q10*t108 - Q11*t107;
-    const double t110 = 2*Ab*y[5]*t0*t2*t3*t4*t9 - Q00*t108 - Q01*t107;
-    const double t111 = t18*t52;
-    const double t112 = -2*de2_2*t14 - t30*t37;
-    const double t113 = Ab*t112 + Q11*t111;
-    const double t114 = 2*y[6];
-    const double t115 = -t114*t91 - t30*t49;
-    const double t116 = Ab*t115 + Q01*t111;
-    const double t117 = Ab*t51;
-    const double t118 = 2*t117;
-    const double t119 = t42*t52;
-    const double t120 = -t114*t37 - t30*t88;
-    const double t121 = Ab*t120 - Q10*t119 + Q11*t118;
-    const double t122 = 2*Q01;
-    const double t123 = Q11*t30*t62 - t114*t49;
-    const double t124 = Ab*t123 - Q00*t119 + t117*t122;
+    const double t75 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
+    const double t76 = Aa*f2 - Q00*f0 - Q10*f1;
+    const double xr2 = -D2_01*t75 + D2_11*rD2*t76;
+    const double xr3 = D2_00*t75 - D2_01*rD2*t76;
+    const double t77 = -Q11*t26*t34 + 2*p[2]*p[3]*y[7]*t0*t19*t6*y[6] + p[2]*p[3]*t0*t6*xr3 + t10*t2*t3*t4*(2*t7*t7 - 1) - t37*t74 - t53*xr2 - t62*t8;
+    const double t78 = Ab*t77 - Q00*t70 - Q01*t68;
+    const double xr1 = D1_00*t60 - D1_01*rD1*t67;
+    const double t79 = t14*xr1;
+    const double t80 = Q01*t49 + Q11*t0*t11 + Q11*t56 - t59*xr0 + t79;
+    const double t81 = -Q11*t1*t36 - Q11*t35 + t14*xr3 + t22*t33 + t39*xr2;
+    const double t82 = t16*t8;
+    const double t83 = t49*t82;
+    const double t84 = -t14*t47 + t20*t83 + t39*xr1 - t46*t58 + t51*xr0;
+    const double t85 = Ab*t81 - Q10*t84 - Q11*t80;
+    const double t86 = t14*t64;
+    const double t87 = -p[2]*p[3]*t19*t6*t7*xr2 + t34*t86 + t38*t64 + t59*xr3 + t63*t82;
+    const double t88 = -t87;
+    const double t89 = Ab*t88 - Q00*t84 - Q01*t80;
+    const double t90 = t1*y[6];
+    const double t91 = t55*t90;
+    const double t92 = t1*t14;
+    const double t93 = 2*p[2]*p[3]*y[7]*t1*t16*y[6] - t22*t34 - t22*t36 - t92*xr2;
+    const double t94 = t13*t66;
+    const double t95 = Ab*t34*(2*t19*t19 - 1) - Q11*t10*t26 - p[4]*t20 - t1*t79 - t49*t86 - t57*t74 - t94*xr0;
+    const double t96 = Ab*t93 - Q10*t95 - Q11*t91;
+    const double t97 = t20*t34*t82 + t33*t86 - t37*t69 - t94*xr2;
+    const double t98 = Ab*t97 - Q00*t95 - Q01*t91;
+    const double t99 = -t81;
+    const double t100 = -t80;
+    const double t101 = -t84;
+    const double t102 = Ab*t99 - Q10*t101 - Q11*t100;
+    const double t103 = Ab*t87 - Q00*t101 - Q01*t100;
+    const double t104 = 2*p[2]*p[3]*t0*t6*y[4] - t17*t59;
+    const double t105 = t17*t51 - t48*t53;
+    const double t106 = -Q00*t105 - Q01*t104;
+    const double t107 = Aa*t17;
+    const double t108 = t107*t7;
+    const double t109 = -Ab*t108 - Q10*t105 - Q11*t104;
+    const double t110 = t40*t42;
+    const double t111 = t15*t17 - t48*t59;
+    const double t112 = t18*t46 + t48*t51;
+    const double t113 = -Ab*t110 - Q10*t112 - Q11*t111;
+    const double t114 = 2*Ab*y[5]*t0*t2*t3*t4*t7 - Q00*t112 - Q01*t111;
+    const double t115 = t19*t55;
+    const double t116 = -2*t14*t90 - t32*t39;
+    const double t117 = Ab*t116 + Q11*t115;
+    const double t118 = 2*y[6];
+    const double t119 = -t118*t94 - t32*t51;
+    const double t120 = Ab*t119 + Q01*t115;
+    const double t121 = Ab*t54;
+    const double t122 = 2*t121;
+    const double t123 = t45*t55;
+    const double t124 = -t118*t39 - t32*t92;
+    const double t125 = Ab*t124 - Q10*t123 + Q11*t122;
+    const double t126 = 2*Q01;
+    const double t127 = Q11*t32*t64 - t118*t51;
+    const double t128 = Ab*t127 - Q00*t123 + t121*t126;
     const double rs1 = 1.0/t0;
     const double qdd1 = rs1*xr1;
-    const double t125 = D1_00*rD1;
-    const double t126 = de1_2*t39;
-    const double t127 = Aa*t65 - Q01*t73 - Q11*t126;
-    const double t128 = D2_01*rD2;
-    const double t129 = Aa*t67 - Q00*t73 - Q10*t126;
-    const double t130 = Aa*t77 - Q01*t85 - Q11*t78;
-    const double t131 = Aa*t81 - Q00*t85 - Q10*t78;
-    const double t132 = 2*Aa*Ab*y[7]*t1*y[6] - Q01*t94 - Q11*t89;
-    const double t133 = Aa*t92 - Q00*t94 - Q10*t89;
-    const double t134 = Aa*t97 - Q01*t84 - Q11*t96;
-    const double t135 = Aa*t98 - Q00*t84 - Q10*t96;
-    const double t136 = Aa*t101 + Q11*t104;
-    const double t137 = Aa*t102 + Q10*t104;
-    const double t138 = -Aa*y[5]*t0*t122*t9 + Aa*t107 + Q11*t106;
-    const double t139 = Aa*t108 - Q00*t0*t104 + Q10*t106;
-    const double t140 = -Q00*t115 - Q10*t112;
-    const double t141 = -Aa*t111 - Q01*t115 - Q11*t112;
-    const double t142 = -Aa*t118 - Q01*t123 - Q11*t120;
-    const double t143 = 2*Aa*Ab*y[7]*t1*t18 - Q00*t123 - Q10*t120;
-    const double t144 = D2_00*rD2;
+    const double t129 = D1_00*rD1;
+    const double t130 = t107*t12;
+    const double t131 = Aa*t68 - Q01*t77 - Q11*t130;
+    const double t132 = D2_01*rD2;
+    const double t133 = Aa*t70 - Q00*t77 - Q10*t130;
+    const double t134 = Aa*t80 - Q01*t88 - Q11*t81;
+    const double t135 = Aa*t84 - Q00*t88 - Q10*t81;
+    const double t136 = 2*Aa*Ab*y[7]*t1*y[6] - Q01*t97 - Q11*t93;
+    const double t137 = Aa*t95 - Q00*t97 - Q10*t93;
+    const double t138 = Aa*t100 - Q01*t87 - Q11*t99;
+    const double t139 = Aa*t101 - Q00*t87 - Q10*t99;
+    const double t140 = Aa*t104 + Q11*t108;
+    const double t141 = Aa*t105 + Q10*t108;
+    const double t142 = -Aa*y[5]*t0*t126*t7 + Aa*t111 + Q11*t110;
+    const double t143 = Aa*t112 - Q00*t0*t108 + Q10*t110;
+    const double t144 = -Q00*t119 - Q10*t116;
+    const double t145 = -Aa*t115 - Q01*t119 - Q11*t116;
+    const double t146 = -Aa*t122 - Q01*t127 - Q11*t124;
+    const double t147 = 2*Aa*Ab*y[7]*t1*t19 - Q00*t127 - Q10*t124;
+    const double t148 = D2_00*rD2;
     const double rs3 = 1.0/t1;
     const double qdd3 = rs3*xr3;
+    const double t149 = D1_11*rD1*t78 - t71*t72;
+    const double t150 = D1_11*rD1*t89 - t72*t85;
+    const double t151 = D1_11*rD1*t98 - t72*t96;
+    const double t152 = D1_11*rD1*t103 - t102*t72;
+    const double t153 = D1_11*rD1*t106 - t109*t72;
+    const double t154 = D1_11*rD1*t114 - t113*t72;
+    const double t155 = D1_11*rD1*t120 - t117*t72;
+    const double t156 = D1_11*rD1*t128 - t125*t72;
+    const double t157 = rs1*(D1_00*rD1*t71 - qdd1*t7 - t72*t78);
+    const double t158 = rs1*(t129*t85 - t72*t89);
+    const double t159 = rs1*(t129*t96 - t72*t98);
+    const double t160 = rs1*(t102*t129 - t103*t72);
+    const double t161 = rs1*(-t106*t72 + t109*t129);
+    const double t162 = rs1*(t113*t129 - t114*t72);
+    const double t163 = rs1*(t117*t129 - t120*t72);
+    const double t164 = rs1*(t125*t129 - t128*t72);
+    const double t165 = D2_11*rD2*t133 - t131*t132;
+    const double t166 = D2_11*rD2*t135 - t132*t134;
+    const double t167 = D2_11*rD2*t137 - t132*t136;
+    const double t168 = D2_11*rD2*t139 - t132*t138;
+    const double t169 = D2_11*rD2*t141 - t132*t140;
+    const double t170 = D2_11*rD2*t143 - t132*t142;
+    const double t171 = D2_11*rD2*t144 - t132*t145;
+    const double t172 = D2_11*rD2*t147 - t132*t146;
+    const double t173 = rs3*(t131*t148 - t132*t133);
+    const double t174 = rs3*(-t132*t135 + t134*t148);
+    const double t175 = rs3*(D2_00*rD2*t136 - qdd3*t19 - t132*t137);
+    const double t176 = rs3*(-t132*t139 + t138*t148);
+    const double t177 = rs3*(-t132*t141 + t140*t148);
+    const double t178 = rs3*(-t132*t143 + t142*t148);
+    const double t179 = rs3*(-t132*t144 + t145*t148);
+    const double t180 = rs3*(-t132*t147 + t146*t148);
     J[0] = 0;
     J[1] = 0;
     J[2] = 0;
@@ -1448,48 +1508,54 @@ int spherical_std_jacobian(const double *restrict y, const double *restrict p, d
     J[29] = 0;
     J[30] = 0;
     J[31] = 1;
-    J[32] = D1_11*rD1*t74 - t68*t69;
-    J[33] = D1_11*rD1*t86 - t69*t82;
-    J[34] = D1_11*rD1*t95 - t69*t93;
-    J[35] = D1_11*rD1*t100 - t69*t99;
-    J[36] = D1_11*rD1*t103 - t105*t69;
-    J[37] = D1_11*rD1*t110 - t109*t69;
-    J[38] = D1_11*rD1*t116 - t113*t69;
-    J[39] = D1_11*rD1*t124 - t121*t69;
-    J[40] = rs1*(D1_00*rD1*t68 - qdd1*t9 - t69*t74);
-    J[41] = rs1*(t125*t82 - t69*t86);
-    J[42] = rs1*(t125*t93 - t69*t95);
-    J[43] = rs1*(-t100*t69 + t125*t99);
-    J[44] = rs1*(-t103*t69 + t105*t125);
-    J[45] = rs1*(t109*t125 - t110*t69);
-    J[46] = rs1*(t113*t125 - t116*t69);
-    J[47] = rs1*(t121*t125 - t124*t69);
-    J[48] = D2_11*rD2*t129 - t127*t128;
-    J[49] = D2_11*rD2*t131 - t128*t130;
-    J[50] = D2_11*rD2*t133 - t128*t132;
-    J[51] = D2_11*rD2*t135 - t128*t134;
-    J[52] = D2_11*rD2*t137 - t128*t136;
-    J[53] = D2_11*rD2*t139 - t128*t138;
-    J[54] = D2_11*rD2*t140 - t128*t141;
-    J[55] = D2_11*rD2*t143 - t128*t142;
-    J[56] = rs3*(t127*t144 - t128*t129);
-    J[57] = rs3*(-t128*t131 + t130*t144);
-    J[58] = rs3*(D2_00*rD2*t132 - qdd3*t18 - t128*t133);
-    J[59] = rs3*(-t128*t135 + t134*t144);
-    J[60] = rs3*(-t128*t137 + t136*t144);
-    J[61] = rs3*(-t128*t139 + t138*t144);
-    J[62] = rs3*(-t128*t140 + t141*t144);
-    J[63] = rs3*(-t128*t143 + t142*t144);
+    J[32] = t149;
+    J[33] = t150;
+    J[34] = t151;
+    J[35] = t152;
+    J[36] = t153;
+    J[37] = t154;
+    J[38] = t155;
+    J[39] = t156;
+    J[40] = t157;
+    J[41] = t158;
+    J[42] = t159;
+    J[43] = t160;
+    J[44] = t161;
+    J[45] = t162;
+    J[46] = t163;
+    J[47] = t164;
+    J[48] = t165;
+    J[49] = t166;
+    J[50] = t167;
+    J[51] = t168;
+    J[52] = t169;
+    J[53] = t170;
+    J[54] = t171;
+    J[55] = t172;
+    J[56] = t173;
+    J[57] = t174;
+    J[58] = t175;
+    J[59] = t176;
+    J[60] = t177;
+    J[61] = t178;
+    J[62] = t179;
+    J[63] = t180;
     if (!(fabs(t0) >= (double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     if (!(fabs(t1) >= (double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_JACOBIAN_J_SIZE; ++k) {
-        if (!isfinite(J[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t149 - t149) + (t150 - t150) + (t151 - t151) + (t152 - t152) + (t153 - t153) +
+        (t154 - t154) + (t155 - t155) + (t156 - t156) + (t157 - t157) + (t158 - t158) +
+        (t159 - t159) + (t160 - t160) + (t161 - t161) + (t162 - t162) + (t163 - t163) +
+        (t164 - t164) + (t165 - t165) + (t166 - t166) + (t167 - t167) + (t168 - t168) +
+        (t169 - t169) + (t170 - t170) + (t171 - t171) + (t172 - t172) + (t173 - t173) +
+        (t174 - t174) + (t175 - t175) + (t176 - t176) + (t177 - t177) + (t178 - t178) +
+        (t179 - t179) + (t180 - t180);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1512,182 +1578,215 @@ int spherical_std_jacobian_batch(long n, const double *restrict y, long y_stride
 int spherical_std_jacobian_f(const float *restrict y, const float *restrict p, float *restrict J)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = sinf(y[2]);
     const float t2 = 1.0F/p[1];
     const float t3 = p[2]*p[2];
     const float t4 = p[0] + p[1];
-    const float Ab = p[3]*p[3];
     const float t5 = y[1] - y[3];
-    const float t6 = cosf(t5);
-    const float t7 = p[2]*p[3];
-    const float Q11 = t6*t7;
-    const float t8 = sinf(t5);
-    const float t9 = cosf(y[0]);
-    const float t10 = p[2]*t9;
-    const float t11 = p[3]*t10;
-    const float Q01 = t11*t8;
-    const float t12 = y[5]*y[5];
-    const float t13 = y[4]*y[4];
-    const float de1_2 = t0*y[4];
-    const float t14 = t7*t8;
+    const float t6 = sinf(t5);
+    const float t7 = cosf(y[0]);
+    const float t8 = p[2]*t7;
+    const float t9 = p[3]*t8;
+    const float Q01 = t6*t9;
+    const float t10 = y[5]*y[5];
+    const float t11 = y[4]*y[4];
+    const float t12 = t0*y[4];
+    const float t13 = p[2]*p[3];
+    const float t14 = t13*t6;
     const float t15 = t0*t14;
-    const float t16 = 2*y[5];
-    const float t17 = Q11*t16;
-    const float t18 = cosf(y[2]);
-    const float t19 = p[3]*t18;
-    const float t20 = p[2]*t19;
-    const float t21 = t20*t8;
-    const float Q10 = -t21;
-    const float t22 = Q01*Q01;
-    const float t23 = t0*t1;
-    const float t24 = t18*t9;
-    const float t25 = t23 + t24*t6;
-    const float Q00 = t25*t7;
-    const float M00 = t3*t4;
-    const float Aa = M00*t2;
+    const float t16 = cosf(t5);
+    const float Q11 = t13*t16;
+    const float t17 = 2*y[5];
+    const float t18 = Q11*t17;
+    const float Ab = p[3]*p[3];
+    const float t19 = cosf(y[2]);
+    const float t20 = p[3]*t19;
+    const float t21 = p[2]*t20;
+    const float t22 = t21*t6;
+    const float Q10 = -t22;
+    const float t23 = Q01*Q01;
+    const float t24 = t3*t4;
+    const float Aa = t2*t24;
     const float AaAb = Aa*Ab;
-    const float t26 = -AaAb;
-    const float t27 = Q00*Q00 + t26;
-    const float D1_00 = -t22 - t27;
+    const float t25 = -AaAb;
+    const float t26 = t0*t1;
+    const float t27 = t19*t7;
+    const float t28 = t16*t27 + t26;
+    const float Q00 = t13*t28;
+    const float t29 = Q00*Q00 + t25;
+    const float D1_00 = -t23 - t29;
     const float D1_01 = -Q00*Q10 - Q01*Q11;
-    const float t28 = Q10*Q10;
-    const float t29 = Q11*Q11 + t26;
-    const float D1_11 = -t28 - t29;
+    const float t30 = Q10*Q10;
+    const float t31 = Q11*Q11 + t25;
+    const float D1_11 = -t30 - t31;
     const float rD1 = 1.0F/(D1_00*D1_11 - D1_01*D1_01);
-    const float t30 = 2*y[7];
-    const float t31 = t30*y[6];
-    const float t32 = y[7]*y[7];
-    const float t33 = t1*t32;
-    const float t34 = y[6]*y[6];
-    const float t35 = t34*t7;
-    const float t36 = t35*t8;
-    const float t37 = t20*t6;
-    const float t38 = t9*y[4];
-    const float t39 = Aa*t16;
-    const float f1 = -t1*t36 - t14*t33 - t31*t37 - t38*t39;
-    const float t40 = p[3]*t1;
-    const float t41 = p[4]*t40;
-    const float t42 = t1*t18;
-    const float t43 = t0*t18;
-    const float t44 = t12*t43;
-    const float t45 = Q11*t44;
-    const float t46 = 2*y[4];
-    const float t47 = y[5]*t46;
-    const float t48 = t10*t8;
-    const float t49 = t19*t48;
-    const float t50 = t7*(t1*t9 - t43*t6);
-    const float f2 = Ab*t32*t42 - t13*t50 - t41 + t45 + t47*t49;
-    const float t51 = t18*y[6];
-    const float t52 = Ab*t30;
-    const float t53 = t0*t12;
-    const float t54 = t13*t7;
-    const float t55 = t54*t8;
-    const float t56 = t11*t6;
-    const float f3 = t0*t55 + t14*t53 - t47*t56 - t51*t52;
-    const float t57 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
-    const float t58 = p[2]*t0;
-    const float t59 = p[4]*t58;
-    const float t60 = t2*t4;
-    const float t61 = t19*t31;
-    const float t62 = t1*t9;
-    const float t63 = t43 - t6*t62;
-    const float f0 = p[2]*p[3]*t1*t32*t6*t9 + t0*t12*t2*t3*t4*t9 - t35*t63 - t48*t61 - t59*t60;
-    const float t64 = Ab*f0 - Q00*f2 - Q01*f3;
-    const float xr0 = -D1_01*t57 + D1_11*rD1*t64;
-    const float t65 = Q01*t12 + Q01*t13 + de1_2*t17 + t15*xr0;
-    const float t66 = -t25;
-    const float t67 = p[2]*p[3]*t12*t18*t6*t9 - t14*t43*t47 - t50*xr0 - t54*t66;
-    const float t68 = 2*Ab*y[5]*t0*t2*t3*t4*y[4] - Q10*t67 - Q11*t65;
-    const float t69 = D1_01*rD1;
-    const float t70 = t23*t6 + t24;
-    const float D2_00 = -t27 - t28;
+    const float t32 = 2*y[7];
+    const float t33 = t32*y[6];
+    const float t34 = y[7]*y[7];
+    const float t35 = t1*t34;
+    const float t36 = y[6]*y[6];
+    const float t37 = t13*t36;
+    const float t38 = t37*t6;
+    const float t39 = t16*t21;
+    const float t40 = t7*y[4];
+    const float t41 = y[5]*t40;
+    const float t42 = 2*Aa;
+    const float f1 = -t1*t38 - t14*t35 - t33*t39 - t41*t42;
+    const float t43 = p[3]*t1;
+    const float t44 = p[4]*t43;
+    const float t45 = t1*t19;
+    const float t46 = t0*t19;
+    const float t47 = t10*t46;
+    const float t48 = 2*y[4];
+    const float t49 = y[5]*t48;
+    const float t50 = t6*t8;
+    const float t51 = t20*t50;
+    const float t52 = t16*t46;
+    const float t53 = t13*(t1*t7 - t52);
+    const float f2 = Ab*t34*t45 + Q11*t47 - t11*t53 - t44 + t49*t51;
+    const float t54 = t19*y[6];
+    const float t55 = Ab*t32;
+    const float t56 = t0*t10;
+    const float t57 = t11*t13;
+    const float t58 = t57*t6;
+    const float t59 = t16*t9;
+    const float f3 = t0*t58 + t14*t56 - t49*t59 - t54*t55;
+    const float t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
+    const float t61 = p[2]*t0;
+    const float t62 = p[4]*t2*t4;
+    const float t63 = t20*t33;
+    const float t64 = t1*t7;
+    const float t65 = t16*t64;
+    const float t66 = t46 - t65;
+    const float f0 = p[2]*p[3]*t1*t16*t34*t7 + t0*t10*t2*t3*t4*t7 - t37*t66 - t50*t63 - t61*t62;
+    const float t67 = Ab*f0 - Q00*f2 - Q01*f3;
+    const float xr0 = -D1_01*t60 + D1_11*rD1*t67;
+    const float t68 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0;
+    const float t69 = -t28;
+    const float t70 = p[2]*p[3]*t10*t16*t19*t7 - t14*t46*t49 - t53*xr0 - t57*t69;
+    const float t71 = 2*Ab*y[5]*t0*t2*t3*t4*y[4] - Q10*t70 - Q11*t68;
+    const float t72 = D1_01*rD1;
+    const float t73 = t16*t26;
+    const float t74 = t27 + t73;
+    const float D2_00 = -t29 - t30;
     const float D2_01 = -Q00*Q01 - Q10*Q11;
-    const float D2_11 = -t22 - t29;
+    const float D2_11 = -t23 - t31;
     const float rD2 = 1.0F/(D2_00*D2_11 - D2_01*D2_01);
-    const float t71 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
-    const float t72 = Aa*f2 - Q00*f0 - Q10*f1;
-    const float xr2 = -D2_01*t71 + D2_11*rD2*t72;
-    const float xr3 = D2_00*t71 - D2_01*rD2*t72;
-    const float t73 = -Q11*t23*t32 - p[4]*t10*t60 + 2*p[2]*p[3]*y[7]*t0*t18*t8*y[6] + p[2]*p[3]*t0*t8*xr3 + t12*t2*t3*t4*(2*t9*t9 - 1) - t35*t70 - t50*xr2;
-    const float t74 = Ab*t73 - Q00*t67 - Q01*t65;
-    const float t75 = Q11*t13;
-    const float xr1 = D1_00*t57 - D1_01*rD1*t64;
-    const float t76 = t14*xr1;
-    const float t77 = Q01*t47 + Q11*t53 + t0*t75 - t56*xr0 + t76;
-    const float t78 = -Q11*t1*t34 - Q11*t33 + t14*xr3 + t21*t31 + t37*xr2;
-    const float t79 = t10*t6;
-    const float t80 = t47*t79;
-    const float t81 = -t14*t44 + t19*t80 + t37*xr1 - t43*t55 + t49*xr0;
-    const float t82 = Ab*t78 - Q10*t81 - Q11*t77;
-    const float t83 = t14*t62;
-    const float t84 = -p[2]*p[3]*t18*t8*t9*xr2 + t32*t83 + t36*t62 + t56*xr3 + t61*t79;
-    const float t85 = -t84;
-    const float t86 = Ab*t85 - Q00*t81 - Q01*t77;
-    const float de2_2 = t1*y[6];
-    const float t87 = de2_2*t52;
-    const float t88 = t1*t14;
-    const float t89 = 2*p[2]*p[3]*y[7]*t1*t6*y[6] - t21*t32 - t21*t34 - t88*xr2;
-    const float t90 = Q11*t23;
-    const float t91 = t63*t7;
-    const float t92 = Ab*t32*(2*t18*t18 - 1) - p[4]*t19 - t1*t76 - t12*t90 - t47*t83 - t54*t70 - t91*xr0;
-    const float t93 = Ab*t89 - Q10*t92 - Q11*t87;
-    const float t94 = t19*t32*t79 + t31*t83 - t35*t66 - t91*xr2;
-    const float t95 = Ab*t94 - Q00*t92 - Q01*t87;
-    const float t96 = -t78;
-    const float t97 = -t77;
-    const float t98 = -t81;
-    const float t99 = Ab*t96 - Q10*t98 - Q11*t97;
-    const float t100 = Ab*t84 - Q00*t98 - Q01*t97;
-    const float t101 = 2*p[2]*p[3]*t0*t8*y[4] - t16*t56;
-    const float t102 = t16*t49 - t46*t50;
-    const float t103 = -Q00*t102 - Q01*t101;
-    const float t104 = t39*t9;
-    const float t105 = -Ab*t104 - Q10*t102 - Q11*t101;
-    const float t106 = 2*Aa*t38;
-    const float t107 = t15*t16 - t46*t56;
-    const float t108 = t17*t43 + t46*t49;
-    const float t109 = -Ab*t106 - Q10*t108 - Q11*t107;
-    const float t110 = 2*Ab*y[5]*t0*t2*t3*t4*t9 - Q00*t108 - Q01*t107;
-    const float t111 = t18*t52;
-    const float t112 = -2*de2_2*t14 - t30*t37;
-    const float t113 = Ab*t112 + Q11*t111;
-    const float t114 = 2*y[6];
-    const float t115 = -t114*t91 - t30*t49;
-    const float t116 = Ab*t115 + Q01*t111;
-    const float t117 = Ab*t51;
-    const float t118 = 2*t117;
-    const float t119 = t42*t52;
-    const float t120 = -t114*t37 - t30*t88;
-    const float t121 = Ab*t120 - Q10*t119 + Q11*t118;
-    const float t122 = 2*Q01;
-    const float t123 = Q11*t30*t62 - t114*t49;
-    const float t124 = Ab*t123 - Q00*t119 + t117*t122;
+    const float t75 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
+    const float t76 = Aa*f2 - Q00*f0 - Q10*f1;
+    const float xr2 = -D2_01*t75 + D2_11*rD2*t76;
+    const float xr3 = D2_00*t75 - D2_01*rD2*t76;
+    const float t77 = -Q11*t26*t34 + 2*p[2]*p[3]*y[7]*t0*t19*t6*y[6] + p[2]*p[3]*t0*t6*xr3 + t10*t2*t3*t4*(2*t7*t7 - 1) - t37*t74 - t53*xr2 - t62*t8;
+    const float t78 = Ab*t77 - Q00*t70 - Q01*t68;
+    const float xr1 = D1_00*t60 - D1_01*rD1*t67;
+    const float t79 = t14*xr1;
+    const float t80 = Q01*t49 + Q11*t0*t11 + Q11*t56 - t59*xr0 + t79;
+    const float t81 = -Q11*t1*t36 - Q11*t35 + t14*xr3 + t22*t33 + t39*xr2;
+    const float t82 = t16*t8;
+    const float t83 = t49*t82;
+    const float t84 = -t14*t47 + t20*t83 + t39*xr1 - t46*t58 + t51*xr0;
+    const float t85 = Ab*t81 - Q10*t84 - Q11*t80;
+    const float t86 = t14*t64;
+    const float t87 = -p[2]*p[3]*t19*t6*t7*xr2 + t34*t86 + t38*t64 + t59*xr3 + t63*t82;
+    const float t88 = -t87;
+    const float t89 = Ab*t88 - Q00*t84 - Q01*t80;
+    const float t90 = t1*y[6];
+    const float t91 = t55*t90;
+    const float t92 = t1*t14;
+    const float t93 = 2*p[2]*p[3]*y[7]*t1*t16*y[6] - t22*t34 - t22*t36 - t92*xr2;
+    const float t94 = t13*t66;
+    const float t95 = Ab*t34*(2*t19*t19 - 1) - Q11*t10*t26 - p[4]*t20 - t1*t79 - t49*t86 - t57*t74 - t94*xr0;
+    const float t96 = Ab*t93 - Q10*t95 - Q11*t91;
+    const float t97 = t20*t34*t82 + t33*t86 - t37*t69 - t94*xr2;
+    const float t98 = Ab*t97 - Q00*t95 - Q01*t91;
+    const float t99 = -t81;
+    const float t100 = -t80;
+    const float t101 = -t84;
+    const float t102 = Ab*t99 - Q10*t101 - Q11*t100;
+    const float t103 = Ab*t87 - Q00*t101 - Q01*t100;
+    const float t104 = 2*p[2]*p[3]*t0*t6*y[4] - t17*t59;
+    const float t105 = t17*t51 - t48*t53;
+    const float t106 = -Q00*t105 - Q01*t104;
+    const float t107 = Aa*t17;
+    const float t108 = t107*t7;
+    const float t109 = -Ab*t108 - Q10*t105 - Q11*t104;
+    const float t110 = t40*t42;
+    const float t111 = t15*t17 - t48*t59;
+    const float t112 = t18*t46 + t48*t51;
+    const float t113 = -Ab*t110 - Q10*t112 - Q11*t111;
+    const float t114 = 2*Ab*y[5]*t0*t2*t3*t4*t7 - Q00*t112 - Q01*t111;
+    const float t115 = t19*t55;
+    const float t116 = -2*t14*t90 - t32*t39;
+    const float t117 = Ab*t116 + Q11*t115;
+    const float t118 = 2*y[6];
+    const float t119 = -t118*t94 - t32*t51;
+    const float t120 = Ab*t119 + Q01*t115;
+    const float t121 = Ab*t54;
+    const float t122 = 2*t121;
+    const float t123 = t45*t55;
+    const float t124 = -t118*t39 - t32*t92;
+    const float t125 = Ab*t124 - Q10*t123 + Q11*t122;
+    const float t126 = 2*Q01;
+    const float t127 = Q11*t32*t64 - t118*t51;
+    const float t128 = Ab*t127 - Q00*t123 + t121*t126;
     const float rs1 = 1.0F/t0;
     const float qdd1 = rs1*xr1;
-    const float t125 = D1_00*rD1;
-    const float t126 = de1_2*t39;
-    const float t127 = Aa*t65 - Q01*t73 - Q11*t126;
-    const float t128 = D2_01*rD2;
-    const float t129 = Aa*t67 - Q00*t73 - Q10*t126;
-    const float t130 = Aa*t77 - Q01*t85 - Q11*t78;
-    const float t131 = Aa*t81 - Q00*t85 - Q10*t78;
-    const float t132 = 2*Aa*Ab*y[7]*t1*y[6] - Q01*t94 - Q11*t89;
-    const float t133 = Aa*t92 - Q00*t94 - Q10*t89;
-    const float t134 = Aa*t97 - Q01*t84 - Q11*t96;
-    const float t135 = Aa*t98 - Q00*t84 - Q10*t96;
-    const float t136 = Aa*t101 + Q11*t104;
-    const float t137 = Aa*t102 + Q10*t104;
-    const float t138 = -Aa*y[5]*t0*t122*t9 + Aa*t107 + Q11*t106;
-    const float t139 = Aa*t108 - Q00*t0*t104 + Q10*t106;
-    const float t140 = -Q00*t115 - Q10*t112;
-    const float t141 = -Aa*t111 - Q01*t115 - Q11*t112;
-    const float t142 = -Aa*t118 - Q01*t123 - Q11*t120;
-    const float t143 = 2*Aa*Ab*y[7]*t1*t18 - Q00*t123 - Q10*t120;
-    const float t144 = D2_00*rD2;
+    const float t129 = D1_00*rD1;
+    const float t130 = t107*t12;
+    const float t131 = Aa*t68 - Q01*t77 - Q11*t130;
+    const float t132 = D2_01*rD2;
+    const float t133 = Aa*t70 - Q00*t77 - Q10*t130;
+    const float t134 = Aa*t80 - Q01*t88 - Q11*t81;
+    const float t135 = Aa*t84 - Q00*t88 - Q10*t81;
+    const float t136 = 2*Aa*Ab*y[7]*t1*y[6] - Q01*t97 - Q11*t93;
+    const float t137 = Aa*t95 - Q00*t97 - Q10*t93;
+    const float t138 = Aa*t100 - Q01*t87 - Q11*t99;
+    const float t139 = Aa*t101 - Q00*t87 - Q10*t99;
+    const float t140 = Aa*t104 + Q11*t108;
+    const float t141 = Aa*t105 + Q10*t108;
+    const float t142 = -Aa*y[5]*t0*t126*t7 + Aa*t111 + Q11*t110;
+    const float t143 = Aa*t112 - Q00*t0*t108 + Q10*t110;
+    const float t144 = -Q00*t119 - Q10*t116;
+    const float t145 = -Aa*t115 - Q01*t119 - Q11*t116;
+    const float t146 = -Aa*t122 - Q01*t127 - Q11*t124;
+    const float t147 = 2*Aa*Ab*y[7]*t1*t19 - Q00*t127 - Q10*t124;
+    const float t148 = D2_00*rD2;
     const float rs3 = 1.0F/t1;
     const float qdd3 = rs3*xr3;
+    const float t149 = D1_11*rD1*t78 - t71*t72;
+    const float t150 = D1_11*rD1*t89 - t72*t85;
+    const float t151 = D1_11*rD1*t98 - t72*t96;
+    const float t152 = D1_11*rD1*t103 - t102*t72;
+    const float t153 = D1_11*rD1*t106 - t109*t72;
+    const float t154 = D1_11*rD1*t114 - t113*t72;
+    const float t155 = D1_11*rD1*t120 - t117*t72;
+    const float t156 = D1_11*rD1*t128 - t125*t72;
+    const float t157 = rs1*(D1_00*rD1*t71 - qdd1*t7 - t72*t78);
+    const float t158 = rs1*(t129*t85 - t72*t89);
+    const float t159 = rs1*(t129*t96 - t72*t98);
+    const float t160 = rs1*(t102*t129 - t103*t72);
+    const float t161 = rs1*(-t106*t72 + t109*t129);
+    const float t162 = rs1*(t113*t129 - t114*t72);
+    const float t163 = rs1*(t117*t129 - t120*t72);
+    const float t164 = rs1*(t125*t129 - t128*t72);
+    const float t165 = D2_11*rD2*t133 - t131*t132;
+    const float t166 = D2_11*rD2*t135 - t132*t134;
+    const float t167 = D2_11*rD2*t137 - t132*t136;
+    const float t168 = D2_11*rD2*t139 - t132*t138;
+    const float t169 = D2_11*rD2*t141 - t132*t140;
+    const float t170 = D2_11*rD2*t143 - t132*t142;
+    const float t171 = D2_11*rD2*t144 - t132*t145;
+    const float t172 = D2_11*rD2*t147 - t132*t146;
+    const float t173 = rs3*(t131*t148 - t132*t133);
+    const float t174 = rs3*(-t132*t135 + t134*t148);
+    const float t175 = rs3*(D2_00*rD2*t136 - qdd3*t19 - t132*t137);
+    const float t176 = rs3*(-t132*t139 + t138*t148);
+    const float t177 = rs3*(-t132*t141 + t140*t148);
+    const float t178 = rs3*(-t132*t143 + t142*t148);
+    const float t179 = rs3*(-t132*t144 + t145*t148);
+    const float t180 = rs3*(-t132*t147 + t146*t148);
     J[0] = 0;
     J[1] = 0;
     J[2] = 0;
@@ -1720,48 +1819,54 @@ int spherical_std_jacobian_f(const float *restrict y, const float *restrict p, f
     J[29] = 0;
     J[30] = 0;
     J[31] = 1;
-    J[32] = D1_11*rD1*t74 - t68*t69;
-    J[33] = D1_11*rD1*t86 - t69*t82;
-    J[34] = D1_11*rD1*t95 - t69*t93;
-    J[35] = D1_11*rD1*t100 - t69*t99;
-    J[36] = D1_11*rD1*t103 - t105*t69;
-    J[37] = D1_11*rD1*t110 - t109*t69;
-    J[38] = D1_11*rD1*t116 - t113*t69;
-    J[39] = D1_11*rD1*t124 - t121*t69;
-    J[40] = rs1*(D1_00*rD1*t68 - qdd1*t9 - t69*t74);
-    J[41] = rs1*(t125*t82 - t69*t86);
-    J[42] = rs1*(t125*t93 - t69*t95);
-    J[43] = rs1*(-t100*t69 + t125*t99);
-    J[44] = rs1*(-t103*t69 + t105*t125);
-    J[45] = rs1*(t109*t125 - t110*t69);
-    J[46] = rs1*(t113*t125 - t116*t69);
-    J[47] = rs1*(t121*t125 - t124*t69);
-    J[48] = D2_11*rD2*t129 - t127*t128;
-    J[49] = D2_11*rD2*t131 - t128*t130;
-    J[50] = D2_11*rD2*t133 - t128*t132;
-    J[51] = D2_11*rD2*t135 - t128*t134;
-    J[52] = D2_11*rD2*t137 - t128*t136;
-    J[53] = D2_11*rD2*t139 - t128*t138;
-    J[54] = D2_11*rD2*t140 - t128*t141;
-    J[55] = D2_11*rD2*t143 - t128*t142;
-    J[56] = rs3*(t127*t144 - t128*t129);
-    J[57] = rs3*(-t128*t131 + t130*t144);
-    J[58] = rs3*(D2_00*rD2*t132 - qdd3*t18 - t128*t133);
-    J[59] = rs3*(-t128*t135 + t134*t144);
-    J[60] = rs3*(-t128*t137 + t136*t144);
-    J[61] = rs3*(-t128*t139 + t138*t144);
-    J[62] = rs3*(-t128*t140 + t141*t144);
-    J[63] = rs3*(-t128*t143 + t142*t144);
+    J[32] = t149;
+    J[33] = t150;
+    J[34] = t151;
+    J[35] = t152;
+    J[36] = t153;
+    J[37] = t154;
+    J[38] = t155;
+    J[39] = t156;
+    J[40] = t157;
+    J[41] = t158;
+    J[42] = t159;
+    J[43] = t160;
+    J[44] = t161;
+    J[45] = t162;
+    J[46] = t163;
+    J[47] = t164;
+    J[48] = t165;
+    J[49] = t166;
+    J[50] = t167;
+    J[51] = t168;
+    J[52] = t169;
+    J[53] = t170;
+    J[54] = t171;
+    J[55] = t172;
+    J[56] = t173;
+    J[57] = t174;
+    J[58] = t175;
+    J[59] = t176;
+    J[60] = t177;
+    J[61] = t178;
+    J[62] = t179;
+    J[63] = t180;
     if (!(fabsf(t0) >= (float)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     if (!(fabsf(t1) >= (float)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_JACOBIAN_J_SIZE; ++k) {
-        if (!isfinite(J[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t149 - t149) + (t150 - t150) + (t151 - t151) + (t152 - t152) + (t153 - t153) +
+        (t154 - t154) + (t155 - t155) + (t156 - t156) + (t157 - t157) + (t158 - t158) +
+        (t159 - t159) + (t160 - t160) + (t161 - t161) + (t162 - t162) + (t163 - t163) +
+        (t164 - t164) + (t165 - t165) + (t166 - t166) + (t167 - t167) + (t168 - t168) +
+        (t169 - t169) + (t170 - t170) + (t171 - t171) + (t172 - t172) + (t173 - t173) +
+        (t174 - t174) + (t175 - t175) + (t176 - t176) + (t177 - t177) + (t178 - t178) +
+        (t179 - t179) + (t180 - t180);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -1784,182 +1889,215 @@ int spherical_std_jacobian_batch_f(long n, const float *restrict y, long y_strid
 int spherical_std_jacobian_l(const long double *restrict y, const long double *restrict p, long double *restrict J)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = sinl(y[2]);
     const long double t2 = 1.0L/p[1];
     const long double t3 = p[2]*p[2];
     const long double t4 = p[0] + p[1];
-    const long double Ab = p[3]*p[3];
     const long double t5 = y[1] - y[3];
-    const long double t6 = cosl(t5);
-    const long double t7 = p[2]*p[3];
-    const long double Q11 = t6*t7;
-    const long double t8 = sinl(t5);
-    const long double t9 = cosl(y[0]);
-    const long double t10 = p[2]*t9;
-    const long double t11 = p[3]*t10;
-    const long double Q01 = t11*t8;
-    const long double t12 = y[5]*y[5];
-    const long double t13 = y[4]*y[4];
-    const long double de1_2 = t0*y[4];
-    const long double t14 = t7*t8;
+    const long double t6 = sinl(t5);
+    const long double t7 = cosl(y[0]);
+    const long double t8 = p[2]*t7;
+    const long double t9 = p[3]*t8;
+    const long double Q01 = t6*t9;
+    const long double t10 = y[5]*y[5];
+    const long double t11 = y[4]*y[4];
+    const long double t12 = t0*y[4];
+    const long double t13 = p[2]*p[3];
+    const long double t14 = t13*t6;
     const long double t15 = t0*t14;
-    const long double t16 = 2*y[5];
-    const long double t17 = Q11*t16;
-    const long double t18 = cosl(y[2]);
-    const long double t19 = p[3]*t18;
-    const long double t20 = p[2]*t19;
-    const long double t21 = t20*t8;
-    const long double Q10 = -t21;
-    const long double t22 = Q01*Q01;
-    const long double t23 = t0*t1;
-    const long double t24 = t18*t9;
-    const long double t25 = t23 + t24*t6;
-    const long double Q00 = t25*t7;
-    const long double M00 = t3*t4;
-    const long double Aa = M00*t2;
+    const long double t16 = cosl(t5);
+    const long double Q11 = t13*t16;
+    const long double t17 = 2*y[5];
+    const long double t18 = Q11*t17;
+    const long double Ab = p[3]*p[3];
+    const long double t19 = cosl(y[2]);
+    const long double t20 = p[3]*t19;
+    const long double t21 = p[2]*t20;
+    const long double t22 = t21*t6;
+    const long double Q10 = -t22;
+    const long double t23 = Q01*Q01;
+    const long double t24 = t3*t4;
+    const long double Aa = t2*t24;
     const long double AaAb = Aa*Ab;
-    const long double t26 = -AaAb;
-    const long double t27 = Q00*Q00 + t26;
-    const long double D1_00 = -t22 - t27;
+    const long double t25 = -AaAb;
+    const long double t26 = t0*t1;
+    const long double t27 = t19*t7;
+    const long double t28 = t16*t27 + t26;
+    const long double Q00 = t13*t28;
+    const long double t29 = Q00*Q00 + t25;
+    const long double D1_00 = -t23 - t29;
     const long double D1_01 = -Q00*Q10 - Q01*Q11;
-    const long double t28 = Q10*Q10;
-    const long double t29 = Q11*Q11 + t26;
-    const long double D1_11 = -t28 - t29;
+    const long double t30 = Q10*Q10;
+    const long double t31 = Q11*Q11 + t25;
+    const long double D1_11 = -t30 - t31;
     const long double rD1 = 1.0L/(D1_00*D1_11 - D1_01*D1_01);
-    const long double t30 = 2*y[7];
-    const long double t31 = t30*y[6];
-    const long double t32 = y[7]*y[7];
-    const long double t33 = t1*t32;
-    const long double t34 = y[6]*y[6];
-    const long double t35 = t34*t7;
-    const long double t36 = t35*t8;
-    const long double t37 = t20*t6;
-    const long double t38 = t9*y[4];
-    const long double t39 = Aa*t16;
-    const long double f1 = -t1*t36 - t14*t33 - t31*t37 - t38*t39;
-    const long double t40 = p[3]*t1;
-    const long double t41 = p[4]*t40;
-    const long double t42 = t1*t18;
-    const long double t43 = t0*t18;
-    const long double t44 = t12*t43;
-    const long double t45 = Q11*t44;
-    const long double t46 = 2*y[4];
-    const long double t47 = y[5]*t46;
-    const long double t48 = t10*t8;
-    const long double t49 = t19*t48;
-    const long double t50 = t7*(t1*t9 - t43*t6);
-    const long double f2 = Ab*t32*t42 - t13*t50 - t41 + t45 + t47*t49;
-    const long double t51 = t18*y[6];
-    const long double t52 = Ab*t30;
-    const long double t53 = t0*t12;
-    const long double t54 = t13*t7;
-    const long double t55 = t54*t8;
-    const long double t56 = t11*t6;
-    const long double f3 = t0*t55 + t14*t53 - t47*t56 - t51*t52;
-    const long double t57 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
-    const long double t58 = p[2]*t0;
-    const long double t59 = p[4]*t58;
-    const long double t60 = t2*t4;
-    const long double t61 = t19*t31;
-    const long double t62 = t1*t9;
-    const long double t63 = t43 - t6*t62;
-    const long double f0 = p[2]*p[3]*t1*t32*t6*t9 + t0*t12*t2*t3*t4*t9 - t35*t63 - t48*t61 - t59*t60;
-    const long double t64 = Ab*f0 - Q00*f2 - Q01*f3;
-    const long double xr0 = -D1_01*t57 + D1_11*rD1*t64;
-    const long double t65 = Q01*t12 + Q01*t13 + de1_2*t17 + t15*xr0;
-    const long double t66 = -t25;
-    const long double t67 = p[2]*p[3]*t12*t18*t6*t9 - t14*t43*t47 - t50*xr0 - t54*t66;
-    const long double t68 = 2*Ab*y[5]*t0*t2*t3*t4*y[4] - Q10*t67 - Q11*t65;
-    const long double t69 = D1_01*rD1;
-    const long double t70 = t23*t6 + t24;
-    const long double D2_00 = -t27 - t28;
+    const long double t32 = 2*y[7];
+    const long double t33 = t32*y[6];
+    const long double t34 = y[7]*y[7];
+    const long double t35 = t1*t34;
+    const long double t36 = y[6]*y[6];
+    const long double t37 = t13*t36;
+    const long double t38 = t37*t6;
+    const long double t39 = t16*t21;
+    const long double t40 = t7*y[4];
+    const long double t41 = y[5]*t40;
+    const long double t42 = 2*Aa;
+    const long double f1 = -t1*t38 - t14*t35 - t33*t39 - t41*t42;
+    const long double t43 = p[3]*t1;
+    const long double t44 = p[4]*t43;
+    const long double t45 = t1*t19;
+    const long double t46 = t0*t19;
+    const long double t47 = t10*t46;
+    const long double t48 = 2*y[4];
+    const long double t49 = y[5]*t48;
+    const long double t50 = t6*t8;
+    const long double t51 = t20*t50;
+    const long double t52 = t16*t46;
+    const long double t53 = t13*(t1*t7 - t52);
+    const long double f2 = Ab*t34*t45 + Q11*t47 - t11*t53 - t44 + t49*t51;
+    const long double t54 = t19*y[6];
+    const long double t55 = Ab*t32;
+    const long double t56 = t0*t10;
+    const long double t57 = t11*t13;
+    const long double t58 = t57*t6;
+    const long double t59 = t16*t9;
+    const long double f3 = t0*t58 + t14*t56 - t49*t59 - t54*t55;
+    const long double t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3);
+    const long double t61 = p[2]*t0;
+    const long double t62 = p[4]*t2*t4;
+    const long double t63 = t20*t33;
+    const long double t64 = t1*t7;
+    const long double t65 = t16*t64;
+    const long double t66 = t46 - t65;
+    const long double f0 = p[2]*p[3]*t1*t16*t34*t7 + t0*t10*t2*t3*t4*t7 - t37*t66 - t50*t63 - t61*t62;
+    const long double t67 = Ab*f0 - Q00*f2 - Q01*f3;
+    const long double xr0 = -D1_01*t60 + D1_11*rD1*t67;
+    const long double t68 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0;
+    const long double t69 = -t28;
+    const long double t70 = p[2]*p[3]*t10*t16*t19*t7 - t14*t46*t49 - t53*xr0 - t57*t69;
+    const long double t71 = 2*Ab*y[5]*t0*t2*t3*t4*y[4] - Q10*t70 - Q11*t68;
+    const long double t72 = D1_01*rD1;
+    const long double t73 = t16*t26;
+    const long double t74 = t27 + t73;
+    const long double D2_00 = -t29 - t30;
     const long double D2_01 = -Q00*Q01 - Q10*Q11;
-    const long double D2_11 = -t22 - t29;
+    const long double D2_11 = -t23 - t31;
     const long double rD2 = 1.0L/(D2_00*D2_11 - D2_01*D2_01);
-    const long double t71 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
-    const long double t72 = Aa*f2 - Q00*f0 - Q10*f1;
-    const long double xr2 = -D2_01*t71 + D2_11*rD2*t72;
-    const long double xr3 = D2_00*t71 - D2_01*rD2*t72;
-    const long double t73 = -Q11*t23*t32 - p[4]*t10*t60 + 2*p[2]*p[3]*y[7]*t0*t18*t8*y[6] + p[2]*p[3]*t0*t8*xr3 + t12*t2*t3*t4*(2*t9*t9 - 1) - t35*t70 - t50*xr2;
-    const long double t74 = Ab*t73 - Q00*t67 - Q01*t65;
-    const long double t75 = Q11*t13;
-    const long double xr1 = D1_00*t57 - D1_01*rD1*t64;
-    const long double t76 = t14*xr1;
-    const long double t77 = Q01*t47 + Q11*t53 + t0*t75 - t56*xr0 + t76;
-    const long double t78 = -Q11*t1*t34 - Q11*t33 + t14*xr3 + t21*t31 + t37*xr2;
-    const long double t79 = t10*t6;
-    const long double t80 = t47*t79;
-    const long double t81 = -t14*t44 + t19*t80 + t37*xr1 - t43*t55 + t49*xr0;
-    const long double t82 = Ab*t78 - Q10*t81 - Q11*t77;
-    const long double t83 = t14*t62;
-    const long double t84 = -p[2]*p[3]*t18*t8*t9*xr2 + t32*t83 + t36*t62 + t56*xr3 + t61*t79;
-    const long double t85 = -t84;
-    const long double t86 = Ab*t85 - Q00*t81 - Q01*t77;
-    const long double de2_2 = t1*y[6];
-    const long double t87 = de2_2*t52;
-    const long double t88 = t1*t14;
-    const long double t89 = 2*p[2]*p[3]*y[7]*t1*t6*y[6] - t21*t32 - t21*t34 - t88*xr2;
-    const long double t90 = Q11*t23;
-    const long double t91 = t63*t7;
-    const long double t92 = Ab*t32*(2*t18*t18 - 1) - p[4]*t19 - t1*t76 - t12*t90 - t47*t83 - t54*t70 - t91*xr0;
-    const long double t93 = Ab*t89 - Q10*t92 - Q11*t87;
-    const long double t94 = t19*t32*t79 + t31*t83 - t35*t66 - t91*xr2;
-    const long double t95 = Ab*t94 - Q00*t92 - Q01*t87;
-    const long double t96 = -t78;
-    const long double t97 = -t77;
-    const long double t98 = -t81;
-    const long double t99 = Ab*t96 - Q10*t98 - Q11*t97;
-    const long double t100 = Ab*t84 - Q00*t98 - Q01*t97;
-    const long double t101 = 2*p[2]*p[3]*t0*t8*y[4] - t16*t56;
-    const long double t102 = t16*t49 - t46*t50;
-    const long double t103 = -Q00*t102 - Q01*t101;
-    const long double t104 = t39*t9;
-    const long double t105 = -Ab*t104 - Q10*t102 - Q11*t101;
-    const long double t106 = 2*Aa*t38;
-    const long double t107 = t15*t16 - t46*t56;
-    const long double t108 = t17*t43 + t46*t49;
-    const long double t109 = -Ab*t106 - Q10*t108 - Q11*t107;
-    const long double t110 = 2*Ab*y[5]*t0*t2*t3*t4*t9 - Q00*t108 - Q01*t107;
-    const long double t111 = t18*t52;
-    const long double t112 = -2*de2_2*t14 - t30*t37;
-    const long double t113 = Ab*t112 + Q11*t111;
-    const long double t114 = 2*y[6];
-    const long double t115 = -t114*t91 - t30*t49;
-    const long double t116 = Ab*t115 + Q01*t111;
-    const long double t117 = Ab*t51;
-    const long double t118 = 2*t117;
-    const long double t119 = t42*t52;
-    const long double t120 = -t114*t37 - t30*t88;
-    const long double t121 = Ab*t120 - Q10*t119 + Q11*t118;
-    const long double t122 = 2*Q01;
-    const long double t123 = Q11*t30*t62 - t114*t49;
-    const long double t124 = Ab*t123 - Q00*t119 + t117*t122;
+    const long double t75 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
+    const long double t76 = Aa*f2 - Q00*f0 - Q10*f1;
+    const long double xr2 = -D2_01*t75 + D2_11*rD2*t76;
+    const long double xr3 = D2_00*t75 - D2_01*rD2*t76;
+    const long double t77 = -Q11*t26*t34 + 2*p[2]*p[3]*y[7]*t0*t19*t6*y[6] + p[2]*p[3]*t0*t6*xr3 + t10*t2*t3*t4*(2*t7*t7 - 1) - t37*t74 - t53*xr2 - t62*t8;
+    const long double t78 = Ab*t77 - Q00*t70 - Q01*t68;
+    const long double xr1 = D1_00*t60 - D1_01*rD1*t67;
+    const long double t79 = t14*xr1;
+    const long double t80 = Q01*t49 + Q11*t0*t11 + Q11*t56 - t59*xr0 + t79;
+    const long double t81 = -Q11*t1*t36 - Q11*t35 + t14*xr3 + t22*t33 + t39*xr2;
+    const long double t82 = t16*t8;
+    const long double t83 = t49*t82;
+    const long double t84 = -t14*t47 + t20*t83 + t39*xr1 - t46*t58 + t51*xr0;
+    const long double t85 = Ab*t81 - Q10*t84 - Q11*t80;
+    const long double t86 = t14*t64;
+    const long double t87 = -p[2]*p[3]*t19*t6*t7*xr2 + t34*t86 + t38*t64 + t59*xr3 + t63*t82;
+    const long double t88 = -t87;
+    const long double t89 = Ab*t88 - Q00*t84 - Q01*t80;
+    const long double t90 = t1*y[6];
+    const long double t91 = t55*t90;
+    const long double t92 = t1*t14;
+    const long double t93 = 2*p[2]*p[3]*y[7]*t1*t16*y[6] - t22*t34 - t22*t36 - t92*xr2;
+    const long double t94 = t13*t66;
+    const long double t95 = Ab*t34*(2*t19*t19 - 1) - Q11*t10*t26 - p[4]*t20 - t1*t79 - t49*t86 - t57*t74 - t94*xr0;
+    const long double t96 = Ab*t93 - Q10*t95 - Q11*t91;
+    const long double t97 = t20*t34*t82 + t33*t86 - t37*t69 - t94*xr2;
+    const long double t98 = Ab*t97 - Q00*t95 - Q01*t91;
+    const long double t99 = -t81;
+    const long double t100 = -t80;
+    const long double t101 = -t84;
+    const long double t102 = Ab*t99 - Q10*t101 - Q11*t100;
+    const long double t103 = Ab*t87 - Q00*t101 - Q01*t100;
+    const long double t104 = 2*p[2]*p[3]*t0*t6*y[4] - t17*t59;
+    const long double t105 = t17*t51 - t48*t53;
+    const long double t106 = -Q00*t105 - Q01*t104;
+    const long double t107 = Aa*t17;
+    const long double t108 = t107*t7;
+    const long double t109 = -Ab*t108 - Q10*t105 - Q11*t104;
+    const long double t110 = t40*t42;
+    const long double t111 = t15*t17 - t48*t59;
+    const long double t112 = t18*t46 + t48*t51;
+    const long double t113 = -Ab*t110 - Q10*t112 - Q11*t111;
+    const long double t114 = 2*Ab*y[5]*t0*t2*t3*t4*t7 - Q00*t112 - Q01*t111;
+    const long double t115 = t19*t55;
+    const long double t116 = -2*t14*t90 - t32*t39;
+    const long double t117 = Ab*t116 + Q11*t115;
+    const long double t118 = 2*y[6];
+    const long double t119 = -t118*t94 - t32*t51;
+    const long double t120 = Ab*t119 + Q01*t115;
+    const long double t121 = Ab*t54;
+    const long double t122 = 2*t121;
+    const long double t123 = t45*t55;
+    const long double t124 = -t118*t39 - t32*t92;
+    const long double t125 = Ab*t124 - Q10*t123 + Q11*t122;
+    const long double t126 = 2*Q01;
+    const long double t127 = Q11*t32*t64 - t118*t51;
+    const long double t128 = Ab*t127 - Q00*t123 + t121*t126;
     const long double rs1 = 1.0L/t0;
     const long double qdd1 = rs1*xr1;
-    const long double t125 = D1_00*rD1;
-    const long double t126 = de1_2*t39;
-    const long double t127 = Aa*t65 - Q01*t73 - Q11*t126;
-    const long double t128 = D2_01*rD2;
-    const long double t129 = Aa*t67 - Q00*t73 - Q10*t126;
-    const long double t130 = Aa*t77 - Q01*t85 - Q11*t78;
-    const long double t131 = Aa*t81 - Q00*t85 - Q10*t78;
-    const long double t132 = 2*Aa*Ab*y[7]*t1*y[6] - Q01*t94 - Q11*t89;
-    const long double t133 = Aa*t92 - Q00*t94 - Q10*t89;
-    const long double t134 = Aa*t97 - Q01*t84 - Q11*t96;
-    const long double t135 = Aa*t98 - Q00*t84 - Q10*t96;
-    const long double t136 = Aa*t101 + Q11*t104;
-    const long double t137 = Aa*t102 + Q10*t104;
-    const long double t138 = -Aa*y[5]*t0*t122*t9 + Aa*t107 + Q11*t106;
-    const long double t139 = Aa*t108 - Q00*t0*t104 + Q10*t106;
-    const long double t140 = -Q00*t115 - Q10*t112;
-    const long double t141 = -Aa*t111 - Q01*t115 - Q11*t112;
-    const long double t142 = -Aa*t118 - Q01*t123 - Q11*t120;
-    const long double t143 = 2*Aa*Ab*y[7]*t1*t18 - Q00*t123 - Q10*t120;
-    const long double t144 = D2_00*rD2;
+    const long double t129 = D1_00*rD1;
+    const long double t130 = t107*t12;
+    const long double t131 = Aa*t68 - Q01*t77 - Q11*t130;
+    const long double t132 = D2_01*rD2;
+    const long double t133 = Aa*t70 - Q00*t77 - Q10*t130;
+    const long double t134 = Aa*t80 - Q01*t88 - Q11*t81;
+    const long double t135 = Aa*t84 - Q00*t88 - Q10*t81;
+    const long double t136 = 2*Aa*Ab*y[7]*t1*y[6] - Q01*t97 - Q11*t93;
+    const long double t137 = Aa*t95 - Q00*t97 - Q10*t93;
+    const long double t138 = Aa*t100 - Q01*t87 - Q11*t99;
+    const long double t139 = Aa*t101 - Q00*t87 - Q10*t99;
+    const long double t140 = Aa*t104 + Q11*t108;
+    const long double t141 = Aa*t105 + Q10*t108;
+    const long double t142 = -Aa*y[5]*t0*t126*t7 + Aa*t111 + Q11*t110;
+    const long double t143 = Aa*t112 - Q00*t0*t108 + Q10*t110;
+    const long double t144 = -Q00*t119 - Q10*t116;
+    const long double t145 = -Aa*t115 - Q01*t119 - Q11*t116;
+    const long double t146 = -Aa*t122 - Q01*t127 - Q11*t124;
+    const long double t147 = 2*Aa*Ab*y[7]*t1*t19 - Q00*t127 - Q10*t124;
+    const long double t148 = D2_00*rD2;
     const long double rs3 = 1.0L/t1;
     const long double qdd3 = rs3*xr3;
+    const long double t149 = D1_11*rD1*t78 - t71*t72;
+    const long double t150 = D1_11*rD1*t89 - t72*t85;
+    const long double t151 = D1_11*rD1*t98 - t72*t96;
+    const long double t152 = D1_11*rD1*t103 - t102*t72;
+    const long double t153 = D1_11*rD1*t106 - t109*t72;
+    const long double t154 = D1_11*rD1*t114 - t113*t72;
+    const long double t155 = D1_11*rD1*t120 - t117*t72;
+    const long double t156 = D1_11*rD1*t128 - t125*t72;
+    const long double t157 = rs1*(D1_00*rD1*t71 - qdd1*t7 - t72*t78);
+    const long double t158 = rs1*(t129*t85 - t72*t89);
+    const long double t159 = rs1*(t129*t96 - t72*t98);
+    const long double t160 = rs1*(t102*t129 - t103*t72);
+    const long double t161 = rs1*(-t106*t72 + t109*t129);
+    const long double t162 = rs1*(t113*t129 - t114*t72);
+    const long double t163 = rs1*(t117*t129 - t120*t72);
+    const long double t164 = rs1*(t125*t129 - t128*t72);
+    const long double t165 = D2_11*rD2*t133 - t131*t132;
+    const long double t166 = D2_11*rD2*t135 - t132*t134;
+    const long double t167 = D2_11*rD2*t137 - t132*t136;
+    const long double t168 = D2_11*rD2*t139 - t132*t138;
+    const long double t169 = D2_11*rD2*t141 - t132*t140;
+    const long double t170 = D2_11*rD2*t143 - t132*t142;
+    const long double t171 = D2_11*rD2*t144 - t132*t145;
+    const long double t172 = D2_11*rD2*t147 - t132*t146;
+    const long double t173 = rs3*(t131*t148 - t132*t133);
+    const long double t174 = rs3*(-t132*t135 + t134*t148);
+    const long double t175 = rs3*(D2_00*rD2*t136 - qdd3*t19 - t132*t137);
+    const long double t176 = rs3*(-t132*t139 + t138*t148);
+    const long double t177 = rs3*(-t132*t141 + t140*t148);
+    const long double t178 = rs3*(-t132*t143 + t142*t148);
+    const long double t179 = rs3*(-t132*t144 + t145*t148);
+    const long double t180 = rs3*(-t132*t147 + t146*t148);
     J[0] = 0;
     J[1] = 0;
     J[2] = 0;
@@ -1992,48 +2130,54 @@ int spherical_std_jacobian_l(const long double *restrict y, const long double *r
     J[29] = 0;
     J[30] = 0;
     J[31] = 1;
-    J[32] = D1_11*rD1*t74 - t68*t69;
-    J[33] = D1_11*rD1*t86 - t69*t82;
-    J[34] = D1_11*rD1*t95 - t69*t93;
-    J[35] = D1_11*rD1*t100 - t69*t99;
-    J[36] = D1_11*rD1*t103 - t105*t69;
-    J[37] = D1_11*rD1*t110 - t109*t69;
-    J[38] = D1_11*rD1*t116 - t113*t69;
-    J[39] = D1_11*rD1*t124 - t121*t69;
-    J[40] = rs1*(D1_00*rD1*t68 - qdd1*t9 - t69*t74);
-    J[41] = rs1*(t125*t82 - t69*t86);
-    J[42] = rs1*(t125*t93 - t69*t95);
-    J[43] = rs1*(-t100*t69 + t125*t99);
-    J[44] = rs1*(-t103*t69 + t105*t125);
-    J[45] = rs1*(t109*t125 - t110*t69);
-    J[46] = rs1*(t113*t125 - t116*t69);
-    J[47] = rs1*(t121*t125 - t124*t69);
-    J[48] = D2_11*rD2*t129 - t127*t128;
-    J[49] = D2_11*rD2*t131 - t128*t130;
-    J[50] = D2_11*rD2*t133 - t128*t132;
-    J[51] = D2_11*rD2*t135 - t128*t134;
-    J[52] = D2_11*rD2*t137 - t128*t136;
-    J[53] = D2_11*rD2*t139 - t128*t138;
-    J[54] = D2_11*rD2*t140 - t128*t141;
-    J[55] = D2_11*rD2*t143 - t128*t142;
-    J[56] = rs3*(t127*t144 - t128*t129);
-    J[57] = rs3*(-t128*t131 + t130*t144);
-    J[58] = rs3*(D2_00*rD2*t132 - qdd3*t18 - t128*t133);
-    J[59] = rs3*(-t128*t135 + t134*t144);
-    J[60] = rs3*(-t128*t137 + t136*t144);
-    J[61] = rs3*(-t128*t139 + t138*t144);
-    J[62] = rs3*(-t128*t140 + t141*t144);
-    J[63] = rs3*(-t128*t143 + t142*t144);
+    J[32] = t149;
+    J[33] = t150;
+    J[34] = t151;
+    J[35] = t152;
+    J[36] = t153;
+    J[37] = t154;
+    J[38] = t155;
+    J[39] = t156;
+    J[40] = t157;
+    J[41] = t158;
+    J[42] = t159;
+    J[43] = t160;
+    J[44] = t161;
+    J[45] = t162;
+    J[46] = t163;
+    J[47] = t164;
+    J[48] = t165;
+    J[49] = t166;
+    J[50] = t167;
+    J[51] = t168;
+    J[52] = t169;
+    J[53] = t170;
+    J[54] = t171;
+    J[55] = t172;
+    J[56] = t173;
+    J[57] = t174;
+    J[58] = t175;
+    J[59] = t176;
+    J[60] = t177;
+    J[61] = t178;
+    J[62] = t179;
+    J[63] = t180;
     if (!(fabsl(t0) >= (long double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     if (!(fabsl(t1) >= (long double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_JACOBIAN_J_SIZE; ++k) {
-        if (!isfinite(J[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t149 - t149) + (t150 - t150) + (t151 - t151) + (t152 - t152) + (t153 - t153) +
+        (t154 - t154) + (t155 - t155) + (t156 - t156) + (t157 - t157) + (t158 - t158) +
+        (t159 - t159) + (t160 - t160) + (t161 - t161) + (t162 - t162) + (t163 - t163) +
+        (t164 - t164) + (t165 - t165) + (t166 - t166) + (t167 - t167) + (t168 - t168) +
+        (t169 - t169) + (t170 - t170) + (t171 - t171) + (t172 - t172) + (t173 - t173) +
+        (t174 - t174) + (t175 - t175) + (t176 - t176) + (t177 - t177) + (t178 - t178) +
+        (t179 - t179) + (t180 - t180);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2056,7 +2200,7 @@ int spherical_std_jacobian_batch_l(long n, const long double *restrict y, long y
 int spherical_std_polar_sines(const double *restrict y, double *restrict sines)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    double check;
     const double t0 = sin(y[0]);
     const double t1 = sin(y[2]);
     sines[0] = t0;
@@ -2067,10 +2211,10 @@ int spherical_std_polar_sines(const double *restrict y, double *restrict sines)
     if (!(fabs(t1) >= (double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_POLAR_SINES_SINES_SIZE; ++k) {
-        if (!isfinite(sines[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t0 - t0) + (t1 - t1);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2093,7 +2237,7 @@ int spherical_std_polar_sines_batch(long n, const double *restrict y, long y_str
 int spherical_std_polar_sines_f(const float *restrict y, float *restrict sines)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    float check;
     const float t0 = sinf(y[0]);
     const float t1 = sinf(y[2]);
     sines[0] = t0;
@@ -2104,10 +2248,10 @@ int spherical_std_polar_sines_f(const float *restrict y, float *restrict sines)
     if (!(fabsf(t1) >= (float)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_POLAR_SINES_SINES_SIZE; ++k) {
-        if (!isfinite(sines[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t0 - t0) + (t1 - t1);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2130,7 +2274,7 @@ int spherical_std_polar_sines_batch_f(long n, const float *restrict y, long y_st
 int spherical_std_polar_sines_l(const long double *restrict y, long double *restrict sines)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
+    long double check;
     const long double t0 = sinl(y[0]);
     const long double t1 = sinl(y[2]);
     sines[0] = t0;
@@ -2141,10 +2285,10 @@ int spherical_std_polar_sines_l(const long double *restrict y, long double *rest
     if (!(fabsl(t1) >= (long double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_POLAR_SINES_SINES_SIZE; ++k) {
-        if (!isfinite(sines[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t0 - t0) + (t1 - t1);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2167,61 +2311,68 @@ int spherical_std_polar_sines_batch_l(long n, const long double *restrict y, lon
 int spherical_std_to_spherical_alt(const double *restrict y, double *restrict y_out)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
-    const double t0 = sin(y[0]);
-    const double t1 = cos(y[1]);
-    const double e1_0 = t0*t1;
-    const double t2 = sin(y[1]);
-    const double e1_1 = t0*t2;
-    const double t3 = cos(y[0]);
-    const double e1_2 = -t3;
-    const double t4 = e1_2*e1_2;
-    const double spherical_alt_vartheta1 = atan2(sqrt(e1_1*e1_1 + t4), e1_0);
+    double check;
+    const double t0 = cos(y[0]);
+    const double e1_2 = -t0;
+    const double t1 = e1_2*e1_2;
+    const double t2 = sin(y[0]);
+    const double t3 = cos(y[1]);
+    const double e1_0 = t2*t3;
+    const double t4 = sin(y[1]);
+    const double e1_1 = t2*t4;
+    const double spherical_alt_vartheta1 = atan2(sqrt(e1_1*e1_1 + t1), e1_0);
     const double t5 = sin(spherical_alt_vartheta1);
-    const double t6 = sin(y[2]);
-    const double t7 = cos(y[3]);
-    const double e2_0 = t6*t7;
-    const double t8 = sin(y[3]);
-    const double e2_1 = t6*t8;
-    const double t9 = cos(y[2]);
-    const double e2_2 = -t9;
-    const double t10 = e2_2*e2_2;
-    const double spherical_alt_vartheta2 = atan2(sqrt(e2_1*e2_1 + t10), e2_0);
+    const double t6 = cos(y[2]);
+    const double e2_2 = -t6;
+    const double t7 = e2_2*e2_2;
+    const double t8 = sin(y[2]);
+    const double t9 = cos(y[3]);
+    const double e2_0 = t8*t9;
+    const double t10 = sin(y[3]);
+    const double e2_1 = t10*t8;
+    const double spherical_alt_vartheta2 = atan2(sqrt(e2_1*e2_1 + t7), e2_0);
     const double t11 = sin(spherical_alt_vartheta2);
     const double spherical_alt_varphi1 = atan2(e1_2, e1_1);
     const double spherical_alt_varphi2 = atan2(e2_2, e2_1);
-    const double de1_2 = t0*y[4];
     const double t12 = cos(spherical_alt_varphi1);
     const double t13 = cos(spherical_alt_vartheta1);
     const double t14 = sin(spherical_alt_varphi1);
-    const double de1_0 = -e1_1*y[5] + t1*t3*y[4];
-    const double t15 = t3*y[4];
-    const double de1_1 = e1_0*y[5] + t15*t2;
-    const double de2_2 = t6*y[6];
+    const double de1_0 = -e1_1*y[5] + t0*t3*y[4];
+    const double t15 = t0*y[4];
+    const double de1_1 = e1_0*y[5] + t15*t4;
+    const double de1_2 = t2*y[4];
     const double t16 = cos(spherical_alt_varphi2);
     const double t17 = cos(spherical_alt_vartheta2);
     const double t18 = sin(spherical_alt_varphi2);
-    const double de2_0 = -e2_1*y[7] + t7*t9*y[6];
-    const double t19 = t9*y[6];
-    const double de2_1 = e2_0*y[7] + t19*t8;
+    const double de2_0 = -e2_1*y[7] + t6*t9*y[6];
+    const double t19 = t6*y[6];
+    const double de2_1 = e2_0*y[7] + t10*t19;
+    const double de2_2 = t8*y[6];
+    const double t20 = -de1_0*t5 + de1_1*t12*t13 + de1_2*t13*t14;
+    const double t21 = (-de1_1*t14 + de1_2*t12)/t5;
+    const double t22 = -de2_0*t11 + de2_1*t16*t17 + de2_2*t17*t18;
+    const double t23 = (-de2_1*t18 + de2_2*t16)/t11;
     y_out[0] = spherical_alt_vartheta1;
     y_out[1] = spherical_alt_varphi1;
     y_out[2] = spherical_alt_vartheta2;
     y_out[3] = spherical_alt_varphi2;
-    y_out[4] = -de1_0*t5 + de1_1*t12*t13 + de1_2*t13*t14;
-    y_out[5] = (-de1_1*t14 + de1_2*t12)/t5;
-    y_out[6] = -de2_0*t11 + de2_1*t16*t17 + de2_2*t17*t18;
-    y_out[7] = (-de2_1*t18 + de2_2*t16)/t11;
+    y_out[4] = t20;
+    y_out[5] = t21;
+    y_out[6] = t22;
+    y_out[7] = t23;
     if (!(fabs(t5) >= (double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     if (!(fabs(t11) >= (double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_TO_SPHERICAL_ALT_Y_OUT_SIZE; ++k) {
-        if (!isfinite(y_out[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (spherical_alt_vartheta1 - spherical_alt_vartheta1) + (spherical_alt_varphi1 -
+        spherical_alt_varphi1) + (spherical_alt_vartheta2 - spherical_alt_vartheta2) +
+        (spherical_alt_varphi2 - spherical_alt_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
+        t22) + (t23 - t23);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2244,61 +2395,68 @@ int spherical_std_to_spherical_alt_batch(long n, const double *restrict y, long 
 int spherical_std_to_spherical_alt_f(const float *restrict y, float *restrict y_out)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
-    const float t0 = sinf(y[0]);
-    const float t1 = cosf(y[1]);
-    const float e1_0 = t0*t1;
-    const float t2 = sinf(y[1]);
-    const float e1_1 = t0*t2;
-    const float t3 = cosf(y[0]);
-    const float e1_2 = -t3;
-    const float t4 = e1_2*e1_2;
-    const float spherical_alt_vartheta1 = atan2f(sqrtf(e1_1*e1_1 + t4), e1_0);
+    float check;
+    const float t0 = cosf(y[0]);
+    const float e1_2 = -t0;
+    const float t1 = e1_2*e1_2;
+    const float t2 = sinf(y[0]);
+    const float t3 = cosf(y[1]);
+    const float e1_0 = t2*t3;
+    const float t4 = sinf(y[1]);
+    const float e1_1 = t2*t4;
+    const float spherical_alt_vartheta1 = atan2f(sqrtf(e1_1*e1_1 + t1), e1_0);
     const float t5 = sinf(spherical_alt_vartheta1);
-    const float t6 = sinf(y[2]);
-    const float t7 = cosf(y[3]);
-    const float e2_0 = t6*t7;
-    const float t8 = sinf(y[3]);
-    const float e2_1 = t6*t8;
-    const float t9 = cosf(y[2]);
-    const float e2_2 = -t9;
-    const float t10 = e2_2*e2_2;
-    const float spherical_alt_vartheta2 = atan2f(sqrtf(e2_1*e2_1 + t10), e2_0);
+    const float t6 = cosf(y[2]);
+    const float e2_2 = -t6;
+    const float t7 = e2_2*e2_2;
+    const float t8 = sinf(y[2]);
+    const float t9 = cosf(y[3]);
+    const float e2_0 = t8*t9;
+    const float t10 = sinf(y[3]);
+    const float e2_1 = t10*t8;
+    const float spherical_alt_vartheta2 = atan2f(sqrtf(e2_1*e2_1 + t7), e2_0);
     const float t11 = sinf(spherical_alt_vartheta2);
     const float spherical_alt_varphi1 = atan2f(e1_2, e1_1);
     const float spherical_alt_varphi2 = atan2f(e2_2, e2_1);
-    const float de1_2 = t0*y[4];
     const float t12 = cosf(spherical_alt_varphi1);
     const float t13 = cosf(spherical_alt_vartheta1);
     const float t14 = sinf(spherical_alt_varphi1);
-    const float de1_0 = -e1_1*y[5] + t1*t3*y[4];
-    const float t15 = t3*y[4];
-    const float de1_1 = e1_0*y[5] + t15*t2;
-    const float de2_2 = t6*y[6];
+    const float de1_0 = -e1_1*y[5] + t0*t3*y[4];
+    const float t15 = t0*y[4];
+    const float de1_1 = e1_0*y[5] + t15*t4;
+    const float de1_2 = t2*y[4];
     const float t16 = cosf(spherical_alt_varphi2);
     const float t17 = cosf(spherical_alt_vartheta2);
     const float t18 = sinf(spherical_alt_varphi2);
-    const float de2_0 = -e2_1*y[7] + t7*t9*y[6];
-    const float t19 = t9*y[6];
-    const float de2_1 = e2_0*y[7] + t19*t8;
+    const float de2_0 = -e2_1*y[7] + t6*t9*y[6];
+    const float t19 = t6*y[6];
+    const float de2_1 = e2_0*y[7] + t10*t19;
+    const float de2_2 = t8*y[6];
+    const float t20 = -de1_0*t5 + de1_1*t12*t13 + de1_2*t13*t14;
+    const float t21 = (-de1_1*t14 + de1_2*t12)/t5;
+    const float t22 = -de2_0*t11 + de2_1*t16*t17 + de2_2*t17*t18;
+    const float t23 = (-de2_1*t18 + de2_2*t16)/t11;
     y_out[0] = spherical_alt_vartheta1;
     y_out[1] = spherical_alt_varphi1;
     y_out[2] = spherical_alt_vartheta2;
     y_out[3] = spherical_alt_varphi2;
-    y_out[4] = -de1_0*t5 + de1_1*t12*t13 + de1_2*t13*t14;
-    y_out[5] = (-de1_1*t14 + de1_2*t12)/t5;
-    y_out[6] = -de2_0*t11 + de2_1*t16*t17 + de2_2*t17*t18;
-    y_out[7] = (-de2_1*t18 + de2_2*t16)/t11;
+    y_out[4] = t20;
+    y_out[5] = t21;
+    y_out[6] = t22;
+    y_out[7] = t23;
     if (!(fabsf(t5) >= (float)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     if (!(fabsf(t11) >= (float)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_TO_SPHERICAL_ALT_Y_OUT_SIZE; ++k) {
-        if (!isfinite(y_out[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (spherical_alt_vartheta1 - spherical_alt_vartheta1) + (spherical_alt_varphi1 -
+        spherical_alt_varphi1) + (spherical_alt_vartheta2 - spherical_alt_vartheta2) +
+        (spherical_alt_varphi2 - spherical_alt_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
+        t22) + (t23 - t23);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2321,61 +2479,68 @@ int spherical_std_to_spherical_alt_batch_f(long n, const float *restrict y, long
 int spherical_std_to_spherical_alt_l(const long double *restrict y, long double *restrict y_out)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
-    const long double t0 = sinl(y[0]);
-    const long double t1 = cosl(y[1]);
-    const long double e1_0 = t0*t1;
-    const long double t2 = sinl(y[1]);
-    const long double e1_1 = t0*t2;
-    const long double t3 = cosl(y[0]);
-    const long double e1_2 = -t3;
-    const long double t4 = e1_2*e1_2;
-    const long double spherical_alt_vartheta1 = atan2l(sqrtl(e1_1*e1_1 + t4), e1_0);
+    long double check;
+    const long double t0 = cosl(y[0]);
+    const long double e1_2 = -t0;
+    const long double t1 = e1_2*e1_2;
+    const long double t2 = sinl(y[0]);
+    const long double t3 = cosl(y[1]);
+    const long double e1_0 = t2*t3;
+    const long double t4 = sinl(y[1]);
+    const long double e1_1 = t2*t4;
+    const long double spherical_alt_vartheta1 = atan2l(sqrtl(e1_1*e1_1 + t1), e1_0);
     const long double t5 = sinl(spherical_alt_vartheta1);
-    const long double t6 = sinl(y[2]);
-    const long double t7 = cosl(y[3]);
-    const long double e2_0 = t6*t7;
-    const long double t8 = sinl(y[3]);
-    const long double e2_1 = t6*t8;
-    const long double t9 = cosl(y[2]);
-    const long double e2_2 = -t9;
-    const long double t10 = e2_2*e2_2;
-    const long double spherical_alt_vartheta2 = atan2l(sqrtl(e2_1*e2_1 + t10), e2_0);
+    const long double t6 = cosl(y[2]);
+    const long double e2_2 = -t6;
+    const long double t7 = e2_2*e2_2;
+    const long double t8 = sinl(y[2]);
+    const long double t9 = cosl(y[3]);
+    const long double e2_0 = t8*t9;
+    const long double t10 = sinl(y[3]);
+    const long double e2_1 = t10*t8;
+    const long double spherical_alt_vartheta2 = atan2l(sqrtl(e2_1*e2_1 + t7), e2_0);
     const long double t11 = sinl(spherical_alt_vartheta2);
     const long double spherical_alt_varphi1 = atan2l(e1_2, e1_1);
     const long double spherical_alt_varphi2 = atan2l(e2_2, e2_1);
-    const long double de1_2 = t0*y[4];
     const long double t12 = cosl(spherical_alt_varphi1);
     const long double t13 = cosl(spherical_alt_vartheta1);
     const long double t14 = sinl(spherical_alt_varphi1);
-    const long double de1_0 = -e1_1*y[5] + t1*t3*y[4];
-    const long double t15 = t3*y[4];
-    const long double de1_1 = e1_0*y[5] + t15*t2;
-    const long double de2_2 = t6*y[6];
+    const long double de1_0 = -e1_1*y[5] + t0*t3*y[4];
+    const long double t15 = t0*y[4];
+    const long double de1_1 = e1_0*y[5] + t15*t4;
+    const long double de1_2 = t2*y[4];
     const long double t16 = cosl(spherical_alt_varphi2);
     const long double t17 = cosl(spherical_alt_vartheta2);
     const long double t18 = sinl(spherical_alt_varphi2);
-    const long double de2_0 = -e2_1*y[7] + t7*t9*y[6];
-    const long double t19 = t9*y[6];
-    const long double de2_1 = e2_0*y[7] + t19*t8;
+    const long double de2_0 = -e2_1*y[7] + t6*t9*y[6];
+    const long double t19 = t6*y[6];
+    const long double de2_1 = e2_0*y[7] + t10*t19;
+    const long double de2_2 = t8*y[6];
+    const long double t20 = -de1_0*t5 + de1_1*t12*t13 + de1_2*t13*t14;
+    const long double t21 = (-de1_1*t14 + de1_2*t12)/t5;
+    const long double t22 = -de2_0*t11 + de2_1*t16*t17 + de2_2*t17*t18;
+    const long double t23 = (-de2_1*t18 + de2_2*t16)/t11;
     y_out[0] = spherical_alt_vartheta1;
     y_out[1] = spherical_alt_varphi1;
     y_out[2] = spherical_alt_vartheta2;
     y_out[3] = spherical_alt_varphi2;
-    y_out[4] = -de1_0*t5 + de1_1*t12*t13 + de1_2*t13*t14;
-    y_out[5] = (-de1_1*t14 + de1_2*t12)/t5;
-    y_out[6] = -de2_0*t11 + de2_1*t16*t17 + de2_2*t17*t18;
-    y_out[7] = (-de2_1*t18 + de2_2*t16)/t11;
+    y_out[4] = t20;
+    y_out[5] = t21;
+    y_out[6] = t22;
+    y_out[7] = t23;
     if (!(fabsl(t5) >= (long double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     if (!(fabsl(t11) >= (long double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_TO_SPHERICAL_ALT_Y_OUT_SIZE; ++k) {
-        if (!isfinite(y_out[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (spherical_alt_vartheta1 - spherical_alt_vartheta1) + (spherical_alt_varphi1 -
+        spherical_alt_varphi1) + (spherical_alt_vartheta2 - spherical_alt_vartheta2) +
+        (spherical_alt_varphi2 - spherical_alt_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
+        t22) + (t23 - t23);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2398,61 +2563,68 @@ int spherical_std_to_spherical_alt_batch_l(long n, const long double *restrict y
 int spherical_std_to_spherical_rot(const double *restrict y, double *restrict y_out)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
-    const double t0 = sin(y[0]);
-    const double t1 = cos(y[1]);
-    const double e1_0 = t0*t1;
-    const double t2 = sin(y[1]);
-    const double e1_1 = t0*t2;
-    const double t3 = cos(y[0]);
-    const double e1_2 = -t3;
-    const double t4 = e1_2*e1_2;
-    const double spherical_rot_vartheta1 = atan2(sqrt(e1_0*e1_0 + t4), e1_1);
+    double check;
+    const double t0 = cos(y[0]);
+    const double e1_2 = -t0;
+    const double t1 = e1_2*e1_2;
+    const double t2 = sin(y[0]);
+    const double t3 = cos(y[1]);
+    const double e1_0 = t2*t3;
+    const double t4 = sin(y[1]);
+    const double e1_1 = t2*t4;
+    const double spherical_rot_vartheta1 = atan2(sqrt(e1_0*e1_0 + t1), e1_1);
     const double t5 = sin(spherical_rot_vartheta1);
-    const double t6 = sin(y[2]);
-    const double t7 = cos(y[3]);
-    const double e2_0 = t6*t7;
-    const double t8 = sin(y[3]);
-    const double e2_1 = t6*t8;
-    const double t9 = cos(y[2]);
-    const double e2_2 = -t9;
-    const double t10 = e2_2*e2_2;
-    const double spherical_rot_vartheta2 = atan2(sqrt(e2_0*e2_0 + t10), e2_1);
+    const double t6 = cos(y[2]);
+    const double e2_2 = -t6;
+    const double t7 = e2_2*e2_2;
+    const double t8 = sin(y[2]);
+    const double t9 = cos(y[3]);
+    const double e2_0 = t8*t9;
+    const double t10 = sin(y[3]);
+    const double e2_1 = t10*t8;
+    const double spherical_rot_vartheta2 = atan2(sqrt(e2_0*e2_0 + t7), e2_1);
     const double t11 = sin(spherical_rot_vartheta2);
     const double spherical_rot_varphi1 = atan2(e1_2, e1_0);
     const double spherical_rot_varphi2 = atan2(e2_2, e2_0);
-    const double de1_2 = t0*y[4];
     const double t12 = cos(spherical_rot_varphi1);
     const double t13 = cos(spherical_rot_vartheta1);
     const double t14 = sin(spherical_rot_varphi1);
-    const double de1_0 = -e1_1*y[5] + t1*t3*y[4];
-    const double t15 = t3*y[4];
-    const double de1_1 = e1_0*y[5] + t15*t2;
-    const double de2_2 = t6*y[6];
+    const double de1_0 = -e1_1*y[5] + t0*t3*y[4];
+    const double t15 = t0*y[4];
+    const double de1_1 = e1_0*y[5] + t15*t4;
+    const double de1_2 = t2*y[4];
     const double t16 = cos(spherical_rot_varphi2);
     const double t17 = cos(spherical_rot_vartheta2);
     const double t18 = sin(spherical_rot_varphi2);
-    const double de2_0 = -e2_1*y[7] + t7*t9*y[6];
-    const double t19 = t9*y[6];
-    const double de2_1 = e2_0*y[7] + t19*t8;
+    const double de2_0 = -e2_1*y[7] + t6*t9*y[6];
+    const double t19 = t6*y[6];
+    const double de2_1 = e2_0*y[7] + t10*t19;
+    const double de2_2 = t8*y[6];
+    const double t20 = de1_0*t12*t13 - de1_1*t5 + de1_2*t13*t14;
+    const double t21 = (-de1_0*t14 + de1_2*t12)/t5;
+    const double t22 = de2_0*t16*t17 - de2_1*t11 + de2_2*t17*t18;
+    const double t23 = (-de2_0*t18 + de2_2*t16)/t11;
     y_out[0] = spherical_rot_vartheta1;
     y_out[1] = spherical_rot_varphi1;
     y_out[2] = spherical_rot_vartheta2;
     y_out[3] = spherical_rot_varphi2;
-    y_out[4] = de1_0*t12*t13 - de1_1*t5 + de1_2*t13*t14;
-    y_out[5] = (-de1_0*t14 + de1_2*t12)/t5;
-    y_out[6] = de2_0*t16*t17 - de2_1*t11 + de2_2*t17*t18;
-    y_out[7] = (-de2_0*t18 + de2_2*t16)/t11;
+    y_out[4] = t20;
+    y_out[5] = t21;
+    y_out[6] = t22;
+    y_out[7] = t23;
     if (!(fabs(t5) >= (double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     if (!(fabs(t11) >= (double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_TO_SPHERICAL_ROT_Y_OUT_SIZE; ++k) {
-        if (!isfinite(y_out[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) + (spherical_rot_varphi1 -
+        spherical_rot_varphi1) + (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
+        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
+        t22) + (t23 - t23);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2475,61 +2647,68 @@ int spherical_std_to_spherical_rot_batch(long n, const double *restrict y, long 
 int spherical_std_to_spherical_rot_f(const float *restrict y, float *restrict y_out)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
-    const float t0 = sinf(y[0]);
-    const float t1 = cosf(y[1]);
-    const float e1_0 = t0*t1;
-    const float t2 = sinf(y[1]);
-    const float e1_1 = t0*t2;
-    const float t3 = cosf(y[0]);
-    const float e1_2 = -t3;
-    const float t4 = e1_2*e1_2;
-    const float spherical_rot_vartheta1 = atan2f(sqrtf(e1_0*e1_0 + t4), e1_1);
+    float check;
+    const float t0 = cosf(y[0]);
+    const float e1_2 = -t0;
+    const float t1 = e1_2*e1_2;
+    const float t2 = sinf(y[0]);
+    const float t3 = cosf(y[1]);
+    const float e1_0 = t2*t3;
+    const float t4 = sinf(y[1]);
+    const float e1_1 = t2*t4;
+    const float spherical_rot_vartheta1 = atan2f(sqrtf(e1_0*e1_0 + t1), e1_1);
     const float t5 = sinf(spherical_rot_vartheta1);
-    const float t6 = sinf(y[2]);
-    const float t7 = cosf(y[3]);
-    const float e2_0 = t6*t7;
-    const float t8 = sinf(y[3]);
-    const float e2_1 = t6*t8;
-    const float t9 = cosf(y[2]);
-    const float e2_2 = -t9;
-    const float t10 = e2_2*e2_2;
-    const float spherical_rot_vartheta2 = atan2f(sqrtf(e2_0*e2_0 + t10), e2_1);
+    const float t6 = cosf(y[2]);
+    const float e2_2 = -t6;
+    const float t7 = e2_2*e2_2;
+    const float t8 = sinf(y[2]);
+    const float t9 = cosf(y[3]);
+    const float e2_0 = t8*t9;
+    const float t10 = sinf(y[3]);
+    const float e2_1 = t10*t8;
+    const float spherical_rot_vartheta2 = atan2f(sqrtf(e2_0*e2_0 + t7), e2_1);
     const float t11 = sinf(spherical_rot_vartheta2);
     const float spherical_rot_varphi1 = atan2f(e1_2, e1_0);
     const float spherical_rot_varphi2 = atan2f(e2_2, e2_0);
-    const float de1_2 = t0*y[4];
     const float t12 = cosf(spherical_rot_varphi1);
     const float t13 = cosf(spherical_rot_vartheta1);
     const float t14 = sinf(spherical_rot_varphi1);
-    const float de1_0 = -e1_1*y[5] + t1*t3*y[4];
-    const float t15 = t3*y[4];
-    const float de1_1 = e1_0*y[5] + t15*t2;
-    const float de2_2 = t6*y[6];
+    const float de1_0 = -e1_1*y[5] + t0*t3*y[4];
+    const float t15 = t0*y[4];
+    const float de1_1 = e1_0*y[5] + t15*t4;
+    const float de1_2 = t2*y[4];
     const float t16 = cosf(spherical_rot_varphi2);
     const float t17 = cosf(spherical_rot_vartheta2);
     const float t18 = sinf(spherical_rot_varphi2);
-    const float de2_0 = -e2_1*y[7] + t7*t9*y[6];
-    const float t19 = t9*y[6];
-    const float de2_1 = e2_0*y[7] + t19*t8;
+    const float de2_0 = -e2_1*y[7] + t6*t9*y[6];
+    const float t19 = t6*y[6];
+    const float de2_1 = e2_0*y[7] + t10*t19;
+    const float de2_2 = t8*y[6];
+    const float t20 = de1_0*t12*t13 - de1_1*t5 + de1_2*t13*t14;
+    const float t21 = (-de1_0*t14 + de1_2*t12)/t5;
+    const float t22 = de2_0*t16*t17 - de2_1*t11 + de2_2*t17*t18;
+    const float t23 = (-de2_0*t18 + de2_2*t16)/t11;
     y_out[0] = spherical_rot_vartheta1;
     y_out[1] = spherical_rot_varphi1;
     y_out[2] = spherical_rot_vartheta2;
     y_out[3] = spherical_rot_varphi2;
-    y_out[4] = de1_0*t12*t13 - de1_1*t5 + de1_2*t13*t14;
-    y_out[5] = (-de1_0*t14 + de1_2*t12)/t5;
-    y_out[6] = de2_0*t16*t17 - de2_1*t11 + de2_2*t17*t18;
-    y_out[7] = (-de2_0*t18 + de2_2*t16)/t11;
+    y_out[4] = t20;
+    y_out[5] = t21;
+    y_out[6] = t22;
+    y_out[7] = t23;
     if (!(fabsf(t5) >= (float)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     if (!(fabsf(t11) >= (float)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_TO_SPHERICAL_ROT_Y_OUT_SIZE; ++k) {
-        if (!isfinite(y_out[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) + (spherical_rot_varphi1 -
+        spherical_rot_varphi1) + (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
+        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
+        t22) + (t23 - t23);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }
@@ -2552,61 +2731,68 @@ int spherical_std_to_spherical_rot_batch_f(long n, const float *restrict y, long
 int spherical_std_to_spherical_rot_l(const long double *restrict y, long double *restrict y_out)
 {
     int status = SPHERICAL_STD_STATUS_OK;
-    int k;
-    const long double t0 = sinl(y[0]);
-    const long double t1 = cosl(y[1]);
-    const long double e1_0 = t0*t1;
-    const long double t2 = sinl(y[1]);
-    const long double e1_1 = t0*t2;
-    const long double t3 = cosl(y[0]);
-    const long double e1_2 = -t3;
-    const long double t4 = e1_2*e1_2;
-    const long double spherical_rot_vartheta1 = atan2l(sqrtl(e1_0*e1_0 + t4), e1_1);
+    long double check;
+    const long double t0 = cosl(y[0]);
+    const long double e1_2 = -t0;
+    const long double t1 = e1_2*e1_2;
+    const long double t2 = sinl(y[0]);
+    const long double t3 = cosl(y[1]);
+    const long double e1_0 = t2*t3;
+    const long double t4 = sinl(y[1]);
+    const long double e1_1 = t2*t4;
+    const long double spherical_rot_vartheta1 = atan2l(sqrtl(e1_0*e1_0 + t1), e1_1);
     const long double t5 = sinl(spherical_rot_vartheta1);
-    const long double t6 = sinl(y[2]);
-    const long double t7 = cosl(y[3]);
-    const long double e2_0 = t6*t7;
-    const long double t8 = sinl(y[3]);
-    const long double e2_1 = t6*t8;
-    const long double t9 = cosl(y[2]);
-    const long double e2_2 = -t9;
-    const long double t10 = e2_2*e2_2;
-    const long double spherical_rot_vartheta2 = atan2l(sqrtl(e2_0*e2_0 + t10), e2_1);
+    const long double t6 = cosl(y[2]);
+    const long double e2_2 = -t6;
+    const long double t7 = e2_2*e2_2;
+    const long double t8 = sinl(y[2]);
+    const long double t9 = cosl(y[3]);
+    const long double e2_0 = t8*t9;
+    const long double t10 = sinl(y[3]);
+    const long double e2_1 = t10*t8;
+    const long double spherical_rot_vartheta2 = atan2l(sqrtl(e2_0*e2_0 + t7), e2_1);
     const long double t11 = sinl(spherical_rot_vartheta2);
     const long double spherical_rot_varphi1 = atan2l(e1_2, e1_0);
     const long double spherical_rot_varphi2 = atan2l(e2_2, e2_0);
-    const long double de1_2 = t0*y[4];
     const long double t12 = cosl(spherical_rot_varphi1);
     const long double t13 = cosl(spherical_rot_vartheta1);
     const long double t14 = sinl(spherical_rot_varphi1);
-    const long double de1_0 = -e1_1*y[5] + t1*t3*y[4];
-    const long double t15 = t3*y[4];
-    const long double de1_1 = e1_0*y[5] + t15*t2;
-    const long double de2_2 = t6*y[6];
+    const long double de1_0 = -e1_1*y[5] + t0*t3*y[4];
+    const long double t15 = t0*y[4];
+    const long double de1_1 = e1_0*y[5] + t15*t4;
+    const long double de1_2 = t2*y[4];
     const long double t16 = cosl(spherical_rot_varphi2);
     const long double t17 = cosl(spherical_rot_vartheta2);
     const long double t18 = sinl(spherical_rot_varphi2);
-    const long double de2_0 = -e2_1*y[7] + t7*t9*y[6];
-    const long double t19 = t9*y[6];
-    const long double de2_1 = e2_0*y[7] + t19*t8;
+    const long double de2_0 = -e2_1*y[7] + t6*t9*y[6];
+    const long double t19 = t6*y[6];
+    const long double de2_1 = e2_0*y[7] + t10*t19;
+    const long double de2_2 = t8*y[6];
+    const long double t20 = de1_0*t12*t13 - de1_1*t5 + de1_2*t13*t14;
+    const long double t21 = (-de1_0*t14 + de1_2*t12)/t5;
+    const long double t22 = de2_0*t16*t17 - de2_1*t11 + de2_2*t17*t18;
+    const long double t23 = (-de2_0*t18 + de2_2*t16)/t11;
     y_out[0] = spherical_rot_vartheta1;
     y_out[1] = spherical_rot_varphi1;
     y_out[2] = spherical_rot_vartheta2;
     y_out[3] = spherical_rot_varphi2;
-    y_out[4] = de1_0*t12*t13 - de1_1*t5 + de1_2*t13*t14;
-    y_out[5] = (-de1_0*t14 + de1_2*t12)/t5;
-    y_out[6] = de2_0*t16*t17 - de2_1*t11 + de2_2*t17*t18;
-    y_out[7] = (-de2_0*t18 + de2_2*t16)/t11;
+    y_out[4] = t20;
+    y_out[5] = t21;
+    y_out[6] = t22;
+    y_out[7] = t23;
     if (!(fabsl(t5) >= (long double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     if (!(fabsl(t11) >= (long double)SPHERICAL_STD_POLAR_SINE_MIN)) {
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
-    for (k = 0; k < SPHERICAL_STD_TO_SPHERICAL_ROT_Y_OUT_SIZE; ++k) {
-        if (!isfinite(y_out[k])) {
-            status |= SPHERICAL_STD_STATUS_NONFINITE;
-        }
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) + (spherical_rot_varphi1 -
+        spherical_rot_varphi1) + (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
+        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
+        t22) + (t23 - t23);
+    if (isnan(check)) {
+        status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
     return status;
 }

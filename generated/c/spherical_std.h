@@ -78,7 +78,7 @@ int spherical_std_rhs_batch_l(long n, const long double *restrict y, long y_stri
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out M[16]: M, row-major
- * Total ops: 33
+ * Total ops: 31
  */
 #define SPHERICAL_STD_MASS_MATRIX_Y_SIZE 8
 #define SPHERICAL_STD_MASS_MATRIX_Y_RANK 1
@@ -101,7 +101,7 @@ int spherical_std_mass_matrix_batch_l(long n, const long double *restrict y, lon
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out F[4]: F
- * Total ops: 108
+ * Total ops: 100
  */
 #define SPHERICAL_STD_FORCING_Y_SIZE 8
 #define SPHERICAL_STD_FORCING_Y_RANK 1
@@ -122,7 +122,7 @@ int spherical_std_forcing_batch_l(long n, const long double *restrict y, long y_
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out E[1]: T + V
- * Total ops: 73
+ * Total ops: 69
  */
 #define SPHERICAL_STD_ENERGY_Y_SIZE 8
 #define SPHERICAL_STD_ENERGY_Y_RANK 1

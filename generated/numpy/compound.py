@@ -185,19 +185,19 @@ def forcing(y, p):
     del t7
     t9 = t8*t6
     del t6
-    F0 = (-l1)*(t3 + t5*t9)
+    t10 = (-l1)*(t3 + t5*t9)
     del t3, t9
-    t10 = numpy.sin(theta2)
-    t11 = g*t10
-    del t10
-    t12 = theta1_dot*theta1_dot
-    F1 = t8*(l1*(t12*t5) - t11)
-    del t11, t12, t5, t8
+    t11 = numpy.sin(theta2)
+    t12 = g*t11
+    del t11
+    t13 = theta1_dot*theta1_dot
+    t14 = t8*(l1*(t13*t5) - t12)
+    del t12, t13, t5, t8
     F = numpy.empty(shape + (2,), dtype)
-    F[..., 0] = F0
-    del F0
-    F[..., 1] = F1
-    del F1
+    F[..., 0] = t10
+    del t10
+    F[..., 1] = t14
+    del t14
     return F
 
 
@@ -237,17 +237,19 @@ def energy(y, p):
     t11 = l2*t3
     t12 = (1/2)*t11
     del t11
-    M01 = t12*t10
+    t13 = t12*t10
     del t10, t12
-    t13 = M01*theta2_dot
-    del M01
-    t14 = numpy.cos(theta2)
-    t15 = l2*t14
-    del t14
-    t16 = numpy.cos(theta1)
+    t14 = t13*theta2_dot
+    del t13
+    t15 = numpy.cos(theta2)
+    t16 = l2*t15
+    del t15
+    t17 = numpy.cos(theta1)
+    t18 = t14*theta1_dot + ((1/2)*L2 + (1/8)*t4)*t6 + ((1/2)*L1 + (1/2)*t1 + (1/8)*t2)*t8 - g*(t7*t16 + (l1*t5 + t3)*t17)
+    del t1, t14, t16, t17, t2, t3, t4, t5, t6, t7, t8
     E = numpy.empty(shape + (), dtype)
-    E[...] = t13*theta1_dot + ((1/2)*L2 + (1/8)*t4)*t6 + ((1/2)*L1 + (1/2)*t1 + (1/8)*t2)*t8 - g*(t7*t15 + (l1*t5 + t3)*t16)
-    del t1, t13, t15, t16, t2, t3, t4, t5, t6, t7, t8
+    E[...] = t18
+    del t18
     return E
 
 
@@ -275,13 +277,20 @@ def positions(y, p):
     t5 = numpy.cos(theta2)
     t6 = l2*t5
     del t5
+    t7 = -t3
+    t8 = l2*t4 + t1
+    del t4
+    t9 = -t3 - t6
+    del t3, t6
     pos = numpy.empty(shape + (2, 2), dtype)
     pos[..., 0, 0] = t1
-    pos[..., 0, 1] = -t3
-    pos[..., 1, 0] = l2*t4 + t1
-    del t1, t4
-    pos[..., 1, 1] = -t3 - t6
-    del t3, t6
+    del t1
+    pos[..., 0, 1] = t7
+    del t7
+    pos[..., 1, 0] = t8
+    del t8
+    pos[..., 1, 1] = t9
+    del t9
     return pos
 
 
@@ -313,14 +322,14 @@ def jacobian(y, p):
     del t2
     t4 = (1/2)*t3
     M01 = t4*t1
-    t5 = l2*l2*m2
-    M11 = L2 + (1/4)*t5
-    del t5
-    t6 = theta1_dot*theta1_dot
-    t7 = numpy.sin(t0)
+    t5 = theta1_dot*theta1_dot
+    t6 = numpy.sin(t0)
     del t0
-    t8 = t4*t7
+    t7 = t4*t6
     del t4
+    t8 = l2*l2*m2
+    M11 = L2 + (1/4)*t8
+    del t8
     t9 = numpy.sin(theta1)
     t10 = (1/2)*m1
     t11 = g*m2 + g*t10
@@ -332,12 +341,12 @@ def jacobian(y, p):
     t15 = l2*t14
     del t14
     t16 = t15*t13
-    F0 = (-l1)*(t12 + t16*t7)
+    F0 = (-l1)*(t12 + t16*t6)
     del t12
     t17 = numpy.sin(theta2)
     t18 = g*t17
     del t17
-    F1 = t15*(l1*(t6*t7) - t18)
+    F1 = t15*(l1*(t5*t6) - t18)
     del t15, t18
     t19 = l1*l1
     t20 = m2*t19
@@ -349,13 +358,13 @@ def jacobian(y, p):
     rdet = 1.0/det
     del det
     qdd0 = rdet*(M11*F0 - F1*M01)
-    t22 = qdd0*t8
+    t22 = qdd0*t7
     del qdd0
-    t23 = M01*t6 + t22
+    t23 = M01*t5 + t22
     qdd1 = rdet*(M00*F1 - F0*M01)
     del F0, F1
-    t24 = qdd1*t8
-    del qdd1, t8
+    t24 = qdd1*t7
+    del qdd1, t7
     t25 = numpy.cos(theta1)
     t26 = t11*t25
     del t11, t25
@@ -366,16 +375,30 @@ def jacobian(y, p):
     t29 = numpy.cos(theta2)
     t30 = g*t29
     del t29
-    t31 = ((1/2)*l2*m2)*(-l1*(t1*t6) - t30) - t22
-    del t1, t22, t30, t6
+    t31 = ((1/2)*l2*m2)*(-l1*(t1*t5) - t30) - t22
+    del t1, t22, t30, t5
     t32 = M01*rdet
-    t33 = t3*t7
-    del t3, t7
+    t33 = t3*t6
+    del t3, t6
     t34 = t33*theta1_dot
-    dv0_2 = M11*rdet
-    t35 = t33*theta2_dot
+    t35 = M11*rdet
+    t36 = t33*theta2_dot
     del t33
-    dv1_3 = M00*rdet
+    t37 = M00*rdet
+    t38 = rdet*(M11*t27 - M01*t23)
+    t39 = rdet*(M11*t28 - M01*t31)
+    del M11
+    t40 = -t32*t34
+    t41 = -t35*t36
+    del t35
+    t42 = rdet*(M00*t23 - M01*t27)
+    del t23, t27
+    t43 = rdet*(M00*t31 - M01*t28)
+    del M00, M01, rdet, t28, t31
+    t44 = t34*t37
+    del t34, t37
+    t45 = t32*t36
+    del t32, t36
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -385,20 +408,22 @@ def jacobian(y, p):
     J[..., 1, 1] = 0
     J[..., 1, 2] = 0
     J[..., 1, 3] = 1
-    J[..., 2, 0] = rdet*(M11*t27 - M01*t23)
-    J[..., 2, 1] = rdet*(M11*t28 - M01*t31)
-    del M11
-    J[..., 2, 2] = -t32*t34
-    J[..., 2, 3] = -dv0_2*t35
-    del dv0_2
-    J[..., 3, 0] = rdet*(M00*t23 - M01*t27)
-    del t23, t27
-    J[..., 3, 1] = rdet*(M00*t31 - M01*t28)
-    del M00, M01, rdet, t28, t31
-    J[..., 3, 2] = dv1_3*t34
-    del dv1_3, t34
-    J[..., 3, 3] = t32*t35
-    del t32, t35
+    J[..., 2, 0] = t38
+    del t38
+    J[..., 2, 1] = t39
+    del t39
+    J[..., 2, 2] = t40
+    del t40
+    J[..., 2, 3] = t41
+    del t41
+    J[..., 3, 0] = t42
+    del t42
+    J[..., 3, 1] = t43
+    del t43
+    J[..., 3, 2] = t44
+    del t44
+    J[..., 3, 3] = t45
+    del t45
     return J
 
 
@@ -465,13 +490,19 @@ def hamiltonian_rhs(x, p):
     t18 = numpy.sin(theta2)
     t19 = g*t18
     del t18
+    t20 = (-l1)*(t12 + t13*t17)
+    del t12, t17
+    t21 = t15*(l1*(t13*v0*v1) - t19)
+    del t13, t15, t19
     xdot = numpy.empty(shape + (4,), dtype)
     xdot[..., 0] = v0
+    del v0
     xdot[..., 1] = v1
-    xdot[..., 2] = (-l1)*(t12 + t13*t17)
-    del t12, t17
-    xdot[..., 3] = t15*(l1*(t13*v0*v1) - t19)
-    del t13, t15, t19, v0, v1
+    del v1
+    xdot[..., 2] = t20
+    del t20
+    xdot[..., 3] = t21
+    del t21
     return xdot
 
 
@@ -497,20 +528,20 @@ def hamiltonian_jacobian(x, p):
     L2 = p[..., 5]
     g = p[..., 6]
     t0 = theta1 - theta2
-    t1 = numpy.cos(t0)
+    t1 = numpy.sin(t0)
     t2 = l1*m2
     t3 = l2*t2
     del t2
     t4 = (1/2)*t3
     del t3
-    M01 = t4*t1
-    t5 = l2*l2*m2
-    M11 = L2 + (1/4)*t5
-    del t5
-    t6 = numpy.sin(t0)
+    t5 = t4*t1
+    t6 = numpy.cos(t0)
     del t0
-    t7 = t4*t6
+    M01 = t4*t6
     del t4
+    t7 = l2*l2*m2
+    M11 = L2 + (1/4)*t7
+    del t7
     t8 = l1*l1
     t9 = m2*t8
     t10 = m1*t8
@@ -521,25 +552,25 @@ def hamiltonian_jacobian(x, p):
     rdet = 1.0/det
     del det
     v0 = rdet*(M11*p_theta1 - M01*p_theta2)
-    t11 = t7*v0
+    t11 = t5*v0
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
-    t12 = M01*t11 - ((1/2)*M11*l1*l2*m2)*(t6*v1)
-    del t6
+    t12 = M01*t11 - ((1/2)*M11*l1*l2*m2)*(t1*v1)
+    del t1
     dv0_0 = -rdet*t12
     dv0_1 = rdet*t12
     del t12
     dv0_2 = M11*rdet
     del M11
     t13 = M01*rdet
-    dv1_2 = -t13
+    dv0_3 = -t13
     del t13
-    dv0_3 = dv1_2
-    t14 = t7*v1
-    del t7
+    t14 = t5*v1
+    del t5
     t15 = M00*t11 - M01*t14
     dv1_0 = rdet*t15
     dv1_1 = -rdet*t15
     del t15
+    dv1_2 = dv0_3
     dv1_3 = M00*rdet
     del M00, rdet
     t16 = (1/2)*m1
@@ -561,6 +592,16 @@ def hamiltonian_jacobian(x, p):
     t28 = numpy.cos(theta2)
     t29 = g*t28
     del t28
+    t30 = -l1*(t19 + t23*t6) - t24
+    del t19, t23
+    t31 = ((1/2)*l1*l2*m2)*(t6*v0*v1) - t25
+    del v0, v1
+    t32 = -t26
+    t33 = -t27
+    t34 = M01*t22 + t24
+    del M01, t24
+    t35 = t21*(-l1*(t22*t6) - t29) + t25
+    del t21, t22, t25, t29, t6
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = dv0_0
     del dv0_0
@@ -578,16 +619,18 @@ def hamiltonian_jacobian(x, p):
     del dv1_2
     J[..., 1, 3] = dv1_3
     del dv1_3
-    J[..., 2, 0] = -l1*(t1*t23 + t19) - t24
-    del t19, t23
-    J[..., 2, 1] = ((1/2)*l1*l2*m2)*(t1*v0*v1) - t25
-    del v0, v1
-    J[..., 2, 2] = -t26
-    J[..., 2, 3] = -t27
-    J[..., 3, 0] = M01*t22 + t24
-    del M01, t24
-    J[..., 3, 1] = t21*(-l1*(t1*t22) - t29) + t25
-    del t1, t21, t22, t25, t29
+    J[..., 2, 0] = t30
+    del t30
+    J[..., 2, 1] = t31
+    del t31
+    J[..., 2, 2] = t32
+    del t32
+    J[..., 2, 3] = t33
+    del t33
+    J[..., 3, 0] = t34
+    del t34
+    J[..., 3, 1] = t35
+    del t35
     J[..., 3, 2] = t26
     del t26
     J[..., 3, 3] = t27
@@ -618,29 +661,33 @@ def to_canonical(y, p):
     t1 = m2*t0
     t2 = m1*t0
     del t0
-    M00 = L1 + t1 + (1/4)*t2
+    t3 = L1 + t1 + (1/4)*t2
     del t1, t2
-    t3 = theta1 - theta2
-    t4 = numpy.cos(t3)
-    del t3
-    t5 = l1*m2
-    t6 = l2*t5
-    del t5
-    t7 = (1/2)*t6
+    t4 = theta1 - theta2
+    t5 = numpy.cos(t4)
+    del t4
+    t6 = l1*m2
+    t7 = l2*t6
     del t6
-    M01 = t7*t4
-    del t4, t7
-    t8 = M01*theta2_dot
-    t9 = l2*l2*m2
-    M11 = L2 + (1/4)*t9
-    del t9
+    t8 = (1/2)*t7
+    del t7
+    t9 = t8*t5
+    del t5, t8
+    t10 = t9*theta2_dot
+    t11 = l2*l2*m2
+    t12 = L2 + (1/4)*t11
+    del t11
+    t13 = t10 + t3*theta1_dot
+    del t10, t3
+    t14 = t12*theta2_dot + t9*theta1_dot
+    del t12, t9
     x = numpy.empty(shape + (4,), dtype)
     x[..., 0] = theta1
     x[..., 1] = theta2
-    x[..., 2] = M00*theta1_dot + t8
-    del M00, t8
-    x[..., 3] = M01*theta1_dot + M11*theta2_dot
-    del M01, M11
+    x[..., 2] = t13
+    del t13
+    x[..., 3] = t14
+    del t14
     return x
 
 

@@ -159,19 +159,19 @@ def forcing(y, p):
     t6 = l2*m2
     t7 = t6*t5
     del t5
-    F0 = (-l1)*(t2 + t4*t7)
+    t8 = (-l1)*(t2 + t4*t7)
     del t2, t7
-    t8 = numpy.sin(theta2)
-    t9 = g*t8
-    del t8
-    t10 = theta1_dot*theta1_dot
-    F1 = t6*(l1*(t10*t4) - t9)
-    del t10, t4, t6, t9
+    t9 = numpy.sin(theta2)
+    t10 = g*t9
+    del t9
+    t11 = theta1_dot*theta1_dot
+    t12 = t6*(l1*(t11*t4) - t10)
+    del t10, t11, t4, t6
     F = numpy.empty(shape + (2,), dtype)
-    F[..., 0] = F0
-    del F0
-    F[..., 1] = F1
-    del F1
+    F[..., 0] = t8
+    del t8
+    F[..., 1] = t12
+    del t12
     return F
 
 
@@ -194,27 +194,29 @@ def energy(y, p):
     l2 = p[..., 3]
     g = p[..., 4]
     t0 = l1*m2
-    M11 = l2*l2*m2
-    t1 = theta2_dot*theta2_dot
-    t2 = theta1_dot*theta1_dot
-    t3 = theta1 - theta2
-    t4 = numpy.cos(t3)
-    del t3
-    t5 = l2*t0
-    M01 = t5*t4
-    del t4, t5
-    t6 = M01*theta2_dot
-    del M01
-    t7 = l1*l1
-    t8 = (1/2)*t7
+    t1 = l2*l2*m2
+    t2 = theta2_dot*theta2_dot
+    t3 = theta1_dot*theta1_dot
+    t4 = theta1 - theta2
+    t5 = numpy.cos(t4)
+    del t4
+    t6 = l2*t0
+    t7 = t6*t5
+    del t5, t6
+    t8 = t7*theta2_dot
     del t7
-    t9 = numpy.cos(theta2)
-    t10 = l2*t9
+    t9 = l1*l1
+    t10 = (1/2)*t9
     del t9
-    t11 = numpy.cos(theta1)
+    t11 = numpy.cos(theta2)
+    t12 = l2*t11
+    del t11
+    t13 = numpy.cos(theta1)
+    t14 = ((1/2)*t1)*t2 + (m1*t10 + m2*t10)*t3 + t8*theta1_dot - g*(m2*t12 + (l1*m1 + t0)*t13)
+    del t0, t1, t10, t12, t13, t2, t3, t8
     E = numpy.empty(shape + (), dtype)
-    E[...] = ((1/2)*M11)*t1 + (m1*t8 + m2*t8)*t2 + t6*theta1_dot - g*(m2*t10 + (l1*m1 + t0)*t11)
-    del M11, t0, t1, t10, t11, t2, t6, t8
+    E[...] = t14
+    del t14
     return E
 
 
@@ -242,13 +244,20 @@ def positions(y, p):
     t5 = numpy.cos(theta2)
     t6 = l2*t5
     del t5
+    t7 = -t3
+    t8 = l2*t4 + t1
+    del t4
+    t9 = -t3 - t6
+    del t3, t6
     pos = numpy.empty(shape + (2, 2), dtype)
     pos[..., 0, 0] = t1
-    pos[..., 0, 1] = -t3
-    pos[..., 1, 0] = l2*t4 + t1
-    del t1, t4
-    pos[..., 1, 1] = -t3 - t6
-    del t3, t6
+    del t1
+    pos[..., 0, 1] = t7
+    del t7
+    pos[..., 1, 0] = t8
+    del t8
+    pos[..., 1, 1] = t9
+    del t9
     return pos
 
 
@@ -277,12 +286,12 @@ def jacobian(y, p):
     t3 = l2*t2
     del t2
     M01 = t3*t1
-    M11 = l2*l2*m2
     t4 = theta1_dot*theta1_dot
     t5 = numpy.sin(t0)
     del t0
     t6 = t3*t5
     del t3
+    M11 = l2*l2*m2
     t7 = numpy.sin(theta1)
     t8 = g*m1 + g*m2
     t9 = t8*t7
@@ -327,10 +336,24 @@ def jacobian(y, p):
     t27 = 2*t6
     del t6
     t28 = t27*theta1_dot
-    dv0_2 = M11*rdet
-    t29 = t27*theta2_dot
+    t29 = M11*rdet
+    t30 = t27*theta2_dot
     del t27
-    dv1_3 = M00*rdet
+    t31 = M00*rdet
+    t32 = rdet*(M11*t21 - M01*t17)
+    t33 = rdet*(M11*t22 - M01*t25)
+    del M11
+    t34 = -t26*t28
+    t35 = -t29*t30
+    del t29
+    t36 = rdet*(M00*t17 - M01*t21)
+    del t17, t21
+    t37 = rdet*(M00*t25 - M01*t22)
+    del M00, M01, rdet, t22, t25
+    t38 = t28*t31
+    del t28, t31
+    t39 = t26*t30
+    del t26, t30
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -340,20 +363,22 @@ def jacobian(y, p):
     J[..., 1, 1] = 0
     J[..., 1, 2] = 0
     J[..., 1, 3] = 1
-    J[..., 2, 0] = rdet*(M11*t21 - M01*t17)
-    J[..., 2, 1] = rdet*(M11*t22 - M01*t25)
-    del M11
-    J[..., 2, 2] = -t26*t28
-    J[..., 2, 3] = -dv0_2*t29
-    del dv0_2
-    J[..., 3, 0] = rdet*(M00*t17 - M01*t21)
-    del t17, t21
-    J[..., 3, 1] = rdet*(M00*t25 - M01*t22)
-    del M00, M01, rdet, t22, t25
-    J[..., 3, 2] = dv1_3*t28
-    del dv1_3, t28
-    J[..., 3, 3] = t26*t29
-    del t26, t29
+    J[..., 2, 0] = t32
+    del t32
+    J[..., 2, 1] = t33
+    del t33
+    J[..., 2, 2] = t34
+    del t34
+    J[..., 2, 3] = t35
+    del t35
+    J[..., 3, 0] = t36
+    del t36
+    J[..., 3, 1] = t37
+    del t37
+    J[..., 3, 2] = t38
+    del t38
+    J[..., 3, 3] = t39
+    del t39
     return J
 
 
@@ -407,13 +432,19 @@ def hamiltonian_rhs(x, p):
     t12 = numpy.sin(theta2)
     t13 = g*t12
     del t12
+    t14 = (-l1)*(t11*t8 + t7)
+    del t11, t7
+    t15 = t9*(l1*(t8*v0*v1) - t13)
+    del t13, t8, t9
     xdot = numpy.empty(shape + (4,), dtype)
     xdot[..., 0] = v0
+    del v0
     xdot[..., 1] = v1
-    xdot[..., 2] = (-l1)*(t11*t8 + t7)
-    del t11, t7
-    xdot[..., 3] = t9*(l1*(t8*v0*v1) - t13)
-    del t13, t8, t9, v0, v1
+    del v1
+    xdot[..., 2] = t14
+    del t14
+    xdot[..., 3] = t15
+    del t15
     return xdot
 
 
@@ -437,16 +468,16 @@ def hamiltonian_jacobian(x, p):
     l2 = p[..., 3]
     g = p[..., 4]
     t0 = theta1 - theta2
-    t1 = numpy.cos(t0)
+    t1 = numpy.sin(t0)
     t2 = l1*m2
     t3 = l2*t2
     del t2
-    M01 = t3*t1
-    M11 = l2*l2*m2
-    t4 = numpy.sin(t0)
+    t4 = t3*t1
+    t5 = numpy.cos(t0)
     del t0
-    t5 = t3*t4
+    M01 = t3*t5
     del t3
+    M11 = l2*l2*m2
     t6 = l1*l1
     M00 = t6*(m1 + m2)
     del t6
@@ -454,25 +485,25 @@ def hamiltonian_jacobian(x, p):
     rdet = 1.0/det
     del det
     v0 = rdet*(M11*p_theta1 - M01*p_theta2)
-    t7 = t5*v0
+    t7 = t4*v0
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
-    t8 = M01*t7 - (M11*l1*l2*m2)*(t4*v1)
-    del t4
+    t8 = M01*t7 - (M11*l1*l2*m2)*(t1*v1)
+    del t1
     dv0_0 = -rdet*t8
     dv0_1 = rdet*t8
     del t8
     dv0_2 = M11*rdet
     del M11
     t9 = M01*rdet
-    dv1_2 = -t9
+    dv0_3 = -t9
     del t9
-    dv0_3 = dv1_2
-    t10 = t5*v1
-    del t5
+    t10 = t4*v1
+    del t4
     t11 = M00*t7 - M01*t10
     dv1_0 = rdet*t11
     dv1_1 = -rdet*t11
     del t11
+    dv1_2 = dv0_3
     dv1_3 = M00*rdet
     del M00, rdet
     t12 = g*m1 + g*m2
@@ -490,6 +521,16 @@ def hamiltonian_jacobian(x, p):
     t22 = numpy.cos(theta2)
     t23 = g*t22
     del t22
+    t24 = -l1*(t14 + t17*t5) - t18
+    del t14, t17
+    t25 = (l1*l2*m2)*(t5*v0*v1) - t19
+    del v0, v1
+    t26 = -t20
+    t27 = -t21
+    t28 = M01*t16 + t18
+    del M01, t18
+    t29 = t15*(-l1*(t16*t5) - t23) + t19
+    del t15, t16, t19, t23, t5
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = dv0_0
     del dv0_0
@@ -507,16 +548,18 @@ def hamiltonian_jacobian(x, p):
     del dv1_2
     J[..., 1, 3] = dv1_3
     del dv1_3
-    J[..., 2, 0] = -l1*(t1*t17 + t14) - t18
-    del t14, t17
-    J[..., 2, 1] = (l1*l2*m2)*(t1*v0*v1) - t19
-    del v0, v1
-    J[..., 2, 2] = -t20
-    J[..., 2, 3] = -t21
-    J[..., 3, 0] = M01*t16 + t18
-    del M01, t18
-    J[..., 3, 1] = t15*(-l1*(t1*t16) - t23) + t19
-    del t1, t15, t16, t19, t23
+    J[..., 2, 0] = t24
+    del t24
+    J[..., 2, 1] = t25
+    del t25
+    J[..., 2, 2] = t26
+    del t26
+    J[..., 2, 3] = t27
+    del t27
+    J[..., 3, 0] = t28
+    del t28
+    J[..., 3, 1] = t29
+    del t29
     J[..., 3, 2] = t20
     del t20
     J[..., 3, 3] = t21
@@ -542,25 +585,29 @@ def to_canonical(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     t0 = l1*l1
-    M00 = t0*(m1 + m2)
+    t1 = t0*(m1 + m2)
     del t0
-    t1 = theta1 - theta2
-    t2 = numpy.cos(t1)
-    del t1
-    t3 = l1*m2
-    t4 = l2*t3
-    del t3
-    M01 = t4*t2
-    del t2, t4
-    t5 = M01*theta2_dot
-    M11 = l2*l2*m2
+    t2 = theta1 - theta2
+    t3 = numpy.cos(t2)
+    del t2
+    t4 = l1*m2
+    t5 = l2*t4
+    del t4
+    t6 = t5*t3
+    del t3, t5
+    t7 = t6*theta2_dot
+    t8 = l2*l2*m2
+    t9 = t1*theta1_dot + t7
+    del t1, t7
+    t10 = t6*theta1_dot + t8*theta2_dot
+    del t6, t8
     x = numpy.empty(shape + (4,), dtype)
     x[..., 0] = theta1
     x[..., 1] = theta2
-    x[..., 2] = M00*theta1_dot + t5
-    del M00, t5
-    x[..., 3] = M01*theta1_dot + M11*theta2_dot
-    del M01, M11
+    x[..., 2] = t9
+    del t9
+    x[..., 3] = t10
+    del t10
     return x
 
 

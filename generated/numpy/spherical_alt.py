@@ -36,7 +36,7 @@ def rhs(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns ydot: (..., 8) y' in state order
-    Total ops: 198
+    Total ops: 196
     """
     (y, p), shape, dtype = _prepare("rhs", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -56,111 +56,152 @@ def rhs(y, p):
     t1 = numpy.sin(vartheta2)
     Ab = l2*l2
     t2 = varphi1 - varphi2
-    t3 = numpy.cos(t2)
-    t4 = l1*l2
-    Q11 = t3*t4
-    t5 = numpy.sin(t2)
-    e2_0 = numpy.cos(vartheta2)
-    t6 = e2_0*l2
-    t7 = l1*t6
-    t8 = t5*t7
-    Q10 = -t8
-    e1_0 = numpy.cos(vartheta1)
-    t9 = e1_0*l1
-    t10 = l2*t5
-    Q01 = t10*t9
-    t11 = Q01*Q01
-    t12 = t0*t1
-    t13 = e1_0*e2_0
-    t14 = t12 + t13*t3
-    Q00 = t14*t4
-    t15 = 1.0/m2
-    t16 = l1*l1
-    t17 = m1 + m2
-    M00 = t16*t17
-    Aa = M00*t15
+    t3 = numpy.sin(t2)
+    t4 = numpy.cos(vartheta2)
+    t5 = l2*t4
+    t6 = l1*t5
+    t7 = t3*t6
+    Q10 = -t7
+    del t7
+    t8 = numpy.cos(t2)
+    del t2
+    t9 = l1*l2
+    Q11 = t9*t8
+    t10 = numpy.cos(vartheta1)
+    t11 = l1*t10
+    t12 = l2*t3
+    Q01 = t11*t12
+    del t12
+    t13 = Q01*Q01
+    t14 = 1.0/m2
+    t15 = l1*l1
+    t16 = m1 + m2
+    t17 = t15*t16
+    Aa = t14*t17
+    del t17
     AaAb = Aa*Ab
     t18 = -AaAb
-    t19 = Q00*Q00 + t18
-    D1_00 = -t11 - t19
+    del AaAb
+    t19 = t0*t1
+    t20 = t10*t4
+    t21 = t19 + t20*t8
+    del t19, t20
+    Q00 = t9*t21
+    del t21
+    t22 = t18 + Q00*Q00
+    D1_00 = -t13 - t22
     D1_01 = -Q00*Q10 - Q01*Q11
-    t20 = Q10*Q10
-    t21 = Q11*Q11 + t18
-    D1_11 = -t20 - t21
+    t23 = Q10*Q10
+    t24 = t18 + Q11*Q11
+    del t18
+    D1_11 = -t23 - t24
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t22 = 2*varphi2_dot
-    t23 = t22*vartheta2_dot
-    t24 = numpy.cos(varphi1)
-    t25 = g*t24
-    t26 = t15*t17
-    t27 = l1*t26
-    t28 = t4*t5
-    t29 = varphi2_dot*varphi2_dot
-    t30 = t1*t29
-    t31 = vartheta2_dot*vartheta2_dot
-    t32 = t31*t4
-    t33 = t32*t5
-    t34 = t3*t7
-    t35 = e1_0*vartheta1_dot
-    t36 = 2*varphi1_dot
-    t37 = Aa*t36
-    f1 = -t1*t33 - t23*t34 - t25*t27 - t28*t30 - t35*t37
-    t38 = numpy.sin(varphi2)
-    t39 = g*t38*t6
-    t40 = e2_0*t1
-    t41 = varphi1_dot*varphi1_dot
-    t42 = e2_0*t0
-    t43 = t41*t42
-    t44 = Q11*t43
+    t25 = 2*varphi2_dot
+    t26 = t25*vartheta2_dot
+    t27 = numpy.cos(varphi1)
+    t28 = g*t14*t16
+    t29 = l1*t28
+    t30 = t9*t3
+    t31 = varphi2_dot*varphi2_dot
+    t32 = t1*t31
+    t33 = vartheta2_dot*vartheta2_dot
+    t34 = t9*t33
+    del t33
+    t35 = t3*t34
+    t36 = t6*t8
+    del t6
+    t37 = t10*vartheta1_dot
+    t38 = t37*varphi1_dot
+    del t37
+    t39 = 2*Aa
+    f1 = -t1*t35 - t26*t36 - t29*t27 - t30*t32 - t39*t38
+    del t27, t29, t30, t32, t35, t36, t38, t39
+    t40 = numpy.sin(varphi2)
+    t41 = t1*t4
+    t42 = varphi1_dot*varphi1_dot
+    t43 = t0*t4
+    t44 = t42*t43
     t45 = 2*vartheta1_dot
     t46 = t45*varphi1_dot
-    t47 = t46*t9
-    t48 = t5*t6
+    del t45
+    t47 = t11*t3
+    t48 = t47*t5
     t49 = vartheta1_dot*vartheta1_dot
-    t50 = t4*(e1_0*t1 - t3*t42)
-    f2 = Ab*t29*t40 - t39 + t44 + t47*t48 - t49*t50
-    t51 = numpy.cos(varphi2)
-    t52 = g*t51
-    t53 = e2_0*vartheta2_dot
-    t54 = Ab*t22
-    t55 = t3*t9
-    t56 = l2*t55
-    f3 = l1*l2*t0*t41*t5 + l1*l2*t0*t49*t5 - l2*t52 - t46*t56 - t53*t54
-    t57 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t58 = numpy.sin(varphi1)
-    t59 = g*t58
-    t60 = t59*t9
-    t61 = t23*t6
-    t62 = t5*t9
-    t63 = e1_0*t1
-    t64 = -t3*t63 + t42
-    f0 = e1_0*l1*l2*t1*t29*t3 + e1_0*t0*t15*t16*t17*t41 - t26*t60 - t32*t64 - t61*t62
+    t50 = t43*t8
+    t51 = t9*(t1*t10 - t50)
+    del t50, t9
+    f2 = Ab*(t31*t41) + Q11*t44 + t46*t48 - g*(t40*t5) - t49*t51
+    del t40, t41, t44, t48, t51
+    t52 = numpy.cos(varphi2)
+    t53 = g*t52
+    del t52
+    t54 = t4*vartheta2_dot
+    del t4
+    t55 = Ab*t25
+    del t25
+    t56 = t11*t8
+    t57 = l2*t56
+    del t56
+    f3 = (l1*l2)*(t0*t3*t42) + (l1*l2)*(t0*t3*t49) - l2*t53 - t46*t57 - t54*t55
+    del t3, t46, t49, t53, t54, t55, t57
+    t58 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t59 = numpy.sin(varphi1)
+    t60 = t28*t11
+    del t11, t28
+    t61 = t26*t5
+    del t26, t5
+    t62 = t1*t10
+    t63 = t62*t8
+    del t62
+    t64 = t43 - t63
+    del t43, t63
+    f0 = (l1*l2)*(t1*t10*t31*t8) + (t14*t15*t16)*(t0*t10*t42) - t34*t64 - t47*t61 - t59*t60
+    del t10, t14, t15, t16, t31, t34, t42, t47, t59, t60, t61, t64, t8
     t65 = Ab*f0 - Q00*f2 - Q01*f3
-    xr0 = -D1_01*t57 + D1_11*rD1*t65
+    del Ab
+    xr0 = D1_11*rD1*t65 - D1_01*t58
+    del D1_11
     qdd0 = xr0
-    xr1 = D1_00*t57 - D1_01*rD1*t65
+    del xr0
+    xr1 = D1_00*t58 - D1_01*rD1*t65
+    del D1_00, D1_01, rD1, t58, t65
     rs1 = 1.0/t0
+    del t0
     qdd1 = rs1*xr1
-    D2_00 = -t19 - t20
+    del rs1, xr1
+    D2_00 = -t22 - t23
+    del t22, t23
     D2_01 = -Q00*Q01 - Q10*Q11
-    D2_11 = -t11 - t21
+    D2_11 = -t13 - t24
+    del t13, t24
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
     t66 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    del Q01, Q11, f3
     t67 = Aa*f2 - Q00*f0 - Q10*f1
-    xr2 = -D2_01*t66 + D2_11*rD2*t67
+    del Aa, Q00, Q10, f0, f1, f2
+    xr2 = D2_11*rD2*t67 - D2_01*t66
+    del D2_11
     qdd2 = xr2
+    del xr2
     xr3 = D2_00*t66 - D2_01*rD2*t67
+    del D2_00, D2_01, rD2, t66, t67
     rs3 = 1.0/t1
+    del t1
     qdd3 = rs3*xr3
+    del rs3, xr3
     ydot = numpy.empty(shape + (8,), dtype)
     ydot[..., 0] = vartheta1_dot
     ydot[..., 1] = varphi1_dot
     ydot[..., 2] = vartheta2_dot
     ydot[..., 3] = varphi2_dot
     ydot[..., 4] = qdd0
+    del qdd0
     ydot[..., 5] = qdd1
+    del qdd1
     ydot[..., 6] = qdd2
+    del qdd2
     ydot[..., 7] = qdd3
+    del qdd3
     return ydot
 
 
@@ -170,7 +211,7 @@ def mass_matrix(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns M: (..., 4, 4) M, row-major
-    Total ops: 33
+    Total ops: 32
     """
     (y, p), shape, dtype = _prepare("mass_matrix", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -186,49 +227,72 @@ def mass_matrix(y, p):
     t2 = l1*l1
     t3 = m1 + m2
     M00 = t2*t3
+    del t2, t3
     t4 = t0*t1
     t5 = varphi1 - varphi2
     t6 = numpy.cos(t5)
-    e1_0 = numpy.cos(vartheta1)
-    e2_0 = numpy.cos(vartheta2)
-    t7 = e1_0*e2_0
-    t8 = t4 + t6*t7
-    t9 = l1*l2
-    Q00 = t8*t9
-    M02 = Q00*m2
-    t10 = e1_0*t1
-    t11 = numpy.sin(t5)
-    t12 = t11*t9
-    t13 = m2*t12
-    M03 = t10*t13
-    t14 = t0*t0
-    M11 = M00*t14
-    t15 = e2_0*t0
-    t16 = t13*t15
-    M12 = -t16
-    Q11 = t6*t9
-    t17 = Q11*t4
-    M13 = m2*t17
-    Ab = l2*l2
-    M22 = Ab*m2
+    t7 = numpy.cos(vartheta1)
+    t8 = numpy.cos(vartheta2)
+    t9 = t7*t8
+    t10 = t4 + t6*t9
+    del t9
+    t11 = l1*m2
+    t12 = l2*t11
+    M02 = t12*t10
+    del t10
+    t13 = t1*t7
+    del t7
+    t14 = numpy.sin(t5)
+    del t5
+    t15 = l2*t14
+    del t14
+    t16 = t11*t15
+    del t11, t15
+    M03 = t13*t16
+    del t13
+    t17 = t0*t0
+    M11 = M00*t17
+    del t17
+    t18 = t0*t8
+    del t0, t8
+    t19 = t16*t18
+    del t16, t18
+    M12 = -t19
+    del t19
+    t20 = t4*t6
+    del t4, t6
+    M13 = t12*t20
+    del t12, t20
+    t21 = l2*l2
+    M22 = m2*t21
+    del t21
     M33 = M22*t1*t1
+    del t1
     M = numpy.empty(shape + (4, 4), dtype)
     M[..., 0, 0] = M00
+    del M00
     M[..., 0, 1] = 0
     M[..., 0, 2] = M02
     M[..., 0, 3] = M03
     M[..., 1, 0] = 0
     M[..., 1, 1] = M11
+    del M11
     M[..., 1, 2] = M12
     M[..., 1, 3] = M13
     M[..., 2, 0] = M02
+    del M02
     M[..., 2, 1] = M12
+    del M12
     M[..., 2, 2] = M22
+    del M22
     M[..., 2, 3] = 0
     M[..., 3, 0] = M03
+    del M03
     M[..., 3, 1] = M13
+    del M13
     M[..., 3, 2] = 0
     M[..., 3, 3] = M33
+    del M33
     return M
 
 
@@ -238,7 +302,7 @@ def forcing(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns F: (..., 4) F
-    Total ops: 124
+    Total ops: 115
     """
     (y, p), shape, dtype = _prepare("forcing", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -254,63 +318,87 @@ def forcing(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = l1*l1
-    t1 = numpy.sin(vartheta1)
-    t2 = numpy.sin(vartheta2)
-    t3 = varphi1 - varphi2
-    t4 = numpy.cos(t3)
-    e1_0 = numpy.cos(vartheta1)
-    t5 = numpy.sin(varphi1)
-    t6 = g*t5
-    t7 = e1_0*l1
-    t8 = t6*t7
-    t9 = numpy.sin(t3)
+    t0 = numpy.cos(vartheta1)
+    t1 = numpy.sin(varphi1)
+    t2 = varphi2_dot*varphi2_dot
+    t3 = numpy.sin(vartheta1)
+    t4 = numpy.cos(vartheta2)
+    t5 = t3*t4
+    t6 = varphi1 - varphi2
+    t7 = numpy.cos(t6)
+    t8 = numpy.sin(vartheta2)
+    t9 = t0*t8
     t10 = t7*t9
-    t11 = varphi2_dot*varphi2_dot
-    t12 = varphi1_dot*varphi1_dot
+    t11 = l1*m2
+    t12 = l2*t11
     t13 = vartheta2_dot*vartheta2_dot
-    t14 = l1*l2
-    t15 = t13*t14
-    t16 = m1*t7
-    e2_0 = numpy.cos(vartheta2)
-    t17 = e2_0*t1
-    t18 = m2*t17
-    t19 = e2_0*l2
-    t20 = 2*varphi2_dot
-    t21 = t20*vartheta2_dot
-    t22 = t19*t21
-    t23 = m2*t22
-    t24 = numpy.cos(varphi1)
-    t25 = g*t24
-    t26 = 2*vartheta1_dot
-    t27 = t26*varphi1_dot
-    t28 = t27*t7
-    t29 = m2*t28
-    t30 = l2*t9
-    t31 = m2*t2
-    t32 = t30*t31
-    t33 = e1_0*t2
-    t34 = numpy.sin(varphi2)
-    t35 = g*t19*t34
-    t36 = e2_0*t2
-    Q11 = t14*t4
-    t37 = t12*t17
-    t38 = Q11*t37
-    t39 = t19*t9
-    Ab = l2*l2
-    M22 = Ab*m2
-    t40 = vartheta1_dot*vartheta1_dot
-    t41 = t14*t40
-    t42 = Q11*t40
-    t43 = numpy.cos(varphi2)
-    t44 = g*t43
-    t45 = t4*t7
-    t46 = t27*t45
+    t14 = t12*t13
+    t15 = g*m1
+    t16 = g*m2
+    t17 = l2*t4
+    t18 = t17*vartheta2_dot
+    t19 = numpy.sin(t6)
+    del t6
+    t20 = 2*t11
+    del t11
+    t21 = t20*t19
+    t22 = l1*l1
+    t23 = m1*t22
+    t24 = m2*t22
+    del t22
+    t25 = varphi1_dot*varphi1_dot
+    t26 = t25*t3
+    t27 = 2*varphi2_dot
+    t28 = t27*vartheta2_dot
+    del t27
+    t29 = t17*t28
+    del t28
+    t30 = numpy.cos(varphi1)
+    t31 = t0*vartheta1_dot
+    t32 = t31*varphi1_dot
+    del t31
+    t33 = l1*m1
+    t34 = l2*t19
+    t35 = m2*t8
+    t36 = t34*t35
+    del t34
+    t37 = numpy.sin(varphi2)
+    t38 = t4*t8
+    del t4, t8
+    t39 = t5*t7
+    t40 = l2*l2
+    t41 = m2*t40
+    del t40
+    t42 = vartheta1_dot*vartheta1_dot
+    t43 = t12*t42
+    t44 = numpy.cos(varphi2)
+    t45 = g*t44
+    del t44
+    t46 = 2*vartheta1_dot
+    t47 = t46*varphi1_dot
+    del t46
+    t48 = l1*t0
+    t49 = t48*t7
+    del t48
+    t50 = t47*t49
+    del t47, t49
+    t51 = (-l1*t15 - l1*t16)*(t0*t1) + (t23 + t24)*(t0*t26) + t12*(t10*t2) + t10*t14 - t0*t18*t21*varphi2_dot - t14*t5
+    del t0, t1, t10, t14, t18, t23, t24, t26, t5
+    t52 = (-l1)*t3*(m2*(t29*t7) + t13*t36 + t2*t36 + (t15 + t16)*t30 + (t20 + 2*t33)*t32)
+    del t13, t15, t20, t30, t33, t36, t7
+    t53 = t12*(t25*t39) + t17*t21*t32 + t41*(t2*t38) + t39*t43 - t16*(t17*t37) - t43*t9
+    del t12, t16, t17, t2, t21, t32, t37, t38, t39, t41, t43, t9
+    t54 = l2*(t35*(l1*(t19*t25*t3) + l1*(t19*t3*t42) - t29 - t45 - t50))
+    del t19, t25, t29, t3, t35, t42, t45, t50
     F = numpy.empty(shape + (4,), dtype)
-    F[..., 0] = e1_0*l1*l2*m2*t11*t2*t4 + e1_0*l1*l2*m2*t13*t2*t4 + e1_0*m1*t0*t1*t12 + e1_0*m2*t0*t1*t12 - m2*t8 - t10*t23 - t15*t18 - t16*t6
-    F[..., 1] = -l1*t1*(m1*t25 + m2*t25 + t11*t32 + t13*t32 + t16*t27 + t23*t4 + t29)
-    F[..., 2] = M22*t11*t36 - m2*t33*t41 - m2*t35 + m2*t38 + t18*t42 + t29*t39
-    F[..., 3] = l2*t31*(l1*t1*t12*t9 + l1*t1*t40*t9 - t22 - t44 - t46)
+    F[..., 0] = t51
+    del t51
+    F[..., 1] = t52
+    del t52
+    F[..., 2] = t53
+    del t53
+    F[..., 3] = t54
+    del t54
     return F
 
 
@@ -320,7 +408,7 @@ def energy(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns E: (...) T + V
-    Total ops: 79
+    Total ops: 75
     """
     (y, p), shape, dtype = _prepare("energy", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -339,47 +427,62 @@ def energy(y, p):
     t0 = numpy.sin(vartheta1)
     t1 = numpy.sin(vartheta2)
     t2 = t0*t1
-    t3 = l1*l2
-    t4 = varphi2_dot*varphi2_dot
-    t5 = vartheta2_dot*vartheta2_dot
-    e1_0 = numpy.cos(vartheta1)
-    t6 = e1_0*t1
-    t7 = varphi1 - varphi2
-    t8 = numpy.sin(t7)
-    t9 = t3*t8
-    t10 = m2*t9
-    M03 = t10*t6
-    e2_0 = numpy.cos(vartheta2)
-    t11 = e2_0*t0
-    t12 = t10*t11
-    t13 = numpy.cos(t7)
-    Q11 = t13*t3
-    t14 = Q11*t2
-    M13 = m2*t14
-    Ab = l2*l2
-    M22 = Ab*m2
-    M33 = M22*t1*t1
-    t15 = l1*l1
-    t16 = m1*t15
-    t17 = vartheta1_dot*vartheta1_dot
-    t18 = (1/2)*t17
-    t19 = m2*t15
-    t20 = m2*vartheta1_dot*vartheta2_dot
-    t21 = varphi1_dot*varphi1_dot
-    t22 = t0*t0
-    t23 = (1/2)*t21*t22
-    t24 = e2_0*l2
-    t25 = e1_0*l1
-    t26 = t13*t25
-    t27 = t24*t26
-    t28 = numpy.sin(varphi1)
-    e1_2 = t0*t28
-    t29 = e1_2*l1
-    t30 = numpy.sin(varphi2)
-    e2_2 = t1*t30
-    t31 = e2_2*l2
+    t3 = varphi1 - varphi2
+    t4 = numpy.cos(t3)
+    t5 = varphi2_dot*varphi2_dot
+    t6 = varphi1_dot*varphi1_dot
+    t7 = vartheta2_dot*vartheta2_dot
+    t8 = numpy.cos(vartheta1)
+    t9 = t8*vartheta1_dot
+    t10 = vartheta1_dot*vartheta1_dot
+    t11 = l1*m2
+    t12 = l2*t11
+    t13 = t1*t8
+    del t8
+    t14 = numpy.sin(t3)
+    del t3
+    t15 = l2*t14
+    del t14
+    t16 = t11*t15
+    del t15
+    t17 = t13*t16
+    del t13
+    t18 = t0*t0
+    t19 = numpy.cos(vartheta2)
+    t20 = t0*t19
+    t21 = t16*t20
+    del t16, t20
+    t22 = t2*t4
+    t23 = t12*t22
+    del t22
+    t24 = l2*l2
+    t25 = m2*t24
+    del t24
+    t26 = t25*t1*t1
+    t27 = numpy.sin(varphi1)
+    t28 = t0*t27
+    del t0, t27
+    t29 = l2*t19
+    del t19
+    t30 = t29*vartheta2_dot
+    del t29
+    t31 = l1*m1
+    t32 = l1*l1
+    t33 = m1*t32
+    t34 = m2*t32
+    del t32
+    t35 = (1/2)*t33 + (1/2)*t34
+    del t33, t34
+    t36 = numpy.sin(varphi2)
+    t37 = t1*t36
+    del t1, t36
+    t38 = l2*t37
+    del t37
+    t39 = g*(m2*t38 + (t11 + t31)*t28) + t35*t10 + t11*(t30*t4*t9) + t12*(t2*vartheta1_dot*vartheta2_dot) + t17*varphi2_dot*vartheta1_dot + t35*(t18*t6) + t23*varphi1_dot*varphi2_dot + ((1/2)*t25)*t7 + 1/2*(t26*t5) - t21*varphi1_dot*vartheta2_dot
+    del t10, t11, t12, t17, t18, t2, t21, t23, t25, t26, t28, t30, t31, t35, t38, t4, t5, t6, t7, t9
     E = numpy.empty(shape + (), dtype)
-    E[...] = M03*varphi2_dot*vartheta1_dot + M13*varphi1_dot*varphi2_dot + (1/2)*M22*t5 + (1/2)*M33*t4 + g*(m1*t29 + m2*t29 + m2*t31) - t12*varphi1_dot*vartheta2_dot + t16*t18 + t16*t23 + t18*t19 + t19*t23 + t2*t20*t3 + t20*t27
+    E[...] = t39
+    del t39
     return E
 
 
@@ -399,30 +502,51 @@ def positions(y, p):
     varphi2 = y[..., 3]
     l1 = p[..., 2]
     l2 = p[..., 3]
-    e1_0 = numpy.cos(vartheta1)
-    t0 = e1_0*l1
-    t1 = numpy.sin(vartheta1)
-    t2 = numpy.cos(varphi1)
-    e1_1 = t1*t2
-    t3 = e1_1*l1
-    t4 = numpy.sin(varphi1)
-    e1_2 = t1*t4
-    t5 = e1_2*l1
-    e2_0 = numpy.cos(vartheta2)
-    t6 = e2_0*l2
-    t7 = numpy.sin(vartheta2)
-    t8 = numpy.cos(varphi2)
-    e2_1 = t7*t8
-    t9 = numpy.sin(varphi2)
-    e2_2 = t7*t9
-    t10 = e2_2*l2
+    t0 = numpy.cos(vartheta1)
+    t1 = l1*t0
+    del t0
+    t2 = numpy.sin(vartheta1)
+    t3 = numpy.cos(varphi1)
+    t4 = t2*t3
+    del t3
+    t5 = l1*t4
+    del t4
+    t6 = numpy.sin(varphi1)
+    t7 = t2*t6
+    del t2, t6
+    t8 = l1*t7
+    del t7
+    t9 = numpy.cos(vartheta2)
+    t10 = l2*t9
+    del t9
+    t11 = numpy.sin(vartheta2)
+    t12 = numpy.cos(varphi2)
+    t13 = t11*t12
+    del t12
+    t14 = numpy.sin(varphi2)
+    t15 = t11*t14
+    del t11, t14
+    t16 = l2*t15
+    del t15
+    t17 = t1 + t10
+    del t10
+    t18 = l2*t13 + t5
+    del t13
+    t19 = t16 + t8
+    del t16
     pos = numpy.empty(shape + (2, 3), dtype)
-    pos[..., 0, 0] = t0
-    pos[..., 0, 1] = t3
-    pos[..., 0, 2] = t5
-    pos[..., 1, 0] = t0 + t6
-    pos[..., 1, 1] = e2_1*l2 + t3
-    pos[..., 1, 2] = t10 + t5
+    pos[..., 0, 0] = t1
+    del t1
+    pos[..., 0, 1] = t5
+    del t5
+    pos[..., 0, 2] = t8
+    del t8
+    pos[..., 1, 0] = t17
+    del t17
+    pos[..., 1, 1] = t18
+    del t18
+    pos[..., 1, 2] = t19
+    del t19
     return pos
 
 
@@ -433,7 +557,7 @@ def jacobian(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 8, 8) row-major
-    Total ops: 704
+    Total ops: 700
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -454,188 +578,303 @@ def jacobian(y, p):
     t2 = 1.0/m2
     t3 = l1*l1
     t4 = m1 + m2
-    Ab = l2*l2
-    t5 = varphi1 - varphi2
-    t6 = numpy.cos(t5)
-    t7 = l1*l2
-    Q11 = t6*t7
-    e1_0 = numpy.cos(vartheta1)
-    t8 = e1_0*l1
-    t9 = numpy.sin(t5)
-    t10 = l2*t9
-    Q01 = t10*t8
-    t11 = varphi1_dot*varphi1_dot
-    t12 = vartheta1_dot*vartheta1_dot
-    t13 = t0*vartheta1_dot
-    t14 = t7*t9
+    t5 = numpy.cos(vartheta1)
+    t6 = l1*t5
+    t7 = varphi1 - varphi2
+    t8 = numpy.sin(t7)
+    t9 = l2*t8
+    Q01 = t6*t9
+    del t9
+    t10 = varphi1_dot*varphi1_dot
+    t11 = vartheta1_dot*vartheta1_dot
+    t12 = t0*vartheta1_dot
+    t13 = l1*l2
+    t14 = t13*t8
     t15 = t0*t14
-    t16 = 2*varphi1_dot
-    t17 = Q11*t16
-    e2_0 = numpy.cos(vartheta2)
-    t18 = e2_0*l2
-    t19 = l1*t18
-    t20 = t19*t9
-    Q10 = -t20
-    t21 = Q01*Q01
-    t22 = t0*t1
-    t23 = e1_0*e2_0
-    t24 = t22 + t23*t6
-    Q00 = t24*t7
-    M00 = t3*t4
-    Aa = M00*t2
+    t16 = numpy.cos(t7)
+    del t7
+    Q11 = t13*t16
+    t17 = 2*varphi1_dot
+    t18 = Q11*t17
+    Ab = l2*l2
+    t19 = numpy.cos(vartheta2)
+    t20 = l2*t19
+    t21 = l1*t20
+    t22 = t21*t8
+    Q10 = -t22
+    t23 = Q01*Q01
+    t24 = t3*t4
+    Aa = t2*t24
+    del t24
     AaAb = Aa*Ab
     t25 = -AaAb
-    t26 = Q00*Q00 + t25
-    D1_00 = -t21 - t26
+    del AaAb
+    t26 = t0*t1
+    t27 = t19*t5
+    t28 = t16*t27 + t26
+    Q00 = t13*t28
+    t29 = t25 + Q00*Q00
+    D1_00 = -t23 - t29
     D1_01 = -Q00*Q10 - Q01*Q11
-    t27 = Q10*Q10
-    t28 = Q11*Q11 + t25
-    D1_11 = -t27 - t28
+    t30 = Q10*Q10
+    t31 = t25 + Q11*Q11
+    del t25
+    D1_11 = -t30 - t31
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t29 = 2*varphi2_dot
-    t30 = t29*vartheta2_dot
-    t31 = numpy.cos(varphi1)
-    t32 = g*t31
-    t33 = t2*t4
-    t34 = l1*t33
-    t35 = varphi2_dot*varphi2_dot
-    t36 = t1*t35
-    t37 = vartheta2_dot*vartheta2_dot
-    t38 = t37*t7
-    t39 = t38*t9
-    t40 = t19*t6
-    t41 = e1_0*vartheta1_dot
-    t42 = Aa*t16
-    f1 = -t1*t39 - t14*t36 - t30*t40 - t32*t34 - t41*t42
-    t43 = numpy.sin(varphi2)
-    t44 = g*t18*t43
-    t45 = e2_0*t1
-    t46 = e2_0*t0
-    t47 = t11*t46
-    t48 = Q11*t47
-    t49 = 2*vartheta1_dot
-    t50 = t49*varphi1_dot
-    t51 = t50*t8
-    t52 = t18*t9
-    t53 = t7*(e1_0*t1 - t46*t6)
-    f2 = Ab*t35*t45 - t12*t53 - t44 + t48 + t51*t52
-    t54 = numpy.cos(varphi2)
-    t55 = g*t54
-    t56 = e2_0*vartheta2_dot
-    t57 = Ab*t29
-    t58 = t6*t8
-    t59 = l2*t58
-    f3 = l1*l2*t0*t11*t9 + l1*l2*t0*t12*t9 - l2*t55 - t50*t59 - t56*t57
-    t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t61 = numpy.sin(varphi1)
-    t62 = g*t61
-    t63 = t62*t8
-    t64 = t18*t30
-    t65 = t8*t9
-    t66 = e1_0*t1
-    t67 = t46 - t6*t66
-    f0 = e1_0*l1*l2*t1*t35*t6 + e1_0*t0*t11*t2*t3*t4 - t33*t63 - t38*t67 - t64*t65
-    t68 = Ab*f0 - Q00*f2 - Q01*f3
-    xr0 = -D1_01*t60 + D1_11*rD1*t68
-    t69 = Q01*t11 + Q01*t12 + t13*t17 + t15*xr0
-    t70 = t12*t7
-    t71 = t14*t46
-    t72 = -t24
-    t73 = e1_0*e2_0*l1*l2*t11*t6 - t50*t71 - t53*xr0 - t70*t72
-    t74 = 2*Ab*t0*t2*t3*t4*varphi1_dot*vartheta1_dot - Q10*t73 - Q11*t69
-    t75 = D1_01*rD1
-    e1_2 = t0*t61
-    t76 = e1_2*l1
-    D2_00 = -t26 - t27
+    t32 = 2*varphi2_dot
+    t33 = t32*vartheta2_dot
+    t34 = numpy.cos(varphi1)
+    t35 = g*t2*t4
+    t36 = l1*t35
+    t37 = varphi2_dot*varphi2_dot
+    t38 = t1*t37
+    t39 = vartheta2_dot*vartheta2_dot
+    t40 = t13*t39
+    t41 = t40*t8
+    t42 = t16*t21
+    del t21
+    t43 = t5*vartheta1_dot
+    t44 = t43*varphi1_dot
+    t45 = 2*Aa
+    f1 = -t1*t41 - t14*t38 - t33*t42 - t36*t34 - t45*t44
+    del t44
+    t46 = numpy.sin(varphi2)
+    t47 = t1*t19
+    t48 = t0*t19
+    t49 = t10*t48
+    t50 = 2*vartheta1_dot
+    t51 = t50*varphi1_dot
+    t52 = t6*t8
+    t53 = t20*t52
+    t54 = t16*t48
+    t55 = t13*(t1*t5 - t54)
+    del t54
+    f2 = Ab*(t37*t47) + Q11*t49 + t51*t53 - g*(t20*t46) - t11*t55
+    t56 = numpy.cos(varphi2)
+    t57 = g*t56
+    del t56
+    t58 = t19*vartheta2_dot
+    t59 = Ab*t32
+    t60 = t16*t6
+    t61 = l2*t60
+    f3 = (l1*l2)*(t0*t10*t8) + (l1*l2)*(t0*t11*t8) - l2*t57 - t51*t61 - t58*t59
+    t62 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t63 = numpy.sin(varphi1)
+    t64 = t35*t6
+    del t6
+    t65 = t20*t33
+    t66 = t1*t5
+    t67 = t16*t66
+    t68 = t48 - t67
+    del t67
+    f0 = (l1*l2)*(t1*t16*t37*t5) + (t2*t3*t4)*(t0*t10*t5) - t40*t68 - t52*t65 - t63*t64
+    del t52
+    t69 = Ab*f0 - Q00*f2 - Q01*f3
+    xr0 = D1_11*rD1*t69 - D1_01*t62
+    t70 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0
+    t71 = t14*t48
+    t72 = -t28
+    del t28
+    t73 = t13*t11
+    t74 = (l1*l2)*(t10*t16*t19*t5) - t51*t71 - t55*xr0 - t72*t73
+    t75 = (2*Ab*t2*t3*t4)*(t0*varphi1_dot*vartheta1_dot) - Q10*t74 - Q11*t70
+    t76 = D1_01*rD1
+    t77 = t0*t63
+    t78 = l1*t77
+    del t77
+    D2_00 = -t29 - t30
+    del t29, t30
     D2_01 = -Q00*Q01 - Q10*Q11
-    D2_11 = -t21 - t28
+    D2_11 = -t23 - t31
+    del t23, t31
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t77 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
-    t78 = Aa*f2 - Q00*f0 - Q10*f1
-    xr3 = D2_00*t77 - D2_01*rD2*t78
-    t79 = t14*xr3
-    t80 = t22*t6 + t23
-    xr2 = -D2_01*t77 + D2_11*rD2*t78
-    t81 = Aa*t11*(2*e1_0*e1_0 - 1) - Q11*t22*t35 + g*t33*t76 + t0*t79 + t30*t71 - t38*t80 - t53*xr2
-    t82 = Ab*t81 - Q00*t73 - Q01*t69
-    t83 = Q11*t12
-    xr1 = D1_00*t60 - D1_01*rD1*t68
-    t84 = t14*xr1
-    t85 = Q01*t50 + Q11*t0*t11 + t0*t83 - t59*xr0 + t84
-    t86 = t50*t58
-    t87 = t18*t65
-    t88 = -t14*t47 + t18*t86 + t40*xr1 - t46*t70*t9 + t87*xr0
-    t89 = -Q11*t1*t37 - Q11*t36 + t20*t30 + t40*xr2 + t79
-    t90 = t34*t62 + t89
-    t91 = Ab*t90 - Q10*t88 - Q11*t85
-    t92 = t14*t66
-    t93 = t35*t92 + t39*t66 + t58*t64 + t59*xr3 - t87*xr2
-    t94 = -t32*t33*t8 - t93
-    t95 = Ab*t94 - Q00*t88 - Q01*t85
-    t96 = t1*vartheta2_dot
-    t97 = t57*t96
-    t98 = t1*t14
-    t99 = 2*l1*l2*t1*t6*varphi2_dot*vartheta2_dot - t20*t35 - t20*t37 - t98*xr2
-    t100 = Q11*t22
-    t101 = t67*t7
-    t102 = Ab*t35*(2*e2_0*e2_0 - 1) + g*l2*t1*t43 - t1*t84 - t100*t11 - t101*xr0 - t50*t92 - t70*t80
-    t103 = Ab*t99 - Q10*t102 - Q11*t97
-    t104 = t18*t58
-    t105 = -t101*xr2 + t104*t35 + t30*t92 - t38*t72
-    t106 = Ab*t105 - Q00*t102 - Q01*t97
-    t107 = -t89
-    t108 = g*l2*t43 - t85
-    t109 = -t18*t55 - t88
+    t79 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    del f3
+    t80 = Aa*f2 - Q00*f0 - Q10*f1
+    del f0, f1, f2
+    xr3 = D2_00*t79 - D2_01*rD2*t80
+    t81 = t14*xr3
+    t82 = t16*t26
+    t83 = t27 + t82
+    del t27, t82
+    xr2 = D2_11*rD2*t80 - D2_01*t79
+    del t79, t80
+    t84 = Aa*(t10*(-1 + 2*t5*t5)) + t0*t81 + t33*t71 + t35*t78 - Q11*t26*t37 - t40*t83 - t55*xr2
+    del t35, t71, t78
+    t85 = Ab*t84 - Q00*t74 - Q01*t70
+    t86 = t0*t10
+    xr1 = D1_00*t62 - D1_01*rD1*t69
+    del D1_01, t62, t69
+    t87 = t14*xr1
+    t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 + t87 - t61*xr0
+    del t11, t86
+    t89 = t51*t60
+    t90 = t20*t89 + t42*xr1 + t53*xr0 - t14*t49 - t48*t73*t8
+    del t49, t89
+    t91 = t22*t33 + t42*xr2 + t81 - Q11*t1*t39 - Q11*t38
+    del t38, t81
+    t92 = t36*t63 + t91
+    del t36, t63
+    t93 = Ab*t92 - Q10*t90 - Q11*t88
+    t94 = t14*t66
+    t95 = t37*t94 + t41*t66 + t60*t65 + t61*xr3 - t53*xr2
+    del t41, t65
+    t96 = -t34*t64 - t95
+    del t34, t64
+    t97 = Ab*t96 - Q00*t90 - Q01*t88
+    t98 = t1*vartheta2_dot
+    t99 = t59*t98
+    t100 = t1*t14
+    t101 = (2*l1*l2)*(t1*t16*varphi2_dot*vartheta2_dot) - t100*xr2 - t22*t37 - t22*t39
+    del t16, t22, t39
+    t102 = t13*t68
+    del t13, t68
+    t103 = Ab*(t37*(-1 + 2*t19*t19)) + (g*l2)*(t1*t46) - Q11*t10*t26 - t1*t87 - t102*xr0 - t51*t94 - t73*t83
+    del t10, t26, t51, t73, t83, t87, xr0
+    t104 = Ab*t101 - Q10*t103 - Q11*t99
+    t105 = t20*t37*t60 + t33*t94 - t102*xr2 - t40*t72
+    del t33, t37, t40, t60, t72, t94, xr2
+    t106 = Ab*t105 - Q00*t103 - Q01*t99
+    del t99
+    t107 = -t91
+    del t91
+    t108 = (g*l2)*t46 - t88
+    del t46
+    t109 = -t20*t57 - t90
+    del t20, t57
     t110 = Ab*t107 - Q10*t109 - Q11*t108
-    t111 = Ab*t93 - Q00*t109 - Q01*t108
-    t112 = 2*l1*l2*t0*t9*vartheta1_dot - t16*t59
-    t113 = t16*t87 - t49*t53
+    t111 = Ab*t95 - Q00*t109 - Q01*t108
+    t112 = (2*l1*l2)*(t0*t8*vartheta1_dot) - t17*t61
+    del t8
+    t113 = t17*t53 - t50*t55
+    del t55
     t114 = -Q00*t113 - Q01*t112
-    t115 = e1_0*t42
-    t116 = -Ab*t115 - Q10*t113 - Q11*t112
-    t117 = 2*Aa*t41
-    t118 = t15*t16 - t49*t59
-    t119 = t17*t46 + t49*t87
-    t120 = -Ab*t117 - Q10*t119 - Q11*t118
-    t121 = 2*Ab*e1_0*t0*t2*t3*t4*varphi1_dot - Q00*t119 - Q01*t118
-    t122 = e2_0*t57
-    t123 = -2*t14*t96 - t29*t40
-    t124 = Ab*t123 + Q11*t122
-    t125 = 2*vartheta2_dot
-    t126 = -t101*t125 - t29*t87
-    t127 = Ab*t126 + Q01*t122
-    t128 = Ab*t56
-    t129 = 2*t128
-    t130 = t45*t57
-    t131 = -t125*t40 - t29*t98
-    t132 = Ab*t131 - Q10*t130 + Q11*t129
-    t133 = 2*Q01
-    t134 = Q11*t29*t66 - t125*t87
-    t135 = Ab*t134 - Q00*t130 + t128*t133
+    t115 = Aa*t17
+    t116 = t115*t5
+    t117 = -Ab*t116 - Q10*t113 - Q11*t112
+    t118 = t45*t43
+    del t43, t45
+    t119 = t15*t17 - t50*t61
+    del t15, t17, t61
+    t120 = t18*t48 + t50*t53
+    del t18, t48, t50
+    t121 = -Ab*t118 - Q10*t120 - Q11*t119
+    t122 = (2*Ab*t2*t3*t4)*(t0*t5*varphi1_dot) - Q00*t120 - Q01*t119
+    del t2, t3, t4
+    t123 = t19*t59
+    t124 = -2*(t14*t98) - t32*t42
+    del t14, t98
+    t125 = Ab*t124 + Q11*t123
+    t126 = 2*vartheta2_dot
+    t127 = -t102*t126 - t32*t53
+    del t102
+    t128 = Ab*t127 + Q01*t123
+    t129 = Ab*t58
+    del t58
+    t130 = 2*t129
+    t131 = t47*t59
+    del t47, t59
+    t132 = -t100*t32 - t126*t42
+    del t100, t42
+    t133 = Ab*t132 + Q11*t130 - Q10*t131
+    t134 = 2*Q01
+    t135 = Q11*t32*t66 - t126*t53
+    del t126, t32, t53, t66
+    t136 = Ab*t135 + t129*t134 - Q00*t131
+    del t129, t131
     rs1 = 1.0/t0
     qdd1 = rs1*xr1
-    t136 = D1_00*rD1
-    t137 = t13*t42
-    t138 = Aa*t69 - Q01*t81 - Q11*t137
-    t139 = D2_01*rD2
-    t140 = Aa*t73 - Q00*t81 - Q10*t137
-    t141 = Aa*t85 - Q01*t94 - Q11*t90
-    t142 = Aa*t88 - Q00*t94 - Q10*t90
-    t143 = 2*Aa*Ab*t1*varphi2_dot*vartheta2_dot - Q01*t105 - Q11*t99
-    t144 = Aa*t102 - Q00*t105 - Q10*t99
-    t145 = Aa*t108 - Q01*t93 - Q11*t107
-    t146 = Aa*t109 - Q00*t93 - Q10*t107
-    t147 = Aa*t112 + Q11*t115
-    t148 = Aa*t113 + Q10*t115
-    t149 = -Aa*e1_0*t0*t133*varphi1_dot + Aa*t118 + Q11*t117
-    t150 = Aa*t119 - Q00*t0*t115 + Q10*t117
-    t151 = -Q00*t126 - Q10*t123
-    t152 = -Aa*t122 - Q01*t126 - Q11*t123
-    t153 = -Aa*t129 - Q01*t134 - Q11*t131
-    t154 = 2*Aa*Ab*e2_0*t1*varphi2_dot - Q00*t134 - Q10*t131
-    t155 = D2_00*rD2
+    del xr1
+    t137 = D1_00*rD1
+    t138 = t115*t12
+    del t115, t12
+    t139 = Aa*t70 - Q01*t84 - Q11*t138
+    del t70
+    t140 = D2_01*rD2
+    del D2_01
+    t141 = Aa*t74 - Q00*t84 - Q10*t138
+    del t138, t74, t84
+    t142 = Aa*t88 - Q01*t96 - Q11*t92
+    del t88
+    t143 = Aa*t90 - Q00*t96 - Q10*t92
+    del t90, t92, t96
+    t144 = (2*Aa*Ab)*(t1*varphi2_dot*vartheta2_dot) - Q01*t105 - Q11*t101
+    t145 = Aa*t103 - Q00*t105 - Q10*t101
+    del t101, t103, t105
+    t146 = Aa*t108 - Q01*t95 - Q11*t107
+    del t108
+    t147 = Aa*t109 - Q00*t95 - Q10*t107
+    del t107, t109, t95
+    t148 = Aa*t112 + Q11*t116
+    del t112
+    t149 = Aa*t113 + Q10*t116
+    del t113
+    t150 = Aa*t119 + Q11*t118 - Aa*(t0*t134*t5*varphi1_dot)
+    del t119, t134
+    t151 = Aa*t120 + Q10*t118 - Q00*t0*t116
+    del t0, t116, t118, t120
+    t152 = -Q00*t127 - Q10*t124
+    t153 = -Aa*t123 - Q01*t127 - Q11*t124
+    del t123, t124, t127
+    t154 = -Aa*t130 - Q01*t135 - Q11*t132
+    del Q01, Q11, t130
+    t155 = (2*Aa*Ab)*(t1*t19*varphi2_dot) - Q00*t135 - Q10*t132
+    del Aa, Ab, Q00, Q10, t132, t135
+    t156 = D2_00*rD2
     rs3 = 1.0/t1
+    del t1
     qdd3 = rs3*xr3
+    del xr3
+    t157 = D1_11*rD1*t85 - t75*t76
+    t158 = D1_11*rD1*t97 - t76*t93
+    t159 = D1_11*rD1*t106 - t104*t76
+    t160 = D1_11*rD1*t111 - t110*t76
+    t161 = D1_11*rD1*t114 - t117*t76
+    t162 = D1_11*rD1*t122 - t121*t76
+    t163 = D1_11*rD1*t128 - t125*t76
+    t164 = D1_11*rD1*t136 - t133*t76
+    del D1_11
+    t165 = rs1*(D1_00*rD1*t75 - qdd1*t5 - t76*t85)
+    del D1_00, qdd1, rD1, t5, t75, t85
+    t166 = rs1*(t137*t93 - t76*t97)
+    del t93, t97
+    t167 = rs1*(t104*t137 - t106*t76)
+    del t104, t106
+    t168 = rs1*(t110*t137 - t111*t76)
+    del t110, t111
+    t169 = rs1*(t117*t137 - t114*t76)
+    del t114, t117
+    t170 = rs1*(t121*t137 - t122*t76)
+    del t121, t122
+    t171 = rs1*(t125*t137 - t128*t76)
+    del t125, t128
+    t172 = rs1*(t133*t137 - t136*t76)
+    del rs1, t133, t136, t137, t76
+    t173 = D2_11*rD2*t141 - t139*t140
+    t174 = D2_11*rD2*t143 - t140*t142
+    t175 = D2_11*rD2*t145 - t140*t144
+    t176 = D2_11*rD2*t147 - t140*t146
+    t177 = D2_11*rD2*t149 - t140*t148
+    t178 = D2_11*rD2*t151 - t140*t150
+    t179 = D2_11*rD2*t152 - t140*t153
+    t180 = D2_11*rD2*t155 - t140*t154
+    del D2_11
+    t181 = rs3*(t139*t156 - t140*t141)
+    del t139, t141
+    t182 = rs3*(t142*t156 - t140*t143)
+    del t142, t143
+    t183 = rs3*(D2_00*rD2*t144 - qdd3*t19 - t140*t145)
+    del D2_00, qdd3, rD2, t144, t145, t19
+    t184 = rs3*(t146*t156 - t140*t147)
+    del t146, t147
+    t185 = rs3*(t148*t156 - t140*t149)
+    del t148, t149
+    t186 = rs3*(t150*t156 - t140*t151)
+    del t150, t151
+    t187 = rs3*(t153*t156 - t140*t152)
+    del t152, t153
+    t188 = rs3*(t154*t156 - t140*t155)
+    del rs3, t140, t154, t155, t156
     J = numpy.empty(shape + (8, 8), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -669,38 +908,70 @@ def jacobian(y, p):
     J[..., 3, 5] = 0
     J[..., 3, 6] = 0
     J[..., 3, 7] = 1
-    J[..., 4, 0] = D1_11*rD1*t82 - t74*t75
-    J[..., 4, 1] = D1_11*rD1*t95 - t75*t91
-    J[..., 4, 2] = D1_11*rD1*t106 - t103*t75
-    J[..., 4, 3] = D1_11*rD1*t111 - t110*t75
-    J[..., 4, 4] = D1_11*rD1*t114 - t116*t75
-    J[..., 4, 5] = D1_11*rD1*t121 - t120*t75
-    J[..., 4, 6] = D1_11*rD1*t127 - t124*t75
-    J[..., 4, 7] = D1_11*rD1*t135 - t132*t75
-    J[..., 5, 0] = rs1*(D1_00*rD1*t74 - e1_0*qdd1 - t75*t82)
-    J[..., 5, 1] = rs1*(t136*t91 - t75*t95)
-    J[..., 5, 2] = rs1*(t103*t136 - t106*t75)
-    J[..., 5, 3] = rs1*(t110*t136 - t111*t75)
-    J[..., 5, 4] = rs1*(-t114*t75 + t116*t136)
-    J[..., 5, 5] = rs1*(t120*t136 - t121*t75)
-    J[..., 5, 6] = rs1*(t124*t136 - t127*t75)
-    J[..., 5, 7] = rs1*(t132*t136 - t135*t75)
-    J[..., 6, 0] = D2_11*rD2*t140 - t138*t139
-    J[..., 6, 1] = D2_11*rD2*t142 - t139*t141
-    J[..., 6, 2] = D2_11*rD2*t144 - t139*t143
-    J[..., 6, 3] = D2_11*rD2*t146 - t139*t145
-    J[..., 6, 4] = D2_11*rD2*t148 - t139*t147
-    J[..., 6, 5] = D2_11*rD2*t150 - t139*t149
-    J[..., 6, 6] = D2_11*rD2*t151 - t139*t152
-    J[..., 6, 7] = D2_11*rD2*t154 - t139*t153
-    J[..., 7, 0] = rs3*(t138*t155 - t139*t140)
-    J[..., 7, 1] = rs3*(-t139*t142 + t141*t155)
-    J[..., 7, 2] = rs3*(D2_00*rD2*t143 - e2_0*qdd3 - t139*t144)
-    J[..., 7, 3] = rs3*(-t139*t146 + t145*t155)
-    J[..., 7, 4] = rs3*(-t139*t148 + t147*t155)
-    J[..., 7, 5] = rs3*(-t139*t150 + t149*t155)
-    J[..., 7, 6] = rs3*(-t139*t151 + t152*t155)
-    J[..., 7, 7] = rs3*(-t139*t154 + t153*t155)
+    J[..., 4, 0] = t157
+    del t157
+    J[..., 4, 1] = t158
+    del t158
+    J[..., 4, 2] = t159
+    del t159
+    J[..., 4, 3] = t160
+    del t160
+    J[..., 4, 4] = t161
+    del t161
+    J[..., 4, 5] = t162
+    del t162
+    J[..., 4, 6] = t163
+    del t163
+    J[..., 4, 7] = t164
+    del t164
+    J[..., 5, 0] = t165
+    del t165
+    J[..., 5, 1] = t166
+    del t166
+    J[..., 5, 2] = t167
+    del t167
+    J[..., 5, 3] = t168
+    del t168
+    J[..., 5, 4] = t169
+    del t169
+    J[..., 5, 5] = t170
+    del t170
+    J[..., 5, 6] = t171
+    del t171
+    J[..., 5, 7] = t172
+    del t172
+    J[..., 6, 0] = t173
+    del t173
+    J[..., 6, 1] = t174
+    del t174
+    J[..., 6, 2] = t175
+    del t175
+    J[..., 6, 3] = t176
+    del t176
+    J[..., 6, 4] = t177
+    del t177
+    J[..., 6, 5] = t178
+    del t178
+    J[..., 6, 6] = t179
+    del t179
+    J[..., 6, 7] = t180
+    del t180
+    J[..., 7, 0] = t181
+    del t181
+    J[..., 7, 1] = t182
+    del t182
+    J[..., 7, 2] = t183
+    del t183
+    J[..., 7, 3] = t184
+    del t184
+    J[..., 7, 4] = t185
+    del t185
+    J[..., 7, 5] = t186
+    del t186
+    J[..., 7, 6] = t187
+    del t187
+    J[..., 7, 7] = t188
+    del t188
     return J
 
 
@@ -719,7 +990,9 @@ def polar_sines(y):
     t1 = numpy.sin(vartheta2)
     sines = numpy.empty(shape + (2,), dtype)
     sines[..., 0] = t0
+    del t0
     sines[..., 1] = t1
+    del t1
     return sines
 
 
@@ -740,51 +1013,79 @@ def to_spherical_rot(y):
     varphi1_dot = y[..., 5]
     vartheta2_dot = y[..., 6]
     varphi2_dot = y[..., 7]
-    t0 = numpy.sin(vartheta1)
-    t1 = numpy.cos(varphi1)
-    e1_1 = t0*t1
-    t2 = numpy.sin(varphi1)
-    e1_2 = t0*t2
     e1_0 = numpy.cos(vartheta1)
-    t3 = e1_0*e1_0
-    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(e1_2*e1_2 + t3), e1_1)
+    t0 = e1_0*e1_0
+    t1 = numpy.sin(vartheta1)
+    t2 = numpy.cos(varphi1)
+    e1_1 = t1*t2
+    t3 = numpy.sin(varphi1)
+    e1_2 = t1*t3
+    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(e1_2*e1_2 + t0), e1_1)
+    del t0
     t4 = numpy.sin(spherical_rot_vartheta1)
-    t5 = numpy.sin(vartheta2)
-    t6 = numpy.cos(varphi2)
-    e2_1 = t5*t6
-    t7 = numpy.sin(varphi2)
-    e2_2 = t5*t7
     e2_0 = numpy.cos(vartheta2)
-    t8 = e2_0*e2_0
-    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(e2_2*e2_2 + t8), e2_1)
+    t5 = e2_0*e2_0
+    t6 = numpy.sin(vartheta2)
+    t7 = numpy.cos(varphi2)
+    e2_1 = t6*t7
+    t8 = numpy.sin(varphi2)
+    e2_2 = t6*t8
+    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(e2_2*e2_2 + t5), e2_1)
+    del t5
     t9 = numpy.sin(spherical_rot_vartheta2)
     spherical_rot_varphi1 = numpy.arctan2(e1_2, e1_0)
     spherical_rot_varphi2 = numpy.arctan2(e2_2, e2_0)
     t10 = numpy.cos(spherical_rot_varphi1)
     t11 = numpy.cos(spherical_rot_vartheta1)
     t12 = numpy.sin(spherical_rot_varphi1)
-    t13 = t0*vartheta1_dot
+    t13 = t1*vartheta1_dot
+    del t1
     de1_0 = -t13
-    de1_1 = e1_0*t1*vartheta1_dot - e1_2*varphi1_dot
+    del t13
+    de1_1 = e1_0*t2*vartheta1_dot - e1_2*varphi1_dot
+    del e1_2, t2
     t14 = e1_0*vartheta1_dot
-    de1_2 = e1_1*varphi1_dot + t14*t2
+    del e1_0
+    de1_2 = e1_1*varphi1_dot + t14*t3
+    del e1_1, t14, t3
     t15 = numpy.cos(spherical_rot_varphi2)
     t16 = numpy.cos(spherical_rot_vartheta2)
     t17 = numpy.sin(spherical_rot_varphi2)
-    t18 = t5*vartheta2_dot
+    t18 = t6*vartheta2_dot
+    del t6
     de2_0 = -t18
-    de2_1 = e2_0*t6*vartheta2_dot - e2_2*varphi2_dot
+    del t18
+    de2_1 = e2_0*t7*vartheta2_dot - e2_2*varphi2_dot
+    del e2_2, t7
     t19 = e2_0*vartheta2_dot
-    de2_2 = e2_1*varphi2_dot + t19*t7
+    del e2_0
+    de2_2 = e2_1*varphi2_dot + t19*t8
+    del e2_1, t19, t8
+    t20 = de1_0*t10*t11 + de1_2*t11*t12 - de1_1*t4
+    del de1_1, t11
+    t21 = (de1_2*t10 - de1_0*t12)/t4
+    del de1_0, de1_2, t10, t12, t4
+    t22 = de2_0*t15*t16 + de2_2*t16*t17 - de2_1*t9
+    del de2_1, t16
+    t23 = (de2_2*t15 - de2_0*t17)/t9
+    del de2_0, de2_2, t15, t17, t9
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_rot_vartheta1
+    del spherical_rot_vartheta1
     y_out[..., 1] = spherical_rot_varphi1
+    del spherical_rot_varphi1
     y_out[..., 2] = spherical_rot_vartheta2
+    del spherical_rot_vartheta2
     y_out[..., 3] = spherical_rot_varphi2
-    y_out[..., 4] = de1_0*t10*t11 - de1_1*t4 + de1_2*t11*t12
-    y_out[..., 5] = (-de1_0*t12 + de1_2*t10)/t4
-    y_out[..., 6] = de2_0*t15*t16 - de2_1*t9 + de2_2*t16*t17
-    y_out[..., 7] = (-de2_0*t17 + de2_2*t15)/t9
+    del spherical_rot_varphi2
+    y_out[..., 4] = t20
+    del t20
+    y_out[..., 5] = t21
+    del t21
+    y_out[..., 6] = t22
+    del t22
+    y_out[..., 7] = t23
+    del t23
     return y_out
 
 
@@ -805,49 +1106,77 @@ def to_spherical_std(y):
     varphi1_dot = y[..., 5]
     vartheta2_dot = y[..., 6]
     varphi2_dot = y[..., 7]
-    t0 = numpy.sin(vartheta1)
-    t1 = numpy.cos(varphi1)
-    e1_1 = t0*t1
-    t2 = numpy.sin(varphi1)
-    e1_2 = t0*t2
     e1_0 = numpy.cos(vartheta1)
-    t3 = e1_0*e1_0
-    spherical_std_theta1 = numpy.arctan2(numpy.sqrt(e1_1*e1_1 + t3), -e1_2)
+    t0 = e1_0*e1_0
+    t1 = numpy.sin(vartheta1)
+    t2 = numpy.cos(varphi1)
+    e1_1 = t1*t2
+    t3 = numpy.sin(varphi1)
+    e1_2 = t1*t3
+    spherical_std_theta1 = numpy.arctan2(numpy.sqrt(e1_1*e1_1 + t0), -e1_2)
+    del t0
     t4 = numpy.sin(spherical_std_theta1)
-    t5 = numpy.sin(vartheta2)
-    t6 = numpy.cos(varphi2)
-    e2_1 = t5*t6
-    t7 = numpy.sin(varphi2)
-    e2_2 = t5*t7
     e2_0 = numpy.cos(vartheta2)
-    t8 = e2_0*e2_0
-    spherical_std_theta2 = numpy.arctan2(numpy.sqrt(e2_1*e2_1 + t8), -e2_2)
+    t5 = e2_0*e2_0
+    t6 = numpy.sin(vartheta2)
+    t7 = numpy.cos(varphi2)
+    e2_1 = t6*t7
+    t8 = numpy.sin(varphi2)
+    e2_2 = t6*t8
+    spherical_std_theta2 = numpy.arctan2(numpy.sqrt(e2_1*e2_1 + t5), -e2_2)
+    del t5
     t9 = numpy.sin(spherical_std_theta2)
     spherical_std_phi1 = numpy.arctan2(e1_1, e1_0)
     spherical_std_phi2 = numpy.arctan2(e2_1, e2_0)
     t10 = numpy.cos(spherical_std_phi1)
     t11 = numpy.cos(spherical_std_theta1)
     t12 = numpy.sin(spherical_std_phi1)
-    t13 = t0*vartheta1_dot
+    t13 = t1*vartheta1_dot
+    del t1
     de1_0 = -t13
-    de1_1 = e1_0*t1*vartheta1_dot - e1_2*varphi1_dot
+    del t13
+    de1_1 = e1_0*t2*vartheta1_dot - e1_2*varphi1_dot
+    del e1_2, t2
     t14 = e1_0*vartheta1_dot
-    de1_2 = e1_1*varphi1_dot + t14*t2
+    del e1_0
+    de1_2 = e1_1*varphi1_dot + t14*t3
+    del e1_1, t14, t3
     t15 = numpy.cos(spherical_std_phi2)
     t16 = numpy.cos(spherical_std_theta2)
     t17 = numpy.sin(spherical_std_phi2)
-    t18 = t5*vartheta2_dot
+    t18 = t6*vartheta2_dot
+    del t6
     de2_0 = -t18
-    de2_1 = e2_0*t6*vartheta2_dot - e2_2*varphi2_dot
+    del t18
+    de2_1 = e2_0*t7*vartheta2_dot - e2_2*varphi2_dot
+    del e2_2, t7
     t19 = e2_0*vartheta2_dot
-    de2_2 = e2_1*varphi2_dot + t19*t7
+    del e2_0
+    de2_2 = e2_1*varphi2_dot + t19*t8
+    del e2_1, t19, t8
+    t20 = de1_0*t10*t11 + de1_1*t11*t12 + de1_2*t4
+    del de1_2, t11
+    t21 = (de1_1*t10 - de1_0*t12)/t4
+    del de1_0, de1_1, t10, t12, t4
+    t22 = de2_0*t15*t16 + de2_1*t16*t17 + de2_2*t9
+    del de2_2, t16
+    t23 = (de2_1*t15 - de2_0*t17)/t9
+    del de2_0, de2_1, t15, t17, t9
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_std_theta1
+    del spherical_std_theta1
     y_out[..., 1] = spherical_std_phi1
+    del spherical_std_phi1
     y_out[..., 2] = spherical_std_theta2
+    del spherical_std_theta2
     y_out[..., 3] = spherical_std_phi2
-    y_out[..., 4] = de1_0*t10*t11 + de1_1*t11*t12 + de1_2*t4
-    y_out[..., 5] = (-de1_0*t12 + de1_1*t10)/t4
-    y_out[..., 6] = de2_0*t15*t16 + de2_1*t16*t17 + de2_2*t9
-    y_out[..., 7] = (-de2_0*t17 + de2_1*t15)/t9
+    del spherical_std_phi2
+    y_out[..., 4] = t20
+    del t20
+    y_out[..., 5] = t21
+    del t21
+    y_out[..., 6] = t22
+    del t22
+    y_out[..., 7] = t23
+    del t23
     return y_out

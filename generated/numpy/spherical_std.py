@@ -56,106 +56,151 @@ def rhs(y, p):
     t1 = numpy.sin(theta2)
     Ab = l2*l2
     t2 = phi1 - phi2
-    t3 = numpy.cos(t2)
-    t4 = l1*l2
-    Q11 = t3*t4
-    t5 = numpy.sin(t2)
-    t6 = numpy.cos(theta2)
-    t7 = l2*t6
-    t8 = l1*t7
-    t9 = t5*t8
-    Q10 = -t9
+    t3 = numpy.sin(t2)
+    t4 = numpy.cos(theta2)
+    t5 = l2*t4
+    t6 = l1*t5
+    t7 = t3*t6
+    Q10 = -t7
+    del t7
+    t8 = numpy.cos(t2)
+    del t2
+    t9 = l1*l2
+    Q11 = t9*t8
     t10 = numpy.cos(theta1)
     t11 = l1*t10
     t12 = l2*t11
-    Q01 = t12*t5
+    Q01 = t12*t3
     t13 = Q01*Q01
-    t14 = t0*t1
-    t15 = t10*t6
-    t16 = t14 + t15*t3
-    Q00 = t16*t4
-    t17 = 1.0/m2
-    t18 = l1*l1
-    t19 = m1 + m2
-    M00 = t18*t19
-    Aa = M00*t17
+    t14 = 1.0/m2
+    t15 = l1*l1
+    t16 = m1 + m2
+    t17 = t15*t16
+    Aa = t14*t17
+    del t17
     AaAb = Aa*Ab
-    t20 = -AaAb
-    t21 = Q00*Q00 + t20
-    D1_00 = -t13 - t21
+    t18 = -AaAb
+    del AaAb
+    t19 = t0*t1
+    t20 = t10*t4
+    t21 = t19 + t20*t8
+    del t19, t20
+    Q00 = t9*t21
+    del t21
+    t22 = t18 + Q00*Q00
+    D1_00 = -t13 - t22
     D1_01 = -Q00*Q10 - Q01*Q11
-    t22 = Q10*Q10
-    t23 = Q11*Q11 + t20
-    D1_11 = -t22 - t23
+    t23 = Q10*Q10
+    t24 = t18 + Q11*Q11
+    del t18
+    D1_11 = -t23 - t24
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t24 = 2*phi2_dot
-    t25 = t24*theta2_dot
-    t26 = t4*t5
-    t27 = phi2_dot*phi2_dot
-    t28 = t1*t27
-    t29 = theta2_dot*theta2_dot
-    t30 = t29*t4
-    t31 = t30*t5
-    t32 = t3*t8
-    t33 = t10*theta1_dot
-    t34 = 2*phi1_dot
-    t35 = Aa*t34
-    f1 = -t1*t31 - t25*t32 - t26*t28 - t33*t35
-    t36 = l2*t1
-    t37 = g*t36
-    t38 = t1*t6
-    t39 = phi1_dot*phi1_dot
-    t40 = t0*t6
-    t41 = t39*t40
-    t42 = Q11*t41
+    t25 = 2*phi2_dot
+    t26 = t25*theta2_dot
+    t27 = t9*t3
+    t28 = phi2_dot*phi2_dot
+    t29 = t1*t28
+    t30 = theta2_dot*theta2_dot
+    t31 = t9*t30
+    del t30
+    t32 = t3*t31
+    t33 = t6*t8
+    del t6
+    t34 = t10*theta1_dot
+    t35 = phi1_dot*t34
+    del t34
+    t36 = 2*Aa
+    f1 = -t1*t32 - t26*t33 - t27*t29 - t36*t35
+    del t29, t32, t33, t35, t36
+    t37 = l2*t1
+    t38 = g*t37
+    del t37
+    t39 = t1*t4
+    t40 = phi1_dot*phi1_dot
+    t41 = t0*t4
+    t42 = t40*t41
     t43 = 2*theta1_dot
     t44 = phi1_dot*t43
-    t45 = t11*t5
-    t46 = t45*t7
+    del t43
+    t45 = t11*t3
+    del t11
+    t46 = t45*t5
     t47 = theta1_dot*theta1_dot
-    t48 = t4*(t1*t10 - t3*t40)
-    f2 = Ab*t27*t38 - t37 + t42 + t44*t46 - t47*t48
-    t49 = t6*theta2_dot
-    t50 = Ab*t24
-    t51 = t0*t39
-    t52 = t4*t47
-    t53 = t5*t52
-    t54 = t12*t3
-    f3 = t0*t53 + t26*t51 - t44*t54 - t49*t50
-    t55 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t56 = l1*t0
-    t57 = g*t56
-    t58 = t17*t19
-    t59 = t25*t7
+    t48 = t41*t8
+    t49 = t9*(t1*t10 - t48)
+    del t48
+    f2 = Ab*(t28*t39) + Q11*t42 + t44*t46 - t38 - t47*t49
+    del t38, t39, t42, t46, t49
+    t50 = t4*theta2_dot
+    del t4
+    t51 = Ab*t25
+    del t25
+    t52 = t0*t40
+    t53 = t9*t47
+    del t47, t9
+    t54 = t3*t53
+    del t3, t53
+    t55 = t12*t8
+    del t12
+    f3 = t0*t54 + t27*t52 - t44*t55 - t50*t51
+    del t27, t44, t50, t51, t52, t54, t55
+    t56 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t57 = l1*t0
+    t58 = g*t14*t16
+    t59 = t26*t5
+    del t26, t5
     t60 = t1*t10
-    t61 = -t3*t60 + t40
-    f0 = l1*l2*t1*t10*t27*t3 + t0*t10*t17*t18*t19*t39 - t30*t61 - t45*t59 - t57*t58
-    t62 = Ab*f0 - Q00*f2 - Q01*f3
-    xr0 = -D1_01*t55 + D1_11*rD1*t62
+    t61 = t60*t8
+    del t60
+    t62 = t41 - t61
+    del t41, t61
+    f0 = (l1*l2)*(t1*t10*t28*t8) + (t14*t15*t16)*(t0*t10*t40) - t31*t62 - t45*t59 - t58*t57
+    del t10, t14, t15, t16, t28, t31, t40, t45, t57, t58, t59, t62, t8
+    t63 = Ab*f0 - Q00*f2 - Q01*f3
+    del Ab
+    xr0 = D1_11*rD1*t63 - D1_01*t56
+    del D1_11
     qdd0 = xr0
-    xr1 = D1_00*t55 - D1_01*rD1*t62
+    del xr0
+    xr1 = D1_00*t56 - D1_01*rD1*t63
+    del D1_00, D1_01, rD1, t56, t63
     rs1 = 1.0/t0
+    del t0
     qdd1 = rs1*xr1
-    D2_00 = -t21 - t22
+    del rs1, xr1
+    D2_00 = -t22 - t23
+    del t22, t23
     D2_01 = -Q00*Q01 - Q10*Q11
-    D2_11 = -t13 - t23
+    D2_11 = -t13 - t24
+    del t13, t24
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t63 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
-    t64 = Aa*f2 - Q00*f0 - Q10*f1
-    xr2 = -D2_01*t63 + D2_11*rD2*t64
+    t64 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    del Q01, Q11, f3
+    t65 = Aa*f2 - Q00*f0 - Q10*f1
+    del Aa, Q00, Q10, f0, f1, f2
+    xr2 = D2_11*rD2*t65 - D2_01*t64
+    del D2_11
     qdd2 = xr2
-    xr3 = D2_00*t63 - D2_01*rD2*t64
+    del xr2
+    xr3 = D2_00*t64 - D2_01*rD2*t65
+    del D2_00, D2_01, rD2, t64, t65
     rs3 = 1.0/t1
+    del t1
     qdd3 = rs3*xr3
+    del rs3, xr3
     ydot = numpy.empty(shape + (8,), dtype)
     ydot[..., 0] = theta1_dot
     ydot[..., 1] = phi1_dot
     ydot[..., 2] = theta2_dot
     ydot[..., 3] = phi2_dot
     ydot[..., 4] = qdd0
+    del qdd0
     ydot[..., 5] = qdd1
+    del qdd1
     ydot[..., 6] = qdd2
+    del qdd2
     ydot[..., 7] = qdd3
+    del qdd3
     return ydot
 
 
@@ -165,7 +210,7 @@ def mass_matrix(y, p):
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns M: (..., 4, 4) M, row-major
-    Total ops: 33
+    Total ops: 31
     """
     (y, p), shape, dtype = _prepare("mass_matrix", (y, 8, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -181,6 +226,7 @@ def mass_matrix(y, p):
     t2 = l1*l1
     t3 = m1 + m2
     M00 = t2*t3
+    del t2, t3
     t4 = t0*t1
     t5 = phi1 - phi2
     t6 = numpy.cos(t5)
@@ -188,42 +234,63 @@ def mass_matrix(y, p):
     t8 = numpy.cos(theta2)
     t9 = t7*t8
     t10 = t4 + t6*t9
-    t11 = l1*l2
-    Q00 = t10*t11
-    M02 = Q00*m2
-    t12 = t1*t7
-    t13 = numpy.sin(t5)
-    t14 = t11*t13
-    t15 = m2*t14
-    M03 = t12*t15
+    del t9
+    t11 = l1*m2
+    t12 = l2*t11
+    del t11
+    M02 = t12*t10
+    del t10
+    t13 = t1*t7
+    del t7
+    t14 = numpy.sin(t5)
+    del t5
+    t15 = t12*t14
+    del t14
+    M03 = t13*t15
+    del t13
     t16 = t0*t0
     M11 = M00*t16
+    del t16
     t17 = t0*t8
+    del t0, t8
     t18 = t15*t17
+    del t15, t17
     M12 = -t18
-    Q11 = t11*t6
-    t19 = Q11*t4
-    M13 = m2*t19
-    Ab = l2*l2
-    M22 = Ab*m2
+    del t18
+    t19 = t4*t6
+    del t4, t6
+    M13 = t12*t19
+    del t12, t19
+    t20 = l2*l2
+    M22 = m2*t20
+    del t20
     M33 = M22*t1*t1
+    del t1
     M = numpy.empty(shape + (4, 4), dtype)
     M[..., 0, 0] = M00
+    del M00
     M[..., 0, 1] = 0
     M[..., 0, 2] = M02
     M[..., 0, 3] = M03
     M[..., 1, 0] = 0
     M[..., 1, 1] = M11
+    del M11
     M[..., 1, 2] = M12
     M[..., 1, 3] = M13
     M[..., 2, 0] = M02
+    del M02
     M[..., 2, 1] = M12
+    del M12
     M[..., 2, 2] = M22
+    del M22
     M[..., 2, 3] = 0
     M[..., 3, 0] = M03
+    del M03
     M[..., 3, 1] = M13
+    del M13
     M[..., 3, 2] = 0
     M[..., 3, 3] = M33
+    del M33
     return M
 
 
@@ -233,7 +300,7 @@ def forcing(y, p):
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns F: (..., 4) F
-    Total ops: 108
+    Total ops: 100
     """
     (y, p), shape, dtype = _prepare("forcing", (y, 8, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -249,56 +316,82 @@ def forcing(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = l1*l1
-    t1 = numpy.sin(theta1)
-    t2 = numpy.sin(theta2)
-    t3 = phi1 - phi2
-    t4 = numpy.cos(t3)
-    t5 = numpy.cos(theta1)
-    t6 = numpy.sin(t3)
-    t7 = l1*t1
-    t8 = g*t7
-    t9 = numpy.cos(theta2)
-    t10 = l2*t9
-    t11 = 2*phi2_dot
-    t12 = t11*theta2_dot
-    t13 = t10*t12
-    t14 = phi2_dot*phi2_dot
-    t15 = phi1_dot*phi1_dot
-    t16 = theta2_dot*theta2_dot
-    t17 = l1*l2
-    t18 = t16*t17
-    t19 = t1*t9
-    t20 = m2*t19
-    t21 = l1*t5
-    t22 = m2*t21
-    t23 = 2*theta1_dot
-    t24 = phi1_dot*t23
-    t25 = m1*t21
-    t26 = t22*t24
-    t27 = l2*t2
-    t28 = m2*t27
-    t29 = t28*t6
-    t30 = m2*t10
-    t31 = t2*t5
-    t32 = g*t27
-    t33 = t2*t9
-    Q11 = t17*t4
-    t34 = t15*t19
-    t35 = Q11*t34
-    t36 = theta1_dot*theta1_dot
-    t37 = t17*t36
-    Ab = l2*l2
-    M22 = Ab*m2
-    t38 = Q11*t36
-    t39 = t6*t7
-    t40 = t21*t4
-    t41 = t24*t40
+    t0 = numpy.sin(theta1)
+    t1 = numpy.cos(theta1)
+    t2 = phi2_dot*phi2_dot
+    t3 = numpy.cos(theta2)
+    t4 = t0*t3
+    t5 = phi1 - phi2
+    t6 = numpy.cos(t5)
+    t7 = numpy.sin(theta2)
+    t8 = t1*t7
+    t9 = t6*t8
+    t10 = phi1_dot*phi1_dot
+    t11 = t0*t10
+    t12 = l1*m2
+    t13 = l2*t12
+    t14 = theta2_dot*theta2_dot
+    t15 = t13*t14
+    t16 = l1*m1
+    t17 = l2*t3
+    t18 = t17*theta2_dot
+    t19 = numpy.sin(t5)
+    del t5
+    t20 = 2*t12
+    t21 = t20*t19
+    t22 = l1*l1
+    t23 = m1*t22
+    t24 = m2*t22
+    del t22
+    t25 = l1*t0
+    t26 = 2*phi2_dot
+    t27 = t26*theta2_dot
+    del t26
+    t28 = t1*theta1_dot
+    t29 = phi1_dot*t28
+    del t28
+    t30 = l2*t7
+    t31 = m2*t30
+    t32 = t19*t31
+    t33 = m2*t17
+    t34 = g*t30
+    del t30
+    t35 = t3*t7
+    del t3, t7
+    t36 = t4*t6
+    t37 = l2*l2
+    t38 = m2*t37
+    del t37
+    t39 = theta1_dot*theta1_dot
+    t40 = t13*t39
+    t41 = t17*t27
+    t42 = t19*t25
+    del t19
+    t43 = 2*theta1_dot
+    t44 = phi1_dot*t43
+    del t43
+    t45 = l1*t1
+    t46 = t45*t6
+    del t45
+    t47 = t44*t46
+    del t44, t46
+    t48 = (-g*t12 - g*t16)*t0 + (t23 + t24)*(t1*t11) + t13*(t2*t9) + t15*t9 - phi2_dot*t1*t18*t21 - t15*t4
+    del t0, t1, t11, t12, t15, t18, t23, t24, t4, t9
+    t49 = -t25*(t14*t32 + t2*t32 + t27*t33*t6 + (2*t16 + t20)*t29)
+    del t14, t16, t20, t25, t27, t32, t33, t6
+    t50 = t13*(t10*t36) + t17*t21*t29 + t38*(t2*t35) + t36*t40 - m2*t34 - t40*t8
+    del t13, t17, t2, t21, t29, t34, t35, t36, t38, t40, t8
+    t51 = t31*(t10*t42 + t39*t42 - t41 - t47)
+    del t10, t31, t39, t41, t42, t47
     F = numpy.empty(shape + (4,), dtype)
-    F[..., 0] = l1*l2*m2*t14*t2*t4*t5 + l1*l2*m2*t16*t2*t4*t5 + m1*t0*t1*t15*t5 - m1*t8 + m2*t0*t1*t15*t5 - m2*t8 - t13*t22*t6 - t18*t20
-    F[..., 1] = -t7*(t12*t30*t4 + t14*t29 + t16*t29 + t24*t25 + t26)
-    F[..., 2] = M22*t14*t33 - m2*t31*t37 - m2*t32 + m2*t35 + t10*t26*t6 + t20*t38
-    F[..., 3] = t28*(-t13 + t15*t39 + t36*t39 - t41)
+    F[..., 0] = t48
+    del t48
+    F[..., 1] = t49
+    del t49
+    F[..., 2] = t50
+    del t50
+    F[..., 3] = t51
+    del t51
     return F
 
 
@@ -308,7 +401,7 @@ def energy(y, p):
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns E: (...) T + V
-    Total ops: 73
+    Total ops: 69
     """
     (y, p), shape, dtype = _prepare("energy", (y, 8, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -329,40 +422,52 @@ def energy(y, p):
     t2 = t0*t1
     t3 = phi1 - phi2
     t4 = numpy.cos(t3)
-    t5 = l1*l2
-    t6 = numpy.cos(theta2)
-    t7 = l2*t6
-    t8 = phi2_dot*phi2_dot
-    t9 = theta2_dot*theta2_dot
-    t10 = numpy.cos(theta1)
-    t11 = t1*t10
-    t12 = numpy.sin(t3)
-    t13 = t12*t5
-    t14 = m2*t13
-    M03 = t11*t14
-    t15 = t0*t6
-    t16 = t14*t15
-    Q11 = t4*t5
-    t17 = Q11*t2
-    M13 = m2*t17
-    Ab = l2*l2
-    M22 = Ab*m2
-    M33 = M22*t1*t1
-    t18 = l1*t10
-    t19 = m2*t18
-    t20 = m1*t18
-    t21 = m2*t7
-    t22 = l1*l1
-    t23 = m1*t22
-    t24 = theta1_dot*theta1_dot
-    t25 = (1/2)*t24
-    t26 = m2*t22
-    t27 = theta1_dot*theta2_dot
-    t28 = phi1_dot*phi1_dot
-    t29 = t0*t0
-    t30 = (1/2)*t28*t29
+    t5 = numpy.cos(theta1)
+    t6 = phi2_dot*phi2_dot
+    t7 = phi1_dot*phi1_dot
+    t8 = theta2_dot*theta2_dot
+    t9 = t5*theta1_dot
+    t10 = theta1_dot*theta1_dot
+    t11 = l1*m2
+    t12 = l2*t11
+    t13 = t1*t5
+    t14 = numpy.sin(t3)
+    del t3
+    t15 = t12*t14
+    del t14
+    t16 = t13*t15
+    del t13
+    t17 = t0*t0
+    t18 = numpy.cos(theta2)
+    t19 = t0*t18
+    del t0
+    t20 = t15*t19
+    del t15, t19
+    t21 = t2*t4
+    t22 = t12*t21
+    del t21
+    t23 = l2*l2
+    t24 = m2*t23
+    del t23
+    t25 = t24*t1*t1
+    del t1
+    t26 = l1*m1
+    t27 = l2*t18
+    del t18
+    t28 = t27*theta2_dot
+    t29 = m2*t27
+    del t27
+    t30 = l1*l1
+    t31 = m1*t30
+    t32 = m2*t30
+    del t30
+    t33 = (1/2)*t31 + (1/2)*t32
+    del t31, t32
+    t34 = phi1_dot*phi2_dot*t22 + phi2_dot*t16*theta1_dot + t33*t10 + t11*(t28*t4*t9) + t12*(t2*theta1_dot*theta2_dot) + t33*(t17*t7) + ((1/2)*t24)*t8 + 1/2*(t25*t6) - g*(t29 + (t11 + t26)*t5) - phi1_dot*t20*theta2_dot
+    del t10, t11, t12, t16, t17, t2, t20, t22, t24, t25, t26, t28, t29, t33, t4, t5, t6, t7, t8, t9
     E = numpy.empty(shape + (), dtype)
-    E[...] = M03*phi2_dot*theta1_dot + M13*phi1_dot*phi2_dot + (1/2)*M22*t9 + (1/2)*M33*t8 - g*(t19 + t20 + t21) + m2*t2*t27*t5 - phi1_dot*t16*theta2_dot + t19*t27*t4*t7 + t23*t25 + t23*t30 + t25*t26 + t26*t30
+    E[...] = t34
+    del t34
     return E
 
 
@@ -384,27 +489,48 @@ def positions(y, p):
     l2 = p[..., 3]
     t0 = numpy.sin(theta1)
     t1 = numpy.cos(phi1)
-    e1_0 = t0*t1
-    t2 = e1_0*l1
-    t3 = numpy.sin(phi1)
-    e1_1 = t0*t3
-    t4 = e1_1*l1
-    t5 = numpy.cos(theta1)
+    t2 = t0*t1
+    del t1
+    t3 = l1*t2
+    del t2
+    t4 = numpy.sin(phi1)
+    t5 = t0*t4
+    del t0, t4
     t6 = l1*t5
-    t7 = numpy.sin(theta2)
-    t8 = numpy.cos(phi2)
-    e2_0 = t7*t8
-    t9 = numpy.sin(phi2)
-    e2_1 = t7*t9
-    t10 = numpy.cos(theta2)
-    t11 = l2*t10
+    del t5
+    t7 = numpy.cos(theta1)
+    t8 = l1*t7
+    del t7
+    t9 = numpy.sin(theta2)
+    t10 = numpy.cos(phi2)
+    t11 = t10*t9
+    del t10
+    t12 = numpy.sin(phi2)
+    t13 = t12*t9
+    del t12, t9
+    t14 = numpy.cos(theta2)
+    t15 = l2*t14
+    del t14
+    t16 = -t8
+    t17 = l2*t11 + t3
+    del t11
+    t18 = l2*t13 + t6
+    del t13
+    t19 = -t15 - t8
+    del t15, t8
     pos = numpy.empty(shape + (2, 3), dtype)
-    pos[..., 0, 0] = t2
-    pos[..., 0, 1] = t4
-    pos[..., 0, 2] = -t6
-    pos[..., 1, 0] = e2_0*l2 + t2
-    pos[..., 1, 1] = e2_1*l2 + t4
-    pos[..., 1, 2] = -t11 - t6
+    pos[..., 0, 0] = t3
+    del t3
+    pos[..., 0, 1] = t6
+    del t6
+    pos[..., 0, 2] = t16
+    del t16
+    pos[..., 1, 0] = t17
+    del t17
+    pos[..., 1, 1] = t18
+    del t18
+    pos[..., 1, 2] = t19
+    del t19
     return pos
 
 
@@ -436,176 +562,290 @@ def jacobian(y, p):
     t2 = 1.0/m2
     t3 = l1*l1
     t4 = m1 + m2
-    Ab = l2*l2
     t5 = phi1 - phi2
-    t6 = numpy.cos(t5)
-    t7 = l1*l2
-    Q11 = t6*t7
-    t8 = numpy.sin(t5)
-    t9 = numpy.cos(theta1)
-    t10 = l1*t9
-    t11 = l2*t10
-    Q01 = t11*t8
-    t12 = phi1_dot*phi1_dot
-    t13 = theta1_dot*theta1_dot
-    de1_2 = t0*theta1_dot
-    t14 = t7*t8
+    t6 = numpy.sin(t5)
+    t7 = numpy.cos(theta1)
+    t8 = l1*t7
+    t9 = l2*t8
+    Q01 = t6*t9
+    t10 = phi1_dot*phi1_dot
+    t11 = theta1_dot*theta1_dot
+    t12 = t0*theta1_dot
+    t13 = l1*l2
+    t14 = t13*t6
     t15 = t0*t14
-    t16 = 2*phi1_dot
-    t17 = Q11*t16
-    t18 = numpy.cos(theta2)
-    t19 = l2*t18
-    t20 = l1*t19
-    t21 = t20*t8
-    Q10 = -t21
-    t22 = Q01*Q01
-    t23 = t0*t1
-    t24 = t18*t9
-    t25 = t23 + t24*t6
-    Q00 = t25*t7
-    M00 = t3*t4
-    Aa = M00*t2
+    t16 = numpy.cos(t5)
+    del t5
+    Q11 = t13*t16
+    t17 = 2*phi1_dot
+    t18 = Q11*t17
+    Ab = l2*l2
+    t19 = numpy.cos(theta2)
+    t20 = l2*t19
+    t21 = l1*t20
+    t22 = t21*t6
+    Q10 = -t22
+    t23 = Q01*Q01
+    t24 = t3*t4
+    Aa = t2*t24
+    del t24
     AaAb = Aa*Ab
-    t26 = -AaAb
-    t27 = Q00*Q00 + t26
-    D1_00 = -t22 - t27
+    t25 = -AaAb
+    del AaAb
+    t26 = t0*t1
+    t27 = t19*t7
+    t28 = t16*t27 + t26
+    Q00 = t13*t28
+    t29 = t25 + Q00*Q00
+    D1_00 = -t23 - t29
     D1_01 = -Q00*Q10 - Q01*Q11
-    t28 = Q10*Q10
-    t29 = Q11*Q11 + t26
-    D1_11 = -t28 - t29
+    t30 = Q10*Q10
+    t31 = t25 + Q11*Q11
+    del t25
+    D1_11 = -t30 - t31
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t30 = 2*phi2_dot
-    t31 = t30*theta2_dot
-    t32 = phi2_dot*phi2_dot
-    t33 = t1*t32
-    t34 = theta2_dot*theta2_dot
-    t35 = t34*t7
-    t36 = t35*t8
-    t37 = t20*t6
-    t38 = t9*theta1_dot
-    t39 = Aa*t16
-    f1 = -t1*t36 - t14*t33 - t31*t37 - t38*t39
-    t40 = l2*t1
-    t41 = g*t40
-    t42 = t1*t18
-    t43 = t0*t18
-    t44 = t12*t43
-    t45 = Q11*t44
-    t46 = 2*theta1_dot
-    t47 = phi1_dot*t46
-    t48 = t10*t8
-    t49 = t19*t48
-    t50 = t7*(t1*t9 - t43*t6)
-    f2 = Ab*t32*t42 - t13*t50 - t41 + t45 + t47*t49
-    t51 = t18*theta2_dot
-    t52 = Ab*t30
-    t53 = t0*t12
-    t54 = t13*t7
-    t55 = t54*t8
-    t56 = t11*t6
-    f3 = t0*t55 + t14*t53 - t47*t56 - t51*t52
-    t57 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t58 = l1*t0
-    t59 = g*t58
-    t60 = t2*t4
-    t61 = t19*t31
-    t62 = t1*t9
-    t63 = t43 - t6*t62
-    f0 = l1*l2*t1*t32*t6*t9 + t0*t12*t2*t3*t4*t9 - t35*t63 - t48*t61 - t59*t60
-    t64 = Ab*f0 - Q00*f2 - Q01*f3
-    xr0 = -D1_01*t57 + D1_11*rD1*t64
-    t65 = Q01*t12 + Q01*t13 + de1_2*t17 + t15*xr0
-    t66 = -t25
-    t67 = l1*l2*t12*t18*t6*t9 - t14*t43*t47 - t50*xr0 - t54*t66
-    t68 = 2*Ab*phi1_dot*t0*t2*t3*t4*theta1_dot - Q10*t67 - Q11*t65
-    t69 = D1_01*rD1
-    t70 = t23*t6 + t24
-    D2_00 = -t27 - t28
+    t32 = 2*phi2_dot
+    t33 = t32*theta2_dot
+    t34 = phi2_dot*phi2_dot
+    t35 = t1*t34
+    t36 = theta2_dot*theta2_dot
+    t37 = t13*t36
+    t38 = t37*t6
+    t39 = t16*t21
+    del t21
+    t40 = t7*theta1_dot
+    t41 = phi1_dot*t40
+    t42 = 2*Aa
+    f1 = -t1*t38 - t14*t35 - t33*t39 - t42*t41
+    del t41
+    t43 = l2*t1
+    t44 = g*t43
+    del t43
+    t45 = t1*t19
+    t46 = t0*t19
+    t47 = t10*t46
+    t48 = 2*theta1_dot
+    t49 = phi1_dot*t48
+    t50 = t6*t8
+    t51 = t20*t50
+    t52 = t16*t46
+    t53 = t13*(t1*t7 - t52)
+    del t52
+    f2 = Ab*(t34*t45) + Q11*t47 + t49*t51 - t11*t53 - t44
+    del t44
+    t54 = t19*theta2_dot
+    t55 = Ab*t32
+    t56 = t0*t10
+    t57 = t13*t11
+    t58 = t57*t6
+    t59 = t16*t9
+    del t9
+    f3 = t0*t58 + t14*t56 - t49*t59 - t54*t55
+    t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t61 = l1*t0
+    t62 = g*t2*t4
+    t63 = t20*t33
+    t64 = t1*t7
+    t65 = t16*t64
+    t66 = t46 - t65
+    del t65
+    f0 = (l1*l2)*(t1*t16*t34*t7) + (t2*t3*t4)*(t0*t10*t7) - t37*t66 - t50*t63 - t62*t61
+    del t50, t61
+    t67 = Ab*f0 - Q00*f2 - Q01*f3
+    xr0 = D1_11*rD1*t67 - D1_01*t60
+    t68 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0
+    t69 = -t28
+    del t28
+    t70 = (l1*l2)*(t10*t16*t19*t7) - t14*t46*t49 - t53*xr0 - t57*t69
+    t71 = (2*Ab*t2*t3*t4)*(phi1_dot*t0*theta1_dot) - Q10*t70 - Q11*t68
+    t72 = D1_01*rD1
+    t73 = t16*t26
+    t74 = t27 + t73
+    del t27, t73
+    D2_00 = -t29 - t30
+    del t29, t30
     D2_01 = -Q00*Q01 - Q10*Q11
-    D2_11 = -t22 - t29
+    D2_11 = -t23 - t31
+    del t23, t31
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t71 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
-    t72 = Aa*f2 - Q00*f0 - Q10*f1
-    xr2 = -D2_01*t71 + D2_11*rD2*t72
-    xr3 = D2_00*t71 - D2_01*rD2*t72
-    t73 = -Q11*t23*t32 - g*t10*t60 + 2*l1*l2*phi2_dot*t0*t18*t8*theta2_dot + l1*l2*t0*t8*xr3 + t12*t2*t3*t4*(2*t9*t9 - 1) - t35*t70 - t50*xr2
-    t74 = Ab*t73 - Q00*t67 - Q01*t65
-    t75 = Q11*t13
-    xr1 = D1_00*t57 - D1_01*rD1*t64
-    t76 = t14*xr1
-    t77 = Q01*t47 + Q11*t53 + t0*t75 - t56*xr0 + t76
-    t78 = -Q11*t1*t34 - Q11*t33 + t14*xr3 + t21*t31 + t37*xr2
-    t79 = t10*t6
-    t80 = t47*t79
-    t81 = -t14*t44 + t19*t80 + t37*xr1 - t43*t55 + t49*xr0
-    t82 = Ab*t78 - Q10*t81 - Q11*t77
-    t83 = t14*t62
-    t84 = -l1*l2*t18*t8*t9*xr2 + t32*t83 + t36*t62 + t56*xr3 + t61*t79
-    t85 = -t84
-    t86 = Ab*t85 - Q00*t81 - Q01*t77
-    de2_2 = t1*theta2_dot
-    t87 = de2_2*t52
-    t88 = t1*t14
-    t89 = 2*l1*l2*phi2_dot*t1*t6*theta2_dot - t21*t32 - t21*t34 - t88*xr2
-    t90 = Q11*t23
-    t91 = t63*t7
-    t92 = Ab*t32*(2*t18*t18 - 1) - g*t19 - t1*t76 - t12*t90 - t47*t83 - t54*t70 - t91*xr0
-    t93 = Ab*t89 - Q10*t92 - Q11*t87
-    t94 = t19*t32*t79 + t31*t83 - t35*t66 - t91*xr2
-    t95 = Ab*t94 - Q00*t92 - Q01*t87
-    t96 = -t78
-    t97 = -t77
-    t98 = -t81
-    t99 = Ab*t96 - Q10*t98 - Q11*t97
-    t100 = Ab*t84 - Q00*t98 - Q01*t97
-    t101 = 2*l1*l2*t0*t8*theta1_dot - t16*t56
-    t102 = t16*t49 - t46*t50
-    t103 = -Q00*t102 - Q01*t101
-    t104 = t39*t9
-    t105 = -Ab*t104 - Q10*t102 - Q11*t101
-    t106 = 2*Aa*t38
-    t107 = t15*t16 - t46*t56
-    t108 = t17*t43 + t46*t49
-    t109 = -Ab*t106 - Q10*t108 - Q11*t107
-    t110 = 2*Ab*phi1_dot*t0*t2*t3*t4*t9 - Q00*t108 - Q01*t107
-    t111 = t18*t52
-    t112 = -2*de2_2*t14 - t30*t37
-    t113 = Ab*t112 + Q11*t111
-    t114 = 2*theta2_dot
-    t115 = -t114*t91 - t30*t49
-    t116 = Ab*t115 + Q01*t111
-    t117 = Ab*t51
-    t118 = 2*t117
-    t119 = t42*t52
-    t120 = -t114*t37 - t30*t88
-    t121 = Ab*t120 - Q10*t119 + Q11*t118
-    t122 = 2*Q01
-    t123 = Q11*t30*t62 - t114*t49
-    t124 = Ab*t123 - Q00*t119 + t117*t122
+    t75 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    del f3
+    t76 = Aa*f2 - Q00*f0 - Q10*f1
+    del f0, f1, f2
+    xr2 = D2_11*rD2*t76 - D2_01*t75
+    xr3 = D2_00*t75 - D2_01*rD2*t76
+    del t75, t76
+    t77 = (2*l1*l2)*(phi2_dot*t0*t19*t6*theta2_dot) + (l1*l2)*(t0*t6*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t7*t7)) - Q11*t26*t34 - t37*t74 - t53*xr2 - t62*t8
+    del t62
+    t78 = Ab*t77 - Q00*t70 - Q01*t68
+    xr1 = D1_00*t60 - D1_01*rD1*t67
+    del D1_01, t60, t67
+    t79 = t14*xr1
+    t80 = Q01*t49 + Q11*t0*t11 + Q11*t56 + t79 - t59*xr0
+    del t11, t56
+    t81 = t14*xr3 + t22*t33 + t39*xr2 - Q11*t1*t36 - Q11*t35
+    del t35
+    t82 = t16*t8
+    del t8
+    t83 = t49*t82
+    t84 = t20*t83 + t39*xr1 + t51*xr0 - t14*t47 - t46*t58
+    del t47, t58, t83
+    t85 = Ab*t81 - Q10*t84 - Q11*t80
+    t86 = t14*t64
+    t87 = t34*t86 + t38*t64 + t59*xr3 + t63*t82 - (l1*l2)*(t19*t6*t7*xr2)
+    del t38, t63
+    t88 = -t87
+    t89 = Ab*t88 - Q00*t84 - Q01*t80
+    t90 = t1*theta2_dot
+    t91 = t55*t90
+    t92 = t1*t14
+    t93 = (2*l1*l2)*(phi2_dot*t1*t16*theta2_dot) - t22*t34 - t22*t36 - t92*xr2
+    del t16, t22, t36
+    t94 = t13*t66
+    del t13, t66
+    t95 = Ab*(t34*(-1 + 2*t19*t19)) - Q11*t10*t26 - g*t20 - t1*t79 - t49*t86 - t57*t74 - t94*xr0
+    del t10, t26, t49, t57, t74, t79, xr0
+    t96 = Ab*t93 - Q10*t95 - Q11*t91
+    t97 = t20*t34*t82 + t33*t86 - t37*t69 - t94*xr2
+    del t20, t33, t34, t37, t69, t82, t86, xr2
+    t98 = Ab*t97 - Q00*t95 - Q01*t91
+    del t91
+    t99 = -t81
+    t100 = -t80
+    t101 = -t84
+    t102 = Ab*t99 - Q10*t101 - Q11*t100
+    t103 = Ab*t87 - Q00*t101 - Q01*t100
+    t104 = (2*l1*l2)*(t0*t6*theta1_dot) - t17*t59
+    del t6
+    t105 = t17*t51 - t48*t53
+    del t53
+    t106 = -Q00*t105 - Q01*t104
+    t107 = Aa*t17
+    t108 = t107*t7
+    t109 = -Ab*t108 - Q10*t105 - Q11*t104
+    t110 = t42*t40
+    del t40, t42
+    t111 = t15*t17 - t48*t59
+    del t15, t17, t59
+    t112 = t18*t46 + t48*t51
+    del t18, t46, t48
+    t113 = -Ab*t110 - Q10*t112 - Q11*t111
+    t114 = (2*Ab*t2*t3*t4)*(phi1_dot*t0*t7) - Q00*t112 - Q01*t111
+    del t2, t3, t4
+    t115 = t19*t55
+    t116 = -2*(t14*t90) - t32*t39
+    del t14, t90
+    t117 = Ab*t116 + Q11*t115
+    t118 = 2*theta2_dot
+    t119 = -t118*t94 - t32*t51
+    del t94
+    t120 = Ab*t119 + Q01*t115
+    t121 = Ab*t54
+    del t54
+    t122 = 2*t121
+    t123 = t45*t55
+    del t45, t55
+    t124 = -t118*t39 - t32*t92
+    del t39, t92
+    t125 = Ab*t124 + Q11*t122 - Q10*t123
+    t126 = 2*Q01
+    t127 = Q11*t32*t64 - t118*t51
+    del t118, t32, t51, t64
+    t128 = Ab*t127 + t121*t126 - Q00*t123
+    del t121, t123
     rs1 = 1.0/t0
     qdd1 = rs1*xr1
-    t125 = D1_00*rD1
-    t126 = de1_2*t39
-    t127 = Aa*t65 - Q01*t73 - Q11*t126
-    t128 = D2_01*rD2
-    t129 = Aa*t67 - Q00*t73 - Q10*t126
-    t130 = Aa*t77 - Q01*t85 - Q11*t78
-    t131 = Aa*t81 - Q00*t85 - Q10*t78
-    t132 = 2*Aa*Ab*phi2_dot*t1*theta2_dot - Q01*t94 - Q11*t89
-    t133 = Aa*t92 - Q00*t94 - Q10*t89
-    t134 = Aa*t97 - Q01*t84 - Q11*t96
-    t135 = Aa*t98 - Q00*t84 - Q10*t96
-    t136 = Aa*t101 + Q11*t104
-    t137 = Aa*t102 + Q10*t104
-    t138 = -Aa*phi1_dot*t0*t122*t9 + Aa*t107 + Q11*t106
-    t139 = Aa*t108 - Q00*t0*t104 + Q10*t106
-    t140 = -Q00*t115 - Q10*t112
-    t141 = -Aa*t111 - Q01*t115 - Q11*t112
-    t142 = -Aa*t118 - Q01*t123 - Q11*t120
-    t143 = 2*Aa*Ab*phi2_dot*t1*t18 - Q00*t123 - Q10*t120
-    t144 = D2_00*rD2
+    del xr1
+    t129 = D1_00*rD1
+    t130 = t107*t12
+    del t107, t12
+    t131 = Aa*t68 - Q01*t77 - Q11*t130
+    del t68
+    t132 = D2_01*rD2
+    del D2_01
+    t133 = Aa*t70 - Q00*t77 - Q10*t130
+    del t130, t70, t77
+    t134 = Aa*t80 - Q01*t88 - Q11*t81
+    del t80
+    t135 = Aa*t84 - Q00*t88 - Q10*t81
+    del t81, t84, t88
+    t136 = (2*Aa*Ab)*(phi2_dot*t1*theta2_dot) - Q01*t97 - Q11*t93
+    t137 = Aa*t95 - Q00*t97 - Q10*t93
+    del t93, t95, t97
+    t138 = Aa*t100 - Q01*t87 - Q11*t99
+    del t100
+    t139 = Aa*t101 - Q00*t87 - Q10*t99
+    del t101, t87, t99
+    t140 = Aa*t104 + Q11*t108
+    del t104
+    t141 = Aa*t105 + Q10*t108
+    del t105
+    t142 = Aa*t111 + Q11*t110 - Aa*(phi1_dot*t0*t126*t7)
+    del t111, t126
+    t143 = Aa*t112 + Q10*t110 - Q00*t0*t108
+    del t0, t108, t110, t112
+    t144 = -Q00*t119 - Q10*t116
+    t145 = -Aa*t115 - Q01*t119 - Q11*t116
+    del t115, t116, t119
+    t146 = -Aa*t122 - Q01*t127 - Q11*t124
+    del Q01, Q11, t122
+    t147 = (2*Aa*Ab)*(phi2_dot*t1*t19) - Q00*t127 - Q10*t124
+    del Aa, Ab, Q00, Q10, t124, t127
+    t148 = D2_00*rD2
     rs3 = 1.0/t1
+    del t1
     qdd3 = rs3*xr3
+    del xr3
+    t149 = D1_11*rD1*t78 - t71*t72
+    t150 = D1_11*rD1*t89 - t72*t85
+    t151 = D1_11*rD1*t98 - t72*t96
+    t152 = D1_11*rD1*t103 - t102*t72
+    t153 = D1_11*rD1*t106 - t109*t72
+    t154 = D1_11*rD1*t114 - t113*t72
+    t155 = D1_11*rD1*t120 - t117*t72
+    t156 = D1_11*rD1*t128 - t125*t72
+    del D1_11
+    t157 = rs1*(D1_00*rD1*t71 - qdd1*t7 - t72*t78)
+    del D1_00, qdd1, rD1, t7, t71, t78
+    t158 = rs1*(t129*t85 - t72*t89)
+    del t85, t89
+    t159 = rs1*(t129*t96 - t72*t98)
+    del t96, t98
+    t160 = rs1*(t102*t129 - t103*t72)
+    del t102, t103
+    t161 = rs1*(t109*t129 - t106*t72)
+    del t106, t109
+    t162 = rs1*(t113*t129 - t114*t72)
+    del t113, t114
+    t163 = rs1*(t117*t129 - t120*t72)
+    del t117, t120
+    t164 = rs1*(t125*t129 - t128*t72)
+    del rs1, t125, t128, t129, t72
+    t165 = D2_11*rD2*t133 - t131*t132
+    t166 = D2_11*rD2*t135 - t132*t134
+    t167 = D2_11*rD2*t137 - t132*t136
+    t168 = D2_11*rD2*t139 - t132*t138
+    t169 = D2_11*rD2*t141 - t132*t140
+    t170 = D2_11*rD2*t143 - t132*t142
+    t171 = D2_11*rD2*t144 - t132*t145
+    t172 = D2_11*rD2*t147 - t132*t146
+    del D2_11
+    t173 = rs3*(t131*t148 - t132*t133)
+    del t131, t133
+    t174 = rs3*(t134*t148 - t132*t135)
+    del t134, t135
+    t175 = rs3*(D2_00*rD2*t136 - qdd3*t19 - t132*t137)
+    del D2_00, qdd3, rD2, t136, t137, t19
+    t176 = rs3*(t138*t148 - t132*t139)
+    del t138, t139
+    t177 = rs3*(t140*t148 - t132*t141)
+    del t140, t141
+    t178 = rs3*(t142*t148 - t132*t143)
+    del t142, t143
+    t179 = rs3*(t145*t148 - t132*t144)
+    del t144, t145
+    t180 = rs3*(t146*t148 - t132*t147)
+    del rs3, t132, t146, t147, t148
     J = numpy.empty(shape + (8, 8), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -639,38 +879,70 @@ def jacobian(y, p):
     J[..., 3, 5] = 0
     J[..., 3, 6] = 0
     J[..., 3, 7] = 1
-    J[..., 4, 0] = D1_11*rD1*t74 - t68*t69
-    J[..., 4, 1] = D1_11*rD1*t86 - t69*t82
-    J[..., 4, 2] = D1_11*rD1*t95 - t69*t93
-    J[..., 4, 3] = D1_11*rD1*t100 - t69*t99
-    J[..., 4, 4] = D1_11*rD1*t103 - t105*t69
-    J[..., 4, 5] = D1_11*rD1*t110 - t109*t69
-    J[..., 4, 6] = D1_11*rD1*t116 - t113*t69
-    J[..., 4, 7] = D1_11*rD1*t124 - t121*t69
-    J[..., 5, 0] = rs1*(D1_00*rD1*t68 - qdd1*t9 - t69*t74)
-    J[..., 5, 1] = rs1*(t125*t82 - t69*t86)
-    J[..., 5, 2] = rs1*(t125*t93 - t69*t95)
-    J[..., 5, 3] = rs1*(-t100*t69 + t125*t99)
-    J[..., 5, 4] = rs1*(-t103*t69 + t105*t125)
-    J[..., 5, 5] = rs1*(t109*t125 - t110*t69)
-    J[..., 5, 6] = rs1*(t113*t125 - t116*t69)
-    J[..., 5, 7] = rs1*(t121*t125 - t124*t69)
-    J[..., 6, 0] = D2_11*rD2*t129 - t127*t128
-    J[..., 6, 1] = D2_11*rD2*t131 - t128*t130
-    J[..., 6, 2] = D2_11*rD2*t133 - t128*t132
-    J[..., 6, 3] = D2_11*rD2*t135 - t128*t134
-    J[..., 6, 4] = D2_11*rD2*t137 - t128*t136
-    J[..., 6, 5] = D2_11*rD2*t139 - t128*t138
-    J[..., 6, 6] = D2_11*rD2*t140 - t128*t141
-    J[..., 6, 7] = D2_11*rD2*t143 - t128*t142
-    J[..., 7, 0] = rs3*(t127*t144 - t128*t129)
-    J[..., 7, 1] = rs3*(-t128*t131 + t130*t144)
-    J[..., 7, 2] = rs3*(D2_00*rD2*t132 - qdd3*t18 - t128*t133)
-    J[..., 7, 3] = rs3*(-t128*t135 + t134*t144)
-    J[..., 7, 4] = rs3*(-t128*t137 + t136*t144)
-    J[..., 7, 5] = rs3*(-t128*t139 + t138*t144)
-    J[..., 7, 6] = rs3*(-t128*t140 + t141*t144)
-    J[..., 7, 7] = rs3*(-t128*t143 + t142*t144)
+    J[..., 4, 0] = t149
+    del t149
+    J[..., 4, 1] = t150
+    del t150
+    J[..., 4, 2] = t151
+    del t151
+    J[..., 4, 3] = t152
+    del t152
+    J[..., 4, 4] = t153
+    del t153
+    J[..., 4, 5] = t154
+    del t154
+    J[..., 4, 6] = t155
+    del t155
+    J[..., 4, 7] = t156
+    del t156
+    J[..., 5, 0] = t157
+    del t157
+    J[..., 5, 1] = t158
+    del t158
+    J[..., 5, 2] = t159
+    del t159
+    J[..., 5, 3] = t160
+    del t160
+    J[..., 5, 4] = t161
+    del t161
+    J[..., 5, 5] = t162
+    del t162
+    J[..., 5, 6] = t163
+    del t163
+    J[..., 5, 7] = t164
+    del t164
+    J[..., 6, 0] = t165
+    del t165
+    J[..., 6, 1] = t166
+    del t166
+    J[..., 6, 2] = t167
+    del t167
+    J[..., 6, 3] = t168
+    del t168
+    J[..., 6, 4] = t169
+    del t169
+    J[..., 6, 5] = t170
+    del t170
+    J[..., 6, 6] = t171
+    del t171
+    J[..., 6, 7] = t172
+    del t172
+    J[..., 7, 0] = t173
+    del t173
+    J[..., 7, 1] = t174
+    del t174
+    J[..., 7, 2] = t175
+    del t175
+    J[..., 7, 3] = t176
+    del t176
+    J[..., 7, 4] = t177
+    del t177
+    J[..., 7, 5] = t178
+    del t178
+    J[..., 7, 6] = t179
+    del t179
+    J[..., 7, 7] = t180
+    del t180
     return J
 
 
@@ -689,7 +961,9 @@ def polar_sines(y):
     t1 = numpy.sin(theta2)
     sines = numpy.empty(shape + (2,), dtype)
     sines[..., 0] = t0
+    del t0
     sines[..., 1] = t1
+    del t1
     return sines
 
 
@@ -710,51 +984,79 @@ def to_spherical_alt(y):
     phi1_dot = y[..., 5]
     theta2_dot = y[..., 6]
     phi2_dot = y[..., 7]
-    t0 = numpy.sin(theta1)
-    t1 = numpy.cos(phi1)
-    e1_0 = t0*t1
-    t2 = numpy.sin(phi1)
-    e1_1 = t0*t2
-    t3 = numpy.cos(theta1)
-    e1_2 = -t3
-    t4 = e1_2*e1_2
-    spherical_alt_vartheta1 = numpy.arctan2(numpy.sqrt(e1_1*e1_1 + t4), e1_0)
+    t0 = numpy.cos(theta1)
+    e1_2 = -t0
+    t1 = e1_2*e1_2
+    t2 = numpy.sin(theta1)
+    t3 = numpy.cos(phi1)
+    e1_0 = t2*t3
+    t4 = numpy.sin(phi1)
+    e1_1 = t2*t4
+    spherical_alt_vartheta1 = numpy.arctan2(numpy.sqrt(e1_1*e1_1 + t1), e1_0)
+    del t1
     t5 = numpy.sin(spherical_alt_vartheta1)
-    t6 = numpy.sin(theta2)
-    t7 = numpy.cos(phi2)
-    e2_0 = t6*t7
-    t8 = numpy.sin(phi2)
-    e2_1 = t6*t8
-    t9 = numpy.cos(theta2)
-    e2_2 = -t9
-    t10 = e2_2*e2_2
-    spherical_alt_vartheta2 = numpy.arctan2(numpy.sqrt(e2_1*e2_1 + t10), e2_0)
+    t6 = numpy.cos(theta2)
+    e2_2 = -t6
+    t7 = e2_2*e2_2
+    t8 = numpy.sin(theta2)
+    t9 = numpy.cos(phi2)
+    e2_0 = t8*t9
+    t10 = numpy.sin(phi2)
+    e2_1 = t10*t8
+    spherical_alt_vartheta2 = numpy.arctan2(numpy.sqrt(e2_1*e2_1 + t7), e2_0)
+    del t7
     t11 = numpy.sin(spherical_alt_vartheta2)
     spherical_alt_varphi1 = numpy.arctan2(e1_2, e1_1)
+    del e1_2
     spherical_alt_varphi2 = numpy.arctan2(e2_2, e2_1)
-    de1_2 = t0*theta1_dot
+    del e2_2
     t12 = numpy.cos(spherical_alt_varphi1)
     t13 = numpy.cos(spherical_alt_vartheta1)
     t14 = numpy.sin(spherical_alt_varphi1)
-    de1_0 = -e1_1*phi1_dot + t1*t3*theta1_dot
-    t15 = t3*theta1_dot
-    de1_1 = e1_0*phi1_dot + t15*t2
-    de2_2 = t6*theta2_dot
+    de1_0 = t0*t3*theta1_dot - e1_1*phi1_dot
+    del e1_1, t3
+    t15 = t0*theta1_dot
+    del t0
+    de1_1 = e1_0*phi1_dot + t15*t4
+    del e1_0, t15, t4
+    de1_2 = t2*theta1_dot
+    del t2
     t16 = numpy.cos(spherical_alt_varphi2)
     t17 = numpy.cos(spherical_alt_vartheta2)
     t18 = numpy.sin(spherical_alt_varphi2)
-    de2_0 = -e2_1*phi2_dot + t7*t9*theta2_dot
-    t19 = t9*theta2_dot
-    de2_1 = e2_0*phi2_dot + t19*t8
+    de2_0 = t6*t9*theta2_dot - e2_1*phi2_dot
+    del e2_1, t9
+    t19 = t6*theta2_dot
+    del t6
+    de2_1 = e2_0*phi2_dot + t10*t19
+    del e2_0, t10, t19
+    de2_2 = t8*theta2_dot
+    del t8
+    t20 = de1_1*t12*t13 + de1_2*t13*t14 - de1_0*t5
+    del de1_0, t13
+    t21 = (de1_2*t12 - de1_1*t14)/t5
+    del de1_1, de1_2, t12, t14, t5
+    t22 = de2_1*t16*t17 + de2_2*t17*t18 - de2_0*t11
+    del de2_0, t17
+    t23 = (de2_2*t16 - de2_1*t18)/t11
+    del de2_1, de2_2, t11, t16, t18
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_alt_vartheta1
+    del spherical_alt_vartheta1
     y_out[..., 1] = spherical_alt_varphi1
+    del spherical_alt_varphi1
     y_out[..., 2] = spherical_alt_vartheta2
+    del spherical_alt_vartheta2
     y_out[..., 3] = spherical_alt_varphi2
-    y_out[..., 4] = -de1_0*t5 + de1_1*t12*t13 + de1_2*t13*t14
-    y_out[..., 5] = (-de1_1*t14 + de1_2*t12)/t5
-    y_out[..., 6] = -de2_0*t11 + de2_1*t16*t17 + de2_2*t17*t18
-    y_out[..., 7] = (-de2_1*t18 + de2_2*t16)/t11
+    del spherical_alt_varphi2
+    y_out[..., 4] = t20
+    del t20
+    y_out[..., 5] = t21
+    del t21
+    y_out[..., 6] = t22
+    del t22
+    y_out[..., 7] = t23
+    del t23
     return y_out
 
 
@@ -775,49 +1077,77 @@ def to_spherical_rot(y):
     phi1_dot = y[..., 5]
     theta2_dot = y[..., 6]
     phi2_dot = y[..., 7]
-    t0 = numpy.sin(theta1)
-    t1 = numpy.cos(phi1)
-    e1_0 = t0*t1
-    t2 = numpy.sin(phi1)
-    e1_1 = t0*t2
-    t3 = numpy.cos(theta1)
-    e1_2 = -t3
-    t4 = e1_2*e1_2
-    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(e1_0*e1_0 + t4), e1_1)
+    t0 = numpy.cos(theta1)
+    e1_2 = -t0
+    t1 = e1_2*e1_2
+    t2 = numpy.sin(theta1)
+    t3 = numpy.cos(phi1)
+    e1_0 = t2*t3
+    t4 = numpy.sin(phi1)
+    e1_1 = t2*t4
+    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(e1_0*e1_0 + t1), e1_1)
+    del t1
     t5 = numpy.sin(spherical_rot_vartheta1)
-    t6 = numpy.sin(theta2)
-    t7 = numpy.cos(phi2)
-    e2_0 = t6*t7
-    t8 = numpy.sin(phi2)
-    e2_1 = t6*t8
-    t9 = numpy.cos(theta2)
-    e2_2 = -t9
-    t10 = e2_2*e2_2
-    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(e2_0*e2_0 + t10), e2_1)
+    t6 = numpy.cos(theta2)
+    e2_2 = -t6
+    t7 = e2_2*e2_2
+    t8 = numpy.sin(theta2)
+    t9 = numpy.cos(phi2)
+    e2_0 = t8*t9
+    t10 = numpy.sin(phi2)
+    e2_1 = t10*t8
+    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(e2_0*e2_0 + t7), e2_1)
+    del t7
     t11 = numpy.sin(spherical_rot_vartheta2)
     spherical_rot_varphi1 = numpy.arctan2(e1_2, e1_0)
+    del e1_2
     spherical_rot_varphi2 = numpy.arctan2(e2_2, e2_0)
-    de1_2 = t0*theta1_dot
+    del e2_2
     t12 = numpy.cos(spherical_rot_varphi1)
     t13 = numpy.cos(spherical_rot_vartheta1)
     t14 = numpy.sin(spherical_rot_varphi1)
-    de1_0 = -e1_1*phi1_dot + t1*t3*theta1_dot
-    t15 = t3*theta1_dot
-    de1_1 = e1_0*phi1_dot + t15*t2
-    de2_2 = t6*theta2_dot
+    de1_0 = t0*t3*theta1_dot - e1_1*phi1_dot
+    del e1_1, t3
+    t15 = t0*theta1_dot
+    del t0
+    de1_1 = e1_0*phi1_dot + t15*t4
+    del e1_0, t15, t4
+    de1_2 = t2*theta1_dot
+    del t2
     t16 = numpy.cos(spherical_rot_varphi2)
     t17 = numpy.cos(spherical_rot_vartheta2)
     t18 = numpy.sin(spherical_rot_varphi2)
-    de2_0 = -e2_1*phi2_dot + t7*t9*theta2_dot
-    t19 = t9*theta2_dot
-    de2_1 = e2_0*phi2_dot + t19*t8
+    de2_0 = t6*t9*theta2_dot - e2_1*phi2_dot
+    del e2_1, t9
+    t19 = t6*theta2_dot
+    del t6
+    de2_1 = e2_0*phi2_dot + t10*t19
+    del e2_0, t10, t19
+    de2_2 = t8*theta2_dot
+    del t8
+    t20 = de1_0*t12*t13 + de1_2*t13*t14 - de1_1*t5
+    del de1_1, t13
+    t21 = (de1_2*t12 - de1_0*t14)/t5
+    del de1_0, de1_2, t12, t14, t5
+    t22 = de2_0*t16*t17 + de2_2*t17*t18 - de2_1*t11
+    del de2_1, t17
+    t23 = (de2_2*t16 - de2_0*t18)/t11
+    del de2_0, de2_2, t11, t16, t18
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_rot_vartheta1
+    del spherical_rot_vartheta1
     y_out[..., 1] = spherical_rot_varphi1
+    del spherical_rot_varphi1
     y_out[..., 2] = spherical_rot_vartheta2
+    del spherical_rot_vartheta2
     y_out[..., 3] = spherical_rot_varphi2
-    y_out[..., 4] = de1_0*t12*t13 - de1_1*t5 + de1_2*t13*t14
-    y_out[..., 5] = (-de1_0*t14 + de1_2*t12)/t5
-    y_out[..., 6] = de2_0*t16*t17 - de2_1*t11 + de2_2*t17*t18
-    y_out[..., 7] = (-de2_0*t18 + de2_2*t16)/t11
+    del spherical_rot_varphi2
+    y_out[..., 4] = t20
+    del t20
+    y_out[..., 5] = t21
+    del t21
+    y_out[..., 6] = t22
+    del t22
+    y_out[..., 7] = t23
+    del t23
     return y_out
