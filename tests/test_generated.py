@@ -180,7 +180,15 @@ def test_hamiltonian_form(name):
                      allowed(dtype, ref["kappa"]))
     assert_close(f"NumPy {name}.hamiltonian_rhs", rel_err(mod.hamiltonian_rhs(x, p), expected),
                  allowed(np.float64, ref["kappa"]))
-    # Hamilton's q' is the state's q', and p' is d/dt (M q') along the motion
+    # the Jacobian of Hamilton's equations against 60-digit differences
+    expected = np.array([_ld(R.hamiltonian_jacobian(a, b)) for a, b in zip(x, p)])
+    for suffix, dtype in VARIANTS.items():
+        got = getattr(lib, "hamiltonian_jacobian" + suffix)(x, p)
+        assert_close(f"C {name}_hamiltonian_jacobian{suffix}", rel_err(got, expected),
+                     allowed(dtype, ref["kappa"] ** 2))
+    assert_close(f"NumPy {name}.hamiltonian_jacobian", rel_err(mod.hamiltonian_jacobian(x, p), expected),
+                 allowed(np.float64, ref["kappa"] ** 2))
+    # Hamilton's q' is the state's q'
     assert_close(f"{name}: q' of both forms", rel_err(lib.hamiltonian_rhs(x, p)[:, :2], y[:, 2:]),
                  allowed(np.float64, ref["kappa"]))
 

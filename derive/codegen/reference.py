@@ -87,17 +87,32 @@ class Reference:
                     J[i, k] = (fu[i] - fd[i]) / (2 * h)
             return J
 
+    def _hamilton(self, x: list, pp: list) -> list:
+        q, mom = x[:self.nq], x[self.nq:]
+        zeros = [mpmath.mpf(0)] * self.nq
+        M = mpmath.matrix(self._M(*(q + zeros + pp)).tolist())
+        qdot = list(mpmath.lu_solve(M, mpmath.matrix(mom)))
+        return qdot + list(self._pdot(*(q + qdot + pp)))
+
     def hamiltonian_rhs(self, x, p):
         """(q', p') at x = (q, p): q' solves M q' = p, p' = dL/dq at that q'."""
         with mpmath.workdps(self.dps):
-            q = self._mp(x[:self.nq])
-            mom = self._mp(x[self.nq:])
-            pp = self._mp(p)
-            zeros = [mpmath.mpf(0)] * self.nq
-            M = mpmath.matrix(self._M(*(q + zeros + pp)).tolist())
-            qdot = list(mpmath.lu_solve(M, mpmath.matrix(mom)))
-            pdot = list(self._pdot(*(q + qdot + pp)))
-            return qdot + pdot
+            return self._hamilton(self._mp(x), self._mp(p))
+
+    def hamiltonian_jacobian(self, x, p, h_exp: int = 15):
+        """Central differences of hamiltonian_rhs at dps + 2*h_exp digits."""
+        with mpmath.workdps(self.dps + 2 * h_exp):
+            h = mpmath.mpf(10) ** (-h_exp)
+            base, pp = self._mp(x), self._mp(p)
+            J = mpmath.matrix(self.n, self.n)
+            for k in range(self.n):
+                up, down = list(base), list(base)
+                up[k] += h
+                down[k] -= h
+                fu, fd = self._hamilton(up, pp), self._hamilton(down, pp)
+                for i in range(self.n):
+                    J[i, k] = (fu[i] - fd[i]) / (2 * h)
+            return J
 
 
 def to_float(values) -> np.ndarray:
