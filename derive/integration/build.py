@@ -1,0 +1,123 @@
+"""Compile the generated integrators (with their kernels) into a cached shared library.
+
+A library is built from several generated sources (``<model>_integrate.c`` and
+``<model>.c``; the atlas adds the three chart models).  The cache key hashes
+every source and header, the compiler identity and the flags, with the same
+helpers as derive.codegen.loader, so any change rebuilds.
+"""
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import subprocess
+import tempfile
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from ..codegen.loader import GENERATED_C, LoaderError, compiler_identity, default_compiler
+from ..derivation import cache_dir
+
+FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
+
+CTYPES = {"float64": ctypes.c_double, "float32": ctypes.c_float, "longdouble": ctypes.c_longdouble}
+SUFFIX = {"float64": "", "float32": "_f", "longdouble": "_l"}
+
+
+def build_key(sources: list[Path], cc: str, flags: tuple[str, ...]) -> str:
+    h = hashlib.sha256()
+    for src in sources:
+        for part in (src.read_bytes(), src.with_suffix(".h").read_bytes()):
+            h.update(hashlib.sha256(part).digest())
+    h.update(hashlib.sha256(compiler_identity(cc).encode()).digest())
+    h.update(hashlib.sha256("\0".join(flags).encode()).digest())
+    return h.hexdigest()
+
+
+def build_library(stem: str, sources: list[Path], cc: str | None = None,
+                  flags: tuple[str, ...] = FLAGS) -> Path:
+    sources = [Path(s).resolve() for s in sources]
+    for s in sources:
+        if not s.is_file():
+            raise LoaderError(f"no generated C at {s}; run `derive generate`")
+    cc = cc or default_compiler()
+    key = build_key(sources, cc, tuple(flags))
+    lib = cache_dir() / "c-build" / key[:32] / f"lib{stem}.so"
+    if lib.is_file():
+        return lib
+    lib.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
+        out = Path(tmp) / lib.name
+        cmd = [cc, *flags, "-I", str(sources[0].parent), *map(str, sources), "-o", str(out), "-lm"]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise LoaderError(f"compiling {stem} failed ({' '.join(cmd)}):\n{proc.stderr}")
+        os.replace(out, lib)
+    return lib
+
+
+def options_struct(extra: tuple = ()) -> type:
+    fields = [("rtol", ctypes.c_double), ("atol", ctypes.c_double), ("h", ctypes.c_double),
+              ("hmin", ctypes.c_double), ("hmax", ctypes.c_double), ("max_steps", ctypes.c_long),
+              ("newton_tol", ctypes.c_double), ("newton_max", ctypes.c_int),
+              ("sine_min", ctypes.c_double)] + list(extra)
+    return type("Options", (ctypes.Structure,), {"_fields_": fields})
+
+
+def info_struct(n: int, extra: tuple = ()) -> type:
+    fields = [("status", ctypes.c_int), ("nfev", ctypes.c_long), ("njev", ctypes.c_long),
+              ("nsteps", ctypes.c_long), ("naccepted", ctypes.c_long), ("nrejected", ctypes.c_long),
+              ("nnewton", ctypes.c_long), ("nout", ctypes.c_long), ("t", ctypes.c_double),
+              ("h", ctypes.c_double), ("y", ctypes.c_double * n)] + list(extra)
+    return type("Info", (ctypes.Structure,), {"_fields_": fields})
+
+
+class IntegratorLibrary:
+    """ctypes access to <model>_integrate_batch{,_f,_l}."""
+
+    def __init__(self, model: str, n: int, n_params: int):
+        self.model, self.n, self.n_params = model, n, n_params
+        src = [GENERATED_C / f"{model}_integrate.c", GENERATED_C / f"{model}.c"]
+        self.path = build_library(f"{model}_integrate", src)
+        self.lib = ctypes.CDLL(str(self.path))
+        self.Options = options_struct()
+        self.Info = info_struct(n)
+        self.lib[f"{model}_integrate_defaults"].argtypes = [ctypes.POINTER(self.Options)]
+        self.fns = {}
+        for dt, suffix in SUFFIX.items():
+            ptr = ctypes.POINTER(CTYPES[dt])
+            fn = self.lib[f"{model}_integrate_batch{suffix}"]
+            fn.restype = ctypes.c_long
+            fn.argtypes = [ctypes.c_long, ctypes.c_int, ptr, ctypes.c_long, ptr, ctypes.c_long,
+                           ctypes.c_long, ptr, ptr, ctypes.POINTER(self.Options),
+                           ctypes.POINTER(self.Info)]
+            self.fns[dt] = fn
+
+    def defaults(self):
+        opt = self.Options()
+        self.lib[f"{self.model}_integrate_defaults"](ctypes.byref(opt))
+        return opt
+
+    def run(self, method: int, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:
+        """y0 (B, n), p (B, np) or (np,), t (nt,) -> y (B, nt, n), infos (B,)."""
+        dt = np.dtype(y0.dtype).name
+        ptr = ctypes.POINTER(CTYPES[dt])
+        y0 = np.ascontiguousarray(y0)
+        B = y0.shape[0]
+        p = np.ascontiguousarray(p, dtype=y0.dtype)
+        pstride = 0 if p.ndim == 1 else self.n_params
+        t = np.ascontiguousarray(t, dtype=y0.dtype)
+        out = np.empty((B, len(t), self.n), y0.dtype)
+        infos = (self.Info * B)()
+        self.fns[dt](B, method, y0.ctypes.data_as(ptr), self.n, p.ctypes.data_as(ptr), pstride,
+                     len(t), t.ctypes.data_as(ptr), out.ctypes.data_as(ptr), ctypes.byref(opt), infos)
+        return out, infos
+
+
+@lru_cache(maxsize=None)
+def integrator_library(model: str) -> IntegratorLibrary:
+    from .codegen import model_info
+    info = model_info(model)
+    return IntegratorLibrary(model, info.n, info.n_params)

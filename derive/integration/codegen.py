@@ -1,0 +1,214 @@
+"""Render the integrators: C (float, double, long double) and NumPy, per model, and the atlas.
+
+Python decides everything numeric here (tableau literals per precision, the
+linear combinations of stages, which system the implicit methods use); the
+templates under templates/c/integrate*.jinja, templates/c/atlas*.jinja and
+templates/numpy/integrate*.jinja, templates/numpy/atlas*.jinja only lay it out.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import mpmath
+
+from ..codegen.emit import render
+from ..derivation import derive
+from ..model import load_model, model_names
+from . import tableau as tb
+
+SINE_MIN = "0.1"          # hard threshold: no kernel below it (per-model default, and atlas)
+SINE_SWITCH = "0.3"       # atlas: switch chart when a polar sine drops below
+SINE_RULE = "0.5"         # seed 000 section 5.1: "not small" means >= 0.5
+
+METHODS = ("rk4", "dopri5", "dop853", "midpoint", "gauss2")
+ADAPTIVE = ("dopri5", "dop853")
+IMPLICIT = ("midpoint", "gauss2")
+ATLAS_CHARTS = ("spherical_std", "spherical_alt", "spherical_rot")
+
+_C_VARIANTS = (("double", "", ""), ("float", "_f", "f"), ("long double", "_l", "l"))
+_EPS = {"double": "2.220446049250313e-16", "float": "1.1920929e-07f",
+        "long double": "1.08420217248550443401e-19L"}
+_NAN = {"double": 'nan("")', "float": 'nanf("")', "long double": 'nanl("")'}
+
+
+@dataclass(frozen=True)
+class ModelInfo:
+    name: str
+    title: str
+    n: int
+    n_params: int
+    has_ham: bool
+    nguards: int
+    state_names: tuple[str, ...]
+    param_names: tuple[str, ...]
+
+
+@lru_cache(maxsize=None)
+def model_info(name: str) -> ModelInfo:
+    d = derive(name)
+    s = d.symbols
+    return ModelInfo(name, d.model.title, len(s.state), len(s.params), d.hamiltonian is not None,
+                     len(d.polar_sines), tuple(x.name for x in s.state), tuple(x.name for x in s.params))
+
+
+def _combo(terms, ctype: str, array: str = "K", index: str = "k") -> str:
+    """sum_j coef_j * K[j][k] with the literals of ctype; zero coefficients dropped."""
+    parts = []
+    for j, v in terms:
+        if v == 0:
+            continue
+        lit = tb.literal(v, ctype)
+        parts.append(f"{lit} * {array}[{j}][{index}]")
+    return " + ".join(parts) if parts else "0"
+
+
+def _explicit(ctype: str) -> list[dict]:
+    out = []
+    rk4 = tb.load("rk4")
+    out.append({"name": "rk4", "title": "Classical RK4 (seed 001).", "error": "none",
+                "stages": [{"index": i, "combo": _combo(rk4.row(i), ctype)} for i in range(1, 4)],
+                "b_combo": _combo(list(enumerate(rk4.b)), ctype)})
+    d5 = tb.load("dopri5")
+    out.append({"name": "dopri5", "title": "Dormand-Prince 5(4): stages 1-5, y_new, FSAL stage 6, error.",
+                "error": "dopri5", "fsal": 6,
+                "stages": [{"index": i, "combo": _combo(d5.row(i), ctype)} for i in range(1, 6)],
+                "b_combo": _combo(d5.row(6), ctype),
+                "e_combo": _combo(sorted(d5.extra["e"].items()), ctype)})
+    d8 = tb.load("dop853")
+    b = dict(d8.row(12))
+    e3 = [(j, b.get(j, mpmath.mpf(0)) - d8.extra["e3_minus"].get(j, mpmath.mpf(0))) for j in range(12)]
+    with mpmath.workdps(tb.DIGITS):
+        e3 = [(j, b.get(j, mpmath.mpf(0)) - d8.extra["e3_minus"].get(j, mpmath.mpf(0))) for j in range(12)]
+    out.append({"name": "dop853", "title": "Dormand-Prince 8(5,3): stages 1-11, y_new, error as in Hairer's DOP853.",
+                "error": "dop853",
+                "stages": [{"index": i, "combo": _combo(d8.row(i), ctype)} for i in range(1, 12)],
+                "b_combo": _combo(d8.row(12), ctype),
+                "e3_combo": _combo(e3, ctype),
+                "e5_combo": _combo(sorted(d8.extra["e5"].items()), ctype)})
+    return out
+
+
+def _dopri5_dense(ctype: str) -> tuple[list[dict], str]:
+    d5 = tb.load("dopri5")
+    p = d5.extra["p"]
+    rows, combo = [], []
+    for k in range(7):
+        coefs = [p.get((k, j), mpmath.mpf(0)) for j in range(4)]
+        if all(c == 0 for c in coefs):
+            continue
+        expr = tb.literal(coefs[3], ctype)
+        for j in (2, 1, 0):
+            expr = f"{tb.literal(coefs[j], ctype)} + theta * ({expr})"
+        rows.append({"index": k, "poly": f"theta * ({expr})"})
+        combo.append(f"b{k} * K[{k}][k]")
+    return rows, " + ".join(combo)
+
+
+def _dop853_dense(ctype: str) -> tuple[list[dict], list[dict]]:
+    d8 = tb.load("dop853")
+    extra = [{"index": i, "combo": _combo(d8.row(i), ctype)} for i in range(13, 16)]
+    d = d8.extra["d"]
+    rows = []
+    for r in range(4):
+        rows.append({"index": 3 + r, "combo": _combo(sorted((j, v) for (i, j), v in d.items() if i == r), ctype)})
+    return extra, rows
+
+
+def _gauss(ctype: str) -> list[dict]:
+    out = []
+    for name, title in (("midpoint", "The implicit midpoint rule (1-stage Gauss-Legendre, order 2)."),
+                        ("gauss2", "2-stage Gauss-Legendre (order 4).")):
+        t = tb.load(name)
+        ns = t.stages
+        A = [t.a.get((i, j), mpmath.mpf(0)) for i in range(ns) for j in range(ns)]
+        out.append({"name": name, "title": title, "ns": ns,
+                    "A": ", ".join(tb.literal(x, ctype) for x in A),
+                    "c": ", ".join(tb.literal(x, ctype) for x in t.c),
+                    "d": ", ".join(tb.literal(x, ctype) for x in tb.gauss_d(t))})
+    return out
+
+
+@lru_cache(maxsize=None)
+def c_variants() -> list[dict]:
+    out = []
+    for ctype, suffix, m in _C_VARIANTS:
+        dense5, combo5 = _dopri5_dense(ctype)
+        extra8, d8 = _dop853_dense(ctype)
+        out.append({"ctype": ctype, "s": suffix, "m": m, "eps": _EPS[ctype], "nan": _NAN[ctype],
+                    "explicit": _explicit(ctype), "dopri5_dense": dense5, "dopri5_dense_combo": combo5,
+                    "dop853_extra": extra8, "dop853_d": d8, "gauss": _gauss(ctype)})
+    return out
+
+
+SOURCES = "rk4.toml, dopri5.toml, dop853.toml, gauss.toml in derive/integration"
+
+
+def render_c(name: str) -> dict[str, str]:
+    info = model_info(name)
+    ctx = {"P": name, "M": name.upper(), "title": info.title, "has_ham": info.has_ham,
+           "has_guards": info.nguards > 0, "nguards": info.nguards, "sine_min": SINE_MIN,
+           "variants": c_variants(), "sources": SOURCES}
+    return {
+        f"c/{name}_integrate.h": render("c/integrate.h.jinja", dict(ctx, template="templates/c/integrate.h.jinja")),
+        f"c/{name}_integrate.c": render("c/integrate.c.jinja", dict(ctx, template="templates/c/integrate.c.jinja")),
+    }
+
+
+def render_integrators() -> dict[str, str]:
+    """Every integrator file: relative path under generated/ -> text."""
+    files: dict[str, str] = {}
+    for name in model_names():
+        files.update(render_c(name))
+        files.update(render_numpy(name))
+    return dict(sorted(files.items()))
+
+
+def _py_row(terms) -> list[tuple[int, str]]:
+    return [(j, tb.py_literal(v)) for j, v in terms if v != 0]
+
+
+@lru_cache(maxsize=None)
+def numpy_tableaus() -> tuple[list[dict], list[dict]]:
+    explicit = []
+    rk4 = tb.load("rk4")
+    explicit.append({"name": "rk4", "rows": repr([_py_row(rk4.row(i)) for i in range(1, 4)]),
+                     "b": repr(_py_row(enumerate(rk4.b))), "extra": []})
+    d5 = tb.load("dopri5")
+    p = d5.extra["p"]
+    poly = [(k, [tb.py_literal(p.get((k, j), mpmath.mpf(0))) for j in range(4)])
+            for k in range(7) if any(p.get((k, j), 0) != 0 for j in range(4))]
+    explicit.append({"name": "dopri5", "rows": repr([_py_row(d5.row(i)) for i in range(1, 6)]),
+                     "b": repr(_py_row(d5.row(6))),
+                     "extra": [("e", repr(_py_row(sorted(d5.extra["e"].items())))), ("p", repr(poly))]})
+    d8 = tb.load("dop853")
+    b = dict(d8.row(12))
+    with mpmath.workdps(tb.DIGITS):
+        e3 = [(j, b.get(j, mpmath.mpf(0)) - d8.extra["e3_minus"].get(j, mpmath.mpf(0))) for j in range(12)]
+    d = d8.extra["d"]
+    explicit.append({"name": "dop853", "rows": repr([_py_row(d8.row(i)) for i in range(1, 12)]),
+                     "b": repr(_py_row(d8.row(12))),
+                     "extra": [("e3", repr(_py_row(e3))),
+                               ("e5", repr(_py_row(sorted(d8.extra["e5"].items())))),
+                               ("extra", repr([(i, _py_row(d8.row(i))) for i in range(13, 16)])),
+                               ("d", repr([_py_row(sorted((j, v) for (i, j), v in d.items() if i == r))
+                                           for r in range(4)]))]})
+    gauss = []
+    for name in IMPLICIT:
+        t = tb.load(name)
+        ns = t.stages
+        gauss.append({"name": name, "ns": ns,
+                      "A": repr([[tb.py_literal(t.a.get((i, j), mpmath.mpf(0))) for j in range(ns)]
+                                 for i in range(ns)]),
+                      "c": repr([tb.py_literal(x) for x in t.c]),
+                      "d": repr([tb.py_literal(x) for x in tb.gauss_d(t)])})
+    return explicit, gauss
+
+
+def render_numpy(name: str) -> dict[str, str]:
+    info = model_info(name)
+    explicit, gauss = numpy_tableaus()
+    ctx = {"P": name, "title": info.title, "has_ham": info.has_ham, "has_guards": info.nguards > 0,
+           "n": info.n, "n_params": info.n_params, "sine_min": SINE_MIN, "sources": SOURCES,
+           "explicit": explicit, "gauss": gauss, "template": "templates/numpy/integrate.py.jinja"}
+    return {f"numpy/{name}_integrate.py": render("numpy/integrate.py.jinja", ctx)}

@@ -1,0 +1,340 @@
+"""`derive.simulate`: run the generated integrators and say plainly whether to trust the result.
+
+    r = simulate("planar", [1.0, 0.5, 0, 0], numpy.linspace(0, 10, 101),
+                 {"m1": 1, "m2": 1, "l1": 1, "l2": 1, "g": 9.81}, method="dop853")
+    r.t, r.y, r.energy, r.positions, r.status, r.ok, r.message, r.nfev
+
+Models: planar, compound, spherical_std, spherical_alt, spherical_rot (one chart
+each: the run stops with status 'chart singular' rather than evaluate a kernel
+where a polar sine is below `sine_min`, default 0.1) and "spherical" (the chart
+atlas: standard, second and rotated chart, switched by the rule of seed 000
+section 5.1; see derive/integration/atlas.py for the thresholds).
+
+Bad input raises SimulationInputError (a ValueError) with a one-line message.
+A run that cannot go on returns a result whose `status` says why
+(step-size underflow, max steps, Newton divergence, non-finite, chart singular),
+`t_stop` where and `y_stop` in which state; outputs past that point are NaN.
+"""
+from __future__ import annotations
+
+import importlib.util
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from . import cartesian
+from .codegen import ADAPTIVE, ATLAS_CHARTS, IMPLICIT, METHODS, SINE_MIN, model_info
+
+GENERATED_NUMPY = Path(__file__).resolve().parents[2] / "generated" / "numpy"
+STATUS_NAMES = ("ok", "step-size underflow", "maximum number of steps reached",
+                "Newton iteration diverged", "non-finite state or derivative",
+                "chart singular (polar sine below threshold)", "bad input")
+SINGLE_MODELS = ("planar", "compound") + ATLAS_CHARTS
+MODELS = SINGLE_MODELS + ("spherical",)
+_DTYPES = {"float32": np.float32, "float": np.float32, "single": np.float32,
+           "float64": np.float64, "double": np.float64,
+           "longdouble": np.longdouble, "long double": np.longdouble, "float128": np.longdouble}
+_DEFAULT_RTOL = {"float32": 1e-5, "float64": 1e-9, "longdouble": 1e-12}
+
+
+class SimulationInputError(ValueError):
+    """Bad input to simulate (one line, names the problem)."""
+
+
+@dataclass
+class SimulationResult:
+    model: str
+    method: str
+    backend: str
+    dtype: str
+    t: np.ndarray
+    y: np.ndarray                  # (len(t), n); chart states for spherical models
+    energy: np.ndarray             # (len(t),)
+    positions: np.ndarray          # (len(t), 2, dim): Cartesian bob positions
+    status: int
+    status_name: str
+    t_stop: float                  # time reached (where it stopped on failure)
+    y_stop: np.ndarray             # the state there (in the chart then in use)
+    nfev: int
+    njev: int
+    nsteps: int
+    naccepted: int
+    nrejected: int
+    nnewton: int
+    chart: np.ndarray | None = None        # spherical: chart model name at each output time
+    switches: int = 0                      # spherical atlas: number of chart switches
+    chart_stop: str | None = None
+    params: np.ndarray = field(default=None, repr=False)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == 0
+
+    @property
+    def message(self) -> str:
+        if self.ok:
+            return f"ok: {self.model} with {self.method} to t = {self.t_stop:.17g}"
+        names = _state_names(self.chart_stop or self.model)
+        state = ", ".join(f"{n}={v:.6g}" for n, v in zip(names, self.y_stop))
+        where = f" in chart {self.chart_stop}" if self.chart_stop else ""
+        return (f"integration stopped at t = {self.t_stop:.17g}: {self.status_name}{where}; "
+                f"state {state}")
+
+    def raise_for_status(self) -> "SimulationResult":
+        if not self.ok:
+            raise SimulationError(self.message)
+        return self
+
+
+class SimulationError(RuntimeError):
+    pass
+
+
+def _state_names(model: str) -> tuple[str, ...]:
+    return model_info(model).state_names
+
+
+# -- input normalisation -----------------------------------------------------
+
+def _dtype(dtype) -> np.dtype:
+    key = dtype if isinstance(dtype, str) else np.dtype(dtype).name
+    if key not in _DTYPES:
+        raise SimulationInputError(f"unknown dtype {dtype!r} (use float32, float64 or longdouble)")
+    return np.dtype(_DTYPES[key])
+
+
+def _finite_array(value, what: str) -> np.ndarray:
+    try:
+        a = np.array(value, dtype=np.longdouble)
+    except (TypeError, ValueError):
+        raise SimulationInputError(f"{what} must be numbers, got {value!r}") from None
+    if not np.all(np.isfinite(a)):
+        raise SimulationInputError(f"{what} contains NaN or infinity: {np.asarray(value).tolist()}")
+    return a
+
+
+def normalise_params(model: str, params) -> np.ndarray:
+    names = model_info("spherical_std" if model == "spherical" else model).param_names
+    if isinstance(params, Mapping):
+        unknown = sorted(set(params) - set(names))
+        if unknown:
+            raise SimulationInputError(f"unknown parameter '{unknown[0]}' for model '{model}' "
+                                       f"(parameters: {', '.join(names)})")
+        missing = [n for n in names if n not in params]
+        if missing:
+            raise SimulationInputError(f"missing parameter '{missing[0]}' for model '{model}' "
+                                       f"(parameters: {', '.join(names)})")
+        values = [params[n] for n in names]
+    elif isinstance(params, (Sequence, np.ndarray)) and not isinstance(params, str):
+        values = list(np.asarray(params).reshape(-1)) if isinstance(params, np.ndarray) else list(params)
+        if len(values) != len(names):
+            raise SimulationInputError(f"model '{model}' takes {len(names)} parameters "
+                                       f"({', '.join(names)}), got {len(values)}")
+    else:
+        raise SimulationInputError(f"params must be a mapping by name or a sequence in the order "
+                                   f"{', '.join(names)}, got {type(params).__name__}")
+    p = _finite_array(values, "params")
+    for n, v in zip(names, p):
+        if (n.startswith("m") or n.startswith("l")) and not v > 0:
+            kind = "mass" if n.startswith("m") else "length"
+            raise SimulationInputError(f"parameter {n} = {float(v):g} must be positive (a {kind})")
+        if n.startswith("L") and not v >= 0:
+            raise SimulationInputError(f"parameter {n} = {float(v):g} must be >= 0 (a moment of inertia)")
+    return p
+
+
+def _cartesian_y0(model: str, value, p: np.ndarray) -> np.ndarray:
+    c = _finite_array(value, "y0['cartesian']").astype(np.float64).reshape(-1)
+    if c.size != 12:
+        raise SimulationInputError(f"y0['cartesian'] must have 12 numbers (x1, x2, v1, v2), got {c.size}")
+    l1, l2 = float(p[2]), float(p[3])
+    x1, x2, v1, v2 = c[0:3], c[3:6], c[6:9], c[9:12]
+    d, w = x2 - x1, v2 - v1
+    tol = 1e-8
+    if abs(np.linalg.norm(x1) - l1) > tol * l1:
+        raise SimulationInputError(f"y0['cartesian']: |x1| = {np.linalg.norm(x1):.12g} but l1 = {l1:.12g}")
+    if abs(np.linalg.norm(d) - l2) > tol * l2:
+        raise SimulationInputError(f"y0['cartesian']: |x2 - x1| = {np.linalg.norm(d):.12g} but l2 = {l2:.12g}")
+    speed = max(np.linalg.norm(v1), np.linalg.norm(w), 1.0)
+    if abs(x1 @ v1) > tol * l1 * speed or abs(d @ w) > tol * l2 * speed:
+        raise SimulationInputError("y0['cartesian']: the velocities are not tangent to the links "
+                                   "(x1.v1 and (x2-x1).(v2-v1) must vanish)")
+    return c
+
+
+def normalise_y0(model: str, y0, p: np.ndarray) -> tuple[np.ndarray, str | None, np.ndarray | None]:
+    """(state, chart model, cartesian 12 or None).  For 'spherical' the chart is chosen."""
+    spherical = model == "spherical" or model in ATLAS_CHARTS
+    if isinstance(y0, Mapping):
+        keys = set(y0)
+        if not spherical:
+            raise SimulationInputError(f"model '{model}' takes y0 as a sequence of "
+                                       f"{model_info(model).n} numbers")
+        if keys == {"cartesian"}:
+            c12 = _cartesian_y0(model, y0["cartesian"], p)
+        elif keys == {"chart", "state"} and y0["chart"] in ATLAS_CHARTS:
+            s = _finite_array(y0["state"], "y0['state']").astype(np.float64).reshape(-1)
+            if s.size != 8:
+                raise SimulationInputError(f"y0['state'] must have 8 numbers, got {s.size}")
+            c12 = cartesian.state_to_cartesian(y0["chart"], s, float(p[2]), float(p[3]))
+        else:
+            raise SimulationInputError("y0 as a mapping must be {'cartesian': [12 numbers]} or "
+                                       f"{{'chart': one of {', '.join(ATLAS_CHARTS)}, 'state': [8 numbers]}}")
+        chart = cartesian.choose_chart(c12, float(p[2]), float(p[3])) if model == "spherical" else model
+        return cartesian.cartesian_to_state(chart, c12, float(p[2]), float(p[3])), chart, c12
+    n = model_info("spherical_std" if model == "spherical" else model).n
+    if isinstance(y0, str):
+        raise SimulationInputError(f"y0 must be {n} numbers, got a string")
+    a = _finite_array(y0, "y0").reshape(-1)
+    if a.size != n:
+        raise SimulationInputError(f"model '{model}' takes y0 with {n} numbers "
+                                   f"({', '.join(model_info('spherical_std' if model == 'spherical' else model).state_names)}), got {a.size}")
+    if model == "spherical":
+        # a standard-chart state (exact at the poles too): through Cartesian coordinates
+        c12 = cartesian.state_to_cartesian("spherical_std", a.astype(np.float64), float(p[2]), float(p[3]))
+        chart = cartesian.choose_chart(c12, float(p[2]), float(p[3]))
+        if chart == "spherical_std":
+            return a, chart, c12
+        return cartesian.cartesian_to_state(chart, c12, float(p[2]), float(p[3])), chart, c12
+    return a, (model if spherical else None), None
+
+
+def normalise_t(t) -> np.ndarray:
+    a = _finite_array(t, "t").reshape(-1) if np.ndim(t) else None
+    if a is None:
+        raise SimulationInputError("t must be a sequence of output times (t[0] is the start)")
+    if a.size < 1:
+        raise SimulationInputError("t is empty: give at least the start time")
+    if a.size > 1:
+        dt = np.diff(a)
+        if not (np.all(dt > 0) or np.all(dt < 0)):
+            raise SimulationInputError("t must be strictly increasing or strictly decreasing")
+    return a
+
+
+# -- kernels for energy and positions ------------------------------------------
+
+@lru_cache(maxsize=None)
+def numpy_module(name: str):
+    path = GENERATED_NUMPY / f"{name}.py"
+    if not path.is_file():
+        raise SimulationInputError(f"no generated NumPy module {path.name}; run `derive generate`")
+    spec = importlib.util.spec_from_file_location(f"_derive_generated_{name}", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _observables(model: str, y: np.ndarray, p: np.ndarray, backend: str, dtype: np.dtype):
+    if len(y) == 0:
+        dim = 3 if model in ATLAS_CHARTS else 2
+        return np.zeros(0, dtype), np.zeros((0, 2, dim), dtype)
+    if backend == "c":
+        from ..codegen.loader import load
+        from .build import SUFFIX
+        m = load(model)
+        s = SUFFIX[dtype.name]
+        E = getattr(m, "energy" + s)(y, p.astype(dtype))
+        pos = getattr(m, "positions" + s)(y, p.astype(dtype))
+    else:
+        m = numpy_module(model)
+        with np.errstate(all="ignore"):
+            E = m.energy(y, p.astype(dtype))
+            pos = m.positions(y, p.astype(dtype))
+    return np.asarray(E, dtype), np.asarray(pos, dtype)
+
+
+# -- the entry point --------------------------------------------------------------
+
+def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | None = None,
+             atol: float | None = None, step: float | None = None, dtype="float64",
+             backend: str = "c", max_steps: int | None = None, sine_min: float | None = None,
+             newton_tol: float | None = None, newton_max: int | None = None,
+             hmax: float | None = None) -> SimulationResult:
+    """Integrate `model` from y0 at t[0] and report every output time in t.
+
+    method: rk4, midpoint, gauss2 (fixed step: `step` required), dopri5, dop853
+    (adaptive: rtol, atol; `step` is the initial step, optional).  dtype: float32,
+    float64 or longdouble.  backend: "c" (compiled generated C) or "numpy".
+    """
+    if not isinstance(model, str) or model not in MODELS:
+        raise SimulationInputError(f"unknown model {model!r} (known: {', '.join(MODELS)})")
+    if not isinstance(method, str) or method not in METHODS:
+        raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(METHODS)})")
+    if backend not in ("c", "numpy"):
+        raise SimulationInputError(f"unknown backend {backend!r} (use 'c' or 'numpy')")
+    dt = _dtype(dtype)
+    eps = float(np.finfo(dt).eps)
+    p = normalise_params(model, params)
+    ts = normalise_t(t)
+    state, chart, _ = normalise_y0(model, y0, p)
+    opt = {"rtol": _DEFAULT_RTOL[dt.name] if rtol is None else rtol,
+           "atol": None if atol is None else atol, "h": 0.0, "hmin": 0.0,
+           "hmax": 0.0 if hmax is None else hmax,
+           "max_steps": 100_000_000 if max_steps is None else max_steps,
+           "newton_tol": 0.0 if newton_tol is None else newton_tol,
+           "newton_max": 30 if newton_max is None else newton_max,
+           "sine_min": float(SINE_MIN) if sine_min is None else sine_min}
+    for key in ("rtol", "atol", "hmax", "newton_tol", "sine_min"):
+        v = opt[key]
+        if v is not None and (not isinstance(v, (int, float, np.floating)) or not np.isfinite(v) or v < 0):
+            raise SimulationInputError(f"{key} = {v!r} must be a finite number >= 0")
+    if opt["atol"] is None:
+        opt["atol"] = opt["rtol"] * 1e-3
+    if method in ADAPTIVE:
+        if not 10 * eps <= opt["rtol"] < 1:
+            raise SimulationInputError(f"rtol = {opt['rtol']:g} is outside [10 eps, 1) for {dt.name} "
+                                       f"(10 eps = {10 * eps:.3g})")
+        if step is not None:
+            if not (isinstance(step, (int, float, np.floating)) and np.isfinite(step) and step > 0):
+                raise SimulationInputError(f"step = {step!r} must be a positive finite number")
+            opt["h"] = float(step)
+    else:
+        if step is None and ts.size > 1:
+            raise SimulationInputError(f"method '{method}' has a fixed step: give step=...")
+        if step is not None:
+            if not (isinstance(step, (int, float, np.floating)) and np.isfinite(step) and step > 0):
+                raise SimulationInputError(f"step = {step!r} must be a positive finite number")
+            opt["h"] = float(step)
+    if not isinstance(opt["max_steps"], (int, np.integer)) or opt["max_steps"] < 1:
+        raise SimulationInputError(f"max_steps = {opt['max_steps']!r} must be a positive integer")
+    if not isinstance(opt["newton_max"], (int, np.integer)) or opt["newton_max"] < 1:
+        raise SimulationInputError(f"newton_max = {opt['newton_max']!r} must be a positive integer")
+    if not 0 <= opt["sine_min"] < 1:
+        raise SimulationInputError(f"sine_min = {opt['sine_min']!r} must be in [0, 1)")
+
+    if model == "spherical":
+        from .atlas import run_atlas
+        return run_atlas(method, state, chart, ts, p, opt, dt, backend)
+    return _run_single(model, method, state, ts, p, opt, dt, backend)
+
+
+def _run_single(model, method, y0, ts, p, opt, dt, backend) -> SimulationResult:
+    y0 = np.asarray(y0, dt)
+    pd = np.asarray(p, dt)
+    tsd = np.asarray(ts, dt)
+    if backend == "c":
+        from .build import integrator_library
+        lib = integrator_library(model)
+        o = lib.defaults()
+        for k, v in opt.items():
+            setattr(o, k, v)
+        y, infos = lib.run(METHODS.index(method), y0[None, :], pd, tsd, o)
+        y, inf = y[0], infos[0]
+        counters = {k: int(getattr(inf, k)) for k in ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton")}
+        status, t_stop, y_stop = int(inf.status), float(inf.t), np.array(inf.y[:])
+    else:
+        mod = numpy_module(f"{model}_integrate")
+        status, y, inf = mod.integrate(method, y0, pd, tsd, dt, **opt)
+        counters = {k: int(inf[k]) for k in ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton")}
+        t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
+    E, pos = _observables(model, y, pd, backend, dt)
+    single_chart = model in ATLAS_CHARTS
+    return SimulationResult(
+        model=model, method=method, backend=backend, dtype=dt.name, t=np.asarray(ts, dt), y=y,
+        energy=E, positions=pos, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
+        y_stop=y_stop, chart=np.array([model] * len(ts), dtype=object) if single_chart else None,
+        switches=0, chart_stop=model if single_chart else None, params=pd, **counters)
