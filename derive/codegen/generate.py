@@ -33,11 +33,10 @@ def render_model(name: str) -> dict[str, str]:
 
 
 def render_all() -> dict[str, str]:
+    """The kernels of every model (C and NumPy); other producers add their own files."""
     files: dict[str, str] = {}
     for name in model_names():
         files.update(render_model(name))
-    from ..integration.codegen import render_integrators   # integrators and atlas (derive/integration)
-    files.update(render_integrators())
     return dict(sorted(files.items()))
 
 
