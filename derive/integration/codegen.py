@@ -12,7 +12,7 @@ from functools import lru_cache
 
 import mpmath
 
-from ..codegen.emit import render
+from ..codegen.emit import TEMPLATES as TEMPLATES_DIR, render
 from ..derivation import derive
 from ..model import load_model, model_names
 from . import tableau as tb
@@ -161,7 +161,22 @@ def render_integrators() -> dict[str, str]:
     for name in model_names():
         files.update(render_c(name))
         files.update(render_numpy(name))
+    files.update(render_atlas())
     return dict(sorted(files.items()))
+
+
+def render_atlas() -> dict[str, str]:
+    ctx = {"charts": list(ATLAS_CHARTS), "sine_min": SINE_MIN, "sine_switch": SINE_SWITCH,
+           "sine_rule": SINE_RULE, "variants": c_variants()}
+    files = {
+        "c/spherical_atlas.h": render("c/atlas.h.jinja", dict(ctx, template="templates/c/atlas.h.jinja")),
+        "c/spherical_atlas.c": render("c/atlas.c.jinja", dict(ctx, template="templates/c/atlas.c.jinja")),
+    }
+    if (TEMPLATES_DIR / "numpy" / "atlas.py.jinja").is_file():
+        files["numpy/spherical_atlas.py"] = render(
+            "numpy/atlas.py.jinja", dict(ctx, template="templates/numpy/atlas.py.jinja",
+                                         explicit=None))
+    return files
 
 
 def _py_row(terms) -> list[tuple[int, str]]:

@@ -64,6 +64,11 @@ static int compound_eval(const double *restrict y, const double *restrict p, dou
     return compound_kernel_status(compound_rhs(y, p, f));
 }
 
+int compound_integrate_rhs(const double *restrict y, const double *restrict p, double *restrict f, const compound_integrate_options *opt, compound_integrate_info *info)
+{
+    return compound_eval(y, p, f, opt, info);
+}
+
 /* The system of the implicit methods and its Jacobian. */
 static int compound_sys_eval(const double *restrict x, const double *restrict p, double *restrict f, const compound_integrate_options *opt, compound_integrate_info *info)
 {
@@ -957,6 +962,11 @@ static int compound_eval_f(const float *restrict y, const float *restrict p, flo
     return compound_kernel_status(compound_rhs_f(y, p, f));
 }
 
+int compound_integrate_rhs_f(const float *restrict y, const float *restrict p, float *restrict f, const compound_integrate_options *opt, compound_integrate_info *info)
+{
+    return compound_eval_f(y, p, f, opt, info);
+}
+
 /* The system of the implicit methods and its Jacobian. */
 static int compound_sys_eval_f(const float *restrict x, const float *restrict p, float *restrict f, const compound_integrate_options *opt, compound_integrate_info *info)
 {
@@ -1848,6 +1858,11 @@ static int compound_eval_l(const long double *restrict y, const long double *res
     (void)opt;
     info->nfev += 1;
     return compound_kernel_status(compound_rhs_l(y, p, f));
+}
+
+int compound_integrate_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict f, const compound_integrate_options *opt, compound_integrate_info *info)
+{
+    return compound_eval_l(y, p, f, opt, info);
 }
 
 /* The system of the implicit methods and its Jacobian. */

@@ -110,6 +110,8 @@ int spherical_alt_integrate(int method, const double *restrict y0, const double 
  * y_out + i*nt*N, info + i (info may be NULL).  Returns the number that failed. */
 long spherical_alt_integrate_batch(long n, int method, const double *restrict y0, long y0_stride, const double *restrict p, long p_stride, long nt, const double *restrict t, double *restrict y_out, const spherical_alt_integrate_options *opt, spherical_alt_integrate_info *info);
 
+/* f = y' = rhs(y), guarded (chart check against opt->sine_min) and counted in info->nfev. */
+int spherical_alt_integrate_rhs(const double *restrict y, const double *restrict p, double *restrict f, const spherical_alt_integrate_options *opt, spherical_alt_integrate_info *info);
 /* Building blocks.  K holds the stages; K[0] = f(y) on entry.  Each returns 0 or
  * the status of a failed stage evaluation (NONFINITE, CHART_SINGULAR). */
 int spherical_alt_rk4_step(const double *restrict y, double h, const double *restrict p, double (*restrict K)[SPHERICAL_ALT_N_STATES], double *restrict y_new, double *restrict err, const spherical_alt_integrate_options *opt, spherical_alt_integrate_info *info);
@@ -134,6 +136,8 @@ int spherical_alt_integrate_f(int method, const float *restrict y0, const float 
  * y_out + i*nt*N, info + i (info may be NULL).  Returns the number that failed. */
 long spherical_alt_integrate_batch_f(long n, int method, const float *restrict y0, long y0_stride, const float *restrict p, long p_stride, long nt, const float *restrict t, float *restrict y_out, const spherical_alt_integrate_options *opt, spherical_alt_integrate_info *info);
 
+/* f = y' = rhs(y), guarded (chart check against opt->sine_min) and counted in info->nfev. */
+int spherical_alt_integrate_rhs_f(const float *restrict y, const float *restrict p, float *restrict f, const spherical_alt_integrate_options *opt, spherical_alt_integrate_info *info);
 /* Building blocks.  K holds the stages; K[0] = f(y) on entry.  Each returns 0 or
  * the status of a failed stage evaluation (NONFINITE, CHART_SINGULAR). */
 int spherical_alt_rk4_step_f(const float *restrict y, float h, const float *restrict p, float (*restrict K)[SPHERICAL_ALT_N_STATES], float *restrict y_new, float *restrict err, const spherical_alt_integrate_options *opt, spherical_alt_integrate_info *info);
@@ -158,6 +162,8 @@ int spherical_alt_integrate_l(int method, const long double *restrict y0, const 
  * y_out + i*nt*N, info + i (info may be NULL).  Returns the number that failed. */
 long spherical_alt_integrate_batch_l(long n, int method, const long double *restrict y0, long y0_stride, const long double *restrict p, long p_stride, long nt, const long double *restrict t, long double *restrict y_out, const spherical_alt_integrate_options *opt, spherical_alt_integrate_info *info);
 
+/* f = y' = rhs(y), guarded (chart check against opt->sine_min) and counted in info->nfev. */
+int spherical_alt_integrate_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict f, const spherical_alt_integrate_options *opt, spherical_alt_integrate_info *info);
 /* Building blocks.  K holds the stages; K[0] = f(y) on entry.  Each returns 0 or
  * the status of a failed stage evaluation (NONFINITE, CHART_SINGULAR). */
 int spherical_alt_rk4_step_l(const long double *restrict y, long double h, const long double *restrict p, long double (*restrict K)[SPHERICAL_ALT_N_STATES], long double *restrict y_new, long double *restrict err, const spherical_alt_integrate_options *opt, spherical_alt_integrate_info *info);

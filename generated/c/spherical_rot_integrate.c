@@ -83,6 +83,11 @@ static int spherical_rot_eval(const double *restrict y, const double *restrict p
     return spherical_rot_kernel_status(spherical_rot_rhs(y, p, f));
 }
 
+int spherical_rot_integrate_rhs(const double *restrict y, const double *restrict p, double *restrict f, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
+{
+    return spherical_rot_eval(y, p, f, opt, info);
+}
+
 /* The system of the implicit methods and its Jacobian. */
 static int spherical_rot_sys_eval(const double *restrict x, const double *restrict p, double *restrict f, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
 {
@@ -989,6 +994,11 @@ static int spherical_rot_eval_f(const float *restrict y, const float *restrict p
     return spherical_rot_kernel_status(spherical_rot_rhs_f(y, p, f));
 }
 
+int spherical_rot_integrate_rhs_f(const float *restrict y, const float *restrict p, float *restrict f, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
+{
+    return spherical_rot_eval_f(y, p, f, opt, info);
+}
+
 /* The system of the implicit methods and its Jacobian. */
 static int spherical_rot_sys_eval_f(const float *restrict x, const float *restrict p, float *restrict f, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
 {
@@ -1893,6 +1903,11 @@ static int spherical_rot_eval_l(const long double *restrict y, const long double
     }
     info->nfev += 1;
     return spherical_rot_kernel_status(spherical_rot_rhs_l(y, p, f));
+}
+
+int spherical_rot_integrate_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict f, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
+{
+    return spherical_rot_eval_l(y, p, f, opt, info);
 }
 
 /* The system of the implicit methods and its Jacobian. */

@@ -83,6 +83,11 @@ static int spherical_std_eval(const double *restrict y, const double *restrict p
     return spherical_std_kernel_status(spherical_std_rhs(y, p, f));
 }
 
+int spherical_std_integrate_rhs(const double *restrict y, const double *restrict p, double *restrict f, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
+{
+    return spherical_std_eval(y, p, f, opt, info);
+}
+
 /* The system of the implicit methods and its Jacobian. */
 static int spherical_std_sys_eval(const double *restrict x, const double *restrict p, double *restrict f, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
 {
@@ -989,6 +994,11 @@ static int spherical_std_eval_f(const float *restrict y, const float *restrict p
     return spherical_std_kernel_status(spherical_std_rhs_f(y, p, f));
 }
 
+int spherical_std_integrate_rhs_f(const float *restrict y, const float *restrict p, float *restrict f, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
+{
+    return spherical_std_eval_f(y, p, f, opt, info);
+}
+
 /* The system of the implicit methods and its Jacobian. */
 static int spherical_std_sys_eval_f(const float *restrict x, const float *restrict p, float *restrict f, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
 {
@@ -1893,6 +1903,11 @@ static int spherical_std_eval_l(const long double *restrict y, const long double
     }
     info->nfev += 1;
     return spherical_std_kernel_status(spherical_std_rhs_l(y, p, f));
+}
+
+int spherical_std_integrate_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict f, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
+{
+    return spherical_std_eval_l(y, p, f, opt, info);
 }
 
 /* The system of the implicit methods and its Jacobian. */
