@@ -43,31 +43,32 @@ def cmd_derive(args) -> int:
 
 
 def cmd_verify(args) -> int:
-    from .verification import claims, physics
+    from .verification.cached import verify_all
     start = time.perf_counter()
     derive_seconds, rows = _derive_all(model_names())
-    results = claims.run_all()
-    checks = physics.run_all()
+    results, checks, from_cache = verify_all(fresh=args.fresh)
     seconds = time.perf_counter() - start
     failed = [r for r in results if r.verdict not in ("match", "erratum")]
     failed_checks = [c for c in checks if not c.passed]
     if args.json:
         print(json.dumps([{"seed": r.seed, "equation": r.equation, "verdict": r.verdict,
                            "summary": r.summary} for r in results], indent=1))
-    else:
-        width = max(len(r.equation) for r in results)
-        print(f"{'seed':28s} {'equation':{width}s}  verdict   summary")
-        for r in results:
-            print(f"{r.seed:28s} {r.equation:{width}s}  {r.verdict:8s}  {r.summary}")
-        print()
-        for c in checks:
-            print(f"{'ok  ' if c.passed else 'FAIL'} {c.name}: {c.detail}")
-        n_err = sum(r.verdict == "erratum" for r in results)
-        cache = "warm" if all(w for _, _, w in rows) else "cold"
-        print(f"\n{len(results)} seed formulas: {len(results) - n_err - len(failed)} match, "
-              f"{n_err} errata, {len(failed)} failed; {len(checks) - len(failed_checks)}/"
-              f"{len(checks)} physics checks pass; {seconds:.1f} s "
-              f"({cache} derivation cache, derivation {derive_seconds:.1f} s)")
+        return 1 if failed or failed_checks else 0
+    width = max(len(r.equation) for r in results)
+    print(f"{'seed':4s} {'equation':{width}s}  {'verdict':8s} what / summary")
+    for r in results:
+        text = r.what if r.verdict == "match" else r.summary
+        print(f"{r.seed[:3]:4s} {r.equation:{width}s}  {r.verdict:8s} {text}")
+    print()
+    for c in checks:
+        print(f"{'ok  ' if c.passed else 'FAIL'} {c.name}: {c.detail}")
+    n_err = sum(r.verdict == "erratum" for r in results)
+    derivations = "warm" if all(w for _, _, w in rows) else "cold"
+    print(f"\n{len(results)} seed formulas: {len(results) - n_err - len(failed)} match, "
+          f"{n_err} errata, {len(failed)} failed; {len(checks) - len(failed_checks)}/"
+          f"{len(checks)} physics checks pass")
+    print(f"time {seconds:.1f} s (derivations {derive_seconds:.1f} s from a {derivations} cache; "
+          f"verdicts {'from the cache' if from_cache else 'computed'})")
     return 1 if failed or failed_checks else 0
 
 
@@ -136,6 +137,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_derive)
     p = sub.add_parser("verify", help="check every seed formula against the derivation")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.add_argument("--fresh", action="store_true", help="judge every formula again, ignoring cached verdicts")
     p.set_defaults(func=cmd_verify)
     p = sub.add_parser("generate", help="regenerate generated/ from derive/ and templates/")
     p.add_argument("--check", action="store_true",

@@ -81,8 +81,9 @@ def context(d: Derivation, results) -> dict:
         "accelerations": r"\begin{pmatrix}" + r" \\ ".join(
             n[qd].replace(r"\dot{", r"\ddot{", 1) for qd in s.qd) + r"\end{pmatrix}",
         "hamiltonian": None, "paper": None,
-        "results": [{"seed": r.seed, "equation": r.equation, "verdict": r.verdict,
-                     "summary": _escape(r.summary)} for r in results],
+        "results": [{"seed": r.seed, "equation": _escape(r.equation), "verdict": r.verdict,
+                     "summary": _escape(r.summary if r.verdict != "match" else
+                                        f"{r.what}: {r.summary}")} for r in results],
     }
     if d.hamiltonian is not None:
         h = d.hamiltonian
@@ -96,16 +97,32 @@ def context(d: Derivation, results) -> dict:
         ctx["paper"] = {name: _tex(getattr(P, name).applyfunc(to_mu), n)
                         for name in ("Q", "G_red")}
         ctx["paper"]["B_red"] = _matrix_entries(P.B_red.applyfunc(to_mu), n, r"\tilde{B}")
-        ctx["paper"]["w"] = _tex(P.w, n)
+        ctx["paper"]["w"] = _tex(P.w.T, n) + "^{T}"
     return ctx
 
 
+_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#",
+            "_": r"\_", "{": r"\{", "}": r"\}", "^": r"\^{}", "~": r"\~{}"}
+# Unicode in verdict summaries -> LaTeX math (pdflatex has no Greek text font).
+_MATH = {"θ": r"\theta", "ϑ": r"\vartheta", "φ": r"\varphi", "ϕ": r"\phi", "μ": r"\mu",
+         "π": r"\pi", "Δ": r"\Delta", "∂": r"\partial", "·": r"\cdot", "×": r"\times",
+         "²": "^2", "′": "'", "−": "-"}
+_ACCENTS = {"\u0307": r"\dot", "\u0308": r"\ddot"}
+
+
 def _escape(text: str) -> str:
-    for a, b in (("\\", r"\textbackslash{}"), ("&", r"\&"), ("%", r"\%"), ("$", r"\$"),
-                 ("#", r"\#"), ("_", r"\_"), ("{", r"\{"), ("}", r"\}"), ("^", r"\^{}"),
-                 ("~", r"\~{}")):
-        text = text.replace(a, b)
-    return text
+    """Plain text with Unicode symbols as a LaTeX paragraph fragment."""
+    out: list[str] = []
+    for ch in text:
+        if ch in _ACCENTS and out:
+            out[-1] = f"${_ACCENTS[ch]}{{{out[-1].strip('$')}}}$"
+        elif ch in _MATH:
+            out.append(f"${_MATH[ch]}$")
+        elif ch == "§":
+            out.append(r"\S{}")
+        else:
+            out.append(_SPECIAL.get(ch, ch))
+    return "".join(out).replace("$$", "")
 
 
 def environment() -> jinja2.Environment:
