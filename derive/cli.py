@@ -110,9 +110,9 @@ def cmd_latex(args) -> int:
     out = _writable(Path(args.output or f"{args.model}.tex"))
     from .derivation import derive
     from .report.latex import render
-    from .verification import claims
+    from .verification.cached import verify_all
     d = derive(args.model)
-    results = [r for r in claims.run_all() if getattr(r, "model", args.model) == args.model]
+    results = [r for r in verify_all()[0] if r.model == args.model]
     try:
         out.write_text(render(d, results))
     except OSError as exc:
