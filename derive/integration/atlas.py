@@ -24,7 +24,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..codegen.loader import GENERATED_C
-from .build import CTYPES, SUFFIX, build_library, info_struct, options_struct
+from .build import CTYPES, SUFFIX, dtype_key, build_library, info_struct, options_struct
 from .codegen import ATLAS_CHARTS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH
 
 __all__ = ["ATLAS_CHARTS", "SINE_MIN", "SINE_RULE", "SINE_SWITCH", "atlas_library", "run_atlas"]
@@ -58,7 +58,7 @@ class AtlasLibrary:
 
     def run(self, method: int, charts0, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt):
         """y0 (B, 8) in charts0 (B,) (-1: standard chart, rule picks) -> y, charts, infos."""
-        dt = np.dtype(y0.dtype).name
+        dt = dtype_key(y0.dtype)
         ptr = ctypes.POINTER(CTYPES[dt])
         y0 = np.ascontiguousarray(y0)
         B = y0.shape[0]
@@ -126,7 +126,7 @@ def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str):
     E, pos = observables(y, np.where(ok_rows, charts, -1), pd, backend, dt)
     names = np.array([ATLAS_CHARTS[c] if c >= 0 else None for c in charts], dtype=object)
     return SimulationResult(
-        model="spherical", method=method, backend=backend, dtype=dt.name, t=np.asarray(ts, dt), y=y,
+        model="spherical", method=method, backend=backend, dtype=dtype_key(dt), t=np.asarray(ts, dt), y=y,
         energy=E, positions=pos, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
         y_stop=y_stop, chart=names, switches=switches,
         chart_stop=ATLAS_CHARTS[chart_stop] if 0 <= chart_stop < 3 else None, params=pd, **counters)

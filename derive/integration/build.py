@@ -26,6 +26,12 @@ CTYPES = {"float64": ctypes.c_double, "float32": ctypes.c_float, "longdouble": c
 SUFFIX = {"float64": "", "float32": "_f", "longdouble": "_l"}
 
 
+def dtype_key(dtype) -> str:
+    """float32, float64 or longdouble (numpy names long double float128 or float96)."""
+    dtype = np.dtype(dtype)
+    return "longdouble" if dtype == np.longdouble and dtype != np.float64 else dtype.name
+
+
 def build_key(sources: list[Path], cc: str, flags: tuple[str, ...]) -> str:
     h = hashlib.sha256()
     for src in sources:
@@ -102,7 +108,7 @@ class IntegratorLibrary:
 
     def run(self, method: int, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:
         """y0 (B, n), p (B, np) or (np,), t (nt,) -> y (B, nt, n), infos (B,)."""
-        dt = np.dtype(y0.dtype).name
+        dt = dtype_key(y0.dtype)
         ptr = ctypes.POINTER(CTYPES[dt])
         y0 = np.ascontiguousarray(y0)
         B = y0.shape[0]

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from . import cartesian
+from .build import dtype_key
 from .codegen import ADAPTIVE, ATLAS_CHARTS, IMPLICIT, METHODS, SINE_MIN, model_info
 
 GENERATED_NUMPY = Path(__file__).resolve().parents[2] / "generated" / "numpy"
@@ -234,9 +235,9 @@ def _observables(model: str, y: np.ndarray, p: np.ndarray, backend: str, dtype: 
         return np.zeros(0, dtype), np.zeros((0, 2, dim), dtype)
     if backend == "c":
         from ..codegen.loader import load
-        from .build import SUFFIX
+        from .build import SUFFIX, dtype_key
         m = load(model)
-        s = SUFFIX[dtype.name]
+        s = SUFFIX[dtype_key(dtype)]
         E = getattr(m, "energy" + s)(y, p.astype(dtype))
         pos = getattr(m, "positions" + s)(y, p.astype(dtype))
     else:
@@ -271,7 +272,7 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     p = normalise_params(model, params)
     ts = normalise_t(t)
     state, chart, _ = normalise_y0(model, y0, p)
-    opt = {"rtol": _DEFAULT_RTOL[dt.name] if rtol is None else rtol,
+    opt = {"rtol": _DEFAULT_RTOL[dtype_key(dt)] if rtol is None else rtol,
            "atol": None if atol is None else atol, "h": 0.0, "hmin": 0.0,
            "hmax": 0.0 if hmax is None else hmax,
            "max_steps": 100_000_000 if max_steps is None else max_steps,
@@ -286,7 +287,7 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
         opt["atol"] = opt["rtol"] * 1e-3
     if method in ADAPTIVE:
         if not 10 * eps <= opt["rtol"] < 1:
-            raise SimulationInputError(f"rtol = {opt['rtol']:g} is outside [10 eps, 1) for {dt.name} "
+            raise SimulationInputError(f"rtol = {opt['rtol']:g} is outside [10 eps, 1) for {dtype_key(dt)} "
                                        f"(10 eps = {10 * eps:.3g})")
         if step is not None:
             if not (isinstance(step, (int, float, np.floating)) and np.isfinite(step) and step > 0):
@@ -334,7 +335,7 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend) -> SimulationResult:
     E, pos = _observables(model, y, pd, backend, dt)
     single_chart = model in ATLAS_CHARTS
     return SimulationResult(
-        model=model, method=method, backend=backend, dtype=dt.name, t=np.asarray(ts, dt), y=y,
+        model=model, method=method, backend=backend, dtype=dtype_key(dt), t=np.asarray(ts, dt), y=y,
         energy=E, positions=pos, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
         y_stop=y_stop, chart=np.array([model] * len(ts), dtype=object) if single_chart else None,
         switches=0, chart_stop=model if single_chart else None, params=pd, **counters)

@@ -80,13 +80,15 @@ def _status_of(f):
 def _eval(y, p, opt, info):
     """f(y), counted and guarded: (status, f)."""
     info["nfev"] += 1
-    f = kernels.rhs(y, p).astype(y.dtype, copy=False)
+    with numpy.errstate(all="ignore"):      # a non-finite result is reported by status
+        f = kernels.rhs(y, p).astype(y.dtype, copy=False)
     return _status_of(f), f
 
 
 def _sys_eval(x, p, opt, info):
     info["nfev"] += 1
-    f = kernels.hamiltonian_rhs(x, p).astype(x.dtype, copy=False)
+    with numpy.errstate(all="ignore"):
+        f = kernels.hamiltonian_rhs(x, p).astype(x.dtype, copy=False)
     return _status_of(f), f
 
 

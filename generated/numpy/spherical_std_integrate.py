@@ -92,7 +92,8 @@ def _eval(y, p, opt, info):
     if g:
         return g, numpy.full_like(y, numpy.nan)
     info["nfev"] += 1
-    f = kernels.rhs(y, p).astype(y.dtype, copy=False)
+    with numpy.errstate(all="ignore"):      # a non-finite result is reported by status
+        f = kernels.rhs(y, p).astype(y.dtype, copy=False)
     return _status_of(f), f
 
 
