@@ -1,0 +1,19 @@
+"""Stage 4, code generation: C and NumPy kernels from the derivation.
+
+One pipeline for every model and language:
+
+    spec.model_spec(derivation)     kernel specs: named inputs, named outputs, stages
+                                    (the in-code solve of M q'' = F, solve.py) and guards;
+                                    checked with readable errors (spec.check_kernel)
+    emit.cse_file(spec)             one sympy.cse pass (order='canonical') over all
+                                    outputs of a file, split back into kernels
+    languages.LANGUAGES             per language: a printer subclass (printers.py) that
+                                    maps each symbol to its array slot, and the
+                                    templates/<language>/ folder it renders (Jinja2,
+                                    StrictUndefined); Python decides, templates lay out
+    generate.generate_all(root)     writes generated/ (or, with check=True, diffs it)
+
+loader.load(model) compiles generated/c/<model>.c into a content-keyed cache and
+returns NumPy-callable kernels backed by the batch entry points;
+reference.Reference evaluates the derivation itself with mpmath, for the tests.
+"""

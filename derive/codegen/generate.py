@@ -71,15 +71,18 @@ def _existing(out: Path) -> set[str]:
     return found
 
 
-def generate_all(root: Path, check: bool = False) -> tuple[list[str], str]:
+def generate_all(root: Path, check: bool = False,
+                 files: dict[str, str] | None = None) -> tuple[list[str], str]:
     """Regenerate root/generated/; with check=True only compare.
 
     Returns the changed (or stale) paths, relative to root, and a unified diff of
-    what regeneration changes (empty when generated/ is current).
+    what regeneration changes (empty when generated/ is current).  `files` (the
+    output of render_everything()) skips rendering when it is already at hand.
     """
     root = Path(root)
     out = root / "generated"
-    files = render_everything()
+    if files is None:
+        files = render_everything()
     changed, diffs = [], []
     for rel in sorted(set(files) | _existing(out)):
         path = out / rel

@@ -134,21 +134,20 @@ class ReducedDynamics:
         self.f_expr = -(P.B_red * P.w + P.G_red)
         fs = [_sym(f"f{i}") for i in range(4)]
         stages += list(zip(fs, self.f_expr))
-        xs = [_sym(f"xr{i}") for i in range(4)]
+        # x_j is q''_j itself where S_jj = 1; elsewhere q''_j = x_j / S_jj
+        xs = [_sym(f"qdd{j}" if self.sines[j] == 1 else f"xr{j}") for j in range(4)]
         stages += list(zip(xs, self.apply(fs)))
         self.x = xs
-        self.rs = []                           # 1 / S_jj, as stages where S_jj != 1
+        self.rs, self.qdd = [], []             # 1 / S_jj, as stages where S_jj != 1
         for j, sj in enumerate(self.sines):
             if sj == 1:
                 self.rs.append(sp.S.One)
+                self.qdd.append(xs[j])
             else:
-                r = _sym(f"rs{j}")
-                stages.append((r, 1 / sj))
+                r, q = _sym(f"rs{j}"), _sym(f"qdd{j}")
+                stages += [(r, 1 / sj), (q, xs[j] * r)]
                 self.rs.append(r)
-        qsyms = [_sym(f"qdd{j}") for j in range(4)]
-        for j in range(4):
-            stages.append((qsyms[j], xs[j] * self.rs[j]))
-        self.qdd = qsyms
+                self.qdd.append(q)
         self.stages = stages
 
     def apply(self, r: list[sp.Expr]) -> list[sp.Expr]:

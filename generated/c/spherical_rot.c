@@ -104,8 +104,7 @@ int spherical_rot_rhs(const double *restrict y, const double *restrict p, double
     const double t64 = t43 - t63;
     const double f0 = p[2]*p[3]*t1*t10*t31*t8 + t0*t10*t14*t15*t16*t42 - t34*t64 - t47*t61 - t59*t60;
     const double t65 = Ab*f0 - Q00*f2 - Q01*f3;
-    const double xr0 = -D1_01*t58 + D1_11*rD1*t65;
-    const double qdd0 = xr0;
+    const double qdd0 = -D1_01*t58 + D1_11*rD1*t65;
     const double xr1 = D1_00*t58 - D1_01*rD1*t65;
     const double rs1 = 1.0/t0;
     const double qdd1 = rs1*xr1;
@@ -115,8 +114,7 @@ int spherical_rot_rhs(const double *restrict y, const double *restrict p, double
     const double rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01);
     const double t66 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
     const double t67 = Aa*f2 - Q00*f0 - Q10*f1;
-    const double xr2 = -D2_01*t66 + D2_11*rD2*t67;
-    const double qdd2 = xr2;
+    const double qdd2 = -D2_01*t66 + D2_11*rD2*t67;
     const double xr3 = D2_00*t66 - D2_01*rD2*t67;
     const double rs3 = 1.0/t1;
     const double qdd3 = rs3*xr3;
@@ -243,8 +241,7 @@ int spherical_rot_rhs_f(const float *restrict y, const float *restrict p, float 
     const float t64 = t43 - t63;
     const float f0 = p[2]*p[3]*t1*t10*t31*t8 + t0*t10*t14*t15*t16*t42 - t34*t64 - t47*t61 - t59*t60;
     const float t65 = Ab*f0 - Q00*f2 - Q01*f3;
-    const float xr0 = -D1_01*t58 + D1_11*rD1*t65;
-    const float qdd0 = xr0;
+    const float qdd0 = -D1_01*t58 + D1_11*rD1*t65;
     const float xr1 = D1_00*t58 - D1_01*rD1*t65;
     const float rs1 = 1.0F/t0;
     const float qdd1 = rs1*xr1;
@@ -254,8 +251,7 @@ int spherical_rot_rhs_f(const float *restrict y, const float *restrict p, float 
     const float rD2 = 1.0F/(D2_00*D2_11 - D2_01*D2_01);
     const float t66 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
     const float t67 = Aa*f2 - Q00*f0 - Q10*f1;
-    const float xr2 = -D2_01*t66 + D2_11*rD2*t67;
-    const float qdd2 = xr2;
+    const float qdd2 = -D2_01*t66 + D2_11*rD2*t67;
     const float xr3 = D2_00*t66 - D2_01*rD2*t67;
     const float rs3 = 1.0F/t1;
     const float qdd3 = rs3*xr3;
@@ -382,8 +378,7 @@ int spherical_rot_rhs_l(const long double *restrict y, const long double *restri
     const long double t64 = t43 - t63;
     const long double f0 = p[2]*p[3]*t1*t10*t31*t8 + t0*t10*t14*t15*t16*t42 - t34*t64 - t47*t61 - t59*t60;
     const long double t65 = Ab*f0 - Q00*f2 - Q01*f3;
-    const long double xr0 = -D1_01*t58 + D1_11*rD1*t65;
-    const long double qdd0 = xr0;
+    const long double qdd0 = -D1_01*t58 + D1_11*rD1*t65;
     const long double xr1 = D1_00*t58 - D1_01*rD1*t65;
     const long double rs1 = 1.0L/t0;
     const long double qdd1 = rs1*xr1;
@@ -393,8 +388,7 @@ int spherical_rot_rhs_l(const long double *restrict y, const long double *restri
     const long double rD2 = 1.0L/(D2_00*D2_11 - D2_01*D2_01);
     const long double t66 = rD2*(Aa*f3 - Q01*f0 - Q11*f1);
     const long double t67 = Aa*f2 - Q00*f0 - Q10*f1;
-    const long double xr2 = -D2_01*t66 + D2_11*rD2*t67;
-    const long double qdd2 = xr2;
+    const long double qdd2 = -D2_01*t66 + D2_11*rD2*t67;
     const long double xr3 = D2_00*t66 - D2_01*rD2*t67;
     const long double rs3 = 1.0L/t1;
     const long double qdd3 = rs3*xr3;
@@ -1296,7 +1290,7 @@ int spherical_rot_positions_batch_l(long n, const long double *restrict y, long 
     return all;
 }
 
-/* spherical_rot_jacobian (double). Total ops: 700 */
+/* spherical_rot_jacobian (double). Total ops: 709 */
 int spherical_rot_jacobian(const double *restrict y, const double *restrict p, double *restrict J)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
@@ -1386,12 +1380,12 @@ int spherical_rot_jacobian(const double *restrict y, const double *restrict p, d
     const double t68 = t48 - t67;
     const double f0 = p[2]*p[3]*t1*t16*t37*t5 + t0*t10*t2*t3*t4*t5 - t40*t68 - t52*t65 - t63*t64;
     const double t69 = Ab*f0 - Q00*f2 - Q01*f3;
-    const double xr0 = -D1_01*t62 + D1_11*rD1*t69;
-    const double t70 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0;
+    const double qdd0 = -D1_01*t62 + D1_11*rD1*t69;
+    const double t70 = Q01*t10 + Q01*t11 + qdd0*t15 + t12*t18;
     const double t71 = t14*t48;
     const double t72 = -t28;
     const double t73 = t11*t13;
-    const double t74 = p[2]*p[3]*t10*t16*t19*t5 - t51*t71 - t55*xr0 - t72*t73;
+    const double t74 = p[2]*p[3]*t10*t16*t19*t5 - qdd0*t55 - t51*t71 - t72*t73;
     const double t75 = 2*Ab*t0*t2*t3*t4*y[5]*y[4] - Q10*t74 - Q11*t70;
     const double t76 = D1_01*rD1;
     const double t77 = t0*t63;
@@ -1406,30 +1400,30 @@ int spherical_rot_jacobian(const double *restrict y, const double *restrict p, d
     const double t81 = t14*xr3;
     const double t82 = t16*t26;
     const double t83 = t27 + t82;
-    const double xr2 = -D2_01*t79 + D2_11*rD2*t80;
-    const double t84 = Aa*t10*(2*t5*t5 - 1) - Q11*t26*t37 + t0*t81 + t33*t71 + t35*t78 - t40*t83 - t55*xr2;
+    const double qdd2 = -D2_01*t79 + D2_11*rD2*t80;
+    const double t84 = Aa*t10*(2*t5*t5 - 1) - Q11*t26*t37 - qdd2*t55 + t0*t81 + t33*t71 + t35*t78 - t40*t83;
     const double t85 = Ab*t84 - Q00*t74 - Q01*t70;
     const double t86 = t0*t10;
     const double xr1 = D1_00*t62 - D1_01*rD1*t69;
     const double t87 = t14*xr1;
-    const double t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 - t61*xr0 + t87;
+    const double t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 - qdd0*t61 + t87;
     const double t89 = t51*t60;
-    const double t90 = -t14*t49 + t20*t89 + t42*xr1 - t48*t73*t8 + t53*xr0;
-    const double t91 = -Q11*t1*t39 - Q11*t38 + t22*t33 + t42*xr2 + t81;
+    const double t90 = qdd0*t53 - t14*t49 + t20*t89 + t42*xr1 - t48*t73*t8;
+    const double t91 = -Q11*t1*t39 - Q11*t38 + qdd2*t42 + t22*t33 + t81;
     const double t92 = t36*t63 + t91;
     const double t93 = Ab*t92 - Q10*t90 - Q11*t88;
     const double t94 = t14*t66;
-    const double t95 = t37*t94 + t41*t66 - t53*xr2 + t60*t65 + t61*xr3;
+    const double t95 = -qdd2*t53 + t37*t94 + t41*t66 + t60*t65 + t61*xr3;
     const double t96 = -t34*t64 - t95;
     const double t97 = Ab*t96 - Q00*t90 - Q01*t88;
     const double t98 = t1*y[6];
     const double t99 = t59*t98;
     const double t100 = t1*t14;
-    const double t101 = 2*p[2]*p[3]*t1*t16*y[7]*y[6] - t100*xr2 - t22*t37 - t22*t39;
+    const double t101 = 2*p[2]*p[3]*t1*t16*y[7]*y[6] - qdd2*t100 - t22*t37 - t22*t39;
     const double t102 = t13*t68;
-    const double t103 = Ab*t37*(2*t19*t19 - 1) - Q11*t10*t26 + p[4]*p[3]*t1*t46 - t1*t87 - t102*xr0 - t51*t94 - t73*t83;
+    const double t103 = Ab*t37*(2*t19*t19 - 1) - Q11*t10*t26 + p[4]*p[3]*t1*t46 - qdd0*t102 - t1*t87 - t51*t94 - t73*t83;
     const double t104 = Ab*t101 - Q10*t103 - Q11*t99;
-    const double t105 = -t102*xr2 + t20*t37*t60 + t33*t94 - t40*t72;
+    const double t105 = 2*p[2]*p[3]*t1*t5*t8*y[7]*y[6] + p[2]*p[3]*t16*t19*t37*t5 - qdd2*t102 - t40*t72;
     const double t106 = Ab*t105 - Q00*t103 - Q01*t99;
     const double t107 = -t91;
     const double t108 = p[4]*p[3]*t46 - t88;
@@ -1615,7 +1609,7 @@ int spherical_rot_jacobian_batch(long n, const double *restrict y, long y_stride
     return all;
 }
 
-/* spherical_rot_jacobian_f (float). Total ops: 700 */
+/* spherical_rot_jacobian_f (float). Total ops: 709 */
 int spherical_rot_jacobian_f(const float *restrict y, const float *restrict p, float *restrict J)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
@@ -1705,12 +1699,12 @@ int spherical_rot_jacobian_f(const float *restrict y, const float *restrict p, f
     const float t68 = t48 - t67;
     const float f0 = p[2]*p[3]*t1*t16*t37*t5 + t0*t10*t2*t3*t4*t5 - t40*t68 - t52*t65 - t63*t64;
     const float t69 = Ab*f0 - Q00*f2 - Q01*f3;
-    const float xr0 = -D1_01*t62 + D1_11*rD1*t69;
-    const float t70 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0;
+    const float qdd0 = -D1_01*t62 + D1_11*rD1*t69;
+    const float t70 = Q01*t10 + Q01*t11 + qdd0*t15 + t12*t18;
     const float t71 = t14*t48;
     const float t72 = -t28;
     const float t73 = t11*t13;
-    const float t74 = p[2]*p[3]*t10*t16*t19*t5 - t51*t71 - t55*xr0 - t72*t73;
+    const float t74 = p[2]*p[3]*t10*t16*t19*t5 - qdd0*t55 - t51*t71 - t72*t73;
     const float t75 = 2*Ab*t0*t2*t3*t4*y[5]*y[4] - Q10*t74 - Q11*t70;
     const float t76 = D1_01*rD1;
     const float t77 = t0*t63;
@@ -1725,30 +1719,30 @@ int spherical_rot_jacobian_f(const float *restrict y, const float *restrict p, f
     const float t81 = t14*xr3;
     const float t82 = t16*t26;
     const float t83 = t27 + t82;
-    const float xr2 = -D2_01*t79 + D2_11*rD2*t80;
-    const float t84 = Aa*t10*(2*t5*t5 - 1) - Q11*t26*t37 + t0*t81 + t33*t71 + t35*t78 - t40*t83 - t55*xr2;
+    const float qdd2 = -D2_01*t79 + D2_11*rD2*t80;
+    const float t84 = Aa*t10*(2*t5*t5 - 1) - Q11*t26*t37 - qdd2*t55 + t0*t81 + t33*t71 + t35*t78 - t40*t83;
     const float t85 = Ab*t84 - Q00*t74 - Q01*t70;
     const float t86 = t0*t10;
     const float xr1 = D1_00*t62 - D1_01*rD1*t69;
     const float t87 = t14*xr1;
-    const float t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 - t61*xr0 + t87;
+    const float t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 - qdd0*t61 + t87;
     const float t89 = t51*t60;
-    const float t90 = -t14*t49 + t20*t89 + t42*xr1 - t48*t73*t8 + t53*xr0;
-    const float t91 = -Q11*t1*t39 - Q11*t38 + t22*t33 + t42*xr2 + t81;
+    const float t90 = qdd0*t53 - t14*t49 + t20*t89 + t42*xr1 - t48*t73*t8;
+    const float t91 = -Q11*t1*t39 - Q11*t38 + qdd2*t42 + t22*t33 + t81;
     const float t92 = t36*t63 + t91;
     const float t93 = Ab*t92 - Q10*t90 - Q11*t88;
     const float t94 = t14*t66;
-    const float t95 = t37*t94 + t41*t66 - t53*xr2 + t60*t65 + t61*xr3;
+    const float t95 = -qdd2*t53 + t37*t94 + t41*t66 + t60*t65 + t61*xr3;
     const float t96 = -t34*t64 - t95;
     const float t97 = Ab*t96 - Q00*t90 - Q01*t88;
     const float t98 = t1*y[6];
     const float t99 = t59*t98;
     const float t100 = t1*t14;
-    const float t101 = 2*p[2]*p[3]*t1*t16*y[7]*y[6] - t100*xr2 - t22*t37 - t22*t39;
+    const float t101 = 2*p[2]*p[3]*t1*t16*y[7]*y[6] - qdd2*t100 - t22*t37 - t22*t39;
     const float t102 = t13*t68;
-    const float t103 = Ab*t37*(2*t19*t19 - 1) - Q11*t10*t26 + p[4]*p[3]*t1*t46 - t1*t87 - t102*xr0 - t51*t94 - t73*t83;
+    const float t103 = Ab*t37*(2*t19*t19 - 1) - Q11*t10*t26 + p[4]*p[3]*t1*t46 - qdd0*t102 - t1*t87 - t51*t94 - t73*t83;
     const float t104 = Ab*t101 - Q10*t103 - Q11*t99;
-    const float t105 = -t102*xr2 + t20*t37*t60 + t33*t94 - t40*t72;
+    const float t105 = 2*p[2]*p[3]*t1*t5*t8*y[7]*y[6] + p[2]*p[3]*t16*t19*t37*t5 - qdd2*t102 - t40*t72;
     const float t106 = Ab*t105 - Q00*t103 - Q01*t99;
     const float t107 = -t91;
     const float t108 = p[4]*p[3]*t46 - t88;
@@ -1934,7 +1928,7 @@ int spherical_rot_jacobian_batch_f(long n, const float *restrict y, long y_strid
     return all;
 }
 
-/* spherical_rot_jacobian_l (long double). Total ops: 700 */
+/* spherical_rot_jacobian_l (long double). Total ops: 709 */
 int spherical_rot_jacobian_l(const long double *restrict y, const long double *restrict p, long double *restrict J)
 {
     int status = SPHERICAL_ROT_STATUS_OK;
@@ -2024,12 +2018,12 @@ int spherical_rot_jacobian_l(const long double *restrict y, const long double *r
     const long double t68 = t48 - t67;
     const long double f0 = p[2]*p[3]*t1*t16*t37*t5 + t0*t10*t2*t3*t4*t5 - t40*t68 - t52*t65 - t63*t64;
     const long double t69 = Ab*f0 - Q00*f2 - Q01*f3;
-    const long double xr0 = -D1_01*t62 + D1_11*rD1*t69;
-    const long double t70 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0;
+    const long double qdd0 = -D1_01*t62 + D1_11*rD1*t69;
+    const long double t70 = Q01*t10 + Q01*t11 + qdd0*t15 + t12*t18;
     const long double t71 = t14*t48;
     const long double t72 = -t28;
     const long double t73 = t11*t13;
-    const long double t74 = p[2]*p[3]*t10*t16*t19*t5 - t51*t71 - t55*xr0 - t72*t73;
+    const long double t74 = p[2]*p[3]*t10*t16*t19*t5 - qdd0*t55 - t51*t71 - t72*t73;
     const long double t75 = 2*Ab*t0*t2*t3*t4*y[5]*y[4] - Q10*t74 - Q11*t70;
     const long double t76 = D1_01*rD1;
     const long double t77 = t0*t63;
@@ -2044,30 +2038,30 @@ int spherical_rot_jacobian_l(const long double *restrict y, const long double *r
     const long double t81 = t14*xr3;
     const long double t82 = t16*t26;
     const long double t83 = t27 + t82;
-    const long double xr2 = -D2_01*t79 + D2_11*rD2*t80;
-    const long double t84 = Aa*t10*(2*t5*t5 - 1) - Q11*t26*t37 + t0*t81 + t33*t71 + t35*t78 - t40*t83 - t55*xr2;
+    const long double qdd2 = -D2_01*t79 + D2_11*rD2*t80;
+    const long double t84 = Aa*t10*(2*t5*t5 - 1) - Q11*t26*t37 - qdd2*t55 + t0*t81 + t33*t71 + t35*t78 - t40*t83;
     const long double t85 = Ab*t84 - Q00*t74 - Q01*t70;
     const long double t86 = t0*t10;
     const long double xr1 = D1_00*t62 - D1_01*rD1*t69;
     const long double t87 = t14*xr1;
-    const long double t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 - t61*xr0 + t87;
+    const long double t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 - qdd0*t61 + t87;
     const long double t89 = t51*t60;
-    const long double t90 = -t14*t49 + t20*t89 + t42*xr1 - t48*t73*t8 + t53*xr0;
-    const long double t91 = -Q11*t1*t39 - Q11*t38 + t22*t33 + t42*xr2 + t81;
+    const long double t90 = qdd0*t53 - t14*t49 + t20*t89 + t42*xr1 - t48*t73*t8;
+    const long double t91 = -Q11*t1*t39 - Q11*t38 + qdd2*t42 + t22*t33 + t81;
     const long double t92 = t36*t63 + t91;
     const long double t93 = Ab*t92 - Q10*t90 - Q11*t88;
     const long double t94 = t14*t66;
-    const long double t95 = t37*t94 + t41*t66 - t53*xr2 + t60*t65 + t61*xr3;
+    const long double t95 = -qdd2*t53 + t37*t94 + t41*t66 + t60*t65 + t61*xr3;
     const long double t96 = -t34*t64 - t95;
     const long double t97 = Ab*t96 - Q00*t90 - Q01*t88;
     const long double t98 = t1*y[6];
     const long double t99 = t59*t98;
     const long double t100 = t1*t14;
-    const long double t101 = 2*p[2]*p[3]*t1*t16*y[7]*y[6] - t100*xr2 - t22*t37 - t22*t39;
+    const long double t101 = 2*p[2]*p[3]*t1*t16*y[7]*y[6] - qdd2*t100 - t22*t37 - t22*t39;
     const long double t102 = t13*t68;
-    const long double t103 = Ab*t37*(2*t19*t19 - 1) - Q11*t10*t26 + p[4]*p[3]*t1*t46 - t1*t87 - t102*xr0 - t51*t94 - t73*t83;
+    const long double t103 = Ab*t37*(2*t19*t19 - 1) - Q11*t10*t26 + p[4]*p[3]*t1*t46 - qdd0*t102 - t1*t87 - t51*t94 - t73*t83;
     const long double t104 = Ab*t101 - Q10*t103 - Q11*t99;
-    const long double t105 = -t102*xr2 + t20*t37*t60 + t33*t94 - t40*t72;
+    const long double t105 = 2*p[2]*p[3]*t1*t5*t8*y[7]*y[6] + p[2]*p[3]*t16*t19*t37*t5 - qdd2*t102 - t40*t72;
     const long double t106 = Ab*t105 - Q00*t103 - Q01*t99;
     const long double t107 = -t91;
     const long double t108 = p[4]*p[3]*t46 - t88;

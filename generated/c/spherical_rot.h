@@ -168,7 +168,7 @@ int spherical_rot_positions_batch_l(long n, const long double *restrict y, long 
  *   in  y[8]: the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out J[64]: row-major
- * Total ops: 700
+ * Total ops: 709
  */
 #define SPHERICAL_ROT_JACOBIAN_Y_SIZE 8
 #define SPHERICAL_ROT_JACOBIAN_Y_RANK 1

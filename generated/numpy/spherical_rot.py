@@ -159,10 +159,8 @@ def rhs(y, p):
     del t10, t14, t15, t16, t31, t34, t42, t47, t59, t60, t61, t64, t8
     t65 = Ab*f0 - Q00*f2 - Q01*f3
     del Ab
-    xr0 = D1_11*rD1*t65 - D1_01*t58
+    qdd0 = D1_11*rD1*t65 - D1_01*t58
     del D1_11
-    qdd0 = xr0
-    del xr0
     xr1 = D1_00*t58 - D1_01*rD1*t65
     del D1_00, D1_01, rD1, t58, t65
     rs1 = 1.0/t0
@@ -179,10 +177,8 @@ def rhs(y, p):
     del Q01, Q11, f3
     t67 = Aa*f2 - Q00*f0 - Q10*f1
     del Aa, Q00, Q10, f0, f1, f2
-    xr2 = D2_11*rD2*t67 - D2_01*t66
+    qdd2 = D2_11*rD2*t67 - D2_01*t66
     del D2_11
-    qdd2 = xr2
-    del xr2
     xr3 = D2_00*t66 - D2_01*rD2*t67
     del D2_00, D2_01, rD2, t66, t67
     rs3 = 1.0/t1
@@ -557,7 +553,7 @@ def jacobian(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 8, 8) row-major
-    Total ops: 700
+    Total ops: 709
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -670,13 +666,13 @@ def jacobian(y, p):
     f0 = (l1*l2)*(t1*t16*t37*t5) + (t2*t3*t4)*(t0*t10*t5) - t40*t68 - t52*t65 - t63*t64
     del t52
     t69 = Ab*f0 - Q00*f2 - Q01*f3
-    xr0 = D1_11*rD1*t69 - D1_01*t62
-    t70 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0
+    qdd0 = D1_11*rD1*t69 - D1_01*t62
+    t70 = Q01*t10 + Q01*t11 + qdd0*t15 + t12*t18
     t71 = t14*t48
     t72 = -t28
     del t28
     t73 = t13*t11
-    t74 = (l1*l2)*(t10*t16*t19*t5) - t51*t71 - t55*xr0 - t72*t73
+    t74 = (l1*l2)*(t10*t16*t19*t5) - qdd0*t55 - t51*t71 - t72*t73
     t75 = (2*Ab*t2*t3*t4)*(t0*varphi1_dot*vartheta1_dot) - Q10*t74 - Q11*t70
     t76 = D1_01*rD1
     t77 = t0*t63
@@ -697,43 +693,43 @@ def jacobian(y, p):
     t82 = t16*t26
     t83 = t27 + t82
     del t27, t82
-    xr2 = D2_11*rD2*t80 - D2_01*t79
+    qdd2 = D2_11*rD2*t80 - D2_01*t79
     del t79, t80
-    t84 = Aa*(t10*(-1 + 2*t5*t5)) + t0*t81 + t33*t71 + t35*t78 - Q11*t26*t37 - t40*t83 - t55*xr2
+    t84 = Aa*(t10*(-1 + 2*t5*t5)) + t0*t81 + t33*t71 + t35*t78 - Q11*t26*t37 - qdd2*t55 - t40*t83
     del t35, t71, t78
     t85 = Ab*t84 - Q00*t74 - Q01*t70
     t86 = t0*t10
     xr1 = D1_00*t62 - D1_01*rD1*t69
     del D1_01, t62, t69
     t87 = t14*xr1
-    t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 + t87 - t61*xr0
+    t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 + t87 - qdd0*t61
     del t11, t86
     t89 = t51*t60
-    t90 = t20*t89 + t42*xr1 + t53*xr0 - t14*t49 - t48*t73*t8
+    t90 = qdd0*t53 + t20*t89 + t42*xr1 - t14*t49 - t48*t73*t8
     del t49, t89
-    t91 = t22*t33 + t42*xr2 + t81 - Q11*t1*t39 - Q11*t38
-    del t38, t81
+    t91 = qdd2*t42 + t22*t33 + t81 - Q11*t1*t39 - Q11*t38
+    del t33, t38, t81
     t92 = t36*t63 + t91
     del t36, t63
     t93 = Ab*t92 - Q10*t90 - Q11*t88
     t94 = t14*t66
-    t95 = t37*t94 + t41*t66 + t60*t65 + t61*xr3 - t53*xr2
-    del t41, t65
+    t95 = t37*t94 + t41*t66 + t60*t65 + t61*xr3 - qdd2*t53
+    del t41, t60, t65
     t96 = -t34*t64 - t95
     del t34, t64
     t97 = Ab*t96 - Q00*t90 - Q01*t88
     t98 = t1*vartheta2_dot
     t99 = t59*t98
     t100 = t1*t14
-    t101 = (2*l1*l2)*(t1*t16*varphi2_dot*vartheta2_dot) - t100*xr2 - t22*t37 - t22*t39
-    del t16, t22, t39
+    t101 = (2*l1*l2)*(t1*t16*varphi2_dot*vartheta2_dot) - qdd2*t100 - t22*t37 - t22*t39
+    del t22, t39
     t102 = t13*t68
     del t13, t68
-    t103 = Ab*(t37*(-1 + 2*t19*t19)) + (g*l2)*(t1*t46) - Q11*t10*t26 - t1*t87 - t102*xr0 - t51*t94 - t73*t83
-    del t10, t26, t51, t73, t83, t87, xr0
+    t103 = Ab*(t37*(-1 + 2*t19*t19)) + (g*l2)*(t1*t46) - Q11*t10*t26 - qdd0*t102 - t1*t87 - t51*t94 - t73*t83
+    del qdd0, t10, t26, t51, t73, t83, t87, t94
     t104 = Ab*t101 - Q10*t103 - Q11*t99
-    t105 = t20*t37*t60 + t33*t94 - t102*xr2 - t40*t72
-    del t33, t37, t40, t60, t72, t94, xr2
+    t105 = (2*l1*l2)*(t1*t5*t8*varphi2_dot*vartheta2_dot) + (l1*l2)*(t16*t19*t37*t5) - qdd2*t102 - t40*t72
+    del qdd2, t16, t37, t40, t72
     t106 = Ab*t105 - Q00*t103 - Q01*t99
     del t99
     t107 = -t91

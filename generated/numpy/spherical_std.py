@@ -158,10 +158,8 @@ def rhs(y, p):
     del t10, t14, t15, t16, t28, t31, t40, t45, t57, t58, t59, t62, t8
     t63 = Ab*f0 - Q00*f2 - Q01*f3
     del Ab
-    xr0 = D1_11*rD1*t63 - D1_01*t56
+    qdd0 = D1_11*rD1*t63 - D1_01*t56
     del D1_11
-    qdd0 = xr0
-    del xr0
     xr1 = D1_00*t56 - D1_01*rD1*t63
     del D1_00, D1_01, rD1, t56, t63
     rs1 = 1.0/t0
@@ -178,10 +176,8 @@ def rhs(y, p):
     del Q01, Q11, f3
     t65 = Aa*f2 - Q00*f0 - Q10*f1
     del Aa, Q00, Q10, f0, f1, f2
-    xr2 = D2_11*rD2*t65 - D2_01*t64
+    qdd2 = D2_11*rD2*t65 - D2_01*t64
     del D2_11
-    qdd2 = xr2
-    del xr2
     xr3 = D2_00*t64 - D2_01*rD2*t65
     del D2_00, D2_01, rD2, t64, t65
     rs3 = 1.0/t1
@@ -652,11 +648,11 @@ def jacobian(y, p):
     f0 = (l1*l2)*(t1*t16*t34*t7) + (t2*t3*t4)*(t0*t10*t7) - t37*t66 - t50*t63 - t62*t61
     del t50, t61
     t67 = Ab*f0 - Q00*f2 - Q01*f3
-    xr0 = D1_11*rD1*t67 - D1_01*t60
-    t68 = Q01*t10 + Q01*t11 + t12*t18 + t15*xr0
+    qdd0 = D1_11*rD1*t67 - D1_01*t60
+    t68 = Q01*t10 + Q01*t11 + qdd0*t15 + t12*t18
     t69 = -t28
     del t28
-    t70 = (l1*l2)*(t10*t16*t19*t7) - t14*t46*t49 - t53*xr0 - t57*t69
+    t70 = (l1*l2)*(t10*t16*t19*t7) - qdd0*t53 - t14*t46*t49 - t57*t69
     t71 = (2*Ab*t2*t3*t4)*(phi1_dot*t0*theta1_dot) - Q10*t70 - Q11*t68
     t72 = D1_01*rD1
     t73 = t16*t26
@@ -672,42 +668,42 @@ def jacobian(y, p):
     del f3
     t76 = Aa*f2 - Q00*f0 - Q10*f1
     del f0, f1, f2
-    xr2 = D2_11*rD2*t76 - D2_01*t75
+    qdd2 = D2_11*rD2*t76 - D2_01*t75
     xr3 = D2_00*t75 - D2_01*rD2*t76
     del t75, t76
-    t77 = (2*l1*l2)*(phi2_dot*t0*t19*t6*theta2_dot) + (l1*l2)*(t0*t6*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t7*t7)) - Q11*t26*t34 - t37*t74 - t53*xr2 - t62*t8
+    t77 = (2*l1*l2)*(phi2_dot*t0*t19*t6*theta2_dot) + (l1*l2)*(t0*t6*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t7*t7)) - Q11*t26*t34 - qdd2*t53 - t37*t74 - t62*t8
     del t62
     t78 = Ab*t77 - Q00*t70 - Q01*t68
     xr1 = D1_00*t60 - D1_01*rD1*t67
     del D1_01, t60, t67
     t79 = t14*xr1
-    t80 = Q01*t49 + Q11*t0*t11 + Q11*t56 + t79 - t59*xr0
+    t80 = Q01*t49 + Q11*t0*t11 + Q11*t56 + t79 - qdd0*t59
     del t11, t56
-    t81 = t14*xr3 + t22*t33 + t39*xr2 - Q11*t1*t36 - Q11*t35
+    t81 = qdd2*t39 + t14*xr3 + t22*t33 - Q11*t1*t36 - Q11*t35
     del t35
     t82 = t16*t8
     del t8
     t83 = t49*t82
-    t84 = t20*t83 + t39*xr1 + t51*xr0 - t14*t47 - t46*t58
+    t84 = qdd0*t51 + t20*t83 + t39*xr1 - t14*t47 - t46*t58
     del t47, t58, t83
     t85 = Ab*t81 - Q10*t84 - Q11*t80
     t86 = t14*t64
-    t87 = t34*t86 + t38*t64 + t59*xr3 + t63*t82 - (l1*l2)*(t19*t6*t7*xr2)
+    t87 = t34*t86 + t38*t64 + t59*xr3 + t63*t82 - (l1*l2)*(qdd2*t19*t6*t7)
     del t38, t63
     t88 = -t87
     t89 = Ab*t88 - Q00*t84 - Q01*t80
     t90 = t1*theta2_dot
     t91 = t55*t90
     t92 = t1*t14
-    t93 = (2*l1*l2)*(phi2_dot*t1*t16*theta2_dot) - t22*t34 - t22*t36 - t92*xr2
+    t93 = (2*l1*l2)*(phi2_dot*t1*t16*theta2_dot) - qdd2*t92 - t22*t34 - t22*t36
     del t16, t22, t36
     t94 = t13*t66
     del t13, t66
-    t95 = Ab*(t34*(-1 + 2*t19*t19)) - Q11*t10*t26 - g*t20 - t1*t79 - t49*t86 - t57*t74 - t94*xr0
-    del t10, t26, t49, t57, t74, t79, xr0
+    t95 = Ab*(t34*(-1 + 2*t19*t19)) - Q11*t10*t26 - g*t20 - qdd0*t94 - t1*t79 - t49*t86 - t57*t74
+    del qdd0, t10, t26, t49, t57, t74, t79
     t96 = Ab*t93 - Q10*t95 - Q11*t91
-    t97 = t20*t34*t82 + t33*t86 - t37*t69 - t94*xr2
-    del t20, t33, t34, t37, t69, t82, t86, xr2
+    t97 = t20*t34*t82 + t33*t86 - qdd2*t94 - t37*t69
+    del qdd2, t20, t33, t34, t37, t69, t82, t86
     t98 = Ab*t97 - Q00*t95 - Q01*t91
     del t91
     t99 = -t81
