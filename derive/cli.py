@@ -7,7 +7,9 @@ import sys
 import time
 from pathlib import Path
 
+from .integration.simulate import SimulationInputError
 from .model import ModelError, model_names
+from .scene import SceneError
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 
@@ -128,6 +130,83 @@ def cmd_latex(args) -> int:
     return 0
 
 
+def _print_run(summary: dict) -> None:
+    s = summary
+    print(f"scene   {s['scene']}: {s['title']}")
+    print(f"model   {s['model']} ({s['model_reason']})")
+    for line in s["steps"]:
+        print(f"        {line}")
+    tol = f"rtol {s['rtol']:.2g}" if s["rtol"] is not None else f"step {s['step']:g}"
+    print(f"method  {s['method']}, {tol}, {s['dtype']}, backend {s['backend']}"
+          + (f" -- {s['note']}" if s["note"] else ""))
+    if s["lyapunov_exponent"] is not None and s["trust_horizon"] is not None:
+        print(f"chaos   largest Lyapunov exponent {s['lyapunov_exponent']:.3g}; trust horizon "
+              f"t = {s['trust_horizon']:.3g} for error {s['target'] or 1e-8:g}")
+    if s["target"] is not None:
+        achieved = "not measured" if s["achieved_error"] is None else f"{s['achieved_error']:.2g}"
+        print(f"error   target {s['target']:g}, predicted {s['predicted_error']:.2g}, achieved {achieved}")
+    print(f"result  {s['status']} at t = {s['t_stop']:g} after {s['nfev']} rhs evaluations"
+          + (f", {s['chart_switches']} chart switches" if s["chart_switches"] is not None else "")
+          + f"; relative energy error {s['relative_energy_error']:.2g}")
+    print(f"state   {', '.join(f'{v:.10g}' for v in s['final_state'])}")
+    for f in s["files"]:
+        print(f"wrote   {f}")
+    print(f"time    {s['seconds']:.2f} s")
+
+
+def cmd_run(args) -> int:
+    from .scene import load_scene
+    from .scene.outputs import write_outputs
+    from .scene.run import run, summary
+    scene = load_scene(args.scene)
+    if args.output_dir:
+        scene.output_dir = Path(args.output_dir)
+    outcome = run(scene, show_progress=not args.quiet and not args.json)
+    outcome.files = write_outputs(outcome)
+    s = summary(outcome)
+    if args.json:
+        print(json.dumps(s, indent=1))
+    elif not args.quiet:
+        _print_run(s)
+    return 0 if outcome.result.ok else 1
+
+
+def cmd_all(args) -> int:
+    """The main job: derive, verify, generate (check), compile, run the default scene."""
+    from .codegen.generate import generate_all
+    from .scene import load_scene
+    from .scene.artifacts import prepare
+    from .scene.run import run, summary
+    from .verification.cached import verify_all
+    start = time.perf_counter()
+    seconds, rows = _derive_all(model_names())
+    cached = sum(w for _, _, w in rows)
+    print(f"derive    {len(rows)} models in {seconds:.1f} s ({cached} from the cache)")
+    t0 = time.perf_counter()
+    results, checks, from_cache = verify_all()
+    n_err = sum(r.verdict == "erratum" for r in results)
+    bad = [r for r in results if r.verdict not in ("match", "erratum")] + [c for c in checks if not c.passed]
+    print(f"verify    {len(results)} seed formulas: {len(results) - n_err - len(bad)} match, {n_err} errata "
+          f"(see README); {sum(c.passed for c in checks)}/{len(checks)} physics checks pass "
+          f"({time.perf_counter() - t0:.1f} s{', cached' if from_cache else ''})")
+    t0 = time.perf_counter()
+    changed, _ = generate_all(REPO_ROOT, check=True)
+    print(f"generate  generated/ {'is current' if not changed else f'is STALE in {len(changed)} files'} "
+          f"({time.perf_counter() - t0:.1f} s)")
+    t0 = time.perf_counter()
+    for name in model_names() + ["spherical"]:
+        prepare(name, "c")
+    print(f"compile   C kernels and integrators of every model ({time.perf_counter() - t0:.1f} s)")
+    outcome = run(load_scene(REPO_ROOT / "scenes" / "default.toml"), show_progress=False)
+    s = summary(outcome)
+    print(f"run       {s['title']}: {s['method']} {s['dtype']} rtol {s['rtol']:.2g}, final-state error "
+          f"{s['achieved_error']:.2g} (target {s['target']:g}), trust horizon t = {s['trust_horizon']:.3g}, "
+          f"{s['nfev']} rhs evaluations in {s['seconds']:.2f} s")
+    ok = not bad and not changed and outcome.result.ok
+    print(f"{'done' if ok else 'FAILED'} in {time.perf_counter() - start:.1f} s")
+    return 0 if ok else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _OneLineParser(
         prog="derive", description="Derive, verify and generate code for double pendulums.")
@@ -148,6 +227,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", help="output .tex path (default: MODEL.tex)")
     p.add_argument("--pdf", action="store_true", help="also run pdflatex")
     p.set_defaults(func=cmd_latex)
+    p = sub.add_parser("run", help="simulate a scene file (TOML), deriving and building only what it needs")
+    p.add_argument("scene", help="scene file, e.g. scenes/default.toml")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
+    p.add_argument("--json", action="store_true", help="print a machine-readable summary")
+    p.add_argument("--output-dir", help="write outputs here instead of the scene's output.directory")
+    p.set_defaults(func=cmd_run)
+    p = sub.add_parser("all", help="the main job: derive, verify, generate, compile, run the default scene")
+    p.set_defaults(func=cmd_all)
     return parser
 
 
@@ -156,7 +243,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except (UsageError, ModelError) as exc:
+    except (UsageError, ModelError, SceneError, SimulationInputError) as exc:
         print(f"derive: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

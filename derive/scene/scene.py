@@ -10,8 +10,8 @@ from ..model import ModelError, load_model
 
 ATLAS = "spherical"             # the spherical pendulum run through the chart atlas
 SPHERICAL_CHART_MODELS = ("spherical_std", "spherical_alt", "spherical_rot")
-METHODS = ("rk4", "dopri5", "dop853", "gauss4", "midpoint")
-FIXED_STEP = ("rk4", "gauss4", "midpoint")
+METHODS = ("rk4", "dopri5", "dop853", "gauss2", "midpoint")
+FIXED_STEP = ("rk4", "gauss2", "midpoint")
 SCALARS = ("float", "double", "long double")
 TRAJECTORY_FORMATS = ("csv", "npz")
 PLOTS = ("paths", "energy", "animation")

@@ -1,0 +1,79 @@
+"""How long does a chaotic trajectory stay trustworthy?
+
+The largest Lyapunov exponent lambda comes from the variational equations
+    delta' = J(y(t)) delta,
+with J the generated Jacobian of rhs, evaluated in one batch call along a
+reference trajectory (DOP853, tight tolerance, dense output at the midpoints
+of a fine grid).  Each grid step propagates delta with the fourth-order Taylor
+polynomial of exp(J(t_mid) dt) and renormalises it (Benettin's method); the
+mean log growth rate is lambda.
+
+An error e0 committed early grows like e0 exp(lambda t).  The trust horizon of
+a run is the time where that reaches the accuracy the user asked for:
+    t_trust = ln(target / e0) / lambda,
+with e0 the larger of the integrator's tolerance and the precision's unit
+roundoff (times the state's size).  Beyond t_trust the computed trajectory
+no longer resolves the true one to `target`; benchmarks never compare there.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+JACOBIAN_STEPS_PER_UNIT_TIME = 400
+
+
+@dataclass
+class Lyapunov:
+    exponent: float            # largest Lyapunov exponent (1/time units)
+    t_end: float               # length of the trajectory it was measured on
+    model: str
+    method: str                # how it was computed
+
+    def error_growth(self, t: float) -> float:
+        return math.exp(max(self.exponent, 0.0) * t)
+
+
+def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0) -> Lyapunov:
+    """lambda from the variational equations along y(t), t in [0, t_end]."""
+    from ..codegen.loader import load
+    from ..integration.simulate import normalise_params, simulate
+    n = max(200, int(JACOBIAN_STEPS_PER_UNIT_TIME * t_end))
+    grid = np.linspace(0.0, t_end, 2 * n + 1)
+    run = simulate(model, y0, grid, params, method="dop853", rtol=1e-11, atol=1e-13)
+    run.raise_for_status()
+    p = normalise_params(model, params).astype(np.float64)
+    jac = load(model).jacobian(run.y[1::2].astype(np.float64), p)     # at the midpoints
+    dt = t_end / n
+    rng = np.random.default_rng(seed)
+    delta = rng.standard_normal(run.y.shape[1])
+    delta /= np.linalg.norm(delta)
+    log_growth = 0.0
+    for J in jac:
+        A = J * dt
+        step = delta + A @ delta
+        term = A @ delta
+        for k in (2, 3, 4):                 # Taylor polynomial of exp(A) applied to delta
+            term = A @ term / k
+            step = step + term
+        norm = float(np.linalg.norm(step))
+        log_growth += math.log(norm)
+        delta = step / norm
+    return Lyapunov(log_growth / t_end, t_end, model, "variational equations, generated Jacobian")
+
+
+def initial_error(rtol: float, dtype, state_scale: float) -> float:
+    """The error a run commits early on: tolerance or unit roundoff, at the state's scale."""
+    eps = float(np.finfo(np.dtype(dtype)).eps)
+    return max(rtol, eps) * max(state_scale, 1.0)
+
+
+def trust_horizon(lyapunov: Lyapunov, target: float, e0: float) -> float:
+    """Time at which e0 exp(lambda t) reaches target (inf for lambda <= 0)."""
+    if lyapunov.exponent <= 0:
+        return math.inf
+    if e0 >= target:
+        return 0.0
+    return math.log(target / e0) / lyapunov.exponent

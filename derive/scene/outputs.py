@@ -1,0 +1,140 @@
+"""Write what a scene asks for: trajectory (CSV, NPZ), plots (PNG), animation (GIF)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..model import load_model
+from .scene import SceneError
+
+
+def _state_names(o) -> list[str]:
+    if o.plan.model == "spherical":
+        return [f"y{k}" for k in range(o.result.y.shape[1])]
+    return list(load_model(o.plan.model).state_names)
+
+
+def _columns(o) -> tuple[list[str], np.ndarray]:
+    r = o.result
+    pos = np.asarray(o.positions, float)
+    dim = pos.shape[-1]
+    names = ["t"] + _state_names(o) + [f"{b}{k}_{a}" for k in (1, 2) for b, a in
+                                       [("x", ax) for ax in "xyz"[:dim]]] + ["energy"]
+    data = np.column_stack([np.asarray(r.t, float), np.asarray(r.y, float),
+                            pos.reshape(len(pos), -1), np.asarray(o.energy, float)])
+    return names, data
+
+
+def output_dir(o) -> Path:
+    out = Path(o.scene.output_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".derive-write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        raise SceneError(f"'output.directory': cannot write to '{out}': {exc.strerror}") from None
+    return out
+
+
+def write_outputs(o) -> list[str]:
+    wanted = o.scene.trajectory + o.scene.plots
+    if not wanted:
+        return []
+    out = output_dir(o)
+    stem = Path(o.scene.source).stem
+    written = []
+    names, data = _columns(o)
+    if "csv" in o.scene.trajectory:
+        path = out / f"{stem}.csv"
+        header = ",".join(names)
+        if o.result.chart is not None:
+            header += ",chart"
+            rows = [",".join(f"{v:.17g}" for v in row) + f",{c}" for row, c in zip(data, o.result.chart)]
+            path.write_text(header + "\n" + "\n".join(rows) + "\n")
+        else:
+            np.savetxt(path, data, delimiter=",", header=header, comments="", fmt="%.17g")
+        written.append(str(path))
+    if "npz" in o.scene.trajectory:
+        path = out / f"{stem}.npz"
+        extra = {"chart": np.asarray(o.result.chart, dtype=str)} if o.result.chart is not None else {}
+        np.savez(path, t=np.asarray(o.result.t, float), y=np.asarray(o.result.y, float),
+                 positions=np.asarray(o.positions, float), energy=np.asarray(o.energy, float),
+                 state_names=np.array(_state_names(o)), **extra)
+        written.append(str(path))
+    if o.scene.plots:
+        written += _plots(o, out, stem)
+    return written
+
+
+def _pyplot():
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise SceneError("'output.plots' needs matplotlib: pip install -e '.[plot]'") from None
+    return plt
+
+
+def _plots(o, out: Path, stem: str) -> list[str]:
+    plt = _pyplot()
+    pos = np.asarray(o.positions, float)
+    horizontal = 0
+    vertical = pos.shape[-1] - 1
+    written = []
+    if "paths" in o.scene.plots:
+        fig, ax = plt.subplots(figsize=(5, 5))
+        for k, colour in ((0, "tab:blue"), (1, "tab:red")):
+            ax.plot(pos[:, k, horizontal], pos[:, k, vertical], lw=0.7, color=colour, label=f"bob {k + 1}")
+        ax.plot([0], [0], "ko", ms=3)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x")
+        ax.set_ylabel("z" if vertical == 2 else "y")
+        ax.set_title(o.scene.title, fontsize=9)
+        ax.legend(fontsize=8)
+        path = out / f"{stem}_paths.png"
+        fig.savefig(path, dpi=120, bbox_inches="tight")
+        plt.close(fig)
+        written.append(str(path))
+    if "energy" in o.scene.plots:
+        e = np.asarray(o.energy, float)
+        fig, ax = plt.subplots(figsize=(6, 3))
+        ax.semilogy(o.result.t.astype(float), np.abs(e - e[0]) / max(abs(e[0]), 1e-300) + 1e-300)
+        ax.set_xlabel("t")
+        ax.set_ylabel("|E - E0| / |E0|")
+        ax.set_title(f"{o.scene.title}: energy error ({o.choice.method}, {o.choice.dtype})", fontsize=9)
+        path = out / f"{stem}_energy.png"
+        fig.savefig(path, dpi=120, bbox_inches="tight")
+        plt.close(fig)
+        written.append(str(path))
+    if "animation" in o.scene.plots:
+        written.append(_animation(plt, o, pos, out, stem, horizontal, vertical))
+    return written
+
+
+def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str:
+    from matplotlib.animation import FuncAnimation, PillowWriter
+    frames = np.linspace(0, len(pos) - 1, min(len(pos), 150)).astype(int)
+    reach = float(np.max(np.linalg.norm(pos[:, 1], axis=-1))) * 1.05
+    fig, ax = plt.subplots(figsize=(4, 4))
+    ax.set_xlim(-reach, reach)
+    ax.set_ylim(-reach, reach)
+    ax.set_aspect("equal")
+    line, = ax.plot([], [], "o-", lw=2, color="tab:blue")
+    trail, = ax.plot([], [], lw=0.6, color="tab:red")
+
+    def draw(i):
+        k = frames[i]
+        xs = [0, pos[k, 0, horizontal], pos[k, 1, horizontal]]
+        ys = [0, pos[k, 0, vertical], pos[k, 1, vertical]]
+        line.set_data(xs, ys)
+        trail.set_data(pos[:k + 1, 1, horizontal], pos[:k + 1, 1, vertical])
+        return line, trail
+
+    anim = FuncAnimation(fig, draw, frames=len(frames), blit=True)
+    path = out / f"{stem}.gif"
+    anim.save(path, writer=PillowWriter(fps=25))
+    plt.close(fig)
+    return str(path)

@@ -1,0 +1,208 @@
+"""`derive run SCENE`: plan, prepare, integrate to the accuracy asked, write outputs.
+
+Choosing the method for an accuracy target (the final-state error):
+1. the largest Lyapunov exponent lambda of the scene's motion (trust.py) says
+   how much an early error grows by the end: G = exp(lambda T);
+2. DOP853 with rtol = target / (SAFETY G), in double while that tolerance is
+   at least 10 eps of double, else in long double (then `target` beyond what
+   long double can deliver is reported as out of reach, not pretended);
+3. a reference run a thousand times tighter measures the achieved error, and
+   the trust horizon says until when the run resolves the true motion.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..integration.simulate import SimulationResult, simulate
+from ..measurement.trust import Lyapunov, initial_error, largest_lyapunov, trust_horizon
+from .artifacts import Step, prepare
+from .plan import Plan, plan, planar_positions_in_3d
+from .progress import Progress
+from .scene import Scene
+
+SAFETY = 10.0
+DOUBLE_RTOL_MIN = 1e-14
+LONG_DOUBLE_RTOL_MIN = 1e-16
+CHUNKS = 20          # the integration runs in this many pieces, for the progress bar
+
+
+@dataclass
+class Choice:
+    method: str
+    rtol: float | None
+    atol: float | None
+    step: float | None
+    dtype: str
+    predicted: float | None        # predicted final-state error
+    note: str = ""
+
+
+@dataclass
+class Outcome:
+    scene: Scene
+    plan: Plan
+    steps: list[Step]
+    choice: Choice
+    lyapunov: Lyapunov | None
+    trust_horizon: float | None
+    result: SimulationResult
+    positions: np.ndarray
+    energy: np.ndarray
+    achieved: float | None
+    seconds: float
+    files: list[str] = field(default_factory=list)
+
+
+def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
+    if p.model == "spherical":
+        return None          # chart-dependent tangent space: no single-chart variational run
+    return largest_lyapunov(p.model, p.y0, p.params, scene.t_stop - scene.t_start)
+
+
+def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
+    if scene.method is not None:
+        return Choice(scene.method, scene.rtol, scene.atol, scene.step,
+                      "longdouble" if scene.scalar == "long double" else
+                      "float32" if scene.scalar == "float" else "float64", None, "as the scene asks")
+    growth = lyap.error_growth(scene.t_stop - scene.t_start) if lyap else 1.0
+    rtol = scene.target / (SAFETY * growth)
+    dtype, note = "float64", ""
+    if rtol < DOUBLE_RTOL_MIN:
+        dtype = "longdouble"
+        if rtol < LONG_DOUBLE_RTOL_MIN:
+            note = (f"target {scene.target:g} needs rtol {rtol:.2g}: beyond long double, "
+                    "the run uses the tightest tolerance and reports what it achieves")
+            rtol = LONG_DOUBLE_RTOL_MIN
+    if scene.scalar == "long double":
+        dtype = "longdouble"
+    return Choice("dop853", rtol, rtol, None, dtype, rtol * SAFETY * growth / SAFETY, note)
+
+
+def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
+              tighten: float = 1.0, dtype: str | None = None) -> SimulationResult:
+    """The scene's run in CHUNKS pieces (fixed, so results do not depend on the display)."""
+    t = np.linspace(scene.t_start, scene.t_stop, scene.outputs)
+    bounds = np.linspace(0, len(t) - 1, min(CHUNKS, len(t) - 1) + 1).astype(int)
+    y0, parts = p.y0, []
+    for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+        r = simulate(p.model, y0, t[a:b + 1], p.params, method=c.method,
+                     rtol=None if c.rtol is None else c.rtol / tighten,
+                     atol=None if c.atol is None else c.atol / tighten,
+                     step=None if c.step is None else c.step / tighten,
+                     dtype=dtype or c.dtype, backend=scene.backend)
+        parts.append(r)
+        if progress:
+            progress.update(k + 1)
+        if not r.ok:
+            break
+        y0 = r.y[-1] if p.model != "spherical" else {"chart": r.chart[-1], "state": list(r.y[-1])}
+    return _join(parts)
+
+
+def _join(parts: list[SimulationResult]) -> SimulationResult:
+    first, last = parts[0], parts[-1]
+    cat = lambda attr: np.concatenate([getattr(parts[0], attr)] + [getattr(r, attr)[1:] for r in parts[1:]])
+    out = SimulationResult(**{**first.__dict__, "t": cat("t"), "y": cat("y"), "energy": cat("energy"),
+                              "positions": cat("positions")})
+    for attr in ("status", "status_name", "t_stop", "y_stop", "chart_stop"):
+        setattr(out, attr, getattr(last, attr))
+    for attr in ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton", "switches"):
+        setattr(out, attr, sum(getattr(r, attr) for r in parts))
+    if first.chart is not None:
+        out.chart = cat("chart")
+    return out
+
+
+def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray, np.ndarray]:
+    """Positions and energy of the scene's own pendulum (not of the model that ran)."""
+    if scene.model == "compound" and p.model == "planar":
+        from ..codegen.loader import load
+        from ..integration.simulate import normalise_params
+        pc = normalise_params("compound", scene.parameters).astype(np.float64)
+        m = load("compound")
+        y = r.y.astype(np.float64)
+        return m.positions(y, pc), m.energy(y, pc)
+    if p.plane is not None:
+        return planar_positions_in_3d(r.positions, p.plane), r.energy
+    return r.positions, r.energy
+
+
+def _state_error(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.max(np.abs(np.asarray(a, np.longdouble) - np.asarray(b, np.longdouble))))
+
+
+MAX_TIGHTENINGS = 3
+
+
+def _reference(p: Plan, scene: Scene, c: Choice) -> SimulationResult:
+    """The same run a thousand times tighter (in long double when double cannot)."""
+    tight = (c.rtol or 1.0) / 1000
+    return integrate(p, scene, c, None, tighten=1000.0,
+                     dtype="longdouble" if tight < DOUBLE_RTOL_MIN else c.dtype)
+
+
+def run(scene: Scene, show_progress: bool = True) -> Outcome:
+    start = time.perf_counter()
+    p = plan(scene)
+    steps = prepare(p.model, scene.backend)
+    lyap = _lyapunov(p, scene)
+    c = choose(scene, lyap)
+    progress = Progress("integrating", CHUNKS) if show_progress else None
+    result = integrate(p, scene, c, progress)
+    if progress:
+        progress.close()
+    achieved = None
+    measurable = c.method in ("dop853", "dopri5") and p.model != "spherical"
+    if result.ok and measurable:
+        reference, reference_rtol = _reference(p, scene, c), c.rtol / 1000
+        achieved = _state_error(result.y[-1], reference.y[-1]) if reference.ok else None
+        # Tolerance proportionality is only approximate: when the measured error
+        # misses the target, tighten by the observed ratio and run again.
+        for _ in range(MAX_TIGHTENINGS if scene.target is not None else 0):
+            if achieved is None or achieved <= scene.target or c.rtol <= LONG_DOUBLE_RTOL_MIN:
+                break
+            factor = SAFETY * achieved / scene.target
+            c.rtol = max(c.rtol / factor, LONG_DOUBLE_RTOL_MIN)
+            c.atol = c.rtol
+            c.dtype = "longdouble" if c.rtol < DOUBLE_RTOL_MIN else c.dtype
+            c.note = (c.note + "; " if c.note else "") + f"tightened rtol after measuring {achieved:.2g}"
+            result = integrate(p, scene, c, None)
+            if not result.ok:
+                break
+            if c.rtol < 100 * reference_rtol:      # the reference must stay far tighter
+                reference, reference_rtol = _reference(p, scene, c), c.rtol / 1000
+            achieved = _state_error(result.y[-1], reference.y[-1])
+    horizon = None
+    if lyap is not None:
+        e0 = initial_error(c.rtol if c.rtol is not None else 0.0,
+                           np.longdouble if c.dtype == "longdouble" else np.float64,
+                           float(np.max(np.abs(result.y[0]))))
+        horizon = trust_horizon(lyap, scene.target or 1e-8, e0) + scene.t_start
+    positions, energy = _observables(scene, p, result)
+    return Outcome(scene, p, steps, c, lyap, horizon, result, positions, energy, achieved,
+                   time.perf_counter() - start)
+
+
+def summary(o: Outcome) -> dict:
+    r = o.result
+    e = np.asarray(o.energy, float)
+    drift = float(np.nanmax(np.abs(e - e[0])) / max(abs(e[0]), 1e-300)) if len(e) else math.nan
+    return {
+        "scene": o.scene.source, "title": o.scene.title,
+        "model": o.plan.model, "model_reason": o.plan.reason,
+        "method": o.choice.method, "rtol": o.choice.rtol, "step": o.choice.step,
+        "dtype": o.choice.dtype, "backend": o.scene.backend,
+        "target": o.scene.target, "predicted_error": o.choice.predicted, "achieved_error": o.achieved,
+        "lyapunov_exponent": o.lyapunov.exponent if o.lyapunov else None,
+        "trust_horizon": o.trust_horizon,
+        "status": r.status_name, "ok": r.ok, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
+        "chart_switches": int(r.switches) if r.chart is not None else None,
+        "final_state": [float(v) for v in r.y[-1]],
+        "relative_energy_error": drift,
+        "steps": [s.line() for s in o.steps], "files": o.files, "seconds": o.seconds,
+        "note": o.choice.note,
+    }
