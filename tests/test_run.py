@@ -1,0 +1,91 @@
+"""`derive run SCENE` end to end, as a user meets it."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from derive import simulate
+from derive.scene import load_scene, parse_scene
+from derive.scene.run import run
+
+ROOT = Path(__file__).resolve().parent.parent
+DEFAULT = (ROOT / "scenes" / "default.toml").read_text()
+
+
+def derive_cli(*args, cwd=ROOT):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "derive", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=600)
+
+
+def test_default_scene_meets_its_target_and_reuses_the_cache(tmp_path):
+    first = derive_cli("run", "scenes/default.toml", "--json", "--output-dir", str(tmp_path))
+    assert first.returncode == 0, first.stderr
+    second = derive_cli("run", "scenes/default.toml", "--json", "--output-dir", str(tmp_path))
+    s = json.loads(second.stdout)
+    assert all("reused (cached)" in line for line in s["steps"]), s["steps"]
+    assert s["ok"] and s["achieved_error"] <= s["target"]
+    assert s["trust_horizon"] >= 5.0         # the run ends inside its trust horizon
+    assert 1.0 < s["lyapunov_exponent"] < 4.0  # chaotic: the exponent is clearly positive
+    data = np.loadtxt(tmp_path / "default.csv", delimiter=",", skiprows=1)
+    assert data.shape == (501, 1 + 4 + 4 + 1)
+    np.testing.assert_allclose(data[-1, 1:5], s["final_state"], rtol=0, atol=1e-12)
+
+
+def test_spherical_scene_in_a_plane_runs_planar_and_matches_the_atlas():
+    scene = load_scene(ROOT / "scenes" / "spherical_in_plane.toml")
+    outcome = run(scene, show_progress=False)
+    assert outcome.plan.model == "planar"
+    state = {k: v for k, v in scene.initial["state"].items() if k != "chart"}
+    y0 = [state[n] for n in ("theta1", "phi1", "theta2", "phi2",
+                             "theta1_dot", "phi1_dot", "theta2_dot", "phi2_dot")]
+    t = np.linspace(scene.t_start, scene.t_stop, scene.outputs)
+    direct = simulate("spherical", y0, t, scene.parameters, method="dop853", rtol=1e-11, atol=1e-13)
+    assert direct.ok, direct.message
+    assert np.max(np.abs(outcome.positions - direct.positions)) < 1e-6
+
+
+def test_compound_equivalent_scene_runs_planar_and_matches_compound():
+    scene = load_scene(ROOT / "scenes" / "compound_equivalent.toml")
+    outcome = run(scene, show_progress=False)
+    assert outcome.plan.model == "planar" and "derived" in outcome.plan.reason
+    y0 = [scene.initial["state"][n] for n in ("theta1", "theta2", "theta1_dot", "theta2_dot")]
+    t = np.linspace(scene.t_start, scene.t_stop, scene.outputs)
+    direct = simulate("compound", y0, t, scene.parameters, method="dop853", rtol=1e-12, atol=1e-14)
+    assert np.max(np.abs(outcome.positions - direct.positions)) < 1e-7
+    assert np.max(np.abs(outcome.energy - direct.energy)) < 1e-7
+
+
+def test_seed001_compound_is_not_reduced():
+    outcome = run(load_scene(ROOT / "scenes" / "compound_seed001.toml"), show_progress=False)
+    assert outcome.plan.model == "compound"
+
+
+def _write(tmp_path, text):
+    path = tmp_path / "scene.toml"
+    path.write_text(text)
+    return str(path)
+
+
+@pytest.mark.parametrize("edit,message", [
+    (lambda t: t.replace("l1 = 1.0", "l1 = -1.0"), "must be positive"),
+    (lambda t: t.replace("theta1 = 2.5", "theta1 = nan"), "must be finite"),
+    (lambda t: t.replace("g = 9.81", "g = 9.81, q = 1"), "unknown parameter"),
+    (lambda t: t.replace('model = "planar"', 'model = "quadruple"'), "unknown model"),
+    (lambda t: t.replace("state = { theta1 = 2.5, theta2 = 2.0, theta1_dot = 0.0, theta2_dot = 0.0 }",
+                         "state = [1.0, 2.0]"), "has 2 values"),
+    (lambda t: t.replace('directory = "out/default"', 'directory = "/proc/forbidden"'), "cannot write"),
+])
+def test_bad_scene_exits_2_with_one_line(tmp_path, edit, message):
+    run_ = derive_cli("run", _write(tmp_path, edit(DEFAULT)))
+    assert run_.returncode == 2, run_.stdout + run_.stderr
+    assert message in run_.stderr and len(run_.stderr.strip().splitlines()) == 1, run_.stderr
+
+
+def test_missing_scene_file():
+    run_ = derive_cli("run", "scenes/no-such-scene.toml")
+    assert run_.returncode == 2 and "does not exist" in run_.stderr
