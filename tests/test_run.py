@@ -89,3 +89,15 @@ def test_bad_scene_exits_2_with_one_line(tmp_path, edit, message):
 def test_missing_scene_file():
     run_ = derive_cli("run", "scenes/no-such-scene.toml")
     assert run_.returncode == 2 and "does not exist" in run_.stderr
+
+
+def test_scene_outputs_csv_npz_and_plots(tmp_path):
+    run_ = derive_cli("run", "scenes/compound_seed001.toml", "--quiet", "--output-dir", str(tmp_path))
+    assert run_.returncode == 0, run_.stderr
+    assert run_.stdout == ""                       # --quiet prints nothing
+    names = {p.name for p in tmp_path.iterdir()}
+    assert {"compound_seed001.csv", "compound_seed001.npz", "compound_seed001_paths.png",
+            "compound_seed001_energy.png"} <= names
+    data = np.load(tmp_path / "compound_seed001.npz")
+    assert data["y"].shape == (1001, 4) and data["positions"].shape == (1001, 2, 2)
+    assert (tmp_path / "compound_seed001_paths.png").read_bytes()[:4] == b"\x89PNG"
