@@ -316,7 +316,8 @@ def test_numpy_broadcasting(name):
     y, p = sample(name, 24)
     y = y.reshape(2, 3, 4, n)
     one = p[0]
-    for kernel, shape in [("rhs", (n,)), ("energy", ()), ("jacobian", (n, n)),
+    nq = n // 2
+    for kernel, shape in [("rhs", (n,)), ("energy", ()), ("jacobian", (n, n)), ("mass_matrix", (nq, nq)),
                           ("positions", (2, load_model(name).dimension))]:
         f = getattr(mod, kernel)
         full = f(y, one)
@@ -329,3 +330,14 @@ def test_numpy_broadcasting(name):
         assert f(y[0, 0, 0], p[:5]).shape == (5,) + shape
     with pytest.raises(ValueError, match="shape"):
         mod.rhs(np.zeros(n + 1), one)
+
+
+def test_a_million_states_in_one_call():
+    """NumPy and the C batch entry point each take 10^6 planar states at once."""
+    mod, lib = numpy_module("planar"), load("planar")
+    rng = np.random.default_rng(7)
+    y = rng.uniform(-3, 3, (1_000_000, 4))
+    p = np.array([1.0, 1.3, 0.9, 1.1, 9.81])
+    a, b = mod.rhs(y, p), lib.rhs(y, p)
+    assert a.shape == b.shape == (1_000_000, 4)
+    assert np.allclose(a, b, rtol=1e-13, atol=1e-12)

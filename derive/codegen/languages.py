@@ -23,6 +23,19 @@ def _wrap(text: str, width: int = 88) -> list[str]:
     return textwrap.wrap(" ".join(text.split()), width) or [""]
 
 
+def _join_terms(terms: list[str], sep: str, width: int) -> list[str]:
+    """terms joined by sep, broken into lines between terms, never inside one."""
+    lines, line = [], ""
+    for term in terms:
+        piece = term if not line else sep + term
+        if line and len(line) + len(piece) > width:
+            lines.append(line + sep.rstrip())
+            line = term
+        else:
+            line += piece
+    return lines + [line] if line else lines
+
+
 def _slot_doc(vector) -> str:
     return ", ".join(vector.names)
 
@@ -99,7 +112,7 @@ class C(Language):
                           for g in b.guards]
                 terms = [f"({a['value']} - {a['value']})" for a, e in
                          zip(assigns, [e for exprs in b.outputs for e in exprs]) if not e.is_Number]
-                check = _wrap(" + ".join(terms), 84) if terms else []
+                check = _join_terms(terms, " + ", 84)
                 variants.append({"ctype": v.ctype, "suffix": v.suffix, "locals": locals_,
                                  "assigns": assigns, "guards": guards, "check": check})
             kernels.append({

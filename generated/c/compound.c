@@ -1279,10 +1279,10 @@ int compound_hamiltonian_jacobian(const double *restrict x, const double *restri
     J[14] = t26;
     J[15] = t27;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) + (dv1_0 -
-        dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t30 - t30) + (t31 -
-        t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t26 - t26) + (t27 -
-        t27);
+    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t30 - t30) +
+        (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t26 - t26) +
+        (t27 - t27);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1376,10 +1376,10 @@ int compound_hamiltonian_jacobian_f(const float *restrict x, const float *restri
     J[14] = t26;
     J[15] = t27;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) + (dv1_0 -
-        dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t30 - t30) + (t31 -
-        t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t26 - t26) + (t27 -
-        t27);
+    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t30 - t30) +
+        (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t26 - t26) +
+        (t27 - t27);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1473,10 +1473,10 @@ int compound_hamiltonian_jacobian_l(const long double *restrict x, const long do
     J[14] = t26;
     J[15] = t27;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) + (dv1_0 -
-        dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t30 - t30) + (t31 -
-        t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t26 - t26) + (t27 -
-        t27);
+    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t30 - t30) +
+        (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t26 - t26) +
+        (t27 - t27);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }

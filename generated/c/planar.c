@@ -1189,10 +1189,10 @@ int planar_hamiltonian_jacobian(const double *restrict x, const double *restrict
     J[14] = t20;
     J[15] = t21;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) + (dv1_0 -
-        dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t24 - t24) + (t25 -
-        t25) + (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t20 - t20) + (t21 -
-        t21);
+    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t24 - t24) +
+        (t25 - t25) + (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t20 - t20) +
+        (t21 - t21);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1280,10 +1280,10 @@ int planar_hamiltonian_jacobian_f(const float *restrict x, const float *restrict
     J[14] = t20;
     J[15] = t21;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) + (dv1_0 -
-        dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t24 - t24) + (t25 -
-        t25) + (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t20 - t20) + (t21 -
-        t21);
+    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t24 - t24) +
+        (t25 - t25) + (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t20 - t20) +
+        (t21 - t21);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1371,10 +1371,10 @@ int planar_hamiltonian_jacobian_l(const long double *restrict x, const long doub
     J[14] = t20;
     J[15] = t21;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) + (dv1_0 -
-        dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t24 - t24) + (t25 -
-        t25) + (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t20 - t20) + (t21 -
-        t21);
+    check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t24 - t24) +
+        (t25 - t25) + (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t20 - t20) +
+        (t21 - t21);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }

@@ -2418,10 +2418,11 @@ int spherical_alt_to_spherical_rot(const double *restrict y, double *restrict y_
         status |= SPHERICAL_ALT_STATUS_SINGULAR;
     }
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) + (spherical_rot_varphi1 -
-        spherical_rot_varphi1) + (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
-        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
-        t22) + (t23 - t23);
+    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) +
+        (spherical_rot_varphi1 - spherical_rot_varphi1) +
+        (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
+        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) +
+        (t22 - t22) + (t23 - t23);
     if (isnan(check)) {
         status |= SPHERICAL_ALT_STATUS_NONFINITE;
     }
@@ -2502,10 +2503,11 @@ int spherical_alt_to_spherical_rot_f(const float *restrict y, float *restrict y_
         status |= SPHERICAL_ALT_STATUS_SINGULAR;
     }
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) + (spherical_rot_varphi1 -
-        spherical_rot_varphi1) + (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
-        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
-        t22) + (t23 - t23);
+    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) +
+        (spherical_rot_varphi1 - spherical_rot_varphi1) +
+        (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
+        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) +
+        (t22 - t22) + (t23 - t23);
     if (isnan(check)) {
         status |= SPHERICAL_ALT_STATUS_NONFINITE;
     }
@@ -2586,10 +2588,11 @@ int spherical_alt_to_spherical_rot_l(const long double *restrict y, long double 
         status |= SPHERICAL_ALT_STATUS_SINGULAR;
     }
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) + (spherical_rot_varphi1 -
-        spherical_rot_varphi1) + (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
-        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
-        t22) + (t23 - t23);
+    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) +
+        (spherical_rot_varphi1 - spherical_rot_varphi1) +
+        (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
+        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) +
+        (t22 - t22) + (t23 - t23);
     if (isnan(check)) {
         status |= SPHERICAL_ALT_STATUS_NONFINITE;
     }
@@ -2670,10 +2673,11 @@ int spherical_alt_to_spherical_std(const double *restrict y, double *restrict y_
         status |= SPHERICAL_ALT_STATUS_SINGULAR;
     }
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (spherical_std_theta1 - spherical_std_theta1) + (spherical_std_phi1 -
-        spherical_std_phi1) + (spherical_std_theta2 - spherical_std_theta2) +
-        (spherical_std_phi2 - spherical_std_phi2) + (t20 - t20) + (t21 - t21) + (t22 - t22)
-        + (t23 - t23);
+    check = (spherical_std_theta1 - spherical_std_theta1) +
+        (spherical_std_phi1 - spherical_std_phi1) +
+        (spherical_std_theta2 - spherical_std_theta2) +
+        (spherical_std_phi2 - spherical_std_phi2) + (t20 - t20) + (t21 - t21) + (t22 - t22) +
+        (t23 - t23);
     if (isnan(check)) {
         status |= SPHERICAL_ALT_STATUS_NONFINITE;
     }
@@ -2754,10 +2758,11 @@ int spherical_alt_to_spherical_std_f(const float *restrict y, float *restrict y_
         status |= SPHERICAL_ALT_STATUS_SINGULAR;
     }
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (spherical_std_theta1 - spherical_std_theta1) + (spherical_std_phi1 -
-        spherical_std_phi1) + (spherical_std_theta2 - spherical_std_theta2) +
-        (spherical_std_phi2 - spherical_std_phi2) + (t20 - t20) + (t21 - t21) + (t22 - t22)
-        + (t23 - t23);
+    check = (spherical_std_theta1 - spherical_std_theta1) +
+        (spherical_std_phi1 - spherical_std_phi1) +
+        (spherical_std_theta2 - spherical_std_theta2) +
+        (spherical_std_phi2 - spherical_std_phi2) + (t20 - t20) + (t21 - t21) + (t22 - t22) +
+        (t23 - t23);
     if (isnan(check)) {
         status |= SPHERICAL_ALT_STATUS_NONFINITE;
     }
@@ -2838,10 +2843,11 @@ int spherical_alt_to_spherical_std_l(const long double *restrict y, long double 
         status |= SPHERICAL_ALT_STATUS_SINGULAR;
     }
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (spherical_std_theta1 - spherical_std_theta1) + (spherical_std_phi1 -
-        spherical_std_phi1) + (spherical_std_theta2 - spherical_std_theta2) +
-        (spherical_std_phi2 - spherical_std_phi2) + (t20 - t20) + (t21 - t21) + (t22 - t22)
-        + (t23 - t23);
+    check = (spherical_std_theta1 - spherical_std_theta1) +
+        (spherical_std_phi1 - spherical_std_phi1) +
+        (spherical_std_theta2 - spherical_std_theta2) +
+        (spherical_std_phi2 - spherical_std_phi2) + (t20 - t20) + (t21 - t21) + (t22 - t22) +
+        (t23 - t23);
     if (isnan(check)) {
         status |= SPHERICAL_ALT_STATUS_NONFINITE;
     }

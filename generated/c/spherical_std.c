@@ -2361,10 +2361,11 @@ int spherical_std_to_spherical_alt(const double *restrict y, double *restrict y_
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (spherical_alt_vartheta1 - spherical_alt_vartheta1) + (spherical_alt_varphi1 -
-        spherical_alt_varphi1) + (spherical_alt_vartheta2 - spherical_alt_vartheta2) +
-        (spherical_alt_varphi2 - spherical_alt_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
-        t22) + (t23 - t23);
+    check = (spherical_alt_vartheta1 - spherical_alt_vartheta1) +
+        (spherical_alt_varphi1 - spherical_alt_varphi1) +
+        (spherical_alt_vartheta2 - spherical_alt_vartheta2) +
+        (spherical_alt_varphi2 - spherical_alt_varphi2) + (t20 - t20) + (t21 - t21) +
+        (t22 - t22) + (t23 - t23);
     if (isnan(check)) {
         status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
@@ -2445,10 +2446,11 @@ int spherical_std_to_spherical_alt_f(const float *restrict y, float *restrict y_
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (spherical_alt_vartheta1 - spherical_alt_vartheta1) + (spherical_alt_varphi1 -
-        spherical_alt_varphi1) + (spherical_alt_vartheta2 - spherical_alt_vartheta2) +
-        (spherical_alt_varphi2 - spherical_alt_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
-        t22) + (t23 - t23);
+    check = (spherical_alt_vartheta1 - spherical_alt_vartheta1) +
+        (spherical_alt_varphi1 - spherical_alt_varphi1) +
+        (spherical_alt_vartheta2 - spherical_alt_vartheta2) +
+        (spherical_alt_varphi2 - spherical_alt_varphi2) + (t20 - t20) + (t21 - t21) +
+        (t22 - t22) + (t23 - t23);
     if (isnan(check)) {
         status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
@@ -2529,10 +2531,11 @@ int spherical_std_to_spherical_alt_l(const long double *restrict y, long double 
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (spherical_alt_vartheta1 - spherical_alt_vartheta1) + (spherical_alt_varphi1 -
-        spherical_alt_varphi1) + (spherical_alt_vartheta2 - spherical_alt_vartheta2) +
-        (spherical_alt_varphi2 - spherical_alt_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
-        t22) + (t23 - t23);
+    check = (spherical_alt_vartheta1 - spherical_alt_vartheta1) +
+        (spherical_alt_varphi1 - spherical_alt_varphi1) +
+        (spherical_alt_vartheta2 - spherical_alt_vartheta2) +
+        (spherical_alt_varphi2 - spherical_alt_varphi2) + (t20 - t20) + (t21 - t21) +
+        (t22 - t22) + (t23 - t23);
     if (isnan(check)) {
         status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
@@ -2613,10 +2616,11 @@ int spherical_std_to_spherical_rot(const double *restrict y, double *restrict y_
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) + (spherical_rot_varphi1 -
-        spherical_rot_varphi1) + (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
-        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
-        t22) + (t23 - t23);
+    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) +
+        (spherical_rot_varphi1 - spherical_rot_varphi1) +
+        (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
+        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) +
+        (t22 - t22) + (t23 - t23);
     if (isnan(check)) {
         status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
@@ -2697,10 +2701,11 @@ int spherical_std_to_spherical_rot_f(const float *restrict y, float *restrict y_
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) + (spherical_rot_varphi1 -
-        spherical_rot_varphi1) + (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
-        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
-        t22) + (t23 - t23);
+    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) +
+        (spherical_rot_varphi1 - spherical_rot_varphi1) +
+        (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
+        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) +
+        (t22 - t22) + (t23 - t23);
     if (isnan(check)) {
         status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
@@ -2781,10 +2786,11 @@ int spherical_std_to_spherical_rot_l(const long double *restrict y, long double 
         status |= SPHERICAL_STD_STATUS_SINGULAR;
     }
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) + (spherical_rot_varphi1 -
-        spherical_rot_varphi1) + (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
-        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) + (t22 -
-        t22) + (t23 - t23);
+    check = (spherical_rot_vartheta1 - spherical_rot_vartheta1) +
+        (spherical_rot_varphi1 - spherical_rot_varphi1) +
+        (spherical_rot_vartheta2 - spherical_rot_vartheta2) +
+        (spherical_rot_varphi2 - spherical_rot_varphi2) + (t20 - t20) + (t21 - t21) +
+        (t22 - t22) + (t23 - t23);
     if (isnan(check)) {
         status |= SPHERICAL_STD_STATUS_NONFINITE;
     }
