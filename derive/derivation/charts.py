@@ -55,5 +55,7 @@ def chart_change(source: Model, target: Model) -> ChartChange:
         if not gram.is_diagonal():
             raise ValueError(f"chart '{lb.chart.name}' is not orthogonal; (5.11)-(5.14) do not apply")
         for k in range(len(qb)):
-            rates.append(sp.trigsimp(velocity.dot(J_b[:, k])) / gram[k, k])
+            # factor_terms exposes the sin u inside de/dv, so one power of the
+            # Gram entry sin^2 u cancels: the code divides by sin u, not sin^2 u.
+            rates.append(sp.factor_terms(sp.trigsimp(velocity.dot(J_b[:, k]))) / gram[k, k])
     return ChartChange(source.name, target.name, a, b, coords, target_q, rates)

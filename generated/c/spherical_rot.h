@@ -210,7 +210,7 @@ int spherical_rot_polar_sines_batch_l(long n, const long double *restrict y, lon
  *
  *   in  y[8]: the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
  *   out y_out[8]: state of 'spherical_alt'
- * Total ops: 76
+ * Total ops: 82
  */
 #define SPHERICAL_ROT_TO_SPHERICAL_ALT_Y_SIZE 8
 #define SPHERICAL_ROT_TO_SPHERICAL_ALT_Y_RANK 1
@@ -229,7 +229,7 @@ int spherical_rot_to_spherical_alt_batch_l(long n, const long double *restrict y
  *
  *   in  y[8]: the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
  *   out y_out[8]: state of 'spherical_std'
- * Total ops: 78
+ * Total ops: 91
  */
 #define SPHERICAL_ROT_TO_SPHERICAL_STD_Y_SIZE 8
 #define SPHERICAL_ROT_TO_SPHERICAL_STD_Y_RANK 1

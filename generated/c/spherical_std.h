@@ -210,7 +210,7 @@ int spherical_std_polar_sines_batch_l(long n, const long double *restrict y, lon
  *
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   out y_out[8]: state of 'spherical_alt'
- * Total ops: 76
+ * Total ops: 86
  */
 #define SPHERICAL_STD_TO_SPHERICAL_ALT_Y_SIZE 8
 #define SPHERICAL_STD_TO_SPHERICAL_ALT_Y_RANK 1
@@ -229,7 +229,7 @@ int spherical_std_to_spherical_alt_batch_l(long n, const long double *restrict y
  *
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   out y_out[8]: state of 'spherical_rot'
- * Total ops: 76
+ * Total ops: 86
  */
 #define SPHERICAL_STD_TO_SPHERICAL_ROT_Y_SIZE 8
 #define SPHERICAL_STD_TO_SPHERICAL_ROT_Y_RANK 1

@@ -262,8 +262,10 @@ def mass_matrix(y, p):
     t21 = l2*l2
     M22 = m2*t21
     del t21
-    M33 = M22*t1*t1
+    t22 = t1*t1
     del t1
+    M33 = M22*t22
+    del t22
     M = numpy.empty(shape + (4, 4), dtype)
     M[..., 0, 0] = M00
     del M00
@@ -315,86 +317,88 @@ def forcing(y, p):
     l2 = p[..., 3]
     g = p[..., 4]
     t0 = numpy.cos(vartheta1)
-    t1 = numpy.sin(varphi1)
-    t2 = varphi2_dot*varphi2_dot
-    t3 = numpy.sin(vartheta1)
-    t4 = numpy.cos(vartheta2)
-    t5 = t3*t4
-    t6 = varphi1 - varphi2
-    t7 = numpy.cos(t6)
-    t8 = numpy.sin(vartheta2)
-    t9 = t0*t8
-    t10 = t7*t9
-    t11 = l1*m2
-    t12 = l2*t11
-    t13 = vartheta2_dot*vartheta2_dot
-    t14 = t12*t13
-    t15 = g*m1
-    t16 = g*m2
-    t17 = l2*t4
-    t18 = t17*vartheta2_dot
-    t19 = numpy.sin(t6)
-    del t6
-    t20 = 2*t11
-    del t11
-    t21 = t20*t19
-    t22 = l1*l1
-    t23 = m1*t22
-    t24 = m2*t22
-    del t22
-    t25 = varphi1_dot*varphi1_dot
-    t26 = t25*t3
-    t27 = 2*varphi2_dot
-    t28 = t27*vartheta2_dot
-    del t27
-    t29 = t17*t28
+    t1 = varphi2_dot*varphi2_dot
+    t2 = numpy.sin(vartheta1)
+    t3 = numpy.cos(vartheta2)
+    t4 = t2*t3
+    t5 = varphi1 - varphi2
+    t6 = numpy.cos(t5)
+    t7 = numpy.sin(vartheta2)
+    t8 = t0*t7
+    t9 = t6*t8
+    t10 = l1*m2
+    t11 = l2*t10
+    t12 = vartheta2_dot*vartheta2_dot
+    t13 = t11*t12
+    t14 = g*m1
+    t15 = g*m2
+    t16 = numpy.sin(varphi1)
+    t17 = t0*t16
+    del t16
+    t18 = l2*t3
+    t19 = t18*vartheta2_dot
+    t20 = numpy.sin(t5)
+    del t5
+    t21 = 2*t10
+    del t10
+    t22 = t21*t20
+    t23 = l1*l1
+    t24 = m1*t23
+    t25 = m2*t23
+    del t23
+    t26 = varphi1_dot*varphi1_dot
+    t27 = t2*t26
+    t28 = 2*varphi2_dot
+    t29 = t28*vartheta2_dot
     del t28
-    t30 = numpy.cos(varphi1)
-    t31 = t0*vartheta1_dot
-    t32 = t31*varphi1_dot
-    del t31
-    t33 = l1*m1
-    t34 = l2*t19
-    t35 = m2*t8
-    t36 = t34*t35
-    del t34
-    t37 = numpy.sin(varphi2)
-    t38 = t4*t8
-    del t4, t8
-    t39 = t5*t7
-    t40 = l2*l2
-    t41 = m2*t40
-    del t40
-    t42 = vartheta1_dot*vartheta1_dot
-    t43 = t12*t42
-    t44 = numpy.cos(varphi2)
-    t45 = g*t44
-    del t44
-    t46 = 2*vartheta1_dot
-    t47 = t46*varphi1_dot
-    del t46
-    t48 = l1*t0
-    t49 = t48*t7
-    del t48
-    t50 = t47*t49
-    del t47, t49
-    t51 = (-l1*t15 - l1*t16)*(t0*t1) + (t23 + t24)*(t0*t26) + t12*(t10*t2) + t10*t14 - t0*t18*t21*varphi2_dot - t14*t5
-    del t0, t1, t10, t14, t18, t23, t24, t26, t5
-    t52 = (-l1)*t3*(m2*(t29*t7) + t13*t36 + t2*t36 + (t15 + t16)*t30 + (t20 + 2*t33)*t32)
-    del t13, t15, t20, t30, t33, t36, t7
-    t53 = t12*(t25*t39) + t17*t21*t32 + t41*(t2*t38) + t39*t43 - t16*(t17*t37) - t43*t9
-    del t12, t16, t17, t2, t21, t32, t37, t38, t39, t41, t43, t9
-    t54 = l2*(t35*(l1*(t19*t25*t3) + l1*(t19*t3*t42) - t29 - t45 - t50))
-    del t19, t25, t29, t3, t35, t42, t45, t50
+    t30 = t18*t29
+    del t29
+    t31 = numpy.cos(varphi1)
+    t32 = t0*vartheta1_dot
+    t33 = t32*varphi1_dot
+    del t32
+    t34 = l1*m1
+    t35 = l2*t20
+    t36 = m2*t7
+    t37 = t35*t36
+    del t35
+    t38 = numpy.sin(varphi2)
+    t39 = t3*t7
+    del t3, t7
+    t40 = t4*t6
+    t41 = l2*l2
+    t42 = m2*t41
+    del t41
+    t43 = vartheta1_dot*vartheta1_dot
+    t44 = t11*t43
+    t45 = numpy.cos(varphi2)
+    t46 = g*t45
+    del t45
+    t47 = 2*vartheta1_dot
+    t48 = t47*varphi1_dot
+    del t47
+    t49 = l1*t0
+    t50 = t49*t6
+    del t49
+    t51 = t48*t50
+    del t48, t50
+    t52 = (t24 + t25)*(t0*t27) + t11*(t1*t9) + t13*t9 + (-l1*t14 - l1*t15)*t17 - t0*t19*t22*varphi2_dot - t13*t4
+    del t0, t13, t17, t19, t24, t25, t27, t4, t9
+    t53 = (-l1)*t2*(m2*(t30*t6) + t1*t37 + t12*t37 + (t14 + t15)*t31 + (t21 + 2*t34)*t33)
+    del t12, t14, t21, t31, t34, t37, t6
+    t54 = t42*(t1*t39) + t11*(t26*t40) + t18*t22*t33 + t40*t44 - t15*(t18*t38) - t44*t8
+    del t1, t11, t15, t18, t22, t33, t38, t39, t40, t42, t44, t8
+    t55 = l2*(t36*(l1*(t2*t20*t26) + l1*(t2*t20*t43) - t30 - t46 - t51))
+    del t2, t20, t26, t30, t36, t43, t46, t51
     F = numpy.empty(shape + (4,), dtype)
-    F[..., 0] = t51
-    del t51
-    F[..., 1] = t52
+    F[..., 0] = t52
     del t52
-    F[..., 2] = t53
+    F[..., 1] = t53
     del t53
-    F[..., 3] = t54
+    F[..., 2] = t54
     del t54
+    F[..., 3] = t55
+    del t55
     return F
 
 
@@ -454,31 +458,33 @@ def energy(y, p):
     t24 = l2*l2
     t25 = m2*t24
     del t24
-    t26 = t25*t1*t1
-    t27 = numpy.sin(varphi1)
-    t28 = t0*t27
-    del t0, t27
-    t29 = l2*t19
+    t26 = t1*t1
+    t27 = t25*t26
+    del t26
+    t28 = numpy.sin(varphi1)
+    t29 = t0*t28
+    del t0, t28
+    t30 = l2*t19
     del t19
-    t30 = t29*vartheta2_dot
-    del t29
-    t31 = l1*m1
-    t32 = l1*l1
-    t33 = m1*t32
-    t34 = m2*t32
-    del t32
-    t35 = (1/2)*t33 + (1/2)*t34
-    del t33, t34
-    t36 = numpy.sin(varphi2)
-    t37 = t1*t36
-    del t1, t36
-    t38 = l2*t37
-    del t37
-    t39 = g*(m2*t38 + (t11 + t31)*t28) + t35*t10 + t11*(t30*t4*t9) + t12*(t2*vartheta1_dot*vartheta2_dot) + t17*varphi2_dot*vartheta1_dot + t35*(t18*t6) + t23*varphi1_dot*varphi2_dot + ((1/2)*t25)*t7 + 1/2*(t26*t5) - t21*varphi1_dot*vartheta2_dot
-    del t10, t11, t12, t17, t18, t2, t21, t23, t25, t26, t28, t30, t31, t35, t38, t4, t5, t6, t7, t9
+    t31 = t30*vartheta2_dot
+    del t30
+    t32 = l1*m1
+    t33 = l1*l1
+    t34 = m1*t33
+    t35 = m2*t33
+    del t33
+    t36 = (1/2)*t34 + (1/2)*t35
+    del t34, t35
+    t37 = numpy.sin(varphi2)
+    t38 = t1*t37
+    del t1, t37
+    t39 = l2*t38
+    del t38
+    t40 = g*(m2*t39 + (t11 + t32)*t29) + t36*t10 + t11*(t31*t4*t9) + t12*(t2*vartheta1_dot*vartheta2_dot) + t17*varphi2_dot*vartheta1_dot + t36*(t18*t6) + t23*varphi1_dot*varphi2_dot + ((1/2)*t25)*t7 + 1/2*(t27*t5) - t21*varphi1_dot*vartheta2_dot
+    del t10, t11, t12, t17, t18, t2, t21, t23, t25, t27, t29, t31, t32, t36, t39, t4, t5, t6, t7, t9
     E = numpy.empty(shape + (), dtype)
-    E[...] = t39
-    del t39
+    E[...] = t40
+    del t40
     return E
 
 
@@ -583,13 +589,13 @@ def jacobian(y, p):
     del t9
     t10 = varphi1_dot*varphi1_dot
     t11 = vartheta1_dot*vartheta1_dot
-    t12 = t0*vartheta1_dot
-    t13 = l1*l2
-    t14 = t13*t8
-    t15 = t0*t14
+    t12 = l1*l2
+    t13 = t12*t8
+    t14 = t0*t13
+    t15 = t0*vartheta1_dot
     t16 = numpy.cos(t7)
     del t7
-    Q11 = t13*t16
+    Q11 = t12*t16
     t17 = 2*varphi1_dot
     t18 = Q11*t17
     Ab = l2*l2
@@ -608,7 +614,7 @@ def jacobian(y, p):
     t26 = t0*t1
     t27 = t19*t5
     t28 = t16*t27 + t26
-    Q00 = t13*t28
+    Q00 = t12*t28
     t29 = t25 + Q00*Q00
     D1_00 = -t23 - t29
     D1_01 = -Q00*Q10 - Q01*Q11
@@ -625,14 +631,14 @@ def jacobian(y, p):
     t37 = varphi2_dot*varphi2_dot
     t38 = t1*t37
     t39 = vartheta2_dot*vartheta2_dot
-    t40 = t13*t39
+    t40 = t12*t39
     t41 = t40*t8
     t42 = t16*t21
     del t21
     t43 = t5*vartheta1_dot
     t44 = t43*varphi1_dot
     t45 = 2*Aa
-    f1 = -t1*t41 - t14*t38 - t33*t42 - t36*t34 - t45*t44
+    f1 = -t1*t41 - t13*t38 - t33*t42 - t36*t34 - t45*t44
     del t44
     t46 = numpy.sin(varphi2)
     t47 = t1*t19
@@ -643,7 +649,7 @@ def jacobian(y, p):
     t52 = t6*t8
     t53 = t20*t52
     t54 = t16*t48
-    t55 = t13*(t1*t5 - t54)
+    t55 = t12*(t1*t5 - t54)
     del t54
     f2 = Ab*(t37*t47) + Q11*t49 + t51*t53 - g*(t20*t46) - t11*t55
     t56 = numpy.cos(varphi2)
@@ -667,210 +673,212 @@ def jacobian(y, p):
     del t52
     t69 = Ab*f0 - Q00*f2 - Q01*f3
     qdd0 = D1_11*rD1*t69 - D1_01*t62
-    t70 = Q01*t10 + Q01*t11 + qdd0*t15 + t12*t18
-    t71 = t14*t48
+    t70 = Q01*t10 + Q01*t11 + qdd0*t14 + t15*t18
+    t71 = t13*t48
     t72 = -t28
     del t28
-    t73 = t13*t11
+    t73 = t12*t11
     t74 = (l1*l2)*(t10*t16*t19*t5) - qdd0*t55 - t51*t71 - t72*t73
     t75 = (2*Ab*t2*t3*t4)*(t0*varphi1_dot*vartheta1_dot) - Q10*t74 - Q11*t70
     t76 = D1_01*rD1
-    t77 = t0*t63
-    t78 = l1*t77
-    del t77
+    t77 = t5*t5
+    t78 = t0*t63
+    t79 = l1*t78
+    del t78
     D2_00 = -t29 - t30
     del t29, t30
     D2_01 = -Q00*Q01 - Q10*Q11
     D2_11 = -t23 - t31
     del t23, t31
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t79 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t80 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
     del f3
-    t80 = Aa*f2 - Q00*f0 - Q10*f1
+    t81 = Aa*f2 - Q00*f0 - Q10*f1
     del f0, f1, f2
-    xr3 = D2_00*t79 - D2_01*rD2*t80
-    t81 = t14*xr3
-    t82 = t16*t26
-    t83 = t27 + t82
-    del t27, t82
-    qdd2 = D2_11*rD2*t80 - D2_01*t79
-    del t79, t80
-    t84 = Aa*(t10*(-1 + 2*t5*t5)) + t0*t81 + t33*t71 + t35*t78 - Q11*t26*t37 - qdd2*t55 - t40*t83
-    del t35, t71, t78
-    t85 = Ab*t84 - Q00*t74 - Q01*t70
-    t86 = t0*t10
+    xr3 = D2_00*t80 - D2_01*rD2*t81
+    t82 = t13*xr3
+    t83 = t16*t26
+    t84 = t27 + t83
+    del t27, t83
+    qdd2 = D2_11*rD2*t81 - D2_01*t80
+    del t80, t81
+    t85 = Aa*(t10*(-1 + 2*t77)) + t0*t82 + t33*t71 + t35*t79 - Q11*t26*t37 - qdd2*t55 - t40*t84
+    del t35, t71, t77, t79
+    t86 = Ab*t85 - Q00*t74 - Q01*t70
+    t87 = t0*t10
     xr1 = D1_00*t62 - D1_01*rD1*t69
     del D1_01, t62, t69
-    t87 = t14*xr1
-    t88 = Q01*t51 + Q11*t0*t11 + Q11*t86 + t87 - qdd0*t61
-    del t11, t86
-    t89 = t51*t60
-    t90 = qdd0*t53 + t20*t89 + t42*xr1 - t14*t49 - t48*t73*t8
-    del t49, t89
-    t91 = qdd2*t42 + t22*t33 + t81 - Q11*t1*t39 - Q11*t38
-    del t33, t38, t81
-    t92 = t36*t63 + t91
+    t88 = t13*xr1
+    t89 = Q01*t51 + Q11*t0*t11 + Q11*t87 + t88 - qdd0*t61
+    del t11, t87
+    t90 = t51*t60
+    t91 = qdd0*t53 + t20*t90 + t42*xr1 - t13*t49 - t48*t73*t8
+    del t49, t90
+    t92 = qdd2*t42 + t22*t33 + t82 - Q11*t1*t39 - Q11*t38
+    del t33, t38, t82
+    t93 = t36*t63 + t92
     del t36, t63
-    t93 = Ab*t92 - Q10*t90 - Q11*t88
-    t94 = t14*t66
-    t95 = t37*t94 + t41*t66 + t60*t65 + t61*xr3 - qdd2*t53
+    t94 = Ab*t93 - Q10*t91 - Q11*t89
+    t95 = t13*t66
+    t96 = t37*t95 + t41*t66 + t60*t65 + t61*xr3 - qdd2*t53
     del t41, t60, t65
-    t96 = -t34*t64 - t95
+    t97 = -t34*t64 - t96
     del t34, t64
-    t97 = Ab*t96 - Q00*t90 - Q01*t88
-    t98 = t1*vartheta2_dot
-    t99 = t59*t98
-    t100 = t1*t14
-    t101 = (2*l1*l2)*(t1*t16*varphi2_dot*vartheta2_dot) - qdd2*t100 - t22*t37 - t22*t39
+    t98 = Ab*t97 - Q00*t91 - Q01*t89
+    t99 = t1*vartheta2_dot
+    t100 = t59*t99
+    t101 = t1*t13
+    t102 = (2*l1*l2)*(t1*t16*varphi2_dot*vartheta2_dot) - qdd2*t101 - t22*t37 - t22*t39
     del t22, t39
-    t102 = t13*t68
-    del t13, t68
-    t103 = Ab*(t37*(-1 + 2*t19*t19)) + (g*l2)*(t1*t46) - Q11*t10*t26 - qdd0*t102 - t1*t87 - t51*t94 - t73*t83
-    del qdd0, t10, t26, t51, t73, t83, t87, t94
-    t104 = Ab*t101 - Q10*t103 - Q11*t99
-    t105 = (2*l1*l2)*(t1*t5*t8*varphi2_dot*vartheta2_dot) + (l1*l2)*(t16*t19*t37*t5) - qdd2*t102 - t40*t72
+    t103 = t19*t19
+    t104 = t12*t68
+    del t12, t68
+    t105 = Ab*(t37*(-1 + 2*t103)) + (g*l2)*(t1*t46) - Q11*t10*t26 - qdd0*t104 - t1*t88 - t51*t95 - t73*t84
+    del qdd0, t10, t103, t26, t51, t73, t84, t88, t95
+    t106 = Ab*t102 - Q10*t105 - Q11*t100
+    t107 = (2*l1*l2)*(t1*t5*t8*varphi2_dot*vartheta2_dot) + (l1*l2)*(t16*t19*t37*t5) - qdd2*t104 - t40*t72
     del qdd2, t16, t37, t40, t72
-    t106 = Ab*t105 - Q00*t103 - Q01*t99
-    del t99
-    t107 = -t91
-    del t91
-    t108 = (g*l2)*t46 - t88
+    t108 = Ab*t107 - Q00*t105 - Q01*t100
+    del t100
+    t109 = -t92
+    del t92
+    t110 = (g*l2)*t46 - t89
     del t46
-    t109 = -t20*t57 - t90
+    t111 = -t20*t57 - t91
     del t20, t57
-    t110 = Ab*t107 - Q10*t109 - Q11*t108
-    t111 = Ab*t95 - Q00*t109 - Q01*t108
-    t112 = (2*l1*l2)*(t0*t8*vartheta1_dot) - t17*t61
+    t112 = Ab*t109 - Q10*t111 - Q11*t110
+    t113 = Ab*t96 - Q00*t111 - Q01*t110
+    t114 = (2*l1*l2)*(t0*t8*vartheta1_dot) - t17*t61
     del t8
-    t113 = t17*t53 - t50*t55
+    t115 = t17*t53 - t50*t55
     del t55
-    t114 = -Q00*t113 - Q01*t112
-    t115 = Aa*t17
-    t116 = t115*t5
-    t117 = -Ab*t116 - Q10*t113 - Q11*t112
-    t118 = t45*t43
+    t116 = -Q00*t115 - Q01*t114
+    t117 = Aa*t17
+    t118 = t117*t5
+    t119 = -Ab*t118 - Q10*t115 - Q11*t114
+    t120 = t45*t43
     del t43, t45
-    t119 = t15*t17 - t50*t61
-    del t15, t17, t61
-    t120 = t18*t48 + t50*t53
+    t121 = t14*t17 - t50*t61
+    del t14, t17, t61
+    t122 = t18*t48 + t50*t53
     del t18, t48, t50
-    t121 = -Ab*t118 - Q10*t120 - Q11*t119
-    t122 = (2*Ab*t2*t3*t4)*(t0*t5*varphi1_dot) - Q00*t120 - Q01*t119
+    t123 = -Ab*t120 - Q10*t122 - Q11*t121
+    t124 = (2*Ab*t2*t3*t4)*(t0*t5*varphi1_dot) - Q00*t122 - Q01*t121
     del t2, t3, t4
-    t123 = t19*t59
-    t124 = -2*(t14*t98) - t32*t42
-    del t14, t98
-    t125 = Ab*t124 + Q11*t123
-    t126 = 2*vartheta2_dot
-    t127 = -t102*t126 - t32*t53
-    del t102
-    t128 = Ab*t127 + Q01*t123
-    t129 = Ab*t58
+    t125 = t19*t59
+    t126 = -2*(t13*t99) - t32*t42
+    del t13, t99
+    t127 = Ab*t126 + Q11*t125
+    t128 = 2*vartheta2_dot
+    t129 = -t104*t128 - t32*t53
+    del t104
+    t130 = Ab*t129 + Q01*t125
+    t131 = Ab*t58
     del t58
-    t130 = 2*t129
-    t131 = t47*t59
+    t132 = 2*t131
+    t133 = t47*t59
     del t47, t59
-    t132 = -t100*t32 - t126*t42
-    del t100, t42
-    t133 = Ab*t132 + Q11*t130 - Q10*t131
-    t134 = 2*Q01
-    t135 = Q11*t32*t66 - t126*t53
-    del t126, t32, t53, t66
-    t136 = Ab*t135 + t129*t134 - Q00*t131
-    del t129, t131
+    t134 = -t101*t32 - t128*t42
+    del t101, t42
+    t135 = Ab*t134 + Q11*t132 - Q10*t133
+    t136 = 2*Q01
+    t137 = Q11*t32*t66 - t128*t53
+    del t128, t32, t53, t66
+    t138 = Ab*t137 + t131*t136 - Q00*t133
+    del t131, t133
     rs1 = 1.0/t0
     qdd1 = rs1*xr1
     del xr1
-    t137 = D1_00*rD1
-    t138 = t115*t12
-    del t115, t12
-    t139 = Aa*t70 - Q01*t84 - Q11*t138
+    t139 = D1_00*rD1
+    t140 = t117*t15
+    del t117, t15
+    t141 = Aa*t70 - Q01*t85 - Q11*t140
     del t70
-    t140 = D2_01*rD2
+    t142 = D2_01*rD2
     del D2_01
-    t141 = Aa*t74 - Q00*t84 - Q10*t138
-    del t138, t74, t84
-    t142 = Aa*t88 - Q01*t96 - Q11*t92
-    del t88
-    t143 = Aa*t90 - Q00*t96 - Q10*t92
-    del t90, t92, t96
-    t144 = (2*Aa*Ab)*(t1*varphi2_dot*vartheta2_dot) - Q01*t105 - Q11*t101
-    t145 = Aa*t103 - Q00*t105 - Q10*t101
-    del t101, t103, t105
-    t146 = Aa*t108 - Q01*t95 - Q11*t107
-    del t108
-    t147 = Aa*t109 - Q00*t95 - Q10*t107
-    del t107, t109, t95
-    t148 = Aa*t112 + Q11*t116
-    del t112
-    t149 = Aa*t113 + Q10*t116
-    del t113
-    t150 = Aa*t119 + Q11*t118 - Aa*(t0*t134*t5*varphi1_dot)
-    del t119, t134
-    t151 = Aa*t120 + Q10*t118 - Q00*t0*t116
-    del t0, t116, t118, t120
-    t152 = -Q00*t127 - Q10*t124
-    t153 = -Aa*t123 - Q01*t127 - Q11*t124
-    del t123, t124, t127
-    t154 = -Aa*t130 - Q01*t135 - Q11*t132
-    del Q01, Q11, t130
-    t155 = (2*Aa*Ab)*(t1*t19*varphi2_dot) - Q00*t135 - Q10*t132
-    del Aa, Ab, Q00, Q10, t132, t135
-    t156 = D2_00*rD2
+    t143 = Aa*t74 - Q00*t85 - Q10*t140
+    del t140, t74, t85
+    t144 = Aa*t89 - Q01*t97 - Q11*t93
+    del t89
+    t145 = Aa*t91 - Q00*t97 - Q10*t93
+    del t91, t93, t97
+    t146 = (2*Aa*Ab)*(t1*varphi2_dot*vartheta2_dot) - Q01*t107 - Q11*t102
+    t147 = Aa*t105 - Q00*t107 - Q10*t102
+    del t102, t105, t107
+    t148 = Aa*t110 - Q01*t96 - Q11*t109
+    del t110
+    t149 = Aa*t111 - Q00*t96 - Q10*t109
+    del t109, t111, t96
+    t150 = Aa*t114 + Q11*t118
+    del t114
+    t151 = Aa*t115 + Q10*t118
+    del t115
+    t152 = Aa*t121 + Q11*t120 - Aa*(t0*t136*t5*varphi1_dot)
+    del t121, t136
+    t153 = Aa*t122 + Q10*t120 - Q00*t0*t118
+    del t0, t118, t120, t122
+    t154 = -Q00*t129 - Q10*t126
+    t155 = -Aa*t125 - Q01*t129 - Q11*t126
+    del t125, t126, t129
+    t156 = -Aa*t132 - Q01*t137 - Q11*t134
+    del Q01, Q11, t132
+    t157 = (2*Aa*Ab)*(t1*t19*varphi2_dot) - Q00*t137 - Q10*t134
+    del Aa, Ab, Q00, Q10, t134, t137
+    t158 = D2_00*rD2
     rs3 = 1.0/t1
     del t1
     qdd3 = rs3*xr3
     del xr3
-    t157 = D1_11*rD1*t85 - t75*t76
-    t158 = D1_11*rD1*t97 - t76*t93
-    t159 = D1_11*rD1*t106 - t104*t76
-    t160 = D1_11*rD1*t111 - t110*t76
-    t161 = D1_11*rD1*t114 - t117*t76
-    t162 = D1_11*rD1*t122 - t121*t76
-    t163 = D1_11*rD1*t128 - t125*t76
-    t164 = D1_11*rD1*t136 - t133*t76
+    t159 = D1_11*rD1*t86 - t75*t76
+    t160 = D1_11*rD1*t98 - t76*t94
+    t161 = D1_11*rD1*t108 - t106*t76
+    t162 = D1_11*rD1*t113 - t112*t76
+    t163 = D1_11*rD1*t116 - t119*t76
+    t164 = D1_11*rD1*t124 - t123*t76
+    t165 = D1_11*rD1*t130 - t127*t76
+    t166 = D1_11*rD1*t138 - t135*t76
     del D1_11
-    t165 = rs1*(D1_00*rD1*t75 - qdd1*t5 - t76*t85)
-    del D1_00, qdd1, rD1, t5, t75, t85
-    t166 = rs1*(t137*t93 - t76*t97)
-    del t93, t97
-    t167 = rs1*(t104*t137 - t106*t76)
-    del t104, t106
-    t168 = rs1*(t110*t137 - t111*t76)
-    del t110, t111
-    t169 = rs1*(t117*t137 - t114*t76)
-    del t114, t117
-    t170 = rs1*(t121*t137 - t122*t76)
-    del t121, t122
-    t171 = rs1*(t125*t137 - t128*t76)
-    del t125, t128
-    t172 = rs1*(t133*t137 - t136*t76)
-    del rs1, t133, t136, t137, t76
-    t173 = D2_11*rD2*t141 - t139*t140
-    t174 = D2_11*rD2*t143 - t140*t142
-    t175 = D2_11*rD2*t145 - t140*t144
-    t176 = D2_11*rD2*t147 - t140*t146
-    t177 = D2_11*rD2*t149 - t140*t148
-    t178 = D2_11*rD2*t151 - t140*t150
-    t179 = D2_11*rD2*t152 - t140*t153
-    t180 = D2_11*rD2*t155 - t140*t154
+    t167 = rs1*(D1_00*rD1*t75 - qdd1*t5 - t76*t86)
+    del D1_00, qdd1, rD1, t5, t75, t86
+    t168 = rs1*(t139*t94 - t76*t98)
+    del t94, t98
+    t169 = rs1*(t106*t139 - t108*t76)
+    del t106, t108
+    t170 = rs1*(t112*t139 - t113*t76)
+    del t112, t113
+    t171 = rs1*(t119*t139 - t116*t76)
+    del t116, t119
+    t172 = rs1*(t123*t139 - t124*t76)
+    del t123, t124
+    t173 = rs1*(t127*t139 - t130*t76)
+    del t127, t130
+    t174 = rs1*(t135*t139 - t138*t76)
+    del rs1, t135, t138, t139, t76
+    t175 = D2_11*rD2*t143 - t141*t142
+    t176 = D2_11*rD2*t145 - t142*t144
+    t177 = D2_11*rD2*t147 - t142*t146
+    t178 = D2_11*rD2*t149 - t142*t148
+    t179 = D2_11*rD2*t151 - t142*t150
+    t180 = D2_11*rD2*t153 - t142*t152
+    t181 = D2_11*rD2*t154 - t142*t155
+    t182 = D2_11*rD2*t157 - t142*t156
     del D2_11
-    t181 = rs3*(t139*t156 - t140*t141)
-    del t139, t141
-    t182 = rs3*(t142*t156 - t140*t143)
-    del t142, t143
-    t183 = rs3*(D2_00*rD2*t144 - qdd3*t19 - t140*t145)
-    del D2_00, qdd3, rD2, t144, t145, t19
-    t184 = rs3*(t146*t156 - t140*t147)
-    del t146, t147
-    t185 = rs3*(t148*t156 - t140*t149)
+    t183 = rs3*(t141*t158 - t142*t143)
+    del t141, t143
+    t184 = rs3*(t144*t158 - t142*t145)
+    del t144, t145
+    t185 = rs3*(D2_00*rD2*t146 - qdd3*t19 - t142*t147)
+    del D2_00, qdd3, rD2, t146, t147, t19
+    t186 = rs3*(t148*t158 - t142*t149)
     del t148, t149
-    t186 = rs3*(t150*t156 - t140*t151)
+    t187 = rs3*(t150*t158 - t142*t151)
     del t150, t151
-    t187 = rs3*(t153*t156 - t140*t152)
+    t188 = rs3*(t152*t158 - t142*t153)
     del t152, t153
-    t188 = rs3*(t154*t156 - t140*t155)
-    del rs3, t140, t154, t155, t156
+    t189 = rs3*(t155*t158 - t142*t154)
+    del t154, t155
+    t190 = rs3*(t156*t158 - t142*t157)
+    del rs3, t142, t156, t157, t158
     J = numpy.empty(shape + (8, 8), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -904,70 +912,70 @@ def jacobian(y, p):
     J[..., 3, 5] = 0
     J[..., 3, 6] = 0
     J[..., 3, 7] = 1
-    J[..., 4, 0] = t157
-    del t157
-    J[..., 4, 1] = t158
-    del t158
-    J[..., 4, 2] = t159
+    J[..., 4, 0] = t159
     del t159
-    J[..., 4, 3] = t160
+    J[..., 4, 1] = t160
     del t160
-    J[..., 4, 4] = t161
+    J[..., 4, 2] = t161
     del t161
-    J[..., 4, 5] = t162
+    J[..., 4, 3] = t162
     del t162
-    J[..., 4, 6] = t163
+    J[..., 4, 4] = t163
     del t163
-    J[..., 4, 7] = t164
+    J[..., 4, 5] = t164
     del t164
-    J[..., 5, 0] = t165
+    J[..., 4, 6] = t165
     del t165
-    J[..., 5, 1] = t166
+    J[..., 4, 7] = t166
     del t166
-    J[..., 5, 2] = t167
+    J[..., 5, 0] = t167
     del t167
-    J[..., 5, 3] = t168
+    J[..., 5, 1] = t168
     del t168
-    J[..., 5, 4] = t169
+    J[..., 5, 2] = t169
     del t169
-    J[..., 5, 5] = t170
+    J[..., 5, 3] = t170
     del t170
-    J[..., 5, 6] = t171
+    J[..., 5, 4] = t171
     del t171
-    J[..., 5, 7] = t172
+    J[..., 5, 5] = t172
     del t172
-    J[..., 6, 0] = t173
+    J[..., 5, 6] = t173
     del t173
-    J[..., 6, 1] = t174
+    J[..., 5, 7] = t174
     del t174
-    J[..., 6, 2] = t175
+    J[..., 6, 0] = t175
     del t175
-    J[..., 6, 3] = t176
+    J[..., 6, 1] = t176
     del t176
-    J[..., 6, 4] = t177
+    J[..., 6, 2] = t177
     del t177
-    J[..., 6, 5] = t178
+    J[..., 6, 3] = t178
     del t178
-    J[..., 6, 6] = t179
+    J[..., 6, 4] = t179
     del t179
-    J[..., 6, 7] = t180
+    J[..., 6, 5] = t180
     del t180
-    J[..., 7, 0] = t181
+    J[..., 6, 6] = t181
     del t181
-    J[..., 7, 1] = t182
+    J[..., 6, 7] = t182
     del t182
-    J[..., 7, 2] = t183
+    J[..., 7, 0] = t183
     del t183
-    J[..., 7, 3] = t184
+    J[..., 7, 1] = t184
     del t184
-    J[..., 7, 4] = t185
+    J[..., 7, 2] = t185
     del t185
-    J[..., 7, 5] = t186
+    J[..., 7, 3] = t186
     del t186
-    J[..., 7, 6] = t187
+    J[..., 7, 4] = t187
     del t187
-    J[..., 7, 7] = t188
+    J[..., 7, 5] = t188
     del t188
+    J[..., 7, 6] = t189
+    del t189
+    J[..., 7, 7] = t190
+    del t190
     return J
 
 
@@ -998,7 +1006,7 @@ def to_spherical_rot(y):
 
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     returns y_out: (..., 8) state of 'spherical_rot'
-    Total ops: 76
+    Total ops: 82
     """
     (y,), shape, dtype = _prepare("to_spherical_rot", (y, 8, "y"))
     vartheta1 = y[..., 0]
@@ -1009,62 +1017,70 @@ def to_spherical_rot(y):
     varphi1_dot = y[..., 5]
     vartheta2_dot = y[..., 6]
     varphi2_dot = y[..., 7]
-    e1_0 = numpy.cos(vartheta1)
-    t0 = e1_0*e1_0
+    t0 = numpy.sin(varphi1)
     t1 = numpy.sin(vartheta1)
-    t2 = numpy.cos(varphi1)
-    e1_1 = t1*t2
-    t3 = numpy.sin(varphi1)
-    e1_2 = t1*t3
-    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(e1_2*e1_2 + t0), e1_1)
-    del t0
-    t4 = numpy.sin(spherical_rot_vartheta1)
-    e2_0 = numpy.cos(vartheta2)
-    t5 = e2_0*e2_0
-    t6 = numpy.sin(vartheta2)
-    t7 = numpy.cos(varphi2)
-    e2_1 = t6*t7
+    t2 = t1*t1
+    t3 = numpy.cos(vartheta1)
+    t4 = t3*t3
+    t5 = numpy.cos(varphi1)
+    t6 = t1*t5
+    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(t0*t0*t2 + t4), t6)
+    del t2, t4
+    t7 = numpy.sin(spherical_rot_vartheta1)
     t8 = numpy.sin(varphi2)
-    e2_2 = t6*t8
-    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(e2_2*e2_2 + t5), e2_1)
-    del t5
-    t9 = numpy.sin(spherical_rot_vartheta2)
-    spherical_rot_varphi1 = numpy.arctan2(e1_2, e1_0)
-    spherical_rot_varphi2 = numpy.arctan2(e2_2, e2_0)
-    t10 = numpy.cos(spherical_rot_varphi1)
-    t11 = numpy.cos(spherical_rot_vartheta1)
-    t12 = numpy.sin(spherical_rot_varphi1)
-    t13 = t1*vartheta1_dot
+    t9 = numpy.sin(vartheta2)
+    t10 = t9*t9
+    t11 = numpy.cos(vartheta2)
+    t12 = t11*t11
+    t13 = numpy.cos(varphi2)
+    t14 = t13*t9
+    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(t10*t8*t8 + t12), t14)
+    del t10, t12
+    t15 = numpy.sin(spherical_rot_vartheta2)
+    t16 = t0*t1
+    spherical_rot_varphi1 = numpy.arctan2(t16, t3)
+    t17 = t8*t9
+    spherical_rot_varphi2 = numpy.arctan2(t17, t11)
+    t18 = t1*vartheta1_dot
     del t1
-    de1_0 = -t13
-    del t13
-    de1_1 = e1_0*t2*vartheta1_dot - e1_2*varphi1_dot
-    del e1_2, t2
-    t14 = e1_0*vartheta1_dot
-    del e1_0
-    de1_2 = e1_1*varphi1_dot + t14*t3
-    del e1_1, t14, t3
-    t15 = numpy.cos(spherical_rot_varphi2)
-    t16 = numpy.cos(spherical_rot_vartheta2)
-    t17 = numpy.sin(spherical_rot_varphi2)
-    t18 = t6*vartheta2_dot
+    t19 = numpy.cos(spherical_rot_vartheta1)
+    t20 = numpy.cos(spherical_rot_varphi1)
+    t21 = t16*varphi1_dot
+    del t16
+    t22 = t3*t5*vartheta1_dot - t21
+    del t21, t5
+    t23 = numpy.sin(spherical_rot_varphi1)
+    t24 = t6*varphi1_dot
     del t6
-    de2_0 = -t18
-    del t18
-    de2_1 = e2_0*t7*vartheta2_dot - e2_2*varphi2_dot
-    del e2_2, t7
-    t19 = e2_0*vartheta2_dot
-    del e2_0
-    de2_2 = e2_1*varphi2_dot + t19*t8
-    del e2_1, t19, t8
-    t20 = de1_0*t10*t11 + de1_2*t11*t12 - de1_1*t4
-    del de1_1, t11
-    t21 = (de1_2*t10 - de1_0*t12)/t4
-    del de1_0, de1_2, t10, t12, t4
-    t22 = de2_0*t15*t16 + de2_2*t16*t17 - de2_1*t9
-    del de2_1, t16
-    t23 = (de2_2*t15 - de2_0*t17)/t9
-    del de2_0, de2_2, t15, t17, t9
+    t25 = t0*t3
+    del t0, t3
+    t26 = t25*vartheta1_dot
+    del t25
+    t27 = t24 + t26
+    t28 = t9*vartheta2_dot
+    del t9
+    t29 = numpy.cos(spherical_rot_vartheta2)
+    t30 = numpy.cos(spherical_rot_varphi2)
+    t31 = t17*varphi2_dot
+    del t17
+    t32 = t11*t13*vartheta2_dot - t31
+    del t13, t31
+    t33 = numpy.sin(spherical_rot_varphi2)
+    t34 = t14*varphi2_dot
+    del t14
+    t35 = t11*vartheta2_dot
+    del t11
+    t36 = t35*t8
+    del t35, t8
+    t37 = t34 + t36
+    t38 = t19*t23*t27 - t18*t19*t20 - t22*t7
+    del t19, t22, t27
+    t39 = (t18*t23 + t20*t24 + t20*t26)/t7
+    del t18, t20, t23, t24, t26, t7
+    t40 = t29*t33*t37 - t15*t32 - t28*t29*t30
+    del t29, t32, t37
+    t41 = (t28*t33 + t30*t34 + t30*t36)/t15
+    del t15, t28, t30, t33, t34, t36
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_rot_vartheta1
     del spherical_rot_vartheta1
@@ -1074,14 +1090,14 @@ def to_spherical_rot(y):
     del spherical_rot_vartheta2
     y_out[..., 3] = spherical_rot_varphi2
     del spherical_rot_varphi2
-    y_out[..., 4] = t20
-    del t20
-    y_out[..., 5] = t21
-    del t21
-    y_out[..., 6] = t22
-    del t22
-    y_out[..., 7] = t23
-    del t23
+    y_out[..., 4] = t38
+    del t38
+    y_out[..., 5] = t39
+    del t39
+    y_out[..., 6] = t40
+    del t40
+    y_out[..., 7] = t41
+    del t41
     return y_out
 
 
@@ -1091,7 +1107,7 @@ def to_spherical_std(y):
 
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     returns y_out: (..., 8) state of 'spherical_std'
-    Total ops: 78
+    Total ops: 87
     """
     (y,), shape, dtype = _prepare("to_spherical_std", (y, 8, "y"))
     vartheta1 = y[..., 0]
@@ -1102,62 +1118,72 @@ def to_spherical_std(y):
     varphi1_dot = y[..., 5]
     vartheta2_dot = y[..., 6]
     varphi2_dot = y[..., 7]
-    e1_0 = numpy.cos(vartheta1)
-    t0 = e1_0*e1_0
+    t0 = numpy.cos(varphi1)
     t1 = numpy.sin(vartheta1)
-    t2 = numpy.cos(varphi1)
-    e1_1 = t1*t2
-    t3 = numpy.sin(varphi1)
-    e1_2 = t1*t3
-    spherical_std_theta1 = numpy.arctan2(numpy.sqrt(e1_1*e1_1 + t0), -e1_2)
-    del t0
-    t4 = numpy.sin(spherical_std_theta1)
-    e2_0 = numpy.cos(vartheta2)
-    t5 = e2_0*e2_0
-    t6 = numpy.sin(vartheta2)
-    t7 = numpy.cos(varphi2)
-    e2_1 = t6*t7
-    t8 = numpy.sin(varphi2)
-    e2_2 = t6*t8
-    spherical_std_theta2 = numpy.arctan2(numpy.sqrt(e2_1*e2_1 + t5), -e2_2)
-    del t5
-    t9 = numpy.sin(spherical_std_theta2)
-    spherical_std_phi1 = numpy.arctan2(e1_1, e1_0)
-    spherical_std_phi2 = numpy.arctan2(e2_1, e2_0)
-    t10 = numpy.cos(spherical_std_phi1)
-    t11 = numpy.cos(spherical_std_theta1)
-    t12 = numpy.sin(spherical_std_phi1)
-    t13 = t1*vartheta1_dot
+    t2 = t1*t1
+    t3 = numpy.cos(vartheta1)
+    t4 = t3*t3
+    t5 = numpy.sin(varphi1)
+    t6 = t1*t5
+    spherical_std_theta1 = numpy.arctan2(numpy.sqrt(t0*t0*t2 + t4), -t6)
+    del t2, t4
+    t7 = numpy.sin(spherical_std_theta1)
+    t8 = numpy.cos(varphi2)
+    t9 = numpy.sin(vartheta2)
+    t10 = t9*t9
+    t11 = numpy.cos(vartheta2)
+    t12 = t11*t11
+    t13 = numpy.sin(varphi2)
+    t14 = t13*t9
+    spherical_std_theta2 = numpy.arctan2(numpy.sqrt(t10*t8*t8 + t12), -t14)
+    del t10, t12
+    t15 = numpy.sin(spherical_std_theta2)
+    t16 = t0*t1
+    spherical_std_phi1 = numpy.arctan2(t16, t3)
+    t17 = t8*t9
+    spherical_std_phi2 = numpy.arctan2(t17, t11)
+    t18 = t1*vartheta1_dot
     del t1
-    de1_0 = -t13
-    del t13
-    de1_1 = e1_0*t2*vartheta1_dot - e1_2*varphi1_dot
-    del e1_2, t2
-    t14 = e1_0*vartheta1_dot
-    del e1_0
-    de1_2 = e1_1*varphi1_dot + t14*t3
-    del e1_1, t14, t3
-    t15 = numpy.cos(spherical_std_phi2)
-    t16 = numpy.cos(spherical_std_theta2)
-    t17 = numpy.sin(spherical_std_phi2)
-    t18 = t6*vartheta2_dot
+    t19 = t6*varphi1_dot
     del t6
-    de2_0 = -t18
-    del t18
-    de2_1 = e2_0*t7*vartheta2_dot - e2_2*varphi2_dot
-    del e2_2, t7
-    t19 = e2_0*vartheta2_dot
-    del e2_0
-    de2_2 = e2_1*varphi2_dot + t19*t8
-    del e2_1, t19, t8
-    t20 = de1_0*t10*t11 + de1_1*t11*t12 + de1_2*t4
-    del de1_2, t11
-    t21 = (de1_1*t10 - de1_0*t12)/t4
-    del de1_0, de1_1, t10, t12, t4
-    t22 = de2_0*t15*t16 + de2_1*t16*t17 + de2_2*t9
-    del de2_2, t16
-    t23 = (de2_1*t15 - de2_0*t17)/t9
-    del de2_0, de2_1, t15, t17, t9
+    t20 = t0*t3*vartheta1_dot - t19
+    t21 = t16*varphi1_dot
+    del t16
+    t22 = t3*t5
+    del t5
+    t23 = t22*vartheta1_dot
+    del t22
+    t24 = t21 + t23
+    del t21, t23
+    t25 = numpy.cos(spherical_std_theta1)
+    t26 = numpy.cos(spherical_std_phi1)
+    t27 = numpy.sin(spherical_std_phi1)
+    t28 = t3*vartheta1_dot
+    del t3
+    t29 = t9*vartheta2_dot
+    del t9
+    t30 = t14*varphi2_dot
+    del t14
+    t31 = t11*t8*vartheta2_dot - t30
+    t32 = t17*varphi2_dot
+    del t17
+    t33 = t11*vartheta2_dot
+    del t11
+    t34 = t13*t33
+    del t13
+    t35 = t32 + t34
+    del t32, t34
+    t36 = numpy.cos(spherical_std_theta2)
+    t37 = numpy.cos(spherical_std_phi2)
+    t38 = numpy.sin(spherical_std_phi2)
+    t39 = t20*t25*t27 + t24*t7 - t18*t25*t26
+    del t20, t24, t25
+    t40 = (t0*t26*t28 + t18*t27 - t19*t26)/t7
+    del t0, t18, t19, t26, t27, t28, t7
+    t41 = t15*t35 + t31*t36*t38 - t29*t36*t37
+    del t31, t35, t36
+    t42 = (t29*t38 + t33*t37*t8 - t30*t37)/t15
+    del t15, t29, t30, t33, t37, t38, t8
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_std_theta1
     del spherical_std_theta1
@@ -1167,12 +1193,12 @@ def to_spherical_std(y):
     del spherical_std_theta2
     y_out[..., 3] = spherical_std_phi2
     del spherical_std_phi2
-    y_out[..., 4] = t20
-    del t20
-    y_out[..., 5] = t21
-    del t21
-    y_out[..., 6] = t22
-    del t22
-    y_out[..., 7] = t23
-    del t23
+    y_out[..., 4] = t39
+    del t39
+    y_out[..., 5] = t40
+    del t40
+    y_out[..., 6] = t41
+    del t41
+    y_out[..., 7] = t42
+    del t42
     return y_out

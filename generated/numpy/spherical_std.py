@@ -260,8 +260,10 @@ def mass_matrix(y, p):
     t20 = l2*l2
     M22 = m2*t20
     del t20
-    M33 = M22*t1*t1
+    t21 = t1*t1
     del t1
+    M33 = M22*t21
+    del t21
     M = numpy.empty(shape + (4, 4), dtype)
     M[..., 0, 0] = M00
     del M00
@@ -445,25 +447,27 @@ def energy(y, p):
     t23 = l2*l2
     t24 = m2*t23
     del t23
-    t25 = t24*t1*t1
+    t25 = t1*t1
     del t1
-    t26 = l1*m1
-    t27 = l2*t18
+    t26 = t24*t25
+    del t25
+    t27 = l1*m1
+    t28 = l2*t18
     del t18
-    t28 = t27*theta2_dot
-    t29 = m2*t27
-    del t27
-    t30 = l1*l1
-    t31 = m1*t30
-    t32 = m2*t30
-    del t30
-    t33 = (1/2)*t31 + (1/2)*t32
-    del t31, t32
-    t34 = phi1_dot*phi2_dot*t22 + phi2_dot*t16*theta1_dot + t33*t10 + t11*(t28*t4*t9) + t12*(t2*theta1_dot*theta2_dot) + t33*(t17*t7) + ((1/2)*t24)*t8 + 1/2*(t25*t6) - g*(t29 + (t11 + t26)*t5) - phi1_dot*t20*theta2_dot
-    del t10, t11, t12, t16, t17, t2, t20, t22, t24, t25, t26, t28, t29, t33, t4, t5, t6, t7, t8, t9
+    t29 = t28*theta2_dot
+    t30 = m2*t28
+    del t28
+    t31 = l1*l1
+    t32 = m1*t31
+    t33 = m2*t31
+    del t31
+    t34 = (1/2)*t32 + (1/2)*t33
+    del t32, t33
+    t35 = phi1_dot*phi2_dot*t22 + phi2_dot*t16*theta1_dot + t34*t10 + t11*(t29*t4*t9) + t12*(t2*theta1_dot*theta2_dot) + t34*(t17*t7) + ((1/2)*t24)*t8 + 1/2*(t26*t6) - g*(t30 + (t11 + t27)*t5) - phi1_dot*t20*theta2_dot
+    del t10, t11, t12, t16, t17, t2, t20, t22, t24, t26, t27, t29, t30, t34, t4, t5, t6, t7, t8, t9
     E = numpy.empty(shape + (), dtype)
-    E[...] = t34
-    del t34
+    E[...] = t35
+    del t35
     return E
 
 
@@ -566,13 +570,13 @@ def jacobian(y, p):
     Q01 = t6*t9
     t10 = phi1_dot*phi1_dot
     t11 = theta1_dot*theta1_dot
-    t12 = t0*theta1_dot
-    t13 = l1*l2
-    t14 = t13*t6
-    t15 = t0*t14
+    t12 = l1*l2
+    t13 = t12*t6
+    t14 = t0*t13
+    t15 = t0*theta1_dot
     t16 = numpy.cos(t5)
     del t5
-    Q11 = t13*t16
+    Q11 = t12*t16
     t17 = 2*phi1_dot
     t18 = Q11*t17
     Ab = l2*l2
@@ -591,7 +595,7 @@ def jacobian(y, p):
     t26 = t0*t1
     t27 = t19*t7
     t28 = t16*t27 + t26
-    Q00 = t13*t28
+    Q00 = t12*t28
     t29 = t25 + Q00*Q00
     D1_00 = -t23 - t29
     D1_01 = -Q00*Q10 - Q01*Q11
@@ -605,14 +609,14 @@ def jacobian(y, p):
     t34 = phi2_dot*phi2_dot
     t35 = t1*t34
     t36 = theta2_dot*theta2_dot
-    t37 = t13*t36
+    t37 = t12*t36
     t38 = t37*t6
     t39 = t16*t21
     del t21
     t40 = t7*theta1_dot
     t41 = phi1_dot*t40
     t42 = 2*Aa
-    f1 = -t1*t38 - t14*t35 - t33*t39 - t42*t41
+    f1 = -t1*t38 - t13*t35 - t33*t39 - t42*t41
     del t41
     t43 = l2*t1
     t44 = g*t43
@@ -625,18 +629,18 @@ def jacobian(y, p):
     t50 = t6*t8
     t51 = t20*t50
     t52 = t16*t46
-    t53 = t13*(t1*t7 - t52)
+    t53 = t12*(t1*t7 - t52)
     del t52
     f2 = Ab*(t34*t45) + Q11*t47 + t49*t51 - t11*t53 - t44
     del t44
     t54 = t19*theta2_dot
     t55 = Ab*t32
     t56 = t0*t10
-    t57 = t13*t11
+    t57 = t12*t11
     t58 = t57*t6
     t59 = t16*t9
     del t9
-    f3 = t0*t58 + t14*t56 - t49*t59 - t54*t55
+    f3 = t0*t58 + t13*t56 - t49*t59 - t54*t55
     t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
     t61 = l1*t0
     t62 = g*t2*t4
@@ -649,199 +653,201 @@ def jacobian(y, p):
     del t50, t61
     t67 = Ab*f0 - Q00*f2 - Q01*f3
     qdd0 = D1_11*rD1*t67 - D1_01*t60
-    t68 = Q01*t10 + Q01*t11 + qdd0*t15 + t12*t18
+    t68 = Q01*t10 + Q01*t11 + qdd0*t14 + t15*t18
     t69 = -t28
     del t28
-    t70 = (l1*l2)*(t10*t16*t19*t7) - qdd0*t53 - t14*t46*t49 - t57*t69
+    t70 = (l1*l2)*(t10*t16*t19*t7) - qdd0*t53 - t13*t46*t49 - t57*t69
     t71 = (2*Ab*t2*t3*t4)*(phi1_dot*t0*theta1_dot) - Q10*t70 - Q11*t68
     t72 = D1_01*rD1
-    t73 = t16*t26
-    t74 = t27 + t73
-    del t27, t73
+    t73 = t7*t7
+    t74 = t16*t26
+    t75 = t27 + t74
+    del t27, t74
     D2_00 = -t29 - t30
     del t29, t30
     D2_01 = -Q00*Q01 - Q10*Q11
     D2_11 = -t23 - t31
     del t23, t31
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t75 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t76 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
     del f3
-    t76 = Aa*f2 - Q00*f0 - Q10*f1
+    t77 = Aa*f2 - Q00*f0 - Q10*f1
     del f0, f1, f2
-    qdd2 = D2_11*rD2*t76 - D2_01*t75
-    xr3 = D2_00*t75 - D2_01*rD2*t76
-    del t75, t76
-    t77 = (2*l1*l2)*(phi2_dot*t0*t19*t6*theta2_dot) + (l1*l2)*(t0*t6*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t7*t7)) - Q11*t26*t34 - qdd2*t53 - t37*t74 - t62*t8
-    del t62
-    t78 = Ab*t77 - Q00*t70 - Q01*t68
+    qdd2 = D2_11*rD2*t77 - D2_01*t76
+    xr3 = D2_00*t76 - D2_01*rD2*t77
+    del t76, t77
+    t78 = (2*l1*l2)*(phi2_dot*t0*t19*t6*theta2_dot) + (l1*l2)*(t0*t6*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t73)) - Q11*t26*t34 - qdd2*t53 - t37*t75 - t62*t8
+    del t62, t73
+    t79 = Ab*t78 - Q00*t70 - Q01*t68
     xr1 = D1_00*t60 - D1_01*rD1*t67
     del D1_01, t60, t67
-    t79 = t14*xr1
-    t80 = Q01*t49 + Q11*t0*t11 + Q11*t56 + t79 - qdd0*t59
+    t80 = t13*xr1
+    t81 = Q01*t49 + Q11*t0*t11 + Q11*t56 + t80 - qdd0*t59
     del t11, t56
-    t81 = qdd2*t39 + t14*xr3 + t22*t33 - Q11*t1*t36 - Q11*t35
+    t82 = qdd2*t39 + t13*xr3 + t22*t33 - Q11*t1*t36 - Q11*t35
     del t35
-    t82 = t16*t8
+    t83 = t16*t8
     del t8
-    t83 = t49*t82
-    t84 = qdd0*t51 + t20*t83 + t39*xr1 - t14*t47 - t46*t58
-    del t47, t58, t83
-    t85 = Ab*t81 - Q10*t84 - Q11*t80
-    t86 = t14*t64
-    t87 = t34*t86 + t38*t64 + t59*xr3 + t63*t82 - (l1*l2)*(qdd2*t19*t6*t7)
+    t84 = t49*t83
+    t85 = qdd0*t51 + t20*t84 + t39*xr1 - t13*t47 - t46*t58
+    del t47, t58, t84
+    t86 = Ab*t82 - Q10*t85 - Q11*t81
+    t87 = t13*t64
+    t88 = t34*t87 + t38*t64 + t59*xr3 + t63*t83 - (l1*l2)*(qdd2*t19*t6*t7)
     del t38, t63
-    t88 = -t87
-    t89 = Ab*t88 - Q00*t84 - Q01*t80
-    t90 = t1*theta2_dot
-    t91 = t55*t90
-    t92 = t1*t14
-    t93 = (2*l1*l2)*(phi2_dot*t1*t16*theta2_dot) - qdd2*t92 - t22*t34 - t22*t36
+    t89 = -t88
+    t90 = Ab*t89 - Q00*t85 - Q01*t81
+    t91 = t1*theta2_dot
+    t92 = t55*t91
+    t93 = t1*t13
+    t94 = (2*l1*l2)*(phi2_dot*t1*t16*theta2_dot) - qdd2*t93 - t22*t34 - t22*t36
     del t16, t22, t36
-    t94 = t13*t66
-    del t13, t66
-    t95 = Ab*(t34*(-1 + 2*t19*t19)) - Q11*t10*t26 - g*t20 - qdd0*t94 - t1*t79 - t49*t86 - t57*t74
-    del qdd0, t10, t26, t49, t57, t74, t79
-    t96 = Ab*t93 - Q10*t95 - Q11*t91
-    t97 = t20*t34*t82 + t33*t86 - qdd2*t94 - t37*t69
-    del qdd2, t20, t33, t34, t37, t69, t82, t86
-    t98 = Ab*t97 - Q00*t95 - Q01*t91
-    del t91
-    t99 = -t81
-    t100 = -t80
-    t101 = -t84
-    t102 = Ab*t99 - Q10*t101 - Q11*t100
-    t103 = Ab*t87 - Q00*t101 - Q01*t100
-    t104 = (2*l1*l2)*(t0*t6*theta1_dot) - t17*t59
+    t95 = t19*t19
+    t96 = t12*t66
+    del t12, t66
+    t97 = Ab*(t34*(-1 + 2*t95)) - Q11*t10*t26 - g*t20 - qdd0*t96 - t1*t80 - t49*t87 - t57*t75
+    del qdd0, t10, t26, t49, t57, t75, t80, t95
+    t98 = Ab*t94 - Q10*t97 - Q11*t92
+    t99 = t20*t34*t83 + t33*t87 - qdd2*t96 - t37*t69
+    del qdd2, t20, t33, t34, t37, t69, t83, t87
+    t100 = Ab*t99 - Q00*t97 - Q01*t92
+    del t92
+    t101 = -t82
+    t102 = -t81
+    t103 = -t85
+    t104 = Ab*t101 - Q10*t103 - Q11*t102
+    t105 = Ab*t88 - Q00*t103 - Q01*t102
+    t106 = (2*l1*l2)*(t0*t6*theta1_dot) - t17*t59
     del t6
-    t105 = t17*t51 - t48*t53
+    t107 = t17*t51 - t48*t53
     del t53
-    t106 = -Q00*t105 - Q01*t104
-    t107 = Aa*t17
-    t108 = t107*t7
-    t109 = -Ab*t108 - Q10*t105 - Q11*t104
-    t110 = t42*t40
+    t108 = -Q00*t107 - Q01*t106
+    t109 = Aa*t17
+    t110 = t109*t7
+    t111 = -Ab*t110 - Q10*t107 - Q11*t106
+    t112 = t42*t40
     del t40, t42
-    t111 = t15*t17 - t48*t59
-    del t15, t17, t59
-    t112 = t18*t46 + t48*t51
+    t113 = t14*t17 - t48*t59
+    del t14, t17, t59
+    t114 = t18*t46 + t48*t51
     del t18, t46, t48
-    t113 = -Ab*t110 - Q10*t112 - Q11*t111
-    t114 = (2*Ab*t2*t3*t4)*(phi1_dot*t0*t7) - Q00*t112 - Q01*t111
+    t115 = -Ab*t112 - Q10*t114 - Q11*t113
+    t116 = (2*Ab*t2*t3*t4)*(phi1_dot*t0*t7) - Q00*t114 - Q01*t113
     del t2, t3, t4
-    t115 = t19*t55
-    t116 = -2*(t14*t90) - t32*t39
-    del t14, t90
-    t117 = Ab*t116 + Q11*t115
-    t118 = 2*theta2_dot
-    t119 = -t118*t94 - t32*t51
-    del t94
-    t120 = Ab*t119 + Q01*t115
-    t121 = Ab*t54
+    t117 = t19*t55
+    t118 = -2*(t13*t91) - t32*t39
+    del t13, t91
+    t119 = Ab*t118 + Q11*t117
+    t120 = 2*theta2_dot
+    t121 = -t120*t96 - t32*t51
+    del t96
+    t122 = Ab*t121 + Q01*t117
+    t123 = Ab*t54
     del t54
-    t122 = 2*t121
-    t123 = t45*t55
+    t124 = 2*t123
+    t125 = t45*t55
     del t45, t55
-    t124 = -t118*t39 - t32*t92
-    del t39, t92
-    t125 = Ab*t124 + Q11*t122 - Q10*t123
-    t126 = 2*Q01
-    t127 = Q11*t32*t64 - t118*t51
-    del t118, t32, t51, t64
-    t128 = Ab*t127 + t121*t126 - Q00*t123
-    del t121, t123
+    t126 = -t120*t39 - t32*t93
+    del t39, t93
+    t127 = Ab*t126 + Q11*t124 - Q10*t125
+    t128 = 2*Q01
+    t129 = Q11*t32*t64 - t120*t51
+    del t120, t32, t51, t64
+    t130 = Ab*t129 + t123*t128 - Q00*t125
+    del t123, t125
     rs1 = 1.0/t0
     qdd1 = rs1*xr1
     del xr1
-    t129 = D1_00*rD1
-    t130 = t107*t12
-    del t107, t12
-    t131 = Aa*t68 - Q01*t77 - Q11*t130
+    t131 = D1_00*rD1
+    t132 = t109*t15
+    del t109, t15
+    t133 = Aa*t68 - Q01*t78 - Q11*t132
     del t68
-    t132 = D2_01*rD2
+    t134 = D2_01*rD2
     del D2_01
-    t133 = Aa*t70 - Q00*t77 - Q10*t130
-    del t130, t70, t77
-    t134 = Aa*t80 - Q01*t88 - Q11*t81
-    del t80
-    t135 = Aa*t84 - Q00*t88 - Q10*t81
-    del t81, t84, t88
-    t136 = (2*Aa*Ab)*(phi2_dot*t1*theta2_dot) - Q01*t97 - Q11*t93
-    t137 = Aa*t95 - Q00*t97 - Q10*t93
-    del t93, t95, t97
-    t138 = Aa*t100 - Q01*t87 - Q11*t99
-    del t100
-    t139 = Aa*t101 - Q00*t87 - Q10*t99
-    del t101, t87, t99
-    t140 = Aa*t104 + Q11*t108
-    del t104
-    t141 = Aa*t105 + Q10*t108
-    del t105
-    t142 = Aa*t111 + Q11*t110 - Aa*(phi1_dot*t0*t126*t7)
-    del t111, t126
-    t143 = Aa*t112 + Q10*t110 - Q00*t0*t108
-    del t0, t108, t110, t112
-    t144 = -Q00*t119 - Q10*t116
-    t145 = -Aa*t115 - Q01*t119 - Q11*t116
-    del t115, t116, t119
-    t146 = -Aa*t122 - Q01*t127 - Q11*t124
-    del Q01, Q11, t122
-    t147 = (2*Aa*Ab)*(phi2_dot*t1*t19) - Q00*t127 - Q10*t124
-    del Aa, Ab, Q00, Q10, t124, t127
-    t148 = D2_00*rD2
+    t135 = Aa*t70 - Q00*t78 - Q10*t132
+    del t132, t70, t78
+    t136 = Aa*t81 - Q01*t89 - Q11*t82
+    del t81
+    t137 = Aa*t85 - Q00*t89 - Q10*t82
+    del t82, t85, t89
+    t138 = (2*Aa*Ab)*(phi2_dot*t1*theta2_dot) - Q01*t99 - Q11*t94
+    t139 = Aa*t97 - Q00*t99 - Q10*t94
+    del t94, t97, t99
+    t140 = Aa*t102 - Q01*t88 - Q11*t101
+    del t102
+    t141 = Aa*t103 - Q00*t88 - Q10*t101
+    del t101, t103, t88
+    t142 = Aa*t106 + Q11*t110
+    del t106
+    t143 = Aa*t107 + Q10*t110
+    del t107
+    t144 = Aa*t113 + Q11*t112 - Aa*(phi1_dot*t0*t128*t7)
+    del t113, t128
+    t145 = Aa*t114 + Q10*t112 - Q00*t0*t110
+    del t0, t110, t112, t114
+    t146 = -Q00*t121 - Q10*t118
+    t147 = -Aa*t117 - Q01*t121 - Q11*t118
+    del t117, t118, t121
+    t148 = -Aa*t124 - Q01*t129 - Q11*t126
+    del Q01, Q11, t124
+    t149 = (2*Aa*Ab)*(phi2_dot*t1*t19) - Q00*t129 - Q10*t126
+    del Aa, Ab, Q00, Q10, t126, t129
+    t150 = D2_00*rD2
     rs3 = 1.0/t1
     del t1
     qdd3 = rs3*xr3
     del xr3
-    t149 = D1_11*rD1*t78 - t71*t72
-    t150 = D1_11*rD1*t89 - t72*t85
-    t151 = D1_11*rD1*t98 - t72*t96
-    t152 = D1_11*rD1*t103 - t102*t72
-    t153 = D1_11*rD1*t106 - t109*t72
-    t154 = D1_11*rD1*t114 - t113*t72
-    t155 = D1_11*rD1*t120 - t117*t72
-    t156 = D1_11*rD1*t128 - t125*t72
+    t151 = D1_11*rD1*t79 - t71*t72
+    t152 = D1_11*rD1*t90 - t72*t86
+    t153 = D1_11*rD1*t100 - t72*t98
+    t154 = D1_11*rD1*t105 - t104*t72
+    t155 = D1_11*rD1*t108 - t111*t72
+    t156 = D1_11*rD1*t116 - t115*t72
+    t157 = D1_11*rD1*t122 - t119*t72
+    t158 = D1_11*rD1*t130 - t127*t72
     del D1_11
-    t157 = rs1*(D1_00*rD1*t71 - qdd1*t7 - t72*t78)
-    del D1_00, qdd1, rD1, t7, t71, t78
-    t158 = rs1*(t129*t85 - t72*t89)
-    del t85, t89
-    t159 = rs1*(t129*t96 - t72*t98)
-    del t96, t98
-    t160 = rs1*(t102*t129 - t103*t72)
-    del t102, t103
-    t161 = rs1*(t109*t129 - t106*t72)
-    del t106, t109
-    t162 = rs1*(t113*t129 - t114*t72)
-    del t113, t114
-    t163 = rs1*(t117*t129 - t120*t72)
-    del t117, t120
-    t164 = rs1*(t125*t129 - t128*t72)
-    del rs1, t125, t128, t129, t72
-    t165 = D2_11*rD2*t133 - t131*t132
-    t166 = D2_11*rD2*t135 - t132*t134
-    t167 = D2_11*rD2*t137 - t132*t136
-    t168 = D2_11*rD2*t139 - t132*t138
-    t169 = D2_11*rD2*t141 - t132*t140
-    t170 = D2_11*rD2*t143 - t132*t142
-    t171 = D2_11*rD2*t144 - t132*t145
-    t172 = D2_11*rD2*t147 - t132*t146
+    t159 = rs1*(D1_00*rD1*t71 - qdd1*t7 - t72*t79)
+    del D1_00, qdd1, rD1, t7, t71, t79
+    t160 = rs1*(t131*t86 - t72*t90)
+    del t86, t90
+    t161 = rs1*(t131*t98 - t100*t72)
+    del t100, t98
+    t162 = rs1*(t104*t131 - t105*t72)
+    del t104, t105
+    t163 = rs1*(t111*t131 - t108*t72)
+    del t108, t111
+    t164 = rs1*(t115*t131 - t116*t72)
+    del t115, t116
+    t165 = rs1*(t119*t131 - t122*t72)
+    del t119, t122
+    t166 = rs1*(t127*t131 - t130*t72)
+    del rs1, t127, t130, t131, t72
+    t167 = D2_11*rD2*t135 - t133*t134
+    t168 = D2_11*rD2*t137 - t134*t136
+    t169 = D2_11*rD2*t139 - t134*t138
+    t170 = D2_11*rD2*t141 - t134*t140
+    t171 = D2_11*rD2*t143 - t134*t142
+    t172 = D2_11*rD2*t145 - t134*t144
+    t173 = D2_11*rD2*t146 - t134*t147
+    t174 = D2_11*rD2*t149 - t134*t148
     del D2_11
-    t173 = rs3*(t131*t148 - t132*t133)
-    del t131, t133
-    t174 = rs3*(t134*t148 - t132*t135)
-    del t134, t135
-    t175 = rs3*(D2_00*rD2*t136 - qdd3*t19 - t132*t137)
-    del D2_00, qdd3, rD2, t136, t137, t19
-    t176 = rs3*(t138*t148 - t132*t139)
-    del t138, t139
-    t177 = rs3*(t140*t148 - t132*t141)
+    t175 = rs3*(t133*t150 - t134*t135)
+    del t133, t135
+    t176 = rs3*(t136*t150 - t134*t137)
+    del t136, t137
+    t177 = rs3*(D2_00*rD2*t138 - qdd3*t19 - t134*t139)
+    del D2_00, qdd3, rD2, t138, t139, t19
+    t178 = rs3*(t140*t150 - t134*t141)
     del t140, t141
-    t178 = rs3*(t142*t148 - t132*t143)
+    t179 = rs3*(t142*t150 - t134*t143)
     del t142, t143
-    t179 = rs3*(t145*t148 - t132*t144)
+    t180 = rs3*(t144*t150 - t134*t145)
     del t144, t145
-    t180 = rs3*(t146*t148 - t132*t147)
-    del rs3, t132, t146, t147, t148
+    t181 = rs3*(t147*t150 - t134*t146)
+    del t146, t147
+    t182 = rs3*(t148*t150 - t134*t149)
+    del rs3, t134, t148, t149, t150
     J = numpy.empty(shape + (8, 8), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -875,70 +881,70 @@ def jacobian(y, p):
     J[..., 3, 5] = 0
     J[..., 3, 6] = 0
     J[..., 3, 7] = 1
-    J[..., 4, 0] = t149
-    del t149
-    J[..., 4, 1] = t150
-    del t150
-    J[..., 4, 2] = t151
+    J[..., 4, 0] = t151
     del t151
-    J[..., 4, 3] = t152
+    J[..., 4, 1] = t152
     del t152
-    J[..., 4, 4] = t153
+    J[..., 4, 2] = t153
     del t153
-    J[..., 4, 5] = t154
+    J[..., 4, 3] = t154
     del t154
-    J[..., 4, 6] = t155
+    J[..., 4, 4] = t155
     del t155
-    J[..., 4, 7] = t156
+    J[..., 4, 5] = t156
     del t156
-    J[..., 5, 0] = t157
+    J[..., 4, 6] = t157
     del t157
-    J[..., 5, 1] = t158
+    J[..., 4, 7] = t158
     del t158
-    J[..., 5, 2] = t159
+    J[..., 5, 0] = t159
     del t159
-    J[..., 5, 3] = t160
+    J[..., 5, 1] = t160
     del t160
-    J[..., 5, 4] = t161
+    J[..., 5, 2] = t161
     del t161
-    J[..., 5, 5] = t162
+    J[..., 5, 3] = t162
     del t162
-    J[..., 5, 6] = t163
+    J[..., 5, 4] = t163
     del t163
-    J[..., 5, 7] = t164
+    J[..., 5, 5] = t164
     del t164
-    J[..., 6, 0] = t165
+    J[..., 5, 6] = t165
     del t165
-    J[..., 6, 1] = t166
+    J[..., 5, 7] = t166
     del t166
-    J[..., 6, 2] = t167
+    J[..., 6, 0] = t167
     del t167
-    J[..., 6, 3] = t168
+    J[..., 6, 1] = t168
     del t168
-    J[..., 6, 4] = t169
+    J[..., 6, 2] = t169
     del t169
-    J[..., 6, 5] = t170
+    J[..., 6, 3] = t170
     del t170
-    J[..., 6, 6] = t171
+    J[..., 6, 4] = t171
     del t171
-    J[..., 6, 7] = t172
+    J[..., 6, 5] = t172
     del t172
-    J[..., 7, 0] = t173
+    J[..., 6, 6] = t173
     del t173
-    J[..., 7, 1] = t174
+    J[..., 6, 7] = t174
     del t174
-    J[..., 7, 2] = t175
+    J[..., 7, 0] = t175
     del t175
-    J[..., 7, 3] = t176
+    J[..., 7, 1] = t176
     del t176
-    J[..., 7, 4] = t177
+    J[..., 7, 2] = t177
     del t177
-    J[..., 7, 5] = t178
+    J[..., 7, 3] = t178
     del t178
-    J[..., 7, 6] = t179
+    J[..., 7, 4] = t179
     del t179
-    J[..., 7, 7] = t180
+    J[..., 7, 5] = t180
     del t180
+    J[..., 7, 6] = t181
+    del t181
+    J[..., 7, 7] = t182
+    del t182
     return J
 
 
@@ -969,7 +975,7 @@ def to_spherical_alt(y):
 
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     returns y_out: (..., 8) state of 'spherical_alt'
-    Total ops: 76
+    Total ops: 86
     """
     (y,), shape, dtype = _prepare("to_spherical_alt", (y, 8, "y"))
     theta1 = y[..., 0]
@@ -980,62 +986,72 @@ def to_spherical_alt(y):
     phi1_dot = y[..., 5]
     theta2_dot = y[..., 6]
     phi2_dot = y[..., 7]
-    t0 = numpy.cos(theta1)
-    e1_2 = -t0
-    t1 = e1_2*e1_2
-    t2 = numpy.sin(theta1)
-    t3 = numpy.cos(phi1)
-    e1_0 = t2*t3
+    t0 = numpy.sin(theta1)
+    t1 = t0*t0
+    t2 = numpy.cos(theta1)
+    t3 = t2*t2
     t4 = numpy.sin(phi1)
-    e1_1 = t2*t4
-    spherical_alt_vartheta1 = numpy.arctan2(numpy.sqrt(e1_1*e1_1 + t1), e1_0)
-    del t1
-    t5 = numpy.sin(spherical_alt_vartheta1)
-    t6 = numpy.cos(theta2)
-    e2_2 = -t6
-    t7 = e2_2*e2_2
+    t5 = numpy.cos(phi1)
+    t6 = t0*t5
+    spherical_alt_vartheta1 = numpy.arctan2(numpy.sqrt(t1*t4*t4 + t3), t6)
+    del t1, t3
+    t7 = numpy.sin(spherical_alt_vartheta1)
     t8 = numpy.sin(theta2)
-    t9 = numpy.cos(phi2)
-    e2_0 = t8*t9
-    t10 = numpy.sin(phi2)
-    e2_1 = t10*t8
-    spherical_alt_vartheta2 = numpy.arctan2(numpy.sqrt(e2_1*e2_1 + t7), e2_0)
-    del t7
-    t11 = numpy.sin(spherical_alt_vartheta2)
-    spherical_alt_varphi1 = numpy.arctan2(e1_2, e1_1)
-    del e1_2
-    spherical_alt_varphi2 = numpy.arctan2(e2_2, e2_1)
-    del e2_2
-    t12 = numpy.cos(spherical_alt_varphi1)
-    t13 = numpy.cos(spherical_alt_vartheta1)
-    t14 = numpy.sin(spherical_alt_varphi1)
-    de1_0 = t0*t3*theta1_dot - e1_1*phi1_dot
-    del e1_1, t3
-    t15 = t0*theta1_dot
-    del t0
-    de1_1 = e1_0*phi1_dot + t15*t4
-    del e1_0, t15, t4
-    de1_2 = t2*theta1_dot
-    del t2
-    t16 = numpy.cos(spherical_alt_varphi2)
-    t17 = numpy.cos(spherical_alt_vartheta2)
-    t18 = numpy.sin(spherical_alt_varphi2)
-    de2_0 = t6*t9*theta2_dot - e2_1*phi2_dot
-    del e2_1, t9
-    t19 = t6*theta2_dot
+    t9 = t8*t8
+    t10 = numpy.cos(theta2)
+    t11 = t10*t10
+    t12 = numpy.sin(phi2)
+    t13 = numpy.cos(phi2)
+    t14 = t13*t8
+    spherical_alt_vartheta2 = numpy.arctan2(numpy.sqrt(t11 + t12*t12*t9), t14)
+    del t11, t9
+    t15 = numpy.sin(spherical_alt_vartheta2)
+    t16 = -t2
+    t17 = t0*t4
+    spherical_alt_varphi1 = numpy.arctan2(t16, t17)
+    del t16
+    t18 = -t10
+    t19 = t12*t8
+    spherical_alt_varphi2 = numpy.arctan2(t18, t19)
+    del t18
+    t20 = t0*theta1_dot
+    t21 = numpy.cos(spherical_alt_vartheta1)
+    t22 = numpy.sin(spherical_alt_varphi1)
+    t23 = phi1_dot*t17
+    del t17
+    t24 = t2*t5*theta1_dot - t23
+    del t23, t5
+    t25 = numpy.cos(spherical_alt_varphi1)
+    t26 = phi1_dot*t6
     del t6
-    de2_1 = e2_0*phi2_dot + t10*t19
-    del e2_0, t10, t19
-    de2_2 = t8*theta2_dot
-    del t8
-    t20 = de1_1*t12*t13 + de1_2*t13*t14 - de1_0*t5
-    del de1_0, t13
-    t21 = (de1_2*t12 - de1_1*t14)/t5
-    del de1_1, de1_2, t12, t14, t5
-    t22 = de2_1*t16*t17 + de2_2*t17*t18 - de2_0*t11
-    del de2_0, t17
-    t23 = (de2_2*t16 - de2_1*t18)/t11
-    del de2_1, de2_2, t11, t16, t18
+    t27 = t2*theta1_dot
+    del t2
+    t28 = t27*t4
+    del t27, t4
+    t29 = t26 + t28
+    t30 = t8*theta2_dot
+    t31 = numpy.cos(spherical_alt_vartheta2)
+    t32 = numpy.sin(spherical_alt_varphi2)
+    t33 = phi2_dot*t19
+    del t19
+    t34 = t10*t13*theta2_dot - t33
+    del t13, t33
+    t35 = numpy.cos(spherical_alt_varphi2)
+    t36 = phi2_dot*t14
+    del t14
+    t37 = t10*theta2_dot
+    del t10
+    t38 = t12*t37
+    del t12, t37
+    t39 = t36 + t38
+    t40 = t20*t21*t22 + t21*t25*t29 - t24*t7
+    del t20, t21, t24, t29
+    t41 = (t0*t25*theta1_dot - t22*t26 - t22*t28)/t7
+    del t0, t22, t25, t26, t28, t7
+    t42 = t30*t31*t32 + t31*t35*t39 - t15*t34
+    del t30, t31, t34, t39
+    t43 = (t35*t8*theta2_dot - t32*t36 - t32*t38)/t15
+    del t15, t32, t35, t36, t38, t8
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_alt_vartheta1
     del spherical_alt_vartheta1
@@ -1045,14 +1061,14 @@ def to_spherical_alt(y):
     del spherical_alt_vartheta2
     y_out[..., 3] = spherical_alt_varphi2
     del spherical_alt_varphi2
-    y_out[..., 4] = t20
-    del t20
-    y_out[..., 5] = t21
-    del t21
-    y_out[..., 6] = t22
-    del t22
-    y_out[..., 7] = t23
-    del t23
+    y_out[..., 4] = t40
+    del t40
+    y_out[..., 5] = t41
+    del t41
+    y_out[..., 6] = t42
+    del t42
+    y_out[..., 7] = t43
+    del t43
     return y_out
 
 
@@ -1062,7 +1078,7 @@ def to_spherical_rot(y):
 
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     returns y_out: (..., 8) state of 'spherical_rot'
-    Total ops: 76
+    Total ops: 86
     """
     (y,), shape, dtype = _prepare("to_spherical_rot", (y, 8, "y"))
     theta1 = y[..., 0]
@@ -1073,62 +1089,74 @@ def to_spherical_rot(y):
     phi1_dot = y[..., 5]
     theta2_dot = y[..., 6]
     phi2_dot = y[..., 7]
-    t0 = numpy.cos(theta1)
-    e1_2 = -t0
-    t1 = e1_2*e1_2
-    t2 = numpy.sin(theta1)
-    t3 = numpy.cos(phi1)
-    e1_0 = t2*t3
-    t4 = numpy.sin(phi1)
-    e1_1 = t2*t4
-    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(e1_0*e1_0 + t1), e1_1)
-    del t1
-    t5 = numpy.sin(spherical_rot_vartheta1)
-    t6 = numpy.cos(theta2)
-    e2_2 = -t6
-    t7 = e2_2*e2_2
+    t0 = numpy.sin(theta1)
+    t1 = t0*t0
+    t2 = numpy.cos(theta1)
+    t3 = t2*t2
+    t4 = numpy.cos(phi1)
+    t5 = numpy.sin(phi1)
+    t6 = t0*t5
+    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(t1*t4*t4 + t3), t6)
+    del t1, t3
+    t7 = numpy.sin(spherical_rot_vartheta1)
     t8 = numpy.sin(theta2)
-    t9 = numpy.cos(phi2)
-    e2_0 = t8*t9
-    t10 = numpy.sin(phi2)
-    e2_1 = t10*t8
-    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(e2_0*e2_0 + t7), e2_1)
-    del t7
-    t11 = numpy.sin(spherical_rot_vartheta2)
-    spherical_rot_varphi1 = numpy.arctan2(e1_2, e1_0)
-    del e1_2
-    spherical_rot_varphi2 = numpy.arctan2(e2_2, e2_0)
-    del e2_2
-    t12 = numpy.cos(spherical_rot_varphi1)
-    t13 = numpy.cos(spherical_rot_vartheta1)
-    t14 = numpy.sin(spherical_rot_varphi1)
-    de1_0 = t0*t3*theta1_dot - e1_1*phi1_dot
-    del e1_1, t3
-    t15 = t0*theta1_dot
+    t9 = t8*t8
+    t10 = numpy.cos(theta2)
+    t11 = t10*t10
+    t12 = numpy.cos(phi2)
+    t13 = numpy.sin(phi2)
+    t14 = t13*t8
+    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(t11 + t12*t12*t9), t14)
+    del t11, t9
+    t15 = numpy.sin(spherical_rot_vartheta2)
+    t16 = t0*t4
+    t17 = -t2
+    spherical_rot_varphi1 = numpy.arctan2(t17, t16)
+    del t17
+    t18 = t12*t8
+    t19 = -t10
+    spherical_rot_varphi2 = numpy.arctan2(t19, t18)
+    del t19
+    t20 = t0*theta1_dot
     del t0
-    de1_1 = e1_0*phi1_dot + t15*t4
-    del e1_0, t15, t4
-    de1_2 = t2*theta1_dot
-    del t2
-    t16 = numpy.cos(spherical_rot_varphi2)
-    t17 = numpy.cos(spherical_rot_vartheta2)
-    t18 = numpy.sin(spherical_rot_varphi2)
-    de2_0 = t6*t9*theta2_dot - e2_1*phi2_dot
-    del e2_1, t9
-    t19 = t6*theta2_dot
+    t21 = phi1_dot*t6
     del t6
-    de2_1 = e2_0*phi2_dot + t10*t19
-    del e2_0, t10, t19
-    de2_2 = t8*theta2_dot
+    t22 = t2*t4*theta1_dot - t21
+    t23 = phi1_dot*t16
+    del t16
+    t24 = t2*theta1_dot
+    del t2
+    t25 = t24*t5
+    del t5
+    t26 = t23 + t25
+    del t23, t25
+    t27 = numpy.cos(spherical_rot_vartheta1)
+    t28 = numpy.sin(spherical_rot_varphi1)
+    t29 = numpy.cos(spherical_rot_varphi1)
+    t30 = t8*theta2_dot
     del t8
-    t20 = de1_0*t12*t13 + de1_2*t13*t14 - de1_1*t5
-    del de1_1, t13
-    t21 = (de1_2*t12 - de1_0*t14)/t5
-    del de1_0, de1_2, t12, t14, t5
-    t22 = de2_0*t16*t17 + de2_2*t17*t18 - de2_1*t11
-    del de2_1, t17
-    t23 = (de2_2*t16 - de2_0*t18)/t11
-    del de2_0, de2_2, t11, t16, t18
+    t31 = phi2_dot*t14
+    del t14
+    t32 = t10*t12*theta2_dot - t31
+    t33 = phi2_dot*t18
+    del t18
+    t34 = t10*theta2_dot
+    del t10
+    t35 = t13*t34
+    del t13
+    t36 = t33 + t35
+    del t33, t35
+    t37 = numpy.cos(spherical_rot_vartheta2)
+    t38 = numpy.sin(spherical_rot_varphi2)
+    t39 = numpy.cos(spherical_rot_varphi2)
+    t40 = t20*t27*t28 + t22*t27*t29 - t26*t7
+    del t22, t26, t27
+    t41 = (t20*t29 + t21*t28 - t24*t28*t4)/t7
+    del t20, t21, t24, t28, t29, t4, t7
+    t42 = t30*t37*t38 + t32*t37*t39 - t15*t36
+    del t32, t36, t37
+    t43 = (t30*t39 + t31*t38 - t12*t34*t38)/t15
+    del t12, t15, t30, t31, t34, t38, t39
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_rot_vartheta1
     del spherical_rot_vartheta1
@@ -1138,12 +1166,12 @@ def to_spherical_rot(y):
     del spherical_rot_vartheta2
     y_out[..., 3] = spherical_rot_varphi2
     del spherical_rot_varphi2
-    y_out[..., 4] = t20
-    del t20
-    y_out[..., 5] = t21
-    del t21
-    y_out[..., 6] = t22
-    del t22
-    y_out[..., 7] = t23
-    del t23
+    y_out[..., 4] = t40
+    del t40
+    y_out[..., 5] = t41
+    del t41
+    y_out[..., 6] = t42
+    del t42
+    y_out[..., 7] = t43
+    del t43
     return y_out
