@@ -161,8 +161,10 @@ def cmd_run(args) -> int:
     scene = load_scene(args.scene)
     if args.output_dir:
         scene.output_dir = Path(args.output_dir)
+    start = time.perf_counter()
     outcome = run(scene, show_progress=not args.quiet and not args.json)
     outcome.files = write_outputs(outcome)
+    outcome.seconds = time.perf_counter() - start
     s = summary(outcome)
     if args.json:
         print(json.dumps(s, indent=1))

@@ -101,3 +101,13 @@ def test_scene_outputs_csv_npz_and_plots(tmp_path):
     data = np.load(tmp_path / "compound_seed001.npz")
     assert data["y"].shape == (1001, 4) and data["positions"].shape == (1001, 2, 2)
     assert (tmp_path / "compound_seed001_paths.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_spherical_atlas_scene_reports_error_and_trust_horizon(tmp_path):
+    run_ = derive_cli("run", "scenes/spherical_pole.toml", "--json", "--output-dir", str(tmp_path))
+    assert run_.returncode == 0, run_.stderr
+    s = json.loads(run_.stdout)
+    assert s["model"] == "spherical" and s["chart_switches"] >= 1
+    assert s["achieved_error"] <= s["target"]
+    assert s["lyapunov_exponent"] is not None and s["trust_horizon"] > 10.0
+    assert (tmp_path / "spherical_pole.gif").read_bytes()[:3] == b"GIF"

@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..integration.simulate import SimulationResult, simulate
-from ..measurement.trust import Lyapunov, initial_error, largest_lyapunov, trust_horizon
+from ..measurement.trust import (Lyapunov, atlas_lyapunov, initial_error, largest_lyapunov,
+                                 trust_horizon)
 from .artifacts import Step, prepare
 from .plan import Plan, plan, planar_positions_in_3d
 from .progress import Progress
@@ -59,7 +60,7 @@ class Outcome:
 
 def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
     if p.model == "spherical":
-        return None          # chart-dependent tangent space: no single-chart variational run
+        return atlas_lyapunov(p.y0, p.params, scene.t_stop - scene.t_start)
     return largest_lyapunov(p.model, p.y0, p.params, scene.t_stop - scene.t_start)
 
 
@@ -131,7 +132,11 @@ def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray
     return r.positions, r.energy
 
 
-def _state_error(a: np.ndarray, b: np.ndarray) -> float:
+def _final_error(run_: SimulationResult, reference: SimulationResult) -> float:
+    """Largest difference of the final states; for the atlas, of the final bob
+    positions (the two runs may end in different charts)."""
+    a, b = (run_.positions[-1], reference.positions[-1]) if run_.chart is not None else \
+        (run_.y[-1], reference.y[-1])
     return float(np.max(np.abs(np.asarray(a, np.longdouble) - np.asarray(b, np.longdouble))))
 
 
@@ -156,10 +161,10 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
     if progress:
         progress.close()
     achieved = None
-    measurable = c.method in ("dop853", "dopri5") and p.model != "spherical"
+    measurable = c.method in ("dop853", "dopri5")
     if result.ok and measurable:
         reference, reference_rtol = _reference(p, scene, c), c.rtol / 1000
-        achieved = _state_error(result.y[-1], reference.y[-1]) if reference.ok else None
+        achieved = _final_error(result, reference) if reference.ok else None
         # Tolerance proportionality is only approximate: when the measured error
         # misses the target, tighten by the observed ratio and run again.
         for _ in range(MAX_TIGHTENINGS if scene.target is not None else 0):
@@ -175,7 +180,7 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
                 break
             if c.rtol < 100 * reference_rtol:      # the reference must stay far tighter
                 reference, reference_rtol = _reference(p, scene, c), c.rtol / 1000
-            achieved = _state_error(result.y[-1], reference.y[-1])
+            achieved = _final_error(result, reference)
     horizon = None
     if lyap is not None:
         e0 = initial_error(c.rtol if c.rtol is not None else 0.0,
