@@ -209,6 +209,38 @@ def cmd_all(args) -> int:
     return 0 if ok else 1
 
 
+# -- derive bench (the work-precision benchmark: derive/measurement/bench.py) ----------
+
+def cmd_bench(args) -> int:
+    from .measurement.bench import BenchOptions, console_report, run_bench, write_all
+    from .scene.progress import Progress
+    if args.repeats < 1:
+        raise UsageError(f"--repeats must be >= 1, got {args.repeats}")
+    problems = tuple(x for x in args.problems.split(",") if x) if args.problems else None
+    bar = None if args.quiet else Progress("bench", 1)
+
+    def progress(done, total):
+        if bar is not None:
+            bar.total = max(total, 1)
+            bar.update(done)
+
+    opts = BenchOptions(problems=problems, quick=args.quick, repeats=args.repeats,
+                        throughput=not args.no_throughput, progress=progress)
+    try:
+        result = run_bench(opts)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    finally:
+        if bar is not None:
+            bar.close()
+    files = write_all(result, Path(args.out), plots=not args.no_plots)
+    if not args.quiet:
+        print(console_report(result))
+        for f in files:
+            print(f"wrote   {f}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _OneLineParser(
         prog="derive", description="Derive, verify and generate code for double pendulums.")
@@ -237,6 +269,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_run)
     p = sub.add_parser("all", help="the main job: derive, verify, generate, compile, run the default scene")
     p.set_defaults(func=cmd_all)
+    p = sub.add_parser("bench", help="work-precision benchmark of every model, method, precision and "
+                                     "backend against scipy/numba/hand-written peers")
+    p.add_argument("--quick", action="store_true", help="a small subset (seconds), for smoke tests")
+    p.add_argument("--out", default=str(REPO_ROOT / "bench" / "results"),
+                   help="output directory (default: bench/results)")
+    p.add_argument("--repeats", type=int, default=5, help="timed runs per configuration (median; default 5)")
+    p.add_argument("--problems", help="comma-separated subset of: regular, chaotic, compound, spherical_pole")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--no-throughput", action="store_true", help="skip the batched-RK4 throughput runs")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no report")
+    p.set_defaults(func=cmd_bench)
     return parser
 
 

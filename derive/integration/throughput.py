@@ -140,26 +140,20 @@ def numpy_context(name: str) -> dict:
            if s in varying]
     outs = [pr.doprint_checked(e) for e in body.outputs[0]]
     t = tb.load("rk4")
-    rows = [[(j, tb.py_literal(v)) for j, v in t.row(i) if v != 0] for i in range(1, t.stages)]
-    weights = [(j, tb.py_literal(v)) for j, v in enumerate(t.b) if v != 0]
-    n = len(state)
     stages = []
     for stage in range(t.stages):
-        src = "y" if stage == 0 else "s"
-        terms = rows[stage] if stage < len(rows) else weights
-        dst = "s" if stage < len(rows) else "n"
-        nxt = [f"{dst}{c} = y{c} + h * ({_combo(terms, lambda j: f'k{j}_{c}')})" for c in range(n)]
-        stages.append({"index": stage, "args": ", ".join(f"{src}{c}" for c in range(n)), "next": nxt,
-                       "ks": ", ".join(f"k{stage}_{c}" for c in range(n))})
+        last = stage == t.stages - 1
+        terms = [(j, v) for j, v in (enumerate(t.b) if last else t.row(stage + 1)) if v != 0]
+        # whole (n, B) arrays: the same operations, in the same order, as the scalar C
+        combo = " + ".join(f"K[{j}]" if v == 1 else f"{tb.py_literal(v)} * K[{j}]" for j, v in terms)
+        stages.append({"index": stage, "arg": "Y" if stage == 0 else "S",
+                       "next": f"{'N' if last else 'S'} = Y + h * ({combo})"})
     return {"P": name, "title": derive(name).model.title, "template": TEMPLATE_PY,
-            "n": n, "n_params": len(params),
+            "n": len(state), "n_params": len(params),
             "state": [s.name for s in state], "params": [s.name for s in params],
             "state_repr": repr(tuple(s.name for s in state)),
             "params_repr": repr(tuple(s.name for s in params)),
-            "const": const, "var": var, "outs": outs, "ops": body.ops, "stages": stages,
-            "ys": ", ".join(f"y{c}" for c in range(n)), "ns": ", ".join(f"n{c}" for c in range(n)),
-            "rows_of_y": ", ".join(f"y[{c}]" for c in range(n)),
-            "finite_ns": " & ".join(f"numpy.isfinite(n{c})" for c in range(n))}
+            "const": const, "var": var, "outs": outs, "ops": body.ops, "stages": stages}
 
 
 def render_throughput() -> dict[str, str]:

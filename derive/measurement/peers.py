@@ -5,9 +5,15 @@ the final state; the benchmark times it and measures its error against the
 same reference as the toolkit's methods.
 - SciPy `solve_ivp` (RK45, DOP853) with a `sympy.lambdify` rhs of the derived
   equations, and with a hand-written NumPy rhs;
-- SciPy `odeint` (LSODA);
+- SciPy `odeint` (LSODA), with the hand-written NumPy rhs and with a
+  numba-jitted rhs (where numba is installed);
 - a numba-compiled RK4 loop, where numba is installed;
 - a hand-written C RK4 loop (bench/peers/planar_rk4_hand.c), compiled here.
+
+Throughput peers (many trajectories, fixed-step RK4): a vectorised NumPy RK4
+written by hand, a numba `parallel=True` RK4 over the batch, and the
+hand-written C RK4 loop run over the batch (bench/peers/planar_rk4_batch_hand.c).
+Every numba peer returns None when numba does not import; the benchmark says so.
 """
 from __future__ import annotations
 
@@ -112,5 +118,122 @@ def hand_c_rk4():
     def run(y0, p, h, n):
         y = np.array(y0, dtype=np.float64)
         fn(y, np.asarray(p, dtype=np.float64), h, n)
+        return y
+    return run
+
+
+@cache
+def numba_rhs():
+    """The hand-written rhs jitted by numba, called by odeint like a Python function
+    (the issue's LSODA peer); None without numba."""
+    try:
+        import numba
+    except ImportError:
+        return None
+
+    @numba.njit(cache=False)
+    def rhs(t, y, m1, m2, l1, l2, g):
+        mu = 1.0 + m1 / m2
+        d = y[0] - y[1]
+        s, c = math.sin(d), math.cos(d)
+        a, b, e = mu * l1 * l1, l1 * l2 * c, l2 * l2
+        f1 = -y[3] * y[3] * l1 * l2 * s - mu * g * l1 * math.sin(y[0])
+        f2 = y[2] * y[2] * l1 * l2 * s - g * l2 * math.sin(y[1])
+        det = a * e - b * b
+        out = np.empty(4)
+        out[0], out[1] = y[2], y[3]
+        out[2], out[3] = (e * f1 - b * f2) / det, (a * f2 - b * f1) / det
+        return out
+
+    rhs(0.0, np.zeros(4), 1.0, 1.0, 1.0, 1.0, 9.81)     # compile now
+    return rhs
+
+
+# -- throughput peers: many trajectories, fixed-step RK4 ---------------------------
+
+def _hand_numpy_rhs_batch(y, m1, m2, l1, l2, g):
+    """Seed 000 (1.34)-(1.35) by hand on arrays y (B, 4), as a NumPy user writes it."""
+    th1, th2, w1, w2 = y[:, 0], y[:, 1], y[:, 2], y[:, 3]
+    mu = 1.0 + m1 / m2
+    d = th1 - th2
+    s, c = np.sin(d), np.cos(d)
+    a, b, e = mu * l1 * l1, l1 * l2 * c, l2 * l2
+    f1 = -w2 * w2 * l1 * l2 * s - mu * g * l1 * np.sin(th1)
+    f2 = w1 * w1 * l1 * l2 * s - g * l2 * np.sin(th2)
+    det = a * e - b * b
+    return np.stack([w1, w2, (e * f1 - b * f2) / det, (a * f2 - b * f1) / det], axis=1)
+
+
+def numpy_rk4_batch(y0, p, h: float, n: int) -> np.ndarray:
+    """Vectorised RK4 over the batch y0 (B, 4), written by hand."""
+    y = np.array(y0, dtype=np.float64)
+    args = tuple(float(v) for v in p)
+    for _ in range(n):
+        k1 = _hand_numpy_rhs_batch(y, *args)
+        k2 = _hand_numpy_rhs_batch(y + 0.5 * h * k1, *args)
+        k3 = _hand_numpy_rhs_batch(y + 0.5 * h * k2, *args)
+        k4 = _hand_numpy_rhs_batch(y + h * k3, *args)
+        y = y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return y
+
+
+@cache
+def numba_rk4_parallel():
+    """RK4 over a batch y0 (B, 4) with numba prange (all cores); None without numba."""
+    try:
+        import numba
+    except ImportError:
+        return None
+
+    @numba.njit(parallel=True, cache=False)
+    def rk4_batch(y0, p, h, n):
+        y = y0.copy()
+        m1, m2, l1, l2, g = p[0], p[1], p[2], p[3], p[4]
+        mu = 1.0 + m1 / m2
+        for i in numba.prange(y.shape[0]):
+            a0, a1, a2, a3 = y[i, 0], y[i, 1], y[i, 2], y[i, 3]
+            k = np.empty((4, 4))
+            for _ in range(n):
+                for st in range(4):
+                    if st == 0:
+                        s0, s1, s2, s3 = a0, a1, a2, a3
+                    else:
+                        f = 0.5 * h if st < 3 else h
+                        s0 = a0 + f * k[st - 1, 0]
+                        s1 = a1 + f * k[st - 1, 1]
+                        s2 = a2 + f * k[st - 1, 2]
+                        s3 = a3 + f * k[st - 1, 3]
+                    d = s0 - s1
+                    sd, cd = math.sin(d), math.cos(d)
+                    a, b, e = mu * l1 * l1, l1 * l2 * cd, l2 * l2
+                    f1 = -s3 * s3 * l1 * l2 * sd - mu * g * l1 * math.sin(s0)
+                    f2 = s2 * s2 * l1 * l2 * sd - g * l2 * math.sin(s1)
+                    det = a * e - b * b
+                    k[st, 0], k[st, 1] = s2, s3
+                    k[st, 2], k[st, 3] = (e * f1 - b * f2) / det, (a * f2 - b * f1) / det
+                a0 += h / 6.0 * (k[0, 0] + 2.0 * k[1, 0] + 2.0 * k[2, 0] + k[3, 0])
+                a1 += h / 6.0 * (k[0, 1] + 2.0 * k[1, 1] + 2.0 * k[2, 1] + k[3, 1])
+                a2 += h / 6.0 * (k[0, 2] + 2.0 * k[1, 2] + 2.0 * k[2, 2] + k[3, 2])
+                a3 += h / 6.0 * (k[0, 3] + 2.0 * k[1, 3] + 2.0 * k[2, 3] + k[3, 3])
+            y[i, 0], y[i, 1], y[i, 2], y[i, 3] = a0, a1, a2, a3
+        return y
+
+    rk4_batch(np.zeros((2, 4)), np.ones(5), 0.01, 1)     # compile now
+    return rk4_batch
+
+
+@cache
+def hand_c_rk4_batch():
+    """The hand-written C RK4 loop over a batch (B, 4), one trajectory after another."""
+    from ..codegen.loader import build
+    lib = ctypes.CDLL(str(build(BENCH / "peers" / "planar_rk4_batch_hand.c")))
+    fn = lib.hand_planar_rk4_batch
+    fn.restype = None
+    dptr = np.ctypeslib.ndpointer(np.float64, flags="C_CONTIGUOUS")
+    fn.argtypes = [ctypes.c_long, dptr, dptr, ctypes.c_double, ctypes.c_long]
+
+    def run(y0, p, h, n):
+        y = np.array(y0, dtype=np.float64).reshape(-1, 4)
+        fn(len(y), y, np.asarray(p, dtype=np.float64), h, n)
         return y
     return run

@@ -32,7 +32,8 @@ def rk4(y, p, h, nsteps):
     t14 = l1*l1
     M00 = t14*(m1 + m2)
 
-    def f(theta1, theta2, theta1_dot, theta2_dot):
+    def f(s, out):
+        theta1, theta2, theta1_dot, theta2_dot, = s
         t0 = theta1 - theta2
         t1 = numpy.cos(t0)
         M01 = t3*t1
@@ -50,44 +51,36 @@ def rk4(y, p, h, nsteps):
         rdet = 1.0/det
         qdd0 = rdet*(M11*F0 - F1*M01)
         qdd1 = rdet*(M00*F1 - F0*M01)
-        return (theta1_dot, theta2_dot, qdd0, qdd1)
+        out[0] = theta1_dot
+        out[1] = theta2_dot
+        out[2] = qdd0
+        out[3] = qdd1
 
     h = float(h)
-    y0, y1, y2, y3 = y[0], y[1], y[2], y[3]
-    alive = numpy.isfinite(y).all(axis=0)
+    Y = y
+    K = numpy.empty((4,) + y.shape)
+    alive = numpy.isfinite(Y).all(axis=0)
     status = numpy.where(alive, OK, BAD_INPUT).astype(numpy.intc)
     steps = numpy.zeros(y.shape[1], numpy.int64)
+    everyone, clean = bool(alive.all()), 0
     with numpy.errstate(all="ignore"):
         for _ in range(int(nsteps)):
-            k0_0, k0_1, k0_2, k0_3 = f(y0, y1, y2, y3)
-            s0 = y0 + h * (0.5 * k0_0)
-            s1 = y1 + h * (0.5 * k0_1)
-            s2 = y2 + h * (0.5 * k0_2)
-            s3 = y3 + h * (0.5 * k0_3)
-            k1_0, k1_1, k1_2, k1_3 = f(s0, s1, s2, s3)
-            s0 = y0 + h * (0.5 * k1_0)
-            s1 = y1 + h * (0.5 * k1_1)
-            s2 = y2 + h * (0.5 * k1_2)
-            s3 = y3 + h * (0.5 * k1_3)
-            k2_0, k2_1, k2_2, k2_3 = f(s0, s1, s2, s3)
-            s0 = y0 + h * (1.0 * k2_0)
-            s1 = y1 + h * (1.0 * k2_1)
-            s2 = y2 + h * (1.0 * k2_2)
-            s3 = y3 + h * (1.0 * k2_3)
-            k3_0, k3_1, k3_2, k3_3 = f(s0, s1, s2, s3)
-            n0 = y0 + h * (0.166666666666666666666666666666666667 * k0_0 + 0.333333333333333333333333333333333333 * k1_0 + 0.333333333333333333333333333333333333 * k2_0 + 0.166666666666666666666666666666666667 * k3_0)
-            n1 = y1 + h * (0.166666666666666666666666666666666667 * k0_1 + 0.333333333333333333333333333333333333 * k1_1 + 0.333333333333333333333333333333333333 * k2_1 + 0.166666666666666666666666666666666667 * k3_1)
-            n2 = y2 + h * (0.166666666666666666666666666666666667 * k0_2 + 0.333333333333333333333333333333333333 * k1_2 + 0.333333333333333333333333333333333333 * k2_2 + 0.166666666666666666666666666666666667 * k3_2)
-            n3 = y3 + h * (0.166666666666666666666666666666666667 * k0_3 + 0.333333333333333333333333333333333333 * k1_3 + 0.333333333333333333333333333333333333 * k2_3 + 0.166666666666666666666666666666666667 * k3_3)
-            ok = alive & numpy.isfinite(n0) & numpy.isfinite(n1) & numpy.isfinite(n2) & numpy.isfinite(n3)
-            if ok.all():
-                y0, y1, y2, y3 = n0, n1, n2, n3
-            else:
-                y0 = numpy.where(ok, n0, y0)
-                y1 = numpy.where(ok, n1, y1)
-                y2 = numpy.where(ok, n2, y2)
-                y3 = numpy.where(ok, n3, y3)
+            f(Y, K[0])
+            S = Y + h * (0.5 * K[0])
+            f(S, K[1])
+            S = Y + h * (0.5 * K[1])
+            f(S, K[2])
+            S = Y + h * (K[2])
+            f(S, K[3])
+            N = Y + h * (0.166666666666666666666666666666666667 * K[0] + 0.333333333333333333333333333333333333 * K[1] + 0.333333333333333333333333333333333333 * K[2] + 0.166666666666666666666666666666666667 * K[3])
+            if everyone and numpy.isfinite(N).all():
+                Y = N
+                clean += 1
+                continue
+            ok = alive & numpy.isfinite(N).all(axis=0)
+            Y = numpy.where(ok, N, Y)
             steps += ok
-            alive = ok
+            alive, everyone = ok, False
+    steps += clean
     status[~alive & (status == OK)] = NONFINITE
-    return numpy.stack([y0, y1, y2, y3]), status, steps
+    return Y, status, steps
