@@ -84,12 +84,29 @@ def test_high_spin_next_to_a_pole():
 
 RATIOS = [(1e-3, 1.0), (1e3, 1.0), (1.0, 1e-2), (1.0, 1e2), (1e-3, 1e2), (1e3, 1e-2)]
 
+# Gauss2 on the same runs: the step resolves the fastest time scale 1/rho_max (rho_max: the
+# largest |eigenvalue| of the Hamiltonian Jacobian along the run, from a dense DOP853 run),
+# h rho_max ~ 0.1.  m1/m2 = 1e-3: when the links pass through alignment the light middle bob
+# whips round (theta1' ~ 100 rad/s, rho_max = 6.7e3 at l1 = l2, 4.3e3 at l1/l2 = 1e2).
+# (h, energy bound / scale, position bound / (l1 + l2)); measured: energy 4.5e-10, 7.7e-9,
+# 5.1e-10, 6.8e-11, 1.3e-13, 2.7e-10; positions against DOP853 at rtol 1e-13 2.5e-8,
+# 4.4e-6, 1.1e-8, 3.2e-10, 8.6e-11, 6.6e-8 (each bound ~4x the measured figure).
+GAUSS2 = {(1e-3, 1.0): (2e-5, 2e-9, 1e-7),        # rho_max 6.7e3
+          (1e3, 1.0): (0.03, 3e-8, 2e-5),         # rho_max 3.3
+          (1.0, 1e-2): (1e-3, 2e-9, 5e-8),        # rho_max 99
+          (1.0, 1e2): (5e-3, 3e-10, 2e-9),        # rho_max 18
+          (1e-3, 1e2): (2e-5, 1e-12, 1e-9),       # rho_max 4.3e3
+          (1e3, 1e-2): (3e-3, 1e-9, 3e-7)}        # rho_max 31
+
 
 @pytest.mark.parametrize("mratio, lratio", RATIOS)
 def test_mass_and_length_ratios_planar(mratio, lratio):
     """m1/m2 in {1e-3, 1e3}, l1/l2 in {1e-2, 1e2}: DOP853 at rtol 1e-11 keeps the energy
     within 1e-8 of its scale (m1 + m2) g (l1 + l2) over t = 5, and agrees with the run at
-    rtol 1e-13 to 1e-6 (relative to the lengths)."""
+    rtol 1e-13 to 1e-6 (relative to the lengths).  Gauss2 with a step for the fastest time
+    scale (GAUSS2 above) keeps the energy within its stated bound of the scale and the
+    positions within theirs of the rtol 1e-13 run, its Newton iteration converging in at most
+    5 iterations a step on average."""
     m2, l2 = 1.0, 1.0
     m1, l1 = mratio * m2, lratio * l2
     p = [m1, m2, l1, l2, 9.81]
@@ -101,6 +118,24 @@ def test_mass_and_length_ratios_planar(mratio, lratio):
     g = simulate("planar", [1.0, -0.5, 0.3, 0.8], t, p, method="dop853", rtol=1e-13, atol=1e-15)
     assert g.ok, g.message
     assert np.max(np.abs(g.positions - r.positions)) < 1e-6 * (l1 + l2)
+    h, e_bound, x_bound = GAUSS2[(mratio, lratio)]
+    s = simulate("planar", [1.0, -0.5, 0.3, 0.8], t, p, method="gauss2", step=h)
+    assert s.ok, s.message
+    de = float(np.max(np.abs(s.energy - s.energy[0]))) / scale
+    dx = float(np.max(np.abs(s.positions - g.positions))) / (l1 + l2)
+    assert de < e_bound and dx < x_bound, (de, dx)
+    assert s.njev >= s.nsteps and s.nnewton <= 5 * s.nsteps, (s.njev, s.nnewton, s.nsteps)
+
+
+def test_gauss2_step_too_large_for_the_whip_says_newton():
+    """m1/m2 = 1e-3 with h = 1e-3 (h rho_max ~ 7 at the whip near t = 0.30): Gauss2 stops there
+    with status NEWTON (C and NumPy) rather than return a state it could not converge to."""
+    p = [1e-3, 1.0, 1.0, 1.0, 9.81]
+    for backend in ("c", "numpy"):
+        r = simulate("planar", [1.0, -0.5, 0.3, 0.8], np.linspace(0, 1, 11), p, method="gauss2",
+                     step=1e-3, backend=backend)
+        assert r.status == 3 and 0.25 < r.t_stop < 0.35, r.message
+        assert np.isnan(r.y[4:]).all() and np.isfinite(r.y_stop).all()
 
 
 @pytest.mark.parametrize("mratio, lratio", RATIOS)

@@ -20,6 +20,8 @@ from . import tableau as tb
 SINE_MIN = "0.1"          # hard threshold: no kernel below it (per-model default, and atlas)
 SINE_SWITCH = "0.3"       # atlas: switch chart when a polar sine drops below
 SINE_RULE = "0.5"         # seed 000 section 5.1: "not small" means >= 0.5
+NEWTON_THETA_MAX = "0.5"  # implicit methods: a contraction rate above this re-evaluates the Jacobian
+NEWTON_THETA_DIVERGE = "2"   # implicit methods: an increment growing this much is NEWTON at once
 
 METHODS = ("rk4", "dopri5", "dop853", "midpoint", "gauss2")
 ADAPTIVE = ("dopri5", "dop853")
@@ -148,7 +150,7 @@ def render_c(name: str) -> dict[str, str]:
     info = model_info(name)
     ctx = {"P": name, "M": name.upper(), "title": info.title, "has_ham": info.has_ham,
            "has_guards": info.nguards > 0, "nguards": info.nguards, "sine_min": SINE_MIN,
-           "variants": c_variants(), "sources": SOURCES}
+           "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE, "variants": c_variants(), "sources": SOURCES}
     return {
         f"c/{name}_integrate.h": render("c/integrate.h.jinja", dict(ctx, template="templates/c/integrate.h.jinja")),
         f"c/{name}_integrate.c": render("c/integrate.c.jinja", dict(ctx, template="templates/c/integrate.c.jinja")),
@@ -225,5 +227,6 @@ def render_numpy(name: str) -> dict[str, str]:
     explicit, gauss = numpy_tableaus()
     ctx = {"P": name, "title": info.title, "has_ham": info.has_ham, "has_guards": info.nguards > 0,
            "n": info.n, "n_params": info.n_params, "sine_min": SINE_MIN, "sources": SOURCES,
+           "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE,
            "explicit": explicit, "gauss": gauss, "template": "templates/numpy/integrate.py.jinja"}
     return {f"numpy/{name}_integrate.py": render("numpy/integrate.py.jinja", ctx)}

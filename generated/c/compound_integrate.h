@@ -11,15 +11,21 @@
  *   GAUSS2    Gauss-Legendre, 2 stages, order 4, fixed step
  * The implicit methods run on Hamilton's equations (compound_hamiltonian_rhs, x = (q, p))
  * and are symplectic; their simplified Newton iteration uses
- * compound_hamiltonian_jacobian at the start of each step.  States in and out are y = (q, q'),
- * converted with compound_to_canonical / compound_from_canonical.
+ * compound_hamiltonian_jacobian at the start of each step, re-evaluated at the stage values
+ * when the iteration converges slowly or diverges (see NEWTON below).  States in and out
+ * are y = (q, q'), converted with compound_to_canonical / compound_from_canonical.
  *
  * Status codes (return value and info.status):
  *   COMPOUND_INTEGRATE_OK              0  every requested output was computed
  *   COMPOUND_INTEGRATE_STEP_UNDERFLOW  1  the adaptive step fell below hmin to meet the tolerance
  *   COMPOUND_INTEGRATE_MAX_STEPS       2  options.max_steps steps were taken
- *   COMPOUND_INTEGRATE_NEWTON          3  the Newton iteration of an implicit method diverged
- *                                        or did not converge in options.newton_max iterations
+ *   COMPOUND_INTEGRATE_NEWTON          3  the Newton iteration of an implicit method did not
+ *                                        converge: an increment not finite, growing by
+ *                                        2 or more, or growing again after the Jacobian was
+ *                                        re-evaluated at the stage values (it is, whenever the
+ *                                        contraction rate |dZ_k|/|dZ_k-1| exceeds 0.5), or
+ *                                        options.newton_max iterations; the step is too large
+ *                                        for the motion.  No step is taken from such an iteration
  *   COMPOUND_INTEGRATE_NONFINITE       4  a derivative or the state became NaN or infinite
  *   COMPOUND_INTEGRATE_CHART_SINGULAR  5  the chart is singular there: a polar sine below
  *                                        options.sine_min (the mass matrix is singular)
@@ -82,7 +88,7 @@ typedef struct compound_integrate_options {
 typedef struct compound_integrate_info {
     int status;         /* COMPOUND_INTEGRATE_* */
     long nfev;          /* right-hand side evaluations */
-    long njev;          /* Jacobian evaluations */
+    long njev;          /* Jacobian evaluations (implicit: one per step, one per stage per re-evaluation) */
     long nsteps;        /* steps attempted */
     long naccepted;
     long nrejected;

@@ -361,37 +361,18 @@ void spherical_std_dop853_dense(const double *restrict y, double (*restrict F)[N
     }
 }
 
-/* One step of an s-stage Gauss-Legendre method: simplified Newton on the stage
- * increments Z_i = h sum_j a_ij f(x + Z_j) with the Jacobian at x, then
- * x_new = x + sum_i d_i Z_i (d = b^T A^-1). */
-static int spherical_std_gauss(int ns, const double *A, const double *c, const double *d, const double *restrict x, double h, const double *restrict p, double *restrict x_new, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
+/* W = I - h (a_ij J_j) for an s-stage method (J_j: the Jacobian used for stage j),
+ * LU-factored in place with partial pivoting: 0 or NEWTON (singular). */
+static int spherical_std_gauss_factor(int ns, const double *A, double h, const double *J, double *W, int *piv)
 {
-    double J[N * N], W[4 * N * N], G[2 * N], Z[2][N], Fv[2][N], xs[N];
-    double nrm, prev = 0, theta, big, tmp;
-    const double tol = opt->newton_tol > 0 ? (double)opt->newton_tol : 10 * 2.220446049250313e-16;
     const int n = ns * N;
-    int piv[2 * N];
-    int st, i, j, k, l, it, conv = 0;
-
-    st = spherical_std_sys_jac(x, p, J, opt, info);
-    if (st) {
-        return st;
-    }
-    st = spherical_std_sys_eval(x, p, Fv[0], opt, info);
-    if (st) {
-        return st;
-    }
-    for (i = ns - 1; i >= 0; --i) {
-        for (k = 0; k < N; ++k) {
-            Z[i][k] = c[i] * h * Fv[0][k];
-        }
-    }
-    /* W = I - h (A kron J), LU with partial pivoting */
+    double big, tmp;
+    int i, j, k, l;
     for (i = 0; i < ns; ++i) {
         for (j = 0; j < ns; ++j) {
             for (k = 0; k < N; ++k) {
                 for (l = 0; l < N; ++l) {
-                    W[(i * N + k) * n + j * N + l] = (i == j && k == l ? 1 : 0) - h * A[i * ns + j] * J[k * N + l];
+                    W[(i * N + k) * n + j * N + l] = (i == j && k == l ? 1 : 0) - h * A[i * ns + j] * J[j * N * N + k * N + l];
                 }
             }
         }
@@ -422,9 +403,70 @@ static int spherical_std_gauss(int ns, const double *A, const double *c, const d
             }
         }
     }
+    return SPHERICAL_STD_INTEGRATE_OK;
+}
+
+/* The Jacobian at each stage value x + Z_j (ns evaluations, counted in njev). */
+static int spherical_std_gauss_stage_jac(int ns, const double *restrict x, double (*Z)[N], const double *restrict p, double *J, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
+{
+    double xs[N];
+    int st, j, k;
+    for (j = 0; j < ns; ++j) {
+        for (k = 0; k < N; ++k) {
+            xs[k] = x[k] + Z[j][k];
+        }
+        st = spherical_std_sys_jac(xs, p, J + j * N * N, opt, info);
+        if (st) {
+            return st;
+        }
+    }
+    return SPHERICAL_STD_INTEGRATE_OK;
+}
+
+/* One step of an s-stage Gauss-Legendre method on the stage increments
+ * Z_i = h sum_j a_ij f(x + Z_j), then x_new = x + sum_i d_i Z_i (d = b^T A^-1).
+ * Simplified Newton with the Jacobian at x.  With the contraction rate
+ * theta_k = |dZ_k| / |dZ_k-1|: an increment that shrinks slowly (0.5 < theta < 1)
+ * re-evaluates the Jacobian at the current stage values x + Z_j (one per stage,
+ * W = I - h (a_ij J_j)) and restarts the rate estimate; one that grows (1 <= theta <
+ * 2) does the same at the iterate before it, once per step.  NEWTON, the last
+ * resort, when an increment grows again, grows by 2 or more, is not finite, or
+ * no convergence in opt->newton_max iterations: a step is never taken from an
+ * unconverged iteration, nor from a far-off root the iteration wandered to. */
+static int spherical_std_gauss(int ns, const double *A, const double *c, const double *d, const double *restrict x, double h, const double *restrict p, double *restrict x_new, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
+{
+    double J[2 * N * N], W[4 * N * N], G[2 * N], Z[2][N], Zold[2][N], Fv[2][N], xs[N];
+    double nrm, prev = 0, theta, tmp;
+    const double tol = opt->newton_tol > 0 ? (double)opt->newton_tol : 10 * 2.220446049250313e-16;
+    const double rounding = 1000 * 2.220446049250313e-16;
+    const int n = ns * N;
+    int piv[2 * N];
+    int st, i, j, k, it, conv = 0, bad, grown = 0;
+
+    st = spherical_std_sys_jac(x, p, J, opt, info);
+    if (st) {
+        return st;
+    }
+    for (k = N * N; k < ns * N * N; ++k) {
+        J[k] = J[k - N * N];
+    }
+    st = spherical_std_sys_eval(x, p, Fv[0], opt, info);
+    if (st) {
+        return st;
+    }
+    for (i = ns - 1; i >= 0; --i) {
+        for (k = 0; k < N; ++k) {
+            Z[i][k] = c[i] * h * Fv[0][k];
+        }
+    }
+    st = spherical_std_gauss_factor(ns, A, h, J, W, piv);
+    if (st) {
+        return st;
+    }
     for (it = 0; it < opt->newton_max; ++it) {
         for (i = 0; i < ns; ++i) {
             for (k = 0; k < N; ++k) {
+                Zold[i][k] = Z[i][k];
                 xs[k] = x[k] + Z[i][k];
             }
             st = spherical_std_sys_eval(xs, p, Fv[i], opt, info);
@@ -470,26 +512,53 @@ static int spherical_std_gauss(int ns, const double *A, const double *c, const d
             }
         }
         info->nnewton += 1;
+        bad = 0;                /* 1: slow, 2: growing */
         if (nrm != nrm || nrm > (double)1e30) {
             return SPHERICAL_STD_INTEGRATE_NEWTON;
-        }
-        if (nrm <= tol) {
+        } else if (nrm <= tol) {
             conv = 1;
             break;
-        }
-        if (it > 0) {
+        } else if (prev > 0) {
             theta = nrm / prev;
             if (theta < 1 && theta / (1 - theta) * nrm <= tol) {
                 conv = 1;
                 break;
             }
-            if (theta >= 1 && it > 1) {
-                if (nrm <= 1000 * 2.220446049250313e-16) {
+            if (nrm <= rounding) {
+                if (theta >= 1) {
                     conv = 1;   /* stagnation at rounding level */
                     break;
                 }
-                return SPHERICAL_STD_INTEGRATE_NEWTON;
+            } else if (theta >= (double)2) {
+                return SPHERICAL_STD_INTEGRATE_NEWTON;    /* diverges: the step is too large for the motion */
+            } else if (theta >= 1) {
+                bad = 2;
+            } else if (theta > (double)0.5) {
+                bad = 1;
             }
+        }
+        if (bad) {
+            if (bad == 2) {
+                if (grown) {
+                    return SPHERICAL_STD_INTEGRATE_NEWTON;    /* grows again after a re-evaluation */
+                }
+                grown = 1;
+                for (i = 0; i < ns; ++i) {
+                    for (k = 0; k < N; ++k) {
+                        Z[i][k] = Zold[i][k];
+                    }
+                }
+            }
+            st = spherical_std_gauss_stage_jac(ns, x, Z, p, J, opt, info);
+            if (st) {
+                return st;
+            }
+            st = spherical_std_gauss_factor(ns, A, h, J, W, piv);
+            if (st) {
+                return st;
+            }
+            prev = 0;           /* restart: the rate is estimated anew */
+            continue;
         }
         prev = nrm;
     }
@@ -1272,37 +1341,18 @@ void spherical_std_dop853_dense_f(const float *restrict y, float (*restrict F)[N
     }
 }
 
-/* One step of an s-stage Gauss-Legendre method: simplified Newton on the stage
- * increments Z_i = h sum_j a_ij f(x + Z_j) with the Jacobian at x, then
- * x_new = x + sum_i d_i Z_i (d = b^T A^-1). */
-static int spherical_std_gauss_f(int ns, const float *A, const float *c, const float *d, const float *restrict x, float h, const float *restrict p, float *restrict x_new, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
+/* W = I - h (a_ij J_j) for an s-stage method (J_j: the Jacobian used for stage j),
+ * LU-factored in place with partial pivoting: 0 or NEWTON (singular). */
+static int spherical_std_gauss_factor_f(int ns, const float *A, float h, const float *J, float *W, int *piv)
 {
-    float J[N * N], W[4 * N * N], G[2 * N], Z[2][N], Fv[2][N], xs[N];
-    float nrm, prev = 0, theta, big, tmp;
-    const float tol = opt->newton_tol > 0 ? (float)opt->newton_tol : 10 * 1.1920929e-07f;
     const int n = ns * N;
-    int piv[2 * N];
-    int st, i, j, k, l, it, conv = 0;
-
-    st = spherical_std_sys_jac_f(x, p, J, opt, info);
-    if (st) {
-        return st;
-    }
-    st = spherical_std_sys_eval_f(x, p, Fv[0], opt, info);
-    if (st) {
-        return st;
-    }
-    for (i = ns - 1; i >= 0; --i) {
-        for (k = 0; k < N; ++k) {
-            Z[i][k] = c[i] * h * Fv[0][k];
-        }
-    }
-    /* W = I - h (A kron J), LU with partial pivoting */
+    float big, tmp;
+    int i, j, k, l;
     for (i = 0; i < ns; ++i) {
         for (j = 0; j < ns; ++j) {
             for (k = 0; k < N; ++k) {
                 for (l = 0; l < N; ++l) {
-                    W[(i * N + k) * n + j * N + l] = (i == j && k == l ? 1 : 0) - h * A[i * ns + j] * J[k * N + l];
+                    W[(i * N + k) * n + j * N + l] = (i == j && k == l ? 1 : 0) - h * A[i * ns + j] * J[j * N * N + k * N + l];
                 }
             }
         }
@@ -1333,9 +1383,70 @@ static int spherical_std_gauss_f(int ns, const float *A, const float *c, const f
             }
         }
     }
+    return SPHERICAL_STD_INTEGRATE_OK;
+}
+
+/* The Jacobian at each stage value x + Z_j (ns evaluations, counted in njev). */
+static int spherical_std_gauss_stage_jac_f(int ns, const float *restrict x, float (*Z)[N], const float *restrict p, float *J, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
+{
+    float xs[N];
+    int st, j, k;
+    for (j = 0; j < ns; ++j) {
+        for (k = 0; k < N; ++k) {
+            xs[k] = x[k] + Z[j][k];
+        }
+        st = spherical_std_sys_jac_f(xs, p, J + j * N * N, opt, info);
+        if (st) {
+            return st;
+        }
+    }
+    return SPHERICAL_STD_INTEGRATE_OK;
+}
+
+/* One step of an s-stage Gauss-Legendre method on the stage increments
+ * Z_i = h sum_j a_ij f(x + Z_j), then x_new = x + sum_i d_i Z_i (d = b^T A^-1).
+ * Simplified Newton with the Jacobian at x.  With the contraction rate
+ * theta_k = |dZ_k| / |dZ_k-1|: an increment that shrinks slowly (0.5 < theta < 1)
+ * re-evaluates the Jacobian at the current stage values x + Z_j (one per stage,
+ * W = I - h (a_ij J_j)) and restarts the rate estimate; one that grows (1 <= theta <
+ * 2) does the same at the iterate before it, once per step.  NEWTON, the last
+ * resort, when an increment grows again, grows by 2 or more, is not finite, or
+ * no convergence in opt->newton_max iterations: a step is never taken from an
+ * unconverged iteration, nor from a far-off root the iteration wandered to. */
+static int spherical_std_gauss_f(int ns, const float *A, const float *c, const float *d, const float *restrict x, float h, const float *restrict p, float *restrict x_new, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
+{
+    float J[2 * N * N], W[4 * N * N], G[2 * N], Z[2][N], Zold[2][N], Fv[2][N], xs[N];
+    float nrm, prev = 0, theta, tmp;
+    const float tol = opt->newton_tol > 0 ? (float)opt->newton_tol : 10 * 1.1920929e-07f;
+    const float rounding = 1000 * 1.1920929e-07f;
+    const int n = ns * N;
+    int piv[2 * N];
+    int st, i, j, k, it, conv = 0, bad, grown = 0;
+
+    st = spherical_std_sys_jac_f(x, p, J, opt, info);
+    if (st) {
+        return st;
+    }
+    for (k = N * N; k < ns * N * N; ++k) {
+        J[k] = J[k - N * N];
+    }
+    st = spherical_std_sys_eval_f(x, p, Fv[0], opt, info);
+    if (st) {
+        return st;
+    }
+    for (i = ns - 1; i >= 0; --i) {
+        for (k = 0; k < N; ++k) {
+            Z[i][k] = c[i] * h * Fv[0][k];
+        }
+    }
+    st = spherical_std_gauss_factor_f(ns, A, h, J, W, piv);
+    if (st) {
+        return st;
+    }
     for (it = 0; it < opt->newton_max; ++it) {
         for (i = 0; i < ns; ++i) {
             for (k = 0; k < N; ++k) {
+                Zold[i][k] = Z[i][k];
                 xs[k] = x[k] + Z[i][k];
             }
             st = spherical_std_sys_eval_f(xs, p, Fv[i], opt, info);
@@ -1381,26 +1492,53 @@ static int spherical_std_gauss_f(int ns, const float *A, const float *c, const f
             }
         }
         info->nnewton += 1;
+        bad = 0;                /* 1: slow, 2: growing */
         if (nrm != nrm || nrm > (float)1e30) {
             return SPHERICAL_STD_INTEGRATE_NEWTON;
-        }
-        if (nrm <= tol) {
+        } else if (nrm <= tol) {
             conv = 1;
             break;
-        }
-        if (it > 0) {
+        } else if (prev > 0) {
             theta = nrm / prev;
             if (theta < 1 && theta / (1 - theta) * nrm <= tol) {
                 conv = 1;
                 break;
             }
-            if (theta >= 1 && it > 1) {
-                if (nrm <= 1000 * 1.1920929e-07f) {
+            if (nrm <= rounding) {
+                if (theta >= 1) {
                     conv = 1;   /* stagnation at rounding level */
                     break;
                 }
-                return SPHERICAL_STD_INTEGRATE_NEWTON;
+            } else if (theta >= (float)2) {
+                return SPHERICAL_STD_INTEGRATE_NEWTON;    /* diverges: the step is too large for the motion */
+            } else if (theta >= 1) {
+                bad = 2;
+            } else if (theta > (float)0.5) {
+                bad = 1;
             }
+        }
+        if (bad) {
+            if (bad == 2) {
+                if (grown) {
+                    return SPHERICAL_STD_INTEGRATE_NEWTON;    /* grows again after a re-evaluation */
+                }
+                grown = 1;
+                for (i = 0; i < ns; ++i) {
+                    for (k = 0; k < N; ++k) {
+                        Z[i][k] = Zold[i][k];
+                    }
+                }
+            }
+            st = spherical_std_gauss_stage_jac_f(ns, x, Z, p, J, opt, info);
+            if (st) {
+                return st;
+            }
+            st = spherical_std_gauss_factor_f(ns, A, h, J, W, piv);
+            if (st) {
+                return st;
+            }
+            prev = 0;           /* restart: the rate is estimated anew */
+            continue;
         }
         prev = nrm;
     }
@@ -2183,37 +2321,18 @@ void spherical_std_dop853_dense_l(const long double *restrict y, long double (*r
     }
 }
 
-/* One step of an s-stage Gauss-Legendre method: simplified Newton on the stage
- * increments Z_i = h sum_j a_ij f(x + Z_j) with the Jacobian at x, then
- * x_new = x + sum_i d_i Z_i (d = b^T A^-1). */
-static int spherical_std_gauss_l(int ns, const long double *A, const long double *c, const long double *d, const long double *restrict x, long double h, const long double *restrict p, long double *restrict x_new, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
+/* W = I - h (a_ij J_j) for an s-stage method (J_j: the Jacobian used for stage j),
+ * LU-factored in place with partial pivoting: 0 or NEWTON (singular). */
+static int spherical_std_gauss_factor_l(int ns, const long double *A, long double h, const long double *J, long double *W, int *piv)
 {
-    long double J[N * N], W[4 * N * N], G[2 * N], Z[2][N], Fv[2][N], xs[N];
-    long double nrm, prev = 0, theta, big, tmp;
-    const long double tol = opt->newton_tol > 0 ? (long double)opt->newton_tol : 10 * 1.08420217248550443401e-19L;
     const int n = ns * N;
-    int piv[2 * N];
-    int st, i, j, k, l, it, conv = 0;
-
-    st = spherical_std_sys_jac_l(x, p, J, opt, info);
-    if (st) {
-        return st;
-    }
-    st = spherical_std_sys_eval_l(x, p, Fv[0], opt, info);
-    if (st) {
-        return st;
-    }
-    for (i = ns - 1; i >= 0; --i) {
-        for (k = 0; k < N; ++k) {
-            Z[i][k] = c[i] * h * Fv[0][k];
-        }
-    }
-    /* W = I - h (A kron J), LU with partial pivoting */
+    long double big, tmp;
+    int i, j, k, l;
     for (i = 0; i < ns; ++i) {
         for (j = 0; j < ns; ++j) {
             for (k = 0; k < N; ++k) {
                 for (l = 0; l < N; ++l) {
-                    W[(i * N + k) * n + j * N + l] = (i == j && k == l ? 1 : 0) - h * A[i * ns + j] * J[k * N + l];
+                    W[(i * N + k) * n + j * N + l] = (i == j && k == l ? 1 : 0) - h * A[i * ns + j] * J[j * N * N + k * N + l];
                 }
             }
         }
@@ -2244,9 +2363,70 @@ static int spherical_std_gauss_l(int ns, const long double *A, const long double
             }
         }
     }
+    return SPHERICAL_STD_INTEGRATE_OK;
+}
+
+/* The Jacobian at each stage value x + Z_j (ns evaluations, counted in njev). */
+static int spherical_std_gauss_stage_jac_l(int ns, const long double *restrict x, long double (*Z)[N], const long double *restrict p, long double *J, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
+{
+    long double xs[N];
+    int st, j, k;
+    for (j = 0; j < ns; ++j) {
+        for (k = 0; k < N; ++k) {
+            xs[k] = x[k] + Z[j][k];
+        }
+        st = spherical_std_sys_jac_l(xs, p, J + j * N * N, opt, info);
+        if (st) {
+            return st;
+        }
+    }
+    return SPHERICAL_STD_INTEGRATE_OK;
+}
+
+/* One step of an s-stage Gauss-Legendre method on the stage increments
+ * Z_i = h sum_j a_ij f(x + Z_j), then x_new = x + sum_i d_i Z_i (d = b^T A^-1).
+ * Simplified Newton with the Jacobian at x.  With the contraction rate
+ * theta_k = |dZ_k| / |dZ_k-1|: an increment that shrinks slowly (0.5 < theta < 1)
+ * re-evaluates the Jacobian at the current stage values x + Z_j (one per stage,
+ * W = I - h (a_ij J_j)) and restarts the rate estimate; one that grows (1 <= theta <
+ * 2) does the same at the iterate before it, once per step.  NEWTON, the last
+ * resort, when an increment grows again, grows by 2 or more, is not finite, or
+ * no convergence in opt->newton_max iterations: a step is never taken from an
+ * unconverged iteration, nor from a far-off root the iteration wandered to. */
+static int spherical_std_gauss_l(int ns, const long double *A, const long double *c, const long double *d, const long double *restrict x, long double h, const long double *restrict p, long double *restrict x_new, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
+{
+    long double J[2 * N * N], W[4 * N * N], G[2 * N], Z[2][N], Zold[2][N], Fv[2][N], xs[N];
+    long double nrm, prev = 0, theta, tmp;
+    const long double tol = opt->newton_tol > 0 ? (long double)opt->newton_tol : 10 * 1.08420217248550443401e-19L;
+    const long double rounding = 1000 * 1.08420217248550443401e-19L;
+    const int n = ns * N;
+    int piv[2 * N];
+    int st, i, j, k, it, conv = 0, bad, grown = 0;
+
+    st = spherical_std_sys_jac_l(x, p, J, opt, info);
+    if (st) {
+        return st;
+    }
+    for (k = N * N; k < ns * N * N; ++k) {
+        J[k] = J[k - N * N];
+    }
+    st = spherical_std_sys_eval_l(x, p, Fv[0], opt, info);
+    if (st) {
+        return st;
+    }
+    for (i = ns - 1; i >= 0; --i) {
+        for (k = 0; k < N; ++k) {
+            Z[i][k] = c[i] * h * Fv[0][k];
+        }
+    }
+    st = spherical_std_gauss_factor_l(ns, A, h, J, W, piv);
+    if (st) {
+        return st;
+    }
     for (it = 0; it < opt->newton_max; ++it) {
         for (i = 0; i < ns; ++i) {
             for (k = 0; k < N; ++k) {
+                Zold[i][k] = Z[i][k];
                 xs[k] = x[k] + Z[i][k];
             }
             st = spherical_std_sys_eval_l(xs, p, Fv[i], opt, info);
@@ -2292,26 +2472,53 @@ static int spherical_std_gauss_l(int ns, const long double *A, const long double
             }
         }
         info->nnewton += 1;
+        bad = 0;                /* 1: slow, 2: growing */
         if (nrm != nrm || nrm > (long double)1e30) {
             return SPHERICAL_STD_INTEGRATE_NEWTON;
-        }
-        if (nrm <= tol) {
+        } else if (nrm <= tol) {
             conv = 1;
             break;
-        }
-        if (it > 0) {
+        } else if (prev > 0) {
             theta = nrm / prev;
             if (theta < 1 && theta / (1 - theta) * nrm <= tol) {
                 conv = 1;
                 break;
             }
-            if (theta >= 1 && it > 1) {
-                if (nrm <= 1000 * 1.08420217248550443401e-19L) {
+            if (nrm <= rounding) {
+                if (theta >= 1) {
                     conv = 1;   /* stagnation at rounding level */
                     break;
                 }
-                return SPHERICAL_STD_INTEGRATE_NEWTON;
+            } else if (theta >= (long double)2) {
+                return SPHERICAL_STD_INTEGRATE_NEWTON;    /* diverges: the step is too large for the motion */
+            } else if (theta >= 1) {
+                bad = 2;
+            } else if (theta > (long double)0.5) {
+                bad = 1;
             }
+        }
+        if (bad) {
+            if (bad == 2) {
+                if (grown) {
+                    return SPHERICAL_STD_INTEGRATE_NEWTON;    /* grows again after a re-evaluation */
+                }
+                grown = 1;
+                for (i = 0; i < ns; ++i) {
+                    for (k = 0; k < N; ++k) {
+                        Z[i][k] = Zold[i][k];
+                    }
+                }
+            }
+            st = spherical_std_gauss_stage_jac_l(ns, x, Z, p, J, opt, info);
+            if (st) {
+                return st;
+            }
+            st = spherical_std_gauss_factor_l(ns, A, h, J, W, piv);
+            if (st) {
+                return st;
+            }
+            prev = 0;           /* restart: the rate is estimated anew */
+            continue;
         }
         prev = nrm;
     }

@@ -11,7 +11,9 @@
  *   GAUSS2    Gauss-Legendre, 2 stages, order 4, fixed step
  * This model has no Hamiltonian form: the implicit methods run on the
  * Lagrangian form y' = f(y) (spherical_std_rhs) with spherical_std_jacobian in the simplified Newton
- * iteration.  They are symmetric and of order 2s there, but not symplectic in y.
+ * iteration (at the start of each step, re-evaluated at the stage values when the
+ * iteration converges slowly or diverges).  They are symmetric and of order 2s there,
+ * but not symplectic in y.
  *
  * Chart singularity: no kernel is evaluated at a state whose polar sine
  * (spherical_std_polar_sines) has magnitude below options.sine_min (default
@@ -24,8 +26,13 @@
  *   SPHERICAL_STD_INTEGRATE_OK              0  every requested output was computed
  *   SPHERICAL_STD_INTEGRATE_STEP_UNDERFLOW  1  the adaptive step fell below hmin to meet the tolerance
  *   SPHERICAL_STD_INTEGRATE_MAX_STEPS       2  options.max_steps steps were taken
- *   SPHERICAL_STD_INTEGRATE_NEWTON          3  the Newton iteration of an implicit method diverged
- *                                        or did not converge in options.newton_max iterations
+ *   SPHERICAL_STD_INTEGRATE_NEWTON          3  the Newton iteration of an implicit method did not
+ *                                        converge: an increment not finite, growing by
+ *                                        2 or more, or growing again after the Jacobian was
+ *                                        re-evaluated at the stage values (it is, whenever the
+ *                                        contraction rate |dZ_k|/|dZ_k-1| exceeds 0.5), or
+ *                                        options.newton_max iterations; the step is too large
+ *                                        for the motion.  No step is taken from such an iteration
  *   SPHERICAL_STD_INTEGRATE_NONFINITE       4  a derivative or the state became NaN or infinite
  *   SPHERICAL_STD_INTEGRATE_CHART_SINGULAR  5  the chart is singular there: a polar sine below
  *                                        options.sine_min (the mass matrix is singular)
@@ -88,7 +95,7 @@ typedef struct spherical_std_integrate_options {
 typedef struct spherical_std_integrate_info {
     int status;         /* SPHERICAL_STD_INTEGRATE_* */
     long nfev;          /* right-hand side evaluations */
-    long njev;          /* Jacobian evaluations */
+    long njev;          /* Jacobian evaluations (implicit: one per step, one per stage per re-evaluation) */
     long nsteps;        /* steps attempted */
     long naccepted;
     long nrejected;

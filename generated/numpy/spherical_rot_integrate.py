@@ -30,6 +30,8 @@ METHODS = ("rk4", "dopri5", "dop853", "midpoint", "gauss2")
 N_STATES = 8
 N_PARAMS = 5
 SINE_MIN = 0.1
+NEWTON_THETA_MAX = 0.5
+NEWTON_THETA_DIVERGE = 2
 DEFAULTS = {"rtol": 1e-9, "atol": 1e-12, "h": 0.0, "hmin": 0.0, "hmax": 0.0,
             "max_steps": 100000000, "newton_tol": 0.0, "newton_max": 30, "sine_min": SINE_MIN}
 
@@ -174,36 +176,58 @@ def dop853_dense(y, F, theta):
     return y + theta * (F[0] + s1 * (F[1] + theta * (F[2] + s1 * (F[3] + theta * (F[4] + s1 * (F[5] + theta * F[6]))))))
 
 
+def _gauss_matrix(A, h, J, dtype):
+    """W = I - h (a_ij J_j) (J_j: the Jacobian for stage j), and W in the dtype of the solve."""
+    ns, n = len(A), J[0].shape[0]
+    W = numpy.eye(ns * n, dtype=dtype)
+    for i in range(ns):
+        for j in range(ns):
+            W[i * n:(i + 1) * n, j * n:(j + 1) * n] -= h * A[i][j] * J[j]
+    solve_dtype = numpy.float64 if dtype == numpy.longdouble else dtype
+    Wf = W.astype(solve_dtype)
+    return W, Wf, bool(numpy.all(numpy.isfinite(Wf)))
+
+
 def gauss_step(name, x, h, p, opt, info):
-    """One step of midpoint or gauss2 (simplified Newton, Jacobian at x): (status, x_new)."""
+    """One step of midpoint or gauss2: (status, x_new).
+
+    Simplified Newton with the Jacobian at x.  With the contraction rate
+    theta_k = |dZ_k| / |dZ_k-1|: an increment that shrinks slowly (NEWTON_THETA_MAX <
+    theta < 1) re-evaluates the Jacobian at the current stage values x + Z_j (one per
+    stage, W = I - h (a_ij J_j)) and restarts the rate estimate; one that grows (1 <=
+    theta < NEWTON_THETA_DIVERGE) does the same at the iterate before it, once per
+    step.  NEWTON, the last resort, when an increment grows again, grows by
+    NEWTON_THETA_DIVERGE or more, is not finite, or no convergence in
+    opt["newton_max"] iterations (the same logic as the C step)."""
     tab = _tab(name, x.dtype)
     ns, A, c, d = tab["ns"], tab["A"], tab["c"], tab["d"]
     n = len(x)
     eps = numpy.finfo(x.dtype).eps
     tol = opt["newton_tol"] if opt["newton_tol"] > 0 else 10 * eps
-    st, J = _sys_jac(x, p, opt, info)
+    rounding = 1000 * eps
+    theta_max = x.dtype.type(NEWTON_THETA_MAX)
+    theta_diverge = x.dtype.type(NEWTON_THETA_DIVERGE)
+    st, J0 = _sys_jac(x, p, opt, info)
     if st:
         return st, None
     st, f0 = _sys_eval(x, p, opt, info)
     if st:
         return st, None
     Z = numpy.array([c[i] * h * f0 for i in range(ns)])
-    W = numpy.eye(ns * n, dtype=x.dtype)
-    for i in range(ns):
-        for j in range(ns):
-            W[i * n:(i + 1) * n, j * n:(j + 1) * n] -= h * A[i][j] * J
-    solve_dtype = numpy.float64 if x.dtype == numpy.longdouble else x.dtype
-    Wf = W.astype(solve_dtype)
-    if not numpy.all(numpy.isfinite(Wf)):
+    W, Wf, finite = _gauss_matrix(A, h, [J0] * ns, x.dtype)
+    if not finite:
         return NEWTON, None
+    solve_dtype = Wf.dtype
+    Am = numpy.array(A, dtype=x.dtype)
     Fv = numpy.empty((ns, n), x.dtype)
-    prev = 0.0
+    prev, grown, conv = 0.0, False, False
     for it in range(opt["newton_max"]):
+        Zold = Z
         for i in range(ns):
             st, Fv[i] = _sys_eval(x + Z[i], p, opt, info)
             if st:
                 return st, None
-        G = -(Z - h * numpy.einsum("ij,jk->ik", numpy.array(A, dtype=x.dtype), Fv))
+        G = -(Z - h * numpy.einsum("ij,jk->ik", Am, Fv))
         try:
             dZ = numpy.linalg.solve(Wf, G.reshape(-1).astype(solve_dtype)).astype(x.dtype)
         except numpy.linalg.LinAlgError:
@@ -215,20 +239,45 @@ def gauss_step(name, x, h, p, opt, info):
         Z = Z + dZ.reshape(ns, n)
         nrm = float(numpy.max(numpy.abs(dZ.reshape(ns, n)) / (1 + numpy.abs(x))))
         info["nnewton"] += 1
+        bad = 0                 # 1: slow, 2: growing
         if nrm != nrm or nrm > 1e30:
             return NEWTON, None
-        if nrm <= tol:
+        elif nrm <= tol:
+            conv = True
             break
-        if it > 0:
+        elif prev > 0:
             theta = nrm / prev
             if theta < 1 and theta / (1 - theta) * nrm <= tol:
+                conv = True
                 break
-            if theta >= 1 and it > 1:
-                if nrm <= 1000 * eps:
+            if nrm <= rounding:
+                if theta >= 1:
+                    conv = True     # stagnation at rounding level
                     break
+            elif theta >= theta_diverge:
+                return NEWTON, None     # diverges: the step is too large for the motion
+            elif theta >= 1:
+                bad = 2
+            elif theta > theta_max:
+                bad = 1
+        if bad:
+            if bad == 2:
+                if grown:
+                    return NEWTON, None     # grows again after a re-evaluation
+                grown, Z = True, Zold
+            J = []
+            for j in range(ns):
+                st, Jj = _sys_jac(x + Z[j], p, opt, info)
+                if st:
+                    return st, None
+                J.append(Jj)
+            W, Wf, finite = _gauss_matrix(A, h, J, x.dtype)
+            if not finite:
                 return NEWTON, None
+            prev = 0.0              # restart: the rate is estimated anew
+            continue
         prev = nrm
-    else:
+    if not conv:
         return NEWTON, None
     return OK, x + sum(d[i] * Z[i] for i in range(ns))
 
