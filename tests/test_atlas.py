@@ -107,6 +107,54 @@ def test_cartesian_conversions_round_trip():
             assert np.allclose(r.positions.reshape(6), c[:6], atol=1e-12)
 
 
+def test_cartesian_conversions_come_from_the_chart_data():
+    """cartesian.py holds no frames: each chart's conversions are built from charts.toml.
+    The polar sine is exactly 0 on the chart's singular_axis (data) and 1 across it; the
+    Cartesian route agrees with the generated chart-change kernels (1e-12)."""
+    from derive.model import load_model
+    for ch in ATLAS_CHARTS:
+        for link, lc in zip(load_model(ch).links, cartesian.model_charts(ch)):
+            assert lc.name == link.chart.name
+            axis = np.array([float(c == link.chart.singular_axis) for c in "xyz"])
+            assert lc.polar_sine(axis) == 0.0 and lc.polar_sine(-axis) == 0.0
+            assert abs(lc.polar_sine(np.roll(axis, 1)) - 1.0) < 1e-15
+    assert not hasattr(cartesian, "FRAMES")
+    mod = numpy_atlas()
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        c = cart(rng.normal(size=3), rng.normal(size=3), rng.normal(size=3), rng.normal(size=3))
+        for a, src in enumerate(ATLAS_CHARTS):
+            y = cartesian.cartesian_to_state(src, c, L1, L2)
+            for b, dst in enumerate(ATLAS_CHARTS):
+                if a == b or min(cartesian.polar_sines(dst, c, L1, L2)) < 0.1:
+                    continue
+                st, k = mod.convert(a, b, y)
+                assert st == 0 and np.allclose(k, cartesian.cartesian_to_state(dst, c, L1, L2),
+                                               rtol=0, atol=1e-12), (src, dst)
+
+
+@pytest.mark.parametrize("chart", ATLAS_CHARTS)
+def test_cartesian_conversions_exactly_at_a_pole(chart):
+    """A link exactly on its chart's singular axis (polar angle 0 or pi): state_to_cartesian
+    puts it there (1e-15, finite); back from Cartesian the polar angle and rate are exact,
+    the azimuth is atan2(0, 0) = 0 and its rate 0 (undefined there: the rate formula divides
+    by the polar sine; the atlas never converts into a chart at its pole), the other link
+    is untouched, and the state maps to the same Cartesian state."""
+    from derive.model import load_chart
+    lc = cartesian.model_charts(chart)[0]
+    axis = np.array([float(c == load_chart(lc.name).singular_axis) for c in "xyz"])
+    for polar in (0.0, np.pi):
+        y = np.array([polar, 0.0, 1.0, 0.4, 0.7, 0.0, 0.2, -0.3])
+        c = cartesian.state_to_cartesian(chart, y, L1, L2)
+        assert np.all(np.isfinite(c)) and min(np.max(np.abs(c[0:3] - s * L1 * axis)) for s in (1, -1)) < 1e-15
+        assert cartesian.polar_sines(chart, c, L1, L2)[0] < 1e-15
+        back = cartesian.cartesian_to_state(chart, c, L1, L2)
+        assert np.all(np.isfinite(back)) and abs(back[0] - polar) < 1e-15 and back[1] == 0.0
+        assert abs(back[4] - 0.7) < 1e-15 and back[5] == 0.0
+        assert np.allclose(back[[2, 3, 6, 7]], y[[2, 3, 6, 7]], rtol=0, atol=1e-12)
+        assert np.allclose(cartesian.state_to_cartesian(chart, back, L1, L2), c, rtol=0, atol=1e-15)
+
+
 @pytest.mark.parametrize("start", sorted(STARTS))
 @pytest.mark.parametrize("method, kw", [("dop853", dict(rtol=1e-12, atol=1e-14)),
                                         ("dopri5", dict(rtol=1e-12, atol=1e-14)),

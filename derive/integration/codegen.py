@@ -167,9 +167,28 @@ def render_integrators() -> dict[str, str]:
     return dict(sorted(files.items()))
 
 
+@lru_cache(maxsize=None)
+def atlas_rule() -> dict:
+    """The rule of seed 000 section 5.1 as the atlas templates need it, from the chart data:
+    which atlas model uses the standard, second and rotated chart, and the standard chart's
+    |sin theta| and |sin phi| of a link's unit vector u printed per C type and for NumPy."""
+    from ..codegen.printers import CPrinter, PyNumPyPrinter
+    from .cartesian import rule_models, rule_sines
+    X, st, az = rule_sines()
+    c_slots = {x: f"u[i][{k}]" for k, x in enumerate(X)}
+    np_slots = {x: f"ui[{k}]" for k, x in enumerate(X)}
+    out = dict(rule_models())
+    out["c"] = {ctype: {"st": CPrinter(c_slots, ctype).doprint_checked(st),
+                        "sp": CPrinter(c_slots, ctype).doprint_checked(az)}
+                for ctype, _, _ in _C_VARIANTS}
+    out["numpy"] = {"st": PyNumPyPrinter(np_slots).doprint_checked(st),
+                    "sp": PyNumPyPrinter(np_slots).doprint_checked(az)}
+    return out
+
+
 def render_atlas() -> dict[str, str]:
     ctx = {"charts": list(ATLAS_CHARTS), "sine_min": SINE_MIN, "sine_switch": SINE_SWITCH,
-           "sine_rule": SINE_RULE, "variants": c_variants()}
+           "sine_rule": SINE_RULE, "variants": c_variants(), "rule": atlas_rule()}
     files = {
         "c/spherical_atlas.h": render("c/atlas.h.jinja", dict(ctx, template="templates/c/atlas.h.jinja")),
         "c/spherical_atlas.c": render("c/atlas.c.jinja", dict(ctx, template="templates/c/atlas.c.jinja")),

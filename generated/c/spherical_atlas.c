@@ -68,9 +68,10 @@ int spherical_atlas_choose_chart(int chart, const double *restrict y, const doub
         u[0][k] = pos[k] / p[2];
         u[1][k] = (pos[3 + k] - pos[k]) / p[3];
     }
+    /* the standard chart's |sin theta| and |sin phi| of each link (charts.toml) */
     for (i = 0; i < 2; ++i) {
-        st[i] = sqrt(u[i][0] * u[i][0] + u[i][1] * u[i][1]);
-        sp[i] = st[i] > 0 ? fabs(u[i][1]) / st[i] : 0;
+        st[i] = sqrt(u[i][0]*u[i][0] + u[i][1]*u[i][1])/sqrt(u[i][0]*u[i][0] + u[i][1]*u[i][1] + u[i][2]*u[i][2]);
+        sp[i] = st[i] > 0 ? fabs(u[i][1])/sqrt(u[i][0]*u[i][0] + u[i][1]*u[i][1]) : 0;
     }
     if (st[0] >= rule && st[1] >= rule) {
         return SPHERICAL_ATLAS_CHART_SPHERICAL_STD;
@@ -733,9 +734,10 @@ int spherical_atlas_choose_chart_f(int chart, const float *restrict y, const flo
         u[0][k] = pos[k] / p[2];
         u[1][k] = (pos[3 + k] - pos[k]) / p[3];
     }
+    /* the standard chart's |sin theta| and |sin phi| of each link (charts.toml) */
     for (i = 0; i < 2; ++i) {
-        st[i] = sqrtf(u[i][0] * u[i][0] + u[i][1] * u[i][1]);
-        sp[i] = st[i] > 0 ? fabsf(u[i][1]) / st[i] : 0;
+        st[i] = sqrtf(u[i][0]*u[i][0] + u[i][1]*u[i][1])/sqrtf(u[i][0]*u[i][0] + u[i][1]*u[i][1] + u[i][2]*u[i][2]);
+        sp[i] = st[i] > 0 ? fabsf(u[i][1])/sqrtf(u[i][0]*u[i][0] + u[i][1]*u[i][1]) : 0;
     }
     if (st[0] >= rule && st[1] >= rule) {
         return SPHERICAL_ATLAS_CHART_SPHERICAL_STD;
@@ -1398,9 +1400,10 @@ int spherical_atlas_choose_chart_l(int chart, const long double *restrict y, con
         u[0][k] = pos[k] / p[2];
         u[1][k] = (pos[3 + k] - pos[k]) / p[3];
     }
+    /* the standard chart's |sin theta| and |sin phi| of each link (charts.toml) */
     for (i = 0; i < 2; ++i) {
-        st[i] = sqrtl(u[i][0] * u[i][0] + u[i][1] * u[i][1]);
-        sp[i] = st[i] > 0 ? fabsl(u[i][1]) / st[i] : 0;
+        st[i] = sqrtl(u[i][0]*u[i][0] + u[i][1]*u[i][1])/sqrtl(u[i][0]*u[i][0] + u[i][1]*u[i][1] + u[i][2]*u[i][2]);
+        sp[i] = st[i] > 0 ? fabsl(u[i][1])/sqrtl(u[i][0]*u[i][0] + u[i][1]*u[i][1]) : 0;
     }
     if (st[0] >= rule && st[1] >= rule) {
         return SPHERICAL_ATLAS_CHART_SPHERICAL_STD;

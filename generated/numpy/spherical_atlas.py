@@ -30,7 +30,7 @@ OK, STEP_UNDERFLOW, MAX_STEPS, NEWTON, NONFINITE, CHART_SINGULAR, BAD_INPUT = ra
 SINE_MIN = 0.1
 SINE_SWITCH = 0.3
 SINE_RULE = 0.5
-STD, ALT, ROT = 0, 1, 2
+STD, ALT, ROT = 0, 1, 2   # the standard, second and rotated chart
 DEFAULTS = dict(_INTEGRATORS[0].DEFAULTS, sine_switch=SINE_SWITCH, sine_rule=SINE_RULE)
 
 
@@ -38,8 +38,9 @@ def choose_chart(chart, y, p, rule=SINE_RULE):
     """The rule of seed 000 section 5.1 for a state y of `chart`."""
     pos = _KERNELS[chart].positions(y, p)
     u = [pos[0] / p[2], (pos[1] - pos[0]) / p[3]]
-    st = [float(numpy.sqrt(ui[0] * ui[0] + ui[1] * ui[1])) for ui in u]
-    sp = [abs(float(u[i][1])) / st[i] if st[i] > 0 else 0.0 for i in range(2)]
+    # the standard chart's |sin theta| and |sin phi| of each link (charts.toml)
+    st = [float(numpy.sqrt(ui[0]*ui[0] + ui[1]*ui[1])/numpy.sqrt(ui[0]*ui[0] + ui[1]*ui[1] + ui[2]*ui[2])) for ui in u]
+    sp = [float(abs(ui[1])/numpy.sqrt(ui[0]*ui[0] + ui[1]*ui[1])) if st[i] > 0 else 0.0 for i, ui in enumerate(u)]
     if st[0] >= rule and st[1] >= rule:
         return STD
     for i in range(2):
