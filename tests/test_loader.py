@@ -41,8 +41,8 @@ def test_cache_is_keyed_by_source_compiler_and_flags(tmp_path, monkeypatch):
     header = folder / "planar.h"
     header.write_text(header.read_text() + "/* edited */\n")
     assert build(folder / "planar.c", cache=cache) not in (first, flags)
-    assert loader.build_key(folder / "planar.c", "cc", loader.DEFAULT_FLAGS) != \
-        loader.build_key(folder / "planar.c", "gcc", loader.DEFAULT_FLAGS) or \
+    assert loader.build_key([folder / "planar.c"], "cc", loader.DEFAULT_FLAGS) != \
+        loader.build_key([folder / "planar.c"], "gcc", loader.DEFAULT_FLAGS) or \
         loader.compiler_identity("cc") == loader.compiler_identity("gcc")
 
 

@@ -59,33 +59,46 @@ def compiler_identity(cc: str) -> str:
     return f"{path}\n{version}"
 
 
-def build_key(source: Path, cc: str, flags: tuple[str, ...]) -> str:
+def build_key(sources: list[Path], cc: str, flags: tuple[str, ...]) -> str:
+    """SHA-256 of every source and its header, the compiler identity and the flags."""
     h = hashlib.sha256()
-    for part in (source.read_bytes(), source.with_suffix(".h").read_bytes(),
-                 compiler_identity(cc).encode(), "\0".join(flags).encode()):
-        h.update(hashlib.sha256(part).digest())
+    for src in sources:
+        for part in (src.read_bytes(), src.with_suffix(".h").read_bytes()):
+            h.update(hashlib.sha256(part).digest())
+    h.update(hashlib.sha256(compiler_identity(cc).encode()).digest())
+    h.update(hashlib.sha256("\0".join(flags).encode()).digest())
     return h.hexdigest()
 
 
-def build(source: Path, cc: str | None = None, flags: tuple[str, ...] = DEFAULT_FLAGS,
-          cache: Path | None = None) -> Path:
-    """Compile `source` (and its header beside it) into the cache; return the library path."""
-    source = Path(source).resolve()
+def build_library(stem: str, sources: list[Path], cc: str | None = None,
+                  flags: tuple[str, ...] = DEFAULT_FLAGS, cache: Path | None = None) -> Path:
+    """Compile `sources` (headers beside them) into one shared library in the cache."""
+    sources = [Path(s).resolve() for s in sources]
+    for src in sources:
+        if not src.is_file():
+            raise LoaderError(f"no generated C at {src}; run `derive generate`")
     cc = cc or default_compiler()
-    key = build_key(source, cc, tuple(flags))
+    key = build_key(sources, cc, tuple(flags))
     root = Path(cache) if cache is not None else cache_dir() / "c-build"
-    lib = root / key[:32] / f"lib{source.stem}.so"
+    lib = root / key[:32] / f"lib{stem}.so"
     if lib.is_file():
         return lib
     lib.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
         out = Path(tmp) / lib.name
-        cmd = [cc, *flags, "-I", str(source.parent), str(source), "-o", str(out), "-lm"]
+        cmd = [cc, *flags, "-I", str(sources[0].parent), *map(str, sources), "-o", str(out), "-lm"]
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
-            raise LoaderError(f"compiling {source.name} failed ({' '.join(cmd)}):\n{proc.stderr}")
+            names = ", ".join(src.name for src in sources)
+            raise LoaderError(f"compiling {names} failed ({' '.join(cmd)}):\n{proc.stderr}")
         os.replace(out, lib)
     return lib
+
+
+def build(source: Path, cc: str | None = None, flags: tuple[str, ...] = DEFAULT_FLAGS,
+          cache: Path | None = None) -> Path:
+    """Compile one `source` (and its header beside it) into the cache; return the library path."""
+    return build_library(Path(source).stem, [Path(source)], cc, flags, cache)
 
 
 class CKernel:

@@ -1,26 +1,19 @@
 """Compile the generated integrators (with their kernels) into a cached shared library.
 
 A library is built from several generated sources (``<model>_integrate.c`` and
-``<model>.c``; the atlas adds the three chart models).  The cache key hashes
-every source and header, the compiler identity and the flags, with the same
-helpers as derive.codegen.loader, so any change rebuilds.
+``<model>.c``; the atlas adds the three chart models) by
+derive.codegen.loader.build_library, whose cache key hashes every source and
+header, the compiler identity and the flags, so any change rebuilds.
 """
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import os
-import subprocess
-import tempfile
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 
-from ..codegen.loader import GENERATED_C, LoaderError, compiler_identity, default_compiler
-from ..derivation import cache_dir
-
-FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
+from ..codegen.loader import DEFAULT_FLAGS as FLAGS  # noqa: F401  (re-exported)
+from ..codegen.loader import GENERATED_C, build_library  # noqa: F401
 
 CTYPES = {"float64": ctypes.c_double, "float32": ctypes.c_float, "longdouble": ctypes.c_longdouble}
 SUFFIX = {"float64": "", "float32": "_f", "longdouble": "_l"}
@@ -30,38 +23,6 @@ def dtype_key(dtype) -> str:
     """float32, float64 or longdouble (numpy names long double float128 or float96)."""
     dtype = np.dtype(dtype)
     return "longdouble" if dtype == np.longdouble and dtype != np.float64 else dtype.name
-
-
-def build_key(sources: list[Path], cc: str, flags: tuple[str, ...]) -> str:
-    h = hashlib.sha256()
-    for src in sources:
-        for part in (src.read_bytes(), src.with_suffix(".h").read_bytes()):
-            h.update(hashlib.sha256(part).digest())
-    h.update(hashlib.sha256(compiler_identity(cc).encode()).digest())
-    h.update(hashlib.sha256("\0".join(flags).encode()).digest())
-    return h.hexdigest()
-
-
-def build_library(stem: str, sources: list[Path], cc: str | None = None,
-                  flags: tuple[str, ...] = FLAGS) -> Path:
-    sources = [Path(s).resolve() for s in sources]
-    for s in sources:
-        if not s.is_file():
-            raise LoaderError(f"no generated C at {s}; run `derive generate`")
-    cc = cc or default_compiler()
-    key = build_key(sources, cc, tuple(flags))
-    lib = cache_dir() / "c-build" / key[:32] / f"lib{stem}.so"
-    if lib.is_file():
-        return lib
-    lib.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
-        out = Path(tmp) / lib.name
-        cmd = [cc, *flags, "-I", str(sources[0].parent), *map(str, sources), "-o", str(out), "-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise LoaderError(f"compiling {stem} failed ({' '.join(cmd)}):\n{proc.stderr}")
-        os.replace(out, lib)
-    return lib
 
 
 def options_struct(extra: tuple = ()) -> type:
