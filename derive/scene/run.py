@@ -27,6 +27,7 @@ from .scene import Scene
 
 SAFETY = 10.0
 DOUBLE_RTOL_MIN = 1e-14
+FLOAT_RTOL_MIN = 1e-5
 LONG_DOUBLE_RTOL_MIN = 1e-16
 CHUNKS = 20          # the integration runs in this many pieces, for the progress bar
 
@@ -80,6 +81,12 @@ def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
             rtol = LONG_DOUBLE_RTOL_MIN
     if scene.scalar == "long double":
         dtype = "longdouble"
+    elif scene.scalar == "float":
+        dtype = "float32"
+        if rtol < FLOAT_RTOL_MIN:
+            note = (f"target {scene.target:g} needs rtol {rtol:.2g}: beyond float, the run uses "
+                    f"rtol {FLOAT_RTOL_MIN:g} and reports what it achieves")
+            rtol = FLOAT_RTOL_MIN
     return Choice("dop853", rtol, rtol, None, dtype, rtol * SAFETY * growth / SAFETY, note)
 
 
@@ -144,10 +151,11 @@ MAX_TIGHTENINGS = 3
 
 
 def _reference(p: Plan, scene: Scene, c: Choice) -> SimulationResult:
-    """The same run a thousand times tighter (in long double when double cannot)."""
+    """The same run a thousand times tighter, in double or, when double cannot, long double."""
     tight = (c.rtol or 1.0) / 1000
     return integrate(p, scene, c, None, tighten=1000.0,
-                     dtype="longdouble" if tight < DOUBLE_RTOL_MIN else c.dtype)
+                     dtype="longdouble" if tight < DOUBLE_RTOL_MIN or c.dtype == "longdouble"
+                     else "float64")
 
 
 def run(scene: Scene, show_progress: bool = True) -> Outcome:
@@ -171,6 +179,8 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
             if achieved is None or achieved <= scene.target or c.rtol <= LONG_DOUBLE_RTOL_MIN:
                 break
             factor = SAFETY * achieved / scene.target
+            if c.dtype == "float32" and c.rtol / factor < FLOAT_RTOL_MIN:
+                break                     # float cannot go tighter; the note says so
             c.rtol = max(c.rtol / factor, LONG_DOUBLE_RTOL_MIN)
             c.atol = c.rtol
             c.dtype = "longdouble" if c.rtol < DOUBLE_RTOL_MIN else c.dtype
