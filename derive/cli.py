@@ -219,7 +219,7 @@ def cmd_bench(args) -> int:
     problems = tuple(x for x in args.problems.split(",") if x) if args.problems else None
     bar = None if args.quiet else Progress("bench", 1)
 
-    def progress(done, total):
+    def progress(done, total, label=""):
         if bar is not None:
             bar.total = max(total, 1)
             bar.update(done)

@@ -78,3 +78,41 @@ def test_vector_math_is_used_on_glibc_x86_64():
         assert tp.vector_math, "glibc x86-64 with libmvec: the vector build should have worked"
     else:
         print(f"throughput kernel built without vector math on {platform.system()} {platform.machine()}")
+
+
+# -- the single-trajectory fixed-step loops (generated/c/<model>_fixed.c) -----------------
+
+@pytest.mark.parametrize("model", ["planar", "compound"])
+def test_rk4_loop_equals_the_scalar_integrator(model):
+    from derive.integration.throughput import fixed_library
+    y0 = _states(5, seed=7)
+    ref, _ = _scalar(model, y0, PARAMS[model])
+    for i in range(len(y0)):
+        y, done = fixed_library(model).run("rk4", y0[i], PARAMS[model], H, NSTEPS)
+        assert done == NSTEPS and np.abs(y - ref[i]).max() <= 1e-12
+
+
+@pytest.mark.parametrize("model", ["planar", "compound"])
+def test_rk8_loop_equals_dop853_steps_at_a_fixed_step(model):
+    """rk8 is DOP853's 8th-order formula at a fixed step: the generated NumPy integrator's
+    dop853 step, called with the same h, gives the same states."""
+    from derive.integration.simulate import numpy_module
+    from derive.integration.throughput import fixed_library
+    mod = numpy_module(f"{model}_integrate")
+    p = PARAMS[model]
+    opt = dict(mod.DEFAULTS)
+    for y0 in _states(3, seed=8):
+        y, info, K = np.array(y0), mod.new_info(), [None] * 16
+        for _ in range(50):
+            _, K[0] = mod._eval(y, p, opt, info)
+            _, y, _ = mod.explicit_step("dop853", y, 0.02, p, K, opt, info)
+        got, done = fixed_library(model).run("rk8", y0, p, 0.02, 50)
+        assert done == 50 and np.abs(got - y).max() <= 1e-12
+
+
+def test_loops_stop_before_a_nonfinite_step():
+    from derive.integration.throughput import fixed_library
+    y0 = np.array([0.3, 0.2, 1e200, 0.0])
+    for method in ("rk4", "rk8"):
+        y, done = fixed_library("planar").run(method, y0, PARAMS["planar"], H, 10)
+        assert done == 0 and np.array_equal(y, y0)

@@ -14,7 +14,13 @@ defined everywhere, so a batch never needs a chart switch):
   trajectory that becomes non-finite keeps its last finite state and stops
   counting steps, as the scalar integrator stops there.
 * generated/numpy/<model>_throughput.py (templates/numpy/throughput.py.jinja):
-  the same step on whole rows of a (n_states, B) array.
+  the same step on whole (n_states, B) arrays;
+* generated/c/<model>_fixed.{h,c} (templates/c/fixed.*.jinja): one trajectory,
+  fixed step, the rhs inlined into the stage loop and no driver bookkeeping, for
+  rk4 and rk8 (the 8th-order formula of DOP853 at a fixed step, 12 evaluations
+  per step): the fastest single-trajectory path when the step is known (on
+  smooth, non-chaotic runs rk8 beats adaptive DOP853: no rejected steps, no
+  error estimate).
 
 Python prepares every expression (the rhs printed with the same printers and
 CSE as the kernels, the RK4 combinations from rk4.toml with the same literals
@@ -24,6 +30,7 @@ inside the trust horizon.
 
     tp = throughput_library("planar")
     y, status, steps = tp.rk4(y0s, p, h, nsteps, threads=2)     # y0s (B, 4)
+    y, done = fixed_library("planar").run("rk8", y0, p, h, nsteps)
 """
 from __future__ import annotations
 
@@ -77,10 +84,19 @@ def _inputs(body):
     return state, params
 
 
-def _rk4_stages() -> tuple[list[list[tuple[int, str]]], list[tuple[int, str]]]:
-    """RK4 rows and weights as C double literals (zeros dropped), as the scalar integrator prints them."""
-    t = tb.load("rk4")
-    rows = [[(j, tb.literal(v, "double")) for j, v in t.row(i) if v != 0] for i in range(1, t.stages)]
+# Fixed-step explicit methods of the single-trajectory loops: rk4 (classical, seed 001) and
+# rk8, the 8th-order formula of DOP853 (Dormand-Prince) used at a fixed step: 12 rhs
+# evaluations per step, no error estimate, no rejected steps.
+FIXED_METHODS = {"rk4": ("rk4", "classical RK4 (rk4.toml)"),
+                 "rk8": ("dop853", "the 8th-order Dormand-Prince formula of DOP853 (dop853.toml) at a fixed step")}
+
+
+def _explicit(method: str) -> tuple[list[list[tuple[int, str]]], list[tuple[int, str]]]:
+    """Stage rows 1..s-1 and weights as C double literals (zeros dropped), as the scalar
+    integrator prints them."""
+    t = tb.load(FIXED_METHODS[method][0])
+    nstages = len(t.b)
+    rows = [[(j, tb.literal(v, "double")) for j, v in t.row(i) if v != 0] for i in range(1, nstages)]
     b = [(j, tb.literal(v, "double")) for j, v in enumerate(t.b) if v != 0]
     return rows, b
 
@@ -89,11 +105,10 @@ def _combo(terms, name) -> str:
     return " + ".join(f"{lit} * {name(j)}" for j, lit in terms)
 
 
-def c_context(name: str) -> dict:
-    body = _rhs_body(name)
-    state, params = _inputs(body)
+def _c_stages(body, state, params, rows, b) -> tuple[list[dict], list[str]]:
+    """Each stage: the rhs printed on its input (y for the first, s after), its outputs k<stage>_<c>,
+    then the next stage's input s<c> = y<c> + h * (...); finally n<c> = y<c> + h * (b . k)."""
     n = len(state)
-    rows, b = _rk4_stages()
     pslots = {s: f"p{i}" for i, s in enumerate(params)}
     stages = []
     for stage in range(len(rows) + 1):
@@ -108,16 +123,28 @@ def c_context(name: str) -> dict:
             combo = [f"s{c} = y{c} + h * ({_combo(rows[stage], lambda j: f'k{j}_{c}')});" for c in range(n)]
         stages.append({"index": stage, "lines": lines, "outs": outs, "next": combo})
     final = [f"n{c} = y{c} + h * ({_combo(b, lambda j: f'k{j}_{c}')});" for c in range(n)]
-    ops = body.ops
+    return stages, final
+
+
+def _used_params(body, params) -> list[int]:
     used = set()
     for _, e in body.assignments:
         used |= e.free_symbols
     for e in body.outputs[0]:
         used |= e.free_symbols
+    return [i for i, s in enumerate(params) if s in used]
+
+
+def c_context(name: str) -> dict:
+    body = _rhs_body(name)
+    state, params = _inputs(body)
+    n = len(state)
+    rows, b = _explicit("rk4")
+    stages, final = _c_stages(body, state, params, rows, b)
     return {"P": name, "M": name.upper(), "title": derive(name).model.title, "n": n,
             "n_params": len(params), "block": BLOCK,
-            "params_used": [i for i, s in enumerate(params) if s in used], "stages": stages, "final": final,
-            "vector_math": list(VECTOR_MATH), "ops": ops,
+            "params_used": _used_params(body, params), "stages": stages, "final": final,
+            "vector_math": list(VECTOR_MATH), "ops": body.ops,
             "state_names": ", ".join(s.name for s in state),
             "param_names": ", ".join(s.name for s in params),
             "k_decl": ", ".join(f"k{j}_{c}" for j in range(len(rows) + 1) for c in range(n)),
@@ -125,10 +152,29 @@ def c_context(name: str) -> dict:
             "n_decl": ", ".join(f"n{c}" for c in range(n))}
 
 
+def fixed_context(name: str) -> dict:
+    """The single-trajectory fixed-step loops (<model>_fixed.c): rk4 and rk8, rhs inlined."""
+    body = _rhs_body(name)
+    state, params = _inputs(body)
+    n = len(state)
+    methods = []
+    for method, (_, title) in FIXED_METHODS.items():
+        rows, b = _explicit(method)
+        stages, final = _c_stages(body, state, params, rows, b)
+        methods.append({"name": method, "title": title, "nstages": len(rows) + 1, "stages": stages,
+                        "final": final,
+                        "k_decl": ", ".join(f"k{j}_{c}" for j in range(len(rows) + 1) for c in range(n))})
+    return {"P": name, "M": name.upper(), "title": derive(name).model.title, "n": n,
+            "n_params": len(params), "params_used": _used_params(body, params), "methods": methods,
+            "ops": body.ops, "state_names": ", ".join(s.name for s in state),
+            "param_names": ", ".join(s.name for s in params),
+            "s_decl": ", ".join(f"s{c}" for c in range(n)), "n_decl": ", ".join(f"n{c}" for c in range(n)),
+            "y_decl": ", ".join(f"y{c} = y[{c}]" for c in range(n))}
+
+
 def numpy_context(name: str) -> dict:
     body = _rhs_body(name)
     state, params = _inputs(body)
-    rows, b = _rk4_stages()
     varying = set(state)
     for sym, e in body.assignments:
         if e.free_symbols & varying:
@@ -163,6 +209,9 @@ def render_throughput() -> dict[str, str]:
         ctx = c_context(name)
         files[f"c/{name}_throughput.h"] = render("c/throughput.h.jinja", dict(ctx, template=TEMPLATE_H))
         files[f"c/{name}_throughput.c"] = render("c/throughput.c.jinja", dict(ctx, template=TEMPLATE_C))
+        fctx = fixed_context(name)
+        files[f"c/{name}_fixed.h"] = render("c/fixed.h.jinja", dict(fctx, template="templates/c/fixed.h.jinja"))
+        files[f"c/{name}_fixed.c"] = render("c/fixed.c.jinja", dict(fctx, template="templates/c/fixed.c.jinja"))
         files[f"numpy/{name}_throughput.py"] = render("numpy/throughput.py.jinja", numpy_context(name))
     return dict(sorted(files.items()))
 
@@ -235,6 +284,38 @@ class ThroughputLibrary:
         y = np.ascontiguousarray(np.asarray(y0, np.float64).reshape(-1, self.n).T)
         status, steps = self.rk4_soa(y, p, h, nsteps, threads)
         return y.T.copy(), status, steps
+
+
+class FixedLibrary:
+    """ctypes access to <model>_fixed_<method> (generated/c/<model>_fixed.c, built with the
+    integrators' flags): one trajectory, a fixed step, the rhs inlined."""
+
+    def __init__(self, model: str):
+        from .build import FLAGS
+        self.model = model
+        src = GENERATED_C / f"{model}_fixed.c"
+        if not src.is_file():
+            raise LoaderError(f"no generated fixed-step loops for '{model}' at {src}; run `derive generate`")
+        self.path = build_library(f"{model}_fixed", [src], flags=FLAGS)
+        self.lib = ctypes.CDLL(str(self.path))
+        self.fns = {}
+        for method in FIXED_METHODS:
+            fn = self.lib[f"{model}_fixed_{method}"]
+            fn.restype = ctypes.c_long
+            fn.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_long]
+            self.fns[method] = fn
+
+    def run(self, method: str, y0, p, h: float, nsteps: int) -> tuple[np.ndarray, int]:
+        """-> (state after the steps completed, steps completed)."""
+        y = np.array(y0, dtype=np.float64).reshape(-1)
+        p = np.ascontiguousarray(p, dtype=np.float64)
+        done = self.fns[method](y.ctypes.data, p.ctypes.data, float(h), int(nsteps))
+        return y, int(done)
+
+
+@lru_cache(maxsize=None)
+def fixed_library(model: str) -> FixedLibrary:
+    return FixedLibrary(model)
 
 
 @lru_cache(maxsize=None)

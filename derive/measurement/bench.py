@@ -100,7 +100,11 @@ FIXED_DIVISORS = {"rk4": (1, 2, 4, 8, 16, 32), "midpoint": (1, 2, 4, 8), "gauss2
 NUMPY_KNOBS = {"dop853": (1e-6, 1e-8, 1e-10), "dopri5": (1e-5, 1e-7), "rk4": (2, 4),
                "midpoint": (2,), "gauss2": (2,)}
 QUICK_KNOBS = {"dop853": (1e-9, 1e-12), "rk4": (4, 16)}
-METHOD_ORDER = {"rk4": 4, "midpoint": 2, "gauss2": 4}
+# the generated single-trajectory loops (derive/integration/throughput.py, <model>_fixed.c):
+# step = base_step / divisor, rounded to the observation grid
+LOOP_DIVISORS = {"rk8": (0.25, 0.35, 0.45, 0.6, 0.8, 1.0, 1.5, 2.0, 3.0, 4.0), "rk4": (1, 2, 4, 8, 16, 32)}
+QUICK_LOOP_DIVISORS = {"rk8": (0.35, 0.6)}
+METHOD_ORDER = {"rk4": 4, "midpoint": 2, "gauss2": 4, "rk8": 8}
 DTYPE_EPS = {"float32": float(np.finfo(np.float32).eps), "float64": float(np.finfo(np.float64).eps),
              "longdouble": float(np.finfo(np.longdouble).eps)}
 
@@ -119,7 +123,7 @@ class BenchOptions:
     peers: bool = True
     throughput: bool = True
     mpmath: bool = True                        # the reference's mpmath spot check
-    progress: Callable | None = None           # progress(done, total)
+    progress: Callable | None = None           # progress(done, total, label)
 
 
 # -- configurations ---------------------------------------------------------------
@@ -145,8 +149,11 @@ def fixed_step(problem: Problem, divisor: int) -> float:
     return problem.t_end / n
 
 
+BACKEND_LABEL = {"c": "C", "numpy": "NumPy", "c-loop": "C-loop"}
+
+
 def _series(method: str, backend: str, dtype: str) -> str:
-    return f"{method} {'C' if backend == 'c' else 'NumPy'} {dtype}"
+    return f"{method} {BACKEND_LABEL[backend]} {dtype}"
 
 
 def toolkit_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
@@ -163,6 +170,13 @@ def toolkit_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
                 knobs = ADAPTIVE_RTOLS[dtype] if method in ADAPTIVE else FIXED_DIVISORS[method]
                 plan.append((method, "c", dtype, knobs))
             plan.append((method, "numpy", "float64", NUMPY_KNOBS[method]))
+    if problem.model in _loop_models():
+        for method, divs in (QUICK_LOOP_DIVISORS if opts.quick else LOOP_DIVISORS).items():
+            for div in divs:
+                step = fixed_step(problem, div)
+                out.append(Config(problem, "toolkit", _series(method, "c-loop", "float64"), method, "c-loop",
+                                  "float64", None, step, _loop_runner(problem, method, step),
+                                  _loop_observer(problem, method, step)))
     for method, backend, dtype, knobs in plan:
         for knob in knobs:
             rtol = knob if method in ADAPTIVE else None
@@ -171,6 +185,47 @@ def toolkit_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
                               rtol, step, _toolkit_runner(problem, method, backend, dtype, rtol, step),
                               _toolkit_observer(problem, method, backend, dtype, rtol, step)))
     return out
+
+
+def _loop_models() -> list[str]:
+    from ..integration.throughput import throughput_models
+    return throughput_models()
+
+
+def _loop_runner(problem: Problem, method: str, step: float):
+    """The generated fixed-step loop (<model>_fixed_<method>): rhs inlined, no driver."""
+    def make():
+        from ..integration.throughput import _explicit, fixed_library
+        lib = fixed_library(problem.model)
+        state, _, p = _prepared(problem)
+        y0, pa = np.asarray(state, np.float64), np.asarray(p, np.float64)
+        n = int(round(problem.t_end / step))
+        per_step = len(_explicit(method)[0]) + 1          # rhs evaluations per step
+
+        def run():
+            y, done = lib.run(method, y0, pa, step, n)
+            return y, per_step * done, done == n, f"{done} of {n} steps"
+        return run
+    return make
+
+
+def _loop_observer(problem: Problem, method: str, step: float):
+    """Energies of the loop's trajectory at the observation times (the loop, restarted in pieces)."""
+    def observe() -> float:
+        from ..integration.throughput import fixed_library
+        lib = fixed_library(problem.model)
+        state, _, p = _prepared(problem)
+        y, pa = np.asarray(state, np.float64), np.asarray(p, np.float64)
+        per = int(round(problem.t_end / step)) // (OBSERVATIONS - 1)
+        energy = _energy_of(problem)
+        E = [energy(y)]
+        for _ in range(OBSERVATIONS - 1):
+            y, done = lib.run(method, y, pa, step, per)
+            if done != per:
+                return math.inf
+            E.append(energy(y))
+        return _relative_energy_error(np.array(E))
+    return observe
 
 
 def _options(method: str, rtol, step) -> dict:
@@ -351,25 +406,50 @@ def _peer(problem, series, method, rtol, step, make, note="", backend="python") 
     return Config(problem, "peer", series, method, backend, "float64", rtol, step, make, None, note)
 
 
+# peer figures quoted in the issue ("measured here"), shown beside this run's
+ISSUE_FIGURES = {("regular", "solve_ivp DOP853 + lambdify"): 74e-3, ("chaotic", "solve_ivp DOP853 + lambdify"): 196e-3,
+                 ("regular", "odeint LSODA + numba rhs"): 10e-3, ("chaotic", "odeint LSODA + numba rhs"): 21e-3,
+                 ("regular", "hand-written C RK4"): 0.85e-3, ("chaotic", "hand-written C RK4"): 7.7e-3}
+ISSUE_THROUGHPUT = (("vectorised NumPy", 5.3e6), ("numba parallel", 1.7e7),
+                    ("hand-written SIMD C, one core", 5.9e7))
+PEER_EVAL_BUDGET = 200_000      # a peer that needs more rhs evaluations than this has failed
+
+
+class _GaveUp(Exception):
+    pass
+
+
 def _standard_chart_peer(problem: Problem):
-    """What a user without an atlas runs: solve_ivp on the standard chart's lambdified rhs."""
-    state, chart, p = _prepared(problem)
+    """What a user without an atlas runs: solve_ivp on the standard chart's lambdified rhs.
+    It stops at the first non-finite derivative or after PEER_EVAL_BUDGET evaluations."""
+    _, _, p = _prepared(problem)
     from ..integration.cartesian import cartesian_to_state
     c12 = np.asarray(problem.y0[1], float)
     y0 = cartesian_to_state("spherical_std", c12, float(p[2]), float(p[3]))
-    rhs = P.lambdified_rhs("spherical_std")
+    raw = P.lambdified_rhs("spherical_std")
+    args = tuple(float(v) for v in p)
 
     def run():
         from scipy.integrate import solve_ivp
-        with np.errstate(all="ignore"):
-            sol = solve_ivp(rhs, (0.0, problem.t_end), y0, method="DOP853", rtol=1e-8, atol=1e-11,
-                            args=tuple(float(v) for v in p))
-        ok = bool(sol.success) and bool(np.all(np.isfinite(sol.y[:, -1])))
-        msg = sol.message if sol.success else f"failed at t = {sol.t[-1]:.3g}: {sol.message}"
-        if sol.success and not ok:
-            msg = "non-finite state (singular chart)"
-        final = R.comparison_vector("spherical", sol.y[:, -1], "spherical_std", p) if ok else None
-        return final, sol.nfev, ok, msg
+        count = [0]
+
+        def rhs(t, y, *a):
+            count[0] += 1
+            f = raw(t, y, *a)
+            if not np.all(np.isfinite(f)):
+                raise _GaveUp(f"non-finite derivative at t = {t:.3g} (the chart's pole)")
+            if count[0] > PEER_EVAL_BUDGET:
+                raise _GaveUp(f"gave up after {PEER_EVAL_BUDGET} rhs evaluations at t = {t:.3g}")
+            return f
+        try:
+            with np.errstate(all="ignore"):
+                sol = solve_ivp(rhs, (0.0, problem.t_end), y0, method="DOP853", rtol=1e-8, atol=1e-11,
+                                args=args)
+        except _GaveUp as exc:
+            return None, count[0], False, str(exc)
+        if not sol.success:
+            return None, sol.nfev, False, f"failed at t = {sol.t[-1]:.3g}: {sol.message}"
+        return R.comparison_vector("spherical", sol.y[:, -1], "spherical_std", p), sol.nfev, True, ""
     return run
 
 
@@ -419,10 +499,18 @@ def problem_info(problem: Problem, opts: BenchOptions) -> ProblemInfo:
     return info
 
 
-def local_error(problem: Problem, method: str, dtype: str, step: float) -> float:
+def local_error(problem: Problem, method: str, dtype: str, step: float, backend: str = "c") -> float:
     """One step of size h against two of h/2 from y0 (Richardson): the error a fixed-step
     run commits per step, what rtol is for an adaptive one."""
     from ..integration.simulate import simulate
+    k = 2.0 ** METHOD_ORDER.get(method, 4)
+    if backend == "c-loop":
+        from ..integration.throughput import fixed_library
+        state, _, p = _prepared(problem)
+        lib = fixed_library(problem.model)
+        a, _ = lib.run(method, state, p, step, 1)
+        b, _ = lib.run(method, state, p, step / 2, 2)
+        return float(np.max(np.abs(a - b))) * k / (k - 1)
     args = dict(method=method, dtype=dtype)
     a = simulate(problem.model, problem.y0_input(), [0.0, step], list(problem.params), step=step, **args)
     b = simulate(problem.model, problem.y0_input(), [0.0, step], list(problem.params), step=step / 2, **args)
@@ -430,7 +518,6 @@ def local_error(problem: Problem, method: str, dtype: str, step: float) -> float
         return math.inf
     va = R.comparison_vector(problem.model, a.y[-1], a.chart_stop, a.params)
     vb = R.comparison_vector(problem.model, b.y[-1], b.chart_stop, b.params)
-    k = 2.0 ** METHOD_ORDER.get(method, 4)
     return float(np.max(np.abs(np.asarray(va, float) - np.asarray(vb, float)))) * k / (k - 1)
 
 
@@ -440,9 +527,10 @@ def horizons(info: ProblemInfo, c: Config, opts: BenchOptions, cache: dict) -> t
     if c.rtol is not None:
         e0 = initial_error(c.rtol, _np_dtype(c.dtype), info.scale)
     else:
-        key = (c.method if c.method in METHOD_ORDER else "rk4", c.dtype, c.step)
+        backend = "c-loop" if c.backend == "c-loop" else "c"
+        key = (c.method if c.method in METHOD_ORDER else "rk4", c.dtype, c.step, backend)
         if key not in cache:
-            cache[key] = local_error(info.problem, key[0], c.dtype, c.step)
+            cache[key] = local_error(info.problem, key[0], c.dtype, c.step, backend)
         e0 = max(cache[key], eps * max(info.scale, 1.0))
     lyap = info.lyapunov
     return (e0, trust_horizon(lyap, opts.target, e0),
@@ -498,7 +586,7 @@ def measure(c: Config, info: ProblemInfo, opts: BenchOptions, cache: dict, rhs_n
         err = float(np.max(np.abs(np.asarray(final, np.longdouble) - np.asarray(info.reference.final,
                                                                                   np.longdouble))))
         row.update(status="ok", final_error=err)
-    if c.kind == "toolkit" and c.backend == "c" and c.dtype == "float64" and rhs_ns.get(c.problem.name):
+    if c.kind == "toolkit" and c.backend in ("c", "c-loop") and c.dtype == "float64" and rhs_ns.get(c.problem.name):
         row["overhead"] = cpu / (nfev * rhs_ns[c.problem.name] * 1e-9)
     return row
 
@@ -699,11 +787,11 @@ def run_bench(opts: BenchOptions) -> BenchResult:
     total = len(problems) + sum(len(c) for _, c in plans) + (2 if opts.throughput else 0)
     done = 0
 
-    def tick(k=1):
+    def tick(label=""):
         nonlocal done
-        done += k
+        done += 1
         if opts.progress:
-            opts.progress(done, total)
+            opts.progress(done, total, label)
 
     machine = machine_info()
     rhs_ns = {p.name: rhs_cost_ns(p) for p in problems}
@@ -714,17 +802,20 @@ def run_bench(opts: BenchOptions) -> BenchResult:
             info.mpmath_t = 0.5
             info.mpmath_error = R.mpmath_check(prob, info.mpmath_t)
         infos[prob.name] = info
-        tick()
+        tick(f"{prob.name} reference")
         cache: dict = {}
         for c in cfgs:
-            rows.append(measure(c, info, opts, cache, rhs_ns))
-            tick()
+            t0 = time.perf_counter()
+            row = measure(c, info, opts, cache, rhs_ns)
+            row["bench_seconds"] = time.perf_counter() - t0
+            rows.append(row)
+            tick(f"{prob.name} {c.series} {_knob(row)}")
     result = BenchResult(rows, infos, rhs_ns, machine=machine, options=opts, notes=notes)
     if opts.throughput:
         result.agreement = throughput_agreement(2_000 if opts.quick else 10_000)
-        tick()
+        tick("throughput agreement")
         result.throughput = run_throughput(opts)
-        tick()
+        tick("throughput")
     result.seconds = time.perf_counter() - start
     return result
 
@@ -795,13 +886,14 @@ def series_times(rows: list[dict], target: float) -> dict[tuple[str, str], dict]
         groups.setdefault((r["problem"], r["series"]), []).append(r)
     out = {}
     for key, rs in groups.items():
-        pts = [(r["seconds"], r["final_error"]) for r in rs
-               if r.get("status") == "ok" and r.get("final_error") is not None and r.get("seconds")]
+        ok = [r for r in rs if r.get("status") == "ok" and r.get("final_error") is not None and r.get("seconds")]
+        pts = [(r["seconds"], r["final_error"]) for r in ok]
         t = time_to(pts, target)
+        cpu = time_to([(r["cpu_seconds"], r["final_error"]) for r in ok if r.get("cpu_seconds")], target)
         passing = [r for r in rs if r.get("status") == "ok" and r.get("final_error") is not None
                    and r["final_error"] <= target]
         best_pass = min(passing, key=lambda r: r["seconds"]) if passing else None
-        out[key] = {"time": t, "kind": rs[0]["kind"], "runs": len(rs), "compared": len(pts),
+        out[key] = {"time": t, "cpu": cpu, "kind": rs[0]["kind"], "runs": len(rs), "compared": len(pts),
                     "beyond": sum(r.get("status") == "beyond trust horizon" for r in rs),
                     "failed": sum(r.get("status") == "failed" for r in rs),
                     "at": best_pass, "notes": sorted({r.get("note") or "" for r in rs} - {""})}
@@ -863,7 +955,9 @@ def targets(result: BenchResult) -> list[dict]:
 
 
 def _knob(r: dict) -> str:
-    return f"rtol {r['rtol']:.0e}" if r.get("rtol") is not None else f"h {r['step']:.3g}"
+    if r.get("rtol") is not None:
+        return f"rtol {r['rtol']:.0e}"
+    return f"h {r['step']:.3g}" if r.get("step") is not None else ""
 
 
 # -- writers ---------------------------------------------------------------------------------
@@ -911,31 +1005,48 @@ def write_plots(result: BenchResult, out: Path) -> list[Path]:
                 and r.get("final_error") is not None and r.get("seconds")]
         if not rows:
             continue
-        fig, ax = plt.subplots(figsize=(9, 6))
+        fig, ax = plt.subplots(figsize=(11, 6.5))
         series = sorted({r["series"] for r in rows}, key=lambda s: (rows_kind(rows, s) != "toolkit", s))
-        colors = plt.get_cmap("tab20")
-        for i, s in enumerate(series):
+        peer_colors = plt.get_cmap("Set1")
+        peers_seen = 0
+        for s in series:
             pts = sorted((r["seconds"], max(r["final_error"], 1e-17)) for r in rows if r["series"] == s)
-            peer = rows_kind(rows, s) == "peer"
-            style = "--" if peer else ("-" if " C float64" in s else ":")
-            marker = "s" if peer else ("o" if " C " in s else "^")
-            ax.loglog([t * 1e3 for t, _ in pts], [e for _, e in pts], style, marker=marker, ms=4,
-                      color="black" if s.startswith("hand-written C") else colors(i % 20),
-                      label=("peer: " if peer else "") + s)
+            if rows_kind(rows, s) == "peer":
+                color = "black" if s.startswith("hand-written C") else peer_colors(peers_seen % 9)
+                peers_seen += 1
+                style = dict(ls="--", marker="s", color=color, lw=1.2)
+                label = "peer: " + s
+            else:
+                method, backend, dtype = s.split()
+                style = dict(ls=DTYPE_STYLE[dtype] if backend == "C" else "-",
+                             marker={"C": "o", "NumPy": "^", "C-loop": "D"}[backend],
+                             color=METHOD_COLOR.get(method, "gray"),
+                             lw=2.0 if dtype == "float64" and backend != "NumPy" else 1.0,
+                             alpha=0.6 if backend == "NumPy" else 1.0)
+                label = s
+            ax.loglog([t * 1e3 for t, _ in pts], [e for _, e in pts], ms=3.5, label=label, **style)
         ax.axhline(target, color="gray", lw=0.8)
         ax.axhline(max(info.reference.accuracy, 1e-17), color="gray", lw=0.5, ls=":")
         ax.set_xlabel("wall time per run (ms, median)")
         ax.set_ylabel("final-state error (max norm) vs long double reference")
         ax.set_title(f"{info.problem.title}\n(lambda = {info.lyapunov.exponent:.3g}; runs beyond their "
                      "trust horizon are not shown)", fontsize=9)
-        ax.legend(fontsize=6, ncol=2, loc="lower left")
+        ax.legend(fontsize=6.5, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         ax.grid(True, which="both", lw=0.3)
+        ax.text(0.99, 0.01, f"{result.machine.get('cpu', '')}, {result.machine.get('nproc', '')} cores, "
+                f"{result.machine.get('date', '')}", transform=ax.transAxes, ha="right", va="bottom", fontsize=6,
+                color="gray")
         fig.tight_layout()
         path = out / f"work_precision_{name}.png"
         fig.savefig(path, dpi=110)
         plt.close(fig)
         paths.append(path)
     return paths
+
+
+METHOD_COLOR = {"rk4": "tab:blue", "dopri5": "tab:orange", "dop853": "tab:green", "midpoint": "tab:purple",
+                "gauss2": "tab:brown", "rk8": "tab:cyan"}
+DTYPE_STYLE = {"float64": "-", "float32": ":", "longdouble": "-."}
 
 
 def rows_kind(rows, series) -> str:
@@ -994,19 +1105,24 @@ def summary_markdown(result: BenchResult, plots: list[Path] | None = None) -> st
         if best:
             lines.append(f"Best toolkit method: **{best[0]}**, {_ms(best[1]['time'])} ms.")
             lines.append("")
-        lines += ["| kind | series | time to 1e-8 (ms) | x best toolkit | runs compared / beyond horizon / failed |",
-                  "|---|---|---|---|---|"]
-        entries = sorted(((s, v) for (p, s), v in times.items() if p == name),
-                         key=lambda kv: (kv[1]["time"] is None, kv[1]["time"] or 0, kv[0]))
+        lines += ["| kind | series | time to 1e-8 (ms, wall) | (ms, CPU) | x best toolkit | "
+                  "runs compared / beyond horizon / failed |", "|---|---|---|---|---|---|"]
+        entries = sorted(((s, v) for (p, s), v in times.items() if p == name and v["time"] is not None),
+                         key=lambda kv: kv[1]["time"])
         for s, v in entries:
-            ratio = "" if best is None or v["time"] is None else f"{v['time'] / best[1]['time']:.1f}"
-            note = f" ({'; '.join(v['notes'])})" if v["notes"] and v["time"] is None else ""
-            lines.append(f"| {v['kind']} | {s}{note} | {_ms(v['time'])} | {ratio} | "
+            ratio = "" if best is None else f"{v['time'] / best[1]['time']:.1f}"
+            lines.append(f"| {v['kind']} | {s} | {_ms(v['time'])} | {_ms(v['cpu'])} | {ratio} | "
                          f"{v['compared']} / {v['beyond']} / {v['failed']} |")
+        missing = sorted(((s, v) for (p, s), v in times.items() if p == name and v["time"] is None),
+                         key=lambda kv: (kv[1]["kind"], kv[0]))
+        if missing:
+            lines += ["", f"Not reaching {opts.target:g} within their sweep (or only past their trust "
+                      "horizon): " + "; ".join(_missing(s, v) for s, v in missing) + "."]
         lines.append("")
     lines += ["## Targets", "", "| what | target | measured | met |", "|---|---|---|---|"]
     for t in targets(result):
         lines.append(f"| {t['what']} | {t['target']} | {t['measured']} | {'yes' if t['met'] else '**no**'} |")
+    lines += _issue_table(result, times)
     lines += ["", "Overhead = CPU time of the run / (rhs evaluations x CPU time of one generated C rhs "
               "evaluation, double, timed in a C loop over the states each problem visits, median; "
               "bench/rhs_cost.c): "
@@ -1027,6 +1143,36 @@ def summary_markdown(result: BenchResult, plots: list[Path] | None = None) -> st
         for p in plots:
             lines.append(f"![{p.stem}]({p.name})")
     return "\n".join(lines) + "\n"
+
+
+def _issue_table(result: BenchResult, times: dict) -> list[str]:
+    rows = [(p, peer, fig, times.get((p, peer))) for (p, peer), fig in ISSUE_FIGURES.items()
+            if p in result.infos]
+    if not rows:
+        return []
+    lines = ["", "Peer figures quoted in the issue beside this run's (time to 1e-8, ms), and the best toolkit "
+                 "method's speed-up against each:", "",
+             "| problem | peer | issue | this run | best toolkit vs issue figure | vs this run |",
+             "|---|---|---|---|---|---|"]
+    for p, peer, fig, v in rows:
+        best = best_toolkit(times, p)
+        here = v["time"] if v else None
+        b = best[1]["time"] if best else None
+        lines.append(f"| {p} | {peer} | {fig * 1e3:.3g} | {_ms(here)} | "
+                     f"{'' if not b else f'{fig / b:.0f}x'} | {'' if not (b and here) else f'{here / b:.0f}x'} |")
+    lines.append("")
+    lines.append("Throughput peers quoted in the issue (trajectory-steps/s): "
+                 + ", ".join(f"{k} {v:.2g}" for k, v in ISSUE_THROUGHPUT) + ".")
+    return lines
+
+
+def _missing(series: str, v: dict) -> str:
+    extra = list(v["notes"])
+    if v["beyond"]:
+        extra.append(f"{v['beyond']} of {v['runs']} runs beyond the trust horizon")
+    if v["failed"]:
+        extra.append(f"{v['failed']} failed")
+    return series + (f" ({'; '.join(extra)})" if extra else "")
 
 
 def _h(t: float) -> str:
@@ -1068,11 +1214,14 @@ def console_report(result: BenchResult) -> str:
         best = best_toolkit(times, name)
         lines.append(f"{name}: lambda {info.lyapunov.exponent:.3g}, reference accuracy "
                      f"{info.reference.accuracy:.2g}; time to {opts.target:g}:")
-        entries = sorted(((s, v) for (p, s), v in times.items() if p == name),
-                         key=lambda kv: (kv[1]["time"] is None, kv[1]["time"] or 0))
+        entries = sorted(((s, v) for (p, s), v in times.items() if p == name and v["time"] is not None),
+                         key=lambda kv: kv[1]["time"])
         for s, v in entries:
-            ratio = "" if best is None or v["time"] is None else f"  {v['time'] / best[1]['time']:7.1f}x best"
-            lines.append(f"  {v['kind']:7s} {s:45s} {_ms(v['time']):>12s} ms{ratio}")
+            ratio = "" if best is None else f"  {v['time'] / best[1]['time']:7.1f}x best"
+            lines.append(f"  {v['kind']:7s} {s:45s} {_ms(v['time']):>9s} ms{ratio}")
+        missing = sorted(s for (p, s), v in times.items() if p == name and v["time"] is None)
+        if missing:
+            lines.append(f"  not reached: {', '.join(missing)}")
     lines.append("targets:")
     for t in targets(result):
         lines.append(f"  [{'met' if t['met'] else 'NOT met'}] {t['what']}: {t['measured']} (target {t['target']})")

@@ -7,7 +7,9 @@ accepts) and atol = rtol * 1e-3.  Its accuracy is stated, not assumed:
 * `accuracy`: the largest difference between that run and a second one at
   10 x looser tolerances (CHECK_FACTOR).  The tighter run is the more accurate
   of the two, so the difference bounds the looser run's error and, DOP853
-  being of order 8, overstates the tighter one's;
+  being of order 8, overstates the tighter one's; at least the rounding a run
+  can accumulate (steps x unit roundoff x the state's size), which dominates
+  over short spans where both runs agree to the last bits;
 * `mpmath_check`: an independent spot check, the long double reference against
   mpmath's Taylor-series ODE solver (`mpmath.odefun`, 24 digits, the lambdified
   derivation) over a short span.
@@ -67,8 +69,9 @@ def compute(problem) -> Reference:
     seconds = time.perf_counter() - start
     loose, _ = _run(problem, RTOL * CHECK_FACTOR)
     diff = float(np.max(np.abs(np.asarray(tight, np.longdouble) - np.asarray(loose, np.longdouble))))
-    scale = float(np.max(np.abs(np.asarray(tight, float))))
-    floor = (1e-16 if problem.model == "spherical" else 1e-19) * max(scale, 1.0)  # float64 Cartesian
+    scale = max(float(np.max(np.abs(np.asarray(tight, float)))), 1.0)
+    eps = float(np.finfo(np.float64 if problem.model == "spherical" else np.longdouble).eps)  # Cartesian: float64
+    floor = max(run.nsteps * float(np.finfo(np.longdouble).eps), eps) * scale
     return Reference(
         problem=problem.name, final=np.asarray(tight), accuracy=max(diff, floor),
         method=f"dop853, long double, rtol {RTOL:.2g}, atol {RTOL * 1e-3:.2g}",
