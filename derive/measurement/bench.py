@@ -21,10 +21,16 @@ the batched RK4 (derive/integration/throughput.py) against its peers.
     rows = run_bench(BenchOptions(quick=True))
     write_all(result, Path("bench/results"))
 
-Timings call the compiled integrators directly (integrator_library(model).run,
-the atlas library, the generated NumPy modules), as the peers are called, so
-the Python overhead of derive.simulate is not in them; the untimed observation
-run (energies) goes through derive.simulate.
+Toolkit series are `method backend scalar`: the generated integrators in C
+(`C`, float32/float64/long double) and NumPy, and the generated single-trajectory
+fixed-step loops (`C-loop`: rk4, and rk8 = DOP853's 8th-order formula at a fixed
+step; derive/integration/throughput.py).  Timings call the compiled code directly
+(integrator_library(model).run, the atlas library, the generated NumPy modules,
+the loops), as the peers are called, so the Python overhead of derive.simulate is
+not in them; the untimed observation run (energies) goes through derive.simulate.
+Each configuration is warmed up, then timed once per round for `repeats` rounds
+across all configurations of a problem (fewer for runs over 0.2 s and 1 s): the
+median wall time and this thread's median CPU time are reported.
 """
 from __future__ import annotations
 
