@@ -111,3 +111,14 @@ def test_spherical_atlas_scene_reports_error_and_trust_horizon(tmp_path):
     assert s["achieved_error"] <= s["target"]
     assert s["lyapunov_exponent"] is not None and s["trust_horizon"] > 10.0
     assert (tmp_path / "spherical_pole.gif").read_bytes()[:3] == b"GIF"
+
+
+def test_simulation_result_states_its_trust_horizon():
+    p = {"m1": 1, "m2": 1, "l1": 1, "l2": 1, "g": 9.81}
+    chaotic = simulate("planar", [2.5, 2.0, 0, 0], np.linspace(0, 5, 101), p, rtol=1e-12)
+    regular = simulate("planar", [1.0, 0.5, 0, 0], np.linspace(0, 20, 101), p, rtol=1e-12)
+    assert 1.0 < chaotic.lyapunov_exponent() < 4.0
+    assert regular.lyapunov_exponent() < 0.3
+    # e0 = 1e-12 x |y| grows by e^(lambda t): the chaotic run resolves 1e-8 for a few seconds only
+    assert 2.0 < chaotic.trust_horizon(1e-8) < 6.0 < regular.trust_horizon(1e-8)
+    assert chaotic.trust_horizon(1e-4) > chaotic.trust_horizon(1e-8)

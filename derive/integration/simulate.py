@@ -41,6 +41,9 @@ _DTYPES = {"float32": np.float32, "float": np.float32, "single": np.float32,
 _DEFAULT_RTOL = {"float32": 1e-5, "float64": 1e-9, "longdouble": 1e-12}
 
 
+FIXED_ORDER = {"rk4": 4, "midpoint": 2, "gauss2": 4}
+
+
 class SimulationInputError(ValueError):
     """Bad input to simulate (one line, names the problem)."""
 
@@ -69,6 +72,8 @@ class SimulationResult:
     switches: int = 0                      # spherical atlas: number of chart switches
     chart_stop: str | None = None
     params: np.ndarray = field(default=None, repr=False)
+    rtol: float | None = None              # adaptive methods: the tolerance used
+    step: float | None = None              # fixed-step methods: the step used
 
     @property
     def ok(self) -> bool:
@@ -83,6 +88,34 @@ class SimulationResult:
         where = f" in chart {self.chart_stop}" if self.chart_stop else ""
         return (f"integration stopped at t = {self.t_stop:.17g}: {self.status_name}{where}; "
                 f"state {state}")
+
+    def lyapunov_exponent(self) -> float:
+        """Largest Lyapunov exponent of this motion over the run (variational
+        equations with the generated Jacobian; derive/measurement/trust.py)."""
+        if "_lyapunov" not in self.__dict__:
+            from ..measurement import trust
+            t_end = float(self.t[-1] - self.t[0])
+            params = np.asarray(self.params, np.float64)
+            if self.model == "spherical":
+                est = trust.atlas_lyapunov({"chart": self.chart[0], "state": list(self.y[0])}, params, t_end)
+            else:
+                est = trust.largest_lyapunov(self.model, np.asarray(self.y[0], np.float64), params, t_end)
+            self.__dict__["_lyapunov"] = None if est is None else est.exponent
+        return self.__dict__["_lyapunov"]
+
+    def trust_horizon(self, target: float = 1e-8) -> float | None:
+        """The time until which this run resolves the true motion to `target`:
+        its early error e0 (the tolerance, or h^order for a fixed step, at least
+        the unit roundoff, times the state's size) grows like e0 exp(lambda t)."""
+        from ..measurement import trust
+        exponent = self.lyapunov_exponent()
+        if exponent is None:
+            return None
+        local = self.rtol if self.rtol is not None else (self.step or 0.0) ** FIXED_ORDER[self.method]
+        e0 = trust.initial_error(local, np.dtype(_DTYPES[self.dtype]),
+                                 float(np.max(np.abs(np.asarray(self.y[0], float)))))
+        lyap = trust.Lyapunov(exponent, float(self.t[-1] - self.t[0]), self.model, "")
+        return float(self.t[0]) + trust.trust_horizon(lyap, target, e0)
 
     def raise_for_status(self) -> "SimulationResult":
         if not self.ok:
@@ -309,8 +342,14 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
 
     if model == "spherical":
         from .atlas import run_atlas
-        return run_atlas(method, state, chart, ts, p, opt, dt, backend)
-    return _run_single(model, method, state, ts, p, opt, dt, backend)
+        result = run_atlas(method, state, chart, ts, p, opt, dt, backend)
+    else:
+        result = _run_single(model, method, state, ts, p, opt, dt, backend)
+    if method in ADAPTIVE:
+        result.rtol = opt["rtol"]
+    else:
+        result.step = opt["h"]
+    return result
 
 
 def _run_single(model, method, y0, ts, p, opt, dt, backend) -> SimulationResult:
