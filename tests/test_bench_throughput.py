@@ -116,3 +116,25 @@ def test_loops_stop_before_a_nonfinite_step():
     for method in ("rk4", "rk8"):
         y, done = fixed_library("planar").run(method, y0, PARAMS["planar"], H, 10)
         assert done == 0 and np.array_equal(y, y0)
+
+
+def test_generated_c_includes_only_math_h_and_generated_headers():
+    """The project's rule for generated C: standalone C99 that includes <math.h> and
+    nothing else but the project's own generated headers (no <stdint.h>, <string.h>)."""
+    import re
+    root = Path(__file__).resolve().parents[1] / "generated" / "c"
+    sources = sorted(root.glob("*.c")) + sorted(root.glob("*.h"))
+    assert any(f.name.endswith("_throughput.c") for f in sources)
+    assert any(f.name.endswith("_fixed.c") for f in sources)
+    generated = {f.name for f in sources if f.suffix == ".h"}
+    bad = []
+    for f in sources:
+        for line in f.read_text().splitlines():
+            m = re.match(r"\s*#\s*include\s*(\S+)", line)
+            if not m:
+                continue
+            what = m.group(1)
+            if what == "<math.h>" or (what.startswith('"') and what.strip('"') in generated):
+                continue
+            bad.append(f"{f.name}: {line.strip()}")
+    assert not bad, "generated C includes more than <math.h> and generated headers:\n" + "\n".join(bad)

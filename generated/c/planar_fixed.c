@@ -6,15 +6,19 @@
 #include "planar_fixed.h"
 
 #include <math.h>
-#include <stdint.h>
-#include <string.h>
+
+/* A double's bits through a union (C99 6.5.2.3, footnote 82).  unsigned long long has
+ * at least 64 bits (C99 5.2.4.2.1); the typedef has a negative size, and fails to
+ * compile, unless it has exactly the size of a double. */
+typedef char planar_fixed_bits_size_check[sizeof(unsigned long long) == sizeof(double) ? 1 : -1];
+typedef union { double d; unsigned long long u; } planar_fixed_bits;
 
 /* 1 when x is finite: exponent bits not all ones. */
 static long planar_fixed_finite(double x)
 {
-    uint64_t u;
-    memcpy(&u, &x, sizeof u);
-    return (u & UINT64_C(0x7ff0000000000000)) != UINT64_C(0x7ff0000000000000);
+    planar_fixed_bits v;
+    v.d = x;
+    return (v.u & 0x7ff0000000000000ULL) != 0x7ff0000000000000ULL;
 }
 
 /* classical RK4 (rk4.toml). */

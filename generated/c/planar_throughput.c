@@ -6,8 +6,13 @@
 #include "planar_throughput.h"
 
 #include <math.h>
-#include <stdint.h>
-#include <string.h>
+
+/* A double's bits through a union (C99 6.5.2.3, footnote 82: reading another member
+ * reinterprets the bytes).  unsigned long long has at least 64 bits (C99 5.2.4.2.1);
+ * the typedef has a negative size, and fails to compile, unless it has exactly the
+ * size of a double. */
+typedef char planar_tp_bits_size_check[sizeof(unsigned long long) == sizeof(double) ? 1 : -1];
+typedef union { double d; unsigned long long u; } planar_tp_bits;
 
 #if defined(DERIVE_VECTOR_MATH) && defined(__GLIBC__) && defined(__x86_64__)
 /* glibc's libmvec has vector variants of these; declaring them `omp declare simd`
@@ -33,21 +38,20 @@ const int planar_throughput_n_params = 5;
  * independent of floating-point flags). */
 static inline long planar_tp_finite(double x)
 {
-    uint64_t u;
-    memcpy(&u, &x, sizeof u);
-    return (u & UINT64_C(0x7ff0000000000000)) != UINT64_C(0x7ff0000000000000);
+    planar_tp_bits v;
+    v.d = x;
+    return (v.u & 0x7ff0000000000000ULL) != 0x7ff0000000000000ULL;
 }
 
 /* ok ? a : b, by bit masks: a select the vectoriser accepts next to the vector calls. */
 static inline double planar_tp_pick(long ok, double a, double b)
 {
-    uint64_t ua, ub;
-    const uint64_t mask = (uint64_t)0 - (uint64_t)ok;
-    memcpy(&ua, &a, sizeof ua);
-    memcpy(&ub, &b, sizeof ub);
-    ua = (ua & mask) | (ub & ~mask);
-    memcpy(&a, &ua, sizeof a);
-    return a;
+    planar_tp_bits va, vb;
+    const unsigned long long mask = 0ULL - (unsigned long long)ok;
+    va.d = a;
+    vb.d = b;
+    va.u = (va.u & mask) | (vb.u & ~mask);
+    return va.d;
 }
 
 long planar_throughput_rk4(long n, double *y, long ld, const double *p, double h, long nsteps, int *status, long *steps)
