@@ -34,7 +34,8 @@ def test_quick_bench_writes_the_csv_with_the_expected_columns(quick):
     assert tuple(rows[0].keys()) == B.CSV_COLUMNS
     series = {r["series"] for r in rows}
     assert {"dop853 C float64", "rk4 C float64", "dop853 NumPy float64",
-            "solve_ivp DOP853 + lambdify", "hand-written C RK4"} <= series
+            "solve_ivp DOP853 + lambdify (default)", "solve_ivp DOP853 + lambdify (cse=True)",
+            "hand-written C RK4"} <= series
     for r in rows:
         assert r["problem"] == "regular" and r["model"] == "planar"
         assert r["status"] == "ok", r
@@ -63,6 +64,10 @@ def test_quick_bench_writes_summary_and_plot(quick):
     for text in ("Measured on", "cores", "Time to reach a final-state error of 1e-08", "| regular |",
                  "stated accuracy", "Targets", "dop853 C float64"):
         assert text in md, text
+    targets = md.split("## Targets")[1].split("\n\n")[1]
+    for peer in ("solve_ivp DOP853 + lambdify (default) -- plain sympy.lambdify, cse=False",
+                 "solve_ivp DOP853 + lambdify (cse=True) -- stronger peer"):
+        assert f"vs {peer}" in targets, peer
     try:
         import matplotlib  # noqa: F401
     except ImportError:
@@ -145,3 +150,14 @@ def test_peers_agree_with_the_generated_rk4():
 def test_bench_rejects_an_unknown_problem(capsys):
     assert main(["bench", "--quick", "--problems", "nope", "--quiet", "--no-throughput"]) == 2
     assert "unknown problem 'nope'" in capsys.readouterr().err
+
+
+def test_the_two_lambdify_peers_compute_the_same_rhs():
+    """Plain sympy.lambdify (cse=False, its default) and cse=True: the same derivative."""
+    p = (1.0, 1.3, 0.9, 1.1, 9.81)
+    y = np.array([0.3, -1.2, 0.7, 2.0])
+    plain, cse = P.lambdified_rhs("planar", cse=False), P.lambdified_rhs("planar", cse=True)
+    assert plain is not cse
+    a, b = plain(0.0, y, *p), cse(0.0, y, *p)
+    assert np.allclose(a, b, rtol=1e-13, atol=0)
+    assert np.allclose(a, P.hand_numpy_rhs(0.0, y, *p), rtol=1e-12, atol=0)
