@@ -88,7 +88,7 @@ def kinetic_energy(M: sp.Matrix, s: ModelSymbols) -> sp.Expr:
 
 def forcing(M: sp.Matrix, V: sp.Expr, s: ModelSymbols) -> sp.Matrix:
     """F of M q'' = F in the Christoffel form given in the module docstring."""
-    q, qd = sp.Matrix(s.q), sp.Matrix(s.qd)
+    qd = sp.Matrix(s.qd)
     dM = [M.diff(qk) for qk in s.q]
     Mqd_dot = sum((dM[k] * qd * s.qd[k] for k in range(len(s.q))), sp.zeros(len(s.q), 1))
     F = sp.Matrix([(qd.T * dM[j] * qd)[0, 0] / 2 - Mqd_dot[j] - V.diff(s.q[j])

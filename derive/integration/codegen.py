@@ -14,7 +14,7 @@ import mpmath
 
 from ..codegen.emit import TEMPLATES as TEMPLATES_DIR, render
 from ..derivation import derive
-from ..model import load_model, model_names
+from ..model import model_names
 from . import tableau as tb
 
 SINE_MIN = "0.1"          # hard threshold: no kernel below it (per-model default, and atlas)

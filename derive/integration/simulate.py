@@ -27,7 +27,7 @@ import numpy as np
 
 from . import cartesian
 from .build import dtype_key
-from .codegen import ADAPTIVE, ATLAS_CHARTS, IMPLICIT, METHODS, SINE_MIN, model_info
+from .codegen import ADAPTIVE, ATLAS_CHARTS, METHODS, SINE_MIN, model_info
 
 GENERATED_NUMPY = Path(__file__).resolve().parents[2] / "generated" / "numpy"
 STATUS_NAMES = ("ok", "step-size underflow", "maximum number of steps reached",

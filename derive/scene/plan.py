@@ -12,14 +12,14 @@ the scene exactly, and say why.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cache
 
 import numpy as np
 import sympy as sp
 
 from ..model import load_model
-from .scene import ATLAS, Scene, SceneError
+from .scene import ATLAS, Scene
 
 RELATIVE_TOLERANCE = 1e-12   # "exactly": equal to rounding of the given numbers
 
@@ -31,7 +31,6 @@ class Plan:
     y0: object                      # chart state (list) or {"cartesian": [...]}
     reason: str
     plane: np.ndarray | None = None  # unit horizontal direction of the plane (spherical -> planar)
-    notes: list[str] = field(default_factory=list)
 
 
 def cartesian_state(scene: Scene) -> np.ndarray:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..model import ModelError, load_model
@@ -42,7 +42,6 @@ class Scene:
     output_dir: Path
     trajectory: tuple[str, ...] = ()
     plots: tuple[str, ...] = ()
-    extra: dict = field(default_factory=dict)
 
 
 def _table(t: dict, key: str, where: str, required: bool = True) -> dict:

@@ -14,7 +14,7 @@ import sympy as sp
 
 from ..derivation import derive
 from ..derivation.charts import chart_change
-from ..model import load_model, model_names
+from ..model import model_names
 from .zero import DIGITS, matrix_is_zero, random_point, trig_is_zero
 
 SPHERICAL_PAIRS = [("spherical_std", "spherical_alt"), ("spherical_alt", "spherical_std"),
