@@ -106,6 +106,18 @@ def _writable(path: Path) -> Path:
     return path
 
 
+def _writable_dir(path: Path) -> Path:
+    """Create `path` if needed and prove it writable, before any long work."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".derive-write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        raise UsageError(f"cannot write to '{path}': {exc.strerror}") from None
+    return path
+
+
 def cmd_latex(args) -> int:
     if args.model not in model_names():
         raise UsageError(f"unknown model '{args.model}' (known: {', '.join(model_names())})")
@@ -216,6 +228,7 @@ def cmd_bench(args) -> int:
     from .scene.progress import Progress
     if args.repeats < 1:
         raise UsageError(f"--repeats must be >= 1, got {args.repeats}")
+    out = _writable_dir(Path(args.out))
     problems = tuple(x for x in args.problems.split(",") if x) if args.problems else None
     bar = None if args.quiet else Progress("bench", 1)
 
@@ -233,7 +246,7 @@ def cmd_bench(args) -> int:
     finally:
         if bar is not None:
             bar.close()
-    files = write_all(result, Path(args.out), plots=not args.no_plots)
+    files = write_all(result, out, plots=not args.no_plots)
     if not args.quiet:
         print(console_report(result))
         for f in files:

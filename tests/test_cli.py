@@ -57,3 +57,9 @@ def test_latex_document_compiles(model, tmp_path):
     if model == "spherical_std":
         assert r"\textbf{erratum}" in tex   # e.g. (3.40) is printed wrong in the seed
     assert (tmp_path / f"{model}.pdf").stat().st_size > 10_000
+
+
+def test_bench_refuses_an_unwritable_output_directory_before_running():
+    run = derive("bench", "--quick", "--quiet", "--no-throughput", "--out", "/proc/no-such-dir")
+    assert run.returncode == 2 and "cannot write to '/proc/no-such-dir'" in run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1
