@@ -157,6 +157,8 @@ def _print_run(summary: dict) -> None:
     if s["target"] is not None:
         achieved = "not measured" if s["achieved_error"] is None else f"{s['achieved_error']:.2g}"
         print(f"error   target {s['target']:g}, predicted {s['predicted_error']:.2g}, achieved {achieved}")
+    if not s["ok"]:
+        print(f"stopped {s['message']}")
     print(f"result  {s['status']} at t = {s['t_stop']:g} after {s['nfev']} rhs evaluations"
           + (f", {s['chart_switches']} chart switches" if s["chart_switches"] is not None else "")
           + f"; relative energy error {s['relative_energy_error']:.2g}")

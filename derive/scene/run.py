@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..integration.simulate import SimulationResult, simulate
+from ..integration.simulate import SimulationError, SimulationResult, simulate
 from ..measurement.trust import (Lyapunov, atlas_lyapunov, initial_error, largest_lyapunov,
                                  trust_horizon)
 from .artifacts import Step, prepare
@@ -60,9 +60,14 @@ class Outcome:
 
 
 def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
-    if p.model == "spherical":
-        return atlas_lyapunov(p.y0, p.params, scene.t_stop - scene.t_start)
-    return largest_lyapunov(p.model, p.y0, p.params, scene.t_stop - scene.t_start)
+    """None when the motion cannot be followed (e.g. a single chart meets its
+    singularity): the scene's own run then reports why."""
+    try:
+        if p.model == "spherical":
+            return atlas_lyapunov(p.y0, p.params, scene.t_stop - scene.t_start)
+        return largest_lyapunov(p.model, p.y0, p.params, scene.t_stop - scene.t_start)
+    except SimulationError:
+        return None
 
 
 def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
@@ -214,9 +219,9 @@ def summary(o: Outcome) -> dict:
         "target": o.scene.target, "predicted_error": o.choice.predicted, "achieved_error": o.achieved,
         "lyapunov_exponent": o.lyapunov.exponent if o.lyapunov else None,
         "trust_horizon": o.trust_horizon,
-        "status": r.status_name, "ok": r.ok, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
+        "status": r.status_name, "ok": r.ok, "message": r.message, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
         "chart_switches": int(r.switches) if r.chart is not None else None,
-        "final_state": [float(v) for v in r.y[-1]],
+        "final_state": [float(v) for v in (r.y[-1] if r.ok else r.y_stop)],
         "relative_energy_error": drift,
         "steps": [s.line() for s in o.steps], "files": o.files, "seconds": o.seconds,
         "note": o.choice.note,
