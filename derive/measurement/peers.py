@@ -46,16 +46,22 @@ def hand_numpy_rhs(t, y, m1, m2, l1, l2, g):
 
 
 @cache
+def derivation_rhs(model: str):
+    """(args, exprs) of y' = (q', M^-1 F) from the derivation: `sympy.lambdify(args, exprs, ...)`
+    gives f(y, p).  Solved once per model (both lambdify peers and the mpmath check use it)."""
+    d = derive(model)
+    qdd = d.M.LUsolve(d.F)
+    return [d.symbols.state, d.symbols.params], list(d.symbols.qd) + list(qdd)
+
+
+@cache
 def lambdified_rhs(model: str = "planar", cse: bool = True):
     """y' = (q', M^-1 F) lambdified from the derivation, the usual SymPy route.
 
     cse=False is `sympy.lambdify`'s default (what a user gets from the plain call);
     cse=True eliminates common subexpressions first, a stronger peer (about half the
     time per evaluation on the planar model)."""
-    d = derive(model)
-    qdd = d.M.LUsolve(d.F)
-    f = sp.lambdify([d.symbols.state, d.symbols.params], list(d.symbols.qd) + list(qdd), "numpy",
-                    cse=cse)
+    f = sp.lambdify(*derivation_rhs(model), "numpy", cse=cse)
     return lambda t, y, *p: np.array(f(y, p))
 
 
@@ -112,15 +118,22 @@ def numba_rk4():
     return rk4
 
 
+def _hand_c(source: str, symbol: str, *argtypes):
+    """A function of a hand-written C peer (bench/peers/<source>), compiled into the build cache."""
+    from ..codegen.loader import build
+    fn = ctypes.CDLL(str(build(BENCH / "peers" / source)))[symbol]
+    fn.restype = None
+    fn.argtypes = list(argtypes)
+    return fn
+
+
+_DPTR = np.ctypeslib.ndpointer(np.float64, flags="C_CONTIGUOUS")
+
+
 @cache
 def hand_c_rk4():
     """The hand-written C RK4 loop, compiled into the build cache."""
-    from ..codegen.loader import build
-    lib = ctypes.CDLL(str(build(BENCH / "peers" / "planar_rk4_hand.c")))
-    fn = lib.hand_planar_rk4
-    fn.restype = None
-    dptr = np.ctypeslib.ndpointer(np.float64, flags="C_CONTIGUOUS")
-    fn.argtypes = [dptr, dptr, ctypes.c_double, ctypes.c_long]
+    fn = _hand_c("planar_rk4_hand.c", "hand_planar_rk4", _DPTR, _DPTR, ctypes.c_double, ctypes.c_long)
 
     def run(y0, p, h, n):
         y = np.array(y0, dtype=np.float64)
@@ -232,12 +245,8 @@ def numba_rk4_parallel():
 @cache
 def hand_c_rk4_batch():
     """The hand-written C RK4 loop over a batch (B, 4), one trajectory after another."""
-    from ..codegen.loader import build
-    lib = ctypes.CDLL(str(build(BENCH / "peers" / "planar_rk4_batch_hand.c")))
-    fn = lib.hand_planar_rk4_batch
-    fn.restype = None
-    dptr = np.ctypeslib.ndpointer(np.float64, flags="C_CONTIGUOUS")
-    fn.argtypes = [ctypes.c_long, dptr, dptr, ctypes.c_double, ctypes.c_long]
+    fn = _hand_c("planar_rk4_batch_hand.c", "hand_planar_rk4_batch",
+                 ctypes.c_long, _DPTR, _DPTR, ctypes.c_double, ctypes.c_long)
 
     def run(y0, p, h, n):
         y = np.array(y0, dtype=np.float64).reshape(-1, 4)

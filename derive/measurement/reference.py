@@ -85,12 +85,9 @@ def mpmath_check(problem, t: float, dps: int = MPMATH_DPS) -> float:
     import mpmath
     import sympy as sp
 
-    from ..derivation import derive
     from ..integration.simulate import normalise_params, simulate
-    d = derive(problem.model)
-    qdd = d.M.LUsolve(d.F)
-    f = sp.lambdify([d.symbols.state, d.symbols.params], list(d.symbols.qd) + list(qdd), "mpmath",
-                    cse=True)
+    from .peers import derivation_rhs
+    f = sp.lambdify(*derivation_rhs(problem.model), "mpmath", cse=True)
     p64 = normalise_params(problem.model, problem.params).astype(np.float64)
     with mpmath.workdps(dps):
         p = [mpmath.mpf(float(v)) for v in p64]           # the same binary numbers as the C run
