@@ -53,8 +53,8 @@ def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0) -> Lya
     log_growth = 0.0
     for J in jac:
         A = J * dt
-        step = delta + A @ delta
         term = A @ delta
+        step = delta + term
         for k in (2, 3, 4):                 # Taylor polynomial of exp(A) applied to delta
             term = A @ term / k
             step = step + term
