@@ -20,12 +20,10 @@ class UsageError(Exception):
 
 def _derive_all(models: list[str]) -> tuple[float, list[tuple[str, float, bool]]]:
     from .derivation import derive
-    from .derivation.derivation import cache_dir, cache_key
-    from .model import load_model
+    from .derivation.derivation import is_cached
     rows, start = [], time.perf_counter()
     for name in models:
-        model = load_model(name)
-        warm = any((cache_dir() / "derivations").glob(f"{name}-{cache_key(model)}.pickle"))
+        warm = is_cached(name)
         t0 = time.perf_counter()
         derive(name)
         rows.append((name, time.perf_counter() - t0, warm))
@@ -44,18 +42,27 @@ def cmd_derive(args) -> int:
     return 0
 
 
+def _tally(results, checks) -> tuple[str, bool]:
+    """'N seed formulas: a match, b errata, c failed; k/K physics checks pass', and all-good."""
+    n_err = sum(r.verdict == "erratum" for r in results)
+    n_bad = sum(r.verdict not in ("match", "erratum") for r in results)
+    n_ok = sum(c.passed for c in checks)
+    text = (f"{len(results)} seed formulas: {len(results) - n_err - n_bad} match, {n_err} errata, "
+            f"{n_bad} failed; {n_ok}/{len(checks)} physics checks pass")
+    return text, n_bad == 0 and n_ok == len(checks)
+
+
 def cmd_verify(args) -> int:
     from .verification.cached import verify_all
     start = time.perf_counter()
     derive_seconds, rows = _derive_all(model_names())
     results, checks, from_cache = verify_all(fresh=args.fresh)
     seconds = time.perf_counter() - start
-    failed = [r for r in results if r.verdict not in ("match", "erratum")]
-    failed_checks = [c for c in checks if not c.passed]
+    tally, good = _tally(results, checks)
     if args.json:
         print(json.dumps([{"seed": r.seed, "equation": r.equation, "verdict": r.verdict,
                            "summary": r.summary} for r in results], indent=1))
-        return 1 if failed or failed_checks else 0
+        return 0 if good else 1
     width = max(len(r.equation) for r in results)
     print(f"{'seed':4s} {'equation':{width}s}  {'verdict':8s} what / summary")
     for r in results:
@@ -64,14 +71,11 @@ def cmd_verify(args) -> int:
     print()
     for c in checks:
         print(f"{'ok  ' if c.passed else 'FAIL'} {c.name}: {c.detail}")
-    n_err = sum(r.verdict == "erratum" for r in results)
     derivations = "warm" if all(w for _, _, w in rows) else "cold"
-    print(f"\n{len(results)} seed formulas: {len(results) - n_err - len(failed)} match, "
-          f"{n_err} errata, {len(failed)} failed; {len(checks) - len(failed_checks)}/"
-          f"{len(checks)} physics checks pass")
+    print(f"\n{tally}")
     print(f"time {seconds:.1f} s (derivations {derive_seconds:.1f} s from a {derivations} cache; "
           f"verdicts {'from the cache' if from_cache else 'computed'})")
-    return 1 if failed or failed_checks else 0
+    return 0 if good else 1
 
 
 def cmd_generate(args) -> int:
@@ -103,18 +107,6 @@ def _writable(path: Path) -> Path:
         raise UsageError(f"output path '{path}' is a directory")
     if not path.parent.exists():
         raise UsageError(f"cannot write '{path}': directory '{path.parent}' does not exist")
-    return path
-
-
-def _writable_dir(path: Path) -> Path:
-    """Create `path` if needed and prove it writable, before any long work."""
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        probe = path / ".derive-write-test"
-        probe.write_text("")
-        probe.unlink()
-    except OSError as exc:
-        raise UsageError(f"cannot write to '{path}': {exc.strerror}") from None
     return path
 
 
@@ -200,11 +192,8 @@ def cmd_all(args) -> int:
     print(f"derive    {len(rows)} models in {seconds:.1f} s ({cached} from the cache)")
     t0 = time.perf_counter()
     results, checks, from_cache = verify_all()
-    n_err = sum(r.verdict == "erratum" for r in results)
-    bad = [r for r in results if r.verdict not in ("match", "erratum")] + [c for c in checks if not c.passed]
-    print(f"verify    {len(results)} seed formulas: {len(results) - n_err - len(bad)} match, {n_err} errata "
-          f"(see README); {sum(c.passed for c in checks)}/{len(checks)} physics checks pass "
-          f"({time.perf_counter() - t0:.1f} s{', cached' if from_cache else ''})")
+    tally, verified = _tally(results, checks)
+    print(f"verify    {tally} ({time.perf_counter() - t0:.1f} s{', cached' if from_cache else ''})")
     t0 = time.perf_counter()
     changed, _ = generate_all(REPO_ROOT, check=True)
     print(f"generate  generated/ {'is current' if not changed else f'is STALE in {len(changed)} files'} "
@@ -218,7 +207,7 @@ def cmd_all(args) -> int:
     print(f"run       {s['title']}: {s['method']} {s['dtype']} rtol {s['rtol']:.2g}, final-state error "
           f"{s['achieved_error']:.2g} (target {s['target']:g}), trust horizon t = {s['trust_horizon']:.3g}, "
           f"{s['nfev']} rhs evaluations in {s['seconds']:.2f} s")
-    ok = not bad and not changed and outcome.result.ok
+    ok = verified and not changed and outcome.result.ok
     print(f"{'done' if ok else 'FAILED'} in {time.perf_counter() - start:.1f} s")
     return 0 if ok else 1
 
@@ -230,7 +219,11 @@ def cmd_bench(args) -> int:
     from .scene.progress import Progress
     if args.repeats < 1:
         raise UsageError(f"--repeats must be >= 1, got {args.repeats}")
-    out = _writable_dir(Path(args.out))
+    from .scene.outputs import writable_dir
+    try:
+        out = writable_dir(Path(args.out))
+    except OSError as exc:
+        raise UsageError(f"cannot write to '{args.out}': {exc.strerror}") from None
     problems = tuple(x for x in args.problems.split(",") if x) if args.problems else None
     bar = None if args.quiet else Progress("bench", 1)
 

@@ -103,6 +103,16 @@ def cache_key(model: Model) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
+def cache_path(model: Model) -> Path:
+    """Where the derivation of `model` is (or will be) cached."""
+    return cache_dir() / "derivations" / f"{model.name}-{cache_key(model)}.pickle"
+
+
+def is_cached(name: str | Model) -> bool:
+    """Whether derive() will read this model from the disk cache."""
+    return cache_path(load_model(name) if isinstance(name, str) else name).is_file()
+
+
 _memory: dict[str, Derivation] = {}
 
 
@@ -112,7 +122,7 @@ def derive(name: str | Model, use_cache: bool = True) -> Derivation:
     key = cache_key(model)
     if use_cache and key in _memory:
         return _memory[key]
-    path = cache_dir() / "derivations" / f"{model.name}-{key}.pickle"
+    path = cache_path(model)
     if use_cache and path.is_file():
         try:
             d = pickle.loads(path.read_bytes())

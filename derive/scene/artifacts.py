@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..derivation import derive
-from ..derivation.derivation import cache_dir, cache_key
+from ..derivation.derivation import cache_dir, cache_key, is_cached
 from ..model import load_model
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -46,8 +46,7 @@ def _tree_hash(*folders: Path) -> str:
 
 
 def _derivation(name: str) -> Step:
-    model = load_model(name)
-    cached = (cache_dir() / "derivations" / f"{name}-{cache_key(model)}.pickle").is_file()
+    cached = is_cached(name)
     start = time.perf_counter()
     derive(name)
     return Step(f"derivation of {name}", cached, time.perf_counter() - start)

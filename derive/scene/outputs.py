@@ -26,16 +26,21 @@ def _columns(o) -> tuple[list[str], np.ndarray]:
     return names, data
 
 
+def writable_dir(path: Path) -> Path:
+    """Create `path` if needed and prove it writable (OSError otherwise), before long work."""
+    path.mkdir(parents=True, exist_ok=True)
+    probe = path / ".derive-write-test"
+    probe.write_text("")
+    probe.unlink()
+    return path
+
+
 def output_dir(o) -> Path:
     out = Path(o.scene.output_dir)
     try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".derive-write-test"
-        probe.write_text("")
-        probe.unlink()
+        return writable_dir(out)
     except OSError as exc:
         raise SceneError(f"'output.directory': cannot write to '{out}': {exc.strerror}") from None
-    return out
 
 
 def write_outputs(o) -> list[str]:

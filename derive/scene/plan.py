@@ -110,14 +110,12 @@ def plan(scene: Scene) -> Plan:
             return Plan("planar", params, planar_state(c, u),
                         "spherical scene starts in a vertical plane with no velocity out of it: "
                         "it stays there, so the planar model is exact", plane=u)
-        if "cartesian" in scene.initial:
+        if scene.model == ATLAS or "cartesian" in scene.initial:
+            # the atlas picks its chart from the Cartesian state anyway (seed 000 §5.1)
             return Plan(scene.model, scene.parameters, {"cartesian": list(c)}, "spherical motion")
-        state = dict(scene.initial["state"])
-        chart = state.pop("chart", scene.model)
-        return Plan(scene.model, scene.parameters,
-                    [state[n] for n in load_model(chart).state_names] if scene.model != ATLAS
-                    else {"chart": chart, "state": [state[n] for n in load_model(chart).state_names]},
-                    "spherical motion")
+        names = load_model(scene.model).state_names
+        return Plan(scene.model, scene.parameters, [scene.initial["state"][n] for n in names],
+                    "spherical motion in one chart")
     state = [scene.initial["state"][n] for n in scene.initial["state"]]
     return Plan(scene.model, scene.parameters, state, f"{scene.model} as described")
 

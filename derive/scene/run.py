@@ -92,7 +92,7 @@ def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
             note = (f"target {scene.target:g} needs rtol {rtol:.2g}: beyond float, the run uses "
                     f"rtol {FLOAT_RTOL_MIN:g} and reports what it achieves")
             rtol = FLOAT_RTOL_MIN
-    return Choice("dop853", rtol, rtol, None, dtype, rtol * SAFETY * growth / SAFETY, note)
+    return Choice("dop853", rtol, rtol, None, dtype, rtol * growth, note)
 
 
 def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
