@@ -46,9 +46,13 @@ def trig_is_zero(expr: sp.Expr, angles: Iterable[sp.Symbol]) -> bool:
     return sp.expand(numerator) == 0
 
 
+def _matrix(x) -> sp.Matrix:
+    """An expression as a 1x1 matrix; a matrix (or nested list) as a matrix."""
+    return sp.Matrix(x) if not isinstance(x, sp.Expr) else sp.Matrix([x])
+
+
 def matrix_is_zero(m, angles) -> bool:
-    m = sp.Matrix(m) if not isinstance(m, sp.Expr) else sp.Matrix([m])
-    return all(trig_is_zero(e, angles) for e in m)
+    return all(trig_is_zero(e, angles) for e in _matrix(m))
 
 
 def random_point(symbols: Iterable[sp.Symbol], rng: random.Random,
@@ -70,7 +74,7 @@ def random_point(symbols: Iterable[sp.Symbol], rng: random.Random,
 
 def evaluate(expr, point: dict) -> list:
     """Evaluate an expression or matrix at a point with DIGITS significant digits."""
-    m = sp.Matrix(expr) if not isinstance(expr, sp.Expr) else sp.Matrix([expr])
+    m = _matrix(expr)
     subs = {k: sp.Float(str(v), DIGITS + 5) for k, v in point.items()}
     return [sp.N(e.xreplace(subs), DIGITS) for e in m]
 
@@ -202,16 +206,14 @@ def circle_is_zero(expr, angles: Iterable[sp.Symbol], roots=()) -> bool:
 
 
 def circle_matrix_is_zero(m, angles, roots=()) -> bool:
-    m = sp.Matrix(m) if not isinstance(m, sp.Expr) else sp.Matrix([m])
-    return all(circle_is_zero(e, angles, roots) for e in m)
+    return all(circle_is_zero(e, angles, roots) for e in _matrix(m))
 
 
 def trig_angles(*exprs) -> list[sp.Symbol]:
     """The symbols that occur inside a sine or cosine (the angles of a trig test)."""
     found: set = set()
     for e in exprs:
-        m = sp.Matrix(e) if not isinstance(e, sp.Expr) else sp.Matrix([e])
-        for entry in m:
+        for entry in _matrix(e):
             for f in entry.atoms(sp.sin, sp.cos):
                 found |= f.free_symbols
     return sorted(found, key=lambda s: s.name)
@@ -225,7 +227,7 @@ def trig_angles(*exprs) -> list[sp.Symbol]:
 
 def mp_function(expr, symbols):
     """Compile ``expr`` (expression or matrix) to point -> list of mpmath numbers."""
-    m = sp.Matrix(expr) if not isinstance(expr, sp.Expr) else sp.Matrix([expr])
+    m = _matrix(expr)
     symbols = list(symbols)
     f = sp.lambdify(symbols, list(m), modules="mpmath")
 
