@@ -624,8 +624,8 @@ def _compare_angles(claim: Claim, c: Context, printed: AtanForm, offset) -> Comp
     target_vec, source_vec = t.qvec(1), claim.derived(c)
     f_t = zero.mp_function(target_vec, sorted(target_vec.free_symbols, key=str))
     f_s = zero.mp_function(source_vec, sorted(source_vec.free_symbols, key=str))
-    err = 0.0
-    for pt, got, truth in angle_values(claim, printed):
+    err, rows = 0.0, angle_values(claim, printed)
+    for pt, got, truth in rows:
         env = {x: got.get(x, truth[x]) for x in truth} | {t.l1: pt[c.l1]}
         err = max(err, zero.relative_error(f_t(env), f_s(pt)))
     # exact: each atan2(Y, X) points along the true angle x; the source chart's
@@ -645,19 +645,20 @@ def _compare_angles(claim: Claim, c: Context, printed: AtanForm, offset) -> Comp
     if offset is None:
         disc = [QuadrantError(x, r) for x, r in rhos.items()]
         return Comparison(exact and err < TOLERANCE, exact, err, disc[0] if len(disc) == 1 else disc)
-    return Comparison(_quadrant_matches(claim, c, printed, pm, rhos, offset), exact, err, offset)
+    return Comparison(_quadrant_matches(rows, pm, rhos, offset), exact, err, offset)
 
 
-def _quadrant_matches(claim, c, printed, pm, rhos, pinned) -> bool:
+def _quadrant_matches(rows, pm, rhos, pinned) -> bool:
     """The pinned QuadrantError holds: same exact rho, and the printed angle is
-    off by pi exactly where rho < 0 (and nowhere else) at every test state."""
+    off by pi exactly where rho < 0 (and nowhere else) at every test state
+    (``rows`` as from :func:`angle_values`)."""
     if not isinstance(pinned, QuadrantError) or rhos.get(pinned.angle) is None:
         return False
     if not _exact_zero(sp.sympify(rhos[pinned.angle]) - pinned.rho, pm.roots):
         return False
     f_rho = zero.mp_function(pinned.rho, sorted(pinned.rho.free_symbols, key=str))
     seen_jump = False
-    for pt, got, truth in angle_values(claim, printed):
+    for pt, got, truth in rows:
         env = dict(pt) | truth
         negative = f_rho(env)[0] < 0
         with mpmath.workdps(zero.DIGITS):
