@@ -36,13 +36,18 @@ def _numeric(expr, symbols):
 _system_functions: dict[str, tuple] = {}
 
 
+def _system(d) -> tuple:
+    """M and F of a derivation compiled once: functions of (state, params)."""
+    if d.name not in _system_functions:
+        args = d.symbols.state + d.symbols.params
+        _system_functions[d.name] = (_numeric(d.M, args), _numeric(d.F, args))
+    return _system_functions[d.name]
+
+
 def accelerations(d, point: dict) -> mpmath.matrix:
     """q'' at a point by solving M q'' = F in 40-digit arithmetic."""
-    args = d.symbols.state + d.symbols.params
-    if d.name not in _system_functions:
-        _system_functions[d.name] = (_numeric(d.M, args), _numeric(d.F, args))
-    M_of, F_of = _system_functions[d.name]
-    values = [point[s] for s in args]
+    M_of, F_of = _system(d)
+    values = [point[s] for s in d.symbols.state + d.symbols.params]
     with mpmath.workdps(DIGITS):
         return mpmath.lu_solve(mpmath.matrix(M_of(*values).tolist()),
                                mpmath.matrix(F_of(*values).tolist()))
@@ -52,7 +57,7 @@ def mass_matrix_spd(name: str, n_points: int = 20) -> Check:
     """M is symmetric (exactly) and positive definite (Cholesky succeeds) at random states."""
     d = derive(name)
     symmetric = matrix_is_zero(d.M - d.M.T, d.symbols.q)
-    M_of = _numeric(d.M, d.symbols.state + d.symbols.params)
+    M_of = _system(d)[0]
     rng, smallest = random.Random(7), mpmath.inf
     with mpmath.workdps(DIGITS):
         for _ in range(n_points):
