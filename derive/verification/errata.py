@@ -66,11 +66,11 @@ def _reduced_x(c, phi_rates):
 
 def _quadrant(equation, what, target_angle, rho, fix, summary):
     """An atan2 form right up to the sign of rho; ``fix`` is the corrected form."""
+    target = _target(target_angle)
     return Erratum(equation, what, summary,
-                   discrepancy=lambda c: QuadrantError(getattr(c.other(_target(target_angle)),
-                                                               target_angle), rho(c)),
-                   corrected=lambda c: AtanForm(_target(target_angle),
-                                                fix(c, c.other(_target(target_angle)))),
+                   discrepancy=lambda c: QuadrantError(getattr(c.other(target), target_angle),
+                                                       rho(c)),
+                   corrected=lambda c: AtanForm(target, fix(c, c.other(target))),
                    origin=REAL)
 
 
