@@ -105,7 +105,7 @@ class ReducedDynamics:
 
     def __init__(self, d):
         P = d.paper
-        self.s = s = d.symbols
+        self.s = d.symbols
         A = P.A_red
         if A.shape != (4, 4):
             raise ValueError("the reduced system must be 4x4")
