@@ -402,8 +402,9 @@ def peer_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
 
 
 def _numba_ok() -> bool:
+    import importlib
     try:
-        import numba  # noqa: F401
+        importlib.import_module("numba")
     except ImportError:
         return False
     return True
@@ -511,8 +512,7 @@ def problem_info(problem: Problem, opts: BenchOptions) -> ProblemInfo:
     scale = float(np.max(np.abs(np.asarray(ref.final, float)))) if problem.model == "spherical" else \
         float(np.max(np.abs(problem.y0)))
     e0 = initial_error(R.RTOL, np.longdouble, scale)
-    info = ProblemInfo(problem, ref, lyap, scale, trust_horizon(lyap, opts.target * 1e-2, e0))
-    return info
+    return ProblemInfo(problem, ref, lyap, scale, trust_horizon(lyap, opts.target * 1e-2, e0))
 
 
 LOCAL_ERROR_SAMPLES = 8
