@@ -101,7 +101,7 @@ def observables(y: np.ndarray, charts: np.ndarray, p: np.ndarray, backend: str, 
 
 
 def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str):
-    from .simulate import STATUS_NAMES, SimulationResult
+    from .simulate import COUNTERS, STATUS_NAMES, SimulationResult
     y0 = np.asarray(y0, dt)
     pd = np.asarray(p, dt)
     tsd = np.asarray(ts, dt)
@@ -113,13 +113,13 @@ def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str):
             setattr(o, k, v)
         y, charts, infos = lib.run(METHODS.index(method), [chart0], y0[None, :], pd, tsd, o)
         y, charts, inf = y[0], charts[0], infos[0]
-        counters = {k: int(getattr(inf, k)) for k in ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton")}
+        counters = {k: int(getattr(inf, k)) for k in COUNTERS}
         status, t_stop, y_stop = int(inf.status), float(inf.t), np.array(inf.y[:])
         switches, chart_stop = int(inf.nswitches), int(inf.chart)
     else:
         mod = numpy_atlas()
         status, y, charts, inf = mod.integrate(method, chart0, y0, pd, tsd, dt, **opt)
-        counters = {k: int(inf[k]) for k in ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton")}
+        counters = {k: int(inf[k]) for k in COUNTERS}
         t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
         switches, chart_stop = int(inf["nswitches"]), int(inf["chart"])
     ok_rows = charts >= 0

@@ -42,6 +42,7 @@ _DEFAULT_RTOL = {"float32": 1e-5, "float64": 1e-9, "longdouble": 1e-12}
 
 
 FIXED_ORDER = {"rk4": 4, "midpoint": 2, "gauss2": 4}
+COUNTERS = ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton")    # of a run's info
 
 
 class SimulationInputError(ValueError):
@@ -322,17 +323,12 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
         if not 10 * eps <= opt["rtol"] < 1:
             raise SimulationInputError(f"rtol = {opt['rtol']:g} is outside [10 eps, 1) for {dtype_key(dt)} "
                                        f"(10 eps = {10 * eps:.3g})")
-        if step is not None:
-            if not (isinstance(step, (int, float, np.floating)) and np.isfinite(step) and step > 0):
-                raise SimulationInputError(f"step = {step!r} must be a positive finite number")
-            opt["h"] = float(step)
-    else:
-        if step is None and ts.size > 1:
-            raise SimulationInputError(f"method '{method}' has a fixed step: give step=...")
-        if step is not None:
-            if not (isinstance(step, (int, float, np.floating)) and np.isfinite(step) and step > 0):
-                raise SimulationInputError(f"step = {step!r} must be a positive finite number")
-            opt["h"] = float(step)
+    elif step is None and ts.size > 1:
+        raise SimulationInputError(f"method '{method}' has a fixed step: give step=...")
+    if step is not None:            # the fixed step, or an adaptive method's initial step
+        if not (isinstance(step, (int, float, np.floating)) and np.isfinite(step) and step > 0):
+            raise SimulationInputError(f"step = {step!r} must be a positive finite number")
+        opt["h"] = float(step)
     if not isinstance(opt["max_steps"], (int, np.integer)) or opt["max_steps"] < 1:
         raise SimulationInputError(f"max_steps = {opt['max_steps']!r} must be a positive integer")
     if not isinstance(opt["newton_max"], (int, np.integer)) or opt["newton_max"] < 1:
@@ -364,12 +360,12 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend) -> SimulationResult:
             setattr(o, k, v)
         y, infos = lib.run(METHODS.index(method), y0[None, :], pd, tsd, o)
         y, inf = y[0], infos[0]
-        counters = {k: int(getattr(inf, k)) for k in ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton")}
+        counters = {k: int(getattr(inf, k)) for k in COUNTERS}
         status, t_stop, y_stop = int(inf.status), float(inf.t), np.array(inf.y[:])
     else:
         mod = numpy_module(f"{model}_integrate")
         status, y, inf = mod.integrate(method, y0, pd, tsd, dt, **opt)
-        counters = {k: int(inf[k]) for k in ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton")}
+        counters = {k: int(inf[k]) for k in COUNTERS}
         t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
     E, pos = _observables(model, y, pd, backend, dt)
     single_chart = model in ATLAS_CHARTS
