@@ -606,8 +606,7 @@ def angle_values(claim: Claim, printed: AtanForm | None = None):
     c = context(claim.model)
     printed = claim.printed(c) if printed is None else printed
     t = c.other(printed.target)
-    compiled = lambda exprs: {x: zero.mp_function(e, sorted(e.free_symbols, key=str))
-                              for x, e in exprs.items()}
+    compiled = lambda exprs: {x: zero.mp_function(e) for x, e in exprs.items()}
     true = compiled(t.point_map(c.unit(1), sp.Dummy("R", positive=True)).angles)
     got = compiled(printed.values)
     rows = []
@@ -622,8 +621,7 @@ def _compare_angles(claim: Claim, c: Context, printed: AtanForm, offset) -> Comp
     t = c.other(printed.target)
     # numeric: the target chart's link vector at the printed angles is the point
     target_vec, source_vec = t.qvec(1), claim.derived(c)
-    f_t = zero.mp_function(target_vec, sorted(target_vec.free_symbols, key=str))
-    f_s = zero.mp_function(source_vec, sorted(source_vec.free_symbols, key=str))
+    f_t, f_s = zero.mp_function(target_vec), zero.mp_function(source_vec)
     err, rows = 0.0, angle_values(claim, printed)
     for pt, got, truth in rows:
         env = {x: got.get(x, truth[x]) for x in truth} | {t.l1: pt[c.l1]}
@@ -656,7 +654,7 @@ def _quadrant_matches(rows, pm, rhos, pinned) -> bool:
         return False
     if not _exact_zero(sp.sympify(rhos[pinned.angle]) - pinned.rho, pm.roots):
         return False
-    f_rho = zero.mp_function(pinned.rho, sorted(pinned.rho.free_symbols, key=str))
+    f_rho = zero.mp_function(pinned.rho)
     seen_jump = False
     for pt, got, truth in rows:
         env = dict(pt) | truth

@@ -225,10 +225,13 @@ def trig_angles(*exprs) -> list[sp.Symbol]:
 # expression once with lambdify(modules="mpmath") gives the same 40-digit
 # values far faster when many points are needed.
 
-def mp_function(expr, symbols):
-    """Compile ``expr`` (expression or matrix) to point -> list of mpmath numbers."""
+def mp_function(expr, symbols=None):
+    """Compile ``expr`` (expression or matrix) to point -> list of mpmath numbers.
+
+    ``symbols`` defaults to the expression's free symbols (the point must give them all).
+    """
     m = _matrix(expr)
-    symbols = list(symbols)
+    symbols = sorted(m.free_symbols, key=str) if symbols is None else list(symbols)
     f = sp.lambdify(symbols, list(m), modules="mpmath")
 
     def at(point: dict) -> list:
