@@ -113,9 +113,49 @@ def test_rk8_loop_equals_dop853_steps_at_a_fixed_step(model):
 def test_loops_stop_before_a_nonfinite_step():
     from derive.integration.throughput import fixed_library
     y0 = np.array([0.3, 0.2, 1e200, 0.0])
-    for method in ("rk4", "rk8"):
+    for method in ("rk4", "rk8", "abm12"):
         y, done = fixed_library("planar").run(method, y0, PARAMS["planar"], H, 10)
         assert done == 0 and np.array_equal(y, y0)
+
+
+def test_adams_weights_are_exact_for_polynomials():
+    """tableau.adams(k): the k-step Adams-Bashforth weights integrate polynomials of degree
+    k-1 through s = 0, -1, ..., -(k-1) exactly over [0, 1], the Adams-Moulton ones through
+    s = 1, 0, ..., -(k-2); and k = 4 gives the textbook (55, -59, 37, -9)/24, (9, 19, -5, 1)/24."""
+    import sympy as sp
+    from derive.integration.tableau import adams
+    ab, am = adams(4)
+    assert [w * 24 for w in ab] == [55, -59, 37, -9] and [w * 24 for w in am] == [9, 19, -5, 1]
+    ab, am = adams(12)
+    for m in range(12):
+        exact = sp.Rational(1, m + 1)
+        assert sum(w * sp.Integer(-j) ** m for j, w in enumerate(ab)) == exact
+        assert sum(w * sp.Integer(1 - j) ** m for j, w in enumerate(am)) == exact
+    assert sum(w * sp.Integer(-j) ** 12 for j, w in enumerate(ab)) != sp.Rational(1, 13)
+
+
+def test_abm12_loop_converges_at_its_order_and_starts_with_rk8():
+    """abm12 (PECE, 2 evaluations a step): the error against a long double DOP853 reference
+    falls by at least 2^9.5 per halving of h on the regular problem's first 5 time units
+    (measured 2^10.8 from h = 5/350 to 5/700); its first 11 steps are rk8 steps; and too
+    large a step is unstable (12-step Adams has a small stability region), which the loop
+    reports by stopping early rather than returning a non-finite state."""
+    from derive.integration.simulate import simulate
+    from derive.integration.throughput import evaluations, fixed_library
+    lib, p, y0, T = fixed_library("planar"), np.array([1.0, 1.0, 1.0, 1.0, 9.81]), [1.0, 0.5, 0.0, 0.0], 5.0
+    ref = simulate("planar", y0, [0, T], list(p), method="dop853", rtol=2e-18, atol=1e-21,
+                   dtype="longdouble").y[-1].astype(float)
+    errors = []
+    for n in (350, 700):
+        y, done = lib.run("abm12", y0, p, T / n, n)
+        assert done == n
+        errors.append(np.abs(y - ref).max())
+    assert errors[1] < 1e-9 and np.log2(errors[0] / errors[1]) > 9.5, errors
+    short, done = lib.run("abm12", y0, p, 0.01, 5)
+    assert done == 5 and np.array_equal(short, lib.run("rk8", y0, p, 0.01, 5)[0])
+    y, done = lib.run("abm12", y0, p, 0.02, 250)
+    assert done < 250 and np.isfinite(y).all()
+    assert evaluations("abm12", 100) == 1 + 12 * 11 + 2 * 89 and evaluations("rk8", 10) == 120
 
 
 def test_generated_c_includes_only_math_h_and_generated_headers():

@@ -341,3 +341,55 @@ def test_a_million_states_in_one_call():
     a, b = mod.rhs(y, p), lib.rhs(y, p)
     assert a.shape == b.shape == (1_000_000, 4)
     assert np.allclose(a, b, rtol=1e-13, atol=1e-12)
+
+
+# -- trigonometry: compound angles expanded, NumPy's sin/cos from half-angle tangents ---
+
+def test_planar_rhs_takes_sin_and_cos_of_the_coordinates_only():
+    """emit.compound_angle_rewrites: the planar rhs needs sin/cos of theta1 - theta2 and of
+    theta1, theta2; the compound angle is expanded, so C calls sin/cos of y[0] and y[1] only
+    (one fused sincos each) and NumPy takes one tangent per coordinate.  The spherical
+    standard chart's rhs takes no sin/cos of phi1 or phi2 alone, so phi1 - phi2 stays whole
+    there (expanding it would add calls)."""
+    import re
+    c = (ROOT / "generated" / "c" / "planar.c").read_text()
+    rhs = c[c.index("int planar_rhs("):c.index("int planar_rhs_batch(")]
+    assert sorted(set(re.findall(r"\b(sin|cos)\(([^()]*)\)", rhs))) == \
+        [("cos", "y[0]"), ("cos", "y[1]"), ("sin", "y[0]"), ("sin", "y[1]")]
+    py = (ROOT / "generated" / "numpy" / "planar.py").read_text()
+    rhs_py = py[py.index("def rhs("):py.index("def mass_matrix(")]
+    assert re.findall(r"numpy\.tan\(([^()]*)\)", rhs_py) == ["0.5*theta1", "0.5*theta2"]
+    std = (ROOT / "generated" / "c" / "spherical_std.c").read_text()
+    rhs_std = std[std.index("int spherical_std_rhs("):std.index("int spherical_std_rhs_batch(")]
+    assert re.search(r"\b(sin|cos)\(y\[1\] - y\[3\]\)|\b(sin|cos)\(t\d+\)", rhs_std)
+
+
+def test_generated_numpy_calls_no_sin_or_cos():
+    for path in sorted((ROOT / "generated" / "numpy").glob("*.py")):
+        text = path.read_text()
+        assert "numpy.sin(" not in text and "numpy.cos(" not in text, path.name
+
+
+def test_half_angle_sine_and_cosine_at_extreme_angles():
+    """The NumPy positions (l sin theta, -l cos theta) at angles where a half-angle formula
+    could go wrong -- 0, -0, tiny, multiples of pi/2 and pi (tan(x/2) near its poles), the
+    doubles next to pi, and large angles a long spinning run reaches -- agree with mpmath's
+    sin/cos of the same doubles to 4 ulp of 1 (absolute), as libm does."""
+    mod = numpy_module("planar")
+    k = np.arange(-8, 9)
+    angles = np.concatenate([[0.0, -0.0, 1e-300, -1e-300, 1e-8, np.pi, -np.pi,
+                              np.nextafter(np.pi, 0), np.nextafter(np.pi, 4), 1e3, -1e3, 12345.678, 1e6],
+                             k * np.pi / 2, k * np.pi / 2 + 1e-12, 2 * np.pi * k + np.pi])
+    y = np.column_stack([angles, angles[::-1], np.zeros_like(angles), np.zeros_like(angles)])
+    p = np.array([1.0, 1.0, 1.0, 1.0, 9.81])
+    got = mod.positions(y, p)
+    with mpmath.workdps(40):
+        for i, a in enumerate(angles):
+            b = angles[::-1][i]
+            s1, c1 = mpmath.sin(mpmath.mpf(float(a))), mpmath.cos(mpmath.mpf(float(a)))
+            s2, c2 = mpmath.sin(mpmath.mpf(float(b))), mpmath.cos(mpmath.mpf(float(b)))
+            want = [s1, -c1, s1 + s2, -c1 - c2]
+            err = max(abs(mpmath.mpf(float(g)) - w) for g, w in zip(got[i].reshape(-1), want))
+            assert err <= 4 * np.finfo(np.float64).eps, (a, b, float(err))
+    with np.errstate(invalid="ignore"):
+        assert np.isnan(mod.positions(np.array([np.nan, np.inf, 0.0, 0.0]), p)).sum() == 4

@@ -109,6 +109,36 @@ def collect_constants(expr: sp.Expr, varying: set, memo: dict) -> sp.Expr:
     return new
 
 
+HOT_KERNEL = "rhs"      # the kernel a file is tuned for: integrators call it at every stage
+
+
+def _trig_arguments(exprs) -> set[sp.Expr]:
+    return {f.args[0] for e in exprs for f in sp.sympify(e).atoms(sp.sin, sp.cos)}
+
+
+def compound_angle_rewrites(spec: ModelSpec) -> dict[sp.Expr, sp.Expr]:
+    """sin(a - b) -> sin(a) cos(b) - cos(a) sin(b) (and cos, and sums of more angles) for
+    every compound angle of the hot kernel whose parts are angles it takes sin/cos of anyway.
+
+    A sine and a cosine of one argument cost one sincos (C compilers fuse them; the NumPy
+    printer shares one half-angle tangent), so the planar rhs needs sincos(theta1),
+    sincos(theta2) instead of those two plus sincos(theta1 - theta2): one transcendental
+    call fewer per evaluation for a few multiplications.  Where a part appears in no other
+    sin/cos (phi1 - phi2 of the spherical rhs) the angle stays whole, as expanding it would
+    add calls.  The rewrite applies to the whole file (stages are shared between kernels).
+    """
+    hot = [k for k in spec.kernels if k.name == HOT_KERNEL]
+    exprs = [e for k in hot for _, e in k.stages] + [e for k in hot for out in k.outputs for e in out.exprs]
+    args = _trig_arguments(exprs)
+    simple = {a for a in args if not a.is_Add}
+    out = {}
+    for a in args:
+        if a.is_Add and all(t in simple or (-t) in simple for t in a.args):
+            for f in (sp.sin, sp.cos):
+                out[f(a)] = sp.expand_trig(f(a))
+    return out
+
+
 def cse_file(spec: ModelSpec) -> list[Body]:
     """One CSE pass over all outputs of the file, split back into kernels."""
     stage_defs: dict[sp.Symbol, sp.Expr] = {}
@@ -126,7 +156,8 @@ def cse_file(spec: ModelSpec) -> list[Body]:
             roots += list(out.exprs)
         spans.append((start, len(roots)))
     memo: dict = {}
-    roots = [collect_constants(sp.sympify(r), varying, memo) for r in roots]
+    angles = compound_angle_rewrites(spec)
+    roots = [collect_constants(sp.sympify(r).xreplace(angles), varying, memo) for r in roots]
 
     fresh = _numbered("_cse")
     repl, reduced = sp.cse(roots, symbols=fresh, order="canonical")
@@ -195,6 +226,52 @@ def cse_file(spec: ModelSpec) -> list[Body]:
         unused = [inp.name for inp in k.inputs if not (set(inp.vector.symbols) & used)]
         bodies.append(Body(k, assignments, outputs, guards, int(ops), unused))
     return bodies
+
+
+def half_angle_sincos(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: list[sp.Expr]
+                      ) -> tuple[list[tuple[sp.Symbol, sp.Expr]], list[sp.Expr]]:
+    """Every sin(x) and cos(x) from one tangent of the half angle (for NumPy):
+    T = tan(x/2), u = T*T, r = 1/(1 + u), sin x = 2 T r, cos x = (1 - u) r.
+
+    NumPy evaluates float64 sin and cos element by element through libm, but tan through
+    its SIMD loops (where NumPy ships them, e.g. SVML on AVX-512): measured here 10 ns per
+    element for sin or cos against 1.4 ns for tan, so one tan and five array operations
+    replace a sin/cos pair at a fifth of the cost.  Accuracy: a few ulp absolute (tested
+    against mpmath); x/2 is exact and |tan(x/2)| stays far below overflow for every double x
+    (no double lies within 1e-19 of an odd multiple of pi/2).  The new names are
+    sin_<x>/cos_<x> (tan_half_<x>, ...) for a named x, numbered otherwise.
+    """
+    args: list[sp.Expr] = []
+    for _, e in assignments:
+        for f in sorted(e.atoms(sp.sin, sp.cos), key=sp.default_sort_key):
+            if f.args[0] not in args:
+                args.append(f.args[0])
+    for e in outputs:
+        for f in sorted(sp.sympify(e).atoms(sp.sin, sp.cos), key=sp.default_sort_key):
+            if f.args[0] not in args:
+                args.append(f.args[0])
+    if not args:
+        return assignments, outputs
+    lowered: dict[sp.Expr, list[tuple[sp.Symbol, sp.Expr]]] = {}
+    repl: dict[sp.Expr, sp.Symbol] = {}
+    for i, x in enumerate(args):
+        tag = x.name if x.is_Symbol else f"a{i}"
+        T, u, r, sn, cs = (sp.Symbol(f"{n}_{tag}", real=True) for n in ("tan_half", "tan_half_sq", "rho", "sin", "cos"))
+        lowered[x] = [(T, sp.tan(sp.Float(0.5) * x)), (u, T ** 2), (r, 1 / (1 + u)),
+                      (sn, 2 * T * r), (cs, (1 - u) * r)]
+        repl[sp.sin(x)], repl[sp.cos(x)] = sn, cs
+    out: list[tuple[sp.Symbol, sp.Expr]] = []
+    for sym, e in assignments:
+        for f in sorted(e.atoms(sp.sin, sp.cos), key=sp.default_sort_key):
+            out.extend(lowered.pop(f.args[0], []))
+        e = e.xreplace(repl)
+        if e in repl.values() and not sym.name[0].isupper():   # t3 = sin(x): use sin_x itself
+            repl[sym] = e
+            continue
+        out.append((sym, e))
+    for x in args:                       # used by outputs only
+        out.extend(lowered.pop(x, []))
+    return out, [sp.sympify(e).xreplace(repl) for e in outputs]
 
 
 def environment() -> jinja2.Environment:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from .emit import Body, render
+from .emit import Body, half_angle_sincos, render
 from .printers import CPrinter, PyNumPyPrinter
 from .spec import ModelSpec
 
@@ -135,17 +135,22 @@ class NumPy(Language):
             k = b.kernel
             slots = {s: s.name for inp in k.inputs for s in inp.vector.symbols}
             varying = {s for inp in k.inputs if inp.vector.key != "param" for s in inp.vector.symbols}
-            for sym, e in b.assignments:
+            assignments, flat = half_angle_sincos(b.assignments, [e for exprs in b.outputs for e in exprs])
+            outputs, i = [], 0
+            for exprs in b.outputs:
+                outputs.append(flat[i:i + len(exprs)])
+                i += len(exprs)
+            for sym, e in assignments:
                 if e.free_symbols & varying:
                     varying.add(sym)
             pr = PyNumPyPrinter(slots, varying)
             # only what the outputs need (guards have no NumPy counterpart)
             needed = set()
-            for exprs in b.outputs:
+            for exprs in outputs:
                 for e in exprs:
                     needed |= sp.sympify(e).free_symbols
             kept = []
-            for sym, e in reversed(b.assignments):
+            for sym, e in reversed(assignments):
                 if sym in needed:
                     needed |= e.free_symbols
                     kept.append((sym, e))
@@ -155,7 +160,7 @@ class NumPy(Language):
             # free each temporary after its last use: fewer live arrays, memory reused
             local_syms = {s for s, _ in kept}
             uses = [e.free_symbols for _, e in kept] + \
-                [sp.sympify(e).free_symbols for exprs in b.outputs for e in exprs]
+                [sp.sympify(e).free_symbols for exprs in outputs for e in exprs]
             last = {}
             for i, used in enumerate(uses):
                 for s in used & local_syms:
@@ -167,7 +172,7 @@ class NumPy(Language):
             locals_ = [{"name": s.name, "value": pr.doprint_checked(e), "dels": dels[i]}
                        for i, (s, e) in enumerate(kept)]
             outs, pos = [], len(kept)
-            for out, exprs in zip(k.outputs, b.outputs):
+            for out, exprs in zip(k.outputs, outputs):
                 items = []
                 for flat, e in enumerate(exprs):
                     idx, rest = [], flat

@@ -117,3 +117,32 @@ def gauss_d(t: Tableau) -> list[mpmath.mpf]:
         b = mpmath.matrix([t.b])
         d = b * mpmath.inverse(A)
         return [d[0, j] for j in range(s)]
+
+
+@lru_cache(maxsize=None)
+def adams(k: int) -> tuple[list[sp.Rational], list[sp.Rational]]:
+    """Exact weights of the k-step Adams pair, derived from their definition.
+
+    Both integrate, over one step [t_n, t_n + h], the polynomial that interpolates the
+    rhs at k equally spaced past times (s = (t - t_n)/h):
+    - Adams-Bashforth (explicit, order k): nodes s = 0, -1, ..., -(k-1);
+      y_{n+1} = y_n + h sum_j ab[j] f_{n-j};
+    - Adams-Moulton (implicit, order k): nodes s = 1, 0, ..., -(k-2);
+      y_{n+1} = y_n + h (am[0] f_{n+1} + sum_{j>=1} am[j] f_{n+1-j}).
+    ab[j] is the integral over s in [0, 1] of the Lagrange basis polynomial of node j.
+    """
+    if k < 1:
+        raise ValueError("an Adams method needs at least one step")
+    s = sp.Symbol("s")
+
+    def weights(nodes):
+        out = []
+        for j, nj in enumerate(nodes):
+            basis = sp.Integer(1)
+            for m, nm in enumerate(nodes):
+                if m != j:
+                    basis *= (s - nm) / sp.Integer(nj - nm)
+            out.append(sp.integrate(sp.expand(basis), (s, 0, 1)))
+        return out
+
+    return weights([-j for j in range(k)]), weights([1 - j for j in range(k)])

@@ -21,31 +21,32 @@ const char *const planar_canonical_names[PLANAR_N_CANONICAL] = {
     "theta1", "theta2", "p_theta1", "p_theta2"
 };
 
-/* planar_rhs (double). Total ops: 42 */
+/* planar_rhs (double). Total ops: 47 */
 int planar_rhs(const double *restrict y, const double *restrict p, double *restrict ydot)
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = y[0] - y[1];
-    const double t1 = cos(t0);
-    const double t2 = p[2]*p[1];
-    const double t3 = p[3]*t2;
-    const double M01 = t1*t3;
+    const double t0 = sin(y[0]);
+    const double t1 = sin(y[1]);
+    const double t2 = cos(y[0]);
+    const double t3 = cos(y[1]);
+    const double t4 = t0*t1 + t2*t3;
+    const double t5 = p[2]*p[1];
+    const double t6 = p[3]*t5;
+    const double M01 = t4*t6;
     const double M11 = p[3]*p[3]*p[1];
-    const double t4 = sin(y[0]);
-    const double t5 = p[4]*p[0] + p[4]*p[1];
-    const double t6 = t4*t5;
-    const double t7 = sin(t0);
-    const double t8 = y[3]*y[3];
-    const double t9 = p[3]*p[1];
-    const double t10 = t8*t9;
-    const double F0 = -p[2]*(t10*t7 + t6);
-    const double t11 = sin(y[1]);
-    const double t12 = p[4]*t11;
-    const double t13 = y[2]*y[2];
-    const double F1 = t9*(p[2]*t13*t7 - t12);
-    const double t14 = p[2]*p[2];
-    const double M00 = t14*(p[0] + p[1]);
+    const double t7 = p[4]*p[0] + p[4]*p[1];
+    const double t8 = t0*t7;
+    const double t9 = t0*t3 - t1*t2;
+    const double t10 = y[3]*y[3];
+    const double t11 = p[3]*p[1];
+    const double t12 = t10*t11;
+    const double F0 = -p[2]*(t12*t9 + t8);
+    const double t13 = p[4]*t1;
+    const double t14 = y[2]*y[2];
+    const double F1 = t11*(p[2]*t14*t9 - t13);
+    const double t15 = p[2]*p[2];
+    const double M00 = t15*(p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double qdd0 = rdet*(F0*M11 - F1*M01);
@@ -76,31 +77,32 @@ int planar_rhs_batch(long n, const double *restrict y, long y_stride, const doub
     return all;
 }
 
-/* planar_rhs_f (float). Total ops: 42 */
+/* planar_rhs_f (float). Total ops: 47 */
 int planar_rhs_f(const float *restrict y, const float *restrict p, float *restrict ydot)
 {
     int status = PLANAR_STATUS_OK;
     float check;
-    const float t0 = y[0] - y[1];
-    const float t1 = cosf(t0);
-    const float t2 = p[2]*p[1];
-    const float t3 = p[3]*t2;
-    const float M01 = t1*t3;
+    const float t0 = sinf(y[0]);
+    const float t1 = sinf(y[1]);
+    const float t2 = cosf(y[0]);
+    const float t3 = cosf(y[1]);
+    const float t4 = t0*t1 + t2*t3;
+    const float t5 = p[2]*p[1];
+    const float t6 = p[3]*t5;
+    const float M01 = t4*t6;
     const float M11 = p[3]*p[3]*p[1];
-    const float t4 = sinf(y[0]);
-    const float t5 = p[4]*p[0] + p[4]*p[1];
-    const float t6 = t4*t5;
-    const float t7 = sinf(t0);
-    const float t8 = y[3]*y[3];
-    const float t9 = p[3]*p[1];
-    const float t10 = t8*t9;
-    const float F0 = -p[2]*(t10*t7 + t6);
-    const float t11 = sinf(y[1]);
-    const float t12 = p[4]*t11;
-    const float t13 = y[2]*y[2];
-    const float F1 = t9*(p[2]*t13*t7 - t12);
-    const float t14 = p[2]*p[2];
-    const float M00 = t14*(p[0] + p[1]);
+    const float t7 = p[4]*p[0] + p[4]*p[1];
+    const float t8 = t0*t7;
+    const float t9 = t0*t3 - t1*t2;
+    const float t10 = y[3]*y[3];
+    const float t11 = p[3]*p[1];
+    const float t12 = t10*t11;
+    const float F0 = -p[2]*(t12*t9 + t8);
+    const float t13 = p[4]*t1;
+    const float t14 = y[2]*y[2];
+    const float F1 = t11*(p[2]*t14*t9 - t13);
+    const float t15 = p[2]*p[2];
+    const float M00 = t15*(p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float qdd0 = rdet*(F0*M11 - F1*M01);
@@ -131,31 +133,32 @@ int planar_rhs_batch_f(long n, const float *restrict y, long y_stride, const flo
     return all;
 }
 
-/* planar_rhs_l (long double). Total ops: 42 */
+/* planar_rhs_l (long double). Total ops: 47 */
 int planar_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict ydot)
 {
     int status = PLANAR_STATUS_OK;
     long double check;
-    const long double t0 = y[0] - y[1];
-    const long double t1 = cosl(t0);
-    const long double t2 = p[2]*p[1];
-    const long double t3 = p[3]*t2;
-    const long double M01 = t1*t3;
+    const long double t0 = sinl(y[0]);
+    const long double t1 = sinl(y[1]);
+    const long double t2 = cosl(y[0]);
+    const long double t3 = cosl(y[1]);
+    const long double t4 = t0*t1 + t2*t3;
+    const long double t5 = p[2]*p[1];
+    const long double t6 = p[3]*t5;
+    const long double M01 = t4*t6;
     const long double M11 = p[3]*p[3]*p[1];
-    const long double t4 = sinl(y[0]);
-    const long double t5 = p[4]*p[0] + p[4]*p[1];
-    const long double t6 = t4*t5;
-    const long double t7 = sinl(t0);
-    const long double t8 = y[3]*y[3];
-    const long double t9 = p[3]*p[1];
-    const long double t10 = t8*t9;
-    const long double F0 = -p[2]*(t10*t7 + t6);
-    const long double t11 = sinl(y[1]);
-    const long double t12 = p[4]*t11;
-    const long double t13 = y[2]*y[2];
-    const long double F1 = t9*(p[2]*t13*t7 - t12);
-    const long double t14 = p[2]*p[2];
-    const long double M00 = t14*(p[0] + p[1]);
+    const long double t7 = p[4]*p[0] + p[4]*p[1];
+    const long double t8 = t0*t7;
+    const long double t9 = t0*t3 - t1*t2;
+    const long double t10 = y[3]*y[3];
+    const long double t11 = p[3]*p[1];
+    const long double t12 = t10*t11;
+    const long double F0 = -p[2]*(t12*t9 + t8);
+    const long double t13 = p[4]*t1;
+    const long double t14 = y[2]*y[2];
+    const long double F1 = t11*(p[2]*t14*t9 - t13);
+    const long double t15 = p[2]*p[2];
+    const long double M00 = t15*(p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double qdd0 = rdet*(F0*M11 - F1*M01);
@@ -186,18 +189,21 @@ int planar_rhs_batch_l(long n, const long double *restrict y, long y_stride, con
     return all;
 }
 
-/* planar_mass_matrix (double). Total ops: 10 */
+/* planar_mass_matrix (double). Total ops: 15 */
 int planar_mass_matrix(const double *restrict y, const double *restrict p, double *restrict M)
 {
     int status = PLANAR_STATUS_OK;
     double check;
     const double t0 = p[2]*p[2];
     const double M00 = t0*(p[0] + p[1]);
-    const double t1 = y[0] - y[1];
-    const double t2 = cos(t1);
-    const double t3 = p[2]*p[1];
-    const double t4 = p[3]*t3;
-    const double M01 = t2*t4;
+    const double t1 = sin(y[0]);
+    const double t2 = sin(y[1]);
+    const double t3 = cos(y[0]);
+    const double t4 = cos(y[1]);
+    const double t5 = t1*t2 + t3*t4;
+    const double t6 = p[2]*p[1];
+    const double t7 = p[3]*t6;
+    const double M01 = t5*t7;
     const double M11 = p[3]*p[3]*p[1];
     M[0] = M00;
     M[1] = M01;
@@ -225,18 +231,21 @@ int planar_mass_matrix_batch(long n, const double *restrict y, long y_stride, co
     return all;
 }
 
-/* planar_mass_matrix_f (float). Total ops: 10 */
+/* planar_mass_matrix_f (float). Total ops: 15 */
 int planar_mass_matrix_f(const float *restrict y, const float *restrict p, float *restrict M)
 {
     int status = PLANAR_STATUS_OK;
     float check;
     const float t0 = p[2]*p[2];
     const float M00 = t0*(p[0] + p[1]);
-    const float t1 = y[0] - y[1];
-    const float t2 = cosf(t1);
-    const float t3 = p[2]*p[1];
-    const float t4 = p[3]*t3;
-    const float M01 = t2*t4;
+    const float t1 = sinf(y[0]);
+    const float t2 = sinf(y[1]);
+    const float t3 = cosf(y[0]);
+    const float t4 = cosf(y[1]);
+    const float t5 = t1*t2 + t3*t4;
+    const float t6 = p[2]*p[1];
+    const float t7 = p[3]*t6;
+    const float M01 = t5*t7;
     const float M11 = p[3]*p[3]*p[1];
     M[0] = M00;
     M[1] = M01;
@@ -264,18 +273,21 @@ int planar_mass_matrix_batch_f(long n, const float *restrict y, long y_stride, c
     return all;
 }
 
-/* planar_mass_matrix_l (long double). Total ops: 10 */
+/* planar_mass_matrix_l (long double). Total ops: 15 */
 int planar_mass_matrix_l(const long double *restrict y, const long double *restrict p, long double *restrict M)
 {
     int status = PLANAR_STATUS_OK;
     long double check;
     const long double t0 = p[2]*p[2];
     const long double M00 = t0*(p[0] + p[1]);
-    const long double t1 = y[0] - y[1];
-    const long double t2 = cosl(t1);
-    const long double t3 = p[2]*p[1];
-    const long double t4 = p[3]*t3;
-    const long double M01 = t2*t4;
+    const long double t1 = sinl(y[0]);
+    const long double t2 = sinl(y[1]);
+    const long double t3 = cosl(y[0]);
+    const long double t4 = cosl(y[1]);
+    const long double t5 = t1*t2 + t3*t4;
+    const long double t6 = p[2]*p[1];
+    const long double t7 = p[3]*t6;
+    const long double M01 = t5*t7;
     const long double M11 = p[3]*p[3]*p[1];
     M[0] = M00;
     M[1] = M01;
@@ -303,7 +315,7 @@ int planar_mass_matrix_batch_l(long n, const long double *restrict y, long y_str
     return all;
 }
 
-/* planar_forcing (double). Total ops: 21 */
+/* planar_forcing (double). Total ops: 24 */
 int planar_forcing(const double *restrict y, const double *restrict p, double *restrict F)
 {
     int status = PLANAR_STATUS_OK;
@@ -311,20 +323,21 @@ int planar_forcing(const double *restrict y, const double *restrict p, double *r
     const double t0 = sin(y[0]);
     const double t1 = p[4]*p[0] + p[4]*p[1];
     const double t2 = t0*t1;
-    const double t3 = y[0] - y[1];
-    const double t4 = sin(t3);
-    const double t5 = y[3]*y[3];
-    const double t6 = p[3]*p[1];
-    const double t7 = t5*t6;
-    const double t8 = -p[2]*(t2 + t4*t7);
-    const double t9 = sin(y[1]);
-    const double t10 = p[4]*t9;
-    const double t11 = y[2]*y[2];
-    const double t12 = t6*(p[2]*t11*t4 - t10);
-    F[0] = t8;
-    F[1] = t12;
+    const double t3 = sin(y[1]);
+    const double t4 = cos(y[0]);
+    const double t5 = cos(y[1]);
+    const double t6 = t0*t5 - t3*t4;
+    const double t7 = y[3]*y[3];
+    const double t8 = p[3]*p[1];
+    const double t9 = t7*t8;
+    const double t10 = -p[2]*(t2 + t6*t9);
+    const double t11 = p[4]*t3;
+    const double t12 = y[2]*y[2];
+    const double t13 = t8*(p[2]*t12*t6 - t11);
+    F[0] = t10;
+    F[1] = t13;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t8 - t8) + (t12 - t12);
+    check = (t10 - t10) + (t13 - t13);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -345,7 +358,7 @@ int planar_forcing_batch(long n, const double *restrict y, long y_stride, const 
     return all;
 }
 
-/* planar_forcing_f (float). Total ops: 21 */
+/* planar_forcing_f (float). Total ops: 24 */
 int planar_forcing_f(const float *restrict y, const float *restrict p, float *restrict F)
 {
     int status = PLANAR_STATUS_OK;
@@ -353,20 +366,21 @@ int planar_forcing_f(const float *restrict y, const float *restrict p, float *re
     const float t0 = sinf(y[0]);
     const float t1 = p[4]*p[0] + p[4]*p[1];
     const float t2 = t0*t1;
-    const float t3 = y[0] - y[1];
-    const float t4 = sinf(t3);
-    const float t5 = y[3]*y[3];
-    const float t6 = p[3]*p[1];
-    const float t7 = t5*t6;
-    const float t8 = -p[2]*(t2 + t4*t7);
-    const float t9 = sinf(y[1]);
-    const float t10 = p[4]*t9;
-    const float t11 = y[2]*y[2];
-    const float t12 = t6*(p[2]*t11*t4 - t10);
-    F[0] = t8;
-    F[1] = t12;
+    const float t3 = sinf(y[1]);
+    const float t4 = cosf(y[0]);
+    const float t5 = cosf(y[1]);
+    const float t6 = t0*t5 - t3*t4;
+    const float t7 = y[3]*y[3];
+    const float t8 = p[3]*p[1];
+    const float t9 = t7*t8;
+    const float t10 = -p[2]*(t2 + t6*t9);
+    const float t11 = p[4]*t3;
+    const float t12 = y[2]*y[2];
+    const float t13 = t8*(p[2]*t12*t6 - t11);
+    F[0] = t10;
+    F[1] = t13;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t8 - t8) + (t12 - t12);
+    check = (t10 - t10) + (t13 - t13);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -387,7 +401,7 @@ int planar_forcing_batch_f(long n, const float *restrict y, long y_stride, const
     return all;
 }
 
-/* planar_forcing_l (long double). Total ops: 21 */
+/* planar_forcing_l (long double). Total ops: 24 */
 int planar_forcing_l(const long double *restrict y, const long double *restrict p, long double *restrict F)
 {
     int status = PLANAR_STATUS_OK;
@@ -395,20 +409,21 @@ int planar_forcing_l(const long double *restrict y, const long double *restrict 
     const long double t0 = sinl(y[0]);
     const long double t1 = p[4]*p[0] + p[4]*p[1];
     const long double t2 = t0*t1;
-    const long double t3 = y[0] - y[1];
-    const long double t4 = sinl(t3);
-    const long double t5 = y[3]*y[3];
-    const long double t6 = p[3]*p[1];
-    const long double t7 = t5*t6;
-    const long double t8 = -p[2]*(t2 + t4*t7);
-    const long double t9 = sinl(y[1]);
-    const long double t10 = p[4]*t9;
-    const long double t11 = y[2]*y[2];
-    const long double t12 = t6*(p[2]*t11*t4 - t10);
-    F[0] = t8;
-    F[1] = t12;
+    const long double t3 = sinl(y[1]);
+    const long double t4 = cosl(y[0]);
+    const long double t5 = cosl(y[1]);
+    const long double t6 = t0*t5 - t3*t4;
+    const long double t7 = y[3]*y[3];
+    const long double t8 = p[3]*p[1];
+    const long double t9 = t7*t8;
+    const long double t10 = -p[2]*(t2 + t6*t9);
+    const long double t11 = p[4]*t3;
+    const long double t12 = y[2]*y[2];
+    const long double t13 = t8*(p[2]*t12*t6 - t11);
+    F[0] = t10;
+    F[1] = t13;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t8 - t8) + (t12 - t12);
+    check = (t10 - t10) + (t13 - t13);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -429,29 +444,30 @@ int planar_forcing_batch_l(long n, const long double *restrict y, long y_stride,
     return all;
 }
 
-/* planar_energy (double). Total ops: 31 */
+/* planar_energy (double). Total ops: 34 */
 int planar_energy(const double *restrict y, const double *restrict p, double *restrict E)
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = p[2]*p[1];
-    const double t1 = p[3]*p[3]*p[1];
-    const double t2 = y[3]*y[3];
-    const double t3 = y[2]*y[2];
-    const double t4 = y[0] - y[1];
-    const double t5 = cos(t4);
-    const double t6 = p[3]*t0;
-    const double t7 = t5*t6;
-    const double t8 = t7*y[3];
-    const double t9 = p[2]*p[2];
-    const double t10 = (1.0/2.0)*t9;
-    const double t11 = cos(y[1]);
-    const double t12 = p[3]*t11;
-    const double t13 = cos(y[0]);
-    const double t14 = -p[4]*(p[1]*t12 + t13*(p[2]*p[0] + t0)) + (1.0/2.0)*t1*t2 + t3*(p[0]*t10 + p[1]*t10) + t8*y[2];
-    E[0] = t14;
+    const double t0 = cos(y[0]);
+    const double t1 = p[2]*p[1];
+    const double t2 = p[3]*p[3]*p[1];
+    const double t3 = y[3]*y[3];
+    const double t4 = y[2]*y[2];
+    const double t5 = p[2]*p[2];
+    const double t6 = (1.0/2.0)*t5;
+    const double t7 = sin(y[0]);
+    const double t8 = sin(y[1]);
+    const double t9 = cos(y[1]);
+    const double t10 = t0*t9 + t7*t8;
+    const double t11 = p[3]*t1;
+    const double t12 = t10*t11;
+    const double t13 = t12*y[3];
+    const double t14 = p[3]*t9;
+    const double t15 = -p[4]*(p[1]*t14 + t0*(p[2]*p[0] + t1)) + t13*y[2] + (1.0/2.0)*t2*t3 + t4*(p[0]*t6 + p[1]*t6);
+    E[0] = t15;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t14 - t14);
+    check = (t15 - t15);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -472,29 +488,30 @@ int planar_energy_batch(long n, const double *restrict y, long y_stride, const d
     return all;
 }
 
-/* planar_energy_f (float). Total ops: 31 */
+/* planar_energy_f (float). Total ops: 34 */
 int planar_energy_f(const float *restrict y, const float *restrict p, float *restrict E)
 {
     int status = PLANAR_STATUS_OK;
     float check;
-    const float t0 = p[2]*p[1];
-    const float t1 = p[3]*p[3]*p[1];
-    const float t2 = y[3]*y[3];
-    const float t3 = y[2]*y[2];
-    const float t4 = y[0] - y[1];
-    const float t5 = cosf(t4);
-    const float t6 = p[3]*t0;
-    const float t7 = t5*t6;
-    const float t8 = t7*y[3];
-    const float t9 = p[2]*p[2];
-    const float t10 = (1.0F/2.0F)*t9;
-    const float t11 = cosf(y[1]);
-    const float t12 = p[3]*t11;
-    const float t13 = cosf(y[0]);
-    const float t14 = -p[4]*(p[1]*t12 + t13*(p[2]*p[0] + t0)) + (1.0F/2.0F)*t1*t2 + t3*(p[0]*t10 + p[1]*t10) + t8*y[2];
-    E[0] = t14;
+    const float t0 = cosf(y[0]);
+    const float t1 = p[2]*p[1];
+    const float t2 = p[3]*p[3]*p[1];
+    const float t3 = y[3]*y[3];
+    const float t4 = y[2]*y[2];
+    const float t5 = p[2]*p[2];
+    const float t6 = (1.0F/2.0F)*t5;
+    const float t7 = sinf(y[0]);
+    const float t8 = sinf(y[1]);
+    const float t9 = cosf(y[1]);
+    const float t10 = t0*t9 + t7*t8;
+    const float t11 = p[3]*t1;
+    const float t12 = t10*t11;
+    const float t13 = t12*y[3];
+    const float t14 = p[3]*t9;
+    const float t15 = -p[4]*(p[1]*t14 + t0*(p[2]*p[0] + t1)) + t13*y[2] + (1.0F/2.0F)*t2*t3 + t4*(p[0]*t6 + p[1]*t6);
+    E[0] = t15;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t14 - t14);
+    check = (t15 - t15);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -515,29 +532,30 @@ int planar_energy_batch_f(long n, const float *restrict y, long y_stride, const 
     return all;
 }
 
-/* planar_energy_l (long double). Total ops: 31 */
+/* planar_energy_l (long double). Total ops: 34 */
 int planar_energy_l(const long double *restrict y, const long double *restrict p, long double *restrict E)
 {
     int status = PLANAR_STATUS_OK;
     long double check;
-    const long double t0 = p[2]*p[1];
-    const long double t1 = p[3]*p[3]*p[1];
-    const long double t2 = y[3]*y[3];
-    const long double t3 = y[2]*y[2];
-    const long double t4 = y[0] - y[1];
-    const long double t5 = cosl(t4);
-    const long double t6 = p[3]*t0;
-    const long double t7 = t5*t6;
-    const long double t8 = t7*y[3];
-    const long double t9 = p[2]*p[2];
-    const long double t10 = (1.0L/2.0L)*t9;
-    const long double t11 = cosl(y[1]);
-    const long double t12 = p[3]*t11;
-    const long double t13 = cosl(y[0]);
-    const long double t14 = -p[4]*(p[1]*t12 + t13*(p[2]*p[0] + t0)) + (1.0L/2.0L)*t1*t2 + t3*(p[0]*t10 + p[1]*t10) + t8*y[2];
-    E[0] = t14;
+    const long double t0 = cosl(y[0]);
+    const long double t1 = p[2]*p[1];
+    const long double t2 = p[3]*p[3]*p[1];
+    const long double t3 = y[3]*y[3];
+    const long double t4 = y[2]*y[2];
+    const long double t5 = p[2]*p[2];
+    const long double t6 = (1.0L/2.0L)*t5;
+    const long double t7 = sinl(y[0]);
+    const long double t8 = sinl(y[1]);
+    const long double t9 = cosl(y[1]);
+    const long double t10 = t0*t9 + t7*t8;
+    const long double t11 = p[3]*t1;
+    const long double t12 = t10*t11;
+    const long double t13 = t12*y[3];
+    const long double t14 = p[3]*t9;
+    const long double t15 = -p[4]*(p[1]*t14 + t0*(p[2]*p[0] + t1)) + t13*y[2] + (1.0L/2.0L)*t2*t3 + t4*(p[0]*t6 + p[1]*t6);
+    E[0] = t15;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t14 - t14);
+    check = (t15 - t15);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -681,60 +699,59 @@ int planar_positions_batch_l(long n, const long double *restrict y, long y_strid
     return all;
 }
 
-/* planar_jacobian (double). Total ops: 95 */
+/* planar_jacobian (double). Total ops: 98 */
 int planar_jacobian(const double *restrict y, const double *restrict p, double *restrict J)
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = y[0] - y[1];
-    const double t1 = cos(t0);
-    const double t2 = p[2]*p[1];
-    const double t3 = p[3]*t2;
-    const double M01 = t1*t3;
-    const double t4 = y[2]*y[2];
-    const double t5 = sin(t0);
-    const double t6 = t3*t5;
+    const double t0 = sin(y[0]);
+    const double t1 = sin(y[1]);
+    const double t2 = cos(y[0]);
+    const double t3 = cos(y[1]);
+    const double t4 = t0*t1 + t2*t3;
+    const double t5 = p[2]*p[1];
+    const double t6 = p[3]*t5;
+    const double M01 = t4*t6;
+    const double t7 = y[2]*y[2];
+    const double t8 = t0*t3 - t1*t2;
+    const double t9 = t6*t8;
     const double M11 = p[3]*p[3]*p[1];
-    const double t7 = sin(y[0]);
-    const double t8 = p[4]*p[0] + p[4]*p[1];
-    const double t9 = t7*t8;
-    const double t10 = y[3]*y[3];
-    const double t11 = p[3]*p[1];
-    const double t12 = t10*t11;
-    const double F0 = -p[2]*(t12*t5 + t9);
-    const double t13 = sin(y[1]);
-    const double t14 = p[4]*t13;
-    const double F1 = t11*(p[2]*t4*t5 - t14);
-    const double t15 = p[2]*p[2];
-    const double M00 = t15*(p[0] + p[1]);
+    const double t10 = p[4]*p[0] + p[4]*p[1];
+    const double t11 = t0*t10;
+    const double t12 = y[3]*y[3];
+    const double t13 = p[3]*p[1];
+    const double t14 = t12*t13;
+    const double F0 = -p[2]*(t11 + t14*t8);
+    const double t15 = p[4]*t1;
+    const double F1 = t13*(p[2]*t7*t8 - t15);
+    const double t16 = p[2]*p[2];
+    const double M00 = t16*(p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double qdd0 = rdet*(F0*M11 - F1*M01);
-    const double t16 = qdd0*t6;
-    const double t17 = M01*t4 + t16;
+    const double t17 = qdd0*t9;
+    const double t18 = M01*t7 + t17;
     const double qdd1 = rdet*(-F0*M01 + F1*M00);
-    const double t18 = qdd1*t6;
-    const double t19 = cos(y[0]);
-    const double t20 = t19*t8;
-    const double t21 = -p[2]*(t1*t12 + t20) + t18;
-    const double t22 = p[2]*p[3]*p[1]*t1*t10 - t18;
-    const double t23 = cos(y[1]);
-    const double t24 = p[4]*t23;
-    const double t25 = p[3]*p[1]*(-p[2]*t1*t4 - t24) - t16;
-    const double t26 = M01*rdet;
-    const double t27 = 2*t6;
-    const double t28 = t27*y[2];
-    const double t29 = M11*rdet;
-    const double t30 = t27*y[3];
-    const double t31 = M00*rdet;
-    const double t32 = rdet*(-M01*t17 + M11*t21);
-    const double t33 = rdet*(-M01*t25 + M11*t22);
-    const double t34 = -t26*t28;
-    const double t35 = -t29*t30;
-    const double t36 = rdet*(M00*t17 - M01*t21);
-    const double t37 = rdet*(M00*t25 - M01*t22);
-    const double t38 = t28*t31;
-    const double t39 = t26*t30;
+    const double t19 = qdd1*t9;
+    const double t20 = t10*t2;
+    const double t21 = -p[2]*(t14*t4 + t20) + t19;
+    const double t22 = p[2]*p[3]*p[1]*t12*t4 - t19;
+    const double t23 = p[4]*t3;
+    const double t24 = p[3]*p[1]*(-p[2]*t4*t7 - t23) - t17;
+    const double t25 = M01*rdet;
+    const double t26 = 2*t9;
+    const double t27 = t26*y[2];
+    const double t28 = M11*rdet;
+    const double t29 = t26*y[3];
+    const double t30 = M00*rdet;
+    const double t31 = rdet*(-M01*t18 + M11*t21);
+    const double t32 = rdet*(-M01*t24 + M11*t22);
+    const double t33 = -t25*t27;
+    const double t34 = -t28*t29;
+    const double t35 = rdet*(M00*t18 - M01*t21);
+    const double t36 = rdet*(M00*t24 - M01*t22);
+    const double t37 = t27*t30;
+    const double t38 = t25*t29;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -743,17 +760,17 @@ int planar_jacobian(const double *restrict y, const double *restrict p, double *
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = t32;
-    J[9] = t33;
-    J[10] = t34;
-    J[11] = t35;
-    J[12] = t36;
-    J[13] = t37;
-    J[14] = t38;
-    J[15] = t39;
+    J[8] = t31;
+    J[9] = t32;
+    J[10] = t33;
+    J[11] = t34;
+    J[12] = t35;
+    J[13] = t36;
+    J[14] = t37;
+    J[15] = t38;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) + (t37 - t37) +
-        (t38 - t38) + (t39 - t39);
+    check = (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) +
+        (t37 - t37) + (t38 - t38);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -774,60 +791,59 @@ int planar_jacobian_batch(long n, const double *restrict y, long y_stride, const
     return all;
 }
 
-/* planar_jacobian_f (float). Total ops: 95 */
+/* planar_jacobian_f (float). Total ops: 98 */
 int planar_jacobian_f(const float *restrict y, const float *restrict p, float *restrict J)
 {
     int status = PLANAR_STATUS_OK;
     float check;
-    const float t0 = y[0] - y[1];
-    const float t1 = cosf(t0);
-    const float t2 = p[2]*p[1];
-    const float t3 = p[3]*t2;
-    const float M01 = t1*t3;
-    const float t4 = y[2]*y[2];
-    const float t5 = sinf(t0);
-    const float t6 = t3*t5;
+    const float t0 = sinf(y[0]);
+    const float t1 = sinf(y[1]);
+    const float t2 = cosf(y[0]);
+    const float t3 = cosf(y[1]);
+    const float t4 = t0*t1 + t2*t3;
+    const float t5 = p[2]*p[1];
+    const float t6 = p[3]*t5;
+    const float M01 = t4*t6;
+    const float t7 = y[2]*y[2];
+    const float t8 = t0*t3 - t1*t2;
+    const float t9 = t6*t8;
     const float M11 = p[3]*p[3]*p[1];
-    const float t7 = sinf(y[0]);
-    const float t8 = p[4]*p[0] + p[4]*p[1];
-    const float t9 = t7*t8;
-    const float t10 = y[3]*y[3];
-    const float t11 = p[3]*p[1];
-    const float t12 = t10*t11;
-    const float F0 = -p[2]*(t12*t5 + t9);
-    const float t13 = sinf(y[1]);
-    const float t14 = p[4]*t13;
-    const float F1 = t11*(p[2]*t4*t5 - t14);
-    const float t15 = p[2]*p[2];
-    const float M00 = t15*(p[0] + p[1]);
+    const float t10 = p[4]*p[0] + p[4]*p[1];
+    const float t11 = t0*t10;
+    const float t12 = y[3]*y[3];
+    const float t13 = p[3]*p[1];
+    const float t14 = t12*t13;
+    const float F0 = -p[2]*(t11 + t14*t8);
+    const float t15 = p[4]*t1;
+    const float F1 = t13*(p[2]*t7*t8 - t15);
+    const float t16 = p[2]*p[2];
+    const float M00 = t16*(p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float qdd0 = rdet*(F0*M11 - F1*M01);
-    const float t16 = qdd0*t6;
-    const float t17 = M01*t4 + t16;
+    const float t17 = qdd0*t9;
+    const float t18 = M01*t7 + t17;
     const float qdd1 = rdet*(-F0*M01 + F1*M00);
-    const float t18 = qdd1*t6;
-    const float t19 = cosf(y[0]);
-    const float t20 = t19*t8;
-    const float t21 = -p[2]*(t1*t12 + t20) + t18;
-    const float t22 = p[2]*p[3]*p[1]*t1*t10 - t18;
-    const float t23 = cosf(y[1]);
-    const float t24 = p[4]*t23;
-    const float t25 = p[3]*p[1]*(-p[2]*t1*t4 - t24) - t16;
-    const float t26 = M01*rdet;
-    const float t27 = 2*t6;
-    const float t28 = t27*y[2];
-    const float t29 = M11*rdet;
-    const float t30 = t27*y[3];
-    const float t31 = M00*rdet;
-    const float t32 = rdet*(-M01*t17 + M11*t21);
-    const float t33 = rdet*(-M01*t25 + M11*t22);
-    const float t34 = -t26*t28;
-    const float t35 = -t29*t30;
-    const float t36 = rdet*(M00*t17 - M01*t21);
-    const float t37 = rdet*(M00*t25 - M01*t22);
-    const float t38 = t28*t31;
-    const float t39 = t26*t30;
+    const float t19 = qdd1*t9;
+    const float t20 = t10*t2;
+    const float t21 = -p[2]*(t14*t4 + t20) + t19;
+    const float t22 = p[2]*p[3]*p[1]*t12*t4 - t19;
+    const float t23 = p[4]*t3;
+    const float t24 = p[3]*p[1]*(-p[2]*t4*t7 - t23) - t17;
+    const float t25 = M01*rdet;
+    const float t26 = 2*t9;
+    const float t27 = t26*y[2];
+    const float t28 = M11*rdet;
+    const float t29 = t26*y[3];
+    const float t30 = M00*rdet;
+    const float t31 = rdet*(-M01*t18 + M11*t21);
+    const float t32 = rdet*(-M01*t24 + M11*t22);
+    const float t33 = -t25*t27;
+    const float t34 = -t28*t29;
+    const float t35 = rdet*(M00*t18 - M01*t21);
+    const float t36 = rdet*(M00*t24 - M01*t22);
+    const float t37 = t27*t30;
+    const float t38 = t25*t29;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -836,17 +852,17 @@ int planar_jacobian_f(const float *restrict y, const float *restrict p, float *r
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = t32;
-    J[9] = t33;
-    J[10] = t34;
-    J[11] = t35;
-    J[12] = t36;
-    J[13] = t37;
-    J[14] = t38;
-    J[15] = t39;
+    J[8] = t31;
+    J[9] = t32;
+    J[10] = t33;
+    J[11] = t34;
+    J[12] = t35;
+    J[13] = t36;
+    J[14] = t37;
+    J[15] = t38;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) + (t37 - t37) +
-        (t38 - t38) + (t39 - t39);
+    check = (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) +
+        (t37 - t37) + (t38 - t38);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -867,60 +883,59 @@ int planar_jacobian_batch_f(long n, const float *restrict y, long y_stride, cons
     return all;
 }
 
-/* planar_jacobian_l (long double). Total ops: 95 */
+/* planar_jacobian_l (long double). Total ops: 98 */
 int planar_jacobian_l(const long double *restrict y, const long double *restrict p, long double *restrict J)
 {
     int status = PLANAR_STATUS_OK;
     long double check;
-    const long double t0 = y[0] - y[1];
-    const long double t1 = cosl(t0);
-    const long double t2 = p[2]*p[1];
-    const long double t3 = p[3]*t2;
-    const long double M01 = t1*t3;
-    const long double t4 = y[2]*y[2];
-    const long double t5 = sinl(t0);
-    const long double t6 = t3*t5;
+    const long double t0 = sinl(y[0]);
+    const long double t1 = sinl(y[1]);
+    const long double t2 = cosl(y[0]);
+    const long double t3 = cosl(y[1]);
+    const long double t4 = t0*t1 + t2*t3;
+    const long double t5 = p[2]*p[1];
+    const long double t6 = p[3]*t5;
+    const long double M01 = t4*t6;
+    const long double t7 = y[2]*y[2];
+    const long double t8 = t0*t3 - t1*t2;
+    const long double t9 = t6*t8;
     const long double M11 = p[3]*p[3]*p[1];
-    const long double t7 = sinl(y[0]);
-    const long double t8 = p[4]*p[0] + p[4]*p[1];
-    const long double t9 = t7*t8;
-    const long double t10 = y[3]*y[3];
-    const long double t11 = p[3]*p[1];
-    const long double t12 = t10*t11;
-    const long double F0 = -p[2]*(t12*t5 + t9);
-    const long double t13 = sinl(y[1]);
-    const long double t14 = p[4]*t13;
-    const long double F1 = t11*(p[2]*t4*t5 - t14);
-    const long double t15 = p[2]*p[2];
-    const long double M00 = t15*(p[0] + p[1]);
+    const long double t10 = p[4]*p[0] + p[4]*p[1];
+    const long double t11 = t0*t10;
+    const long double t12 = y[3]*y[3];
+    const long double t13 = p[3]*p[1];
+    const long double t14 = t12*t13;
+    const long double F0 = -p[2]*(t11 + t14*t8);
+    const long double t15 = p[4]*t1;
+    const long double F1 = t13*(p[2]*t7*t8 - t15);
+    const long double t16 = p[2]*p[2];
+    const long double M00 = t16*(p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double qdd0 = rdet*(F0*M11 - F1*M01);
-    const long double t16 = qdd0*t6;
-    const long double t17 = M01*t4 + t16;
+    const long double t17 = qdd0*t9;
+    const long double t18 = M01*t7 + t17;
     const long double qdd1 = rdet*(-F0*M01 + F1*M00);
-    const long double t18 = qdd1*t6;
-    const long double t19 = cosl(y[0]);
-    const long double t20 = t19*t8;
-    const long double t21 = -p[2]*(t1*t12 + t20) + t18;
-    const long double t22 = p[2]*p[3]*p[1]*t1*t10 - t18;
-    const long double t23 = cosl(y[1]);
-    const long double t24 = p[4]*t23;
-    const long double t25 = p[3]*p[1]*(-p[2]*t1*t4 - t24) - t16;
-    const long double t26 = M01*rdet;
-    const long double t27 = 2*t6;
-    const long double t28 = t27*y[2];
-    const long double t29 = M11*rdet;
-    const long double t30 = t27*y[3];
-    const long double t31 = M00*rdet;
-    const long double t32 = rdet*(-M01*t17 + M11*t21);
-    const long double t33 = rdet*(-M01*t25 + M11*t22);
-    const long double t34 = -t26*t28;
-    const long double t35 = -t29*t30;
-    const long double t36 = rdet*(M00*t17 - M01*t21);
-    const long double t37 = rdet*(M00*t25 - M01*t22);
-    const long double t38 = t28*t31;
-    const long double t39 = t26*t30;
+    const long double t19 = qdd1*t9;
+    const long double t20 = t10*t2;
+    const long double t21 = -p[2]*(t14*t4 + t20) + t19;
+    const long double t22 = p[2]*p[3]*p[1]*t12*t4 - t19;
+    const long double t23 = p[4]*t3;
+    const long double t24 = p[3]*p[1]*(-p[2]*t4*t7 - t23) - t17;
+    const long double t25 = M01*rdet;
+    const long double t26 = 2*t9;
+    const long double t27 = t26*y[2];
+    const long double t28 = M11*rdet;
+    const long double t29 = t26*y[3];
+    const long double t30 = M00*rdet;
+    const long double t31 = rdet*(-M01*t18 + M11*t21);
+    const long double t32 = rdet*(-M01*t24 + M11*t22);
+    const long double t33 = -t25*t27;
+    const long double t34 = -t28*t29;
+    const long double t35 = rdet*(M00*t18 - M01*t21);
+    const long double t36 = rdet*(M00*t24 - M01*t22);
+    const long double t37 = t27*t30;
+    const long double t38 = t25*t29;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -929,17 +944,17 @@ int planar_jacobian_l(const long double *restrict y, const long double *restrict
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = t32;
-    J[9] = t33;
-    J[10] = t34;
-    J[11] = t35;
-    J[12] = t36;
-    J[13] = t37;
-    J[14] = t38;
-    J[15] = t39;
+    J[8] = t31;
+    J[9] = t32;
+    J[10] = t33;
+    J[11] = t34;
+    J[12] = t35;
+    J[13] = t36;
+    J[14] = t37;
+    J[15] = t38;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) + (t37 - t37) +
-        (t38 - t38) + (t39 - t39);
+    check = (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) +
+        (t37 - t37) + (t38 - t38);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -960,40 +975,41 @@ int planar_jacobian_batch_l(long n, const long double *restrict y, long y_stride
     return all;
 }
 
-/* planar_hamiltonian_rhs (double). Total ops: 42 */
+/* planar_hamiltonian_rhs (double). Total ops: 47 */
 int planar_hamiltonian_rhs(const double *restrict x, const double *restrict p, double *restrict xdot)
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = x[0] - x[1];
-    const double t1 = cos(t0);
-    const double t2 = p[2]*p[1];
-    const double t3 = p[3]*t2;
-    const double M01 = t1*t3;
+    const double t0 = sin(x[0]);
+    const double t1 = sin(x[1]);
+    const double t2 = cos(x[0]);
+    const double t3 = cos(x[1]);
+    const double t4 = t0*t1 + t2*t3;
+    const double t5 = p[2]*p[1];
+    const double t6 = p[3]*t5;
+    const double M01 = t4*t6;
     const double M11 = p[3]*p[3]*p[1];
-    const double t4 = p[2]*p[2];
-    const double M00 = t4*(p[0] + p[1]);
+    const double t7 = p[2]*p[2];
+    const double M00 = t7*(p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double v0 = rdet*(-M01*x[3] + M11*x[2]);
     const double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const double t5 = sin(x[0]);
-    const double t6 = p[4]*p[0] + p[4]*p[1];
-    const double t7 = t5*t6;
-    const double t8 = sin(t0);
-    const double t9 = p[3]*p[1];
-    const double t10 = v0*v1;
-    const double t11 = t10*t9;
-    const double t12 = sin(x[1]);
-    const double t13 = p[4]*t12;
-    const double t14 = -p[2]*(t11*t8 + t7);
-    const double t15 = t9*(p[2]*t8*v0*v1 - t13);
+    const double t8 = p[4]*p[0] + p[4]*p[1];
+    const double t9 = t0*t8;
+    const double t10 = t0*t3 - t1*t2;
+    const double t11 = p[3]*p[1];
+    const double t12 = v0*v1;
+    const double t13 = t11*t12;
+    const double t14 = p[4]*t1;
+    const double t15 = -p[2]*(t10*t13 + t9);
+    const double t16 = t11*(p[2]*t10*v0*v1 - t14);
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = t14;
-    xdot[3] = t15;
+    xdot[2] = t15;
+    xdot[3] = t16;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (v0 - v0) + (v1 - v1) + (t14 - t14) + (t15 - t15);
+    check = (v0 - v0) + (v1 - v1) + (t15 - t15) + (t16 - t16);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1014,40 +1030,41 @@ int planar_hamiltonian_rhs_batch(long n, const double *restrict x, long x_stride
     return all;
 }
 
-/* planar_hamiltonian_rhs_f (float). Total ops: 42 */
+/* planar_hamiltonian_rhs_f (float). Total ops: 47 */
 int planar_hamiltonian_rhs_f(const float *restrict x, const float *restrict p, float *restrict xdot)
 {
     int status = PLANAR_STATUS_OK;
     float check;
-    const float t0 = x[0] - x[1];
-    const float t1 = cosf(t0);
-    const float t2 = p[2]*p[1];
-    const float t3 = p[3]*t2;
-    const float M01 = t1*t3;
+    const float t0 = sinf(x[0]);
+    const float t1 = sinf(x[1]);
+    const float t2 = cosf(x[0]);
+    const float t3 = cosf(x[1]);
+    const float t4 = t0*t1 + t2*t3;
+    const float t5 = p[2]*p[1];
+    const float t6 = p[3]*t5;
+    const float M01 = t4*t6;
     const float M11 = p[3]*p[3]*p[1];
-    const float t4 = p[2]*p[2];
-    const float M00 = t4*(p[0] + p[1]);
+    const float t7 = p[2]*p[2];
+    const float M00 = t7*(p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float v0 = rdet*(-M01*x[3] + M11*x[2]);
     const float v1 = rdet*(M00*x[3] - M01*x[2]);
-    const float t5 = sinf(x[0]);
-    const float t6 = p[4]*p[0] + p[4]*p[1];
-    const float t7 = t5*t6;
-    const float t8 = sinf(t0);
-    const float t9 = p[3]*p[1];
-    const float t10 = v0*v1;
-    const float t11 = t10*t9;
-    const float t12 = sinf(x[1]);
-    const float t13 = p[4]*t12;
-    const float t14 = -p[2]*(t11*t8 + t7);
-    const float t15 = t9*(p[2]*t8*v0*v1 - t13);
+    const float t8 = p[4]*p[0] + p[4]*p[1];
+    const float t9 = t0*t8;
+    const float t10 = t0*t3 - t1*t2;
+    const float t11 = p[3]*p[1];
+    const float t12 = v0*v1;
+    const float t13 = t11*t12;
+    const float t14 = p[4]*t1;
+    const float t15 = -p[2]*(t10*t13 + t9);
+    const float t16 = t11*(p[2]*t10*v0*v1 - t14);
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = t14;
-    xdot[3] = t15;
+    xdot[2] = t15;
+    xdot[3] = t16;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (v0 - v0) + (v1 - v1) + (t14 - t14) + (t15 - t15);
+    check = (v0 - v0) + (v1 - v1) + (t15 - t15) + (t16 - t16);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1068,40 +1085,41 @@ int planar_hamiltonian_rhs_batch_f(long n, const float *restrict x, long x_strid
     return all;
 }
 
-/* planar_hamiltonian_rhs_l (long double). Total ops: 42 */
+/* planar_hamiltonian_rhs_l (long double). Total ops: 47 */
 int planar_hamiltonian_rhs_l(const long double *restrict x, const long double *restrict p, long double *restrict xdot)
 {
     int status = PLANAR_STATUS_OK;
     long double check;
-    const long double t0 = x[0] - x[1];
-    const long double t1 = cosl(t0);
-    const long double t2 = p[2]*p[1];
-    const long double t3 = p[3]*t2;
-    const long double M01 = t1*t3;
+    const long double t0 = sinl(x[0]);
+    const long double t1 = sinl(x[1]);
+    const long double t2 = cosl(x[0]);
+    const long double t3 = cosl(x[1]);
+    const long double t4 = t0*t1 + t2*t3;
+    const long double t5 = p[2]*p[1];
+    const long double t6 = p[3]*t5;
+    const long double M01 = t4*t6;
     const long double M11 = p[3]*p[3]*p[1];
-    const long double t4 = p[2]*p[2];
-    const long double M00 = t4*(p[0] + p[1]);
+    const long double t7 = p[2]*p[2];
+    const long double M00 = t7*(p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double v0 = rdet*(-M01*x[3] + M11*x[2]);
     const long double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const long double t5 = sinl(x[0]);
-    const long double t6 = p[4]*p[0] + p[4]*p[1];
-    const long double t7 = t5*t6;
-    const long double t8 = sinl(t0);
-    const long double t9 = p[3]*p[1];
-    const long double t10 = v0*v1;
-    const long double t11 = t10*t9;
-    const long double t12 = sinl(x[1]);
-    const long double t13 = p[4]*t12;
-    const long double t14 = -p[2]*(t11*t8 + t7);
-    const long double t15 = t9*(p[2]*t8*v0*v1 - t13);
+    const long double t8 = p[4]*p[0] + p[4]*p[1];
+    const long double t9 = t0*t8;
+    const long double t10 = t0*t3 - t1*t2;
+    const long double t11 = p[3]*p[1];
+    const long double t12 = v0*v1;
+    const long double t13 = t11*t12;
+    const long double t14 = p[4]*t1;
+    const long double t15 = -p[2]*(t10*t13 + t9);
+    const long double t16 = t11*(p[2]*t10*v0*v1 - t14);
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = t14;
-    xdot[3] = t15;
+    xdot[2] = t15;
+    xdot[3] = t16;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (v0 - v0) + (v1 - v1) + (t14 - t14) + (t15 - t15);
+    check = (v0 - v0) + (v1 - v1) + (t15 - t15) + (t16 - t16);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1122,56 +1140,57 @@ int planar_hamiltonian_rhs_batch_l(long n, const long double *restrict x, long x
     return all;
 }
 
-/* planar_hamiltonian_jacobian (double). Total ops: 89 */
+/* planar_hamiltonian_jacobian (double). Total ops: 94 */
 int planar_hamiltonian_jacobian(const double *restrict x, const double *restrict p, double *restrict J)
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = x[0] - x[1];
-    const double t1 = sin(t0);
-    const double t2 = p[2]*p[1];
-    const double t3 = p[3]*t2;
-    const double t4 = t1*t3;
-    const double t5 = cos(t0);
-    const double M01 = t3*t5;
+    const double t0 = sin(x[0]);
+    const double t1 = sin(x[1]);
+    const double t2 = cos(x[0]);
+    const double t3 = cos(x[1]);
+    const double t4 = t0*t3 - t1*t2;
+    const double t5 = p[2]*p[1];
+    const double t6 = p[3]*t5;
+    const double t7 = t4*t6;
+    const double t8 = t0*t1 + t2*t3;
+    const double M01 = t6*t8;
     const double M11 = p[3]*p[3]*p[1];
-    const double t6 = p[2]*p[2];
-    const double M00 = t6*(p[0] + p[1]);
+    const double t9 = p[2]*p[2];
+    const double M00 = t9*(p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double v0 = rdet*(-M01*x[3] + M11*x[2]);
-    const double t7 = t4*v0;
+    const double t10 = t7*v0;
     const double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const double t8 = M01*t7 - M11*p[2]*p[3]*p[1]*t1*v1;
-    const double dv0_0 = -rdet*t8;
-    const double dv0_1 = rdet*t8;
+    const double t11 = M01*t10 - M11*p[2]*p[3]*p[1]*t4*v1;
+    const double dv0_0 = -rdet*t11;
+    const double dv0_1 = rdet*t11;
     const double dv0_2 = M11*rdet;
-    const double t9 = M01*rdet;
-    const double dv0_3 = -t9;
-    const double t10 = t4*v1;
-    const double t11 = M00*t7 - M01*t10;
-    const double dv1_0 = rdet*t11;
-    const double dv1_1 = -rdet*t11;
+    const double t12 = M01*rdet;
+    const double dv0_3 = -t12;
+    const double t13 = t7*v1;
+    const double t14 = M00*t10 - M01*t13;
+    const double dv1_0 = rdet*t14;
+    const double dv1_1 = -rdet*t14;
     const double dv1_2 = dv0_3;
     const double dv1_3 = M00*rdet;
-    const double t12 = p[4]*p[0] + p[4]*p[1];
-    const double t13 = cos(x[0]);
-    const double t14 = t12*t13;
-    const double t15 = p[3]*p[1];
-    const double t16 = v0*v1;
-    const double t17 = t15*t16;
-    const double t18 = dv0_0*t10 + dv1_0*t7;
-    const double t19 = dv0_1*t10 + dv1_1*t7;
-    const double t20 = dv0_2*t10 + dv1_2*t7;
-    const double t21 = dv0_3*t10 + dv1_3*t7;
-    const double t22 = cos(x[1]);
-    const double t23 = p[4]*t22;
-    const double t24 = -p[2]*(t14 + t17*t5) - t18;
-    const double t25 = p[2]*p[3]*p[1]*t5*v0*v1 - t19;
-    const double t26 = -t20;
-    const double t27 = -t21;
-    const double t28 = M01*t16 + t18;
-    const double t29 = t15*(-p[2]*t16*t5 - t23) + t19;
+    const double t15 = p[4]*p[0] + p[4]*p[1];
+    const double t16 = t15*t2;
+    const double t17 = p[3]*p[1];
+    const double t18 = v0*v1;
+    const double t19 = t17*t18;
+    const double t20 = dv0_0*t13 + dv1_0*t10;
+    const double t21 = dv0_1*t13 + dv1_1*t10;
+    const double t22 = dv0_2*t13 + dv1_2*t10;
+    const double t23 = dv0_3*t13 + dv1_3*t10;
+    const double t24 = p[4]*t3;
+    const double t25 = -p[2]*(t16 + t19*t8) - t20;
+    const double t26 = p[2]*p[3]*p[1]*t8*v0*v1 - t21;
+    const double t27 = -t22;
+    const double t28 = -t23;
+    const double t29 = M01*t18 + t20;
+    const double t30 = t17*(-p[2]*t18*t8 - t24) + t21;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1180,19 +1199,19 @@ int planar_hamiltonian_jacobian(const double *restrict x, const double *restrict
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = t24;
-    J[9] = t25;
-    J[10] = t26;
-    J[11] = t27;
-    J[12] = t28;
-    J[13] = t29;
-    J[14] = t20;
-    J[15] = t21;
+    J[8] = t25;
+    J[9] = t26;
+    J[10] = t27;
+    J[11] = t28;
+    J[12] = t29;
+    J[13] = t30;
+    J[14] = t22;
+    J[15] = t23;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
-        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t24 - t24) +
-        (t25 - t25) + (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t20 - t20) +
-        (t21 - t21);
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t25 - t25) +
+        (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t30 - t30) + (t22 - t22) +
+        (t23 - t23);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1213,56 +1232,57 @@ int planar_hamiltonian_jacobian_batch(long n, const double *restrict x, long x_s
     return all;
 }
 
-/* planar_hamiltonian_jacobian_f (float). Total ops: 89 */
+/* planar_hamiltonian_jacobian_f (float). Total ops: 94 */
 int planar_hamiltonian_jacobian_f(const float *restrict x, const float *restrict p, float *restrict J)
 {
     int status = PLANAR_STATUS_OK;
     float check;
-    const float t0 = x[0] - x[1];
-    const float t1 = sinf(t0);
-    const float t2 = p[2]*p[1];
-    const float t3 = p[3]*t2;
-    const float t4 = t1*t3;
-    const float t5 = cosf(t0);
-    const float M01 = t3*t5;
+    const float t0 = sinf(x[0]);
+    const float t1 = sinf(x[1]);
+    const float t2 = cosf(x[0]);
+    const float t3 = cosf(x[1]);
+    const float t4 = t0*t3 - t1*t2;
+    const float t5 = p[2]*p[1];
+    const float t6 = p[3]*t5;
+    const float t7 = t4*t6;
+    const float t8 = t0*t1 + t2*t3;
+    const float M01 = t6*t8;
     const float M11 = p[3]*p[3]*p[1];
-    const float t6 = p[2]*p[2];
-    const float M00 = t6*(p[0] + p[1]);
+    const float t9 = p[2]*p[2];
+    const float M00 = t9*(p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float v0 = rdet*(-M01*x[3] + M11*x[2]);
-    const float t7 = t4*v0;
+    const float t10 = t7*v0;
     const float v1 = rdet*(M00*x[3] - M01*x[2]);
-    const float t8 = M01*t7 - M11*p[2]*p[3]*p[1]*t1*v1;
-    const float dv0_0 = -rdet*t8;
-    const float dv0_1 = rdet*t8;
+    const float t11 = M01*t10 - M11*p[2]*p[3]*p[1]*t4*v1;
+    const float dv0_0 = -rdet*t11;
+    const float dv0_1 = rdet*t11;
     const float dv0_2 = M11*rdet;
-    const float t9 = M01*rdet;
-    const float dv0_3 = -t9;
-    const float t10 = t4*v1;
-    const float t11 = M00*t7 - M01*t10;
-    const float dv1_0 = rdet*t11;
-    const float dv1_1 = -rdet*t11;
+    const float t12 = M01*rdet;
+    const float dv0_3 = -t12;
+    const float t13 = t7*v1;
+    const float t14 = M00*t10 - M01*t13;
+    const float dv1_0 = rdet*t14;
+    const float dv1_1 = -rdet*t14;
     const float dv1_2 = dv0_3;
     const float dv1_3 = M00*rdet;
-    const float t12 = p[4]*p[0] + p[4]*p[1];
-    const float t13 = cosf(x[0]);
-    const float t14 = t12*t13;
-    const float t15 = p[3]*p[1];
-    const float t16 = v0*v1;
-    const float t17 = t15*t16;
-    const float t18 = dv0_0*t10 + dv1_0*t7;
-    const float t19 = dv0_1*t10 + dv1_1*t7;
-    const float t20 = dv0_2*t10 + dv1_2*t7;
-    const float t21 = dv0_3*t10 + dv1_3*t7;
-    const float t22 = cosf(x[1]);
-    const float t23 = p[4]*t22;
-    const float t24 = -p[2]*(t14 + t17*t5) - t18;
-    const float t25 = p[2]*p[3]*p[1]*t5*v0*v1 - t19;
-    const float t26 = -t20;
-    const float t27 = -t21;
-    const float t28 = M01*t16 + t18;
-    const float t29 = t15*(-p[2]*t16*t5 - t23) + t19;
+    const float t15 = p[4]*p[0] + p[4]*p[1];
+    const float t16 = t15*t2;
+    const float t17 = p[3]*p[1];
+    const float t18 = v0*v1;
+    const float t19 = t17*t18;
+    const float t20 = dv0_0*t13 + dv1_0*t10;
+    const float t21 = dv0_1*t13 + dv1_1*t10;
+    const float t22 = dv0_2*t13 + dv1_2*t10;
+    const float t23 = dv0_3*t13 + dv1_3*t10;
+    const float t24 = p[4]*t3;
+    const float t25 = -p[2]*(t16 + t19*t8) - t20;
+    const float t26 = p[2]*p[3]*p[1]*t8*v0*v1 - t21;
+    const float t27 = -t22;
+    const float t28 = -t23;
+    const float t29 = M01*t18 + t20;
+    const float t30 = t17*(-p[2]*t18*t8 - t24) + t21;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1271,19 +1291,19 @@ int planar_hamiltonian_jacobian_f(const float *restrict x, const float *restrict
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = t24;
-    J[9] = t25;
-    J[10] = t26;
-    J[11] = t27;
-    J[12] = t28;
-    J[13] = t29;
-    J[14] = t20;
-    J[15] = t21;
+    J[8] = t25;
+    J[9] = t26;
+    J[10] = t27;
+    J[11] = t28;
+    J[12] = t29;
+    J[13] = t30;
+    J[14] = t22;
+    J[15] = t23;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
-        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t24 - t24) +
-        (t25 - t25) + (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t20 - t20) +
-        (t21 - t21);
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t25 - t25) +
+        (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t30 - t30) + (t22 - t22) +
+        (t23 - t23);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1304,56 +1324,57 @@ int planar_hamiltonian_jacobian_batch_f(long n, const float *restrict x, long x_
     return all;
 }
 
-/* planar_hamiltonian_jacobian_l (long double). Total ops: 89 */
+/* planar_hamiltonian_jacobian_l (long double). Total ops: 94 */
 int planar_hamiltonian_jacobian_l(const long double *restrict x, const long double *restrict p, long double *restrict J)
 {
     int status = PLANAR_STATUS_OK;
     long double check;
-    const long double t0 = x[0] - x[1];
-    const long double t1 = sinl(t0);
-    const long double t2 = p[2]*p[1];
-    const long double t3 = p[3]*t2;
-    const long double t4 = t1*t3;
-    const long double t5 = cosl(t0);
-    const long double M01 = t3*t5;
+    const long double t0 = sinl(x[0]);
+    const long double t1 = sinl(x[1]);
+    const long double t2 = cosl(x[0]);
+    const long double t3 = cosl(x[1]);
+    const long double t4 = t0*t3 - t1*t2;
+    const long double t5 = p[2]*p[1];
+    const long double t6 = p[3]*t5;
+    const long double t7 = t4*t6;
+    const long double t8 = t0*t1 + t2*t3;
+    const long double M01 = t6*t8;
     const long double M11 = p[3]*p[3]*p[1];
-    const long double t6 = p[2]*p[2];
-    const long double M00 = t6*(p[0] + p[1]);
+    const long double t9 = p[2]*p[2];
+    const long double M00 = t9*(p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double v0 = rdet*(-M01*x[3] + M11*x[2]);
-    const long double t7 = t4*v0;
+    const long double t10 = t7*v0;
     const long double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const long double t8 = M01*t7 - M11*p[2]*p[3]*p[1]*t1*v1;
-    const long double dv0_0 = -rdet*t8;
-    const long double dv0_1 = rdet*t8;
+    const long double t11 = M01*t10 - M11*p[2]*p[3]*p[1]*t4*v1;
+    const long double dv0_0 = -rdet*t11;
+    const long double dv0_1 = rdet*t11;
     const long double dv0_2 = M11*rdet;
-    const long double t9 = M01*rdet;
-    const long double dv0_3 = -t9;
-    const long double t10 = t4*v1;
-    const long double t11 = M00*t7 - M01*t10;
-    const long double dv1_0 = rdet*t11;
-    const long double dv1_1 = -rdet*t11;
+    const long double t12 = M01*rdet;
+    const long double dv0_3 = -t12;
+    const long double t13 = t7*v1;
+    const long double t14 = M00*t10 - M01*t13;
+    const long double dv1_0 = rdet*t14;
+    const long double dv1_1 = -rdet*t14;
     const long double dv1_2 = dv0_3;
     const long double dv1_3 = M00*rdet;
-    const long double t12 = p[4]*p[0] + p[4]*p[1];
-    const long double t13 = cosl(x[0]);
-    const long double t14 = t12*t13;
-    const long double t15 = p[3]*p[1];
-    const long double t16 = v0*v1;
-    const long double t17 = t15*t16;
-    const long double t18 = dv0_0*t10 + dv1_0*t7;
-    const long double t19 = dv0_1*t10 + dv1_1*t7;
-    const long double t20 = dv0_2*t10 + dv1_2*t7;
-    const long double t21 = dv0_3*t10 + dv1_3*t7;
-    const long double t22 = cosl(x[1]);
-    const long double t23 = p[4]*t22;
-    const long double t24 = -p[2]*(t14 + t17*t5) - t18;
-    const long double t25 = p[2]*p[3]*p[1]*t5*v0*v1 - t19;
-    const long double t26 = -t20;
-    const long double t27 = -t21;
-    const long double t28 = M01*t16 + t18;
-    const long double t29 = t15*(-p[2]*t16*t5 - t23) + t19;
+    const long double t15 = p[4]*p[0] + p[4]*p[1];
+    const long double t16 = t15*t2;
+    const long double t17 = p[3]*p[1];
+    const long double t18 = v0*v1;
+    const long double t19 = t17*t18;
+    const long double t20 = dv0_0*t13 + dv1_0*t10;
+    const long double t21 = dv0_1*t13 + dv1_1*t10;
+    const long double t22 = dv0_2*t13 + dv1_2*t10;
+    const long double t23 = dv0_3*t13 + dv1_3*t10;
+    const long double t24 = p[4]*t3;
+    const long double t25 = -p[2]*(t16 + t19*t8) - t20;
+    const long double t26 = p[2]*p[3]*p[1]*t8*v0*v1 - t21;
+    const long double t27 = -t22;
+    const long double t28 = -t23;
+    const long double t29 = M01*t18 + t20;
+    const long double t30 = t17*(-p[2]*t18*t8 - t24) + t21;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1362,19 +1383,19 @@ int planar_hamiltonian_jacobian_l(const long double *restrict x, const long doub
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = t24;
-    J[9] = t25;
-    J[10] = t26;
-    J[11] = t27;
-    J[12] = t28;
-    J[13] = t29;
-    J[14] = t20;
-    J[15] = t21;
+    J[8] = t25;
+    J[9] = t26;
+    J[10] = t27;
+    J[11] = t28;
+    J[12] = t29;
+    J[13] = t30;
+    J[14] = t22;
+    J[15] = t23;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
-        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t24 - t24) +
-        (t25 - t25) + (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t20 - t20) +
-        (t21 - t21);
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t25 - t25) +
+        (t26 - t26) + (t27 - t27) + (t28 - t28) + (t29 - t29) + (t30 - t30) + (t22 - t22) +
+        (t23 - t23);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1395,28 +1416,31 @@ int planar_hamiltonian_jacobian_batch_l(long n, const long double *restrict x, l
     return all;
 }
 
-/* planar_to_canonical (double). Total ops: 16 */
+/* planar_to_canonical (double). Total ops: 21 */
 int planar_to_canonical(const double *restrict y, const double *restrict p, double *restrict x)
 {
     int status = PLANAR_STATUS_OK;
     double check;
     const double t0 = p[2]*p[2];
     const double t1 = t0*(p[0] + p[1]);
-    const double t2 = y[0] - y[1];
-    const double t3 = cos(t2);
-    const double t4 = p[2]*p[1];
-    const double t5 = p[3]*t4;
-    const double t6 = t3*t5;
-    const double t7 = t6*y[3];
-    const double t8 = p[3]*p[3]*p[1];
-    const double t9 = t1*y[2] + t7;
-    const double t10 = t6*y[2] + t8*y[3];
+    const double t2 = sin(y[0]);
+    const double t3 = sin(y[1]);
+    const double t4 = cos(y[0]);
+    const double t5 = cos(y[1]);
+    const double t6 = t2*t3 + t4*t5;
+    const double t7 = p[2]*p[1];
+    const double t8 = p[3]*t7;
+    const double t9 = t6*t8;
+    const double t10 = t9*y[3];
+    const double t11 = p[3]*p[3]*p[1];
+    const double t12 = t1*y[2] + t10;
+    const double t13 = t11*y[3] + t9*y[2];
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = t9;
-    x[3] = t10;
+    x[2] = t12;
+    x[3] = t13;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (y[0] - y[0]) + (y[1] - y[1]) + (t9 - t9) + (t10 - t10);
+    check = (y[0] - y[0]) + (y[1] - y[1]) + (t12 - t12) + (t13 - t13);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1437,28 +1461,31 @@ int planar_to_canonical_batch(long n, const double *restrict y, long y_stride, c
     return all;
 }
 
-/* planar_to_canonical_f (float). Total ops: 16 */
+/* planar_to_canonical_f (float). Total ops: 21 */
 int planar_to_canonical_f(const float *restrict y, const float *restrict p, float *restrict x)
 {
     int status = PLANAR_STATUS_OK;
     float check;
     const float t0 = p[2]*p[2];
     const float t1 = t0*(p[0] + p[1]);
-    const float t2 = y[0] - y[1];
-    const float t3 = cosf(t2);
-    const float t4 = p[2]*p[1];
-    const float t5 = p[3]*t4;
-    const float t6 = t3*t5;
-    const float t7 = t6*y[3];
-    const float t8 = p[3]*p[3]*p[1];
-    const float t9 = t1*y[2] + t7;
-    const float t10 = t6*y[2] + t8*y[3];
+    const float t2 = sinf(y[0]);
+    const float t3 = sinf(y[1]);
+    const float t4 = cosf(y[0]);
+    const float t5 = cosf(y[1]);
+    const float t6 = t2*t3 + t4*t5;
+    const float t7 = p[2]*p[1];
+    const float t8 = p[3]*t7;
+    const float t9 = t6*t8;
+    const float t10 = t9*y[3];
+    const float t11 = p[3]*p[3]*p[1];
+    const float t12 = t1*y[2] + t10;
+    const float t13 = t11*y[3] + t9*y[2];
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = t9;
-    x[3] = t10;
+    x[2] = t12;
+    x[3] = t13;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (y[0] - y[0]) + (y[1] - y[1]) + (t9 - t9) + (t10 - t10);
+    check = (y[0] - y[0]) + (y[1] - y[1]) + (t12 - t12) + (t13 - t13);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1479,28 +1506,31 @@ int planar_to_canonical_batch_f(long n, const float *restrict y, long y_stride, 
     return all;
 }
 
-/* planar_to_canonical_l (long double). Total ops: 16 */
+/* planar_to_canonical_l (long double). Total ops: 21 */
 int planar_to_canonical_l(const long double *restrict y, const long double *restrict p, long double *restrict x)
 {
     int status = PLANAR_STATUS_OK;
     long double check;
     const long double t0 = p[2]*p[2];
     const long double t1 = t0*(p[0] + p[1]);
-    const long double t2 = y[0] - y[1];
-    const long double t3 = cosl(t2);
-    const long double t4 = p[2]*p[1];
-    const long double t5 = p[3]*t4;
-    const long double t6 = t3*t5;
-    const long double t7 = t6*y[3];
-    const long double t8 = p[3]*p[3]*p[1];
-    const long double t9 = t1*y[2] + t7;
-    const long double t10 = t6*y[2] + t8*y[3];
+    const long double t2 = sinl(y[0]);
+    const long double t3 = sinl(y[1]);
+    const long double t4 = cosl(y[0]);
+    const long double t5 = cosl(y[1]);
+    const long double t6 = t2*t3 + t4*t5;
+    const long double t7 = p[2]*p[1];
+    const long double t8 = p[3]*t7;
+    const long double t9 = t6*t8;
+    const long double t10 = t9*y[3];
+    const long double t11 = p[3]*p[3]*p[1];
+    const long double t12 = t1*y[2] + t10;
+    const long double t13 = t11*y[3] + t9*y[2];
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = t9;
-    x[3] = t10;
+    x[2] = t12;
+    x[3] = t13;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (y[0] - y[0]) + (y[1] - y[1]) + (t9 - t9) + (t10 - t10);
+    check = (y[0] - y[0]) + (y[1] - y[1]) + (t12 - t12) + (t13 - t13);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1521,19 +1551,22 @@ int planar_to_canonical_batch_l(long n, const long double *restrict y, long y_st
     return all;
 }
 
-/* planar_from_canonical (double). Total ops: 22 */
+/* planar_from_canonical (double). Total ops: 27 */
 int planar_from_canonical(const double *restrict x, const double *restrict p, double *restrict y)
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = x[0] - x[1];
-    const double t1 = cos(t0);
-    const double t2 = p[2]*p[1];
-    const double t3 = p[3]*t2;
-    const double M01 = t1*t3;
+    const double t0 = sin(x[0]);
+    const double t1 = sin(x[1]);
+    const double t2 = cos(x[0]);
+    const double t3 = cos(x[1]);
+    const double t4 = t0*t1 + t2*t3;
+    const double t5 = p[2]*p[1];
+    const double t6 = p[3]*t5;
+    const double M01 = t4*t6;
     const double M11 = p[3]*p[3]*p[1];
-    const double t4 = p[2]*p[2];
-    const double M00 = t4*(p[0] + p[1]);
+    const double t7 = p[2]*p[2];
+    const double M00 = t7*(p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double v0 = rdet*(-M01*x[3] + M11*x[2]);
@@ -1564,19 +1597,22 @@ int planar_from_canonical_batch(long n, const double *restrict x, long x_stride,
     return all;
 }
 
-/* planar_from_canonical_f (float). Total ops: 22 */
+/* planar_from_canonical_f (float). Total ops: 27 */
 int planar_from_canonical_f(const float *restrict x, const float *restrict p, float *restrict y)
 {
     int status = PLANAR_STATUS_OK;
     float check;
-    const float t0 = x[0] - x[1];
-    const float t1 = cosf(t0);
-    const float t2 = p[2]*p[1];
-    const float t3 = p[3]*t2;
-    const float M01 = t1*t3;
+    const float t0 = sinf(x[0]);
+    const float t1 = sinf(x[1]);
+    const float t2 = cosf(x[0]);
+    const float t3 = cosf(x[1]);
+    const float t4 = t0*t1 + t2*t3;
+    const float t5 = p[2]*p[1];
+    const float t6 = p[3]*t5;
+    const float M01 = t4*t6;
     const float M11 = p[3]*p[3]*p[1];
-    const float t4 = p[2]*p[2];
-    const float M00 = t4*(p[0] + p[1]);
+    const float t7 = p[2]*p[2];
+    const float M00 = t7*(p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float v0 = rdet*(-M01*x[3] + M11*x[2]);
@@ -1607,19 +1643,22 @@ int planar_from_canonical_batch_f(long n, const float *restrict x, long x_stride
     return all;
 }
 
-/* planar_from_canonical_l (long double). Total ops: 22 */
+/* planar_from_canonical_l (long double). Total ops: 27 */
 int planar_from_canonical_l(const long double *restrict x, const long double *restrict p, long double *restrict y)
 {
     int status = PLANAR_STATUS_OK;
     long double check;
-    const long double t0 = x[0] - x[1];
-    const long double t1 = cosl(t0);
-    const long double t2 = p[2]*p[1];
-    const long double t3 = p[3]*t2;
-    const long double M01 = t1*t3;
+    const long double t0 = sinl(x[0]);
+    const long double t1 = sinl(x[1]);
+    const long double t2 = cosl(x[0]);
+    const long double t3 = cosl(x[1]);
+    const long double t4 = t0*t1 + t2*t3;
+    const long double t5 = p[2]*p[1];
+    const long double t6 = p[3]*t5;
+    const long double M01 = t4*t6;
     const long double M11 = p[3]*p[3]*p[1];
-    const long double t4 = p[2]*p[2];
-    const long double M00 = t4*(p[0] + p[1]);
+    const long double t7 = p[2]*p[2];
+    const long double M00 = t7*(p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double v0 = rdet*(-M01*x[3] + M11*x[2]);

@@ -60,7 +60,7 @@ extern const char *const planar_canonical_names[PLANAR_N_CANONICAL];
  *   in  y[4]: the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out ydot[4]: y' in state order
- * Total ops: 42
+ * Total ops: 47
  */
 #define PLANAR_RHS_Y_SIZE 4
 #define PLANAR_RHS_Y_RANK 1
@@ -81,7 +81,7 @@ int planar_rhs_batch_l(long n, const long double *restrict y, long y_stride, con
  *   in  y[4]: the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out M[4]: M, row-major
- * Total ops: 10
+ * Total ops: 15
  */
 #define PLANAR_MASS_MATRIX_Y_SIZE 4
 #define PLANAR_MASS_MATRIX_Y_RANK 1
@@ -104,7 +104,7 @@ int planar_mass_matrix_batch_l(long n, const long double *restrict y, long y_str
  *   in  y[4]: the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out F[2]: F
- * Total ops: 21
+ * Total ops: 24
  */
 #define PLANAR_FORCING_Y_SIZE 4
 #define PLANAR_FORCING_Y_RANK 1
@@ -125,7 +125,7 @@ int planar_forcing_batch_l(long n, const long double *restrict y, long y_stride,
  *   in  y[4]: the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out E[1]: T + V
- * Total ops: 31
+ * Total ops: 34
  */
 #define PLANAR_ENERGY_Y_SIZE 4
 #define PLANAR_ENERGY_Y_RANK 1
@@ -171,7 +171,7 @@ int planar_positions_batch_l(long n, const long double *restrict y, long y_strid
  *   in  y[4]: the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out J[16]: row-major
- * Total ops: 95
+ * Total ops: 98
  */
 #define PLANAR_JACOBIAN_Y_SIZE 4
 #define PLANAR_JACOBIAN_Y_RANK 1
@@ -195,7 +195,7 @@ int planar_jacobian_batch_l(long n, const long double *restrict y, long y_stride
  *   in  x[4]: the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out xdot[4]: x' in canonical order
- * Total ops: 42
+ * Total ops: 47
  */
 #define PLANAR_HAMILTONIAN_RHS_X_SIZE 4
 #define PLANAR_HAMILTONIAN_RHS_X_RANK 1
@@ -217,7 +217,7 @@ int planar_hamiltonian_rhs_batch_l(long n, const long double *restrict x, long x
  *   in  x[4]: the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out J[16]: row-major
- * Total ops: 89
+ * Total ops: 94
  */
 #define PLANAR_HAMILTONIAN_JACOBIAN_X_SIZE 4
 #define PLANAR_HAMILTONIAN_JACOBIAN_X_RANK 1
@@ -240,7 +240,7 @@ int planar_hamiltonian_jacobian_batch_l(long n, const long double *restrict x, l
  *   in  y[4]: the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out x[4]: x in canonical order
- * Total ops: 16
+ * Total ops: 21
  */
 #define PLANAR_TO_CANONICAL_Y_SIZE 4
 #define PLANAR_TO_CANONICAL_Y_RANK 1
@@ -261,7 +261,7 @@ int planar_to_canonical_batch_l(long n, const long double *restrict y, long y_st
  *   in  x[4]: the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out y[4]: y in state order
- * Total ops: 22
+ * Total ops: 27
  */
 #define PLANAR_FROM_CANONICAL_X_SIZE 4
 #define PLANAR_FROM_CANONICAL_X_RANK 1

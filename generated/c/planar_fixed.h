@@ -7,6 +7,8 @@
  *
  * planar_fixed_rk4: classical RK4 (rk4.toml); 4 rhs evaluations per step.
  * planar_fixed_rk8: the 8th-order Dormand-Prince formula of DOP853 (dop853.toml) at a fixed step; 12 rhs evaluations per step.
+ * planar_fixed_abm12: 12-step Adams-Bashforth-Moulton, PECE (order 12), started with rk8; two rhs
+ *     evaluations per step after the first 11 (rk8) steps.
  *
  * Each advances y (in place) by nsteps steps of size h from the same expressions as
  * planar_rhs (planar.c) and the same tableau literals as planar_integrate.c, without
@@ -26,6 +28,7 @@ extern "C" {
 
 long planar_fixed_rk4(double *y, const double *p, double h, long nsteps);
 long planar_fixed_rk8(double *y, const double *p, double h, long nsteps);
+long planar_fixed_abm12(double *y, const double *p, double h, long nsteps);
 
 #ifdef __cplusplus
 }

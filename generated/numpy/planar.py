@@ -34,7 +34,7 @@ def rhs(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns ydot: (..., 4) y' in state order
-    Total ops: 42
+    Total ops: 47
     """
     (y, p), shape, dtype = _prepare("rhs", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -46,35 +46,46 @@ def rhs(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = theta1 - theta2
-    t1 = numpy.cos(t0)
-    t2 = l1*m2
-    t3 = l2*t2
-    del t2
-    M01 = t3*t1
-    del t1, t3
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t5 = l1*m2
+    t6 = l2*t5
+    del t5
+    M01 = t6*t4
+    del t4, t6
     M11 = l2*l2*m2
-    t4 = numpy.sin(theta1)
-    t5 = g*m1 + g*m2
-    t6 = t5*t4
-    del t4, t5
-    t7 = numpy.sin(t0)
-    del t0
-    t8 = theta2_dot*theta2_dot
-    t9 = l2*m2
-    t10 = t9*t8
-    del t8
-    F0 = (-l1)*(t10*t7 + t6)
-    del t10, t6
-    t11 = numpy.sin(theta2)
-    t12 = g*t11
-    del t11
-    t13 = theta1_dot*theta1_dot
-    F1 = t9*(l1*(t13*t7) - t12)
-    del t12, t13, t7, t9
-    t14 = l1*l1
-    M00 = t14*(m1 + m2)
-    del t14
+    t7 = g*m1 + g*m2
+    t8 = t7*sin_theta1
+    del t7
+    t9 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    del cos_theta1, cos_theta2, sin_theta1
+    t10 = theta2_dot*theta2_dot
+    t11 = l2*m2
+    t12 = t11*t10
+    del t10
+    F0 = (-l1)*(t12*t9 + t8)
+    del t12, t8
+    t13 = g*sin_theta2
+    del sin_theta2
+    t14 = theta1_dot*theta1_dot
+    F1 = t11*(l1*(t14*t9) - t13)
+    del t11, t13, t14, t9
+    t15 = l1*l1
+    M00 = t15*(m1 + m2)
+    del t15
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
@@ -98,7 +109,7 @@ def mass_matrix(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns M: (..., 2, 2) M, row-major
-    Total ops: 10
+    Total ops: 15
     """
     (y, p), shape, dtype = _prepare("mass_matrix", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -110,14 +121,27 @@ def mass_matrix(y, p):
     t0 = l1*l1
     M00 = t0*(m1 + m2)
     del t0
-    t1 = theta1 - theta2
-    t2 = numpy.cos(t1)
-    del t1
-    t3 = l1*m2
-    t4 = l2*t3
-    del t3
-    M01 = t4*t2
-    del t2, t4
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t5 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    del cos_theta1, cos_theta2, sin_theta1, sin_theta2
+    t6 = l1*m2
+    t7 = l2*t6
+    del t6
+    M01 = t7*t5
+    del t5, t7
     M11 = l2*l2*m2
     M = numpy.empty(shape + (2, 2), dtype)
     M[..., 0, 0] = M00
@@ -136,7 +160,7 @@ def forcing(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns F: (..., 2) F
-    Total ops: 21
+    Total ops: 24
     """
     (y, p), shape, dtype = _prepare("forcing", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -148,30 +172,41 @@ def forcing(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = numpy.sin(theta1)
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
     t1 = g*m1 + g*m2
-    t2 = t1*t0
-    del t0, t1
-    t3 = theta1 - theta2
-    t4 = numpy.sin(t3)
-    del t3
-    t5 = theta2_dot*theta2_dot
-    t6 = l2*m2
-    t7 = t6*t5
-    del t5
-    t8 = (-l1)*(t2 + t4*t7)
-    del t2, t7
-    t9 = numpy.sin(theta2)
-    t10 = g*t9
-    del t9
-    t11 = theta1_dot*theta1_dot
-    t12 = t6*(l1*(t11*t4) - t10)
-    del t10, t11, t4, t6
+    t2 = t1*sin_theta1
+    del t1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t6 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    del cos_theta1, cos_theta2, sin_theta1
+    t7 = theta2_dot*theta2_dot
+    t8 = l2*m2
+    t9 = t8*t7
+    del t7
+    t10 = (-l1)*(t2 + t6*t9)
+    del t2, t9
+    t11 = g*sin_theta2
+    del sin_theta2
+    t12 = theta1_dot*theta1_dot
+    t13 = t8*(l1*(t12*t6) - t11)
+    del t11, t12, t6, t8
     F = numpy.empty(shape + (2,), dtype)
-    F[..., 0] = t8
-    del t8
-    F[..., 1] = t12
-    del t12
+    F[..., 0] = t10
+    del t10
+    F[..., 1] = t13
+    del t13
     return F
 
 
@@ -181,7 +216,7 @@ def energy(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns E: (...) T + V
-    Total ops: 31
+    Total ops: 34
     """
     (y, p), shape, dtype = _prepare("energy", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -193,30 +228,41 @@ def energy(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = l1*m2
-    t1 = l2*l2*m2
-    t2 = theta2_dot*theta2_dot
-    t3 = theta1_dot*theta1_dot
-    t4 = theta1 - theta2
-    t5 = numpy.cos(t4)
-    del t4
-    t6 = l2*t0
-    t7 = t6*t5
-    del t5, t6
-    t8 = t7*theta2_dot
-    del t7
-    t9 = l1*l1
-    t10 = (1/2)*t9
-    del t9
-    t11 = numpy.cos(theta2)
-    t12 = l2*t11
-    del t11
-    t13 = numpy.cos(theta1)
-    t14 = ((1/2)*t1)*t2 + (m1*t10 + m2*t10)*t3 + t8*theta1_dot - g*(m2*t12 + (l1*m1 + t0)*t13)
-    del t0, t1, t10, t12, t13, t2, t3, t8
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    t1 = l1*m2
+    t2 = l2*l2*m2
+    t3 = theta2_dot*theta2_dot
+    t4 = theta1_dot*theta1_dot
+    t5 = l1*l1
+    t6 = (1/2)*t5
+    del t5
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t10 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    del sin_theta1, sin_theta2
+    t11 = l2*t1
+    t12 = t11*t10
+    del t10, t11
+    t13 = t12*theta2_dot
+    del t12
+    t14 = l2*cos_theta2
+    del cos_theta2
+    t15 = t13*theta1_dot + ((1/2)*t2)*t3 + (m1*t6 + m2*t6)*t4 - g*((l1*m1 + t1)*cos_theta1 + m2*t14)
+    del cos_theta1, t1, t13, t14, t2, t3, t4, t6
     E = numpy.empty(shape + (), dtype)
-    E[...] = t14
-    del t14
+    E[...] = t15
+    del t15
     return E
 
 
@@ -234,19 +280,29 @@ def positions(y, p):
     theta2 = y[..., 1]
     l1 = p[..., 2]
     l2 = p[..., 3]
-    t0 = numpy.sin(theta1)
-    t1 = l1*t0
-    del t0
-    t2 = numpy.cos(theta1)
-    t3 = l1*t2
-    del t2
-    t4 = numpy.sin(theta2)
-    t5 = numpy.cos(theta2)
-    t6 = l2*t5
-    del t5
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    t1 = l1*sin_theta1
+    del sin_theta1
+    t3 = l1*cos_theta1
+    del cos_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t6 = l2*cos_theta2
+    del cos_theta2
     t7 = -t3
-    t8 = l2*t4 + t1
-    del t4
+    t8 = l2*sin_theta2 + t1
+    del sin_theta2
     t9 = -t3 - t6
     del t3, t6
     pos = numpy.empty(shape + (2, 2), dtype)
@@ -268,7 +324,7 @@ def jacobian(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 4, 4) row-major
-    Total ops: 95
+    Total ops: 98
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -280,80 +336,88 @@ def jacobian(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = theta1 - theta2
-    t1 = numpy.cos(t0)
-    t2 = l1*m2
-    t3 = l2*t2
-    del t2
-    M01 = t3*t1
-    t4 = theta1_dot*theta1_dot
-    t5 = numpy.sin(t0)
-    del t0
-    t6 = t3*t5
-    del t3
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t5 = l1*m2
+    t6 = l2*t5
+    del t5
+    M01 = t6*t4
+    t7 = theta1_dot*theta1_dot
+    t8 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t9 = t6*t8
+    del t6
     M11 = l2*l2*m2
-    t7 = numpy.sin(theta1)
-    t8 = g*m1 + g*m2
-    t9 = t8*t7
-    del t7
-    t10 = theta2_dot*theta2_dot
-    t11 = l2*m2
-    t12 = t11*t10
-    F0 = (-l1)*(t12*t5 + t9)
-    del t9
-    t13 = numpy.sin(theta2)
-    t14 = g*t13
-    del t13
-    F1 = t11*(l1*(t4*t5) - t14)
-    del t11, t14, t5
-    t15 = l1*l1
-    M00 = t15*(m1 + m2)
-    del t15
+    t10 = g*m1 + g*m2
+    t11 = t10*sin_theta1
+    del sin_theta1
+    t12 = theta2_dot*theta2_dot
+    t13 = l2*m2
+    t14 = t13*t12
+    F0 = (-l1)*(t11 + t14*t8)
+    del t11
+    t15 = g*sin_theta2
+    del sin_theta2
+    F1 = t13*(l1*(t7*t8) - t15)
+    del t13, t15, t8
+    t16 = l1*l1
+    M00 = t16*(m1 + m2)
+    del t16
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
     qdd0 = rdet*(M11*F0 - F1*M01)
-    t16 = qdd0*t6
+    t17 = qdd0*t9
     del qdd0
-    t17 = M01*t4 + t16
+    t18 = M01*t7 + t17
     qdd1 = rdet*(M00*F1 - F0*M01)
     del F0, F1
-    t18 = qdd1*t6
+    t19 = qdd1*t9
     del qdd1
-    t19 = numpy.cos(theta1)
-    t20 = t8*t19
-    del t19, t8
-    t21 = t18 - l1*(t1*t12 + t20)
-    del t12, t20
-    t22 = (l1*l2*m2)*(t1*t10) - t18
-    del t10, t18
-    t23 = numpy.cos(theta2)
-    t24 = g*t23
-    del t23
-    t25 = (l2*m2)*(-l1*(t1*t4) - t24) - t16
-    del t1, t16, t24, t4
-    t26 = M01*rdet
-    t27 = 2*t6
-    del t6
-    t28 = t27*theta1_dot
-    t29 = M11*rdet
-    t30 = t27*theta2_dot
-    del t27
-    t31 = M00*rdet
-    t32 = rdet*(M11*t21 - M01*t17)
-    t33 = rdet*(M11*t22 - M01*t25)
+    t20 = t10*cos_theta1
+    del cos_theta1, t10
+    t21 = t19 - l1*(t14*t4 + t20)
+    del t14, t20
+    t22 = (l1*l2*m2)*(t12*t4) - t19
+    del t12, t19
+    t23 = g*cos_theta2
+    del cos_theta2
+    t24 = (l2*m2)*(-l1*(t4*t7) - t23) - t17
+    del t17, t23, t4, t7
+    t25 = M01*rdet
+    t26 = 2*t9
+    del t9
+    t27 = t26*theta1_dot
+    t28 = M11*rdet
+    t29 = t26*theta2_dot
+    del t26
+    t30 = M00*rdet
+    t31 = rdet*(M11*t21 - M01*t18)
+    t32 = rdet*(M11*t22 - M01*t24)
     del M11
-    t34 = -t26*t28
-    t35 = -t29*t30
-    del t29
-    t36 = rdet*(M00*t17 - M01*t21)
-    del t17, t21
-    t37 = rdet*(M00*t25 - M01*t22)
-    del M00, M01, rdet, t22, t25
-    t38 = t28*t31
-    del t28, t31
-    t39 = t26*t30
-    del t26, t30
+    t33 = -t25*t27
+    t34 = -t28*t29
+    del t28
+    t35 = rdet*(M00*t18 - M01*t21)
+    del t18, t21
+    t36 = rdet*(M00*t24 - M01*t22)
+    del M00, M01, rdet, t22, t24
+    t37 = t27*t30
+    del t27, t30
+    t38 = t25*t29
+    del t25, t29
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -363,22 +427,22 @@ def jacobian(y, p):
     J[..., 1, 1] = 0
     J[..., 1, 2] = 0
     J[..., 1, 3] = 1
-    J[..., 2, 0] = t32
+    J[..., 2, 0] = t31
+    del t31
+    J[..., 2, 1] = t32
     del t32
-    J[..., 2, 1] = t33
+    J[..., 2, 2] = t33
     del t33
-    J[..., 2, 2] = t34
+    J[..., 2, 3] = t34
     del t34
-    J[..., 2, 3] = t35
+    J[..., 3, 0] = t35
     del t35
-    J[..., 3, 0] = t36
+    J[..., 3, 1] = t36
     del t36
-    J[..., 3, 1] = t37
+    J[..., 3, 2] = t37
     del t37
-    J[..., 3, 2] = t38
+    J[..., 3, 3] = t38
     del t38
-    J[..., 3, 3] = t39
-    del t39
     return J
 
 
@@ -389,7 +453,7 @@ def hamiltonian_rhs(x, p):
     x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns xdot: (..., 4) x' in canonical order
-    Total ops: 42
+    Total ops: 47
     """
     (x, p), shape, dtype = _prepare("hamiltonian_rhs", (x, 4, "x"), (p, 5, "p"))
     theta1 = x[..., 0]
@@ -401,17 +465,30 @@ def hamiltonian_rhs(x, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = theta1 - theta2
-    t1 = numpy.cos(t0)
-    t2 = l1*m2
-    t3 = l2*t2
-    del t2
-    M01 = t3*t1
-    del t1, t3
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t5 = l1*m2
+    t6 = l2*t5
+    del t5
+    M01 = t6*t4
+    del t4, t6
     M11 = l2*l2*m2
-    t4 = l1*l1
-    M00 = t4*(m1 + m2)
-    del t4
+    t7 = l1*l1
+    M00 = t7*(m1 + m2)
+    del t7
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
@@ -419,32 +496,30 @@ def hamiltonian_rhs(x, p):
     del M11
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
     del M00, M01, rdet
-    t5 = numpy.sin(theta1)
-    t6 = g*m1 + g*m2
-    t7 = t6*t5
-    del t5, t6
-    t8 = numpy.sin(t0)
-    del t0
-    t9 = l2*m2
-    t10 = v0*v1
-    t11 = t9*t10
-    del t10
-    t12 = numpy.sin(theta2)
-    t13 = g*t12
+    t8 = g*m1 + g*m2
+    t9 = t8*sin_theta1
+    del t8
+    t10 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    del cos_theta1, cos_theta2, sin_theta1
+    t11 = l2*m2
+    t12 = v0*v1
+    t13 = t11*t12
     del t12
-    t14 = (-l1)*(t11*t8 + t7)
-    del t11, t7
-    t15 = t9*(l1*(t8*v0*v1) - t13)
-    del t13, t8, t9
+    t14 = g*sin_theta2
+    del sin_theta2
+    t15 = (-l1)*(t10*t13 + t9)
+    del t13, t9
+    t16 = t11*(l1*(t10*v0*v1) - t14)
+    del t10, t11, t14
     xdot = numpy.empty(shape + (4,), dtype)
     xdot[..., 0] = v0
     del v0
     xdot[..., 1] = v1
     del v1
-    xdot[..., 2] = t14
-    del t14
-    xdot[..., 3] = t15
+    xdot[..., 2] = t15
     del t15
+    xdot[..., 3] = t16
+    del t16
     return xdot
 
 
@@ -455,7 +530,7 @@ def hamiltonian_jacobian(x, p):
     x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 4, 4) row-major
-    Total ops: 89
+    Total ops: 94
     """
     (x, p), shape, dtype = _prepare("hamiltonian_jacobian", (x, 4, "x"), (p, 5, "p"))
     theta1 = x[..., 0]
@@ -467,70 +542,81 @@ def hamiltonian_jacobian(x, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = theta1 - theta2
-    t1 = numpy.sin(t0)
-    t2 = l1*m2
-    t3 = l2*t2
-    del t2
-    t4 = t3*t1
-    t5 = numpy.cos(t0)
-    del t0
-    M01 = t3*t5
-    del t3
-    M11 = l2*l2*m2
-    t6 = l1*l1
-    M00 = t6*(m1 + m2)
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t4 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t5 = l1*m2
+    t6 = l2*t5
+    del t5
+    t7 = t6*t4
+    t8 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    del sin_theta1, sin_theta2
+    M01 = t6*t8
     del t6
+    M11 = l2*l2*m2
+    t9 = l1*l1
+    M00 = t9*(m1 + m2)
+    del t9
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
     v0 = rdet*(M11*p_theta1 - M01*p_theta2)
-    t7 = t4*v0
+    t10 = t7*v0
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
-    t8 = M01*t7 - (M11*l1*l2*m2)*(t1*v1)
-    del t1
-    dv0_0 = -rdet*t8
-    dv0_1 = rdet*t8
-    del t8
+    t11 = M01*t10 - (M11*l1*l2*m2)*(t4*v1)
+    del t4
+    dv0_0 = -rdet*t11
+    dv0_1 = rdet*t11
+    del t11
     dv0_2 = M11*rdet
     del M11
-    t9 = M01*rdet
-    dv0_3 = -t9
-    del t9
-    t10 = t4*v1
-    del t4
-    t11 = M00*t7 - M01*t10
-    dv1_0 = rdet*t11
-    dv1_1 = -rdet*t11
-    del t11
+    t12 = M01*rdet
+    dv0_3 = -t12
+    del t12
+    t13 = t7*v1
+    del t7
+    t14 = M00*t10 - M01*t13
+    dv1_0 = rdet*t14
+    dv1_1 = -rdet*t14
+    del t14
     dv1_2 = dv0_3
     dv1_3 = M00*rdet
     del M00, rdet
-    t12 = g*m1 + g*m2
-    t13 = numpy.cos(theta1)
-    t14 = t12*t13
-    del t12, t13
-    t15 = l2*m2
-    t16 = v0*v1
-    t17 = t15*t16
-    t18 = dv0_0*t10 + dv1_0*t7
-    t19 = dv0_1*t10 + dv1_1*t7
-    t20 = dv0_2*t10 + dv1_2*t7
-    t21 = dv0_3*t10 + dv1_3*t7
-    del t10, t7
-    t22 = numpy.cos(theta2)
-    t23 = g*t22
-    del t22
-    t24 = -l1*(t14 + t17*t5) - t18
-    del t14, t17
-    t25 = (l1*l2*m2)*(t5*v0*v1) - t19
+    t15 = g*m1 + g*m2
+    t16 = t15*cos_theta1
+    del cos_theta1, t15
+    t17 = l2*m2
+    t18 = v0*v1
+    t19 = t17*t18
+    t20 = dv0_0*t13 + dv1_0*t10
+    t21 = dv0_1*t13 + dv1_1*t10
+    t22 = dv0_2*t13 + dv1_2*t10
+    t23 = dv0_3*t13 + dv1_3*t10
+    del t10, t13
+    t24 = g*cos_theta2
+    del cos_theta2
+    t25 = -l1*(t16 + t19*t8) - t20
+    del t16, t19
+    t26 = (l1*l2*m2)*(t8*v0*v1) - t21
     del v0, v1
-    t26 = -t20
-    t27 = -t21
-    t28 = M01*t16 + t18
-    del M01, t18
-    t29 = t15*(-l1*(t16*t5) - t23) + t19
-    del t15, t16, t19, t23, t5
+    t27 = -t22
+    t28 = -t23
+    t29 = M01*t18 + t20
+    del M01, t20
+    t30 = t17*(-l1*(t18*t8) - t24) + t21
+    del t17, t18, t21, t24, t8
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = dv0_0
     del dv0_0
@@ -548,22 +634,22 @@ def hamiltonian_jacobian(x, p):
     del dv1_2
     J[..., 1, 3] = dv1_3
     del dv1_3
-    J[..., 2, 0] = t24
-    del t24
-    J[..., 2, 1] = t25
+    J[..., 2, 0] = t25
     del t25
-    J[..., 2, 2] = t26
+    J[..., 2, 1] = t26
     del t26
-    J[..., 2, 3] = t27
+    J[..., 2, 2] = t27
     del t27
-    J[..., 3, 0] = t28
+    J[..., 2, 3] = t28
     del t28
-    J[..., 3, 1] = t29
+    J[..., 3, 0] = t29
     del t29
-    J[..., 3, 2] = t20
-    del t20
-    J[..., 3, 3] = t21
-    del t21
+    J[..., 3, 1] = t30
+    del t30
+    J[..., 3, 2] = t22
+    del t22
+    J[..., 3, 3] = t23
+    del t23
     return J
 
 
@@ -573,7 +659,7 @@ def to_canonical(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns x: (..., 4) x in canonical order
-    Total ops: 16
+    Total ops: 21
     """
     (y, p), shape, dtype = _prepare("to_canonical", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -587,27 +673,40 @@ def to_canonical(y, p):
     t0 = l1*l1
     t1 = t0*(m1 + m2)
     del t0
-    t2 = theta1 - theta2
-    t3 = numpy.cos(t2)
-    del t2
-    t4 = l1*m2
-    t5 = l2*t4
-    del t4
-    t6 = t5*t3
-    del t3, t5
-    t7 = t6*theta2_dot
-    t8 = l2*l2*m2
-    t9 = t1*theta1_dot + t7
-    del t1, t7
-    t10 = t6*theta1_dot + t8*theta2_dot
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t6 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    del cos_theta1, cos_theta2, sin_theta1, sin_theta2
+    t7 = l1*m2
+    t8 = l2*t7
+    del t7
+    t9 = t8*t6
     del t6, t8
+    t10 = t9*theta2_dot
+    t11 = l2*l2*m2
+    t12 = t1*theta1_dot + t10
+    del t1, t10
+    t13 = t11*theta2_dot + t9*theta1_dot
+    del t11, t9
     x = numpy.empty(shape + (4,), dtype)
     x[..., 0] = theta1
     x[..., 1] = theta2
-    x[..., 2] = t9
-    del t9
-    x[..., 3] = t10
-    del t10
+    x[..., 2] = t12
+    del t12
+    x[..., 3] = t13
+    del t13
     return x
 
 
@@ -617,7 +716,7 @@ def from_canonical(x, p):
     x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns y: (..., 4) y in state order
-    Total ops: 22
+    Total ops: 27
     """
     (x, p), shape, dtype = _prepare("from_canonical", (x, 4, "x"), (p, 5, "p"))
     theta1 = x[..., 0]
@@ -628,18 +727,31 @@ def from_canonical(x, p):
     m2 = p[..., 1]
     l1 = p[..., 2]
     l2 = p[..., 3]
-    t0 = theta1 - theta2
-    t1 = numpy.cos(t0)
-    del t0
-    t2 = l1*m2
-    t3 = l2*t2
-    del t2
-    M01 = t3*t1
-    del t1, t3
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    del cos_theta1, cos_theta2, sin_theta1, sin_theta2
+    t5 = l1*m2
+    t6 = l2*t5
+    del t5
+    M01 = t6*t4
+    del t4, t6
     M11 = l2*l2*m2
-    t4 = l1*l1
-    M00 = t4*(m1 + m2)
-    del t4
+    t7 = l1*l1
+    M00 = t7*(m1 + m2)
+    del t7
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det

@@ -36,7 +36,7 @@ def rhs(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns ydot: (..., 8) y' in state order
-    Total ops: 196
+    Total ops: 200
     """
     (y, p), shape, dtype = _prepare("rhs", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -52,137 +52,155 @@ def rhs(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = numpy.sin(vartheta1)
-    t1 = numpy.sin(vartheta2)
+    tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
+    tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
+    rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
+    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    del tan_half_vartheta1
+    cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
+    del rho_vartheta1, tan_half_sq_vartheta1
+    tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
+    tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
+    rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
+    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    del tan_half_vartheta2
+    cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
+    del rho_vartheta2, tan_half_sq_vartheta2
     Ab = l2*l2
-    t2 = varphi1 - varphi2
-    t3 = numpy.sin(t2)
-    t4 = numpy.cos(vartheta2)
-    t5 = l2*t4
-    t6 = l1*t5
-    t7 = t3*t6
-    Q10 = -t7
-    del t7
-    t8 = numpy.cos(t2)
-    del t2
-    t9 = l1*l2
-    Q11 = t9*t8
-    t10 = numpy.cos(vartheta1)
-    t11 = l1*t10
-    t12 = l2*t3
-    Q01 = t11*t12
-    del t12
-    t13 = Q01*Q01
-    t14 = 1.0/m2
-    t15 = l1*l1
-    t16 = m1 + m2
-    t17 = t15*t16
-    Aa = t14*t17
-    del t17
+    tan_half_varphi1 = numpy.tan(0.5*varphi1)
+    tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
+    rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
+    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    del tan_half_varphi1
+    cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
+    del rho_varphi1, tan_half_sq_varphi1
+    tan_half_varphi2 = numpy.tan(0.5*varphi2)
+    tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
+    rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
+    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    del tan_half_varphi2
+    cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
+    del rho_varphi2, tan_half_sq_varphi2
+    t6 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    t8 = l2*cos_vartheta2
+    t9 = l1*t8
+    t10 = t6*t9
+    Q10 = -t10
+    del t10
+    t11 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
+    t12 = l1*l2
+    Q11 = t12*t11
+    t14 = l1*cos_vartheta1
+    t15 = l2*t6
+    Q01 = t14*t15
+    del t15
+    t16 = Q01*Q01
+    t17 = 1.0/m2
+    t18 = l1*l1
+    t19 = m1 + m2
+    t20 = t18*t19
+    Aa = t17*t20
+    del t20
     AaAb = Aa*Ab
-    t18 = -AaAb
+    t21 = -AaAb
     del AaAb
-    t19 = t0*t1
-    t20 = t10*t4
-    t21 = t19 + t20*t8
-    del t19, t20
-    Q00 = t9*t21
-    del t21
-    t22 = t18 + Q00*Q00
-    D1_00 = -t13 - t22
+    t22 = sin_vartheta1*sin_vartheta2
+    t23 = cos_vartheta1*cos_vartheta2
+    t24 = t11*t23 + t22
+    del t22, t23
+    Q00 = t12*t24
+    del t24
+    t25 = t21 + Q00*Q00
+    D1_00 = -t16 - t25
     D1_01 = -Q00*Q10 - Q01*Q11
-    t23 = Q10*Q10
-    t24 = t18 + Q11*Q11
-    del t18
-    D1_11 = -t23 - t24
+    t26 = Q10*Q10
+    t27 = t21 + Q11*Q11
+    del t21
+    D1_11 = -t26 - t27
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t25 = 2*varphi2_dot
-    t26 = t25*vartheta2_dot
-    t27 = numpy.cos(varphi1)
-    t28 = g*t14*t16
-    t29 = l1*t28
-    t30 = t9*t3
-    t31 = varphi2_dot*varphi2_dot
-    t32 = t1*t31
-    t33 = vartheta2_dot*vartheta2_dot
-    t34 = t9*t33
-    del t33
-    t35 = t3*t34
-    t36 = t6*t8
-    del t6
-    t37 = t10*vartheta1_dot
-    t38 = t37*varphi1_dot
-    del t37
-    t39 = 2*Aa
-    f1 = -t1*t35 - t26*t36 - t29*t27 - t30*t32 - t39*t38
-    del t27, t29, t30, t32, t35, t36, t38, t39
-    t40 = numpy.sin(varphi2)
-    t41 = t1*t4
-    t42 = varphi1_dot*varphi1_dot
-    t43 = t0*t4
-    t44 = t42*t43
-    t45 = 2*vartheta1_dot
-    t46 = t45*varphi1_dot
-    del t45
-    t47 = t11*t3
-    t48 = t47*t5
-    t49 = vartheta1_dot*vartheta1_dot
-    t50 = t43*t8
-    t51 = t9*(t1*t10 - t50)
-    del t50, t9
-    f2 = Ab*(t31*t41) + Q11*t44 + t46*t48 - g*(t40*t5) - t49*t51
-    del t40, t41, t44, t48, t51
-    t52 = numpy.cos(varphi2)
-    t53 = g*t52
-    del t52
-    t54 = t4*vartheta2_dot
-    del t4
-    t55 = Ab*t25
-    del t25
-    t56 = t11*t8
+    t28 = 2*varphi2_dot
+    t29 = t28*vartheta2_dot
+    t30 = g*t17*t19
+    t31 = l1*t30
+    t32 = cos_vartheta1*vartheta1_dot
+    t33 = t32*varphi1_dot
+    del t32
+    t34 = 2*Aa
+    t35 = t11*t9
+    del t9
+    t36 = t12*t6
+    t37 = varphi2_dot*varphi2_dot
+    t38 = sin_vartheta2*t37
+    t39 = vartheta2_dot*vartheta2_dot
+    t40 = t12*t39
+    del t39
+    t41 = t40*t6
+    f1 = -t31*cos_varphi1 - sin_vartheta2*t41 - t29*t35 - t34*t33 - t36*t38
+    del cos_varphi1, t31, t33, t34, t35, t36, t38, t41
+    t42 = cos_vartheta2*sin_vartheta2
+    t43 = varphi1_dot*varphi1_dot
+    t44 = cos_vartheta2*sin_vartheta1
+    t45 = t43*t44
+    t46 = 2*vartheta1_dot
+    t47 = t46*varphi1_dot
+    del t46
+    t48 = t14*t6
+    t49 = t48*t8
+    t50 = vartheta1_dot*vartheta1_dot
+    t51 = t11*t44
+    del t44
+    t52 = t12*(cos_vartheta1*sin_vartheta2 - t51)
+    del t12, t51
+    f2 = Ab*(t37*t42) + Q11*t45 + t47*t49 - g*(sin_varphi2*t8) - t50*t52
+    del sin_varphi2, t42, t45, t49, t52
+    t53 = g*cos_varphi2
+    del cos_varphi2
+    t54 = cos_vartheta2*vartheta2_dot
+    t55 = Ab*t28
+    del t28
+    t56 = t11*t14
     t57 = l2*t56
     del t56
-    f3 = (l1*l2)*(t0*t3*t42) + (l1*l2)*(t0*t3*t49) - l2*t53 - t46*t57 - t54*t55
-    del t3, t46, t49, t53, t54, t55, t57
+    f3 = (l1*l2)*(sin_vartheta1*t43*t6) + (l1*l2)*(sin_vartheta1*t50*t6) - l2*t53 - t47*t57 - t54*t55
+    del t47, t50, t53, t54, t55, t57, t6
     t58 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t59 = numpy.sin(varphi1)
-    t60 = t28*t11
-    del t11, t28
-    t61 = t26*t5
-    del t26, t5
-    t62 = t1*t10
-    t63 = t62*t8
-    del t62
-    t64 = t43 - t63
-    del t43, t63
-    f0 = (l1*l2)*(t1*t10*t31*t8) + (t14*t15*t16)*(t0*t10*t42) - t34*t64 - t47*t61 - t59*t60
-    del t10, t14, t15, t16, t31, t34, t42, t47, t59, t60, t61, t64, t8
-    t65 = Ab*f0 - Q00*f2 - Q01*f3
+    t59 = t30*t14
+    del t14, t30
+    t60 = t29*t8
+    del t29, t8
+    t61 = cos_vartheta1*sin_vartheta2
+    t62 = t11*t61
+    del t61
+    t63 = cos_vartheta2*sin_vartheta1 - t62
+    del cos_vartheta2, t62
+    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t11*t37) + (t17*t18*t19)*(cos_vartheta1*sin_vartheta1*t43) - sin_varphi1*t59 - t40*t63 - t48*t60
+    del cos_vartheta1, sin_varphi1, t11, t17, t18, t19, t37, t40, t43, t48, t59, t60, t63
+    t64 = Ab*f0 - Q00*f2 - Q01*f3
     del Ab
-    qdd0 = D1_11*rD1*t65 - D1_01*t58
+    qdd0 = D1_11*rD1*t64 - D1_01*t58
     del D1_11
-    xr1 = D1_00*t58 - D1_01*rD1*t65
-    del D1_00, D1_01, rD1, t58, t65
-    rs1 = 1.0/t0
-    del t0
+    xr1 = D1_00*t58 - D1_01*rD1*t64
+    del D1_00, D1_01, rD1, t58, t64
+    rs1 = 1.0/sin_vartheta1
+    del sin_vartheta1
     qdd1 = rs1*xr1
     del rs1, xr1
-    D2_00 = -t22 - t23
-    del t22, t23
+    D2_00 = -t25 - t26
+    del t25, t26
     D2_01 = -Q00*Q01 - Q10*Q11
-    D2_11 = -t13 - t24
-    del t13, t24
+    D2_11 = -t16 - t27
+    del t16, t27
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t66 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t65 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
     del Q01, Q11, f3
-    t67 = Aa*f2 - Q00*f0 - Q10*f1
+    t66 = Aa*f2 - Q00*f0 - Q10*f1
     del Aa, Q00, Q10, f0, f1, f2
-    qdd2 = D2_11*rD2*t67 - D2_01*t66
+    qdd2 = D2_11*rD2*t66 - D2_01*t65
     del D2_11
-    xr3 = D2_00*t66 - D2_01*rD2*t67
-    del D2_00, D2_01, rD2, t66, t67
-    rs3 = 1.0/t1
-    del t1
+    xr3 = D2_00*t65 - D2_01*rD2*t66
+    del D2_00, D2_01, rD2, t65, t66
+    rs3 = 1.0/sin_vartheta2
+    del sin_vartheta2
     qdd3 = rs3*xr3
     del rs3, xr3
     ydot = numpy.empty(shape + (8,), dtype)
@@ -207,7 +225,7 @@ def mass_matrix(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns M: (..., 4, 4) M, row-major
-    Total ops: 32
+    Total ops: 39
     """
     (y, p), shape, dtype = _prepare("mass_matrix", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -218,54 +236,77 @@ def mass_matrix(y, p):
     m2 = p[..., 1]
     l1 = p[..., 2]
     l2 = p[..., 3]
-    t0 = numpy.sin(vartheta1)
-    t1 = numpy.sin(vartheta2)
+    tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
+    tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
+    rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
+    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    del tan_half_vartheta1
+    cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
+    del rho_vartheta1, tan_half_sq_vartheta1
+    tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
+    tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
+    rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
+    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    del tan_half_vartheta2
+    cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
+    del rho_vartheta2, tan_half_sq_vartheta2
     t2 = l1*l1
     t3 = m1 + m2
     M00 = t2*t3
     del t2, t3
-    t4 = t0*t1
-    t5 = varphi1 - varphi2
-    t6 = numpy.cos(t5)
-    t7 = numpy.cos(vartheta1)
-    t8 = numpy.cos(vartheta2)
-    t9 = t7*t8
-    t10 = t4 + t6*t9
-    del t9
-    t11 = l1*m2
-    t12 = l2*t11
-    M02 = t12*t10
-    del t10
-    t13 = t1*t7
-    del t7
-    t14 = numpy.sin(t5)
-    del t5
+    t4 = sin_vartheta1*sin_vartheta2
+    tan_half_varphi1 = numpy.tan(0.5*varphi1)
+    tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
+    rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
+    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    del tan_half_varphi1
+    cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
+    del rho_varphi1, tan_half_sq_varphi1
+    tan_half_varphi2 = numpy.tan(0.5*varphi2)
+    tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
+    rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
+    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    del tan_half_varphi2
+    cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
+    del rho_varphi2, tan_half_sq_varphi2
+    t9 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
+    t12 = cos_vartheta1*cos_vartheta2
+    t13 = t12*t9 + t4
+    del t12
+    t14 = l1*m2
     t15 = l2*t14
-    del t14
-    t16 = t11*t15
-    del t11, t15
-    M03 = t13*t16
+    M02 = t15*t13
     del t13
-    t17 = t0*t0
-    M11 = M00*t17
+    t16 = cos_vartheta1*sin_vartheta2
+    del cos_vartheta1
+    t17 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    del cos_varphi1, cos_varphi2, sin_varphi1, sin_varphi2
+    t18 = l2*t17
     del t17
-    t18 = t0*t8
-    del t0, t8
-    t19 = t16*t18
-    del t16, t18
-    M12 = -t19
-    del t19
-    t20 = t4*t6
-    del t4, t6
-    M13 = t12*t20
-    del t12, t20
-    t21 = l2*l2
-    M22 = m2*t21
-    del t21
-    t22 = t1*t1
-    del t1
-    M33 = M22*t22
+    t19 = t14*t18
+    del t14, t18
+    M03 = t16*t19
+    del t16
+    t20 = sin_vartheta1*sin_vartheta1
+    M11 = M00*t20
+    del t20
+    t21 = cos_vartheta2*sin_vartheta1
+    del cos_vartheta2, sin_vartheta1
+    t22 = t19*t21
+    del t19, t21
+    M12 = -t22
     del t22
+    t23 = t4*t9
+    del t4, t9
+    M13 = t15*t23
+    del t15, t23
+    t24 = l2*l2
+    M22 = m2*t24
+    del t24
+    t25 = sin_vartheta2*sin_vartheta2
+    del sin_vartheta2
+    M33 = M22*t25
+    del t25
     M = numpy.empty(shape + (4, 4), dtype)
     M[..., 0, 0] = M00
     del M00
@@ -300,7 +341,7 @@ def forcing(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns F: (..., 4) F
-    Total ops: 115
+    Total ops: 118
     """
     (y, p), shape, dtype = _prepare("forcing", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -316,89 +357,107 @@ def forcing(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = numpy.cos(vartheta1)
+    tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
+    tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
+    rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
+    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    del tan_half_vartheta1
+    cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
+    del rho_vartheta1, tan_half_sq_vartheta1
     t1 = varphi2_dot*varphi2_dot
-    t2 = numpy.sin(vartheta1)
-    t3 = numpy.cos(vartheta2)
-    t4 = t2*t3
-    t5 = varphi1 - varphi2
-    t6 = numpy.cos(t5)
-    t7 = numpy.sin(vartheta2)
-    t8 = t0*t7
+    tan_half_varphi1 = numpy.tan(0.5*varphi1)
+    tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
+    rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
+    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    del tan_half_varphi1
+    cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
+    del rho_varphi1, tan_half_sq_varphi1
+    tan_half_varphi2 = numpy.tan(0.5*varphi2)
+    tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
+    rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
+    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    del tan_half_varphi2
+    cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
+    del rho_varphi2, tan_half_sq_varphi2
+    t6 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
+    tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
+    tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
+    rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
+    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    del tan_half_vartheta2
+    cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
+    del rho_vartheta2, tan_half_sq_vartheta2
+    t8 = cos_vartheta1*sin_vartheta2
     t9 = t6*t8
-    t10 = l1*m2
-    t11 = l2*t10
-    t12 = vartheta2_dot*vartheta2_dot
-    t13 = t11*t12
-    t14 = g*m1
-    t15 = g*m2
-    t16 = numpy.sin(varphi1)
-    t17 = t0*t16
-    del t16
-    t18 = l2*t3
-    t19 = t18*vartheta2_dot
-    t20 = numpy.sin(t5)
-    del t5
-    t21 = 2*t10
-    del t10
-    t22 = t21*t20
-    t23 = l1*l1
-    t24 = m1*t23
-    t25 = m2*t23
-    del t23
-    t26 = varphi1_dot*varphi1_dot
-    t27 = t2*t26
-    t28 = 2*varphi2_dot
-    t29 = t28*vartheta2_dot
-    del t28
-    t30 = t18*t29
-    del t29
-    t31 = numpy.cos(varphi1)
-    t32 = t0*vartheta1_dot
-    t33 = t32*varphi1_dot
-    del t32
-    t34 = l1*m1
-    t35 = l2*t20
-    t36 = m2*t7
-    t37 = t35*t36
-    del t35
-    t38 = numpy.sin(varphi2)
-    t39 = t3*t7
-    del t3, t7
-    t40 = t4*t6
+    t12 = cos_vartheta2*sin_vartheta1
+    t13 = l1*m2
+    t14 = l2*t13
+    t15 = vartheta2_dot*vartheta2_dot
+    t16 = t14*t15
+    t17 = g*m1
+    t18 = g*m2
+    t19 = cos_vartheta1*sin_varphi1
+    t20 = l1*l1
+    t21 = m1*t20
+    t22 = m2*t20
+    del t20
+    t23 = varphi1_dot*varphi1_dot
+    t24 = sin_vartheta1*t23
+    t25 = l2*cos_vartheta2
+    t26 = t25*vartheta2_dot
+    t27 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    del sin_varphi1
+    t28 = 2*t13
+    del t13
+    t29 = t28*t27
+    t30 = 2*varphi2_dot
+    t31 = t30*vartheta2_dot
+    del t30
+    t32 = t25*t31
+    del t31
+    t33 = cos_vartheta1*vartheta1_dot
+    t34 = t33*varphi1_dot
+    del t33
+    t35 = l1*m1
+    t36 = l2*t27
+    t37 = m2*sin_vartheta2
+    t38 = t36*t37
+    del t36
+    t39 = cos_vartheta2*sin_vartheta2
+    del cos_vartheta2, sin_vartheta2
+    t40 = t12*t6
     t41 = l2*l2
     t42 = m2*t41
     del t41
     t43 = vartheta1_dot*vartheta1_dot
-    t44 = t11*t43
-    t45 = numpy.cos(varphi2)
-    t46 = g*t45
-    del t45
-    t47 = 2*vartheta1_dot
-    t48 = t47*varphi1_dot
-    del t47
-    t49 = l1*t0
-    t50 = t49*t6
-    del t49
-    t51 = t48*t50
-    del t48, t50
-    t52 = (t24 + t25)*(t0*t27) + t11*(t1*t9) + t13*t9 + (-l1*t14 - l1*t15)*t17 - t0*t19*t22*varphi2_dot - t13*t4
-    del t0, t13, t17, t19, t24, t25, t27, t4, t9
-    t53 = (-l1)*t2*(m2*(t30*t6) + t1*t37 + t12*t37 + (t14 + t15)*t31 + (t21 + 2*t34)*t33)
-    del t12, t14, t21, t31, t34, t37, t6
-    t54 = t42*(t1*t39) + t11*(t26*t40) + t18*t22*t33 + t40*t44 - t15*(t18*t38) - t44*t8
-    del t1, t11, t15, t18, t22, t33, t38, t39, t40, t42, t44, t8
-    t55 = l2*(t36*(l1*(t2*t20*t26) + l1*(t2*t20*t43) - t30 - t46 - t51))
-    del t2, t20, t26, t30, t36, t43, t46, t51
+    t44 = t14*t43
+    t45 = g*cos_varphi2
+    del cos_varphi2
+    t46 = 2*vartheta1_dot
+    t47 = t46*varphi1_dot
+    del t46
+    t48 = l1*cos_vartheta1
+    t49 = t48*t6
+    del t48
+    t50 = t47*t49
+    del t47, t49
+    t51 = (t21 + t22)*(cos_vartheta1*t24) + t14*(t1*t9) + t16*t9 + (-l1*t17 - l1*t18)*t19 - cos_vartheta1*t26*t29*varphi2_dot - t12*t16
+    del cos_vartheta1, t12, t16, t19, t21, t22, t24, t26, t9
+    t52 = (-l1)*sin_vartheta1*((t17 + t18)*cos_varphi1 + m2*(t32*t6) + t1*t38 + t15*t38 + (t28 + 2*t35)*t34)
+    del cos_varphi1, t15, t17, t28, t35, t38, t6
+    t53 = t42*(t1*t39) + t14*(t23*t40) + t25*t29*t34 + t40*t44 - t18*(sin_varphi2*t25) - t44*t8
+    del sin_varphi2, t1, t14, t18, t25, t29, t34, t39, t40, t42, t44, t8
+    t54 = l2*(t37*(l1*(sin_vartheta1*t23*t27) + l1*(sin_vartheta1*t27*t43) - t32 - t45 - t50))
+    del sin_vartheta1, t23, t27, t32, t37, t43, t45, t50
     F = numpy.empty(shape + (4,), dtype)
-    F[..., 0] = t52
+    F[..., 0] = t51
+    del t51
+    F[..., 1] = t52
     del t52
-    F[..., 1] = t53
+    F[..., 2] = t53
     del t53
-    F[..., 2] = t54
+    F[..., 3] = t54
     del t54
-    F[..., 3] = t55
-    del t55
     return F
 
 
@@ -408,7 +467,7 @@ def energy(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns E: (...) T + V
-    Total ops: 75
+    Total ops: 80
     """
     (y, p), shape, dtype = _prepare("energy", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -424,67 +483,88 @@ def energy(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = numpy.sin(vartheta1)
-    t1 = numpy.sin(vartheta2)
-    t2 = t0*t1
-    t3 = varphi1 - varphi2
-    t4 = numpy.cos(t3)
-    t5 = varphi2_dot*varphi2_dot
-    t6 = varphi1_dot*varphi1_dot
-    t7 = vartheta2_dot*vartheta2_dot
-    t8 = numpy.cos(vartheta1)
-    t9 = t8*vartheta1_dot
-    t10 = vartheta1_dot*vartheta1_dot
-    t11 = l1*m2
-    t12 = l2*t11
-    t13 = t1*t8
-    del t8
-    t14 = numpy.sin(t3)
-    del t3
+    tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
+    tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
+    rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
+    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    del tan_half_vartheta1
+    cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
+    del rho_vartheta1, tan_half_sq_vartheta1
+    tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
+    tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
+    rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
+    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    del tan_half_vartheta2
+    cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
+    del rho_vartheta2, tan_half_sq_vartheta2
+    t2 = sin_vartheta1*sin_vartheta2
+    tan_half_varphi1 = numpy.tan(0.5*varphi1)
+    tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
+    rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
+    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    del tan_half_varphi1
+    cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
+    del rho_varphi1, tan_half_sq_varphi1
+    tan_half_varphi2 = numpy.tan(0.5*varphi2)
+    tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
+    rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
+    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    del tan_half_varphi2
+    cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
+    del rho_varphi2, tan_half_sq_varphi2
+    t7 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
+    t8 = varphi1_dot*varphi1_dot
+    t9 = varphi2_dot*varphi2_dot
+    t10 = vartheta2_dot*vartheta2_dot
+    t12 = cos_vartheta1*vartheta1_dot
+    t13 = vartheta1_dot*vartheta1_dot
+    t14 = l1*m2
     t15 = l2*t14
-    del t14
-    t16 = t11*t15
-    del t15
-    t17 = t13*t16
-    del t13
-    t18 = t0*t0
-    t19 = numpy.cos(vartheta2)
-    t20 = t0*t19
-    t21 = t16*t20
-    del t16, t20
-    t22 = t2*t4
-    t23 = t12*t22
-    del t22
-    t24 = l2*l2
-    t25 = m2*t24
-    del t24
-    t26 = t1*t1
-    t27 = t25*t26
-    del t26
-    t28 = numpy.sin(varphi1)
-    t29 = t0*t28
-    del t0, t28
-    t30 = l2*t19
-    del t19
-    t31 = t30*vartheta2_dot
-    del t30
-    t32 = l1*m1
-    t33 = l1*l1
-    t34 = m1*t33
-    t35 = m2*t33
-    del t33
-    t36 = (1/2)*t34 + (1/2)*t35
-    del t34, t35
-    t37 = numpy.sin(varphi2)
-    t38 = t1*t37
-    del t1, t37
-    t39 = l2*t38
-    del t38
-    t40 = g*(m2*t39 + (t11 + t32)*t29) + t36*t10 + t11*(t31*t4*t9) + t12*(t2*vartheta1_dot*vartheta2_dot) + t17*varphi2_dot*vartheta1_dot + t36*(t18*t6) + t23*varphi1_dot*varphi2_dot + ((1/2)*t25)*t7 + 1/2*(t27*t5) - t21*varphi1_dot*vartheta2_dot
-    del t10, t11, t12, t17, t18, t2, t21, t23, t25, t27, t29, t31, t32, t36, t39, t4, t5, t6, t7, t9
+    t16 = cos_vartheta1*sin_vartheta2
+    del cos_vartheta1
+    t17 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    del cos_varphi1, cos_varphi2
+    t18 = l2*t17
+    del t17
+    t19 = t14*t18
+    del t18
+    t20 = t16*t19
+    del t16
+    t21 = sin_vartheta1*sin_vartheta1
+    t23 = cos_vartheta2*sin_vartheta1
+    t24 = t19*t23
+    del t19, t23
+    t25 = t2*t7
+    t26 = t15*t25
+    del t25
+    t27 = l2*l2
+    t28 = m2*t27
+    del t27
+    t29 = sin_vartheta2*sin_vartheta2
+    t30 = t28*t29
+    del t29
+    t31 = sin_varphi1*sin_vartheta1
+    del sin_varphi1, sin_vartheta1
+    t32 = l2*cos_vartheta2
+    del cos_vartheta2
+    t33 = t32*vartheta2_dot
+    del t32
+    t34 = l1*m1
+    t35 = l1*l1
+    t36 = m1*t35
+    t37 = m2*t35
+    del t35
+    t38 = (1/2)*t36 + (1/2)*t37
+    del t36, t37
+    t39 = sin_varphi2*sin_vartheta2
+    del sin_varphi2, sin_vartheta2
+    t40 = l2*t39
+    del t39
+    t41 = g*(m2*t40 + (t14 + t34)*t31) + ((1/2)*t28)*t10 + t14*(t12*t33*t7) + t38*t13 + t15*(t2*vartheta1_dot*vartheta2_dot) + t20*varphi2_dot*vartheta1_dot + t38*(t21*t8) + t26*varphi1_dot*varphi2_dot + 1/2*(t30*t9) - t24*varphi1_dot*vartheta2_dot
+    del t10, t12, t13, t14, t15, t2, t20, t21, t24, t26, t28, t30, t31, t33, t34, t38, t40, t7, t8, t9
     E = numpy.empty(shape + (), dtype)
-    E[...] = t40
-    del t40
+    E[...] = t41
+    del t41
     return E
 
 
@@ -504,30 +584,50 @@ def positions(y, p):
     varphi2 = y[..., 3]
     l1 = p[..., 2]
     l2 = p[..., 3]
-    t0 = numpy.cos(vartheta1)
-    t1 = l1*t0
-    del t0
-    t2 = numpy.sin(vartheta1)
-    t3 = numpy.cos(varphi1)
-    t4 = t2*t3
-    del t3
+    tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
+    tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
+    rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
+    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    del tan_half_vartheta1
+    cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
+    del rho_vartheta1, tan_half_sq_vartheta1
+    t1 = l1*cos_vartheta1
+    del cos_vartheta1
+    tan_half_varphi1 = numpy.tan(0.5*varphi1)
+    tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
+    rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
+    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    del tan_half_varphi1
+    cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
+    del rho_varphi1, tan_half_sq_varphi1
+    t4 = cos_varphi1*sin_vartheta1
+    del cos_varphi1
     t5 = l1*t4
     del t4
-    t6 = numpy.sin(varphi1)
-    t7 = t2*t6
-    del t2, t6
+    t7 = sin_varphi1*sin_vartheta1
+    del sin_varphi1, sin_vartheta1
     t8 = l1*t7
     del t7
-    t9 = numpy.cos(vartheta2)
-    t10 = l2*t9
-    del t9
-    t11 = numpy.sin(vartheta2)
-    t12 = numpy.cos(varphi2)
-    t13 = t11*t12
-    del t12
-    t14 = numpy.sin(varphi2)
-    t15 = t11*t14
-    del t11, t14
+    tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
+    tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
+    rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
+    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    del tan_half_vartheta2
+    cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
+    del rho_vartheta2, tan_half_sq_vartheta2
+    t10 = l2*cos_vartheta2
+    del cos_vartheta2
+    tan_half_varphi2 = numpy.tan(0.5*varphi2)
+    tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
+    rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
+    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    del tan_half_varphi2
+    cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
+    del rho_varphi2, tan_half_sq_varphi2
+    t13 = cos_varphi2*sin_vartheta2
+    del cos_varphi2
+    t15 = sin_varphi2*sin_vartheta2
+    del sin_varphi2, sin_vartheta2
     t16 = l2*t15
     del t15
     t17 = t1 + t10
@@ -559,7 +659,7 @@ def jacobian(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 8, 8) row-major
-    Total ops: 709
+    Total ops: 713
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -575,310 +675,328 @@ def jacobian(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = numpy.sin(vartheta1)
-    t1 = numpy.sin(vartheta2)
+    tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
+    tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
+    rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
+    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    del tan_half_vartheta1
+    cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
+    del rho_vartheta1, tan_half_sq_vartheta1
+    tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
+    tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
+    rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
+    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    del tan_half_vartheta2
+    cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
+    del rho_vartheta2, tan_half_sq_vartheta2
     t2 = 1.0/m2
     t3 = l1*l1
     t4 = m1 + m2
-    t5 = numpy.cos(vartheta1)
-    t6 = l1*t5
-    t7 = varphi1 - varphi2
-    t8 = numpy.sin(t7)
-    t9 = l2*t8
-    Q01 = t6*t9
-    del t9
-    t10 = varphi1_dot*varphi1_dot
-    t11 = vartheta1_dot*vartheta1_dot
-    t12 = l1*l2
-    t13 = t12*t8
-    t14 = t0*t13
-    t15 = t0*vartheta1_dot
-    t16 = numpy.cos(t7)
-    del t7
-    Q11 = t12*t16
-    t17 = 2*varphi1_dot
-    t18 = Q11*t17
+    t6 = l1*cos_vartheta1
+    tan_half_varphi1 = numpy.tan(0.5*varphi1)
+    tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
+    rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
+    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    del tan_half_varphi1
+    cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
+    del rho_varphi1, tan_half_sq_varphi1
+    tan_half_varphi2 = numpy.tan(0.5*varphi2)
+    tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
+    rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
+    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    del tan_half_varphi2
+    cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
+    del rho_varphi2, tan_half_sq_varphi2
+    t11 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    t12 = l2*t11
+    Q01 = t12*t6
+    del t12
+    t13 = varphi1_dot*varphi1_dot
+    t14 = vartheta1_dot*vartheta1_dot
+    t15 = l1*l2
+    t16 = t15*t11
+    t17 = sin_vartheta1*t16
+    t18 = sin_vartheta1*vartheta1_dot
+    t19 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
+    Q11 = t15*t19
+    t20 = 2*varphi1_dot
+    t21 = Q11*t20
     Ab = l2*l2
-    t19 = numpy.cos(vartheta2)
-    t20 = l2*t19
-    t21 = l1*t20
-    t22 = t21*t8
-    Q10 = -t22
-    t23 = Q01*Q01
-    t24 = t3*t4
-    Aa = t2*t24
-    del t24
+    t23 = l2*cos_vartheta2
+    t24 = l1*t23
+    t25 = t11*t24
+    Q10 = -t25
+    t26 = Q01*Q01
+    t27 = t3*t4
+    Aa = t2*t27
+    del t27
     AaAb = Aa*Ab
-    t25 = -AaAb
+    t28 = -AaAb
     del AaAb
-    t26 = t0*t1
-    t27 = t19*t5
-    t28 = t16*t27 + t26
-    Q00 = t12*t28
-    t29 = t25 + Q00*Q00
-    D1_00 = -t23 - t29
+    t29 = sin_vartheta1*sin_vartheta2
+    t30 = cos_vartheta1*cos_vartheta2
+    t31 = t19*t30 + t29
+    Q00 = t15*t31
+    t32 = t28 + Q00*Q00
+    D1_00 = -t26 - t32
     D1_01 = -Q00*Q10 - Q01*Q11
-    t30 = Q10*Q10
-    t31 = t25 + Q11*Q11
-    del t25
-    D1_11 = -t30 - t31
-    rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t32 = 2*varphi2_dot
-    t33 = t32*vartheta2_dot
-    t34 = numpy.cos(varphi1)
-    t35 = g*t2*t4
-    t36 = l1*t35
-    t37 = varphi2_dot*varphi2_dot
-    t38 = t1*t37
-    t39 = vartheta2_dot*vartheta2_dot
-    t40 = t12*t39
-    t41 = t40*t8
-    t42 = t16*t21
-    del t21
-    t43 = t5*vartheta1_dot
-    t44 = t43*varphi1_dot
-    t45 = 2*Aa
-    f1 = -t1*t41 - t13*t38 - t33*t42 - t36*t34 - t45*t44
-    del t44
-    t46 = numpy.sin(varphi2)
-    t47 = t1*t19
-    t48 = t0*t19
-    t49 = t10*t48
-    t50 = 2*vartheta1_dot
-    t51 = t50*varphi1_dot
-    t52 = t6*t8
-    t53 = t20*t52
-    t54 = t16*t48
-    t55 = t12*(t1*t5 - t54)
-    del t54
-    f2 = Ab*(t37*t47) + Q11*t49 + t51*t53 - g*(t20*t46) - t11*t55
-    t56 = numpy.cos(varphi2)
-    t57 = g*t56
-    del t56
-    t58 = t19*vartheta2_dot
-    t59 = Ab*t32
-    t60 = t16*t6
-    t61 = l2*t60
-    f3 = (l1*l2)*(t0*t10*t8) + (l1*l2)*(t0*t11*t8) - l2*t57 - t51*t61 - t58*t59
-    t62 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t63 = numpy.sin(varphi1)
-    t64 = t35*t6
-    del t6
-    t65 = t20*t33
-    t66 = t1*t5
-    t67 = t16*t66
-    t68 = t48 - t67
-    del t67
-    f0 = (l1*l2)*(t1*t16*t37*t5) + (t2*t3*t4)*(t0*t10*t5) - t40*t68 - t52*t65 - t63*t64
-    del t52
-    t69 = Ab*f0 - Q00*f2 - Q01*f3
-    qdd0 = D1_11*rD1*t69 - D1_01*t62
-    t70 = Q01*t10 + Q01*t11 + qdd0*t14 + t15*t18
-    t71 = t13*t48
-    t72 = -t28
+    t33 = Q10*Q10
+    t34 = t28 + Q11*Q11
     del t28
-    t73 = t12*t11
-    t74 = (l1*l2)*(t10*t16*t19*t5) - qdd0*t55 - t51*t71 - t72*t73
-    t75 = (2*Ab*t2*t3*t4)*(t0*varphi1_dot*vartheta1_dot) - Q10*t74 - Q11*t70
-    t76 = D1_01*rD1
-    t77 = t5*t5
-    t78 = t0*t63
-    t79 = l1*t78
-    del t78
-    D2_00 = -t29 - t30
-    del t29, t30
-    D2_01 = -Q00*Q01 - Q10*Q11
-    D2_11 = -t23 - t31
-    del t23, t31
-    rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t80 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
-    del f3
-    t81 = Aa*f2 - Q00*f0 - Q10*f1
-    del f0, f1, f2
-    xr3 = D2_00*t80 - D2_01*rD2*t81
-    t82 = t13*xr3
-    t83 = t16*t26
-    t84 = t27 + t83
-    del t27, t83
-    qdd2 = D2_11*rD2*t81 - D2_01*t80
-    del t80, t81
-    t85 = Aa*(t10*(-1 + 2*t77)) + t0*t82 + t33*t71 + t35*t79 - Q11*t26*t37 - qdd2*t55 - t40*t84
-    del t35, t71, t77, t79
-    t86 = Ab*t85 - Q00*t74 - Q01*t70
-    t87 = t0*t10
-    xr1 = D1_00*t62 - D1_01*rD1*t69
-    del D1_01, t62, t69
-    t88 = t13*xr1
-    t89 = Q01*t51 + Q11*t0*t11 + Q11*t87 + t88 - qdd0*t61
-    del t11, t87
-    t90 = t51*t60
-    t91 = qdd0*t53 + t20*t90 + t42*xr1 - t13*t49 - t48*t73*t8
-    del t49, t90
-    t92 = qdd2*t42 + t22*t33 + t82 - Q11*t1*t39 - Q11*t38
-    del t33, t38, t82
-    t93 = t36*t63 + t92
-    del t36, t63
-    t94 = Ab*t93 - Q10*t91 - Q11*t89
-    t95 = t13*t66
-    t96 = t37*t95 + t41*t66 + t60*t65 + t61*xr3 - qdd2*t53
-    del t41, t60, t65
-    t97 = -t34*t64 - t96
-    del t34, t64
-    t98 = Ab*t97 - Q00*t91 - Q01*t89
-    t99 = t1*vartheta2_dot
-    t100 = t59*t99
-    t101 = t1*t13
-    t102 = (2*l1*l2)*(t1*t16*varphi2_dot*vartheta2_dot) - qdd2*t101 - t22*t37 - t22*t39
-    del t22, t39
-    t103 = t19*t19
-    t104 = t12*t68
-    del t12, t68
-    t105 = Ab*(t37*(-1 + 2*t103)) + (g*l2)*(t1*t46) - Q11*t10*t26 - qdd0*t104 - t1*t88 - t51*t95 - t73*t84
-    del qdd0, t10, t103, t26, t51, t73, t84, t88, t95
-    t106 = Ab*t102 - Q10*t105 - Q11*t100
-    t107 = (2*l1*l2)*(t1*t5*t8*varphi2_dot*vartheta2_dot) + (l1*l2)*(t16*t19*t37*t5) - qdd2*t104 - t40*t72
-    del qdd2, t16, t37, t40, t72
-    t108 = Ab*t107 - Q00*t105 - Q01*t100
-    del t100
-    t109 = -t92
-    del t92
-    t110 = (g*l2)*t46 - t89
-    del t46
-    t111 = -t20*t57 - t91
-    del t20, t57
-    t112 = Ab*t109 - Q10*t111 - Q11*t110
-    t113 = Ab*t96 - Q00*t111 - Q01*t110
-    t114 = (2*l1*l2)*(t0*t8*vartheta1_dot) - t17*t61
-    del t8
-    t115 = t17*t53 - t50*t55
+    D1_11 = -t33 - t34
+    rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
+    t35 = 2*varphi2_dot
+    t36 = t35*vartheta2_dot
+    t37 = g*t2*t4
+    t38 = l1*t37
+    t39 = cos_vartheta1*vartheta1_dot
+    t40 = t39*varphi1_dot
+    t41 = 2*Aa
+    t42 = t19*t24
+    del t24
+    t43 = varphi2_dot*varphi2_dot
+    t44 = sin_vartheta2*t43
+    t45 = vartheta2_dot*vartheta2_dot
+    t46 = t15*t45
+    t47 = t11*t46
+    f1 = -t38*cos_varphi1 - sin_vartheta2*t47 - t16*t44 - t36*t42 - t41*t40
+    del t40
+    t48 = cos_vartheta2*sin_vartheta2
+    t49 = cos_vartheta2*sin_vartheta1
+    t50 = t13*t49
+    t51 = 2*vartheta1_dot
+    t52 = t51*varphi1_dot
+    t53 = t11*t6
+    t54 = t23*t53
+    t55 = t19*t49
+    t56 = t15*(cos_vartheta1*sin_vartheta2 - t55)
     del t55
-    t116 = -Q00*t115 - Q01*t114
-    t117 = Aa*t17
-    t118 = t117*t5
-    t119 = -Ab*t118 - Q10*t115 - Q11*t114
-    t120 = t45*t43
-    del t43, t45
-    t121 = t14*t17 - t50*t61
-    del t14, t17, t61
-    t122 = t18*t48 + t50*t53
-    del t18, t48, t50
-    t123 = -Ab*t120 - Q10*t122 - Q11*t121
-    t124 = (2*Ab*t2*t3*t4)*(t0*t5*varphi1_dot) - Q00*t122 - Q01*t121
+    f2 = Ab*(t43*t48) + Q11*t50 + t52*t54 - g*(sin_varphi2*t23) - t14*t56
+    t57 = g*cos_varphi2
+    del cos_varphi2
+    t58 = cos_vartheta2*vartheta2_dot
+    t59 = Ab*t35
+    t60 = t19*t6
+    t61 = l2*t60
+    f3 = (l1*l2)*(sin_vartheta1*t11*t13) + (l1*l2)*(sin_vartheta1*t11*t14) - l2*t57 - t52*t61 - t58*t59
+    t62 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t63 = t37*t6
+    del t6
+    t64 = t23*t36
+    t65 = cos_vartheta1*sin_vartheta2
+    t66 = t19*t65
+    t67 = cos_vartheta2*sin_vartheta1 - t66
+    del t66
+    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t19*t43) + (t2*t3*t4)*(cos_vartheta1*sin_vartheta1*t13) - sin_varphi1*t63 - t46*t67 - t53*t64
+    del t53
+    t68 = Ab*f0 - Q00*f2 - Q01*f3
+    qdd0 = D1_11*rD1*t68 - D1_01*t62
+    t69 = Q01*t13 + Q01*t14 + qdd0*t17 + t18*t21
+    t70 = t16*t49
+    t71 = -t31
+    del t31
+    t72 = t15*t14
+    t73 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t13*t19) - qdd0*t56 - t52*t70 - t71*t72
+    t74 = (2*Ab*t2*t3*t4)*(sin_vartheta1*varphi1_dot*vartheta1_dot) - Q10*t73 - Q11*t69
+    t75 = D1_01*rD1
+    t76 = cos_vartheta1*cos_vartheta1
+    t77 = sin_varphi1*sin_vartheta1
+    t78 = l1*t77
+    del t77
+    D2_00 = -t32 - t33
+    del t32, t33
+    D2_01 = -Q00*Q01 - Q10*Q11
+    D2_11 = -t26 - t34
+    del t26, t34
+    rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
+    t79 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    del f3
+    t80 = Aa*f2 - Q00*f0 - Q10*f1
+    del f0, f1, f2
+    xr3 = D2_00*t79 - D2_01*rD2*t80
+    t81 = t16*xr3
+    t82 = t19*t29
+    t83 = t30 + t82
+    del t30, t82
+    qdd2 = D2_11*rD2*t80 - D2_01*t79
+    del t79, t80
+    t84 = Aa*(t13*(-1 + 2*t76)) + sin_vartheta1*t81 + t36*t70 + t37*t78 - Q11*t29*t43 - qdd2*t56 - t46*t83
+    del t37, t70, t76, t78
+    t85 = Ab*t84 - Q00*t73 - Q01*t69
+    t86 = sin_vartheta1*t13
+    xr1 = D1_00*t62 - D1_01*rD1*t68
+    del D1_01, t62, t68
+    t87 = t16*xr1
+    t88 = Q01*t52 + Q11*sin_vartheta1*t14 + Q11*t86 + t87 - qdd0*t61
+    del t14, t86
+    t89 = t52*t60
+    t90 = qdd0*t54 + t23*t89 + t42*xr1 - t11*t49*t72 - t16*t50
+    del t50, t89
+    t91 = qdd2*t42 + t25*t36 + t81 - Q11*sin_vartheta2*t45 - Q11*t44
+    del t36, t44, t81
+    t92 = t38*sin_varphi1 + t91
+    del sin_varphi1, t38
+    t93 = Ab*t92 - Q10*t90 - Q11*t88
+    t94 = t16*t65
+    t95 = t43*t94 + t47*t65 + t60*t64 + t61*xr3 - qdd2*t54
+    del t47, t60, t64
+    t96 = -cos_varphi1*t63 - t95
+    del cos_varphi1, t63
+    t97 = Ab*t96 - Q00*t90 - Q01*t88
+    t98 = sin_vartheta2*vartheta2_dot
+    t99 = t59*t98
+    t100 = sin_vartheta2*t16
+    t101 = (2*l1*l2)*(sin_vartheta2*t19*varphi2_dot*vartheta2_dot) - qdd2*t100 - t25*t43 - t25*t45
+    del t25, t45
+    t102 = cos_vartheta2*cos_vartheta2
+    t103 = t15*t67
+    del t15, t67
+    t104 = Ab*(t43*(-1 + 2*t102)) + (g*l2)*(sin_varphi2*sin_vartheta2) - Q11*t13*t29 - qdd0*t103 - sin_vartheta2*t87 - t52*t94 - t72*t83
+    del qdd0, t102, t13, t29, t52, t72, t83, t87, t94
+    t105 = Ab*t101 - Q10*t104 - Q11*t99
+    t106 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t19*t43) + (2*l1*l2)*(cos_vartheta1*sin_vartheta2*t11*varphi2_dot*vartheta2_dot) - qdd2*t103 - t46*t71
+    del qdd2, t19, t43, t46, t71
+    t107 = Ab*t106 - Q00*t104 - Q01*t99
+    del t99
+    t108 = -t91
+    del t91
+    t109 = (g*l2)*sin_varphi2 - t88
+    del sin_varphi2
+    t110 = -t23*t57 - t90
+    del t23, t57
+    t111 = Ab*t108 - Q10*t110 - Q11*t109
+    t112 = Ab*t95 - Q00*t110 - Q01*t109
+    t113 = (2*l1*l2)*(sin_vartheta1*t11*vartheta1_dot) - t20*t61
+    del t11
+    t114 = t20*t54 - t51*t56
+    del t56
+    t115 = -Q00*t114 - Q01*t113
+    t116 = Aa*t20
+    t117 = cos_vartheta1*t116
+    t118 = -Ab*t117 - Q10*t114 - Q11*t113
+    t119 = t41*t39
+    del t39, t41
+    t120 = t17*t20 - t51*t61
+    del t17, t20, t61
+    t121 = t21*t49 + t51*t54
+    del t21, t49, t51
+    t122 = -Ab*t119 - Q10*t121 - Q11*t120
+    t123 = (2*Ab*t2*t3*t4)*(cos_vartheta1*sin_vartheta1*varphi1_dot) - Q00*t121 - Q01*t120
     del t2, t3, t4
-    t125 = t19*t59
-    t126 = -2*(t13*t99) - t32*t42
-    del t13, t99
-    t127 = Ab*t126 + Q11*t125
-    t128 = 2*vartheta2_dot
-    t129 = -t104*t128 - t32*t53
-    del t104
-    t130 = Ab*t129 + Q01*t125
-    t131 = Ab*t58
+    t124 = cos_vartheta2*t59
+    t125 = -2*(t16*t98) - t35*t42
+    del t16, t98
+    t126 = Ab*t125 + Q11*t124
+    t127 = 2*vartheta2_dot
+    t128 = -t103*t127 - t35*t54
+    del t103
+    t129 = Ab*t128 + Q01*t124
+    t130 = Ab*t58
     del t58
-    t132 = 2*t131
-    t133 = t47*t59
-    del t47, t59
-    t134 = -t101*t32 - t128*t42
-    del t101, t42
-    t135 = Ab*t134 + Q11*t132 - Q10*t133
-    t136 = 2*Q01
-    t137 = Q11*t32*t66 - t128*t53
-    del t128, t32, t53, t66
-    t138 = Ab*t137 + t131*t136 - Q00*t133
-    del t131, t133
-    rs1 = 1.0/t0
+    t131 = 2*t130
+    t132 = t48*t59
+    del t48, t59
+    t133 = -t100*t35 - t127*t42
+    del t100, t42
+    t134 = Ab*t133 + Q11*t131 - Q10*t132
+    t135 = 2*Q01
+    t136 = Q11*t35*t65 - t127*t54
+    del t127, t35, t54, t65
+    t137 = Ab*t136 + t130*t135 - Q00*t132
+    del t130, t132
+    rs1 = 1.0/sin_vartheta1
     qdd1 = rs1*xr1
     del xr1
-    t139 = D1_00*rD1
-    t140 = t117*t15
-    del t117, t15
-    t141 = Aa*t70 - Q01*t85 - Q11*t140
-    del t70
-    t142 = D2_01*rD2
+    t138 = D1_00*rD1
+    t139 = t116*t18
+    del t116, t18
+    t140 = Aa*t69 - Q01*t84 - Q11*t139
+    del t69
+    t141 = D2_01*rD2
     del D2_01
-    t143 = Aa*t74 - Q00*t85 - Q10*t140
-    del t140, t74, t85
-    t144 = Aa*t89 - Q01*t97 - Q11*t93
-    del t89
-    t145 = Aa*t91 - Q00*t97 - Q10*t93
-    del t91, t93, t97
-    t146 = (2*Aa*Ab)*(t1*varphi2_dot*vartheta2_dot) - Q01*t107 - Q11*t102
-    t147 = Aa*t105 - Q00*t107 - Q10*t102
-    del t102, t105, t107
-    t148 = Aa*t110 - Q01*t96 - Q11*t109
-    del t110
-    t149 = Aa*t111 - Q00*t96 - Q10*t109
-    del t109, t111, t96
-    t150 = Aa*t114 + Q11*t118
+    t142 = Aa*t73 - Q00*t84 - Q10*t139
+    del t139, t73, t84
+    t143 = Aa*t88 - Q01*t96 - Q11*t92
+    del t88
+    t144 = Aa*t90 - Q00*t96 - Q10*t92
+    del t90, t92, t96
+    t145 = (2*Aa*Ab)*(sin_vartheta2*varphi2_dot*vartheta2_dot) - Q01*t106 - Q11*t101
+    t146 = Aa*t104 - Q00*t106 - Q10*t101
+    del t101, t104, t106
+    t147 = Aa*t109 - Q01*t95 - Q11*t108
+    del t109
+    t148 = Aa*t110 - Q00*t95 - Q10*t108
+    del t108, t110, t95
+    t149 = Aa*t113 + Q11*t117
+    del t113
+    t150 = Aa*t114 + Q10*t117
     del t114
-    t151 = Aa*t115 + Q10*t118
-    del t115
-    t152 = Aa*t121 + Q11*t120 - Aa*(t0*t136*t5*varphi1_dot)
-    del t121, t136
-    t153 = Aa*t122 + Q10*t120 - Q00*t0*t118
-    del t0, t118, t120, t122
-    t154 = -Q00*t129 - Q10*t126
-    t155 = -Aa*t125 - Q01*t129 - Q11*t126
-    del t125, t126, t129
-    t156 = -Aa*t132 - Q01*t137 - Q11*t134
-    del Q01, Q11, t132
-    t157 = (2*Aa*Ab)*(t1*t19*varphi2_dot) - Q00*t137 - Q10*t134
-    del Aa, Ab, Q00, Q10, t134, t137
-    t158 = D2_00*rD2
-    rs3 = 1.0/t1
-    del t1
+    t151 = Aa*t120 + Q11*t119 - Aa*(cos_vartheta1*sin_vartheta1*t135*varphi1_dot)
+    del t120, t135
+    t152 = Aa*t121 + Q10*t119 - Q00*sin_vartheta1*t117
+    del sin_vartheta1, t117, t119, t121
+    t153 = -Q00*t128 - Q10*t125
+    t154 = -Aa*t124 - Q01*t128 - Q11*t125
+    del t124, t125, t128
+    t155 = -Aa*t131 - Q01*t136 - Q11*t133
+    del Q01, Q11, t131
+    t156 = (2*Aa*Ab)*(cos_vartheta2*sin_vartheta2*varphi2_dot) - Q00*t136 - Q10*t133
+    del Aa, Ab, Q00, Q10, t133, t136
+    t157 = D2_00*rD2
+    rs3 = 1.0/sin_vartheta2
+    del sin_vartheta2
     qdd3 = rs3*xr3
     del xr3
-    t159 = D1_11*rD1*t86 - t75*t76
-    t160 = D1_11*rD1*t98 - t76*t94
-    t161 = D1_11*rD1*t108 - t106*t76
-    t162 = D1_11*rD1*t113 - t112*t76
-    t163 = D1_11*rD1*t116 - t119*t76
-    t164 = D1_11*rD1*t124 - t123*t76
-    t165 = D1_11*rD1*t130 - t127*t76
-    t166 = D1_11*rD1*t138 - t135*t76
+    t158 = D1_11*rD1*t85 - t74*t75
+    t159 = D1_11*rD1*t97 - t75*t93
+    t160 = D1_11*rD1*t107 - t105*t75
+    t161 = D1_11*rD1*t112 - t111*t75
+    t162 = D1_11*rD1*t115 - t118*t75
+    t163 = D1_11*rD1*t123 - t122*t75
+    t164 = D1_11*rD1*t129 - t126*t75
+    t165 = D1_11*rD1*t137 - t134*t75
     del D1_11
-    t167 = rs1*(D1_00*rD1*t75 - qdd1*t5 - t76*t86)
-    del D1_00, qdd1, rD1, t5, t75, t86
-    t168 = rs1*(t139*t94 - t76*t98)
-    del t94, t98
-    t169 = rs1*(t106*t139 - t108*t76)
-    del t106, t108
-    t170 = rs1*(t112*t139 - t113*t76)
-    del t112, t113
-    t171 = rs1*(t119*t139 - t116*t76)
-    del t116, t119
-    t172 = rs1*(t123*t139 - t124*t76)
-    del t123, t124
-    t173 = rs1*(t127*t139 - t130*t76)
-    del t127, t130
-    t174 = rs1*(t135*t139 - t138*t76)
-    del rs1, t135, t138, t139, t76
-    t175 = D2_11*rD2*t143 - t141*t142
-    t176 = D2_11*rD2*t145 - t142*t144
-    t177 = D2_11*rD2*t147 - t142*t146
-    t178 = D2_11*rD2*t149 - t142*t148
-    t179 = D2_11*rD2*t151 - t142*t150
-    t180 = D2_11*rD2*t153 - t142*t152
-    t181 = D2_11*rD2*t154 - t142*t155
-    t182 = D2_11*rD2*t157 - t142*t156
+    t166 = rs1*(D1_00*rD1*t74 - cos_vartheta1*qdd1 - t75*t85)
+    del D1_00, cos_vartheta1, qdd1, rD1, t74, t85
+    t167 = rs1*(t138*t93 - t75*t97)
+    del t93, t97
+    t168 = rs1*(t105*t138 - t107*t75)
+    del t105, t107
+    t169 = rs1*(t111*t138 - t112*t75)
+    del t111, t112
+    t170 = rs1*(t118*t138 - t115*t75)
+    del t115, t118
+    t171 = rs1*(t122*t138 - t123*t75)
+    del t122, t123
+    t172 = rs1*(t126*t138 - t129*t75)
+    del t126, t129
+    t173 = rs1*(t134*t138 - t137*t75)
+    del rs1, t134, t137, t138, t75
+    t174 = D2_11*rD2*t142 - t140*t141
+    t175 = D2_11*rD2*t144 - t141*t143
+    t176 = D2_11*rD2*t146 - t141*t145
+    t177 = D2_11*rD2*t148 - t141*t147
+    t178 = D2_11*rD2*t150 - t141*t149
+    t179 = D2_11*rD2*t152 - t141*t151
+    t180 = D2_11*rD2*t153 - t141*t154
+    t181 = D2_11*rD2*t156 - t141*t155
     del D2_11
-    t183 = rs3*(t141*t158 - t142*t143)
-    del t141, t143
-    t184 = rs3*(t144*t158 - t142*t145)
-    del t144, t145
-    t185 = rs3*(D2_00*rD2*t146 - qdd3*t19 - t142*t147)
-    del D2_00, qdd3, rD2, t146, t147, t19
-    t186 = rs3*(t148*t158 - t142*t149)
-    del t148, t149
-    t187 = rs3*(t150*t158 - t142*t151)
-    del t150, t151
-    t188 = rs3*(t152*t158 - t142*t153)
-    del t152, t153
-    t189 = rs3*(t155*t158 - t142*t154)
-    del t154, t155
-    t190 = rs3*(t156*t158 - t142*t157)
-    del rs3, t142, t156, t157, t158
+    t182 = rs3*(t140*t157 - t141*t142)
+    del t140, t142
+    t183 = rs3*(t143*t157 - t141*t144)
+    del t143, t144
+    t184 = rs3*(D2_00*rD2*t145 - cos_vartheta2*qdd3 - t141*t146)
+    del D2_00, cos_vartheta2, qdd3, rD2, t145, t146
+    t185 = rs3*(t147*t157 - t141*t148)
+    del t147, t148
+    t186 = rs3*(t149*t157 - t141*t150)
+    del t149, t150
+    t187 = rs3*(t151*t157 - t141*t152)
+    del t151, t152
+    t188 = rs3*(t154*t157 - t141*t153)
+    del t153, t154
+    t189 = rs3*(t155*t157 - t141*t156)
+    del rs3, t141, t155, t156, t157
     J = numpy.empty(shape + (8, 8), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -912,70 +1030,70 @@ def jacobian(y, p):
     J[..., 3, 5] = 0
     J[..., 3, 6] = 0
     J[..., 3, 7] = 1
-    J[..., 4, 0] = t159
+    J[..., 4, 0] = t158
+    del t158
+    J[..., 4, 1] = t159
     del t159
-    J[..., 4, 1] = t160
+    J[..., 4, 2] = t160
     del t160
-    J[..., 4, 2] = t161
+    J[..., 4, 3] = t161
     del t161
-    J[..., 4, 3] = t162
+    J[..., 4, 4] = t162
     del t162
-    J[..., 4, 4] = t163
+    J[..., 4, 5] = t163
     del t163
-    J[..., 4, 5] = t164
+    J[..., 4, 6] = t164
     del t164
-    J[..., 4, 6] = t165
+    J[..., 4, 7] = t165
     del t165
-    J[..., 4, 7] = t166
+    J[..., 5, 0] = t166
     del t166
-    J[..., 5, 0] = t167
+    J[..., 5, 1] = t167
     del t167
-    J[..., 5, 1] = t168
+    J[..., 5, 2] = t168
     del t168
-    J[..., 5, 2] = t169
+    J[..., 5, 3] = t169
     del t169
-    J[..., 5, 3] = t170
+    J[..., 5, 4] = t170
     del t170
-    J[..., 5, 4] = t171
+    J[..., 5, 5] = t171
     del t171
-    J[..., 5, 5] = t172
+    J[..., 5, 6] = t172
     del t172
-    J[..., 5, 6] = t173
+    J[..., 5, 7] = t173
     del t173
-    J[..., 5, 7] = t174
+    J[..., 6, 0] = t174
     del t174
-    J[..., 6, 0] = t175
+    J[..., 6, 1] = t175
     del t175
-    J[..., 6, 1] = t176
+    J[..., 6, 2] = t176
     del t176
-    J[..., 6, 2] = t177
+    J[..., 6, 3] = t177
     del t177
-    J[..., 6, 3] = t178
+    J[..., 6, 4] = t178
     del t178
-    J[..., 6, 4] = t179
+    J[..., 6, 5] = t179
     del t179
-    J[..., 6, 5] = t180
+    J[..., 6, 6] = t180
     del t180
-    J[..., 6, 6] = t181
+    J[..., 6, 7] = t181
     del t181
-    J[..., 6, 7] = t182
+    J[..., 7, 0] = t182
     del t182
-    J[..., 7, 0] = t183
+    J[..., 7, 1] = t183
     del t183
-    J[..., 7, 1] = t184
+    J[..., 7, 2] = t184
     del t184
-    J[..., 7, 2] = t185
+    J[..., 7, 3] = t185
     del t185
-    J[..., 7, 3] = t186
+    J[..., 7, 4] = t186
     del t186
-    J[..., 7, 4] = t187
+    J[..., 7, 5] = t187
     del t187
-    J[..., 7, 5] = t188
+    J[..., 7, 6] = t188
     del t188
-    J[..., 7, 6] = t189
+    J[..., 7, 7] = t189
     del t189
-    J[..., 7, 7] = t190
-    del t190
     return J
 
 
@@ -990,13 +1108,23 @@ def polar_sines(y):
     (y,), shape, dtype = _prepare("polar_sines", (y, 8, "y"))
     vartheta1 = y[..., 0]
     vartheta2 = y[..., 2]
-    t0 = numpy.sin(vartheta1)
-    t1 = numpy.sin(vartheta2)
+    tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
+    tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
+    rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
+    del tan_half_sq_vartheta1
+    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    del rho_vartheta1, tan_half_vartheta1
+    tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
+    tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
+    rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
+    del tan_half_sq_vartheta2
+    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    del rho_vartheta2, tan_half_vartheta2
     sines = numpy.empty(shape + (2,), dtype)
-    sines[..., 0] = t0
-    del t0
-    sines[..., 1] = t1
-    del t1
+    sines[..., 0] = sin_vartheta1
+    del sin_vartheta1
+    sines[..., 1] = sin_vartheta2
+    del sin_vartheta2
     return sines
 
 
@@ -1017,70 +1145,110 @@ def to_spherical_rot(y):
     varphi1_dot = y[..., 5]
     vartheta2_dot = y[..., 6]
     varphi2_dot = y[..., 7]
-    t0 = numpy.sin(varphi1)
-    t1 = numpy.sin(vartheta1)
-    t2 = t1*t1
-    t3 = numpy.cos(vartheta1)
-    t4 = t3*t3
-    t5 = numpy.cos(varphi1)
-    t6 = t1*t5
-    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(t0*t0*t2 + t4), t6)
+    tan_half_varphi1 = numpy.tan(0.5*varphi1)
+    tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
+    rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
+    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    del tan_half_varphi1
+    cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
+    del rho_varphi1, tan_half_sq_varphi1
+    tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
+    tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
+    rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
+    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    del tan_half_vartheta1
+    cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
+    del rho_vartheta1, tan_half_sq_vartheta1
+    t2 = sin_vartheta1*sin_vartheta1
+    t4 = cos_vartheta1*cos_vartheta1
+    t6 = cos_varphi1*sin_vartheta1
+    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(sin_varphi1*sin_varphi1*t2 + t4), t6)
     del t2, t4
-    t7 = numpy.sin(spherical_rot_vartheta1)
-    t8 = numpy.sin(varphi2)
-    t9 = numpy.sin(vartheta2)
-    t10 = t9*t9
-    t11 = numpy.cos(vartheta2)
-    t12 = t11*t11
-    t13 = numpy.cos(varphi2)
-    t14 = t13*t9
-    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(t10*t8*t8 + t12), t14)
+    tan_half_spherical_rot_vartheta1 = numpy.tan(0.5*spherical_rot_vartheta1)
+    tan_half_sq_spherical_rot_vartheta1 = tan_half_spherical_rot_vartheta1*tan_half_spherical_rot_vartheta1
+    rho_spherical_rot_vartheta1 = 1.0/(1 + tan_half_sq_spherical_rot_vartheta1)
+    sin_spherical_rot_vartheta1 = 2*(rho_spherical_rot_vartheta1*tan_half_spherical_rot_vartheta1)
+    del tan_half_spherical_rot_vartheta1
+    cos_spherical_rot_vartheta1 = rho_spherical_rot_vartheta1*(1 - tan_half_sq_spherical_rot_vartheta1)
+    del rho_spherical_rot_vartheta1, tan_half_sq_spherical_rot_vartheta1
+    tan_half_varphi2 = numpy.tan(0.5*varphi2)
+    tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
+    rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
+    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    del tan_half_varphi2
+    cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
+    del rho_varphi2, tan_half_sq_varphi2
+    tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
+    tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
+    rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
+    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    del tan_half_vartheta2
+    cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
+    del rho_vartheta2, tan_half_sq_vartheta2
+    t10 = sin_vartheta2*sin_vartheta2
+    t12 = cos_vartheta2*cos_vartheta2
+    t14 = cos_varphi2*sin_vartheta2
+    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(sin_varphi2*sin_varphi2*t10 + t12), t14)
     del t10, t12
-    t15 = numpy.sin(spherical_rot_vartheta2)
-    t16 = t0*t1
-    spherical_rot_varphi1 = numpy.arctan2(t16, t3)
-    t17 = t8*t9
-    spherical_rot_varphi2 = numpy.arctan2(t17, t11)
-    t18 = t1*vartheta1_dot
-    del t1
-    t19 = numpy.cos(spherical_rot_vartheta1)
-    t20 = numpy.cos(spherical_rot_varphi1)
+    tan_half_spherical_rot_vartheta2 = numpy.tan(0.5*spherical_rot_vartheta2)
+    tan_half_sq_spherical_rot_vartheta2 = tan_half_spherical_rot_vartheta2*tan_half_spherical_rot_vartheta2
+    rho_spherical_rot_vartheta2 = 1.0/(1 + tan_half_sq_spherical_rot_vartheta2)
+    sin_spherical_rot_vartheta2 = 2*(rho_spherical_rot_vartheta2*tan_half_spherical_rot_vartheta2)
+    del tan_half_spherical_rot_vartheta2
+    cos_spherical_rot_vartheta2 = rho_spherical_rot_vartheta2*(1 - tan_half_sq_spherical_rot_vartheta2)
+    del rho_spherical_rot_vartheta2, tan_half_sq_spherical_rot_vartheta2
+    t16 = sin_varphi1*sin_vartheta1
+    spherical_rot_varphi1 = numpy.arctan2(t16, cos_vartheta1)
+    t17 = sin_varphi2*sin_vartheta2
+    spherical_rot_varphi2 = numpy.arctan2(t17, cos_vartheta2)
+    t18 = sin_vartheta1*vartheta1_dot
+    del sin_vartheta1
+    tan_half_spherical_rot_varphi1 = numpy.tan(0.5*spherical_rot_varphi1)
+    tan_half_sq_spherical_rot_varphi1 = tan_half_spherical_rot_varphi1*tan_half_spherical_rot_varphi1
+    rho_spherical_rot_varphi1 = 1.0/(1 + tan_half_sq_spherical_rot_varphi1)
+    sin_spherical_rot_varphi1 = 2*(rho_spherical_rot_varphi1*tan_half_spherical_rot_varphi1)
+    del tan_half_spherical_rot_varphi1
+    cos_spherical_rot_varphi1 = rho_spherical_rot_varphi1*(1 - tan_half_sq_spherical_rot_varphi1)
+    del rho_spherical_rot_varphi1, tan_half_sq_spherical_rot_varphi1
     t21 = t16*varphi1_dot
     del t16
-    t22 = t3*t5*vartheta1_dot - t21
-    del t21, t5
-    t23 = numpy.sin(spherical_rot_varphi1)
+    t22 = cos_varphi1*cos_vartheta1*vartheta1_dot - t21
+    del cos_varphi1, t21
     t24 = t6*varphi1_dot
     del t6
-    t25 = t0*t3
-    del t0, t3
+    t25 = cos_vartheta1*sin_varphi1
+    del cos_vartheta1, sin_varphi1
     t26 = t25*vartheta1_dot
     del t25
     t27 = t24 + t26
-    t28 = t9*vartheta2_dot
-    del t9
-    t29 = numpy.cos(spherical_rot_vartheta2)
-    t30 = numpy.cos(spherical_rot_varphi2)
+    t28 = sin_vartheta2*vartheta2_dot
+    del sin_vartheta2
+    tan_half_spherical_rot_varphi2 = numpy.tan(0.5*spherical_rot_varphi2)
+    tan_half_sq_spherical_rot_varphi2 = tan_half_spherical_rot_varphi2*tan_half_spherical_rot_varphi2
+    rho_spherical_rot_varphi2 = 1.0/(1 + tan_half_sq_spherical_rot_varphi2)
+    sin_spherical_rot_varphi2 = 2*(rho_spherical_rot_varphi2*tan_half_spherical_rot_varphi2)
+    del tan_half_spherical_rot_varphi2
+    cos_spherical_rot_varphi2 = rho_spherical_rot_varphi2*(1 - tan_half_sq_spherical_rot_varphi2)
+    del rho_spherical_rot_varphi2, tan_half_sq_spherical_rot_varphi2
     t31 = t17*varphi2_dot
     del t17
-    t32 = t11*t13*vartheta2_dot - t31
-    del t13, t31
-    t33 = numpy.sin(spherical_rot_varphi2)
+    t32 = cos_varphi2*cos_vartheta2*vartheta2_dot - t31
+    del cos_varphi2, t31
     t34 = t14*varphi2_dot
     del t14
-    t35 = t11*vartheta2_dot
-    del t11
-    t36 = t35*t8
-    del t35, t8
+    t35 = cos_vartheta2*vartheta2_dot
+    del cos_vartheta2
+    t36 = sin_varphi2*t35
+    del sin_varphi2, t35
     t37 = t34 + t36
-    t38 = t19*t23*t27 - t18*t19*t20 - t22*t7
-    del t19, t22, t27
-    t39 = (t18*t23 + t20*t24 + t20*t26)/t7
-    del t18, t20, t23, t24, t26, t7
-    t40 = t29*t33*t37 - t15*t32 - t28*t29*t30
-    del t29, t32, t37
-    t41 = (t28*t33 + t30*t34 + t30*t36)/t15
-    del t15, t28, t30, t33, t34, t36
+    t38 = cos_spherical_rot_vartheta1*sin_spherical_rot_varphi1*t27 - cos_spherical_rot_varphi1*cos_spherical_rot_vartheta1*t18 - sin_spherical_rot_vartheta1*t22
+    del cos_spherical_rot_vartheta1, t22, t27
+    t39 = (cos_spherical_rot_varphi1*t24 + cos_spherical_rot_varphi1*t26 + sin_spherical_rot_varphi1*t18)/sin_spherical_rot_vartheta1
+    del cos_spherical_rot_varphi1, sin_spherical_rot_varphi1, sin_spherical_rot_vartheta1, t18, t24, t26
+    t40 = cos_spherical_rot_vartheta2*sin_spherical_rot_varphi2*t37 - cos_spherical_rot_varphi2*cos_spherical_rot_vartheta2*t28 - sin_spherical_rot_vartheta2*t32
+    del cos_spherical_rot_vartheta2, t32, t37
+    t41 = (cos_spherical_rot_varphi2*t34 + cos_spherical_rot_varphi2*t36 + sin_spherical_rot_varphi2*t28)/sin_spherical_rot_vartheta2
+    del cos_spherical_rot_varphi2, sin_spherical_rot_varphi2, sin_spherical_rot_vartheta2, t28, t34, t36
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_rot_vartheta1
     del spherical_rot_vartheta1
@@ -1118,72 +1286,112 @@ def to_spherical_std(y):
     varphi1_dot = y[..., 5]
     vartheta2_dot = y[..., 6]
     varphi2_dot = y[..., 7]
-    t0 = numpy.cos(varphi1)
-    t1 = numpy.sin(vartheta1)
-    t2 = t1*t1
-    t3 = numpy.cos(vartheta1)
-    t4 = t3*t3
-    t5 = numpy.sin(varphi1)
-    t6 = t1*t5
-    spherical_std_theta1 = numpy.arctan2(numpy.sqrt(t0*t0*t2 + t4), -t6)
+    tan_half_varphi1 = numpy.tan(0.5*varphi1)
+    tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
+    rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
+    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    del tan_half_varphi1
+    cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
+    del rho_varphi1, tan_half_sq_varphi1
+    tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
+    tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
+    rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
+    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    del tan_half_vartheta1
+    cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
+    del rho_vartheta1, tan_half_sq_vartheta1
+    t2 = sin_vartheta1*sin_vartheta1
+    t4 = cos_vartheta1*cos_vartheta1
+    t6 = sin_varphi1*sin_vartheta1
+    spherical_std_theta1 = numpy.arctan2(numpy.sqrt(cos_varphi1*cos_varphi1*t2 + t4), -t6)
     del t2, t4
-    t7 = numpy.sin(spherical_std_theta1)
-    t8 = numpy.cos(varphi2)
-    t9 = numpy.sin(vartheta2)
-    t10 = t9*t9
-    t11 = numpy.cos(vartheta2)
-    t12 = t11*t11
-    t13 = numpy.sin(varphi2)
-    t14 = t13*t9
-    spherical_std_theta2 = numpy.arctan2(numpy.sqrt(t10*t8*t8 + t12), -t14)
+    tan_half_spherical_std_theta1 = numpy.tan(0.5*spherical_std_theta1)
+    tan_half_sq_spherical_std_theta1 = tan_half_spherical_std_theta1*tan_half_spherical_std_theta1
+    rho_spherical_std_theta1 = 1.0/(1 + tan_half_sq_spherical_std_theta1)
+    sin_spherical_std_theta1 = 2*(rho_spherical_std_theta1*tan_half_spherical_std_theta1)
+    del tan_half_spherical_std_theta1
+    cos_spherical_std_theta1 = rho_spherical_std_theta1*(1 - tan_half_sq_spherical_std_theta1)
+    del rho_spherical_std_theta1, tan_half_sq_spherical_std_theta1
+    tan_half_varphi2 = numpy.tan(0.5*varphi2)
+    tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
+    rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
+    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    del tan_half_varphi2
+    cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
+    del rho_varphi2, tan_half_sq_varphi2
+    tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
+    tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
+    rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
+    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    del tan_half_vartheta2
+    cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
+    del rho_vartheta2, tan_half_sq_vartheta2
+    t10 = sin_vartheta2*sin_vartheta2
+    t12 = cos_vartheta2*cos_vartheta2
+    t14 = sin_varphi2*sin_vartheta2
+    spherical_std_theta2 = numpy.arctan2(numpy.sqrt(cos_varphi2*cos_varphi2*t10 + t12), -t14)
     del t10, t12
-    t15 = numpy.sin(spherical_std_theta2)
-    t16 = t0*t1
-    spherical_std_phi1 = numpy.arctan2(t16, t3)
-    t17 = t8*t9
-    spherical_std_phi2 = numpy.arctan2(t17, t11)
-    t18 = t1*vartheta1_dot
-    del t1
+    tan_half_spherical_std_theta2 = numpy.tan(0.5*spherical_std_theta2)
+    tan_half_sq_spherical_std_theta2 = tan_half_spherical_std_theta2*tan_half_spherical_std_theta2
+    rho_spherical_std_theta2 = 1.0/(1 + tan_half_sq_spherical_std_theta2)
+    sin_spherical_std_theta2 = 2*(rho_spherical_std_theta2*tan_half_spherical_std_theta2)
+    del tan_half_spherical_std_theta2
+    cos_spherical_std_theta2 = rho_spherical_std_theta2*(1 - tan_half_sq_spherical_std_theta2)
+    del rho_spherical_std_theta2, tan_half_sq_spherical_std_theta2
+    t16 = cos_varphi1*sin_vartheta1
+    spherical_std_phi1 = numpy.arctan2(t16, cos_vartheta1)
+    t17 = cos_varphi2*sin_vartheta2
+    spherical_std_phi2 = numpy.arctan2(t17, cos_vartheta2)
+    t18 = sin_vartheta1*vartheta1_dot
+    del sin_vartheta1
     t19 = t6*varphi1_dot
     del t6
-    t20 = t0*t3*vartheta1_dot - t19
+    t20 = cos_varphi1*cos_vartheta1*vartheta1_dot - t19
     t21 = t16*varphi1_dot
     del t16
-    t22 = t3*t5
-    del t5
+    t22 = cos_vartheta1*sin_varphi1
+    del sin_varphi1
     t23 = t22*vartheta1_dot
     del t22
     t24 = t21 + t23
     del t21, t23
-    t25 = numpy.cos(spherical_std_theta1)
-    t26 = numpy.cos(spherical_std_phi1)
-    t27 = numpy.sin(spherical_std_phi1)
-    t28 = t3*vartheta1_dot
-    del t3
-    t29 = t9*vartheta2_dot
-    del t9
+    tan_half_spherical_std_phi1 = numpy.tan(0.5*spherical_std_phi1)
+    tan_half_sq_spherical_std_phi1 = tan_half_spherical_std_phi1*tan_half_spherical_std_phi1
+    rho_spherical_std_phi1 = 1.0/(1 + tan_half_sq_spherical_std_phi1)
+    sin_spherical_std_phi1 = 2*(rho_spherical_std_phi1*tan_half_spherical_std_phi1)
+    del tan_half_spherical_std_phi1
+    cos_spherical_std_phi1 = rho_spherical_std_phi1*(1 - tan_half_sq_spherical_std_phi1)
+    del rho_spherical_std_phi1, tan_half_sq_spherical_std_phi1
+    t28 = cos_vartheta1*vartheta1_dot
+    del cos_vartheta1
+    t29 = sin_vartheta2*vartheta2_dot
+    del sin_vartheta2
     t30 = t14*varphi2_dot
     del t14
-    t31 = t11*t8*vartheta2_dot - t30
+    t31 = cos_varphi2*cos_vartheta2*vartheta2_dot - t30
     t32 = t17*varphi2_dot
     del t17
-    t33 = t11*vartheta2_dot
-    del t11
-    t34 = t13*t33
-    del t13
+    t33 = cos_vartheta2*vartheta2_dot
+    del cos_vartheta2
+    t34 = sin_varphi2*t33
+    del sin_varphi2
     t35 = t32 + t34
     del t32, t34
-    t36 = numpy.cos(spherical_std_theta2)
-    t37 = numpy.cos(spherical_std_phi2)
-    t38 = numpy.sin(spherical_std_phi2)
-    t39 = t20*t25*t27 + t24*t7 - t18*t25*t26
-    del t20, t24, t25
-    t40 = (t0*t26*t28 + t18*t27 - t19*t26)/t7
-    del t0, t18, t19, t26, t27, t28, t7
-    t41 = t15*t35 + t31*t36*t38 - t29*t36*t37
-    del t31, t35, t36
-    t42 = (t29*t38 + t33*t37*t8 - t30*t37)/t15
-    del t15, t29, t30, t33, t37, t38, t8
+    tan_half_spherical_std_phi2 = numpy.tan(0.5*spherical_std_phi2)
+    tan_half_sq_spherical_std_phi2 = tan_half_spherical_std_phi2*tan_half_spherical_std_phi2
+    rho_spherical_std_phi2 = 1.0/(1 + tan_half_sq_spherical_std_phi2)
+    sin_spherical_std_phi2 = 2*(rho_spherical_std_phi2*tan_half_spherical_std_phi2)
+    del tan_half_spherical_std_phi2
+    cos_spherical_std_phi2 = rho_spherical_std_phi2*(1 - tan_half_sq_spherical_std_phi2)
+    del rho_spherical_std_phi2, tan_half_sq_spherical_std_phi2
+    t39 = cos_spherical_std_theta1*sin_spherical_std_phi1*t20 + sin_spherical_std_theta1*t24 - cos_spherical_std_phi1*cos_spherical_std_theta1*t18
+    del cos_spherical_std_theta1, t20, t24
+    t40 = (cos_spherical_std_phi1*cos_varphi1*t28 + sin_spherical_std_phi1*t18 - cos_spherical_std_phi1*t19)/sin_spherical_std_theta1
+    del cos_spherical_std_phi1, cos_varphi1, sin_spherical_std_phi1, sin_spherical_std_theta1, t18, t19, t28
+    t41 = cos_spherical_std_theta2*sin_spherical_std_phi2*t31 + sin_spherical_std_theta2*t35 - cos_spherical_std_phi2*cos_spherical_std_theta2*t29
+    del cos_spherical_std_theta2, t31, t35
+    t42 = (cos_spherical_std_phi2*cos_varphi2*t33 + sin_spherical_std_phi2*t29 - cos_spherical_std_phi2*t30)/sin_spherical_std_theta2
+    del cos_spherical_std_phi2, cos_varphi2, sin_spherical_std_phi2, sin_spherical_std_theta2, t29, t30, t33
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_std_theta1
     del spherical_std_theta1

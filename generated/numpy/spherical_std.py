@@ -52,25 +52,40 @@ def rhs(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = numpy.sin(theta1)
-    t1 = numpy.sin(theta2)
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
     Ab = l2*l2
     t2 = phi1 - phi2
-    t3 = numpy.sin(t2)
-    t4 = numpy.cos(theta2)
-    t5 = l2*t4
+    tan_half_t2 = numpy.tan(0.5*t2)
+    del t2
+    tan_half_sq_t2 = tan_half_t2*tan_half_t2
+    rho_t2 = 1.0/(1 + tan_half_sq_t2)
+    sin_t2 = 2*(rho_t2*tan_half_t2)
+    del tan_half_t2
+    cos_t2 = rho_t2*(1 - tan_half_sq_t2)
+    del rho_t2, tan_half_sq_t2
+    t5 = l2*cos_theta2
     t6 = l1*t5
-    t7 = t3*t6
+    t7 = sin_t2*t6
     Q10 = -t7
     del t7
-    t8 = numpy.cos(t2)
-    del t2
     t9 = l1*l2
-    Q11 = t9*t8
-    t10 = numpy.cos(theta1)
-    t11 = l1*t10
+    Q11 = t9*cos_t2
+    t11 = l1*cos_theta1
     t12 = l2*t11
-    Q01 = t12*t3
+    Q01 = sin_t2*t12
     t13 = Q01*Q01
     t14 = 1.0/m2
     t15 = l1*l1
@@ -81,9 +96,9 @@ def rhs(y, p):
     AaAb = Aa*Ab
     t18 = -AaAb
     del AaAb
-    t19 = t0*t1
-    t20 = t10*t4
-    t21 = t19 + t20*t8
+    t19 = sin_theta1*sin_theta2
+    t20 = cos_theta1*cos_theta2
+    t21 = cos_t2*t20 + t19
     del t19, t20
     Q00 = t9*t21
     del t21
@@ -97,73 +112,73 @@ def rhs(y, p):
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
     t25 = 2*phi2_dot
     t26 = t25*theta2_dot
-    t27 = t9*t3
+    t27 = t9*sin_t2
     t28 = phi2_dot*phi2_dot
-    t29 = t1*t28
+    t29 = sin_theta2*t28
     t30 = theta2_dot*theta2_dot
     t31 = t9*t30
     del t30
-    t32 = t3*t31
-    t33 = t6*t8
+    t32 = sin_t2*t31
+    t33 = cos_t2*t6
     del t6
-    t34 = t10*theta1_dot
+    t34 = cos_theta1*theta1_dot
     t35 = phi1_dot*t34
     del t34
     t36 = 2*Aa
-    f1 = -t1*t32 - t26*t33 - t27*t29 - t36*t35
+    f1 = -sin_theta2*t32 - t26*t33 - t27*t29 - t36*t35
     del t29, t32, t33, t35, t36
-    t37 = l2*t1
+    t37 = l2*sin_theta2
     t38 = g*t37
     del t37
-    t39 = t1*t4
+    t39 = cos_theta2*sin_theta2
     t40 = phi1_dot*phi1_dot
-    t41 = t0*t4
+    t41 = cos_theta2*sin_theta1
     t42 = t40*t41
     t43 = 2*theta1_dot
     t44 = phi1_dot*t43
     del t43
-    t45 = t11*t3
+    t45 = sin_t2*t11
     del t11
     t46 = t45*t5
     t47 = theta1_dot*theta1_dot
-    t48 = t41*t8
-    t49 = t9*(t1*t10 - t48)
+    t48 = cos_t2*t41
+    t49 = t9*(cos_theta1*sin_theta2 - t48)
     del t48
     f2 = Ab*(t28*t39) + Q11*t42 + t44*t46 - t38 - t47*t49
     del t38, t39, t42, t46, t49
-    t50 = t4*theta2_dot
-    del t4
+    t50 = cos_theta2*theta2_dot
+    del cos_theta2
     t51 = Ab*t25
     del t25
-    t52 = t0*t40
+    t52 = sin_theta1*t40
     t53 = t9*t47
     del t47, t9
-    t54 = t3*t53
-    del t3, t53
-    t55 = t12*t8
+    t54 = sin_t2*t53
+    del sin_t2, t53
+    t55 = cos_t2*t12
     del t12
-    f3 = t0*t54 + t27*t52 - t44*t55 - t50*t51
+    f3 = sin_theta1*t54 + t27*t52 - t44*t55 - t50*t51
     del t27, t44, t50, t51, t52, t54, t55
     t56 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t57 = l1*t0
+    t57 = l1*sin_theta1
     t58 = g*t14*t16
     t59 = t26*t5
     del t26, t5
-    t60 = t1*t10
-    t61 = t60*t8
+    t60 = cos_theta1*sin_theta2
+    t61 = cos_t2*t60
     del t60
     t62 = t41 - t61
     del t41, t61
-    f0 = (l1*l2)*(t1*t10*t28*t8) + (t14*t15*t16)*(t0*t10*t40) - t31*t62 - t45*t59 - t58*t57
-    del t10, t14, t15, t16, t28, t31, t40, t45, t57, t58, t59, t62, t8
+    f0 = (l1*l2)*(cos_t2*cos_theta1*sin_theta2*t28) + (t14*t15*t16)*(cos_theta1*sin_theta1*t40) - t31*t62 - t45*t59 - t58*t57
+    del cos_t2, cos_theta1, t14, t15, t16, t28, t31, t40, t45, t57, t58, t59, t62
     t63 = Ab*f0 - Q00*f2 - Q01*f3
     del Ab
     qdd0 = D1_11*rD1*t63 - D1_01*t56
     del D1_11
     xr1 = D1_00*t56 - D1_01*rD1*t63
     del D1_00, D1_01, rD1, t56, t63
-    rs1 = 1.0/t0
-    del t0
+    rs1 = 1.0/sin_theta1
+    del sin_theta1
     qdd1 = rs1*xr1
     del rs1, xr1
     D2_00 = -t22 - t23
@@ -180,8 +195,8 @@ def rhs(y, p):
     del D2_11
     xr3 = D2_00*t64 - D2_01*rD2*t65
     del D2_00, D2_01, rD2, t64, t65
-    rs3 = 1.0/t1
-    del t1
+    rs3 = 1.0/sin_theta2
+    del sin_theta2
     qdd3 = rs3*xr3
     del rs3, xr3
     ydot = numpy.empty(shape + (8,), dtype)
@@ -217,51 +232,66 @@ def mass_matrix(y, p):
     m2 = p[..., 1]
     l1 = p[..., 2]
     l2 = p[..., 3]
-    t0 = numpy.sin(theta1)
-    t1 = numpy.sin(theta2)
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
     t2 = l1*l1
     t3 = m1 + m2
     M00 = t2*t3
     del t2, t3
-    t4 = t0*t1
+    t4 = sin_theta1*sin_theta2
     t5 = phi1 - phi2
-    t6 = numpy.cos(t5)
-    t7 = numpy.cos(theta1)
-    t8 = numpy.cos(theta2)
-    t9 = t7*t8
-    t10 = t4 + t6*t9
+    tan_half_t5 = numpy.tan(0.5*t5)
+    del t5
+    tan_half_sq_t5 = tan_half_t5*tan_half_t5
+    rho_t5 = 1.0/(1 + tan_half_sq_t5)
+    sin_t5 = 2*(rho_t5*tan_half_t5)
+    del tan_half_t5
+    cos_t5 = rho_t5*(1 - tan_half_sq_t5)
+    del rho_t5, tan_half_sq_t5
+    t9 = cos_theta1*cos_theta2
+    t10 = cos_t5*t9 + t4
     del t9
     t11 = l1*m2
     t12 = l2*t11
     del t11
     M02 = t12*t10
     del t10
-    t13 = t1*t7
-    del t7
-    t14 = numpy.sin(t5)
-    del t5
-    t15 = t12*t14
-    del t14
+    t13 = cos_theta1*sin_theta2
+    del cos_theta1
+    t15 = t12*sin_t5
+    del sin_t5
     M03 = t13*t15
     del t13
-    t16 = t0*t0
+    t16 = sin_theta1*sin_theta1
     M11 = M00*t16
     del t16
-    t17 = t0*t8
-    del t0, t8
+    t17 = cos_theta2*sin_theta1
+    del cos_theta2, sin_theta1
     t18 = t15*t17
     del t15, t17
     M12 = -t18
     del t18
-    t19 = t4*t6
-    del t4, t6
+    t19 = cos_t5*t4
+    del cos_t5, t4
     M13 = t12*t19
     del t12, t19
     t20 = l2*l2
     M22 = m2*t20
     del t20
-    t21 = t1*t1
-    del t1
+    t21 = sin_theta2*sin_theta2
+    del sin_theta2
     M33 = M22*t21
     del t21
     M = numpy.empty(shape + (4, 4), dtype)
@@ -314,69 +344,84 @@ def forcing(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = numpy.sin(theta1)
-    t1 = numpy.cos(theta1)
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
     t2 = phi2_dot*phi2_dot
-    t3 = numpy.cos(theta2)
-    t4 = t0*t3
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t4 = cos_theta2*sin_theta1
     t5 = phi1 - phi2
-    t6 = numpy.cos(t5)
-    t7 = numpy.sin(theta2)
-    t8 = t1*t7
-    t9 = t6*t8
+    tan_half_t5 = numpy.tan(0.5*t5)
+    del t5
+    tan_half_sq_t5 = tan_half_t5*tan_half_t5
+    rho_t5 = 1.0/(1 + tan_half_sq_t5)
+    sin_t5 = 2*(rho_t5*tan_half_t5)
+    del tan_half_t5
+    cos_t5 = rho_t5*(1 - tan_half_sq_t5)
+    del rho_t5, tan_half_sq_t5
+    t8 = cos_theta1*sin_theta2
+    t9 = cos_t5*t8
     t10 = phi1_dot*phi1_dot
-    t11 = t0*t10
+    t11 = sin_theta1*t10
     t12 = l1*m2
     t13 = l2*t12
     t14 = theta2_dot*theta2_dot
     t15 = t13*t14
     t16 = l1*m1
-    t17 = l2*t3
+    t17 = l2*cos_theta2
     t18 = t17*theta2_dot
-    t19 = numpy.sin(t5)
-    del t5
     t20 = 2*t12
-    t21 = t20*t19
+    t21 = t20*sin_t5
     t22 = l1*l1
     t23 = m1*t22
     t24 = m2*t22
     del t22
-    t25 = l1*t0
+    t25 = l1*sin_theta1
     t26 = 2*phi2_dot
     t27 = t26*theta2_dot
     del t26
-    t28 = t1*theta1_dot
+    t28 = cos_theta1*theta1_dot
     t29 = phi1_dot*t28
     del t28
-    t30 = l2*t7
+    t30 = l2*sin_theta2
     t31 = m2*t30
-    t32 = t19*t31
+    t32 = sin_t5*t31
     t33 = m2*t17
     t34 = g*t30
     del t30
-    t35 = t3*t7
-    del t3, t7
-    t36 = t4*t6
+    t35 = cos_theta2*sin_theta2
+    del cos_theta2, sin_theta2
+    t36 = cos_t5*t4
     t37 = l2*l2
     t38 = m2*t37
     del t37
     t39 = theta1_dot*theta1_dot
     t40 = t13*t39
     t41 = t17*t27
-    t42 = t19*t25
-    del t19
+    t42 = sin_t5*t25
+    del sin_t5
     t43 = 2*theta1_dot
     t44 = phi1_dot*t43
     del t43
-    t45 = l1*t1
-    t46 = t45*t6
+    t45 = l1*cos_theta1
+    t46 = cos_t5*t45
     del t45
     t47 = t44*t46
     del t44, t46
-    t48 = (-g*t12 - g*t16)*t0 + (t23 + t24)*(t1*t11) + t13*(t2*t9) + t15*t9 - phi2_dot*t1*t18*t21 - t15*t4
-    del t0, t1, t11, t12, t15, t18, t23, t24, t4, t9
-    t49 = -t25*(t14*t32 + t2*t32 + t27*t33*t6 + (2*t16 + t20)*t29)
-    del t14, t16, t20, t25, t27, t32, t33, t6
+    t48 = (t23 + t24)*(cos_theta1*t11) + (-g*t12 - g*t16)*sin_theta1 + t13*(t2*t9) + t15*t9 - cos_theta1*phi2_dot*t18*t21 - t15*t4
+    del cos_theta1, sin_theta1, t11, t12, t15, t18, t23, t24, t4, t9
+    t49 = -t25*(cos_t5*t27*t33 + t14*t32 + t2*t32 + (2*t16 + t20)*t29)
+    del cos_t5, t14, t16, t20, t25, t27, t32, t33
     t50 = t13*(t10*t36) + t17*t21*t29 + t38*(t2*t35) + t36*t40 - m2*t34 - t40*t8
     del t13, t17, t2, t21, t29, t34, t35, t36, t38, t40, t8
     t51 = t31*(t10*t42 + t39*t42 - t41 - t47)
@@ -415,45 +460,60 @@ def energy(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = numpy.sin(theta1)
-    t1 = numpy.sin(theta2)
-    t2 = t0*t1
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t2 = sin_theta1*sin_theta2
     t3 = phi1 - phi2
-    t4 = numpy.cos(t3)
-    t5 = numpy.cos(theta1)
+    tan_half_t3 = numpy.tan(0.5*t3)
+    del t3
+    tan_half_sq_t3 = tan_half_t3*tan_half_t3
+    rho_t3 = 1.0/(1 + tan_half_sq_t3)
+    sin_t3 = 2*(rho_t3*tan_half_t3)
+    del tan_half_t3
+    cos_t3 = rho_t3*(1 - tan_half_sq_t3)
+    del rho_t3, tan_half_sq_t3
     t6 = phi2_dot*phi2_dot
     t7 = phi1_dot*phi1_dot
     t8 = theta2_dot*theta2_dot
-    t9 = t5*theta1_dot
+    t9 = cos_theta1*theta1_dot
     t10 = theta1_dot*theta1_dot
     t11 = l1*m2
     t12 = l2*t11
-    t13 = t1*t5
-    t14 = numpy.sin(t3)
-    del t3
-    t15 = t12*t14
-    del t14
+    t13 = cos_theta1*sin_theta2
+    t15 = t12*sin_t3
+    del sin_t3
     t16 = t13*t15
     del t13
-    t17 = t0*t0
-    t18 = numpy.cos(theta2)
-    t19 = t0*t18
-    del t0
+    t17 = sin_theta1*sin_theta1
+    t19 = cos_theta2*sin_theta1
+    del sin_theta1
     t20 = t15*t19
     del t15, t19
-    t21 = t2*t4
+    t21 = cos_t3*t2
     t22 = t12*t21
     del t21
     t23 = l2*l2
     t24 = m2*t23
     del t23
-    t25 = t1*t1
-    del t1
+    t25 = sin_theta2*sin_theta2
+    del sin_theta2
     t26 = t24*t25
     del t25
     t27 = l1*m1
-    t28 = l2*t18
-    del t18
+    t28 = l2*cos_theta2
+    del cos_theta2
     t29 = t28*theta2_dot
     t30 = m2*t28
     del t28
@@ -463,8 +523,8 @@ def energy(y, p):
     del t31
     t34 = (1/2)*t32 + (1/2)*t33
     del t32, t33
-    t35 = phi1_dot*phi2_dot*t22 + phi2_dot*t16*theta1_dot + t34*t10 + t11*(t29*t4*t9) + t12*(t2*theta1_dot*theta2_dot) + t34*(t17*t7) + ((1/2)*t24)*t8 + 1/2*(t26*t6) - g*(t30 + (t11 + t27)*t5) - phi1_dot*t20*theta2_dot
-    del t10, t11, t12, t16, t17, t2, t20, t22, t24, t26, t27, t29, t30, t34, t4, t5, t6, t7, t8, t9
+    t35 = t11*(cos_t3*t29*t9) + phi1_dot*phi2_dot*t22 + phi2_dot*t16*theta1_dot + t34*t10 + t12*(t2*theta1_dot*theta2_dot) + t34*(t17*t7) + ((1/2)*t24)*t8 + 1/2*(t26*t6) - g*((t11 + t27)*cos_theta1 + t30) - phi1_dot*t20*theta2_dot
+    del cos_t3, cos_theta1, t10, t11, t12, t16, t17, t2, t20, t22, t24, t26, t27, t29, t30, t34, t6, t7, t8, t9
     E = numpy.empty(shape + (), dtype)
     E[...] = t35
     del t35
@@ -487,30 +547,50 @@ def positions(y, p):
     phi2 = y[..., 3]
     l1 = p[..., 2]
     l2 = p[..., 3]
-    t0 = numpy.sin(theta1)
-    t1 = numpy.cos(phi1)
-    t2 = t0*t1
-    del t1
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_phi1 = numpy.tan(0.5*phi1)
+    tan_half_sq_phi1 = tan_half_phi1*tan_half_phi1
+    rho_phi1 = 1.0/(1 + tan_half_sq_phi1)
+    sin_phi1 = 2*(rho_phi1*tan_half_phi1)
+    del tan_half_phi1
+    cos_phi1 = rho_phi1*(1 - tan_half_sq_phi1)
+    del rho_phi1, tan_half_sq_phi1
+    t2 = cos_phi1*sin_theta1
+    del cos_phi1
     t3 = l1*t2
     del t2
-    t4 = numpy.sin(phi1)
-    t5 = t0*t4
-    del t0, t4
+    t5 = sin_phi1*sin_theta1
+    del sin_phi1, sin_theta1
     t6 = l1*t5
     del t5
-    t7 = numpy.cos(theta1)
-    t8 = l1*t7
-    del t7
-    t9 = numpy.sin(theta2)
-    t10 = numpy.cos(phi2)
-    t11 = t10*t9
-    del t10
-    t12 = numpy.sin(phi2)
-    t13 = t12*t9
-    del t12, t9
-    t14 = numpy.cos(theta2)
-    t15 = l2*t14
-    del t14
+    t8 = l1*cos_theta1
+    del cos_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    tan_half_phi2 = numpy.tan(0.5*phi2)
+    tan_half_sq_phi2 = tan_half_phi2*tan_half_phi2
+    rho_phi2 = 1.0/(1 + tan_half_sq_phi2)
+    sin_phi2 = 2*(rho_phi2*tan_half_phi2)
+    del tan_half_phi2
+    cos_phi2 = rho_phi2*(1 - tan_half_sq_phi2)
+    del rho_phi2, tan_half_sq_phi2
+    t11 = cos_phi2*sin_theta2
+    del cos_phi2
+    t13 = sin_phi2*sin_theta2
+    del sin_phi2, sin_theta2
+    t15 = l2*cos_theta2
+    del cos_theta2
     t16 = -t8
     t17 = l2*t11 + t3
     del t11
@@ -557,33 +637,48 @@ def jacobian(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = numpy.sin(theta1)
-    t1 = numpy.sin(theta2)
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
     t2 = 1.0/m2
     t3 = l1*l1
     t4 = m1 + m2
     t5 = phi1 - phi2
-    t6 = numpy.sin(t5)
-    t7 = numpy.cos(theta1)
-    t8 = l1*t7
+    tan_half_t5 = numpy.tan(0.5*t5)
+    del t5
+    tan_half_sq_t5 = tan_half_t5*tan_half_t5
+    rho_t5 = 1.0/(1 + tan_half_sq_t5)
+    sin_t5 = 2*(rho_t5*tan_half_t5)
+    del tan_half_t5
+    cos_t5 = rho_t5*(1 - tan_half_sq_t5)
+    del rho_t5, tan_half_sq_t5
+    t8 = l1*cos_theta1
     t9 = l2*t8
-    Q01 = t6*t9
+    Q01 = sin_t5*t9
     t10 = phi1_dot*phi1_dot
     t11 = theta1_dot*theta1_dot
     t12 = l1*l2
-    t13 = t12*t6
-    t14 = t0*t13
-    t15 = t0*theta1_dot
-    t16 = numpy.cos(t5)
-    del t5
-    Q11 = t12*t16
+    t13 = t12*sin_t5
+    t14 = sin_theta1*t13
+    t15 = sin_theta1*theta1_dot
+    Q11 = t12*cos_t5
     t17 = 2*phi1_dot
     t18 = Q11*t17
     Ab = l2*l2
-    t19 = numpy.cos(theta2)
-    t20 = l2*t19
+    t20 = l2*cos_theta2
     t21 = l1*t20
-    t22 = t21*t6
+    t22 = sin_t5*t21
     Q10 = -t22
     t23 = Q01*Q01
     t24 = t3*t4
@@ -592,9 +687,9 @@ def jacobian(y, p):
     AaAb = Aa*Ab
     t25 = -AaAb
     del AaAb
-    t26 = t0*t1
-    t27 = t19*t7
-    t28 = t16*t27 + t26
+    t26 = sin_theta1*sin_theta2
+    t27 = cos_theta1*cos_theta2
+    t28 = cos_t5*t27 + t26
     Q00 = t12*t28
     t29 = t25 + Q00*Q00
     D1_00 = -t23 - t29
@@ -607,60 +702,60 @@ def jacobian(y, p):
     t32 = 2*phi2_dot
     t33 = t32*theta2_dot
     t34 = phi2_dot*phi2_dot
-    t35 = t1*t34
+    t35 = sin_theta2*t34
     t36 = theta2_dot*theta2_dot
     t37 = t12*t36
-    t38 = t37*t6
-    t39 = t16*t21
+    t38 = sin_t5*t37
+    t39 = cos_t5*t21
     del t21
-    t40 = t7*theta1_dot
+    t40 = cos_theta1*theta1_dot
     t41 = phi1_dot*t40
     t42 = 2*Aa
-    f1 = -t1*t38 - t13*t35 - t33*t39 - t42*t41
+    f1 = -sin_theta2*t38 - t13*t35 - t33*t39 - t42*t41
     del t41
-    t43 = l2*t1
+    t43 = l2*sin_theta2
     t44 = g*t43
     del t43
-    t45 = t1*t19
-    t46 = t0*t19
+    t45 = cos_theta2*sin_theta2
+    t46 = cos_theta2*sin_theta1
     t47 = t10*t46
     t48 = 2*theta1_dot
     t49 = phi1_dot*t48
-    t50 = t6*t8
+    t50 = sin_t5*t8
     t51 = t20*t50
-    t52 = t16*t46
-    t53 = t12*(t1*t7 - t52)
+    t52 = cos_t5*t46
+    t53 = t12*(cos_theta1*sin_theta2 - t52)
     del t52
     f2 = Ab*(t34*t45) + Q11*t47 + t49*t51 - t11*t53 - t44
     del t44
-    t54 = t19*theta2_dot
+    t54 = cos_theta2*theta2_dot
     t55 = Ab*t32
-    t56 = t0*t10
+    t56 = sin_theta1*t10
     t57 = t12*t11
-    t58 = t57*t6
-    t59 = t16*t9
+    t58 = sin_t5*t57
+    t59 = cos_t5*t9
     del t9
-    f3 = t0*t58 + t13*t56 - t49*t59 - t54*t55
+    f3 = sin_theta1*t58 + t13*t56 - t49*t59 - t54*t55
     t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t61 = l1*t0
+    t61 = l1*sin_theta1
     t62 = g*t2*t4
     t63 = t20*t33
-    t64 = t1*t7
-    t65 = t16*t64
+    t64 = cos_theta1*sin_theta2
+    t65 = cos_t5*t64
     t66 = t46 - t65
     del t65
-    f0 = (l1*l2)*(t1*t16*t34*t7) + (t2*t3*t4)*(t0*t10*t7) - t37*t66 - t50*t63 - t62*t61
+    f0 = (l1*l2)*(cos_t5*cos_theta1*sin_theta2*t34) + (t2*t3*t4)*(cos_theta1*sin_theta1*t10) - t37*t66 - t50*t63 - t62*t61
     del t50, t61
     t67 = Ab*f0 - Q00*f2 - Q01*f3
     qdd0 = D1_11*rD1*t67 - D1_01*t60
     t68 = Q01*t10 + Q01*t11 + qdd0*t14 + t15*t18
     t69 = -t28
     del t28
-    t70 = (l1*l2)*(t10*t16*t19*t7) - qdd0*t53 - t13*t46*t49 - t57*t69
-    t71 = (2*Ab*t2*t3*t4)*(phi1_dot*t0*theta1_dot) - Q10*t70 - Q11*t68
+    t70 = (l1*l2)*(cos_t5*cos_theta1*cos_theta2*t10) - qdd0*t53 - t13*t46*t49 - t57*t69
+    t71 = (2*Ab*t2*t3*t4)*(phi1_dot*sin_theta1*theta1_dot) - Q10*t70 - Q11*t68
     t72 = D1_01*rD1
-    t73 = t7*t7
-    t74 = t16*t26
+    t73 = cos_theta1*cos_theta1
+    t74 = cos_t5*t26
     t75 = t27 + t74
     del t27, t74
     D2_00 = -t29 - t30
@@ -676,36 +771,36 @@ def jacobian(y, p):
     qdd2 = D2_11*rD2*t77 - D2_01*t76
     xr3 = D2_00*t76 - D2_01*rD2*t77
     del t76, t77
-    t78 = (2*l1*l2)*(phi2_dot*t0*t19*t6*theta2_dot) + (l1*l2)*(t0*t6*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t73)) - Q11*t26*t34 - qdd2*t53 - t37*t75 - t62*t8
+    t78 = (2*l1*l2)*(cos_theta2*phi2_dot*sin_t5*sin_theta1*theta2_dot) + (l1*l2)*(sin_t5*sin_theta1*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t73)) - Q11*t26*t34 - qdd2*t53 - t37*t75 - t62*t8
     del t62, t73
     t79 = Ab*t78 - Q00*t70 - Q01*t68
     xr1 = D1_00*t60 - D1_01*rD1*t67
     del D1_01, t60, t67
     t80 = t13*xr1
-    t81 = Q01*t49 + Q11*t0*t11 + Q11*t56 + t80 - qdd0*t59
+    t81 = Q01*t49 + Q11*sin_theta1*t11 + Q11*t56 + t80 - qdd0*t59
     del t11, t56
-    t82 = qdd2*t39 + t13*xr3 + t22*t33 - Q11*t1*t36 - Q11*t35
+    t82 = qdd2*t39 + t13*xr3 + t22*t33 - Q11*sin_theta2*t36 - Q11*t35
     del t35
-    t83 = t16*t8
+    t83 = cos_t5*t8
     del t8
     t84 = t49*t83
     t85 = qdd0*t51 + t20*t84 + t39*xr1 - t13*t47 - t46*t58
     del t47, t58, t84
     t86 = Ab*t82 - Q10*t85 - Q11*t81
     t87 = t13*t64
-    t88 = t34*t87 + t38*t64 + t59*xr3 + t63*t83 - (l1*l2)*(qdd2*t19*t6*t7)
+    t88 = t34*t87 + t38*t64 + t59*xr3 + t63*t83 - (l1*l2)*(cos_theta1*cos_theta2*qdd2*sin_t5)
     del t38, t63
     t89 = -t88
     t90 = Ab*t89 - Q00*t85 - Q01*t81
-    t91 = t1*theta2_dot
+    t91 = sin_theta2*theta2_dot
     t92 = t55*t91
-    t93 = t1*t13
-    t94 = (2*l1*l2)*(phi2_dot*t1*t16*theta2_dot) - qdd2*t93 - t22*t34 - t22*t36
-    del t16, t22, t36
-    t95 = t19*t19
+    t93 = sin_theta2*t13
+    t94 = (2*l1*l2)*(cos_t5*phi2_dot*sin_theta2*theta2_dot) - qdd2*t93 - t22*t34 - t22*t36
+    del cos_t5, t22, t36
+    t95 = cos_theta2*cos_theta2
     t96 = t12*t66
     del t12, t66
-    t97 = Ab*(t34*(-1 + 2*t95)) - Q11*t10*t26 - g*t20 - qdd0*t96 - t1*t80 - t49*t87 - t57*t75
+    t97 = Ab*(t34*(-1 + 2*t95)) - Q11*t10*t26 - g*t20 - qdd0*t96 - sin_theta2*t80 - t49*t87 - t57*t75
     del qdd0, t10, t26, t49, t57, t75, t80, t95
     t98 = Ab*t94 - Q10*t97 - Q11*t92
     t99 = t20*t34*t83 + t33*t87 - qdd2*t96 - t37*t69
@@ -717,13 +812,13 @@ def jacobian(y, p):
     t103 = -t85
     t104 = Ab*t101 - Q10*t103 - Q11*t102
     t105 = Ab*t88 - Q00*t103 - Q01*t102
-    t106 = (2*l1*l2)*(t0*t6*theta1_dot) - t17*t59
-    del t6
+    t106 = (2*l1*l2)*(sin_t5*sin_theta1*theta1_dot) - t17*t59
+    del sin_t5
     t107 = t17*t51 - t48*t53
     del t53
     t108 = -Q00*t107 - Q01*t106
     t109 = Aa*t17
-    t110 = t109*t7
+    t110 = cos_theta1*t109
     t111 = -Ab*t110 - Q10*t107 - Q11*t106
     t112 = t42*t40
     del t40, t42
@@ -732,9 +827,9 @@ def jacobian(y, p):
     t114 = t18*t46 + t48*t51
     del t18, t46, t48
     t115 = -Ab*t112 - Q10*t114 - Q11*t113
-    t116 = (2*Ab*t2*t3*t4)*(phi1_dot*t0*t7) - Q00*t114 - Q01*t113
+    t116 = (2*Ab*t2*t3*t4)*(cos_theta1*phi1_dot*sin_theta1) - Q00*t114 - Q01*t113
     del t2, t3, t4
-    t117 = t19*t55
+    t117 = cos_theta2*t55
     t118 = -2*(t13*t91) - t32*t39
     del t13, t91
     t119 = Ab*t118 + Q11*t117
@@ -755,7 +850,7 @@ def jacobian(y, p):
     del t120, t32, t51, t64
     t130 = Ab*t129 + t123*t128 - Q00*t125
     del t123, t125
-    rs1 = 1.0/t0
+    rs1 = 1.0/sin_theta1
     qdd1 = rs1*xr1
     del xr1
     t131 = D1_00*rD1
@@ -771,7 +866,7 @@ def jacobian(y, p):
     del t81
     t137 = Aa*t85 - Q00*t89 - Q10*t82
     del t82, t85, t89
-    t138 = (2*Aa*Ab)*(phi2_dot*t1*theta2_dot) - Q01*t99 - Q11*t94
+    t138 = (2*Aa*Ab)*(phi2_dot*sin_theta2*theta2_dot) - Q01*t99 - Q11*t94
     t139 = Aa*t97 - Q00*t99 - Q10*t94
     del t94, t97, t99
     t140 = Aa*t102 - Q01*t88 - Q11*t101
@@ -782,20 +877,20 @@ def jacobian(y, p):
     del t106
     t143 = Aa*t107 + Q10*t110
     del t107
-    t144 = Aa*t113 + Q11*t112 - Aa*(phi1_dot*t0*t128*t7)
+    t144 = Aa*t113 + Q11*t112 - Aa*(cos_theta1*phi1_dot*sin_theta1*t128)
     del t113, t128
-    t145 = Aa*t114 + Q10*t112 - Q00*t0*t110
-    del t0, t110, t112, t114
+    t145 = Aa*t114 + Q10*t112 - Q00*sin_theta1*t110
+    del sin_theta1, t110, t112, t114
     t146 = -Q00*t121 - Q10*t118
     t147 = -Aa*t117 - Q01*t121 - Q11*t118
     del t117, t118, t121
     t148 = -Aa*t124 - Q01*t129 - Q11*t126
     del Q01, Q11, t124
-    t149 = (2*Aa*Ab)*(phi2_dot*t1*t19) - Q00*t129 - Q10*t126
+    t149 = (2*Aa*Ab)*(cos_theta2*phi2_dot*sin_theta2) - Q00*t129 - Q10*t126
     del Aa, Ab, Q00, Q10, t126, t129
     t150 = D2_00*rD2
-    rs3 = 1.0/t1
-    del t1
+    rs3 = 1.0/sin_theta2
+    del sin_theta2
     qdd3 = rs3*xr3
     del xr3
     t151 = D1_11*rD1*t79 - t71*t72
@@ -807,8 +902,8 @@ def jacobian(y, p):
     t157 = D1_11*rD1*t122 - t119*t72
     t158 = D1_11*rD1*t130 - t127*t72
     del D1_11
-    t159 = rs1*(D1_00*rD1*t71 - qdd1*t7 - t72*t79)
-    del D1_00, qdd1, rD1, t7, t71, t79
+    t159 = rs1*(D1_00*rD1*t71 - cos_theta1*qdd1 - t72*t79)
+    del D1_00, cos_theta1, qdd1, rD1, t71, t79
     t160 = rs1*(t131*t86 - t72*t90)
     del t86, t90
     t161 = rs1*(t131*t98 - t100*t72)
@@ -836,8 +931,8 @@ def jacobian(y, p):
     del t133, t135
     t176 = rs3*(t136*t150 - t134*t137)
     del t136, t137
-    t177 = rs3*(D2_00*rD2*t138 - qdd3*t19 - t134*t139)
-    del D2_00, qdd3, rD2, t138, t139, t19
+    t177 = rs3*(D2_00*rD2*t138 - cos_theta2*qdd3 - t134*t139)
+    del D2_00, cos_theta2, qdd3, rD2, t138, t139
     t178 = rs3*(t140*t150 - t134*t141)
     del t140, t141
     t179 = rs3*(t142*t150 - t134*t143)
@@ -959,13 +1054,23 @@ def polar_sines(y):
     (y,), shape, dtype = _prepare("polar_sines", (y, 8, "y"))
     theta1 = y[..., 0]
     theta2 = y[..., 2]
-    t0 = numpy.sin(theta1)
-    t1 = numpy.sin(theta2)
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    del tan_half_sq_theta1
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del rho_theta1, tan_half_theta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    del tan_half_sq_theta2
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del rho_theta2, tan_half_theta2
     sines = numpy.empty(shape + (2,), dtype)
-    sines[..., 0] = t0
-    del t0
-    sines[..., 1] = t1
-    del t1
+    sines[..., 0] = sin_theta1
+    del sin_theta1
+    sines[..., 1] = sin_theta2
+    del sin_theta2
     return sines
 
 
@@ -986,72 +1091,112 @@ def to_spherical_alt(y):
     phi1_dot = y[..., 5]
     theta2_dot = y[..., 6]
     phi2_dot = y[..., 7]
-    t0 = numpy.sin(theta1)
-    t1 = t0*t0
-    t2 = numpy.cos(theta1)
-    t3 = t2*t2
-    t4 = numpy.sin(phi1)
-    t5 = numpy.cos(phi1)
-    t6 = t0*t5
-    spherical_alt_vartheta1 = numpy.arctan2(numpy.sqrt(t1*t4*t4 + t3), t6)
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    t1 = sin_theta1*sin_theta1
+    t3 = cos_theta1*cos_theta1
+    tan_half_phi1 = numpy.tan(0.5*phi1)
+    tan_half_sq_phi1 = tan_half_phi1*tan_half_phi1
+    rho_phi1 = 1.0/(1 + tan_half_sq_phi1)
+    sin_phi1 = 2*(rho_phi1*tan_half_phi1)
+    del tan_half_phi1
+    cos_phi1 = rho_phi1*(1 - tan_half_sq_phi1)
+    del rho_phi1, tan_half_sq_phi1
+    t6 = cos_phi1*sin_theta1
+    spherical_alt_vartheta1 = numpy.arctan2(numpy.sqrt(sin_phi1*sin_phi1*t1 + t3), t6)
     del t1, t3
-    t7 = numpy.sin(spherical_alt_vartheta1)
-    t8 = numpy.sin(theta2)
-    t9 = t8*t8
-    t10 = numpy.cos(theta2)
-    t11 = t10*t10
-    t12 = numpy.sin(phi2)
-    t13 = numpy.cos(phi2)
-    t14 = t13*t8
-    spherical_alt_vartheta2 = numpy.arctan2(numpy.sqrt(t11 + t12*t12*t9), t14)
+    tan_half_spherical_alt_vartheta1 = numpy.tan(0.5*spherical_alt_vartheta1)
+    tan_half_sq_spherical_alt_vartheta1 = tan_half_spherical_alt_vartheta1*tan_half_spherical_alt_vartheta1
+    rho_spherical_alt_vartheta1 = 1.0/(1 + tan_half_sq_spherical_alt_vartheta1)
+    sin_spherical_alt_vartheta1 = 2*(rho_spherical_alt_vartheta1*tan_half_spherical_alt_vartheta1)
+    del tan_half_spherical_alt_vartheta1
+    cos_spherical_alt_vartheta1 = rho_spherical_alt_vartheta1*(1 - tan_half_sq_spherical_alt_vartheta1)
+    del rho_spherical_alt_vartheta1, tan_half_sq_spherical_alt_vartheta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t9 = sin_theta2*sin_theta2
+    t11 = cos_theta2*cos_theta2
+    tan_half_phi2 = numpy.tan(0.5*phi2)
+    tan_half_sq_phi2 = tan_half_phi2*tan_half_phi2
+    rho_phi2 = 1.0/(1 + tan_half_sq_phi2)
+    sin_phi2 = 2*(rho_phi2*tan_half_phi2)
+    del tan_half_phi2
+    cos_phi2 = rho_phi2*(1 - tan_half_sq_phi2)
+    del rho_phi2, tan_half_sq_phi2
+    t14 = cos_phi2*sin_theta2
+    spherical_alt_vartheta2 = numpy.arctan2(numpy.sqrt(sin_phi2*sin_phi2*t9 + t11), t14)
     del t11, t9
-    t15 = numpy.sin(spherical_alt_vartheta2)
-    t16 = -t2
-    t17 = t0*t4
+    tan_half_spherical_alt_vartheta2 = numpy.tan(0.5*spherical_alt_vartheta2)
+    tan_half_sq_spherical_alt_vartheta2 = tan_half_spherical_alt_vartheta2*tan_half_spherical_alt_vartheta2
+    rho_spherical_alt_vartheta2 = 1.0/(1 + tan_half_sq_spherical_alt_vartheta2)
+    sin_spherical_alt_vartheta2 = 2*(rho_spherical_alt_vartheta2*tan_half_spherical_alt_vartheta2)
+    del tan_half_spherical_alt_vartheta2
+    cos_spherical_alt_vartheta2 = rho_spherical_alt_vartheta2*(1 - tan_half_sq_spherical_alt_vartheta2)
+    del rho_spherical_alt_vartheta2, tan_half_sq_spherical_alt_vartheta2
+    t16 = -cos_theta1
+    t17 = sin_phi1*sin_theta1
     spherical_alt_varphi1 = numpy.arctan2(t16, t17)
     del t16
-    t18 = -t10
-    t19 = t12*t8
+    t18 = -cos_theta2
+    t19 = sin_phi2*sin_theta2
     spherical_alt_varphi2 = numpy.arctan2(t18, t19)
     del t18
-    t20 = t0*theta1_dot
-    t21 = numpy.cos(spherical_alt_vartheta1)
-    t22 = numpy.sin(spherical_alt_varphi1)
+    t20 = sin_theta1*theta1_dot
+    tan_half_spherical_alt_varphi1 = numpy.tan(0.5*spherical_alt_varphi1)
+    tan_half_sq_spherical_alt_varphi1 = tan_half_spherical_alt_varphi1*tan_half_spherical_alt_varphi1
+    rho_spherical_alt_varphi1 = 1.0/(1 + tan_half_sq_spherical_alt_varphi1)
+    sin_spherical_alt_varphi1 = 2*(rho_spherical_alt_varphi1*tan_half_spherical_alt_varphi1)
+    del tan_half_spherical_alt_varphi1
+    cos_spherical_alt_varphi1 = rho_spherical_alt_varphi1*(1 - tan_half_sq_spherical_alt_varphi1)
+    del rho_spherical_alt_varphi1, tan_half_sq_spherical_alt_varphi1
     t23 = phi1_dot*t17
     del t17
-    t24 = t2*t5*theta1_dot - t23
-    del t23, t5
-    t25 = numpy.cos(spherical_alt_varphi1)
+    t24 = cos_phi1*cos_theta1*theta1_dot - t23
+    del cos_phi1, t23
     t26 = phi1_dot*t6
     del t6
-    t27 = t2*theta1_dot
-    del t2
-    t28 = t27*t4
-    del t27, t4
+    t27 = cos_theta1*theta1_dot
+    del cos_theta1
+    t28 = sin_phi1*t27
+    del sin_phi1, t27
     t29 = t26 + t28
-    t30 = t8*theta2_dot
-    t31 = numpy.cos(spherical_alt_vartheta2)
-    t32 = numpy.sin(spherical_alt_varphi2)
+    t30 = sin_theta2*theta2_dot
+    tan_half_spherical_alt_varphi2 = numpy.tan(0.5*spherical_alt_varphi2)
+    tan_half_sq_spherical_alt_varphi2 = tan_half_spherical_alt_varphi2*tan_half_spherical_alt_varphi2
+    rho_spherical_alt_varphi2 = 1.0/(1 + tan_half_sq_spherical_alt_varphi2)
+    sin_spherical_alt_varphi2 = 2*(rho_spherical_alt_varphi2*tan_half_spherical_alt_varphi2)
+    del tan_half_spherical_alt_varphi2
+    cos_spherical_alt_varphi2 = rho_spherical_alt_varphi2*(1 - tan_half_sq_spherical_alt_varphi2)
+    del rho_spherical_alt_varphi2, tan_half_sq_spherical_alt_varphi2
     t33 = phi2_dot*t19
     del t19
-    t34 = t10*t13*theta2_dot - t33
-    del t13, t33
-    t35 = numpy.cos(spherical_alt_varphi2)
+    t34 = cos_phi2*cos_theta2*theta2_dot - t33
+    del cos_phi2, t33
     t36 = phi2_dot*t14
     del t14
-    t37 = t10*theta2_dot
-    del t10
-    t38 = t12*t37
-    del t12, t37
+    t37 = cos_theta2*theta2_dot
+    del cos_theta2
+    t38 = sin_phi2*t37
+    del sin_phi2, t37
     t39 = t36 + t38
-    t40 = t20*t21*t22 + t21*t25*t29 - t24*t7
-    del t20, t21, t24, t29
-    t41 = (t0*t25*theta1_dot - t22*t26 - t22*t28)/t7
-    del t0, t22, t25, t26, t28, t7
-    t42 = t30*t31*t32 + t31*t35*t39 - t15*t34
-    del t30, t31, t34, t39
-    t43 = (t35*t8*theta2_dot - t32*t36 - t32*t38)/t15
-    del t15, t32, t35, t36, t38, t8
+    t40 = cos_spherical_alt_varphi1*cos_spherical_alt_vartheta1*t29 + cos_spherical_alt_vartheta1*sin_spherical_alt_varphi1*t20 - sin_spherical_alt_vartheta1*t24
+    del cos_spherical_alt_vartheta1, t20, t24, t29
+    t41 = (cos_spherical_alt_varphi1*sin_theta1*theta1_dot - sin_spherical_alt_varphi1*t26 - sin_spherical_alt_varphi1*t28)/sin_spherical_alt_vartheta1
+    del cos_spherical_alt_varphi1, sin_spherical_alt_varphi1, sin_spherical_alt_vartheta1, sin_theta1, t26, t28
+    t42 = cos_spherical_alt_varphi2*cos_spherical_alt_vartheta2*t39 + cos_spherical_alt_vartheta2*sin_spherical_alt_varphi2*t30 - sin_spherical_alt_vartheta2*t34
+    del cos_spherical_alt_vartheta2, t30, t34, t39
+    t43 = (cos_spherical_alt_varphi2*sin_theta2*theta2_dot - sin_spherical_alt_varphi2*t36 - sin_spherical_alt_varphi2*t38)/sin_spherical_alt_vartheta2
+    del cos_spherical_alt_varphi2, sin_spherical_alt_varphi2, sin_spherical_alt_vartheta2, sin_theta2, t36, t38
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_alt_vartheta1
     del spherical_alt_vartheta1
@@ -1089,74 +1234,114 @@ def to_spherical_rot(y):
     phi1_dot = y[..., 5]
     theta2_dot = y[..., 6]
     phi2_dot = y[..., 7]
-    t0 = numpy.sin(theta1)
-    t1 = t0*t0
-    t2 = numpy.cos(theta1)
-    t3 = t2*t2
-    t4 = numpy.cos(phi1)
-    t5 = numpy.sin(phi1)
-    t6 = t0*t5
-    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(t1*t4*t4 + t3), t6)
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    t1 = sin_theta1*sin_theta1
+    t3 = cos_theta1*cos_theta1
+    tan_half_phi1 = numpy.tan(0.5*phi1)
+    tan_half_sq_phi1 = tan_half_phi1*tan_half_phi1
+    rho_phi1 = 1.0/(1 + tan_half_sq_phi1)
+    sin_phi1 = 2*(rho_phi1*tan_half_phi1)
+    del tan_half_phi1
+    cos_phi1 = rho_phi1*(1 - tan_half_sq_phi1)
+    del rho_phi1, tan_half_sq_phi1
+    t6 = sin_phi1*sin_theta1
+    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(cos_phi1*cos_phi1*t1 + t3), t6)
     del t1, t3
-    t7 = numpy.sin(spherical_rot_vartheta1)
-    t8 = numpy.sin(theta2)
-    t9 = t8*t8
-    t10 = numpy.cos(theta2)
-    t11 = t10*t10
-    t12 = numpy.cos(phi2)
-    t13 = numpy.sin(phi2)
-    t14 = t13*t8
-    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(t11 + t12*t12*t9), t14)
+    tan_half_spherical_rot_vartheta1 = numpy.tan(0.5*spherical_rot_vartheta1)
+    tan_half_sq_spherical_rot_vartheta1 = tan_half_spherical_rot_vartheta1*tan_half_spherical_rot_vartheta1
+    rho_spherical_rot_vartheta1 = 1.0/(1 + tan_half_sq_spherical_rot_vartheta1)
+    sin_spherical_rot_vartheta1 = 2*(rho_spherical_rot_vartheta1*tan_half_spherical_rot_vartheta1)
+    del tan_half_spherical_rot_vartheta1
+    cos_spherical_rot_vartheta1 = rho_spherical_rot_vartheta1*(1 - tan_half_sq_spherical_rot_vartheta1)
+    del rho_spherical_rot_vartheta1, tan_half_sq_spherical_rot_vartheta1
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t9 = sin_theta2*sin_theta2
+    t11 = cos_theta2*cos_theta2
+    tan_half_phi2 = numpy.tan(0.5*phi2)
+    tan_half_sq_phi2 = tan_half_phi2*tan_half_phi2
+    rho_phi2 = 1.0/(1 + tan_half_sq_phi2)
+    sin_phi2 = 2*(rho_phi2*tan_half_phi2)
+    del tan_half_phi2
+    cos_phi2 = rho_phi2*(1 - tan_half_sq_phi2)
+    del rho_phi2, tan_half_sq_phi2
+    t14 = sin_phi2*sin_theta2
+    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(cos_phi2*cos_phi2*t9 + t11), t14)
     del t11, t9
-    t15 = numpy.sin(spherical_rot_vartheta2)
-    t16 = t0*t4
-    t17 = -t2
+    tan_half_spherical_rot_vartheta2 = numpy.tan(0.5*spherical_rot_vartheta2)
+    tan_half_sq_spherical_rot_vartheta2 = tan_half_spherical_rot_vartheta2*tan_half_spherical_rot_vartheta2
+    rho_spherical_rot_vartheta2 = 1.0/(1 + tan_half_sq_spherical_rot_vartheta2)
+    sin_spherical_rot_vartheta2 = 2*(rho_spherical_rot_vartheta2*tan_half_spherical_rot_vartheta2)
+    del tan_half_spherical_rot_vartheta2
+    cos_spherical_rot_vartheta2 = rho_spherical_rot_vartheta2*(1 - tan_half_sq_spherical_rot_vartheta2)
+    del rho_spherical_rot_vartheta2, tan_half_sq_spherical_rot_vartheta2
+    t16 = cos_phi1*sin_theta1
+    t17 = -cos_theta1
     spherical_rot_varphi1 = numpy.arctan2(t17, t16)
     del t17
-    t18 = t12*t8
-    t19 = -t10
+    t18 = cos_phi2*sin_theta2
+    t19 = -cos_theta2
     spherical_rot_varphi2 = numpy.arctan2(t19, t18)
     del t19
-    t20 = t0*theta1_dot
-    del t0
+    t20 = sin_theta1*theta1_dot
+    del sin_theta1
     t21 = phi1_dot*t6
     del t6
-    t22 = t2*t4*theta1_dot - t21
+    t22 = cos_phi1*cos_theta1*theta1_dot - t21
     t23 = phi1_dot*t16
     del t16
-    t24 = t2*theta1_dot
-    del t2
-    t25 = t24*t5
-    del t5
+    t24 = cos_theta1*theta1_dot
+    del cos_theta1
+    t25 = sin_phi1*t24
+    del sin_phi1
     t26 = t23 + t25
     del t23, t25
-    t27 = numpy.cos(spherical_rot_vartheta1)
-    t28 = numpy.sin(spherical_rot_varphi1)
-    t29 = numpy.cos(spherical_rot_varphi1)
-    t30 = t8*theta2_dot
-    del t8
+    tan_half_spherical_rot_varphi1 = numpy.tan(0.5*spherical_rot_varphi1)
+    tan_half_sq_spherical_rot_varphi1 = tan_half_spherical_rot_varphi1*tan_half_spherical_rot_varphi1
+    rho_spherical_rot_varphi1 = 1.0/(1 + tan_half_sq_spherical_rot_varphi1)
+    sin_spherical_rot_varphi1 = 2*(rho_spherical_rot_varphi1*tan_half_spherical_rot_varphi1)
+    del tan_half_spherical_rot_varphi1
+    cos_spherical_rot_varphi1 = rho_spherical_rot_varphi1*(1 - tan_half_sq_spherical_rot_varphi1)
+    del rho_spherical_rot_varphi1, tan_half_sq_spherical_rot_varphi1
+    t30 = sin_theta2*theta2_dot
+    del sin_theta2
     t31 = phi2_dot*t14
     del t14
-    t32 = t10*t12*theta2_dot - t31
+    t32 = cos_phi2*cos_theta2*theta2_dot - t31
     t33 = phi2_dot*t18
     del t18
-    t34 = t10*theta2_dot
-    del t10
-    t35 = t13*t34
-    del t13
+    t34 = cos_theta2*theta2_dot
+    del cos_theta2
+    t35 = sin_phi2*t34
+    del sin_phi2
     t36 = t33 + t35
     del t33, t35
-    t37 = numpy.cos(spherical_rot_vartheta2)
-    t38 = numpy.sin(spherical_rot_varphi2)
-    t39 = numpy.cos(spherical_rot_varphi2)
-    t40 = t20*t27*t28 + t22*t27*t29 - t26*t7
-    del t22, t26, t27
-    t41 = (t20*t29 + t21*t28 - t24*t28*t4)/t7
-    del t20, t21, t24, t28, t29, t4, t7
-    t42 = t30*t37*t38 + t32*t37*t39 - t15*t36
-    del t32, t36, t37
-    t43 = (t30*t39 + t31*t38 - t12*t34*t38)/t15
-    del t12, t15, t30, t31, t34, t38, t39
+    tan_half_spherical_rot_varphi2 = numpy.tan(0.5*spherical_rot_varphi2)
+    tan_half_sq_spherical_rot_varphi2 = tan_half_spherical_rot_varphi2*tan_half_spherical_rot_varphi2
+    rho_spherical_rot_varphi2 = 1.0/(1 + tan_half_sq_spherical_rot_varphi2)
+    sin_spherical_rot_varphi2 = 2*(rho_spherical_rot_varphi2*tan_half_spherical_rot_varphi2)
+    del tan_half_spherical_rot_varphi2
+    cos_spherical_rot_varphi2 = rho_spherical_rot_varphi2*(1 - tan_half_sq_spherical_rot_varphi2)
+    del rho_spherical_rot_varphi2, tan_half_sq_spherical_rot_varphi2
+    t40 = cos_spherical_rot_varphi1*cos_spherical_rot_vartheta1*t22 + cos_spherical_rot_vartheta1*sin_spherical_rot_varphi1*t20 - sin_spherical_rot_vartheta1*t26
+    del cos_spherical_rot_vartheta1, t22, t26
+    t41 = (cos_spherical_rot_varphi1*t20 + sin_spherical_rot_varphi1*t21 - cos_phi1*sin_spherical_rot_varphi1*t24)/sin_spherical_rot_vartheta1
+    del cos_phi1, cos_spherical_rot_varphi1, sin_spherical_rot_varphi1, sin_spherical_rot_vartheta1, t20, t21, t24
+    t42 = cos_spherical_rot_varphi2*cos_spherical_rot_vartheta2*t32 + cos_spherical_rot_vartheta2*sin_spherical_rot_varphi2*t30 - sin_spherical_rot_vartheta2*t36
+    del cos_spherical_rot_vartheta2, t32, t36
+    t43 = (cos_spherical_rot_varphi2*t30 + sin_spherical_rot_varphi2*t31 - cos_phi2*sin_spherical_rot_varphi2*t34)/sin_spherical_rot_vartheta2
+    del cos_phi2, cos_spherical_rot_varphi2, sin_spherical_rot_varphi2, sin_spherical_rot_vartheta2, t30, t31, t34
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_rot_vartheta1
     del spherical_rot_vartheta1
