@@ -208,10 +208,11 @@ def _loop_runner(problem: Problem, method: str, step: float):
         state, _, p = _prepared(problem)
         y0, pa = np.asarray(state, np.float64), np.asarray(p, np.float64)
         n = int(round(problem.t_end / step))
+        nfev = evaluations(method, n)          # counted outside the timed call
 
         def run():
             y, done = lib.run(method, y0, pa, step, n)
-            return y, evaluations(method, done), done == n, f"{done} of {n} steps"
+            return y, nfev if done == n else evaluations(method, done), done == n, f"{done} of {n} steps"
         return run
     return make
 

@@ -738,8 +738,10 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
 }
 /* 12-step Adams-Bashforth-Moulton, PECE (order 12), started with rk8.
  * Predict with Adams-Bashforth, evaluate, correct with Adams-Moulton, evaluate: two rhs
- * evaluations per step.  f[j] holds the rhs j steps back; the first 11 steps fill it
- * with compound_fixed_rk8 at the same step. */
+ * evaluations per step.  f[j] is the rhs j steps back, a window into hist where every
+ * value is stored twice (at pos and pos + 12), so a new value moves the window by one
+ * (two stores) instead of shifting the history.  The first 11 steps fill it with
+ * compound_fixed_rk8 at the same step. */
 long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
 {
     /* the weights of tableau.adams(12): exact rationals, rounded to double */
@@ -752,7 +754,10 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
     const double p4 = p[4];
     const double p5 = p[5];
     const double p6 = p[6];
-    double f[12][4];
+    double hist[24][4];
+    double (*f)[4];
+    double fn0, fn1, fn2, fn3;
+    long pos = 0;
     double hab[12], ham[12];
     double y0 = y[0], y1 = y[1], y2 = y[2], y3 = y[3];
     long step, j;
@@ -789,11 +794,15 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
         const double rdet = 1.0/det;
         const double qdd0 = rdet*(F0*M11 - F1*M01);
         const double qdd1 = rdet*(-F0*M01 + F1*M00);
-        f[0][0] = y2;
-        f[0][1] = y3;
-        f[0][2] = qdd0;
-        f[0][3] = qdd1;
+        fn0 = y2;
+        fn1 = y3;
+        fn2 = qdd0;
+        fn3 = qdd1;
     }
+    hist[pos][0] = hist[pos + 12][0] = fn0;
+    hist[pos][1] = hist[pos + 12][1] = fn1;
+    hist[pos][2] = hist[pos + 12][2] = fn2;
+    hist[pos][3] = hist[pos + 12][3] = fn3;
     for (step = 0; step < start; ++step) {
         double w[4];
         w[0] = y0;
@@ -807,12 +816,6 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
         y1 = w[1];
         y2 = w[2];
         y3 = w[3];
-        for (j = 11; j > 0; --j) {
-            f[j][0] = f[j - 1][0];
-            f[j][1] = f[j - 1][1];
-            f[j][2] = f[j - 1][2];
-            f[j][3] = f[j - 1][3];
-        }
         {
             const double t0 = sin(y0);
             const double t1 = sin(y1);
@@ -845,11 +848,16 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
             const double rdet = 1.0/det;
             const double qdd0 = rdet*(F0*M11 - F1*M01);
             const double qdd1 = rdet*(-F0*M01 + F1*M00);
-            f[0][0] = y2;
-            f[0][1] = y3;
-            f[0][2] = qdd0;
-            f[0][3] = qdd1;
+            fn0 = y2;
+            fn1 = y3;
+            fn2 = qdd0;
+            fn3 = qdd1;
         }
+        pos = pos == 0 ? 11 : pos - 1;
+        hist[pos][0] = hist[pos + 12][0] = fn0;
+        hist[pos][1] = hist[pos + 12][1] = fn1;
+        hist[pos][2] = hist[pos + 12][2] = fn2;
+        hist[pos][3] = hist[pos + 12][3] = fn3;
     }
     if (step < start) {
         y[0] = y0;
@@ -866,6 +874,7 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
         double s0, s1, s2, s3;
         double fp0, fp1, fp2, fp3;
         double n0, n1, n2, n3;
+        f = hist + pos;
         s0 = y0 + (hab[0] * f[0][0] + hab[1] * f[1][0] + hab[2] * f[2][0] + hab[3] * f[3][0] + hab[4] * f[4][0] + hab[5] * f[5][0] + hab[6] * f[6][0] + hab[7] * f[7][0] + hab[8] * f[8][0] + hab[9] * f[9][0] + hab[10] * f[10][0] + hab[11] * f[11][0]);
         s1 = y1 + (hab[0] * f[0][1] + hab[1] * f[1][1] + hab[2] * f[2][1] + hab[3] * f[3][1] + hab[4] * f[4][1] + hab[5] * f[5][1] + hab[6] * f[6][1] + hab[7] * f[7][1] + hab[8] * f[8][1] + hab[9] * f[9][1] + hab[10] * f[10][1] + hab[11] * f[11][1]);
         s2 = y2 + (hab[0] * f[0][2] + hab[1] * f[1][2] + hab[2] * f[2][2] + hab[3] * f[3][2] + hab[4] * f[4][2] + hab[5] * f[5][2] + hab[6] * f[6][2] + hab[7] * f[7][2] + hab[8] * f[8][2] + hab[9] * f[9][2] + hab[10] * f[10][2] + hab[11] * f[11][2]);
@@ -914,12 +923,6 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
         if (!(compound_fixed_finite(n0) & compound_fixed_finite(n1) & compound_fixed_finite(n2) & compound_fixed_finite(n3))) {
             break;
         }
-        for (j = 11; j > 0; --j) {
-            f[j][0] = f[j - 1][0];
-            f[j][1] = f[j - 1][1];
-            f[j][2] = f[j - 1][2];
-            f[j][3] = f[j - 1][3];
-        }
         {
             const double t0 = sin(n0);
             const double t1 = sin(n1);
@@ -952,11 +955,16 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
             const double rdet = 1.0/det;
             const double qdd0 = rdet*(F0*M11 - F1*M01);
             const double qdd1 = rdet*(-F0*M01 + F1*M00);
-            f[0][0] = n2;
-            f[0][1] = n3;
-            f[0][2] = qdd0;
-            f[0][3] = qdd1;
+            fn0 = n2;
+            fn1 = n3;
+            fn2 = qdd0;
+            fn3 = qdd1;
         }
+        pos = pos == 0 ? 11 : pos - 1;
+        hist[pos][0] = hist[pos + 12][0] = fn0;
+        hist[pos][1] = hist[pos + 12][1] = fn1;
+        hist[pos][2] = hist[pos + 12][2] = fn2;
+        hist[pos][3] = hist[pos + 12][3] = fn3;
         y0 = n0;
         y1 = n1;
         y2 = n2;
