@@ -241,13 +241,9 @@ def half_angle_sincos(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: lis
     (no double lies within 1e-19 of an odd multiple of pi/2).  The new names are
     sin_<x>/cos_<x> (tan_half_<x>, ...) for a named x, numbered otherwise.
     """
-    args: list[sp.Expr] = []
-    for _, e in assignments:
+    args: list[sp.Expr] = []                 # in order of first use
+    for e in [e for _, e in assignments] + [sp.sympify(e) for e in outputs]:
         for f in sorted(e.atoms(sp.sin, sp.cos), key=sp.default_sort_key):
-            if f.args[0] not in args:
-                args.append(f.args[0])
-    for e in outputs:
-        for f in sorted(sp.sympify(e).atoms(sp.sin, sp.cos), key=sp.default_sort_key):
             if f.args[0] not in args:
                 args.append(f.args[0])
     if not args:
@@ -265,7 +261,7 @@ def half_angle_sincos(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: lis
         for f in sorted(e.atoms(sp.sin, sp.cos), key=sp.default_sort_key):
             out.extend(lowered.pop(f.args[0], []))
         e = e.xreplace(repl)
-        if e in repl.values() and not sym.name[0].isupper():   # t3 = sin(x): use sin_x itself
+        if e in repl.values():           # t3 = sin(x): use sin_x itself
             repl[sym] = e
             continue
         out.append((sym, e))
