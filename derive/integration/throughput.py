@@ -360,6 +360,8 @@ class FixedLibrary:
 
     def run(self, method: str, y0, p, h: float, nsteps: int) -> tuple[np.ndarray, int]:
         """-> (state after the steps completed, steps completed)."""
+        if method not in self.fns:
+            raise ValueError(f"unknown fixed-step method '{method}' (known: {', '.join(self.fns)})")
         y = np.array(y0, dtype=np.float64).reshape(-1)
         p = np.ascontiguousarray(p, dtype=np.float64)
         done = self.fns[method](y.ctypes.data, p.ctypes.data, float(h), int(nsteps))

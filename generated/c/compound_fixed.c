@@ -757,7 +757,7 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
     double hist[24][4];
     double (*f)[4];
     double fn0, fn1, fn2, fn3;
-    long pos = 0;
+    long pos = 1;
     double hab[12], ham[12];
     double y0 = y[0], y1 = y[1], y2 = y[2], y3 = y[3];
     long step, j;
@@ -799,6 +799,7 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
         fn2 = qdd0;
         fn3 = qdd1;
     }
+    pos = pos == 0 ? 11 : pos - 1;
     hist[pos][0] = hist[pos + 12][0] = fn0;
     hist[pos][1] = hist[pos + 12][1] = fn1;
     hist[pos][2] = hist[pos + 12][2] = fn2;
@@ -859,116 +860,111 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
         hist[pos][2] = hist[pos + 12][2] = fn2;
         hist[pos][3] = hist[pos + 12][3] = fn3;
     }
-    if (step < start) {
-        y[0] = y0;
-        y[1] = y1;
-        y[2] = y2;
-        y[3] = y3;
-        return step;
-    }
-    for (j = 0; j < 12; ++j) {
-        hab[j] = h * ab[j];
-        ham[j] = h * am[j];
-    }
-    for (; step < nsteps; ++step) {
-        double s0, s1, s2, s3;
-        double fp0, fp1, fp2, fp3;
-        double n0, n1, n2, n3;
-        f = hist + pos;
-        s0 = y0 + (hab[0] * f[0][0] + hab[1] * f[1][0] + hab[2] * f[2][0] + hab[3] * f[3][0] + hab[4] * f[4][0] + hab[5] * f[5][0] + hab[6] * f[6][0] + hab[7] * f[7][0] + hab[8] * f[8][0] + hab[9] * f[9][0] + hab[10] * f[10][0] + hab[11] * f[11][0]);
-        s1 = y1 + (hab[0] * f[0][1] + hab[1] * f[1][1] + hab[2] * f[2][1] + hab[3] * f[3][1] + hab[4] * f[4][1] + hab[5] * f[5][1] + hab[6] * f[6][1] + hab[7] * f[7][1] + hab[8] * f[8][1] + hab[9] * f[9][1] + hab[10] * f[10][1] + hab[11] * f[11][1]);
-        s2 = y2 + (hab[0] * f[0][2] + hab[1] * f[1][2] + hab[2] * f[2][2] + hab[3] * f[3][2] + hab[4] * f[4][2] + hab[5] * f[5][2] + hab[6] * f[6][2] + hab[7] * f[7][2] + hab[8] * f[8][2] + hab[9] * f[9][2] + hab[10] * f[10][2] + hab[11] * f[11][2]);
-        s3 = y3 + (hab[0] * f[0][3] + hab[1] * f[1][3] + hab[2] * f[2][3] + hab[3] * f[3][3] + hab[4] * f[4][3] + hab[5] * f[5][3] + hab[6] * f[6][3] + hab[7] * f[7][3] + hab[8] * f[8][3] + hab[9] * f[9][3] + hab[10] * f[10][3] + hab[11] * f[11][3]);
-        {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
-            const double t4 = t0*t1 + t2*t3;
-            const double t5 = p2*p1;
-            const double t6 = p3*t5;
-            const double t7 = (1.0/2.0)*t6;
-            const double M01 = t4*t7;
-            const double t8 = p3*p3*p1;
-            const double M11 = p5 + (1.0/4.0)*t8;
-            const double t9 = (1.0/2.0)*p0;
-            const double t10 = p6*p1 + p6*t9;
-            const double t11 = t0*t10;
-            const double t12 = t0*t3 - t1*t2;
-            const double t13 = s3*s3;
-            const double t14 = (1.0/2.0)*p1;
-            const double t15 = p3*t14;
-            const double t16 = t13*t15;
-            const double F0 = -p2*(t11 + t12*t16);
-            const double t17 = p6*t1;
-            const double t18 = s2*s2;
-            const double F1 = t15*(p2*t12*t18 - t17);
-            const double t19 = p2*p2;
-            const double t20 = p1*t19;
-            const double t21 = p0*t19;
-            const double M00 = p4 + t20 + (1.0/4.0)*t21;
-            const double det = M00*M11 - M01*M01;
-            const double rdet = 1.0/det;
-            const double qdd0 = rdet*(F0*M11 - F1*M01);
-            const double qdd1 = rdet*(-F0*M01 + F1*M00);
-            fp0 = s2;
-            fp1 = s3;
-            fp2 = qdd0;
-            fp3 = qdd1;
+    if (step == start) {        /* the history is full: Adams steps */
+        for (j = 0; j < 12; ++j) {
+            hab[j] = h * ab[j];
+            ham[j] = h * am[j];
         }
-        n0 = y0 + (ham[0] * fp0 + ham[1] * f[0][0] + ham[2] * f[1][0] + ham[3] * f[2][0] + ham[4] * f[3][0] + ham[5] * f[4][0] + ham[6] * f[5][0] + ham[7] * f[6][0] + ham[8] * f[7][0] + ham[9] * f[8][0] + ham[10] * f[9][0] + ham[11] * f[10][0]);
-        n1 = y1 + (ham[0] * fp1 + ham[1] * f[0][1] + ham[2] * f[1][1] + ham[3] * f[2][1] + ham[4] * f[3][1] + ham[5] * f[4][1] + ham[6] * f[5][1] + ham[7] * f[6][1] + ham[8] * f[7][1] + ham[9] * f[8][1] + ham[10] * f[9][1] + ham[11] * f[10][1]);
-        n2 = y2 + (ham[0] * fp2 + ham[1] * f[0][2] + ham[2] * f[1][2] + ham[3] * f[2][2] + ham[4] * f[3][2] + ham[5] * f[4][2] + ham[6] * f[5][2] + ham[7] * f[6][2] + ham[8] * f[7][2] + ham[9] * f[8][2] + ham[10] * f[9][2] + ham[11] * f[10][2]);
-        n3 = y3 + (ham[0] * fp3 + ham[1] * f[0][3] + ham[2] * f[1][3] + ham[3] * f[2][3] + ham[4] * f[3][3] + ham[5] * f[4][3] + ham[6] * f[5][3] + ham[7] * f[6][3] + ham[8] * f[7][3] + ham[9] * f[8][3] + ham[10] * f[9][3] + ham[11] * f[10][3]);
-        if (!(compound_fixed_finite(n0) & compound_fixed_finite(n1) & compound_fixed_finite(n2) & compound_fixed_finite(n3))) {
-            break;
+        for (; step < nsteps; ++step) {
+            double s0, s1, s2, s3;
+            double fp0, fp1, fp2, fp3;
+            double n0, n1, n2, n3;
+            f = hist + pos;
+            s0 = y0 + (hab[0] * f[0][0] + hab[1] * f[1][0] + hab[2] * f[2][0] + hab[3] * f[3][0] + hab[4] * f[4][0] + hab[5] * f[5][0] + hab[6] * f[6][0] + hab[7] * f[7][0] + hab[8] * f[8][0] + hab[9] * f[9][0] + hab[10] * f[10][0] + hab[11] * f[11][0]);
+            s1 = y1 + (hab[0] * f[0][1] + hab[1] * f[1][1] + hab[2] * f[2][1] + hab[3] * f[3][1] + hab[4] * f[4][1] + hab[5] * f[5][1] + hab[6] * f[6][1] + hab[7] * f[7][1] + hab[8] * f[8][1] + hab[9] * f[9][1] + hab[10] * f[10][1] + hab[11] * f[11][1]);
+            s2 = y2 + (hab[0] * f[0][2] + hab[1] * f[1][2] + hab[2] * f[2][2] + hab[3] * f[3][2] + hab[4] * f[4][2] + hab[5] * f[5][2] + hab[6] * f[6][2] + hab[7] * f[7][2] + hab[8] * f[8][2] + hab[9] * f[9][2] + hab[10] * f[10][2] + hab[11] * f[11][2]);
+            s3 = y3 + (hab[0] * f[0][3] + hab[1] * f[1][3] + hab[2] * f[2][3] + hab[3] * f[3][3] + hab[4] * f[4][3] + hab[5] * f[5][3] + hab[6] * f[6][3] + hab[7] * f[7][3] + hab[8] * f[8][3] + hab[9] * f[9][3] + hab[10] * f[10][3] + hab[11] * f[11][3]);
+            {
+                const double t0 = sin(s0);
+                const double t1 = sin(s1);
+                const double t2 = cos(s0);
+                const double t3 = cos(s1);
+                const double t4 = t0*t1 + t2*t3;
+                const double t5 = p2*p1;
+                const double t6 = p3*t5;
+                const double t7 = (1.0/2.0)*t6;
+                const double M01 = t4*t7;
+                const double t8 = p3*p3*p1;
+                const double M11 = p5 + (1.0/4.0)*t8;
+                const double t9 = (1.0/2.0)*p0;
+                const double t10 = p6*p1 + p6*t9;
+                const double t11 = t0*t10;
+                const double t12 = t0*t3 - t1*t2;
+                const double t13 = s3*s3;
+                const double t14 = (1.0/2.0)*p1;
+                const double t15 = p3*t14;
+                const double t16 = t13*t15;
+                const double F0 = -p2*(t11 + t12*t16);
+                const double t17 = p6*t1;
+                const double t18 = s2*s2;
+                const double F1 = t15*(p2*t12*t18 - t17);
+                const double t19 = p2*p2;
+                const double t20 = p1*t19;
+                const double t21 = p0*t19;
+                const double M00 = p4 + t20 + (1.0/4.0)*t21;
+                const double det = M00*M11 - M01*M01;
+                const double rdet = 1.0/det;
+                const double qdd0 = rdet*(F0*M11 - F1*M01);
+                const double qdd1 = rdet*(-F0*M01 + F1*M00);
+                fp0 = s2;
+                fp1 = s3;
+                fp2 = qdd0;
+                fp3 = qdd1;
+            }
+            n0 = y0 + (ham[0] * fp0 + ham[1] * f[0][0] + ham[2] * f[1][0] + ham[3] * f[2][0] + ham[4] * f[3][0] + ham[5] * f[4][0] + ham[6] * f[5][0] + ham[7] * f[6][0] + ham[8] * f[7][0] + ham[9] * f[8][0] + ham[10] * f[9][0] + ham[11] * f[10][0]);
+            n1 = y1 + (ham[0] * fp1 + ham[1] * f[0][1] + ham[2] * f[1][1] + ham[3] * f[2][1] + ham[4] * f[3][1] + ham[5] * f[4][1] + ham[6] * f[5][1] + ham[7] * f[6][1] + ham[8] * f[7][1] + ham[9] * f[8][1] + ham[10] * f[9][1] + ham[11] * f[10][1]);
+            n2 = y2 + (ham[0] * fp2 + ham[1] * f[0][2] + ham[2] * f[1][2] + ham[3] * f[2][2] + ham[4] * f[3][2] + ham[5] * f[4][2] + ham[6] * f[5][2] + ham[7] * f[6][2] + ham[8] * f[7][2] + ham[9] * f[8][2] + ham[10] * f[9][2] + ham[11] * f[10][2]);
+            n3 = y3 + (ham[0] * fp3 + ham[1] * f[0][3] + ham[2] * f[1][3] + ham[3] * f[2][3] + ham[4] * f[3][3] + ham[5] * f[4][3] + ham[6] * f[5][3] + ham[7] * f[6][3] + ham[8] * f[7][3] + ham[9] * f[8][3] + ham[10] * f[9][3] + ham[11] * f[10][3]);
+            if (!(compound_fixed_finite(n0) & compound_fixed_finite(n1) & compound_fixed_finite(n2) & compound_fixed_finite(n3))) {
+                break;
+            }
+            {
+                const double t0 = sin(n0);
+                const double t1 = sin(n1);
+                const double t2 = cos(n0);
+                const double t3 = cos(n1);
+                const double t4 = t0*t1 + t2*t3;
+                const double t5 = p2*p1;
+                const double t6 = p3*t5;
+                const double t7 = (1.0/2.0)*t6;
+                const double M01 = t4*t7;
+                const double t8 = p3*p3*p1;
+                const double M11 = p5 + (1.0/4.0)*t8;
+                const double t9 = (1.0/2.0)*p0;
+                const double t10 = p6*p1 + p6*t9;
+                const double t11 = t0*t10;
+                const double t12 = t0*t3 - t1*t2;
+                const double t13 = n3*n3;
+                const double t14 = (1.0/2.0)*p1;
+                const double t15 = p3*t14;
+                const double t16 = t13*t15;
+                const double F0 = -p2*(t11 + t12*t16);
+                const double t17 = p6*t1;
+                const double t18 = n2*n2;
+                const double F1 = t15*(p2*t12*t18 - t17);
+                const double t19 = p2*p2;
+                const double t20 = p1*t19;
+                const double t21 = p0*t19;
+                const double M00 = p4 + t20 + (1.0/4.0)*t21;
+                const double det = M00*M11 - M01*M01;
+                const double rdet = 1.0/det;
+                const double qdd0 = rdet*(F0*M11 - F1*M01);
+                const double qdd1 = rdet*(-F0*M01 + F1*M00);
+                fn0 = n2;
+                fn1 = n3;
+                fn2 = qdd0;
+                fn3 = qdd1;
+            }
+            pos = pos == 0 ? 11 : pos - 1;
+            hist[pos][0] = hist[pos + 12][0] = fn0;
+            hist[pos][1] = hist[pos + 12][1] = fn1;
+            hist[pos][2] = hist[pos + 12][2] = fn2;
+            hist[pos][3] = hist[pos + 12][3] = fn3;
+            y0 = n0;
+            y1 = n1;
+            y2 = n2;
+            y3 = n3;
         }
-        {
-            const double t0 = sin(n0);
-            const double t1 = sin(n1);
-            const double t2 = cos(n0);
-            const double t3 = cos(n1);
-            const double t4 = t0*t1 + t2*t3;
-            const double t5 = p2*p1;
-            const double t6 = p3*t5;
-            const double t7 = (1.0/2.0)*t6;
-            const double M01 = t4*t7;
-            const double t8 = p3*p3*p1;
-            const double M11 = p5 + (1.0/4.0)*t8;
-            const double t9 = (1.0/2.0)*p0;
-            const double t10 = p6*p1 + p6*t9;
-            const double t11 = t0*t10;
-            const double t12 = t0*t3 - t1*t2;
-            const double t13 = n3*n3;
-            const double t14 = (1.0/2.0)*p1;
-            const double t15 = p3*t14;
-            const double t16 = t13*t15;
-            const double F0 = -p2*(t11 + t12*t16);
-            const double t17 = p6*t1;
-            const double t18 = n2*n2;
-            const double F1 = t15*(p2*t12*t18 - t17);
-            const double t19 = p2*p2;
-            const double t20 = p1*t19;
-            const double t21 = p0*t19;
-            const double M00 = p4 + t20 + (1.0/4.0)*t21;
-            const double det = M00*M11 - M01*M01;
-            const double rdet = 1.0/det;
-            const double qdd0 = rdet*(F0*M11 - F1*M01);
-            const double qdd1 = rdet*(-F0*M01 + F1*M00);
-            fn0 = n2;
-            fn1 = n3;
-            fn2 = qdd0;
-            fn3 = qdd1;
-        }
-        pos = pos == 0 ? 11 : pos - 1;
-        hist[pos][0] = hist[pos + 12][0] = fn0;
-        hist[pos][1] = hist[pos + 12][1] = fn1;
-        hist[pos][2] = hist[pos + 12][2] = fn2;
-        hist[pos][3] = hist[pos + 12][3] = fn3;
-        y0 = n0;
-        y1 = n1;
-        y2 = n2;
-        y3 = n3;
     }
     y[0] = y0;
     y[1] = y1;
