@@ -15,6 +15,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 import sympy as sp
 
@@ -122,14 +123,19 @@ def _compile_all(cmds, tmp_path):
             assert proc.stderr == "", proc.stderr
 
 
+# the vector-math build (loader.VECTOR_MATH_FLAGS minus linking) must be as clean
+VECTOR = ["-DDERIVE_VECTOR_MATH", "-fopenmp-simd", "-fno-builtin-sin", "-fno-builtin-cos"]
 COMPILERS = [
     ("gcc", ["-std=c99", *WARN, "-Wshadow", "-Wconversion", "-Wdouble-promotion"]),
     ("clang", ["-std=c99", *WARN]),
     ("g++", ["-x", "c++", "-std=c++11", *WARN]),
+    ("gcc", ["-std=c99", *WARN, "-Wshadow", "-Wconversion", "-Wdouble-promotion", "-fpeel-loops", *VECTOR]),
+    ("clang", ["-std=c99", *WARN, *VECTOR]),
 ]
 
 
-@pytest.mark.parametrize("compiler,flags", COMPILERS, ids=[c for c, _ in COMPILERS])
+@pytest.mark.parametrize("compiler,flags", COMPILERS,
+                         ids=[c + ("-vector-math" if VECTOR[0] in f else "") for c, f in COMPILERS])
 def test_generated_c_compiles_warning_free(compiler, flags, tmp_path):
     if shutil.which(compiler) is None:
         if compiler == "gcc" or os.environ.get("CI"):
@@ -186,7 +192,8 @@ def test_c_header_interface():
     # every exported function is prefixed with the model name, no mutable globals
     for name in re.findall(r"^int (\w+)\(", c, re.M):
         assert name.startswith("planar_")
-    assert not re.findall(r"^(?!const|int|\s|/|#|\}|\{|$)", c, re.M)
+    # (the only other top-level lines: libmvec's sin/cos declared `omp declare simd`)
+    assert not re.findall(r"^(?!const|int|\s|/|#|\}|\{|$|extern double (sin|cos)\(double\);$)", c, re.M)
     f = c.split("int planar_rhs_f(")[1].split("\n}\n")[0]
     assert "sinf(" in f and "cosf(" in f and "sin(" not in f.replace("sinf(", "")
     lbody = c.split("int planar_rhs_l(")[1].split("\n}\n")[0]
@@ -277,3 +284,46 @@ def test_reduced_forms_match_the_mass_matrix():
         syms = list(d.symbols.state) + list(d.symbols.params)
         assert numeric_max_error(d.M, m2 * P.S * P.A_red * P.S, syms, n_points=5) < 1e-25
         assert numeric_max_error(d.F, -m2 * P.S * (P.B_red * P.w + P.G_red), syms, n_points=5) < 1e-25
+
+
+# -- sin/cos lanes (emit.trig_lanes) --------------------------------------------------
+
+@pytest.mark.parametrize("model", ["planar", "spherical_std"])
+def test_trig_lanes_compute_what_the_kernel_computed(model):
+    """Every sin/cos of arithmetic on the inputs becomes a lane; substituting the lanes'
+    values back gives the kernel's outputs, and no sin/cos is left in the rest."""
+    bodies = {b.kernel.name: b for b in emit.cse_file(spec.model_spec(derive(model)))}
+    b = bodies["rhs"]
+    flat = [e for exprs in b.outputs for e in exprs]
+    lanes, assignments, outputs = emit.trig_lanes(b.assignments, flat)
+    assert len(lanes.angles) >= 2 and len(assignments) < len(b.assignments)
+    assert not any(e.atoms(sp.sin, sp.cos) for _, e in assignments)
+    inputs = sorted({s for inp in b.kernel.inputs for s in inp.vector.symbols}, key=str)
+    assert all(a.free_symbols <= set(inputs) for a in lanes.angles)
+    if model == "spherical_std":            # the temporary phi1 - phi2 is inlined into its lane
+        names = {str(a) for a in lanes.angles}
+        assert any("phi1" in n and "phi2" in n for n in names)
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        point = {s: float(rng.uniform(-2, 2)) for s in inputs}
+
+        def run(assigns, outs, extra):
+            env = {**point, **extra}
+            for sym, e in assigns:
+                env[sym] = float(e.xreplace(env))
+            return np.array([float(sp.sympify(e).xreplace(env)) for e in outs])
+
+        lane_values = {sym: float(getattr(sp, kind)(lanes.angles[k].xreplace(point)))
+                       for sym, kind, k in lanes.values}
+        assert np.allclose(run(assignments, outputs, lane_values), run(b.assignments, flat, {}),
+                           rtol=1e-12, atol=1e-12)
+
+
+def test_trig_lanes_need_two_angles():
+    x, y = sp.symbols("x y", real=True)
+    t = sp.Symbol("t0", real=True)
+    lanes, assignments, outputs = emit.trig_lanes([(t, sp.sin(x))], [t * y + sp.cos(x)])
+    assert lanes is None and assignments == [(t, sp.sin(x))]
+    lanes, assignments, outputs = emit.trig_lanes([(t, sp.sin(x))], [t * sp.cos(y)])
+    assert [str(a) for a in lanes.angles] == ["x", "y"] and assignments == []
+    assert [(str(s), kind, k) for s, kind, k in lanes.values] == [("t0", "sin", 0), ("cos_lane1", "cos", 1)]

@@ -347,21 +347,25 @@ def test_a_million_states_in_one_call():
 
 def test_planar_rhs_takes_sin_and_cos_of_the_coordinates_only():
     """emit.compound_angle_rewrites: the planar rhs needs sin/cos of theta1 - theta2 and of
-    theta1, theta2; the compound angle is expanded, so C calls sin/cos of y[0] and y[1] only
-    (one fused sincos each) and NumPy takes one tangent per coordinate.  The spherical
-    standard chart's rhs takes no sin/cos of phi1 or phi2 alone, so phi1 - phi2 stays whole
-    there (expanding it would add calls)."""
+    theta1, theta2; the compound angle is expanded, so C takes sin/cos of y[0] and y[1] only
+    (two lanes of one loop: emit.trig_lanes) and NumPy takes one tangent per coordinate.  The
+    spherical standard chart's rhs takes no sin/cos of phi1 or phi2 alone, so phi1 - phi2
+    stays whole there (expanding it would add calls)."""
     import re
     c = (ROOT / "generated" / "c" / "planar.c").read_text()
     rhs = c[c.index("int planar_rhs("):c.index("int planar_rhs_batch(")]
-    assert sorted(set(re.findall(r"\b(sin|cos)\(([^()]*)\)", rhs))) == \
-        [("cos", "y[0]"), ("cos", "y[1]"), ("sin", "y[0]"), ("sin", "y[1]")]
+    assert re.findall(r"lane_angle\[\d\] = \{ (.*) \};", rhs) == ["y[0], y[1]"]
+    assert sorted(re.findall(r"\b(sin|cos)\(([^()]*)\)", rhs)) == [("cos", "lane_angle[lane]"),
+                                                                  ("sin", "lane_angle[lane]")]
+    rhs_f = c[c.index("int planar_rhs_f("):c.index("int planar_rhs_batch_f(")]   # float: scalar calls
+    assert sorted(set(re.findall(r"\b(sinf|cosf)\(([^()]*)\)", rhs_f))) == \
+        [("cosf", "y[0]"), ("cosf", "y[1]"), ("sinf", "y[0]"), ("sinf", "y[1]")]
     py = (ROOT / "generated" / "numpy" / "planar.py").read_text()
     rhs_py = py[py.index("def rhs("):py.index("def mass_matrix(")]
     assert re.findall(r"numpy\.tan\(([^()]*)\)", rhs_py) == ["0.5*theta1", "0.5*theta2"]
     std = (ROOT / "generated" / "c" / "spherical_std.c").read_text()
     rhs_std = std[std.index("int spherical_std_rhs("):std.index("int spherical_std_rhs_batch(")]
-    assert re.search(r"\b(sin|cos)\(y\[1\] - y\[3\]\)|\b(sin|cos)\(t\d+\)", rhs_std)
+    assert re.findall(r"lane_angle\[\d\] = \{ (.*) \};", rhs_std) == ["y[0], y[2], y[1] - y[3]"]
 
 
 def test_generated_numpy_calls_no_sin_or_cos():

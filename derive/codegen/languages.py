@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from .emit import Body, half_angle_sincos, render
+from .emit import Body, half_angle_sincos, lanes_context, render, trig_lanes
+from .loader import VECTOR_MATH
 from .printers import CPrinter, PyNumPyPrinter
 from .spec import ModelSpec
 
@@ -62,6 +63,15 @@ class Variant:
     label: str
 
 
+def _unflatten(flat: list, like: list[list]) -> list[list]:
+    """flat, cut into lists of the lengths of like's."""
+    out, i = [], 0
+    for exprs in like:
+        out.append(flat[i:i + len(exprs)])
+        i += len(exprs)
+    return out
+
+
 class Language:
     name: str
 
@@ -83,7 +93,7 @@ class C(Language):
     def context(self, spec, bodies):
         ctx = _common(spec, bodies, "")
         macro = spec.name.upper()
-        ctx.update(prefix=spec.name, macro=macro,
+        ctx.update(prefix=spec.name, macro=macro, vector_math=list(VECTOR_MATH),
                    variants=[{"ctype": v.ctype, "suffix": v.suffix, "label": v.label}
                              for v in self.variants])
         kernels = []
@@ -103,17 +113,22 @@ class C(Language):
             variants = []
             for v in self.variants:
                 pr = CPrinter(slots, v.ctype)
-                locals_ = [{"name": s.name, "value": pr.doprint_checked(e)} for s, e in b.assignments]
+                # libmvec has vector sin/cos for double only: the other types keep scalar calls
+                lanes, assignments, flat = (trig_lanes(b.assignments, [e for exprs in b.outputs + [b.guards] for e in exprs])
+                                            if v.ctype == "double" else (None, b.assignments, None))
+                *outputs, guard_exprs = _unflatten(flat, b.outputs + [b.guards]) if lanes else b.outputs + [b.guards]
+                locals_ = [{"name": s.name, "value": pr.doprint_checked(e)} for s, e in assignments]
                 assigns = []
-                for out, exprs in zip(k.outputs, b.outputs):
+                for out, exprs in zip(k.outputs, outputs):
                     for i, e in enumerate(exprs):
                         assigns.append({"target": f"{out.name}[{i}]", "value": pr.doprint_checked(e)})
                 guards = [f"!({pr.doprint_checked(sp.Abs(g))} >= ({v.ctype}){macro}_POLAR_SINE_MIN)"
-                          for g in b.guards]
+                          for g in guard_exprs]
                 terms = [f"({a['value']} - {a['value']})" for a, e in
-                         zip(assigns, [e for exprs in b.outputs for e in exprs]) if not e.is_Number]
+                         zip(assigns, [e for exprs in outputs for e in exprs]) if not e.is_Number]
                 check = _join_terms(terms, " + ", 84)
-                variants.append({"ctype": v.ctype, "suffix": v.suffix, "locals": locals_,
+                variants.append({"ctype": v.ctype, "suffix": v.suffix, "lanes": lanes_context(lanes, pr),
+                                 "locals": locals_,
                                  "assigns": assigns, "guards": guards, "check": check})
             kernels.append({
                 "name": k.name, "cname": f"{spec.name}_{k.name}", "macro": kmacro,

@@ -24,7 +24,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..codegen.loader import GENERATED_C
-from .build import CTYPES, SUFFIX, dtype_key, build_library, info_struct, options_struct
+from .build import CTYPES, SUFFIX, build_fastest, dtype_key, info_struct, options_struct
 from .codegen import ATLAS_CHARTS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH
 
 __all__ = ["ATLAS_CHARTS", "SINE_MIN", "SINE_RULE", "SINE_SWITCH", "atlas_library", "run_atlas"]
@@ -35,7 +35,7 @@ class AtlasLibrary:
         sources = [GENERATED_C / "spherical_atlas.c"]
         for ch in ATLAS_CHARTS:
             sources += [GENERATED_C / f"{ch}_integrate.c", GENERATED_C / f"{ch}.c"]
-        self.path = build_library("spherical_atlas", sources)
+        self.path, self.flags = build_fastest("spherical_atlas", sources)
         self.lib = ctypes.CDLL(str(self.path))
         self.Options = options_struct((("sine_switch", ctypes.c_double), ("sine_rule", ctypes.c_double)))
         self.Info = info_struct(8, (("nswitches", ctypes.c_long), ("chart", ctypes.c_int)))

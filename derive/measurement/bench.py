@@ -668,14 +668,14 @@ def measure(c: Config, info: ProblemInfo, opts: BenchOptions, cache: dict, rhs_n
 
 
 def rhs_loop(model: str):
-    """bench/rhs_cost.c compiled against generated/c/<model>.c with the integrators' flags."""
+    """bench/rhs_cost.c compiled against generated/c/<model>.c as the integrators are
+    (loader.build_fastest: libmvec's vector sin/cos where they build)."""
     import ctypes
 
-    from ..codegen.loader import GENERATED_C
-    from ..integration.build import FLAGS, build_library
-    flags = (*FLAGS, f"-DRHS={model}_rhs", "-include", f"{model}.h")
-    lib = ctypes.CDLL(str(build_library(f"{model}_rhs_cost", [GENERATED_C / f"{model}.c",
-                                                               ROOT / "bench" / "rhs_cost.c"], flags=flags)))
+    from ..codegen.loader import GENERATED_C, build_fastest
+    path, _ = build_fastest(f"{model}_rhs_cost", [GENERATED_C / f"{model}.c", ROOT / "bench" / "rhs_cost.c"],
+                            extra=(f"-DRHS={model}_rhs", "-include", f"{model}.h"))
+    lib = ctypes.CDLL(str(path))
     fn = lib.rhs_cost_loop
     fn.restype = ctypes.c_double
     fn.argtypes = [ctypes.c_long, ctypes.c_long, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,

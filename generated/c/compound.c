@@ -11,6 +11,24 @@
 #define restrict __restrict
 #endif
 
+#if defined(DERIVE_VECTOR_MATH) && defined(__GLIBC__) && defined(__x86_64__)
+/* glibc's libmvec has vector variants of sin and cos; declaring them `omp declare simd`
+ * (what <math.h> does only under -ffast-math) lets the compiler call them in the loops
+ * marked COMPOUND_SIMD.  Built without -DDERIVE_VECTOR_MATH, those loops are plain C.
+ * GCC flags: -DDERIVE_VECTOR_MATH -fpeel-loops -fopenmp-simd -fno-builtin-sin -fno-builtin-cos -lmvec
+ * (derive.codegen.loader.VECTOR_MATH_FLAGS). */
+#pragma omp declare simd notinbranch
+extern double sin(double);
+#pragma omp declare simd notinbranch
+extern double cos(double);
+#endif
+
+#if defined(DERIVE_VECTOR_MATH)
+#define COMPOUND_SIMD _Pragma("omp simd")
+#else
+#define COMPOUND_SIMD
+#endif
+
 const char *const compound_state_names[COMPOUND_N_STATES] = {
     "theta1", "theta2", "theta1_dot", "theta2_dot"
 };
@@ -26,10 +44,18 @@ int compound_rhs(const double *restrict y, const double *restrict p, double *res
 {
     int status = COMPOUND_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[1]);
-    const double t2 = cos(y[0]);
-    const double t3 = cos(y[1]);
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    COMPOUND_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
     const double t4 = t0*t1 + t2*t3;
     const double t5 = p[2]*p[1];
     const double t6 = p[3]*t5;
@@ -212,14 +238,22 @@ int compound_mass_matrix(const double *restrict y, const double *restrict p, dou
 {
     int status = COMPOUND_STATUS_OK;
     double check;
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    COMPOUND_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t3 = lane_sin[0];
+    const double t4 = lane_sin[1];
+    const double t5 = lane_cos[0];
+    const double t6 = lane_cos[1];
     const double t0 = p[2]*p[2];
     const double t1 = p[1]*t0;
     const double t2 = p[0]*t0;
     const double M00 = p[4] + t1 + (1.0/4.0)*t2;
-    const double t3 = sin(y[0]);
-    const double t4 = sin(y[1]);
-    const double t5 = cos(y[0]);
-    const double t6 = cos(y[1]);
     const double t7 = t3*t4 + t5*t6;
     const double t8 = p[2]*p[1];
     const double t9 = p[3]*t8;
@@ -350,13 +384,21 @@ int compound_forcing(const double *restrict y, const double *restrict p, double 
 {
     int status = COMPOUND_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    COMPOUND_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t4 = lane_sin[1];
+    const double t5 = lane_cos[0];
+    const double t6 = lane_cos[1];
     const double t1 = (1.0/2.0)*p[0];
     const double t2 = p[6]*p[1] + p[6]*t1;
     const double t3 = t0*t2;
-    const double t4 = sin(y[1]);
-    const double t5 = cos(y[0]);
-    const double t6 = cos(y[1]);
     const double t7 = t0*t6 - t4*t5;
     const double t8 = y[3]*y[3];
     const double t9 = (1.0/2.0)*p[1];
@@ -485,19 +527,27 @@ int compound_energy(const double *restrict y, const double *restrict p, double *
 {
     int status = COMPOUND_STATUS_OK;
     double check;
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    COMPOUND_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t3 = lane_cos[0];
+    const double t10 = lane_sin[0];
+    const double t11 = lane_sin[1];
+    const double t12 = lane_cos[1];
     const double t0 = p[2]*p[2];
     const double t1 = p[1]*t0;
     const double t2 = p[0]*t0;
-    const double t3 = cos(y[0]);
     const double t4 = p[2]*p[1];
     const double t5 = p[3]*p[3]*p[1];
     const double t6 = (1.0/2.0)*p[0];
     const double t7 = y[3]*y[3];
     const double t8 = (1.0/2.0)*p[1];
     const double t9 = y[2]*y[2];
-    const double t10 = sin(y[0]);
-    const double t11 = sin(y[1]);
-    const double t12 = cos(y[1]);
     const double t13 = t10*t11 + t12*t3;
     const double t14 = p[3]*t4;
     const double t15 = (1.0/2.0)*t14;
@@ -629,12 +679,20 @@ int compound_positions(const double *restrict y, const double *restrict p, doubl
 {
     int status = COMPOUND_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    COMPOUND_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t2 = lane_cos[0];
+    const double t4 = lane_sin[1];
+    const double t5 = lane_cos[1];
     const double t1 = p[2]*t0;
-    const double t2 = cos(y[0]);
     const double t3 = p[2]*t2;
-    const double t4 = sin(y[1]);
-    const double t5 = cos(y[1]);
     const double t6 = p[3]*t5;
     const double t7 = -t3;
     const double t8 = p[3]*t4 + t1;
@@ -752,10 +810,18 @@ int compound_jacobian(const double *restrict y, const double *restrict p, double
 {
     int status = COMPOUND_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[1]);
-    const double t2 = cos(y[0]);
-    const double t3 = cos(y[1]);
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    COMPOUND_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
     const double t4 = t0*t1 + t2*t3;
     const double t5 = p[2]*p[1];
     const double t6 = p[3]*t5;
@@ -1046,10 +1112,18 @@ int compound_hamiltonian_rhs(const double *restrict x, const double *restrict p,
 {
     int status = COMPOUND_STATUS_OK;
     double check;
-    const double t0 = sin(x[0]);
-    const double t1 = sin(x[1]);
-    const double t2 = cos(x[0]);
-    const double t3 = cos(x[1]);
+    const double lane_angle[2] = { x[0], x[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    COMPOUND_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
     const double t4 = t0*t1 + t2*t3;
     const double t5 = p[2]*p[1];
     const double t6 = p[3]*t5;
@@ -1229,10 +1303,18 @@ int compound_hamiltonian_jacobian(const double *restrict x, const double *restri
 {
     int status = COMPOUND_STATUS_OK;
     double check;
-    const double t0 = sin(x[0]);
-    const double t1 = sin(x[1]);
-    const double t2 = cos(x[0]);
-    const double t3 = cos(x[1]);
+    const double lane_angle[2] = { x[0], x[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    COMPOUND_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
     const double t4 = t0*t3 - t1*t2;
     const double t5 = p[2]*p[1];
     const double t6 = p[3]*t5;
@@ -1523,14 +1605,22 @@ int compound_to_canonical(const double *restrict y, const double *restrict p, do
 {
     int status = COMPOUND_STATUS_OK;
     double check;
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    COMPOUND_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t4 = lane_sin[0];
+    const double t5 = lane_sin[1];
+    const double t6 = lane_cos[0];
+    const double t7 = lane_cos[1];
     const double t0 = p[2]*p[2];
     const double t1 = p[1]*t0;
     const double t2 = p[0]*t0;
     const double t3 = p[4] + t1 + (1.0/4.0)*t2;
-    const double t4 = sin(y[0]);
-    const double t5 = sin(y[1]);
-    const double t6 = cos(y[0]);
-    const double t7 = cos(y[1]);
     const double t8 = t4*t5 + t6*t7;
     const double t9 = p[2]*p[1];
     const double t10 = p[3]*t9;
@@ -1670,10 +1760,18 @@ int compound_from_canonical(const double *restrict x, const double *restrict p, 
 {
     int status = COMPOUND_STATUS_OK;
     double check;
-    const double t0 = sin(x[0]);
-    const double t1 = sin(x[1]);
-    const double t2 = cos(x[0]);
-    const double t3 = cos(x[1]);
+    const double lane_angle[2] = { x[0], x[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    COMPOUND_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
     const double t4 = t0*t1 + t2*t3;
     const double t5 = p[2]*p[1];
     const double t6 = p[3]*t5;

@@ -13,6 +13,24 @@
 typedef char compound_fixed_bits_size_check[sizeof(unsigned long long) == sizeof(double) ? 1 : -1];
 typedef union { double d; unsigned long long u; } compound_fixed_bits;
 
+#if defined(DERIVE_VECTOR_MATH) && defined(__GLIBC__) && defined(__x86_64__)
+/* glibc's libmvec has vector variants of sin and cos; declaring them `omp declare simd`
+ * (what <math.h> does only under -ffast-math) lets the compiler call them in the loops
+ * marked COMPOUND_SIMD.  Built without -DDERIVE_VECTOR_MATH, those loops are plain C.
+ * GCC flags: -DDERIVE_VECTOR_MATH -fpeel-loops -fopenmp-simd -fno-builtin-sin -fno-builtin-cos -lmvec
+ * (derive.codegen.loader.VECTOR_MATH_FLAGS). */
+#pragma omp declare simd notinbranch
+extern double sin(double);
+#pragma omp declare simd notinbranch
+extern double cos(double);
+#endif
+
+#if defined(DERIVE_VECTOR_MATH)
+#define COMPOUND_SIMD _Pragma("omp simd")
+#else
+#define COMPOUND_SIMD
+#endif
+
 /* 1 when x is finite: exponent bits not all ones. */
 static long compound_fixed_finite(double x)
 {
@@ -37,10 +55,18 @@ long compound_fixed_rk4(double *y, const double *p, double h, long nsteps)
         double s0, s1, s2, s3;
         double n0, n1, n2, n3;
         {
-            const double t0 = sin(y0);
-            const double t1 = sin(y1);
-            const double t2 = cos(y0);
-            const double t3 = cos(y1);
+            const double lane_angle[2] = { y0, y1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -78,10 +104,18 @@ long compound_fixed_rk4(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (0.5 * k0_2);
         s3 = y3 + h * (0.5 * k0_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -119,10 +153,18 @@ long compound_fixed_rk4(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (0.5 * k1_2);
         s3 = y3 + h * (0.5 * k1_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -160,10 +202,18 @@ long compound_fixed_rk4(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (1.0 * k2_2);
         s3 = y3 + h * (1.0 * k2_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -231,10 +281,18 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
         double s0, s1, s2, s3;
         double n0, n1, n2, n3;
         {
-            const double t0 = sin(y0);
-            const double t1 = sin(y1);
-            const double t2 = cos(y0);
-            const double t3 = cos(y1);
+            const double lane_angle[2] = { y0, y1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -272,10 +330,18 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (0.05260015195876773 * k0_2);
         s3 = y3 + h * (0.05260015195876773 * k0_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -313,10 +379,18 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (0.0197250569845379 * k0_2 + 0.0591751709536137 * k1_2);
         s3 = y3 + h * (0.0197250569845379 * k0_3 + 0.0591751709536137 * k1_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -354,10 +428,18 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (0.02958758547680685 * k0_2 + 0.08876275643042054 * k2_2);
         s3 = y3 + h * (0.02958758547680685 * k0_3 + 0.08876275643042054 * k2_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -395,10 +477,18 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (0.2413651341592667 * k0_2 + (-0.8845494793282861) * k2_2 + 0.924834003261792 * k3_2);
         s3 = y3 + h * (0.2413651341592667 * k0_3 + (-0.8845494793282861) * k2_3 + 0.924834003261792 * k3_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -436,10 +526,18 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (0.037037037037037035 * k0_2 + 0.17082860872947386 * k3_2 + 0.12546768756682242 * k4_2);
         s3 = y3 + h * (0.037037037037037035 * k0_3 + 0.17082860872947386 * k3_3 + 0.12546768756682242 * k4_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -477,10 +575,18 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (0.037109375 * k0_2 + 0.17025221101954405 * k3_2 + 0.06021653898045596 * k4_2 + (-0.017578125) * k5_2);
         s3 = y3 + h * (0.037109375 * k0_3 + 0.17025221101954405 * k3_3 + 0.06021653898045596 * k4_3 + (-0.017578125) * k5_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -518,10 +624,18 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (0.03709200011850479 * k0_2 + 0.17038392571223998 * k3_2 + 0.10726203044637328 * k4_2 + (-0.015319437748624402) * k5_2 + 0.008273789163814023 * k6_2);
         s3 = y3 + h * (0.03709200011850479 * k0_3 + 0.17038392571223998 * k3_3 + 0.10726203044637328 * k4_3 + (-0.015319437748624402) * k5_3 + 0.008273789163814023 * k6_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -559,10 +673,18 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (0.6241109587160757 * k0_2 + (-3.3608926294469414) * k3_2 + (-0.868219346841726) * k4_2 + 27.59209969944671 * k5_2 + 20.154067550477894 * k6_2 + (-43.48988418106996) * k7_2);
         s3 = y3 + h * (0.6241109587160757 * k0_3 + (-3.3608926294469414) * k3_3 + (-0.868219346841726) * k4_3 + 27.59209969944671 * k5_3 + 20.154067550477894 * k6_3 + (-43.48988418106996) * k7_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -600,10 +722,18 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (0.47766253643826434 * k0_2 + (-2.4881146199716677) * k3_2 + (-0.590290826836843) * k4_2 + 21.230051448181193 * k5_2 + 15.279233632882423 * k6_2 + (-33.28821096898486) * k7_2 + (-0.020331201708508627) * k8_2);
         s3 = y3 + h * (0.47766253643826434 * k0_3 + (-2.4881146199716677) * k3_3 + (-0.590290826836843) * k4_3 + 21.230051448181193 * k5_3 + 15.279233632882423 * k6_3 + (-33.28821096898486) * k7_3 + (-0.020331201708508627) * k8_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -641,10 +771,18 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * ((-0.9371424300859873) * k0_2 + 5.186372428844064 * k3_2 + 1.0914373489967295 * k4_2 + (-8.149787010746927) * k5_2 + (-18.52006565999696) * k6_2 + 22.739487099350505 * k7_2 + 2.4936055526796523 * k8_2 + (-3.0467644718982196) * k9_2);
         s3 = y3 + h * ((-0.9371424300859873) * k0_3 + 5.186372428844064 * k3_3 + 1.0914373489967295 * k4_3 + (-8.149787010746927) * k5_3 + (-18.52006565999696) * k6_3 + 22.739487099350505 * k7_3 + 2.4936055526796523 * k8_3 + (-3.0467644718982196) * k9_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -682,10 +820,18 @@ long compound_fixed_rk8(double *y, const double *p, double h, long nsteps)
         s2 = y2 + h * (2.273310147516538 * k0_2 + (-10.53449546673725) * k3_2 + (-2.0008720582248625) * k4_2 + (-17.9589318631188) * k5_2 + 27.94888452941996 * k6_2 + (-2.8589982771350235) * k7_2 + (-8.87285693353063) * k8_2 + 12.360567175794303 * k9_2 + 0.6433927460157636 * k10_2);
         s3 = y3 + h * (2.273310147516538 * k0_3 + (-10.53449546673725) * k3_3 + (-2.0008720582248625) * k4_3 + (-17.9589318631188) * k5_3 + 27.94888452941996 * k6_3 + (-2.8589982771350235) * k7_3 + (-8.87285693353063) * k8_3 + 12.360567175794303 * k9_3 + 0.6433927460157636 * k10_3);
         {
-            const double t0 = sin(s0);
-            const double t1 = sin(s1);
-            const double t2 = cos(s0);
-            const double t3 = cos(s1);
+            const double lane_angle[2] = { s0, s1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -763,10 +909,18 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
     long step, j;
     const long start = nsteps < 11 ? nsteps : 11;
     {
-        const double t0 = sin(y0);
-        const double t1 = sin(y1);
-        const double t2 = cos(y0);
-        const double t3 = cos(y1);
+        const double lane_angle[2] = { y0, y1 };
+        double lane_sin[2], lane_cos[2];
+        int lane;
+        COMPOUND_SIMD
+        for (lane = 0; lane < 2; ++lane) {
+            lane_sin[lane] = sin(lane_angle[lane]);
+            lane_cos[lane] = cos(lane_angle[lane]);
+        }
+        const double t0 = lane_sin[0];
+        const double t1 = lane_sin[1];
+        const double t2 = lane_cos[0];
+        const double t3 = lane_cos[1];
         const double t4 = t0*t1 + t2*t3;
         const double t5 = p2*p1;
         const double t6 = p3*t5;
@@ -818,10 +972,18 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
         y2 = w[2];
         y3 = w[3];
         {
-            const double t0 = sin(y0);
-            const double t1 = sin(y1);
-            const double t2 = cos(y0);
-            const double t3 = cos(y1);
+            const double lane_angle[2] = { y0, y1 };
+            double lane_sin[2], lane_cos[2];
+            int lane;
+            COMPOUND_SIMD
+            for (lane = 0; lane < 2; ++lane) {
+                lane_sin[lane] = sin(lane_angle[lane]);
+                lane_cos[lane] = cos(lane_angle[lane]);
+            }
+            const double t0 = lane_sin[0];
+            const double t1 = lane_sin[1];
+            const double t2 = lane_cos[0];
+            const double t3 = lane_cos[1];
             const double t4 = t0*t1 + t2*t3;
             const double t5 = p2*p1;
             const double t6 = p3*t5;
@@ -875,10 +1037,18 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
             s2 = y2 + (hab[0] * f[0][2] + hab[1] * f[1][2] + hab[2] * f[2][2] + hab[3] * f[3][2] + hab[4] * f[4][2] + hab[5] * f[5][2] + hab[6] * f[6][2] + hab[7] * f[7][2] + hab[8] * f[8][2] + hab[9] * f[9][2] + hab[10] * f[10][2] + hab[11] * f[11][2]);
             s3 = y3 + (hab[0] * f[0][3] + hab[1] * f[1][3] + hab[2] * f[2][3] + hab[3] * f[3][3] + hab[4] * f[4][3] + hab[5] * f[5][3] + hab[6] * f[6][3] + hab[7] * f[7][3] + hab[8] * f[8][3] + hab[9] * f[9][3] + hab[10] * f[10][3] + hab[11] * f[11][3]);
             {
-                const double t0 = sin(s0);
-                const double t1 = sin(s1);
-                const double t2 = cos(s0);
-                const double t3 = cos(s1);
+                const double lane_angle[2] = { s0, s1 };
+                double lane_sin[2], lane_cos[2];
+                int lane;
+                COMPOUND_SIMD
+                for (lane = 0; lane < 2; ++lane) {
+                    lane_sin[lane] = sin(lane_angle[lane]);
+                    lane_cos[lane] = cos(lane_angle[lane]);
+                }
+                const double t0 = lane_sin[0];
+                const double t1 = lane_sin[1];
+                const double t2 = lane_cos[0];
+                const double t3 = lane_cos[1];
                 const double t4 = t0*t1 + t2*t3;
                 const double t5 = p2*p1;
                 const double t6 = p3*t5;
@@ -919,10 +1089,18 @@ long compound_fixed_abm12(double *y, const double *p, double h, long nsteps)
                 break;
             }
             {
-                const double t0 = sin(n0);
-                const double t1 = sin(n1);
-                const double t2 = cos(n0);
-                const double t3 = cos(n1);
+                const double lane_angle[2] = { n0, n1 };
+                double lane_sin[2], lane_cos[2];
+                int lane;
+                COMPOUND_SIMD
+                for (lane = 0; lane < 2; ++lane) {
+                    lane_sin[lane] = sin(lane_angle[lane]);
+                    lane_cos[lane] = cos(lane_angle[lane]);
+                }
+                const double t0 = lane_sin[0];
+                const double t1 = lane_sin[1];
+                const double t2 = lane_cos[0];
+                const double t3 = lane_cos[1];
                 const double t4 = t0*t1 + t2*t3;
                 const double t5 = p2*p1;
                 const double t6 = p3*t5;

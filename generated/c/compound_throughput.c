@@ -15,8 +15,11 @@ typedef char compound_tp_bits_size_check[sizeof(unsigned long long) == sizeof(do
 typedef union { double d; unsigned long long u; } compound_tp_bits;
 
 #if defined(DERIVE_VECTOR_MATH) && defined(__GLIBC__) && defined(__x86_64__)
-/* glibc's libmvec has vector variants of these; declaring them `omp declare simd`
- * (what <math.h> does only under -ffast-math) lets the vectoriser call them. */
+/* glibc's libmvec has vector variants of sin and cos; declaring them `omp declare simd`
+ * (what <math.h> does only under -ffast-math) lets the compiler call them in the loops
+ * marked COMPOUND_SIMD.  Built without -DDERIVE_VECTOR_MATH, those loops are plain C.
+ * GCC flags: -DDERIVE_VECTOR_MATH -fpeel-loops -fopenmp-simd -fno-builtin-sin -fno-builtin-cos -lmvec
+ * (derive.codegen.loader.VECTOR_MATH_FLAGS). */
 #pragma omp declare simd notinbranch
 extern double sin(double);
 #pragma omp declare simd notinbranch
@@ -24,9 +27,9 @@ extern double cos(double);
 #endif
 
 #if defined(DERIVE_VECTOR_MATH)
-#define COMPOUND_TP_SIMD _Pragma("omp simd")
+#define COMPOUND_SIMD _Pragma("omp simd")
 #else
-#define COMPOUND_TP_SIMD
+#define COMPOUND_SIMD
 #endif
 
 const int compound_throughput_n_states = 4;
@@ -88,7 +91,7 @@ long compound_throughput_rk4(long n, double *y, long ld, const double *p, double
             }
         }
         for (s = 0; s < nsteps; ++s) {
-            COMPOUND_TP_SIMD
+            COMPOUND_SIMD
             for (j = 0; j < BLOCK; ++j) {
                 const double y0 = Y0[j];
                 const double y1 = Y1[j];

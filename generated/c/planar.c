@@ -11,6 +11,24 @@
 #define restrict __restrict
 #endif
 
+#if defined(DERIVE_VECTOR_MATH) && defined(__GLIBC__) && defined(__x86_64__)
+/* glibc's libmvec has vector variants of sin and cos; declaring them `omp declare simd`
+ * (what <math.h> does only under -ffast-math) lets the compiler call them in the loops
+ * marked PLANAR_SIMD.  Built without -DDERIVE_VECTOR_MATH, those loops are plain C.
+ * GCC flags: -DDERIVE_VECTOR_MATH -fpeel-loops -fopenmp-simd -fno-builtin-sin -fno-builtin-cos -lmvec
+ * (derive.codegen.loader.VECTOR_MATH_FLAGS). */
+#pragma omp declare simd notinbranch
+extern double sin(double);
+#pragma omp declare simd notinbranch
+extern double cos(double);
+#endif
+
+#if defined(DERIVE_VECTOR_MATH)
+#define PLANAR_SIMD _Pragma("omp simd")
+#else
+#define PLANAR_SIMD
+#endif
+
 const char *const planar_state_names[PLANAR_N_STATES] = {
     "theta1", "theta2", "theta1_dot", "theta2_dot"
 };
@@ -26,10 +44,18 @@ int planar_rhs(const double *restrict y, const double *restrict p, double *restr
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[1]);
-    const double t2 = cos(y[0]);
-    const double t3 = cos(y[1]);
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    PLANAR_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
     const double t4 = t0*t1 + t2*t3;
     const double t5 = p[2]*p[1];
     const double t6 = p[3]*t5;
@@ -194,12 +220,20 @@ int planar_mass_matrix(const double *restrict y, const double *restrict p, doubl
 {
     int status = PLANAR_STATUS_OK;
     double check;
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    PLANAR_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t1 = lane_sin[0];
+    const double t2 = lane_sin[1];
+    const double t3 = lane_cos[0];
+    const double t4 = lane_cos[1];
     const double t0 = p[2]*p[2];
     const double M00 = t0*(p[0] + p[1]);
-    const double t1 = sin(y[0]);
-    const double t2 = sin(y[1]);
-    const double t3 = cos(y[0]);
-    const double t4 = cos(y[1]);
     const double t5 = t1*t2 + t3*t4;
     const double t6 = p[2]*p[1];
     const double t7 = p[3]*t6;
@@ -320,12 +354,20 @@ int planar_forcing(const double *restrict y, const double *restrict p, double *r
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    PLANAR_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t3 = lane_sin[1];
+    const double t4 = lane_cos[0];
+    const double t5 = lane_cos[1];
     const double t1 = p[4]*p[0] + p[4]*p[1];
     const double t2 = t0*t1;
-    const double t3 = sin(y[1]);
-    const double t4 = cos(y[0]);
-    const double t5 = cos(y[1]);
     const double t6 = t0*t5 - t3*t4;
     const double t7 = y[3]*y[3];
     const double t8 = p[3]*p[1];
@@ -449,16 +491,24 @@ int planar_energy(const double *restrict y, const double *restrict p, double *re
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = cos(y[0]);
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    PLANAR_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_cos[0];
+    const double t7 = lane_sin[0];
+    const double t8 = lane_sin[1];
+    const double t9 = lane_cos[1];
     const double t1 = p[2]*p[1];
     const double t2 = p[3]*p[3]*p[1];
     const double t3 = y[3]*y[3];
     const double t4 = y[2]*y[2];
     const double t5 = p[2]*p[2];
     const double t6 = (1.0/2.0)*t5;
-    const double t7 = sin(y[0]);
-    const double t8 = sin(y[1]);
-    const double t9 = cos(y[1]);
     const double t10 = t0*t9 + t7*t8;
     const double t11 = p[3]*t1;
     const double t12 = t10*t11;
@@ -581,12 +631,20 @@ int planar_positions(const double *restrict y, const double *restrict p, double 
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    PLANAR_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t2 = lane_cos[0];
+    const double t4 = lane_sin[1];
+    const double t5 = lane_cos[1];
     const double t1 = p[2]*t0;
-    const double t2 = cos(y[0]);
     const double t3 = p[2]*t2;
-    const double t4 = sin(y[1]);
-    const double t5 = cos(y[1]);
     const double t6 = p[3]*t5;
     const double t7 = -t3;
     const double t8 = p[3]*t4 + t1;
@@ -704,10 +762,18 @@ int planar_jacobian(const double *restrict y, const double *restrict p, double *
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[1]);
-    const double t2 = cos(y[0]);
-    const double t3 = cos(y[1]);
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    PLANAR_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
     const double t4 = t0*t1 + t2*t3;
     const double t5 = p[2]*p[1];
     const double t6 = p[3]*t5;
@@ -980,10 +1046,18 @@ int planar_hamiltonian_rhs(const double *restrict x, const double *restrict p, d
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = sin(x[0]);
-    const double t1 = sin(x[1]);
-    const double t2 = cos(x[0]);
-    const double t3 = cos(x[1]);
+    const double lane_angle[2] = { x[0], x[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    PLANAR_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
     const double t4 = t0*t1 + t2*t3;
     const double t5 = p[2]*p[1];
     const double t6 = p[3]*t5;
@@ -1145,10 +1219,18 @@ int planar_hamiltonian_jacobian(const double *restrict x, const double *restrict
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = sin(x[0]);
-    const double t1 = sin(x[1]);
-    const double t2 = cos(x[0]);
-    const double t3 = cos(x[1]);
+    const double lane_angle[2] = { x[0], x[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    PLANAR_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
     const double t4 = t0*t3 - t1*t2;
     const double t5 = p[2]*p[1];
     const double t6 = p[3]*t5;
@@ -1421,12 +1503,20 @@ int planar_to_canonical(const double *restrict y, const double *restrict p, doub
 {
     int status = PLANAR_STATUS_OK;
     double check;
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    PLANAR_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t2 = lane_sin[0];
+    const double t3 = lane_sin[1];
+    const double t4 = lane_cos[0];
+    const double t5 = lane_cos[1];
     const double t0 = p[2]*p[2];
     const double t1 = t0*(p[0] + p[1]);
-    const double t2 = sin(y[0]);
-    const double t3 = sin(y[1]);
-    const double t4 = cos(y[0]);
-    const double t5 = cos(y[1]);
     const double t6 = t2*t3 + t4*t5;
     const double t7 = p[2]*p[1];
     const double t8 = p[3]*t7;
@@ -1556,10 +1646,18 @@ int planar_from_canonical(const double *restrict x, const double *restrict p, do
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double t0 = sin(x[0]);
-    const double t1 = sin(x[1]);
-    const double t2 = cos(x[0]);
-    const double t3 = cos(x[1]);
+    const double lane_angle[2] = { x[0], x[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    PLANAR_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
     const double t4 = t0*t1 + t2*t3;
     const double t5 = p[2]*p[1];
     const double t6 = p[3]*t5;

@@ -15,8 +15,11 @@ typedef char planar_tp_bits_size_check[sizeof(unsigned long long) == sizeof(doub
 typedef union { double d; unsigned long long u; } planar_tp_bits;
 
 #if defined(DERIVE_VECTOR_MATH) && defined(__GLIBC__) && defined(__x86_64__)
-/* glibc's libmvec has vector variants of these; declaring them `omp declare simd`
- * (what <math.h> does only under -ffast-math) lets the vectoriser call them. */
+/* glibc's libmvec has vector variants of sin and cos; declaring them `omp declare simd`
+ * (what <math.h> does only under -ffast-math) lets the compiler call them in the loops
+ * marked PLANAR_SIMD.  Built without -DDERIVE_VECTOR_MATH, those loops are plain C.
+ * GCC flags: -DDERIVE_VECTOR_MATH -fpeel-loops -fopenmp-simd -fno-builtin-sin -fno-builtin-cos -lmvec
+ * (derive.codegen.loader.VECTOR_MATH_FLAGS). */
 #pragma omp declare simd notinbranch
 extern double sin(double);
 #pragma omp declare simd notinbranch
@@ -24,9 +27,9 @@ extern double cos(double);
 #endif
 
 #if defined(DERIVE_VECTOR_MATH)
-#define PLANAR_TP_SIMD _Pragma("omp simd")
+#define PLANAR_SIMD _Pragma("omp simd")
 #else
-#define PLANAR_TP_SIMD
+#define PLANAR_SIMD
 #endif
 
 const int planar_throughput_n_states = 4;
@@ -86,7 +89,7 @@ long planar_throughput_rk4(long n, double *y, long ld, const double *p, double h
             }
         }
         for (s = 0; s < nsteps; ++s) {
-            PLANAR_TP_SIMD
+            PLANAR_SIMD
             for (j = 0; j < BLOCK; ++j) {
                 const double y0 = Y0[j];
                 const double y1 = Y1[j];

@@ -11,6 +11,24 @@
 #define restrict __restrict
 #endif
 
+#if defined(DERIVE_VECTOR_MATH) && defined(__GLIBC__) && defined(__x86_64__)
+/* glibc's libmvec has vector variants of sin and cos; declaring them `omp declare simd`
+ * (what <math.h> does only under -ffast-math) lets the compiler call them in the loops
+ * marked SPHERICAL_ALT_SIMD.  Built without -DDERIVE_VECTOR_MATH, those loops are plain C.
+ * GCC flags: -DDERIVE_VECTOR_MATH -fpeel-loops -fopenmp-simd -fno-builtin-sin -fno-builtin-cos -lmvec
+ * (derive.codegen.loader.VECTOR_MATH_FLAGS). */
+#pragma omp declare simd notinbranch
+extern double sin(double);
+#pragma omp declare simd notinbranch
+extern double cos(double);
+#endif
+
+#if defined(DERIVE_VECTOR_MATH)
+#define SPHERICAL_ALT_SIMD _Pragma("omp simd")
+#else
+#define SPHERICAL_ALT_SIMD
+#endif
+
 const char *const spherical_alt_state_names[SPHERICAL_ALT_N_STATES] = {
     "vartheta1", "varphi1", "vartheta2", "varphi2", "vartheta1_dot", "varphi1_dot", "vartheta2_dot", "varphi2_dot"
 };
@@ -23,15 +41,24 @@ int spherical_alt_rhs(const double *restrict y, const double *restrict p, double
 {
     int status = SPHERICAL_ALT_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[2]);
+    const double lane_angle[4] = { y[0], y[2], y[1], y[3] };
+    double lane_sin[4], lane_cos[4];
+    int lane;
+    SPHERICAL_ALT_SIMD
+    for (lane = 0; lane < 4; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t2 = lane_sin[2];
+    const double t3 = lane_sin[3];
+    const double t4 = lane_cos[2];
+    const double t5 = lane_cos[3];
+    const double t7 = lane_cos[1];
+    const double t13 = lane_cos[0];
     const double Ab = p[3]*p[3];
-    const double t2 = sin(y[1]);
-    const double t3 = sin(y[3]);
-    const double t4 = cos(y[1]);
-    const double t5 = cos(y[3]);
     const double t6 = t2*t5 - t3*t4;
-    const double t7 = cos(y[2]);
     const double t8 = p[3]*t7;
     const double t9 = p[2]*t8;
     const double t10 = t6*t9;
@@ -39,7 +66,6 @@ int spherical_alt_rhs(const double *restrict y, const double *restrict p, double
     const double t11 = t2*t3 + t4*t5;
     const double t12 = p[2]*p[3];
     const double Q11 = t11*t12;
-    const double t13 = cos(y[0]);
     const double t14 = p[2]*t13;
     const double t15 = p[3]*t6;
     const double Q01 = t14*t15;
@@ -431,19 +457,27 @@ int spherical_alt_mass_matrix(const double *restrict y, const double *restrict p
 {
     int status = SPHERICAL_ALT_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[2]);
+    const double lane_angle[4] = { y[0], y[2], y[1], y[3] };
+    double lane_sin[4], lane_cos[4];
+    int lane;
+    SPHERICAL_ALT_SIMD
+    for (lane = 0; lane < 4; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t5 = lane_sin[2];
+    const double t6 = lane_sin[3];
+    const double t7 = lane_cos[2];
+    const double t8 = lane_cos[3];
+    const double t10 = lane_cos[0];
+    const double t11 = lane_cos[1];
     const double t2 = p[2]*p[2];
     const double t3 = p[0] + p[1];
     const double M00 = t2*t3;
     const double t4 = t0*t1;
-    const double t5 = sin(y[1]);
-    const double t6 = sin(y[3]);
-    const double t7 = cos(y[1]);
-    const double t8 = cos(y[3]);
     const double t9 = t5*t6 + t7*t8;
-    const double t10 = cos(y[0]);
-    const double t11 = cos(y[2]);
     const double t12 = t10*t11;
     const double t13 = t12*t9 + t4;
     const double t14 = p[2]*p[1];
@@ -683,18 +717,26 @@ int spherical_alt_forcing(const double *restrict y, const double *restrict p, do
 {
     int status = SPHERICAL_ALT_STATUS_OK;
     double check;
-    const double t0 = cos(y[0]);
+    const double lane_angle[4] = { y[0], y[1], y[3], y[2] };
+    double lane_sin[4], lane_cos[4];
+    int lane;
+    SPHERICAL_ALT_SIMD
+    for (lane = 0; lane < 4; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_cos[0];
+    const double t2 = lane_sin[1];
+    const double t3 = lane_sin[2];
+    const double t4 = lane_cos[1];
+    const double t5 = lane_cos[2];
+    const double t7 = lane_sin[3];
+    const double t10 = lane_sin[0];
+    const double t11 = lane_cos[3];
     const double t1 = y[7]*y[7];
-    const double t2 = sin(y[1]);
-    const double t3 = sin(y[3]);
-    const double t4 = cos(y[1]);
-    const double t5 = cos(y[3]);
     const double t6 = t2*t3 + t4*t5;
-    const double t7 = sin(y[2]);
     const double t8 = t0*t7;
     const double t9 = t6*t8;
-    const double t10 = sin(y[0]);
-    const double t11 = cos(y[2]);
     const double t12 = t10*t11;
     const double t13 = p[2]*p[1];
     const double t14 = p[3]*t13;
@@ -941,18 +983,27 @@ int spherical_alt_energy(const double *restrict y, const double *restrict p, dou
 {
     int status = SPHERICAL_ALT_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[2]);
+    const double lane_angle[4] = { y[0], y[2], y[1], y[3] };
+    double lane_sin[4], lane_cos[4];
+    int lane;
+    SPHERICAL_ALT_SIMD
+    for (lane = 0; lane < 4; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t3 = lane_sin[2];
+    const double t4 = lane_sin[3];
+    const double t5 = lane_cos[2];
+    const double t6 = lane_cos[3];
+    const double t11 = lane_cos[0];
+    const double t22 = lane_cos[1];
     const double t2 = t0*t1;
-    const double t3 = sin(y[1]);
-    const double t4 = sin(y[3]);
-    const double t5 = cos(y[1]);
-    const double t6 = cos(y[3]);
     const double t7 = t3*t4 + t5*t6;
     const double t8 = y[5]*y[5];
     const double t9 = y[7]*y[7];
     const double t10 = y[6]*y[6];
-    const double t11 = cos(y[0]);
     const double t12 = t11*y[4];
     const double t13 = y[4]*y[4];
     const double t14 = p[2]*p[1];
@@ -963,7 +1014,6 @@ int spherical_alt_energy(const double *restrict y, const double *restrict p, dou
     const double t19 = t14*t18;
     const double t20 = t16*t19;
     const double t21 = t0*t0;
-    const double t22 = cos(y[2]);
     const double t23 = t0*t22;
     const double t24 = t19*t23;
     const double t25 = t2*t7;
@@ -1151,21 +1201,29 @@ int spherical_alt_positions(const double *restrict y, const double *restrict p, 
 {
     int status = SPHERICAL_ALT_STATUS_OK;
     double check;
-    const double t0 = cos(y[0]);
+    const double lane_angle[4] = { y[0], y[1], y[2], y[3] };
+    double lane_sin[4], lane_cos[4];
+    int lane;
+    SPHERICAL_ALT_SIMD
+    for (lane = 0; lane < 4; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_cos[0];
+    const double t2 = lane_sin[0];
+    const double t3 = lane_cos[1];
+    const double t6 = lane_sin[1];
+    const double t9 = lane_cos[2];
+    const double t11 = lane_sin[2];
+    const double t12 = lane_cos[3];
+    const double t14 = lane_sin[3];
     const double t1 = p[2]*t0;
-    const double t2 = sin(y[0]);
-    const double t3 = cos(y[1]);
     const double t4 = t2*t3;
     const double t5 = p[2]*t4;
-    const double t6 = sin(y[1]);
     const double t7 = t2*t6;
     const double t8 = p[2]*t7;
-    const double t9 = cos(y[2]);
     const double t10 = p[3]*t9;
-    const double t11 = sin(y[2]);
-    const double t12 = cos(y[3]);
     const double t13 = t11*t12;
-    const double t14 = sin(y[3]);
     const double t15 = t11*t14;
     const double t16 = p[3]*t15;
     const double t17 = t1 + t10;
@@ -1310,17 +1368,26 @@ int spherical_alt_jacobian(const double *restrict y, const double *restrict p, d
 {
     int status = SPHERICAL_ALT_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[2]);
+    const double lane_angle[4] = { y[0], y[2], y[1], y[3] };
+    double lane_sin[4], lane_cos[4];
+    int lane;
+    SPHERICAL_ALT_SIMD
+    for (lane = 0; lane < 4; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t5 = lane_cos[0];
+    const double t7 = lane_sin[2];
+    const double t8 = lane_sin[3];
+    const double t9 = lane_cos[2];
+    const double t10 = lane_cos[3];
+    const double t22 = lane_cos[1];
     const double t2 = 1.0/p[1];
     const double t3 = p[2]*p[2];
     const double t4 = p[0] + p[1];
-    const double t5 = cos(y[0]);
     const double t6 = p[2]*t5;
-    const double t7 = sin(y[1]);
-    const double t8 = sin(y[3]);
-    const double t9 = cos(y[1]);
-    const double t10 = cos(y[3]);
     const double t11 = t10*t7 - t8*t9;
     const double t12 = p[3]*t11;
     const double Q01 = t12*t6;
@@ -1335,7 +1402,6 @@ int spherical_alt_jacobian(const double *restrict y, const double *restrict p, d
     const double t20 = 2*y[5];
     const double t21 = Q11*t20;
     const double Ab = p[3]*p[3];
-    const double t22 = cos(y[2]);
     const double t23 = p[3]*t22;
     const double t24 = p[2]*t23;
     const double t25 = t11*t24;
@@ -2270,8 +2336,15 @@ int spherical_alt_polar_sines(const double *restrict y, double *restrict sines)
 {
     int status = SPHERICAL_ALT_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[2]);
+    const double lane_angle[2] = { y[0], y[2] };
+    double lane_sin[2];
+    int lane;
+    SPHERICAL_ALT_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
     sines[0] = t0;
     sines[1] = t1;
     if (!(fabs(t0) >= (double)SPHERICAL_ALT_POLAR_SINE_MIN)) {
@@ -2381,21 +2454,29 @@ int spherical_alt_to_spherical_rot(const double *restrict y, double *restrict y_
 {
     int status = SPHERICAL_ALT_STATUS_OK;
     double check;
-    const double t0 = sin(y[1]);
-    const double t1 = sin(y[0]);
+    const double lane_angle[4] = { y[1], y[0], y[3], y[2] };
+    double lane_sin[4], lane_cos[4];
+    int lane;
+    SPHERICAL_ALT_SIMD
+    for (lane = 0; lane < 4; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t3 = lane_cos[1];
+    const double t5 = lane_cos[0];
+    const double t8 = lane_sin[2];
+    const double t9 = lane_sin[3];
+    const double t11 = lane_cos[3];
+    const double t13 = lane_cos[2];
     const double t2 = t1*t1;
-    const double t3 = cos(y[0]);
     const double t4 = t3*t3;
-    const double t5 = cos(y[1]);
     const double t6 = t1*t5;
     const double spherical_rot_vartheta1 = atan2(sqrt(t0*t0*t2 + t4), t6);
     const double t7 = sin(spherical_rot_vartheta1);
-    const double t8 = sin(y[3]);
-    const double t9 = sin(y[2]);
     const double t10 = t9*t9;
-    const double t11 = cos(y[2]);
     const double t12 = t11*t11;
-    const double t13 = cos(y[3]);
     const double t14 = t13*t9;
     const double spherical_rot_vartheta2 = atan2(sqrt(t10*t8*t8 + t12), t14);
     const double t15 = sin(spherical_rot_vartheta2);
@@ -2654,21 +2735,29 @@ int spherical_alt_to_spherical_std(const double *restrict y, double *restrict y_
 {
     int status = SPHERICAL_ALT_STATUS_OK;
     double check;
-    const double t0 = cos(y[1]);
-    const double t1 = sin(y[0]);
+    const double lane_angle[4] = { y[1], y[0], y[3], y[2] };
+    double lane_sin[4], lane_cos[4];
+    int lane;
+    SPHERICAL_ALT_SIMD
+    for (lane = 0; lane < 4; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_cos[0];
+    const double t1 = lane_sin[1];
+    const double t3 = lane_cos[1];
+    const double t5 = lane_sin[0];
+    const double t8 = lane_cos[2];
+    const double t9 = lane_sin[3];
+    const double t11 = lane_cos[3];
+    const double t13 = lane_sin[2];
     const double t2 = t1*t1;
-    const double t3 = cos(y[0]);
     const double t4 = t3*t3;
-    const double t5 = sin(y[1]);
     const double t6 = t1*t5;
     const double spherical_std_theta1 = atan2(sqrt(t0*t0*t2 + t4), -t6);
     const double t7 = sin(spherical_std_theta1);
-    const double t8 = cos(y[3]);
-    const double t9 = sin(y[2]);
     const double t10 = t9*t9;
-    const double t11 = cos(y[2]);
     const double t12 = t11*t11;
-    const double t13 = sin(y[3]);
     const double t14 = t13*t9;
     const double spherical_std_theta2 = atan2(sqrt(t10*t8*t8 + t12), -t14);
     const double t15 = sin(spherical_std_theta2);

@@ -11,6 +11,24 @@
 #define restrict __restrict
 #endif
 
+#if defined(DERIVE_VECTOR_MATH) && defined(__GLIBC__) && defined(__x86_64__)
+/* glibc's libmvec has vector variants of sin and cos; declaring them `omp declare simd`
+ * (what <math.h> does only under -ffast-math) lets the compiler call them in the loops
+ * marked SPHERICAL_STD_SIMD.  Built without -DDERIVE_VECTOR_MATH, those loops are plain C.
+ * GCC flags: -DDERIVE_VECTOR_MATH -fpeel-loops -fopenmp-simd -fno-builtin-sin -fno-builtin-cos -lmvec
+ * (derive.codegen.loader.VECTOR_MATH_FLAGS). */
+#pragma omp declare simd notinbranch
+extern double sin(double);
+#pragma omp declare simd notinbranch
+extern double cos(double);
+#endif
+
+#if defined(DERIVE_VECTOR_MATH)
+#define SPHERICAL_STD_SIMD _Pragma("omp simd")
+#else
+#define SPHERICAL_STD_SIMD
+#endif
+
 const char *const spherical_std_state_names[SPHERICAL_STD_N_STATES] = {
     "theta1", "phi1", "theta2", "phi2", "theta1_dot", "phi1_dot", "theta2_dot", "phi2_dot"
 };
@@ -23,20 +41,27 @@ int spherical_std_rhs(const double *restrict y, const double *restrict p, double
 {
     int status = SPHERICAL_STD_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[2]);
+    const double lane_angle[3] = { y[0], y[2], y[1] - y[3] };
+    double lane_sin[3], lane_cos[3];
+    int lane;
+    SPHERICAL_STD_SIMD
+    for (lane = 0; lane < 3; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t3 = lane_sin[2];
+    const double t4 = lane_cos[1];
+    const double t8 = lane_cos[2];
+    const double t10 = lane_cos[0];
     const double Ab = p[3]*p[3];
-    const double t2 = y[1] - y[3];
-    const double t3 = sin(t2);
-    const double t4 = cos(y[2]);
     const double t5 = p[3]*t4;
     const double t6 = p[2]*t5;
     const double t7 = t3*t6;
     const double Q10 = -t7;
-    const double t8 = cos(t2);
     const double t9 = p[2]*p[3];
     const double Q11 = t8*t9;
-    const double t10 = cos(y[0]);
     const double t11 = p[2]*t10;
     const double t12 = p[3]*t11;
     const double Q01 = t12*t3;
@@ -428,23 +453,30 @@ int spherical_std_mass_matrix(const double *restrict y, const double *restrict p
 {
     int status = SPHERICAL_STD_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[2]);
+    const double lane_angle[3] = { y[0], y[2], y[1] - y[3] };
+    double lane_sin[3], lane_cos[3];
+    int lane;
+    SPHERICAL_STD_SIMD
+    for (lane = 0; lane < 3; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t6 = lane_cos[2];
+    const double t7 = lane_cos[0];
+    const double t8 = lane_cos[1];
+    const double t14 = lane_sin[2];
     const double t2 = p[2]*p[2];
     const double t3 = p[0] + p[1];
     const double M00 = t2*t3;
     const double t4 = t0*t1;
-    const double t5 = y[1] - y[3];
-    const double t6 = cos(t5);
-    const double t7 = cos(y[0]);
-    const double t8 = cos(y[2]);
     const double t9 = t7*t8;
     const double t10 = t4 + t6*t9;
     const double t11 = p[2]*p[1];
     const double t12 = p[3]*t11;
     const double M02 = t10*t12;
     const double t13 = t1*t7;
-    const double t14 = sin(t5);
     const double t15 = t12*t14;
     const double M03 = t13*t15;
     const double t16 = t0*t0;
@@ -668,14 +700,22 @@ int spherical_std_forcing(const double *restrict y, const double *restrict p, do
 {
     int status = SPHERICAL_STD_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = cos(y[0]);
+    const double lane_angle[3] = { y[0], y[2], y[1] - y[3] };
+    double lane_sin[3], lane_cos[3];
+    int lane;
+    SPHERICAL_STD_SIMD
+    for (lane = 0; lane < 3; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_cos[0];
+    const double t3 = lane_cos[1];
+    const double t6 = lane_cos[2];
+    const double t7 = lane_sin[1];
+    const double t19 = lane_sin[2];
     const double t2 = y[7]*y[7];
-    const double t3 = cos(y[2]);
     const double t4 = t0*t3;
-    const double t5 = y[1] - y[3];
-    const double t6 = cos(t5);
-    const double t7 = sin(y[2]);
     const double t8 = t1*t7;
     const double t9 = t6*t8;
     const double t10 = y[5]*y[5];
@@ -687,7 +727,6 @@ int spherical_std_forcing(const double *restrict y, const double *restrict p, do
     const double t16 = p[2]*p[0];
     const double t17 = p[3]*t3;
     const double t18 = t17*y[6];
-    const double t19 = sin(t5);
     const double t20 = 2*t12;
     const double t21 = t19*t20;
     const double t22 = p[2]*p[2];
@@ -917,12 +956,21 @@ int spherical_std_energy(const double *restrict y, const double *restrict p, dou
 {
     int status = SPHERICAL_STD_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[2]);
+    const double lane_angle[3] = { y[0], y[2], y[1] - y[3] };
+    double lane_sin[3], lane_cos[3];
+    int lane;
+    SPHERICAL_STD_SIMD
+    for (lane = 0; lane < 3; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t4 = lane_cos[2];
+    const double t5 = lane_cos[0];
+    const double t14 = lane_sin[2];
+    const double t18 = lane_cos[1];
     const double t2 = t0*t1;
-    const double t3 = y[1] - y[3];
-    const double t4 = cos(t3);
-    const double t5 = cos(y[0]);
     const double t6 = y[7]*y[7];
     const double t7 = y[5]*y[5];
     const double t8 = y[6]*y[6];
@@ -931,11 +979,9 @@ int spherical_std_energy(const double *restrict y, const double *restrict p, dou
     const double t11 = p[2]*p[1];
     const double t12 = p[3]*t11;
     const double t13 = t1*t5;
-    const double t14 = sin(t3);
     const double t15 = t12*t14;
     const double t16 = t13*t15;
     const double t17 = t0*t0;
-    const double t18 = cos(y[2]);
     const double t19 = t0*t18;
     const double t20 = t15*t19;
     const double t21 = t2*t4;
@@ -1109,21 +1155,29 @@ int spherical_std_positions(const double *restrict y, const double *restrict p, 
 {
     int status = SPHERICAL_STD_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = cos(y[1]);
+    const double lane_angle[4] = { y[0], y[1], y[2], y[3] };
+    double lane_sin[4], lane_cos[4];
+    int lane;
+    SPHERICAL_STD_SIMD
+    for (lane = 0; lane < 4; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_cos[1];
+    const double t4 = lane_sin[1];
+    const double t7 = lane_cos[0];
+    const double t9 = lane_sin[2];
+    const double t10 = lane_cos[3];
+    const double t12 = lane_sin[3];
+    const double t14 = lane_cos[2];
     const double t2 = t0*t1;
     const double t3 = p[2]*t2;
-    const double t4 = sin(y[1]);
     const double t5 = t0*t4;
     const double t6 = p[2]*t5;
-    const double t7 = cos(y[0]);
     const double t8 = p[2]*t7;
-    const double t9 = sin(y[2]);
-    const double t10 = cos(y[3]);
     const double t11 = t10*t9;
-    const double t12 = sin(y[3]);
     const double t13 = t12*t9;
-    const double t14 = cos(y[2]);
     const double t15 = p[3]*t14;
     const double t16 = -t8;
     const double t17 = p[3]*t11 + t3;
@@ -1268,14 +1322,23 @@ int spherical_std_jacobian(const double *restrict y, const double *restrict p, d
 {
     int status = SPHERICAL_STD_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[2]);
+    const double lane_angle[3] = { y[0], y[2], y[1] - y[3] };
+    double lane_sin[3], lane_cos[3];
+    int lane;
+    SPHERICAL_STD_SIMD
+    for (lane = 0; lane < 3; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t6 = lane_sin[2];
+    const double t7 = lane_cos[0];
+    const double t16 = lane_cos[2];
+    const double t19 = lane_cos[1];
     const double t2 = 1.0/p[1];
     const double t3 = p[2]*p[2];
     const double t4 = p[0] + p[1];
-    const double t5 = y[1] - y[3];
-    const double t6 = sin(t5);
-    const double t7 = cos(y[0]);
     const double t8 = p[2]*t7;
     const double t9 = p[3]*t8;
     const double Q01 = t6*t9;
@@ -1285,12 +1348,10 @@ int spherical_std_jacobian(const double *restrict y, const double *restrict p, d
     const double t13 = t12*t6;
     const double t14 = t0*t13;
     const double t15 = t0*y[4];
-    const double t16 = cos(t5);
     const double Q11 = t12*t16;
     const double t17 = 2*y[5];
     const double t18 = Q11*t17;
     const double Ab = p[3]*p[3];
-    const double t19 = cos(y[2]);
     const double t20 = p[3]*t19;
     const double t21 = p[2]*t20;
     const double t22 = t21*t6;
@@ -2207,8 +2268,15 @@ int spherical_std_polar_sines(const double *restrict y, double *restrict sines)
 {
     int status = SPHERICAL_STD_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
-    const double t1 = sin(y[2]);
+    const double lane_angle[2] = { y[0], y[2] };
+    double lane_sin[2];
+    int lane;
+    SPHERICAL_STD_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
     sines[0] = t0;
     sines[1] = t1;
     if (!(fabs(t0) >= (double)SPHERICAL_STD_POLAR_SINE_MIN)) {
@@ -2318,21 +2386,29 @@ int spherical_std_to_spherical_alt(const double *restrict y, double *restrict y_
 {
     int status = SPHERICAL_STD_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
+    const double lane_angle[4] = { y[0], y[1], y[2], y[3] };
+    double lane_sin[4], lane_cos[4];
+    int lane;
+    SPHERICAL_STD_SIMD
+    for (lane = 0; lane < 4; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t2 = lane_cos[0];
+    const double t4 = lane_sin[1];
+    const double t5 = lane_cos[1];
+    const double t8 = lane_sin[2];
+    const double t10 = lane_cos[2];
+    const double t12 = lane_sin[3];
+    const double t13 = lane_cos[3];
     const double t1 = t0*t0;
-    const double t2 = cos(y[0]);
     const double t3 = t2*t2;
-    const double t4 = sin(y[1]);
-    const double t5 = cos(y[1]);
     const double t6 = t0*t5;
     const double spherical_alt_vartheta1 = atan2(sqrt(t1*t4*t4 + t3), t6);
     const double t7 = sin(spherical_alt_vartheta1);
-    const double t8 = sin(y[2]);
     const double t9 = t8*t8;
-    const double t10 = cos(y[2]);
     const double t11 = t10*t10;
-    const double t12 = sin(y[3]);
-    const double t13 = cos(y[3]);
     const double t14 = t13*t8;
     const double spherical_alt_vartheta2 = atan2(sqrt(t11 + t12*t12*t9), t14);
     const double t15 = sin(spherical_alt_vartheta2);
@@ -2597,21 +2673,29 @@ int spherical_std_to_spherical_rot(const double *restrict y, double *restrict y_
 {
     int status = SPHERICAL_STD_STATUS_OK;
     double check;
-    const double t0 = sin(y[0]);
+    const double lane_angle[4] = { y[0], y[1], y[2], y[3] };
+    double lane_sin[4], lane_cos[4];
+    int lane;
+    SPHERICAL_STD_SIMD
+    for (lane = 0; lane < 4; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_sin[0];
+    const double t2 = lane_cos[0];
+    const double t4 = lane_cos[1];
+    const double t5 = lane_sin[1];
+    const double t8 = lane_sin[2];
+    const double t10 = lane_cos[2];
+    const double t12 = lane_cos[3];
+    const double t13 = lane_sin[3];
     const double t1 = t0*t0;
-    const double t2 = cos(y[0]);
     const double t3 = t2*t2;
-    const double t4 = cos(y[1]);
-    const double t5 = sin(y[1]);
     const double t6 = t0*t5;
     const double spherical_rot_vartheta1 = atan2(sqrt(t1*t4*t4 + t3), t6);
     const double t7 = sin(spherical_rot_vartheta1);
-    const double t8 = sin(y[2]);
     const double t9 = t8*t8;
-    const double t10 = cos(y[2]);
     const double t11 = t10*t10;
-    const double t12 = cos(y[3]);
-    const double t13 = sin(y[3]);
     const double t14 = t13*t8;
     const double spherical_rot_vartheta2 = atan2(sqrt(t11 + t12*t12*t9), t14);
     const double t15 = sin(spherical_rot_vartheta2);
