@@ -270,6 +270,18 @@ def half_angle_sincos(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: lis
     return out, [sp.sympify(e).xreplace(repl) for e in outputs]
 
 
+def live_assignments(assignments: list[tuple[sp.Symbol, sp.Expr]], roots: list[sp.Expr]
+                     ) -> list[tuple[sp.Symbol, sp.Expr]]:
+    """The assignments the roots need, directly or through other assignments, in order."""
+    needed = _free_names(roots)
+    kept = []
+    for sym, e in reversed(assignments):
+        if sym in needed:
+            needed |= e.free_symbols
+            kept.append((sym, e))
+    return kept[::-1]
+
+
 @dataclass
 class TrigLanes:
     """sin/cos of a kernel's angles as lanes of one vector call each (see trig_lanes)."""
@@ -310,8 +322,9 @@ def trig_lanes(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: list[sp.Ex
             if angle not in angles:
                 angles.append(angle)
             kind, k = f.func.__name__, angles.index(angle)
-            # a temporary t = sin(x) keeps its name (the printed code differs only in where
-            # t comes from: GCC's schedule, and the speed measured, depend on the names)
+            # a temporary t = sin(x) keeps its name, so the rest prints as before: GCC's
+            # schedule follows the printed operand order (with fresh names sorting
+            # differently, the abm12 loop measured 25% slower)
             repl[f] = named.get(f) or sp.Symbol(f"{kind}_lane{k}", real=True)
             values.append((repl[f], kind, k))
     if len(angles) < 2:
@@ -320,13 +333,7 @@ def trig_lanes(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: list[sp.Ex
     out = [(sym, e.xreplace(repl)) for sym, e in assignments if sym not in lanes]
     outputs = [sp.sympify(e).xreplace(repl) for e in outputs]
     # a temporary that only fed an angle (phi1 - phi2, now inlined into its lane) is dropped
-    used = _free_names(outputs)
-    kept = []
-    for sym, e in reversed(out):
-        if sym in used:
-            kept.append((sym, e))
-            used |= e.free_symbols
-    return TrigLanes(angles, values), kept[::-1], outputs
+    return TrigLanes(angles, values), live_assignments(out, outputs), outputs
 
 
 def lanes_context(lanes: TrigLanes | None, printer) -> dict | None:

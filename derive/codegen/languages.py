@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from .emit import Body, half_angle_sincos, lanes_context, render, trig_lanes
+from .emit import Body, half_angle_sincos, lanes_context, live_assignments, render, trig_lanes
 from .loader import VECTOR_MATH
 from .printers import CPrinter, PyNumPyPrinter
 from .spec import ModelSpec
@@ -151,25 +151,14 @@ class NumPy(Language):
             slots = {s: s.name for inp in k.inputs for s in inp.vector.symbols}
             varying = {s for inp in k.inputs if inp.vector.key != "param" for s in inp.vector.symbols}
             assignments, flat = half_angle_sincos(b.assignments, [e for exprs in b.outputs for e in exprs])
-            outputs, i = [], 0
-            for exprs in b.outputs:
-                outputs.append(flat[i:i + len(exprs)])
-                i += len(exprs)
+            outputs = _unflatten(flat, b.outputs)
             for sym, e in assignments:
                 if e.free_symbols & varying:
                     varying.add(sym)
             pr = PyNumPyPrinter(slots, varying)
             # only what the outputs need (guards have no NumPy counterpart)
-            needed = set()
-            for exprs in outputs:
-                for e in exprs:
-                    needed |= sp.sympify(e).free_symbols
-            kept = []
-            for sym, e in reversed(assignments):
-                if sym in needed:
-                    needed |= e.free_symbols
-                    kept.append((sym, e))
-            kept.reverse()
+            kept = live_assignments(assignments, flat)
+            needed = set().union(*(sp.sympify(e).free_symbols for e in flat), *(e.free_symbols for _, e in kept))
             unpack = [{"name": s.name, "source": f"{inp.name}[..., {i}]"}
                       for inp in k.inputs for i, s in enumerate(inp.vector.symbols) if s in needed]
             # free each temporary after its last use: fewer live arrays, memory reused
