@@ -25,7 +25,9 @@ extern double sin(double);
 extern double cos(double);
 #endif
 
-#if defined(DERIVE_VECTOR_MATH)
+/* GCC only: clang maps no libm call to libmvec here and warns about each loop it then
+ * leaves scalar (-Wpass-failed). */
+#if defined(DERIVE_VECTOR_MATH) && defined(__GNUC__) && !defined(__clang__)
 #define COMPOUND_SIMD _Pragma("omp simd")
 #else
 #define COMPOUND_SIMD
