@@ -113,10 +113,11 @@ class C(Language):
             variants = []
             for v in self.variants:
                 pr = CPrinter(slots, v.ctype)
-                # libmvec has vector sin/cos for double only: the other types keep scalar calls
-                lanes, assignments, flat = (trig_lanes(b.assignments, [e for exprs in b.outputs + [b.guards] for e in exprs])
-                                            if v.ctype == "double" else (None, b.assignments, None))
-                *outputs, guard_exprs = _unflatten(flat, b.outputs + [b.guards]) if lanes else b.outputs + [b.guards]
+                roots = b.outputs + [b.guards]
+                lanes, assignments, flat = None, b.assignments, [e for exprs in roots for e in exprs]
+                if v.ctype == "double":     # libmvec has vector sin/cos for double only
+                    lanes, assignments, flat = trig_lanes(assignments, flat)
+                *outputs, guard_exprs = _unflatten(flat, roots)
                 locals_ = [{"name": s.name, "value": pr.doprint_checked(e)} for s, e in assignments]
                 assigns = []
                 for out, exprs in zip(k.outputs, outputs):

@@ -133,12 +133,18 @@ def _combo(terms, name) -> str:
     return " + ".join(f"{lit} * {name(j)}" for j, lit in terms)
 
 
-def _c_rhs(body, state, params, src: str, target, lanes: bool = True) -> dict:
-    """The rhs printed on the state held in src<c> (or src[c]), output c stored to target(c):
-    its sin/cos lanes (emit.trig_lanes; not where the loop around it is the vector one) and
-    the lines after them."""
-    lanes, assignments, outputs = (trig_lanes(body.assignments, body.outputs[0]) if lanes
-                                   else (None, body.assignments, body.outputs[0]))
+@lru_cache(maxsize=None)
+def _rhs_parts(name: str, lanes: bool):
+    """(sin/cos lanes or None, assignments, outputs) of the rhs: emit.trig_lanes once per model,
+    without lanes where the loop around the rhs is itself the vector one."""
+    body = _rhs_body(name)
+    return trig_lanes(body.assignments, body.outputs[0]) if lanes else (None, body.assignments, body.outputs[0])
+
+
+def _c_rhs(parts, state, params, src: str, target) -> dict:
+    """The rhs (_rhs_parts) printed on the state held in src<c> (or src[c]), output c stored to
+    target(c): its sin/cos lanes and the lines after them."""
+    lanes, assignments, outputs = parts
     slots = {s: f"p{i}" for i, s in enumerate(params)}
     slots.update({s: src.format(c=i) for i, s in enumerate(state)})
     pr = CPrinter(slots, "double")
@@ -147,13 +153,13 @@ def _c_rhs(body, state, params, src: str, target, lanes: bool = True) -> dict:
             "lines": lines + [f"{target(i)} = {pr.doprint_checked(e)};" for i, e in enumerate(outputs)]}
 
 
-def _c_stages(body, state, params, rows, b, lanes: bool = True) -> tuple[list[dict], list[str]]:
+def _c_stages(parts, state, params, rows, b) -> tuple[list[dict], list[str]]:
     """Each stage: the rhs printed on its input (y for the first, s after), its outputs k<stage>_<c>,
     then the next stage's input s<c> = y<c> + h * (...); finally n<c> = y<c> + h * (b . k)."""
     n = len(state)
     stages = []
     for stage in range(len(rows) + 1):
-        rhs = _c_rhs(body, state, params, "y{c}" if stage == 0 else "s{c}", lambda i: f"k{stage}_{i}", lanes)
+        rhs = _c_rhs(parts, state, params, "y{c}" if stage == 0 else "s{c}", lambda i: f"k{stage}_{i}")
         combo = None
         if stage < len(rows):
             combo = [f"s{c} = y{c} + h * ({_combo(rows[stage], lambda j: f'k{j}_{c}')});" for c in range(n)]
@@ -162,7 +168,7 @@ def _c_stages(body, state, params, rows, b, lanes: bool = True) -> tuple[list[di
     return stages, final
 
 
-def _adams_context(body, state, params, method: str) -> dict:
+def _adams_context(parts, state, params, method: str) -> dict:
     """The PECE step of a k-step Adams pair: history f[j] = rhs j steps back, hab/ham = h * weights."""
     k = FIXED_METHODS[method]["steps"]
     ab, am = tb.adams(k)
@@ -174,9 +180,9 @@ def _adams_context(body, state, params, method: str) -> dict:
     correct = [f"n{c} = y{c} + ({' + '.join(['ham[0] * fp' + str(c)] + [f'ham[{j}] * f[{j - 1}][{c}]' for j in range(1, k)])});"
                for c in range(n)]
     return {"k": k, "start": FIXED_METHODS[method]["start"], "ab": literals(ab), "am": literals(am),
-            "rhs_y": _c_rhs(body, state, params, "y{c}", lambda i: f"fn{i}"),
-            "rhs_s": _c_rhs(body, state, params, "s{c}", lambda i: f"fp{i}"),
-            "rhs_n": _c_rhs(body, state, params, "n{c}", lambda i: f"fn{i}"),
+            "rhs_y": _c_rhs(parts, state, params, "y{c}", lambda i: f"fn{i}"),
+            "rhs_s": _c_rhs(parts, state, params, "s{c}", lambda i: f"fp{i}"),
+            "rhs_n": _c_rhs(parts, state, params, "n{c}", lambda i: f"fn{i}"),
             "predict": predict, "correct": correct,
             "fp_decl": ", ".join(f"fp{c}" for c in range(n)), "fn_decl": ", ".join(f"fn{c}" for c in range(n))}
 
@@ -195,7 +201,7 @@ def c_context(name: str) -> dict:
     state, params = _inputs(body)
     n = len(state)
     rows, b = _explicit("rk4")
-    stages, final = _c_stages(body, state, params, rows, b, lanes=False)   # vectorised over trajectories
+    stages, final = _c_stages(_rhs_parts(name, False), state, params, rows, b)
     return {"P": name, "M": name.upper(), "title": derive(name).model.title, "n": n,
             "n_params": len(params), "block": BLOCK,
             "params_used": _used_params(body, params), "stages": stages, "final": final,
@@ -217,11 +223,11 @@ def fixed_context(name: str) -> dict:
         entry = {"name": method, "title": m["title"], "kind": m["kind"]}
         if m["kind"] == "rk":
             rows, b = _explicit(method)
-            stages, final = _c_stages(body, state, params, rows, b)
+            stages, final = _c_stages(_rhs_parts(name, True), state, params, rows, b)
             entry.update(nstages=len(rows) + 1, stages=stages, final=final,
                          k_decl=", ".join(f"k{j}_{c}" for j in range(len(rows) + 1) for c in range(n)))
         else:
-            entry.update(_adams_context(body, state, params, method))
+            entry.update(_adams_context(_rhs_parts(name, True), state, params, method))
         methods.append(entry)
     return {"P": name, "M": name.upper(), "title": derive(name).model.title, "n": n,
             "n_params": len(params), "params_used": _used_params(body, params), "methods": methods,
