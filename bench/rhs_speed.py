@@ -2,7 +2,7 @@
 
     PYTHONPATH=. python bench/rhs_speed.py [--evals N] [--repeats R] [--batch B]
 
-1. C: generated/c/planar.c against bench/planar_hand.c (seed 000 (1.34)-(1.35)
+1. C: generated/c/planar.c against derive/measurement/c/planar_hand.c (seed 000 (1.34)-(1.35)
    written by hand), both compiled with `cc -std=c99 -O2` into one program
    (bench/harness.c) and called in a C loop; best of R repeats, calls to the
    two alternating.  Target: generated <= 1.1 x hand-written.  (A peer
@@ -28,6 +28,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "bench"
+HAND = ROOT / "derive" / "measurement" / "c"      # the hand-written peer, shipped for `derive bench`
 GEN_C = ROOT / "generated" / "c"
 
 
@@ -35,8 +36,8 @@ def c_benchmark(evals: int, repeats: int) -> dict[str, float]:
     cc = os.environ.get("CC", "cc")
     with tempfile.TemporaryDirectory() as tmp:
         exe = Path(tmp) / "harness"
-        cmd = [cc, "-std=c99", "-O2", "-I", str(GEN_C), "-I", str(BENCH), str(BENCH / "harness.c"),
-               str(BENCH / "planar_hand.c"), str(GEN_C / "planar.c"), "-o", str(exe), "-lm"]
+        cmd = [cc, "-std=c99", "-O2", "-I", str(GEN_C), "-I", str(HAND), str(BENCH / "harness.c"),
+               str(HAND / "planar_hand.c"), str(GEN_C / "planar.c"), "-o", str(exe), "-lm"]
         subprocess.run(cmd, check=True)
         out = subprocess.run([str(exe), str(evals), str(repeats)], check=True, capture_output=True,
                              text=True).stdout

@@ -1,10 +1,18 @@
-"""derive: symbolic derivation and code generation for double-pendulum dynamics.
+"""derive: symbolic derivation and code generation for pendulum dynamics.
 
 ``derive.simulate(model, y0, t, params, ...)`` runs the generated integrators
-(imported on first use, so ``import derive`` stays light).
+(imported on first use, so ``import derive`` stays light).  Every failure derive
+expects is a ``derive.DeriveError`` (see derive/errors.py).
 """
+__version__ = "0.2.0"
 
-__all__ = ["simulate"]
+from .errors import (BuildError, CompilerMissingError, DeriveError, InputError,  # noqa: E402
+                     ModelError, SceneError, SimulationError, SimulationInputError,
+                     ToolMissingError)
+
+__all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "ModelError",
+           "SceneError", "SimulationError", "SimulationInputError", "ToolMissingError",
+           "__version__", "simulate"]
 
 
 def __getattr__(name):

@@ -1,28 +1,48 @@
-"""The `derive` command line: one subcommand per pipeline stage, plus `run`."""
+"""The `derive` command line: one subcommand per pipeline stage, plus `run`, `all` and `bench`.
+
+Every failure derive expects is a DeriveError (derive/errors.py): main() prints it
+as one line and exits with its status (2: bad input or a missing tool; 1: a run
+that failed).  Anything else is a bug in derive, reported in one line too
+(DERIVE_DEBUG=1 shows the traceback).
+"""
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import shutil
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
-from .integration.simulate import SimulationInputError
-from .model import ModelError, model_names
-from .scene import SceneError
+from . import __version__
+from .errors import DeriveError, ToolMissingError, UsageError
+from .model import is_model_file, load_model, model_names
+from .paths import checkout_root
+from .progress import Stage
 
-REPO_ROOT = Path(__file__).resolve().parent.parent
-
-
-class UsageError(Exception):
-    """Bad input from the user: reported as one line, exit status 2."""
+EXIT_CODES = """exit status: 0 done; 1 a run or check that failed; 2 bad input or a missing tool"""
 
 
-def _derive_all(models: list[str]) -> tuple[float, list[tuple[str, float, bool]]]:
+def _model_arg(arg: str, allow_atlas: bool = False) -> str:
+    """A model argument (a catalogue name, or the path of a model file) as a model name."""
+    if is_model_file(arg):
+        return load_model(arg).name
+    if allow_atlas and arg == "spherical":
+        return arg
+    load_model(arg)                       # an unknown name is a ModelError naming the known ones
+    return arg
+
+
+def _derive_all(models: list[str], stage: Stage | None = None) -> tuple[float, list[tuple[str, float, bool]]]:
     from .derivation import derive
     from .derivation.derivation import is_cached
     rows, start = [], time.perf_counter()
-    for name in models:
+    for i, name in enumerate(models, 1):
+        if stage is not None:
+            stage.set(f"{name} ({i}/{len(models)})")
         warm = is_cached(name)
         t0 = time.perf_counter()
         derive(name)
@@ -31,11 +51,9 @@ def _derive_all(models: list[str]) -> tuple[float, list[tuple[str, float, bool]]
 
 
 def cmd_derive(args) -> int:
-    models = args.models or model_names()
-    for m in models:
-        if m not in model_names():
-            raise UsageError(f"unknown model '{m}' (known: {', '.join(model_names())})")
-    total, rows = _derive_all(models)
+    models = [_model_arg(m) for m in args.models] or model_names()
+    with Stage("deriving") as stage:
+        total, rows = _derive_all(models, stage)
     for name, seconds, warm in rows:
         print(f"{name:15s} {seconds:7.2f} s  ({'cache' if warm else 'derived'})")
     print(f"derived {len(rows)} models in {total:.2f} s")
@@ -52,11 +70,19 @@ def _tally(results, checks) -> tuple[str, bool]:
     return text, n_bad == 0 and n_ok == len(checks)
 
 
-def cmd_verify(args) -> int:
+def _verify(fresh: bool = False):
     from .verification.cached import verify_all
+    with Stage("verifying") as stage:
+        stage.set("deriving")
+        derive_seconds, rows = _derive_all(model_names(), stage)
+        stage.set("judging the seed formulas and the physics checks")
+        results, checks, from_cache = verify_all(fresh=fresh)
+    return derive_seconds, rows, results, checks, from_cache
+
+
+def cmd_verify(args) -> int:
     start = time.perf_counter()
-    derive_seconds, rows = _derive_all(model_names())
-    results, checks, from_cache = verify_all(fresh=args.fresh)
+    derive_seconds, rows, results, checks, from_cache = _verify(args.fresh)
     seconds = time.perf_counter() - start
     tally, good = _tally(results, checks)
     if args.json:
@@ -78,22 +104,65 @@ def cmd_verify(args) -> int:
     return 0 if good else 1
 
 
+# -- derive generate --------------------------------------------------------------------
+
+def _golden_root() -> Path:
+    root = checkout_root()
+    if root is None:
+        raise UsageError("no golden generated/ here: this derive is installed, not a source checkout; "
+                         "give --out DIR to generate into a folder of yours")
+    return root
+
+
 def cmd_generate(args) -> int:
-    from .codegen.generate import generate_all
-    changed, diff = generate_all(REPO_ROOT, check=args.check)
+    from .codegen import generate
+    names = [_model_arg(m, allow_atlas=True) for m in args.models]
+    if args.out:
+        out, shown = Path(args.out), args.out.rstrip("/") or "/"
+    else:
+        if names:
+            raise UsageError("give --out DIR for these models: without --out, derive generate "
+                             "rewrites the catalogue's golden generated/ only")
+        out, shown = _golden_root() / "generated", "generated"
+    names = names or generate.catalogue_names()
+    with Stage("generating") as stage:
+        files = {}
+        for i, name in enumerate(names, 1):
+            stage.set(f"{name} ({i}/{len(names)})")
+            files.update(generate.render_models([name]))
+        if not args.check:
+            _writable_folder(out)
+        changed, diff = generate.write_tree(out, files, check=args.check, shown=shown)
+    note = generate.manifest_note(out)
     if args.check:
+        if note:
+            print(f"note: {note}", file=sys.stderr)
         if changed:
             sys.stdout.write(diff)
-            print(f"generated/ is stale: {len(changed)} file(s) differ; run `derive generate`",
+            print(f"{shown}/ is stale: {len(changed)} file(s) differ; run `derive generate"
+                  f"{' ' + ' '.join(args.models) + ' --out ' + args.out if args.out else ''}`",
                   file=sys.stderr)
             return 1
-        print("generated/ is up to date")
+        print(f"{shown}/ is up to date ({len(files)} files of {len(names)} models)")
         return 0
-    print(f"wrote {len(changed)} changed file(s)" if changed else "generated/ already up to date")
+    generate.write_manifest(out)
+    if not args.out:
+        print(f"rewrote the golden files in {out} (the catalogue: {len(names)} models)")
+    print(f"wrote {len(changed)} changed file(s)" if changed else f"{shown}/ already up to date")
     for path in changed:
         print(f"  {path}")
     return 0
 
+
+def _writable_folder(path: Path) -> Path:
+    from .scene.outputs import writable_dir
+    try:
+        return writable_dir(path)
+    except OSError as exc:
+        raise UsageError(f"cannot write to '{path}': {exc.strerror or exc}") from None
+
+
+# -- derive latex -----------------------------------------------------------------------
 
 class _OneLineParser(argparse.ArgumentParser):
     """argparse, but a usage mistake is one line on stderr and exit status 2."""
@@ -102,7 +171,7 @@ class _OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
-def _writable(path: Path) -> Path:
+def _writable_file(path: Path) -> Path:
     if path.exists() and path.is_dir():
         raise UsageError(f"output path '{path}' is a directory")
     if not path.parent.exists():
@@ -110,29 +179,59 @@ def _writable(path: Path) -> Path:
     return path
 
 
+PDFLATEX_MISSING = "pdflatex not found: install TeX Live (texlive-latex-base) or omit --pdf"
+
+
+def pdflatex(tex: Path) -> Path:
+    """Compile `tex` twice (references settle) in a temporary folder; only the PDF comes
+    back beside it.  A failure leaves the log beside the .tex and names the first error."""
+    exe = shutil.which("pdflatex")
+    if exe is None:
+        raise ToolMissingError(PDFLATEX_MISSING)
+    pdf = tex.with_suffix(".pdf")
+    with tempfile.TemporaryDirectory(prefix="derive-latex-") as tmp:
+        work = Path(tmp) / tex.name
+        shutil.copyfile(tex, work)
+        for _ in range(2):
+            run = subprocess.run([exe, "-interaction=nonstopmode", "-halt-on-error", work.name],
+                                 cwd=tmp, capture_output=True, text=True, errors="replace")
+            if run.returncode != 0:
+                log = work.with_suffix(".log")
+                text = log.read_text(errors="replace") if log.is_file() else run.stdout
+                tex.with_suffix(".log").write_text(text)
+                first = next((ln for ln in text.splitlines() if ln.startswith("!")), "no error line")
+                raise DeriveError(f"pdflatex failed on {tex}: {first[1:].strip()} "
+                                  f"(log: {tex.with_suffix('.log')})")
+        shutil.copyfile(work.with_suffix(".pdf"), pdf)
+    return pdf
+
+
 def cmd_latex(args) -> int:
-    if args.model not in model_names():
-        raise UsageError(f"unknown model '{args.model}' (known: {', '.join(model_names())})")
-    out = _writable(Path(args.output or f"{args.model}.tex"))
+    name = _model_arg(args.model)
+    out = _writable_file(Path(args.output or f"{name}.tex"))
     from .derivation import derive
     from .report.latex import render
-    from .verification.cached import verify_all
-    d = derive(args.model)
-    results = [r for r in verify_all()[0] if r.model == args.model]
+    from .verification.cached import verify_model
+    with Stage("latex") as stage:
+        stage.set(f"deriving {name}")
+        d = derive(name)
+        stage.set(f"verifying the seed formulas of {name}")
+        results = verify_model(name)
+        stage.set("typesetting")
+        text = render(d, results)
     try:
-        out.write_text(render(d, results))
+        out.write_text(text)
     except OSError as exc:
-        raise UsageError(f"cannot write '{out}': {exc.strerror}") from None
+        raise UsageError(f"cannot write '{out}': {exc.strerror or exc}") from None
     print(f"wrote {out} ({len(results)} verified formulas)")
     if args.pdf:
-        import subprocess
-        run = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", out.name],
-                             cwd=out.parent, capture_output=True, text=True)
-        if run.returncode != 0:
-            raise UsageError(f"pdflatex failed on {out}; see {out.with_suffix('.log')}")
-        print(f"wrote {out.with_suffix('.pdf')}")
+        with Stage("pdflatex"):
+            pdf = pdflatex(out)
+        print(f"wrote {pdf}")
     return 0
 
+
+# -- derive run -------------------------------------------------------------------------
 
 def _print_run(summary: dict) -> None:
     s = summary
@@ -179,35 +278,59 @@ def cmd_run(args) -> int:
     return 0 if outcome.result.ok else 1
 
 
+# -- derive all -------------------------------------------------------------------------
+
+def _generate_step() -> tuple[str, bool]:
+    """In a checkout: is generated/ what derive produces now?  Installed: render every
+    catalogue model's code into the cache (there are no golden files to compare)."""
+    from .codegen import generate, sources
+    root = checkout_root()
+    with Stage("generate") as stage:
+        if root is not None:
+            stage.set("rendering the catalogue to compare with generated/")
+            changed, _ = generate.generate_all(root, check=True)
+            return (f"generated/ {'is current' if not changed else f'is STALE in {len(changed)} files'}",
+                    not changed)
+        names = generate.catalogue_names()
+        for i, name in enumerate(names, 1):
+            stage.set(f"rendering {name} into the cache ({i}/{len(names)})")
+            sources.model_sources(name)
+        return f"rendered {len(names)} models into the cache", True
+
+
 def cmd_all(args) -> int:
     """The main job: derive, verify, generate (check), compile, run the default scene."""
-    from .codegen.generate import generate_all
+    from .codegen.sources import ATLAS
     from .scene import load_scene
     from .scene.artifacts import prepare
     from .scene.run import run, summary
-    from .verification.cached import verify_all
     start = time.perf_counter()
-    seconds, rows = _derive_all(model_names())
+    t0 = time.perf_counter()
+    with Stage("derive") as stage:
+        seconds, rows = _derive_all(model_names(), stage)
     cached = sum(w for _, _, w in rows)
     print(f"derive    {len(rows)} models in {seconds:.1f} s ({cached} from the cache)")
     t0 = time.perf_counter()
-    results, checks, from_cache = verify_all()
+    from .verification.cached import verify_all
+    with Stage("verify") as stage:
+        stage.set("the seed formulas and the physics checks")
+        results, checks, from_cache = verify_all()
     tally, verified = _tally(results, checks)
     print(f"verify    {tally} ({time.perf_counter() - t0:.1f} s{', cached' if from_cache else ''})")
     t0 = time.perf_counter()
-    changed, _ = generate_all(REPO_ROOT, check=True)
-    print(f"generate  generated/ {'is current' if not changed else f'is STALE in {len(changed)} files'} "
-          f"({time.perf_counter() - t0:.1f} s)")
+    text, generated = _generate_step()
+    print(f"generate  {text} ({time.perf_counter() - t0:.1f} s)")
     t0 = time.perf_counter()
-    for name in model_names() + ["spherical"]:
-        prepare(name, "c")
+    with Stage("compile") as stage:
+        for name in model_names() + [ATLAS]:
+            prepare(name, "c", stage)
     print(f"compile   C kernels and integrators of every model ({time.perf_counter() - t0:.1f} s)")
-    outcome = run(load_scene(REPO_ROOT / "scenes" / "default.toml"), show_progress=False)
+    outcome = run(load_scene("default"), show_progress=sys.stderr.isatty())
     s = summary(outcome)
     print(f"run       {s['title']}: {s['method']} {s['dtype']} rtol {s['rtol']:.2g}, final-state error "
           f"{s['achieved_error']:.2g} (target {s['target']:g}), trust horizon t = {s['trust_horizon']:.3g}, "
           f"{s['nfev']} rhs evaluations in {s['seconds']:.2f} s")
-    ok = verified and not changed and outcome.result.ok
+    ok = verified and generated and outcome.result.ok
     print(f"{'done' if ok else 'FAILED'} in {time.perf_counter() - start:.1f} s")
     return 0 if ok else 1
 
@@ -216,14 +339,10 @@ def cmd_all(args) -> int:
 
 def cmd_bench(args) -> int:
     from .measurement.bench import BenchOptions, console_report, run_bench, write_all
-    from .scene.progress import Progress
+    from .progress import Progress
     if args.repeats < 1:
         raise UsageError(f"--repeats must be >= 1, got {args.repeats}")
-    from .scene.outputs import writable_dir
-    try:
-        out = writable_dir(Path(args.out))
-    except OSError as exc:
-        raise UsageError(f"cannot write to '{args.out}': {exc.strerror}") from None
+    out = _writable_folder(Path(args.out))
     problems = tuple(x for x in args.problems.split(",") if x) if args.problems else None
     bar = None if args.quiet else Progress("bench", 1)
 
@@ -237,6 +356,8 @@ def cmd_bench(args) -> int:
     try:
         result = run_bench(opts)
     except ValueError as exc:
+        if isinstance(exc, DeriveError):
+            raise
         raise UsageError(str(exc)) from None
     finally:
         if bar is not None:
@@ -250,38 +371,49 @@ def cmd_bench(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .measurement.bench import DEFAULT_OUT
     parser = _OneLineParser(
-        prog="derive", description="Derive, verify and generate code for double pendulums.")
+        prog="derive", description="Derive, verify and generate code for pendulums.",
+        epilog=EXIT_CODES)
+    parser.add_argument("--version", action="version",
+                        version=f"derive {__version__} (Python {sys.version.split()[0]})")
     sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("derive", help="derive the equations of motion (cached)")
-    p.add_argument("models", nargs="*", help=f"models (default: all of {', '.join(model_names())})")
+    model_help = "a catalogue model name or the path of a model file (.toml)"
+    p = sub.add_parser("derive", help="derive the equations of motion (cached)", epilog=EXIT_CODES)
+    p.add_argument("models", nargs="*", help=f"models (default: all of {', '.join(model_names())}); "
+                                            f"each {model_help}")
     p.set_defaults(func=cmd_derive)
-    p = sub.add_parser("verify", help="check every seed formula against the derivation")
+    p = sub.add_parser("verify", help="check every seed formula against the derivation", epilog=EXIT_CODES)
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.add_argument("--fresh", action="store_true", help="judge every formula again, ignoring cached verdicts")
     p.set_defaults(func=cmd_verify)
-    p = sub.add_parser("generate", help="regenerate generated/ from derive/ and templates/")
+    p = sub.add_parser("generate", help="generate C and NumPy: the golden generated/ of a checkout, "
+                                        "or chosen models into --out DIR", epilog=EXIT_CODES)
+    p.add_argument("models", nargs="*", help=f"models to generate (needs --out); each {model_help}, "
+                                            f"or 'spherical' for the chart atlas")
+    p.add_argument("--out", help="write DIR/c/ and DIR/numpy/ (default: the checkout's generated/)")
     p.add_argument("--check", action="store_true",
-                   help="write nothing; exit 1 with a diff when generated/ is stale")
+                   help="write nothing; exit 1 with a diff when the folder is stale")
     p.set_defaults(func=cmd_generate)
-    p = sub.add_parser("latex", help="write the derivation of a model as a standalone .tex")
-    p.add_argument("model", help="model name")
-    p.add_argument("-o", "--output", help="output .tex path (default: MODEL.tex)")
-    p.add_argument("--pdf", action="store_true", help="also run pdflatex")
+    p = sub.add_parser("latex", help="write the derivation of a model as a standalone .tex", epilog=EXIT_CODES)
+    p.add_argument("model", help=model_help)
+    p.add_argument("-o", "--output", help="output .tex path (default: MODEL.tex here)")
+    p.add_argument("--pdf", action="store_true", help="also compile it with pdflatex (TeX Live)")
     p.set_defaults(func=cmd_latex)
-    p = sub.add_parser("run", help="simulate a scene file (TOML), deriving and building only what it needs")
-    p.add_argument("scene", help="scene file, e.g. scenes/default.toml")
+    p = sub.add_parser("run", help="simulate a scene file (TOML), deriving and building only what it needs",
+                       epilog=EXIT_CODES)
+    p.add_argument("scene", help="scene file, or the name of an example scene (default, spherical_pole, ...)")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
     p.add_argument("--json", action="store_true", help="print a machine-readable summary")
     p.add_argument("--output-dir", help="write outputs here instead of the scene's output.directory")
     p.set_defaults(func=cmd_run)
-    p = sub.add_parser("all", help="the main job: derive, verify, generate, compile, run the default scene")
+    p = sub.add_parser("all", help="the main job: derive, verify, generate, compile, run the default scene",
+                       epilog=EXIT_CODES)
     p.set_defaults(func=cmd_all)
     p = sub.add_parser("bench", help="work-precision benchmark of every model, method, precision and "
-                                     "backend against scipy/numba/hand-written peers")
+                                     "backend against scipy/numba/hand-written peers", epilog=EXIT_CODES)
     p.add_argument("--quick", action="store_true", help="a small subset (seconds), for smoke tests")
-    p.add_argument("--out", default=str(REPO_ROOT / "bench" / "results"),
-                   help="output directory (default: bench/results)")
+    p.add_argument("--out", default=DEFAULT_OUT, help=f"output directory (default: ./{DEFAULT_OUT})")
     p.add_argument("--repeats", type=int, default=5, help="timed runs per configuration (median; default 5)")
     p.add_argument("--problems", help="comma-separated subset of: regular, chaotic, compound, spherical_pole")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
@@ -292,13 +424,21 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
     try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
         return args.func(args)
-    except (UsageError, ModelError, SceneError, SimulationInputError) as exc:
+    except DeriveError as exc:
         print(f"derive: error: {exc}", file=sys.stderr)
-        return 2
+        return exc.exit_status
     except KeyboardInterrupt:
         print("derive: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        return 1
+    except Exception as exc:            # a bug in derive: still one line, unless asked
+        if os.environ.get("DERIVE_DEBUG"):
+            raise
+        print(f"derive: internal error: {type(exc).__name__}: {exc} "
+              f"(a bug in derive {__version__}; DERIVE_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return 1

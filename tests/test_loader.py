@@ -10,6 +10,7 @@ import pytest
 
 from derive.codegen import loader
 from derive.codegen.loader import LoaderError, build, load
+from derive.model import ModelError
 
 ROOT = Path(__file__).resolve().parents[1]
 GEN_C = ROOT / "generated" / "c"
@@ -52,10 +53,12 @@ def test_compile_errors_and_missing_compiler_are_reported(tmp_path):
     (folder / "planar.c").write_text((folder / "planar.c").read_text() + "\nthis is not C;\n")
     with pytest.raises(LoaderError, match="compiling planar.c failed"):
         build(folder / "planar.c", cache=tmp_path / "cache")
-    with pytest.raises(LoaderError, match="not found"):
+    with pytest.raises(LoaderError, match="no C compiler found: .* set CC or install gcc or clang"):
         build(GEN_C / "planar.c", cc="no-such-compiler-xyz", cache=tmp_path / "cache")
-    with pytest.raises(LoaderError, match="run `derive generate`"):
+    with pytest.raises(ModelError, match="unknown model 'no_such_model'"):
         load("no_such_model", cache=tmp_path / "cache")
+    with pytest.raises(LoaderError, match="no generated C for model 'planar'"):
+        load("planar", generated=tmp_path, cache=tmp_path / "cache")
 
 
 def test_kernels_names_and_variants(tmp_path):

@@ -9,14 +9,13 @@ expressions get their base as a temporary, so printers can write x*x.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import jinja2
 import sympy as sp
 
+from ..paths import templates_dir
 from .spec import Kernel, ModelSpec
 
-TEMPLATES = Path(__file__).resolve().parents[2] / "templates"
 
 
 @dataclass
@@ -350,7 +349,7 @@ def lanes_context(lanes: TrigLanes | None, printer) -> dict | None:
 
 
 def environment() -> jinja2.Environment:
-    return jinja2.Environment(loader=jinja2.FileSystemLoader(str(TEMPLATES)),
+    return jinja2.Environment(loader=jinja2.FileSystemLoader(str(templates_dir())),
                               undefined=jinja2.StrictUndefined, trim_blocks=True,
                               lstrip_blocks=True, keep_trailing_newline=True,
                               autoescape=False)

@@ -1,7 +1,8 @@
 """Python access to the generated C: compile into a cache, call from NumPy.
 
-``load("planar")`` compiles ``generated/c/planar.c`` into a shared library in
-``cache_dir()/c-build/<key>/``, where the key is the SHA-256 of the source,
+``load("planar")`` compiles the model's generated C (rendered into the cache by
+derive.codegen.sources, or any folder given as ``generated=``) into a shared
+library in ``cache_dir()/c-build/<key>/``, where the key is the SHA-256 of the source,
 the header, the compiler (path and ``--version``) and the flags, so a change to
 any of them rebuilds and nothing else does.  The library is opened with
 ctypes; its kernels are read from the header (prototypes of the ``_batch``
@@ -32,9 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..derivation import cache_dir
+from ..paths import cache_dir
+from ..errors import BuildError, CompilerMissingError
 
-GENERATED_C = Path(__file__).resolve().parents[2] / "generated" / "c"
 DEFAULT_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
 PORTABLE_FLAGS = DEFAULT_FLAGS
 # glibc's libmvec on x86-64: the `omp declare simd` sin/cos of the generated sources
@@ -53,25 +54,54 @@ _PROTO = re.compile(r"^int (\w+?)_batch(_f|_l)?\(long n, (.*)\);$", re.M)
 _DEFINE = re.compile(r"^#define (\w+) (-?\d+)$", re.M)
 
 
-class LoaderError(RuntimeError):
-    pass
+LoaderError = BuildError      # the name the loader's callers have always used
+
+
+COMPILERS = ("cc", "gcc", "clang")       # tried in this order when CC is not set
 
 
 def default_compiler() -> str:
-    return os.environ.get("CC") or "cc"
+    """$CC, else the first of cc, gcc, clang on PATH."""
+    cc = os.environ.get("CC")
+    if cc:
+        return cc
+    for name in COMPILERS:
+        if shutil.which(name):
+            return name
+    raise CompilerMissingError("no C compiler found: set CC or install gcc or clang")
 
 
 @lru_cache(maxsize=None)
 def compiler_identity(cc: str) -> str:
     path = shutil.which(cc)
     if path is None:
-        raise LoaderError(f"C compiler '{cc}' not found (set CC or install gcc/clang)")
+        where = " (from CC)" if os.environ.get("CC") == cc else ""
+        raise CompilerMissingError(f"no C compiler found: '{cc}'{where} is not on PATH; "
+                                   f"set CC or install gcc or clang")
     version = subprocess.run([path, "--version"], capture_output=True, text=True).stdout
     return f"{path}\n{version}"
 
 
+_keys: dict[tuple, str] = {}      # in-process memo of build_key, by file identity
+
+
 def build_key(sources: list[Path], cc: str, flags: tuple[str, ...]) -> str:
-    """SHA-256 of every source and its header, the compiler identity and the flags."""
+    """SHA-256 of every source and its header, the compiler identity and the flags.
+
+    Memoised in the process by (path, size, mtime) of every file, so a warm call
+    reads no file; an edited file has a new mtime and is hashed again."""
+    stats = []
+    for src in sources:
+        for part in (src, src.with_suffix(".h")):
+            st = part.stat()
+            stats.append((str(part), st.st_size, st.st_mtime_ns))
+    memo = (tuple(stats), cc, tuple(flags))
+    if memo not in _keys:
+        _keys[memo] = _build_key(sources, cc, flags)
+    return _keys[memo]
+
+
+def _build_key(sources: list[Path], cc: str, flags: tuple[str, ...]) -> str:
     h = hashlib.sha256()
     for src in sources:
         for part in (src.read_bytes(), src.with_suffix(".h").read_bytes()):
@@ -86,8 +116,8 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
     """Compile `sources` (headers beside them) into one shared library in the cache."""
     sources = [Path(s).resolve() for s in sources]
     for src in sources:
-        if not src.is_file():
-            raise LoaderError(f"no generated C at {src}; run `derive generate`")
+        if not src.is_file() or not src.with_suffix(".h").is_file():
+            raise LoaderError(f"no C source at {src} (or its header beside it)")
     cc = cc or default_compiler()
     key = build_key(sources, cc, tuple(flags))
     root = Path(cache) if cache is not None else cache_dir() / "c-build"
@@ -235,11 +265,16 @@ _loaded: dict[Path, CompiledModel] = {}
 
 def load(model: str, generated: Path | None = None, cc: str | None = None,
          flags: tuple[str, ...] = DEFAULT_FLAGS, cache: Path | None = None) -> CompiledModel:
-    """Compile (if needed) and open generated/c/<model>.c; return its kernels."""
-    folder = Path(generated) if generated is not None else GENERATED_C
+    """Compile (if needed) and open the kernels <model>.c, from `generated` (a folder of
+    generated C, e.g. a checkout's generated/c) or else the cache's rendering; return them."""
+    if generated is None:
+        from .sources import model_sources
+        folder = model_sources(model) / "c"
+    else:
+        folder = Path(generated)
     source = folder / f"{model}.c"
     if not source.is_file():
-        raise LoaderError(f"no generated C for model '{model}' at {source}; run `derive generate`")
+        raise LoaderError(f"no generated C for model '{model}' at {source}")
     lib = build(source, cc, flags, cache)
     if lib not in _loaded:
         _loaded[lib] = CompiledModel(model, lib, source.with_suffix(".h").read_text())

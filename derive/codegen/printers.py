@@ -14,9 +14,7 @@ from sympy.printing.codeprinter import PrintMethodNotImplementedError
 from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.precedence import precedence
 
-
-class PrintError(ValueError):
-    pass
+from ..errors import PrintError
 
 
 class _SlotMixin:

@@ -21,12 +21,9 @@ from math import prod
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
+from ..errors import SpecError
 from ..model import load_model, model_names
 from . import charts, solve
-
-
-class SpecError(ValueError):
-    """A kernel specification is inconsistent; the message names the kernel and symbol."""
 
 
 @dataclass(frozen=True)

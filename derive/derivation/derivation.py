@@ -11,6 +11,7 @@ from pathlib import Path
 import sympy as sp
 
 from ..model import Model, load_model
+from ..paths import cache_dir, package_root
 from . import hamilton, lagrange
 from .paper import PaperForms, paper_forms
 from .symbols import ModelSymbols, model_symbols
@@ -83,18 +84,12 @@ def compute(model: Model) -> Derivation:
 
 # -- the disk cache ---------------------------------------------------------
 
-def cache_dir() -> Path:
-    root = os.environ.get("DERIVE_CACHE_DIR") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "derive")
-    return Path(root)
-
-
 def _code_hash() -> str:
     """The derivation code itself is part of the key: editing it invalidates the cache."""
     h = hashlib.sha256()
-    for path in sorted(Path(__file__).parent.glob("*.py")):
+    for path in sorted((package_root() / "derivation").glob("*.py")):
         h.update(path.read_bytes())
-    h.update((Path(__file__).parent.parent / "model" / "description.py").read_bytes())
+    h.update((package_root() / "model" / "description.py").read_bytes())
     return h.hexdigest()
 
 

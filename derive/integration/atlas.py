@@ -23,7 +23,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..codegen.loader import GENERATED_C
+from ..codegen.sources import ATLAS, c_source
 from .build import CTYPES, SUFFIX, build_fastest, dtype_key, info_struct, options_struct
 from .codegen import ATLAS_CHARTS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH
 
@@ -32,9 +32,9 @@ __all__ = ["ATLAS_CHARTS", "SINE_MIN", "SINE_RULE", "SINE_SWITCH", "atlas_librar
 
 class AtlasLibrary:
     def __init__(self):
-        sources = [GENERATED_C / "spherical_atlas.c"]
+        sources = [c_source(ATLAS, "spherical_atlas.c")]       # the charts' files are beside it
         for ch in ATLAS_CHARTS:
-            sources += [GENERATED_C / f"{ch}_integrate.c", GENERATED_C / f"{ch}.c"]
+            sources += [c_source(ATLAS, f"{ch}_integrate.c"), c_source(ATLAS, f"{ch}.c")]
         self.path, self.flags = build_fastest("spherical_atlas", sources)
         self.lib = ctypes.CDLL(str(self.path))
         self.Options = options_struct((("sine_switch", ctypes.c_double), ("sine_rule", ctypes.c_double)))

@@ -12,8 +12,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..codegen.loader import DEFAULT_FLAGS as FLAGS  # noqa: F401  (re-exported)
-from ..codegen.loader import GENERATED_C, build_fastest, build_library  # noqa: F401
+from ..codegen.loader import build_fastest
+from ..codegen.sources import c_source
 
 CTYPES = {"float64": ctypes.c_double, "float32": ctypes.c_float, "longdouble": ctypes.c_longdouble}
 SUFFIX = {"float64": "", "float32": "_f", "longdouble": "_l"}
@@ -46,7 +46,7 @@ class IntegratorLibrary:
 
     def __init__(self, model: str, n: int, n_params: int):
         self.model, self.n, self.n_params = model, n, n_params
-        src = [GENERATED_C / f"{model}_integrate.c", GENERATED_C / f"{model}.c"]
+        src = [c_source(model, f"{model}_integrate.c"), c_source(model, f"{model}.c")]
         self.path, self.flags = build_fastest(f"{model}_integrate", src)
         self.lib = ctypes.CDLL(str(self.path))
         self.Options = options_struct()

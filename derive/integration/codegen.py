@@ -12,9 +12,8 @@ from functools import lru_cache
 
 import mpmath
 
-from ..codegen.emit import TEMPLATES as TEMPLATES_DIR, render
+from ..codegen.emit import render
 from ..derivation import derive
-from ..model import model_names
 from . import tableau as tb
 
 SINE_MIN = "0.1"          # hard threshold: no kernel below it (per-model default, and atlas)
@@ -157,16 +156,6 @@ def render_c(name: str) -> dict[str, str]:
     }
 
 
-def render_integrators() -> dict[str, str]:
-    """Every integrator file: relative path under generated/ -> text."""
-    files: dict[str, str] = {}
-    for name in model_names():
-        files.update(render_c(name))
-        files.update(render_numpy(name))
-    files.update(render_atlas())
-    return dict(sorted(files.items()))
-
-
 @lru_cache(maxsize=None)
 def atlas_rule() -> dict:
     """The rule of seed 000 section 5.1 as the atlas templates need it, from the chart data:
@@ -193,10 +182,8 @@ def render_atlas() -> dict[str, str]:
         "c/spherical_atlas.h": render("c/atlas.h.jinja", dict(ctx, template="templates/c/atlas.h.jinja")),
         "c/spherical_atlas.c": render("c/atlas.c.jinja", dict(ctx, template="templates/c/atlas.c.jinja")),
     }
-    if (TEMPLATES_DIR / "numpy" / "atlas.py.jinja").is_file():
-        files["numpy/spherical_atlas.py"] = render(
-            "numpy/atlas.py.jinja", dict(ctx, template="templates/numpy/atlas.py.jinja",
-                                         explicit=None))
+    files["numpy/spherical_atlas.py"] = render(
+        "numpy/atlas.py.jinja", dict(ctx, template="templates/numpy/atlas.py.jinja", explicit=None))
     return files
 
 

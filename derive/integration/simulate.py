@@ -21,15 +21,14 @@ import importlib.util
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 
+from ..errors import SimulationError, SimulationInputError
 from . import cartesian
 from .build import dtype_key
 from .codegen import ADAPTIVE, ATLAS_CHARTS, METHODS, SINE_MIN, model_info
 
-GENERATED_NUMPY = Path(__file__).resolve().parents[2] / "generated" / "numpy"
 STATUS_NAMES = ("ok", "step-size underflow", "maximum number of steps reached",
                 "Newton iteration diverged", "non-finite state or derivative",
                 "chart singular (polar sine below threshold)", "bad input")
@@ -43,10 +42,6 @@ _DEFAULT_RTOL = {"float32": 1e-5, "float64": 1e-9, "longdouble": 1e-12}
 
 FIXED_ORDER = {"rk4": 4, "midpoint": 2, "gauss2": 4}
 COUNTERS = ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton")    # of a run's info
-
-
-class SimulationInputError(ValueError):
-    """Bad input to simulate (one line, names the problem)."""
 
 
 @dataclass
@@ -122,10 +117,6 @@ class SimulationResult:
         if not self.ok:
             raise SimulationError(self.message)
         return self
-
-
-class SimulationError(RuntimeError):
-    pass
 
 
 def _state_names(model: str) -> tuple[str, ...]:
@@ -254,9 +245,13 @@ def normalise_t(t) -> np.ndarray:
 
 @lru_cache(maxsize=None)
 def numpy_module(name: str):
-    path = GENERATED_NUMPY / f"{name}.py"
+    """The generated NumPy module `name` (a model, '<model>_integrate', '<model>_throughput'
+    or 'spherical_atlas'), imported from the cache's rendering of its model."""
+    from ..codegen.sources import ATLAS, numpy_source
+    model = ATLAS if name == "spherical_atlas" else name.removesuffix("_integrate").removesuffix("_throughput")
+    path = numpy_source(model, f"{name}.py")
     if not path.is_file():
-        raise SimulationInputError(f"no generated NumPy module {path.name}; run `derive generate`")
+        raise SimulationInputError(f"no generated NumPy module {path.name} for model '{model}'")
     spec = importlib.util.spec_from_file_location(f"_derive_generated_{name}", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

@@ -11,13 +11,13 @@ from __future__ import annotations
 import tomllib
 from dataclasses import dataclass, field
 from functools import lru_cache
-from pathlib import Path
 
 import mpmath
 import numpy as np
 import sympy as sp
 
-HERE = Path(__file__).resolve().parent
+from ..paths import tableau_file
+
 DIGITS = 40
 
 
@@ -85,7 +85,7 @@ def load(name: str) -> Tableau:
              "midpoint": "gauss.toml", "gauss2": "gauss.toml"}
     if name not in files:
         raise ValueError(f"unknown tableau '{name}' (known: {', '.join(files)})")
-    data = tomllib.loads((HERE / files[name]).read_text())[name]
+    data = tomllib.loads(tableau_file(files[name]).read_text())[name]
     a = {k: v for k, v in _entries_n(data["a"], 2).items()}
     c = [value(x) for x in data["c"]]
     extra: dict = {}

@@ -49,13 +49,13 @@ from functools import lru_cache
 import numpy as np
 
 from ..codegen.emit import cse_file, half_angle_sincos, lanes_context, render, trig_lanes
-from ..codegen.loader import GENERATED_C, VECTOR_MATH, LoaderError, build_fastest
+from ..codegen.loader import VECTOR_MATH, LoaderError, build_fastest, build_library
+from ..codegen.sources import c_source
 from ..codegen.printers import CPrinter, PyNumPyPrinter
 from ..codegen.spec import model_spec
 from ..derivation import derive
 from ..model import model_names
 from . import tableau as tb
-from .build import build_library
 
 BLOCK = 64                 # lanes per block: 4 states x 64 doubles stay in L1
 PORTABLE_FLAGS = ("-std=c99", "-O3", "-ffp-contract=off", "-fPIC", "-shared")
@@ -268,18 +268,15 @@ def numpy_context(name: str) -> dict:
             "const": const, "var": var, "outs": outs, "ops": body.ops, "stages": stages}
 
 
-def render_throughput() -> dict[str, str]:
-    """The producer registered in derive/codegen/generate.py: path under generated/ -> text."""
-    files = {}
-    for name in throughput_models():
-        ctx = c_context(name)
-        files[f"c/{name}_throughput.h"] = render("c/throughput.h.jinja", dict(ctx, template=TEMPLATE_H))
-        files[f"c/{name}_throughput.c"] = render("c/throughput.c.jinja", dict(ctx, template=TEMPLATE_C))
-        fctx = fixed_context(name)
-        files[f"c/{name}_fixed.h"] = render("c/fixed.h.jinja", dict(fctx, template="templates/c/fixed.h.jinja"))
-        files[f"c/{name}_fixed.c"] = render("c/fixed.c.jinja", dict(fctx, template="templates/c/fixed.c.jinja"))
-        files[f"numpy/{name}_throughput.py"] = render("numpy/throughput.py.jinja", numpy_context(name))
-    return dict(sorted(files.items()))
+def render_loops(name: str) -> dict[str, str]:
+    """The batched RK4 and the fixed-step loops of one model whose rhs has no chart guard."""
+    ctx = c_context(name)
+    fctx = fixed_context(name)
+    return {f"c/{name}_throughput.h": render("c/throughput.h.jinja", dict(ctx, template=TEMPLATE_H)),
+            f"c/{name}_throughput.c": render("c/throughput.c.jinja", dict(ctx, template=TEMPLATE_C)),
+            f"c/{name}_fixed.h": render("c/fixed.h.jinja", dict(fctx, template="templates/c/fixed.h.jinja")),
+            f"c/{name}_fixed.c": render("c/fixed.c.jinja", dict(fctx, template="templates/c/fixed.c.jinja")),
+            f"numpy/{name}_throughput.py": render("numpy/throughput.py.jinja", numpy_context(name))}
 
 
 # -- build and call -------------------------------------------------------------
@@ -289,9 +286,9 @@ class ThroughputLibrary:
 
     def __init__(self, model: str, vector_math: bool | None = None):
         self.model = model
-        src = GENERATED_C / f"{model}_throughput.c"
+        src = c_source(model, f"{model}_throughput.c")
         if not src.is_file():
-            raise LoaderError(f"no generated throughput kernel for '{model}' at {src}; run `derive generate`")
+            raise LoaderError(f"model '{model}' has no batched loop (its rhs has a chart guard)")
         attempts = [VECTOR_FLAGS, PORTABLE_FLAGS]
         if vector_math is False or platform.system() != "Linux" or platform.machine() != "x86_64":
             attempts = [PORTABLE_FLAGS]
@@ -358,9 +355,9 @@ class FixedLibrary:
 
     def __init__(self, model: str):
         self.model = model
-        src = GENERATED_C / f"{model}_fixed.c"
+        src = c_source(model, f"{model}_fixed.c")
         if not src.is_file():
-            raise LoaderError(f"no generated fixed-step loops for '{model}' at {src}; run `derive generate`")
+            raise LoaderError(f"model '{model}' has no fixed-step loops (its rhs has a chart guard)")
         self.path, self.flags = build_fastest(f"{model}_fixed", [src])
         self.lib = ctypes.CDLL(str(self.path))
         self.fns = {}

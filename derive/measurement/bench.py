@@ -19,7 +19,7 @@ against the peers and the targets of the issue, the integrator overhead
 the batched RK4 (derive/integration/throughput.py) against its peers.
 
     rows = run_bench(BenchOptions(quick=True))
-    write_all(result, Path("bench/results"))
+    write_all(result, Path("derive-bench"))
 
 Toolkit series are `method backend scalar`: the generated integrators in C
 (`C`, float32/float64/long double) and NumPy, and the generated single-trajectory
@@ -53,8 +53,7 @@ from . import peers as P
 from . import reference as R
 from .trust import Lyapunov, atlas_lyapunov, initial_error, largest_lyapunov, trust_horizon
 
-ROOT = Path(__file__).resolve().parents[2]
-RESULTS = ROOT / "bench" / "results"
+DEFAULT_OUT = "derive-bench"     # `derive bench` writes here (relative to the current directory)
 TARGET = 1e-8
 RESOLVE = 1e-2            # decorrelation level (times the state's size): never compare beyond
 OBSERVATIONS = 41         # output times of the energy run
@@ -668,12 +667,14 @@ def measure(c: Config, info: ProblemInfo, opts: BenchOptions, cache: dict, rhs_n
 
 
 def rhs_loop(model: str):
-    """bench/rhs_cost.c compiled against generated/c/<model>.c as the integrators are
+    """derive/measurement/c/rhs_cost.c compiled against the model's generated C as the integrators are
     (loader.build_fastest: libmvec's vector sin/cos where they build)."""
     import ctypes
 
-    from ..codegen.loader import GENERATED_C, build_fastest
-    path, _ = build_fastest(f"{model}_rhs_cost", [GENERATED_C / f"{model}.c", ROOT / "bench" / "rhs_cost.c"],
+    from ..codegen.loader import build_fastest
+    from ..codegen.sources import c_source
+    from ..paths import bench_c_dir
+    path, _ = build_fastest(f"{model}_rhs_cost", [c_source(model, f"{model}.c"), bench_c_dir() / "rhs_cost.c"],
                             extra=(f"-DRHS={model}_rhs", "-include", f"{model}.h"))
     lib = ctypes.CDLL(str(path))
     fn = lib.rhs_cost_loop
@@ -688,7 +689,7 @@ def rhs_cost_ns(problem: Problem, chained: bool = True, repeats: int = 7, evals:
     states this problem visits (its trajectory at 10^4 times: sin and cos cost depends on
     the argument).  The atlas: each chart's rhs on the states in that chart, weighted.
 
-    chained: each evaluation's input depends on the previous output (bench/rhs_cost.c), as in
+    chained: each evaluation's input depends on the previous output (derive/measurement/c/rhs_cost.c), as in
     an integrator -- the cost the overhead check divides by.  Unchained, the CPU overlaps
     consecutive evaluations: measured here with libmvec's vector sin/cos, the planar rhs
     costs 19 ns so against 43 ns chained (their latency does not shrink as their throughput
@@ -1234,7 +1235,7 @@ def summary_markdown(result: BenchResult, plots: list[Path] | None = None) -> st
     lines += _issue_table(result, times)
     lines += ["", "Overhead = CPU time of the run / (rhs evaluations x CPU time of one generated C rhs "
               "evaluation, double, timed in a C loop over the states each problem visits, each "
-              "evaluation waiting for the one before as in an integrator, median; bench/rhs_cost.c): "
+              "evaluation waiting for the one before as in an integrator, median; derive/measurement/c/rhs_cost.c): "
               + ", ".join(f"{k} {v:.1f} ns" for k, v in result.rhs_ns.items()) + ".  Evaluations that "
               "do not wait for each other (the CPU overlaps them): "
               + ", ".join(f"{k} {v:.1f} ns" for k, v in result.rhs_ns_independent.items()) + "."]

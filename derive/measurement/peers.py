@@ -23,14 +23,13 @@ from __future__ import annotations
 import ctypes
 import math
 from functools import cache
-from pathlib import Path
 
 import numpy as np
 import sympy as sp
 
 from ..derivation import derive
+from ..paths import bench_c_dir
 
-BENCH = Path(__file__).resolve().parents[2] / "bench"
 
 
 def hand_numpy_rhs(t, y, m1, m2, l1, l2, g):
@@ -119,9 +118,9 @@ def numba_rk4():
 
 
 def _hand_c(source: str, symbol: str, *argtypes):
-    """A function of a hand-written C peer (bench/peers/<source>), compiled into the build cache."""
+    """A function of a hand-written C peer (derive/measurement/c/peers/<source>), compiled into the build cache."""
     from ..codegen.loader import build
-    fn = ctypes.CDLL(str(build(BENCH / "peers" / source)))[symbol]
+    fn = ctypes.CDLL(str(build(bench_c_dir() / "peers" / source)))[symbol]
     fn.restype = None
     fn.argtypes = list(argtypes)
     return fn

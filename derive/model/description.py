@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import hashlib
+import os
+import re
 import tomllib
 from dataclasses import dataclass, field
 from functools import cache
@@ -9,12 +11,13 @@ from pathlib import Path
 
 import sympy as sp
 
-CATALOG = Path(__file__).parent / "catalog"
-CHARTS_FILE = CATALOG / "charts.toml"
+from ..errors import ModelError
+from ..paths import catalog_dir
 
 
-class ModelError(ValueError):
-    """A model or chart description is wrong; the message names what."""
+
+def charts_file() -> Path:
+    return catalog_dir() / "charts.toml"
 
 
 @dataclass(frozen=True)
@@ -74,7 +77,7 @@ class Model:
 
     @property
     def content_hash(self) -> str:
-        charts = CHARTS_FILE.read_text()
+        charts = charts_file().read_text()
         return hashlib.sha256((self.text + "\0" + charts).encode()).hexdigest()
 
     @property
@@ -107,7 +110,7 @@ def _no_unknown(table: dict, known: set[str], where: str) -> None:
 
 @cache
 def _charts() -> dict[str, dict]:
-    return tomllib.loads(CHARTS_FILE.read_text())
+    return tomllib.loads(charts_file().read_text())
 
 
 def load_chart(name: str) -> Chart:
@@ -134,7 +137,7 @@ def load_chart(name: str) -> Chart:
 
 
 def model_names() -> list[str]:
-    return sorted(p.stem for p in CATALOG.glob("*.toml") if p.stem != "charts")
+    return sorted(p.stem for p in catalog_dir().glob("*.toml") if p.stem != "charts")
 
 
 def _parse_body(t: dict, where: str) -> Body:
@@ -177,14 +180,58 @@ def parse_model(text: str, origin: str) -> Model:
     for f in forms:
         if f not in ("lagrangian", "hamiltonian", "paper"):
             raise ModelError(f"{origin}: unknown form '{f}'")
-    return Model(name=_require(t, "name", str, origin), title=t.get("title", ""),
+    name = _require(t, "name", str, origin)
+    if not NAME.match(name):
+        raise ModelError(f"{origin}: 'name' must be an identifier (letters, digits, _), got {name!r}")
+    return Model(name=name, title=t.get("title", ""),
                  source=t.get("source", ""), dimension=dimension, parameters=params,
                  forms=forms, links=tuple(links), text=text)
 
 
+NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+_from_files: dict[str, Model] = {}          # models read from files, by name, in this process
+
+
+def is_model_file(text: str | os.PathLike) -> bool:
+    """Whether a model argument names a file (a path or a .toml name), not a catalogue entry."""
+    s = os.fspath(text)
+    return s.endswith(".toml") or "/" in s or os.sep in s
+
+
+def load_model_file(path: str | os.PathLike) -> Model:
+    """A model description from a TOML file anywhere; afterwards its name loads it too."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise ModelError(f"model file '{path}' does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ModelError(f"cannot read model file '{path}': {exc}") from None
+    model = parse_model(text, str(path))
+    if model.name in model_names() and load_model(model.name).text != text:
+        raise ModelError(f"{path}: name '{model.name}' is a catalogue model's; give the model "
+                         f"another name")
+    known = _from_files.get(model.name)
+    if known is not None and known.text != text:
+        raise ModelError(f"{path}: another model file named '{model.name}' was read first; "
+                         f"give the model another name")
+    _from_files[model.name] = model
+    return model
+
+
+def load_model(name: str | os.PathLike) -> Model:
+    """A catalogue model by name, a model file by path, or a model file read before by name."""
+    if is_model_file(name):
+        return load_model_file(name)
+    if name in _from_files:
+        return _from_files[name]
+    return _catalogue_model(name)
+
+
 @cache
-def load_model(name: str) -> Model:
-    path = CATALOG / f"{name}.toml"
-    if name == "charts" or not path.is_file():
-        raise ModelError(f"unknown model '{name}' (known: {', '.join(model_names())})")
+def _catalogue_model(name: str) -> Model:
+    path = catalog_dir() / f"{name}.toml"
+    if name == "charts" or not NAME.match(name) or not path.is_file():
+        raise ModelError(f"unknown model '{name}' (known: {', '.join(model_names())}; "
+                         f"or give the path of a model file)")
     return parse_model(path.read_text(), path.name)

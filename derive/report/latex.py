@@ -7,14 +7,13 @@ untouched.
 """
 from __future__ import annotations
 
-from pathlib import Path
 
 import jinja2
 import sympy as sp
 
 from ..derivation import Derivation
+from ..paths import templates_dir
 
-TEMPLATES = Path(__file__).resolve().parent.parent.parent / "templates" / "latex"
 LINE_BUDGET = 110   # characters of LaTeX source per displayed line, roughly
 
 
@@ -127,7 +126,7 @@ def _escape(text: str) -> str:
 
 def environment() -> jinja2.Environment:
     return jinja2.Environment(
-        loader=jinja2.FileSystemLoader(TEMPLATES), undefined=jinja2.StrictUndefined,
+        loader=jinja2.FileSystemLoader(str(templates_dir() / "latex")), undefined=jinja2.StrictUndefined,
         block_start_string=r"\BLOCK{", block_end_string="}",
         variable_start_string=r"\VAR{", variable_end_string="}",
         comment_start_string=r"\#{", comment_end_string="}",

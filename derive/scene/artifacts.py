@@ -3,24 +3,19 @@
 Each step reports whether it was reused or done now, so `derive run` can say so:
 - the derivation: the disk cache of derive.derivation (keyed by description,
   SymPy version and derivation code);
-- the generated code: the model's files are rendered and compared with
-  generated/ (rewritten when stale); a marker keyed by everything that shapes
-  them (derivation key, templates, code generators) skips the rendering next time;
+- the generated code: rendered once into the cache (derive.codegen.sources, keyed
+  by everything that shapes it); generated/ in a checkout is never written here;
 - the compiled library: the build cache (keyed by sources, compiler and flags).
 """
 from __future__ import annotations
 
-import hashlib
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
+from ..codegen import sources
 from ..derivation import derive
-from ..derivation.derivation import cache_dir, cache_key, is_cached
-from ..model import load_model
-
-ROOT = Path(__file__).resolve().parents[2]
-ATLAS_CHARTS = ("spherical_std", "spherical_alt", "spherical_rot")
+from ..derivation.derivation import is_cached
+from ..paths import cache_dir
 
 
 @dataclass
@@ -35,16 +30,6 @@ class Step:
         return f"{self.what}: {how}{'; ' + self.detail if self.detail else ''}"
 
 
-def _tree_hash(*folders: Path) -> str:
-    h = hashlib.sha256()
-    for folder in folders:
-        for path in sorted(folder.rglob("*")):
-            if path.is_file() and "__pycache__" not in path.parts:
-                h.update(str(path.relative_to(ROOT)).encode())
-                h.update(path.read_bytes())
-    return h.hexdigest()
-
-
 def _derivation(name: str) -> Step:
     cached = is_cached(name)
     start = time.perf_counter()
@@ -52,37 +37,13 @@ def _derivation(name: str) -> Step:
     return Step(f"derivation of {name}", cached, time.perf_counter() - start)
 
 
-def _render(name: str) -> dict[str, str]:
-    from ..codegen.generate import render_model
-    from ..integration.codegen import render_atlas, render_c, render_numpy
-    files = dict(render_model(name))
-    files.update(render_c(name))
-    files.update(render_numpy(name))
-    if name == ATLAS_CHARTS[0]:
-        files.update(render_atlas())
-    return files
-
-
 def _generated(name: str) -> Step:
-    key = hashlib.sha256("\0".join([
-        cache_key(load_model(name)),
-        _tree_hash(ROOT / "templates", ROOT / "derive" / "codegen", ROOT / "derive" / "integration"),
-    ]).encode()).hexdigest()[:24]
-    marker = cache_dir() / "generated" / f"{name}-{key}.ok"
+    """Render the model's generated code into the cache (never into generated/)."""
+    reused = sources.is_rendered(name)
     start = time.perf_counter()
-    if marker.is_file():
-        return Step(f"generated code of {name}", True, 0.0)
-    rewritten = []
-    for rel, text in sorted(_render(name).items()):
-        path = ROOT / "generated" / rel
-        if not path.is_file() or path.read_text() != text:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text)
-            rewritten.append(f"generated/{rel}")
-    marker.parent.mkdir(parents=True, exist_ok=True)
-    marker.write_text("\n".join(rewritten))
-    detail = f"rewrote {', '.join(rewritten)}" if rewritten else "generated/ was current"
-    return Step(f"generated code of {name}", False, time.perf_counter() - start, detail)
+    folder = sources.model_sources(name)
+    return Step(f"generated code of {name}", reused, time.perf_counter() - start,
+                "" if reused else f"rendered into {folder}")
 
 
 def _library(name: str) -> Step:
@@ -95,16 +56,26 @@ def _library(name: str) -> Step:
     else:
         build.integrator_library(name)
     from ..codegen.loader import load
-    for model in (ATLAS_CHARTS if name == "spherical" else (name,)):
+    for model in sources.members(name):
         load(model)
     built = set((cache_dir() / "c-build").glob("*/*.so")) - before
     return Step(f"compiled C for {name}", not built, time.perf_counter() - start)
 
 
-def prepare(name: str, backend: str) -> list[Step]:
-    """Everything model `name` (or "spherical", the atlas) needs, cached where possible."""
-    models = ATLAS_CHARTS if name == "spherical" else (name,)
-    steps = [_derivation(m) for m in models] + [_generated(m) for m in models]
+def prepare(name: str, backend: str, stage=None) -> list[Step]:
+    """Everything model `name` (or "spherical", the atlas) needs, cached where possible.
+    `stage` (a derive.progress.Stage) is told what is being done, for a cold run's status line."""
+    def doing(what: str) -> None:
+        if stage is not None:
+            stage.set(what)
+
+    steps = []
+    for m in sources.members(name):
+        doing(f"deriving {m}")
+        steps.append(_derivation(m))
+    doing(f"generating the code of {name}")
+    steps.append(_generated(name))
     if backend == "c":
+        doing(f"compiling the C of {name}")
         steps.append(_library(name))
     return steps

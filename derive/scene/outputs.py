@@ -115,7 +115,9 @@ def _plots(o, out: Path, stem: str) -> list[str]:
         plt.close(fig)
         written.append(str(path))
     if "animation" in o.scene.plots:
-        written.append(_animation(plt, o, pos, out, stem, horizontal, vertical))
+        from ..progress import Stage
+        with Stage("writing the animation", enabled=None if o.show_progress else False):
+            written.append(_animation(plt, o, pos, out, stem, horizontal, vertical))
     return written
 
 

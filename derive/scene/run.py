@@ -22,7 +22,7 @@ from ..measurement.trust import (Lyapunov, atlas_lyapunov, initial_error, larges
                                  trust_horizon)
 from .artifacts import Step, prepare
 from .plan import Plan, plan, planar_positions_in_3d
-from .progress import Progress
+from .progress import Progress, Stage
 from .scene import Scene
 
 SAFETY = 10.0
@@ -57,6 +57,7 @@ class Outcome:
     achieved: float | None
     seconds: float
     files: list[str] = field(default_factory=list)
+    show_progress: bool = False          # whether writing the outputs may draw a status line
 
 
 def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
@@ -166,8 +167,10 @@ def _reference(p: Plan, scene: Scene, c: Choice) -> SimulationResult:
 def run(scene: Scene, show_progress: bool = True) -> Outcome:
     start = time.perf_counter()
     p = plan(scene)
-    steps = prepare(p.model, scene.backend)
-    lyap = _lyapunov(p, scene)
+    with Stage("preparing", enabled=None if show_progress else False) as stage:
+        steps = prepare(p.model, scene.backend, stage)
+        stage.set("estimating the largest Lyapunov exponent")
+        lyap = _lyapunov(p, scene)
     c = choose(scene, lyap)
     progress = Progress("integrating", CHUNKS) if show_progress else None
     result = integrate(p, scene, c, progress)
@@ -204,7 +207,7 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
         horizon = trust_horizon(lyap, scene.target or 1e-8, e0) + scene.t_start
     positions, energy = _observables(scene, p, result)
     return Outcome(scene, p, steps, c, lyap, horizon, result, positions, energy, achieved,
-                   time.perf_counter() - start)
+                   time.perf_counter() - start, show_progress=show_progress)
 
 
 def summary(o: Outcome) -> dict:

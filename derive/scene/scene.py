@@ -6,6 +6,9 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import SceneError
+from ..model.description import NAME
+from ..paths import scenes_dir
 from ..model import ModelError, load_model
 
 ATLAS = "spherical"             # the spherical pendulum run through the chart atlas
@@ -16,10 +19,6 @@ SCALARS = ("float", "double", "long double")
 TRAJECTORY_FORMATS = ("csv", "npz")
 PLOTS = ("paths", "energy", "animation")
 POSITIVE_PARAMETERS = ("m1", "m2", "l1", "l2", "g")   # must be > 0; inertias may be 0
-
-
-class SceneError(ValueError):
-    """A scene is wrong; the message names the key and the problem."""
 
 
 @dataclass
@@ -234,8 +233,25 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
                  t_start=start, t_stop=stop, outputs=outputs, **accuracy, **output)
 
 
+def example_scenes() -> list[str]:
+    """The example scenes shipped with derive (`derive run default`)."""
+    return sorted(p.stem for p in scenes_dir().glob("*.toml"))
+
+
+def scene_path(arg: str | Path) -> Path:
+    """A scene file's path: the path given, or the example scene of that name."""
+    path = Path(arg)
+    if not path.exists() and NAME.match(str(arg)) and (scenes_dir() / f"{arg}.toml").is_file():
+        return scenes_dir() / f"{arg}.toml"
+    return path
+
+
 def load_scene(path: str | Path) -> Scene:
-    path = Path(path)
+    """A scene from a file, or one of the example scenes by name (`default`)."""
+    path = scene_path(path)
+    if not path.exists():
+        raise SceneError(f"scene file '{path}' does not exist (example scenes: "
+                         f"{', '.join(example_scenes())})")
     try:
         text = path.read_text()
     except FileNotFoundError:

@@ -10,12 +10,12 @@ from __future__ import annotations
 import hashlib
 import os
 import pickle
-from pathlib import Path
 
 import mpmath
 import sympy as sp
 
-from ..derivation.derivation import cache_dir, cache_key
+from ..derivation.derivation import cache_key
+from ..paths import cache_dir, package_root
 from ..model import load_model, model_names
 
 
@@ -23,10 +23,47 @@ def verification_key() -> str:
     h = hashlib.sha256()
     for name in model_names():
         h.update(cache_key(load_model(name)).encode())
-    for path in sorted(Path(__file__).parent.glob("*.py")):
+    for path in sorted((package_root() / "verification").glob("*.py")):
         h.update(path.read_bytes())
     h.update(f"{sp.__version__} {mpmath.__version__}".encode())
     return h.hexdigest()[:24]
+
+
+def _code_key() -> str:
+    h = hashlib.sha256()
+    for path in sorted((package_root() / "verification").glob("*.py")):
+        h.update(path.read_bytes())
+    h.update(f"{sp.__version__} {mpmath.__version__}".encode())
+    return h.hexdigest()
+
+
+def _write(path, value) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(f".tmp{os.getpid()}")
+    tmp.write_bytes(pickle.dumps(value))
+    tmp.replace(path)
+
+
+def verify_model(name: str):
+    """The seed verdicts of one model's printed formulas (none for a model without seed
+    formulas), cached per model: rendering one model's document verifies only that model."""
+    whole = cache_dir() / "verification" / f"results-{verification_key()}.pickle"
+    if whole.is_file():
+        try:
+            return [r for r in pickle.loads(whole.read_bytes())[0] if r.model == name]
+        except Exception:     # unreadable: judge this model's formulas below
+            pass
+    key = hashlib.sha256(f"{cache_key(load_model(name))} {_code_key()}".encode()).hexdigest()[:24]
+    path = cache_dir() / "verification" / f"{name}-{key}.pickle"
+    if path.is_file():
+        try:
+            return pickle.loads(path.read_bytes())
+        except Exception:
+            pass
+    from . import claims
+    results = [claims.judge(c) for c in claims.all_claims() if c.model == name]
+    _write(path, results)
+    return results
 
 
 def verify_all(fresh: bool = False):
@@ -40,8 +77,5 @@ def verify_all(fresh: bool = False):
             pass
     from . import claims, physics
     results, checks = claims.run_all(), physics.run_all()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(f".tmp{os.getpid()}")
-    tmp.write_bytes(pickle.dumps((results, checks)))
-    tmp.replace(path)
+    _write(path, (results, checks))
     return results, checks, False

@@ -1,6 +1,6 @@
 /* The benchmark's hand-written peer: classical RK4 on the planar double
  * pendulum, written by hand as a user would without this toolkit.  The rhs is
- * bench/planar_hand.c (seed 000 (1.34)-(1.35)).  Fixed step, n steps, result
+ * derive/measurement/c/planar_hand.c (seed 000 (1.34)-(1.35)).  Fixed step, n steps, result
  * in y (in place).
  */
 #include "planar_rk4_hand.h"

@@ -1,0 +1,82 @@
+"""Every path derive reads or writes, in one place.
+
+Read (package data, shipped in the wheel, found with importlib.resources):
+  templates/        the Jinja2 templates of every target language and the LaTeX report
+  model/catalog/    the model catalogue and the chart descriptions
+  integration/      the Butcher tableaus (*.toml)
+  scenes/           the example scenes (`derive run default`)
+  measurement/c/    the C sources the benchmark compiles (rhs cost loop, hand-written peers)
+
+Written (only where the user says):
+  the cache         cache_dir(): derivations, verdicts, rendered sources, compiled libraries;
+                    $DERIVE_CACHE_DIR, else $XDG_CACHE_HOME/derive, else ~/.cache/derive
+  an output folder  given on the command line or in a scene
+  generated/        the catalogue's golden files, rewritten only by `derive generate` without
+                    --out, and only inside a source checkout (checkout_root())
+"""
+from __future__ import annotations
+
+import os
+from functools import cache
+from importlib import resources
+from pathlib import Path
+
+from .errors import PackageDataError
+
+
+@cache
+def package_root() -> Path:
+    """The installed package's folder (a wheel installs it as plain files)."""
+    root = Path(str(resources.files("derive")))
+    if not root.is_dir():
+        raise PackageDataError(f"derive is installed as {root}, not as a folder; "
+                               f"install it with pip from a wheel or a checkout")
+    return root
+
+
+def package_data(*parts: str) -> Path:
+    """A folder or file of derive's package data; a missing one is a broken install."""
+    path = package_root().joinpath(*parts)
+    if not path.exists():
+        raise PackageDataError(f"derive's package data is missing {'/'.join(parts)} "
+                               f"(looked in {package_root()}); reinstall derive")
+    return path
+
+
+def templates_dir() -> Path:
+    return package_data("templates")
+
+
+def catalog_dir() -> Path:
+    return package_data("model", "catalog")
+
+
+def tableau_file(name: str) -> Path:
+    return package_data("integration", name)
+
+
+def scenes_dir() -> Path:
+    return package_data("scenes")
+
+
+def bench_c_dir() -> Path:
+    return package_data("measurement", "c")
+
+
+@cache
+def checkout_root() -> Path | None:
+    """The source checkout this package runs from, or None for an installed wheel.
+
+    A checkout is the folder above the package that holds this project's
+    pyproject.toml and the golden generated/ folder."""
+    root = package_root().parent
+    project = root / "pyproject.toml"
+    if (root / "generated").is_dir() and project.is_file() and 'name = "derive"' in project.read_text():
+        return root
+    return None
+
+
+def cache_dir() -> Path:
+    root = os.environ.get("DERIVE_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "derive")
+    return Path(root)

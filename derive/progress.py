@@ -1,0 +1,100 @@
+"""Progress on a terminal: a bar for work counted in parts, a status line for stages.
+
+Both write to stderr and only when it is a terminal, so logs, pipes and CI get
+no carriage-return noise, and --json output on stdout stays clean.
+
+    with Stage("derive") as stage:          # silent for the first 2 s, then
+        for name in models:                 # "derive planar (2/5) 3.4 s", redrawn
+            stage.set(f"{name} ({i}/{n})")
+"""
+from __future__ import annotations
+
+import sys
+import threading
+import time
+
+QUIET_FOR = 2.0          # s: stages shorter than this never draw anything
+
+
+class Progress:
+    """`label [#####.....] done/total elapsed`, redrawn in place."""
+
+    def __init__(self, label: str, total: int, stream=None, width: int = 30, force: bool = False):
+        self.label, self.total, self.width = label, max(total, 1), width
+        self.stream = stream or sys.stderr
+        self.enabled = force or _isatty(self.stream)
+        self.start = time.perf_counter()
+        self.update(0)
+
+    def update(self, done: int) -> None:
+        if not self.enabled:
+            return
+        filled = int(self.width * done / self.total)
+        elapsed = time.perf_counter() - self.start
+        self.stream.write(f"\r{self.label} [{'#' * filled}{'.' * (self.width - filled)}] "
+                          f"{done}/{self.total} {elapsed:5.1f} s")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if not self.enabled:
+            return
+        self.stream.write("\n")
+        self.stream.flush()
+
+
+class Stage:
+    """A status line `label detail elapsed` for a stage of unknown length, drawn by a
+    background thread once the stage has run QUIET_FOR seconds, erased when it ends."""
+
+    def __init__(self, label: str, stream=None, enabled: bool | None = None, quiet_for: float = QUIET_FOR):
+        self.label, self.detail = label, ""
+        self.stream = stream or sys.stderr
+        self.enabled = _isatty(self.stream) if enabled is None else enabled
+        self.quiet_for = quiet_for
+        self.start = time.perf_counter()
+        self._stop = threading.Event()
+        self._drawn = 0
+        self._thread = None
+
+    @property
+    def seconds(self) -> float:
+        return time.perf_counter() - self.start
+
+    def set(self, detail: str) -> None:
+        self.detail = detail
+
+    def _draw(self) -> None:
+        text = f"{self.label} {self.detail} {self.seconds:.0f} s".replace("  ", " ")
+        pad = max(0, self._drawn - len(text))
+        self.stream.write("\r" + text + " " * pad)
+        self.stream.flush()
+        self._drawn = len(text)
+
+    def _loop(self) -> None:
+        if self._stop.wait(self.quiet_for):
+            return
+        while not self._stop.is_set():
+            self._draw()
+            self._stop.wait(0.5)
+
+    def __enter__(self) -> "Stage":
+        self.start = time.perf_counter()
+        if self.enabled:
+            self._thread = threading.Thread(target=self._loop, daemon=True)
+            self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+            if self._drawn:
+                self.stream.write("\r" + " " * self._drawn + "\r")
+                self.stream.flush()
+
+
+def _isatty(stream) -> bool:
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):
+        return False
