@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import jinja2
 import sympy as sp
 
+from ..errors import PackageDataError
 from ..paths import templates_dir
 from .spec import Kernel, ModelSpec
 
@@ -356,4 +357,9 @@ def environment() -> jinja2.Environment:
 
 
 def render(template: str, context: dict) -> str:
-    return environment().get_template(template).render(**context)
+    try:
+        found = environment().get_template(template)
+    except jinja2.TemplateNotFound as exc:
+        raise PackageDataError(f"template {exc.name} is missing from {templates_dir()}; "
+                               f"reinstall derive") from None
+    return found.render(**context)

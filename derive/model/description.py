@@ -165,7 +165,10 @@ def parse_model(text: str, origin: str) -> Model:
     for i, lt in enumerate(_require(t, "links", list, origin), 1):
         where = f"{origin}: link {i}"
         _no_unknown(lt, {"chart", "length", "body"}, where)
-        chart = load_chart(_require(lt, "chart", str, where))
+        try:
+            chart = load_chart(_require(lt, "chart", str, where))
+        except ModelError as exc:
+            raise ModelError(str(exc) if str(exc).startswith(where) else f"{where}: 'chart': {exc}") from None
         if chart.dimension != dimension:
             raise ModelError(f"{where}: chart '{chart.name}' is {chart.dimension}-D in a {dimension}-D model")
         link = Link(chart, _require(lt, "length", str, where),

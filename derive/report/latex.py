@@ -12,6 +12,7 @@ import jinja2
 import sympy as sp
 
 from ..derivation import Derivation
+from ..errors import PackageDataError
 from ..paths import templates_dir
 
 LINE_BUDGET = 110   # characters of LaTeX source per displayed line, roughly
@@ -134,4 +135,9 @@ def environment() -> jinja2.Environment:
 
 
 def render(d: Derivation, results) -> str:
-    return environment().get_template("derivation.tex.j2").render(**context(d, results))
+    try:
+        template = environment().get_template("derivation.tex.j2")
+    except jinja2.TemplateNotFound as exc:
+        raise PackageDataError(f"template latex/{exc.name} is missing from {templates_dir()}; "
+                               f"reinstall derive") from None
+    return template.render(**context(d, results))
