@@ -256,7 +256,8 @@ def _print_run(summary: dict) -> None:
     print(f"state   {', '.join(f'{v:.10g}' for v in s['final_state'])}")
     for f in s["files"]:
         print(f"wrote   {f}")
-    print(f"time    {s['seconds']:.2f} s")
+    print(f"time    {s['seconds']:.2f} s"
+          + (f" (writing the files {s['outputs_seconds']:.2f} s)" if s["files"] else ""))
 
 
 def cmd_run(args) -> int:
@@ -273,9 +274,11 @@ def cmd_run(args) -> int:
             raise UsageError(f"cannot write to '{scene.output_dir}': {exc.strerror or exc}") from None
     start = time.perf_counter()
     outcome = run(scene, show_progress=not args.quiet and not args.json)
+    t0 = time.perf_counter()
     outcome.files = write_outputs(outcome)
     outcome.seconds = time.perf_counter() - start
     s = summary(outcome)
+    s["outputs_seconds"] = time.perf_counter() - t0
     if args.json:
         print(json.dumps(s, indent=1))
     elif not args.quiet:

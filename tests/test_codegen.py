@@ -67,6 +67,21 @@ def test_check_reports_a_stale_file_with_a_diff(tmp_path):
     assert (tmp_path / "generated" / "numpy" / "notes.py").exists()
 
 
+def test_check_notes_a_tree_made_with_another_sympy(tmp_path):
+    from derive.codegen.generate import MANIFEST, manifest_note, write_manifest
+    write_manifest(tmp_path)
+    assert f'sympy = "{sp.__version__}"' in (tmp_path / MANIFEST).read_text()
+    assert manifest_note(tmp_path) is None
+    (tmp_path / MANIFEST).write_text('derive = "0.0.1"\nsympy = "1.2.3"\n')
+    note = manifest_note(tmp_path)
+    assert "SymPy 1.2.3" in note and f"this is SymPy {sp.__version__}" in note
+
+
+def test_the_golden_tree_names_the_sympy_it_was_made_with():
+    from derive.codegen.generate import manifest_note
+    assert manifest_note(ROOT / "generated") is None
+
+
 _DETERMINISM = """
 import sys
 from pathlib import Path
