@@ -11,6 +11,8 @@ Each step reports whether it was reused or done now, so `derive run` can say so:
 from __future__ import annotations
 
 import hashlib
+import os
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,6 +47,22 @@ def _tree_hash(*folders: Path) -> str:
     return h.hexdigest()
 
 
+def _write_atomically(path: Path, text: str) -> None:
+    """Write through a temporary file in the same folder, then rename: a concurrent
+    reader (another `derive run`, another test worker) sees the old or the new file,
+    never a partial one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
 def _derivation(name: str) -> Step:
     cached = is_cached(name)
     start = time.perf_counter()
@@ -65,6 +83,7 @@ def _render(name: str) -> dict[str, str]:
 
 def _generated(name: str) -> Step:
     key = hashlib.sha256("\0".join([
+        str(ROOT),                   # the marker vouches for this checkout's generated/ only
         cache_key(load_model(name)),
         _tree_hash(ROOT / "templates", ROOT / "derive" / "codegen", ROOT / "derive" / "integration"),
     ]).encode()).hexdigest()[:24]
@@ -76,11 +95,9 @@ def _generated(name: str) -> Step:
     for rel, text in sorted(_render(name).items()):
         path = ROOT / "generated" / rel
         if not path.is_file() or path.read_text() != text:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text)
+            _write_atomically(path, text)
             rewritten.append(f"generated/{rel}")
-    marker.parent.mkdir(parents=True, exist_ok=True)
-    marker.write_text("\n".join(rewritten))
+    _write_atomically(marker, "\n".join(rewritten))
     detail = f"rewrote {', '.join(rewritten)}" if rewritten else "generated/ was current"
     return Step(f"generated code of {name}", False, time.perf_counter() - start, detail)
 
@@ -91,13 +108,14 @@ def _library(name: str) -> Step:
     before = set((cache_dir() / "c-build").glob("*/*.so"))
     if name == "spherical":
         from ..integration.atlas import atlas_library
-        atlas_library()
+        libraries = [atlas_library().path]
     else:
-        build.integrator_library(name)
+        libraries = [build.integrator_library(name).path]
     from ..codegen.loader import load
     for model in (ATLAS_CHARTS if name == "spherical" else (name,)):
-        load(model)
-    built = set((cache_dir() / "c-build").glob("*/*.so")) - before
+        libraries.append(load(model).path)
+    # Only this model's libraries count: another process may build others meanwhile.
+    built = set(libraries) - before
     return Step(f"compiled C for {name}", not built, time.perf_counter() - start)
 
 
