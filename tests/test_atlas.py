@@ -94,6 +94,7 @@ def test_rule_is_the_same_in_c_numpy_and_python():
             assert ATLAS_CHARTS[cc] == py == ATLAS_CHARTS[mod.choose_chart(k, y, p)]
 
 
+@pytest.mark.slow      # 50 random states x 3 charts, each through simulate()
 def test_cartesian_conversions_round_trip():
     rng = np.random.default_rng(2)
     for _ in range(50):

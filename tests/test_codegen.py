@@ -90,6 +90,7 @@ generate_all(Path(sys.argv[1]))
 """
 
 
+@pytest.mark.slow      # two fresh processes, one re-deriving every model from scratch
 def test_output_is_identical_across_hash_seeds(tmp_path):
     """Two processes with different PYTHONHASHSEED, one re-deriving from scratch."""
     outs = []
@@ -155,8 +156,12 @@ COMPILERS = [
 ]
 
 
-@pytest.mark.parametrize("compiler,flags", COMPILERS,
-                         ids=[c + ("-vector-math" if VECTOR[0] in f else "") for c, f in COMPILERS])
+# gcc and clang with the portable flags stay in the fast tier; g++ and the vector-math
+# builds (each compiles every generated file again) are in the slow tier.
+@pytest.mark.parametrize("compiler,flags", [
+    pytest.param(c, f, id=c + ("-vector-math" if VECTOR[0] in f else ""),
+                 marks=pytest.mark.slow if (c == "g++" or VECTOR[0] in f) else ())
+    for c, f in COMPILERS])
 def test_generated_c_compiles_warning_free(compiler, flags, tmp_path):
     if shutil.which(compiler) is None:
         if compiler == "gcc" or os.environ.get("CI"):
@@ -182,6 +187,7 @@ int main(void)
 """
 
 
+@pytest.mark.slow      # every generated file into one C and one C++ program
 def test_all_models_link_into_one_program(tmp_path):
     """Prefixed symbols: every generated file in one C++ and one C program, no clashes."""
     names = [p.stem for p in KERNEL_C]

@@ -314,7 +314,8 @@ def test_generated_integrators_are_deterministic():
     assert a == b and "c/spherical_atlas.c" in a and "numpy/planar_integrate.py" in a
 
 
-@pytest.mark.parametrize("cc", ["gcc", "clang", "g++"])
+@pytest.mark.parametrize("cc", ["gcc", pytest.param("clang", marks=pytest.mark.slow),
+                                pytest.param("g++", marks=pytest.mark.slow)])
 def test_integrators_compile_warning_free(cc, tmp_path):
     GENERATED_C = Path(__file__).resolve().parents[1] / "generated" / "c"
     flags = ["-std=c99", "-pedantic"] if cc != "g++" else ["-x", "c++"]

@@ -103,6 +103,7 @@ def test_scene_outputs_csv_npz_and_plots(tmp_path):
     assert (tmp_path / "compound_seed001_paths.png").read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.slow      # a long atlas run through the poles, its reference and a GIF
 def test_spherical_atlas_scene_reports_error_and_trust_horizon(tmp_path):
     run_ = derive_cli("run", "scenes/spherical_pole.toml", "--json", "--output-dir", str(tmp_path))
     assert run_.returncode == 0, run_.stderr

@@ -52,13 +52,14 @@ def _library(name: str) -> Step:
     before = set((cache_dir() / "c-build").glob("*/*.so"))
     if name == "spherical":
         from ..integration.atlas import atlas_library
-        atlas_library()
+        libraries = [atlas_library().path]
     else:
-        build.integrator_library(name)
+        libraries = [build.integrator_library(name).path]
     from ..codegen.loader import load
     for model in sources.members(name):
-        load(model)
-    built = set((cache_dir() / "c-build").glob("*/*.so")) - before
+        libraries.append(load(model).path)
+    # Only this model's libraries count: another process may build others meanwhile.
+    built = set(libraries) - before
     return Step(f"compiled C for {name}", not built, time.perf_counter() - start)
 
 

@@ -1,6 +1,8 @@
 """Write what a scene asks for: trajectory (CSV, NPZ), plots (PNG), animation (GIF)."""
 from __future__ import annotations
 
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -29,9 +31,10 @@ def _columns(o) -> tuple[list[str], np.ndarray]:
 def writable_dir(path: Path) -> Path:
     """Create `path` if needed and prove it writable (OSError otherwise), before long work."""
     path.mkdir(parents=True, exist_ok=True)
-    probe = path / ".derive-write-test"
-    probe.write_text("")
-    probe.unlink()
+    # a probe of its own (not a fixed name): concurrent runs into one folder do not race
+    fd, probe = tempfile.mkstemp(dir=path, prefix=".derive-write-test-")
+    os.close(fd)
+    os.unlink(probe)
     return path
 
 
