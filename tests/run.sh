@@ -55,6 +55,27 @@ if ((${#missing[@]})); then
   fi
 fi
 
+# A system Python that pip may not install into (Debian's python3: PEP 668's
+# EXTERNALLY-MANAGED marker), or one without pip, gets a venv of the project's own
+# in .venv/ (Debian's python3-venv, installed like the tools above when missing).
+PY=python3
+if ! python3 -m pip --version >/dev/null 2>&1 || python3 - <<'PYEOF'
+import os, sys, sysconfig
+managed = os.path.exists(os.path.join(sysconfig.get_paths()["stdlib"], "EXTERNALLY-MANAGED"))
+sys.exit(0 if managed and sys.prefix == sys.base_prefix else 1)
+PYEOF
+then
+  if [[ ! -x .venv/bin/python ]]; then
+    if ! python3 -m venv .venv >/dev/null 2>&1; then
+      rm -rf .venv
+      echo "tests/run.sh: installing python3-venv from Debian (this python3 cannot make a venv for the test extra)"
+      env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends python3-venv >/dev/null
+      python3 -m venv .venv
+    fi
+  fi
+  PY=.venv/bin/python
+fi
+
 export PIP_ROOT_USER_ACTION=ignore
-python3 -m pip install -q -e '.[test]'
-exec python3 -m pytest -q -n auto "${tier[@]}" "$@"
+"$PY" -m pip install -q -e '.[test]'
+exec "$PY" -m pytest -q -n auto "${tier[@]}" "$@"
