@@ -14,7 +14,7 @@ import jinja2
 import sympy as sp
 
 from ..errors import PackageDataError
-from ..paths import templates_dir
+from .. import paths
 from .spec import Kernel, ModelSpec
 
 
@@ -350,7 +350,7 @@ def lanes_context(lanes: TrigLanes | None, printer) -> dict | None:
 
 
 def environment() -> jinja2.Environment:
-    return jinja2.Environment(loader=jinja2.FileSystemLoader(str(templates_dir())),
+    return jinja2.Environment(loader=jinja2.FileSystemLoader(str(paths.templates_dir())),
                               undefined=jinja2.StrictUndefined, trim_blocks=True,
                               lstrip_blocks=True, keep_trailing_newline=True,
                               autoescape=False)
@@ -360,6 +360,6 @@ def render(template: str, context: dict) -> str:
     try:
         found = environment().get_template(template)
     except jinja2.TemplateNotFound as exc:
-        raise PackageDataError(f"template {exc.name} is missing from {templates_dir()}; "
+        raise PackageDataError(f"template {exc.name} is missing from {paths.templates_dir()}; "
                                f"reinstall derive") from None
     return found.render(**context)

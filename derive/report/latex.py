@@ -13,7 +13,7 @@ import sympy as sp
 
 from ..derivation import Derivation
 from ..errors import PackageDataError
-from ..paths import templates_dir
+from .. import paths
 
 LINE_BUDGET = 110   # characters of LaTeX source per displayed line, roughly
 
@@ -127,7 +127,7 @@ def _escape(text: str) -> str:
 
 def environment() -> jinja2.Environment:
     return jinja2.Environment(
-        loader=jinja2.FileSystemLoader(str(templates_dir() / "latex")), undefined=jinja2.StrictUndefined,
+        loader=jinja2.FileSystemLoader(str(paths.templates_dir() / "latex")), undefined=jinja2.StrictUndefined,
         block_start_string=r"\BLOCK{", block_end_string="}",
         variable_start_string=r"\VAR{", variable_end_string="}",
         comment_start_string=r"\#{", comment_end_string="}",
@@ -138,6 +138,6 @@ def render(d: Derivation, results) -> str:
     try:
         template = environment().get_template("derivation.tex.j2")
     except jinja2.TemplateNotFound as exc:
-        raise PackageDataError(f"template latex/{exc.name} is missing from {templates_dir()}; "
+        raise PackageDataError(f"template latex/{exc.name} is missing from {paths.templates_dir()}; "
                                f"reinstall derive") from None
     return template.render(**context(d, results))
