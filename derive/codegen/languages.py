@@ -14,6 +14,7 @@ import sympy as sp
 
 from .emit import Body, half_angle_sincos, lanes_context, live_assignments, render, trig_lanes
 from .loader import VECTOR_MATH
+from .names import numpy_slots
 from .printers import CPrinter, PyNumPyPrinter
 from .spec import ModelSpec
 
@@ -149,7 +150,7 @@ class NumPy(Language):
         kernels = []
         for b in bodies:
             k = b.kernel
-            slots = {s: s.name for inp in k.inputs for s in inp.vector.symbols}
+            slots = numpy_slots([s for inp in k.inputs for s in inp.vector.symbols])
             varying = {s for inp in k.inputs if inp.vector.key != "param" for s in inp.vector.symbols}
             assignments, flat = half_angle_sincos(b.assignments, [e for exprs in b.outputs for e in exprs])
             outputs = _unflatten(flat, b.outputs)
@@ -160,7 +161,7 @@ class NumPy(Language):
             # only what the outputs need (guards have no NumPy counterpart)
             kept = live_assignments(assignments, flat)
             needed = set().union(*(sp.sympify(e).free_symbols for e in flat), *(e.free_symbols for _, e in kept))
-            unpack = [{"name": s.name, "source": f"{inp.name}[..., {i}]"}
+            unpack = [{"name": slots[s], "source": f"{inp.name}[..., {i}]"}
                       for inp in k.inputs for i, s in enumerate(inp.vector.symbols) if s in needed]
             # free each temporary after its last use: fewer live arrays, memory reused
             local_syms = {s for s, _ in kept}

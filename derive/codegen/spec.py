@@ -124,7 +124,11 @@ def check_kernel(model: str, kernel: Kernel) -> None:
     for inp in kernel.inputs:
         claim(inp.name, "input")
         for s in inp.vector.symbols:
-            claim(s.name, f"slot of input '{inp.name}'")
+            # a model's own names (M, p, lambda, ...): NumPy renames clashing ones
+            # (codegen/names.py); C prints every slot as an array element
+            if not _IDENT.match(s.name):
+                raise SpecError(f"{where}: the slot name '{s.name}' of input '{inp.name}' is not "
+                                "an identifier ([A-Za-z][A-Za-z0-9_]*)")
             known.add(s)
     for out in kernel.outputs:
         claim(out.name, "output")

@@ -50,6 +50,7 @@ import numpy as np
 
 from ..codegen.emit import cse_file, half_angle_sincos, lanes_context, render, trig_lanes
 from ..codegen.loader import VECTOR_MATH, LoaderError, build_fastest, build_library
+from ..codegen.names import numpy_slots
 from ..codegen.sources import c_source
 from ..codegen.printers import CPrinter, PyNumPyPrinter
 from ..codegen.spec import model_spec
@@ -248,7 +249,8 @@ def numpy_context(name: str) -> dict:
     for sym, e in assignments:
         if e.free_symbols & varying:
             varying.add(sym)
-    pr = PyNumPyPrinter({s: s.name for s in state + params}, varying)
+    slots = numpy_slots(state + params)
+    pr = PyNumPyPrinter(slots, varying)
     const = [{"name": s.name, "value": pr.doprint_checked(e)} for s, e in assignments
              if s not in varying]
     var = [{"name": s.name, "value": pr.doprint_checked(e)} for s, e in assignments
@@ -265,7 +267,7 @@ def numpy_context(name: str) -> dict:
                        "next": f"{'N' if last else 'S'} = Y + h * ({combo})"})
     return {"P": name, "title": derive(name).model.title, "template": TEMPLATE_PY,
             "n": len(state), "n_params": len(params),
-            "state": [s.name for s in state], "params": [s.name for s in params],
+            "state": [slots[s] for s in state], "params": [slots[s] for s in params],
             "state_repr": repr(tuple(s.name for s in state)),
             "params_repr": repr(tuple(s.name for s in params)),
             "const": const, "var": var, "outs": outs, "ops": body.ops, "stages": stages}

@@ -11,6 +11,8 @@ the file, the key and what was refused.
 from __future__ import annotations
 
 import ast
+import keyword
+import re
 from collections.abc import Mapping
 
 import sympy as sp
@@ -23,6 +25,10 @@ FUNCTIONS = {"sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "asin": sp.asin, "acos
 CONSTANTS = {"pi": sp.pi}
 MAX_LENGTH = 10_000          # characters: a model's expressions are short
 MAX_DEPTH = 200              # nesting: deeper is no pendulum model
+# A model may name a parameter like a Python keyword (lambda is a natural name): such
+# words are renamed before Python's parser reads the text, and mapped back after.
+_KEYWORD = re.compile(r"\b(" + "|".join(keyword.kwlist) + r")\b")
+_RENAMED = "_derive_kw_"
 
 _BINARY = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult: lambda a, b: a * b,
            ast.Div: lambda a, b: a / b, ast.Pow: lambda a, b: a ** b}
@@ -38,10 +44,11 @@ def parse_expression(text: object, names: Mapping[str, sp.Expr], where: str) -> 
         raise ModelError(f"{where}: expression longer than {MAX_LENGTH} characters")
     if "^" in text:
         raise ModelError(f"{where}: '^' is not a power here; write x**2")
+    text = _KEYWORD.sub(lambda m: _RENAMED + m.group(1), text.strip())
     try:
-        tree = ast.parse(text.strip(), mode="eval")
+        tree = ast.parse(text, mode="eval")
     except SyntaxError as exc:
-        raise ModelError(f"{where}: not an expression: {text!r} ({exc.msg})") from None
+        raise ModelError(f"{where}: not an expression: {text.replace(_RENAMED, '')!r} ({exc.msg})") from None
     return _Builder(names, where, text).build(tree.body, 0)
 
 
@@ -50,7 +57,8 @@ class _Builder:
         self.names, self.where, self.text = names, where, text
 
     def fail(self, what: str):
-        raise ModelError(f"{self.where}: {what} in {self.text!r} (allowed: numbers, declared names, "
+        shown = self.text.replace(_RENAMED, "")
+        raise ModelError(f"{self.where}: {what} in {shown!r} (allowed: numbers, declared names, "
                          f"+ - * / **, parentheses, {', '.join(sorted(FUNCTIONS))})")
 
     def build(self, node: ast.AST, depth: int) -> sp.Expr:
@@ -59,15 +67,16 @@ class _Builder:
         if isinstance(node, ast.Constant):
             if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
                 self.fail(f"the constant {node.value!r}")
-            text = ast.get_source_segment(self.text.strip(), node) or repr(node.value)
+            text = ast.get_source_segment(self.text, node) or repr(node.value)
             return sp.Rational(text) if isinstance(node.value, float) else sp.Integer(node.value)
         if isinstance(node, ast.Name):
-            if node.id in self.names:
-                return self.names[node.id]
+            name = node.id.removeprefix(_RENAMED)
+            if name in self.names:
+                return self.names[name]
             if node.id in CONSTANTS:
                 return CONSTANTS[node.id]
             known = ", ".join(sorted(self.names)) or "none"
-            self.fail(f"the name '{node.id}' is not declared (declared: {known})")
+            self.fail(f"the name '{name}' is not declared (declared: {known})")
         if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
             a, b = self.build(node.left, depth + 1), self.build(node.right, depth + 1)
             return _BINARY[type(node.op)](a, b)
