@@ -185,7 +185,8 @@ def context(d: Derivation, results, checks=(), paper: str = "a4") -> dict:
         ctx["hamiltonian"] = {"det": ts.expr_lines(det, n),
                               "M_inv": _entries((d.M.adjugate()).applyfunc(sp.expand), n,
                                                 r"\bigl(\det M\; M^{-1}\bigr)", symmetric=True),
-                              "H": ts.expr_lines(sp.expand(h.H - d.V) * det, n),
+                              "H": ts.expr_lines(sp.expand((sp.Matrix(s.p).T * d.M.adjugate()
+                                                            * sp.Matrix(s.p))[0, 0]), n),
                               "qdot": _entries((h.qdot * det).applyfunc(sp.expand), n,
                                                r"\det M\; \dot{q}"),
                               "dL_dq": _entries(h.dL_dq, n, r"\dot{p}")}
@@ -201,8 +202,8 @@ def context(d: Derivation, results, checks=(), paper: str = "a4") -> dict:
             "Q": ts.matrix_lines(P.Q.applyfunc(to_mu), n),
             "G_red": ts.matrix_lines(P.G_red.applyfunc(to_mu), n),
             "B_red": _entries(P.B_red.applyfunc(to_mu), n, r"\tilde{B}"),
-            "D1": _entries(P.D1.applyfunc(to_mu), n, "D_{1}", symmetric=True),
-            "D2": _entries(P.D2.applyfunc(to_mu), n, "D_{2}", symmetric=True),
+            "D1": _entries(P.D1.applyfunc(to_mu), n, "(D_{1})", symmetric=True),
+            "D2": _entries(P.D2.applyfunc(to_mu), n, "(D_{2})", symmetric=True),
             "w": ts.tex(P.w.T, n) + "^{T}",
         }
     return ctx

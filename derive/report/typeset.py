@@ -43,7 +43,7 @@ def names_for(d) -> dict:
     for i, link in enumerate(d.model.links, 1):
         for tex, q, qd, p in zip(link.chart.latex, d.symbols.q[k:], d.symbols.qd[k:], d.symbols.p[k:]):
             base = tex.rstrip("'")
-            prime = "'" * (len(tex) - len(base))
+            prime = "^{" + r"\prime" * (len(tex) - len(base)) + "}" if tex != base else ""
             names[q] = f"{{{base}{prime}_{{{i}}}}}"
             names[qd] = f"{{\\dot{{{base}}}{prime}_{{{i}}}}}"
             names[sp.Symbol(f"{q.name}_ddot", real=True)] = f"{{\\ddot{{{base}}}{prime}_{{{i}}}}}"
@@ -366,7 +366,9 @@ def prose(text: str) -> str:
     toks = [(m.lastgroup, m.group()) for m in _TOKEN.finditer(text)]
     kinds = []
     for kind, tok in toks:
-        if kind == "ident":
+        if kind == "ident" and re.fullmatch(r"[A-Za-z]+_[a-z]{3,}", tok):
+            kinds.append("name")
+        elif kind == "ident":
             kinds.append("text" if _is_word(tok) else "math")
         elif kind in ("num", "op", "power"):
             kinds.append("math")
@@ -430,6 +432,8 @@ def _math_token(kind, tok):
 
 
 def _text_token(kind, tok):
+    if kind == "ident" and "_" in tok:
+        return r"\texttt{" + tok.replace("_", r"\_") + "}"
     if kind == "ref":
         return tok.replace("-", "--") if "§" not in tok else tok.replace("§", r"\S{}")
     if tok == "§":
