@@ -84,9 +84,11 @@ def width(t: str) -> float:
     t = re.sub(r"\\(dot|ddot|tilde|hat)\b", "", t)
     sub = sum(len(s) for s in re.findall(r"[_^]\{([^{}]*)\}", t))
     t = re.sub(r"[_^]\{([^{}]*)\}", "", t)
+    t = re.sub(r"\\(sin|cos|tan)\b", "xxx", t)
     t = re.sub(r"\\[A-Za-z]+", "x", t)
     t = re.sub(r"[{}\s]", "", t)
-    return len(t) + 0.6 * sub
+    ops = len(re.findall(r"[-+=&]", t))
+    return 1.15 * len(t) + 2 * ops + 0.7 * sub
 
 
 def state_symbols(expr) -> set:
@@ -113,10 +115,33 @@ def collected_terms(expr) -> list[sp.Expr]:
     return list(sp.Add(*terms).as_ordered_terms()) if len(terms) > 1 else terms
 
 
+def _pieces(terms, names, budget) -> list[str]:
+    """LaTeX of each term; a product wider than the budget broken into factor groups."""
+    out = []
+    for t in terms:
+        piece = tex(t, names)
+        if width(piece) <= budget or not isinstance(t, sp.Mul):
+            out.append(piece)
+            continue
+        coeff, factors = t.as_coeff_mul()
+        group = tex(coeff, names) if coeff not in (1, -1) else ("-" if coeff == -1 else "")
+        for f in factors:
+            ft = tex(f, names)
+            if f.is_Add:
+                ft = rf"\left({ft}\right)"
+            if group.strip("-") and width(group) + width(ft) > budget:
+                out.append(group)
+                group = r"\cdot " + ft
+            else:
+                group = f"{group} {ft}".strip()
+        out.append(group)
+    return out
+
+
 def _split(pieces: list[str], budget: float) -> list[str]:
     lines, current = [], ""
     for piece in pieces:
-        if current and not piece.lstrip().startswith("-"):
+        if current and not piece.lstrip().startswith(("-", r"\cdot")):
             piece = "+ " + piece
         if current and width(current) + width(piece) > budget:
             lines.append(current)
@@ -141,20 +166,25 @@ def expr_lines(expr, names, budget: float = WIDTH) -> list[str]:
     if den == 1 and width(whole) <= budget:
         return [whole]
     if den != 1:
-        inner = _split([tex(t, names) for t in terms], budget - 10)
+        inner = _split(_pieces(terms, names, budget - 10), budget - 10)
         if len(inner) == 1 and width(whole) <= budget:
             return [whole]
+        if width(tex(den, names)) > budget / 3:
+            below = _split(_pieces(collected_terms(den), names, budget - 10), budget - 10)
+            inner[0], inner[-1] = r"\Bigl(" + inner[0], inner[-1] + r"\Bigr)"
+            below[0], below[-1] = r"\Big/ \Bigl(" + below[0], below[-1] + r"\Bigr)"
+            return inner + below
         lead = rf"\frac{{1}}{{{tex(den, names)}}}"
         if len(inner) == 1:
             return [rf"{lead} \left({inner[0]}\right)"]
         return ([rf"{lead} \Bigl({inner[0]}"] + inner[1:-1] + [rf"{inner[-1]}\Bigr)"])
-    return _split([tex(t, names) for t in terms], budget)
+    return _split(_pieces(terms, names, budget), budget)
 
 
 def _split_plain(expr, names, budget):
     if isinstance(expr, sp.Add):
-        return _split([tex(t, names) for t in expr.as_ordered_terms()], budget)
-    return [tex(expr, names)]
+        return _split(_pieces(expr.as_ordered_terms(), names, budget), budget)
+    return _split(_pieces([expr], names, budget), budget)
 
 
 def _state_denominator(expr) -> bool:
@@ -397,7 +427,7 @@ def prose(text: str) -> str:
     def flush():
         if run:
             body = "".join(run).strip()
-            body = _sqrt_braces(body)
+            body = _sqrt_braces(body).replace(", ", r",\allowbreak ")
             out.append(f"${body}$")
             trailing = "".join(run)[len("".join(run).rstrip()):]
             if trailing:
