@@ -392,7 +392,7 @@ def _is_word(tok: str) -> bool:
 def prose(text: str) -> str:
     """An ASCII description ("dq_i/dtheta_i . J q_i = l_i^2 (standard chart)") as LaTeX
     text with the mathematical runs in math mode; everything else escaped."""
-    text = re.sub(r"\bd2(?=[A-Za-z])", "d\u00b2", text.replace("'s ", "\u2019s "))
+    text = re.sub(r"\bd2(?=[A-Za-z])", "d\u00b2", text.replace("'s ", "\u2019s ").replace("->", "\u2192"))
     toks = [(m.lastgroup, m.group()) for m in _TOKEN.finditer(text)]
     kinds = []
     for kind, tok in toks:
