@@ -86,8 +86,8 @@ def cmd_verify(args) -> int:
     seconds = time.perf_counter() - start
     tally, good = _tally(results, checks)
     if args.json:
-        print(json.dumps([{"seed": r.seed, "equation": r.equation, "verdict": r.verdict,
-                           "summary": r.summary} for r in results], indent=1))
+        from .report.forms import verification_json
+        print(json.dumps(verification_json(results, checks), indent=1))
         return 0 if good else 1
     width = max(len(r.equation) for r in results)
     print(f"{'seed':4s} {'equation':{width}s}  {'verdict':8s} what / summary")
@@ -207,23 +207,38 @@ def pdflatex(tex: Path) -> Path:
 
 
 def cmd_latex(args) -> int:
-    name = _model_arg(args.model)
+    from .codegen.sources import ATLAS
+    name = _model_arg(args.model, allow_atlas=True)
     out = _writable_file(Path(args.output or f"{name}.tex"))
     from .derivation import derive
-    from .report.latex import render
-    from .verification.cached import verify_model
+    from .model import load_model
+    from .report.latex import render, render_atlas
+    from .verification.cached import physics_model, verify_model
     with Stage("latex") as stage:
-        stage.set(f"deriving {name}")
-        d = derive(name)
-        stage.set(f"verifying the seed formulas of {name}")
-        results = verify_model(name)
-        stage.set("typesetting")
-        text = render(d, results)
+        if name == ATLAS:
+            from .integration.codegen import ATLAS_CHARTS
+            results, checks = [], []
+            for chart in ATLAS_CHARTS:
+                stage.set(f"verifying {chart}")
+                results += [r for r in verify_model(chart) if r.equation.startswith("5.")]
+                checks += [c for c in physics_model(chart) if len(c.models) == 2]
+            stage.set("typesetting")
+            text = render_atlas(results, checks, args.paper)
+        else:
+            model = load_model(args.model)
+            stage.set(f"deriving {name}")
+            d = derive(model)
+            stage.set(f"verifying the seed formulas of {name}")
+            results = verify_model(name)
+            stage.set(f"physics checks of {name}")
+            checks = physics_model(model)
+            stage.set("typesetting")
+            text = render(d, results, checks, args.paper)
     try:
         out.write_text(text)
     except OSError as exc:
         raise UsageError(f"cannot write '{out}': {exc.strerror or exc}") from None
-    print(f"wrote {out} ({len(results)} verified formulas)")
+    print(f"wrote {out} ({len(results)} verified formulas, {len(checks)} physics checks)")
     if args.pdf:
         with Stage("pdflatex"):
             pdf = pdflatex(out)
@@ -404,9 +419,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write nothing; exit 1 with a diff when the folder is stale")
     p.set_defaults(func=cmd_generate)
     p = sub.add_parser("latex", help="write the derivation of a model as a standalone .tex", epilog=EXIT_CODES)
-    p.add_argument("model", help=model_help)
+    p.add_argument("model", help=f"{model_help}, or 'spherical' for the chart atlas")
     p.add_argument("-o", "--output", help="output .tex path (default: MODEL.tex here)")
     p.add_argument("--pdf", action="store_true", help="also compile it with pdflatex (TeX Live)")
+    p.add_argument("--paper", choices=("a4", "letter"), default="a4",
+                   help="paper size, portrait (default: a4)")
     p.set_defaults(func=cmd_latex)
     p = sub.add_parser("run", help="simulate a scene file (TOML), deriving and building only what it needs",
                        epilog=EXIT_CODES)

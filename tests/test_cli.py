@@ -19,9 +19,17 @@ def derive(*args, cwd=ROOT):
 def test_verify_json_lists_every_formula():
     run = derive("verify", "--json")
     assert run.returncode == 0, run.stderr
-    rows = json.loads(run.stdout)
+    out = json.loads(run.stdout)
+    assert set(out) == {"formulas", "physics_checks"}
+    rows = out["formulas"]
     assert len(rows) >= 200
-    assert all(set(r) == {"seed", "equation", "verdict", "summary"} for r in rows)
+    assert all(set(r) == {"seed", "equation", "what", "model", "verdict", "summary", "printed",
+                          "derived", "discrepancy", "corrected", "origin"} for r in rows)
+    assert all(set(r["printed"]) == {"latex", "sympy"} and r["derived"]["latex"] for r in rows)
+    assert all(r["corrected"] is not None for r in rows if r["verdict"] == "erratum")
+    checks = out["physics_checks"]
+    assert checks and all(c["passed"] for c in checks)
+    assert {"name", "passed", "detail", "models", "states", "tolerance", "worst"} <= set(checks[0])
     assert {r["verdict"] for r in rows} == {"match", "erratum"}
     assert {r["seed"] for r in rows} == {"000_22f1304773697fe8.txt", "001_025e500cdf7d3415.txt"}
     assert any(r["equation"] == "3.40" and r["verdict"] == "erratum" for r in rows)
@@ -53,9 +61,9 @@ def test_latex_document_compiles(model, tmp_path):
     run = derive("latex", model, "-o", str(tmp_path / f"{model}.tex"), "--pdf")
     assert run.returncode == 0, run.stdout + run.stderr
     tex = (tmp_path / f"{model}.tex").read_text()
-    assert r"\begin{document}" in tex and r"\textbf{match}" in tex
+    assert r"\begin{document}" in tex and r"\verdict{match}" in tex
     if model == "spherical_std":
-        assert r"\textbf{erratum}" in tex   # e.g. (3.40) is printed wrong in the seed
+        assert r"\verdict{erratum}" in tex   # e.g. (3.40) is printed wrong in the seed
     assert (tmp_path / f"{model}.pdf").stat().st_size > 10_000
 
 

@@ -7,6 +7,7 @@ untouched.
 """
 from __future__ import annotations
 
+import re
 
 import jinja2
 import sympy as sp
@@ -15,89 +16,196 @@ from ..derivation import Derivation
 from ..errors import PackageDataError
 from .. import paths
 
-LINE_BUDGET = 110   # characters of LaTeX source per displayed line, roughly
+from . import typeset as ts
+
+PAPERS = {"a4": "a4paper", "letter": "letterpaper"}
+CLAIM_WIDTH = 54      # display width beside the "printed:" / "derived:" labels
 
 
-def symbol_names(d: Derivation) -> dict[sp.Symbol, str]:
-    """theta1 -> \\theta_{1}, theta1_dot -> \\dot{\\theta}_{1}, p_theta1 -> p_{\\theta_{1}}."""
-    names, k = {}, 0
-    for i, link in enumerate(d.model.links, 1):
-        for tex in link.chart.latex:
-            base = tex.rstrip("'")
-            prime = "'" * (len(tex) - len(base))
-            names[d.symbols.q[k]] = f"{base}{prime}_{{{i}}}"
-            names[d.symbols.qd[k]] = f"\\dot{{{base}}}{prime}_{{{i}}}"
-            names[d.symbols.p[k]] = f"p_{{{base}{prime}_{{{i}}}}}"
-            k += 1
-    return names
+def symbol_names(d: Derivation) -> dict:
+    return ts.Names(ts.names_for(d))
 
 
-def _tex(expr, names) -> str:
-    return sp.latex(expr, symbol_names=names)
-
-
-def split_sum(expr: sp.Expr, names) -> list[str]:
-    """A long sum as several lines of at most about LINE_BUDGET characters."""
-    terms = sp.Add.make_args(sp.expand(expr)) if isinstance(expr, sp.Add) else [expr]
-    lines, current = [], ""
-    for term in terms:
-        piece = _tex(term, names)
-        if current and not piece.startswith("-"):
-            piece = "+ " + piece
-        if current and len(current) + len(piece) > LINE_BUDGET:
-            lines.append(current)
-            current = piece
-        else:
-            current = f"{current} {piece}".strip()
-    lines.append(current)
-    return lines
-
-
-def _matrix_entries(m: sp.Matrix, names, symbol: str, symmetric: bool = False):
+def _entries(m: sp.Matrix, names, symbol: str, symmetric: bool = False, budget=ts.WIDTH - 8):
+    """Nonzero entries of a matrix (upper triangle when symmetric), each split over lines."""
     rows = []
     for i in range(m.rows):
         for j in range(m.cols):
             if m[i, j] == 0 or (symmetric and j < i):
                 continue
-            rows.append({"name": f"{symbol}_{{{i + 1}{j + 1}}}" if m.cols > 1 else f"{symbol}_{{{i + 1}}}",
-                         "lines": split_sum(m[i, j], names)})
+            idx = f"{i + 1}{j + 1}" if m.cols > 1 else f"{i + 1}"
+            rows.append({"name": f"{symbol}_{{{idx}}}", "lines": ts.expr_lines(m[i, j], names, budget)})
     return rows
 
 
-def context(d: Derivation, results) -> dict:
+def _vector(v, names) -> str:
+    return r"\begin{pmatrix}" + r" \\ ".join(ts.tex(x, names) for x in v) + r"\end{pmatrix}"
+
+
+def _body(link, n) -> str:
+    b = link.body
+    mass = ts.tex(sp.sympify(b.mass), n)
+    if b.kind == "point":
+        return f"a point mass ${mass}$ at its tip"
+    com = sp.sympify(b.com)
+    inertia = ts.tex(sp.sympify(b.inertia), n)
+    return (f"a rod of mass ${mass}$ with its centre of mass at ${ts.tex(com, n)}$ of its length "
+            f"and moment of inertia ${inertia}$ about it")
+
+
+def _forces(d, n) -> list[dict]:
+    """Dissipation and applied forces, where the derivation has them."""
+    out = []
+    for attr, title in (("dissipation", "Dissipation"), ("applied_forces", "Applied forces"),
+                        ("applied", "Applied forces"), ("generalized_forces", "Generalized forces")):
+        value = getattr(d, attr, None)
+        if value is None or (isinstance(value, (list, tuple, dict)) and not value):
+            continue
+        if isinstance(value, dict):
+            lines = [rf"{ts.tex(k, n) if not isinstance(k, str) else ts.prose(k).strip('$')} = {ts.tex(v, n)}"
+                     for k, v in value.items()]
+        else:
+            lines = ts.object_lines(value if not isinstance(value, (list, tuple)) else sp.Matrix(value), n)
+        out.append({"title": title, "lines": lines})
+    return out
+
+
+def physics_rows(checks, names) -> list[dict]:
+    rows = []
+    for c in checks:
+        exprs = [f"${ts.symbol_tex(k)} = {ts.tex(v, names)}$" for k, v in getattr(c, "exprs", {}).items()]
+        states = getattr(c, "states", 0)
+        rows.append({"name": ts.prose(c.name), "passed": c.passed,
+                     "states": str(states) if states else "exact",
+                     "tolerance": _num(getattr(c, "tolerance", "")),
+                     "worst": _num(getattr(c, "worst", "")),
+                     "detail": ts.prose(c.detail) if not exprs else ", ".join(exprs)})
+    return rows
+
+
+def _num(text: str) -> str:
+    if not text:
+        return "--"
+    if text == "exact":
+        return "exact"
+    prefix = ""
+    for op in ("> ", ">= ", "< "):
+        if text.startswith(op):
+            prefix, text = {"> ": "> ", ">= ": r"\ge ", "< ": "< "}[op], text[len(op):]
+    try:
+        x = float(text)
+    except ValueError:
+        return ts.prose(text)
+    if x != 0 and (abs(x) < 1e-3 or abs(x) >= 1e4):
+        mant, exp = f"{x:.2e}".split("e")
+        mant = mant.rstrip("0").rstrip(".")
+        body = (f"10^{{{int(exp)}}}" if mant == "1" else rf"{mant}\times 10^{{{int(exp)}}}")
+    else:
+        body = f"{x:g}"
+    return f"${prefix}{body}$"
+
+
+def _equation_label(eq: str) -> str:
+    if re.fullmatch(r"\d+(\.\d+)*", eq):
+        return f"({eq})"
+    return ts.prose(eq)
+
+
+def result_rows(results) -> list[dict]:
+    """Each verdict with the printed and derived formulas (and an erratum's discrepancy
+    and corrected form) typeset from the claim objects."""
+    from ..verification import claims
+    from ..verification.errata import errata_by_key
+    table, errata = claims.claims_by_key(), errata_by_key()
+    rows = []
+    for r in results:
+        claim = table.get(r.key)
+        row = {"seed": r.seed[:3], "equation": _equation_label(r.equation), "what": ts.prose(r.what),
+               "verdict": r.verdict, "summary": "", "printed": [], "derived": [], "same": False,
+               "discrepancy": [], "corrected": [], "origin": ""}
+        if r.verdict != "match" or r.summary != "printed = derived (exact and numeric)":
+            row["summary"] = ts.prose(r.summary)
+        if claim is not None:
+            c = claims.context(claim.model)
+            n = symbol_names(c.d)
+            show = lambda obj: ts.abridge(ts.object_lines(obj, n, CLAIM_WIDTH))
+            row["printed"] = show(claim.printed(c))
+            row["derived"] = show(claim.derived(c))
+            row["same"] = row["printed"] == row["derived"]
+            e = errata.get(r.key)
+            if e is not None:
+                row["discrepancy"] = show(e.discrepancy(c))
+                row["corrected"] = show(e.corrected(c))
+                row["origin"] = ts.prose(e.origin)
+        rows.append(row)
+    return rows
+
+
+def _seed_groups(rows) -> list[dict]:
+    titles = {"000": 'H. Inou, \\emph{Double pendulum} (2018), seed 000',
+              "001": "the compound double pendulum note, seed 001"}
+    groups: list[dict] = []
+    for row in rows:
+        if not groups or groups[-1]["seed"] != row["seed"]:
+            groups.append({"seed": row["seed"], "title": titles.get(row["seed"], row["seed"]), "rows": []})
+        groups[-1]["rows"].append(row)
+    return groups
+
+
+def _title(text: str) -> str:
+    return ts.prose(text)
+
+
+def context(d: Derivation, results, checks=(), paper: str = "a4") -> dict:
     n = symbol_names(d)
     s = d.symbols
     ctx = {
-        "title": _escape(d.model.title), "name": _escape(d.model.name),
-        "source": _escape(d.model.source),
-        "coordinates": ", ".join(f"${_tex(q, n)}$" for q in s.q),
-        "parameters": ", ".join(f"${_tex(p, n)}$" for p in s.params),
-        "links": [{"index": i, "chart": link.chart.name, "body": link.body.kind,
-                   "tip": _tex(tip.T, n), "centre": _tex(c.T, n)}
+        "paper": PAPERS[paper], "title": _title(d.model.title), "name": _escape(d.model.name),
+        "source": ts.prose(d.model.source),
+        "coordinates": ", ".join(f"${ts.tex(q, n)}$" for q in s.q),
+        "parameters": ", ".join(f"${ts.tex(p, n)}$" for p in s.params),
+        "links": [{"index": i, "chart": _escape(link.chart.name), "body": _body(link, n),
+                   "length": ts.tex(sp.Symbol(link.length), n),
+                   "tip": _vector(tip, n), "centre": _vector(c, n),
+                   "same": sp.simplify(tip - c) == sp.zeros(*tip.shape)}
                   for i, (link, tip, c) in enumerate(zip(d.model.links, d.tips, d.centres), 1)],
-        "T": split_sum(d.T, n), "V": split_sum(d.V, n),
-        "mass_matrix": _matrix_entries(d.M, n, "M", symmetric=True),
-        "forcing": _matrix_entries(d.F, n, "F"),
+        "T": ts.expr_lines(d.T, n), "V": ts.expr_lines(d.V, n),
+        "mass_matrix": _entries(d.M, n, "M", symmetric=True),
+        "forcing": _entries(d.F, n, "F"),
         "accelerations": r"\begin{pmatrix}" + r" \\ ".join(
             n[qd].replace(r"\dot{", r"\ddot{", 1) for qd in s.qd) + r"\end{pmatrix}",
-        "hamiltonian": None, "paper": None,
-        "results": [{"seed": r.seed, "equation": _escape(r.equation), "verdict": r.verdict,
-                     "summary": _escape(r.summary if r.verdict != "match" else
-                                        f"{r.what}: {r.summary}")} for r in results],
+        "rates": _vector(s.qd, n), "momenta": _vector(s.p, n),
+        "hamiltonian": None, "seedforms": None, "forces": _forces(d, n),
+        "groups": _seed_groups(result_rows(results)), "n_results": len(results),
+        "checks": physics_rows(checks, n),
     }
     if d.hamiltonian is not None:
         h = d.hamiltonian
-        ctx["hamiltonian"] = {"M_inv": _matrix_entries(h.M_inv, n, r"(M^{-1})", symmetric=True),
-                              "dL_dq": _matrix_entries(h.dL_dq, n, r"\dot{p}")}
+        det = sp.factor(d.M.det())
+        ctx["hamiltonian"] = {"det": ts.expr_lines(det, n),
+                              "M_inv": _entries((d.M.adjugate()).applyfunc(sp.expand), n,
+                                                r"\bigl(\det M\; M^{-1}\bigr)", symmetric=True),
+                              "H": ts.expr_lines(sp.expand((sp.Matrix(s.p).T * d.M.adjugate()
+                                                            * sp.Matrix(s.p))[0, 0]), n),
+                              "qdot": _entries((h.qdot * det).applyfunc(sp.expand), n,
+                                               r"\det M\; \dot{q}"),
+                              "dL_dq": _entries(h.dL_dq, n, r"\dot{p}")}
     if d.paper is not None:
         P = d.paper
         mu = sp.Symbol("mu", positive=True)
         m1, m2 = s.param("m1"), s.param("m2")
         to_mu = lambda e: sp.factor_terms(sp.expand(e).subs(m1, (mu - 1) * m2))
-        ctx["paper"] = {name: _tex(getattr(P, name).applyfunc(to_mu), n)
-                        for name in ("Q", "G_red")}
-        ctx["paper"]["B_red"] = _matrix_entries(P.B_red.applyfunc(to_mu), n, r"\tilde{B}")
-        ctx["paper"]["w"] = _tex(P.w.T, n) + "^{T}"
+        ctx["seedforms"] = {
+            "A": _entries(P.A.applyfunc(to_mu), n, "A", symmetric=True),
+            "B": _entries(P.B.applyfunc(to_mu), n, "B"),
+            "G": _entries(P.G.applyfunc(to_mu), n, "G"),
+            "Q": ts.matrix_lines(P.Q.applyfunc(to_mu), n),
+            "G_red": ts.matrix_lines(P.G_red.applyfunc(to_mu), n),
+            "B_red": _entries(P.B_red.applyfunc(to_mu), n, r"\tilde{B}"),
+            "D1": _entries(P.D1.applyfunc(to_mu), n, "(D_{1})", symmetric=True),
+            "D2": _entries(P.D2.applyfunc(to_mu), n, "(D_{2})", symmetric=True),
+            "w": ts.tex(P.w.T, n) + "^{T}",
+        }
     return ctx
 
 
@@ -134,10 +242,18 @@ def environment() -> jinja2.Environment:
         trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True, autoescape=False)
 
 
-def render(d: Derivation, results) -> str:
+def _template(name: str):
     try:
-        template = environment().get_template("derivation.tex.j2")
+        return environment().get_template(name)
     except jinja2.TemplateNotFound as exc:
         raise PackageDataError(f"template latex/{exc.name} is missing from {paths.templates_dir()}; "
                                f"reinstall derive") from None
-    return template.render(**context(d, results))
+
+
+def render(d: Derivation, results, checks=(), paper: str = "a4") -> str:
+    return _template("derivation.tex.j2").render(**context(d, results, checks, paper))
+
+
+def render_atlas(results, checks, paper: str = "a4") -> str:
+    from .atlas import atlas_context
+    return _template("atlas.tex.j2").render(**atlas_context(results, checks, paper))

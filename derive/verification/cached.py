@@ -44,6 +44,27 @@ def _write(path, value) -> None:
     tmp.replace(path)
 
 
+def physics_model(model):
+    """The physics checks concerning one model (a catalogue name or a Model, e.g. a user's
+    model file), cached per model: the model's own checks and, for a catalogue model,
+    those relating it to the others (whose derivations are then part of the key)."""
+    from ..model import Model
+    m = model if isinstance(model, Model) else load_model(model)
+    catalogue = m.name in model_names() and load_model(m.name).content_hash == m.content_hash
+    extra = verification_key() if catalogue else ""
+    key = hashlib.sha256(f"{cache_key(m)} {_code_key()} {extra}".encode()).hexdigest()[:24]
+    path = cache_dir() / "verification" / f"physics-{m.name}-{key}.pickle"
+    if path.is_file():
+        try:
+            return pickle.loads(path.read_bytes())
+        except Exception:
+            pass
+    from . import physics
+    checks = physics.model_checks(m.name if catalogue else m)
+    _write(path, checks)
+    return checks
+
+
 def verify_model(name: str):
     """The seed verdicts of one model's printed formulas (none for a model without seed
     formulas), cached per model: rendering one model's document verifies only that model."""

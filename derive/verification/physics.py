@@ -7,14 +7,14 @@ facts any correct double pendulum must satisfy.  Each check returns a
 from __future__ import annotations
 
 import random
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mpmath
 import sympy as sp
 
 from ..derivation import derive
 from ..derivation.charts import chart_change
-from ..model import model_names
+from ..model import load_model, model_names
 from .zero import DIGITS, matrix_is_zero, random_point, trig_is_zero
 
 SPHERICAL_PAIRS = [("spherical_std", "spherical_alt"), ("spherical_alt", "spherical_std"),
@@ -26,6 +26,14 @@ class Check:
     name: str
     passed: bool
     detail: str
+    # What a document reports: the models concerned, the number of states the
+    # check was evaluated at (0: exact only), the agreement demanded and reached,
+    # and SymPy objects a document may typeset (e.g. the solved parameters).
+    models: tuple = ()
+    states: int = 0
+    tolerance: str = ""
+    worst: str = ""
+    exprs: dict = field(default_factory=dict)
 
 
 def _numeric(expr, symbols):
@@ -66,9 +74,10 @@ def mass_matrix_spd(name: str, n_points: int = 20) -> Check:
             eig = mpmath.eigsy(M)[0]
             smallest = min(smallest, min(eig))
     ok = symmetric and smallest > 0
-    return Check(f"{name}: M symmetric positive definite", ok,
+    return Check(f"{d.name}: M symmetric positive definite", ok,
                  f"symmetric exactly: {symmetric}; smallest eigenvalue over {n_points} states "
-                 f"{mpmath.nstr(smallest, 3)}")
+                 f"{mpmath.nstr(smallest, 3)}", (d.name,), n_points, "> 0",
+                 mpmath.nstr(smallest, 3))
 
 
 def planar_is_vertical_plane_of_spherical() -> Check:
@@ -94,7 +103,7 @@ def planar_is_vertical_plane_of_spherical() -> Check:
     ok = same_M and same_F and decoupled and stays
     return Check("planar = spherical_std in the plane phi = 0", ok,
                  f"M equal: {same_M}, F equal: {same_F}, theta-phi blocks zero: {decoupled}, "
-                 f"phi forcing zero: {stays}")
+                 f"phi forcing zero: {stays}", ("planar", "spherical_std"), 0, "exact")
 
 
 def compound_point_mass_equivalence() -> tuple[Check, dict]:
@@ -126,7 +135,9 @@ def compound_point_mass_equivalence() -> tuple[Check, dict]:
     residual = c.L.subs(sol) - lag_p.subs(sol)
     ok = as_expected and trig_is_zero(residual, [th1, th2])
     detail = ", ".join(f"{k} = {sp.factor(v)}" for k, v in sol.items())
-    return Check("compound = planar point masses iff L1 = m1 l1^2/4", ok, detail), sol
+    return Check("compound = planar point masses iff L1 = m1 l1^2/4", ok, detail,
+                 ("compound", "planar"), 0, "exact",
+                 exprs={str(k): sp.factor(v) for k, v in sol.items()}), sol
 
 
 def charts_agree_on_accelerations(source: str, target: str, n_points: int = 20) -> Check:
@@ -154,7 +165,8 @@ def charts_agree_on_accelerations(source: str, target: str, n_points: int = 20) 
             worst = max(worst, max(abs(x - y) for x, y in zip(a_s, a_t)))
     ok = worst < mpmath.mpf(10) ** -30
     return Check(f"{source} and {target}: same Cartesian accelerations", ok,
-                 f"largest difference over {n_points} states: {mpmath.nstr(worst, 3)}")
+                 f"largest difference over {n_points} states: {mpmath.nstr(worst, 3)}",
+                 (source, target), n_points, "1e-30", mpmath.nstr(worst, 3))
 
 
 def _cartesian_acceleration(d):
@@ -192,11 +204,87 @@ def chart_round_trip(first: str, second: str, n_points: int = 20) -> Check:
                 worst = max(worst, min(diff, abs(diff - 2 * mpmath.pi)))
     ok = worst < mpmath.mpf(10) ** -30
     return Check(f"{first} -> {second} -> {first} round trip", ok,
-                 f"largest difference over {n_points} states: {mpmath.nstr(worst, 3)}")
+                 f"largest difference over {n_points} states: {mpmath.nstr(worst, 3)}",
+                 (first, second), n_points, "1e-30", mpmath.nstr(worst, 3))
+
+
+def energy_conservation(name, n_points: int = 20) -> Check:
+    """dE/dt = dE/dq . q' + dE/dq' . q'' vanishes along the equations of motion
+    (q'' solving M q'' = F) at random states, relative to the size of its terms."""
+    d = derive(name)
+    s = d.symbols
+    args = list(s.state + s.params)
+    E = d.energy
+    grad_q = _numeric(sp.Matrix([E.diff(x) for x in s.q]), args)
+    grad_qd = _numeric(sp.Matrix([E.diff(x) for x in s.qd]), args)
+    rng, worst = random.Random(13), mpmath.mpf(0)
+    with mpmath.workdps(DIGITS):
+        for _ in range(n_points):
+            pt = random_point(s.state + s.params, rng)
+            vals = [pt[x] for x in args]
+            acc = accelerations(d, pt)
+            terms = ([a * pt[x] for a, x in zip(grad_q(*vals), s.qd)]
+                     + [b * acc[k] for k, b in enumerate(grad_qd(*vals))])
+            scale = sum(abs(t) for t in terms) or 1
+            worst = max(worst, abs(sum(terms)) / scale)
+    ok = worst < mpmath.mpf(10) ** -30
+    return Check(f"{d.name}: energy conserved", ok,
+                 f"largest relative dE/dt over {n_points} states: {mpmath.nstr(worst, 3)}",
+                 (d.name,), n_points, "1e-30", mpmath.nstr(worst, 3))
+
+
+def hamiltonian_consistency(name, n_points: int = 20) -> Check:
+    """With p = M q': H(q, p) = E(q, q'), dH/dp = q' and -dH/dq = dL/dq, at random states."""
+    d = derive(name)
+    s, h = d.symbols, d.hamiltonian
+    args = list(s.state + s.params)
+    p_of = _numeric(d.M * sp.Matrix(s.qd), args)
+    qp = list(s.q) + list(s.p) + list(s.params)
+    f_H, f_qd, f_pd = _numeric(h.H, qp), _numeric(h.qdot, qp), _numeric(h.pdot, qp)
+    f_E, f_dL = _numeric(d.energy, args), _numeric(h.dL_dq, args)
+    rng, worst = random.Random(17), mpmath.mpf(0)
+    rel = lambda a, b: abs(a - b) / max(abs(a), abs(b), 1)
+    with mpmath.workdps(DIGITS):
+        for _ in range(n_points):
+            pt = random_point(s.state + s.params, rng)
+            vals = [pt[x] for x in args]
+            p = list(p_of(*vals))
+            at = [pt[x] for x in s.q] + p + [pt[x] for x in s.params]
+            worst = max(worst, rel(f_H(*at), f_E(*vals)))
+            worst = max([worst] + [rel(a, pt[x]) for a, x in zip(f_qd(*at), s.qd)])
+            worst = max([worst] + [rel(a, b) for a, b in zip(f_pd(*at), f_dL(*vals))])
+    ok = worst < mpmath.mpf(10) ** -30
+    return Check(f"{d.name}: Hamiltonian form consistent with the Lagrangian", ok,
+                 f"largest relative difference over {n_points} states: {mpmath.nstr(worst, 3)}",
+                 (d.name,), n_points, "1e-30", mpmath.nstr(worst, 3))
+
+
+def model_checks(name) -> list[Check]:
+    """The checks that concern one model (a catalogue name or a Model): M symmetric
+    positive definite, energy conservation, the Hamiltonian form where it has one, and
+    the checks relating it to other catalogue models (chart agreement, round trips,
+    the plane of the spherical pendulum, the compound pendulum's point masses)."""
+    d = derive(name)
+    checks = [mass_matrix_spd(name), energy_conservation(name)]
+    if d.hamiltonian is not None:
+        checks.append(hamiltonian_consistency(name))
+    catalogue = (d.name in model_names()
+                 and load_model(d.name).content_hash == d.model.content_hash)
+    if not catalogue:
+        return checks
+    if d.name in ("planar", "spherical_std"):
+        checks.append(planar_is_vertical_plane_of_spherical())
+    if d.name == "compound":
+        checks.append(compound_point_mass_equivalence()[0])
+    checks += [charts_agree_on_accelerations(a, b) for a, b in SPHERICAL_PAIRS if d.name in (a, b)]
+    checks += [chart_round_trip(a, b) for a, b in SPHERICAL_PAIRS if d.name in (a, b)]
+    return checks
 
 
 def run_all() -> list[Check]:
     checks = [mass_matrix_spd(name) for name in model_names()]
+    checks += [energy_conservation(name) for name in model_names()]
+    checks += [hamiltonian_consistency(name) for name in model_names() if derive(name).hamiltonian]
     checks.append(planar_is_vertical_plane_of_spherical())
     checks.append(compound_point_mass_equivalence()[0])
     checks += [charts_agree_on_accelerations(a, b) for a, b in SPHERICAL_PAIRS]
