@@ -5,6 +5,10 @@ named stages (computed once in the generated code), and the solution is
 written in terms of those names:
 
 * two coordinates: the closed-form 2x2 inverse (Cramer), seed 001 below (3);
+* one coordinate: q'' = F / M;
+* three or more: M = L D L^T (M is symmetric positive definite), the factors as
+  stages L<i><j>, D<i> and 1/D<i> computed once, then forward and back
+  substitution for each right-hand side (the solution, each Jacobian column);
 * the double spherical pendulum: the seed's reduced system (3.27)
   A~ x + B~ w + G~ = 0 with x = S q'', S = diag(1, sin u1, 1, sin u2),
   solved by the block inverse (3.35)-(3.39): x = D^ A^ f~, f~ = -(B~ w + G~),
@@ -40,6 +44,7 @@ class MassMatrixStages:
         if not M.is_square or M != M.T:
             raise ValueError("the mass matrix must be square and symmetric")
         self.n = n = M.rows
+        sep = "" if n <= 10 else "_"          # M01 for small matrices, M1_10 beyond
         self.stages: list[tuple[sp.Symbol, sp.Expr]] = []
         entry = {}
         for i in range(n):
@@ -49,7 +54,7 @@ class MassMatrixStages:
                 elif M[i, j].is_number:
                     entry[i, j] = entry[j, i] = M[i, j]
                 else:
-                    sym = _sym(f"M{i}{j}")
+                    sym = _sym(f"M{i}{sep}{j}")
                     self.stages.append((sym, M[i, j]))
                     entry[i, j] = entry[j, i] = sym
         self.entry = sp.Matrix(n, n, lambda i, j: entry[i, j])
@@ -60,29 +65,86 @@ class MassMatrixStages:
             det, rdet = _sym("det"), _sym("rdet")
             self.inverse_stages = [(det, m[0, 0] * m[1, 1] - m[0, 1] ** 2), (rdet, 1 / det)]
             self.rdet = rdet
+        else:
+            self._factor(sep)
+        self.method = {1: "q'' = F / M", 2: "closed-form 2x2 inverse"}.get(
+            n, f"L D L^T factorisation of the {n}x{n} mass matrix, forward and back substitution")
+
+    def _factor(self, sep: str) -> None:
+        """M = L D L^T as stages (L unit lower triangular; structural zeros stay zero)."""
+        n, m = self.n, self.entry
+        L = sp.eye(n)
+        self.rD: list[sp.Expr] = []
+        D: list[sp.Expr] = []
+        for j in range(n):
+            dj = m[j, j] - sum((L[j, k] ** 2 * D[k] for k in range(j)), sp.S.Zero)
+            if n == 1:
+                sym_d = dj
+            else:
+                sym_d = _sym(f"D{j}")
+                self.inverse_stages.append((sym_d, dj))
+            D.append(sym_d)
+            r = _sym(f"rD{j}")
+            self.inverse_stages.append((r, 1 / sym_d))
+            self.rD.append(r)
+            for i in range(j + 1, n):
+                lij = (m[i, j] - sum((L[i, k] * L[j, k] * D[k] for k in range(j)), sp.S.Zero)) * r
+                if lij == 0:
+                    continue
+                sym = _sym(f"L{i}{sep}{j}")
+                self.inverse_stages.append((sym, lij))
+                L[i, j] = sym
+        self.L = L
 
     def apply(self, b: list[sp.Expr]) -> list[sp.Expr]:
-        """M^-1 b in closed form (2x2 only): adj(M) b / det."""
-        if self.n != 2:
-            raise ValueError(f"no closed-form inverse for a {self.n}x{self.n} mass matrix")
-        m = self.entry
-        return [(m[1, 1] * b[0] - m[0, 1] * b[1]) * self.rdet,
-                (m[0, 0] * b[1] - m[0, 1] * b[0]) * self.rdet]
+        """M^-1 b: adj(M) b / det for 2x2; forward and back substitution through L D L^T
+        otherwise, as nested expressions (solve() names the intermediate values)."""
+        if self.n == 2:
+            m = self.entry
+            return [(m[1, 1] * b[0] - m[0, 1] * b[1]) * self.rdet,
+                    (m[0, 0] * b[1] - m[0, 1] * b[0]) * self.rdet]
+        return self._substitute(b, None)[0]
+
+    def _substitute(self, b: list[sp.Expr], prefix: str | None, out: list[sp.Symbol] | None = None):
+        """(x = M^-1 b, stages) through z = L^-1 b, x = L^-T (z / D).  With a prefix, each
+        z_i is a stage <prefix>z<i> and each x_i the stage out[i] (default <prefix><i>), so
+        every value is computed once and the back substitution reuses them."""
+        n, L, stages = self.n, self.L, []
+        z = []
+        for i in range(n):
+            value = b[i] - sum((L[i, k] * z[k] for k in range(i)), sp.S.Zero)
+            if prefix is not None and i and not (value.is_number or value.is_Symbol):
+                sym = _sym(f"{prefix}z{i}")
+                stages.append((sym, value))
+                value = sym
+            z.append(value)
+        x: list = [None] * n
+        for i in reversed(range(n)):
+            value = z[i] * self.rD[i] - sum((L[k, i] * x[k] for k in range(i + 1, n)), sp.S.Zero)
+            if prefix is not None:
+                sym = out[i] if out is not None else _sym(f"{prefix}{i}")
+                stages.append((sym, value))
+                value = sym
+            x[i] = value
+        return x, stages
 
     def solve(self, b: list[sp.Expr], prefix: str) -> Solution:
-        """Stages for M^-1 b named <prefix>0, <prefix>1 (with det and rdet before them)."""
+        """Stages for M^-1 b named <prefix>0, <prefix>1, ... (after the factorisation)."""
         syms = [_sym(f"{prefix}{i}") for i in range(self.n)]
-        return Solution(syms, list(self.inverse_stages) + list(zip(syms, self.apply(b))))
+        if self.n == 2:
+            return Solution(syms, list(self.inverse_stages) + list(zip(syms, self.apply(b))))
+        _, stages = self._substitute(b, f"{prefix}_", syms)
+        return Solution(syms, list(self.inverse_stages) + stages)
 
 
 class MassMatrixDynamics:
-    """q'' = M^-1 F with the closed-form 2x2 inverse."""
-    method = "closed-form 2x2 inverse"
+    """q'' = M^-1 F: the closed-form 2x2 inverse, or L D L^T for any other size."""
 
     def __init__(self, d):
         self.s = d.symbols
         self.M, self.F = d.M, d.F
         self.mass = MassMatrixStages(d.M)
+        self.method = self.mass.method
         fsyms = [_sym(f"F{i}") for i in range(len(d.F))]
         self.forcing_stages = list(zip(fsyms, d.F))
         sol = self.mass.solve(fsyms, "qdd")
@@ -96,7 +158,9 @@ class MassMatrixDynamics:
              for i in range(len(self.qdd))]
         if all(e == 0 for e in r):
             return [sp.S.Zero] * len(r), []
-        return self.mass.apply(r), []
+        if self.mass.n <= 2:
+            return self.mass.apply(r), []
+        return self.mass._substitute(r, f"d{yk.name}_")
 
 
 class ReducedDynamics:

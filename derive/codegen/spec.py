@@ -195,13 +195,10 @@ def _vectors(d) -> tuple[Vector, Vector, Vector | None]:
 
 def dynamics(d) -> solve.Dynamics:
     """The in-code solve of M q'' = F: the seed's block inverse when the paper forms
-    are there, the closed-form 2x2 otherwise."""
+    are there, else the closed-form 2x2, or L D L^T for any other number of coordinates."""
     if d.paper is not None:
         return solve.ReducedDynamics(d)
-    if len(d.symbols.q) == 2:
-        return solve.MassMatrixDynamics(d)
-    raise SpecError(f"model '{d.name}': no in-code solve for {len(d.symbols.q)} coordinates "
-                    "without the reduced (paper) forms")
+    return solve.MassMatrixDynamics(d)
 
 
 def model_spec(d) -> ModelSpec:

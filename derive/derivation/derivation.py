@@ -19,11 +19,14 @@ from .symbols import ModelSymbols, model_symbols
 
 @dataclass
 class HamiltonianForm:
-    M_inv: sp.Matrix
-    H: sp.Expr
-    qdot: sp.Matrix       # dH/dp = M^-1 p, in (q, p)
-    pdot: sp.Matrix       # -dH/dq, in (q, p)
-    dL_dq: sp.Matrix      # dL/dq in (q, q'): p' once q' = M^-1 p is substituted
+    """H = 1/2 p^T M^-1 p + V.  The closed forms (M^-1, H, q'(p), p'(q, p)) are written
+    out for up to two coordinates; beyond, they are None and the generated code solves
+    M q' = p instead (dL_dq at that q' is p')."""
+    M_inv: sp.Matrix | None
+    H: sp.Expr | None
+    qdot: sp.Matrix | None    # dH/dp = M^-1 p, in (q, p)
+    pdot: sp.Matrix | None    # -dH/dq, in (q, p)
+    dL_dq: sp.Matrix          # dL/dq in (q, q'): p' once q' = M^-1 p is substituted
 
 
 @dataclass
@@ -38,6 +41,8 @@ class Derivation:
     V: sp.Expr
     hamiltonian: HamiltonianForm | None = None
     paper: PaperForms | None = None
+    dissipation: sp.Expr | None = None     # Rayleigh's R(q', q); F includes -dR/dq'
+    forces: sp.Matrix | None = None        # applied generalized forces Q; F includes them
     polar_sines: list[sp.Expr] = field(default_factory=list)
     seconds: float = 0.0           # time the derivation took when it was computed
 
@@ -59,11 +64,15 @@ def compute(model: Model) -> Derivation:
     s = model_symbols(model)
     M = lagrange.mass_matrix(model, s)
     V = lagrange.potential_energy(model, s)
+    R = lagrange.dissipation_function(model, s)
+    Q = lagrange.generalized_forces(model, s)
+    F = lagrange.forcing(M, V, s)
+    if R is not None or Q is not None:
+        F = F + lagrange.non_conservative(R, Q, s)
     d = Derivation(model=model, symbols=s,
                    tips=lagrange.tip_positions(model, s),
                    centres=lagrange.mass_centres(model, s),
-                   M=M, F=lagrange.forcing(M, V, s),
-                   T=lagrange.kinetic_energy(M, s), V=V)
+                   M=M, F=F, T=lagrange.kinetic_energy(M, s), V=V, dissipation=R, forces=Q)
     k = 0
     for link in model.links:
         n = len(link.chart.coordinates)
@@ -72,10 +81,13 @@ def compute(model: Model) -> Derivation:
             d.polar_sines.append(sine)
         k += n
     if "hamiltonian" in model.forms:
-        M_inv = hamilton.inverse_mass_matrix(M)
-        H = hamilton.hamiltonian(M_inv, V, s)
-        d.hamiltonian = HamiltonianForm(M_inv, H, *hamilton.hamilton_equations(H, s),
-                                        hamilton.lagrangian_gradient(M, V, s))
+        dL_dq = hamilton.lagrangian_gradient(M, V, s)
+        if len(s.q) <= 2:           # closed forms are short: seed 001 writes them out
+            M_inv = hamilton.inverse_mass_matrix(M)
+            H = hamilton.hamiltonian(M_inv, V, s)
+            d.hamiltonian = HamiltonianForm(M_inv, H, *hamilton.hamilton_equations(H, s), dL_dq)
+        else:                       # no symbolic inverse: the code solves M q' = p
+            d.hamiltonian = HamiltonianForm(None, None, None, None, dL_dq)
     if "paper" in model.forms:
         d.paper = paper_forms(model, s)
     d.seconds = time.perf_counter() - start

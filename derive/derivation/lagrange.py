@@ -12,7 +12,8 @@ from __future__ import annotations
 import sympy as sp
 
 from ..model import Model
-from .symbols import ModelSymbols, parse_quantity
+from ..model.expressions import parse_expression
+from .symbols import ModelSymbols, names, parse_quantity
 
 
 def link_directions(model: Model, s: ModelSymbols) -> list[sp.Matrix]:
@@ -84,6 +85,35 @@ def potential_energy(model: Model, s: ModelSymbols) -> sp.Expr:
 def kinetic_energy(M: sp.Matrix, s: ModelSymbols) -> sp.Expr:
     qd = sp.Matrix(s.qd)
     return sp.expand((qd.T * M * qd)[0, 0] / 2)
+
+
+def dissipation_function(model: Model, s: ModelSymbols) -> sp.Expr | None:
+    """Rayleigh's dissipation function R(q', q; p) of the model, or None."""
+    if model.dissipation is None:
+        return None
+    return parse_expression(model.dissipation, names(s), f"{model.origin or model.name}: dissipation")
+
+
+def generalized_forces(model: Model, s: ModelSymbols) -> sp.Matrix | None:
+    """The applied generalized forces Q (one per coordinate; zero where the model gives
+    none), or None for a model without [forces]."""
+    if not model.forces:
+        return None
+    given = dict(model.forces)
+    where = model.origin or model.name
+    return sp.Matrix([parse_expression(given[q.name], names(s), f"{where}: forces.{q.name}")
+                      if q.name in given else sp.S.Zero for q in s.q])
+
+
+def non_conservative(R: sp.Expr | None, Q: sp.Matrix | None, s: ModelSymbols) -> sp.Matrix:
+    """Q - dR/dq': the right-hand side terms Lagrange's equation gains from applied
+    forces and Rayleigh dissipation, d/dt dL/dq' - dL/dq = Q - dR/dq'."""
+    out = sp.zeros(len(s.q), 1)
+    if Q is not None:
+        out += Q
+    if R is not None:
+        out -= sp.Matrix([R.diff(v) for v in s.qd])
+    return out.applyfunc(sp.expand)
 
 
 def forcing(M: sp.Matrix, V: sp.Expr, s: ModelSymbols) -> sp.Matrix:

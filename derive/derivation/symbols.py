@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..model import Model
+from ..model.expressions import parse_expression
 
 
 @dataclass(frozen=True)
@@ -19,6 +20,7 @@ class ModelSymbols:
     qd: tuple[sp.Symbol, ...]       # their rates
     p: tuple[sp.Symbol, ...]        # canonical momenta (Hamiltonian form)
     params: tuple[sp.Symbol, ...]   # in the model's parameter order
+    u: tuple[sp.Symbol, ...] = ()   # run-time inputs, in the model's input order
 
     def param(self, name: str) -> sp.Symbol:
         return next(s for s in self.params if s.name == name)
@@ -36,10 +38,19 @@ def model_symbols(model: Model) -> ModelSymbols:
     q = tuple(sp.Symbol(n, real=True) for n in model.coordinate_names)
     qd = tuple(sp.Symbol(n, real=True) for n in model.rate_names)
     p = tuple(sp.Symbol(f"p_{n}", real=True) for n in model.coordinate_names)
-    params = tuple(sp.Symbol(n, positive=True) for n in model.parameters)
-    return ModelSymbols(q, qd, p, params)
+    # g may be zero or negative (gravity along +z, or none); every other parameter is
+    # declared positive, which lets the derivation simplify sqrt(l**2) and the like
+    params = tuple(sp.Symbol(n, real=True) if n == "g" else sp.Symbol(n, positive=True)
+                   for n in model.parameters)
+    u = tuple(sp.Symbol(n, real=True) for n in model.inputs)
+    return ModelSymbols(q, qd, p, params, u)
+
+
+def names(symbols: ModelSymbols) -> dict[str, sp.Symbol]:
+    """Every name a model's expressions may use: parameters, inputs, coordinates, rates."""
+    return {s.name: s for s in (*symbols.params, *symbols.u, *symbols.q, *symbols.qd)}
 
 
 def parse_quantity(text: str, symbols: ModelSymbols) -> sp.Expr:
     """A length, mass, inertia or fraction from a description: a parameter or a number."""
-    return sp.sympify(text, locals={s.name: s for s in symbols.params}, rational=True)
+    return parse_expression(text, {s.name: s for s in symbols.params}, "model quantity")

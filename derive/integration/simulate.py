@@ -18,6 +18,7 @@ A run that cannot go on returns a result whose `status` says why
 from __future__ import annotations
 
 import importlib.util
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -26,14 +27,14 @@ import numpy as np
 
 from ..errors import SimulationError, SimulationInputError
 from . import cartesian
+from ..model import ModelError, is_model_file, load_model
 from .build import dtype_key
 from .codegen import ADAPTIVE, ATLAS_CHARTS, METHODS, SINE_MIN, model_info
 
 STATUS_NAMES = ("ok", "step-size underflow", "maximum number of steps reached",
                 "Newton iteration diverged", "non-finite state or derivative",
                 "chart singular (polar sine below threshold)", "bad input")
-SINGLE_MODELS = ("planar", "compound") + ATLAS_CHARTS
-MODELS = SINGLE_MODELS + ("spherical",)
+ATLAS = "spherical"            # the chart atlas of the double spherical pendulum
 _DTYPES = {"float32": np.float32, "float": np.float32, "single": np.float32,
            "float64": np.float64, "double": np.float64,
            "longdouble": np.longdouble, "long double": np.longdouble, "float128": np.longdouble}
@@ -142,6 +143,30 @@ def _finite_array(value, what: str) -> np.ndarray:
     return a
 
 
+def resolve_model(model) -> str:
+    """The name of a model argument: a catalogue name, a model file read before (by its
+    name), the path of a model file, or 'spherical' (the chart atlas)."""
+    if isinstance(model, os.PathLike) or (isinstance(model, str) and is_model_file(model)):
+        try:
+            return load_model(model).name
+        except ModelError as exc:
+            raise SimulationInputError(str(exc)) from None
+    if not isinstance(model, str):
+        raise SimulationInputError(f"model must be a name or the path of a model file, got {model!r}")
+    if model == ATLAS:
+        return model
+    try:
+        load_model(model)
+    except ModelError as exc:
+        raise SimulationInputError(f"{exc}; or '{ATLAS}' for the chart atlas") from None
+    return model
+
+
+def _described(model: str):
+    """The model description behind a run (the atlas: its standard chart)."""
+    return load_model("spherical_std" if model == ATLAS else model)
+
+
 def normalise_params(model: str, params) -> np.ndarray:
     names = model_info("spherical_std" if model == "spherical" else model).param_names
     if isinstance(params, Mapping):
@@ -163,13 +188,22 @@ def normalise_params(model: str, params) -> np.ndarray:
         raise SimulationInputError(f"params must be a mapping by name or a sequence in the order "
                                    f"{', '.join(names)}, got {type(params).__name__}")
     p = _finite_array(values, "params")
-    for n, v in zip(names, p):
-        if (n.startswith("m") or n.startswith("l")) and not v > 0:
-            kind = "mass" if n.startswith("m") else "length"
-            raise SimulationInputError(f"parameter {n} = {float(v):g} must be positive (a {kind})")
-        if n.startswith("L") and not v >= 0:
-            raise SimulationInputError(f"parameter {n} = {float(v):g} must be >= 0 (a moment of inertia)")
+    check_parameter_values(_described(model), dict(zip(names, p)), SimulationInputError)
     return p
+
+
+def check_parameter_values(description, values: Mapping, error=SimulationInputError) -> None:
+    """Lengths and masses > 0, inertias >= 0, fractions in [0, 1]; g and the other
+    parameters (damping, ...) may be any finite number.  The roles come from the model."""
+    roles = description.parameter_roles()
+    for n, v in values.items():
+        role = roles.get(n)
+        if role in ("length", "mass") and not v > 0:
+            raise error(f"parameter {n} = {float(v):g} must be positive (a {role})")
+        if role == "inertia" and not v >= 0:
+            raise error(f"parameter {n} = {float(v):g} must be >= 0 (a moment of inertia)")
+        if role == "fraction" and not 0 <= v <= 1:
+            raise error(f"parameter {n} = {float(v):g} must be in [0, 1] (a centre of mass along its link)")
 
 
 def _cartesian_y0(model: str, value, p: np.ndarray) -> np.ndarray:
@@ -260,8 +294,8 @@ def numpy_module(name: str):
 
 def _observables(model: str, y: np.ndarray, p: np.ndarray, backend: str, dtype: np.dtype):
     if len(y) == 0:
-        dim = 3 if model in ATLAS_CHARTS else 2
-        return np.zeros(0, dtype), np.zeros((0, 2, dim), dtype)
+        d = _described(model)
+        return np.zeros(0, dtype), np.zeros((0, d.bodies, d.dimension), dtype)
     if backend == "c":
         from ..codegen.loader import load
         from .build import SUFFIX, dtype_key
@@ -290,8 +324,7 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     (adaptive: rtol, atol; `step` is the initial step, optional).  dtype: float32,
     float64 or longdouble.  backend: "c" (compiled generated C) or "numpy".
     """
-    if not isinstance(model, str) or model not in MODELS:
-        raise SimulationInputError(f"unknown model {model!r} (known: {', '.join(MODELS)})")
+    model = resolve_model(model)
     if not isinstance(method, str) or method not in METHODS:
         raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(METHODS)})")
     if backend not in ("c", "numpy"):
@@ -363,7 +396,7 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend) -> SimulationResult:
         counters = {k: int(inf[k]) for k in COUNTERS}
         t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
     E, pos = _observables(model, y, pd, backend, dt)
-    single_chart = model in ATLAS_CHARTS
+    single_chart = model_info(model).nguards > 0     # a chart model: its chart at every output
     return SimulationResult(
         model=model, method=method, backend=backend, dtype=dtype_key(dt), t=np.asarray(ts, dt), y=y,
         energy=E, positions=pos, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,

@@ -16,6 +16,7 @@ import mpmath
 import numpy as np
 import sympy as sp
 
+from ..model.expressions import parse_expression
 from ..paths import tableau_file
 
 DIGITS = 40
@@ -28,7 +29,7 @@ def value(text: str) -> mpmath.mpf:
         try:
             return mpmath.mpf(text)
         except (ValueError, TypeError):
-            return mpmath.mpf(sp.N(sp.sympify(text, rational=True), DIGITS + 10))
+            return mpmath.mpf(sp.N(parse_expression(text, {}, "tableau coefficient"), DIGITS + 10))
 
 
 def literal(x: mpmath.mpf, ctype: str) -> str:

@@ -13,7 +13,16 @@ import sympy as sp
 
 from ..errors import ModelError
 from ..paths import catalog_dir
+from .expressions import FUNCTIONS, parse_expression
 
+# Names a model may not give a parameter, input or coordinate: the functions of the
+# expression grammar and the constants (a parameter `sin` would shadow sin()).
+# Names the generated code uses itself (M, F, p, y, u, lambda, ...) are allowed:
+# the code generators rename them where a target language needs it.
+RESERVED_NAMES = frozenset(FUNCTIONS) | {"pi"}
+# Generated stage names (M01, F0, qdd1, t3, ...): an input may not look like one
+# (inputs are real symbols, as stages are, so the two would be the same symbol).
+STAGE_NAME = re.compile(r"^(t|M|F|qdd|v|dv|D|rD|L|z|f|xr|rs|Q|det|rdet|A[ab])\d*(_\d+)?$")
 
 
 def charts_file() -> Path:
@@ -35,18 +44,18 @@ class Chart:
     def unit_vector(self, coords: list[sp.Symbol]) -> sp.Matrix:
         """The link direction e(u, v) with this chart's coordinates replaced by ``coords``."""
         local = {name: sym for name, sym in zip(self.coordinates, coords)}
-        return sp.Matrix([sp.sympify(c, locals=local) for c in self.unit])
+        return sp.Matrix([parse_expression(c, local, f"chart '{self.name}': unit") for c in self.unit])
 
     def coordinates_of(self, e) -> list[sp.Expr]:
         """The chart's coordinates of a unit vector ``e`` (robust atan2 forms)."""
         local = dict(zip("xyz", e))
-        return [sp.sympify(c, locals=local) for c in self.inverse]
+        return [parse_expression(c, local, f"chart '{self.name}': inverse") for c in self.inverse]
 
     def polar_sine_of(self, coords: list[sp.Symbol]) -> sp.Expr | None:
         if self.polar_sine is None:
             return None
         local = {name: sym for name, sym in zip(self.coordinates, coords)}
-        return sp.sympify(self.polar_sine, locals=local)
+        return parse_expression(self.polar_sine, local, f"chart '{self.name}': polar_sine")
 
 
 @dataclass(frozen=True)
@@ -74,6 +83,30 @@ class Model:
     forms: tuple[str, ...]
     links: tuple[Link, ...]
     text: str = field(repr=False)   # the description as read, for hashing
+    inputs: tuple[str, ...] = ()                 # run-time inputs (a kernel argument u)
+    dissipation: str | None = None               # Rayleigh dissipation function R(q', q; p)
+    forces: tuple[tuple[str, str], ...] = ()     # generalized force Q_j per coordinate name
+    origin: str = ""                             # the file it was read from
+
+    @property
+    def is_conservative(self) -> bool:
+        return self.dissipation is None and not self.forces
+
+    @property
+    def bodies(self) -> int:
+        """The number of bobs (one body per link)."""
+        return len(self.links)
+
+    def parameter_roles(self) -> dict[str, str]:
+        """'length', 'mass', 'inertia' or 'fraction' for each parameter a link uses that
+        way; 'gravity' for g; other parameters (damping, ...) have no role."""
+        roles = {"g": "gravity"}
+        for link in self.links:
+            for value, role in ((link.length, "length"), (link.body.mass, "mass"),
+                                (link.body.inertia, "inertia"), (link.body.com, "fraction")):
+                if value in self.parameters:
+                    roles.setdefault(value, role)
+        return roles
 
     @property
     def content_hash(self) -> str:
@@ -140,17 +173,65 @@ def model_names() -> list[str]:
     return sorted(p.stem for p in catalog_dir().glob("*.toml") if p.stem != "charts")
 
 
+def _quantity(t: dict, key: str, where: str) -> str:
+    value = t[key]
+    if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+        raise ModelError(f"{where}: '{key}' must be a parameter name or a number, got {value!r}")
+    return str(value)
+
+
 def _parse_body(t: dict, where: str) -> Body:
     _no_unknown(t, {"kind", "mass", "com", "inertia"}, where)
     kind = _require(t, "kind", str, where)
     if kind not in ("point", "rod"):
         raise ModelError(f"{where}: body kind must be 'point' or 'rod', got '{kind}'")
-    mass = _require(t, "mass", str, where)
+    if "mass" not in t:
+        raise ModelError(f"{where}: missing key 'mass'")
+    mass = _quantity(t, "mass", where)
     if kind == "point":
         if "com" in t or "inertia" in t:
             raise ModelError(f"{where}: a point body has no 'com' or 'inertia'")
         return Body(kind, mass)
-    return Body(kind, mass, _require(t, "com", str, where), _require(t, "inertia", str, where))
+    for key in ("com", "inertia"):
+        if key not in t:
+            raise ModelError(f"{where}: missing key '{key}' (a rod has a centre of mass and an inertia)")
+    return Body(kind, mass, _quantity(t, "com", where), _quantity(t, "inertia", where))
+
+
+def _names(t: dict, key: str, where: str) -> tuple[str, ...]:
+    values = t.get(key, [])
+    if not isinstance(values, list) or not all(isinstance(v, str) for v in values):
+        raise ModelError(f"{where}: '{key}' must be a list of names")
+    for v in values:
+        if not NAME.match(v):
+            raise ModelError(f"{where}: '{key}': {v!r} is not a name (letters, digits, _)")
+        if v in RESERVED_NAMES:
+            raise ModelError(f"{where}: '{key}': '{v}' is reserved (reserved: {', '.join(sorted(RESERVED_NAMES))})")
+    seen = set()
+    for v in values:
+        if v in seen:
+            raise ModelError(f"{where}: '{key}': '{v}' is given twice")
+        seen.add(v)
+    return tuple(values)
+
+
+def _check_expressions(model: "Model", where: str) -> None:
+    """Every expression of the model parses and uses only names it declares."""
+    names = {n: sp.Symbol(n) for n in (*model.parameters, *model.inputs, *model.state_names)}
+    params = {n: sp.Symbol(n) for n in model.parameters}
+    for i, link in enumerate(model.links, 1):
+        for key, value in (("length", link.length), ("body mass", link.body.mass),
+                           ("body com", link.body.com), ("body inertia", link.body.inertia)):
+            expr = parse_expression(value, params, f"{where}: link {i} {key}")
+            if not expr.free_symbols and key != "body com" and not (expr > 0 or (key == "body inertia" and expr >= 0)):
+                raise ModelError(f"{where}: link {i} {key} = {value} must be positive")
+    rates = {n: names[n] for n in model.rate_names}
+    if model.dissipation is not None:
+        R = parse_expression(model.dissipation, names, f"{where}: dissipation")
+        if not R.free_symbols & set(rates.values()):
+            raise ModelError(f"{where}: dissipation uses no rate ({', '.join(model.rate_names)})")
+    for coord, text in model.forces:
+        parse_expression(text, names, f"{where}: forces.{coord}")
 
 
 def parse_model(text: str, origin: str) -> Model:
@@ -158,9 +239,14 @@ def parse_model(text: str, origin: str) -> Model:
         t = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ModelError(f"{origin}: not valid TOML ({exc})") from None
-    _no_unknown(t, {"name", "title", "source", "dimension", "parameters", "forms", "links"}, origin)
+    _no_unknown(t, {"name", "title", "source", "dimension", "parameters", "forms", "links",
+                    "inputs", "dissipation", "forces"}, origin)
     dimension = _require(t, "dimension", int, origin)
-    params = tuple(_require(t, "parameters", list, origin))
+    if dimension not in (2, 3):
+        raise ModelError(f"{origin}: 'dimension' must be 2 (planar) or 3 (spherical), got {dimension}")
+    _require(t, "parameters", list, origin)
+    params = _names(t, "parameters", origin)
+    inputs = _names(t, "inputs", origin)
     links = []
     for i, lt in enumerate(_require(t, "links", list, origin), 1):
         where = f"{origin}: link {i}"
@@ -173,22 +259,67 @@ def parse_model(text: str, origin: str) -> Model:
             raise ModelError(f"{where}: chart '{chart.name}' is {chart.dimension}-D in a {dimension}-D model")
         link = Link(chart, _require(lt, "length", str, where),
                     _parse_body(_require(lt, "body", dict, where), where + " body"))
-        for p in (link.length, link.body.mass, link.body.inertia):
-            if not p.lstrip("-").replace("/", "").isdigit() and p not in params:
+        for p in (link.length, link.body.mass, link.body.inertia, link.body.com):
+            if NAME.match(p) and p not in params:
                 raise ModelError(f"{where}: '{p}' is not a declared parameter")
         links.append(link)
+    if not links:
+        raise ModelError(f"{origin}: a model needs at least one [[links]] table")
     if "g" not in params:
         raise ModelError(f"{origin}: parameters must include the gravity 'g'")
-    forms = tuple(t.get("forms", ["lagrangian"]))
+    forms = t.get("forms", ["lagrangian"])
+    if not isinstance(forms, list):
+        raise ModelError(f"{origin}: 'forms' must be a list")
     for f in forms:
         if f not in ("lagrangian", "hamiltonian", "paper"):
-            raise ModelError(f"{origin}: unknown form '{f}'")
+            raise ModelError(f"{origin}: unknown form '{f}' (known: lagrangian, hamiltonian, paper)")
+    forms = tuple(forms)
     name = _require(t, "name", str, origin)
     if not NAME.match(name):
         raise ModelError(f"{origin}: 'name' must be an identifier (letters, digits, _), got {name!r}")
-    return Model(name=name, title=t.get("title", ""),
-                 source=t.get("source", ""), dimension=dimension, parameters=params,
-                 forms=forms, links=tuple(links), text=text)
+    dissipation = t.get("dissipation")
+    if dissipation is not None and not isinstance(dissipation, str):
+        raise ModelError(f"{origin}: 'dissipation' must be an expression (a string)")
+    forces_table = t.get("forces", {})
+    if not isinstance(forces_table, dict):
+        raise ModelError(f"{origin}: 'forces' must be a table from coordinate name to expression")
+    model = Model(name=name, title=_text(t, "title", origin), source=_text(t, "source", origin),
+                  dimension=dimension, parameters=params, forms=forms, links=tuple(links), text=text,
+                  inputs=inputs, dissipation=dissipation, origin=origin,
+                  forces=tuple((k, _quantity(forces_table, k, f"{origin}: forces")) for k in forces_table))
+    _check_names(model, origin)
+    _check_expressions(model, origin)
+    if "hamiltonian" in forms and not model.is_conservative:
+        raise ModelError(f"{origin}: the Hamiltonian form is for conservative models; this one has "
+                         f"{'dissipation' if dissipation else 'applied forces'} (remove 'hamiltonian' from 'forms')")
+    if "paper" in forms and (dimension != 3 or len(links) != 2):
+        raise ModelError(f"{origin}: the 'paper' forms are the seed's double spherical pendulum's "
+                         f"(dimension 3, two links)")
+    return model
+
+
+def _text(t: dict, key: str, where: str) -> str:
+    value = t.get(key, "")
+    if not isinstance(value, str):
+        raise ModelError(f"{where}: '{key}' must be a string")
+    return value
+
+
+def _check_names(model: "Model", where: str) -> None:
+    coords = model.coordinate_names
+    for kind, names in (("parameter", model.parameters), ("input", model.inputs)):
+        for n in names:
+            if n in model.state_names:
+                raise ModelError(f"{where}: the {kind} '{n}' has the name of a state ({', '.join(model.state_names)})")
+    for n in set(model.parameters) & set(model.inputs):
+        raise ModelError(f"{where}: '{n}' is both a parameter and an input")
+    for n in model.inputs:
+        if STAGE_NAME.match(n):
+            raise ModelError(f"{where}: the input name '{n}' looks like a name the generated code uses "
+                             f"for its own intermediate values (M01, F0, qdd1, t3, ...); rename it")
+    for coord, _ in model.forces:
+        if coord not in coords:
+            raise ModelError(f"{where}: forces.{coord}: not a coordinate (coordinates: {', '.join(coords)})")
 
 
 NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
