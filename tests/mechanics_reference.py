@@ -106,8 +106,8 @@ class Reference:
         the spherical charts' poles; this one is exact to the last bit.)"""
         import mpmath
         if not hasattr(self, "_mp"):
-            self._mp = (sp.lambdify(self.symbols, self.mass_matrix, "mpmath"),
-                        sp.lambdify(self.symbols, self.forcing, "mpmath"))
+            self._mp = (sp.lambdify(self.symbols, self.mass_matrix, "mpmath", cse=True),
+                        sp.lambdify(self.symbols, self.forcing, "mpmath", cse=True))
         batch, cols = self._args(y, p, u)
         flat = np.stack([np.broadcast_to(c, batch).reshape(-1) for c in cols], -1) if cols else None
         out = np.empty((flat.shape[0], self.n))

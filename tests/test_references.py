@@ -176,3 +176,176 @@ def test_spherical_double_matches_mechanics(model, chart):
     ref = spherical_chain(points(2), names, chart)
     err, err_l = compare_rhs(ref, load(model), names, rng)
     assert err < TOL and err_l < TOL, (err, err_l)
+
+
+# -- N-link chains, damping, applied forces, inputs --------------------------------------
+
+def test_triple_point_rod_point_matches_mechanics(tmp_path):
+    """Triple planar pendulum: point mass, rod (RigidBody, mass centre at l2/2, central
+    inertia L2 about z), point mass."""
+    rng = np.random.default_rng(4)
+    names = ["m1", "m2", "m3", "l1", "l2", "l3", "L2", "g"]
+    links = [LinkSpec("l1", "m1"), LinkSpec("l2", "m2", "rod", "1/2", "L2"), LinkSpec("l3", "m3")]
+    ref = planar_chain(links, names)
+    _, kernels = toolkit(tmp_path, model_toml("ref_triple", 2, names, "planar", links))
+    err, err_l = compare_rhs(ref, kernels, names, rng)
+    assert err < TOL and err_l < TOL, (err, err_l)
+
+
+def test_four_link_planar_chain_matches_mechanics(tmp_path):
+    """Four point masses on a planar chain."""
+    rng = np.random.default_rng(5)
+    names = point_parameters(4)
+    ref = planar_chain(points(4), names)
+    _, kernels = toolkit(tmp_path, model_toml("ref_chain4", 2, names, "planar", points(4)))
+    err, err_l = compare_rhs(ref, kernels, names, rng)
+    assert err < TOL and err_l < TOL, (err, err_l)
+
+
+# The damped, torque-driven double pendulum.  Physically: a motor at the pivot applies
+# tau1 to link 1 (reaction on the ground); a motor at the elbow applies tau2 to link 2
+# and -tau2 to link 1; a viscous damper at the pivot resists theta1' with c1, one at the
+# elbow resists the relative rate theta2' - theta1' with c2 (again on both links).  The
+# mechanics reference is given exactly that (torques on the link frames).
+# For the toolkit's model file the same physics is written as generalized forces in the
+# absolute angles, from the virtual work of the motor torques,
+#     delta W = tau1 delta theta1 + tau2 (delta theta2 - delta theta1),
+# so Q_theta1 = tau1 - tau2, Q_theta2 = tau2, and the dampers as the Rayleigh function
+#     R = c1 theta1'^2 / 2 + c2 (theta2' - theta1')^2 / 2
+# (the toolkit subtracts dR/dq': -c1 theta1' + c2 (theta2' - theta1') on theta1 and
+# -c2 (theta2' - theta1') on theta2, the virtual work of the damper torques).
+DAMPED = """
+inputs = ["tau1", "tau2"]
+dissipation = "c1*theta1_dot**2/2 + c2*(theta2_dot - theta1_dot)**2/2"
+[forces]
+theta1 = "tau1 - tau2"
+theta2 = "tau2"
+"""
+
+
+def test_damped_driven_double_matches_mechanics(tmp_path):
+    """Double planar pendulum (point masses) with joint dampers c1, c2 and joint motors
+    tau1, tau2 (run-time inputs, random in [-2, 2] per state)."""
+    rng = np.random.default_rng(6)
+    names = ["m1", "m2", "l1", "l2", "c1", "c2", "g"]
+    ref = planar_chain(points(2), names, inputs=["tau1", "tau2"],
+                       joint_torques=["tau1", "tau2"], joint_dampers=["c1", "c2"])
+    _, kernels = toolkit(tmp_path, model_toml("ref_damped2", 2, names, "planar", points(2), DAMPED))
+    err, err_l = compare_rhs(ref, kernels, names, rng, inputs=["tau1", "tau2"])
+    assert err < TOL and err_l < TOL, (err, err_l)
+
+
+def test_damped_double_with_constant_torques_matches_mechanics(tmp_path):
+    """The same damped, driven double pendulum with the motor torques as parameters
+    (constants of the run) instead of run-time inputs: the dissipation and the [forces]
+    table without the kernel argument u."""
+    rng = np.random.default_rng(8)
+    names = ["m1", "m2", "l1", "l2", "c1", "c2", "tau1", "tau2", "g"]
+    ref = planar_chain(points(2), names, joint_torques=["tau1", "tau2"], joint_dampers=["c1", "c2"])
+    extra = DAMPED.replace('inputs = ["tau1", "tau2"]\n', "")
+    _, kernels = toolkit(tmp_path, model_toml("ref_damped2_const", 2, names, "planar", points(2), extra))
+    err, err_l = compare_rhs(ref, kernels, names, rng)
+    assert err < TOL and err_l < TOL, (err, err_l)
+
+
+@pytest.mark.parametrize("chart", ["standard", "second"])
+def test_triple_spherical_matches_mechanics(tmp_path, chart):
+    """Triple spherical chain of point masses, every link in the same chart."""
+    rng = np.random.default_rng(7)
+    names = point_parameters(3)
+    ref = spherical_chain(points(3), names, chart)
+    _, kernels = toolkit(tmp_path, model_toml(f"ref_sph3_{chart}", 3, names, chart, points(3)))
+    err, err_l = compare_rhs(ref, kernels, names, rng)
+    assert err < TOL and err_l < TOL, (err, err_l)
+
+
+# -- a triple spherical chain integrated through (and near) the standard chart's pole -----
+
+SPH3 = np.array([1.0, 0.8, 0.6, 1.0, 0.9, 0.7, 9.81])      # m1 m2 m3 l1 l2 l3 g
+T_END = 2.0
+POSITION_TOL = 1e-7
+
+
+def _tips(Y):
+    return Y[:, :9].reshape(-1, 3, 3)
+
+
+def _check_reference(Y):
+    """The Cartesian reference keeps its constraints and its energy (no stabilisation)."""
+    pos, vel = chain_constraints(Y, SPH3[3:6])
+    E = chain_energy(Y, SPH3[:3], SPH3[6])
+    assert np.max(np.abs(pos)) < 1e-10 and np.max(np.abs(vel)) < 1e-9, (pos, vel)
+    assert np.max(np.abs(E - E[0])) < 1e-9, np.max(np.abs(E - E[0]))
+
+
+def _polar_sines(X, axis):
+    d = X - np.concatenate([np.zeros((len(X), 1, 3)), X[:, :-1]], 1)
+    e = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    return np.sqrt(np.maximum(0.0, 1.0 - e[..., axis] ** 2))
+
+
+@pytest.mark.slow
+def test_triple_spherical_through_the_pole_in_the_second_chart(tmp_path):
+    """Link 1 passes exactly through the standard chart's pole (hanging straight down at
+    t = 0) with a 3-D motion of the whole chain; the toolkit integrates it in the second
+    chart, regular there, from t = -1 to 1 with DOP853 (rtol 1e-12), and its bob
+    positions stay within 1e-7 of the Cartesian constraint-force reference.
+
+    The start is made by the reference itself: the state at t = 0 has x1 = (0, 0, -l1);
+    integrating it back to t = -1 gives the start of both runs."""
+    names = point_parameters(3)
+    m, l, g = SPH3[:3], SPH3[3:6], SPH3[6]
+    x1 = np.array([0.0, 0.0, -l[0]])
+    e2 = np.array([0.5, 0.3, -0.8]) / np.linalg.norm([0.5, 0.3, -0.8])
+    e3 = np.array([-0.4, 0.6, -0.7]) / np.linalg.norm([-0.4, 0.6, -0.7])
+    x2, x3 = x1 + l[1] * e2, x1 + l[1] * e2 + l[2] * e3
+    v1 = np.array([2.0, 1.2, 0.0])                      # tangent: x1 . v1 = 0
+    w2 = np.cross(np.array([0.3, -1.5, 1.0]), e2) * l[1]
+    w3 = np.cross(np.array([1.2, 0.8, 0.4]), e3) * l[2]
+    now = np.concatenate([x1, x2, x3, v1, v1 + w2, v1 + w2 + w3])
+    back = chain_simulate(now, np.array([0.0, -1.0]), m, l, g)[-1]
+    t = np.linspace(-1.0, 1.0, 201)
+    Y = chain_simulate(back, t, m, l, g)
+    _check_reference(Y)
+    assert np.max(np.abs(Y[100] - now)) < 1e-10            # it passes through the pole at t = 0
+    X = _tips(Y)
+    assert _polar_sines(X, 2)[100, 0] < 1e-10              # link 1 vertical: standard chart singular
+    assert np.min(_polar_sines(X, 0)) > 0.25               # never near x: second chart regular
+
+    ref = spherical_chain(points(3), names, "second")
+    y0 = ref.state_from_cartesian(_tips(back[None])[0], back[9:].reshape(3, 3), SPH3, "second")
+    path = tmp_path / "model.toml"
+    path.write_text(model_toml("ref_sph3_pole_second", 3, names, "second", points(3)))
+    from derive import simulate
+    r = simulate(str(path), y0, t, SPH3, method="dop853", rtol=1e-12, atol=1e-14)
+    assert r.ok, r.message
+    err = float(np.max(np.abs(np.asarray(r.positions, float) - X)))
+    assert err < POSITION_TOL, f"max bob position error {err:.3g}"
+
+
+@pytest.mark.slow
+def test_triple_spherical_near_the_pole_in_the_standard_chart(tmp_path):
+    """In the standard chart: link 1 swings past the downward vertical with a small
+    azimuthal rate, its polar sine dipping to ~0.05 (link 3 to ~0.045), below the default
+    single-chart threshold 0.1, so sine_min = 0.01 is given.  Bob positions over t = 2
+    against the Cartesian reference, DOP853 at rtol 1e-12: within 1e-7."""
+    names = point_parameters(3)
+    m, l, g = SPH3[:3], SPH3[3:6], SPH3[6]
+    ref = spherical_chain(points(3), names, "standard")
+    y0 = np.array([0.5, 0.0, 1.1, 2.0, 1.4, 3.0, -2.0, 0.5, 0.0, 2.5, 0.0, -2.0])
+    x, v = ref.cartesian(y0, SPH3)
+    t = np.linspace(0.0, T_END, 401)
+    Y = chain_simulate(np.concatenate([x.ravel(), v.ravel()]), t, m, l, g)
+    _check_reference(Y)
+    X = _tips(Y)
+    s = _polar_sines(X, 2)
+    assert 0.01 < np.min(s[:, 0]) < 0.1, np.min(s, 0)      # close to, not through, the pole
+    assert np.min(s) > 0.01, np.min(s, 0)
+
+    path = tmp_path / "model.toml"
+    path.write_text(model_toml("ref_sph3_pole_standard", 3, names, "standard", points(3)))
+    from derive import simulate
+    r = simulate(str(path), y0, t, SPH3, method="dop853", rtol=1e-12, atol=1e-14, sine_min=0.01)
+    assert r.ok, r.message
+    err = float(np.max(np.abs(np.asarray(r.positions, float) - X)))
+    assert err < POSITION_TOL, f"max bob position error {err:.3g}"
