@@ -205,6 +205,9 @@ def model_spec(d) -> ModelSpec:
     model, s = d.model, d.symbols
     state, params, canonical = _vectors(d)
     y, p = Input("y", state), Input("p", params)
+    # run-time inputs (u): an argument of their own, of the kernels whose outputs use them
+    inputs = Vector("input", "INPUTS", "input_names", s.u, "the run-time inputs") if s.u else None
+    yp = (y, p) if inputs is None else (y, p, Input("u", inputs))
     nq, n, dim = len(s.q), len(s.state), model.dimension
     guards = tuple(d.polar_sines)
     dyn = dynamics(d)
@@ -215,7 +218,7 @@ def model_spec(d) -> ModelSpec:
     kernels.append(Kernel(
         "rhs", "The first-order state derivative y' = f(y; p): (q', q'') with M q'' = F "
                f"solved in the code ({dyn.method}).",
-        (y, p), (Output("ydot", (n,), tuple(ydot), "y' in state order"),),
+        yp, (Output("ydot", (n,), tuple(ydot), "y' in state order"),),
         tuple(dyn.stages), guards))
 
     kernels.append(Kernel(
@@ -224,8 +227,9 @@ def model_spec(d) -> ModelSpec:
         tuple(mass.stages), guards))
 
     kernels.append(Kernel(
-        "forcing", "The forcing F(q, q') of M q'' = F.",
-        (y, p), (Output("F", (nq,), tuple(d.F), "F"),)))
+        "forcing", "The forcing F(q, q') of M q'' = F" + ("" if d.model.is_conservative else
+                   " (with the applied forces Q and the dissipation -dR/dq')") + ".",
+        yp, (Output("F", (nq,), tuple(d.F), "F"),)))
 
     kernels.append(Kernel(
         "energy", "The total energy T + V.",
@@ -241,7 +245,7 @@ def model_spec(d) -> ModelSpec:
     kernels.append(Kernel(
         "jacobian", "The Jacobian of rhs with respect to y, J[i][k] = d f_i / d y_k, by "
                     "differentiating M q'' = F implicitly and reusing the solve of rhs.",
-        (y, p), (Output("J", (n, n), tuple(jac.exprs), "row-major"),),
+        yp, (Output("J", (n, n), tuple(jac.exprs), "row-major"),),
         tuple(dyn.stages) + tuple(jac.stages), guards))
 
     if canonical is not None:
@@ -280,7 +284,8 @@ def model_spec(d) -> ModelSpec:
                 (Output("y_out", (n,), tuple(conv.exprs), f"state of '{target}'"),),
                 tuple(conv.stages), tuple(conv.guards)))
 
-    vectors = (state, params) + ((canonical,) if canonical is not None else ())
+    vectors = (state, params) + ((inputs,) if inputs is not None else ()) + \
+        ((canonical,) if canonical is not None else ())
     spec = ModelSpec(model.name, model.title, model.source, vectors,
                      tuple(_normalise(k) for k in kernels))
     check_spec(spec)

@@ -87,4 +87,4 @@ class IntegratorLibrary:
 def integrator_library(model: str) -> IntegratorLibrary:
     from .codegen import model_info
     info = model_info(model)
-    return IntegratorLibrary(model, info.n, info.n_params)
+    return IntegratorLibrary(model, info.n, info.n_params + info.n_inputs)   # p = (params, inputs)

@@ -43,6 +43,11 @@ class ModelInfo:
     nguards: int
     state_names: tuple[str, ...]
     param_names: tuple[str, ...]
+    input_names: tuple[str, ...] = ()      # run-time inputs: the integrators take them after p
+
+    @property
+    def n_inputs(self) -> int:
+        return len(self.input_names)
 
 
 @lru_cache(maxsize=None)
@@ -50,7 +55,8 @@ def model_info(name: str) -> ModelInfo:
     d = derive(name)
     s = d.symbols
     return ModelInfo(name, d.model.title, len(s.state), len(s.params), d.hamiltonian is not None,
-                     len(d.polar_sines), tuple(x.name for x in s.state), tuple(x.name for x in s.params))
+                     len(d.polar_sines), tuple(x.name for x in s.state), tuple(x.name for x in s.params),
+                     tuple(x.name for x in s.u))
 
 
 def _combo(terms, ctype: str, array: str = "K", index: str = "k") -> str:
@@ -149,6 +155,7 @@ def render_c(name: str) -> dict[str, str]:
     info = model_info(name)
     ctx = {"P": name, "M": name.upper(), "title": info.title, "has_ham": info.has_ham,
            "has_guards": info.nguards > 0, "nguards": info.nguards, "sine_min": SINE_MIN,
+           "has_inputs": info.n_inputs > 0,
            "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE, "variants": c_variants(), "sources": SOURCES}
     return {
         f"c/{name}_integrate.h": render("c/integrate.h.jinja", dict(ctx, template="templates/c/integrate.h.jinja")),
@@ -232,7 +239,8 @@ def render_numpy(name: str) -> dict[str, str]:
     info = model_info(name)
     explicit, gauss = numpy_tableaus()
     ctx = {"P": name, "title": info.title, "has_ham": info.has_ham, "has_guards": info.nguards > 0,
-           "n": info.n, "n_params": info.n_params, "sine_min": SINE_MIN, "sources": SOURCES,
+           "n": info.n, "n_params": info.n_params + info.n_inputs, "sine_min": SINE_MIN, "sources": SOURCES,
+           "model_params": info.n_params, "has_inputs": info.n_inputs > 0,
            "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE,
            "explicit": explicit, "gauss": gauss, "template": "templates/numpy/integrate.py.jinja"}
     return {f"numpy/{name}_integrate.py": render("numpy/integrate.py.jinja", ctx)}

@@ -206,6 +206,33 @@ def check_parameter_values(description, values: Mapping, error=SimulationInputEr
             raise error(f"parameter {n} = {float(v):g} must be in [0, 1] (a centre of mass along its link)")
 
 
+def normalise_inputs(model: str, inputs) -> np.ndarray | None:
+    """The run-time inputs of a model, in its order (None for a model without inputs)."""
+    names = load_model(model).inputs if model != ATLAS else ()
+    if not names:
+        if inputs is not None and len(inputs):
+            raise SimulationInputError(f"model '{model}' has no inputs; got inputs={inputs!r}")
+        return None
+    if inputs is None:
+        raise SimulationInputError(f"model '{model}' needs its inputs ({', '.join(names)}): give inputs=...")
+    if callable(inputs):
+        raise SimulationInputError("inputs as a function of t are not supported yet: give constant "
+                                   "values, and run piecewise for a time-varying input")
+    if isinstance(inputs, Mapping):
+        unknown = sorted(set(inputs) - set(names))
+        if unknown:
+            raise SimulationInputError(f"unknown input '{unknown[0]}' of model '{model}' (inputs: {', '.join(names)})")
+        missing = [n for n in names if n not in inputs]
+        if missing:
+            raise SimulationInputError(f"missing input '{missing[0]}' of model '{model}' (inputs: {', '.join(names)})")
+        values = [inputs[n] for n in names]
+    else:
+        values = list(np.asarray(inputs, dtype=object).reshape(-1))
+        if len(values) != len(names):
+            raise SimulationInputError(f"model '{model}' takes {len(names)} inputs ({', '.join(names)}), got {len(values)}")
+    return _finite_array(values, "inputs")
+
+
 def _cartesian_y0(model: str, value, p: np.ndarray) -> np.ndarray:
     c = _finite_array(value, "y0['cartesian']").astype(np.float64).reshape(-1)
     if c.size != 12:
@@ -317,12 +344,15 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
              atol: float | None = None, step: float | None = None, dtype="float64",
              backend: str = "c", max_steps: int | None = None, sine_min: float | None = None,
              newton_tol: float | None = None, newton_max: int | None = None,
-             hmax: float | None = None) -> SimulationResult:
+             hmax: float | None = None, inputs=None) -> SimulationResult:
     """Integrate `model` from y0 at t[0] and report every output time in t.
 
     method: rk4, midpoint, gauss2 (fixed step: `step` required), dopri5, dop853
     (adaptive: rtol, atol; `step` is the initial step, optional).  dtype: float32,
     float64 or longdouble.  backend: "c" (compiled generated C) or "numpy".
+    model: a catalogue name, the path of a model file, or "spherical" (the chart atlas).
+    inputs: the model's run-time inputs (a mapping by name or a sequence in the model's
+    order), held constant over the run.
     """
     model = resolve_model(model)
     if not isinstance(method, str) or method not in METHODS:
@@ -332,6 +362,7 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     dt = _dtype(dtype)
     eps = float(np.finfo(dt).eps)
     p = normalise_params(model, params)
+    u = normalise_inputs(model, inputs)
     ts = normalise_t(t)
     state, chart, _ = normalise_y0(model, y0, p)
     opt = {"rtol": _DEFAULT_RTOL[dtype_key(dt)] if rtol is None else rtol,
@@ -368,7 +399,7 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
         from .atlas import run_atlas
         result = run_atlas(method, state, chart, ts, p, opt, dt, backend)
     else:
-        result = _run_single(model, method, state, ts, p, opt, dt, backend)
+        result = _run_single(model, method, state, ts, p, opt, dt, backend, u)
     if method in ADAPTIVE:
         result.rtol = opt["rtol"]
     else:
@@ -376,9 +407,11 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     return result
 
 
-def _run_single(model, method, y0, ts, p, opt, dt, backend) -> SimulationResult:
+def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> SimulationResult:
     y0 = np.asarray(y0, dt)
     pd = np.asarray(p, dt)
+    if u is not None and len(u):            # the integrators take p = (params, inputs)
+        pd = np.concatenate([pd, np.asarray(u, dt)])
     tsd = np.asarray(ts, dt)
     if backend == "c":
         from .build import integrator_library
@@ -395,7 +428,7 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend) -> SimulationResult:
         status, y, inf = mod.integrate(method, y0, pd, tsd, dt, **opt)
         counters = {k: int(inf[k]) for k in COUNTERS}
         t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
-    E, pos = _observables(model, y, pd, backend, dt)
+    E, pos = _observables(model, y, np.asarray(p, dt), backend, dt)
     single_chart = model_info(model).nguards > 0     # a chart model: its chart at every output
     return SimulationResult(
         model=model, method=method, backend=backend, dtype=dtype_key(dt), t=np.asarray(ts, dt), y=y,

@@ -79,14 +79,17 @@ def _rhs_body(name: str):
 
 
 def _inputs(body):
-    """(state symbols, parameter symbols) of the rhs kernel."""
-    state = params = None
+    """(state symbols, parameter symbols) of the rhs kernel; the loops take the run-time
+    inputs as parameters after the model's own (p = (params, inputs), as the integrators)."""
+    state, params, inputs = None, None, []
     for inp in body.kernel.inputs:
         if inp.vector.key == "param":
             params = list(inp.vector.symbols)
+        elif inp.vector.key == "input":
+            inputs = list(inp.vector.symbols)
         else:
             state = list(inp.vector.symbols)
-    return state, params
+    return state, params + inputs
 
 
 # Fixed-step methods of the single-trajectory loops, as data:

@@ -21,8 +21,8 @@ def _columns(o) -> tuple[list[str], np.ndarray]:
     r = o.result
     pos = np.asarray(o.positions, float)
     dim = pos.shape[-1]
-    names = ["t"] + _state_names(o) + [f"{b}{k}_{a}" for k in (1, 2) for b, a in
-                                       [("x", ax) for ax in "xyz"[:dim]]] + ["energy"]
+    bobs = pos.shape[1]
+    names = ["t"] + _state_names(o) + [f"x{k}_{a}" for k in range(1, bobs + 1) for a in "xyz"[:dim]] + ["energy"]
     data = np.column_stack([np.asarray(r.t, float), np.asarray(r.y, float),
                             pos.reshape(len(pos), -1), np.asarray(o.energy, float)])
     return names, data
@@ -94,8 +94,8 @@ def _plots(o, out: Path, stem: str) -> list[str]:
     written = []
     if "paths" in o.scene.plots:
         fig, ax = plt.subplots(figsize=(5, 5))
-        for k, colour in ((0, "tab:blue"), (1, "tab:red")):
-            ax.plot(pos[:, k, horizontal], pos[:, k, vertical], lw=0.7, color=colour, label=f"bob {k + 1}")
+        for k in range(pos.shape[1]):
+            ax.plot(pos[:, k, horizontal], pos[:, k, vertical], lw=0.7, color=f"C{k}", label=f"bob {k + 1}")
         ax.plot([0], [0], "ko", ms=3)
         ax.set_aspect("equal")
         ax.set_xlabel("x")
@@ -127,7 +127,7 @@ def _plots(o, out: Path, stem: str) -> list[str]:
 def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str:
     from matplotlib.animation import FuncAnimation, PillowWriter
     frames = np.linspace(0, len(pos) - 1, min(len(pos), 150)).astype(int)
-    reach = float(np.max(np.linalg.norm(pos[:, 1], axis=-1))) * 1.05
+    reach = float(np.max(np.linalg.norm(pos, axis=-1))) * 1.05
     fig, ax = plt.subplots(figsize=(4, 4))
     ax.set_xlim(-reach, reach)
     ax.set_ylim(-reach, reach)
@@ -137,10 +137,8 @@ def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str:
 
     def draw(i):
         k = frames[i]
-        xs = [0, pos[k, 0, horizontal], pos[k, 1, horizontal]]
-        ys = [0, pos[k, 0, vertical], pos[k, 1, vertical]]
-        line.set_data(xs, ys)
-        trail.set_data(pos[:k + 1, 1, horizontal], pos[:k + 1, 1, vertical])
+        line.set_data([0, *pos[k, :, horizontal]], [0, *pos[k, :, vertical]])     # the whole chain
+        trail.set_data(pos[:k + 1, -1, horizontal], pos[:k + 1, -1, vertical])    # its last bob
         return line, trail
 
     anim = FuncAnimation(fig, draw, frames=len(frames), blit=True)

@@ -19,7 +19,7 @@ import numpy as np
 import sympy as sp
 
 from ..model import load_model
-from .scene import ATLAS, Scene
+from .scene import ATLAS, SPHERICAL_CHART_MODELS, Scene
 
 RELATIVE_TOLERANCE = 1e-12   # "exactly": equal to rounding of the given numbers
 
@@ -102,7 +102,7 @@ def plan(scene: Scene) -> Plan:
                         f"(derived): m1' = {planar['m1']:.6g}, m2' = {planar['m2']:.6g}, "
                         f"l2' = {planar['l2']:.6g}")
         return Plan("compound", scene.parameters, state, "compound: rods with inertia (L1 != m1 l1^2/4)")
-    if scene.model == ATLAS or scene.model.startswith("spherical"):
+    if scene.model == ATLAS or scene.model in SPHERICAL_CHART_MODELS:
         c = cartesian_state(scene)
         u = vertical_plane(c)
         if u is not None:

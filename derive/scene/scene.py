@@ -9,7 +9,7 @@ from pathlib import Path
 from ..errors import SceneError
 from ..model.description import NAME
 from ..paths import scenes_dir
-from ..model import ModelError, load_model
+from ..model import ModelError, is_model_file, load_model
 
 ATLAS = "spherical"             # the spherical pendulum run through the chart atlas
 SPHERICAL_CHART_MODELS = ("spherical_std", "spherical_alt", "spherical_rot")
@@ -18,7 +18,6 @@ FIXED_STEP = ("rk4", "gauss2", "midpoint")
 SCALARS = ("float", "double", "long double")
 TRAJECTORY_FORMATS = ("csv", "npz")
 PLOTS = ("paths", "energy", "animation")
-POSITIVE_PARAMETERS = ("m1", "m2", "l1", "l2", "g")   # must be > 0; inertias may be 0
 
 
 @dataclass
@@ -83,7 +82,7 @@ def _parameter_names(model: str) -> tuple[str, ...]:
     return load_model(name).parameters
 
 
-def _parse_pendulum(t: dict) -> tuple[str, dict[str, float]]:
+def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
     _known(t, ("model", "parameters"), "[pendulum]")
     if "model" not in t:
         raise SceneError("[pendulum]: missing key 'model'")
@@ -91,9 +90,12 @@ def _parse_pendulum(t: dict) -> tuple[str, dict[str, float]]:
     if not isinstance(model, str):
         raise SceneError(f"'pendulum.model' must be a string, got {model!r}")
     try:
+        if is_model_file(model):            # a model file, relative to the scene file
+            path = Path(model)
+            model = load_model(path if path.is_absolute() else folder / path).name
         names = _parameter_names(model)
     except ModelError as exc:
-        raise SceneError(f"'pendulum.model': {exc} or '{ATLAS}'") from None
+        raise SceneError(f"'pendulum.model': {exc}; or '{ATLAS}'") from None
     given = _table(t, "parameters", "[pendulum]")
     for key in given:
         if key not in names:
@@ -103,8 +105,20 @@ def _parse_pendulum(t: dict) -> tuple[str, dict[str, float]]:
     for name in names:
         if name not in given:
             raise SceneError(f"'pendulum.parameters.{name}' is missing")
-        params[name] = _number(given[name], f"pendulum.parameters.{name}",
-                               positive=name in POSITIVE_PARAMETERS, nonnegative=True)
+        params[name] = _number(given[name], f"pendulum.parameters.{name}")
+    description = load_model("spherical_std" if model == ATLAS else model)
+    if description.inputs:
+        raise SceneError(f"'pendulum.model': '{model}' has run-time inputs ({', '.join(description.inputs)}); "
+                         f"scenes do not set inputs yet: use derive.simulate(..., inputs=...)")
+    roles = description.parameter_roles()
+    for name, value in params.items():      # the roles come from the model's links
+        role = roles.get(name)
+        if role in ("length", "mass") and not value > 0:
+            raise SceneError(f"'pendulum.parameters.{name}' must be > 0 (a {role}), got {value:g}")
+        if role == "inertia" and not value >= 0:
+            raise SceneError(f"'pendulum.parameters.{name}' must be >= 0 (a moment of inertia), got {value:g}")
+        if role == "fraction" and not 0 <= value <= 1:
+            raise SceneError(f"'pendulum.parameters.{name}' must be in [0, 1] (a centre of mass), got {value:g}")
     return model, params
 
 
@@ -145,7 +159,10 @@ def _atlas_state(state: dict) -> dict:
 
 
 def _parse_cartesian(value, model: str) -> list[float]:
-    dim = 3 if model.startswith("spherical") else 2
+    if model != ATLAS and model not in SPHERICAL_CHART_MODELS:
+        raise SceneError(f"'initial.cartesian' is for the double spherical pendulum ('{ATLAS}' or one "
+                         f"of its charts); give '{model}' its 'initial.state'")
+    dim = 3
     keys = ("x1", "x2", "v1", "v2")
     if not isinstance(value, dict):
         raise SceneError("'initial.cartesian' must be a table with x1, x2, v1, v2")
@@ -221,7 +238,7 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: not valid TOML: {exc}") from None
     _known(t, ("title", "pendulum", "initial", "time", "accuracy", "output"), source)
-    model, params = _parse_pendulum(_table(t, "pendulum", source))
+    model, params = _parse_pendulum(_table(t, "pendulum", source), Path(source).parent)
     initial = _parse_initial(_table(t, "initial", source), model)
     start, stop, outputs = _parse_time(_table(t, "time", source))
     accuracy = _parse_accuracy(_table(t, "accuracy", source, required=False))
