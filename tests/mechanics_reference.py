@@ -103,7 +103,7 @@ class Reference:
         """q'' (..., n) with every state evaluated and solved in mpmath at `dps` digits,
         then rounded to float64: the reference to compare float64 kernels against.
         (The float64 evaluation of SymPy's unsimplified M and f loses up to ~1e-13 near
-        the spherical charts' poles; this one is exact to the last bit.)"""
+        the spherical charts' poles; this one is correct to the last bit of a double.)"""
         import mpmath
         if not hasattr(self, "_mp"):
             self._mp = (sp.lambdify(self.symbols, self.mass_matrix, "mpmath", cse=True),
