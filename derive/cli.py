@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 from . import __version__
-from .errors import DeriveError, ToolMissingError, UsageError
+from .errors import DeriveError, ModelError, ToolMissingError, UsageError
 from .model import is_model_file, load_model, model_names
 from .paths import checkout_root
 from .progress import Stage
@@ -36,6 +36,21 @@ def _model_arg(arg: str, allow_atlas: bool = False) -> str:
     return arg
 
 
+def _model_args(args: list[str], allow_atlas: bool = False) -> list[str]:
+    """Every model argument resolved; a bad one is reported in one line and skipped, so one
+    bad model never stops the others (the command then exits 2 after doing the rest)."""
+    names, bad = [], []
+    for arg in args:
+        try:
+            names.append(_model_arg(arg, allow_atlas))
+        except DeriveError as exc:
+            print(f"derive: error: {exc}", file=sys.stderr)
+            bad.append(arg)
+    if bad and not names:
+        raise ModelError(f"no usable model among {', '.join(bad)}")
+    return names, bad
+
+
 def _derive_all(models: list[str], stage: Stage | None = None) -> tuple[float, list[tuple[str, float, bool]]]:
     from .derivation import derive
     from .derivation.derivation import is_cached
@@ -51,13 +66,14 @@ def _derive_all(models: list[str], stage: Stage | None = None) -> tuple[float, l
 
 
 def cmd_derive(args) -> int:
-    models = [_model_arg(m) for m in args.models] or model_names()
+    models, bad = _model_args(args.models)
+    models = models or model_names()
     with Stage("deriving") as stage:
         total, rows = _derive_all(models, stage)
     for name, seconds, warm in rows:
         print(f"{name:15s} {seconds:7.2f} s  ({'cache' if warm else 'derived'})")
     print(f"derived {len(rows)} models in {total:.2f} s")
-    return 0
+    return 2 if bad else 0
 
 
 def _tally(results, checks) -> tuple[str, bool]:
@@ -80,28 +96,46 @@ def _verify(fresh: bool = False):
     return derive_seconds, rows, results, checks, from_cache
 
 
+def _verify_models(names: list[str]):
+    """The seed verdicts and physics checks of the given models only (cached per model)."""
+    from .verification.cached import physics_model, verify_model
+    results, checks = [], []
+    with Stage("verifying") as stage:
+        derive_seconds, rows = _derive_all(names, stage)
+        for name in names:
+            stage.set(name)
+            results += verify_model(name)
+            checks += physics_model(name)
+    return derive_seconds, rows, results, checks, False
+
+
 def cmd_verify(args) -> int:
     start = time.perf_counter()
-    derive_seconds, rows, results, checks, from_cache = _verify(args.fresh)
+    names, bad = _model_args(args.models)
+    if names:
+        derive_seconds, rows, results, checks, from_cache = _verify_models(names)
+    else:
+        derive_seconds, rows, results, checks, from_cache = _verify(args.fresh)
     seconds = time.perf_counter() - start
     tally, good = _tally(results, checks)
     if args.json:
         from .report.forms import verification_json
         print(json.dumps(verification_json(results, checks), indent=1))
-        return 0 if good else 1
-    width = max(len(r.equation) for r in results)
-    print(f"{'seed':4s} {'equation':{width}s}  {'verdict':8s} what / summary")
-    for r in results:
-        text = r.what if r.verdict == "match" else r.summary
-        print(f"{r.seed[:3]:4s} {r.equation:{width}s}  {r.verdict:8s} {text}")
-    print()
+        return 2 if bad else 0 if good else 1
+    if results:                 # a model without seed formulas has only its physics checks
+        width = max(len(r.equation) for r in results)
+        print(f"{'seed':4s} {'equation':{width}s}  {'verdict':8s} what / summary")
+        for r in results:
+            text = r.what if r.verdict == "match" else r.summary
+            print(f"{r.seed[:3]:4s} {r.equation:{width}s}  {r.verdict:8s} {text}")
+        print()
     for c in checks:
         print(f"{'ok  ' if c.passed else 'FAIL'} {c.name}: {c.detail}")
     derivations = "warm" if all(w for _, _, w in rows) else "cold"
     print(f"\n{tally}")
     print(f"time {seconds:.1f} s (derivations {derive_seconds:.1f} s from a {derivations} cache; "
           f"verdicts {'from the cache' if from_cache else 'computed'})")
-    return 0 if good else 1
+    return 2 if bad else 0 if good else 1
 
 
 # -- derive generate --------------------------------------------------------------------
@@ -116,7 +150,7 @@ def _golden_root() -> Path:
 
 def cmd_generate(args) -> int:
     from .codegen import generate
-    names = [_model_arg(m, allow_atlas=True) for m in args.models]
+    names, bad = _model_args(args.models, allow_atlas=True)
     if args.out:
         out, shown = Path(args.out), args.out.rstrip("/") or "/"
     else:
@@ -144,14 +178,14 @@ def cmd_generate(args) -> int:
                   file=sys.stderr)
             return 1
         print(f"{shown}/ is up to date ({len(files)} files of {len(names)} models)")
-        return 0
+        return 2 if bad else 0
     generate.write_manifest(out)
     if not args.out:
         print(f"rewrote the golden files in {out} (the catalogue: {len(names)} models)")
     print(f"wrote {len(changed)} changed file(s)" if changed else f"{shown}/ already up to date")
     for path in changed:
         print(f"  {path}")
-    return 0
+    return 2 if bad else 0
 
 
 def _writable_folder(path: Path) -> Path:
@@ -406,7 +440,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("models", nargs="*", help=f"models (default: all of {', '.join(model_names())}); "
                                             f"each {model_help}")
     p.set_defaults(func=cmd_derive)
-    p = sub.add_parser("verify", help="check every seed formula against the derivation", epilog=EXIT_CODES)
+    p = sub.add_parser("verify", help="check every seed formula against the derivation, and the physics "
+                                      "of every model (or of the models given)", epilog=EXIT_CODES)
+    p.add_argument("models", nargs="*", help=f"only these models; each {model_help}")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.add_argument("--fresh", action="store_true", help="judge every formula again, ignoring cached verdicts")
     p.set_defaults(func=cmd_verify)

@@ -85,8 +85,8 @@ def test_the_golden_tree_names_the_sympy_it_was_made_with():
 _DETERMINISM = """
 import sys
 from pathlib import Path
-from derive.codegen.generate import generate_all
-generate_all(Path(sys.argv[1]))
+from derive.codegen.generate import generate_all, render_everything
+generate_all(Path(sys.argv[1]), files=render_everything(fresh=True))   # rendered now, not read back
 """
 
 

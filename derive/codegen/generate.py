@@ -5,7 +5,7 @@ import difflib
 from pathlib import Path
 
 from ..model import model_names
-from .sources import ATLAS, PREAMBLE, PROVENANCE, render
+from .sources import ATLAS, PREAMBLE, PROVENANCE, render, render_fresh
 
 MANAGED = {"c": (".c", ".h"), "numpy": (".py",)}   # folders of a generated tree and their suffixes
 
@@ -15,20 +15,21 @@ def catalogue_names() -> list[str]:
     return [*model_names(), ATLAS]
 
 
-def render_models(names) -> dict[str, str]:
-    """The generated files of `names` (catalogue names or model files): path -> text."""
+def render_models(names, fresh: bool = False) -> dict[str, str]:
+    """The generated files of `names` (catalogue names or model files): path -> text;
+    from the cache where it holds them (fresh=True: rendered now, the cache unread)."""
     files: dict[str, str] = {}
     for name in names:
-        for rel, text in render(name).items():
+        for rel, text in (render_fresh(name) if fresh else render(name)).items():
             if rel in files and files[rel] != text:
                 raise ValueError(f"two models write generated/{rel}")
             files[rel] = text
     return dict(sorted(files.items()))
 
 
-def render_everything() -> dict[str, str]:
+def render_everything(fresh: bool = False) -> dict[str, str]:
     """Every file of the golden generated/: the catalogue and the atlas."""
-    return render_models(catalogue_names())
+    return render_models(catalogue_names(), fresh)
 
 
 render_all = render_everything

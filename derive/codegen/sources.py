@@ -16,6 +16,7 @@ it came from; the line has no date, so regeneration is byte-identical.
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import re
 import shutil
@@ -29,6 +30,7 @@ from .. import __version__
 from ..derivation import derive
 from ..derivation.derivation import cache_key
 from ..model import load_model
+from ..model.description import forget_on_model_change
 from ..paths import cache_dir, package_root
 
 ATLAS = "spherical"
@@ -83,10 +85,42 @@ def _raw(name: str) -> dict[str, str]:
     return files
 
 
+def render_fresh(name: str) -> dict[str, str]:
+    """The generated files of one model (or the atlas's own), rendered now:
+    path under generated/ -> text."""
+    return dict(sorted(provenance(name, _raw(name)).items()))
+
+
+@forget_on_model_change
 @lru_cache(maxsize=None)
 def render(name: str) -> dict[str, str]:
-    """(Do not modify the returned dict: it is shared.)  The generated files of one model (or the atlas's own): path under generated/ -> text."""
-    return dict(sorted(provenance(name, _raw(name)).items()))
+    """render_fresh(name), kept in the cache under the key of everything that shapes it,
+    so `derive generate` after editing one model renders only that model.  (Do not
+    modify the returned dict: it is shared.)"""
+    path = cache_dir() / "rendered" / f"{name}-{sources_key(name)}.json"
+    if path.is_file():
+        try:
+            entry = json.loads(path.read_text())
+            files = entry["files"]
+            if entry["sha256"] == _digest(files):
+                return files
+        except (OSError, ValueError, KeyError, TypeError):
+            pass                                # damaged: render again below
+    files = render_fresh(name)
+    _write_file(path, json.dumps({"sha256": _digest(files), "files": files}))
+    return files
+
+
+def _digest(files: dict[str, str]) -> str:
+    return hashlib.sha256(json.dumps(files, sort_keys=True).encode()).hexdigest()
+
+
+def _write_file(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
 
 
 # -- the copy in the cache ---------------------------------------------------------
@@ -140,6 +174,7 @@ def _write_tree(folder: Path, files: dict[str, str]) -> None:
             shutil.rmtree(tmp, ignore_errors=True)
 
 
+@forget_on_model_change
 @lru_cache(maxsize=None)
 def model_sources(name: str) -> Path:
     """The folder (with c/ and numpy/) holding every generated file `name` needs at run

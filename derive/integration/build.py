@@ -14,6 +14,7 @@ import numpy as np
 
 from ..codegen.loader import build_fastest
 from ..codegen.sources import c_source
+from ..model.description import forget_on_model_change
 
 CTYPES = {"float64": ctypes.c_double, "float32": ctypes.c_float, "longdouble": ctypes.c_longdouble}
 SUFFIX = {"float64": "", "float32": "_f", "longdouble": "_l"}
@@ -83,6 +84,7 @@ class IntegratorLibrary:
         return out, infos
 
 
+@forget_on_model_change
 @lru_cache(maxsize=None)
 def integrator_library(model: str) -> IntegratorLibrary:
     from .codegen import model_info

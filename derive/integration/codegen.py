@@ -14,6 +14,7 @@ import mpmath
 
 from ..codegen.emit import render
 from ..derivation import derive
+from ..model.description import forget_on_model_change
 from . import tableau as tb
 
 SINE_MIN = "0.1"          # hard threshold: no kernel below it (per-model default, and atlas)
@@ -50,6 +51,7 @@ class ModelInfo:
         return len(self.input_names)
 
 
+@forget_on_model_change
 @lru_cache(maxsize=None)
 def model_info(name: str) -> ModelInfo:
     d = derive(name)

@@ -26,8 +26,9 @@ from functools import lru_cache
 import numpy as np
 
 from ..errors import SimulationError, SimulationInputError
-from . import cartesian
 from ..model import ModelError, is_model_file, load_model
+from ..model.description import forget_on_model_change
+from . import cartesian
 from .build import dtype_key
 from .codegen import ADAPTIVE, ATLAS_CHARTS, METHODS, SINE_MIN, model_info
 
@@ -304,6 +305,7 @@ def normalise_t(t) -> np.ndarray:
 
 # -- kernels for energy and positions ------------------------------------------
 
+@forget_on_model_change
 @lru_cache(maxsize=None)
 def numpy_module(name: str):
     """The generated NumPy module `name` (a model, '<model>_integrate', '<model>_throughput'

@@ -51,11 +51,12 @@ import numpy as np
 from ..codegen.emit import cse_file, half_angle_sincos, lanes_context, render, trig_lanes
 from ..codegen.loader import VECTOR_MATH, LoaderError, build_fastest, build_library
 from ..codegen.names import numpy_slots
-from ..codegen.sources import c_source
 from ..codegen.printers import CPrinter, PyNumPyPrinter
+from ..codegen.sources import c_source
 from ..codegen.spec import model_spec
 from ..derivation import derive
 from ..model import model_names
+from ..model.description import forget_on_model_change
 from . import tableau as tb
 
 BLOCK = 64                 # lanes per block: 4 states x 64 doubles stay in L1
@@ -73,6 +74,7 @@ def throughput_models() -> list[str]:
     return [m for m in model_names() if not derive(m).polar_sines]
 
 
+@forget_on_model_change
 @lru_cache(maxsize=None)
 def _rhs_body(name: str):
     bodies = cse_file(model_spec(derive(name)))
@@ -137,6 +139,7 @@ def _combo(terms, name) -> str:
     return " + ".join(f"{lit} * {name(j)}" for j, lit in terms)
 
 
+@forget_on_model_change
 @lru_cache(maxsize=None)
 def _rhs_parts(name: str, lanes: bool):
     """(sin/cos lanes or None, assignments, outputs) of the rhs: emit.trig_lanes once per model,
@@ -382,16 +385,19 @@ class FixedLibrary:
         return y, int(done)
 
 
+@forget_on_model_change
 @lru_cache(maxsize=None)
 def fixed_library(model: str) -> FixedLibrary:
     return FixedLibrary(model)
 
 
+@forget_on_model_change
 @lru_cache(maxsize=None)
 def throughput_library(model: str) -> ThroughputLibrary:
     return ThroughputLibrary(model)
 
 
+@forget_on_model_change
 @lru_cache(maxsize=None)
 def throughput_numpy(model: str):
     from .simulate import numpy_module

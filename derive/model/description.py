@@ -347,10 +347,24 @@ def load_model_file(path: str | os.PathLike) -> Model:
                          f"another name")
     known = _from_files.get(model.name)
     if known is not None and known.text != text:
-        raise ModelError(f"{path}: another model file named '{model.name}' was read first; "
-                         f"give the model another name")
+        if Path(known.origin).resolve() != path.resolve():
+            raise ModelError(f"{path}: another model file ({known.origin}) named '{model.name}' was "
+                             f"read first; give the model another name")
+        for forget in _on_change:       # the file was edited: forget what was made of it
+            forget()
     _from_files[model.name] = model
     return model
+
+
+_on_change: list = []
+
+
+def forget_on_model_change(cached):
+    """Register an lru_cache'd function of a model name: cleared when a model file read
+    before is read again with new content (an edit during a session), so nothing stale
+    is ever used.  Returns the function, so it serves as a decorator."""
+    _on_change.append(cached.cache_clear)
+    return cached
 
 
 def load_model(name: str | os.PathLike) -> Model:

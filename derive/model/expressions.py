@@ -84,9 +84,10 @@ class _Builder:
             a = self.build(node.operand, depth + 1)
             return -a if isinstance(node.op, ast.USub) else a
         if isinstance(node, ast.Call):
-            if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
-                name = node.func.id if isinstance(node.func, ast.Name) else ast.dump(node.func)[:40]
-                self.fail(f"the function '{name}'")
+            if not isinstance(node.func, ast.Name):
+                self.fail(f"the construct '{type(node.func).__name__}'")
+            if node.func.id not in FUNCTIONS:
+                self.fail(f"the function '{node.func.id}'")
             if node.keywords:
                 self.fail("a keyword argument")
             args = [self.build(a, depth + 1) for a in node.args]

@@ -6,7 +6,6 @@ use, and the coordinate changes the generated <a>_to_<b> kernels compute.
 """
 from __future__ import annotations
 
-import sympy as sp
 
 from ..derivation import derive
 from ..derivation.charts import chart_change

@@ -114,7 +114,7 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
     for name, value in params.items():      # the roles come from the model's links
         role = roles.get(name)
         if role in ("length", "mass") and not value > 0:
-            raise SceneError(f"'pendulum.parameters.{name}' must be > 0 (a {role}), got {value:g}")
+            raise SceneError(f"'pendulum.parameters.{name}' must be positive (a {role}), got {value:g}")
         if role == "inertia" and not value >= 0:
             raise SceneError(f"'pendulum.parameters.{name}' must be >= 0 (a moment of inertia), got {value:g}")
         if role == "fraction" and not 0 <= value <= 1:

@@ -44,18 +44,24 @@ def _numeric(expr, symbols):
 _system_functions: dict[str, tuple] = {}
 
 
+def _args(d) -> tuple:
+    """What a model's expressions depend on: state, parameters, run-time inputs."""
+    return d.symbols.state + d.symbols.params + d.symbols.u
+
+
 def _system(d) -> tuple:
-    """M and F of a derivation compiled once: functions of (state, params)."""
-    if d.name not in _system_functions:
-        args = d.symbols.state + d.symbols.params
-        _system_functions[d.name] = (_numeric(d.M, args), _numeric(d.F, args))
-    return _system_functions[d.name]
+    """M and F of a derivation compiled once: functions of (state, params, inputs)."""
+    key = (d.name, d.model.content_hash)
+    if key not in _system_functions:
+        args = _args(d)
+        _system_functions[key] = (_numeric(d.M, args), _numeric(d.F, args))
+    return _system_functions[key]
 
 
 def accelerations(d, point: dict) -> mpmath.matrix:
     """q'' at a point by solving M q'' = F in 40-digit arithmetic."""
     M_of, F_of = _system(d)
-    values = [point[s] for s in d.symbols.state + d.symbols.params]
+    values = [point[s] for s in _args(d)]
     with mpmath.workdps(DIGITS):
         return mpmath.lu_solve(mpmath.matrix(M_of(*values).tolist()),
                                mpmath.matrix(F_of(*values).tolist()))
@@ -69,8 +75,8 @@ def mass_matrix_spd(name: str, n_points: int = 20) -> Check:
     rng, smallest = random.Random(7), mpmath.inf
     with mpmath.workdps(DIGITS):
         for _ in range(n_points):
-            pt = random_point(d.symbols.state + d.symbols.params, rng)
-            M = mpmath.matrix(M_of(*[pt[s] for s in d.symbols.state + d.symbols.params]).tolist())
+            pt = random_point(_args(d), rng)
+            M = mpmath.matrix(M_of(*[pt[s] for s in _args(d)]).tolist())
             eig = mpmath.eigsy(M)[0]
             smallest = min(smallest, min(eig))
     ok = symmetric and smallest > 0
@@ -175,11 +181,11 @@ def _cartesian_acceleration(d):
     tips = sp.Matrix.vstack(*d.tips)
     J = tips.jacobian(q)
     acc = J * qdd + (J * qd).jacobian(q) * qd
-    f = _numeric(acc, list(d.symbols.state + d.symbols.params) + list(qdd))
+    f = _numeric(acc, list(_args(d)) + list(qdd))
 
     def at(pt):
         qdd_val = accelerations(d, pt)
-        return list(f(*([pt[s] for s in d.symbols.state + d.symbols.params] + list(qdd_val))))
+        return list(f(*([pt[s] for s in _args(d)] + list(qdd_val))))
     return at
 
 
@@ -209,27 +215,104 @@ def chart_round_trip(first: str, second: str, n_points: int = 20) -> Check:
 
 
 def energy_conservation(name, n_points: int = 20) -> Check:
-    """dE/dt = dE/dq . q' + dE/dq' . q'' vanishes along the equations of motion
-    (q'' solving M q'' = F) at random states, relative to the size of its terms."""
+    """The power balance dE/dt = q' . Q - q' . dR/dq' along the equations of motion
+    (q'' solving M q'' = F) at random states, relative to the size of its terms; for a
+    conservative model (no Q, no R) that is dE/dt = 0."""
     d = derive(name)
     s = d.symbols
-    args = list(s.state + s.params)
+    args = list(_args(d))
     E = d.energy
     grad_q = _numeric(sp.Matrix([E.diff(x) for x in s.q]), args)
     grad_qd = _numeric(sp.Matrix([E.diff(x) for x in s.qd]), args)
+    qd = sp.Matrix(s.qd)
+    power = sp.S.Zero
+    if d.forces is not None:
+        power += (qd.T * d.forces)[0, 0]
+    if d.dissipation is not None:
+        power -= sum(v * d.dissipation.diff(v) for v in s.qd)
+    power_of = _numeric(power, args)
     rng, worst = random.Random(13), mpmath.mpf(0)
     with mpmath.workdps(DIGITS):
         for _ in range(n_points):
-            pt = random_point(s.state + s.params, rng)
+            pt = random_point(_args(d), rng)
             vals = [pt[x] for x in args]
             acc = accelerations(d, pt)
             terms = ([a * pt[x] for a, x in zip(grad_q(*vals), s.qd)]
-                     + [b * acc[k] for k, b in enumerate(grad_qd(*vals))])
+                     + [b * acc[k] for k, b in enumerate(grad_qd(*vals))] + [-power_of(*vals)])
             scale = sum(abs(t) for t in terms) or 1
             worst = max(worst, abs(sum(terms)) / scale)
     ok = worst < mpmath.mpf(10) ** -30
-    return Check(f"{d.name}: energy conserved", ok,
-                 f"largest relative dE/dt over {n_points} states: {mpmath.nstr(worst, 3)}",
+    if d.model.is_conservative:
+        title, what = "energy conserved", "dE/dt"
+    else:
+        title, what = "power balance dE/dt = q'.Q - q'.dR/dq'", "dE/dt - q'.Q + q'.dR/dq'"
+    return Check(f"{d.name}: {title}", ok,
+                 f"largest relative {what} over {n_points} states: {mpmath.nstr(worst, 3)}",
+                 (d.name,), n_points, "1e-30", mpmath.nstr(worst, 3))
+
+
+def cartesian_constraint_forces(name, n_points: int = 20) -> Check | None:
+    """For a chain of point masses: the bobs' accelerations from the derivation equal those
+    of the Cartesian formulation m_k a_k = m_k g + tension forces along the links, the
+    tensions solved from the second derivatives of the constraints |x_k - x_{k-1}| = l_k.
+    None for a chain with a rod (its rotational inertia is no point mass)."""
+    d = derive(name)
+    if any(link.body.kind != "point" for link in d.model.links):
+        return None
+    s, dim = d.symbols, d.model.dimension
+    args = list(_args(d))
+    tips = [sp.Matrix(t) for t in d.tips]
+    q, qd = sp.Matrix(s.q), sp.Matrix(s.qd)
+    vel = [t.jacobian(q) * qd for t in tips]
+    pos_of, vel_of = _numeric(sp.Matrix.hstack(*tips), args), _numeric(sp.Matrix.hstack(*vel), args)
+    acc_of = _cartesian_acceleration(d)
+    from ..derivation.symbols import parse_quantity
+    masses = _numeric(sp.Matrix([parse_quantity(link.body.mass, s) for link in d.model.links]), args)
+    g_of = _numeric(s.param("g"), args)
+    nb = len(tips)
+    rng, worst = random.Random(23), mpmath.mpf(0)
+    with mpmath.workdps(DIGITS):
+        for _ in range(n_points):
+            pt = random_point(_args(d), rng)
+            vals = [pt[x] for x in args]
+            X, V = mpmath.matrix(pos_of(*vals).tolist()), mpmath.matrix(vel_of(*vals).tolist())
+            m, g = list(masses(*vals)), g_of(*vals)
+            x = [X[:, k] for k in range(nb)]
+            v = [V[:, k] for k in range(nb)]
+            zero = mpmath.matrix(dim, 1)
+            dk = [x[k] - (x[k - 1] if k else zero) for k in range(nb)]
+            wk = [v[k] - (v[k - 1] if k else zero) for k in range(nb)]
+            grav = mpmath.matrix(dim, 1)
+            grav[dim - 1] = -g
+
+            def accel(lam):     # a_k = g + (-lam_k d_k + lam_{k+1} d_{k+1}) / m_k
+                out = []
+                for k in range(nb):
+                    f = -lam[k] * dk[k] + (lam[k + 1] * dk[k + 1] if k + 1 < nb else zero)
+                    out.append(grav + f / m[k])
+                return out
+
+            def residual(lam):  # d_k . (a_k - a_{k-1}) + |w_k|^2 = 0 for every link
+                a = accel(lam)
+                return [sum(dk[k][i] * (a[k][i] - (a[k - 1][i] if k else 0)) for i in range(dim))
+                        + sum(wk[k][i] ** 2 for i in range(dim)) for k in range(nb)]
+
+            r0 = residual([0] * nb)     # linear in the tensions: columns by unit tensions
+            A = mpmath.matrix(nb, nb)
+            for j in range(nb):
+                rj = residual([1 if i == j else 0 for i in range(nb)])
+                for i in range(nb):
+                    A[i, j] = rj[i] - r0[i]
+            lam = mpmath.lu_solve(A, mpmath.matrix([-r for r in r0]))
+            a_ref = accel(list(lam))
+            a_der = acc_of(pt)
+            scale = max([abs(c) for c in a_der] + [1])
+            for k in range(nb):
+                for i in range(dim):
+                    worst = max(worst, abs(a_der[k * dim + i] - a_ref[k][i]) / scale)
+    ok = worst < mpmath.mpf(10) ** -30
+    return Check(f"{d.name}: bob accelerations = Cartesian constraint forces", ok,
+                 f"largest relative difference over {n_points} states: {mpmath.nstr(worst, 3)}",
                  (d.name,), n_points, "1e-30", mpmath.nstr(worst, 3))
 
 
@@ -266,8 +349,12 @@ def model_checks(name) -> list[Check]:
     the plane of the spherical pendulum, the compound pendulum's point masses)."""
     d = derive(name)
     checks = [mass_matrix_spd(name), energy_conservation(name)]
-    if d.hamiltonian is not None:
+    if d.hamiltonian is not None and d.hamiltonian.H is not None:
         checks.append(hamiltonian_consistency(name))
+    if d.model.is_conservative:          # (applied forces have no Cartesian form here)
+        cartesian = cartesian_constraint_forces(name)
+        if cartesian is not None:
+            checks.append(cartesian)
     catalogue = (d.name in model_names()
                  and load_model(d.name).content_hash == d.model.content_hash)
     if not catalogue:
