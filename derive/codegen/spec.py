@@ -245,6 +245,13 @@ def model_spec(d) -> ModelSpec:
                      "gravity points along -" + "xyz"[dim - 1] + ".",
         (y, p), (Output("pos", (len(d.tips), dim), tuple(pos), "tip k, axis j at [k][j]"),)))
 
+    q_col, qd_col = sp.Matrix(s.q), sp.Matrix(s.qd)
+    vel = [sp.expand(c) for tip in d.tips for c in tip.jacobian(q_col) * qd_col]
+    kernels.append(Kernel(
+        "velocities", f"Cartesian velocities of the bobs (link tips), shape ({len(d.tips)}, {dim}): "
+                      "d pos / dt = (d pos / dq) q'.",
+        (y, p), (Output("vel", (len(d.tips), dim), tuple(vel), "tip k, axis j at [k][j]"),)))
+
     jac = solve.jacobian(dyn, s)
     kernels.append(Kernel(
         "jacobian", "The Jacobian of rhs with respect to y, J[i][k] = d f_i / d y_k, by "

@@ -88,16 +88,18 @@ def numpy_atlas():
 
 
 def observables(y: np.ndarray, charts: np.ndarray, p: np.ndarray, backend: str, dtype) -> tuple:
-    """Energy and positions row by row, each row in its own chart."""
-    from .simulate import _observables
+    """Energy, positions and velocities row by row, each row in its own chart."""
+    from .simulate import _observables, _velocities
     n = len(y)
     E = np.full(n, np.nan, dtype)
     pos = np.full((n, 2, 3), np.nan, dtype)
+    vel = np.full((n, 2, 3), np.nan, dtype)
     for k, ch in enumerate(ATLAS_CHARTS):
         rows = np.flatnonzero(charts == k)
         if rows.size:
             E[rows], pos[rows] = _observables(ch, y[rows], p, backend, dtype)
-    return E, pos
+            vel[rows] = _velocities(ch, y[rows], p, backend, dtype)
+    return E, pos, vel
 
 
 def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str):
@@ -123,10 +125,11 @@ def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str):
         t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
         switches, chart_stop = int(inf["nswitches"]), int(inf["chart"])
     ok_rows = charts >= 0
-    E, pos = observables(y, np.where(ok_rows, charts, -1), pd, backend, dt)
+    E, pos, vel = observables(y, np.where(ok_rows, charts, -1), pd, backend, dt)
     names = np.array([ATLAS_CHARTS[c] if c >= 0 else None for c in charts], dtype=object)
     return SimulationResult(
         model="spherical", method=method, backend=backend, dtype=dtype_key(dt), t=np.asarray(ts, dt), y=y,
         energy=E, positions=pos, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
         y_stop=y_stop, chart=names, switches=switches,
-        chart_stop=ATLAS_CHARTS[chart_stop] if 0 <= chart_stop < 3 else None, params=pd, **counters)
+        chart_stop=ATLAS_CHARTS[chart_stop] if 0 <= chart_stop < 3 else None, params=pd,
+        velocities=vel, **counters)

@@ -55,7 +55,7 @@ class SimulationResult:
     t: np.ndarray
     y: np.ndarray                  # (len(t), n); chart states for spherical models
     energy: np.ndarray             # (len(t),)
-    positions: np.ndarray          # (len(t), 2, dim): Cartesian bob positions
+    positions: np.ndarray          # (len(t), bobs, dim): Cartesian bob positions
     status: int
     status_name: str
     t_stop: float                  # time reached (where it stopped on failure)
@@ -72,6 +72,7 @@ class SimulationResult:
     params: np.ndarray = field(default=None, repr=False)
     rtol: float | None = None              # adaptive methods: the tolerance used
     step: float | None = None              # fixed-step methods: the step used
+    velocities: np.ndarray | None = field(default=None, repr=False)   # like positions: bob velocities
 
     @property
     def ok(self) -> bool:
@@ -340,6 +341,21 @@ def _observables(model: str, y: np.ndarray, p: np.ndarray, backend: str, dtype: 
     return np.asarray(E, dtype), np.asarray(pos, dtype)
 
 
+def _velocities(model: str, y: np.ndarray, p: np.ndarray, backend: str, dtype: np.dtype) -> np.ndarray:
+    """The bobs' Cartesian velocities (len(y), bobs, dim) by the generated kernel."""
+    d = _described(model)
+    if len(y) == 0:
+        return np.zeros((0, d.bodies, d.dimension), dtype)
+    if backend == "c":
+        from ..codegen.loader import load
+        from .build import SUFFIX, dtype_key
+        vel = getattr(load(model), "velocities" + SUFFIX[dtype_key(dtype)])(y, p.astype(dtype))
+    else:
+        with np.errstate(all="ignore"):
+            vel = numpy_module(model).velocities(y, p.astype(dtype))
+    return np.asarray(vel, dtype)
+
+
 # -- the entry point --------------------------------------------------------------
 
 def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | None = None,
@@ -431,9 +447,10 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> Simulatio
         counters = {k: int(inf[k]) for k in COUNTERS}
         t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
     E, pos = _observables(model, y, np.asarray(p, dt), backend, dt)
+    vel = _velocities(model, y, np.asarray(p, dt), backend, dt)
     single_chart = model_info(model).nguards > 0     # a chart model: its chart at every output
     return SimulationResult(
         model=model, method=method, backend=backend, dtype=dtype_key(dt), t=np.asarray(ts, dt), y=y,
         energy=E, positions=pos, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
         y_stop=y_stop, chart=np.array([model] * len(ts), dtype=object) if single_chart else None,
-        switches=0, chart_stop=model if single_chart else None, params=pd, **counters)
+        switches=0, chart_stop=model if single_chart else None, params=pd, velocities=vel, **counters)

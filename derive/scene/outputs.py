@@ -21,10 +21,12 @@ def _columns(o) -> tuple[list[str], np.ndarray]:
     r = o.result
     pos = np.asarray(o.positions, float)
     dim = pos.shape[-1]
+    vel = np.asarray(o.velocities, float)
     bobs = pos.shape[1]
-    names = ["t"] + _state_names(o) + [f"x{k}_{a}" for k in range(1, bobs + 1) for a in "xyz"[:dim]] + ["energy"]
+    names = (["t"] + _state_names(o) + [f"x{k}_{a}" for k in range(1, bobs + 1) for a in "xyz"[:dim]]
+             + [f"v{k}_{a}" for k in range(1, bobs + 1) for a in "xyz"[:dim]] + ["energy"])
     data = np.column_stack([np.asarray(r.t, float), np.asarray(r.y, float),
-                            pos.reshape(len(pos), -1), np.asarray(o.energy, float)])
+                            pos.reshape(len(pos), -1), vel.reshape(len(vel), -1), np.asarray(o.energy, float)])
     return names, data
 
 
@@ -68,7 +70,8 @@ def write_outputs(o) -> list[str]:
         path = out / f"{stem}.npz"
         extra = {"chart": np.asarray(o.result.chart, dtype=str)} if o.result.chart is not None else {}
         np.savez(path, t=np.asarray(o.result.t, float), y=np.asarray(o.result.y, float),
-                 positions=np.asarray(o.positions, float), energy=np.asarray(o.energy, float),
+                 positions=np.asarray(o.positions, float), velocities=np.asarray(o.velocities, float),
+                 energy=np.asarray(o.energy, float),
                  state_names=np.array(_state_names(o)), **extra)
         written.append(str(path))
     if o.scene.plots:

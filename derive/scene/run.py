@@ -57,6 +57,7 @@ class Outcome:
     achieved: float | None
     seconds: float
     files: list[str] = field(default_factory=list)
+    velocities: np.ndarray | None = None     # like positions
     show_progress: bool = False          # whether writing the outputs may draw a status line
 
 
@@ -121,7 +122,7 @@ def _join(parts: list[SimulationResult]) -> SimulationResult:
     first, last = parts[0], parts[-1]
     cat = lambda attr: np.concatenate([getattr(parts[0], attr)] + [getattr(r, attr)[1:] for r in parts[1:]])
     out = SimulationResult(**{**first.__dict__, "t": cat("t"), "y": cat("y"), "energy": cat("energy"),
-                              "positions": cat("positions")})
+                              "positions": cat("positions"), "velocities": cat("velocities")})
     for attr in ("status", "status_name", "t_stop", "y_stop", "chart_stop"):
         setattr(out, attr, getattr(last, attr))
     for attr in ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton", "switches"):
@@ -131,18 +132,19 @@ def _join(parts: list[SimulationResult]) -> SimulationResult:
     return out
 
 
-def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray, np.ndarray]:
-    """Positions and energy of the scene's own pendulum (not of the model that ran)."""
+def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions, velocities and energy of the scene's own pendulum (not of the model that ran)."""
     if scene.model == "compound" and p.model == "planar":
         from ..codegen.loader import load
         from ..integration.simulate import normalise_params
         pc = normalise_params("compound", scene.parameters).astype(np.float64)
         m = load("compound")
         y = r.y.astype(np.float64)
-        return m.positions(y, pc), m.energy(y, pc)
+        return m.positions(y, pc), m.velocities(y, pc), m.energy(y, pc)
     if p.plane is not None:
-        return planar_positions_in_3d(r.positions, p.plane), r.energy
-    return r.positions, r.energy
+        return (planar_positions_in_3d(r.positions, p.plane),
+                planar_positions_in_3d(r.velocities, p.plane), r.energy)
+    return r.positions, r.velocities, r.energy
 
 
 def _final_error(run_: SimulationResult, reference: SimulationResult) -> float:
@@ -205,9 +207,9 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
                            np.longdouble if c.dtype == "longdouble" else np.float64,
                            float(np.max(np.abs(result.y[0]))))
         horizon = trust_horizon(lyap, scene.target or 1e-8, e0) + scene.t_start
-    positions, energy = _observables(scene, p, result)
+    positions, velocities, energy = _observables(scene, p, result)
     return Outcome(scene, p, steps, c, lyap, horizon, result, positions, energy, achieved,
-                   time.perf_counter() - start, show_progress=show_progress)
+                   time.perf_counter() - start, velocities=velocities, show_progress=show_progress)
 
 
 def summary(o: Outcome) -> dict:

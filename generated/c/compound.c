@@ -692,19 +692,20 @@ int compound_positions(const double *restrict y, const double *restrict p, doubl
     const double t0 = lane_sin[0];
     const double t2 = lane_cos[0];
     const double t4 = lane_sin[1];
-    const double t5 = lane_cos[1];
+    const double t6 = lane_cos[1];
     const double t1 = p[2]*t0;
     const double t3 = p[2]*t2;
-    const double t6 = p[3]*t5;
-    const double t7 = -t3;
-    const double t8 = p[3]*t4 + t1;
-    const double t9 = -t3 - t6;
+    const double t5 = p[3]*t4;
+    const double t7 = p[3]*t6;
+    const double t8 = -t3;
+    const double t9 = t1 + t5;
+    const double t10 = -t3 - t7;
     pos[0] = t1;
-    pos[1] = t7;
-    pos[2] = t8;
-    pos[3] = t9;
+    pos[1] = t8;
+    pos[2] = t9;
+    pos[3] = t10;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t1 - t1) + (t7 - t7) + (t8 - t8) + (t9 - t9);
+    check = (t1 - t1) + (t8 - t8) + (t9 - t9) + (t10 - t10);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -735,17 +736,18 @@ int compound_positions_f(const float *restrict y, const float *restrict p, float
     const float t2 = cosf(y[0]);
     const float t3 = p[2]*t2;
     const float t4 = sinf(y[1]);
-    const float t5 = cosf(y[1]);
-    const float t6 = p[3]*t5;
-    const float t7 = -t3;
-    const float t8 = p[3]*t4 + t1;
-    const float t9 = -t3 - t6;
+    const float t5 = p[3]*t4;
+    const float t6 = cosf(y[1]);
+    const float t7 = p[3]*t6;
+    const float t8 = -t3;
+    const float t9 = t1 + t5;
+    const float t10 = -t3 - t7;
     pos[0] = t1;
-    pos[1] = t7;
-    pos[2] = t8;
-    pos[3] = t9;
+    pos[1] = t8;
+    pos[2] = t9;
+    pos[3] = t10;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t1 - t1) + (t7 - t7) + (t8 - t8) + (t9 - t9);
+    check = (t1 - t1) + (t8 - t8) + (t9 - t9) + (t10 - t10);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -776,17 +778,18 @@ int compound_positions_l(const long double *restrict y, const long double *restr
     const long double t2 = cosl(y[0]);
     const long double t3 = p[2]*t2;
     const long double t4 = sinl(y[1]);
-    const long double t5 = cosl(y[1]);
-    const long double t6 = p[3]*t5;
-    const long double t7 = -t3;
-    const long double t8 = p[3]*t4 + t1;
-    const long double t9 = -t3 - t6;
+    const long double t5 = p[3]*t4;
+    const long double t6 = cosl(y[1]);
+    const long double t7 = p[3]*t6;
+    const long double t8 = -t3;
+    const long double t9 = t1 + t5;
+    const long double t10 = -t3 - t7;
     pos[0] = t1;
-    pos[1] = t7;
-    pos[2] = t8;
-    pos[3] = t9;
+    pos[1] = t8;
+    pos[2] = t9;
+    pos[3] = t10;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t1 - t1) + (t7 - t7) + (t8 - t8) + (t9 - t9);
+    check = (t1 - t1) + (t8 - t8) + (t9 - t9) + (t10 - t10);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -799,6 +802,143 @@ int compound_positions_batch_l(long n, const long double *restrict y, long y_str
     long i;
     for (i = 0; i < n; ++i) {
         const int point_status = compound_positions_l(y + i * y_stride, p + i * p_stride, pos + i * COMPOUND_POSITIONS_POS_SIZE);
+        if (status) {
+            status[i] = point_status;
+        }
+        all |= point_status;
+    }
+    return all;
+}
+
+/* compound_velocities (double). Total ops: 14 */
+int compound_velocities(const double *restrict y, const double *restrict p, double *restrict vel)
+{
+    int status = COMPOUND_STATUS_OK;
+    double check;
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
+    int lane;
+    COMPOUND_SIMD
+    for (lane = 0; lane < 2; ++lane) {
+        lane_sin[lane] = sin(lane_angle[lane]);
+        lane_cos[lane] = cos(lane_angle[lane]);
+    }
+    const double t0 = lane_cos[0];
+    const double t3 = lane_sin[0];
+    const double t6 = lane_cos[1];
+    const double t8 = lane_sin[1];
+    const double t1 = p[2]*t0;
+    const double t2 = t1*y[2];
+    const double t4 = p[2]*t3;
+    const double t5 = t4*y[2];
+    const double t7 = p[3]*t6;
+    const double t9 = p[3]*t8;
+    const double t10 = t2 + t7*y[3];
+    const double t11 = t5 + t9*y[3];
+    vel[0] = t2;
+    vel[1] = t5;
+    vel[2] = t10;
+    vel[3] = t11;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t2 - t2) + (t5 - t5) + (t10 - t10) + (t11 - t11);
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
+    }
+    return status;
+}
+
+int compound_velocities_batch(long n, const double *restrict y, long y_stride, const double *restrict p, long p_stride, double *restrict vel, int *restrict status)
+{
+    int all = COMPOUND_STATUS_OK;
+    long i;
+    for (i = 0; i < n; ++i) {
+        const int point_status = compound_velocities(y + i * y_stride, p + i * p_stride, vel + i * COMPOUND_VELOCITIES_VEL_SIZE);
+        if (status) {
+            status[i] = point_status;
+        }
+        all |= point_status;
+    }
+    return all;
+}
+
+/* compound_velocities_f (float). Total ops: 14 */
+int compound_velocities_f(const float *restrict y, const float *restrict p, float *restrict vel)
+{
+    int status = COMPOUND_STATUS_OK;
+    float check;
+    const float t0 = cosf(y[0]);
+    const float t1 = p[2]*t0;
+    const float t2 = t1*y[2];
+    const float t3 = sinf(y[0]);
+    const float t4 = p[2]*t3;
+    const float t5 = t4*y[2];
+    const float t6 = cosf(y[1]);
+    const float t7 = p[3]*t6;
+    const float t8 = sinf(y[1]);
+    const float t9 = p[3]*t8;
+    const float t10 = t2 + t7*y[3];
+    const float t11 = t5 + t9*y[3];
+    vel[0] = t2;
+    vel[1] = t5;
+    vel[2] = t10;
+    vel[3] = t11;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t2 - t2) + (t5 - t5) + (t10 - t10) + (t11 - t11);
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
+    }
+    return status;
+}
+
+int compound_velocities_batch_f(long n, const float *restrict y, long y_stride, const float *restrict p, long p_stride, float *restrict vel, int *restrict status)
+{
+    int all = COMPOUND_STATUS_OK;
+    long i;
+    for (i = 0; i < n; ++i) {
+        const int point_status = compound_velocities_f(y + i * y_stride, p + i * p_stride, vel + i * COMPOUND_VELOCITIES_VEL_SIZE);
+        if (status) {
+            status[i] = point_status;
+        }
+        all |= point_status;
+    }
+    return all;
+}
+
+/* compound_velocities_l (long double). Total ops: 14 */
+int compound_velocities_l(const long double *restrict y, const long double *restrict p, long double *restrict vel)
+{
+    int status = COMPOUND_STATUS_OK;
+    long double check;
+    const long double t0 = cosl(y[0]);
+    const long double t1 = p[2]*t0;
+    const long double t2 = t1*y[2];
+    const long double t3 = sinl(y[0]);
+    const long double t4 = p[2]*t3;
+    const long double t5 = t4*y[2];
+    const long double t6 = cosl(y[1]);
+    const long double t7 = p[3]*t6;
+    const long double t8 = sinl(y[1]);
+    const long double t9 = p[3]*t8;
+    const long double t10 = t2 + t7*y[3];
+    const long double t11 = t5 + t9*y[3];
+    vel[0] = t2;
+    vel[1] = t5;
+    vel[2] = t10;
+    vel[3] = t11;
+    /* x - x is 0 for finite x and NaN for infinite or NaN x */
+    check = (t2 - t2) + (t5 - t5) + (t10 - t10) + (t11 - t11);
+    if (isnan(check)) {
+        status |= COMPOUND_STATUS_NONFINITE;
+    }
+    return status;
+}
+
+int compound_velocities_batch_l(long n, const long double *restrict y, long y_stride, const long double *restrict p, long p_stride, long double *restrict vel, int *restrict status)
+{
+    int all = COMPOUND_STATUS_OK;
+    long i;
+    for (i = 0; i < n; ++i) {
+        const int point_status = compound_velocities_l(y + i * y_stride, p + i * p_stride, vel + i * COMPOUND_VELOCITIES_VEL_SIZE);
         if (status) {
             status[i] = point_status;
         }

@@ -164,6 +164,30 @@ int compound_positions_batch(long n, const double *restrict y, long y_stride, co
 int compound_positions_batch_f(long n, const float *restrict y, long y_stride, const float *restrict p, long p_stride, float *restrict pos, int *restrict status);
 int compound_positions_batch_l(long n, const long double *restrict y, long y_stride, const long double *restrict p, long p_stride, long double *restrict pos, int *restrict status);
 
+/* compound_velocities:
+ *   Cartesian velocities of the bobs (link tips), shape (2, 2): d pos / dt = (d
+ *   pos / dq) q'.
+ *
+ *   in  y[4]: the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
+ *   in  p[7]: the parameters: (m1, m2, l1, l2, L1, L2, g)
+ *   out vel[4]: tip k, axis j at [k][j]
+ * Total ops: 14
+ */
+#define COMPOUND_VELOCITIES_Y_SIZE 4
+#define COMPOUND_VELOCITIES_Y_RANK 1
+#define COMPOUND_VELOCITIES_P_SIZE 7
+#define COMPOUND_VELOCITIES_P_RANK 1
+#define COMPOUND_VELOCITIES_VEL_SIZE 4
+#define COMPOUND_VELOCITIES_VEL_RANK 2
+#define COMPOUND_VELOCITIES_VEL_ROWS 2
+#define COMPOUND_VELOCITIES_VEL_COLS 2
+int compound_velocities(const double *restrict y, const double *restrict p, double *restrict vel);
+int compound_velocities_f(const float *restrict y, const float *restrict p, float *restrict vel);
+int compound_velocities_l(const long double *restrict y, const long double *restrict p, long double *restrict vel);
+int compound_velocities_batch(long n, const double *restrict y, long y_stride, const double *restrict p, long p_stride, double *restrict vel, int *restrict status);
+int compound_velocities_batch_f(long n, const float *restrict y, long y_stride, const float *restrict p, long p_stride, float *restrict vel, int *restrict status);
+int compound_velocities_batch_l(long n, const long double *restrict y, long y_stride, const long double *restrict p, long p_stride, long double *restrict vel, int *restrict status);
+
 /* compound_jacobian:
  *   The Jacobian of rhs with respect to y, J[i][k] = d f_i / d y_k, by
  *   differentiating M q'' = F implicitly and reusing the solve of rhs.

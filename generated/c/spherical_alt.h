@@ -57,7 +57,7 @@ extern const char *const spherical_alt_param_names[SPHERICAL_ALT_N_PARAMS];
  *   in  y[8]: the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out ydot[8]: y' in state order
- * Total ops: 200
+ * Total ops: 202
  */
 #define SPHERICAL_ALT_RHS_Y_SIZE 8
 #define SPHERICAL_ALT_RHS_Y_RANK 1
@@ -161,6 +161,30 @@ int spherical_alt_positions_batch(long n, const double *restrict y, long y_strid
 int spherical_alt_positions_batch_f(long n, const float *restrict y, long y_stride, const float *restrict p, long p_stride, float *restrict pos, int *restrict status);
 int spherical_alt_positions_batch_l(long n, const long double *restrict y, long y_stride, const long double *restrict p, long p_stride, long double *restrict pos, int *restrict status);
 
+/* spherical_alt_velocities:
+ *   Cartesian velocities of the bobs (link tips), shape (2, 3): d pos / dt = (d
+ *   pos / dq) q'.
+ *
+ *   in  y[8]: the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
+ *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
+ *   out vel[6]: tip k, axis j at [k][j]
+ * Total ops: 46
+ */
+#define SPHERICAL_ALT_VELOCITIES_Y_SIZE 8
+#define SPHERICAL_ALT_VELOCITIES_Y_RANK 1
+#define SPHERICAL_ALT_VELOCITIES_P_SIZE 5
+#define SPHERICAL_ALT_VELOCITIES_P_RANK 1
+#define SPHERICAL_ALT_VELOCITIES_VEL_SIZE 6
+#define SPHERICAL_ALT_VELOCITIES_VEL_RANK 2
+#define SPHERICAL_ALT_VELOCITIES_VEL_ROWS 2
+#define SPHERICAL_ALT_VELOCITIES_VEL_COLS 3
+int spherical_alt_velocities(const double *restrict y, const double *restrict p, double *restrict vel);
+int spherical_alt_velocities_f(const float *restrict y, const float *restrict p, float *restrict vel);
+int spherical_alt_velocities_l(const long double *restrict y, const long double *restrict p, long double *restrict vel);
+int spherical_alt_velocities_batch(long n, const double *restrict y, long y_stride, const double *restrict p, long p_stride, double *restrict vel, int *restrict status);
+int spherical_alt_velocities_batch_f(long n, const float *restrict y, long y_stride, const float *restrict p, long p_stride, float *restrict vel, int *restrict status);
+int spherical_alt_velocities_batch_l(long n, const long double *restrict y, long y_stride, const long double *restrict p, long p_stride, long double *restrict vel, int *restrict status);
+
 /* spherical_alt_jacobian:
  *   The Jacobian of rhs with respect to y, J[i][k] = d f_i / d y_k, by
  *   differentiating M q'' = F implicitly and reusing the solve of rhs.
@@ -168,7 +192,7 @@ int spherical_alt_positions_batch_l(long n, const long double *restrict y, long 
  *   in  y[8]: the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out J[64]: row-major
- * Total ops: 713
+ * Total ops: 720
  */
 #define SPHERICAL_ALT_JACOBIAN_Y_SIZE 8
 #define SPHERICAL_ALT_JACOBIAN_Y_RANK 1

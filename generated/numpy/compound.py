@@ -331,23 +331,83 @@ def positions(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t6 = l2*cos_theta2
-    del cos_theta2
-    t7 = -t3
-    t8 = l2*sin_theta2 + t1
+    t5 = l2*sin_theta2
     del sin_theta2
-    t9 = -t3 - t6
-    del t3, t6
+    t7 = l2*cos_theta2
+    del cos_theta2
+    t8 = -t3
+    t9 = t1 + t5
+    del t5
+    t10 = -t3 - t7
+    del t3, t7
     pos = numpy.empty(shape + (2, 2), dtype)
     pos[..., 0, 0] = t1
     del t1
-    pos[..., 0, 1] = t7
-    del t7
-    pos[..., 1, 0] = t8
+    pos[..., 0, 1] = t8
     del t8
-    pos[..., 1, 1] = t9
+    pos[..., 1, 0] = t9
     del t9
+    pos[..., 1, 1] = t10
+    del t10
     return pos
+
+
+def velocities(y, p):
+    """Cartesian velocities of the bobs (link tips), shape (2, 2): d pos / dt = (d pos
+    / dq) q'.
+
+    y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
+    p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
+    returns vel: (..., 2, 2) tip k, axis j at [k][j]
+    Total ops: 14
+    """
+    (y, p), shape, dtype = _prepare("velocities", (y, 4, "y"), (p, 7, "p"))
+    theta1 = y[..., 0]
+    theta2 = y[..., 1]
+    theta1_dot = y[..., 2]
+    theta2_dot = y[..., 3]
+    l1 = p[..., 2]
+    l2 = p[..., 3]
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    t1 = l1*cos_theta1
+    del cos_theta1
+    t2 = t1*theta1_dot
+    del t1
+    t4 = l1*sin_theta1
+    del sin_theta1
+    t5 = t4*theta1_dot
+    del t4
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t7 = l2*cos_theta2
+    del cos_theta2
+    t9 = l2*sin_theta2
+    del sin_theta2
+    t10 = t2 + t7*theta2_dot
+    del t7
+    t11 = t5 + t9*theta2_dot
+    del t9
+    vel = numpy.empty(shape + (2, 2), dtype)
+    vel[..., 0, 0] = t2
+    del t2
+    vel[..., 0, 1] = t5
+    del t5
+    vel[..., 1, 0] = t10
+    del t10
+    vel[..., 1, 1] = t11
+    del t11
+    return vel
 
 
 def jacobian(y, p):

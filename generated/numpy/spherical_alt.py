@@ -36,7 +36,7 @@ def rhs(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns ydot: (..., 8) y' in state order
-    Total ops: 200
+    Total ops: 202
     """
     (y, p), shape, dtype = _prepare("rhs", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -118,16 +118,17 @@ def rhs(y, p):
     del t21
     D1_11 = -t26 - t27
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t28 = 2*varphi2_dot
-    t29 = t28*vartheta2_dot
-    t30 = g*t17*t19
-    t31 = l1*t30
-    t32 = cos_vartheta1*vartheta1_dot
-    t33 = t32*varphi1_dot
-    del t32
-    t34 = 2*Aa
-    t35 = t11*t9
+    t28 = g*t17*t19
+    t29 = l1*t28
+    t30 = cos_vartheta1*vartheta1_dot
+    t31 = t30*varphi1_dot
+    del t30
+    t32 = 2*Aa
+    t33 = 2*varphi2_dot
+    t34 = t11*t9
     del t9
+    t35 = t33*t34
+    del t34
     t36 = t12*t6
     t37 = varphi2_dot*varphi2_dot
     t38 = sin_vartheta2*t37
@@ -135,52 +136,56 @@ def rhs(y, p):
     t40 = t12*t39
     del t39
     t41 = t40*t6
-    f1 = -t31*cos_varphi1 - sin_vartheta2*t41 - t29*t35 - t34*t33 - t36*t38
-    del cos_varphi1, t31, t33, t34, t35, t36, t38, t41
+    f1 = -t29*cos_varphi1 - sin_vartheta2*t41 - t32*t31 - t35*vartheta2_dot - t36*t38
+    del cos_varphi1, t29, t31, t32, t35, t36, t38, t41
     t42 = cos_vartheta2*sin_vartheta2
     t43 = varphi1_dot*varphi1_dot
     t44 = cos_vartheta2*sin_vartheta1
     t45 = t43*t44
-    t46 = 2*vartheta1_dot
-    t47 = t46*varphi1_dot
-    del t46
-    t48 = t14*t6
-    t49 = t48*t8
+    t46 = 2*varphi1_dot
+    t47 = t14*vartheta1_dot
+    t48 = t6*t8
+    t49 = t47*t48
+    del t48
     t50 = vartheta1_dot*vartheta1_dot
     t51 = t11*t44
     del t44
     t52 = t12*(cos_vartheta1*sin_vartheta2 - t51)
     del t12, t51
-    f2 = Ab*(t37*t42) + Q11*t45 + t47*t49 - g*(sin_varphi2*t8) - t50*t52
+    f2 = Ab*(t37*t42) + Q11*t45 + t46*t49 - g*(sin_varphi2*t8) - t50*t52
     del sin_varphi2, t42, t45, t49, t52
     t53 = g*cos_varphi2
     del cos_varphi2
     t54 = cos_vartheta2*vartheta2_dot
-    t55 = Ab*t28
-    del t28
-    t56 = t11*t14
-    t57 = l2*t56
-    del t56
-    f3 = (l1*l2)*(sin_vartheta1*t43*t6) + (l1*l2)*(sin_vartheta1*t50*t6) - l2*t53 - t47*t57 - t54*t55
-    del t47, t50, t53, t54, t55, t57, t6
+    t55 = Ab*t33
+    t56 = t11*t47
+    del t47
+    t57 = t46*t56
+    del t46, t56
+    f3 = (l1*l2)*(sin_vartheta1*t43*t6) + (l1*l2)*(sin_vartheta1*t50*t6) - l2*t53 - l2*t57 - t54*t55
+    del t50, t53, t54, t55, t57
     t58 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t59 = t30*t14
-    del t14, t30
-    t60 = t29*t8
-    del t29, t8
-    t61 = cos_vartheta1*sin_vartheta2
-    t62 = t11*t61
-    del t61
-    t63 = cos_vartheta2*sin_vartheta1 - t62
-    del cos_vartheta2, t62
-    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t11*t37) + (t17*t18*t19)*(cos_vartheta1*sin_vartheta1*t43) - sin_varphi1*t59 - t40*t63 - t48*t60
-    del cos_vartheta1, sin_varphi1, t11, t17, t18, t19, t37, t40, t43, t48, t59, t60, t63
-    t64 = Ab*f0 - Q00*f2 - Q01*f3
+    t59 = t28*t14
+    del t28
+    t60 = t8*vartheta2_dot
+    del t8
+    t61 = t33*t60
+    del t33, t60
+    t62 = t14*t6
+    del t14, t6
+    t63 = cos_vartheta1*sin_vartheta2
+    t64 = t11*t63
+    del t63
+    t65 = cos_vartheta2*sin_vartheta1 - t64
+    del cos_vartheta2, t64
+    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t11*t37) + (t17*t18*t19)*(cos_vartheta1*sin_vartheta1*t43) - sin_varphi1*t59 - t40*t65 - t61*t62
+    del cos_vartheta1, sin_varphi1, t11, t17, t18, t19, t37, t40, t43, t59, t61, t62, t65
+    t66 = Ab*f0 - Q00*f2 - Q01*f3
     del Ab
-    qdd0 = D1_11*rD1*t64 - D1_01*t58
+    qdd0 = D1_11*rD1*t66 - D1_01*t58
     del D1_11
-    xr1 = D1_00*t58 - D1_01*rD1*t64
-    del D1_00, D1_01, rD1, t58, t64
+    xr1 = D1_00*t58 - D1_01*rD1*t66
+    del D1_00, D1_01, rD1, t58, t66
     rs1 = 1.0/sin_vartheta1
     del sin_vartheta1
     qdd1 = rs1*xr1
@@ -191,14 +196,14 @@ def rhs(y, p):
     D2_11 = -t16 - t27
     del t16, t27
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t65 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t67 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
     del Q01, Q11, f3
-    t66 = Aa*f2 - Q00*f0 - Q10*f1
+    t68 = Aa*f2 - Q00*f0 - Q10*f1
     del Aa, Q00, Q10, f0, f1, f2
-    qdd2 = D2_11*rD2*t66 - D2_01*t65
+    qdd2 = D2_11*rD2*t68 - D2_01*t67
     del D2_11
-    xr3 = D2_00*t65 - D2_01*rD2*t66
-    del D2_00, D2_01, rD2, t65, t66
+    xr3 = D2_00*t67 - D2_01*rD2*t68
+    del D2_00, D2_01, rD2, t67, t68
     rs3 = 1.0/sin_vartheta2
     del sin_vartheta2
     qdd3 = rs3*xr3
@@ -364,7 +369,6 @@ def forcing(y, p):
     del tan_half_vartheta1
     cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
     del rho_vartheta1, tan_half_sq_vartheta1
-    t1 = varphi2_dot*varphi2_dot
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
@@ -379,7 +383,8 @@ def forcing(y, p):
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
-    t6 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
+    t5 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    t6 = varphi2_dot*varphi2_dot
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
@@ -387,68 +392,67 @@ def forcing(y, p):
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
-    t8 = cos_vartheta1*sin_vartheta2
-    t9 = t6*t8
-    t12 = cos_vartheta2*sin_vartheta1
-    t13 = l1*m2
-    t14 = l2*t13
-    t15 = vartheta2_dot*vartheta2_dot
-    t16 = t14*t15
-    t17 = g*m1
-    t18 = g*m2
-    t19 = cos_vartheta1*sin_varphi1
-    t20 = l1*l1
-    t21 = m1*t20
-    t22 = m2*t20
-    del t20
-    t23 = varphi1_dot*varphi1_dot
-    t24 = sin_vartheta1*t23
-    t25 = l2*cos_vartheta2
-    t26 = t25*vartheta2_dot
-    t27 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    t8 = l2*cos_vartheta2
+    t9 = t8*vartheta2_dot
+    t10 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
+    t12 = cos_vartheta1*sin_vartheta2
+    t13 = t10*t12
+    t15 = cos_vartheta2*sin_vartheta1
+    t16 = l1*m2
+    t17 = l2*t16
+    t18 = vartheta2_dot*vartheta2_dot
+    t19 = t17*t18
+    t20 = g*m1
+    t21 = g*m2
+    t22 = cos_vartheta1*sin_varphi1
     del sin_varphi1
-    t28 = 2*t13
-    del t13
-    t29 = t28*t27
-    t30 = 2*varphi2_dot
-    t31 = t30*vartheta2_dot
-    del t30
-    t32 = t25*t31
+    t23 = l1*l1
+    t24 = m1*t23
+    t25 = m2*t23
+    del t23
+    t26 = varphi1_dot*varphi1_dot
+    t27 = sin_vartheta1*t26
+    t28 = 2*t16
+    del t16
+    t29 = 2*varphi2_dot
+    t30 = t29*t9
+    del t29
+    t31 = cos_vartheta1*vartheta1_dot
+    t32 = t31*varphi1_dot
     del t31
-    t33 = cos_vartheta1*vartheta1_dot
-    t34 = t33*varphi1_dot
-    del t33
-    t35 = l1*m1
-    t36 = l2*t27
-    t37 = m2*sin_vartheta2
-    t38 = t36*t37
-    del t36
-    t39 = cos_vartheta2*sin_vartheta2
+    t33 = l1*m1
+    t34 = l2*t5
+    t35 = m2*sin_vartheta2
+    t36 = t34*t35
+    del t34
+    t37 = l1*sin_vartheta1
+    t38 = cos_vartheta2*sin_vartheta2
     del cos_vartheta2, sin_vartheta2
-    t40 = t12*t6
+    t39 = t5*t8
+    t40 = t10*t15
     t41 = l2*l2
     t42 = m2*t41
     del t41
     t43 = vartheta1_dot*vartheta1_dot
-    t44 = t14*t43
+    t44 = t17*t43
     t45 = g*cos_varphi2
     del cos_varphi2
-    t46 = 2*vartheta1_dot
-    t47 = t46*varphi1_dot
-    del t46
-    t48 = l1*cos_vartheta1
-    t49 = t48*t6
+    t46 = 2*varphi1_dot
+    t47 = l1*cos_vartheta1
+    t48 = t47*vartheta1_dot
+    del t47
+    t49 = t10*t48
     del t48
-    t50 = t47*t49
-    del t47, t49
-    t51 = (t21 + t22)*(cos_vartheta1*t24) + t14*(t1*t9) + t16*t9 + (-l1*t17 - l1*t18)*t19 - cos_vartheta1*t26*t29*varphi2_dot - t12*t16
-    del cos_vartheta1, t12, t16, t19, t21, t22, t24, t26, t9
-    t52 = (-l1)*sin_vartheta1*((t17 + t18)*cos_varphi1 + m2*(t32*t6) + t1*t38 + t15*t38 + (t28 + 2*t35)*t34)
-    del cos_varphi1, t15, t17, t28, t35, t38, t6
-    t53 = t42*(t1*t39) + t14*(t23*t40) + t25*t29*t34 + t40*t44 - t18*(sin_varphi2*t25) - t44*t8
-    del sin_varphi2, t1, t14, t18, t25, t29, t34, t39, t40, t42, t44, t8
-    t54 = l2*(t37*(l1*(sin_vartheta1*t23*t27) + l1*(sin_vartheta1*t27*t43) - t32 - t45 - t50))
-    del sin_vartheta1, t23, t27, t32, t37, t43, t45, t50
+    t50 = t46*t49
+    del t46, t49
+    t51 = (t24 + t25)*(cos_vartheta1*t27) + t17*(t13*t6) + t13*t19 + (-l1*t20 - l1*t21)*t22 - t28*(cos_vartheta1*t5*t9*varphi2_dot) - t15*t19
+    del cos_vartheta1, t13, t15, t19, t22, t24, t25, t27, t9
+    t52 = -t37*((t20 + t21)*cos_varphi1 + m2*(t10*t30) + t18*t36 + (t28 + 2*t33)*t32 + t36*t6)
+    del cos_varphi1, t10, t18, t20, t33, t36, t37
+    t53 = t17*(t26*t40) + t28*(t32*t39) + t42*(t38*t6) + t40*t44 - t21*(sin_varphi2*t8) - t12*t44
+    del sin_varphi2, t12, t17, t21, t28, t32, t38, t39, t40, t42, t44, t6, t8
+    t54 = l2*(t35*(l1*(sin_vartheta1*t26*t5) + l1*(sin_vartheta1*t43*t5) - t30 - t45 - t50))
+    del sin_vartheta1, t26, t30, t35, t43, t45, t5, t50
     F = numpy.empty(shape + (4,), dtype)
     F[..., 0] = t51
     del t51
@@ -515,40 +519,40 @@ def energy(y, p):
     t7 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
     t8 = varphi1_dot*varphi1_dot
     t9 = varphi2_dot*varphi2_dot
-    t10 = vartheta2_dot*vartheta2_dot
-    t12 = cos_vartheta1*vartheta1_dot
-    t13 = vartheta1_dot*vartheta1_dot
-    t14 = l1*m2
-    t15 = l2*t14
-    t16 = cos_vartheta1*sin_vartheta2
-    del cos_vartheta1
-    t17 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
-    del cos_varphi1, cos_varphi2
+    t11 = l2*cos_vartheta2
+    t12 = t11*vartheta2_dot
+    del t11
+    t13 = vartheta2_dot*vartheta2_dot
+    t15 = cos_vartheta1*vartheta1_dot
+    t16 = vartheta1_dot*vartheta1_dot
+    t17 = l1*m2
     t18 = l2*t17
-    del t17
-    t19 = t14*t18
-    del t18
-    t20 = t16*t19
-    del t16
-    t21 = sin_vartheta1*sin_vartheta1
-    t23 = cos_vartheta2*sin_vartheta1
-    t24 = t19*t23
-    del t19, t23
-    t25 = t2*t7
-    t26 = t15*t25
-    del t25
-    t27 = l2*l2
-    t28 = m2*t27
-    del t27
-    t29 = sin_vartheta2*sin_vartheta2
-    t30 = t28*t29
-    del t29
-    t31 = sin_varphi1*sin_vartheta1
-    del sin_varphi1, sin_vartheta1
-    t32 = l2*cos_vartheta2
+    t19 = cos_vartheta1*sin_vartheta2
+    del cos_vartheta1
+    t20 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    del cos_varphi1, cos_varphi2
+    t21 = l2*t20
+    del t20
+    t22 = t17*t21
+    del t21
+    t23 = t19*t22
+    del t19
+    t24 = sin_vartheta1*sin_vartheta1
+    t25 = cos_vartheta2*sin_vartheta1
     del cos_vartheta2
-    t33 = t32*vartheta2_dot
-    del t32
+    t26 = t22*t25
+    del t22, t25
+    t27 = t2*t7
+    t28 = t18*t27
+    del t27
+    t29 = l2*l2
+    t30 = m2*t29
+    del t29
+    t31 = sin_vartheta2*sin_vartheta2
+    t32 = t30*t31
+    del t31
+    t33 = sin_varphi1*sin_vartheta1
+    del sin_varphi1, sin_vartheta1
     t34 = l1*m1
     t35 = l1*l1
     t36 = m1*t35
@@ -560,8 +564,8 @@ def energy(y, p):
     del sin_varphi2, sin_vartheta2
     t40 = l2*t39
     del t39
-    t41 = g*(m2*t40 + (t14 + t34)*t31) + ((1/2)*t28)*t10 + t14*(t12*t33*t7) + t38*t13 + t15*(t2*vartheta1_dot*vartheta2_dot) + t20*varphi2_dot*vartheta1_dot + t38*(t21*t8) + t26*varphi1_dot*varphi2_dot + 1/2*(t30*t9) - t24*varphi1_dot*vartheta2_dot
-    del t10, t12, t13, t14, t15, t2, t20, t21, t24, t26, t28, t30, t31, t33, t34, t38, t40, t7, t8, t9
+    t41 = g*(m2*t40 + (t17 + t34)*t33) + t17*(t12*t15*t7) + ((1/2)*t30)*t13 + t38*t16 + t18*(t2*vartheta1_dot*vartheta2_dot) + t23*varphi2_dot*vartheta1_dot + t38*(t24*t8) + t28*varphi1_dot*varphi2_dot + 1/2*(t32*t9) - t26*varphi1_dot*vartheta2_dot
+    del t12, t13, t15, t16, t17, t18, t2, t23, t24, t26, t28, t30, t32, t33, t34, t38, t40, t7, t8, t9
     E = numpy.empty(shape + (), dtype)
     E[...] = t41
     del t41
@@ -626,16 +630,18 @@ def positions(y, p):
     del rho_varphi2, tan_half_sq_varphi2
     t13 = cos_varphi2*sin_vartheta2
     del cos_varphi2
-    t15 = sin_varphi2*sin_vartheta2
-    del sin_varphi2, sin_vartheta2
-    t16 = l2*t15
-    del t15
-    t17 = t1 + t10
-    del t10
-    t18 = l2*t13 + t5
+    t14 = l2*t13
     del t13
-    t19 = t16 + t8
+    t16 = sin_varphi2*sin_vartheta2
+    del sin_varphi2, sin_vartheta2
+    t17 = l2*t16
     del t16
+    t18 = t1 + t10
+    del t10
+    t19 = t14 + t5
+    del t14
+    t20 = t17 + t8
+    del t17
     pos = numpy.empty(shape + (2, 3), dtype)
     pos[..., 0, 0] = t1
     del t1
@@ -643,13 +649,114 @@ def positions(y, p):
     del t5
     pos[..., 0, 2] = t8
     del t8
-    pos[..., 1, 0] = t17
-    del t17
-    pos[..., 1, 1] = t18
+    pos[..., 1, 0] = t18
     del t18
-    pos[..., 1, 2] = t19
+    pos[..., 1, 1] = t19
     del t19
+    pos[..., 1, 2] = t20
+    del t20
     return pos
+
+
+def velocities(y, p):
+    """Cartesian velocities of the bobs (link tips), shape (2, 3): d pos / dt = (d pos
+    / dq) q'.
+
+    y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
+    p: (..., 5) the parameters: (m1, m2, l1, l2, g)
+    returns vel: (..., 2, 3) tip k, axis j at [k][j]
+    Total ops: 46
+    """
+    (y, p), shape, dtype = _prepare("velocities", (y, 8, "y"), (p, 5, "p"))
+    vartheta1 = y[..., 0]
+    varphi1 = y[..., 1]
+    vartheta2 = y[..., 2]
+    varphi2 = y[..., 3]
+    vartheta1_dot = y[..., 4]
+    varphi1_dot = y[..., 5]
+    vartheta2_dot = y[..., 6]
+    varphi2_dot = y[..., 7]
+    l1 = p[..., 2]
+    l2 = p[..., 3]
+    tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
+    tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
+    rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
+    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    del tan_half_vartheta1
+    cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
+    del rho_vartheta1, tan_half_sq_vartheta1
+    t1 = l1*sin_vartheta1
+    t2 = t1*vartheta1_dot
+    del t1
+    tan_half_varphi1 = numpy.tan(0.5*varphi1)
+    tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
+    rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
+    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    del tan_half_varphi1
+    cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
+    del rho_varphi1, tan_half_sq_varphi1
+    t6 = sin_varphi1*sin_vartheta1
+    t7 = l1*t6
+    del t6
+    t8 = t7*varphi1_dot - l1*(cos_varphi1*cos_vartheta1*vartheta1_dot)
+    del t7
+    t9 = l1*cos_vartheta1
+    del cos_vartheta1
+    t10 = t9*vartheta1_dot
+    del t9
+    t11 = cos_varphi1*sin_vartheta1
+    del cos_varphi1, sin_vartheta1
+    t12 = l1*t11
+    del t11
+    t13 = sin_varphi1*t10 + t12*varphi1_dot
+    del sin_varphi1, t10, t12
+    tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
+    tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
+    rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
+    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    del tan_half_vartheta2
+    cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
+    del rho_vartheta2, tan_half_sq_vartheta2
+    t15 = sin_vartheta2*vartheta2_dot
+    tan_half_varphi2 = numpy.tan(0.5*varphi2)
+    tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
+    rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
+    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    del tan_half_varphi2
+    cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
+    del rho_varphi2, tan_half_sq_varphi2
+    t19 = sin_varphi2*sin_vartheta2
+    t20 = l2*t19
+    del t19
+    t21 = l2*cos_vartheta2
+    t22 = t21*vartheta2_dot
+    del t21
+    t23 = cos_varphi2*sin_vartheta2
+    del sin_vartheta2
+    t24 = l2*t23
+    del t23
+    t25 = -t2
+    t26 = -t8
+    t27 = -l2*t15 - t2
+    del t15, t2
+    t28 = l2*(cos_varphi2*cos_vartheta2*vartheta2_dot) - t20*varphi2_dot - t8
+    del cos_varphi2, cos_vartheta2, t20, t8
+    t29 = sin_varphi2*t22 + t13 + t24*varphi2_dot
+    del sin_varphi2, t22, t24
+    vel = numpy.empty(shape + (2, 3), dtype)
+    vel[..., 0, 0] = t25
+    del t25
+    vel[..., 0, 1] = t26
+    del t26
+    vel[..., 0, 2] = t13
+    del t13
+    vel[..., 1, 0] = t27
+    del t27
+    vel[..., 1, 1] = t28
+    del t28
+    vel[..., 1, 2] = t29
+    del t29
+    return vel
 
 
 def jacobian(y, p):
@@ -659,7 +766,7 @@ def jacobian(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 8, 8) row-major
-    Total ops: 713
+    Total ops: 720
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -745,258 +852,264 @@ def jacobian(y, p):
     del t28
     D1_11 = -t33 - t34
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t35 = 2*varphi2_dot
-    t36 = t35*vartheta2_dot
-    t37 = g*t2*t4
-    t38 = l1*t37
-    t39 = cos_vartheta1*vartheta1_dot
-    t40 = t39*varphi1_dot
-    t41 = 2*Aa
-    t42 = t19*t24
+    t35 = g*t2*t4
+    t36 = l1*t35
+    t37 = cos_vartheta1*vartheta1_dot
+    t38 = t37*varphi1_dot
+    t39 = 2*Aa
+    t40 = 2*varphi2_dot
+    t41 = t19*t24
     del t24
+    t42 = t40*t41
     t43 = varphi2_dot*varphi2_dot
     t44 = sin_vartheta2*t43
     t45 = vartheta2_dot*vartheta2_dot
     t46 = t15*t45
     t47 = t11*t46
-    f1 = -t38*cos_varphi1 - sin_vartheta2*t47 - t16*t44 - t36*t42 - t41*t40
-    del t40
+    f1 = -t36*cos_varphi1 - sin_vartheta2*t47 - t16*t44 - t39*t38 - t42*vartheta2_dot
+    del t38
     t48 = cos_vartheta2*sin_vartheta2
     t49 = cos_vartheta2*sin_vartheta1
     t50 = t13*t49
-    t51 = 2*vartheta1_dot
-    t52 = t51*varphi1_dot
-    t53 = t11*t6
-    t54 = t23*t53
-    t55 = t19*t49
-    t56 = t15*(cos_vartheta1*sin_vartheta2 - t55)
-    del t55
-    f2 = Ab*(t43*t48) + Q11*t50 + t52*t54 - g*(sin_varphi2*t23) - t14*t56
-    t57 = g*cos_varphi2
+    t51 = t6*vartheta1_dot
+    t52 = t11*t23
+    t53 = t51*t52
+    t54 = t19*t49
+    t55 = t15*(cos_vartheta1*sin_vartheta2 - t54)
+    del t54
+    f2 = Ab*(t43*t48) + Q11*t50 + t20*t53 - g*(sin_varphi2*t23) - t14*t55
+    t56 = g*cos_varphi2
     del cos_varphi2
-    t58 = cos_vartheta2*vartheta2_dot
-    t59 = Ab*t35
-    t60 = t19*t6
-    t61 = l2*t60
-    f3 = (l1*l2)*(sin_vartheta1*t11*t13) + (l1*l2)*(sin_vartheta1*t11*t14) - l2*t57 - t52*t61 - t58*t59
-    t62 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t63 = t37*t6
-    del t6
-    t64 = t23*t36
-    t65 = cos_vartheta1*sin_vartheta2
-    t66 = t19*t65
-    t67 = cos_vartheta2*sin_vartheta1 - t66
-    del t66
-    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t19*t43) + (t2*t3*t4)*(cos_vartheta1*sin_vartheta1*t13) - sin_varphi1*t63 - t46*t67 - t53*t64
-    del t53
-    t68 = Ab*f0 - Q00*f2 - Q01*f3
-    qdd0 = D1_11*rD1*t68 - D1_01*t62
-    t69 = Q01*t13 + Q01*t14 + qdd0*t17 + t18*t21
-    t70 = t16*t49
-    t71 = -t31
+    t57 = cos_vartheta2*vartheta2_dot
+    t58 = Ab*t40
+    t59 = t19*t51
+    del t51
+    t60 = t20*t59
+    f3 = (l1*l2)*(sin_vartheta1*t11*t13) + (l1*l2)*(sin_vartheta1*t11*t14) - l2*t56 - l2*t60 - t57*t58
+    t61 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t62 = t35*t6
+    t63 = t23*vartheta2_dot
+    t64 = t40*t63
+    t65 = t11*t6
+    t66 = cos_vartheta1*sin_vartheta2
+    t67 = t19*t66
+    t68 = cos_vartheta2*sin_vartheta1 - t67
+    del t67
+    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t19*t43) + (t2*t3*t4)*(cos_vartheta1*sin_vartheta1*t13) - sin_varphi1*t62 - t46*t68 - t64*t65
+    t69 = Ab*f0 - Q00*f2 - Q01*f3
+    qdd0 = D1_11*rD1*t69 - D1_01*t61
+    t70 = Q01*t13 + Q01*t14 + qdd0*t17 + t18*t21
+    t71 = 2*vartheta1_dot
+    t72 = t71*varphi1_dot
+    t73 = t16*t49
+    t74 = -t31
     del t31
-    t72 = t15*t14
-    t73 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t13*t19) - qdd0*t56 - t52*t70 - t71*t72
-    t74 = (2*Ab*t2*t3*t4)*(sin_vartheta1*varphi1_dot*vartheta1_dot) - Q10*t73 - Q11*t69
-    t75 = D1_01*rD1
-    t76 = cos_vartheta1*cos_vartheta1
-    t77 = sin_varphi1*sin_vartheta1
-    t78 = l1*t77
-    del t77
+    t75 = t15*t14
+    t76 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t13*t19) - qdd0*t55 - t72*t73 - t74*t75
+    t77 = (2*Ab*t2*t3*t4)*(sin_vartheta1*varphi1_dot*vartheta1_dot) - Q10*t76 - Q11*t70
+    t78 = D1_01*rD1
+    t79 = cos_vartheta1*cos_vartheta1
+    t80 = sin_varphi1*sin_vartheta1
+    t81 = l1*t80
+    del t80
     D2_00 = -t32 - t33
     del t32, t33
     D2_01 = -Q00*Q01 - Q10*Q11
     D2_11 = -t26 - t34
     del t26, t34
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t79 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t82 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
     del f3
-    t80 = Aa*f2 - Q00*f0 - Q10*f1
+    t83 = Aa*f2 - Q00*f0 - Q10*f1
     del f0, f1, f2
-    xr3 = D2_00*t79 - D2_01*rD2*t80
-    t81 = t16*xr3
-    t82 = t19*t29
-    t83 = t30 + t82
-    del t30, t82
-    qdd2 = D2_11*rD2*t80 - D2_01*t79
-    del t79, t80
-    t84 = Aa*(t13*(-1 + 2*t76)) + sin_vartheta1*t81 + t36*t70 + t37*t78 - Q11*t29*t43 - qdd2*t56 - t46*t83
-    del t37, t70, t76, t78
-    t85 = Ab*t84 - Q00*t73 - Q01*t69
-    t86 = sin_vartheta1*t13
-    xr1 = D1_00*t62 - D1_01*rD1*t68
-    del D1_01, t62, t68
-    t87 = t16*xr1
-    t88 = Q01*t52 + Q11*sin_vartheta1*t14 + Q11*t86 + t87 - qdd0*t61
-    del t14, t86
-    t89 = t52*t60
-    t90 = qdd0*t54 + t23*t89 + t42*xr1 - t11*t49*t72 - t16*t50
-    del t50, t89
-    t91 = qdd2*t42 + t25*t36 + t81 - Q11*sin_vartheta2*t45 - Q11*t44
-    del t36, t44, t81
-    t92 = t38*sin_varphi1 + t91
-    del sin_varphi1, t38
-    t93 = Ab*t92 - Q10*t90 - Q11*t88
-    t94 = t16*t65
-    t95 = t43*t94 + t47*t65 + t60*t64 + t61*xr3 - qdd2*t54
-    del t47, t60, t64
-    t96 = -cos_varphi1*t63 - t95
-    del cos_varphi1, t63
-    t97 = Ab*t96 - Q00*t90 - Q01*t88
-    t98 = sin_vartheta2*vartheta2_dot
-    t99 = t59*t98
-    t100 = sin_vartheta2*t16
-    t101 = (2*l1*l2)*(sin_vartheta2*t19*varphi2_dot*vartheta2_dot) - qdd2*t100 - t25*t43 - t25*t45
+    xr3 = D2_00*t82 - D2_01*rD2*t83
+    t84 = t16*xr3
+    t85 = t40*vartheta2_dot
+    t86 = t19*t29
+    t87 = t30 + t86
+    del t30, t86
+    qdd2 = D2_11*rD2*t83 - D2_01*t82
+    del t82, t83
+    t88 = Aa*(t13*(-1 + 2*t79)) + sin_vartheta1*t84 + t35*t81 + t73*t85 - Q11*t29*t43 - qdd2*t55 - t46*t87
+    del t35, t73, t79, t81
+    t89 = Ab*t88 - Q00*t76 - Q01*t70
+    t90 = sin_vartheta1*t13
+    xr1 = D1_00*t61 - D1_01*rD1*t69
+    del D1_01, t61, t69
+    t91 = t16*xr1
+    t92 = t19*t6
+    t93 = l2*t92
+    t94 = Q01*t72 + Q11*sin_vartheta1*t14 + Q11*t90 + t91 - qdd0*t93
+    del t14, t90
+    t95 = t52*t6
+    del t52, t6
+    t96 = qdd0*t95 + t23*t60 + t41*xr1 - t11*t49*t75 - t16*t50
+    del t50, t60
+    t97 = qdd2*t41 + t25*t85 + t84 - Q11*sin_vartheta2*t45 - Q11*t44
+    del t44, t84, t85
+    t98 = t36*sin_varphi1 + t97
+    del sin_varphi1, t36
+    t99 = Ab*t98 - Q10*t96 - Q11*t94
+    t100 = t16*t66
+    t101 = t100*t43 + t47*t66 + t64*t92 + t93*xr3 - qdd2*t95
+    del t47, t64, t92
+    t102 = -cos_varphi1*t62 - t101
+    del cos_varphi1, t62
+    t103 = Ab*t102 - Q00*t96 - Q01*t94
+    t104 = sin_vartheta2*vartheta2_dot
+    t105 = t104*t58
+    t106 = sin_vartheta2*t16
+    t107 = (2*l1*l2)*(sin_vartheta2*t19*varphi2_dot*vartheta2_dot) - qdd2*t106 - t25*t43 - t25*t45
     del t25, t45
-    t102 = cos_vartheta2*cos_vartheta2
-    t103 = t15*t67
-    del t15, t67
-    t104 = Ab*(t43*(-1 + 2*t102)) + (g*l2)*(sin_varphi2*sin_vartheta2) - Q11*t13*t29 - qdd0*t103 - sin_vartheta2*t87 - t52*t94 - t72*t83
-    del qdd0, t102, t13, t29, t52, t72, t83, t87, t94
-    t105 = Ab*t101 - Q10*t104 - Q11*t99
-    t106 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t19*t43) + (2*l1*l2)*(cos_vartheta1*sin_vartheta2*t11*varphi2_dot*vartheta2_dot) - qdd2*t103 - t46*t71
-    del qdd2, t19, t43, t46, t71
-    t107 = Ab*t106 - Q00*t104 - Q01*t99
-    del t99
-    t108 = -t91
-    del t91
-    t109 = (g*l2)*sin_varphi2 - t88
+    t108 = cos_vartheta2*cos_vartheta2
+    t109 = t15*t68
+    del t15, t68
+    t110 = Ab*(t43*(-1 + 2*t108)) + (g*l2)*(sin_varphi2*sin_vartheta2) - Q11*t13*t29 - qdd0*t109 - sin_vartheta2*t91 - t100*t72 - t75*t87
+    del qdd0, t100, t108, t13, t29, t72, t75, t87, t91
+    t111 = Ab*t107 - Q10*t110 - Q11*t105
+    t112 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t19*t43) + (2*l1*l2)*(cos_vartheta1*sin_vartheta2*t11*varphi2_dot*vartheta2_dot) - qdd2*t109 - t46*t74
+    del qdd2, t19, t43, t46, t74
+    t113 = Ab*t112 - Q00*t110 - Q01*t105
+    del t105
+    t114 = -t97
+    del t97
+    t115 = (g*l2)*sin_varphi2 - t94
     del sin_varphi2
-    t110 = -t23*t57 - t90
-    del t23, t57
-    t111 = Ab*t108 - Q10*t110 - Q11*t109
-    t112 = Ab*t95 - Q00*t110 - Q01*t109
-    t113 = (2*l1*l2)*(sin_vartheta1*t11*vartheta1_dot) - t20*t61
-    del t11
-    t114 = t20*t54 - t51*t56
-    del t56
-    t115 = -Q00*t114 - Q01*t113
-    t116 = Aa*t20
-    t117 = cos_vartheta1*t116
-    t118 = -Ab*t117 - Q10*t114 - Q11*t113
-    t119 = t41*t39
-    del t39, t41
-    t120 = t17*t20 - t51*t61
-    del t17, t20, t61
-    t121 = t21*t49 + t51*t54
-    del t21, t49, t51
-    t122 = -Ab*t119 - Q10*t121 - Q11*t120
-    t123 = (2*Ab*t2*t3*t4)*(cos_vartheta1*sin_vartheta1*varphi1_dot) - Q00*t121 - Q01*t120
+    t116 = -t23*t56 - t96
+    del t23, t56
+    t117 = Ab*t114 - Q10*t116 - Q11*t115
+    t118 = Ab*t101 - Q00*t116 - Q01*t115
+    t119 = (2*l1*l2)*(sin_vartheta1*t11*vartheta1_dot) - t20*t93
+    del t11, t93
+    t120 = t20*t95 - t55*t71
+    del t55, t71
+    t121 = -Q00*t120 - Q01*t119
+    t122 = Aa*t20
+    t123 = cos_vartheta1*t122
+    t124 = -Ab*t123 - Q10*t120 - Q11*t119
+    t125 = t39*t37
+    del t37, t39
+    t126 = t17*t20 - (2*l2)*t59
+    del t17, t20, t59
+    t127 = t21*t49 + 2*t53
+    del t21, t49, t53
+    t128 = -Ab*t125 - Q10*t127 - Q11*t126
+    t129 = (2*Ab*t2*t3*t4)*(cos_vartheta1*sin_vartheta1*varphi1_dot) - Q00*t127 - Q01*t126
     del t2, t3, t4
-    t124 = cos_vartheta2*t59
-    t125 = -2*(t16*t98) - t35*t42
-    del t16, t98
-    t126 = Ab*t125 + Q11*t124
-    t127 = 2*vartheta2_dot
-    t128 = -t103*t127 - t35*t54
-    del t103
-    t129 = Ab*t128 + Q01*t124
-    t130 = Ab*t58
-    del t58
-    t131 = 2*t130
-    t132 = t48*t59
-    del t48, t59
-    t133 = -t100*t35 - t127*t42
-    del t100, t42
-    t134 = Ab*t133 + Q11*t131 - Q10*t132
-    t135 = 2*Q01
-    t136 = Q11*t35*t65 - t127*t54
-    del t127, t35, t54, t65
-    t137 = Ab*t136 + t130*t135 - Q00*t132
-    del t130, t132
+    t130 = cos_vartheta2*t58
+    t131 = -2*(t104*t16) - t42
+    del t104, t16, t42
+    t132 = Ab*t131 + Q11*t130
+    t133 = 2*vartheta2_dot
+    t134 = -t109*t133 - t40*t95
+    del t109, t95
+    t135 = Ab*t134 + Q01*t130
+    t136 = Ab*t57
+    del t57
+    t137 = 2*t136
+    t138 = t48*t58
+    del t48, t58
+    t139 = -t106*t40 - t133*t41
+    del t106, t133, t41
+    t140 = Ab*t139 + Q11*t137 - Q10*t138
+    t141 = 2*Q01
+    t142 = Q11*t40*t66 - 2*(t63*t65)
+    del t40, t63, t65, t66
+    t143 = Ab*t142 + t136*t141 - Q00*t138
+    del t136, t138
     rs1 = 1.0/sin_vartheta1
     qdd1 = rs1*xr1
     del xr1
-    t138 = D1_00*rD1
-    t139 = t116*t18
-    del t116, t18
-    t140 = Aa*t69 - Q01*t84 - Q11*t139
-    del t69
-    t141 = D2_01*rD2
+    t144 = D1_00*rD1
+    t145 = t122*t18
+    del t122, t18
+    t146 = Aa*t70 - Q01*t88 - Q11*t145
+    del t70
+    t147 = D2_01*rD2
     del D2_01
-    t142 = Aa*t73 - Q00*t84 - Q10*t139
-    del t139, t73, t84
-    t143 = Aa*t88 - Q01*t96 - Q11*t92
-    del t88
-    t144 = Aa*t90 - Q00*t96 - Q10*t92
-    del t90, t92, t96
-    t145 = (2*Aa*Ab)*(sin_vartheta2*varphi2_dot*vartheta2_dot) - Q01*t106 - Q11*t101
-    t146 = Aa*t104 - Q00*t106 - Q10*t101
-    del t101, t104, t106
-    t147 = Aa*t109 - Q01*t95 - Q11*t108
-    del t109
-    t148 = Aa*t110 - Q00*t95 - Q10*t108
-    del t108, t110, t95
-    t149 = Aa*t113 + Q11*t117
-    del t113
-    t150 = Aa*t114 + Q10*t117
-    del t114
-    t151 = Aa*t120 + Q11*t119 - Aa*(cos_vartheta1*sin_vartheta1*t135*varphi1_dot)
-    del t120, t135
-    t152 = Aa*t121 + Q10*t119 - Q00*sin_vartheta1*t117
-    del sin_vartheta1, t117, t119, t121
-    t153 = -Q00*t128 - Q10*t125
-    t154 = -Aa*t124 - Q01*t128 - Q11*t125
-    del t124, t125, t128
-    t155 = -Aa*t131 - Q01*t136 - Q11*t133
-    del Q01, Q11, t131
-    t156 = (2*Aa*Ab)*(cos_vartheta2*sin_vartheta2*varphi2_dot) - Q00*t136 - Q10*t133
-    del Aa, Ab, Q00, Q10, t133, t136
-    t157 = D2_00*rD2
+    t148 = Aa*t76 - Q00*t88 - Q10*t145
+    del t145, t76, t88
+    t149 = Aa*t94 - Q01*t102 - Q11*t98
+    del t94
+    t150 = Aa*t96 - Q00*t102 - Q10*t98
+    del t102, t96, t98
+    t151 = (2*Aa*Ab)*(sin_vartheta2*varphi2_dot*vartheta2_dot) - Q01*t112 - Q11*t107
+    t152 = Aa*t110 - Q00*t112 - Q10*t107
+    del t107, t110, t112
+    t153 = Aa*t115 - Q01*t101 - Q11*t114
+    del t115
+    t154 = Aa*t116 - Q00*t101 - Q10*t114
+    del t101, t114, t116
+    t155 = Aa*t119 + Q11*t123
+    del t119
+    t156 = Aa*t120 + Q10*t123
+    del t120
+    t157 = Aa*t126 + Q11*t125 - Aa*(cos_vartheta1*sin_vartheta1*t141*varphi1_dot)
+    del t126, t141
+    t158 = Aa*t127 + Q10*t125 - Q00*sin_vartheta1*t123
+    del sin_vartheta1, t123, t125, t127
+    t159 = -Q00*t134 - Q10*t131
+    t160 = -Aa*t130 - Q01*t134 - Q11*t131
+    del t130, t131, t134
+    t161 = -Aa*t137 - Q01*t142 - Q11*t139
+    del Q01, Q11, t137
+    t162 = (2*Aa*Ab)*(cos_vartheta2*sin_vartheta2*varphi2_dot) - Q00*t142 - Q10*t139
+    del Aa, Ab, Q00, Q10, t139, t142
+    t163 = D2_00*rD2
     rs3 = 1.0/sin_vartheta2
     del sin_vartheta2
     qdd3 = rs3*xr3
     del xr3
-    t158 = D1_11*rD1*t85 - t74*t75
-    t159 = D1_11*rD1*t97 - t75*t93
-    t160 = D1_11*rD1*t107 - t105*t75
-    t161 = D1_11*rD1*t112 - t111*t75
-    t162 = D1_11*rD1*t115 - t118*t75
-    t163 = D1_11*rD1*t123 - t122*t75
-    t164 = D1_11*rD1*t129 - t126*t75
-    t165 = D1_11*rD1*t137 - t134*t75
+    t164 = D1_11*rD1*t89 - t77*t78
+    t165 = D1_11*rD1*t103 - t78*t99
+    t166 = D1_11*rD1*t113 - t111*t78
+    t167 = D1_11*rD1*t118 - t117*t78
+    t168 = D1_11*rD1*t121 - t124*t78
+    t169 = D1_11*rD1*t129 - t128*t78
+    t170 = D1_11*rD1*t135 - t132*t78
+    t171 = D1_11*rD1*t143 - t140*t78
     del D1_11
-    t166 = rs1*(D1_00*rD1*t74 - cos_vartheta1*qdd1 - t75*t85)
-    del D1_00, cos_vartheta1, qdd1, rD1, t74, t85
-    t167 = rs1*(t138*t93 - t75*t97)
-    del t93, t97
-    t168 = rs1*(t105*t138 - t107*t75)
-    del t105, t107
-    t169 = rs1*(t111*t138 - t112*t75)
-    del t111, t112
-    t170 = rs1*(t118*t138 - t115*t75)
-    del t115, t118
-    t171 = rs1*(t122*t138 - t123*t75)
-    del t122, t123
-    t172 = rs1*(t126*t138 - t129*t75)
-    del t126, t129
-    t173 = rs1*(t134*t138 - t137*t75)
-    del rs1, t134, t137, t138, t75
-    t174 = D2_11*rD2*t142 - t140*t141
-    t175 = D2_11*rD2*t144 - t141*t143
-    t176 = D2_11*rD2*t146 - t141*t145
-    t177 = D2_11*rD2*t148 - t141*t147
-    t178 = D2_11*rD2*t150 - t141*t149
-    t179 = D2_11*rD2*t152 - t141*t151
-    t180 = D2_11*rD2*t153 - t141*t154
-    t181 = D2_11*rD2*t156 - t141*t155
+    t172 = rs1*(D1_00*rD1*t77 - cos_vartheta1*qdd1 - t78*t89)
+    del D1_00, cos_vartheta1, qdd1, rD1, t77, t89
+    t173 = rs1*(t144*t99 - t103*t78)
+    del t103, t99
+    t174 = rs1*(t111*t144 - t113*t78)
+    del t111, t113
+    t175 = rs1*(t117*t144 - t118*t78)
+    del t117, t118
+    t176 = rs1*(t124*t144 - t121*t78)
+    del t121, t124
+    t177 = rs1*(t128*t144 - t129*t78)
+    del t128, t129
+    t178 = rs1*(t132*t144 - t135*t78)
+    del t132, t135
+    t179 = rs1*(t140*t144 - t143*t78)
+    del rs1, t140, t143, t144, t78
+    t180 = D2_11*rD2*t148 - t146*t147
+    t181 = D2_11*rD2*t150 - t147*t149
+    t182 = D2_11*rD2*t152 - t147*t151
+    t183 = D2_11*rD2*t154 - t147*t153
+    t184 = D2_11*rD2*t156 - t147*t155
+    t185 = D2_11*rD2*t158 - t147*t157
+    t186 = D2_11*rD2*t159 - t147*t160
+    t187 = D2_11*rD2*t162 - t147*t161
     del D2_11
-    t182 = rs3*(t140*t157 - t141*t142)
-    del t140, t142
-    t183 = rs3*(t143*t157 - t141*t144)
-    del t143, t144
-    t184 = rs3*(D2_00*rD2*t145 - cos_vartheta2*qdd3 - t141*t146)
-    del D2_00, cos_vartheta2, qdd3, rD2, t145, t146
-    t185 = rs3*(t147*t157 - t141*t148)
-    del t147, t148
-    t186 = rs3*(t149*t157 - t141*t150)
+    t188 = rs3*(t146*t163 - t147*t148)
+    del t146, t148
+    t189 = rs3*(t149*t163 - t147*t150)
     del t149, t150
-    t187 = rs3*(t151*t157 - t141*t152)
-    del t151, t152
-    t188 = rs3*(t154*t157 - t141*t153)
+    t190 = rs3*(D2_00*rD2*t151 - cos_vartheta2*qdd3 - t147*t152)
+    del D2_00, cos_vartheta2, qdd3, rD2, t151, t152
+    t191 = rs3*(t153*t163 - t147*t154)
     del t153, t154
-    t189 = rs3*(t155*t157 - t141*t156)
-    del rs3, t141, t155, t156, t157
+    t192 = rs3*(t155*t163 - t147*t156)
+    del t155, t156
+    t193 = rs3*(t157*t163 - t147*t158)
+    del t157, t158
+    t194 = rs3*(t160*t163 - t147*t159)
+    del t159, t160
+    t195 = rs3*(t161*t163 - t147*t162)
+    del rs3, t147, t161, t162, t163
     J = numpy.empty(shape + (8, 8), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -1030,70 +1143,70 @@ def jacobian(y, p):
     J[..., 3, 5] = 0
     J[..., 3, 6] = 0
     J[..., 3, 7] = 1
-    J[..., 4, 0] = t158
-    del t158
-    J[..., 4, 1] = t159
-    del t159
-    J[..., 4, 2] = t160
-    del t160
-    J[..., 4, 3] = t161
-    del t161
-    J[..., 4, 4] = t162
-    del t162
-    J[..., 4, 5] = t163
-    del t163
-    J[..., 4, 6] = t164
+    J[..., 4, 0] = t164
     del t164
-    J[..., 4, 7] = t165
+    J[..., 4, 1] = t165
     del t165
-    J[..., 5, 0] = t166
+    J[..., 4, 2] = t166
     del t166
-    J[..., 5, 1] = t167
+    J[..., 4, 3] = t167
     del t167
-    J[..., 5, 2] = t168
+    J[..., 4, 4] = t168
     del t168
-    J[..., 5, 3] = t169
+    J[..., 4, 5] = t169
     del t169
-    J[..., 5, 4] = t170
+    J[..., 4, 6] = t170
     del t170
-    J[..., 5, 5] = t171
+    J[..., 4, 7] = t171
     del t171
-    J[..., 5, 6] = t172
+    J[..., 5, 0] = t172
     del t172
-    J[..., 5, 7] = t173
+    J[..., 5, 1] = t173
     del t173
-    J[..., 6, 0] = t174
+    J[..., 5, 2] = t174
     del t174
-    J[..., 6, 1] = t175
+    J[..., 5, 3] = t175
     del t175
-    J[..., 6, 2] = t176
+    J[..., 5, 4] = t176
     del t176
-    J[..., 6, 3] = t177
+    J[..., 5, 5] = t177
     del t177
-    J[..., 6, 4] = t178
+    J[..., 5, 6] = t178
     del t178
-    J[..., 6, 5] = t179
+    J[..., 5, 7] = t179
     del t179
-    J[..., 6, 6] = t180
+    J[..., 6, 0] = t180
     del t180
-    J[..., 6, 7] = t181
+    J[..., 6, 1] = t181
     del t181
-    J[..., 7, 0] = t182
+    J[..., 6, 2] = t182
     del t182
-    J[..., 7, 1] = t183
+    J[..., 6, 3] = t183
     del t183
-    J[..., 7, 2] = t184
+    J[..., 6, 4] = t184
     del t184
-    J[..., 7, 3] = t185
+    J[..., 6, 5] = t185
     del t185
-    J[..., 7, 4] = t186
+    J[..., 6, 6] = t186
     del t186
-    J[..., 7, 5] = t187
+    J[..., 6, 7] = t187
     del t187
-    J[..., 7, 6] = t188
+    J[..., 7, 0] = t188
     del t188
-    J[..., 7, 7] = t189
+    J[..., 7, 1] = t189
     del t189
+    J[..., 7, 2] = t190
+    del t190
+    J[..., 7, 3] = t191
+    del t191
+    J[..., 7, 4] = t192
+    del t192
+    J[..., 7, 5] = t193
+    del t193
+    J[..., 7, 6] = t194
+    del t194
+    J[..., 7, 7] = t195
+    del t195
     return J
 
 

@@ -36,7 +36,7 @@ def rhs(y, p):
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns ydot: (..., 8) y' in state order
-    Total ops: 182
+    Total ops: 186
     """
     (y, p), shape, dtype = _prepare("rhs", (y, 8, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -110,23 +110,24 @@ def rhs(y, p):
     del t18
     D1_11 = -t23 - t24
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t25 = 2*phi2_dot
-    t26 = t25*theta2_dot
-    t27 = t9*sin_t2
-    t28 = phi2_dot*phi2_dot
-    t29 = sin_theta2*t28
-    t30 = theta2_dot*theta2_dot
-    t31 = t9*t30
-    del t30
-    t32 = sin_t2*t31
-    t33 = cos_t2*t6
+    t25 = t9*sin_t2
+    t26 = phi2_dot*phi2_dot
+    t27 = sin_theta2*t26
+    t28 = theta2_dot*theta2_dot
+    t29 = t9*t28
+    del t28
+    t30 = sin_t2*t29
+    t31 = 2*phi2_dot
+    t32 = cos_t2*t6
     del t6
+    t33 = t31*t32
+    del t32
     t34 = cos_theta1*theta1_dot
     t35 = phi1_dot*t34
     del t34
     t36 = 2*Aa
-    f1 = -sin_theta2*t32 - t26*t33 - t27*t29 - t36*t35
-    del t29, t32, t33, t35, t36
+    f1 = -sin_theta2*t30 - t25*t27 - t33*theta2_dot - t36*t35
+    del t27, t30, t33, t35, t36
     t37 = l2*sin_theta2
     t38 = g*t37
     del t37
@@ -134,49 +135,54 @@ def rhs(y, p):
     t40 = phi1_dot*phi1_dot
     t41 = cos_theta2*sin_theta1
     t42 = t40*t41
-    t43 = 2*theta1_dot
-    t44 = phi1_dot*t43
-    del t43
-    t45 = sin_t2*t11
-    del t11
-    t46 = t45*t5
+    t43 = t11*theta1_dot
+    t44 = 2*phi1_dot
+    t45 = t43*t44
+    del t43, t44
+    t46 = sin_t2*t5
     t47 = theta1_dot*theta1_dot
     t48 = cos_t2*t41
     t49 = t9*(cos_theta1*sin_theta2 - t48)
     del t48
-    f2 = Ab*(t28*t39) + Q11*t42 + t44*t46 - t38 - t47*t49
-    del t38, t39, t42, t46, t49
+    f2 = Ab*(t26*t39) + Q11*t42 + t45*t46 - t38 - t47*t49
+    del t38, t39, t42, t45, t46, t49
     t50 = cos_theta2*theta2_dot
     del cos_theta2
-    t51 = Ab*t25
-    del t25
+    t51 = Ab*t31
     t52 = sin_theta1*t40
     t53 = t9*t47
     del t47, t9
     t54 = sin_t2*t53
-    del sin_t2, t53
+    del t53
     t55 = cos_t2*t12
     del t12
-    f3 = sin_theta1*t54 + t27*t52 - t44*t55 - t50*t51
-    del t27, t44, t50, t51, t52, t54, t55
-    t56 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t57 = l1*sin_theta1
-    t58 = g*t14*t16
-    t59 = t26*t5
-    del t26, t5
-    t60 = cos_theta1*sin_theta2
-    t61 = cos_t2*t60
-    del t60
-    t62 = t41 - t61
-    del t41, t61
-    f0 = (l1*l2)*(cos_t2*cos_theta1*sin_theta2*t28) + (t14*t15*t16)*(cos_theta1*sin_theta1*t40) - t31*t62 - t45*t59 - t58*t57
-    del cos_t2, cos_theta1, t14, t15, t16, t28, t31, t40, t45, t57, t58, t59, t62
-    t63 = Ab*f0 - Q00*f2 - Q01*f3
+    t56 = 2*theta1_dot
+    t57 = t55*t56
+    del t55, t56
+    f3 = sin_theta1*t54 + t25*t52 - phi1_dot*t57 - t50*t51
+    del t25, t50, t51, t52, t54, t57
+    t58 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t59 = l1*sin_theta1
+    t60 = g*t14*t16
+    t61 = t5*theta2_dot
+    del t5
+    t62 = t31*t61
+    del t31, t61
+    t63 = t11*t62
+    del t11, t62
+    t64 = cos_theta1*sin_theta2
+    t65 = cos_t2*t64
+    del t64
+    t66 = t41 - t65
+    del t41, t65
+    f0 = (l1*l2)*(cos_t2*cos_theta1*sin_theta2*t26) + (t14*t15*t16)*(cos_theta1*sin_theta1*t40) - sin_t2*t63 - t29*t66 - t60*t59
+    del cos_t2, cos_theta1, sin_t2, t14, t15, t16, t26, t29, t40, t59, t60, t63, t66
+    t67 = Ab*f0 - Q00*f2 - Q01*f3
     del Ab
-    qdd0 = D1_11*rD1*t63 - D1_01*t56
+    qdd0 = D1_11*rD1*t67 - D1_01*t58
     del D1_11
-    xr1 = D1_00*t56 - D1_01*rD1*t63
-    del D1_00, D1_01, rD1, t56, t63
+    xr1 = D1_00*t58 - D1_01*rD1*t67
+    del D1_00, D1_01, rD1, t58, t67
     rs1 = 1.0/sin_theta1
     del sin_theta1
     qdd1 = rs1*xr1
@@ -187,14 +193,14 @@ def rhs(y, p):
     D2_11 = -t13 - t24
     del t13, t24
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t64 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t68 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
     del Q01, Q11, f3
-    t65 = Aa*f2 - Q00*f0 - Q10*f1
+    t69 = Aa*f2 - Q00*f0 - Q10*f1
     del Aa, Q00, Q10, f0, f1, f2
-    qdd2 = D2_11*rD2*t65 - D2_01*t64
+    qdd2 = D2_11*rD2*t69 - D2_01*t68
     del D2_11
-    xr3 = D2_00*t64 - D2_01*rD2*t65
-    del D2_00, D2_01, rD2, t64, t65
+    xr3 = D2_00*t68 - D2_01*rD2*t69
+    del D2_00, D2_01, rD2, t68, t69
     rs3 = 1.0/sin_theta2
     del sin_theta2
     qdd3 = rs3*xr3
@@ -328,7 +334,7 @@ def forcing(y, p):
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns F: (..., 4) F
-    Total ops: 100
+    Total ops: 101
     """
     (y, p), shape, dtype = _prepare("forcing", (y, 8, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -351,7 +357,15 @@ def forcing(y, p):
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
-    t2 = phi2_dot*phi2_dot
+    t2 = phi1 - phi2
+    tan_half_t2 = numpy.tan(0.5*t2)
+    del t2
+    tan_half_sq_t2 = tan_half_t2*tan_half_t2
+    rho_t2 = 1.0/(1 + tan_half_sq_t2)
+    sin_t2 = 2*(rho_t2*tan_half_t2)
+    del tan_half_t2
+    cos_t2 = rho_t2*(1 - tan_half_sq_t2)
+    del rho_t2, tan_half_sq_t2
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -359,73 +373,65 @@ def forcing(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t4 = cos_theta2*sin_theta1
-    t5 = phi1 - phi2
-    tan_half_t5 = numpy.tan(0.5*t5)
-    del t5
-    tan_half_sq_t5 = tan_half_t5*tan_half_t5
-    rho_t5 = 1.0/(1 + tan_half_sq_t5)
-    sin_t5 = 2*(rho_t5*tan_half_t5)
-    del tan_half_t5
-    cos_t5 = rho_t5*(1 - tan_half_sq_t5)
-    del rho_t5, tan_half_sq_t5
-    t8 = cos_theta1*sin_theta2
-    t9 = cos_t5*t8
-    t10 = phi1_dot*phi1_dot
-    t11 = sin_theta1*t10
-    t12 = l1*m2
-    t13 = l2*t12
-    t14 = theta2_dot*theta2_dot
-    t15 = t13*t14
-    t16 = l1*m1
-    t17 = l2*cos_theta2
-    t18 = t17*theta2_dot
-    t20 = 2*t12
-    t21 = t20*sin_t5
-    t22 = l1*l1
-    t23 = m1*t22
-    t24 = m2*t22
-    del t22
-    t25 = l1*sin_theta1
-    t26 = 2*phi2_dot
-    t27 = t26*theta2_dot
-    del t26
-    t28 = cos_theta1*theta1_dot
-    t29 = phi1_dot*t28
-    del t28
-    t30 = l2*sin_theta2
-    t31 = m2*t30
-    t32 = sin_t5*t31
-    t33 = m2*t17
-    t34 = g*t30
-    del t30
-    t35 = cos_theta2*sin_theta2
+    t5 = l2*cos_theta2
+    t6 = t5*theta2_dot
+    t7 = phi2_dot*phi2_dot
+    t8 = cos_theta2*sin_theta1
+    t11 = cos_theta1*sin_theta2
+    t12 = cos_t2*t11
+    t13 = phi1_dot*phi1_dot
+    t14 = sin_theta1*t13
+    t15 = l1*m2
+    t16 = l2*t15
+    t17 = theta2_dot*theta2_dot
+    t18 = t16*t17
+    t19 = l1*m1
+    t20 = 2*t15
+    t21 = l1*l1
+    t22 = m1*t21
+    t23 = m2*t21
+    del t21
+    t24 = l1*sin_theta1
+    t25 = cos_theta1*theta1_dot
+    t26 = phi1_dot*t25
+    del t25
+    t27 = l2*sin_theta2
+    t28 = m2*t27
+    t29 = sin_t2*t28
+    t30 = m2*t5
+    t31 = 2*phi2_dot
+    t32 = t31*theta2_dot
+    t33 = g*t27
+    del t27
+    t34 = cos_theta2*sin_theta2
     del cos_theta2, sin_theta2
-    t36 = cos_t5*t4
+    t35 = sin_t2*t5
+    del t5
+    t36 = cos_t2*t8
     t37 = l2*l2
     t38 = m2*t37
     del t37
     t39 = theta1_dot*theta1_dot
-    t40 = t13*t39
-    t41 = t17*t27
-    t42 = sin_t5*t25
-    del sin_t5
-    t43 = 2*theta1_dot
-    t44 = phi1_dot*t43
+    t40 = t16*t39
+    t41 = t31*t6
+    del t31
+    t42 = sin_t2*t24
+    t43 = l1*cos_theta1
+    t44 = t43*theta1_dot
     del t43
-    t45 = l1*cos_theta1
-    t46 = cos_t5*t45
-    del t45
-    t47 = t44*t46
-    del t44, t46
-    t48 = (t23 + t24)*(cos_theta1*t11) + (-g*t12 - g*t16)*sin_theta1 + t13*(t2*t9) + t15*t9 - cos_theta1*phi2_dot*t18*t21 - t15*t4
-    del cos_theta1, sin_theta1, t11, t12, t15, t18, t23, t24, t4, t9
-    t49 = -t25*(cos_t5*t27*t33 + t14*t32 + t2*t32 + (2*t16 + t20)*t29)
-    del cos_t5, t14, t16, t20, t25, t27, t32, t33
-    t50 = t13*(t10*t36) + t17*t21*t29 + t38*(t2*t35) + t36*t40 - m2*t34 - t40*t8
-    del t13, t17, t2, t21, t29, t34, t35, t36, t38, t40, t8
-    t51 = t31*(t10*t42 + t39*t42 - t41 - t47)
-    del t10, t31, t39, t41, t42, t47
+    t45 = 2*phi1_dot
+    t46 = t44*t45
+    del t44, t45
+    t47 = cos_t2*t46
+    del t46
+    t48 = (t22 + t23)*(cos_theta1*t14) + (-g*t15 - g*t19)*sin_theta1 + t16*(t12*t7) + t12*t18 - t20*(cos_theta1*phi2_dot*sin_t2*t6) - t18*t8
+    del cos_theta1, sin_t2, sin_theta1, t12, t14, t15, t18, t22, t23, t6, t8
+    t49 = -t24*(cos_t2*t30*t32 + t17*t29 + (2*t19 + t20)*t26 + t29*t7)
+    del cos_t2, t17, t19, t24, t29, t30, t32
+    t50 = t16*(t13*t36) + t20*(t26*t35) + t38*(t34*t7) + t36*t40 - m2*t33 - t11*t40
+    del t11, t16, t20, t26, t33, t34, t35, t36, t38, t40, t7
+    t51 = t28*(t13*t42 + t39*t42 - t41 - t47)
+    del t13, t28, t39, t41, t42, t47
     F = numpy.empty(shape + (4,), dtype)
     F[..., 0] = t48
     del t48
@@ -484,47 +490,46 @@ def energy(y, p):
     del tan_half_t3
     cos_t3 = rho_t3*(1 - tan_half_sq_t3)
     del rho_t3, tan_half_sq_t3
-    t6 = phi2_dot*phi2_dot
-    t7 = phi1_dot*phi1_dot
-    t8 = theta2_dot*theta2_dot
-    t9 = cos_theta1*theta1_dot
-    t10 = theta1_dot*theta1_dot
-    t11 = l1*m2
-    t12 = l2*t11
-    t13 = cos_theta1*sin_theta2
-    t15 = t12*sin_t3
+    t7 = l2*cos_theta2
+    t8 = t7*theta2_dot
+    t9 = phi2_dot*phi2_dot
+    t10 = phi1_dot*phi1_dot
+    t11 = theta2_dot*theta2_dot
+    t12 = cos_theta1*theta1_dot
+    t13 = theta1_dot*theta1_dot
+    t14 = l1*m2
+    t15 = l2*t14
+    t16 = cos_theta1*sin_theta2
+    t18 = t15*sin_t3
     del sin_t3
-    t16 = t13*t15
-    del t13
-    t17 = sin_theta1*sin_theta1
-    t19 = cos_theta2*sin_theta1
-    del sin_theta1
-    t20 = t15*t19
-    del t15, t19
-    t21 = cos_t3*t2
-    t22 = t12*t21
-    del t21
-    t23 = l2*l2
-    t24 = m2*t23
+    t19 = t16*t18
+    del t16
+    t20 = sin_theta1*sin_theta1
+    t21 = cos_theta2*sin_theta1
+    del cos_theta2, sin_theta1
+    t22 = t18*t21
+    del t18, t21
+    t23 = cos_t3*t2
+    t24 = t15*t23
     del t23
-    t25 = sin_theta2*sin_theta2
-    del sin_theta2
-    t26 = t24*t25
+    t25 = l2*l2
+    t26 = m2*t25
     del t25
-    t27 = l1*m1
-    t28 = l2*cos_theta2
-    del cos_theta2
-    t29 = t28*theta2_dot
-    t30 = m2*t28
-    del t28
+    t27 = sin_theta2*sin_theta2
+    del sin_theta2
+    t28 = t26*t27
+    del t27
+    t29 = l1*m1
+    t30 = m2*t7
+    del t7
     t31 = l1*l1
     t32 = m1*t31
     t33 = m2*t31
     del t31
     t34 = (1/2)*t32 + (1/2)*t33
     del t32, t33
-    t35 = t11*(cos_t3*t29*t9) + phi1_dot*phi2_dot*t22 + phi2_dot*t16*theta1_dot + t34*t10 + t12*(t2*theta1_dot*theta2_dot) + t34*(t17*t7) + ((1/2)*t24)*t8 + 1/2*(t26*t6) - g*((t11 + t27)*cos_theta1 + t30) - phi1_dot*t20*theta2_dot
-    del cos_t3, cos_theta1, t10, t11, t12, t16, t17, t2, t20, t22, t24, t26, t27, t29, t30, t34, t6, t7, t8, t9
+    t35 = t14*(cos_t3*t12*t8) + phi1_dot*phi2_dot*t24 + phi2_dot*t19*theta1_dot + t34*(t10*t20) + ((1/2)*t26)*t11 + t34*t13 + t15*(t2*theta1_dot*theta2_dot) + 1/2*(t28*t9) - g*((t14 + t29)*cos_theta1 + t30) - phi1_dot*t22*theta2_dot
+    del cos_t3, cos_theta1, t10, t11, t12, t13, t14, t15, t19, t2, t20, t22, t24, t26, t28, t29, t30, t34, t8, t9
     E = numpy.empty(shape + (), dtype)
     E[...] = t35
     del t35
@@ -587,31 +592,136 @@ def positions(y, p):
     del rho_phi2, tan_half_sq_phi2
     t11 = cos_phi2*sin_theta2
     del cos_phi2
-    t13 = sin_phi2*sin_theta2
-    del sin_phi2, sin_theta2
-    t15 = l2*cos_theta2
-    del cos_theta2
-    t16 = -t8
-    t17 = l2*t11 + t3
+    t12 = l2*t11
     del t11
-    t18 = l2*t13 + t6
-    del t13
-    t19 = -t15 - t8
-    del t15, t8
+    t14 = sin_phi2*sin_theta2
+    del sin_phi2, sin_theta2
+    t15 = l2*t14
+    del t14
+    t17 = l2*cos_theta2
+    del cos_theta2
+    t18 = -t8
+    t19 = t12 + t3
+    del t12
+    t20 = t15 + t6
+    del t15
+    t21 = -t17 - t8
+    del t17, t8
     pos = numpy.empty(shape + (2, 3), dtype)
     pos[..., 0, 0] = t3
     del t3
     pos[..., 0, 1] = t6
     del t6
-    pos[..., 0, 2] = t16
-    del t16
-    pos[..., 1, 0] = t17
-    del t17
-    pos[..., 1, 1] = t18
+    pos[..., 0, 2] = t18
     del t18
-    pos[..., 1, 2] = t19
+    pos[..., 1, 0] = t19
     del t19
+    pos[..., 1, 1] = t20
+    del t20
+    pos[..., 1, 2] = t21
+    del t21
     return pos
+
+
+def velocities(y, p):
+    """Cartesian velocities of the bobs (link tips), shape (2, 3): d pos / dt = (d pos
+    / dq) q'.
+
+    y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
+    p: (..., 5) the parameters: (m1, m2, l1, l2, g)
+    returns vel: (..., 2, 3) tip k, axis j at [k][j]
+    Total ops: 44
+    """
+    (y, p), shape, dtype = _prepare("velocities", (y, 8, "y"), (p, 5, "p"))
+    theta1 = y[..., 0]
+    phi1 = y[..., 1]
+    theta2 = y[..., 2]
+    phi2 = y[..., 3]
+    theta1_dot = y[..., 4]
+    phi1_dot = y[..., 5]
+    theta2_dot = y[..., 6]
+    phi2_dot = y[..., 7]
+    l1 = p[..., 2]
+    l2 = p[..., 3]
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    tan_half_phi1 = numpy.tan(0.5*phi1)
+    tan_half_sq_phi1 = tan_half_phi1*tan_half_phi1
+    rho_phi1 = 1.0/(1 + tan_half_sq_phi1)
+    sin_phi1 = 2*(rho_phi1*tan_half_phi1)
+    del tan_half_phi1
+    cos_phi1 = rho_phi1*(1 - tan_half_sq_phi1)
+    del rho_phi1, tan_half_sq_phi1
+    t4 = sin_phi1*sin_theta1
+    t5 = l1*t4
+    del t4
+    t6 = phi1_dot*t5 - l1*(cos_phi1*cos_theta1*theta1_dot)
+    del t5
+    t7 = l1*cos_theta1
+    del cos_theta1
+    t8 = t7*theta1_dot
+    del t7
+    t9 = cos_phi1*sin_theta1
+    del cos_phi1
+    t10 = l1*t9
+    del t9
+    t11 = phi1_dot*t10 + sin_phi1*t8
+    del sin_phi1, t10, t8
+    t12 = l1*sin_theta1
+    del sin_theta1
+    t13 = t12*theta1_dot
+    del t12
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    tan_half_phi2 = numpy.tan(0.5*phi2)
+    tan_half_sq_phi2 = tan_half_phi2*tan_half_phi2
+    rho_phi2 = 1.0/(1 + tan_half_sq_phi2)
+    sin_phi2 = 2*(rho_phi2*tan_half_phi2)
+    del tan_half_phi2
+    cos_phi2 = rho_phi2*(1 - tan_half_sq_phi2)
+    del rho_phi2, tan_half_sq_phi2
+    t18 = sin_phi2*sin_theta2
+    t19 = l2*t18
+    del t18
+    t20 = l2*cos_theta2
+    t21 = t20*theta2_dot
+    del t20
+    t22 = cos_phi2*sin_theta2
+    t23 = l2*t22
+    del t22
+    t24 = l2*sin_theta2
+    del sin_theta2
+    t25 = -t6
+    t26 = l2*(cos_phi2*cos_theta2*theta2_dot) - phi2_dot*t19 - t6
+    del cos_phi2, cos_theta2, t19, t6
+    t27 = phi2_dot*t23 + sin_phi2*t21 + t11
+    del sin_phi2, t21, t23
+    t28 = t13 + t24*theta2_dot
+    del t24
+    vel = numpy.empty(shape + (2, 3), dtype)
+    vel[..., 0, 0] = t25
+    del t25
+    vel[..., 0, 1] = t11
+    del t11
+    vel[..., 0, 2] = t13
+    del t13
+    vel[..., 1, 0] = t26
+    del t26
+    vel[..., 1, 1] = t27
+    del t27
+    vel[..., 1, 2] = t28
+    del t28
+    return vel
 
 
 def jacobian(y, p):
@@ -621,7 +731,7 @@ def jacobian(y, p):
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 8, 8) row-major
-    Total ops: 687
+    Total ops: 694
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 8, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -699,19 +809,19 @@ def jacobian(y, p):
     del t25
     D1_11 = -t30 - t31
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t32 = 2*phi2_dot
-    t33 = t32*theta2_dot
-    t34 = phi2_dot*phi2_dot
-    t35 = sin_theta2*t34
-    t36 = theta2_dot*theta2_dot
-    t37 = t12*t36
-    t38 = sin_t5*t37
-    t39 = cos_t5*t21
+    t32 = phi2_dot*phi2_dot
+    t33 = sin_theta2*t32
+    t34 = theta2_dot*theta2_dot
+    t35 = t12*t34
+    t36 = sin_t5*t35
+    t37 = 2*phi2_dot
+    t38 = cos_t5*t21
     del t21
+    t39 = t37*t38
     t40 = cos_theta1*theta1_dot
     t41 = phi1_dot*t40
     t42 = 2*Aa
-    f1 = -sin_theta2*t38 - t13*t35 - t33*t39 - t42*t41
+    f1 = -sin_theta2*t36 - t13*t33 - t39*theta2_dot - t42*t41
     del t41
     t43 = l2*sin_theta2
     t44 = g*t43
@@ -719,230 +829,239 @@ def jacobian(y, p):
     t45 = cos_theta2*sin_theta2
     t46 = cos_theta2*sin_theta1
     t47 = t10*t46
-    t48 = 2*theta1_dot
-    t49 = phi1_dot*t48
-    t50 = sin_t5*t8
-    t51 = t20*t50
-    t52 = cos_t5*t46
-    t53 = t12*(cos_theta1*sin_theta2 - t52)
-    del t52
-    f2 = Ab*(t34*t45) + Q11*t47 + t49*t51 - t11*t53 - t44
-    del t44
-    t54 = cos_theta2*theta2_dot
-    t55 = Ab*t32
-    t56 = sin_theta1*t10
-    t57 = t12*t11
-    t58 = sin_t5*t57
-    t59 = cos_t5*t9
+    t48 = t8*theta1_dot
+    t49 = t17*t48
+    t50 = sin_t5*t20
+    t51 = cos_t5*t46
+    t52 = t12*(cos_theta1*sin_theta2 - t51)
+    del t51
+    f2 = Ab*(t32*t45) + Q11*t47 + t49*t50 - t11*t52 - t44
+    del t44, t50
+    t53 = cos_theta2*theta2_dot
+    t54 = Ab*t37
+    t55 = sin_theta1*t10
+    t56 = t12*t11
+    t57 = sin_t5*t56
+    t58 = cos_t5*t9
     del t9
-    f3 = sin_theta1*t58 + t13*t56 - t49*t59 - t54*t55
-    t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t61 = l1*sin_theta1
-    t62 = g*t2*t4
-    t63 = t20*t33
-    t64 = cos_theta1*sin_theta2
-    t65 = cos_t5*t64
-    t66 = t46 - t65
+    t59 = 2*theta1_dot
+    t60 = t58*t59
+    f3 = sin_theta1*t57 + t13*t55 - phi1_dot*t60 - t53*t54
+    t61 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t62 = l1*sin_theta1
+    t63 = g*t2*t4
+    t64 = t20*theta2_dot
+    t65 = t37*t64
+    t66 = t65*t8
     del t65
-    f0 = (l1*l2)*(cos_t5*cos_theta1*sin_theta2*t34) + (t2*t3*t4)*(cos_theta1*sin_theta1*t10) - t37*t66 - t50*t63 - t62*t61
-    del t50, t61
-    t67 = Ab*f0 - Q00*f2 - Q01*f3
-    qdd0 = D1_11*rD1*t67 - D1_01*t60
-    t68 = Q01*t10 + Q01*t11 + qdd0*t14 + t15*t18
-    t69 = -t28
+    t67 = cos_theta1*sin_theta2
+    t68 = cos_t5*t67
+    t69 = t46 - t68
+    del t68
+    f0 = (l1*l2)*(cos_t5*cos_theta1*sin_theta2*t32) + (t2*t3*t4)*(cos_theta1*sin_theta1*t10) - sin_t5*t66 - t35*t69 - t63*t62
+    del t62
+    t70 = Ab*f0 - Q00*f2 - Q01*f3
+    qdd0 = D1_11*rD1*t70 - D1_01*t61
+    t71 = Q01*t10 + Q01*t11 + qdd0*t14 + t15*t18
+    t72 = phi1_dot*t59
+    t73 = -t28
     del t28
-    t70 = (l1*l2)*(cos_t5*cos_theta1*cos_theta2*t10) - qdd0*t53 - t13*t46*t49 - t57*t69
-    t71 = (2*Ab*t2*t3*t4)*(phi1_dot*sin_theta1*theta1_dot) - Q10*t70 - Q11*t68
-    t72 = D1_01*rD1
-    t73 = cos_theta1*cos_theta1
-    t74 = cos_t5*t26
-    t75 = t27 + t74
-    del t27, t74
+    t74 = (l1*l2)*(cos_t5*cos_theta1*cos_theta2*t10) - qdd0*t52 - t13*t46*t72 - t56*t73
+    t75 = (2*Ab*t2*t3*t4)*(phi1_dot*sin_theta1*theta1_dot) - Q10*t74 - Q11*t71
+    t76 = D1_01*rD1
+    t77 = cos_theta1*cos_theta1
+    t78 = cos_t5*t26
+    t79 = t27 + t78
+    del t27, t78
     D2_00 = -t29 - t30
     del t29, t30
     D2_01 = -Q00*Q01 - Q10*Q11
     D2_11 = -t23 - t31
     del t23, t31
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t76 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t80 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
     del f3
-    t77 = Aa*f2 - Q00*f0 - Q10*f1
+    t81 = Aa*f2 - Q00*f0 - Q10*f1
     del f0, f1, f2
-    qdd2 = D2_11*rD2*t77 - D2_01*t76
-    xr3 = D2_00*t76 - D2_01*rD2*t77
-    del t76, t77
-    t78 = (2*l1*l2)*(cos_theta2*phi2_dot*sin_t5*sin_theta1*theta2_dot) + (l1*l2)*(sin_t5*sin_theta1*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t73)) - Q11*t26*t34 - qdd2*t53 - t37*t75 - t62*t8
-    del t62, t73
-    t79 = Ab*t78 - Q00*t70 - Q01*t68
-    xr1 = D1_00*t60 - D1_01*rD1*t67
-    del D1_01, t60, t67
-    t80 = t13*xr1
-    t81 = Q01*t49 + Q11*sin_theta1*t11 + Q11*t56 + t80 - qdd0*t59
-    del t11, t56
-    t82 = qdd2*t39 + t13*xr3 + t22*t33 - Q11*sin_theta2*t36 - Q11*t35
-    del t35
-    t83 = cos_t5*t8
-    del t8
-    t84 = t49*t83
-    t85 = qdd0*t51 + t20*t84 + t39*xr1 - t13*t47 - t46*t58
-    del t47, t58, t84
-    t86 = Ab*t82 - Q10*t85 - Q11*t81
-    t87 = t13*t64
-    t88 = t34*t87 + t38*t64 + t59*xr3 + t63*t83 - (l1*l2)*(cos_theta1*cos_theta2*qdd2*sin_t5)
-    del t38, t63
-    t89 = -t88
-    t90 = Ab*t89 - Q00*t85 - Q01*t81
-    t91 = sin_theta2*theta2_dot
-    t92 = t55*t91
-    t93 = sin_theta2*t13
-    t94 = (2*l1*l2)*(cos_t5*phi2_dot*sin_theta2*theta2_dot) - qdd2*t93 - t22*t34 - t22*t36
-    del cos_t5, t22, t36
-    t95 = cos_theta2*cos_theta2
-    t96 = t12*t66
-    del t12, t66
-    t97 = Ab*(t34*(-1 + 2*t95)) - Q11*t10*t26 - g*t20 - qdd0*t96 - sin_theta2*t80 - t49*t87 - t57*t75
-    del qdd0, t10, t26, t49, t57, t75, t80, t95
-    t98 = Ab*t94 - Q10*t97 - Q11*t92
-    t99 = t20*t34*t83 + t33*t87 - qdd2*t96 - t37*t69
-    del qdd2, t20, t33, t34, t37, t69, t83, t87
-    t100 = Ab*t99 - Q00*t97 - Q01*t92
-    del t92
-    t101 = -t82
-    t102 = -t81
-    t103 = -t85
-    t104 = Ab*t101 - Q10*t103 - Q11*t102
-    t105 = Ab*t88 - Q00*t103 - Q01*t102
-    t106 = (2*l1*l2)*(sin_t5*sin_theta1*theta1_dot) - t17*t59
-    del sin_t5
-    t107 = t17*t51 - t48*t53
-    del t53
-    t108 = -Q00*t107 - Q01*t106
-    t109 = Aa*t17
-    t110 = cos_theta1*t109
-    t111 = -Ab*t110 - Q10*t107 - Q11*t106
-    t112 = t42*t40
+    qdd2 = D2_11*rD2*t81 - D2_01*t80
+    xr3 = D2_00*t80 - D2_01*rD2*t81
+    del t80, t81
+    t82 = (2*l1*l2)*(cos_theta2*phi2_dot*sin_t5*sin_theta1*theta2_dot) + (l1*l2)*(sin_t5*sin_theta1*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t77)) - Q11*t26*t32 - qdd2*t52 - t35*t79 - t63*t8
+    del t63, t77
+    t83 = Ab*t82 - Q00*t74 - Q01*t71
+    xr1 = D1_00*t61 - D1_01*rD1*t70
+    del D1_01, t61, t70
+    t84 = t13*xr1
+    t85 = Q01*t72 + Q11*sin_theta1*t11 + Q11*t55 + t84 - qdd0*t58
+    del t11, t55
+    t86 = t37*theta2_dot
+    t87 = qdd2*t38 + t13*xr3 + t22*t86 - Q11*sin_theta2*t34 - Q11*t33
+    del t33
+    t88 = cos_t5*t49
+    del t49
+    t89 = t20*t8
+    t90 = sin_t5*t89
+    t91 = qdd0*t90 + t20*t88 + t38*xr1 - t13*t47 - t46*t57
+    del t47, t57, t88
+    t92 = Ab*t87 - Q10*t91 - Q11*t85
+    t93 = t13*t67
+    t94 = cos_t5*t66 + t32*t93 + t36*t67 + t58*xr3 - (l1*l2)*(cos_theta1*cos_theta2*qdd2*sin_t5)
+    del t36, t66
+    t95 = -t94
+    t96 = Ab*t95 - Q00*t91 - Q01*t85
+    t97 = sin_theta2*theta2_dot
+    t98 = t54*t97
+    t99 = sin_theta2*t13
+    t100 = (2*l1*l2)*(cos_t5*phi2_dot*sin_theta2*theta2_dot) - qdd2*t99 - t22*t32 - t22*t34
+    del t22, t34
+    t101 = cos_theta2*cos_theta2
+    t102 = t12*t69
+    del t12, t69
+    t103 = Ab*(t32*(-1 + 2*t101)) - Q11*t10*t26 - g*t20 - qdd0*t102 - sin_theta2*t84 - t56*t79 - t72*t93
+    del qdd0, t10, t101, t26, t56, t72, t79, t84
+    t104 = Ab*t100 - Q10*t103 - Q11*t98
+    t105 = cos_t5*t32*t89 + t86*t93 - qdd2*t102 - t35*t73
+    del cos_t5, qdd2, t32, t35, t73, t86, t89, t93
+    t106 = Ab*t105 - Q00*t103 - Q01*t98
+    del t98
+    t107 = -t87
+    t108 = -t85
+    t109 = -t91
+    t110 = Ab*t107 - Q10*t109 - Q11*t108
+    t111 = Ab*t94 - Q00*t109 - Q01*t108
+    t112 = (2*l1*l2)*(sin_t5*sin_theta1*theta1_dot) - t17*t58
+    del t58
+    t113 = t17*t90 - t52*t59
+    del t52, t59
+    t114 = -Q00*t113 - Q01*t112
+    t115 = Aa*t17
+    t116 = cos_theta1*t115
+    t117 = -Ab*t116 - Q10*t113 - Q11*t112
+    t118 = t42*t40
     del t40, t42
-    t113 = t14*t17 - t48*t59
-    del t14, t17, t59
-    t114 = t18*t46 + t48*t51
-    del t18, t46, t48
-    t115 = -Ab*t112 - Q10*t114 - Q11*t113
-    t116 = (2*Ab*t2*t3*t4)*(cos_theta1*phi1_dot*sin_theta1) - Q00*t114 - Q01*t113
+    t119 = t14*t17 - t60
+    del t14, t17, t60
+    t120 = 2*sin_t5
+    del sin_t5
+    t121 = t120*t20*t48 + t18*t46
+    del t18, t20, t46, t48
+    t122 = -Ab*t118 - Q10*t121 - Q11*t119
+    t123 = (2*Ab*t2*t3*t4)*(cos_theta1*phi1_dot*sin_theta1) - Q00*t121 - Q01*t119
     del t2, t3, t4
-    t117 = cos_theta2*t55
-    t118 = -2*(t13*t91) - t32*t39
-    del t13, t91
-    t119 = Ab*t118 + Q11*t117
-    t120 = 2*theta2_dot
-    t121 = -t120*t96 - t32*t51
-    del t96
-    t122 = Ab*t121 + Q01*t117
-    t123 = Ab*t54
-    del t54
-    t124 = 2*t123
-    t125 = t45*t55
-    del t45, t55
-    t126 = -t120*t39 - t32*t93
-    del t39, t93
-    t127 = Ab*t126 + Q11*t124 - Q10*t125
-    t128 = 2*Q01
-    t129 = Q11*t32*t64 - t120*t51
-    del t120, t32, t51, t64
-    t130 = Ab*t129 + t123*t128 - Q00*t125
-    del t123, t125
+    t124 = cos_theta2*t54
+    t125 = -2*(t13*t97) - t39
+    del t13, t39, t97
+    t126 = Ab*t125 + Q11*t124
+    t127 = 2*theta2_dot
+    t128 = -t102*t127 - t37*t90
+    del t102, t90
+    t129 = Ab*t128 + Q01*t124
+    t130 = Ab*t53
+    del t53
+    t131 = 2*t130
+    t132 = t45*t54
+    del t45, t54
+    t133 = -t127*t38 - t37*t99
+    del t127, t38, t99
+    t134 = Ab*t133 + Q11*t131 - Q10*t132
+    t135 = 2*Q01
+    t136 = Q11*t37*t67 - t120*t64*t8
+    del t120, t37, t64, t67, t8
+    t137 = Ab*t136 + t130*t135 - Q00*t132
+    del t130, t132
     rs1 = 1.0/sin_theta1
     qdd1 = rs1*xr1
     del xr1
-    t131 = D1_00*rD1
-    t132 = t109*t15
-    del t109, t15
-    t133 = Aa*t68 - Q01*t78 - Q11*t132
-    del t68
-    t134 = D2_01*rD2
+    t138 = D1_00*rD1
+    t139 = t115*t15
+    del t115, t15
+    t140 = Aa*t71 - Q01*t82 - Q11*t139
+    del t71
+    t141 = D2_01*rD2
     del D2_01
-    t135 = Aa*t70 - Q00*t78 - Q10*t132
-    del t132, t70, t78
-    t136 = Aa*t81 - Q01*t89 - Q11*t82
-    del t81
-    t137 = Aa*t85 - Q00*t89 - Q10*t82
-    del t82, t85, t89
-    t138 = (2*Aa*Ab)*(phi2_dot*sin_theta2*theta2_dot) - Q01*t99 - Q11*t94
-    t139 = Aa*t97 - Q00*t99 - Q10*t94
-    del t94, t97, t99
-    t140 = Aa*t102 - Q01*t88 - Q11*t101
-    del t102
-    t141 = Aa*t103 - Q00*t88 - Q10*t101
-    del t101, t103, t88
-    t142 = Aa*t106 + Q11*t110
-    del t106
-    t143 = Aa*t107 + Q10*t110
-    del t107
-    t144 = Aa*t113 + Q11*t112 - Aa*(cos_theta1*phi1_dot*sin_theta1*t128)
-    del t113, t128
-    t145 = Aa*t114 + Q10*t112 - Q00*sin_theta1*t110
-    del sin_theta1, t110, t112, t114
-    t146 = -Q00*t121 - Q10*t118
-    t147 = -Aa*t117 - Q01*t121 - Q11*t118
-    del t117, t118, t121
-    t148 = -Aa*t124 - Q01*t129 - Q11*t126
-    del Q01, Q11, t124
-    t149 = (2*Aa*Ab)*(cos_theta2*phi2_dot*sin_theta2) - Q00*t129 - Q10*t126
-    del Aa, Ab, Q00, Q10, t126, t129
-    t150 = D2_00*rD2
+    t142 = Aa*t74 - Q00*t82 - Q10*t139
+    del t139, t74, t82
+    t143 = Aa*t85 - Q01*t95 - Q11*t87
+    del t85
+    t144 = Aa*t91 - Q00*t95 - Q10*t87
+    del t87, t91, t95
+    t145 = (2*Aa*Ab)*(phi2_dot*sin_theta2*theta2_dot) - Q01*t105 - Q11*t100
+    t146 = Aa*t103 - Q00*t105 - Q10*t100
+    del t100, t103, t105
+    t147 = Aa*t108 - Q01*t94 - Q11*t107
+    del t108
+    t148 = Aa*t109 - Q00*t94 - Q10*t107
+    del t107, t109, t94
+    t149 = Aa*t112 + Q11*t116
+    del t112
+    t150 = Aa*t113 + Q10*t116
+    del t113
+    t151 = Aa*t119 + Q11*t118 - Aa*(cos_theta1*phi1_dot*sin_theta1*t135)
+    del t119, t135
+    t152 = Aa*t121 + Q10*t118 - Q00*sin_theta1*t116
+    del sin_theta1, t116, t118, t121
+    t153 = -Q00*t128 - Q10*t125
+    t154 = -Aa*t124 - Q01*t128 - Q11*t125
+    del t124, t125, t128
+    t155 = -Aa*t131 - Q01*t136 - Q11*t133
+    del Q01, Q11, t131
+    t156 = (2*Aa*Ab)*(cos_theta2*phi2_dot*sin_theta2) - Q00*t136 - Q10*t133
+    del Aa, Ab, Q00, Q10, t133, t136
+    t157 = D2_00*rD2
     rs3 = 1.0/sin_theta2
     del sin_theta2
     qdd3 = rs3*xr3
     del xr3
-    t151 = D1_11*rD1*t79 - t71*t72
-    t152 = D1_11*rD1*t90 - t72*t86
-    t153 = D1_11*rD1*t100 - t72*t98
-    t154 = D1_11*rD1*t105 - t104*t72
-    t155 = D1_11*rD1*t108 - t111*t72
-    t156 = D1_11*rD1*t116 - t115*t72
-    t157 = D1_11*rD1*t122 - t119*t72
-    t158 = D1_11*rD1*t130 - t127*t72
+    t158 = D1_11*rD1*t83 - t75*t76
+    t159 = D1_11*rD1*t96 - t76*t92
+    t160 = D1_11*rD1*t106 - t104*t76
+    t161 = D1_11*rD1*t111 - t110*t76
+    t162 = D1_11*rD1*t114 - t117*t76
+    t163 = D1_11*rD1*t123 - t122*t76
+    t164 = D1_11*rD1*t129 - t126*t76
+    t165 = D1_11*rD1*t137 - t134*t76
     del D1_11
-    t159 = rs1*(D1_00*rD1*t71 - cos_theta1*qdd1 - t72*t79)
-    del D1_00, cos_theta1, qdd1, rD1, t71, t79
-    t160 = rs1*(t131*t86 - t72*t90)
-    del t86, t90
-    t161 = rs1*(t131*t98 - t100*t72)
-    del t100, t98
-    t162 = rs1*(t104*t131 - t105*t72)
-    del t104, t105
-    t163 = rs1*(t111*t131 - t108*t72)
-    del t108, t111
-    t164 = rs1*(t115*t131 - t116*t72)
-    del t115, t116
-    t165 = rs1*(t119*t131 - t122*t72)
-    del t119, t122
-    t166 = rs1*(t127*t131 - t130*t72)
-    del rs1, t127, t130, t131, t72
-    t167 = D2_11*rD2*t135 - t133*t134
-    t168 = D2_11*rD2*t137 - t134*t136
-    t169 = D2_11*rD2*t139 - t134*t138
-    t170 = D2_11*rD2*t141 - t134*t140
-    t171 = D2_11*rD2*t143 - t134*t142
-    t172 = D2_11*rD2*t145 - t134*t144
-    t173 = D2_11*rD2*t146 - t134*t147
-    t174 = D2_11*rD2*t149 - t134*t148
+    t166 = rs1*(D1_00*rD1*t75 - cos_theta1*qdd1 - t76*t83)
+    del D1_00, cos_theta1, qdd1, rD1, t75, t83
+    t167 = rs1*(t138*t92 - t76*t96)
+    del t92, t96
+    t168 = rs1*(t104*t138 - t106*t76)
+    del t104, t106
+    t169 = rs1*(t110*t138 - t111*t76)
+    del t110, t111
+    t170 = rs1*(t117*t138 - t114*t76)
+    del t114, t117
+    t171 = rs1*(t122*t138 - t123*t76)
+    del t122, t123
+    t172 = rs1*(t126*t138 - t129*t76)
+    del t126, t129
+    t173 = rs1*(t134*t138 - t137*t76)
+    del rs1, t134, t137, t138, t76
+    t174 = D2_11*rD2*t142 - t140*t141
+    t175 = D2_11*rD2*t144 - t141*t143
+    t176 = D2_11*rD2*t146 - t141*t145
+    t177 = D2_11*rD2*t148 - t141*t147
+    t178 = D2_11*rD2*t150 - t141*t149
+    t179 = D2_11*rD2*t152 - t141*t151
+    t180 = D2_11*rD2*t153 - t141*t154
+    t181 = D2_11*rD2*t156 - t141*t155
     del D2_11
-    t175 = rs3*(t133*t150 - t134*t135)
-    del t133, t135
-    t176 = rs3*(t136*t150 - t134*t137)
-    del t136, t137
-    t177 = rs3*(D2_00*rD2*t138 - cos_theta2*qdd3 - t134*t139)
-    del D2_00, cos_theta2, qdd3, rD2, t138, t139
-    t178 = rs3*(t140*t150 - t134*t141)
-    del t140, t141
-    t179 = rs3*(t142*t150 - t134*t143)
-    del t142, t143
-    t180 = rs3*(t144*t150 - t134*t145)
-    del t144, t145
-    t181 = rs3*(t147*t150 - t134*t146)
-    del t146, t147
-    t182 = rs3*(t148*t150 - t134*t149)
-    del rs3, t134, t148, t149, t150
+    t182 = rs3*(t140*t157 - t141*t142)
+    del t140, t142
+    t183 = rs3*(t143*t157 - t141*t144)
+    del t143, t144
+    t184 = rs3*(D2_00*rD2*t145 - cos_theta2*qdd3 - t141*t146)
+    del D2_00, cos_theta2, qdd3, rD2, t145, t146
+    t185 = rs3*(t147*t157 - t141*t148)
+    del t147, t148
+    t186 = rs3*(t149*t157 - t141*t150)
+    del t149, t150
+    t187 = rs3*(t151*t157 - t141*t152)
+    del t151, t152
+    t188 = rs3*(t154*t157 - t141*t153)
+    del t153, t154
+    t189 = rs3*(t155*t157 - t141*t156)
+    del rs3, t141, t155, t156, t157
     J = numpy.empty(shape + (8, 8), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -976,70 +1095,70 @@ def jacobian(y, p):
     J[..., 3, 5] = 0
     J[..., 3, 6] = 0
     J[..., 3, 7] = 1
-    J[..., 4, 0] = t151
-    del t151
-    J[..., 4, 1] = t152
-    del t152
-    J[..., 4, 2] = t153
-    del t153
-    J[..., 4, 3] = t154
-    del t154
-    J[..., 4, 4] = t155
-    del t155
-    J[..., 4, 5] = t156
-    del t156
-    J[..., 4, 6] = t157
-    del t157
-    J[..., 4, 7] = t158
+    J[..., 4, 0] = t158
     del t158
-    J[..., 5, 0] = t159
+    J[..., 4, 1] = t159
     del t159
-    J[..., 5, 1] = t160
+    J[..., 4, 2] = t160
     del t160
-    J[..., 5, 2] = t161
+    J[..., 4, 3] = t161
     del t161
-    J[..., 5, 3] = t162
+    J[..., 4, 4] = t162
     del t162
-    J[..., 5, 4] = t163
+    J[..., 4, 5] = t163
     del t163
-    J[..., 5, 5] = t164
+    J[..., 4, 6] = t164
     del t164
-    J[..., 5, 6] = t165
+    J[..., 4, 7] = t165
     del t165
-    J[..., 5, 7] = t166
+    J[..., 5, 0] = t166
     del t166
-    J[..., 6, 0] = t167
+    J[..., 5, 1] = t167
     del t167
-    J[..., 6, 1] = t168
+    J[..., 5, 2] = t168
     del t168
-    J[..., 6, 2] = t169
+    J[..., 5, 3] = t169
     del t169
-    J[..., 6, 3] = t170
+    J[..., 5, 4] = t170
     del t170
-    J[..., 6, 4] = t171
+    J[..., 5, 5] = t171
     del t171
-    J[..., 6, 5] = t172
+    J[..., 5, 6] = t172
     del t172
-    J[..., 6, 6] = t173
+    J[..., 5, 7] = t173
     del t173
-    J[..., 6, 7] = t174
+    J[..., 6, 0] = t174
     del t174
-    J[..., 7, 0] = t175
+    J[..., 6, 1] = t175
     del t175
-    J[..., 7, 1] = t176
+    J[..., 6, 2] = t176
     del t176
-    J[..., 7, 2] = t177
+    J[..., 6, 3] = t177
     del t177
-    J[..., 7, 3] = t178
+    J[..., 6, 4] = t178
     del t178
-    J[..., 7, 4] = t179
+    J[..., 6, 5] = t179
     del t179
-    J[..., 7, 5] = t180
+    J[..., 6, 6] = t180
     del t180
-    J[..., 7, 6] = t181
+    J[..., 6, 7] = t181
     del t181
-    J[..., 7, 7] = t182
+    J[..., 7, 0] = t182
     del t182
+    J[..., 7, 1] = t183
+    del t183
+    J[..., 7, 2] = t184
+    del t184
+    J[..., 7, 3] = t185
+    del t185
+    J[..., 7, 4] = t186
+    del t186
+    J[..., 7, 5] = t187
+    del t187
+    J[..., 7, 6] = t188
+    del t188
+    J[..., 7, 7] = t189
+    del t189
     return J
 
 
