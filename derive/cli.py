@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 from . import __version__
-from .errors import DeriveError, ModelError, ToolMissingError, UsageError
+from .errors import DeriveError, ToolMissingError, UsageError
 from .model import is_model_file, load_model, model_names
 from .paths import checkout_root
 from .progress import Stage
@@ -44,10 +44,13 @@ def _model_args(args: list[str], allow_atlas: bool = False) -> list[str]:
         try:
             names.append(_model_arg(arg, allow_atlas))
         except DeriveError as exc:
+            bad.append(exc)
+    if bad and not names:           # nothing to do: the last error is the command's
+        for exc in bad[:-1]:
             print(f"derive: error: {exc}", file=sys.stderr)
-            bad.append(arg)
-    if bad and not names:
-        raise ModelError(f"no usable model among {', '.join(bad)}")
+        raise bad[-1]
+    for exc in bad:
+        print(f"derive: error: {exc}", file=sys.stderr)
     return names, bad
 
 

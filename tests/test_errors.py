@@ -87,6 +87,7 @@ def test_a_missing_template(tmp_path, monkeypatch, capsys):
     shutil.copytree(paths.templates_dir(), broken)
     (broken / "c" / "source.c.jinja").unlink()
     monkeypatch.setattr(paths, "templates_dir", lambda: broken)
+    monkeypatch.setenv("DERIVE_CACHE_DIR", str(tmp_path / "cache"))    # nothing rendered before
     sources.render.cache_clear()
     try:
         status = main(["generate", "planar", "--out", str(tmp_path / "gen")])

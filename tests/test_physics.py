@@ -51,10 +51,10 @@ def test_acceleration_check_catches_a_wrong_model():
     broken[0] = broken[0] * (1 + sp.Rational(1, 10**12))
     original = d.F
     d.F = broken
-    physics._system_functions.pop(d.name, None)
+    physics._system_functions.pop((d.name, d.model.content_hash), None)
     try:
         check = physics.charts_agree_on_accelerations("spherical_std", "spherical_alt", n_points=3)
     finally:
         d.F = original
-        physics._system_functions.pop(d.name, None)
+        physics._system_functions.pop((d.name, d.model.content_hash), None)
     assert not check.passed

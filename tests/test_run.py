@@ -32,7 +32,7 @@ def test_default_scene_meets_its_target_and_reuses_the_cache(tmp_path):
     assert s["trust_horizon"] >= 5.0         # the run ends inside its trust horizon
     assert 1.0 < s["lyapunov_exponent"] < 4.0  # chaotic: the exponent is clearly positive
     data = np.loadtxt(tmp_path / "default.csv", delimiter=",", skiprows=1)
-    assert data.shape == (501, 1 + 4 + 4 + 1)
+    assert data.shape == (501, 1 + 4 + 4 + 4 + 1)     # t, state, positions, velocities, energy
     np.testing.assert_allclose(data[-1, 1:5], s["final_state"], rtol=0, atol=1e-12)
 
 
@@ -100,6 +100,11 @@ def test_scene_outputs_csv_npz_and_plots(tmp_path):
             "compound_seed001_energy.png"} <= names
     data = np.load(tmp_path / "compound_seed001.npz")
     assert data["y"].shape == (1001, 4) and data["positions"].shape == (1001, 2, 2)
+    assert data["velocities"].shape == (1001, 2, 2)
+    # the velocities are the time derivative of the positions (central differences)
+    dt = float(data["t"][1] - data["t"][0])
+    fd = (data["positions"][2:] - data["positions"][:-2]) / (2 * dt)
+    assert np.max(np.abs(fd - data["velocities"][1:-1])) < 2e-2 * np.max(np.abs(data["velocities"]))   # O(dt^2)
     assert (tmp_path / "compound_seed001_paths.png").read_bytes()[:4] == b"\x89PNG"
 
 

@@ -64,17 +64,25 @@ def provenance(name: str, files: dict[str, str]) -> dict[str, str]:
     return {rel: PREAMBLE.sub(line, text, count=1) for rel, text in files.items()}
 
 
+@forget_on_model_change
+@lru_cache(maxsize=None)
+def kernels(name: str):
+    """(spec, bodies): a model's kernel specs and their code after the one CSE pass, shared
+    by every file of the model (kernels, integrators, loops): CSE runs once per model."""
+    from .emit import cse_file
+    from .spec import model_spec
+    spec = model_spec(derive(name))
+    return spec, cse_file(spec)
+
+
 def _raw(name: str) -> dict[str, str]:
     from ..integration.codegen import render_atlas, render_c, render_numpy
     from ..integration.throughput import render_loops
-    from .emit import cse_file
     from .languages import LANGUAGES
-    from .spec import model_spec
     if name == ATLAS:
         return render_atlas()
     d = derive(name)
-    spec = model_spec(d)
-    bodies = cse_file(spec)
+    spec, bodies = kernels(name)
     files: dict[str, str] = {}
     for lang in LANGUAGES:
         files.update(lang.files(spec, bodies))

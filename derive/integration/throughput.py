@@ -48,12 +48,11 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..codegen.emit import cse_file, half_angle_sincos, lanes_context, render, trig_lanes
+from ..codegen.emit import half_angle_sincos, lanes_context, render, trig_lanes
 from ..codegen.loader import VECTOR_MATH, LoaderError, build_fastest, build_library
 from ..codegen.names import numpy_slots
 from ..codegen.printers import CPrinter, PyNumPyPrinter
-from ..codegen.sources import c_source
-from ..codegen.spec import model_spec
+from ..codegen.sources import c_source, kernels
 from ..derivation import derive
 from ..model import model_names
 from ..model.description import forget_on_model_change
@@ -77,8 +76,7 @@ def throughput_models() -> list[str]:
 @forget_on_model_change
 @lru_cache(maxsize=None)
 def _rhs_body(name: str):
-    bodies = cse_file(model_spec(derive(name)))
-    return next(b for b in bodies if b.kernel.name == "rhs")
+    return next(b for b in kernels(name)[1] if b.kernel.name == "rhs")
 
 
 def _inputs(body):
