@@ -20,12 +20,17 @@ fi
 # clang and gcc/g++: the generated C is compiled with each of them (make: examples/c);
 # pdflatex: `derive latex --pdf` compiles the report;
 # pdftoppm, pdftotext: the PDF pages are rendered and their text checked.
-PACKAGES=(clang texlive-latex-base texlive-latex-recommended texlive-fonts-recommended poppler-utils)
+# lmodern: the Latin Modern T1 fonts (vector, with ligatures), without which pdflatex falls
+# back to bitmap fonts whose text does not extract cleanly.
+PACKAGES=(clang texlive-latex-base texlive-latex-recommended texlive-fonts-recommended lmodern poppler-utils)
 missing_tools() {
   missing=()
   for tool in clang pdflatex pdftoppm pdftotext g++; do
     command -v "$tool" >/dev/null 2>&1 || missing+=("$tool")
   done
+  if command -v kpsewhich >/dev/null 2>&1 && [[ -z "$(kpsewhich lmodern.sty 2>/dev/null)" ]]; then
+    missing+=("lmodern.sty")
+  fi
   command -v cc >/dev/null 2>&1 || command -v gcc >/dev/null 2>&1 || missing+=("cc")
   command -v make >/dev/null 2>&1 || missing+=("make")
 }

@@ -8,6 +8,7 @@ untouched.
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import jinja2
 import sympy as sp
@@ -54,19 +55,23 @@ def _body(link, n) -> str:
 
 
 def _forces(d, n) -> list[dict]:
-    """Dissipation and applied forces, where the derivation has them."""
-    out = []
-    for attr, title in (("dissipation", "Dissipation"), ("applied_forces", "Applied forces"),
-                        ("applied", "Applied forces"), ("generalized_forces", "Generalized forces")):
-        value = getattr(d, attr, None)
-        if value is None or (isinstance(value, (list, tuple, dict)) and not value):
-            continue
-        if isinstance(value, dict):
-            lines = [rf"{ts.tex(k, n) if not isinstance(k, str) else ts.prose(k).strip('$')} = {ts.tex(v, n)}"
-                     for k, v in value.items()]
-        else:
-            lines = ts.object_lines(value if not isinstance(value, (list, tuple)) else sp.Matrix(value), n)
-        out.append({"title": title, "lines": lines})
+    """Dissipation and applied forces, where the derivation has them: Rayleigh's R and
+    -dR/dq', the generalized forces Q (and the run-time inputs they use)."""
+    out, s = [], d.symbols
+    if d.dissipation is not None:
+        lines = [f"R = {ts.tex(d.dissipation, n)}"]
+        lines += [rf"-\frac{{\partial R}}{{\partial {ts.tex(v, n)}}} = "
+                  rf"{ts.tex(sp.collect(sp.expand(-d.dissipation.diff(v)), list(s.params)), n)}"
+                  for v in s.qd if d.dissipation.diff(v) != 0]
+        out.append({"title": "Dissipation",
+                    "intro": "Rayleigh's dissipation function and the generalized forces it exerts:",
+                    "lines": lines})
+    if d.forces is not None:
+        lines = [f"Q_{{{ts.tex(q, n)}}} = {ts.tex(Q, n)}" for q, Q in zip(s.q, d.forces) if Q != 0]
+        intro = "The applied generalized forces (the virtual work of the applied forces per coordinate)"
+        if s.u:
+            intro += "; " + ", ".join(f"${ts.tex(u, n)}$" for u in s.u) + " are run-time inputs"
+        out.append({"title": "Applied forces", "intro": intro + ":", "lines": lines})
     return out
 
 
@@ -161,7 +166,9 @@ def context(d: Derivation, results, checks=(), paper: str = "a4") -> dict:
     s = d.symbols
     ctx = {
         "paper": PAPERS[paper], "title": _title(d.model.title), "name": _escape(d.model.name),
-        "source": ts.prose(d.model.source),
+        "source": ts.prose(d.model.source) if d.model.source else
+        (r"the model file \texttt{" + _escape(Path(d.model.origin).name) + "}" if d.model.origin else "the catalogue"),
+        "conservative": d.model.is_conservative,
         "coordinates": ", ".join(f"${ts.tex(q, n)}$" for q in s.q),
         "parameters": ", ".join(f"${ts.tex(p, n)}$" for p in s.params),
         "links": [{"index": i, "chart": _escape(link.chart.name), "body": _body(link, n),
@@ -179,10 +186,15 @@ def context(d: Derivation, results, checks=(), paper: str = "a4") -> dict:
         "groups": _seed_groups(result_rows(results)), "n_results": len(results),
         "checks": physics_rows(checks, n),
     }
-    if d.hamiltonian is not None:
+    if d.hamiltonian is not None and d.hamiltonian.H is None:
+        # beyond two coordinates no closed-form inverse is written: the code solves M q' = p
+        ctx["hamiltonian"] = {"closed": False, "dL_dq": _entries(d.hamiltonian.dL_dq, n, r"\dot{p}"),
+                              "solve": rf"an $L D L^{{T}}$ factorisation of the ${len(s.q)} \times {len(s.q)}$ "
+                                       "mass matrix, emitted in the generated code"}
+    elif d.hamiltonian is not None:
         h = d.hamiltonian
         det = sp.factor(d.M.det())
-        ctx["hamiltonian"] = {"det": ts.expr_lines(det, n),
+        ctx["hamiltonian"] = {"closed": True, "det": ts.expr_lines(det, n),
                               "M_inv": _entries((d.M.adjugate()).applyfunc(sp.expand), n,
                                                 r"\bigl(\det M\; M^{-1}\bigr)", symmetric=True),
                               "H": ts.expr_lines(sp.expand((sp.Matrix(s.p).T * d.M.adjugate()
