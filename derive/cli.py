@@ -23,7 +23,8 @@ from .model import is_model_file, load_model, model_names
 from .paths import checkout_root
 from .progress import Stage
 
-EXIT_CODES = """exit status: 0 done; 1 a run or check that failed; 2 bad input or a missing tool"""
+EXIT_CODES = ("exit status: 0 done (and an accuracy target met); 1 a run or check that failed; "
+              "2 bad input or a missing tool; 3 a run that finished but missed its accuracy target")
 
 
 def _model_arg(arg: str, allow_atlas: bool = False) -> str:
@@ -299,7 +300,9 @@ def _print_run(summary: dict) -> None:
               f"t = {s['trust_horizon']:.3g} for error {s['target'] or 1e-8:g}")
     if s["target"] is not None:
         achieved = "not measured" if s["achieved_error"] is None else f"{s['achieved_error']:.2g}"
-        print(f"error   target {s['target']:g}, predicted {s['predicted_error']:.2g}, achieved {achieved}")
+        verdict = {True: "met", False: "MISSED", None: "not measured"}[s["target_met"]]
+        print(f"error   target {s['target']:g}, predicted {s['predicted_error']:.2g}, achieved {achieved} "
+              f"({verdict}; reference at rtol {s['reference_rtol']:.2g})")
     if not s["ok"]:
         print(f"stopped {s['message']}")
     print(f"result  {s['status']} at t = {s['t_stop']:g} after {s['nfev']} rhs evaluations"
@@ -315,7 +318,7 @@ def _print_run(summary: dict) -> None:
 def cmd_run(args) -> int:
     from .scene import load_scene
     from .scene.outputs import writable_dir, write_outputs
-    from .scene.run import run, summary
+    from .scene.run import EXIT_TARGET_MISSED, missed_reason, run, summary, target_met
     scene = load_scene(args.scene)
     if args.output_dir:
         scene.output_dir = Path(args.output_dir)
@@ -331,11 +334,20 @@ def cmd_run(args) -> int:
     outcome.seconds = time.perf_counter() - start
     s = summary(outcome)
     s["outputs_seconds"] = time.perf_counter() - t0
+    if not outcome.result.ok:
+        status, reason = 1, f"run failed: {outcome.result.message}"
+    elif target_met(outcome) is False:
+        status, reason = EXIT_TARGET_MISSED, missed_reason(outcome)
+    else:
+        status, reason = 0, None
+    s["exit_status"], s["reason"] = status, reason
     if args.json:
         print(json.dumps(s, indent=1))
     elif not args.quiet:
         _print_run(s)
-    return 0 if outcome.result.ok else 1
+    if reason is not None:          # even with --quiet: the one line that says why
+        print(f"derive: {reason}", file=sys.stderr)
+    return status
 
 
 # -- derive all -------------------------------------------------------------------------
@@ -488,11 +500,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    args = None
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
         return args.func(args)
     except DeriveError as exc:
+        if getattr(args, "json", False):     # --json stays valid JSON on failure too
+            print(json.dumps({"ok": False, "error": str(exc), "exit_status": exc.exit_status}, indent=1))
         print(f"derive: error: {exc}", file=sys.stderr)
         return exc.exit_status
     except KeyboardInterrupt:

@@ -33,7 +33,9 @@ class Lyapunov:
     method: str                # how it was computed
 
     def error_growth(self, t: float) -> float:
-        return math.exp(max(self.exponent, 0.0) * t)
+        """exp(lambda t), or inf where that overflows a double (no error survives it)."""
+        x = max(self.exponent, 0.0) * t
+        return math.exp(x) if x < 700 else math.inf
 
 
 def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0) -> Lyapunov:
@@ -92,5 +94,7 @@ def trust_horizon(lyapunov: Lyapunov, target: float, e0: float) -> float:
     if lyapunov.exponent <= 0:
         return math.inf
     if e0 >= target:
+        return 0.0
+    if not math.isfinite(lyapunov.exponent):
         return 0.0
     return math.log(target / e0) / lyapunov.exponent

@@ -29,6 +29,12 @@ SAFETY = 10.0
 DOUBLE_RTOL_MIN = 1e-14
 FLOAT_RTOL_MIN = 1e-5
 LONG_DOUBLE_RTOL_MIN = 1e-16
+RTOL_MAX = 1e-3            # a looser target is met at this tolerance: DOP853 is not run looser
+# the tightest tolerance a reference run may use in each precision (10 eps of simulate, with margin)
+REFERENCE_RTOL_MIN = {"float32": 1e-9, "float64": 1e-14,
+                      "longdouble": 20 * float(np.finfo(np.longdouble).eps)}
+EXIT_TARGET_MISSED = 3     # `derive run`: the run finished, but its accuracy target was not met
+PRECISION = {"float32": "float", "float64": "double", "longdouble": "long double"}
 CHUNKS = 20          # the integration runs in this many pieces, for the progress bar
 
 
@@ -78,7 +84,7 @@ def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
                       "longdouble" if scene.scalar == "long double" else
                       "float32" if scene.scalar == "float" else "float64", None, "as the scene asks")
     growth = lyap.error_growth(scene.t_stop - scene.t_start) if lyap else 1.0
-    rtol = scene.target / (SAFETY * growth)
+    rtol = min(scene.target / (SAFETY * growth), RTOL_MAX)
     dtype, note = "float64", ""
     if rtol < DOUBLE_RTOL_MIN:
         dtype = "longdouble"
@@ -158,12 +164,19 @@ def _final_error(run_: SimulationResult, reference: SimulationResult) -> float:
 MAX_TIGHTENINGS = 3
 
 
-def _reference(p: Plan, scene: Scene, c: Choice) -> SimulationResult:
-    """The same run a thousand times tighter, in double or, when double cannot, long double."""
+def reference_rtol(c: Choice) -> tuple[float, str]:
+    """(tolerance, precision) of the reference run: a thousand times tighter than the run,
+    in double or, when double cannot, long double; never tighter than that precision can
+    take (then the reference is only as much tighter as it can be, and says so)."""
     tight = (c.rtol or 1.0) / 1000
-    return integrate(p, scene, c, None, tighten=1000.0,
-                     dtype="longdouble" if tight < DOUBLE_RTOL_MIN or c.dtype == "longdouble"
-                     else "float64")
+    dtype = "longdouble" if tight < DOUBLE_RTOL_MIN or c.dtype == "longdouble" else "float64"
+    return max(tight, REFERENCE_RTOL_MIN[dtype]), dtype
+
+
+def _reference(p: Plan, scene: Scene, c: Choice) -> SimulationResult:
+    """The same run, far tighter (reference_rtol)."""
+    rtol, dtype = reference_rtol(c)
+    return integrate(p, scene, c, None, tighten=c.rtol / rtol, dtype=dtype)
 
 
 def run(scene: Scene, show_progress: bool = True) -> Outcome:
@@ -181,7 +194,7 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
     achieved = None
     measurable = c.method in ("dop853", "dopri5")
     if result.ok and measurable:
-        reference, reference_rtol = _reference(p, scene, c), c.rtol / 1000
+        reference, ref_rtol = _reference(p, scene, c), reference_rtol(c)[0]
         achieved = _final_error(result, reference) if reference.ok else None
         # Tolerance proportionality is only approximate: when the measured error
         # misses the target, tighten by the observed ratio and run again.
@@ -198,9 +211,9 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
             result = integrate(p, scene, c, None)
             if not result.ok:
                 break
-            if c.rtol < 100 * reference_rtol:      # the reference must stay far tighter
-                reference, reference_rtol = _reference(p, scene, c), c.rtol / 1000
-            achieved = _final_error(result, reference)
+            if c.rtol < 100 * ref_rtol:           # the reference must stay far tighter
+                reference, ref_rtol = _reference(p, scene, c), reference_rtol(c)[0]
+            achieved = _final_error(result, reference) if reference.ok else None
     horizon = None
     if lyap is not None:
         e0 = initial_error(c.rtol if c.rtol is not None else 0.0,
@@ -210,6 +223,25 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
     positions, velocities, energy = _observables(scene, p, result)
     return Outcome(scene, p, steps, c, lyap, horizon, result, positions, energy, achieved,
                    time.perf_counter() - start, velocities=velocities, show_progress=show_progress)
+
+
+def target_met(o: Outcome) -> bool | None:
+    """Whether the run met its accuracy target: None where there is no target or the
+    achieved error could not be measured (a fixed-step method, a failed reference)."""
+    if o.scene.target is None or o.achieved is None or not o.result.ok:
+        return None
+    return bool(o.achieved <= o.scene.target)
+
+
+def missed_reason(o: Outcome) -> str:
+    """One line: why the target was not met, with the trust horizon where it explains it."""
+    precision = PRECISION.get(o.choice.dtype, o.choice.dtype)
+    if o.trust_horizon is not None and o.trust_horizon < o.scene.t_stop:
+        return (f"target {o.scene.target:g} out of reach after t = {o.trust_horizon:.3g} with {precision}: "
+                f"the motion's trust horizon (largest Lyapunov exponent "
+                f"{o.lyapunov.exponent:.3g}); achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
+    return (f"target {o.scene.target:g} missed with {precision} at rtol {o.choice.rtol:.2g}: "
+            f"achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
 
 
 def summary(o: Outcome) -> dict:
@@ -222,6 +254,8 @@ def summary(o: Outcome) -> dict:
         "method": o.choice.method, "rtol": o.choice.rtol, "step": o.choice.step,
         "dtype": o.choice.dtype, "backend": o.scene.backend,
         "target": o.scene.target, "predicted_error": o.choice.predicted, "achieved_error": o.achieved,
+        "target_met": target_met(o), "precision": PRECISION.get(o.choice.dtype, o.choice.dtype),
+        "reference_rtol": reference_rtol(o.choice)[0] if o.choice.rtol is not None else None,
         "lyapunov_exponent": o.lyapunov.exponent if o.lyapunov else None,
         "trust_horizon": o.trust_horizon,
         "status": r.status_name, "ok": r.ok, "message": r.message, "t_stop": float(r.t_stop), "nfev": int(r.nfev),

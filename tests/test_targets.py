@@ -1,0 +1,65 @@
+"""An accuracy target is met or reported missed: one line, exit status 3, `target_met` in
+--json; never a crash on a tolerance the user did not write (the reference run's
+tolerance stays inside what its precision can take), never "result ok" for a miss."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT = (ROOT / "scenes" / "default.toml").read_text()
+
+
+def run_scene(tmp_path: Path, text: str, *flags):
+    scene = tmp_path / "scene.toml"
+    scene.write_text(text)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "derive", "run", str(scene), "--output-dir",
+                           str(tmp_path / "out"), *flags], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=900)
+
+
+def test_just_inside_the_horizon_the_target_is_met(tmp_path):
+    """t = 7 used to crash ("rtol = 3.14e-19 is outside [10 eps, 1)"): the reference is
+    now as tight as long double can take, and the target is met."""
+    run = run_scene(tmp_path, DEFAULT.replace("stop = 5.0", "stop = 7.0"), "--json")
+    assert run.returncode == 0, run.stderr
+    s = json.loads(run.stdout)
+    assert s["target_met"] is True and s["achieved_error"] <= 1e-8 and s["precision"] == "long double"
+    assert s["reference_rtol"] >= 10 * 1.0842e-19
+
+
+@pytest.mark.parametrize("edit, fragment", [
+    (lambda t: t.replace("stop = 5.0", "stop = 10.0"), "out of reach after t = "),
+    (lambda t: t.replace("target = 1e-8", "target = 1e-14"), "out of reach after t = "),
+    (lambda t: t.replace("g = 9.81", "g = 1e6"), "out of reach after t = "),
+    (lambda t: t.replace("target = 1e-8", 'target = 1e-15\nscalar = "float"'), "with float"),
+])
+def test_a_missed_target_is_one_line_and_exit_3(tmp_path, edit, fragment):
+    run = run_scene(tmp_path, edit(DEFAULT), "--quiet")
+    assert run.returncode == 3, (run.returncode, run.stderr)
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and fragment in lines[0] and "Traceback" not in run.stderr
+    assert run.stdout == ""                 # --quiet: only the reason, on stderr
+    run = run_scene(tmp_path, edit(DEFAULT), "--json")
+    s = json.loads(run.stdout)
+    assert s["target_met"] is False and s["exit_status"] == 3 and fragment in s["reason"]
+
+
+def test_a_loose_target_does_not_make_a_loose_tolerance(tmp_path):
+    run = run_scene(tmp_path, DEFAULT.replace("target = 1e-8", "target = 1e300"), "--json")
+    assert run.returncode == 0, run.stderr
+    s = json.loads(run.stdout)
+    assert s["rtol"] <= 1e-3 and s["target_met"] is True
+
+
+def test_json_stays_json_on_bad_input(tmp_path):
+    run = run_scene(tmp_path, DEFAULT.replace("l1 = 1.0", "l1 = -1.0"), "--json")
+    assert run.returncode == 2
+    s = json.loads(run.stdout)
+    assert s["ok"] is False and "l1" in s["error"] and s["exit_status"] == 2
