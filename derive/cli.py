@@ -286,6 +286,20 @@ def cmd_latex(args) -> int:
 
 # -- derive run -------------------------------------------------------------------------
 
+def _json_safe(value):
+    """JSON has no infinity or NaN: an infinite trust horizon is "beyond the run", any
+    other non-finite number null."""
+    import math
+    if isinstance(value, dict):
+        return {k: ("beyond the run" if k == "trust_horizon" and isinstance(v, float) and math.isinf(v)
+                    else _json_safe(v)) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
 def _print_run(summary: dict) -> None:
     s = summary
     print(f"scene   {s['scene']}: {s['title']}")
@@ -342,7 +356,7 @@ def cmd_run(args) -> int:
         status, reason = 0, None
     s["exit_status"], s["reason"] = status, reason
     if args.json:
-        print(json.dumps(s, indent=1))
+        print(json.dumps(_json_safe(s), indent=1, allow_nan=False))
     elif not args.quiet:
         _print_run(s)
     if reason is not None:          # even with --quiet: the one line that says why

@@ -63,3 +63,14 @@ def test_json_stays_json_on_bad_input(tmp_path):
     assert run.returncode == 2
     s = json.loads(run.stdout)
     assert s["ok"] is False and "l1" in s["error"] and s["exit_status"] == 2
+
+
+def test_json_of_a_regular_motion_is_strict_json(tmp_path):
+    """A motion with no positive Lyapunov exponent has an infinite trust horizon: JSON
+    says "beyond the run" (Python's json would otherwise write Infinity, which is no JSON)."""
+    calm = DEFAULT.replace("theta1 = 2.5, theta2 = 2.0", "theta1 = 0.01, theta2 = 0.01")
+    run = run_scene(tmp_path, calm, "--json")
+    assert run.returncode == 0, run.stderr
+    assert "Infinity" not in run.stdout and "NaN" not in run.stdout
+    s = json.loads(run.stdout)
+    assert s["trust_horizon"] == "beyond the run" or s["trust_horizon"] > 5
