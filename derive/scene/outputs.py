@@ -112,7 +112,12 @@ def _plots(o, out: Path, stem: str) -> list[str]:
     if "energy" in o.scene.plots:
         e = np.asarray(o.energy, float)
         fig, ax = plt.subplots(figsize=(6, 3))
-        ax.semilogy(o.result.t.astype(float), np.abs(e - e[0]) / max(abs(e[0]), 1e-300) + 1e-300)
+        # the axis starts at the run's unit roundoff: an error of 0 is "below rounding", not 1e-300
+        floor = float(np.finfo(np.dtype({"float32": np.float32, "longdouble": np.longdouble}.get(
+            o.choice.dtype, np.float64))).eps) / 2
+        rel = np.abs(e - e[0]) / max(abs(e[0]), 1e-300)
+        ax.semilogy(o.result.t.astype(float), np.maximum(rel, floor))
+        ax.set_ylim(bottom=floor)
         ax.set_xlabel("t")
         ax.set_ylabel("|E - E0| / |E0|")
         ax.set_title(f"{o.scene.title}: energy error ({o.choice.method}, {o.choice.dtype})", fontsize=9)
