@@ -107,7 +107,8 @@ def test_inputs_are_an_argument_of_their_own(tmp_path):
     assert np.all(r0.y == 0)
     for bad, message in ((None, "needs its inputs (tau1, tau2)"), ({"tau1": 1.0}, "missing input 'tau2'"),
                          ({"tau1": 1, "tau2": 0, "tau3": 0}, "unknown input 'tau3'"),
-                         (lambda t: [0, 0], "not supported yet"), ([1.0], "takes 2 inputs")):
+                         (lambda t: [0], "got 1 from inputs(0)"), ([1.0], "takes 2 inputs"),
+                         (lambda t: 1 / 0, "inputs(0) raised ZeroDivisionError")):
         with pytest.raises(derive.SimulationInputError, match=re.escape(message)):
             derive.simulate("driven", [0, 0, 0, 0], [0, 1], p, inputs=bad)
     with pytest.raises(derive.SimulationInputError, match="has no inputs"):
@@ -263,3 +264,17 @@ def test_a_model_file_edited_during_a_session_is_read_anew(tmp_path):
     longer = derive.simulate("planar", [1.0, 0.5, 0, 0], [0.0, 1.0], [1.0, 1.0, 1.0, 2.0, 9.81], rtol=1e-12)
     assert np.max(np.abs(before.y[-1] - after.y[-1])) > 1e-3
     assert np.max(np.abs(after.y[-1] - longer.y[-1])) < 1e-9
+
+
+def test_inputs_as_a_function_of_time_are_held_over_each_output_interval():
+    """A zero-order hold: u(t_k) on [t_k, t_k+1).  With a switch at t = 0.5 on a grid that
+    has 0.5, the run equals two constant-input runs one after the other."""
+    load_model(EXAMPLES / "driven.toml")
+    p = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81, "c1": 0.1, "c2": 0.05}
+    u = lambda t: {"tau1": 3.0 if t < 0.5 else -1.0, "tau2": 0.5}
+    t = np.linspace(0, 1, 11)
+    held = derive.simulate("driven", [0.2, 0, 0, 0], t, p, inputs=u, rtol=1e-12)
+    a = derive.simulate("driven", [0.2, 0, 0, 0], t[:6], p, inputs=[3.0, 0.5], rtol=1e-12)
+    b = derive.simulate("driven", a.y[-1], t[5:], p, inputs=[-1.0, 0.5], rtol=1e-12)
+    assert held.ok and held.y.shape == (11, 4) and held.velocities.shape == (11, 2, 2)
+    assert np.max(np.abs(held.y[5] - a.y[-1])) < 1e-9 and np.max(np.abs(held.y[-1] - b.y[-1])) < 1e-9

@@ -218,8 +218,27 @@ def normalise_inputs(model: str, inputs) -> np.ndarray | None:
     if inputs is None:
         raise SimulationInputError(f"model '{model}' needs its inputs ({', '.join(names)}): give inputs=...")
     if callable(inputs):
-        raise SimulationInputError("inputs as a function of t are not supported yet: give constant "
-                                   "values, and run piecewise for a time-varying input")
+        return HeldInputs(model, names, inputs)
+    return _input_values(model, names, inputs)
+
+
+class HeldInputs:
+    """Inputs given as a function of t: sampled at each output time and held until the
+    next (a zero-order hold, as a digital controller applies them); the run integrates
+    each output interval with its inputs constant, so it is exact for that input."""
+
+    def __init__(self, model: str, names, function):
+        self.model, self.names, self.function = model, names, function
+
+    def at(self, t: float) -> np.ndarray:
+        try:
+            value = self.function(float(t))
+        except Exception as exc:       # the user's function failed: say where, in one line
+            raise SimulationInputError(f"inputs({float(t):g}) raised {type(exc).__name__}: {exc}") from None
+        return _input_values(self.model, self.names, value, f"inputs({float(t):g})")
+
+
+def _input_values(model: str, names, inputs, what: str = "inputs") -> np.ndarray:
     if isinstance(inputs, Mapping):
         unknown = sorted(set(inputs) - set(names))
         if unknown:
@@ -231,8 +250,9 @@ def normalise_inputs(model: str, inputs) -> np.ndarray | None:
     else:
         values = list(np.asarray(inputs, dtype=object).reshape(-1))
         if len(values) != len(names):
-            raise SimulationInputError(f"model '{model}' takes {len(names)} inputs ({', '.join(names)}), got {len(values)}")
-    return _finite_array(values, "inputs")
+            raise SimulationInputError(f"model '{model}' takes {len(names)} inputs ({', '.join(names)}), "
+                                       f"got {len(values)} from {what}")
+    return _finite_array(values, what)
 
 
 def _cartesian_y0(model: str, value, p: np.ndarray) -> np.ndarray:
@@ -369,8 +389,9 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     (adaptive: rtol, atol; `step` is the initial step, optional).  dtype: float32,
     float64 or longdouble.  backend: "c" (compiled generated C) or "numpy".
     model: a catalogue name, the path of a model file, or "spherical" (the chart atlas).
-    inputs: the model's run-time inputs (a mapping by name or a sequence in the model's
-    order), held constant over the run.
+    inputs: the model's run-time inputs: a mapping by name or a sequence in the model's
+    order, held constant over the run; or a function of t returning one, sampled at each
+    output time and held until the next (zero-order hold).
     """
     model = resolve_model(model)
     if not isinstance(method, str) or method not in METHODS:
@@ -416,6 +437,8 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     if model == "spherical":
         from .atlas import run_atlas
         result = run_atlas(method, state, chart, ts, p, opt, dt, backend)
+    elif isinstance(u, HeldInputs):
+        result = _run_held(model, method, state, ts, p, opt, dt, backend, u)
     else:
         result = _run_single(model, method, state, ts, p, opt, dt, backend, u)
     if method in ADAPTIVE:
@@ -423,6 +446,32 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     else:
         result.step = opt["h"]
     return result
+
+
+def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> SimulationResult:
+    """One run per output interval, each with the inputs sampled at its start."""
+    first = _run_single(model, method, y0, ts[:1], p, opt, dt, backend, u.at(ts[0]))
+    parts, y = [first], first.y[-1]
+    for a, b in zip(ts[:-1], ts[1:]):
+        r = _run_single(model, method, y, np.array([a, b]), p, opt, dt, backend, u.at(a))
+        parts.append(r)
+        if not r.ok:
+            break
+        y = r.y[-1]
+    last = parts[-1]
+    n = len(ts)
+
+    def rows(attr):
+        got = np.concatenate([getattr(parts[0], attr)] + [getattr(r, attr)[1:] for r in parts[1:]])
+        pad = np.full((n - len(got),) + got.shape[1:], np.nan, got.dtype)       # after a stop: NaN
+        return np.concatenate([got, pad])
+
+    out = SimulationResult(**{**last.__dict__, "t": np.asarray(ts, dt), "y": rows("y"), "energy": rows("energy"),
+                              "positions": rows("positions"), "velocities": rows("velocities"),
+                              "params": np.asarray(p, dt)})
+    for k in COUNTERS:
+        setattr(out, k, sum(getattr(r, k) for r in parts))
+    return out
 
 
 def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> SimulationResult:
@@ -453,4 +502,4 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> Simulatio
         model=model, method=method, backend=backend, dtype=dtype_key(dt), t=np.asarray(ts, dt), y=y,
         energy=E, positions=pos, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
         y_stop=y_stop, chart=np.array([model] * len(ts), dtype=object) if single_chart else None,
-        switches=0, chart_stop=model if single_chart else None, params=pd, velocities=vel, **counters)
+        switches=0, chart_stop=model if single_chart else None, params=np.asarray(p, dt), velocities=vel, **counters)
