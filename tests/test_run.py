@@ -137,3 +137,27 @@ def test_a_single_chart_scene_at_its_pole_stops_with_a_reason(tmp_path):
     run_ = derive_cli("run", _write(tmp_path, text), "--output-dir", str(tmp_path))
     assert run_.returncode == 1 and "Traceback" not in run_.stderr
     assert "chart singular" in run_.stdout and "theta1=0.05" in run_.stdout
+
+
+def test_scene_edge_cases_get_a_clean_answer(tmp_path):
+    """Titles matplotlib would misread, a run that stops (NaN after the stop) with an
+    animation, output folders relative to the scene file, forgotten initial values."""
+    scene = tmp_path / "sub" / "odd.toml"
+    scene.parent.mkdir()
+    text = DEFAULT.replace('title = "Chaotic planar double pendulum"', 'title = "Cost $5 and 100% \\\\alpha"')
+    text = text.replace('trajectory = ["csv"]', 'trajectory = ["csv"]\nplots = ["paths", "energy", "animation"]')
+    scene.write_text(text)
+    run_ = derive_cli("run", str(scene), "--quiet", cwd=tmp_path)
+    assert run_.returncode == 0, run_.stderr
+    assert sorted(p.name for p in (tmp_path / "sub" / "out" / "default").iterdir()) == \
+        ["odd.csv", "odd.gif", "odd_energy.png", "odd_paths.png"]
+    forgot = DEFAULT.replace("theta1_dot = 0.0, ", "")
+    (tmp_path / "forgot.toml").write_text(forgot)
+    run_ = derive_cli("run", str(tmp_path / "forgot.toml"), cwd=tmp_path)
+    assert run_.returncode == 2 and "misses theta1_dot" in run_.stderr and "initial.rest = true" in run_.stderr
+    (tmp_path / "rest.toml").write_text(forgot.replace("[initial]", "[initial]\nrest = true"))
+    assert derive_cli("run", str(tmp_path / "rest.toml"), "--quiet", cwd=tmp_path).returncode == 0
+    huge = DEFAULT.replace("outputs = 501", "outputs = 9223372036854775807")
+    (tmp_path / "huge.toml").write_text(huge)
+    run_ = derive_cli("run", str(tmp_path / "huge.toml"), cwd=tmp_path)
+    assert run_.returncode == 2 and "more than 10,000,000 output times" in run_.stderr

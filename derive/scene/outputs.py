@@ -103,7 +103,7 @@ def _plots(o, out: Path, stem: str) -> list[str]:
         ax.set_aspect("equal")
         ax.set_xlabel("x")
         ax.set_ylabel("z" if vertical == 2 else "y")
-        ax.set_title(o.scene.title, fontsize=9)
+        ax.set_title(_plain(o.scene.title), fontsize=9)
         ax.legend(fontsize=8)
         path = out / f"{stem}_paths.png"
         fig.savefig(path, dpi=120, bbox_inches="tight")
@@ -120,7 +120,7 @@ def _plots(o, out: Path, stem: str) -> list[str]:
         ax.set_ylim(bottom=floor)
         ax.set_xlabel("t")
         ax.set_ylabel("|E - E0| / |E0|")
-        ax.set_title(f"{o.scene.title}: energy error ({o.choice.method}, {o.choice.dtype})", fontsize=9)
+        ax.set_title(f"{_plain(o.scene.title)}: energy error ({o.choice.method}, {o.choice.dtype})", fontsize=9)
         path = out / f"{stem}_energy.png"
         fig.savefig(path, dpi=120, bbox_inches="tight")
         plt.close(fig)
@@ -128,26 +128,41 @@ def _plots(o, out: Path, stem: str) -> list[str]:
     if "animation" in o.scene.plots:
         from ..progress import Stage
         with Stage("writing the animation", enabled=None if o.show_progress else False):
-            written.append(_animation(plt, o, pos, out, stem, horizontal, vertical))
+            gif = _animation(plt, o, pos, out, stem, horizontal, vertical)
+            if gif is not None:
+                written.append(gif)
     return written
+
+
+def _plain(text: str) -> str:
+    """A title as text: matplotlib would read $...$ as mathematics (and fail on a lone $)."""
+    return text.replace("$", r"\$")
 
 
 def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str:
     from matplotlib.animation import FuncAnimation, PillowWriter
-    frames = np.linspace(0, len(pos) - 1, min(len(pos), 150)).astype(int)
-    reach = float(np.max(np.linalg.norm(pos, axis=-1))) * 1.05
-    fig, ax = plt.subplots(figsize=(4, 4))
+    # only the part of the run that has a state (a run that stopped is NaN after its stop)
+    alive = int(np.argmin(np.isfinite(pos).all(axis=(1, 2)))) if not np.isfinite(pos).all() else len(pos)
+    if alive == 0:
+        return None
+    t = np.asarray(o.result.t, float)
+    frames = np.linspace(0, alive - 1, min(alive, 150)).astype(int)
+    reach = float(np.max(np.linalg.norm(pos[:alive], axis=-1))) * 1.05 or 1.0
+    fig, ax = plt.subplots(figsize=(4, 4.3))
     ax.set_xlim(-reach, reach)
     ax.set_ylim(-reach, reach)
     ax.set_aspect("equal")
+    ax.set_title(_plain(o.scene.title), fontsize=9)
     line, = ax.plot([], [], "o-", lw=2, color="tab:blue")
     trail, = ax.plot([], [], lw=0.6, color="tab:red")
+    stamp = ax.text(0.02, 0.96, "", transform=ax.transAxes, fontsize=8, va="top")
 
     def draw(i):
         k = frames[i]
         line.set_data([0, *pos[k, :, horizontal]], [0, *pos[k, :, vertical]])     # the whole chain
         trail.set_data(pos[:k + 1, -1, horizontal], pos[:k + 1, -1, vertical])    # its last bob
-        return line, trail
+        stamp.set_text(f"t = {t[k]:.2f}")
+        return line, trail, stamp
 
     anim = FuncAnimation(fig, draw, frames=len(frames), blit=True)
     path = out / f"{stem}.gif"

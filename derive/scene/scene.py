@@ -18,6 +18,7 @@ FIXED_STEP = ("rk4", "gauss2", "midpoint")
 SCALARS = ("float", "double", "long double")
 TRAJECTORY_FORMATS = ("csv", "npz")
 PLOTS = ("paths", "energy", "animation")
+MAX_OUTPUTS = 10_000_000        # output times of one scene: ~3 GiB with its observables
 
 
 @dataclass
@@ -122,8 +123,24 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
     return model, params
 
 
+def _missing_rates(state: dict, names, coordinates, rest: bool, where: str) -> dict:
+    """Every value named: a missing coordinate is an error; a missing rate is zero only
+    where the scene says `rest = true` (a scene that forgets a value is not run silently)."""
+    missing = [n for n in names if n not in state]
+    coords = [n for n in missing if n in coordinates]
+    if coords:
+        raise SceneError(f"'{where}' misses the coordinate{'s' * (len(coords) > 1)} {', '.join(coords)}")
+    if missing and not rest:
+        raise SceneError(f"'{where}' misses {', '.join(missing)}: give them, or set "
+                         f"'initial.rest = true' to start those rates at zero")
+    return {n: state.get(n, 0.0) for n in names}
+
+
 def _parse_initial(t: dict, model: str) -> dict:
-    _known(t, ("state", "cartesian"), "[initial]")
+    _known(t, ("state", "cartesian", "rest"), "[initial]")
+    rest = t.get("rest", False)
+    if not isinstance(rest, bool):
+        raise SceneError(f"'initial.rest' must be true or false, got {rest!r}")
     if ("state" in t) == ("cartesian" in t):
         raise SceneError("[initial]: give exactly one of 'state' or 'cartesian'")
     if "cartesian" in t:
@@ -132,12 +149,14 @@ def _parse_initial(t: dict, model: str) -> dict:
     names = load_model("spherical_std" if model == ATLAS else model).state_names
     if isinstance(state, dict):
         if model == ATLAS:
-            return {"state": _atlas_state(state)}
+            return {"state": _atlas_state(state, rest)}
         for key in state:
             if key not in names:
                 raise SceneError(f"'initial.state.{key}': not a state of '{model}' "
                                  f"(its states: {', '.join(names)})")
-        return {"state": {n: _number(state.get(n, 0.0), f"initial.state.{n}") for n in names}}
+        coordinates = load_model(model).coordinate_names
+        full = _missing_rates(state, names, coordinates, rest, "initial.state")
+        return {"state": {n: _number(full[n], f"initial.state.{n}") for n in names}}
     if isinstance(state, list):
         if len(state) != len(names):
             raise SceneError(f"'initial.state' has {len(state)} values; '{model}' needs "
@@ -147,12 +166,13 @@ def _parse_initial(t: dict, model: str) -> dict:
     raise SceneError("'initial.state' must be a table of named values or a list")
 
 
-def _atlas_state(state: dict) -> dict:
+def _atlas_state(state: dict, rest: bool = False) -> dict:
     """The atlas accepts a state in any of its charts: the names say which."""
     for chart_model in SPHERICAL_CHART_MODELS:
         names = load_model(chart_model).state_names
         if set(state) <= set(names) and set(state) & set(load_model(chart_model).coordinate_names):
-            values = {n: _number(state.get(n, 0.0), f"initial.state.{n}") for n in names}
+            full = _missing_rates(state, names, load_model(chart_model).coordinate_names, rest, "initial.state")
+            values = {n: _number(full[n], f"initial.state.{n}") for n in names}
             return {"chart": chart_model, **values}
     raise SceneError(f"'initial.state': names {', '.join(sorted(state))} are not the state of "
                      f"one spherical chart (e.g. theta1, phi1, theta2, phi2 and their _dot)")
@@ -189,6 +209,12 @@ def _parse_time(t: dict) -> tuple[float, float, int]:
     outputs = t.get("outputs", 1001)
     if isinstance(outputs, bool) or not isinstance(outputs, int) or outputs < 2:
         raise SceneError(f"'time.outputs' must be a whole number >= 2, got {outputs!r}")
+    if outputs > MAX_OUTPUTS:
+        raise SceneError(f"'time.outputs' = {outputs} is more than {MAX_OUTPUTS:,} output times "
+                         f"(about {outputs * 8 * 40 / 2**30:.3g} GiB of trajectory and observables); "
+                         f"give fewer")
+    if not math.isfinite(stop - start):
+        raise SceneError(f"'time.stop' - 'time.start' = {stop - start:g} is not a finite span")
     return start, stop, outputs
 
 
@@ -243,11 +269,27 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
     start, stop, outputs = _parse_time(_table(t, "time", source))
     accuracy = _parse_accuracy(_table(t, "accuracy", source, required=False))
     output = _parse_output(_table(t, "output", source, required=False))
+    output["output_dir"] = _output_folder(output["output_dir"], source)
     title = t.get("title", Path(source).stem)
     if not isinstance(title, str):
         raise SceneError("'title' must be a string")
     return Scene(source=source, title=title, model=model, parameters=params, initial=initial,
                  t_start=start, t_stop=stop, outputs=outputs, **accuracy, **output)
+
+
+def _output_folder(directory: Path, source: str) -> Path:
+    """A relative output directory is relative to the scene file, as a model path is, so
+    a scene runs the same from any folder; an example scene shipped with derive writes
+    relative to the current folder instead (never into the installed package)."""
+    if directory.is_absolute() or source.startswith("<"):
+        return directory
+    folder = Path(source).resolve().parent
+    try:
+        if folder.is_relative_to(scenes_dir().resolve()):
+            return directory
+    except Exception:                 # no package data: a broken install is reported elsewhere
+        pass
+    return Path(source).parent / directory
 
 
 def example_scenes() -> list[str]:
