@@ -36,6 +36,11 @@ class PackageDataError(DeriveError):
     exit_status = 2
 
 
+class CacheError(DeriveError):
+    """The cache directory cannot be used safely (another owner, writable by others)."""
+    exit_status = 2
+
+
 class UsageError(InputError):
     """A wrong command-line argument or an unwritable output path."""
 

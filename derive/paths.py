@@ -21,7 +21,7 @@ from functools import cache
 from importlib import resources
 from pathlib import Path
 
-from .errors import PackageDataError
+from .errors import CacheError, PackageDataError
 
 
 @cache
@@ -77,6 +77,27 @@ def checkout_root() -> Path | None:
 
 
 def cache_dir() -> Path:
+    """The cache: created private (0700); one owned by another user or writable by others
+    is refused (derive loads compiled code from it), in one line."""
     root = os.environ.get("DERIVE_CACHE_DIR") or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "derive")
-    return Path(root)
+    return _checked_cache(root)
+
+
+@cache
+def _checked_cache(root: str) -> Path:
+    path = Path(root)
+    try:
+        path.mkdir(parents=True, exist_ok=True, mode=0o700)
+        st = path.stat()
+    except OSError as exc:
+        raise CacheError(f"cannot use the cache directory '{path}': {exc.strerror or exc}; "
+                         f"set DERIVE_CACHE_DIR to a folder of yours") from None
+    if hasattr(os, "getuid") and st.st_uid != os.getuid():
+        raise CacheError(f"the cache directory '{path}' belongs to another user: derive loads compiled "
+                         f"code from it; set DERIVE_CACHE_DIR to a folder of your own")
+    if st.st_mode & 0o022:
+        raise CacheError(f"the cache directory '{path}' is writable by others (mode "
+                         f"{st.st_mode & 0o777:o}): derive loads compiled code from it; "
+                         f"chmod go-w it or set DERIVE_CACHE_DIR to a private folder")
+    return path

@@ -159,3 +159,24 @@ def test_vector_math_kernels_agree_with_the_portable_build(model, tmp_path):
         ok = sa == 0
         scale = np.abs(a[ok]).reshape(ok.sum(), -1).max(axis=1).reshape((-1,) + (1,) * (a.ndim - 1)) + 1.0
         assert np.all(np.abs(a[ok] - b[ok]) <= 1e-13 * scale), name
+
+
+def test_a_damaged_cached_library_is_rebuilt_not_loaded(tmp_path):
+    """A truncated library would kill the process with SIGBUS: its checksum is checked
+    first, and a mismatch rebuilds it with a one-line note (in a fresh process, as a
+    later run would meet it)."""
+    import os
+    import subprocess
+    import sys
+    cache = tmp_path / "cache"
+    script = ("import sys; from derive.codegen.loader import build; from pathlib import Path; "
+              f"print(build(Path({str(GEN_C / 'planar.c')!r}), cache=Path({str(cache)!r})))")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    first = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, check=True)
+    lib = Path(first.stdout.strip())
+    lib.write_bytes(lib.read_bytes()[:1000])                      # truncated
+    second = subprocess.run([sys.executable, "-c", script + "; import ctypes; ctypes.CDLL(sys.argv[0] if False else "
+                             f"{str(lib)!r}).planar_rhs"], capture_output=True, text=True, env=env)
+    assert second.returncode == 0, second.stderr
+    assert "does not match its checksum; rebuilding it" in second.stderr
+    assert lib.stat().st_size > 1000

@@ -26,6 +26,7 @@ import platform
 import re
 import shutil
 import subprocess
+import sys
 import tempfile
 from functools import lru_cache
 from math import prod
@@ -123,7 +124,13 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
     root = Path(cache) if cache is not None else cache_dir() / "c-build"
     lib = root / key[:32] / f"lib{stem}.so"
     if lib.is_file():
-        return lib
+        state = _intact(lib)
+        if state is True:
+            return lib
+        # a truncated or altered library would crash the process (SIGBUS) or run other code
+        if state is False:
+            print(f"derive: note: the cached library {lib} does not match its checksum; rebuilding it",
+                  file=sys.stderr)
     lib.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
         out = Path(tmp) / lib.name
@@ -132,8 +139,35 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
         if proc.returncode != 0:
             names = ", ".join(src.name for src in sources)
             raise LoaderError(f"compiling {names} failed ({' '.join(cmd)}):\n{proc.stderr}")
-        os.replace(out, lib)
+        digest = Path(tmp) / (lib.name + ".sha256")
+        digest.write_text(_sha256(out))
+        os.replace(digest, lib.with_name(lib.name + ".sha256"))      # the checksum first, then
+        os.replace(out, lib)                                           # the library it vouches for
+    _verified.add(str(lib))
     return lib
+
+
+_verified: set[str] = set()            # libraries whose checksum this process has checked
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _intact(lib: Path) -> bool | None:
+    """True when a cached library matches the checksum written beside it when it was built
+    (checked once per process), False when it does not, None when it has no checksum (an
+    older cache entry: rebuilt, not trusted)."""
+    if str(lib) in _verified:
+        return True
+    try:
+        recorded = lib.with_name(lib.name + ".sha256").read_text().strip()
+    except OSError:
+        return None
+    ok = recorded == _sha256(lib)
+    if ok:
+        _verified.add(str(lib))
+    return ok
 
 
 _NO_VECTOR_MATH: set[str] = set()        # compilers that failed the vector-math build

@@ -2,14 +2,13 @@
 from __future__ import annotations
 
 import hashlib
-import os
-import pickle
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import sympy as sp
 
+from .. import cachefile
 from ..model import Model, load_model
 from ..paths import cache_dir, package_root
 from . import hamilton, lagrange
@@ -17,6 +16,7 @@ from .paper import PaperForms, paper_forms
 from .symbols import ModelSymbols, model_symbols
 
 
+@cachefile.register
 @dataclass
 class HamiltonianForm:
     """H = 1/2 p^T M^-1 p + V.  The closed forms (M^-1, H, q'(p), p'(q, p)) are written
@@ -29,6 +29,7 @@ class HamiltonianForm:
     dL_dq: sp.Matrix          # dL/dq in (q, q'): p' once q' = M^-1 p is substituted
 
 
+@cachefile.register
 @dataclass
 class Derivation:
     model: Model
@@ -112,7 +113,7 @@ def cache_key(model: Model) -> str:
 
 def cache_path(model: Model) -> Path:
     """Where the derivation of `model` is (or will be) cached."""
-    return cache_dir() / "derivations" / f"{model.name}-{cache_key(model)}.pickle"
+    return cache_dir() / "derivations" / f"{model.name}-{cache_key(model)}.json"
 
 
 def is_cached(name: str | Model) -> bool:
@@ -131,17 +132,13 @@ def derive(name: str | Model, use_cache: bool = True) -> Derivation:
         return _memory[key]
     path = cache_path(model)
     if use_cache and path.is_file():
-        try:
-            d = pickle.loads(path.read_bytes())
+        d = cachefile.load(path)        # checked and parsed as data; MISSING if damaged
+        if isinstance(d, Derivation) and d.model.text == model.text:
+            d.model = model
             _memory[key] = d
             return d
-        except Exception:   # a corrupt or foreign cache file: recompute below
-            pass
     d = compute(model)
     if use_cache:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(f".tmp{os.getpid()}")
-        tmp.write_bytes(pickle.dumps(d, protocol=pickle.HIGHEST_PROTOCOL))
-        tmp.replace(path)
+        cachefile.store(path, d)
         _memory[key] = d
     return d

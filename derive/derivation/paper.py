@@ -16,11 +16,13 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from .. import cachefile
 from ..model import Model
 from .lagrange import link_vectors
 from .symbols import ModelSymbols
 
 
+@cachefile.register
 @dataclass
 class PaperForms:
     mu: sp.Expr                 # 1 + m1/m2

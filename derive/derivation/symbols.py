@@ -10,10 +10,12 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from .. import cachefile
 from ..model import Model
 from ..model.expressions import parse_expression
 
 
+@cachefile.register
 @dataclass(frozen=True)
 class ModelSymbols:
     q: tuple[sp.Symbol, ...]        # generalized coordinates

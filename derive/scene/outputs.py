@@ -40,6 +40,21 @@ def writable_dir(path: Path) -> Path:
     return path
 
 
+def _replace(path: Path, write) -> None:
+    """Write a file through a temporary one beside it, then rename it into place: the
+    rename replaces a symbolic link planted at `path` instead of writing through it, and
+    a reader never sees a half-written file."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=path.suffix)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
 def output_dir(o) -> Path:
     out = Path(o.scene.output_dir)
     try:
@@ -62,17 +77,19 @@ def write_outputs(o) -> list[str]:
         if o.result.chart is not None:
             header += ",chart"
             rows = [",".join(f"{v:.17g}" for v in row) + f",{c}" for row, c in zip(data, o.result.chart)]
-            path.write_text(header + "\n" + "\n".join(rows) + "\n")
+            _replace(path, lambda tmp: tmp.write_text(header + "\n" + "\n".join(rows) + "\n"))
         else:
-            np.savetxt(path, data, delimiter=",", header=header, comments="", fmt="%.17g")
+            _replace(path, lambda tmp: np.savetxt(tmp, data, delimiter=",", header=header, comments="",
+                                                  fmt="%.17g"))
         written.append(str(path))
     if "npz" in o.scene.trajectory:
         path = out / f"{stem}.npz"
         extra = {"chart": np.asarray(o.result.chart, dtype=str)} if o.result.chart is not None else {}
-        np.savez(path, t=np.asarray(o.result.t, float), y=np.asarray(o.result.y, float),
-                 positions=np.asarray(o.positions, float), velocities=np.asarray(o.velocities, float),
-                 energy=np.asarray(o.energy, float),
-                 state_names=np.array(_state_names(o)), **extra)
+        arrays = dict(t=np.asarray(o.result.t, float), y=np.asarray(o.result.y, float),
+                      positions=np.asarray(o.positions, float), velocities=np.asarray(o.velocities, float),
+                      energy=np.asarray(o.energy, float),
+                      state_names=np.array(_state_names(o)), **extra)
+        _replace(path, lambda tmp: np.savez(tmp, **arrays))
         written.append(str(path))
     if o.scene.plots:
         written += _plots(o, out, stem)
@@ -106,7 +123,7 @@ def _plots(o, out: Path, stem: str) -> list[str]:
         ax.set_title(_plain(o.scene.title), fontsize=9)
         ax.legend(fontsize=8)
         path = out / f"{stem}_paths.png"
-        fig.savefig(path, dpi=120, bbox_inches="tight")
+        _replace(path, lambda tmp: fig.savefig(tmp, dpi=120, bbox_inches="tight"))
         plt.close(fig)
         written.append(str(path))
     if "energy" in o.scene.plots:
@@ -122,7 +139,7 @@ def _plots(o, out: Path, stem: str) -> list[str]:
         ax.set_ylabel("|E - E0| / |E0|")
         ax.set_title(f"{_plain(o.scene.title)}: energy error ({o.choice.method}, {o.choice.dtype})", fontsize=9)
         path = out / f"{stem}_energy.png"
-        fig.savefig(path, dpi=120, bbox_inches="tight")
+        _replace(path, lambda tmp: fig.savefig(tmp, dpi=120, bbox_inches="tight"))
         plt.close(fig)
         written.append(str(path))
     if "animation" in o.scene.plots:
@@ -166,6 +183,6 @@ def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str:
 
     anim = FuncAnimation(fig, draw, frames=len(frames), blit=True)
     path = out / f"{stem}.gif"
-    anim.save(path, writer=PillowWriter(fps=25))
+    _replace(path, lambda tmp: anim.save(tmp, writer=PillowWriter(fps=25)))
     plt.close(fig)
     return str(path)

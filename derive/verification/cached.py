@@ -8,12 +8,11 @@ a model, the derivation or the verification code gives a new key.
 from __future__ import annotations
 
 import hashlib
-import os
-import pickle
 
 import mpmath
 import sympy as sp
 
+from .. import cachefile
 from ..derivation.derivation import cache_key
 from ..paths import cache_dir, package_root
 from ..model import load_model, model_names
@@ -37,11 +36,10 @@ def _code_key() -> str:
     return h.hexdigest()
 
 
-def _write(path, value) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(f".tmp{os.getpid()}")
-    tmp.write_bytes(pickle.dumps(value))
-    tmp.replace(path)
+def _read(path):
+    """A cached value (checked, parsed as data), or None when there is none usable."""
+    value = cachefile.load(path) if path.is_file() else cachefile.MISSING
+    return None if value is cachefile.MISSING else value
 
 
 def physics_model(model):
@@ -53,50 +51,41 @@ def physics_model(model):
     catalogue = m.name in model_names() and load_model(m.name).content_hash == m.content_hash
     extra = verification_key() if catalogue else ""
     key = hashlib.sha256(f"{cache_key(m)} {_code_key()} {extra}".encode()).hexdigest()[:24]
-    path = cache_dir() / "verification" / f"physics-{m.name}-{key}.pickle"
-    if path.is_file():
-        try:
-            return pickle.loads(path.read_bytes())
-        except Exception:
-            pass
+    path = cache_dir() / "verification" / f"physics-{m.name}-{key}.json"
+    checks = _read(path)
+    if isinstance(checks, list):
+        return checks
     from . import physics
     checks = physics.model_checks(m.name if catalogue else m)
-    _write(path, checks)
+    cachefile.store(path, checks)
     return checks
 
 
 def verify_model(name: str):
     """The seed verdicts of one model's printed formulas (none for a model without seed
     formulas), cached per model: rendering one model's document verifies only that model."""
-    whole = cache_dir() / "verification" / f"results-{verification_key()}.pickle"
-    if whole.is_file():
-        try:
-            return [r for r in pickle.loads(whole.read_bytes())[0] if r.model == name]
-        except Exception:     # unreadable: judge this model's formulas below
-            pass
+    whole = _read(cache_dir() / "verification" / f"results-{verification_key()}.json")
+    if isinstance(whole, tuple):
+        return [r for r in whole[0] if r.model == name]
     key = hashlib.sha256(f"{cache_key(load_model(name))} {_code_key()}".encode()).hexdigest()[:24]
-    path = cache_dir() / "verification" / f"{name}-{key}.pickle"
-    if path.is_file():
-        try:
-            return pickle.loads(path.read_bytes())
-        except Exception:
-            pass
+    path = cache_dir() / "verification" / f"{name}-{key}.json"
+    results = _read(path)
+    if isinstance(results, list):
+        return results
     from . import claims
     results = [claims.judge(c) for c in claims.all_claims() if c.model == name]
-    _write(path, results)
+    cachefile.store(path, results)
     return results
 
 
 def verify_all(fresh: bool = False):
     """(seed results, physics checks, whether they came from the cache)."""
-    path = cache_dir() / "verification" / f"results-{verification_key()}.pickle"
-    if not fresh and path.is_file():
-        try:
-            results, checks = pickle.loads(path.read_bytes())
-            return results, checks, True
-        except Exception:     # unreadable cache entry: verify afresh below
-            pass
+    path = cache_dir() / "verification" / f"results-{verification_key()}.json"
+    cached = None if fresh else _read(path)
+    if isinstance(cached, tuple):
+        results, checks = cached
+        return results, checks, True
     from . import claims, physics
     results, checks = claims.run_all(), physics.run_all()
-    _write(path, (results, checks))
+    cachefile.store(path, (results, checks))
     return results, checks, False

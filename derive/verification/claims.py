@@ -31,6 +31,7 @@ from typing import Any, Callable
 import mpmath
 import sympy as sp
 
+from .. import cachefile
 from ..derivation import derive
 from ..derivation.lagrange import link_directions, link_vectors
 from ..derivation.symbols import parse_quantity
@@ -134,6 +135,7 @@ class Comparison:
     note: str = ""
 
 
+@cachefile.register
 @dataclass
 class Result:
     seed: str

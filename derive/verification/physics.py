@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import mpmath
 import sympy as sp
 
+from .. import cachefile
 from ..derivation import derive
 from ..derivation.charts import chart_change
 from ..model import load_model, model_names
@@ -21,6 +22,7 @@ SPHERICAL_PAIRS = [("spherical_std", "spherical_alt"), ("spherical_alt", "spheri
                    ("spherical_std", "spherical_rot"), ("spherical_rot", "spherical_alt")]
 
 
+@cachefile.register
 @dataclass
 class Check:
     name: str
