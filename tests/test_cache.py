@@ -33,6 +33,7 @@ def test_entries_round_trip_as_data(tmp_path):
 def test_a_flipped_bit_is_recomputed_not_used(tmp_path, monkeypatch):
     monkeypatch.setenv("DERIVE_CACHE_DIR", str(tmp_path / "cache"))
     model = load_model("planar")
+    dv._memory.clear()                        # derived in this cache, not taken from memory
     good = dv.derive(model, use_cache=True)
     path = dv.cache_path(model)
     entry = json.loads(path.read_text())

@@ -1,5 +1,4 @@
 """The derivation: exact identities every correct Lagrangian system satisfies, and the cache."""
-import pickle
 import random
 
 import mpmath
@@ -7,6 +6,7 @@ import pytest
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
+from derive import cachefile
 from derive.derivation import compute, derive
 from derive.derivation.derivation import cache_dir, cache_key
 from derive.model import load_model, model_names
@@ -57,10 +57,10 @@ def test_hamiltonian_force_is_lagrangian_gradient(name):
 def test_cache_round_trip_and_key():
     model = load_model("planar")
     key = cache_key(model)
-    path = cache_dir() / "derivations" / f"planar-{key}.pickle"
+    path = cache_dir() / "derivations" / f"planar-{key}.json"
     d = derive("planar")
     assert path.is_file()
-    assert pickle.loads(path.read_bytes()).M == d.M
+    assert cachefile.load(path).M == d.M          # data with a checksum, not a pickle
     edited = parse_model(model.text.replace('title = "', 'title = "Edited: '), "planar.toml")
     assert cache_key(edited) != key, "a changed description must not hit the old cache entry"
 

@@ -166,7 +166,8 @@ def test_a_scene_names_its_model_file_relative_to_itself(tmp_path):
                      '[accuracy]\ntarget = 1e-6\n[output]\ndirectory = "out"\ntrajectory = ["csv"]\n')
     run = cli("run", str(scene), cwd=tmp_path)
     assert run.returncode == 0, run.stderr
-    header = (tmp_path / "out" / "trio.csv").read_text().splitlines()[0].split(",")
+    # the output folder is relative to the scene file, as the model path is
+    header = (tmp_path / "scenes" / "out" / "trio.csv").read_text().splitlines()[0].split(",")
     assert header[:7] == ["t", "theta1", "theta2", "theta3", "theta1_dot", "theta2_dot", "theta3_dot"]
     assert "x3_y" in header
 

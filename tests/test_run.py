@@ -133,7 +133,8 @@ def test_simulation_result_states_its_trust_horizon():
 def test_a_single_chart_scene_at_its_pole_stops_with_a_reason(tmp_path):
     text = DEFAULT.replace('model = "planar"', 'model = "spherical_std"').replace(
         "theta1 = 2.5, theta2 = 2.0, theta1_dot = 0.0, theta2_dot = 0.0",
-        "theta1 = 0.05, phi1 = 0.3, theta2 = 1.0, phi2 = 0.0, phi1_dot = 1.0")
+        "theta1 = 0.05, phi1 = 0.3, theta2 = 1.0, phi2 = 0.0, phi1_dot = 1.0").replace(
+        "[initial]", "[initial]\nrest = true")
     run_ = derive_cli("run", _write(tmp_path, text), "--output-dir", str(tmp_path))
     assert run_.returncode == 1 and "Traceback" not in run_.stderr
     assert "chart singular" in run_.stdout and "theta1=0.05" in run_.stdout

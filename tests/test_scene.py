@@ -28,7 +28,8 @@ def test_state_as_list_and_spherical_atlas_state():
     assert s.initial["state"]["theta2"] == 2.0
     sph = parse_scene(GOOD.replace('model = "planar"', 'model = "spherical"')
                       .replace("theta1 = 2.5, theta2 = 2.0, theta1_dot = 0.0, theta2_dot = 0.0",
-                               "vartheta1 = 1.0, varphi1 = 0.5, vartheta2 = 1.2, varphi2 = 0.1"))
+                               "vartheta1 = 1.0, varphi1 = 0.5, vartheta2 = 1.2, varphi2 = 0.1")
+                      .replace("[initial]", "[initial]\nrest = true"))
     assert sph.initial["state"]["chart"] == "spherical_alt"
 
 
@@ -45,7 +46,7 @@ BAD = [
         "state = { theta1 = 2.5, theta2 = 2.0, theta1_dot = 0.0, theta2_dot = 0.0 }", "state = [1, 2, 3]"),
      "'initial.state' has 3 values; 'planar' needs 4"),
     ("unknown state name", lambda t: t.replace("theta2_dot", "omega"), "'initial.state.omega'"),
-    ("unknown model", lambda t: t.replace('model = "planar"', 'model = "triple"'), "unknown model 'triple'"),
+    ("unknown model", lambda t: t.replace('model = "planar"', 'model = "no_such_pendulum"'), "unknown model 'no_such_pendulum'"),
     ("unknown chart state", lambda t: t.replace('model = "planar"', 'model = "spherical"')
      .replace("theta1 = 2.5", "psi1 = 2.5"),
      "not the state of one spherical chart"),
