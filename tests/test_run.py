@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from derive import simulate
+from derive.measurement import trust
 from derive.scene import load_scene, parse_scene
 from derive.scene.run import run
 
@@ -123,11 +124,11 @@ def test_simulation_result_states_its_trust_horizon():
     p = {"m1": 1, "m2": 1, "l1": 1, "l2": 1, "g": 9.81}
     chaotic = simulate("planar", [2.5, 2.0, 0, 0], np.linspace(0, 5, 101), p, rtol=1e-12)
     regular = simulate("planar", [1.0, 0.5, 0, 0], np.linspace(0, 20, 101), p, rtol=1e-12)
-    assert 1.0 < chaotic.lyapunov_exponent() < 4.0
-    assert regular.lyapunov_exponent() < 0.3
+    assert 1.0 < trust.lyapunov_exponent(chaotic) < 4.0
+    assert trust.lyapunov_exponent(regular) < 0.3
     # e0 = 1e-12 x |y| grows by e^(lambda t): the chaotic run resolves 1e-8 for a few seconds only
-    assert 2.0 < chaotic.trust_horizon(1e-8) < 6.0 < regular.trust_horizon(1e-8)
-    assert chaotic.trust_horizon(1e-4) > chaotic.trust_horizon(1e-8)
+    assert 2.0 < trust.trust_horizon_of(chaotic, 1e-8) < 6.0 < trust.trust_horizon_of(regular, 1e-8)
+    assert trust.trust_horizon_of(chaotic, 1e-4) > trust.trust_horizon_of(chaotic, 1e-8)
 
 
 def test_a_single_chart_scene_at_its_pole_stops_with_a_reason(tmp_path):

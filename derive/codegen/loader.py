@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
+import importlib.util
 import os
 import platform
 import re
@@ -35,7 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from ..paths import cache_dir
-from ..errors import BuildError, CompilerMissingError
+from ..errors import BuildError, CompilerMissingError, SimulationInputError
+from ..model.description import forget_on_model_change
 
 DEFAULT_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
 PORTABLE_FLAGS = DEFAULT_FLAGS
@@ -313,3 +315,19 @@ def load(model: str, generated: Path | None = None, cc: str | None = None,
     if lib not in _loaded:
         _loaded[lib] = CompiledModel(model, lib, source.with_suffix(".h").read_text())
     return _loaded[lib]
+
+
+@forget_on_model_change
+@lru_cache(maxsize=None)
+def numpy_module(name: str):
+    """The generated NumPy module `name` (a model, '<model>_integrate', '<model>_throughput'
+    or 'spherical_atlas'), imported from the cache's rendering of its model."""
+    from .sources import ATLAS, numpy_source
+    model = ATLAS if name == "spherical_atlas" else name.removesuffix("_integrate").removesuffix("_throughput")
+    path = numpy_source(model, f"{name}.py")
+    if not path.is_file():
+        raise SimulationInputError(f"no generated NumPy module {path.name} for model '{model}'")
+    spec = importlib.util.spec_from_file_location(f"_derive_generated_{name}", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod

@@ -24,8 +24,11 @@ from functools import lru_cache
 import numpy as np
 
 from ..codegen.sources import ATLAS, c_source
+from . import contract
 from .build import CTYPES, SUFFIX, build_fastest, dtype_key, info_struct, options_struct
-from .codegen import ATLAS_CHARTS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH
+from .contract import ATLAS_CHARTS, COUNTERS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH, STATUS_NAMES
+from .observables import _observables, _velocities, numpy_module
+from .result import SimulationResult
 
 __all__ = ["ATLAS_CHARTS", "SINE_MIN", "SINE_RULE", "SINE_SWITCH", "atlas_library", "run_atlas"]
 
@@ -37,8 +40,8 @@ class AtlasLibrary:
             sources += [c_source(ATLAS, f"{ch}_integrate.c"), c_source(ATLAS, f"{ch}.c")]
         self.path, self.flags = build_fastest("spherical_atlas", sources)
         self.lib = ctypes.CDLL(str(self.path))
-        self.Options = options_struct((("sine_switch", ctypes.c_double), ("sine_rule", ctypes.c_double)))
-        self.Info = info_struct(8, (("nswitches", ctypes.c_long), ("chart", ctypes.c_int)))
+        self.Options = options_struct(contract.ATLAS_OPTIONS)
+        self.Info = info_struct(8, contract.ATLAS_INFO)
         self.lib.spherical_atlas_defaults.argtypes = [ctypes.POINTER(self.Options)]
         self.fns = {}
         for dt, suffix in SUFFIX.items():
@@ -83,13 +86,11 @@ def atlas_library() -> AtlasLibrary:
 
 @lru_cache(maxsize=None)
 def numpy_atlas():
-    from .simulate import numpy_module
     return numpy_module("spherical_atlas")
 
 
 def observables(y: np.ndarray, charts: np.ndarray, p: np.ndarray, backend: str, dtype) -> tuple:
     """Energy, positions and velocities row by row, each row in its own chart."""
-    from .simulate import _observables, _velocities
     n = len(y)
     E = np.full(n, np.nan, dtype)
     pos = np.full((n, 2, 3), np.nan, dtype)
@@ -103,7 +104,6 @@ def observables(y: np.ndarray, charts: np.ndarray, p: np.ndarray, backend: str, 
 
 
 def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str):
-    from .simulate import COUNTERS, STATUS_NAMES, SimulationResult
     y0 = np.asarray(y0, dt)
     pd = np.asarray(p, dt)
     tsd = np.asarray(ts, dt)

@@ -15,6 +15,8 @@ import numpy as np
 from ..codegen.loader import build_fastest
 from ..codegen.sources import c_source
 from ..model.description import forget_on_model_change
+from . import contract
+from .codegen import model_info
 
 CTYPES = {"float64": ctypes.c_double, "float32": ctypes.c_float, "longdouble": ctypes.c_longdouble}
 SUFFIX = {"float64": "", "float32": "_f", "longdouble": "_l"}
@@ -26,20 +28,22 @@ def dtype_key(dtype) -> str:
     return "longdouble" if dtype == np.longdouble and dtype != np.float64 else dtype.name
 
 
+_C_TYPES = {"double": ctypes.c_double, "long": ctypes.c_long, "int": ctypes.c_int}
+
+
+def ctypes_fields(fields, n: int = 0) -> list[tuple]:
+    """(name, ctypes type) of contract fields (derive/integration/contract.py); arrays get length n."""
+    return [(f.name, _C_TYPES[f.ctype] * n if f.length else _C_TYPES[f.ctype]) for f in fields]
+
+
 def options_struct(extra: tuple = ()) -> type:
-    fields = [("rtol", ctypes.c_double), ("atol", ctypes.c_double), ("h", ctypes.c_double),
-              ("hmin", ctypes.c_double), ("hmax", ctypes.c_double), ("max_steps", ctypes.c_long),
-              ("newton_tol", ctypes.c_double), ("newton_max", ctypes.c_int),
-              ("sine_min", ctypes.c_double)] + list(extra)
-    return type("Options", (ctypes.Structure,), {"_fields_": fields})
+    """The <model>_integrate_options struct (extra: contract fields appended, e.g. the atlas')."""
+    return type("Options", (ctypes.Structure,), {"_fields_": ctypes_fields(contract.OPTIONS + tuple(extra))})
 
 
 def info_struct(n: int, extra: tuple = ()) -> type:
-    fields = [("status", ctypes.c_int), ("nfev", ctypes.c_long), ("njev", ctypes.c_long),
-              ("nsteps", ctypes.c_long), ("naccepted", ctypes.c_long), ("nrejected", ctypes.c_long),
-              ("nnewton", ctypes.c_long), ("nout", ctypes.c_long), ("t", ctypes.c_double),
-              ("h", ctypes.c_double), ("y", ctypes.c_double * n)] + list(extra)
-    return type("Info", (ctypes.Structure,), {"_fields_": fields})
+    """The <model>_integrate_info struct for n states (extra: contract fields appended)."""
+    return type("Info", (ctypes.Structure,), {"_fields_": ctypes_fields(contract.INFO + tuple(extra), n)})
 
 
 class IntegratorLibrary:
@@ -87,6 +91,5 @@ class IntegratorLibrary:
 @forget_on_model_change
 @lru_cache(maxsize=None)
 def integrator_library(model: str) -> IntegratorLibrary:
-    from .codegen import model_info
     info = model_info(model)
     return IntegratorLibrary(model, info.n, info.n_params + info.n_inputs)   # p = (params, inputs)

@@ -34,7 +34,7 @@ import numpy as np
 import sympy as sp
 
 from ..model import load_chart, load_model
-from .codegen import ATLAS_CHARTS
+from .contract import ATLAS_CHARTS
 
 CHARTS = ATLAS_CHARTS
 RULE_CHARTS = ("standard", "second", "rotated")   # the charts seed 000 section 5.1 names

@@ -13,20 +13,18 @@ from functools import lru_cache
 import mpmath
 
 from ..codegen.emit import render
+from ..codegen.printers import CPrinter, PyNumPyPrinter
 from ..derivation import derive
 from ..model.description import forget_on_model_change
+from . import contract
 from . import tableau as tb
+from .cartesian import rule_models, rule_sines
+from .contract import (ADAPTIVE, ATLAS_CHARTS, IMPLICIT, METHODS,  # noqa: F401  (re-exported)
+                       SINE_MIN, SINE_RULE, SINE_SWITCH)
 
-SINE_MIN = "0.1"          # hard threshold: no kernel below it (per-model default, and atlas)
-SINE_SWITCH = "0.3"       # atlas: switch chart when a polar sine drops below
-SINE_RULE = "0.5"         # seed 000 section 5.1: "not small" means >= 0.5
 NEWTON_THETA_MAX = "0.5"  # implicit methods: a contraction rate above this re-evaluates the Jacobian
 NEWTON_THETA_DIVERGE = "2"   # implicit methods: an increment growing this much is NEWTON at once
 
-METHODS = ("rk4", "dopri5", "dop853", "midpoint", "gauss2")
-ADAPTIVE = ("dopri5", "dop853")
-IMPLICIT = ("midpoint", "gauss2")
-ATLAS_CHARTS = ("spherical_std", "spherical_alt", "spherical_rot")
 
 _C_VARIANTS = (("double", "", ""), ("float", "_f", "f"), ("long double", "_l", "l"))
 _EPS = {"double": "2.220446049250313e-16", "float": "1.1920929e-07f",
@@ -150,6 +148,92 @@ def c_variants() -> list[dict]:
     return out
 
 
+def _wrap(head: str, items: list[str], close: str, width: int) -> str:
+    """head + items joined by ", ", wrapped greedily at `width` under the opening bracket."""
+    indent, lines, cur = " " * len(head), [], head
+    for i, item in enumerate(items):
+        piece = item + (close if i == len(items) - 1 else ",")
+        if cur.strip() and cur != head and len(cur) + 1 + len(piece) > width:
+            lines.append(cur)
+            cur = indent + piece
+        else:
+            cur += ("" if cur == head else " ") + piece
+    return "\n".join(lines + [cur])
+
+
+def _c_decl(f, n: str) -> str:
+    return f"{f.ctype} {f.name}[{n}];" if f.length else f"{f.ctype} {f.name};"
+
+
+def _c_struct(fields, n: str, M: str) -> list[str]:
+    """One field a line, comments from column 24 (<M>_integrate.h)."""
+    out = []
+    for f in fields:
+        decl = _c_decl(f, n)
+        if f.doc:
+            decl = (decl.ljust(20) if len(decl) < 20 else decl + "   ") + f"/* {f.doc.format(M=M)} */"
+        out.append("    " + decl)
+    return out
+
+
+def _c_struct_grouped(fields, n: str) -> list[str]:
+    """Consecutive fields of one C type on one line, commented ones alone (spherical_atlas.h)."""
+    out, group = [], []
+
+    def flush():
+        if group:
+            out.append(f"    {group[0].ctype} {', '.join(g.name for g in group)};")
+            group.clear()
+    for f in fields:
+        if f.atlas_doc or f.length or (group and group[0].ctype != f.ctype):
+            flush()
+        if f.atlas_doc or f.length:
+            decl = _c_decl(f, n)
+            out.append("    " + (decl.ljust(21) + f"/* {f.atlas_doc} */" if f.atlas_doc else decl))
+        else:
+            group.append(f)
+    flush()
+    return out
+
+
+def contract_c(M: str, prefix: str, n: str, sine_min_macro: str) -> dict:
+    """The run contract (derive/integration/contract.py) as the C templates print it:
+    `prefix` names the macros (<M>_METHOD_*, <prefix>_*), `n` the state array's length."""
+    width = max(len(s.macro) for s in contract.STATUS_TABLE) + len("_INTEGRATE_") + 2
+    doc = []
+    for s in contract.STATUS_TABLE:
+        lines = [x.format(theta_max=NEWTON_THETA_MAX, theta_diverge=NEWTON_THETA_DIVERGE) for x in s.doc]
+        doc.append(f" *   {M}{('_INTEGRATE_' + s.macro).ljust(width)}{s.code}  {lines[0]}")
+        doc += [" *" + " " * 40 + x for x in lines[1:]]
+    defaults = [(f.name, f.c_default or sine_min_macro) for f in contract.OPTIONS]
+    return {
+        "method_defines": [(f"{M}_METHOD_{m.macro}", m.index) for m in contract.METHOD_TABLE],
+        "method_docs": [f"{m.macro.ljust(10)}{m.doc}" for m in contract.METHOD_TABLE],
+        "status_defines": [(f"{prefix}_{s.macro}", s.code) for s in contract.STATUS_TABLE],
+        "status_cases": [(f"{prefix}_{s.macro}", s.name) for s in contract.STATUS_TABLE],
+        "status_doc": doc,
+        "option_defaults": defaults,
+        "options_fields": _c_struct(contract.OPTIONS, n, M),
+        "info_fields": _c_struct(contract.INFO, n, M),
+        "atlas_options_fields": _c_struct_grouped(contract.OPTIONS + contract.ATLAS_OPTIONS, n),
+        "atlas_info_fields": _c_struct_grouped(contract.INFO + contract.ATLAS_INFO, n),
+    }
+
+
+def contract_numpy() -> dict:
+    """The run contract as the NumPy templates print it."""
+    names = [f'"{x}"' for x in contract.STATUS_NAMES]
+    init = {"int": "OK", "long": "0", "double": "0.0"}
+    info = [f'"{f.name}": {"None" if f.length else init[f.ctype]}' for f in contract.INFO]
+    return {
+        "status_unpack": f"{', '.join(s.macro for s in contract.STATUS_TABLE)} = range({len(contract.STATUS_TABLE)})",
+        "status_names": _wrap("STATUS_NAMES = (", names, ")", 80),
+        "methods": "METHODS = (" + ", ".join(f'"{m}"' for m in contract.METHODS) + ")",
+        "defaults": _wrap("DEFAULTS = {", [f'"{f.name}": {f.py_default}' for f in contract.OPTIONS], "}", 99),
+        "new_info": _wrap("    return {", info, "}", 100),
+    }
+
+
 SOURCES = "rk4.toml, dopri5.toml, dop853.toml, gauss.toml in derive/integration"
 
 
@@ -158,7 +242,9 @@ def render_c(name: str) -> dict[str, str]:
     ctx = {"P": name, "M": name.upper(), "title": info.title, "has_ham": info.has_ham,
            "has_guards": info.nguards > 0, "nguards": info.nguards, "sine_min": SINE_MIN,
            "has_inputs": info.n_inputs > 0,
-           "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE, "variants": c_variants(), "sources": SOURCES}
+           "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE, "variants": c_variants(), "sources": SOURCES,
+           "contract": contract_c(name.upper(), f"{name.upper()}_INTEGRATE", f"{name.upper()}_N_STATES",
+                                  f"{name.upper()}_INTEGRATE_SINE_MIN")}
     return {
         f"c/{name}_integrate.h": render("c/integrate.h.jinja", dict(ctx, template="templates/c/integrate.h.jinja")),
         f"c/{name}_integrate.c": render("c/integrate.c.jinja", dict(ctx, template="templates/c/integrate.c.jinja")),
@@ -170,8 +256,6 @@ def atlas_rule() -> dict:
     """The rule of seed 000 section 5.1 as the atlas templates need it, from the chart data:
     which atlas model uses the standard, second and rotated chart, and the standard chart's
     |sin theta| and |sin phi| of a link's unit vector u printed per C type and for NumPy."""
-    from ..codegen.printers import CPrinter, PyNumPyPrinter
-    from .cartesian import rule_models, rule_sines
     X, st, az = rule_sines()
     c_slots = {x: f"u[i][{k}]" for k, x in enumerate(X)}
     np_slots = {x: f"ui[{k}]" for k, x in enumerate(X)}
@@ -186,7 +270,9 @@ def atlas_rule() -> dict:
 
 def render_atlas() -> dict[str, str]:
     ctx = {"charts": list(ATLAS_CHARTS), "sine_min": SINE_MIN, "sine_switch": SINE_SWITCH,
-           "sine_rule": SINE_RULE, "variants": c_variants(), "rule": atlas_rule()}
+           "sine_rule": SINE_RULE, "variants": c_variants(), "rule": atlas_rule(),
+           "contract": contract_c("SPHERICAL_ATLAS", "SPHERICAL_ATLAS_INTEGRATE", "8", "SPHERICAL_ATLAS_SINE_MIN"),
+           "contract_py": contract_numpy()}
     files = {
         "c/spherical_atlas.h": render("c/atlas.h.jinja", dict(ctx, template="templates/c/atlas.h.jinja")),
         "c/spherical_atlas.c": render("c/atlas.c.jinja", dict(ctx, template="templates/c/atlas.c.jinja")),
@@ -244,5 +330,6 @@ def render_numpy(name: str) -> dict[str, str]:
            "n": info.n, "n_params": info.n_params + info.n_inputs, "sine_min": SINE_MIN, "sources": SOURCES,
            "model_params": info.n_params, "has_inputs": info.n_inputs > 0,
            "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE,
-           "explicit": explicit, "gauss": gauss, "template": "templates/numpy/integrate.py.jinja"}
+           "explicit": explicit, "gauss": gauss, "contract_py": contract_numpy(),
+           "template": "templates/numpy/integrate.py.jinja"}
     return {f"numpy/{name}_integrate.py": render("numpy/integrate.py.jinja", ctx)}

@@ -17,113 +17,27 @@ A run that cannot go on returns a result whose `status` says why
 """
 from __future__ import annotations
 
-import importlib.util
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
-from functools import lru_cache
 
 import numpy as np
 
-from ..errors import SimulationError, SimulationInputError
+from ..errors import SimulationError, SimulationInputError  # noqa: F401  (SimulationError: re-exported)
 from ..model import ModelError, is_model_file, load_model
-from ..model.description import forget_on_model_change
 from . import cartesian
-from .build import dtype_key
-from .codegen import ADAPTIVE, ATLAS_CHARTS, METHODS, SINE_MIN, model_info
+from .atlas import run_atlas
+from .build import dtype_key, integrator_library
+from .codegen import model_info
+from .contract import (ADAPTIVE, ATLAS_CHARTS, COUNTERS, FIXED_ORDER,  # noqa: F401  (re-exported)
+                       METHODS, SINE_MIN, STATUS_NAMES, default_options)
+from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
+from .result import SimulationResult  # noqa: F401  (re-exported)
 
-STATUS_NAMES = ("ok", "step-size underflow", "maximum number of steps reached",
-                "Newton iteration diverged", "non-finite state or derivative",
-                "chart singular (polar sine below threshold)", "bad input")
 ATLAS = "spherical"            # the chart atlas of the double spherical pendulum
 _DTYPES = {"float32": np.float32, "float": np.float32, "single": np.float32,
            "float64": np.float64, "double": np.float64,
            "longdouble": np.longdouble, "long double": np.longdouble, "float128": np.longdouble}
 _DEFAULT_RTOL = {"float32": 1e-5, "float64": 1e-9, "longdouble": 1e-12}
-
-
-FIXED_ORDER = {"rk4": 4, "midpoint": 2, "gauss2": 4}
-COUNTERS = ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton")    # of a run's info
-
-
-@dataclass
-class SimulationResult:
-    model: str
-    method: str
-    backend: str
-    dtype: str
-    t: np.ndarray
-    y: np.ndarray                  # (len(t), n); chart states for spherical models
-    energy: np.ndarray             # (len(t),)
-    positions: np.ndarray          # (len(t), bobs, dim): Cartesian bob positions
-    status: int
-    status_name: str
-    t_stop: float                  # time reached (where it stopped on failure)
-    y_stop: np.ndarray             # the state there (in the chart then in use)
-    nfev: int
-    njev: int
-    nsteps: int
-    naccepted: int
-    nrejected: int
-    nnewton: int
-    chart: np.ndarray | None = None        # spherical: chart model name at each output time
-    switches: int = 0                      # spherical atlas: number of chart switches
-    chart_stop: str | None = None
-    params: np.ndarray = field(default=None, repr=False)
-    rtol: float | None = None              # adaptive methods: the tolerance used
-    step: float | None = None              # fixed-step methods: the step used
-    velocities: np.ndarray | None = field(default=None, repr=False)   # like positions: bob velocities
-
-    @property
-    def ok(self) -> bool:
-        return self.status == 0
-
-    @property
-    def message(self) -> str:
-        if self.ok:
-            return f"ok: {self.model} with {self.method} to t = {self.t_stop:.17g}"
-        names = _state_names(self.chart_stop or self.model)
-        state = ", ".join(f"{n}={v:.6g}" for n, v in zip(names, self.y_stop))
-        where = f" in chart {self.chart_stop}" if self.chart_stop else ""
-        return (f"integration stopped at t = {self.t_stop:.17g}: {self.status_name}{where}; "
-                f"state {state}")
-
-    def lyapunov_exponent(self) -> float:
-        """Largest Lyapunov exponent of this motion over the run (variational
-        equations with the generated Jacobian; derive/measurement/trust.py)."""
-        if "_lyapunov" not in self.__dict__:
-            from ..measurement import trust
-            t_end = float(self.t[-1] - self.t[0])
-            params = np.asarray(self.params, np.float64)
-            if self.model == "spherical":
-                est = trust.atlas_lyapunov({"chart": self.chart[0], "state": list(self.y[0])}, params, t_end)
-            else:
-                est = trust.largest_lyapunov(self.model, np.asarray(self.y[0], np.float64), params, t_end)
-            self.__dict__["_lyapunov"] = None if est is None else est.exponent
-        return self.__dict__["_lyapunov"]
-
-    def trust_horizon(self, target: float = 1e-8) -> float | None:
-        """The time until which this run resolves the true motion to `target`:
-        its early error e0 (the tolerance, or h^order for a fixed step, at least
-        the unit roundoff, times the state's size) grows like e0 exp(lambda t)."""
-        from ..measurement import trust
-        exponent = self.lyapunov_exponent()
-        if exponent is None:
-            return None
-        local = self.rtol if self.rtol is not None else (self.step or 0.0) ** FIXED_ORDER[self.method]
-        e0 = trust.initial_error(local, np.dtype(_DTYPES[self.dtype]),
-                                 float(np.max(np.abs(np.asarray(self.y[0], float)))))
-        lyap = trust.Lyapunov(exponent, float(self.t[-1] - self.t[0]), self.model, "")
-        return float(self.t[0]) + trust.trust_horizon(lyap, target, e0)
-
-    def raise_for_status(self) -> "SimulationResult":
-        if not self.ok:
-            raise SimulationError(self.message)
-        return self
-
-
-def _state_names(model: str) -> tuple[str, ...]:
-    return model_info(model).state_names
 
 
 # -- input normalisation -----------------------------------------------------
@@ -324,58 +238,6 @@ def normalise_t(t) -> np.ndarray:
     return a
 
 
-# -- kernels for energy and positions ------------------------------------------
-
-@forget_on_model_change
-@lru_cache(maxsize=None)
-def numpy_module(name: str):
-    """The generated NumPy module `name` (a model, '<model>_integrate', '<model>_throughput'
-    or 'spherical_atlas'), imported from the cache's rendering of its model."""
-    from ..codegen.sources import ATLAS, numpy_source
-    model = ATLAS if name == "spherical_atlas" else name.removesuffix("_integrate").removesuffix("_throughput")
-    path = numpy_source(model, f"{name}.py")
-    if not path.is_file():
-        raise SimulationInputError(f"no generated NumPy module {path.name} for model '{model}'")
-    spec = importlib.util.spec_from_file_location(f"_derive_generated_{name}", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-def _observables(model: str, y: np.ndarray, p: np.ndarray, backend: str, dtype: np.dtype):
-    if len(y) == 0:
-        d = _described(model)
-        return np.zeros(0, dtype), np.zeros((0, d.bodies, d.dimension), dtype)
-    if backend == "c":
-        from ..codegen.loader import load
-        from .build import SUFFIX, dtype_key
-        m = load(model)
-        s = SUFFIX[dtype_key(dtype)]
-        E = getattr(m, "energy" + s)(y, p.astype(dtype))
-        pos = getattr(m, "positions" + s)(y, p.astype(dtype))
-    else:
-        m = numpy_module(model)
-        with np.errstate(all="ignore"):
-            E = m.energy(y, p.astype(dtype))
-            pos = m.positions(y, p.astype(dtype))
-    return np.asarray(E, dtype), np.asarray(pos, dtype)
-
-
-def _velocities(model: str, y: np.ndarray, p: np.ndarray, backend: str, dtype: np.dtype) -> np.ndarray:
-    """The bobs' Cartesian velocities (len(y), bobs, dim) by the generated kernel."""
-    d = _described(model)
-    if len(y) == 0:
-        return np.zeros((0, d.bodies, d.dimension), dtype)
-    if backend == "c":
-        from ..codegen.loader import load
-        from .build import SUFFIX, dtype_key
-        vel = getattr(load(model), "velocities" + SUFFIX[dtype_key(dtype)])(y, p.astype(dtype))
-    else:
-        with np.errstate(all="ignore"):
-            vel = numpy_module(model).velocities(y, p.astype(dtype))
-    return np.asarray(vel, dtype)
-
-
 # -- the entry point --------------------------------------------------------------
 
 def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | None = None,
@@ -404,13 +266,10 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     u = normalise_inputs(model, inputs)
     ts = normalise_t(t)
     state, chart, _ = normalise_y0(model, y0, p)
-    opt = {"rtol": _DEFAULT_RTOL[dtype_key(dt)] if rtol is None else rtol,
-           "atol": None if atol is None else atol, "h": 0.0, "hmin": 0.0,
-           "hmax": 0.0 if hmax is None else hmax,
-           "max_steps": 100_000_000 if max_steps is None else max_steps,
-           "newton_tol": 0.0 if newton_tol is None else newton_tol,
-           "newton_max": 30 if newton_max is None else newton_max,
-           "sine_min": float(SINE_MIN) if sine_min is None else sine_min}
+    given = {"rtol": _DEFAULT_RTOL[dtype_key(dt)] if rtol is None else rtol, "atol": atol, "hmax": hmax,
+             "max_steps": max_steps, "newton_tol": newton_tol, "newton_max": newton_max, "sine_min": sine_min}
+    opt = {k: given[k] if given.get(k) is not None else v for k, v in default_options().items()}
+    opt["atol"] = atol                       # None: from rtol below
     for key in ("rtol", "atol", "hmax", "newton_tol", "sine_min"):
         v = opt[key]
         if v is not None and (not isinstance(v, (int, float, np.floating)) or not np.isfinite(v) or v < 0):
@@ -435,7 +294,6 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
         raise SimulationInputError(f"sine_min = {opt['sine_min']!r} must be in [0, 1)")
 
     if model == "spherical":
-        from .atlas import run_atlas
         result = run_atlas(method, state, chart, ts, p, opt, dt, backend)
     elif isinstance(u, HeldInputs):
         result = _run_held(model, method, state, ts, p, opt, dt, backend, u)
@@ -481,7 +339,6 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> Simulatio
         pd = np.concatenate([pd, np.asarray(u, dt)])
     tsd = np.asarray(ts, dt)
     if backend == "c":
-        from .build import integrator_library
         lib = integrator_library(model)
         o = lib.defaults()
         for k, v in opt.items():

@@ -49,7 +49,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..codegen.emit import half_angle_sincos, lanes_context, render, trig_lanes
-from ..codegen.loader import VECTOR_MATH, LoaderError, build_fastest, build_library
+from ..codegen.loader import VECTOR_MATH, LoaderError, build_fastest, build_library, numpy_module
 from ..codegen.names import numpy_slots
 from ..codegen.printers import CPrinter, PyNumPyPrinter
 from ..codegen.sources import c_source, kernels
@@ -398,6 +398,5 @@ def throughput_library(model: str) -> ThroughputLibrary:
 @forget_on_model_change
 @lru_cache(maxsize=None)
 def throughput_numpy(model: str):
-    from .simulate import numpy_module
     return numpy_module(f"{model}_throughput")
 

@@ -164,7 +164,7 @@ def _series(method: str, backend: str, dtype: str) -> str:
 
 
 def toolkit_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
-    from ..integration.codegen import ADAPTIVE, METHODS
+    from ..integration.contract import ADAPTIVE, METHODS
     out = []
     plan = []
     if opts.quick:
@@ -236,7 +236,7 @@ def _loop_observer(problem: Problem, method: str, step: float):
 
 
 def _options(method: str, rtol, step) -> dict:
-    from ..integration.codegen import SINE_MIN
+    from ..integration.contract import SINE_MIN
     return {"rtol": rtol if rtol is not None else 1e-9, "atol": (rtol if rtol is not None else 1e-9) * 1e-3,
             "h": step or 0.0, "hmin": 0.0, "hmax": 0.0, "max_steps": 100_000_000, "newton_tol": 0.0,
             "newton_max": 30, "sine_min": float(SINE_MIN)}
@@ -258,7 +258,7 @@ def _toolkit_runner(problem: Problem, method: str, backend: str, dtype: str, rto
     def make():
         from ..integration.atlas import ATLAS_CHARTS, atlas_library, numpy_atlas
         from ..integration.build import integrator_library
-        from ..integration.codegen import METHODS
+        from ..integration.contract import METHODS
         from ..integration.simulate import numpy_module
         dt = _np_dtype(dtype)
         state, chart, p = _prepared(problem)
@@ -742,7 +742,7 @@ def _rate(fn, B: int, nsteps: int, repeats: int) -> tuple[float, int]:
 def run_throughput(opts: BenchOptions) -> list[dict]:
     """trajectory-steps per second of batched fixed-step RK4 on planar states."""
     from ..integration.build import integrator_library
-    from ..integration.codegen import METHODS
+    from ..integration.contract import METHODS
     from ..integration.throughput import throughput_library, throughput_numpy
     p = np.array([1.0, 1.0, 1.0, 1.0, G])
     h = THROUGHPUT_H
@@ -823,7 +823,7 @@ def throughput_agreement(n: int = 10_000, nsteps: int = 100) -> dict:
     """Batched C and NumPy RK4 against the scalar generated RK4: max difference after
     nsteps steps of THROUGHPUT_H (t = 1, inside the trust horizon of these states)."""
     from ..integration.build import integrator_library
-    from ..integration.codegen import METHODS
+    from ..integration.contract import METHODS
     from ..integration.throughput import throughput_library, throughput_numpy
     p = np.array([1.0, 1.0, 1.0, 1.0, G])
     y0 = throughput_states(n, seed=1)

@@ -98,3 +98,35 @@ def trust_horizon(lyapunov: Lyapunov, target: float, e0: float) -> float:
     if not math.isfinite(lyapunov.exponent):
         return 0.0
     return math.log(target / e0) / lyapunov.exponent
+
+
+# -- from a run's result (derive.integration.result.SimulationResult) ----------------
+
+def lyapunov_exponent(result) -> float | None:
+    """Largest Lyapunov exponent of the motion of a run, over the run (variational
+    equations with the generated Jacobian); None for an atlas run whose every chart
+    meets its singularity.  Memoised on the result."""
+    if "_lyapunov" not in result.__dict__:
+        t_end = float(result.t[-1] - result.t[0])
+        params = np.asarray(result.params, np.float64)
+        if result.model == "spherical":
+            est = atlas_lyapunov({"chart": result.chart[0], "state": list(result.y[0])}, params, t_end)
+        else:
+            est = largest_lyapunov(result.model, np.asarray(result.y[0], np.float64), params, t_end)
+        result.__dict__["_lyapunov"] = None if est is None else est.exponent
+    return result.__dict__["_lyapunov"]
+
+
+def trust_horizon_of(result, target: float = 1e-8) -> float | None:
+    """The time until which a run resolves the true motion to `target`: its early
+    error e0 (the tolerance, or h^order for a fixed step, at least the unit roundoff,
+    times the state's size) grows like e0 exp(lambda t)."""
+    from ..integration.contract import FIXED_ORDER
+    exponent = lyapunov_exponent(result)
+    if exponent is None:
+        return None
+    local = result.rtol if result.rtol is not None else (result.step or 0.0) ** FIXED_ORDER[result.method]
+    dtype = np.dtype(np.longdouble) if result.dtype == "longdouble" else np.dtype(result.dtype)
+    e0 = initial_error(local, dtype, float(np.max(np.abs(np.asarray(result.y[0], float)))))
+    lyap = Lyapunov(exponent, float(result.t[-1] - result.t[0]), result.model, "")
+    return float(result.t[0]) + trust_horizon(lyap, target, e0)

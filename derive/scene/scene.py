@@ -10,11 +10,11 @@ from ..errors import SceneError
 from ..model.description import NAME
 from ..paths import scenes_dir
 from ..model import ModelError, is_model_file, load_model
+from ..integration.contract import ATLAS_CHARTS, FIXED, METHODS     # the run contract
 
 ATLAS = "spherical"             # the spherical pendulum run through the chart atlas
-SPHERICAL_CHART_MODELS = ("spherical_std", "spherical_alt", "spherical_rot")
-METHODS = ("rk4", "dopri5", "dop853", "gauss2", "midpoint")
-FIXED_STEP = ("rk4", "gauss2", "midpoint")
+SPHERICAL_CHART_MODELS = ATLAS_CHARTS
+FIXED_STEP = FIXED
 SCALARS = ("float", "double", "long double")
 TRAJECTORY_FORMATS = ("csv", "npz")
 PLOTS = ("paths", "energy", "animation")

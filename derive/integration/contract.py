@@ -1,0 +1,152 @@
+"""The run contract of the generated integrators, once, as data.
+
+Everything a run's two sides must agree on lives here: the methods (their
+index in the C switch, kind, implicit flag and order), the status codes and
+their names, the fields of the options and info structs (C type, default,
+comment) and the counters of a run.  The templates under derive/templates
+render their enums, status tables, struct definitions and `_defaults`
+functions from these lists (derive/integration/codegen.py passes them in the
+Jinja context), derive/integration/build.py and atlas.py build the ctypes
+Structures from the same field lists, and simulate, the atlas and the
+benchmarks read the method and status tables from here.
+
+It sits in derive/integration (not a new stage folder) because it is the
+interface between the integrators' generation (integration/codegen.py) and
+their runtime (build, simulate, atlas); it imports nothing of derive, so
+every stage may import it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Method:
+    name: str
+    index: int           # the value of <M>_METHOD_<NAME> in the C switch
+    kind: str            # "fixed" or "adaptive"
+    implicit: bool
+    order: int
+    doc: str             # one line in the header's method list
+
+    @property
+    def macro(self) -> str:
+        return self.name.upper()
+
+
+@dataclass(frozen=True)
+class Status:
+    code: int
+    macro: str           # <M>_INTEGRATE_<MACRO>
+    name: str            # what status_name says
+    doc: tuple[str, ...]     # the header's description (lines; {theta_*} filled in by codegen)
+
+
+@dataclass(frozen=True)
+class Field:
+    name: str
+    ctype: str           # C type ("double", "long", "int")
+    default: object = None   # options: the value <M>_integrate_defaults sets (None: SINE_MIN)
+    c_default: str = ""      # ... as a C literal ("" for sine_min: the model's SINE_MIN macro)
+    py_default: str = ""     # ... as a Python literal (generated NumPy DEFAULTS)
+    doc: str = ""            # comment in <M>_integrate.h
+    atlas_doc: str = ""      # comment in spherical_atlas.h
+    length: str = ""         # an array: "n" (the number of states)
+
+
+METHOD_TABLE = (
+    Method("rk4", 0, "fixed", False, 4, "classical Runge-Kutta, order 4, fixed step (seed 001)"),
+    Method("dopri5", 1, "adaptive", False, 5, "Dormand-Prince 5(4), adaptive, FSAL, 4th-order dense output"),
+    Method("dop853", 2, "adaptive", False, 8, "Dormand-Prince 8(5,3), adaptive, 7th-order dense output"),
+    Method("midpoint", 3, "fixed", True, 2,
+           "implicit midpoint rule (Gauss-Legendre, 1 stage), order 2, fixed step"),
+    Method("gauss2", 4, "fixed", True, 4, "Gauss-Legendre, 2 stages, order 4, fixed step"),
+)
+
+STATUS_TABLE = (
+    Status(0, "OK", "ok", ("every requested output was computed",)),
+    Status(1, "STEP_UNDERFLOW", "step-size underflow",
+           ("the adaptive step fell below hmin to meet the tolerance",)),
+    Status(2, "MAX_STEPS", "maximum number of steps reached", ("options.max_steps steps were taken",)),
+    Status(3, "NEWTON", "Newton iteration diverged",
+           ("the Newton iteration of an implicit method did not",
+            "converge: an increment not finite, growing by",
+            "{theta_diverge} or more, or growing again after the Jacobian was",
+            "re-evaluated at the stage values (it is, whenever the",
+            "contraction rate |dZ_k|/|dZ_k-1| exceeds {theta_max}), or",
+            "options.newton_max iterations; the step is too large",
+            "for the motion.  No step is taken from such an iteration")),
+    Status(4, "NONFINITE", "non-finite state or derivative",
+           ("a derivative or the state became NaN or infinite",)),
+    Status(5, "CHART_SINGULAR", "chart singular (polar sine below threshold)",
+           ("the chart is singular there: a polar sine below",
+            "options.sine_min (the mass matrix is singular)")),
+    Status(6, "BAD_INPUT", "bad input", ("non-finite or inconsistent input (y0, p, t, options)",)),
+)
+
+OPTIONS = (
+    Field("rtol", "double", 1e-9, "1e-9", "1e-9", "adaptive: relative tolerance (default 1e-9)"),
+    Field("atol", "double", 1e-12, "1e-12", "1e-12", "adaptive: absolute tolerance (default 1e-12)"),
+    Field("h", "double", 0.0, "0", "0.0", "fixed step; adaptive: initial step (0: automatic)"),
+    Field("hmin", "double", 0.0, "0", "0.0", "adaptive: smallest step (0: 16 eps max(|t|, |h|))"),
+    Field("hmax", "double", 0.0, "0", "0.0", "adaptive: largest step (0: |t_end - t0|)"),
+    Field("max_steps", "long", 100_000_000, "100000000L", "100000000",
+          "steps (accepted and rejected) before giving up (default 10^8)"),
+    Field("newton_tol", "double", 0.0, "0", "0.0", "implicit: scaled increment to stop Newton (0: 10 eps)"),
+    Field("newton_max", "int", 30, "30", "30", "implicit: iterations per step (default 30)"),
+    Field("sine_min", "double", None, "", "SINE_MIN", "no kernel evaluated where a polar sine is below this",
+          atlas_doc="hard threshold"),
+)
+
+INFO = (
+    Field("status", "int", doc="{M}_INTEGRATE_*"),
+    Field("nfev", "long", doc="right-hand side evaluations"),
+    Field("njev", "long", doc="Jacobian evaluations (implicit: one per step, one per stage per re-evaluation)"),
+    Field("nsteps", "long", doc="steps attempted"),
+    Field("naccepted", "long"),
+    Field("nrejected", "long"),
+    Field("nnewton", "long", doc="Newton iterations"),
+    Field("nout", "long", doc="output rows written"),
+    Field("t", "double", doc="time reached (where it stopped on failure)"),
+    Field("h", "double", doc="last step size"),
+    Field("y", "double", doc="state at t", length="n"),
+)
+
+# The atlas (spherical_atlas.h) appends these to the options and info structs.
+ATLAS_OPTIONS = (
+    Field("sine_switch", "double", None, "", "", atlas_doc="switch below this"),
+    Field("sine_rule", "double", None, "", "", atlas_doc='the rule\'s "not small"'),
+)
+ATLAS_INFO = (
+    Field("nswitches", "long", atlas_doc="chart switches"),
+    Field("chart", "int", atlas_doc="chart at t"),
+)
+
+COUNTERS = ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton")    # of a run's info
+
+METHODS = tuple(m.name for m in sorted(METHOD_TABLE, key=lambda m: m.index))
+METHOD = {m.name: m for m in METHOD_TABLE}
+ADAPTIVE = tuple(m.name for m in METHOD_TABLE if m.kind == "adaptive")
+FIXED = tuple(m.name for m in METHOD_TABLE if m.kind == "fixed")
+IMPLICIT = tuple(m.name for m in METHOD_TABLE if m.implicit)
+ORDER = {m.name: m.order for m in METHOD_TABLE}
+FIXED_ORDER = {m: ORDER[m] for m in FIXED}
+STATUS_NAMES = tuple(s.name for s in sorted(STATUS_TABLE, key=lambda s: s.code))
+STATUS = {s.macro: s.code for s in STATUS_TABLE}
+OPTION_NAMES = tuple(f.name for f in OPTIONS)
+INFO_NAMES = tuple(f.name for f in INFO)
+
+ATLAS_CHARTS = ("spherical_std", "spherical_alt", "spherical_rot")
+SINE_MIN = "0.1"          # hard threshold: no kernel below it (per-model default, and atlas)
+SINE_SWITCH = "0.3"       # atlas: switch chart when a polar sine drops below
+SINE_RULE = "0.5"         # seed 000 section 5.1: "not small" means >= 0.5
+
+
+def default_options() -> dict:
+    """The defaults of <M>_integrate_defaults as Python values."""
+    return {f.name: float(SINE_MIN) if f.name == "sine_min" else f.default for f in OPTIONS}
+
+
+assert METHODS == tuple(m.name for m in METHOD_TABLE), "METHOD_TABLE is listed in C switch order"
+assert [s.code for s in STATUS_TABLE] == list(range(len(STATUS_TABLE)))
+assert set(COUNTERS) <= set(INFO_NAMES)

@@ -1,0 +1,66 @@
+"""The result of a run: plain data (derive/integration/simulate.py and atlas.py fill it).
+
+What a run means for trust (its largest Lyapunov exponent, its trust horizon) is
+measured from a result by derive/measurement/trust.py: trust.lyapunov_exponent(r),
+trust.trust_horizon_of(r, target).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import SimulationError
+from .codegen import model_info
+
+
+@dataclass
+class SimulationResult:
+    model: str
+    method: str
+    backend: str
+    dtype: str
+    t: np.ndarray
+    y: np.ndarray                  # (len(t), n); chart states for spherical models
+    energy: np.ndarray             # (len(t),)
+    positions: np.ndarray          # (len(t), bobs, dim): Cartesian bob positions
+    status: int
+    status_name: str
+    t_stop: float                  # time reached (where it stopped on failure)
+    y_stop: np.ndarray             # the state there (in the chart then in use)
+    nfev: int
+    njev: int
+    nsteps: int
+    naccepted: int
+    nrejected: int
+    nnewton: int
+    chart: np.ndarray | None = None        # spherical: chart model name at each output time
+    switches: int = 0                      # spherical atlas: number of chart switches
+    chart_stop: str | None = None
+    params: np.ndarray = field(default=None, repr=False)
+    rtol: float | None = None              # adaptive methods: the tolerance used
+    step: float | None = None              # fixed-step methods: the step used
+    velocities: np.ndarray | None = field(default=None, repr=False)   # like positions: bob velocities
+
+    @property
+    def ok(self) -> bool:
+        return self.status == 0
+
+    @property
+    def message(self) -> str:
+        if self.ok:
+            return f"ok: {self.model} with {self.method} to t = {self.t_stop:.17g}"
+        names = _state_names(self.chart_stop or self.model)
+        state = ", ".join(f"{n}={v:.6g}" for n, v in zip(names, self.y_stop))
+        where = f" in chart {self.chart_stop}" if self.chart_stop else ""
+        return (f"integration stopped at t = {self.t_stop:.17g}: {self.status_name}{where}; "
+                f"state {state}")
+
+    def raise_for_status(self) -> "SimulationResult":
+        if not self.ok:
+            raise SimulationError(self.message)
+        return self
+
+
+def _state_names(model: str) -> tuple[str, ...]:
+    return model_info(model).state_names
