@@ -135,7 +135,7 @@ def test_no_restatement_of_the_contract_outside_it():
 # runtime (build, run, results).
 STAGES = (
     ("base", ("derive.errors", "derive.paths", "derive.progress")),
-    ("model", ("derive.model",)),
+    ("model", ("derive.model", "derive.cachefile")),     # cachefile stores models and what is derived from them
     ("derivation", ("derive.derivation",)),
     ("codegen", ("derive.verification", "derive.codegen", "derive.integration.contract",
                  "derive.integration.tableau", "derive.integration.cartesian",
