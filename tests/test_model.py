@@ -55,3 +55,16 @@ def test_bad_descriptions_are_named(edit, message):
 def test_unknown_model():
     with pytest.raises(ModelError, match="unknown model 'nope'"):
         load_model("nope")
+
+
+def test_the_atlas_is_data():
+    """Its members, rule and thresholds come from catalog/atlases.toml; the members' link
+    charts say which member is the standard, second and rotated chart of the rule."""
+    from derive.integration import contract
+    from derive.integration.cartesian import rule_models
+    from derive.model.atlas import load_atlas
+    a = load_atlas("spherical")
+    assert contract.ATLAS_CHARTS == a.charts
+    assert (contract.SINE_MIN, contract.SINE_SWITCH, contract.SINE_RULE) == (a.sine_min, a.sine_switch, a.sine_rule)
+    assert set(rule_models().values()) == set(a.charts) and a.charts[0] == rule_models()["standard"]
+    assert "atlases" not in model_names() and "charts" not in model_names()

@@ -12,12 +12,14 @@ benchmarks read the method and status tables from here.
 
 It sits in derive/integration (not a new stage folder) because it is the
 interface between the integrators' generation (integration/codegen.py) and
-their runtime (build, simulate, atlas); it imports nothing of derive, so
-every stage may import it.
+their runtime (build, simulate, atlas); it imports nothing of derive but the atlas data
+(derive/model/atlas.py), so every stage from code generation on may import it.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+from ..model.atlas import ATLAS, load_atlas
 
 
 @dataclass(frozen=True)
@@ -136,10 +138,12 @@ STATUS = {s.macro: s.code for s in STATUS_TABLE}
 OPTION_NAMES = tuple(f.name for f in OPTIONS)
 INFO_NAMES = tuple(f.name for f in INFO)
 
-ATLAS_CHARTS = ("spherical_std", "spherical_alt", "spherical_rot")
-SINE_MIN = "0.1"          # hard threshold: no kernel below it (per-model default, and atlas)
-SINE_SWITCH = "0.3"       # atlas: switch chart when a polar sine drops below
-SINE_RULE = "0.5"         # seed 000 section 5.1: "not small" means >= 0.5
+# the atlas's members and thresholds are data (derive/model/catalog/atlases.toml)
+_ATLAS = load_atlas(ATLAS)
+ATLAS_CHARTS = _ATLAS.charts
+SINE_MIN = _ATLAS.sine_min          # hard threshold: no kernel below it (per-model default, and atlas)
+SINE_SWITCH = _ATLAS.sine_switch    # atlas: switch chart when a polar sine drops below
+SINE_RULE = _ATLAS.sine_rule        # seed 000 section 5.1: "not small" means >= 0.5
 
 
 def default_options() -> dict:

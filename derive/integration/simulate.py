@@ -33,7 +33,7 @@ from .contract import (ADAPTIVE, ATLAS_CHARTS, COUNTERS, FIXED_ORDER,  # noqa: F
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
 from .result import SimulationResult  # noqa: F401  (re-exported)
 
-ATLAS = "spherical"            # the chart atlas of the double spherical pendulum
+from ..model.atlas import ATLAS  # noqa: E402  (the chart atlas of the double spherical pendulum)
 _DTYPES = {"float32": np.float32, "float": np.float32, "single": np.float32,
            "float64": np.float64, "double": np.float64,
            "longdouble": np.longdouble, "long double": np.longdouble, "float128": np.longdouble}

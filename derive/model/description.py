@@ -169,8 +169,11 @@ def load_chart(name: str) -> Chart:
     return chart
 
 
+DATA_FILES = ("charts", "atlases")      # catalogue files that are not models
+
+
 def model_names() -> list[str]:
-    return sorted(p.stem for p in catalog_dir().glob("*.toml") if p.stem != "charts")
+    return sorted(p.stem for p in catalog_dir().glob("*.toml") if p.stem not in DATA_FILES)
 
 
 def _quantity(t: dict, key: str, where: str) -> str:
@@ -379,7 +382,7 @@ def load_model(name: str | os.PathLike) -> Model:
 @cache
 def _catalogue_model(name: str) -> Model:
     path = catalog_dir() / f"{name}.toml"
-    if name == "charts" or not NAME.match(name) or not path.is_file():
+    if name in DATA_FILES or not NAME.match(name) or not path.is_file():
         raise ModelError(f"unknown model '{name}' (known: {', '.join(model_names())}; "
                          f"or give the path of a model file)")
     return parse_model(path.read_text(), path.name)

@@ -12,7 +12,7 @@ from ..paths import scenes_dir
 from ..model import ModelError, is_model_file, load_model
 from ..integration.contract import ATLAS_CHARTS, FIXED, METHODS     # the run contract
 
-ATLAS = "spherical"             # the spherical pendulum run through the chart atlas
+from ..model.atlas import ATLAS  # noqa: E402  (the spherical pendulum run through the chart atlas)
 SPHERICAL_CHART_MODELS = ATLAS_CHARTS
 FIXED_STEP = FIXED
 SCALARS = ("float", "double", "long double")
