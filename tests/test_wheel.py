@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import shutil
 import subprocess
 import sys
 import sysconfig
@@ -54,7 +55,12 @@ def venv(tmp_path_factory):
     """A venv with the freshly built wheel of this checkout installed (not editable)."""
     base = tmp_path_factory.mktemp("wheel")
     wheels = base / "dist"
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(wheels), str(ROOT)],
+    # built from a copy of the tree: pip builds in-tree (build/), which two test workers
+    # building at once would race on, and which would write into the checkout
+    source = base / "source"
+    shutil.copytree(ROOT, source, symlinks=True, ignore=shutil.ignore_patterns(
+        ".git", "build", "*.egg-info", ".venv", "__pycache__", ".pytest_cache", "derive-bench", "out"))
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(wheels), str(source)],
                    check=True, timeout=600)
     (wheel,) = wheels.glob("derive-*.whl")
     env_dir = base / "venv"
