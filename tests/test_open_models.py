@@ -279,3 +279,22 @@ def test_inputs_as_a_function_of_time_are_held_over_each_output_interval():
     b = derive.simulate("driven", a.y[-1], t[5:], p, inputs=[-1.0, 0.5], rtol=1e-12)
     assert held.ok and held.y.shape == (11, 4) and held.velocities.shape == (11, 2, 2)
     assert np.max(np.abs(held.y[5] - a.y[-1])) < 1e-9 and np.max(np.abs(held.y[-1] - b.y[-1])) < 1e-9
+
+
+def test_a_scene_sets_a_models_inputs(tmp_path):
+    (tmp_path / "driven.toml").write_text((EXAMPLES / "driven.toml").read_text())
+    scene = ('[pendulum]\nmodel = "driven.toml"\n'
+             'parameters = { m1 = 1, m2 = 1, l1 = 1, l2 = 1, g = 9.81, c1 = 0.1, c2 = 0.05 }\n'
+             '{inputs}[initial]\nstate = [0.1, 0.0, 0.0, 0.0]\n[time]\nstop = 2.0\noutputs = 21\n'
+             '[accuracy]\ntarget = 1e-6\n')
+    (tmp_path / "s.toml").write_text(scene.replace("{inputs}", "inputs = { tau1 = 2.0, tau2 = 0.0 }\n"))
+    run = cli("run", "s.toml", "--json", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    import json
+    assert json.loads(run.stdout)["target_met"] is True
+    (tmp_path / "s.toml").write_text(scene.replace("{inputs}", ""))
+    run = cli("run", "s.toml", cwd=tmp_path)
+    assert run.returncode == 2 and "'pendulum.inputs' is missing" in run.stderr
+    (tmp_path / "s.toml").write_text(scene.replace("{inputs}", "inputs = { tau1 = 2.0, tau9 = 0.0 }\n"))
+    run = cli("run", "s.toml", cwd=tmp_path)
+    assert run.returncode == 2 and "not an input of 'driven'" in run.stderr

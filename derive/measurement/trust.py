@@ -38,16 +38,21 @@ class Lyapunov:
         return math.exp(x) if x < 700 else math.inf
 
 
-def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0) -> Lyapunov:
-    """lambda from the variational equations along y(t), t in [0, t_end]."""
+def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs=None) -> Lyapunov:
+    """lambda from the variational equations along y(t), t in [0, t_end] (a model with
+    run-time inputs: held at `inputs`)."""
     from ..codegen.loader import load
     from ..integration.simulate import normalise_params, simulate
     n = max(200, int(JACOBIAN_STEPS_PER_UNIT_TIME * t_end))
     grid = np.linspace(0.0, t_end, 2 * n + 1)
-    run = simulate(model, y0, grid, params, method="dop853", rtol=1e-11, atol=1e-13)
+    run = simulate(model, y0, grid, params, method="dop853", rtol=1e-11, atol=1e-13, inputs=inputs)
     run.raise_for_status()
     p = normalise_params(model, params).astype(np.float64)
-    jac = load(model).jacobian(run.y[1::2].astype(np.float64), p)     # at the midpoints
+    args = (run.y[1::2].astype(np.float64), p)                        # at the midpoints
+    if inputs is not None:
+        from ..integration.simulate import normalise_inputs
+        args += (normalise_inputs(model, inputs).astype(np.float64),)
+    jac = load(model).jacobian(*args)
     dt = t_end / n
     rng = np.random.default_rng(seed)
     delta = rng.standard_normal(run.y.shape[1])

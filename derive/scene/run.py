@@ -73,7 +73,8 @@ def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
     try:
         if p.model == "spherical":
             return atlas_lyapunov(p.y0, p.params, scene.t_stop - scene.t_start)
-        return largest_lyapunov(p.model, p.y0, p.params, scene.t_stop - scene.t_start)
+        return largest_lyapunov(p.model, p.y0, p.params, scene.t_stop - scene.t_start,
+                                inputs=scene.inputs)
     except SimulationError:
         return None
 
@@ -114,7 +115,7 @@ def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
                      rtol=None if c.rtol is None else c.rtol / tighten,
                      atol=None if c.atol is None else c.atol / tighten,
                      step=None if c.step is None else c.step / tighten,
-                     dtype=dtype or c.dtype, backend=scene.backend)
+                     dtype=dtype or c.dtype, backend=scene.backend, inputs=scene.inputs)
         parts.append(r)
         if progress:
             progress.update(k + 1)

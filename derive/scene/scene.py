@@ -40,6 +40,7 @@ class Scene:
     backend: str
     output_dir: Path
     trajectory: tuple[str, ...] = ()
+    inputs: dict | None = None       # a model's run-time inputs, held constant (pendulum.inputs)
     plots: tuple[str, ...] = ()
 
 
@@ -84,7 +85,7 @@ def _parameter_names(model: str) -> tuple[str, ...]:
 
 
 def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
-    _known(t, ("model", "parameters"), "[pendulum]")
+    _known(t, ("model", "parameters", "inputs"), "[pendulum]")
     if "model" not in t:
         raise SceneError("[pendulum]: missing key 'model'")
     model = t["model"]
@@ -108,9 +109,6 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
             raise SceneError(f"'pendulum.parameters.{name}' is missing")
         params[name] = _number(given[name], f"pendulum.parameters.{name}")
     description = load_model("spherical_std" if model == ATLAS else model)
-    if description.inputs:
-        raise SceneError(f"'pendulum.model': '{model}' has run-time inputs ({', '.join(description.inputs)}); "
-                         f"scenes do not set inputs yet: use derive.simulate(..., inputs=...)")
     roles = description.parameter_roles()
     for name, value in params.items():      # the roles come from the model's links
         role = roles.get(name)
@@ -121,6 +119,27 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
         if role == "fraction" and not 0 <= value <= 1:
             raise SceneError(f"'pendulum.parameters.{name}' must be in [0, 1] (a centre of mass), got {value:g}")
     return model, params
+
+
+def _parse_inputs(t: dict, model: str) -> dict | None:
+    """pendulum.inputs: every run-time input of the model, a number (held constant)."""
+    names = () if model == ATLAS else load_model(model).inputs
+    given = t.get("inputs")
+    if given is None:
+        if names:
+            raise SceneError(f"'pendulum.inputs' is missing: '{model}' has the run-time inputs "
+                             f"{', '.join(names)}")
+        return None
+    if not isinstance(given, dict):
+        raise SceneError("'pendulum.inputs' must be a table of input values")
+    for key in given:
+        if key not in names:
+            raise SceneError(f"'pendulum.inputs.{key}': not an input of '{model}' "
+                             f"(its inputs: {', '.join(names) or 'none'})")
+    missing = [n for n in names if n not in given]
+    if missing:
+        raise SceneError(f"'pendulum.inputs.{missing[0]}' is missing")
+    return {n: _number(given[n], f"pendulum.inputs.{n}") for n in names}
 
 
 def _missing_rates(state: dict, names, coordinates, rest: bool, where: str) -> dict:
@@ -265,6 +284,7 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
         raise SceneError(f"{source}: not valid TOML: {exc}") from None
     _known(t, ("title", "pendulum", "initial", "time", "accuracy", "output"), source)
     model, params = _parse_pendulum(_table(t, "pendulum", source), Path(source).parent)
+    inputs = _parse_inputs(_table(t, "pendulum", source), model)
     initial = _parse_initial(_table(t, "initial", source), model)
     start, stop, outputs = _parse_time(_table(t, "time", source))
     accuracy = _parse_accuracy(_table(t, "accuracy", source, required=False))
@@ -274,7 +294,7 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
     if not isinstance(title, str):
         raise SceneError("'title' must be a string")
     return Scene(source=source, title=title, model=model, parameters=params, initial=initial,
-                 t_start=start, t_stop=stop, outputs=outputs, **accuracy, **output)
+                 t_start=start, t_stop=stop, outputs=outputs, inputs=inputs, **accuracy, **output)
 
 
 def _output_folder(directory: Path, source: str) -> Path:
