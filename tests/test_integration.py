@@ -5,6 +5,7 @@ Bounds are stated in each test; measured figures are in the assertion messages.
 from __future__ import annotations
 
 import ctypes
+import re
 import subprocess
 from pathlib import Path
 
@@ -321,3 +322,26 @@ def test_integrators_compile_warning_free(cc, tmp_path):
         cmd = [cc, *flags, "-Wall", "-Wextra", "-Werror", "-O2", "-c", str(src), "-o", str(tmp_path / "x.o")]
         proc = subprocess.run(cmd, capture_output=True, text=True)
         assert proc.returncode == 0, proc.stderr
+
+
+@pytest.mark.parametrize("kwargs, fragment", [
+    (dict(method="rk4", step=1e-30), "means 5e+30 steps"),
+    (dict(hmax=1e-300), "hmax = 1e-300 over a span of 5"),
+])
+def test_runs_that_could_never_finish_are_refused_before_any_work(kwargs, fragment):
+    with pytest.raises(derive.SimulationInputError, match=re.escape(fragment)):
+        derive.simulate("planar", [1, 0, 0, 0], [0, 5], PLANAR, **kwargs)
+
+
+def test_more_output_times_than_memory_is_refused_before_any_copy():
+    with pytest.raises(derive.SimulationInputError, match="more than one run can hold"):
+        derive.simulate("planar", [1, 0, 0, 0], np.zeros(50_000_000), PLANAR)
+
+
+def test_atol_zero_is_pure_relative_control_that_works_at_rest():
+    """Exactly at rest, atol = 0 used to make the first step NaN and then reject 1e8 steps."""
+    rest = derive.simulate("planar", [0, 0, 0, 0], [0, 5], PLANAR, atol=0.0)
+    assert rest.ok and np.all(rest.y[-1] == 0)
+    moving = derive.simulate("planar", [1, 0.5, 0, 0], [0, 5], PLANAR, atol=0.0, rtol=1e-10)
+    tight = derive.simulate("planar", [1, 0.5, 0, 0], [0, 5], PLANAR, rtol=1e-13)
+    assert moving.ok and np.max(np.abs(moving.y[-1] - tight.y[-1])) < 1e-7

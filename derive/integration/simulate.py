@@ -226,6 +226,9 @@ def normalise_y0(model: str, y0, p: np.ndarray) -> tuple[np.ndarray, str | None,
 
 
 def normalise_t(t) -> np.ndarray:
+    if np.ndim(t) and np.size(t) * 16 * 8 > MAX_OUTPUT_BYTES:     # before any copy of it
+        raise SimulationInputError(f"{np.size(t):,} output times are more than one run can hold "
+                                   f"in {MAX_OUTPUT_BYTES / 2 ** 30:g} GiB: give fewer output times")
     a = _finite_array(t, "t").reshape(-1) if np.ndim(t) else None
     if a is None:
         raise SimulationInputError("t must be a sequence of output times (t[0] is the start)")
@@ -292,6 +295,12 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
         raise SimulationInputError(f"newton_max = {opt['newton_max']!r} must be a positive integer")
     if not 0 <= opt["sine_min"] < 1:
         raise SimulationInputError(f"sine_min = {opt['sine_min']!r} must be in [0, 1)")
+    if opt["atol"] == 0:
+        # pure relative control has no error norm for a component that is exactly zero (a
+        # pendulum at rest: 0/0, then every step rejected): atol = 0 is taken as 1e-20 rtol,
+        # far below any state's unit, large enough for the initial-step estimate
+        opt["atol"] = ATOL_FOR_ZERO * opt["rtol"]
+    _check_size(method, ts, state, opt, dt)
 
     if model == "spherical":
         result = run_atlas(method, state, chart, ts, p, opt, dt, backend)
@@ -304,6 +313,30 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     else:
         result.step = opt["h"]
     return result
+
+
+ATOL_FOR_ZERO = 1e-20             # atol = 0 means atol = 1e-20 rtol (see simulate)
+MAX_OUTPUT_BYTES = 2 ** 32         # 4 GiB of trajectory and observables for one run
+MAX_FIXED_STEPS = 10 ** 10         # about an hour of the cheapest rhs: refused before any work
+
+
+def _check_size(method: str, ts: np.ndarray, state, opt: dict, dt: np.dtype) -> None:
+    """Refuse, with the figure, a run whose output would not fit in memory or whose
+    fixed step (or largest step) means more steps than any run should take."""
+    n = np.size(state)
+    rows = len(ts) * (n + 1 + 4 * max(n // 2, 1))          # states, energy, positions, velocities
+    nbytes = rows * np.dtype(dt).itemsize
+    if nbytes > MAX_OUTPUT_BYTES:
+        raise SimulationInputError(f"{len(ts):,} output times would need {nbytes / 2 ** 30:.3g} GiB "
+                                   f"(limit {MAX_OUTPUT_BYTES / 2 ** 30:g} GiB): give fewer output times")
+    span = float(abs(ts[-1] - ts[0])) if len(ts) > 1 else 0.0
+    if not np.isfinite(span):
+        raise SimulationInputError(f"the time span {ts[0]:g} to {ts[-1]:g} is not finite")
+    h = opt["h"] if method not in ADAPTIVE else opt["hmax"]
+    if h and span / h > MAX_FIXED_STEPS:
+        what = "step" if method not in ADAPTIVE else "hmax"
+        raise SimulationInputError(f"{what} = {h:g} over a span of {span:g} means {span / h:.3g} steps "
+                                   f"(limit {MAX_FIXED_STEPS:.0e}): refused before any work")
 
 
 def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> SimulationResult:
