@@ -70,13 +70,14 @@ def _derive_all(models: list[str], stage: Stage | None = None) -> tuple[float, l
 
 
 def cmd_derive(args) -> int:
-    models, bad = _model_args(args.models)
-    models = models or model_names()
+    from .codegen.sources import members
+    models, bad = _model_args(args.models, allow_atlas=True)
+    models = [m for name in models for m in members(name)] or model_names()    # the atlas: its charts
     with Stage("deriving") as stage:
         total, rows = _derive_all(models, stage)
     for name, seconds, warm in rows:
         print(f"{name:15s} {seconds:7.2f} s  ({'cache' if warm else 'derived'})")
-    print(f"derived {len(rows)} models in {total:.2f} s")
+    print(f"derived {len(rows)} model{'s' * (len(rows) != 1)} in {total:.2f} s")
     return 2 if bad else 0
 
 
@@ -170,7 +171,9 @@ def cmd_generate(args) -> int:
             files.update(generate.render_models([name]))
         if not args.check:
             _writable_folder(out)
-        changed, diff = generate.write_tree(out, files, check=args.check, shown=shown)
+        # --out DIR: only these models' files (others generated there before stay)
+        changed, diff = generate.write_tree(out, files, check=args.check, shown=shown,
+                                            prune=not args.out)
     note = generate.manifest_note(out)
     if args.check:
         if note:
@@ -321,7 +324,8 @@ def _print_run(summary: dict) -> None:
         print(f"stopped {s['message']}")
     print(f"result  {s['status']} at t = {s['t_stop']:g} after {s['nfev']} rhs evaluations"
           + (f", {s['chart_switches']} chart switches" if s["chart_switches"] is not None else "")
-          + f"; relative energy error {s['relative_energy_error']:.2g}")
+          + (f"; relative energy error {s['relative_energy_error']:.2g}" if s["conservative"] else
+             f"; relative energy change {s['relative_energy_error']:.2g} (the work of forces and damping)"))
     print(f"state   {', '.join(f'{v:.10g}' for v in s['final_state'])}")
     for f in s["files"]:
         print(f"wrote   {f}")

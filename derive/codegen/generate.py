@@ -54,13 +54,14 @@ def _existing(out: Path) -> set[str]:
 
 
 def write_tree(out: Path, files: dict[str, str], check: bool = False,
-               shown: str = "generated") -> tuple[list[str], str]:
-    """Make folder `out` hold exactly `files` (of the files derive manages there); with
+               shown: str = "generated", prune: bool = True) -> tuple[list[str], str]:
+    """Write `files` into folder `out`; with prune (the golden tree) also remove the files
+    derive made there that nothing produces any more, so `out` holds exactly `files`; with
     check=True only compare.  Returns the changed (or stale) paths, as `shown`/<rel>, and
     a unified diff of what writing changes (empty when `out` is current)."""
     out = Path(out)
     changed, diffs = [], []
-    for rel in sorted(set(files) | _existing(out)):
+    for rel in sorted(set(files) | (_existing(out) if prune else set())):
         path = out / rel
         new = files.get(rel)
         old = path.read_text() if path.is_file() else None

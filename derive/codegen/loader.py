@@ -25,6 +25,7 @@ import importlib.util
 import os
 import platform
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -74,14 +75,23 @@ def default_compiler() -> str:
     raise CompilerMissingError("no C compiler found: set CC or install gcc or clang")
 
 
+def compiler_command(cc: str) -> list[str]:
+    """$CC as a command: 'gcc -O2' or 'ccache gcc' are a program and its first words."""
+    words = shlex.split(cc)
+    if not words:
+        raise CompilerMissingError("no C compiler found: CC is empty; set CC or install gcc or clang")
+    return words
+
+
 @lru_cache(maxsize=None)
 def compiler_identity(cc: str) -> str:
-    path = shutil.which(cc)
+    words = compiler_command(cc)
+    path = shutil.which(words[0])
     if path is None:
         where = " (from CC)" if os.environ.get("CC") == cc else ""
-        raise CompilerMissingError(f"no C compiler found: '{cc}'{where} is not on PATH; "
+        raise CompilerMissingError(f"no C compiler found: '{words[0]}'{where} is not on PATH; "
                                    f"set CC or install gcc or clang")
-    version = subprocess.run([path, "--version"], capture_output=True, text=True).stdout
+    version = subprocess.run([path, *words[1:], "--version"], capture_output=True, text=True).stdout
     return f"{path}\n{version}"
 
 
@@ -136,7 +146,7 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
     lib.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
         out = Path(tmp) / lib.name
-        cmd = [cc, *flags, "-I", str(sources[0].parent), *map(str, sources), "-o", str(out), "-lm"]
+        cmd = [*compiler_command(cc), *flags, "-I", str(sources[0].parent), *map(str, sources), "-o", str(out), "-lm"]
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
             names = ", ".join(src.name for src in sources)

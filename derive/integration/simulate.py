@@ -120,6 +120,10 @@ def check_parameter_values(description, values: Mapping, error=SimulationInputEr
             raise error(f"parameter {n} = {float(v):g} must be >= 0 (a moment of inertia)")
         if role == "fraction" and not 0 <= v <= 1:
             raise error(f"parameter {n} = {float(v):g} must be in [0, 1] (a centre of mass along its link)")
+    from ..model.description import check_link_values
+    problem = check_link_values(description, {n: float(v) for n, v in values.items()})
+    if problem:                      # an expression of the parameters: '-l', 'l - 3', ...
+        raise error(f"model '{description.name}': {problem}")
 
 
 def normalise_inputs(model: str, inputs) -> np.ndarray | None:
@@ -166,6 +170,9 @@ def _input_values(model: str, names, inputs, what: str = "inputs") -> np.ndarray
         if len(values) != len(names):
             raise SimulationInputError(f"model '{model}' takes {len(names)} inputs ({', '.join(names)}), "
                                        f"got {len(values)} from {what}")
+    for n, v in zip(names, values):       # a string such as "1" is no number (as in a scene)
+        if isinstance(v, (bool, str, bytes)) or not isinstance(v, (int, float, np.number)):
+            raise SimulationInputError(f"{what}: input {n} must be a number, got {v!r}")
     return _finite_array(values, what)
 
 

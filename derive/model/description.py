@@ -4,6 +4,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import sys
 import tomllib
 from dataclasses import dataclass, field
 from functools import cache
@@ -23,6 +24,8 @@ RESERVED_NAMES = frozenset(FUNCTIONS) | {"pi"}
 # Generated stage names (M01, F0, qdd1, t3, ...): an input may not look like one
 # (inputs are real symbols, as stages are, so the two would be the same symbol).
 STAGE_NAME = re.compile(r"^(t|M|F|qdd|v|dv|D|rD|L|z|f|xr|rs|Q|det|rdet|A[ab])\d*(_\d+)?$")
+# a model's NumPy module is <name>.py: it may not shadow what the generated code imports
+SHADOWING = frozenset(sys.stdlib_module_names) | {"numpy", "scipy", "sympy", "mpmath", "derive", "kernels"}
 
 
 def charts_file() -> Path:
@@ -218,6 +221,50 @@ def _names(t: dict, key: str, where: str) -> tuple[str, ...]:
     return tuple(values)
 
 
+def _quantity_problem(key: str, value: float) -> str | None:
+    """Why a link's length, mass, inertia or centre of mass cannot be `value`, or None."""
+    if key in ("length", "body mass") and not value > 0:
+        return "must be positive"
+    if key == "body inertia" and not value >= 0:
+        return "must be >= 0 (a moment of inertia)"
+    if key == "body com" and not 0 <= value <= 1:
+        return "must be in [0, 1] (a fraction of the link's length)"
+    return None
+
+
+def check_link_values(model: "Model", values: dict) -> str | None:
+    """The first link quantity (length, mass, inertia, centre of mass; a parameter or an
+    expression of them) that the parameter values make impossible, as a message, or None."""
+    for i, key, text, names, f in _link_quantities(model):
+        if any(n not in values for n in names):
+            continue
+        value = float(f(*[values[n] for n in names]))
+        problem = _quantity_problem(key, value)
+        if problem:
+            return f"link {i} {key} = {text} = {value:g} {problem}"
+    return None
+
+
+_quantities: dict[str, list] = {}
+
+
+def _link_quantities(model: "Model") -> list:
+    """(link, key, text, parameter names, function) of every link quantity that is an
+    expression of parameters, compiled once per model description."""
+    if model.content_hash not in _quantities:
+        params = {n: sp.Symbol(n) for n in model.parameters}
+        out = []
+        for i, link in enumerate(model.links, 1):
+            for key, text in (("length", link.length), ("body mass", link.body.mass),
+                              ("body com", link.body.com), ("body inertia", link.body.inertia)):
+                expr = parse_expression(text, params, f"link {i} {key}")
+                if expr.free_symbols and not expr.is_Symbol:     # bare parameters: by their role
+                    names = sorted(s.name for s in expr.free_symbols)
+                    out.append((i, key, text, names, sp.lambdify([params[n] for n in names], expr, "math")))
+        _quantities[model.content_hash] = out
+    return _quantities[model.content_hash]
+
+
 def _check_expressions(model: "Model", where: str) -> None:
     """Every expression of the model parses and uses only names it declares."""
     names = {n: sp.Symbol(n) for n in (*model.parameters, *model.inputs, *model.state_names)}
@@ -226,8 +273,10 @@ def _check_expressions(model: "Model", where: str) -> None:
         for key, value in (("length", link.length), ("body mass", link.body.mass),
                            ("body com", link.body.com), ("body inertia", link.body.inertia)):
             expr = parse_expression(value, params, f"{where}: link {i} {key}")
-            if not expr.free_symbols and key != "body com" and not (expr > 0 or (key == "body inertia" and expr >= 0)):
-                raise ModelError(f"{where}: link {i} {key} = {value} must be positive")
+            if not expr.free_symbols:
+                problem = _quantity_problem(key, float(expr))
+                if problem:
+                    raise ModelError(f"{where}: link {i} {key} = {value} {problem}")
     rates = {n: names[n] for n in model.rate_names}
     if model.dissipation is not None:
         R = parse_expression(model.dissipation, names, f"{where}: dissipation")
@@ -280,6 +329,9 @@ def parse_model(text: str, origin: str) -> Model:
     name = _require(t, "name", str, origin)
     if not NAME.match(name):
         raise ModelError(f"{origin}: 'name' must be an identifier (letters, digits, _), got {name!r}")
+    if name in SHADOWING or name.startswith("_"):
+        raise ModelError(f"{origin}: 'name' = {name!r} would shadow a Python module in the generated "
+                         f"NumPy code ({name}.py); give the model another name")
     dissipation = t.get("dissipation")
     if dissipation is not None and not isinstance(dissipation, str):
         raise ModelError(f"{origin}: 'dissipation' must be an expression (a string)")

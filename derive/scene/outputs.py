@@ -137,7 +137,9 @@ def _plots(o, out: Path, stem: str) -> list[str]:
         ax.set_ylim(bottom=floor)
         ax.set_xlabel("t")
         ax.set_ylabel("|E - E0| / |E0|")
-        ax.set_title(f"{_plain(o.scene.title)}: energy error ({o.choice.method}, {o.choice.dtype})", fontsize=9)
+        from .run import conservative
+        what = "energy error" if conservative(o) else "energy change (work of forces and damping)"
+        ax.set_title(f"{_plain(o.scene.title)}: {what} ({o.choice.method}, {o.choice.dtype})", fontsize=9)
         path = out / f"{stem}_energy.png"
         _replace(path, lambda tmp: fig.savefig(tmp, dpi=120, bbox_inches="tight"))
         plt.close(fig)

@@ -226,6 +226,12 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
                    time.perf_counter() - start, velocities=velocities, show_progress=show_progress)
 
 
+def conservative(o: Outcome) -> bool:
+    """Whether the scene's pendulum conserves energy (no applied forces, no damping)."""
+    from ..model import load_model
+    return o.scene.model == "spherical" or load_model(o.scene.model).is_conservative
+
+
 def target_met(o: Outcome) -> bool | None:
     """Whether the run met its accuracy target: None where there is no target or the
     achieved error could not be measured (a fixed-step method, a failed reference)."""
@@ -263,6 +269,8 @@ def summary(o: Outcome) -> dict:
         "chart_switches": int(r.switches) if r.chart is not None else None,
         "final_state": [float(v) for v in (r.y[-1] if r.ok else r.y_stop)],
         "relative_energy_error": drift,
+        # with applied forces or damping the energy changes by the work they do: not an error
+        "conservative": conservative(o),
         "steps": [s.line() for s in o.steps], "files": o.files, "seconds": o.seconds,
         "note": o.choice.note,
     }

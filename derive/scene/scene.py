@@ -97,7 +97,8 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
             model = load_model(path if path.is_absolute() else folder / path).name
         names = _parameter_names(model)
     except ModelError as exc:
-        raise SceneError(f"'pendulum.model': {exc}; or '{ATLAS}'") from None
+        hint = "" if is_model_file(t["model"]) else f"; or '{ATLAS}', the chart atlas"
+        raise SceneError(f"'pendulum.model': {exc}{hint}") from None
     given = _table(t, "parameters", "[pendulum]")
     for key in given:
         if key not in names:
@@ -118,6 +119,10 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
             raise SceneError(f"'pendulum.parameters.{name}' must be >= 0 (a moment of inertia), got {value:g}")
         if role == "fraction" and not 0 <= value <= 1:
             raise SceneError(f"'pendulum.parameters.{name}' must be in [0, 1] (a centre of mass), got {value:g}")
+    from ..model.description import check_link_values
+    problem = check_link_values(description, params)
+    if problem:
+        raise SceneError(f"'pendulum.parameters': {problem}")
     return model, params
 
 
@@ -337,4 +342,8 @@ def load_scene(path: str | Path) -> Scene:
         raise SceneError(f"scene file '{path}' does not exist") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise SceneError(f"cannot read scene file '{path}': {exc}") from None
-    return parse_scene(text, str(path))
+    try:
+        return parse_scene(text, str(path))
+    except SceneError as exc:          # every mistake names the file, then the key
+        message = str(exc)
+        raise SceneError(message if message.startswith(str(path)) else f"{path}: {message}") from None
