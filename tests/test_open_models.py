@@ -298,3 +298,26 @@ def test_a_scene_sets_a_models_inputs(tmp_path):
     (tmp_path / "s.toml").write_text(scene.replace("{inputs}", "inputs = { tau1 = 2.0, tau9 = 0.0 }\n"))
     run = cli("run", "s.toml", cwd=tmp_path)
     assert run.returncode == 2 and "not an input of 'driven'" in run.stderr
+
+
+def test_link_quantities_written_as_expressions_are_checked(tmp_path):
+    """'l1 - 3' with l1 = 1 is a negative length: one line, not a run with status ok."""
+    path = write(tmp_path, "shifted", chain("shifted", 1).replace('length = "l1"', 'length = "l1 - 3"'))
+    with pytest.raises(derive.SimulationInputError, match=re.escape("link 1 length = l1 - 3 = -2 must be positive")):
+        derive.simulate(str(path), [0.1, 0], [0, 1], [1.0, 1.0, 9.81])
+    with pytest.raises(ModelError, match=re.escape("link 2 body com = 3/2 must be in [0, 1]")):
+        load_model(write(tmp_path, "farcom", (EXAMPLES / "triple.toml").read_text()
+                         .replace('name = "triple"', 'name = "farcom"').replace('com = "1/2"', 'com = "3/2"')))
+
+
+def test_generate_into_a_folder_keeps_the_other_models_there(tmp_path):
+    a, b = write(tmp_path, "first", chain("first", 2)), write(tmp_path, "second_one", chain("second_one", 1))
+    assert cli("generate", str(a), str(b), "--out", "gen", cwd=tmp_path).returncode == 0
+    run = cli("generate", str(b), "--out", "gen", cwd=tmp_path)
+    assert run.returncode == 0 and (tmp_path / "gen" / "c" / "first.c").is_file()
+    assert cli("generate", str(a), "--out", "gen", "--check", cwd=tmp_path).returncode == 0
+
+
+def test_derive_derive_of_the_atlas_derives_its_charts(tmp_path):
+    run = cli("derive", "spherical", cwd=tmp_path)
+    assert run.returncode == 0 and "spherical_std" in run.stdout and "spherical_rot" in run.stdout
