@@ -263,9 +263,16 @@ def _template(name: str):
 
 
 def render(d: Derivation, results, checks=(), paper: str = "a4") -> str:
-    return _template("derivation.tex.j2").render(**context(d, results, checks, paper))
+    return _stamped(d.name, _template("derivation.tex.j2").render(**context(d, results, checks, paper)))
 
 
 def render_atlas(results, checks, paper: str = "a4") -> str:
     from .atlas import atlas_context
-    return _template("atlas.tex.j2").render(**atlas_context(results, checks, paper))
+    return _stamped("spherical", _template("atlas.tex.j2").render(**atlas_context(results, checks, paper)))
+
+
+def _stamped(name: str, text: str) -> str:
+    """The document's first line names the derive version and the model's content hash, as
+    every generated file does (codegen/sources.provenance)."""
+    from ..codegen.sources import provenance
+    return provenance(name, {"tex": text})["tex"]
