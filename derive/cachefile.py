@@ -14,11 +14,11 @@ import ast
 import dataclasses
 import hashlib
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import sympy as sp
+
+from .paths import replace_file
 
 MISSING = object()               # load(): no usable entry (absent, damaged, foreign)
 FORMAT = "derive-cache-1"
@@ -72,16 +72,7 @@ def store(path: Path, value) -> None:
     payload = json.dumps(_encode(value), sort_keys=True, separators=(",", ":"))
     text = json.dumps({"format": FORMAT, "sha256": hashlib.sha256(payload.encode()).hexdigest(),
                        "payload": payload})
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    replace_file(path, lambda tmp: tmp.write_text(text))
 
 
 # -- reading --------------------------------------------------------------------------

@@ -335,16 +335,13 @@ def _print_run(summary: dict) -> None:
 
 def cmd_run(args) -> int:
     from .scene import load_scene
-    from .scene.outputs import writable_dir, write_outputs
+    from .scene.outputs import write_outputs
     from .scene.run import EXIT_TARGET_MISSED, missed_reason, run, summary, target_met
     scene = load_scene(args.scene)
     if args.output_dir:
         scene.output_dir = Path(args.output_dir)
     if scene.trajectory or scene.plots:         # before the work, not after it
-        try:
-            writable_dir(scene.output_dir)
-        except OSError as exc:
-            raise UsageError(f"cannot write to '{scene.output_dir}': {exc.strerror or exc}") from None
+        _writable_folder(scene.output_dir)
     start = time.perf_counter()
     outcome = run(scene, show_progress=not args.quiet and not args.json)
     t0 = time.perf_counter()

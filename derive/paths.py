@@ -17,6 +17,7 @@ Written (only where the user says):
 from __future__ import annotations
 
 import os
+import tempfile
 from functools import cache
 from importlib import resources
 from pathlib import Path
@@ -74,6 +75,26 @@ def checkout_root() -> Path | None:
     if (root / "generated").is_dir() and project.is_file() and 'name = "derive"' in project.read_text():
         return root
     return None
+
+
+def replace_file(path: Path, write, mode: int | None = None) -> None:
+    """Write a file through a temporary one beside it, then rename it into place: a reader
+    never sees a half-written file, a concurrent writer of the same content wins the race
+    harmlessly, and a symbolic link planted at `path` is replaced, not written through.
+    `write(tmp)` writes the temporary file (its suffix is the final one, for writers that
+    go by it); `mode` sets its permissions (mkstemp makes it 0600)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=path.suffix)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        if mode is not None:
+            os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 def cache_dir() -> Path:

@@ -16,7 +16,6 @@ it came from; the line has no date, so regeneration is byte-identical.
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import re
 import shutil
@@ -26,7 +25,7 @@ from pathlib import Path
 
 import sympy as sp
 
-from .. import __version__
+from .. import __version__, cachefile
 from ..derivation import derive
 from ..derivation.derivation import cache_key
 from ..model import load_model
@@ -107,29 +106,12 @@ def render(name: str) -> dict[str, str]:
     so `derive generate` after editing one model renders only that model.  (Do not
     modify the returned dict: it is shared.)"""
     path = cache_dir() / "rendered" / f"{name}-{sources_key(name)}.json"
-    if path.is_file():
-        try:
-            entry = json.loads(path.read_text())
-            files = entry["files"]
-            if entry["sha256"] == _digest(files):
-                return files
-        except (OSError, ValueError, KeyError, TypeError):
-            pass                                # damaged: render again below
-    files = render_fresh(name)
-    _write_file(path, json.dumps({"sha256": _digest(files), "files": files}))
+    files = cachefile.load(path) if path.is_file() else cachefile.MISSING
+    if isinstance(files, dict):
+        return files
+    files = render_fresh(name)                  # absent or damaged: render (again)
+    cachefile.store(path, files)
     return files
-
-
-def _digest(files: dict[str, str]) -> str:
-    return hashlib.sha256(json.dumps(files, sort_keys=True).encode()).hexdigest()
-
-
-def _write_file(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
 
 
 # -- the copy in the cache ---------------------------------------------------------

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import SimulationError, SimulationInputError  # noqa: F401  (SimulationError: re-exported)
 from ..model import ModelError, is_model_file, load_model
+from ..model.description import parameter_problem
 from . import cartesian
 from .atlas import run_atlas
 from .build import dtype_key, integrator_library
@@ -111,19 +112,11 @@ def normalise_params(model: str, params) -> np.ndarray:
 def check_parameter_values(description, values: Mapping, error=SimulationInputError) -> None:
     """Lengths and masses > 0, inertias >= 0, fractions in [0, 1]; g and the other
     parameters (damping, ...) may be any finite number.  The roles come from the model."""
-    roles = description.parameter_roles()
-    for n, v in values.items():
-        role = roles.get(n)
-        if role in ("length", "mass") and not v > 0:
-            raise error(f"parameter {n} = {float(v):g} must be positive (a {role})")
-        if role == "inertia" and not v >= 0:
-            raise error(f"parameter {n} = {float(v):g} must be >= 0 (a moment of inertia)")
-        if role == "fraction" and not 0 <= v <= 1:
-            raise error(f"parameter {n} = {float(v):g} must be in [0, 1] (a centre of mass along its link)")
-    from ..model.description import check_link_values
-    problem = check_link_values(description, {n: float(v) for n, v in values.items()})
-    if problem:                      # an expression of the parameters: '-l', 'l - 3', ...
-        raise error(f"model '{description.name}': {problem}")
+    problem = parameter_problem(description, values)
+    if problem is not None:
+        name, why = problem
+        raise error(f"parameter {name} = {float(values[name]):g} {why}" if name else
+                    f"model '{description.name}': {why}")
 
 
 def normalise_inputs(model: str, inputs) -> np.ndarray | None:

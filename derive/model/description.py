@@ -232,6 +232,25 @@ def _quantity_problem(key: str, value: float) -> str | None:
     return None
 
 
+ROLE_PROBLEMS = {"length": (lambda v: v > 0, "must be positive (a length)"),
+                 "mass": (lambda v: v > 0, "must be positive (a mass)"),
+                 "inertia": (lambda v: v >= 0, "must be >= 0 (a moment of inertia)"),
+                 "fraction": (lambda v: 0 <= v <= 1, "must be in [0, 1] (a centre of mass along its link)")}
+
+
+def parameter_problem(model: "Model", values: dict) -> tuple[str | None, str] | None:
+    """The first parameter value the model's links make impossible, as (name, why): by the
+    parameter's role (a length, a mass, an inertia, a centre of mass), else (None, why) for
+    a link quantity written as an expression of parameters; None when all are possible."""
+    roles = model.parameter_roles()
+    for n, v in values.items():
+        ok, why = ROLE_PROBLEMS.get(roles.get(n), (None, ""))
+        if ok is not None and not ok(v):
+            return n, why
+    problem = check_link_values(model, {n: float(v) for n, v in values.items()})
+    return (None, problem) if problem else None
+
+
 def check_link_values(model: "Model", values: dict) -> str | None:
     """The first link quantity (length, mass, inertia, centre of mass; a parameter or an
     expression of them) that the parameter values make impossible, as a message, or None."""

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..model import load_model
+from ..paths import replace_file
 from .scene import SceneError
 
 
@@ -41,18 +42,8 @@ def writable_dir(path: Path) -> Path:
 
 
 def _replace(path: Path, write) -> None:
-    """Write a file through a temporary one beside it, then rename it into place: the
-    rename replaces a symbolic link planted at `path` instead of writing through it, and
-    a reader never sees a half-written file."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=path.suffix)
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """An output file, written atomically (a planted link is replaced, not followed)."""
+    replace_file(path, write, mode=0o644)
 
 
 def output_dir(o) -> Path:

@@ -10,6 +10,7 @@ from ..errors import SceneError
 from ..model.description import NAME
 from ..paths import scenes_dir
 from ..model import ModelError, is_model_file, load_model
+from ..model.description import parameter_problem
 from ..integration.contract import ATLAS_CHARTS, FIXED, METHODS     # the run contract
 
 from ..model.atlas import ATLAS  # noqa: E402  (the spherical pendulum run through the chart atlas)
@@ -110,19 +111,11 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
             raise SceneError(f"'pendulum.parameters.{name}' is missing")
         params[name] = _number(given[name], f"pendulum.parameters.{name}")
     description = load_model("spherical_std" if model == ATLAS else model)
-    roles = description.parameter_roles()
-    for name, value in params.items():      # the roles come from the model's links
-        role = roles.get(name)
-        if role in ("length", "mass") and not value > 0:
-            raise SceneError(f"'pendulum.parameters.{name}' must be positive (a {role}), got {value:g}")
-        if role == "inertia" and not value >= 0:
-            raise SceneError(f"'pendulum.parameters.{name}' must be >= 0 (a moment of inertia), got {value:g}")
-        if role == "fraction" and not 0 <= value <= 1:
-            raise SceneError(f"'pendulum.parameters.{name}' must be in [0, 1] (a centre of mass), got {value:g}")
-    from ..model.description import check_link_values
-    problem = check_link_values(description, params)
-    if problem:
-        raise SceneError(f"'pendulum.parameters': {problem}")
+    problem = parameter_problem(description, params)      # the roles come from the model's links
+    if problem is not None:
+        name, why = problem
+        raise SceneError(f"'pendulum.parameters.{name}' {why}, got {params[name]:g}" if name else
+                         f"'pendulum.parameters': {why}")
     return model, params
 
 
