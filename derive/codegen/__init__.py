@@ -7,10 +7,12 @@ One pipeline for every model and language:
                                     checked with readable errors (spec.check_kernel)
     emit.cse_file(spec)             one sympy.cse pass (order='canonical') over all
                                     outputs of a file, split back into kernels
-    languages.LANGUAGES             per language: a printer subclass (printers.py) that
-                                    maps each symbol to its array slot, and the
-                                    templates/<language>/ folder it renders (Jinja2,
-                                    StrictUndefined); Python decides, templates lay out
+    backends.backends()             one backend object per target language, each in a
+                                    folder of its own (backends/c, backends/numpy):
+                                    its printer (printers.py), reserved words, file
+                                    suffixes, the templates/<language>/ folder it renders
+                                    (Jinja2, StrictUndefined) and the artifacts it emits;
+                                    discovered, not wired.  Python decides, templates lay out
     generate.generate_all(root)     writes generated/ (or, with check=True, diffs it)
 
 loader.load(model) compiles generated/c/<model>.c into a content-keyed cache and

@@ -5,9 +5,9 @@ import difflib
 from pathlib import Path
 
 from ..model import model_names
+from .backends import managed_suffixes
 from .sources import ATLAS, PREAMBLE, PROVENANCE, render, render_fresh
 
-MANAGED = {"c": (".c", ".h"), "numpy": (".py",)}   # folders of a generated tree and their suffixes
 
 
 def catalogue_names() -> list[str]:
@@ -41,7 +41,7 @@ def _existing(out: Path) -> set[str]:
     Anything else there (hand-written notes, other tools' output) is left alone;
     a file with the preamble that nothing produces any more is stale."""
     found = set()
-    for folder, suffixes in MANAGED.items():
+    for folder, suffixes in managed_suffixes().items():
         d = out / folder
         if d.is_dir():
             for p in d.iterdir():

@@ -3,7 +3,7 @@
 A language is one printer here plus one folder under templates/.  The printer
 turns a SymPy expression into a string; nothing else is language-specific in
 the pipeline except the naming done by the language's context builder
-(languages.py).
+(derive/codegen/backends/<language>/).
 """
 from __future__ import annotations
 

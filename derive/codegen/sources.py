@@ -76,20 +76,17 @@ def kernels(name: str):
 
 
 def _raw(name: str) -> dict[str, str]:
-    from ..integration.codegen import render_atlas, render_c, render_numpy
-    from ..integration.throughput import render_loops
-    from .languages import LANGUAGES
+    """Every backend's artifacts for `name` (derive/codegen/backends discovers them)."""
+    from .backends import backends
+    files: dict[str, str] = {}
     if name == ATLAS:
-        return render_atlas()
+        for backend in backends():
+            files.update(backend.atlas_files(name))
+        return files
     d = derive(name)
     spec, bodies = kernels(name)
-    files: dict[str, str] = {}
-    for lang in LANGUAGES:
-        files.update(lang.files(spec, bodies))
-    files.update(render_c(name))
-    files.update(render_numpy(name))
-    if not d.polar_sines:            # the batched and fixed-step loops have no chart guard
-        files.update(render_loops(name))
+    for backend in backends():
+        files.update(backend.model_files(name, spec, bodies, guarded=bool(d.polar_sines)))
     return files
 
 
