@@ -5,11 +5,22 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..codegen.loader import load, numpy_module
+from functools import lru_cache
+
+from ..codegen.loader import load as _load, numpy_module
 from ..model import load_model
+from ..model.description import forget_on_model_change
 from .build import SUFFIX, dtype_key
 
 __all__ = ["numpy_module", "observables", "velocities"]
+
+
+@forget_on_model_change
+@lru_cache(maxsize=None)
+def load(model: str):
+    """The compiled kernels of `model`, opened once per process (the loader hashes the
+    sources to find the library: too slow for every run)."""
+    return _load(model)
 
 
 def _observables(model: str, y: np.ndarray, p: np.ndarray, backend: str, dtype: np.dtype):

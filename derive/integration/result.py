@@ -6,7 +6,7 @@ trust.trust_horizon_of(r, target).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -41,6 +41,10 @@ class SimulationResult:
     rtol: float | None = None              # adaptive methods: the tolerance used
     step: float | None = None              # fixed-step methods: the step used
     velocities: np.ndarray | None = field(default=None, repr=False)   # like positions: bob velocities
+    # energy, positions and velocities may be given as LAZY with `observe`, a function of no
+    # arguments returning all three: simulate does so, and the kernels run on first access
+    # (a run that only reads r.y pays nothing for them)
+    observe: object = field(default=None, repr=False, compare=False)
 
     @property
     def ok(self) -> bool:
@@ -60,6 +64,35 @@ class SimulationResult:
         if not self.ok:
             raise SimulationError(self.message)
         return self
+
+
+LAZY = object()                # energy/positions/velocities not computed yet (see `observe`)
+_OBSERVED = ("energy", "positions", "velocities")
+
+
+def _observed(name: str) -> property:
+    slot = "_" + name
+
+    def get(self):
+        value = self.__dict__.get(slot)
+        if value is LAZY:
+            self.__dict__.update(zip((f"_{n}" for n in _OBSERVED), self.observe()))
+            value = self.__dict__[slot]
+        return value
+
+    def set_(self, value):
+        self.__dict__[slot] = value
+
+    return property(get, set_, doc=f"the run's {name} at every output time")
+
+
+for _name in _OBSERVED:          # after @dataclass: its __init__ assigns through the property
+    setattr(SimulationResult, _name, _observed(_name))
+
+
+def as_fields(result: SimulationResult) -> dict:
+    """The fields of a result by name (observables computed), to build another from it."""
+    return {f.name: getattr(result, f.name) for f in fields(result) if f.name != "observe"}
 
 
 def _state_names(model: str) -> tuple[str, ...]:

@@ -32,7 +32,7 @@ from .codegen import model_info
 from .contract import (ADAPTIVE, ATLAS_CHARTS, COUNTERS, FIXED_ORDER,  # noqa: F401  (re-exported)
                        METHODS, SINE_MIN, STATUS_NAMES, default_options)
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
-from .result import SimulationResult  # noqa: F401  (re-exported)
+from .result import LAZY, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
 from ..model.atlas import ATLAS  # noqa: E402  (the chart atlas of the double spherical pendulum)
 _DTYPES = {"float32": np.float32, "float": np.float32, "single": np.float32,
@@ -357,7 +357,7 @@ def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> Simu
         pad = np.full((n - len(got),) + got.shape[1:], np.nan, got.dtype)       # after a stop: NaN
         return np.concatenate([got, pad])
 
-    out = SimulationResult(**{**last.__dict__, "t": np.asarray(ts, dt), "y": rows("y"), "energy": rows("energy"),
+    out = SimulationResult(**{**as_fields(last), "t": np.asarray(ts, dt), "y": rows("y"), "energy": rows("energy"),
                               "positions": rows("positions"), "velocities": rows("velocities"),
                               "params": np.asarray(p, dt)})
     for k in COUNTERS:
@@ -385,11 +385,15 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> Simulatio
         status, y, inf = mod.integrate(method, y0, pd, tsd, dt, **opt)
         counters = {k: int(inf[k]) for k in COUNTERS}
         t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
-    E, pos = _observables(model, y, np.asarray(p, dt), backend, dt)
-    vel = _velocities(model, y, np.asarray(p, dt), backend, dt)
+    pm = np.asarray(p, dt)
+
+    def observe():       # run on first access of r.energy, r.positions or r.velocities
+        return (*_observables(model, y, pm, backend, dt), _velocities(model, y, pm, backend, dt))
+
     single_chart = model_info(model).nguards > 0     # a chart model: its chart at every output
     return SimulationResult(
         model=model, method=method, backend=backend, dtype=dtype_key(dt), t=np.asarray(ts, dt), y=y,
-        energy=E, positions=pos, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
+        energy=LAZY, positions=LAZY, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
         y_stop=y_stop, chart=np.array([model] * len(ts), dtype=object) if single_chart else None,
-        switches=0, chart_stop=model if single_chart else None, params=np.asarray(p, dt), velocities=vel, **counters)
+        switches=0, chart_stop=model if single_chart else None, params=pm, velocities=LAZY,
+        observe=observe, **counters)

@@ -7,7 +7,7 @@ import re
 import sys
 import tomllib
 from dataclasses import dataclass, field
-from functools import cache
+from functools import cache, cached_property
 from pathlib import Path
 
 import sympy as sp
@@ -111,8 +111,10 @@ class Model:
                     roles.setdefault(value, role)
         return roles
 
-    @property
+    @cached_property
     def content_hash(self) -> str:
+        """SHA-256 of the model file and the chart file (as read with the model: an edit of
+        either is a new Model object, so computing it once per object is exact)."""
         charts = charts_file().read_text()
         return hashlib.sha256((self.text + "\0" + charts).encode()).hexdigest()
 

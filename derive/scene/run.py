@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..integration.result import as_fields
 from ..integration.simulate import SimulationError, SimulationResult, simulate
 from ..measurement.trust import (Lyapunov, atlas_lyapunov, initial_error, largest_lyapunov,
                                  trust_horizon)
@@ -128,7 +129,7 @@ def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
 def _join(parts: list[SimulationResult]) -> SimulationResult:
     first, last = parts[0], parts[-1]
     cat = lambda attr: np.concatenate([getattr(parts[0], attr)] + [getattr(r, attr)[1:] for r in parts[1:]])
-    out = SimulationResult(**{**first.__dict__, "t": cat("t"), "y": cat("y"), "energy": cat("energy"),
+    out = SimulationResult(**{**as_fields(first), "t": cat("t"), "y": cat("y"), "energy": cat("energy"),
                               "positions": cat("positions"), "velocities": cat("velocities")})
     for attr in ("status", "status_name", "t_stop", "y_stop", "chart_stop"):
         setattr(out, attr, getattr(last, attr))
