@@ -18,5 +18,6 @@ __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "M
 def __getattr__(name):
     if name == "simulate":
         from .integration.simulate import simulate
+        globals()["simulate"] = simulate        # resolved once: later calls find it directly
         return simulate
     raise AttributeError(f"module 'derive' has no attribute {name!r}")

@@ -22,10 +22,17 @@ CTYPES = {"float64": ctypes.c_double, "float32": ctypes.c_float, "longdouble": c
 SUFFIX = {"float64": "", "float32": "_f", "longdouble": "_l"}
 
 
+@lru_cache(maxsize=64)
 def dtype_key(dtype) -> str:
     """float32, float64 or longdouble (numpy names long double float128 or float96)."""
     dtype = np.dtype(dtype)
     return "longdouble" if dtype == np.longdouble and dtype != np.float64 else dtype.name
+
+
+def address(a: np.ndarray) -> int:
+    """The data pointer of a contiguous array, for a c_void_p argument (a.ctypes.data_as
+    costs 5 us a call, several times what a short run costs in C)."""
+    return a.__array_interface__["data"][0]
 
 
 _C_TYPES = {"double": ctypes.c_double, "long": ctypes.c_long, "int": ctypes.c_int}
@@ -58,13 +65,13 @@ class IntegratorLibrary:
         self.Info = info_struct(n)
         self.lib[f"{model}_integrate_defaults"].argtypes = [ctypes.POINTER(self.Options)]
         self.fns = {}
+        self._options: dict[tuple, object] = {}
+        vp = ctypes.c_void_p
         for dt, suffix in SUFFIX.items():
-            ptr = ctypes.POINTER(CTYPES[dt])
             fn = self.lib[f"{model}_integrate_batch{suffix}"]
             fn.restype = ctypes.c_long
-            fn.argtypes = [ctypes.c_long, ctypes.c_int, ptr, ctypes.c_long, ptr, ctypes.c_long,
-                           ctypes.c_long, ptr, ptr, ctypes.POINTER(self.Options),
-                           ctypes.POINTER(self.Info)]
+            fn.argtypes = [ctypes.c_long, ctypes.c_int, vp, ctypes.c_long, vp, ctypes.c_long,
+                           ctypes.c_long, vp, vp, ctypes.POINTER(self.Options), vp]
             self.fns[dt] = fn
 
     def defaults(self):
@@ -72,19 +79,36 @@ class IntegratorLibrary:
         self.lib[f"{self.model}_integrate_defaults"](ctypes.byref(opt))
         return opt
 
+    def options(self, values: dict):
+        """The options struct for `values` (field -> value; the rest the C defaults),
+        built once per distinct set of values: the integrators only read it (const)."""
+        key = tuple(values.items())
+        opt = self._options.get(key)
+        if opt is None:
+            opt = self.defaults()
+            for k, v in values.items():
+                setattr(opt, k, v)
+            if len(self._options) > 256:
+                self._options.clear()
+            self._options[key] = opt
+        return opt
+
+    @lru_cache(maxsize=8)
+    def infos_type(self, batch: int) -> type:
+        return self.Info * batch
+
     def run(self, method: int, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:
         """y0 (B, n), p (B, np) or (np,), t (nt,) -> y (B, nt, n), infos (B,)."""
         dt = dtype_key(y0.dtype)
-        ptr = ctypes.POINTER(CTYPES[dt])
         y0 = np.ascontiguousarray(y0)
         B = y0.shape[0]
         p = np.ascontiguousarray(p, dtype=y0.dtype)
         pstride = 0 if p.ndim == 1 else self.n_params
         t = np.ascontiguousarray(t, dtype=y0.dtype)
         out = np.empty((B, len(t), self.n), y0.dtype)
-        infos = (self.Info * B)()
-        self.fns[dt](B, method, y0.ctypes.data_as(ptr), self.n, p.ctypes.data_as(ptr), pstride,
-                     len(t), t.ctypes.data_as(ptr), out.ctypes.data_as(ptr), ctypes.byref(opt), infos)
+        infos = self.infos_type(B)()
+        self.fns[dt](B, method, address(y0), self.n, address(p), pstride, len(t), address(t),
+                     address(out), ctypes.byref(opt), ctypes.addressof(infos))
         return out, infos
 
 

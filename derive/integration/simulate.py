@@ -39,6 +39,7 @@ _DTYPES = {"float32": np.float32, "float": np.float32, "single": np.float32,
            "float64": np.float64, "double": np.float64,
            "longdouble": np.longdouble, "long double": np.longdouble, "float128": np.longdouble}
 _DEFAULT_RTOL = {"float32": 1e-5, "float64": 1e-9, "longdouble": 1e-12}
+_DEFAULT_OPTIONS = default_options()
 
 
 # -- input normalisation -----------------------------------------------------
@@ -55,7 +56,7 @@ def _finite_array(value, what: str) -> np.ndarray:
         a = np.array(value, dtype=np.longdouble)
     except (TypeError, ValueError):
         raise SimulationInputError(f"{what} must be numbers, got {value!r}") from None
-    if not np.all(np.isfinite(a)):
+    if not np.isfinite(a).all():
         raise SimulationInputError(f"{what} contains NaN or infinity: {np.asarray(value).tolist()}")
     return a
 
@@ -105,8 +106,17 @@ def normalise_params(model: str, params) -> np.ndarray:
         raise SimulationInputError(f"params must be a mapping by name or a sequence in the order "
                                    f"{', '.join(names)}, got {type(params).__name__}")
     p = _finite_array(values, "params")
-    check_parameter_values(_described(model), dict(zip(names, p)), SimulationInputError)
+    described = _described(model)
+    key = (described.content_hash, tuple(p.tolist()))
+    if key not in _POSSIBLE:            # checked once per parameter vector and model text
+        check_parameter_values(described, dict(zip(names, p)), SimulationInputError)
+        if len(_POSSIBLE) > 4096:
+            _POSSIBLE.clear()
+        _POSSIBLE.add(key)
     return p
+
+
+_POSSIBLE: set = set()       # (model hash, parameter values) that passed check_parameter_values
 
 
 def check_parameter_values(description, values: Mapping, error=SimulationInputError) -> None:
@@ -235,8 +245,8 @@ def normalise_t(t) -> np.ndarray:
     if a.size < 1:
         raise SimulationInputError("t is empty: give at least the start time")
     if a.size > 1:
-        dt = np.diff(a)
-        if not (np.all(dt > 0) or np.all(dt < 0)):
+        dt = a[1:] - a[:-1]
+        if not ((dt > 0).all() or (dt < 0).all()):
             raise SimulationInputError("t must be strictly increasing or strictly decreasing")
     return a
 
@@ -271,7 +281,7 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     state, chart, _ = normalise_y0(model, y0, p)
     given = {"rtol": _DEFAULT_RTOL[dtype_key(dt)] if rtol is None else rtol, "atol": atol, "hmax": hmax,
              "max_steps": max_steps, "newton_tol": newton_tol, "newton_max": newton_max, "sine_min": sine_min}
-    opt = {k: given[k] if given.get(k) is not None else v for k, v in default_options().items()}
+    opt = {k: given[k] if given.get(k) is not None else v for k, v in _DEFAULT_OPTIONS.items()}
     opt["atol"] = atol                       # None: from rtol below
     for key in ("rtol", "atol", "hmax", "newton_tol", "sine_min"):
         v = opt[key]
@@ -373,9 +383,7 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> Simulatio
     tsd = np.asarray(ts, dt)
     if backend == "c":
         lib = integrator_library(model)
-        o = lib.defaults()
-        for k, v in opt.items():
-            setattr(o, k, v)
+        o = lib.options(opt)
         y, infos = lib.run(METHODS.index(method), y0[None, :], pd, tsd, o)
         y, inf = y[0], infos[0]
         counters = {k: int(getattr(inf, k)) for k in COUNTERS}
