@@ -12,7 +12,7 @@ from .errors import (BuildError, CompilerMissingError, DeriveError, InputError, 
 
 __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "ModelError",
            "SceneError", "SimulationError", "SimulationInputError", "ToolMissingError",
-           "__version__", "simulate"]
+           "__version__", "ensemble", "simulate"]
 
 
 def __getattr__(name):
@@ -20,4 +20,8 @@ def __getattr__(name):
         from .integration.simulate import simulate
         globals()["simulate"] = simulate        # resolved once: later calls find it directly
         return simulate
+    if name == "ensemble":
+        from .integration.ensemble import ensemble
+        globals()["ensemble"] = ensemble
+        return ensemble
     raise AttributeError(f"module 'derive' has no attribute {name!r}")

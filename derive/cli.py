@@ -427,6 +427,8 @@ def cmd_all(args) -> int:
 def cmd_bench(args) -> int:
     from .measurement.bench import BenchOptions, console_report, run_bench, write_all
     from .progress import Progress
+    if args.race:
+        return _race(args)
     if args.repeats < 1:
         raise UsageError(f"--repeats must be >= 1, got {args.repeats}")
     out = _writable_folder(Path(args.out))
@@ -452,6 +454,31 @@ def cmd_bench(args) -> int:
     files = write_all(result, out, plots=not args.no_plots)
     if not args.quiet:
         print(console_report(result))
+        for f in files:
+            print(f"wrote   {f}")
+    return 0
+
+
+def _race(args) -> int:
+    """derive bench --race: derive against heyoka through both public APIs (measurement/race.py)."""
+    from .measurement.race import console, run_race, write_race
+    from .progress import Progress
+    out = _writable_folder(Path(args.out))
+    bar = None if args.quiet else Progress("race", 1)
+
+    def progress(done, total):
+        if bar is not None:
+            bar.total = max(total, 1)
+            bar.update(done)
+
+    try:
+        race = run_race(quick=args.quick, progress=progress)
+    finally:
+        if bar is not None:
+            bar.close()
+    files = write_race(race, out, plots=not args.no_plots)
+    if not args.quiet:
+        print(console(race))
         for f in files:
             print(f"wrote   {f}")
     return 0
@@ -510,6 +537,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--no-throughput", action="store_true", help="skip the batched-RK4 throughput runs")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no report")
+    p.add_argument("--race", action="store_true",
+                   help="only the race against heyoka through both public APIs (needs heyoka: the bench "
+                        "extra); writes race.md, race.csv, race.png")
     p.set_defaults(func=cmd_bench)
     return parser
 

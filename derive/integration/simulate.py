@@ -274,11 +274,32 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     if backend not in ("c", "numpy"):
         raise SimulationInputError(f"unknown backend {backend!r} (use 'c' or 'numpy')")
     dt = _dtype(dtype)
-    eps = float(np.finfo(dt).eps)
     p = normalise_params(model, params)
     u = normalise_inputs(model, inputs)
     ts = normalise_t(t)
     state, chart, _ = normalise_y0(model, y0, p)
+    opt = run_options(method, dt, ts, rtol=rtol, atol=atol, step=step, hmax=hmax, max_steps=max_steps,
+                      newton_tol=newton_tol, newton_max=newton_max, sine_min=sine_min)
+    _check_size(method, ts, state, opt, dt)
+
+    if model == "spherical":
+        result = run_atlas(method, state, chart, ts, p, opt, dt, backend)
+    elif isinstance(u, HeldInputs):
+        result = _run_held(model, method, state, ts, p, opt, dt, backend, u)
+    else:
+        result = _run_single(model, method, state, ts, p, opt, dt, backend, u)
+    if method in ADAPTIVE:
+        result.rtol = opt["rtol"]
+    else:
+        result.step = opt["h"]
+    return result
+
+
+def run_options(method: str, dt: np.dtype, ts: np.ndarray, rtol=None, atol=None, step=None, hmax=None,
+                max_steps=None, newton_tol=None, newton_max=None, sine_min=None) -> dict:
+    """The integrator options of a run (simulate's and ensemble's), checked: each bad
+    value is one line naming it."""
+    eps = float(np.finfo(dt).eps)
     given = {"rtol": _DEFAULT_RTOL[dtype_key(dt)] if rtol is None else rtol, "atol": atol, "hmax": hmax,
              "max_steps": max_steps, "newton_tol": newton_tol, "newton_max": newton_max, "sine_min": sine_min}
     opt = {k: given[k] if given.get(k) is not None else v for k, v in _DEFAULT_OPTIONS.items()}
@@ -310,19 +331,7 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
         # pendulum at rest: 0/0, then every step rejected): atol = 0 is taken as 1e-20 rtol,
         # far below any state's unit, large enough for the initial-step estimate
         opt["atol"] = ATOL_FOR_ZERO * opt["rtol"]
-    _check_size(method, ts, state, opt, dt)
-
-    if model == "spherical":
-        result = run_atlas(method, state, chart, ts, p, opt, dt, backend)
-    elif isinstance(u, HeldInputs):
-        result = _run_held(model, method, state, ts, p, opt, dt, backend, u)
-    else:
-        result = _run_single(model, method, state, ts, p, opt, dt, backend, u)
-    if method in ADAPTIVE:
-        result.rtol = opt["rtol"]
-    else:
-        result.step = opt["h"]
-    return result
+    return opt
 
 
 ATOL_FOR_ZERO = 1e-20             # atol = 0 means atol = 1e-20 rtol (see simulate)

@@ -1,0 +1,160 @@
+"""`derive.ensemble`: many trajectories of one model in one call.
+
+    r = ensemble("planar", y0, t, params, method="dop853", rtol=1e-10)
+    r.y        (B, len(t), n)      every trajectory at every output time
+    r.status   (B,)                per trajectory (contract status codes; r.status_names)
+    r.nfev ... (B,)                per-trajectory counters
+
+y0 has shape (B, n); params shape (n_params,) (one vector for all) or (B, n_params)
+(one per trajectory); inputs likewise (n_inputs,) or (B, n_inputs).  The trajectories
+run in the model's compiled batch entry point (<model>_integrate_batch, the same C
+code as `simulate`, so each trajectory agrees with `simulate` bit for bit), split into
+`threads` contiguous blocks that run concurrently: ctypes releases the GIL for the
+duration of a foreign call, so the blocks use every core.  Each trajectory keeps its
+own step control (per-trajectory adaptive steps).
+
+Not here yet (issue 15): SIMD lanes across trajectories; the catalogue atlas
+("spherical") and held inputs (a function of t) go through `simulate`.
+"""
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import SimulationInputError
+from .build import integrator_library
+from .codegen import model_info
+from .contract import ADAPTIVE, COUNTERS, METHODS, STATUS_NAMES
+from .simulate import (ATLAS, _check_size, _dtype, _finite_array, check_parameter_values, normalise_t,
+                       resolve_model, run_options)
+from ..model import load_model
+
+MIN_BLOCK = 16          # trajectories per thread below which another thread does not pay
+
+
+@dataclass
+class EnsembleResult:
+    model: str
+    method: str
+    dtype: str
+    t: np.ndarray              # (nt,)
+    y: np.ndarray              # (B, nt, n); rows after a trajectory stopped are NaN
+    status: np.ndarray         # (B,) contract status codes
+    t_stop: np.ndarray         # (B,) time each trajectory reached
+    nfev: np.ndarray           # (B,) and the other counters
+    njev: np.ndarray
+    nsteps: np.ndarray
+    naccepted: np.ndarray
+    nrejected: np.ndarray
+    nnewton: np.ndarray
+    threads: int
+    rtol: float | None = None
+    step: float | None = None
+
+    @property
+    def ok(self) -> np.ndarray:
+        return self.status == 0
+
+    @property
+    def status_names(self) -> list[str]:
+        return [STATUS_NAMES[s] for s in self.status]
+
+    @property
+    def all_ok(self) -> bool:
+        return bool(np.all(self.status == 0))
+
+
+def _per_trajectory(value, B: int, names, what: str, model: str) -> np.ndarray:
+    """(B, k) values from a (k,) vector for all, a (B, k) array, or a mapping of either."""
+    if isinstance(value, dict):
+        unknown = sorted(set(value) - set(names))
+        if unknown:
+            raise SimulationInputError(f"unknown {what[:-1]} '{unknown[0]}' for model '{model}' "
+                                       f"({what}: {', '.join(names)})")
+        missing = [n for n in names if n not in value]
+        if missing:
+            raise SimulationInputError(f"missing {what[:-1]} '{missing[0]}' for model '{model}' "
+                                       f"({what}: {', '.join(names)})")
+        columns = [np.broadcast_to(_finite_array(value[n], f"{what}['{n}']"), (B,)) for n in names]
+        return np.stack(columns, axis=1)
+    a = _finite_array(value, what)
+    k = len(names)
+    if a.shape == (k,):
+        return np.broadcast_to(a, (B, k))
+    if a.shape == (B, k):
+        return a
+    raise SimulationInputError(f"{what} must have shape ({k},) or ({B}, {k}) for model '{model}' "
+                               f"({', '.join(names)}), got {a.shape}")
+
+
+def ensemble(model, y0, t, params, method: str = "dop853", rtol: float | None = None,
+             atol: float | None = None, step: float | None = None, dtype="float64",
+             threads: int | None = None, inputs=None, max_steps: int | None = None,
+             hmax: float | None = None, newton_tol: float | None = None,
+             newton_max: int | None = None, sine_min: float | None = None) -> EnsembleResult:
+    """Integrate B trajectories of `model` (y0 of shape (B, n)) to every output time in t.
+
+    method, rtol, atol, step, dtype as for `derive.simulate`; params (and inputs) one
+    vector for all or one row per trajectory, or a mapping by name of scalars or (B,)
+    arrays; threads: how many blocks run at once (None: one per core)."""
+    model = resolve_model(model)
+    if model == ATLAS:
+        raise SimulationInputError("ensemble runs single-chart models; the chart atlas "
+                                   f"'{ATLAS}' runs through derive.simulate")
+    if not isinstance(method, str) or method not in METHODS:
+        raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(METHODS)})")
+    info = model_info(model)
+    description = load_model(model)
+    dt = _dtype(dtype)
+    ys = _finite_array(y0, "y0")
+    if ys.ndim != 2 or ys.shape[1] != info.n:
+        raise SimulationInputError(f"y0 must have shape (B, {info.n}) for model '{model}' "
+                                   f"({', '.join(info.state_names)}), got {ys.shape}")
+    B = ys.shape[0]
+    p = _per_trajectory(params, B, info.param_names, "parameters", model)
+    for row in np.unique(p, axis=0) if B else ():
+        check_parameter_values(description, dict(zip(info.param_names, row)))
+    if description.inputs:
+        if inputs is None or callable(inputs):
+            raise SimulationInputError(f"model '{model}' needs its inputs ({', '.join(description.inputs)}) "
+                                       "as numbers (one vector or one row per trajectory)")
+        p = np.concatenate([p, _per_trajectory(inputs, B, description.inputs, "inputs", model)], axis=1)
+    elif inputs is not None:
+        raise SimulationInputError(f"model '{model}' has no inputs; got inputs={inputs!r}")
+    ts = normalise_t(t)
+    opt = run_options(method, dt, ts, rtol=rtol, atol=atol, step=step, hmax=hmax, max_steps=max_steps,
+                      newton_tol=newton_tol, newton_max=newton_max, sine_min=sine_min)
+    _check_size(method, ts, np.zeros(info.n * max(B, 1)), opt, dt)
+    if threads is None:
+        threads = os.cpu_count() or 1
+    if not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise SimulationInputError(f"threads = {threads!r} must be a positive integer")
+    y, infos, used = _run_blocks(model, METHODS.index(method), ys.astype(dt), p.astype(dt),
+                                 ts.astype(dt), opt, int(threads))
+    status = np.array([i.status for i in infos], np.intc)
+    counters = {k: np.array([getattr(i, k) for i in infos], np.int64) for k in COUNTERS}
+    return EnsembleResult(model=model, method=method, dtype=np.dtype(dt).name, t=ts.astype(dt), y=y,
+                          status=status, t_stop=np.array([i.t for i in infos], float), threads=used,
+                          rtol=opt["rtol"] if method in ADAPTIVE else None,
+                          step=None if method in ADAPTIVE else opt["h"], **counters)
+
+
+def _run_blocks(model: str, method: int, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt: dict,
+                threads: int):
+    """The batch entry point over `threads` contiguous blocks of trajectories at once."""
+    lib = integrator_library(model)
+    o = lib.options(opt)
+    B = len(y0)
+    blocks = max(1, min(threads, B // MIN_BLOCK))
+    edges = np.linspace(0, B, blocks + 1).astype(int)
+    p = np.ascontiguousarray(p)
+    if blocks == 1:
+        y, infos = lib.run(method, y0, p, t, o)
+        return y, list(infos), 1
+    with ThreadPoolExecutor(max_workers=blocks) as pool:
+        parts = list(pool.map(lambda ab: lib.run(method, y0[ab[0]:ab[1]], p[ab[0]:ab[1]], t, o),
+                              zip(edges[:-1], edges[1:])))
+    return (np.concatenate([y for y, _ in parts]), [i for _, infos in parts for i in infos], blocks)

@@ -1,0 +1,427 @@
+"""`derive bench --race`: derive against heyoka, through both tools' public APIs, in one run.
+
+heyoka (Taylor's method compiled by LLVM at run time, ../shared/ANCHORS.md) is the
+strongest tool our users would pick instead.  Each row is one problem of the planar
+double pendulum (m = l = 1, g = 9.81); each tool runs it at a sweep of its own
+tolerances (derive: every adaptive method `derive.simulate` has, and every fixed-step
+method at a sweep of steps; heyoka: `taylor_adaptive` at a sweep of `tol`), each
+setting timed as the minimum wall time of repeated calls (the integrator built and
+compiled before, by both tools: build time is not in the figures), its final state
+compared with a reference.  A row's figure for a tool is the fastest setting whose
+final-state error (max-norm) is at most the target (1e-8): the "time to 1e-8" of the
+issue.  The ratio is heyoka's time over derive's (above 1: derive is faster).
+
+Rows (issue 15's table, plus the long double row):
+- regular: y0 = (1, 0.5, 0, 0) to t = 20;
+- chaotic: y0 = (2.5, 2, 0, 0) to t = 5;
+- long double: the chaotic y0 to t = 10, both tools in long double;
+- ensemble: 4096 states (angles uniform in [-1, 1], rates 0, seed 0) to t = 10, every
+  final error <= 1e-8: `derive.ensemble` (threads = cores) against heyoka's
+  `ensemble_propagate_until_batch` (its SIMD batch integrator, batch = its recommended
+  SIMD width, threads over batches);
+- one call on a trivial span (t = 1e-6): the fixed cost of a call.
+And SciPy's solve_ivp DOP853 with a lambdified rhs of the derivation (what a SymPy user
+writes) on the regular and chaotic rows, for the issue's 200x target.
+
+References: the long double runs of `derive.simulate` at its tightest tolerance for the
+double rows and the ensemble (their error, about 1e-13 here, is far below the target);
+for the long double row, heyoka in quadruple precision (real128) at tol 1e-30, checked
+against derive's long double reference: the agreement is reported.
+"""
+from __future__ import annotations
+
+import csv
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ToolMissingError
+
+TARGET = 1e-8
+PARAMS = (1.0, 1.0, 1.0, 1.0, 9.81)
+NAMES = ("m1", "m2", "l1", "l2", "g")
+MIN_SECONDS = 0.15       # each setting is repeated until this much time has passed (at least 3 times)
+
+
+@dataclass
+class Point:
+    tool: str            # "derive dop853", "heyoka taylor", ...
+    knob: str            # "rtol=1e-10", "tol=1e-12", "h=0.01"
+    seconds: float
+    error: float
+
+
+@dataclass
+class Row:
+    name: str
+    title: str
+    points: list[Point] = field(default_factory=list)
+    note: str = ""
+
+    def best(self, prefix: str) -> Point | None:
+        ok = [p for p in self.points if p.tool.startswith(prefix) and p.error <= TARGET]
+        return min(ok, key=lambda p: p.seconds) if ok else None
+
+
+def _heyoka():
+    try:
+        import heyoka
+    except ImportError:
+        raise ToolMissingError("derive bench --race needs heyoka: pip install 'derive[bench]' "
+                               "(or pip install heyoka)") from None
+    return heyoka
+
+
+def heyoka_system(hy):
+    """The planar double pendulum in heyoka's expression system, parameters as par[0..4]
+    (m1, m2, l1, l2, g): seed 000 (1.34)-(1.35), the compact form a heyoka user writes."""
+    th1, th2, w1, w2 = hy.make_vars("th1", "th2", "w1", "w2")
+    m1, m2, l1, l2, g = (hy.par[i] for i in range(5))
+    mu = 1.0 + m1 / m2
+    d = th1 - th2
+    s, c = hy.sin(d), hy.cos(d)
+    a, b, e = mu * l1 * l1, l1 * l2 * c, l2 * l2
+    f1 = -w2 * w2 * l1 * l2 * s - mu * g * l1 * hy.sin(th1)
+    f2 = w1 * w1 * l1 * l2 * s - g * l2 * hy.sin(th2)
+    det = a * e - b * b
+    return [(th1, w1), (th2, w2), (w1, (e * f1 - b * f2) / det), (w2, (a * f2 - b * f1) / det)]
+
+
+def _timed(run) -> float:
+    """Minimum wall time of repeated calls of run() (at least 3, for MIN_SECONDS)."""
+    best, spent, n = math.inf, 0.0, 0
+    while n < 3 or spent < MIN_SECONDS:
+        t0 = time.perf_counter()
+        run()
+        dt = time.perf_counter() - t0
+        best, spent, n = min(best, dt), spent + dt, n + 1
+        if n >= 2000:
+            break
+    return best
+
+
+def _error(y, ref) -> float:
+    y = np.asarray(y, dtype=np.longdouble)
+    if not np.all(np.isfinite(y)):
+        return math.inf
+    return float(np.max(np.abs(y - np.asarray(ref, np.longdouble))))
+
+
+# -- the single-trajectory rows ---------------------------------------------------------
+
+def _derive_reference(y0, t_end: float) -> np.ndarray:
+    import derive
+    r = derive.simulate("planar", y0, [0.0, t_end], PARAMS, method="dop853", rtol=2e-18,
+                        atol=1e-22, dtype="longdouble")
+    r.raise_for_status()
+    return r.y[-1]
+
+
+def _derive_points(y0, t_end: float, ref, dtype: str = "float64") -> list[Point]:
+    import derive
+    from ..integration.contract import ADAPTIVE, FIXED, IMPLICIT
+    points = []
+    rtols = (1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14) if dtype == "float64" else \
+        (1e-10, 1e-12, 1e-13, 1e-14, 1e-15, 1e-16, 1e-17)
+    for method in ADAPTIVE:
+        for rtol in rtols:
+            run = lambda: derive.simulate("planar", y0, [0.0, t_end], PARAMS, method=method, rtol=rtol,
+                                          dtype=dtype)
+            r = run()
+            points.append(Point(f"derive {method}", f"rtol={rtol:g}", _timed(run),
+                                _error(r.y[-1], ref) if r.ok else math.inf))
+    if dtype == "float64":
+        for method in (m for m in FIXED if m not in IMPLICIT):
+            for h in (0.02, 0.01, 0.005, 0.0025, 0.00125):
+                run = lambda: derive.simulate("planar", y0, [0.0, t_end], PARAMS, method=method, step=h)
+                r = run()
+                points.append(Point(f"derive {method}", f"h={h:g}", _timed(run),
+                                    _error(r.y[-1], ref) if r.ok else math.inf))
+    return points
+
+
+def _heyoka_points(hy, y0, t_end: float, ref, fp_type=float) -> list[Point]:
+    sys_ = heyoka_system(hy)
+    points = []
+    tols = (1e-8, 1e-10, 1e-12, 1e-14, 1e-16) if fp_type is float else (1e-12, 1e-14, 1e-16, 1e-18)
+    for tol in tols:
+        ta = hy.taylor_adaptive(sys_, np.array(y0, dtype=fp_type), pars=np.array(PARAMS, dtype=fp_type),
+                                tol=fp_type(tol), fp_type=fp_type, compact_mode=False)
+        start = np.array(y0, dtype=fp_type)
+
+        def run(ta=ta, start=start):
+            ta.time = fp_type(0.0)
+            ta.state[:] = start
+            ta.propagate_until(fp_type(t_end))
+            return ta.state.copy()
+
+        final = run()
+        points.append(Point("heyoka taylor", f"tol={tol:g}", _timed(run), _error(final, ref)))
+    return points
+
+
+def _scipy_points(y0, t_end: float, ref) -> list[Point]:
+    from .peers import lambdified_rhs, solve_ivp_final
+    rhs = lambdified_rhs("planar", cse=True)
+    points = []
+    for rtol in (1e-9, 1e-11, 1e-13):
+        run = lambda: solve_ivp_final(rhs, list(y0), t_end, PARAMS, "DOP853", rtol, rtol * 1e-3)[0]
+        final = run()
+        t0 = time.perf_counter()
+        run()
+        points.append(Point("scipy solve_ivp DOP853 (lambdify)", f"rtol={rtol:g}",
+                            min(time.perf_counter() - t0, _timed_once(run)), _error(final, ref)))
+    return points
+
+
+def _timed_once(run) -> float:
+    t0 = time.perf_counter()
+    run()
+    return time.perf_counter() - t0
+
+
+def trajectory_row(hy, name: str, title: str, y0, t_end: float, scipy: bool = True) -> Row:
+    ref = _derive_reference(y0, t_end)
+    row = Row(name, title)
+    row.points += _derive_points(y0, t_end, ref)
+    row.points += _heyoka_points(hy, y0, t_end, ref)
+    if scipy:
+        row.points += _scipy_points(y0, t_end, ref)
+    return row
+
+
+def long_double_row(hy, y0=(2.5, 2.0, 0.0, 0.0), t_end: float = 10.0) -> Row:
+    ld = np.longdouble
+    row = Row("long double", f"chaotic, y0 = {tuple(y0)}, t = {t_end:g}, both in long double")
+    ref = _quad_reference(hy, y0, t_end)
+    ours = _derive_reference(y0, t_end)
+    row.note = (f"reference: heyoka real128 at tol 1e-30; derive's long double reference (dop853, "
+                f"rtol 2e-18) differs from it by {_error(ours, ref):.1e}")
+    row.points += _derive_points(y0, t_end, ref, dtype="longdouble")
+    row.points += _heyoka_points(hy, y0, t_end, ref, fp_type=ld)
+    return row
+
+
+def _quad_reference(hy, y0, t_end: float) -> np.ndarray:
+    q = hy.real128
+    ta = hy.taylor_adaptive(heyoka_system(hy), np.array([q(str(v)) for v in y0]),
+                            pars=np.array([q(str(v)) for v in PARAMS]), tol=q("1e-30"), fp_type=q)
+    ta.propagate_until(q(str(t_end)))
+    return np.array([np.longdouble(str(v)) for v in ta.state])
+
+
+# -- the ensemble row -------------------------------------------------------------------
+
+def ensemble_states(B: int = 4096, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    y0 = np.zeros((B, 4))
+    y0[:, :2] = rng.uniform(-1.0, 1.0, (B, 2))
+    return y0
+
+
+def ensemble_row(hy, B: int = 4096, t_end: float = 10.0) -> Row:
+    import derive
+    from ..integration.contract import ADAPTIVE
+    y0 = ensemble_states(B)
+    threads = os.cpu_count() or 1
+    ref = derive.ensemble("planar", y0, [0.0, t_end], PARAMS, method="dop853", rtol=2e-18, atol=1e-22,
+                          dtype="longdouble", threads=threads).y[:, -1]
+    row = Row("ensemble", f"{B} states (angles uniform in [-1, 1], rates 0), t = {t_end:g}, "
+                          f"every final error <= 1e-8; {threads} threads")
+
+    def worst(y):
+        return float(np.max(np.abs(np.asarray(y, np.longdouble) - ref))) if np.all(np.isfinite(y)) else math.inf
+
+    for method in ADAPTIVE:
+        for rtol in (1e-9, 1e-10, 1e-11, 1e-12, 1e-13):
+            run = lambda: derive.ensemble("planar", y0, [0.0, t_end], PARAMS, method=method, rtol=rtol,
+                                          threads=threads)
+            r = run()
+            row.points.append(Point(f"derive {method}", f"rtol={rtol:g}", _timed(run),
+                                    worst(r.y[:, -1]) if r.all_ok else math.inf))
+    sys_ = heyoka_system(hy)
+    for width in sorted({hy.recommended_simd_size(), 2 * hy.recommended_simd_size()}):
+        for tol in (1e-10, 1e-12, 1e-14, 1e-16):
+            run = _heyoka_ensemble(hy, sys_, y0, t_end, tol, width, threads)
+            final = run()
+            row.points.append(Point(f"heyoka taylor batch {width}", f"tol={tol:g}", _timed(run), worst(final)))
+    return row
+
+
+def _heyoka_ensemble(hy, sys_, y0, t_end: float, tol: float, width: int, threads: int):
+    """The fastest way we found to run an ensemble with heyoka: one SIMD batch integrator
+    (`taylor_adaptive_batch`, `width` lanes) per thread, built before timing, each thread
+    resetting and propagating its share of the batches (heyoka releases the GIL while it
+    integrates).  Its own `ensemble_propagate_until_batch` copies the integrator per
+    batch and ran several times slower here."""
+    from concurrent.futures import ThreadPoolExecutor
+    B = len(y0)
+    pars = np.tile(np.array(PARAMS)[:, None], width)
+    integrators = [hy.taylor_adaptive_batch(sys_, np.zeros((4, width)), pars=pars, tol=tol, compact_mode=False)
+                   for _ in range(threads)]
+    chunks = [(k, min(k + width, B)) for k in range(0, B, width)]
+    shares = [chunks[i::threads] for i in range(threads)]
+    out = np.empty_like(y0)
+
+    def work(i):
+        ta = integrators[i]
+        for a, b in shares[i]:
+            block = np.zeros((4, width))
+            block[:, :b - a] = y0[a:b].T
+            ta.set_time(0.0)
+            ta.state[:] = block
+            ta.propagate_until(t_end)
+            out[a:b] = ta.state[:, :b - a].T
+        return None
+
+    def run():
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            list(pool.map(work, range(threads)))
+        return out.copy()
+
+    return run
+
+
+def trivial_call_row(hy) -> Row:
+    import derive
+    y0 = (1.0, 0.5, 0.0, 0.0)
+    row = Row("one call", "one call on a trivial span (t = 1e-6): the fixed cost of a call")
+    derive.simulate("planar", y0, [0.0, 1e-6], PARAMS)
+    for _ in range(3):
+        n = 2000
+        t0 = time.perf_counter()
+        for _ in range(n):
+            derive.simulate("planar", y0, [0.0, 1e-6], PARAMS)
+        row.points.append(Point("derive dop853", "simulate", (time.perf_counter() - t0) / n, 0.0))
+    ta = hy.taylor_adaptive(heyoka_system(hy), np.array(y0), pars=np.array(PARAMS), tol=1e-15)
+    start = np.array(y0)
+    for _ in range(3):
+        n = 2000
+        t0 = time.perf_counter()
+        for _ in range(n):
+            ta.time = 0.0
+            ta.state[:] = start
+            ta.propagate_until(1e-6)
+        row.points.append(Point("heyoka taylor", "propagate_until", (time.perf_counter() - t0) / n, 0.0))
+    return row
+
+
+# -- the race ---------------------------------------------------------------------------
+
+@dataclass
+class Race:
+    rows: list[Row]
+    heyoka_version: str
+    machine: str
+
+
+def run_race(quick: bool = False, progress=None) -> Race:
+    hy = _heyoka()
+    import platform
+    jobs = [lambda: trajectory_row(hy, "regular", "regular, y0 = (1, 0.5, 0, 0), t = 20", (1.0, 0.5, 0.0, 0.0), 20.0,
+                                   scipy=not quick),
+            lambda: trajectory_row(hy, "chaotic", "chaotic, y0 = (2.5, 2, 0, 0), t = 5", (2.5, 2.0, 0.0, 0.0), 5.0,
+                                   scipy=not quick),
+            lambda: trivial_call_row(hy)]
+    if not quick:
+        jobs += [lambda: long_double_row(hy), lambda: ensemble_row(hy)]
+    rows = []
+    for k, job in enumerate(jobs):
+        rows.append(job())
+        if progress:
+            progress(k + 1, len(jobs))
+    machine = f"{platform.machine()}, {os.cpu_count()} cores, {platform.python_implementation()} {platform.python_version()}"
+    return Race(rows, hy.__version__, machine)
+
+
+def _ms(seconds: float | None) -> str:
+    if seconds is None:
+        return "not reached"
+    return f"{seconds * 1e6:.1f} us" if seconds < 1e-3 else f"{seconds * 1e3:.3g} ms"
+
+
+def summary_rows(race: Race) -> list[dict]:
+    out = []
+    for row in race.rows:
+        if row.name == "one call":
+            ours = min(p.seconds for p in row.points if p.tool.startswith("derive"))
+            theirs = min(p.seconds for p in row.points if p.tool.startswith("heyoka"))
+            out.append({"row": row.title, "derive": _ms(ours), "derive setting": "simulate",
+                        "heyoka": _ms(theirs), "heyoka setting": "propagate_until",
+                        "ratio": theirs / ours, "scipy": None})
+            continue
+        ours, theirs = row.best("derive"), row.best("heyoka")
+        scipy = row.best("scipy")
+        out.append({"row": row.title, "derive": _ms(ours and ours.seconds),
+                    "derive setting": f"{ours.tool.split()[1]} {ours.knob}" if ours else "",
+                    "heyoka": _ms(theirs and theirs.seconds), "heyoka setting": theirs.knob if theirs else "",
+                    "ratio": (theirs.seconds / ours.seconds) if ours and theirs else None,
+                    "scipy": (scipy.seconds / ours.seconds) if ours and scipy else None})
+    return out
+
+
+def markdown(race: Race) -> str:
+    lines = [f"# derive against heyoka {race.heyoka_version}, through both public APIs",
+             "", f"Machine: {race.machine}. Time to a final-state error <= {TARGET:g} (fastest setting "
+                 "of each tool, minimum wall time of repeated calls); ratio = heyoka's time / derive's "
+                 "(above 1: derive faster); solve_ivp = SciPy DOP853 with a lambdified rhs, its time / derive's.",
+             "", "| row | derive | setting | heyoka | setting | heyoka / derive | solve_ivp / derive |",
+             "|---|---|---|---|---|---|---|"]
+    for s in summary_rows(race):
+        ratio = f"{s['ratio']:.2f}" if s["ratio"] else "-"
+        scipy = f"{s['scipy']:.0f}" if s["scipy"] else "-"
+        lines.append(f"| {s['row']} | {s['derive']} | {s['derive setting']} | {s['heyoka']} | "
+                     f"{s['heyoka setting']} | {ratio} | {scipy} |")
+    notes = [f"- {r.name}: {r.note}" for r in race.rows if r.note]
+    return "\n".join(lines + ([""] + notes if notes else [])) + "\n"
+
+
+def write_race(race: Race, out: Path, plots: bool = True) -> list[Path]:
+    out.mkdir(parents=True, exist_ok=True)
+    files = [out / "race.md", out / "race.csv"]
+    files[0].write_text(markdown(race))
+    with files[1].open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(("row", "tool", "setting", "seconds", "final_error"))
+        for row in race.rows:
+            for p in row.points:
+                w.writerow((row.name, p.tool, p.knob, f"{p.seconds:.6g}", f"{p.error:.3g}"))
+    if plots:
+        files.append(_plot(race, out / "race.png"))
+    return files
+
+
+def _plot(race: Race, path: Path) -> Path:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rows = [r for r in race.rows if r.name != "one call"]
+    fig, axes = plt.subplots(1, len(rows), figsize=(4.2 * len(rows), 3.8), squeeze=False)
+    for ax, row in zip(axes[0], rows):
+        tools = sorted({p.tool for p in row.points})
+        for tool in tools:
+            pts = sorted((p.seconds, max(p.error, 1e-20)) for p in row.points
+                         if p.tool == tool and math.isfinite(p.error))
+            if pts:
+                style = "s-" if tool.startswith("heyoka") else "^--" if tool.startswith("scipy") else "o-"
+                ax.loglog([e for _, e in pts], [s for s, _ in pts], style, ms=3, label=tool)
+        ax.axvline(TARGET, color="grey", lw=0.8, ls=":")
+        ax.set_xlabel("final-state error")
+        ax.set_ylabel("wall time per run [s]")
+        ax.set_title(row.name, fontsize=10)
+        ax.invert_xaxis()
+        ax.grid(True, which="major", alpha=0.3)
+    axes[0][0].legend(fontsize=6)
+    fig.suptitle(f"work-precision: derive and heyoka {race.heyoka_version}", fontsize=11)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def console(race: Race) -> str:
+    return markdown(race)
