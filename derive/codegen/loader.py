@@ -105,7 +105,7 @@ def build_key(sources: list[Path], cc: str, flags: tuple[str, ...]) -> str:
     reads no file; an edited file has a new mtime and is hashed again."""
     stats = []
     for src in sources:
-        for part in (src, src.with_suffix(".h")):
+        for part in _parts(src):
             st = part.stat()
             stats.append((str(part), st.st_size, st.st_mtime_ns))
     memo = (tuple(stats), cc, tuple(flags))
@@ -114,11 +114,17 @@ def build_key(sources: list[Path], cc: str, flags: tuple[str, ...]) -> str:
     return _keys[memo]
 
 
+def _parts(src: Path) -> list[Path]:
+    """A source and every header beside it (a header may include the others: the Taylor
+    integrator's includes the integrators' for their structs)."""
+    return [src] + sorted(src.parent.glob("*.h"))
+
+
 def _build_key(sources: list[Path], cc: str, flags: tuple[str, ...]) -> str:
     h = hashlib.sha256()
     for src in sources:
-        for part in (src.read_bytes(), src.with_suffix(".h").read_bytes()):
-            h.update(hashlib.sha256(part).digest())
+        for part in _parts(src):
+            h.update(hashlib.sha256(part.read_bytes()).digest())
     h.update(hashlib.sha256(compiler_identity(cc).encode()).digest())
     h.update(hashlib.sha256("\0".join(flags).encode()).digest())
     return h.hexdigest()

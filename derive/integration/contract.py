@@ -133,6 +133,12 @@ FIXED = tuple(m.name for m in METHOD_TABLE if m.kind == "fixed")
 IMPLICIT = tuple(m.name for m in METHOD_TABLE if m.implicit)
 ORDER = {m.name: m.order for m in METHOD_TABLE}
 FIXED_ORDER = {m: ORDER[m] for m in FIXED}
+# Taylor's method runs in a generated file of its own (<model>_taylor.c, derive/integration/
+# taylor_codegen.py), not in the integrators' method switch; it takes the same options
+# (rtol is its tolerance) and fills the same info struct
+TAYLOR = "taylor"
+RUN_METHODS = METHODS + (TAYLOR,)              # every method derive.simulate runs
+TOLERANCE_METHODS = ADAPTIVE + (TAYLOR,)       # methods steered by rtol (no fixed step)
 STATUS_NAMES = tuple(s.name for s in sorted(STATUS_TABLE, key=lambda s: s.code))
 STATUS = {s.macro: s.code for s in STATUS_TABLE}
 OPTION_NAMES = tuple(f.name for f in OPTIONS)

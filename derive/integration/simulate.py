@@ -30,8 +30,10 @@ from .atlas import run_atlas
 from .build import dtype_key, integrator_library
 from .codegen import model_info
 from .contract import (ADAPTIVE, ATLAS_CHARTS, COUNTERS, FIXED_ORDER,  # noqa: F401  (re-exported)
-                       METHODS, SINE_MIN, STATUS_NAMES, default_options)
+                       METHODS, RUN_METHODS, SINE_MIN, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS,
+                       default_options)
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
+from .taylor_library import taylor_library, taylor_order
 from .result import LAZY, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
 from ..model.atlas import ATLAS  # noqa: E402  (the chart atlas of the double spherical pendulum)
@@ -269,10 +271,13 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     output time and held until the next (zero-order hold).
     """
     model = resolve_model(model)
-    if not isinstance(method, str) or method not in METHODS:
-        raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(METHODS)})")
+    if not isinstance(method, str) or method not in RUN_METHODS:
+        raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(RUN_METHODS)})")
     if backend not in ("c", "numpy"):
         raise SimulationInputError(f"unknown backend {backend!r} (use 'c' or 'numpy')")
+    if method == TAYLOR and (backend != "c" or model == ATLAS):
+        raise SimulationInputError("the Taylor integrator runs in generated C on single-chart models: "
+                                   "use backend='c' and a model, not the atlas")
     dt = _dtype(dtype)
     p = normalise_params(model, params)
     u = normalise_inputs(model, inputs)
@@ -288,7 +293,7 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
         result = _run_held(model, method, state, ts, p, opt, dt, backend, u)
     else:
         result = _run_single(model, method, state, ts, p, opt, dt, backend, u)
-    if method in ADAPTIVE:
+    if method in TOLERANCE_METHODS:
         result.rtol = opt["rtol"]
     else:
         result.step = opt["h"]
@@ -310,7 +315,7 @@ def run_options(method: str, dt: np.dtype, ts: np.ndarray, rtol=None, atol=None,
             raise SimulationInputError(f"{key} = {v!r} must be a finite number >= 0")
     if opt["atol"] is None:
         opt["atol"] = opt["rtol"] * 1e-3
-    if method in ADAPTIVE:
+    if method in TOLERANCE_METHODS:
         if not 10 * eps <= opt["rtol"] < 1:
             raise SimulationInputError(f"rtol = {opt['rtol']:g} is outside [10 eps, 1) for {dtype_key(dt)} "
                                        f"(10 eps = {10 * eps:.3g})")
@@ -351,9 +356,9 @@ def _check_size(method: str, ts: np.ndarray, state, opt: dict, dt: np.dtype) -> 
     span = float(abs(ts[-1] - ts[0])) if len(ts) > 1 else 0.0
     if not np.isfinite(span):
         raise SimulationInputError(f"the time span {ts[0]:g} to {ts[-1]:g} is not finite")
-    h = opt["h"] if method not in ADAPTIVE else opt["hmax"]
+    h = opt["h"] if method not in TOLERANCE_METHODS else opt["hmax"]
     if h and span / h > MAX_FIXED_STEPS:
-        what = "step" if method not in ADAPTIVE else "hmax"
+        what = "step" if method not in TOLERANCE_METHODS else "hmax"
         raise SimulationInputError(f"{what} = {h:g} over a span of {span:g} means {span / h:.3g} steps "
                                    f"(limit {MAX_FIXED_STEPS:.0e}): refused before any work")
 
@@ -393,7 +398,10 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> Simulatio
     if backend == "c":
         lib = integrator_library(model)
         o = lib.options(opt)
-        y, infos = lib.run(METHODS.index(method), y0[None, :], pd, tsd, o)
+        if method == TAYLOR:
+            y, infos = taylor_library(model, taylor_order(opt["rtol"])).run(y0[None, :], pd, tsd, o)
+        else:
+            y, infos = lib.run(METHODS.index(method), y0[None, :], pd, tsd, o)
         y, inf = y[0], infos[0]
         counters = {k: int(getattr(inf, k)) for k in COUNTERS}
         status, t_stop, y_stop = int(inf.status), float(inf.t), np.array(inf.y[:])

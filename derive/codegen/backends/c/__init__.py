@@ -89,7 +89,11 @@ class CBackend(Backend):
 
     def integrator_files(self, name):
         from ....integration.codegen import render_c
-        return render_c(name)
+        from ....integration.taylor_codegen import render_taylor, taylor_problem
+        files = render_c(name)
+        if taylor_problem(name) is None:      # a model with an operation no recurrence covers: none
+            files.update(render_taylor(name))
+        return files
 
     def loop_files(self, name):
         from ....integration.throughput import render_loops
