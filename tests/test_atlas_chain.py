@@ -155,3 +155,34 @@ def test_a_user_atlas_c_is_clean_under_werror(atlas, cc, tmp_path):
         assert proc.returncode == 0, (src.name, proc.stderr)
     header = (folder / f"{atlas.prefix}.h").read_text()
     assert "#define TRIPLE_SPHERICAL_ATLAS_N_STATES 12" in header and "N_PARAMS 7" in header
+
+
+def test_an_atlas_scene_for_a_user_chain_writes_every_bob_and_the_chart(tmp_path):
+    """[pendulum] atlas = true: CSV and NPZ with the chart of every row and the positions
+    and velocities of all three bobs; the plots draw three bobs."""
+    pytest.importorskip("matplotlib")
+    from derive.scene import load_scene
+    from derive.scene.outputs import write_outputs
+    from derive.scene.run import run
+    c = THROUGH_THE_POLE
+    vec = lambda k: "[" + ", ".join(f"{v:.17g}" for v in c[3 * k:3 * k + 3]) + "]"
+    cart = ", ".join(f"{n}{i + 1} = {vec(3 * (n == 'v') + i)}" for n in "xv" for i in range(3))
+    scene = tmp_path / "triple_pole.toml"
+    scene.write_text(f'title = "Triple through a pole"\n[pendulum]\nmodel = "{TRIPLE}"\natlas = true\n'
+                     f'parameters = {{ {", ".join(f"{k} = {v}" for k, v in P.items())} }}\n'
+                     f'[initial]\ncartesian = {{ {cart} }}\n[time]\nstop = 2.0\noutputs = 41\n'
+                     f'[accuracy]\nmethod = "dop853"\nrtol = 1e-10\n'
+                     f'[output]\ndirectory = "{tmp_path / "out"}"\ntrajectory = ["csv", "npz"]\nplots = ["paths", "energy"]\n')
+    s = load_scene(scene)
+    assert s.model == "triple_spherical_atlas"
+    o = run(s, show_progress=False)
+    assert o.result.ok and len(set(o.result.chart)) > 1      # chunks restart in the rule's chart
+    files = write_outputs(o)
+    header = (tmp_path / "out" / "triple_pole.csv").read_text().splitlines()[0].split(",")
+    assert header[-1] == "chart" and "x3_z" in header and "v3_x" in header and "energy" in header
+    rows = (tmp_path / "out" / "triple_pole.csv").read_text().splitlines()[1:]
+    assert len(rows) == 41 and {r.rsplit(",", 1)[1] for r in rows} == set(atlas_for(TRIPLE).charts)
+    npz = np.load(tmp_path / "out" / "triple_pole.npz")
+    assert npz["positions"].shape == (41, 3, 3) and npz["velocities"].shape == (41, 3, 3)
+    assert np.allclose(npz["positions"][0].ravel(), c[:9], atol=1e-12)
+    assert any(f.endswith(".png") for f in files)

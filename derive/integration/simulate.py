@@ -221,7 +221,9 @@ def _chart_models(model: str) -> tuple[str, ...]:
         return atlas.charts
     description = load_model(model)
     family = atlas_family(description) if description.dimension == 3 else None
-    return family.charts if family is not None else ()
+    if family is not None:
+        return family.charts
+    return (model,) if model_info(model).nguards > 0 else ()
 
 
 def normalise_y0(model: str, y0, p: np.ndarray) -> tuple[np.ndarray, str | None, np.ndarray | None]:

@@ -179,6 +179,8 @@ def chain_atlas(model: Model) -> Atlas:
 def atlas_for(name: str | Model) -> Atlas:
     """The atlas that runs model `name` across its charts' singularities: the catalogue
     atlas whose standard chart it is, else the atlas of its chain."""
+    if isinstance(name, str) and find_atlas(name) is not None:
+        return find_atlas(name)
     model = load_model(name) if isinstance(name, str) else name
     for atlas in atlases().values():
         if atlas.charts[0] == model.name:
@@ -199,3 +201,9 @@ def atlas_family(model: Model) -> Atlas | None:
 
 # The one atlas of the catalogue, by the names the runtime uses
 ATLAS = "spherical"
+
+
+def standard_member(name: str) -> str:
+    """The model a run name stands for: an atlas's standard chart, else the name itself."""
+    atlas = find_atlas(name)
+    return atlas.charts[0] if atlas is not None else name
