@@ -196,7 +196,7 @@ def _atlas_state(state: dict, atlas: str = ATLAS, rest: bool = False) -> dict:
             values = {n: _number(full[n], f"initial.state.{n}") for n in names}
             return {"chart": chart_model, **values}
     raise SceneError(f"'initial.state': names {', '.join(sorted(state))} are not the state of "
-                     f"one chart of '{atlas}' (e.g. {', '.join(load_model(standard_member(atlas)).state_names)})")
+                     f"one spherical chart of '{atlas}' (e.g. {', '.join(load_model(standard_member(atlas)).state_names)})")
 
 
 def _parse_cartesian(value, model: str) -> list[float]:
