@@ -35,7 +35,7 @@ def lz_and_energy(r, p=P):
     m1, m2, l1, l2, g = p
     out = []
     for y, ch in zip(r.y, r.chart):
-        c = cartesian.state_to_cartesian(ch, y.astype(float), l1, l2)
+        c = cartesian.state_to_cartesian(ch, y.astype(float), (l1, l2))
         x1, x2, v1, v2 = c[0:3], c[3:6], c[6:9], c[9:12]
         lz = m1 * (x1[0] * v1[1] - x1[1] * v1[0]) + m2 * (x2[0] * v2[1] - x2[1] * v2[0])
         out.append(lz)
@@ -69,8 +69,8 @@ def test_rule_picks_a_chart_with_every_polar_sine_at_least_one_half():
     units = [u / np.linalg.norm(u) for u in units]
     for k in range(0, len(units) - 1):
         c = np.concatenate([units[k], units[k] + units[k + 1], np.zeros(6)])
-        chart = cartesian.choose_chart(c, 1.0, 1.0)
-        worst = min(worst, min(cartesian.polar_sines(chart, c, 1.0, 1.0)))
+        chart = cartesian.choose_chart(c, (1.0, 1.0))
+        worst = min(worst, min(cartesian.polar_sines(chart, c, (1.0, 1.0))))
     assert worst >= 0.5 - 1e-12, worst
 
 
@@ -84,11 +84,11 @@ def test_rule_is_the_same_in_c_numpy_and_python():
     p = np.array(P)
     for _ in range(300):
         c = cart(rng.normal(size=3), rng.normal(size=3), rng.normal(size=3), rng.normal(size=3))
-        py = cartesian.choose_chart(c, L1, L2)
+        py = cartesian.choose_chart(c, (L1, L2))
         for k, ch in enumerate(ATLAS_CHARTS):
-            if min(cartesian.polar_sines(ch, c, L1, L2)) < 1e-3:
+            if min(cartesian.polar_sines(ch, c, (L1, L2))) < 1e-3:
                 continue
-            y = np.ascontiguousarray(cartesian.cartesian_to_state(ch, c, L1, L2))
+            y = np.ascontiguousarray(cartesian.cartesian_to_state(ch, c, (L1, L2)))
             cc = fn(k, y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
                     p.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), 0.5)
             assert ATLAS_CHARTS[cc] == py == ATLAS_CHARTS[mod.choose_chart(k, y, p)]
@@ -100,10 +100,10 @@ def test_cartesian_conversions_round_trip():
     for _ in range(50):
         c = cart(rng.normal(size=3), rng.normal(size=3), rng.normal(size=3), rng.normal(size=3))
         for ch in ATLAS_CHARTS:
-            if min(cartesian.polar_sines(ch, c, L1, L2)) < 1e-2:
+            if min(cartesian.polar_sines(ch, c, (L1, L2))) < 1e-2:
                 continue
-            y = cartesian.cartesian_to_state(ch, c, L1, L2)
-            assert np.allclose(cartesian.state_to_cartesian(ch, y, L1, L2), c, atol=1e-12)
+            y = cartesian.cartesian_to_state(ch, c, (L1, L2))
+            assert np.allclose(cartesian.state_to_cartesian(ch, y, (L1, L2)), c, atol=1e-12)
             r = simulate(ch, y, [0.0], P)        # the generated positions agree with the frames
             assert np.allclose(r.positions.reshape(6), c[:6], atol=1e-12)
 
@@ -125,12 +125,12 @@ def test_cartesian_conversions_come_from_the_chart_data():
     for _ in range(20):
         c = cart(rng.normal(size=3), rng.normal(size=3), rng.normal(size=3), rng.normal(size=3))
         for a, src in enumerate(ATLAS_CHARTS):
-            y = cartesian.cartesian_to_state(src, c, L1, L2)
+            y = cartesian.cartesian_to_state(src, c, (L1, L2))
             for b, dst in enumerate(ATLAS_CHARTS):
-                if a == b or min(cartesian.polar_sines(dst, c, L1, L2)) < 0.1:
+                if a == b or min(cartesian.polar_sines(dst, c, (L1, L2))) < 0.1:
                     continue
                 st, k = mod.convert(a, b, y)
-                assert st == 0 and np.allclose(k, cartesian.cartesian_to_state(dst, c, L1, L2),
+                assert st == 0 and np.allclose(k, cartesian.cartesian_to_state(dst, c, (L1, L2)),
                                                rtol=0, atol=1e-12), (src, dst)
 
 
@@ -146,14 +146,14 @@ def test_cartesian_conversions_exactly_at_a_pole(chart):
     axis = np.array([float(c == load_chart(lc.name).singular_axis) for c in "xyz"])
     for polar in (0.0, np.pi):
         y = np.array([polar, 0.0, 1.0, 0.4, 0.7, 0.0, 0.2, -0.3])
-        c = cartesian.state_to_cartesian(chart, y, L1, L2)
+        c = cartesian.state_to_cartesian(chart, y, (L1, L2))
         assert np.all(np.isfinite(c)) and min(np.max(np.abs(c[0:3] - s * L1 * axis)) for s in (1, -1)) < 1e-15
-        assert cartesian.polar_sines(chart, c, L1, L2)[0] < 1e-15
-        back = cartesian.cartesian_to_state(chart, c, L1, L2)
+        assert cartesian.polar_sines(chart, c, (L1, L2))[0] < 1e-15
+        back = cartesian.cartesian_to_state(chart, c, (L1, L2))
         assert np.all(np.isfinite(back)) and abs(back[0] - polar) < 1e-15 and back[1] == 0.0
         assert abs(back[4] - 0.7) < 1e-15 and back[5] == 0.0
         assert np.allclose(back[[2, 3, 6, 7]], y[[2, 3, 6, 7]], rtol=0, atol=1e-12)
-        assert np.allclose(cartesian.state_to_cartesian(chart, back, L1, L2), c, rtol=0, atol=1e-15)
+        assert np.allclose(cartesian.state_to_cartesian(chart, back, (L1, L2)), c, rtol=0, atol=1e-15)
 
 
 @pytest.mark.parametrize("start", sorted(STARTS))
@@ -188,7 +188,7 @@ def test_switches_happen_and_do_not_chatter(references):
         # every output is in a chart where all polar sines are >= the switch threshold or
         # at worst the hard threshold
         for y, ch in zip(r.y, r.chart):
-            s = cartesian.polar_sines(ch, cartesian.state_to_cartesian(ch, y, L1, L2), L1, L2)
+            s = cartesian.polar_sines(ch, cartesian.state_to_cartesian(ch, y, (L1, L2)), (L1, L2))
             assert min(s) >= 0.1
     assert total >= 3, total
 
@@ -242,15 +242,15 @@ def test_single_chart_stops_at_its_singularity(backend):
     """spherical_std heading for a pole: stops with 'chart singular', says where and in which
     state; from exactly at the pole it refuses at t = 0; the atlas goes through both."""
     c0 = STARTS["through_bottom"]
-    r0 = simulate("spherical_std", cartesian.cartesian_to_state("spherical_std", c0, L1, L2),
+    r0 = simulate("spherical_std", cartesian.cartesian_to_state("spherical_std", c0, (L1, L2)),
                   [0.0, 1.0], P, backend=backend)
     assert r0.status == 5 and r0.t_stop == 0.0 and np.isnan(r0.y[1]).all()
     c = STARTS["over_the_top"]
-    y0 = cartesian.cartesian_to_state("spherical_std", c, L1, L2)
+    y0 = cartesian.cartesian_to_state("spherical_std", c, (L1, L2))
     r = simulate("spherical_std", y0, np.linspace(0, 5, 51), P, method="dop853", backend=backend)
     assert r.status == 5 and r.status_name.startswith("chart singular"), r.message
     assert 0 < r.t_stop < 5 and "spherical_std" in r.message
-    s = cartesian.polar_sines("spherical_std", cartesian.state_to_cartesian("spherical_std", r.y_stop, L1, L2), L1, L2)
+    s = cartesian.polar_sines("spherical_std", cartesian.state_to_cartesian("spherical_std", r.y_stop, (L1, L2)), (L1, L2))
     assert 0.1 <= min(s) < 0.2, s
     done = r.t <= r.t_stop
     assert not np.isnan(r.y[done]).any() and np.isnan(r.y[~done]).all()
@@ -268,10 +268,10 @@ def test_atlas_starts_from_any_chart_state_and_from_standard_states():
     t = np.linspace(0, 1, 11)
     base = simulate("spherical", {"cartesian": c}, t, P, rtol=1e-12, atol=1e-14)
     for ch in ATLAS_CHARTS:
-        y = cartesian.cartesian_to_state(ch, c, L1, L2)
+        y = cartesian.cartesian_to_state(ch, c, (L1, L2))
         r = simulate("spherical", {"chart": ch, "state": y}, t, P, rtol=1e-12, atol=1e-14)
         assert np.max(np.abs(r.positions - base.positions)) < 1e-10
-    y = cartesian.cartesian_to_state("spherical_std", c, L1, L2)
+    y = cartesian.cartesian_to_state("spherical_std", c, (L1, L2))
     r = simulate("spherical", y, t, P, rtol=1e-12, atol=1e-14)
     assert np.max(np.abs(r.positions - base.positions)) < 1e-10
 

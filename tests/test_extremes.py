@@ -57,7 +57,7 @@ def test_link_exactly_at_a_pole(case):
     assert err < 1e-8, (case, err)
     # a standard-chart state exactly at the pole (theta1 = 0 or pi) is accepted by the atlas
     y_std = np.array([0.0 if case != "standing_up" else np.pi, 0.3, 1.0, 0.2, 0.7, 0.0, 0.1, 0.5])
-    c2 = cartesian.state_to_cartesian("spherical_std", y_std, 1.0, 1.0)
+    c2 = cartesian.state_to_cartesian("spherical_std", y_std, (1.0, 1.0))
     r2 = simulate("spherical", y_std, r.t, p, **TIGHT)
     r3 = simulate("spherical", {"cartesian": c2}, r.t, p, **TIGHT)
     assert r2.ok and np.max(np.abs(r2.positions - r3.positions)) < 1e-10
@@ -74,7 +74,7 @@ def test_high_spin_next_to_a_pole():
     positions within 1e-8 of the reference over t = 1, energy within 1e-9 (relative)."""
     p = [1.0, 1.0, 1.0, 1.0, 9.81]
     y_std = np.array([1e-3, 0.0, 0.4, 1.0, 0.0, 1e3, 0.0, 2.0])
-    c = cartesian.state_to_cartesian("spherical_std", y_std, 1.0, 1.0)
+    c = cartesian.state_to_cartesian("spherical_std", y_std, (1.0, 1.0))
     r, err, _ = _against_reference(c, p, 1.0, n=101)
     assert err < 1e-8, err
     assert np.max(np.abs(r.energy - r.energy[0])) < 1e-9 * max(1.0, abs(r.energy[0]))

@@ -337,9 +337,12 @@ def load(model: str, generated: Path | None = None, cc: str | None = None,
 @lru_cache(maxsize=None)
 def numpy_module(name: str):
     """The generated NumPy module `name` (a model, '<model>_integrate', '<model>_throughput'
-    or 'spherical_atlas'), imported from the cache's rendering of its model."""
-    from .sources import ATLAS, numpy_source
-    model = ATLAS if name == "spherical_atlas" else name.removesuffix("_integrate").removesuffix("_throughput")
+    or an atlas's prefix such as 'spherical_atlas'), imported from the cache's rendering of
+    its model."""
+    from ..model.atlas import atlases, find_atlas
+    from .sources import numpy_source
+    atlas = find_atlas(name) or next((a for a in atlases().values() if a.prefix == name), None)
+    model = atlas.name if atlas is not None else name.removesuffix("_integrate").removesuffix("_throughput")
     path = numpy_source(model, f"{name}.py")
     if not path.is_file():
         raise SimulationInputError(f"no generated NumPy module {path.name} for model '{model}'")

@@ -23,6 +23,7 @@ from sympy.core.function import AppliedUndef
 
 from ..errors import SpecError
 from ..model import load_model, model_names
+from ..model.atlas import atlas_family
 from . import charts, solve
 
 
@@ -361,9 +362,14 @@ def _normalise(k: Kernel) -> Kernel:
 
 
 def conversion_targets(model) -> list[str]:
-    """Other models with the same link structure in different spherical charts."""
+    """The other members of the model's chart atlas (catalogue, or its chain's: see
+    derive/model/atlas.py); for a spherical model in no atlas, the catalogue models
+    with the same link structure in different spherical charts."""
     if not all(charts.is_spherical(link.chart) for link in model.links):
         return []
+    family = atlas_family(model)
+    if family is not None:
+        return sorted(m for m in family.charts if m != model.name)
     out = []
     for name in model_names():
         if name == model.name:

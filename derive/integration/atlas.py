@@ -1,13 +1,16 @@
-"""The chart atlas of the double spherical pendulum (seed 000 section 5), from Python.
+"""Chart atlases (seed 000 section 5), from Python: the catalogue's ("spherical", the
+double spherical pendulum) and the atlas of any chain of spherical links
+(derive/model/atlas.py; key "<model>_atlas").
 
-Charts: spherical_std (theta, phi), spherical_alt (vartheta, varphi), spherical_rot
-(the second chart with x and y swapped).  Thresholds (the same in C and NumPy):
+Charts: standard (theta, phi), second (vartheta, varphi), rotated (the second chart
+with x and y swapped), one member model each.  Thresholds (the same in C and NumPy):
 
 * SINE_SWITCH = 0.3: after each accepted step (before each fixed step) the run
   switches when a polar sine of its chart is below this;
 * SINE_RULE = 0.5: the rule of section 5.1 ("not small" is >= 0.5) picks the
-  chart; every polar sine of the chart it picks is >= 0.5 (checked in
-  tests/test_atlas.py), so hysteresis holds: a fresh chart is never left at once;
+  chart; for one or two links every polar sine of the chart it picks is >= 0.5
+  (checked in tests/test_atlas.py), so hysteresis holds: a fresh chart is never left
+  at once; for three links or more see cartesian.choose_chart (the generalisation);
 * SINE_MIN = 0.1: no kernel is ever evaluated where a polar sine of its chart is
   below this (adaptive steps shrink, fixed steps switch and redo, or stop with
   status 'chart singular').
@@ -23,10 +26,13 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..codegen.sources import ATLAS, c_source
+from ..codegen.sources import c_source
+from ..model import load_model
+from ..model.atlas import ATLAS, load_atlas
 from . import contract
 from .build import CTYPES, SUFFIX, build_fastest, dtype_key, info_struct, options_struct
 from .contract import ATLAS_CHARTS, COUNTERS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH, STATUS_NAMES
+from .codegen import model_info
 from .observables import _observables, _velocities, numpy_module
 from .result import SimulationResult
 
@@ -34,20 +40,30 @@ __all__ = ["ATLAS_CHARTS", "SINE_MIN", "SINE_RULE", "SINE_SWITCH", "atlas_librar
 
 
 class AtlasLibrary:
-    def __init__(self):
-        sources = [c_source(ATLAS, "spherical_atlas.c")]       # the charts' files are beside it
-        for ch in ATLAS_CHARTS:
-            sources += [c_source(ATLAS, f"{ch}_integrate.c"), c_source(ATLAS, f"{ch}.c")]
-        self.path, self.flags = build_fastest("spherical_atlas", sources)
+    """The compiled atlas `name` (its driver and its members' integrators and kernels)."""
+
+    def __init__(self, name: str = ATLAS):
+        self.atlas = load_atlas(name)
+        P = self.atlas.prefix
+        info = model_info(self.atlas.charts[0])
+        self.n, self.n_params = info.n, info.n_params
+        sources = [c_source(name, f"{P}.c")]       # the charts' files are beside it
+        for ch in self.atlas.charts:
+            sources += [c_source(name, f"{ch}_integrate.c"), c_source(name, f"{ch}.c")]
+        self.path, self.flags = build_fastest(P, sources)
         self.lib = ctypes.CDLL(str(self.path))
         self.Options = options_struct(contract.ATLAS_OPTIONS)
-        self.Info = info_struct(8, contract.ATLAS_INFO)
-        self.lib.spherical_atlas_defaults.argtypes = [ctypes.POINTER(self.Options)]
+        self.Info = info_struct(self.n, contract.ATLAS_INFO)
+        self.defaults_fn = self.lib[f"{P}_defaults"]
+        self.defaults_fn.argtypes = [ctypes.POINTER(self.Options)]
+        self.choose_chart = {dt: self.lib[f"{P}_choose_chart{suffix}"] for dt, suffix in SUFFIX.items()}
         self.fns = {}
         for dt, suffix in SUFFIX.items():
             ptr = ctypes.POINTER(CTYPES[dt])
             ip = ctypes.POINTER(ctypes.c_int)
-            fn = self.lib[f"spherical_atlas_integrate_batch{suffix}"]
+            self.choose_chart[dt].restype = ctypes.c_int
+            self.choose_chart[dt].argtypes = [ctypes.c_int, ptr, ptr, CTYPES[dt]]
+            fn = self.lib[f"{P}_integrate_batch{suffix}"]
             fn.restype = ctypes.c_long
             fn.argtypes = [ctypes.c_long, ctypes.c_int, ip, ptr, ctypes.c_long, ptr, ctypes.c_long,
                            ctypes.c_long, ptr, ptr, ip, ctypes.POINTER(self.Options),
@@ -56,46 +72,48 @@ class AtlasLibrary:
 
     def defaults(self):
         o = self.Options()
-        self.lib.spherical_atlas_defaults(ctypes.byref(o))
+        self.defaults_fn(ctypes.byref(o))
         return o
 
     def run(self, method: int, charts0, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt):
-        """y0 (B, 8) in charts0 (B,) (-1: standard chart, rule picks) -> y, charts, infos."""
+        """y0 (B, n) in charts0 (B,) (-1: standard chart, rule picks) -> y, charts, infos."""
         dt = dtype_key(y0.dtype)
         ptr = ctypes.POINTER(CTYPES[dt])
         y0 = np.ascontiguousarray(y0)
         B = y0.shape[0]
         c0 = np.ascontiguousarray(np.broadcast_to(np.asarray(charts0, np.intc), (B,)))
         p = np.ascontiguousarray(p, dtype=y0.dtype)
-        pstride = 0 if p.ndim == 1 else 5
+        pstride = 0 if p.ndim == 1 else self.n_params
         t = np.ascontiguousarray(t, dtype=y0.dtype)
-        out = np.empty((B, len(t), 8), y0.dtype)
+        out = np.empty((B, len(t), self.n), y0.dtype)
         charts = np.empty((B, len(t)), np.intc)
         infos = (self.Info * B)()
         ip = ctypes.POINTER(ctypes.c_int)
-        self.fns[dt](B, method, c0.ctypes.data_as(ip), y0.ctypes.data_as(ptr), 8,
+        self.fns[dt](B, method, c0.ctypes.data_as(ip), y0.ctypes.data_as(ptr), self.n,
                      p.ctypes.data_as(ptr), pstride, len(t), t.ctypes.data_as(ptr),
                      out.ctypes.data_as(ptr), charts.ctypes.data_as(ip), ctypes.byref(opt), infos)
         return out, charts, infos
 
 
 @lru_cache(maxsize=None)
-def atlas_library() -> AtlasLibrary:
-    return AtlasLibrary()
+def atlas_library(name: str = ATLAS) -> AtlasLibrary:
+    return AtlasLibrary(name)
 
 
 @lru_cache(maxsize=None)
-def numpy_atlas():
-    return numpy_module("spherical_atlas")
+def numpy_atlas(name: str = ATLAS):
+    return numpy_module(load_atlas(name).prefix)
 
 
-def observables(y: np.ndarray, charts: np.ndarray, p: np.ndarray, backend: str, dtype) -> tuple:
+def observables(charts_of: tuple[str, ...], y: np.ndarray, charts: np.ndarray, p: np.ndarray,
+                backend: str, dtype) -> tuple:
     """Energy, positions and velocities row by row, each row in its own chart."""
     n = len(y)
+    first = load_model(charts_of[0])
+    shape = (n, first.bodies, first.dimension)
     E = np.full(n, np.nan, dtype)
-    pos = np.full((n, 2, 3), np.nan, dtype)
-    vel = np.full((n, 2, 3), np.nan, dtype)
-    for k, ch in enumerate(ATLAS_CHARTS):
+    pos, vel = np.full(shape, np.nan, dtype), np.full(shape, np.nan, dtype)
+    for k, ch in enumerate(charts_of):
         rows = np.flatnonzero(charts == k)
         if rows.size:
             E[rows], pos[rows] = _observables(ch, y[rows], p, backend, dtype)
@@ -103,13 +121,15 @@ def observables(y: np.ndarray, charts: np.ndarray, p: np.ndarray, backend: str, 
     return E, pos, vel
 
 
-def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str):
+def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str, name: str = ATLAS):
+    """One run of atlas `name` from y0, a state of its member `chart`."""
+    charts_of = load_atlas(name).charts
     y0 = np.asarray(y0, dt)
     pd = np.asarray(p, dt)
     tsd = np.asarray(ts, dt)
-    chart0 = ATLAS_CHARTS.index(chart)
+    chart0 = charts_of.index(chart)
     if backend == "c":
-        lib = atlas_library()
+        lib = atlas_library(name)
         o = lib.defaults()
         for k, v in opt.items():
             setattr(o, k, v)
@@ -119,17 +139,17 @@ def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str):
         status, t_stop, y_stop = int(inf.status), float(inf.t), np.array(inf.y[:])
         switches, chart_stop = int(inf.nswitches), int(inf.chart)
     else:
-        mod = numpy_atlas()
+        mod = numpy_atlas(name)
         status, y, charts, inf = mod.integrate(method, chart0, y0, pd, tsd, dt, **opt)
         counters = {k: int(inf[k]) for k in COUNTERS}
         t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
         switches, chart_stop = int(inf["nswitches"]), int(inf["chart"])
     ok_rows = charts >= 0
-    E, pos, vel = observables(y, np.where(ok_rows, charts, -1), pd, backend, dt)
-    names = np.array([ATLAS_CHARTS[c] if c >= 0 else None for c in charts], dtype=object)
+    E, pos, vel = observables(charts_of, y, np.where(ok_rows, charts, -1), pd, backend, dt)
+    names = np.array([charts_of[c] if c >= 0 else None for c in charts], dtype=object)
     return SimulationResult(
-        model="spherical", method=method, backend=backend, dtype=dtype_key(dt), t=np.asarray(ts, dt), y=y,
+        model=name, method=method, backend=backend, dtype=dtype_key(dt), t=np.asarray(ts, dt), y=y,
         energy=E, positions=pos, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
         y_stop=y_stop, chart=names, switches=switches,
-        chart_stop=ATLAS_CHARTS[chart_stop] if 0 <= chart_stop < 3 else None, params=pd,
+        chart_stop=charts_of[chart_stop] if 0 <= chart_stop < len(charts_of) else None, params=pd,
         velocities=vel, **counters)

@@ -20,9 +20,11 @@ on its chart's singular axis: the azimuth is atan2(0, 0) = 0 and its rate is
 undefined; the atlas never converts to a chart there, and `state_to_cartesian` is
 exact at the pole since it only evaluates e and de/dq).
 
-The chart rule of seed 000 section 5.1 is here too (`choose_chart`); it reads the
-standard chart's polar sine and azimuth from the data, and which atlas model uses the
-standard, second and rotated chart from the model descriptions.
+The chart rule of seed 000 section 5.1 is here too (`choose_chart`, for N links); it
+reads the standard chart's polar sine and azimuth from the data, and which member of an
+atlas uses the standard, second and rotated chart from the model descriptions.  Cartesian
+states are (x_1 .. x_N, v_1 .. v_N), 2 N d numbers; the lengths come from the description
+(`link_lengths`).
 """
 from __future__ import annotations
 
@@ -34,9 +36,12 @@ import numpy as np
 import sympy as sp
 
 from ..model import load_chart, load_model
+from ..model.atlas import ATLAS, load_atlas
+from ..model.description import forget_on_model_change
+from ..model.expressions import parse_expression
 from .contract import ATLAS_CHARTS
 
-CHARTS = ATLAS_CHARTS
+CHARTS = ATLAS_CHARTS             # the catalogue atlas's members
 RULE_CHARTS = ("standard", "second", "rotated")   # the charts seed 000 section 5.1 names
 _XYZ = "xyz"
 
@@ -133,6 +138,7 @@ def link_chart(name: str) -> LinkChart:
                      tuple(sp.lambdify(q + [S] + list(V), r, "math") for r in rates), singular)
 
 
+@forget_on_model_change
 @lru_cache(maxsize=None)
 def model_charts(model: str) -> tuple[LinkChart, ...]:
     """The chart of each link of a model (a model of derive/model/catalog)."""
@@ -162,21 +168,43 @@ def chart_to_unit(chart: str, *coords_and_rates, link: int = 0) -> tuple[np.ndar
     return c.to_unit(coords_and_rates[:c.n], coords_and_rates[c.n:])
 
 
-def _units(c12, lengths, d: int) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Unit vector and rate of each link from (x_1 .. x_n, v_1 .. v_n)."""
-    c12 = np.asarray(c12, float)
+def _units(c, lengths, d: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Unit vector and rate of each link from (x_1 .. x_N, v_1 .. v_N)."""
+    c = np.asarray(c, float)
     n = len(lengths)
-    x = [np.zeros(d)] + [c12[i * d:(i + 1) * d] for i in range(n)]
-    v = [np.zeros(d)] + [c12[(n + i) * d:(n + i + 1) * d] for i in range(n)]
+    x = [np.zeros(d)] + [c[i * d:(i + 1) * d] for i in range(n)]
+    v = [np.zeros(d)] + [c[(n + i) * d:(n + i + 1) * d] for i in range(n)]
     return [((x[i + 1] - x[i]) / lengths[i], (v[i + 1] - v[i]) / lengths[i]) for i in range(n)]
 
 
-def state_to_cartesian(chart: str, y, l1: float, l2: float) -> np.ndarray:
-    """(x1, x2, v1, v2) of a chart state (coordinates, then rates), exact at the poles too."""
+def link_lengths(model: str, p) -> tuple[float, ...]:
+    """Each link's length for the parameter values p (in the model's order): from the
+    description (a parameter, a number or an expression of parameters)."""
+    m = load_model(model)
+    values = dict(zip(m.parameters, (float(v) for v in np.asarray(p, float).reshape(-1))))
+    return tuple(float(f(*[values[n] for n in names])) for names, f in _length_functions(model))
+
+
+@forget_on_model_change
+@lru_cache(maxsize=None)
+def _length_functions(model: str) -> tuple[tuple[tuple[str, ...], Callable], ...]:
+    m = load_model(model)
+    symbols = {n: sp.Symbol(n) for n in m.parameters}
+    out = []
+    for i, link in enumerate(m.links, 1):
+        expr = parse_expression(link.length, symbols, f"model '{model}': link {i} length")
+        names = tuple(sorted(s.name for s in expr.free_symbols))
+        out.append((names, sp.lambdify([symbols[n] for n in names], expr, "math")))
+    return tuple(out)
+
+
+def state_to_cartesian(chart: str, y, lengths) -> np.ndarray:
+    """(x_1 .. x_N, v_1 .. v_N) of a chart state (coordinates, then rates), exact at the
+    poles too; `lengths`: one per link."""
     y = np.asarray(y, float)
     pos, vel = [], []
     x, v = 0.0, 0.0
-    for (c, sq, sr), length in zip(_links(chart), (l1, l2)):
+    for (c, sq, sr), length in zip(_links(chart), lengths, strict=True):
         u, ud = c.to_unit(y[sq], y[sr])
         x, v = x + length * u, v + length * ud
         pos.append(x)
@@ -184,58 +212,80 @@ def state_to_cartesian(chart: str, y, l1: float, l2: float) -> np.ndarray:
     return np.concatenate(pos + vel)
 
 
-def cartesian_to_state(chart: str, c12, l1: float, l2: float) -> np.ndarray:
-    """The chart state of (x1, x2, v1, v2) (robust inverse; rates by (5.11)-(5.14))."""
+def cartesian_to_state(chart: str, c, lengths) -> np.ndarray:
+    """The chart state of (x_1 .. x_N, v_1 .. v_N) (robust inverse; rates by (5.11)-(5.14))."""
     links = list(_links(chart))
     d = links[0][0].dimension
-    y = np.empty(2 * sum(c.n for c, _, _ in links))
-    for (c, sq, sr), (u, ud) in zip(links, _units(c12, (l1, l2), d)):
-        y[sq], y[sr] = c.from_unit(u, ud)
+    y = np.empty(2 * sum(lc.n for lc, _, _ in links))
+    for (lc, sq, sr), (u, ud) in zip(links, _units(c, lengths, d), strict=True):
+        y[sq], y[sr] = lc.from_unit(u, ud)
     return y
 
 
-def polar_sines(chart: str, c12, l1: float, l2: float) -> list[float]:
+def polar_sines(chart: str, c, lengths) -> list[float]:
     """Each link's polar sine in the chart (its distance from the chart's singular axis)."""
     links = model_charts(chart)
-    return [c.polar_sine(u) for c, (u, _) in zip(links, _units(c12, (l1, l2), links[0].dimension))]
+    return [lc.polar_sine(u) for lc, (u, _) in zip(links, _units(c, lengths, links[0].dimension), strict=True)]
 
 
 @lru_cache(maxsize=None)
-def rule_models() -> dict[str, str]:
-    """Which atlas model uses each chart the rule names (from the model descriptions)."""
+def rule_models(atlas: str = ATLAS) -> dict[str, str]:
+    """Which member of `atlas` uses each chart the rule names (from the model descriptions)."""
     out = {}
-    for m in ATLAS_CHARTS:
+    for m in load_atlas(atlas).charts:
         names = {link.chart.name for link in load_model(m).links}
         if len(names) == 1:
             out[names.pop()] = m
     missing = [c for c in RULE_CHARTS if c not in out]
     if missing:
-        raise ValueError(f"no atlas model uses chart '{missing[0]}' on every link")
+        raise ValueError(f"no member of atlas '{atlas}' uses chart '{missing[0]}' on every link")
     return out
 
 
-def std_sines(c12, l1: float, l2: float) -> tuple[list[float], list[float]]:
+def std_sines(c, lengths) -> tuple[list[float], list[float]]:
     """|sin theta_i| and |sin phi_i| of the standard chart (its polar sine and the sine of
     its azimuth, from the data: `rule_sines`), from a Cartesian state; |sin phi_i| = 0 on
     the axis."""
     f_st, f_az = _rule_functions()
     st, sp_ = [], []
-    for u, _ in _units(c12, (l1, l2), len(rule_sines()[0])):
+    for u, _ in _units(c, lengths, len(rule_sines()[0])):
         s = float(f_st(*u))
         st.append(s)
         sp_.append(float(f_az(*u)) if s > 0 else 0.0)
     return st, sp_
 
 
-def choose_chart(c12, l1: float, l2: float, small: float = 0.5) -> str:
-    """Seed 000 section 5.1: the standard chart when both |sin theta_i| >= small; else
-    the rotated chart when a link with |sin theta_i| >= small has |sin phi_i| < small;
-    else the second chart.  Every polar sine of the chosen chart is then >= 0.5.
-    Returns the atlas model using that chart."""
-    models = rule_models()
-    st, sp_ = std_sines(c12, l1, l2)
+def rule_chart(st, sp_, small: float) -> str:
+    """Seed 000 section 5.1 on the standard chart's sines of every link: 'standard' when
+    every |sin theta_i| >= small; else 'rotated' when a link with |sin theta_i| >= small has
+    |sin phi_i| < small; else 'second'."""
     if all(s >= small for s in st):
-        return models["standard"]
+        return "standard"
     if any(st[i] >= small and sp_[i] < small for i in range(len(st))):
-        return models["rotated"]
-    return models["second"]
+        return "rotated"
+    return "second"
+
+
+def choose_chart(c, lengths, atlas: str = ATLAS, small: float | None = None) -> str:
+    """The chart of `atlas` for the Cartesian state c (the member model using it).
+
+    Seed 000 section 5.1, generalised to N links: `rule_chart` on the standard chart's
+    sines of every link (small = the atlas's sine_rule, 0.5).  For N <= 2 every polar sine
+    of the chart it picks is >= small (the hysteresis the switching relies on: a link near
+    the z axis is far from the x and y axes, and a link with |sin theta| >= 0.5 is far
+    from the axis the rule's chart is singular on).  For N >= 3 the rule cannot guarantee
+    that, nor can any choice among the three charts: links along x, y and z put every
+    chart's singular axis under one link.  So, the generalisation: for N >= 3, when the
+    rule's chart has a polar sine below small, the chart whose smallest polar sine is
+    largest (the first of standard, second, rotated on a tie) is used instead; the
+    seed's remark after 5.1 (more charts, rotated by an angle alpha) is the way beyond.
+    """
+    a = load_atlas(atlas)
+    small = float(a.sine_rule) if small is None else small
+    pick = rule_chart(*std_sines(c, lengths), small)
+    if len(lengths) > 2:
+        units = [u for u, _ in _units(c, lengths, 3)]
+        smallest = {ch: min(link_chart(ch).polar_sine(u) for u in units) for ch in RULE_CHARTS}
+        if smallest[pick] < small:
+            pick = max(RULE_CHARTS, key=smallest.__getitem__)
+    return rule_models(atlas)[pick]

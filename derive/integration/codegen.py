@@ -18,7 +18,9 @@ from ..derivation import derive
 from ..model.description import forget_on_model_change
 from . import contract
 from . import tableau as tb
-from .cartesian import rule_models, rule_sines
+from ..model import load_chart, load_model
+from ..model.atlas import ATLAS, load_atlas
+from .cartesian import RULE_CHARTS, _sines_of_unit, rule_models, rule_sines
 from .contract import (ADAPTIVE, ATLAS_CHARTS, IMPLICIT, METHODS,  # noqa: F401  (re-exported)
                        SINE_MIN, SINE_RULE, SINE_SWITCH)
 
@@ -252,32 +254,43 @@ def render_c(name: str) -> dict[str, str]:
 
 
 @lru_cache(maxsize=None)
-def atlas_rule() -> dict:
+def atlas_rule(atlas: str = ATLAS) -> dict:
     """The rule of seed 000 section 5.1 as the atlas templates need it, from the chart data:
-    which atlas model uses the standard, second and rotated chart, and the standard chart's
-    |sin theta| and |sin phi| of a link's unit vector u printed per C type and for NumPy."""
+    which member of `atlas` uses the standard, second and rotated chart, and the standard
+    chart's |sin theta| and |sin phi| of a link direction u printed per C type and for
+    NumPy; `sines`: the polar sine of u in each of the three charts (for N >= 3 links)."""
     X, st, az = rule_sines()
+    sines = [_sines_of_unit(load_chart(c), X)[0] for c in RULE_CHARTS]
     c_slots = {x: f"u[i][{k}]" for k, x in enumerate(X)}
     np_slots = {x: f"ui[{k}]" for k, x in enumerate(X)}
-    out = dict(rule_models())
+    out = dict(rule_models(atlas))
     out["c"] = {ctype: {"st": CPrinter(c_slots, ctype).doprint_checked(st),
-                        "sp": CPrinter(c_slots, ctype).doprint_checked(az)}
+                        "sp": CPrinter(c_slots, ctype).doprint_checked(az),
+                        "sines": [CPrinter(c_slots, ctype).doprint_checked(e) for e in sines]}
                 for ctype, _, _ in _C_VARIANTS}
     out["numpy"] = {"st": PyNumPyPrinter(np_slots).doprint_checked(st),
-                    "sp": PyNumPyPrinter(np_slots).doprint_checked(az)}
+                    "sp": PyNumPyPrinter(np_slots).doprint_checked(az),
+                    "sines": [PyNumPyPrinter(np_slots).doprint_checked(e) for e in sines]}
     return out
 
 
-def render_atlas() -> dict[str, str]:
-    ctx = {"charts": list(ATLAS_CHARTS), "sine_min": SINE_MIN, "sine_switch": SINE_SWITCH,
-           "sine_rule": SINE_RULE, "variants": c_variants(), "rule": atlas_rule(),
-           "contract": contract_c("SPHERICAL_ATLAS", "SPHERICAL_ATLAS_INTEGRATE", "8", "SPHERICAL_ATLAS_SINE_MIN"),
+def render_atlas(name: str = ATLAS) -> dict[str, str]:
+    """The atlas's own files (its members' are their models'): <prefix>.h, .c and .py.
+    Sizes come from the standard member's description."""
+    atlas = load_atlas(name)
+    P = atlas.prefix
+    info = model_info(atlas.charts[0])
+    ctx = {"P": P, "M": P.upper(), "title": atlas.title, "charts": list(atlas.charts),
+           "n_links": len(load_model(atlas.charts[0]).links), "n_states": info.n, "n_params": info.n_params,
+           "sine_min": atlas.sine_min, "sine_switch": atlas.sine_switch,
+           "sine_rule": atlas.sine_rule, "variants": c_variants(), "rule": atlas_rule(name),
+           "contract": contract_c(P.upper(), f"{P.upper()}_INTEGRATE", str(info.n), f"{P.upper()}_SINE_MIN"),
            "contract_py": contract_numpy()}
     files = {
-        "c/spherical_atlas.h": render("c/atlas.h.jinja", dict(ctx, template="templates/c/atlas.h.jinja")),
-        "c/spherical_atlas.c": render("c/atlas.c.jinja", dict(ctx, template="templates/c/atlas.c.jinja")),
+        f"c/{P}.h": render("c/atlas.h.jinja", dict(ctx, template="templates/c/atlas.h.jinja")),
+        f"c/{P}.c": render("c/atlas.c.jinja", dict(ctx, template="templates/c/atlas.c.jinja")),
     }
-    files["numpy/spherical_atlas.py"] = render(
+    files[f"numpy/{P}.py"] = render(
         "numpy/atlas.py.jinja", dict(ctx, template="templates/numpy/atlas.py.jinja", explicit=None))
     return files
 

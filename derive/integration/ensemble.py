@@ -28,7 +28,7 @@ from ..errors import SimulationInputError
 from .build import integrator_library
 from .codegen import model_info
 from .contract import ADAPTIVE, COUNTERS, METHODS, STATUS_NAMES
-from .simulate import (ATLAS, _check_size, _dtype, _finite_array, check_parameter_values, normalise_t,
+from .simulate import (_atlas, _check_size, _dtype, _finite_array, check_parameter_values, normalise_t,
                        resolve_model, run_options)
 from ..model import load_model
 
@@ -101,9 +101,9 @@ def ensemble(model, y0, t, params, method: str = "dop853", rtol: float | None = 
     vector for all or one row per trajectory, or a mapping by name of scalars or (B,)
     arrays; threads: how many blocks run at once (None: one per core)."""
     model = resolve_model(model)
-    if model == ATLAS:
+    if _atlas(model) is not None:
         raise SimulationInputError("ensemble runs single-chart models; the chart atlas "
-                                   f"'{ATLAS}' runs through derive.simulate")
+                                   f"'{model}' runs through derive.simulate")
     if not isinstance(method, str) or method not in METHODS:
         raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(METHODS)})")
     info = model_info(model)

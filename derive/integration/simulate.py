@@ -36,7 +36,7 @@ from .observables import _observables, _velocities, numpy_module  # noqa: F401  
 from .taylor_library import taylor_library, taylor_order
 from .result import LAZY, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
-from ..model.atlas import ATLAS  # noqa: E402  (the chart atlas of the double spherical pendulum)
+from ..model.atlas import ATLAS, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
 _DTYPES = {"float32": np.float32, "float": np.float32, "single": np.float32,
            "float64": np.float64, "double": np.float64,
            "longdouble": np.longdouble, "long double": np.longdouble, "float128": np.longdouble}
@@ -63,32 +63,51 @@ def _finite_array(value, what: str) -> np.ndarray:
     return a
 
 
-def resolve_model(model) -> str:
+def resolve_model(model, atlas: bool = False) -> str:
     """The name of a model argument: a catalogue name, a model file read before (by its
-    name), the path of a model file, or 'spherical' (the chart atlas)."""
+    name), the path of a model file, or 'spherical' (the chart atlas).  With atlas=True,
+    the key of the model's chart atlas (a spherical chain's: '<name>_atlas')."""
     if isinstance(model, os.PathLike) or (isinstance(model, str) and is_model_file(model)):
         try:
-            return load_model(model).name
+            name = load_model(model).name
         except ModelError as exc:
             raise SimulationInputError(str(exc)) from None
-    if not isinstance(model, str):
+    elif not isinstance(model, str):
         raise SimulationInputError(f"model must be a name or the path of a model file, got {model!r}")
-    if model == ATLAS:
+    elif find_atlas(model) is not None:
         return model
+    else:
+        try:
+            name = load_model(model).name
+        except ModelError as exc:
+            raise SimulationInputError(f"{exc}; or '{ATLAS}' for the chart atlas") from None
+    if not atlas:
+        return name
     try:
-        load_model(model)
+        return atlas_for(name).name
     except ModelError as exc:
-        raise SimulationInputError(f"{exc}; or '{ATLAS}' for the chart atlas") from None
-    return model
+        raise SimulationInputError(f"atlas=True: {exc}") from None
+
+
+def _atlas(model: str):
+    """The atlas a run name stands for, or None (a single model)."""
+    return find_atlas(model)
+
+
+def _standard(model: str) -> str:
+    """The model whose description, parameters and state order a run takes (an atlas: its
+    standard chart)."""
+    atlas = _atlas(model)
+    return atlas.charts[0] if atlas is not None else model
 
 
 def _described(model: str):
-    """The model description behind a run (the atlas: its standard chart)."""
-    return load_model("spherical_std" if model == ATLAS else model)
+    """The model description behind a run (an atlas: its standard chart)."""
+    return load_model(_standard(model))
 
 
 def normalise_params(model: str, params) -> np.ndarray:
-    names = model_info("spherical_std" if model == "spherical" else model).param_names
+    names = model_info(_standard(model)).param_names
     if isinstance(params, Mapping):
         unknown = sorted(set(params) - set(names))
         if unknown:
@@ -133,7 +152,7 @@ def check_parameter_values(description, values: Mapping, error=SimulationInputEr
 
 def normalise_inputs(model: str, inputs) -> np.ndarray | None:
     """The run-time inputs of a model, in its order (None for a model without inputs)."""
-    names = load_model(model).inputs if model != ATLAS else ()
+    names = _described(model).inputs
     if not names:
         if inputs is not None and len(inputs):
             raise SimulationInputError(f"model '{model}' has no inputs; got inputs={inputs!r}")
@@ -182,58 +201,81 @@ def _input_values(model: str, names, inputs, what: str = "inputs") -> np.ndarray
 
 
 def _cartesian_y0(model: str, value, p: np.ndarray) -> np.ndarray:
+    """{'cartesian': [...]}: the positions of every bob, then their velocities (2 N d
+    numbers), checked against the links' lengths (from the description) and tangency."""
+    description = _described(model)
+    lengths = cartesian.link_lengths(description.name, p)
+    d, n = description.dimension, len(lengths)
     c = _finite_array(value, "y0['cartesian']").astype(np.float64).reshape(-1)
-    if c.size != 12:
-        raise SimulationInputError(f"y0['cartesian'] must have 12 numbers (x1, x2, v1, v2), got {c.size}")
-    l1, l2 = float(p[2]), float(p[3])
-    x1, x2, v1, v2 = c[0:3], c[3:6], c[6:9], c[9:12]
-    d, w = x2 - x1, v2 - v1
+    if c.size != 2 * n * d:
+        raise SimulationInputError(f"y0['cartesian'] must have {2 * n * d} numbers (the {n} bobs' "
+                                   f"positions, then their velocities), got {c.size}")
+    x = np.vstack([np.zeros(d), c[:n * d].reshape(n, d)])
+    v = np.vstack([np.zeros(d), c[n * d:].reshape(n, d)])
     tol = 1e-8
-    if abs(np.linalg.norm(x1) - l1) > tol * l1:
-        raise SimulationInputError(f"y0['cartesian']: |x1| = {np.linalg.norm(x1):.12g} but l1 = {l1:.12g}")
-    if abs(np.linalg.norm(d) - l2) > tol * l2:
-        raise SimulationInputError(f"y0['cartesian']: |x2 - x1| = {np.linalg.norm(d):.12g} but l2 = {l2:.12g}")
-    speed = max(np.linalg.norm(v1), np.linalg.norm(w), 1.0)
-    if abs(x1 @ v1) > tol * l1 * speed or abs(d @ w) > tol * l2 * speed:
-        raise SimulationInputError("y0['cartesian']: the velocities are not tangent to the links "
-                                   "(x1.v1 and (x2-x1).(v2-v1) must vanish)")
+    for i, length in enumerate(lengths, 1):
+        link, rate = x[i] - x[i - 1], v[i] - v[i - 1]
+        if abs(np.linalg.norm(link) - length) > tol * length:
+            raise SimulationInputError(f"y0['cartesian']: |x{i} - x{i - 1}| = {np.linalg.norm(link):.12g} "
+                                       f"but link {i}'s length is {length:.12g}" if i > 1 else
+                                       f"y0['cartesian']: |x1| = {np.linalg.norm(link):.12g} but link 1's "
+                                       f"length is {length:.12g}")
+        if abs(link @ rate) > tol * length * max(np.linalg.norm(rate), 1.0):
+            raise SimulationInputError(f"y0['cartesian']: the velocities are not tangent to the links "
+                                       f"((x{i} - x{i - 1}).(v{i} - v{i - 1}) must vanish)")
     return c
 
 
+def _chart_models(model: str) -> tuple[str, ...]:
+    """The charts a mapping y0 may name: an atlas's members, a chart model's own atlas's."""
+    atlas = _atlas(model)
+    if atlas is not None:
+        return atlas.charts
+    description = load_model(model)
+    family = atlas_family(description) if description.dimension == 3 else None
+    if family is not None:
+        return family.charts
+    return (model,) if model_info(model).nguards > 0 else ()
+
+
 def normalise_y0(model: str, y0, p: np.ndarray) -> tuple[np.ndarray, str | None, np.ndarray | None]:
-    """(state, chart model, cartesian 12 or None).  For 'spherical' the chart is chosen."""
-    spherical = model == "spherical" or model in ATLAS_CHARTS
+    """(state, chart model, Cartesian state or None).  For an atlas the chart is chosen."""
+    atlas = _atlas(model)
+    charts = _chart_models(model)
+    spherical = bool(charts) or (atlas is None and model_info(model).nguards > 0)
+    lengths = cartesian.link_lengths(_standard(model), p) if spherical else ()
     if isinstance(y0, Mapping):
         keys = set(y0)
         if not spherical:
             raise SimulationInputError(f"model '{model}' takes y0 as a sequence of "
                                        f"{model_info(model).n} numbers")
+        n = model_info(_standard(model)).n
         if keys == {"cartesian"}:
-            c12 = _cartesian_y0(model, y0["cartesian"], p)
-        elif keys == {"chart", "state"} and y0["chart"] in ATLAS_CHARTS:
+            c = _cartesian_y0(model, y0["cartesian"], p)
+        elif keys == {"chart", "state"} and y0["chart"] in charts:
             s = _finite_array(y0["state"], "y0['state']").astype(np.float64).reshape(-1)
-            if s.size != 8:
-                raise SimulationInputError(f"y0['state'] must have 8 numbers, got {s.size}")
-            c12 = cartesian.state_to_cartesian(y0["chart"], s, float(p[2]), float(p[3]))
+            if s.size != n:
+                raise SimulationInputError(f"y0['state'] must have {n} numbers, got {s.size}")
+            c = cartesian.state_to_cartesian(y0["chart"], s, lengths)
         else:
-            raise SimulationInputError("y0 as a mapping must be {'cartesian': [12 numbers]} or "
-                                       f"{{'chart': one of {', '.join(ATLAS_CHARTS)}, 'state': [8 numbers]}}")
-        chart = cartesian.choose_chart(c12, float(p[2]), float(p[3])) if model == "spherical" else model
-        return cartesian.cartesian_to_state(chart, c12, float(p[2]), float(p[3])), chart, c12
-    n = model_info("spherical_std" if model == "spherical" else model).n
+            raise SimulationInputError(f"y0 as a mapping must be {{'cartesian': [{3 * len(lengths) * 2} numbers]}} or "
+                                       f"{{'chart': one of {', '.join(charts)}, 'state': [{n} numbers]}}")
+        chart = cartesian.choose_chart(c, lengths, atlas.name) if atlas is not None else model
+        return cartesian.cartesian_to_state(chart, c, lengths), chart, c
+    n = model_info(_standard(model)).n
     if isinstance(y0, str):
         raise SimulationInputError(f"y0 must be {n} numbers, got a string")
     a = _finite_array(y0, "y0").reshape(-1)
     if a.size != n:
         raise SimulationInputError(f"model '{model}' takes y0 with {n} numbers "
-                                   f"({', '.join(model_info('spherical_std' if model == 'spherical' else model).state_names)}), got {a.size}")
-    if model == "spherical":
+                                   f"({', '.join(model_info(_standard(model)).state_names)}), got {a.size}")
+    if atlas is not None:
         # a standard-chart state (exact at the poles too): through Cartesian coordinates
-        c12 = cartesian.state_to_cartesian("spherical_std", a.astype(np.float64), float(p[2]), float(p[3]))
-        chart = cartesian.choose_chart(c12, float(p[2]), float(p[3]))
-        if chart == "spherical_std":
-            return a, chart, c12
-        return cartesian.cartesian_to_state(chart, c12, float(p[2]), float(p[3])), chart, c12
+        c = cartesian.state_to_cartesian(atlas.charts[0], a.astype(np.float64), lengths)
+        chart = cartesian.choose_chart(c, lengths, atlas.name)
+        if chart == atlas.charts[0]:
+            return a, chart, c
+        return cartesian.cartesian_to_state(chart, c, lengths), chart, c
     return a, (model if spherical else None), None
 
 
@@ -259,23 +301,26 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
              atol: float | None = None, step: float | None = None, dtype="float64",
              backend: str = "c", max_steps: int | None = None, sine_min: float | None = None,
              newton_tol: float | None = None, newton_max: int | None = None,
-             hmax: float | None = None, inputs=None) -> SimulationResult:
+             hmax: float | None = None, inputs=None, atlas: bool = False) -> SimulationResult:
     """Integrate `model` from y0 at t[0] and report every output time in t.
 
     method: rk4, midpoint, gauss2 (fixed step: `step` required), dopri5, dop853
     (adaptive: rtol, atol; `step` is the initial step, optional).  dtype: float32,
     float64 or longdouble.  backend: "c" (compiled generated C) or "numpy".
     model: a catalogue name, the path of a model file, or "spherical" (the chart atlas).
+    atlas=True: run the model's chart atlas (a chain of spherical links in the standard
+    chart: its standard, second and rotated charts, switched by the rule of seed 000
+    section 5.1; y0 in the standard chart, as {'cartesian': [...]} or {'chart', 'state'}).
     inputs: the model's run-time inputs: a mapping by name or a sequence in the model's
     order, held constant over the run; or a function of t returning one, sampled at each
     output time and held until the next (zero-order hold).
     """
-    model = resolve_model(model)
+    model = resolve_model(model, atlas)
     if not isinstance(method, str) or method not in RUN_METHODS:
         raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(RUN_METHODS)})")
     if backend not in ("c", "numpy"):
         raise SimulationInputError(f"unknown backend {backend!r} (use 'c' or 'numpy')")
-    if method == TAYLOR and (backend != "c" or model == ATLAS):
+    if method == TAYLOR and (backend != "c" or _atlas(model) is not None):
         raise SimulationInputError("the Taylor integrator runs in generated C on single-chart models: "
                                    "use backend='c' and a model, not the atlas")
     dt = _dtype(dtype)
@@ -287,8 +332,8 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
                       newton_tol=newton_tol, newton_max=newton_max, sine_min=sine_min)
     _check_size(method, ts, state, opt, dt)
 
-    if model == "spherical":
-        result = run_atlas(method, state, chart, ts, p, opt, dt, backend)
+    if _atlas(model) is not None:
+        result = run_atlas(method, state, chart, ts, p, opt, dt, backend, model)
     elif isinstance(u, HeldInputs):
         result = _run_held(model, method, state, ts, p, opt, dt, backend, u)
     else:

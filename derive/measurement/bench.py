@@ -441,9 +441,9 @@ def _standard_chart_peer(problem: Problem):
     """What a user without an atlas runs: solve_ivp on the standard chart's lambdified rhs.
     It stops at the first non-finite derivative or after PEER_EVAL_BUDGET evaluations."""
     _, _, p = _prepared(problem)
-    from ..integration.cartesian import cartesian_to_state
+    from ..integration.cartesian import cartesian_to_state, link_lengths
     c12 = np.asarray(problem.y0[1], float)
-    y0 = cartesian_to_state("spherical_std", c12, float(p[2]), float(p[3]))
+    y0 = cartesian_to_state("spherical_std", c12, link_lengths("spherical_std", p))
     raw = P.lambdified_rhs("spherical_std")
     args = tuple(float(v) for v in p)
 
@@ -487,13 +487,13 @@ class ProblemInfo:
 def spherical_lyapunov(problem: Problem, delta: float = 1e-9) -> Lyapunov:
     """When no single chart holds the run: growth of a small perturbation between two long
     double references (a finite-difference estimate, not the variational equations)."""
-    from ..integration.cartesian import cartesian_to_state, state_to_cartesian
+    from ..integration.cartesian import cartesian_to_state, link_lengths, state_to_cartesian
     state, chart, p = _prepared(problem)
-    l1, l2 = float(p[2]), float(p[3])
-    c12 = state_to_cartesian(chart, state, l1, l2)
-    moved = cartesian_to_state(chart, c12, l1, l2)
+    lengths = link_lengths(chart, p)
+    c12 = state_to_cartesian(chart, state, lengths)
+    moved = cartesian_to_state(chart, c12, lengths)
     moved[4] += delta                     # a rate: stays on the constraint manifold
-    c12b = state_to_cartesian(chart, moved, l1, l2)
+    c12b = state_to_cartesian(chart, moved, lengths)
     d0 = float(np.max(np.abs(c12b - c12)))
     a = R._run(problem, 1e-16)[0]
     b = R._run(Problem(problem.name, problem.model, ("cartesian", tuple(c12b)), problem.t_end,

@@ -48,9 +48,8 @@ def comparison_vector(model: str, y, chart: str | None, params) -> np.ndarray:
     """What two runs of `model` are compared by: the state, or Cartesian (x1, x2, v1, v2)."""
     if model != "spherical":
         return np.asarray(y)
-    from ..integration.cartesian import state_to_cartesian
-    p = np.asarray(params, dtype=float)
-    return state_to_cartesian(chart, np.asarray(y, float), float(p[2]), float(p[3]))
+    from ..integration.cartesian import link_lengths, state_to_cartesian
+    return state_to_cartesian(chart, np.asarray(y, float), link_lengths(chart, params))
 
 
 def _run(problem, rtol: float):

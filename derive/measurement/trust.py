@@ -71,16 +71,19 @@ def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs
     return Lyapunov(log_growth / t_end, t_end, model, "variational equations, generated Jacobian")
 
 
-def atlas_lyapunov(y0, params, t_end: float, seed: int = 0) -> Lyapunov | None:
-    """lambda of a double spherical pendulum run, in whichever single chart
+def atlas_lyapunov(y0, params, t_end: float, seed: int = 0, atlas: str = "spherical") -> Lyapunov | None:
+    """lambda of a run of a chart atlas (a spherical chain), in whichever single chart
     covers the whole trajectory (the exponent does not depend on the chart);
     None when every chart meets its singularity on the way."""
-    from ..integration.cartesian import cartesian_to_state, CHARTS
+    from ..integration.cartesian import cartesian_to_state, link_lengths
     from ..integration.simulate import SimulationError, normalise_params, normalise_y0
-    p = normalise_params("spherical", params)
-    c12 = normalise_y0("spherical", y0, p)[2]
-    for chart in CHARTS:
-        start = cartesian_to_state(chart, c12, float(p[2]), float(p[3]))
+    from ..model.atlas import load_atlas
+    p = normalise_params(atlas, params)
+    c = normalise_y0(atlas, y0, p)[2]
+    charts = load_atlas(atlas).charts
+    lengths = link_lengths(charts[0], p)
+    for chart in charts:
+        start = cartesian_to_state(chart, c, lengths)
         try:
             return largest_lyapunov(chart, start, params, t_end, seed)
         except SimulationError:      # this chart's pole lies on the trajectory

@@ -433,6 +433,20 @@ def load_model_file(path: str | os.PathLike) -> Model:
 
 
 _on_change: list = []
+_derived: set[str] = set()          # names of models derived in memory (atlas members)
+
+
+def register_derived_model(model: Model) -> Model:
+    """Make a model derived in memory from another (an atlas member) loadable by its name,
+    as a model file read before is.  A name taken by another model is refused."""
+    other = _from_files.get(model.name)
+    replaceable = other is None or other.text == model.text or model.name in _derived   # re-derived after an edit
+    if model.name in model_names() or not replaceable:
+        where = other.origin if other is not None else "the catalogue"
+        raise ModelError(f"{model.origin}: the name '{model.name}' is taken by another model ({where})")
+    _from_files[model.name] = model
+    _derived.add(model.name)
+    return model
 
 
 def forget_on_model_change(cached):

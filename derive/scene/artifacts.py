@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from ..codegen import sources
 from ..derivation import derive
 from ..derivation.derivation import is_cached
+from ..model.atlas import find_atlas
 from ..paths import cache_dir
 
 
@@ -50,9 +51,9 @@ def _library(name: str) -> Step:
     from ..integration import build
     start = time.perf_counter()
     before = set((cache_dir() / "c-build").glob("*/*.so"))
-    if name == "spherical":
+    if find_atlas(name) is not None:
         from ..integration.atlas import atlas_library
-        libraries = [atlas_library().path]
+        libraries = [atlas_library(name).path]
     else:
         libraries = [build.integrator_library(name).path]
     from ..codegen.loader import load

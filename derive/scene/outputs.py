@@ -8,12 +8,13 @@ from pathlib import Path
 import numpy as np
 
 from ..model import load_model
+from ..model.atlas import find_atlas
 from ..paths import replace_file
 from .scene import SceneError
 
 
 def _state_names(o) -> list[str]:
-    if o.plan.model == "spherical":
+    if find_atlas(o.plan.model) is not None:         # rows in different charts
         return [f"y{k}" for k in range(o.result.y.shape[1])]
     return list(load_model(o.plan.model).state_names)
 

@@ -19,6 +19,7 @@ import numpy as np
 import sympy as sp
 
 from ..model import load_model
+from ..model.atlas import find_atlas, standard_member
 from .scene import ATLAS, SPHERICAL_CHART_MODELS, Scene
 
 RELATIVE_TOLERANCE = 1e-12   # "exactly": equal to rounding of the given numbers
@@ -34,22 +35,22 @@ class Plan:
 
 
 def cartesian_state(scene: Scene) -> np.ndarray:
-    """The 12 Cartesian numbers of a spherical scene's initial state, validated
-    by the integration layer (link lengths, tangent velocities)."""
+    """The Cartesian state (every bob's position, then velocity) of a spherical scene's
+    initial state, validated by the integration layer (link lengths, tangent velocities)."""
     from ..integration.simulate import normalise_params, normalise_y0
-    p = normalise_params("spherical", scene.parameters)
+    p = normalise_params(scene.model, scene.parameters)
     if "cartesian" in scene.initial:
         y0 = {"cartesian": scene.initial["cartesian"]}
     else:
         state = dict(scene.initial["state"])
         chart = state.pop("chart", scene.model)
         y0 = {"chart": chart, "state": [state[n] for n in load_model(chart).state_names]}
-    return np.asarray(normalise_y0("spherical", y0, p)[2], float)
+    return np.asarray(normalise_y0(scene.model, y0, p)[2], float)
 
 
 def vertical_plane(c: np.ndarray) -> np.ndarray | None:
     """A horizontal unit vector u with every position and velocity in span(u, e_z), or None."""
-    horizontal = c.reshape(4, 3)[:, :2]
+    horizontal = c.reshape(-1, 3)[:, :2]
     norms = np.linalg.norm(horizontal, axis=1)
     if norms.max() == 0:
         return np.array([1.0, 0.0])
@@ -102,15 +103,18 @@ def plan(scene: Scene) -> Plan:
                         f"(derived): m1' = {planar['m1']:.6g}, m2' = {planar['m2']:.6g}, "
                         f"l2' = {planar['l2']:.6g}")
         return Plan("compound", scene.parameters, state, "compound: rods with inertia (L1 != m1 l1^2/4)")
-    if scene.model == ATLAS or scene.model in SPHERICAL_CHART_MODELS:
+    description = load_model(standard_member(scene.model))
+    spherical = description.dimension == 3 and all(link.chart.polar_sine for link in description.links)
+    if spherical:
+        atlas = find_atlas(scene.model) is not None
         c = cartesian_state(scene)
-        u = vertical_plane(c)
-        if u is not None:
+        u = vertical_plane(c) if description.name in SPHERICAL_CHART_MODELS else None
+        if u is not None:           # the catalogue's double pendulum has a planar twin
             params = {k: scene.parameters[k] for k in ("m1", "m2", "l1", "l2", "g")}
             return Plan("planar", params, planar_state(c, u),
                         "spherical scene starts in a vertical plane with no velocity out of it: "
                         "it stays there, so the planar model is exact", plane=u)
-        if scene.model == ATLAS or "cartesian" in scene.initial:
+        if atlas or "cartesian" in scene.initial:
             # the atlas picks its chart from the Cartesian state anyway (seed 000 §5.1)
             return Plan(scene.model, scene.parameters, {"cartesian": list(c)}, "spherical motion")
         names = load_model(scene.model).state_names

@@ -21,6 +21,7 @@ from ..integration.result import as_fields
 from ..integration.simulate import SimulationError, SimulationResult, simulate
 from ..measurement.trust import (Lyapunov, atlas_lyapunov, initial_error, largest_lyapunov,
                                  trust_horizon)
+from ..model.atlas import find_atlas, standard_member
 from .artifacts import Step, prepare
 from .plan import Plan, plan, planar_positions_in_3d
 from .progress import Progress, Stage
@@ -72,8 +73,8 @@ def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
     """None when the motion cannot be followed (e.g. a single chart meets its
     singularity): the scene's own run then reports why."""
     try:
-        if p.model == "spherical":
-            return atlas_lyapunov(p.y0, p.params, scene.t_stop - scene.t_start)
+        if find_atlas(p.model) is not None:
+            return atlas_lyapunov(p.y0, p.params, scene.t_stop - scene.t_start, atlas=p.model)
         return largest_lyapunov(p.model, p.y0, p.params, scene.t_stop - scene.t_start,
                                 inputs=scene.inputs)
     except SimulationError:
@@ -122,7 +123,7 @@ def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
             progress.update(k + 1)
         if not r.ok:
             break
-        y0 = r.y[-1] if p.model != "spherical" else {"chart": r.chart[-1], "state": list(r.y[-1])}
+        y0 = r.y[-1] if find_atlas(p.model) is None else {"chart": r.chart[-1], "state": list(r.y[-1])}
     return _join(parts)
 
 
@@ -230,7 +231,7 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
 def conservative(o: Outcome) -> bool:
     """Whether the scene's pendulum conserves energy (no applied forces, no damping)."""
     from ..model import load_model
-    return o.scene.model == "spherical" or load_model(o.scene.model).is_conservative
+    return load_model(standard_member(o.scene.model)).is_conservative
 
 
 def target_met(o: Outcome) -> bool | None:

@@ -13,7 +13,7 @@ from ..model import ModelError, is_model_file, load_model
 from ..model.description import parameter_problem
 from ..integration.contract import ATLAS_CHARTS, FIXED, METHODS     # the run contract
 
-from ..model.atlas import ATLAS  # noqa: E402  (the spherical pendulum run through the chart atlas)
+from ..model.atlas import ATLAS, atlas_for, find_atlas, standard_member  # noqa: E402  (chart atlases)
 SPHERICAL_CHART_MODELS = ATLAS_CHARTS
 FIXED_STEP = FIXED
 SCALARS = ("float", "double", "long double")
@@ -26,9 +26,9 @@ MAX_OUTPUTS = 10_000_000        # output times of one scene: ~3 GiB with its obs
 class Scene:
     source: str
     title: str
-    model: str                       # a catalogue model, or "spherical" for the atlas
+    model: str                       # a model, or an atlas's key ("spherical", "<chain>_atlas")
     parameters: dict[str, float]
-    initial: dict                    # {"state": {name: value}} or {"cartesian": [12 or 8 numbers]}
+    initial: dict                    # {"state": {name: value}} or {"cartesian": [6 N numbers]}
     t_start: float
     t_stop: float
     outputs: int
@@ -81,12 +81,14 @@ def _choice(value, key: str, choices: tuple[str, ...]) -> str:
 
 
 def _parameter_names(model: str) -> tuple[str, ...]:
-    name = "spherical_std" if model == ATLAS else model
-    return load_model(name).parameters
+    return load_model(standard_member(model)).parameters
 
 
 def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
-    _known(t, ("model", "parameters", "inputs"), "[pendulum]")
+    _known(t, ("model", "parameters", "inputs", "atlas"), "[pendulum]")
+    atlas = t.get("atlas", False)
+    if not isinstance(atlas, bool):
+        raise SceneError(f"'pendulum.atlas' must be true or false, got {atlas!r}")
     if "model" not in t:
         raise SceneError("[pendulum]: missing key 'model'")
     model = t["model"]
@@ -96,6 +98,8 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
         if is_model_file(model):            # a model file, relative to the scene file
             path = Path(model)
             model = load_model(path if path.is_absolute() else folder / path).name
+        if atlas:                           # the chain run through its chart atlas
+            model = atlas_for(model).name
         names = _parameter_names(model)
     except ModelError as exc:
         hint = "" if is_model_file(t["model"]) else f"; or '{ATLAS}', the chart atlas"
@@ -110,7 +114,7 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
         if name not in given:
             raise SceneError(f"'pendulum.parameters.{name}' is missing")
         params[name] = _number(given[name], f"pendulum.parameters.{name}")
-    description = load_model("spherical_std" if model == ATLAS else model)
+    description = load_model(standard_member(model))
     problem = parameter_problem(description, params)      # the roles come from the model's links
     if problem is not None:
         name, why = problem
@@ -121,7 +125,7 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
 
 def _parse_inputs(t: dict, model: str) -> dict | None:
     """pendulum.inputs: every run-time input of the model, a number (held constant)."""
-    names = () if model == ATLAS else load_model(model).inputs
+    names = load_model(standard_member(model)).inputs
     given = t.get("inputs")
     if given is None:
         if names:
@@ -163,10 +167,10 @@ def _parse_initial(t: dict, model: str) -> dict:
     if "cartesian" in t:
         return {"cartesian": _parse_cartesian(t["cartesian"], model)}
     state = t["state"]
-    names = load_model("spherical_std" if model == ATLAS else model).state_names
+    names = load_model(standard_member(model)).state_names
     if isinstance(state, dict):
-        if model == ATLAS:
-            return {"state": _atlas_state(state, rest)}
+        if find_atlas(model) is not None:
+            return {"state": _atlas_state(state, model, rest)}
         for key in state:
             if key not in names:
                 raise SceneError(f"'initial.state.{key}': not a state of '{model}' "
@@ -183,26 +187,27 @@ def _parse_initial(t: dict, model: str) -> dict:
     raise SceneError("'initial.state' must be a table of named values or a list")
 
 
-def _atlas_state(state: dict, rest: bool = False) -> dict:
-    """The atlas accepts a state in any of its charts: the names say which."""
-    for chart_model in SPHERICAL_CHART_MODELS:
+def _atlas_state(state: dict, atlas: str = ATLAS, rest: bool = False) -> dict:
+    """An atlas accepts a state in any of its charts: the names say which."""
+    for chart_model in find_atlas(atlas).charts:
         names = load_model(chart_model).state_names
         if set(state) <= set(names) and set(state) & set(load_model(chart_model).coordinate_names):
             full = _missing_rates(state, names, load_model(chart_model).coordinate_names, rest, "initial.state")
             values = {n: _number(full[n], f"initial.state.{n}") for n in names}
             return {"chart": chart_model, **values}
     raise SceneError(f"'initial.state': names {', '.join(sorted(state))} are not the state of "
-                     f"one spherical chart (e.g. theta1, phi1, theta2, phi2 and their _dot)")
+                     f"one spherical chart of '{atlas}' (e.g. {', '.join(load_model(standard_member(atlas)).state_names)})")
 
 
 def _parse_cartesian(value, model: str) -> list[float]:
-    if model != ATLAS and model not in SPHERICAL_CHART_MODELS:
-        raise SceneError(f"'initial.cartesian' is for the double spherical pendulum ('{ATLAS}' or one "
-                         f"of its charts); give '{model}' its 'initial.state'")
-    dim = 3
-    keys = ("x1", "x2", "v1", "v2")
+    description = load_model(standard_member(model))
+    if description.dimension != 3 or not all(link.chart.polar_sine for link in description.links):
+        raise SceneError(f"'initial.cartesian' is for spherical chains (an atlas or one of its "
+                         f"charts); give '{model}' its 'initial.state'")
+    dim, n = 3, description.bodies
+    keys = tuple(f"x{i}" for i in range(1, n + 1)) + tuple(f"v{i}" for i in range(1, n + 1))
     if not isinstance(value, dict):
-        raise SceneError("'initial.cartesian' must be a table with x1, x2, v1, v2")
+        raise SceneError(f"'initial.cartesian' must be a table with {', '.join(keys)}")
     _known(value, keys, "[initial.cartesian]")
     numbers = []
     for k in keys:

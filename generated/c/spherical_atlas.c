@@ -11,6 +11,7 @@
 #endif
 
 #define NA 8
+#define NL 2
 
 void spherical_atlas_defaults(spherical_atlas_options *opt)
 {
@@ -49,8 +50,8 @@ typedef struct spherical_atlas_ctx {
 
 int spherical_atlas_choose_chart(int chart, const double *restrict y, const double *restrict p, double rule)
 {
-    double pos[6], u[2][3], st[2], sp[2];
-    int i, k;
+    double pos[3 * NL], u[NL][3], st[NL], sp[NL];
+    int i, k, all_standard = 1, rotated = 0, pick;
     switch (chart) {
     case 0:
         spherical_std_positions(y, p, pos);
@@ -64,24 +65,25 @@ int spherical_atlas_choose_chart(int chart, const double *restrict y, const doub
     default:
         return -1;
     }
-    for (k = 0; k < 3; ++k) {
-        u[0][k] = pos[k] / p[2];
-        u[1][k] = (pos[3 + k] - pos[k]) / p[3];
-    }
-    /* the standard chart's |sin theta| and |sin phi| of each link (charts.toml) */
-    for (i = 0; i < 2; ++i) {
-        st[i] = sqrt(u[i][0]*u[i][0] + u[i][1]*u[i][1])/sqrt(u[i][0]*u[i][0] + u[i][1]*u[i][1] + u[i][2]*u[i][2]);
-        sp[i] = st[i] > 0 ? fabs(u[i][1])/sqrt(u[i][0]*u[i][0] + u[i][1]*u[i][1]) : 0;
-    }
-    if (st[0] >= rule && st[1] >= rule) {
-        return SPHERICAL_ATLAS_CHART_SPHERICAL_STD;
-    }
-    for (i = 0; i < 2; ++i) {
-        if (st[i] >= rule && sp[i] < rule) {
-            return SPHERICAL_ATLAS_CHART_SPHERICAL_ROT;
+    /* each link's direction (the sines below are scale-free: no lengths needed) */
+    for (i = 0; i < NL; ++i) {
+        for (k = 0; k < 3; ++k) {
+            u[i][k] = i > 0 ? pos[3 * i + k] - pos[3 * (i - 1) + k] : pos[k];
         }
     }
-    return SPHERICAL_ATLAS_CHART_SPHERICAL_ALT;
+    /* the standard chart's |sin theta| and |sin phi| of each link (charts.toml) */
+    for (i = 0; i < NL; ++i) {
+        st[i] = sqrt(u[i][0]*u[i][0] + u[i][1]*u[i][1])/sqrt(u[i][0]*u[i][0] + u[i][1]*u[i][1] + u[i][2]*u[i][2]);
+        sp[i] = st[i] > 0 ? fabs(u[i][1])/sqrt(u[i][0]*u[i][0] + u[i][1]*u[i][1]) : 0;
+        if (st[i] < rule) {
+            all_standard = 0;
+        } else if (sp[i] < rule) {
+            rotated = 1;
+        }
+    }
+    /* seed 000 section 5.1, for N links (derive/integration/cartesian.py, choose_chart) */
+    pick = all_standard ? SPHERICAL_ATLAS_CHART_SPHERICAL_STD : rotated ? SPHERICAL_ATLAS_CHART_SPHERICAL_ROT : SPHERICAL_ATLAS_CHART_SPHERICAL_ALT;
+    return pick;
 }
 
 /* Convert y of chart `from` into chart `to` (exact: (5.2)-(5.14), robust forms). */
@@ -247,7 +249,7 @@ static int spherical_atlas_out(spherical_atlas_ctx *c, const double *z, double *
  * negative: -status of a failed conversion. */
 static int spherical_atlas_switch(spherical_atlas_ctx *c, double *z, int force)
 {
-    double sines[2], zn[NA], smin;
+    double sines[NL], zn[NA], smin;
     int target, st, k;
     switch (c->chart) {
     case 0:
@@ -262,7 +264,10 @@ static int spherical_atlas_switch(spherical_atlas_ctx *c, double *z, int force)
     default:
         return -SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT;
     }
-    smin = fabs(sines[0]) < fabs(sines[1]) ? fabs(sines[0]) : fabs(sines[1]);
+    smin = fabs(sines[0]);
+    for (k = 1; k < NL; ++k) {
+        smin = fabs(sines[k]) < smin ? fabs(sines[k]) : smin;
+    }
     if (!force && smin >= (double)c->opt->sine_switch) {
         return 0;
     }
@@ -715,8 +720,8 @@ typedef struct spherical_atlas_ctx_f {
 
 int spherical_atlas_choose_chart_f(int chart, const float *restrict y, const float *restrict p, float rule)
 {
-    float pos[6], u[2][3], st[2], sp[2];
-    int i, k;
+    float pos[3 * NL], u[NL][3], st[NL], sp[NL];
+    int i, k, all_standard = 1, rotated = 0, pick;
     switch (chart) {
     case 0:
         spherical_std_positions_f(y, p, pos);
@@ -730,24 +735,25 @@ int spherical_atlas_choose_chart_f(int chart, const float *restrict y, const flo
     default:
         return -1;
     }
-    for (k = 0; k < 3; ++k) {
-        u[0][k] = pos[k] / p[2];
-        u[1][k] = (pos[3 + k] - pos[k]) / p[3];
-    }
-    /* the standard chart's |sin theta| and |sin phi| of each link (charts.toml) */
-    for (i = 0; i < 2; ++i) {
-        st[i] = sqrtf(u[i][0]*u[i][0] + u[i][1]*u[i][1])/sqrtf(u[i][0]*u[i][0] + u[i][1]*u[i][1] + u[i][2]*u[i][2]);
-        sp[i] = st[i] > 0 ? fabsf(u[i][1])/sqrtf(u[i][0]*u[i][0] + u[i][1]*u[i][1]) : 0;
-    }
-    if (st[0] >= rule && st[1] >= rule) {
-        return SPHERICAL_ATLAS_CHART_SPHERICAL_STD;
-    }
-    for (i = 0; i < 2; ++i) {
-        if (st[i] >= rule && sp[i] < rule) {
-            return SPHERICAL_ATLAS_CHART_SPHERICAL_ROT;
+    /* each link's direction (the sines below are scale-free: no lengths needed) */
+    for (i = 0; i < NL; ++i) {
+        for (k = 0; k < 3; ++k) {
+            u[i][k] = i > 0 ? pos[3 * i + k] - pos[3 * (i - 1) + k] : pos[k];
         }
     }
-    return SPHERICAL_ATLAS_CHART_SPHERICAL_ALT;
+    /* the standard chart's |sin theta| and |sin phi| of each link (charts.toml) */
+    for (i = 0; i < NL; ++i) {
+        st[i] = sqrtf(u[i][0]*u[i][0] + u[i][1]*u[i][1])/sqrtf(u[i][0]*u[i][0] + u[i][1]*u[i][1] + u[i][2]*u[i][2]);
+        sp[i] = st[i] > 0 ? fabsf(u[i][1])/sqrtf(u[i][0]*u[i][0] + u[i][1]*u[i][1]) : 0;
+        if (st[i] < rule) {
+            all_standard = 0;
+        } else if (sp[i] < rule) {
+            rotated = 1;
+        }
+    }
+    /* seed 000 section 5.1, for N links (derive/integration/cartesian.py, choose_chart) */
+    pick = all_standard ? SPHERICAL_ATLAS_CHART_SPHERICAL_STD : rotated ? SPHERICAL_ATLAS_CHART_SPHERICAL_ROT : SPHERICAL_ATLAS_CHART_SPHERICAL_ALT;
+    return pick;
 }
 
 /* Convert y of chart `from` into chart `to` (exact: (5.2)-(5.14), robust forms). */
@@ -913,7 +919,7 @@ static int spherical_atlas_out_f(spherical_atlas_ctx_f *c, const float *z, float
  * negative: -status of a failed conversion. */
 static int spherical_atlas_switch_f(spherical_atlas_ctx_f *c, float *z, int force)
 {
-    float sines[2], zn[NA], smin;
+    float sines[NL], zn[NA], smin;
     int target, st, k;
     switch (c->chart) {
     case 0:
@@ -928,7 +934,10 @@ static int spherical_atlas_switch_f(spherical_atlas_ctx_f *c, float *z, int forc
     default:
         return -SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT;
     }
-    smin = fabsf(sines[0]) < fabsf(sines[1]) ? fabsf(sines[0]) : fabsf(sines[1]);
+    smin = fabsf(sines[0]);
+    for (k = 1; k < NL; ++k) {
+        smin = fabsf(sines[k]) < smin ? fabsf(sines[k]) : smin;
+    }
     if (!force && smin >= (float)c->opt->sine_switch) {
         return 0;
     }
@@ -1381,8 +1390,8 @@ typedef struct spherical_atlas_ctx_l {
 
 int spherical_atlas_choose_chart_l(int chart, const long double *restrict y, const long double *restrict p, long double rule)
 {
-    long double pos[6], u[2][3], st[2], sp[2];
-    int i, k;
+    long double pos[3 * NL], u[NL][3], st[NL], sp[NL];
+    int i, k, all_standard = 1, rotated = 0, pick;
     switch (chart) {
     case 0:
         spherical_std_positions_l(y, p, pos);
@@ -1396,24 +1405,25 @@ int spherical_atlas_choose_chart_l(int chart, const long double *restrict y, con
     default:
         return -1;
     }
-    for (k = 0; k < 3; ++k) {
-        u[0][k] = pos[k] / p[2];
-        u[1][k] = (pos[3 + k] - pos[k]) / p[3];
-    }
-    /* the standard chart's |sin theta| and |sin phi| of each link (charts.toml) */
-    for (i = 0; i < 2; ++i) {
-        st[i] = sqrtl(u[i][0]*u[i][0] + u[i][1]*u[i][1])/sqrtl(u[i][0]*u[i][0] + u[i][1]*u[i][1] + u[i][2]*u[i][2]);
-        sp[i] = st[i] > 0 ? fabsl(u[i][1])/sqrtl(u[i][0]*u[i][0] + u[i][1]*u[i][1]) : 0;
-    }
-    if (st[0] >= rule && st[1] >= rule) {
-        return SPHERICAL_ATLAS_CHART_SPHERICAL_STD;
-    }
-    for (i = 0; i < 2; ++i) {
-        if (st[i] >= rule && sp[i] < rule) {
-            return SPHERICAL_ATLAS_CHART_SPHERICAL_ROT;
+    /* each link's direction (the sines below are scale-free: no lengths needed) */
+    for (i = 0; i < NL; ++i) {
+        for (k = 0; k < 3; ++k) {
+            u[i][k] = i > 0 ? pos[3 * i + k] - pos[3 * (i - 1) + k] : pos[k];
         }
     }
-    return SPHERICAL_ATLAS_CHART_SPHERICAL_ALT;
+    /* the standard chart's |sin theta| and |sin phi| of each link (charts.toml) */
+    for (i = 0; i < NL; ++i) {
+        st[i] = sqrtl(u[i][0]*u[i][0] + u[i][1]*u[i][1])/sqrtl(u[i][0]*u[i][0] + u[i][1]*u[i][1] + u[i][2]*u[i][2]);
+        sp[i] = st[i] > 0 ? fabsl(u[i][1])/sqrtl(u[i][0]*u[i][0] + u[i][1]*u[i][1]) : 0;
+        if (st[i] < rule) {
+            all_standard = 0;
+        } else if (sp[i] < rule) {
+            rotated = 1;
+        }
+    }
+    /* seed 000 section 5.1, for N links (derive/integration/cartesian.py, choose_chart) */
+    pick = all_standard ? SPHERICAL_ATLAS_CHART_SPHERICAL_STD : rotated ? SPHERICAL_ATLAS_CHART_SPHERICAL_ROT : SPHERICAL_ATLAS_CHART_SPHERICAL_ALT;
+    return pick;
 }
 
 /* Convert y of chart `from` into chart `to` (exact: (5.2)-(5.14), robust forms). */
@@ -1579,7 +1589,7 @@ static int spherical_atlas_out_l(spherical_atlas_ctx_l *c, const long double *z,
  * negative: -status of a failed conversion. */
 static int spherical_atlas_switch_l(spherical_atlas_ctx_l *c, long double *z, int force)
 {
-    long double sines[2], zn[NA], smin;
+    long double sines[NL], zn[NA], smin;
     int target, st, k;
     switch (c->chart) {
     case 0:
@@ -1594,7 +1604,10 @@ static int spherical_atlas_switch_l(spherical_atlas_ctx_l *c, long double *z, in
     default:
         return -SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT;
     }
-    smin = fabsl(sines[0]) < fabsl(sines[1]) ? fabsl(sines[0]) : fabsl(sines[1]);
+    smin = fabsl(sines[0]);
+    for (k = 1; k < NL; ++k) {
+        smin = fabsl(sines[k]) < smin ? fabsl(sines[k]) : smin;
+    }
     if (!force && smin >= (long double)c->opt->sine_switch) {
         return 0;
     }

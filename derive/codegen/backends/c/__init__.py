@@ -101,7 +101,7 @@ class CBackend(Backend):
 
     def atlas_files(self, name):
         from ....integration.codegen import render_atlas
-        return own(render_atlas(), self.name)
+        return own(render_atlas(name), self.name)
 
 
 BACKEND = CBackend()

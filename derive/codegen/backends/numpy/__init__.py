@@ -92,7 +92,7 @@ class NumPyBackend(Backend):
 
     def atlas_files(self, name):
         from ....integration.codegen import render_atlas
-        return own(render_atlas(), self.name)
+        return own(render_atlas(name), self.name)
 
 
 BACKEND = NumPyBackend()
