@@ -28,7 +28,8 @@ def dtype_key(dtype) -> str:
     return "longdouble" if dtype == np.longdouble and dtype != np.float64 else dtype.name
 
 
-_C_TYPES = {"double": ctypes.c_double, "long": ctypes.c_long, "int": ctypes.c_int}
+_C_TYPES = {"double": ctypes.c_double, "long": ctypes.c_long, "int": ctypes.c_int,
+            "const volatile int *": ctypes.POINTER(ctypes.c_int)}
 
 
 def ctypes_fields(fields, n: int = 0) -> list[tuple]:
