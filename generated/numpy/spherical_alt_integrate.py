@@ -575,14 +575,14 @@ def check(method, y0, p, t, opt):
         return BAD_INPUT
     if not (numpy.all(numpy.isfinite(y0)) and numpy.all(numpy.isfinite(p)) and numpy.all(numpy.isfinite(t))):
         return BAD_INPUT
-    if len(t) > 1 and not numpy.all(numpy.diff(t) * (t[-1] - t[0]) > 0):
+    if len(t) > 1 and not numpy.all(numpy.sign(numpy.diff(t)) * numpy.sign(t[-1] - t[0]) > 0):
         return BAD_INPUT
     if method in ("dopri5", "dop853"):
         if not (0 < opt["rtol"] < 1 and opt["atol"] >= 0 and opt["h"] >= 0 and opt["hmin"] >= 0 and opt["hmax"] >= 0):
             return BAD_INPUT
     elif len(t) > 1 and not 0 < opt["h"] < 1e300:
         return BAD_INPUT
-    elif len(t) > 1 and not abs(float(t[-1] - t[0])) / opt["h"] <= 2.0 ** 53:
+    elif len(t) > 1 and not abs(float(t[-1]) - float(t[0])) / opt["h"] <= 2.0 ** 53:
         return BAD_INPUT            # more than 2^53 grid steps (see _drive)
     if opt["max_steps"] < 1 or not 0 <= opt["sine_min"] < 1:
         return BAD_INPUT
