@@ -50,7 +50,7 @@ class Status:
 class Field:
     name: str
     ctype: str           # C type ("double", "long", "int", "const volatile int *")
-    default: object = None   # options: the value <M>_integrate_defaults sets (None: SINE_MIN)
+    default: object = None   # options: the value <M>_integrate_defaults sets (None: SINE_MIN; cancel: NULL)
     c_default: str = ""      # ... as a C literal ("" for sine_min: the model's SINE_MIN macro)
     py_default: str = ""     # ... as a Python literal (generated NumPy DEFAULTS)
     doc: str = ""            # comment in <M>_integrate.h
