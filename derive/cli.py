@@ -310,6 +310,8 @@ def _print_run(summary: dict) -> None:
     for line in s["steps"]:
         print(f"        {line}")
     tol = f"rtol {s['rtol']:.2g}" if s["rtol"] is not None else f"step {s['step']:g}"
+    if s.get("last_step"):
+        tol += f" (the last {s['last_step']:.3g}, to reach t = {s['t_stop']:g})"
     print(f"method  {s['method']}, {tol}, {s['dtype']}, backend {s['backend']}"
           + (f" -- {s['note']}" if s["note"] else ""))
     if s["lyapunov_exponent"] is not None and s["trust_horizon"] is not None:

@@ -22,7 +22,7 @@ def _struct(text: str, name: str) -> list[tuple[str, str]]:
     body = re.sub(r"/\*.*?\*/", "", body, flags=re.S)
     out = []
     for decl in filter(None, (d.strip() for d in body.split(";"))):
-        ctype, names = decl.split(None, 1)
+        ctype, names = re.match(r"((?:const |volatile )*\w+(?: \*)?)\s*(.+)$", decl, re.S).groups()
         out += [(ctype, re.sub(r"\[.*\]", "", n.strip())) for n in names.split(",")]
     return out
 
@@ -50,7 +50,9 @@ def test_c_header_states_the_contract(model):
     defaults = dict(re.findall(r"    opt->(\w+) = ([^;]+);", c))
     assert list(defaults) == list(contract.OPTION_NAMES)
     for f in contract.OPTIONS:
-        if f.default is None:
+        if f.name == "cancel":                  # a pointer: no flag unless the caller gives one
+            assert defaults[f.name] == "0" and f.default is None
+        elif f.default is None:
             assert defaults[f.name] == f"{M}_INTEGRATE_SINE_MIN"
         else:
             assert float(defaults[f.name].rstrip("L")) == f.default
@@ -93,7 +95,8 @@ def test_numpy_integrator_states_the_contract(model):
 
 
 def test_ctypes_structs_are_the_contract_fields():
-    ct = {"double": ctypes.c_double, "long": ctypes.c_long, "int": ctypes.c_int}
+    ct = {"double": ctypes.c_double, "long": ctypes.c_long, "int": ctypes.c_int,
+          "const volatile int *": ctypes.POINTER(ctypes.c_int)}
     assert [(n, t) for n, t in options_struct()._fields_] == [(f.name, ct[f.ctype]) for f in contract.OPTIONS]
     info = info_struct(4)._fields_
     assert [n for n, _ in info] == list(contract.INFO_NAMES)
@@ -110,7 +113,8 @@ def test_the_runtime_reads_the_contract():
     assert scene.METHODS is contract.METHODS and atlas.METHODS is contract.METHODS
     assert simulate.STATUS_NAMES is contract.STATUS_NAMES and simulate.COUNTERS is contract.COUNTERS
     assert contract.ADAPTIVE == ("dopri5", "dop853") and contract.IMPLICIT == ("midpoint", "gauss2")
-    assert contract.ORDER == {"rk4": 4, "dopri5": 5, "dop853": 8, "midpoint": 2, "gauss2": 4}
+    assert contract.ORDER == {"rk4": 4, "dopri5": 5, "dop853": 8, "midpoint": 2, "gauss2": 4, "rk8": 8, "abm12": 12}
+    assert contract.MULTISTEP == ("abm12",) and contract.ATLAS_METHODS == contract.METHODS[:5]
 
 
 def test_no_restatement_of_the_contract_outside_it():

@@ -35,7 +35,8 @@ def address(a: np.ndarray) -> int:
     return a.__array_interface__["data"][0]
 
 
-_C_TYPES = {"double": ctypes.c_double, "long": ctypes.c_long, "int": ctypes.c_int}
+_C_TYPES = {"double": ctypes.c_double, "long": ctypes.c_long, "int": ctypes.c_int,
+            "const volatile int *": ctypes.POINTER(ctypes.c_int)}
 
 
 def ctypes_fields(fields, n: int = 0) -> list[tuple]:

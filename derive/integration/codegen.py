@@ -138,6 +138,17 @@ def _gauss(ctype: str) -> list[dict]:
     return out
 
 
+ABM_STEPS = 12        # abm12: the k of the Adams pair (the benchmark loops' sweet spot, throughput.py)
+
+
+def _adams(ctype: str) -> dict:
+    """abm12's weights (tableau.adams: exact rationals) as literals of ctype."""
+    ab, am = tb.adams(ABM_STEPS)
+    lits = lambda w: ", ".join(tb.literal(tb.value(str(x)), ctype) for x in w)
+    milne = tb.literal(tb.value(str(tb.adams_milne(ABM_STEPS))), ctype)
+    return {"k": ABM_STEPS, "ab": lits(ab), "am": lits(am), "milne": milne}
+
+
 @lru_cache(maxsize=None)
 def c_variants() -> list[dict]:
     out = []
@@ -146,7 +157,7 @@ def c_variants() -> list[dict]:
         extra8, d8 = _dop853_dense(ctype)
         out.append({"ctype": ctype, "s": suffix, "m": m, "eps": _EPS[ctype], "nan": _NAN[ctype],
                     "explicit": _explicit(ctype), "dopri5_dense": dense5, "dopri5_dense_combo": combo5,
-                    "dop853_extra": extra8, "dop853_d": d8, "gauss": _gauss(ctype)})
+                    "dop853_extra": extra8, "dop853_d": d8, "gauss": _gauss(ctype), "abm": _adams(ctype)})
     return out
 
 
@@ -164,6 +175,8 @@ def _wrap(head: str, items: list[str], close: str, width: int) -> str:
 
 
 def _c_decl(f, n: str) -> str:
+    if f.ctype.endswith("*"):
+        return f"{f.ctype}{f.name};"
     return f"{f.ctype} {f.name}[{n}];" if f.length else f"{f.ctype} {f.name};"
 
 
@@ -191,7 +204,8 @@ def _c_struct_grouped(fields, n: str) -> list[str]:
             flush()
         if f.atlas_doc or f.length:
             decl = _c_decl(f, n)
-            out.append("    " + (decl.ljust(21) + f"/* {f.atlas_doc} */" if f.atlas_doc else decl))
+            pad = decl.ljust(21) if len(decl) < 21 else decl + " "
+            out.append("    " + (pad + f"/* {f.atlas_doc} */" if f.atlas_doc else decl))
         else:
             group.append(f)
     flush()
@@ -336,6 +350,13 @@ def numpy_tableaus() -> tuple[list[dict], list[dict]]:
     return explicit, gauss
 
 
+def _adams_py() -> dict:
+    ab, am = tb.adams(ABM_STEPS)
+    return {"ab": repr([tb.py_literal(tb.value(str(x))) for x in ab]),
+            "am": repr([tb.py_literal(tb.value(str(x))) for x in am]),
+            "milne": repr(tb.py_literal(tb.value(str(tb.adams_milne(ABM_STEPS)))))}
+
+
 def render_numpy(name: str) -> dict[str, str]:
     info = model_info(name)
     explicit, gauss = numpy_tableaus()
@@ -343,6 +364,6 @@ def render_numpy(name: str) -> dict[str, str]:
            "n": info.n, "n_params": info.n_params + info.n_inputs, "sine_min": SINE_MIN, "sources": SOURCES,
            "model_params": info.n_params, "has_inputs": info.n_inputs > 0,
            "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE,
-           "explicit": explicit, "gauss": gauss, "contract_py": contract_numpy(),
+           "explicit": explicit, "gauss": gauss, "contract_py": contract_numpy(), "adams": _adams_py(),
            "template": "templates/numpy/integrate.py.jinja"}
     return {f"numpy/{name}_integrate.py": render("numpy/integrate.py.jinja", ctx)}

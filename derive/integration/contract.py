@@ -30,6 +30,8 @@ class Method:
     implicit: bool
     order: int
     doc: str             # one line in the header's method list
+    multistep: bool = False      # needs a history of past steps
+    atlas: bool = True           # in the chart atlas' step switch (spherical_atlas.c)
 
     @property
     def macro(self) -> str:
@@ -47,8 +49,8 @@ class Status:
 @dataclass(frozen=True)
 class Field:
     name: str
-    ctype: str           # C type ("double", "long", "int")
-    default: object = None   # options: the value <M>_integrate_defaults sets (None: SINE_MIN)
+    ctype: str           # C type ("double", "long", "int", "const volatile int *")
+    default: object = None   # options: the value <M>_integrate_defaults sets (None: SINE_MIN; cancel: NULL)
     c_default: str = ""      # ... as a C literal ("" for sine_min: the model's SINE_MIN macro)
     py_default: str = ""     # ... as a Python literal (generated NumPy DEFAULTS)
     doc: str = ""            # comment in <M>_integrate.h
@@ -63,6 +65,11 @@ METHOD_TABLE = (
     Method("midpoint", 3, "fixed", True, 2,
            "implicit midpoint rule (Gauss-Legendre, 1 stage), order 2, fixed step"),
     Method("gauss2", 4, "fixed", True, 4, "Gauss-Legendre, 2 stages, order 4, fixed step"),
+    Method("rk8", 5, "fixed", False, 8, "the 8th-order formula of DOP853 at a fixed step (12 stages)",
+           atlas=False),
+    Method("abm12", 6, "fixed", False, 12,
+           "12-step Adams-Bashforth-Moulton PECE, order 12, fixed step, rk8 start (see below)",
+           multistep=True, atlas=False),
 )
 
 STATUS_TABLE = (
@@ -83,7 +90,15 @@ STATUS_TABLE = (
     Status(5, "CHART_SINGULAR", "chart singular (polar sine below threshold)",
            ("the chart is singular there: a polar sine below",
             "options.sine_min (the mass matrix is singular)")),
-    Status(6, "BAD_INPUT", "bad input", ("non-finite or inconsistent input (y0, p, t, options)",)),
+    Status(6, "BAD_INPUT", "bad input", ("non-finite or inconsistent input (y0, p, t, options),",
+                                         "or a fixed step too small for the span",
+                                         "(|t_end - t0| / h above 2^53)")),
+    Status(7, "CANCELLED", "cancelled", ("*options.cancel became non-zero (checked every step)",)),
+    Status(8, "MULTISTEP_UNSTABLE", "multistep unstable (step too large for abm12)",
+           ("abm12: the predictor-corrector difference (Milne's",
+            "estimate of the local error) exceeded atol + rtol |y|:",
+            "the step is outside the method's stability region",
+            "or too large for the motion; no step is taken from it")),
 )
 
 OPTIONS = (
@@ -98,6 +113,10 @@ OPTIONS = (
     Field("newton_max", "int", 30, "30", "30", "implicit: iterations per step (default 30)"),
     Field("sine_min", "double", None, "", "SINE_MIN", "no kernel evaluated where a polar sine is below this",
           atlas_doc="hard threshold"),
+    # the caller's flag, read before every step: a run stops with CANCELLED once it is
+    # non-zero (set from a signal handler or another thread; volatile: re-read each time)
+    Field("cancel", "const volatile int *", None, "0", "None",
+          "non-zero *cancel stops the run (CANCELLED); 0: none", atlas_doc="CANCELLED when *cancel != 0"),
 )
 
 INFO = (
@@ -110,7 +129,8 @@ INFO = (
     Field("nnewton", "long", doc="Newton iterations"),
     Field("nout", "long", doc="output rows written"),
     Field("t", "double", doc="time reached (where it stopped on failure)"),
-    Field("h", "double", doc="last step size"),
+    Field("h", "double", doc="last step size (fixed: the step h of the grid)"),
+    Field("h_end", "double", doc="fixed: the shortened step to the last output (0: on the grid)"),
     Field("y", "double", doc="state at t", length="n"),
 )
 
@@ -131,6 +151,8 @@ METHOD = {m.name: m for m in METHOD_TABLE}
 ADAPTIVE = tuple(m.name for m in METHOD_TABLE if m.kind == "adaptive")
 FIXED = tuple(m.name for m in METHOD_TABLE if m.kind == "fixed")
 IMPLICIT = tuple(m.name for m in METHOD_TABLE if m.implicit)
+MULTISTEP = tuple(m.name for m in METHOD_TABLE if m.multistep)
+ATLAS_METHODS = tuple(m.name for m in METHOD_TABLE if m.atlas)
 ORDER = {m.name: m.order for m in METHOD_TABLE}
 FIXED_ORDER = {m: ORDER[m] for m in FIXED}
 # Taylor's method runs in a generated file of its own (<model>_taylor.c, derive/integration/
@@ -157,6 +179,13 @@ def default_options() -> dict:
     return {f.name: float(SINE_MIN) if f.name == "sine_min" else f.default for f in OPTIONS}
 
 
+# A fixed-step run's grid is t0 + k h with k counted in floating point: beyond 2^53 steps
+# k h no longer tells neighbouring grid points apart (and a step count would not fit a
+# 32-bit long anyway), so the C entry points refuse such an h with BAD_INPUT.
+MAX_GRID_STEPS = 2.0 ** 53
+
+
 assert METHODS == tuple(m.name for m in METHOD_TABLE), "METHOD_TABLE is listed in C switch order"
+assert ATLAS_METHODS == METHODS[:len(ATLAS_METHODS)], "the atlas takes the first methods (a range check)"
 assert [s.code for s in STATUS_TABLE] == list(range(len(STATUS_TABLE)))
 assert set(COUNTERS) <= set(INFO_NAMES)

@@ -39,7 +39,8 @@ class SimulationResult:
     chart_stop: str | None = None
     params: np.ndarray = field(default=None, repr=False)
     rtol: float | None = None              # adaptive methods: the tolerance used
-    step: float | None = None              # fixed-step methods: the step used
+    step: float | None = None              # fixed-step methods: the step of the grid t0 + k step
+    last_step: float | None = None         # ... the shortened step to the last output (None: on the grid)
     velocities: np.ndarray | None = field(default=None, repr=False)   # like positions: bob velocities
     # energy, positions and velocities may be given as LAZY with `observe`, a function of no
     # arguments returning all three: simulate does so, and the kernels run on first access

@@ -17,7 +17,10 @@ A run that cannot go on returns a result whose `status` says why
 """
 from __future__ import annotations
 
+import ctypes
 import os
+import signal
+import threading
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -29,9 +32,9 @@ from . import cartesian
 from .atlas import run_atlas
 from .build import dtype_key, integrator_library
 from .codegen import model_info
-from .contract import (ADAPTIVE, ATLAS_CHARTS, COUNTERS, FIXED_ORDER,  # noqa: F401  (re-exported)
-                       METHODS, RUN_METHODS, SINE_MIN, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS,
-                       default_options)
+from .contract import (ADAPTIVE, ATLAS_CHARTS, ATLAS_METHODS, COUNTERS, FIXED_ORDER,  # noqa: F401
+                       MAX_GRID_STEPS, METHODS, RUN_METHODS, SINE_MIN, STATUS, STATUS_NAMES, TAYLOR,
+                       TOLERANCE_METHODS, default_options)
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
 from .taylor_library import taylor_library, taylor_order
 from .result import LAZY, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
@@ -304,9 +307,20 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
              hmax: float | None = None, inputs=None, atlas: bool = False) -> SimulationResult:
     """Integrate `model` from y0 at t[0] and report every output time in t.
 
-    method: rk4, midpoint, gauss2 (fixed step: `step` required), dopri5, dop853
-    (adaptive: rtol, atol; `step` is the initial step, optional).  dtype: float32,
+    method: rk4, midpoint, gauss2, rk8, abm12 (fixed step: `step` required), dopri5,
+    dop853 (adaptive: rtol, atol; `step` is the initial step, optional).  dtype: float32,
     float64 or longdouble.  backend: "c" (compiled generated C) or "numpy".
+    A fixed step h steps on the grid t[0] + k h whatever the output times: an output
+    between grid points is reached by a shortened step from the grid point before it
+    (r.step is h, r.last_step the shortened step to the last output, None when it is on
+    the grid), so a result does not depend on how many outputs were asked for.
+    abm12 (12-step Adams-Bashforth-Moulton, PECE) has a small stability region: it
+    stops with status 'multistep unstable' before a step whose predictor-corrector
+    difference exceeds atol + rtol |y| (rtol: the dtype's default unless given).  On the
+    planar double pendulum (unit masses and lengths, g = 9.81) h = 0.01 is too large for
+    many states with fast rotation; see README "Fixed-step methods".
+    Ctrl-C stops a run of the C backend within a step (the generated loops read a
+    cancellation flag) and raises KeyboardInterrupt.
     model: a catalogue name, the path of a model file, or "spherical" (the chart atlas).
     atlas=True: run the model's chart atlas (a chain of spherical links in the standard
     chart: its standard, second and rotated charts, switched by the rule of seed 000
@@ -330,14 +344,24 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     state, chart, _ = normalise_y0(model, y0, p)
     opt = run_options(method, dt, ts, rtol=rtol, atol=atol, step=step, hmax=hmax, max_steps=max_steps,
                       newton_tol=newton_tol, newton_max=newton_max, sine_min=sine_min)
-    _check_size(method, ts, state, opt, dt)
+    if _atlas(model) is not None and method not in ATLAS_METHODS:
+        raise SimulationInputError(f"the chart atlas has no method '{method}' "
+                                   f"(it has {', '.join(ATLAS_METHODS)})")
+    _check_size(method, ts, state, opt, dt, budget_given=max_steps is not None)
 
-    if _atlas(model) is not None:
-        result = run_atlas(method, state, chart, ts, p, opt, dt, backend, model)
-    elif isinstance(u, HeldInputs):
-        result = _run_held(model, method, state, ts, p, opt, dt, backend, u)
+    def run(o):
+        if _atlas(model) is not None:
+            return run_atlas(method, state, chart, ts, p, o, dt, backend, model)
+        if isinstance(u, HeldInputs):
+            return _run_held(model, method, state, ts, p, o, dt, backend, u)
+        return _run_single(model, method, state, ts, p, o, dt, backend, u)
+
+    if method in TOLERANCE_METHODS and max_steps is None and not isinstance(u, HeldInputs):
+        result = _run_estimated(run, method, ts, opt, backend)
+    elif method not in TOLERANCE_METHODS and _fixed_steps(ts, opt) <= QUICK_STEPS:
+        result = run(opt)              # a short fixed-step run: no cancellation machinery
     else:
-        result = _run_single(model, method, state, ts, p, opt, dt, backend, u)
+        result = _interruptible(run, opt, backend)
     if method in TOLERANCE_METHODS:
         result.rtol = opt["rtol"]
     else:
@@ -384,14 +408,90 @@ def run_options(method: str, dt: np.dtype, ts: np.ndarray, rtol=None, atol=None,
     return opt
 
 
+PILOT_STEPS = 200       # an adaptive run's first steps, which tell how long the whole would take
+QUICK_STEPS = 20_000    # a fixed-step run this short runs directly (milliseconds), not cancellable
+
+
+def _fixed_steps(ts: np.ndarray, opt: dict) -> float:
+    span = float(abs(ts[-1] - ts[0])) if len(ts) > 1 else 0.0
+    return span / opt["h"] if opt.get("h") else 0.0
+
+
+def _run_estimated(run, method: str, ts: np.ndarray, opt: dict, backend: str) -> SimulationResult:
+    """An adaptive run within the default step budget, or refused with the figure.
+
+    The run starts with max_steps = PILOT_STEPS: most runs end within that, and then
+    that is the result (the steps are the same, whatever the budget).  Otherwise the
+    time those steps covered gives the steps the whole span needs; beyond max_steps
+    (10^8 by default: minutes of C) the run is refused before the rest of the work."""
+    # the pilot runs in this thread (a few hundred steps: too short to need Ctrl-C, and a
+    # worker thread would cost more than most whole runs)
+    pilot = run(dict(opt, max_steps=min(PILOT_STEPS, opt["max_steps"])))
+    if pilot.status != STATUS["MAX_STEPS"] or opt["max_steps"] <= PILOT_STEPS:
+        return pilot
+    span = float(abs(ts[-1] - ts[0]))
+    covered = abs(pilot.t_stop - float(ts[0]))
+    needed = PILOT_STEPS * span / covered if covered > 0 else float("inf")
+    if needed > opt["max_steps"]:
+        raise SimulationInputError(
+            f"{method} at rtol {opt['rtol']:g} from t = {float(ts[0]):g} to {float(ts[-1]):g} needs about "
+            f"{needed:.2g} steps (its first {PILOT_STEPS} reached t = {pilot.t_stop:.3g}), more than "
+            f"max_steps = {opt['max_steps']:.3g}: shorten the span, loosen rtol or give max_steps=")
+    return _interruptible(run, opt, backend)
+
+
+def _interruptible(run, opt: dict, backend: str) -> SimulationResult:
+    """run(opt) so that Ctrl-C stops it: KeyboardInterrupt after the C loop has stopped.
+
+    A ctypes call releases the GIL but Python runs signal handlers only between
+    bytecodes of the main thread, so while the C loop runs in the main thread no
+    handler would run.  Here the run goes to a worker thread; the main thread waits
+    (a wait that signals interrupt), and its SIGINT handler sets the run's own
+    cancellation flag (options.cancel, read by the generated loop before every step).
+    Off the main thread (no signal handlers there) or with SIGINT ignored, the run is
+    direct; the NumPy backend is Python and stops on KeyboardInterrupt by itself."""
+    if backend != "c":
+        return run(opt)
+    flag = ctypes.c_int(0)
+    opt = dict(opt, cancel=ctypes.pointer(flag))
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, None):
+        return run(opt)
+    box: dict = {}
+
+    def work():
+        try:
+            box["result"] = run(opt)
+        except BaseException as exc:         # handed to the caller's thread below
+            box["error"] = exc
+
+    def on_sigint(signum, frame):
+        flag.value = 1
+
+    previous = signal.signal(signal.SIGINT, on_sigint)
+    try:
+        worker = threading.Thread(target=work, name="derive-run", daemon=True)
+        worker.start()
+        worker.join()
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if "error" in box:
+        raise box["error"]
+    if flag.value:
+        raise KeyboardInterrupt(f"run cancelled at t = {box['result'].t_stop:g}")
+    return box["result"]
+
+
 ATOL_FOR_ZERO = 1e-20             # atol = 0 means atol = 1e-20 rtol (see simulate)
 MAX_OUTPUT_BYTES = 2 ** 32         # 4 GiB of trajectory and observables for one run
 MAX_FIXED_STEPS = 10 ** 10         # about an hour of the cheapest rhs: refused before any work
 
 
-def _check_size(method: str, ts: np.ndarray, state, opt: dict, dt: np.dtype) -> None:
+def _check_size(method: str, ts: np.ndarray, state, opt: dict, dt: np.dtype, budget_given: bool = False) -> None:
     """Refuse, with the figure, a run whose output would not fit in memory or whose
-    fixed step (or largest step) means more steps than any run should take."""
+    fixed step (or largest step) means more steps than any run should take, or (with
+    the default budget) more than max_steps: a run that would stop after minutes of
+    work with 'maximum number of steps reached'.  (Adaptive runs: _run_estimated.)"""
     n = np.size(state)
     rows = len(ts) * (n + 1 + 4 * max(n // 2, 1))          # states, energy, positions, velocities
     nbytes = rows * np.dtype(dt).itemsize
@@ -402,10 +502,15 @@ def _check_size(method: str, ts: np.ndarray, state, opt: dict, dt: np.dtype) -> 
     if not np.isfinite(span):
         raise SimulationInputError(f"the time span {ts[0]:g} to {ts[-1]:g} is not finite")
     h = opt["h"] if method not in TOLERANCE_METHODS else opt["hmax"]
-    if h and span / h > MAX_FIXED_STEPS:
-        what = "step" if method not in TOLERANCE_METHODS else "hmax"
-        raise SimulationInputError(f"{what} = {h:g} over a span of {span:g} means {span / h:.3g} steps "
+    what = "step" if method not in TOLERANCE_METHODS else "hmax"
+    steps = span / h if h else 0.0          # in floating point: never an overflowing integer
+    if steps > MAX_FIXED_STEPS:
+        raise SimulationInputError(f"{what} = {h:g} over a span of {span:g} means {steps:.3g} steps "
                                    f"(limit {MAX_FIXED_STEPS:.0e}): refused before any work")
+    if steps > opt["max_steps"] and not budget_given:
+        raise SimulationInputError(f"{what} = {h:g} over a span of {span:g} means {steps:.3g} steps, more than "
+                                   f"max_steps = {opt['max_steps']:.3g}: refused before any work "
+                                   f"(give max_steps= to run them)")
 
 
 def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> SimulationResult:
@@ -450,11 +555,13 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> Simulatio
         y, inf = y[0], infos[0]
         counters = {k: int(getattr(inf, k)) for k in COUNTERS}
         status, t_stop, y_stop = int(inf.status), float(inf.t), np.array(inf.y[:])
+        h_end = float(inf.h_end)
     else:
         mod = numpy_module(f"{model}_integrate")
         status, y, inf = mod.integrate(method, y0, pd, tsd, dt, **opt)
         counters = {k: int(inf[k]) for k in COUNTERS}
         t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
+        h_end = float(inf["h_end"])
     pm = np.asarray(p, dt)
 
     def observe():       # run on first access of r.energy, r.positions or r.velocities
@@ -466,4 +573,4 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> Simulatio
         energy=LAZY, positions=LAZY, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
         y_stop=y_stop, chart=np.array([model] * len(ts), dtype=object) if single_chart else None,
         switches=0, chart_stop=model if single_chart else None, params=pm, velocities=LAZY,
-        observe=observe, **counters)
+        observe=observe, last_step=h_end if method not in TOLERANCE_METHODS and h_end else None, **counters)

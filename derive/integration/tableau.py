@@ -147,3 +147,15 @@ def adams(k: int) -> tuple[list[sp.Rational], list[sp.Rational]]:
         return out
 
     return weights([-j for j in range(k)]), weights([1 - j for j in range(k)])
+
+
+@lru_cache(maxsize=None)
+def adams_milne(k: int) -> sp.Rational:
+    """Milne's factor of the k-step Adams pair: the corrector's local error is about
+    C_AM / (C_AB - C_AM) (y_corrected - y_predicted), with C the error constants (the
+    residual of each formula on y = s^(k+1)/(k+1)!, f = s^k/k!, over one unit step)."""
+    ab, am = adams(k)
+    exact = sp.Rational(1, sp.factorial(k + 1))
+    c_ab = exact - sum(w * sp.Integer(-j) ** k for j, w in enumerate(ab)) / sp.factorial(k)
+    c_am = exact - sum(w * sp.Integer(1 - j) ** k for j, w in enumerate(am)) / sp.factorial(k)
+    return abs(c_am / (c_ab - c_am))

@@ -299,6 +299,7 @@ def render_taylor(name: str) -> dict[str, str]:
     """<name>_taylor.h and .c: the Taylor integrator of one model (C backend artifact)."""
     from ..codegen.emit import render
     from .codegen import c_variants, model_info
+    from .contract import INFO
     info = model_info(name)
     d = rhs_decomposition(name)
     slots = _slots(name)
@@ -309,6 +310,7 @@ def render_taylor(name: str) -> dict[str, str]:
             "sqrt": "sqrt" in kinds, "chain": bool(kinds.keys() & {"sin", "cos", "exp"})}
     ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops), "uses": uses,
            "nconst": len(d.constants), "order_max": ORDER_MAX,
+           "info_scalars": [f.name for f in INFO if not f.length],
            "op_summary": ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())),
            "nparams": f"{M}_N_PARAMS + {M}_N_INPUTS" if info.n_inputs else f"{M}_N_PARAMS"}
     return {f"c/{name}_taylor.h": render("c/taylor.h.jinja", dict(ctx, template="templates/c/taylor.h.jinja")),

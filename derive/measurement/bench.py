@@ -173,6 +173,8 @@ def toolkit_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
         plan.append(("dop853", "numpy", "float64", (1e-6,)))
     else:
         for method in METHODS:
+            if method not in ADAPTIVE and method not in FIXED_DIVISORS:
+                continue        # rk8, abm12: measured as the fixed-step C loops (LOOP_DIVISORS)
             for dtype in ("float64", "float32", "longdouble"):
                 knobs = ADAPTIVE_RTOLS[dtype] if method in ADAPTIVE else FIXED_DIVISORS[method]
                 plan.append((method, "c", dtype, knobs))

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..integration.contract import ADAPTIVE
 from ..integration.result import as_fields
 from ..integration.simulate import SimulationError, SimulationResult, simulate
 from ..measurement.trust import (Lyapunov, atlas_lyapunov, initial_error, largest_lyapunov,
@@ -108,9 +109,11 @@ def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
 
 def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
               tighten: float = 1.0, dtype: str | None = None) -> SimulationResult:
-    """The scene's run in CHUNKS pieces (fixed, so results do not depend on the display)."""
+    """The scene's run in CHUNKS pieces (fixed, so results do not depend on the display);
+    a fixed-step run in one piece: its grid t0 + k step must not restart at a piece's start."""
     t = np.linspace(scene.t_start, scene.t_stop, scene.outputs)
-    bounds = np.linspace(0, len(t) - 1, min(CHUNKS, len(t) - 1) + 1).astype(int)
+    pieces = 1 if c.step is not None and c.method not in ADAPTIVE else min(CHUNKS, len(t) - 1)
+    bounds = np.linspace(0, len(t) - 1, pieces + 1).astype(int)
     y0, parts = p.y0, []
     for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
         r = simulate(p.model, y0, t[a:b + 1], p.params, method=c.method,
@@ -261,6 +264,7 @@ def summary(o: Outcome) -> dict:
         "scene": o.scene.source, "title": o.scene.title,
         "model": o.plan.model, "model_reason": o.plan.reason,
         "method": o.choice.method, "rtol": o.choice.rtol, "step": o.choice.step,
+        "last_step": r.last_step,
         "dtype": o.choice.dtype, "backend": o.scene.backend,
         "target": o.scene.target, "predicted_error": o.choice.predicted, "achieved_error": o.achieved,
         "target_met": target_met(o), "precision": PRECISION.get(o.choice.dtype, o.choice.dtype),

@@ -24,6 +24,7 @@ void spherical_alt_integrate_defaults(spherical_alt_integrate_options *opt)
     opt->newton_tol = 0;
     opt->newton_max = 30;
     opt->sine_min = SPHERICAL_ALT_INTEGRATE_SINE_MIN;
+    opt->cancel = 0;
 }
 
 const char *spherical_alt_integrate_status_name(int status)
@@ -36,6 +37,8 @@ const char *spherical_alt_integrate_status_name(int status)
     case SPHERICAL_ALT_INTEGRATE_NONFINITE: return "non-finite state or derivative";
     case SPHERICAL_ALT_INTEGRATE_CHART_SINGULAR: return "chart singular (polar sine below threshold)";
     case SPHERICAL_ALT_INTEGRATE_BAD_INPUT: return "bad input";
+    case SPHERICAL_ALT_INTEGRATE_CANCELLED: return "cancelled";
+    case SPHERICAL_ALT_INTEGRATE_MULTISTEP_UNSTABLE: return "multistep unstable (step too large for abm12)";
     default: return "unknown status";
     }
 }
@@ -600,11 +603,90 @@ typedef struct spherical_alt_integrate_ctx {
     spherical_alt_integrate_info *info;
     int method;
     int canonical;      /* the implicit methods run on x = (q, p) */
+    int nhist;          /* abm12: how many of hist are filled */
+    double hist[12][N];    /* abm12: f at the last grid points, newest first */
 } spherical_alt_integrate_ctx;
 
 static int spherical_alt_integrate_eval(spherical_alt_integrate_ctx *c, const double *z, double *f)
 {
     return spherical_alt_eval(z, c->p, f, c->opt, c->info);
+}
+
+/* rk8: the 8th-order formula of DOP853 at a fixed step (its error estimate unused). */
+static int spherical_alt_rk8_step(spherical_alt_integrate_ctx *c, const double *z, double h, double (*K)[N], double *zn)
+{
+    double unused;
+    const int st = spherical_alt_eval(z, c->p, K[0], c->opt, c->info);
+    return st ? st : spherical_alt_dop853_step(z, h, c->p, K, zn, &unused, c->opt, c->info);
+}
+
+/* abm12 on the grid: the 12-step Adams-Bashforth-Moulton pair in PECE mode
+ * (predict with Adams-Bashforth, evaluate, correct with Adams-Moulton, evaluate; weights
+ * of tableau.adams(12)), the first 11 steps with rk8 to fill the history.  Its
+ * stability region is small: a step outside it grows the parasitic solutions, and the
+ * predictor-corrector difference grows with them.  Milne's estimate of the local error,
+ * 0.01909351520189867 |y_c - y_p|_max (tableau.adams_milne), above atol + rtol |y|_max: the step
+ * is not taken, MULTISTEP_UNSTABLE.  *err is that ratio. */
+static int spherical_alt_abm12_step(spherical_alt_integrate_ctx *c, const double *z, double h, double (*K)[N], double *zn, double *err)
+{
+    const double ab[12] = { 4.726253940487881, (-20.285746606065615), 64.33509531596555, (-141.5228641793681), 223.52676417573554, (-258.60210004935266), 220.35789995064735, (-137.12466439569303), 60.73999296348906, (-18.173476112605886), 3.2971105367915263, (-0.2742655400315991) };
+    const double am[12] = { 0.2742655400315991, 1.4350674601086928, (-2.1842209639800787), 3.9966765090137484, (-5.761421863726551), 6.308456470709075, (-5.180741060155123), 3.1395922456208916, (-1.3632220800515071), 0.4015741565372642, (-0.07195047052034899), 0.005924056412337663 };
+    double yp[N], fp[N], diff = 0, size = 0, sum;
+    int st, j, k;
+    *err = 0;
+    if (c->nhist == 0) {
+        st = spherical_alt_eval(z, c->p, c->hist[0], c->opt, c->info);
+        if (st) {
+            return st;
+        }
+        c->nhist = 1;
+    }
+    if (c->nhist < 12) {
+        st = spherical_alt_rk8_step(c, z, h, K, zn);
+    } else {
+        for (k = 0; k < N; ++k) {
+            sum = 0;
+            for (j = 11; j >= 0; --j) {
+                sum += ab[j] * c->hist[j][k];
+            }
+            yp[k] = z[k] + h * sum;
+        }
+        st = spherical_alt_eval(yp, c->p, fp, c->opt, c->info);
+        if (st) {
+            return st;
+        }
+        for (k = 0; k < N; ++k) {
+            sum = 0;
+            for (j = 11; j >= 1; --j) {
+                sum += am[j] * c->hist[j - 1][k];
+            }
+            zn[k] = z[k] + h * (sum + am[0] * fp[k]);
+            if (!(fabs(zn[k] - yp[k]) <= diff)) {
+                diff = fabs(zn[k] - yp[k]);
+            }
+            if (fabs(z[k]) > size) {
+                size = fabs(z[k]);
+            }
+        }
+        *err = 0.01909351520189867 * diff / ((double)c->opt->atol + (double)c->opt->rtol * size);
+        if (!(*err <= 1)) {
+            return SPHERICAL_ALT_INTEGRATE_MULTISTEP_UNSTABLE;
+        }
+    }
+    if (st) {
+        return st;
+    }
+    /* the history moves by one: f at the new grid point first */
+    for (j = 11; j >= 1; --j) {
+        for (k = 0; k < N; ++k) {
+            c->hist[j][k] = c->hist[j - 1][k];
+        }
+    }
+    st = spherical_alt_eval(zn, c->p, c->hist[0], c->opt, c->info);
+    if (c->nhist < 12) {
+        c->nhist += 1;
+    }
+    return st;
 }
 
 static int spherical_alt_integrate_step(spherical_alt_integrate_ctx *c, const double *z, double h, double (*K)[N], double *zn, double *err)
@@ -614,6 +696,11 @@ static int spherical_alt_integrate_step(spherical_alt_integrate_ctx *c, const do
     case SPHERICAL_ALT_METHOD_RK4:
         st = spherical_alt_eval(z, c->p, K[0], c->opt, c->info);
         return st ? st : spherical_alt_rk4_step(z, h, c->p, K, zn, err, c->opt, c->info);
+    case SPHERICAL_ALT_METHOD_RK8:
+        *err = 0;
+        return spherical_alt_rk8_step(c, z, h, K, zn);
+    case SPHERICAL_ALT_METHOD_ABM12:
+        return spherical_alt_abm12_step(c, z, h, K, zn, err);
     case SPHERICAL_ALT_METHOD_DOPRI5:
         return spherical_alt_dopri5_step(z, h, c->p, K, zn, err, c->opt, c->info);
     case SPHERICAL_ALT_METHOD_DOP853:
@@ -625,6 +712,17 @@ static int spherical_alt_integrate_step(spherical_alt_integrate_ctx *c, const do
         *err = 0;
         return spherical_alt_gauss2_step(z, h, c->p, zn, c->opt, c->info);
     }
+}
+
+/* A shortened step to an output time off the grid: the method's own step, but rk8 for
+ * abm12 (its history belongs to the grid, and a multistep formula needs equal steps). */
+static int spherical_alt_integrate_partial_step(spherical_alt_integrate_ctx *c, const double *z, double h, double (*K)[N], double *zn)
+{
+    double err;
+    if (c->method == SPHERICAL_ALT_METHOD_ABM12) {
+        return spherical_alt_rk8_step(c, z, h, K, zn);
+    }
+    return spherical_alt_integrate_step(c, z, h, K, zn, &err);
 }
 
 static int spherical_alt_integrate_dense_prepare(spherical_alt_integrate_ctx *c, const double *z, const double *zn, double h, double (*K)[N], double (*F)[N])
@@ -730,6 +828,46 @@ static int spherical_alt_integrate_finite(const double *z)
     return check == 0;
 }
 
+/* One fixed step z -> zn of length h (partial: a shortened step to an output time off
+ * the grid, by the one-step D_partial_step): the step budget, the caller's
+ * cancellation flag, the chart switch at the step start and the redo of a step that
+ * met a chart singularity, the finiteness of the result.  0 or a status. */
+static int spherical_alt_integrate_fixed(spherical_alt_integrate_ctx *c, double *z, double h, double (*K)[N], double *zn, int partial)
+{
+    double err = 0;
+    int st, sw;
+    if (c->info->nsteps >= c->opt->max_steps) {
+        return SPHERICAL_ALT_INTEGRATE_MAX_STEPS;
+    }
+    if (c->opt->cancel && *c->opt->cancel) {
+        return SPHERICAL_ALT_INTEGRATE_CANCELLED;
+    }
+    sw = spherical_alt_integrate_switch(c, z, 0);
+    if (sw < 0) {
+        return -sw;
+    }
+    c->info->nsteps += 1;
+    st = partial ? spherical_alt_integrate_partial_step(c, z, h, K, zn) : spherical_alt_integrate_step(c, z, h, K, zn, &err);
+    if (st == SPHERICAL_ALT_INTEGRATE_CHART_SINGULAR) {
+        /* switch at the step start (if another chart is better) and redo */
+        sw = spherical_alt_integrate_switch(c, z, 1);
+        if (sw < 0) {
+            return -sw;
+        }
+        if (sw == 1) {
+            st = spherical_alt_integrate_step(c, z, h, K, zn, &err);
+        }
+    }
+    if (st) {
+        return st;
+    }
+    if (!spherical_alt_integrate_finite(zn)) {
+        return SPHERICAL_ALT_INTEGRATE_NONFINITE;
+    }
+    c->info->naccepted += 1;
+    return SPHERICAL_ALT_INTEGRATE_OK;
+}
+
 /* The stepping loop: from the context's state at t_out[0] through every output time. */
 static int spherical_alt_integrate_drive(spherical_alt_integrate_ctx *c, const double *restrict y0, long nt, const double *restrict t_out, double *restrict y_out)
 {
@@ -739,7 +877,8 @@ static int spherical_alt_integrate_drive(spherical_alt_integrate_ctx *c, const d
     const int method = c->method;
     const int adaptive = (method == SPHERICAL_ALT_METHOD_DOPRI5 || method == SPHERICAL_ALT_METHOD_DOP853);
     const double eps = 2.220446049250313e-16;
-    long iout = 1, sub, nsub;
+    double tnext, slack;
+    long iout = 1, kgrid = 0;
     int st, k, cause = 0, rejected = 0, dense_ready, fsal, last, sw;
 
     st = spherical_alt_integrate_in(c, y0, z);
@@ -751,60 +890,59 @@ static int spherical_alt_integrate_drive(spherical_alt_integrate_ctx *c, const d
         goto done;
     }
     c->info->nout = 1;
+    c->info->h_end = 0;
     if (nt == 1) {
         goto done;
     }
     dir = t_out[nt - 1] > t_out[0] ? 1 : -1;
     if (!adaptive) {
+        /* The grid t0 + k h: whole steps of the requested h whatever the outputs (a grid
+         * point within roundoff of an output time is that output).  An output time between
+         * grid points is reached by a shortened step from the grid point before it into
+         * a side state; the grid goes on from the grid point, so the result at any time
+         * does not depend on which outputs were asked for.  No step count is formed:
+         * kgrid <= nsteps <= max_steps, and _check refuses |t_end - t0| / h > 2^53. */
+        h = dir * (double)c->opt->h;
         for (iout = 1; iout < nt; ++iout) {
-            const double dt = t_out[iout] - t_out[iout - 1];
-            nsub = (long)ceil(fabs(dt) / (double)c->opt->h - (double)1e-9);
-            if (nsub < 1) {
-                nsub = 1;
-            }
-            h = dt / (double)nsub;
-            for (sub = 0; sub < nsub; ++sub) {
-                if (c->info->nsteps >= c->opt->max_steps) {
-                    st = SPHERICAL_ALT_INTEGRATE_MAX_STEPS;
-                    goto done;
+            slack = 16 * eps * (fabs(t_out[0]) + fabs(t_out[iout]) + fabs(h));
+            for (;;) {
+                tnext = t_out[0] + (double)(kgrid + 1) * h;
+                if ((tnext - t_out[iout]) * dir > slack) {
+                    break;
                 }
-                st = spherical_alt_integrate_switch(c, z, 0);
-                if (st < 0) {
-                    st = -st;
-                    goto done;
-                }
-                c->info->nsteps += 1;
-                st = spherical_alt_integrate_step(c, z, h, K, zn, &err);
-                if (st == SPHERICAL_ALT_INTEGRATE_CHART_SINGULAR) {
-                    /* switch at the step start (if another chart is better) and redo */
-                    sw = spherical_alt_integrate_switch(c, z, 1);
-                    if (sw < 0) {
-                        st = -sw;
-                        goto done;
-                    }
-                    if (sw == 1) {
-                        st = spherical_alt_integrate_step(c, z, h, K, zn, &err);
-                    }
-                }
+                st = spherical_alt_integrate_fixed(c, z, h, K, zn, 0);
                 if (st) {
-                    goto done;
-                }
-                if (!spherical_alt_integrate_finite(zn)) {
-                    st = SPHERICAL_ALT_INTEGRATE_NONFINITE;
                     goto done;
                 }
                 for (k = 0; k < N; ++k) {
                     z[k] = zn[k];
                 }
-                c->info->naccepted += 1;
-                t = (sub == nsub - 1) ? t_out[iout] : t_out[iout - 1] + (double)(sub + 1) * h;
+                kgrid += 1;
+                t = tnext;
             }
-            st = spherical_alt_integrate_out(c, z, y_out + iout * N);
+            if ((t_out[iout] - t) * dir <= slack) {
+                st = spherical_alt_integrate_out(c, z, y_out + iout * N);
+                c->info->h_end = 0;
+            } else {
+                c->info->h_end = (double)(t_out[iout] - t);
+                st = spherical_alt_integrate_fixed(c, z, t_out[iout] - t, K, tmp, 1);
+                if (st) {
+                    goto done;
+                }
+                st = spherical_alt_integrate_out(c, tmp, y_out + iout * N);
+            }
             if (st) {
                 goto done;
             }
             c->info->nout += 1;
         }
+        /* the run ends at the last output time (the side state there) */
+        if (c->info->h_end != 0) {
+            for (k = 0; k < N; ++k) {
+                z[k] = tmp[k];
+            }
+        }
+        t = t_out[nt - 1];
         goto done;
     }
 
@@ -835,6 +973,10 @@ static int spherical_alt_integrate_drive(spherical_alt_integrate_ctx *c, const d
     while (iout < nt) {
         if (c->info->nsteps >= c->opt->max_steps) {
             st = SPHERICAL_ALT_INTEGRATE_MAX_STEPS;
+            goto done;
+        }
+        if (c->opt->cancel && *c->opt->cancel) {
+            st = SPHERICAL_ALT_INTEGRATE_CANCELLED;
             goto done;
         }
         last = 0;
@@ -950,7 +1092,7 @@ static int spherical_alt_integrate_check(int method, const double *y0, long ny, 
 {
     double check = 0;
     long i;
-    if (method < SPHERICAL_ALT_METHOD_RK4 || method > SPHERICAL_ALT_METHOD_GAUSS2 || nt < 1 || !y0 || !t) {
+    if (method < SPHERICAL_ALT_METHOD_RK4 || method > SPHERICAL_ALT_METHOD_ABM12 || nt < 1 || !y0 || !t) {
         return SPHERICAL_ALT_INTEGRATE_BAD_INPUT;
     }
     for (i = 0; i < ny; ++i) {
@@ -976,6 +1118,8 @@ static int spherical_alt_integrate_check(int method, const double *y0, long ny, 
         }
     } else if (nt > 1 && !(opt->h > 0 && opt->h < 1e300)) {
         return SPHERICAL_ALT_INTEGRATE_BAD_INPUT;
+    } else if (nt > 1 && !(fabs(t[nt - 1] - t[0]) / (double)opt->h <= (double)9007199254740992.0)) {
+        return SPHERICAL_ALT_INTEGRATE_BAD_INPUT;     /* more than 2^53 grid steps (see _drive) */
     }
     if (opt->max_steps < 1 || !(opt->sine_min >= 0 && opt->sine_min < 1)) {
         return SPHERICAL_ALT_INTEGRATE_BAD_INPUT;
@@ -1001,7 +1145,7 @@ int spherical_alt_integrate(int method, const double *restrict y0, const double 
     info->status = 0;
     info->nfev = info->njev = info->nsteps = info->naccepted = info->nrejected = info->nnewton = info->nout = 0;
     info->t = nt > 0 && t ? (double)t[0] : 0;
-    info->h = 0;
+    info->h = info->h_end = 0;
     for (k = 0; k < N; ++k) {
         info->y[k] = y0 ? (double)y0[k] : 0;
     }
@@ -1017,6 +1161,7 @@ int spherical_alt_integrate(int method, const double *restrict y0, const double 
     c.info = info;
     c.method = method;
     c.canonical = 0 && (method == SPHERICAL_ALT_METHOD_MIDPOINT || method == SPHERICAL_ALT_METHOD_GAUSS2);
+    c.nhist = 0;
     return spherical_alt_integrate_drive(&c, y0, nt, t, y_out);
 }
 
@@ -1580,11 +1725,90 @@ typedef struct spherical_alt_integrate_ctx_f {
     spherical_alt_integrate_info *info;
     int method;
     int canonical;      /* the implicit methods run on x = (q, p) */
+    int nhist;          /* abm12: how many of hist are filled */
+    float hist[12][N];    /* abm12: f at the last grid points, newest first */
 } spherical_alt_integrate_ctx_f;
 
 static int spherical_alt_integrate_eval_f(spherical_alt_integrate_ctx_f *c, const float *z, float *f)
 {
     return spherical_alt_eval_f(z, c->p, f, c->opt, c->info);
+}
+
+/* rk8: the 8th-order formula of DOP853 at a fixed step (its error estimate unused). */
+static int spherical_alt_rk8_step_f(spherical_alt_integrate_ctx_f *c, const float *z, float h, float (*K)[N], float *zn)
+{
+    float unused;
+    const int st = spherical_alt_eval_f(z, c->p, K[0], c->opt, c->info);
+    return st ? st : spherical_alt_dop853_step_f(z, h, c->p, K, zn, &unused, c->opt, c->info);
+}
+
+/* abm12 on the grid: the 12-step Adams-Bashforth-Moulton pair in PECE mode
+ * (predict with Adams-Bashforth, evaluate, correct with Adams-Moulton, evaluate; weights
+ * of tableau.adams(12)), the first 11 steps with rk8 to fill the history.  Its
+ * stability region is small: a step outside it grows the parasitic solutions, and the
+ * predictor-corrector difference grows with them.  Milne's estimate of the local error,
+ * 0.01909351535141468f |y_c - y_p|_max (tableau.adams_milne), above atol + rtol |y|_max: the step
+ * is not taken, MULTISTEP_UNSTABLE.  *err is that ratio. */
+static int spherical_alt_abm12_step_f(spherical_alt_integrate_ctx_f *c, const float *z, float h, float (*K)[N], float *zn, float *err)
+{
+    const float ab[12] = { 4.726253986358643f, (-20.285747528076172f), 64.33509826660156f, (-141.52285766601562f), 223.52676391601562f, (-258.60211181640625f), 220.35789489746094f, (-137.12466430664062f), 60.739994049072266f, (-18.17347526550293f), 3.2971105575561523f, (-0.2742655277252197f) };
+    const float am[12] = { 0.2742655277252197f, 1.4350674152374268f, (-2.184221029281616f), 3.996676445007324f, (-5.7614216804504395f), 6.3084564208984375f, (-5.180740833282471f), 3.139592170715332f, (-1.3632221221923828f), 0.40157416462898254f, (-0.07195047289133072f), 0.00592405628412962f };
+    float yp[N], fp[N], diff = 0, size = 0, sum;
+    int st, j, k;
+    *err = 0;
+    if (c->nhist == 0) {
+        st = spherical_alt_eval_f(z, c->p, c->hist[0], c->opt, c->info);
+        if (st) {
+            return st;
+        }
+        c->nhist = 1;
+    }
+    if (c->nhist < 12) {
+        st = spherical_alt_rk8_step_f(c, z, h, K, zn);
+    } else {
+        for (k = 0; k < N; ++k) {
+            sum = 0;
+            for (j = 11; j >= 0; --j) {
+                sum += ab[j] * c->hist[j][k];
+            }
+            yp[k] = z[k] + h * sum;
+        }
+        st = spherical_alt_eval_f(yp, c->p, fp, c->opt, c->info);
+        if (st) {
+            return st;
+        }
+        for (k = 0; k < N; ++k) {
+            sum = 0;
+            for (j = 11; j >= 1; --j) {
+                sum += am[j] * c->hist[j - 1][k];
+            }
+            zn[k] = z[k] + h * (sum + am[0] * fp[k]);
+            if (!(fabsf(zn[k] - yp[k]) <= diff)) {
+                diff = fabsf(zn[k] - yp[k]);
+            }
+            if (fabsf(z[k]) > size) {
+                size = fabsf(z[k]);
+            }
+        }
+        *err = 0.01909351535141468f * diff / ((float)c->opt->atol + (float)c->opt->rtol * size);
+        if (!(*err <= 1)) {
+            return SPHERICAL_ALT_INTEGRATE_MULTISTEP_UNSTABLE;
+        }
+    }
+    if (st) {
+        return st;
+    }
+    /* the history moves by one: f at the new grid point first */
+    for (j = 11; j >= 1; --j) {
+        for (k = 0; k < N; ++k) {
+            c->hist[j][k] = c->hist[j - 1][k];
+        }
+    }
+    st = spherical_alt_eval_f(zn, c->p, c->hist[0], c->opt, c->info);
+    if (c->nhist < 12) {
+        c->nhist += 1;
+    }
+    return st;
 }
 
 static int spherical_alt_integrate_step_f(spherical_alt_integrate_ctx_f *c, const float *z, float h, float (*K)[N], float *zn, float *err)
@@ -1594,6 +1818,11 @@ static int spherical_alt_integrate_step_f(spherical_alt_integrate_ctx_f *c, cons
     case SPHERICAL_ALT_METHOD_RK4:
         st = spherical_alt_eval_f(z, c->p, K[0], c->opt, c->info);
         return st ? st : spherical_alt_rk4_step_f(z, h, c->p, K, zn, err, c->opt, c->info);
+    case SPHERICAL_ALT_METHOD_RK8:
+        *err = 0;
+        return spherical_alt_rk8_step_f(c, z, h, K, zn);
+    case SPHERICAL_ALT_METHOD_ABM12:
+        return spherical_alt_abm12_step_f(c, z, h, K, zn, err);
     case SPHERICAL_ALT_METHOD_DOPRI5:
         return spherical_alt_dopri5_step_f(z, h, c->p, K, zn, err, c->opt, c->info);
     case SPHERICAL_ALT_METHOD_DOP853:
@@ -1605,6 +1834,17 @@ static int spherical_alt_integrate_step_f(spherical_alt_integrate_ctx_f *c, cons
         *err = 0;
         return spherical_alt_gauss2_step_f(z, h, c->p, zn, c->opt, c->info);
     }
+}
+
+/* A shortened step to an output time off the grid: the method's own step, but rk8 for
+ * abm12 (its history belongs to the grid, and a multistep formula needs equal steps). */
+static int spherical_alt_integrate_partial_step_f(spherical_alt_integrate_ctx_f *c, const float *z, float h, float (*K)[N], float *zn)
+{
+    float err;
+    if (c->method == SPHERICAL_ALT_METHOD_ABM12) {
+        return spherical_alt_rk8_step_f(c, z, h, K, zn);
+    }
+    return spherical_alt_integrate_step_f(c, z, h, K, zn, &err);
 }
 
 static int spherical_alt_integrate_dense_prepare_f(spherical_alt_integrate_ctx_f *c, const float *z, const float *zn, float h, float (*K)[N], float (*F)[N])
@@ -1710,6 +1950,46 @@ static int spherical_alt_integrate_finite_f(const float *z)
     return check == 0;
 }
 
+/* One fixed step z -> zn of length h (partial: a shortened step to an output time off
+ * the grid, by the one-step D_partial_step): the step budget, the caller's
+ * cancellation flag, the chart switch at the step start and the redo of a step that
+ * met a chart singularity, the finiteness of the result.  0 or a status. */
+static int spherical_alt_integrate_fixed_f(spherical_alt_integrate_ctx_f *c, float *z, float h, float (*K)[N], float *zn, int partial)
+{
+    float err = 0;
+    int st, sw;
+    if (c->info->nsteps >= c->opt->max_steps) {
+        return SPHERICAL_ALT_INTEGRATE_MAX_STEPS;
+    }
+    if (c->opt->cancel && *c->opt->cancel) {
+        return SPHERICAL_ALT_INTEGRATE_CANCELLED;
+    }
+    sw = spherical_alt_integrate_switch_f(c, z, 0);
+    if (sw < 0) {
+        return -sw;
+    }
+    c->info->nsteps += 1;
+    st = partial ? spherical_alt_integrate_partial_step_f(c, z, h, K, zn) : spherical_alt_integrate_step_f(c, z, h, K, zn, &err);
+    if (st == SPHERICAL_ALT_INTEGRATE_CHART_SINGULAR) {
+        /* switch at the step start (if another chart is better) and redo */
+        sw = spherical_alt_integrate_switch_f(c, z, 1);
+        if (sw < 0) {
+            return -sw;
+        }
+        if (sw == 1) {
+            st = spherical_alt_integrate_step_f(c, z, h, K, zn, &err);
+        }
+    }
+    if (st) {
+        return st;
+    }
+    if (!spherical_alt_integrate_finite_f(zn)) {
+        return SPHERICAL_ALT_INTEGRATE_NONFINITE;
+    }
+    c->info->naccepted += 1;
+    return SPHERICAL_ALT_INTEGRATE_OK;
+}
+
 /* The stepping loop: from the context's state at t_out[0] through every output time. */
 static int spherical_alt_integrate_drive_f(spherical_alt_integrate_ctx_f *c, const float *restrict y0, long nt, const float *restrict t_out, float *restrict y_out)
 {
@@ -1719,7 +1999,8 @@ static int spherical_alt_integrate_drive_f(spherical_alt_integrate_ctx_f *c, con
     const int method = c->method;
     const int adaptive = (method == SPHERICAL_ALT_METHOD_DOPRI5 || method == SPHERICAL_ALT_METHOD_DOP853);
     const float eps = 1.1920929e-07f;
-    long iout = 1, sub, nsub;
+    float tnext, slack;
+    long iout = 1, kgrid = 0;
     int st, k, cause = 0, rejected = 0, dense_ready, fsal, last, sw;
 
     st = spherical_alt_integrate_in_f(c, y0, z);
@@ -1731,60 +2012,59 @@ static int spherical_alt_integrate_drive_f(spherical_alt_integrate_ctx_f *c, con
         goto done;
     }
     c->info->nout = 1;
+    c->info->h_end = 0;
     if (nt == 1) {
         goto done;
     }
     dir = t_out[nt - 1] > t_out[0] ? 1 : -1;
     if (!adaptive) {
+        /* The grid t0 + k h: whole steps of the requested h whatever the outputs (a grid
+         * point within roundoff of an output time is that output).  An output time between
+         * grid points is reached by a shortened step from the grid point before it into
+         * a side state; the grid goes on from the grid point, so the result at any time
+         * does not depend on which outputs were asked for.  No step count is formed:
+         * kgrid <= nsteps <= max_steps, and _check refuses |t_end - t0| / h > 2^53. */
+        h = dir * (float)c->opt->h;
         for (iout = 1; iout < nt; ++iout) {
-            const float dt = t_out[iout] - t_out[iout - 1];
-            nsub = (long)ceilf(fabsf(dt) / (float)c->opt->h - (float)1e-9);
-            if (nsub < 1) {
-                nsub = 1;
-            }
-            h = dt / (float)nsub;
-            for (sub = 0; sub < nsub; ++sub) {
-                if (c->info->nsteps >= c->opt->max_steps) {
-                    st = SPHERICAL_ALT_INTEGRATE_MAX_STEPS;
-                    goto done;
+            slack = 16 * eps * (fabsf(t_out[0]) + fabsf(t_out[iout]) + fabsf(h));
+            for (;;) {
+                tnext = t_out[0] + (float)(kgrid + 1) * h;
+                if ((tnext - t_out[iout]) * dir > slack) {
+                    break;
                 }
-                st = spherical_alt_integrate_switch_f(c, z, 0);
-                if (st < 0) {
-                    st = -st;
-                    goto done;
-                }
-                c->info->nsteps += 1;
-                st = spherical_alt_integrate_step_f(c, z, h, K, zn, &err);
-                if (st == SPHERICAL_ALT_INTEGRATE_CHART_SINGULAR) {
-                    /* switch at the step start (if another chart is better) and redo */
-                    sw = spherical_alt_integrate_switch_f(c, z, 1);
-                    if (sw < 0) {
-                        st = -sw;
-                        goto done;
-                    }
-                    if (sw == 1) {
-                        st = spherical_alt_integrate_step_f(c, z, h, K, zn, &err);
-                    }
-                }
+                st = spherical_alt_integrate_fixed_f(c, z, h, K, zn, 0);
                 if (st) {
-                    goto done;
-                }
-                if (!spherical_alt_integrate_finite_f(zn)) {
-                    st = SPHERICAL_ALT_INTEGRATE_NONFINITE;
                     goto done;
                 }
                 for (k = 0; k < N; ++k) {
                     z[k] = zn[k];
                 }
-                c->info->naccepted += 1;
-                t = (sub == nsub - 1) ? t_out[iout] : t_out[iout - 1] + (float)(sub + 1) * h;
+                kgrid += 1;
+                t = tnext;
             }
-            st = spherical_alt_integrate_out_f(c, z, y_out + iout * N);
+            if ((t_out[iout] - t) * dir <= slack) {
+                st = spherical_alt_integrate_out_f(c, z, y_out + iout * N);
+                c->info->h_end = 0;
+            } else {
+                c->info->h_end = (double)(t_out[iout] - t);
+                st = spherical_alt_integrate_fixed_f(c, z, t_out[iout] - t, K, tmp, 1);
+                if (st) {
+                    goto done;
+                }
+                st = spherical_alt_integrate_out_f(c, tmp, y_out + iout * N);
+            }
             if (st) {
                 goto done;
             }
             c->info->nout += 1;
         }
+        /* the run ends at the last output time (the side state there) */
+        if (c->info->h_end != 0) {
+            for (k = 0; k < N; ++k) {
+                z[k] = tmp[k];
+            }
+        }
+        t = t_out[nt - 1];
         goto done;
     }
 
@@ -1815,6 +2095,10 @@ static int spherical_alt_integrate_drive_f(spherical_alt_integrate_ctx_f *c, con
     while (iout < nt) {
         if (c->info->nsteps >= c->opt->max_steps) {
             st = SPHERICAL_ALT_INTEGRATE_MAX_STEPS;
+            goto done;
+        }
+        if (c->opt->cancel && *c->opt->cancel) {
+            st = SPHERICAL_ALT_INTEGRATE_CANCELLED;
             goto done;
         }
         last = 0;
@@ -1930,7 +2214,7 @@ static int spherical_alt_integrate_check_f(int method, const float *y0, long ny,
 {
     float check = 0;
     long i;
-    if (method < SPHERICAL_ALT_METHOD_RK4 || method > SPHERICAL_ALT_METHOD_GAUSS2 || nt < 1 || !y0 || !t) {
+    if (method < SPHERICAL_ALT_METHOD_RK4 || method > SPHERICAL_ALT_METHOD_ABM12 || nt < 1 || !y0 || !t) {
         return SPHERICAL_ALT_INTEGRATE_BAD_INPUT;
     }
     for (i = 0; i < ny; ++i) {
@@ -1956,6 +2240,8 @@ static int spherical_alt_integrate_check_f(int method, const float *y0, long ny,
         }
     } else if (nt > 1 && !(opt->h > 0 && opt->h < 1e300)) {
         return SPHERICAL_ALT_INTEGRATE_BAD_INPUT;
+    } else if (nt > 1 && !(fabsf(t[nt - 1] - t[0]) / (float)opt->h <= (float)9007199254740992.0)) {
+        return SPHERICAL_ALT_INTEGRATE_BAD_INPUT;     /* more than 2^53 grid steps (see _drive) */
     }
     if (opt->max_steps < 1 || !(opt->sine_min >= 0 && opt->sine_min < 1)) {
         return SPHERICAL_ALT_INTEGRATE_BAD_INPUT;
@@ -1981,7 +2267,7 @@ int spherical_alt_integrate_f(int method, const float *restrict y0, const float 
     info->status = 0;
     info->nfev = info->njev = info->nsteps = info->naccepted = info->nrejected = info->nnewton = info->nout = 0;
     info->t = nt > 0 && t ? (double)t[0] : 0;
-    info->h = 0;
+    info->h = info->h_end = 0;
     for (k = 0; k < N; ++k) {
         info->y[k] = y0 ? (double)y0[k] : 0;
     }
@@ -1997,6 +2283,7 @@ int spherical_alt_integrate_f(int method, const float *restrict y0, const float 
     c.info = info;
     c.method = method;
     c.canonical = 0 && (method == SPHERICAL_ALT_METHOD_MIDPOINT || method == SPHERICAL_ALT_METHOD_GAUSS2);
+    c.nhist = 0;
     return spherical_alt_integrate_drive_f(&c, y0, nt, t, y_out);
 }
 
@@ -2560,11 +2847,90 @@ typedef struct spherical_alt_integrate_ctx_l {
     spherical_alt_integrate_info *info;
     int method;
     int canonical;      /* the implicit methods run on x = (q, p) */
+    int nhist;          /* abm12: how many of hist are filled */
+    long double hist[12][N];    /* abm12: f at the last grid points, newest first */
 } spherical_alt_integrate_ctx_l;
 
 static int spherical_alt_integrate_eval_l(spherical_alt_integrate_ctx_l *c, const long double *z, long double *f)
 {
     return spherical_alt_eval_l(z, c->p, f, c->opt, c->info);
+}
+
+/* rk8: the 8th-order formula of DOP853 at a fixed step (its error estimate unused). */
+static int spherical_alt_rk8_step_l(spherical_alt_integrate_ctx_l *c, const long double *z, long double h, long double (*K)[N], long double *zn)
+{
+    long double unused;
+    const int st = spherical_alt_eval_l(z, c->p, K[0], c->opt, c->info);
+    return st ? st : spherical_alt_dop853_step_l(z, h, c->p, K, zn, &unused, c->opt, c->info);
+}
+
+/* abm12 on the grid: the 12-step Adams-Bashforth-Moulton pair in PECE mode
+ * (predict with Adams-Bashforth, evaluate, correct with Adams-Moulton, evaluate; weights
+ * of tableau.adams(12)), the first 11 steps with rk8 to fill the history.  Its
+ * stability region is small: a step outside it grows the parasitic solutions, and the
+ * predictor-corrector difference grows with them.  Milne's estimate of the local error,
+ * 0.0190935152018986707047113689215177883L |y_c - y_p|_max (tableau.adams_milne), above atol + rtol |y|_max: the step
+ * is not taken, MULTISTEP_UNSTABLE.  *err is that ratio. */
+static int spherical_alt_abm12_step_l(spherical_alt_integrate_ctx_l *c, const long double *z, long double h, long double (*K)[N], long double *zn, long double *err)
+{
+    const long double ab[12] = { 4.72625394048788146010368232590454813L, (-20.2857466060656164822831489498156165L), 64.335095315965541659986104430548875L, (-141.522864179368085618085618085618086L), 223.52676417573552990219656886323553L, (-258.602100049352653519320185986852654L), 220.357899950647346480679814013147346L, (-137.124664395693041526374859708193042L), 60.7399929634890572390572390572390572L, (-18.1734761126058869114424669980225536L), 3.29711053679152637485970819304152637L, (-0.274265540031599059376837154614932393L) };
+    const long double am[12] = { 0.274265540031599059376837154614932393L, 1.43506746010869274758163647052535941L, (-2.18422096398007856341189674523007856L), 3.9966765090137485970819304152637486L, (-5.76142186372655122655122655122655123L), 6.30845647070907487574154240820907488L, (-5.18074106015512265512265512265512266L), 3.13959224562089145422478755812089145L, (-1.36322208005150713484046817380150713L), 0.401574156537264176153065041953930843L, (-0.0719504705203489925712147934370156592L), 0.00592405641233766233766233766233766234L };
+    long double yp[N], fp[N], diff = 0, size = 0, sum;
+    int st, j, k;
+    *err = 0;
+    if (c->nhist == 0) {
+        st = spherical_alt_eval_l(z, c->p, c->hist[0], c->opt, c->info);
+        if (st) {
+            return st;
+        }
+        c->nhist = 1;
+    }
+    if (c->nhist < 12) {
+        st = spherical_alt_rk8_step_l(c, z, h, K, zn);
+    } else {
+        for (k = 0; k < N; ++k) {
+            sum = 0;
+            for (j = 11; j >= 0; --j) {
+                sum += ab[j] * c->hist[j][k];
+            }
+            yp[k] = z[k] + h * sum;
+        }
+        st = spherical_alt_eval_l(yp, c->p, fp, c->opt, c->info);
+        if (st) {
+            return st;
+        }
+        for (k = 0; k < N; ++k) {
+            sum = 0;
+            for (j = 11; j >= 1; --j) {
+                sum += am[j] * c->hist[j - 1][k];
+            }
+            zn[k] = z[k] + h * (sum + am[0] * fp[k]);
+            if (!(fabsl(zn[k] - yp[k]) <= diff)) {
+                diff = fabsl(zn[k] - yp[k]);
+            }
+            if (fabsl(z[k]) > size) {
+                size = fabsl(z[k]);
+            }
+        }
+        *err = 0.0190935152018986707047113689215177883L * diff / ((long double)c->opt->atol + (long double)c->opt->rtol * size);
+        if (!(*err <= 1)) {
+            return SPHERICAL_ALT_INTEGRATE_MULTISTEP_UNSTABLE;
+        }
+    }
+    if (st) {
+        return st;
+    }
+    /* the history moves by one: f at the new grid point first */
+    for (j = 11; j >= 1; --j) {
+        for (k = 0; k < N; ++k) {
+            c->hist[j][k] = c->hist[j - 1][k];
+        }
+    }
+    st = spherical_alt_eval_l(zn, c->p, c->hist[0], c->opt, c->info);
+    if (c->nhist < 12) {
+        c->nhist += 1;
+    }
+    return st;
 }
 
 static int spherical_alt_integrate_step_l(spherical_alt_integrate_ctx_l *c, const long double *z, long double h, long double (*K)[N], long double *zn, long double *err)
@@ -2574,6 +2940,11 @@ static int spherical_alt_integrate_step_l(spherical_alt_integrate_ctx_l *c, cons
     case SPHERICAL_ALT_METHOD_RK4:
         st = spherical_alt_eval_l(z, c->p, K[0], c->opt, c->info);
         return st ? st : spherical_alt_rk4_step_l(z, h, c->p, K, zn, err, c->opt, c->info);
+    case SPHERICAL_ALT_METHOD_RK8:
+        *err = 0;
+        return spherical_alt_rk8_step_l(c, z, h, K, zn);
+    case SPHERICAL_ALT_METHOD_ABM12:
+        return spherical_alt_abm12_step_l(c, z, h, K, zn, err);
     case SPHERICAL_ALT_METHOD_DOPRI5:
         return spherical_alt_dopri5_step_l(z, h, c->p, K, zn, err, c->opt, c->info);
     case SPHERICAL_ALT_METHOD_DOP853:
@@ -2585,6 +2956,17 @@ static int spherical_alt_integrate_step_l(spherical_alt_integrate_ctx_l *c, cons
         *err = 0;
         return spherical_alt_gauss2_step_l(z, h, c->p, zn, c->opt, c->info);
     }
+}
+
+/* A shortened step to an output time off the grid: the method's own step, but rk8 for
+ * abm12 (its history belongs to the grid, and a multistep formula needs equal steps). */
+static int spherical_alt_integrate_partial_step_l(spherical_alt_integrate_ctx_l *c, const long double *z, long double h, long double (*K)[N], long double *zn)
+{
+    long double err;
+    if (c->method == SPHERICAL_ALT_METHOD_ABM12) {
+        return spherical_alt_rk8_step_l(c, z, h, K, zn);
+    }
+    return spherical_alt_integrate_step_l(c, z, h, K, zn, &err);
 }
 
 static int spherical_alt_integrate_dense_prepare_l(spherical_alt_integrate_ctx_l *c, const long double *z, const long double *zn, long double h, long double (*K)[N], long double (*F)[N])
@@ -2690,6 +3072,46 @@ static int spherical_alt_integrate_finite_l(const long double *z)
     return check == 0;
 }
 
+/* One fixed step z -> zn of length h (partial: a shortened step to an output time off
+ * the grid, by the one-step D_partial_step): the step budget, the caller's
+ * cancellation flag, the chart switch at the step start and the redo of a step that
+ * met a chart singularity, the finiteness of the result.  0 or a status. */
+static int spherical_alt_integrate_fixed_l(spherical_alt_integrate_ctx_l *c, long double *z, long double h, long double (*K)[N], long double *zn, int partial)
+{
+    long double err = 0;
+    int st, sw;
+    if (c->info->nsteps >= c->opt->max_steps) {
+        return SPHERICAL_ALT_INTEGRATE_MAX_STEPS;
+    }
+    if (c->opt->cancel && *c->opt->cancel) {
+        return SPHERICAL_ALT_INTEGRATE_CANCELLED;
+    }
+    sw = spherical_alt_integrate_switch_l(c, z, 0);
+    if (sw < 0) {
+        return -sw;
+    }
+    c->info->nsteps += 1;
+    st = partial ? spherical_alt_integrate_partial_step_l(c, z, h, K, zn) : spherical_alt_integrate_step_l(c, z, h, K, zn, &err);
+    if (st == SPHERICAL_ALT_INTEGRATE_CHART_SINGULAR) {
+        /* switch at the step start (if another chart is better) and redo */
+        sw = spherical_alt_integrate_switch_l(c, z, 1);
+        if (sw < 0) {
+            return -sw;
+        }
+        if (sw == 1) {
+            st = spherical_alt_integrate_step_l(c, z, h, K, zn, &err);
+        }
+    }
+    if (st) {
+        return st;
+    }
+    if (!spherical_alt_integrate_finite_l(zn)) {
+        return SPHERICAL_ALT_INTEGRATE_NONFINITE;
+    }
+    c->info->naccepted += 1;
+    return SPHERICAL_ALT_INTEGRATE_OK;
+}
+
 /* The stepping loop: from the context's state at t_out[0] through every output time. */
 static int spherical_alt_integrate_drive_l(spherical_alt_integrate_ctx_l *c, const long double *restrict y0, long nt, const long double *restrict t_out, long double *restrict y_out)
 {
@@ -2699,7 +3121,8 @@ static int spherical_alt_integrate_drive_l(spherical_alt_integrate_ctx_l *c, con
     const int method = c->method;
     const int adaptive = (method == SPHERICAL_ALT_METHOD_DOPRI5 || method == SPHERICAL_ALT_METHOD_DOP853);
     const long double eps = 1.08420217248550443401e-19L;
-    long iout = 1, sub, nsub;
+    long double tnext, slack;
+    long iout = 1, kgrid = 0;
     int st, k, cause = 0, rejected = 0, dense_ready, fsal, last, sw;
 
     st = spherical_alt_integrate_in_l(c, y0, z);
@@ -2711,60 +3134,59 @@ static int spherical_alt_integrate_drive_l(spherical_alt_integrate_ctx_l *c, con
         goto done;
     }
     c->info->nout = 1;
+    c->info->h_end = 0;
     if (nt == 1) {
         goto done;
     }
     dir = t_out[nt - 1] > t_out[0] ? 1 : -1;
     if (!adaptive) {
+        /* The grid t0 + k h: whole steps of the requested h whatever the outputs (a grid
+         * point within roundoff of an output time is that output).  An output time between
+         * grid points is reached by a shortened step from the grid point before it into
+         * a side state; the grid goes on from the grid point, so the result at any time
+         * does not depend on which outputs were asked for.  No step count is formed:
+         * kgrid <= nsteps <= max_steps, and _check refuses |t_end - t0| / h > 2^53. */
+        h = dir * (long double)c->opt->h;
         for (iout = 1; iout < nt; ++iout) {
-            const long double dt = t_out[iout] - t_out[iout - 1];
-            nsub = (long)ceill(fabsl(dt) / (long double)c->opt->h - (long double)1e-9);
-            if (nsub < 1) {
-                nsub = 1;
-            }
-            h = dt / (long double)nsub;
-            for (sub = 0; sub < nsub; ++sub) {
-                if (c->info->nsteps >= c->opt->max_steps) {
-                    st = SPHERICAL_ALT_INTEGRATE_MAX_STEPS;
-                    goto done;
+            slack = 16 * eps * (fabsl(t_out[0]) + fabsl(t_out[iout]) + fabsl(h));
+            for (;;) {
+                tnext = t_out[0] + (long double)(kgrid + 1) * h;
+                if ((tnext - t_out[iout]) * dir > slack) {
+                    break;
                 }
-                st = spherical_alt_integrate_switch_l(c, z, 0);
-                if (st < 0) {
-                    st = -st;
-                    goto done;
-                }
-                c->info->nsteps += 1;
-                st = spherical_alt_integrate_step_l(c, z, h, K, zn, &err);
-                if (st == SPHERICAL_ALT_INTEGRATE_CHART_SINGULAR) {
-                    /* switch at the step start (if another chart is better) and redo */
-                    sw = spherical_alt_integrate_switch_l(c, z, 1);
-                    if (sw < 0) {
-                        st = -sw;
-                        goto done;
-                    }
-                    if (sw == 1) {
-                        st = spherical_alt_integrate_step_l(c, z, h, K, zn, &err);
-                    }
-                }
+                st = spherical_alt_integrate_fixed_l(c, z, h, K, zn, 0);
                 if (st) {
-                    goto done;
-                }
-                if (!spherical_alt_integrate_finite_l(zn)) {
-                    st = SPHERICAL_ALT_INTEGRATE_NONFINITE;
                     goto done;
                 }
                 for (k = 0; k < N; ++k) {
                     z[k] = zn[k];
                 }
-                c->info->naccepted += 1;
-                t = (sub == nsub - 1) ? t_out[iout] : t_out[iout - 1] + (long double)(sub + 1) * h;
+                kgrid += 1;
+                t = tnext;
             }
-            st = spherical_alt_integrate_out_l(c, z, y_out + iout * N);
+            if ((t_out[iout] - t) * dir <= slack) {
+                st = spherical_alt_integrate_out_l(c, z, y_out + iout * N);
+                c->info->h_end = 0;
+            } else {
+                c->info->h_end = (double)(t_out[iout] - t);
+                st = spherical_alt_integrate_fixed_l(c, z, t_out[iout] - t, K, tmp, 1);
+                if (st) {
+                    goto done;
+                }
+                st = spherical_alt_integrate_out_l(c, tmp, y_out + iout * N);
+            }
             if (st) {
                 goto done;
             }
             c->info->nout += 1;
         }
+        /* the run ends at the last output time (the side state there) */
+        if (c->info->h_end != 0) {
+            for (k = 0; k < N; ++k) {
+                z[k] = tmp[k];
+            }
+        }
+        t = t_out[nt - 1];
         goto done;
     }
 
@@ -2795,6 +3217,10 @@ static int spherical_alt_integrate_drive_l(spherical_alt_integrate_ctx_l *c, con
     while (iout < nt) {
         if (c->info->nsteps >= c->opt->max_steps) {
             st = SPHERICAL_ALT_INTEGRATE_MAX_STEPS;
+            goto done;
+        }
+        if (c->opt->cancel && *c->opt->cancel) {
+            st = SPHERICAL_ALT_INTEGRATE_CANCELLED;
             goto done;
         }
         last = 0;
@@ -2910,7 +3336,7 @@ static int spherical_alt_integrate_check_l(int method, const long double *y0, lo
 {
     long double check = 0;
     long i;
-    if (method < SPHERICAL_ALT_METHOD_RK4 || method > SPHERICAL_ALT_METHOD_GAUSS2 || nt < 1 || !y0 || !t) {
+    if (method < SPHERICAL_ALT_METHOD_RK4 || method > SPHERICAL_ALT_METHOD_ABM12 || nt < 1 || !y0 || !t) {
         return SPHERICAL_ALT_INTEGRATE_BAD_INPUT;
     }
     for (i = 0; i < ny; ++i) {
@@ -2936,6 +3362,8 @@ static int spherical_alt_integrate_check_l(int method, const long double *y0, lo
         }
     } else if (nt > 1 && !(opt->h > 0 && opt->h < 1e300)) {
         return SPHERICAL_ALT_INTEGRATE_BAD_INPUT;
+    } else if (nt > 1 && !(fabsl(t[nt - 1] - t[0]) / (long double)opt->h <= (long double)9007199254740992.0)) {
+        return SPHERICAL_ALT_INTEGRATE_BAD_INPUT;     /* more than 2^53 grid steps (see _drive) */
     }
     if (opt->max_steps < 1 || !(opt->sine_min >= 0 && opt->sine_min < 1)) {
         return SPHERICAL_ALT_INTEGRATE_BAD_INPUT;
@@ -2961,7 +3389,7 @@ int spherical_alt_integrate_l(int method, const long double *restrict y0, const 
     info->status = 0;
     info->nfev = info->njev = info->nsteps = info->naccepted = info->nrejected = info->nnewton = info->nout = 0;
     info->t = nt > 0 && t ? (double)t[0] : 0;
-    info->h = 0;
+    info->h = info->h_end = 0;
     for (k = 0; k < N; ++k) {
         info->y[k] = y0 ? (double)y0[k] : 0;
     }
@@ -2977,6 +3405,7 @@ int spherical_alt_integrate_l(int method, const long double *restrict y0, const 
     c.info = info;
     c.method = method;
     c.canonical = 0 && (method == SPHERICAL_ALT_METHOD_MIDPOINT || method == SPHERICAL_ALT_METHOD_GAUSS2);
+    c.nhist = 0;
     return spherical_alt_integrate_drive_l(&c, y0, nt, t, y_out);
 }
 

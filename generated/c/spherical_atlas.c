@@ -24,6 +24,7 @@ void spherical_atlas_defaults(spherical_atlas_options *opt)
     opt->newton_tol = 0;
     opt->newton_max = 30;
     opt->sine_min = SPHERICAL_ATLAS_SINE_MIN;
+    opt->cancel = 0;
     opt->sine_switch = SPHERICAL_ATLAS_SINE_SWITCH;
     opt->sine_rule = SPHERICAL_ATLAS_SINE_RULE;
 }
@@ -340,6 +341,47 @@ static int spherical_atlas_finite(const double *z)
     return check == 0;
 }
 
+/* One fixed step z -> zn of length h (partial: a shortened step to an output time off
+ * the grid): the step budget, the caller's
+ * cancellation flag, the chart switch at the step start and the redo of a step that
+ * met a chart singularity, the finiteness of the result.  0 or a status. */
+static int spherical_atlas_fixed(spherical_atlas_ctx *c, double *z, double h, double (*K)[NA], double *zn, int partial)
+{
+    double err = 0;
+    int st, sw;
+    (void)partial;
+    if (c->info->nsteps >= c->opt->max_steps) {
+        return SPHERICAL_ATLAS_INTEGRATE_MAX_STEPS;
+    }
+    if (c->opt->cancel && *c->opt->cancel) {
+        return SPHERICAL_ATLAS_INTEGRATE_CANCELLED;
+    }
+    sw = spherical_atlas_switch(c, z, 0);
+    if (sw < 0) {
+        return -sw;
+    }
+    c->info->nsteps += 1;
+    st = spherical_atlas_step(c, z, h, K, zn, &err);
+    if (st == SPHERICAL_ATLAS_INTEGRATE_CHART_SINGULAR) {
+        /* switch at the step start (if another chart is better) and redo */
+        sw = spherical_atlas_switch(c, z, 1);
+        if (sw < 0) {
+            return -sw;
+        }
+        if (sw == 1) {
+            st = spherical_atlas_step(c, z, h, K, zn, &err);
+        }
+    }
+    if (st) {
+        return st;
+    }
+    if (!spherical_atlas_finite(zn)) {
+        return SPHERICAL_ATLAS_INTEGRATE_NONFINITE;
+    }
+    c->info->naccepted += 1;
+    return SPHERICAL_ATLAS_INTEGRATE_OK;
+}
+
 /* The stepping loop: from the context's state at t_out[0] through every output time. */
 static int spherical_atlas_drive(spherical_atlas_ctx *c, const double *restrict y0, long nt, const double *restrict t_out, double *restrict y_out)
 {
@@ -349,7 +391,8 @@ static int spherical_atlas_drive(spherical_atlas_ctx *c, const double *restrict 
     const int method = c->method;
     const int adaptive = (method == SPHERICAL_ATLAS_METHOD_DOPRI5 || method == SPHERICAL_ATLAS_METHOD_DOP853);
     const double eps = 2.220446049250313e-16;
-    long iout = 1, sub, nsub;
+    double tnext, slack;
+    long iout = 1, kgrid = 0;
     int st, k, cause = 0, rejected = 0, dense_ready, fsal, last, sw;
 
     st = spherical_atlas_in(c, y0, z);
@@ -361,60 +404,59 @@ static int spherical_atlas_drive(spherical_atlas_ctx *c, const double *restrict 
         goto done;
     }
     c->info->nout = 1;
+    c->info->h_end = 0;
     if (nt == 1) {
         goto done;
     }
     dir = t_out[nt - 1] > t_out[0] ? 1 : -1;
     if (!adaptive) {
+        /* The grid t0 + k h: whole steps of the requested h whatever the outputs (a grid
+         * point within roundoff of an output time is that output).  An output time between
+         * grid points is reached by a shortened step from the grid point before it into
+         * a side state; the grid goes on from the grid point, so the result at any time
+         * does not depend on which outputs were asked for.  No step count is formed:
+         * kgrid <= nsteps <= max_steps, and _check refuses |t_end - t0| / h > 2^53. */
+        h = dir * (double)c->opt->h;
         for (iout = 1; iout < nt; ++iout) {
-            const double dt = t_out[iout] - t_out[iout - 1];
-            nsub = (long)ceil(fabs(dt) / (double)c->opt->h - (double)1e-9);
-            if (nsub < 1) {
-                nsub = 1;
-            }
-            h = dt / (double)nsub;
-            for (sub = 0; sub < nsub; ++sub) {
-                if (c->info->nsteps >= c->opt->max_steps) {
-                    st = SPHERICAL_ATLAS_INTEGRATE_MAX_STEPS;
-                    goto done;
+            slack = 16 * eps * (fabs(t_out[0]) + fabs(t_out[iout]) + fabs(h));
+            for (;;) {
+                tnext = t_out[0] + (double)(kgrid + 1) * h;
+                if ((tnext - t_out[iout]) * dir > slack) {
+                    break;
                 }
-                st = spherical_atlas_switch(c, z, 0);
-                if (st < 0) {
-                    st = -st;
-                    goto done;
-                }
-                c->info->nsteps += 1;
-                st = spherical_atlas_step(c, z, h, K, zn, &err);
-                if (st == SPHERICAL_ATLAS_INTEGRATE_CHART_SINGULAR) {
-                    /* switch at the step start (if another chart is better) and redo */
-                    sw = spherical_atlas_switch(c, z, 1);
-                    if (sw < 0) {
-                        st = -sw;
-                        goto done;
-                    }
-                    if (sw == 1) {
-                        st = spherical_atlas_step(c, z, h, K, zn, &err);
-                    }
-                }
+                st = spherical_atlas_fixed(c, z, h, K, zn, 0);
                 if (st) {
-                    goto done;
-                }
-                if (!spherical_atlas_finite(zn)) {
-                    st = SPHERICAL_ATLAS_INTEGRATE_NONFINITE;
                     goto done;
                 }
                 for (k = 0; k < NA; ++k) {
                     z[k] = zn[k];
                 }
-                c->info->naccepted += 1;
-                t = (sub == nsub - 1) ? t_out[iout] : t_out[iout - 1] + (double)(sub + 1) * h;
+                kgrid += 1;
+                t = tnext;
             }
-            st = spherical_atlas_out(c, z, y_out + iout * NA);
+            if ((t_out[iout] - t) * dir <= slack) {
+                st = spherical_atlas_out(c, z, y_out + iout * NA);
+                c->info->h_end = 0;
+            } else {
+                c->info->h_end = (double)(t_out[iout] - t);
+                st = spherical_atlas_fixed(c, z, t_out[iout] - t, K, tmp, 1);
+                if (st) {
+                    goto done;
+                }
+                st = spherical_atlas_out(c, tmp, y_out + iout * NA);
+            }
             if (st) {
                 goto done;
             }
             c->info->nout += 1;
         }
+        /* the run ends at the last output time (the side state there) */
+        if (c->info->h_end != 0) {
+            for (k = 0; k < NA; ++k) {
+                z[k] = tmp[k];
+            }
+        }
+        t = t_out[nt - 1];
         goto done;
     }
 
@@ -445,6 +487,10 @@ static int spherical_atlas_drive(spherical_atlas_ctx *c, const double *restrict 
     while (iout < nt) {
         if (c->info->nsteps >= c->opt->max_steps) {
             st = SPHERICAL_ATLAS_INTEGRATE_MAX_STEPS;
+            goto done;
+        }
+        if (c->opt->cancel && *c->opt->cancel) {
+            st = SPHERICAL_ATLAS_INTEGRATE_CANCELLED;
             goto done;
         }
         last = 0;
@@ -586,6 +632,8 @@ static int spherical_atlas_check(int method, const double *y0, long ny, const do
         }
     } else if (nt > 1 && !(opt->h > 0 && opt->h < 1e300)) {
         return SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT;
+    } else if (nt > 1 && !(fabs(t[nt - 1] - t[0]) / (double)opt->h <= (double)9007199254740992.0)) {
+        return SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT;     /* more than 2^53 grid steps (see _drive) */
     }
     if (opt->max_steps < 1 || !(opt->sine_min >= 0 && opt->sine_min < 1)) {
         return SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT;
@@ -614,7 +662,7 @@ int spherical_atlas_integrate(int method, int chart0, const double *restrict y0,
     info->nswitches = 0;
     info->chart = chart0;
     info->t = nt > 0 && t ? (double)t[0] : 0;
-    info->h = 0;
+    info->h = info->h_end = 0;
     for (k = 0; k < NA; ++k) {
         info->y[k] = y0 ? (double)y0[k] : 0;
     }
@@ -1010,6 +1058,47 @@ static int spherical_atlas_finite_f(const float *z)
     return check == 0;
 }
 
+/* One fixed step z -> zn of length h (partial: a shortened step to an output time off
+ * the grid): the step budget, the caller's
+ * cancellation flag, the chart switch at the step start and the redo of a step that
+ * met a chart singularity, the finiteness of the result.  0 or a status. */
+static int spherical_atlas_fixed_f(spherical_atlas_ctx_f *c, float *z, float h, float (*K)[NA], float *zn, int partial)
+{
+    float err = 0;
+    int st, sw;
+    (void)partial;
+    if (c->info->nsteps >= c->opt->max_steps) {
+        return SPHERICAL_ATLAS_INTEGRATE_MAX_STEPS;
+    }
+    if (c->opt->cancel && *c->opt->cancel) {
+        return SPHERICAL_ATLAS_INTEGRATE_CANCELLED;
+    }
+    sw = spherical_atlas_switch_f(c, z, 0);
+    if (sw < 0) {
+        return -sw;
+    }
+    c->info->nsteps += 1;
+    st = spherical_atlas_step_f(c, z, h, K, zn, &err);
+    if (st == SPHERICAL_ATLAS_INTEGRATE_CHART_SINGULAR) {
+        /* switch at the step start (if another chart is better) and redo */
+        sw = spherical_atlas_switch_f(c, z, 1);
+        if (sw < 0) {
+            return -sw;
+        }
+        if (sw == 1) {
+            st = spherical_atlas_step_f(c, z, h, K, zn, &err);
+        }
+    }
+    if (st) {
+        return st;
+    }
+    if (!spherical_atlas_finite_f(zn)) {
+        return SPHERICAL_ATLAS_INTEGRATE_NONFINITE;
+    }
+    c->info->naccepted += 1;
+    return SPHERICAL_ATLAS_INTEGRATE_OK;
+}
+
 /* The stepping loop: from the context's state at t_out[0] through every output time. */
 static int spherical_atlas_drive_f(spherical_atlas_ctx_f *c, const float *restrict y0, long nt, const float *restrict t_out, float *restrict y_out)
 {
@@ -1019,7 +1108,8 @@ static int spherical_atlas_drive_f(spherical_atlas_ctx_f *c, const float *restri
     const int method = c->method;
     const int adaptive = (method == SPHERICAL_ATLAS_METHOD_DOPRI5 || method == SPHERICAL_ATLAS_METHOD_DOP853);
     const float eps = 1.1920929e-07f;
-    long iout = 1, sub, nsub;
+    float tnext, slack;
+    long iout = 1, kgrid = 0;
     int st, k, cause = 0, rejected = 0, dense_ready, fsal, last, sw;
 
     st = spherical_atlas_in_f(c, y0, z);
@@ -1031,60 +1121,59 @@ static int spherical_atlas_drive_f(spherical_atlas_ctx_f *c, const float *restri
         goto done;
     }
     c->info->nout = 1;
+    c->info->h_end = 0;
     if (nt == 1) {
         goto done;
     }
     dir = t_out[nt - 1] > t_out[0] ? 1 : -1;
     if (!adaptive) {
+        /* The grid t0 + k h: whole steps of the requested h whatever the outputs (a grid
+         * point within roundoff of an output time is that output).  An output time between
+         * grid points is reached by a shortened step from the grid point before it into
+         * a side state; the grid goes on from the grid point, so the result at any time
+         * does not depend on which outputs were asked for.  No step count is formed:
+         * kgrid <= nsteps <= max_steps, and _check refuses |t_end - t0| / h > 2^53. */
+        h = dir * (float)c->opt->h;
         for (iout = 1; iout < nt; ++iout) {
-            const float dt = t_out[iout] - t_out[iout - 1];
-            nsub = (long)ceilf(fabsf(dt) / (float)c->opt->h - (float)1e-9);
-            if (nsub < 1) {
-                nsub = 1;
-            }
-            h = dt / (float)nsub;
-            for (sub = 0; sub < nsub; ++sub) {
-                if (c->info->nsteps >= c->opt->max_steps) {
-                    st = SPHERICAL_ATLAS_INTEGRATE_MAX_STEPS;
-                    goto done;
+            slack = 16 * eps * (fabsf(t_out[0]) + fabsf(t_out[iout]) + fabsf(h));
+            for (;;) {
+                tnext = t_out[0] + (float)(kgrid + 1) * h;
+                if ((tnext - t_out[iout]) * dir > slack) {
+                    break;
                 }
-                st = spherical_atlas_switch_f(c, z, 0);
-                if (st < 0) {
-                    st = -st;
-                    goto done;
-                }
-                c->info->nsteps += 1;
-                st = spherical_atlas_step_f(c, z, h, K, zn, &err);
-                if (st == SPHERICAL_ATLAS_INTEGRATE_CHART_SINGULAR) {
-                    /* switch at the step start (if another chart is better) and redo */
-                    sw = spherical_atlas_switch_f(c, z, 1);
-                    if (sw < 0) {
-                        st = -sw;
-                        goto done;
-                    }
-                    if (sw == 1) {
-                        st = spherical_atlas_step_f(c, z, h, K, zn, &err);
-                    }
-                }
+                st = spherical_atlas_fixed_f(c, z, h, K, zn, 0);
                 if (st) {
-                    goto done;
-                }
-                if (!spherical_atlas_finite_f(zn)) {
-                    st = SPHERICAL_ATLAS_INTEGRATE_NONFINITE;
                     goto done;
                 }
                 for (k = 0; k < NA; ++k) {
                     z[k] = zn[k];
                 }
-                c->info->naccepted += 1;
-                t = (sub == nsub - 1) ? t_out[iout] : t_out[iout - 1] + (float)(sub + 1) * h;
+                kgrid += 1;
+                t = tnext;
             }
-            st = spherical_atlas_out_f(c, z, y_out + iout * NA);
+            if ((t_out[iout] - t) * dir <= slack) {
+                st = spherical_atlas_out_f(c, z, y_out + iout * NA);
+                c->info->h_end = 0;
+            } else {
+                c->info->h_end = (double)(t_out[iout] - t);
+                st = spherical_atlas_fixed_f(c, z, t_out[iout] - t, K, tmp, 1);
+                if (st) {
+                    goto done;
+                }
+                st = spherical_atlas_out_f(c, tmp, y_out + iout * NA);
+            }
             if (st) {
                 goto done;
             }
             c->info->nout += 1;
         }
+        /* the run ends at the last output time (the side state there) */
+        if (c->info->h_end != 0) {
+            for (k = 0; k < NA; ++k) {
+                z[k] = tmp[k];
+            }
+        }
+        t = t_out[nt - 1];
         goto done;
     }
 
@@ -1115,6 +1204,10 @@ static int spherical_atlas_drive_f(spherical_atlas_ctx_f *c, const float *restri
     while (iout < nt) {
         if (c->info->nsteps >= c->opt->max_steps) {
             st = SPHERICAL_ATLAS_INTEGRATE_MAX_STEPS;
+            goto done;
+        }
+        if (c->opt->cancel && *c->opt->cancel) {
+            st = SPHERICAL_ATLAS_INTEGRATE_CANCELLED;
             goto done;
         }
         last = 0;
@@ -1256,6 +1349,8 @@ static int spherical_atlas_check_f(int method, const float *y0, long ny, const f
         }
     } else if (nt > 1 && !(opt->h > 0 && opt->h < 1e300)) {
         return SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT;
+    } else if (nt > 1 && !(fabsf(t[nt - 1] - t[0]) / (float)opt->h <= (float)9007199254740992.0)) {
+        return SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT;     /* more than 2^53 grid steps (see _drive) */
     }
     if (opt->max_steps < 1 || !(opt->sine_min >= 0 && opt->sine_min < 1)) {
         return SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT;
@@ -1284,7 +1379,7 @@ int spherical_atlas_integrate_f(int method, int chart0, const float *restrict y0
     info->nswitches = 0;
     info->chart = chart0;
     info->t = nt > 0 && t ? (double)t[0] : 0;
-    info->h = 0;
+    info->h = info->h_end = 0;
     for (k = 0; k < NA; ++k) {
         info->y[k] = y0 ? (double)y0[k] : 0;
     }
@@ -1680,6 +1775,47 @@ static int spherical_atlas_finite_l(const long double *z)
     return check == 0;
 }
 
+/* One fixed step z -> zn of length h (partial: a shortened step to an output time off
+ * the grid): the step budget, the caller's
+ * cancellation flag, the chart switch at the step start and the redo of a step that
+ * met a chart singularity, the finiteness of the result.  0 or a status. */
+static int spherical_atlas_fixed_l(spherical_atlas_ctx_l *c, long double *z, long double h, long double (*K)[NA], long double *zn, int partial)
+{
+    long double err = 0;
+    int st, sw;
+    (void)partial;
+    if (c->info->nsteps >= c->opt->max_steps) {
+        return SPHERICAL_ATLAS_INTEGRATE_MAX_STEPS;
+    }
+    if (c->opt->cancel && *c->opt->cancel) {
+        return SPHERICAL_ATLAS_INTEGRATE_CANCELLED;
+    }
+    sw = spherical_atlas_switch_l(c, z, 0);
+    if (sw < 0) {
+        return -sw;
+    }
+    c->info->nsteps += 1;
+    st = spherical_atlas_step_l(c, z, h, K, zn, &err);
+    if (st == SPHERICAL_ATLAS_INTEGRATE_CHART_SINGULAR) {
+        /* switch at the step start (if another chart is better) and redo */
+        sw = spherical_atlas_switch_l(c, z, 1);
+        if (sw < 0) {
+            return -sw;
+        }
+        if (sw == 1) {
+            st = spherical_atlas_step_l(c, z, h, K, zn, &err);
+        }
+    }
+    if (st) {
+        return st;
+    }
+    if (!spherical_atlas_finite_l(zn)) {
+        return SPHERICAL_ATLAS_INTEGRATE_NONFINITE;
+    }
+    c->info->naccepted += 1;
+    return SPHERICAL_ATLAS_INTEGRATE_OK;
+}
+
 /* The stepping loop: from the context's state at t_out[0] through every output time. */
 static int spherical_atlas_drive_l(spherical_atlas_ctx_l *c, const long double *restrict y0, long nt, const long double *restrict t_out, long double *restrict y_out)
 {
@@ -1689,7 +1825,8 @@ static int spherical_atlas_drive_l(spherical_atlas_ctx_l *c, const long double *
     const int method = c->method;
     const int adaptive = (method == SPHERICAL_ATLAS_METHOD_DOPRI5 || method == SPHERICAL_ATLAS_METHOD_DOP853);
     const long double eps = 1.08420217248550443401e-19L;
-    long iout = 1, sub, nsub;
+    long double tnext, slack;
+    long iout = 1, kgrid = 0;
     int st, k, cause = 0, rejected = 0, dense_ready, fsal, last, sw;
 
     st = spherical_atlas_in_l(c, y0, z);
@@ -1701,60 +1838,59 @@ static int spherical_atlas_drive_l(spherical_atlas_ctx_l *c, const long double *
         goto done;
     }
     c->info->nout = 1;
+    c->info->h_end = 0;
     if (nt == 1) {
         goto done;
     }
     dir = t_out[nt - 1] > t_out[0] ? 1 : -1;
     if (!adaptive) {
+        /* The grid t0 + k h: whole steps of the requested h whatever the outputs (a grid
+         * point within roundoff of an output time is that output).  An output time between
+         * grid points is reached by a shortened step from the grid point before it into
+         * a side state; the grid goes on from the grid point, so the result at any time
+         * does not depend on which outputs were asked for.  No step count is formed:
+         * kgrid <= nsteps <= max_steps, and _check refuses |t_end - t0| / h > 2^53. */
+        h = dir * (long double)c->opt->h;
         for (iout = 1; iout < nt; ++iout) {
-            const long double dt = t_out[iout] - t_out[iout - 1];
-            nsub = (long)ceill(fabsl(dt) / (long double)c->opt->h - (long double)1e-9);
-            if (nsub < 1) {
-                nsub = 1;
-            }
-            h = dt / (long double)nsub;
-            for (sub = 0; sub < nsub; ++sub) {
-                if (c->info->nsteps >= c->opt->max_steps) {
-                    st = SPHERICAL_ATLAS_INTEGRATE_MAX_STEPS;
-                    goto done;
+            slack = 16 * eps * (fabsl(t_out[0]) + fabsl(t_out[iout]) + fabsl(h));
+            for (;;) {
+                tnext = t_out[0] + (long double)(kgrid + 1) * h;
+                if ((tnext - t_out[iout]) * dir > slack) {
+                    break;
                 }
-                st = spherical_atlas_switch_l(c, z, 0);
-                if (st < 0) {
-                    st = -st;
-                    goto done;
-                }
-                c->info->nsteps += 1;
-                st = spherical_atlas_step_l(c, z, h, K, zn, &err);
-                if (st == SPHERICAL_ATLAS_INTEGRATE_CHART_SINGULAR) {
-                    /* switch at the step start (if another chart is better) and redo */
-                    sw = spherical_atlas_switch_l(c, z, 1);
-                    if (sw < 0) {
-                        st = -sw;
-                        goto done;
-                    }
-                    if (sw == 1) {
-                        st = spherical_atlas_step_l(c, z, h, K, zn, &err);
-                    }
-                }
+                st = spherical_atlas_fixed_l(c, z, h, K, zn, 0);
                 if (st) {
-                    goto done;
-                }
-                if (!spherical_atlas_finite_l(zn)) {
-                    st = SPHERICAL_ATLAS_INTEGRATE_NONFINITE;
                     goto done;
                 }
                 for (k = 0; k < NA; ++k) {
                     z[k] = zn[k];
                 }
-                c->info->naccepted += 1;
-                t = (sub == nsub - 1) ? t_out[iout] : t_out[iout - 1] + (long double)(sub + 1) * h;
+                kgrid += 1;
+                t = tnext;
             }
-            st = spherical_atlas_out_l(c, z, y_out + iout * NA);
+            if ((t_out[iout] - t) * dir <= slack) {
+                st = spherical_atlas_out_l(c, z, y_out + iout * NA);
+                c->info->h_end = 0;
+            } else {
+                c->info->h_end = (double)(t_out[iout] - t);
+                st = spherical_atlas_fixed_l(c, z, t_out[iout] - t, K, tmp, 1);
+                if (st) {
+                    goto done;
+                }
+                st = spherical_atlas_out_l(c, tmp, y_out + iout * NA);
+            }
             if (st) {
                 goto done;
             }
             c->info->nout += 1;
         }
+        /* the run ends at the last output time (the side state there) */
+        if (c->info->h_end != 0) {
+            for (k = 0; k < NA; ++k) {
+                z[k] = tmp[k];
+            }
+        }
+        t = t_out[nt - 1];
         goto done;
     }
 
@@ -1785,6 +1921,10 @@ static int spherical_atlas_drive_l(spherical_atlas_ctx_l *c, const long double *
     while (iout < nt) {
         if (c->info->nsteps >= c->opt->max_steps) {
             st = SPHERICAL_ATLAS_INTEGRATE_MAX_STEPS;
+            goto done;
+        }
+        if (c->opt->cancel && *c->opt->cancel) {
+            st = SPHERICAL_ATLAS_INTEGRATE_CANCELLED;
             goto done;
         }
         last = 0;
@@ -1926,6 +2066,8 @@ static int spherical_atlas_check_l(int method, const long double *y0, long ny, c
         }
     } else if (nt > 1 && !(opt->h > 0 && opt->h < 1e300)) {
         return SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT;
+    } else if (nt > 1 && !(fabsl(t[nt - 1] - t[0]) / (long double)opt->h <= (long double)9007199254740992.0)) {
+        return SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT;     /* more than 2^53 grid steps (see _drive) */
     }
     if (opt->max_steps < 1 || !(opt->sine_min >= 0 && opt->sine_min < 1)) {
         return SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT;
@@ -1954,7 +2096,7 @@ int spherical_atlas_integrate_l(int method, int chart0, const long double *restr
     info->nswitches = 0;
     info->chart = chart0;
     info->t = nt > 0 && t ? (double)t[0] : 0;
-    info->h = 0;
+    info->h = info->h_end = 0;
     for (k = 0; k < NA; ++k) {
         info->y[k] = y0 ? (double)y0[k] : 0;
     }

@@ -40,6 +40,8 @@
 #define SPHERICAL_ATLAS_METHOD_DOP853 2
 #define SPHERICAL_ATLAS_METHOD_MIDPOINT 3
 #define SPHERICAL_ATLAS_METHOD_GAUSS2 4
+#define SPHERICAL_ATLAS_METHOD_RK8 5
+#define SPHERICAL_ATLAS_METHOD_ABM12 6
 
 #define SPHERICAL_ATLAS_INTEGRATE_OK 0
 #define SPHERICAL_ATLAS_INTEGRATE_STEP_UNDERFLOW 1
@@ -48,6 +50,8 @@
 #define SPHERICAL_ATLAS_INTEGRATE_NONFINITE 4
 #define SPHERICAL_ATLAS_INTEGRATE_CHART_SINGULAR 5
 #define SPHERICAL_ATLAS_INTEGRATE_BAD_INPUT 6
+#define SPHERICAL_ATLAS_INTEGRATE_CANCELLED 7
+#define SPHERICAL_ATLAS_INTEGRATE_MULTISTEP_UNSTABLE 8
 #define SPHERICAL_ATLAS_INTEGRATE_MAX_STAGES 16
 
 #define SPHERICAL_ATLAS_SINE_MIN 0.1
@@ -68,6 +72,7 @@ typedef struct spherical_atlas_options {
     double newton_tol;
     int newton_max;
     double sine_min;     /* hard threshold */
+    const volatile int *cancel; /* CANCELLED when *cancel != 0 */
     double sine_switch;  /* switch below this */
     double sine_rule;    /* the rule's "not small" */
 } spherical_atlas_options;
@@ -75,7 +80,7 @@ typedef struct spherical_atlas_options {
 typedef struct spherical_atlas_info {
     int status;
     long nfev, njev, nsteps, naccepted, nrejected, nnewton, nout;
-    double t, h;
+    double t, h, h_end;
     double y[8];
     long nswitches;      /* chart switches */
     int chart;           /* chart at t */

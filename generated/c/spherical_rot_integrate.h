@@ -9,6 +9,8 @@
  *   DOP853    Dormand-Prince 8(5,3), adaptive, 7th-order dense output
  *   MIDPOINT  implicit midpoint rule (Gauss-Legendre, 1 stage), order 2, fixed step
  *   GAUSS2    Gauss-Legendre, 2 stages, order 4, fixed step
+ *   RK8       the 8th-order formula of DOP853 at a fixed step (12 stages)
+ *   ABM12     12-step Adams-Bashforth-Moulton PECE, order 12, fixed step, rk8 start (see below)
  * This model has no Hamiltonian form: the implicit methods run on the
  * Lagrangian form y' = f(y) (spherical_rot_rhs) with spherical_rot_jacobian in the simplified Newton
  * iteration (at the start of each step, re-evaluated at the stage values when the
@@ -23,28 +25,49 @@
  * (spherical_atlas.h) to pass the poles.
  *
  * Status codes (return value and info.status):
- *   SPHERICAL_ROT_INTEGRATE_OK              0  every requested output was computed
- *   SPHERICAL_ROT_INTEGRATE_STEP_UNDERFLOW  1  the adaptive step fell below hmin to meet the tolerance
- *   SPHERICAL_ROT_INTEGRATE_MAX_STEPS       2  options.max_steps steps were taken
- *   SPHERICAL_ROT_INTEGRATE_NEWTON          3  the Newton iteration of an implicit method did not
+ *   SPHERICAL_ROT_INTEGRATE_OK                  0  every requested output was computed
+ *   SPHERICAL_ROT_INTEGRATE_STEP_UNDERFLOW      1  the adaptive step fell below hmin to meet the tolerance
+ *   SPHERICAL_ROT_INTEGRATE_MAX_STEPS           2  options.max_steps steps were taken
+ *   SPHERICAL_ROT_INTEGRATE_NEWTON              3  the Newton iteration of an implicit method did not
  *                                        converge: an increment not finite, growing by
  *                                        2 or more, or growing again after the Jacobian was
  *                                        re-evaluated at the stage values (it is, whenever the
  *                                        contraction rate |dZ_k|/|dZ_k-1| exceeds 0.5), or
  *                                        options.newton_max iterations; the step is too large
  *                                        for the motion.  No step is taken from such an iteration
- *   SPHERICAL_ROT_INTEGRATE_NONFINITE       4  a derivative or the state became NaN or infinite
- *   SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR  5  the chart is singular there: a polar sine below
+ *   SPHERICAL_ROT_INTEGRATE_NONFINITE           4  a derivative or the state became NaN or infinite
+ *   SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR      5  the chart is singular there: a polar sine below
  *                                        options.sine_min (the mass matrix is singular)
- *   SPHERICAL_ROT_INTEGRATE_BAD_INPUT       6  non-finite or inconsistent input (y0, p, t, options)
+ *   SPHERICAL_ROT_INTEGRATE_BAD_INPUT           6  non-finite or inconsistent input (y0, p, t, options),
+ *                                        or a fixed step too small for the span
+ *                                        (|t_end - t0| / h above 2^53)
+ *   SPHERICAL_ROT_INTEGRATE_CANCELLED           7  *options.cancel became non-zero (checked every step)
+ *   SPHERICAL_ROT_INTEGRATE_MULTISTEP_UNSTABLE  8  abm12: the predictor-corrector difference (Milne's
+ *                                        estimate of the local error) exceeded atol + rtol |y|:
+ *                                        the step is outside the method's stability region
+ *                                        or too large for the motion; no step is taken from it
  * On failure info.t is the time reached, info.y the state there (y = (q, q')),
  * rows of y_out from the first output time not reached on are NaN, and
  * info.nout counts the rows written.
  *
  * Output times t[0..nt-1] are strictly monotone (increasing or decreasing: the
  * integration runs backwards when they decrease); y_out[0] = y0.  Fixed-step
- * methods take ceil(|t[i]-t[i-1]| / options.h) equal steps between outputs;
- * adaptive methods step freely and evaluate the dense output at each t[i].
+ * methods step on the grid t[0] + k options.h whatever the output times: an output
+ * time on the grid (to roundoff) is a grid state, one between grid points is reached
+ * by a shortened step from the grid point before it (info.h_end: the last such step),
+ * and the grid goes on from the grid point, so a result does not depend on the
+ * number of outputs.  More than 2^53 grid steps over the span is BAD_INPUT.
+ * Adaptive methods step freely and evaluate the dense output at each t[i].
+ *
+ * abm12 takes its first 11 steps with rk8, then two evaluations a step; its shortened
+ * steps to off-grid outputs are rk8 steps.  It stops with MULTISTEP_UNSTABLE before a
+ * step whose local error, Milne's estimate from the predictor-corrector difference,
+ * exceeds atol + rtol |y|_max: its stability region is small (README, "Fixed-step
+ * methods"), and a step outside it grows the parasitic solutions, and that difference.
+ *
+ * Cancellation: a caller (a signal handler, another thread) that sets *options.cancel
+ * non-zero stops a run before its next step with CANCELLED; a batch checks it for
+ * every trajectory.
  *
  * Reentrant: no globals, no allocation.  Needs only <math.h> and spherical_rot.h.
  */
@@ -58,6 +81,8 @@
 #define SPHERICAL_ROT_METHOD_DOP853 2
 #define SPHERICAL_ROT_METHOD_MIDPOINT 3
 #define SPHERICAL_ROT_METHOD_GAUSS2 4
+#define SPHERICAL_ROT_METHOD_RK8 5
+#define SPHERICAL_ROT_METHOD_ABM12 6
 
 #define SPHERICAL_ROT_INTEGRATE_OK 0
 #define SPHERICAL_ROT_INTEGRATE_STEP_UNDERFLOW 1
@@ -66,6 +91,8 @@
 #define SPHERICAL_ROT_INTEGRATE_NONFINITE 4
 #define SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR 5
 #define SPHERICAL_ROT_INTEGRATE_BAD_INPUT 6
+#define SPHERICAL_ROT_INTEGRATE_CANCELLED 7
+#define SPHERICAL_ROT_INTEGRATE_MULTISTEP_UNSTABLE 8
 
 #define SPHERICAL_ROT_INTEGRATE_SINE_MIN 0.1
 #define SPHERICAL_ROT_INTEGRATE_MAX_STAGES 16
@@ -89,6 +116,7 @@ typedef struct spherical_rot_integrate_options {
     double newton_tol;  /* implicit: scaled increment to stop Newton (0: 10 eps) */
     int newton_max;     /* implicit: iterations per step (default 30) */
     double sine_min;    /* no kernel evaluated where a polar sine is below this */
+    const volatile int *cancel;   /* non-zero *cancel stops the run (CANCELLED); 0: none */
 } spherical_rot_integrate_options;
 
 /* What happened.  Counters add up over a batch entry's single trajectory. */
@@ -102,7 +130,8 @@ typedef struct spherical_rot_integrate_info {
     long nnewton;       /* Newton iterations */
     long nout;          /* output rows written */
     double t;           /* time reached (where it stopped on failure) */
-    double h;           /* last step size */
+    double h;           /* last step size (fixed: the step h of the grid) */
+    double h_end;       /* fixed: the shortened step to the last output (0: on the grid) */
     double y[SPHERICAL_ROT_N_STATES];   /* state at t */
 } spherical_rot_integrate_info;
 

@@ -26,7 +26,7 @@ def _load(name):
 CHARTS = ['spherical_std', 'spherical_alt', 'spherical_rot']
 _INTEGRATORS = [_load(ch + "_integrate") for ch in CHARTS]
 _KERNELS = [m.kernels for m in _INTEGRATORS]
-OK, STEP_UNDERFLOW, MAX_STEPS, NEWTON, NONFINITE, CHART_SINGULAR, BAD_INPUT = range(7)
+OK, STEP_UNDERFLOW, MAX_STEPS, NEWTON, NONFINITE, CHART_SINGULAR, BAD_INPUT, CANCELLED, MULTISTEP_UNSTABLE = range(9)
 SINE_MIN = 0.1
 SINE_SWITCH = 0.3
 SINE_RULE = 0.5
@@ -138,6 +138,36 @@ def _hinit(c, z, f0, direction, hmax, order):
     return min(100 * h, h1, hmax)
 
 
+def _fixed_step(c, z, h, partial):
+    """One fixed step (partial: a shortened one to an output off the grid): the step
+    budget, the chart switch at the start, the redo after a chart singularity, the
+    finiteness of the result.  -> (status, z (perhaps switched), z_new)."""
+    info = c.info
+    if info["nsteps"] >= c.opt["max_steps"]:
+        return MAX_STEPS, z, None
+    sw = c.switch(z, False)
+    if sw < 0:
+        return -sw, z, None
+    if sw == 1:
+        z = c.z
+    info["nsteps"] += 1
+    # a multistep method's shortened steps are one-step steps (its history is the grid's)
+    st, zn, err = (getattr(c, "partial_step", c.step) if partial else c.step)(z, h)
+    if st == CHART_SINGULAR:
+        sw = c.switch(z, True)       # switch at the step start and redo
+        if sw < 0:
+            return -sw, z, None
+        if sw == 1:
+            z = c.z
+            st, zn, err = c.step(z, h)
+    if st:
+        return st, z, None
+    if not numpy.all(numpy.isfinite(zn)):
+        return NONFINITE, z, None
+    info["naccepted"] += 1
+    return OK, z, zn
+
+
 def _drive(c, y0, t_out):
     """From y0 at t_out[0] through every output time; returns (status, y_out)."""
     info, method, opt = c.info, c.method, c.opt
@@ -164,39 +194,34 @@ def _drive(c, y0, t_out):
         return done(OK, z, t, h)
     direction = 1 if t_out[-1] > t_out[0] else -1
     if method not in ("dopri5", "dop853"):
+        # the grid t0 + k h whatever the outputs; an output between grid points is a
+        # shortened step from the grid point before it into a side state (as in the C)
+        h = c.dtype.type(direction * opt["h"])
+        info["h_end"] = 0.0
+        kgrid, zside = 0, None
         for iout in range(1, nt):
-            dt = t_out[iout] - t_out[iout - 1]
-            nsub = max(1, int(numpy.ceil(abs(float(dt)) / opt["h"] - 1e-9)))
-            h = dt / c.dtype.type(nsub)
-            for sub in range(nsub):
-                if info["nsteps"] >= opt["max_steps"]:
-                    return done(MAX_STEPS, z, t, h)
-                sw = c.switch(z, False)
-                if sw < 0:
-                    return done(-sw, z, t, h)
-                if sw == 1:
-                    z = c.z
-                info["nsteps"] += 1
-                st, zn, err = c.step(z, h)
-                if st == CHART_SINGULAR:
-                    sw = c.switch(z, True)       # switch at the step start and redo
-                    if sw < 0:
-                        return done(-sw, z, t, h)
-                    if sw == 1:
-                        z = c.z
-                        st, zn, err = c.step(z, h)
+            slack = 16 * eps * (abs(float(t_out[0])) + abs(float(t_out[iout])) + abs(float(h)))
+            while True:
+                tnext = t_out[0] + c.dtype.type(kgrid + 1) * h
+                if float((tnext - t_out[iout]) * direction) > slack:
+                    break
+                st, z, zn = _fixed_step(c, z, h, False)
                 if st:
                     return done(st, z, t, h)
-                if not numpy.all(numpy.isfinite(zn)):
-                    return done(NONFINITE, z, t, h)
-                z = zn
-                info["naccepted"] += 1
-                t = t_out[iout] if sub == nsub - 1 else t_out[iout - 1] + (sub + 1) * h
-            st, y_out[iout] = c.out(z)
+                z, t, kgrid = zn, tnext, kgrid + 1
+            if float((t_out[iout] - t) * direction) <= slack:
+                zside, info["h_end"] = None, 0.0
+                st, y_out[iout] = c.out(z)
+            else:
+                info["h_end"] = float(t_out[iout] - t)
+                st, z, zside = _fixed_step(c, z, t_out[iout] - t, True)
+                if st:
+                    return done(st, z, t, h)
+                st, y_out[iout] = c.out(zside)
             if st:
                 return done(st, z, t, h)
             info["nout"] += 1
-        return done(OK, z, t, h)
+        return done(OK, z if zside is None else zside, t_out[-1], h)
 
     if method == "dopri5":
         order, facmin, facmax, fsal = 5.0, 0.2, 10.0, 6
@@ -289,7 +314,7 @@ def integrate(method, chart0, y0, p, t, dtype=numpy.float64, **options):
     info.update(t=float(t[0]) if len(t) else 0.0, y=numpy.array(y0, numpy.float64), nswitches=0, chart=chart0)
     charts = numpy.full(len(t), -1, numpy.intc)
     st = _INTEGRATORS[0].check(method, y0, p, t, opt)
-    if not st and (chart0 >= len(CHARTS) or not opt["sine_switch"] >= opt["sine_min"]
+    if not st and (method in ("rk8", "abm12") or chart0 >= len(CHARTS) or not opt["sine_switch"] >= opt["sine_min"]
                    or not opt["sine_rule"] > opt["sine_switch"]):
         st = BAD_INPUT
     if not st and chart0 < 0:

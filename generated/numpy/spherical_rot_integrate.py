@@ -3,7 +3,8 @@
 spherical_rot: integrators for the kernels of spherical_rot.py (Double spherical pendulum, rotated second chart, x and y swapped), the same methods,
 step control, status codes and output conventions as the C integrators
 (spherical_rot_integrate.h): rk4, dopri5, dop853 (adaptive, dense output), midpoint,
-gauss2 (implicit, simplified Newton with the generated Jacobian).
+gauss2 (implicit, simplified Newton with the generated Jacobian), rk8 and abm12
+(fixed step; abm12 stops with MULTISTEP_UNSTABLE, see abm12_step).
 This model has no Hamiltonian form: the implicit methods run on y' = f(y) with
 the generated jacobian (symmetric, order 2s, not symplectic in y).
 No kernel is evaluated where a polar sine is below opt["sine_min"] (default 0.1).
@@ -22,18 +23,20 @@ _spec = importlib.util.spec_from_file_location(
 kernels = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(kernels)
 
-OK, STEP_UNDERFLOW, MAX_STEPS, NEWTON, NONFINITE, CHART_SINGULAR, BAD_INPUT = range(7)
+OK, STEP_UNDERFLOW, MAX_STEPS, NEWTON, NONFINITE, CHART_SINGULAR, BAD_INPUT, CANCELLED, MULTISTEP_UNSTABLE = range(9)
 STATUS_NAMES = ("ok", "step-size underflow", "maximum number of steps reached",
                 "Newton iteration diverged", "non-finite state or derivative",
-                "chart singular (polar sine below threshold)", "bad input")
-METHODS = ("rk4", "dopri5", "dop853", "midpoint", "gauss2")
+                "chart singular (polar sine below threshold)", "bad input",
+                "cancelled", "multistep unstable (step too large for abm12)")
+METHODS = ("rk4", "dopri5", "dop853", "midpoint", "gauss2", "rk8", "abm12")
 N_STATES = 8
 N_PARAMS = 5
 SINE_MIN = 0.1
 NEWTON_THETA_MAX = 0.5
 NEWTON_THETA_DIVERGE = 2
 DEFAULTS = {"rtol": 1e-9, "atol": 1e-12, "h": 0.0, "hmin": 0.0, "hmax": 0.0,
-            "max_steps": 100000000, "newton_tol": 0.0, "newton_max": 30, "sine_min": SINE_MIN}
+            "max_steps": 100000000, "newton_tol": 0.0, "newton_max": 30, "sine_min": SINE_MIN,
+            "cancel": None}
 
 # Tableaus as decimal strings (36 digits), parsed once per dtype.
 _TABLEAUS = {
@@ -57,6 +60,7 @@ _TABLEAUS = {
     },
     "midpoint": {"ns": 1, "A": [['0.5']], "c": ['0.5'], "d": ['2.0']},
     "gauss2": {"ns": 2, "A": [['0.25', '-0.0386751345948128822545743902509787278'], ['0.538675134594812882254574390250978728', '0.25']], "c": ['0.211324865405187117745425609749021272', '0.788675134594812882254574390250978728'], "d": ['-1.73205080756887729352744634150587237', '1.73205080756887729352744634150587237']},
+    "abm12": {"ab": ['4.72625394048788146010368232590454813', '-20.2857466060656164822831489498156165', '64.335095315965541659986104430548875', '-141.522864179368085618085618085618086', '223.52676417573552990219656886323553', '-258.602100049352653519320185986852654', '220.357899950647346480679814013147346', '-137.124664395693041526374859708193042', '60.7399929634890572390572390572390572', '-18.1734761126058869114424669980225536', '3.29711053679152637485970819304152637', '-0.274265540031599059376837154614932393'], "am": ['0.274265540031599059376837154614932393', '1.43506746010869274758163647052535941', '-2.18422096398007856341189674523007856', '3.9966765090137485970819304152637486', '-5.76142186372655122655122655122655123', '6.30845647070907487574154240820907488', '-5.18074106015512265512265512265512266', '3.13959224562089145422478755812089145', '-1.36322208005150713484046817380150713', '0.401574156537264176153065041953930843', '-0.0719504705203489925712147934370156592', '0.00592405641233766233766233766233766234'], "milne": '0.0190935152018986707047113689215177883'},
 }
 _CACHE = {}
 
@@ -282,6 +286,38 @@ def gauss_step(name, x, h, p, opt, info):
     return OK, x + sum(d[i] * Z[i] for i in range(ns))
 
 
+def abm12_step(c, z, h):
+    """abm12 on the grid, as in the C: rk8 for the first 11 steps, then PECE; a step whose
+    local error (Milne's estimate from the predictor-corrector difference) exceeds
+    atol + rtol |y|_max is MULTISTEP_UNSTABLE."""
+    w = _tab("abm12", z.dtype)
+    k = len(w["ab"])
+    if not c.hist:
+        st, f = _eval(z, c.p, c.opt, c.info)
+        if st:
+            return st, None, None
+        c.hist = [f]
+    err = 0.0
+    if len(c.hist) < k:
+        K = numpy.zeros((16, len(z)), z.dtype)
+        K[0] = c.hist[0]
+        st, zn, _ = explicit_step("dop853", z, h, c.p, K, c.opt, c.info)
+    else:
+        yp = z + h * sum(w["ab"][j] * c.hist[j] for j in range(k - 1, -1, -1))
+        st, fp = _eval(yp, c.p, c.opt, c.info)
+        if st:
+            return st, None, None
+        zn = z + h * (sum(w["am"][j] * c.hist[j - 1] for j in range(k - 1, 0, -1)) + w["am"][0] * fp)
+        err = float(w["milne"] * numpy.max(numpy.abs(zn - yp))) / (c.opt["atol"] + c.opt["rtol"] * float(numpy.max(numpy.abs(z))))
+        if not err <= 1:
+            return MULTISTEP_UNSTABLE, None, None
+    if st:
+        return st, None, None
+    st, f = _eval(zn, c.p, c.opt, c.info)
+    c.hist = [f] + c.hist[:k - 1]
+    return st, zn, err
+
+
 class _Model:
     """The driver's view of this model (one chart, never switches)."""
 
@@ -289,6 +325,7 @@ class _Model:
         self.method, self.p, self.opt, self.info, self.dtype = method, p, opt, info, dtype
         self.canonical = False and method in ("midpoint", "gauss2")
         self.z = None
+        self.hist = []          # abm12: f at the last grid points, newest first
 
     def eval(self, z):
         return _eval(z, self.p, self.opt, self.info)
@@ -297,13 +334,29 @@ class _Model:
         if self.method in ("midpoint", "gauss2"):
             st, zn = gauss_step(self.method, z, h, self.p, self.opt, self.info)
             return st, zn, 0.0
+        if self.method == "abm12":
+            return abm12_step(self, z, h)
         if K is None:
             K = numpy.zeros((16, len(z)), z.dtype)
-        if self.method == "rk4":
+        if self.method in ("rk4", "rk8"):
             st, K[0] = _eval(z, self.p, self.opt, self.info)
             if st:
                 return st, None, None
+        if self.method == "rk8":           # DOP853's 8th-order formula, its error unused
+            st, zn, _ = explicit_step("dop853", z, h, self.p, K, self.opt, self.info)
+            return st, zn, 0.0
         return explicit_step(self.method, z, h, self.p, K, self.opt, self.info)
+
+    def partial_step(self, z, h):
+        """A shortened step off the grid: abm12 takes an rk8 step (its history is the grid's)."""
+        if self.method != "abm12":
+            return self.step(z, h)
+        K = numpy.zeros((16, len(z)), z.dtype)
+        st, K[0] = _eval(z, self.p, self.opt, self.info)
+        if st:
+            return st, None, None
+        st, zn, _ = explicit_step("dop853", z, h, self.p, K, self.opt, self.info)
+        return st, zn, 0.0
 
     def dense_prepare(self, z, zn, h, K):
         if self.method == "dop853":
@@ -347,6 +400,36 @@ def _hinit(c, z, f0, direction, hmax, order):
     return min(100 * h, h1, hmax)
 
 
+def _fixed_step(c, z, h, partial):
+    """One fixed step (partial: a shortened one to an output off the grid): the step
+    budget, the chart switch at the start, the redo after a chart singularity, the
+    finiteness of the result.  -> (status, z (perhaps switched), z_new)."""
+    info = c.info
+    if info["nsteps"] >= c.opt["max_steps"]:
+        return MAX_STEPS, z, None
+    sw = c.switch(z, False)
+    if sw < 0:
+        return -sw, z, None
+    if sw == 1:
+        z = c.z
+    info["nsteps"] += 1
+    # a multistep method's shortened steps are one-step steps (its history is the grid's)
+    st, zn, err = (getattr(c, "partial_step", c.step) if partial else c.step)(z, h)
+    if st == CHART_SINGULAR:
+        sw = c.switch(z, True)       # switch at the step start and redo
+        if sw < 0:
+            return -sw, z, None
+        if sw == 1:
+            z = c.z
+            st, zn, err = c.step(z, h)
+    if st:
+        return st, z, None
+    if not numpy.all(numpy.isfinite(zn)):
+        return NONFINITE, z, None
+    info["naccepted"] += 1
+    return OK, z, zn
+
+
 def _drive(c, y0, t_out):
     """From y0 at t_out[0] through every output time; returns (status, y_out)."""
     info, method, opt = c.info, c.method, c.opt
@@ -373,39 +456,34 @@ def _drive(c, y0, t_out):
         return done(OK, z, t, h)
     direction = 1 if t_out[-1] > t_out[0] else -1
     if method not in ("dopri5", "dop853"):
+        # the grid t0 + k h whatever the outputs; an output between grid points is a
+        # shortened step from the grid point before it into a side state (as in the C)
+        h = c.dtype.type(direction * opt["h"])
+        info["h_end"] = 0.0
+        kgrid, zside = 0, None
         for iout in range(1, nt):
-            dt = t_out[iout] - t_out[iout - 1]
-            nsub = max(1, int(numpy.ceil(abs(float(dt)) / opt["h"] - 1e-9)))
-            h = dt / c.dtype.type(nsub)
-            for sub in range(nsub):
-                if info["nsteps"] >= opt["max_steps"]:
-                    return done(MAX_STEPS, z, t, h)
-                sw = c.switch(z, False)
-                if sw < 0:
-                    return done(-sw, z, t, h)
-                if sw == 1:
-                    z = c.z
-                info["nsteps"] += 1
-                st, zn, err = c.step(z, h)
-                if st == CHART_SINGULAR:
-                    sw = c.switch(z, True)       # switch at the step start and redo
-                    if sw < 0:
-                        return done(-sw, z, t, h)
-                    if sw == 1:
-                        z = c.z
-                        st, zn, err = c.step(z, h)
+            slack = 16 * eps * (abs(float(t_out[0])) + abs(float(t_out[iout])) + abs(float(h)))
+            while True:
+                tnext = t_out[0] + c.dtype.type(kgrid + 1) * h
+                if float((tnext - t_out[iout]) * direction) > slack:
+                    break
+                st, z, zn = _fixed_step(c, z, h, False)
                 if st:
                     return done(st, z, t, h)
-                if not numpy.all(numpy.isfinite(zn)):
-                    return done(NONFINITE, z, t, h)
-                z = zn
-                info["naccepted"] += 1
-                t = t_out[iout] if sub == nsub - 1 else t_out[iout - 1] + (sub + 1) * h
-            st, y_out[iout] = c.out(z)
+                z, t, kgrid = zn, tnext, kgrid + 1
+            if float((t_out[iout] - t) * direction) <= slack:
+                zside, info["h_end"] = None, 0.0
+                st, y_out[iout] = c.out(z)
+            else:
+                info["h_end"] = float(t_out[iout] - t)
+                st, z, zside = _fixed_step(c, z, t_out[iout] - t, True)
+                if st:
+                    return done(st, z, t, h)
+                st, y_out[iout] = c.out(zside)
             if st:
                 return done(st, z, t, h)
             info["nout"] += 1
-        return done(OK, z, t, h)
+        return done(OK, z if zside is None else zside, t_out[-1], h)
 
     if method == "dopri5":
         order, facmin, facmax, fsal = 5.0, 0.2, 10.0, 6
@@ -488,7 +566,7 @@ def _drive(c, y0, t_out):
 
 def new_info():
     return {"status": OK, "nfev": 0, "njev": 0, "nsteps": 0, "naccepted": 0, "nrejected": 0,
-            "nnewton": 0, "nout": 0, "t": 0.0, "h": 0.0, "y": None}
+            "nnewton": 0, "nout": 0, "t": 0.0, "h": 0.0, "h_end": 0.0, "y": None}
 
 
 def check(method, y0, p, t, opt):
@@ -497,13 +575,15 @@ def check(method, y0, p, t, opt):
         return BAD_INPUT
     if not (numpy.all(numpy.isfinite(y0)) and numpy.all(numpy.isfinite(p)) and numpy.all(numpy.isfinite(t))):
         return BAD_INPUT
-    if len(t) > 1 and not numpy.all(numpy.diff(t) * (t[-1] - t[0]) > 0):
+    if len(t) > 1 and not numpy.all(numpy.sign(numpy.diff(t)) * numpy.sign(t[-1] - t[0]) > 0):
         return BAD_INPUT
     if method in ("dopri5", "dop853"):
         if not (0 < opt["rtol"] < 1 and opt["atol"] >= 0 and opt["h"] >= 0 and opt["hmin"] >= 0 and opt["hmax"] >= 0):
             return BAD_INPUT
     elif len(t) > 1 and not 0 < opt["h"] < 1e300:
         return BAD_INPUT
+    elif len(t) > 1 and not abs(float(t[-1]) - float(t[0])) / opt["h"] <= 2.0 ** 53:
+        return BAD_INPUT            # more than 2^53 grid steps (see _drive)
     if opt["max_steps"] < 1 or not 0 <= opt["sine_min"] < 1:
         return BAD_INPUT
     return OK
