@@ -83,6 +83,11 @@ class IntegratorLibrary:
     def options(self, values: dict):
         """The options struct for `values` (field -> value; the rest the C defaults),
         built once per distinct set of values: the integrators only read it (const)."""
+        if values.get("cancel") is not None:       # a run's own flag: a struct of its own
+            opt = self.defaults()
+            for k, v in values.items():
+                setattr(opt, k, v)
+            return opt
         key = tuple(values.items())
         opt = self._options.get(key)
         if opt is None:

@@ -219,11 +219,18 @@ int planar_taylor(const double *y0, const double *p, long nt, const double *t_ou
     if (!info) {
         info = &local;
     }
-    info->status = PLANAR_INTEGRATE_OK;
-    info->nfev = info->njev = info->nsteps = info->naccepted = info->nrejected = info->nnewton = 0;
+    info->status = 0;
+    info->nfev = 0;
+    info->njev = 0;
+    info->nsteps = 0;
+    info->naccepted = 0;
+    info->nrejected = 0;
+    info->nnewton = 0;
     info->nout = 0;
-    info->t = nt > 0 ? (double)t_out[0] : 0;
+    info->t = 0;
     info->h = 0;
+    info->h_end = 0;
+    info->t = nt > 0 ? (double)t_out[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)y0[i] : 0;
     }
@@ -262,6 +269,10 @@ int planar_taylor(const double *y0, const double *p, long nt, const double *t_ou
     while (iout < nt) {
         if (steps >= opt->max_steps) {
             st = PLANAR_INTEGRATE_MAX_STEPS;
+            break;
+        }
+        if (opt->cancel && *opt->cancel) {
+            st = PLANAR_INTEGRATE_CANCELLED;
             break;
         }
         st = planar_taylor_jet(X, p, order, (double)opt->sine_min);
@@ -549,11 +560,18 @@ int planar_taylor_f(const float *y0, const float *p, long nt, const float *t_out
     if (!info) {
         info = &local;
     }
-    info->status = PLANAR_INTEGRATE_OK;
-    info->nfev = info->njev = info->nsteps = info->naccepted = info->nrejected = info->nnewton = 0;
+    info->status = 0;
+    info->nfev = 0;
+    info->njev = 0;
+    info->nsteps = 0;
+    info->naccepted = 0;
+    info->nrejected = 0;
+    info->nnewton = 0;
     info->nout = 0;
-    info->t = nt > 0 ? (double)t_out[0] : 0;
+    info->t = 0;
     info->h = 0;
+    info->h_end = 0;
+    info->t = nt > 0 ? (double)t_out[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)y0[i] : 0;
     }
@@ -592,6 +610,10 @@ int planar_taylor_f(const float *y0, const float *p, long nt, const float *t_out
     while (iout < nt) {
         if (steps >= opt->max_steps) {
             st = PLANAR_INTEGRATE_MAX_STEPS;
+            break;
+        }
+        if (opt->cancel && *opt->cancel) {
+            st = PLANAR_INTEGRATE_CANCELLED;
             break;
         }
         st = planar_taylor_jet_f(X, p, order, (float)opt->sine_min);
@@ -879,11 +901,18 @@ int planar_taylor_l(const long double *y0, const long double *p, long nt, const 
     if (!info) {
         info = &local;
     }
-    info->status = PLANAR_INTEGRATE_OK;
-    info->nfev = info->njev = info->nsteps = info->naccepted = info->nrejected = info->nnewton = 0;
+    info->status = 0;
+    info->nfev = 0;
+    info->njev = 0;
+    info->nsteps = 0;
+    info->naccepted = 0;
+    info->nrejected = 0;
+    info->nnewton = 0;
     info->nout = 0;
-    info->t = nt > 0 ? (double)t_out[0] : 0;
+    info->t = 0;
     info->h = 0;
+    info->h_end = 0;
+    info->t = nt > 0 ? (double)t_out[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)y0[i] : 0;
     }
@@ -922,6 +951,10 @@ int planar_taylor_l(const long double *y0, const long double *p, long nt, const 
     while (iout < nt) {
         if (steps >= opt->max_steps) {
             st = PLANAR_INTEGRATE_MAX_STEPS;
+            break;
+        }
+        if (opt->cancel && *opt->cancel) {
+            st = PLANAR_INTEGRATE_CANCELLED;
             break;
         }
         st = planar_taylor_jet_l(X, p, order, (long double)opt->sine_min);

@@ -374,11 +374,18 @@ int spherical_rot_taylor(const double *y0, const double *p, long nt, const doubl
     if (!info) {
         info = &local;
     }
-    info->status = SPHERICAL_ROT_INTEGRATE_OK;
-    info->nfev = info->njev = info->nsteps = info->naccepted = info->nrejected = info->nnewton = 0;
+    info->status = 0;
+    info->nfev = 0;
+    info->njev = 0;
+    info->nsteps = 0;
+    info->naccepted = 0;
+    info->nrejected = 0;
+    info->nnewton = 0;
     info->nout = 0;
-    info->t = nt > 0 ? (double)t_out[0] : 0;
+    info->t = 0;
     info->h = 0;
+    info->h_end = 0;
+    info->t = nt > 0 ? (double)t_out[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)y0[i] : 0;
     }
@@ -417,6 +424,10 @@ int spherical_rot_taylor(const double *y0, const double *p, long nt, const doubl
     while (iout < nt) {
         if (steps >= opt->max_steps) {
             st = SPHERICAL_ROT_INTEGRATE_MAX_STEPS;
+            break;
+        }
+        if (opt->cancel && *opt->cancel) {
+            st = SPHERICAL_ROT_INTEGRATE_CANCELLED;
             break;
         }
         st = spherical_rot_taylor_jet(X, p, order, (double)opt->sine_min);
@@ -859,11 +870,18 @@ int spherical_rot_taylor_f(const float *y0, const float *p, long nt, const float
     if (!info) {
         info = &local;
     }
-    info->status = SPHERICAL_ROT_INTEGRATE_OK;
-    info->nfev = info->njev = info->nsteps = info->naccepted = info->nrejected = info->nnewton = 0;
+    info->status = 0;
+    info->nfev = 0;
+    info->njev = 0;
+    info->nsteps = 0;
+    info->naccepted = 0;
+    info->nrejected = 0;
+    info->nnewton = 0;
     info->nout = 0;
-    info->t = nt > 0 ? (double)t_out[0] : 0;
+    info->t = 0;
     info->h = 0;
+    info->h_end = 0;
+    info->t = nt > 0 ? (double)t_out[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)y0[i] : 0;
     }
@@ -902,6 +920,10 @@ int spherical_rot_taylor_f(const float *y0, const float *p, long nt, const float
     while (iout < nt) {
         if (steps >= opt->max_steps) {
             st = SPHERICAL_ROT_INTEGRATE_MAX_STEPS;
+            break;
+        }
+        if (opt->cancel && *opt->cancel) {
+            st = SPHERICAL_ROT_INTEGRATE_CANCELLED;
             break;
         }
         st = spherical_rot_taylor_jet_f(X, p, order, (float)opt->sine_min);
@@ -1344,11 +1366,18 @@ int spherical_rot_taylor_l(const long double *y0, const long double *p, long nt,
     if (!info) {
         info = &local;
     }
-    info->status = SPHERICAL_ROT_INTEGRATE_OK;
-    info->nfev = info->njev = info->nsteps = info->naccepted = info->nrejected = info->nnewton = 0;
+    info->status = 0;
+    info->nfev = 0;
+    info->njev = 0;
+    info->nsteps = 0;
+    info->naccepted = 0;
+    info->nrejected = 0;
+    info->nnewton = 0;
     info->nout = 0;
-    info->t = nt > 0 ? (double)t_out[0] : 0;
+    info->t = 0;
     info->h = 0;
+    info->h_end = 0;
+    info->t = nt > 0 ? (double)t_out[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)y0[i] : 0;
     }
@@ -1387,6 +1416,10 @@ int spherical_rot_taylor_l(const long double *y0, const long double *p, long nt,
     while (iout < nt) {
         if (steps >= opt->max_steps) {
             st = SPHERICAL_ROT_INTEGRATE_MAX_STEPS;
+            break;
+        }
+        if (opt->cancel && *opt->cancel) {
+            st = SPHERICAL_ROT_INTEGRATE_CANCELLED;
             break;
         }
         st = spherical_rot_taylor_jet_l(X, p, order, (long double)opt->sine_min);

@@ -11,7 +11,8 @@
  * (at most SPHERICAL_STD_TAYLOR_ORDER_MAX), h = min(rho_{p-1}, rho_p)/e^2 exp(-0.7/(p-1)) with
  * rho_j = (max(1, |y|_inf)/|y^[j]|_inf)^(1/j).  Output times inside a step are the
  * series evaluated there (dense output).  options.hmax caps the step, options.max_steps
- * the number of steps; options.sine_min guards the chart as for the other methods.
+ * the number of steps; options.sine_min guards the chart as for the other methods;
+ * a non-zero *options.cancel stops the run (CANCELLED).
  * info.nfev counts Taylor expansions (one per step), info.nsteps the steps.
  * Compile with -DSPHERICAL_STD_TAYLOR_ORDER=p to fix the order (unrolled: faster) instead.
  *
