@@ -12,11 +12,14 @@ from .errors import (BuildError, CompilerMissingError, DeriveError, InputError, 
 
 __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "ModelError",
            "SceneError", "SimulationError", "SimulationInputError", "ToolMissingError",
-           "__version__", "simulate"]
+           "__version__", "scipy_rhs", "simulate"]
 
 
 def __getattr__(name):
     if name == "simulate":
         from .integration.simulate import simulate
         return simulate
+    if name == "scipy_rhs":
+        from .integration.scipy_rhs import scipy_rhs
+        return scipy_rhs
     raise AttributeError(f"module 'derive' has no attribute {name!r}")

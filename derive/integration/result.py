@@ -41,6 +41,21 @@ class SimulationResult:
     rtol: float | None = None              # adaptive methods: the tolerance used
     step: float | None = None              # fixed-step methods: the step used
     velocities: np.ndarray | None = field(default=None, repr=False)   # like positions: bob velocities
+    # adaptive runs: r.sol(t), the continuous solution (derive/integration/dense.py)
+    sol: object | None = field(default=None, repr=False)
+    # simulate(..., events=...): per event (in the order given) its crossings
+    events: dict[str, "EventRecord"] | None = None
+    terminal_event: str | None = None      # the event that stopped the run at t_stop (status ok)
+
+    @property
+    def t_events(self) -> list[np.ndarray]:
+        """As SciPy's solve_ivp: per event, in the order given, the times of its crossings."""
+        return [e.t for e in (self.events or {}).values()]
+
+    @property
+    def y_events(self) -> list[np.ndarray]:
+        """As SciPy's solve_ivp: per event, the states at its crossings (k, n)."""
+        return [e.y for e in (self.events or {}).values()]
 
     @property
     def ok(self) -> bool:
@@ -48,6 +63,9 @@ class SimulationResult:
 
     @property
     def message(self) -> str:
+        if self.ok and self.terminal_event:
+            return (f"ok: {self.model} with {self.method} stopped by the terminal event "
+                    f"'{self.terminal_event}' at t = {self.t_stop:.17g}")
         if self.ok:
             return f"ok: {self.model} with {self.method} to t = {self.t_stop:.17g}"
         names = _state_names(self.chart_stop or self.model)
@@ -60,6 +78,19 @@ class SimulationResult:
         if not self.ok:
             raise SimulationError(self.message)
         return self
+
+
+@dataclass
+class EventRecord:
+    """The crossings of one event of a run: when, in which state, which way."""
+    name: str
+    expression: str
+    t: np.ndarray                  # (k,) times, in the run's order
+    y: np.ndarray                  # (k, n) states there
+    direction: np.ndarray          # (k,) +1 rising through zero, -1 falling
+
+    def __len__(self) -> int:
+        return len(self.t)
 
 
 def _state_names(model: str) -> tuple[str, ...]:
