@@ -263,4 +263,4 @@ def test_events_as_a_list_with_parameters_and_inputs():
     r = simulate(model, [0.5, 0.3, 0, 0], np.linspace(0, 3, 7), DRIVEN, rtol=1e-10, inputs={"tau1": 0.0, "tau2": 0.0},
                  events=["l1*sin(theta1)", {"name": "bob", "expression": "theta1 - tau1 + c1 - c1"}])
     assert list(r.events) == ["event1", "bob"]
-    assert np.allclose(r.events["event1"].t, r.events["bob"].t, atol=1e-9) and len(r.events["bob"]) > 2
+    assert np.allclose(r.events["event1"].t, r.events["bob"].t, atol=1e-9) and len(r.events["bob"]) >= 2
