@@ -171,3 +171,15 @@ def test_a_scene_with_events_runs_its_own_model(name, expression):
     plain, with_events = plan(parse_scene(text)), plan(parse_scene(text + f'\n[events]\ne = "{expression}"\n'))
     assert plain.model == "planar" and with_events.model == parse_scene(text).model
     assert "events" in with_events.reason
+
+
+def test_a_bad_event_in_a_scene_exits_2_with_one_line(tmp_path):
+    import subprocess
+    import sys
+    path = tmp_path / "bad.toml"
+    path.write_text(GOOD + "\n[events]\nflip = \"__import__('os')\"\n")
+    run_ = subprocess.run([sys.executable, "-m", "derive", "run", str(path)], capture_output=True, text=True,
+                          timeout=600)
+    assert run_.returncode == 2 and run_.stdout == ""
+    assert len(run_.stderr.strip().splitlines()) == 1
+    assert "events.flip.expression: the function '__import__'" in run_.stderr
