@@ -264,3 +264,13 @@ def test_events_as_a_list_with_parameters_and_inputs():
                  events=["l1*sin(theta1)", {"name": "bob", "expression": "theta1 - tau1 + c1 - c1"}])
     assert list(r.events) == ["event1", "bob"]
     assert np.allclose(r.events["event1"].t, r.events["bob"].t, atol=1e-9) and len(r.events["bob"]) >= 2
+
+
+def test_events_backward_in_time(flips):
+    """Run back from t = 4: the same flips in reverse order, each direction reversed (the
+    direction is in the order of integration, as SciPy's)."""
+    t = np.linspace(0, 4, 41)
+    forward = simulate("planar", SPIN, t, PLANAR, rtol=1e-11, events={"flip": FLIP})
+    back = simulate("planar", forward.y[-1], t[::-1], PLANAR, rtol=1e-11, events={"flip": FLIP})
+    assert np.max(np.abs(back.events["flip"].t[::-1] - flips)) < 1e-8
+    assert np.array_equal(back.events["flip"].direction[::-1], -forward.events["flip"].direction)

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SimulationInputError
-from .build import dtype_key, integrator_library
+from .build import integrator_library
 from .contract import ADAPTIVE, METHODS
 from .observables import numpy_module
 
@@ -79,8 +79,8 @@ class DenseOutput:
             raise SimulationInputError(f"sol(t): t = {float(tq[outside][0]):.17g} is outside the run's "
                                        f"span [{lo:.17g}, {hi:.17g}]")
         k = self.row_of(tq)
-        return self.at(k, tq - np.asarray(self.t, self.dtype)[k])[0] if scalar else \
-            self.at(k, tq - np.asarray(self.t, self.dtype)[k])
+        y = self.at(k, tq - np.asarray(self.t, self.dtype)[k])
+        return y[0] if scalar else y
 
     def row_of(self, tq: np.ndarray) -> np.ndarray:
         """The last valid output row at or before each t (in the run's direction)."""
@@ -191,4 +191,4 @@ def dense_output(result, model: str, method: str, backend: str, dtype, options: 
                        np.asarray(result.t, dtype), np.asarray(result.y, dtype), rows, end)
 
 
-__all__ = ["DenseOutput", "dense_output", "dtype_key"]
+__all__ = ["DenseOutput", "dense_output"]
