@@ -242,6 +242,7 @@ def test_terminal_event_stops_the_run(flips, terminal, index):
     ({"x": {"expression": "theta1", "terminal": -1}}, "events.x.terminal must be true, false"),
     ({"x": {"expr": "theta1"}}, "events.x: unknown key 'expr'"),
     ("theta1", "events must be a mapping"),
+    ({"a/b": "theta1"}, "events: the event name 'a/b' is not an identifier"),
 ])
 def test_bad_events_are_one_line(events, message):
     with pytest.raises(SimulationInputError) as exc:

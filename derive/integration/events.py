@@ -36,6 +36,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError, SimulationInputError
+from ..model.description import NAME
 from ..model.expressions import parse_expression
 from .result import EventRecord
 
@@ -73,6 +74,9 @@ def parse_events(model_info, events, where: str = "events", error=SimulationInpu
         raise error(f"{where} must be a mapping of name to expression, or a list of expressions; "
                     f"got {type(events).__name__}")
     names = [str(n) for n, _ in items]
+    bad = [n for n in names if not NAME.match(n)]
+    if bad:            # names become CSV fields and NPZ keys: identifiers only
+        raise error(f"{where}: the event name {bad[0]!r} is not an identifier (letters, digits, _)")
     if len(set(names)) != len(names):
         raise error(f"{where}: the event name '{next(n for n in names if names.count(n) > 1)}' is used twice")
     return tuple(_event(model_info, str(name), spec, f"{where}.{name}", error) for name, spec in items)
