@@ -12,7 +12,7 @@ from .errors import (BuildError, CompilerMissingError, DeriveError, InputError, 
 
 __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "ModelError",
            "SceneError", "SimulationError", "SimulationInputError", "ToolMissingError",
-           "__version__", "ensemble", "simulate"]
+           "__version__", "ensemble", "scipy_rhs", "simulate"]
 
 
 def __getattr__(name):
@@ -24,4 +24,8 @@ def __getattr__(name):
         from .integration.ensemble import ensemble
         globals()["ensemble"] = ensemble
         return ensemble
+    if name == "scipy_rhs":
+        from .integration.scipy_rhs import scipy_rhs
+        globals()["scipy_rhs"] = scipy_rhs
+        return scipy_rhs
     raise AttributeError(f"module 'derive' has no attribute {name!r}")

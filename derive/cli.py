@@ -328,6 +328,11 @@ def _print_run(summary: dict) -> None:
           + (f", {s['chart_switches']} chart switches" if s["chart_switches"] is not None else "")
           + (f"; relative energy error {s['relative_energy_error']:.2g}" if s["conservative"] else
              f"; relative energy change {s['relative_energy_error']:.2g} (the work of forces and damping)"))
+    for name, e in (s.get("events") or {}).items():
+        when = ", ".join(f"{t:.10g}" for t in e["t"][:3]) + (", ..." if len(e["t"]) > 3 else "")
+        print(f"event   {name} ({e['expression']}): {len(e['t'])} crossing{'s' * (len(e['t']) != 1)}"
+              + (f" at t = {when}" if e["t"] else "")
+              + (" -- terminal: the run stops there" if s.get("terminal_event") == name else ""))
     print(f"state   {', '.join(f'{v:.10g}' for v in s['final_state'])}")
     for f in s["files"]:
         print(f"wrote   {f}")

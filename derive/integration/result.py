@@ -46,6 +46,21 @@ class SimulationResult:
     # arguments returning all three: simulate does so, and the kernels run on first access
     # (a run that only reads r.y pays nothing for them)
     observe: object = field(default=None, repr=False, compare=False)
+    # adaptive runs: r.sol(t), the continuous solution (derive/integration/dense.py)
+    sol: object | None = field(default=None, repr=False)
+    # simulate(..., events=...): per event (in the order given) its crossings
+    events: dict[str, "EventRecord"] | None = None
+    terminal_event: str | None = None      # the event that stopped the run at t_stop (status ok)
+
+    @property
+    def t_events(self) -> list[np.ndarray]:
+        """As SciPy's solve_ivp: per event, in the order given, the times of its crossings."""
+        return [e.t for e in (self.events or {}).values()]
+
+    @property
+    def y_events(self) -> list[np.ndarray]:
+        """As SciPy's solve_ivp: per event, the states at its crossings (k, n)."""
+        return [e.y for e in (self.events or {}).values()]
 
     @property
     def ok(self) -> bool:
@@ -53,6 +68,9 @@ class SimulationResult:
 
     @property
     def message(self) -> str:
+        if self.ok and self.terminal_event:
+            return (f"ok: {self.model} with {self.method} stopped by the terminal event "
+                    f"'{self.terminal_event}' at t = {self.t_stop:.17g}")
         if self.ok:
             return f"ok: {self.model} with {self.method} to t = {self.t_stop:.17g}"
         names = _state_names(self.chart_stop or self.model)
@@ -94,6 +112,17 @@ for _name in _OBSERVED:          # after @dataclass: its __init__ assigns throug
 def as_fields(result: SimulationResult) -> dict:
     """The fields of a result by name (observables computed), to build another from it."""
     return {f.name: getattr(result, f.name) for f in fields(result) if f.name != "observe"}
+@dataclass
+class EventRecord:
+    """The crossings of one event of a run: when, in which state, which way."""
+    name: str
+    expression: str
+    t: np.ndarray                  # (k,) times, in the run's order
+    y: np.ndarray                  # (k, n) states there
+    direction: np.ndarray          # (k,) +1 rising through zero, -1 falling
+
+    def __len__(self) -> int:
+        return len(self.t)
 
 
 def _state_names(model: str) -> tuple[str, ...]:

@@ -28,7 +28,8 @@ import numpy as np
 from ..errors import SimulationError, SimulationInputError  # noqa: F401  (SimulationError: re-exported)
 from ..model import ModelError, is_model_file, load_model
 from ..model.description import parameter_problem
-from . import cartesian
+from . import cartesian, dense
+from . import events as events_module
 from .atlas import run_atlas
 from .build import dtype_key, integrator_library
 from .codegen import model_info
@@ -304,7 +305,7 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
              atol: float | None = None, step: float | None = None, dtype="float64",
              backend: str = "c", max_steps: int | None = None, sine_min: float | None = None,
              newton_tol: float | None = None, newton_max: int | None = None,
-             hmax: float | None = None, inputs=None, atlas: bool = False) -> SimulationResult:
+             hmax: float | None = None, inputs=None, atlas: bool = False, events=None) -> SimulationResult:
     """Integrate `model` from y0 at t[0] and report every output time in t.
 
     method: rk4, midpoint, gauss2, rk8, abm12 (fixed step: `step` required), dopri5,
@@ -328,6 +329,9 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     inputs: the model's run-time inputs: a mapping by name or a sequence in the model's
     order, held constant over the run; or a function of t returning one, sampled at each
     output time and held until the next (zero-order hold).
+    events: zero crossings to locate, {name: expression or {expression, direction,
+    terminal}} (derive/integration/events.py); r.events, r.t_events, r.y_events.
+    Adaptive runs have r.sol(t), the continuous solution (derive/integration/dense.py).
     """
     model = resolve_model(model, atlas)
     if not isinstance(method, str) or method not in RUN_METHODS:
@@ -348,6 +352,7 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
         raise SimulationInputError(f"the chart atlas has no method '{method}' "
                                    f"(it has {', '.join(ATLAS_METHODS)})")
     _check_size(method, ts, state, opt, dt, budget_given=max_steps is not None)
+    wanted = _events_of(model, method, events)
 
     def run(o):
         if _atlas(model) is not None:
@@ -366,6 +371,11 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
         result.rtol = opt["rtol"]
     else:
         result.step = opt["h"]
+    if method in ADAPTIVE and _atlas(model) is None:
+        held = None if u is None else np.array([u.at(a) for a in ts]) if isinstance(u, HeldInputs) else u
+        result.sol = dense.dense_output(result, model, method, backend, dt, opt, p, held)
+    if wanted:
+        result = events_module.locate(result, wanted, opt["rtol"])
     return result
 
 
@@ -480,6 +490,19 @@ def _interruptible(run, opt: dict, backend: str) -> SimulationResult:
     if flag.value:
         raise KeyboardInterrupt(f"run cancelled at t = {box['result'].t_stop:g}")
     return box["result"]
+
+
+def _events_of(model: str, method: str, events) -> tuple:
+    """The checked events of a run (before any work), or () without events."""
+    if events is None or (hasattr(events, "__len__") and not len(events)):
+        return ()
+    if _atlas(model) is not None:
+        raise SimulationInputError(f"events are not available on the chart atlas '{model}' (its state "
+                                   f"changes chart); run one chart model")
+    if method not in ADAPTIVE:
+        raise SimulationInputError(f"events need the dense output of an adaptive method "
+                                   f"({', '.join(ADAPTIVE)}), not {method}")
+    return events_module.parse_events(model_info(model), events)
 
 
 ATOL_FOR_ZERO = 1e-20             # atol = 0 means atol = 1e-20 rtol (see simulate)

@@ -74,18 +74,40 @@ def write_outputs(o) -> list[str]:
             _replace(path, lambda tmp: np.savetxt(tmp, data, delimiter=",", header=header, comments="",
                                                   fmt="%.17g"))
         written.append(str(path))
+        if o.result.events is not None:
+            written.append(_events_csv(o, out / f"{stem}_events.csv"))
     if "npz" in o.scene.trajectory:
         path = out / f"{stem}.npz"
         extra = {"chart": np.asarray(o.result.chart, dtype=str)} if o.result.chart is not None else {}
         arrays = dict(t=np.asarray(o.result.t, float), y=np.asarray(o.result.y, float),
                       positions=np.asarray(o.positions, float), velocities=np.asarray(o.velocities, float),
                       energy=np.asarray(o.energy, float),
-                      state_names=np.array(_state_names(o)), **extra)
+                      state_names=np.array(_state_names(o)), **extra, **_event_arrays(o))
         _replace(path, lambda tmp: np.savez(tmp, **arrays))
         written.append(str(path))
     if o.scene.plots:
         written += _plots(o, out, stem)
     return written
+
+
+def _events_csv(o, path: Path) -> str:
+    """One row per crossing, in time order: event, t, direction, the state there."""
+    rows = [(float(t), name, int(d), y) for name, e in o.result.events.items()
+            for t, d, y in zip(e.t, e.direction, np.asarray(e.y, float))]
+    rows.sort(key=lambda row: row[0] * (1 if o.result.t[-1] >= o.result.t[0] else -1))
+    header = ",".join(["event", "t", "direction"] + _state_names(o))
+    lines = [f"{name},{t:.17g},{d:+d}," + ",".join(f"{v:.17g}" for v in y) for t, name, d, y in rows]
+    _replace(path, lambda tmp: tmp.write_text(header + "\n" + "".join(line + "\n" for line in lines)))
+    return str(path)
+
+
+def _event_arrays(o) -> dict:
+    """NPZ arrays events_<name>_t, _y, _direction (SciPy's t_events, y_events by name)."""
+    out = {}
+    for name, e in (o.result.events or {}).items():
+        out.update({f"events_{name}_t": np.asarray(e.t, float), f"events_{name}_y": np.asarray(e.y, float),
+                    f"events_{name}_direction": np.asarray(e.direction, int)})
+    return out
 
 
 def _pyplot():

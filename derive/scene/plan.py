@@ -97,19 +97,20 @@ def plan(scene: Scene) -> Plan:
     if scene.model == "compound":
         planar = compound_as_planar(scene.parameters)
         state = [scene.initial["state"][n] for n in ("theta1", "theta2", "theta1_dot", "theta2_dot")]
-        if planar is not None:
+        if planar is not None and not scene.events:      # events are in the scene model's names
             return Plan("planar", planar, state,
                         "compound with L1 = m1 l1^2/4 is exactly a point-mass double pendulum "
                         f"(derived): m1' = {planar['m1']:.6g}, m2' = {planar['m2']:.6g}, "
                         f"l2' = {planar['l2']:.6g}")
-        return Plan("compound", scene.parameters, state, "compound: rods with inertia (L1 != m1 l1^2/4)")
+        why = "its [events] are in the compound's names" if planar is not None else "rods with inertia (L1 != m1 l1^2/4)"
+        return Plan("compound", scene.parameters, state, f"compound: {why}")
     description = load_model(standard_member(scene.model))
     spherical = description.dimension == 3 and all(link.chart.polar_sine for link in description.links)
     if spherical:
         atlas = find_atlas(scene.model) is not None
         c = cartesian_state(scene)
         u = vertical_plane(c) if description.name in SPHERICAL_CHART_MODELS else None
-        if u is not None:           # the catalogue's double pendulum has a planar twin
+        if u is not None and not scene.events:    # the catalogue's double pendulum has a planar twin
             params = {k: scene.parameters[k] for k in ("m1", "m2", "l1", "l2", "g")}
             return Plan("planar", params, planar_state(c, u),
                         "spherical scene starts in a vertical plane with no velocity out of it: "
@@ -119,7 +120,8 @@ def plan(scene: Scene) -> Plan:
             return Plan(scene.model, scene.parameters, {"cartesian": list(c)}, "spherical motion")
         names = load_model(scene.model).state_names
         return Plan(scene.model, scene.parameters, [scene.initial["state"][n] for n in names],
-                    "spherical motion in one chart")
+                    "spherical motion in one chart" if u is None else
+                    "one chart: its [events] are in the chart's names")
     state = [scene.initial["state"][n] for n in scene.initial["state"]]
     return Plan(scene.model, scene.parameters, state, f"{scene.model} as described")
 

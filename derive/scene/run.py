@@ -141,7 +141,21 @@ def _join(parts: list[SimulationResult]) -> SimulationResult:
         setattr(out, attr, sum(getattr(r, attr) for r in parts))
     if first.chart is not None:
         out.chart = cat("chart")
+    if first.sol is not None:                 # the dense output over the joined rows
+        inputs = None if first.sol.inputs is None else \
+            np.concatenate([first.sol.inputs] + [r.sol.inputs[1:] for r in parts[1:]])
+        out.sol = first.sol.rows_of(out.t, out.y, inputs, last.sol.t_end)
     return out
+
+
+def _events(p: Plan, scene: Scene, c: Choice, result: SimulationResult) -> SimulationResult:
+    """The scene's [events] on the run's dense output (after its accuracy was measured:
+    a terminal event then truncates the outputs)."""
+    if not scene.events or result.sol is None:
+        return result
+    from ..integration.codegen import model_info
+    from ..integration.events import locate, parse_events
+    return locate(result, parse_events(model_info(p.model), scene.events), c.rtol)
 
 
 def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -220,6 +234,7 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
             if c.rtol < 100 * ref_rtol:           # the reference must stay far tighter
                 reference, ref_rtol = _reference(p, scene, c), reference_rtol(c)[0]
             achieved = _final_error(result, reference) if reference.ok else None
+    result = _events(p, scene, c, result)
     horizon = None
     if lyap is not None:
         e0 = initial_error(c.rtol if c.rtol is not None else 0.0,
@@ -256,6 +271,15 @@ def missed_reason(o: Outcome) -> str:
             f"achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
 
 
+def _event_summary(r: SimulationResult) -> dict | None:
+    """Per event: its expression, and the time, direction and state of every crossing."""
+    if r.events is None:
+        return None
+    return {name: {"expression": e.expression, "t": [float(v) for v in e.t],
+                   "direction": [int(d) for d in e.direction], "y": np.asarray(e.y, float).tolist()}
+            for name, e in r.events.items()}
+
+
 def summary(o: Outcome) -> dict:
     r = o.result
     e = np.asarray(o.energy, float)
@@ -273,7 +297,8 @@ def summary(o: Outcome) -> dict:
         "trust_horizon": o.trust_horizon,
         "status": r.status_name, "ok": r.ok, "message": r.message, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
         "chart_switches": int(r.switches) if r.chart is not None else None,
-        "final_state": [float(v) for v in (r.y[-1] if r.ok else r.y_stop)],
+        "final_state": [float(v) for v in (r.y[-1] if r.ok and not r.terminal_event else r.y_stop)],
+        "events": _event_summary(r), "terminal_event": r.terminal_event,
         "relative_energy_error": drift,
         # with applied forces or damping the energy changes by the work they do: not an error
         "conservative": conservative(o),

@@ -43,6 +43,7 @@ class Scene:
     trajectory: tuple[str, ...] = ()
     inputs: dict | None = None       # a model's run-time inputs, held constant (pendulum.inputs)
     plots: tuple[str, ...] = ()
+    events: dict | None = None       # [events]: name -> expression or {expression, direction, terminal}
 
 
 def _table(t: dict, key: str, where: str, required: bool = True) -> dict:
@@ -280,24 +281,46 @@ def _parse_output(t: dict) -> dict:
     return {"output_dir": Path(directory), **lists}
 
 
+def _parse_events(t: dict, model: str, accuracy: dict) -> dict | None:
+    """[events]: zero crossings in the model's states, parameters and inputs, checked here
+    (before any work) by the grammar of derive/model/expressions.py."""
+    if "events" not in t:
+        return None
+    events = _table(t, "events", "[events]")
+    if model == ATLAS:
+        raise SceneError(f"[events] are not available on the chart atlas '{ATLAS}' (its state changes "
+                         f"chart); use one chart model ({', '.join(SPHERICAL_CHART_MODELS)})")
+    if accuracy["method"] in FIXED_STEP:
+        raise SceneError(f"[events] need the dense output of an adaptive method, not "
+                         f"'accuracy.method' = {accuracy['method']!r}")
+    from types import SimpleNamespace
+    from ..integration.events import parse_events
+    d = load_model(model)
+    names = SimpleNamespace(state_names=d.state_names, param_names=d.parameters, input_names=d.inputs)
+    parse_events(names, events, "events", SceneError)
+    return events
+
+
 def parse_scene(text: str, source: str = "<scene>") -> Scene:
     try:
         t = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: not valid TOML: {exc}") from None
-    _known(t, ("title", "pendulum", "initial", "time", "accuracy", "output"), source)
+    _known(t, ("title", "pendulum", "initial", "time", "accuracy", "output", "events"), source)
     model, params = _parse_pendulum(_table(t, "pendulum", source), Path(source).parent)
     inputs = _parse_inputs(_table(t, "pendulum", source), model)
     initial = _parse_initial(_table(t, "initial", source), model)
     start, stop, outputs = _parse_time(_table(t, "time", source))
     accuracy = _parse_accuracy(_table(t, "accuracy", source, required=False))
     output = _parse_output(_table(t, "output", source, required=False))
+    events = _parse_events(t, model, accuracy)
     output["output_dir"] = _output_folder(output["output_dir"], source)
     title = t.get("title", Path(source).stem)
     if not isinstance(title, str):
         raise SceneError("'title' must be a string")
     return Scene(source=source, title=title, model=model, parameters=params, initial=initial,
-                 t_start=start, t_stop=stop, outputs=outputs, inputs=inputs, **accuracy, **output)
+                 t_start=start, t_stop=stop, outputs=outputs, inputs=inputs, events=events,
+                 **accuracy, **output)
 
 
 def _output_folder(directory: Path, source: str) -> Path:

@@ -1,0 +1,84 @@
+"""`derive.scipy_rhs(model, params, inputs=None)`: the generated kernels as `fun(t, y)` and
+`jac(t, y)` for scipy.integrate.solve_ivp (or any integrator with that convention).
+
+    fun, jac = derive.scipy_rhs("planar", {"m1": 1, "m2": 1, "l1": 1, "l2": 1, "g": 9.81})
+    scipy.integrate.solve_ivp(fun, (0, 10), y0, method="Radau", jac=jac, rtol=1e-10)
+
+It returns a ScipyRHS, a named tuple (fun, jac): unpack it, or use .fun and .jac.  Both
+are backed by the model's compiled C kernels (`rhs`, `jacobian`, through the loader's
+ctypes batch entry points, in double); without a C compiler, or with backend="numpy",
+by the generated NumPy kernels.  fun accepts y of shape (n,) or (n, k) (solve_ivp's
+vectorized=True); jac returns the (n, n) matrix d(ydot)/dy.
+
+The models are autonomous, so t only matters for inputs given as a function of t:
+those are evaluated at every t the integrator asks (a continuous input, not the
+zero-order hold of simulate, which samples inputs at output times).  A kernel that
+cannot evaluate a state (a chart model's polar sine below its threshold) gives NaN,
+which solve_ivp reports as a failed step.
+"""
+from __future__ import annotations
+
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from ..errors import CompilerMissingError, SimulationInputError
+from ..model.atlas import ATLAS
+from .codegen import model_info
+
+
+class ScipyRHS(NamedTuple):
+    fun: Callable         # fun(t, y) -> ydot, shape of y
+    jac: Callable         # jac(t, y) -> (n, n)
+
+
+def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
+    from .simulate import HeldInputs, normalise_inputs, normalise_params, resolve_model
+    model = resolve_model(model)
+    if model == ATLAS:
+        raise SimulationInputError(f"scipy_rhs: the chart atlas '{ATLAS}' switches charts, which solve_ivp "
+                                   f"cannot do; give one chart model (spherical_std, spherical_alt, spherical_rot)")
+    if backend not in ("c", "numpy"):
+        raise SimulationInputError(f"unknown backend {backend!r} (use 'c' or 'numpy')")
+    p = np.asarray(normalise_params(model, params), np.float64)
+    u = normalise_inputs(model, inputs)
+    info = model_info(model)
+    rhs, jacobian = _kernels(model, backend)
+
+    def arguments(t: float) -> tuple:
+        """The kernels' arguments after y: (p,), or (p, u) for a model with inputs."""
+        if u is None:
+            return (p,)
+        return (p, np.asarray(u.at(t) if isinstance(u, HeldInputs) else u, np.float64))
+
+    def fun(t, y):
+        y = np.asarray(y, np.float64)
+        if y.ndim == 2:                      # solve_ivp(vectorized=True): (n, k)
+            return np.asarray(rhs(np.ascontiguousarray(y.T), *arguments(t))).T
+        return np.asarray(rhs(y.reshape(info.n), *arguments(t)))
+
+    def jac(t, y):
+        return np.asarray(jacobian(np.asarray(y, np.float64).reshape(info.n), *arguments(t)))
+
+    return ScipyRHS(fun, jac)
+
+
+def _kernels(model: str, backend: str):
+    """(rhs, jacobian) of the model, C when a compiler is there, else NumPy."""
+    if backend == "c":
+        from ..codegen.loader import load
+        try:
+            m = load(model)
+            return m.rhs, m.jacobian
+        except CompilerMissingError:
+            pass                             # the NumPy kernels: the same generated expressions
+    from ..codegen.loader import numpy_module
+    m = numpy_module(model)
+
+    def quiet(kernel):
+        def call(*args):
+            with np.errstate(all="ignore"):
+                return kernel(*args)
+        return call
+
+    return quiet(m.rhs), quiet(m.jacobian)
