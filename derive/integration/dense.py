@@ -58,12 +58,25 @@ class DenseOutput:
             raise SimulationInputError(f"dense output is for the adaptive methods ({', '.join(ADAPTIVE)}), "
                                        f"not {self.method}")
         self.dtype = np.dtype(self.dtype)
-        finite = np.isfinite(np.asarray(self.y, float)).all(axis=1)
-        self.rows = int(np.argmin(finite)) if not finite.all() else len(self.t)   # valid leading rows
         self.direction = 1.0 if len(self.t) < 2 or self.t[-1] >= self.t[0] else -1.0
         if self.t_end is None:
             self.t_end = float(self.t[-1])
-        self._ends = _interval_ends(np.asarray(self.t, self.dtype))
+
+    # built on first use: every adaptive run has a sol, few runs call it (simulate's own
+    # cost per call stays that of the run)
+    @property
+    def rows(self) -> int:
+        """The number of valid leading rows (all of them unless the run stopped)."""
+        if "_rows" not in self.__dict__:
+            finite = np.isfinite(np.asarray(self.y, float)).all(axis=1)
+            self.__dict__["_rows"] = int(np.argmin(finite)) if not finite.all() else len(self.t)
+        return self.__dict__["_rows"]
+
+    @property
+    def ends(self) -> np.ndarray:
+        if self._ends is None:
+            self._ends = _interval_ends(np.asarray(self.t, self.dtype))
+        return self._ends
 
     # -- the public call -----------------------------------------------------------
 
@@ -104,7 +117,7 @@ class DenseOutput:
         exact = offsets == 0
         out[exact & reached] = np.asarray(self.y, self.dtype)[rows[exact & reached]]
         todo = np.flatnonzero(reached & ~exact)
-        classes = self._ends[rows[todo]]
+        classes = self.ends[rows[todo]]
         for end in np.unique(classes):
             members = todo[classes == end]
             out[members] = self.integrate(rows[members], offsets[members], end)[0]

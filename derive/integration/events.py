@@ -190,7 +190,7 @@ def _sample(sol, result) -> _Samples:
 def _interior(sol, ks, spans, level: int):
     """2^level - 1 points inside each interval, on a grid shared by its size class; and the
     accepted steps of each trajectory (one per interval)."""
-    ends = sol._ends[ks]
+    ends = sol.ends[ks]
     out_k, out_off, out_y = [], [], []
     steps = np.zeros(len(ks), int)
     for end in np.unique(ends):
