@@ -275,12 +275,20 @@ def _parse_output(t: dict) -> dict:
     return {"output_dir": Path(directory), **lists}
 
 
+SCENE_KEYS = ("title", "pendulum", "initial", "time", "accuracy", "output")
+
+
 def parse_scene(text: str, source: str = "<scene>") -> Scene:
     try:
         t = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: not valid TOML: {exc}") from None
-    _known(t, ("title", "pendulum", "initial", "time", "accuracy", "output"), source)
+    _known(t, SCENE_KEYS, source)
+    return scene_from_table(t, source)
+
+
+def scene_from_table(t: dict, source: str = "<scene>") -> Scene:
+    """A scene from its parsed TOML table (a sweep file is a scene plus tables of its own)."""
     model, params = _parse_pendulum(_table(t, "pendulum", source), Path(source).parent)
     inputs = _parse_inputs(_table(t, "pendulum", source), model)
     initial = _parse_initial(_table(t, "initial", source), model)

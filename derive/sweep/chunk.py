@@ -1,0 +1,212 @@
+"""One chunk of a sweep: its trajectories integrated as one batch, its quantities recorded.
+
+This is the Dask task.  It runs anywhere derive is installed: the compiled
+integrator comes from the worker's own cache, keyed by content hash (rendered and
+compiled there on first use, derive/codegen/sources.py and integration/build.py),
+and a model read from a file travels in the task as its description.
+
+The batch runs in SLABS pieces of the time span (restarting each piece from the
+last state).  Each piece samples the trajectories at the sweep's output times, and
+the event times, maxima and energy are taken from those samples (events.py);
+when every recorded quantity is an event time, a trajectory leaves the batch once
+its events have happened, and so does one that energy alone keeps from them
+(bounds.py).  The results depend only on the chunk, never on where it ran.
+"""
+from __future__ import annotations
+
+import hashlib
+from functools import lru_cache
+
+import numpy as np
+
+from ..integration.build import integrator_library
+from ..integration.contract import METHODS
+from . import events as ev
+from .layout import Layout, chunk_inputs
+from .spec import Sweep
+
+SLABS = 10                      # pieces of the time span
+LYAPUNOV_BATCH = 64             # trajectories per Lyapunov batch (its fine grid is memory)
+
+
+def variables(sweep: Sweep) -> list[str]:
+    """The store's data variables, in order: the recorded quantities (final_state as one
+    variable per state) and the integrator's status."""
+    names = []
+    for q in sweep.record:
+        names += [f"final_{s}" for s in sweep.state_names] if q == "final_state" else [q]
+    return names + ["status"]
+
+
+def _model(sweep: Sweep) -> str:
+    """The model's name here; a model file's description is written into this machine's
+    cache and read from there (a worker needs no copy of the sweep's files)."""
+    if sweep.model_text is None:
+        return sweep.scene.model
+    return _register(sweep.model_text)
+
+
+@lru_cache(maxsize=None)
+def _register(text: str) -> str:
+    from ..model import load_model_file
+    from ..model.description import _from_files
+    from ..paths import cache_dir, replace_file
+    for name, model in _from_files.items():         # read already (the process that parsed the sweep)
+        if model.text == text:
+            return name
+    path = cache_dir() / "sweep-models" / f"{hashlib.sha256(text.encode()).hexdigest()[:24]}.toml"
+    if not path.is_file():
+        replace_file(path, lambda tmp: tmp.write_text(text))
+    return load_model_file(path).name
+
+
+def _options(lib, sweep: Sweep):
+    o = lib.defaults()
+    scene = sweep.scene
+    if scene.rtol is not None:
+        o.rtol = scene.rtol
+    if scene.atol is not None:
+        o.atol = scene.atol
+    if scene.step is not None:
+        o.h = scene.step
+    return o
+
+
+def _status(infos) -> np.ndarray:
+    return np.fromiter((i.status for i in infos), np.int8, len(infos))
+
+
+def run_chunk(sweep: Sweep, k: int) -> dict[str, np.ndarray]:
+    """The recorded quantities of chunk k, each shaped like the chunk's block."""
+    layout = Layout(sweep)
+    y0, p = chunk_inputs(sweep, layout, k)
+    out = integrate(sweep, y0, p)
+    shape = layout.block_shape(k)
+    return {name: value.reshape(shape) for name, value in out.items()}
+
+
+def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray) -> dict[str, np.ndarray]:
+    """Quantities of the trajectories y0 (B, n) with parameters p (B, np), flat."""
+    model = _model(sweep)
+    lib = integrator_library(model)
+    opt = _options(lib, sweep)
+    method = METHODS.index(sweep.scene.method)
+    B, n = y0.shape
+    scene = sweep.scene
+    t = np.linspace(scene.t_start, scene.t_stop, scene.outputs)
+    bounds = np.unique(np.linspace(0, len(t) - 1, min(SLABS, len(t) - 1) + 1).round().astype(int))
+    record = set(sweep.record)
+    coordinates = sweep.state_names[: n // 2]
+    maxima = {q: i for i, q in enumerate(coordinates) if f"max_abs_{q}" in record}
+    want_energy = "energy_error" in record
+    n_params = _n_params(model)
+
+    state, status = y0.astype(float).copy(), np.zeros(B, np.int8)
+    active = np.ones(B, bool)
+    times = {e.name: np.full(B, np.nan) for e in sweep.events}
+    if sweep.events_only:
+        from .bounds import unreachable
+        active &= ~unreachable(model, sweep, y0, p)
+    peak = {q: np.abs(state[:, i]) for q, i in maxima.items()}
+    if want_energy:
+        E0 = _energy(model, y0, p[:, :n_params])
+        drift = np.zeros(B)
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        rows = np.flatnonzero(active)
+        if rows.size == 0:
+            break
+        ts = t[a:b + 1]
+        y, infos = lib.run(method, state[rows], p[rows], ts, opt)
+        st = _status(infos)
+        p_rows = p[rows]
+
+        def rerun(sub, start, local, p_rows=p_rows):
+            yf, inf = lib.run(method, np.ascontiguousarray(start), p_rows[sub], local, opt)
+            return yf, _status(inf)
+
+        for e in sweep.events:
+            pending = np.isnan(times[e.name][rows])
+            found = ev.locate(rerun, y, ts, e.index, e.level, search=pending)
+            times[e.name][rows] = np.where(pending, found, times[e.name][rows])
+        for q, i in maxima.items():
+            a_ = ev.hermite(y[:, :-1, i], y[:, :-1, i + n // 2], y[:, 1:, i], y[:, 1:, i + n // 2],
+                            np.diff(ts)[None, :])
+            peak[q][rows] = np.fmax(peak[q][rows], np.nanmax(ev.max_abs(a_), axis=1, initial=0.0))
+        if want_energy:
+            E = _energy(model, y, p_rows[:, None, :n_params])
+            change = np.nanmax(np.abs(E - E0[rows, None]), axis=1, initial=0.0)
+            drift[rows] = np.fmax(drift[rows], change / np.maximum(np.abs(E0[rows]), 1e-300))
+        state[rows] = y[:, -1]
+        status[rows] = np.where(status[rows] == 0, st, status[rows])
+        active[rows[st != 0]] = False
+        if sweep.events_only:
+            done = np.all([np.isfinite(times[e.name][rows]) for e in sweep.events], axis=0)
+            active[rows[done]] = False
+
+    out = {}
+    for q in sweep.record:
+        if q == "final_state":
+            final = np.where((status == 0)[:, None], state, np.nan)
+            out.update({f"final_{s}": final[:, i] for i, s in enumerate(sweep.state_names)})
+        elif q == "lyapunov_exponent":
+            out[q] = lyapunov(model, y0, p, scene.t_stop - scene.t_start, n_params)
+        elif q == "energy_error":
+            out[q] = np.where(status == 0, drift, np.nan)
+        elif q.startswith("max_abs_"):
+            out[q] = np.where(status == 0, peak[q[len("max_abs_"):]], np.nan)
+        else:
+            out[q] = times[q[: -len("_time")]]
+    out["status"] = status
+    return out
+
+
+@lru_cache(maxsize=None)
+def _n_params(model: str) -> int:
+    from ..integration.codegen import model_info
+    return model_info(model).n_params
+
+
+def _energy(model: str, y, p):
+    from ..codegen.loader import load
+    return load(model).energy(y, p)
+
+
+def lyapunov(model: str, y0: np.ndarray, p: np.ndarray, t_end: float, n_params: int) -> np.ndarray:
+    """The largest Lyapunov exponent of each trajectory: the algorithm of
+    derive.measurement.trust.largest_lyapunov (the same run, grid, Jacobian, Taylor
+    step and start vector), batched over trajectories."""
+    from ..codegen.loader import load
+    from ..measurement.trust import JACOBIAN_STEPS_PER_UNIT_TIME
+    lib = integrator_library(model)
+    opt = lib.defaults()
+    opt.rtol, opt.atol = 1e-11, 1e-13
+    steps = max(200, int(JACOBIAN_STEPS_PER_UNIT_TIME * t_end))
+    grid = np.linspace(0.0, t_end, 2 * steps + 1)
+    dt = t_end / steps
+    n = y0.shape[1]
+    start = np.random.default_rng(0).standard_normal(n)
+    start /= np.linalg.norm(start)
+    out = np.full(len(y0), np.nan)
+    jacobian = load(model).jacobian
+    for lo in range(0, len(y0), LYAPUNOV_BATCH):
+        sl = slice(lo, lo + LYAPUNOV_BATCH)
+        y, infos = lib.run(METHODS.index("dop853"), y0[sl].astype(float), p[sl], grid, opt)
+        ok = _status(infos) == 0
+        args = (y[:, 1::2], p[sl, None, :n_params])
+        if p.shape[1] > n_params:                      # a model's inputs follow its parameters
+            args += (p[sl, None, n_params:],)
+        J = jacobian(*args) * dt                        # (b, steps, n, n)
+        delta = np.repeat(start[None, :], len(J), axis=0)
+        log_growth = np.zeros(len(J))
+        for k in range(steps):
+            A = J[:, k]
+            term = np.einsum("bij,bj->bi", A, delta)
+            step = delta + term
+            for m in (2, 3, 4):                          # Taylor polynomial of exp(A) applied to delta
+                term = np.einsum("bij,bj->bi", A, term) / m
+                step = step + term
+            norm = np.linalg.norm(step, axis=1)
+            log_growth += np.log(norm)
+            delta = step / norm[:, None]
+        out[sl] = np.where(ok, log_growth / t_end, np.nan)
+    return out
