@@ -478,8 +478,10 @@ def cmd_sweep(args) -> int:
         print(f"store   {report.store}")
         for image in report.images:
             print(f"wrote   {image}")
+        per_cpu = report.computed_trajectories / report.cpu_seconds if report.cpu_seconds > 0 else 0.0
         print(f"time    {report.seconds:.2f} s ({rate:,.0f} trajectories/s"
-              + (f", {rate / report.workers:,.0f} per worker" if report.workers else "") + ")")
+              + (f", {rate / report.workers:,.0f} per worker" if report.workers else "")
+              + f"; {per_cpu:,.0f} per CPU second)")
     return 0
 
 

@@ -283,6 +283,8 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
         t = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: not valid TOML: {exc}") from None
+    if "axes" in t:
+        raise SceneError(f"{source}: a sweep file (it has [axes]): run it with `derive sweep`")
     _known(t, SCENE_KEYS, source)
     return scene_from_table(t, source)
 

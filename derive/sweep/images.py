@@ -30,8 +30,7 @@ def write_images(ds, folder: Path, stem: str, title: str) -> list[Path]:
         x, y = np.asarray(ds[xdim]), np.asarray(ds[ydim])
         z = np.asarray(da.values, float).T                 # rows along y
         fig, ax = plt.subplots(figsize=(6.4, 5.2), dpi=150)
-        cmap = plt.get_cmap("viridis").copy()
-        cmap.set_bad("0.85")                               # NaN (no event, a failed run): grey
+        cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")   # NaN (no event, a failed run): grey
         if _uniform(x) and _uniform(y):
             image = ax.imshow(np.ma.masked_invalid(z), origin="lower", cmap=cmap, aspect="auto",
                               extent=(x[0], x[-1], y[0], y[-1]), interpolation="nearest")

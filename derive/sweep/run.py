@@ -42,13 +42,16 @@ class Report:
     workers: int                    # worker processes (0: this process)
     where: str
     computed_trajectories: int = 0
+    cpu_seconds: float = 0.0        # CPU time of the computed chunks, summed over workers
     dataset: object = field(default=None, repr=False)
 
 
 def _task(sweep: Sweep, y0, p, shape):
-    """The Dask task: one chunk's quantities (module-level, so workers import it from derive)."""
+    """The Dask task: one chunk's quantities (module-level, so workers import it from derive),
+    and the CPU seconds it took (the throughput per core, whatever else shares the machine)."""
+    cpu = time.thread_time()
     out = integrate(sweep, y0, p)
-    return {name: value.reshape(shape) for name, value in out.items()}
+    return {name: value.reshape(shape) for name, value in out.items()}, time.thread_time() - cpu
 
 
 def _light(sweep: Sweep) -> Sweep:
@@ -69,7 +72,7 @@ def _executor(scheduler: str | None, workers: int | None):
             raise UsageError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
         return client, None, f"the Dask cluster at {address}"
     n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                            silence_logs=logging.ERROR)
     return Client(cluster), cluster, f"a local cluster of {n} worker process{'es' * (n != 1)}"
 
@@ -105,13 +108,16 @@ def run(source, out=None, scheduler: str | None = None, workers: int | None = No
     client = cluster = None
     where = "this process"
     computed = traj = 0
+    cpu = 0.0
+    start = time.perf_counter()
     try:
         if todo:
             client, cluster, where = _executor(scheduler, workers)
         start = time.perf_counter()             # the chunks' time, not the cluster's start-up
         light = _light(sweep)
-        for k, values in _results(client, light, sweep, layout, todo):
+        for k, (values, seconds) in _results(client, light, sweep, layout, todo):
             writer.write(k, values)
+            cpu += seconds
             computed += 1
             traj += values["status"].size
             if bar:
@@ -119,7 +125,7 @@ def run(source, out=None, scheduler: str | None = None, workers: int | None = No
             if on_chunk is not None:
                 on_chunk(k)
     finally:
-        seconds = time.perf_counter() - start if "start" in locals() else 0.0
+        seconds = time.perf_counter() - start
         n_workers = len(client.scheduler_info()["workers"]) if client is not None else 0
         if bar:
             bar.close()
@@ -131,7 +137,7 @@ def run(source, out=None, scheduler: str | None = None, workers: int | None = No
     from .images import write_images
     images = write_images(ds, folder, stem, sweep.scene.title) if len(sweep.dims) == 2 else []
     return Report(path, images, layout.count, computed, len(done), sweep.size, seconds, n_workers, where,
-                  traj, ds)
+                  traj, cpu, ds)
 
 
 def _results(client, light: Sweep, sweep: Sweep, layout: Layout, todo: list[int]):

@@ -321,8 +321,10 @@ def parse_sweep(text: str, source: str = "<sweep>") -> Sweep:
     for key in t:
         if key not in SCENE_KEYS + SWEEP_KEYS:
             raise SceneError(f"{source}: unknown key '{key}' (allowed: {', '.join(SCENE_KEYS + SWEEP_KEYS)})")
-    scene = scene_from_table({k: v for k, v in t.items() if k in SCENE_KEYS}, source)
-    if scene.model == ATLAS:
+    pendulum = t.get("pendulum")
+    model = pendulum.get("model") if isinstance(pendulum, dict) else None
+    scene = None if model == ATLAS else scene_from_table({k: v for k, v in t.items() if k in SCENE_KEYS}, source)
+    if scene is None:
         raise SceneError(f"{source}: 'pendulum.model': a sweep runs one chart model (e.g. spherical_std), "
                          f"not the chart atlas '{ATLAS}'")
     _accuracy(t, scene, source)
