@@ -9,17 +9,20 @@ Method, and why it is accurate:
 1. Bracket.  The batch run samples every trajectory at spacing dt.  On each sample
    interval q is interpolated by the cubic Hermite polynomial H through q and q' at
    both ends; |q - H| <= dt^4 / 384 max|q''''| (the classical Hermite remainder).
-   An interval is a candidate when max |H| >= c - MARGIN: a true crossing inside an
+   An interval is a candidate when max |H| >= c - MARGIN (tested on the bound of H's
+   Bernstein control points, which is never below it): a true crossing inside an
    interval that is not a candidate would need an interpolation error above MARGIN.
    Every refined interval measures that error (the coarse H against the fine
    samples of step 2) and a sweep stops with an error if it exceeds MARGIN / 2,
    so the margin is checked on the very motion it guards, not assumed.  (For the
-   double pendulum of the flip map, dt = 0.02, the measured error is below 1e-6.)
+   flip map, dt = 0.04, the largest error measured on 6000 random starts is 8e-5,
+   60 times below MARGIN / 2; it implies max|q| of about 1e4.)
 2. Refine.  Each candidate interval is integrated again, from the sample at its
    start, with FINE outputs inside it (a second batch run of all candidates at
    once).  On the fine intervals (h = dt / FINE) the Hermite remainder is FINE^4 =
-   10^6 times smaller: below 1e-12 for the flip map, so the fine cubic's first
-   crossing is the run's crossing to far better than 1e-6.
+   10^6 times smaller: about 1e-13 for the flip map, so the fine cubic's first
+   crossing is the run's crossing to about 1e-13 / |q'| (a graze, q' -> 0, is the
+   one case where this grows: like the square root of it over |q''|).
 3. Root.  The first root of sigma H(s) - c (sigma = +1, -1 for the two signs of q)
    on the first fine interval where it has one: the interval is cut at the cubic's
    critical points into monotone pieces, and the first piece whose end reaches c
@@ -40,6 +43,7 @@ from ..errors import SimulationError
 MARGIN = 1e-2          # candidate intervals: max |H| within this of the level (units of q)
 FINE = 32              # fine outputs per refined interval
 BISECTIONS = 64        # halvings of a monotone piece: past the resolution of a double
+largest_error = [0.0]  # the largest coarse interpolation error met in this process (bench/sweep.py)
 
 
 def hermite(q0, v0, q1, v1, h):
@@ -72,6 +76,14 @@ def max_abs(a) -> np.ndarray:
     """max over s in [0, 1] of |H(s)|, exactly (ends and critical points)."""
     s1, s2 = _critical(a)
     return np.max(np.abs(np.stack([_value(a, 0.0), _value(a, 1.0), _value(a, s1), _value(a, s2)])), axis=0)
+
+
+def hull_max_abs(q: np.ndarray, v: np.ndarray, dt: np.ndarray) -> np.ndarray:
+    """An upper bound of max |H| on each sample interval, cheaply: H's Bernstein control
+    points (q0, q0 + dt v0 / 3, q1 - dt v1 / 3, q1) hold it in their convex hull."""
+    third = dt[None, :] / 3
+    return np.maximum(np.maximum(np.abs(q[:, :-1]), np.abs(q[:, 1:])),
+                      np.maximum(np.abs(q[:, :-1] + third * v[:, :-1]), np.abs(q[:, 1:] - third * v[:, 1:])))
 
 
 def first_reach(a, level: float) -> np.ndarray:
@@ -113,8 +125,7 @@ def locate(run, y: np.ndarray, t: np.ndarray, index: int, level: float,
     q, v = y[rows, :, index], y[rows, :, rate]
     started = np.abs(q[:, 0]) >= level
     out[rows[started]] = t[0]
-    a = hermite(q[:, :-1], v[:, :-1], q[:, 1:], v[:, 1:], dt[None, :])
-    candidate = (max_abs(a) >= level - MARGIN) & ~started[:, None]
+    candidate = (hull_max_abs(q, v, dt) >= level - MARGIN) & ~started[:, None]
     candidate &= np.isfinite(q[:, 1:]) & np.isfinite(q[:, :-1])
     start = np.zeros(rows.size, int)
     while True:
@@ -124,8 +135,8 @@ def locate(run, y: np.ndarray, t: np.ndarray, index: int, level: float,
             return out
         which = np.flatnonzero(has)
         j = masked[which].argmax(axis=1)                    # the first candidate interval
-        times = _refine(run, rows[which], y[rows[which], j], dt[j], index, level,
-                        tuple(c[which, j] for c in a))
+        coarse = hermite(q[which, j], v[which, j], q[which, j + 1], v[which, j + 1], dt[j])
+        times = _refine(run, rows[which], y[rows[which], j], dt[j], index, level, coarse)
         hit = np.isfinite(times)
         out[rows[which[hit]]] = t[j[hit]] + times[hit]
         candidate[which[hit]] = False                        # found: no further search
@@ -160,6 +171,7 @@ def _check_margin(coarse, q_fine: np.ndarray, s: np.ndarray) -> None:
     """The coarse interpolant against the fine samples: its error must stay below MARGIN / 2."""
     predicted = _value(tuple(c[:, None] for c in coarse), s[None, :])
     error = np.nanmax(np.abs(predicted - q_fine)) if q_fine.size else 0.0
+    largest_error[0] = max(largest_error[0], float(error))
     if error > MARGIN / 2:
         raise SimulationError(f"event location: the samples are too far apart for this motion "
                               f"(interpolation error {error:.2g} between samples, more than "
