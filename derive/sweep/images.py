@@ -46,7 +46,7 @@ def write_images(ds, folder: Path, stem: str, title: str) -> list[Path]:
         ax.set_title(title)
         fig.tight_layout()
         path = Path(folder) / f"{stem}_{name}.png"
-        replace_file(path, lambda tmp, fig=fig: fig.savefig(tmp))
+        replace_file(path, lambda tmp, fig=fig: fig.savefig(tmp), mode=0o644)
         plt.close(fig)
         files.append(path)
     return files
