@@ -22,7 +22,6 @@ import numpy as np
 from ..integration.build import integrator_library
 from ..integration.contract import METHODS
 from . import events as ev
-from .layout import Layout, chunk_inputs
 from .spec import Sweep
 
 SLABS = 10                      # pieces of the time span
@@ -74,15 +73,6 @@ def _options(lib, sweep: Sweep):
 
 def _status(infos) -> np.ndarray:
     return np.fromiter((i.status for i in infos), np.int8, len(infos))
-
-
-def run_chunk(sweep: Sweep, k: int) -> dict[str, np.ndarray]:
-    """The recorded quantities of chunk k, each shaped like the chunk's block."""
-    layout = Layout(sweep)
-    y0, p = chunk_inputs(sweep, layout, k)
-    out = integrate(sweep, y0, p)
-    shape = layout.block_shape(k)
-    return {name: value.reshape(shape) for name, value in out.items()}
 
 
 def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray) -> dict[str, np.ndarray]:
