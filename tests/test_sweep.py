@@ -184,6 +184,34 @@ def test_flip_times_match_solve_ivp_events_to_1e_6():
     assert np.nanmax(np.abs(ours - reference)) < 1e-6
 
 
+def test_verified_flip_time_beyond_double_precision():
+    """A slow, late crossing (t = 8.73, theta2' = -0.10 there) whose flip time one double run
+    misses by 2e-5 at rtol 1e-12: the verification (accuracy = 1e-6) finds the disagreement and
+    takes the long-double run, which agrees with DOP853 in long double at rtol 1e-17."""
+    import dataclasses
+    from derive.integration.build import integrator_library
+    from derive.sweep.chunk import integrate
+    sweep = load_sweep("flip_map")
+    assert sweep.events[0].accuracy == 1e-6
+    y0 = np.array([[2.0431070807948766, -2.489298280594387, 0.0, 0.0]])
+    p = sweep.p[None]
+    lib = integrator_library("planar")
+    opt = lib.defaults()
+    opt.rtol, opt.atol = 1e-17, 1e-20
+    pl, t = np.array(sweep.p, np.longdouble), np.linspace(0, 10, 1001).astype(np.longdouble)
+
+    def run(rows, start, local):
+        y, infos = lib.run(2, np.ascontiguousarray(start, dtype=np.longdouble), pl, np.asarray(local, np.longdouble), opt)
+        return y, np.array([i.status for i in infos])
+
+    reference = events.locate(run, lib.run(2, y0.astype(np.longdouble), pl, t, opt)[0], t, 1, np.pi)[0]
+    unverified = dataclasses.replace(sweep, events=(dataclasses.replace(sweep.events[0], accuracy=None),))
+    assert abs(integrate(unverified, y0, p)["flip_time"][0] - reference) > 1e-5
+    out = integrate(sweep, y0, p)
+    assert abs(out["flip_time"][0] - reference) < 1e-7
+    assert 0 < out["flip_time_error"][0] < 1e-6
+
+
 def test_locate_finds_crossings_and_grazes_between_samples():
     """q = A sin(t) sampled exactly: the first |q| = c is asin(c / A), also when the excursion
     beyond c lies wholly between two samples (a graze the samples alone would miss)."""
@@ -259,6 +287,7 @@ BAD = [
     ("undeclared event", ('"flip_time", "final_state"', '"spin_time", "final_state"'), "declare the event"),
     ("bad parameter", ("theta2 = {", 'l2 = { list = [1.0, -1.0] }\ntheta2 = {'), "l2 = -1"),
     ("bad number", ('["-pi", "pi"]', '["-pi", "tau"]'), "expression of pi"),
+    ("bad accuracy", ('level = "pi"', 'level = "pi"\naccuracy = -1'), "accuracy must be positive"),
 ]
 
 

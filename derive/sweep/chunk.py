@@ -14,6 +14,7 @@ its events have happened, and so does one that energy alone keeps from them
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 from functools import lru_cache
 
@@ -32,8 +33,10 @@ def variables(sweep: Sweep) -> list[str]:
     """The store's data variables, in order: the recorded quantities (final_state as one
     variable per state) and the integrator's status."""
     names = []
+    verified = {f"{e.name}_time" for e in sweep.events if e.accuracy is not None}
     for q in sweep.record:
         names += [f"final_{s}" for s in sweep.state_names] if q == "final_state" else [q]
+        names += [f"{q}_error"] if q in verified else []
     return names + ["status"]
 
 
@@ -75,8 +78,11 @@ def _status(infos) -> np.ndarray:
     return np.fromiter((i.status for i in infos), np.int8, len(infos))
 
 
-def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray) -> dict[str, np.ndarray]:
-    """Quantities of the trajectories y0 (B, n) with parameters p (B, np), flat."""
+def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray, dtype=np.float64,
+              verify: bool = True) -> dict[str, np.ndarray]:
+    """Quantities of the trajectories y0 (B, n) with parameters p (B, np), flat.
+    dtype: long double for the verification of event times (verify_events), which
+    records event times only; verify=False: no verification (that pass itself)."""
     model = _model(sweep)
     lib = integrator_library(model)
     opt = _options(lib, sweep)
@@ -91,10 +97,12 @@ def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray) -> dict[str, np.ndarr
     want_energy = "energy_error" in record
     n_params = _n_params(model)
 
-    state, status = y0.astype(float).copy(), np.zeros(B, np.int8)
+    t = t.astype(dtype)
+    p = p.astype(dtype)
+    state, status = y0.astype(dtype), np.zeros(B, np.int8)
     active = np.ones(B, bool)
     times = {e.name: np.full(B, np.nan) for e in sweep.events}
-    if sweep.events_only:
+    if sweep.events_only and dtype == np.float64:
         from .bounds import unreachable
         active &= ~unreachable(model, sweep, y0, p)
     peak = {q: np.abs(state[:, i]) for q, i in maxima.items()}
@@ -146,8 +154,55 @@ def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray) -> dict[str, np.ndarr
             out[q] = np.where(status == 0, peak[q[len("max_abs_"):]], np.nan)
         else:
             out[q] = times[q[: -len("_time")]]
+    if verify:
+        out.update(verify_events(sweep, y0, p.astype(np.float64), out))
     out["status"] = status
     return out
+
+
+VERIFY_TIGHTER = 10              # the check runs at rtol / 10 in double ...
+LONG_DOUBLE_TIGHTER = 1000       # ... and, where that disagrees, at rtol / 1000 in long double
+LONG_DOUBLE_RTOL_MIN = 1e-17     # 100 eps of long double (x86: eps 1.1e-19)
+
+
+def verify_events(sweep: Sweep, y0: np.ndarray, p: np.ndarray, out: dict) -> dict[str, np.ndarray]:
+    """Event times with an `accuracy`: each time found is computed again at rtol / 10; the
+    two differ by d, and since the error of DOP853 is proportional to its tolerance the
+    tighter time's error is about d / 9.  Where d exceeds the accuracy, the time is computed
+    a third time in long double at rtol / 1000 (error about |d3| / 99 by the same reasoning,
+    d3 its difference from the second).  -> the times replaced by the best one and
+    `<event>_time_error`, the estimate (NaN where no event: a "no event" is not re-checked)."""
+    result = {}
+    for e in sweep.events:
+        name = f"{e.name}_time"
+        if e.accuracy is None or name not in out:
+            continue
+        first = out[name]
+        best, error = first.copy(), np.full(len(first), np.nan)
+        rows = np.flatnonzero(np.isfinite(first) & (first > sweep.scene.t_start))
+        error[np.isfinite(first) & (first == sweep.scene.t_start)] = 0.0      # at the start: exact
+        if rows.size:
+            second = _event_again(sweep, e, y0[rows], p[rows], VERIFY_TIGHTER, np.float64)
+            d = np.abs(second - first[rows])
+            best[rows], error[rows] = second, d / (VERIFY_TIGHTER - 1)
+            doubt = rows[~(d <= e.accuracy)]                 # disagreeing, or lost at rtol / 10
+            if doubt.size:
+                third = _event_again(sweep, e, y0[doubt], p[doubt], LONG_DOUBLE_TIGHTER, np.longdouble)
+                d3 = np.abs(third - best[doubt])
+                best[doubt] = third
+                error[doubt] = d3 * VERIFY_TIGHTER / (LONG_DOUBLE_TIGHTER - VERIFY_TIGHTER)
+        result[name], result[f"{name}_error"] = best, error
+    return result
+
+
+def _event_again(sweep: Sweep, event, y0, p, tighter: float, dtype) -> np.ndarray:
+    scene = sweep.scene
+    rtol = scene.rtol / tighter
+    if dtype == np.longdouble:
+        rtol = max(rtol, LONG_DOUBLE_RTOL_MIN)
+    again = dataclasses.replace(sweep, record=(f"{event.name}_time",), events=(event,),
+                                scene=dataclasses.replace(scene, rtol=rtol, atol=rtol * (scene.atol / scene.rtol)))
+    return np.asarray(integrate(again, y0, p, dtype=dtype, verify=False)[f"{event.name}_time"], np.float64)
 
 
 @lru_cache(maxsize=None)

@@ -17,6 +17,7 @@
     [events.flip]                    # the first time |theta2| reaches pi
     coordinate = "theta2"
     level = "pi"
+    accuracy = 1e-6                  # optional: verify each time found (chunk.verify_events)
 
     [sweep]
     chunk = 10000                    # trajectories per task (and per store chunk)
@@ -36,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError, SceneError
+from ..integration.contract import ADAPTIVE
 from ..model import load_model
 from ..model.atlas import ATLAS
 from ..model.expressions import parse_expression
@@ -70,6 +72,7 @@ class Event:
     coordinate: str
     index: int                # the coordinate's position in the state; its rate is index + n/2
     level: float              # the event: |coordinate| reaches level
+    accuracy: float | None = None    # verify each time found to this (chunk.verify_events)
 
 
 @dataclass
@@ -242,8 +245,8 @@ def _parse_events(table, description, source: str) -> tuple[Event, ...]:
         if not isinstance(spec, dict):
             raise SceneError(f"{where} must be a table with 'coordinate' and 'level'")
         for key in spec:
-            if key not in ("coordinate", "level"):
-                raise SceneError(f"{where}: unknown key '{key}' (allowed: coordinate, level)")
+            if key not in ("coordinate", "level", "accuracy"):
+                raise SceneError(f"{where}: unknown key '{key}' (allowed: coordinate, level, accuracy)")
         for key in ("coordinate", "level"):
             if key not in spec:
                 raise SceneError(f"{where}: missing key '{key}'")
@@ -254,7 +257,12 @@ def _parse_events(table, description, source: str) -> tuple[Event, ...]:
         level = number(spec["level"], f"{where}.level")
         if level <= 0:
             raise SceneError(f"{where}.level must be positive (the event is |{q}| reaching it), got {level:g}")
-        events.append(Event(name, q, coordinates.index(q), level))
+        accuracy = None
+        if "accuracy" in spec:
+            accuracy = number(spec["accuracy"], f"{where}.accuracy")
+            if accuracy <= 0:
+                raise SceneError(f"{where}.accuracy must be positive, got {accuracy:g}")
+        events.append(Event(name, q, coordinates.index(q), level, accuracy))
     return tuple(events)
 
 
@@ -332,6 +340,9 @@ def parse_sweep(text: str, source: str = "<sweep>") -> Sweep:
     axes = _parse_axes(t.get("axes"), description, source)
     events = _parse_events(t.get("events"), description, source)
     record = _parse_record(t.get("record"), description, events, source)
+    if scene.method not in ADAPTIVE and any(e.accuracy is not None for e in events):
+        raise SceneError(f"{source}: 'events': an event's accuracy is verified by tightening the "
+                         f"tolerance: it needs an adaptive method (dopri5, dop853), not {scene.method}")
     chunk = _parse_options(t.get("sweep"), source)
     y0 = _base_state(scene, description, source)
     p = np.array([scene.parameters[n] for n in description.parameters]

@@ -33,7 +33,7 @@ def identity(sweep: Sweep) -> str:
     parts = {"version": __version__, "model": s.model, "model_text": sweep.model_text,
              "y0": sweep.y0.tolist(), "p": sweep.p.tolist(), "t": [s.t_start, s.t_stop, s.outputs],
              "accuracy": [s.method, s.rtol, s.atol, s.step], "record": sweep.record,
-             "events": [(e.name, e.coordinate, e.level) for e in sweep.events], "chunk": sweep.chunk,
+             "events": [(e.name, e.coordinate, e.level, e.accuracy) for e in sweep.events], "chunk": sweep.chunk,
              "axes": [(a.name, a.kind) for a in sweep.axes]}
     h.update(json.dumps(parts, sort_keys=True).encode())
     for a in sweep.axes:
