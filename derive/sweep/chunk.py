@@ -84,80 +84,97 @@ def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray, dtype=np.float64,
     dtype: long double for the verification of event times (verify_events), which
     records event times only; verify=False: no verification (that pass itself)."""
     model = _model(sweep)
-    lib = integrator_library(model)
-    opt = _options(lib, sweep)
-    method = METHODS.index(sweep.scene.method)
-    B, n = y0.shape
-    scene = sweep.scene
-    t = np.linspace(scene.t_start, scene.t_stop, scene.outputs)
-    bounds = np.unique(np.linspace(0, len(t) - 1, min(SLABS, len(t) - 1) + 1).round().astype(int))
-    record = set(sweep.record)
-    coordinates = sweep.state_names[: n // 2]
-    maxima = {q: i for i, q in enumerate(coordinates) if f"max_abs_{q}" in record}
-    want_energy = "energy_error" in record
-    n_params = _n_params(model)
-
-    t = t.astype(dtype)
-    p = p.astype(dtype)
-    state, status = y0.astype(dtype), np.zeros(B, np.int8)
-    active = np.ones(B, bool)
-    times = {e.name: np.full(B, np.nan) for e in sweep.events}
+    batch = _Batch(sweep, model, y0, p, dtype)
     if sweep.events_only and dtype == np.float64:
         from .bounds import unreachable
-        active &= ~unreachable(model, sweep, y0, p)
-    peak = {q: np.abs(state[:, i]) for q, i in maxima.items()}
-    if want_energy:
-        E0 = _energy(model, y0, p[:, :n_params])
-        drift = np.zeros(B)
+        batch.active &= ~unreachable(model, sweep, y0, p)
+    scene = sweep.scene
+    t = np.linspace(scene.t_start, scene.t_stop, scene.outputs).astype(dtype)
+    bounds = np.unique(np.linspace(0, len(t) - 1, min(SLABS, len(t) - 1) + 1).round().astype(int))
     for a, b in zip(bounds[:-1], bounds[1:]):
-        rows = np.flatnonzero(active)
-        if rows.size == 0:
+        if not batch.active.any():
             break
-        ts = t[a:b + 1]
-        y, infos = lib.run(method, state[rows], p[rows], ts, opt)
-        st = _status(infos)
-        p_rows = p[rows]
+        batch.slab(t[a:b + 1])
+    out = batch.results()
+    if "lyapunov_exponent" in sweep.record:
+        out["lyapunov_exponent"] = lyapunov(model, y0, p, scene.t_stop - scene.t_start, batch.n_params)
+    if verify:
+        out.update(verify_events(sweep, y0, p, out))
+    out["status"] = batch.status
+    return out
 
-        def rerun(sub, start, local, p_rows=p_rows):
-            yf, inf = lib.run(method, np.ascontiguousarray(start), p_rows[sub], local, opt)
+
+class _Batch:
+    """The chunk's trajectories as they run, piece by piece, and what they record."""
+
+    def __init__(self, sweep: Sweep, model: str, y0: np.ndarray, p: np.ndarray, dtype):
+        self.sweep, self.model = sweep, model
+        self.lib = integrator_library(model)
+        self.opt = _options(self.lib, sweep)
+        self.method = METHODS.index(sweep.scene.method)
+        self.n_params = _n_params(model)
+        B, self.n = y0.shape
+        self.p = p.astype(dtype)
+        self.state, self.status = y0.astype(dtype), np.zeros(B, np.int8)
+        self.active = np.ones(B, bool)
+        self.times = {e.name: np.full(B, np.nan) for e in sweep.events}
+        coordinates = sweep.state_names[: self.n // 2]
+        self.maxima = {q: i for i, q in enumerate(coordinates) if f"max_abs_{q}" in sweep.record}
+        self.peak = {q: np.abs(self.state[:, i]).astype(np.float64) for q, i in self.maxima.items()}
+        self.energy = "energy_error" in sweep.record
+        if self.energy:
+            self.E0 = _energy(model, y0, p[:, :self.n_params])
+            self.drift = np.zeros(B)
+
+    def slab(self, ts: np.ndarray) -> None:
+        """Integrate the active trajectories over ts (their samples), then record."""
+        rows = np.flatnonzero(self.active)
+        p_rows = self.p[rows]
+        y, infos = self.lib.run(self.method, self.state[rows], p_rows, ts, self.opt)
+        st = _status(infos)
+
+        def rerun(sub, start, local):
+            yf, inf = self.lib.run(self.method, np.ascontiguousarray(start), p_rows[sub], local, self.opt)
             return yf, _status(inf)
 
-        for e in sweep.events:
-            pending = np.isnan(times[e.name][rows])
+        for e in self.sweep.events:
+            pending = np.isnan(self.times[e.name][rows])
             found = ev.locate(rerun, y, ts, e.index, e.level, search=pending)
-            times[e.name][rows] = np.where(pending, found, times[e.name][rows])
-        for q, i in maxima.items():
-            a_ = ev.hermite(y[:, :-1, i], y[:, :-1, i + n // 2], y[:, 1:, i], y[:, 1:, i + n // 2],
-                            np.diff(ts)[None, :])
-            peak[q][rows] = np.fmax(peak[q][rows], np.nanmax(ev.max_abs(a_), axis=1, initial=0.0))
-        if want_energy:
-            E = _energy(model, y, p_rows[:, None, :n_params])
-            change = np.nanmax(np.abs(E - E0[rows, None]), axis=1, initial=0.0)
-            drift[rows] = np.fmax(drift[rows], change / np.maximum(np.abs(E0[rows]), 1e-300))
-        state[rows] = y[:, -1]
-        status[rows] = np.where(status[rows] == 0, st, status[rows])
-        active[rows[st != 0]] = False
-        if sweep.events_only:
-            done = np.all([np.isfinite(times[e.name][rows]) for e in sweep.events], axis=0)
-            active[rows[done]] = False
+            self.times[e.name][rows] = np.where(pending, found, self.times[e.name][rows])
+        self._maxima(rows, y, ts)
+        if self.energy:
+            E = _energy(self.model, y, p_rows[:, None, :self.n_params])
+            change = np.nanmax(np.abs(E - self.E0[rows, None]), axis=1, initial=0.0)
+            self.drift[rows] = np.fmax(self.drift[rows], change / np.maximum(np.abs(self.E0[rows]), 1e-300))
+        self.state[rows] = y[:, -1]
+        self.status[rows] = np.where(self.status[rows] == 0, st, self.status[rows])
+        self.active[rows[st != 0]] = False
+        if self.sweep.events_only:
+            done = np.all([np.isfinite(self.times[e.name][rows]) for e in self.sweep.events], axis=0)
+            self.active[rows[done]] = False
 
-    out = {}
-    for q in sweep.record:
-        if q == "final_state":
-            final = np.where((status == 0)[:, None], state, np.nan)
-            out.update({f"final_{s}": final[:, i] for i, s in enumerate(sweep.state_names)})
-        elif q == "lyapunov_exponent":
-            out[q] = lyapunov(model, y0, p, scene.t_stop - scene.t_start, n_params)
-        elif q == "energy_error":
-            out[q] = np.where(status == 0, drift, np.nan)
-        elif q.startswith("max_abs_"):
-            out[q] = np.where(status == 0, peak[q[len("max_abs_"):]], np.nan)
-        else:
-            out[q] = times[q[: -len("_time")]]
-    if verify:
-        out.update(verify_events(sweep, y0, p.astype(np.float64), out))
-    out["status"] = status
-    return out
+    def _maxima(self, rows, y, ts) -> None:
+        """max |q| between the samples too: the cubic through the samples and rates."""
+        h = self.n // 2
+        for q, i in self.maxima.items():
+            a = ev.hermite(y[:, :-1, i], y[:, :-1, i + h], y[:, 1:, i], y[:, 1:, i + h], np.diff(ts)[None, :])
+            self.peak[q][rows] = np.fmax(self.peak[q][rows], np.nanmax(ev.max_abs(a), axis=1, initial=0.0))
+
+    def results(self) -> dict[str, np.ndarray]:
+        """The recorded quantities (NaN where the run failed), but the Lyapunov exponent."""
+        ok = self.status == 0
+        out = {}
+        for q in self.sweep.record:
+            if q == "final_state":
+                final = np.where(ok[:, None], self.state, np.nan).astype(np.float64)
+                out.update({f"final_{s}": final[:, i] for i, s in enumerate(self.sweep.state_names)})
+            elif q == "energy_error":
+                out[q] = np.where(ok, self.drift, np.nan)
+            elif q.startswith("max_abs_"):
+                out[q] = np.where(ok, self.peak[q[len("max_abs_"):]], np.nan)
+            elif q.endswith("_time"):
+                out[q] = self.times[q[: -len("_time")]]
+        return out
 
 
 VERIFY_TIGHTER = 10              # the check runs at rtol / 10 in double ...
