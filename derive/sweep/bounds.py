@@ -25,16 +25,27 @@ MAX_PARAMETER_SETS = 64         # distinct parameter rows in one chunk that get 
 ENERGY_SLACK = 1e-6             # relative: the integrator's own energy error, with room
 
 
+@lru_cache(maxsize=None)
+def n_params(model: str) -> int:
+    """The model's parameters (p holds its inputs after them)."""
+    from ..integration.codegen import model_info
+    return model_info(model).n_params
+
+
+def energy(model: str, y, p):
+    """E(y; p) from the compiled energy kernel (leading axes broadcast)."""
+    from ..codegen.loader import load
+    return load(model).energy(y, p)
+
+
 def unreachable(model: str, sweep: Sweep, y0: np.ndarray, p: np.ndarray) -> np.ndarray:
     """True for the trajectories whose energy keeps them from every event of the sweep."""
     out = np.zeros(len(y0), bool)
     description = load_model(model)
     if not sweep.events or not description.is_conservative:
         return out
-    from .chunk import _energy, _n_params
-    n_params = _n_params(model)
-    params = p[:, :n_params]
-    E0 = _energy(model, y0, params)
+    params = p[:, :n_params(model)]
+    E0 = energy(model, y0, params)
     rows, inverse = np.unique(params, axis=0, return_inverse=True)
     if len(rows) > MAX_PARAMETER_SETS:
         return out
@@ -48,7 +59,6 @@ def unreachable(model: str, sweep: Sweep, y0: np.ndarray, p: np.ndarray) -> np.n
 @lru_cache(maxsize=256)
 def floor(model: str, index: int, level: float, params: tuple[float, ...]) -> float:
     """A lower bound (less the slack) of V on {|q_index| = level}; -inf where none holds."""
-    from .chunk import _energy
     n = 2 * len(load_model(model).coordinate_names)
     others = [i for i in range(n // 2) if i != index]
     p = np.asarray(params, float)
@@ -64,7 +74,7 @@ def floor(model: str, index: int, level: float, params: tuple[float, ...]) -> fl
         y[..., index] = sign * level
         for i, m in zip(others, mesh):
             y[..., i] = m
-        V = _energy(model, y, p)
+        V = energy(model, y, p)
         curvature = 0.0
         for d in range(len(others)):
             second = np.roll(V, 1, axis=d) + np.roll(V, -1, axis=d) - 2 * V
@@ -75,14 +85,13 @@ def floor(model: str, index: int, level: float, params: tuple[float, ...]) -> fl
 
 
 def _periodic(model: str, p: np.ndarray, n: int) -> bool:
-    from .chunk import _energy
     rng = np.random.default_rng(0)
     q = np.zeros((16, n))
     q[:, : n // 2] = rng.uniform(-np.pi, np.pi, (16, n // 2))
-    base = _energy(model, q, p)
+    base = energy(model, q, p)
     for i in range(n // 2):
         shifted = q.copy()
         shifted[:, i] += 2 * np.pi
-        if not np.allclose(_energy(model, shifted, p), base, rtol=1e-12, atol=1e-12):
+        if not np.allclose(energy(model, shifted, p), base, rtol=1e-12, atol=1e-12):
             return False
     return True

@@ -23,6 +23,7 @@ import numpy as np
 from ..integration.build import integrator_library
 from ..integration.contract import METHODS
 from . import events as ev
+from .bounds import energy as _energy, n_params as _n_params, unreachable
 from .spec import Sweep
 
 SLABS = 10                      # pieces of the time span
@@ -86,7 +87,6 @@ def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray, dtype=np.float64,
     model = _model(sweep)
     batch = _Batch(sweep, model, y0, p, dtype)
     if sweep.events_only and dtype == np.float64:
-        from .bounds import unreachable
         batch.active &= ~unreachable(model, sweep, y0, p)
     scene = sweep.scene
     t = np.linspace(scene.t_start, scene.t_stop, scene.outputs).astype(dtype)
@@ -220,17 +220,6 @@ def _event_again(sweep: Sweep, event, y0, p, tighter: float, dtype) -> np.ndarra
     again = dataclasses.replace(sweep, record=(f"{event.name}_time",), events=(event,),
                                 scene=dataclasses.replace(scene, rtol=rtol, atol=rtol * (scene.atol / scene.rtol)))
     return np.asarray(integrate(again, y0, p, dtype=dtype, verify=False)[f"{event.name}_time"], np.float64)
-
-
-@lru_cache(maxsize=None)
-def _n_params(model: str) -> int:
-    from ..integration.codegen import model_info
-    return model_info(model).n_params
-
-
-def _energy(model: str, y, p):
-    from ..codegen.loader import load
-    return load(model).energy(y, p)
 
 
 def lyapunov(model: str, y0: np.ndarray, p: np.ndarray, t_end: float, n_params: int) -> np.ndarray:
