@@ -1,7 +1,8 @@
 """derive: symbolic derivation and code generation for pendulum dynamics.
 
 ``derive.simulate(model, y0, t, params, ...)`` runs the generated integrators
-(imported on first use, so ``import derive`` stays light).  Every failure derive
+(imported on first use, so ``import derive`` stays light); ``derive.sweep(file, ...)``
+runs a sweep file on Dask and returns an xarray Dataset (the `sweep` extra).  Every failure derive
 expects is a ``derive.DeriveError`` (see derive/errors.py).
 """
 __version__ = "0.2.0"
@@ -12,7 +13,7 @@ from .errors import (BuildError, CompilerMissingError, DeriveError, InputError, 
 
 __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "ModelError",
            "SceneError", "SimulationError", "SimulationInputError", "ToolMissingError",
-           "__version__", "ensemble", "scipy_rhs", "simulate"]
+           "__version__", "ensemble", "scipy_rhs", "simulate", "sweep"]
 
 
 def __getattr__(name):
@@ -28,4 +29,7 @@ def __getattr__(name):
         from .integration.scipy_rhs import scipy_rhs
         globals()["scipy_rhs"] = scipy_rhs
         return scipy_rhs
+    if name == "sweep":                   # the sweep stage, callable: derive.sweep(SWEEP.toml, ...)
+        import importlib
+        return importlib.import_module(".sweep", __name__)
     raise AttributeError(f"module 'derive' has no attribute {name!r}")

@@ -491,6 +491,48 @@ def _race(args) -> int:
     return 0
 
 
+# -- derive sweep (derive/sweep: sweeps and maps on Dask, the `sweep` extra) ---------------
+
+def cmd_sweep(args) -> int:
+    from .sweep import require_extra
+    require_extra()
+    from .sweep.run import run
+    from .sweep.spec import load_sweep
+    sweep = load_sweep(args.sweep)
+    if args.out is not None:
+        _writable_folder(Path(args.out))
+    report = run(sweep, out=args.out, scheduler=args.scheduler, workers=args.workers,
+                 progress=not args.quiet)
+    if not args.quiet:
+        rate = report.computed_trajectories / report.seconds if report.seconds > 0 else 0.0
+        print(f"sweep   {sweep.source}: {report.trajectories:,} trajectories over "
+              f"{' x '.join(f'{d} {n}' for d, n in zip(sweep.dims, sweep.shape))}")
+        print(f"chunks  {report.chunks} ({report.computed} computed on {report.where}, "
+              f"{report.skipped} done before)")
+        print(f"store   {report.store}")
+        for image in report.images:
+            print(f"wrote   {image}")
+        per_cpu = report.computed_trajectories / report.cpu_seconds if report.cpu_seconds > 0 else 0.0
+        print(f"time    {report.seconds:.2f} s ({rate:,.0f} trajectories/s"
+              + (f", {rate / report.workers:,.0f} per worker" if report.workers else "")
+              + f"; {per_cpu:,.0f} per CPU second)")
+    return 0
+
+
+def _sweep_parser(sub) -> None:
+    p = sub.add_parser("sweep", help="run a sweep file (a scene plus axes and quantities) on Dask into "
+                                     "a Zarr store, with an image per quantity of a 2-D sweep",
+                       epilog=EXIT_CODES)
+    p.add_argument("sweep", help="sweep file, or the name of an example sweep (flip_map)")
+    p.add_argument("--out", help="output directory (default: the file's output.directory)")
+    p.add_argument("--scheduler", help="an existing Dask scheduler, tcp://HOST:PORT "
+                                       "(default: $DASK_SCHEDULER_ADDRESS, else a local cluster)")
+    p.add_argument("--workers", type=int, help="local worker processes (default: one per core; "
+                                               "0: run in this process)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
+    p.set_defaults(func=cmd_sweep)
+
+
 def build_parser() -> argparse.ArgumentParser:
     from .measurement.bench import DEFAULT_OUT
     parser = _OneLineParser(
@@ -548,6 +590,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="only the race against heyoka through both public APIs (needs heyoka: the bench "
                         "extra); writes race.md, race.csv, race.png")
     p.set_defaults(func=cmd_bench)
+    _sweep_parser(sub)
     return parser
 
 

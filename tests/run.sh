@@ -6,7 +6,8 @@
 #
 # Further arguments go to pytest.  Installs the system tools the tests need
 # from Debian when they are missing and it may (root, or sudo without a
-# password), then the project with its test extra, then runs pytest on every
+# password), then the project with its test and sweep extras (tests/test_sweep.py runs
+# sweeps on a local Dask cluster), then runs pytest on every
 # core (pytest-xdist).  A missing tool is an error (exit 2), never a skip.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -82,5 +83,5 @@ then
 fi
 
 export PIP_ROOT_USER_ACTION=ignore
-"$PY" -m pip install -q -e '.[test]'
+"$PY" -m pip install -q -e '.[test,sweep]'
 exec "$PY" -m pytest -q -n auto "${tier[@]}" "$@"

@@ -146,7 +146,7 @@ STAGES = (
                  "derive.integration.codegen", "derive.integration.throughput")),
     ("runtime", ("derive.integration",)),
     ("measurement", ("derive.measurement",)),
-    ("output", ("derive.scene", "derive.report")),
+    ("output", ("derive.scene", "derive.report", "derive.sweep")),
     ("interface", ("derive.cli", "derive.__main__")),
 )
 # The package itself: its module level is base (errors, __version__); its lazy

@@ -118,3 +118,54 @@ def test_the_wheel_generates_a_model_file_and_knows_its_version(venv, tmp_path):
     # installed, there are no golden files: one line, exit 2
     golden = _derive(env_dir, work, cache, "generate")
     assert golden.returncode == 2 and golden.stderr.count("\n") == 1 and "--out DIR" in golden.stderr
+
+
+SWEEP = """
+title = "rod-tip flips"
+record = ["flip_time", "final_state"]
+[pendulum]
+model = "models/rodtip.toml"
+parameters = { m1 = 1.0, m2 = 1.0, l1 = 1.0, l2 = 1.0, L1 = 0.08, g = 9.81 }
+[initial]
+state = { theta1 = 0.0, theta2 = 0.0 }
+rest = true
+[time]
+stop = 3.0
+outputs = 76
+[axes]
+theta1 = { linspace = ["-pi", "pi"], num = 6 }
+theta2 = { linspace = [-3.0, 3.0], num = 6 }
+[events.flip]
+coordinate = "theta2"
+level = "pi"
+[sweep]
+chunk = 12
+"""
+
+
+def test_the_wheel_sweeps_a_model_file_on_two_workers_without_a_checkout(venv, tmp_path):
+    """`derive sweep` from the wheel, outside the checkout, on a local cluster of 2 worker
+    processes: the model file (relative to the sweep file) travels to the workers as its
+    description, each builds or loads the integrator from the cache; nothing else is written."""
+    env_dir, site = venv
+    work, cache = tmp_path / "empty", tmp_path / "cache"
+    (work / "models").mkdir(parents=True)
+    (work / "models" / "rodtip.toml").write_text(MODEL)
+    (work / "flips.toml").write_text(SWEEP)
+    before_site, before_checkout = _tree_digest(site / "derive"), _checkout_state()
+    run = _derive(env_dir, work, cache, "sweep", "flips.toml", "--workers", "2", "--out", "out")
+    assert run.returncode == 0, run.stderr
+    assert "3 computed on a local cluster of 2 worker processes" in run.stdout
+    check = subprocess.run([str(env_dir / "bin" / "python"), "-c",
+                            "import xarray as xr; ds = xr.open_zarr('out/flips.zarr', consolidated=False); "
+                            "print(list(ds.flip_time.dims), int(ds.flip_time.notnull().sum()), "
+                            "int((ds.status == 0).sum()))"],
+                           cwd=work, capture_output=True, text=True)
+    assert check.returncode == 0, check.stderr
+    dims, flips, ok = check.stdout.rsplit(" ", 2)
+    assert dims == "['theta1', 'theta2']" and int(flips) > 0 and int(ok) == 36
+    assert (work / "out" / "flips_flip_time.png").is_file()
+    assert any((cache / "sweep-models").glob("*.toml"))          # the workers' copy of the model
+    assert _tree_digest(site / "derive") == before_site, "the sweep changed site-packages"
+    assert _checkout_state() == before_checkout, "the sweep changed the checkout"
+    assert sorted(p.name for p in work.iterdir()) == ["flips.toml", "models", "out"]

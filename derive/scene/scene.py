@@ -301,12 +301,22 @@ def _parse_events(t: dict, model: str, accuracy: dict) -> dict | None:
     return events
 
 
+SCENE_KEYS = ("title", "pendulum", "initial", "time", "accuracy", "output", "events")
+
+
 def parse_scene(text: str, source: str = "<scene>") -> Scene:
     try:
         t = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: not valid TOML: {exc}") from None
-    _known(t, ("title", "pendulum", "initial", "time", "accuracy", "output", "events"), source)
+    if "axes" in t:
+        raise SceneError(f"{source}: a sweep file (it has [axes]): run it with `derive sweep`")
+    _known(t, SCENE_KEYS, source)
+    return scene_from_table(t, source)
+
+
+def scene_from_table(t: dict, source: str = "<scene>") -> Scene:
+    """A scene from its parsed TOML table (a sweep file is a scene plus tables of its own)."""
     model, params = _parse_pendulum(_table(t, "pendulum", source), Path(source).parent)
     inputs = _parse_inputs(_table(t, "pendulum", source), model)
     initial = _parse_initial(_table(t, "initial", source), model)

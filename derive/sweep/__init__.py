@@ -1,0 +1,56 @@
+"""Stage: sweeps and maps at scale, on Dask (the `sweep` extra: dask, distributed, zarr, xarray).
+
+    ds = derive.sweep("scenes/flip_map.toml", out="out")       # an xarray Dataset
+    ds.flip_time.sel(theta1=0.5, theta2=2.0, method="nearest")
+
+A sweep file is a scene plus axes over initial values and parameters and the
+quantities to record per trajectory (spec.py); its product of axes is cut into
+chunks (layout.py), each a Dask task that integrates its trajectories as one
+batch of the compiled integrator (chunk.py, events.py, bounds.py) and whose
+result is written into a Zarr store as it finishes (store.py, run.py), with a
+PNG per quantity for 2-D sweeps (images.py).
+"""
+from __future__ import annotations
+
+from ..errors import ToolMissingError
+
+EXTRA = ("dask", "distributed", "zarr", "xarray")
+MISSING_EXTRA = "derive sweep needs the sweep extra: pip install 'derive[sweep]'"
+
+
+def require_extra() -> None:
+    """One line (exit status 2) when a package of the sweep extra is missing."""
+    import importlib
+    for name in EXTRA:
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            raise ToolMissingError(MISSING_EXTRA) from None
+
+
+def sweep(source, out=None, scheduler: str | None = None, workers: int | None = None,
+          progress: bool = False, on_chunk=None):
+    """Run a sweep file into OUT/<name>.zarr (resuming a stopped one) and return its data
+    as an xarray Dataset.  workers=0: in this process; scheduler='tcp://HOST:PORT' (or
+    DASK_SCHEDULER_ADDRESS): an existing Dask cluster; else a local cluster of `workers`
+    processes (default one per core)."""
+    return run_sweep(source, out, scheduler, workers, progress, on_chunk).dataset
+
+
+def run_sweep(source, out=None, scheduler=None, workers=None, progress=False, on_chunk=None):
+    """As sweep(), returning the run's Report (store, images, chunks computed and skipped, time)."""
+    require_extra()
+    from .run import run
+    return run(source, out, scheduler, workers, progress, on_chunk)
+
+
+class _CallableStage(__import__("types").ModuleType):
+    """`derive.sweep` is this package and the function at once: calling the module runs
+    sweep() (the package's name and the API's cannot differ, and a submodule import
+    would otherwise rebind derive.sweep to the module)."""
+
+    def __call__(self, *args, **kwargs):
+        return sweep(*args, **kwargs)
+
+
+__import__("sys").modules[__name__].__class__ = _CallableStage

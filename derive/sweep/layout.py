@@ -1,0 +1,59 @@
+"""How a sweep partitions: the product of its axes as an N-D array, cut into chunks.
+
+A chunk is a block of the array (whole trailing dimensions, a slab of the leading
+ones) of about `chunk` trajectories.  It is both one Dask task and one chunk of
+every variable in the Zarr store, so a finished task writes whole store chunks
+(no two tasks ever touch the same chunk) and its completion is one flag.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .spec import Sweep
+
+
+def chunk_shape(shape: tuple[int, ...], target: int) -> tuple[int, ...]:
+    """Whole trailing dimensions while they fit in `target` trajectories, then a part
+    of the next one, then 1 along the rest (C order: a chunk is contiguous)."""
+    out, room = [], max(target, 1)
+    for size in reversed(shape):
+        take = min(size, max(room, 1))
+        out.append(take)
+        room //= max(size, 1)
+    return tuple(reversed(out))
+
+
+class Layout:
+    def __init__(self, sweep: Sweep):
+        self.shape = sweep.shape
+        self.chunks = chunk_shape(self.shape, sweep.chunk)
+        self.grid = tuple(math.ceil(s / c) for s, c in zip(self.shape, self.chunks))
+        self.count = math.prod(self.grid)
+
+    def block(self, k: int) -> tuple[int, ...]:
+        return tuple(int(i) for i in np.unravel_index(k, self.grid))
+
+    def slices(self, k: int) -> tuple[slice, ...]:
+        return tuple(slice(b * c, min((b + 1) * c, s))
+                     for b, c, s in zip(self.block(k), self.chunks, self.shape))
+
+    def block_shape(self, k: int) -> tuple[int, ...]:
+        return tuple(s.stop - s.start for s in self.slices(k))
+
+
+def chunk_inputs(sweep: Sweep, layout: Layout, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The initial states y0 (B, n) and parameter rows p (B, np) of chunk k, C order."""
+    slices = layout.slices(k)
+    index = np.meshgrid(*[np.arange(s.start, s.stop) for s in slices], indexing="ij")
+    flat = [i.ravel() for i in index]
+    B = flat[0].size if flat else 1
+    y0 = np.repeat(sweep.y0[None, :], B, axis=0)
+    p = np.repeat(sweep.p[None, :], B, axis=0)
+    grid = sweep.grid_axes
+    for axis in sweep.axes:
+        dim = grid.index(axis) if not axis.random else len(grid)      # random: the sample dimension
+        values = axis.values[flat[dim]]
+        (y0 if axis.target == "state" else p)[:, axis.index] = values
+    return y0, p

@@ -1,0 +1,161 @@
+"""Run a sweep: its unfinished chunks as Dask tasks, each written to the store as it finishes.
+
+Where the tasks run:
+  workers = 0                     in this process, one chunk after another (no Dask);
+  scheduler (or DASK_SCHEDULER_ADDRESS)   an existing Dask cluster, tcp://HOST:PORT;
+  otherwise                       a LocalCluster of `workers` processes (default: one per
+                                  core), one thread each, started and stopped here.
+A task carries its chunk's initial states and parameters and the sweep's settings
+(a model file as its description); a worker needs derive installed, no checkout:
+it builds or loads the integrator from its own cache by content hash.  When a
+worker dies, Dask runs its tasks again elsewhere; a chunk is written once, by this
+process, when its task's result arrives.
+"""
+from __future__ import annotations
+
+import dataclasses
+import logging
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import UsageError
+from ..progress import Progress
+from .chunk import integrate, variables
+from .layout import Layout, chunk_inputs
+from .spec import Sweep, load_sweep
+from .store import Writer, load, open_store
+
+SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
+
+
+@dataclass
+class Report:
+    store: Path
+    images: list[Path]
+    chunks: int
+    computed: int
+    skipped: int
+    trajectories: int
+    seconds: float                  # wall time of the chunks computed here (not the setup)
+    workers: int                    # worker processes (0: this process)
+    where: str
+    computed_trajectories: int = 0
+    cpu_seconds: float = 0.0        # CPU time of the computed chunks, summed over workers
+    dataset: object = field(default=None, repr=False)
+
+
+def _task(sweep: Sweep, y0, p, shape):
+    """The Dask task: one chunk's quantities (module-level, so workers import it from derive),
+    and the CPU seconds it took (the throughput per core, whatever else shares the machine)."""
+    cpu = time.thread_time()
+    out = integrate(sweep, y0, p)
+    return {name: value.reshape(shape) for name, value in out.items()}, time.thread_time() - cpu
+
+
+def _light(sweep: Sweep) -> Sweep:
+    """What a task needs of the sweep: its settings, not its axes (the task carries its inputs)."""
+    return dataclasses.replace(sweep, axes=(), text="")
+
+
+def _executor(scheduler: str | None, workers: int | None):
+    """(client, cluster or None, description); client None: run in this process."""
+    address = scheduler or os.environ.get(SCHEDULER_ENV) or None
+    if workers == 0 and address is None:
+        return None, None, "this process"
+    from distributed import Client, LocalCluster
+    if address is not None:
+        try:
+            client = Client(address, timeout=30)
+        except (OSError, TimeoutError) as exc:
+            raise UsageError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+        return client, None, f"the Dask cluster at {address}"
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                           silence_logs=logging.ERROR)
+    return Client(cluster), cluster, f"a local cluster of {n} worker process{'es' * (n != 1)}"
+
+
+def output_paths(sweep: Sweep, out: str | Path | None) -> tuple[Path, Path, str]:
+    folder = Path(out) if out is not None else sweep.scene.output_dir
+    stem = Path(sweep.source).stem
+    return folder, folder / f"{stem}.zarr", stem
+
+
+def run(source, out=None, scheduler: str | None = None, workers: int | None = None,
+        progress: bool = True, on_chunk=None) -> Report:
+    """Run the sweep file `source` (or a parsed Sweep) into OUT/<name>.zarr (and PNGs for a
+    2-D sweep); finished chunks of an earlier run into the same store are skipped.
+    on_chunk(k): called after chunk k is written (an exception there stops the sweep)."""
+    sweep = source if isinstance(source, Sweep) else load_sweep(source)
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
+        raise UsageError(f"workers must be a whole number >= 0, got {workers!r}")
+    folder, path, stem = output_paths(sweep, out)
+    layout = Layout(sweep)
+    names = variables(sweep)
+    done = open_store(path, sweep, layout, names)
+    todo = [k for k in range(layout.count) if k not in done]
+    writer = Writer(path, layout)
+    bar = Progress(f"sweeping {stem}", layout.count) if progress else None
+    if bar:
+        bar.update(len(done))
+    local = scheduler is None and not os.environ.get(SCHEDULER_ENV)
+    if todo and local:
+        from .chunk import _model
+        from ..integration.build import integrator_library
+        integrator_library(_model(sweep))        # build once here: local workers load it from the cache
+    client = cluster = None
+    where = "this process"
+    computed = traj = 0
+    cpu = 0.0
+    start = time.perf_counter()
+    try:
+        if todo:
+            client, cluster, where = _executor(scheduler, workers)
+        start = time.perf_counter()             # the chunks' time, not the cluster's start-up
+        light = _light(sweep)
+        for k, (values, seconds) in _results(client, light, sweep, layout, todo):
+            writer.write(k, values)
+            cpu += seconds
+            computed += 1
+            traj += values["status"].size
+            if bar:
+                bar.update(len(done) + computed)
+            if on_chunk is not None:
+                on_chunk(k)
+    finally:
+        seconds = time.perf_counter() - start
+        n_workers = len(client.scheduler_info()["workers"]) if client is not None else 0
+        if bar:
+            bar.close()
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    ds = load(path)
+    from .images import write_images
+    images = write_images(ds, folder, stem, sweep.scene.title) if len(sweep.dims) == 2 else []
+    return Report(path, images, layout.count, computed, len(done), sweep.size, seconds, n_workers, where,
+                  traj, cpu, ds)
+
+
+def _results(client, light: Sweep, sweep: Sweep, layout: Layout, todo: list[int]):
+    """(chunk, values) as chunks finish, in this process or on the cluster."""
+    if client is None:
+        for k in todo:
+            y0, p = chunk_inputs(sweep, layout, k)
+            yield k, _task(light, y0, p, layout.block_shape(k))
+        return
+    from distributed import as_completed
+    futures = {}
+    for k in todo:
+        y0, p = chunk_inputs(sweep, layout, k)
+        f = client.submit(_task, light, y0, p, layout.block_shape(k), key=f"derive-sweep-chunk-{k}-{id(todo)}",
+                          pure=False)
+        futures[f] = k
+    try:
+        for f in as_completed(futures):
+            yield futures[f], f.result()
+    finally:
+        client.cancel(list(futures))
