@@ -143,16 +143,18 @@ STAGES = (
     ("derivation", ("derive.derivation",)),
     ("codegen", ("derive.verification", "derive.codegen", "derive.integration.contract",
                  "derive.integration.tableau", "derive.integration.cartesian",
-                 "derive.integration.codegen", "derive.integration.throughput")),
+                 "derive.integration.codegen", "derive.integration.throughput",
+                 "derive.integration.taylor_codegen")),
     ("runtime", ("derive.integration",)),
     ("measurement", ("derive.measurement",)),
     ("output", ("derive.scene", "derive.report", "derive.sweep")),
     ("interface", ("derive.cli", "derive.__main__")),
 )
 # The package itself: its module level is base (errors, __version__); its lazy
-# derive.simulate and derive.scipy_rhs (function-level imports in __getattr__) are the
+# derive.simulate, derive.ensemble and derive.scipy_rhs (function-level imports in __getattr__) are the
 # public facade.
-ALLOWED_UP = {("derive", "derive.integration.simulate"), ("derive", "derive.integration.scipy_rhs")}
+ALLOWED_UP = {("derive", "derive.integration.simulate"), ("derive", "derive.integration.scipy_rhs"),
+              ("derive", "derive.integration.ensemble")}
 
 
 def _modules() -> dict[str, Path]:
