@@ -141,8 +141,8 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
             return lib
         # a truncated or altered library would crash the process (SIGBUS) or run other code
         if state is False:
-            print(f"derive: note: the cached library {lib} does not match its checksum; rebuilding it",
-                  file=sys.stderr)
+            print(f"derive: note: the cached library {lib} does not match its checksum or is not "
+                  f"a file of this user; rebuilding it", file=sys.stderr)
     lib.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
         out = Path(tmp) / lib.name
@@ -173,9 +173,15 @@ def _intact(lib: Path) -> bool | None:
     if str(lib) in _verified:
         return True
     try:
-        recorded = lib.with_name(lib.name + ".sha256").read_text().strip()
-    except OSError:
+        digest = lib.with_name(lib.name + ".sha256")
+        for part in (lib, digest):
+            if part.is_symlink() or (hasattr(os, "getuid") and part.stat().st_uid != os.getuid()):
+                return False          # planted: never loaded, whatever its checksum says
+        recorded = digest.read_text().strip()
+    except FileNotFoundError:
         return None
+    except (OSError, ValueError):    # unreadable, or bytes that are no text
+        return False
     ok = recorded == _sha256(lib)
     if ok:
         _verified.add(str(lib))
