@@ -125,10 +125,13 @@ def lyapunov_exponent(result) -> float | None:
     if "_lyapunov" not in result.__dict__:
         t_end = float(result.t[-1] - result.t[0])
         params = np.asarray(result.params, np.float64)
+        backend = getattr(result, "backend", "c")         # a NumPy run's estimate needs no compiler
         if result.model == "spherical":
-            est = atlas_lyapunov({"chart": result.chart[0], "state": list(result.y[0])}, params, t_end)
+            est = atlas_lyapunov({"chart": result.chart[0], "state": list(result.y[0])}, params, t_end,
+                                 backend=backend)
         else:
-            est = largest_lyapunov(result.model, np.asarray(result.y[0], np.float64), params, t_end)
+            est = largest_lyapunov(result.model, np.asarray(result.y[0], np.float64), params, t_end,
+                                   backend=backend)
         result.__dict__["_lyapunov"] = None if est is None else est.exponent
     return result.__dict__["_lyapunov"]
 

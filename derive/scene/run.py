@@ -176,10 +176,10 @@ def _join(parts: list[SimulationResult]) -> SimulationResult:
 def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions, velocities and energy of the scene's own pendulum (not of the model that ran)."""
     if scene.model == "compound" and p.model == "planar":
-        from ..codegen.loader import load
+        from ..codegen.loader import load, numpy_module
         from ..integration.simulate import normalise_params
         pc = normalise_params("compound", scene.parameters).astype(np.float64)
-        m = load("compound")
+        m = load("compound") if scene.backend == "c" else numpy_module("compound")   # no compiler needed
         y = r.y.astype(np.float64)
         return m.positions(y, pc), m.velocities(y, pc), m.energy(y, pc)
     if p.plane is not None:
