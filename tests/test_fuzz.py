@@ -292,6 +292,13 @@ def _special_cases() -> list[Case]:
              r"run failed: integration stopped at t = 0: "),
         Case("l1-huge", _set(d, ("pendulum", "parameters", "l1"), 1e300), 1,
              r"run failed: integration stopped at t = 0: non-finite state or derivative"),
+        # a run that fails, at its start or on the way, still writes readable plots (no NaN limits)
+        Case("failed-at-start-with-plots", _set(_set(d, ("pendulum", "parameters", "l1"), 1e300), ("output",),
+                                                {"plots": ["paths", "energy", "animation"]}), 1,
+             r"run failed: integration stopped at t = 0: non-finite state or derivative"),
+        Case("stopped-on-the-way-with-plots", _set(_set(d, ("pendulum", "parameters", "m1"), 1e-300), ("output",),
+                                                   {"plots": ["paths", "energy", "animation"]}), 1,
+             r"run failed: integration stopped at t = 0.7\d+: step-size underflow"),
         Case("rest-not-bool", _set(d, ("initial", "rest"), "yes"), 2, r"'initial.rest' must be true or false"),
         Case("rates-missing", _set(d, ("initial", "state"), {"theta1": 1.0, "theta2": 0.5}), 2,
              r"'initial.state' misses theta1_dot, theta2_dot: give them, or set 'initial.rest = true'"),

@@ -196,7 +196,8 @@ def animation_figure(plt, o, horizontal: int = 0, vertical: int | None = None):
         return None
     t = np.asarray(o.result.t, float)
     frames = np.linspace(0, alive - 1, min(alive, 150)).astype(int)
-    reach = float(np.max(np.linalg.norm(pos[:alive], axis=-1))) * 1.05 or 1.0
+    scale = float(np.max(np.abs(pos[:alive]))) or 1.0        # scaled: |x| near 1e300 does not overflow
+    reach = scale * float(np.max(np.linalg.norm(pos[:alive] / scale, axis=-1))) * 1.05
     fig, ax = plt.subplots(figsize=(4, 4.3), layout="constrained")
     ax.set_xlim(-reach, reach)
     ax.set_ylim(-reach, reach)
