@@ -14,6 +14,8 @@ import ast
 import dataclasses
 import hashlib
 import json
+import os
+import sys
 from pathlib import Path
 
 import sympy as sp
@@ -127,15 +129,31 @@ def _decode(value):
 
 
 def load(path: Path):
-    """The value stored at `path`, or MISSING when there is none or it does not check out."""
+    """The value stored at `path`, or MISSING when there is none or it does not check out
+    (damaged, of another version, or a file of another user: then with a one-line note,
+    and the caller computes it again)."""
+    path = Path(path)
     try:
-        outer = json.loads(Path(path).read_text())
+        st = path.stat()
+    except FileNotFoundError:
+        return MISSING
+    except (OSError, ValueError):
+        st = None
+    why = "is damaged"
+    try:
+        if st is not None and hasattr(os, "getuid") and st.st_uid != os.getuid():
+            why = "belongs to another user"
+            raise _Refused(why)
+        outer = json.loads(path.read_text())
         if outer.get("format") != FORMAT:
-            return MISSING
+            why = "is of another format"
+            raise _Refused(why)
         payload = outer["payload"]
         if hashlib.sha256(payload.encode()).hexdigest() != outer["sha256"]:
-            return MISSING
+            why = "does not match its checksum"
+            raise _Refused(why)
         return _decode(json.loads(payload))
     except (OSError, ValueError, KeyError, TypeError, SyntaxError, RecursionError, AttributeError,
             sp.SympifyError):
+        print(f"derive: note: the cache entry {path} {why}; computing it again", file=sys.stderr)
         return MISSING

@@ -201,6 +201,8 @@ def _writable_folder(path: Path) -> Path:
         return writable_dir(path)
     except OSError as exc:
         raise UsageError(f"cannot write to '{path}': {exc.strerror or exc}") from None
+    except ValueError as exc:          # a NUL byte in the path
+        raise UsageError(f"cannot write to {str(path)!r}: {exc}") from None
 
 
 # -- derive latex -----------------------------------------------------------------------

@@ -102,3 +102,18 @@ def test_outputs_do_not_write_through_a_planted_link(tmp_path):
     assert run.returncode == 0, run.stderr
     assert victim.read_text() == "keep me\n"
     assert not (out / "s.csv").is_symlink() and (out / "s.csv").read_text().startswith("t,")
+
+
+def test_a_verdict_entry_is_read_by_a_process_that_has_not_imported_its_class(tmp_path):
+    """Verdicts hold claims.Result: a fresh process reading the cache before anything imported
+    claims used to find an "unknown class" and judge every formula again (the cache never
+    hit); now the entry loads, with no note."""
+    entry = tmp_path / "verdicts.json"
+    env = dict(os.environ, PYTHONPATH=str(ROOT), DERIVE_CACHE_DIR=str(tmp_path / "cache"))
+    write = ("from pathlib import Path; from derive import cachefile; from derive.verification.claims import Result; "
+             f"cachefile.store(Path({str(entry)!r}), [Result('000', '(1)', 'x', 'planar', 'match', 'ok')])")
+    subprocess.run([sys.executable, "-c", write], env=env, check=True, timeout=300)
+    read = (f"from pathlib import Path; from derive.verification import cached; "
+            f"v = cached._read(Path({str(entry)!r})); print(type(v[0]).__name__, v[0].verdict)")
+    run = subprocess.run([sys.executable, "-c", read], env=env, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0 and run.stdout.strip() == "Result match" and run.stderr == "", run.stderr

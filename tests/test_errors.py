@@ -100,6 +100,8 @@ def test_a_missing_template(tmp_path, monkeypatch, capsys):
 
 def test_missing_package_data(tmp_path, monkeypatch, capsys):
     from derive import paths
+    # imported first: a module imported while package_root is patched would keep the patch
+    import derive.codegen.generate, derive.codegen.sources, derive.derivation.derivation  # noqa: F401,E401
     monkeypatch.setattr(paths, "package_root", lambda: tmp_path)
     status = main(["generate", "planar", "--out", str(tmp_path / "gen")])
     err = capsys.readouterr().err

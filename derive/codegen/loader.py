@@ -146,9 +146,8 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
         if state is True:
             return lib
         # a truncated or altered library would crash the process (SIGBUS) or run other code
-        if state is False:
-            print(f"derive: note: the cached library {lib} does not match its checksum; rebuilding it",
-                  file=sys.stderr)
+        if state is not None:
+            print(f"derive: note: the cached library {lib} {state}; rebuilding it", file=sys.stderr)
     lib.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
         out = Path(tmp) / lib.name
@@ -172,20 +171,28 @@ def _sha256(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def _intact(lib: Path) -> bool | None:
+def _intact(lib: Path) -> bool | str | None:
     """True when a cached library matches the checksum written beside it when it was built
-    (checked once per process), False when it does not, None when it has no checksum (an
-    older cache entry: rebuilt, not trusted)."""
+    (checked once per process); why not when it does not (or it or its checksum is a link
+    or a file of another user: planted); None when it has no checksum (an older cache
+    entry: rebuilt, not trusted)."""
     if str(lib) in _verified:
         return True
+    mismatch = "does not match its checksum"
     try:
-        recorded = lib.with_name(lib.name + ".sha256").read_text().strip()
-    except OSError:
+        digest = lib.with_name(lib.name + ".sha256")
+        for part in (lib, digest):
+            if part.is_symlink() or (hasattr(os, "getuid") and part.stat().st_uid != os.getuid()):
+                return "or its checksum is a link or a file of another user"   # never loaded
+        recorded = digest.read_text().strip()
+    except FileNotFoundError:
         return None
-    ok = recorded == _sha256(lib)
-    if ok:
-        _verified.add(str(lib))
-    return ok
+    except (OSError, ValueError):    # unreadable, or bytes that are no text
+        return mismatch
+    if recorded != _sha256(lib):
+        return mismatch
+    _verified.add(str(lib))
+    return True
 
 
 _NO_VECTOR_MATH: set[str] = set()        # compilers that failed the vector-math build

@@ -19,6 +19,7 @@ import hashlib
 import os
 import re
 import shutil
+import sys
 import tempfile
 from functools import cache, lru_cache
 from pathlib import Path
@@ -142,9 +143,14 @@ def is_rendered(name: str) -> bool:
     return (sources_folder(name) / ".complete").is_file()
 
 
+def _digest(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
 def _write_tree(folder: Path, files: dict[str, str]) -> None:
     """Write `files` under `folder` atomically: a temporary sibling renamed into place
-    (a concurrent writer of the same key wins the race harmlessly: same content)."""
+    (a concurrent writer of the same key wins the race harmlessly: same content).  The
+    `.complete` marker, written last, lists every file with its SHA-256."""
     folder.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}-", dir=folder.parent))
     try:
@@ -152,7 +158,7 @@ def _write_tree(folder: Path, files: dict[str, str]) -> None:
             path = tmp / rel
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(text)
-        (tmp / ".complete").write_text("".join(f"{rel}\n" for rel in files))
+        (tmp / ".complete").write_text("".join(f"{_digest(text)}  {rel}\n" for rel, text in files.items()))
         try:
             os.rename(tmp, folder)
         except OSError:
@@ -163,17 +169,58 @@ def _write_tree(folder: Path, files: dict[str, str]) -> None:
             shutil.rmtree(tmp, ignore_errors=True)
 
 
+def _damage(folder: Path) -> str | None:
+    """Why the rendered folder cannot be used (a file that does not match the checksum in
+    `.complete`, is missing, is a link or belongs to another user), or None when it can:
+    its C is compiled and its Python imported, so nothing in it is taken on trust."""
+    mine = lambda st: not hasattr(os, "getuid") or st.st_uid == os.getuid()
+    try:
+        if not mine((folder / ".complete").lstat()):
+            return f"{folder / '.complete'} belongs to another user"
+        listing = (folder / ".complete").read_text().splitlines()
+        for line in listing:
+            digest, rel = line.split("  ", 1)
+            path = folder / rel
+            st = path.lstat()
+            if not path.is_file() or path.is_symlink() or not mine(st):
+                return f"{path} is not a file of this user"
+            if _digest(path.read_text()) != digest:
+                return f"{path} does not match its checksum"
+    except (OSError, ValueError) as exc:          # ValueError: a damaged listing or text
+        return f"{folder} is damaged ({type(exc).__name__})"
+    return None if listing else f"{folder}/.complete lists no files"
+
+
+def _discard(folder: Path) -> None:
+    """Move a damaged folder aside (atomically, so a concurrent reader never sees it half
+    removed), then delete it."""
+    aside = Path(tempfile.mkdtemp(prefix=f".{folder.name}-damaged-", dir=folder.parent))
+    try:
+        os.rename(folder, aside / "x")
+    except OSError:                     # already moved by a concurrent repair
+        pass
+    shutil.rmtree(aside, ignore_errors=True)
+
+
 @forget_on_model_change
 @lru_cache(maxsize=None)
 def model_sources(name: str) -> Path:
     """The folder (with c/ and numpy/) holding every generated file `name` needs at run
-    time, rendered into the cache on first use.  The atlas's folder holds its charts too."""
+    time, rendered into the cache on first use and checked on every first use in a
+    process (a damaged one is rendered again, with a note).  The atlas's folder holds
+    its charts too."""
     folder = sources_folder(name)
-    if not (folder / ".complete").is_file():
-        files: dict[str, str] = {}
-        for m in dict.fromkeys((*members(name), name)):
-            files.update(render(m))
-        _write_tree(folder, files)
+    if (folder / ".complete").is_file():
+        why = _damage(folder)
+        if why is None:
+            return folder
+        print(f"derive: note: the cached generated code of {name}: {why}; rendering it again",
+              file=sys.stderr)
+        _discard(folder)
+    files: dict[str, str] = {}
+    for m in dict.fromkeys((*members(name), name)):
+        files.update(render(m))
+    _write_tree(folder, files)
     return folder
 
 

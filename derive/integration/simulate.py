@@ -346,6 +346,7 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     u = normalise_inputs(model, inputs)
     ts = normalise_t(t)
     state, chart, _ = normalise_y0(model, y0, p)
+    _check_angles(model, state, dt)
     opt = run_options(method, dt, ts, rtol=rtol, atol=atol, step=step, hmax=hmax, max_steps=max_steps,
                       newton_tol=newton_tol, newton_max=newton_max, sine_min=sine_min)
     if _atlas(model) is not None and method not in ATLAS_METHODS:
@@ -503,6 +504,23 @@ def _events_of(model: str, method: str, events) -> tuple:
         raise SimulationInputError(f"events need the dense output of an adaptive method "
                                    f"({', '.join(ADAPTIVE)}), not {method}")
     return events_module.parse_events(model_info(model), events)
+
+
+MAX_ANGLE_ULP = 1e-3             # radians: a coordinate rounded coarser than this cannot move
+
+
+def _check_angles(model: str, state, dt: np.dtype) -> None:
+    """Refuse a starting angle so large that its rounding is coarser than MAX_ANGLE_ULP: a
+    step could not change it (theta = 1e300 stays 1e300 while its rate evolves), and the
+    run would be silently wrong while meeting its relative tolerance."""
+    if _atlas(model) is not None:
+        return                            # an atlas starts from Cartesian coordinates
+    names = _described(model).coordinate_names
+    for name, q in zip(names, np.asarray(state, np.longdouble)[:len(names)]):
+        if abs(float(q)) * float(np.finfo(dt).eps) > MAX_ANGLE_ULP:
+            raise SimulationInputError(f"y0: {name} = {float(q):g} rad is too large for {dtype_key(dt)} "
+                                       f"(rounded to {abs(float(q)) * float(np.finfo(dt).eps):.2g} rad, a "
+                                       f"step could not change it); reduce it modulo 2 pi")
 
 
 ATOL_FOR_ZERO = 1e-20             # atol = 0 means atol = 1e-20 rtol (see simulate)

@@ -23,6 +23,11 @@ from dataclasses import dataclass
 import numpy as np
 
 JACOBIAN_STEPS_PER_UNIT_TIME = 400
+# The exponent is a property of the motion: measured over at most this much of a long run
+# (400 Jacobians a unit of time), so the estimate of a run to t = 1e300 costs what one to
+# t = 20 does, and never more memory than that.
+MAX_WINDOW = 20.0
+REFERENCE_RTOL = 1e-11     # the tolerance of the trajectory the exponent is measured along
 
 
 @dataclass
@@ -31,6 +36,7 @@ class Lyapunov:
     t_end: float               # length of the trajectory it was measured on
     model: str
     method: str                # how it was computed
+    steps_per_time: float | None = None   # DOP853 steps a unit of time at REFERENCE_RTOL (effort)
 
     def error_growth(self, t: float) -> float:
         """exp(lambda t), or inf where that overflows a double (no error survives it)."""
@@ -38,21 +44,25 @@ class Lyapunov:
         return math.exp(x) if x < 700 else math.inf
 
 
-def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs=None) -> Lyapunov:
-    """lambda from the variational equations along y(t), t in [0, t_end] (a model with
-    run-time inputs: held at `inputs`)."""
-    from ..codegen.loader import load
+def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs=None,
+                     backend: str = "c") -> Lyapunov:
+    """lambda from the variational equations along y(t), t in [0, min(t_end, MAX_WINDOW)]
+    (a model with run-time inputs: held at `inputs`); backend "numpy" needs no C compiler."""
+    from ..codegen.loader import load, numpy_module
     from ..integration.simulate import normalise_params, simulate
+    t_end = min(float(t_end), MAX_WINDOW)
     n = max(200, int(JACOBIAN_STEPS_PER_UNIT_TIME * t_end))
     grid = np.linspace(0.0, t_end, 2 * n + 1)
-    run = simulate(model, y0, grid, params, method="dop853", rtol=1e-11, atol=1e-13, inputs=inputs)
+    run = simulate(model, y0, grid, params, method="dop853", rtol=REFERENCE_RTOL,
+                   atol=REFERENCE_RTOL / 100, inputs=inputs, backend=backend)
     run.raise_for_status()
     p = normalise_params(model, params).astype(np.float64)
     args = (run.y[1::2].astype(np.float64), p)                        # at the midpoints
     if inputs is not None:
         from ..integration.simulate import normalise_inputs
         args += (normalise_inputs(model, inputs).astype(np.float64),)
-    jac = load(model).jacobian(*args)
+    kernels = load(model) if backend == "c" else numpy_module(model)
+    jac = np.asarray(kernels.jacobian(*args), np.float64)
     dt = t_end / n
     rng = np.random.default_rng(seed)
     delta = rng.standard_normal(run.y.shape[1])
@@ -68,10 +78,12 @@ def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs
         norm = float(np.linalg.norm(step))
         log_growth += math.log(norm)
         delta = step / norm
-    return Lyapunov(log_growth / t_end, t_end, model, "variational equations, generated Jacobian")
+    return Lyapunov(log_growth / t_end, t_end, model, "variational equations, generated Jacobian",
+                    steps_per_time=run.nsteps / t_end)
 
 
-def atlas_lyapunov(y0, params, t_end: float, seed: int = 0, atlas: str = "spherical") -> Lyapunov | None:
+def atlas_lyapunov(y0, params, t_end: float, seed: int = 0, atlas: str = "spherical",
+                   backend: str = "c") -> Lyapunov | None:
     """lambda of a run of a chart atlas (a spherical chain), in whichever single chart
     covers the whole trajectory (the exponent does not depend on the chart);
     None when every chart meets its singularity on the way."""
@@ -85,7 +97,7 @@ def atlas_lyapunov(y0, params, t_end: float, seed: int = 0, atlas: str = "spheri
     for chart in charts:
         start = cartesian_to_state(chart, c, lengths)
         try:
-            return largest_lyapunov(chart, start, params, t_end, seed)
+            return largest_lyapunov(chart, start, params, t_end, seed, backend=backend)
         except SimulationError:      # this chart's pole lies on the trajectory
             continue
     return None
@@ -117,10 +129,13 @@ def lyapunov_exponent(result) -> float | None:
     if "_lyapunov" not in result.__dict__:
         t_end = float(result.t[-1] - result.t[0])
         params = np.asarray(result.params, np.float64)
+        backend = getattr(result, "backend", "c")         # a NumPy run's estimate needs no compiler
         if result.model == "spherical":
-            est = atlas_lyapunov({"chart": result.chart[0], "state": list(result.y[0])}, params, t_end)
+            est = atlas_lyapunov({"chart": result.chart[0], "state": list(result.y[0])}, params, t_end,
+                                 backend=backend)
         else:
-            est = largest_lyapunov(result.model, np.asarray(result.y[0], np.float64), params, t_end)
+            est = largest_lyapunov(result.model, np.asarray(result.y[0], np.float64), params, t_end,
+                                   backend=backend)
         result.__dict__["_lyapunov"] = None if est is None else est.exponent
     return result.__dict__["_lyapunov"]
 

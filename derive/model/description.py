@@ -312,6 +312,8 @@ def parse_model(text: str, origin: str) -> Model:
         t = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ModelError(f"{origin}: not valid TOML ({exc})") from None
+    except RecursionError:             # tomllib recurses once per nested inline table
+        raise ModelError(f"{origin}: not valid TOML (tables nested too deeply)") from None
     _no_unknown(t, {"name", "title", "source", "dimension", "parameters", "forms", "links",
                     "inputs", "dissipation", "forces"}, origin)
     dimension = _require(t, "dimension", int, origin)
@@ -415,8 +417,8 @@ def load_model_file(path: str | os.PathLike) -> Model:
         text = path.read_text()
     except FileNotFoundError:
         raise ModelError(f"model file '{path}' does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ModelError(f"cannot read model file '{path}': {exc}") from None
+    except (OSError, UnicodeDecodeError, ValueError) as exc:     # ValueError: a NUL in the path
+        raise ModelError(f"cannot read model file {str(path)!r}: {exc}") from None
     model = parse_model(text, str(path))
     if model.name in model_names() and load_model(model.name).text != text:
         raise ModelError(f"{path}: name '{model.name}' is a catalogue model's; give the model "

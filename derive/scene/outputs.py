@@ -126,38 +126,13 @@ def _plots(o, out: Path, stem: str) -> list[str]:
     horizontal = 0
     vertical = pos.shape[-1] - 1
     written = []
-    if "paths" in o.scene.plots:
-        fig, ax = plt.subplots(figsize=(5, 5))
-        for k in range(pos.shape[1]):
-            ax.plot(pos[:, k, horizontal], pos[:, k, vertical], lw=0.7, color=f"C{k}", label=f"bob {k + 1}")
-        ax.plot([0], [0], "ko", ms=3)
-        ax.set_aspect("equal")
-        ax.set_xlabel("x")
-        ax.set_ylabel("z" if vertical == 2 else "y")
-        ax.set_title(_plain(o.scene.title), fontsize=9)
-        ax.legend(fontsize=8)
-        path = out / f"{stem}_paths.png"
-        _replace(path, lambda tmp: fig.savefig(tmp, dpi=120, bbox_inches="tight"))
-        plt.close(fig)
-        written.append(str(path))
-    if "energy" in o.scene.plots:
-        e = np.asarray(o.energy, float)
-        fig, ax = plt.subplots(figsize=(6, 3))
-        # the axis starts at the run's unit roundoff: an error of 0 is "below rounding", not 1e-300
-        floor = float(np.finfo(np.dtype({"float32": np.float32, "longdouble": np.longdouble}.get(
-            o.choice.dtype, np.float64))).eps) / 2
-        rel = np.abs(e - e[0]) / max(abs(e[0]), 1e-300)
-        ax.semilogy(o.result.t.astype(float), np.maximum(rel, floor))
-        ax.set_ylim(bottom=floor)
-        ax.set_xlabel("t")
-        ax.set_ylabel("|E - E0| / |E0|")
-        from .run import conservative
-        what = "energy error" if conservative(o) else "energy change (work of forces and damping)"
-        ax.set_title(f"{_plain(o.scene.title)}: {what} ({o.choice.method}, {o.choice.dtype})", fontsize=9)
-        path = out / f"{stem}_energy.png"
-        _replace(path, lambda tmp: fig.savefig(tmp, dpi=120, bbox_inches="tight"))
-        plt.close(fig)
-        written.append(str(path))
+    for kind, figure in (("paths", paths_figure), ("energy", energy_figure)):
+        if kind in o.scene.plots:
+            fig = figure(plt, o)
+            path = out / f"{stem}_{kind}.png"
+            _replace(path, lambda tmp: fig.savefig(tmp, dpi=120, bbox_inches="tight"))
+            plt.close(fig)
+            written.append(str(path))
     if "animation" in o.scene.plots:
         from ..progress import Stage
         with Stage("writing the animation", enabled=None if o.show_progress else False):
@@ -167,24 +142,91 @@ def _plots(o, out: Path, stem: str) -> list[str]:
     return written
 
 
+# (horizontal axis, vertical axis, what the view is) of the paths plot: a planar pendulum in
+# its plane; a spherical one from above and from the side (one view hides the other's motion)
+VIEWS = {2: ((0, 1, None),), 3: ((0, 1, "from above (x-y)"), (0, 2, "from the side (x-z)"))}
+
+
+def paths_figure(plt, o):
+    """The bobs' paths with equal axes: one view of a planar run, two of a spherical one."""
+    pos = np.asarray(o.positions, float)
+    views = VIEWS[pos.shape[-1]]
+    fig, axes = plt.subplots(1, len(views), figsize=(4.6 * len(views) + 0.4, 4.8), squeeze=False,
+                             layout="constrained")
+    for ax, (h, v, name) in zip(axes[0], views):
+        for k in range(pos.shape[1]):
+            ax.plot(pos[:, k, h], pos[:, k, v], lw=0.7, color=f"C{k}", label=f"bob {k + 1}")
+        ax.plot([0], [0], "ko", ms=3)
+        ax.set_aspect("equal")
+        ax.set_xlabel("xyz"[h])
+        ax.set_ylabel("xyz"[v])
+        if name:
+            ax.set_title(name, fontsize=8)
+    axes[0][0].legend(fontsize=8)
+    fig.suptitle(_plain(o.scene.title), fontsize=9)
+    return fig
+
+
+def energy_floor(dtype: str) -> float:
+    """The unit roundoff of a run's precision: an energy error of 0 is "below rounding"."""
+    return float(np.finfo({"float32": np.float32, "longdouble": np.longdouble}.get(dtype, np.float64)).eps) / 2
+
+
+def energy_figure(plt, o):
+    """|E - E0| / |E0| on a log axis that starts at the run's unit roundoff."""
+    e = np.asarray(o.energy, float)
+    fig, ax = plt.subplots(figsize=(6, 3))
+    floor = energy_floor(o.choice.dtype)
+    with np.errstate(invalid="ignore"):          # NaN after a run's stop stays NaN (not drawn)
+        rel = np.maximum(np.abs(e - e[0]) / max(abs(e[0]), 1e-300), floor)
+    ax.semilogy(o.result.t.astype(float), rel)
+    top = float(np.nanmax(rel)) if np.isfinite(rel).any() else floor
+    ax.set_ylim(floor, max(top * 10, floor * 100))     # a constant energy: a decade above the floor
+    ax.set_xlabel("t")
+    ax.set_ylabel("|E - E0| / |E0|")
+    from .run import conservative
+    what = "energy error" if conservative(o) else "energy change (work of forces and damping)"
+    ax.set_title(f"{_plain(o.scene.title)}: {what} ({o.choice.method}, {o.choice.dtype})", fontsize=9)
+    return fig
+
+
 def _plain(text: str) -> str:
     """A title as text: matplotlib would read $...$ as mathematics (and fail on a lone $)."""
     return text.replace("$", r"\$")
 
 
-def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str:
-    from matplotlib.animation import FuncAnimation, PillowWriter
+def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str | None:
+    from matplotlib.animation import PillowWriter
+    made = animation_figure(plt, o, horizontal, vertical)
+    if made is None:
+        return None
+    fig, anim = made
+    path = out / f"{stem}.gif"
+    _replace(path, lambda tmp: anim.save(tmp, writer=PillowWriter(fps=25)))
+    plt.close(fig)
+    return str(path)
+
+
+def animation_figure(plt, o, horizontal: int = 0, vertical: int | None = None):
+    """(figure, FuncAnimation) of the chain moving, titled, with a time stamp in each frame;
+    None for a run with no state to show (it failed at its start)."""
+    from matplotlib.animation import FuncAnimation
+    pos = np.asarray(o.positions, float)
+    vertical = pos.shape[-1] - 1 if vertical is None else vertical
     # only the part of the run that has a state (a run that stopped is NaN after its stop)
     alive = int(np.argmin(np.isfinite(pos).all(axis=(1, 2)))) if not np.isfinite(pos).all() else len(pos)
     if alive == 0:
         return None
     t = np.asarray(o.result.t, float)
     frames = np.linspace(0, alive - 1, min(alive, 150)).astype(int)
-    reach = float(np.max(np.linalg.norm(pos[:alive], axis=-1))) * 1.05 or 1.0
-    fig, ax = plt.subplots(figsize=(4, 4.3))
+    scale = float(np.max(np.abs(pos[:alive]))) or 1.0        # scaled: |x| near 1e300 does not overflow
+    reach = scale * float(np.max(np.linalg.norm(pos[:alive] / scale, axis=-1))) * 1.05
+    fig, ax = plt.subplots(figsize=(4, 4.3), layout="constrained")
     ax.set_xlim(-reach, reach)
     ax.set_ylim(-reach, reach)
     ax.set_aspect("equal")
+    ax.set_xlabel("xyz"[horizontal])
+    ax.set_ylabel("xyz"[vertical])
     ax.set_title(_plain(o.scene.title), fontsize=9)
     line, = ax.plot([], [], "o-", lw=2, color="tab:blue")
     trail, = ax.plot([], [], lw=0.6, color="tab:red")
@@ -197,8 +239,5 @@ def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str:
         stamp.set_text(f"t = {t[k]:.2f}")
         return line, trail, stamp
 
-    anim = FuncAnimation(fig, draw, frames=len(frames), blit=True)
-    path = out / f"{stem}.gif"
-    _replace(path, lambda tmp: anim.save(tmp, writer=PillowWriter(fps=25)))
-    plt.close(fig)
-    return str(path)
+    draw(0)                                  # the first frame as the figure (and for a still)
+    return fig, FuncAnimation(fig, draw, frames=len(frames), blit=True)

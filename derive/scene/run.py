@@ -26,7 +26,7 @@ from ..model.atlas import find_atlas, standard_member
 from .artifacts import Step, prepare
 from .plan import Plan, plan, planar_positions_in_3d
 from .progress import Progress, Stage
-from .scene import Scene
+from .scene import Scene, SceneError
 
 SAFETY = 10.0
 DOUBLE_RTOL_MIN = 1e-14
@@ -75,9 +75,10 @@ def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
     singularity): the scene's own run then reports why."""
     try:
         if find_atlas(p.model) is not None:
-            return atlas_lyapunov(p.y0, p.params, scene.t_stop - scene.t_start, atlas=p.model)
+            return atlas_lyapunov(p.y0, p.params, scene.t_stop - scene.t_start, atlas=p.model,
+                                  backend=scene.backend)
         return largest_lyapunov(p.model, p.y0, p.params, scene.t_stop - scene.t_start,
-                                inputs=scene.inputs)
+                                inputs=scene.inputs, backend=scene.backend)
     except SimulationError:
         return None
 
@@ -105,6 +106,40 @@ def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
                     f"rtol {FLOAT_RTOL_MIN:g} and reports what it achieves")
             rtol = FLOAT_RTOL_MIN
     return Choice("dop853", rtol, rtol, None, dtype, rtol * growth, note)
+
+
+ORDER = {"dop853": 8, "dopri5": 5}
+
+
+MAX_SCENE_STEPS = 1e7     # the run and its reference: t = 1e4 of the default scene, 8.7e6 steps, took 65 s
+
+
+def check_effort(scene: Scene, lyap: Lyapunov | None, c: Choice) -> None:
+    """Refuse, with the figure, a scene whose adaptive run and reference run would take more
+    than MAX_SCENE_STEPS steps: the steps a unit of time measured for the Lyapunov estimate,
+    scaled to each run's tolerance (steps ~ rtol^(-1/order)), times the span.  (A fixed step
+    is checked by simulate itself.)"""
+    span = scene.t_stop - scene.t_start
+    if c.step is not None:
+        if span / c.step > MAX_SCENE_STEPS * 1000:      # simulate's limit (MAX_FIXED_STEPS)
+            raise SceneError(f"step = {c.step:g} over t = {scene.t_start:g} to {scene.t_stop:g} means "
+                             f"{span / c.step:.3g} steps (limit {MAX_SCENE_STEPS * 1000:.0e}): refused "
+                             f"before any work")
+        return
+    if lyap is None or not lyap.steps_per_time or c.method not in ORDER or c.rtol is None:
+        return
+    if c.rtol < 10 * float(np.finfo(np.dtype(c.dtype)).eps):
+        return                      # simulate refuses it, naming the tolerance
+    from ..measurement.trust import REFERENCE_RTOL
+
+    def rate(rtol: float) -> float:
+        return lyap.steps_per_time * max(1.0, (REFERENCE_RTOL / rtol) ** (1 / ORDER[c.method]))
+    steps = (rate(c.rtol) + rate(reference_rtol(c)[0])) * span
+    if steps > MAX_SCENE_STEPS:
+        raise SceneError(f"t = {scene.t_start:g} to {scene.t_stop:g} needs about {steps:.2g} {c.method} "
+                         f"steps with its reference run ({rate(c.rtol):.3g} a unit of time at rtol "
+                         f"{c.rtol:.2g}, measured over the first {lyap.t_end:g}): more than "
+                         f"{MAX_SCENE_STEPS:.0e}; give a shorter span or a looser target")
 
 
 def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
@@ -161,10 +196,10 @@ def _events(p: Plan, scene: Scene, c: Choice, result: SimulationResult) -> Simul
 def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions, velocities and energy of the scene's own pendulum (not of the model that ran)."""
     if scene.model == "compound" and p.model == "planar":
-        from ..codegen.loader import load
+        from ..codegen.loader import load, numpy_module
         from ..integration.simulate import normalise_params
         pc = normalise_params("compound", scene.parameters).astype(np.float64)
-        m = load("compound")
+        m = load("compound") if scene.backend == "c" else numpy_module("compound")   # no compiler needed
         y = r.y.astype(np.float64)
         return m.positions(y, pc), m.velocities(y, pc), m.energy(y, pc)
     if p.plane is not None:
@@ -204,9 +239,12 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
     p = plan(scene)
     with Stage("preparing", enabled=None if show_progress else False) as stage:
         steps = prepare(p.model, scene.backend, stage)
+        if scene.step is not None:
+            check_effort(scene, None, choose(scene, None))     # a fixed step: before any work
         stage.set("estimating the largest Lyapunov exponent")
         lyap = _lyapunov(p, scene)
     c = choose(scene, lyap)
+    check_effort(scene, lyap, c)
     progress = Progress("integrating", CHUNKS) if show_progress else None
     result = integrate(p, scene, c, progress)
     if progress:
@@ -283,7 +321,9 @@ def _event_summary(r: SimulationResult) -> dict | None:
 def summary(o: Outcome) -> dict:
     r = o.result
     e = np.asarray(o.energy, float)
-    drift = float(np.nanmax(np.abs(e - e[0])) / max(abs(e[0]), 1e-300)) if len(e) else math.nan
+    change = np.abs(e - e[0])
+    change = change[np.isfinite(change)]            # a run that stopped is NaN after its stop
+    drift = float(change.max() / max(abs(e[0]), 1e-300)) if change.size else math.nan
     return {
         "scene": o.scene.source, "title": o.scene.title,
         "model": o.plan.model, "model_reason": o.plan.reason,

@@ -95,6 +95,8 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
     model = t["model"]
     if not isinstance(model, str):
         raise SceneError(f"'pendulum.model' must be a string, got {model!r}")
+    if "\0" in model:
+        raise SceneError(f"'pendulum.model' contains a NUL byte: {model!r}")
     try:
         if is_model_file(model):            # a model file, relative to the scene file
             path = Path(model)
@@ -272,6 +274,8 @@ def _parse_output(t: dict) -> dict:
     directory = t.get("directory", "out")
     if not isinstance(directory, str) or not directory:
         raise SceneError("'output.directory' must be a non-empty string")
+    if "\0" in directory:
+        raise SceneError(f"'output.directory' contains a NUL byte: {directory!r}")
     lists = {}
     for key, allowed in (("trajectory", TRAJECTORY_FORMATS), ("plots", PLOTS)):
         value = t.get(key, [])
@@ -309,6 +313,8 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
         t = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: not valid TOML: {exc}") from None
+    except RecursionError:             # tomllib recurses once per nested inline table
+        raise SceneError(f"{source}: not valid TOML: tables nested too deeply") from None
     if "axes" in t:
         raise SceneError(f"{source}: a sweep file (it has [axes]): run it with `derive sweep`")
     _known(t, SCENE_KEYS, source)

@@ -326,6 +326,8 @@ def parse_sweep(text: str, source: str = "<sweep>") -> Sweep:
         t = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: not valid TOML: {exc}") from None
+    except RecursionError:             # tomllib recurses once per nested inline table
+        raise SceneError(f"{source}: not valid TOML: tables nested too deeply") from None
     for key in t:
         if key not in set(SCENE_KEYS + SWEEP_KEYS):
             raise SceneError(f"{source}: unknown key '{key}' (allowed: {', '.join(dict.fromkeys(SCENE_KEYS + SWEEP_KEYS))})")

@@ -38,6 +38,7 @@ def _code_key() -> str:
 
 def _read(path):
     """A cached value (checked, parsed as data), or None when there is none usable."""
+    from . import claims, physics  # noqa: F401  (register their dataclasses, which entries hold)
     value = cachefile.load(path) if path.is_file() else cachefile.MISSING
     return None if value is cachefile.MISSING else value
 
