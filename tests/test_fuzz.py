@@ -599,16 +599,16 @@ def test_the_api_fuzz_is_large_enough():
     assert len(REFUSED) + len(RUNS) >= 60
 
 
-@pytest.mark.xfail(strict=True, reason="needs the `drivers` branch: the fixed step the user asked, "
-                                       "not one shortened to divide each output interval")
 def test_a_fixed_step_is_the_step_asked():
     r = simulate("planar", Y, np.linspace(0, 1, 7), P, method="rk4", step=0.1)
-    assert r.ok and r.step == 0.1 and r.nsteps == 10
+    # the 10 steps of the grid 0, 0.1, ..., 1, and one short step from the grid to each of
+    # the 4 outputs between grid points (1/6, 1/3, 2/3, 5/6); the grid goes on unchanged
+    assert r.ok and r.step == 0.1 and r.nsteps == 10 + 4
+    on_grid = simulate("planar", Y, [0, 0.5, 1.0], P, method="rk4", step=0.1)
+    assert np.array_equal(r.y[[0, 3, 6]], on_grid.y)
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="needs the `drivers` branch: a run of 1e8 adaptive steps over "
-                                       "t = [0, 1e300] is estimated and refused, or cancellable")
 def test_a_huge_span_is_refused_before_the_work():
     with pytest.raises(SimulationInputError, match="steps"):
         simulate("planar", Y, [0.0, 1e300], P)

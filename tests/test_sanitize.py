@@ -237,8 +237,6 @@ int main(void) {
 """
 
 
-@pytest.mark.xfail(strict=True, reason="needs the `drivers` branch: a fixed-step count that overflows "
-                                       "a long ((long)ceil(|dt|/h)) is refused as BAD_INPUT, not UB")
 def test_a_step_count_that_overflows_is_refused_in_c(tmp_path):
     folder = _folder_of("planar", tmp_path)
     (tmp_path / "steps.c").write_text(STEP_COUNT_DRIVER)
