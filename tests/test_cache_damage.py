@@ -35,6 +35,7 @@ for backend in ("c", "numpy"):
     r = derive.simulate("planar", [2.5, 2.0, 0.0, 0.0], np.linspace(0, 2, 5), [1, 1, 1, 1, 9.81],
                         rtol=1e-10, backend=backend)
     print(backend, r.status, np.array2string(np.asarray(r.y, float), precision=12))
+    print(backend, np.array2string(np.asarray(r.energy, float), precision=12))   # the kernel library
 """
 
 

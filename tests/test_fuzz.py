@@ -219,7 +219,7 @@ def _structure_cases(bname, rng) -> list[Case]:
             cart["initial"]["cartesian"] = {"x1": [0.0, 0.0, -1.0], "x2": [0.0, 0.0, -2.0],
                                             "v1": [0.0, 0.0, 0.0], "v2": [0.0, 0.0, 0.0]}
             out.append(Case(f"{bname}-cartesian-on-{s['pendulum']['model']}", cart, 2,
-                            rf"'initial.cartesian' is for the double spherical pendulum .* give "
+                            rf"'initial.cartesian' is for spherical chains .* give "
                             rf"'{s['pendulum']['model']}' its 'initial.state'"))
     else:
         for k in ("x1", "v2"):
@@ -228,7 +228,7 @@ def _structure_cases(bname, rng) -> list[Case]:
         out.append(Case(f"{bname}-x1-short", _set(s, ("initial", "cartesian", "x1"), [0.0, 1.0]), 2,
                         r"'initial.cartesian.x1' must be a list of 3 numbers"))
         out.append(Case(f"{bname}-x1-off-sphere", _set(s, ("initial", "cartesian", "x1"), [0.0, 0.0, -1.5]), 2,
-                        r"\|x1\| = 1.5 but l1 = 1"))
+                        r"\|x1\| = 1.5 but link 1's length is 1"))
     out.append(Case(f"{bname}-outputs-2**63-1", _set(s, ("time", "outputs"), 2 ** 63 - 1), 2,
                     r"'time.outputs' = 9223372036854775807 is more than 10,000,000 output times"))
     out.append(Case(f"{bname}-outputs-2**70", _set(s, ("time", "outputs"), 2 ** 70), 2,
@@ -507,7 +507,7 @@ REFUSED = [   # (id, kwargs for simulate over the planar defaults, message patte
     ("sph-cartesian-short", dict(model="spherical", params=SPH, y0={"cartesian": [0.0] * 11}),
      r"y0\['cartesian'\] must have 12 numbers"),
     ("sph-cartesian-off", dict(model="spherical", params=SPH, y0={"cartesian": [0, 0, -2, 0, 0, -3] + [0] * 6}),
-     r"\|x1\| = 2 but l1 = 1"),
+     r"\|x1\| = 2 but link 1's length is 1"),
     ("sph-not-tangent", dict(model="spherical", params=SPH,
                              y0={"cartesian": [0, 0, -1, 0, 0, -2, 0, 0, 1, 0, 0, 1]}),
      r"the velocities are not tangent to the links"),

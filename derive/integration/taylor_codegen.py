@@ -235,7 +235,7 @@ def c_statements(d: Decomposition, ctype: str, slots: dict) -> dict:
             lines.append(f"{u}[k] = C[{a[1]}] * {a[0]}[k];")
         elif op.kind == "shift":
             base = "0" if a[0] is None else f"{a[0]}[k]"
-            lines.append(f"{u}[k] = {base} + (k == 0 ? C[{a[1]}] : 0);")
+            lines.append(f"{u}[k] = {base} + (k == 0 ? C[{a[1]}] : (R)0);")
         elif op.kind == "mul":
             lines.append(f"{u}[k] = TAYLOR_MUL({a[0]}, {a[1]}, k);")
         elif op.kind == "square":
@@ -243,7 +243,7 @@ def c_statements(d: Decomposition, ctype: str, slots: dict) -> dict:
         elif op.kind == "div":
             lines.append(f"{u}[k] = TAYLOR_DIV({a[0]}[k], {a[1]}, {u}, k);")
         elif op.kind == "inv":
-            lines.append(f"{u}[k] = TAYLOR_DIV((k == 0 ? 1 : 0), {a[0]}, {u}, k);")
+            lines.append(f"{u}[k] = TAYLOR_DIV((R)(k == 0), {a[0]}, {u}, k);")
         elif op.kind == "sqrt":
             lines.append(f"{u}[k] = TAYLOR_SQRT({a[0]}, {u}, k);")
         elif op.kind == "sin":
@@ -256,8 +256,8 @@ def c_statements(d: Decomposition, ctype: str, slots: dict) -> dict:
             raise SpecError(f"unknown Taylor operation {op.kind}")
     outputs = []
     for i, (kind, j) in enumerate(d.outputs):
-        src = f"{ref(j)}[k]" if kind == "node" else f"(k == 0 ? C[{j}] : 0)"
-        outputs.append(f"X[{i}][k + 1] = {src} / (k + 1);")
+        src = f"{ref(j)}[k]" if kind == "node" else f"(k == 0 ? C[{j}] : (R)0)"
+        outputs.append(f"X[{i}][k + 1] = {src} / (R)(k + 1);")
     return {"constants": consts, "ops": lines, "outputs": outputs,
             "guards": [f"{ref(g)}[0]" for g in d.guards]}
 

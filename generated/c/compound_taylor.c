@@ -69,6 +69,7 @@ static double compound_tchain(const double *a, const double *w, int k)
     return acc / (double)k;
 }
 
+#define R double
 #define TAYLOR_MUL compound_tmul
 #define TAYLOR_DIV compound_tdiv
 #define TAYLOR_SQRT compound_tsqrt
@@ -112,8 +113,8 @@ static int compound_taylor_jet(double (*X)[ORDER_DIM], const double *p, int orde
         J[11][k] = C[0] * J[10][k];
         J[12][k] = TAYLOR_MUL(J[11], J[11], k);
         J[13][k] = C[1] * J[12][k];
-        J[14][k] = J[13][k] + (k == 0 ? C[2] : 0);
-        J[15][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[14], J[15], k);
+        J[14][k] = J[13][k] + (k == 0 ? C[2] : (R)0);
+        J[15][k] = TAYLOR_DIV((R)(k == 0), J[14], J[15], k);
         J[16][k] = C[3] * J[4][k];
         J[17][k] = TAYLOR_MUL(J[4], J[7], k);
         J[18][k] = TAYLOR_MUL(J[6], J[5], k);
@@ -137,14 +138,15 @@ static int compound_taylor_jet(double (*X)[ORDER_DIM], const double *p, int orde
         J[36][k] = TAYLOR_MUL(J[24], J[11], k);
         J[37][k] = J[35][k] - J[36][k];
         J[38][k] = TAYLOR_MUL(J[15], J[37], k);
-        X[0][k + 1] = X[2][k] / (k + 1);
-        X[1][k + 1] = X[3][k] / (k + 1);
-        X[2][k + 1] = J[34][k] / (k + 1);
-        X[3][k + 1] = J[38][k] / (k + 1);
+        X[0][k + 1] = X[2][k] / (R)(k + 1);
+        X[1][k + 1] = X[3][k] / (R)(k + 1);
+        X[2][k + 1] = J[34][k] / (R)(k + 1);
+        X[3][k + 1] = J[38][k] / (R)(k + 1);
     }
     return COMPOUND_INTEGRATE_OK;
 }
 
+#undef R
 #undef TAYLOR_MUL
 #undef TAYLOR_DIV
 #undef TAYLOR_SQRT
@@ -248,7 +250,7 @@ int compound_taylor(const double *y0, const double *p, long nt, const double *t_
     }
     order = compound_torder(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = exp((double)-2 - (double)0.7 / (order - 1));
+    safety = exp((double)-2 - (double)0.7 / (double)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -294,11 +296,11 @@ int compound_taylor(const double *y0, const double *p, long nt, const double *t_
         }
         rho = hmax;             /* no growth in the last coefficients: as far as allowed */
         if (n1 > 0) {
-            r = pow(m / n1, (double)1 / (order - 1));
+            r = pow(m / n1, (double)1 / (double)(order - 1));
             rho = r < rho ? r : rho;
         }
         if (n2 > 0) {
-            r = pow(m / n2, (double)1 / order);
+            r = pow(m / n2, (double)1 / (double)order);
             rho = r < rho ? r : rho;
         }
         h = rho * safety;
@@ -410,6 +412,7 @@ static float compound_tchain_f(const float *a, const float *w, int k)
     return acc / (float)k;
 }
 
+#define R float
 #define TAYLOR_MUL compound_tmul_f
 #define TAYLOR_DIV compound_tdiv_f
 #define TAYLOR_SQRT compound_tsqrt_f
@@ -453,8 +456,8 @@ static int compound_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int orde
         J[11][k] = C[0] * J[10][k];
         J[12][k] = TAYLOR_MUL(J[11], J[11], k);
         J[13][k] = C[1] * J[12][k];
-        J[14][k] = J[13][k] + (k == 0 ? C[2] : 0);
-        J[15][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[14], J[15], k);
+        J[14][k] = J[13][k] + (k == 0 ? C[2] : (R)0);
+        J[15][k] = TAYLOR_DIV((R)(k == 0), J[14], J[15], k);
         J[16][k] = C[3] * J[4][k];
         J[17][k] = TAYLOR_MUL(J[4], J[7], k);
         J[18][k] = TAYLOR_MUL(J[6], J[5], k);
@@ -478,14 +481,15 @@ static int compound_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int orde
         J[36][k] = TAYLOR_MUL(J[24], J[11], k);
         J[37][k] = J[35][k] - J[36][k];
         J[38][k] = TAYLOR_MUL(J[15], J[37], k);
-        X[0][k + 1] = X[2][k] / (k + 1);
-        X[1][k + 1] = X[3][k] / (k + 1);
-        X[2][k + 1] = J[34][k] / (k + 1);
-        X[3][k + 1] = J[38][k] / (k + 1);
+        X[0][k + 1] = X[2][k] / (R)(k + 1);
+        X[1][k + 1] = X[3][k] / (R)(k + 1);
+        X[2][k + 1] = J[34][k] / (R)(k + 1);
+        X[3][k + 1] = J[38][k] / (R)(k + 1);
     }
     return COMPOUND_INTEGRATE_OK;
 }
 
+#undef R
 #undef TAYLOR_MUL
 #undef TAYLOR_DIV
 #undef TAYLOR_SQRT
@@ -589,7 +593,7 @@ int compound_taylor_f(const float *y0, const float *p, long nt, const float *t_o
     }
     order = compound_torder_f(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = expf((float)-2 - (float)0.7 / (order - 1));
+    safety = expf((float)-2 - (float)0.7 / (float)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -635,11 +639,11 @@ int compound_taylor_f(const float *y0, const float *p, long nt, const float *t_o
         }
         rho = hmax;             /* no growth in the last coefficients: as far as allowed */
         if (n1 > 0) {
-            r = powf(m / n1, (float)1 / (order - 1));
+            r = powf(m / n1, (float)1 / (float)(order - 1));
             rho = r < rho ? r : rho;
         }
         if (n2 > 0) {
-            r = powf(m / n2, (float)1 / order);
+            r = powf(m / n2, (float)1 / (float)order);
             rho = r < rho ? r : rho;
         }
         h = rho * safety;
@@ -751,6 +755,7 @@ static long double compound_tchain_l(const long double *a, const long double *w,
     return acc / (long double)k;
 }
 
+#define R long double
 #define TAYLOR_MUL compound_tmul_l
 #define TAYLOR_DIV compound_tdiv_l
 #define TAYLOR_SQRT compound_tsqrt_l
@@ -794,8 +799,8 @@ static int compound_taylor_jet_l(long double (*X)[ORDER_DIM], const long double 
         J[11][k] = C[0] * J[10][k];
         J[12][k] = TAYLOR_MUL(J[11], J[11], k);
         J[13][k] = C[1] * J[12][k];
-        J[14][k] = J[13][k] + (k == 0 ? C[2] : 0);
-        J[15][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[14], J[15], k);
+        J[14][k] = J[13][k] + (k == 0 ? C[2] : (R)0);
+        J[15][k] = TAYLOR_DIV((R)(k == 0), J[14], J[15], k);
         J[16][k] = C[3] * J[4][k];
         J[17][k] = TAYLOR_MUL(J[4], J[7], k);
         J[18][k] = TAYLOR_MUL(J[6], J[5], k);
@@ -819,14 +824,15 @@ static int compound_taylor_jet_l(long double (*X)[ORDER_DIM], const long double 
         J[36][k] = TAYLOR_MUL(J[24], J[11], k);
         J[37][k] = J[35][k] - J[36][k];
         J[38][k] = TAYLOR_MUL(J[15], J[37], k);
-        X[0][k + 1] = X[2][k] / (k + 1);
-        X[1][k + 1] = X[3][k] / (k + 1);
-        X[2][k + 1] = J[34][k] / (k + 1);
-        X[3][k + 1] = J[38][k] / (k + 1);
+        X[0][k + 1] = X[2][k] / (R)(k + 1);
+        X[1][k + 1] = X[3][k] / (R)(k + 1);
+        X[2][k + 1] = J[34][k] / (R)(k + 1);
+        X[3][k + 1] = J[38][k] / (R)(k + 1);
     }
     return COMPOUND_INTEGRATE_OK;
 }
 
+#undef R
 #undef TAYLOR_MUL
 #undef TAYLOR_DIV
 #undef TAYLOR_SQRT
@@ -930,7 +936,7 @@ int compound_taylor_l(const long double *y0, const long double *p, long nt, cons
     }
     order = compound_torder_l(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = expl((long double)-2 - (long double)0.7 / (order - 1));
+    safety = expl((long double)-2 - (long double)0.7 / (long double)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -976,11 +982,11 @@ int compound_taylor_l(const long double *y0, const long double *p, long nt, cons
         }
         rho = hmax;             /* no growth in the last coefficients: as far as allowed */
         if (n1 > 0) {
-            r = powl(m / n1, (long double)1 / (order - 1));
+            r = powl(m / n1, (long double)1 / (long double)(order - 1));
             rho = r < rho ? r : rho;
         }
         if (n2 > 0) {
-            r = powl(m / n2, (long double)1 / order);
+            r = powl(m / n2, (long double)1 / (long double)order);
             rho = r < rho ? r : rho;
         }
         h = rho * safety;

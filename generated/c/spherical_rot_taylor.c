@@ -69,6 +69,7 @@ static double spherical_rot_tchain(const double *a, const double *w, int k)
     return acc / (double)k;
 }
 
+#define R double
 #define TAYLOR_MUL spherical_rot_tmul
 #define TAYLOR_DIV spherical_rot_tdiv
 #define TAYLOR_SQRT spherical_rot_tsqrt
@@ -123,7 +124,7 @@ static int spherical_rot_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         J[25][k] = J[23][k] + J[24][k];
         J[26][k] = C[3] * J[25][k];
         J[27][k] = TAYLOR_MUL(J[26], J[26], k);
-        J[28][k] = J[27][k] + (k == 0 ? C[4] : 0);
+        J[28][k] = J[27][k] + (k == 0 ? C[4] : (R)0);
         J[29][k] = J[22][k] - J[28][k];
         J[30][k] = k == 0 ? SIN(X[0][0]) : TAYLOR_SIN(X[0], J[31], k);
         J[31][k] = k == 0 ? COS(X[0][0]) : TAYLOR_COS(X[0], J[30], k);
@@ -138,7 +139,7 @@ static int spherical_rot_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         J[40][k] = J[37][k] + J[39][k];
         J[41][k] = C[3] * J[40][k];
         J[42][k] = TAYLOR_MUL(J[41], J[41], k);
-        J[43][k] = J[42][k] + (k == 0 ? C[4] : 0);
+        J[43][k] = J[42][k] + (k == 0 ? C[4] : (R)0);
         J[44][k] = J[36][k] - J[43][k];
         J[45][k] = TAYLOR_MUL(J[44], J[29], k);
         J[46][k] = TAYLOR_MUL(J[41], J[20], k);
@@ -147,7 +148,7 @@ static int spherical_rot_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         J[49][k] = J[47][k] - J[48][k];
         J[50][k] = TAYLOR_MUL(J[49], J[49], k);
         J[51][k] = J[45][k] - J[50][k];
-        J[52][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[51], J[52], k);
+        J[52][k] = TAYLOR_DIV((R)(k == 0), J[51], J[52], k);
         J[53][k] = TAYLOR_MUL(J[29], J[52], k);
         J[54][k] = TAYLOR_MUL(J[30], J[31], k);
         J[55][k] = TAYLOR_MUL(X[5], X[5], k);
@@ -246,7 +247,7 @@ static int spherical_rot_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         J[148][k] = TAYLOR_MUL(J[52], J[147], k);
         J[149][k] = TAYLOR_MUL(J[49], J[148], k);
         J[150][k] = J[125][k] - J[149][k];
-        J[151][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[30], J[151], k);
+        J[151][k] = TAYLOR_DIV((R)(k == 0), J[30], J[151], k);
         J[152][k] = TAYLOR_MUL(J[44], J[148], k);
         J[153][k] = TAYLOR_MUL(J[49], J[52], k);
         J[154][k] = TAYLOR_MUL(J[153], J[124], k);
@@ -263,7 +264,7 @@ static int spherical_rot_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         J[165][k] = J[163][k] - J[164][k];
         J[166][k] = TAYLOR_MUL(J[165], J[165], k);
         J[167][k] = J[161][k] - J[166][k];
-        J[168][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[167], J[168], k);
+        J[168][k] = TAYLOR_DIV((R)(k == 0), J[167], J[168], k);
         J[169][k] = TAYLOR_MUL(J[158], J[168], k);
         J[170][k] = C[5] * J[102][k];
         J[171][k] = TAYLOR_MUL(J[41], J[80], k);
@@ -279,7 +280,7 @@ static int spherical_rot_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         J[181][k] = TAYLOR_MUL(J[168], J[180], k);
         J[182][k] = TAYLOR_MUL(J[165], J[181], k);
         J[183][k] = J[175][k] - J[182][k];
-        J[184][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[15], J[184], k);
+        J[184][k] = TAYLOR_DIV((R)(k == 0), J[15], J[184], k);
         J[185][k] = TAYLOR_MUL(J[160], J[181], k);
         J[186][k] = TAYLOR_MUL(J[165], J[168], k);
         J[187][k] = TAYLOR_MUL(J[186], J[174], k);
@@ -288,18 +289,19 @@ static int spherical_rot_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         if (k == 0 && (!(fabs(J[30][0]) >= sine_min) || !(fabs(J[15][0]) >= sine_min))) {
             return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
         }
-        X[0][k + 1] = X[4][k] / (k + 1);
-        X[1][k + 1] = X[5][k] / (k + 1);
-        X[2][k + 1] = X[6][k] / (k + 1);
-        X[3][k + 1] = X[7][k] / (k + 1);
-        X[4][k + 1] = J[150][k] / (k + 1);
-        X[5][k + 1] = J[156][k] / (k + 1);
-        X[6][k + 1] = J[183][k] / (k + 1);
-        X[7][k + 1] = J[189][k] / (k + 1);
+        X[0][k + 1] = X[4][k] / (R)(k + 1);
+        X[1][k + 1] = X[5][k] / (R)(k + 1);
+        X[2][k + 1] = X[6][k] / (R)(k + 1);
+        X[3][k + 1] = X[7][k] / (R)(k + 1);
+        X[4][k + 1] = J[150][k] / (R)(k + 1);
+        X[5][k + 1] = J[156][k] / (R)(k + 1);
+        X[6][k + 1] = J[183][k] / (R)(k + 1);
+        X[7][k + 1] = J[189][k] / (R)(k + 1);
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
 
+#undef R
 #undef TAYLOR_MUL
 #undef TAYLOR_DIV
 #undef TAYLOR_SQRT
@@ -403,7 +405,7 @@ int spherical_rot_taylor(const double *y0, const double *p, long nt, const doubl
     }
     order = spherical_rot_torder(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = exp((double)-2 - (double)0.7 / (order - 1));
+    safety = exp((double)-2 - (double)0.7 / (double)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -449,11 +451,11 @@ int spherical_rot_taylor(const double *y0, const double *p, long nt, const doubl
         }
         rho = hmax;             /* no growth in the last coefficients: as far as allowed */
         if (n1 > 0) {
-            r = pow(m / n1, (double)1 / (order - 1));
+            r = pow(m / n1, (double)1 / (double)(order - 1));
             rho = r < rho ? r : rho;
         }
         if (n2 > 0) {
-            r = pow(m / n2, (double)1 / order);
+            r = pow(m / n2, (double)1 / (double)order);
             rho = r < rho ? r : rho;
         }
         h = rho * safety;
@@ -565,6 +567,7 @@ static float spherical_rot_tchain_f(const float *a, const float *w, int k)
     return acc / (float)k;
 }
 
+#define R float
 #define TAYLOR_MUL spherical_rot_tmul_f
 #define TAYLOR_DIV spherical_rot_tdiv_f
 #define TAYLOR_SQRT spherical_rot_tsqrt_f
@@ -619,7 +622,7 @@ static int spherical_rot_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         J[25][k] = J[23][k] + J[24][k];
         J[26][k] = C[3] * J[25][k];
         J[27][k] = TAYLOR_MUL(J[26], J[26], k);
-        J[28][k] = J[27][k] + (k == 0 ? C[4] : 0);
+        J[28][k] = J[27][k] + (k == 0 ? C[4] : (R)0);
         J[29][k] = J[22][k] - J[28][k];
         J[30][k] = k == 0 ? SIN(X[0][0]) : TAYLOR_SIN(X[0], J[31], k);
         J[31][k] = k == 0 ? COS(X[0][0]) : TAYLOR_COS(X[0], J[30], k);
@@ -634,7 +637,7 @@ static int spherical_rot_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         J[40][k] = J[37][k] + J[39][k];
         J[41][k] = C[3] * J[40][k];
         J[42][k] = TAYLOR_MUL(J[41], J[41], k);
-        J[43][k] = J[42][k] + (k == 0 ? C[4] : 0);
+        J[43][k] = J[42][k] + (k == 0 ? C[4] : (R)0);
         J[44][k] = J[36][k] - J[43][k];
         J[45][k] = TAYLOR_MUL(J[44], J[29], k);
         J[46][k] = TAYLOR_MUL(J[41], J[20], k);
@@ -643,7 +646,7 @@ static int spherical_rot_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         J[49][k] = J[47][k] - J[48][k];
         J[50][k] = TAYLOR_MUL(J[49], J[49], k);
         J[51][k] = J[45][k] - J[50][k];
-        J[52][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[51], J[52], k);
+        J[52][k] = TAYLOR_DIV((R)(k == 0), J[51], J[52], k);
         J[53][k] = TAYLOR_MUL(J[29], J[52], k);
         J[54][k] = TAYLOR_MUL(J[30], J[31], k);
         J[55][k] = TAYLOR_MUL(X[5], X[5], k);
@@ -742,7 +745,7 @@ static int spherical_rot_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         J[148][k] = TAYLOR_MUL(J[52], J[147], k);
         J[149][k] = TAYLOR_MUL(J[49], J[148], k);
         J[150][k] = J[125][k] - J[149][k];
-        J[151][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[30], J[151], k);
+        J[151][k] = TAYLOR_DIV((R)(k == 0), J[30], J[151], k);
         J[152][k] = TAYLOR_MUL(J[44], J[148], k);
         J[153][k] = TAYLOR_MUL(J[49], J[52], k);
         J[154][k] = TAYLOR_MUL(J[153], J[124], k);
@@ -759,7 +762,7 @@ static int spherical_rot_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         J[165][k] = J[163][k] - J[164][k];
         J[166][k] = TAYLOR_MUL(J[165], J[165], k);
         J[167][k] = J[161][k] - J[166][k];
-        J[168][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[167], J[168], k);
+        J[168][k] = TAYLOR_DIV((R)(k == 0), J[167], J[168], k);
         J[169][k] = TAYLOR_MUL(J[158], J[168], k);
         J[170][k] = C[5] * J[102][k];
         J[171][k] = TAYLOR_MUL(J[41], J[80], k);
@@ -775,7 +778,7 @@ static int spherical_rot_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         J[181][k] = TAYLOR_MUL(J[168], J[180], k);
         J[182][k] = TAYLOR_MUL(J[165], J[181], k);
         J[183][k] = J[175][k] - J[182][k];
-        J[184][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[15], J[184], k);
+        J[184][k] = TAYLOR_DIV((R)(k == 0), J[15], J[184], k);
         J[185][k] = TAYLOR_MUL(J[160], J[181], k);
         J[186][k] = TAYLOR_MUL(J[165], J[168], k);
         J[187][k] = TAYLOR_MUL(J[186], J[174], k);
@@ -784,18 +787,19 @@ static int spherical_rot_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         if (k == 0 && (!(fabsf(J[30][0]) >= sine_min) || !(fabsf(J[15][0]) >= sine_min))) {
             return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
         }
-        X[0][k + 1] = X[4][k] / (k + 1);
-        X[1][k + 1] = X[5][k] / (k + 1);
-        X[2][k + 1] = X[6][k] / (k + 1);
-        X[3][k + 1] = X[7][k] / (k + 1);
-        X[4][k + 1] = J[150][k] / (k + 1);
-        X[5][k + 1] = J[156][k] / (k + 1);
-        X[6][k + 1] = J[183][k] / (k + 1);
-        X[7][k + 1] = J[189][k] / (k + 1);
+        X[0][k + 1] = X[4][k] / (R)(k + 1);
+        X[1][k + 1] = X[5][k] / (R)(k + 1);
+        X[2][k + 1] = X[6][k] / (R)(k + 1);
+        X[3][k + 1] = X[7][k] / (R)(k + 1);
+        X[4][k + 1] = J[150][k] / (R)(k + 1);
+        X[5][k + 1] = J[156][k] / (R)(k + 1);
+        X[6][k + 1] = J[183][k] / (R)(k + 1);
+        X[7][k + 1] = J[189][k] / (R)(k + 1);
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
 
+#undef R
 #undef TAYLOR_MUL
 #undef TAYLOR_DIV
 #undef TAYLOR_SQRT
@@ -899,7 +903,7 @@ int spherical_rot_taylor_f(const float *y0, const float *p, long nt, const float
     }
     order = spherical_rot_torder_f(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = expf((float)-2 - (float)0.7 / (order - 1));
+    safety = expf((float)-2 - (float)0.7 / (float)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -945,11 +949,11 @@ int spherical_rot_taylor_f(const float *y0, const float *p, long nt, const float
         }
         rho = hmax;             /* no growth in the last coefficients: as far as allowed */
         if (n1 > 0) {
-            r = powf(m / n1, (float)1 / (order - 1));
+            r = powf(m / n1, (float)1 / (float)(order - 1));
             rho = r < rho ? r : rho;
         }
         if (n2 > 0) {
-            r = powf(m / n2, (float)1 / order);
+            r = powf(m / n2, (float)1 / (float)order);
             rho = r < rho ? r : rho;
         }
         h = rho * safety;
@@ -1061,6 +1065,7 @@ static long double spherical_rot_tchain_l(const long double *a, const long doubl
     return acc / (long double)k;
 }
 
+#define R long double
 #define TAYLOR_MUL spherical_rot_tmul_l
 #define TAYLOR_DIV spherical_rot_tdiv_l
 #define TAYLOR_SQRT spherical_rot_tsqrt_l
@@ -1115,7 +1120,7 @@ static int spherical_rot_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         J[25][k] = J[23][k] + J[24][k];
         J[26][k] = C[3] * J[25][k];
         J[27][k] = TAYLOR_MUL(J[26], J[26], k);
-        J[28][k] = J[27][k] + (k == 0 ? C[4] : 0);
+        J[28][k] = J[27][k] + (k == 0 ? C[4] : (R)0);
         J[29][k] = J[22][k] - J[28][k];
         J[30][k] = k == 0 ? SIN(X[0][0]) : TAYLOR_SIN(X[0], J[31], k);
         J[31][k] = k == 0 ? COS(X[0][0]) : TAYLOR_COS(X[0], J[30], k);
@@ -1130,7 +1135,7 @@ static int spherical_rot_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         J[40][k] = J[37][k] + J[39][k];
         J[41][k] = C[3] * J[40][k];
         J[42][k] = TAYLOR_MUL(J[41], J[41], k);
-        J[43][k] = J[42][k] + (k == 0 ? C[4] : 0);
+        J[43][k] = J[42][k] + (k == 0 ? C[4] : (R)0);
         J[44][k] = J[36][k] - J[43][k];
         J[45][k] = TAYLOR_MUL(J[44], J[29], k);
         J[46][k] = TAYLOR_MUL(J[41], J[20], k);
@@ -1139,7 +1144,7 @@ static int spherical_rot_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         J[49][k] = J[47][k] - J[48][k];
         J[50][k] = TAYLOR_MUL(J[49], J[49], k);
         J[51][k] = J[45][k] - J[50][k];
-        J[52][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[51], J[52], k);
+        J[52][k] = TAYLOR_DIV((R)(k == 0), J[51], J[52], k);
         J[53][k] = TAYLOR_MUL(J[29], J[52], k);
         J[54][k] = TAYLOR_MUL(J[30], J[31], k);
         J[55][k] = TAYLOR_MUL(X[5], X[5], k);
@@ -1238,7 +1243,7 @@ static int spherical_rot_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         J[148][k] = TAYLOR_MUL(J[52], J[147], k);
         J[149][k] = TAYLOR_MUL(J[49], J[148], k);
         J[150][k] = J[125][k] - J[149][k];
-        J[151][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[30], J[151], k);
+        J[151][k] = TAYLOR_DIV((R)(k == 0), J[30], J[151], k);
         J[152][k] = TAYLOR_MUL(J[44], J[148], k);
         J[153][k] = TAYLOR_MUL(J[49], J[52], k);
         J[154][k] = TAYLOR_MUL(J[153], J[124], k);
@@ -1255,7 +1260,7 @@ static int spherical_rot_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         J[165][k] = J[163][k] - J[164][k];
         J[166][k] = TAYLOR_MUL(J[165], J[165], k);
         J[167][k] = J[161][k] - J[166][k];
-        J[168][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[167], J[168], k);
+        J[168][k] = TAYLOR_DIV((R)(k == 0), J[167], J[168], k);
         J[169][k] = TAYLOR_MUL(J[158], J[168], k);
         J[170][k] = C[5] * J[102][k];
         J[171][k] = TAYLOR_MUL(J[41], J[80], k);
@@ -1271,7 +1276,7 @@ static int spherical_rot_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         J[181][k] = TAYLOR_MUL(J[168], J[180], k);
         J[182][k] = TAYLOR_MUL(J[165], J[181], k);
         J[183][k] = J[175][k] - J[182][k];
-        J[184][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[15], J[184], k);
+        J[184][k] = TAYLOR_DIV((R)(k == 0), J[15], J[184], k);
         J[185][k] = TAYLOR_MUL(J[160], J[181], k);
         J[186][k] = TAYLOR_MUL(J[165], J[168], k);
         J[187][k] = TAYLOR_MUL(J[186], J[174], k);
@@ -1280,18 +1285,19 @@ static int spherical_rot_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         if (k == 0 && (!(fabsl(J[30][0]) >= sine_min) || !(fabsl(J[15][0]) >= sine_min))) {
             return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
         }
-        X[0][k + 1] = X[4][k] / (k + 1);
-        X[1][k + 1] = X[5][k] / (k + 1);
-        X[2][k + 1] = X[6][k] / (k + 1);
-        X[3][k + 1] = X[7][k] / (k + 1);
-        X[4][k + 1] = J[150][k] / (k + 1);
-        X[5][k + 1] = J[156][k] / (k + 1);
-        X[6][k + 1] = J[183][k] / (k + 1);
-        X[7][k + 1] = J[189][k] / (k + 1);
+        X[0][k + 1] = X[4][k] / (R)(k + 1);
+        X[1][k + 1] = X[5][k] / (R)(k + 1);
+        X[2][k + 1] = X[6][k] / (R)(k + 1);
+        X[3][k + 1] = X[7][k] / (R)(k + 1);
+        X[4][k + 1] = J[150][k] / (R)(k + 1);
+        X[5][k + 1] = J[156][k] / (R)(k + 1);
+        X[6][k + 1] = J[183][k] / (R)(k + 1);
+        X[7][k + 1] = J[189][k] / (R)(k + 1);
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
 
+#undef R
 #undef TAYLOR_MUL
 #undef TAYLOR_DIV
 #undef TAYLOR_SQRT
@@ -1395,7 +1401,7 @@ int spherical_rot_taylor_l(const long double *y0, const long double *p, long nt,
     }
     order = spherical_rot_torder_l(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = expl((long double)-2 - (long double)0.7 / (order - 1));
+    safety = expl((long double)-2 - (long double)0.7 / (long double)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -1441,11 +1447,11 @@ int spherical_rot_taylor_l(const long double *y0, const long double *p, long nt,
         }
         rho = hmax;             /* no growth in the last coefficients: as far as allowed */
         if (n1 > 0) {
-            r = powl(m / n1, (long double)1 / (order - 1));
+            r = powl(m / n1, (long double)1 / (long double)(order - 1));
             rho = r < rho ? r : rho;
         }
         if (n2 > 0) {
-            r = powl(m / n2, (long double)1 / order);
+            r = powl(m / n2, (long double)1 / (long double)order);
             rho = r < rho ? r : rho;
         }
         h = rho * safety;

@@ -69,6 +69,7 @@ static double spherical_std_tchain(const double *a, const double *w, int k)
     return acc / (double)k;
 }
 
+#define R double
 #define TAYLOR_MUL spherical_std_tmul
 #define TAYLOR_DIV spherical_std_tdiv
 #define TAYLOR_SQRT spherical_std_tsqrt
@@ -115,7 +116,7 @@ static int spherical_std_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         J[18][k] = C[2] * J[17][k];
         J[19][k] = C[3] * J[10][k];
         J[20][k] = TAYLOR_MUL(J[19], J[19], k);
-        J[21][k] = J[20][k] + (k == 0 ? C[4] : 0);
+        J[21][k] = J[20][k] + (k == 0 ? C[4] : (R)0);
         J[22][k] = J[18][k] - J[21][k];
         J[23][k] = k == 0 ? SIN(X[0][0]) : TAYLOR_SIN(X[0], J[24], k);
         J[24][k] = k == 0 ? COS(X[0][0]) : TAYLOR_COS(X[0], J[23], k);
@@ -130,7 +131,7 @@ static int spherical_std_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         J[33][k] = J[30][k] + J[32][k];
         J[34][k] = C[3] * J[33][k];
         J[35][k] = TAYLOR_MUL(J[34], J[34], k);
-        J[36][k] = J[35][k] + (k == 0 ? C[4] : 0);
+        J[36][k] = J[35][k] + (k == 0 ? C[4] : (R)0);
         J[37][k] = J[29][k] - J[36][k];
         J[38][k] = TAYLOR_MUL(J[37], J[22], k);
         J[39][k] = TAYLOR_MUL(J[34], J[16], k);
@@ -139,7 +140,7 @@ static int spherical_std_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         J[42][k] = J[40][k] - J[41][k];
         J[43][k] = TAYLOR_MUL(J[42], J[42], k);
         J[44][k] = J[38][k] - J[43][k];
-        J[45][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[44], J[45], k);
+        J[45][k] = TAYLOR_DIV((R)(k == 0), J[44], J[45], k);
         J[46][k] = TAYLOR_MUL(J[22], J[45], k);
         J[47][k] = TAYLOR_MUL(J[23], J[24], k);
         J[48][k] = TAYLOR_MUL(X[5], X[5], k);
@@ -233,7 +234,7 @@ static int spherical_std_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         J[136][k] = TAYLOR_MUL(J[45], J[135], k);
         J[137][k] = TAYLOR_MUL(J[42], J[136], k);
         J[138][k] = J[116][k] - J[137][k];
-        J[139][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[23], J[139], k);
+        J[139][k] = TAYLOR_DIV((R)(k == 0), J[23], J[139], k);
         J[140][k] = TAYLOR_MUL(J[37], J[136], k);
         J[141][k] = TAYLOR_MUL(J[42], J[45], k);
         J[142][k] = TAYLOR_MUL(J[141], J[115], k);
@@ -250,7 +251,7 @@ static int spherical_std_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         J[153][k] = J[151][k] - J[152][k];
         J[154][k] = TAYLOR_MUL(J[153], J[153], k);
         J[155][k] = J[149][k] - J[154][k];
-        J[156][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[155], J[156], k);
+        J[156][k] = TAYLOR_DIV((R)(k == 0), J[155], J[156], k);
         J[157][k] = TAYLOR_MUL(J[146], J[156], k);
         J[158][k] = C[5] * J[95][k];
         J[159][k] = TAYLOR_MUL(J[34], J[73], k);
@@ -266,7 +267,7 @@ static int spherical_std_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         J[169][k] = TAYLOR_MUL(J[156], J[168], k);
         J[170][k] = TAYLOR_MUL(J[153], J[169], k);
         J[171][k] = J[163][k] - J[170][k];
-        J[172][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[11], J[172], k);
+        J[172][k] = TAYLOR_DIV((R)(k == 0), J[11], J[172], k);
         J[173][k] = TAYLOR_MUL(J[148], J[169], k);
         J[174][k] = TAYLOR_MUL(J[153], J[156], k);
         J[175][k] = TAYLOR_MUL(J[174], J[162], k);
@@ -275,18 +276,19 @@ static int spherical_std_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
         if (k == 0 && (!(fabs(J[23][0]) >= sine_min) || !(fabs(J[11][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }
-        X[0][k + 1] = X[4][k] / (k + 1);
-        X[1][k + 1] = X[5][k] / (k + 1);
-        X[2][k + 1] = X[6][k] / (k + 1);
-        X[3][k + 1] = X[7][k] / (k + 1);
-        X[4][k + 1] = J[138][k] / (k + 1);
-        X[5][k + 1] = J[144][k] / (k + 1);
-        X[6][k + 1] = J[171][k] / (k + 1);
-        X[7][k + 1] = J[177][k] / (k + 1);
+        X[0][k + 1] = X[4][k] / (R)(k + 1);
+        X[1][k + 1] = X[5][k] / (R)(k + 1);
+        X[2][k + 1] = X[6][k] / (R)(k + 1);
+        X[3][k + 1] = X[7][k] / (R)(k + 1);
+        X[4][k + 1] = J[138][k] / (R)(k + 1);
+        X[5][k + 1] = J[144][k] / (R)(k + 1);
+        X[6][k + 1] = J[171][k] / (R)(k + 1);
+        X[7][k + 1] = J[177][k] / (R)(k + 1);
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }
 
+#undef R
 #undef TAYLOR_MUL
 #undef TAYLOR_DIV
 #undef TAYLOR_SQRT
@@ -390,7 +392,7 @@ int spherical_std_taylor(const double *y0, const double *p, long nt, const doubl
     }
     order = spherical_std_torder(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = exp((double)-2 - (double)0.7 / (order - 1));
+    safety = exp((double)-2 - (double)0.7 / (double)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -436,11 +438,11 @@ int spherical_std_taylor(const double *y0, const double *p, long nt, const doubl
         }
         rho = hmax;             /* no growth in the last coefficients: as far as allowed */
         if (n1 > 0) {
-            r = pow(m / n1, (double)1 / (order - 1));
+            r = pow(m / n1, (double)1 / (double)(order - 1));
             rho = r < rho ? r : rho;
         }
         if (n2 > 0) {
-            r = pow(m / n2, (double)1 / order);
+            r = pow(m / n2, (double)1 / (double)order);
             rho = r < rho ? r : rho;
         }
         h = rho * safety;
@@ -552,6 +554,7 @@ static float spherical_std_tchain_f(const float *a, const float *w, int k)
     return acc / (float)k;
 }
 
+#define R float
 #define TAYLOR_MUL spherical_std_tmul_f
 #define TAYLOR_DIV spherical_std_tdiv_f
 #define TAYLOR_SQRT spherical_std_tsqrt_f
@@ -598,7 +601,7 @@ static int spherical_std_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         J[18][k] = C[2] * J[17][k];
         J[19][k] = C[3] * J[10][k];
         J[20][k] = TAYLOR_MUL(J[19], J[19], k);
-        J[21][k] = J[20][k] + (k == 0 ? C[4] : 0);
+        J[21][k] = J[20][k] + (k == 0 ? C[4] : (R)0);
         J[22][k] = J[18][k] - J[21][k];
         J[23][k] = k == 0 ? SIN(X[0][0]) : TAYLOR_SIN(X[0], J[24], k);
         J[24][k] = k == 0 ? COS(X[0][0]) : TAYLOR_COS(X[0], J[23], k);
@@ -613,7 +616,7 @@ static int spherical_std_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         J[33][k] = J[30][k] + J[32][k];
         J[34][k] = C[3] * J[33][k];
         J[35][k] = TAYLOR_MUL(J[34], J[34], k);
-        J[36][k] = J[35][k] + (k == 0 ? C[4] : 0);
+        J[36][k] = J[35][k] + (k == 0 ? C[4] : (R)0);
         J[37][k] = J[29][k] - J[36][k];
         J[38][k] = TAYLOR_MUL(J[37], J[22], k);
         J[39][k] = TAYLOR_MUL(J[34], J[16], k);
@@ -622,7 +625,7 @@ static int spherical_std_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         J[42][k] = J[40][k] - J[41][k];
         J[43][k] = TAYLOR_MUL(J[42], J[42], k);
         J[44][k] = J[38][k] - J[43][k];
-        J[45][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[44], J[45], k);
+        J[45][k] = TAYLOR_DIV((R)(k == 0), J[44], J[45], k);
         J[46][k] = TAYLOR_MUL(J[22], J[45], k);
         J[47][k] = TAYLOR_MUL(J[23], J[24], k);
         J[48][k] = TAYLOR_MUL(X[5], X[5], k);
@@ -716,7 +719,7 @@ static int spherical_std_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         J[136][k] = TAYLOR_MUL(J[45], J[135], k);
         J[137][k] = TAYLOR_MUL(J[42], J[136], k);
         J[138][k] = J[116][k] - J[137][k];
-        J[139][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[23], J[139], k);
+        J[139][k] = TAYLOR_DIV((R)(k == 0), J[23], J[139], k);
         J[140][k] = TAYLOR_MUL(J[37], J[136], k);
         J[141][k] = TAYLOR_MUL(J[42], J[45], k);
         J[142][k] = TAYLOR_MUL(J[141], J[115], k);
@@ -733,7 +736,7 @@ static int spherical_std_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         J[153][k] = J[151][k] - J[152][k];
         J[154][k] = TAYLOR_MUL(J[153], J[153], k);
         J[155][k] = J[149][k] - J[154][k];
-        J[156][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[155], J[156], k);
+        J[156][k] = TAYLOR_DIV((R)(k == 0), J[155], J[156], k);
         J[157][k] = TAYLOR_MUL(J[146], J[156], k);
         J[158][k] = C[5] * J[95][k];
         J[159][k] = TAYLOR_MUL(J[34], J[73], k);
@@ -749,7 +752,7 @@ static int spherical_std_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         J[169][k] = TAYLOR_MUL(J[156], J[168], k);
         J[170][k] = TAYLOR_MUL(J[153], J[169], k);
         J[171][k] = J[163][k] - J[170][k];
-        J[172][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[11], J[172], k);
+        J[172][k] = TAYLOR_DIV((R)(k == 0), J[11], J[172], k);
         J[173][k] = TAYLOR_MUL(J[148], J[169], k);
         J[174][k] = TAYLOR_MUL(J[153], J[156], k);
         J[175][k] = TAYLOR_MUL(J[174], J[162], k);
@@ -758,18 +761,19 @@ static int spherical_std_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
         if (k == 0 && (!(fabsf(J[23][0]) >= sine_min) || !(fabsf(J[11][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }
-        X[0][k + 1] = X[4][k] / (k + 1);
-        X[1][k + 1] = X[5][k] / (k + 1);
-        X[2][k + 1] = X[6][k] / (k + 1);
-        X[3][k + 1] = X[7][k] / (k + 1);
-        X[4][k + 1] = J[138][k] / (k + 1);
-        X[5][k + 1] = J[144][k] / (k + 1);
-        X[6][k + 1] = J[171][k] / (k + 1);
-        X[7][k + 1] = J[177][k] / (k + 1);
+        X[0][k + 1] = X[4][k] / (R)(k + 1);
+        X[1][k + 1] = X[5][k] / (R)(k + 1);
+        X[2][k + 1] = X[6][k] / (R)(k + 1);
+        X[3][k + 1] = X[7][k] / (R)(k + 1);
+        X[4][k + 1] = J[138][k] / (R)(k + 1);
+        X[5][k + 1] = J[144][k] / (R)(k + 1);
+        X[6][k + 1] = J[171][k] / (R)(k + 1);
+        X[7][k + 1] = J[177][k] / (R)(k + 1);
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }
 
+#undef R
 #undef TAYLOR_MUL
 #undef TAYLOR_DIV
 #undef TAYLOR_SQRT
@@ -873,7 +877,7 @@ int spherical_std_taylor_f(const float *y0, const float *p, long nt, const float
     }
     order = spherical_std_torder_f(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = expf((float)-2 - (float)0.7 / (order - 1));
+    safety = expf((float)-2 - (float)0.7 / (float)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -919,11 +923,11 @@ int spherical_std_taylor_f(const float *y0, const float *p, long nt, const float
         }
         rho = hmax;             /* no growth in the last coefficients: as far as allowed */
         if (n1 > 0) {
-            r = powf(m / n1, (float)1 / (order - 1));
+            r = powf(m / n1, (float)1 / (float)(order - 1));
             rho = r < rho ? r : rho;
         }
         if (n2 > 0) {
-            r = powf(m / n2, (float)1 / order);
+            r = powf(m / n2, (float)1 / (float)order);
             rho = r < rho ? r : rho;
         }
         h = rho * safety;
@@ -1035,6 +1039,7 @@ static long double spherical_std_tchain_l(const long double *a, const long doubl
     return acc / (long double)k;
 }
 
+#define R long double
 #define TAYLOR_MUL spherical_std_tmul_l
 #define TAYLOR_DIV spherical_std_tdiv_l
 #define TAYLOR_SQRT spherical_std_tsqrt_l
@@ -1081,7 +1086,7 @@ static int spherical_std_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         J[18][k] = C[2] * J[17][k];
         J[19][k] = C[3] * J[10][k];
         J[20][k] = TAYLOR_MUL(J[19], J[19], k);
-        J[21][k] = J[20][k] + (k == 0 ? C[4] : 0);
+        J[21][k] = J[20][k] + (k == 0 ? C[4] : (R)0);
         J[22][k] = J[18][k] - J[21][k];
         J[23][k] = k == 0 ? SIN(X[0][0]) : TAYLOR_SIN(X[0], J[24], k);
         J[24][k] = k == 0 ? COS(X[0][0]) : TAYLOR_COS(X[0], J[23], k);
@@ -1096,7 +1101,7 @@ static int spherical_std_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         J[33][k] = J[30][k] + J[32][k];
         J[34][k] = C[3] * J[33][k];
         J[35][k] = TAYLOR_MUL(J[34], J[34], k);
-        J[36][k] = J[35][k] + (k == 0 ? C[4] : 0);
+        J[36][k] = J[35][k] + (k == 0 ? C[4] : (R)0);
         J[37][k] = J[29][k] - J[36][k];
         J[38][k] = TAYLOR_MUL(J[37], J[22], k);
         J[39][k] = TAYLOR_MUL(J[34], J[16], k);
@@ -1105,7 +1110,7 @@ static int spherical_std_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         J[42][k] = J[40][k] - J[41][k];
         J[43][k] = TAYLOR_MUL(J[42], J[42], k);
         J[44][k] = J[38][k] - J[43][k];
-        J[45][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[44], J[45], k);
+        J[45][k] = TAYLOR_DIV((R)(k == 0), J[44], J[45], k);
         J[46][k] = TAYLOR_MUL(J[22], J[45], k);
         J[47][k] = TAYLOR_MUL(J[23], J[24], k);
         J[48][k] = TAYLOR_MUL(X[5], X[5], k);
@@ -1199,7 +1204,7 @@ static int spherical_std_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         J[136][k] = TAYLOR_MUL(J[45], J[135], k);
         J[137][k] = TAYLOR_MUL(J[42], J[136], k);
         J[138][k] = J[116][k] - J[137][k];
-        J[139][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[23], J[139], k);
+        J[139][k] = TAYLOR_DIV((R)(k == 0), J[23], J[139], k);
         J[140][k] = TAYLOR_MUL(J[37], J[136], k);
         J[141][k] = TAYLOR_MUL(J[42], J[45], k);
         J[142][k] = TAYLOR_MUL(J[141], J[115], k);
@@ -1216,7 +1221,7 @@ static int spherical_std_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         J[153][k] = J[151][k] - J[152][k];
         J[154][k] = TAYLOR_MUL(J[153], J[153], k);
         J[155][k] = J[149][k] - J[154][k];
-        J[156][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[155], J[156], k);
+        J[156][k] = TAYLOR_DIV((R)(k == 0), J[155], J[156], k);
         J[157][k] = TAYLOR_MUL(J[146], J[156], k);
         J[158][k] = C[5] * J[95][k];
         J[159][k] = TAYLOR_MUL(J[34], J[73], k);
@@ -1232,7 +1237,7 @@ static int spherical_std_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         J[169][k] = TAYLOR_MUL(J[156], J[168], k);
         J[170][k] = TAYLOR_MUL(J[153], J[169], k);
         J[171][k] = J[163][k] - J[170][k];
-        J[172][k] = TAYLOR_DIV((k == 0 ? 1 : 0), J[11], J[172], k);
+        J[172][k] = TAYLOR_DIV((R)(k == 0), J[11], J[172], k);
         J[173][k] = TAYLOR_MUL(J[148], J[169], k);
         J[174][k] = TAYLOR_MUL(J[153], J[156], k);
         J[175][k] = TAYLOR_MUL(J[174], J[162], k);
@@ -1241,18 +1246,19 @@ static int spherical_std_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
         if (k == 0 && (!(fabsl(J[23][0]) >= sine_min) || !(fabsl(J[11][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }
-        X[0][k + 1] = X[4][k] / (k + 1);
-        X[1][k + 1] = X[5][k] / (k + 1);
-        X[2][k + 1] = X[6][k] / (k + 1);
-        X[3][k + 1] = X[7][k] / (k + 1);
-        X[4][k + 1] = J[138][k] / (k + 1);
-        X[5][k + 1] = J[144][k] / (k + 1);
-        X[6][k + 1] = J[171][k] / (k + 1);
-        X[7][k + 1] = J[177][k] / (k + 1);
+        X[0][k + 1] = X[4][k] / (R)(k + 1);
+        X[1][k + 1] = X[5][k] / (R)(k + 1);
+        X[2][k + 1] = X[6][k] / (R)(k + 1);
+        X[3][k + 1] = X[7][k] / (R)(k + 1);
+        X[4][k + 1] = J[138][k] / (R)(k + 1);
+        X[5][k + 1] = J[144][k] / (R)(k + 1);
+        X[6][k + 1] = J[171][k] / (R)(k + 1);
+        X[7][k + 1] = J[177][k] / (R)(k + 1);
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }
 
+#undef R
 #undef TAYLOR_MUL
 #undef TAYLOR_DIV
 #undef TAYLOR_SQRT
@@ -1356,7 +1362,7 @@ int spherical_std_taylor_l(const long double *y0, const long double *p, long nt,
     }
     order = spherical_std_torder_l(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = expl((long double)-2 - (long double)0.7 / (order - 1));
+    safety = expl((long double)-2 - (long double)0.7 / (long double)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -1402,11 +1408,11 @@ int spherical_std_taylor_l(const long double *y0, const long double *p, long nt,
         }
         rho = hmax;             /* no growth in the last coefficients: as far as allowed */
         if (n1 > 0) {
-            r = powl(m / n1, (long double)1 / (order - 1));
+            r = powl(m / n1, (long double)1 / (long double)(order - 1));
             rho = r < rho ? r : rho;
         }
         if (n2 > 0) {
-            r = powl(m / n2, (long double)1 / order);
+            r = powl(m / n2, (long double)1 / (long double)order);
             rho = r < rho ? r : rho;
         }
         h = rho * safety;
