@@ -186,3 +186,15 @@ def test_an_atlas_scene_for_a_user_chain_writes_every_bob_and_the_chart(tmp_path
     assert npz["positions"].shape == (41, 3, 3) and npz["velocities"].shape == (41, 3, 3)
     assert np.allclose(npz["positions"][0].ravel(), c[:9], atol=1e-12)
     assert any(f.endswith(".png") for f in files)
+
+
+def test_verify_checks_the_charts_of_a_user_chain():
+    """derive verify (physics.model_checks) of a user's spherical chain compares its charts:
+    the same Cartesian accelerations in all three, and a round trip through the second."""
+    from derive.model import load_model
+    from derive.verification.physics import model_checks
+    name = load_model(Path(__file__).parents[1] / "examples" / "models" / "triple_spherical.toml").name
+    checks = {c.name: c for c in model_checks(name)}
+    charts = [k for k in checks if "same Cartesian accelerations" in k]
+    assert len(charts) == 2 and any("round trip" in k for k in checks)
+    assert all(c.passed for c in checks.values()), [c.detail for c in checks.values() if not c.passed]

@@ -203,7 +203,7 @@ def chart_round_trip(first: str, second: str, n_points: int = 20) -> Check:
         for _ in range(n_points):
             pt = random_point(d1.symbols.state, rng, overrides)
             y = [pt[s] for s in d1.symbols.state]
-            q2 = list(f_q(*y[:4]))
+            q2 = list(f_q(*y[:len(d1.symbols.q)]))
             qd2 = list(f_qd(*(y + q2)))
             q1 = list(b_q(*q2))
             qd1 = list(b_qd(*(q2 + qd2 + q1)))
@@ -360,7 +360,7 @@ def model_checks(name) -> list[Check]:
     catalogue = (d.name in model_names()
                  and load_model(d.name).content_hash == d.model.content_hash)
     if not catalogue:
-        return checks
+        return checks + chain_chart_checks(d)
     if d.name in ("planar", "spherical_std"):
         checks.append(planar_is_vertical_plane_of_spherical())
     if d.name == "compound":
@@ -368,6 +368,23 @@ def model_checks(name) -> list[Check]:
     checks += [charts_agree_on_accelerations(a, b) for a, b in SPHERICAL_PAIRS if d.name in (a, b)]
     checks += [chart_round_trip(a, b) for a, b in SPHERICAL_PAIRS if d.name in (a, b)]
     return checks
+
+
+def chain_chart_checks(d) -> list[Check]:
+    """For a user's chain of spherical links in the standard chart: the same chain in the
+    second and the rotated chart (its atlas, derive/model/atlas.py) gives the same Cartesian
+    accelerations of every bob, and the chart change there and back is the identity --
+    the checks SPHERICAL_PAIRS makes for the catalogue's double pendulum."""
+    from ..errors import ModelError
+    from ..model.atlas import atlas_for
+    try:
+        charts = atlas_for(d.name).charts
+    except ModelError:                 # not a spherical chain in the standard chart
+        return []
+    if d.name != charts[0]:
+        return []
+    return ([charts_agree_on_accelerations(charts[0], other) for other in charts[1:]]
+            + [chart_round_trip(charts[0], charts[1])])
 
 
 def run_all() -> list[Check]:
