@@ -81,3 +81,13 @@ def test_bad_input_is_one_line(kwargs, message):
     with pytest.raises(SimulationInputError, match=message) as info:
         derive.ensemble(args.pop("model"), args.pop("y0"), args.pop("t"), args.pop("params"), **args)
     assert "\n" not in str(info.value)
+
+
+def test_taylor_ensemble_is_simulate_trajectory_by_trajectory():
+    y0 = _states(24, seed=2)
+    t = np.linspace(0, 2, 5)
+    r = derive.ensemble("planar", y0, t, [1, 1, 1, 1, 9.81], method="taylor", rtol=1e-12, threads=2)
+    assert r.all_ok and r.rtol == 1e-12
+    for b in (0, 11, 23):
+        s = derive.simulate("planar", y0[b], t, [1, 1, 1, 1, 9.81], method="taylor", rtol=1e-12)
+        assert np.array_equal(r.y[b], s.y)

@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import SimulationInputError
 from .build import integrator_library
 from .codegen import model_info
-from .contract import ADAPTIVE, COUNTERS, METHODS, STATUS_NAMES
+from .contract import COUNTERS, METHODS, RUN_METHODS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS
 from .simulate import (_atlas, _check_size, _dtype, _finite_array, check_parameter_values, normalise_t,
                        resolve_model, run_options)
 from ..model import load_model
@@ -104,8 +104,8 @@ def ensemble(model, y0, t, params, method: str = "dop853", rtol: float | None = 
     if _atlas(model) is not None:
         raise SimulationInputError("ensemble runs single-chart models; the chart atlas "
                                    f"'{model}' runs through derive.simulate")
-    if not isinstance(method, str) or method not in METHODS:
-        raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(METHODS)})")
+    if not isinstance(method, str) or method not in RUN_METHODS:
+        raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(RUN_METHODS)})")
     info = model_info(model)
     description = load_model(model)
     dt = _dtype(dtype)
@@ -132,29 +132,38 @@ def ensemble(model, y0, t, params, method: str = "dop853", rtol: float | None = 
         threads = os.cpu_count() or 1
     if not isinstance(threads, (int, np.integer)) or threads < 1:
         raise SimulationInputError(f"threads = {threads!r} must be a positive integer")
-    y, infos, used = _run_blocks(model, METHODS.index(method), ys.astype(dt), p.astype(dt),
-                                 ts.astype(dt), opt, int(threads))
+    y, infos, used = _run_blocks(model, method, ys.astype(dt), p.astype(dt), ts.astype(dt), opt, int(threads))
     status = np.array([i.status for i in infos], np.intc)
     counters = {k: np.array([getattr(i, k) for i in infos], np.int64) for k in COUNTERS}
     return EnsembleResult(model=model, method=method, dtype=np.dtype(dt).name, t=ts.astype(dt), y=y,
                           status=status, t_stop=np.array([i.t for i in infos], float), threads=used,
-                          rtol=opt["rtol"] if method in ADAPTIVE else None,
-                          step=None if method in ADAPTIVE else opt["h"], **counters)
+                          rtol=opt["rtol"] if method in TOLERANCE_METHODS else None,
+                          step=None if method in TOLERANCE_METHODS else opt["h"], **counters)
 
 
-def _run_blocks(model: str, method: int, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt: dict,
+def _run_blocks(model: str, method: str, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt: dict,
                 threads: int):
     """The batch entry point over `threads` contiguous blocks of trajectories at once."""
     lib = integrator_library(model)
     o = lib.options(opt)
+    if method == TAYLOR:
+        from .taylor_library import taylor_library, taylor_order
+        taylor = taylor_library(model, taylor_order(opt["rtol"]))
+
+        def run(y, pp):
+            return taylor.run(y, pp, t, o)
+    else:
+        index = METHODS.index(method)
+
+        def run(y, pp):
+            return lib.run(index, y, pp, t, o)
     B = len(y0)
     blocks = max(1, min(threads, B // MIN_BLOCK))
     edges = np.linspace(0, B, blocks + 1).astype(int)
     p = np.ascontiguousarray(p)
     if blocks == 1:
-        y, infos = lib.run(method, y0, p, t, o)
+        y, infos = run(y0, p)
         return y, list(infos), 1
     with ThreadPoolExecutor(max_workers=blocks) as pool:
-        parts = list(pool.map(lambda ab: lib.run(method, y0[ab[0]:ab[1]], p[ab[0]:ab[1]], t, o),
-                              zip(edges[:-1], edges[1:])))
+        parts = list(pool.map(lambda ab: run(y0[ab[0]:ab[1]], p[ab[0]:ab[1]]), zip(edges[:-1], edges[1:])))
     return (np.concatenate([y for y, _ in parts]), [i for _, infos in parts for i in infos], blocks)
