@@ -400,27 +400,39 @@ def _plot(race: Race, path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     rows = [r for r in race.rows if r.name != "one call"]
-    fig, axes = plt.subplots(1, len(rows), figsize=(4.2 * len(rows), 3.8), squeeze=False)
+    tools = sorted({p.tool for r in rows for p in r.points})
+    colours = {tool: f"C{i % 10}" for i, tool in enumerate(tools)}      # one colour per tool everywhere
+    fig, axes = plt.subplots(1, len(rows), figsize=(4.6 * len(rows), 4.2), squeeze=False)
     for ax, row in zip(axes[0], rows):
-        tools = sorted({p.tool for p in row.points})
-        for tool in tools:
+        for tool in sorted({p.tool for p in row.points}):
             pts = sorted((p.seconds, max(p.error, 1e-20)) for p in row.points
                          if p.tool == tool and math.isfinite(p.error))
             if pts:
                 style = "s-" if tool.startswith("heyoka") else "^--" if tool.startswith("scipy") else "o-"
-                ax.loglog([e for _, e in pts], [s for s, _ in pts], style, ms=3, label=tool)
+                ax.loglog([e for _, e in pts], [s for s, _ in pts], style, ms=3, label=tool,
+                          color=colours[tool])
         ax.axvline(TARGET, color="grey", lw=0.8, ls=":")
         ax.set_xlabel("final-state error")
         ax.set_ylabel("wall time per run [s]")
         ax.set_title(row.name, fontsize=10)
         ax.invert_xaxis()
         ax.grid(True, which="major", alpha=0.3)
-    axes[0][0].legend(fontsize=6)
+        ax.legend(fontsize=6)
     fig.suptitle(f"work-precision: derive and heyoka {race.heyoka_version}", fontsize=11)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def read_race(csv_path: Path, heyoka_version: str = "", machine: str = "") -> Race:
+    """A race back from its race.csv (to draw it again)."""
+    rows: dict[str, Row] = {}
+    with Path(csv_path).open() as fh:
+        for rec in csv.DictReader(fh):
+            row = rows.setdefault(rec["row"], Row(rec["row"], rec["row"]))
+            row.points.append(Point(rec["tool"], rec["setting"], float(rec["seconds"]), float(rec["final_error"])))
+    return Race(list(rows.values()), heyoka_version, machine)
 
 
 def console(race: Race) -> str:
