@@ -80,6 +80,8 @@ class Driver:
             return "NT"
         if name in ("err", "chart0", "status", "steps"):
             return "1"
+        if name == "coef":                  # <model>_taylor_coefficients at order 8
+            return f"({M}_N_STATES * 9)"
         return f"{M}_N_STATES"
 
     def call(self, ret: str, func: str, args: list[str]) -> None:
@@ -91,7 +93,7 @@ class Driver:
             if not ptr:
                 values.append({"n": "n", "method": "method", "chart": "0", "chart0": "0", "nt": "NT",
                                "nsteps": "10", "ld": "n", "h": "0.01", "theta": "0.5", "rule": "0.5",
-                               "status": "st"}.get(name) or
+                               "status": "st", "order": "8", "sine_min": "0.1"}.get(name) or
                               (f"(bcast ? 0 : {self.size(func, name[:-7], ctype, 'array', True)})"
                                if name.endswith("_stride") else None) or _fail(func, name))
                 continue
