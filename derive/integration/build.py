@@ -72,7 +72,7 @@ class IntegratorLibrary:
             fn = self.lib[f"{model}_integrate_batch{suffix}"]
             fn.restype = ctypes.c_long
             fn.argtypes = [ctypes.c_long, ctypes.c_int, vp, ctypes.c_long, vp, ctypes.c_long,
-                           ctypes.c_long, vp, vp, ctypes.POINTER(self.Options), vp]
+                           ctypes.c_long, vp, vp, vp, vp]
             self.fns[dt] = fn
 
     def defaults(self):
@@ -82,40 +82,51 @@ class IntegratorLibrary:
 
     def options(self, values: dict):
         """The options struct for `values` (field -> value; the rest the C defaults),
-        built once per distinct set of values: the integrators only read it (const)."""
-        if values.get("cancel") is not None:       # a run's own flag: a struct of its own
-            opt = self.defaults()
-            for k, v in values.items():
-                setattr(opt, k, v)
-            return opt
+        built once per distinct set of values: the integrators only read it (const).  A
+        run's own cancel flag makes a struct of its own (a pointer is no cache key)."""
+        if values.get("cancel") is not None:
+            return self._filled(values)
         key = tuple(values.items())
         opt = self._options.get(key)
         if opt is None:
-            opt = self.defaults()
-            for k, v in values.items():
-                setattr(opt, k, v)
             if len(self._options) > 256:
                 self._options.clear()
-            self._options[key] = opt
+            opt = self._options[key] = self._filled(values)
         return opt
 
-    @lru_cache(maxsize=8)
-    def infos_type(self, batch: int) -> type:
-        return self.Info * batch
+    def _filled(self, values: dict):
+        opt = self.defaults()
+        for k, v in values.items():
+            setattr(opt, k, v)
+        return opt
 
     def run(self, method: int, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:
         """y0 (B, n), p (B, np) or (np,), t (nt,) -> y (B, nt, n), infos (B,)."""
-        dt = dtype_key(y0.dtype)
-        y0 = np.ascontiguousarray(y0)
-        B = y0.shape[0]
-        p = np.ascontiguousarray(p, dtype=y0.dtype)
-        pstride = 0 if p.ndim == 1 else self.n_params
-        t = np.ascontiguousarray(t, dtype=y0.dtype)
-        out = np.empty((B, len(t), self.n), y0.dtype)
-        infos = self.infos_type(B)()
-        self.fns[dt](B, method, address(y0), self.n, address(p), pstride, len(t), address(t),
-                     address(out), ctypes.byref(opt), ctypes.addressof(infos))
-        return out, infos
+        return run_batch(self.fns, self.Info, self.n, self.n_params, y0, p, t, opt, method)
+
+
+@lru_cache(maxsize=32)
+def _infos_type(Info: type, batch: int) -> type:
+    return Info * batch
+
+
+def run_batch(fns: dict, Info: type, n: int, n_params: int, y0: np.ndarray, p: np.ndarray,
+              t: np.ndarray, opt, method: int | None = None) -> tuple:
+    """Call a generated batch entry point (<model>_integrate_batch or _taylor_batch, by
+    dtype in `fns`; `method` first where it takes one): y0 (B, n), p (B, np) or (np,),
+    t (nt,) -> y (B, nt, n), infos (B,)."""
+    dt = dtype_key(y0.dtype)
+    y0 = np.ascontiguousarray(y0)
+    B = y0.shape[0]
+    p = np.ascontiguousarray(p, dtype=y0.dtype)
+    pstride = 0 if p.ndim == 1 else n_params
+    t = np.ascontiguousarray(t, dtype=y0.dtype)
+    out = np.empty((B, len(t), n), y0.dtype)
+    infos = _infos_type(Info, B)()
+    head = (B,) if method is None else (B, method)
+    fns[dt](*head, address(y0), n, address(p), pstride, len(t), address(t), address(out),
+            ctypes.addressof(opt), ctypes.addressof(infos))
+    return out, infos
 
 
 @forget_on_model_change

@@ -31,12 +31,15 @@ step is the polynomial evaluated there (Horner), to the tolerance of the step.
 """
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import sympy as sp
 
 from ..codegen.printers import CPrinter
 from ..errors import SpecError
+from ..model.description import forget_on_model_change
 
 ORDER_MAX = 60       # largest order compiled in (tol 1e-34 for quad needs 41; double <= 20)
 
@@ -221,9 +224,8 @@ def c_statements(d: Decomposition, ctype: str, slots: dict) -> dict:
 
     lines = []
     for i, op in enumerate(d.ops):
-        a = [None if x is None else ref(x) for x in op.args[:1]] + list(op.args[1:])
-        if op.kind in ("mul", "sub", "add", "div", "sin", "cos"):
-            a = [ref(x) for x in op.args]
+        nodes = op.args[:1] if op.kind in ("scale", "shift") else op.args    # then a constant index
+        a = [None if x is None else ref(x) for x in nodes] + list(op.args[len(nodes):])
         u = ref(i)
         if op.kind == "var":
             continue
@@ -263,16 +265,16 @@ def c_statements(d: Decomposition, ctype: str, slots: dict) -> dict:
 
 
 def counts(d: Decomposition) -> dict:
-    kinds: dict[str, int] = {}
-    for op in d.ops:
-        kinds[op.kind] = kinds.get(op.kind, 0) + 1
-    return kinds
+    return dict(Counter(op.kind for op in d.ops))
 
 
 # -- rendering -------------------------------------------------------------------------
 
+@forget_on_model_change
+@lru_cache(maxsize=None)
 def rhs_decomposition(name: str) -> Decomposition:
-    """The decomposition of model `name`'s rhs (from the one CSE pass of its kernels)."""
+    """The decomposition of model `name`'s rhs (from the one CSE pass of its kernels), made
+    once: the C backend asks whether there is one, then renders it."""
     from ..codegen.sources import kernels
     spec, bodies = kernels(name)
     body = next(b for b in bodies if b.kernel.name == "rhs")

@@ -19,7 +19,7 @@ from ..codegen.loader import build_fastest
 from ..codegen.sources import c_source
 from ..errors import SimulationInputError
 from ..model.description import forget_on_model_change
-from .build import SUFFIX, address, dtype_key, info_struct, options_struct
+from .build import CTYPES, SUFFIX, address, dtype_key, info_struct, run_batch
 from .codegen import model_info
 from .taylor_codegen import ORDER_MAX, taylor_problem
 
@@ -44,7 +44,6 @@ class TaylorLibrary:
                                               extra=(f"-D{model.upper()}_TAYLOR_ORDER={order}",))
         self.lib = ctypes.CDLL(str(self.path))
         self.Info = info_struct(self.n)
-        self.Options = options_struct()
         vp = ctypes.c_void_p
         self.fns = {}
         for dt, suffix in SUFFIX.items():
@@ -58,24 +57,10 @@ class TaylorLibrary:
             fn.restype = ctypes.c_int
             self.coefficient_fns[dt] = fn
 
-    @lru_cache(maxsize=8)
-    def infos_type(self, batch: int) -> type:
-        return self.Info * batch
-
     def run(self, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:
         """y0 (B, n), p (B, np) or (np,), t (nt,), opt: the integrators' options struct
         (from IntegratorLibrary.options: the same layout) -> y (B, nt, n), infos (B,)."""
-        dt = dtype_key(y0.dtype)
-        y0 = np.ascontiguousarray(y0)
-        B = y0.shape[0]
-        p = np.ascontiguousarray(p, dtype=y0.dtype)
-        pstride = 0 if p.ndim == 1 else self.n_params
-        t = np.ascontiguousarray(t, dtype=y0.dtype)
-        out = np.empty((B, len(t), self.n), y0.dtype)
-        infos = self.infos_type(B)()
-        self.fns[dt](B, address(y0), self.n, address(p), pstride, len(t), address(t), address(out),
-                     ctypes.addressof(opt), ctypes.addressof(infos))
-        return out, infos
+        return run_batch(self.fns, self.Info, self.n, self.n_params, y0, p, t, opt)
 
     def coefficients(self, y: np.ndarray, p: np.ndarray, sine_min: float = 0.0) -> tuple[int, np.ndarray]:
         """(status, the normalised Taylor coefficients (n, order + 1)) of the solution through y."""
@@ -83,9 +68,9 @@ class TaylorLibrary:
         y = np.ascontiguousarray(y)
         p = np.ascontiguousarray(p, dtype=y.dtype)
         out = np.empty((self.n, self.order + 1), y.dtype)
-        ctype = {"float64": ctypes.c_double, "float32": ctypes.c_float, "longdouble": ctypes.c_longdouble}[dt]
         st = self.coefficient_fns[dt](ctypes.c_void_p(address(y)), ctypes.c_void_p(address(p)),
-                                      ctypes.c_int(self.order), ctypes.c_void_p(address(out)), ctype(sine_min))
+                                      ctypes.c_int(self.order), ctypes.c_void_p(address(out)),
+                                      CTYPES[dt](sine_min))
         return int(st), out
 
 

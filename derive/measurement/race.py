@@ -170,18 +170,9 @@ def _scipy_points(y0, t_end: float, ref) -> list[Point]:
     points = []
     for rtol in (1e-9, 1e-11, 1e-13):
         run = lambda: solve_ivp_final(rhs, list(y0), t_end, PARAMS, "DOP853", rtol, rtol * 1e-3)[0]
-        final = run()
-        t0 = time.perf_counter()
-        run()
-        points.append(Point("scipy solve_ivp DOP853 (lambdify)", f"rtol={rtol:g}",
-                            min(time.perf_counter() - t0, _timed_once(run)), _error(final, ref)))
+        points.append(Point("scipy solve_ivp DOP853 (lambdify)", f"rtol={rtol:g}", _timed(run),
+                            _error(run(), ref)))
     return points
-
-
-def _timed_once(run) -> float:
-    t0 = time.perf_counter()
-    run()
-    return time.perf_counter() - t0
 
 
 def trajectory_row(hy, name: str, title: str, y0, t_end: float, scipy: bool = True) -> Row:
