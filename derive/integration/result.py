@@ -42,6 +42,8 @@ class SimulationResult:
     step: float | None = None              # fixed-step methods: the step of the grid t0 + k step
     last_step: float | None = None         # ... the shortened step to the last output (None: on the grid)
     velocities: np.ndarray | None = field(default=None, repr=False)   # like positions: bob velocities
+    # dtype double-double or quad: y exactly, as mpmath numbers (y itself is rounded to long double)
+    y_exact: np.ndarray | None = field(default=None, repr=False)
     # energy, positions and velocities may be given as LAZY with `observe`, a function of no
     # arguments returning all three: simulate does so, and the kernels run on first access
     # (a run that only reads r.y pays nothing for them)
@@ -78,6 +80,15 @@ class SimulationResult:
         where = f" in chart {self.chart_stop}" if self.chart_stop else ""
         return (f"integration stopped at t = {self.t_stop:.17g}: {self.status_name}{where}; "
                 f"state {state}")
+
+    def trust_horizon(self, target: float = 1e-8) -> float | None:
+        """Until when this run resolves the true motion to `target`, for its precision and
+        tolerance: the early error e0 (tolerance or unit roundoff) grows as e0 exp(lambda t),
+        lambda the motion's largest Lyapunov exponent (derive/measurement/trust.py, measured
+        on first call: a DOP853 run with the Jacobian along it).  None for an atlas run
+        whose every chart meets its singularity."""
+        from ..measurement.trust import trust_horizon_of
+        return trust_horizon_of(self, target)
 
     def raise_for_status(self) -> "SimulationResult":
         if not self.ok:

@@ -38,6 +38,7 @@ from .contract import (ADAPTIVE, ATLAS_CHARTS, ATLAS_METHODS, COUNTERS, FIXED_OR
                        TOLERANCE_METHODS, default_options)
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
 from .taylor_library import taylor_library, taylor_order
+from . import extended
 from .result import LAZY, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
 from ..model.atlas import ATLAS, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
@@ -301,7 +302,7 @@ def normalise_t(t) -> np.ndarray:
 
 # -- the entry point --------------------------------------------------------------
 
-def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | None = None,
+def simulate(model: str, y0, t, params, method: str | None = None, rtol: float | None = None,
              atol: float | None = None, step: float | None = None, dtype="float64",
              backend: str = "c", max_steps: int | None = None, sine_min: float | None = None,
              newton_tol: float | None = None, newton_max: int | None = None,
@@ -309,8 +310,12 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     """Integrate `model` from y0 at t[0] and report every output time in t.
 
     method: rk4, midpoint, gauss2, rk8, abm12 (fixed step: `step` required), dopri5,
-    dop853 (adaptive: rtol, atol; `step` is the initial step, optional).  dtype: float32,
-    float64 or longdouble.  backend: "c" (compiled generated C) or "numpy".
+    dop853 (adaptive: rtol, atol; `step` is the initial step, optional; the default), taylor
+    (the generated Taylor integrator: order and step from rtol).  dtype: float32, float64,
+    longdouble, or the top of the precision ladder, "double-double" (106 bits) and "quad"
+    (IEEE binary128, 113 bits), which run taylor (the default there) and give r.y_exact, the
+    values exactly as mpmath numbers, beside r.y in long double (derive/integration/extended.py).
+    backend: "c" (compiled generated C) or "numpy".
     A fixed step h steps on the grid t[0] + k h whatever the output times: an output
     between grid points is reached by a shortened step from the grid point before it
     (r.step is h, r.last_step the shortened step to the last output, None when it is on
@@ -334,6 +339,9 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     Adaptive runs have r.sol(t), the continuous solution (derive/integration/dense.py).
     """
     model = resolve_model(model, atlas)
+    precision = extended.precision_of(dtype)
+    if method is None:
+        method = TAYLOR if precision else "dop853"
     if not isinstance(method, str) or method not in RUN_METHODS:
         raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(RUN_METHODS)})")
     if backend not in ("c", "numpy"):
@@ -341,6 +349,10 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     if method == TAYLOR and (backend != "c" or _atlas(model) is not None):
         raise SimulationInputError("the Taylor integrator runs in generated C on single-chart models: "
                                    "use backend='c' and a model, not the atlas")
+    if precision is not None:
+        return _simulate_extended(model, precision, y0, t, params, method, rtol=rtol, atol=atol, step=step,
+                                  max_steps=max_steps, sine_min=sine_min, hmax=hmax, inputs=inputs,
+                                  events=events)
     dt = _dtype(dtype)
     p = normalise_params(model, params)
     u = normalise_inputs(model, inputs)
@@ -377,6 +389,39 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
         result.sol = dense.dense_output(result, model, method, backend, dt, opt, p, held)
     if wanted:
         result = events_module.locate(result, wanted, opt["rtol"])
+    return result
+
+
+def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, step, max_steps, sine_min,
+                       hmax, inputs, events) -> SimulationResult:
+    """The double-double and quad rungs: simulate's checks on the arguments, then the
+    Taylor integrator in that precision (derive/integration/extended.py)."""
+    if method != TAYLOR:
+        raise SimulationInputError(f"dtype '{precision}' runs the Taylor integrator: use method='taylor' "
+                                   f"(or leave method out), not '{method}'")
+    for name, value in (("step", step), ("atol", atol), ("events", events)):
+        if value is not None:
+            raise SimulationInputError(f"dtype '{precision}' takes no {name}= (the Taylor integrator's "
+                                       f"order and step follow rtol)")
+    if callable(inputs):
+        raise SimulationInputError(f"dtype '{precision}' takes inputs held constant (a mapping or a sequence)")
+    p = normalise_params(model, params)             # the usual checks, one line each
+    normalise_inputs(model, inputs)
+    ts = normalise_t(t)
+    state, _, _ = normalise_y0(model, y0, p)
+    _check_angles(model, state, np.dtype(np.longdouble))
+    run_options(TAYLOR, np.dtype(np.float64), ts, hmax=hmax, max_steps=max_steps, sine_min=sine_min)
+    if isinstance(y0, Mapping) and set(y0) & {"cartesian", "chart", "state"}:
+        raise SimulationInputError(f"dtype '{precision}' takes y0 as the state (a sequence or a mapping by name)")
+    result = extended.simulate_extended(model, precision, y0, t, params, rtol, hmax, max_steps, sine_min,
+                                        inputs)
+    y, pm, dt = result.y, result.params, np.dtype(np.longdouble)
+
+    def observe():       # in long double, on first access of r.energy, r.positions or r.velocities
+        return (*_observables(model, y, pm, "c", dt), _velocities(model, y, pm, "c", dt))
+
+    result.observe = observe
+    result.energy = result.positions = result.velocities = LAZY
     return result
 
 
