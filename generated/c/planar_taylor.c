@@ -232,6 +232,7 @@ int planar_taylor(const double *y0, const double *p, long nt, const double *t_ou
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)t_out[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)y0[i] : 0;
@@ -335,6 +336,9 @@ int planar_taylor(const double *y0, const double *p, long nt, const double *t_ou
         for (i = 0; i < N; ++i) {
             X[i][0] = planar_thorner(X[i], order, dir * h);
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += (double)(n2 * pow(h, (double)order) * (h / rho));
         t = last ? tend : t + dir * h;
         steps += 1;
         info->naccepted += 1;
@@ -575,6 +579,7 @@ int planar_taylor_f(const float *y0, const float *p, long nt, const float *t_out
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)t_out[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)y0[i] : 0;
@@ -678,6 +683,9 @@ int planar_taylor_f(const float *y0, const float *p, long nt, const float *t_out
         for (i = 0; i < N; ++i) {
             X[i][0] = planar_thorner_f(X[i], order, dir * h);
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += (double)(n2 * powf(h, (float)order) * (h / rho));
         t = last ? tend : t + dir * h;
         steps += 1;
         info->naccepted += 1;
@@ -918,6 +926,7 @@ int planar_taylor_l(const long double *y0, const long double *p, long nt, const 
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)t_out[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)y0[i] : 0;
@@ -1021,6 +1030,9 @@ int planar_taylor_l(const long double *y0, const long double *p, long nt, const 
         for (i = 0; i < N; ++i) {
             X[i][0] = planar_thorner_l(X[i], order, dir * h);
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += (double)(n2 * powl(h, (long double)order) * (h / rho));
         t = last ? tend : t + dir * h;
         steps += 1;
         info->naccepted += 1;

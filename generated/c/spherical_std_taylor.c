@@ -374,6 +374,7 @@ int spherical_std_taylor(const double *y0, const double *p, long nt, const doubl
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)t_out[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)y0[i] : 0;
@@ -477,6 +478,9 @@ int spherical_std_taylor(const double *y0, const double *p, long nt, const doubl
         for (i = 0; i < N; ++i) {
             X[i][0] = spherical_std_thorner(X[i], order, dir * h);
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += (double)(n2 * pow(h, (double)order) * (h / rho));
         t = last ? tend : t + dir * h;
         steps += 1;
         info->naccepted += 1;
@@ -859,6 +863,7 @@ int spherical_std_taylor_f(const float *y0, const float *p, long nt, const float
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)t_out[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)y0[i] : 0;
@@ -962,6 +967,9 @@ int spherical_std_taylor_f(const float *y0, const float *p, long nt, const float
         for (i = 0; i < N; ++i) {
             X[i][0] = spherical_std_thorner_f(X[i], order, dir * h);
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += (double)(n2 * powf(h, (float)order) * (h / rho));
         t = last ? tend : t + dir * h;
         steps += 1;
         info->naccepted += 1;
@@ -1344,6 +1352,7 @@ int spherical_std_taylor_l(const long double *y0, const long double *p, long nt,
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)t_out[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)y0[i] : 0;
@@ -1447,6 +1456,9 @@ int spherical_std_taylor_l(const long double *y0, const long double *p, long nt,
         for (i = 0; i < N; ++i) {
             X[i][0] = spherical_std_thorner_l(X[i], order, dir * h);
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += (double)(n2 * powl(h, (long double)order) * (h / rho));
         t = last ? tend : t + dir * h;
         steps += 1;
         info->naccepted += 1;
