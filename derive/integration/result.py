@@ -34,7 +34,9 @@ class SimulationResult:
       second, more accurate run (rtol and atol / 100; a fixed step halved, the difference
       Richardson-scaled by 1 / (1 - 2^-order)): an estimate of the global error of r.y
       itself, per row and state in error_y (NaN where either run has no value, or, on the
-      atlas, the two runs are in different charts).
+      atlas, the two runs are in different charts).  Where the error is roundoff (about
+      1e-13 and below in double) the difference underestimates it: a smaller step or
+      tolerance does not reduce roundoff.
     """
     model: str
     method: str

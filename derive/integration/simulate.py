@@ -3,6 +3,7 @@
     r = simulate("planar", [1.0, 0.5, 0, 0], numpy.linspace(0, 10, 101),
                  {"m1": 1, "m2": 1, "l1": 1, "l2": 1, "g": 9.81}, method="dop853")
     r.t, r.y, r.energy, r.positions, r.status, r.ok, r.message, r.nfev
+    r.error_estimate, r.error_kind      (the run's own error estimate: result.py)
 
 Models: planar, compound, spherical_std, spherical_alt, spherical_rot (one chart
 each: the run stops with status 'chart singular' rather than evaluate a kernel
