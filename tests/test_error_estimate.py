@@ -95,3 +95,8 @@ def test_a_bad_error_estimate_is_one_line():
         with pytest.raises(SimulationInputError, match="error_estimate must be 'local'") as info:
             derive.simulate("planar", REGULAR, [0, 1], PLANAR, error_estimate=bad)
         assert "\n" not in str(info.value)
+
+
+def test_the_start_alone_needs_no_rerun():
+    r = derive.simulate("planar", REGULAR, [0.0], PLANAR, method="rk4", error_estimate="rerun")
+    assert r.error_estimate == 0.0 and r.error_y.shape == (1, 4) and not r.error_y.any()

@@ -440,6 +440,10 @@ def _reference_settings(method: str, opt: dict, dt: np.dtype, max_steps) -> tupl
 
 def _estimate_by_rerun(result: SimulationResult, rerun, method: str, opt: dict, dt: np.dtype, max_steps) -> None:
     """Fill result's error fields from a second, more accurate run (error_estimate='rerun')."""
+    if len(result.t) < 2:              # the start alone: y0 itself, exact (and no step to halve)
+        result.error_y, result.error_estimate = np.zeros(np.shape(result.y)), 0.0
+        result.error_kind = "rerun: the start alone, exact"
+        return
     changes, kind, factor = _reference_settings(method, opt, dt, max_steps)
     try:
         reference = rerun(**changes)
