@@ -280,7 +280,7 @@ def simulate_extended(model: str, precision: str, y0, t, params, rtol, hmax, max
     """simulate(..., dtype='double-double' | 'quad'): the Taylor integrator on one
     trajectory; the checks of simulate have run on the same arguments before."""
     from .contract import STATUS_NAMES, COUNTERS
-    from .result import SimulationResult
+    from .result import LOCAL_SUM, SimulationResult
     info = model_info(model)
     tol = DEFAULT_RTOL[precision] if rtol is None else rtol
     floor = 10 * UNIT_ROUNDOFF[precision]
@@ -309,4 +309,4 @@ def simulate_extended(model: str, precision: str, y0, t, params, rtol, hmax, max
         model=model, method="taylor", backend="c", dtype=precision, t=as_longdouble(ts), y=y,
         energy=None, positions=None, status=status, status_name=STATUS_NAMES[status],
         t_stop=float(inf.t), y_stop=np.array(inf.y[:]), params=pm, rtol=float(tol), y_exact=exact_y,
-        **counters)
+        error_estimate=float(inf.local_error), error_kind=LOCAL_SUM, **counters)

@@ -387,7 +387,7 @@ int compound_taylor(const R *y0, const R *p, long nt, const R *t_out, R *y_out, 
 {
     R X[N][ORDER_DIM];
     R t, h = T_INT(0), tend, tau, span;
-    S hs, tol, m, n1, n2, r, hmax, safety;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
     int i, order, dir, st = COMPOUND_INTEGRATE_OK, last;
     compound_integrate_info local;
@@ -406,6 +406,7 @@ int compound_taylor(const R *y0, const R *p, long nt, const R *t_out, R *y_out, 
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
@@ -468,16 +469,19 @@ int compound_taylor(const R *y0, const R *p, long nt, const R *t_out, R *y_out, 
             st = COMPOUND_INTEGRATE_NONFINITE;
             break;
         }
-        /* the step from the last two coefficients, then capped by hmax (the safety factor
-         * applies to the series' radius only, never to the cap) */
-        hs = hmax;              /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = pow(m / n1, (S)1 / (S)(order - 1)) * safety;
-            hs = r < hs ? r : hs;
+            rho = pow(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = pow(m / n2, (S)1 / (S)order) * safety;
-            hs = r < hs ? r : hs;
+            r = pow(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
+        }
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
         if (!(hs > 0)) {
             st = COMPOUND_INTEGRATE_STEP_UNDERFLOW;
@@ -506,6 +510,9 @@ int compound_taylor(const R *y0, const R *p, long nt, const R *t_out, R *y_out, 
         for (i = 0; i < N; ++i) {
             X[i][0] = compound_thorner(X[i], order, T_MULI(h, dir));
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * pow(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
         t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
@@ -760,7 +767,7 @@ int compound_taylor_f(const R *y0, const R *p, long nt, const R *t_out, R *y_out
 {
     R X[N][ORDER_DIM];
     R t, h = T_INT(0), tend, tau, span;
-    S hs, tol, m, n1, n2, r, hmax, safety;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
     int i, order, dir, st = COMPOUND_INTEGRATE_OK, last;
     compound_integrate_info local;
@@ -779,6 +786,7 @@ int compound_taylor_f(const R *y0, const R *p, long nt, const R *t_out, R *y_out
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
@@ -841,16 +849,19 @@ int compound_taylor_f(const R *y0, const R *p, long nt, const R *t_out, R *y_out
             st = COMPOUND_INTEGRATE_NONFINITE;
             break;
         }
-        /* the step from the last two coefficients, then capped by hmax (the safety factor
-         * applies to the series' radius only, never to the cap) */
-        hs = hmax;              /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = powf(m / n1, (S)1 / (S)(order - 1)) * safety;
-            hs = r < hs ? r : hs;
+            rho = powf(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = powf(m / n2, (S)1 / (S)order) * safety;
-            hs = r < hs ? r : hs;
+            r = powf(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
+        }
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
         if (!(hs > 0)) {
             st = COMPOUND_INTEGRATE_STEP_UNDERFLOW;
@@ -879,6 +890,9 @@ int compound_taylor_f(const R *y0, const R *p, long nt, const R *t_out, R *y_out
         for (i = 0; i < N; ++i) {
             X[i][0] = compound_thorner_f(X[i], order, T_MULI(h, dir));
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * powf(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
         t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
@@ -1133,7 +1147,7 @@ int compound_taylor_l(const R *y0, const R *p, long nt, const R *t_out, R *y_out
 {
     R X[N][ORDER_DIM];
     R t, h = T_INT(0), tend, tau, span;
-    S hs, tol, m, n1, n2, r, hmax, safety;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
     int i, order, dir, st = COMPOUND_INTEGRATE_OK, last;
     compound_integrate_info local;
@@ -1152,6 +1166,7 @@ int compound_taylor_l(const R *y0, const R *p, long nt, const R *t_out, R *y_out
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
@@ -1214,16 +1229,19 @@ int compound_taylor_l(const R *y0, const R *p, long nt, const R *t_out, R *y_out
             st = COMPOUND_INTEGRATE_NONFINITE;
             break;
         }
-        /* the step from the last two coefficients, then capped by hmax (the safety factor
-         * applies to the series' radius only, never to the cap) */
-        hs = hmax;              /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = powl(m / n1, (S)1 / (S)(order - 1)) * safety;
-            hs = r < hs ? r : hs;
+            rho = powl(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = powl(m / n2, (S)1 / (S)order) * safety;
-            hs = r < hs ? r : hs;
+            r = powl(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
+        }
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
         if (!(hs > 0)) {
             st = COMPOUND_INTEGRATE_STEP_UNDERFLOW;
@@ -1252,6 +1270,9 @@ int compound_taylor_l(const R *y0, const R *p, long nt, const R *t_out, R *y_out
         for (i = 0; i < N; ++i) {
             X[i][0] = compound_thorner_l(X[i], order, T_MULI(h, dir));
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * powl(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
         t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
@@ -1506,7 +1527,7 @@ int compound_taylor_dd(const R *y0, const R *p, long nt, const R *t_out, R *y_ou
 {
     R X[N][ORDER_DIM];
     R t, h = T_INT(0), tend, tau, span;
-    S hs, tol, m, n1, n2, r, hmax, safety;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
     int i, order, dir, st = COMPOUND_INTEGRATE_OK, last;
     compound_integrate_info local;
@@ -1525,6 +1546,7 @@ int compound_taylor_dd(const R *y0, const R *p, long nt, const R *t_out, R *y_ou
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
@@ -1587,16 +1609,19 @@ int compound_taylor_dd(const R *y0, const R *p, long nt, const R *t_out, R *y_ou
             st = COMPOUND_INTEGRATE_NONFINITE;
             break;
         }
-        /* the step from the last two coefficients, then capped by hmax (the safety factor
-         * applies to the series' radius only, never to the cap) */
-        hs = hmax;              /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = pow(m / n1, (S)1 / (S)(order - 1)) * safety;
-            hs = r < hs ? r : hs;
+            rho = pow(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = pow(m / n2, (S)1 / (S)order) * safety;
-            hs = r < hs ? r : hs;
+            r = pow(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
+        }
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
         if (!(hs > 0)) {
             st = COMPOUND_INTEGRATE_STEP_UNDERFLOW;
@@ -1625,6 +1650,9 @@ int compound_taylor_dd(const R *y0, const R *p, long nt, const R *t_out, R *y_ou
         for (i = 0; i < N; ++i) {
             X[i][0] = compound_thorner_dd(X[i], order, T_MULI(h, dir));
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * pow(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
         t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;

@@ -230,7 +230,7 @@ int planar_taylor_q(const R *y0, const R *p, long nt, const R *t_out, R *y_out, 
 {
     R X[N][ORDER_DIM];
     R t, h = T_INT(0), tend, tau, span;
-    S hs, tol, m, n1, n2, r, hmax, safety;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
     int i, order, dir, st = PLANAR_INTEGRATE_OK, last;
     planar_integrate_info local;
@@ -249,6 +249,7 @@ int planar_taylor_q(const R *y0, const R *p, long nt, const R *t_out, R *y_out, 
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
@@ -311,16 +312,19 @@ int planar_taylor_q(const R *y0, const R *p, long nt, const R *t_out, R *y_out, 
             st = PLANAR_INTEGRATE_NONFINITE;
             break;
         }
-        /* the step from the last two coefficients, then capped by hmax (the safety factor
-         * applies to the series' radius only, never to the cap) */
-        hs = hmax;              /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = powq(m / n1, (S)1 / (S)(order - 1)) * safety;
-            hs = r < hs ? r : hs;
+            rho = powq(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = powq(m / n2, (S)1 / (S)order) * safety;
-            hs = r < hs ? r : hs;
+            r = powq(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
+        }
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
         if (!(hs > 0)) {
             st = PLANAR_INTEGRATE_STEP_UNDERFLOW;
@@ -349,6 +353,9 @@ int planar_taylor_q(const R *y0, const R *p, long nt, const R *t_out, R *y_out, 
         for (i = 0; i < N; ++i) {
             X[i][0] = planar_thorner_q(X[i], order, T_MULI(h, dir));
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * powq(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
         t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;

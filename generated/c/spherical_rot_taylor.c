@@ -542,7 +542,7 @@ int spherical_rot_taylor(const R *y0, const R *p, long nt, const R *t_out, R *y_
 {
     R X[N][ORDER_DIM];
     R t, h = T_INT(0), tend, tau, span;
-    S hs, tol, m, n1, n2, r, hmax, safety;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
     int i, order, dir, st = SPHERICAL_ROT_INTEGRATE_OK, last;
     spherical_rot_integrate_info local;
@@ -561,6 +561,7 @@ int spherical_rot_taylor(const R *y0, const R *p, long nt, const R *t_out, R *y_
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
@@ -623,16 +624,19 @@ int spherical_rot_taylor(const R *y0, const R *p, long nt, const R *t_out, R *y_
             st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
             break;
         }
-        /* the step from the last two coefficients, then capped by hmax (the safety factor
-         * applies to the series' radius only, never to the cap) */
-        hs = hmax;              /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = pow(m / n1, (S)1 / (S)(order - 1)) * safety;
-            hs = r < hs ? r : hs;
+            rho = pow(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = pow(m / n2, (S)1 / (S)order) * safety;
-            hs = r < hs ? r : hs;
+            r = pow(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
+        }
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
         if (!(hs > 0)) {
             st = SPHERICAL_ROT_INTEGRATE_STEP_UNDERFLOW;
@@ -661,6 +665,9 @@ int spherical_rot_taylor(const R *y0, const R *p, long nt, const R *t_out, R *y_
         for (i = 0; i < N; ++i) {
             X[i][0] = spherical_rot_thorner(X[i], order, T_MULI(h, dir));
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * pow(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
         t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
@@ -1070,7 +1077,7 @@ int spherical_rot_taylor_f(const R *y0, const R *p, long nt, const R *t_out, R *
 {
     R X[N][ORDER_DIM];
     R t, h = T_INT(0), tend, tau, span;
-    S hs, tol, m, n1, n2, r, hmax, safety;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
     int i, order, dir, st = SPHERICAL_ROT_INTEGRATE_OK, last;
     spherical_rot_integrate_info local;
@@ -1089,6 +1096,7 @@ int spherical_rot_taylor_f(const R *y0, const R *p, long nt, const R *t_out, R *
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
@@ -1151,16 +1159,19 @@ int spherical_rot_taylor_f(const R *y0, const R *p, long nt, const R *t_out, R *
             st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
             break;
         }
-        /* the step from the last two coefficients, then capped by hmax (the safety factor
-         * applies to the series' radius only, never to the cap) */
-        hs = hmax;              /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = powf(m / n1, (S)1 / (S)(order - 1)) * safety;
-            hs = r < hs ? r : hs;
+            rho = powf(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = powf(m / n2, (S)1 / (S)order) * safety;
-            hs = r < hs ? r : hs;
+            r = powf(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
+        }
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
         if (!(hs > 0)) {
             st = SPHERICAL_ROT_INTEGRATE_STEP_UNDERFLOW;
@@ -1189,6 +1200,9 @@ int spherical_rot_taylor_f(const R *y0, const R *p, long nt, const R *t_out, R *
         for (i = 0; i < N; ++i) {
             X[i][0] = spherical_rot_thorner_f(X[i], order, T_MULI(h, dir));
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * powf(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
         t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
@@ -1598,7 +1612,7 @@ int spherical_rot_taylor_l(const R *y0, const R *p, long nt, const R *t_out, R *
 {
     R X[N][ORDER_DIM];
     R t, h = T_INT(0), tend, tau, span;
-    S hs, tol, m, n1, n2, r, hmax, safety;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
     int i, order, dir, st = SPHERICAL_ROT_INTEGRATE_OK, last;
     spherical_rot_integrate_info local;
@@ -1617,6 +1631,7 @@ int spherical_rot_taylor_l(const R *y0, const R *p, long nt, const R *t_out, R *
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
@@ -1679,16 +1694,19 @@ int spherical_rot_taylor_l(const R *y0, const R *p, long nt, const R *t_out, R *
             st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
             break;
         }
-        /* the step from the last two coefficients, then capped by hmax (the safety factor
-         * applies to the series' radius only, never to the cap) */
-        hs = hmax;              /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = powl(m / n1, (S)1 / (S)(order - 1)) * safety;
-            hs = r < hs ? r : hs;
+            rho = powl(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = powl(m / n2, (S)1 / (S)order) * safety;
-            hs = r < hs ? r : hs;
+            r = powl(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
+        }
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
         if (!(hs > 0)) {
             st = SPHERICAL_ROT_INTEGRATE_STEP_UNDERFLOW;
@@ -1717,6 +1735,9 @@ int spherical_rot_taylor_l(const R *y0, const R *p, long nt, const R *t_out, R *
         for (i = 0; i < N; ++i) {
             X[i][0] = spherical_rot_thorner_l(X[i], order, T_MULI(h, dir));
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * powl(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
         t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
@@ -2126,7 +2147,7 @@ int spherical_rot_taylor_dd(const R *y0, const R *p, long nt, const R *t_out, R 
 {
     R X[N][ORDER_DIM];
     R t, h = T_INT(0), tend, tau, span;
-    S hs, tol, m, n1, n2, r, hmax, safety;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
     int i, order, dir, st = SPHERICAL_ROT_INTEGRATE_OK, last;
     spherical_rot_integrate_info local;
@@ -2145,6 +2166,7 @@ int spherical_rot_taylor_dd(const R *y0, const R *p, long nt, const R *t_out, R 
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
@@ -2207,16 +2229,19 @@ int spherical_rot_taylor_dd(const R *y0, const R *p, long nt, const R *t_out, R 
             st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
             break;
         }
-        /* the step from the last two coefficients, then capped by hmax (the safety factor
-         * applies to the series' radius only, never to the cap) */
-        hs = hmax;              /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = pow(m / n1, (S)1 / (S)(order - 1)) * safety;
-            hs = r < hs ? r : hs;
+            rho = pow(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = pow(m / n2, (S)1 / (S)order) * safety;
-            hs = r < hs ? r : hs;
+            r = pow(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
+        }
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
         if (!(hs > 0)) {
             st = SPHERICAL_ROT_INTEGRATE_STEP_UNDERFLOW;
@@ -2245,6 +2270,9 @@ int spherical_rot_taylor_dd(const R *y0, const R *p, long nt, const R *t_out, R 
         for (i = 0; i < N; ++i) {
             X[i][0] = spherical_rot_thorner_dd(X[i], order, T_MULI(h, dir));
         }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * pow(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
         t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
