@@ -36,11 +36,14 @@ FULL = 1000
 G = 9.81
 
 
-def sweep_file(folder: Path, grid: int, verified: bool = True) -> Path:
+def sweep_file(folder: Path, grid: int, verified: bool = True, mirror: bool = True) -> Path:
     text = (ROOT / "derive" / "scenes" / "flip_map.toml").read_text()
     if not verified:
         assert "\naccuracy = 1e-6\n" in text
         text = text.replace("\naccuracy = 1e-6\n", "\n")
+    if not mirror:
+        assert "\n[sweep]\n" in text
+        text = text.replace("\n[sweep]\n", "\n[sweep]\nmirror = false\n")
     if grid != FULL:
         text = text.replace(f"num = {FULL}", f"num = {grid}")
     path = folder / "flip_map.toml"
@@ -127,14 +130,17 @@ def main() -> int:
     ap.add_argument("--check", type=int, default=0, help="grid points to check against solve_ivp")
     ap.add_argument("--image", help="keep the last run's store and image in this folder")
     ap.add_argument("--unverified", action="store_true",
-                    help="without the flip times' verification (events.flip.accuracy): one pass at rtol 1e-12")
+                    help="without the flip times' verification (events.flip.accuracy): one pass")
+    ap.add_argument("--no-mirror", action="store_true",
+                    help="every chunk integrated ([sweep] mirror = false), none as a mirror image")
     args = ap.parse_args()
     from derive.sweep import store
     total = args.grid ** 2
     print(f"machine {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the start")
     with tempfile.TemporaryDirectory() as tmp:
-        path = sweep_file(Path(tmp), args.grid, verified=not args.unverified)
-        print(f"flip map, {'without' if args.unverified else 'with'} the verification of each flip time")
+        path = sweep_file(Path(tmp), args.grid, verified=not args.unverified, mirror=not args.no_mirror)
+        print(f"flip map, {'without' if args.unverified else 'with'} the verification of each flip time, "
+              f"{'without' if args.no_mirror else 'with'} the mirror symmetry")
         previous = None
         for n in (int(w) for w in args.workers.split(",")):
             out = Path(args.image) if args.image and n == int(args.workers.split(",")[-1]) else Path(tmp) / f"w{n}"
@@ -147,6 +153,9 @@ def main() -> int:
             line = (f"workers {n}: {total:,} trajectories in {report.seconds:.1f} s "
                     f"(cluster start-up {startup:.1f} s apart): {rate:,.0f}/s, {rate / n:,.0f}/s per worker, "
                     f"{per_cpu:,.0f} per CPU second")
+            if report.mirrored:
+                line += (f" ({report.mirrored} of {report.chunks} chunks the mirror image of another: "
+                         f"{report.computed_trajectories / report.cpu_seconds:,.0f} integrated per CPU second)")
             if args.grid != FULL:
                 line += (f"; extrapolated to the {FULL} x {FULL} map: {FULL ** 2 / rate:.0f} s "
                          f"(by trajectories per second; the grid's mix of flip times differs a little)")

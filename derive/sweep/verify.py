@@ -41,7 +41,7 @@ from .spec import Sweep
 TIGHTER = 1000                   # each run again: a thousandth of the tolerance before
 DOUBLE_RTOL_MIN = 1e-15          # 10 eps of double: no tighter in double
 LONG_DOUBLE_RTOL_MIN = 1e-17     # 100 eps of long double (x86: eps 1.1e-19)
-WINDOW = 10                      # samples: run-again ends are rounded up to a multiple of this
+WINDOW = 20                      # samples: run-again ends are rounded up to a multiple of this
 
 
 def error_ratio(method: str, loose: float, tight: float) -> float:
@@ -96,7 +96,10 @@ def verify_events(sweep: Sweep, model: str, y0: np.ndarray, p: np.ndarray, out: 
                                               np.full(beyond.size, np.nan), dtype)
             against = np.where(lost, first, previous)
             d = np.abs(again - against)
-            r = np.array([error_ratio(scene.method, tol, tight) for tol in np.where(lost, R, previous_tol)])
+            loose = np.where(lost, R, previous_tol)
+            r = np.ones_like(loose)
+            for tol in np.unique(loose):
+                r[loose == tol] = error_ratio(scene.method, tol, tight)
             keep = (d <= e.accuracy) | (k == len(ladder) - 1)
             best[rows[keep]] = again[keep]          # the last rung's, even NaN: no event by the best run
             error[rows[keep]] = d[keep] * r[keep] / (1 - r[keep])
