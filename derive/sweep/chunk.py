@@ -10,7 +10,10 @@ last state).  Each piece samples the trajectories at the sweep's output times, a
 the event times, maxima and energy are taken from those samples (events.py);
 when every recorded quantity is an event time, a trajectory leaves the batch once
 its events have happened, and so does one that energy alone keeps from them
-(bounds.py).  The results depend only on the chunk, never on where it ran.
+(bounds.py).  Event times with an accuracy are then verified (verify.py).  The
+method is any of the compiled integrators or Taylor's method (<model>_taylor.c, whose
+dense output makes the samples nearly free).  The results depend only on the chunk,
+never on where it ran.
 """
 from __future__ import annotations
 
@@ -96,6 +99,7 @@ def runner(model: str, method: str, rtol: float | None, atol: float | None, step
 
 
 def scene_runner(sweep: Sweep, model: str):
+    """The runner of the sweep's own method and tolerance (the first pass)."""
     scene = sweep.scene
     return runner(model, scene.method, scene.rtol, scene.atol, scene.step)
 
