@@ -1,23 +1,27 @@
 """Throughput of `derive sweep` on the flip-time map (a benchmark, not a test).
 
     PYTHONPATH=. python bench/sweep.py [--grid N] [--workers 1,2] [--check 200] [--image DIR]
+                                       [--unverified] [--no-mirror]
 
-Runs derive/scenes/flip_map.toml (every flip time verified to 1e-6; --unverified: one pass
-at rtol 1e-12 without it) (theta1 x theta2 on an N x N grid, default the full
-1000 x 1000) on a local Dask cluster of 1 and of 2 worker processes, each into a
-fresh store, and prints per run: the wall time of the chunks (the cluster's start-up
-is not in it; it is printed apart), trajectories per second, per worker, and per CPU
-second (the CPU time the tasks themselves took: the figure per core whatever else
-shares the machine).  A grid smaller than 1000 is extrapolated to the full map by
-trajectories per second, and the output says so.  The two runs' stores must be equal
-bit for bit.
+Runs derive/scenes/flip_map.toml (Taylor's method at rtol 1e-9, every flip time verified
+to 1e-6, half the chunks written as the mirror images of the others; --unverified: one
+pass without the verification; --no-mirror: every chunk integrated) (theta1 x theta2 on
+an N x N grid, default the full 1000 x 1000) on a local Dask cluster of 1 and of 2
+worker processes, each into a fresh store, and prints per run: the wall time of the
+chunks (the cluster's start-up is not in it; it is printed apart), trajectories per
+second, per worker, and per CPU second (the CPU time the tasks themselves took: the
+figure per core whatever else shares the machine; with the mirror, also the trajectories
+integrated per CPU second, half the map's).  A grid smaller than 1000 is extrapolated to
+the full map by trajectories per second, and the output says so.  The two runs' stores
+must be equal bit for bit.
 
 --check K: K random grid points of the map against SciPy's DOP853 at rtol 1e-12 with
 event functions on the textbook equations of the m = l = 1 pendulum (independent of
 derive's derivation), and against derive's DOP853 in long double at rtol 1e-17 (the same
-equations, 10^4 times tighter than the map): flip/no-flip agreement and the largest
-flip-time difference.  (SciPy at 1e-12 is itself off by up to a few 1e-6 on the latest,
-most chaotic flips; the long-double run is the sharper reference there.)
+equations, another method, 10^8 times tighter than the map's first pass): flip/no-flip
+agreement and the largest flip-time difference.  (SciPy at 1e-12 is itself off by up to
+a few 1e-6 on the latest, most chaotic flips; the long-double run is the sharper
+reference there.)
 """
 from __future__ import annotations
 

@@ -105,13 +105,19 @@ def scene_runner(sweep: Sweep, model: str):
 
 
 def prepare(sweep: Sweep) -> None:
-    """Build (or load from the cache) every integrator the sweep's chunks use."""
+    """Build (or load from the cache) every integrator the sweep's chunks use, alongside
+    one another (each a compiler process: a Taylor library of high order takes a compiler
+    ten seconds and more)."""
+    from concurrent.futures import ThreadPoolExecutor
     from .verify import rungs
     model = _model(sweep)
-    scene_runner(sweep, model)
+    integrator_library(model)                    # renders the model's sources, once
+    scene = sweep.scene
+    settings = [(scene.rtol, scene.atol, scene.step)]
     if any(e.accuracy is not None for e in sweep.events):
-        for rtol, atol, _ in rungs(sweep.scene):
-            runner(model, sweep.scene.method, rtol, atol)
+        settings += [(rtol, atol, None) for rtol, atol, _ in rungs(scene)]
+    with ThreadPoolExecutor(max_workers=len(settings)) as pool:
+        list(pool.map(lambda s: runner(model, scene.method, *s), settings))
 
 
 def _status(infos) -> np.ndarray:
