@@ -334,10 +334,10 @@ def test_mirror_only_where_the_sweep_has_it(tmp_path):
     driven = (ROOT / "examples" / "models" / "driven.toml").resolve()
     text = path.read_text().replace('model = "planar"', f'model = "{driven}"').replace(
         "g = 9.81 }", "g = 9.81, c1 = 0.1, c2 = 0.1 }\ninputs = { tau1 = TAU, tau2 = 0.0 }")
-    for tau, odd in (("0.0", True), ("0.5", False)):
-        (tmp_path / "d.toml").write_text(text.replace("TAU", tau))
+    for tau, axis, odd in (("0.0", "", True), ("0.5", "", False), ("0.0", "tau1 = { list = [0.0, 0.5] }\n", False)):
+        (tmp_path / "d.toml").write_text(text.replace("TAU", tau).replace("[axes]\n", "[axes]\n" + axis))
         sweep = load_sweep(tmp_path / "d.toml")
-        assert (plan(sweep, Layout(sweep)) is not None) == odd, tau
+        assert (plan(sweep, Layout(sweep)) is not None) == odd, (tau, axis)
 
 
 def test_taylor_in_a_sweep_file(tmp_path):

@@ -27,6 +27,7 @@ from .spec import Sweep
 
 MIRRORED = "final_"                 # the quantities that change sign: the final states
 CHECKS = 6                          # trajectories integrated twice by plan (and their mirrors)
+MAX_PARAMETER_ROWS = 64             # parameter rows the check covers; more: no mirror
 
 
 def _quantities_allow(sweep: Sweep) -> bool:
@@ -78,20 +79,30 @@ def plan(sweep: Sweep, layout: Layout) -> dict[int, int] | None:
 
 
 def _odd_to_the_bit(sweep: Sweep, model: str) -> bool:
-    """A few of the sweep's trajectories and their mirror images, over the whole span with
-    every integrator the sweep uses (its method, and the verification's runs): every
-    sample the negative of the other's, to the bit."""
+    """Trajectories of the sweep and their mirror images, over the whole span with every
+    integrator the sweep uses (its method, and the verification's runs): every sample the
+    negative of the other's, to the bit.  Each parameter row the axes make is checked (a
+    parameter may be a constant torque: odd at 0 only), at most MAX_PARAMETER_ROWS."""
+    import itertools
     from .chunk import runner, scene_runner
-    from .layout import chunk_inputs
     from .verify import rungs
-    layout = Layout(sweep)
+    held = [a for a in sweep.grid_axes if a.target != "state"]
+    states = [a for a in sweep.grid_axes if a.target == "state"]
+    combos = list(itertools.islice(itertools.product(*(a.values for a in held)), MAX_PARAMETER_ROWS + 1))
+    if len(combos) > MAX_PARAMETER_ROWS:
+        return False
     rng = np.random.default_rng(0)
     y0, p = [], []
-    for k in rng.choice(layout.count, size=min(CHECKS, layout.count), replace=False):
-        ys, ps = chunk_inputs(sweep, layout, int(k))
-        i = rng.integers(len(ys))
-        y0.append(ys[i])
-        p.append(ps[i])
+    for values in combos:
+        row = sweep.p.copy()
+        for a, v in zip(held, values):
+            row[a.index] = v
+        for _ in range(max(1, CHECKS // len(combos))):
+            y = sweep.y0.copy()
+            for a in states:
+                y[a.index] = a.values[rng.integers(len(a.values))]
+            y0.append(y)
+            p.append(row)
     y0, p = np.array(y0), np.array(p)
     t = np.linspace(sweep.scene.t_start, sweep.scene.t_stop, sweep.scene.outputs)
     runs = [(scene_runner(sweep, model), np.float64)]
