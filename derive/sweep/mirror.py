@@ -14,9 +14,10 @@ Exact, not approximate: derive's integrators and kernels are odd to the bit (sin
 products and sums change sign exactly; norms, tolerances and step sizes see only
 |y|), so the mirror of a computed chunk is what computing it gives, bit for bit;
 the grids are made symmetric to the bit (spec.symmetric).  `plan` checks all of it
-before using it, the oddness on the integrator itself: a few trajectories of the
-sweep and their mirror images, integrated over the whole span, must agree to the
-bit, else the sweep is computed whole.  ([sweep] mirror = false turns it off.)
+before using it, the oddness on the integrators themselves: trajectories of the sweep
+(for each parameter row its axes make, at most MAX_PARAMETER_ROWS) and their mirror
+images, integrated over the whole span by every integrator the sweep uses, must agree
+to the bit, else the sweep is computed whole.  ([sweep] mirror = false turns it off.)
 """
 from __future__ import annotations
 
