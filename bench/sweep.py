@@ -1,23 +1,27 @@
 """Throughput of `derive sweep` on the flip-time map (a benchmark, not a test).
 
     PYTHONPATH=. python bench/sweep.py [--grid N] [--workers 1,2] [--check 200] [--image DIR]
+                                       [--unverified] [--no-mirror]
 
-Runs derive/scenes/flip_map.toml (every flip time verified to 1e-6; --unverified: one pass
-at rtol 1e-12 without it) (theta1 x theta2 on an N x N grid, default the full
-1000 x 1000) on a local Dask cluster of 1 and of 2 worker processes, each into a
-fresh store, and prints per run: the wall time of the chunks (the cluster's start-up
-is not in it; it is printed apart), trajectories per second, per worker, and per CPU
-second (the CPU time the tasks themselves took: the figure per core whatever else
-shares the machine).  A grid smaller than 1000 is extrapolated to the full map by
-trajectories per second, and the output says so.  The two runs' stores must be equal
-bit for bit.
+Runs derive/scenes/flip_map.toml (Taylor's method at rtol 1e-9, every flip time verified
+to 1e-6, half the chunks written as the mirror images of the others; --unverified: one
+pass without the verification; --no-mirror: every chunk integrated) (theta1 x theta2 on
+an N x N grid, default the full 1000 x 1000) on a local Dask cluster of 1 and of 2
+worker processes, each into a fresh store, and prints per run: the wall time of the
+chunks (the cluster's start-up is not in it; it is printed apart), trajectories per
+second, per worker, and per CPU second (the CPU time the tasks themselves took: the
+figure per core whatever else shares the machine; with the mirror, also the trajectories
+integrated per CPU second, half the map's).  A grid smaller than 1000 is extrapolated to
+the full map by trajectories per second, and the output says so.  The two runs' stores
+must be equal bit for bit.
 
 --check K: K random grid points of the map against SciPy's DOP853 at rtol 1e-12 with
 event functions on the textbook equations of the m = l = 1 pendulum (independent of
 derive's derivation), and against derive's DOP853 in long double at rtol 1e-17 (the same
-equations, 10^4 times tighter than the map): flip/no-flip agreement and the largest
-flip-time difference.  (SciPy at 1e-12 is itself off by up to a few 1e-6 on the latest,
-most chaotic flips; the long-double run is the sharper reference there.)
+equations, another method, 10^8 times tighter than the map's first pass): flip/no-flip
+agreement and the largest flip-time difference.  (SciPy at 1e-12 is itself off by up to
+a few 1e-6 on the latest, most chaotic flips; the long-double run is the sharper
+reference there.)
 """
 from __future__ import annotations
 
@@ -36,11 +40,14 @@ FULL = 1000
 G = 9.81
 
 
-def sweep_file(folder: Path, grid: int, verified: bool = True) -> Path:
+def sweep_file(folder: Path, grid: int, verified: bool = True, mirror: bool = True) -> Path:
     text = (ROOT / "derive" / "scenes" / "flip_map.toml").read_text()
     if not verified:
         assert "\naccuracy = 1e-6\n" in text
         text = text.replace("\naccuracy = 1e-6\n", "\n")
+    if not mirror:
+        assert "\n[sweep]\n" in text
+        text = text.replace("\n[sweep]\n", "\n[sweep]\nmirror = false\n")
     if grid != FULL:
         text = text.replace(f"num = {FULL}", f"num = {grid}")
     path = folder / "flip_map.toml"
@@ -127,14 +134,17 @@ def main() -> int:
     ap.add_argument("--check", type=int, default=0, help="grid points to check against solve_ivp")
     ap.add_argument("--image", help="keep the last run's store and image in this folder")
     ap.add_argument("--unverified", action="store_true",
-                    help="without the flip times' verification (events.flip.accuracy): one pass at rtol 1e-12")
+                    help="without the flip times' verification (events.flip.accuracy): one pass")
+    ap.add_argument("--no-mirror", action="store_true",
+                    help="every chunk integrated ([sweep] mirror = false), none as a mirror image")
     args = ap.parse_args()
     from derive.sweep import store
     total = args.grid ** 2
     print(f"machine {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the start")
     with tempfile.TemporaryDirectory() as tmp:
-        path = sweep_file(Path(tmp), args.grid, verified=not args.unverified)
-        print(f"flip map, {'without' if args.unverified else 'with'} the verification of each flip time")
+        path = sweep_file(Path(tmp), args.grid, verified=not args.unverified, mirror=not args.no_mirror)
+        print(f"flip map, {'without' if args.unverified else 'with'} the verification of each flip time, "
+              f"{'without' if args.no_mirror else 'with'} the mirror symmetry")
         previous = None
         for n in (int(w) for w in args.workers.split(",")):
             out = Path(args.image) if args.image and n == int(args.workers.split(",")[-1]) else Path(tmp) / f"w{n}"
@@ -147,6 +157,9 @@ def main() -> int:
             line = (f"workers {n}: {total:,} trajectories in {report.seconds:.1f} s "
                     f"(cluster start-up {startup:.1f} s apart): {rate:,.0f}/s, {rate / n:,.0f}/s per worker, "
                     f"{per_cpu:,.0f} per CPU second")
+            if report.mirrored:
+                line += (f" ({report.mirrored} of {report.chunks} chunks the mirror image of another: "
+                         f"{report.computed_trajectories / report.cpu_seconds:,.0f} integrated per CPU second)")
             if args.grid != FULL:
                 line += (f"; extrapolated to the {FULL} x {FULL} map: {FULL ** 2 / rate:.0f} s "
                          f"(by trajectories per second; the grid's mix of flip times differs a little)")

@@ -506,18 +506,21 @@ def cmd_sweep(args) -> int:
     report = run(sweep, out=args.out, scheduler=args.scheduler, workers=args.workers,
                  progress=not args.quiet)
     if not args.quiet:
-        rate = report.computed_trajectories / report.seconds if report.seconds > 0 else 0.0
+        rate = report.written_trajectories / report.seconds if report.seconds > 0 else 0.0
         print(f"sweep   {sweep.source}: {report.trajectories:,} trajectories over "
               f"{' x '.join(f'{d} {n}' for d, n in zip(sweep.dims, sweep.shape))}")
-        print(f"chunks  {report.chunks} ({report.computed} computed on {report.where}, "
+        mirrored = f" ({report.mirrored} as the mirror image of another)" if report.mirrored else ""
+        print(f"chunks  {report.chunks} ({report.computed} computed on {report.where}{mirrored}, "
               f"{report.skipped} done before)")
         print(f"store   {report.store}")
         for image in report.images:
             print(f"wrote   {image}")
-        per_cpu = report.computed_trajectories / report.cpu_seconds if report.cpu_seconds > 0 else 0.0
+        per_cpu = report.written_trajectories / report.cpu_seconds if report.cpu_seconds > 0 else 0.0
+        integrated = report.computed_trajectories / report.cpu_seconds if report.cpu_seconds > 0 else 0.0
         print(f"time    {report.seconds:.2f} s ({rate:,.0f} trajectories/s"
               + (f", {rate / report.workers:,.0f} per worker" if report.workers else "")
-              + f"; {per_cpu:,.0f} per CPU second)")
+              + f"; {per_cpu:,.0f} per CPU second"
+              + (f", {integrated:,.0f} integrated" if report.mirrored else "") + ")")
     return 0
 
 

@@ -186,7 +186,8 @@ def test_flip_times_match_solve_ivp_events_to_1e_6():
 
 def test_verified_flip_time_beyond_double_precision():
     """A slow, late crossing (t = 8.73, theta2' = -0.10 there) whose flip time one double run
-    misses by 2e-5 at rtol 1e-12: the verification (accuracy = 1e-6) finds the disagreement and
+    misses by 2e-5 at DOP853's rtol 1e-12 (and by 2e-3 at the map's Taylor rtol 1e-9; still
+    by 7e-6 at Taylor's 1e-12): the verification (accuracy = 1e-6) finds the disagreement and
     takes the long-double run, which agrees with DOP853 in long double at rtol 1e-17."""
     import dataclasses
     from derive.integration.build import integrator_library
@@ -252,6 +253,103 @@ def test_energy_bound_is_the_flip_criterion():
     criterion = 2 * np.cos(y0[:, 0]) + np.cos(y0[:, 1])
     assert np.array_equal(mask[np.abs(criterion - 1) > 1e-5], (criterion > 1)[np.abs(criterion - 1) > 1e-5])
     assert 0.2 < mask.mean() < 0.4
+
+
+def test_verification_keeps_every_flip_time_within_its_accuracy():
+    """The map's settings on 40 random starts: every verified flip time within 1e-6 of DOP853 in
+    long double at rtol 1e-16 (another method, far tighter), each error estimate below the
+    accuracy, and far closer than one unverified pass at the map's tolerance."""
+    import dataclasses
+    from derive.sweep.chunk import integrate
+    sweep = load_sweep("flip_map")
+    rng = np.random.default_rng(11)
+    y0 = np.zeros((40, 4))
+    y0[:, :2] = rng.uniform(-np.pi, np.pi, (40, 2))
+    p = np.repeat(sweep.p[None], 40, axis=0)
+    out = integrate(sweep, y0, p)
+    reference = _long_double_flips(sweep, y0, rtol=1e-16)
+    assert np.array_equal(np.isnan(out["flip_time"]), np.isnan(reference))
+    flips = np.isfinite(reference)
+    assert flips.sum() >= 15
+    verified = np.abs(out["flip_time"] - reference)[flips]
+    assert verified.max() < 1e-6
+    assert np.all(out["flip_time_error"][flips] < 1e-6)
+    unverified = dataclasses.replace(sweep, events=(dataclasses.replace(sweep.events[0], accuracy=None),))
+    assert np.abs(integrate(unverified, y0, p)["flip_time"] - reference)[flips].max() > 10 * verified.max()
+
+
+def _long_double_flips(sweep, y0, rtol=1e-17):
+    from derive.integration.build import integrator_library
+    lib = integrator_library("planar")
+    opt = lib.defaults()
+    opt.rtol, opt.atol = rtol, rtol * 1e-3
+    pl, t = np.array(sweep.p, np.longdouble), np.linspace(0, 10, 1001).astype(np.longdouble)
+
+    def run(rows, start, local):
+        y, infos = lib.run(2, np.ascontiguousarray(start, dtype=np.longdouble), pl, np.asarray(local, np.longdouble), opt)
+        return y, np.array([i.status for i in infos])
+
+    return events.locate(run, lib.run(2, y0.astype(np.longdouble), pl, t, opt)[0], t, 1, np.pi)
+
+
+# -- the mirror symmetry ------------------------------------------------------------------
+
+def test_mirror_images_equal_computing_every_chunk(tmp_path):
+    """The flip map on a 40 x 40 grid: half the chunks computed and half written as their
+    mirror images equals every chunk computed, bit for bit (the verified flip times and their
+    error estimates, the final states negated)."""
+    text = (ROOT / "scenes" / "flip_map.toml").read_text().replace("num = 1000", "num = 40")
+    text = text.replace('record = ["flip_time"]', 'record = ["flip_time", "final_state", "max_abs_theta1"]')
+    text = text.replace("stop = 10.0", "stop = 3.0").replace("outputs = 251", "outputs = 76")
+    text = text.replace("chunk = 10000", "chunk = 160")
+    (tmp_path / "m.toml").write_text(text)
+    (tmp_path / "all.toml").write_text(text.replace("chunk = 160", "chunk = 160\nmirror = false"))
+    mirrored = run_sweep(tmp_path / "m.toml", out=tmp_path / "m", workers=0)
+    computed = run_sweep(tmp_path / "all.toml", out=tmp_path / "all", workers=0)
+    assert (mirrored.mirrored, mirrored.chunks, computed.mirrored) == (5, 10, 0)
+    assert mirrored.computed_trajectories == 800 and computed.computed_trajectories == 1600
+    same(mirrored.dataset, computed.dataset)
+    ds = mirrored.dataset
+    assert np.isfinite(ds.flip_time).sum() > 100
+    np.testing.assert_array_equal(ds.theta1.values, -ds.theta1.values[::-1])
+
+
+def test_mirror_only_where_the_sweep_has_it(tmp_path):
+    """No mirror for a grid that is not symmetric, a base state off zero, a quantity the mirror
+    is not checked for, or a model that is not odd (a constant torque): the check on the
+    integrator itself sees the last."""
+    from derive.sweep.layout import Layout
+    from derive.sweep.mirror import plan
+    path = write(tmp_path, record='["flip_time", "final_state"]')
+    assert plan(load_sweep(path), Layout(load_sweep(path))) is not None
+    cases = [("theta2 = { linspace = [-3.0, 3.0]", "theta2 = { linspace = [-3.0, 2.9]"),
+             ("theta1 = 0.0, theta2 = 0.0 }\nrest = true", "theta1 = 0.0, theta2 = 0.0, theta1_dot = 0.1, theta2_dot = 0.0 }"),
+             ('record = ["flip_time", "final_state"]', 'record = ["flip_time", "energy_error"]')]
+    for old, new in cases:
+        text = path.read_text()
+        assert old in text
+        (tmp_path / "x.toml").write_text(text.replace(old, new))
+        sweep = load_sweep(tmp_path / "x.toml")
+        assert plan(sweep, Layout(sweep)) is None, new
+    driven = (ROOT / "examples" / "models" / "driven.toml").resolve()
+    text = path.read_text().replace('model = "planar"', f'model = "{driven}"').replace(
+        "g = 9.81 }", "g = 9.81, c1 = 0.1, c2 = 0.1 }\ninputs = { tau1 = TAU, tau2 = 0.0 }")
+    for tau, axis, odd in (("0.0", "", True), ("0.5", "", False), ("0.0", "tau1 = { list = [0.0, 0.5] }\n", False)):
+        (tmp_path / "d.toml").write_text(text.replace("TAU", tau).replace("[axes]\n", "[axes]\n" + axis))
+        sweep = load_sweep(tmp_path / "d.toml")
+        assert (plan(sweep, Layout(sweep)) is not None) == odd, (tau, axis)
+
+
+def test_taylor_in_a_sweep_file(tmp_path):
+    """accuracy.method = "taylor" (a sweep's): its tolerance is rtol alone, an atol is one line."""
+    path = write(tmp_path, record='["flip_time"]')
+    text = path.read_text().replace("[axes]", '[accuracy]\nmethod = "taylor"\nrtol = 1e-9\n[axes]')
+    path.write_text(text)
+    sweep = load_sweep(path)
+    assert (sweep.scene.method, sweep.scene.rtol, sweep.scene.atol) == ("taylor", 1e-9, None)
+    path.write_text(text.replace("rtol = 1e-9", "rtol = 1e-9\natol = 1e-12"))
+    with pytest.raises(SceneError, match="atol' does not apply to taylor"):
+        load_sweep(path)
 
 
 # -- sweep files ----------------------------------------------------------------------------

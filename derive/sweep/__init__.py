@@ -6,9 +6,11 @@
 A sweep file is a scene plus axes over initial values and parameters and the
 quantities to record per trajectory (spec.py); its product of axes is cut into
 chunks (layout.py), each a Dask task that integrates its trajectories as one
-batch of the compiled integrator (chunk.py, events.py, bounds.py) and whose
-result is written into a Zarr store as it finishes (store.py, run.py), with a
-PNG per quantity for 2-D sweeps (images.py).
+batch of the compiled integrator (chunk.py, events.py, bounds.py; event times
+verified to an accuracy by runs again, verify.py) and whose result is written
+into a Zarr store as it finishes (store.py, run.py), a mirror-symmetric sweep's
+other half as the mirror image of the first (mirror.py), with a PNG per quantity
+for 2-D sweeps (images.py).
 """
 from __future__ import annotations
 

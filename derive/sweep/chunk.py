@@ -10,23 +10,27 @@ last state).  Each piece samples the trajectories at the sweep's output times, a
 the event times, maxima and energy are taken from those samples (events.py);
 when every recorded quantity is an event time, a trajectory leaves the batch once
 its events have happened, and so does one that energy alone keeps from them
-(bounds.py).  The results depend only on the chunk, never on where it ran.
+(bounds.py).  Event times with an accuracy are then verified (verify.py).  The
+method is any of the compiled integrators or Taylor's method (<model>_taylor.c, whose
+dense output makes the samples nearly free).  The results depend only on the chunk,
+never on where it ran.
 """
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 from functools import lru_cache
 
 import numpy as np
 
 from ..integration.build import integrator_library
-from ..integration.contract import METHODS
+from ..integration.contract import METHODS, TAYLOR
 from . import events as ev
 from .bounds import energy as _energy, n_params as _n_params, unreachable
 from .spec import Sweep
+from .verify import verify_events
 
 SLABS = 10                      # pieces of the time span
+TAYLOR_HMAX = 1e300             # no cap on a Taylor step but the run's end (runner)
 LYAPUNOV_BATCH = 64             # trajectories per Lyapunov batch (its fine grid is memory)
 
 
@@ -63,33 +67,72 @@ def _register(text: str) -> str:
     return load_model_file(path).name
 
 
-def _options(lib, sweep: Sweep):
-    o = lib.defaults()
+def runner(model: str, method: str, rtol: float | None, atol: float | None, step: float | None = None):
+    """run(y0, p, t) -> (y, status): one batch call of `method` (DOP853, Taylor, ...) at these
+    settings, in the dtype of y0 (double, or long double for the verification)."""
+    lib = integrator_library(model)
+    opt = lib.defaults()
+    for name, value in (("rtol", rtol), ("atol", atol), ("h", step)):
+        if value is not None:
+            setattr(opt, name, value)
+    if method == TAYLOR:
+        from ..integration.taylor_library import taylor_library, taylor_order
+        taylor = taylor_library(model, taylor_order(opt.rtol))
+        # the generated Taylor integrator caps its step's radius at hmax (the run's span when
+        # hmax is 0) before it applies the step factor (e^-2 ...): a run shorter than a few
+        # steps would take ~8 steps of an eighth of the span.  An hmax past any span leaves
+        # Jorba and Zou's step as it is (the last step still ends on the run's end).
+        opt.hmax = TAYLOR_HMAX
+
+        def call(y0, p, t):
+            return taylor.run(y0, p, t, opt)
+    else:
+        index = METHODS.index(method)
+
+        def call(y0, p, t):
+            return lib.run(index, y0, p, t, opt)
+
+    def run(y0, p, t):
+        y, infos = call(np.ascontiguousarray(y0), p, np.asarray(t, y0.dtype))
+        return y, _status(infos)
+    return run
+
+
+def scene_runner(sweep: Sweep, model: str):
+    """The runner of the sweep's own method and tolerance (the first pass)."""
     scene = sweep.scene
-    if scene.rtol is not None:
-        o.rtol = scene.rtol
-    if scene.atol is not None:
-        o.atol = scene.atol
-    if scene.step is not None:
-        o.h = scene.step
-    return o
+    return runner(model, scene.method, scene.rtol, scene.atol, scene.step)
+
+
+def prepare(sweep: Sweep) -> None:
+    """Build (or load from the cache) every integrator the sweep's chunks use, alongside
+    one another (each a compiler process: a Taylor library of high order takes a compiler
+    ten seconds and more)."""
+    from concurrent.futures import ThreadPoolExecutor
+    from .verify import rungs
+    model = _model(sweep)
+    integrator_library(model)                    # renders the model's sources, once
+    scene = sweep.scene
+    settings = [(scene.rtol, scene.atol, scene.step)]
+    if any(e.accuracy is not None for e in sweep.events):
+        settings += [(rtol, atol, None) for rtol, atol, _ in rungs(scene)]
+    with ThreadPoolExecutor(max_workers=len(settings)) as pool:
+        list(pool.map(lambda s: runner(model, scene.method, *s), settings))
 
 
 def _status(infos) -> np.ndarray:
     return np.fromiter((i.status for i in infos), np.int8, len(infos))
 
 
-def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray, dtype=np.float64,
-              verify: bool = True) -> dict[str, np.ndarray]:
-    """Quantities of the trajectories y0 (B, n) with parameters p (B, np), flat.
-    dtype: long double for the verification of event times (verify_events), which
-    records event times only; verify=False: no verification (that pass itself)."""
+def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray) -> dict[str, np.ndarray]:
+    """Quantities of the trajectories y0 (B, n) with parameters p (B, np), flat; event
+    times with an `accuracy` verified (verify.py)."""
     model = _model(sweep)
-    batch = _Batch(sweep, model, y0, p, dtype)
-    if sweep.events_only and dtype == np.float64:
+    batch = _Batch(sweep, model, y0, p)
+    if sweep.events_only:
         batch.active &= ~unreachable(model, sweep, y0, p)
     scene = sweep.scene
-    t = np.linspace(scene.t_start, scene.t_stop, scene.outputs).astype(dtype)
+    t = np.linspace(scene.t_start, scene.t_stop, scene.outputs)
     bounds = np.unique(np.linspace(0, len(t) - 1, min(SLABS, len(t) - 1) + 1).round().astype(int))
     for a, b in zip(bounds[:-1], bounds[1:]):
         if not batch.active.any():
@@ -98,8 +141,7 @@ def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray, dtype=np.float64,
     out = batch.results()
     if "lyapunov_exponent" in sweep.record:
         out["lyapunov_exponent"] = lyapunov(model, y0, p, scene.t_stop - scene.t_start, batch.n_params)
-    if verify:
-        out.update(verify_events(sweep, y0, p, out))
+    out.update(verify_events(sweep, model, y0, p, out))
     out["status"] = batch.status
     return out
 
@@ -107,15 +149,13 @@ def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray, dtype=np.float64,
 class _Batch:
     """The chunk's trajectories as they run, piece by piece, and what they record."""
 
-    def __init__(self, sweep: Sweep, model: str, y0: np.ndarray, p: np.ndarray, dtype):
+    def __init__(self, sweep: Sweep, model: str, y0: np.ndarray, p: np.ndarray):
         self.sweep, self.model = sweep, model
-        self.lib = integrator_library(model)
-        self.opt = _options(self.lib, sweep)
-        self.method = METHODS.index(sweep.scene.method)
+        self.run = scene_runner(sweep, model)
         self.n_params = _n_params(model)
         B, self.n = y0.shape
-        self.p = p.astype(dtype)
-        self.state, self.status = y0.astype(dtype), np.zeros(B, np.int8)
+        self.p = np.asarray(p, np.float64)
+        self.state, self.status = np.array(y0, np.float64), np.zeros(B, np.int8)
         self.active = np.ones(B, bool)
         self.times = {e.name: np.full(B, np.nan) for e in sweep.events}
         coordinates = sweep.state_names[: self.n // 2]
@@ -130,12 +170,10 @@ class _Batch:
         """Integrate the active trajectories over ts (their samples), then record."""
         rows = np.flatnonzero(self.active)
         p_rows = self.p[rows]
-        y, infos = self.lib.run(self.method, self.state[rows], p_rows, ts, self.opt)
-        st = _status(infos)
+        y, st = self.run(self.state[rows], p_rows, ts)
 
         def rerun(sub, start, local):
-            yf, inf = self.lib.run(self.method, np.ascontiguousarray(start), p_rows[sub], local, self.opt)
-            return yf, _status(inf)
+            return self.run(start, p_rows[sub], local)
 
         for e in self.sweep.events:
             pending = np.isnan(self.times[e.name][rows])
@@ -175,51 +213,6 @@ class _Batch:
             elif q.endswith("_time"):
                 out[q] = self.times[q[: -len("_time")]]
         return out
-
-
-VERIFY_TIGHTER = 10              # the check runs at rtol / 10 in double ...
-LONG_DOUBLE_TIGHTER = 1000       # ... and, where that disagrees, at rtol / 1000 in long double
-LONG_DOUBLE_RTOL_MIN = 1e-17     # 100 eps of long double (x86: eps 1.1e-19)
-
-
-def verify_events(sweep: Sweep, y0: np.ndarray, p: np.ndarray, out: dict) -> dict[str, np.ndarray]:
-    """Event times with an `accuracy`: each time found is computed again at rtol / 10; the
-    two differ by d, and since the error of DOP853 is proportional to its tolerance the
-    tighter time's error is about d / 9.  Where d exceeds the accuracy, the time is computed
-    a third time in long double at rtol / 1000 (error about |d3| / 99 by the same reasoning,
-    d3 its difference from the second).  -> the times replaced by the best one and
-    `<event>_time_error`, the estimate (NaN where no event: a "no event" is not re-checked)."""
-    result = {}
-    for e in sweep.events:
-        name = f"{e.name}_time"
-        if e.accuracy is None or name not in out:
-            continue
-        first = out[name]
-        best, error = first.copy(), np.full(len(first), np.nan)
-        rows = np.flatnonzero(np.isfinite(first) & (first > sweep.scene.t_start))
-        error[np.isfinite(first) & (first == sweep.scene.t_start)] = 0.0      # at the start: exact
-        if rows.size:
-            second = _event_again(sweep, e, y0[rows], p[rows], VERIFY_TIGHTER, np.float64)
-            d = np.abs(second - first[rows])
-            best[rows], error[rows] = second, d / (VERIFY_TIGHTER - 1)
-            doubt = rows[~(d <= e.accuracy)]                 # disagreeing, or lost at rtol / 10
-            if doubt.size:
-                third = _event_again(sweep, e, y0[doubt], p[doubt], LONG_DOUBLE_TIGHTER, np.longdouble)
-                d3 = np.abs(third - best[doubt])
-                best[doubt] = third
-                error[doubt] = d3 * VERIFY_TIGHTER / (LONG_DOUBLE_TIGHTER - VERIFY_TIGHTER)
-        result[name], result[f"{name}_error"] = best, error
-    return result
-
-
-def _event_again(sweep: Sweep, event, y0, p, tighter: float, dtype) -> np.ndarray:
-    scene = sweep.scene
-    rtol = scene.rtol / tighter
-    if dtype == np.longdouble:
-        rtol = max(rtol, LONG_DOUBLE_RTOL_MIN)
-    again = dataclasses.replace(sweep, record=(f"{event.name}_time",), events=(event,),
-                                scene=dataclasses.replace(scene, rtol=rtol, atol=rtol * (scene.atol / scene.rtol)))
-    return np.asarray(integrate(again, y0, p, dtype=dtype, verify=False)[f"{event.name}_time"], np.float64)
 
 
 def lyapunov(model: str, y0: np.ndarray, p: np.ndarray, t_end: float, n_params: int) -> np.ndarray:

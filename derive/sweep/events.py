@@ -43,6 +43,7 @@ from ..errors import SimulationError
 MARGIN = 1e-2          # candidate intervals: max |H| within this of the level (units of q)
 FINE = 32              # fine outputs per refined interval
 BISECTIONS = 64        # halvings of a monotone piece: past the resolution of a double
+SAME_SPACING = 1e-12   # relative: sample spacings this close are one (a grid's rounding)
 largest_error = [0.0]  # the largest coarse interpolation error met in this process (bench/sweep.py)
 
 
@@ -89,23 +90,25 @@ def hull_max_abs(q: np.ndarray, v: np.ndarray, dt: np.ndarray) -> np.ndarray:
 def first_reach(a, level: float) -> np.ndarray:
     """The first s in [0, 1] where |H(s)| reaches `level` (|H(0)| < level), NaN where it does not."""
     s1, s2 = _critical(a)
-    cuts = [np.zeros_like(s1), s1, s2, np.ones_like(s1)]
+    cuts = np.stack([np.zeros_like(s1), s1, s2, np.ones_like(s1)])
+    ends = np.abs(_value(a, cuts[1:]))                       # |H| at each monotone piece's end
+    reached = (ends >= level) & (cuts[1:] > cuts[:-1])
     best = np.full(np.shape(s1), np.nan)
-    for sigma in (1.0, -1.0):
-        g = lambda s: sigma * _value(a, s) - level
-        found = np.full(np.shape(s1), np.nan)
-        for lo, hi in zip(cuts[:-1], cuts[1:]):
-            open_ = np.isnan(found) & (g(hi) >= 0) & (hi > lo)
-            if not open_.any():
-                continue
-            l, r = lo.copy(), hi.copy()          # g(l) < 0 <= g(r) where open_ (monotone piece)
-            for _ in range(BISECTIONS):
-                m = 0.5 * (l + r)
-                up = g(m) >= 0
-                r = np.where(up, m, r)
-                l = np.where(up, l, m)
-            found = np.where(open_, r, found)
-        best = np.fmin(best, found)
+    rows = np.flatnonzero(reached.any(axis=0))
+    if rows.size == 0:
+        return best
+    # the first piece whose end reaches the level holds the first root (the pieces before it
+    # stay inside (-level, level)), and of the sign H has there: one bisection per root
+    piece = reached[:, rows].argmax(axis=0)
+    l, r = cuts[piece, rows], cuts[piece + 1, rows]
+    c = tuple(k[rows] for k in a)
+    sigma = np.sign(_value(c, r))
+    for _ in range(BISECTIONS):                              # sigma H(l) < level <= sigma H(r)
+        m = 0.5 * (l + r)
+        up = sigma * _value(c, m) - level >= 0
+        r = np.where(up, m, r)
+        l = np.where(up, l, m)
+    best[rows] = r
     return best
 
 
@@ -145,11 +148,11 @@ def locate(run, y: np.ndarray, t: np.ndarray, index: int, level: float,
 
 def _refine(run, rows, y0: np.ndarray, dt: np.ndarray, index: int, level: float, coarse) -> np.ndarray:
     """Time after each start y0 (C, n) at which |q| first reaches level within dt (C,), or NaN.
-    The starts have different dt only where the sample grid is not uniform: one run per
-    distinct dt keeps every trajectory's fine grid exact."""
+    The starts have different dt where the sample grid is not uniform: one run per distinct
+    dt (the rounding of a uniform grid's spacings, a few ulp, is one: the fine grid then
+    misses its end by those ulp, which moves no time found by more than they are)."""
     out = np.full(len(y0), np.nan)
-    for h in np.unique(dt):
-        sel = dt == h
+    for h, sel in _spacings(dt):
         local = np.linspace(0.0, h, FINE + 1)
         yf, status = run(rows[sel], y0[sel], local)
         n = yf.shape[2]
@@ -165,6 +168,17 @@ def _refine(run, rows, y0: np.ndarray, dt: np.ndarray, index: int, level: float,
         times[rows_found] = (m + s) * (h / FINE)
         out[sel] = times
     return out
+
+
+def _spacings(dt: np.ndarray):
+    """(h, rows with that dt) for each distinct spacing, those within SAME_SPACING of one another one."""
+    values = np.unique(dt)
+    firsts = [values[0]]
+    for h in values[1:]:
+        if h - firsts[-1] > SAME_SPACING * firsts[-1]:
+            firsts.append(h)
+    group = np.searchsorted(np.array(firsts), dt, side="right") - 1
+    return [(h, group == k) for k, h in enumerate(firsts)]
 
 
 def _check_margin(coarse, q_fine: np.ndarray, s: np.ndarray) -> None:

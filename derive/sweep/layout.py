@@ -1,7 +1,8 @@
 """How a sweep partitions: the product of its axes as an N-D array, cut into chunks.
 
 A chunk is a block of the array (whole trailing dimensions, a slab of the leading
-ones) of about `chunk` trajectories.  It is both one Dask task and one chunk of
+ones) of about `chunk` trajectories (a little fewer where that makes the chunks their
+own mirror image, mirror.py).  It is both one Dask task and one chunk of
 every variable in the Zarr store, so a finished task writes whole store chunks
 (no two tasks ever touch the same chunk) and its completion is one flag.
 """
@@ -25,10 +26,26 @@ def chunk_shape(shape: tuple[int, ...], target: int) -> tuple[int, ...]:
     return tuple(reversed(out))
 
 
+def mirror_chunks(shape: tuple[int, ...], chunks: tuple[int, ...], dims: tuple[int, ...]) -> tuple[int, ...]:
+    """Chunks whose boundaries are their own mirror image along `dims` (so the mirror of a
+    chunk is a chunk, mirror.py): a divisor of the dimension for its chunk size, the largest
+    not above the size asked for, unless that is less than half of it (then as asked)."""
+    out = list(chunks)
+    for d in dims:
+        if shape[d] % out[d]:
+            divisor = max(c for c in range(1, out[d] + 1) if shape[d] % c == 0)
+            out[d] = divisor if 2 * divisor >= out[d] else out[d]
+    return tuple(out)
+
+
 class Layout:
     def __init__(self, sweep: Sweep):
+        from .mirror import mirror_axes
         self.shape = sweep.shape
         self.chunks = chunk_shape(self.shape, sweep.chunk)
+        dims = mirror_axes(sweep)                 # the grid is its own mirror image along these
+        if dims:
+            self.chunks = mirror_chunks(self.shape, self.chunks, dims)
         self.grid = tuple(math.ceil(s / c) for s, c in zip(self.shape, self.chunks))
         self.count = math.prod(self.grid)
 

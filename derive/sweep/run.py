@@ -22,8 +22,9 @@ from pathlib import Path
 
 from ..errors import UsageError
 from ..progress import Progress
-from .chunk import integrate, variables
+from .chunk import integrate, prepare, variables
 from .layout import Layout, chunk_inputs
+from .mirror import mirror_axes, mirrored, plan as mirror_plan
 from .spec import Sweep, load_sweep
 from .store import Writer, load, open_store
 
@@ -41,8 +42,10 @@ class Report:
     seconds: float                  # wall time of the chunks computed here (not the setup)
     workers: int                    # worker processes (0: this process)
     where: str
-    computed_trajectories: int = 0
+    computed_trajectories: int = 0  # integrated (a mirrored chunk's are not)
     cpu_seconds: float = 0.0        # CPU time of the computed chunks, summed over workers
+    mirrored: int = 0               # chunks written as the mirror image of another (mirror.py)
+    written_trajectories: int = 0   # in the chunks computed here, mirror images included
     dataset: object = field(default=None, repr=False)
 
 
@@ -95,35 +98,45 @@ def run(source, out=None, scheduler: str | None = None, workers: int | None = No
     layout = Layout(sweep)
     names = variables(sweep)
     done = open_store(path, sweep, layout, names)
-    todo = [k for k in range(layout.count) if k not in done]
     writer = Writer(path, layout)
     bar = Progress(f"sweeping {stem}", layout.count) if progress else None
     if bar:
         bar.update(len(done))
+    unfinished = [k for k in range(layout.count) if k not in done]
     local = scheduler is None and not os.environ.get(SCHEDULER_ENV)
-    if todo and local:
-        from .chunk import _model
-        from ..integration.build import integrator_library
-        integrator_library(_model(sweep))        # build once here: local workers load it from the cache
     client = cluster = None
     where = "this process"
-    computed = traj = 0
+    computed = traj = mirror_chunks = points = 0
     cpu = 0.0
     start = time.perf_counter()
     try:
-        if todo:
+        if unfinished and local:
+            prepare(sweep)                      # build once here: local workers load it from the cache
+        if unfinished:
             client, cluster, where = _executor(scheduler, workers)
-        start = time.perf_counter()             # the chunks' time, not the cluster's start-up
         light = _light(sweep)
+        pairs = _call(client, mirror_plan, sweep, layout) if unfinished else None
+        dims = mirror_axes(sweep) if pairs is not None else None
+        # a mirror pair is one task (its first chunk), run when either chunk is unfinished
+        todo = unfinished if pairs is None else sorted({min(k, pairs[k]) for k in unfinished})
+        start = time.perf_counter()             # the chunks' time, not the cluster's start-up
         for k, (values, seconds) in _results(client, light, sweep, layout, todo):
-            writer.write(k, values)
             cpu += seconds
-            computed += 1
             traj += values["status"].size
-            if bar:
-                bar.update(len(done) + computed)
-            if on_chunk is not None:
-                on_chunk(k)
+            written = [(k, values)]
+            if pairs is not None and pairs[k] != k:
+                written.append((pairs[k], mirrored(values, dims)))
+            for chunk, chunk_values in written:
+                if chunk in done:                # (the pair's other chunk was written before)
+                    continue
+                writer.write(chunk, chunk_values)
+                computed += 1
+                points += chunk_values["status"].size
+                mirror_chunks += chunk != k
+                if bar:
+                    bar.update(len(done) + computed)
+                if on_chunk is not None:
+                    on_chunk(chunk)
     finally:
         seconds = time.perf_counter() - start
         n_workers = len(client.scheduler_info()["workers"]) if client is not None else 0
@@ -137,7 +150,14 @@ def run(source, out=None, scheduler: str | None = None, workers: int | None = No
     from .images import write_images
     images = write_images(ds, folder, stem, sweep.scene.title) if len(sweep.dims) == 2 else []
     return Report(path, images, layout.count, computed, len(done), sweep.size, seconds, n_workers, where,
-                  traj, cpu, ds)
+                  traj, cpu, mirror_chunks, points, ds)
+
+
+def _call(client, fn, *args):
+    """fn(*args) here, or as a task on the cluster (where the integrators are built)."""
+    if client is None:
+        return fn(*args)
+    return client.submit(fn, *args, pure=False).result()
 
 
 def _results(client, light: Sweep, sweep: Sweep, layout: Layout, todo: list[int]):

@@ -21,6 +21,7 @@
 
     [sweep]
     chunk = 10000                    # trajectories per task (and per store chunk)
+    mirror = true                    # compute one of each mirror pair (mirror.py; the default)
 
 An axis is a state name (an initial value), a parameter or an input of the model.
 Numbers may be written as expressions of pi ("-pi/2").  Every mistake is one
@@ -37,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError, SceneError
-from ..integration.contract import ADAPTIVE
+from ..integration.contract import TAYLOR, TOLERANCE_METHODS
 from ..model import load_model
 from ..model.atlas import ATLAS
 from ..model.expressions import parse_expression
@@ -84,6 +85,7 @@ class Sweep:
     events: tuple[Event, ...]
     record: tuple[str, ...]
     chunk: int
+    mirror: bool                          # use the mirror symmetry where the sweep has it (mirror.py)
     state_names: tuple[str, ...]
     parameter_names: tuple[str, ...]      # p = (parameters, inputs), in the kernels' order
     y0: np.ndarray                        # the base state
@@ -149,6 +151,13 @@ def _pair(value, where: str) -> tuple[float, float]:
     return number(value[0], f"{where}[0]"), number(value[1], f"{where}[1]")
 
 
+def symmetric(values: np.ndarray) -> np.ndarray:
+    """A grid over [-a, a] made symmetric to the bit (value i is minus value N-1-i; NumPy's
+    linspace misses it by an ulp here and there), so a mirror image of a grid point is one
+    (mirror.py); each value moves by an ulp at most."""
+    return (values - values[::-1]) / 2
+
+
 def _axis_values(name: str, spec, where: str) -> tuple[str, np.ndarray]:
     if not isinstance(spec, dict):
         raise SceneError(f"{where} must be a table such as {{ linspace = [0, 1], num = 11 }}")
@@ -180,7 +189,7 @@ def _axis_values(name: str, spec, where: str) -> tuple[str, np.ndarray]:
                 raise SceneError(f"{where}.logspace: both ends must be positive (a geometric range), "
                                  f"got [{start:g}, {stop:g}]")
             return kind, np.geomspace(start, stop, num)
-        return kind, np.linspace(start, stop, num)
+        return kind, symmetric(np.linspace(start, stop, num)) if start == -stop else np.linspace(start, stop, num)
     a, b = _pair(spec[kind], f"{where}.{kind}")
     if kind == "uniform" and not a < b:
         raise SceneError(f"{where}.uniform: need low < high, got [{a:g}, {b:g}]")
@@ -287,15 +296,20 @@ def _parse_record(value, description, events, source: str) -> tuple[str, ...]:
     return tuple(value)
 
 
-def _parse_options(table, source: str) -> int:
+def _parse_options(table, source: str) -> tuple[int, bool]:
+    """[sweep]: chunk (trajectories per task) and mirror (use the model's mirror symmetry
+    where the sweep has it, mirror.py; default true)."""
     if table is None:
-        return DEFAULT_CHUNK
+        return DEFAULT_CHUNK, True
     if not isinstance(table, dict):
         raise SceneError(f"{source}: 'sweep' must be a table")
     for key in table:
-        if key != "chunk":
-            raise SceneError(f"{source}: [sweep]: unknown key '{key}' (allowed: chunk)")
-    return _whole(table.get("chunk", DEFAULT_CHUNK), f"{source}: 'sweep.chunk'")
+        if key not in ("chunk", "mirror"):
+            raise SceneError(f"{source}: [sweep]: unknown key '{key}' (allowed: chunk, mirror)")
+    mirror = table.get("mirror", True)
+    if not isinstance(mirror, bool):
+        raise SceneError(f"{source}: 'sweep.mirror' must be true or false, got {mirror!r}")
+    return _whole(table.get("chunk", DEFAULT_CHUNK), f"{source}: 'sweep.chunk'"), mirror
 
 
 def _accuracy(raw: dict, scene: Scene, source: str) -> None:
@@ -312,6 +326,27 @@ def _accuracy(raw: dict, scene: Scene, source: str) -> None:
         raise SceneError(f"{source}: 'accuracy.scalar': a sweep runs in double")
     if scene.backend != "c":
         raise SceneError(f"{source}: 'accuracy.backend': a sweep runs the compiled C integrators")
+
+
+def _taylor_accuracy(table: dict, source: str) -> bool:
+    """accuracy.method = "taylor" (a sweep's, not yet a scene's): the scene is read as for
+    DOP853 (the same rtol rules) and is given Taylor's method after (_use_taylor)."""
+    accuracy = table.get("accuracy")
+    if not isinstance(accuracy, dict) or accuracy.get("method") != TAYLOR:
+        return False
+    if "atol" in accuracy:
+        raise SceneError(f"{source}: 'accuracy.atol' does not apply to taylor (its tolerance is rtol, "
+                         f"relative to max(1, |y|) component by component)")
+    table["accuracy"] = {**accuracy, "method": "dop853"}
+    return True
+
+
+def _use_taylor(scene: Scene, source: str) -> None:
+    from ..integration.taylor_codegen import taylor_problem
+    problem = taylor_problem(scene.model)
+    if problem is not None:
+        raise SceneError(f"{source}: 'accuracy.method': model '{scene.model}' has no Taylor integrator ({problem})")
+    scene.method, scene.atol = TAYLOR, None
 
 
 def _base_state(scene: Scene, description, source: str) -> np.ndarray:
@@ -334,25 +369,28 @@ def parse_sweep(text: str, source: str = "<sweep>") -> Sweep:
     pendulum = t.get("pendulum")
     model = pendulum.get("model") if isinstance(pendulum, dict) else None
     # a sweep's [events] are its own (a coordinate and a level), not a scene's expressions
-    scene = None if model == ATLAS else scene_from_table(
-        {k: v for k, v in t.items() if k in SCENE_KEYS and k != "events"}, source)
+    table = {k: v for k, v in t.items() if k in SCENE_KEYS and k != "events"}
+    taylor = _taylor_accuracy(table, source)
+    scene = None if model == ATLAS else scene_from_table(table, source)
     if scene is None:
         raise SceneError(f"{source}: 'pendulum.model': a sweep runs one chart model (e.g. spherical_std), "
                          f"not the chart atlas '{ATLAS}'")
     _accuracy(t, scene, source)
     description = load_model(scene.model)
+    if taylor:
+        _use_taylor(scene, source)
     axes = _parse_axes(t.get("axes"), description, source)
     events = _parse_events(t.get("events"), description, source)
     record = _parse_record(t.get("record"), description, events, source)
-    if scene.method not in ADAPTIVE and any(e.accuracy is not None for e in events):
+    if scene.method not in TOLERANCE_METHODS and any(e.accuracy is not None for e in events):
         raise SceneError(f"{source}: 'events': an event's accuracy is verified by tightening the "
-                         f"tolerance: it needs an adaptive method (dopri5, dop853), not {scene.method}")
-    chunk = _parse_options(t.get("sweep"), source)
+                         f"tolerance: it needs a method with one (dopri5, dop853, taylor), not {scene.method}")
+    chunk, mirror = _parse_options(t.get("sweep"), source)
     y0 = _base_state(scene, description, source)
     p = np.array([scene.parameters[n] for n in description.parameters]
                  + [scene.inputs[n] for n in description.inputs], float)
     sweep = Sweep(source=source, scene=scene, model_text=None,
-                  axes=axes, events=events, record=record, chunk=chunk,
+                  axes=axes, events=events, record=record, chunk=chunk, mirror=mirror,
                   state_names=tuple(description.state_names),
                   parameter_names=tuple(description.parameters) + tuple(description.inputs),
                   y0=y0, p=p, text=text)
