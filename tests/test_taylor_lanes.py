@@ -52,9 +52,9 @@ def test_every_lane_is_simulate_with_its_own_parameters(B):
 def test_backwards_in_time_and_float32():
     y0, params = _states(11, seed=8), _params(11, seed=9)
     back = np.linspace(0, -1.5, 4)
-    r = derive.ensemble("planar", y0, back, params, method="taylor", rtol=1e-11)
+    r = derive.ensemble("planar", y0, back, params, method="taylor", rtol=1e-10)
     assert r.all_ok
-    _assert_simulate(r, y0, back, params, rtol=1e-11)
+    _assert_simulate(r, y0, back, params, rtol=1e-10)
     t = [0, 0.5, 1.0]
     f = derive.ensemble("planar", y0, t, params, method="taylor", rtol=1e-5, dtype="float32")
     assert f.all_ok and f.y.dtype == np.float32
@@ -91,9 +91,9 @@ def test_a_nan_state_in_the_c_batch_is_bad_input_for_its_lane_only():
         assert np.array_equal(y[b], derive.simulate("planar", y0[b], t, PLANAR, method="taylor", rtol=1e-10).y)
 
 
-def test_chart_guard_and_max_steps_per_lane():
-    """A spherical state on its chart's pole is CHART_SINGULAR in its lane alone; a step
-    budget ends each lane where simulate's run ends."""
+@pytest.mark.slow        # the spherical chart's integrators take minutes to compile
+def test_a_chart_guard_stops_its_lane_alone():
+    """A spherical state on its chart's pole is CHART_SINGULAR in its lane alone."""
     rng = np.random.default_rng(14)
     B = LANES + 3
     y0 = np.column_stack([rng.uniform(1.2, 1.9, (B, 4)), rng.uniform(-0.3, 0.3, (B, 4))])
@@ -105,6 +105,9 @@ def test_chart_guard_and_max_steps_per_lane():
     assert r.status_names[4] == "chart singular (polar sine below threshold)"
     assert np.count_nonzero(r.status) == 1
     _assert_simulate(r, y0, t, params, rtol=1e-10)
+
+
+def test_a_step_budget_ends_each_lane_where_simulate_ends():
     y0, params = _states(5), np.tile(PLANAR, (5, 1))
     t = [0, 0.5, 3.0]
     few = derive.ensemble("planar", y0, t, params, method="taylor", rtol=1e-10, max_steps=3)
@@ -117,8 +120,8 @@ def test_the_number_of_lanes_changes_no_result(lanes):
     """Any lane count (and the portable build without vector flags) gives the same numbers."""
     y0, params = _states(10, seed=16), _params(10, seed=17)
     t = np.linspace(0, 1, 3)
-    opt = integrator_library("planar").options(run_options("taylor", np.float64, t, rtol=1e-9))
-    order = taylor_order(1e-9)
+    opt = integrator_library("planar").options(run_options("taylor", np.float64, t, rtol=1e-10))
+    order = taylor_order(1e-10)
     ref, _ = taylor_lanes_library("planar", order).run(y0, params, t, opt)
     y, infos = taylor_lanes_library("planar", order, lanes=lanes, simd=()).run(y0, params, t, opt)
     assert all(i.status == 0 for i in infos) and np.array_equal(y, ref)

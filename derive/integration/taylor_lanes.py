@@ -65,8 +65,11 @@ def lane_statements(d: Decomposition, P: str, s: str) -> dict:
             lines.append(f"{fn('div')}({u}, 0, {ref(op.args[0])}, k);")
         elif op.kind == "sqrt":
             lines.append(f"{fn('sqrt')}({u}, {ref(op.args[0])}, k);")
-        elif op.kind in ("sin", "cos"):
-            lines.append(f"{fn(op.kind)}({u}, {ref(op.args[0])}, {ref(op.args[1])}, k);")
+        elif op.kind == "sin":            # with its cos (the next operation): one sincos
+            lines.append(f"{fn('sincos')}({u}, {ref(op.args[1])}, {ref(op.args[0])}, k);")
+        elif op.kind == "cos":
+            if d.ops[i - 1].kind != "sin" or d.ops[i - 1].args != (op.args[0], i):   # pragma: no cover
+                raise SpecError("a cos without its sin before it in the Taylor decomposition")
         elif op.kind == "exp":
             lines.append(f"{fn('exp')}({u}, {ref(op.args[0])}, k);")
         else:                                   # pragma: no cover (every kind above)
@@ -93,7 +96,7 @@ def render_taylor_lanes(name: str) -> dict[str, str]:
     kinds = counts(d)
     M = name.upper()
     uses = {"mul": bool(kinds.keys() & {"mul", "square"}), "div": bool(kinds.keys() & {"div", "inv"}),
-            "sqrt": "sqrt" in kinds, "sin": "sin" in kinds, "cos": "cos" in kinds, "exp": "exp" in kinds,
+            "sqrt": "sqrt" in kinds, "sincos": "sin" in kinds, "exp": "exp" in kinds,
             "add": "add" in kinds, "sub": "sub" in kinds, "scale": "scale" in kinds, "shift": "shift" in kinds,
             "outc": any(kind == "const" for kind, _ in d.outputs)}
     ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops), "uses": uses,

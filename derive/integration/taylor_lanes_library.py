@@ -29,9 +29,10 @@ from .taylor_library import taylor_library
 from .taylor_lanes import variant_number
 
 # (CPU flag, compiler flags, lanes by scalar type), best first.  Measured here (Zen 4,
-# planar at order 12, single thread, loaded machine; us per trajectory, scalar 229):
-# AVX-512 8 lanes 61, 16 lanes 67, 4 lanes 146; AVX2 4 lanes 85, 8 lanes 98; SSE2
-# (portable) 4 lanes 141.  float (order 7, scalar 178): AVX-512 8 lanes 40, 16 lanes 43.
+# planar at order 12, one thread, CPU time per trajectory on a loaded machine; scalar
+# integrator 210 us): AVX-512 8 lanes 56, 16 lanes 61, 4 lanes 138; AVX2 4 lanes 74, 8
+# lanes 86; SSE2 (portable) 4 lanes 131, 2 lanes 137.  float (order 7, scalar 178 us):
+# AVX-512 8 lanes 40, 16 lanes 43; AVX2 8 lanes 45.
 SIMD_LEVELS = (
     ("avx512f", ("-mavx2", "-mavx512f"), {"float64": 8, "float32": 8}),
     ("avx2", ("-mavx2",), {"float64": 4, "float32": 8}),

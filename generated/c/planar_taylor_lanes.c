@@ -151,37 +151,26 @@ LANES_INLINE void planar_lchain(double *LANES_RESTRICT acc, const double *LANES_
     }
 }
 
-/* coefficient k of sin a (c: cos a); at order 0 libm's sin, lane by lane */
-LANES_INLINE void planar_lsin(double *LANES_RESTRICT u, const double *LANES_RESTRICT a, const double *LANES_RESTRICT c, int k)
+/* coefficient k of s = sin a and c = cos a; at order 0 libm's sin and cos, lane by lane
+ * (GCC fuses the two calls into glibc's sincos, whose results are sin's and cos') */
+LANES_INLINE void planar_lsincos(double *LANES_RESTRICT s, double *LANES_RESTRICT c, const double *LANES_RESTRICT a, int k)
 {
     double acc[L];
     int l;
     if (k == 0) {
         for (l = 0; l < L; ++l) {
-            u[l] = sin(a[l]);
+            s[l] = sin(a[l]);
+            c[l] = cos(a[l]);
         }
         return;
     }
     planar_lchain(acc, a, c, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = acc[l];
+        s[k * L + l] = acc[l];
     }
-}
-
-/* coefficient k of cos a (w: sin a) */
-LANES_INLINE void planar_lcos(double *LANES_RESTRICT u, const double *LANES_RESTRICT a, const double *LANES_RESTRICT w, int k)
-{
-    double acc[L];
-    int l;
-    if (k == 0) {
-        for (l = 0; l < L; ++l) {
-            u[l] = cos(a[l]);
-        }
-        return;
-    }
-    planar_lchain(acc, a, w, k);
+    planar_lchain(acc, a, s, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = -acc[l];
+        c[k * L + l] = -acc[l];
     }
 }
 
@@ -219,10 +208,8 @@ static void planar_ljet(double (*X)[ORDER_DIM * L], double (*C)[L], int order_wa
     (void)bad;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        planar_lsin(J[4], X[0], J[5], k);
-        planar_lcos(J[5], X[0], J[4], k);
-        planar_lsin(J[6], X[1], J[7], k);
-        planar_lcos(J[7], X[1], J[6], k);
+        planar_lsincos(J[4], J[5], X[0], k);
+        planar_lsincos(J[6], J[7], X[1], k);
         planar_lmul(J[8] + k * L, J[4], J[6], k);
         planar_lmul(J[9] + k * L, J[5], J[7], k);
         planar_ladd(J[10] + k * L, J[8] + k * L, J[9] + k * L);
@@ -262,22 +249,27 @@ static void planar_ljet(double (*X)[ORDER_DIM * L], double (*C)[L], int order_wa
 }
 
 /* X[i][0] = the series at tau[l] in every lane (tau 0: unchanged), by Horner as the
- * scalar integrator advances */
+ * scalar integrator advances; the states side by side (independent chains of
+ * multiply-adds, where one state after another would wait on each) */
 static void planar_ladvance(double (*X)[ORDER_DIM * L], const double *tau, int order)
 {
-    double acc[L];
+    double acc[N][L];
     int i, k, l;
     for (i = 0; i < N; ++i) {
         for (l = 0; l < L; ++l) {
-            acc[l] = X[i][order * L + l];
+            acc[i][l] = X[i][order * L + l];
         }
-        for (k = order - 1; k >= 0; --k) {
+    }
+    for (k = order - 1; k >= 0; --k) {
+        for (i = 0; i < N; ++i) {
             for (l = 0; l < L; ++l) {
-                acc[l] = acc[l] * tau[l] + X[i][k * L + l];
+                acc[i][l] = acc[i][l] * tau[l] + X[i][k * L + l];
             }
         }
+    }
+    for (i = 0; i < N; ++i) {
         for (l = 0; l < L; ++l) {
-            X[i][l] = acc[l];
+            X[i][l] = acc[i][l];
         }
     }
 }
@@ -426,6 +418,30 @@ static int planar_lstart(planar_lrun *r, int l)
     return 1;
 }
 
+/* 1 if x1^(1/e1) < x2^(1/e2), 2 if x2^(1/e2) < x1^(1/e1), for x > 0, where their binary
+ * logarithms differ by more than this estimate's error; else (or x not finite) 0.  log2 x
+ * = b + log2 f with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in
+ * [1/2, 1): the estimate is at most 0.0861/e below log2 of the root, 0.1/e with rounding. */
+static int planar_lsmaller(double x1, int e1, double x2, int e2)
+{
+    double f1, f2, l1, l2;
+    int b1, b2;
+    if (!planar_lfinite(&x1, 1) || !planar_lfinite(&x2, 1)) {
+        return 0;
+    }
+    f1 = frexp(x1, &b1);
+    f2 = frexp(x2, &b2);
+    l1 = ((double)b1 + 2 * (f1 - 1)) / (double)e1;
+    l2 = ((double)b2 + 2 * (f2 - 1)) / (double)e2;
+    if (l1 + (double)0.1 / (double)e1 < l2) {
+        return 1;
+    }
+    if (l2 + (double)0.1 / (double)e2 < l1) {
+        return 2;
+    }
+    return 0;
+}
+
 /* Lane l after the jet: its step (Jorba & Zou, as the scalar) and the output times inside
  * it; r->tau[l] the step.  Returns a status (OK: advance). */
 static int planar_lstep(planar_lrun *r, int l)
@@ -434,7 +450,7 @@ static int planar_lstep(planar_lrun *r, int l)
     const int order = r->order;
     double m = 1, n1 = 0, n2 = 0, a0, a1, a2, rho, q, h, tau;
     long row;
-    int i;
+    int i, which;
     ln->info->nfev += 1;
     if (r->bad[l]) {
         return PLANAR_INTEGRATE_CHART_SINGULAR;
@@ -450,12 +466,15 @@ static int planar_lstep(planar_lrun *r, int l)
     if (!planar_lfinite(&n1, 1) || !planar_lfinite(&n2, 1)) {
         return PLANAR_INTEGRATE_NONFINITE;
     }
+    /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
+     * one pow where their exponents show which is the smaller */
+    which = n1 > 0 && n2 > 0 ? planar_lsmaller(m / n1, order - 1, m / n2, order) : 0;
     rho = ln->hmax;
-    if (n1 > 0) {
+    if (n1 > 0 && which != 2) {
         q = pow(m / n1, (double)1 / (double)(order - 1));
         rho = q < rho ? q : rho;
     }
-    if (n2 > 0) {
+    if (n2 > 0 && which != 1) {
         q = pow(m / n2, (double)1 / (double)order);
         rho = q < rho ? q : rho;
     }
@@ -710,37 +729,26 @@ LANES_INLINE void planar_lchain_f(float *LANES_RESTRICT acc, const float *LANES_
     }
 }
 
-/* coefficient k of sin a (c: cos a); at order 0 libm's sin, lane by lane */
-LANES_INLINE void planar_lsin_f(float *LANES_RESTRICT u, const float *LANES_RESTRICT a, const float *LANES_RESTRICT c, int k)
+/* coefficient k of s = sin a and c = cos a; at order 0 libm's sin and cos, lane by lane
+ * (GCC fuses the two calls into glibc's sincos, whose results are sin's and cos') */
+LANES_INLINE void planar_lsincos_f(float *LANES_RESTRICT s, float *LANES_RESTRICT c, const float *LANES_RESTRICT a, int k)
 {
     float acc[L];
     int l;
     if (k == 0) {
         for (l = 0; l < L; ++l) {
-            u[l] = sinf(a[l]);
+            s[l] = sinf(a[l]);
+            c[l] = cosf(a[l]);
         }
         return;
     }
     planar_lchain_f(acc, a, c, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = acc[l];
+        s[k * L + l] = acc[l];
     }
-}
-
-/* coefficient k of cos a (w: sin a) */
-LANES_INLINE void planar_lcos_f(float *LANES_RESTRICT u, const float *LANES_RESTRICT a, const float *LANES_RESTRICT w, int k)
-{
-    float acc[L];
-    int l;
-    if (k == 0) {
-        for (l = 0; l < L; ++l) {
-            u[l] = cosf(a[l]);
-        }
-        return;
-    }
-    planar_lchain_f(acc, a, w, k);
+    planar_lchain_f(acc, a, s, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = -acc[l];
+        c[k * L + l] = -acc[l];
     }
 }
 
@@ -778,10 +786,8 @@ static void planar_ljet_f(float (*X)[ORDER_DIM * L], float (*C)[L], int order_wa
     (void)bad;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        planar_lsin_f(J[4], X[0], J[5], k);
-        planar_lcos_f(J[5], X[0], J[4], k);
-        planar_lsin_f(J[6], X[1], J[7], k);
-        planar_lcos_f(J[7], X[1], J[6], k);
+        planar_lsincos_f(J[4], J[5], X[0], k);
+        planar_lsincos_f(J[6], J[7], X[1], k);
         planar_lmul_f(J[8] + k * L, J[4], J[6], k);
         planar_lmul_f(J[9] + k * L, J[5], J[7], k);
         planar_ladd_f(J[10] + k * L, J[8] + k * L, J[9] + k * L);
@@ -821,22 +827,27 @@ static void planar_ljet_f(float (*X)[ORDER_DIM * L], float (*C)[L], int order_wa
 }
 
 /* X[i][0] = the series at tau[l] in every lane (tau 0: unchanged), by Horner as the
- * scalar integrator advances */
+ * scalar integrator advances; the states side by side (independent chains of
+ * multiply-adds, where one state after another would wait on each) */
 static void planar_ladvance_f(float (*X)[ORDER_DIM * L], const float *tau, int order)
 {
-    float acc[L];
+    float acc[N][L];
     int i, k, l;
     for (i = 0; i < N; ++i) {
         for (l = 0; l < L; ++l) {
-            acc[l] = X[i][order * L + l];
+            acc[i][l] = X[i][order * L + l];
         }
-        for (k = order - 1; k >= 0; --k) {
+    }
+    for (k = order - 1; k >= 0; --k) {
+        for (i = 0; i < N; ++i) {
             for (l = 0; l < L; ++l) {
-                acc[l] = acc[l] * tau[l] + X[i][k * L + l];
+                acc[i][l] = acc[i][l] * tau[l] + X[i][k * L + l];
             }
         }
+    }
+    for (i = 0; i < N; ++i) {
         for (l = 0; l < L; ++l) {
-            X[i][l] = acc[l];
+            X[i][l] = acc[i][l];
         }
     }
 }
@@ -985,6 +996,30 @@ static int planar_lstart_f(planar_lrun_f *r, int l)
     return 1;
 }
 
+/* 1 if x1^(1/e1) < x2^(1/e2), 2 if x2^(1/e2) < x1^(1/e1), for x > 0, where their binary
+ * logarithms differ by more than this estimate's error; else (or x not finite) 0.  log2 x
+ * = b + log2 f with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in
+ * [1/2, 1): the estimate is at most 0.0861/e below log2 of the root, 0.1/e with rounding. */
+static int planar_lsmaller_f(float x1, int e1, float x2, int e2)
+{
+    float f1, f2, l1, l2;
+    int b1, b2;
+    if (!planar_lfinite_f(&x1, 1) || !planar_lfinite_f(&x2, 1)) {
+        return 0;
+    }
+    f1 = frexpf(x1, &b1);
+    f2 = frexpf(x2, &b2);
+    l1 = ((float)b1 + 2 * (f1 - 1)) / (float)e1;
+    l2 = ((float)b2 + 2 * (f2 - 1)) / (float)e2;
+    if (l1 + (float)0.1 / (float)e1 < l2) {
+        return 1;
+    }
+    if (l2 + (float)0.1 / (float)e2 < l1) {
+        return 2;
+    }
+    return 0;
+}
+
 /* Lane l after the jet: its step (Jorba & Zou, as the scalar) and the output times inside
  * it; r->tau[l] the step.  Returns a status (OK: advance). */
 static int planar_lstep_f(planar_lrun_f *r, int l)
@@ -993,7 +1028,7 @@ static int planar_lstep_f(planar_lrun_f *r, int l)
     const int order = r->order;
     float m = 1, n1 = 0, n2 = 0, a0, a1, a2, rho, q, h, tau;
     long row;
-    int i;
+    int i, which;
     ln->info->nfev += 1;
     if (r->bad[l]) {
         return PLANAR_INTEGRATE_CHART_SINGULAR;
@@ -1009,12 +1044,15 @@ static int planar_lstep_f(planar_lrun_f *r, int l)
     if (!planar_lfinite_f(&n1, 1) || !planar_lfinite_f(&n2, 1)) {
         return PLANAR_INTEGRATE_NONFINITE;
     }
+    /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
+     * one pow where their exponents show which is the smaller */
+    which = n1 > 0 && n2 > 0 ? planar_lsmaller_f(m / n1, order - 1, m / n2, order) : 0;
     rho = ln->hmax;
-    if (n1 > 0) {
+    if (n1 > 0 && which != 2) {
         q = powf(m / n1, (float)1 / (float)(order - 1));
         rho = q < rho ? q : rho;
     }
-    if (n2 > 0) {
+    if (n2 > 0 && which != 1) {
         q = powf(m / n2, (float)1 / (float)order);
         rho = q < rho ? q : rho;
     }
@@ -1269,37 +1307,26 @@ LANES_INLINE void planar_lchain_l(long double *LANES_RESTRICT acc, const long do
     }
 }
 
-/* coefficient k of sin a (c: cos a); at order 0 libm's sin, lane by lane */
-LANES_INLINE void planar_lsin_l(long double *LANES_RESTRICT u, const long double *LANES_RESTRICT a, const long double *LANES_RESTRICT c, int k)
+/* coefficient k of s = sin a and c = cos a; at order 0 libm's sin and cos, lane by lane
+ * (GCC fuses the two calls into glibc's sincos, whose results are sin's and cos') */
+LANES_INLINE void planar_lsincos_l(long double *LANES_RESTRICT s, long double *LANES_RESTRICT c, const long double *LANES_RESTRICT a, int k)
 {
     long double acc[L];
     int l;
     if (k == 0) {
         for (l = 0; l < L; ++l) {
-            u[l] = sinl(a[l]);
+            s[l] = sinl(a[l]);
+            c[l] = cosl(a[l]);
         }
         return;
     }
     planar_lchain_l(acc, a, c, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = acc[l];
+        s[k * L + l] = acc[l];
     }
-}
-
-/* coefficient k of cos a (w: sin a) */
-LANES_INLINE void planar_lcos_l(long double *LANES_RESTRICT u, const long double *LANES_RESTRICT a, const long double *LANES_RESTRICT w, int k)
-{
-    long double acc[L];
-    int l;
-    if (k == 0) {
-        for (l = 0; l < L; ++l) {
-            u[l] = cosl(a[l]);
-        }
-        return;
-    }
-    planar_lchain_l(acc, a, w, k);
+    planar_lchain_l(acc, a, s, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = -acc[l];
+        c[k * L + l] = -acc[l];
     }
 }
 
@@ -1337,10 +1364,8 @@ static void planar_ljet_l(long double (*X)[ORDER_DIM * L], long double (*C)[L], 
     (void)bad;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        planar_lsin_l(J[4], X[0], J[5], k);
-        planar_lcos_l(J[5], X[0], J[4], k);
-        planar_lsin_l(J[6], X[1], J[7], k);
-        planar_lcos_l(J[7], X[1], J[6], k);
+        planar_lsincos_l(J[4], J[5], X[0], k);
+        planar_lsincos_l(J[6], J[7], X[1], k);
         planar_lmul_l(J[8] + k * L, J[4], J[6], k);
         planar_lmul_l(J[9] + k * L, J[5], J[7], k);
         planar_ladd_l(J[10] + k * L, J[8] + k * L, J[9] + k * L);
@@ -1380,22 +1405,27 @@ static void planar_ljet_l(long double (*X)[ORDER_DIM * L], long double (*C)[L], 
 }
 
 /* X[i][0] = the series at tau[l] in every lane (tau 0: unchanged), by Horner as the
- * scalar integrator advances */
+ * scalar integrator advances; the states side by side (independent chains of
+ * multiply-adds, where one state after another would wait on each) */
 static void planar_ladvance_l(long double (*X)[ORDER_DIM * L], const long double *tau, int order)
 {
-    long double acc[L];
+    long double acc[N][L];
     int i, k, l;
     for (i = 0; i < N; ++i) {
         for (l = 0; l < L; ++l) {
-            acc[l] = X[i][order * L + l];
+            acc[i][l] = X[i][order * L + l];
         }
-        for (k = order - 1; k >= 0; --k) {
+    }
+    for (k = order - 1; k >= 0; --k) {
+        for (i = 0; i < N; ++i) {
             for (l = 0; l < L; ++l) {
-                acc[l] = acc[l] * tau[l] + X[i][k * L + l];
+                acc[i][l] = acc[i][l] * tau[l] + X[i][k * L + l];
             }
         }
+    }
+    for (i = 0; i < N; ++i) {
         for (l = 0; l < L; ++l) {
-            X[i][l] = acc[l];
+            X[i][l] = acc[i][l];
         }
     }
 }
@@ -1544,6 +1574,30 @@ static int planar_lstart_l(planar_lrun_l *r, int l)
     return 1;
 }
 
+/* 1 if x1^(1/e1) < x2^(1/e2), 2 if x2^(1/e2) < x1^(1/e1), for x > 0, where their binary
+ * logarithms differ by more than this estimate's error; else (or x not finite) 0.  log2 x
+ * = b + log2 f with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in
+ * [1/2, 1): the estimate is at most 0.0861/e below log2 of the root, 0.1/e with rounding. */
+static int planar_lsmaller_l(long double x1, int e1, long double x2, int e2)
+{
+    long double f1, f2, l1, l2;
+    int b1, b2;
+    if (!planar_lfinite_l(&x1, 1) || !planar_lfinite_l(&x2, 1)) {
+        return 0;
+    }
+    f1 = frexpl(x1, &b1);
+    f2 = frexpl(x2, &b2);
+    l1 = ((long double)b1 + 2 * (f1 - 1)) / (long double)e1;
+    l2 = ((long double)b2 + 2 * (f2 - 1)) / (long double)e2;
+    if (l1 + (long double)0.1 / (long double)e1 < l2) {
+        return 1;
+    }
+    if (l2 + (long double)0.1 / (long double)e2 < l1) {
+        return 2;
+    }
+    return 0;
+}
+
 /* Lane l after the jet: its step (Jorba & Zou, as the scalar) and the output times inside
  * it; r->tau[l] the step.  Returns a status (OK: advance). */
 static int planar_lstep_l(planar_lrun_l *r, int l)
@@ -1552,7 +1606,7 @@ static int planar_lstep_l(planar_lrun_l *r, int l)
     const int order = r->order;
     long double m = 1, n1 = 0, n2 = 0, a0, a1, a2, rho, q, h, tau;
     long row;
-    int i;
+    int i, which;
     ln->info->nfev += 1;
     if (r->bad[l]) {
         return PLANAR_INTEGRATE_CHART_SINGULAR;
@@ -1568,12 +1622,15 @@ static int planar_lstep_l(planar_lrun_l *r, int l)
     if (!planar_lfinite_l(&n1, 1) || !planar_lfinite_l(&n2, 1)) {
         return PLANAR_INTEGRATE_NONFINITE;
     }
+    /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
+     * one pow where their exponents show which is the smaller */
+    which = n1 > 0 && n2 > 0 ? planar_lsmaller_l(m / n1, order - 1, m / n2, order) : 0;
     rho = ln->hmax;
-    if (n1 > 0) {
+    if (n1 > 0 && which != 2) {
         q = powl(m / n1, (long double)1 / (long double)(order - 1));
         rho = q < rho ? q : rho;
     }
-    if (n2 > 0) {
+    if (n2 > 0 && which != 1) {
         q = powl(m / n2, (long double)1 / (long double)order);
         rho = q < rho ? q : rho;
     }

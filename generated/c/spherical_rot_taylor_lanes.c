@@ -151,37 +151,26 @@ LANES_INLINE void spherical_rot_lchain(double *LANES_RESTRICT acc, const double 
     }
 }
 
-/* coefficient k of sin a (c: cos a); at order 0 libm's sin, lane by lane */
-LANES_INLINE void spherical_rot_lsin(double *LANES_RESTRICT u, const double *LANES_RESTRICT a, const double *LANES_RESTRICT c, int k)
+/* coefficient k of s = sin a and c = cos a; at order 0 libm's sin and cos, lane by lane
+ * (GCC fuses the two calls into glibc's sincos, whose results are sin's and cos') */
+LANES_INLINE void spherical_rot_lsincos(double *LANES_RESTRICT s, double *LANES_RESTRICT c, const double *LANES_RESTRICT a, int k)
 {
     double acc[L];
     int l;
     if (k == 0) {
         for (l = 0; l < L; ++l) {
-            u[l] = sin(a[l]);
+            s[l] = sin(a[l]);
+            c[l] = cos(a[l]);
         }
         return;
     }
     spherical_rot_lchain(acc, a, c, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = acc[l];
+        s[k * L + l] = acc[l];
     }
-}
-
-/* coefficient k of cos a (w: sin a) */
-LANES_INLINE void spherical_rot_lcos(double *LANES_RESTRICT u, const double *LANES_RESTRICT a, const double *LANES_RESTRICT w, int k)
-{
-    double acc[L];
-    int l;
-    if (k == 0) {
-        for (l = 0; l < L; ++l) {
-            u[l] = cos(a[l]);
-        }
-        return;
-    }
-    spherical_rot_lchain(acc, a, w, k);
+    spherical_rot_lchain(acc, a, s, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = -acc[l];
+        c[k * L + l] = -acc[l];
     }
 }
 
@@ -230,15 +219,12 @@ static void spherical_rot_ljet(double (*X)[ORDER_DIM * L], double (*C)[L], int o
     int k;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        spherical_rot_lsin(J[8], X[1], J[9], k);
-        spherical_rot_lcos(J[9], X[1], J[8], k);
-        spherical_rot_lsin(J[10], X[3], J[11], k);
-        spherical_rot_lcos(J[11], X[3], J[10], k);
+        spherical_rot_lsincos(J[8], J[9], X[1], k);
+        spherical_rot_lsincos(J[10], J[11], X[3], k);
         spherical_rot_lmul(J[12] + k * L, J[8], J[11], k);
         spherical_rot_lmul(J[13] + k * L, J[10], J[9], k);
         spherical_rot_lsub(J[14] + k * L, J[12] + k * L, J[13] + k * L);
-        spherical_rot_lsin(J[15], X[2], J[16], k);
-        spherical_rot_lcos(J[16], X[2], J[15], k);
+        spherical_rot_lsincos(J[15], J[16], X[2], k);
         spherical_rot_lscale(J[17] + k * L, C[0], J[16] + k * L);
         spherical_rot_lscale(J[18] + k * L, C[1], J[17] + k * L);
         spherical_rot_lmul(J[19] + k * L, J[14], J[18], k);
@@ -252,8 +238,7 @@ static void spherical_rot_ljet(double (*X)[ORDER_DIM * L], double (*C)[L], int o
         spherical_rot_lmul(J[27] + k * L, J[26], J[26], k);
         spherical_rot_lshift(J[28] + k * L, J[27] + k * L, C[4], k);
         spherical_rot_lsub(J[29] + k * L, J[22] + k * L, J[28] + k * L);
-        spherical_rot_lsin(J[30], X[0], J[31], k);
-        spherical_rot_lcos(J[31], X[0], J[30], k);
+        spherical_rot_lsincos(J[30], J[31], X[0], k);
         spherical_rot_lscale(J[32] + k * L, C[1], J[31] + k * L);
         spherical_rot_lscale(J[33] + k * L, C[0], J[14] + k * L);
         spherical_rot_lmul(J[34] + k * L, J[32], J[33], k);
@@ -428,22 +413,27 @@ static void spherical_rot_ljet(double (*X)[ORDER_DIM * L], double (*C)[L], int o
 }
 
 /* X[i][0] = the series at tau[l] in every lane (tau 0: unchanged), by Horner as the
- * scalar integrator advances */
+ * scalar integrator advances; the states side by side (independent chains of
+ * multiply-adds, where one state after another would wait on each) */
 static void spherical_rot_ladvance(double (*X)[ORDER_DIM * L], const double *tau, int order)
 {
-    double acc[L];
+    double acc[N][L];
     int i, k, l;
     for (i = 0; i < N; ++i) {
         for (l = 0; l < L; ++l) {
-            acc[l] = X[i][order * L + l];
+            acc[i][l] = X[i][order * L + l];
         }
-        for (k = order - 1; k >= 0; --k) {
+    }
+    for (k = order - 1; k >= 0; --k) {
+        for (i = 0; i < N; ++i) {
             for (l = 0; l < L; ++l) {
-                acc[l] = acc[l] * tau[l] + X[i][k * L + l];
+                acc[i][l] = acc[i][l] * tau[l] + X[i][k * L + l];
             }
         }
+    }
+    for (i = 0; i < N; ++i) {
         for (l = 0; l < L; ++l) {
-            X[i][l] = acc[l];
+            X[i][l] = acc[i][l];
         }
     }
 }
@@ -592,6 +582,30 @@ static int spherical_rot_lstart(spherical_rot_lrun *r, int l)
     return 1;
 }
 
+/* 1 if x1^(1/e1) < x2^(1/e2), 2 if x2^(1/e2) < x1^(1/e1), for x > 0, where their binary
+ * logarithms differ by more than this estimate's error; else (or x not finite) 0.  log2 x
+ * = b + log2 f with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in
+ * [1/2, 1): the estimate is at most 0.0861/e below log2 of the root, 0.1/e with rounding. */
+static int spherical_rot_lsmaller(double x1, int e1, double x2, int e2)
+{
+    double f1, f2, l1, l2;
+    int b1, b2;
+    if (!spherical_rot_lfinite(&x1, 1) || !spherical_rot_lfinite(&x2, 1)) {
+        return 0;
+    }
+    f1 = frexp(x1, &b1);
+    f2 = frexp(x2, &b2);
+    l1 = ((double)b1 + 2 * (f1 - 1)) / (double)e1;
+    l2 = ((double)b2 + 2 * (f2 - 1)) / (double)e2;
+    if (l1 + (double)0.1 / (double)e1 < l2) {
+        return 1;
+    }
+    if (l2 + (double)0.1 / (double)e2 < l1) {
+        return 2;
+    }
+    return 0;
+}
+
 /* Lane l after the jet: its step (Jorba & Zou, as the scalar) and the output times inside
  * it; r->tau[l] the step.  Returns a status (OK: advance). */
 static int spherical_rot_lstep(spherical_rot_lrun *r, int l)
@@ -600,7 +614,7 @@ static int spherical_rot_lstep(spherical_rot_lrun *r, int l)
     const int order = r->order;
     double m = 1, n1 = 0, n2 = 0, a0, a1, a2, rho, q, h, tau;
     long row;
-    int i;
+    int i, which;
     ln->info->nfev += 1;
     if (r->bad[l]) {
         return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
@@ -616,12 +630,15 @@ static int spherical_rot_lstep(spherical_rot_lrun *r, int l)
     if (!spherical_rot_lfinite(&n1, 1) || !spherical_rot_lfinite(&n2, 1)) {
         return SPHERICAL_ROT_INTEGRATE_NONFINITE;
     }
+    /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
+     * one pow where their exponents show which is the smaller */
+    which = n1 > 0 && n2 > 0 ? spherical_rot_lsmaller(m / n1, order - 1, m / n2, order) : 0;
     rho = ln->hmax;
-    if (n1 > 0) {
+    if (n1 > 0 && which != 2) {
         q = pow(m / n1, (double)1 / (double)(order - 1));
         rho = q < rho ? q : rho;
     }
-    if (n2 > 0) {
+    if (n2 > 0 && which != 1) {
         q = pow(m / n2, (double)1 / (double)order);
         rho = q < rho ? q : rho;
     }
@@ -876,37 +893,26 @@ LANES_INLINE void spherical_rot_lchain_f(float *LANES_RESTRICT acc, const float 
     }
 }
 
-/* coefficient k of sin a (c: cos a); at order 0 libm's sin, lane by lane */
-LANES_INLINE void spherical_rot_lsin_f(float *LANES_RESTRICT u, const float *LANES_RESTRICT a, const float *LANES_RESTRICT c, int k)
+/* coefficient k of s = sin a and c = cos a; at order 0 libm's sin and cos, lane by lane
+ * (GCC fuses the two calls into glibc's sincos, whose results are sin's and cos') */
+LANES_INLINE void spherical_rot_lsincos_f(float *LANES_RESTRICT s, float *LANES_RESTRICT c, const float *LANES_RESTRICT a, int k)
 {
     float acc[L];
     int l;
     if (k == 0) {
         for (l = 0; l < L; ++l) {
-            u[l] = sinf(a[l]);
+            s[l] = sinf(a[l]);
+            c[l] = cosf(a[l]);
         }
         return;
     }
     spherical_rot_lchain_f(acc, a, c, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = acc[l];
+        s[k * L + l] = acc[l];
     }
-}
-
-/* coefficient k of cos a (w: sin a) */
-LANES_INLINE void spherical_rot_lcos_f(float *LANES_RESTRICT u, const float *LANES_RESTRICT a, const float *LANES_RESTRICT w, int k)
-{
-    float acc[L];
-    int l;
-    if (k == 0) {
-        for (l = 0; l < L; ++l) {
-            u[l] = cosf(a[l]);
-        }
-        return;
-    }
-    spherical_rot_lchain_f(acc, a, w, k);
+    spherical_rot_lchain_f(acc, a, s, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = -acc[l];
+        c[k * L + l] = -acc[l];
     }
 }
 
@@ -955,15 +961,12 @@ static void spherical_rot_ljet_f(float (*X)[ORDER_DIM * L], float (*C)[L], int o
     int k;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        spherical_rot_lsin_f(J[8], X[1], J[9], k);
-        spherical_rot_lcos_f(J[9], X[1], J[8], k);
-        spherical_rot_lsin_f(J[10], X[3], J[11], k);
-        spherical_rot_lcos_f(J[11], X[3], J[10], k);
+        spherical_rot_lsincos_f(J[8], J[9], X[1], k);
+        spherical_rot_lsincos_f(J[10], J[11], X[3], k);
         spherical_rot_lmul_f(J[12] + k * L, J[8], J[11], k);
         spherical_rot_lmul_f(J[13] + k * L, J[10], J[9], k);
         spherical_rot_lsub_f(J[14] + k * L, J[12] + k * L, J[13] + k * L);
-        spherical_rot_lsin_f(J[15], X[2], J[16], k);
-        spherical_rot_lcos_f(J[16], X[2], J[15], k);
+        spherical_rot_lsincos_f(J[15], J[16], X[2], k);
         spherical_rot_lscale_f(J[17] + k * L, C[0], J[16] + k * L);
         spherical_rot_lscale_f(J[18] + k * L, C[1], J[17] + k * L);
         spherical_rot_lmul_f(J[19] + k * L, J[14], J[18], k);
@@ -977,8 +980,7 @@ static void spherical_rot_ljet_f(float (*X)[ORDER_DIM * L], float (*C)[L], int o
         spherical_rot_lmul_f(J[27] + k * L, J[26], J[26], k);
         spherical_rot_lshift_f(J[28] + k * L, J[27] + k * L, C[4], k);
         spherical_rot_lsub_f(J[29] + k * L, J[22] + k * L, J[28] + k * L);
-        spherical_rot_lsin_f(J[30], X[0], J[31], k);
-        spherical_rot_lcos_f(J[31], X[0], J[30], k);
+        spherical_rot_lsincos_f(J[30], J[31], X[0], k);
         spherical_rot_lscale_f(J[32] + k * L, C[1], J[31] + k * L);
         spherical_rot_lscale_f(J[33] + k * L, C[0], J[14] + k * L);
         spherical_rot_lmul_f(J[34] + k * L, J[32], J[33], k);
@@ -1153,22 +1155,27 @@ static void spherical_rot_ljet_f(float (*X)[ORDER_DIM * L], float (*C)[L], int o
 }
 
 /* X[i][0] = the series at tau[l] in every lane (tau 0: unchanged), by Horner as the
- * scalar integrator advances */
+ * scalar integrator advances; the states side by side (independent chains of
+ * multiply-adds, where one state after another would wait on each) */
 static void spherical_rot_ladvance_f(float (*X)[ORDER_DIM * L], const float *tau, int order)
 {
-    float acc[L];
+    float acc[N][L];
     int i, k, l;
     for (i = 0; i < N; ++i) {
         for (l = 0; l < L; ++l) {
-            acc[l] = X[i][order * L + l];
+            acc[i][l] = X[i][order * L + l];
         }
-        for (k = order - 1; k >= 0; --k) {
+    }
+    for (k = order - 1; k >= 0; --k) {
+        for (i = 0; i < N; ++i) {
             for (l = 0; l < L; ++l) {
-                acc[l] = acc[l] * tau[l] + X[i][k * L + l];
+                acc[i][l] = acc[i][l] * tau[l] + X[i][k * L + l];
             }
         }
+    }
+    for (i = 0; i < N; ++i) {
         for (l = 0; l < L; ++l) {
-            X[i][l] = acc[l];
+            X[i][l] = acc[i][l];
         }
     }
 }
@@ -1317,6 +1324,30 @@ static int spherical_rot_lstart_f(spherical_rot_lrun_f *r, int l)
     return 1;
 }
 
+/* 1 if x1^(1/e1) < x2^(1/e2), 2 if x2^(1/e2) < x1^(1/e1), for x > 0, where their binary
+ * logarithms differ by more than this estimate's error; else (or x not finite) 0.  log2 x
+ * = b + log2 f with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in
+ * [1/2, 1): the estimate is at most 0.0861/e below log2 of the root, 0.1/e with rounding. */
+static int spherical_rot_lsmaller_f(float x1, int e1, float x2, int e2)
+{
+    float f1, f2, l1, l2;
+    int b1, b2;
+    if (!spherical_rot_lfinite_f(&x1, 1) || !spherical_rot_lfinite_f(&x2, 1)) {
+        return 0;
+    }
+    f1 = frexpf(x1, &b1);
+    f2 = frexpf(x2, &b2);
+    l1 = ((float)b1 + 2 * (f1 - 1)) / (float)e1;
+    l2 = ((float)b2 + 2 * (f2 - 1)) / (float)e2;
+    if (l1 + (float)0.1 / (float)e1 < l2) {
+        return 1;
+    }
+    if (l2 + (float)0.1 / (float)e2 < l1) {
+        return 2;
+    }
+    return 0;
+}
+
 /* Lane l after the jet: its step (Jorba & Zou, as the scalar) and the output times inside
  * it; r->tau[l] the step.  Returns a status (OK: advance). */
 static int spherical_rot_lstep_f(spherical_rot_lrun_f *r, int l)
@@ -1325,7 +1356,7 @@ static int spherical_rot_lstep_f(spherical_rot_lrun_f *r, int l)
     const int order = r->order;
     float m = 1, n1 = 0, n2 = 0, a0, a1, a2, rho, q, h, tau;
     long row;
-    int i;
+    int i, which;
     ln->info->nfev += 1;
     if (r->bad[l]) {
         return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
@@ -1341,12 +1372,15 @@ static int spherical_rot_lstep_f(spherical_rot_lrun_f *r, int l)
     if (!spherical_rot_lfinite_f(&n1, 1) || !spherical_rot_lfinite_f(&n2, 1)) {
         return SPHERICAL_ROT_INTEGRATE_NONFINITE;
     }
+    /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
+     * one pow where their exponents show which is the smaller */
+    which = n1 > 0 && n2 > 0 ? spherical_rot_lsmaller_f(m / n1, order - 1, m / n2, order) : 0;
     rho = ln->hmax;
-    if (n1 > 0) {
+    if (n1 > 0 && which != 2) {
         q = powf(m / n1, (float)1 / (float)(order - 1));
         rho = q < rho ? q : rho;
     }
-    if (n2 > 0) {
+    if (n2 > 0 && which != 1) {
         q = powf(m / n2, (float)1 / (float)order);
         rho = q < rho ? q : rho;
     }
@@ -1601,37 +1635,26 @@ LANES_INLINE void spherical_rot_lchain_l(long double *LANES_RESTRICT acc, const 
     }
 }
 
-/* coefficient k of sin a (c: cos a); at order 0 libm's sin, lane by lane */
-LANES_INLINE void spherical_rot_lsin_l(long double *LANES_RESTRICT u, const long double *LANES_RESTRICT a, const long double *LANES_RESTRICT c, int k)
+/* coefficient k of s = sin a and c = cos a; at order 0 libm's sin and cos, lane by lane
+ * (GCC fuses the two calls into glibc's sincos, whose results are sin's and cos') */
+LANES_INLINE void spherical_rot_lsincos_l(long double *LANES_RESTRICT s, long double *LANES_RESTRICT c, const long double *LANES_RESTRICT a, int k)
 {
     long double acc[L];
     int l;
     if (k == 0) {
         for (l = 0; l < L; ++l) {
-            u[l] = sinl(a[l]);
+            s[l] = sinl(a[l]);
+            c[l] = cosl(a[l]);
         }
         return;
     }
     spherical_rot_lchain_l(acc, a, c, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = acc[l];
+        s[k * L + l] = acc[l];
     }
-}
-
-/* coefficient k of cos a (w: sin a) */
-LANES_INLINE void spherical_rot_lcos_l(long double *LANES_RESTRICT u, const long double *LANES_RESTRICT a, const long double *LANES_RESTRICT w, int k)
-{
-    long double acc[L];
-    int l;
-    if (k == 0) {
-        for (l = 0; l < L; ++l) {
-            u[l] = cosl(a[l]);
-        }
-        return;
-    }
-    spherical_rot_lchain_l(acc, a, w, k);
+    spherical_rot_lchain_l(acc, a, s, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = -acc[l];
+        c[k * L + l] = -acc[l];
     }
 }
 
@@ -1680,15 +1703,12 @@ static void spherical_rot_ljet_l(long double (*X)[ORDER_DIM * L], long double (*
     int k;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        spherical_rot_lsin_l(J[8], X[1], J[9], k);
-        spherical_rot_lcos_l(J[9], X[1], J[8], k);
-        spherical_rot_lsin_l(J[10], X[3], J[11], k);
-        spherical_rot_lcos_l(J[11], X[3], J[10], k);
+        spherical_rot_lsincos_l(J[8], J[9], X[1], k);
+        spherical_rot_lsincos_l(J[10], J[11], X[3], k);
         spherical_rot_lmul_l(J[12] + k * L, J[8], J[11], k);
         spherical_rot_lmul_l(J[13] + k * L, J[10], J[9], k);
         spherical_rot_lsub_l(J[14] + k * L, J[12] + k * L, J[13] + k * L);
-        spherical_rot_lsin_l(J[15], X[2], J[16], k);
-        spherical_rot_lcos_l(J[16], X[2], J[15], k);
+        spherical_rot_lsincos_l(J[15], J[16], X[2], k);
         spherical_rot_lscale_l(J[17] + k * L, C[0], J[16] + k * L);
         spherical_rot_lscale_l(J[18] + k * L, C[1], J[17] + k * L);
         spherical_rot_lmul_l(J[19] + k * L, J[14], J[18], k);
@@ -1702,8 +1722,7 @@ static void spherical_rot_ljet_l(long double (*X)[ORDER_DIM * L], long double (*
         spherical_rot_lmul_l(J[27] + k * L, J[26], J[26], k);
         spherical_rot_lshift_l(J[28] + k * L, J[27] + k * L, C[4], k);
         spherical_rot_lsub_l(J[29] + k * L, J[22] + k * L, J[28] + k * L);
-        spherical_rot_lsin_l(J[30], X[0], J[31], k);
-        spherical_rot_lcos_l(J[31], X[0], J[30], k);
+        spherical_rot_lsincos_l(J[30], J[31], X[0], k);
         spherical_rot_lscale_l(J[32] + k * L, C[1], J[31] + k * L);
         spherical_rot_lscale_l(J[33] + k * L, C[0], J[14] + k * L);
         spherical_rot_lmul_l(J[34] + k * L, J[32], J[33], k);
@@ -1878,22 +1897,27 @@ static void spherical_rot_ljet_l(long double (*X)[ORDER_DIM * L], long double (*
 }
 
 /* X[i][0] = the series at tau[l] in every lane (tau 0: unchanged), by Horner as the
- * scalar integrator advances */
+ * scalar integrator advances; the states side by side (independent chains of
+ * multiply-adds, where one state after another would wait on each) */
 static void spherical_rot_ladvance_l(long double (*X)[ORDER_DIM * L], const long double *tau, int order)
 {
-    long double acc[L];
+    long double acc[N][L];
     int i, k, l;
     for (i = 0; i < N; ++i) {
         for (l = 0; l < L; ++l) {
-            acc[l] = X[i][order * L + l];
+            acc[i][l] = X[i][order * L + l];
         }
-        for (k = order - 1; k >= 0; --k) {
+    }
+    for (k = order - 1; k >= 0; --k) {
+        for (i = 0; i < N; ++i) {
             for (l = 0; l < L; ++l) {
-                acc[l] = acc[l] * tau[l] + X[i][k * L + l];
+                acc[i][l] = acc[i][l] * tau[l] + X[i][k * L + l];
             }
         }
+    }
+    for (i = 0; i < N; ++i) {
         for (l = 0; l < L; ++l) {
-            X[i][l] = acc[l];
+            X[i][l] = acc[i][l];
         }
     }
 }
@@ -2042,6 +2066,30 @@ static int spherical_rot_lstart_l(spherical_rot_lrun_l *r, int l)
     return 1;
 }
 
+/* 1 if x1^(1/e1) < x2^(1/e2), 2 if x2^(1/e2) < x1^(1/e1), for x > 0, where their binary
+ * logarithms differ by more than this estimate's error; else (or x not finite) 0.  log2 x
+ * = b + log2 f with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in
+ * [1/2, 1): the estimate is at most 0.0861/e below log2 of the root, 0.1/e with rounding. */
+static int spherical_rot_lsmaller_l(long double x1, int e1, long double x2, int e2)
+{
+    long double f1, f2, l1, l2;
+    int b1, b2;
+    if (!spherical_rot_lfinite_l(&x1, 1) || !spherical_rot_lfinite_l(&x2, 1)) {
+        return 0;
+    }
+    f1 = frexpl(x1, &b1);
+    f2 = frexpl(x2, &b2);
+    l1 = ((long double)b1 + 2 * (f1 - 1)) / (long double)e1;
+    l2 = ((long double)b2 + 2 * (f2 - 1)) / (long double)e2;
+    if (l1 + (long double)0.1 / (long double)e1 < l2) {
+        return 1;
+    }
+    if (l2 + (long double)0.1 / (long double)e2 < l1) {
+        return 2;
+    }
+    return 0;
+}
+
 /* Lane l after the jet: its step (Jorba & Zou, as the scalar) and the output times inside
  * it; r->tau[l] the step.  Returns a status (OK: advance). */
 static int spherical_rot_lstep_l(spherical_rot_lrun_l *r, int l)
@@ -2050,7 +2098,7 @@ static int spherical_rot_lstep_l(spherical_rot_lrun_l *r, int l)
     const int order = r->order;
     long double m = 1, n1 = 0, n2 = 0, a0, a1, a2, rho, q, h, tau;
     long row;
-    int i;
+    int i, which;
     ln->info->nfev += 1;
     if (r->bad[l]) {
         return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
@@ -2066,12 +2114,15 @@ static int spherical_rot_lstep_l(spherical_rot_lrun_l *r, int l)
     if (!spherical_rot_lfinite_l(&n1, 1) || !spherical_rot_lfinite_l(&n2, 1)) {
         return SPHERICAL_ROT_INTEGRATE_NONFINITE;
     }
+    /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
+     * one pow where their exponents show which is the smaller */
+    which = n1 > 0 && n2 > 0 ? spherical_rot_lsmaller_l(m / n1, order - 1, m / n2, order) : 0;
     rho = ln->hmax;
-    if (n1 > 0) {
+    if (n1 > 0 && which != 2) {
         q = powl(m / n1, (long double)1 / (long double)(order - 1));
         rho = q < rho ? q : rho;
     }
-    if (n2 > 0) {
+    if (n2 > 0 && which != 1) {
         q = powl(m / n2, (long double)1 / (long double)order);
         rho = q < rho ? q : rho;
     }
