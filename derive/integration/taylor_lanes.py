@@ -31,12 +31,45 @@ def variant_number(suffix: str) -> int:
     return [s for _, s, _ in _C_VARIANTS].index(suffix) + 1
 
 
+def history_nodes(d: Decomposition) -> set[int]:
+    """The nodes whose every coefficient so far is read (operands of products, quotients'
+    divisors and the quotients, square roots, sin/cos and exp and their arguments); the
+    others are read only at the order being computed, so one row of lanes holds them."""
+    keep = set()
+    for i, op in enumerate(d.ops):
+        if op.kind in ("mul", "square"):
+            keep.update(op.args)
+        elif op.kind in ("div", "inv"):
+            keep.update((op.args[-1], i))
+        elif op.kind == "sqrt":
+            keep.add(i)
+        elif op.kind in ("sin", "cos", "exp"):
+            keep.update((op.args[0], i))
+    return keep
+
+
 def lane_statements(d: Decomposition, P: str, s: str) -> dict:
     """The jet body of one variant: one call per operation computing coefficient k in every
-    lane (J[i] + k * L; C[c] the lane's constants), the outputs X[i][k + 1] and the guards."""
-    def ref(i):                  # a state's coefficients are X[i] itself (no copy)
-        op = d.ops[i]
-        return f"X[{op.index}]" if op.kind == "var" else f"J[{i}]"
+    lane, the outputs X[i][k + 1] and the guards.  Coefficients live in X (the states), H
+    (history_nodes: H[h] + k * L) or T (the others, the current order only: T[t]); C[c]
+    are the lane's constants.  Only the nodes read at other orders take ORDER_DIM rows:
+    the planar jet's working set is then about half, within a 32 KB L1 cache."""
+    hist = history_nodes(d)
+    slot, nh, nt = {}, 0, 0
+    for i, op in enumerate(d.ops):
+        if op.kind == "var":
+            slot[i] = f"X[{op.index}]"
+        elif i in hist:
+            slot[i], nh = f"H[{nh}]", nh + 1
+        else:
+            slot[i], nt = f"T[{nt}]", nt + 1
+
+    def row(i):                  # every coefficient of node i (a state's: X[i] itself)
+        assert slot[i][0] in "XH", (i, d.ops[i])
+        return slot[i]
+
+    def cur(i):                  # coefficient k of node i
+        return slot[i] if slot[i][0] == "T" else f"{slot[i]} + k * L"
 
     def fn(name):
         return f"{P}_l{name}{s}"
@@ -45,42 +78,40 @@ def lane_statements(d: Decomposition, P: str, s: str) -> dict:
     for i, op in enumerate(d.ops):
         if op.kind == "var":
             continue
-        u = ref(i)
-        uk = f"{u} + k * L"
         if op.kind in ("add", "sub"):
-            a, b = (ref(x) for x in op.args)
-            lines.append(f"{fn(op.kind)}({uk}, {a} + k * L, {b} + k * L);")
+            lines.append(f"{fn(op.kind)}({cur(i)}, {cur(op.args[0])}, {cur(op.args[1])});")
         elif op.kind == "scale":
-            lines.append(f"{fn('scale')}({uk}, C[{op.args[1]}], {ref(op.args[0])} + k * L);")
+            lines.append(f"{fn('scale')}({cur(i)}, C[{op.args[1]}], {cur(op.args[0])});")
         elif op.kind == "shift":
-            base = "0" if op.args[0] is None else f"{ref(op.args[0])} + k * L"
-            lines.append(f"{fn('shift')}({uk}, {base}, C[{op.args[1]}], k);")
+            base = "0" if op.args[0] is None else cur(op.args[0])
+            lines.append(f"{fn('shift')}({cur(i)}, {base}, C[{op.args[1]}], k);")
         elif op.kind in ("mul", "square"):
-            a = ref(op.args[0])
-            b = a if op.kind == "square" else ref(op.args[1])
-            lines.append(f"{fn('mul')}({uk}, {a}, {b}, k);")
+            a = row(op.args[0])
+            b = a if op.kind == "square" else row(op.args[1])
+            lines.append(f"{fn('mul')}({cur(i)}, {a}, {b}, k);")
         elif op.kind == "div":
-            lines.append(f"{fn('div')}({u}, {ref(op.args[0])} + k * L, {ref(op.args[1])}, k);")
+            lines.append(f"{fn('div')}({row(i)}, {cur(op.args[0])}, {row(op.args[1])}, k);")
         elif op.kind == "inv":
-            lines.append(f"{fn('div')}({u}, 0, {ref(op.args[0])}, k);")
+            lines.append(f"{fn('div')}({row(i)}, 0, {row(op.args[0])}, k);")
         elif op.kind == "sqrt":
-            lines.append(f"{fn('sqrt')}({u}, {ref(op.args[0])}, k);")
+            lines.append(f"{fn('sqrt')}({row(i)}, {cur(op.args[0])}, k);")
         elif op.kind == "sin":            # with its cos (the next operation): one sincos
-            lines.append(f"{fn('sincos')}({u}, {ref(op.args[1])}, {ref(op.args[0])}, k);")
+            lines.append(f"{fn('sincos')}({row(i)}, {row(op.args[1])}, {row(op.args[0])}, k);")
         elif op.kind == "cos":
             if d.ops[i - 1].kind != "sin" or d.ops[i - 1].args != (op.args[0], i):   # pragma: no cover
                 raise SpecError("a cos without its sin before it in the Taylor decomposition")
         elif op.kind == "exp":
-            lines.append(f"{fn('exp')}({u}, {ref(op.args[0])}, k);")
+            lines.append(f"{fn('exp')}({row(i)}, {row(op.args[0])}, k);")
         else:                                   # pragma: no cover (every kind above)
             raise SpecError(f"unknown Taylor operation {op.kind}")
     outputs = []
     for i, (kind, j) in enumerate(d.outputs):
         if kind == "node":
-            outputs.append(f"{fn('out')}(X[{i}] + (k + 1) * L, {ref(j)} + k * L, k);")
+            outputs.append(f"{fn('out')}(X[{i}] + (k + 1) * L, {cur(j)}, k);")
         else:
             outputs.append(f"{fn('outc')}(X[{i}] + (k + 1) * L, C[{j}], k);")
-    return {"ops": lines, "outputs": outputs, "guards": [ref(g) for g in d.guards]}
+    return {"ops": lines, "outputs": outputs, "guards": [cur(g) for g in d.guards],
+            "nhist": nh, "ncur": nt}
 
 
 def render_taylor_lanes(name: str) -> dict[str, str]:
@@ -101,6 +132,7 @@ def render_taylor_lanes(name: str) -> dict[str, str]:
             "outc": any(kind == "const" for kind, _ in d.outputs)}
     ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops), "uses": uses,
            "nconst": len(d.constants), "order_max": ORDER_MAX, "lanes_default": LANES_DEFAULT,
+           "nstore": d.n + len(history_nodes(d) - {i for i, op in enumerate(d.ops) if op.kind == "var"}),
            "info_scalars": [f.name for f in INFO if not f.length],
            "nparams": f"{M}_N_PARAMS + {M}_N_INPUTS" if info.n_inputs else f"{M}_N_PARAMS"}
     return {f"c/{name}_taylor_lanes.h": render("c/taylor_lanes.h.jinja",

@@ -44,7 +44,6 @@
 #else
 #define LANES_INLINE static inline
 #endif
-#define NODES 39
 #define NCONST 10
 
 int compound_taylor_lanes(void)
@@ -59,7 +58,8 @@ int compound_taylor_lanes(void)
 
 /* Each function below is the scalar recurrence of compound_taylor.c for every lane: the
  * same operations in the same order, so each lane's result is the scalar one.  Rows are
- * ORDER_DIM coefficients of L lanes: coefficient k of lane l at [k * L + l]. */
+ * ORDER_DIM coefficients of L lanes (coefficient k of lane l at [k * L + l]); a pointer
+ * to one order's L lanes (a_k, u + k * L) is that order's coefficient. */
 
 LANES_INLINE void compound_ladd(double *LANES_RESTRICT u, const double *LANES_RESTRICT a, const double *LANES_RESTRICT b)
 {
@@ -201,50 +201,51 @@ static void compound_lconstants(double (*C)[L], int l, const double *p)
 /* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
 static void compound_ljet(double (*X)[ORDER_DIM * L], double (*C)[L], int order_wanted, double sine_min, int *bad)
 {
-    double J[NODES][ORDER_DIM * L];
+    double H[14][ORDER_DIM * L];     /* nodes read at every order */
+    double T[21][L];                 /* nodes read at this order only */
     const int order = COMPOUND_TAYLOR_ORDER ? COMPOUND_TAYLOR_ORDER : order_wanted;
     int k;
     (void)sine_min;
     (void)bad;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        compound_lsincos(J[4], J[5], X[0], k);
-        compound_lsincos(J[6], J[7], X[1], k);
-        compound_lmul(J[8] + k * L, J[4], J[6], k);
-        compound_lmul(J[9] + k * L, J[5], J[7], k);
-        compound_ladd(J[10] + k * L, J[8] + k * L, J[9] + k * L);
-        compound_lscale(J[11] + k * L, C[0], J[10] + k * L);
-        compound_lmul(J[12] + k * L, J[11], J[11], k);
-        compound_lscale(J[13] + k * L, C[1], J[12] + k * L);
-        compound_lshift(J[14] + k * L, J[13] + k * L, C[2], k);
-        compound_ldiv(J[15], 0, J[14], k);
-        compound_lscale(J[16] + k * L, C[3], J[4] + k * L);
-        compound_lmul(J[17] + k * L, J[4], J[7], k);
-        compound_lmul(J[18] + k * L, J[6], J[5], k);
-        compound_lsub(J[19] + k * L, J[17] + k * L, J[18] + k * L);
-        compound_lmul(J[20] + k * L, X[3], X[3], k);
-        compound_lscale(J[21] + k * L, C[4], J[20] + k * L);
-        compound_lmul(J[22] + k * L, J[19], J[21], k);
-        compound_ladd(J[23] + k * L, J[16] + k * L, J[22] + k * L);
-        compound_lscale(J[24] + k * L, C[5], J[23] + k * L);
-        compound_lscale(J[25] + k * L, C[6], J[24] + k * L);
-        compound_lmul(J[26] + k * L, X[2], X[2], k);
-        compound_lmul(J[27] + k * L, J[19], J[26], k);
-        compound_lscale(J[28] + k * L, C[7], J[27] + k * L);
-        compound_lscale(J[29] + k * L, C[8], J[6] + k * L);
-        compound_lsub(J[30] + k * L, J[28] + k * L, J[29] + k * L);
-        compound_lscale(J[31] + k * L, C[4], J[30] + k * L);
-        compound_lmul(J[32] + k * L, J[31], J[11], k);
-        compound_lsub(J[33] + k * L, J[25] + k * L, J[32] + k * L);
-        compound_lmul(J[34] + k * L, J[15], J[33], k);
-        compound_lscale(J[35] + k * L, C[9], J[31] + k * L);
-        compound_lmul(J[36] + k * L, J[24], J[11], k);
-        compound_lsub(J[37] + k * L, J[35] + k * L, J[36] + k * L);
-        compound_lmul(J[38] + k * L, J[15], J[37], k);
+        compound_lsincos(H[0], H[1], X[0], k);
+        compound_lsincos(H[2], H[3], X[1], k);
+        compound_lmul(T[0], H[0], H[2], k);
+        compound_lmul(T[1], H[1], H[3], k);
+        compound_ladd(T[2], T[0], T[1]);
+        compound_lscale(H[4] + k * L, C[0], T[2]);
+        compound_lmul(T[3], H[4], H[4], k);
+        compound_lscale(T[4], C[1], T[3]);
+        compound_lshift(H[5] + k * L, T[4], C[2], k);
+        compound_ldiv(H[6], 0, H[5], k);
+        compound_lscale(T[5], C[3], H[0] + k * L);
+        compound_lmul(T[6], H[0], H[3], k);
+        compound_lmul(T[7], H[2], H[1], k);
+        compound_lsub(H[7] + k * L, T[6], T[7]);
+        compound_lmul(T[8], X[3], X[3], k);
+        compound_lscale(H[8] + k * L, C[4], T[8]);
+        compound_lmul(T[9], H[7], H[8], k);
+        compound_ladd(T[10], T[5], T[9]);
+        compound_lscale(H[9] + k * L, C[5], T[10]);
+        compound_lscale(T[11], C[6], H[9] + k * L);
+        compound_lmul(H[10] + k * L, X[2], X[2], k);
+        compound_lmul(T[12], H[7], H[10], k);
+        compound_lscale(T[13], C[7], T[12]);
+        compound_lscale(T[14], C[8], H[2] + k * L);
+        compound_lsub(T[15], T[13], T[14]);
+        compound_lscale(H[11] + k * L, C[4], T[15]);
+        compound_lmul(T[16], H[11], H[4], k);
+        compound_lsub(H[12] + k * L, T[11], T[16]);
+        compound_lmul(T[17], H[6], H[12], k);
+        compound_lscale(T[18], C[9], H[11] + k * L);
+        compound_lmul(T[19], H[9], H[4], k);
+        compound_lsub(H[13] + k * L, T[18], T[19]);
+        compound_lmul(T[20], H[6], H[13], k);
         compound_lout(X[0] + (k + 1) * L, X[2] + k * L, k);
         compound_lout(X[1] + (k + 1) * L, X[3] + k * L, k);
-        compound_lout(X[2] + (k + 1) * L, J[34] + k * L, k);
-        compound_lout(X[3] + (k + 1) * L, J[38] + k * L, k);
+        compound_lout(X[2] + (k + 1) * L, T[17], k);
+        compound_lout(X[3] + (k + 1) * L, T[20], k);
     }
 }
 
@@ -637,7 +638,8 @@ long compound_taylor_lanes_batch(long n, const double *y0, long y0_stride, const
 
 /* Each function below is the scalar recurrence of compound_taylor.c for every lane: the
  * same operations in the same order, so each lane's result is the scalar one.  Rows are
- * ORDER_DIM coefficients of L lanes: coefficient k of lane l at [k * L + l]. */
+ * ORDER_DIM coefficients of L lanes (coefficient k of lane l at [k * L + l]); a pointer
+ * to one order's L lanes (a_k, u + k * L) is that order's coefficient. */
 
 LANES_INLINE void compound_ladd_f(float *LANES_RESTRICT u, const float *LANES_RESTRICT a, const float *LANES_RESTRICT b)
 {
@@ -779,50 +781,51 @@ static void compound_lconstants_f(float (*C)[L], int l, const float *p)
 /* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
 static void compound_ljet_f(float (*X)[ORDER_DIM * L], float (*C)[L], int order_wanted, float sine_min, int *bad)
 {
-    float J[NODES][ORDER_DIM * L];
+    float H[14][ORDER_DIM * L];     /* nodes read at every order */
+    float T[21][L];                 /* nodes read at this order only */
     const int order = COMPOUND_TAYLOR_ORDER ? COMPOUND_TAYLOR_ORDER : order_wanted;
     int k;
     (void)sine_min;
     (void)bad;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        compound_lsincos_f(J[4], J[5], X[0], k);
-        compound_lsincos_f(J[6], J[7], X[1], k);
-        compound_lmul_f(J[8] + k * L, J[4], J[6], k);
-        compound_lmul_f(J[9] + k * L, J[5], J[7], k);
-        compound_ladd_f(J[10] + k * L, J[8] + k * L, J[9] + k * L);
-        compound_lscale_f(J[11] + k * L, C[0], J[10] + k * L);
-        compound_lmul_f(J[12] + k * L, J[11], J[11], k);
-        compound_lscale_f(J[13] + k * L, C[1], J[12] + k * L);
-        compound_lshift_f(J[14] + k * L, J[13] + k * L, C[2], k);
-        compound_ldiv_f(J[15], 0, J[14], k);
-        compound_lscale_f(J[16] + k * L, C[3], J[4] + k * L);
-        compound_lmul_f(J[17] + k * L, J[4], J[7], k);
-        compound_lmul_f(J[18] + k * L, J[6], J[5], k);
-        compound_lsub_f(J[19] + k * L, J[17] + k * L, J[18] + k * L);
-        compound_lmul_f(J[20] + k * L, X[3], X[3], k);
-        compound_lscale_f(J[21] + k * L, C[4], J[20] + k * L);
-        compound_lmul_f(J[22] + k * L, J[19], J[21], k);
-        compound_ladd_f(J[23] + k * L, J[16] + k * L, J[22] + k * L);
-        compound_lscale_f(J[24] + k * L, C[5], J[23] + k * L);
-        compound_lscale_f(J[25] + k * L, C[6], J[24] + k * L);
-        compound_lmul_f(J[26] + k * L, X[2], X[2], k);
-        compound_lmul_f(J[27] + k * L, J[19], J[26], k);
-        compound_lscale_f(J[28] + k * L, C[7], J[27] + k * L);
-        compound_lscale_f(J[29] + k * L, C[8], J[6] + k * L);
-        compound_lsub_f(J[30] + k * L, J[28] + k * L, J[29] + k * L);
-        compound_lscale_f(J[31] + k * L, C[4], J[30] + k * L);
-        compound_lmul_f(J[32] + k * L, J[31], J[11], k);
-        compound_lsub_f(J[33] + k * L, J[25] + k * L, J[32] + k * L);
-        compound_lmul_f(J[34] + k * L, J[15], J[33], k);
-        compound_lscale_f(J[35] + k * L, C[9], J[31] + k * L);
-        compound_lmul_f(J[36] + k * L, J[24], J[11], k);
-        compound_lsub_f(J[37] + k * L, J[35] + k * L, J[36] + k * L);
-        compound_lmul_f(J[38] + k * L, J[15], J[37], k);
+        compound_lsincos_f(H[0], H[1], X[0], k);
+        compound_lsincos_f(H[2], H[3], X[1], k);
+        compound_lmul_f(T[0], H[0], H[2], k);
+        compound_lmul_f(T[1], H[1], H[3], k);
+        compound_ladd_f(T[2], T[0], T[1]);
+        compound_lscale_f(H[4] + k * L, C[0], T[2]);
+        compound_lmul_f(T[3], H[4], H[4], k);
+        compound_lscale_f(T[4], C[1], T[3]);
+        compound_lshift_f(H[5] + k * L, T[4], C[2], k);
+        compound_ldiv_f(H[6], 0, H[5], k);
+        compound_lscale_f(T[5], C[3], H[0] + k * L);
+        compound_lmul_f(T[6], H[0], H[3], k);
+        compound_lmul_f(T[7], H[2], H[1], k);
+        compound_lsub_f(H[7] + k * L, T[6], T[7]);
+        compound_lmul_f(T[8], X[3], X[3], k);
+        compound_lscale_f(H[8] + k * L, C[4], T[8]);
+        compound_lmul_f(T[9], H[7], H[8], k);
+        compound_ladd_f(T[10], T[5], T[9]);
+        compound_lscale_f(H[9] + k * L, C[5], T[10]);
+        compound_lscale_f(T[11], C[6], H[9] + k * L);
+        compound_lmul_f(H[10] + k * L, X[2], X[2], k);
+        compound_lmul_f(T[12], H[7], H[10], k);
+        compound_lscale_f(T[13], C[7], T[12]);
+        compound_lscale_f(T[14], C[8], H[2] + k * L);
+        compound_lsub_f(T[15], T[13], T[14]);
+        compound_lscale_f(H[11] + k * L, C[4], T[15]);
+        compound_lmul_f(T[16], H[11], H[4], k);
+        compound_lsub_f(H[12] + k * L, T[11], T[16]);
+        compound_lmul_f(T[17], H[6], H[12], k);
+        compound_lscale_f(T[18], C[9], H[11] + k * L);
+        compound_lmul_f(T[19], H[9], H[4], k);
+        compound_lsub_f(H[13] + k * L, T[18], T[19]);
+        compound_lmul_f(T[20], H[6], H[13], k);
         compound_lout_f(X[0] + (k + 1) * L, X[2] + k * L, k);
         compound_lout_f(X[1] + (k + 1) * L, X[3] + k * L, k);
-        compound_lout_f(X[2] + (k + 1) * L, J[34] + k * L, k);
-        compound_lout_f(X[3] + (k + 1) * L, J[38] + k * L, k);
+        compound_lout_f(X[2] + (k + 1) * L, T[17], k);
+        compound_lout_f(X[3] + (k + 1) * L, T[20], k);
     }
 }
 
@@ -1215,7 +1218,8 @@ long compound_taylor_lanes_batch_f(long n, const float *y0, long y0_stride, cons
 
 /* Each function below is the scalar recurrence of compound_taylor.c for every lane: the
  * same operations in the same order, so each lane's result is the scalar one.  Rows are
- * ORDER_DIM coefficients of L lanes: coefficient k of lane l at [k * L + l]. */
+ * ORDER_DIM coefficients of L lanes (coefficient k of lane l at [k * L + l]); a pointer
+ * to one order's L lanes (a_k, u + k * L) is that order's coefficient. */
 
 LANES_INLINE void compound_ladd_l(long double *LANES_RESTRICT u, const long double *LANES_RESTRICT a, const long double *LANES_RESTRICT b)
 {
@@ -1357,50 +1361,51 @@ static void compound_lconstants_l(long double (*C)[L], int l, const long double 
 /* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
 static void compound_ljet_l(long double (*X)[ORDER_DIM * L], long double (*C)[L], int order_wanted, long double sine_min, int *bad)
 {
-    long double J[NODES][ORDER_DIM * L];
+    long double H[14][ORDER_DIM * L];     /* nodes read at every order */
+    long double T[21][L];                 /* nodes read at this order only */
     const int order = COMPOUND_TAYLOR_ORDER ? COMPOUND_TAYLOR_ORDER : order_wanted;
     int k;
     (void)sine_min;
     (void)bad;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        compound_lsincos_l(J[4], J[5], X[0], k);
-        compound_lsincos_l(J[6], J[7], X[1], k);
-        compound_lmul_l(J[8] + k * L, J[4], J[6], k);
-        compound_lmul_l(J[9] + k * L, J[5], J[7], k);
-        compound_ladd_l(J[10] + k * L, J[8] + k * L, J[9] + k * L);
-        compound_lscale_l(J[11] + k * L, C[0], J[10] + k * L);
-        compound_lmul_l(J[12] + k * L, J[11], J[11], k);
-        compound_lscale_l(J[13] + k * L, C[1], J[12] + k * L);
-        compound_lshift_l(J[14] + k * L, J[13] + k * L, C[2], k);
-        compound_ldiv_l(J[15], 0, J[14], k);
-        compound_lscale_l(J[16] + k * L, C[3], J[4] + k * L);
-        compound_lmul_l(J[17] + k * L, J[4], J[7], k);
-        compound_lmul_l(J[18] + k * L, J[6], J[5], k);
-        compound_lsub_l(J[19] + k * L, J[17] + k * L, J[18] + k * L);
-        compound_lmul_l(J[20] + k * L, X[3], X[3], k);
-        compound_lscale_l(J[21] + k * L, C[4], J[20] + k * L);
-        compound_lmul_l(J[22] + k * L, J[19], J[21], k);
-        compound_ladd_l(J[23] + k * L, J[16] + k * L, J[22] + k * L);
-        compound_lscale_l(J[24] + k * L, C[5], J[23] + k * L);
-        compound_lscale_l(J[25] + k * L, C[6], J[24] + k * L);
-        compound_lmul_l(J[26] + k * L, X[2], X[2], k);
-        compound_lmul_l(J[27] + k * L, J[19], J[26], k);
-        compound_lscale_l(J[28] + k * L, C[7], J[27] + k * L);
-        compound_lscale_l(J[29] + k * L, C[8], J[6] + k * L);
-        compound_lsub_l(J[30] + k * L, J[28] + k * L, J[29] + k * L);
-        compound_lscale_l(J[31] + k * L, C[4], J[30] + k * L);
-        compound_lmul_l(J[32] + k * L, J[31], J[11], k);
-        compound_lsub_l(J[33] + k * L, J[25] + k * L, J[32] + k * L);
-        compound_lmul_l(J[34] + k * L, J[15], J[33], k);
-        compound_lscale_l(J[35] + k * L, C[9], J[31] + k * L);
-        compound_lmul_l(J[36] + k * L, J[24], J[11], k);
-        compound_lsub_l(J[37] + k * L, J[35] + k * L, J[36] + k * L);
-        compound_lmul_l(J[38] + k * L, J[15], J[37], k);
+        compound_lsincos_l(H[0], H[1], X[0], k);
+        compound_lsincos_l(H[2], H[3], X[1], k);
+        compound_lmul_l(T[0], H[0], H[2], k);
+        compound_lmul_l(T[1], H[1], H[3], k);
+        compound_ladd_l(T[2], T[0], T[1]);
+        compound_lscale_l(H[4] + k * L, C[0], T[2]);
+        compound_lmul_l(T[3], H[4], H[4], k);
+        compound_lscale_l(T[4], C[1], T[3]);
+        compound_lshift_l(H[5] + k * L, T[4], C[2], k);
+        compound_ldiv_l(H[6], 0, H[5], k);
+        compound_lscale_l(T[5], C[3], H[0] + k * L);
+        compound_lmul_l(T[6], H[0], H[3], k);
+        compound_lmul_l(T[7], H[2], H[1], k);
+        compound_lsub_l(H[7] + k * L, T[6], T[7]);
+        compound_lmul_l(T[8], X[3], X[3], k);
+        compound_lscale_l(H[8] + k * L, C[4], T[8]);
+        compound_lmul_l(T[9], H[7], H[8], k);
+        compound_ladd_l(T[10], T[5], T[9]);
+        compound_lscale_l(H[9] + k * L, C[5], T[10]);
+        compound_lscale_l(T[11], C[6], H[9] + k * L);
+        compound_lmul_l(H[10] + k * L, X[2], X[2], k);
+        compound_lmul_l(T[12], H[7], H[10], k);
+        compound_lscale_l(T[13], C[7], T[12]);
+        compound_lscale_l(T[14], C[8], H[2] + k * L);
+        compound_lsub_l(T[15], T[13], T[14]);
+        compound_lscale_l(H[11] + k * L, C[4], T[15]);
+        compound_lmul_l(T[16], H[11], H[4], k);
+        compound_lsub_l(H[12] + k * L, T[11], T[16]);
+        compound_lmul_l(T[17], H[6], H[12], k);
+        compound_lscale_l(T[18], C[9], H[11] + k * L);
+        compound_lmul_l(T[19], H[9], H[4], k);
+        compound_lsub_l(H[13] + k * L, T[18], T[19]);
+        compound_lmul_l(T[20], H[6], H[13], k);
         compound_lout_l(X[0] + (k + 1) * L, X[2] + k * L, k);
         compound_lout_l(X[1] + (k + 1) * L, X[3] + k * L, k);
-        compound_lout_l(X[2] + (k + 1) * L, J[34] + k * L, k);
-        compound_lout_l(X[3] + (k + 1) * L, J[38] + k * L, k);
+        compound_lout_l(X[2] + (k + 1) * L, T[17], k);
+        compound_lout_l(X[3] + (k + 1) * L, T[20], k);
     }
 }
 
