@@ -419,11 +419,11 @@ static int compound_lstart(compound_lrun *r, int l)
     return 1;
 }
 
-/* 1 if x1^(1/e1) < x2^(1/e2), 2 if x2^(1/e2) < x1^(1/e1), for x > 0, where their binary
- * logarithms differ by more than this estimate's error; else (or x not finite) 0.  log2 x
- * = b + log2 f with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in
- * [1/2, 1): the estimate is at most 0.0861/e below log2 of the root, 0.1/e with rounding. */
-static int compound_lsmaller(double x1, int e1, double x2, int e2)
+/* 1 if x1^y1 < x2^y2, 2 if x2^y2 < x1^y1 (x > 0, 0 < y <= 1), where their binary logarithms
+ * differ by more than this estimate's error; else (or x not finite) 0.  log2 x = b + log2 f
+ * with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in [1/2, 1): the
+ * estimate is at most 0.0861 y below log2 of the power, 0.1 y with rounding. */
+static int compound_lsmaller(double x1, double y1, double x2, double y2)
 {
     double f1, f2, l1, l2;
     int b1, b2;
@@ -432,12 +432,12 @@ static int compound_lsmaller(double x1, int e1, double x2, int e2)
     }
     f1 = frexp(x1, &b1);
     f2 = frexp(x2, &b2);
-    l1 = ((double)b1 + 2 * (f1 - 1)) / (double)e1;
-    l2 = ((double)b2 + 2 * (f2 - 1)) / (double)e2;
-    if (l1 + (double)0.1 / (double)e1 < l2) {
+    l1 = ((double)b1 + 2 * (f1 - 1)) * y1;
+    l2 = ((double)b2 + 2 * (f2 - 1)) * y2;
+    if (l1 + (double)0.1 * y1 < l2) {
         return 1;
     }
-    if (l2 + (double)0.1 / (double)e2 < l1) {
+    if (l2 + (double)0.1 * y2 < l1) {
         return 2;
     }
     return 0;
@@ -449,7 +449,8 @@ static int compound_lstep(compound_lrun *r, int l)
 {
     compound_lane *ln = &r->lane[l];
     const int order = r->order;
-    double m = 1, n1 = 0, n2 = 0, a0, a1, a2, rho, q, h, tau;
+    const double y1 = (double)1 / (double)(order - 1), y2 = (double)1 / (double)order;
+    double m = 1, n1 = 0, n2 = 0, a0, a1, a2, x1, x2, rho, q, h, tau;
     long row;
     int i, which;
     ln->info->nfev += 1;
@@ -469,14 +470,16 @@ static int compound_lstep(compound_lrun *r, int l)
     }
     /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
      * one pow where their exponents show which is the smaller */
-    which = n1 > 0 && n2 > 0 ? compound_lsmaller(m / n1, order - 1, m / n2, order) : 0;
+    x1 = n1 > 0 ? m / n1 : 0;
+    x2 = n2 > 0 ? m / n2 : 0;
+    which = n1 > 0 && n2 > 0 ? compound_lsmaller(x1, y1, x2, y2) : 0;
     rho = ln->hmax;
     if (n1 > 0 && which != 2) {
-        q = pow(m / n1, (double)1 / (double)(order - 1));
+        q = pow(x1, y1);
         rho = q < rho ? q : rho;
     }
     if (n2 > 0 && which != 1) {
-        q = pow(m / n2, (double)1 / (double)order);
+        q = pow(x2, y2);
         rho = q < rho ? q : rho;
     }
     h = rho * r->safety;
@@ -999,11 +1002,11 @@ static int compound_lstart_f(compound_lrun_f *r, int l)
     return 1;
 }
 
-/* 1 if x1^(1/e1) < x2^(1/e2), 2 if x2^(1/e2) < x1^(1/e1), for x > 0, where their binary
- * logarithms differ by more than this estimate's error; else (or x not finite) 0.  log2 x
- * = b + log2 f with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in
- * [1/2, 1): the estimate is at most 0.0861/e below log2 of the root, 0.1/e with rounding. */
-static int compound_lsmaller_f(float x1, int e1, float x2, int e2)
+/* 1 if x1^y1 < x2^y2, 2 if x2^y2 < x1^y1 (x > 0, 0 < y <= 1), where their binary logarithms
+ * differ by more than this estimate's error; else (or x not finite) 0.  log2 x = b + log2 f
+ * with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in [1/2, 1): the
+ * estimate is at most 0.0861 y below log2 of the power, 0.1 y with rounding. */
+static int compound_lsmaller_f(float x1, float y1, float x2, float y2)
 {
     float f1, f2, l1, l2;
     int b1, b2;
@@ -1012,12 +1015,12 @@ static int compound_lsmaller_f(float x1, int e1, float x2, int e2)
     }
     f1 = frexpf(x1, &b1);
     f2 = frexpf(x2, &b2);
-    l1 = ((float)b1 + 2 * (f1 - 1)) / (float)e1;
-    l2 = ((float)b2 + 2 * (f2 - 1)) / (float)e2;
-    if (l1 + (float)0.1 / (float)e1 < l2) {
+    l1 = ((float)b1 + 2 * (f1 - 1)) * y1;
+    l2 = ((float)b2 + 2 * (f2 - 1)) * y2;
+    if (l1 + (float)0.1 * y1 < l2) {
         return 1;
     }
-    if (l2 + (float)0.1 / (float)e2 < l1) {
+    if (l2 + (float)0.1 * y2 < l1) {
         return 2;
     }
     return 0;
@@ -1029,7 +1032,8 @@ static int compound_lstep_f(compound_lrun_f *r, int l)
 {
     compound_lane_f *ln = &r->lane[l];
     const int order = r->order;
-    float m = 1, n1 = 0, n2 = 0, a0, a1, a2, rho, q, h, tau;
+    const float y1 = (float)1 / (float)(order - 1), y2 = (float)1 / (float)order;
+    float m = 1, n1 = 0, n2 = 0, a0, a1, a2, x1, x2, rho, q, h, tau;
     long row;
     int i, which;
     ln->info->nfev += 1;
@@ -1049,14 +1053,16 @@ static int compound_lstep_f(compound_lrun_f *r, int l)
     }
     /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
      * one pow where their exponents show which is the smaller */
-    which = n1 > 0 && n2 > 0 ? compound_lsmaller_f(m / n1, order - 1, m / n2, order) : 0;
+    x1 = n1 > 0 ? m / n1 : 0;
+    x2 = n2 > 0 ? m / n2 : 0;
+    which = n1 > 0 && n2 > 0 ? compound_lsmaller_f(x1, y1, x2, y2) : 0;
     rho = ln->hmax;
     if (n1 > 0 && which != 2) {
-        q = powf(m / n1, (float)1 / (float)(order - 1));
+        q = powf(x1, y1);
         rho = q < rho ? q : rho;
     }
     if (n2 > 0 && which != 1) {
-        q = powf(m / n2, (float)1 / (float)order);
+        q = powf(x2, y2);
         rho = q < rho ? q : rho;
     }
     h = rho * r->safety;
@@ -1579,11 +1585,11 @@ static int compound_lstart_l(compound_lrun_l *r, int l)
     return 1;
 }
 
-/* 1 if x1^(1/e1) < x2^(1/e2), 2 if x2^(1/e2) < x1^(1/e1), for x > 0, where their binary
- * logarithms differ by more than this estimate's error; else (or x not finite) 0.  log2 x
- * = b + log2 f with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in
- * [1/2, 1): the estimate is at most 0.0861/e below log2 of the root, 0.1/e with rounding. */
-static int compound_lsmaller_l(long double x1, int e1, long double x2, int e2)
+/* 1 if x1^y1 < x2^y2, 2 if x2^y2 < x1^y1 (x > 0, 0 < y <= 1), where their binary logarithms
+ * differ by more than this estimate's error; else (or x not finite) 0.  log2 x = b + log2 f
+ * with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in [1/2, 1): the
+ * estimate is at most 0.0861 y below log2 of the power, 0.1 y with rounding. */
+static int compound_lsmaller_l(long double x1, long double y1, long double x2, long double y2)
 {
     long double f1, f2, l1, l2;
     int b1, b2;
@@ -1592,12 +1598,12 @@ static int compound_lsmaller_l(long double x1, int e1, long double x2, int e2)
     }
     f1 = frexpl(x1, &b1);
     f2 = frexpl(x2, &b2);
-    l1 = ((long double)b1 + 2 * (f1 - 1)) / (long double)e1;
-    l2 = ((long double)b2 + 2 * (f2 - 1)) / (long double)e2;
-    if (l1 + (long double)0.1 / (long double)e1 < l2) {
+    l1 = ((long double)b1 + 2 * (f1 - 1)) * y1;
+    l2 = ((long double)b2 + 2 * (f2 - 1)) * y2;
+    if (l1 + (long double)0.1 * y1 < l2) {
         return 1;
     }
-    if (l2 + (long double)0.1 / (long double)e2 < l1) {
+    if (l2 + (long double)0.1 * y2 < l1) {
         return 2;
     }
     return 0;
@@ -1609,7 +1615,8 @@ static int compound_lstep_l(compound_lrun_l *r, int l)
 {
     compound_lane_l *ln = &r->lane[l];
     const int order = r->order;
-    long double m = 1, n1 = 0, n2 = 0, a0, a1, a2, rho, q, h, tau;
+    const long double y1 = (long double)1 / (long double)(order - 1), y2 = (long double)1 / (long double)order;
+    long double m = 1, n1 = 0, n2 = 0, a0, a1, a2, x1, x2, rho, q, h, tau;
     long row;
     int i, which;
     ln->info->nfev += 1;
@@ -1629,14 +1636,16 @@ static int compound_lstep_l(compound_lrun_l *r, int l)
     }
     /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
      * one pow where their exponents show which is the smaller */
-    which = n1 > 0 && n2 > 0 ? compound_lsmaller_l(m / n1, order - 1, m / n2, order) : 0;
+    x1 = n1 > 0 ? m / n1 : 0;
+    x2 = n2 > 0 ? m / n2 : 0;
+    which = n1 > 0 && n2 > 0 ? compound_lsmaller_l(x1, y1, x2, y2) : 0;
     rho = ln->hmax;
     if (n1 > 0 && which != 2) {
-        q = powl(m / n1, (long double)1 / (long double)(order - 1));
+        q = powl(x1, y1);
         rho = q < rho ? q : rho;
     }
     if (n2 > 0 && which != 1) {
-        q = powl(m / n2, (long double)1 / (long double)order);
+        q = powl(x2, y2);
         rho = q < rho ? q : rho;
     }
     h = rho * r->safety;
