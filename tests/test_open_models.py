@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from test_codegen import quad_flags
+
 import derive
 from derive.codegen.loader import load
 from derive.model import ModelError, load_model
@@ -137,7 +139,7 @@ def test_a_user_models_c_is_clean_under_werror(tmp_path, cc):
     assert run.returncode == 0, run.stderr
     flags = ["-std=c99", "-pedantic"] if cc != "g++" else ["-x", "c++"]
     for src in sorted((gen / "c").glob("*.c")):
-        proc = subprocess.run([cc, *flags, "-Wall", "-Wextra", "-Werror", "-O2", "-c", str(src),
+        proc = subprocess.run([cc, *flags, *quad_flags(cc, src), "-Wall", "-Wextra", "-Werror", "-O2", "-c", str(src),
                                "-o", str(tmp_path / "x.o")], capture_output=True, text=True)
         assert proc.returncode == 0, (src.name, proc.stderr)
 

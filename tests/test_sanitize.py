@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SANITIZE = ("-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer")
 CC = os.environ.get("CC") or shutil.which("gcc") or shutil.which("cc") or shutil.which("clang")
 PROTO = re.compile(r"^(int|long|void|const char \*)\s*(\w+)\((.*)\);$", re.M)
-TYPES = {"float": "f", "double": "d", "long double": "l"}
+TYPES = {"float": "f", "double": "d", "long double": "l", "derive_quad": "q"}
 
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(CC is None, reason="no C compiler")]
 
@@ -64,7 +64,7 @@ class Driver:
         """The element count of one array argument (per trajectory when `batch`)."""
         M = self.M
         kernel = re.sub(rf"^{self.model}_", "", func)
-        kernel = re.sub(r"(_batch)?(_f|_l)?$", "", kernel).upper()
+        kernel = re.sub(r"(_batch)?(_f|_l|_dd|_q)?$", "", kernel).upper()
         macro = f"{M}_{kernel}_{name.upper()}_SIZE"
         if macro in self.macros:
             return macro
@@ -118,6 +118,10 @@ class Driver:
                 body.append(f"fill_{TYPES[ctype]}({name}, {per}, vs, {1 if name == 'p' else 0});")
                 if name == "t":
                     body.append(f"for (long k = 0; k < NT; k++) t[k] = ({ctype})k * 0.025;")
+            elif ctype == "derive_dd":
+                body.append(f"fill_dd({name}, {per}, vs, {1 if name == 'p' else 0});")
+                if name == "t":
+                    body.append("for (long k = 0; k < NT; k++) { t[k].hi = (double)k * 0.025; t[k].lo = 0; }")
             else:
                 body.append(f"memset({name}, 0, sizeof({ctype}) * {per});")
             cast = f"({ctype} (*)[{self.M}_N_STATES])" if form == "rows" else ""
@@ -144,7 +148,13 @@ static void fill_{s}({t} *a, long count, int vs, int params) {{
     if (count > 1 && !params && vs == 2) a[1] = INFINITY;
     if (count > 1 && !params && vs == 2) a[count - 1] = -INFINITY;
     if (count > 0 && params && vs == 3) a[0] = NAN;
-}}""" for t, s in TYPES.items())
+}}""" for t, s in TYPES.items()) + """
+static void fill_dd(derive_dd *a, long count, int vs, int params) {
+    double *d = malloc(sizeof(double) * (size_t)(count > 0 ? count : 1));
+    fill_d(d, count, vs, params);
+    for (long k = 0; k < count; k++) { a[k].hi = d[k]; a[k].lo = 0; }
+    free(d);
+}"""
         return "\n".join([
             "#include <math.h>", "#include <stdio.h>", "#include <stdlib.h>", "#include <string.h>",
             *[f'#include "{h}.h"' for h in includes], "#define NT 5", fills,
@@ -180,7 +190,7 @@ def _sanitized_run(folder: Path, model: str, tmp_path: Path, extra=()) -> subpro
     exe = tmp_path / "driver"
     sources = sorted(str(c) for c in folder.glob(f"{model}*.c"))
     build = subprocess.run([CC, "-std=c99", "-O1", "-g", *SANITIZE, *extra, "-I", str(folder), str(driver),
-                            *sources, "-o", str(exe), "-lm"], capture_output=True, text=True, timeout=900)
+                            *sources, "-o", str(exe), "-lquadmath", "-lm"], capture_output=True, text=True, timeout=900)
     assert build.returncode == 0, build.stderr[-3000:]
     env = dict(os.environ, ASAN_OPTIONS="detect_leaks=1:abort_on_error=0",
                UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1")

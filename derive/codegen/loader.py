@@ -131,14 +131,16 @@ def _build_key(sources: list[Path], cc: str, flags: tuple[str, ...]) -> str:
 
 
 def build_library(stem: str, sources: list[Path], cc: str | None = None,
-                  flags: tuple[str, ...] = DEFAULT_FLAGS, cache: Path | None = None) -> Path:
-    """Compile `sources` (headers beside them) into one shared library in the cache."""
+                  flags: tuple[str, ...] = DEFAULT_FLAGS, cache: Path | None = None,
+                  libs: tuple[str, ...] = ()) -> Path:
+    """Compile `sources` (headers beside them) into one shared library in the cache;
+    `libs` (e.g. -lquadmath) are linked after the sources."""
     sources = [Path(s).resolve() for s in sources]
     for src in sources:
         if not src.is_file() or not src.with_suffix(".h").is_file():
             raise LoaderError(f"no C source at {src} (or its header beside it)")
     cc = cc or default_compiler()
-    key = build_key(sources, cc, tuple(flags))
+    key = build_key(sources, cc, tuple(flags) + tuple(libs))
     root = Path(cache) if cache is not None else cache_dir() / "c-build"
     lib = root / key[:32] / f"lib{stem}.so"
     if lib.is_file():
@@ -151,7 +153,7 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
     lib.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
         out = Path(tmp) / lib.name
-        cmd = [*compiler_command(cc), *flags, "-I", str(sources[0].parent), *map(str, sources), "-o", str(out), "-lm"]
+        cmd = [*compiler_command(cc), *flags, "-I", str(sources[0].parent), *map(str, sources), "-o", str(out), *libs, "-lm"]
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
             names = ", ".join(src.name for src in sources)
@@ -199,7 +201,7 @@ _NO_VECTOR_MATH: set[str] = set()        # compilers that failed the vector-math
 
 
 def build_fastest(stem: str, sources: list[Path], extra: tuple[str, ...] = (),
-                  cc: str | None = None) -> tuple[Path, tuple[str, ...]]:
+                  cc: str | None = None, libs: tuple[str, ...] = ()) -> tuple[Path, tuple[str, ...]]:
     """build_library with VECTOR_MATH_FLAGS where they can work (Linux x86-64; a compiler
     or libc without libmvec fails once per process and is not asked again), else with the
     portable flags.  -> (library, the flags it was built with)."""
@@ -207,11 +209,11 @@ def build_fastest(stem: str, sources: list[Path], extra: tuple[str, ...] = (),
     if platform.system() == "Linux" and platform.machine() == "x86_64" and cc not in _NO_VECTOR_MATH:
         try:
             flags = (*VECTOR_MATH_FLAGS, *extra)
-            return build_library(stem, sources, cc, flags), flags
+            return build_library(stem, sources, cc, flags, libs=libs), flags
         except LoaderError:
             _NO_VECTOR_MATH.add(cc)
     flags = (*PORTABLE_FLAGS, *extra)
-    return build_library(stem, sources, cc, flags), flags
+    return build_library(stem, sources, cc, flags, libs=libs), flags
 
 
 def build(source: Path, cc: str | None = None, flags: tuple[str, ...] = DEFAULT_FLAGS,

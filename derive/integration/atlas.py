@@ -31,10 +31,11 @@ from ..model import load_model
 from ..model.atlas import ATLAS, load_atlas
 from . import contract
 from .build import CTYPES, SUFFIX, build_fastest, dtype_key, info_struct, options_struct
-from .contract import ATLAS_CHARTS, COUNTERS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH, STATUS_NAMES
+from .contract import (ATLAS_CHARTS, COUNTERS, LOCAL_ERROR_METHODS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH,
+                       STATUS_NAMES)
 from .codegen import model_info
 from .observables import _observables, _velocities, numpy_module
-from .result import SimulationResult
+from .result import LOCAL_SUM, SimulationResult
 
 __all__ = ["ATLAS_CHARTS", "SINE_MIN", "SINE_RULE", "SINE_SWITCH", "atlas_library", "run_atlas"]
 
@@ -138,12 +139,14 @@ def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str, n
         counters = {k: int(getattr(inf, k)) for k in COUNTERS}
         status, t_stop, y_stop = int(inf.status), float(inf.t), np.array(inf.y[:])
         switches, chart_stop = int(inf.nswitches), int(inf.chart)
+        local_error = float(inf.local_error)
     else:
         mod = numpy_atlas(name)
         status, y, charts, inf = mod.integrate(method, chart0, y0, pd, tsd, dt, **opt)
         counters = {k: int(inf[k]) for k in COUNTERS}
         t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
         switches, chart_stop = int(inf["nswitches"]), int(inf["chart"])
+        local_error = float(inf["local_error"])
     ok_rows = charts >= 0
     E, pos, vel = observables(charts_of, y, np.where(ok_rows, charts, -1), pd, backend, dt)
     names = np.array([charts_of[c] if c >= 0 else None for c in charts], dtype=object)
@@ -152,4 +155,5 @@ def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str, n
         energy=E, positions=pos, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
         y_stop=y_stop, chart=names, switches=switches,
         chart_stop=charts_of[chart_stop] if 0 <= chart_stop < len(charts_of) else None, params=pd,
-        velocities=vel, **counters)
+        velocities=vel, error_estimate=local_error if method in LOCAL_ERROR_METHODS else None,
+        error_kind=LOCAL_SUM if method in LOCAL_ERROR_METHODS else None, **counters)

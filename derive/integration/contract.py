@@ -132,6 +132,9 @@ INFO = (
     Field("h", "double", doc="last step size (fixed: the step h of the grid)"),
     Field("h_end", "double", doc="fixed: the shortened step to the last output (0: on the grid)"),
     Field("y", "double", doc="state at t", length="n"),
+    # what derive.simulate reports as r.error_estimate with error_kind "local sum"
+    Field("local_error", "double", doc="sum of the accepted steps' local-error estimates, in the state's "
+          "units (dopri5, dop853, abm12, taylor; 0: none)"),
 )
 
 # The atlas (spherical_atlas.h) appends these to the options and info structs.
@@ -145,6 +148,9 @@ ATLAS_INFO = (
 )
 
 COUNTERS = ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton")    # of a run's info
+# the methods whose runs estimate their own local errors (info.local_error): the embedded
+# pairs, abm12's predictor-corrector difference (Milne), Taylor's last term
+LOCAL_ERROR_METHODS = ("dopri5", "dop853", "abm12", "taylor")
 
 METHODS = tuple(m.name for m in sorted(METHOD_TABLE, key=lambda m: m.index))
 METHOD = {m.name: m for m in METHOD_TABLE}

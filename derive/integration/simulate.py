@@ -3,6 +3,7 @@
     r = simulate("planar", [1.0, 0.5, 0, 0], numpy.linspace(0, 10, 101),
                  {"m1": 1, "m2": 1, "l1": 1, "l2": 1, "g": 9.81}, method="dop853")
     r.t, r.y, r.energy, r.positions, r.status, r.ok, r.message, r.nfev
+    r.error_estimate, r.error_kind      (the run's own error estimate: result.py)
 
 Models: planar, compound, spherical_std, spherical_alt, spherical_rot (one chart
 each: the run stops with status 'chart singular' rather than evaluate a kernel
@@ -22,23 +23,26 @@ import os
 import signal
 import threading
 from collections.abc import Mapping, Sequence
+from functools import lru_cache
 
 import numpy as np
 
 from ..errors import SimulationError, SimulationInputError  # noqa: F401  (SimulationError: re-exported)
 from ..model import ModelError, is_model_file, load_model
-from ..model.description import parameter_problem
+from ..model.description import forget_on_model_change, parameter_problem
 from . import cartesian, dense
 from . import events as events_module
 from .atlas import run_atlas
 from .build import dtype_key, integrator_library
 from .codegen import model_info
 from .contract import (ADAPTIVE, ATLAS_CHARTS, ATLAS_METHODS, COUNTERS, FIXED_ORDER,  # noqa: F401
-                       MAX_GRID_STEPS, METHODS, RUN_METHODS, SINE_MIN, STATUS, STATUS_NAMES, TAYLOR,
-                       TOLERANCE_METHODS, default_options)
+                       LOCAL_ERROR_METHODS, MAX_GRID_STEPS, METHODS, RUN_METHODS, SINE_MIN, STATUS,
+                       STATUS_NAMES, TAYLOR, TOLERANCE_METHODS, default_options)
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
+from .plan import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, Settings, plain_times
 from .taylor_library import taylor_library, taylor_order
-from .result import LAZY, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
+from . import extended
+from .result import LAZY, LOCAL_SUM, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
 from ..model.atlas import ATLAS, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
 _DTYPES = {"float32": np.float32, "float": np.float32, "single": np.float32,
@@ -301,16 +305,21 @@ def normalise_t(t) -> np.ndarray:
 
 # -- the entry point --------------------------------------------------------------
 
-def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | None = None,
+def simulate(model: str, y0, t, params, method: str | None = None, rtol: float | None = None,
              atol: float | None = None, step: float | None = None, dtype="float64",
              backend: str = "c", max_steps: int | None = None, sine_min: float | None = None,
              newton_tol: float | None = None, newton_max: int | None = None,
-             hmax: float | None = None, inputs=None, atlas: bool = False, events=None) -> SimulationResult:
+             hmax: float | None = None, inputs=None, atlas: bool = False, events=None,
+             error_estimate: str = "local") -> SimulationResult:
     """Integrate `model` from y0 at t[0] and report every output time in t.
 
     method: rk4, midpoint, gauss2, rk8, abm12 (fixed step: `step` required), dopri5,
-    dop853 (adaptive: rtol, atol; `step` is the initial step, optional).  dtype: float32,
-    float64 or longdouble.  backend: "c" (compiled generated C) or "numpy".
+    dop853 (adaptive: rtol, atol; `step` is the initial step, optional; the default), taylor
+    (the generated Taylor integrator: order and step from rtol).  dtype: float32, float64,
+    longdouble, or the top of the precision ladder, "double-double" (106 bits) and "quad"
+    (IEEE binary128, 113 bits), which run taylor (the default there) and give r.y_exact, the
+    values exactly as mpmath numbers, beside r.y in long double (derive/integration/extended.py).
+    backend: "c" (compiled generated C) or "numpy".
     A fixed step h steps on the grid t[0] + k h whatever the output times: an output
     between grid points is reached by a shortened step from the grid point before it
     (r.step is h, r.last_step the shortened step to the last output, None when it is on
@@ -332,8 +341,22 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     events: zero crossings to locate, {name: expression or {expression, direction,
     terminal}} (derive/integration/events.py); r.events, r.t_events, r.y_events.
     Adaptive runs have r.sol(t), the continuous solution (derive/integration/dense.py).
+    error_estimate: "local" (free): r.error_estimate is the run's own sum of local-error
+    estimates (dopri5, dop853, abm12, taylor; None for the others); "rerun": a second run
+    at rtol / 100 (a fixed step: half the step) gives an estimate of the global error of
+    r.y, per output row in r.error_y.  r.error_kind says which (result.py).
     """
+    precision = extended.precision_of(dtype)
+    if method is None:
+        method = TAYLOR if precision else "dop853"
+    if FAST_PATH and precision is None and backend == "c" and not atlas and inputs is None and events is None and \
+            isinstance(error_estimate, str) and error_estimate == "local":
+        fast = _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_steps,
+                              sine_min, newton_tol, newton_max, hmax)
+        if fast is not None:
+            return fast
     model = resolve_model(model, atlas)
+    _check_error_estimate(error_estimate)
     if not isinstance(method, str) or method not in RUN_METHODS:
         raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(RUN_METHODS)})")
     if backend not in ("c", "numpy"):
@@ -341,6 +364,10 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
     if method == TAYLOR and (backend != "c" or _atlas(model) is not None):
         raise SimulationInputError("the Taylor integrator runs in generated C on single-chart models: "
                                    "use backend='c' and a model, not the atlas")
+    if precision is not None:
+        return _simulate_extended(model, precision, y0, t, params, method, rtol=rtol, atol=atol, step=step,
+                                  max_steps=max_steps, sine_min=sine_min, hmax=hmax, inputs=inputs,
+                                  events=events, error_estimate=error_estimate)
     dt = _dtype(dtype)
     p = normalise_params(model, params)
     u = normalise_inputs(model, inputs)
@@ -366,6 +393,9 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
         result = _run_estimated(run, method, ts, opt, backend)
     elif method not in TOLERANCE_METHODS and _fixed_steps(ts, opt) <= QUICK_STEPS:
         result = run(opt)              # a short fixed-step run: no cancellation machinery
+    elif method in TOLERANCE_METHODS and opt["max_steps"] <= PILOT_STEPS[backend] and \
+            not isinstance(u, HeldInputs):
+        result = run(opt)              # a step budget no larger than a pilot's: as short
     else:
         result = _interruptible(run, opt, backend)
     if method in TOLERANCE_METHODS:
@@ -377,7 +407,215 @@ def simulate(model: str, y0, t, params, method: str = "dop853", rtol: float | No
         result.sol = dense.dense_output(result, model, method, backend, dt, opt, p, held)
     if wanted:
         result = events_module.locate(result, wanted, opt["rtol"])
+    if error_estimate == "rerun":
+        again = dict(method=method, rtol=rtol, atol=atol, step=step, dtype=dtype, backend=backend,
+                     max_steps=max_steps, sine_min=sine_min, newton_tol=newton_tol, newton_max=newton_max,
+                     hmax=hmax, inputs=inputs, atlas=atlas)
+        _estimate_by_rerun(result, lambda **tighter: simulate(model, y0, t, params, **{**again, **tighter}),
+                           method, opt, dt, max_steps)
     return result
+
+
+def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, step, max_steps, sine_min,
+                       hmax, inputs, events, error_estimate="local") -> SimulationResult:
+    """The double-double and quad rungs: simulate's checks on the arguments, then the
+    Taylor integrator in that precision (derive/integration/extended.py)."""
+    if method != TAYLOR:
+        raise SimulationInputError(f"dtype '{precision}' runs the Taylor integrator: use method='taylor' "
+                                   f"(or leave method out), not '{method}'")
+    for name, value in (("step", step), ("atol", atol), ("events", events)):
+        if value is not None:
+            raise SimulationInputError(f"dtype '{precision}' takes no {name}= (the Taylor integrator's "
+                                       f"order and step follow rtol)")
+    if callable(inputs):
+        raise SimulationInputError(f"dtype '{precision}' takes inputs held constant (a mapping or a sequence)")
+    if error_estimate != "local":
+        raise SimulationInputError(f"dtype '{precision}' estimates its error from its own run "
+                                   f"(error_estimate='local'); for a rerun, run again at a smaller rtol")
+    p = normalise_params(model, params)             # the usual checks, one line each
+    normalise_inputs(model, inputs)
+    ts = normalise_t(t)
+    state, _, _ = normalise_y0(model, y0, p)
+    _check_angles(model, state, np.dtype(np.longdouble))
+    run_options(TAYLOR, np.dtype(np.float64), ts, hmax=hmax, max_steps=max_steps, sine_min=sine_min)
+    if isinstance(y0, Mapping) and set(y0) & {"cartesian", "chart", "state"}:
+        raise SimulationInputError(f"dtype '{precision}' takes y0 as the state (a sequence or a mapping by name)")
+    result = extended.simulate_extended(model, precision, y0, t, params, rtol, hmax, max_steps, sine_min,
+                                        inputs)
+    y, pm, dt = result.y, result.params, np.dtype(np.longdouble)
+
+    def observe():       # in long double, on first access of r.energy, r.positions or r.velocities
+        return (*_observables(model, y, pm, "c", dt), _velocities(model, y, pm, "c", dt))
+
+    result.observe = observe
+    result.energy = result.positions = result.velocities = LAZY
+    return result
+
+
+# -- error_estimate="rerun" ------------------------------------------------------------
+
+RERUN_TIGHTER = 100          # the reference run's rtol and atol: the run's / 100
+_WIDER = {"float32": np.float64, "float64": np.longdouble}    # for a reference beyond 10 eps
+
+
+def _check_error_estimate(error_estimate) -> None:
+    if not isinstance(error_estimate, str) or error_estimate not in ("local", "rerun"):
+        raise SimulationInputError(f"error_estimate must be 'local' (the run's own local-error sum, free) "
+                                   f"or 'rerun' (a second, more accurate run), got {error_estimate!r}")
+
+
+def _reference_settings(method: str, opt: dict, dt: np.dtype, max_steps) -> tuple[dict, str, float]:
+    """The reference run's arguments, what error_kind calls it, and the factor its
+    difference is scaled by: rtol and atol / 100 (in a wider dtype where rtol / 100 is
+    below 10 eps), or half the fixed step (Richardson: the error of the run at h is
+    (y_h - y_h/2) / (1 - 2^-order))."""
+    budget = None if max_steps is None else 4 * int(max_steps)
+    if method not in TOLERANCE_METHODS:
+        h = opt["h"] / 2
+        return {"step": h, "max_steps": budget}, f"rerun at step={h:.3g}", 1 / (1 - 2.0 ** -FIXED_ORDER[method])
+    rtol, atol, kind = opt["rtol"] / RERUN_TIGHTER, opt["atol"] / RERUN_TIGHTER, dtype_key(dt)
+    while rtol < 10 * float(np.finfo(_DTYPES[kind]).eps):
+        wider = _WIDER.get(kind)
+        if wider is None or np.finfo(wider).eps == np.finfo(_DTYPES[kind]).eps:
+            raise SimulationInputError(f"error_estimate='rerun': rtol = {opt['rtol']:g} leaves no tighter "
+                                       f"tolerance for a reference run in {kind} (10 eps = "
+                                       f"{10 * float(np.finfo(_DTYPES[kind]).eps):.3g}); loosen rtol")
+        kind = dtype_key(wider)
+    where = "" if kind == dtype_key(dt) else f" in {kind}"
+    return ({"rtol": rtol, "atol": atol, "step": None, "dtype": kind, "max_steps": budget},
+            f"rerun at rtol={rtol:.3g}{where}", 1.0)
+
+
+def _estimate_by_rerun(result: SimulationResult, rerun, method: str, opt: dict, dt: np.dtype, max_steps) -> None:
+    """Fill result's error fields from a second, more accurate run (error_estimate='rerun')."""
+    if len(result.t) < 2:              # the start alone: y0 itself, exact (and no step to halve)
+        result.error_y, result.error_estimate = np.zeros(np.shape(result.y)), 0.0
+        result.error_kind = "rerun: the start alone, exact"
+        return
+    changes, kind, factor = _reference_settings(method, opt, dt, max_steps)
+    try:
+        reference = rerun(**changes)
+    except SimulationInputError as exc:
+        raise SimulationInputError(f"error_estimate='rerun': the reference run "
+                                   f"({kind.removeprefix('rerun ')}): {exc}") from None
+    wide = np.longdouble
+    error_y = np.abs(np.asarray(result.y, wide) - np.asarray(reference.y, wide)) * wide(factor)
+    error_y = np.asarray(error_y, np.float64)
+    if result.chart is not None and reference.chart is not None:
+        error_y[np.asarray(result.chart != reference.chart)] = np.nan   # other charts: no comparison
+    comparable = np.isfinite(error_y)
+    result.error_y = error_y
+    result.error_estimate = float(error_y[comparable].max()) if comparable.any() else None
+    result.error_kind = kind
+
+
+# -- the fast path: simulate's common case through a plan (derive/integration/plan.py) ------
+
+FAST_PATH = True       # off: every call takes the general path (tests compare the two)
+
+
+@forget_on_model_change
+@lru_cache(maxsize=256)
+def run_plan(model: str, method: str, dtype) -> RunPlan:
+    """The plan of simulate(model, ..., method=method, dtype=dtype) on the C backend;
+    NotPlanned (not cached: a model read later may make a name valid) where there is none."""
+    if not isinstance(model, str) or is_model_file(model) or find_atlas(model) is not None or \
+            not isinstance(method, str) or method not in RUN_METHODS:
+        raise NotPlanned(model)
+    try:
+        return RunPlan(resolve_model(model), method, _dtype(dtype), MAX_OUTPUT_BYTES, MAX_FIXED_STEPS)
+    except NotPlanned:
+        raise
+    except Exception as exc:       # a bad name or dtype, a failed build: the general path says it
+        raise NotPlanned(model) from exc
+
+
+def _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_steps, sine_min,
+                   newton_tol, newton_max, hmax) -> SimulationResult | None:
+    """simulate(...) for a model by name on the C backend, without inputs or events, when
+    every argument is plainly valid: the same result as the general path, in a few
+    microseconds.  None for anything else (the general path then runs, and refuses bad
+    input with its one line); what it refuses itself (the model's parameter checks, the
+    option checks of run_options) it refuses with the general path's words, at the same
+    point of the same order of checks."""
+    try:
+        plan = run_plan(model, method, dtype)
+    except (NotPlanned, TypeError):              # TypeError: an unhashable argument
+        return None
+    p = plan.params(params)
+    if p is None:
+        return None
+    key = tuple(p)
+    if key not in plan.checked:                  # once per parameter vector (as normalise_params)
+        check_parameter_values(plan.description, dict(zip(plan.param_names, p)), SimulationInputError)
+        if len(plan.checked) >= CHECKED_MAX:
+            plan.checked.clear()
+        plan.checked.add(key)
+    times, long_times = plain_times(t)
+    y = plan.state(y0)
+    if y is None or (times is None and long_times is None):
+        return None
+    nt = len(times) if times is not None else long_times.size
+    s = _fast_settings(plan, (rtol, atol, step, hmax, max_steps, newton_tol, newton_max, sine_min, nt > 1))
+    if s is None:
+        return None
+    if times is not None:
+        span = abs(times[-1] - times[0])
+        buf = np.array(y + p + times, plan.dt)
+    else:
+        span = abs(float(long_times[-1]) - float(long_times[0]))
+        buf = np.concatenate((np.array(y + p, plan.dt), long_times), dtype=plan.dt)
+    if not plan.fits(nt, span, s, max_steps is not None):
+        return None                              # _check_size refuses it, with the figure
+    opt = s.opt
+
+    def run(o):                                  # a run with other options (cancellable, ...)
+        return plan.execute(s, plan.lib.options(o), buf, nt)
+
+    # as the general path: an adaptive run's pilot in this thread (most runs end within it), a
+    # short run directly (a fixed step, or a step budget within a pilot's), the rest
+    # cancellable (_interruptible)
+    if plan.tolerance and max_steps is None:
+        result = plan.execute(s, s.pilot, buf, nt)
+        if result.status == STATUS["MAX_STEPS"] and opt["max_steps"] > s.pilot_steps:
+            result = _run_estimated(run, method, result.t, opt, "c", pilot=result)
+    elif opt["max_steps"] <= s.pilot_steps if plan.tolerance else \
+            (span / opt["h"] if opt["h"] else 0.0) <= QUICK_STEPS:
+        result = plan.execute(s, s.struct, buf, nt)
+    else:
+        result = _interruptible(run, opt, "c")
+    if plan.tolerance:
+        result.rtol = opt["rtol"]
+    else:
+        result.step = opt["h"]
+    if plan.adaptive:
+        result.sol = dense.dense_output(result, plan.model, method, "c", plan.dt, opt, result.params)
+    return result
+
+
+def _fast_settings(plan, args: tuple) -> Settings | None:
+    """The plan's validated options for these option arguments (run_options once per
+    distinct set; its refusals are the general path's), or None (not plain numbers)."""
+    try:
+        s = plan.settings.get(args)
+    except TypeError:                            # an unhashable option: the general path
+        return None
+    if s is not None:
+        return s
+    if not all(a is None or type(a) is float or type(a) is int for a in args[:-1]):
+        return None
+    rtol, atol, step, hmax, max_steps, newton_tol, newton_max, sine_min, several = args
+    opt = run_options(plan.method, plan.dt, (0.0, 1.0) if several else (0.0,), rtol=rtol, atol=atol,
+                      step=step, hmax=hmax, max_steps=max_steps, newton_tol=newton_tol,
+                      newton_max=newton_max, sine_min=sine_min)
+    try:
+        s = Settings(plan, opt, PILOT_STEPS["c"])
+    except Exception:          # e.g. no Taylor integrator: the general path says so, in its order
+        return None
+    if len(plan.settings) >= SETTINGS_MAX:
+        plan.settings.clear()
+    plan.settings[args] = s
+    return s
 
 
 def run_options(method: str, dt: np.dtype, ts: np.ndarray, rtol=None, atol=None, step=None, hmax=None,
@@ -399,7 +637,7 @@ def run_options(method: str, dt: np.dtype, ts: np.ndarray, rtol=None, atol=None,
         if not 10 * eps <= opt["rtol"] < 1:
             raise SimulationInputError(f"rtol = {opt['rtol']:g} is outside [10 eps, 1) for {dtype_key(dt)} "
                                        f"(10 eps = {10 * eps:.3g})")
-    elif step is None and ts.size > 1:
+    elif step is None and np.size(ts) > 1:
         raise SimulationInputError(f"method '{method}' has a fixed step: give step=...")
     if step is not None:            # the fixed step, or an adaptive method's initial step
         if not (isinstance(step, (int, float, np.floating)) and np.isfinite(step) and step > 0):
@@ -432,17 +670,20 @@ def _fixed_steps(ts: np.ndarray, opt: dict) -> float:
     return span / opt["h"] if opt.get("h") else 0.0
 
 
-def _run_estimated(run, method: str, ts: np.ndarray, opt: dict, backend: str) -> SimulationResult:
+def _run_estimated(run, method: str, ts: np.ndarray, opt: dict, backend: str,
+                   pilot: SimulationResult | None = None) -> SimulationResult:
     """An adaptive run within the default step budget, or refused with the figure.
 
     The run starts with max_steps = PILOT_STEPS[backend]: most runs end within that, and then
     that is the result (the steps are the same, whatever the budget).  Otherwise the
     time those steps covered gives the steps the whole span needs; beyond max_steps
-    (10^8 by default: minutes of C) the run is refused before the rest of the work."""
+    (10^8 by default: minutes of C) the run is refused before the rest of the work.
+    `pilot`: that first run, done already (simulate's fast path)."""
     # the pilot runs in this thread (milliseconds: too short to need Ctrl-C, and a worker
     # thread would cost more than most whole runs)
     pilot_steps = PILOT_STEPS[backend]
-    pilot = run(dict(opt, max_steps=min(pilot_steps, opt["max_steps"])))
+    if pilot is None:
+        pilot = run(dict(opt, max_steps=min(pilot_steps, opt["max_steps"])))
     if pilot.status != STATUS["MAX_STEPS"] or opt["max_steps"] <= pilot_steps:
         return pilot
     span = float(abs(ts[-1] - ts[0]))
@@ -585,6 +826,8 @@ def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> Simu
                               "params": np.asarray(p, dt)})
     for k in COUNTERS:
         setattr(out, k, sum(getattr(r, k) for r in parts))
+    if out.error_kind == LOCAL_SUM:
+        out.error_estimate = sum(r.error_estimate for r in parts)
     return out
 
 
@@ -605,12 +848,14 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> Simulatio
         counters = {k: int(getattr(inf, k)) for k in COUNTERS}
         status, t_stop, y_stop = int(inf.status), float(inf.t), np.array(inf.y[:])
         h_end = float(inf.h_end)
+        local_error = float(inf.local_error)
     else:
         mod = numpy_module(f"{model}_integrate")
         status, y, inf = mod.integrate(method, y0, pd, tsd, dt, **opt)
         counters = {k: int(inf[k]) for k in COUNTERS}
         t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
         h_end = float(inf["h_end"])
+        local_error = float(inf["local_error"])
     pm = np.asarray(p, dt)
 
     def observe():       # run on first access of r.energy, r.positions or r.velocities
@@ -622,4 +867,12 @@ def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> Simulatio
         energy=LAZY, positions=LAZY, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
         y_stop=y_stop, chart=np.array([model] * len(ts), dtype=object) if single_chart else None,
         switches=0, chart_stop=model if single_chart else None, params=pm, velocities=LAZY,
-        observe=observe, last_step=h_end if method not in TOLERANCE_METHODS and h_end else None, **counters)
+        observe=observe, last_step=h_end if method not in TOLERANCE_METHODS and h_end else None,
+        **_local_error(method, local_error), **counters)
+
+
+def _local_error(method: str, local_error: float) -> dict:
+    """A result's error fields from its run's info.local_error (result.py: "local sum")."""
+    if method not in LOCAL_ERROR_METHODS:
+        return {"error_estimate": None, "error_kind": None}
+    return {"error_estimate": local_error, "error_kind": LOCAL_SUM}

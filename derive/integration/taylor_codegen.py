@@ -213,11 +213,17 @@ def decompose(rhs_body, state: tuple[sp.Symbol, ...]) -> Decomposition:
 
 # -- C: the statements of the jet ------------------------------------------------------
 
-def c_statements(d: Decomposition, ctype: str, slots: dict) -> dict:
+def c_statements(d: Decomposition, variant: dict, slots: dict) -> dict:
     """The C the template lays out: the constants (once per step) and one statement per
-    operation computing its coefficient k (J[i][k]; C[c] the constants)."""
-    pr = CPrinter(slots, ctype)
-    consts = [pr.doprint_checked(c) for c in d.constants]
+    operation computing its coefficient k (J[i][k]; C[c] the constants), written with
+    the template's arithmetic macros (T_ADD, T_MUL, ...: operators for the native
+    types, functions for double-double)."""
+    if variant["native_constants"]:
+        pr = CPrinter(slots, variant["ctype"])
+        consts = [pr.doprint_checked(c) for c in d.constants]
+    else:
+        consts = [macro_expression(c, slots) for c in d.constants]
+
     def ref(i):                  # a state's coefficients are X[i] itself (no copy)
         op = d.ops[i]
         return f"X[{op.index}]" if op.kind == "var" else f"J[{i}]"
@@ -230,14 +236,14 @@ def c_statements(d: Decomposition, ctype: str, slots: dict) -> dict:
         if op.kind == "var":
             continue
         elif op.kind == "add":
-            lines.append(f"{u}[k] = {a[0]}[k] + {a[1]}[k];")
+            lines.append(f"{u}[k] = T_ADD({a[0]}[k], {a[1]}[k]);")
         elif op.kind == "sub":
-            lines.append(f"{u}[k] = {a[0]}[k] - {a[1]}[k];")
+            lines.append(f"{u}[k] = T_SUB({a[0]}[k], {a[1]}[k]);")
         elif op.kind == "scale":
-            lines.append(f"{u}[k] = C[{a[1]}] * {a[0]}[k];")
+            lines.append(f"{u}[k] = T_MUL(C[{a[1]}], {a[0]}[k]);")
         elif op.kind == "shift":
-            base = "0" if a[0] is None else f"{a[0]}[k]"
-            lines.append(f"{u}[k] = {base} + (k == 0 ? C[{a[1]}] : (R)0);")
+            shift = f"k == 0 ? C[{a[1]}] : T_INT(0)"
+            lines.append(f"{u}[k] = {shift};" if a[0] is None else f"{u}[k] = T_ADD({a[0]}[k], {shift});")
         elif op.kind == "mul":
             lines.append(f"{u}[k] = TAYLOR_MUL({a[0]}, {a[1]}, k);")
         elif op.kind == "square":
@@ -245,23 +251,97 @@ def c_statements(d: Decomposition, ctype: str, slots: dict) -> dict:
         elif op.kind == "div":
             lines.append(f"{u}[k] = TAYLOR_DIV({a[0]}[k], {a[1]}, {u}, k);")
         elif op.kind == "inv":
-            lines.append(f"{u}[k] = TAYLOR_DIV((R)(k == 0), {a[0]}, {u}, k);")
+            lines.append(f"{u}[k] = TAYLOR_DIV(T_INT(k == 0), {a[0]}, {u}, k);")
         elif op.kind == "sqrt":
             lines.append(f"{u}[k] = TAYLOR_SQRT({a[0]}, {u}, k);")
         elif op.kind == "sin":
-            lines.append(f"{u}[k] = k == 0 ? SIN({a[0]}[0]) : TAYLOR_SIN({a[0]}, {a[1]}, k);")
+            lines.append(f"{u}[k] = k == 0 ? T_SIN({a[0]}[0]) : TAYLOR_SIN({a[0]}, {a[1]}, k);")
         elif op.kind == "cos":
-            lines.append(f"{u}[k] = k == 0 ? COS({a[0]}[0]) : TAYLOR_COS({a[0]}, {a[1]}, k);")
+            lines.append(f"{u}[k] = k == 0 ? T_COS({a[0]}[0]) : TAYLOR_COS({a[0]}, {a[1]}, k);")
         elif op.kind == "exp":
-            lines.append(f"{u}[k] = k == 0 ? EXP({a[0]}[0]) : TAYLOR_EXP({a[0]}, {u}, k);")
+            lines.append(f"{u}[k] = k == 0 ? T_EXP({a[0]}[0]) : TAYLOR_EXP({a[0]}, {u}, k);")
         else:                                   # pragma: no cover (every kind above)
             raise SpecError(f"unknown Taylor operation {op.kind}")
     outputs = []
     for i, (kind, j) in enumerate(d.outputs):
-        src = f"{ref(j)}[k]" if kind == "node" else f"(k == 0 ? C[{j}] : (R)0)"
-        outputs.append(f"X[{i}][k + 1] = {src} / (R)(k + 1);")
+        src = f"{ref(j)}[k]" if kind == "node" else f"(k == 0 ? C[{j}] : T_INT(0))"
+        outputs.append(f"X[{i}][k + 1] = T_DIVI({src}, k + 1);")
     return {"constants": consts, "ops": lines, "outputs": outputs,
             "guards": [f"{ref(g)}[0]" for g in d.guards]}
+
+
+# pi to about 2^-160 as a sum of three doubles: what double-double and binary128 need
+_PI_PARTS = ("3.141592653589793", "1.2246467991473532e-16", "-2.9947698097183397e-33")
+_EXACT_INT = 2 ** 53                   # integers a double holds exactly
+
+
+def _int(n: int) -> str:
+    if abs(n) > _EXACT_INT:
+        raise SpecError(f"the integer {n} in a constant is beyond what the precision ladder prints exactly")
+    return f"T_INT({n})"
+
+
+def macro_expression(expr, slots: dict) -> str:
+    """A state-free expression (parameters, inputs, numbers) in the template's arithmetic
+    macros, for the types without C operators (double-double) or literals C99 has not
+    (binary128): rationals exact, decimal numbers as the rational they write, pi to
+    2^-160, integer and half-integer powers as products and square roots."""
+    e = sp.sympify(expr)
+    if e.is_Symbol:
+        if e not in slots:
+            raise SpecError(f"unknown symbol {e} in a Taylor constant")
+        return slots[e]
+    if e.is_Integer:
+        return _int(int(e))
+    if e.is_Rational:
+        return f"T_DIV({_int(int(e.p))}, {_int(int(e.q))})"
+    if e.is_Float:
+        return macro_expression(sp.Rational(repr(float(e))), slots)
+    if e is sp.pi:
+        a, b, c = _PI_PARTS
+        return f"T_ADD(T_ADD(T_D({a}), T_D({b})), T_D({c}))"
+    if e is sp.E:
+        return "T_EXP(T_INT(1))"
+    if e.is_Add:
+        terms = list(e.args)
+        pos = [t for t in terms if not _negated(t)]
+        neg = [-t for t in terms if _negated(t)]
+        acc = macro_expression(pos[0], slots) if pos else f"T_NEG({macro_expression(neg.pop(0), slots)})"
+        for t in pos[1:]:
+            acc = f"T_ADD({acc}, {macro_expression(t, slots)})"
+        for t in neg:
+            acc = f"T_SUB({acc}, {macro_expression(t, slots)})"
+        return acc
+    if e.is_Mul:
+        coeff, rest = e.as_coeff_Mul()
+        if coeff < 0:
+            return f"T_NEG({macro_expression(-e, slots)})"
+        num = [f for f in e.args if not (f.is_Pow and f.exp.is_negative)]
+        den = [1 / f for f in e.args if f.is_Pow and f.exp.is_negative]
+        acc = None
+        for f in num:
+            acc = macro_expression(f, slots) if acc is None else f"T_MUL({acc}, {macro_expression(f, slots)})"
+        if den:
+            d = macro_expression(sp.Mul(*den), slots)
+            acc = f"T_DIV({acc or 'T_INT(1)'}, {d})"
+        return acc
+    if e.is_Pow:
+        base, k = e.base, e.exp
+        if k.is_Integer or (k.is_Rational and k.q == 2):
+            b = macro_expression(base, slots)
+            if not k.is_Integer:
+                b, k = f"T_SQRT({b})", sp.Integer(k.p)
+            n = abs(int(k))
+            if n == 0:
+                return "T_INT(1)"
+            acc = b
+            for _ in range(n - 1):
+                acc = f"T_MUL({acc}, {b})"
+            return acc if k > 0 else f"T_DIV(T_INT(1), {acc})"
+    fn = {sp.sin: "T_SIN", sp.cos: "T_COS", sp.exp: "T_EXP"}.get(type(e))
+    if fn:
+        return f"{fn}({macro_expression(e.args[0], slots)})"
+    raise SpecError(f"the precision ladder (double-double, binary128) has no translation for {e}")
 
 
 def counts(d: Decomposition) -> dict:
@@ -297,26 +377,86 @@ def _slots(name: str) -> dict:
     return slots
 
 
+def _native_ops(ctype: str, m: str) -> list[tuple[str, str]]:
+    """The arithmetic macros of a C floating type (m: its <math.h> suffix, q: quadmath)."""
+    return [("T_ADD(a, b)", "((a) + (b))"), ("T_SUB(a, b)", "((a) - (b))"), ("T_MUL(a, b)", "((a) * (b))"),
+            ("T_DIV(a, b)", "((a) / (b))"), ("T_NEG(a)", "(-(a))"), ("T_MULI(a, i)", f"((a) * ({ctype})(i))"),
+            ("T_DIVI(a, i)", f"((a) / ({ctype})(i))"), ("T_INT(i)", f"(({ctype})(i))"), ("T_D(x)", f"(({ctype})(x))"),
+            ("T_SQRT(a)", f"sqrt{m}(a)"), ("T_SIN(a)", f"sin{m}(a)"), ("T_COS(a)", f"cos{m}(a)"),
+            ("T_EXP(a)", f"exp{m}(a)"), ("T_S(a)", "(a)"), ("T_ABS(a)", f"fabs{m}(a)"), ("T_FROMS(x)", "(x)"),
+            ("T_LE(a, b)", "((a) <= (b))")]
+
+
+_DD_OPS = [("T_ADD(a, b)", "dd_add(a, b)"), ("T_SUB(a, b)", "dd_sub(a, b)"), ("T_MUL(a, b)", "dd_mul(a, b)"),
+           ("T_DIV(a, b)", "dd_div(a, b)"), ("T_NEG(a)", "dd_neg(a)"), ("T_MULI(a, i)", "dd_mul_d(a, (double)(i))"),
+           ("T_DIVI(a, i)", "dd_div_d(a, (double)(i))"), ("T_INT(i)", "dd_d((double)(i))"), ("T_D(x)", "dd_d(x)"),
+           ("T_SQRT(a)", "dd_sqrt(a)"), ("T_SIN(a)", "dd_sin(a)"), ("T_COS(a)", "dd_cos(a)"),
+           ("T_EXP(a)", "dd_exp(a)"), ("T_S(a)", "((a).hi)"), ("T_ABS(a)", "fabs((a).hi)"),
+           ("T_FROMS(x)", "dd_d(x)"), ("T_LE(a, b)", "dd_le(a, b)")]
+
+
+def _skip_key(ctype: str) -> str:
+    """The variant's name in -D<M>_TAYLOR_SKIP_<KEY>."""
+    return {"derive_dd": "DOUBLE_DOUBLE", "derive_quad": "QUAD"}.get(ctype, ctype.upper().replace(" ", "_"))
+
+
+def _variant(name, ctype, stype, suffix, m, nan, ops, native_constants, sfun):
+    return {"name": name, "key": _skip_key(ctype), "ctype": ctype, "stype": stype, "s": suffix, "m": m, "nan": nan,
+            "ops": [(k, v) for k, v in ops], "native_constants": native_constants,
+            "sfun": {"exp": f"exp{sfun}", "pow": f"pow{sfun}"}}
+
+
+# The precision ladder of the Taylor integrator, as data: (file, variants).  The native
+# C types and double-double in <model>_taylor.c (C99, <math.h> only), IEEE binary128 in
+# <model>_taylor_quad.c (GCC's __float128 and <quadmath.h>, kept apart so the other
+# file compiles wherever C99 does).
+TAYLOR_VARIANTS = {
+    "double": _variant("double", "double", "double", "", "", 'nan("")', _native_ops("double", ""), True, ""),
+    "float": _variant("float", "float", "float", "_f", "f", 'nanf("")', _native_ops("float", "f"), True, "f"),
+    "long double": _variant("long double", "long double", "long double", "_l", "l", 'nanl("")',
+                            _native_ops("long double", "l"), True, "l"),
+    "double-double": _variant("double-double", "derive_dd", "double", "_dd", "", 'dd_d(nan(""))', _DD_OPS,
+                              False, ""),
+    "quad": _variant("IEEE binary128 (__float128)", "derive_quad", "derive_quad", "_q", "q", 'nanq("")',
+                     _native_ops("derive_quad", "q"), False, "q"),
+}
+TAYLOR_FILES = {"taylor": ("double", "float", "long double", "double-double"), "taylor_quad": ("quad",)}
+
+
 def render_taylor(name: str) -> dict[str, str]:
-    """<name>_taylor.h and .c: the Taylor integrator of one model (C backend artifact)."""
+    """<name>_taylor.{h,c} and <name>_taylor_quad.{h,c}: the Taylor integrator of one
+    model on the precision ladder (C backend artifact), from one template."""
     from ..codegen.emit import render
-    from .codegen import c_variants, model_info
+    from .codegen import model_info
     from .contract import INFO
     info = model_info(name)
     d = rhs_decomposition(name)
     slots = _slots(name)
-    variants = [dict(v, taylor=c_statements(d, v["ctype"], slots)) for v in c_variants()]
     kinds = counts(d)
     M = name.upper()
     uses = {"mul": bool(kinds.keys() & {"mul", "square"}), "div": bool(kinds.keys() & {"div", "inv"}),
             "sqrt": "sqrt" in kinds, "chain": bool(kinds.keys() & {"sin", "cos", "exp"})}
-    ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops), "uses": uses,
-           "nconst": len(d.constants), "order_max": ORDER_MAX,
-           "info_scalars": [f.name for f in INFO if not f.length],
-           "op_summary": ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())),
-           "nparams": f"{M}_N_PARAMS + {M}_N_INPUTS" if info.n_inputs else f"{M}_N_PARAMS"}
-    return {f"c/{name}_taylor.h": render("c/taylor.h.jinja", dict(ctx, template="templates/c/taylor.h.jinja")),
-            f"c/{name}_taylor.c": render("c/taylor.c.jinja", dict(ctx, template="templates/c/taylor.c.jinja"))}
+    out = {}
+    for stem, names in TAYLOR_FILES.items():
+        variants = [dict(TAYLOR_VARIANTS[v], taylor=c_statements(d, TAYLOR_VARIANTS[v], slots)) for v in names]
+        header = f"{name}_{stem}.h"
+        used = " ".join(line for v in variants for part in ("constants", "ops") for line in v["taylor"][part])
+        dd_uses = {k: f"T_{k.upper()}(" in used for k in ("sqrt", "sin", "cos", "exp")}
+        ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops), "uses": uses,
+               "nconst": len(d.constants), "order_max": ORDER_MAX, "header": header,
+               "guard": f"{M}_{stem.upper()}_H", "quad": "quad" in names, "dd": "double-double" in names,
+               "dd_uses": dd_uses, "precisions": _precisions([TAYLOR_VARIANTS[v] for v in names]),
+               "info_scalars": [f.name for f in INFO if not f.length],
+               "op_summary": ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())),
+               "nparams": f"{M}_N_PARAMS + {M}_N_INPUTS" if info.n_inputs else f"{M}_N_PARAMS"}
+        out[f"c/{header}"] = render("c/taylor.h.jinja", dict(ctx, template="templates/c/taylor.h.jinja"))
+        out[f"c/{name}_{stem}.c"] = render("c/taylor.c.jinja", dict(ctx, template="templates/c/taylor.c.jinja"))
+    return out
+
+
+def _precisions(variants: list[dict]) -> str:
+    parts = [f"{v['name']} (suffix {v['s']})" if v["s"] else f"{v['name']} (no suffix)" for v in variants]
+    return parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + " and " + parts[-1]
 
 
 def taylor_problem(name: str) -> str | None:

@@ -19,7 +19,7 @@ from ..codegen.loader import build_fastest
 from ..codegen.sources import c_source
 from ..errors import SimulationInputError
 from ..model.description import forget_on_model_change
-from .build import CTYPES, SUFFIX, address, dtype_key, info_struct, run_batch
+from .build import SUFFIX, address, dtype_key, info_struct, run_batch
 from .codegen import model_info
 from .taylor_codegen import ORDER_MAX, taylor_problem
 
@@ -41,7 +41,8 @@ class TaylorLibrary:
         if not source.is_file():
             raise SimulationInputError(f"model '{model}' has no Taylor integrator: {taylor_problem(model)}")
         self.path, self.flags = build_fastest(f"{model}_taylor_p{order}", [source],
-                                              extra=(f"-D{model.upper()}_TAYLOR_ORDER={order}",))
+                                              extra=(f"-D{model.upper()}_TAYLOR_ORDER={order}",
+                                                     f"-D{model.upper()}_TAYLOR_SKIP_DOUBLE_DOUBLE"))
         self.lib = ctypes.CDLL(str(self.path))
         self.Info = info_struct(self.n)
         vp = ctypes.c_void_p
@@ -70,7 +71,7 @@ class TaylorLibrary:
         out = np.empty((self.n, self.order + 1), y.dtype)
         st = self.coefficient_fns[dt](ctypes.c_void_p(address(y)), ctypes.c_void_p(address(p)),
                                       ctypes.c_int(self.order), ctypes.c_void_p(address(out)),
-                                      CTYPES[dt](sine_min))
+                                      ctypes.c_double(sine_min))
         return int(st), out
 
 

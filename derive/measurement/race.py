@@ -14,7 +14,10 @@ issue.  The ratio is heyoka's time over derive's (above 1: derive is faster).
 Rows (issue 15's table, plus the long double row):
 - regular: y0 = (1, 0.5, 0, 0) to t = 20;
 - chaotic: y0 = (2.5, 2, 0, 0) to t = 5;
-- long double: the chaotic y0 to t = 10, both tools in long double;
+- long double: the chaotic y0 to t = 10, heyoka in long double, derive in long double
+  and double-double (its fastest way there);
+- quad: the chaotic y0 to t = 20, past long double's horizon: derive's Taylor
+  integrator in double-double and quad against heyoka in real128 (issue 16);
 - ensemble: 4096 states (angles uniform in [-1, 1], rates 0, seed 0) to t = 10, every
   final error <= 1e-8: `derive.ensemble` (threads = cores) against heyoka's
   `ensemble_propagate_until_batch` (its SIMD batch integrator, batch = its recommended
@@ -26,7 +29,10 @@ writes) on the regular and chaotic rows, for the issue's 200x target.
 References: the long double runs of `derive.simulate` at its tightest tolerance for the
 double rows and the ensemble (their error, about 1e-13 here, is far below the target);
 for the long double row, heyoka in quadruple precision (real128) at tol 1e-30, checked
-against derive's long double reference: the agreement is reported.
+against derive's long double reference; for the quad row, derive in quad at rtol 2e-33
+checked against heyoka real128 at tol 1e-33: the agreement is reported.  Both tools take
+the same parameters, the doubles nearest 1, 9.81 (heyoka's real128 from the double,
+exactly).
 """
 from __future__ import annotations
 
@@ -144,14 +150,15 @@ def _derive_points(y0, t_end: float, ref, dtype: str = "float64") -> list[Point]
     return points
 
 
-def _heyoka_points(hy, y0, t_end: float, ref, fp_type=float) -> list[Point]:
+def _heyoka_points(hy, y0, t_end: float, ref, fp_type=float, tols=None, error=None) -> list[Point]:
     sys_ = heyoka_system(hy)
     points = []
-    tols = (1e-8, 1e-10, 1e-12, 1e-14, 1e-16) if fp_type is float else (1e-12, 1e-14, 1e-16, 1e-18)
+    if tols is None:
+        tols = (1e-8, 1e-10, 1e-12, 1e-14, 1e-16) if fp_type is float else (1e-12, 1e-14, 1e-16, 1e-18)
     for tol in tols:
-        ta = hy.taylor_adaptive(sys_, np.array(y0, dtype=fp_type), pars=np.array(PARAMS, dtype=fp_type),
+        ta = hy.taylor_adaptive(sys_, np.array([fp_type(v) for v in y0]), pars=np.array([fp_type(v) for v in PARAMS]),
                                 tol=fp_type(tol), fp_type=fp_type, compact_mode=False)
-        start = np.array(y0, dtype=fp_type)
+        start = np.array([fp_type(v) for v in y0])
 
         def run(ta=ta, start=start):
             ta.time = fp_type(0.0)
@@ -160,7 +167,8 @@ def _heyoka_points(hy, y0, t_end: float, ref, fp_type=float) -> list[Point]:
             return ta.state.copy()
 
         final = run()
-        points.append(Point("heyoka taylor", f"tol={tol:g}", _timed(run), _error(final, ref)))
+        label = "heyoka taylor" if fp_type in (float, np.longdouble) else "heyoka taylor real128"
+        points.append(Point(label, f"tol={tol:g}", _timed(run), (error or _error)(final, ref)))
     return points
 
 
@@ -187,21 +195,74 @@ def trajectory_row(hy, name: str, title: str, y0, t_end: float, scipy: bool = Tr
 
 def long_double_row(hy, y0=(2.5, 2.0, 0.0, 0.0), t_end: float = 10.0) -> Row:
     ld = np.longdouble
-    row = Row("long double", f"chaotic, y0 = {tuple(y0)}, t = {t_end:g}, both in long double")
+    row = Row("long double", f"chaotic, y0 = {tuple(y0)}, t = {t_end:g}, heyoka in long double")
     ref = _quad_reference(hy, y0, t_end)
     ours = _derive_reference(y0, t_end)
     row.note = (f"reference: heyoka real128 at tol 1e-30; derive's long double reference (dop853, "
                 f"rtol 2e-18) differs from it by {_error(ours, ref):.1e}")
     row.points += _derive_points(y0, t_end, ref, dtype="longdouble")
+    row.points += _ladder_points(y0, t_end, [_mp(v) for v in ref], ("double-double",), (1e-16, 1e-18, 1e-20))
     row.points += _heyoka_points(hy, y0, t_end, ref, fp_type=ld)
     return row
 
 
+LADDER_TOLS = (1e-20, 1e-22, 1e-24, 1e-26, 1e-28, 1e-30)
+
+
+def quad_row(hy, y0=(2.5, 2.0, 0.0, 0.0), t_end: float = 20.0) -> Row:
+    """Past long double's horizon: derive's double-double and quad against heyoka's real128."""
+    import derive
+    import mpmath
+    q = hy.real128
+    row = Row("quad", f"chaotic, y0 = {tuple(y0)}, t = {t_end:g}, heyoka in real128")
+    ta = hy.taylor_adaptive(heyoka_system(hy), np.array([q(v) for v in y0]), pars=np.array([q(v) for v in PARAMS]),
+                            tol=q("1e-33"), fp_type=q)
+    ta.propagate_until(q(t_end))
+    ref = [_mp(str(v)) for v in ta.state]
+    ours = derive.simulate("planar", list(y0), [0.0, t_end], PARAMS, dtype="quad", rtol=2e-33).y_exact[-1]
+    with mpmath.workdps(45):
+        agree = float(max(abs(a - b) for a, b in zip(ours, ref)))
+    row.note = (f"reference: heyoka real128 at tol 1e-33; derive in quad at rtol 2e-33 differs from it by "
+                f"{agree:.1e}")
+    row.points += _ladder_points(y0, t_end, ref, ("double-double", "quad"), LADDER_TOLS)
+    row.points += _heyoka_points(hy, y0, t_end, ref, fp_type=q, tols=LADDER_TOLS, error=_mp_error)
+    return row
+
+
+def _mp(text):
+    import mpmath
+    with mpmath.workdps(45):
+        return mpmath.mpf(str(text))
+
+
+def _mp_error(state, ref) -> float:
+    """max |state - ref| in mpmath (beyond what long double resolves)."""
+    import mpmath
+    with mpmath.workdps(45):
+        values = [mpmath.mpf(str(v)) for v in state]
+        if not all(mpmath.isfinite(v) for v in values):
+            return math.inf
+        return float(max(abs(a - b) for a, b in zip(values, ref)))
+
+
+def _ladder_points(y0, t_end: float, ref: list, precisions, tols) -> list[Point]:
+    """derive's Taylor integrator on the rungs above long double (exact results: r.y_exact)."""
+    import derive
+    points = []
+    for precision in precisions:
+        for tol in tols:
+            run = lambda: derive.simulate("planar", list(y0), [0.0, t_end], PARAMS, dtype=precision, rtol=tol)
+            r = run()
+            points.append(Point(f"derive taylor {precision}", f"rtol={tol:g}", _timed(run),
+                                _mp_error(r.y_exact[-1], ref) if r.ok else math.inf))
+    return points
+
+
 def _quad_reference(hy, y0, t_end: float) -> np.ndarray:
     q = hy.real128
-    ta = hy.taylor_adaptive(heyoka_system(hy), np.array([q(str(v)) for v in y0]),
-                            pars=np.array([q(str(v)) for v in PARAMS]), tol=q("1e-30"), fp_type=q)
-    ta.propagate_until(q(str(t_end)))
+    ta = hy.taylor_adaptive(heyoka_system(hy), np.array([q(v) for v in y0]),
+                            pars=np.array([q(v) for v in PARAMS]), tol=q("1e-30"), fp_type=q)
+    ta.propagate_until(q(t_end))
     return np.array([np.longdouble(str(v)) for v in ta.state])
 
 
@@ -319,7 +380,7 @@ def run_race(quick: bool = False, progress=None) -> Race:
                                    scipy=not quick),
             lambda: trivial_call_row(hy)]
     if not quick:
-        jobs += [lambda: long_double_row(hy), lambda: ensemble_row(hy)]
+        jobs += [lambda: long_double_row(hy), lambda: quad_row(hy), lambda: ensemble_row(hy)]
     rows = []
     for k, job in enumerate(jobs):
         rows.append(job())
@@ -348,7 +409,7 @@ def summary_rows(race: Race) -> list[dict]:
         ours, theirs = row.best("derive"), row.best("heyoka")
         scipy = row.best("scipy")
         out.append({"row": row.title, "derive": _ms(ours and ours.seconds),
-                    "derive setting": f"{ours.tool.split()[1]} {ours.knob}" if ours else "",
+                    "derive setting": f"{' '.join(ours.tool.split()[1:])} {ours.knob}" if ours else "",
                     "heyoka": _ms(theirs and theirs.seconds), "heyoka setting": theirs.knob if theirs else "",
                     "ratio": (theirs.seconds / ours.seconds) if ours and theirs else None,
                     "scipy": (scipy.seconds / ours.seconds) if ours and scipy else None})

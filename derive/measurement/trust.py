@@ -103,9 +103,17 @@ def atlas_lyapunov(y0, params, t_end: float, seed: int = 0, atlas: str = "spheri
     return None
 
 
+def unit_roundoff(dtype) -> float:
+    """eps of a precision of the ladder: a NumPy dtype, or 'double-double' or 'quad'."""
+    from ..integration.extended import UNIT_ROUNDOFF
+    if isinstance(dtype, str) and dtype in UNIT_ROUNDOFF:
+        return UNIT_ROUNDOFF[dtype]
+    return float(np.finfo(np.dtype(dtype)).eps)
+
+
 def initial_error(rtol: float, dtype, state_scale: float) -> float:
     """The error a run commits early on: tolerance or unit roundoff, at the state's scale."""
-    eps = float(np.finfo(np.dtype(dtype)).eps)
+    eps = unit_roundoff(dtype)
     return max(rtol, eps) * max(state_scale, 1.0)
 
 
@@ -149,7 +157,7 @@ def trust_horizon_of(result, target: float = 1e-8) -> float | None:
     if exponent is None:
         return None
     local = result.rtol if result.rtol is not None else (result.step or 0.0) ** FIXED_ORDER[result.method]
-    dtype = np.dtype(np.longdouble) if result.dtype == "longdouble" else np.dtype(result.dtype)
+    dtype = np.dtype(np.longdouble) if result.dtype == "longdouble" else result.dtype
     e0 = initial_error(local, dtype, float(np.max(np.abs(np.asarray(result.y[0], float)))))
     lyap = Lyapunov(exponent, float(result.t[-1] - result.t[0]), result.model, "")
     return float(result.t[0]) + trust_horizon(lyap, target, e0)

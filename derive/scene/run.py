@@ -4,8 +4,10 @@ Choosing the method for an accuracy target (the final-state error):
 1. the largest Lyapunov exponent lambda of the scene's motion (trust.py) says
    how much an early error grows by the end: G = exp(lambda T);
 2. DOP853 with rtol = target / (SAFETY G), in double while that tolerance is
-   at least 10 eps of double, else in long double (then `target` beyond what
-   long double can deliver is reported as out of reach, not pretended);
+   at least 10 eps of double, else in long double; past long double the plan
+   climbs the precision ladder to Taylor's method in double-double, then in quad
+   (IEEE binary128), and says so (then `target` beyond what quad can deliver is
+   reported as out of reach, not pretended);
 3. a reference run a thousand times tighter measures the achieved error, and
    the trust horizon says until when the run resolves the true motion.
 """
@@ -32,12 +34,18 @@ SAFETY = 10.0
 DOUBLE_RTOL_MIN = 1e-14
 FLOAT_RTOL_MIN = 1e-5
 LONG_DOUBLE_RTOL_MIN = 1e-16
+# the rungs above long double: Taylor's method, down to these tolerances (10 eps and more)
+DOUBLE_DOUBLE_RTOL_MIN = 1e-29
+QUAD_RTOL_MIN = 1e-32
+EXTENDED = ("double-double", "quad")
 RTOL_MAX = 1e-3            # a looser target is met at this tolerance: DOP853 is not run looser
 # the tightest tolerance a reference run may use in each precision (10 eps of simulate, with margin)
 REFERENCE_RTOL_MIN = {"float32": 1e-9, "float64": 1e-14,
-                      "longdouble": 20 * float(np.finfo(np.longdouble).eps)}
+                      "longdouble": 20 * float(np.finfo(np.longdouble).eps),
+                      "double-double": DOUBLE_DOUBLE_RTOL_MIN, "quad": 2e-33}
 EXIT_TARGET_MISSED = 3     # `derive run`: the run finished, but its accuracy target was not met
-PRECISION = {"float32": "float", "float64": "double", "longdouble": "long double"}
+PRECISION = {"float32": "float", "float64": "double", "longdouble": "long double",
+             "double-double": "double-double", "quad": "quad (IEEE binary128)"}
 CHUNKS = 20          # the integration runs in this many pieces, for the progress bar
 
 
@@ -85,27 +93,45 @@ def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
 
 def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
     if scene.method is not None:
-        return Choice(scene.method, scene.rtol, scene.atol, scene.step,
-                      "longdouble" if scene.scalar == "long double" else
-                      "float32" if scene.scalar == "float" else "float64", None, "as the scene asks")
+        return Choice(scene.method, scene.rtol, None if scene.scalar in EXTENDED else scene.atol, scene.step,
+                      _dtype_of(scene.scalar), None, "as the scene asks")
     growth = lyap.error_growth(scene.t_stop - scene.t_start) if lyap else 1.0
     rtol = min(scene.target / (SAFETY * growth), RTOL_MAX)
-    dtype, note = "float64", ""
-    if rtol < DOUBLE_RTOL_MIN:
+    method, dtype, rtol, note = climb(rtol, scene.target)
+    if scene.scalar == "long double" and dtype in ("float64", "longdouble"):
         dtype = "longdouble"
-        if rtol < LONG_DOUBLE_RTOL_MIN:
-            note = (f"target {scene.target:g} needs rtol {rtol:.2g}: beyond long double, "
-                    "the run uses the tightest tolerance and reports what it achieves")
-            rtol = LONG_DOUBLE_RTOL_MIN
-    if scene.scalar == "long double":
-        dtype = "longdouble"
+    elif scene.scalar in EXTENDED:
+        method, dtype = "taylor", scene.scalar
+        rtol = max(rtol, REFERENCE_RTOL_MIN[dtype])
     elif scene.scalar == "float":
-        dtype = "float32"
+        method, dtype = "dop853", "float32"
         if rtol < FLOAT_RTOL_MIN:
             note = (f"target {scene.target:g} needs rtol {rtol:.2g}: beyond float, the run uses "
                     f"rtol {FLOAT_RTOL_MIN:g} and reports what it achieves")
             rtol = FLOAT_RTOL_MIN
-    return Choice("dop853", rtol, rtol, None, dtype, rtol * growth, note)
+    atol = None if dtype in EXTENDED else rtol
+    return Choice(method, rtol, atol, None, dtype, rtol * growth, note)
+
+
+def _dtype_of(scalar: str) -> str:
+    return {"long double": "longdouble", "float": "float32", "double": "float64"}.get(scalar, scalar)
+
+
+def climb(rtol: float, target: float | None) -> tuple[str, str, float, str]:
+    """(method, dtype, rtol, note) for a tolerance: the lowest rung of the precision
+    ladder that takes it (DOP853 in double, then long double; Taylor's method in
+    double-double, then quad), the note saying why a run climbed past long double."""
+    if rtol >= DOUBLE_RTOL_MIN:
+        return "dop853", "float64", rtol, ""
+    if rtol >= LONG_DOUBLE_RTOL_MIN:
+        return "dop853", "longdouble", rtol, ""
+    why = f"target {target:g} needs rtol {rtol:.2g}, beyond long double"
+    if rtol >= DOUBLE_DOUBLE_RTOL_MIN:
+        return "taylor", "double-double", rtol, f"{why}: climbed the precision ladder to double-double (Taylor)"
+    if rtol >= QUAD_RTOL_MIN:
+        return "taylor", "quad", rtol, f"{why} and double-double: climbed the precision ladder to quad (Taylor)"
+    return "taylor", "quad", QUAD_RTOL_MIN, (f"{why} and quad: the run uses quad at rtol {QUAD_RTOL_MIN:g} "
+                                             "and reports what it achieves")
 
 
 ORDER = {"dop853": 8, "dopri5": 5}
@@ -153,7 +179,7 @@ def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
     for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
         r = simulate(p.model, y0, t[a:b + 1], p.params, method=c.method,
                      rtol=None if c.rtol is None else c.rtol / tighten,
-                     atol=None if c.atol is None else c.atol / tighten,
+                     atol=None if c.atol is None or (dtype or c.dtype) in EXTENDED else c.atol / tighten,
                      step=None if c.step is None else c.step / tighten,
                      dtype=dtype or c.dtype, backend=scene.backend, inputs=scene.inputs)
         parts.append(r)
@@ -161,7 +187,8 @@ def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
             progress.update(k + 1)
         if not r.ok:
             break
-        y0 = r.y[-1] if find_atlas(p.model) is None else {"chart": r.chart[-1], "state": list(r.y[-1])}
+        last = r.y[-1] if r.y_exact is None else list(r.y_exact[-1])    # the ladder's rungs restart exactly
+        y0 = last if find_atlas(p.model) is None else {"chart": r.chart[-1], "state": list(r.y[-1])}
     return _join(parts)
 
 
@@ -169,7 +196,8 @@ def _join(parts: list[SimulationResult]) -> SimulationResult:
     first, last = parts[0], parts[-1]
     cat = lambda attr: np.concatenate([getattr(parts[0], attr)] + [getattr(r, attr)[1:] for r in parts[1:]])
     out = SimulationResult(**{**as_fields(first), "t": cat("t"), "y": cat("y"), "energy": cat("energy"),
-                              "positions": cat("positions"), "velocities": cat("velocities")})
+                              "positions": cat("positions"), "velocities": cat("velocities"),
+                              "y_exact": None if first.y_exact is None else cat("y_exact")})
     for attr in ("status", "status_name", "t_stop", "y_stop", "chart_stop"):
         setattr(out, attr, getattr(last, attr))
     for attr in ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton", "switches"):
@@ -211,6 +239,8 @@ def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray
 def _final_error(run_: SimulationResult, reference: SimulationResult) -> float:
     """Largest difference of the final states; for the atlas, of the final bob
     positions (the two runs may end in different charts)."""
+    if run_.y_exact is not None and reference.y_exact is not None:      # beyond long double
+        return float(max(abs(x - y) for x, y in zip(run_.y_exact[-1], reference.y_exact[-1])))
     a, b = (run_.positions[-1], reference.positions[-1]) if run_.chart is not None else \
         (run_.y[-1], reference.y[-1])
     return float(np.max(np.abs(np.asarray(a, np.longdouble) - np.asarray(b, np.longdouble))))
@@ -221,16 +251,23 @@ MAX_TIGHTENINGS = 3
 
 def reference_rtol(c: Choice) -> tuple[float, str]:
     """(tolerance, precision) of the reference run: a thousand times tighter than the run,
-    in double or, when double cannot, long double; never tighter than that precision can
-    take (then the reference is only as much tighter as it can be, and says so)."""
+    in the run's precision or the rung of the ladder above it that takes that tolerance;
+    never tighter than quad can take (then the reference is only as much tighter as it
+    can be, and says so)."""
     tight = (c.rtol or 1.0) / 1000
-    dtype = "longdouble" if tight < DOUBLE_RTOL_MIN or c.dtype == "longdouble" else "float64"
-    return max(tight, REFERENCE_RTOL_MIN[dtype]), dtype
+    ladder = ("float64", "longdouble", "double-double", "quad")
+    start = ladder.index(c.dtype) if c.dtype in ladder else 0
+    for dtype in ladder[start:]:
+        if tight >= REFERENCE_RTOL_MIN[dtype]:
+            return tight, dtype
+    return REFERENCE_RTOL_MIN["quad"], "quad"
 
 
 def _reference(p: Plan, scene: Scene, c: Choice) -> SimulationResult:
-    """The same run, far tighter (reference_rtol)."""
+    """The same run, far tighter (reference_rtol); above long double with Taylor's method."""
     rtol, dtype = reference_rtol(c)
+    if dtype in EXTENDED and c.method != "taylor":
+        c = Choice("taylor", c.rtol, None, None, dtype, c.predicted, c.note)
     return integrate(p, scene, c, None, tighten=c.rtol / rtol, dtype=dtype)
 
 
@@ -250,21 +287,24 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
     if progress:
         progress.close()
     achieved = None
-    measurable = c.method in ("dop853", "dopri5")
+    measurable = c.method in ("dop853", "dopri5", "taylor")
     if result.ok and measurable:
         reference, ref_rtol = _reference(p, scene, c), reference_rtol(c)[0]
         achieved = _final_error(result, reference) if reference.ok else None
         # Tolerance proportionality is only approximate: when the measured error
         # misses the target, tighten by the observed ratio and run again.
         for _ in range(MAX_TIGHTENINGS if scene.target is not None else 0):
-            if achieved is None or achieved <= scene.target or c.rtol <= LONG_DOUBLE_RTOL_MIN:
+            if achieved is None or achieved <= scene.target or c.rtol <= QUAD_RTOL_MIN:
                 break
             factor = SAFETY * achieved / scene.target
             if c.dtype == "float32" and c.rtol / factor < FLOAT_RTOL_MIN:
                 break                     # float cannot go tighter; the note says so
-            c.rtol = max(c.rtol / factor, LONG_DOUBLE_RTOL_MIN)
-            c.atol = c.rtol
-            c.dtype = "longdouble" if c.rtol < DOUBLE_RTOL_MIN else c.dtype
+            if scene.method is not None:
+                break                     # the scene fixed its method: measured, not changed
+            c.method, c.dtype, c.rtol, climbed = climb(c.rtol / factor, scene.target)
+            c.atol = None if c.dtype in EXTENDED else c.rtol
+            if climbed and climbed not in c.note:
+                c.note = (c.note + "; " if c.note else "") + climbed
             c.note = (c.note + "; " if c.note else "") + f"tightened rtol after measuring {achieved:.2g}"
             result = integrate(p, scene, c, None)
             if not result.ok:
@@ -275,9 +315,8 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
     result = _events(p, scene, c, result)
     horizon = None
     if lyap is not None:
-        e0 = initial_error(c.rtol if c.rtol is not None else 0.0,
-                           np.longdouble if c.dtype == "longdouble" else np.float64,
-                           float(np.max(np.abs(result.y[0]))))
+        e0 = initial_error(c.rtol if c.rtol is not None else 0.0, c.dtype,
+                           float(np.max(np.abs(np.asarray(result.y[0], float)))))
         horizon = trust_horizon(lyap, scene.target or 1e-8, e0) + scene.t_start
     positions, velocities, energy = _observables(scene, p, result)
     return Outcome(scene, p, steps, c, lyap, horizon, result, positions, energy, achieved,

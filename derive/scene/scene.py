@@ -11,12 +11,12 @@ from ..model.description import NAME
 from ..paths import scenes_dir
 from ..model import ModelError, is_model_file, load_model
 from ..model.description import parameter_problem
-from ..integration.contract import ATLAS_CHARTS, FIXED, METHODS     # the run contract
+from ..integration.contract import ATLAS_CHARTS, FIXED, RUN_METHODS, TAYLOR     # the run contract
 
 from ..model.atlas import ATLAS, atlas_for, find_atlas, standard_member  # noqa: E402  (chart atlases)
 SPHERICAL_CHART_MODELS = ATLAS_CHARTS
 FIXED_STEP = FIXED
-SCALARS = ("float", "double", "long double")
+SCALARS = ("float", "double", "long double", "double-double", "quad")     # the precision ladder
 TRAJECTORY_FORMATS = ("csv", "npz")
 PLOTS = ("paths", "energy", "animation")
 MAX_OUTPUTS = 10_000_000        # output times of one scene: ~3 GiB with its observables
@@ -251,7 +251,7 @@ def _parse_accuracy(t: dict) -> dict:
     if "target" in t:
         out["target"] = _number(t["target"], "accuracy.target", positive=True)
     elif "method" in t:
-        method = out["method"] = _choice(t["method"], "accuracy.method", METHODS)
+        method = out["method"] = _choice(t["method"], "accuracy.method", RUN_METHODS)
         if method in FIXED_STEP:
             if "step" not in t:
                 raise SceneError(f"[accuracy]: method '{method}' needs 'step'")
@@ -265,6 +265,8 @@ def _parse_accuracy(t: dict) -> dict:
         if key in t and out[key] is None:
             raise SceneError(f"'accuracy.{key}' does not apply here")
     out["scalar"] = _choice(t.get("scalar", "double"), "accuracy.scalar", SCALARS)
+    if out["scalar"] in ("double-double", "quad") and out["method"] not in (None, TAYLOR):
+        raise SceneError(f"[accuracy]: scalar '{out['scalar']}' runs method 'taylor', not '{out['method']}'")
     out["backend"] = _choice(t.get("backend", "c"), "accuracy.backend", ("c", "numpy"))
     return out
 

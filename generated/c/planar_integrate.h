@@ -126,6 +126,7 @@ typedef struct planar_integrate_info {
     double h;           /* last step size (fixed: the step h of the grid) */
     double h_end;       /* fixed: the shortened step to the last output (0: on the grid) */
     double y[PLANAR_N_STATES];   /* state at t */
+    double local_error; /* sum of the accepted steps' local-error estimates, in the state's units (dopri5, dop853, abm12, taylor; 0: none) */
 } planar_integrate_info;
 
 void planar_integrate_defaults(planar_integrate_options *opt);

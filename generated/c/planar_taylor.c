@@ -29,62 +29,247 @@
 #define NODES 39
 #define NCONST 10
 
+/* Every variant below is the same code written with the arithmetic of its type R:
+ * T_ADD(a, b), T_SUB, T_MUL, T_DIV, T_NEG; T_MULI(a, i) and T_DIVI(a, i) by an int;
+ * T_INT(i) and T_D(x) (a double) as R; T_SQRT, T_SIN, T_COS, T_EXP.  The step-size
+ * control runs in S, a native type (R itself, double for double-double): T_S(a) is a
+ * value in S, T_ABS(a) its magnitude, T_FROMS(s) back to R, T_LE(a, b) a <= b.  For
+ * the native types these are the C operators; double-double has them as functions. */
+/* -DPLANAR_TAYLOR_SKIP_<TYPE> (DOUBLE, FLOAT, LONG_DOUBLE, DOUBLE_DOUBLE) leaves a
+ * variant out of the build: derive compiles the precision it runs, which at a fixed,
+ * unrolled order saves most of the compile time. */
+#ifndef PLANAR_TAYLOR_SKIP_DOUBLE_DOUBLE
+
+/* ======================================================================== */
+/* double-double arithmetic: a value is hi + lo with |lo| <= ulp(hi)/2 (about 106
+ * bits), from error-free transformations (Knuth's two-sum, fma for the product:
+ * C99's fma is exact whether or not the machine has the instruction).  As the
+ * QD library (Hida, Li & Bailey 2001) does it, written here so the file needs no
+ * library. */
+/* ======================================================================== */
+
+static derive_dd dd_d(double x)
+{
+    derive_dd r;
+    r.hi = x;
+    r.lo = 0;
+    return r;
+}
+
+static derive_dd dd_quick(double s, double e)      /* |s| >= |e| */
+{
+    derive_dd r;
+    r.hi = s + e;
+    r.lo = e - (r.hi - s);
+    return r;
+}
+
+static derive_dd dd_two_sum(double a, double b)
+{
+    derive_dd r;
+    double v;
+    r.hi = a + b;
+    v = r.hi - a;
+    r.lo = (a - (r.hi - v)) + (b - v);
+    return r;
+}
+
+/* a + b with an absolute error below about 2^-105 (|a| + |b|): the lower parts added in
+ * double ("sloppy" addition, QD's default), about half the work of the addition whose
+ * relative error stays bounded under cancellation.  The bound in |a| + |b| is what every
+ * sum here needs (a series' terms, a step added to a time). */
+static derive_dd dd_add(derive_dd a, derive_dd b)
+{
+    derive_dd s = dd_two_sum(a.hi, b.hi);
+    s.lo += a.lo + b.lo;
+    return dd_quick(s.hi, s.lo);
+}
+
+static derive_dd dd_neg(derive_dd a)
+{
+    a.hi = -a.hi;
+    a.lo = -a.lo;
+    return a;
+}
+
+static derive_dd dd_sub(derive_dd a, derive_dd b)
+{
+    return dd_add(a, dd_neg(b));
+}
+
+static derive_dd dd_mul(derive_dd a, derive_dd b)
+{
+    double p = a.hi * b.hi;
+    double e = fma(a.hi, b.hi, -p);
+    e += a.hi * b.lo + a.lo * b.hi;
+    return dd_quick(p, e);
+}
+
+static derive_dd dd_mul_d(derive_dd a, double b)
+{
+    double p = a.hi * b;
+    double e = fma(a.hi, b, -p);
+    e += a.lo * b;
+    return dd_quick(p, e);
+}
+
+static derive_dd dd_div(derive_dd a, derive_dd b)
+{
+    double q1 = a.hi / b.hi, q2, q3;
+    derive_dd r = dd_sub(a, dd_mul_d(b, q1));
+    q2 = r.hi / b.hi;
+    r = dd_sub(r, dd_mul_d(b, q2));
+    q3 = r.hi / b.hi;
+    r = dd_quick(q1, q2);
+    return dd_add(r, dd_d(q3));
+}
+
+static derive_dd dd_div_d(derive_dd a, double b)
+{
+    return dd_div(a, dd_d(b));
+}
+
+static int dd_le(derive_dd a, derive_dd b)
+{
+    return a.hi < b.hi || (a.hi == b.hi && a.lo <= b.lo);
+}
+
+
+/* pi/2 as three doubles (to about 2^-160): the reduction a - k pi/2 stays accurate for
+ * the angles of a motion (|k| up to about 2^50) */
+#define DD_PI2_A 1.5707963267948966
+#define DD_PI2_B 6.123233995736766e-17
+#define DD_PI2_C (-1.4973849048591698e-33)
+
+/* sin and cos of |r| <= pi/4 by their series, to below 2^-106 */
+static void dd_sincos_small(derive_dd r, derive_dd *s, derive_dd *c)
+{
+    derive_dd r2 = dd_mul(r, r), term = r, sum = r;
+    int k;
+    for (k = 2; k < 60 && fabs(term.hi) > 1e-36 * fabs(sum.hi); k += 2) {
+        term = dd_div_d(dd_mul(term, dd_neg(r2)), (double)(k * (k + 1)));
+        sum = dd_add(sum, term);
+    }
+    *s = sum;
+    term = dd_d(1.0);
+    sum = term;
+    for (k = 1; k < 60 && fabs(term.hi) > 1e-36; k += 2) {
+        term = dd_div_d(dd_mul(term, dd_neg(r2)), (double)(k * (k + 1)));
+        sum = dd_add(sum, term);
+    }
+    *c = sum;
+}
+
+static void dd_sincos(derive_dd a, derive_dd *s, derive_dd *c)
+{
+    double k = floor(a.hi / DD_PI2_A + 0.5);
+    derive_dd r = a, ss, cc;
+    int q;
+    if (!(fabs(a.hi) < 1e15)) {             /* beyond the reduction (or NaN): libm's double */
+        *s = dd_d(sin(a.hi));
+        *c = dd_d(cos(a.hi));
+        return;
+    }
+    r = dd_sub(r, dd_mul_d(dd_d(DD_PI2_A), k));
+    r = dd_sub(r, dd_mul_d(dd_d(DD_PI2_B), k));
+    r = dd_sub(r, dd_mul_d(dd_d(DD_PI2_C), k));
+    dd_sincos_small(r, &ss, &cc);
+    q = (int)fmod(k, 4.0);
+    q = q < 0 ? q + 4 : q;
+    *s = q == 0 ? ss : q == 1 ? cc : q == 2 ? dd_neg(ss) : dd_neg(cc);
+    *c = q == 0 ? cc : q == 1 ? dd_neg(ss) : q == 2 ? dd_neg(cc) : ss;
+}
+
+
+static derive_dd dd_sin(derive_dd a)
+{
+    derive_dd s, c;
+    dd_sincos(a, &s, &c);
+    return s;
+}
+
+
+static derive_dd dd_cos(derive_dd a)
+{
+    derive_dd s, c;
+    dd_sincos(a, &s, &c);
+    return c;
+}
+#endif
+
 /* ======================================================================== */
 /* double */
 /* ======================================================================== */
+#ifndef PLANAR_TAYLOR_SKIP_DOUBLE
+
+#define R double
+#define S double
+#define T_ADD(a, b) ((a) + (b))
+#define T_SUB(a, b) ((a) - (b))
+#define T_MUL(a, b) ((a) * (b))
+#define T_DIV(a, b) ((a) / (b))
+#define T_NEG(a) (-(a))
+#define T_MULI(a, i) ((a) * (double)(i))
+#define T_DIVI(a, i) ((a) / (double)(i))
+#define T_INT(i) ((double)(i))
+#define T_D(x) ((double)(x))
+#define T_SQRT(a) sqrt(a)
+#define T_SIN(a) sin(a)
+#define T_COS(a) cos(a)
+#define T_EXP(a) exp(a)
+#define T_S(a) (a)
+#define T_ABS(a) fabs(a)
+#define T_FROMS(x) (x)
+#define T_LE(a, b) ((a) <= (b))
 
 /* coefficient k of a b */
-static double planar_tmul(const double *a, const double *b, int k)
+static R planar_tmul(const R *a, const R *b, int k)
 {
-    double acc = 0;
+    R acc = T_INT(0);
     int j;
     TAYLOR_UNROLL
     for (j = 0; j <= k; ++j) {
-        acc += a[j] * b[k - j];
+        acc = T_ADD(acc, T_MUL(a[j], b[k - j]));
     }
     return acc;
 }
 
 /* coefficient k of u = a / b, given a_k and u_0..u_{k-1} */
-static double planar_tdiv(double ak, const double *b, const double *u, int k)
+static R planar_tdiv(R ak, const R *b, const R *u, int k)
 {
-    double acc = ak;
+    R acc = ak;
     int j;
     for (j = 1; j <= k; ++j) {
-        acc -= b[j] * u[k - j];
+        acc = T_SUB(acc, T_MUL(b[j], u[k - j]));
     }
-    return acc / b[0];
+    return T_DIV(acc, b[0]);
 }
 
 /* (1/k) sum_{j=1..k} j a_j w_{k-j}: coefficient k (k >= 1) of sin a (w = cos a), of
  * -cos a (w = sin a) and of exp a (w = exp a) */
-static double planar_tchain(const double *a, const double *w, int k)
+static R planar_tchain(const R *a, const R *w, int k)
 {
-    double acc = 0;
+    R acc = T_INT(0);
     int j;
     TAYLOR_UNROLL
     for (j = 1; j <= k; ++j) {
-        acc += (double)j * a[j] * w[k - j];
+        acc = T_ADD(acc, T_MUL(T_MULI(a[j], j), w[k - j]));
     }
-    return acc / (double)k;
+    return T_DIVI(acc, k);
 }
 
-#define R double
 #define TAYLOR_MUL planar_tmul
 #define TAYLOR_DIV planar_tdiv
 #define TAYLOR_SQRT planar_tsqrt
 #define TAYLOR_SIN(a, c, k) planar_tchain(a, c, k)
-#define TAYLOR_COS(a, s, k) (-planar_tchain(a, s, k))
+#define TAYLOR_COS(a, s, k) T_NEG(planar_tchain(a, s, k))
 #define TAYLOR_EXP(a, u, k) planar_tchain(a, u, k)
-#define SIN sin
-#define COS cos
-#define EXP exp
 
 /* X[i][1..order] from X[i][0]: the recurrences, order by order. */
-static int planar_taylor_jet(double (*X)[ORDER_DIM], const double *p, int order_wanted, double sine_min)
+static int planar_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
-    double J[NODES][ORDER_DIM];
-    double C[NCONST];
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
     const int order = PLANAR_TAYLOR_ORDER ? PLANAR_TAYLOR_ORDER : order_wanted;
     int k;
     if (order < 1 || order > ORDER_DIM - 1) {
@@ -103,82 +288,71 @@ static int planar_taylor_jet(double (*X)[ORDER_DIM], const double *p, int order_
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[4][k] = k == 0 ? SIN(X[0][0]) : TAYLOR_SIN(X[0], J[5], k);
-        J[5][k] = k == 0 ? COS(X[0][0]) : TAYLOR_COS(X[0], J[4], k);
-        J[6][k] = k == 0 ? SIN(X[1][0]) : TAYLOR_SIN(X[1], J[7], k);
-        J[7][k] = k == 0 ? COS(X[1][0]) : TAYLOR_COS(X[1], J[6], k);
+        J[4][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[5], k);
+        J[5][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[4], k);
+        J[6][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[7], k);
+        J[7][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[6], k);
         J[8][k] = TAYLOR_MUL(J[4], J[6], k);
         J[9][k] = TAYLOR_MUL(J[5], J[7], k);
-        J[10][k] = J[8][k] + J[9][k];
-        J[11][k] = C[0] * J[10][k];
+        J[10][k] = T_ADD(J[8][k], J[9][k]);
+        J[11][k] = T_MUL(C[0], J[10][k]);
         J[12][k] = TAYLOR_MUL(J[11], J[11], k);
-        J[13][k] = C[1] * J[12][k];
-        J[14][k] = J[13][k] + (k == 0 ? C[2] : (R)0);
-        J[15][k] = TAYLOR_DIV((R)(k == 0), J[14], J[15], k);
-        J[16][k] = C[3] * J[4][k];
+        J[13][k] = T_MUL(C[1], J[12][k]);
+        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
+        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
+        J[16][k] = T_MUL(C[3], J[4][k]);
         J[17][k] = TAYLOR_MUL(X[3], X[3], k);
-        J[18][k] = C[4] * J[17][k];
+        J[18][k] = T_MUL(C[4], J[17][k]);
         J[19][k] = TAYLOR_MUL(J[4], J[7], k);
         J[20][k] = TAYLOR_MUL(J[6], J[5], k);
-        J[21][k] = J[19][k] - J[20][k];
+        J[21][k] = T_SUB(J[19][k], J[20][k]);
         J[22][k] = TAYLOR_MUL(J[18], J[21], k);
-        J[23][k] = J[16][k] + J[22][k];
-        J[24][k] = C[5] * J[23][k];
-        J[25][k] = C[6] * J[24][k];
+        J[23][k] = T_ADD(J[16][k], J[22][k]);
+        J[24][k] = T_MUL(C[5], J[23][k]);
+        J[25][k] = T_MUL(C[6], J[24][k]);
         J[26][k] = TAYLOR_MUL(X[2], X[2], k);
         J[27][k] = TAYLOR_MUL(J[26], J[21], k);
-        J[28][k] = C[7] * J[27][k];
-        J[29][k] = C[8] * J[6][k];
-        J[30][k] = J[28][k] - J[29][k];
-        J[31][k] = C[4] * J[30][k];
+        J[28][k] = T_MUL(C[7], J[27][k]);
+        J[29][k] = T_MUL(C[8], J[6][k]);
+        J[30][k] = T_SUB(J[28][k], J[29][k]);
+        J[31][k] = T_MUL(C[4], J[30][k]);
         J[32][k] = TAYLOR_MUL(J[31], J[11], k);
-        J[33][k] = J[25][k] - J[32][k];
+        J[33][k] = T_SUB(J[25][k], J[32][k]);
         J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = C[9] * J[31][k];
+        J[35][k] = T_MUL(C[9], J[31][k]);
         J[36][k] = TAYLOR_MUL(J[24], J[11], k);
-        J[37][k] = J[35][k] - J[36][k];
+        J[37][k] = T_SUB(J[35][k], J[36][k]);
         J[38][k] = TAYLOR_MUL(J[15], J[37], k);
-        X[0][k + 1] = X[2][k] / (R)(k + 1);
-        X[1][k + 1] = X[3][k] / (R)(k + 1);
-        X[2][k + 1] = J[34][k] / (R)(k + 1);
-        X[3][k + 1] = J[38][k] / (R)(k + 1);
+        X[0][k + 1] = T_DIVI(X[2][k], k + 1);
+        X[1][k + 1] = T_DIVI(X[3][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
     }
     return PLANAR_INTEGRATE_OK;
 }
 
-#undef R
-#undef TAYLOR_MUL
-#undef TAYLOR_DIV
-#undef TAYLOR_SQRT
-#undef TAYLOR_SIN
-#undef TAYLOR_COS
-#undef TAYLOR_EXP
-#undef SIN
-#undef COS
-#undef EXP
-
-static double planar_thorner(const double *x, int order, double tau)
+static R planar_thorner(const R *x, int order, R tau)
 {
-    double acc = x[order];
+    R acc = x[order];
     int k;
     for (k = order - 1; k >= 0; --k) {
-        acc = acc * tau + x[k];
+        acc = T_ADD(T_MUL(acc, tau), x[k]);
     }
     return acc;
 }
 
-static int planar_tfinite(const double *z, long n)
+static int planar_tfinite(const R *z, long n)
 {
-    double check = 0;
+    S check = 0;
     long k;
     for (k = 0; k < n; ++k) {
-        check += z[k] - z[k];
+        check += T_S(z[k]) - T_S(z[k]);
     }
     return check == 0;
 }
 
 /* The order for a tolerance (Jorba & Zou 2005): ceil(-ln(tol)/2 + 1), in [2, ORDER_MAX]. */
-static int planar_torder(double tol)
+static int planar_torder(S tol)
 {
     double p = ceil(-log((double)tol) / 2 + 1);
     if (PLANAR_TAYLOR_ORDER) {
@@ -190,9 +364,9 @@ static int planar_torder(double tol)
     return p > ORDER_MAX ? ORDER_MAX : (int)p;
 }
 
-int planar_taylor_coefficients(const double *y, const double *p, int order, double *coef, double sine_min)
+int planar_taylor_coefficients(const R *y, const R *p, int order, R *coef, double sine_min)
 {
-    double X[N][ORDER_DIM];
+    R X[N][ORDER_DIM];
     int i, k, st;
     if (order < 1 || order > ORDER_DIM - 1 || (PLANAR_TAYLOR_ORDER && order != PLANAR_TAYLOR_ORDER)) {
         return PLANAR_INTEGRATE_BAD_INPUT;
@@ -200,7 +374,7 @@ int planar_taylor_coefficients(const double *y, const double *p, int order, doub
     for (i = 0; i < N; ++i) {
         X[i][0] = y[i];
     }
-    st = planar_taylor_jet(X, p, order, sine_min);
+    st = planar_taylor_jet(X, p, order, (S)sine_min);
     for (i = 0; i < N; ++i) {
         for (k = 0; k <= order; ++k) {
             coef[i * (order + 1) + k] = X[i][k];
@@ -209,13 +383,13 @@ int planar_taylor_coefficients(const double *y, const double *p, int order, doub
     return st;
 }
 
-int planar_taylor(const double *y0, const double *p, long nt, const double *t_out, double *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
+int planar_taylor(const R *y0, const R *p, long nt, const R *t_out, R *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
 {
-    double X[N][ORDER_DIM];
-    double t, h = 0, tend, dir, tol, m, n1, n2, rho, r, hmax, tau, span;
-    double safety;
+    R X[N][ORDER_DIM];
+    R t, h = T_INT(0), tend, tau, span;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
-    int i, order, st = PLANAR_INTEGRATE_OK, last;
+    int i, order, dir, st = PLANAR_INTEGRATE_OK, last;
     planar_integrate_info local;
 
     if (!info) {
@@ -232,25 +406,26 @@ int planar_taylor(const double *y0, const double *p, long nt, const double *t_ou
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
-    info->t = nt > 0 ? (double)t_out[0] : 0;
+    info->local_error = 0;
+    info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
-        info->y[i] = nt > 0 ? (double)y0[i] : 0;
+        info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
     }
-    tol = (double)opt->rtol;
+    tol = (S)opt->rtol;
     if (nt < 1 || !planar_tfinite(y0, N) || !planar_tfinite(p, PLANAR_N_PARAMS) ||
         !planar_tfinite(t_out, nt) || !(tol > 0) || !(opt->hmax >= 0) || opt->max_steps < 1) {
         st = PLANAR_INTEGRATE_BAD_INPUT;
         goto done;
     }
     for (j = 2; j < nt; ++j) {
-        if (!((t_out[j] - t_out[j - 1]) * (t_out[1] - t_out[0]) > 0)) {
+        if (!(T_S(T_SUB(t_out[j], t_out[j - 1])) * T_S(T_SUB(t_out[1], t_out[0])) > 0)) {
             st = PLANAR_INTEGRATE_BAD_INPUT;
             goto done;
         }
     }
     order = planar_torder(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = exp((double)-2 - (double)0.7 / (double)(order - 1));
+    safety = exp((S)-2 - (S)0.7 / (S)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -261,13 +436,13 @@ int planar_taylor(const double *y0, const double *p, long nt, const double *t_ou
         goto done;
     }
     tend = t_out[nt - 1];
-    dir = tend > t ? 1 : -1;
-    span = (tend - t) * dir;
-    if (!(span > 0)) {
+    dir = T_S(T_SUB(tend, t)) > 0 ? 1 : -1;
+    span = T_MULI(T_SUB(tend, t), dir);
+    if (!(T_S(span) > 0)) {
         st = PLANAR_INTEGRATE_BAD_INPUT;
         goto done;
     }
-    hmax = opt->hmax > 0 ? (double)opt->hmax : span;
+    hmax = opt->hmax > 0 ? (S)opt->hmax : T_S(span);
     while (iout < nt) {
         if (steps >= opt->max_steps) {
             st = PLANAR_INTEGRATE_MAX_STEPS;
@@ -277,7 +452,7 @@ int planar_taylor(const double *y0, const double *p, long nt, const double *t_ou
             st = PLANAR_INTEGRATE_CANCELLED;
             break;
         }
-        st = planar_taylor_jet(X, p, order, (double)opt->sine_min);
+        st = planar_taylor_jet(X, p, order, (S)opt->sine_min);
         info->nfev += 1;
         if (st) {
             break;
@@ -286,38 +461,38 @@ int planar_taylor(const double *y0, const double *p, long nt, const double *t_ou
         n1 = 0;
         n2 = 0;
         for (i = 0; i < N; ++i) {
-            m = fabs(X[i][0]) > m ? fabs(X[i][0]) : m;
-            n1 = fabs(X[i][order - 1]) > n1 ? fabs(X[i][order - 1]) : n1;
-            n2 = fabs(X[i][order]) > n2 ? fabs(X[i][order]) : n2;
+            m = T_ABS(X[i][0]) > m ? T_ABS(X[i][0]) : m;
+            n1 = T_ABS(X[i][order - 1]) > n1 ? T_ABS(X[i][order - 1]) : n1;
+            n2 = T_ABS(X[i][order]) > n2 ? T_ABS(X[i][order]) : n2;
         }
-        if (!planar_tfinite(&n1, 1) || !planar_tfinite(&n2, 1)) {
+        if (!(n1 - n1 == 0) || !(n2 - n2 == 0)) {
             st = PLANAR_INTEGRATE_NONFINITE;
             break;
         }
-        rho = hmax;             /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = pow(m / n1, (double)1 / (double)(order - 1));
-            rho = r < rho ? r : rho;
+            rho = pow(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = pow(m / n2, (double)1 / (double)order);
-            rho = r < rho ? r : rho;
+            r = pow(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
         }
-        h = rho * safety;
-        if (!(h <= hmax)) {
-            h = hmax;
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
-        if (!(h > 0)) {
+        if (!(hs > 0)) {
             st = PLANAR_INTEGRATE_STEP_UNDERFLOW;
             break;
         }
-        last = h >= (tend - t) * dir;
-        if (last) {
-            h = (tend - t) * dir;
-        }
+        /* the step in R: the last one exactly to tend */
+        last = hs >= T_S(T_MULI(T_SUB(tend, t), dir));
+        h = last ? T_MULI(T_SUB(tend, t), dir) : T_FROMS(hs);
         /* dense output: every output time inside this step from the series */
-        while (iout < nt && (last || (t_out[iout] - t) * dir <= h)) {
-            tau = t_out[iout] - t;
+        while (iout < nt && (last || T_LE(T_MULI(T_SUB(t_out[iout], t), dir), h))) {
+            tau = T_SUB(t_out[iout], t);
             row = iout * N;
             for (i = 0; i < N; ++i) {
                 y_out[row + i] = planar_thorner(X[i], order, tau);
@@ -333,15 +508,18 @@ int planar_taylor(const double *y0, const double *p, long nt, const double *t_ou
             break;
         }
         for (i = 0; i < N; ++i) {
-            X[i][0] = planar_thorner(X[i], order, dir * h);
+            X[i][0] = planar_thorner(X[i], order, T_MULI(h, dir));
         }
-        t = last ? tend : t + dir * h;
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * pow(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
+        t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
-        info->t = (double)t;
-        info->h = (double)(dir * h);
+        info->t = (double)T_S(t);
+        info->h = (double)T_S(T_MULI(h, dir));
         for (i = 0; i < N; ++i) {
-            info->y[i] = (double)X[i][0];
+            info->y[i] = (double)T_S(X[i][0]);
         }
         if (!planar_tfinite(&X[0][0], 1)) {
             st = PLANAR_INTEGRATE_NONFINITE;
@@ -361,7 +539,7 @@ done:
     return st;
 }
 
-long planar_taylor_batch(long n, const double *y0, long y0_stride, const double *p, long p_stride, long nt, const double *t, double *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
+long planar_taylor_batch(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
 {
     long i, failed = 0;
     for (i = 0; i < n; ++i) {
@@ -372,62 +550,106 @@ long planar_taylor_batch(long n, const double *y0, long y0_stride, const double 
     return failed;
 }
 
+#undef R
+#undef S
+#undef T_ADD
+#undef T_SUB
+#undef T_MUL
+#undef T_DIV
+#undef T_NEG
+#undef T_MULI
+#undef T_DIVI
+#undef T_INT
+#undef T_D
+#undef T_SQRT
+#undef T_SIN
+#undef T_COS
+#undef T_EXP
+#undef T_S
+#undef T_ABS
+#undef T_FROMS
+#undef T_LE
+#undef TAYLOR_MUL
+#undef TAYLOR_DIV
+#undef TAYLOR_SQRT
+#undef TAYLOR_SIN
+#undef TAYLOR_COS
+#undef TAYLOR_EXP
+#endif /* PLANAR_TAYLOR_SKIP_DOUBLE */
+
 /* ======================================================================== */
 /* float */
 /* ======================================================================== */
+#ifndef PLANAR_TAYLOR_SKIP_FLOAT
+
+#define R float
+#define S float
+#define T_ADD(a, b) ((a) + (b))
+#define T_SUB(a, b) ((a) - (b))
+#define T_MUL(a, b) ((a) * (b))
+#define T_DIV(a, b) ((a) / (b))
+#define T_NEG(a) (-(a))
+#define T_MULI(a, i) ((a) * (float)(i))
+#define T_DIVI(a, i) ((a) / (float)(i))
+#define T_INT(i) ((float)(i))
+#define T_D(x) ((float)(x))
+#define T_SQRT(a) sqrtf(a)
+#define T_SIN(a) sinf(a)
+#define T_COS(a) cosf(a)
+#define T_EXP(a) expf(a)
+#define T_S(a) (a)
+#define T_ABS(a) fabsf(a)
+#define T_FROMS(x) (x)
+#define T_LE(a, b) ((a) <= (b))
 
 /* coefficient k of a b */
-static float planar_tmul_f(const float *a, const float *b, int k)
+static R planar_tmul_f(const R *a, const R *b, int k)
 {
-    float acc = 0;
+    R acc = T_INT(0);
     int j;
     TAYLOR_UNROLL
     for (j = 0; j <= k; ++j) {
-        acc += a[j] * b[k - j];
+        acc = T_ADD(acc, T_MUL(a[j], b[k - j]));
     }
     return acc;
 }
 
 /* coefficient k of u = a / b, given a_k and u_0..u_{k-1} */
-static float planar_tdiv_f(float ak, const float *b, const float *u, int k)
+static R planar_tdiv_f(R ak, const R *b, const R *u, int k)
 {
-    float acc = ak;
+    R acc = ak;
     int j;
     for (j = 1; j <= k; ++j) {
-        acc -= b[j] * u[k - j];
+        acc = T_SUB(acc, T_MUL(b[j], u[k - j]));
     }
-    return acc / b[0];
+    return T_DIV(acc, b[0]);
 }
 
 /* (1/k) sum_{j=1..k} j a_j w_{k-j}: coefficient k (k >= 1) of sin a (w = cos a), of
  * -cos a (w = sin a) and of exp a (w = exp a) */
-static float planar_tchain_f(const float *a, const float *w, int k)
+static R planar_tchain_f(const R *a, const R *w, int k)
 {
-    float acc = 0;
+    R acc = T_INT(0);
     int j;
     TAYLOR_UNROLL
     for (j = 1; j <= k; ++j) {
-        acc += (float)j * a[j] * w[k - j];
+        acc = T_ADD(acc, T_MUL(T_MULI(a[j], j), w[k - j]));
     }
-    return acc / (float)k;
+    return T_DIVI(acc, k);
 }
 
-#define R float
 #define TAYLOR_MUL planar_tmul_f
 #define TAYLOR_DIV planar_tdiv_f
 #define TAYLOR_SQRT planar_tsqrt_f
 #define TAYLOR_SIN(a, c, k) planar_tchain_f(a, c, k)
-#define TAYLOR_COS(a, s, k) (-planar_tchain_f(a, s, k))
+#define TAYLOR_COS(a, s, k) T_NEG(planar_tchain_f(a, s, k))
 #define TAYLOR_EXP(a, u, k) planar_tchain_f(a, u, k)
-#define SIN sinf
-#define COS cosf
-#define EXP expf
 
 /* X[i][1..order] from X[i][0]: the recurrences, order by order. */
-static int planar_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int order_wanted, float sine_min)
+static int planar_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
-    float J[NODES][ORDER_DIM];
-    float C[NCONST];
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
     const int order = PLANAR_TAYLOR_ORDER ? PLANAR_TAYLOR_ORDER : order_wanted;
     int k;
     if (order < 1 || order > ORDER_DIM - 1) {
@@ -446,82 +668,71 @@ static int planar_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int order_
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[4][k] = k == 0 ? SIN(X[0][0]) : TAYLOR_SIN(X[0], J[5], k);
-        J[5][k] = k == 0 ? COS(X[0][0]) : TAYLOR_COS(X[0], J[4], k);
-        J[6][k] = k == 0 ? SIN(X[1][0]) : TAYLOR_SIN(X[1], J[7], k);
-        J[7][k] = k == 0 ? COS(X[1][0]) : TAYLOR_COS(X[1], J[6], k);
+        J[4][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[5], k);
+        J[5][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[4], k);
+        J[6][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[7], k);
+        J[7][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[6], k);
         J[8][k] = TAYLOR_MUL(J[4], J[6], k);
         J[9][k] = TAYLOR_MUL(J[5], J[7], k);
-        J[10][k] = J[8][k] + J[9][k];
-        J[11][k] = C[0] * J[10][k];
+        J[10][k] = T_ADD(J[8][k], J[9][k]);
+        J[11][k] = T_MUL(C[0], J[10][k]);
         J[12][k] = TAYLOR_MUL(J[11], J[11], k);
-        J[13][k] = C[1] * J[12][k];
-        J[14][k] = J[13][k] + (k == 0 ? C[2] : (R)0);
-        J[15][k] = TAYLOR_DIV((R)(k == 0), J[14], J[15], k);
-        J[16][k] = C[3] * J[4][k];
+        J[13][k] = T_MUL(C[1], J[12][k]);
+        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
+        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
+        J[16][k] = T_MUL(C[3], J[4][k]);
         J[17][k] = TAYLOR_MUL(X[3], X[3], k);
-        J[18][k] = C[4] * J[17][k];
+        J[18][k] = T_MUL(C[4], J[17][k]);
         J[19][k] = TAYLOR_MUL(J[4], J[7], k);
         J[20][k] = TAYLOR_MUL(J[6], J[5], k);
-        J[21][k] = J[19][k] - J[20][k];
+        J[21][k] = T_SUB(J[19][k], J[20][k]);
         J[22][k] = TAYLOR_MUL(J[18], J[21], k);
-        J[23][k] = J[16][k] + J[22][k];
-        J[24][k] = C[5] * J[23][k];
-        J[25][k] = C[6] * J[24][k];
+        J[23][k] = T_ADD(J[16][k], J[22][k]);
+        J[24][k] = T_MUL(C[5], J[23][k]);
+        J[25][k] = T_MUL(C[6], J[24][k]);
         J[26][k] = TAYLOR_MUL(X[2], X[2], k);
         J[27][k] = TAYLOR_MUL(J[26], J[21], k);
-        J[28][k] = C[7] * J[27][k];
-        J[29][k] = C[8] * J[6][k];
-        J[30][k] = J[28][k] - J[29][k];
-        J[31][k] = C[4] * J[30][k];
+        J[28][k] = T_MUL(C[7], J[27][k]);
+        J[29][k] = T_MUL(C[8], J[6][k]);
+        J[30][k] = T_SUB(J[28][k], J[29][k]);
+        J[31][k] = T_MUL(C[4], J[30][k]);
         J[32][k] = TAYLOR_MUL(J[31], J[11], k);
-        J[33][k] = J[25][k] - J[32][k];
+        J[33][k] = T_SUB(J[25][k], J[32][k]);
         J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = C[9] * J[31][k];
+        J[35][k] = T_MUL(C[9], J[31][k]);
         J[36][k] = TAYLOR_MUL(J[24], J[11], k);
-        J[37][k] = J[35][k] - J[36][k];
+        J[37][k] = T_SUB(J[35][k], J[36][k]);
         J[38][k] = TAYLOR_MUL(J[15], J[37], k);
-        X[0][k + 1] = X[2][k] / (R)(k + 1);
-        X[1][k + 1] = X[3][k] / (R)(k + 1);
-        X[2][k + 1] = J[34][k] / (R)(k + 1);
-        X[3][k + 1] = J[38][k] / (R)(k + 1);
+        X[0][k + 1] = T_DIVI(X[2][k], k + 1);
+        X[1][k + 1] = T_DIVI(X[3][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
     }
     return PLANAR_INTEGRATE_OK;
 }
 
-#undef R
-#undef TAYLOR_MUL
-#undef TAYLOR_DIV
-#undef TAYLOR_SQRT
-#undef TAYLOR_SIN
-#undef TAYLOR_COS
-#undef TAYLOR_EXP
-#undef SIN
-#undef COS
-#undef EXP
-
-static float planar_thorner_f(const float *x, int order, float tau)
+static R planar_thorner_f(const R *x, int order, R tau)
 {
-    float acc = x[order];
+    R acc = x[order];
     int k;
     for (k = order - 1; k >= 0; --k) {
-        acc = acc * tau + x[k];
+        acc = T_ADD(T_MUL(acc, tau), x[k]);
     }
     return acc;
 }
 
-static int planar_tfinite_f(const float *z, long n)
+static int planar_tfinite_f(const R *z, long n)
 {
-    float check = 0;
+    S check = 0;
     long k;
     for (k = 0; k < n; ++k) {
-        check += z[k] - z[k];
+        check += T_S(z[k]) - T_S(z[k]);
     }
     return check == 0;
 }
 
 /* The order for a tolerance (Jorba & Zou 2005): ceil(-ln(tol)/2 + 1), in [2, ORDER_MAX]. */
-static int planar_torder_f(float tol)
+static int planar_torder_f(S tol)
 {
     double p = ceil(-log((double)tol) / 2 + 1);
     if (PLANAR_TAYLOR_ORDER) {
@@ -533,9 +744,9 @@ static int planar_torder_f(float tol)
     return p > ORDER_MAX ? ORDER_MAX : (int)p;
 }
 
-int planar_taylor_coefficients_f(const float *y, const float *p, int order, float *coef, float sine_min)
+int planar_taylor_coefficients_f(const R *y, const R *p, int order, R *coef, double sine_min)
 {
-    float X[N][ORDER_DIM];
+    R X[N][ORDER_DIM];
     int i, k, st;
     if (order < 1 || order > ORDER_DIM - 1 || (PLANAR_TAYLOR_ORDER && order != PLANAR_TAYLOR_ORDER)) {
         return PLANAR_INTEGRATE_BAD_INPUT;
@@ -543,7 +754,7 @@ int planar_taylor_coefficients_f(const float *y, const float *p, int order, floa
     for (i = 0; i < N; ++i) {
         X[i][0] = y[i];
     }
-    st = planar_taylor_jet_f(X, p, order, sine_min);
+    st = planar_taylor_jet_f(X, p, order, (S)sine_min);
     for (i = 0; i < N; ++i) {
         for (k = 0; k <= order; ++k) {
             coef[i * (order + 1) + k] = X[i][k];
@@ -552,13 +763,13 @@ int planar_taylor_coefficients_f(const float *y, const float *p, int order, floa
     return st;
 }
 
-int planar_taylor_f(const float *y0, const float *p, long nt, const float *t_out, float *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
+int planar_taylor_f(const R *y0, const R *p, long nt, const R *t_out, R *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
 {
-    float X[N][ORDER_DIM];
-    float t, h = 0, tend, dir, tol, m, n1, n2, rho, r, hmax, tau, span;
-    float safety;
+    R X[N][ORDER_DIM];
+    R t, h = T_INT(0), tend, tau, span;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
-    int i, order, st = PLANAR_INTEGRATE_OK, last;
+    int i, order, dir, st = PLANAR_INTEGRATE_OK, last;
     planar_integrate_info local;
 
     if (!info) {
@@ -575,25 +786,26 @@ int planar_taylor_f(const float *y0, const float *p, long nt, const float *t_out
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
-    info->t = nt > 0 ? (double)t_out[0] : 0;
+    info->local_error = 0;
+    info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
-        info->y[i] = nt > 0 ? (double)y0[i] : 0;
+        info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
     }
-    tol = (float)opt->rtol;
+    tol = (S)opt->rtol;
     if (nt < 1 || !planar_tfinite_f(y0, N) || !planar_tfinite_f(p, PLANAR_N_PARAMS) ||
         !planar_tfinite_f(t_out, nt) || !(tol > 0) || !(opt->hmax >= 0) || opt->max_steps < 1) {
         st = PLANAR_INTEGRATE_BAD_INPUT;
         goto done;
     }
     for (j = 2; j < nt; ++j) {
-        if (!((t_out[j] - t_out[j - 1]) * (t_out[1] - t_out[0]) > 0)) {
+        if (!(T_S(T_SUB(t_out[j], t_out[j - 1])) * T_S(T_SUB(t_out[1], t_out[0])) > 0)) {
             st = PLANAR_INTEGRATE_BAD_INPUT;
             goto done;
         }
     }
     order = planar_torder_f(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = expf((float)-2 - (float)0.7 / (float)(order - 1));
+    safety = expf((S)-2 - (S)0.7 / (S)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -604,13 +816,13 @@ int planar_taylor_f(const float *y0, const float *p, long nt, const float *t_out
         goto done;
     }
     tend = t_out[nt - 1];
-    dir = tend > t ? 1 : -1;
-    span = (tend - t) * dir;
-    if (!(span > 0)) {
+    dir = T_S(T_SUB(tend, t)) > 0 ? 1 : -1;
+    span = T_MULI(T_SUB(tend, t), dir);
+    if (!(T_S(span) > 0)) {
         st = PLANAR_INTEGRATE_BAD_INPUT;
         goto done;
     }
-    hmax = opt->hmax > 0 ? (float)opt->hmax : span;
+    hmax = opt->hmax > 0 ? (S)opt->hmax : T_S(span);
     while (iout < nt) {
         if (steps >= opt->max_steps) {
             st = PLANAR_INTEGRATE_MAX_STEPS;
@@ -620,7 +832,7 @@ int planar_taylor_f(const float *y0, const float *p, long nt, const float *t_out
             st = PLANAR_INTEGRATE_CANCELLED;
             break;
         }
-        st = planar_taylor_jet_f(X, p, order, (float)opt->sine_min);
+        st = planar_taylor_jet_f(X, p, order, (S)opt->sine_min);
         info->nfev += 1;
         if (st) {
             break;
@@ -629,38 +841,38 @@ int planar_taylor_f(const float *y0, const float *p, long nt, const float *t_out
         n1 = 0;
         n2 = 0;
         for (i = 0; i < N; ++i) {
-            m = fabsf(X[i][0]) > m ? fabsf(X[i][0]) : m;
-            n1 = fabsf(X[i][order - 1]) > n1 ? fabsf(X[i][order - 1]) : n1;
-            n2 = fabsf(X[i][order]) > n2 ? fabsf(X[i][order]) : n2;
+            m = T_ABS(X[i][0]) > m ? T_ABS(X[i][0]) : m;
+            n1 = T_ABS(X[i][order - 1]) > n1 ? T_ABS(X[i][order - 1]) : n1;
+            n2 = T_ABS(X[i][order]) > n2 ? T_ABS(X[i][order]) : n2;
         }
-        if (!planar_tfinite_f(&n1, 1) || !planar_tfinite_f(&n2, 1)) {
+        if (!(n1 - n1 == 0) || !(n2 - n2 == 0)) {
             st = PLANAR_INTEGRATE_NONFINITE;
             break;
         }
-        rho = hmax;             /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = powf(m / n1, (float)1 / (float)(order - 1));
-            rho = r < rho ? r : rho;
+            rho = powf(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = powf(m / n2, (float)1 / (float)order);
-            rho = r < rho ? r : rho;
+            r = powf(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
         }
-        h = rho * safety;
-        if (!(h <= hmax)) {
-            h = hmax;
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
-        if (!(h > 0)) {
+        if (!(hs > 0)) {
             st = PLANAR_INTEGRATE_STEP_UNDERFLOW;
             break;
         }
-        last = h >= (tend - t) * dir;
-        if (last) {
-            h = (tend - t) * dir;
-        }
+        /* the step in R: the last one exactly to tend */
+        last = hs >= T_S(T_MULI(T_SUB(tend, t), dir));
+        h = last ? T_MULI(T_SUB(tend, t), dir) : T_FROMS(hs);
         /* dense output: every output time inside this step from the series */
-        while (iout < nt && (last || (t_out[iout] - t) * dir <= h)) {
-            tau = t_out[iout] - t;
+        while (iout < nt && (last || T_LE(T_MULI(T_SUB(t_out[iout], t), dir), h))) {
+            tau = T_SUB(t_out[iout], t);
             row = iout * N;
             for (i = 0; i < N; ++i) {
                 y_out[row + i] = planar_thorner_f(X[i], order, tau);
@@ -676,15 +888,18 @@ int planar_taylor_f(const float *y0, const float *p, long nt, const float *t_out
             break;
         }
         for (i = 0; i < N; ++i) {
-            X[i][0] = planar_thorner_f(X[i], order, dir * h);
+            X[i][0] = planar_thorner_f(X[i], order, T_MULI(h, dir));
         }
-        t = last ? tend : t + dir * h;
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * powf(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
+        t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
-        info->t = (double)t;
-        info->h = (double)(dir * h);
+        info->t = (double)T_S(t);
+        info->h = (double)T_S(T_MULI(h, dir));
         for (i = 0; i < N; ++i) {
-            info->y[i] = (double)X[i][0];
+            info->y[i] = (double)T_S(X[i][0]);
         }
         if (!planar_tfinite_f(&X[0][0], 1)) {
             st = PLANAR_INTEGRATE_NONFINITE;
@@ -704,7 +919,7 @@ done:
     return st;
 }
 
-long planar_taylor_batch_f(long n, const float *y0, long y0_stride, const float *p, long p_stride, long nt, const float *t, float *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
+long planar_taylor_batch_f(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
 {
     long i, failed = 0;
     for (i = 0; i < n; ++i) {
@@ -715,62 +930,106 @@ long planar_taylor_batch_f(long n, const float *y0, long y0_stride, const float 
     return failed;
 }
 
+#undef R
+#undef S
+#undef T_ADD
+#undef T_SUB
+#undef T_MUL
+#undef T_DIV
+#undef T_NEG
+#undef T_MULI
+#undef T_DIVI
+#undef T_INT
+#undef T_D
+#undef T_SQRT
+#undef T_SIN
+#undef T_COS
+#undef T_EXP
+#undef T_S
+#undef T_ABS
+#undef T_FROMS
+#undef T_LE
+#undef TAYLOR_MUL
+#undef TAYLOR_DIV
+#undef TAYLOR_SQRT
+#undef TAYLOR_SIN
+#undef TAYLOR_COS
+#undef TAYLOR_EXP
+#endif /* PLANAR_TAYLOR_SKIP_FLOAT */
+
 /* ======================================================================== */
 /* long double */
 /* ======================================================================== */
+#ifndef PLANAR_TAYLOR_SKIP_LONG_DOUBLE
+
+#define R long double
+#define S long double
+#define T_ADD(a, b) ((a) + (b))
+#define T_SUB(a, b) ((a) - (b))
+#define T_MUL(a, b) ((a) * (b))
+#define T_DIV(a, b) ((a) / (b))
+#define T_NEG(a) (-(a))
+#define T_MULI(a, i) ((a) * (long double)(i))
+#define T_DIVI(a, i) ((a) / (long double)(i))
+#define T_INT(i) ((long double)(i))
+#define T_D(x) ((long double)(x))
+#define T_SQRT(a) sqrtl(a)
+#define T_SIN(a) sinl(a)
+#define T_COS(a) cosl(a)
+#define T_EXP(a) expl(a)
+#define T_S(a) (a)
+#define T_ABS(a) fabsl(a)
+#define T_FROMS(x) (x)
+#define T_LE(a, b) ((a) <= (b))
 
 /* coefficient k of a b */
-static long double planar_tmul_l(const long double *a, const long double *b, int k)
+static R planar_tmul_l(const R *a, const R *b, int k)
 {
-    long double acc = 0;
+    R acc = T_INT(0);
     int j;
     TAYLOR_UNROLL
     for (j = 0; j <= k; ++j) {
-        acc += a[j] * b[k - j];
+        acc = T_ADD(acc, T_MUL(a[j], b[k - j]));
     }
     return acc;
 }
 
 /* coefficient k of u = a / b, given a_k and u_0..u_{k-1} */
-static long double planar_tdiv_l(long double ak, const long double *b, const long double *u, int k)
+static R planar_tdiv_l(R ak, const R *b, const R *u, int k)
 {
-    long double acc = ak;
+    R acc = ak;
     int j;
     for (j = 1; j <= k; ++j) {
-        acc -= b[j] * u[k - j];
+        acc = T_SUB(acc, T_MUL(b[j], u[k - j]));
     }
-    return acc / b[0];
+    return T_DIV(acc, b[0]);
 }
 
 /* (1/k) sum_{j=1..k} j a_j w_{k-j}: coefficient k (k >= 1) of sin a (w = cos a), of
  * -cos a (w = sin a) and of exp a (w = exp a) */
-static long double planar_tchain_l(const long double *a, const long double *w, int k)
+static R planar_tchain_l(const R *a, const R *w, int k)
 {
-    long double acc = 0;
+    R acc = T_INT(0);
     int j;
     TAYLOR_UNROLL
     for (j = 1; j <= k; ++j) {
-        acc += (long double)j * a[j] * w[k - j];
+        acc = T_ADD(acc, T_MUL(T_MULI(a[j], j), w[k - j]));
     }
-    return acc / (long double)k;
+    return T_DIVI(acc, k);
 }
 
-#define R long double
 #define TAYLOR_MUL planar_tmul_l
 #define TAYLOR_DIV planar_tdiv_l
 #define TAYLOR_SQRT planar_tsqrt_l
 #define TAYLOR_SIN(a, c, k) planar_tchain_l(a, c, k)
-#define TAYLOR_COS(a, s, k) (-planar_tchain_l(a, s, k))
+#define TAYLOR_COS(a, s, k) T_NEG(planar_tchain_l(a, s, k))
 #define TAYLOR_EXP(a, u, k) planar_tchain_l(a, u, k)
-#define SIN sinl
-#define COS cosl
-#define EXP expl
 
 /* X[i][1..order] from X[i][0]: the recurrences, order by order. */
-static int planar_taylor_jet_l(long double (*X)[ORDER_DIM], const long double *p, int order_wanted, long double sine_min)
+static int planar_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
-    long double J[NODES][ORDER_DIM];
-    long double C[NCONST];
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
     const int order = PLANAR_TAYLOR_ORDER ? PLANAR_TAYLOR_ORDER : order_wanted;
     int k;
     if (order < 1 || order > ORDER_DIM - 1) {
@@ -789,82 +1048,71 @@ static int planar_taylor_jet_l(long double (*X)[ORDER_DIM], const long double *p
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[4][k] = k == 0 ? SIN(X[0][0]) : TAYLOR_SIN(X[0], J[5], k);
-        J[5][k] = k == 0 ? COS(X[0][0]) : TAYLOR_COS(X[0], J[4], k);
-        J[6][k] = k == 0 ? SIN(X[1][0]) : TAYLOR_SIN(X[1], J[7], k);
-        J[7][k] = k == 0 ? COS(X[1][0]) : TAYLOR_COS(X[1], J[6], k);
+        J[4][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[5], k);
+        J[5][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[4], k);
+        J[6][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[7], k);
+        J[7][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[6], k);
         J[8][k] = TAYLOR_MUL(J[4], J[6], k);
         J[9][k] = TAYLOR_MUL(J[5], J[7], k);
-        J[10][k] = J[8][k] + J[9][k];
-        J[11][k] = C[0] * J[10][k];
+        J[10][k] = T_ADD(J[8][k], J[9][k]);
+        J[11][k] = T_MUL(C[0], J[10][k]);
         J[12][k] = TAYLOR_MUL(J[11], J[11], k);
-        J[13][k] = C[1] * J[12][k];
-        J[14][k] = J[13][k] + (k == 0 ? C[2] : (R)0);
-        J[15][k] = TAYLOR_DIV((R)(k == 0), J[14], J[15], k);
-        J[16][k] = C[3] * J[4][k];
+        J[13][k] = T_MUL(C[1], J[12][k]);
+        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
+        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
+        J[16][k] = T_MUL(C[3], J[4][k]);
         J[17][k] = TAYLOR_MUL(X[3], X[3], k);
-        J[18][k] = C[4] * J[17][k];
+        J[18][k] = T_MUL(C[4], J[17][k]);
         J[19][k] = TAYLOR_MUL(J[4], J[7], k);
         J[20][k] = TAYLOR_MUL(J[6], J[5], k);
-        J[21][k] = J[19][k] - J[20][k];
+        J[21][k] = T_SUB(J[19][k], J[20][k]);
         J[22][k] = TAYLOR_MUL(J[18], J[21], k);
-        J[23][k] = J[16][k] + J[22][k];
-        J[24][k] = C[5] * J[23][k];
-        J[25][k] = C[6] * J[24][k];
+        J[23][k] = T_ADD(J[16][k], J[22][k]);
+        J[24][k] = T_MUL(C[5], J[23][k]);
+        J[25][k] = T_MUL(C[6], J[24][k]);
         J[26][k] = TAYLOR_MUL(X[2], X[2], k);
         J[27][k] = TAYLOR_MUL(J[26], J[21], k);
-        J[28][k] = C[7] * J[27][k];
-        J[29][k] = C[8] * J[6][k];
-        J[30][k] = J[28][k] - J[29][k];
-        J[31][k] = C[4] * J[30][k];
+        J[28][k] = T_MUL(C[7], J[27][k]);
+        J[29][k] = T_MUL(C[8], J[6][k]);
+        J[30][k] = T_SUB(J[28][k], J[29][k]);
+        J[31][k] = T_MUL(C[4], J[30][k]);
         J[32][k] = TAYLOR_MUL(J[31], J[11], k);
-        J[33][k] = J[25][k] - J[32][k];
+        J[33][k] = T_SUB(J[25][k], J[32][k]);
         J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = C[9] * J[31][k];
+        J[35][k] = T_MUL(C[9], J[31][k]);
         J[36][k] = TAYLOR_MUL(J[24], J[11], k);
-        J[37][k] = J[35][k] - J[36][k];
+        J[37][k] = T_SUB(J[35][k], J[36][k]);
         J[38][k] = TAYLOR_MUL(J[15], J[37], k);
-        X[0][k + 1] = X[2][k] / (R)(k + 1);
-        X[1][k + 1] = X[3][k] / (R)(k + 1);
-        X[2][k + 1] = J[34][k] / (R)(k + 1);
-        X[3][k + 1] = J[38][k] / (R)(k + 1);
+        X[0][k + 1] = T_DIVI(X[2][k], k + 1);
+        X[1][k + 1] = T_DIVI(X[3][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
     }
     return PLANAR_INTEGRATE_OK;
 }
 
-#undef R
-#undef TAYLOR_MUL
-#undef TAYLOR_DIV
-#undef TAYLOR_SQRT
-#undef TAYLOR_SIN
-#undef TAYLOR_COS
-#undef TAYLOR_EXP
-#undef SIN
-#undef COS
-#undef EXP
-
-static long double planar_thorner_l(const long double *x, int order, long double tau)
+static R planar_thorner_l(const R *x, int order, R tau)
 {
-    long double acc = x[order];
+    R acc = x[order];
     int k;
     for (k = order - 1; k >= 0; --k) {
-        acc = acc * tau + x[k];
+        acc = T_ADD(T_MUL(acc, tau), x[k]);
     }
     return acc;
 }
 
-static int planar_tfinite_l(const long double *z, long n)
+static int planar_tfinite_l(const R *z, long n)
 {
-    long double check = 0;
+    S check = 0;
     long k;
     for (k = 0; k < n; ++k) {
-        check += z[k] - z[k];
+        check += T_S(z[k]) - T_S(z[k]);
     }
     return check == 0;
 }
 
 /* The order for a tolerance (Jorba & Zou 2005): ceil(-ln(tol)/2 + 1), in [2, ORDER_MAX]. */
-static int planar_torder_l(long double tol)
+static int planar_torder_l(S tol)
 {
     double p = ceil(-log((double)tol) / 2 + 1);
     if (PLANAR_TAYLOR_ORDER) {
@@ -876,9 +1124,9 @@ static int planar_torder_l(long double tol)
     return p > ORDER_MAX ? ORDER_MAX : (int)p;
 }
 
-int planar_taylor_coefficients_l(const long double *y, const long double *p, int order, long double *coef, long double sine_min)
+int planar_taylor_coefficients_l(const R *y, const R *p, int order, R *coef, double sine_min)
 {
-    long double X[N][ORDER_DIM];
+    R X[N][ORDER_DIM];
     int i, k, st;
     if (order < 1 || order > ORDER_DIM - 1 || (PLANAR_TAYLOR_ORDER && order != PLANAR_TAYLOR_ORDER)) {
         return PLANAR_INTEGRATE_BAD_INPUT;
@@ -886,7 +1134,7 @@ int planar_taylor_coefficients_l(const long double *y, const long double *p, int
     for (i = 0; i < N; ++i) {
         X[i][0] = y[i];
     }
-    st = planar_taylor_jet_l(X, p, order, sine_min);
+    st = planar_taylor_jet_l(X, p, order, (S)sine_min);
     for (i = 0; i < N; ++i) {
         for (k = 0; k <= order; ++k) {
             coef[i * (order + 1) + k] = X[i][k];
@@ -895,13 +1143,13 @@ int planar_taylor_coefficients_l(const long double *y, const long double *p, int
     return st;
 }
 
-int planar_taylor_l(const long double *y0, const long double *p, long nt, const long double *t_out, long double *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
+int planar_taylor_l(const R *y0, const R *p, long nt, const R *t_out, R *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
 {
-    long double X[N][ORDER_DIM];
-    long double t, h = 0, tend, dir, tol, m, n1, n2, rho, r, hmax, tau, span;
-    long double safety;
+    R X[N][ORDER_DIM];
+    R t, h = T_INT(0), tend, tau, span;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
-    int i, order, st = PLANAR_INTEGRATE_OK, last;
+    int i, order, dir, st = PLANAR_INTEGRATE_OK, last;
     planar_integrate_info local;
 
     if (!info) {
@@ -918,25 +1166,26 @@ int planar_taylor_l(const long double *y0, const long double *p, long nt, const 
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
-    info->t = nt > 0 ? (double)t_out[0] : 0;
+    info->local_error = 0;
+    info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
-        info->y[i] = nt > 0 ? (double)y0[i] : 0;
+        info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
     }
-    tol = (long double)opt->rtol;
+    tol = (S)opt->rtol;
     if (nt < 1 || !planar_tfinite_l(y0, N) || !planar_tfinite_l(p, PLANAR_N_PARAMS) ||
         !planar_tfinite_l(t_out, nt) || !(tol > 0) || !(opt->hmax >= 0) || opt->max_steps < 1) {
         st = PLANAR_INTEGRATE_BAD_INPUT;
         goto done;
     }
     for (j = 2; j < nt; ++j) {
-        if (!((t_out[j] - t_out[j - 1]) * (t_out[1] - t_out[0]) > 0)) {
+        if (!(T_S(T_SUB(t_out[j], t_out[j - 1])) * T_S(T_SUB(t_out[1], t_out[0])) > 0)) {
             st = PLANAR_INTEGRATE_BAD_INPUT;
             goto done;
         }
     }
     order = planar_torder_l(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = expl((long double)-2 - (long double)0.7 / (long double)(order - 1));
+    safety = expl((S)-2 - (S)0.7 / (S)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -947,13 +1196,13 @@ int planar_taylor_l(const long double *y0, const long double *p, long nt, const 
         goto done;
     }
     tend = t_out[nt - 1];
-    dir = tend > t ? 1 : -1;
-    span = (tend - t) * dir;
-    if (!(span > 0)) {
+    dir = T_S(T_SUB(tend, t)) > 0 ? 1 : -1;
+    span = T_MULI(T_SUB(tend, t), dir);
+    if (!(T_S(span) > 0)) {
         st = PLANAR_INTEGRATE_BAD_INPUT;
         goto done;
     }
-    hmax = opt->hmax > 0 ? (long double)opt->hmax : span;
+    hmax = opt->hmax > 0 ? (S)opt->hmax : T_S(span);
     while (iout < nt) {
         if (steps >= opt->max_steps) {
             st = PLANAR_INTEGRATE_MAX_STEPS;
@@ -963,7 +1212,7 @@ int planar_taylor_l(const long double *y0, const long double *p, long nt, const 
             st = PLANAR_INTEGRATE_CANCELLED;
             break;
         }
-        st = planar_taylor_jet_l(X, p, order, (long double)opt->sine_min);
+        st = planar_taylor_jet_l(X, p, order, (S)opt->sine_min);
         info->nfev += 1;
         if (st) {
             break;
@@ -972,38 +1221,38 @@ int planar_taylor_l(const long double *y0, const long double *p, long nt, const 
         n1 = 0;
         n2 = 0;
         for (i = 0; i < N; ++i) {
-            m = fabsl(X[i][0]) > m ? fabsl(X[i][0]) : m;
-            n1 = fabsl(X[i][order - 1]) > n1 ? fabsl(X[i][order - 1]) : n1;
-            n2 = fabsl(X[i][order]) > n2 ? fabsl(X[i][order]) : n2;
+            m = T_ABS(X[i][0]) > m ? T_ABS(X[i][0]) : m;
+            n1 = T_ABS(X[i][order - 1]) > n1 ? T_ABS(X[i][order - 1]) : n1;
+            n2 = T_ABS(X[i][order]) > n2 ? T_ABS(X[i][order]) : n2;
         }
-        if (!planar_tfinite_l(&n1, 1) || !planar_tfinite_l(&n2, 1)) {
+        if (!(n1 - n1 == 0) || !(n2 - n2 == 0)) {
             st = PLANAR_INTEGRATE_NONFINITE;
             break;
         }
-        rho = hmax;             /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = powl(m / n1, (long double)1 / (long double)(order - 1));
-            rho = r < rho ? r : rho;
+            rho = powl(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = powl(m / n2, (long double)1 / (long double)order);
-            rho = r < rho ? r : rho;
+            r = powl(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
         }
-        h = rho * safety;
-        if (!(h <= hmax)) {
-            h = hmax;
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
-        if (!(h > 0)) {
+        if (!(hs > 0)) {
             st = PLANAR_INTEGRATE_STEP_UNDERFLOW;
             break;
         }
-        last = h >= (tend - t) * dir;
-        if (last) {
-            h = (tend - t) * dir;
-        }
+        /* the step in R: the last one exactly to tend */
+        last = hs >= T_S(T_MULI(T_SUB(tend, t), dir));
+        h = last ? T_MULI(T_SUB(tend, t), dir) : T_FROMS(hs);
         /* dense output: every output time inside this step from the series */
-        while (iout < nt && (last || (t_out[iout] - t) * dir <= h)) {
-            tau = t_out[iout] - t;
+        while (iout < nt && (last || T_LE(T_MULI(T_SUB(t_out[iout], t), dir), h))) {
+            tau = T_SUB(t_out[iout], t);
             row = iout * N;
             for (i = 0; i < N; ++i) {
                 y_out[row + i] = planar_thorner_l(X[i], order, tau);
@@ -1019,15 +1268,18 @@ int planar_taylor_l(const long double *y0, const long double *p, long nt, const 
             break;
         }
         for (i = 0; i < N; ++i) {
-            X[i][0] = planar_thorner_l(X[i], order, dir * h);
+            X[i][0] = planar_thorner_l(X[i], order, T_MULI(h, dir));
         }
-        t = last ? tend : t + dir * h;
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * powl(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
+        t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
-        info->t = (double)t;
-        info->h = (double)(dir * h);
+        info->t = (double)T_S(t);
+        info->h = (double)T_S(T_MULI(h, dir));
         for (i = 0; i < N; ++i) {
-            info->y[i] = (double)X[i][0];
+            info->y[i] = (double)T_S(X[i][0]);
         }
         if (!planar_tfinite_l(&X[0][0], 1)) {
             st = PLANAR_INTEGRATE_NONFINITE;
@@ -1047,7 +1299,7 @@ done:
     return st;
 }
 
-long planar_taylor_batch_l(long n, const long double *y0, long y0_stride, const long double *p, long p_stride, long nt, const long double *t, long double *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
+long planar_taylor_batch_l(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
 {
     long i, failed = 0;
     for (i = 0; i < n; ++i) {
@@ -1057,3 +1309,422 @@ long planar_taylor_batch_l(long n, const long double *y0, long y0_stride, const 
     }
     return failed;
 }
+
+#undef R
+#undef S
+#undef T_ADD
+#undef T_SUB
+#undef T_MUL
+#undef T_DIV
+#undef T_NEG
+#undef T_MULI
+#undef T_DIVI
+#undef T_INT
+#undef T_D
+#undef T_SQRT
+#undef T_SIN
+#undef T_COS
+#undef T_EXP
+#undef T_S
+#undef T_ABS
+#undef T_FROMS
+#undef T_LE
+#undef TAYLOR_MUL
+#undef TAYLOR_DIV
+#undef TAYLOR_SQRT
+#undef TAYLOR_SIN
+#undef TAYLOR_COS
+#undef TAYLOR_EXP
+#endif /* PLANAR_TAYLOR_SKIP_LONG_DOUBLE */
+
+/* ======================================================================== */
+/* double-double */
+/* ======================================================================== */
+#ifndef PLANAR_TAYLOR_SKIP_DOUBLE_DOUBLE
+
+#define R derive_dd
+#define S double
+#define T_ADD(a, b) dd_add(a, b)
+#define T_SUB(a, b) dd_sub(a, b)
+#define T_MUL(a, b) dd_mul(a, b)
+#define T_DIV(a, b) dd_div(a, b)
+#define T_NEG(a) dd_neg(a)
+#define T_MULI(a, i) dd_mul_d(a, (double)(i))
+#define T_DIVI(a, i) dd_div_d(a, (double)(i))
+#define T_INT(i) dd_d((double)(i))
+#define T_D(x) dd_d(x)
+#define T_SQRT(a) dd_sqrt(a)
+#define T_SIN(a) dd_sin(a)
+#define T_COS(a) dd_cos(a)
+#define T_EXP(a) dd_exp(a)
+#define T_S(a) ((a).hi)
+#define T_ABS(a) fabs((a).hi)
+#define T_FROMS(x) dd_d(x)
+#define T_LE(a, b) dd_le(a, b)
+
+/* sum_j a_j b_j of double-doubles as Ogita, Rump & Oishi's Dot2 does it (2005): the
+ * products' leading parts summed with two-sum, every error term into one double c; as
+ * accurate as the dd sum of dd products (about 2^-105 sum |a_j b_j|) with half the
+ * dependent operations. */
+#define DD_DOT_STEP(x, y) do { \
+        double p_ = (x).hi * (y).hi, t_ = s_ + p_, z_ = t_ - s_; \
+        c_ += ((s_ - (t_ - z_)) + (p_ - z_)) + fma((x).hi, (y).hi, -p_) + ((x).hi * (y).lo + (x).lo * (y).hi); \
+        s_ = t_; \
+    } while (0)
+/* coefficient k of a b */
+static R planar_tmul_dd(const R *a, const R *b, int k)
+{
+    double s_ = 0, c_ = 0;
+    int j;
+    TAYLOR_UNROLL
+    for (j = 0; j <= k; ++j) {
+        DD_DOT_STEP(a[j], b[k - j]);
+    }
+    return dd_quick(s_, c_);
+}
+
+/* coefficient k of u = a / b, given a_k and u_0..u_{k-1} */
+static R planar_tdiv_dd(R ak, const R *b, const R *u, int k)
+{
+    double s_ = 0, c_ = 0;
+    int j;
+    for (j = 1; j <= k; ++j) {
+        DD_DOT_STEP(b[j], u[k - j]);
+    }
+    return T_DIV(T_SUB(ak, dd_quick(s_, c_)), b[0]);
+}
+
+/* (1/k) sum_{j=1..k} j a_j w_{k-j}: coefficient k (k >= 1) of sin a (w = cos a), of
+ * -cos a (w = sin a) and of exp a (w = exp a) */
+static R planar_tchain_dd(const R *a, const R *w, int k)
+{
+    double s_ = 0, c_ = 0;
+    R ja;
+    int j;
+    TAYLOR_UNROLL
+    for (j = 1; j <= k; ++j) {
+        ja = T_MULI(a[j], j);
+        DD_DOT_STEP(ja, w[k - j]);
+    }
+    return T_DIVI(dd_quick(s_, c_), k);
+}
+
+#define TAYLOR_MUL planar_tmul_dd
+#define TAYLOR_DIV planar_tdiv_dd
+#define TAYLOR_SQRT planar_tsqrt_dd
+#define TAYLOR_SIN(a, c, k) planar_tchain_dd(a, c, k)
+#define TAYLOR_COS(a, s, k) T_NEG(planar_tchain_dd(a, s, k))
+#define TAYLOR_EXP(a, u, k) planar_tchain_dd(a, u, k)
+
+/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+static int planar_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = PLANAR_TAYLOR_ORDER ? PLANAR_TAYLOR_ORDER : order_wanted;
+    int k;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return PLANAR_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = T_MUL(T_MUL(p[2], p[3]), p[1]);
+    C[1] = T_INT(-1);
+    C[2] = T_MUL(T_MUL(T_MUL(p[1], T_MUL(p[2], p[2])), T_MUL(p[3], p[3])), T_ADD(p[0], p[1]));
+    C[3] = T_ADD(T_MUL(p[4], p[0]), T_MUL(p[4], p[1]));
+    C[4] = T_MUL(p[3], p[1]);
+    C[5] = T_NEG(p[2]);
+    C[6] = T_MUL(p[1], T_MUL(p[3], p[3]));
+    C[7] = p[2];
+    C[8] = p[4];
+    C[9] = T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1]));
+    (void)sine_min;
+    TAYLOR_UNROLL
+    for (k = 0; k < order; ++k) {
+        J[4][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[5], k);
+        J[5][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[4], k);
+        J[6][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[7], k);
+        J[7][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[6], k);
+        J[8][k] = TAYLOR_MUL(J[4], J[6], k);
+        J[9][k] = TAYLOR_MUL(J[5], J[7], k);
+        J[10][k] = T_ADD(J[8][k], J[9][k]);
+        J[11][k] = T_MUL(C[0], J[10][k]);
+        J[12][k] = TAYLOR_MUL(J[11], J[11], k);
+        J[13][k] = T_MUL(C[1], J[12][k]);
+        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
+        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
+        J[16][k] = T_MUL(C[3], J[4][k]);
+        J[17][k] = TAYLOR_MUL(X[3], X[3], k);
+        J[18][k] = T_MUL(C[4], J[17][k]);
+        J[19][k] = TAYLOR_MUL(J[4], J[7], k);
+        J[20][k] = TAYLOR_MUL(J[6], J[5], k);
+        J[21][k] = T_SUB(J[19][k], J[20][k]);
+        J[22][k] = TAYLOR_MUL(J[18], J[21], k);
+        J[23][k] = T_ADD(J[16][k], J[22][k]);
+        J[24][k] = T_MUL(C[5], J[23][k]);
+        J[25][k] = T_MUL(C[6], J[24][k]);
+        J[26][k] = TAYLOR_MUL(X[2], X[2], k);
+        J[27][k] = TAYLOR_MUL(J[26], J[21], k);
+        J[28][k] = T_MUL(C[7], J[27][k]);
+        J[29][k] = T_MUL(C[8], J[6][k]);
+        J[30][k] = T_SUB(J[28][k], J[29][k]);
+        J[31][k] = T_MUL(C[4], J[30][k]);
+        J[32][k] = TAYLOR_MUL(J[31], J[11], k);
+        J[33][k] = T_SUB(J[25][k], J[32][k]);
+        J[34][k] = TAYLOR_MUL(J[15], J[33], k);
+        J[35][k] = T_MUL(C[9], J[31][k]);
+        J[36][k] = TAYLOR_MUL(J[24], J[11], k);
+        J[37][k] = T_SUB(J[35][k], J[36][k]);
+        J[38][k] = TAYLOR_MUL(J[15], J[37], k);
+        X[0][k + 1] = T_DIVI(X[2][k], k + 1);
+        X[1][k + 1] = T_DIVI(X[3][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
+    }
+    return PLANAR_INTEGRATE_OK;
+}
+
+static R planar_thorner_dd(const R *x, int order, R tau)
+{
+    R acc = x[order];
+    int k;
+    for (k = order - 1; k >= 0; --k) {
+        acc = T_ADD(T_MUL(acc, tau), x[k]);
+    }
+    return acc;
+}
+
+static int planar_tfinite_dd(const R *z, long n)
+{
+    S check = 0;
+    long k;
+    for (k = 0; k < n; ++k) {
+        check += T_S(z[k]) - T_S(z[k]);
+    }
+    return check == 0;
+}
+
+/* The order for a tolerance (Jorba & Zou 2005): ceil(-ln(tol)/2 + 1), in [2, ORDER_MAX]. */
+static int planar_torder_dd(S tol)
+{
+    double p = ceil(-log((double)tol) / 2 + 1);
+    if (PLANAR_TAYLOR_ORDER) {
+        return PLANAR_TAYLOR_ORDER;
+    }
+    if (!(p >= 2)) {
+        return 2;
+    }
+    return p > ORDER_MAX ? ORDER_MAX : (int)p;
+}
+
+int planar_taylor_coefficients_dd(const R *y, const R *p, int order, R *coef, double sine_min)
+{
+    R X[N][ORDER_DIM];
+    int i, k, st;
+    if (order < 1 || order > ORDER_DIM - 1 || (PLANAR_TAYLOR_ORDER && order != PLANAR_TAYLOR_ORDER)) {
+        return PLANAR_INTEGRATE_BAD_INPUT;
+    }
+    for (i = 0; i < N; ++i) {
+        X[i][0] = y[i];
+    }
+    st = planar_taylor_jet_dd(X, p, order, (S)sine_min);
+    for (i = 0; i < N; ++i) {
+        for (k = 0; k <= order; ++k) {
+            coef[i * (order + 1) + k] = X[i][k];
+        }
+    }
+    return st;
+}
+
+int planar_taylor_dd(const R *y0, const R *p, long nt, const R *t_out, R *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
+{
+    R X[N][ORDER_DIM];
+    R t, h = T_INT(0), tend, tau, span;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
+    long iout = 1, steps = 0, row, j;
+    int i, order, dir, st = PLANAR_INTEGRATE_OK, last;
+    planar_integrate_info local;
+
+    if (!info) {
+        info = &local;
+    }
+    info->status = 0;
+    info->nfev = 0;
+    info->njev = 0;
+    info->nsteps = 0;
+    info->naccepted = 0;
+    info->nrejected = 0;
+    info->nnewton = 0;
+    info->nout = 0;
+    info->t = 0;
+    info->h = 0;
+    info->h_end = 0;
+    info->local_error = 0;
+    info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
+    for (i = 0; i < N; ++i) {
+        info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
+    }
+    tol = (S)opt->rtol;
+    if (nt < 1 || !planar_tfinite_dd(y0, N) || !planar_tfinite_dd(p, PLANAR_N_PARAMS) ||
+        !planar_tfinite_dd(t_out, nt) || !(tol > 0) || !(opt->hmax >= 0) || opt->max_steps < 1) {
+        st = PLANAR_INTEGRATE_BAD_INPUT;
+        goto done;
+    }
+    for (j = 2; j < nt; ++j) {
+        if (!(T_S(T_SUB(t_out[j], t_out[j - 1])) * T_S(T_SUB(t_out[1], t_out[0])) > 0)) {
+            st = PLANAR_INTEGRATE_BAD_INPUT;
+            goto done;
+        }
+    }
+    order = planar_torder_dd(tol);
+    /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
+    safety = exp((S)-2 - (S)0.7 / (S)(order - 1));
+    for (i = 0; i < N; ++i) {
+        X[i][0] = y0[i];
+        y_out[i] = y0[i];
+    }
+    info->nout = 1;
+    t = t_out[0];
+    if (nt == 1) {
+        goto done;
+    }
+    tend = t_out[nt - 1];
+    dir = T_S(T_SUB(tend, t)) > 0 ? 1 : -1;
+    span = T_MULI(T_SUB(tend, t), dir);
+    if (!(T_S(span) > 0)) {
+        st = PLANAR_INTEGRATE_BAD_INPUT;
+        goto done;
+    }
+    hmax = opt->hmax > 0 ? (S)opt->hmax : T_S(span);
+    while (iout < nt) {
+        if (steps >= opt->max_steps) {
+            st = PLANAR_INTEGRATE_MAX_STEPS;
+            break;
+        }
+        if (opt->cancel && *opt->cancel) {
+            st = PLANAR_INTEGRATE_CANCELLED;
+            break;
+        }
+        st = planar_taylor_jet_dd(X, p, order, (S)opt->sine_min);
+        info->nfev += 1;
+        if (st) {
+            break;
+        }
+        m = 1;
+        n1 = 0;
+        n2 = 0;
+        for (i = 0; i < N; ++i) {
+            m = T_ABS(X[i][0]) > m ? T_ABS(X[i][0]) : m;
+            n1 = T_ABS(X[i][order - 1]) > n1 ? T_ABS(X[i][order - 1]) : n1;
+            n2 = T_ABS(X[i][order]) > n2 ? T_ABS(X[i][order]) : n2;
+        }
+        if (!(n1 - n1 == 0) || !(n2 - n2 == 0)) {
+            st = PLANAR_INTEGRATE_NONFINITE;
+            break;
+        }
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
+        if (n1 > 0) {
+            rho = pow(m / n1, (S)1 / (S)(order - 1));
+        }
+        if (n2 > 0) {
+            r = pow(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
+        }
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
+        }
+        if (!(hs > 0)) {
+            st = PLANAR_INTEGRATE_STEP_UNDERFLOW;
+            break;
+        }
+        /* the step in R: the last one exactly to tend */
+        last = hs >= T_S(T_MULI(T_SUB(tend, t), dir));
+        h = last ? T_MULI(T_SUB(tend, t), dir) : T_FROMS(hs);
+        /* dense output: every output time inside this step from the series */
+        while (iout < nt && (last || T_LE(T_MULI(T_SUB(t_out[iout], t), dir), h))) {
+            tau = T_SUB(t_out[iout], t);
+            row = iout * N;
+            for (i = 0; i < N; ++i) {
+                y_out[row + i] = planar_thorner_dd(X[i], order, tau);
+            }
+            if (!planar_tfinite_dd(y_out + row, N)) {
+                st = PLANAR_INTEGRATE_NONFINITE;
+                break;
+            }
+            iout += 1;
+            info->nout = iout;
+        }
+        if (st) {
+            break;
+        }
+        for (i = 0; i < N; ++i) {
+            X[i][0] = planar_thorner_dd(X[i], order, T_MULI(h, dir));
+        }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * pow(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
+        t = last ? tend : T_ADD(t, T_MULI(h, dir));
+        steps += 1;
+        info->naccepted += 1;
+        info->t = (double)T_S(t);
+        info->h = (double)T_S(T_MULI(h, dir));
+        for (i = 0; i < N; ++i) {
+            info->y[i] = (double)T_S(X[i][0]);
+        }
+        if (!planar_tfinite_dd(&X[0][0], 1)) {
+            st = PLANAR_INTEGRATE_NONFINITE;
+            break;
+        }
+    }
+done:
+    info->nsteps = steps;
+    info->status = st;
+    if (st) {
+        for (row = info->nout > 0 ? info->nout : 0; row < nt; ++row) {
+            for (i = 0; i < N; ++i) {
+                y_out[row * N + i] = dd_d(nan(""));
+            }
+        }
+    }
+    return st;
+}
+
+long planar_taylor_batch_dd(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const planar_integrate_options *opt, planar_integrate_info *info)
+{
+    long i, failed = 0;
+    for (i = 0; i < n; ++i) {
+        if (planar_taylor_dd(y0 + i * y0_stride, p + i * p_stride, nt, t, y_out + i * nt * N, opt, info ? info + i : 0) != 0) {
+            failed += 1;
+        }
+    }
+    return failed;
+}
+
+#undef R
+#undef S
+#undef T_ADD
+#undef T_SUB
+#undef T_MUL
+#undef T_DIV
+#undef T_NEG
+#undef T_MULI
+#undef T_DIVI
+#undef T_INT
+#undef T_D
+#undef T_SQRT
+#undef T_SIN
+#undef T_COS
+#undef T_EXP
+#undef T_S
+#undef T_ABS
+#undef T_FROMS
+#undef T_LE
+#undef TAYLOR_MUL
+#undef TAYLOR_DIV
+#undef TAYLOR_SQRT
+#undef TAYLOR_SIN
+#undef TAYLOR_COS
+#undef TAYLOR_EXP
+#undef DD_DOT_STEP
+#endif /* PLANAR_TAYLOR_SKIP_DOUBLE_DOUBLE */

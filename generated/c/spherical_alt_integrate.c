@@ -834,8 +834,8 @@ static int spherical_alt_integrate_finite(const double *z)
  * met a chart singularity, the finiteness of the result.  0 or a status. */
 static int spherical_alt_integrate_fixed(spherical_alt_integrate_ctx *c, double *z, double h, double (*K)[N], double *zn, int partial)
 {
-    double err = 0;
-    int st, sw;
+    double err = 0, size = 0;
+    int st, sw, k;
     if (c->info->nsteps >= c->opt->max_steps) {
         return SPHERICAL_ALT_INTEGRATE_MAX_STEPS;
     }
@@ -865,6 +865,13 @@ static int spherical_alt_integrate_fixed(spherical_alt_integrate_ctx *c, double 
         return SPHERICAL_ALT_INTEGRATE_NONFINITE;
     }
     c->info->naccepted += 1;
+    if (err > 0) {
+        /* abm12: Milne's estimate, err in units of atol + rtol |z|_max (as the step scaled it) */
+        for (k = 0; k < N; ++k) {
+            size = fabs(z[k]) > size ? fabs(z[k]) : size;
+        }
+        c->info->local_error += (double)(err * ((double)c->opt->atol + (double)c->opt->rtol * size));
+    }
     return SPHERICAL_ALT_INTEGRATE_OK;
 }
 
@@ -873,7 +880,7 @@ static int spherical_alt_integrate_drive(spherical_alt_integrate_ctx *c, const d
 {
     double z[N], zn[N], tmp[N];
     double K[SPHERICAL_ALT_INTEGRATE_MAX_STAGES][N], F[7][N];
-    double t = t_out[0], h = 0, err = 0, dir, tend, hmax, hmin, fac, facmin, facmax, order, tnew, theta;
+    double t = t_out[0], h = 0, err = 0, dir, tend, hmax, hmin, fac, facmin, facmax, order, tnew, theta, size;
     const int method = c->method;
     const int adaptive = (method == SPHERICAL_ALT_METHOD_DOPRI5 || method == SPHERICAL_ALT_METHOD_DOP853);
     const double eps = 2.220446049250313e-16;
@@ -1044,10 +1051,16 @@ static int spherical_alt_integrate_drive(spherical_alt_integrate_ctx *c, const d
             c->info->nout += 1;
             iout += 1;
         }
+        /* the step's local-error estimate in the state's units: err is scaled per component
+         * by atol + rtol max(|y|, |y_new|), so the largest of those scales bounds it */
+        size = 0;
         for (k = 0; k < N; ++k) {
+            size = fabs(z[k]) > size ? fabs(z[k]) : size;
+            size = fabs(zn[k]) > size ? fabs(zn[k]) : size;
             z[k] = zn[k];
             K[0][k] = K[fsal][k];
         }
+        c->info->local_error += (double)(err * ((double)c->opt->atol + (double)c->opt->rtol * size));
         t = tnew;
         c->info->naccepted += 1;
         sw = spherical_alt_integrate_switch(c, z, 0);
@@ -1145,7 +1158,7 @@ int spherical_alt_integrate(int method, const double *restrict y0, const double 
     info->status = 0;
     info->nfev = info->njev = info->nsteps = info->naccepted = info->nrejected = info->nnewton = info->nout = 0;
     info->t = nt > 0 && t ? (double)t[0] : 0;
-    info->h = info->h_end = 0;
+    info->h = info->h_end = info->local_error = 0;
     for (k = 0; k < N; ++k) {
         info->y[k] = y0 ? (double)y0[k] : 0;
     }
@@ -1956,8 +1969,8 @@ static int spherical_alt_integrate_finite_f(const float *z)
  * met a chart singularity, the finiteness of the result.  0 or a status. */
 static int spherical_alt_integrate_fixed_f(spherical_alt_integrate_ctx_f *c, float *z, float h, float (*K)[N], float *zn, int partial)
 {
-    float err = 0;
-    int st, sw;
+    float err = 0, size = 0;
+    int st, sw, k;
     if (c->info->nsteps >= c->opt->max_steps) {
         return SPHERICAL_ALT_INTEGRATE_MAX_STEPS;
     }
@@ -1987,6 +2000,13 @@ static int spherical_alt_integrate_fixed_f(spherical_alt_integrate_ctx_f *c, flo
         return SPHERICAL_ALT_INTEGRATE_NONFINITE;
     }
     c->info->naccepted += 1;
+    if (err > 0) {
+        /* abm12: Milne's estimate, err in units of atol + rtol |z|_max (as the step scaled it) */
+        for (k = 0; k < N; ++k) {
+            size = fabsf(z[k]) > size ? fabsf(z[k]) : size;
+        }
+        c->info->local_error += (double)(err * ((float)c->opt->atol + (float)c->opt->rtol * size));
+    }
     return SPHERICAL_ALT_INTEGRATE_OK;
 }
 
@@ -1995,7 +2015,7 @@ static int spherical_alt_integrate_drive_f(spherical_alt_integrate_ctx_f *c, con
 {
     float z[N], zn[N], tmp[N];
     float K[SPHERICAL_ALT_INTEGRATE_MAX_STAGES][N], F[7][N];
-    float t = t_out[0], h = 0, err = 0, dir, tend, hmax, hmin, fac, facmin, facmax, order, tnew, theta;
+    float t = t_out[0], h = 0, err = 0, dir, tend, hmax, hmin, fac, facmin, facmax, order, tnew, theta, size;
     const int method = c->method;
     const int adaptive = (method == SPHERICAL_ALT_METHOD_DOPRI5 || method == SPHERICAL_ALT_METHOD_DOP853);
     const float eps = 1.1920929e-07f;
@@ -2166,10 +2186,16 @@ static int spherical_alt_integrate_drive_f(spherical_alt_integrate_ctx_f *c, con
             c->info->nout += 1;
             iout += 1;
         }
+        /* the step's local-error estimate in the state's units: err is scaled per component
+         * by atol + rtol max(|y|, |y_new|), so the largest of those scales bounds it */
+        size = 0;
         for (k = 0; k < N; ++k) {
+            size = fabsf(z[k]) > size ? fabsf(z[k]) : size;
+            size = fabsf(zn[k]) > size ? fabsf(zn[k]) : size;
             z[k] = zn[k];
             K[0][k] = K[fsal][k];
         }
+        c->info->local_error += (double)(err * ((float)c->opt->atol + (float)c->opt->rtol * size));
         t = tnew;
         c->info->naccepted += 1;
         sw = spherical_alt_integrate_switch_f(c, z, 0);
@@ -2267,7 +2293,7 @@ int spherical_alt_integrate_f(int method, const float *restrict y0, const float 
     info->status = 0;
     info->nfev = info->njev = info->nsteps = info->naccepted = info->nrejected = info->nnewton = info->nout = 0;
     info->t = nt > 0 && t ? (double)t[0] : 0;
-    info->h = info->h_end = 0;
+    info->h = info->h_end = info->local_error = 0;
     for (k = 0; k < N; ++k) {
         info->y[k] = y0 ? (double)y0[k] : 0;
     }
@@ -3078,8 +3104,8 @@ static int spherical_alt_integrate_finite_l(const long double *z)
  * met a chart singularity, the finiteness of the result.  0 or a status. */
 static int spherical_alt_integrate_fixed_l(spherical_alt_integrate_ctx_l *c, long double *z, long double h, long double (*K)[N], long double *zn, int partial)
 {
-    long double err = 0;
-    int st, sw;
+    long double err = 0, size = 0;
+    int st, sw, k;
     if (c->info->nsteps >= c->opt->max_steps) {
         return SPHERICAL_ALT_INTEGRATE_MAX_STEPS;
     }
@@ -3109,6 +3135,13 @@ static int spherical_alt_integrate_fixed_l(spherical_alt_integrate_ctx_l *c, lon
         return SPHERICAL_ALT_INTEGRATE_NONFINITE;
     }
     c->info->naccepted += 1;
+    if (err > 0) {
+        /* abm12: Milne's estimate, err in units of atol + rtol |z|_max (as the step scaled it) */
+        for (k = 0; k < N; ++k) {
+            size = fabsl(z[k]) > size ? fabsl(z[k]) : size;
+        }
+        c->info->local_error += (double)(err * ((long double)c->opt->atol + (long double)c->opt->rtol * size));
+    }
     return SPHERICAL_ALT_INTEGRATE_OK;
 }
 
@@ -3117,7 +3150,7 @@ static int spherical_alt_integrate_drive_l(spherical_alt_integrate_ctx_l *c, con
 {
     long double z[N], zn[N], tmp[N];
     long double K[SPHERICAL_ALT_INTEGRATE_MAX_STAGES][N], F[7][N];
-    long double t = t_out[0], h = 0, err = 0, dir, tend, hmax, hmin, fac, facmin, facmax, order, tnew, theta;
+    long double t = t_out[0], h = 0, err = 0, dir, tend, hmax, hmin, fac, facmin, facmax, order, tnew, theta, size;
     const int method = c->method;
     const int adaptive = (method == SPHERICAL_ALT_METHOD_DOPRI5 || method == SPHERICAL_ALT_METHOD_DOP853);
     const long double eps = 1.08420217248550443401e-19L;
@@ -3288,10 +3321,16 @@ static int spherical_alt_integrate_drive_l(spherical_alt_integrate_ctx_l *c, con
             c->info->nout += 1;
             iout += 1;
         }
+        /* the step's local-error estimate in the state's units: err is scaled per component
+         * by atol + rtol max(|y|, |y_new|), so the largest of those scales bounds it */
+        size = 0;
         for (k = 0; k < N; ++k) {
+            size = fabsl(z[k]) > size ? fabsl(z[k]) : size;
+            size = fabsl(zn[k]) > size ? fabsl(zn[k]) : size;
             z[k] = zn[k];
             K[0][k] = K[fsal][k];
         }
+        c->info->local_error += (double)(err * ((long double)c->opt->atol + (long double)c->opt->rtol * size));
         t = tnew;
         c->info->naccepted += 1;
         sw = spherical_alt_integrate_switch_l(c, z, 0);
@@ -3389,7 +3428,7 @@ int spherical_alt_integrate_l(int method, const long double *restrict y0, const 
     info->status = 0;
     info->nfev = info->njev = info->nsteps = info->naccepted = info->nrejected = info->nnewton = info->nout = 0;
     info->t = nt > 0 && t ? (double)t[0] : 0;
-    info->h = info->h_end = 0;
+    info->h = info->h_end = info->local_error = 0;
     for (k = 0; k < N; ++k) {
         info->y[k] = y0 ? (double)y0[k] : 0;
     }

@@ -347,8 +347,8 @@ static int spherical_atlas_finite(const double *z)
  * met a chart singularity, the finiteness of the result.  0 or a status. */
 static int spherical_atlas_fixed(spherical_atlas_ctx *c, double *z, double h, double (*K)[NA], double *zn, int partial)
 {
-    double err = 0;
-    int st, sw;
+    double err = 0, size = 0;
+    int st, sw, k;
     (void)partial;
     if (c->info->nsteps >= c->opt->max_steps) {
         return SPHERICAL_ATLAS_INTEGRATE_MAX_STEPS;
@@ -379,6 +379,13 @@ static int spherical_atlas_fixed(spherical_atlas_ctx *c, double *z, double h, do
         return SPHERICAL_ATLAS_INTEGRATE_NONFINITE;
     }
     c->info->naccepted += 1;
+    if (err > 0) {
+        /* abm12: Milne's estimate, err in units of atol + rtol |z|_max (as the step scaled it) */
+        for (k = 0; k < NA; ++k) {
+            size = fabs(z[k]) > size ? fabs(z[k]) : size;
+        }
+        c->info->local_error += (double)(err * ((double)c->opt->atol + (double)c->opt->rtol * size));
+    }
     return SPHERICAL_ATLAS_INTEGRATE_OK;
 }
 
@@ -387,7 +394,7 @@ static int spherical_atlas_drive(spherical_atlas_ctx *c, const double *restrict 
 {
     double z[NA], zn[NA], tmp[NA];
     double K[SPHERICAL_ATLAS_INTEGRATE_MAX_STAGES][NA], F[7][NA];
-    double t = t_out[0], h = 0, err = 0, dir, tend, hmax, hmin, fac, facmin, facmax, order, tnew, theta;
+    double t = t_out[0], h = 0, err = 0, dir, tend, hmax, hmin, fac, facmin, facmax, order, tnew, theta, size;
     const int method = c->method;
     const int adaptive = (method == SPHERICAL_ATLAS_METHOD_DOPRI5 || method == SPHERICAL_ATLAS_METHOD_DOP853);
     const double eps = 2.220446049250313e-16;
@@ -558,10 +565,16 @@ static int spherical_atlas_drive(spherical_atlas_ctx *c, const double *restrict 
             c->info->nout += 1;
             iout += 1;
         }
+        /* the step's local-error estimate in the state's units: err is scaled per component
+         * by atol + rtol max(|y|, |y_new|), so the largest of those scales bounds it */
+        size = 0;
         for (k = 0; k < NA; ++k) {
+            size = fabs(z[k]) > size ? fabs(z[k]) : size;
+            size = fabs(zn[k]) > size ? fabs(zn[k]) : size;
             z[k] = zn[k];
             K[0][k] = K[fsal][k];
         }
+        c->info->local_error += (double)(err * ((double)c->opt->atol + (double)c->opt->rtol * size));
         t = tnew;
         c->info->naccepted += 1;
         sw = spherical_atlas_switch(c, z, 0);
@@ -662,7 +675,7 @@ int spherical_atlas_integrate(int method, int chart0, const double *restrict y0,
     info->nswitches = 0;
     info->chart = chart0;
     info->t = nt > 0 && t ? (double)t[0] : 0;
-    info->h = info->h_end = 0;
+    info->h = info->h_end = info->local_error = 0;
     for (k = 0; k < NA; ++k) {
         info->y[k] = y0 ? (double)y0[k] : 0;
     }
@@ -1064,8 +1077,8 @@ static int spherical_atlas_finite_f(const float *z)
  * met a chart singularity, the finiteness of the result.  0 or a status. */
 static int spherical_atlas_fixed_f(spherical_atlas_ctx_f *c, float *z, float h, float (*K)[NA], float *zn, int partial)
 {
-    float err = 0;
-    int st, sw;
+    float err = 0, size = 0;
+    int st, sw, k;
     (void)partial;
     if (c->info->nsteps >= c->opt->max_steps) {
         return SPHERICAL_ATLAS_INTEGRATE_MAX_STEPS;
@@ -1096,6 +1109,13 @@ static int spherical_atlas_fixed_f(spherical_atlas_ctx_f *c, float *z, float h, 
         return SPHERICAL_ATLAS_INTEGRATE_NONFINITE;
     }
     c->info->naccepted += 1;
+    if (err > 0) {
+        /* abm12: Milne's estimate, err in units of atol + rtol |z|_max (as the step scaled it) */
+        for (k = 0; k < NA; ++k) {
+            size = fabsf(z[k]) > size ? fabsf(z[k]) : size;
+        }
+        c->info->local_error += (double)(err * ((float)c->opt->atol + (float)c->opt->rtol * size));
+    }
     return SPHERICAL_ATLAS_INTEGRATE_OK;
 }
 
@@ -1104,7 +1124,7 @@ static int spherical_atlas_drive_f(spherical_atlas_ctx_f *c, const float *restri
 {
     float z[NA], zn[NA], tmp[NA];
     float K[SPHERICAL_ATLAS_INTEGRATE_MAX_STAGES][NA], F[7][NA];
-    float t = t_out[0], h = 0, err = 0, dir, tend, hmax, hmin, fac, facmin, facmax, order, tnew, theta;
+    float t = t_out[0], h = 0, err = 0, dir, tend, hmax, hmin, fac, facmin, facmax, order, tnew, theta, size;
     const int method = c->method;
     const int adaptive = (method == SPHERICAL_ATLAS_METHOD_DOPRI5 || method == SPHERICAL_ATLAS_METHOD_DOP853);
     const float eps = 1.1920929e-07f;
@@ -1275,10 +1295,16 @@ static int spherical_atlas_drive_f(spherical_atlas_ctx_f *c, const float *restri
             c->info->nout += 1;
             iout += 1;
         }
+        /* the step's local-error estimate in the state's units: err is scaled per component
+         * by atol + rtol max(|y|, |y_new|), so the largest of those scales bounds it */
+        size = 0;
         for (k = 0; k < NA; ++k) {
+            size = fabsf(z[k]) > size ? fabsf(z[k]) : size;
+            size = fabsf(zn[k]) > size ? fabsf(zn[k]) : size;
             z[k] = zn[k];
             K[0][k] = K[fsal][k];
         }
+        c->info->local_error += (double)(err * ((float)c->opt->atol + (float)c->opt->rtol * size));
         t = tnew;
         c->info->naccepted += 1;
         sw = spherical_atlas_switch_f(c, z, 0);
@@ -1379,7 +1405,7 @@ int spherical_atlas_integrate_f(int method, int chart0, const float *restrict y0
     info->nswitches = 0;
     info->chart = chart0;
     info->t = nt > 0 && t ? (double)t[0] : 0;
-    info->h = info->h_end = 0;
+    info->h = info->h_end = info->local_error = 0;
     for (k = 0; k < NA; ++k) {
         info->y[k] = y0 ? (double)y0[k] : 0;
     }
@@ -1781,8 +1807,8 @@ static int spherical_atlas_finite_l(const long double *z)
  * met a chart singularity, the finiteness of the result.  0 or a status. */
 static int spherical_atlas_fixed_l(spherical_atlas_ctx_l *c, long double *z, long double h, long double (*K)[NA], long double *zn, int partial)
 {
-    long double err = 0;
-    int st, sw;
+    long double err = 0, size = 0;
+    int st, sw, k;
     (void)partial;
     if (c->info->nsteps >= c->opt->max_steps) {
         return SPHERICAL_ATLAS_INTEGRATE_MAX_STEPS;
@@ -1813,6 +1839,13 @@ static int spherical_atlas_fixed_l(spherical_atlas_ctx_l *c, long double *z, lon
         return SPHERICAL_ATLAS_INTEGRATE_NONFINITE;
     }
     c->info->naccepted += 1;
+    if (err > 0) {
+        /* abm12: Milne's estimate, err in units of atol + rtol |z|_max (as the step scaled it) */
+        for (k = 0; k < NA; ++k) {
+            size = fabsl(z[k]) > size ? fabsl(z[k]) : size;
+        }
+        c->info->local_error += (double)(err * ((long double)c->opt->atol + (long double)c->opt->rtol * size));
+    }
     return SPHERICAL_ATLAS_INTEGRATE_OK;
 }
 
@@ -1821,7 +1854,7 @@ static int spherical_atlas_drive_l(spherical_atlas_ctx_l *c, const long double *
 {
     long double z[NA], zn[NA], tmp[NA];
     long double K[SPHERICAL_ATLAS_INTEGRATE_MAX_STAGES][NA], F[7][NA];
-    long double t = t_out[0], h = 0, err = 0, dir, tend, hmax, hmin, fac, facmin, facmax, order, tnew, theta;
+    long double t = t_out[0], h = 0, err = 0, dir, tend, hmax, hmin, fac, facmin, facmax, order, tnew, theta, size;
     const int method = c->method;
     const int adaptive = (method == SPHERICAL_ATLAS_METHOD_DOPRI5 || method == SPHERICAL_ATLAS_METHOD_DOP853);
     const long double eps = 1.08420217248550443401e-19L;
@@ -1992,10 +2025,16 @@ static int spherical_atlas_drive_l(spherical_atlas_ctx_l *c, const long double *
             c->info->nout += 1;
             iout += 1;
         }
+        /* the step's local-error estimate in the state's units: err is scaled per component
+         * by atol + rtol max(|y|, |y_new|), so the largest of those scales bounds it */
+        size = 0;
         for (k = 0; k < NA; ++k) {
+            size = fabsl(z[k]) > size ? fabsl(z[k]) : size;
+            size = fabsl(zn[k]) > size ? fabsl(zn[k]) : size;
             z[k] = zn[k];
             K[0][k] = K[fsal][k];
         }
+        c->info->local_error += (double)(err * ((long double)c->opt->atol + (long double)c->opt->rtol * size));
         t = tnew;
         c->info->naccepted += 1;
         sw = spherical_atlas_switch_l(c, z, 0);
@@ -2096,7 +2135,7 @@ int spherical_atlas_integrate_l(int method, int chart0, const long double *restr
     info->nswitches = 0;
     info->chart = chart0;
     info->t = nt > 0 && t ? (double)t[0] : 0;
-    info->h = info->h_end = 0;
+    info->h = info->h_end = info->local_error = 0;
     for (k = 0; k < NA; ++k) {
         info->y[k] = y0 ? (double)y0[k] : 0;
     }

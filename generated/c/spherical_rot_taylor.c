@@ -29,62 +29,247 @@
 #define NODES 190
 #define NCONST 12
 
+/* Every variant below is the same code written with the arithmetic of its type R:
+ * T_ADD(a, b), T_SUB, T_MUL, T_DIV, T_NEG; T_MULI(a, i) and T_DIVI(a, i) by an int;
+ * T_INT(i) and T_D(x) (a double) as R; T_SQRT, T_SIN, T_COS, T_EXP.  The step-size
+ * control runs in S, a native type (R itself, double for double-double): T_S(a) is a
+ * value in S, T_ABS(a) its magnitude, T_FROMS(s) back to R, T_LE(a, b) a <= b.  For
+ * the native types these are the C operators; double-double has them as functions. */
+/* -DSPHERICAL_ROT_TAYLOR_SKIP_<TYPE> (DOUBLE, FLOAT, LONG_DOUBLE, DOUBLE_DOUBLE) leaves a
+ * variant out of the build: derive compiles the precision it runs, which at a fixed,
+ * unrolled order saves most of the compile time. */
+#ifndef SPHERICAL_ROT_TAYLOR_SKIP_DOUBLE_DOUBLE
+
+/* ======================================================================== */
+/* double-double arithmetic: a value is hi + lo with |lo| <= ulp(hi)/2 (about 106
+ * bits), from error-free transformations (Knuth's two-sum, fma for the product:
+ * C99's fma is exact whether or not the machine has the instruction).  As the
+ * QD library (Hida, Li & Bailey 2001) does it, written here so the file needs no
+ * library. */
+/* ======================================================================== */
+
+static derive_dd dd_d(double x)
+{
+    derive_dd r;
+    r.hi = x;
+    r.lo = 0;
+    return r;
+}
+
+static derive_dd dd_quick(double s, double e)      /* |s| >= |e| */
+{
+    derive_dd r;
+    r.hi = s + e;
+    r.lo = e - (r.hi - s);
+    return r;
+}
+
+static derive_dd dd_two_sum(double a, double b)
+{
+    derive_dd r;
+    double v;
+    r.hi = a + b;
+    v = r.hi - a;
+    r.lo = (a - (r.hi - v)) + (b - v);
+    return r;
+}
+
+/* a + b with an absolute error below about 2^-105 (|a| + |b|): the lower parts added in
+ * double ("sloppy" addition, QD's default), about half the work of the addition whose
+ * relative error stays bounded under cancellation.  The bound in |a| + |b| is what every
+ * sum here needs (a series' terms, a step added to a time). */
+static derive_dd dd_add(derive_dd a, derive_dd b)
+{
+    derive_dd s = dd_two_sum(a.hi, b.hi);
+    s.lo += a.lo + b.lo;
+    return dd_quick(s.hi, s.lo);
+}
+
+static derive_dd dd_neg(derive_dd a)
+{
+    a.hi = -a.hi;
+    a.lo = -a.lo;
+    return a;
+}
+
+static derive_dd dd_sub(derive_dd a, derive_dd b)
+{
+    return dd_add(a, dd_neg(b));
+}
+
+static derive_dd dd_mul(derive_dd a, derive_dd b)
+{
+    double p = a.hi * b.hi;
+    double e = fma(a.hi, b.hi, -p);
+    e += a.hi * b.lo + a.lo * b.hi;
+    return dd_quick(p, e);
+}
+
+static derive_dd dd_mul_d(derive_dd a, double b)
+{
+    double p = a.hi * b;
+    double e = fma(a.hi, b, -p);
+    e += a.lo * b;
+    return dd_quick(p, e);
+}
+
+static derive_dd dd_div(derive_dd a, derive_dd b)
+{
+    double q1 = a.hi / b.hi, q2, q3;
+    derive_dd r = dd_sub(a, dd_mul_d(b, q1));
+    q2 = r.hi / b.hi;
+    r = dd_sub(r, dd_mul_d(b, q2));
+    q3 = r.hi / b.hi;
+    r = dd_quick(q1, q2);
+    return dd_add(r, dd_d(q3));
+}
+
+static derive_dd dd_div_d(derive_dd a, double b)
+{
+    return dd_div(a, dd_d(b));
+}
+
+static int dd_le(derive_dd a, derive_dd b)
+{
+    return a.hi < b.hi || (a.hi == b.hi && a.lo <= b.lo);
+}
+
+
+/* pi/2 as three doubles (to about 2^-160): the reduction a - k pi/2 stays accurate for
+ * the angles of a motion (|k| up to about 2^50) */
+#define DD_PI2_A 1.5707963267948966
+#define DD_PI2_B 6.123233995736766e-17
+#define DD_PI2_C (-1.4973849048591698e-33)
+
+/* sin and cos of |r| <= pi/4 by their series, to below 2^-106 */
+static void dd_sincos_small(derive_dd r, derive_dd *s, derive_dd *c)
+{
+    derive_dd r2 = dd_mul(r, r), term = r, sum = r;
+    int k;
+    for (k = 2; k < 60 && fabs(term.hi) > 1e-36 * fabs(sum.hi); k += 2) {
+        term = dd_div_d(dd_mul(term, dd_neg(r2)), (double)(k * (k + 1)));
+        sum = dd_add(sum, term);
+    }
+    *s = sum;
+    term = dd_d(1.0);
+    sum = term;
+    for (k = 1; k < 60 && fabs(term.hi) > 1e-36; k += 2) {
+        term = dd_div_d(dd_mul(term, dd_neg(r2)), (double)(k * (k + 1)));
+        sum = dd_add(sum, term);
+    }
+    *c = sum;
+}
+
+static void dd_sincos(derive_dd a, derive_dd *s, derive_dd *c)
+{
+    double k = floor(a.hi / DD_PI2_A + 0.5);
+    derive_dd r = a, ss, cc;
+    int q;
+    if (!(fabs(a.hi) < 1e15)) {             /* beyond the reduction (or NaN): libm's double */
+        *s = dd_d(sin(a.hi));
+        *c = dd_d(cos(a.hi));
+        return;
+    }
+    r = dd_sub(r, dd_mul_d(dd_d(DD_PI2_A), k));
+    r = dd_sub(r, dd_mul_d(dd_d(DD_PI2_B), k));
+    r = dd_sub(r, dd_mul_d(dd_d(DD_PI2_C), k));
+    dd_sincos_small(r, &ss, &cc);
+    q = (int)fmod(k, 4.0);
+    q = q < 0 ? q + 4 : q;
+    *s = q == 0 ? ss : q == 1 ? cc : q == 2 ? dd_neg(ss) : dd_neg(cc);
+    *c = q == 0 ? cc : q == 1 ? dd_neg(ss) : q == 2 ? dd_neg(cc) : ss;
+}
+
+
+static derive_dd dd_sin(derive_dd a)
+{
+    derive_dd s, c;
+    dd_sincos(a, &s, &c);
+    return s;
+}
+
+
+static derive_dd dd_cos(derive_dd a)
+{
+    derive_dd s, c;
+    dd_sincos(a, &s, &c);
+    return c;
+}
+#endif
+
 /* ======================================================================== */
 /* double */
 /* ======================================================================== */
+#ifndef SPHERICAL_ROT_TAYLOR_SKIP_DOUBLE
+
+#define R double
+#define S double
+#define T_ADD(a, b) ((a) + (b))
+#define T_SUB(a, b) ((a) - (b))
+#define T_MUL(a, b) ((a) * (b))
+#define T_DIV(a, b) ((a) / (b))
+#define T_NEG(a) (-(a))
+#define T_MULI(a, i) ((a) * (double)(i))
+#define T_DIVI(a, i) ((a) / (double)(i))
+#define T_INT(i) ((double)(i))
+#define T_D(x) ((double)(x))
+#define T_SQRT(a) sqrt(a)
+#define T_SIN(a) sin(a)
+#define T_COS(a) cos(a)
+#define T_EXP(a) exp(a)
+#define T_S(a) (a)
+#define T_ABS(a) fabs(a)
+#define T_FROMS(x) (x)
+#define T_LE(a, b) ((a) <= (b))
 
 /* coefficient k of a b */
-static double spherical_rot_tmul(const double *a, const double *b, int k)
+static R spherical_rot_tmul(const R *a, const R *b, int k)
 {
-    double acc = 0;
+    R acc = T_INT(0);
     int j;
     TAYLOR_UNROLL
     for (j = 0; j <= k; ++j) {
-        acc += a[j] * b[k - j];
+        acc = T_ADD(acc, T_MUL(a[j], b[k - j]));
     }
     return acc;
 }
 
 /* coefficient k of u = a / b, given a_k and u_0..u_{k-1} */
-static double spherical_rot_tdiv(double ak, const double *b, const double *u, int k)
+static R spherical_rot_tdiv(R ak, const R *b, const R *u, int k)
 {
-    double acc = ak;
+    R acc = ak;
     int j;
     for (j = 1; j <= k; ++j) {
-        acc -= b[j] * u[k - j];
+        acc = T_SUB(acc, T_MUL(b[j], u[k - j]));
     }
-    return acc / b[0];
+    return T_DIV(acc, b[0]);
 }
 
 /* (1/k) sum_{j=1..k} j a_j w_{k-j}: coefficient k (k >= 1) of sin a (w = cos a), of
  * -cos a (w = sin a) and of exp a (w = exp a) */
-static double spherical_rot_tchain(const double *a, const double *w, int k)
+static R spherical_rot_tchain(const R *a, const R *w, int k)
 {
-    double acc = 0;
+    R acc = T_INT(0);
     int j;
     TAYLOR_UNROLL
     for (j = 1; j <= k; ++j) {
-        acc += (double)j * a[j] * w[k - j];
+        acc = T_ADD(acc, T_MUL(T_MULI(a[j], j), w[k - j]));
     }
-    return acc / (double)k;
+    return T_DIVI(acc, k);
 }
 
-#define R double
 #define TAYLOR_MUL spherical_rot_tmul
 #define TAYLOR_DIV spherical_rot_tdiv
 #define TAYLOR_SQRT spherical_rot_tsqrt
 #define TAYLOR_SIN(a, c, k) spherical_rot_tchain(a, c, k)
-#define TAYLOR_COS(a, s, k) (-spherical_rot_tchain(a, s, k))
+#define TAYLOR_COS(a, s, k) T_NEG(spherical_rot_tchain(a, s, k))
 #define TAYLOR_EXP(a, u, k) spherical_rot_tchain(a, u, k)
-#define SIN sin
-#define COS cos
-#define EXP exp
 
 /* X[i][1..order] from X[i][0]: the recurrences, order by order. */
-static int spherical_rot_taylor_jet(double (*X)[ORDER_DIM], const double *p, int order_wanted, double sine_min)
+static int spherical_rot_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
-    double J[NODES][ORDER_DIM];
-    double C[NCONST];
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
     const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
     int k;
     if (order < 1 || order > ORDER_DIM - 1) {
@@ -104,236 +289,225 @@ static int spherical_rot_taylor_jet(double (*X)[ORDER_DIM], const double *p, int
     C[11] = 2*p[2]*p[2]*(p[0] + p[1])/p[1];
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[8][k] = k == 0 ? SIN(X[1][0]) : TAYLOR_SIN(X[1], J[9], k);
-        J[9][k] = k == 0 ? COS(X[1][0]) : TAYLOR_COS(X[1], J[8], k);
-        J[10][k] = k == 0 ? SIN(X[3][0]) : TAYLOR_SIN(X[3], J[11], k);
-        J[11][k] = k == 0 ? COS(X[3][0]) : TAYLOR_COS(X[3], J[10], k);
+        J[8][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[9], k);
+        J[9][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[8], k);
+        J[10][k] = k == 0 ? T_SIN(X[3][0]) : TAYLOR_SIN(X[3], J[11], k);
+        J[11][k] = k == 0 ? T_COS(X[3][0]) : TAYLOR_COS(X[3], J[10], k);
         J[12][k] = TAYLOR_MUL(J[8], J[11], k);
         J[13][k] = TAYLOR_MUL(J[10], J[9], k);
-        J[14][k] = J[12][k] - J[13][k];
-        J[15][k] = k == 0 ? SIN(X[2][0]) : TAYLOR_SIN(X[2], J[16], k);
-        J[16][k] = k == 0 ? COS(X[2][0]) : TAYLOR_COS(X[2], J[15], k);
-        J[17][k] = C[0] * J[16][k];
-        J[18][k] = C[1] * J[17][k];
+        J[14][k] = T_SUB(J[12][k], J[13][k]);
+        J[15][k] = k == 0 ? T_SIN(X[2][0]) : TAYLOR_SIN(X[2], J[16], k);
+        J[16][k] = k == 0 ? T_COS(X[2][0]) : TAYLOR_COS(X[2], J[15], k);
+        J[17][k] = T_MUL(C[0], J[16][k]);
+        J[18][k] = T_MUL(C[1], J[17][k]);
         J[19][k] = TAYLOR_MUL(J[14], J[18], k);
-        J[20][k] = C[2] * J[19][k];
+        J[20][k] = T_MUL(C[2], J[19][k]);
         J[21][k] = TAYLOR_MUL(J[20], J[20], k);
-        J[22][k] = C[2] * J[21][k];
+        J[22][k] = T_MUL(C[2], J[21][k]);
         J[23][k] = TAYLOR_MUL(J[8], J[10], k);
         J[24][k] = TAYLOR_MUL(J[9], J[11], k);
-        J[25][k] = J[23][k] + J[24][k];
-        J[26][k] = C[3] * J[25][k];
+        J[25][k] = T_ADD(J[23][k], J[24][k]);
+        J[26][k] = T_MUL(C[3], J[25][k]);
         J[27][k] = TAYLOR_MUL(J[26], J[26], k);
-        J[28][k] = J[27][k] + (k == 0 ? C[4] : (R)0);
-        J[29][k] = J[22][k] - J[28][k];
-        J[30][k] = k == 0 ? SIN(X[0][0]) : TAYLOR_SIN(X[0], J[31], k);
-        J[31][k] = k == 0 ? COS(X[0][0]) : TAYLOR_COS(X[0], J[30], k);
-        J[32][k] = C[1] * J[31][k];
-        J[33][k] = C[0] * J[14][k];
+        J[28][k] = T_ADD(J[27][k], k == 0 ? C[4] : T_INT(0));
+        J[29][k] = T_SUB(J[22][k], J[28][k]);
+        J[30][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[31], k);
+        J[31][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[30], k);
+        J[32][k] = T_MUL(C[1], J[31][k]);
+        J[33][k] = T_MUL(C[0], J[14][k]);
         J[34][k] = TAYLOR_MUL(J[32], J[33], k);
         J[35][k] = TAYLOR_MUL(J[34], J[34], k);
-        J[36][k] = C[2] * J[35][k];
+        J[36][k] = T_MUL(C[2], J[35][k]);
         J[37][k] = TAYLOR_MUL(J[30], J[15], k);
         J[38][k] = TAYLOR_MUL(J[31], J[16], k);
         J[39][k] = TAYLOR_MUL(J[25], J[38], k);
-        J[40][k] = J[37][k] + J[39][k];
-        J[41][k] = C[3] * J[40][k];
+        J[40][k] = T_ADD(J[37][k], J[39][k]);
+        J[41][k] = T_MUL(C[3], J[40][k]);
         J[42][k] = TAYLOR_MUL(J[41], J[41], k);
-        J[43][k] = J[42][k] + (k == 0 ? C[4] : (R)0);
-        J[44][k] = J[36][k] - J[43][k];
+        J[43][k] = T_ADD(J[42][k], k == 0 ? C[4] : T_INT(0));
+        J[44][k] = T_SUB(J[36][k], J[43][k]);
         J[45][k] = TAYLOR_MUL(J[44], J[29], k);
         J[46][k] = TAYLOR_MUL(J[41], J[20], k);
-        J[47][k] = C[2] * J[46][k];
+        J[47][k] = T_MUL(C[2], J[46][k]);
         J[48][k] = TAYLOR_MUL(J[34], J[26], k);
-        J[49][k] = J[47][k] - J[48][k];
+        J[49][k] = T_SUB(J[47][k], J[48][k]);
         J[50][k] = TAYLOR_MUL(J[49], J[49], k);
-        J[51][k] = J[45][k] - J[50][k];
-        J[52][k] = TAYLOR_DIV((R)(k == 0), J[51], J[52], k);
+        J[51][k] = T_SUB(J[45][k], J[50][k]);
+        J[52][k] = TAYLOR_DIV(T_INT(k == 0), J[51], J[52], k);
         J[53][k] = TAYLOR_MUL(J[29], J[52], k);
         J[54][k] = TAYLOR_MUL(J[30], J[31], k);
         J[55][k] = TAYLOR_MUL(X[5], X[5], k);
         J[56][k] = TAYLOR_MUL(J[54], J[55], k);
-        J[57][k] = C[5] * J[56][k];
+        J[57][k] = T_MUL(C[5], J[56][k]);
         J[58][k] = TAYLOR_MUL(J[15], J[25], k);
         J[59][k] = TAYLOR_MUL(J[58], J[31], k);
         J[60][k] = TAYLOR_MUL(X[7], X[7], k);
         J[61][k] = TAYLOR_MUL(J[59], J[60], k);
-        J[62][k] = C[3] * J[61][k];
-        J[63][k] = J[57][k] + J[62][k];
-        J[64][k] = C[6] * J[32][k];
+        J[62][k] = T_MUL(C[3], J[61][k]);
+        J[63][k] = T_ADD(J[57][k], J[62][k]);
+        J[64][k] = T_MUL(C[6], J[32][k]);
         J[65][k] = TAYLOR_MUL(J[8], J[64], k);
-        J[66][k] = J[63][k] - J[65][k];
+        J[66][k] = T_SUB(J[63][k], J[65][k]);
         J[67][k] = TAYLOR_MUL(X[6], X[6], k);
-        J[68][k] = C[3] * J[67][k];
+        J[68][k] = T_MUL(C[3], J[67][k]);
         J[69][k] = TAYLOR_MUL(J[30], J[16], k);
         J[70][k] = TAYLOR_MUL(J[15], J[31], k);
         J[71][k] = TAYLOR_MUL(J[25], J[70], k);
-        J[72][k] = J[69][k] - J[71][k];
+        J[72][k] = T_SUB(J[69][k], J[71][k]);
         J[73][k] = TAYLOR_MUL(J[68], J[72], k);
-        J[74][k] = J[66][k] - J[73][k];
-        J[75][k] = C[7] * X[7][k];
+        J[74][k] = T_SUB(J[66][k], J[73][k]);
+        J[75][k] = T_MUL(C[7], X[7][k]);
         J[76][k] = TAYLOR_MUL(J[17], X[6], k);
         J[77][k] = TAYLOR_MUL(J[75], J[76], k);
         J[78][k] = TAYLOR_MUL(J[32], J[14], k);
         J[79][k] = TAYLOR_MUL(J[77], J[78], k);
-        J[80][k] = J[74][k] - J[79][k];
-        J[81][k] = C[8] * J[80][k];
+        J[80][k] = T_SUB(J[74][k], J[79][k]);
+        J[81][k] = T_MUL(C[8], J[80][k]);
         J[82][k] = TAYLOR_MUL(J[55], J[69], k);
         J[83][k] = TAYLOR_MUL(J[26], J[82], k);
-        J[84][k] = C[7] * X[5][k];
+        J[84][k] = T_MUL(C[7], X[5][k]);
         J[85][k] = TAYLOR_MUL(J[32], X[4], k);
         J[86][k] = TAYLOR_MUL(J[14], J[17], k);
         J[87][k] = TAYLOR_MUL(J[85], J[86], k);
         J[88][k] = TAYLOR_MUL(J[84], J[87], k);
-        J[89][k] = J[83][k] + J[88][k];
+        J[89][k] = T_ADD(J[83][k], J[88][k]);
         J[90][k] = TAYLOR_MUL(J[15], J[16], k);
         J[91][k] = TAYLOR_MUL(J[60], J[90], k);
-        J[92][k] = C[8] * J[91][k];
-        J[93][k] = J[89][k] + J[92][k];
+        J[92][k] = T_MUL(C[8], J[91][k]);
+        J[93][k] = T_ADD(J[89][k], J[92][k]);
         J[94][k] = TAYLOR_MUL(X[4], X[4], k);
         J[95][k] = TAYLOR_MUL(J[25], J[69], k);
-        J[96][k] = J[70][k] - J[95][k];
-        J[97][k] = C[3] * J[96][k];
+        J[96][k] = T_SUB(J[70][k], J[95][k]);
+        J[97][k] = T_MUL(C[3], J[96][k]);
         J[98][k] = TAYLOR_MUL(J[94], J[97], k);
-        J[99][k] = J[93][k] - J[98][k];
+        J[99][k] = T_SUB(J[93][k], J[98][k]);
         J[100][k] = TAYLOR_MUL(J[10], J[17], k);
-        J[101][k] = C[9] * J[100][k];
-        J[102][k] = J[99][k] - J[101][k];
+        J[101][k] = T_MUL(C[9], J[100][k]);
+        J[102][k] = T_SUB(J[99][k], J[101][k]);
         J[103][k] = TAYLOR_MUL(J[41], J[102], k);
-        J[104][k] = J[81][k] - J[103][k];
+        J[104][k] = T_SUB(J[81][k], J[103][k]);
         J[105][k] = TAYLOR_MUL(J[30], J[55], k);
         J[106][k] = TAYLOR_MUL(J[105], J[14], k);
-        J[107][k] = C[3] * J[106][k];
+        J[107][k] = T_MUL(C[3], J[106][k]);
         J[108][k] = TAYLOR_MUL(J[30], J[94], k);
         J[109][k] = TAYLOR_MUL(J[108], J[14], k);
-        J[110][k] = C[3] * J[109][k];
-        J[111][k] = J[107][k] + J[110][k];
-        J[112][k] = C[9] * J[11][k];
-        J[113][k] = C[0] * J[112][k];
-        J[114][k] = J[111][k] - J[113][k];
+        J[110][k] = T_MUL(C[3], J[109][k]);
+        J[111][k] = T_ADD(J[107][k], J[110][k]);
+        J[112][k] = T_MUL(C[9], J[11][k]);
+        J[113][k] = T_MUL(C[0], J[112][k]);
+        J[114][k] = T_SUB(J[111][k], J[113][k]);
         J[115][k] = TAYLOR_MUL(J[16], X[6], k);
-        J[116][k] = C[8] * J[75][k];
+        J[116][k] = T_MUL(C[8], J[75][k]);
         J[117][k] = TAYLOR_MUL(J[115], J[116], k);
-        J[118][k] = J[114][k] - J[117][k];
+        J[118][k] = T_SUB(J[114][k], J[117][k]);
         J[119][k] = TAYLOR_MUL(J[25], J[85], k);
         J[120][k] = TAYLOR_MUL(J[84], J[119], k);
-        J[121][k] = C[0] * J[120][k];
-        J[122][k] = J[118][k] - J[121][k];
+        J[121][k] = T_MUL(C[0], J[120][k]);
+        J[122][k] = T_SUB(J[118][k], J[121][k]);
         J[123][k] = TAYLOR_MUL(J[34], J[122], k);
-        J[124][k] = J[104][k] - J[123][k];
+        J[124][k] = T_SUB(J[104][k], J[123][k]);
         J[125][k] = TAYLOR_MUL(J[53], J[124], k);
         J[126][k] = TAYLOR_MUL(J[68], J[14], k);
         J[127][k] = TAYLOR_MUL(J[15], J[126], k);
-        J[128][k] = C[2] * J[127][k];
-        J[129][k] = C[10] * J[9][k];
-        J[130][k] = J[128][k] - J[129][k];
+        J[128][k] = T_MUL(C[2], J[127][k]);
+        J[129][k] = T_MUL(C[10], J[9][k]);
+        J[130][k] = T_SUB(J[128][k], J[129][k]);
         J[131][k] = TAYLOR_MUL(J[31], X[4], k);
         J[132][k] = TAYLOR_MUL(J[131], X[5], k);
-        J[133][k] = C[11] * J[132][k];
-        J[134][k] = J[130][k] - J[133][k];
+        J[133][k] = T_MUL(C[11], J[132][k]);
+        J[134][k] = T_SUB(J[130][k], J[133][k]);
         J[135][k] = TAYLOR_MUL(J[25], J[18], k);
         J[136][k] = TAYLOR_MUL(J[75], J[135], k);
         J[137][k] = TAYLOR_MUL(J[136], X[6], k);
-        J[138][k] = J[134][k] - J[137][k];
-        J[139][k] = C[3] * J[14][k];
+        J[138][k] = T_SUB(J[134][k], J[137][k]);
+        J[139][k] = T_MUL(C[3], J[14][k]);
         J[140][k] = TAYLOR_MUL(J[15], J[60], k);
         J[141][k] = TAYLOR_MUL(J[139], J[140], k);
-        J[142][k] = J[138][k] - J[141][k];
-        J[143][k] = C[8] * J[142][k];
+        J[142][k] = T_SUB(J[138][k], J[141][k]);
+        J[143][k] = T_MUL(C[8], J[142][k]);
         J[144][k] = TAYLOR_MUL(J[20], J[102], k);
-        J[145][k] = J[143][k] - J[144][k];
+        J[145][k] = T_SUB(J[143][k], J[144][k]);
         J[146][k] = TAYLOR_MUL(J[26], J[122], k);
-        J[147][k] = J[145][k] - J[146][k];
+        J[147][k] = T_SUB(J[145][k], J[146][k]);
         J[148][k] = TAYLOR_MUL(J[52], J[147], k);
         J[149][k] = TAYLOR_MUL(J[49], J[148], k);
-        J[150][k] = J[125][k] - J[149][k];
-        J[151][k] = TAYLOR_DIV((R)(k == 0), J[30], J[151], k);
+        J[150][k] = T_SUB(J[125][k], J[149][k]);
+        J[151][k] = TAYLOR_DIV(T_INT(k == 0), J[30], J[151], k);
         J[152][k] = TAYLOR_MUL(J[44], J[148], k);
         J[153][k] = TAYLOR_MUL(J[49], J[52], k);
         J[154][k] = TAYLOR_MUL(J[153], J[124], k);
-        J[155][k] = J[152][k] - J[154][k];
+        J[155][k] = T_SUB(J[152][k], J[154][k]);
         J[156][k] = TAYLOR_MUL(J[151], J[155], k);
-        J[157][k] = C[2] * J[35][k];
-        J[158][k] = J[157][k] - J[28][k];
-        J[159][k] = C[2] * J[43][k];
-        J[160][k] = J[159][k] - J[21][k];
+        J[157][k] = T_MUL(C[2], J[35][k]);
+        J[158][k] = T_SUB(J[157][k], J[28][k]);
+        J[159][k] = T_MUL(C[2], J[43][k]);
+        J[160][k] = T_SUB(J[159][k], J[21][k]);
         J[161][k] = TAYLOR_MUL(J[160], J[158], k);
         J[162][k] = TAYLOR_MUL(J[41], J[34], k);
-        J[163][k] = C[2] * J[162][k];
+        J[163][k] = T_MUL(C[2], J[162][k]);
         J[164][k] = TAYLOR_MUL(J[20], J[26], k);
-        J[165][k] = J[163][k] - J[164][k];
+        J[165][k] = T_SUB(J[163][k], J[164][k]);
         J[166][k] = TAYLOR_MUL(J[165], J[165], k);
-        J[167][k] = J[161][k] - J[166][k];
-        J[168][k] = TAYLOR_DIV((R)(k == 0), J[167], J[168], k);
+        J[167][k] = T_SUB(J[161][k], J[166][k]);
+        J[168][k] = TAYLOR_DIV(T_INT(k == 0), J[167], J[168], k);
         J[169][k] = TAYLOR_MUL(J[158], J[168], k);
-        J[170][k] = C[5] * J[102][k];
+        J[170][k] = T_MUL(C[5], J[102][k]);
         J[171][k] = TAYLOR_MUL(J[41], J[80], k);
-        J[172][k] = J[170][k] - J[171][k];
+        J[172][k] = T_SUB(J[170][k], J[171][k]);
         J[173][k] = TAYLOR_MUL(J[20], J[142], k);
-        J[174][k] = J[172][k] - J[173][k];
+        J[174][k] = T_SUB(J[172][k], J[173][k]);
         J[175][k] = TAYLOR_MUL(J[169], J[174], k);
-        J[176][k] = C[5] * J[122][k];
+        J[176][k] = T_MUL(C[5], J[122][k]);
         J[177][k] = TAYLOR_MUL(J[34], J[80], k);
-        J[178][k] = J[176][k] - J[177][k];
+        J[178][k] = T_SUB(J[176][k], J[177][k]);
         J[179][k] = TAYLOR_MUL(J[26], J[142], k);
-        J[180][k] = J[178][k] - J[179][k];
+        J[180][k] = T_SUB(J[178][k], J[179][k]);
         J[181][k] = TAYLOR_MUL(J[168], J[180], k);
         J[182][k] = TAYLOR_MUL(J[165], J[181], k);
-        J[183][k] = J[175][k] - J[182][k];
-        J[184][k] = TAYLOR_DIV((R)(k == 0), J[15], J[184], k);
+        J[183][k] = T_SUB(J[175][k], J[182][k]);
+        J[184][k] = TAYLOR_DIV(T_INT(k == 0), J[15], J[184], k);
         J[185][k] = TAYLOR_MUL(J[160], J[181], k);
         J[186][k] = TAYLOR_MUL(J[165], J[168], k);
         J[187][k] = TAYLOR_MUL(J[186], J[174], k);
-        J[188][k] = J[185][k] - J[187][k];
+        J[188][k] = T_SUB(J[185][k], J[187][k]);
         J[189][k] = TAYLOR_MUL(J[184], J[188], k);
-        if (k == 0 && (!(fabs(J[30][0]) >= sine_min) || !(fabs(J[15][0]) >= sine_min))) {
+        if (k == 0 && (!(T_ABS(J[30][0]) >= sine_min) || !(T_ABS(J[15][0]) >= sine_min))) {
             return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
         }
-        X[0][k + 1] = X[4][k] / (R)(k + 1);
-        X[1][k + 1] = X[5][k] / (R)(k + 1);
-        X[2][k + 1] = X[6][k] / (R)(k + 1);
-        X[3][k + 1] = X[7][k] / (R)(k + 1);
-        X[4][k + 1] = J[150][k] / (R)(k + 1);
-        X[5][k + 1] = J[156][k] / (R)(k + 1);
-        X[6][k + 1] = J[183][k] / (R)(k + 1);
-        X[7][k + 1] = J[189][k] / (R)(k + 1);
+        X[0][k + 1] = T_DIVI(X[4][k], k + 1);
+        X[1][k + 1] = T_DIVI(X[5][k], k + 1);
+        X[2][k + 1] = T_DIVI(X[6][k], k + 1);
+        X[3][k + 1] = T_DIVI(X[7][k], k + 1);
+        X[4][k + 1] = T_DIVI(J[150][k], k + 1);
+        X[5][k + 1] = T_DIVI(J[156][k], k + 1);
+        X[6][k + 1] = T_DIVI(J[183][k], k + 1);
+        X[7][k + 1] = T_DIVI(J[189][k], k + 1);
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
 
-#undef R
-#undef TAYLOR_MUL
-#undef TAYLOR_DIV
-#undef TAYLOR_SQRT
-#undef TAYLOR_SIN
-#undef TAYLOR_COS
-#undef TAYLOR_EXP
-#undef SIN
-#undef COS
-#undef EXP
-
-static double spherical_rot_thorner(const double *x, int order, double tau)
+static R spherical_rot_thorner(const R *x, int order, R tau)
 {
-    double acc = x[order];
+    R acc = x[order];
     int k;
     for (k = order - 1; k >= 0; --k) {
-        acc = acc * tau + x[k];
+        acc = T_ADD(T_MUL(acc, tau), x[k]);
     }
     return acc;
 }
 
-static int spherical_rot_tfinite(const double *z, long n)
+static int spherical_rot_tfinite(const R *z, long n)
 {
-    double check = 0;
+    S check = 0;
     long k;
     for (k = 0; k < n; ++k) {
-        check += z[k] - z[k];
+        check += T_S(z[k]) - T_S(z[k]);
     }
     return check == 0;
 }
 
 /* The order for a tolerance (Jorba & Zou 2005): ceil(-ln(tol)/2 + 1), in [2, ORDER_MAX]. */
-static int spherical_rot_torder(double tol)
+static int spherical_rot_torder(S tol)
 {
     double p = ceil(-log((double)tol) / 2 + 1);
     if (SPHERICAL_ROT_TAYLOR_ORDER) {
@@ -345,9 +519,9 @@ static int spherical_rot_torder(double tol)
     return p > ORDER_MAX ? ORDER_MAX : (int)p;
 }
 
-int spherical_rot_taylor_coefficients(const double *y, const double *p, int order, double *coef, double sine_min)
+int spherical_rot_taylor_coefficients(const R *y, const R *p, int order, R *coef, double sine_min)
 {
-    double X[N][ORDER_DIM];
+    R X[N][ORDER_DIM];
     int i, k, st;
     if (order < 1 || order > ORDER_DIM - 1 || (SPHERICAL_ROT_TAYLOR_ORDER && order != SPHERICAL_ROT_TAYLOR_ORDER)) {
         return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
@@ -355,7 +529,7 @@ int spherical_rot_taylor_coefficients(const double *y, const double *p, int orde
     for (i = 0; i < N; ++i) {
         X[i][0] = y[i];
     }
-    st = spherical_rot_taylor_jet(X, p, order, sine_min);
+    st = spherical_rot_taylor_jet(X, p, order, (S)sine_min);
     for (i = 0; i < N; ++i) {
         for (k = 0; k <= order; ++k) {
             coef[i * (order + 1) + k] = X[i][k];
@@ -364,13 +538,13 @@ int spherical_rot_taylor_coefficients(const double *y, const double *p, int orde
     return st;
 }
 
-int spherical_rot_taylor(const double *y0, const double *p, long nt, const double *t_out, double *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
+int spherical_rot_taylor(const R *y0, const R *p, long nt, const R *t_out, R *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
 {
-    double X[N][ORDER_DIM];
-    double t, h = 0, tend, dir, tol, m, n1, n2, rho, r, hmax, tau, span;
-    double safety;
+    R X[N][ORDER_DIM];
+    R t, h = T_INT(0), tend, tau, span;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
-    int i, order, st = SPHERICAL_ROT_INTEGRATE_OK, last;
+    int i, order, dir, st = SPHERICAL_ROT_INTEGRATE_OK, last;
     spherical_rot_integrate_info local;
 
     if (!info) {
@@ -387,25 +561,26 @@ int spherical_rot_taylor(const double *y0, const double *p, long nt, const doubl
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
-    info->t = nt > 0 ? (double)t_out[0] : 0;
+    info->local_error = 0;
+    info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
-        info->y[i] = nt > 0 ? (double)y0[i] : 0;
+        info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
     }
-    tol = (double)opt->rtol;
+    tol = (S)opt->rtol;
     if (nt < 1 || !spherical_rot_tfinite(y0, N) || !spherical_rot_tfinite(p, SPHERICAL_ROT_N_PARAMS) ||
         !spherical_rot_tfinite(t_out, nt) || !(tol > 0) || !(opt->hmax >= 0) || opt->max_steps < 1) {
         st = SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
         goto done;
     }
     for (j = 2; j < nt; ++j) {
-        if (!((t_out[j] - t_out[j - 1]) * (t_out[1] - t_out[0]) > 0)) {
+        if (!(T_S(T_SUB(t_out[j], t_out[j - 1])) * T_S(T_SUB(t_out[1], t_out[0])) > 0)) {
             st = SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
             goto done;
         }
     }
     order = spherical_rot_torder(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = exp((double)-2 - (double)0.7 / (double)(order - 1));
+    safety = exp((S)-2 - (S)0.7 / (S)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -416,13 +591,13 @@ int spherical_rot_taylor(const double *y0, const double *p, long nt, const doubl
         goto done;
     }
     tend = t_out[nt - 1];
-    dir = tend > t ? 1 : -1;
-    span = (tend - t) * dir;
-    if (!(span > 0)) {
+    dir = T_S(T_SUB(tend, t)) > 0 ? 1 : -1;
+    span = T_MULI(T_SUB(tend, t), dir);
+    if (!(T_S(span) > 0)) {
         st = SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
         goto done;
     }
-    hmax = opt->hmax > 0 ? (double)opt->hmax : span;
+    hmax = opt->hmax > 0 ? (S)opt->hmax : T_S(span);
     while (iout < nt) {
         if (steps >= opt->max_steps) {
             st = SPHERICAL_ROT_INTEGRATE_MAX_STEPS;
@@ -432,7 +607,7 @@ int spherical_rot_taylor(const double *y0, const double *p, long nt, const doubl
             st = SPHERICAL_ROT_INTEGRATE_CANCELLED;
             break;
         }
-        st = spherical_rot_taylor_jet(X, p, order, (double)opt->sine_min);
+        st = spherical_rot_taylor_jet(X, p, order, (S)opt->sine_min);
         info->nfev += 1;
         if (st) {
             break;
@@ -441,38 +616,38 @@ int spherical_rot_taylor(const double *y0, const double *p, long nt, const doubl
         n1 = 0;
         n2 = 0;
         for (i = 0; i < N; ++i) {
-            m = fabs(X[i][0]) > m ? fabs(X[i][0]) : m;
-            n1 = fabs(X[i][order - 1]) > n1 ? fabs(X[i][order - 1]) : n1;
-            n2 = fabs(X[i][order]) > n2 ? fabs(X[i][order]) : n2;
+            m = T_ABS(X[i][0]) > m ? T_ABS(X[i][0]) : m;
+            n1 = T_ABS(X[i][order - 1]) > n1 ? T_ABS(X[i][order - 1]) : n1;
+            n2 = T_ABS(X[i][order]) > n2 ? T_ABS(X[i][order]) : n2;
         }
-        if (!spherical_rot_tfinite(&n1, 1) || !spherical_rot_tfinite(&n2, 1)) {
+        if (!(n1 - n1 == 0) || !(n2 - n2 == 0)) {
             st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
             break;
         }
-        rho = hmax;             /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = pow(m / n1, (double)1 / (double)(order - 1));
-            rho = r < rho ? r : rho;
+            rho = pow(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = pow(m / n2, (double)1 / (double)order);
-            rho = r < rho ? r : rho;
+            r = pow(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
         }
-        h = rho * safety;
-        if (!(h <= hmax)) {
-            h = hmax;
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
-        if (!(h > 0)) {
+        if (!(hs > 0)) {
             st = SPHERICAL_ROT_INTEGRATE_STEP_UNDERFLOW;
             break;
         }
-        last = h >= (tend - t) * dir;
-        if (last) {
-            h = (tend - t) * dir;
-        }
+        /* the step in R: the last one exactly to tend */
+        last = hs >= T_S(T_MULI(T_SUB(tend, t), dir));
+        h = last ? T_MULI(T_SUB(tend, t), dir) : T_FROMS(hs);
         /* dense output: every output time inside this step from the series */
-        while (iout < nt && (last || (t_out[iout] - t) * dir <= h)) {
-            tau = t_out[iout] - t;
+        while (iout < nt && (last || T_LE(T_MULI(T_SUB(t_out[iout], t), dir), h))) {
+            tau = T_SUB(t_out[iout], t);
             row = iout * N;
             for (i = 0; i < N; ++i) {
                 y_out[row + i] = spherical_rot_thorner(X[i], order, tau);
@@ -488,15 +663,18 @@ int spherical_rot_taylor(const double *y0, const double *p, long nt, const doubl
             break;
         }
         for (i = 0; i < N; ++i) {
-            X[i][0] = spherical_rot_thorner(X[i], order, dir * h);
+            X[i][0] = spherical_rot_thorner(X[i], order, T_MULI(h, dir));
         }
-        t = last ? tend : t + dir * h;
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * pow(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
+        t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
-        info->t = (double)t;
-        info->h = (double)(dir * h);
+        info->t = (double)T_S(t);
+        info->h = (double)T_S(T_MULI(h, dir));
         for (i = 0; i < N; ++i) {
-            info->y[i] = (double)X[i][0];
+            info->y[i] = (double)T_S(X[i][0]);
         }
         if (!spherical_rot_tfinite(&X[0][0], 1)) {
             st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
@@ -516,7 +694,7 @@ done:
     return st;
 }
 
-long spherical_rot_taylor_batch(long n, const double *y0, long y0_stride, const double *p, long p_stride, long nt, const double *t, double *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
+long spherical_rot_taylor_batch(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
 {
     long i, failed = 0;
     for (i = 0; i < n; ++i) {
@@ -527,62 +705,106 @@ long spherical_rot_taylor_batch(long n, const double *y0, long y0_stride, const 
     return failed;
 }
 
+#undef R
+#undef S
+#undef T_ADD
+#undef T_SUB
+#undef T_MUL
+#undef T_DIV
+#undef T_NEG
+#undef T_MULI
+#undef T_DIVI
+#undef T_INT
+#undef T_D
+#undef T_SQRT
+#undef T_SIN
+#undef T_COS
+#undef T_EXP
+#undef T_S
+#undef T_ABS
+#undef T_FROMS
+#undef T_LE
+#undef TAYLOR_MUL
+#undef TAYLOR_DIV
+#undef TAYLOR_SQRT
+#undef TAYLOR_SIN
+#undef TAYLOR_COS
+#undef TAYLOR_EXP
+#endif /* SPHERICAL_ROT_TAYLOR_SKIP_DOUBLE */
+
 /* ======================================================================== */
 /* float */
 /* ======================================================================== */
+#ifndef SPHERICAL_ROT_TAYLOR_SKIP_FLOAT
+
+#define R float
+#define S float
+#define T_ADD(a, b) ((a) + (b))
+#define T_SUB(a, b) ((a) - (b))
+#define T_MUL(a, b) ((a) * (b))
+#define T_DIV(a, b) ((a) / (b))
+#define T_NEG(a) (-(a))
+#define T_MULI(a, i) ((a) * (float)(i))
+#define T_DIVI(a, i) ((a) / (float)(i))
+#define T_INT(i) ((float)(i))
+#define T_D(x) ((float)(x))
+#define T_SQRT(a) sqrtf(a)
+#define T_SIN(a) sinf(a)
+#define T_COS(a) cosf(a)
+#define T_EXP(a) expf(a)
+#define T_S(a) (a)
+#define T_ABS(a) fabsf(a)
+#define T_FROMS(x) (x)
+#define T_LE(a, b) ((a) <= (b))
 
 /* coefficient k of a b */
-static float spherical_rot_tmul_f(const float *a, const float *b, int k)
+static R spherical_rot_tmul_f(const R *a, const R *b, int k)
 {
-    float acc = 0;
+    R acc = T_INT(0);
     int j;
     TAYLOR_UNROLL
     for (j = 0; j <= k; ++j) {
-        acc += a[j] * b[k - j];
+        acc = T_ADD(acc, T_MUL(a[j], b[k - j]));
     }
     return acc;
 }
 
 /* coefficient k of u = a / b, given a_k and u_0..u_{k-1} */
-static float spherical_rot_tdiv_f(float ak, const float *b, const float *u, int k)
+static R spherical_rot_tdiv_f(R ak, const R *b, const R *u, int k)
 {
-    float acc = ak;
+    R acc = ak;
     int j;
     for (j = 1; j <= k; ++j) {
-        acc -= b[j] * u[k - j];
+        acc = T_SUB(acc, T_MUL(b[j], u[k - j]));
     }
-    return acc / b[0];
+    return T_DIV(acc, b[0]);
 }
 
 /* (1/k) sum_{j=1..k} j a_j w_{k-j}: coefficient k (k >= 1) of sin a (w = cos a), of
  * -cos a (w = sin a) and of exp a (w = exp a) */
-static float spherical_rot_tchain_f(const float *a, const float *w, int k)
+static R spherical_rot_tchain_f(const R *a, const R *w, int k)
 {
-    float acc = 0;
+    R acc = T_INT(0);
     int j;
     TAYLOR_UNROLL
     for (j = 1; j <= k; ++j) {
-        acc += (float)j * a[j] * w[k - j];
+        acc = T_ADD(acc, T_MUL(T_MULI(a[j], j), w[k - j]));
     }
-    return acc / (float)k;
+    return T_DIVI(acc, k);
 }
 
-#define R float
 #define TAYLOR_MUL spherical_rot_tmul_f
 #define TAYLOR_DIV spherical_rot_tdiv_f
 #define TAYLOR_SQRT spherical_rot_tsqrt_f
 #define TAYLOR_SIN(a, c, k) spherical_rot_tchain_f(a, c, k)
-#define TAYLOR_COS(a, s, k) (-spherical_rot_tchain_f(a, s, k))
+#define TAYLOR_COS(a, s, k) T_NEG(spherical_rot_tchain_f(a, s, k))
 #define TAYLOR_EXP(a, u, k) spherical_rot_tchain_f(a, u, k)
-#define SIN sinf
-#define COS cosf
-#define EXP expf
 
 /* X[i][1..order] from X[i][0]: the recurrences, order by order. */
-static int spherical_rot_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int order_wanted, float sine_min)
+static int spherical_rot_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
-    float J[NODES][ORDER_DIM];
-    float C[NCONST];
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
     const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
     int k;
     if (order < 1 || order > ORDER_DIM - 1) {
@@ -602,236 +824,225 @@ static int spherical_rot_taylor_jet_f(float (*X)[ORDER_DIM], const float *p, int
     C[11] = 2*p[2]*p[2]*(p[0] + p[1])/p[1];
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[8][k] = k == 0 ? SIN(X[1][0]) : TAYLOR_SIN(X[1], J[9], k);
-        J[9][k] = k == 0 ? COS(X[1][0]) : TAYLOR_COS(X[1], J[8], k);
-        J[10][k] = k == 0 ? SIN(X[3][0]) : TAYLOR_SIN(X[3], J[11], k);
-        J[11][k] = k == 0 ? COS(X[3][0]) : TAYLOR_COS(X[3], J[10], k);
+        J[8][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[9], k);
+        J[9][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[8], k);
+        J[10][k] = k == 0 ? T_SIN(X[3][0]) : TAYLOR_SIN(X[3], J[11], k);
+        J[11][k] = k == 0 ? T_COS(X[3][0]) : TAYLOR_COS(X[3], J[10], k);
         J[12][k] = TAYLOR_MUL(J[8], J[11], k);
         J[13][k] = TAYLOR_MUL(J[10], J[9], k);
-        J[14][k] = J[12][k] - J[13][k];
-        J[15][k] = k == 0 ? SIN(X[2][0]) : TAYLOR_SIN(X[2], J[16], k);
-        J[16][k] = k == 0 ? COS(X[2][0]) : TAYLOR_COS(X[2], J[15], k);
-        J[17][k] = C[0] * J[16][k];
-        J[18][k] = C[1] * J[17][k];
+        J[14][k] = T_SUB(J[12][k], J[13][k]);
+        J[15][k] = k == 0 ? T_SIN(X[2][0]) : TAYLOR_SIN(X[2], J[16], k);
+        J[16][k] = k == 0 ? T_COS(X[2][0]) : TAYLOR_COS(X[2], J[15], k);
+        J[17][k] = T_MUL(C[0], J[16][k]);
+        J[18][k] = T_MUL(C[1], J[17][k]);
         J[19][k] = TAYLOR_MUL(J[14], J[18], k);
-        J[20][k] = C[2] * J[19][k];
+        J[20][k] = T_MUL(C[2], J[19][k]);
         J[21][k] = TAYLOR_MUL(J[20], J[20], k);
-        J[22][k] = C[2] * J[21][k];
+        J[22][k] = T_MUL(C[2], J[21][k]);
         J[23][k] = TAYLOR_MUL(J[8], J[10], k);
         J[24][k] = TAYLOR_MUL(J[9], J[11], k);
-        J[25][k] = J[23][k] + J[24][k];
-        J[26][k] = C[3] * J[25][k];
+        J[25][k] = T_ADD(J[23][k], J[24][k]);
+        J[26][k] = T_MUL(C[3], J[25][k]);
         J[27][k] = TAYLOR_MUL(J[26], J[26], k);
-        J[28][k] = J[27][k] + (k == 0 ? C[4] : (R)0);
-        J[29][k] = J[22][k] - J[28][k];
-        J[30][k] = k == 0 ? SIN(X[0][0]) : TAYLOR_SIN(X[0], J[31], k);
-        J[31][k] = k == 0 ? COS(X[0][0]) : TAYLOR_COS(X[0], J[30], k);
-        J[32][k] = C[1] * J[31][k];
-        J[33][k] = C[0] * J[14][k];
+        J[28][k] = T_ADD(J[27][k], k == 0 ? C[4] : T_INT(0));
+        J[29][k] = T_SUB(J[22][k], J[28][k]);
+        J[30][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[31], k);
+        J[31][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[30], k);
+        J[32][k] = T_MUL(C[1], J[31][k]);
+        J[33][k] = T_MUL(C[0], J[14][k]);
         J[34][k] = TAYLOR_MUL(J[32], J[33], k);
         J[35][k] = TAYLOR_MUL(J[34], J[34], k);
-        J[36][k] = C[2] * J[35][k];
+        J[36][k] = T_MUL(C[2], J[35][k]);
         J[37][k] = TAYLOR_MUL(J[30], J[15], k);
         J[38][k] = TAYLOR_MUL(J[31], J[16], k);
         J[39][k] = TAYLOR_MUL(J[25], J[38], k);
-        J[40][k] = J[37][k] + J[39][k];
-        J[41][k] = C[3] * J[40][k];
+        J[40][k] = T_ADD(J[37][k], J[39][k]);
+        J[41][k] = T_MUL(C[3], J[40][k]);
         J[42][k] = TAYLOR_MUL(J[41], J[41], k);
-        J[43][k] = J[42][k] + (k == 0 ? C[4] : (R)0);
-        J[44][k] = J[36][k] - J[43][k];
+        J[43][k] = T_ADD(J[42][k], k == 0 ? C[4] : T_INT(0));
+        J[44][k] = T_SUB(J[36][k], J[43][k]);
         J[45][k] = TAYLOR_MUL(J[44], J[29], k);
         J[46][k] = TAYLOR_MUL(J[41], J[20], k);
-        J[47][k] = C[2] * J[46][k];
+        J[47][k] = T_MUL(C[2], J[46][k]);
         J[48][k] = TAYLOR_MUL(J[34], J[26], k);
-        J[49][k] = J[47][k] - J[48][k];
+        J[49][k] = T_SUB(J[47][k], J[48][k]);
         J[50][k] = TAYLOR_MUL(J[49], J[49], k);
-        J[51][k] = J[45][k] - J[50][k];
-        J[52][k] = TAYLOR_DIV((R)(k == 0), J[51], J[52], k);
+        J[51][k] = T_SUB(J[45][k], J[50][k]);
+        J[52][k] = TAYLOR_DIV(T_INT(k == 0), J[51], J[52], k);
         J[53][k] = TAYLOR_MUL(J[29], J[52], k);
         J[54][k] = TAYLOR_MUL(J[30], J[31], k);
         J[55][k] = TAYLOR_MUL(X[5], X[5], k);
         J[56][k] = TAYLOR_MUL(J[54], J[55], k);
-        J[57][k] = C[5] * J[56][k];
+        J[57][k] = T_MUL(C[5], J[56][k]);
         J[58][k] = TAYLOR_MUL(J[15], J[25], k);
         J[59][k] = TAYLOR_MUL(J[58], J[31], k);
         J[60][k] = TAYLOR_MUL(X[7], X[7], k);
         J[61][k] = TAYLOR_MUL(J[59], J[60], k);
-        J[62][k] = C[3] * J[61][k];
-        J[63][k] = J[57][k] + J[62][k];
-        J[64][k] = C[6] * J[32][k];
+        J[62][k] = T_MUL(C[3], J[61][k]);
+        J[63][k] = T_ADD(J[57][k], J[62][k]);
+        J[64][k] = T_MUL(C[6], J[32][k]);
         J[65][k] = TAYLOR_MUL(J[8], J[64], k);
-        J[66][k] = J[63][k] - J[65][k];
+        J[66][k] = T_SUB(J[63][k], J[65][k]);
         J[67][k] = TAYLOR_MUL(X[6], X[6], k);
-        J[68][k] = C[3] * J[67][k];
+        J[68][k] = T_MUL(C[3], J[67][k]);
         J[69][k] = TAYLOR_MUL(J[30], J[16], k);
         J[70][k] = TAYLOR_MUL(J[15], J[31], k);
         J[71][k] = TAYLOR_MUL(J[25], J[70], k);
-        J[72][k] = J[69][k] - J[71][k];
+        J[72][k] = T_SUB(J[69][k], J[71][k]);
         J[73][k] = TAYLOR_MUL(J[68], J[72], k);
-        J[74][k] = J[66][k] - J[73][k];
-        J[75][k] = C[7] * X[7][k];
+        J[74][k] = T_SUB(J[66][k], J[73][k]);
+        J[75][k] = T_MUL(C[7], X[7][k]);
         J[76][k] = TAYLOR_MUL(J[17], X[6], k);
         J[77][k] = TAYLOR_MUL(J[75], J[76], k);
         J[78][k] = TAYLOR_MUL(J[32], J[14], k);
         J[79][k] = TAYLOR_MUL(J[77], J[78], k);
-        J[80][k] = J[74][k] - J[79][k];
-        J[81][k] = C[8] * J[80][k];
+        J[80][k] = T_SUB(J[74][k], J[79][k]);
+        J[81][k] = T_MUL(C[8], J[80][k]);
         J[82][k] = TAYLOR_MUL(J[55], J[69], k);
         J[83][k] = TAYLOR_MUL(J[26], J[82], k);
-        J[84][k] = C[7] * X[5][k];
+        J[84][k] = T_MUL(C[7], X[5][k]);
         J[85][k] = TAYLOR_MUL(J[32], X[4], k);
         J[86][k] = TAYLOR_MUL(J[14], J[17], k);
         J[87][k] = TAYLOR_MUL(J[85], J[86], k);
         J[88][k] = TAYLOR_MUL(J[84], J[87], k);
-        J[89][k] = J[83][k] + J[88][k];
+        J[89][k] = T_ADD(J[83][k], J[88][k]);
         J[90][k] = TAYLOR_MUL(J[15], J[16], k);
         J[91][k] = TAYLOR_MUL(J[60], J[90], k);
-        J[92][k] = C[8] * J[91][k];
-        J[93][k] = J[89][k] + J[92][k];
+        J[92][k] = T_MUL(C[8], J[91][k]);
+        J[93][k] = T_ADD(J[89][k], J[92][k]);
         J[94][k] = TAYLOR_MUL(X[4], X[4], k);
         J[95][k] = TAYLOR_MUL(J[25], J[69], k);
-        J[96][k] = J[70][k] - J[95][k];
-        J[97][k] = C[3] * J[96][k];
+        J[96][k] = T_SUB(J[70][k], J[95][k]);
+        J[97][k] = T_MUL(C[3], J[96][k]);
         J[98][k] = TAYLOR_MUL(J[94], J[97], k);
-        J[99][k] = J[93][k] - J[98][k];
+        J[99][k] = T_SUB(J[93][k], J[98][k]);
         J[100][k] = TAYLOR_MUL(J[10], J[17], k);
-        J[101][k] = C[9] * J[100][k];
-        J[102][k] = J[99][k] - J[101][k];
+        J[101][k] = T_MUL(C[9], J[100][k]);
+        J[102][k] = T_SUB(J[99][k], J[101][k]);
         J[103][k] = TAYLOR_MUL(J[41], J[102], k);
-        J[104][k] = J[81][k] - J[103][k];
+        J[104][k] = T_SUB(J[81][k], J[103][k]);
         J[105][k] = TAYLOR_MUL(J[30], J[55], k);
         J[106][k] = TAYLOR_MUL(J[105], J[14], k);
-        J[107][k] = C[3] * J[106][k];
+        J[107][k] = T_MUL(C[3], J[106][k]);
         J[108][k] = TAYLOR_MUL(J[30], J[94], k);
         J[109][k] = TAYLOR_MUL(J[108], J[14], k);
-        J[110][k] = C[3] * J[109][k];
-        J[111][k] = J[107][k] + J[110][k];
-        J[112][k] = C[9] * J[11][k];
-        J[113][k] = C[0] * J[112][k];
-        J[114][k] = J[111][k] - J[113][k];
+        J[110][k] = T_MUL(C[3], J[109][k]);
+        J[111][k] = T_ADD(J[107][k], J[110][k]);
+        J[112][k] = T_MUL(C[9], J[11][k]);
+        J[113][k] = T_MUL(C[0], J[112][k]);
+        J[114][k] = T_SUB(J[111][k], J[113][k]);
         J[115][k] = TAYLOR_MUL(J[16], X[6], k);
-        J[116][k] = C[8] * J[75][k];
+        J[116][k] = T_MUL(C[8], J[75][k]);
         J[117][k] = TAYLOR_MUL(J[115], J[116], k);
-        J[118][k] = J[114][k] - J[117][k];
+        J[118][k] = T_SUB(J[114][k], J[117][k]);
         J[119][k] = TAYLOR_MUL(J[25], J[85], k);
         J[120][k] = TAYLOR_MUL(J[84], J[119], k);
-        J[121][k] = C[0] * J[120][k];
-        J[122][k] = J[118][k] - J[121][k];
+        J[121][k] = T_MUL(C[0], J[120][k]);
+        J[122][k] = T_SUB(J[118][k], J[121][k]);
         J[123][k] = TAYLOR_MUL(J[34], J[122], k);
-        J[124][k] = J[104][k] - J[123][k];
+        J[124][k] = T_SUB(J[104][k], J[123][k]);
         J[125][k] = TAYLOR_MUL(J[53], J[124], k);
         J[126][k] = TAYLOR_MUL(J[68], J[14], k);
         J[127][k] = TAYLOR_MUL(J[15], J[126], k);
-        J[128][k] = C[2] * J[127][k];
-        J[129][k] = C[10] * J[9][k];
-        J[130][k] = J[128][k] - J[129][k];
+        J[128][k] = T_MUL(C[2], J[127][k]);
+        J[129][k] = T_MUL(C[10], J[9][k]);
+        J[130][k] = T_SUB(J[128][k], J[129][k]);
         J[131][k] = TAYLOR_MUL(J[31], X[4], k);
         J[132][k] = TAYLOR_MUL(J[131], X[5], k);
-        J[133][k] = C[11] * J[132][k];
-        J[134][k] = J[130][k] - J[133][k];
+        J[133][k] = T_MUL(C[11], J[132][k]);
+        J[134][k] = T_SUB(J[130][k], J[133][k]);
         J[135][k] = TAYLOR_MUL(J[25], J[18], k);
         J[136][k] = TAYLOR_MUL(J[75], J[135], k);
         J[137][k] = TAYLOR_MUL(J[136], X[6], k);
-        J[138][k] = J[134][k] - J[137][k];
-        J[139][k] = C[3] * J[14][k];
+        J[138][k] = T_SUB(J[134][k], J[137][k]);
+        J[139][k] = T_MUL(C[3], J[14][k]);
         J[140][k] = TAYLOR_MUL(J[15], J[60], k);
         J[141][k] = TAYLOR_MUL(J[139], J[140], k);
-        J[142][k] = J[138][k] - J[141][k];
-        J[143][k] = C[8] * J[142][k];
+        J[142][k] = T_SUB(J[138][k], J[141][k]);
+        J[143][k] = T_MUL(C[8], J[142][k]);
         J[144][k] = TAYLOR_MUL(J[20], J[102], k);
-        J[145][k] = J[143][k] - J[144][k];
+        J[145][k] = T_SUB(J[143][k], J[144][k]);
         J[146][k] = TAYLOR_MUL(J[26], J[122], k);
-        J[147][k] = J[145][k] - J[146][k];
+        J[147][k] = T_SUB(J[145][k], J[146][k]);
         J[148][k] = TAYLOR_MUL(J[52], J[147], k);
         J[149][k] = TAYLOR_MUL(J[49], J[148], k);
-        J[150][k] = J[125][k] - J[149][k];
-        J[151][k] = TAYLOR_DIV((R)(k == 0), J[30], J[151], k);
+        J[150][k] = T_SUB(J[125][k], J[149][k]);
+        J[151][k] = TAYLOR_DIV(T_INT(k == 0), J[30], J[151], k);
         J[152][k] = TAYLOR_MUL(J[44], J[148], k);
         J[153][k] = TAYLOR_MUL(J[49], J[52], k);
         J[154][k] = TAYLOR_MUL(J[153], J[124], k);
-        J[155][k] = J[152][k] - J[154][k];
+        J[155][k] = T_SUB(J[152][k], J[154][k]);
         J[156][k] = TAYLOR_MUL(J[151], J[155], k);
-        J[157][k] = C[2] * J[35][k];
-        J[158][k] = J[157][k] - J[28][k];
-        J[159][k] = C[2] * J[43][k];
-        J[160][k] = J[159][k] - J[21][k];
+        J[157][k] = T_MUL(C[2], J[35][k]);
+        J[158][k] = T_SUB(J[157][k], J[28][k]);
+        J[159][k] = T_MUL(C[2], J[43][k]);
+        J[160][k] = T_SUB(J[159][k], J[21][k]);
         J[161][k] = TAYLOR_MUL(J[160], J[158], k);
         J[162][k] = TAYLOR_MUL(J[41], J[34], k);
-        J[163][k] = C[2] * J[162][k];
+        J[163][k] = T_MUL(C[2], J[162][k]);
         J[164][k] = TAYLOR_MUL(J[20], J[26], k);
-        J[165][k] = J[163][k] - J[164][k];
+        J[165][k] = T_SUB(J[163][k], J[164][k]);
         J[166][k] = TAYLOR_MUL(J[165], J[165], k);
-        J[167][k] = J[161][k] - J[166][k];
-        J[168][k] = TAYLOR_DIV((R)(k == 0), J[167], J[168], k);
+        J[167][k] = T_SUB(J[161][k], J[166][k]);
+        J[168][k] = TAYLOR_DIV(T_INT(k == 0), J[167], J[168], k);
         J[169][k] = TAYLOR_MUL(J[158], J[168], k);
-        J[170][k] = C[5] * J[102][k];
+        J[170][k] = T_MUL(C[5], J[102][k]);
         J[171][k] = TAYLOR_MUL(J[41], J[80], k);
-        J[172][k] = J[170][k] - J[171][k];
+        J[172][k] = T_SUB(J[170][k], J[171][k]);
         J[173][k] = TAYLOR_MUL(J[20], J[142], k);
-        J[174][k] = J[172][k] - J[173][k];
+        J[174][k] = T_SUB(J[172][k], J[173][k]);
         J[175][k] = TAYLOR_MUL(J[169], J[174], k);
-        J[176][k] = C[5] * J[122][k];
+        J[176][k] = T_MUL(C[5], J[122][k]);
         J[177][k] = TAYLOR_MUL(J[34], J[80], k);
-        J[178][k] = J[176][k] - J[177][k];
+        J[178][k] = T_SUB(J[176][k], J[177][k]);
         J[179][k] = TAYLOR_MUL(J[26], J[142], k);
-        J[180][k] = J[178][k] - J[179][k];
+        J[180][k] = T_SUB(J[178][k], J[179][k]);
         J[181][k] = TAYLOR_MUL(J[168], J[180], k);
         J[182][k] = TAYLOR_MUL(J[165], J[181], k);
-        J[183][k] = J[175][k] - J[182][k];
-        J[184][k] = TAYLOR_DIV((R)(k == 0), J[15], J[184], k);
+        J[183][k] = T_SUB(J[175][k], J[182][k]);
+        J[184][k] = TAYLOR_DIV(T_INT(k == 0), J[15], J[184], k);
         J[185][k] = TAYLOR_MUL(J[160], J[181], k);
         J[186][k] = TAYLOR_MUL(J[165], J[168], k);
         J[187][k] = TAYLOR_MUL(J[186], J[174], k);
-        J[188][k] = J[185][k] - J[187][k];
+        J[188][k] = T_SUB(J[185][k], J[187][k]);
         J[189][k] = TAYLOR_MUL(J[184], J[188], k);
-        if (k == 0 && (!(fabsf(J[30][0]) >= sine_min) || !(fabsf(J[15][0]) >= sine_min))) {
+        if (k == 0 && (!(T_ABS(J[30][0]) >= sine_min) || !(T_ABS(J[15][0]) >= sine_min))) {
             return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
         }
-        X[0][k + 1] = X[4][k] / (R)(k + 1);
-        X[1][k + 1] = X[5][k] / (R)(k + 1);
-        X[2][k + 1] = X[6][k] / (R)(k + 1);
-        X[3][k + 1] = X[7][k] / (R)(k + 1);
-        X[4][k + 1] = J[150][k] / (R)(k + 1);
-        X[5][k + 1] = J[156][k] / (R)(k + 1);
-        X[6][k + 1] = J[183][k] / (R)(k + 1);
-        X[7][k + 1] = J[189][k] / (R)(k + 1);
+        X[0][k + 1] = T_DIVI(X[4][k], k + 1);
+        X[1][k + 1] = T_DIVI(X[5][k], k + 1);
+        X[2][k + 1] = T_DIVI(X[6][k], k + 1);
+        X[3][k + 1] = T_DIVI(X[7][k], k + 1);
+        X[4][k + 1] = T_DIVI(J[150][k], k + 1);
+        X[5][k + 1] = T_DIVI(J[156][k], k + 1);
+        X[6][k + 1] = T_DIVI(J[183][k], k + 1);
+        X[7][k + 1] = T_DIVI(J[189][k], k + 1);
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
 
-#undef R
-#undef TAYLOR_MUL
-#undef TAYLOR_DIV
-#undef TAYLOR_SQRT
-#undef TAYLOR_SIN
-#undef TAYLOR_COS
-#undef TAYLOR_EXP
-#undef SIN
-#undef COS
-#undef EXP
-
-static float spherical_rot_thorner_f(const float *x, int order, float tau)
+static R spherical_rot_thorner_f(const R *x, int order, R tau)
 {
-    float acc = x[order];
+    R acc = x[order];
     int k;
     for (k = order - 1; k >= 0; --k) {
-        acc = acc * tau + x[k];
+        acc = T_ADD(T_MUL(acc, tau), x[k]);
     }
     return acc;
 }
 
-static int spherical_rot_tfinite_f(const float *z, long n)
+static int spherical_rot_tfinite_f(const R *z, long n)
 {
-    float check = 0;
+    S check = 0;
     long k;
     for (k = 0; k < n; ++k) {
-        check += z[k] - z[k];
+        check += T_S(z[k]) - T_S(z[k]);
     }
     return check == 0;
 }
 
 /* The order for a tolerance (Jorba & Zou 2005): ceil(-ln(tol)/2 + 1), in [2, ORDER_MAX]. */
-static int spherical_rot_torder_f(float tol)
+static int spherical_rot_torder_f(S tol)
 {
     double p = ceil(-log((double)tol) / 2 + 1);
     if (SPHERICAL_ROT_TAYLOR_ORDER) {
@@ -843,9 +1054,9 @@ static int spherical_rot_torder_f(float tol)
     return p > ORDER_MAX ? ORDER_MAX : (int)p;
 }
 
-int spherical_rot_taylor_coefficients_f(const float *y, const float *p, int order, float *coef, float sine_min)
+int spherical_rot_taylor_coefficients_f(const R *y, const R *p, int order, R *coef, double sine_min)
 {
-    float X[N][ORDER_DIM];
+    R X[N][ORDER_DIM];
     int i, k, st;
     if (order < 1 || order > ORDER_DIM - 1 || (SPHERICAL_ROT_TAYLOR_ORDER && order != SPHERICAL_ROT_TAYLOR_ORDER)) {
         return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
@@ -853,7 +1064,7 @@ int spherical_rot_taylor_coefficients_f(const float *y, const float *p, int orde
     for (i = 0; i < N; ++i) {
         X[i][0] = y[i];
     }
-    st = spherical_rot_taylor_jet_f(X, p, order, sine_min);
+    st = spherical_rot_taylor_jet_f(X, p, order, (S)sine_min);
     for (i = 0; i < N; ++i) {
         for (k = 0; k <= order; ++k) {
             coef[i * (order + 1) + k] = X[i][k];
@@ -862,13 +1073,13 @@ int spherical_rot_taylor_coefficients_f(const float *y, const float *p, int orde
     return st;
 }
 
-int spherical_rot_taylor_f(const float *y0, const float *p, long nt, const float *t_out, float *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
+int spherical_rot_taylor_f(const R *y0, const R *p, long nt, const R *t_out, R *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
 {
-    float X[N][ORDER_DIM];
-    float t, h = 0, tend, dir, tol, m, n1, n2, rho, r, hmax, tau, span;
-    float safety;
+    R X[N][ORDER_DIM];
+    R t, h = T_INT(0), tend, tau, span;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
-    int i, order, st = SPHERICAL_ROT_INTEGRATE_OK, last;
+    int i, order, dir, st = SPHERICAL_ROT_INTEGRATE_OK, last;
     spherical_rot_integrate_info local;
 
     if (!info) {
@@ -885,25 +1096,26 @@ int spherical_rot_taylor_f(const float *y0, const float *p, long nt, const float
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
-    info->t = nt > 0 ? (double)t_out[0] : 0;
+    info->local_error = 0;
+    info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
-        info->y[i] = nt > 0 ? (double)y0[i] : 0;
+        info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
     }
-    tol = (float)opt->rtol;
+    tol = (S)opt->rtol;
     if (nt < 1 || !spherical_rot_tfinite_f(y0, N) || !spherical_rot_tfinite_f(p, SPHERICAL_ROT_N_PARAMS) ||
         !spherical_rot_tfinite_f(t_out, nt) || !(tol > 0) || !(opt->hmax >= 0) || opt->max_steps < 1) {
         st = SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
         goto done;
     }
     for (j = 2; j < nt; ++j) {
-        if (!((t_out[j] - t_out[j - 1]) * (t_out[1] - t_out[0]) > 0)) {
+        if (!(T_S(T_SUB(t_out[j], t_out[j - 1])) * T_S(T_SUB(t_out[1], t_out[0])) > 0)) {
             st = SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
             goto done;
         }
     }
     order = spherical_rot_torder_f(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = expf((float)-2 - (float)0.7 / (float)(order - 1));
+    safety = expf((S)-2 - (S)0.7 / (S)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -914,13 +1126,13 @@ int spherical_rot_taylor_f(const float *y0, const float *p, long nt, const float
         goto done;
     }
     tend = t_out[nt - 1];
-    dir = tend > t ? 1 : -1;
-    span = (tend - t) * dir;
-    if (!(span > 0)) {
+    dir = T_S(T_SUB(tend, t)) > 0 ? 1 : -1;
+    span = T_MULI(T_SUB(tend, t), dir);
+    if (!(T_S(span) > 0)) {
         st = SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
         goto done;
     }
-    hmax = opt->hmax > 0 ? (float)opt->hmax : span;
+    hmax = opt->hmax > 0 ? (S)opt->hmax : T_S(span);
     while (iout < nt) {
         if (steps >= opt->max_steps) {
             st = SPHERICAL_ROT_INTEGRATE_MAX_STEPS;
@@ -930,7 +1142,7 @@ int spherical_rot_taylor_f(const float *y0, const float *p, long nt, const float
             st = SPHERICAL_ROT_INTEGRATE_CANCELLED;
             break;
         }
-        st = spherical_rot_taylor_jet_f(X, p, order, (float)opt->sine_min);
+        st = spherical_rot_taylor_jet_f(X, p, order, (S)opt->sine_min);
         info->nfev += 1;
         if (st) {
             break;
@@ -939,38 +1151,38 @@ int spherical_rot_taylor_f(const float *y0, const float *p, long nt, const float
         n1 = 0;
         n2 = 0;
         for (i = 0; i < N; ++i) {
-            m = fabsf(X[i][0]) > m ? fabsf(X[i][0]) : m;
-            n1 = fabsf(X[i][order - 1]) > n1 ? fabsf(X[i][order - 1]) : n1;
-            n2 = fabsf(X[i][order]) > n2 ? fabsf(X[i][order]) : n2;
+            m = T_ABS(X[i][0]) > m ? T_ABS(X[i][0]) : m;
+            n1 = T_ABS(X[i][order - 1]) > n1 ? T_ABS(X[i][order - 1]) : n1;
+            n2 = T_ABS(X[i][order]) > n2 ? T_ABS(X[i][order]) : n2;
         }
-        if (!spherical_rot_tfinite_f(&n1, 1) || !spherical_rot_tfinite_f(&n2, 1)) {
+        if (!(n1 - n1 == 0) || !(n2 - n2 == 0)) {
             st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
             break;
         }
-        rho = hmax;             /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = powf(m / n1, (float)1 / (float)(order - 1));
-            rho = r < rho ? r : rho;
+            rho = powf(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = powf(m / n2, (float)1 / (float)order);
-            rho = r < rho ? r : rho;
+            r = powf(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
         }
-        h = rho * safety;
-        if (!(h <= hmax)) {
-            h = hmax;
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
-        if (!(h > 0)) {
+        if (!(hs > 0)) {
             st = SPHERICAL_ROT_INTEGRATE_STEP_UNDERFLOW;
             break;
         }
-        last = h >= (tend - t) * dir;
-        if (last) {
-            h = (tend - t) * dir;
-        }
+        /* the step in R: the last one exactly to tend */
+        last = hs >= T_S(T_MULI(T_SUB(tend, t), dir));
+        h = last ? T_MULI(T_SUB(tend, t), dir) : T_FROMS(hs);
         /* dense output: every output time inside this step from the series */
-        while (iout < nt && (last || (t_out[iout] - t) * dir <= h)) {
-            tau = t_out[iout] - t;
+        while (iout < nt && (last || T_LE(T_MULI(T_SUB(t_out[iout], t), dir), h))) {
+            tau = T_SUB(t_out[iout], t);
             row = iout * N;
             for (i = 0; i < N; ++i) {
                 y_out[row + i] = spherical_rot_thorner_f(X[i], order, tau);
@@ -986,15 +1198,18 @@ int spherical_rot_taylor_f(const float *y0, const float *p, long nt, const float
             break;
         }
         for (i = 0; i < N; ++i) {
-            X[i][0] = spherical_rot_thorner_f(X[i], order, dir * h);
+            X[i][0] = spherical_rot_thorner_f(X[i], order, T_MULI(h, dir));
         }
-        t = last ? tend : t + dir * h;
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * powf(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
+        t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
-        info->t = (double)t;
-        info->h = (double)(dir * h);
+        info->t = (double)T_S(t);
+        info->h = (double)T_S(T_MULI(h, dir));
         for (i = 0; i < N; ++i) {
-            info->y[i] = (double)X[i][0];
+            info->y[i] = (double)T_S(X[i][0]);
         }
         if (!spherical_rot_tfinite_f(&X[0][0], 1)) {
             st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
@@ -1014,7 +1229,7 @@ done:
     return st;
 }
 
-long spherical_rot_taylor_batch_f(long n, const float *y0, long y0_stride, const float *p, long p_stride, long nt, const float *t, float *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
+long spherical_rot_taylor_batch_f(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
 {
     long i, failed = 0;
     for (i = 0; i < n; ++i) {
@@ -1025,62 +1240,106 @@ long spherical_rot_taylor_batch_f(long n, const float *y0, long y0_stride, const
     return failed;
 }
 
+#undef R
+#undef S
+#undef T_ADD
+#undef T_SUB
+#undef T_MUL
+#undef T_DIV
+#undef T_NEG
+#undef T_MULI
+#undef T_DIVI
+#undef T_INT
+#undef T_D
+#undef T_SQRT
+#undef T_SIN
+#undef T_COS
+#undef T_EXP
+#undef T_S
+#undef T_ABS
+#undef T_FROMS
+#undef T_LE
+#undef TAYLOR_MUL
+#undef TAYLOR_DIV
+#undef TAYLOR_SQRT
+#undef TAYLOR_SIN
+#undef TAYLOR_COS
+#undef TAYLOR_EXP
+#endif /* SPHERICAL_ROT_TAYLOR_SKIP_FLOAT */
+
 /* ======================================================================== */
 /* long double */
 /* ======================================================================== */
+#ifndef SPHERICAL_ROT_TAYLOR_SKIP_LONG_DOUBLE
+
+#define R long double
+#define S long double
+#define T_ADD(a, b) ((a) + (b))
+#define T_SUB(a, b) ((a) - (b))
+#define T_MUL(a, b) ((a) * (b))
+#define T_DIV(a, b) ((a) / (b))
+#define T_NEG(a) (-(a))
+#define T_MULI(a, i) ((a) * (long double)(i))
+#define T_DIVI(a, i) ((a) / (long double)(i))
+#define T_INT(i) ((long double)(i))
+#define T_D(x) ((long double)(x))
+#define T_SQRT(a) sqrtl(a)
+#define T_SIN(a) sinl(a)
+#define T_COS(a) cosl(a)
+#define T_EXP(a) expl(a)
+#define T_S(a) (a)
+#define T_ABS(a) fabsl(a)
+#define T_FROMS(x) (x)
+#define T_LE(a, b) ((a) <= (b))
 
 /* coefficient k of a b */
-static long double spherical_rot_tmul_l(const long double *a, const long double *b, int k)
+static R spherical_rot_tmul_l(const R *a, const R *b, int k)
 {
-    long double acc = 0;
+    R acc = T_INT(0);
     int j;
     TAYLOR_UNROLL
     for (j = 0; j <= k; ++j) {
-        acc += a[j] * b[k - j];
+        acc = T_ADD(acc, T_MUL(a[j], b[k - j]));
     }
     return acc;
 }
 
 /* coefficient k of u = a / b, given a_k and u_0..u_{k-1} */
-static long double spherical_rot_tdiv_l(long double ak, const long double *b, const long double *u, int k)
+static R spherical_rot_tdiv_l(R ak, const R *b, const R *u, int k)
 {
-    long double acc = ak;
+    R acc = ak;
     int j;
     for (j = 1; j <= k; ++j) {
-        acc -= b[j] * u[k - j];
+        acc = T_SUB(acc, T_MUL(b[j], u[k - j]));
     }
-    return acc / b[0];
+    return T_DIV(acc, b[0]);
 }
 
 /* (1/k) sum_{j=1..k} j a_j w_{k-j}: coefficient k (k >= 1) of sin a (w = cos a), of
  * -cos a (w = sin a) and of exp a (w = exp a) */
-static long double spherical_rot_tchain_l(const long double *a, const long double *w, int k)
+static R spherical_rot_tchain_l(const R *a, const R *w, int k)
 {
-    long double acc = 0;
+    R acc = T_INT(0);
     int j;
     TAYLOR_UNROLL
     for (j = 1; j <= k; ++j) {
-        acc += (long double)j * a[j] * w[k - j];
+        acc = T_ADD(acc, T_MUL(T_MULI(a[j], j), w[k - j]));
     }
-    return acc / (long double)k;
+    return T_DIVI(acc, k);
 }
 
-#define R long double
 #define TAYLOR_MUL spherical_rot_tmul_l
 #define TAYLOR_DIV spherical_rot_tdiv_l
 #define TAYLOR_SQRT spherical_rot_tsqrt_l
 #define TAYLOR_SIN(a, c, k) spherical_rot_tchain_l(a, c, k)
-#define TAYLOR_COS(a, s, k) (-spherical_rot_tchain_l(a, s, k))
+#define TAYLOR_COS(a, s, k) T_NEG(spherical_rot_tchain_l(a, s, k))
 #define TAYLOR_EXP(a, u, k) spherical_rot_tchain_l(a, u, k)
-#define SIN sinl
-#define COS cosl
-#define EXP expl
 
 /* X[i][1..order] from X[i][0]: the recurrences, order by order. */
-static int spherical_rot_taylor_jet_l(long double (*X)[ORDER_DIM], const long double *p, int order_wanted, long double sine_min)
+static int spherical_rot_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
-    long double J[NODES][ORDER_DIM];
-    long double C[NCONST];
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
     const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
     int k;
     if (order < 1 || order > ORDER_DIM - 1) {
@@ -1100,236 +1359,225 @@ static int spherical_rot_taylor_jet_l(long double (*X)[ORDER_DIM], const long do
     C[11] = 2*p[2]*p[2]*(p[0] + p[1])/p[1];
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[8][k] = k == 0 ? SIN(X[1][0]) : TAYLOR_SIN(X[1], J[9], k);
-        J[9][k] = k == 0 ? COS(X[1][0]) : TAYLOR_COS(X[1], J[8], k);
-        J[10][k] = k == 0 ? SIN(X[3][0]) : TAYLOR_SIN(X[3], J[11], k);
-        J[11][k] = k == 0 ? COS(X[3][0]) : TAYLOR_COS(X[3], J[10], k);
+        J[8][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[9], k);
+        J[9][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[8], k);
+        J[10][k] = k == 0 ? T_SIN(X[3][0]) : TAYLOR_SIN(X[3], J[11], k);
+        J[11][k] = k == 0 ? T_COS(X[3][0]) : TAYLOR_COS(X[3], J[10], k);
         J[12][k] = TAYLOR_MUL(J[8], J[11], k);
         J[13][k] = TAYLOR_MUL(J[10], J[9], k);
-        J[14][k] = J[12][k] - J[13][k];
-        J[15][k] = k == 0 ? SIN(X[2][0]) : TAYLOR_SIN(X[2], J[16], k);
-        J[16][k] = k == 0 ? COS(X[2][0]) : TAYLOR_COS(X[2], J[15], k);
-        J[17][k] = C[0] * J[16][k];
-        J[18][k] = C[1] * J[17][k];
+        J[14][k] = T_SUB(J[12][k], J[13][k]);
+        J[15][k] = k == 0 ? T_SIN(X[2][0]) : TAYLOR_SIN(X[2], J[16], k);
+        J[16][k] = k == 0 ? T_COS(X[2][0]) : TAYLOR_COS(X[2], J[15], k);
+        J[17][k] = T_MUL(C[0], J[16][k]);
+        J[18][k] = T_MUL(C[1], J[17][k]);
         J[19][k] = TAYLOR_MUL(J[14], J[18], k);
-        J[20][k] = C[2] * J[19][k];
+        J[20][k] = T_MUL(C[2], J[19][k]);
         J[21][k] = TAYLOR_MUL(J[20], J[20], k);
-        J[22][k] = C[2] * J[21][k];
+        J[22][k] = T_MUL(C[2], J[21][k]);
         J[23][k] = TAYLOR_MUL(J[8], J[10], k);
         J[24][k] = TAYLOR_MUL(J[9], J[11], k);
-        J[25][k] = J[23][k] + J[24][k];
-        J[26][k] = C[3] * J[25][k];
+        J[25][k] = T_ADD(J[23][k], J[24][k]);
+        J[26][k] = T_MUL(C[3], J[25][k]);
         J[27][k] = TAYLOR_MUL(J[26], J[26], k);
-        J[28][k] = J[27][k] + (k == 0 ? C[4] : (R)0);
-        J[29][k] = J[22][k] - J[28][k];
-        J[30][k] = k == 0 ? SIN(X[0][0]) : TAYLOR_SIN(X[0], J[31], k);
-        J[31][k] = k == 0 ? COS(X[0][0]) : TAYLOR_COS(X[0], J[30], k);
-        J[32][k] = C[1] * J[31][k];
-        J[33][k] = C[0] * J[14][k];
+        J[28][k] = T_ADD(J[27][k], k == 0 ? C[4] : T_INT(0));
+        J[29][k] = T_SUB(J[22][k], J[28][k]);
+        J[30][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[31], k);
+        J[31][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[30], k);
+        J[32][k] = T_MUL(C[1], J[31][k]);
+        J[33][k] = T_MUL(C[0], J[14][k]);
         J[34][k] = TAYLOR_MUL(J[32], J[33], k);
         J[35][k] = TAYLOR_MUL(J[34], J[34], k);
-        J[36][k] = C[2] * J[35][k];
+        J[36][k] = T_MUL(C[2], J[35][k]);
         J[37][k] = TAYLOR_MUL(J[30], J[15], k);
         J[38][k] = TAYLOR_MUL(J[31], J[16], k);
         J[39][k] = TAYLOR_MUL(J[25], J[38], k);
-        J[40][k] = J[37][k] + J[39][k];
-        J[41][k] = C[3] * J[40][k];
+        J[40][k] = T_ADD(J[37][k], J[39][k]);
+        J[41][k] = T_MUL(C[3], J[40][k]);
         J[42][k] = TAYLOR_MUL(J[41], J[41], k);
-        J[43][k] = J[42][k] + (k == 0 ? C[4] : (R)0);
-        J[44][k] = J[36][k] - J[43][k];
+        J[43][k] = T_ADD(J[42][k], k == 0 ? C[4] : T_INT(0));
+        J[44][k] = T_SUB(J[36][k], J[43][k]);
         J[45][k] = TAYLOR_MUL(J[44], J[29], k);
         J[46][k] = TAYLOR_MUL(J[41], J[20], k);
-        J[47][k] = C[2] * J[46][k];
+        J[47][k] = T_MUL(C[2], J[46][k]);
         J[48][k] = TAYLOR_MUL(J[34], J[26], k);
-        J[49][k] = J[47][k] - J[48][k];
+        J[49][k] = T_SUB(J[47][k], J[48][k]);
         J[50][k] = TAYLOR_MUL(J[49], J[49], k);
-        J[51][k] = J[45][k] - J[50][k];
-        J[52][k] = TAYLOR_DIV((R)(k == 0), J[51], J[52], k);
+        J[51][k] = T_SUB(J[45][k], J[50][k]);
+        J[52][k] = TAYLOR_DIV(T_INT(k == 0), J[51], J[52], k);
         J[53][k] = TAYLOR_MUL(J[29], J[52], k);
         J[54][k] = TAYLOR_MUL(J[30], J[31], k);
         J[55][k] = TAYLOR_MUL(X[5], X[5], k);
         J[56][k] = TAYLOR_MUL(J[54], J[55], k);
-        J[57][k] = C[5] * J[56][k];
+        J[57][k] = T_MUL(C[5], J[56][k]);
         J[58][k] = TAYLOR_MUL(J[15], J[25], k);
         J[59][k] = TAYLOR_MUL(J[58], J[31], k);
         J[60][k] = TAYLOR_MUL(X[7], X[7], k);
         J[61][k] = TAYLOR_MUL(J[59], J[60], k);
-        J[62][k] = C[3] * J[61][k];
-        J[63][k] = J[57][k] + J[62][k];
-        J[64][k] = C[6] * J[32][k];
+        J[62][k] = T_MUL(C[3], J[61][k]);
+        J[63][k] = T_ADD(J[57][k], J[62][k]);
+        J[64][k] = T_MUL(C[6], J[32][k]);
         J[65][k] = TAYLOR_MUL(J[8], J[64], k);
-        J[66][k] = J[63][k] - J[65][k];
+        J[66][k] = T_SUB(J[63][k], J[65][k]);
         J[67][k] = TAYLOR_MUL(X[6], X[6], k);
-        J[68][k] = C[3] * J[67][k];
+        J[68][k] = T_MUL(C[3], J[67][k]);
         J[69][k] = TAYLOR_MUL(J[30], J[16], k);
         J[70][k] = TAYLOR_MUL(J[15], J[31], k);
         J[71][k] = TAYLOR_MUL(J[25], J[70], k);
-        J[72][k] = J[69][k] - J[71][k];
+        J[72][k] = T_SUB(J[69][k], J[71][k]);
         J[73][k] = TAYLOR_MUL(J[68], J[72], k);
-        J[74][k] = J[66][k] - J[73][k];
-        J[75][k] = C[7] * X[7][k];
+        J[74][k] = T_SUB(J[66][k], J[73][k]);
+        J[75][k] = T_MUL(C[7], X[7][k]);
         J[76][k] = TAYLOR_MUL(J[17], X[6], k);
         J[77][k] = TAYLOR_MUL(J[75], J[76], k);
         J[78][k] = TAYLOR_MUL(J[32], J[14], k);
         J[79][k] = TAYLOR_MUL(J[77], J[78], k);
-        J[80][k] = J[74][k] - J[79][k];
-        J[81][k] = C[8] * J[80][k];
+        J[80][k] = T_SUB(J[74][k], J[79][k]);
+        J[81][k] = T_MUL(C[8], J[80][k]);
         J[82][k] = TAYLOR_MUL(J[55], J[69], k);
         J[83][k] = TAYLOR_MUL(J[26], J[82], k);
-        J[84][k] = C[7] * X[5][k];
+        J[84][k] = T_MUL(C[7], X[5][k]);
         J[85][k] = TAYLOR_MUL(J[32], X[4], k);
         J[86][k] = TAYLOR_MUL(J[14], J[17], k);
         J[87][k] = TAYLOR_MUL(J[85], J[86], k);
         J[88][k] = TAYLOR_MUL(J[84], J[87], k);
-        J[89][k] = J[83][k] + J[88][k];
+        J[89][k] = T_ADD(J[83][k], J[88][k]);
         J[90][k] = TAYLOR_MUL(J[15], J[16], k);
         J[91][k] = TAYLOR_MUL(J[60], J[90], k);
-        J[92][k] = C[8] * J[91][k];
-        J[93][k] = J[89][k] + J[92][k];
+        J[92][k] = T_MUL(C[8], J[91][k]);
+        J[93][k] = T_ADD(J[89][k], J[92][k]);
         J[94][k] = TAYLOR_MUL(X[4], X[4], k);
         J[95][k] = TAYLOR_MUL(J[25], J[69], k);
-        J[96][k] = J[70][k] - J[95][k];
-        J[97][k] = C[3] * J[96][k];
+        J[96][k] = T_SUB(J[70][k], J[95][k]);
+        J[97][k] = T_MUL(C[3], J[96][k]);
         J[98][k] = TAYLOR_MUL(J[94], J[97], k);
-        J[99][k] = J[93][k] - J[98][k];
+        J[99][k] = T_SUB(J[93][k], J[98][k]);
         J[100][k] = TAYLOR_MUL(J[10], J[17], k);
-        J[101][k] = C[9] * J[100][k];
-        J[102][k] = J[99][k] - J[101][k];
+        J[101][k] = T_MUL(C[9], J[100][k]);
+        J[102][k] = T_SUB(J[99][k], J[101][k]);
         J[103][k] = TAYLOR_MUL(J[41], J[102], k);
-        J[104][k] = J[81][k] - J[103][k];
+        J[104][k] = T_SUB(J[81][k], J[103][k]);
         J[105][k] = TAYLOR_MUL(J[30], J[55], k);
         J[106][k] = TAYLOR_MUL(J[105], J[14], k);
-        J[107][k] = C[3] * J[106][k];
+        J[107][k] = T_MUL(C[3], J[106][k]);
         J[108][k] = TAYLOR_MUL(J[30], J[94], k);
         J[109][k] = TAYLOR_MUL(J[108], J[14], k);
-        J[110][k] = C[3] * J[109][k];
-        J[111][k] = J[107][k] + J[110][k];
-        J[112][k] = C[9] * J[11][k];
-        J[113][k] = C[0] * J[112][k];
-        J[114][k] = J[111][k] - J[113][k];
+        J[110][k] = T_MUL(C[3], J[109][k]);
+        J[111][k] = T_ADD(J[107][k], J[110][k]);
+        J[112][k] = T_MUL(C[9], J[11][k]);
+        J[113][k] = T_MUL(C[0], J[112][k]);
+        J[114][k] = T_SUB(J[111][k], J[113][k]);
         J[115][k] = TAYLOR_MUL(J[16], X[6], k);
-        J[116][k] = C[8] * J[75][k];
+        J[116][k] = T_MUL(C[8], J[75][k]);
         J[117][k] = TAYLOR_MUL(J[115], J[116], k);
-        J[118][k] = J[114][k] - J[117][k];
+        J[118][k] = T_SUB(J[114][k], J[117][k]);
         J[119][k] = TAYLOR_MUL(J[25], J[85], k);
         J[120][k] = TAYLOR_MUL(J[84], J[119], k);
-        J[121][k] = C[0] * J[120][k];
-        J[122][k] = J[118][k] - J[121][k];
+        J[121][k] = T_MUL(C[0], J[120][k]);
+        J[122][k] = T_SUB(J[118][k], J[121][k]);
         J[123][k] = TAYLOR_MUL(J[34], J[122], k);
-        J[124][k] = J[104][k] - J[123][k];
+        J[124][k] = T_SUB(J[104][k], J[123][k]);
         J[125][k] = TAYLOR_MUL(J[53], J[124], k);
         J[126][k] = TAYLOR_MUL(J[68], J[14], k);
         J[127][k] = TAYLOR_MUL(J[15], J[126], k);
-        J[128][k] = C[2] * J[127][k];
-        J[129][k] = C[10] * J[9][k];
-        J[130][k] = J[128][k] - J[129][k];
+        J[128][k] = T_MUL(C[2], J[127][k]);
+        J[129][k] = T_MUL(C[10], J[9][k]);
+        J[130][k] = T_SUB(J[128][k], J[129][k]);
         J[131][k] = TAYLOR_MUL(J[31], X[4], k);
         J[132][k] = TAYLOR_MUL(J[131], X[5], k);
-        J[133][k] = C[11] * J[132][k];
-        J[134][k] = J[130][k] - J[133][k];
+        J[133][k] = T_MUL(C[11], J[132][k]);
+        J[134][k] = T_SUB(J[130][k], J[133][k]);
         J[135][k] = TAYLOR_MUL(J[25], J[18], k);
         J[136][k] = TAYLOR_MUL(J[75], J[135], k);
         J[137][k] = TAYLOR_MUL(J[136], X[6], k);
-        J[138][k] = J[134][k] - J[137][k];
-        J[139][k] = C[3] * J[14][k];
+        J[138][k] = T_SUB(J[134][k], J[137][k]);
+        J[139][k] = T_MUL(C[3], J[14][k]);
         J[140][k] = TAYLOR_MUL(J[15], J[60], k);
         J[141][k] = TAYLOR_MUL(J[139], J[140], k);
-        J[142][k] = J[138][k] - J[141][k];
-        J[143][k] = C[8] * J[142][k];
+        J[142][k] = T_SUB(J[138][k], J[141][k]);
+        J[143][k] = T_MUL(C[8], J[142][k]);
         J[144][k] = TAYLOR_MUL(J[20], J[102], k);
-        J[145][k] = J[143][k] - J[144][k];
+        J[145][k] = T_SUB(J[143][k], J[144][k]);
         J[146][k] = TAYLOR_MUL(J[26], J[122], k);
-        J[147][k] = J[145][k] - J[146][k];
+        J[147][k] = T_SUB(J[145][k], J[146][k]);
         J[148][k] = TAYLOR_MUL(J[52], J[147], k);
         J[149][k] = TAYLOR_MUL(J[49], J[148], k);
-        J[150][k] = J[125][k] - J[149][k];
-        J[151][k] = TAYLOR_DIV((R)(k == 0), J[30], J[151], k);
+        J[150][k] = T_SUB(J[125][k], J[149][k]);
+        J[151][k] = TAYLOR_DIV(T_INT(k == 0), J[30], J[151], k);
         J[152][k] = TAYLOR_MUL(J[44], J[148], k);
         J[153][k] = TAYLOR_MUL(J[49], J[52], k);
         J[154][k] = TAYLOR_MUL(J[153], J[124], k);
-        J[155][k] = J[152][k] - J[154][k];
+        J[155][k] = T_SUB(J[152][k], J[154][k]);
         J[156][k] = TAYLOR_MUL(J[151], J[155], k);
-        J[157][k] = C[2] * J[35][k];
-        J[158][k] = J[157][k] - J[28][k];
-        J[159][k] = C[2] * J[43][k];
-        J[160][k] = J[159][k] - J[21][k];
+        J[157][k] = T_MUL(C[2], J[35][k]);
+        J[158][k] = T_SUB(J[157][k], J[28][k]);
+        J[159][k] = T_MUL(C[2], J[43][k]);
+        J[160][k] = T_SUB(J[159][k], J[21][k]);
         J[161][k] = TAYLOR_MUL(J[160], J[158], k);
         J[162][k] = TAYLOR_MUL(J[41], J[34], k);
-        J[163][k] = C[2] * J[162][k];
+        J[163][k] = T_MUL(C[2], J[162][k]);
         J[164][k] = TAYLOR_MUL(J[20], J[26], k);
-        J[165][k] = J[163][k] - J[164][k];
+        J[165][k] = T_SUB(J[163][k], J[164][k]);
         J[166][k] = TAYLOR_MUL(J[165], J[165], k);
-        J[167][k] = J[161][k] - J[166][k];
-        J[168][k] = TAYLOR_DIV((R)(k == 0), J[167], J[168], k);
+        J[167][k] = T_SUB(J[161][k], J[166][k]);
+        J[168][k] = TAYLOR_DIV(T_INT(k == 0), J[167], J[168], k);
         J[169][k] = TAYLOR_MUL(J[158], J[168], k);
-        J[170][k] = C[5] * J[102][k];
+        J[170][k] = T_MUL(C[5], J[102][k]);
         J[171][k] = TAYLOR_MUL(J[41], J[80], k);
-        J[172][k] = J[170][k] - J[171][k];
+        J[172][k] = T_SUB(J[170][k], J[171][k]);
         J[173][k] = TAYLOR_MUL(J[20], J[142], k);
-        J[174][k] = J[172][k] - J[173][k];
+        J[174][k] = T_SUB(J[172][k], J[173][k]);
         J[175][k] = TAYLOR_MUL(J[169], J[174], k);
-        J[176][k] = C[5] * J[122][k];
+        J[176][k] = T_MUL(C[5], J[122][k]);
         J[177][k] = TAYLOR_MUL(J[34], J[80], k);
-        J[178][k] = J[176][k] - J[177][k];
+        J[178][k] = T_SUB(J[176][k], J[177][k]);
         J[179][k] = TAYLOR_MUL(J[26], J[142], k);
-        J[180][k] = J[178][k] - J[179][k];
+        J[180][k] = T_SUB(J[178][k], J[179][k]);
         J[181][k] = TAYLOR_MUL(J[168], J[180], k);
         J[182][k] = TAYLOR_MUL(J[165], J[181], k);
-        J[183][k] = J[175][k] - J[182][k];
-        J[184][k] = TAYLOR_DIV((R)(k == 0), J[15], J[184], k);
+        J[183][k] = T_SUB(J[175][k], J[182][k]);
+        J[184][k] = TAYLOR_DIV(T_INT(k == 0), J[15], J[184], k);
         J[185][k] = TAYLOR_MUL(J[160], J[181], k);
         J[186][k] = TAYLOR_MUL(J[165], J[168], k);
         J[187][k] = TAYLOR_MUL(J[186], J[174], k);
-        J[188][k] = J[185][k] - J[187][k];
+        J[188][k] = T_SUB(J[185][k], J[187][k]);
         J[189][k] = TAYLOR_MUL(J[184], J[188], k);
-        if (k == 0 && (!(fabsl(J[30][0]) >= sine_min) || !(fabsl(J[15][0]) >= sine_min))) {
+        if (k == 0 && (!(T_ABS(J[30][0]) >= sine_min) || !(T_ABS(J[15][0]) >= sine_min))) {
             return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
         }
-        X[0][k + 1] = X[4][k] / (R)(k + 1);
-        X[1][k + 1] = X[5][k] / (R)(k + 1);
-        X[2][k + 1] = X[6][k] / (R)(k + 1);
-        X[3][k + 1] = X[7][k] / (R)(k + 1);
-        X[4][k + 1] = J[150][k] / (R)(k + 1);
-        X[5][k + 1] = J[156][k] / (R)(k + 1);
-        X[6][k + 1] = J[183][k] / (R)(k + 1);
-        X[7][k + 1] = J[189][k] / (R)(k + 1);
+        X[0][k + 1] = T_DIVI(X[4][k], k + 1);
+        X[1][k + 1] = T_DIVI(X[5][k], k + 1);
+        X[2][k + 1] = T_DIVI(X[6][k], k + 1);
+        X[3][k + 1] = T_DIVI(X[7][k], k + 1);
+        X[4][k + 1] = T_DIVI(J[150][k], k + 1);
+        X[5][k + 1] = T_DIVI(J[156][k], k + 1);
+        X[6][k + 1] = T_DIVI(J[183][k], k + 1);
+        X[7][k + 1] = T_DIVI(J[189][k], k + 1);
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
 
-#undef R
-#undef TAYLOR_MUL
-#undef TAYLOR_DIV
-#undef TAYLOR_SQRT
-#undef TAYLOR_SIN
-#undef TAYLOR_COS
-#undef TAYLOR_EXP
-#undef SIN
-#undef COS
-#undef EXP
-
-static long double spherical_rot_thorner_l(const long double *x, int order, long double tau)
+static R spherical_rot_thorner_l(const R *x, int order, R tau)
 {
-    long double acc = x[order];
+    R acc = x[order];
     int k;
     for (k = order - 1; k >= 0; --k) {
-        acc = acc * tau + x[k];
+        acc = T_ADD(T_MUL(acc, tau), x[k]);
     }
     return acc;
 }
 
-static int spherical_rot_tfinite_l(const long double *z, long n)
+static int spherical_rot_tfinite_l(const R *z, long n)
 {
-    long double check = 0;
+    S check = 0;
     long k;
     for (k = 0; k < n; ++k) {
-        check += z[k] - z[k];
+        check += T_S(z[k]) - T_S(z[k]);
     }
     return check == 0;
 }
 
 /* The order for a tolerance (Jorba & Zou 2005): ceil(-ln(tol)/2 + 1), in [2, ORDER_MAX]. */
-static int spherical_rot_torder_l(long double tol)
+static int spherical_rot_torder_l(S tol)
 {
     double p = ceil(-log((double)tol) / 2 + 1);
     if (SPHERICAL_ROT_TAYLOR_ORDER) {
@@ -1341,9 +1589,9 @@ static int spherical_rot_torder_l(long double tol)
     return p > ORDER_MAX ? ORDER_MAX : (int)p;
 }
 
-int spherical_rot_taylor_coefficients_l(const long double *y, const long double *p, int order, long double *coef, long double sine_min)
+int spherical_rot_taylor_coefficients_l(const R *y, const R *p, int order, R *coef, double sine_min)
 {
-    long double X[N][ORDER_DIM];
+    R X[N][ORDER_DIM];
     int i, k, st;
     if (order < 1 || order > ORDER_DIM - 1 || (SPHERICAL_ROT_TAYLOR_ORDER && order != SPHERICAL_ROT_TAYLOR_ORDER)) {
         return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
@@ -1351,7 +1599,7 @@ int spherical_rot_taylor_coefficients_l(const long double *y, const long double 
     for (i = 0; i < N; ++i) {
         X[i][0] = y[i];
     }
-    st = spherical_rot_taylor_jet_l(X, p, order, sine_min);
+    st = spherical_rot_taylor_jet_l(X, p, order, (S)sine_min);
     for (i = 0; i < N; ++i) {
         for (k = 0; k <= order; ++k) {
             coef[i * (order + 1) + k] = X[i][k];
@@ -1360,13 +1608,13 @@ int spherical_rot_taylor_coefficients_l(const long double *y, const long double 
     return st;
 }
 
-int spherical_rot_taylor_l(const long double *y0, const long double *p, long nt, const long double *t_out, long double *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
+int spherical_rot_taylor_l(const R *y0, const R *p, long nt, const R *t_out, R *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
 {
-    long double X[N][ORDER_DIM];
-    long double t, h = 0, tend, dir, tol, m, n1, n2, rho, r, hmax, tau, span;
-    long double safety;
+    R X[N][ORDER_DIM];
+    R t, h = T_INT(0), tend, tau, span;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
     long iout = 1, steps = 0, row, j;
-    int i, order, st = SPHERICAL_ROT_INTEGRATE_OK, last;
+    int i, order, dir, st = SPHERICAL_ROT_INTEGRATE_OK, last;
     spherical_rot_integrate_info local;
 
     if (!info) {
@@ -1383,25 +1631,26 @@ int spherical_rot_taylor_l(const long double *y0, const long double *p, long nt,
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
-    info->t = nt > 0 ? (double)t_out[0] : 0;
+    info->local_error = 0;
+    info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < N; ++i) {
-        info->y[i] = nt > 0 ? (double)y0[i] : 0;
+        info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
     }
-    tol = (long double)opt->rtol;
+    tol = (S)opt->rtol;
     if (nt < 1 || !spherical_rot_tfinite_l(y0, N) || !spherical_rot_tfinite_l(p, SPHERICAL_ROT_N_PARAMS) ||
         !spherical_rot_tfinite_l(t_out, nt) || !(tol > 0) || !(opt->hmax >= 0) || opt->max_steps < 1) {
         st = SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
         goto done;
     }
     for (j = 2; j < nt; ++j) {
-        if (!((t_out[j] - t_out[j - 1]) * (t_out[1] - t_out[0]) > 0)) {
+        if (!(T_S(T_SUB(t_out[j], t_out[j - 1])) * T_S(T_SUB(t_out[1], t_out[0])) > 0)) {
             st = SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
             goto done;
         }
     }
     order = spherical_rot_torder_l(tol);
     /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
-    safety = expl((long double)-2 - (long double)0.7 / (long double)(order - 1));
+    safety = expl((S)-2 - (S)0.7 / (S)(order - 1));
     for (i = 0; i < N; ++i) {
         X[i][0] = y0[i];
         y_out[i] = y0[i];
@@ -1412,13 +1661,13 @@ int spherical_rot_taylor_l(const long double *y0, const long double *p, long nt,
         goto done;
     }
     tend = t_out[nt - 1];
-    dir = tend > t ? 1 : -1;
-    span = (tend - t) * dir;
-    if (!(span > 0)) {
+    dir = T_S(T_SUB(tend, t)) > 0 ? 1 : -1;
+    span = T_MULI(T_SUB(tend, t), dir);
+    if (!(T_S(span) > 0)) {
         st = SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
         goto done;
     }
-    hmax = opt->hmax > 0 ? (long double)opt->hmax : span;
+    hmax = opt->hmax > 0 ? (S)opt->hmax : T_S(span);
     while (iout < nt) {
         if (steps >= opt->max_steps) {
             st = SPHERICAL_ROT_INTEGRATE_MAX_STEPS;
@@ -1428,7 +1677,7 @@ int spherical_rot_taylor_l(const long double *y0, const long double *p, long nt,
             st = SPHERICAL_ROT_INTEGRATE_CANCELLED;
             break;
         }
-        st = spherical_rot_taylor_jet_l(X, p, order, (long double)opt->sine_min);
+        st = spherical_rot_taylor_jet_l(X, p, order, (S)opt->sine_min);
         info->nfev += 1;
         if (st) {
             break;
@@ -1437,38 +1686,38 @@ int spherical_rot_taylor_l(const long double *y0, const long double *p, long nt,
         n1 = 0;
         n2 = 0;
         for (i = 0; i < N; ++i) {
-            m = fabsl(X[i][0]) > m ? fabsl(X[i][0]) : m;
-            n1 = fabsl(X[i][order - 1]) > n1 ? fabsl(X[i][order - 1]) : n1;
-            n2 = fabsl(X[i][order]) > n2 ? fabsl(X[i][order]) : n2;
+            m = T_ABS(X[i][0]) > m ? T_ABS(X[i][0]) : m;
+            n1 = T_ABS(X[i][order - 1]) > n1 ? T_ABS(X[i][order - 1]) : n1;
+            n2 = T_ABS(X[i][order]) > n2 ? T_ABS(X[i][order]) : n2;
         }
-        if (!spherical_rot_tfinite_l(&n1, 1) || !spherical_rot_tfinite_l(&n2, 1)) {
+        if (!(n1 - n1 == 0) || !(n2 - n2 == 0)) {
             st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
             break;
         }
-        rho = hmax;             /* no growth in the last coefficients: as far as allowed */
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
         if (n1 > 0) {
-            r = powl(m / n1, (long double)1 / (long double)(order - 1));
-            rho = r < rho ? r : rho;
+            rho = powl(m / n1, (S)1 / (S)(order - 1));
         }
         if (n2 > 0) {
-            r = powl(m / n2, (long double)1 / (long double)order);
-            rho = r < rho ? r : rho;
+            r = powl(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
         }
-        h = rho * safety;
-        if (!(h <= hmax)) {
-            h = hmax;
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
         }
-        if (!(h > 0)) {
+        if (!(hs > 0)) {
             st = SPHERICAL_ROT_INTEGRATE_STEP_UNDERFLOW;
             break;
         }
-        last = h >= (tend - t) * dir;
-        if (last) {
-            h = (tend - t) * dir;
-        }
+        /* the step in R: the last one exactly to tend */
+        last = hs >= T_S(T_MULI(T_SUB(tend, t), dir));
+        h = last ? T_MULI(T_SUB(tend, t), dir) : T_FROMS(hs);
         /* dense output: every output time inside this step from the series */
-        while (iout < nt && (last || (t_out[iout] - t) * dir <= h)) {
-            tau = t_out[iout] - t;
+        while (iout < nt && (last || T_LE(T_MULI(T_SUB(t_out[iout], t), dir), h))) {
+            tau = T_SUB(t_out[iout], t);
             row = iout * N;
             for (i = 0; i < N; ++i) {
                 y_out[row + i] = spherical_rot_thorner_l(X[i], order, tau);
@@ -1484,15 +1733,18 @@ int spherical_rot_taylor_l(const long double *y0, const long double *p, long nt,
             break;
         }
         for (i = 0; i < N; ++i) {
-            X[i][0] = spherical_rot_thorner_l(X[i], order, dir * h);
+            X[i][0] = spherical_rot_thorner_l(X[i], order, T_MULI(h, dir));
         }
-        t = last ? tend : t + dir * h;
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * powl(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
+        t = last ? tend : T_ADD(t, T_MULI(h, dir));
         steps += 1;
         info->naccepted += 1;
-        info->t = (double)t;
-        info->h = (double)(dir * h);
+        info->t = (double)T_S(t);
+        info->h = (double)T_S(T_MULI(h, dir));
         for (i = 0; i < N; ++i) {
-            info->y[i] = (double)X[i][0];
+            info->y[i] = (double)T_S(X[i][0]);
         }
         if (!spherical_rot_tfinite_l(&X[0][0], 1)) {
             st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
@@ -1512,7 +1764,7 @@ done:
     return st;
 }
 
-long spherical_rot_taylor_batch_l(long n, const long double *y0, long y0_stride, const long double *p, long p_stride, long nt, const long double *t, long double *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
+long spherical_rot_taylor_batch_l(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
 {
     long i, failed = 0;
     for (i = 0; i < n; ++i) {
@@ -1522,3 +1774,577 @@ long spherical_rot_taylor_batch_l(long n, const long double *y0, long y0_stride,
     }
     return failed;
 }
+
+#undef R
+#undef S
+#undef T_ADD
+#undef T_SUB
+#undef T_MUL
+#undef T_DIV
+#undef T_NEG
+#undef T_MULI
+#undef T_DIVI
+#undef T_INT
+#undef T_D
+#undef T_SQRT
+#undef T_SIN
+#undef T_COS
+#undef T_EXP
+#undef T_S
+#undef T_ABS
+#undef T_FROMS
+#undef T_LE
+#undef TAYLOR_MUL
+#undef TAYLOR_DIV
+#undef TAYLOR_SQRT
+#undef TAYLOR_SIN
+#undef TAYLOR_COS
+#undef TAYLOR_EXP
+#endif /* SPHERICAL_ROT_TAYLOR_SKIP_LONG_DOUBLE */
+
+/* ======================================================================== */
+/* double-double */
+/* ======================================================================== */
+#ifndef SPHERICAL_ROT_TAYLOR_SKIP_DOUBLE_DOUBLE
+
+#define R derive_dd
+#define S double
+#define T_ADD(a, b) dd_add(a, b)
+#define T_SUB(a, b) dd_sub(a, b)
+#define T_MUL(a, b) dd_mul(a, b)
+#define T_DIV(a, b) dd_div(a, b)
+#define T_NEG(a) dd_neg(a)
+#define T_MULI(a, i) dd_mul_d(a, (double)(i))
+#define T_DIVI(a, i) dd_div_d(a, (double)(i))
+#define T_INT(i) dd_d((double)(i))
+#define T_D(x) dd_d(x)
+#define T_SQRT(a) dd_sqrt(a)
+#define T_SIN(a) dd_sin(a)
+#define T_COS(a) dd_cos(a)
+#define T_EXP(a) dd_exp(a)
+#define T_S(a) ((a).hi)
+#define T_ABS(a) fabs((a).hi)
+#define T_FROMS(x) dd_d(x)
+#define T_LE(a, b) dd_le(a, b)
+
+/* sum_j a_j b_j of double-doubles as Ogita, Rump & Oishi's Dot2 does it (2005): the
+ * products' leading parts summed with two-sum, every error term into one double c; as
+ * accurate as the dd sum of dd products (about 2^-105 sum |a_j b_j|) with half the
+ * dependent operations. */
+#define DD_DOT_STEP(x, y) do { \
+        double p_ = (x).hi * (y).hi, t_ = s_ + p_, z_ = t_ - s_; \
+        c_ += ((s_ - (t_ - z_)) + (p_ - z_)) + fma((x).hi, (y).hi, -p_) + ((x).hi * (y).lo + (x).lo * (y).hi); \
+        s_ = t_; \
+    } while (0)
+/* coefficient k of a b */
+static R spherical_rot_tmul_dd(const R *a, const R *b, int k)
+{
+    double s_ = 0, c_ = 0;
+    int j;
+    TAYLOR_UNROLL
+    for (j = 0; j <= k; ++j) {
+        DD_DOT_STEP(a[j], b[k - j]);
+    }
+    return dd_quick(s_, c_);
+}
+
+/* coefficient k of u = a / b, given a_k and u_0..u_{k-1} */
+static R spherical_rot_tdiv_dd(R ak, const R *b, const R *u, int k)
+{
+    double s_ = 0, c_ = 0;
+    int j;
+    for (j = 1; j <= k; ++j) {
+        DD_DOT_STEP(b[j], u[k - j]);
+    }
+    return T_DIV(T_SUB(ak, dd_quick(s_, c_)), b[0]);
+}
+
+/* (1/k) sum_{j=1..k} j a_j w_{k-j}: coefficient k (k >= 1) of sin a (w = cos a), of
+ * -cos a (w = sin a) and of exp a (w = exp a) */
+static R spherical_rot_tchain_dd(const R *a, const R *w, int k)
+{
+    double s_ = 0, c_ = 0;
+    R ja;
+    int j;
+    TAYLOR_UNROLL
+    for (j = 1; j <= k; ++j) {
+        ja = T_MULI(a[j], j);
+        DD_DOT_STEP(ja, w[k - j]);
+    }
+    return T_DIVI(dd_quick(s_, c_), k);
+}
+
+#define TAYLOR_MUL spherical_rot_tmul_dd
+#define TAYLOR_DIV spherical_rot_tdiv_dd
+#define TAYLOR_SQRT spherical_rot_tsqrt_dd
+#define TAYLOR_SIN(a, c, k) spherical_rot_tchain_dd(a, c, k)
+#define TAYLOR_COS(a, s, k) T_NEG(spherical_rot_tchain_dd(a, s, k))
+#define TAYLOR_EXP(a, u, k) spherical_rot_tchain_dd(a, u, k)
+
+/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+static int spherical_rot_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
+    int k;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = p[3];
+    C[1] = p[2];
+    C[2] = T_INT(-1);
+    C[3] = T_MUL(p[2], p[3]);
+    C[4] = T_NEG(T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]));
+    C[5] = T_DIV(T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1])), p[1]);
+    C[6] = T_DIV(T_MUL(p[4], T_ADD(p[0], p[1])), p[1]);
+    C[7] = T_INT(2);
+    C[8] = T_MUL(p[3], p[3]);
+    C[9] = p[4];
+    C[10] = T_DIV(T_MUL(T_MUL(p[4], p[2]), T_ADD(p[0], p[1])), p[1]);
+    C[11] = T_DIV(T_MUL(T_MUL(T_INT(2), T_MUL(p[2], p[2])), T_ADD(p[0], p[1])), p[1]);
+    TAYLOR_UNROLL
+    for (k = 0; k < order; ++k) {
+        J[8][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[9], k);
+        J[9][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[8], k);
+        J[10][k] = k == 0 ? T_SIN(X[3][0]) : TAYLOR_SIN(X[3], J[11], k);
+        J[11][k] = k == 0 ? T_COS(X[3][0]) : TAYLOR_COS(X[3], J[10], k);
+        J[12][k] = TAYLOR_MUL(J[8], J[11], k);
+        J[13][k] = TAYLOR_MUL(J[10], J[9], k);
+        J[14][k] = T_SUB(J[12][k], J[13][k]);
+        J[15][k] = k == 0 ? T_SIN(X[2][0]) : TAYLOR_SIN(X[2], J[16], k);
+        J[16][k] = k == 0 ? T_COS(X[2][0]) : TAYLOR_COS(X[2], J[15], k);
+        J[17][k] = T_MUL(C[0], J[16][k]);
+        J[18][k] = T_MUL(C[1], J[17][k]);
+        J[19][k] = TAYLOR_MUL(J[14], J[18], k);
+        J[20][k] = T_MUL(C[2], J[19][k]);
+        J[21][k] = TAYLOR_MUL(J[20], J[20], k);
+        J[22][k] = T_MUL(C[2], J[21][k]);
+        J[23][k] = TAYLOR_MUL(J[8], J[10], k);
+        J[24][k] = TAYLOR_MUL(J[9], J[11], k);
+        J[25][k] = T_ADD(J[23][k], J[24][k]);
+        J[26][k] = T_MUL(C[3], J[25][k]);
+        J[27][k] = TAYLOR_MUL(J[26], J[26], k);
+        J[28][k] = T_ADD(J[27][k], k == 0 ? C[4] : T_INT(0));
+        J[29][k] = T_SUB(J[22][k], J[28][k]);
+        J[30][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[31], k);
+        J[31][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[30], k);
+        J[32][k] = T_MUL(C[1], J[31][k]);
+        J[33][k] = T_MUL(C[0], J[14][k]);
+        J[34][k] = TAYLOR_MUL(J[32], J[33], k);
+        J[35][k] = TAYLOR_MUL(J[34], J[34], k);
+        J[36][k] = T_MUL(C[2], J[35][k]);
+        J[37][k] = TAYLOR_MUL(J[30], J[15], k);
+        J[38][k] = TAYLOR_MUL(J[31], J[16], k);
+        J[39][k] = TAYLOR_MUL(J[25], J[38], k);
+        J[40][k] = T_ADD(J[37][k], J[39][k]);
+        J[41][k] = T_MUL(C[3], J[40][k]);
+        J[42][k] = TAYLOR_MUL(J[41], J[41], k);
+        J[43][k] = T_ADD(J[42][k], k == 0 ? C[4] : T_INT(0));
+        J[44][k] = T_SUB(J[36][k], J[43][k]);
+        J[45][k] = TAYLOR_MUL(J[44], J[29], k);
+        J[46][k] = TAYLOR_MUL(J[41], J[20], k);
+        J[47][k] = T_MUL(C[2], J[46][k]);
+        J[48][k] = TAYLOR_MUL(J[34], J[26], k);
+        J[49][k] = T_SUB(J[47][k], J[48][k]);
+        J[50][k] = TAYLOR_MUL(J[49], J[49], k);
+        J[51][k] = T_SUB(J[45][k], J[50][k]);
+        J[52][k] = TAYLOR_DIV(T_INT(k == 0), J[51], J[52], k);
+        J[53][k] = TAYLOR_MUL(J[29], J[52], k);
+        J[54][k] = TAYLOR_MUL(J[30], J[31], k);
+        J[55][k] = TAYLOR_MUL(X[5], X[5], k);
+        J[56][k] = TAYLOR_MUL(J[54], J[55], k);
+        J[57][k] = T_MUL(C[5], J[56][k]);
+        J[58][k] = TAYLOR_MUL(J[15], J[25], k);
+        J[59][k] = TAYLOR_MUL(J[58], J[31], k);
+        J[60][k] = TAYLOR_MUL(X[7], X[7], k);
+        J[61][k] = TAYLOR_MUL(J[59], J[60], k);
+        J[62][k] = T_MUL(C[3], J[61][k]);
+        J[63][k] = T_ADD(J[57][k], J[62][k]);
+        J[64][k] = T_MUL(C[6], J[32][k]);
+        J[65][k] = TAYLOR_MUL(J[8], J[64], k);
+        J[66][k] = T_SUB(J[63][k], J[65][k]);
+        J[67][k] = TAYLOR_MUL(X[6], X[6], k);
+        J[68][k] = T_MUL(C[3], J[67][k]);
+        J[69][k] = TAYLOR_MUL(J[30], J[16], k);
+        J[70][k] = TAYLOR_MUL(J[15], J[31], k);
+        J[71][k] = TAYLOR_MUL(J[25], J[70], k);
+        J[72][k] = T_SUB(J[69][k], J[71][k]);
+        J[73][k] = TAYLOR_MUL(J[68], J[72], k);
+        J[74][k] = T_SUB(J[66][k], J[73][k]);
+        J[75][k] = T_MUL(C[7], X[7][k]);
+        J[76][k] = TAYLOR_MUL(J[17], X[6], k);
+        J[77][k] = TAYLOR_MUL(J[75], J[76], k);
+        J[78][k] = TAYLOR_MUL(J[32], J[14], k);
+        J[79][k] = TAYLOR_MUL(J[77], J[78], k);
+        J[80][k] = T_SUB(J[74][k], J[79][k]);
+        J[81][k] = T_MUL(C[8], J[80][k]);
+        J[82][k] = TAYLOR_MUL(J[55], J[69], k);
+        J[83][k] = TAYLOR_MUL(J[26], J[82], k);
+        J[84][k] = T_MUL(C[7], X[5][k]);
+        J[85][k] = TAYLOR_MUL(J[32], X[4], k);
+        J[86][k] = TAYLOR_MUL(J[14], J[17], k);
+        J[87][k] = TAYLOR_MUL(J[85], J[86], k);
+        J[88][k] = TAYLOR_MUL(J[84], J[87], k);
+        J[89][k] = T_ADD(J[83][k], J[88][k]);
+        J[90][k] = TAYLOR_MUL(J[15], J[16], k);
+        J[91][k] = TAYLOR_MUL(J[60], J[90], k);
+        J[92][k] = T_MUL(C[8], J[91][k]);
+        J[93][k] = T_ADD(J[89][k], J[92][k]);
+        J[94][k] = TAYLOR_MUL(X[4], X[4], k);
+        J[95][k] = TAYLOR_MUL(J[25], J[69], k);
+        J[96][k] = T_SUB(J[70][k], J[95][k]);
+        J[97][k] = T_MUL(C[3], J[96][k]);
+        J[98][k] = TAYLOR_MUL(J[94], J[97], k);
+        J[99][k] = T_SUB(J[93][k], J[98][k]);
+        J[100][k] = TAYLOR_MUL(J[10], J[17], k);
+        J[101][k] = T_MUL(C[9], J[100][k]);
+        J[102][k] = T_SUB(J[99][k], J[101][k]);
+        J[103][k] = TAYLOR_MUL(J[41], J[102], k);
+        J[104][k] = T_SUB(J[81][k], J[103][k]);
+        J[105][k] = TAYLOR_MUL(J[30], J[55], k);
+        J[106][k] = TAYLOR_MUL(J[105], J[14], k);
+        J[107][k] = T_MUL(C[3], J[106][k]);
+        J[108][k] = TAYLOR_MUL(J[30], J[94], k);
+        J[109][k] = TAYLOR_MUL(J[108], J[14], k);
+        J[110][k] = T_MUL(C[3], J[109][k]);
+        J[111][k] = T_ADD(J[107][k], J[110][k]);
+        J[112][k] = T_MUL(C[9], J[11][k]);
+        J[113][k] = T_MUL(C[0], J[112][k]);
+        J[114][k] = T_SUB(J[111][k], J[113][k]);
+        J[115][k] = TAYLOR_MUL(J[16], X[6], k);
+        J[116][k] = T_MUL(C[8], J[75][k]);
+        J[117][k] = TAYLOR_MUL(J[115], J[116], k);
+        J[118][k] = T_SUB(J[114][k], J[117][k]);
+        J[119][k] = TAYLOR_MUL(J[25], J[85], k);
+        J[120][k] = TAYLOR_MUL(J[84], J[119], k);
+        J[121][k] = T_MUL(C[0], J[120][k]);
+        J[122][k] = T_SUB(J[118][k], J[121][k]);
+        J[123][k] = TAYLOR_MUL(J[34], J[122], k);
+        J[124][k] = T_SUB(J[104][k], J[123][k]);
+        J[125][k] = TAYLOR_MUL(J[53], J[124], k);
+        J[126][k] = TAYLOR_MUL(J[68], J[14], k);
+        J[127][k] = TAYLOR_MUL(J[15], J[126], k);
+        J[128][k] = T_MUL(C[2], J[127][k]);
+        J[129][k] = T_MUL(C[10], J[9][k]);
+        J[130][k] = T_SUB(J[128][k], J[129][k]);
+        J[131][k] = TAYLOR_MUL(J[31], X[4], k);
+        J[132][k] = TAYLOR_MUL(J[131], X[5], k);
+        J[133][k] = T_MUL(C[11], J[132][k]);
+        J[134][k] = T_SUB(J[130][k], J[133][k]);
+        J[135][k] = TAYLOR_MUL(J[25], J[18], k);
+        J[136][k] = TAYLOR_MUL(J[75], J[135], k);
+        J[137][k] = TAYLOR_MUL(J[136], X[6], k);
+        J[138][k] = T_SUB(J[134][k], J[137][k]);
+        J[139][k] = T_MUL(C[3], J[14][k]);
+        J[140][k] = TAYLOR_MUL(J[15], J[60], k);
+        J[141][k] = TAYLOR_MUL(J[139], J[140], k);
+        J[142][k] = T_SUB(J[138][k], J[141][k]);
+        J[143][k] = T_MUL(C[8], J[142][k]);
+        J[144][k] = TAYLOR_MUL(J[20], J[102], k);
+        J[145][k] = T_SUB(J[143][k], J[144][k]);
+        J[146][k] = TAYLOR_MUL(J[26], J[122], k);
+        J[147][k] = T_SUB(J[145][k], J[146][k]);
+        J[148][k] = TAYLOR_MUL(J[52], J[147], k);
+        J[149][k] = TAYLOR_MUL(J[49], J[148], k);
+        J[150][k] = T_SUB(J[125][k], J[149][k]);
+        J[151][k] = TAYLOR_DIV(T_INT(k == 0), J[30], J[151], k);
+        J[152][k] = TAYLOR_MUL(J[44], J[148], k);
+        J[153][k] = TAYLOR_MUL(J[49], J[52], k);
+        J[154][k] = TAYLOR_MUL(J[153], J[124], k);
+        J[155][k] = T_SUB(J[152][k], J[154][k]);
+        J[156][k] = TAYLOR_MUL(J[151], J[155], k);
+        J[157][k] = T_MUL(C[2], J[35][k]);
+        J[158][k] = T_SUB(J[157][k], J[28][k]);
+        J[159][k] = T_MUL(C[2], J[43][k]);
+        J[160][k] = T_SUB(J[159][k], J[21][k]);
+        J[161][k] = TAYLOR_MUL(J[160], J[158], k);
+        J[162][k] = TAYLOR_MUL(J[41], J[34], k);
+        J[163][k] = T_MUL(C[2], J[162][k]);
+        J[164][k] = TAYLOR_MUL(J[20], J[26], k);
+        J[165][k] = T_SUB(J[163][k], J[164][k]);
+        J[166][k] = TAYLOR_MUL(J[165], J[165], k);
+        J[167][k] = T_SUB(J[161][k], J[166][k]);
+        J[168][k] = TAYLOR_DIV(T_INT(k == 0), J[167], J[168], k);
+        J[169][k] = TAYLOR_MUL(J[158], J[168], k);
+        J[170][k] = T_MUL(C[5], J[102][k]);
+        J[171][k] = TAYLOR_MUL(J[41], J[80], k);
+        J[172][k] = T_SUB(J[170][k], J[171][k]);
+        J[173][k] = TAYLOR_MUL(J[20], J[142], k);
+        J[174][k] = T_SUB(J[172][k], J[173][k]);
+        J[175][k] = TAYLOR_MUL(J[169], J[174], k);
+        J[176][k] = T_MUL(C[5], J[122][k]);
+        J[177][k] = TAYLOR_MUL(J[34], J[80], k);
+        J[178][k] = T_SUB(J[176][k], J[177][k]);
+        J[179][k] = TAYLOR_MUL(J[26], J[142], k);
+        J[180][k] = T_SUB(J[178][k], J[179][k]);
+        J[181][k] = TAYLOR_MUL(J[168], J[180], k);
+        J[182][k] = TAYLOR_MUL(J[165], J[181], k);
+        J[183][k] = T_SUB(J[175][k], J[182][k]);
+        J[184][k] = TAYLOR_DIV(T_INT(k == 0), J[15], J[184], k);
+        J[185][k] = TAYLOR_MUL(J[160], J[181], k);
+        J[186][k] = TAYLOR_MUL(J[165], J[168], k);
+        J[187][k] = TAYLOR_MUL(J[186], J[174], k);
+        J[188][k] = T_SUB(J[185][k], J[187][k]);
+        J[189][k] = TAYLOR_MUL(J[184], J[188], k);
+        if (k == 0 && (!(T_ABS(J[30][0]) >= sine_min) || !(T_ABS(J[15][0]) >= sine_min))) {
+            return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
+        }
+        X[0][k + 1] = T_DIVI(X[4][k], k + 1);
+        X[1][k + 1] = T_DIVI(X[5][k], k + 1);
+        X[2][k + 1] = T_DIVI(X[6][k], k + 1);
+        X[3][k + 1] = T_DIVI(X[7][k], k + 1);
+        X[4][k + 1] = T_DIVI(J[150][k], k + 1);
+        X[5][k + 1] = T_DIVI(J[156][k], k + 1);
+        X[6][k + 1] = T_DIVI(J[183][k], k + 1);
+        X[7][k + 1] = T_DIVI(J[189][k], k + 1);
+    }
+    return SPHERICAL_ROT_INTEGRATE_OK;
+}
+
+static R spherical_rot_thorner_dd(const R *x, int order, R tau)
+{
+    R acc = x[order];
+    int k;
+    for (k = order - 1; k >= 0; --k) {
+        acc = T_ADD(T_MUL(acc, tau), x[k]);
+    }
+    return acc;
+}
+
+static int spherical_rot_tfinite_dd(const R *z, long n)
+{
+    S check = 0;
+    long k;
+    for (k = 0; k < n; ++k) {
+        check += T_S(z[k]) - T_S(z[k]);
+    }
+    return check == 0;
+}
+
+/* The order for a tolerance (Jorba & Zou 2005): ceil(-ln(tol)/2 + 1), in [2, ORDER_MAX]. */
+static int spherical_rot_torder_dd(S tol)
+{
+    double p = ceil(-log((double)tol) / 2 + 1);
+    if (SPHERICAL_ROT_TAYLOR_ORDER) {
+        return SPHERICAL_ROT_TAYLOR_ORDER;
+    }
+    if (!(p >= 2)) {
+        return 2;
+    }
+    return p > ORDER_MAX ? ORDER_MAX : (int)p;
+}
+
+int spherical_rot_taylor_coefficients_dd(const R *y, const R *p, int order, R *coef, double sine_min)
+{
+    R X[N][ORDER_DIM];
+    int i, k, st;
+    if (order < 1 || order > ORDER_DIM - 1 || (SPHERICAL_ROT_TAYLOR_ORDER && order != SPHERICAL_ROT_TAYLOR_ORDER)) {
+        return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+    }
+    for (i = 0; i < N; ++i) {
+        X[i][0] = y[i];
+    }
+    st = spherical_rot_taylor_jet_dd(X, p, order, (S)sine_min);
+    for (i = 0; i < N; ++i) {
+        for (k = 0; k <= order; ++k) {
+            coef[i * (order + 1) + k] = X[i][k];
+        }
+    }
+    return st;
+}
+
+int spherical_rot_taylor_dd(const R *y0, const R *p, long nt, const R *t_out, R *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
+{
+    R X[N][ORDER_DIM];
+    R t, h = T_INT(0), tend, tau, span;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
+    long iout = 1, steps = 0, row, j;
+    int i, order, dir, st = SPHERICAL_ROT_INTEGRATE_OK, last;
+    spherical_rot_integrate_info local;
+
+    if (!info) {
+        info = &local;
+    }
+    info->status = 0;
+    info->nfev = 0;
+    info->njev = 0;
+    info->nsteps = 0;
+    info->naccepted = 0;
+    info->nrejected = 0;
+    info->nnewton = 0;
+    info->nout = 0;
+    info->t = 0;
+    info->h = 0;
+    info->h_end = 0;
+    info->local_error = 0;
+    info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
+    for (i = 0; i < N; ++i) {
+        info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
+    }
+    tol = (S)opt->rtol;
+    if (nt < 1 || !spherical_rot_tfinite_dd(y0, N) || !spherical_rot_tfinite_dd(p, SPHERICAL_ROT_N_PARAMS) ||
+        !spherical_rot_tfinite_dd(t_out, nt) || !(tol > 0) || !(opt->hmax >= 0) || opt->max_steps < 1) {
+        st = SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+        goto done;
+    }
+    for (j = 2; j < nt; ++j) {
+        if (!(T_S(T_SUB(t_out[j], t_out[j - 1])) * T_S(T_SUB(t_out[1], t_out[0])) > 0)) {
+            st = SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+            goto done;
+        }
+    }
+    order = spherical_rot_torder_dd(tol);
+    /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
+    safety = exp((S)-2 - (S)0.7 / (S)(order - 1));
+    for (i = 0; i < N; ++i) {
+        X[i][0] = y0[i];
+        y_out[i] = y0[i];
+    }
+    info->nout = 1;
+    t = t_out[0];
+    if (nt == 1) {
+        goto done;
+    }
+    tend = t_out[nt - 1];
+    dir = T_S(T_SUB(tend, t)) > 0 ? 1 : -1;
+    span = T_MULI(T_SUB(tend, t), dir);
+    if (!(T_S(span) > 0)) {
+        st = SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+        goto done;
+    }
+    hmax = opt->hmax > 0 ? (S)opt->hmax : T_S(span);
+    while (iout < nt) {
+        if (steps >= opt->max_steps) {
+            st = SPHERICAL_ROT_INTEGRATE_MAX_STEPS;
+            break;
+        }
+        if (opt->cancel && *opt->cancel) {
+            st = SPHERICAL_ROT_INTEGRATE_CANCELLED;
+            break;
+        }
+        st = spherical_rot_taylor_jet_dd(X, p, order, (S)opt->sine_min);
+        info->nfev += 1;
+        if (st) {
+            break;
+        }
+        m = 1;
+        n1 = 0;
+        n2 = 0;
+        for (i = 0; i < N; ++i) {
+            m = T_ABS(X[i][0]) > m ? T_ABS(X[i][0]) : m;
+            n1 = T_ABS(X[i][order - 1]) > n1 ? T_ABS(X[i][order - 1]) : n1;
+            n2 = T_ABS(X[i][order]) > n2 ? T_ABS(X[i][order]) : n2;
+        }
+        if (!(n1 - n1 == 0) || !(n2 - n2 == 0)) {
+            st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
+            break;
+        }
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
+        if (n1 > 0) {
+            rho = pow(m / n1, (S)1 / (S)(order - 1));
+        }
+        if (n2 > 0) {
+            r = pow(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
+        }
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
+        }
+        if (!(hs > 0)) {
+            st = SPHERICAL_ROT_INTEGRATE_STEP_UNDERFLOW;
+            break;
+        }
+        /* the step in R: the last one exactly to tend */
+        last = hs >= T_S(T_MULI(T_SUB(tend, t), dir));
+        h = last ? T_MULI(T_SUB(tend, t), dir) : T_FROMS(hs);
+        /* dense output: every output time inside this step from the series */
+        while (iout < nt && (last || T_LE(T_MULI(T_SUB(t_out[iout], t), dir), h))) {
+            tau = T_SUB(t_out[iout], t);
+            row = iout * N;
+            for (i = 0; i < N; ++i) {
+                y_out[row + i] = spherical_rot_thorner_dd(X[i], order, tau);
+            }
+            if (!spherical_rot_tfinite_dd(y_out + row, N)) {
+                st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
+                break;
+            }
+            iout += 1;
+            info->nout = iout;
+        }
+        if (st) {
+            break;
+        }
+        for (i = 0; i < N; ++i) {
+            X[i][0] = spherical_rot_thorner_dd(X[i], order, T_MULI(h, dir));
+        }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * pow(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
+        t = last ? tend : T_ADD(t, T_MULI(h, dir));
+        steps += 1;
+        info->naccepted += 1;
+        info->t = (double)T_S(t);
+        info->h = (double)T_S(T_MULI(h, dir));
+        for (i = 0; i < N; ++i) {
+            info->y[i] = (double)T_S(X[i][0]);
+        }
+        if (!spherical_rot_tfinite_dd(&X[0][0], 1)) {
+            st = SPHERICAL_ROT_INTEGRATE_NONFINITE;
+            break;
+        }
+    }
+done:
+    info->nsteps = steps;
+    info->status = st;
+    if (st) {
+        for (row = info->nout > 0 ? info->nout : 0; row < nt; ++row) {
+            for (i = 0; i < N; ++i) {
+                y_out[row * N + i] = dd_d(nan(""));
+            }
+        }
+    }
+    return st;
+}
+
+long spherical_rot_taylor_batch_dd(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
+{
+    long i, failed = 0;
+    for (i = 0; i < n; ++i) {
+        if (spherical_rot_taylor_dd(y0 + i * y0_stride, p + i * p_stride, nt, t, y_out + i * nt * N, opt, info ? info + i : 0) != 0) {
+            failed += 1;
+        }
+    }
+    return failed;
+}
+
+#undef R
+#undef S
+#undef T_ADD
+#undef T_SUB
+#undef T_MUL
+#undef T_DIV
+#undef T_NEG
+#undef T_MULI
+#undef T_DIVI
+#undef T_INT
+#undef T_D
+#undef T_SQRT
+#undef T_SIN
+#undef T_COS
+#undef T_EXP
+#undef T_S
+#undef T_ABS
+#undef T_FROMS
+#undef T_LE
+#undef TAYLOR_MUL
+#undef TAYLOR_DIV
+#undef TAYLOR_SQRT
+#undef TAYLOR_SIN
+#undef TAYLOR_COS
+#undef TAYLOR_EXP
+#undef DD_DOT_STEP
+#endif /* SPHERICAL_ROT_TAYLOR_SKIP_DOUBLE_DOUBLE */

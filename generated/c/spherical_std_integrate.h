@@ -133,6 +133,7 @@ typedef struct spherical_std_integrate_info {
     double h;           /* last step size (fixed: the step h of the grid) */
     double h_end;       /* fixed: the shortened step to the last output (0: on the grid) */
     double y[SPHERICAL_STD_N_STATES];   /* state at t */
+    double local_error; /* sum of the accepted steps' local-error estimates, in the state's units (dopri5, dop853, abm12, taylor; 0: none) */
 } spherical_std_integrate_info;
 
 void spherical_std_integrate_defaults(spherical_std_integrate_options *opt);

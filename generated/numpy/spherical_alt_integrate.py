@@ -427,6 +427,8 @@ def _fixed_step(c, z, h, partial):
     if not numpy.all(numpy.isfinite(zn)):
         return NONFINITE, z, None
     info["naccepted"] += 1
+    if err > 0:        # abm12: Milne's estimate, in units of atol + rtol |z|_max (as the step scaled it)
+        info["local_error"] += float(err) * (c.opt["atol"] + c.opt["rtol"] * float(numpy.max(numpy.abs(z))))
     return OK, z, zn
 
 
@@ -544,6 +546,10 @@ def _drive(c, y0, t_out):
                 return done(st, z, t, h)
             info["nout"] += 1
             iout += 1
+        # the step's local-error estimate in the state's units (err is scaled per component
+        # by atol + rtol max(|y|, |y_new|): the largest of those scales bounds it)
+        size = max(float(numpy.max(numpy.abs(z))), float(numpy.max(numpy.abs(zn))))
+        info["local_error"] += float(err) * (opt["atol"] + opt["rtol"] * size)
         z, t = zn, tnew
         K[0] = K[fsal]
         info["naccepted"] += 1
@@ -566,7 +572,8 @@ def _drive(c, y0, t_out):
 
 def new_info():
     return {"status": OK, "nfev": 0, "njev": 0, "nsteps": 0, "naccepted": 0, "nrejected": 0,
-            "nnewton": 0, "nout": 0, "t": 0.0, "h": 0.0, "h_end": 0.0, "y": None}
+            "nnewton": 0, "nout": 0, "t": 0.0, "h": 0.0, "h_end": 0.0, "y": None,
+            "local_error": 0.0}
 
 
 def check(method, y0, p, t, opt):

@@ -165,6 +165,8 @@ def _fixed_step(c, z, h, partial):
     if not numpy.all(numpy.isfinite(zn)):
         return NONFINITE, z, None
     info["naccepted"] += 1
+    if err > 0:        # abm12: Milne's estimate, in units of atol + rtol |z|_max (as the step scaled it)
+        info["local_error"] += float(err) * (c.opt["atol"] + c.opt["rtol"] * float(numpy.max(numpy.abs(z))))
     return OK, z, zn
 
 
@@ -282,6 +284,10 @@ def _drive(c, y0, t_out):
                 return done(st, z, t, h)
             info["nout"] += 1
             iout += 1
+        # the step's local-error estimate in the state's units (err is scaled per component
+        # by atol + rtol max(|y|, |y_new|): the largest of those scales bounds it)
+        size = max(float(numpy.max(numpy.abs(z))), float(numpy.max(numpy.abs(zn))))
+        info["local_error"] += float(err) * (opt["atol"] + opt["rtol"] * size)
         z, t = zn, tnew
         K[0] = K[fsal]
         info["naccepted"] += 1

@@ -1,0 +1,312 @@
+"""The top of the precision ladder: Taylor's method in double-double and IEEE binary128.
+
+float, double and long double are C types NumPy has; the two rungs above them are not:
+    double-double  a value is the unevaluated sum hi + lo of two doubles (about 106
+                   bits, 32 digits), its arithmetic emitted in <model>_taylor.c;
+    quad           IEEE binary128 (113 bits, 34 digits): GCC's __float128 with
+                   libquadmath, in <model>_taylor_quad.c.
+Both run the generated Taylor integrator (derive/integration/taylor_codegen.py), the
+method that makes high precision cheap: its order grows with the digits asked
+(p = ceil(-ln(tol)/2 + 1), 36 at tol 1e-30) while its cost per step grows as p^2.
+
+The values cross into and out of C exactly: an input is taken as the exact number it
+writes (a float as its binary value; a string, Fraction, Decimal or mpmath number as the
+decimal it is, rounded once to the precision), and a result's values are given exactly
+as mpmath numbers (`r.y_exact`, an object array) beside `r.y`, rounded to long double.
+"""
+from __future__ import annotations
+
+import ctypes
+import shutil
+import subprocess
+import sys
+from collections.abc import Mapping, Sequence
+from decimal import Decimal
+from fractions import Fraction
+from functools import lru_cache
+
+import mpmath
+import numpy as np
+
+from ..codegen.loader import PORTABLE_FLAGS, build_library, default_compiler
+from ..codegen.sources import c_source
+from ..errors import BuildError, SimulationInputError
+from ..model.description import forget_on_model_change
+from .build import address, info_struct, integrator_library
+from .codegen import model_info
+from .taylor_codegen import taylor_problem
+from .taylor_library import taylor_order
+
+# Unit roundoff of each rung (double-double: 2^-104 as the QD library states it, its
+# sums being exact to about 2^-106 but not every operation; binary128: 2^-113).
+UNIT_ROUNDOFF = {"double-double": 2.0 ** -104, "quad": 2.0 ** -113}
+DEFAULT_RTOL = {"double-double": 1e-30, "quad": 1e-32}
+NAMES = {"double-double": "double-double", "dd": "double-double", "quad": "quad", "binary128": "quad",
+         "float128-ieee": "quad"}
+_SUFFIX = {"double-double": "_dd", "quad": "_q"}
+_BITS = 256                        # mpmath's working precision for the conversions
+
+
+def precision_of(dtype) -> str | None:
+    """'double-double' or 'quad' for a dtype argument naming one, else None."""
+    return NAMES.get(dtype) if isinstance(dtype, str) else None
+
+
+# -- exact values in and out ------------------------------------------------------------
+
+def exact(value, what: str) -> mpmath.mpf:
+    """A number as the exact value it writes (an mpf at 256 bits)."""
+    with mpmath.workprec(_BITS):
+        try:
+            if isinstance(value, (bool, np.bool_)):
+                raise TypeError
+            if isinstance(value, (int, np.integer)):
+                x = mpmath.mpf(int(value))
+            elif isinstance(value, (float, np.floating)):
+                num, den = value.as_integer_ratio()        # the binary value, exactly
+                x = mpmath.mpf(num) / den
+            elif isinstance(value, Fraction):
+                x = mpmath.mpf(value.numerator) / value.denominator
+            elif isinstance(value, (str, Decimal)):
+                x = mpmath.mpf(str(value).strip())
+            elif isinstance(value, mpmath.mpf):
+                x = +value
+            else:
+                raise TypeError
+        except (TypeError, ValueError):
+            raise SimulationInputError(f"{what} must be numbers (float, int, str, Fraction, Decimal or "
+                                       f"mpmath.mpf), got {value!r}") from None
+    if not mpmath.isfinite(x):
+        raise SimulationInputError(f"{what} contains NaN or infinity: {value!r}")
+    return x
+
+
+def to_dd(values) -> np.ndarray:
+    """(..., 2) float64: each exact value as hi + lo, the nearest double-double."""
+    flat = list(values)
+    out = np.empty((len(flat), 2))
+    with mpmath.workprec(_BITS):
+        for i, x in enumerate(flat):
+            hi = float(x)
+            out[i] = hi, float(x - hi)
+    return out
+
+
+def from_dd(a: np.ndarray) -> list:
+    with mpmath.workprec(_BITS):
+        return [mpmath.mpf(float(hi)) + mpmath.mpf(float(lo)) for hi, lo in a.reshape(-1, 2)]
+
+
+_Q_BIAS, _Q_FRAC = 16383, 112
+
+
+def _quad_bits(x: mpmath.mpf) -> int:
+    """The IEEE binary128 bit pattern nearest to x (round to nearest even)."""
+    with mpmath.workprec(_Q_FRAC + 1):
+        r = +x
+    if r == 0:
+        return 0
+    sign, man, exp, bc = r._mpf_
+    shift = _Q_FRAC + 1 - bc
+    significand, e = man << shift, exp - shift          # x = significand 2^e, 2^112 <= significand < 2^113
+    biased = e + _Q_FRAC + _Q_BIAS
+    if not 0 < biased < 0x7FFF:
+        raise SimulationInputError(f"{mpmath.nstr(x, 10)} is outside the normal range of binary128")
+    return (sign << 127) | (biased << _Q_FRAC) | (significand - (1 << _Q_FRAC))
+
+
+def _quad_value(bits: int) -> mpmath.mpf:
+    sign, biased, frac = bits >> 127, (bits >> _Q_FRAC) & 0x7FFF, bits & ((1 << _Q_FRAC) - 1)
+    if biased == 0x7FFF:
+        return mpmath.mpf("nan") if frac else (-mpmath.inf if sign else mpmath.inf)
+    significand, e = (frac, 1 - _Q_BIAS - _Q_FRAC) if biased == 0 else \
+        (frac | (1 << _Q_FRAC), biased - _Q_BIAS - _Q_FRAC)
+    with mpmath.workprec(_BITS):          # exact (negation too: mpmath rounds every result)
+        v = mpmath.ldexp(mpmath.mpf(significand), e)
+        return -v if sign else v
+
+
+def to_quad(values) -> np.ndarray:
+    """(k, 2) uint64: the binary128 words (low, high: a little-endian machine's layout)."""
+    flat = list(values)
+    out = _aligned((len(flat), 2), np.uint64)
+    mask = (1 << 64) - 1
+    for i, x in enumerate(flat):
+        b = _quad_bits(x)
+        out[i] = b & mask, b >> 64
+    return out
+
+
+def from_quad(a: np.ndarray) -> list:
+    return [_quad_value(int(lo) | (int(hi) << 64)) for lo, hi in a.reshape(-1, 2)]
+
+
+def _aligned(shape: tuple, dtype) -> np.ndarray:
+    """An array whose data starts on a 16-byte boundary (__float128's alignment)."""
+    count = int(np.prod(shape))
+    raw = np.empty(count + 2, dtype)
+    skip = (-address(raw) % 16) // raw.itemsize
+    return raw[skip:skip + count].reshape(shape)
+
+
+ENCODE = {"double-double": to_dd, "quad": to_quad}
+DECODE = {"double-double": from_dd, "quad": from_quad}
+_WORDS = {"double-double": np.float64, "quad": np.uint64}
+
+
+def as_longdouble(values: list) -> np.ndarray:
+    """Exact values rounded to long double (through a double pair: hi + lo)."""
+    out = np.empty(len(values), np.longdouble)
+    with mpmath.workprec(_BITS):
+        for i, x in enumerate(values):
+            if not mpmath.isfinite(x):
+                out[i] = np.nan
+                continue
+            hi = float(x)
+            out[i] = np.longdouble(hi) + np.longdouble(float(x - hi))
+    return out
+
+
+# -- the compiled integrators --------------------------------------------------------
+
+class ExtendedTaylor:
+    """ctypes access to <model>_taylor_batch_dd (in <model>_taylor.c) or _q (in
+    <model>_taylor_quad.c, with libquadmath), compiled with the order fixed."""
+
+    def __init__(self, model: str, precision: str, order: int):
+        info = model_info(model)
+        self.model, self.precision, self.order, self.n = model, precision, order, info.n
+        self.n_params = info.n_params + info.n_inputs
+        stem = f"{model}_taylor_quad" if precision == "quad" else f"{model}_taylor"
+        source = c_source(model, f"{stem}.c")
+        if not source.is_file():
+            raise SimulationInputError(f"model '{model}' has no Taylor integrator: {taylor_problem(model)}")
+        M = model.upper()
+        flags = (*PORTABLE_FLAGS, "-O3", f"-D{M}_TAYLOR_ORDER={order}", *_fma_flags())
+        if precision == "double-double":          # only the variant that runs (compile time)
+            flags += tuple(f"-D{M}_TAYLOR_SKIP_{k}" for k in ("DOUBLE", "FLOAT", "LONG_DOUBLE"))
+        libs = ()
+        if precision == "quad":
+            cc = default_compiler()
+            flags += _quadmath_include(cc)
+            libs = ("-lquadmath",)
+        try:
+            path = build_library(f"{stem}_p{order}", [source], flags=flags, libs=libs)
+        except BuildError as exc:
+            if precision == "quad":
+                raise BuildError(f"binary128 (dtype='quad') needs GCC's __float128 and libquadmath, and "
+                                 f"building with them failed: {str(exc).splitlines()[0]}") from None
+            raise
+        self.lib = ctypes.CDLL(str(path))
+        self.Info = info_struct(self.n)
+        vp = ctypes.c_void_p
+        self.batch = self.lib[f"{model}_taylor_batch{_SUFFIX[precision]}"]
+        self.batch.restype = ctypes.c_long
+        self.batch.argtypes = [ctypes.c_long, vp, ctypes.c_long, vp, ctypes.c_long, ctypes.c_long, vp, vp, vp, vp]
+        self.coefficients_fn = self.lib[f"{model}_taylor_coefficients{_SUFFIX[precision]}"]
+        self.coefficients_fn.restype = ctypes.c_int
+
+    def run(self, y0: list, p: list, t: list, opt) -> tuple[list, object]:
+        """One trajectory from exact values -> (the outputs as exact values, row-major
+        (len(t), n), and the info struct)."""
+        enc = ENCODE[self.precision]
+        y0w, pw, tw = enc(y0), enc(p) if p else enc([0]), enc(t)
+        out = _aligned((len(t) * self.n, 2), _WORDS[self.precision])
+        infos = (self.Info * 1)()
+        self.batch(1, address(y0w), self.n, address(pw), 0, len(t), address(tw), address(out),
+                   ctypes.addressof(opt), ctypes.addressof(infos))
+        return DECODE[self.precision](out), infos[0]
+
+    def coefficients(self, y: list, p: list, sine_min: float = 0.0) -> tuple[int, list]:
+        """(status, the normalised Taylor coefficients, row-major (n, order + 1), exact)."""
+        enc = ENCODE[self.precision]
+        yw, pw = enc(y), enc(p) if p else enc([0])
+        out = _aligned((self.n * (self.order + 1), 2), _WORDS[self.precision])
+        self.coefficients_fn.argtypes = [ctypes.c_void_p] * 2 + [ctypes.c_int, ctypes.c_void_p, ctypes.c_double]
+        st = self.coefficients_fn(address(yw), address(pw), self.order, address(out), ctypes.c_double(sine_min))
+        return int(st), DECODE[self.precision](out)
+
+
+@lru_cache(maxsize=None)
+def _fma_flags() -> tuple[str, ...]:
+    """-mfma where this machine's processor has the instruction: double-double's products
+    use C99's fma, a library call without it (3x slower here).  The flag is part of the
+    build key, so a machine without FMA builds its own library."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            flags = next((line.split(":", 1)[1].split() for line in f if line.startswith("flags")), [])
+    except OSError:
+        return ()
+    return ("-mfma",) if "fma" in flags else ()
+
+
+@lru_cache(maxsize=None)
+def _quadmath_include(cc: str) -> tuple[str, ...]:
+    """clang has __float128 but not GCC's <quadmath.h>: point it at GCC's headers."""
+    if "clang" not in cc or shutil.which("gcc") is None:
+        return ()
+    proc = subprocess.run(["gcc", "-print-file-name=include"], capture_output=True, text=True)
+    return ("-idirafter", proc.stdout.strip()) if proc.returncode == 0 and proc.stdout.strip() else ()
+
+
+@forget_on_model_change
+@lru_cache(maxsize=None)
+def extended_taylor(model: str, precision: str, order: int) -> ExtendedTaylor:
+    if sys.byteorder != "little":
+        raise SimulationInputError(f"dtype '{precision}' runs on little-endian machines only")
+    return ExtendedTaylor(model, precision, order)
+
+
+# -- inputs in the model's order, exactly --------------------------------------------
+
+def ordered_values(value, names: tuple[str, ...], what: str) -> list:
+    """A mapping by name or a sequence in `names` order -> the exact values in that order
+    (simulate's own checks have run: the names and the length are right)."""
+    if isinstance(value, Mapping):
+        raw = [value[n] for n in names]
+    elif isinstance(value, np.ndarray):
+        raw = list(value.reshape(-1))
+    elif isinstance(value, Sequence) and not isinstance(value, str):
+        raw = list(value)
+    else:
+        raise SimulationInputError(f"{what} must be a sequence (or a mapping by name) for the precision ladder")
+    if len(raw) != len(names):
+        raise SimulationInputError(f"{what} must have {len(names)} values ({', '.join(names)}), got {len(raw)}")
+    return [exact(v, what) for v in raw]
+
+
+def simulate_extended(model: str, precision: str, y0, t, params, rtol, hmax, max_steps, sine_min,
+                      inputs):
+    """simulate(..., dtype='double-double' | 'quad'): the Taylor integrator on one
+    trajectory; the checks of simulate have run on the same arguments before."""
+    from .contract import STATUS_NAMES, COUNTERS
+    from .result import LOCAL_SUM, SimulationResult
+    info = model_info(model)
+    tol = DEFAULT_RTOL[precision] if rtol is None else rtol
+    floor = 10 * UNIT_ROUNDOFF[precision]
+    if not isinstance(tol, (int, float, np.floating)) or not floor <= tol < 1:
+        raise SimulationInputError(f"rtol = {tol!r} is outside [10 eps, 1) for {precision} "
+                                   f"(10 eps = {floor:.3g})")
+    ys = ordered_values(y0, info.state_names, "y0")
+    ps = ordered_values(params, info.param_names, "params")
+    if info.n_inputs:
+        ps += ordered_values(inputs, info.input_names, "inputs")
+    ts = [exact(v, "t") for v in (t.reshape(-1) if isinstance(t, np.ndarray) else list(t))]
+    order = taylor_order(tol)
+    lib = integrator_library(model)
+    values = {"rtol": float(tol), "hmax": float(hmax or 0.0), "sine_min": float(sine_min or 0.0)}
+    if max_steps is not None:
+        values["max_steps"] = int(max_steps)
+    opt = lib.options(values)
+    out, inf = extended_taylor(model, precision, order).run(ys, ps, ts, opt)
+    exact_y = np.empty((len(ts), info.n), object)
+    exact_y.flat[:] = out
+    y = as_longdouble(out).reshape(len(ts), info.n)
+    counters = {k: int(getattr(inf, k)) for k in COUNTERS}
+    status = int(inf.status)
+    pm = as_longdouble(ps[:info.n_params])
+    return SimulationResult(
+        model=model, method="taylor", backend="c", dtype=precision, t=as_longdouble(ts), y=y,
+        energy=None, positions=None, status=status, status_name=STATUS_NAMES[status],
+        t_stop=float(inf.t), y_stop=np.array(inf.y[:]), params=pm, rtol=float(tol), y_exact=exact_y,
+        error_estimate=float(inf.local_error), error_kind=LOCAL_SUM, **counters)
