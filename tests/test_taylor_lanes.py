@@ -10,7 +10,7 @@ from derive.integration.build import integrator_library
 from derive.integration.contract import STATUS
 from derive.integration.simulate import run_options
 from derive.integration.taylor_lanes_library import simd_build, taylor_lanes_library
-from derive.integration.taylor_library import taylor_order
+from derive.integration.taylor_library import taylor_library, taylor_order
 
 LANES = simd_build("float64")[1]          # what ensemble runs with on this machine
 PLANAR = [1, 1, 1, 1, 9.81]
@@ -89,6 +89,28 @@ def test_a_nan_state_in_the_c_batch_is_bad_input_for_its_lane_only():
     assert np.all(np.isnan(y[2])) and np.all(np.isfinite(np.delete(y, 2, axis=0)))
     for b in (0, 3, LANES + 1):
         assert np.array_equal(y[b], derive.simulate("planar", y0[b], t, PLANAR, method="taylor", rtol=1e-10).y)
+
+
+def test_every_info_field_is_the_scalar_integrators():
+    """The C entry points side by side: every field of every trajectory's info (counters,
+    time, last step, state, the local-error sum, rows written), good runs and failed ones."""
+    y0 = _states(LANES + 3, seed=18)
+    y0[1, 0] = np.nan                       # bad input
+    y0[LANES, 2] = 1e300                    # overflows in its first step
+    params = _params(len(y0), seed=19)
+    t = np.linspace(0, 1.5, 4)
+    opt = integrator_library("planar").options(run_options("taylor", np.float64, t, rtol=1e-10))
+    order = taylor_order(1e-10)
+    y, lanes = taylor_lanes_library("planar", order).run(y0, params, t, opt)
+    ref, scalar = taylor_library("planar", order).run(y0, params, t, opt)
+    assert np.array_equal(y, ref, equal_nan=True)
+    for a, b in zip(lanes, scalar):
+        for name, _ in a._fields_:
+            assert np.array_equal(np.ctypeslib.as_array(getattr(a, name)) if name == "y" else getattr(a, name),
+                                  np.ctypeslib.as_array(getattr(b, name)) if name == "y" else getattr(b, name),
+                                  equal_nan=True), name
+    assert sorted({i.status for i in lanes}) == [0, STATUS["NONFINITE"], STATUS["BAD_INPUT"]]
+    assert all(i.local_error > 0 for i in lanes if i.status == 0)
 
 
 @pytest.mark.slow        # the spherical chart's integrators take minutes to compile

@@ -19,7 +19,8 @@ each trajectory is bit for bit what `simulate(method="taylor")` gives.
 from __future__ import annotations
 
 from ..errors import SpecError
-from .taylor_codegen import Decomposition, _slots, c_statements, counts, rhs_decomposition, ORDER_MAX
+from .taylor_codegen import (ORDER_MAX, TAYLOR_VARIANTS, Decomposition, _slots, c_statements, counts,
+                             rhs_decomposition)
 
 LANES_DEFAULT = 4        # the generic build's lanes (AVX2: four doubles)
 
@@ -122,7 +123,7 @@ def render_taylor_lanes(name: str) -> dict[str, str]:
     info = model_info(name)
     d = rhs_decomposition(name)
     slots = _slots(name)
-    variants = [dict(v, constants=c_statements(d, v["ctype"], slots)["constants"],
+    variants = [dict(v, constants=c_statements(d, TAYLOR_VARIANTS[v["ctype"]], slots)["constants"],
                      lanes=lane_statements(d, name, v["s"])) for v in c_variants()]
     kinds = counts(d)
     M = name.upper()

@@ -301,6 +301,7 @@ typedef struct {
     long traj;                  /* its index in the batch; -1: the lane is idle */
     long iout, steps;
     double t, tend, dir, hmax, h;
+    double rho, n2;            /* this step's radius and largest last coefficient */
     int last;                   /* this step ends at tend */
     double *y;                 /* its output rows */
     compound_integrate_info *info, local;
@@ -384,6 +385,7 @@ static int compound_lstart(compound_lrun *r, int l)
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = r->nt > 0 ? (double)r->t[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = r->nt > 0 ? (double)y0[i] : 0;
@@ -403,7 +405,7 @@ static int compound_lstart(compound_lrun *r, int l)
         return 0;
     }
     ln->tend = r->t[r->nt - 1];
-    ln->dir = ln->tend > ln->t ? 1 : -1;
+    ln->dir = ln->tend - ln->t > 0 ? 1 : -1;
     span = (ln->tend - ln->t) * ln->dir;
     if (!(span > 0)) {
         compound_lfinish(r, l, COMPOUND_INTEGRATE_BAD_INPUT);
@@ -468,21 +470,22 @@ static int compound_lstep(compound_lrun *r, int l)
     if (!compound_lfinite(&n1, 1) || !compound_lfinite(&n2, 1)) {
         return COMPOUND_INTEGRATE_NONFINITE;
     }
-    /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
-     * one pow where their exponents show which is the smaller */
+    /* the series' radius rho, the smaller of (m/n1)^(1/(p-1)) and (m/n2)^(1/p) (-1: no
+     * growth in the last coefficients), as the scalar computes it, with one pow where
+     * their exponents show which is the smaller; the step rho times the safety factor,
+     * capped by hmax (never the cap shrunk), the last one exactly to tend */
     x1 = n1 > 0 ? m / n1 : 0;
     x2 = n2 > 0 ? m / n2 : 0;
     which = n1 > 0 && n2 > 0 ? compound_lsmaller(x1, y1, x2, y2) : 0;
-    rho = ln->hmax;
+    rho = -1;
     if (n1 > 0 && which != 2) {
-        q = pow(x1, y1);
-        rho = q < rho ? q : rho;
+        rho = pow(x1, y1);
     }
     if (n2 > 0 && which != 1) {
         q = pow(x2, y2);
-        rho = q < rho ? q : rho;
+        rho = rho < 0 || q < rho ? q : rho;
     }
-    h = rho * r->safety;
+    h = rho > 0 ? rho * r->safety : ln->hmax;
     if (!(h <= ln->hmax)) {
         h = ln->hmax;
     }
@@ -506,7 +509,9 @@ static int compound_lstep(compound_lrun *r, int l)
         ln->info->nout = ln->iout;
     }
     ln->h = h;
-    r->tau[l] = ln->dir * h;
+    ln->rho = rho;
+    ln->n2 = n2;
+    r->tau[l] = h * ln->dir;
     return COMPOUND_INTEGRATE_OK;
 }
 
@@ -515,11 +520,14 @@ static int compound_ladvanced(compound_lrun *r, int l)
 {
     compound_lane *ln = &r->lane[l];
     int i;
-    ln->t = ln->last ? ln->tend : ln->t + ln->dir * ln->h;
+    /* the truncation error, as the scalar estimates it: the first term left out,
+     * |x_p| h^p (h / rho) */
+    ln->info->local_error += ln->rho > 0 ? (double)(ln->n2 * pow(ln->h, (double)r->order) * (ln->h / ln->rho)) : 0;
+    ln->t = ln->last ? ln->tend : ln->t + ln->h * ln->dir;
     ln->steps += 1;
     ln->info->naccepted += 1;
     ln->info->t = (double)ln->t;
-    ln->info->h = (double)(ln->dir * ln->h);
+    ln->info->h = (double)(ln->h * ln->dir);
     for (i = 0; i < N; ++i) {
         ln->info->y[i] = (double)r->X[i][l];
     }
@@ -884,6 +892,7 @@ typedef struct {
     long traj;                  /* its index in the batch; -1: the lane is idle */
     long iout, steps;
     float t, tend, dir, hmax, h;
+    float rho, n2;            /* this step's radius and largest last coefficient */
     int last;                   /* this step ends at tend */
     float *y;                 /* its output rows */
     compound_integrate_info *info, local;
@@ -967,6 +976,7 @@ static int compound_lstart_f(compound_lrun_f *r, int l)
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = r->nt > 0 ? (double)r->t[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = r->nt > 0 ? (double)y0[i] : 0;
@@ -986,7 +996,7 @@ static int compound_lstart_f(compound_lrun_f *r, int l)
         return 0;
     }
     ln->tend = r->t[r->nt - 1];
-    ln->dir = ln->tend > ln->t ? 1 : -1;
+    ln->dir = ln->tend - ln->t > 0 ? 1 : -1;
     span = (ln->tend - ln->t) * ln->dir;
     if (!(span > 0)) {
         compound_lfinish_f(r, l, COMPOUND_INTEGRATE_BAD_INPUT);
@@ -1051,21 +1061,22 @@ static int compound_lstep_f(compound_lrun_f *r, int l)
     if (!compound_lfinite_f(&n1, 1) || !compound_lfinite_f(&n2, 1)) {
         return COMPOUND_INTEGRATE_NONFINITE;
     }
-    /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
-     * one pow where their exponents show which is the smaller */
+    /* the series' radius rho, the smaller of (m/n1)^(1/(p-1)) and (m/n2)^(1/p) (-1: no
+     * growth in the last coefficients), as the scalar computes it, with one pow where
+     * their exponents show which is the smaller; the step rho times the safety factor,
+     * capped by hmax (never the cap shrunk), the last one exactly to tend */
     x1 = n1 > 0 ? m / n1 : 0;
     x2 = n2 > 0 ? m / n2 : 0;
     which = n1 > 0 && n2 > 0 ? compound_lsmaller_f(x1, y1, x2, y2) : 0;
-    rho = ln->hmax;
+    rho = -1;
     if (n1 > 0 && which != 2) {
-        q = powf(x1, y1);
-        rho = q < rho ? q : rho;
+        rho = powf(x1, y1);
     }
     if (n2 > 0 && which != 1) {
         q = powf(x2, y2);
-        rho = q < rho ? q : rho;
+        rho = rho < 0 || q < rho ? q : rho;
     }
-    h = rho * r->safety;
+    h = rho > 0 ? rho * r->safety : ln->hmax;
     if (!(h <= ln->hmax)) {
         h = ln->hmax;
     }
@@ -1089,7 +1100,9 @@ static int compound_lstep_f(compound_lrun_f *r, int l)
         ln->info->nout = ln->iout;
     }
     ln->h = h;
-    r->tau[l] = ln->dir * h;
+    ln->rho = rho;
+    ln->n2 = n2;
+    r->tau[l] = h * ln->dir;
     return COMPOUND_INTEGRATE_OK;
 }
 
@@ -1098,11 +1111,14 @@ static int compound_ladvanced_f(compound_lrun_f *r, int l)
 {
     compound_lane_f *ln = &r->lane[l];
     int i;
-    ln->t = ln->last ? ln->tend : ln->t + ln->dir * ln->h;
+    /* the truncation error, as the scalar estimates it: the first term left out,
+     * |x_p| h^p (h / rho) */
+    ln->info->local_error += ln->rho > 0 ? (double)(ln->n2 * powf(ln->h, (float)r->order) * (ln->h / ln->rho)) : 0;
+    ln->t = ln->last ? ln->tend : ln->t + ln->h * ln->dir;
     ln->steps += 1;
     ln->info->naccepted += 1;
     ln->info->t = (double)ln->t;
-    ln->info->h = (double)(ln->dir * ln->h);
+    ln->info->h = (double)(ln->h * ln->dir);
     for (i = 0; i < N; ++i) {
         ln->info->y[i] = (double)r->X[i][l];
     }
@@ -1467,6 +1483,7 @@ typedef struct {
     long traj;                  /* its index in the batch; -1: the lane is idle */
     long iout, steps;
     long double t, tend, dir, hmax, h;
+    long double rho, n2;            /* this step's radius and largest last coefficient */
     int last;                   /* this step ends at tend */
     long double *y;                 /* its output rows */
     compound_integrate_info *info, local;
@@ -1550,6 +1567,7 @@ static int compound_lstart_l(compound_lrun_l *r, int l)
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = r->nt > 0 ? (double)r->t[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = r->nt > 0 ? (double)y0[i] : 0;
@@ -1569,7 +1587,7 @@ static int compound_lstart_l(compound_lrun_l *r, int l)
         return 0;
     }
     ln->tend = r->t[r->nt - 1];
-    ln->dir = ln->tend > ln->t ? 1 : -1;
+    ln->dir = ln->tend - ln->t > 0 ? 1 : -1;
     span = (ln->tend - ln->t) * ln->dir;
     if (!(span > 0)) {
         compound_lfinish_l(r, l, COMPOUND_INTEGRATE_BAD_INPUT);
@@ -1634,21 +1652,22 @@ static int compound_lstep_l(compound_lrun_l *r, int l)
     if (!compound_lfinite_l(&n1, 1) || !compound_lfinite_l(&n2, 1)) {
         return COMPOUND_INTEGRATE_NONFINITE;
     }
-    /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
-     * one pow where their exponents show which is the smaller */
+    /* the series' radius rho, the smaller of (m/n1)^(1/(p-1)) and (m/n2)^(1/p) (-1: no
+     * growth in the last coefficients), as the scalar computes it, with one pow where
+     * their exponents show which is the smaller; the step rho times the safety factor,
+     * capped by hmax (never the cap shrunk), the last one exactly to tend */
     x1 = n1 > 0 ? m / n1 : 0;
     x2 = n2 > 0 ? m / n2 : 0;
     which = n1 > 0 && n2 > 0 ? compound_lsmaller_l(x1, y1, x2, y2) : 0;
-    rho = ln->hmax;
+    rho = -1;
     if (n1 > 0 && which != 2) {
-        q = powl(x1, y1);
-        rho = q < rho ? q : rho;
+        rho = powl(x1, y1);
     }
     if (n2 > 0 && which != 1) {
         q = powl(x2, y2);
-        rho = q < rho ? q : rho;
+        rho = rho < 0 || q < rho ? q : rho;
     }
-    h = rho * r->safety;
+    h = rho > 0 ? rho * r->safety : ln->hmax;
     if (!(h <= ln->hmax)) {
         h = ln->hmax;
     }
@@ -1672,7 +1691,9 @@ static int compound_lstep_l(compound_lrun_l *r, int l)
         ln->info->nout = ln->iout;
     }
     ln->h = h;
-    r->tau[l] = ln->dir * h;
+    ln->rho = rho;
+    ln->n2 = n2;
+    r->tau[l] = h * ln->dir;
     return COMPOUND_INTEGRATE_OK;
 }
 
@@ -1681,11 +1702,14 @@ static int compound_ladvanced_l(compound_lrun_l *r, int l)
 {
     compound_lane_l *ln = &r->lane[l];
     int i;
-    ln->t = ln->last ? ln->tend : ln->t + ln->dir * ln->h;
+    /* the truncation error, as the scalar estimates it: the first term left out,
+     * |x_p| h^p (h / rho) */
+    ln->info->local_error += ln->rho > 0 ? (double)(ln->n2 * powl(ln->h, (long double)r->order) * (ln->h / ln->rho)) : 0;
+    ln->t = ln->last ? ln->tend : ln->t + ln->h * ln->dir;
     ln->steps += 1;
     ln->info->naccepted += 1;
     ln->info->t = (double)ln->t;
-    ln->info->h = (double)(ln->dir * ln->h);
+    ln->info->h = (double)(ln->h * ln->dir);
     for (i = 0; i < N; ++i) {
         ln->info->y[i] = (double)r->X[i][l];
     }

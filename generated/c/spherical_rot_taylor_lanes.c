@@ -465,6 +465,7 @@ typedef struct {
     long traj;                  /* its index in the batch; -1: the lane is idle */
     long iout, steps;
     double t, tend, dir, hmax, h;
+    double rho, n2;            /* this step's radius and largest last coefficient */
     int last;                   /* this step ends at tend */
     double *y;                 /* its output rows */
     spherical_rot_integrate_info *info, local;
@@ -548,6 +549,7 @@ static int spherical_rot_lstart(spherical_rot_lrun *r, int l)
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = r->nt > 0 ? (double)r->t[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = r->nt > 0 ? (double)y0[i] : 0;
@@ -567,7 +569,7 @@ static int spherical_rot_lstart(spherical_rot_lrun *r, int l)
         return 0;
     }
     ln->tend = r->t[r->nt - 1];
-    ln->dir = ln->tend > ln->t ? 1 : -1;
+    ln->dir = ln->tend - ln->t > 0 ? 1 : -1;
     span = (ln->tend - ln->t) * ln->dir;
     if (!(span > 0)) {
         spherical_rot_lfinish(r, l, SPHERICAL_ROT_INTEGRATE_BAD_INPUT);
@@ -632,21 +634,22 @@ static int spherical_rot_lstep(spherical_rot_lrun *r, int l)
     if (!spherical_rot_lfinite(&n1, 1) || !spherical_rot_lfinite(&n2, 1)) {
         return SPHERICAL_ROT_INTEGRATE_NONFINITE;
     }
-    /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
-     * one pow where their exponents show which is the smaller */
+    /* the series' radius rho, the smaller of (m/n1)^(1/(p-1)) and (m/n2)^(1/p) (-1: no
+     * growth in the last coefficients), as the scalar computes it, with one pow where
+     * their exponents show which is the smaller; the step rho times the safety factor,
+     * capped by hmax (never the cap shrunk), the last one exactly to tend */
     x1 = n1 > 0 ? m / n1 : 0;
     x2 = n2 > 0 ? m / n2 : 0;
     which = n1 > 0 && n2 > 0 ? spherical_rot_lsmaller(x1, y1, x2, y2) : 0;
-    rho = ln->hmax;
+    rho = -1;
     if (n1 > 0 && which != 2) {
-        q = pow(x1, y1);
-        rho = q < rho ? q : rho;
+        rho = pow(x1, y1);
     }
     if (n2 > 0 && which != 1) {
         q = pow(x2, y2);
-        rho = q < rho ? q : rho;
+        rho = rho < 0 || q < rho ? q : rho;
     }
-    h = rho * r->safety;
+    h = rho > 0 ? rho * r->safety : ln->hmax;
     if (!(h <= ln->hmax)) {
         h = ln->hmax;
     }
@@ -670,7 +673,9 @@ static int spherical_rot_lstep(spherical_rot_lrun *r, int l)
         ln->info->nout = ln->iout;
     }
     ln->h = h;
-    r->tau[l] = ln->dir * h;
+    ln->rho = rho;
+    ln->n2 = n2;
+    r->tau[l] = h * ln->dir;
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
 
@@ -679,11 +684,14 @@ static int spherical_rot_ladvanced(spherical_rot_lrun *r, int l)
 {
     spherical_rot_lane *ln = &r->lane[l];
     int i;
-    ln->t = ln->last ? ln->tend : ln->t + ln->dir * ln->h;
+    /* the truncation error, as the scalar estimates it: the first term left out,
+     * |x_p| h^p (h / rho) */
+    ln->info->local_error += ln->rho > 0 ? (double)(ln->n2 * pow(ln->h, (double)r->order) * (ln->h / ln->rho)) : 0;
+    ln->t = ln->last ? ln->tend : ln->t + ln->h * ln->dir;
     ln->steps += 1;
     ln->info->naccepted += 1;
     ln->info->t = (double)ln->t;
-    ln->info->h = (double)(ln->dir * ln->h);
+    ln->info->h = (double)(ln->h * ln->dir);
     for (i = 0; i < N; ++i) {
         ln->info->y[i] = (double)r->X[i][l];
     }
@@ -1212,6 +1220,7 @@ typedef struct {
     long traj;                  /* its index in the batch; -1: the lane is idle */
     long iout, steps;
     float t, tend, dir, hmax, h;
+    float rho, n2;            /* this step's radius and largest last coefficient */
     int last;                   /* this step ends at tend */
     float *y;                 /* its output rows */
     spherical_rot_integrate_info *info, local;
@@ -1295,6 +1304,7 @@ static int spherical_rot_lstart_f(spherical_rot_lrun_f *r, int l)
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = r->nt > 0 ? (double)r->t[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = r->nt > 0 ? (double)y0[i] : 0;
@@ -1314,7 +1324,7 @@ static int spherical_rot_lstart_f(spherical_rot_lrun_f *r, int l)
         return 0;
     }
     ln->tend = r->t[r->nt - 1];
-    ln->dir = ln->tend > ln->t ? 1 : -1;
+    ln->dir = ln->tend - ln->t > 0 ? 1 : -1;
     span = (ln->tend - ln->t) * ln->dir;
     if (!(span > 0)) {
         spherical_rot_lfinish_f(r, l, SPHERICAL_ROT_INTEGRATE_BAD_INPUT);
@@ -1379,21 +1389,22 @@ static int spherical_rot_lstep_f(spherical_rot_lrun_f *r, int l)
     if (!spherical_rot_lfinite_f(&n1, 1) || !spherical_rot_lfinite_f(&n2, 1)) {
         return SPHERICAL_ROT_INTEGRATE_NONFINITE;
     }
-    /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
-     * one pow where their exponents show which is the smaller */
+    /* the series' radius rho, the smaller of (m/n1)^(1/(p-1)) and (m/n2)^(1/p) (-1: no
+     * growth in the last coefficients), as the scalar computes it, with one pow where
+     * their exponents show which is the smaller; the step rho times the safety factor,
+     * capped by hmax (never the cap shrunk), the last one exactly to tend */
     x1 = n1 > 0 ? m / n1 : 0;
     x2 = n2 > 0 ? m / n2 : 0;
     which = n1 > 0 && n2 > 0 ? spherical_rot_lsmaller_f(x1, y1, x2, y2) : 0;
-    rho = ln->hmax;
+    rho = -1;
     if (n1 > 0 && which != 2) {
-        q = powf(x1, y1);
-        rho = q < rho ? q : rho;
+        rho = powf(x1, y1);
     }
     if (n2 > 0 && which != 1) {
         q = powf(x2, y2);
-        rho = q < rho ? q : rho;
+        rho = rho < 0 || q < rho ? q : rho;
     }
-    h = rho * r->safety;
+    h = rho > 0 ? rho * r->safety : ln->hmax;
     if (!(h <= ln->hmax)) {
         h = ln->hmax;
     }
@@ -1417,7 +1428,9 @@ static int spherical_rot_lstep_f(spherical_rot_lrun_f *r, int l)
         ln->info->nout = ln->iout;
     }
     ln->h = h;
-    r->tau[l] = ln->dir * h;
+    ln->rho = rho;
+    ln->n2 = n2;
+    r->tau[l] = h * ln->dir;
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
 
@@ -1426,11 +1439,14 @@ static int spherical_rot_ladvanced_f(spherical_rot_lrun_f *r, int l)
 {
     spherical_rot_lane_f *ln = &r->lane[l];
     int i;
-    ln->t = ln->last ? ln->tend : ln->t + ln->dir * ln->h;
+    /* the truncation error, as the scalar estimates it: the first term left out,
+     * |x_p| h^p (h / rho) */
+    ln->info->local_error += ln->rho > 0 ? (double)(ln->n2 * powf(ln->h, (float)r->order) * (ln->h / ln->rho)) : 0;
+    ln->t = ln->last ? ln->tend : ln->t + ln->h * ln->dir;
     ln->steps += 1;
     ln->info->naccepted += 1;
     ln->info->t = (double)ln->t;
-    ln->info->h = (double)(ln->dir * ln->h);
+    ln->info->h = (double)(ln->h * ln->dir);
     for (i = 0; i < N; ++i) {
         ln->info->y[i] = (double)r->X[i][l];
     }
@@ -1959,6 +1975,7 @@ typedef struct {
     long traj;                  /* its index in the batch; -1: the lane is idle */
     long iout, steps;
     long double t, tend, dir, hmax, h;
+    long double rho, n2;            /* this step's radius and largest last coefficient */
     int last;                   /* this step ends at tend */
     long double *y;                 /* its output rows */
     spherical_rot_integrate_info *info, local;
@@ -2042,6 +2059,7 @@ static int spherical_rot_lstart_l(spherical_rot_lrun_l *r, int l)
     info->t = 0;
     info->h = 0;
     info->h_end = 0;
+    info->local_error = 0;
     info->t = r->nt > 0 ? (double)r->t[0] : 0;
     for (i = 0; i < N; ++i) {
         info->y[i] = r->nt > 0 ? (double)y0[i] : 0;
@@ -2061,7 +2079,7 @@ static int spherical_rot_lstart_l(spherical_rot_lrun_l *r, int l)
         return 0;
     }
     ln->tend = r->t[r->nt - 1];
-    ln->dir = ln->tend > ln->t ? 1 : -1;
+    ln->dir = ln->tend - ln->t > 0 ? 1 : -1;
     span = (ln->tend - ln->t) * ln->dir;
     if (!(span > 0)) {
         spherical_rot_lfinish_l(r, l, SPHERICAL_ROT_INTEGRATE_BAD_INPUT);
@@ -2126,21 +2144,22 @@ static int spherical_rot_lstep_l(spherical_rot_lrun_l *r, int l)
     if (!spherical_rot_lfinite_l(&n1, 1) || !spherical_rot_lfinite_l(&n2, 1)) {
         return SPHERICAL_ROT_INTEGRATE_NONFINITE;
     }
-    /* rho = min(hmax, (m/n1)^(1/(p-1)), (m/n2)^(1/p)) as the scalar computes it, with
-     * one pow where their exponents show which is the smaller */
+    /* the series' radius rho, the smaller of (m/n1)^(1/(p-1)) and (m/n2)^(1/p) (-1: no
+     * growth in the last coefficients), as the scalar computes it, with one pow where
+     * their exponents show which is the smaller; the step rho times the safety factor,
+     * capped by hmax (never the cap shrunk), the last one exactly to tend */
     x1 = n1 > 0 ? m / n1 : 0;
     x2 = n2 > 0 ? m / n2 : 0;
     which = n1 > 0 && n2 > 0 ? spherical_rot_lsmaller_l(x1, y1, x2, y2) : 0;
-    rho = ln->hmax;
+    rho = -1;
     if (n1 > 0 && which != 2) {
-        q = powl(x1, y1);
-        rho = q < rho ? q : rho;
+        rho = powl(x1, y1);
     }
     if (n2 > 0 && which != 1) {
         q = powl(x2, y2);
-        rho = q < rho ? q : rho;
+        rho = rho < 0 || q < rho ? q : rho;
     }
-    h = rho * r->safety;
+    h = rho > 0 ? rho * r->safety : ln->hmax;
     if (!(h <= ln->hmax)) {
         h = ln->hmax;
     }
@@ -2164,7 +2183,9 @@ static int spherical_rot_lstep_l(spherical_rot_lrun_l *r, int l)
         ln->info->nout = ln->iout;
     }
     ln->h = h;
-    r->tau[l] = ln->dir * h;
+    ln->rho = rho;
+    ln->n2 = n2;
+    r->tau[l] = h * ln->dir;
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
 
@@ -2173,11 +2194,14 @@ static int spherical_rot_ladvanced_l(spherical_rot_lrun_l *r, int l)
 {
     spherical_rot_lane_l *ln = &r->lane[l];
     int i;
-    ln->t = ln->last ? ln->tend : ln->t + ln->dir * ln->h;
+    /* the truncation error, as the scalar estimates it: the first term left out,
+     * |x_p| h^p (h / rho) */
+    ln->info->local_error += ln->rho > 0 ? (double)(ln->n2 * powl(ln->h, (long double)r->order) * (ln->h / ln->rho)) : 0;
+    ln->t = ln->last ? ln->tend : ln->t + ln->h * ln->dir;
     ln->steps += 1;
     ln->info->naccepted += 1;
     ln->info->t = (double)ln->t;
-    ln->info->h = (double)(ln->dir * ln->h);
+    ln->info->h = (double)(ln->h * ln->dir);
     for (i = 0; i < N; ++i) {
         ln->info->y[i] = (double)r->X[i][l];
     }
