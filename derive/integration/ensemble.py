@@ -13,7 +13,13 @@ code as `simulate`, so each trajectory agrees with `simulate` bit for bit), spli
 duration of a foreign call, so the blocks use every core.  Each trajectory keeps its
 own step control (per-trajectory adaptive steps).
 
-Not here yet (issue 15): SIMD lanes across trajectories; the catalogue atlas
+method="taylor" runs in SIMD lanes (<model>_taylor_lanes.c, derive/integration/
+taylor_lanes.py): within a block, the Taylor jet of several trajectories at once, each
+lane with its own step, time and outputs, and each trajectory bit for bit what
+`simulate(method="taylor")` gives (long double, which has no vector instructions, runs
+the scalar integrator).
+
+Not here yet (issue 15): SIMD lanes for the other methods; the catalogue atlas
 ("spherical") and held inputs (a function of t) go through `simulate`.
 """
 from __future__ import annotations
@@ -25,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SimulationInputError
-from .build import integrator_library
+from .build import dtype_key, integrator_library
 from .codegen import model_info
 from .contract import COUNTERS, METHODS, RUN_METHODS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS
 from .simulate import (_atlas, _check_size, _dtype, _finite_array, check_parameter_values, normalise_t,
@@ -147,8 +153,9 @@ def _run_blocks(model: str, method: str, y0: np.ndarray, p: np.ndarray, t: np.nd
     lib = integrator_library(model)
     o = lib.options(opt)
     if method == TAYLOR:
-        from .taylor_library import taylor_library, taylor_order
-        taylor = taylor_library(model, taylor_order(opt["rtol"]))
+        from .taylor_library import taylor_order
+        from .taylor_lanes_library import taylor_ensemble_library
+        taylor = taylor_ensemble_library(model, taylor_order(opt["rtol"]), dtype_key(y0.dtype))
 
         def run(y, pp):
             return taylor.run(y, pp, t, o)

@@ -3,8 +3,10 @@ one template, reentrant (no globals).
 
 Its artifacts: per model <model>.h/.c (the kernels, templates/c/header.h.jinja and
 source.c.jinja), <model>_integrate.h/.c (the integrators, rendered by
-derive/integration/codegen.py), and for a model without chart guards the batched
-and fixed-step loops (<model>_throughput.*, <model>_fixed.*; derive/integration/
+derive/integration/codegen.py), the Taylor integrator, scalar and in SIMD lanes
+(<model>_taylor.*, <model>_taylor_lanes.*, for a model whose rhs has recurrences:
+derive/integration/taylor_codegen.py, taylor_lanes.py), and for a model without chart
+guards the batched and fixed-step loops (<model>_throughput.*, <model>_fixed.*; derive/integration/
 throughput.py); per atlas <atlas>.h/.c.  Model parameters never become C
 identifiers (the printer writes array slots, p[3]), so a parameter may be called
 `int` or `double`; the model name is only ever a prefix (planar_rhs).
@@ -90,9 +92,11 @@ class CBackend(Backend):
     def integrator_files(self, name):
         from ....integration.codegen import render_c
         from ....integration.taylor_codegen import render_taylor, taylor_problem
+        from ....integration.taylor_lanes import render_taylor_lanes
         files = render_c(name)
         if taylor_problem(name) is None:      # a model with an operation no recurrence covers: none
             files.update(render_taylor(name))
+            files.update(render_taylor_lanes(name))
         return files
 
     def loop_files(self, name):

@@ -1,0 +1,133 @@
+"""The lane-parallel Taylor integrator (<model>_taylor_lanes.c) at run time.
+
+Compiled like the scalar one (taylor_library.py: one cached library per order, the order
+fixed with -D<MODEL>_TAYLOR_ORDER=p) plus the lanes (-D<MODEL>_TAYLOR_LANES=L), only the
+scalar type asked for (-D<MODEL>_TAYLOR_LANES_ONLY: the order unrolled, the long double
+variant alone took two minutes to compile here) and the vector instructions this machine
+has (SIMD_LEVELS, by the CPU's flags; none known: the portable build, whose lane loops
+are SSE2 pairs on x86-64, plain loops elsewhere).  The numbers are the scalar
+integrator's: -ffp-contract=off (a fused multiply-add rounds otherwise).
+"""
+from __future__ import annotations
+
+import ctypes
+import platform
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from ..codegen.loader import PORTABLE_FLAGS, build_library
+from ..codegen.sources import c_source
+from ..errors import BuildError, SimulationInputError
+from ..model.description import forget_on_model_change
+from .build import SUFFIX, info_struct, run_batch
+from .codegen import model_info
+from .taylor_codegen import taylor_problem
+from .taylor_library import taylor_library
+from .taylor_lanes import variant_number
+
+# (CPU flag, compiler flags, lanes by scalar type), best first.  Measured here (Zen 4,
+# planar at order 12, one thread, CPU time per trajectory on a loaded machine; scalar
+# integrator 210 us): AVX-512 8 lanes 56, 16 lanes 61, 4 lanes 138; AVX2 4 lanes 74, 8
+# lanes 86; SSE2 (portable) 4 lanes 131, 2 lanes 137.  float (order 7, scalar 178 us):
+# AVX-512 8 lanes 40, 16 lanes 43; AVX2 8 lanes 45.
+SIMD_LEVELS = (
+    ("avx512f", ("-mavx2", "-mavx512f"), {"float64": 8, "float32": 8}),
+    ("avx2", ("-mavx2",), {"float64": 4, "float32": 8}),
+)
+PORTABLE_LANES = {"float64": 4, "float32": 4}   # SSE2 pairs on x86-64, else plain loops
+# long double has no vector unit (x87): its lanes ran 0.7-0.8x the scalar integrator's
+# speed here, so its ensembles run the scalar one
+LANE_TYPES = ("float64", "float32")
+EXACT_FLAGS = ("-ffp-contract=off",)
+# the portable flags, loops peeled (a few lanes stay in registers), no contraction; GCC
+# and clang spellings.  sin and cos may fuse (unlike the scalar build, loader.
+# VECTOR_MATH_FLAGS): glibc's sincos gives sin's and cos' numbers (checked here on 5e7
+# arguments; the tests compare every lane with the scalar run bit for bit) at 1.07x.
+LANES_FLAGS = (*PORTABLE_FLAGS, "-fpeel-loops", *EXACT_FLAGS)
+
+
+@lru_cache(maxsize=1)
+def cpu_flags() -> frozenset[str]:
+    """The CPU's feature flags (Linux /proc/cpuinfo; elsewhere none known)."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("flags"):
+                return frozenset(line.split(":", 1)[1].split())
+    except OSError:
+        pass
+    return frozenset()
+
+
+def simd_build(dtype: str = "float64") -> tuple[tuple[str, ...], int]:
+    """(compiler flags, lanes) for this machine and scalar type: the widest vector unit it
+    has.  The flags name the instructions (never -march=native), so the build cache, keyed
+    by the flags, never hands a library for one CPU to another."""
+    if platform.machine() in ("x86_64", "AMD64"):
+        have = cpu_flags()
+        for flag, flags, lanes in SIMD_LEVELS:
+            if flag in have:
+                return flags, lanes[dtype]
+    return (), PORTABLE_LANES[dtype]
+
+
+class TaylorLanesLibrary:
+    """ctypes access to <model>_taylor_lanes_batch{,_f,_l} for one scalar type, compiled
+    with a fixed order (only that type: unrolled, each takes a while to compile)."""
+
+    def __init__(self, model: str, order: int, dtype: str = "float64", lanes: int | None = None,
+                 simd: tuple[str, ...] | None = None):
+        info = model_info(model)
+        self.model, self.order, self.n, self.dtype = model, order, info.n, dtype
+        self.n_params = info.n_params + info.n_inputs
+        source = c_source(model, f"{model}_taylor_lanes.c")
+        if not source.is_file():
+            raise SimulationInputError(f"model '{model}' has no Taylor integrator: {taylor_problem(model)}")
+        flags, default_lanes = simd_build(dtype)
+        self.lanes = lanes or default_lanes
+        simd = flags if simd is None else simd
+        M = model.upper()
+        extra = (f"-D{M}_TAYLOR_ORDER={order}", f"-D{M}_TAYLOR_LANES={self.lanes}",
+                 f"-D{M}_TAYLOR_LANES_ONLY={variant_number(SUFFIX[dtype])}")
+        stem = f"{model}_taylor_lanes{SUFFIX[dtype]}_p{order}_l{self.lanes}"
+        self.path, self.flags = _build(stem, source, simd, extra)
+        self.lib = ctypes.CDLL(str(self.path))
+        self.Info = info_struct(self.n)
+        vp = ctypes.c_void_p
+        fn = self.lib[f"{model}_taylor_lanes_batch{SUFFIX[dtype]}"]
+        fn.restype = ctypes.c_long
+        fn.argtypes = [ctypes.c_long, vp, ctypes.c_long, vp, ctypes.c_long, ctypes.c_long, vp, vp, vp, vp]
+        self.fns = {dtype: fn}
+
+    def run(self, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:
+        """As TaylorLibrary.run (y0 of this library's dtype): y0 (B, n), p (B, np) or (np,),
+        t (nt,), opt the integrators' options struct -> y (B, nt, n), infos (B,)."""
+        return run_batch(self.fns, self.Info, self.n, self.n_params, y0, p, t, opt)
+
+
+def _build(stem: str, source: Path, simd: tuple[str, ...], extra: tuple[str, ...]) -> tuple[Path, tuple]:
+    """The library with the vector flags, or without them where the compiler refuses them."""
+    flags = (*LANES_FLAGS, *simd, *extra)
+    try:
+        return build_library(stem, [source], None, flags), flags
+    except BuildError:
+        if not simd:
+            raise
+    flags = (*LANES_FLAGS, *extra)
+    return build_library(stem, [source], None, flags), flags
+
+
+def taylor_ensemble_library(model: str, order: int, dtype: str):
+    """What derive.ensemble runs method="taylor" with: the lanes, or for a scalar type
+    without vector instructions the scalar integrator (the same interface: .run)."""
+    if dtype in LANE_TYPES:
+        return taylor_lanes_library(model, order, dtype)
+    return taylor_library(model, order)
+
+
+@forget_on_model_change
+@lru_cache(maxsize=None)
+def taylor_lanes_library(model: str, order: int, dtype: str = "float64", lanes: int | None = None,
+                         simd: tuple[str, ...] | None = None) -> TaylorLanesLibrary:
+    return TaylorLanesLibrary(model, order, dtype, lanes, simd)
