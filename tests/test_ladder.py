@@ -195,9 +195,9 @@ def test_derive_run_climbs_to_double_double_for_a_long_chaotic_scene(tmp_path):
     scene = tmp_path / "chaos.toml"
     scene.write_text('title = "Chaos to t = 14"\n[pendulum]\nmodel = "planar"\n'
                      'parameters = { m1 = 1.0, m2 = 1.0, l1 = 1.0, l2 = 1.0, g = 9.81 }\n'
-                     '[initial]\nstate = { theta1 = 2.5, theta2 = 2.0, omega1 = 0.0, omega2 = 0.0 }\n'
+                     '[initial]\nstate = { theta1 = 2.5, theta2 = 2.0 }\nrest = true\n'
                      '[time]\nstop = 14.0\noutputs = 141\n[accuracy]\ntarget = 1e-8\n'
-                     '[output]\ndirectory = "out"\nplots = false\n')
+                     '[output]\ndirectory = "out"\n')
     from derive.scene.run import run
     from derive.scene.scene import load_scene
     o = run(load_scene(scene), show_progress=False)
