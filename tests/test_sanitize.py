@@ -33,7 +33,8 @@ def prototypes(folder: Path) -> list[tuple[str, str, list[str], str]]:
     out = []
     for h in sorted(folder.glob("*.h")):
         for ret, name, args in PROTO.findall(h.read_text()):
-            out.append((ret.strip(), name, [a.strip() for a in args.split(",")], h.stem))
+            params = [] if args.strip() == "void" else [a.strip() for a in args.split(",")]    # f(void): none
+            out.append((ret.strip(), name, params, h.stem))
     return out
 
 
