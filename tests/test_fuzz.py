@@ -247,7 +247,7 @@ def _structure_cases(bname, rng) -> list[Case]:
     out.append(Case(f"{bname}-method-unknown", _set(_delete(s, ("accuracy",)), ("accuracy",), {"method": "euler"}), 2,
                     r"'accuracy.method' must be one of rk4, "))
     out.append(Case(f"{bname}-scalar-half", _set(s, ("accuracy", "scalar"), "half"), 2,
-                    r"'accuracy.scalar' must be one of float, double, long double; got 'half'"))
+                    r"'accuracy.scalar' must be one of float, double, long double, double-double, quad; got 'half'"))
     out.append(Case(f"{bname}-backend-gpu", _set(s, ("accuracy", "backend"), "gpu"), 2,
                     r"'accuracy.backend' must be one of c, numpy; got 'gpu'"))
     return out
@@ -476,7 +476,7 @@ REFUSED = [   # (id, kwargs for simulate over the planar defaults, message patte
     ("t-overflowing-span", dict(t=[-1e308, 1e308]), r"the time span .* is not finite"),
     ("t-1e9-outputs", dict(t=np.broadcast_to(np.float32(0), (10 ** 9,))), r"output times are more than one run can hold"),
     ("method-unknown", dict(method="euler"), r"unknown method 'euler'"),
-    ("method-none", dict(method=None), r"unknown method None"),
+    ("method-number", dict(method=3), r"unknown method 3"),
     ("backend-unknown", dict(backend="gpu"), r"unknown backend 'gpu'"),
     ("rtol-zero", dict(rtol=0.0), r"rtol = 0 is outside \[10 eps, 1\) for float64"),
     ("rtol-one", dict(rtol=1.0), r"rtol = 1 is outside"),
