@@ -5,9 +5,10 @@ Choosing the method for an accuracy target (the final-state error):
    how much an early error grows by the end: G = exp(lambda T);
 2. DOP853 with rtol = target / (SAFETY G), in double while that tolerance is
    at least 10 eps of double, else in long double; past long double the plan
-   climbs the precision ladder to Taylor's method in double-double, then in quad
-   (IEEE binary128), and says so (then `target` beyond what quad can deliver is
-   reported as out of reach, not pretended);
+   climbs the precision ladder to Taylor's method in double-double and says so
+   (quad, about 15 times the cost, where the scene asks for it: scalar = "quad"; a
+   `target` beyond what the precision can deliver is reported as out of reach, not
+   pretended);
 3. a reference run a thousand times tighter measures the achieved error, and
    the trust horizon says until when the run resolves the true motion.
 """
@@ -126,15 +127,20 @@ def climb(rtol: float, target: float | None) -> tuple[str, str, float, str]:
     if rtol >= LONG_DOUBLE_RTOL_MIN:
         return "dop853", "longdouble", rtol, ""
     why = f"target {target:g} needs rtol {rtol:.2g}, beyond long double"
-    if rtol >= DOUBLE_DOUBLE_RTOL_MIN:
+    if rtol >= 100 * DOUBLE_DOUBLE_RTOL_MIN:       # its reference, 1000 times tighter, stays in reach
         return "taylor", "double-double", rtol, f"{why}: climbed the precision ladder to double-double (Taylor)"
-    if rtol >= QUAD_RTOL_MIN:
-        return "taylor", "quad", rtol, f"{why} and double-double: climbed the precision ladder to quad (Taylor)"
-    return "taylor", "quad", QUAD_RTOL_MIN, (f"{why} and quad: the run uses quad at rtol {QUAD_RTOL_MIN:g} "
-                                             "and reports what it achieves")
+    # quad (software binary128) costs about 15 times double-double: a scene asks for it
+    # (scalar = "quad"), the planner does not climb there on its own
+    # at 100 times double-double's tightest, so its reference (there) is tighter than the run
+    floor = 100 * DOUBLE_DOUBLE_RTOL_MIN
+    return "taylor", "double-double", floor, (
+        f"{why} and double-double: climbed the precision ladder to double-double (Taylor) at rtol "
+        f"{floor:g}, which reports what it achieves (scalar = \"quad\" goes further)")
 
 
-ORDER = {"dop853": 8, "dopri5": 5}
+# steps ~ rtol^(-1/order); Taylor's order grows with the digits, so its steps a unit of
+# time hardly change with rtol (taken as the DOP853 rate measured at REFERENCE_RTOL)
+ORDER = {"dop853": 8, "dopri5": 5, "taylor": 1000}
 
 
 MAX_SCENE_STEPS = 1e7     # the run and its reference: t = 1e4 of the default scene, 8.7e6 steps, took 65 s
@@ -154,7 +160,8 @@ def check_effort(scene: Scene, lyap: Lyapunov | None, c: Choice) -> None:
         return
     if lyap is None or not lyap.steps_per_time or c.method not in ORDER or c.rtol is None:
         return
-    if c.rtol < 10 * float(np.finfo(np.dtype(c.dtype)).eps):
+    from ..measurement.trust import unit_roundoff
+    if c.rtol < 10 * unit_roundoff(c.dtype):
         return                      # simulate refuses it, naming the tolerance
     from ..measurement.trust import REFERENCE_RTOL
 
@@ -255,12 +262,12 @@ def reference_rtol(c: Choice) -> tuple[float, str]:
     never tighter than quad can take (then the reference is only as much tighter as it
     can be, and says so)."""
     tight = (c.rtol or 1.0) / 1000
-    ladder = ("float64", "longdouble", "double-double", "quad")
+    ladder = ("float64", "longdouble", "double-double") + (("quad",) if c.dtype == "quad" else ())
     start = ladder.index(c.dtype) if c.dtype in ladder else 0
     for dtype in ladder[start:]:
         if tight >= REFERENCE_RTOL_MIN[dtype]:
             return tight, dtype
-    return REFERENCE_RTOL_MIN["quad"], "quad"
+    return REFERENCE_RTOL_MIN[ladder[-1]], ladder[-1]
 
 
 def _reference(p: Plan, scene: Scene, c: Choice) -> SimulationResult:
@@ -294,7 +301,7 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
         # Tolerance proportionality is only approximate: when the measured error
         # misses the target, tighten by the observed ratio and run again.
         for _ in range(MAX_TIGHTENINGS if scene.target is not None else 0):
-            if achieved is None or achieved <= scene.target or c.rtol <= QUAD_RTOL_MIN:
+            if achieved is None or achieved <= scene.target or c.rtol <= REFERENCE_RTOL_MIN[c.dtype]:
                 break
             factor = SAFETY * achieved / scene.target
             if c.dtype == "float32" and c.rtol / factor < FLOAT_RTOL_MIN:
