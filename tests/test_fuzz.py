@@ -314,7 +314,7 @@ def _special_cases() -> list[Case]:
              r"target 1e-300 out of reach after t = 0 with double-double",
              check=lambda s, b: s["target_met"] is False and s["achieved_error"] > 1e-300),
         Case("g-1e6", _set(d, ("pendulum", "parameters", "g"), 1e6), 3,
-             r"target 1e-08 out of reach after t = 0.01\d+ with long double: the motion's trust horizon",
+             r"target 1e-08 out of reach after t = 0.0\d+ with double-double: the motion's trust horizon",
              check=lambda s, b: s["target_met"] is False),
     ]
     return out

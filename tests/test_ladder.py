@@ -186,7 +186,7 @@ def test_planner_climbs_the_ladder_and_says_so():
     method, dtype, rtol, note = climb(1e-22, 1e-8)
     assert (method, dtype, rtol) == ("taylor", "double-double", 1e-22) and "double-double" in note
     method, dtype, rtol, note = climb(1e-40, 1e-8)       # quad only where a scene asks for it
-    assert dtype == "double-double" and rtol == 1e-27 and "reports what it achieves" in note
+    assert dtype == "double-double" and rtol == pytest.approx(1e-27) and "reports what it achieves" in note
 
 
 @pytest.mark.slow
