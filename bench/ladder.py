@@ -8,7 +8,7 @@ double-double and quad (Taylor), and heyoka beside them in double, long double a
 real128 (Taylor, tol = eps of each).  Every run's error at t = 0, 0.5, ..., 20 is taken
 against tests/data/chaotic_planar_reference.json (an mpmath Taylor integration at 60
 digits, independent of derive: tests/data/make_chaotic_reference.py), and each derive
-result states its trust horizon for 1e-8 (r.trust_horizon(): the early error, tolerance
+result states its trust horizon for 1e-8 (derive.trust_horizon(r): the early error, tolerance
 or unit roundoff, grown by the motion's largest Lyapunov exponent).  Writes ladder.png
 (error against t, a line per run, the horizons marked) and ladder.md (the table), and
 prints both figures' numbers.
@@ -66,7 +66,7 @@ def derive_runs(data, times, states) -> list[dict]:
         seconds = time.perf_counter() - start
         values = r.y_exact if r.y_exact is not None else np.asarray(r.y, np.longdouble)
         err = errors([[str(v) for v in row] if r.y_exact is None else list(row) for row in values], states)
-        runs.append({"label": label, "seconds": seconds, "errors": err, "horizon": r.trust_horizon(TARGET),
+        runs.append({"label": label, "seconds": seconds, "errors": err, "horizon": derive.trust_horizon(r, TARGET),
                      "ok": r.ok, "setting": f"rtol {kw['rtol']:g}"})
     return runs
 

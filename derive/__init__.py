@@ -1,7 +1,8 @@
 """derive: symbolic derivation and code generation for pendulum dynamics.
 
 ``derive.simulate(model, y0, t, params, ...)`` runs the generated integrators
-(imported on first use, so ``import derive`` stays light); ``derive.sweep(file, ...)``
+(imported on first use, so ``import derive`` stays light); ``derive.trust_horizon(result,
+target)`` says until when a run resolves the true motion to target; ``derive.sweep(file, ...)``
 runs a sweep file on Dask and returns an xarray Dataset (the `sweep` extra).  Every failure derive
 expects is a ``derive.DeriveError`` (see derive/errors.py).
 """
@@ -13,7 +14,7 @@ from .errors import (BuildError, CompilerMissingError, DeriveError, InputError, 
 
 __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "ModelError",
            "SceneError", "SimulationError", "SimulationInputError", "ToolMissingError",
-           "__version__", "ensemble", "scipy_rhs", "simulate", "sweep"]
+           "__version__", "ensemble", "scipy_rhs", "simulate", "sweep", "trust_horizon"]
 
 
 def __getattr__(name):
@@ -29,6 +30,10 @@ def __getattr__(name):
         from .integration.scipy_rhs import scipy_rhs
         globals()["scipy_rhs"] = scipy_rhs
         return scipy_rhs
+    if name == "trust_horizon":           # derive.trust_horizon(result, target): the measurement stage
+        from .measurement.trust import trust_horizon_of
+        globals()["trust_horizon"] = trust_horizon_of
+        return trust_horizon_of
     if name == "sweep":                   # the sweep stage, callable: derive.sweep(SWEEP.toml, ...)
         import importlib
         return importlib.import_module(".sweep", __name__)

@@ -110,7 +110,8 @@ def test_the_runtime_reads_the_contract():
                                        ("integration.atlas", "integration.codegen", "integration.simulate",
                                         "scene.scene"))
     assert simulate.METHODS is contract.METHODS and codegen.METHODS is contract.METHODS
-    assert scene.METHODS is contract.METHODS and atlas.METHODS is contract.METHODS
+    assert scene.RUN_METHODS is contract.RUN_METHODS and atlas.METHODS is contract.METHODS
+    assert contract.RUN_METHODS == contract.METHODS + (contract.TAYLOR,)
     assert simulate.STATUS_NAMES is contract.STATUS_NAMES and simulate.COUNTERS is contract.COUNTERS
     assert contract.ADAPTIVE == ("dopri5", "dop853") and contract.IMPLICIT == ("midpoint", "gauss2")
     assert contract.ORDER == {"rk4": 4, "dopri5": 5, "dop853": 8, "midpoint": 2, "gauss2": 4, "rk8": 8, "abm12": 12}
@@ -144,7 +145,7 @@ STAGES = (
     ("codegen", ("derive.verification", "derive.codegen", "derive.integration.contract",
                  "derive.integration.tableau", "derive.integration.cartesian",
                  "derive.integration.codegen", "derive.integration.throughput",
-                 "derive.integration.taylor_codegen")),
+                 "derive.integration.taylor_codegen", "derive.integration.taylor_lanes")),
     ("runtime", ("derive.integration",)),
     ("measurement", ("derive.measurement",)),
     ("output", ("derive.scene", "derive.report", "derive.sweep")),
@@ -154,7 +155,7 @@ STAGES = (
 # derive.simulate, derive.ensemble and derive.scipy_rhs (function-level imports in __getattr__) are the
 # public facade.
 ALLOWED_UP = {("derive", "derive.integration.simulate"), ("derive", "derive.integration.scipy_rhs"),
-              ("derive", "derive.integration.ensemble")}
+              ("derive", "derive.integration.ensemble"), ("derive", "derive.measurement.trust")}
 
 
 def _modules() -> dict[str, Path]:

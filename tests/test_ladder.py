@@ -176,7 +176,7 @@ def test_trust_horizon_grows_with_the_precision():
     q = derive.simulate("planar", y0, [0.0, 5.0], PLANAR, rtol=2e-33, dtype="quad")
     horizons = [trust_horizon_of(r) for r in (ld, dd, q)]
     assert horizons[0] + 3 < horizons[1] < horizons[2], horizons
-    assert dd.trust_horizon() == horizons[1]
+    assert derive.trust_horizon(dd) == horizons[1]
 
 
 def test_planner_climbs_the_ladder_and_says_so():

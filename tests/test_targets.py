@@ -25,18 +25,33 @@ def run_scene(tmp_path: Path, text: str, *flags):
 
 
 def test_just_inside_the_horizon_the_target_is_met(tmp_path):
-    """t = 7 used to crash ("rtol = 3.14e-19 is outside [10 eps, 1)"): the reference is
-    now as tight as long double can take, and the target is met."""
+    """t = 7 used to crash ("rtol = 3.14e-19 is outside [10 eps, 1)"): the run stays in
+    long double, its reference climbs to the rung that takes a tolerance 1000 times
+    tighter (double-double), and the target is met."""
     run = run_scene(tmp_path, DEFAULT.replace("stop = 5.0", "stop = 7.0"), "--json")
     assert run.returncode == 0, run.stderr
     s = json.loads(run.stdout)
     assert s["target_met"] is True and s["achieved_error"] <= 1e-8 and s["precision"] == "long double"
-    assert s["reference_rtol"] >= 10 * 1.0842e-19
+    roundoff = {"long double": 1.0842e-19, "double-double": 2.0 ** -104}[s["reference_precision"]]
+    assert s["reference_rtol"] >= 10 * roundoff and s["reference_rtol"] <= s["rtol"] / 100
+
+
+@pytest.mark.parametrize("edit", [lambda t: t.replace("stop = 5.0", "stop = 10.0"),
+                                  lambda t: t.replace("target = 1e-8", "target = 1e-14")])
+def test_past_long_doubles_horizon_the_run_climbs_and_meets_the_target(tmp_path, edit):
+    """These missed in long double before the ladder; now the planner climbs to Taylor in
+    double-double, says so, and the measured error meets the target."""
+    run = run_scene(tmp_path, edit(DEFAULT), "--json")
+    assert run.returncode == 0, run.stderr
+    s = json.loads(run.stdout)
+    assert s["target_met"] is True and s["achieved_error"] <= s["target"]
+    assert s["precision"] == "double-double" and s["method"] == "taylor"
+    assert "climbed the precision ladder to double-double" in s["note"]
 
 
 @pytest.mark.parametrize("edit, fragment", [
-    (lambda t: t.replace("stop = 5.0", "stop = 10.0"), "out of reach after t = "),
-    (lambda t: t.replace("target = 1e-8", "target = 1e-14"), "out of reach after t = "),
+    (lambda t: t.replace("stop = 5.0", "stop = 30.0"), "out of reach after t = "),     # past double-double's horizon
+    (lambda t: t.replace("target = 1e-8", "target = 1e-40"), "out of reach after t = "),
     (lambda t: t.replace("g = 9.81", "g = 1e6"), "out of reach after t = "),
     (lambda t: t.replace("target = 1e-8", 'target = 1e-15\nscalar = "float"'), "with float"),
 ])
@@ -49,6 +64,7 @@ def test_a_missed_target_is_one_line_and_exit_3(tmp_path, edit, fragment):
     run = run_scene(tmp_path, edit(DEFAULT), "--json")
     s = json.loads(run.stdout)
     assert s["target_met"] is False and s["exit_status"] == 3 and fragment in s["reason"]
+    assert s["note"].count("climbed") <= 1     # each rung's reason once, however often it reran
 
 
 def test_a_loose_target_does_not_make_a_loose_tolerance(tmp_path):

@@ -2,7 +2,7 @@
 
 What a run means for trust (its largest Lyapunov exponent, its trust horizon) is
 measured from a result by derive/measurement/trust.py: trust.lyapunov_exponent(r),
-trust.trust_horizon_of(r, target).
+trust.trust_horizon_of(r, target), public as derive.trust_horizon(r, target).
 """
 from __future__ import annotations
 
@@ -105,15 +105,6 @@ class SimulationResult:
         where = f" in chart {self.chart_stop}" if self.chart_stop else ""
         return (f"integration stopped at t = {self.t_stop:.17g}: {self.status_name}{where}; "
                 f"state {state}")
-
-    def trust_horizon(self, target: float = 1e-8) -> float | None:
-        """Until when this run resolves the true motion to `target`, for its precision and
-        tolerance: the early error e0 (tolerance or unit roundoff) grows as e0 exp(lambda t),
-        lambda the motion's largest Lyapunov exponent (derive/measurement/trust.py, measured
-        on first call: a DOP853 run with the Jacobian along it).  None for an atlas run
-        whose every chart meets its singularity."""
-        from ..measurement.trust import trust_horizon_of
-        return trust_horizon_of(self, target)
 
     def raise_for_status(self) -> "SimulationResult":
         if not self.ok:

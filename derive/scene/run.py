@@ -308,10 +308,13 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
                 break                     # float cannot go tighter; the note says so
             if scene.method is not None:
                 break                     # the scene fixed its method: measured, not changed
-            c.method, c.dtype, c.rtol, climbed = climb(c.rtol / factor, scene.target)
-            c.atol = None if c.dtype in EXTENDED else c.rtol
-            if climbed and climbed not in c.note:
+            method, dtype, rtol, climbed = climb(c.rtol / factor, scene.target)
+            if dtype == c.dtype and rtol >= c.rtol:
+                break                     # at the top rung's floor: a rerun would change nothing
+            if climbed and dtype != c.dtype:      # a new rung: say why (once)
                 c.note = (c.note + "; " if c.note else "") + climbed
+            c.method, c.dtype, c.rtol = method, dtype, rtol
+            c.atol = None if c.dtype in EXTENDED else c.rtol
             c.note = (c.note + "; " if c.note else "") + f"tightened rtol after measuring {achieved:.2g}"
             result = integrate(p, scene, c, None)
             if not result.ok:
@@ -379,6 +382,8 @@ def summary(o: Outcome) -> dict:
         "target": o.scene.target, "predicted_error": o.choice.predicted, "achieved_error": o.achieved,
         "target_met": target_met(o), "precision": PRECISION.get(o.choice.dtype, o.choice.dtype),
         "reference_rtol": reference_rtol(o.choice)[0] if o.choice.rtol is not None else None,
+        "reference_precision": (PRECISION.get(d := reference_rtol(o.choice)[1], d)
+                                if o.choice.rtol is not None else None),
         "lyapunov_exponent": o.lyapunov.exponent if o.lyapunov else None,
         "trust_horizon": o.trust_horizon,
         "status": r.status_name, "ok": r.ok, "message": r.message, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
