@@ -46,10 +46,6 @@
 #endif
 #define NCONST 10
 
-int compound_taylor_lanes(void)
-{
-    return L;
-}
 
 /* ======================================================================== */
 /* double */

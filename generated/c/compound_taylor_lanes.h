@@ -31,8 +31,6 @@
 extern "C" {
 #endif
 
-/* The lanes this file was compiled with. */
-int compound_taylor_lanes(void);
 /* ---- double ---- */
 /* n trajectories: y0 + i*y0_stride, p + i*p_stride (0 broadcasts), one shared t;
  * y_out + i*nt*COMPOUND_N_STATES, info + i (info may be NULL); each as compound_taylor

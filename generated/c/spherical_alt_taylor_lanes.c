@@ -46,10 +46,6 @@
 #endif
 #define NCONST 12
 
-int spherical_alt_taylor_lanes(void)
-{
-    return L;
-}
 
 /* ======================================================================== */
 /* double */

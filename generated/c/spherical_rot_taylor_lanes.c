@@ -46,10 +46,6 @@
 #endif
 #define NCONST 12
 
-int spherical_rot_taylor_lanes(void)
-{
-    return L;
-}
 
 /* ======================================================================== */
 /* double */

@@ -46,10 +46,6 @@
 #endif
 #define NCONST 11
 
-int spherical_std_taylor_lanes(void)
-{
-    return L;
-}
 
 /* ======================================================================== */
 /* double */
