@@ -6,7 +6,7 @@ from pathlib import Path
 
 from ..model import model_names
 from .backends import managed_suffixes
-from .sources import ATLAS, PREAMBLE, PROVENANCE, render, render_fresh
+from .sources import ATLAS, PREAMBLE, PROVENANCE, SHARED, render, render_fresh
 
 
 
@@ -48,7 +48,7 @@ def _existing(out: Path) -> set[str]:
                 if p.is_file() and p.suffix in suffixes:
                     with p.open(errors="replace") as fh:
                         head = fh.read(200)
-                    if PROVENANCE.search(head) or PREAMBLE.search(head):
+                    if PROVENANCE.search(head) or PREAMBLE.search(head) or SHARED.search(head):
                         found.add(f"{folder}/{p.name}")
     return found
 

@@ -253,17 +253,124 @@ def contract_numpy() -> dict:
 SOURCES = "rk4.toml, dopri5.toml, dop853.toml, gauss.toml in derive/integration"
 
 
+TABLEAU_TAGS = {"double": "_d", "float": "_f", "long double": "_l"}   # derive_tableaus.h's name tags
+LIBRARY = ("derive_integrators.h", "derive_driver.h")     # derive/codegen/backends/c/library/
+LIBRARY_SOURCE = "codegen/backends/c/library"
+
+
+def _combo_macros(prefix: str, stages: list[dict], tag: str) -> list[tuple[str, str]]:
+    return [(f"DERIVE_{prefix}_A{row['index']}{tag}(K, k)", f"({row['combo']})") for row in stages]
+
+
+def _tableau_macros(v: dict) -> list[tuple[str, str]]:
+    """The coefficients of one C type as (macro, replacement): each stage's combination
+    sum_j a_ij K[j][k] (zero coefficients dropped), the weights, the error estimators,
+    the dense-output formulas, the implicit and multistep methods' arrays."""
+    tag = TABLEAU_TAGS[v["ctype"]]
+    explicit = {m["name"]: m for m in v["explicit"]}
+    out = []
+    for name in ("rk4", "dopri5", "dop853"):
+        m, M = explicit[name], name.upper()
+        out += _combo_macros(M, m["stages"], tag)
+        out.append((f"DERIVE_{M}_B{tag}(K, k)", f"({m['b_combo']})"))
+        if name == "dopri5":
+            out.append((f"DERIVE_DOPRI5_E{tag}(K, k)", f"({m['e_combo']})"))
+        if name == "dop853":
+            out.append((f"DERIVE_DOP853_E3{tag}(K, k)", f"({m['e3_combo']})"))
+            out.append((f"DERIVE_DOP853_E5{tag}(K, k)", f"({m['e5_combo']})"))
+    out += _combo_macros("DOP853", v["dop853_extra"], tag)
+    out += [(f"DERIVE_DOP853_D{d['index']}{tag}(K, k)", f"({d['combo']})") for d in v["dop853_d"]]
+    weights = ", ".join(f"b[{b['index']}] = {b['poly']}" for b in v["dopri5_dense"])
+    out.append((f"DERIVE_DOPRI5_DENSE_WEIGHTS{tag}(b, theta)", f"({weights})"))
+    dense = " + ".join(f"b[{b['index']}] * K[{b['index']}][k]" for b in v["dopri5_dense"])
+    out.append((f"DERIVE_DOPRI5_DENSE{tag}(b, K, k)", f"({dense})"))
+    for g in v["gauss"]:
+        out += [(f"DERIVE_{g['name'].upper()}_{x.upper()}{tag}", f"{{ {g[x]} }}") for x in ("A", "c", "d")]
+    out += [(f"DERIVE_ABM12_AB{tag}", f"{{ {v['abm']['ab']} }}"), (f"DERIVE_ABM12_AM{tag}", f"{{ {v['abm']['am']} }}"),
+            (f"DERIVE_ABM12_MILNE{tag}", v["abm"]["milne"])]
+    return out
+
+
+def render_tableaus() -> dict[str, str]:
+    """c/derive_tableaus.h: the coefficients of every method in every C type, the same for
+    every model (its first line names no model)."""
+    from .. import __version__
+    ctx = {"version": __version__, "sources": SOURCES, "template": "templates/c/tableaus.h.jinja",
+           "abm_steps": ABM_STEPS, "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE,
+           "types": [{"ctype": v["ctype"], "tag": TABLEAU_TAGS[v["ctype"]], "macros": _tableau_macros(v)}
+                     for v in c_variants()]}
+    return {"c/derive_tableaus.h": render("c/tableaus.h.jinja", ctx)}
+
+
+def library_files(names=LIBRARY) -> dict[str, str]:
+    """The hand-written C library, copied verbatim into a generated tree (c/<file>) under
+    one first line that names the derive that copied it; the same for every model."""
+    from .. import __version__
+    from ..paths import package_root
+    files = {}
+    for file in names:
+        text = (package_root() / LIBRARY_SOURCE / file).read_text()
+        files[f"c/{file}"] = (f"/* Copied by derive {__version__} from {LIBRARY_SOURCE}/{file} "
+                              f"for every model; do not edit. */\n{text}")
+    return files
+
+
+# The public functions of <model>_integrate.c that call the library (derive_integrators.h):
+# (return type, name, parameters, the library function's arguments); {R}: the real type,
+# {P}: the model.  The prototypes are <model>_integrate.h's.
+_PUBLIC = (
+    ("int", "integrate", "int method, const {R} *restrict y0, const {R} *restrict p, long nt, const {R} *restrict t, "
+     "{R} *restrict y_out, const {P}_integrate_options *opt, {P}_integrate_info *info",
+     "method, y0, p, nt, t, y_out, opt, info"),
+    ("long", "integrate_batch", "long n, int method, const {R} *restrict y0, long y0_stride, const {R} *restrict p, "
+     "long p_stride, long nt, const {R} *restrict t, {R} *restrict y_out, const {P}_integrate_options *opt, "
+     "{P}_integrate_info *info", "n, method, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info"),
+    *((("int", f"{m}_step", "const {R} *restrict y, {R} h, const {R} *restrict p, {R} (*restrict K)[N], "
+        "{R} *restrict y_new, {R} *restrict err, const {P}_integrate_options *opt, {P}_integrate_info *info",
+        "y, h, p, K, y_new, err, opt, info") for m in ("rk4", "dopri5", "dop853"))),
+    ("void", "dopri5_dense", "const {R} *restrict y, {R} h, {R} (*restrict K)[N], {R} theta, {R} *restrict out",
+     "y, h, K, theta, out"),
+    ("int", "dop853_dense_prepare", "const {R} *restrict y, const {R} *restrict y_new, {R} h, const {R} *restrict p, "
+     "{R} (*restrict K)[N], {R} (*restrict F)[N], const {P}_integrate_options *opt, {P}_integrate_info *info",
+     "y, y_new, h, p, K, F, opt, info"),
+    ("void", "dop853_dense", "const {R} *restrict y, {R} (*restrict F)[N], {R} theta, {R} *restrict out",
+     "y, F, theta, out"),
+    *((("int", f"{m}_step", "const {R} *restrict x, {R} h, const {R} *restrict p, {R} *restrict x_new, "
+        "const {P}_integrate_options *opt, {P}_integrate_info *info", "x, h, p, x_new, opt, info")
+       for m in ("midpoint", "gauss2"))),
+)
+
+
+def _public(P: str, v: dict) -> list[dict]:
+    """The public functions of one C type: each calls the library's derive_<name>_<tag>."""
+    out = []
+    for ret, name, params, args in _PUBLIC:
+        call = f"derive_{name}{TABLEAU_TAGS[v['ctype']]}({args});"
+        out.append({"head": f"{ret} {P}_{name}{v['s']}({params.format(R=v['ctype'], P=P)})",
+                    "body": call if ret == "void" else f"return {call}"})
+    return out
+
+
+def _library_names(M: str) -> list[tuple[str, str]]:
+    """(the model's macro, the library's name for it): the method and status codes."""
+    return ([(f"{M}_METHOD_{m.macro}", f"DERIVE_METHOD_{m.macro}") for m in contract.METHOD_TABLE]
+            + [(f"{M}_INTEGRATE_{s.macro}", f"DERIVE_{s.macro}") for s in contract.STATUS_TABLE])
+
+
 def render_c(name: str) -> dict[str, str]:
     info = model_info(name)
     ctx = {"P": name, "M": name.upper(), "title": info.title, "has_ham": info.has_ham,
            "has_guards": info.nguards > 0, "nguards": info.nguards, "sine_min": SINE_MIN,
            "has_inputs": info.n_inputs > 0,
-           "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE, "variants": c_variants(), "sources": SOURCES,
+           "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE, "sources": SOURCES,
+           "variants": [dict(v, tag=TABLEAU_TAGS[v["ctype"]], public=_public(name, v)) for v in c_variants()],
+           "library_names": _library_names(name.upper()),
            "contract": contract_c(name.upper(), f"{name.upper()}_INTEGRATE", f"{name.upper()}_N_STATES",
                                   f"{name.upper()}_INTEGRATE_SINE_MIN")}
     return {
         f"c/{name}_integrate.h": render("c/integrate.h.jinja", dict(ctx, template="templates/c/integrate.h.jinja")),
         f"c/{name}_integrate.c": render("c/integrate.c.jinja", dict(ctx, template="templates/c/integrate.c.jinja")),
+        **render_tableaus(), **library_files(),
     }
 
 
@@ -288,6 +395,10 @@ def atlas_rule(atlas: str = ATLAS) -> dict:
     return out
 
 
+# the atlas's functions derive_driver.h calls (<prefix>_<hook><suffix>, DERIVE_DRIVER_<HOOK>)
+ATLAS_DRIVER_HOOKS = ("eval", "step", "dense_prepare", "dense", "in", "out", "switch", "set_y")
+
+
 def render_atlas(name: str = ATLAS) -> dict[str, str]:
     """The atlas's own files (its members' are their models'): <prefix>.h, .c and .py.
     Sizes come from the standard member's description."""
@@ -297,13 +408,16 @@ def render_atlas(name: str = ATLAS) -> dict[str, str]:
     ctx = {"P": P, "M": P.upper(), "title": atlas.title, "charts": list(atlas.charts),
            "n_links": len(load_model(atlas.charts[0]).links), "n_states": info.n, "n_params": info.n_params,
            "sine_min": atlas.sine_min, "sine_switch": atlas.sine_switch,
-           "sine_rule": atlas.sine_rule, "variants": c_variants(), "rule": atlas_rule(name),
+           "sine_rule": atlas.sine_rule, "rule": atlas_rule(name),
+           "variants": [dict(v, tag=TABLEAU_TAGS[v["ctype"]]) for v in c_variants()],
+           "library_names": _library_names(P.upper()), "driver_hooks": [(f"DERIVE_DRIVER_{h.upper()}", h) for h in ATLAS_DRIVER_HOOKS],
            "contract": contract_c(P.upper(), f"{P.upper()}_INTEGRATE", str(info.n), f"{P.upper()}_SINE_MIN"),
            "contract_py": contract_numpy()}
     files = {
         f"c/{P}.h": render("c/atlas.h.jinja", dict(ctx, template="templates/c/atlas.h.jinja")),
         f"c/{P}.c": render("c/atlas.c.jinja", dict(ctx, template="templates/c/atlas.c.jinja")),
     }
+    files.update(library_files(("derive_driver.h",)))
     files[f"numpy/{P}.py"] = render(
         "numpy/atlas.py.jinja", dict(ctx, template="templates/numpy/atlas.py.jinja", explicit=None))
     return files

@@ -1,0 +1,163 @@
+"""The integrators as one C library (derive_integrators.h, included per model and type)
+against the per-model rendering they replaced, in one run (a benchmark, not a test).
+
+    PYTHONPATH=. python bench/integrator_library.py [--rounds N] [--before COMMIT]
+
+Before: generated/c/planar_integrate.c (.h) and the kernels planar.c (.h) of COMMIT
+(default 14a6c56, the last rendering of the whole method code per model), taken with
+`git show` into a temporary folder.  After: the same files as this derive renders them
+(the thin planar_integrate.c and the library headers beside it).  Both are compiled as
+derive's loader compiles them (build_fastest: the vector-math flags where they work) and
+called through <model>_integrate_batch (double, float, long double) with the same
+inputs: the chaotic planar state y0 = (2.5, 2, 0, 0), t = 0..20, 201 output times.
+Every case runs once per round, old and new in alternating order, so both see the same
+load; the figure is the median over the rounds.  The outputs and the counters are
+compared bit for bit.  Nothing is asserted.  The load average is printed: compare the
+ratios of one run.
+"""
+from __future__ import annotations
+
+import argparse
+import ctypes
+import os
+import statistics
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from derive.codegen.loader import build_fastest
+from derive.codegen.sources import model_sources
+from derive.integration import contract
+from derive.integration.build import info_struct, options_struct
+
+ROOT = Path(__file__).resolve().parents[1]
+MODEL = "planar"
+N, N_PARAMS = 4, 5
+Y0 = (2.5, 2.0, 0.0, 0.0)
+PARAMS = (1.0, 1.0, 1.0, 1.0, 9.81)
+T = np.linspace(0.0, 20.0, 201)
+BATCH = 4               # trajectories a call (broadcast y0): amortises the ctypes call
+METHOD = {m.name: m.index for m in contract.METHOD_TABLE}
+DTYPES = {"": (np.float64, ctypes.c_double), "_f": (np.float32, ctypes.c_float),
+          "_l": (np.longdouble, ctypes.c_longdouble)}
+# (label, method, suffix, options)
+CASES = (
+    ("dop853 rtol 1e-10", "dop853", "", dict(rtol=1e-10, atol=1e-10)),
+    ("dopri5 rtol 1e-8", "dopri5", "", dict(rtol=1e-8, atol=1e-8)),
+    ("rk4 h 1e-3", "rk4", "", dict(h=1e-3)),
+    ("rk8 h 1e-2", "rk8", "", dict(h=1e-2)),
+    ("abm12 h 1e-3", "abm12", "", dict(h=1e-3)),
+    ("gauss2 h 1e-2", "gauss2", "", dict(h=1e-2)),
+    ("midpoint h 1e-3", "midpoint", "", dict(h=1e-3)),
+    ("dop853 float rtol 1e-5", "dop853", "_f", dict(rtol=1e-5, atol=1e-5)),
+    ("dop853 long double rtol 1e-13", "dop853", "_l", dict(rtol=1e-13, atol=1e-13)),
+    ("gauss2 long double h 1e-2", "gauss2", "_l", dict(h=1e-2)),
+)
+
+
+def before_sources(commit: str, folder: Path) -> list[Path]:
+    """The generated integrators and kernels of `commit`, written into `folder`."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for name in (f"{MODEL}_integrate.c", f"{MODEL}_integrate.h", f"{MODEL}.c", f"{MODEL}.h"):
+        text = subprocess.run(["git", "show", f"{commit}:generated/c/{name}"], cwd=ROOT, check=True,
+                              capture_output=True, text=True).stdout
+        (folder / name).write_text(text)
+    return [folder / f"{MODEL}_integrate.c", folder / f"{MODEL}.c"]
+
+
+class Library:
+    """<model>_integrate_batch{,_f,_l} of one build."""
+
+    def __init__(self, stem: str, sources: list[Path]):
+        self.path, self.flags = build_fastest(stem, sources)
+        self.lib = ctypes.CDLL(str(self.path))
+        self.Options, self.Info = options_struct(), info_struct(N)
+        self.lib[f"{MODEL}_integrate_defaults"].argtypes = [ctypes.POINTER(self.Options)]
+        self.lines = sum(len(s.read_text().splitlines()) for s in sources[:1])
+
+    def prepare(self, method: str, suffix: str, options: dict):
+        """A call with its arrays bound: () -> (y_out, infos)."""
+        dtype, _ = DTYPES[suffix]
+        opt = self.Options()
+        self.lib[f"{MODEL}_integrate_defaults"](ctypes.byref(opt))
+        for k, v in options.items():
+            setattr(opt, k, v)
+        opt.max_steps = 10 ** 8
+        y0, p, t = (np.ascontiguousarray(a, dtype) for a in (Y0, PARAMS, T))
+        y = np.empty((BATCH, len(T), N), dtype)
+        infos = (self.Info * BATCH)()
+        fn = self.lib[f"{MODEL}_integrate_batch{suffix}"]
+        fn.restype = ctypes.c_long
+        vp = ctypes.c_void_p
+        args = (ctypes.c_long(BATCH), ctypes.c_int(METHOD[method]), vp(y0.ctypes.data), ctypes.c_long(0),
+                vp(p.ctypes.data), ctypes.c_long(0), ctypes.c_long(len(T)), vp(t.ctypes.data),
+                vp(y.ctypes.data), ctypes.byref(opt), ctypes.byref(infos))
+        keep = (y0, p, t, opt)
+
+        def call():
+            assert keep
+            failed = fn(*args)
+            return failed, y, infos
+        return call
+
+
+def bits(a: np.ndarray) -> bytes:
+    """The bytes of a's values: x86's long double is 80 bits stored in 16 bytes, whose 6
+    padding bytes are whatever the stack held (not part of the value)."""
+    if a.dtype == np.longdouble and a.dtype.itemsize == 16 and np.finfo(np.longdouble).nmant == 63:
+        return a.view(np.uint8).reshape(-1, 16)[:, :10].tobytes()
+    return a.tobytes()
+
+
+def counters(infos) -> tuple:
+    return tuple((i.status, i.nfev, i.njev, i.nsteps, i.naccepted, i.nrejected, i.nnewton, i.nout,
+                  i.t, i.h, i.local_error, tuple(i.y)) for i in infos)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--rounds", type=int, default=15)
+    ap.add_argument("--before", default="14a6c56")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        old = Library(f"{MODEL}_integrate_before", before_sources(args.before, Path(tmp) / "before"))
+        folder = model_sources(MODEL) / "c"
+        new = Library(f"{MODEL}_integrate", [folder / f"{MODEL}_integrate.c", folder / f"{MODEL}.c"])
+        library = sorted(folder.glob("derive_*.h"))
+        print(f"flags: {' '.join(old.flags)}")
+        print(f"lines of integrator C for {MODEL}: before {old.lines} ({MODEL}_integrate.c); after "
+              f"{new.lines} ({MODEL}_integrate.c) + "
+              + " + ".join(f"{len(h.read_text().splitlines())} ({h.name})" for h in library)
+              + " shared by every model")
+        calls = {(label, which): lib.prepare(method, suffix, opts)
+                 for label, method, suffix, opts in CASES for which, lib in (("old", old), ("new", new))}
+        same = {}
+        for label, *_ in CASES:
+            fo, yo, io = calls[(label, "old")]()
+            fo2, yo2, io2 = calls[(label, "new")]()
+            same[label] = (fo == fo2 and bits(yo) == bits(yo2) and counters(io) == counters(io2),
+                           io[0].status, io[0].nfev)
+        times = {key: [] for key in calls}
+        for r in range(args.rounds):
+            for label, *_ in CASES:
+                order = ("old", "new") if r % 2 == 0 else ("new", "old")
+                for which in order:
+                    call = calls[(label, which)]
+                    t0 = time.perf_counter()
+                    call()
+                    times[(label, which)].append(time.perf_counter() - t0)
+        print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}; {args.rounds} rounds, "
+              f"{BATCH} trajectories a call; median ms a call")
+        print(f"{'case':32s} {'old ms':>9s} {'new ms':>9s} {'new/old':>8s}  {'nfev':>7s}  identical")
+        for label, *_ in CASES:
+            o, n = (statistics.median(times[(label, w)]) * 1e3 for w in ("old", "new"))
+            ok, status, nfev = same[label]
+            print(f"{label:32s} {o:9.3f} {n:9.3f} {n / o:8.3f}  {nfev:7d}  {'yes' if ok else 'NO'}"
+                  + (f" (status {status})" if status else ""))
+
+
+if __name__ == "__main__":
+    main()
