@@ -6,6 +6,7 @@ Read (package data, shipped in the wheel, found with importlib.resources):
   integration/      the Butcher tableaus (*.toml)
   scenes/           the example scenes (`derive run default`)
   measurement/c/    the C sources the benchmark compiles (rhs cost loop, hand-written peers)
+  codegen/backends/c/library/   the integrators' C library, copied beside generated C
 
 Written (only where the user says):
   the cache         cache_dir(): derivations, verdicts, rendered sources, compiled libraries;
@@ -62,6 +63,11 @@ def scenes_dir() -> Path:
 
 def bench_c_dir() -> Path:
     return package_data("measurement", "c")
+
+
+def c_library_file(name: str) -> Path:
+    """A file of the integrators' hand-written C library (derive_integrators.h, ...)."""
+    return package_data("codegen", "backends", "c", "library", name)
 
 
 @cache

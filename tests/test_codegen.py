@@ -22,7 +22,7 @@ import sympy as sp
 from derive.codegen import emit, spec
 from derive import __version__
 from derive.codegen.generate import generate_all, render_all, render_everything
-from derive.codegen.sources import PROVENANCE
+from derive.codegen.sources import PROVENANCE, SHARED
 from derive.codegen.printers import CPrinter, PrintError
 from derive.derivation import derive
 from derive.model import model_names
@@ -108,11 +108,15 @@ def test_output_is_identical_across_hash_seeds(tmp_path):
         assert a == (ROOT / "generated" / rel).read_bytes(), f"{rel} differs from the checked-in file"
 
 
+# the files the same for every model: the C integrators' library and their tableaus
+SHARED_FILES = {"c/derive_integrators.h", "c/derive_driver.h", "c/derive_tableaus.h"}
+
+
 def test_files_carry_preamble_op_counts_and_no_dates_or_versions():
     files = render_all()
     for rel, text in files.items():
         first = text.splitlines()[0]
-        assert PROVENANCE.search(first), rel
+        assert PROVENANCE.search(first) or (rel in SHARED_FILES and SHARED.search(first)), rel
         assert f"derive {__version__} " in first, rel
         assert not re.search(r"\b(19|20)\d\d-\d\d-\d\d\b", text), rel
         assert sp.__version__ not in text, rel
@@ -234,6 +238,82 @@ def test_c_header_interface():
     assert "sinf(" in f and "cosf(" in f and "sin(" not in f.replace("sinf(", "")
     lbody = c.split("int planar_rhs_l(")[1].split("\n}\n")[0]
     assert "sinl(" in lbody and "1.0L" in lbody
+
+
+# -- the integrators' C library: written once, beside every model's thin file ---------
+
+LIBRARY = ("derive_integrators.h", "derive_driver.h")     # derive/codegen/backends/c/library/
+
+
+def test_the_integrators_method_code_is_written_once():
+    """The method code is the library, copied verbatim under its first line, and the
+    tableaus' header: no line of them is repeated in a model's <model>_integrate.c, which
+    only gives the library the model's kernels and defines the public functions, nor is
+    the stepping loop in the atlas."""
+    from derive.paths import c_library_file
+    for name in LIBRARY:
+        first, rest = (GEN_C / name).read_text().split("\n", 1)
+        assert SHARED.search(first) and rest == c_library_file(name).read_text(), name
+    library = {line.strip() for name in (*LIBRARY, "derive_tableaus.h")
+               for line in (GEN_C / name).read_text().splitlines()
+               if len(line.strip()) >= 40 and not line.startswith("#")}
+    thin = sorted(GEN_C.glob("*_integrate.c"))
+    assert len(thin) == len(model_names())
+    for path in thin:
+        lines = path.read_text().splitlines()
+        assert not library & {line.strip() for line in lines}, path.name
+        assert len(lines) < 600, f"{path.name}: {len(lines)} lines"
+        assert sum(line == '#include "derive_integrators.h"' for line in lines) == 3     # one per real type
+    atlas = (GEN_C / "spherical_atlas.c").read_text()
+    assert "Hairer's starting step" not in atlas and atlas.count('#include "derive_driver.h"') == 3
+
+
+_OUT_MAIN = r"""
+#include <math.h>
+#include <stdio.h>
+#include "planar_integrate.h"
+int main(void)
+{
+    double y0[PLANAR_N_STATES] = {2.5, 2.0, 0.0, 0.0}, p[PLANAR_N_PARAMS] = {1, 1, 1, 1, 9.81};
+    double t[2] = {0.0, 1.0}, y[2 * PLANAR_N_STATES];
+    float y0f[PLANAR_N_STATES] = {2.5f, 2.0f, 0.0f, 0.0f}, pf[PLANAR_N_PARAMS] = {1, 1, 1, 1, 9.81f};
+    float tf[2] = {0.0f, 1.0f}, yf[2 * PLANAR_N_STATES];
+    long double y0l[PLANAR_N_STATES] = {2.5L, 2.0L, 0.0L, 0.0L}, pl[PLANAR_N_PARAMS] = {1, 1, 1, 1, 9.81L};
+    long double tl[2] = {0.0L, 1.0L}, yl[2 * PLANAR_N_STATES];
+    planar_integrate_options opt, optf;     /* optf: tolerances float can meet */
+    int method, bad = 0;
+    planar_integrate_defaults(&opt);
+    opt.h = 1e-3;
+    optf = opt;
+    optf.rtol = optf.atol = 1e-4;
+    for (method = 0; method <= PLANAR_METHOD_ABM12; ++method) {
+        bad |= planar_integrate(method, y0, p, 2, t, y, &opt, 0) != 0;
+        bad |= planar_integrate_f(method, y0f, pf, 2, tf, yf, &optf, 0) != 0;
+        bad |= planar_integrate_l(method, y0l, pl, 2, tl, yl, &opt, 0) != 0;
+        bad |= !(fabs(y[4] - (double)yf[4]) < 1e-3 && fabs(y[4] - (double)yl[4]) < 1e-9);
+    }
+    printf("%d\n", bad);
+    return bad;
+}
+"""
+
+
+def test_a_model_generated_with_out_compiles_from_that_folder_alone(tmp_path):
+    """`derive generate planar --out DIR` writes the integrators' library beside the model's
+    files: DIR/c alone builds a program (C99, warnings as errors) whose every method runs
+    in every real type and agrees across them."""
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "derive", "generate", "planar", "--out", str(out)],
+                         env=dict(os.environ, PYTHONPATH=str(ROOT)), capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    folder = out / "c"
+    assert {f"{n}" for n in (*LIBRARY, "derive_tableaus.h")} <= {p.name for p in folder.iterdir()}
+    (tmp_path / "main.c").write_text(_OUT_MAIN)
+    exe = tmp_path / "main"
+    _compile(["gcc", "-std=c99", *WARN, "-I", str(folder), "main.c", str(folder / "planar_integrate.c"),
+              str(folder / "planar.c"), "-o", str(exe), "-lm"], tmp_path)
+    run = subprocess.run([str(exe)], capture_output=True, text=True)
+    assert run.returncode == 0 and run.stdout.strip() == "0", run.stdout
 
 
 # -- the spec: checks with readable errors ------------------------------------------

@@ -210,8 +210,8 @@ def _folder_of(model: str, tmp_path: Path) -> Path:
     if model == "planar":                    # the catalogue's golden files, as shipped
         folder = tmp_path / "planar"
         folder.mkdir()
-        for f in (ROOT / "generated" / "c").glob("planar*"):
-            shutil.copy(f, folder)
+        for f in [*(ROOT / "generated" / "c").glob("planar*"), *(ROOT / "generated" / "c").glob("derive_*.h")]:
+            shutil.copy(f, folder)      # the model's files and the integrators' C library
         return folder
     return _generated(tmp_path, ROOT / "examples" / "models" / f"{model}.toml")
 

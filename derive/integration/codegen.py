@@ -1,8 +1,14 @@
 """Render the integrators: C (float, double, long double) and NumPy, per model, and the atlas.
 
-Python decides everything numeric here (tableau literals per precision, the
-linear combinations of stages, which system the implicit methods use); the
-templates under templates/c/integrate*.jinja, templates/c/atlas*.jinja and
+The C method code is a hand-written library, derive/codegen/backends/c/library/
+(derive_integrators.h: the methods and a model's context; derive_driver.h: the stepping
+loop, shared with the atlas), copied verbatim beside the generated files; what is
+rendered is per model a thin <model>_integrate.c (the model's kernels, guards and
+structs given to the library, included once per real type, and the public functions)
+and once for every model derive_tableaus.h, the coefficients.  Python decides
+everything numeric here (tableau literals per precision, the linear combinations of
+stages, which system the implicit methods use); the templates under
+templates/c/integrate*.jinja, templates/c/tableaus.h.jinja, templates/c/atlas*.jinja and
 templates/numpy/integrate*.jinja, templates/numpy/atlas*.jinja only lay it out.
 """
 from __future__ import annotations
@@ -306,10 +312,10 @@ def library_files(names=LIBRARY) -> dict[str, str]:
     """The hand-written C library, copied verbatim into a generated tree (c/<file>) under
     one first line that names the derive that copied it; the same for every model."""
     from .. import __version__
-    from ..paths import package_root
+    from ..paths import c_library_file
     files = {}
     for file in names:
-        text = (package_root() / LIBRARY_SOURCE / file).read_text()
+        text = c_library_file(file).read_text()
         files[f"c/{file}"] = (f"/* Copied by derive {__version__} from {LIBRARY_SOURCE}/{file} "
                               f"for every model; do not edit. */\n{text}")
     return files

@@ -3,7 +3,9 @@ one template, reentrant (no globals).
 
 Its artifacts: per model <model>.h/.c (the kernels, templates/c/header.h.jinja and
 source.c.jinja), <model>_integrate.h/.c (the integrators, rendered by
-derive/integration/codegen.py), the Taylor integrator, scalar and in SIMD lanes
+derive/integration/codegen.py: a thin file that includes the method code of the
+library/ folder here, derive_integrators.h and derive_driver.h, copied verbatim beside
+it with the tableaus' derive_tableaus.h, the same for every model), the Taylor integrator, scalar and in SIMD lanes
 (<model>_taylor.*, <model>_taylor_lanes.*, for a model whose rhs has recurrences:
 derive/integration/taylor_codegen.py, taylor_lanes.py), and for a model without chart
 guards the batched and fixed-step loops (<model>_throughput.*, <model>_fixed.*; derive/integration/
