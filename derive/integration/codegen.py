@@ -273,17 +273,14 @@ def _tableau_macros(v: dict) -> list[tuple[str, str]]:
     sum_j a_ij K[j][k] (zero coefficients dropped), the weights, the error estimators,
     the dense-output formulas, the implicit and multistep methods' arrays."""
     tag = TABLEAU_TAGS[v["ctype"]]
-    explicit = {m["name"]: m for m in v["explicit"]}
     out = []
-    for name in ("rk4", "dopri5", "dop853"):
-        m, M = explicit[name], name.upper()
+    for m in v["explicit"]:
+        M = m["name"].upper()
         out += _combo_macros(M, m["stages"], tag)
         out.append((f"DERIVE_{M}_B{tag}(K, k)", f"({m['b_combo']})"))
-        if name == "dopri5":
-            out.append((f"DERIVE_DOPRI5_E{tag}(K, k)", f"({m['e_combo']})"))
-        if name == "dop853":
-            out.append((f"DERIVE_DOP853_E3{tag}(K, k)", f"({m['e3_combo']})"))
-            out.append((f"DERIVE_DOP853_E5{tag}(K, k)", f"({m['e5_combo']})"))
+        for key, macro in (("e_combo", "E"), ("e3_combo", "E3"), ("e5_combo", "E5")):   # error estimators
+            if key in m:
+                out.append((f"DERIVE_{M}_{macro}{tag}(K, k)", f"({m[key]})"))
     out += _combo_macros("DOP853", v["dop853_extra"], tag)
     out += [(f"DERIVE_DOP853_D{d['index']}{tag}(K, k)", f"({d['combo']})") for d in v["dop853_d"]]
     weights = ", ".join(f"b[{b['index']}] = {b['poly']}" for b in v["dopri5_dense"])
@@ -324,33 +321,35 @@ def library_files(names=LIBRARY) -> dict[str, str]:
 # The public functions of <model>_integrate.c that call the library (derive_integrators.h):
 # (return type, name, parameters, the library function's arguments); {R}: the real type,
 # {P}: the model.  The prototypes are <model>_integrate.h's.
-_PUBLIC = (
-    ("int", "integrate", "int method, const {R} *restrict y0, const {R} *restrict p, long nt, const {R} *restrict t, "
-     "{R} *restrict y_out, const {P}_integrate_options *opt, {P}_integrate_info *info",
-     "method, y0, p, nt, t, y_out, opt, info"),
-    ("long", "integrate_batch", "long n, int method, const {R} *restrict y0, long y0_stride, const {R} *restrict p, "
-     "long p_stride, long nt, const {R} *restrict t, {R} *restrict y_out, const {P}_integrate_options *opt, "
-     "{P}_integrate_info *info", "n, method, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info"),
-    *((("int", f"{m}_step", "const {R} *restrict y, {R} h, const {R} *restrict p, {R} (*restrict K)[N], "
-        "{R} *restrict y_new, {R} *restrict err, const {P}_integrate_options *opt, {P}_integrate_info *info",
-        "y, h, p, K, y_new, err, opt, info") for m in ("rk4", "dopri5", "dop853"))),
-    ("void", "dopri5_dense", "const {R} *restrict y, {R} h, {R} (*restrict K)[N], {R} theta, {R} *restrict out",
-     "y, h, K, theta, out"),
-    ("int", "dop853_dense_prepare", "const {R} *restrict y, const {R} *restrict y_new, {R} h, const {R} *restrict p, "
-     "{R} (*restrict K)[N], {R} (*restrict F)[N], const {P}_integrate_options *opt, {P}_integrate_info *info",
-     "y, y_new, h, p, K, F, opt, info"),
-    ("void", "dop853_dense", "const {R} *restrict y, {R} (*restrict F)[N], {R} theta, {R} *restrict out",
-     "y, F, theta, out"),
-    *((("int", f"{m}_step", "const {R} *restrict x, {R} h, const {R} *restrict p, {R} *restrict x_new, "
-        "const {P}_integrate_options *opt, {P}_integrate_info *info", "x, h, p, x_new, opt, info")
-       for m in ("midpoint", "gauss2"))),
-)
+@lru_cache(maxsize=None)
+def _public_functions() -> tuple:
+    return (
+        ("int", "integrate", "int method, const {R} *restrict y0, const {R} *restrict p, long nt, const {R} *restrict t, "
+         "{R} *restrict y_out, const {P}_integrate_options *opt, {P}_integrate_info *info",
+         "method, y0, p, nt, t, y_out, opt, info"),
+        ("long", "integrate_batch", "long n, int method, const {R} *restrict y0, long y0_stride, const {R} *restrict p, "
+         "long p_stride, long nt, const {R} *restrict t, {R} *restrict y_out, const {P}_integrate_options *opt, "
+         "{P}_integrate_info *info", "n, method, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info"),
+        *((("int", f"{m['name']}_step", "const {R} *restrict y, {R} h, const {R} *restrict p, {R} (*restrict K)[N], "
+            "{R} *restrict y_new, {R} *restrict err, const {P}_integrate_options *opt, {P}_integrate_info *info",
+            "y, h, p, K, y_new, err, opt, info") for m in _explicit("double"))),
+        ("void", "dopri5_dense", "const {R} *restrict y, {R} h, {R} (*restrict K)[N], {R} theta, {R} *restrict out",
+         "y, h, K, theta, out"),
+        ("int", "dop853_dense_prepare", "const {R} *restrict y, const {R} *restrict y_new, {R} h, const {R} *restrict p, "
+         "{R} (*restrict K)[N], {R} (*restrict F)[N], const {P}_integrate_options *opt, {P}_integrate_info *info",
+         "y, y_new, h, p, K, F, opt, info"),
+        ("void", "dop853_dense", "const {R} *restrict y, {R} (*restrict F)[N], {R} theta, {R} *restrict out",
+         "y, F, theta, out"),
+        *((("int", f"{m}_step", "const {R} *restrict x, {R} h, const {R} *restrict p, {R} *restrict x_new, "
+            "const {P}_integrate_options *opt, {P}_integrate_info *info", "x, h, p, x_new, opt, info")
+           for m in IMPLICIT)),
+    )
 
 
 def _public(P: str, v: dict) -> list[dict]:
     """The public functions of one C type: each calls the library's derive_<name>_<tag>."""
     out = []
-    for ret, name, params, args in _PUBLIC:
+    for ret, name, params, args in _public_functions():
         call = f"derive_{name}{TABLEAU_TAGS[v['ctype']]}({args});"
         out.append({"head": f"{ret} {P}_{name}{v['s']}({params.format(R=v['ctype'], P=P)})",
                     "body": call if ret == "void" else f"return {call}"})
