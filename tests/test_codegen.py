@@ -262,7 +262,7 @@ def test_the_integrators_method_code_is_written_once():
     for path in thin:
         lines = path.read_text().splitlines()
         assert not library & {line.strip() for line in lines}, path.name
-        assert len(lines) < 600, f"{path.name}: {len(lines)} lines"
+        assert len(lines) < 500, f"{path.name}: {len(lines)} lines"
         assert sum(line == '#include "derive_integrators.h"' for line in lines) == 3     # one per real type
     atlas = (GEN_C / "spherical_atlas.c").read_text()
     assert "Hairer's starting step" not in atlas and atlas.count('#include "derive_driver.h"') == 3

@@ -62,7 +62,6 @@ static int planar_kernel_status(int kst)
 #define DERIVE_OPTIONS planar_integrate_options
 #define DERIVE_INFO planar_integrate_info
 #define DERIVE_DEFAULTS planar_integrate_defaults
-#define DERIVE_CANONICAL 1
 #define DERIVE_MAX_STAGES PLANAR_INTEGRATE_MAX_STAGES
 #define DERIVE_METHOD_RK4 PLANAR_METHOD_RK4
 #define DERIVE_METHOD_DOPRI5 PLANAR_METHOD_DOPRI5
@@ -108,32 +107,6 @@ static int planar_sys_jac(const double *restrict x, const double *restrict p, do
     return planar_kernel_status(planar_hamiltonian_jacobian(x, p, J));
 }
 
-/* The state y -> the integration variable z (x = (q, p) for the implicit methods), and back. */
-static int planar_in(int canonical, const double *y, const double *p, const planar_integrate_options *opt, double *z)
-{
-    int k;
-    if (canonical) {
-        return planar_kernel_status(planar_to_canonical(y, p, z));
-    }
-    for (k = 0; k < N; ++k) {
-        z[k] = y[k];
-    }
-    (void)opt;
-    return PLANAR_INTEGRATE_OK;
-}
-
-static int planar_out(int canonical, const double *z, const double *p, double *y)
-{
-    int k;
-    if (canonical) {
-        return planar_kernel_status(planar_from_canonical(z, p, y));
-    }
-    for (k = 0; k < N; ++k) {
-        y[k] = z[k];
-    }
-    return PLANAR_INTEGRATE_OK;
-}
-
 #define DERIVE_REAL double
 #define DERIVE_T(x) x##_d
 #define DERIVE_MATH(fn) fn
@@ -141,8 +114,8 @@ static int planar_out(int canonical, const double *z, const double *p, double *y
 #define DERIVE_EVAL planar_eval
 #define DERIVE_SYS_EVAL planar_sys_eval
 #define DERIVE_SYS_JAC planar_sys_jac
-#define DERIVE_IN planar_in
-#define DERIVE_OUT planar_out
+#define DERIVE_TO_CANONICAL(y, p, x) planar_kernel_status(planar_to_canonical(y, p, x))
+#define DERIVE_FROM_CANONICAL(x, p, y) planar_kernel_status(planar_from_canonical(x, p, y))
 #include "derive_integrators.h"
 
 int planar_integrate_rhs(const double *restrict y, const double *restrict p, double *restrict f, const planar_integrate_options *opt, planar_integrate_info *info)
@@ -227,32 +200,6 @@ static int planar_sys_jac_f(const float *restrict x, const float *restrict p, fl
     return planar_kernel_status(planar_hamiltonian_jacobian_f(x, p, J));
 }
 
-/* The state y -> the integration variable z (x = (q, p) for the implicit methods), and back. */
-static int planar_in_f(int canonical, const float *y, const float *p, const planar_integrate_options *opt, float *z)
-{
-    int k;
-    if (canonical) {
-        return planar_kernel_status(planar_to_canonical_f(y, p, z));
-    }
-    for (k = 0; k < N; ++k) {
-        z[k] = y[k];
-    }
-    (void)opt;
-    return PLANAR_INTEGRATE_OK;
-}
-
-static int planar_out_f(int canonical, const float *z, const float *p, float *y)
-{
-    int k;
-    if (canonical) {
-        return planar_kernel_status(planar_from_canonical_f(z, p, y));
-    }
-    for (k = 0; k < N; ++k) {
-        y[k] = z[k];
-    }
-    return PLANAR_INTEGRATE_OK;
-}
-
 #define DERIVE_REAL float
 #define DERIVE_T(x) x##_f
 #define DERIVE_MATH(fn) fn##f
@@ -260,8 +207,8 @@ static int planar_out_f(int canonical, const float *z, const float *p, float *y)
 #define DERIVE_EVAL planar_eval_f
 #define DERIVE_SYS_EVAL planar_sys_eval_f
 #define DERIVE_SYS_JAC planar_sys_jac_f
-#define DERIVE_IN planar_in_f
-#define DERIVE_OUT planar_out_f
+#define DERIVE_TO_CANONICAL(y, p, x) planar_kernel_status(planar_to_canonical_f(y, p, x))
+#define DERIVE_FROM_CANONICAL(x, p, y) planar_kernel_status(planar_from_canonical_f(x, p, y))
 #include "derive_integrators.h"
 
 int planar_integrate_rhs_f(const float *restrict y, const float *restrict p, float *restrict f, const planar_integrate_options *opt, planar_integrate_info *info)
@@ -346,32 +293,6 @@ static int planar_sys_jac_l(const long double *restrict x, const long double *re
     return planar_kernel_status(planar_hamiltonian_jacobian_l(x, p, J));
 }
 
-/* The state y -> the integration variable z (x = (q, p) for the implicit methods), and back. */
-static int planar_in_l(int canonical, const long double *y, const long double *p, const planar_integrate_options *opt, long double *z)
-{
-    int k;
-    if (canonical) {
-        return planar_kernel_status(planar_to_canonical_l(y, p, z));
-    }
-    for (k = 0; k < N; ++k) {
-        z[k] = y[k];
-    }
-    (void)opt;
-    return PLANAR_INTEGRATE_OK;
-}
-
-static int planar_out_l(int canonical, const long double *z, const long double *p, long double *y)
-{
-    int k;
-    if (canonical) {
-        return planar_kernel_status(planar_from_canonical_l(z, p, y));
-    }
-    for (k = 0; k < N; ++k) {
-        y[k] = z[k];
-    }
-    return PLANAR_INTEGRATE_OK;
-}
-
 #define DERIVE_REAL long double
 #define DERIVE_T(x) x##_l
 #define DERIVE_MATH(fn) fn##l
@@ -379,8 +300,8 @@ static int planar_out_l(int canonical, const long double *z, const long double *
 #define DERIVE_EVAL planar_eval_l
 #define DERIVE_SYS_EVAL planar_sys_eval_l
 #define DERIVE_SYS_JAC planar_sys_jac_l
-#define DERIVE_IN planar_in_l
-#define DERIVE_OUT planar_out_l
+#define DERIVE_TO_CANONICAL(y, p, x) planar_kernel_status(planar_to_canonical_l(y, p, x))
+#define DERIVE_FROM_CANONICAL(x, p, y) planar_kernel_status(planar_from_canonical_l(x, p, y))
 #include "derive_integrators.h"
 
 int planar_integrate_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict f, const planar_integrate_options *opt, planar_integrate_info *info)

@@ -62,7 +62,6 @@ static int spherical_rot_kernel_status(int kst)
 #define DERIVE_OPTIONS spherical_rot_integrate_options
 #define DERIVE_INFO spherical_rot_integrate_info
 #define DERIVE_DEFAULTS spherical_rot_integrate_defaults
-#define DERIVE_CANONICAL 0
 #define DERIVE_MAX_STAGES SPHERICAL_ROT_INTEGRATE_MAX_STAGES
 #define DERIVE_METHOD_RK4 SPHERICAL_ROT_METHOD_RK4
 #define DERIVE_METHOD_DOPRI5 SPHERICAL_ROT_METHOD_DOPRI5
@@ -129,29 +128,6 @@ static int spherical_rot_sys_jac(const double *restrict x, const double *restric
     return spherical_rot_kernel_status(spherical_rot_jacobian(x, p, J));
 }
 
-/* The state y -> the integration variable z, and back. */
-static int spherical_rot_in(int canonical, const double *y, const double *p, const spherical_rot_integrate_options *opt, double *z)
-{
-    int k;
-    (void)canonical;
-    (void)p;
-    for (k = 0; k < N; ++k) {
-        z[k] = y[k];
-    }
-    return spherical_rot_guard(z, opt);
-}
-
-static int spherical_rot_out(int canonical, const double *z, const double *p, double *y)
-{
-    int k;
-    (void)canonical;
-    (void)p;
-    for (k = 0; k < N; ++k) {
-        y[k] = z[k];
-    }
-    return SPHERICAL_ROT_INTEGRATE_OK;
-}
-
 #define DERIVE_REAL double
 #define DERIVE_T(x) x##_d
 #define DERIVE_MATH(fn) fn
@@ -159,8 +135,7 @@ static int spherical_rot_out(int canonical, const double *z, const double *p, do
 #define DERIVE_EVAL spherical_rot_eval
 #define DERIVE_SYS_EVAL spherical_rot_sys_eval
 #define DERIVE_SYS_JAC spherical_rot_sys_jac
-#define DERIVE_IN spherical_rot_in
-#define DERIVE_OUT spherical_rot_out
+#define DERIVE_GUARD spherical_rot_guard
 #include "derive_integrators.h"
 
 int spherical_rot_integrate_rhs(const double *restrict y, const double *restrict p, double *restrict f, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
@@ -266,29 +241,6 @@ static int spherical_rot_sys_jac_f(const float *restrict x, const float *restric
     return spherical_rot_kernel_status(spherical_rot_jacobian_f(x, p, J));
 }
 
-/* The state y -> the integration variable z, and back. */
-static int spherical_rot_in_f(int canonical, const float *y, const float *p, const spherical_rot_integrate_options *opt, float *z)
-{
-    int k;
-    (void)canonical;
-    (void)p;
-    for (k = 0; k < N; ++k) {
-        z[k] = y[k];
-    }
-    return spherical_rot_guard_f(z, opt);
-}
-
-static int spherical_rot_out_f(int canonical, const float *z, const float *p, float *y)
-{
-    int k;
-    (void)canonical;
-    (void)p;
-    for (k = 0; k < N; ++k) {
-        y[k] = z[k];
-    }
-    return SPHERICAL_ROT_INTEGRATE_OK;
-}
-
 #define DERIVE_REAL float
 #define DERIVE_T(x) x##_f
 #define DERIVE_MATH(fn) fn##f
@@ -296,8 +248,7 @@ static int spherical_rot_out_f(int canonical, const float *z, const float *p, fl
 #define DERIVE_EVAL spherical_rot_eval_f
 #define DERIVE_SYS_EVAL spherical_rot_sys_eval_f
 #define DERIVE_SYS_JAC spherical_rot_sys_jac_f
-#define DERIVE_IN spherical_rot_in_f
-#define DERIVE_OUT spherical_rot_out_f
+#define DERIVE_GUARD spherical_rot_guard_f
 #include "derive_integrators.h"
 
 int spherical_rot_integrate_rhs_f(const float *restrict y, const float *restrict p, float *restrict f, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
@@ -403,29 +354,6 @@ static int spherical_rot_sys_jac_l(const long double *restrict x, const long dou
     return spherical_rot_kernel_status(spherical_rot_jacobian_l(x, p, J));
 }
 
-/* The state y -> the integration variable z, and back. */
-static int spherical_rot_in_l(int canonical, const long double *y, const long double *p, const spherical_rot_integrate_options *opt, long double *z)
-{
-    int k;
-    (void)canonical;
-    (void)p;
-    for (k = 0; k < N; ++k) {
-        z[k] = y[k];
-    }
-    return spherical_rot_guard_l(z, opt);
-}
-
-static int spherical_rot_out_l(int canonical, const long double *z, const long double *p, long double *y)
-{
-    int k;
-    (void)canonical;
-    (void)p;
-    for (k = 0; k < N; ++k) {
-        y[k] = z[k];
-    }
-    return SPHERICAL_ROT_INTEGRATE_OK;
-}
-
 #define DERIVE_REAL long double
 #define DERIVE_T(x) x##_l
 #define DERIVE_MATH(fn) fn##l
@@ -433,8 +361,7 @@ static int spherical_rot_out_l(int canonical, const long double *z, const long d
 #define DERIVE_EVAL spherical_rot_eval_l
 #define DERIVE_SYS_EVAL spherical_rot_sys_eval_l
 #define DERIVE_SYS_JAC spherical_rot_sys_jac_l
-#define DERIVE_IN spherical_rot_in_l
-#define DERIVE_OUT spherical_rot_out_l
+#define DERIVE_GUARD spherical_rot_guard_l
 #include "derive_integrators.h"
 
 int spherical_rot_integrate_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict f, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)

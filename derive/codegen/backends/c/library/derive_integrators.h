@@ -15,7 +15,6 @@
  *   DERIVE_N_P                 the length of p (the parameters, then the inputs)
  *   DERIVE_OPTIONS, DERIVE_INFO  the model's options and info structs
  *   DERIVE_DEFAULTS(opt)       fills the options with their defaults
- *   DERIVE_CANONICAL           1 when the implicit methods run on a canonical form x = (q, p)
  *   DERIVE_MAX_STAGES          the rows of the stage array K
  *   DERIVE_METHOD_RK4 .. DERIVE_METHOD_GAUSS2   the method codes (RK4, RK8, ABM12, DOPRI5,
  *                              DOP853, MIDPOINT, GAUSS2)
@@ -31,8 +30,11 @@
  *   DERIVE_EVAL(y, p, f, opt, info)       f = y', guarded and counted: 0 or a status
  *   DERIVE_SYS_EVAL(x, p, f, opt, info)   the implicit methods' system and
  *   DERIVE_SYS_JAC(x, p, J, opt, info)    its Jacobian (row-major N x N)
- *   DERIVE_IN(canonical, y, p, opt, z)    the state y -> the integration variable z
- *   DERIVE_OUT(canonical, z, p, y)        and back (canonical: the run uses x = (q, p))
+ *   DERIVE_GUARD(y, opt)                  the chart check: 0, CHART_SINGULAR or NONFINITE
+ *                                         (only for a model with chart guards)
+ *   DERIVE_TO_CANONICAL(y, p, x)          y = (q, q') -> x = (q, p) and back, 0 or a status
+ *   DERIVE_FROM_CANONICAL(x, p, y)        (only for a model with a Hamiltonian form: its
+ *                                         implicit methods then run on x)
  *
  * Functions (static; T = the type's tag; K: the stage rows, K[0] = f(y) on entry):
  *   derive_rk4_step_T, derive_dopri5_step_T, derive_dop853_step_T (y, h, p, K, y_new, err, opt, info)
@@ -560,14 +562,41 @@ static void DERIVE_T(derive_ctx_dense)(DERIVE_T(derive_ctx) *c, const DERIVE_REA
     }
 }
 
+/* The state y -> the integration variable z: y itself, checked against the chart, or
+ * for the implicit methods of a model with a Hamiltonian form x = (q, p). */
 static int DERIVE_T(derive_ctx_in)(DERIVE_T(derive_ctx) *c, const DERIVE_REAL *y, DERIVE_REAL *z)
 {
-    return DERIVE_IN(c->canonical, y, c->p, c->opt, z);
+    int k;
+#ifdef DERIVE_TO_CANONICAL
+    if (c->canonical) {
+        return DERIVE_TO_CANONICAL(y, c->p, z);
+    }
+#endif
+    for (k = 0; k < DERIVE_N; ++k) {
+        z[k] = y[k];
+    }
+#ifdef DERIVE_GUARD
+    return DERIVE_GUARD(z, c->opt);
+#else
+    (void)c;
+    return DERIVE_OK;
+#endif
 }
 
+/* ... and back. */
 static int DERIVE_T(derive_ctx_out)(DERIVE_T(derive_ctx) *c, const DERIVE_REAL *z, DERIVE_REAL *y)
 {
-    return DERIVE_OUT(c->canonical, z, c->p, y);
+    int k;
+#ifdef DERIVE_FROM_CANONICAL
+    if (c->canonical) {
+        return DERIVE_FROM_CANONICAL(z, c->p, y);
+    }
+#endif
+    (void)c;
+    for (k = 0; k < DERIVE_N; ++k) {
+        y[k] = z[k];
+    }
+    return DERIVE_OK;
 }
 
 static int DERIVE_T(derive_ctx_switch)(DERIVE_T(derive_ctx) *c, DERIVE_REAL *z, int force)
@@ -639,7 +668,11 @@ static int DERIVE_T(derive_integrate)(int method, const DERIVE_REAL *restrict y0
     c.opt = opt;
     c.info = info;
     c.method = method;
-    c.canonical = DERIVE_CANONICAL && (method == DERIVE_METHOD_MIDPOINT || method == DERIVE_METHOD_GAUSS2);
+#ifdef DERIVE_TO_CANONICAL
+    c.canonical = method == DERIVE_METHOD_MIDPOINT || method == DERIVE_METHOD_GAUSS2;
+#else
+    c.canonical = 0;
+#endif
     c.nhist = 0;
     return DERIVE_T(derive_drive)(&c, y0, nt, t, y_out);
 }
@@ -663,5 +696,6 @@ static long DERIVE_T(derive_integrate_batch)(long n, int method, const DERIVE_RE
 #undef DERIVE_EVAL
 #undef DERIVE_SYS_EVAL
 #undef DERIVE_SYS_JAC
-#undef DERIVE_IN
-#undef DERIVE_OUT
+#undef DERIVE_GUARD
+#undef DERIVE_TO_CANONICAL
+#undef DERIVE_FROM_CANONICAL
