@@ -135,6 +135,21 @@ class Library:
         return call
 
 
+def catalogue_lines(commit: str, library: list[Path]) -> str:
+    """The lines of integrator C of the whole catalogue before (every <model>_integrate.c
+    of `commit`) and after (generated/c: the thin files, and the library once)."""
+    listing = subprocess.run(["git", "ls-tree", "--name-only", f"{commit}:generated/c"], cwd=ROOT, check=True,
+                             capture_output=True, text=True).stdout.split()
+    before = {name: subprocess.run(["git", "show", f"{commit}:generated/c/{name}"], cwd=ROOT, check=True,
+                                   capture_output=True, text=True).stdout.count("\n")
+              for name in listing if name.endswith("_integrate.c")}
+    after = {p.name: len(p.read_text().splitlines()) for p in sorted((ROOT / "generated" / "c").glob("*_integrate.c"))}
+    shared = sum(len(h.read_text().splitlines()) for h in library)
+    return (f"the catalogue ({len(before)} models): before {sum(before.values())} lines "
+            f"({', '.join(f'{n} {k}' for n, k in before.items())}); after {sum(after.values()) + shared} "
+            f"({', '.join(f'{n} {k}' for n, k in after.items())}, and the library {shared} once)")
+
+
 def bits(a: np.ndarray) -> bytes:
     """The bytes of a's values: x86's long double is 80 bits stored in 16 bytes, whose 6
     padding bytes are whatever the stack held (not part of the value)."""
@@ -169,6 +184,7 @@ def main() -> None:
               f"{new.lines} ({MODEL}_integrate.c) + "
               + " + ".join(f"{len(h.read_text().splitlines())} ({h.name})" for h in library)
               + " shared by every model")
+        print(catalogue_lines(args.before, library))
         print(f"the atlas: before {old_atlas.lines} ({ATLAS_PREFIX}.c), after {new_atlas.lines} "
               f"(+ derive_driver.h)")
         cases = [(c, old, new) for c in CASES] + [(c, old_atlas, new_atlas) for c in ATLAS_CASES]
