@@ -6,9 +6,10 @@
  * .toml tableaus in derive/integration, the literals of each type, zero coefficients
  * left out) and the stepping loop from derive_driver.h.
  *
- * Standalone C99, only <math.h>; reentrant: no globals, no allocation.  Sizes are
- * compile-time constants and the model's kernels static functions of the including
- * file, so the compiler sees the same code as a per-model rendering would give it.
+ * Standalone C99, only <math.h>; reentrant: no globals, no allocation.  The state size
+ * is a compile-time constant and the model's guarded evaluation a static function of the
+ * including file, so the compiler sees the code a per-model rendering gave it (the
+ * coefficients as literals, the zero ones absent), and the results are the same bits.
  *
  * Defined once per translation unit, before the first inclusion:
  *   DERIVE_N                   the state size (a constant expression)
@@ -52,7 +53,8 @@
 
 #ifndef DERIVE_INTEGRATORS_SHARED
 #define DERIVE_INTEGRATORS_SHARED
-/* One explicit stage: ys = y + h * (combination of the stages before), K[i] = f(ys). */
+/* One explicit stage: ys = y + h * (combination of the stages before), K[i] = f(ys)
+ * (in a step function: its y, h, p, K, ys, k, st, opt and info). */
 #define DERIVE_STAGE(combo, i)                                  \
     for (k = 0; k < DERIVE_N; ++k) {                            \
         ys[k] = y[k] + h * (DERIVE_T(combo)(K, k));             \
