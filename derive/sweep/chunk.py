@@ -67,17 +67,20 @@ def _register(text: str) -> str:
     return load_model_file(path).name
 
 
-def runner(model: str, method: str, rtol: float | None, atol: float | None, step: float | None = None):
+def runner(model: str, method: str, rtol: float | None, atol: float | None, step: float | None = None,
+           build: type | None = None):
     """run(y0, p, t) -> (y, status): one batch call of `method` (DOP853, Taylor, ...) at these
-    settings, in the dtype of y0 (double, or long double for the verification)."""
+    settings, in the dtype of y0 (double, or long double for the verification); `build`, a
+    dtype: compile (or load) its Taylor integrator now rather than at the first call."""
     lib = integrator_library(model)
     opt = lib.defaults()
     for name, value in (("rtol", rtol), ("atol", atol), ("h", step)):
         if value is not None:
             setattr(opt, name, value)
     if method == TAYLOR:
-        from ..integration.taylor_library import taylor_library, taylor_order
-        taylor = taylor_library(model, taylor_order(opt.rtol))
+        from ..integration.taylor_lanes_library import taylor_ensemble_library
+        from ..integration.taylor_library import taylor_order
+        order = taylor_order(opt.rtol)
         # the generated Taylor integrator caps its step's radius at hmax (the run's span when
         # hmax is 0) before it applies the step factor (e^-2 ...): a run shorter than a few
         # steps would take ~8 steps of an eighth of the span.  An hmax past any span leaves
@@ -85,7 +88,11 @@ def runner(model: str, method: str, rtol: float | None, atol: float | None, step
         opt.hmax = TAYLOR_HMAX
 
         def call(y0, p, t):
-            return taylor.run(y0, p, t, opt)
+            # derive.ensemble's integrator: SIMD lanes in double (bit for bit the scalar
+            # integrator's numbers, tests/test_taylor_lanes.py), the scalar one in long double
+            return taylor_ensemble_library(model, order, _dtype_name(y0.dtype)).run(y0, p, t, opt)
+        if build is not None:
+            taylor_ensemble_library(model, order, _dtype_name(np.dtype(build)))
     else:
         index = METHODS.index(method)
 
@@ -113,11 +120,15 @@ def prepare(sweep: Sweep) -> None:
     model = _model(sweep)
     integrator_library(model)                    # renders the model's sources, once
     scene = sweep.scene
-    settings = [(scene.rtol, scene.atol, scene.step)]
+    settings = [(scene.rtol, scene.atol, scene.step, np.float64)]
     if any(e.accuracy is not None for e in sweep.events):
-        settings += [(rtol, atol, None) for rtol, atol, _ in rungs(scene)]
+        settings += [(rtol, atol, None, dtype) for rtol, atol, dtype in rungs(scene)]
     with ThreadPoolExecutor(max_workers=len(settings)) as pool:
         list(pool.map(lambda s: runner(model, scene.method, *s), settings))
+
+
+def _dtype_name(dtype: np.dtype) -> str:
+    return "longdouble" if dtype == np.longdouble else "float64"
 
 
 def _status(infos) -> np.ndarray:
