@@ -64,6 +64,7 @@ def test_a_spherical_chain_has_an_atlas_with_no_file_of_its_own(atlas):
     assert (atlas.sine_rule, atlas.sine_switch, atlas.sine_min) == ("0.5", "0.3", "0.1")
 
 
+@pytest.mark.slow     # derives chains of several links: about 90 s
 def test_the_rule_for_n_links(atlas):
     """Seed 000 5.1 on every link; for N >= 3 where its chart has a polar sine below 0.5,
     the chart whose smallest polar sine is largest.  C, NumPy and Python agree."""

@@ -69,8 +69,16 @@ CASES = [
 ]
 
 
-@pytest.mark.parametrize("method", RUN_METHODS)
-@pytest.mark.parametrize("case", range(len(CASES)))
+def _cases():
+    """Every method on every case; spherical_std's Taylor integrator (about a minute and a
+    half of compiling) in the slow tier."""
+    for case in range(len(CASES)):
+        for method in RUN_METHODS:
+            slow = method == "taylor" and CASES[case][0] == "spherical_std"
+            yield pytest.param(method, case, id=f"{case}-{method}", marks=[pytest.mark.slow] if slow else [])
+
+
+@pytest.mark.parametrize("method, case", list(_cases()))
 def test_the_fast_path_returns_the_general_paths_result(method, case, monkeypatch):
     model, y0, t, params, kw = CASES[case]
     fast, general = _both(monkeypatch, model, y0, t, params, **_kw(method), **kw)

@@ -83,6 +83,7 @@ def test_every_models_kernels_agree_with_mpmath(model, precision):
     assert _kernel_error(name, precision, points=3) < KERNEL_AGREEMENT[precision]
 
 
+@pytest.mark.slow     # SymPy's repeated Lie derivatives to K = 5: about a minute
 def test_coefficients_are_the_lie_series_in_double_double():
     """Order by order to K = 5: SymPy's repeated Lie derivatives at exact rationals."""
     (state, par), exprs = derivation_rhs("planar")
@@ -120,7 +121,10 @@ def _chaotic(precision, t_end, rtol):
         return float(max(abs(a - b) for a, b in zip(r.y_exact[-1], states[t_end]))), r
 
 
-@pytest.mark.parametrize("precision, rtol, bound", [("double-double", 1e-30, 1e-10), ("quad", 1e-32, 1e-10)])
+@pytest.mark.parametrize("precision, rtol, bound", [
+    ("double-double", 1e-30, 1e-10),
+    pytest.param("quad", 1e-32, 1e-10, marks=pytest.mark.slow),     # software binary128 at order 38
+])
 def test_chaotic_run_to_t20_agrees_with_the_mpmath_reference(precision, rtol, bound):
     """The chaotic planar case to t = 20: long double loses 1e-8 at t ~ 11 (test_chaotic_reference)."""
     error, r = _chaotic(precision, 20.0, rtol)
@@ -129,6 +133,7 @@ def test_chaotic_run_to_t20_agrees_with_the_mpmath_reference(precision, rtol, bo
     assert abs(float(r.y[-1][0]) - float(r.y_exact[-1][0])) < 1e-15
 
 
+@pytest.mark.slow     # quad at several orders, each compiled: about 70 s
 def test_error_follows_the_tolerance_in_quad():
     """Chaotic to t = 5: the error falls with the tolerance, and stays near tol e^(lambda t)."""
     errors = [_chaotic("quad", 5.0, tol)[0] for tol in (1e-20, 1e-25, 1e-30)]

@@ -96,6 +96,7 @@ def test_user_models_agree_with_dop853(name):
     assert np.max(np.abs(a.y - b.y)) < 1e-9
 
 
+@pytest.mark.slow     # spherical_std's Taylor integrator at order 13: about two minutes of compiling
 def test_chart_singularity_stops_the_run():
     # link 1 starts on the standard chart's axis: polar sine 0 < sine_min
     y0 = [0.0, 0.3, 1.0, 0.2, 0.0, 0.0, 0.0, 0.0]
