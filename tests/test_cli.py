@@ -16,6 +16,7 @@ def derive(*args, cwd=ROOT):
                           capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.slow     # verifies every formula of every seed claim: about 50 s
 def test_verify_json_lists_every_formula():
     run = derive("verify", "--json")
     assert run.returncode == 0, run.stderr
@@ -56,7 +57,7 @@ def test_bad_input_is_one_line_and_exit_2(args, message):
     assert "Traceback" not in run.stderr
 
 
-@pytest.mark.parametrize("model", ["compound", "spherical_std"])
+@pytest.mark.parametrize("model", ["compound", pytest.param("spherical_std", marks=pytest.mark.slow)])
 def test_latex_document_compiles(model, tmp_path):
     run = derive("latex", model, "-o", str(tmp_path / f"{model}.tex"), "--pdf")
     assert run.returncode == 0, run.stdout + run.stderr

@@ -171,6 +171,7 @@ def test_bad_input_is_one_clear_error(kwargs, says):
             derive.simulate("planar", y0, [0.0, 1.0], PLANAR, dtype=precision, **args)
 
 
+@pytest.mark.slow     # a Lyapunov run and quad at its tightest: about 30 s
 def test_trust_horizon_grows_with_the_precision():
     """Each result states its trust horizon for its precision: later for double-double than
     for long double, and later again for quad (the same chaotic motion)."""
