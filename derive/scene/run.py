@@ -127,12 +127,13 @@ def climb(rtol: float, target: float | None) -> tuple[str, str, float, str]:
     if rtol >= LONG_DOUBLE_RTOL_MIN:
         return "dop853", "longdouble", rtol, ""
     why = f"target {target:g} needs rtol {rtol:.2g}, beyond long double"
-    if rtol >= 100 * DOUBLE_DOUBLE_RTOL_MIN:       # its reference, 1000 times tighter, stays in reach
+    # double-double's floor for a run: 100 times its tightest, so that the reference there
+    # stays tighter than the run
+    floor = 100 * DOUBLE_DOUBLE_RTOL_MIN
+    if rtol >= floor:
         return "taylor", "double-double", rtol, f"{why}: climbed the precision ladder to double-double (Taylor)"
     # quad (software binary128) costs about 15 times double-double: a scene asks for it
     # (scalar = "quad"), the planner does not climb there on its own
-    # at 100 times double-double's tightest, so its reference (there) is tighter than the run
-    floor = 100 * DOUBLE_DOUBLE_RTOL_MIN
     return "taylor", "double-double", floor, (
         f"{why} and double-double: climbed the precision ladder to double-double (Taylor) at rtol "
         f"{floor:g}, which reports what it achieves (scalar = \"quad\" goes further)")
@@ -373,6 +374,7 @@ def summary(o: Outcome) -> dict:
     change = np.abs(e - e[0])
     change = change[np.isfinite(change)]            # a run that stopped is NaN after its stop
     drift = float(change.max() / max(abs(e[0]), 1e-300)) if change.size else math.nan
+    reference = reference_rtol(o.choice) if o.choice.rtol is not None else None
     return {
         "scene": o.scene.source, "title": o.scene.title,
         "model": o.plan.model, "model_reason": o.plan.reason,
@@ -381,9 +383,8 @@ def summary(o: Outcome) -> dict:
         "dtype": o.choice.dtype, "backend": o.scene.backend,
         "target": o.scene.target, "predicted_error": o.choice.predicted, "achieved_error": o.achieved,
         "target_met": target_met(o), "precision": PRECISION.get(o.choice.dtype, o.choice.dtype),
-        "reference_rtol": reference_rtol(o.choice)[0] if o.choice.rtol is not None else None,
-        "reference_precision": (PRECISION.get(d := reference_rtol(o.choice)[1], d)
-                                if o.choice.rtol is not None else None),
+        "reference_rtol": reference[0] if reference else None,
+        "reference_precision": PRECISION.get(reference[1], reference[1]) if reference else None,
         "lyapunov_exponent": o.lyapunov.exponent if o.lyapunov else None,
         "trust_horizon": o.trust_horizon,
         "status": r.status_name, "ok": r.ok, "message": r.message, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
