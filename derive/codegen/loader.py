@@ -39,6 +39,7 @@ import numpy as np
 from ..paths import cache_dir
 from ..errors import BuildError, CompilerMissingError, SimulationInputError
 from ..model.description import forget_on_model_change
+from .names import VECTOR_MATH
 
 DEFAULT_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
 PORTABLE_FLAGS = DEFAULT_FLAGS
@@ -47,7 +48,6 @@ PORTABLE_FLAGS = DEFAULT_FLAGS
 # sin and a cos into one scalar sincos instead; -fpeel-loops: the loop over a few lanes
 # is unrolled and its arrays stay in registers (abm12 on the planar rhs, measured here:
 # 1.3x faster than the portable build with it, 7% slower without it).
-VECTOR_MATH = ("sin", "cos")
 VECTOR_MATH_FLAGS = ("-std=c99", "-O2", "-fpeel-loops", "-fopenmp-simd",
                      *(f"-fno-builtin-{f}" for f in VECTOR_MATH), "-DDERIVE_VECTOR_MATH",
                      "-fPIC", "-shared", "-Wl,--no-as-needed", "-lmvec")

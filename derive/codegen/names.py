@@ -43,3 +43,7 @@ def numpy_slots(symbols) -> dict:
 
 def _needs(name: str) -> bool:
     return name in PYTHON_RESERVED or name in KERNEL_NAMES or bool(GENERATED.match(name))
+
+# The libm functions the generated C declares `omp declare simd` (templates/c/vector_math.jinja):
+# a build with glibc's libmvec turns their calls in a loop over lanes into vector calls.
+VECTOR_MATH = ("sin", "cos")
