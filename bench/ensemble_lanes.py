@@ -27,8 +27,8 @@ import time
 import numpy as np
 
 import derive
-from derive.integration import taylor_lanes_library as lanes_module
-from derive.integration.taylor_library import taylor_library
+from derive.runtime import taylor_lanes_library as lanes_module
+from derive.runtime.taylor_library import taylor_library
 from derive.measurement.race import PARAMS, TARGET, _heyoka, _heyoka_ensemble, ensemble_states, heyoka_system
 from derive.paths import cache_dir
 

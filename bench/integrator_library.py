@@ -31,10 +31,10 @@ from pathlib import Path
 
 import numpy as np
 
-from derive.codegen.loader import build_fastest
+from derive.runtime.loader import build_fastest
 from derive.codegen.sources import model_sources
-from derive.integration import contract
-from derive.integration.build import info_struct, options_struct
+from derive.codegen import contract
+from derive.runtime.build import info_struct, options_struct
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = "planar"

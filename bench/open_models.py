@@ -42,7 +42,7 @@ def cold_generate() -> float:
 
 
 def loops():
-    from derive.codegen.loader import PORTABLE_FLAGS, build_fastest, build_library
+    from derive.runtime.loader import PORTABLE_FLAGS, build_fastest, build_library
     from derive.codegen.sources import c_source
     from derive.model import load_model
     from derive.paths import bench_c_dir

@@ -72,7 +72,7 @@ def numpy_benchmark(batch: int, repeats: int) -> dict[str, float]:
         times["generated"].append(min(timeit.repeat(lambda: gen.rhs(y, p), number=3, repeat=1)) / 3)
     result = {k: min(v) * 1e3 for k, v in times.items()}
     try:
-        from derive.codegen.loader import load
+        from derive.runtime.loader import load
         lib = load("planar")
         lib.rhs(y, p)
         result["c_batch_via_loader"] = min(timeit.repeat(lambda: lib.rhs(y, p), number=3, repeat=repeats)) / 3 * 1e3

@@ -90,7 +90,7 @@ def scipy_flip(y0, t_end: float) -> float:
 def long_double_flips(y0: np.ndarray) -> np.ndarray:
     """Flip times from derive's own DOP853 in long double at rtol 1e-17 (eps 1e-19), located
     by the same event search: a reference about 10^4 times tighter than the map's run."""
-    from derive.integration.build import integrator_library
+    from derive.runtime.build import integrator_library
     from derive.sweep import events
     lib = integrator_library("planar")
     opt = lib.defaults()

@@ -6,8 +6,7 @@ target)`` says until when a run resolves the true motion to target; ``derive.swe
 runs a sweep file on Dask and returns an xarray Dataset (the `sweep` extra).  Every failure derive
 expects is a ``derive.DeriveError`` (see derive/errors.py).
 """
-__version__ = "0.2.0"
-
+from .paths import VERSION as __version__
 from .errors import (BuildError, CompilerMissingError, DeriveError, InputError,  # noqa: E402
                      ModelError, SceneError, SimulationError, SimulationInputError,
                      ToolMissingError)
@@ -19,15 +18,15 @@ __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "M
 
 def __getattr__(name):
     if name == "simulate":
-        from .integration.simulate import simulate
+        from .runtime.simulate import simulate
         globals()["simulate"] = simulate        # resolved once: later calls find it directly
         return simulate
     if name == "ensemble":
-        from .integration.ensemble import ensemble
+        from .runtime.ensemble import ensemble
         globals()["ensemble"] = ensemble
         return ensemble
     if name == "scipy_rhs":
-        from .integration.scipy_rhs import scipy_rhs
+        from .runtime.scipy_rhs import scipy_rhs
         globals()["scipy_rhs"] = scipy_rhs
         return scipy_rhs
     if name == "trust_horizon":           # derive.trust_horizon(result, target): the measurement stage

@@ -17,6 +17,7 @@ import json
 import os
 import sys
 from pathlib import Path
+from typing import Callable
 
 import sympy as sp
 
@@ -34,6 +35,9 @@ _SYMPY = {name: getattr(sp, name) for name in (
 _SYMPY_NAMES = {"pi": sp.pi, "E": sp.E, "oo": sp.oo, "zoo": sp.zoo, "nan": sp.nan, "I": sp.I,
                 "true": sp.true, "false": sp.false}
 _DATACLASSES: dict[str, type] = {}
+# tag -> (class, encode, decode): values a stage above stores in its own form (the model
+# stage registers its Model), so this bottom-layer module knows no stage's classes.
+_CODECS: dict[str, tuple[type, Callable, Callable]] = {}
 
 
 def register(cls: type) -> type:
@@ -42,14 +46,20 @@ def register(cls: type) -> type:
     return cls
 
 
+def register_codec(tag: str, cls: type, encode: Callable, decode: Callable) -> None:
+    """Store instances of `cls` as {tag: encode(value), ...}: `encode` returns the entry's
+    fields (the tag's own value under `tag`), `decode` takes them back to an instance."""
+    _CODECS[tag] = (cls, encode, decode)
+
+
 # -- writing --------------------------------------------------------------------------
 
 def _encode(value):
-    from .model.description import Model
     if value is None or isinstance(value, (bool, int, float, str)):
         return value
-    if isinstance(value, Model):
-        return {"__model__": value.text, "origin": value.origin or value.name}
+    for cls, encode, _ in _CODECS.values():
+        if isinstance(value, cls):
+            return encode(value)
     if isinstance(value, (sp.Basic, sp.MatrixBase)):
         return {"__sympy__": sp.srepr(value)}
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
@@ -105,15 +115,15 @@ def _sympy(text: str):
 
 
 def _decode(value):
-    from .model.description import parse_model
     if isinstance(value, list):
         return [_decode(v) for v in value]
     if not isinstance(value, dict):
         return value
     if "__sympy__" in value:
         return _sympy(value["__sympy__"])
-    if "__model__" in value:
-        return parse_model(value["__model__"], value["origin"])
+    for tag, (_, _, decode) in _CODECS.items():
+        if tag in value:
+            return decode(value)
     if "__tuple__" in value:
         return tuple(_decode(v) for v in value["__tuple__"])
     if "__dict__" in value:

@@ -17,7 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from . import __version__
+from .paths import VERSION as __version__
 from .errors import DeriveError, ToolMissingError, UsageError
 from .model import is_model_file, load_model, model_names
 from .paths import checkout_root
@@ -259,7 +259,7 @@ def cmd_latex(args) -> int:
     from .verification.cached import physics_model, verify_model
     with Stage("latex") as stage:
         if name == ATLAS:
-            from .integration.codegen import ATLAS_CHARTS
+            from .codegen.integrators import ATLAS_CHARTS
             results, checks = [], []
             for chart in ATLAS_CHARTS:
                 stage.set(f"verifying {chart}")

@@ -3,7 +3,7 @@
 Read (package data, shipped in the wheel, found with importlib.resources):
   templates/        the Jinja2 templates of every target language and the LaTeX report
   model/catalog/    the model catalogue and the chart descriptions
-  integration/      the Butcher tableaus (*.toml)
+  codegen/tableaus/ the Butcher tableaus (*.toml)
   scenes/           the example scenes (`derive run default`)
   measurement/c/    the C sources the benchmark compiles (rhs cost loop, hand-written peers)
   codegen/backends/c/library/   the integrators' C library, copied beside generated C
@@ -17,6 +17,7 @@ Written (only where the user says):
 """
 from __future__ import annotations
 
+
 import os
 import tempfile
 from functools import cache
@@ -24,6 +25,10 @@ from importlib import resources
 from pathlib import Path
 
 from .errors import CacheError, PackageDataError
+
+# The package's version, here at the bottom of the house so that every stage can stamp
+# what it writes with it without importing the package face (derive/__init__.py).
+VERSION = "0.2.0"
 
 
 @cache
@@ -54,7 +59,7 @@ def catalog_dir() -> Path:
 
 
 def tableau_file(name: str) -> Path:
-    return package_data("integration", name)
+    return package_data("codegen/tableaus", name)
 
 
 def scenes_dir() -> Path:

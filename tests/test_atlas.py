@@ -12,9 +12,10 @@ import pytest
 sys.path.insert(0, str(Path(__file__).parent))
 from cartesian_reference import simulate as reference  # noqa: E402
 
-from derive.integration import cartesian, simulate  # noqa: E402
-from derive.integration.atlas import atlas_library, numpy_atlas  # noqa: E402
-from derive.integration.codegen import ATLAS_CHARTS  # noqa: E402
+from derive.derivation import cartesian
+from derive.runtime import simulate  # noqa: E402
+from derive.runtime.atlas_runner import atlas_library, numpy_atlas  # noqa: E402
+from derive.codegen.integrators import ATLAS_CHARTS  # noqa: E402
 
 M1, M2, L1, L2, G = 1.0, 1.5, 1.0, 0.8, 9.81
 P = [M1, M2, L1, L2, G]

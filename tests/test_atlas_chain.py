@@ -17,8 +17,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 from cartesian_reference import chain_energy, chain_simulate  # noqa: E402
 
 import derive  # noqa: E402
-from derive.integration.atlas import atlas_library, numpy_atlas  # noqa: E402
-from derive.integration import cartesian  # noqa: E402
+from derive.runtime.atlas_runner import atlas_library, numpy_atlas  # noqa: E402
+from derive.derivation import cartesian  # noqa: E402
 from derive.model import load_model  # noqa: E402
 from derive.model.atlas import atlas_for  # noqa: E402
 

@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from derive.integration.build import integrator_library
-from derive.integration.codegen import METHODS
-from derive.integration.throughput import (BLOCK, throughput_library, throughput_models,
-                                           throughput_numpy)
+from derive.runtime.build import integrator_library
+from derive.codegen.integrators import METHODS
+from derive.codegen.loops import BLOCK, throughput_models
+from derive.runtime.throughput import throughput_library, throughput_numpy
 
 PARAMS = {"planar": np.array([1.0, 1.3, 0.9, 1.1, 9.81]),
           "compound": np.array([1.0, 1.2, 1.0, 0.8, 1.0 / 12, 0.8 ** 2 * 1.2 / 12, 9.81])}
@@ -84,7 +84,7 @@ def test_vector_math_is_used_on_glibc_x86_64():
 
 @pytest.mark.parametrize("model", ["planar", "compound"])
 def test_rk4_loop_equals_the_scalar_integrator(model):
-    from derive.integration.throughput import fixed_library
+    from derive.runtime.throughput import fixed_library
     y0 = _states(5, seed=7)
     ref, _ = _scalar(model, y0, PARAMS[model])
     for i in range(len(y0)):
@@ -96,8 +96,8 @@ def test_rk4_loop_equals_the_scalar_integrator(model):
 def test_rk8_loop_equals_dop853_steps_at_a_fixed_step(model):
     """rk8 is DOP853's 8th-order formula at a fixed step: the generated NumPy integrator's
     dop853 step, called with the same h, gives the same states."""
-    from derive.integration.simulate import numpy_module
-    from derive.integration.throughput import fixed_library
+    from derive.runtime.simulate import numpy_module
+    from derive.runtime.throughput import fixed_library
     mod = numpy_module(f"{model}_integrate")
     p = PARAMS[model]
     opt = dict(mod.DEFAULTS)
@@ -111,7 +111,7 @@ def test_rk8_loop_equals_dop853_steps_at_a_fixed_step(model):
 
 
 def test_loops_stop_before_a_nonfinite_step():
-    from derive.integration.throughput import fixed_library
+    from derive.runtime.throughput import fixed_library
     y0 = np.array([0.3, 0.2, 1e200, 0.0])
     for method in ("rk4", "rk8", "abm12"):
         y, done = fixed_library("planar").run(method, y0, PARAMS["planar"], H, 10)
@@ -123,7 +123,7 @@ def test_adams_weights_are_exact_for_polynomials():
     k-1 through s = 0, -1, ..., -(k-1) exactly over [0, 1], the Adams-Moulton ones through
     s = 1, 0, ..., -(k-2); and k = 4 gives the textbook (55, -59, 37, -9)/24, (9, 19, -5, 1)/24."""
     import sympy as sp
-    from derive.integration.tableau import adams
+    from derive.codegen.tableau import adams
     ab, am = adams(4)
     assert [w * 24 for w in ab] == [55, -59, 37, -9] and [w * 24 for w in am] == [9, 19, -5, 1]
     ab, am = adams(12)
@@ -140,8 +140,9 @@ def test_abm12_loop_converges_at_its_order_and_starts_with_rk8():
     (measured 2^10.8 from h = 5/350 to 5/700); its first 11 steps are rk8 steps; and too
     large a step is unstable (12-step Adams has a small stability region), which the loop
     reports by stopping early rather than returning a non-finite state."""
-    from derive.integration.simulate import simulate
-    from derive.integration.throughput import evaluations, fixed_library
+    from derive.runtime.simulate import simulate
+    from derive.codegen.loops import evaluations
+    from derive.runtime.throughput import fixed_library
     lib, p, y0, T = fixed_library("planar"), np.array([1.0, 1.0, 1.0, 1.0, 9.81]), [1.0, 0.5, 0.0, 0.0], 5.0
     ref = simulate("planar", y0, [0, T], list(p), method="dop853", rtol=2e-18, atol=1e-21,
                    dtype="longdouble").y[-1].astype(float)

@@ -1,4 +1,4 @@
-"""The run contract (derive/integration/contract.py) is stated once: the generated C
+"""The run contract (derive/codegen/contract.py) is stated once: the generated C
 and NumPy files, the ctypes structs and the Python runtime all say what it says."""
 import ast
 import ctypes
@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from derive.integration import contract
-from derive.integration.build import info_struct, options_struct
+from derive.codegen import contract
+from derive.runtime.build import info_struct, options_struct
 
 ROOT = Path(__file__).resolve().parent.parent
 GEN = ROOT / "generated"
@@ -107,7 +107,7 @@ def test_ctypes_structs_are_the_contract_fields():
 def test_the_runtime_reads_the_contract():
     import importlib
     atlas, codegen, simulate, scene = (importlib.import_module(f"derive.{m}") for m in
-                                       ("integration.atlas", "integration.codegen", "integration.simulate",
+                                       ("runtime.atlas_runner", "codegen.integrators", "runtime.simulate",
                                         "scene.scene"))
     assert simulate.METHODS is contract.METHODS and codegen.METHODS is contract.METHODS
     assert scene.RUN_METHODS is contract.RUN_METHODS and atlas.METHODS is contract.METHODS
@@ -135,18 +135,14 @@ def test_no_restatement_of_the_contract_outside_it():
 # -- imports point down the pipeline ---------------------------------------------------
 
 # The stages, lowest first.  A module may import (at module level or inside a function)
-# only modules of its own stage or of stages below.  The integration package holds the
-# integrators' generation (contract, tableaus, rendering: the codegen stage) and their
-# runtime (build, run, results).
+# only modules of its own stage or of stages below: code generation (codegen/, which
+# holds the run contract and the tableaus) sits below the run time (runtime/).
 STAGES = (
     ("base", ("derive.errors", "derive.paths", "derive.progress")),
     ("model", ("derive.model", "derive.cachefile")),     # cachefile stores models and what is derived from them
     ("derivation", ("derive.derivation",)),
-    ("codegen", ("derive.verification", "derive.codegen", "derive.integration.contract",
-                 "derive.integration.tableau", "derive.integration.cartesian",
-                 "derive.integration.codegen", "derive.integration.throughput",
-                 "derive.integration.taylor_codegen", "derive.integration.taylor_lanes")),
-    ("runtime", ("derive.integration",)),
+    ("codegen", ("derive.verification", "derive.codegen")),
+    ("runtime", ("derive.runtime",)),
     ("measurement", ("derive.measurement",)),
     ("output", ("derive.scene", "derive.report", "derive.sweep")),
     ("interface", ("derive.cli", "derive.__main__")),
@@ -154,8 +150,8 @@ STAGES = (
 # The package itself: its module level is base (errors, __version__); its lazy
 # derive.simulate, derive.ensemble and derive.scipy_rhs (function-level imports in __getattr__) are the
 # public facade.
-ALLOWED_UP = {("derive", "derive.integration.simulate"), ("derive", "derive.integration.scipy_rhs"),
-              ("derive", "derive.integration.ensemble"), ("derive", "derive.measurement.trust")}
+ALLOWED_UP = {("derive", "derive.runtime.simulate"), ("derive", "derive.runtime.scipy_rhs"),
+              ("derive", "derive.runtime.ensemble"), ("derive", "derive.measurement.trust")}
 
 
 def _modules() -> dict[str, Path]:
@@ -253,7 +249,7 @@ def test_no_import_goes_back_up_the_pipeline():
 def test_runtime_and_measurement_have_no_cycle_even_through_functions():
     """simulate <-> atlas <-> trust: gone, counting function-level imports too."""
     mods = _modules()
-    keep = [m for m in mods if m.startswith(("derive.integration", "derive.measurement"))]
+    keep = [m for m in mods if m.startswith(("derive.runtime", "derive.measurement"))]
     edges = {m: set() for m in keep}
     for m, t, _ in _imports(mods):
         if m in edges and t in edges and t != m:

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 import derive
-from derive.codegen.loader import load
-from derive.integration.build import integrator_library
-from derive.integration.contract import METHODS, STATUS
-from derive.integration.simulate import numpy_module
+from derive.runtime.loader import load
+from derive.runtime.build import integrator_library
+from derive.codegen.contract import METHODS, STATUS
+from derive.runtime.simulate import numpy_module
 
 PLANAR = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
 P = np.array([1.0, 1.0, 1.0, 1.0, 9.81])

@@ -8,7 +8,7 @@ import pytest
 
 import derive
 from derive.errors import SimulationInputError
-from derive.integration.contract import LOCAL_ERROR_METHODS, RUN_METHODS
+from derive.codegen.contract import LOCAL_ERROR_METHODS, RUN_METHODS
 
 PLANAR = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
 REGULAR = [0.3, 0.2, 0.0, 0.0]               # a small swing: errors grow about linearly

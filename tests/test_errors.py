@@ -167,6 +167,6 @@ def test_an_unexpected_failure_is_one_line_too(monkeypatch, capsys):
 
 def test_cc_with_flags_is_a_command(tmp_path):
     """CC="gcc -O2" (or "ccache gcc") is a program and its first words, not a missing program."""
-    from derive.codegen.loader import compiler_command, compiler_identity
+    from derive.runtime.loader import compiler_command, compiler_identity
     assert compiler_command("gcc -O2") == ["gcc", "-O2"]
     assert "gcc" in compiler_identity("gcc -O2")

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import derive
-from derive.integration import SimulationInputError, simulate
+from derive.runtime import SimulationInputError, simulate
 
 scipy_integrate = pytest.importorskip("scipy.integrate")      # the test extra: pip install -e '.[test]'
 from scipy.optimize import brentq          # noqa: E402

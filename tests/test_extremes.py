@@ -15,7 +15,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 from cartesian_reference import energy as ref_energy  # noqa: E402
 from cartesian_reference import simulate as reference  # noqa: E402
 
-from derive.integration import cartesian, simulate  # noqa: E402
+from derive.derivation import cartesian
+from derive.runtime import simulate  # noqa: E402
 
 TIGHT = dict(method="dop853", rtol=1e-12, atol=1e-14)
 

@@ -1,4 +1,4 @@
-"""simulate's fast path (derive/integration/plan.py, issue 15 item 1): the same result as
+"""simulate's fast path (derive/runtime/fast_path.py, issue 15 item 1): the same result as
 the general path, field by field, for every method; the same one-line refusal of bad
 input; and it is the path a plain call takes."""
 from __future__ import annotations
@@ -11,10 +11,10 @@ import pytest
 
 import derive
 from derive.errors import SimulationInputError
-from derive.integration.contract import RUN_METHODS, TOLERANCE_METHODS
-from derive.integration.result import SimulationResult
+from derive.codegen.contract import RUN_METHODS, TOLERANCE_METHODS
+from derive.runtime.result import SimulationResult
 
-simulate_module = importlib.import_module("derive.integration.simulate")
+simulate_module = importlib.import_module("derive.runtime.simulate")
 
 PLANAR = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
 Y0 = [1.0, 0.5, 0.0, 0.0]

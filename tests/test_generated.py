@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from derive.codegen.loader import load
+from derive.runtime.loader import load
 from derive.codegen.reference import Reference
 from derive.derivation import derive
 from derive.model import load_model, model_names

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 import derive
-from derive.integration import SimulationInputError, simulate
-from derive.integration.build import integrator_library
+from derive.runtime import SimulationInputError, simulate
+from derive.runtime.build import integrator_library
 from derive.codegen.generate import render_everything
-from derive.integration.simulate import numpy_module
+from derive.runtime.simulate import numpy_module
 
 PLANAR = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
 COMPOUND = [1.0, 2.0, 1.0, 0.7, 1.0 / 12, 2.0 * 0.49 / 12, 9.81]

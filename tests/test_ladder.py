@@ -19,10 +19,10 @@ import sympy as sp
 
 import derive
 from derive.errors import SimulationInputError
-from derive.integration import extended
-from derive.integration.codegen import model_info
-from derive.integration.extended import extended_taylor
-from derive.integration.simulate import resolve_model
+from derive.runtime import extended
+from derive.codegen.integrators import model_info
+from derive.runtime.extended import extended_taylor
+from derive.runtime.simulate import resolve_model
 from derive.measurement.peers import derivation_rhs
 from derive.model import model_names
 

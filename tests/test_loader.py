@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from derive.codegen import loader
-from derive.codegen.loader import LoaderError, build, load
+from derive.runtime import loader
+from derive.runtime.loader import LoaderError, build, load
 from derive.model import ModelError
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -60,8 +60,8 @@ def test_unknown_model():
 def test_the_atlas_is_data():
     """Its members, rule and thresholds come from catalog/atlases.toml; the members' link
     charts say which member is the standard, second and rotated chart of the rule."""
-    from derive.integration import contract
-    from derive.integration.cartesian import rule_models
+    from derive.codegen import contract
+    from derive.derivation.cartesian import rule_models
     from derive.model.atlas import load_atlas
     a = load_atlas("spherical")
     assert contract.ATLAS_CHARTS == a.charts

@@ -16,7 +16,7 @@ import pytest
 from test_codegen import quad_flags
 
 import derive
-from derive.codegen.loader import load
+from derive.runtime.loader import load
 from derive.model import ModelError, load_model
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -167,7 +167,7 @@ def test_the_numpy_backend_needs_no_compiler(tmp_path, name, edits):
 def test_the_trust_horizon_of_a_numpy_run_needs_no_compiler(tmp_path, monkeypatch):
     """derive.measurement.trust on a NumPy result: the estimate runs on NumPy too."""
     from derive import simulate
-    from derive.codegen import loader
+    from derive.runtime import loader
     from derive.measurement.trust import trust_horizon_of
     r = simulate("planar", [2.5, 2.0, 0.0, 0.0], np.linspace(0, 2, 21), [1, 1, 1, 1, 9.81],
                  backend="numpy", rtol=1e-10)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from derive.codegen.loader import load
+from derive.runtime.loader import load
 from derive.measurement import race
 
 

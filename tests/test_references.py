@@ -31,7 +31,7 @@ from cartesian_reference import (chain_accelerations, chain_constraints, chain_e
                                  chain_simulate, simulate as double_reference)
 from mechanics_reference import LinkSpec, planar_chain, spherical_chain  # noqa: E402
 
-from derive.codegen.loader import load  # noqa: E402
+from derive.runtime.loader import load  # noqa: E402
 from derive.model import load_model  # noqa: E402
 
 N_STATES = 500

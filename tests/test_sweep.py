@@ -190,7 +190,7 @@ def test_verified_flip_time_beyond_double_precision():
     by 7e-6 at Taylor's 1e-12): the verification (accuracy = 1e-6) finds the disagreement and
     takes the long-double run, which agrees with DOP853 in long double at rtol 1e-17."""
     import dataclasses
-    from derive.integration.build import integrator_library
+    from derive.runtime.build import integrator_library
     from derive.sweep.chunk import integrate
     sweep = load_sweep("flip_map")
     assert sweep.events[0].accuracy == 1e-6
@@ -279,7 +279,7 @@ def test_verification_keeps_every_flip_time_within_its_accuracy():
 
 
 def _long_double_flips(sweep, y0, rtol=1e-17):
-    from derive.integration.build import integrator_library
+    from derive.runtime.build import integrator_library
     lib = integrator_library("planar")
     opt = lib.defaults()
     opt.rtol, opt.atol = rtol, rtol * 1e-3

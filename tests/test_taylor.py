@@ -9,7 +9,7 @@ import sympy as sp
 
 import derive
 from derive.errors import SimulationInputError
-from derive.integration.taylor_library import taylor_library, taylor_order
+from derive.runtime.taylor_library import taylor_library, taylor_order
 from derive.measurement.peers import derivation_rhs
 
 EXAMPLES = Path(__file__).parents[1] / "examples" / "models"

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 import derive
-from derive.integration.build import integrator_library
-from derive.integration.contract import STATUS
-from derive.integration.simulate import run_options
-from derive.integration.taylor_lanes_library import simd_build, taylor_lanes_library
-from derive.integration.taylor_library import taylor_library, taylor_order
+from derive.runtime.build import integrator_library
+from derive.codegen.contract import STATUS
+from derive.runtime.simulate import run_options
+from derive.runtime.taylor_lanes_library import simd_build, taylor_lanes_library
+from derive.runtime.taylor_library import taylor_library, taylor_order
 
 LANES = simd_build("float64")[1]          # what ensemble runs with on this machine
 PLANAR = [1, 1, 1, 1, 9.81]

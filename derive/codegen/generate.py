@@ -99,7 +99,7 @@ def write_manifest(out: Path) -> None:
     themselves name only the derive version, so regeneration under one SymPy is
     byte-identical)."""
     import sympy
-    from .. import __version__
+    from ..paths import VERSION as __version__
     text = (f"# Written by `derive generate`: what made the files beside it.\n"
             f'derive = "{__version__}"\nsympy = "{sympy.__version__}"\n')
     path = Path(out) / MANIFEST

@@ -16,7 +16,7 @@ From the rows: the time each method and peer needs to reach a final-state
 error of `target` (1e-8; interpolated on the work-precision front), the ratios
 against the peers and the targets of the issue, the integrator overhead
 (time / (rhs evaluations x cost of one generated rhs)), and the throughput of
-the batched RK4 (derive/integration/throughput.py) against its peers.
+the batched RK4 (derive/codegen/loops.py) against its peers.
 
     rows = run_bench(BenchOptions(quick=True))
     write_all(result, Path("derive-bench"))
@@ -25,7 +25,7 @@ Toolkit series are `method backend scalar`: the generated integrators in C
 (`C`, float32/float64/long double) and NumPy, and the generated single-trajectory
 fixed-step loops (`C-loop`: rk4; rk8 = DOP853's 8th-order formula at a fixed
 step; abm12 = the 12-step Adams-Bashforth-Moulton pair, two rhs evaluations a step;
-derive/integration/throughput.py).  Timings call the compiled code directly
+derive/codegen/loops.py).  Timings call the compiled code directly
 (integrator_library(model).run, the atlas library, the generated NumPy modules,
 the loops), as the peers are called, so the Python overhead of derive.simulate is
 not in them; the untimed observation run (energies) goes through derive.simulate.
@@ -106,7 +106,7 @@ FIXED_DIVISORS = {"rk4": (1, 2, 4, 8, 16, 32), "midpoint": (1, 2, 4, 8), "gauss2
 NUMPY_KNOBS = {"dop853": (1e-6, 1e-8, 1e-10), "dopri5": (1e-5, 1e-7), "rk4": (2, 4),
                "midpoint": (2,), "gauss2": (2,)}
 QUICK_KNOBS = {"dop853": (1e-9, 1e-12), "rk4": (4, 16)}
-# the generated single-trajectory loops (derive/integration/throughput.py, <model>_fixed.c):
+# the generated single-trajectory loops (derive/codegen/loops.py, <model>_fixed.c):
 # step = base_step / divisor, rounded to the observation grid
 LOOP_DIVISORS = {"rk8": (0.25, 0.35, 0.45, 0.6, 0.8, 1.0, 1.5, 2.0, 3.0, 4.0), "rk4": (1, 2, 4, 8, 16, 32, 64),
                  "abm12": (1.5, 2, 2.5, 3, 4, 5, 6, 8, 12)}
@@ -164,7 +164,7 @@ def _series(method: str, backend: str, dtype: str) -> str:
 
 
 def toolkit_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
-    from ..integration.contract import ADAPTIVE, METHODS
+    from ..codegen.contract import ADAPTIVE, METHODS
     out = []
     plan = []
     if opts.quick:
@@ -197,14 +197,15 @@ def toolkit_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
 
 
 def _loop_models() -> list[str]:
-    from ..integration.throughput import throughput_models
+    from ..codegen.loops import throughput_models
     return throughput_models()
 
 
 def _loop_runner(problem: Problem, method: str, step: float):
     """The generated fixed-step loop (<model>_fixed_<method>): rhs inlined, no driver."""
     def make():
-        from ..integration.throughput import evaluations, fixed_library
+        from ..codegen.loops import evaluations
+        from ..runtime.throughput import fixed_library
         lib = fixed_library(problem.model)
         state, _, p = _prepared(problem)
         y0, pa = np.asarray(state, np.float64), np.asarray(p, np.float64)
@@ -221,7 +222,7 @@ def _loop_runner(problem: Problem, method: str, step: float):
 def _loop_observer(problem: Problem, method: str, step: float):
     """Energies of the loop's trajectory at the observation times (the loop, restarted in pieces)."""
     def observe() -> float:
-        from ..integration.throughput import fixed_library
+        from ..runtime.throughput import fixed_library
         lib = fixed_library(problem.model)
         state, _, p = _prepared(problem)
         y, pa = np.asarray(state, np.float64), np.asarray(p, np.float64)
@@ -238,7 +239,7 @@ def _loop_observer(problem: Problem, method: str, step: float):
 
 
 def _options(method: str, rtol, step) -> dict:
-    from ..integration.contract import SINE_MIN
+    from ..codegen.contract import SINE_MIN
     return {"rtol": rtol if rtol is not None else 1e-9, "atol": (rtol if rtol is not None else 1e-9) * 1e-3,
             "h": step or 0.0, "hmin": 0.0, "hmax": 0.0, "max_steps": 100_000_000, "newton_tol": 0.0,
             "newton_max": 30, "sine_min": float(SINE_MIN)}
@@ -250,7 +251,7 @@ def _np_dtype(dtype: str):
 
 def _prepared(problem: Problem):
     """(state, chart) of y0 and the parameters, normalised as derive.simulate does."""
-    from ..integration.simulate import normalise_params, normalise_y0
+    from ..runtime.simulate import normalise_params, normalise_y0
     p = normalise_params(problem.model, list(problem.params))
     state, chart, _ = normalise_y0(problem.model, problem.y0_input(), p)
     return np.asarray(state), chart, p
@@ -258,10 +259,10 @@ def _prepared(problem: Problem):
 
 def _toolkit_runner(problem: Problem, method: str, backend: str, dtype: str, rtol, step):
     def make():
-        from ..integration.atlas import ATLAS_CHARTS, atlas_library, numpy_atlas
-        from ..integration.build import integrator_library
-        from ..integration.contract import METHODS
-        from ..integration.simulate import numpy_module
+        from ..runtime.atlas_runner import ATLAS_CHARTS, atlas_library, numpy_atlas
+        from ..runtime.build import integrator_library
+        from ..codegen.contract import METHODS
+        from ..runtime.simulate import numpy_module
         dt = _np_dtype(dtype)
         state, chart, p = _prepared(problem)
         y0, pd, t = np.asarray(state, dt), np.asarray(p, dt), np.array([0.0, problem.t_end], dt)
@@ -316,7 +317,7 @@ def _relative_energy_error(E: np.ndarray) -> float:
 
 def _toolkit_observer(problem: Problem, method: str, backend: str, dtype: str, rtol, step):
     def observe() -> float:
-        from ..integration.simulate import simulate
+        from ..runtime.simulate import simulate
         r = simulate(problem.model, problem.y0_input(), np.linspace(0.0, problem.t_end, OBSERVATIONS),
                      list(problem.params), method=method, rtol=rtol, atol=None if rtol is None else rtol * 1e-3,
                      step=step, dtype=dtype, backend=backend)
@@ -325,7 +326,7 @@ def _toolkit_observer(problem: Problem, method: str, backend: str, dtype: str, r
 
 
 def _energy_of(problem: Problem):
-    from ..codegen.loader import load
+    from ..runtime.loader import load
     m = load(problem.model)
     p = np.asarray(problem.params, np.float64)
     return lambda y: float(m.energy(np.asarray(y, np.float64), p))
@@ -443,7 +444,7 @@ def _standard_chart_peer(problem: Problem):
     """What a user without an atlas runs: solve_ivp on the standard chart's lambdified rhs.
     It stops at the first non-finite derivative or after PEER_EVAL_BUDGET evaluations."""
     _, _, p = _prepared(problem)
-    from ..integration.cartesian import cartesian_to_state, link_lengths
+    from ..derivation.cartesian import cartesian_to_state, link_lengths
     c12 = np.asarray(problem.y0[1], float)
     y0 = cartesian_to_state("spherical_std", c12, link_lengths("spherical_std", p))
     raw = P.lambdified_rhs("spherical_std")
@@ -489,7 +490,7 @@ class ProblemInfo:
 def spherical_lyapunov(problem: Problem, delta: float = 1e-9) -> Lyapunov:
     """When no single chart holds the run: growth of a small perturbation between two long
     double references (a finite-difference estimate, not the variational equations)."""
-    from ..integration.cartesian import cartesian_to_state, link_lengths, state_to_cartesian
+    from ..derivation.cartesian import cartesian_to_state, link_lengths, state_to_cartesian
     state, chart, p = _prepared(problem)
     lengths = link_lengths(chart, p)
     c12 = state_to_cartesian(chart, state, lengths)
@@ -523,7 +524,7 @@ LOCAL_ERROR_SAMPLES = 8
 
 def trajectory_samples(problem: Problem, k: int = LOCAL_ERROR_SAMPLES) -> list:
     """k states along the problem's trajectory (y0 inputs for simulate), where local errors are probed."""
-    from ..integration.simulate import simulate
+    from ..runtime.simulate import simulate
     r = simulate(problem.model, problem.y0_input(), np.linspace(0.0, problem.t_end, k + 1),
                  list(problem.params), method="dop853", rtol=1e-12)
     if problem.model == "spherical":
@@ -536,12 +537,13 @@ def local_error(problem: Problem, method: str, dtype: str, step: float, backend:
     """The error a fixed-step run commits per step (what rtol is for an adaptive one): one
     step of size h against two of h/2 (Richardson), the largest over states along the
     trajectory (at y0 alone a pendulum released at rest would understate it)."""
-    from ..integration.simulate import simulate
+    from ..runtime.simulate import simulate
     k = 2.0 ** METHOD_ORDER.get(method, 4)
     worst = 0.0
     for start in samples or [problem.y0_input()]:
         if backend == "c-loop":
-            from ..integration.throughput import FIXED_METHODS, fixed_library
+            from ..codegen.loops import FIXED_METHODS
+            from ..runtime.throughput import fixed_library
             lib = fixed_library(problem.model)
             p = np.asarray(problem.params, np.float64)
             # a multistep method's first steps are its starter's: compare over a span of
@@ -673,7 +675,7 @@ def rhs_loop(model: str):
     (loader.build_fastest: libmvec's vector sin/cos where they build)."""
     import ctypes
 
-    from ..codegen.loader import build_fastest
+    from ..runtime.loader import build_fastest
     from ..codegen.sources import c_source
     from ..paths import bench_c_dir
     path, _ = build_fastest(f"{model}_rhs_cost", [c_source(model, f"{model}.c"), bench_c_dir() / "rhs_cost.c"],
@@ -696,7 +698,7 @@ def rhs_cost_ns(problem: Problem, chained: bool = True, repeats: int = 7, evals:
     consecutive evaluations: measured here with libmvec's vector sin/cos, the planar rhs
     costs 19 ns so against 43 ns chained (their latency does not shrink as their throughput
     does)."""
-    from ..integration.simulate import simulate
+    from ..runtime.simulate import simulate
     r = simulate(problem.model, problem.y0_input(), np.linspace(0.0, problem.t_end, 10_001),
                  list(problem.params), method="dop853", rtol=1e-10)
     r.raise_for_status()
@@ -743,9 +745,9 @@ def _rate(fn, B: int, nsteps: int, repeats: int) -> tuple[float, int]:
 
 def run_throughput(opts: BenchOptions) -> list[dict]:
     """trajectory-steps per second of batched fixed-step RK4 on planar states."""
-    from ..integration.build import integrator_library
-    from ..integration.contract import METHODS
-    from ..integration.throughput import throughput_library, throughput_numpy
+    from ..runtime.build import integrator_library
+    from ..codegen.contract import METHODS
+    from ..runtime.throughput import throughput_library, throughput_numpy
     p = np.array([1.0, 1.0, 1.0, 1.0, G])
     h = THROUGHPUT_H
     tp = throughput_library("planar")
@@ -824,9 +826,9 @@ def numpy_trig_costs(n: int = 10_000, reps: int = 50) -> dict[str, float]:
 def throughput_agreement(n: int = 10_000, nsteps: int = 100) -> dict:
     """Batched C and NumPy RK4 against the scalar generated RK4: max difference after
     nsteps steps of THROUGHPUT_H (t = 1, inside the trust horizon of these states)."""
-    from ..integration.build import integrator_library
-    from ..integration.contract import METHODS
-    from ..integration.throughput import throughput_library, throughput_numpy
+    from ..runtime.build import integrator_library
+    from ..codegen.contract import METHODS
+    from ..runtime.throughput import throughput_library, throughput_numpy
     p = np.array([1.0, 1.0, 1.0, 1.0, G])
     y0 = throughput_states(n, seed=1)
     lib = integrator_library("planar")

@@ -119,7 +119,7 @@ def numba_rk4():
 
 def _hand_c(source: str, symbol: str, *argtypes):
     """A function of a hand-written C peer (derive/measurement/c/peers/<source>), compiled into the build cache."""
-    from ..codegen.loader import build
+    from ..runtime.loader import build
     fn = ctypes.CDLL(str(build(bench_c_dir() / "peers" / source)))[symbol]
     fn.restype = None
     fn.argtypes = list(argtypes)

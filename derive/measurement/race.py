@@ -46,6 +46,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ToolMissingError
+from ..runtime.ensemble import ensemble
+from ..runtime.simulate import simulate
 
 TARGET = 1e-8
 PARAMS = (1.0, 1.0, 1.0, 1.0, 9.81)
@@ -120,22 +122,20 @@ def _error(y, ref) -> float:
 # -- the single-trajectory rows ---------------------------------------------------------
 
 def _derive_reference(y0, t_end: float) -> np.ndarray:
-    import derive
-    r = derive.simulate("planar", y0, [0.0, t_end], PARAMS, method="dop853", rtol=2e-18,
+    r = simulate("planar", y0, [0.0, t_end], PARAMS, method="dop853", rtol=2e-18,
                         atol=1e-22, dtype="longdouble")
     r.raise_for_status()
     return r.y[-1]
 
 
 def _derive_points(y0, t_end: float, ref, dtype: str = "float64") -> list[Point]:
-    import derive
-    from ..integration.contract import FIXED, IMPLICIT, TOLERANCE_METHODS
+    from ..codegen.contract import FIXED, IMPLICIT, TOLERANCE_METHODS
     points = []
     rtols = (1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14) if dtype == "float64" else \
         (1e-10, 1e-12, 1e-13, 1e-14, 1e-15, 1e-16, 1e-17, 2e-18)
     for method in TOLERANCE_METHODS:          # dopri5, dop853 and taylor
         for rtol in rtols:
-            run = lambda: derive.simulate("planar", y0, [0.0, t_end], PARAMS, method=method, rtol=rtol,
+            run = lambda: simulate("planar", y0, [0.0, t_end], PARAMS, method=method, rtol=rtol,
                                           dtype=dtype)
             r = run()
             points.append(Point(f"derive {method}", f"rtol={rtol:g}", _timed(run),
@@ -143,7 +143,7 @@ def _derive_points(y0, t_end: float, ref, dtype: str = "float64") -> list[Point]
     if dtype == "float64":
         for method in (m for m in FIXED if m not in IMPLICIT):
             for h in (0.02, 0.01, 0.005, 0.0025, 0.00125):
-                run = lambda: derive.simulate("planar", y0, [0.0, t_end], PARAMS, method=method, step=h)
+                run = lambda: simulate("planar", y0, [0.0, t_end], PARAMS, method=method, step=h)
                 r = run()
                 points.append(Point(f"derive {method}", f"h={h:g}", _timed(run),
                                     _error(r.y[-1], ref) if r.ok else math.inf))
@@ -211,7 +211,6 @@ LADDER_TOLS = (1e-20, 1e-22, 1e-24, 1e-26, 1e-28, 1e-30)
 
 def quad_row(hy, y0=(2.5, 2.0, 0.0, 0.0), t_end: float = 20.0) -> Row:
     """Past long double's horizon: derive's double-double and quad against heyoka's real128."""
-    import derive
     import mpmath
     q = hy.real128
     row = Row("quad", f"chaotic, y0 = {tuple(y0)}, t = {t_end:g}, heyoka in real128")
@@ -219,7 +218,7 @@ def quad_row(hy, y0=(2.5, 2.0, 0.0, 0.0), t_end: float = 20.0) -> Row:
                             tol=q("1e-33"), fp_type=q)
     ta.propagate_until(q(t_end))
     ref = [_mp(str(v)) for v in ta.state]
-    ours = derive.simulate("planar", list(y0), [0.0, t_end], PARAMS, dtype="quad", rtol=2e-33).y_exact[-1]
+    ours = simulate("planar", list(y0), [0.0, t_end], PARAMS, dtype="quad", rtol=2e-33).y_exact[-1]
     with mpmath.workdps(45):
         agree = float(max(abs(a - b) for a, b in zip(ours, ref)))
     row.note = (f"reference: heyoka real128 at tol 1e-33; derive in quad at rtol 2e-33 differs from it by "
@@ -247,11 +246,10 @@ def _mp_error(state, ref) -> float:
 
 def _ladder_points(y0, t_end: float, ref: list, precisions, tols) -> list[Point]:
     """derive's Taylor integrator on the rungs above long double (exact results: r.y_exact)."""
-    import derive
     points = []
     for precision in precisions:
         for tol in tols:
-            run = lambda: derive.simulate("planar", list(y0), [0.0, t_end], PARAMS, dtype=precision, rtol=tol)
+            run = lambda: simulate("planar", list(y0), [0.0, t_end], PARAMS, dtype=precision, rtol=tol)
             r = run()
             points.append(Point(f"derive taylor {precision}", f"rtol={tol:g}", _timed(run),
                                 _mp_error(r.y_exact[-1], ref) if r.ok else math.inf))
@@ -276,11 +274,10 @@ def ensemble_states(B: int = 4096, seed: int = 0) -> np.ndarray:
 
 
 def ensemble_row(hy, B: int = 4096, t_end: float = 10.0) -> Row:
-    import derive
-    from ..integration.contract import TOLERANCE_METHODS
+    from ..codegen.contract import TOLERANCE_METHODS
     y0 = ensemble_states(B)
     threads = os.cpu_count() or 1
-    ref = derive.ensemble("planar", y0, [0.0, t_end], PARAMS, method="dop853", rtol=2e-18, atol=1e-22,
+    ref = ensemble("planar", y0, [0.0, t_end], PARAMS, method="dop853", rtol=2e-18, atol=1e-22,
                           dtype="longdouble", threads=threads).y[:, -1]
     row = Row("ensemble", f"{B} states (angles uniform in [-1, 1], rates 0), t = {t_end:g}, "
                           f"every final error <= 1e-8; {threads} threads")
@@ -290,7 +287,7 @@ def ensemble_row(hy, B: int = 4096, t_end: float = 10.0) -> Row:
 
     for method in TOLERANCE_METHODS:
         for rtol in (1e-9, 1e-10, 1e-11, 1e-12, 1e-13):
-            run = lambda: derive.ensemble("planar", y0, [0.0, t_end], PARAMS, method=method, rtol=rtol,
+            run = lambda: ensemble("planar", y0, [0.0, t_end], PARAMS, method=method, rtol=rtol,
                                           threads=threads)
             r = run()
             row.points.append(Point(f"derive {method}", f"rtol={rtol:g}", _timed(run),
@@ -339,15 +336,14 @@ def _heyoka_ensemble(hy, sys_, y0, t_end: float, tol: float, width: int, threads
 
 
 def trivial_call_row(hy) -> Row:
-    import derive
     y0 = (1.0, 0.5, 0.0, 0.0)
     row = Row("one call", "one call on a trivial span (t = 1e-6): the fixed cost of a call")
-    derive.simulate("planar", y0, [0.0, 1e-6], PARAMS)
+    simulate("planar", y0, [0.0, 1e-6], PARAMS)
     for _ in range(3):
         n = 2000
         t0 = time.perf_counter()
         for _ in range(n):
-            derive.simulate("planar", y0, [0.0, 1e-6], PARAMS)
+            simulate("planar", y0, [0.0, 1e-6], PARAMS)
         row.points.append(Point("derive dop853", "simulate", (time.perf_counter() - t0) / n, 0.0))
     ta = hy.taylor_adaptive(heyoka_system(hy), np.array(y0), pars=np.array(PARAMS), tol=1e-15)
     start = np.array(y0)

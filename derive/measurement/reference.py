@@ -48,12 +48,12 @@ def comparison_vector(model: str, y, chart: str | None, params) -> np.ndarray:
     """What two runs of `model` are compared by: the state, or Cartesian (x1, x2, v1, v2)."""
     if model != "spherical":
         return np.asarray(y)
-    from ..integration.cartesian import link_lengths, state_to_cartesian
+    from ..derivation.cartesian import link_lengths, state_to_cartesian
     return state_to_cartesian(chart, np.asarray(y, float), link_lengths(chart, params))
 
 
 def _run(problem, rtol: float):
-    from ..integration.simulate import simulate
+    from ..runtime.simulate import simulate
     r = simulate(problem.model, problem.y0_input(), [0.0, problem.t_end], problem.params,
                  method="dop853", rtol=rtol, atol=rtol * 1e-3, dtype="longdouble")
     r.raise_for_status()
@@ -84,7 +84,7 @@ def mpmath_check(problem, t: float, dps: int = MPMATH_DPS) -> float:
     import mpmath
     import sympy as sp
 
-    from ..integration.simulate import normalise_params, simulate
+    from ..runtime.simulate import normalise_params, simulate
     from .peers import derivation_rhs
     f = sp.lambdify(*derivation_rhs(problem.model), "mpmath", cse=True)
     p64 = normalise_params(problem.model, problem.params).astype(np.float64)

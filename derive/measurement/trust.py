@@ -48,8 +48,8 @@ def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs
                      backend: str = "c") -> Lyapunov:
     """lambda from the variational equations along y(t), t in [0, min(t_end, MAX_WINDOW)]
     (a model with run-time inputs: held at `inputs`); backend "numpy" needs no C compiler."""
-    from ..codegen.loader import load, numpy_module
-    from ..integration.simulate import normalise_params, simulate
+    from ..runtime.loader import load, numpy_module
+    from ..runtime.simulate import normalise_params, simulate
     t_end = min(float(t_end), MAX_WINDOW)
     n = max(200, int(JACOBIAN_STEPS_PER_UNIT_TIME * t_end))
     grid = np.linspace(0.0, t_end, 2 * n + 1)
@@ -59,7 +59,7 @@ def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs
     p = normalise_params(model, params).astype(np.float64)
     args = (run.y[1::2].astype(np.float64), p)                        # at the midpoints
     if inputs is not None:
-        from ..integration.simulate import normalise_inputs
+        from ..runtime.simulate import normalise_inputs
         args += (normalise_inputs(model, inputs).astype(np.float64),)
     kernels = load(model) if backend == "c" else numpy_module(model)
     jac = np.asarray(kernels.jacobian(*args), np.float64)
@@ -87,8 +87,8 @@ def atlas_lyapunov(y0, params, t_end: float, seed: int = 0, atlas: str = "spheri
     """lambda of a run of a chart atlas (a spherical chain), in whichever single chart
     covers the whole trajectory (the exponent does not depend on the chart);
     None when every chart meets its singularity on the way."""
-    from ..integration.cartesian import cartesian_to_state, link_lengths
-    from ..integration.simulate import SimulationError, normalise_params, normalise_y0
+    from ..derivation.cartesian import cartesian_to_state, link_lengths
+    from ..runtime.simulate import SimulationError, normalise_params, normalise_y0
     from ..model.atlas import load_atlas
     p = normalise_params(atlas, params)
     c = normalise_y0(atlas, y0, p)[2]
@@ -105,7 +105,7 @@ def atlas_lyapunov(y0, params, t_end: float, seed: int = 0, atlas: str = "spheri
 
 def unit_roundoff(dtype) -> float:
     """eps of a precision of the ladder: a NumPy dtype, or 'double-double' or 'quad'."""
-    from ..integration.extended import UNIT_ROUNDOFF
+    from ..runtime.extended import UNIT_ROUNDOFF
     if isinstance(dtype, str) and dtype in UNIT_ROUNDOFF:
         return UNIT_ROUNDOFF[dtype]
     return float(np.finfo(np.dtype(dtype)).eps)
@@ -128,7 +128,7 @@ def trust_horizon(lyapunov: Lyapunov, target: float, e0: float) -> float:
     return math.log(target / e0) / lyapunov.exponent
 
 
-# -- from a run's result (derive.integration.result.SimulationResult) ----------------
+# -- from a run's result (derive.runtime.result.SimulationResult) ----------------
 
 def lyapunov_exponent(result) -> float | None:
     """Largest Lyapunov exponent of the motion of a run, over the run (variational
@@ -152,7 +152,7 @@ def trust_horizon_of(result, target: float = 1e-8) -> float | None:
     """The time until which a run resolves the true motion to `target`: its early
     error e0 (the tolerance, or h^order for a fixed step, at least the unit roundoff,
     times the state's size) grows like e0 exp(lambda t)."""
-    from ..integration.contract import FIXED_ORDER
+    from ..codegen.contract import FIXED_ORDER
     exponent = lyapunov_exponent(result)
     if exponent is None:
         return None

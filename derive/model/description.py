@@ -12,6 +12,7 @@ from pathlib import Path
 
 import sympy as sp
 
+from .. import cachefile
 from ..errors import ModelError
 from ..paths import catalog_dir
 from .expressions import FUNCTIONS, parse_expression
@@ -374,6 +375,12 @@ def parse_model(text: str, origin: str) -> Model:
         raise ModelError(f"{origin}: the 'paper' forms are the seed's double spherical pendulum's "
                          f"(dimension 3, two links)")
     return model
+
+
+# A Model in the cache is its text and where it came from: parsed again on reading.
+cachefile.register_codec("__model__", Model,
+                         lambda m: {"__model__": m.text, "origin": m.origin or m.name},
+                         lambda d: parse_model(d["__model__"], d["origin"]))
 
 
 def _text(t: dict, key: str, where: str) -> str:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from ..derivation import derive
 from ..derivation.charts import chart_change
-from ..integration.codegen import ATLAS_CHARTS, SINE_MIN, SINE_RULE, SINE_SWITCH
+from ..codegen.integrators import ATLAS_CHARTS, SINE_MIN, SINE_RULE, SINE_SWITCH
 from . import typeset as ts
 from .latex import PAPERS, _seed_groups, physics_rows, result_rows, symbol_names
 

@@ -48,15 +48,15 @@ def _generated(name: str) -> Step:
 
 
 def _library(name: str) -> Step:
-    from ..integration import build
+    from ..runtime import build
     start = time.perf_counter()
     before = set((cache_dir() / "c-build").glob("*/*.so"))
     if find_atlas(name) is not None:
-        from ..integration.atlas import atlas_library
+        from ..runtime.atlas_runner import atlas_library
         libraries = [atlas_library(name).path]
     else:
         libraries = [build.integrator_library(name).path]
-    from ..codegen.loader import load
+    from ..runtime.loader import load
     for model in sources.members(name):
         libraries.append(load(model).path)
     # Only this model's libraries count: another process may build others meanwhile.

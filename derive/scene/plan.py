@@ -37,7 +37,7 @@ class Plan:
 def cartesian_state(scene: Scene) -> np.ndarray:
     """The Cartesian state (every bob's position, then velocity) of a spherical scene's
     initial state, validated by the integration layer (link lengths, tangent velocities)."""
-    from ..integration.simulate import normalise_params, normalise_y0
+    from ..runtime.simulate import normalise_params, normalise_y0
     p = normalise_params(scene.model, scene.parameters)
     if "cartesian" in scene.initial:
         y0 = {"cartesian": scene.initial["cartesian"]}

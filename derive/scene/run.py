@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..integration.contract import ADAPTIVE
-from ..integration.result import as_fields
-from ..integration.simulate import SimulationError, SimulationResult, simulate
+from ..codegen.contract import ADAPTIVE
+from ..runtime.result import as_fields
+from ..runtime.simulate import SimulationError, SimulationResult, simulate
 from ..measurement.trust import (Lyapunov, atlas_lyapunov, initial_error, largest_lyapunov,
                                  trust_horizon)
 from ..model.atlas import find_atlas, standard_member
@@ -224,16 +224,16 @@ def _events(p: Plan, scene: Scene, c: Choice, result: SimulationResult) -> Simul
     a terminal event then truncates the outputs)."""
     if not scene.events or result.sol is None:
         return result
-    from ..integration.codegen import model_info
-    from ..integration.events import locate, parse_events
+    from ..codegen.integrators import model_info
+    from ..runtime.events import locate, parse_events
     return locate(result, parse_events(model_info(p.model), scene.events), c.rtol)
 
 
 def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions, velocities and energy of the scene's own pendulum (not of the model that ran)."""
     if scene.model == "compound" and p.model == "planar":
-        from ..codegen.loader import load, numpy_module
-        from ..integration.simulate import normalise_params
+        from ..runtime.loader import load, numpy_module
+        from ..runtime.simulate import normalise_params
         pc = normalise_params("compound", scene.parameters).astype(np.float64)
         m = load("compound") if scene.backend == "c" else numpy_module("compound")   # no compiler needed
         y = r.y.astype(np.float64)

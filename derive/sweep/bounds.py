@@ -28,13 +28,13 @@ ENERGY_SLACK = 1e-6             # relative: the integrator's own energy error, w
 @lru_cache(maxsize=None)
 def n_params(model: str) -> int:
     """The model's parameters (p holds its inputs after them)."""
-    from ..integration.codegen import model_info
+    from ..codegen.integrators import model_info
     return model_info(model).n_params
 
 
 def energy(model: str, y, p):
     """E(y; p) from the compiled energy kernel (leading axes broadcast)."""
-    from ..codegen.loader import load
+    from ..runtime.loader import load
     return load(model).energy(y, p)
 
 

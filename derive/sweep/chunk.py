@@ -2,7 +2,7 @@
 
 This is the Dask task.  It runs anywhere derive is installed: the compiled
 integrator comes from the worker's own cache, keyed by content hash (rendered and
-compiled there on first use, derive/codegen/sources.py and integration/build.py),
+compiled there on first use, derive/codegen/sources.py and runtime/build.py),
 and a model read from a file travels in the task as its description.
 
 The batch runs in SLABS pieces of the time span (restarting each piece from the
@@ -22,8 +22,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..integration.build import integrator_library
-from ..integration.contract import METHODS, TAYLOR
+from ..runtime.build import integrator_library
+from ..codegen.contract import METHODS, TAYLOR
 from . import events as ev
 from .bounds import energy as _energy, n_params as _n_params, unreachable
 from .spec import Sweep
@@ -78,8 +78,8 @@ def runner(model: str, method: str, rtol: float | None, atol: float | None, step
         if value is not None:
             setattr(opt, name, value)
     if method == TAYLOR:
-        from ..integration.taylor_lanes_library import taylor_ensemble_library
-        from ..integration.taylor_library import taylor_order
+        from ..runtime.taylor_lanes_library import taylor_ensemble_library
+        from ..runtime.taylor_library import taylor_order
         order = taylor_order(opt.rtol)
         # the generated Taylor integrator caps its step's radius at hmax (the run's span when
         # hmax is 0) before it applies the step factor (e^-2 ...): a run shorter than a few
@@ -230,7 +230,7 @@ def lyapunov(model: str, y0: np.ndarray, p: np.ndarray, t_end: float, n_params: 
     """The largest Lyapunov exponent of each trajectory: the algorithm of
     derive.measurement.trust.largest_lyapunov (the same run, grid, Jacobian, Taylor
     step and start vector), batched over trajectories."""
-    from ..codegen.loader import load
+    from ..runtime.loader import load
     from ..measurement.trust import JACOBIAN_STEPS_PER_UNIT_TIME
     lib = integrator_library(model)
     opt = lib.defaults()

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError, SceneError
-from ..integration.contract import TAYLOR, TOLERANCE_METHODS
+from ..codegen.contract import TAYLOR, TOLERANCE_METHODS
 from ..model import load_model
 from ..model.atlas import ATLAS
 from ..model.expressions import parse_expression
@@ -342,7 +342,7 @@ def _taylor_accuracy(table: dict, source: str) -> bool:
 
 
 def _use_taylor(scene: Scene, source: str) -> None:
-    from ..integration.taylor_codegen import taylor_problem
+    from ..codegen.taylor import taylor_problem
     problem = taylor_problem(scene.model)
     if problem is not None:
         raise SceneError(f"{source}: 'accuracy.method': model '{scene.model}' has no Taylor integrator ({problem})")

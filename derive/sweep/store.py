@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from ..paths import VERSION as __version__
 from ..errors import UsageError
 from .layout import Layout
 from .spec import SAMPLE_DIM, Sweep
@@ -60,7 +60,7 @@ def _dataset(sweep: Sweep, layout: Layout, names: list[str]):
              "source": Path(sweep.source).name, "method": sweep.scene.method,
              "rtol": sweep.scene.rtol or 0.0, "t_start": sweep.scene.t_start, "t_stop": sweep.scene.t_stop,
              "derive_version": __version__, "variables": list(names),
-             "status": "integrator status per trajectory: 0 ok, -1 not run (derive.integration.contract)"}
+             "status": "integrator status per trajectory: 0 ok, -1 not run (derive.codegen.contract)"}
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 

@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from ..integration.contract import TAYLOR
+from ..codegen.contract import TAYLOR
 from . import events as ev
 from .spec import Sweep
 
@@ -56,7 +56,7 @@ WINDOW = 10                      # samples: run-again ends are rounded up to a m
 def error_ratio(method: str, loose: float, tight: float) -> float:
     """About how much smaller the error of a run at tolerance `tight` is than at `loose`."""
     if method == TAYLOR:
-        from ..integration.taylor_library import taylor_order
+        from ..runtime.taylor_library import taylor_order
         return math.exp(-2 * (taylor_order(tight) - taylor_order(loose)))
     return tight / loose
 

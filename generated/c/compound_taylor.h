@@ -5,7 +5,7 @@
  * The rhs is decomposed into 39 elementary operations (2 add, 2 cos, 1 inv, 10 mul, 10 scale, 1 shift, 2 sin, 3 square, 4 sub, 4 var)
  * with 10 constants per step (expressions of the parameters); the Taylor
  * coefficients of the solution come from the recurrence of each operation (automatic
- * differentiation, derive/integration/taylor_codegen.py).  Order and step from the
+ * differentiation, derive/codegen/taylor.py).  Order and step from the
  * tolerance options.rtol (Jorba & Zou 2005, as heyoka): order p = ceil(-ln(tol)/2 + 1)
  * (at most COMPOUND_TAYLOR_ORDER_MAX), h = min(rho_{p-1}, rho_p)/e^2 exp(-0.7/(p-1)) with
  * rho_j = (max(1, |y|_inf)/|y^[j]|_inf)^(1/j).  Output times inside a step are the

@@ -3,7 +3,7 @@
  * spherical_alt: integrators for the kernels of spherical_alt.h (Double spherical pendulum, second chart (vartheta, varphi)).
  *
  * Methods (SPHERICAL_ALT_METHOD_*), each in float (suffix _f), double (no suffix)
- * and long double (suffix _l), coefficients from the .toml tableaus in derive/integration:
+ * and long double (suffix _l), coefficients from the .toml tableaus in derive/codegen/tableaus:
  *   RK4       classical Runge-Kutta, order 4, fixed step (seed 001)
  *   DOPRI5    Dormand-Prince 5(4), adaptive, FSAL, 4th-order dense output
  *   DOP853    Dormand-Prince 8(5,3), adaptive, 7th-order dense output

@@ -5,7 +5,7 @@
  * The rhs is decomposed into 190 elementary operations (6 add, 4 cos, 4 inv, 81 mul, 36 scale, 2 shift, 4 sin, 10 square, 35 sub, 8 var)
  * with 12 constants per step (expressions of the parameters); the Taylor
  * coefficients of the solution come from the recurrence of each operation (automatic
- * differentiation, derive/integration/taylor_codegen.py).  Order and step from the
+ * differentiation, derive/codegen/taylor.py).  Order and step from the
  * tolerance options.rtol (Jorba & Zou 2005, as heyoka): order p = ceil(-ln(tol)/2 + 1)
  * (at most SPHERICAL_ALT_TAYLOR_ORDER_MAX), h = min(rho_{p-1}, rho_p)/e^2 exp(-0.7/(p-1)) with
  * rho_j = (max(1, |y|_inf)/|y^[j]|_inf)^(1/j).  Output times inside a step are the

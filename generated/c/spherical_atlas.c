@@ -106,7 +106,7 @@ int spherical_atlas_choose_chart(int chart, const double *restrict y, const doub
             rotated = 1;
         }
     }
-    /* seed 000 section 5.1, for N links (derive/integration/cartesian.py, choose_chart) */
+    /* seed 000 section 5.1, for N links (derive/derivation/cartesian.py, choose_chart) */
     pick = all_standard ? SPHERICAL_ATLAS_CHART_SPHERICAL_STD : rotated ? SPHERICAL_ATLAS_CHART_SPHERICAL_ROT : SPHERICAL_ATLAS_CHART_SPHERICAL_ALT;
     return pick;
 }
@@ -497,7 +497,7 @@ int spherical_atlas_choose_chart_f(int chart, const float *restrict y, const flo
             rotated = 1;
         }
     }
-    /* seed 000 section 5.1, for N links (derive/integration/cartesian.py, choose_chart) */
+    /* seed 000 section 5.1, for N links (derive/derivation/cartesian.py, choose_chart) */
     pick = all_standard ? SPHERICAL_ATLAS_CHART_SPHERICAL_STD : rotated ? SPHERICAL_ATLAS_CHART_SPHERICAL_ROT : SPHERICAL_ATLAS_CHART_SPHERICAL_ALT;
     return pick;
 }
@@ -888,7 +888,7 @@ int spherical_atlas_choose_chart_l(int chart, const long double *restrict y, con
             rotated = 1;
         }
     }
-    /* seed 000 section 5.1, for N links (derive/integration/cartesian.py, choose_chart) */
+    /* seed 000 section 5.1, for N links (derive/derivation/cartesian.py, choose_chart) */
     pick = all_standard ? SPHERICAL_ATLAS_CHART_SPHERICAL_STD : rotated ? SPHERICAL_ATLAS_CHART_SPHERICAL_ROT : SPHERICAL_ATLAS_CHART_SPHERICAL_ALT;
     return pick;
 }

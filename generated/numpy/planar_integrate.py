@@ -9,7 +9,7 @@ The implicit methods run on Hamilton's equations (x = (q, p)) and are symplectic
 
 integrate(method, y0, p, t, dtype=..., **options) -> (status, y_out, info) for one
 trajectory; integrate_batch(method, y0s, p, t, ...) for many (one per row of y0s).
-Tableau coefficients: rk4.toml, dopri5.toml, dop853.toml, gauss.toml in derive/integration.
+Tableau coefficients: rk4.toml, dopri5.toml, dop853.toml, gauss.toml in derive/codegen/tableaus.
 """
 import importlib.util
 import pathlib

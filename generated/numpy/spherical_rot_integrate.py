@@ -11,7 +11,7 @@ No kernel is evaluated where a polar sine is below opt["sine_min"] (default 0.1)
 
 integrate(method, y0, p, t, dtype=..., **options) -> (status, y_out, info) for one
 trajectory; integrate_batch(method, y0s, p, t, ...) for many (one per row of y0s).
-Tableau coefficients: rk4.toml, dopri5.toml, dop853.toml, gauss.toml in derive/integration.
+Tableau coefficients: rk4.toml, dopri5.toml, dop853.toml, gauss.toml in derive/codegen/tableaus.
 """
 import importlib.util
 import pathlib

@@ -26,7 +26,7 @@ class Backend:
         raise NotImplementedError
 
     def integrator_files(self, name: str) -> dict[str, str]:
-        """The integrators of model `name` (derive/integration/codegen.py renders them)."""
+        """The integrators of model `name` (derive/codegen/integrators.py renders them)."""
         return {}
 
     def loop_files(self, name: str) -> dict[str, str]:

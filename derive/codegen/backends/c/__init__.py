@@ -3,12 +3,12 @@ one template, reentrant (no globals).
 
 Its artifacts: per model <model>.h/.c (the kernels, templates/c/header.h.jinja and
 source.c.jinja), <model>_integrate.h/.c (the integrators, rendered by
-derive/integration/codegen.py: a thin file that includes the method code of the
+derive/codegen/integrators.py: a thin file that includes the method code of the
 library/ folder here, derive_integrators.h and derive_driver.h, copied verbatim beside
 it with the tableaus' derive_tableaus.h, the same for every model), the Taylor integrator, scalar and in SIMD lanes
 (<model>_taylor.*, <model>_taylor_lanes.*, for a model whose rhs has recurrences:
-derive/integration/taylor_codegen.py, taylor_lanes.py), and for a model without chart
-guards the batched and fixed-step loops (<model>_throughput.*, <model>_fixed.*; derive/integration/
+derive/codegen/taylor.py, taylor_lanes.py), and for a model without chart
+guards the batched and fixed-step loops (<model>_throughput.*, <model>_fixed.*; derive/runtime/
 throughput.py); per atlas <atlas>.h/.c.  Model parameters never become C
 identifiers (the printer writes array slots, p[3]), so a parameter may be called
 `int` or `double`; the model name is only ever a prefix (planar_rhs).
@@ -18,7 +18,7 @@ from __future__ import annotations
 import sympy as sp
 
 from ...emit import lanes_context, render, trig_lanes
-from ...loader import VECTOR_MATH
+from ...names import VECTOR_MATH
 from ...printers import CPrinter
 from ..base import Backend, Variant, common_context, join_terms, own, slot_doc, unflatten, wrap
 
@@ -92,9 +92,9 @@ class CBackend(Backend):
         return ctx
 
     def integrator_files(self, name):
-        from ....integration.codegen import render_c
-        from ....integration.taylor_codegen import render_taylor, taylor_problem
-        from ....integration.taylor_lanes import render_taylor_lanes
+        from ...integrators import render_c
+        from ...taylor import render_taylor, taylor_problem
+        from ...taylor_lanes import render_taylor_lanes
         files = render_c(name)
         if taylor_problem(name) is None:      # a model with an operation no recurrence covers: none
             files.update(render_taylor(name))
@@ -102,11 +102,11 @@ class CBackend(Backend):
         return files
 
     def loop_files(self, name):
-        from ....integration.throughput import render_loops
+        from ...loops import render_loops
         return own(render_loops(name), self.name)
 
     def atlas_files(self, name):
-        from ....integration.codegen import render_atlas
+        from ...integrators import render_atlas
         return own(render_atlas(name), self.name)
 
 

@@ -2,7 +2,7 @@
 broadcasts over leading axes of its arrays.
 
 Its artifacts: per model <model>.py (the kernels, templates/numpy/module.py.jinja),
-<model>_integrate.py (the integrators, derive/integration/codegen.py), for a model
+<model>_integrate.py (the integrators, derive/codegen/integrators.py), for a model
 without chart guards <model>_throughput.py; per atlas <atlas>.py.  Parameters become
 kernel locals, so names Python reserves or the kernels use are renamed
 (derive/codegen/names.py: `reserved` below is that list).
@@ -83,15 +83,15 @@ class NumPyBackend(Backend):
         return {f"numpy/{spec.name}.py": render("numpy/module.py.jinja", ctx)}
 
     def integrator_files(self, name):
-        from ....integration.codegen import render_numpy
+        from ...integrators import render_numpy
         return render_numpy(name)
 
     def loop_files(self, name):
-        from ....integration.throughput import render_loops
+        from ...loops import render_loops
         return own(render_loops(name), self.name)
 
     def atlas_files(self, name):
-        from ....integration.codegen import render_atlas
+        from ...integrators import render_atlas
         return own(render_atlas(name), self.name)
 
 

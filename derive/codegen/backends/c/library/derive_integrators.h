@@ -3,7 +3,7 @@
  * <model>_integrate.c defines the macros below, includes this file once per real type
  * (float, double, long double), and defines its public functions by calling the static
  * functions it gets; the coefficients come from derive_tableaus.h (generated from the
- * .toml tableaus in derive/integration, the literals of each type, zero coefficients
+ * .toml tableaus in derive/codegen/tableaus, the literals of each type, zero coefficients
  * left out) and the stepping loop from derive_driver.h.
  *
  * Standalone C99, only <math.h>; reentrant: no globals, no allocation.  The state size

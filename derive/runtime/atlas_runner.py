@@ -29,11 +29,10 @@ import numpy as np
 from ..codegen.sources import c_source
 from ..model import load_model
 from ..model.atlas import ATLAS, load_atlas
-from . import contract
+from ..codegen import contract
 from .build import CTYPES, SUFFIX, build_fastest, dtype_key, info_struct, options_struct
-from .contract import (ATLAS_CHARTS, COUNTERS, LOCAL_ERROR_METHODS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH,
-                       STATUS_NAMES)
-from .codegen import model_info
+from ..codegen.contract import (ATLAS_CHARTS, COUNTERS, LOCAL_ERROR_METHODS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH, STATUS_NAMES)
+from ..codegen.integrators import model_info
 from .observables import _observables, _velocities, numpy_module
 from .result import LOCAL_SUM, SimulationResult
 

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import SimulationInputError
 from .build import integrator_library
-from .contract import ADAPTIVE, METHODS
+from ..codegen.contract import ADAPTIVE, METHODS
 from .observables import numpy_module
 
 MAX_ELEMENTS = 2 ** 23           # numbers of one batch call's output (64 MiB in double)

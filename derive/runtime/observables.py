@@ -7,7 +7,7 @@ import numpy as np
 
 from functools import lru_cache
 
-from ..codegen.loader import load as _load, numpy_module
+from .loader import load as _load, numpy_module
 from ..model import load_model
 from ..model.description import forget_on_model_change
 from .build import SUFFIX, dtype_key

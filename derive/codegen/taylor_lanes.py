@@ -19,8 +19,7 @@ each trajectory is bit for bit what `simulate(method="taylor")` gives.
 from __future__ import annotations
 
 from ..errors import SpecError
-from .taylor_codegen import (ORDER_MAX, TAYLOR_VARIANTS, Decomposition, _slots, c_statements, counts,
-                             rhs_decomposition)
+from .taylor import ORDER_MAX, TAYLOR_VARIANTS, Decomposition, _slots, c_statements, counts, rhs_decomposition
 
 LANES_DEFAULT = 4        # the generic build's lanes (AVX2: four doubles)
 
@@ -28,7 +27,7 @@ LANES_DEFAULT = 4        # the generic build's lanes (AVX2: four doubles)
 def variant_number(suffix: str) -> int:
     """k of -D<M>_TAYLOR_LANES_ONLY=k, which compiles only the variant with this suffix
     ("", "_f", "_l"): its place among the C variants, from 1."""
-    from .codegen import _C_VARIANTS
+    from .integrators import _C_VARIANTS
     return [s for _, s, _ in _C_VARIANTS].index(suffix) + 1
 
 
@@ -117,8 +116,8 @@ def lane_statements(d: Decomposition, P: str, s: str) -> dict:
 
 def render_taylor_lanes(name: str) -> dict[str, str]:
     """<name>_taylor_lanes.h and .c: the lane-parallel Taylor integrator (C backend artifact)."""
-    from ..codegen.emit import render
-    from .codegen import c_variants, model_info
+    from .emit import render
+    from .integrators import c_variants, model_info
     from .contract import INFO
     info = model_info(name)
     d = rhs_decomposition(name)

@@ -21,7 +21,7 @@ from functools import partial
 import numpy as np
 
 from .build import address, dtype_key, integrator_library
-from .contract import ADAPTIVE, COUNTERS, LOCAL_ERROR_METHODS, METHODS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS
+from ..codegen.contract import (ADAPTIVE, COUNTERS, LOCAL_ERROR_METHODS, METHODS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS)
 from .observables import _observables, _velocities
 from .result import LAZY, LOCAL_SUM, result_factory
 from .taylor_library import taylor_library, taylor_order
@@ -111,7 +111,7 @@ class RunPlan:
 
     def __init__(self, model: str, method: str, dt: np.dtype, max_bytes: int, max_steps: float):
         """model: a resolved model name; max_bytes, max_steps: _check_size's limits."""
-        from .codegen import model_info              # (codegen imports the derivation)
+        from ..codegen.integrators import model_info              # (codegen imports the derivation)
         from ..model import load_model
         info = model_info(model)
         description = load_model(model)

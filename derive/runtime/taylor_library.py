@@ -1,7 +1,7 @@
 """The generated Taylor integrator (<model>_taylor.c) at run time: compiled once per order.
 
 The order follows the tolerance (p = ceil(-ln(tol)/2 + 1), Jorba & Zou; the same rule
-as the C, derive/integration/taylor_codegen.py), and derive compiles the integrator
+as the C, derive/codegen/taylor.py), and derive compiles the integrator
 with that order fixed (-D<MODEL>_TAYLOR_ORDER=p), which lets the compiler unroll the
 recurrences: about 2.5x faster than the generic build here.  Each order is one cached
 library, built on first use (about a second); the generic file, compiled without the
@@ -15,13 +15,13 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..codegen.loader import build_fastest
+from .loader import build_fastest
 from ..codegen.sources import c_source
 from ..errors import SimulationInputError
 from ..model.description import forget_on_model_change
 from .build import SUFFIX, address, dtype_key, info_struct, run_batch
-from .codegen import model_info
-from .taylor_codegen import ORDER_MAX, taylor_problem
+from ..codegen.integrators import model_info
+from ..codegen.taylor import ORDER_MAX, taylor_problem
 
 
 def taylor_order(tol: float) -> int:

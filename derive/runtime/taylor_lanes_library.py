@@ -17,15 +17,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..codegen.loader import PORTABLE_FLAGS, build_library
+from .loader import PORTABLE_FLAGS, build_library
 from ..codegen.sources import c_source
 from ..errors import BuildError, SimulationInputError
 from ..model.description import forget_on_model_change
 from .build import SUFFIX, info_struct, run_batch
-from .codegen import model_info
-from .taylor_codegen import taylor_problem
+from ..codegen.integrators import model_info
+from ..codegen.taylor import taylor_problem
 from .taylor_library import taylor_library
-from .taylor_lanes import variant_number
+from ..codegen.taylor_lanes import variant_number
 
 # (CPU flag, compiler flags, lanes by scalar type), best first.  Measured here (Zen 4,
 # planar at order 12, one thread, CPU time per trajectory on a loaded machine; scalar

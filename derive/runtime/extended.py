@@ -5,7 +5,7 @@ float, double and long double are C types NumPy has; the two rungs above them ar
                    bits, 32 digits), its arithmetic emitted in <model>_taylor.c;
     quad           IEEE binary128 (113 bits, 34 digits): GCC's __float128 with
                    libquadmath, in <model>_taylor_quad.c.
-Both run the generated Taylor integrator (derive/integration/taylor_codegen.py), the
+Both run the generated Taylor integrator (derive/codegen/taylor.py), the
 method that makes high precision cheap: its order grows with the digits asked
 (p = ceil(-ln(tol)/2 + 1), 36 at tol 1e-30) while its cost per step grows as p^2.
 
@@ -28,13 +28,13 @@ from functools import lru_cache
 import mpmath
 import numpy as np
 
-from ..codegen.loader import PORTABLE_FLAGS, build_library, default_compiler
+from .loader import PORTABLE_FLAGS, build_library, default_compiler
 from ..codegen.sources import c_source
 from ..errors import BuildError, SimulationInputError
 from ..model.description import forget_on_model_change
 from .build import address, info_struct, integrator_library
-from .codegen import model_info
-from .taylor_codegen import taylor_problem
+from ..codegen.integrators import model_info
+from ..codegen.taylor import taylor_problem
 from .taylor_library import taylor_order
 
 # Unit roundoff of each rung (double-double: 2^-104 as the QD library states it, its
@@ -279,7 +279,7 @@ def simulate_extended(model: str, precision: str, y0, t, params, rtol, hmax, max
                       inputs):
     """simulate(..., dtype='double-double' | 'quad'): the Taylor integrator on one
     trajectory; the checks of simulate have run on the same arguments before."""
-    from .contract import STATUS_NAMES, COUNTERS
+    from ..codegen.contract import STATUS_NAMES, COUNTERS
     from .result import LOCAL_SUM, SimulationResult
     info = model_info(model)
     tol = DEFAULT_RTOL[precision] if rtol is None else rtol

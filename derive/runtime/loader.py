@@ -39,7 +39,7 @@ import numpy as np
 from ..paths import cache_dir
 from ..errors import BuildError, CompilerMissingError, SimulationInputError
 from ..model.description import forget_on_model_change
-from .names import VECTOR_MATH
+from ..codegen.names import VECTOR_MATH
 
 DEFAULT_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
 PORTABLE_FLAGS = DEFAULT_FLAGS
@@ -329,7 +329,7 @@ def load(model: str, generated: Path | None = None, cc: str | None = None,
     """Compile (if needed) and open the kernels <model>.c, from `generated` (a folder of
     generated C, e.g. a checkout's generated/c) or else the cache's rendering; return them."""
     if generated is None:
-        from .sources import model_sources
+        from ..codegen.sources import model_sources
         folder = model_sources(model) / "c"
     else:
         folder = Path(generated)
@@ -349,7 +349,7 @@ def numpy_module(name: str):
     or an atlas's prefix such as 'spherical_atlas'), imported from the cache's rendering of
     its model."""
     from ..model.atlas import atlases, find_atlas
-    from .sources import numpy_source
+    from ..codegen.sources import numpy_source
     atlas = find_atlas(name) or next((a for a in atlases().values() if a.prefix == name), None)
     model = atlas.name if atlas is not None else name.removesuffix("_integrate").removesuffix("_throughput")
     path = numpy_source(model, f"{name}.py")

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import CompilerMissingError, SimulationInputError
 from ..model.atlas import ATLAS
-from .codegen import model_info
+from ..codegen.integrators import model_info
 
 
 class ScipyRHS(NamedTuple):
@@ -66,13 +66,13 @@ def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
 def _kernels(model: str, backend: str):
     """(rhs, jacobian) of the model, C when a compiler is there, else NumPy."""
     if backend == "c":
-        from ..codegen.loader import load
+        from .loader import load
         try:
             m = load(model)
             return m.rhs, m.jacobian
         except CompilerMissingError:
             pass                             # the NumPy kernels: the same generated expressions
-    from ..codegen.loader import numpy_module
+    from .loader import numpy_module
     m = numpy_module(model)
 
     def quiet(kernel):

@@ -10,7 +10,7 @@ or a count n: the run stops at the n-th crossing, as SciPy >= 1.15 and heyoka).
 "Link 2 flips over the top" is `cos(theta2/2)`: it changes sign at theta2 = pi, 3 pi, ...
 (cos(theta2) + 1 only touches zero there: a touch is no crossing and is not found).
 
-Locating, on the run's dense output r.sol (derive/integration/dense.py):
+Locating, on the run's dense output r.sol (derive/runtime/dense.py):
 1. sampling: every output interval is sampled on its own trajectory at 2^L points, with
    2^L at least twice that trajectory's accepted steps (at least 4), so there are at
    least two samples per accepted step on average over each output interval, besides

@@ -37,7 +37,7 @@ from functools import lru_cache
 
 import sympy as sp
 
-from ..codegen.printers import CPrinter
+from .printers import CPrinter
 from ..errors import SpecError
 from ..model.description import forget_on_model_change
 
@@ -355,7 +355,7 @@ def counts(d: Decomposition) -> dict:
 def rhs_decomposition(name: str) -> Decomposition:
     """The decomposition of model `name`'s rhs (from the one CSE pass of its kernels), made
     once: the C backend asks whether there is one, then renders it."""
-    from ..codegen.sources import kernels
+    from .sources import kernels
     spec, bodies = kernels(name)
     body = next(b for b in bodies if b.kernel.name == "rhs")
     state = next(i.vector.symbols for i in body.kernel.inputs if i.vector.key == "state")
@@ -364,7 +364,7 @@ def rhs_decomposition(name: str) -> Decomposition:
 
 def _slots(name: str) -> dict:
     """Parameters p[i], then inputs p[n_params + i] (the integrators' p = (params, inputs))."""
-    from ..codegen.sources import kernels
+    from .sources import kernels
     _, bodies = kernels(name)
     body = next(b for b in bodies if b.kernel.name == "rhs")
     slots, offset = {}, 0
@@ -426,8 +426,8 @@ TAYLOR_FILES = {"taylor": ("double", "float", "long double", "double-double"), "
 def render_taylor(name: str) -> dict[str, str]:
     """<name>_taylor.{h,c} and <name>_taylor_quad.{h,c}: the Taylor integrator of one
     model on the precision ladder (C backend artifact), from one template."""
-    from ..codegen.emit import render
-    from .codegen import model_info
+    from .emit import render
+    from .integrators import model_info
     from .contract import INFO
     info = model_info(name)
     d = rhs_decomposition(name)

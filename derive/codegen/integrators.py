@@ -18,15 +18,15 @@ from functools import lru_cache
 
 import mpmath
 
-from ..codegen.emit import render
-from ..codegen.printers import CPrinter, PyNumPyPrinter
+from .emit import render
+from .printers import CPrinter, PyNumPyPrinter
 from ..derivation import derive
 from ..model.description import forget_on_model_change
 from . import contract
 from . import tableau as tb
 from ..model import load_chart, load_model
 from ..model.atlas import ATLAS, load_atlas
-from .cartesian import RULE_CHARTS, _sines_of_unit, rule_models, rule_sines
+from ..derivation.cartesian import RULE_CHARTS, _sines_of_unit, rule_models, rule_sines
 from .contract import (ADAPTIVE, ATLAS_CHARTS, IMPLICIT, METHODS,  # noqa: F401  (re-exported)
                        SINE_MIN, SINE_RULE, SINE_SWITCH)
 
@@ -219,7 +219,7 @@ def _c_struct_grouped(fields, n: str) -> list[str]:
 
 
 def contract_c(M: str, prefix: str, n: str, sine_min_macro: str) -> dict:
-    """The run contract (derive/integration/contract.py) as the C templates print it:
+    """The run contract (derive/codegen/contract.py) as the C templates print it:
     `prefix` names the macros (<M>_METHOD_*, <prefix>_*), `n` the state array's length."""
     width = max(len(s.macro) for s in contract.STATUS_TABLE) + len("_INTEGRATE_") + 2
     doc = []
@@ -256,7 +256,7 @@ def contract_numpy() -> dict:
     }
 
 
-SOURCES = "rk4.toml, dopri5.toml, dop853.toml, gauss.toml in derive/integration"
+SOURCES = "rk4.toml, dopri5.toml, dop853.toml, gauss.toml in derive/codegen/tableaus"
 
 
 TABLEAU_TAGS = {"double": "_d", "float": "_f", "long double": "_l"}   # derive_tableaus.h's name tags
@@ -297,7 +297,7 @@ def _tableau_macros(v: dict) -> list[tuple[str, str]]:
 def render_tableaus() -> dict[str, str]:
     """c/derive_tableaus.h: the coefficients of every method in every C type, the same for
     every model (its first line names no model)."""
-    from .. import __version__
+    from ..paths import VERSION as __version__
     ctx = {"version": __version__, "sources": SOURCES, "template": "templates/c/tableaus.h.jinja",
            "abm_steps": ABM_STEPS, "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE,
            "types": [{"ctype": v["ctype"], "tag": TABLEAU_TAGS[v["ctype"]], "macros": _tableau_macros(v)}
@@ -308,7 +308,7 @@ def render_tableaus() -> dict[str, str]:
 def library_files(names=LIBRARY) -> dict[str, str]:
     """The hand-written C library, copied verbatim into a generated tree (c/<file>) under
     one first line that names the derive that copied it; the same for every model."""
-    from .. import __version__
+    from ..paths import VERSION as __version__
     from ..paths import c_library_file
     files = {}
     for file in names:

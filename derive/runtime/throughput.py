@@ -16,11 +16,11 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..codegen.loader import LoaderError, build_fastest, build_library, numpy_module
+from .loader import LoaderError, build_fastest, build_library, numpy_module
 from ..codegen.names import VECTOR_MATH
 from ..codegen.sources import c_source
 from ..model.description import forget_on_model_change
-from .loops_gen import BLOCK, FIXED_METHODS
+from ..codegen.loops import BLOCK, FIXED_METHODS
 
 PORTABLE_FLAGS = ("-std=c99", "-O3", "-ffp-contract=off", "-fPIC", "-shared")
 VECTOR_FLAGS = ("-std=c99", "-O3", "-march=native", "-ffp-contract=off", "-fopenmp-simd",

@@ -12,11 +12,11 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..codegen.loader import build_fastest
+from .loader import build_fastest
 from ..codegen.sources import c_source
 from ..model.description import forget_on_model_change
-from . import contract
-from .codegen import model_info
+from ..codegen import contract
+from ..codegen.integrators import model_info
 
 CTYPES = {"float64": ctypes.c_double, "float32": ctypes.c_float, "longdouble": ctypes.c_longdouble}
 SUFFIX = {"float64": "", "float32": "_f", "longdouble": "_l"}
@@ -47,7 +47,7 @@ _C_TYPES = {"double": ctypes.c_double, "long": ctypes.c_long, "int": ctypes.c_in
 
 
 def ctypes_fields(fields, n: int = 0) -> list[tuple]:
-    """(name, ctypes type) of contract fields (derive/integration/contract.py); arrays get length n."""
+    """(name, ctypes type) of contract fields (derive/codegen/contract.py); arrays get length n."""
     return [(f.name, _C_TYPES[f.ctype] * n if f.length else _C_TYPES[f.ctype]) for f in fields]
 
 

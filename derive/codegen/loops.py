@@ -44,11 +44,11 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..codegen.emit import half_angle_sincos, lanes_context, render, trig_lanes
-from ..codegen.names import VECTOR_MATH
-from ..codegen.names import numpy_slots
-from ..codegen.printers import CPrinter, PyNumPyPrinter
-from ..codegen.sources import c_source, kernels
+from .emit import half_angle_sincos, lanes_context, render, trig_lanes
+from .names import VECTOR_MATH
+from .names import numpy_slots
+from .printers import CPrinter, PyNumPyPrinter
+from .sources import c_source, kernels
 from ..derivation import derive
 from ..model import model_names
 from ..model.description import forget_on_model_change

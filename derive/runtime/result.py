@@ -1,4 +1,4 @@
-"""The result of a run: plain data (derive/integration/simulate.py and atlas.py fill it).
+"""The result of a run: plain data (derive/runtime/simulate.py and atlas.py fill it).
 
 What a run means for trust (its largest Lyapunov exponent, its trust horizon) is
 measured from a result by derive/measurement/trust.py: trust.lyapunov_exponent(r),
@@ -11,7 +11,7 @@ from dataclasses import MISSING, dataclass, field, fields
 import numpy as np
 
 from ..errors import SimulationError
-from .codegen import model_info
+from ..codegen.integrators import model_info
 
 
 @dataclass
@@ -70,7 +70,7 @@ class SimulationResult:
     # arguments returning all three: simulate does so, and the kernels run on first access
     # (a run that only reads r.y pays nothing for them)
     observe: object = field(default=None, repr=False, compare=False)
-    # adaptive runs: r.sol(t), the continuous solution (derive/integration/dense.py)
+    # adaptive runs: r.sol(t), the continuous solution (derive/runtime/dense.py)
     sol: object | None = field(default=None, repr=False)
     error_estimate: float | None = None   # see the class docstring and error_kind
     error_kind: str | None = None          # "local sum", "rerun at rtol=...", "rerun at step=..."

@@ -5,15 +5,16 @@ index in the C switch, kind, implicit flag and order), the status codes and
 their names, the fields of the options and info structs (C type, default,
 comment) and the counters of a run.  The templates under derive/templates
 render their enums, status tables, struct definitions and `_defaults`
-functions from these lists (derive/integration/codegen.py passes them in the
-Jinja context), derive/integration/build.py and atlas.py build the ctypes
+functions from these lists (derive/codegen/integrators.py passes them in the
+Jinja context), derive/runtime/build.py and atlas_runner.py build the ctypes
 Structures from the same field lists, and simulate, the atlas and the
 benchmarks read the method and status tables from here.
 
-It sits in derive/integration (not a new stage folder) because it is the
-interface between the integrators' generation (integration/codegen.py) and
-their runtime (build, simulate, atlas); it imports nothing of derive but the atlas data
-(derive/model/atlas.py), so every stage from code generation on may import it.
+It sits in the code generation stage, below the run time, because it is the
+interface between the integrators' generation (derive/codegen/integrators.py) and
+their run time (derive/runtime: build, simulate, the atlas runner): the ABI both sides
+read.  It imports nothing of derive but the atlas data (derive/model/atlas.py), so
+every stage from code generation on may import it.
 """
 from __future__ import annotations
 
@@ -161,7 +162,7 @@ MULTISTEP = tuple(m.name for m in METHOD_TABLE if m.multistep)
 ATLAS_METHODS = tuple(m.name for m in METHOD_TABLE if m.atlas)
 ORDER = {m.name: m.order for m in METHOD_TABLE}
 FIXED_ORDER = {m: ORDER[m] for m in FIXED}
-# Taylor's method runs in a generated file of its own (<model>_taylor.c, derive/integration/
+# Taylor's method runs in a generated file of its own (<model>_taylor.c, derive/runtime/
 # taylor_codegen.py), not in the integrators' method switch; it takes the same options
 # (rtol is its tolerance) and fills the same info struct
 TAYLOR = "taylor"

@@ -39,9 +39,8 @@ from ..model import load_chart, load_model
 from ..model.atlas import ATLAS, load_atlas
 from ..model.description import forget_on_model_change
 from ..model.expressions import parse_expression
-from .contract import ATLAS_CHARTS
 
-CHARTS = ATLAS_CHARTS             # the catalogue atlas's members
+CHARTS = load_atlas(ATLAS).charts     # the catalogue atlas's members
 RULE_CHARTS = ("standard", "second", "rotated")   # the charts seed 000 section 5.1 names
 _XYZ = "xyz"
 

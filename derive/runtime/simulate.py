@@ -9,7 +9,7 @@ Models: planar, compound, spherical_std, spherical_alt, spherical_rot (one chart
 each: the run stops with status 'chart singular' rather than evaluate a kernel
 where a polar sine is below `sine_min`, default 0.1) and "spherical" (the chart
 atlas: standard, second and rotated chart, switched by the rule of seed 000
-section 5.1; see derive/integration/atlas.py for the thresholds).
+section 5.1; see derive/runtime/atlas_runner.py for the thresholds).
 
 Bad input raises SimulationInputError (a ValueError) with a one-line message.
 A run that cannot go on returns a result whose `status` says why
@@ -30,16 +30,15 @@ import numpy as np
 from ..errors import SimulationError, SimulationInputError  # noqa: F401  (SimulationError: re-exported)
 from ..model import ModelError, is_model_file, load_model
 from ..model.description import forget_on_model_change, parameter_problem
-from . import cartesian, dense
+from ..derivation import cartesian
+from . import dense
 from . import events as events_module
-from .atlas import run_atlas
+from .atlas_runner import run_atlas
 from .build import dtype_key, integrator_library
-from .codegen import model_info
-from .contract import (ADAPTIVE, ATLAS_CHARTS, ATLAS_METHODS, COUNTERS, FIXED_ORDER,  # noqa: F401
-                       LOCAL_ERROR_METHODS, MAX_GRID_STEPS, METHODS, RUN_METHODS, SINE_MIN, STATUS,
-                       STATUS_NAMES, TAYLOR, TOLERANCE_METHODS, default_options)
+from ..codegen.integrators import model_info
+from ..codegen.contract import (ADAPTIVE, ATLAS_CHARTS, ATLAS_METHODS, COUNTERS, FIXED_ORDER, LOCAL_ERROR_METHODS, MAX_GRID_STEPS, METHODS, RUN_METHODS, SINE_MIN, STATUS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS, default_options)
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
-from .plan import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, Settings, plain_times
+from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, Settings, plain_times
 from .taylor_library import taylor_library, taylor_order
 from . import extended
 from .result import LAZY, LOCAL_SUM, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
@@ -318,7 +317,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     (the generated Taylor integrator: order and step from rtol).  dtype: float32, float64,
     longdouble, or the top of the precision ladder, "double-double" (106 bits) and "quad"
     (IEEE binary128, 113 bits), which run taylor (the default there) and give r.y_exact, the
-    values exactly as mpmath numbers, beside r.y in long double (derive/integration/extended.py).
+    values exactly as mpmath numbers, beside r.y in long double (derive/runtime/extended.py).
     backend: "c" (compiled generated C) or "numpy".
     A fixed step h steps on the grid t[0] + k h whatever the output times: an output
     between grid points is reached by a shortened step from the grid point before it
@@ -339,8 +338,8 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     order, held constant over the run; or a function of t returning one, sampled at each
     output time and held until the next (zero-order hold).
     events: zero crossings to locate, {name: expression or {expression, direction,
-    terminal}} (derive/integration/events.py); r.events, r.t_events, r.y_events.
-    Adaptive runs have r.sol(t), the continuous solution (derive/integration/dense.py).
+    terminal}} (derive/runtime/events.py); r.events, r.t_events, r.y_events.
+    Adaptive runs have r.sol(t), the continuous solution (derive/runtime/dense.py).
     error_estimate: "local" (free): r.error_estimate is the run's own sum of local-error
     estimates (dopri5, dop853, abm12, taylor; None for the others); "rerun": a second run
     at rtol / 100 (a fixed step: half the step) gives an estimate of the global error of
@@ -419,7 +418,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
 def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, step, max_steps, sine_min,
                        hmax, inputs, events, error_estimate="local") -> SimulationResult:
     """The double-double and quad rungs: simulate's checks on the arguments, then the
-    Taylor integrator in that precision (derive/integration/extended.py)."""
+    Taylor integrator in that precision (derive/runtime/extended.py)."""
     if method != TAYLOR:
         raise SimulationInputError(f"dtype '{precision}' runs the Taylor integrator: use method='taylor' "
                                    f"(or leave method out), not '{method}'")
@@ -509,7 +508,7 @@ def _estimate_by_rerun(result: SimulationResult, rerun, method: str, opt: dict, 
     result.error_kind = kind
 
 
-# -- the fast path: simulate's common case through a plan (derive/integration/plan.py) ------
+# -- the fast path: simulate's common case through a plan (derive/runtime/fast_path.py) ------
 
 FAST_PATH = True       # off: every call takes the general path (tests compare the two)
 

@@ -13,7 +13,7 @@ code as `simulate`, so each trajectory agrees with `simulate` bit for bit), spli
 duration of a foreign call, so the blocks use every core.  Each trajectory keeps its
 own step control (per-trajectory adaptive steps).
 
-method="taylor" runs in SIMD lanes (<model>_taylor_lanes.c, derive/integration/
+method="taylor" runs in SIMD lanes (<model>_taylor_lanes.c, derive/runtime/
 taylor_lanes.py): within a block, the Taylor jet of several trajectories at once, each
 lane with its own step, time and outputs, and each trajectory bit for bit what
 `simulate(method="taylor")` gives (long double, which has no vector instructions, runs
@@ -32,8 +32,8 @@ import numpy as np
 
 from ..errors import SimulationInputError
 from .build import dtype_key, integrator_library
-from .codegen import model_info
-from .contract import COUNTERS, METHODS, RUN_METHODS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS
+from ..codegen.integrators import model_info
+from ..codegen.contract import COUNTERS, METHODS, RUN_METHODS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS
 from .simulate import (_atlas, _check_size, _dtype, _finite_array, check_parameter_values, normalise_t,
                        resolve_model, run_options)
 from ..model import load_model
