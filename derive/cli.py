@@ -255,7 +255,8 @@ def cmd_latex(args) -> int:
     out = _writable_file(Path(args.output or f"{name}.tex"))
     from .derivation import derive
     from .model import load_model
-    from .report.latex import render, render_atlas
+    from .report.atlas_document import render_atlas
+    from .report.latex import render
     from .verification.cached import physics_model, verify_model
     with Stage("latex") as stage:
         if name == ATLAS:

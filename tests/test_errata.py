@@ -6,8 +6,8 @@ import dataclasses
 import pytest
 import sympy as sp
 
-from derive.verification.claims import (ShapeMismatch, claims_by_key, compare, comparison,
-                                        context, run_all)
+from derive.verification.claims import ShapeMismatch, compare, context
+from derive.verification.judge import claims_by_key, comparison, run_all
 from derive.verification.errata import (ARTEFACT, ERRATA, MIXED, REAL, Erratum,
                                         errata_by_key, errata_markdown)
 

@@ -39,7 +39,7 @@ def cli(*args, cwd=ROOT):
 def equations(model: str) -> set[str]:
     """The numbered seed equations (n.m) of a model's claims, or of section 5 for the atlas."""
     sys.path.insert(0, str(ROOT))
-    from derive.verification.claims import all_claims
+    from derive.verification.judge import all_claims
     eqs = {c.equation for c in all_claims()
            if (c.equation.startswith("5.") if model == "spherical" else c.model == model)}
     return {e for e in eqs if re.fullmatch(r"\d+\.\d+", e)}

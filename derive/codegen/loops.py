@@ -42,13 +42,12 @@ from __future__ import annotations
 
 from functools import lru_cache
 
-import numpy as np
 
 from .emit import half_angle_sincos, lanes_context, render, trig_lanes
 from .names import VECTOR_MATH
 from .names import numpy_slots
 from .printers import CPrinter, PyNumPyPrinter
-from .sources import c_source, kernels
+from .sources import kernels
 from ..derivation import derive
 from ..model import model_names
 from ..model.description import forget_on_model_change

@@ -10,10 +10,10 @@ def _form(obj, names) -> dict:
 
 
 def formula_rows(results) -> list[dict]:
-    from ..verification import claims
+    from ..verification import claims, judge
     from ..verification.errata import errata_by_key
     from .latex import symbol_names
-    table, errata = claims.claims_by_key(), errata_by_key()
+    table, errata = judge.claims_by_key(), errata_by_key()
     rows = []
     for r in results:
         row = {"seed": r.seed, "equation": r.equation, "what": r.what, "model": r.model,

@@ -119,9 +119,9 @@ def _equation_label(eq: str) -> str:
 def result_rows(results) -> list[dict]:
     """Each verdict with the printed and derived formulas (and an erratum's discrepancy
     and corrected form) typeset from the claim objects."""
-    from ..verification import claims
+    from ..verification import claims, judge
     from ..verification.errata import errata_by_key
-    table, errata = claims.claims_by_key(), errata_by_key()
+    table, errata = judge.claims_by_key(), errata_by_key()
     rows = []
     for r in results:
         claim = table.get(r.key)
@@ -266,9 +266,7 @@ def render(d: Derivation, results, checks=(), paper: str = "a4") -> str:
     return _stamped(d.name, _template("derivation.tex.j2").render(**context(d, results, checks, paper)))
 
 
-def render_atlas(results, checks, paper: str = "a4") -> str:
-    from .atlas import atlas_context
-    return _stamped("spherical", _template("atlas.tex.j2").render(**atlas_context(results, checks, paper)))
+
 
 
 def _stamped(name: str, text: str) -> str:

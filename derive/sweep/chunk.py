@@ -17,20 +17,17 @@ never on where it ran.
 """
 from __future__ import annotations
 
-import hashlib
-from functools import lru_cache
-
 import numpy as np
 
 from ..runtime.build import integrator_library
-from ..codegen.contract import METHODS, TAYLOR
+from ..codegen.contract import METHODS
 from . import events as ev
 from .bounds import energy as _energy, n_params as _n_params, unreachable
 from .spec import Sweep
-from .verify import verify_events
+from .runners import status_of, model_name, runner, scene_runner
+from .verify import rungs, verify_events
 
 SLABS = 10                      # pieces of the time span
-TAYLOR_HMAX = 1e300             # no cap on a Taylor step but the run's end (runner)
 LYAPUNOV_BATCH = 64             # trajectories per Lyapunov batch (its fine grid is memory)
 
 
@@ -45,79 +42,12 @@ def variables(sweep: Sweep) -> list[str]:
     return names + ["status"]
 
 
-def _model(sweep: Sweep) -> str:
-    """The model's name here; a model file's description is written into this machine's
-    cache and read from there (a worker needs no copy of the sweep's files)."""
-    if sweep.model_text is None:
-        return sweep.scene.model
-    return _register(sweep.model_text)
-
-
-@lru_cache(maxsize=None)
-def _register(text: str) -> str:
-    from ..model import load_model_file
-    from ..model.description import _from_files
-    from ..paths import cache_dir, replace_file
-    for name, model in _from_files.items():         # read already (the process that parsed the sweep)
-        if model.text == text:
-            return name
-    path = cache_dir() / "sweep-models" / f"{hashlib.sha256(text.encode()).hexdigest()[:24]}.toml"
-    if not path.is_file():
-        replace_file(path, lambda tmp: tmp.write_text(text))
-    return load_model_file(path).name
-
-
-def runner(model: str, method: str, rtol: float | None, atol: float | None, step: float | None = None,
-           build: type | None = None):
-    """run(y0, p, t) -> (y, status): one batch call of `method` (DOP853, Taylor, ...) at these
-    settings, in the dtype of y0 (double, or long double for the verification); `build`, a
-    dtype: compile (or load) its Taylor integrator now rather than at the first call."""
-    lib = integrator_library(model)
-    opt = lib.defaults()
-    for name, value in (("rtol", rtol), ("atol", atol), ("h", step)):
-        if value is not None:
-            setattr(opt, name, value)
-    if method == TAYLOR:
-        from ..runtime.taylor_lanes_library import taylor_ensemble_library
-        from ..runtime.taylor_library import taylor_order
-        order = taylor_order(opt.rtol)
-        # the generated Taylor integrator caps its step's radius at hmax (the run's span when
-        # hmax is 0) before it applies the step factor (e^-2 ...): a run shorter than a few
-        # steps would take ~8 steps of an eighth of the span.  An hmax past any span leaves
-        # Jorba and Zou's step as it is (the last step still ends on the run's end).
-        opt.hmax = TAYLOR_HMAX
-
-        def call(y0, p, t):
-            # derive.ensemble's integrator: SIMD lanes in double (bit for bit the scalar
-            # integrator's numbers, tests/test_taylor_lanes.py), the scalar one in long double
-            return taylor_ensemble_library(model, order, _dtype_name(y0.dtype)).run(y0, p, t, opt)
-        if build is not None:
-            taylor_ensemble_library(model, order, _dtype_name(np.dtype(build)))
-    else:
-        index = METHODS.index(method)
-
-        def call(y0, p, t):
-            return lib.run(index, y0, p, t, opt)
-
-    def run(y0, p, t):
-        y, infos = call(np.ascontiguousarray(y0), p, np.asarray(t, y0.dtype))
-        return y, _status(infos)
-    return run
-
-
-def scene_runner(sweep: Sweep, model: str):
-    """The runner of the sweep's own method and tolerance (the first pass)."""
-    scene = sweep.scene
-    return runner(model, scene.method, scene.rtol, scene.atol, scene.step)
-
-
 def prepare(sweep: Sweep) -> None:
     """Build (or load from the cache) every integrator the sweep's chunks use, alongside
     one another (each a compiler process: a Taylor library of high order takes a compiler
     ten seconds and more)."""
     from concurrent.futures import ThreadPoolExecutor
-    from .verify import rungs
-    model = _model(sweep)
+    model = model_name(sweep)
     integrator_library(model)                    # renders the model's sources, once
     scene = sweep.scene
     settings = [(scene.rtol, scene.atol, scene.step, np.float64)]
@@ -127,18 +57,10 @@ def prepare(sweep: Sweep) -> None:
         list(pool.map(lambda s: runner(model, scene.method, *s), settings))
 
 
-def _dtype_name(dtype: np.dtype) -> str:
-    return "longdouble" if dtype == np.longdouble else "float64"
-
-
-def _status(infos) -> np.ndarray:
-    return np.fromiter((i.status for i in infos), np.int8, len(infos))
-
-
 def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray) -> dict[str, np.ndarray]:
     """Quantities of the trajectories y0 (B, n) with parameters p (B, np), flat; event
     times with an `accuracy` verified (verify.py)."""
-    model = _model(sweep)
+    model = model_name(sweep)
     batch = _Batch(sweep, model, y0, p)
     if sweep.events_only:
         batch.active &= ~unreachable(model, sweep, y0, p)
@@ -246,7 +168,7 @@ def lyapunov(model: str, y0: np.ndarray, p: np.ndarray, t_end: float, n_params: 
     for lo in range(0, len(y0), LYAPUNOV_BATCH):
         sl = slice(lo, lo + LYAPUNOV_BATCH)
         y, infos = lib.run(METHODS.index("dop853"), y0[sl].astype(float), p[sl], grid, opt)
-        ok = _status(infos) == 0
+        ok = status_of(infos) == 0
         args = (y[:, 1::2], p[sl, None, :n_params])
         if p.shape[1] > n_params:                      # a model's inputs follow its parameters
             args += (p[sl, None, n_params:],)

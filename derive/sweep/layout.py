@@ -38,9 +38,35 @@ def mirror_chunks(shape: tuple[int, ...], chunks: tuple[int, ...], dims: tuple[i
     return tuple(out)
 
 
+def _quantities_allow(sweep: Sweep) -> bool:
+    """Every recorded quantity is one the mirror maps (not the Lyapunov exponent nor the
+    energy error: their algorithms are not checked to be odd)."""
+    return all(q == "final_state" or q.startswith("max_abs_")
+               or (q.endswith("_time") and q[:-5] in {e.name for e in sweep.events}) for q in sweep.record)
+
+
+def mirror_axes(sweep: Sweep) -> tuple[int, ...] | None:
+    """The dimensions the mirror reverses (the state axes), or None when the sweep's
+    grid is not its own mirror image."""
+    if sweep.random_axes or not sweep.axes or not _quantities_allow(sweep):
+        return None
+    states = {a.index for a in sweep.axes if a.target == "state"}
+    if not states:
+        return None
+    base_zero = all(sweep.y0[i] == 0 for i in range(len(sweep.y0)) if i not in states)
+    if not base_zero:
+        return None
+    dims = []
+    for d, a in enumerate(sweep.grid_axes):
+        if a.target == "state":
+            if not np.array_equal(a.values, -a.values[::-1]):
+                return None
+            dims.append(d)
+    return tuple(dims)
+
+
 class Layout:
     def __init__(self, sweep: Sweep):
-        from .mirror import mirror_axes
         self.shape = sweep.shape
         self.chunks = chunk_shape(self.shape, sweep.chunk)
         dims = mirror_axes(sweep)                 # the grid is its own mirror image along these

@@ -21,41 +21,18 @@ to the bit, else the sweep is computed whole.  ([sweep] mirror = false turns it 
 """
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
-from .layout import Layout
+from .layout import Layout, mirror_axes
+from .runners import model_name, runner, scene_runner
 from .spec import Sweep
+from .verify import rungs
 
 MIRRORED = "final_"                 # the quantities that change sign: the final states
 CHECKS = 6                          # trajectories integrated twice by plan (and their mirrors)
 MAX_PARAMETER_ROWS = 64             # parameter rows the check covers; more: no mirror
-
-
-def _quantities_allow(sweep: Sweep) -> bool:
-    """Every recorded quantity is one the mirror maps (not the Lyapunov exponent nor the
-    energy error: their algorithms are not checked to be odd)."""
-    return all(q == "final_state" or q.startswith("max_abs_")
-               or (q.endswith("_time") and q[:-5] in {e.name for e in sweep.events}) for q in sweep.record)
-
-
-def mirror_axes(sweep: Sweep) -> tuple[int, ...] | None:
-    """The dimensions the mirror reverses (the state axes), or None when the sweep's
-    grid is not its own mirror image."""
-    if sweep.random_axes or not sweep.axes or not _quantities_allow(sweep):
-        return None
-    states = {a.index for a in sweep.axes if a.target == "state"}
-    if not states:
-        return None
-    base_zero = all(sweep.y0[i] == 0 for i in range(len(sweep.y0)) if i not in states)
-    if not base_zero:
-        return None
-    dims = []
-    for d, a in enumerate(sweep.grid_axes):
-        if a.target == "state":
-            if not np.array_equal(a.values, -a.values[::-1]):
-                return None
-            dims.append(d)
-    return tuple(dims)
 
 
 def plan(sweep: Sweep, layout: Layout) -> dict[int, int] | None:
@@ -75,8 +52,7 @@ def plan(sweep: Sweep, layout: Layout) -> dict[int, int] | None:
         for d in dims:
             block[d] = layout.grid[d] - 1 - block[d]
         pairs[k] = int(np.ravel_multi_index(block, layout.grid))
-    from .chunk import _model
-    return pairs if _odd_to_the_bit(sweep, _model(sweep)) else None
+    return pairs if _odd_to_the_bit(sweep, model_name(sweep)) else None
 
 
 def _odd_to_the_bit(sweep: Sweep, model: str) -> bool:
@@ -84,9 +60,6 @@ def _odd_to_the_bit(sweep: Sweep, model: str) -> bool:
     integrator the sweep uses (its method, and the verification's runs): every sample the
     negative of the other's, to the bit.  Each parameter row the axes make is checked (a
     parameter may be a constant torque: odd at 0 only), at most MAX_PARAMETER_ROWS."""
-    import itertools
-    from .chunk import runner, scene_runner
-    from .verify import rungs
     held = [a for a in sweep.grid_axes if a.target != "state"]
     states = [a for a in sweep.grid_axes if a.target == "state"]
     combos = list(itertools.islice(itertools.product(*(a.values for a in held)), MAX_PARAMETER_ROWS + 1))

@@ -44,7 +44,9 @@ import math
 import numpy as np
 
 from ..codegen.contract import TAYLOR
+from ..runtime.taylor_library import taylor_order
 from . import events as ev
+from .runners import runner
 from .spec import Sweep
 
 TIGHTER = 1000                   # each run again: a thousandth of the tolerance before
@@ -56,7 +58,6 @@ WINDOW = 10                      # samples: run-again ends are rounded up to a m
 def error_ratio(method: str, loose: float, tight: float) -> float:
     """About how much smaller the error of a run at tolerance `tight` is than at `loose`."""
     if method == TAYLOR:
-        from ..runtime.taylor_library import taylor_order
         return math.exp(-2 * (taylor_order(tight) - taylor_order(loose)))
     return tight / loose
 
@@ -75,7 +76,6 @@ def rungs(scene) -> list[tuple[float, float | None, type]]:
 def verify_events(sweep: Sweep, model: str, y0: np.ndarray, p: np.ndarray, out: dict) -> dict[str, np.ndarray]:
     """The event times with an `accuracy`, each replaced by the best of the ladder, and
     `<event>_time_error`, its estimated error (NaN where no event: not checked again)."""
-    from .chunk import runner
     scene = sweep.scene
     t = np.linspace(scene.t_start, scene.t_stop, scene.outputs)
     R = scene.rtol

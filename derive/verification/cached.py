@@ -73,8 +73,8 @@ def verify_model(name: str):
     results = _read(path)
     if isinstance(results, list):
         return results
-    from . import claims
-    results = [claims.judge(c) for c in claims.all_claims() if c.model == name]
+    from . import judge
+    results = [judge.judge(c) for c in judge.all_claims() if c.model == name]
     cachefile.store(path, results)
     return results
 
@@ -86,7 +86,7 @@ def verify_all(fresh: bool = False):
     if isinstance(cached, tuple):
         results, checks = cached
         return results, checks, True
-    from . import claims, physics
-    results, checks = claims.run_all(), physics.run_all()
+    from . import judge, physics
+    results, checks = judge.run_all(), physics.run_all()
     cachefile.store(path, (results, checks))
     return results, checks, False

@@ -1,7 +1,8 @@
-"""Stage 3 runner: compare every transcribed seed formula with the derivation.
+"""Stage 3: the kinds of claim a seed prints, and the comparison of one with the derivation.
 
 The transcriptions live in :mod:`seed_formulas` (one :class:`Claim` each), the
-recorded errata in :mod:`errata`.  This module holds the machinery:
+recorded errata in :mod:`errata`, and :mod:`judge` runs them all.  This module holds
+the machinery:
 
 * :class:`Context` -- what a printed or a derived formula may use for one
   model: symbols by name, mu, the link vectors and their chart derivatives,
@@ -23,7 +24,6 @@ from __future__ import annotations
 
 import math
 import random
-import time
 from dataclasses import dataclass
 from functools import cache, cached_property
 from typing import Any, Callable
@@ -701,87 +701,3 @@ def _compare_rule(claim: Claim, c: Context, rule: ChartRule) -> Comparison:
     note = f"smallest polar sine of the chosen chart {worst:.6f} (>= {rule.bound})"
     return Comparison(holds, None, 0.0 if holds else rule.bound - worst,
                       None if holds else where, note)
-
-
-# -- running everything ------------------------------------------------------------
-
-def all_claims() -> list[Claim]:
-    from .seed_formulas import CLAIMS
-    return list(CLAIMS)
-
-
-def _brief(x, limit: int = 110) -> str:
-    text = str(x).replace("\n", " ")
-    return text if len(text) <= limit else text[:limit - 3] + "..."
-
-
-@cache
-def claims_by_key() -> dict:
-    table = {}
-    for claim in all_claims():
-        if claim.key in table:
-            raise ValueError(f"claim transcribed twice: {claim.key}")
-        table[claim.key] = claim
-    return table
-
-
-@cache
-def comparison(claim: Claim, mode: str = "printed") -> Comparison:
-    """The claim's comparison, cached per claim object: ``mode`` "printed" (as
-    transcribed), "pinned" (printed minus the erratum's pinned discrepancy) or
-    "corrected" (the erratum's corrected formula)."""
-    from .errata import errata_by_key
-    key = claim.key
-    if mode == "printed":
-        return compare(claim)
-    erratum = errata_by_key()[key]
-    c = context(claim.model)
-    if mode == "pinned":
-        return compare(claim, offset=erratum.discrepancy(c))
-    if mode == "corrected":
-        return compare(claim, printed=erratum.corrected(c))
-    raise ValueError(mode)
-
-
-def erratum_problem(claim: Claim) -> str | None:
-    """Why a recorded erratum does not reproduce, or None when it does exactly:
-    the printed formula differs from the derivation, by exactly the pinned
-    discrepancy, and the corrected formula equals the derivation."""
-    if comparison(claim).holds:
-        return "recorded erratum, but the printed formula now matches the derivation"
-    if not comparison(claim, "pinned").holds:
-        return ("recorded erratum no longer reproduces: printed - derived = "
-                f"{_brief(comparison(claim).discrepancy)}")
-    if not comparison(claim, "corrected").holds:
-        return "recorded erratum: the corrected formula does not equal the derivation"
-    return None
-
-
-def judge(claim: Claim) -> Result:
-    """The verdict of one claim against the derivation and the recorded errata."""
-    from .errata import errata_by_key
-    start = time.perf_counter()
-    erratum = errata_by_key().get(claim.key)
-    cmp = comparison(claim)
-    if erratum is None:
-        if cmp.holds:
-            verdict, summary = "match", cmp.note or "printed = derived (exact and numeric)"
-        else:
-            verdict = "FAIL"
-            summary = (f"mismatch, not a recorded erratum: exact={cmp.exact}, numeric "
-                       f"error {cmp.numeric_error:.3g}; printed - derived = {_brief(cmp.discrepancy)}")
-    else:
-        problem = erratum_problem(claim)
-        verdict, summary = ("erratum", erratum.summary) if problem is None else ("FAIL", problem)
-    return Result(claim.seed, claim.equation, claim.what, claim.model, verdict, summary,
-                  time.perf_counter() - start)
-
-
-@cache
-def _results() -> tuple[Result, ...]:
-    return tuple(judge(claim) for claim in all_claims())
-
-
-def run_all() -> list[Result]:
-    """Every claim judged (cached per process: the derivations do not change under us)."""
-    return list(_results())

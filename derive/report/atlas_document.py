@@ -11,7 +11,7 @@ from ..derivation import derive
 from ..derivation.charts import chart_change
 from ..codegen.integrators import ATLAS_CHARTS, SINE_MIN, SINE_RULE, SINE_SWITCH
 from . import typeset as ts
-from .latex import PAPERS, _seed_groups, physics_rows, result_rows, symbol_names
+from .latex import PAPERS, _seed_groups, _stamped, _template, physics_rows, result_rows, symbol_names
 
 
 def _chart(name: str) -> dict:
@@ -60,3 +60,8 @@ def atlas_context(results, checks, paper: str = "a4") -> dict:
         "groups": _seed_groups(result_rows(results)), "n_results": len(results),
         "checks": physics_rows(unique, n),
     }
+
+
+def render_atlas(results, checks, paper: str = "a4") -> str:
+    """The atlas document's LaTeX source (templates/latex/atlas.tex.j2), stamped."""
+    return _stamped("spherical", _template("atlas.tex.j2").render(**atlas_context(results, checks, paper)))
