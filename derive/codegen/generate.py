@@ -7,6 +7,7 @@ from pathlib import Path
 from ..model import model_names
 from .backends import managed_suffixes
 from .sources import ATLAS, PREAMBLE, PROVENANCE, SHARED, render, render_fresh
+from ..paths import VERSION as __version__
 
 
 
@@ -99,7 +100,6 @@ def write_manifest(out: Path) -> None:
     themselves name only the derive version, so regeneration under one SymPy is
     byte-identical)."""
     import sympy
-    from ..paths import VERSION as __version__
     text = (f"# Written by `derive generate`: what made the files beside it.\n"
             f'derive = "{__version__}"\nsympy = "{sympy.__version__}"\n')
     path = Path(out) / MANIFEST

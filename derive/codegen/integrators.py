@@ -22,13 +22,13 @@ from .emit import render
 from .printers import CPrinter, PyNumPyPrinter
 from ..derivation import derive
 from ..model.description import forget_on_model_change
-from . import contract
-from . import tableau as tb
+from . import contract, tableau as tb
 from ..model import load_chart, load_model
 from ..model.atlas import ATLAS, load_atlas
 from ..derivation.cartesian import RULE_CHARTS, _sines_of_unit, rule_models, rule_sines
 from .contract import (ADAPTIVE, ATLAS_CHARTS, IMPLICIT, METHODS,  # noqa: F401  (re-exported)
                        SINE_MIN, SINE_RULE, SINE_SWITCH)
+from ..paths import VERSION as __version__, c_library_file
 
 NEWTON_THETA_MAX = "0.5"  # implicit methods: a contraction rate above this re-evaluates the Jacobian
 NEWTON_THETA_DIVERGE = "2"   # implicit methods: an increment growing this much is NEWTON at once
@@ -297,7 +297,6 @@ def _tableau_macros(v: dict) -> list[tuple[str, str]]:
 def render_tableaus() -> dict[str, str]:
     """c/derive_tableaus.h: the coefficients of every method in every C type, the same for
     every model (its first line names no model)."""
-    from ..paths import VERSION as __version__
     ctx = {"version": __version__, "sources": SOURCES, "template": "templates/c/tableaus.h.jinja",
            "abm_steps": ABM_STEPS, "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE,
            "types": [{"ctype": v["ctype"], "tag": TABLEAU_TAGS[v["ctype"]], "macros": _tableau_macros(v)}
@@ -308,8 +307,6 @@ def render_tableaus() -> dict[str, str]:
 def library_files(names=LIBRARY) -> dict[str, str]:
     """The hand-written C library, copied verbatim into a generated tree (c/<file>) under
     one first line that names the derive that copied it; the same for every model."""
-    from ..paths import VERSION as __version__
-    from ..paths import c_library_file
     files = {}
     for file in names:
         text = c_library_file(file).read_text()

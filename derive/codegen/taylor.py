@@ -40,6 +40,10 @@ import sympy as sp
 from .printers import CPrinter
 from ..errors import SpecError
 from ..model.description import forget_on_model_change
+from .sources import kernels
+from .emit import render
+from .integrators import model_info
+from .contract import INFO
 
 ORDER_MAX = 60       # largest order compiled in (tol 1e-34 for quad needs 41; double <= 20)
 
@@ -355,7 +359,6 @@ def counts(d: Decomposition) -> dict:
 def rhs_decomposition(name: str) -> Decomposition:
     """The decomposition of model `name`'s rhs (from the one CSE pass of its kernels), made
     once: the C backend asks whether there is one, then renders it."""
-    from .sources import kernels
     spec, bodies = kernels(name)
     body = next(b for b in bodies if b.kernel.name == "rhs")
     state = next(i.vector.symbols for i in body.kernel.inputs if i.vector.key == "state")
@@ -364,7 +367,6 @@ def rhs_decomposition(name: str) -> Decomposition:
 
 def _slots(name: str) -> dict:
     """Parameters p[i], then inputs p[n_params + i] (the integrators' p = (params, inputs))."""
-    from .sources import kernels
     _, bodies = kernels(name)
     body = next(b for b in bodies if b.kernel.name == "rhs")
     slots, offset = {}, 0
@@ -426,9 +428,6 @@ TAYLOR_FILES = {"taylor": ("double", "float", "long double", "double-double"), "
 def render_taylor(name: str) -> dict[str, str]:
     """<name>_taylor.{h,c} and <name>_taylor_quad.{h,c}: the Taylor integrator of one
     model on the precision ladder (C backend artifact), from one template."""
-    from .emit import render
-    from .integrators import model_info
-    from .contract import INFO
     info = model_info(name)
     d = rhs_decomposition(name)
     slots = _slots(name)

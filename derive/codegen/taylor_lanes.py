@@ -20,6 +20,9 @@ from __future__ import annotations
 
 from ..errors import SpecError
 from .taylor import ORDER_MAX, TAYLOR_VARIANTS, Decomposition, _slots, c_statements, counts, rhs_decomposition
+from .integrators import _C_VARIANTS, c_variants, model_info
+from .emit import render
+from .contract import INFO
 
 LANES_DEFAULT = 4        # the generic build's lanes (AVX2: four doubles)
 
@@ -27,7 +30,6 @@ LANES_DEFAULT = 4        # the generic build's lanes (AVX2: four doubles)
 def variant_number(suffix: str) -> int:
     """k of -D<M>_TAYLOR_LANES_ONLY=k, which compiles only the variant with this suffix
     ("", "_f", "_l"): its place among the C variants, from 1."""
-    from .integrators import _C_VARIANTS
     return [s for _, s, _ in _C_VARIANTS].index(suffix) + 1
 
 
@@ -116,9 +118,6 @@ def lane_statements(d: Decomposition, P: str, s: str) -> dict:
 
 def render_taylor_lanes(name: str) -> dict[str, str]:
     """<name>_taylor_lanes.h and .c: the lane-parallel Taylor integrator (C backend artifact)."""
-    from .emit import render
-    from .integrators import c_variants, model_info
-    from .contract import INFO
     info = model_info(name)
     d = rhs_decomposition(name)
     slots = _slots(name)

@@ -49,9 +49,18 @@ from typing import Callable
 
 import numpy as np
 
-from . import peers as P
-from . import reference as R
+from . import peers as P, reference as R
 from .trust import Lyapunov, atlas_lyapunov, initial_error, largest_lyapunov, trust_horizon
+from ..codegen.contract import ADAPTIVE, METHODS, SINE_MIN
+from ..codegen.loops import evaluations, throughput_models
+from ..runtime.throughput import fixed_library, throughput_library, throughput_numpy
+from ..runtime.simulate import normalise_params, normalise_y0, numpy_module, simulate
+from ..runtime.atlas_runner import ATLAS_CHARTS, atlas_library, numpy_atlas
+from ..runtime.build import integrator_library
+from ..runtime.loader import build_fastest, load
+from ..derivation.cartesian import cartesian_to_state, link_lengths, state_to_cartesian
+from ..codegen.sources import c_source
+from ..paths import bench_c_dir
 
 DEFAULT_OUT = "derive-bench"     # `derive bench` writes here (relative to the current directory)
 TARGET = 1e-8
@@ -164,7 +173,6 @@ def _series(method: str, backend: str, dtype: str) -> str:
 
 
 def toolkit_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
-    from ..codegen.contract import ADAPTIVE, METHODS
     out = []
     plan = []
     if opts.quick:
@@ -197,15 +205,12 @@ def toolkit_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
 
 
 def _loop_models() -> list[str]:
-    from ..codegen.loops import throughput_models
     return throughput_models()
 
 
 def _loop_runner(problem: Problem, method: str, step: float):
     """The generated fixed-step loop (<model>_fixed_<method>): rhs inlined, no driver."""
     def make():
-        from ..codegen.loops import evaluations
-        from ..runtime.throughput import fixed_library
         lib = fixed_library(problem.model)
         state, _, p = _prepared(problem)
         y0, pa = np.asarray(state, np.float64), np.asarray(p, np.float64)
@@ -222,7 +227,6 @@ def _loop_runner(problem: Problem, method: str, step: float):
 def _loop_observer(problem: Problem, method: str, step: float):
     """Energies of the loop's trajectory at the observation times (the loop, restarted in pieces)."""
     def observe() -> float:
-        from ..runtime.throughput import fixed_library
         lib = fixed_library(problem.model)
         state, _, p = _prepared(problem)
         y, pa = np.asarray(state, np.float64), np.asarray(p, np.float64)
@@ -239,7 +243,6 @@ def _loop_observer(problem: Problem, method: str, step: float):
 
 
 def _options(method: str, rtol, step) -> dict:
-    from ..codegen.contract import SINE_MIN
     return {"rtol": rtol if rtol is not None else 1e-9, "atol": (rtol if rtol is not None else 1e-9) * 1e-3,
             "h": step or 0.0, "hmin": 0.0, "hmax": 0.0, "max_steps": 100_000_000, "newton_tol": 0.0,
             "newton_max": 30, "sine_min": float(SINE_MIN)}
@@ -251,7 +254,6 @@ def _np_dtype(dtype: str):
 
 def _prepared(problem: Problem):
     """(state, chart) of y0 and the parameters, normalised as derive.simulate does."""
-    from ..runtime.simulate import normalise_params, normalise_y0
     p = normalise_params(problem.model, list(problem.params))
     state, chart, _ = normalise_y0(problem.model, problem.y0_input(), p)
     return np.asarray(state), chart, p
@@ -259,10 +261,6 @@ def _prepared(problem: Problem):
 
 def _toolkit_runner(problem: Problem, method: str, backend: str, dtype: str, rtol, step):
     def make():
-        from ..runtime.atlas_runner import ATLAS_CHARTS, atlas_library, numpy_atlas
-        from ..runtime.build import integrator_library
-        from ..codegen.contract import METHODS
-        from ..runtime.simulate import numpy_module
         dt = _np_dtype(dtype)
         state, chart, p = _prepared(problem)
         y0, pd, t = np.asarray(state, dt), np.asarray(p, dt), np.array([0.0, problem.t_end], dt)
@@ -317,7 +315,6 @@ def _relative_energy_error(E: np.ndarray) -> float:
 
 def _toolkit_observer(problem: Problem, method: str, backend: str, dtype: str, rtol, step):
     def observe() -> float:
-        from ..runtime.simulate import simulate
         r = simulate(problem.model, problem.y0_input(), np.linspace(0.0, problem.t_end, OBSERVATIONS),
                      list(problem.params), method=method, rtol=rtol, atol=None if rtol is None else rtol * 1e-3,
                      step=step, dtype=dtype, backend=backend)
@@ -326,7 +323,6 @@ def _toolkit_observer(problem: Problem, method: str, backend: str, dtype: str, r
 
 
 def _energy_of(problem: Problem):
-    from ..runtime.loader import load
     m = load(problem.model)
     p = np.asarray(problem.params, np.float64)
     return lambda y: float(m.energy(np.asarray(y, np.float64), p))
@@ -444,7 +440,6 @@ def _standard_chart_peer(problem: Problem):
     """What a user without an atlas runs: solve_ivp on the standard chart's lambdified rhs.
     It stops at the first non-finite derivative or after PEER_EVAL_BUDGET evaluations."""
     _, _, p = _prepared(problem)
-    from ..derivation.cartesian import cartesian_to_state, link_lengths
     c12 = np.asarray(problem.y0[1], float)
     y0 = cartesian_to_state("spherical_std", c12, link_lengths("spherical_std", p))
     raw = P.lambdified_rhs("spherical_std")
@@ -490,7 +485,6 @@ class ProblemInfo:
 def spherical_lyapunov(problem: Problem, delta: float = 1e-9) -> Lyapunov:
     """When no single chart holds the run: growth of a small perturbation between two long
     double references (a finite-difference estimate, not the variational equations)."""
-    from ..derivation.cartesian import cartesian_to_state, link_lengths, state_to_cartesian
     state, chart, p = _prepared(problem)
     lengths = link_lengths(chart, p)
     c12 = state_to_cartesian(chart, state, lengths)
@@ -524,7 +518,6 @@ LOCAL_ERROR_SAMPLES = 8
 
 def trajectory_samples(problem: Problem, k: int = LOCAL_ERROR_SAMPLES) -> list:
     """k states along the problem's trajectory (y0 inputs for simulate), where local errors are probed."""
-    from ..runtime.simulate import simulate
     r = simulate(problem.model, problem.y0_input(), np.linspace(0.0, problem.t_end, k + 1),
                  list(problem.params), method="dop853", rtol=1e-12)
     if problem.model == "spherical":
@@ -537,7 +530,6 @@ def local_error(problem: Problem, method: str, dtype: str, step: float, backend:
     """The error a fixed-step run commits per step (what rtol is for an adaptive one): one
     step of size h against two of h/2 (Richardson), the largest over states along the
     trajectory (at y0 alone a pendulum released at rest would understate it)."""
-    from ..runtime.simulate import simulate
     k = 2.0 ** METHOD_ORDER.get(method, 4)
     worst = 0.0
     for start in samples or [problem.y0_input()]:
@@ -675,9 +667,6 @@ def rhs_loop(model: str):
     (loader.build_fastest: libmvec's vector sin/cos where they build)."""
     import ctypes
 
-    from ..runtime.loader import build_fastest
-    from ..codegen.sources import c_source
-    from ..paths import bench_c_dir
     path, _ = build_fastest(f"{model}_rhs_cost", [c_source(model, f"{model}.c"), bench_c_dir() / "rhs_cost.c"],
                             extra=(f"-DRHS={model}_rhs", "-include", f"{model}.h"))
     lib = ctypes.CDLL(str(path))
@@ -698,7 +687,6 @@ def rhs_cost_ns(problem: Problem, chained: bool = True, repeats: int = 7, evals:
     consecutive evaluations: measured here with libmvec's vector sin/cos, the planar rhs
     costs 19 ns so against 43 ns chained (their latency does not shrink as their throughput
     does)."""
-    from ..runtime.simulate import simulate
     r = simulate(problem.model, problem.y0_input(), np.linspace(0.0, problem.t_end, 10_001),
                  list(problem.params), method="dop853", rtol=1e-10)
     r.raise_for_status()
@@ -745,9 +733,6 @@ def _rate(fn, B: int, nsteps: int, repeats: int) -> tuple[float, int]:
 
 def run_throughput(opts: BenchOptions) -> list[dict]:
     """trajectory-steps per second of batched fixed-step RK4 on planar states."""
-    from ..runtime.build import integrator_library
-    from ..codegen.contract import METHODS
-    from ..runtime.throughput import throughput_library, throughput_numpy
     p = np.array([1.0, 1.0, 1.0, 1.0, G])
     h = THROUGHPUT_H
     tp = throughput_library("planar")
@@ -826,9 +811,6 @@ def numpy_trig_costs(n: int = 10_000, reps: int = 50) -> dict[str, float]:
 def throughput_agreement(n: int = 10_000, nsteps: int = 100) -> dict:
     """Batched C and NumPy RK4 against the scalar generated RK4: max difference after
     nsteps steps of THROUGHPUT_H (t = 1, inside the trust horizon of these states)."""
-    from ..runtime.build import integrator_library
-    from ..codegen.contract import METHODS
-    from ..runtime.throughput import throughput_library, throughput_numpy
     p = np.array([1.0, 1.0, 1.0, 1.0, G])
     y0 = throughput_states(n, seed=1)
     lib = integrator_library("planar")

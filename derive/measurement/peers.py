@@ -29,6 +29,7 @@ import sympy as sp
 
 from ..derivation import derive
 from ..paths import bench_c_dir
+from ..runtime.loader import build
 
 
 
@@ -119,7 +120,6 @@ def numba_rk4():
 
 def _hand_c(source: str, symbol: str, *argtypes):
     """A function of a hand-written C peer (derive/measurement/c/peers/<source>), compiled into the build cache."""
-    from ..runtime.loader import build
     fn = ctypes.CDLL(str(build(bench_c_dir() / "peers" / source)))[symbol]
     fn.restype = None
     fn.argtypes = list(argtypes)

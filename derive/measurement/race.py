@@ -48,6 +48,8 @@ import numpy as np
 from ..errors import ToolMissingError
 from ..runtime.ensemble import ensemble
 from ..runtime.simulate import simulate
+from ..codegen.contract import FIXED, IMPLICIT, TOLERANCE_METHODS
+from .peers import lambdified_rhs, solve_ivp_final
 
 TARGET = 1e-8
 PARAMS = (1.0, 1.0, 1.0, 1.0, 9.81)
@@ -129,7 +131,6 @@ def _derive_reference(y0, t_end: float) -> np.ndarray:
 
 
 def _derive_points(y0, t_end: float, ref, dtype: str = "float64") -> list[Point]:
-    from ..codegen.contract import FIXED, IMPLICIT, TOLERANCE_METHODS
     points = []
     rtols = (1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14) if dtype == "float64" else \
         (1e-10, 1e-12, 1e-13, 1e-14, 1e-15, 1e-16, 1e-17, 2e-18)
@@ -173,7 +174,6 @@ def _heyoka_points(hy, y0, t_end: float, ref, fp_type=float, tols=None, error=No
 
 
 def _scipy_points(y0, t_end: float, ref) -> list[Point]:
-    from .peers import lambdified_rhs, solve_ivp_final
     rhs = lambdified_rhs("planar", cse=True)
     points = []
     for rtol in (1e-9, 1e-11, 1e-13):
@@ -274,7 +274,6 @@ def ensemble_states(B: int = 4096, seed: int = 0) -> np.ndarray:
 
 
 def ensemble_row(hy, B: int = 4096, t_end: float = 10.0) -> Row:
-    from ..codegen.contract import TOLERANCE_METHODS
     y0 = ensemble_states(B)
     threads = os.cpu_count() or 1
     ref = ensemble("planar", y0, [0.0, t_end], PARAMS, method="dop853", rtol=2e-18, atol=1e-22,

@@ -25,6 +25,9 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from ..derivation.cartesian import link_lengths, state_to_cartesian
+from ..runtime.simulate import normalise_params, simulate
+from .peers import derivation_rhs
 
 RTOL = 1.1e-18          # >= 10 eps of long double (1.08e-18)
 CHECK_FACTOR = 10.0
@@ -48,12 +51,10 @@ def comparison_vector(model: str, y, chart: str | None, params) -> np.ndarray:
     """What two runs of `model` are compared by: the state, or Cartesian (x1, x2, v1, v2)."""
     if model != "spherical":
         return np.asarray(y)
-    from ..derivation.cartesian import link_lengths, state_to_cartesian
     return state_to_cartesian(chart, np.asarray(y, float), link_lengths(chart, params))
 
 
 def _run(problem, rtol: float):
-    from ..runtime.simulate import simulate
     r = simulate(problem.model, problem.y0_input(), [0.0, problem.t_end], problem.params,
                  method="dop853", rtol=rtol, atol=rtol * 1e-3, dtype="longdouble")
     r.raise_for_status()
@@ -84,8 +85,6 @@ def mpmath_check(problem, t: float, dps: int = MPMATH_DPS) -> float:
     import mpmath
     import sympy as sp
 
-    from ..runtime.simulate import normalise_params, simulate
-    from .peers import derivation_rhs
     f = sp.lambdify(*derivation_rhs(problem.model), "mpmath", cse=True)
     p64 = normalise_params(problem.model, problem.params).astype(np.float64)
     with mpmath.workdps(dps):

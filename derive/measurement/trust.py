@@ -21,6 +21,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from ..runtime.loader import load, numpy_module
+from ..runtime.simulate import SimulationError, normalise_params, normalise_y0, simulate
+from ..derivation.cartesian import cartesian_to_state, link_lengths
+from ..model.atlas import load_atlas
+from ..runtime.extended import UNIT_ROUNDOFF
+from ..codegen.contract import FIXED_ORDER
 
 JACOBIAN_STEPS_PER_UNIT_TIME = 400
 # The exponent is a property of the motion: measured over at most this much of a long run
@@ -48,8 +54,6 @@ def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs
                      backend: str = "c") -> Lyapunov:
     """lambda from the variational equations along y(t), t in [0, min(t_end, MAX_WINDOW)]
     (a model with run-time inputs: held at `inputs`); backend "numpy" needs no C compiler."""
-    from ..runtime.loader import load, numpy_module
-    from ..runtime.simulate import normalise_params, simulate
     t_end = min(float(t_end), MAX_WINDOW)
     n = max(200, int(JACOBIAN_STEPS_PER_UNIT_TIME * t_end))
     grid = np.linspace(0.0, t_end, 2 * n + 1)
@@ -87,9 +91,6 @@ def atlas_lyapunov(y0, params, t_end: float, seed: int = 0, atlas: str = "spheri
     """lambda of a run of a chart atlas (a spherical chain), in whichever single chart
     covers the whole trajectory (the exponent does not depend on the chart);
     None when every chart meets its singularity on the way."""
-    from ..derivation.cartesian import cartesian_to_state, link_lengths
-    from ..runtime.simulate import SimulationError, normalise_params, normalise_y0
-    from ..model.atlas import load_atlas
     p = normalise_params(atlas, params)
     c = normalise_y0(atlas, y0, p)[2]
     charts = load_atlas(atlas).charts
@@ -105,7 +106,6 @@ def atlas_lyapunov(y0, params, t_end: float, seed: int = 0, atlas: str = "spheri
 
 def unit_roundoff(dtype) -> float:
     """eps of a precision of the ladder: a NumPy dtype, or 'double-double' or 'quad'."""
-    from ..runtime.extended import UNIT_ROUNDOFF
     if isinstance(dtype, str) and dtype in UNIT_ROUNDOFF:
         return UNIT_ROUNDOFF[dtype]
     return float(np.finfo(np.dtype(dtype)).eps)
@@ -152,7 +152,6 @@ def trust_horizon_of(result, target: float = 1e-8) -> float | None:
     """The time until which a run resolves the true motion to `target`: its early
     error e0 (the tolerance, or h^order for a fixed step, at least the unit roundoff,
     times the state's size) grows like e0 exp(lambda t)."""
-    from ..codegen.contract import FIXED_ORDER
     exponent = lyapunov_exponent(result)
     if exponent is None:
         return None

@@ -3,6 +3,9 @@ SymPy text), the verdict, an erratum's discrepancy and corrected form; the physi
 from __future__ import annotations
 
 from . import typeset as ts
+from ..verification import claims, judge
+from ..verification.errata import errata_by_key
+from .latex import symbol_names
 
 
 def _form(obj, names) -> dict:
@@ -10,9 +13,6 @@ def _form(obj, names) -> dict:
 
 
 def formula_rows(results) -> list[dict]:
-    from ..verification import claims, judge
-    from ..verification.errata import errata_by_key
-    from .latex import symbol_names
     table, errata = judge.claims_by_key(), errata_by_key()
     rows = []
     for r in results:

@@ -18,6 +18,9 @@ from ..errors import PackageDataError
 from .. import paths
 
 from . import typeset as ts
+from ..verification import claims, judge
+from ..verification.errata import errata_by_key
+from ..codegen.sources import provenance
 
 PAPERS = {"a4": "a4paper", "letter": "letterpaper"}
 CLAIM_WIDTH = 54      # display width beside the "printed:" / "derived:" labels
@@ -119,8 +122,6 @@ def _equation_label(eq: str) -> str:
 def result_rows(results) -> list[dict]:
     """Each verdict with the printed and derived formulas (and an erratum's discrepancy
     and corrected form) typeset from the claim objects."""
-    from ..verification import claims, judge
-    from ..verification.errata import errata_by_key
     table, errata = judge.claims_by_key(), errata_by_key()
     rows = []
     for r in results:
@@ -272,5 +273,4 @@ def render(d: Derivation, results, checks=(), paper: str = "a4") -> str:
 def _stamped(name: str, text: str) -> str:
     """The document's first line names the derive version and the model's content hash, as
     every generated file does (codegen/sources.provenance)."""
-    from ..codegen.sources import provenance
     return provenance(name, {"tex": text})["tex"]

@@ -10,6 +10,8 @@ from __future__ import annotations
 import re
 
 import sympy as sp
+from ..verification.claims import (AtanForm, ChartRule, IllFormed, QuadrantError, ShapeMismatch,
+                                   Solve)
 
 WIDTH = 66          # printed characters per display line, roughly (portrait A4, 10pt)
 CAP = 5000          # LaTeX characters of one formula in a document before it is abridged
@@ -221,8 +223,6 @@ def matrix_lines(m: sp.Matrix, names, budget: float = WIDTH, label: str = "") ->
 def object_lines(obj, names, budget: float = WIDTH) -> list[str]:
     """Display lines of anything a claim's printed or derived side, or an erratum's
     discrepancy or correction, may be."""
-    from ..verification.claims import (AtanForm, ChartRule, IllFormed, QuadrantError,
-                                       ShapeMismatch, Solve)
     if isinstance(obj, Solve):
         return ([r"x \text{ solving } P x = r, \text{ where}"]
                 + _labelled("P", matrix_lines(obj.P, names, budget - 6))
@@ -286,7 +286,6 @@ def abridge(lines: list[str], cap: int = CAP) -> list[str]:
 
 def sympy_text(obj) -> str:
     """A SymPy-readable text of a claim object (for JSON)."""
-    from ..verification.claims import AtanForm, ChartRule, QuadrantError, Solve
     if isinstance(obj, Solve):
         return f"Solve(P={sp.sstr(obj.P)}, r={sp.sstr(obj.r)})"
     if isinstance(obj, AtanForm):

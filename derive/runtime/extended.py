@@ -36,6 +36,8 @@ from .build import address, info_struct, integrator_library
 from ..codegen.integrators import model_info
 from ..codegen.taylor import taylor_problem
 from .taylor_library import taylor_order
+from ..codegen.contract import STATUS_NAMES, COUNTERS
+from .result import LOCAL_SUM, SimulationResult
 
 # Unit roundoff of each rung (double-double: 2^-104 as the QD library states it, its
 # sums being exact to about 2^-106 but not every operation; binary128: 2^-113).
@@ -279,8 +281,6 @@ def simulate_extended(model: str, precision: str, y0, t, params, rtol, hmax, max
                       inputs):
     """simulate(..., dtype='double-double' | 'quad'): the Taylor integrator on one
     trajectory; the checks of simulate have run on the same arguments before."""
-    from ..codegen.contract import STATUS_NAMES, COUNTERS
-    from .result import LOCAL_SUM, SimulationResult
     info = model_info(model)
     tol = DEFAULT_RTOL[precision] if rtol is None else rtol
     floor = 10 * UNIT_ROUNDOFF[precision]

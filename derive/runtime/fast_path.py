@@ -25,6 +25,8 @@ from ..codegen.contract import (ADAPTIVE, COUNTERS, LOCAL_ERROR_METHODS, METHODS
 from .observables import _observables, _velocities
 from .result import LAZY, LOCAL_SUM, result_factory
 from .taylor_library import taylor_library, taylor_order
+from ..codegen.integrators import model_info
+from ..model import load_model
 
 LIST_MAX = 64          # arrays up to this size are checked as Python lists (faster than NumPy's)
 LONG_MAX = 10 ** 6     # longer output times: the general path (it checks their memory first)
@@ -111,8 +113,6 @@ class RunPlan:
 
     def __init__(self, model: str, method: str, dt: np.dtype, max_bytes: int, max_steps: float):
         """model: a resolved model name; max_bytes, max_steps: _check_size's limits."""
-        from ..codegen.integrators import model_info              # (codegen imports the derivation)
-        from ..model import load_model
         info = model_info(model)
         description = load_model(model)
         if description.inputs or info.n_inputs:

@@ -40,6 +40,8 @@ from ..paths import cache_dir
 from ..errors import BuildError, CompilerMissingError, SimulationInputError
 from ..model.description import forget_on_model_change
 from ..codegen.names import VECTOR_MATH
+from ..model.atlas import atlases, find_atlas
+from ..codegen.sources import numpy_source
 
 DEFAULT_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
 PORTABLE_FLAGS = DEFAULT_FLAGS
@@ -348,8 +350,6 @@ def numpy_module(name: str):
     """The generated NumPy module `name` (a model, '<model>_integrate', '<model>_throughput'
     or an atlas's prefix such as 'spherical_atlas'), imported from the cache's rendering of
     its model."""
-    from ..model.atlas import atlases, find_atlas
-    from ..codegen.sources import numpy_source
     atlas = find_atlas(name) or next((a for a in atlases().values() if a.prefix == name), None)
     model = atlas.name if atlas is not None else name.removesuffix("_integrate").removesuffix("_throughput")
     path = numpy_source(model, f"{name}.py")

@@ -25,6 +25,8 @@ import numpy as np
 from ..errors import CompilerMissingError, SimulationInputError
 from ..model.atlas import ATLAS
 from ..codegen.integrators import model_info
+from .simulate import HeldInputs, normalise_inputs, normalise_params, resolve_model
+from .loader import numpy_module
 
 
 class ScipyRHS(NamedTuple):
@@ -33,7 +35,6 @@ class ScipyRHS(NamedTuple):
 
 
 def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
-    from .simulate import HeldInputs, normalise_inputs, normalise_params, resolve_model
     model = resolve_model(model)
     if model == ATLAS:
         raise SimulationInputError(f"scipy_rhs: the chart atlas '{ATLAS}' switches charts, which solve_ivp "
@@ -72,7 +73,6 @@ def _kernels(model: str, backend: str):
             return m.rhs, m.jacobian
         except CompilerMissingError:
             pass                             # the NumPy kernels: the same generated expressions
-    from .loader import numpy_module
     m = numpy_module(model)
 
     def quiet(kernel):

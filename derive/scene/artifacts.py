@@ -17,6 +17,8 @@ from ..derivation import derive
 from ..derivation.derivation import is_cached
 from ..model.atlas import find_atlas
 from ..paths import cache_dir
+from ..runtime import build
+from ..runtime.loader import load
 
 
 @dataclass
@@ -48,7 +50,6 @@ def _generated(name: str) -> Step:
 
 
 def _library(name: str) -> Step:
-    from ..runtime import build
     start = time.perf_counter()
     before = set((cache_dir() / "c-build").glob("*/*.so"))
     if find_atlas(name) is not None:
@@ -56,7 +57,6 @@ def _library(name: str) -> Step:
         libraries = [atlas_library(name).path]
     else:
         libraries = [build.integrator_library(name).path]
-    from ..runtime.loader import load
     for model in sources.members(name):
         libraries.append(load(model).path)
     # Only this model's libraries count: another process may build others meanwhile.

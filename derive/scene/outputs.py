@@ -11,6 +11,7 @@ from ..model import load_model
 from ..model.atlas import find_atlas
 from ..paths import replace_file
 from .scene import SceneError
+from .run import conservative
 
 
 def _state_names(o) -> list[str]:
@@ -184,7 +185,6 @@ def energy_figure(plt, o):
     ax.set_ylim(floor, max(top * 10, floor * 100))     # a constant energy: a decade above the floor
     ax.set_xlabel("t")
     ax.set_ylabel("|E - E0| / |E0|")
-    from .run import conservative
     what = "energy error" if conservative(o) else "energy change (work of forces and damping)"
     ax.set_title(f"{_plain(o.scene.title)}: {what} ({o.choice.method}, {o.choice.dtype})", fontsize=9)
     return fig

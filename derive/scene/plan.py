@@ -21,6 +21,8 @@ import sympy as sp
 from ..model import load_model
 from ..model.atlas import find_atlas, standard_member
 from .scene import ATLAS, SPHERICAL_CHART_MODELS, Scene
+from ..runtime.simulate import normalise_params, normalise_y0
+from ..verification.physics import compound_point_mass_equivalence
 
 RELATIVE_TOLERANCE = 1e-12   # "exactly": equal to rounding of the given numbers
 
@@ -37,7 +39,6 @@ class Plan:
 def cartesian_state(scene: Scene) -> np.ndarray:
     """The Cartesian state (every bob's position, then velocity) of a spherical scene's
     initial state, validated by the integration layer (link lengths, tangent velocities)."""
-    from ..runtime.simulate import normalise_params, normalise_y0
     p = normalise_params(scene.model, scene.parameters)
     if "cartesian" in scene.initial:
         y0 = {"cartesian": scene.initial["cartesian"]}
@@ -75,7 +76,6 @@ def planar_state(c: np.ndarray, u: np.ndarray) -> list[float]:
 
 @cache
 def _compound_equivalence():
-    from ..verification.physics import compound_point_mass_equivalence
     check, solution = compound_point_mass_equivalence()
     if not check.passed:
         raise RuntimeError("the compound/point-mass equivalence no longer derives: " + check.detail)

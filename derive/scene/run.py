@@ -23,13 +23,16 @@ import numpy as np
 from ..codegen.contract import ADAPTIVE
 from ..runtime.result import as_fields
 from ..runtime.simulate import SimulationError, SimulationResult, simulate
-from ..measurement.trust import (Lyapunov, atlas_lyapunov, initial_error, largest_lyapunov,
-                                 trust_horizon)
+from ..measurement.trust import (Lyapunov, REFERENCE_RTOL, atlas_lyapunov, initial_error,
+                                 largest_lyapunov, trust_horizon, unit_roundoff)
 from ..model.atlas import find_atlas, standard_member
 from .artifacts import Step, prepare
 from .plan import Plan, plan, planar_positions_in_3d
 from .progress import Progress, Stage
 from .scene import Scene, SceneError
+from ..codegen.integrators import model_info
+from ..runtime.events import locate, parse_events
+from ..model import load_model
 
 SAFETY = 10.0
 DOUBLE_RTOL_MIN = 1e-14
@@ -161,10 +164,8 @@ def check_effort(scene: Scene, lyap: Lyapunov | None, c: Choice) -> None:
         return
     if lyap is None or not lyap.steps_per_time or c.method not in ORDER or c.rtol is None:
         return
-    from ..measurement.trust import unit_roundoff
     if c.rtol < 10 * unit_roundoff(c.dtype):
         return                      # simulate refuses it, naming the tolerance
-    from ..measurement.trust import REFERENCE_RTOL
 
     def rate(rtol: float) -> float:
         return lyap.steps_per_time * max(1.0, (REFERENCE_RTOL / rtol) ** (1 / ORDER[c.method]))
@@ -224,8 +225,6 @@ def _events(p: Plan, scene: Scene, c: Choice, result: SimulationResult) -> Simul
     a terminal event then truncates the outputs)."""
     if not scene.events or result.sol is None:
         return result
-    from ..codegen.integrators import model_info
-    from ..runtime.events import locate, parse_events
     return locate(result, parse_events(model_info(p.model), scene.events), c.rtol)
 
 
@@ -336,7 +335,6 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
 
 def conservative(o: Outcome) -> bool:
     """Whether the scene's pendulum conserves energy (no applied forces, no damping)."""
-    from ..model import load_model
     return load_model(standard_member(o.scene.model)).is_conservative
 
 

@@ -7,13 +7,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import SceneError
-from ..model.description import NAME
+from ..model.description import NAME, parameter_problem
 from ..paths import scenes_dir
 from ..model import ModelError, is_model_file, load_model
-from ..model.description import parameter_problem
 from ..codegen.contract import ATLAS_CHARTS, FIXED, RUN_METHODS, TAYLOR     # the run contract
 
 from ..model.atlas import ATLAS, atlas_for, find_atlas, standard_member  # noqa: E402  (chart atlases)
+from ..runtime.events import parse_events
 SPHERICAL_CHART_MODELS = ATLAS_CHARTS
 FIXED_STEP = FIXED
 SCALARS = ("float", "double", "long double", "double-double", "quad")     # the precision ladder
@@ -300,7 +300,6 @@ def _parse_events(t: dict, model: str, accuracy: dict) -> dict | None:
         raise SceneError(f"[events] need the dense output of an adaptive method, not "
                          f"'accuracy.method' = {accuracy['method']!r}")
     from types import SimpleNamespace
-    from ..runtime.events import parse_events
     d = load_model(model)
     names = SimpleNamespace(state_names=d.state_names, param_names=d.parameters, input_names=d.inputs)
     parse_events(names, events, "events", SceneError)

@@ -15,6 +15,7 @@ for 2-D sweeps (images.py).
 from __future__ import annotations
 
 from ..errors import ToolMissingError
+from .run import run
 
 EXTRA = ("dask", "distributed", "zarr", "xarray")
 MISSING_EXTRA = "derive sweep needs the sweep extra: pip install 'derive[sweep]'"
@@ -42,7 +43,6 @@ def sweep(source, out=None, scheduler: str | None = None, workers: int | None = 
 def run_sweep(source, out=None, scheduler=None, workers=None, progress=False, on_chunk=None):
     """As sweep(), returning the run's Report (store, images, chunks computed and skipped, time)."""
     require_extra()
-    from .run import run
     return run(source, out, scheduler, workers, progress, on_chunk)
 
 

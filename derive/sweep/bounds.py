@@ -19,6 +19,8 @@ import numpy as np
 
 from ..model import load_model
 from .spec import Sweep
+from ..codegen.integrators import model_info
+from ..runtime.loader import load
 
 GRID_POINTS = 2 ** 16           # grid points over the other coordinates, at most
 MAX_PARAMETER_SETS = 64         # distinct parameter rows in one chunk that get a bound
@@ -28,13 +30,11 @@ ENERGY_SLACK = 1e-6             # relative: the integrator's own energy error, w
 @lru_cache(maxsize=None)
 def n_params(model: str) -> int:
     """The model's parameters (p holds its inputs after them)."""
-    from ..codegen.integrators import model_info
     return model_info(model).n_params
 
 
 def energy(model: str, y, p):
     """E(y; p) from the compiled energy kernel (leading axes broadcast)."""
-    from ..runtime.loader import load
     return load(model).energy(y, p)
 
 

@@ -26,6 +26,8 @@ from .bounds import energy as _energy, n_params as _n_params, unreachable
 from .spec import Sweep
 from .runners import status_of, model_name, runner, scene_runner
 from .verify import rungs, verify_events
+from ..runtime.loader import load
+from ..measurement.trust import JACOBIAN_STEPS_PER_UNIT_TIME
 
 SLABS = 10                      # pieces of the time span
 LYAPUNOV_BATCH = 64             # trajectories per Lyapunov batch (its fine grid is memory)
@@ -152,8 +154,6 @@ def lyapunov(model: str, y0: np.ndarray, p: np.ndarray, t_end: float, n_params: 
     """The largest Lyapunov exponent of each trajectory: the algorithm of
     derive.measurement.trust.largest_lyapunov (the same run, grid, Jacobian, Taylor
     step and start vector), batched over trajectories."""
-    from ..runtime.loader import load
-    from ..measurement.trust import JACOBIAN_STEPS_PER_UNIT_TIME
     lib = integrator_library(model)
     opt = lib.defaults()
     opt.rtol, opt.atol = 1e-11, 1e-13

@@ -27,6 +27,7 @@ from .layout import Layout, chunk_inputs
 from .mirror import mirror_axes, mirrored, plan as mirror_plan
 from .spec import Sweep, load_sweep
 from .store import Writer, load, open_store
+from .images import write_images
 
 SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
 
@@ -147,7 +148,6 @@ def run(source, out=None, scheduler: str | None = None, workers: int | None = No
         if cluster is not None:
             cluster.close()
     ds = load(path)
-    from .images import write_images
     images = write_images(ds, folder, stem, sweep.scene.title) if len(sweep.dims) == 2 else []
     return Report(path, images, layout.count, computed, len(done), sweep.size, seconds, n_workers, where,
                   traj, cpu, mirror_chunks, points, ds)

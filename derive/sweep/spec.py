@@ -39,10 +39,12 @@ import numpy as np
 
 from ..errors import ModelError, SceneError
 from ..codegen.contract import TAYLOR, TOLERANCE_METHODS
-from ..model import load_model
+from ..model import load_model, model_names
 from ..model.atlas import ATLAS
 from ..model.expressions import parse_expression
 from ..scene.scene import SCENE_KEYS, Scene, scene_from_table, scene_path
+from ..codegen.taylor import taylor_problem
+from ..model.description import parameter_problem
 
 SWEEP_KEYS = ("axes", "events", "record", "sweep")
 GRID_KINDS = ("linspace", "logspace", "list")
@@ -342,7 +344,6 @@ def _taylor_accuracy(table: dict, source: str) -> bool:
 
 
 def _use_taylor(scene: Scene, source: str) -> None:
-    from ..codegen.taylor import taylor_problem
     problem = taylor_problem(scene.model)
     if problem is not None:
         raise SceneError(f"{source}: 'accuracy.method': model '{scene.model}' has no Taylor integrator ({problem})")
@@ -397,7 +398,6 @@ def parse_sweep(text: str, source: str = "<sweep>") -> Sweep:
     if sweep.size > MAX_TRAJECTORIES:
         raise SceneError(f"{source}: {sweep.size:,} trajectories are more than one sweep takes "
                          f"({MAX_TRAJECTORIES:,}); split it")
-    from ..model import model_names
     if scene.model not in model_names():        # a model file: the workers get its text
         sweep.model_text = description.text
     _check_parameters(sweep, description, source)
@@ -407,7 +407,6 @@ def parse_sweep(text: str, source: str = "<sweep>") -> Sweep:
 def _check_parameters(sweep: Sweep, description, source: str) -> None:
     """Every parameter combination the axes make passes the model's role checks
     (lengths and masses positive, fractions in [0, 1]), before any work."""
-    from ..model.description import parameter_problem
     grid = [a for a in sweep.axes if a.target == "parameter" and not a.random]
     random = [a for a in sweep.axes if a.target == "parameter" and a.random]
     if not grid and not random:

@@ -15,7 +15,8 @@ import sympy as sp
 from .. import cachefile
 from ..derivation.derivation import cache_key
 from ..paths import cache_dir, package_root
-from ..model import load_model, model_names
+from ..model import Model, load_model, model_names
+from . import claims, judge, physics   # claims and physics register the dataclasses entries hold
 
 
 def verification_key() -> str:
@@ -38,7 +39,6 @@ def _code_key() -> str:
 
 def _read(path):
     """A cached value (checked, parsed as data), or None when there is none usable."""
-    from . import claims, physics  # noqa: F401  (register their dataclasses, which entries hold)
     value = cachefile.load(path) if path.is_file() else cachefile.MISSING
     return None if value is cachefile.MISSING else value
 
@@ -47,7 +47,6 @@ def physics_model(model):
     """The physics checks concerning one model (a catalogue name or a Model, e.g. a user's
     model file), cached per model: the model's own checks and, for a catalogue model,
     those relating it to the others (whose derivations are then part of the key)."""
-    from ..model import Model
     m = model if isinstance(model, Model) else load_model(model)
     catalogue = m.name in model_names() and load_model(m.name).content_hash == m.content_hash
     extra = verification_key() if catalogue else ""
@@ -56,7 +55,6 @@ def physics_model(model):
     checks = _read(path)
     if isinstance(checks, list):
         return checks
-    from . import physics
     checks = physics.model_checks(m.name if catalogue else m)
     cachefile.store(path, checks)
     return checks
@@ -73,7 +71,6 @@ def verify_model(name: str):
     results = _read(path)
     if isinstance(results, list):
         return results
-    from . import judge
     results = [judge.judge(c) for c in judge.all_claims() if c.model == name]
     cachefile.store(path, results)
     return results
@@ -86,7 +83,6 @@ def verify_all(fresh: bool = False):
     if isinstance(cached, tuple):
         results, checks = cached
         return results, checks, True
-    from . import judge, physics
     results, checks = judge.run_all(), physics.run_all()
     cachefile.store(path, (results, checks))
     return results, checks, False

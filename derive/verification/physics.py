@@ -17,6 +17,9 @@ from ..derivation import derive
 from ..derivation.charts import chart_change
 from ..model import load_model, model_names
 from .zero import DIGITS, matrix_is_zero, random_point, trig_is_zero
+from ..derivation.symbols import parse_quantity
+from ..errors import ModelError
+from ..model.atlas import atlas_for
 
 SPHERICAL_PAIRS = [("spherical_std", "spherical_alt"), ("spherical_alt", "spherical_std"),
                    ("spherical_std", "spherical_rot"), ("spherical_rot", "spherical_alt")]
@@ -268,7 +271,6 @@ def cartesian_constraint_forces(name, n_points: int = 20) -> Check | None:
     vel = [t.jacobian(q) * qd for t in tips]
     pos_of, vel_of = _numeric(sp.Matrix.hstack(*tips), args), _numeric(sp.Matrix.hstack(*vel), args)
     acc_of = _cartesian_acceleration(d)
-    from ..derivation.symbols import parse_quantity
     masses = _numeric(sp.Matrix([parse_quantity(link.body.mass, s) for link in d.model.links]), args)
     g_of = _numeric(s.param("g"), args)
     nb = len(tips)
@@ -375,8 +377,6 @@ def chain_chart_checks(d) -> list[Check]:
     second and the rotated chart (its atlas, derive/model/atlas.py) gives the same Cartesian
     accelerations of every bob, and the chart change there and back is the identity --
     the checks SPHERICAL_PAIRS makes for the catalogue's double pendulum."""
-    from ..errors import ModelError
-    from ..model.atlas import atlas_for
     try:
         charts = atlas_for(d.name).charts
     except ModelError:                 # not a spherical chain in the standard chart

@@ -21,6 +21,10 @@ from ...emit import lanes_context, render, trig_lanes
 from ...names import VECTOR_MATH
 from ...printers import CPrinter
 from ..base import Backend, Variant, common_context, join_terms, own, slot_doc, unflatten, wrap
+from ...integrators import render_atlas, render_c
+from ...taylor import render_taylor, taylor_problem
+from ...taylor_lanes import render_taylor_lanes
+from ...loops import render_loops
 
 # C99 keywords (6.4.1) and the identifiers <math.h> declares that a generated file uses
 C_KEYWORDS = frozenset("""auto break case char const continue default do double else enum extern
@@ -92,9 +96,6 @@ class CBackend(Backend):
         return ctx
 
     def integrator_files(self, name):
-        from ...integrators import render_c
-        from ...taylor import render_taylor, taylor_problem
-        from ...taylor_lanes import render_taylor_lanes
         files = render_c(name)
         if taylor_problem(name) is None:      # a model with an operation no recurrence covers: none
             files.update(render_taylor(name))
@@ -102,11 +103,9 @@ class CBackend(Backend):
         return files
 
     def loop_files(self, name):
-        from ...loops import render_loops
         return own(render_loops(name), self.name)
 
     def atlas_files(self, name):
-        from ...integrators import render_atlas
         return own(render_atlas(name), self.name)
 
 

@@ -15,6 +15,8 @@ from ...emit import half_angle_sincos, live_assignments, render
 from ...names import KERNEL_NAMES, PYTHON_RESERVED, numpy_slots
 from ...printers import PyNumPyPrinter
 from ..base import Backend, common_context, own, slot_doc, unflatten, wrap
+from ...integrators import render_atlas, render_numpy
+from ...loops import render_loops
 
 
 class NumPyBackend(Backend):
@@ -83,15 +85,12 @@ class NumPyBackend(Backend):
         return {f"numpy/{spec.name}.py": render("numpy/module.py.jinja", ctx)}
 
     def integrator_files(self, name):
-        from ...integrators import render_numpy
         return render_numpy(name)
 
     def loop_files(self, name):
-        from ...loops import render_loops
         return own(render_loops(name), self.name)
 
     def atlas_files(self, name):
-        from ...integrators import render_atlas
         return own(render_atlas(name), self.name)
 
 
