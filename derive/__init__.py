@@ -6,6 +6,8 @@ target)`` says until when a run resolves the true motion to target; ``derive.swe
 runs a sweep file on Dask and returns an xarray Dataset (the `sweep` extra).  Every failure derive
 expects is a ``derive.DeriveError`` (see derive/errors.py).
 """
+import importlib
+
 from .paths import VERSION as __version__
 from .errors import (BuildError, CompilerMissingError, DeriveError, InputError,  # noqa: E402
                      ModelError, SceneError, SimulationError, SimulationInputError,
@@ -16,24 +18,20 @@ __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "M
            "__version__", "ensemble", "scipy_rhs", "simulate", "sweep", "trust_horizon"]
 
 
+# The public functions, imported on first use (``import derive`` stays light): the name,
+# the module that defines it, and its name there.  ``derive.sweep`` is the sweep stage itself.
+_LAZY = {"simulate": ("runtime.simulate", "simulate"), "ensemble": ("runtime.ensemble", "ensemble"),
+         "scipy_rhs": ("runtime.scipy_rhs", "scipy_rhs"),
+         "trust_horizon": ("measurement.trust", "trust_horizon_of"), "sweep": ("sweep", None)}
+
+
 def __getattr__(name):
-    if name == "simulate":
-        from .runtime.simulate import simulate
-        globals()["simulate"] = simulate        # resolved once: later calls find it directly
-        return simulate
-    if name == "ensemble":
-        from .runtime.ensemble import ensemble
-        globals()["ensemble"] = ensemble
-        return ensemble
-    if name == "scipy_rhs":
-        from .runtime.scipy_rhs import scipy_rhs
-        globals()["scipy_rhs"] = scipy_rhs
-        return scipy_rhs
-    if name == "trust_horizon":           # derive.trust_horizon(result, target): the measurement stage
-        from .measurement.trust import trust_horizon_of
-        globals()["trust_horizon"] = trust_horizon_of
-        return trust_horizon_of
-    if name == "sweep":                   # the sweep stage, callable: derive.sweep(SWEEP.toml, ...)
-        import importlib
-        return importlib.import_module(".sweep", __name__)
-    raise AttributeError(f"module 'derive' has no attribute {name!r}")
+    if name not in _LAZY:
+        raise AttributeError(f"module 'derive' has no attribute {name!r}")
+    module, attr = _LAZY[name]
+    value = importlib.import_module(f".{module}", __name__)
+    if attr is None:
+        return value
+    value = getattr(value, attr)
+    globals()[name] = value            # resolved once: later calls find it directly
+    return value

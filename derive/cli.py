@@ -56,7 +56,7 @@ def _model_args(args: list[str], allow_atlas: bool = False) -> list[str]:
 
 
 def _derive_all(models: list[str], stage: Stage | None = None) -> tuple[float, list[tuple[str, float, bool]]]:
-    from .derivation import derive
+    from .derivation import derive    # start-up: a command imports its stage when it runs
     from .derivation.derivation import is_cached
     rows, start = [], time.perf_counter()
     for i, name in enumerate(models, 1):
@@ -70,7 +70,7 @@ def _derive_all(models: list[str], stage: Stage | None = None) -> tuple[float, l
 
 
 def cmd_derive(args) -> int:
-    from .codegen.sources import members
+    from .codegen.sources import members    # start-up: a command imports its stage when it runs
     models, bad = _model_args(args.models, allow_atlas=True)
     models = [m for name in models for m in members(name)] or model_names()    # the atlas: its charts
     with Stage("deriving") as stage:
@@ -92,7 +92,7 @@ def _tally(results, checks) -> tuple[str, bool]:
 
 
 def _verify(fresh: bool = False):
-    from .verification.cached import verify_all
+    from .verification.cached import verify_all    # start-up: a command imports its stage when it runs
     with Stage("verifying") as stage:
         stage.set("deriving")
         derive_seconds, rows = _derive_all(model_names(), stage)
@@ -103,7 +103,7 @@ def _verify(fresh: bool = False):
 
 def _verify_models(names: list[str]):
     """The seed verdicts and physics checks of the given models only (cached per model)."""
-    from .verification.cached import physics_model, verify_model
+    from .verification.cached import physics_model, verify_model  # start-up: a command imports its stage when it runs
     results, checks = [], []
     with Stage("verifying") as stage:
         derive_seconds, rows = _derive_all(names, stage)
@@ -124,7 +124,7 @@ def cmd_verify(args) -> int:
     seconds = time.perf_counter() - start
     tally, good = _tally(results, checks)
     if args.json:
-        from .report.forms import verification_json
+        from .report.forms import verification_json    # start-up: a command imports its stage when it runs
         print(json.dumps(verification_json(results, checks), indent=1))
         return 2 if bad else 0 if good else 1
     if results:                 # a model without seed formulas has only its physics checks
@@ -154,7 +154,7 @@ def _golden_root() -> Path:
 
 
 def cmd_generate(args) -> int:
-    from .codegen import generate
+    from .codegen import generate    # start-up: a command imports its stage when it runs
     names, bad = _model_args(args.models, allow_atlas=True)
     if args.out:
         out, shown = Path(args.out), args.out.rstrip("/") or "/"
@@ -196,7 +196,7 @@ def cmd_generate(args) -> int:
 
 
 def _writable_folder(path: Path) -> Path:
-    from .scene.outputs import writable_dir
+    from .scene.outputs import writable_dir    # start-up: a command imports its stage when it runs
     try:
         return writable_dir(path)
     except OSError as exc:
@@ -250,7 +250,7 @@ def pdflatex(tex: Path) -> Path:
 
 
 def cmd_latex(args) -> int:
-    from .codegen.sources import ATLAS
+    from .codegen.sources import ATLAS    # start-up: a command imports its stage when it runs
     name = _model_arg(args.model, allow_atlas=True)
     out = _writable_file(Path(args.output or f"{name}.tex"))
     from .derivation import derive
@@ -295,7 +295,7 @@ def cmd_latex(args) -> int:
 def _json_safe(value):
     """JSON has no infinity or NaN: an infinite trust horizon is "beyond the run", any
     other non-finite number null."""
-    import math
+    import math    # start-up: a command imports its stage when it runs
     if isinstance(value, dict):
         return {k: ("beyond the run" if k == "trust_horizon" and isinstance(v, float) and math.isinf(v)
                     else _json_safe(v)) for k, v in value.items()}
@@ -344,7 +344,7 @@ def _print_run(summary: dict) -> None:
 
 
 def cmd_run(args) -> int:
-    from .scene import load_scene
+    from .scene import load_scene    # start-up: a command imports its stage when it runs
     from .scene.outputs import write_outputs
     from .scene.run import EXIT_TARGET_MISSED, missed_reason, run, summary, target_met
     scene = load_scene(args.scene)
@@ -380,7 +380,7 @@ def cmd_run(args) -> int:
 def _generate_step() -> tuple[str, bool]:
     """In a checkout: is generated/ what derive produces now?  Installed: render every
     catalogue model's code into the cache (there are no golden files to compare)."""
-    from .codegen import generate, sources
+    from .codegen import generate, sources    # start-up: a command imports its stage when it runs
     root = checkout_root()
     with Stage("generate") as stage:
         if root is not None:
@@ -397,7 +397,7 @@ def _generate_step() -> tuple[str, bool]:
 
 def cmd_all(args) -> int:
     """The main job: derive, verify, generate (check), compile, run the default scene."""
-    from .codegen.sources import ATLAS
+    from .codegen.sources import ATLAS    # start-up: a command imports its stage when it runs
     from .scene import load_scene
     from .scene.artifacts import prepare
     from .scene.run import run, summary
@@ -435,7 +435,7 @@ def cmd_all(args) -> int:
 # -- derive bench (the work-precision benchmark: derive/measurement/bench.py) ----------
 
 def cmd_bench(args) -> int:
-    from .measurement.bench import BenchOptions, console_report, run_bench, write_all
+    from .measurement.bench import BenchOptions, console_report, run_bench, write_all  # start-up: a command imports its stage when it runs
     from .progress import Progress
     if args.race:
         return _race(args)
@@ -471,7 +471,7 @@ def cmd_bench(args) -> int:
 
 def _race(args) -> int:
     """derive bench --race: derive against heyoka through both public APIs (measurement/race.py)."""
-    from .measurement.race import console, run_race, write_race
+    from .measurement.race import console, run_race, write_race  # start-up: a command imports its stage when it runs
     from .progress import Progress
     out = _writable_folder(Path(args.out))
     bar = None if args.quiet else Progress("race", 1)
@@ -497,10 +497,10 @@ def _race(args) -> int:
 # -- derive sweep (derive/sweep: sweeps and maps on Dask, the `sweep` extra) ---------------
 
 def cmd_sweep(args) -> int:
-    from .sweep import require_extra
+    from .sweep import require_extra    # start-up: a command imports its stage when it runs
     require_extra()
-    from .sweep.run import run
-    from .sweep.spec import load_sweep
+    from .sweep.driver import run
+    from .sweep.sweep_file import load_sweep
     sweep = load_sweep(args.sweep)
     if args.out is not None:
         _writable_folder(Path(args.out))
@@ -540,7 +540,7 @@ def _sweep_parser(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .measurement.bench import DEFAULT_OUT
+    from .measurement.bench import DEFAULT_OUT    # start-up: a command imports its stage when it runs
     parser = _OneLineParser(
         prog="derive", description="Derive, verify and generate code for pendulums.",
         epilog=EXIT_CODES)

@@ -12,7 +12,7 @@ GOOD = (ROOT / "scenes" / "default.toml").read_text()
 @pytest.mark.parametrize("path", sorted((ROOT / "scenes").glob("*.toml")), ids=lambda p: p.name)
 def test_shipped_scenes_load(path):
     if "[axes]" in path.read_text():          # a sweep file (derive sweep): a scene plus axes
-        from derive.sweep.spec import load_sweep
+        from derive.sweep.sweep_file import load_sweep
         scene = load_sweep(path).scene
         with pytest.raises(SceneError, match="a sweep file"):
             load_scene(path)

@@ -15,7 +15,7 @@ import derive
 from derive.cli import main
 from derive.errors import SceneError, UsageError
 from derive.sweep import MISSING_EXTRA, events, run_sweep
-from derive.sweep.spec import load_sweep, parse_sweep
+from derive.sweep.sweep_file import load_sweep, parse_sweep
 
 ROOT = Path(__file__).resolve().parent.parent
 G = 9.81

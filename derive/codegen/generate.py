@@ -8,6 +8,8 @@ from ..model import model_names
 from .backends import managed_suffixes
 from .sources import ATLAS, PREAMBLE, PROVENANCE, SHARED, render, render_fresh
 from ..paths import VERSION as __version__
+import sympy
+import tomllib
 
 
 
@@ -99,7 +101,6 @@ def write_manifest(out: Path) -> None:
     """out/MANIFEST.toml: the derive and SymPy versions that wrote this tree (the files
     themselves name only the derive version, so regeneration under one SymPy is
     byte-identical)."""
-    import sympy
     text = (f"# Written by `derive generate`: what made the files beside it.\n"
             f'derive = "{__version__}"\nsympy = "{sympy.__version__}"\n')
     path = Path(out) / MANIFEST
@@ -110,9 +111,7 @@ def write_manifest(out: Path) -> None:
 def manifest_note(out: Path) -> str | None:
     """A note when the SymPy in use is not the one that made `out` (its printers and CSE
     ordering shape the files), or None."""
-    import tomllib
 
-    import sympy
     path = Path(out) / MANIFEST
     if not path.is_file():
         return None

@@ -24,7 +24,7 @@ from sympy.core.function import AppliedUndef
 from ..errors import SpecError
 from ..model import load_model, model_names
 from ..model.atlas import atlas_family
-from . import charts, solve
+from . import chart_kernels as charts, solve
 
 
 @dataclass(frozen=True)

@@ -52,7 +52,7 @@ import numpy as np
 from . import peers as P, reference as R
 from .trust import Lyapunov, atlas_lyapunov, initial_error, largest_lyapunov, trust_horizon
 from ..codegen.contract import ADAPTIVE, METHODS, SINE_MIN
-from ..codegen.loops import evaluations, throughput_models
+from ..codegen.loops import FIXED_METHODS, evaluations, throughput_models
 from ..runtime.throughput import fixed_library, throughput_library, throughput_numpy
 from ..runtime.simulate import normalise_params, normalise_y0, numpy_module, simulate
 from ..runtime.atlas_runner import ATLAS_CHARTS, atlas_library, numpy_atlas
@@ -61,6 +61,9 @@ from ..runtime.loader import build_fastest, load
 from ..derivation.cartesian import cartesian_to_state, link_lengths, state_to_cartesian
 from ..codegen.sources import c_source
 from ..paths import bench_c_dir
+import importlib
+import ctypes
+import importlib.util
 
 DEFAULT_OUT = "derive-bench"     # `derive bench` writes here (relative to the current directory)
 TARGET = 1e-8
@@ -344,7 +347,7 @@ def peer_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
             rhs = rhs_factory()
 
             def run():
-                from scipy.integrate import solve_ivp
+                from scipy.integrate import solve_ivp    # the bench extra: a peer
                 sol = solve_ivp(rhs, (0.0, T), y0, method=method, rtol=rtol, atol=rtol * 1e-3, args=p)
                 return sol.y[:, -1], sol.nfev, bool(sol.success), sol.message
             return run
@@ -402,7 +405,6 @@ def peer_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
 
 
 def _numba_ok() -> bool:
-    import importlib
     try:
         importlib.import_module("numba")
     except ImportError:
@@ -446,7 +448,7 @@ def _standard_chart_peer(problem: Problem):
     args = tuple(float(v) for v in p)
 
     def run():
-        from scipy.integrate import solve_ivp
+        from scipy.integrate import solve_ivp    # the bench extra: a peer
         count = [0]
 
         def rhs(t, y, *a):
@@ -534,8 +536,6 @@ def local_error(problem: Problem, method: str, dtype: str, step: float, backend:
     worst = 0.0
     for start in samples or [problem.y0_input()]:
         if backend == "c-loop":
-            from ..codegen.loops import FIXED_METHODS
-            from ..runtime.throughput import fixed_library
             lib = fixed_library(problem.model)
             p = np.asarray(problem.params, np.float64)
             # a multistep method's first steps are its starter's: compare over a span of
@@ -665,7 +665,6 @@ def measure(c: Config, info: ProblemInfo, opts: BenchOptions, cache: dict, rhs_n
 def rhs_loop(model: str):
     """derive/measurement/c/rhs_cost.c compiled against the model's generated C as the integrators are
     (loader.build_fastest: libmvec's vector sin/cos where they build)."""
-    import ctypes
 
     path, _ = build_fastest(f"{model}_rhs_cost", [c_source(model, f"{model}.c"), bench_c_dir() / "rhs_cost.c"],
                             extra=(f"-DRHS={model}_rhs", "-include", f"{model}.h"))
@@ -908,7 +907,6 @@ def run_bench(opts: BenchOptions) -> BenchResult:
 
 
 def _module_ok(name: str) -> bool:
-    import importlib.util
     return importlib.util.find_spec(name) is not None
 
 
@@ -1088,9 +1086,9 @@ def write_throughput_csv(result: BenchResult, path: Path) -> Path:
 def write_plots(result: BenchResult, out: Path) -> list[Path]:
     """One log-log work-precision plot (error against time) per problem; needs matplotlib."""
     try:
-        import matplotlib
+        import matplotlib    # the plot extra, imported when a figure is drawn
         matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt    # the plot extra, imported when a figure is drawn
     except ImportError:
         result.notes.append("matplotlib not installed: no plots (pip install derive[plot])")
         return []

@@ -66,13 +66,13 @@ def lambdified_rhs(model: str = "planar", cse: bool = True):
 
 
 def solve_ivp_final(rhs, y0, t_end, params, method: str, rtol: float, atol: float):
-    from scipy.integrate import solve_ivp
+    from scipy.integrate import solve_ivp    # the bench extra: a peer
     sol = solve_ivp(rhs, (0.0, t_end), y0, method=method, rtol=rtol, atol=atol, args=tuple(params))
     return sol.y[:, -1], sol.nfev
 
 
 def odeint_final(rhs, y0, t_end, params, rtol: float, atol: float):
-    from scipy.integrate import odeint
+    from scipy.integrate import odeint    # the bench extra: a peer
     y, info = odeint(rhs, y0, [0.0, t_end], args=tuple(params), rtol=rtol, atol=atol,
                      tfirst=True, full_output=True, mxstep=10**7)
     return y[-1], int(info["nfe"][-1])
@@ -82,7 +82,7 @@ def odeint_final(rhs, y0, t_end, params, rtol: float, atol: float):
 def numba_rk4():
     """A numba-compiled RK4 loop over the hand-written rhs, or None without numba."""
     try:
-        import numba
+        import numba    # the bench extra: a peer
     except ImportError:
         return None
 
@@ -146,7 +146,7 @@ def numba_rhs():
     """The hand-written rhs jitted by numba, called by odeint like a Python function
     (the issue's LSODA peer); None without numba."""
     try:
-        import numba
+        import numba    # the bench extra: a peer
     except ImportError:
         return None
 
@@ -200,7 +200,7 @@ def numpy_rk4_batch(y0, p, h: float, n: int) -> np.ndarray:
 def numba_rk4_parallel():
     """RK4 over a batch y0 (B, 4) with numba prange (all cores); None without numba."""
     try:
-        import numba
+        import numba    # the bench extra: a peer
     except ImportError:
         return None
 

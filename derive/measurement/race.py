@@ -50,6 +50,9 @@ from ..runtime.ensemble import ensemble
 from ..runtime.simulate import simulate
 from ..codegen.contract import FIXED, IMPLICIT, TOLERANCE_METHODS
 from .peers import lambdified_rhs, solve_ivp_final
+import mpmath
+from concurrent.futures import ThreadPoolExecutor
+import platform
 
 TARGET = 1e-8
 PARAMS = (1.0, 1.0, 1.0, 1.0, 9.81)
@@ -79,7 +82,7 @@ class Row:
 
 def _heyoka():
     try:
-        import heyoka
+        import heyoka    # the bench extra: a peer
     except ImportError:
         raise ToolMissingError("derive bench --race needs heyoka: pip install 'derive[bench]' "
                                "(or pip install heyoka)") from None
@@ -211,7 +214,6 @@ LADDER_TOLS = (1e-20, 1e-22, 1e-24, 1e-26, 1e-28, 1e-30)
 
 def quad_row(hy, y0=(2.5, 2.0, 0.0, 0.0), t_end: float = 20.0) -> Row:
     """Past long double's horizon: derive's double-double and quad against heyoka's real128."""
-    import mpmath
     q = hy.real128
     row = Row("quad", f"chaotic, y0 = {tuple(y0)}, t = {t_end:g}, heyoka in real128")
     ta = hy.taylor_adaptive(heyoka_system(hy), np.array([q(v) for v in y0]), pars=np.array([q(v) for v in PARAMS]),
@@ -229,14 +231,12 @@ def quad_row(hy, y0=(2.5, 2.0, 0.0, 0.0), t_end: float = 20.0) -> Row:
 
 
 def _mp(text):
-    import mpmath
     with mpmath.workdps(45):
         return mpmath.mpf(str(text))
 
 
 def _mp_error(state, ref) -> float:
     """max |state - ref| in mpmath (beyond what long double resolves)."""
-    import mpmath
     with mpmath.workdps(45):
         values = [mpmath.mpf(str(v)) for v in state]
         if not all(mpmath.isfinite(v) for v in values):
@@ -306,7 +306,6 @@ def _heyoka_ensemble(hy, sys_, y0, t_end: float, tol: float, width: int, threads
     resetting and propagating its share of the batches (heyoka releases the GIL while it
     integrates).  Its own `ensemble_propagate_until_batch` copies the integrator per
     batch and ran several times slower here."""
-    from concurrent.futures import ThreadPoolExecutor
     B = len(y0)
     pars = np.tile(np.array(PARAMS)[:, None], width)
     integrators = [hy.taylor_adaptive_batch(sys_, np.zeros((4, width)), pars=pars, tol=tol, compact_mode=False)
@@ -368,7 +367,6 @@ class Race:
 
 def run_race(quick: bool = False, progress=None) -> Race:
     hy = _heyoka()
-    import platform
     jobs = [lambda: trajectory_row(hy, "regular", "regular, y0 = (1, 0.5, 0, 0), t = 20", (1.0, 0.5, 0.0, 0.0), 20.0,
                                    scipy=not quick),
             lambda: trajectory_row(hy, "chaotic", "chaotic, y0 = (2.5, 2, 0, 0), t = 5", (2.5, 2.0, 0.0, 0.0), 5.0,
@@ -443,9 +441,9 @@ def write_race(race: Race, out: Path, plots: bool = True) -> list[Path]:
 
 
 def _plot(race: Race, path: Path) -> Path:
-    import matplotlib
+    import matplotlib    # the plot extra, imported when a figure is drawn
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt    # the plot extra, imported when a figure is drawn
     rows = [r for r in race.rows if r.name != "one call"]
     tools = sorted({p.tool for r in rows for p in r.points})
     colours = {tool: f"C{i % 10}" for i, tool in enumerate(tools)}      # one colour per tool everywhere

@@ -28,6 +28,8 @@ import numpy as np
 from ..derivation.cartesian import link_lengths, state_to_cartesian
 from ..runtime.simulate import normalise_params, simulate
 from .peers import derivation_rhs
+import mpmath
+import sympy as sp
 
 RTOL = 1.1e-18          # >= 10 eps of long double (1.08e-18)
 CHECK_FACTOR = 10.0
@@ -82,8 +84,6 @@ def compute(problem) -> Reference:
 def mpmath_check(problem, t: float, dps: int = MPMATH_DPS) -> float:
     """Max-norm difference between the long double reference and mpmath.odefun at time t
     (planar and compound problems: the lambdified derivation at `dps` digits)."""
-    import mpmath
-    import sympy as sp
 
     f = sp.lambdify(*derivation_rhs(problem.model), "mpmath", cse=True)
     p64 = normalise_params(problem.model, problem.params).astype(np.float64)

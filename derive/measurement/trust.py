@@ -22,7 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from ..runtime.loader import load, numpy_module
-from ..runtime.simulate import SimulationError, normalise_params, normalise_y0, simulate
+from ..runtime.simulate import (SimulationError, normalise_inputs, normalise_params, normalise_y0,
+                                simulate)
 from ..derivation.cartesian import cartesian_to_state, link_lengths
 from ..model.atlas import load_atlas
 from ..runtime.extended import UNIT_ROUNDOFF
@@ -63,7 +64,6 @@ def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs
     p = normalise_params(model, params).astype(np.float64)
     args = (run.y[1::2].astype(np.float64), p)                        # at the midpoints
     if inputs is not None:
-        from ..runtime.simulate import normalise_inputs
         args += (normalise_inputs(model, inputs).astype(np.float64),)
     kernels = load(model) if backend == "c" else numpy_module(model)
     jac = np.asarray(kernels.jacobian(*args), np.float64)

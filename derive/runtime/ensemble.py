@@ -37,6 +37,8 @@ from ..codegen.contract import COUNTERS, METHODS, RUN_METHODS, STATUS_NAMES, TAY
 from .simulate import (_atlas, _check_size, _dtype, _finite_array, check_parameter_values, normalise_t,
                        resolve_model, run_options)
 from ..model import load_model
+from .taylor_library import taylor_order
+from .taylor_lanes_library import taylor_ensemble_library
 
 MIN_BLOCK = 16          # trajectories per thread below which another thread does not pay
 
@@ -153,8 +155,6 @@ def _run_blocks(model: str, method: str, y0: np.ndarray, p: np.ndarray, t: np.nd
     lib = integrator_library(model)
     o = lib.options(opt)
     if method == TAYLOR:
-        from .taylor_library import taylor_order
-        from .taylor_lanes_library import taylor_ensemble_library
         taylor = taylor_ensemble_library(model, taylor_order(opt["rtol"]), dtype_key(y0.dtype))
 
         def run(y, pp):

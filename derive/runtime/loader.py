@@ -41,7 +41,7 @@ from ..errors import BuildError, CompilerMissingError, SimulationInputError
 from ..model.description import forget_on_model_change
 from ..codegen.names import VECTOR_MATH
 from ..model.atlas import atlases, find_atlas
-from ..codegen.sources import numpy_source
+from ..codegen.sources import model_sources, numpy_source
 
 DEFAULT_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
 PORTABLE_FLAGS = DEFAULT_FLAGS
@@ -331,7 +331,6 @@ def load(model: str, generated: Path | None = None, cc: str | None = None,
     """Compile (if needed) and open the kernels <model>.c, from `generated` (a folder of
     generated C, e.g. a checkout's generated/c) or else the cache's rendering; return them."""
     if generated is None:
-        from ..codegen.sources import model_sources
         folder = model_sources(model) / "c"
     else:
         folder = Path(generated)

@@ -26,7 +26,7 @@ from ..errors import CompilerMissingError, SimulationInputError
 from ..model.atlas import ATLAS
 from ..codegen.integrators import model_info
 from .simulate import HeldInputs, normalise_inputs, normalise_params, resolve_model
-from .loader import numpy_module
+from .loader import load, numpy_module
 
 
 class ScipyRHS(NamedTuple):
@@ -67,7 +67,6 @@ def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
 def _kernels(model: str, backend: str):
     """(rhs, jacobian) of the model, C when a compiler is there, else NumPy."""
     if backend == "c":
-        from .loader import load
         try:
             m = load(model)
             return m.rhs, m.jacobian

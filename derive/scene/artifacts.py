@@ -19,6 +19,7 @@ from ..model.atlas import find_atlas
 from ..paths import cache_dir
 from ..runtime import build
 from ..runtime.loader import load
+from ..runtime.atlas_runner import atlas_library
 
 
 @dataclass
@@ -53,7 +54,6 @@ def _library(name: str) -> Step:
     start = time.perf_counter()
     before = set((cache_dir() / "c-build").glob("*/*.so"))
     if find_atlas(name) is not None:
-        from ..runtime.atlas_runner import atlas_library
         libraries = [atlas_library(name).path]
     else:
         libraries = [build.integrator_library(name).path]

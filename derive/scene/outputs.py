@@ -12,6 +12,7 @@ from ..model.atlas import find_atlas
 from ..paths import replace_file
 from .scene import SceneError
 from .run import conservative
+from ..progress import Stage
 
 
 def _state_names(o) -> list[str]:
@@ -113,9 +114,9 @@ def _event_arrays(o) -> dict:
 
 def _pyplot():
     try:
-        import matplotlib
+        import matplotlib    # the plot extra, imported when a figure is drawn
         matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt    # the plot extra, imported when a figure is drawn
     except ImportError:
         raise SceneError("'output.plots' needs matplotlib: pip install -e '.[plot]'") from None
     return plt
@@ -135,7 +136,6 @@ def _plots(o, out: Path, stem: str) -> list[str]:
             plt.close(fig)
             written.append(str(path))
     if "animation" in o.scene.plots:
-        from ..progress import Stage
         with Stage("writing the animation", enabled=None if o.show_progress else False):
             gif = _animation(plt, o, pos, out, stem, horizontal, vertical)
             if gif is not None:
@@ -196,7 +196,7 @@ def _plain(text: str) -> str:
 
 
 def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str | None:
-    from matplotlib.animation import PillowWriter
+    from matplotlib.animation import PillowWriter    # the plot extra, imported when a figure is drawn
     made = animation_figure(plt, o, horizontal, vertical)
     if made is None:
         return None
@@ -210,7 +210,7 @@ def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str | None:
 def animation_figure(plt, o, horizontal: int = 0, vertical: int | None = None):
     """(figure, FuncAnimation) of the chain moving, titled, with a time stamp in each frame;
     None for a run with no state to show (it failed at its start)."""
-    from matplotlib.animation import FuncAnimation
+    from matplotlib.animation import FuncAnimation    # the plot extra, imported when a figure is drawn
     pos = np.asarray(o.positions, float)
     vertical = pos.shape[-1] - 1 if vertical is None else vertical
     # only the part of the run that has a state (a run that stopped is NaN after its stop)

@@ -22,17 +22,18 @@ import numpy as np
 
 from ..codegen.contract import ADAPTIVE
 from ..runtime.result import as_fields
-from ..runtime.simulate import SimulationError, SimulationResult, simulate
+from ..runtime.simulate import SimulationError, SimulationResult, normalise_params, simulate
 from ..measurement.trust import (Lyapunov, REFERENCE_RTOL, atlas_lyapunov, initial_error,
                                  largest_lyapunov, trust_horizon, unit_roundoff)
 from ..model.atlas import find_atlas, standard_member
 from .artifacts import Step, prepare
 from .plan import Plan, plan, planar_positions_in_3d
-from .progress import Progress, Stage
+from ..progress import Progress, Stage
 from .scene import Scene, SceneError
 from ..codegen.integrators import model_info
 from ..runtime.events import locate, parse_events
 from ..model import load_model
+from ..runtime.loader import load, numpy_module
 
 SAFETY = 10.0
 DOUBLE_RTOL_MIN = 1e-14
@@ -231,8 +232,6 @@ def _events(p: Plan, scene: Scene, c: Choice, result: SimulationResult) -> Simul
 def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions, velocities and energy of the scene's own pendulum (not of the model that ran)."""
     if scene.model == "compound" and p.model == "planar":
-        from ..runtime.loader import load, numpy_module
-        from ..runtime.simulate import normalise_params
         pc = normalise_params("compound", scene.parameters).astype(np.float64)
         m = load("compound") if scene.backend == "c" else numpy_module("compound")   # no compiler needed
         y = r.y.astype(np.float64)

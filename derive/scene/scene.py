@@ -14,6 +14,7 @@ from ..codegen.contract import ATLAS_CHARTS, FIXED, RUN_METHODS, TAYLOR     # th
 
 from ..model.atlas import ATLAS, atlas_for, find_atlas, standard_member  # noqa: E402  (chart atlases)
 from ..runtime.events import parse_events
+from types import SimpleNamespace
 SPHERICAL_CHART_MODELS = ATLAS_CHARTS
 FIXED_STEP = FIXED
 SCALARS = ("float", "double", "long double", "double-double", "quad")     # the precision ladder
@@ -299,7 +300,6 @@ def _parse_events(t: dict, model: str, accuracy: dict) -> dict | None:
     if accuracy["method"] in FIXED_STEP:
         raise SceneError(f"[events] need the dense output of an adaptive method, not "
                          f"'accuracy.method' = {accuracy['method']!r}")
-    from types import SimpleNamespace
     d = load_model(model)
     names = SimpleNamespace(state_names=d.state_names, param_names=d.parameters, input_names=d.inputs)
     parse_events(names, events, "events", SceneError)

@@ -4,18 +4,20 @@
     ds.flip_time.sel(theta1=0.5, theta2=2.0, method="nearest")
 
 A sweep file is a scene plus axes over initial values and parameters and the
-quantities to record per trajectory (spec.py); its product of axes is cut into
+quantities to record per trajectory (sweep_file.py); its product of axes is cut into
 chunks (layout.py), each a Dask task that integrates its trajectories as one
-batch of the compiled integrator (chunk.py, events.py, bounds.py; event times
+batch of the compiled integrator (chunk.py, level_crossings.py, bounds.py; event times
 verified to an accuracy by runs again, verify.py) and whose result is written
-into a Zarr store as it finishes (store.py, run.py), a mirror-symmetric sweep's
+into a Zarr store as it finishes (store.py, driver.py), a mirror-symmetric sweep's
 other half as the mirror image of the first (mirror.py), with a PNG per quantity
 for 2-D sweeps (images.py).
 """
 from __future__ import annotations
 
+import importlib
+
 from ..errors import ToolMissingError
-from .run import run
+from .driver import run
 
 EXTRA = ("dask", "distributed", "zarr", "xarray")
 MISSING_EXTRA = "derive sweep needs the sweep extra: pip install 'derive[sweep]'"
@@ -23,7 +25,6 @@ MISSING_EXTRA = "derive sweep needs the sweep extra: pip install 'derive[sweep]'
 
 def require_extra() -> None:
     """One line (exit status 2) when a package of the sweep extra is missing."""
-    import importlib
     for name in EXTRA:
         try:
             importlib.import_module(name)

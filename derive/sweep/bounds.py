@@ -18,7 +18,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..model import load_model
-from .spec import Sweep
+from .sweep_file import Sweep
 from ..codegen.integrators import model_info
 from ..runtime.loader import load
 

@@ -7,7 +7,7 @@ and a model read from a file travels in the task as its description.
 
 The batch runs in SLABS pieces of the time span (restarting each piece from the
 last state).  Each piece samples the trajectories at the sweep's output times, and
-the event times, maxima and energy are taken from those samples (events.py);
+the event times, maxima and energy are taken from those samples (level_crossings.py);
 when every recorded quantity is an event time, a trajectory leaves the batch once
 its events have happened, and so does one that energy alone keeps from them
 (bounds.py).  Event times with an accuracy are then verified (verify.py).  The
@@ -21,13 +21,14 @@ import numpy as np
 
 from ..runtime.build import integrator_library
 from ..codegen.contract import METHODS
-from . import events as ev
+from . import level_crossings as ev
 from .bounds import energy as _energy, n_params as _n_params, unreachable
-from .spec import Sweep
+from .sweep_file import Sweep
 from .runners import status_of, model_name, runner, scene_runner
 from .verify import rungs, verify_events
 from ..runtime.loader import load
 from ..measurement.trust import JACOBIAN_STEPS_PER_UNIT_TIME
+from concurrent.futures import ThreadPoolExecutor
 
 SLABS = 10                      # pieces of the time span
 LYAPUNOV_BATCH = 64             # trajectories per Lyapunov batch (its fine grid is memory)
@@ -48,7 +49,6 @@ def prepare(sweep: Sweep) -> None:
     """Build (or load from the cache) every integrator the sweep's chunks use, alongside
     one another (each a compiler process: a Taylor library of high order takes a compiler
     ten seconds and more)."""
-    from concurrent.futures import ThreadPoolExecutor
     model = model_name(sweep)
     integrator_library(model)                    # renders the model's sources, once
     scene = sweep.scene

@@ -17,7 +17,7 @@ def _uniform(values: np.ndarray) -> bool:
 
 def _norm(name: str, z: np.ndarray):
     """A logarithmic colour scale for errors (positive, over decades), else linear (None)."""
-    from matplotlib.colors import LogNorm
+    from matplotlib.colors import LogNorm    # the plot extra, imported when a figure is drawn
     positive = z[np.isfinite(z) & (z > 0)]
     if not name.endswith("_error") or positive.size == 0 or positive.max() <= positive.min():
         return None
@@ -29,9 +29,9 @@ def write_images(ds, folder: Path, stem: str, title: str) -> list[Path]:
     names = [n for n in ds.data_vars if n not in SKIP and ds[n].ndim == 2]
     if not names:
         return []
-    import matplotlib
+    import matplotlib    # the plot extra, imported when a figure is drawn
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt    # the plot extra, imported when a figure is drawn
     files = []
     for name in names:
         da = ds[name]

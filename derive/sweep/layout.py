@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from .spec import Sweep
+from .sweep_file import Sweep
 
 
 def chunk_shape(shape: tuple[int, ...], target: int) -> tuple[int, ...]:

@@ -27,7 +27,7 @@ import numpy as np
 
 from .layout import Layout, mirror_axes
 from .runners import model_name, runner, scene_runner
-from .spec import Sweep
+from .sweep_file import Sweep
 from .verify import rungs
 
 MIRRORED = "final_"                 # the quantities that change sign: the final states

@@ -20,7 +20,7 @@ import numpy as np
 from ..paths import VERSION as __version__
 from ..errors import UsageError
 from .layout import Layout
-from .spec import SAMPLE_DIM, Sweep
+from .sweep_file import SAMPLE_DIM, Sweep
 
 DONE = "chunk_done"
 NOT_RUN = -1                 # status of a trajectory whose chunk has not run
@@ -42,8 +42,8 @@ def identity(sweep: Sweep) -> str:
 
 
 def _dataset(sweep: Sweep, layout: Layout, names: list[str]):
-    import dask.array as da
-    import xarray as xr
+    import dask.array as da    # the sweep extra
+    import xarray as xr    # the sweep extra
     coords = {a.name: (a.name, a.values, {"long_name": f"{a.name} ({a.target}, {a.kind})"})
               for a in sweep.grid_axes}
     if sweep.random_axes:
@@ -88,7 +88,7 @@ def open_store(path: Path, sweep: Sweep, layout: Layout, names: list[str]) -> se
 
 
 def _group(path: Path, mode: str = "r"):
-    import zarr
+    import zarr    # the sweep extra
     try:
         return zarr.open_group(str(path), mode=mode)
     except Exception as exc:                # not a store, or a damaged one
@@ -124,7 +124,7 @@ class Writer:
 
 def load(path: Path):
     """The store as an xarray Dataset, read into memory."""
-    import xarray as xr
+    import xarray as xr    # the sweep extra
     with xr.open_zarr(str(path), consolidated=False) as ds:
         ds = ds.load()
     order = [n for n in ds.attrs.get("variables", []) if n in ds] + [DONE]

@@ -45,9 +45,9 @@ import numpy as np
 
 from ..codegen.contract import TAYLOR
 from ..runtime.taylor_library import taylor_order
-from . import events as ev
+from . import level_crossings as ev
 from .runners import runner
-from .spec import Sweep
+from .sweep_file import Sweep
 
 TIGHTER = 1000                   # each run again: a thousandth of the tolerance before
 DOUBLE_RTOL_MIN = 1e-15          # 10 eps of double: no tighter in double

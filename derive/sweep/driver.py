@@ -25,7 +25,7 @@ from ..progress import Progress
 from .chunk import integrate, prepare, variables
 from .layout import Layout, chunk_inputs
 from .mirror import mirror_axes, mirrored, plan as mirror_plan
-from .spec import Sweep, load_sweep
+from .sweep_file import Sweep, load_sweep
 from .store import Writer, load, open_store
 from .images import write_images
 
@@ -68,7 +68,7 @@ def _executor(scheduler: str | None, workers: int | None):
     address = scheduler or os.environ.get(SCHEDULER_ENV) or None
     if workers == 0 and address is None:
         return None, None, "this process"
-    from distributed import Client, LocalCluster
+    from distributed import Client, LocalCluster    # the sweep extra
     if address is not None:
         try:
             client = Client(address, timeout=30)
@@ -167,7 +167,7 @@ def _results(client, light: Sweep, sweep: Sweep, layout: Layout, todo: list[int]
             y0, p = chunk_inputs(sweep, layout, k)
             yield k, _task(light, y0, p, layout.block_shape(k))
         return
-    from distributed import as_completed
+    from distributed import as_completed    # the sweep extra
     futures = {}
     for k in todo:
         y0, p = chunk_inputs(sweep, layout, k)
