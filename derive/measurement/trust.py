@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from ..runtime.loader import load, numpy_module
+from ..runtime import loader     # looked up at each call (a test checks which backend runs)
 from ..runtime.simulate import (SimulationError, normalise_inputs, normalise_params, normalise_y0,
                                 simulate)
 from ..derivation.cartesian import cartesian_to_state, link_lengths
@@ -65,7 +65,7 @@ def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs
     args = (run.y[1::2].astype(np.float64), p)                        # at the midpoints
     if inputs is not None:
         args += (normalise_inputs(model, inputs).astype(np.float64),)
-    kernels = load(model) if backend == "c" else numpy_module(model)
+    kernels = loader.load(model) if backend == "c" else loader.numpy_module(model)
     jac = np.asarray(kernels.jacobian(*args), np.float64)
     dt = t_end / n
     rng = np.random.default_rng(seed)
