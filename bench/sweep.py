@@ -91,7 +91,7 @@ def long_double_flips(y0: np.ndarray) -> np.ndarray:
     """Flip times from derive's own DOP853 in long double at rtol 1e-17 (eps 1e-19), located
     by the same event search: a reference about 10^4 times tighter than the map's run."""
     from derive.runtime.build import integrator_library
-    from derive.sweep import events
+    from derive.sweep import level_crossings as events
     lib = integrator_library("planar")
     opt = lib.defaults()
     opt.rtol, opt.atol = 1e-17, 1e-20

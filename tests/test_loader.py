@@ -1,4 +1,4 @@
-"""derive.codegen.loader: compile into a content-keyed cache, call batch kernels from NumPy."""
+"""derive.runtime.loader: compile into a content-keyed cache, call batch kernels from NumPy."""
 from __future__ import annotations
 
 import re
@@ -169,7 +169,7 @@ def test_a_damaged_cached_library_is_rebuilt_not_loaded(tmp_path):
     import subprocess
     import sys
     cache = tmp_path / "cache"
-    script = ("import sys; from derive.codegen.loader import build; from pathlib import Path; "
+    script = ("import sys; from derive.runtime.loader import build; from pathlib import Path; "
               f"print(build(Path({str(GEN_C / 'planar.c')!r}), cache=Path({str(cache)!r})))")
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     first = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, check=True)

@@ -8,7 +8,7 @@ References (nothing from derive/ is used to build them):
   forces (tensions), integrated with SciPy's DOP853.
 
 The toolkit's side is a model file written here (tmp_path), read by
-derive.model.load_model, compiled by derive.codegen.loader.load and integrated by
+derive.model.load_model, compiled by derive.runtime.loader.load and integrated by
 derive.simulate.
 
 Norm of the rhs comparisons: over 500 random states (angles uniform in [-pi, pi], rates

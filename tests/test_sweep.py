@@ -14,7 +14,7 @@ import pytest
 import derive
 from derive.cli import main
 from derive.errors import SceneError, UsageError
-from derive.sweep import MISSING_EXTRA, events, run_sweep
+from derive.sweep import MISSING_EXTRA, level_crossings as events, run_sweep
 from derive.sweep.sweep_file import load_sweep, parse_sweep
 
 ROOT = Path(__file__).resolve().parent.parent
