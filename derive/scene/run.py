@@ -233,14 +233,15 @@ def _events(p: Plan, scene: Scene, c: Choice, result: SimulationResult) -> Simul
 
 def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions, velocities and energy of the scene's own pendulum (not of the model that ran)."""
-    if scene.model == "compound" and p.model == "planar":
-        pc = normalise_params("compound", scene.parameters).astype(np.float64)
-        m = load("compound") if scene.backend == "c" else numpy_module("compound")   # no compiler needed
-        y = r.y.astype(np.float64)
-        return m.positions(y, pc), m.velocities(y, pc), m.energy(y, pc)
     if p.plane is not None:
         return (planar_positions_in_3d(r.positions, p.plane),
                 planar_positions_in_3d(r.velocities, p.plane), r.energy)
+    if p.model != scene.model and find_atlas(scene.model) is None:
+        # a reduction with the same coordinates: the scene's own kernels on the run's states
+        own = normalise_params(scene.model, scene.parameters).astype(np.float64)
+        m = load(scene.model) if scene.backend == "c" else numpy_module(scene.model)   # no compiler needed
+        y = r.y.astype(np.float64)
+        return m.positions(y, own), m.velocities(y, own), m.energy(y, own)
     return r.positions, r.velocities, r.energy
 
 
