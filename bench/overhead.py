@@ -27,7 +27,8 @@ import numpy as np
 import derive
 from derive.runtime.build import address, integrator_library
 from derive.codegen.contract import METHODS, TAYLOR, TOLERANCE_METHODS
-from derive.runtime.taylor_library import taylor_library, taylor_order
+from derive.codegen.contract import taylor_order
+from derive.runtime.taylor_library import taylor_library
 
 PARAMS = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
 Y0 = [1.0, 0.5, 0.0, 0.0]

@@ -20,6 +20,7 @@ from pathlib import Path
 from .paths import VERSION as __version__
 from .errors import DeriveError, ToolMissingError, UsageError
 from .model import is_model_file, load_model, model_names
+from .model.atlas import atlas_names
 from .paths import checkout_root
 from .progress import Stage
 
@@ -31,7 +32,7 @@ def _model_arg(arg: str, allow_atlas: bool = False) -> str:
     """A model argument (a catalogue name, or the path of a model file) as a model name."""
     if is_model_file(arg):
         return load_model(arg).name
-    if allow_atlas and arg == "spherical":
+    if allow_atlas and arg in atlas_names():
         return arg
     load_model(arg)                       # an unknown name is a ModelError naming the known ones
     return arg

@@ -9,7 +9,8 @@ import sympy as sp
 
 import derive
 from derive.errors import SimulationInputError
-from derive.runtime.taylor_library import taylor_library, taylor_order
+from derive.codegen.contract import taylor_order
+from derive.runtime.taylor_library import taylor_library
 from derive.measurement.peers import derivation_rhs
 
 EXAMPLES = Path(__file__).parents[1] / "examples" / "models"

@@ -10,7 +10,8 @@ from derive.runtime.build import integrator_library
 from derive.codegen.contract import STATUS
 from derive.runtime.simulate import run_options
 from derive.runtime.taylor_lanes_library import simd_build, taylor_lanes_library
-from derive.runtime.taylor_library import taylor_library, taylor_order
+from derive.codegen.contract import taylor_order
+from derive.runtime.taylor_library import taylor_library
 
 LANES = simd_build("float64")[1]          # what ensemble runs with on this machine
 PLANAR = [1, 1, 1, 1, 9.81]

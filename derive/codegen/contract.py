@@ -18,6 +18,7 @@ every stage from code generation on may import it.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..model.atlas import ATLAS, load_atlas
@@ -162,8 +163,8 @@ MULTISTEP = tuple(m.name for m in METHOD_TABLE if m.multistep)
 ATLAS_METHODS = tuple(m.name for m in METHOD_TABLE if m.atlas)
 ORDER = {m.name: m.order for m in METHOD_TABLE}
 FIXED_ORDER = {m: ORDER[m] for m in FIXED}
-# Taylor's method runs in a generated file of its own (<model>_taylor.c, derive/runtime/
-# taylor_codegen.py), not in the integrators' method switch; it takes the same options
+# Taylor's method runs in a generated file of its own (<model>_taylor.c, derive/codegen/
+# taylor.py), not in the integrators' method switch; it takes the same options
 # (rtol is its tolerance) and fills the same info struct
 TAYLOR = "taylor"
 RUN_METHODS = METHODS + (TAYLOR,)              # every method derive.simulate runs
@@ -179,6 +180,69 @@ ATLAS_CHARTS = _ATLAS.charts
 SINE_MIN = _ATLAS.sine_min          # hard threshold: no kernel below it (per-model default, and atlas)
 SINE_SWITCH = _ATLAS.sine_switch    # atlas: switch chart when a polar sine drops below
 SINE_RULE = _ATLAS.sine_rule        # seed 000 section 5.1: "not small" means >= 0.5
+
+
+DEFAULT_METHOD = "dop853"          # simulate's, ensemble's and a sweep's method when none is given
+REFERENCE_METHOD = "dop853"        # the reference runs (trust horizons, rerun estimates, the race)
+
+
+# -- the precision ladder ------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Precision:
+    """One rung of the precision ladder: the real type a run computes in."""
+    key: str                  # derive's name of it: simulate(dtype=...), results, the cache
+    scalar: str               # a scene's word for it (accuracy.scalar)
+    title: str                # as reports name it
+    aliases: tuple            # further spellings simulate(dtype=...) takes
+    ctype: str                # the C type of one real ("derive_dd": a pair of doubles)
+    suffix: str               # of the entry points and kernels in it (planar_integrate_l)
+    eps: float | None         # unit roundoff; None: the platform's (long double)
+    default_rtol: float       # simulate's rtol when none is given
+    rtol_floor: float         # the tightest rtol the scene planner gives a run in it
+    reference_floor: float | None   # the tightest rtol of a reference run in it (None: 20 eps)
+    taylor_only: bool         # only Taylor's method runs in it (the RK methods are hardware types)
+
+
+PRECISION_TABLE = (           # lowest first: the order the scene planner climbs
+    Precision("float32", "float", "float", ("float", "single"), "float", "_f", 2.0 ** -23,
+              1e-5, 1e-5, 1e-9, False),
+    Precision("float64", "double", "double", ("double",), "double", "", 2.0 ** -52,
+              1e-9, 1e-14, 1e-14, False),
+    Precision("longdouble", "long double", "long double", ("long double", "float128"), "long double", "_l",
+              None, 1e-12, 1e-16, None, False),
+    # double-double: 2^-104 as the QD library states it (its sums are exact to about
+    # 2^-106, not every operation)
+    Precision("double-double", "double-double", "double-double", ("dd",), "derive_dd", "_dd", 2.0 ** -104,
+              1e-30, 1e-29, 1e-29, True),
+    Precision("quad", "quad", "quad (IEEE binary128)", ("binary128", "float128-ieee"), "derive_quad", "_q",
+              2.0 ** -113, 1e-32, 1e-32, 2e-33, True),
+)
+PRECISION = {p.key: p for p in PRECISION_TABLE}
+LADDER = tuple(p.key for p in PRECISION_TABLE)
+EXTENDED = tuple(p.key for p in PRECISION_TABLE if p.taylor_only)      # Taylor's method only
+SCALARS = tuple(p.scalar for p in PRECISION_TABLE)
+PRECISION_NAMES = {name: p.key for p in PRECISION_TABLE for name in (p.key, p.scalar, *p.aliases)}
+
+
+def precision(name: str) -> Precision:
+    """The rung a name, a scene's word or an alias stands for (KeyError when none)."""
+    return PRECISION[PRECISION_NAMES[name]]
+
+
+# -- Taylor's order rule ---------------------------------------------------------------
+# The order for a tolerance (Jorba and Zou 2005): ceil(-ln(tol) / DIVISOR + OFFSET) in
+# [ORDER_MIN, ORDER_MAX]; the generated C renders the same numbers (templates/c/taylor.c.jinja).
+TAYLOR_ORDER_DIVISOR = 2
+TAYLOR_ORDER_OFFSET = 1
+TAYLOR_ORDER_MIN = 2
+TAYLOR_ORDER_MAX = 60       # largest order compiled in (tol 1e-34 for quad needs 41; double <= 20)
+
+
+def taylor_order(tol: float) -> int:
+    """The Taylor order for a tolerance, as the generated C computes it."""
+    p = math.ceil(-math.log(tol) / TAYLOR_ORDER_DIVISOR + TAYLOR_ORDER_OFFSET)
+    return min(max(p, TAYLOR_ORDER_MIN), TAYLOR_ORDER_MAX)
 
 
 def default_options() -> dict:

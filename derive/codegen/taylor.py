@@ -43,9 +43,13 @@ from ..model.description import forget_on_model_change
 from .sources import kernels
 from .emit import render
 from .integrators import model_info
-from .contract import INFO
+from .contract import (INFO, TAYLOR_ORDER_DIVISOR, TAYLOR_ORDER_MAX, TAYLOR_ORDER_MIN,
+                       TAYLOR_ORDER_OFFSET)
 
-ORDER_MAX = 60       # largest order compiled in (tol 1e-34 for quad needs 41; double <= 20)
+ORDER_MAX = TAYLOR_ORDER_MAX
+# the order rule's numbers, rendered into the C (the rule itself: codegen/contract.py)
+ORDER_RULE = {"order_max": TAYLOR_ORDER_MAX, "order_min": TAYLOR_ORDER_MIN,
+              "order_divisor": TAYLOR_ORDER_DIVISOR, "order_offset": TAYLOR_ORDER_OFFSET}
 
 
 @dataclass
@@ -442,7 +446,7 @@ def render_taylor(name: str) -> dict[str, str]:
         used = " ".join(line for v in variants for part in ("constants", "ops") for line in v["taylor"][part])
         dd_uses = {k: f"T_{k.upper()}(" in used for k in ("sqrt", "sin", "cos", "exp")}
         ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops), "uses": uses,
-               "nconst": len(d.constants), "order_max": ORDER_MAX, "header": header,
+               "nconst": len(d.constants), **ORDER_RULE, "header": header,
                "guard": f"{M}_{stem.upper()}_H", "quad": "quad" in names, "dd": "double-double" in names,
                "dd_uses": dd_uses, "precisions": _precisions([TAYLOR_VARIANTS[v] for v in names]),
                "info_scalars": [f.name for f in INFO if not f.length],

@@ -19,7 +19,7 @@ each trajectory is bit for bit what `simulate(method="taylor")` gives.
 from __future__ import annotations
 
 from ..errors import SpecError
-from .taylor import ORDER_MAX, TAYLOR_VARIANTS, Decomposition, _slots, c_statements, counts, rhs_decomposition
+from .taylor import ORDER_RULE, TAYLOR_VARIANTS, Decomposition, _slots, c_statements, counts, rhs_decomposition
 from .integrators import _C_VARIANTS, c_variants, model_info
 from .emit import render
 from .contract import INFO
@@ -130,7 +130,7 @@ def render_taylor_lanes(name: str) -> dict[str, str]:
             "add": "add" in kinds, "sub": "sub" in kinds, "scale": "scale" in kinds, "shift": "shift" in kinds,
             "outc": any(kind == "const" for kind, _ in d.outputs)}
     ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops), "uses": uses,
-           "nconst": len(d.constants), "order_max": ORDER_MAX, "lanes_default": LANES_DEFAULT,
+           "nconst": len(d.constants), **ORDER_RULE, "lanes_default": LANES_DEFAULT,
            "nstore": d.n + len(history_nodes(d) - {i for i, op in enumerate(d.ops) if op.kind == "var"}),
            "info_scalars": [f.name for f in INFO if not f.length],
            "nparams": f"{M}_N_PARAMS + {M}_N_INPUTS" if info.n_inputs else f"{M}_N_PARAMS"}

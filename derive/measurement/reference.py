@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from ..derivation.cartesian import link_lengths, state_to_cartesian
 from ..runtime.simulate import normalise_params, simulate
+from ..codegen.contract import REFERENCE_METHOD
 from .peers import derivation_rhs
 import mpmath
 import sympy as sp
@@ -58,7 +59,7 @@ def comparison_vector(model: str, y, chart: str | None, params) -> np.ndarray:
 
 def _run(problem, rtol: float):
     r = simulate(problem.model, problem.y0_input(), [0.0, problem.t_end], problem.params,
-                 method="dop853", rtol=rtol, atol=rtol * 1e-3, dtype="longdouble")
+                 method=REFERENCE_METHOD, rtol=rtol, atol=rtol * 1e-3, dtype="longdouble")
     r.raise_for_status()
     chart = r.chart_stop if problem.model == "spherical" else None
     return comparison_vector(problem.model, r.y[-1], chart, r.params), r
@@ -92,7 +93,7 @@ def mpmath_check(problem, t: float, dps: int = MPMATH_DPS) -> float:
         y0 = [mpmath.mpf(float(v)) for v in problem.y0]
         sol = mpmath.odefun(lambda _t, y: f(y, p), 0, y0)
         exact = [mpmath.nstr(v, dps) for v in sol(t)]
-    r = simulate(problem.model, problem.y0, [0.0, t], p64, method="dop853", rtol=RTOL,
+    r = simulate(problem.model, problem.y0, [0.0, t], p64, method=REFERENCE_METHOD, rtol=RTOL,
                  atol=RTOL * 1e-3, dtype="longdouble")
     r.raise_for_status()
     return float(np.max(np.abs(r.y[-1] - np.array([np.longdouble(s) for s in exact]))))

@@ -27,7 +27,7 @@ from ..runtime.simulate import (SimulationError, normalise_inputs, normalise_par
 from ..derivation.cartesian import cartesian_to_state, link_lengths
 from ..model.atlas import load_atlas
 from ..runtime.extended import UNIT_ROUNDOFF
-from ..codegen.contract import FIXED_ORDER
+from ..codegen.contract import FIXED_ORDER, REFERENCE_METHOD
 
 JACOBIAN_STEPS_PER_UNIT_TIME = 400
 # The exponent is a property of the motion: measured over at most this much of a long run
@@ -58,7 +58,7 @@ def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs
     t_end = min(float(t_end), MAX_WINDOW)
     n = max(200, int(JACOBIAN_STEPS_PER_UNIT_TIME * t_end))
     grid = np.linspace(0.0, t_end, 2 * n + 1)
-    run = simulate(model, y0, grid, params, method="dop853", rtol=REFERENCE_RTOL,
+    run = simulate(model, y0, grid, params, method=REFERENCE_METHOD, rtol=REFERENCE_RTOL,
                    atol=REFERENCE_RTOL / 100, inputs=inputs, backend=backend)
     run.raise_for_status()
     p = normalise_params(model, params).astype(np.float64)

@@ -18,8 +18,10 @@ from ..model.description import forget_on_model_change
 from ..codegen import contract
 from ..codegen.integrators import model_info
 
-CTYPES = {"float64": ctypes.c_double, "float32": ctypes.c_float, "longdouble": ctypes.c_longdouble}
-SUFFIX = {"float64": "", "float32": "_f", "longdouble": "_l"}
+_C_TYPES = {"double": ctypes.c_double, "float": ctypes.c_float, "long double": ctypes.c_longdouble}
+# the hardware rungs of the precision ladder (the contract's table): ctypes type, suffix
+CTYPES = {p.key: _C_TYPES[p.ctype] for p in contract.PRECISION_TABLE if not p.taylor_only}
+SUFFIX = {p.key: p.suffix for p in contract.PRECISION_TABLE if not p.taylor_only}
 
 
 @lru_cache(maxsize=64)

@@ -33,11 +33,11 @@ import numpy as np
 from ..errors import SimulationInputError
 from .build import dtype_key, integrator_library
 from ..codegen.integrators import model_info
-from ..codegen.contract import COUNTERS, METHODS, RUN_METHODS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS
+from ..codegen.contract import (COUNTERS, DEFAULT_METHOD, METHODS, RUN_METHODS, STATUS_NAMES, TAYLOR,
+                                TOLERANCE_METHODS, taylor_order)
 from .simulate import (_atlas, _check_size, _dtype, _finite_array, check_parameter_values, normalise_t,
                        resolve_model, run_options)
 from ..model import load_model
-from .taylor_library import taylor_order
 from .taylor_lanes_library import taylor_ensemble_library
 
 MIN_BLOCK = 16          # trajectories per thread below which another thread does not pay
@@ -98,7 +98,7 @@ def _per_trajectory(value, B: int, names, what: str, model: str) -> np.ndarray:
                                f"({', '.join(names)}), got {a.shape}")
 
 
-def ensemble(model, y0, t, params, method: str = "dop853", rtol: float | None = None,
+def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | None = None,
              atol: float | None = None, step: float | None = None, dtype="float64",
              threads: int | None = None, inputs=None, max_steps: int | None = None,
              hmax: float | None = None, newton_tol: float | None = None,

@@ -35,17 +35,16 @@ from ..model.description import forget_on_model_change
 from .build import address, info_struct, integrator_library
 from ..codegen.integrators import model_info
 from ..codegen.taylor import taylor_problem
-from .taylor_library import taylor_order
-from ..codegen.contract import STATUS_NAMES, COUNTERS
+from ..codegen.contract import taylor_order
+from ..codegen.contract import COUNTERS, EXTENDED, PRECISION, PRECISION_NAMES, STATUS_NAMES
 from .result import LOCAL_SUM, SimulationResult
 
-# Unit roundoff of each rung (double-double: 2^-104 as the QD library states it, its
-# sums being exact to about 2^-106 but not every operation; binary128: 2^-113).
-UNIT_ROUNDOFF = {"double-double": 2.0 ** -104, "quad": 2.0 ** -113}
-DEFAULT_RTOL = {"double-double": 1e-30, "quad": 1e-32}
-NAMES = {"double-double": "double-double", "dd": "double-double", "quad": "quad", "binary128": "quad",
-         "float128-ieee": "quad"}
-_SUFFIX = {"double-double": "_dd", "quad": "_q"}
+# The rungs above long double (the contract's precision table): unit roundoff, default
+# tolerance, every name of each, the suffix of their entry points.
+UNIT_ROUNDOFF = {k: PRECISION[k].eps for k in EXTENDED}
+DEFAULT_RTOL = {k: PRECISION[k].default_rtol for k in EXTENDED}
+NAMES = {name: key for name, key in PRECISION_NAMES.items() if key in EXTENDED}
+_SUFFIX = {k: PRECISION[k].suffix for k in EXTENDED}
 _BITS = 256                        # mpmath's working precision for the conversions
 
 

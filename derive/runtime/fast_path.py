@@ -24,7 +24,8 @@ from .build import address, dtype_key, integrator_library
 from ..codegen.contract import (ADAPTIVE, COUNTERS, LOCAL_ERROR_METHODS, METHODS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS)
 from .observables import _observables, _velocities
 from .result import LAZY, LOCAL_SUM, result_factory
-from .taylor_library import taylor_library, taylor_order
+from ..codegen.contract import taylor_order
+from .taylor_library import taylor_library
 from ..codegen.integrators import model_info
 from ..model import load_model
 

@@ -36,18 +36,22 @@ from . import events as events_module
 from .atlas_runner import run_atlas
 from .build import dtype_key, integrator_library
 from ..codegen.integrators import model_info
-from ..codegen.contract import (ADAPTIVE, ATLAS_CHARTS, ATLAS_METHODS, COUNTERS, FIXED_ORDER, LOCAL_ERROR_METHODS, MAX_GRID_STEPS, METHODS, RUN_METHODS, SINE_MIN, STATUS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS, default_options)
+from ..codegen.contract import (ADAPTIVE, ATLAS_CHARTS, ATLAS_METHODS, COUNTERS, DEFAULT_METHOD, FIXED_ORDER,
+                                LOCAL_ERROR_METHODS, MAX_GRID_STEPS, METHODS, PRECISION, PRECISION_NAMES,
+                                PRECISION_TABLE, RUN_METHODS, SINE_MIN, STATUS, STATUS_NAMES, TAYLOR,
+                                TOLERANCE_METHODS, default_options, taylor_order)
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
 from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, Settings, plain_times
-from .taylor_library import taylor_library, taylor_order
+from .taylor_library import taylor_library
 from . import extended
 from .result import LAZY, LOCAL_SUM, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
 from ..model.atlas import ATLAS, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
-_DTYPES = {"float32": np.float32, "float": np.float32, "single": np.float32,
-           "float64": np.float64, "double": np.float64,
-           "longdouble": np.longdouble, "long double": np.longdouble, "float128": np.longdouble}
-_DEFAULT_RTOL = {"float32": 1e-5, "float64": 1e-9, "longdouble": 1e-12}
+# the rungs of the precision ladder the RK methods compute in: every name of each
+# (the contract's table) -> its NumPy type, and simulate's default tolerance in each
+_DTYPES = {name: np.dtype(p.key).type for name, key in PRECISION_NAMES.items()
+           for p in (PRECISION[key],) if not p.taylor_only}
+_DEFAULT_RTOL = {p.key: p.default_rtol for p in PRECISION_TABLE if not p.taylor_only}
 _DEFAULT_OPTIONS = default_options()
 
 
@@ -347,7 +351,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     """
     precision = extended.precision_of(dtype)
     if method is None:
-        method = TAYLOR if precision else "dop853"
+        method = TAYLOR if precision else DEFAULT_METHOD
     if FAST_PATH and precision is None and backend == "c" and not atlas and inputs is None and events is None and \
             isinstance(error_estimate, str) and error_estimate == "local":
         fast = _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_steps,

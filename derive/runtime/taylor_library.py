@@ -10,7 +10,6 @@ macro, reads the order from options.rtol, for use in other projects.
 from __future__ import annotations
 
 import ctypes
-import math
 from functools import lru_cache
 
 import numpy as np
@@ -21,13 +20,7 @@ from ..errors import SimulationInputError
 from ..model.description import forget_on_model_change
 from .build import SUFFIX, address, dtype_key, info_struct, run_batch
 from ..codegen.integrators import model_info
-from ..codegen.taylor import ORDER_MAX, taylor_problem
-
-
-def taylor_order(tol: float) -> int:
-    """The order for a tolerance: ceil(-ln(tol)/2 + 1) in [2, ORDER_MAX] (as the C)."""
-    p = math.ceil(-math.log(tol) / 2 + 1)
-    return min(max(p, 2), ORDER_MAX)
+from ..codegen.taylor import taylor_problem
 
 
 class TaylorLibrary:

@@ -1,28 +1,31 @@
 """Model only what a scene requires: pick the cheapest model that represents
 the scene exactly, and say why.
 
-- A spherical scene whose initial positions and velocities lie in one
-  vertical plane through the pivot stays in that plane (gravity and the link
-  forces have no component out of it), so it runs the `planar` model; the
-  results are mapped back into the plane in 3-D.
-- A compound scene runs the `planar` model when the compound pendulum *is* a
-  point-mass double pendulum.  The condition and the parameter map are derived
-  by matching the two Lagrangians (verification/physics.py); nothing here
-  knows the answer in advance.
+The reductions are catalogue data (derive/model/catalog/reductions.toml), each derived
+(derive/derivation/reductions.py); the planner tries those of the scene's model and knows
+no model by name:
+
+- "vertical_plane": a spherical chain's scene whose initial positions and velocities lie
+  in one vertical plane through the pivot stays in that plane (gravity and the link
+  forces have no component out of it), so it runs the planar chain; the results are
+  mapped back into the plane in 3-D.
+- "parameters": a scene runs the target model when the condition derived by matching the
+  two Lagrangians holds at the scene's parameters (the compound pendulum whose first rod
+  has L1 = m1 l1^2/4 *is* a point-mass double pendulum), with the derived parameters.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cache
 
 import numpy as np
 import sympy as sp
 
 from ..model import load_model
 from ..model.atlas import find_atlas, standard_member
-from .scene import ATLAS, SPHERICAL_CHART_MODELS, Scene
+from .scene import Scene
 from ..runtime.simulate import normalise_params, normalise_y0
-from ..verification.physics import compound_point_mass_equivalence
+from ..derivation.reductions import parameter_map
+from ..model.reductions import Reduction, reductions_of
 
 RELATIVE_TOLERANCE = 1e-12   # "exactly": equal to rounding of the given numbers
 
@@ -63,10 +66,14 @@ def vertical_plane(c: np.ndarray) -> np.ndarray | None:
 
 
 def planar_state(c: np.ndarray, u: np.ndarray) -> list[float]:
-    """Planar angles and rates of a motion in the plane span(u, e_z) (chart of seed 000 §1)."""
-    x1, x2, v1, v2 = c[0:3], c[3:6], c[6:9], c[9:12]
+    """Planar angles and rates of a chain moving in the plane span(u, e_z) (the chart of seed
+    000 section 1), from its Cartesian state (every bob's position, then every velocity)."""
+    n = len(c) // 6
+    x, v = c[:3 * n].reshape(n, 3), c[3 * n:].reshape(n, 3)
     out_q, out_qd = [], []
-    for d, w in ((x1, v1), (x2 - x1, v2 - v1)):
+    for i in range(n):
+        d = x[i] - (x[i - 1] if i else 0.0)             # link i, from its parent bob
+        w = v[i] - (v[i - 1] if i else 0.0)
         a, b = d[:2] @ u, d[2]              # along u, and up
         da, db = w[:2] @ u, w[2]
         out_q.append(float(np.arctan2(a, -b)))
@@ -74,54 +81,61 @@ def planar_state(c: np.ndarray, u: np.ndarray) -> list[float]:
     return out_q + out_qd
 
 
-@cache
-def _compound_equivalence():
-    check, solution = compound_point_mass_equivalence()
-    if not check.passed:
-        raise RuntimeError("the compound/point-mass equivalence no longer derives: " + check.detail)
-    return {k.name: v for k, v in solution.items()}
-
-
-def compound_as_planar(params: dict[str, float]) -> dict[str, float] | None:
-    """Planar parameters of an equivalent point-mass pendulum, or None."""
-    solution = _compound_equivalence()
+def target_parameters(r: Reduction, params: dict[str, float]) -> dict[str, float] | None:
+    """The target's parameters of a "parameters" reduction at the scene's, or None when its
+    condition does not hold there (to rounding of the given numbers)."""
+    derived = parameter_map(r)
+    if derived is None:
+        raise RuntimeError(f"the reduction {r.source} -> {r.target} no longer derives")
     values = {sp.Symbol(k, positive=True): v for k, v in params.items()}
-    needed_L1 = float(solution["L1"].subs(values))
-    if abs(params["L1"] - needed_L1) > RELATIVE_TOLERANCE * max(needed_L1, 1e-300):
+    for name, required in derived.condition.items():
+        needed = float(required.subs(values))
+        if abs(params[name] - needed) > RELATIVE_TOLERANCE * max(abs(needed), 1e-300):
+            return None
+    return {k: float(e.subs(values)) for k, e in derived.target.items()}
+
+
+def _by_parameters(scene: Scene, r: Reduction) -> Plan | None:
+    source = load_model(r.source)
+    state = [scene.initial["state"][n] for n in source.state_names]
+    mapped = target_parameters(r, scene.parameters)
+    if mapped is not None and not scene.events:      # events are in the scene model's names
+        changed = ", ".join(f"{k}' = {mapped[k]:.6g}" for k in parameter_map(r).changed)
+        return Plan(r.target, mapped, state, f"{r.holds} (derived): {changed}")
+    why = f"its [events] are in the {r.source}'s names" if mapped is not None else r.fails
+    return Plan(scene.model, scene.parameters, state, f"{r.source}: {why}")
+
+
+def _in_a_vertical_plane(scene: Scene, r: Reduction, c: np.ndarray) -> Plan | None:
+    u = vertical_plane(c)
+    if u is None or scene.events:           # events are in the scene model's names
         return None
-    value = lambda k: float(solution[k].subs(values))
-    return {"m1": value("M1"), "m2": value("M2"), "l1": value("a"), "l2": value("b"), "g": params["g"]}
+    params = {k: scene.parameters[k] for k in load_model(r.target).parameters}
+    return Plan(r.target, params, planar_state(c, u), r.holds, plane=u)
 
 
 def plan(scene: Scene) -> Plan:
-    if scene.model == "compound":
-        planar = compound_as_planar(scene.parameters)
-        state = [scene.initial["state"][n] for n in ("theta1", "theta2", "theta1_dot", "theta2_dot")]
-        if planar is not None and not scene.events:      # events are in the scene model's names
-            return Plan("planar", planar, state,
-                        "compound with L1 = m1 l1^2/4 is exactly a point-mass double pendulum "
-                        f"(derived): m1' = {planar['m1']:.6g}, m2' = {planar['m2']:.6g}, "
-                        f"l2' = {planar['l2']:.6g}")
-        why = "its [events] are in the compound's names" if planar is not None else "rods with inertia (L1 != m1 l1^2/4)"
-        return Plan("compound", scene.parameters, state, f"compound: {why}")
     description = load_model(standard_member(scene.model))
+    found = reductions_of(description.name)
+    for r in found:
+        if r.kind == "parameters":
+            return _by_parameters(scene, r)
     spherical = description.dimension == 3 and all(link.chart.polar_sine for link in description.links)
     if spherical:
         atlas = find_atlas(scene.model) is not None
         c = cartesian_state(scene)
-        u = vertical_plane(c) if description.name in SPHERICAL_CHART_MODELS else None
-        if u is not None and not scene.events:    # the catalogue's double pendulum has a planar twin
-            params = {k: scene.parameters[k] for k in ("m1", "m2", "l1", "l2", "g")}
-            return Plan("planar", params, planar_state(c, u),
-                        "spherical scene starts in a vertical plane with no velocity out of it: "
-                        "it stays there, so the planar model is exact", plane=u)
+        for r in found:
+            chosen = _in_a_vertical_plane(scene, r, c) if r.kind == "vertical_plane" else None
+            if chosen is not None:
+                return chosen
+        planes = any(r.kind == "vertical_plane" for r in found)
         if atlas or "cartesian" in scene.initial:
             # the atlas picks its chart from the Cartesian state anyway (seed 000 §5.1)
             return Plan(scene.model, scene.parameters, {"cartesian": list(c)}, "spherical motion")
         names = load_model(scene.model).state_names
         return Plan(scene.model, scene.parameters, [scene.initial["state"][n] for n in names],
-                    "spherical motion in one chart" if u is None else
-                    "one chart: its [events] are in the chart's names")
+                    "one chart: its [events] are in the chart's names"
+                    if planes and vertical_plane(c) is not None else "spherical motion in one chart")
     state = [scene.initial["state"][n] for n in scene.initial["state"]]
     return Plan(scene.model, scene.parameters, state, f"{scene.model} as described")
 

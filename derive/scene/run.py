@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..codegen.contract import ADAPTIVE
+from ..codegen.contract import (ADAPTIVE, DEFAULT_METHOD, EXTENDED, LADDER, PRECISION as LADDER_TABLE,
+                                PRECISION_NAMES, PRECISION_TABLE, TAYLOR)
 from ..runtime.result import as_fields
 from ..runtime.simulate import SimulationError, SimulationResult, normalise_params, simulate
 from ..measurement.trust import (Lyapunov, REFERENCE_RTOL, atlas_lyapunov, initial_error,
@@ -36,21 +37,18 @@ from ..model import load_model
 from ..runtime.loader import load, numpy_module
 
 SAFETY = 10.0
-DOUBLE_RTOL_MIN = 1e-14
-FLOAT_RTOL_MIN = 1e-5
-LONG_DOUBLE_RTOL_MIN = 1e-16
-# the rungs above long double: Taylor's method, down to these tolerances (10 eps and more)
-DOUBLE_DOUBLE_RTOL_MIN = 1e-29
-QUAD_RTOL_MIN = 1e-32
-EXTENDED = ("double-double", "quad")
 RTOL_MAX = 1e-3            # a looser target is met at this tolerance: DOP853 is not run looser
-# the tightest tolerance a reference run may use in each precision (10 eps of simulate, with margin)
-REFERENCE_RTOL_MIN = {"float32": 1e-9, "float64": 1e-14,
-                      "longdouble": 20 * float(np.finfo(np.longdouble).eps),
-                      "double-double": DOUBLE_DOUBLE_RTOL_MIN, "quad": 2e-33}
+# The precision ladder is the contract's table: each rung's floor for a run, the tightest
+# tolerance a reference run may use in it (10 eps of simulate, with margin; long double's
+# is the platform's), its name in reports.
+FLOAT_RTOL_MIN = LADDER_TABLE["float32"].rtol_floor
+REFERENCE_RTOL_MIN = {p.key: p.reference_floor or 20 * float(np.finfo(np.dtype(p.key)).eps)
+                      for p in PRECISION_TABLE}
+PRECISION = {p.key: p.title for p in PRECISION_TABLE}
+# The rungs the planner climbs on its own, lowest first: quad (software binary128) costs about
+# 15 times double-double, so a scene asks for it (scalar = "quad").
+CLIMB = ("float64", "longdouble", "double-double")
 EXIT_TARGET_MISSED = 3     # `derive run`: the run finished, but its accuracy target was not met
-PRECISION = {"float32": "float", "float64": "double", "longdouble": "long double",
-             "double-double": "double-double", "quad": "quad (IEEE binary128)"}
 CHUNKS = 20          # the integration runs in this many pieces, for the progress bar
 
 
@@ -109,7 +107,7 @@ def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
         method, dtype = "taylor", scene.scalar
         rtol = max(rtol, REFERENCE_RTOL_MIN[dtype])
     elif scene.scalar == "float":
-        method, dtype = "dop853", "float32"
+        method, dtype = DEFAULT_METHOD, "float32"
         if rtol < FLOAT_RTOL_MIN:
             note = (f"target {scene.target:g} needs rtol {rtol:.2g}: beyond float, the run uses "
                     f"rtol {FLOAT_RTOL_MIN:g} and reports what it achieves")
@@ -119,27 +117,31 @@ def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
 
 
 def _dtype_of(scalar: str) -> str:
-    return {"long double": "longdouble", "float": "float32", "double": "float64"}.get(scalar, scalar)
+    return PRECISION_NAMES.get(scalar, scalar)
+
+
+def _rung_method(key: str) -> str:
+    return TAYLOR if LADDER_TABLE[key].taylor_only else DEFAULT_METHOD
 
 
 def climb(rtol: float, target: float | None) -> tuple[str, str, float, str]:
-    """(method, dtype, rtol, note) for a tolerance: the lowest rung of the precision
-    ladder that takes it (DOP853 in double, then long double; Taylor's method in
-    double-double, then quad), the note saying why a run climbed past long double."""
-    if rtol >= DOUBLE_RTOL_MIN:
-        return "dop853", "float64", rtol, ""
-    if rtol >= LONG_DOUBLE_RTOL_MIN:
-        return "dop853", "longdouble", rtol, ""
-    why = f"target {target:g} needs rtol {rtol:.2g}, beyond long double"
-    # double-double's floor for a run: 100 times its tightest, so that the reference there
-    # stays tighter than the run
-    floor = 100 * DOUBLE_DOUBLE_RTOL_MIN
-    if rtol >= floor:
-        return "taylor", "double-double", rtol, f"{why}: climbed the precision ladder to double-double (Taylor)"
-    # quad (software binary128) costs about 15 times double-double: a scene asks for it
-    # (scalar = "quad"), the planner does not climb there on its own
-    return "taylor", "double-double", floor, (
-        f"{why} and double-double: climbed the precision ladder to double-double (Taylor) at rtol "
+    """(method, dtype, rtol, note) for a tolerance: the lowest rung of CLIMB whose floor
+    takes it (DOP853 in the hardware types, Taylor's method above them), the note saying
+    why a run climbed past the hardware types.  The top rung's floor for a run is 100 times
+    its tightest, so that the reference there stays tighter than the run; a tolerance
+    below it runs at that floor and reports what it achieves."""
+    top = CLIMB[-1]
+    hardware = [k for k in CLIMB if not LADDER_TABLE[k].taylor_only]
+    why = f"target {target:g} needs rtol {rtol:.2g}, beyond {LADDER_TABLE[hardware[-1]].title}"
+    for key in CLIMB:
+        floor = 100 * LADDER_TABLE[key].rtol_floor if key == top else LADDER_TABLE[key].rtol_floor
+        if rtol >= floor:
+            climbed = LADDER_TABLE[key].taylor_only
+            note = f"{why}: climbed the precision ladder to {LADDER_TABLE[key].title} (Taylor)" if climbed else ""
+            return _rung_method(key), key, rtol, note
+    name = LADDER_TABLE[top].title
+    return _rung_method(top), top, floor, (
+        f"{why} and {name}: climbed the precision ladder to {name} (Taylor) at rtol "
         f"{floor:g}, which reports what it achieves (scalar = \"quad\" goes further)")
 
 
@@ -231,14 +233,15 @@ def _events(p: Plan, scene: Scene, c: Choice, result: SimulationResult) -> Simul
 
 def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions, velocities and energy of the scene's own pendulum (not of the model that ran)."""
-    if scene.model == "compound" and p.model == "planar":
-        pc = normalise_params("compound", scene.parameters).astype(np.float64)
-        m = load("compound") if scene.backend == "c" else numpy_module("compound")   # no compiler needed
-        y = r.y.astype(np.float64)
-        return m.positions(y, pc), m.velocities(y, pc), m.energy(y, pc)
     if p.plane is not None:
         return (planar_positions_in_3d(r.positions, p.plane),
                 planar_positions_in_3d(r.velocities, p.plane), r.energy)
+    if p.model != scene.model and find_atlas(scene.model) is None:
+        # a reduction with the same coordinates: the scene's own kernels on the run's states
+        own = normalise_params(scene.model, scene.parameters).astype(np.float64)
+        m = load(scene.model) if scene.backend == "c" else numpy_module(scene.model)   # no compiler needed
+        y = r.y.astype(np.float64)
+        return m.positions(y, own), m.velocities(y, own), m.energy(y, own)
     return r.positions, r.velocities, r.energy
 
 
@@ -261,7 +264,8 @@ def reference_rtol(c: Choice) -> tuple[float, str]:
     never tighter than quad can take (then the reference is only as much tighter as it
     can be, and says so)."""
     tight = (c.rtol or 1.0) / 1000
-    ladder = ("float64", "longdouble", "double-double") + (("quad",) if c.dtype == "quad" else ())
+    above = LADDER[LADDER.index(CLIMB[-1]) + 1:]          # rungs a scene asks for (quad)
+    ladder = CLIMB + (above[:above.index(c.dtype) + 1] if c.dtype in above else ())
     start = ladder.index(c.dtype) if c.dtype in ladder else 0
     for dtype in ladder[start:]:
         if tight >= REFERENCE_RTOL_MIN[dtype]:

@@ -10,14 +10,14 @@ from ..errors import SceneError
 from ..model.description import NAME, parameter_problem
 from ..paths import scenes_dir
 from ..model import ModelError, is_model_file, load_model
-from ..codegen.contract import ATLAS_CHARTS, FIXED, RUN_METHODS, TAYLOR     # the run contract
+from ..codegen.contract import ATLAS_CHARTS, EXTENDED, FIXED, RUN_METHODS, SCALARS as CONTRACT_SCALARS, TAYLOR     # the run contract
 
 from ..model.atlas import ATLAS, atlas_for, find_atlas, standard_member  # noqa: E402  (chart atlases)
 from ..runtime.events import parse_events
 from types import SimpleNamespace
 SPHERICAL_CHART_MODELS = ATLAS_CHARTS
 FIXED_STEP = FIXED
-SCALARS = ("float", "double", "long double", "double-double", "quad")     # the precision ladder
+SCALARS = CONTRACT_SCALARS      # the precision ladder, lowest first (the contract's table)
 TRAJECTORY_FORMATS = ("csv", "npz")
 PLOTS = ("paths", "energy", "animation")
 MAX_OUTPUTS = 10_000_000        # output times of one scene: ~3 GiB with its observables
@@ -266,7 +266,7 @@ def _parse_accuracy(t: dict) -> dict:
         if key in t and out[key] is None:
             raise SceneError(f"'accuracy.{key}' does not apply here")
     out["scalar"] = _choice(t.get("scalar", "double"), "accuracy.scalar", SCALARS)
-    if out["scalar"] in ("double-double", "quad") and out["method"] not in (None, TAYLOR):
+    if out["scalar"] in EXTENDED and out["method"] not in (None, TAYLOR):
         raise SceneError(f"[accuracy]: scalar '{out['scalar']}' runs method 'taylor', not '{out['method']}'")
     out["backend"] = _choice(t.get("backend", "c"), "accuracy.backend", ("c", "numpy"))
     return out

@@ -15,7 +15,7 @@ from ..model.description import _from_files
 from ..paths import cache_dir, replace_file
 from ..runtime.build import integrator_library
 from ..runtime.taylor_lanes_library import taylor_ensemble_library
-from ..runtime.taylor_library import taylor_order
+from ..codegen.contract import taylor_order
 from .sweep_file import Sweep
 
 TAYLOR_HMAX = 1e300             # no cap on a Taylor step but the run's end (runner)

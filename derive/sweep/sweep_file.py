@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError, SceneError
-from ..codegen.contract import TAYLOR, TOLERANCE_METHODS
+from ..codegen.contract import DEFAULT_METHOD, TAYLOR, TOLERANCE_METHODS
 from ..model import load_model, model_names
 from ..model.atlas import ATLAS
 from ..model.expressions import parse_expression
@@ -53,7 +53,7 @@ PER_TRAJECTORY = ("final_state", "lyapunov_exponent", "energy_error")   # beside
 DEFAULT_CHUNK = 10_000
 MAX_TRAJECTORIES = 10 ** 9
 SAMPLE_DIM = "sample"
-DEFAULT_ACCURACY = {"method": "dop853", "rtol": 1e-10, "atol": 1e-13}
+DEFAULT_ACCURACY = {"method": DEFAULT_METHOD, "rtol": 1e-10, "atol": 1e-13}
 
 
 @dataclass(frozen=True)

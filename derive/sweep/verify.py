@@ -44,7 +44,7 @@ import math
 import numpy as np
 
 from ..codegen.contract import TAYLOR
-from ..runtime.taylor_library import taylor_order
+from ..codegen.contract import taylor_order
 from . import level_crossings as ev
 from .runners import runner
 from .sweep_file import Sweep

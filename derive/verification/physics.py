@@ -20,6 +20,8 @@ from .zero import DIGITS, matrix_is_zero, random_point, trig_is_zero
 from ..derivation.symbols import parse_quantity
 from ..errors import ModelError
 from ..model.atlas import atlas_for
+from ..model.reductions import reduction
+from ..derivation.reductions import parameter_match
 
 SPHERICAL_PAIRS = [("spherical_std", "spherical_alt"), ("spherical_alt", "spherical_std"),
                    ("spherical_std", "spherical_rot"), ("spherical_rot", "spherical_alt")]
@@ -128,16 +130,12 @@ def compound_point_mass_equivalence() -> tuple[Check, dict]:
     for every L2 >= 0 (b is link 2's length of equivalent simple pendulum).
     M1 >= m1/2 > 0 always, so the equivalent point-mass model is physical.
     """
-    c, p = derive("compound"), derive("planar")
+    c = derive("compound")
     m1, m2, l1, l2, L1, L2, g = c.symbols.params
-    M1, M2, a, b = sp.symbols("M1 M2 a b", positive=True)
-    planar = dict(zip(p.symbols.params, (M1, M2, a, b, g)))
-    rename = dict(zip(p.symbols.state, c.symbols.state))
-    lag_p = sp.expand(p.L.xreplace(planar).xreplace(rename))
+    match = parameter_match(reduction("compound", "planar"))      # the planner's derivation
+    a, b = match.stand_ins["l1"], match.stand_ins["l2"]
     th1, th2 = c.symbols.q
-    diff = sp.expand(sp.expand_trig(sp.expand(c.L) - lag_p))
-    terms = sp.Poly(diff, *c.symbols.qd, sp.sin(th1), sp.cos(th1), sp.sin(th2), sp.cos(th2)).coeffs()
-    solutions = sp.solve(terms, [M1, M2, a, L1, b], dict=True)
+    solutions, lag_p = match.solutions, match.target_lagrangian
     if len(solutions) != 1:
         return Check("compound -> point masses", False, f"{len(solutions)} solutions"), {}
     sol = solutions[0]
