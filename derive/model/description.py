@@ -175,7 +175,7 @@ def load_chart(name: str) -> Chart:
     return chart
 
 
-DATA_FILES = ("charts", "atlases")      # catalogue files that are not models
+DATA_FILES = ("charts", "atlases", "reductions")      # catalogue files that are not models
 
 
 def model_names() -> list[str]:

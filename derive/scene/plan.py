@@ -18,7 +18,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import sympy as sp
 
 from ..model import load_model
 from ..model.atlas import find_atlas, standard_member
@@ -87,12 +86,12 @@ def target_parameters(r: Reduction, params: dict[str, float]) -> dict[str, float
     derived = parameter_map(r)
     if derived is None:
         raise RuntimeError(f"the reduction {r.source} -> {r.target} no longer derives")
-    values = {sp.Symbol(k, positive=True): v for k, v in params.items()}
+    value = lambda e: float(e.subs({x: params[x.name] for x in e.free_symbols}))
     for name, required in derived.condition.items():
-        needed = float(required.subs(values))
+        needed = value(required)
         if abs(params[name] - needed) > RELATIVE_TOLERANCE * max(abs(needed), 1e-300):
             return None
-    return {k: float(e.subs(values)) for k, e in derived.target.items()}
+    return {k: value(e) for k, e in derived.target.items()}
 
 
 def _by_parameters(scene: Scene, r: Reduction) -> Plan | None:
