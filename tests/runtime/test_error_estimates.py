@@ -10,7 +10,7 @@ import derive
 from derive.errors import SimulationInputError
 from derive.integration.contract import LOCAL_ERROR_METHODS, RUN_METHODS
 
-PLANAR = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
+from tests.parameters import UNIT_PARAMS as PLANAR
 REGULAR = [0.3, 0.2, 0.0, 0.0]               # a small swing: errors grow about linearly
 T = np.linspace(0.0, 10.0, 51)
 SETTINGS = {"dopri5": dict(rtol=1e-7), "dop853": dict(rtol=1e-7), "taylor": dict(rtol=1e-7),

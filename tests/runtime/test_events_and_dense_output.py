@@ -18,7 +18,7 @@ from scipy.optimize import brentq          # noqa: E402
 from scipy.special import ellipk           # noqa: E402
 
 MODELS = Path(__file__).resolve().parents[2] / "examples" / "models"
-PLANAR = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
+from tests.parameters import UNIT_PARAMS as PLANAR
 DRIVEN = {**PLANAR, "c1": 0.1, "c2": 0.05}
 TRIPLE = {"m1": 1.0, "m2": 0.8, "m3": 0.6, "l1": 1.0, "l2": 0.9, "l3": 0.7, "L2": 0.9 * 0.81 / 12, "g": 9.81}
 SIMPLE = """name = "simple_pendulum"

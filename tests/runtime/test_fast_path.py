@@ -16,7 +16,7 @@ from derive.integration.result import SimulationResult
 
 simulate_module = importlib.import_module("derive.integration.simulate")
 
-PLANAR = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
+from tests.parameters import UNIT_PARAMS as PLANAR
 Y0 = [1.0, 0.5, 0.0, 0.0]
 
 

@@ -21,8 +21,8 @@ from derive.integration.build import integrator_library
 from derive.integration.contract import METHODS, STATUS
 from derive.integration.simulate import numpy_module
 
-PLANAR = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
-P = np.array([1.0, 1.0, 1.0, 1.0, 9.81])
+from tests.parameters import UNIT_PARAMS as PLANAR, UNIT_VECTOR
+P = np.array(UNIT_VECTOR)
 Y0 = [1.0, 0.5, 0.0, 0.0]
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -18,7 +18,7 @@ from derive.integration.build import integrator_library
 from derive.codegen.generate import render_everything
 from derive.integration.simulate import numpy_module
 
-PLANAR = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
+from tests.parameters import UNIT_PARAMS as PLANAR
 COMPOUND = [1.0, 2.0, 1.0, 0.7, 1.0 / 12, 2.0 * 0.49 / 12, 9.81]
 Y0 = [1.0, 0.5, 0.0, 0.0]
 

@@ -28,7 +28,7 @@ from derive.model import model_names
 
 DATA = Path(__file__).parents[1] / "data" / "chaotic_planar_reference.json"
 EXAMPLES = Path(__file__).parents[2] / "examples" / "models"
-PLANAR = [1.0, 1.0, 1.0, 1.0, 9.81]
+from tests.parameters import UNIT_VECTOR as PLANAR
 # relative agreement of the kernels with mpmath (issue 16): 1e-30 double-double, 1e-32 quad
 KERNEL_AGREEMENT = {"double-double": 1e-30, "quad": 1e-32}
 

@@ -13,7 +13,7 @@ from derive.integration.taylor_library import taylor_library, taylor_order
 from derive.measurement.peers import derivation_rhs
 
 EXAMPLES = Path(__file__).parents[2] / "examples" / "models"
-PLANAR = [1.0, 1.0, 1.0, 1.0, 9.81]
+from tests.parameters import UNIT_VECTOR as PLANAR
 
 
 def _lie_coefficients(model: str, y0, params, K: int) -> np.ndarray:

@@ -13,7 +13,7 @@ from derive.integration.taylor_lanes_library import simd_build, taylor_lanes_lib
 from derive.integration.taylor_library import taylor_library, taylor_order
 
 LANES = simd_build("float64")[1]          # what ensemble runs with on this machine
-PLANAR = [1, 1, 1, 1, 9.81]
+from tests.parameters import UNIT_VECTOR as PLANAR
 
 
 def _states(B, seed=4):

@@ -438,10 +438,9 @@ def test_a_missed_target_is_never_reported_ok(tmp_path):
 
 # -- the API: derive.simulate with bad or extreme arguments -------------------------------
 
-P = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
+from tests.parameters import UNIT_PARAMS as P, UNIT_VECTOR as SPH  # noqa: E402
 Y = [2.5, 2.0, 0.0, 0.0]
 T = np.linspace(0, 1, 11)
-SPH = [1.0, 1.0, 1.0, 1.0, 9.81]
 REFUSED = [   # (id, kwargs for simulate over the planar defaults, message pattern)
     ("dtype-int32", dict(dtype="int32"), r"unknown dtype 'int32'"),
     ("dtype-float16", dict(dtype=np.float16), r"unknown dtype"),
