@@ -132,7 +132,7 @@ def test_names_the_generated_code_uses_itself(tmp_path):
     assert load("natural").names["param_names"] == ("M", "p", "lambda", "F", "y", "int", "double", "g")
 
 
-@pytest.mark.parametrize("cc", ["gcc", "clang", "g++"])
+@pytest.mark.parametrize("cc", ["gcc", "clang", pytest.param("g++", marks=pytest.mark.slow)])
 def test_a_user_models_c_is_clean_under_werror(tmp_path, cc):
     gen = tmp_path / "gen"
     run = cli("generate", str(EXAMPLES / "triple.toml"), str(EXAMPLES / "driven.toml"), "--out", str(gen), cwd=tmp_path)

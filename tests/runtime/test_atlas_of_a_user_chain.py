@@ -94,7 +94,8 @@ def test_the_rule_for_n_links(atlas):
     assert max(min(cartesian.polar_sines(m, c, LENGTHS)) for m in atlas.charts) < 1e-12
 
 
-@pytest.mark.parametrize("backend", ["c", "numpy"])
+@pytest.mark.parametrize("backend", [pytest.param("c", marks=pytest.mark.slow),   # compiles the chain atlas: minutes
+                                     "numpy"])
 def test_triple_chain_through_a_pole_agrees_with_a_cartesian_reference(backend):
     """Both at rtol 1e-12 (the reference 1e-13, DOP853 in SciPy on the constraint-force
     equations); over 5 s this motion amplifies a 1e-12 local error to about 1e-11 (measured

@@ -307,6 +307,7 @@ def test_c_bad_input_status():
     assert name(5) == b"chart singular (polar sine below threshold)"
 
 
+@pytest.mark.slow     # renders every model's integrators again
 def test_generated_integrators_are_deterministic():
     a = render_everything(fresh=True)         # rendered now, twice, neither from a cache
     b = render_everything(fresh=True)

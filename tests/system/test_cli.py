@@ -36,6 +36,7 @@ def test_verify_json_lists_every_formula():
     assert any(r["equation"] == "3.40" and r["verdict"] == "erratum" for r in rows)
 
 
+@pytest.mark.slow     # `derive verify` of every seed claim in a subprocess (tests/verification checks them in-process)
 def test_verify_table_and_summary():
     run = derive("verify")
     assert run.returncode == 0, run.stderr
