@@ -7,7 +7,7 @@ rung at its tightest tolerance: float and double (DOP853, Taylor), long double,
 double-double and quad (Taylor), and heyoka beside them in double, long double and
 real128 (Taylor, tol = eps of each).  Every run's error at t = 0, 0.5, ..., 20 is taken
 against tests/data/chaotic_planar_reference.json (an mpmath Taylor integration at 60
-digits, independent of derive: tests/data/make_chaotic_reference.py), and each derive
+digits, independent of derive: tests/oracles/make_chaotic_reference.py), and each derive
 result states its trust horizon for 1e-8 (derive.trust_horizon(r): the early error, tolerance
 or unit roundoff, grown by the motion's largest Lyapunov exponent).  Writes ladder.png
 (error against t, a line per run, the horizons marked) and ladder.md (the table), and

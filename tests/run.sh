@@ -6,7 +6,7 @@
 #
 # Further arguments go to pytest.  Installs the system tools the tests need
 # from Debian when they are missing and it may (root, or sudo without a
-# password), then the project with its test and sweep extras (tests/test_sweep.py runs
+# password), then the project with its test and sweep extras (tests/sweep/test_sweep.py runs
 # sweeps on a local Dask cluster), then runs pytest on every
 # core (pytest-xdist).  A missing tool is an error (exit 2), never a skip.
 set -euo pipefail

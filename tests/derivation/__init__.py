@@ -1,0 +1,1 @@
+"""The symbolic derivation: Lagrangian identities, the cache, the equations against independent references."""

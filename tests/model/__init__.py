@@ -1,0 +1,1 @@
+"""Model descriptions: the catalogue, user model files, named errors."""

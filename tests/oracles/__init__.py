@@ -1,0 +1,1 @@
+"""Test oracles, independent of derive's own pipeline: the sympy.physics.mechanics and Cartesian references, the chaotic mpmath reference maker, the mpmath evaluation of the derivation the generated kernels are checked against."""

@@ -1,0 +1,1 @@
+"""The LaTeX report, compiled and read back."""

@@ -1,0 +1,1 @@
+"""Scene files and derive run: loading, planning to an accuracy target, outputs."""

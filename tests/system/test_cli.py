@@ -1,0 +1,75 @@
+"""The command line as a user meets it: output formats, exit codes, one-line errors."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def derive(*args, cwd=ROOT):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "derive", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=600)
+
+
+@pytest.mark.slow     # verifies every formula of every seed claim: about 50 s
+def test_verify_json_lists_every_formula():
+    run = derive("verify", "--json")
+    assert run.returncode == 0, run.stderr
+    out = json.loads(run.stdout)
+    assert set(out) == {"formulas", "physics_checks"}
+    rows = out["formulas"]
+    assert len(rows) >= 200
+    assert all(set(r) == {"seed", "equation", "what", "model", "verdict", "summary", "printed",
+                          "derived", "discrepancy", "corrected", "origin"} for r in rows)
+    assert all(set(r["printed"]) == {"latex", "sympy"} and r["derived"]["latex"] for r in rows)
+    assert all(r["corrected"] is not None for r in rows if r["verdict"] == "erratum")
+    checks = out["physics_checks"]
+    assert checks and all(c["passed"] for c in checks)
+    assert {"name", "passed", "detail", "models", "states", "tolerance", "worst"} <= set(checks[0])
+    assert {r["verdict"] for r in rows} == {"match", "erratum"}
+    assert {r["seed"] for r in rows} == {"000_22f1304773697fe8.txt", "001_025e500cdf7d3415.txt"}
+    assert any(r["equation"] == "3.40" and r["verdict"] == "erratum" for r in rows)
+
+
+@pytest.mark.slow     # `derive verify` of every seed claim in a subprocess (tests/verification checks them in-process)
+def test_verify_table_and_summary():
+    run = derive("verify")
+    assert run.returncode == 0, run.stderr
+    assert "errata" in run.stdout and "physics checks pass" in run.stdout
+
+
+@pytest.mark.parametrize("args,message", [
+    (["frobnicate"], "invalid choice"),
+    (["derive", "triple"], "unknown model 'triple'"),
+    (["latex", "triple"], "unknown model 'triple'"),
+    (["latex", "planar", "-o", "/no/such/dir/x.tex"], "does not exist"),
+    (["verify", "--colour"], "unrecognized arguments"),
+])
+def test_bad_input_is_one_line_and_exit_2(args, message):
+    run = derive(*args)
+    assert run.returncode == 2
+    assert message in run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1, run.stderr
+    assert "Traceback" not in run.stderr
+
+
+@pytest.mark.parametrize("model", ["compound", pytest.param("spherical_std", marks=pytest.mark.slow)])
+def test_latex_document_compiles(model, tmp_path):
+    run = derive("latex", model, "-o", str(tmp_path / f"{model}.tex"), "--pdf")
+    assert run.returncode == 0, run.stdout + run.stderr
+    tex = (tmp_path / f"{model}.tex").read_text()
+    assert r"\begin{document}" in tex and r"\verdict{match}" in tex
+    if model == "spherical_std":
+        assert r"\verdict{erratum}" in tex   # e.g. (3.40) is printed wrong in the seed
+    assert (tmp_path / f"{model}.pdf").stat().st_size > 10_000
+
+
+def test_bench_refuses_an_unwritable_output_directory_before_running():
+    run = derive("bench", "--quick", "--quiet", "--no-throughput", "--out", "/proc/no-such-dir")
+    assert run.returncode == 2 and "cannot write to '/proc/no-such-dir'" in run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1

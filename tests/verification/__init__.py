@@ -1,0 +1,1 @@
+"""The seed papers' formulas, their errata and the independent physics checks."""
