@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import re
 import sys
@@ -107,8 +108,9 @@ class Model:
         for link in self.links:
             for value, role in ((link.length, "length"), (link.body.mass, "mass"),
                                 (link.body.inertia, "inertia"), (link.body.com, "fraction")):
-                if value in self.parameters:
-                    roles.setdefault(value, role)
+                name = _bare_parameter(value, self.parameters)      # l1, but also 1*l1, +l1, (l1)
+                if name is not None:
+                    roles.setdefault(name, role)
         return roles
 
     @cached_property
@@ -253,13 +255,30 @@ def parameter_problem(model: "Model", values: dict) -> tuple[str | None, str] | 
     return (None, problem) if problem else None
 
 
+def _bare_parameter(text: str, parameters: tuple[str, ...]) -> str | None:
+    """The parameter a link quantity is, however it is spelled (`l1`, `1*l1`, `+l1`), or None."""
+    if text in parameters:
+        return text
+    try:
+        expr = parse_expression(text, {n: sp.Symbol(n) for n in parameters}, "link quantity")
+    except ModelError:
+        return None
+    return expr.name if expr.is_Symbol else None
+
+
 def check_link_values(model: "Model", values: dict) -> str | None:
     """The first link quantity (length, mass, inertia, centre of mass; a parameter or an
     expression of them) that the parameter values make impossible, as a message, or None."""
     for i, key, text, names, f in _link_quantities(model):
         if any(n not in values for n in names):
             continue
-        value = float(f(*[values[n] for n in names]))
+        try:
+            value = complex(f(*[values[n] for n in names]))
+        except (ZeroDivisionError, OverflowError, ValueError, TypeError):
+            value = complex(math.nan)
+        if value.imag != 0 or not math.isfinite(value.real):
+            return f"link {i} {key} = {text} is not a finite real number at these parameter values"
+        value = value.real
         problem = _quantity_problem(key, value)
         if problem:
             return f"link {i} {key} = {text} = {value:g} {problem}"
@@ -279,7 +298,7 @@ def _link_quantities(model: "Model") -> list:
             for key, text in (("length", link.length), ("body mass", link.body.mass),
                               ("body com", link.body.com), ("body inertia", link.body.inertia)):
                 expr = parse_expression(text, params, f"link {i} {key}")
-                if expr.free_symbols and not expr.is_Symbol:     # bare parameters: by their role
+                if expr.free_symbols:     # every spelling, a bare parameter too (1*l1 is l1)
                     names = sorted(s.name for s in expr.free_symbols)
                     out.append((i, key, text, names, sp.lambdify([params[n] for n in names], expr, "math")))
         _quantities[model.content_hash] = out

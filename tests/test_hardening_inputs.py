@@ -1,0 +1,155 @@
+"""Hostile inputs refused at once with one line: numbers of unbounded size in model, event
+and sweep expressions, certain divisions by zero, non-ASCII look-alikes, link quantities
+whose role hides behind another spelling (`1*l1`, `+m2`), model paths that are no regular
+files, and model names too long or colliding with another artifact's files."""
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import derive
+from derive.model import ModelError, load_model
+
+ROOT = Path(__file__).resolve().parents[1]
+PLANAR = (ROOT / "derive" / "model" / "catalog" / "planar.toml").read_text()
+
+
+def cli(*args, cwd, timeout=60):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    start = time.monotonic()
+    r = subprocess.run([sys.executable, "-m", "derive", *args], cwd=cwd, env=env,
+                       capture_output=True, text=True, timeout=timeout)
+    r.seconds = time.monotonic() - start
+    return r
+
+
+def model_file(tmp_path: Path, name: str, length: str = "l1", mass: str = "m2") -> Path:
+    text = (PLANAR.replace('name = "planar"', f'name = "{name}"')
+            .replace('length = "l1"', f'length = "{length}"', 1)
+            .replace('mass = "m2"', f'mass = "{mass}"', 1))
+    path = tmp_path / f"{name}.toml"
+    path.write_text(text)
+    return path
+
+
+def one_line(r, status: int = 2) -> str:
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == status, r.stderr
+    assert len(lines) == 1 and lines[0].startswith("derive: error:"), r.stderr
+    assert "Traceback" not in r.stderr and "internal error" not in r.stderr
+    return lines[0]
+
+
+# -- a number's size is bounded -----------------------------------------------------------
+
+HUGE = [
+    ("tower", "10**10**10", "too large"),
+    ("power", "2**100000000", "too large"),
+    ("negative power", "2**-100000000", "too small"),
+    ("literal", "1e9999999", "too large"),
+    ("tiny literal", "1e-9999999", "too small"),
+    ("long integer", "9" * 400, "too large"),
+    ("product", "1e200*1e200*l1", "too large"),
+    ("exp", "exp(exp(exp(10)))*l1", "too large"),
+    ("symbolic power", "l1**1000000", "an exponent"),
+    ("nested power", "(l1**50)**50", "an exponent"),
+    ("unary minus", "-" * 9000 + "l1", "operators"),
+    ("sum", "+".join(["l1"] * 3000), "operators"),
+    ("division by zero", "1/0", "division by zero"),
+    ("cancelled division by zero", "l1/(l1 - l1)", "division by zero"),
+    ("zero to a negative power", "0**-1", "division by zero"),
+    ("square root of -1", "sqrt(-1)", "not a real number"),
+    ("log of 0", "log(0)*l1", "not a real number"),
+    ("asin of 2", "asin(2)", "not a real number"),
+    ("odd root of a negative", "(-8)**(1/3)", "not a real number"),
+    ("full-width l", "\uff4c1", "not ASCII"),
+]
+
+
+@pytest.mark.parametrize("length, message", [h[1:] for h in HUGE], ids=[h[0] for h in HUGE])
+def test_a_length_of_unbounded_size_is_refused_at_once(tmp_path, length, message):
+    path = model_file(tmp_path, "huge", length)
+    start = time.monotonic()
+    with pytest.raises(ModelError) as info:
+        load_model(path)
+    assert time.monotonic() - start < 0.5
+    text = str(info.value)
+    assert message in text and "\n" not in text
+    assert text.startswith(f"{path}: link 1 length")
+
+
+@pytest.mark.parametrize("length", ["10**10**10", "1e9999999", "-" * 9000 + "l1", "+".join(["l1"] * 3000),
+                                    "1/0", "sqrt(-1)"])
+def test_derive_derive_refuses_them_with_exit_2(tmp_path, length):
+    path = model_file(tmp_path, "huge", length)
+    r = cli("derive", str(path), cwd=tmp_path)
+    line = one_line(r)
+    assert str(path) in line and "link 1 length" in line
+    assert r.seconds < 15             # the interpreter's start and imports; the refusal itself is instant
+
+
+@pytest.mark.parametrize("key, value", [
+    ("forces", '[forces]\ntheta1 = "1/(m1 - m1)"\n'),
+    ("dissipation", 'dissipation = "theta1_dot**2/(l1 - l1)"\n'),
+])
+def test_a_certain_division_by_zero_in_forces_or_dissipation_is_refused(tmp_path, key, value):
+    text = PLANAR.replace('name = "planar"', 'name = "divzero"').replace('forms = ["lagrangian", "hamiltonian"]\n', "")
+    text = (text.replace("[[links]]", value + "\n[[links]]", 1) if key == "dissipation" else text + "\n" + value)
+    path = tmp_path / "divzero.toml"
+    path.write_text(text)
+    with pytest.raises(ModelError, match="division by zero") as info:
+        load_model(path)
+    assert key in str(info.value) and str(path) in str(info.value)
+
+
+def test_ordinary_expressions_still_parse():
+    import sympy as sp
+    from derive.model.expressions import parse_expression
+    l1 = sp.Symbol("l1")
+    assert parse_expression("-pi/2", {}, "x") == -sp.pi / 2
+    assert parse_expression("sqrt(21)/14", {}, "x") == sp.sqrt(21) / 14
+    assert parse_expression("1.5e-3*l1**2 + 10**300", {"l1": l1}, "x") == sp.Rational(3, 2000) * l1**2 + 10**300
+    assert parse_expression("(l1 + 1)**100", {"l1": l1}, "x") == (l1 + 1)**100
+    assert parse_expression("6.674e-11", {}, "x") == sp.Rational("6.674e-11")
+
+
+def test_event_expressions_and_sweep_axes_are_bounded(tmp_path):
+    with pytest.raises(derive.SimulationInputError, match="too large"):
+        derive.simulate("planar", [1, 0, 0, 0], [0, 1], [1, 1, 1, 1, 9.81], events={"e": "theta1 - 10**10**10"})
+    scene = (ROOT / "derive" / "scenes" / "default.toml").read_text().replace('"out/default"', '"o"')
+    (tmp_path / "s.toml").write_text(scene + '\n[events]\ncross = "theta1 - 1e9999999"\n')
+    line = one_line(cli("run", "s.toml", cwd=tmp_path))
+    assert "s.toml" in line and "events.cross" in line and "too large" in line
+    from derive.errors import SceneError
+    from derive.sweep.spec import number
+    with pytest.raises(SceneError, match="too large") as info:
+        number("10**10**10", "f.toml: 'axes.theta1'.linspace[1]")
+    assert "f.toml" in str(info.value)
+
+
+# -- roles hold whatever the spelling ------------------------------------------------------
+
+@pytest.mark.parametrize("length, mass", [("1*l1", "m2"), ("+l1", "m2"), ("(l1)", "m2"), ("l1", "+m2"),
+                                          ("l1", "1*m2")])
+def test_a_role_holds_whatever_the_spelling(tmp_path, length, mass):
+    name = "spelled_" + str(abs(hash((length, mass))) % 10**6)
+    path = model_file(tmp_path, name, length, mass)
+    model = load_model(path)
+    roles = model.parameter_roles()
+    assert roles["l1"] == "length" and roles["m2"] == "mass"
+    with pytest.raises(derive.SimulationInputError, match="must be positive"):
+        derive.simulate(str(path), [1, 0, 0, 0], [0, 1], [1.0, 1.0, -1.0, 1.0, 9.81])     # l1 < 0
+    with pytest.raises(derive.SimulationInputError, match="must be positive"):
+        derive.simulate(str(path), [1, 0, 0, 0], [0, 1], [1.0, -2.0, 1.0, 1.0, 9.81])     # m2 < 0
+
+
+def test_a_link_quantity_undefined_at_the_values_is_refused(tmp_path):
+    path = model_file(tmp_path, "pole", "1/(l1 - 1)")
+    with pytest.raises(derive.SimulationInputError, match="not a finite real number"):
+        derive.simulate(str(path), [1, 0, 0, 0], [0, 1], [1.0, 1.0, 1.0, 1.0, 9.81])
