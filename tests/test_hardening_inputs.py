@@ -153,3 +153,35 @@ def test_a_link_quantity_undefined_at_the_values_is_refused(tmp_path):
     path = model_file(tmp_path, "pole", "1/(l1 - 1)")
     with pytest.raises(derive.SimulationInputError, match="not a finite real number"):
         derive.simulate(str(path), [1, 0, 0, 0], [0, 1], [1.0, 1.0, 1.0, 1.0, 9.81])
+
+
+# -- input paths are regular files of bounded size -----------------------------------------
+
+def _specials(tmp_path: Path) -> dict[str, tuple[Path, str]]:
+    fifo = tmp_path / "fifo.toml"
+    os.mkfifo(fifo)
+    (tmp_path / "dir.toml").mkdir()
+    big = tmp_path / "big.toml"
+    big.write_text("#" * (2 << 20))
+    return {"device": (Path("/dev/zero"), "a character device"), "fifo": (fifo, "a FIFO"),
+            "directory": (tmp_path / "dir.toml", "a directory"), "big": (big, "bytes (at most 1048576")}
+
+
+@pytest.mark.parametrize("command, what", [("derive", "model"), ("run", "scene"), ("sweep", "sweep")])
+def test_input_paths_are_regular_files_of_bounded_size(tmp_path, command, what):
+    for kind, (path, message) in _specials(tmp_path).items():
+        r = cli(command, str(path), cwd=tmp_path, timeout=30)     # /dev/zero or a FIFO would never end
+        line = one_line(r)
+        assert f"{what} file '{path}'" in line and message in line, (kind, line)
+
+
+def test_a_scene_naming_a_device_as_its_model(tmp_path):
+    from derive.errors import SceneError
+    from derive.scene import load_scene
+    scene = (ROOT / "derive" / "scenes" / "default.toml").read_text().replace('"planar"', '"/dev/zero"')
+    (tmp_path / "s.toml").write_text(scene)
+    with pytest.raises(SceneError, match="a character device, not a regular file"):
+        load_scene(tmp_path / "s.toml")
+    with pytest.raises(ModelError, match="not UTF-8"):
+        (tmp_path / "bin.toml").write_bytes(b"\xff\xfe\x00")
+        load_model(tmp_path / "bin.toml")

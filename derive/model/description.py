@@ -14,6 +14,7 @@ from pathlib import Path
 import sympy as sp
 
 from ..errors import ModelError
+from ..inputfile import read_input_text
 from ..paths import catalog_dir
 from .expressions import FUNCTIONS, parse_expression
 
@@ -432,12 +433,7 @@ def is_model_file(text: str | os.PathLike) -> bool:
 def load_model_file(path: str | os.PathLike) -> Model:
     """A model description from a TOML file anywhere; afterwards its name loads it too."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise ModelError(f"model file '{path}' does not exist") from None
-    except (OSError, UnicodeDecodeError, ValueError) as exc:     # ValueError: a NUL in the path
-        raise ModelError(f"cannot read model file {str(path)!r}: {exc}") from None
+    text = read_input_text(path, "model", ModelError)       # a regular file of bounded size
     model = parse_model(text, str(path))
     if model.name in model_names() and load_model(model.name).text != text:
         raise ModelError(f"{path}: name '{model.name}' is a catalogue model's; give the model "

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import SceneError
+from ..inputfile import read_input_text
 from ..model.description import NAME
 from ..paths import scenes_dir
 from ..model import ModelError, is_model_file, load_model
@@ -375,12 +376,7 @@ def load_scene(path: str | Path) -> Scene:
     if not path.exists():
         raise SceneError(f"scene file '{path}' does not exist (example scenes: "
                          f"{', '.join(example_scenes())})")
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise SceneError(f"scene file '{path}' does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"cannot read scene file '{path}': {exc}") from None
+    text = read_input_text(path, "scene", SceneError)       # a regular file of bounded size
     try:
         return parse_scene(text, str(path))
     except SceneError as exc:          # every mistake names the file, then the key

@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError, SceneError
+from ..inputfile import read_input_text
 from ..integration.contract import TAYLOR, TOLERANCE_METHODS
 from ..model import load_model
 from ..model.atlas import ATLAS
@@ -430,10 +431,7 @@ def load_sweep(path: str | Path) -> Sweep:
     path = scene_path(path)
     if not path.exists():
         raise SceneError(f"sweep file '{path}' does not exist")
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"cannot read sweep file '{path}': {exc}") from None
+    text = read_input_text(path, "sweep", SceneError)       # a regular file of bounded size
     try:
         return parse_sweep(text, str(path))
     except SceneError as exc:
