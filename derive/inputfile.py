@@ -15,6 +15,19 @@ from pathlib import Path
 MAX_BYTES = 1 << 20          # 1 MiB
 
 
+def _short(path: Path) -> str:
+    text = str(path)
+    return text if len(text) <= 120 else text[:100] + "..." + text[-15:]
+
+
+def exists(path: Path) -> bool:
+    """Path.exists, False for a path the system cannot even look up (a name too long)."""
+    try:
+        return path.exists()
+    except (OSError, ValueError):
+        return False
+
+
 def _kind(mode: int) -> str:
     for test, name in ((stat.S_ISDIR, "a directory"), (stat.S_ISCHR, "a character device"),
                        (stat.S_ISBLK, "a block device"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
@@ -33,8 +46,10 @@ def read_input_text(path: str | os.PathLike, what: str, error: type[Exception]) 
         info = os.stat(path)
     except FileNotFoundError:
         raise error(f"{what} file '{path}' does not exist") from None
-    except (OSError, ValueError) as exc:          # ValueError: a NUL in the path
-        raise error(f"cannot read {what} file {str(path)!r}: {exc}") from None
+    except OSError as exc:                        # a name too long, a loop of links, ...
+        raise error(f"cannot read {what} file {_short(path)!r}: {exc.strerror or exc}") from None
+    except ValueError as exc:                     # a NUL in the path
+        raise error(f"cannot read {what} file {_short(path)!r}: {exc}") from None
     if not stat.S_ISREG(info.st_mode):
         raise error(f"{what} file '{path}' is {_kind(info.st_mode)}, not a regular file")
     if info.st_size > MAX_BYTES:

@@ -185,3 +185,79 @@ def test_a_scene_naming_a_device_as_its_model(tmp_path):
     with pytest.raises(ModelError, match="not UTF-8"):
         (tmp_path / "bin.toml").write_bytes(b"\xff\xfe\x00")
         load_model(tmp_path / "bin.toml")
+
+
+# -- names: bounded, and never another artifact's ------------------------------------------
+
+@pytest.mark.parametrize("name, message", [
+    ("derive_integrators", "starts with 'derive_'"), ("derive_driver", "starts with 'derive_'"),
+    ("planar_integrate", "ends with '_integrate'"), ("planar_taylor", "ends with '_taylor'"),
+    ("planar_taylor_lanes", "ends with '_taylor_lanes'"), ("mine_fixed", "ends with '_fixed'"),
+    ("mine_second", "ends with '_second'"), ("spherical", "chart atlas"),
+    ("a" * 65, "65 characters long (at most 64)"), ("a" * 260, "260 characters long"),
+])
+def test_a_model_name_that_would_collide_or_is_too_long_is_refused(tmp_path, name, message):
+    path = model_file(tmp_path, "n", "l1").rename(tmp_path / "named.toml")
+    path.write_text(path.read_text().replace('name = "n"', f'name = "{name}"'))
+    with pytest.raises(ModelError, match=re.escape(message)) as info:
+        load_model(path)
+    assert str(path) in str(info.value) and "\n" not in str(info.value)
+
+
+def test_derive_derive_of_a_long_or_colliding_name_is_one_line(tmp_path):
+    path = tmp_path / "long.toml"
+    path.write_text(PLANAR.replace('name = "planar"', f'name = "{"a" * 260}"'))
+    assert "characters long" in one_line(cli("derive", str(path), cwd=tmp_path))
+    path.write_text(PLANAR.replace('name = "planar"', 'name = "derive_integrators"'))
+    assert "derive_" in one_line(cli("generate", str(path), "--out", "gen", cwd=tmp_path))
+    assert not (tmp_path / "gen").exists()
+    assert "unknown model" in one_line(cli("derive", "a" * 300, cwd=tmp_path))
+    assert "File name too long" in one_line(cli("run", "a" * 300, cwd=tmp_path))
+
+
+def _produced(names) -> dict[str, set[str]]:
+    """{model or atlas: the stems of every file every backend writes for it}."""
+    from derive.codegen.generate import render_models
+    out = {}
+    for name in names:
+        out[name] = {Path(rel).stem for rel in render_models([name])}
+    return out
+
+
+def test_every_file_of_the_golden_tree_is_a_models_name_or_reserved():
+    from derive.model import model_names
+    from derive.model.atlas import chain_rule
+    from derive.model.description import model_name_problem
+    golden = {Path(p).stem for p in (ROOT / "generated").glob("*/*") if p.suffix in (".c", ".h", ".py")}
+    assert "derive_integrators" in golden and "planar_taylor" in golden
+    for stem in golden:
+        assert stem in model_names() or model_name_problem(stem) is not None, stem
+    for name in model_names():
+        assert model_name_problem(name) is None, name
+    # a spherical chain's atlas: its members and its own files
+    for member in chain_rule().member_names[1:]:
+        assert model_name_problem(member.format(model="mine")) is not None
+    assert model_name_problem("mine_atlas") is not None
+
+
+@pytest.mark.slow
+def test_every_artifact_name_of_every_backend_is_reserved():
+    """Every file any backend writes for a model (or an atlas) is the model's own name or a
+    name no model file may take: so no model's files can be another's."""
+    from derive.codegen.backends import backends
+    from derive.model.atlas import ATLAS, load_atlas
+    from derive.model.description import model_name_problem
+    assert {b.name for b in backends()} == {"c", "numpy"}     # a new backend: check its files here
+    produced = _produced(["planar", "spherical_std", ATLAS])
+    golden = {Path(p).stem for p in (ROOT / "generated").glob("*/*") if p.suffix in (".c", ".h", ".py")}
+    assert set().union(*produced.values()) <= golden | {"derive_tableaus"}
+    for name, stems in produced.items():
+        own = load_atlas(name).prefix if name == ATLAS else name
+        assert own in stems
+        for stem in stems - {own}:
+            assert model_name_problem(stem) is not None, (name, stem)
+        assert model_name_problem(own) is None or name == ATLAS
+    for stem in golden:          # every file of the golden tree, of every catalogue model
+        models = [m for m in ("planar", "compound", "spherical_std", "spherical_alt", "spherical_rot")
+                  if stem == m]
+        assert models or model_name_problem(stem) is not None, stem

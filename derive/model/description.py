@@ -28,6 +28,16 @@ RESERVED_NAMES = frozenset(FUNCTIONS) | {"pi"}
 STAGE_NAME = re.compile(r"^(t|M|F|qdd|v|dv|D|rD|L|z|f|xr|rs|Q|det|rdet|A[ab])\d*(_\d+)?$")
 # a model's NumPy module is <name>.py: it may not shadow what the generated code imports
 SHADOWING = frozenset(sys.stdlib_module_names) | {"numpy", "scipy", "sympy", "mpmath", "derive", "kernels"}
+# A model's generated files are <name><suffix>.c/.h/.py for these suffixes (the kernels:
+# none; the integrators, Taylor scalar, lanes and quad, loops, a chain's atlas and its
+# derived members); a name that ends with one would write another model's files, and a
+# name with derive's prefix the library files every model shares (derive_integrators.h,
+# derive_driver.h, derive_tableaus.h).  tests/test_hardening_inputs.py checks these
+# against every file every backend writes.
+ARTIFACT_SUFFIXES = ("_integrate", "_taylor", "_taylor_lanes", "_taylor_quad", "_throughput",
+                     "_fixed", "_atlas", "_second", "_rotated")
+SHARED_PREFIX = "derive_"
+MAX_NAME = 64                # characters: a model's name is a file name's and a C prefix's part
 
 
 def charts_file() -> Path:
@@ -370,6 +380,8 @@ def parse_model(text: str, origin: str) -> Model:
             raise ModelError(f"{origin}: unknown form '{f}' (known: lagrangian, hamiltonian, paper)")
     forms = tuple(forms)
     name = _require(t, "name", str, origin)
+    if len(name) > MAX_NAME + 16:          # a user's name <= MAX_NAME, an atlas member's a suffix more
+        raise ModelError(f"{origin}: 'name' is {len(name)} characters long (at most {MAX_NAME})")
     if not NAME.match(name):
         raise ModelError(f"{origin}: 'name' must be an identifier (letters, digits, _), got {name!r}")
     if name in SHADOWING or name.startswith("_"):
@@ -435,6 +447,9 @@ def load_model_file(path: str | os.PathLike) -> Model:
     path = Path(path)
     text = read_input_text(path, "model", ModelError)       # a regular file of bounded size
     model = parse_model(text, str(path))
+    problem = model_name_problem(model.name)
+    if problem:
+        raise ModelError(f"{path}: 'name' = {model.name!r} {problem}; give the model another name")
     if model.name in model_names() and load_model(model.name).text != text:
         raise ModelError(f"{path}: name '{model.name}' is a catalogue model's; give the model "
                          f"another name")
@@ -447,6 +462,31 @@ def load_model_file(path: str | os.PathLike) -> Model:
             forget()
     _from_files[model.name] = model
     return model
+
+
+def model_name_problem(name: str) -> str | None:
+    """Why a model file may not be called `name` (its generated files would be another
+    artifact's, or too long a file name), or None."""
+    if len(name) > MAX_NAME:
+        return f"is {len(name)} characters long (at most {MAX_NAME})"
+    if name.startswith(SHARED_PREFIX):
+        return f"starts with '{SHARED_PREFIX}', the prefix of the library files every model shares"
+    for suffix in ARTIFACT_SUFFIXES:
+        if name.endswith(suffix):
+            return (f"ends with '{suffix}': the generated files of the model '{name[:-len(suffix)]}' "
+                    f"are called so")
+    if name in _atlas_names():
+        return f"is the name of the chart atlas '{name}'"
+    return None
+
+
+@cache
+def _atlas_names() -> frozenset[str]:
+    try:
+        tables = tomllib.loads((catalog_dir() / "atlases.toml").read_text())
+    except (OSError, tomllib.TOMLDecodeError):
+        return frozenset()
+    return frozenset(k for k, v in tables.items() if isinstance(v, dict) and "charts" in v)
 
 
 _on_change: list = []
@@ -486,7 +526,7 @@ def load_model(name: str | os.PathLike) -> Model:
 @cache
 def _catalogue_model(name: str) -> Model:
     path = catalog_dir() / f"{name}.toml"
-    if name in DATA_FILES or not NAME.match(name) or not path.is_file():
+    if name in DATA_FILES or not NAME.match(name) or len(name) > MAX_NAME or not path.is_file():
         raise ModelError(f"unknown model '{name}' (known: {', '.join(model_names())}; "
                          f"or give the path of a model file)")
     return parse_model(path.read_text(), path.name)

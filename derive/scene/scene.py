@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import SceneError
-from ..inputfile import read_input_text
+from ..inputfile import exists, read_input_text
 from ..model.description import NAME
 from ..paths import scenes_dir
 from ..model import ModelError, is_model_file, load_model
@@ -365,7 +365,7 @@ def example_scenes() -> list[str]:
 def scene_path(arg: str | Path) -> Path:
     """A scene file's path: the path given, or the example scene of that name."""
     path = Path(arg)
-    if not path.exists() and NAME.match(str(arg)) and (scenes_dir() / f"{arg}.toml").is_file():
+    if not exists(path) and NAME.match(str(arg)) and len(str(arg)) <= 64 and (scenes_dir() / f"{arg}.toml").is_file():
         return scenes_dir() / f"{arg}.toml"
     return path
 
@@ -373,7 +373,7 @@ def scene_path(arg: str | Path) -> Path:
 def load_scene(path: str | Path) -> Scene:
     """A scene from a file, or one of the example scenes by name (`default`)."""
     path = scene_path(path)
-    if not path.exists():
+    if not exists(path) and len(str(path)) <= 255:
         raise SceneError(f"scene file '{path}' does not exist (example scenes: "
                          f"{', '.join(example_scenes())})")
     text = read_input_text(path, "scene", SceneError)       # a regular file of bounded size

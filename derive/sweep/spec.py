@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError, SceneError
-from ..inputfile import read_input_text
+from ..inputfile import exists, read_input_text
 from ..integration.contract import TAYLOR, TOLERANCE_METHODS
 from ..model import load_model
 from ..model.atlas import ATLAS
@@ -429,7 +429,7 @@ def _check_parameters(sweep: Sweep, description, source: str) -> None:
 def load_sweep(path: str | Path) -> Sweep:
     """A sweep from a file, or one of the example sweeps shipped with derive by name (flip_map)."""
     path = scene_path(path)
-    if not path.exists():
+    if not exists(path) and len(str(path)) <= 255:
         raise SceneError(f"sweep file '{path}' does not exist")
     text = read_input_text(path, "sweep", SceneError)       # a regular file of bounded size
     try:
