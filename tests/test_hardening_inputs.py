@@ -261,3 +261,24 @@ def test_every_artifact_name_of_every_backend_is_reserved():
         models = [m for m in ("planar", "compound", "spherical_std", "spherical_alt", "spherical_rot")
                   if stem == m]
         assert models or model_name_problem(stem) is not None, stem
+
+
+# -- regressions ---------------------------------------------------------------------------
+
+def _run_json(tmp_path, scene_text):
+    import json
+    (tmp_path / "s.toml").write_text(scene_text)
+    r = cli("run", "s.toml", "--json", cwd=tmp_path, timeout=300)
+    return r, (json.loads(r.stdout) if r.stdout.strip().startswith("{") else None)
+
+
+DEFAULT = (ROOT / "derive" / "scenes" / "default.toml").read_text().replace('"out/default"', '"o"')
+
+
+def test_scalar_float_is_the_lowest_precision_and_climbs(tmp_path):
+    r, s = _run_json(tmp_path, DEFAULT.replace("target = 1e-8", 'target = 1e-8\nscalar = "float"'))
+    assert r.returncode == 0, r.stderr
+    assert s["target_met"] is True and s["dtype"] == "float64" and "beyond float" in s["note"]
+    short = DEFAULT.replace("stop = 5.0", "stop = 1.0").replace("target = 1e-8", 'target = 1e-3\nscalar = "float"')
+    r, s = _run_json(tmp_path, short)
+    assert r.returncode == 0 and s["dtype"] == "float32" and s["target_met"] is True

@@ -104,12 +104,13 @@ def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
     elif scene.scalar in EXTENDED:
         method, dtype = "taylor", scene.scalar
         rtol = max(rtol, REFERENCE_RTOL_MIN[dtype])
-    elif scene.scalar == "float":
-        method, dtype = "dop853", "float32"
-        if rtol < FLOAT_RTOL_MIN:
-            note = (f"target {scene.target:g} needs rtol {rtol:.2g}: beyond float, the run uses "
-                    f"rtol {FLOAT_RTOL_MIN:g} and reports what it achieves")
-            rtol = FLOAT_RTOL_MIN
+    elif scene.scalar == "float":            # the lowest precision: float where it can, else climb
+        if rtol >= FLOAT_RTOL_MIN:
+            method, dtype = "dop853", "float32"
+        else:
+            why = (f"target {scene.target:g} needs rtol {rtol:.2g}, beyond float: climbed the precision "
+                   f"ladder to {PRECISION.get(dtype, dtype)}")
+            note = note or why               # (climb's note, beyond long double, says it all)
     atol = None if dtype in EXTENDED else rtol
     return Choice(method, rtol, atol, None, dtype, rtol * growth, note)
 
@@ -305,10 +306,10 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
             if achieved is None or achieved <= scene.target or c.rtol <= REFERENCE_RTOL_MIN[c.dtype]:
                 break
             factor = SAFETY * achieved / scene.target
-            if c.dtype == "float32" and c.rtol / factor < FLOAT_RTOL_MIN:
-                break                     # float cannot go tighter; the note says so
             if scene.method is not None:
                 break                     # the scene fixed its method: measured, not changed
+            if c.dtype == "float32" and c.rtol / factor < FLOAT_RTOL_MIN:     # float cannot go tighter
+                c.note = (c.note + "; " if c.note else "") + "beyond float: climbed the precision ladder"
             method, dtype, rtol, climbed = climb(c.rtol / factor, scene.target)
             if dtype == c.dtype and rtol >= c.rtol:
                 break                     # at the top rung's floor: a rerun would change nothing
