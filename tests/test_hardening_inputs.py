@@ -282,3 +282,25 @@ def test_scalar_float_is_the_lowest_precision_and_climbs(tmp_path):
     short = DEFAULT.replace("stop = 5.0", "stop = 1.0").replace("target = 1e-8", 'target = 1e-3\nscalar = "float"')
     r, s = _run_json(tmp_path, short)
     assert r.returncode == 0 and s["dtype"] == "float32" and s["target_met"] is True
+
+
+def test_a_step_longer_than_the_span_is_an_input_error(tmp_path):
+    scene = DEFAULT.replace("target = 1e-8", 'method = "rk4"\nstep = 1e300')
+    (tmp_path / "s.toml").write_text(scene)
+    assert "longer than the span" in one_line(cli("run", "s.toml", cwd=tmp_path))
+
+
+def test_the_lyapunov_window_is_the_one_asked_for_or_says_why_not():
+    from derive.measurement.trust import MAX_WINDOW, largest_lyapunov
+    y0, p = [2.5, 2.0, 0.0, 0.0], [1.0, 1.0, 1.0, 1.0, 9.81]
+    short = largest_lyapunov("planar", y0, p, 5.0)
+    assert short.t_end == 5.0 and short.window_note == ""
+    long = largest_lyapunov("planar", y0, p, 200.0)
+    assert long.t_end == MAX_WINDOW and long.requested == 200.0
+    assert f"t = 0 to {MAX_WINDOW:g} of the 200 asked" in long.window_note
+
+
+def test_a_long_scene_says_over_what_its_exponent_was_measured(tmp_path):
+    r, s = _run_json(tmp_path, DEFAULT.replace("stop = 5.0", "stop = 25.0").replace("target = 1e-8", "target = 1e-2"))
+    assert s is not None, r.stderr
+    assert s["lyapunov_window"] == 20.0 and "of the 25 asked" in s["lyapunov_note"]

@@ -155,6 +155,9 @@ def check_effort(scene: Scene, lyap: Lyapunov | None, c: Choice) -> None:
     is checked by simulate itself.)"""
     span = scene.t_stop - scene.t_start
     if c.step is not None:
+        if not c.step <= span:
+            raise SceneError(f"'accuracy.step' = {c.step:g} is longer than the span t = {scene.t_start:g} "
+                             f"to {scene.t_stop:g}: give a step of at most {span:g}")
         if span / c.step > MAX_SCENE_STEPS * 1000:      # simulate's limit (MAX_FIXED_STEPS)
             raise SceneError(f"step = {c.step:g} over t = {scene.t_start:g} to {scene.t_stop:g} means "
                              f"{span / c.step:.3g} steps (limit {MAX_SCENE_STEPS * 1000:.0e}): refused "
@@ -387,6 +390,8 @@ def summary(o: Outcome) -> dict:
         "reference_rtol": reference[0] if reference else None,
         "reference_precision": PRECISION.get(reference[1], reference[1]) if reference else None,
         "lyapunov_exponent": o.lyapunov.exponent if o.lyapunov else None,
+        "lyapunov_window": o.lyapunov.t_end if o.lyapunov else None,   # the span it was measured over
+        "lyapunov_note": o.lyapunov.window_note if o.lyapunov else "",
         "trust_horizon": o.trust_horizon,
         "status": r.status_name, "ok": r.ok, "message": r.message, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
         "chart_switches": int(r.switches) if r.chart is not None else None,
