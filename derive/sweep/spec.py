@@ -185,6 +185,9 @@ def _axis_values(name: str, spec, where: str) -> tuple[str, np.ndarray]:
         if isinstance(num, int) and not isinstance(num, bool) and num < 1:
             raise SceneError(f"{where}.num = {num}: the axis is empty; give at least one value")
         num = _whole(num, f"{where}.num")
+        if num > MAX_TRAJECTORIES:           # before an array of that length is allocated
+            raise SceneError(f"{where}.num = {num:,}: more values than one sweep takes "
+                             f"({MAX_TRAJECTORIES:,} trajectories); split it")
         if kind == "logspace":
             if start <= 0 or stop <= 0:
                 raise SceneError(f"{where}.logspace: both ends must be positive (a geometric range), "
@@ -204,6 +207,9 @@ def _axis_values(name: str, spec, where: str) -> tuple[str, np.ndarray]:
     if isinstance(samples, int) and not isinstance(samples, bool) and samples < 1:
         raise SceneError(f"{where}.samples = {samples}: the axis is empty; give at least one sample")
     samples, seed = _whole(samples, f"{where}.samples"), _whole(spec["seed"], f"{where}.seed", 0)
+    if samples > MAX_TRAJECTORIES:
+        raise SceneError(f"{where}.samples = {samples:,}: more samples than one sweep takes "
+                         f"({MAX_TRAJECTORIES:,} trajectories); split it")
     rng = np.random.default_rng(seed)
     values = rng.uniform(a, b, samples) if kind == "uniform" else rng.normal(a, b, samples)
     return kind, values
