@@ -304,3 +304,23 @@ def test_a_long_scene_says_over_what_its_exponent_was_measured(tmp_path):
     r, s = _run_json(tmp_path, DEFAULT.replace("stop = 5.0", "stop = 25.0").replace("target = 1e-8", "target = 1e-2"))
     assert s is not None, r.stderr
     assert s["lyapunov_window"] == 20.0 and "of the 25 asked" in s["lyapunov_note"]
+
+
+# -- Ctrl-C at any moment ------------------------------------------------------------------
+
+@pytest.mark.parametrize("seconds", [0.3, 0.8, 1.5])
+def test_ctrl_c_at_any_moment_of_derive_run_is_one_line_and_130(tmp_path, seconds):
+    """SIGINT while the interpreter still imports derive, while it plans, or while it
+    integrates: always exit 130 and "derive: interrupted" (the race that made the
+    Ctrl-C test of test_drivers.py flaky was an interrupt during the imports)."""
+    import signal
+    scene = DEFAULT.replace("stop = 5.0", "stop = 900.0").replace("outputs = 501", "outputs = 11") \
+                   .replace("target = 1e-8", 'method = "rk4"\nstep = 1e-5')
+    (tmp_path / "long.toml").write_text(scene)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen([sys.executable, "-m", "derive", "run", "long.toml", "--quiet"], cwd=tmp_path,
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(seconds)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and err.strip().splitlines() == ["derive: interrupted"], (proc.returncode, err)
