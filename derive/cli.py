@@ -320,7 +320,8 @@ def _print_run(summary: dict) -> None:
           + (f" -- {s['note']}" if s["note"] else ""))
     if s["lyapunov_exponent"] is not None and s["trust_horizon"] is not None:
         print(f"chaos   largest Lyapunov exponent {s['lyapunov_exponent']:.3g}; trust horizon "
-              f"t = {s['trust_horizon']:.3g} for error {s['target'] or 1e-8:g}")
+              f"t = {s['trust_horizon']:.3g} for error {s['target'] or 1e-8:g}"
+              + (f" ({s['lyapunov_note']})" if s.get("lyapunov_note") else ""))
     if s["target"] is not None:
         achieved = "not measured" if s["achieved_error"] is None else f"{s['achieved_error']:.2g}"
         verdict = {True: "met", False: "MISSED", None: "not measured"}[s["target_met"]]

@@ -44,6 +44,15 @@ class Lyapunov:
     model: str
     method: str                # how it was computed
     steps_per_time: float | None = None   # DOP853 steps a unit of time at REFERENCE_RTOL (effort)
+    requested: float | None = None        # the span asked for (t_end is at most MAX_WINDOW of it)
+
+    @property
+    def window_note(self) -> str:
+        """Why the exponent was measured over less than the span asked for ("" when it was not)."""
+        if self.requested is None or self.requested <= self.t_end:
+            return ""
+        return (f"measured over t = 0 to {self.t_end:g} of the {self.requested:g} asked (the exponent is "
+                f"a property of the motion; the window is bounded at {MAX_WINDOW:g} to bound its cost)")
 
     def error_growth(self, t: float) -> float:
         """exp(lambda t), or inf where that overflows a double (no error survives it)."""
@@ -55,7 +64,8 @@ def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs
                      backend: str = "c") -> Lyapunov:
     """lambda from the variational equations along y(t), t in [0, min(t_end, MAX_WINDOW)]
     (a model with run-time inputs: held at `inputs`); backend "numpy" needs no C compiler."""
-    t_end = min(float(t_end), MAX_WINDOW)
+    requested = float(t_end)
+    t_end = min(requested, MAX_WINDOW)
     n = max(200, int(JACOBIAN_STEPS_PER_UNIT_TIME * t_end))
     grid = np.linspace(0.0, t_end, 2 * n + 1)
     run = simulate(model, y0, grid, params, method=REFERENCE_METHOD, rtol=REFERENCE_RTOL,
@@ -83,7 +93,7 @@ def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs
         log_growth += math.log(norm)
         delta = step / norm
     return Lyapunov(log_growth / t_end, t_end, model, "variational equations, generated Jacobian",
-                    steps_per_time=run.nsteps / t_end)
+                    steps_per_time=run.nsteps / t_end, requested=requested)
 
 
 def atlas_lyapunov(y0, params, t_end: float, seed: int = 0, atlas: str = "spherical",

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import re
 import sys
@@ -14,6 +15,7 @@ import sympy as sp
 
 from .. import cachefile
 from ..errors import ModelError
+from ..paths import read_input_text
 from ..paths import catalog_dir
 from .expressions import FUNCTIONS, parse_expression
 
@@ -27,6 +29,16 @@ RESERVED_NAMES = frozenset(FUNCTIONS) | {"pi"}
 STAGE_NAME = re.compile(r"^(t|M|F|qdd|v|dv|D|rD|L|z|f|xr|rs|Q|det|rdet|A[ab])\d*(_\d+)?$")
 # a model's NumPy module is <name>.py: it may not shadow what the generated code imports
 SHADOWING = frozenset(sys.stdlib_module_names) | {"numpy", "scipy", "sympy", "mpmath", "derive", "kernels"}
+# A model's generated files are <name><suffix>.c/.h/.py for these suffixes (the kernels:
+# none; the integrators, Taylor scalar, lanes and quad, loops, a chain's atlas and its
+# derived members); a name that ends with one would write another model's files, and a
+# name with derive's prefix the library files every model shares (derive_integrators.h,
+# derive_driver.h, derive_tableaus.h).  tests/test_hardening_inputs.py checks these
+# against every file every backend writes.
+ARTIFACT_SUFFIXES = ("_integrate", "_taylor", "_taylor_lanes", "_taylor_quad", "_throughput",
+                     "_fixed", "_atlas", "_second", "_rotated")
+SHARED_PREFIX = "derive_"
+MAX_NAME = 64                # characters: a model's name is a file name's and a C prefix's part
 
 
 def charts_file() -> Path:
@@ -108,8 +120,9 @@ class Model:
         for link in self.links:
             for value, role in ((link.length, "length"), (link.body.mass, "mass"),
                                 (link.body.inertia, "inertia"), (link.body.com, "fraction")):
-                if value in self.parameters:
-                    roles.setdefault(value, role)
+                name = _bare_parameter(value, self.parameters)      # l1, but also 1*l1, +l1, (l1)
+                if name is not None:
+                    roles.setdefault(name, role)
         return roles
 
     @cached_property
@@ -254,13 +267,30 @@ def parameter_problem(model: "Model", values: dict) -> tuple[str | None, str] | 
     return (None, problem) if problem else None
 
 
+def _bare_parameter(text: str, parameters: tuple[str, ...]) -> str | None:
+    """The parameter a link quantity is, however it is spelled (`l1`, `1*l1`, `+l1`), or None."""
+    if text in parameters:
+        return text
+    try:
+        expr = parse_expression(text, {n: sp.Symbol(n) for n in parameters}, "link quantity")
+    except ModelError:
+        return None
+    return expr.name if expr.is_Symbol else None
+
+
 def check_link_values(model: "Model", values: dict) -> str | None:
     """The first link quantity (length, mass, inertia, centre of mass; a parameter or an
     expression of them) that the parameter values make impossible, as a message, or None."""
     for i, key, text, names, f in _link_quantities(model):
         if any(n not in values for n in names):
             continue
-        value = float(f(*[values[n] for n in names]))
+        try:
+            value = complex(f(*[values[n] for n in names]))
+        except (ZeroDivisionError, OverflowError, ValueError, TypeError):
+            value = complex(math.nan)
+        if value.imag != 0 or not math.isfinite(value.real):
+            return f"link {i} {key} = {text} is not a finite real number at these parameter values"
+        value = value.real
         problem = _quantity_problem(key, value)
         if problem:
             return f"link {i} {key} = {text} = {value:g} {problem}"
@@ -280,7 +310,7 @@ def _link_quantities(model: "Model") -> list:
             for key, text in (("length", link.length), ("body mass", link.body.mass),
                               ("body com", link.body.com), ("body inertia", link.body.inertia)):
                 expr = parse_expression(text, params, f"link {i} {key}")
-                if expr.free_symbols and not expr.is_Symbol:     # bare parameters: by their role
+                if expr.free_symbols:     # every spelling, a bare parameter too (1*l1 is l1)
                     names = sorted(s.name for s in expr.free_symbols)
                     out.append((i, key, text, names, sp.lambdify([params[n] for n in names], expr, "math")))
         _quantities[model.content_hash] = out
@@ -351,6 +381,8 @@ def parse_model(text: str, origin: str) -> Model:
             raise ModelError(f"{origin}: unknown form '{f}' (known: lagrangian, hamiltonian, paper)")
     forms = tuple(forms)
     name = _require(t, "name", str, origin)
+    if len(name) > MAX_NAME + 16:          # a user's name <= MAX_NAME, an atlas member's a suffix more
+        raise ModelError(f"{origin}: 'name' is {len(name)} characters long (at most {MAX_NAME})")
     if not NAME.match(name):
         raise ModelError(f"{origin}: 'name' must be an identifier (letters, digits, _), got {name!r}")
     if name in SHADOWING or name.startswith("_"):
@@ -420,13 +452,11 @@ def is_model_file(text: str | os.PathLike) -> bool:
 def load_model_file(path: str | os.PathLike) -> Model:
     """A model description from a TOML file anywhere; afterwards its name loads it too."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise ModelError(f"model file '{path}' does not exist") from None
-    except (OSError, UnicodeDecodeError, ValueError) as exc:     # ValueError: a NUL in the path
-        raise ModelError(f"cannot read model file {str(path)!r}: {exc}") from None
+    text = read_input_text(path, "model", ModelError)       # a regular file of bounded size
     model = parse_model(text, str(path))
+    problem = model_name_problem(model.name)
+    if problem:
+        raise ModelError(f"{path}: 'name' = {model.name!r} {problem}; give the model another name")
     if model.name in model_names() and load_model(model.name).text != text:
         raise ModelError(f"{path}: name '{model.name}' is a catalogue model's; give the model "
                          f"another name")
@@ -439,6 +469,31 @@ def load_model_file(path: str | os.PathLike) -> Model:
             forget()
     _from_files[model.name] = model
     return model
+
+
+def model_name_problem(name: str) -> str | None:
+    """Why a model file may not be called `name` (its generated files would be another
+    artifact's, or too long a file name), or None."""
+    if len(name) > MAX_NAME:
+        return f"is {len(name)} characters long (at most {MAX_NAME})"
+    if name.startswith(SHARED_PREFIX):
+        return f"starts with '{SHARED_PREFIX}', the prefix of the library files every model shares"
+    for suffix in ARTIFACT_SUFFIXES:
+        if name.endswith(suffix):
+            return (f"ends with '{suffix}': the generated files of the model '{name[:-len(suffix)]}' "
+                    f"are called so")
+    if name in _atlas_names():
+        return f"is the name of the chart atlas '{name}'"
+    return None
+
+
+@cache
+def _atlas_names() -> frozenset[str]:
+    try:
+        tables = tomllib.loads((catalog_dir() / "atlases.toml").read_text())
+    except (OSError, tomllib.TOMLDecodeError):
+        return frozenset()
+    return frozenset(k for k, v in tables.items() if isinstance(v, dict) and "charts" in v)
 
 
 _on_change: list = []
@@ -478,7 +533,7 @@ def load_model(name: str | os.PathLike) -> Model:
 @cache
 def _catalogue_model(name: str) -> Model:
     path = catalog_dir() / f"{name}.toml"
-    if name in DATA_FILES or not NAME.match(name) or not path.is_file():
+    if name in DATA_FILES or not NAME.match(name) or len(name) > MAX_NAME or not path.is_file():
         raise ModelError(f"unknown model '{name}' (known: {', '.join(model_names())}; "
                          f"or give the path of a model file)")
     return parse_model(path.read_text(), path.name)

@@ -2,7 +2,7 @@
 
 A library is built from several generated sources (``<model>_integrate.c`` and
 ``<model>.c``; the atlas adds the three chart models) by
-derive.codegen.loader.build_library, whose cache key hashes every source and
+derive.runtime.loader.build_library, whose cache key hashes every source and
 header, the compiler identity and the flags, so any change rebuilds.
 """
 from __future__ import annotations

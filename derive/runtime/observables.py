@@ -1,5 +1,5 @@
 """Energy, bob positions and bob velocities of a run's outputs, by the generated kernels
-(C through derive.codegen.loader.load, NumPy through numpy_module): shared by
+(C through derive.runtime.loader.load, NumPy through numpy_module): shared by
 simulate (one model) and the atlas (row by row, each row in its chart)."""
 from __future__ import annotations
 

@@ -106,12 +106,13 @@ def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
     elif scene.scalar in EXTENDED:
         method, dtype = "taylor", scene.scalar
         rtol = max(rtol, REFERENCE_RTOL_MIN[dtype])
-    elif scene.scalar == "float":
-        method, dtype = DEFAULT_METHOD, "float32"
-        if rtol < FLOAT_RTOL_MIN:
-            note = (f"target {scene.target:g} needs rtol {rtol:.2g}: beyond float, the run uses "
-                    f"rtol {FLOAT_RTOL_MIN:g} and reports what it achieves")
-            rtol = FLOAT_RTOL_MIN
+    elif scene.scalar == "float":            # the lowest precision: float where it can, else climb
+        if rtol >= FLOAT_RTOL_MIN:
+            method, dtype = DEFAULT_METHOD, "float32"
+        else:
+            why = (f"target {scene.target:g} needs rtol {rtol:.2g}, beyond float: climbed the precision "
+                   f"ladder to {PRECISION.get(dtype, dtype)}")
+            note = note or why               # (climb's note, beyond long double, says it all)
     atol = None if dtype in EXTENDED else rtol
     return Choice(method, rtol, atol, None, dtype, rtol * growth, note)
 
@@ -160,6 +161,9 @@ def check_effort(scene: Scene, lyap: Lyapunov | None, c: Choice) -> None:
     is checked by simulate itself.)"""
     span = scene.t_stop - scene.t_start
     if c.step is not None:
+        if not c.step <= span:
+            raise SceneError(f"'accuracy.step' = {c.step:g} is longer than the span t = {scene.t_start:g} "
+                             f"to {scene.t_stop:g}: give a step of at most {span:g}")
         if span / c.step > MAX_SCENE_STEPS * 1000:      # simulate's limit (MAX_FIXED_STEPS)
             raise SceneError(f"step = {c.step:g} over t = {scene.t_start:g} to {scene.t_stop:g} means "
                              f"{span / c.step:.3g} steps (limit {MAX_SCENE_STEPS * 1000:.0e}): refused "
@@ -307,10 +311,10 @@ def run(scene: Scene, show_progress: bool = True) -> Outcome:
             if achieved is None or achieved <= scene.target or c.rtol <= REFERENCE_RTOL_MIN[c.dtype]:
                 break
             factor = SAFETY * achieved / scene.target
-            if c.dtype == "float32" and c.rtol / factor < FLOAT_RTOL_MIN:
-                break                     # float cannot go tighter; the note says so
             if scene.method is not None:
                 break                     # the scene fixed its method: measured, not changed
+            if c.dtype == "float32" and c.rtol / factor < FLOAT_RTOL_MIN:     # float cannot go tighter
+                c.note = (c.note + "; " if c.note else "") + "beyond float: climbed the precision ladder"
             method, dtype, rtol, climbed = climb(c.rtol / factor, scene.target)
             if dtype == c.dtype and rtol >= c.rtol:
                 break                     # at the top rung's floor: a rerun would change nothing
@@ -387,6 +391,8 @@ def summary(o: Outcome) -> dict:
         "reference_rtol": reference[0] if reference else None,
         "reference_precision": PRECISION.get(reference[1], reference[1]) if reference else None,
         "lyapunov_exponent": o.lyapunov.exponent if o.lyapunov else None,
+        "lyapunov_window": o.lyapunov.t_end if o.lyapunov else None,   # the span it was measured over
+        "lyapunov_note": o.lyapunov.window_note if o.lyapunov else "",
         "trust_horizon": o.trust_horizon,
         "status": r.status_name, "ok": r.ok, "message": r.message, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
         "chart_switches": int(r.switches) if r.chart is not None else None,

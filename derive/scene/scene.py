@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import SceneError
+from ..paths import exists, read_input_text
 from ..model.description import NAME, parameter_problem
 from ..paths import scenes_dir
 from ..model import ModelError, is_model_file, load_model
@@ -363,7 +364,7 @@ def example_scenes() -> list[str]:
 def scene_path(arg: str | Path) -> Path:
     """A scene file's path: the path given, or the example scene of that name."""
     path = Path(arg)
-    if not path.exists() and NAME.match(str(arg)) and (scenes_dir() / f"{arg}.toml").is_file():
+    if not exists(path) and NAME.match(str(arg)) and len(str(arg)) <= 64 and (scenes_dir() / f"{arg}.toml").is_file():
         return scenes_dir() / f"{arg}.toml"
     return path
 
@@ -371,15 +372,10 @@ def scene_path(arg: str | Path) -> Path:
 def load_scene(path: str | Path) -> Scene:
     """A scene from a file, or one of the example scenes by name (`default`)."""
     path = scene_path(path)
-    if not path.exists():
+    if not exists(path) and len(str(path)) <= 255:
         raise SceneError(f"scene file '{path}' does not exist (example scenes: "
                          f"{', '.join(example_scenes())})")
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise SceneError(f"scene file '{path}' does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"cannot read scene file '{path}': {exc}") from None
+    text = read_input_text(path, "scene", SceneError)       # a regular file of bounded size
     try:
         return parse_scene(text, str(path))
     except SceneError as exc:          # every mistake names the file, then the key

@@ -26,7 +26,7 @@ from .chunk import integrate, prepare, variables
 from .layout import Layout, chunk_inputs
 from .mirror import mirror_axes, mirrored, plan as mirror_plan
 from .sweep_file import Sweep, load_sweep
-from .store import Writer, load, open_store
+from .store import Lock, Writer, load, open_store
 from .images import write_images
 
 SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
@@ -70,6 +70,7 @@ def _executor(scheduler: str | None, workers: int | None):
         return None, None, "this process"
     from distributed import Client, LocalCluster    # the sweep extra
     if address is not None:
+        _reachable(address)
         try:
             client = Client(address, timeout=30)
         except (OSError, TimeoutError) as exc:
@@ -79,6 +80,28 @@ def _executor(scheduler: str | None, workers: int | None):
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                            silence_logs=logging.ERROR)
     return Client(cluster), cluster, f"a local cluster of {n} worker process{'es' * (n != 1)}"
+
+
+def _reachable(address: str, timeout: float = 5.0) -> None:
+    """A TCP scheduler address that accepts connections, else one line at once (Dask's own
+    client would retry for its whole timeout)."""
+    import socket
+    from urllib.parse import urlsplit
+    if not address.startswith(("tcp://", "tls://")) and "://" in address:
+        return                                   # another transport: Dask says
+    parts = urlsplit(address if "://" in address else "tcp://" + address)
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host = port = None
+    if not host or port is None:
+        raise UsageError(f"the Dask scheduler address {address!r} is not tcp://HOST:PORT")
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
+            pass
+    except OSError as exc:
+        raise UsageError(f"cannot reach the Dask scheduler at {address}: "
+                         f"{exc.strerror or type(exc).__name__}") from None
 
 
 def output_paths(sweep: Sweep, out: str | Path | None) -> tuple[Path, Path, str]:
@@ -98,6 +121,14 @@ def run(source, out=None, scheduler: str | None = None, workers: int | None = No
     folder, path, stem = output_paths(sweep, out)
     layout = Layout(sweep)
     names = variables(sweep)
+    lock = Lock(path)                           # one sweep writes a store at a time
+    try:
+        return _run(sweep, path, folder, stem, layout, names, scheduler, workers, progress, on_chunk)
+    finally:
+        lock.release()
+
+
+def _run(sweep, path, folder, stem, layout, names, scheduler, workers, progress, on_chunk) -> Report:
     done = open_store(path, sweep, layout, names)
     writer = Writer(path, layout)
     bar = Progress(f"sweeping {stem}", layout.count) if progress else None

@@ -6,12 +6,26 @@ finish: a chunk's values first, then its flag in `chunk_done`, so a sweep that i
 stopped at any moment resumes with exactly the chunks whose flags are set.  The
 store remembers which sweep it holds (a hash of everything that shapes the
 numbers) and refuses to be resumed by another.
+
+A flag alone could lie (a chunk file deleted or damaged after its flag was set reads
+back as fill values, or fails to decode): so before its flag, every chunk's SHA-256 of
+its values as stored is written, atomically, to `<store>.sha256/<k>` beside it; on resume
+and on opening (`load`) every chunk marked done is read back and checked against it,
+and one that is missing, undecodable or different is named in one line and recomputed
+(`load` refuses a store with one).  A process killed between the values and the flag
+leaves the flag unset: the chunk is computed again.  One sweep writes a store at a
+time: a second is refused (an exclusive flock on `<store>.lock` beside it).
 """
 from __future__ import annotations
 
+from types import SimpleNamespace
+
+import fcntl
 import hashlib
 import json
+import os
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
@@ -76,6 +90,7 @@ def open_store(path: Path, sweep: Sweep, layout: Layout, names: list[str]) -> se
     if path.exists():
         return done_chunks(path, sweep, layout)
     path.parent.mkdir(parents=True, exist_ok=True)
+    shutil.rmtree(digests(path), ignore_errors=True)      # of a store removed before
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}-", dir=path.parent))
     try:
         ds = _dataset(sweep, layout, names)
@@ -105,26 +120,129 @@ def done_chunks(path: Path, sweep: Sweep, layout: Layout) -> set[int]:
     flags = np.asarray(group[DONE][...]).reshape(-1)
     if flags.size != layout.count:
         raise UsageError(f"'{path}' has {flags.size} chunks, this sweep {layout.count}; remove it")
-    return {int(k) for k in np.flatnonzero(flags)}
+    done = {int(k) for k in np.flatnonzero(flags)}
+    bad = damaged_chunks(path, group, layout, done)
+    if bad:
+        print(f"derive: {path}: {len(bad)} chunk{'s' * (len(bad) != 1)} marked done "
+              f"{'are' if len(bad) != 1 else 'is'} missing or damaged ({_listed(bad)}): "
+              f"computing {'them' if len(bad) != 1 else 'it'} again", file=sys.stderr)
+        writable = _group(path, "r+")
+        for k in bad:
+            writable[DONE][layout.block(k)] = 0
+            _digest_path(path, k).unlink(missing_ok=True)
+    return done - set(bad)
+
+
+DIGESTS = ".sha256"           # <store>.sha256/<chunk>: beside the store (Zarr lists what is in it)
+
+
+def _listed(chunks: list[int]) -> str:
+    shown = ", ".join(str(k) for k in chunks[:10])
+    return f"chunk{'s' * (len(chunks) != 1)} {shown}" + (f" and {len(chunks) - 10} more" if len(chunks) > 10 else "")
+
+
+def _digest_path(path: Path, k: int) -> Path:
+    return digests(path) / str(k)
+
+
+def digests(path: Path) -> Path:
+    return Path(path).with_name(Path(path).name + DIGESTS)
+
+
+def _digest(arrays) -> str:
+    h = hashlib.sha256()
+    for name, value in arrays:
+        h.update(name.encode() + b"\0")
+        h.update(np.ascontiguousarray(value).tobytes())
+    return h.hexdigest()
+
+
+def _chunk_names(group) -> list[str]:
+    return sorted(n for n in group.array_keys() if n != DONE and n not in group.attrs.get("coords", ()))
+
+
+def damaged_chunks(path: Path, group, layout: Layout, done: set[int]) -> list[int]:
+    """The chunks marked done whose values, read back, are missing, undecodable or not
+    the ones written (their digest)."""
+    names = [n for n in group.attrs.get("variables", []) if n in group]
+    bad = []
+    for k in sorted(done):
+        try:
+            held = _digest_path(path, k).read_text().strip()
+            where = layout.slices(k)
+            arrays = [(n, np.asarray(group[n][where])) for n in names]
+        except Exception:                   # no digest, a chunk that does not decode
+            bad.append(k)
+            continue
+        if _digest(arrays) != held:
+            bad.append(k)
+    return bad
+
+
+class Lock:
+    """An exclusive lock on a store (flock on `<store>.lock`): one writer at a time."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path).with_name(Path(path).name + ".lock")
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(self.fd)
+            raise UsageError(f"'{path}' is being written by another sweep (it holds {self.path}); "
+                             f"wait for it, or give another --out") from None
+
+    def release(self) -> None:
+        if self.fd is not None:
+            fcntl.flock(self.fd, fcntl.LOCK_UN)
+            os.close(self.fd)
+            self.fd = None
 
 
 class Writer:
     """Writes finished chunks into the store (values, then the chunk's flag)."""
 
     def __init__(self, path: Path, layout: Layout):
+        self.path = Path(path)
         self.group = _group(path, "r+")
         self.layout = layout
+        self.names = [n for n in self.group.attrs.get("variables", []) if n in self.group]
 
     def write(self, k: int, values: dict[str, np.ndarray]) -> None:
+        """The chunk's values, then their digest (atomically), then its flag."""
         where = self.layout.slices(k)
         for name, value in values.items():
             self.group[name][where] = value
+        arrays = [(n, np.asarray(self.group[n][where])) for n in self.names]     # as stored
+        digest = _digest_path(self.path, k)
+        digest.parent.mkdir(exist_ok=True)
+        tmp = digest.with_name(f".{k}.tmp")
+        tmp.write_text(_digest(arrays) + "\n")
+        os.replace(tmp, digest)
         self.group[DONE][self.layout.block(k)] = 1
 
 
 def load(path: Path):
-    """The store as an xarray Dataset, read into memory."""
+    """The store as an xarray Dataset, read into memory; a chunk marked done that is
+    missing or damaged is refused, by name (`derive sweep` into the store recomputes it)."""
     import xarray as xr    # the sweep extra
+    group = _group(Path(path))
+    if DONE in group and digests(path).is_dir():
+        flags = np.asarray(group[DONE][...])
+        grid = flags.shape
+        shape = group[group.attrs["variables"][0]].shape
+        blocks = group[group.attrs["variables"][0]].chunks
+
+        def slices(k):
+            idx = np.unravel_index(k, grid)
+            return tuple(slice(i * b, min((i + 1) * b, n)) for i, b, n in zip(idx, blocks, shape))
+        layout = SimpleNamespace(slices=slices)
+        bad = damaged_chunks(Path(path), group, layout, {int(k) for k in np.flatnonzero(flags.reshape(-1))})
+        if bad:
+            raise UsageError(f"'{path}': {len(bad)} chunk{'s' * (len(bad) != 1)} marked done "
+                             f"{'are' if len(bad) != 1 else 'is'} missing or damaged ({_listed(bad)}); "
+                             f"run the sweep into it again to recompute them")
     with xr.open_zarr(str(path), consolidated=False) as ds:
         ds = ds.load()
     order = [n for n in ds.attrs.get("variables", []) if n in ds] + [DONE]

@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError, SceneError
+from ..paths import exists, read_input_text
 from ..codegen.contract import DEFAULT_METHOD, TAYLOR, TOLERANCE_METHODS
 from ..model import load_model, model_names
 from ..model.atlas import ATLAS
@@ -186,6 +187,9 @@ def _axis_values(name: str, spec, where: str) -> tuple[str, np.ndarray]:
         if isinstance(num, int) and not isinstance(num, bool) and num < 1:
             raise SceneError(f"{where}.num = {num}: the axis is empty; give at least one value")
         num = _whole(num, f"{where}.num")
+        if num > MAX_TRAJECTORIES:           # before an array of that length is allocated
+            raise SceneError(f"{where}.num = {num:,}: more values than one sweep takes "
+                             f"({MAX_TRAJECTORIES:,} trajectories); split it")
         if kind == "logspace":
             if start <= 0 or stop <= 0:
                 raise SceneError(f"{where}.logspace: both ends must be positive (a geometric range), "
@@ -205,6 +209,9 @@ def _axis_values(name: str, spec, where: str) -> tuple[str, np.ndarray]:
     if isinstance(samples, int) and not isinstance(samples, bool) and samples < 1:
         raise SceneError(f"{where}.samples = {samples}: the axis is empty; give at least one sample")
     samples, seed = _whole(samples, f"{where}.samples"), _whole(spec["seed"], f"{where}.seed", 0)
+    if samples > MAX_TRAJECTORIES:
+        raise SceneError(f"{where}.samples = {samples:,}: more samples than one sweep takes "
+                         f"({MAX_TRAJECTORIES:,} trajectories); split it")
     rng = np.random.default_rng(seed)
     values = rng.uniform(a, b, samples) if kind == "uniform" else rng.normal(a, b, samples)
     return kind, values
@@ -427,12 +434,9 @@ def _check_parameters(sweep: Sweep, description, source: str) -> None:
 def load_sweep(path: str | Path) -> Sweep:
     """A sweep from a file, or one of the example sweeps shipped with derive by name (flip_map)."""
     path = scene_path(path)
-    if not path.exists():
+    if not exists(path) and len(str(path)) <= 255:
         raise SceneError(f"sweep file '{path}' does not exist")
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"cannot read sweep file '{path}': {exc}") from None
+    text = read_input_text(path, "sweep", SceneError)       # a regular file of bounded size
     try:
         return parse_sweep(text, str(path))
     except SceneError as exc:

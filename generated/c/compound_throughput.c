@@ -19,7 +19,7 @@ typedef union { double d; unsigned long long u; } compound_tp_bits;
  * (what <math.h> does only under -ffast-math) lets the compiler call them in the loops
  * marked COMPOUND_SIMD.  Built without -DDERIVE_VECTOR_MATH, those loops are plain C.
  * GCC flags: -DDERIVE_VECTOR_MATH -fpeel-loops -fopenmp-simd -fno-builtin-sin -fno-builtin-cos -lmvec
- * (derive.codegen.loader.VECTOR_MATH_FLAGS). */
+ * (derive.runtime.loader.VECTOR_MATH_FLAGS). */
 #pragma omp declare simd notinbranch
 extern double sin(double);
 #pragma omp declare simd notinbranch

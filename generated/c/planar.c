@@ -16,7 +16,7 @@
  * (what <math.h> does only under -ffast-math) lets the compiler call them in the loops
  * marked PLANAR_SIMD.  Built without -DDERIVE_VECTOR_MATH, those loops are plain C.
  * GCC flags: -DDERIVE_VECTOR_MATH -fpeel-loops -fopenmp-simd -fno-builtin-sin -fno-builtin-cos -lmvec
- * (derive.codegen.loader.VECTOR_MATH_FLAGS). */
+ * (derive.runtime.loader.VECTOR_MATH_FLAGS). */
 #pragma omp declare simd notinbranch
 extern double sin(double);
 #pragma omp declare simd notinbranch

@@ -53,7 +53,6 @@ def test_past_long_doubles_horizon_the_run_climbs_and_meets_the_target(tmp_path,
     (lambda t: t.replace("stop = 5.0", "stop = 30.0"), "out of reach after t = "),     # past double-double's horizon
     (lambda t: t.replace("target = 1e-8", "target = 1e-40"), "out of reach after t = "),
     (lambda t: t.replace("g = 9.81", "g = 1e6"), "out of reach after t = "),
-    (lambda t: t.replace("target = 1e-8", 'target = 1e-15\nscalar = "float"'), "with float"),
 ])
 def test_a_missed_target_is_one_line_and_exit_3(tmp_path, edit, fragment):
     run = run_scene(tmp_path, edit(DEFAULT), "--quiet")
