@@ -2,7 +2,7 @@
 the scene exactly, and say why.
 
 The reductions are catalogue data (derive/model/catalog/reductions.toml), each derived
-(derive/derivation/reductions.py); the planner tries those of the scene's model and knows
+(derive/derivation/reduction_maps.py); the planner tries those of the scene's model and knows
 no model by name:
 
 - "vertical_plane": a spherical chain's scene whose initial positions and velocities lie
@@ -23,7 +23,7 @@ from ..model import load_model
 from ..model.atlas import find_atlas, standard_member
 from .scene import Scene
 from ..runtime.simulate import normalise_params, normalise_y0
-from ..derivation.reductions import parameter_map
+from ..derivation.reduction_maps import parameter_map
 from ..model.reductions import Reduction, reductions_of
 
 RELATIVE_TOLERANCE = 1e-12   # "exactly": equal to rounding of the given numbers

@@ -13,6 +13,9 @@ process, when its task's result arrives.
 """
 from __future__ import annotations
 
+import socket
+from urllib.parse import urlsplit
+
 import dataclasses
 import logging
 import os
@@ -85,8 +88,6 @@ def _executor(scheduler: str | None, workers: int | None):
 def _reachable(address: str, timeout: float = 5.0) -> None:
     """A TCP scheduler address that accepts connections, else one line at once (Dask's own
     client would retry for its whole timeout)."""
-    import socket
-    from urllib.parse import urlsplit
     if not address.startswith(("tcp://", "tls://")) and "://" in address:
         return                                   # another transport: Dask says
     parts = urlsplit(address if "://" in address else "tcp://" + address)

@@ -21,7 +21,7 @@ from ..derivation.symbols import parse_quantity
 from ..errors import ModelError
 from ..model.atlas import atlas_for
 from ..model.reductions import reduction
-from ..derivation.reductions import parameter_match
+from ..derivation.reduction_maps import parameter_match
 
 SPHERICAL_PAIRS = [("spherical_std", "spherical_alt"), ("spherical_alt", "spherical_std"),
                    ("spherical_std", "spherical_rot"), ("spherical_rot", "spherical_alt")]

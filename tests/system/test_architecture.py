@@ -21,7 +21,9 @@ DERIVE = ROOT / "derive"
 # the packages of derive's optional extras (pyproject.toml): imported where they are used,
 # so that derive runs without them
 EXTRAS = {"matplotlib", "scipy", "numba", "heyoka", "dask", "distributed", "xarray", "zarr"}
-LAZY_MODULES = {"derive/cli.py"}      # each command imports its stage when it runs: start-up
+# derive/cli.py: each command imports its stage when it runs (start-up); derive/__main__.py:
+# the CLI imported under a guard, so that Ctrl-C during the imports is one line too
+LAZY_MODULES = {"derive/cli.py", "derive/__main__.py"}
 
 
 def test_the_layers_contract_is_kept():
