@@ -262,7 +262,7 @@ def test_triple_spherical_matches_mechanics(tmp_path, chart):
     rng = np.random.default_rng(7)
     names = point_parameters(3)
     ref = spherical_chain(points(3), names, chart)
-    _, kernels = toolkit(tmp_path, model_toml(f"ref_sph3_{chart}", 3, names, chart, points(3)))
+    _, kernels = toolkit(tmp_path, model_toml(f"ref_sph3_{chart}_chart", 3, names, chart, points(3)))
     err, err_l = compare_rhs(ref, kernels, names, rng)
     assert err < TOL and err_l < TOL, (err, err_l)
 
@@ -323,7 +323,7 @@ def test_triple_spherical_through_the_pole_in_the_second_chart(tmp_path):
     ref = spherical_chain(points(3), names, "second")
     y0 = ref.state_from_cartesian(_tips(back[None])[0], back[9:].reshape(3, 3), SPH3, "second")
     path = tmp_path / "model.toml"
-    path.write_text(model_toml("ref_sph3_pole_second", 3, names, "second", points(3)))
+    path.write_text(model_toml("ref_sph3_pole_second_chart", 3, names, "second", points(3)))
     from derive import simulate
     r = simulate(str(path), y0, t, SPH3, method="dop853", rtol=1e-12, atol=1e-14)
     assert r.ok, r.message
