@@ -46,7 +46,6 @@ from .integrators import model_info
 from .contract import (INFO, TAYLOR_ORDER_DIVISOR, TAYLOR_ORDER_MAX, TAYLOR_ORDER_MIN,
                        TAYLOR_ORDER_OFFSET)
 
-ORDER_MAX = TAYLOR_ORDER_MAX
 # the order rule's numbers, rendered into the C (the rule itself: codegen/contract.py)
 ORDER_RULE = {"order_max": TAYLOR_ORDER_MAX, "order_min": TAYLOR_ORDER_MIN,
               "order_divisor": TAYLOR_ORDER_DIVISOR, "order_offset": TAYLOR_ORDER_OFFSET}

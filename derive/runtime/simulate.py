@@ -49,8 +49,8 @@ from .result import LAZY, LOCAL_SUM, SimulationResult, as_fields  # noqa: F401  
 from ..model.atlas import ATLAS, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
 # the rungs of the precision ladder the RK methods compute in: every name of each
 # (the contract's table) -> its NumPy type, and simulate's default tolerance in each
-_DTYPES = {name: np.dtype(p.key).type for name, key in PRECISION_NAMES.items()
-           for p in (PRECISION[key],) if not p.taylor_only}
+_DTYPES = {name: np.dtype(key).type for name, key in PRECISION_NAMES.items()
+           if not PRECISION[key].taylor_only}
 _DEFAULT_RTOL = {p.key: p.default_rtol for p in PRECISION_TABLE if not p.taylor_only}
 _DEFAULT_OPTIONS = default_options()
 
