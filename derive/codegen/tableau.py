@@ -139,11 +139,12 @@ def adams(k: int) -> tuple[list[sp.Rational], list[sp.Rational]]:
     def weights(nodes):
         out = []
         for j, nj in enumerate(nodes):
-            basis = sp.Integer(1)
+            basis = sp.Poly(1, s, domain="QQ")       # exact polynomial arithmetic over Q
             for m, nm in enumerate(nodes):
                 if m != j:
-                    basis *= (s - nm) / sp.Integer(nj - nm)
-            out.append(sp.integrate(sp.expand(basis), (s, 0, 1)))
+                    basis *= sp.Poly((s - nm) / sp.Integer(nj - nm), s, domain="QQ")
+            antiderivative = basis.integrate()
+            out.append(sp.Rational(antiderivative.eval(1) - antiderivative.eval(0)))
         return out
 
     return weights([-j for j in range(k)]), weights([1 - j for j in range(k)])

@@ -63,11 +63,12 @@ class Derivation:
 def compute(model: Model) -> Derivation:
     start = time.perf_counter()
     s = model_symbols(model)
-    M = lagrange.mass_matrix(model, s)
-    V = lagrange.potential_energy(model, s)
+    form = lagrange.chain_form(model, s)
+    M = lagrange.mass_matrix(form)
+    V = lagrange.potential_energy(form)
     R = lagrange.dissipation_function(model, s)
     Q = lagrange.generalized_forces(model, s)
-    F = lagrange.forcing(M, V, s)
+    F = lagrange.forcing(form, s)
     if R is not None or Q is not None:
         F = F + lagrange.non_conservative(R, Q, s)
     d = Derivation(model=model, symbols=s,
@@ -82,7 +83,7 @@ def compute(model: Model) -> Derivation:
             d.polar_sines.append(sine)
         k += n
     if "hamiltonian" in model.forms:
-        dL_dq = hamilton.lagrangian_gradient(M, V, s)
+        dL_dq = hamilton.lagrangian_gradient(form, s)
         if len(s.q) <= 2:           # closed forms are short: seed 001 writes them out
             M_inv = hamilton.inverse_mass_matrix(M)
             H = hamilton.hamiltonian(M_inv, V, s)

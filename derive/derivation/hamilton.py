@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import sympy as sp
 
+from .lagrange import ChainForm
 from .symbols import ModelSymbols
 
 
@@ -23,12 +24,12 @@ def hamilton_equations(H: sp.Expr, s: ModelSymbols) -> tuple[sp.Matrix, sp.Matri
     return qdot, pdot
 
 
-def lagrangian_gradient(M: sp.Matrix, V: sp.Expr, s: ModelSymbols) -> sp.Matrix:
+def lagrangian_gradient(form: ChainForm, s: ModelSymbols) -> sp.Matrix:
     """dL/dq = 1/2 q'^T (dM/dq_j) q' - dV/dq_j, in the rates q' (seed 001 (2)).
 
     Evaluated at q' = M^-1 p it equals -dH/dq; generated code uses this form
     because it reuses q' instead of differentiating M^-1.
     """
     qd = sp.Matrix(s.qd)
-    return sp.Matrix([sp.trigsimp(sp.expand((qd.T * M.diff(qj) * qd)[0, 0] / 2 - V.diff(qj)))
+    return sp.Matrix([form.filled(sp.expand((qd.T * form.M.diff(qj) * qd)[0, 0] / 2 - form.V.diff(qj)))
                       for qj in s.q])

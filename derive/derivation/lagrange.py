@@ -9,6 +9,8 @@ the Christoffel form.  It is exact and needs no time-dependent symbols.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import sympy as sp
 
 from ..model import Model
@@ -50,36 +52,102 @@ def mass_centres(model: Model, s: ModelSymbols) -> list[sp.Matrix]:
     return centres
 
 
-def _clean(expr: sp.Expr) -> sp.Expr:
-    # A targeted pass: expand the trigonometric polynomial, then let trigsimp
-    # collect sin^2 + cos^2 and the angle-difference forms.
-    return sp.trigsimp(sp.expand(expr))
+@dataclass(frozen=True)
+class LinkBlock:
+    """One link's rows of the equations: its coordinates, where they sit in q, and
+    D = de/du, the Jacobian of its unit vector in its own chart's coordinates."""
+    index: int
+    rows: slice
+    D: sp.Matrix
 
 
-def mass_matrix(model: Model, s: ModelSymbols) -> sp.Matrix:
-    """M = sum_k m_k J_k^T J_k + I_k E_k^T E_k, J_k = d(centre_k)/dq, E_k = d(e_k)/dq.
+def link_blocks(model: Model, s: ModelSymbols) -> list[LinkBlock]:
+    blocks, k = [], 0
+    for i, (link, e) in enumerate(zip(model.links, link_directions(model, s))):
+        n = len(link.chart.coordinates)
+        blocks.append(LinkBlock(i, slice(k, k + n), e.jacobian(sp.Matrix(s.q[k:k + n]))))
+        k += n
+    return blocks
+
+
+def _gram(a: LinkBlock, b: LinkBlock) -> sp.Matrix:
+    """D_a^T D_b: the dot products of two links' direction derivatives, each a short
+    trigonometric polynomial that trigsimp folds (sin^2 + cos^2, cos(a - b)) cheaply.
+    These are the only simplifications the derivation needs: every other term of M, V
+    and F is a product of them with parameters and rates."""
+    return (a.D.T * b.D).applyfunc(lambda x: sp.trigsimp(sp.expand(x)))
+
+
+@dataclass
+class ChainForm:
+    """M and V of a chain written as parameter coefficients times functions of q:
+
+        M[block i, block j] = K_ij G_ij(q),  G_ij = D_i^T D_j,
+        K_ij = l_i l_j sum_{k >= max(i, j)} m_k w_ik w_jk  (+ I_i for i = j),
+        V = sum_i nu_i e_i[-1](q),  nu_i = g l_i sum_{k >= i} m_k w_ik,
+
+    with w_ik = 1 for a link before body k and the centre-of-mass fraction for its own
+    link (body k sits at sum_{i<k} l_i e_i + com_k l_k e_k).  The coefficients are kept
+    as placeholder symbols while M and V are differentiated and expanded, so the
+    parameter sums are never multiplied out and equal terms of the Christoffel form
+    cancel as they are collected."""
+    M: sp.Matrix                  # in the placeholders
+    V: sp.Expr                    # in the placeholders
+    values: dict                  # placeholder -> its parameter expression
+
+    def filled(self, expr):
+        return expr.xreplace(self.values)
+
+
+def _weight(model: Model, s: ModelSymbols, i: int, k: int) -> sp.Expr:
+    """Where link i's vector enters body k's mass centre: whole before it, com on its own."""
+    return sp.S.One if i < k else parse_quantity(model.links[k].body.com, s)
+
+
+def chain_form(model: Model, s: ModelSymbols) -> ChainForm:
+    """M and V of a chain of links (module docstring, ChainForm), built link pair by pair."""
+    blocks, n = link_blocks(model, s), len(s.q)
+    lengths = [parse_quantity(link.length, s) for link in model.links]
+    masses = [parse_quantity(link.body.mass, s) for link in model.links]
+    M, values = sp.zeros(n, n), {}
+    for a in blocks:
+        for b in blocks[a.index:]:
+            i, j = a.index, b.index
+            K = lengths[i] * lengths[j] * sp.Add(*[masses[k] * _weight(model, s, i, k) * _weight(model, s, j, k)
+                                                   for k in range(j, len(blocks))])
+            if i == j:
+                K += parse_quantity(model.links[i].body.inertia, s)
+            if K == 0:
+                continue
+            kappa = sp.Dummy(f"K{i}_{j}")
+            values[kappa] = K
+            block = kappa * _gram(a, b)
+            M[a.rows, b.rows] = block
+            M[b.rows, a.rows] = block.T
+    g, V = s.param("g"), sp.S.Zero
+    for link, e, b in zip(model.links, link_directions(model, s), blocks):
+        i = b.index
+        nu = g * lengths[i] * sp.Add(*[masses[k] * _weight(model, s, i, k) for k in range(i, len(blocks))])
+        if nu != 0:
+            symbol = sp.Dummy(f"nu{i}")
+            values[symbol] = nu
+            V += symbol * e[-1]
+    return ChainForm(M, V, values)
+
+
+def mass_matrix(form: ChainForm) -> sp.Matrix:
+    """M = sum_k m_k J_k^T J_k + I_k E_k^T E_k, J_k = d(centre_k)/dq, E_k = d(e_k)/dq,
+    assembled as K_ij G_ij (ChainForm).
 
     The rod term is the rotational energy 1/2 I |de/dt|^2 of a thin rod about
     its centre of mass (for a planar link |de/dt| = theta'), seed 001's T.
     """
-    q = sp.Matrix(s.q)
-    n = len(s.q)
-    M = sp.zeros(n, n)
-    for link, c, e in zip(model.links, mass_centres(model, s), link_directions(model, s)):
-        J = c.jacobian(q)
-        M += parse_quantity(link.body.mass, s) * (J.T * J)
-        inertia = parse_quantity(link.body.inertia, s)
-        if inertia != 0:
-            E = e.jacobian(q)
-            M += inertia * (E.T * E)
-    return M.applyfunc(_clean)
+    return form.M.applyfunc(form.filled)
 
 
-def potential_energy(model: Model, s: ModelSymbols) -> sp.Expr:
+def potential_energy(form: ChainForm) -> sp.Expr:
     """V = sum_k m_k g (height of centre k); gravity along the last axis, downwards."""
-    g = s.param("g")
-    return _clean(sum(parse_quantity(link.body.mass, s) * g * c[-1]
-                      for link, c in zip(model.links, mass_centres(model, s))))
+    return form.filled(form.V)
 
 
 def kinetic_energy(M: sp.Matrix, s: ModelSymbols) -> sp.Expr:
@@ -116,11 +184,14 @@ def non_conservative(R: sp.Expr | None, Q: sp.Matrix | None, s: ModelSymbols) ->
     return out.applyfunc(sp.expand)
 
 
-def forcing(M: sp.Matrix, V: sp.Expr, s: ModelSymbols) -> sp.Matrix:
-    """F of M q'' = F in the Christoffel form given in the module docstring."""
+def forcing(form: ChainForm, s: ModelSymbols) -> sp.Matrix:
+    """F of M q'' = F in the Christoffel form given in the module docstring, expanded
+    in the placeholders of `form` (no simplification: the terms that cancel are equal
+    term by term), then filled with the parameter coefficients."""
     qd = sp.Matrix(s.qd)
+    M, V = form.M, form.V
     dM = [M.diff(qk) for qk in s.q]
     Mqd_dot = sum((dM[k] * qd * s.qd[k] for k in range(len(s.q))), sp.zeros(len(s.q), 1))
     F = sp.Matrix([(qd.T * dM[j] * qd)[0, 0] / 2 - Mqd_dot[j] - V.diff(s.q[j])
                    for j in range(len(s.q))])
-    return F.applyfunc(_clean)
+    return F.applyfunc(lambda f: sp.factor_terms(form.filled(sp.expand(f))))

@@ -41,7 +41,7 @@ const char *const compound_canonical_names[COMPOUND_N_CANONICAL] = {
     "theta1", "theta2", "p_theta1", "p_theta2"
 };
 
-/* compound_rhs (double). Total ops: 55 */
+/* compound_rhs (double). Total ops: 53 */
 int compound_rhs(const double *restrict y, const double *restrict p, double *restrict ydot)
 {
     int status = COMPOUND_STATUS_OK;
@@ -59,28 +59,24 @@ int compound_rhs(const double *restrict y, const double *restrict p, double *res
     const double t2 = lane_cos[0];
     const double t3 = lane_cos[1];
     const double t4 = t0*t1 + t2*t3;
-    const double t5 = p[2]*p[1];
-    const double t6 = p[3]*t5;
-    const double t7 = (1.0/2.0)*t6;
+    const double t5 = (1.0/2.0)*p[2];
+    const double t6 = p[3]*p[1];
+    const double t7 = t5*t6;
     const double M01 = t4*t7;
     const double t8 = p[3]*p[3]*p[1];
     const double M11 = p[5] + (1.0/4.0)*t8;
-    const double t9 = (1.0/2.0)*p[0];
-    const double t10 = p[6]*p[1] + p[6]*t9;
-    const double t11 = t0*t10;
-    const double t12 = t0*t3 - t1*t2;
-    const double t13 = y[3]*y[3];
-    const double t14 = (1.0/2.0)*p[1];
-    const double t15 = p[3]*t14;
-    const double t16 = t13*t15;
-    const double F0 = -p[2]*(t11 + t12*t16);
-    const double t17 = p[6]*t1;
-    const double t18 = y[2]*y[2];
-    const double F1 = t15*(p[2]*t12*t18 - t17);
-    const double t19 = p[2]*p[2];
-    const double t20 = p[1]*t19;
-    const double t21 = p[0]*t19;
-    const double M00 = p[4] + t20 + (1.0/4.0)*t21;
+    const double t9 = p[6]*(p[0] + 2*p[1]);
+    const double t10 = t0*t3 - t1*t2;
+    const double t11 = y[3]*y[3];
+    const double t12 = t11*t6;
+    const double F0 = -t5*(t0*t9 + t10*t12);
+    const double t13 = p[6]*t1;
+    const double t14 = y[2]*y[2];
+    const double t15 = (1.0/2.0)*p[1];
+    const double t16 = p[3]*t15;
+    const double F1 = t16*(p[2]*t10*t14 - t13);
+    const double t17 = p[2]*p[2];
+    const double M00 = p[4] + t17*((1.0/4.0)*p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double qdd0 = rdet*(F0*M11 - F1*M01);
@@ -111,7 +107,7 @@ int compound_rhs_batch(long n, const double *restrict y, long y_stride, const do
     return all;
 }
 
-/* compound_rhs_f (float). Total ops: 55 */
+/* compound_rhs_f (float). Total ops: 53 */
 int compound_rhs_f(const float *restrict y, const float *restrict p, float *restrict ydot)
 {
     int status = COMPOUND_STATUS_OK;
@@ -121,28 +117,24 @@ int compound_rhs_f(const float *restrict y, const float *restrict p, float *rest
     const float t2 = cosf(y[0]);
     const float t3 = cosf(y[1]);
     const float t4 = t0*t1 + t2*t3;
-    const float t5 = p[2]*p[1];
-    const float t6 = p[3]*t5;
-    const float t7 = (1.0F/2.0F)*t6;
+    const float t5 = (1.0F/2.0F)*p[2];
+    const float t6 = p[3]*p[1];
+    const float t7 = t5*t6;
     const float M01 = t4*t7;
     const float t8 = p[3]*p[3]*p[1];
     const float M11 = p[5] + (1.0F/4.0F)*t8;
-    const float t9 = (1.0F/2.0F)*p[0];
-    const float t10 = p[6]*p[1] + p[6]*t9;
-    const float t11 = t0*t10;
-    const float t12 = t0*t3 - t1*t2;
-    const float t13 = y[3]*y[3];
-    const float t14 = (1.0F/2.0F)*p[1];
-    const float t15 = p[3]*t14;
-    const float t16 = t13*t15;
-    const float F0 = -p[2]*(t11 + t12*t16);
-    const float t17 = p[6]*t1;
-    const float t18 = y[2]*y[2];
-    const float F1 = t15*(p[2]*t12*t18 - t17);
-    const float t19 = p[2]*p[2];
-    const float t20 = p[1]*t19;
-    const float t21 = p[0]*t19;
-    const float M00 = p[4] + t20 + (1.0F/4.0F)*t21;
+    const float t9 = p[6]*(p[0] + 2*p[1]);
+    const float t10 = t0*t3 - t1*t2;
+    const float t11 = y[3]*y[3];
+    const float t12 = t11*t6;
+    const float F0 = -t5*(t0*t9 + t10*t12);
+    const float t13 = p[6]*t1;
+    const float t14 = y[2]*y[2];
+    const float t15 = (1.0F/2.0F)*p[1];
+    const float t16 = p[3]*t15;
+    const float F1 = t16*(p[2]*t10*t14 - t13);
+    const float t17 = p[2]*p[2];
+    const float M00 = p[4] + t17*((1.0F/4.0F)*p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float qdd0 = rdet*(F0*M11 - F1*M01);
@@ -173,7 +165,7 @@ int compound_rhs_batch_f(long n, const float *restrict y, long y_stride, const f
     return all;
 }
 
-/* compound_rhs_l (long double). Total ops: 55 */
+/* compound_rhs_l (long double). Total ops: 53 */
 int compound_rhs_l(const long double *restrict y, const long double *restrict p, long double *restrict ydot)
 {
     int status = COMPOUND_STATUS_OK;
@@ -183,28 +175,24 @@ int compound_rhs_l(const long double *restrict y, const long double *restrict p,
     const long double t2 = cosl(y[0]);
     const long double t3 = cosl(y[1]);
     const long double t4 = t0*t1 + t2*t3;
-    const long double t5 = p[2]*p[1];
-    const long double t6 = p[3]*t5;
-    const long double t7 = (1.0L/2.0L)*t6;
+    const long double t5 = (1.0L/2.0L)*p[2];
+    const long double t6 = p[3]*p[1];
+    const long double t7 = t5*t6;
     const long double M01 = t4*t7;
     const long double t8 = p[3]*p[3]*p[1];
     const long double M11 = p[5] + (1.0L/4.0L)*t8;
-    const long double t9 = (1.0L/2.0L)*p[0];
-    const long double t10 = p[6]*p[1] + p[6]*t9;
-    const long double t11 = t0*t10;
-    const long double t12 = t0*t3 - t1*t2;
-    const long double t13 = y[3]*y[3];
-    const long double t14 = (1.0L/2.0L)*p[1];
-    const long double t15 = p[3]*t14;
-    const long double t16 = t13*t15;
-    const long double F0 = -p[2]*(t11 + t12*t16);
-    const long double t17 = p[6]*t1;
-    const long double t18 = y[2]*y[2];
-    const long double F1 = t15*(p[2]*t12*t18 - t17);
-    const long double t19 = p[2]*p[2];
-    const long double t20 = p[1]*t19;
-    const long double t21 = p[0]*t19;
-    const long double M00 = p[4] + t20 + (1.0L/4.0L)*t21;
+    const long double t9 = p[6]*(p[0] + 2*p[1]);
+    const long double t10 = t0*t3 - t1*t2;
+    const long double t11 = y[3]*y[3];
+    const long double t12 = t11*t6;
+    const long double F0 = -t5*(t0*t9 + t10*t12);
+    const long double t13 = p[6]*t1;
+    const long double t14 = y[2]*y[2];
+    const long double t15 = (1.0L/2.0L)*p[1];
+    const long double t16 = p[3]*t15;
+    const long double F1 = t16*(p[2]*t10*t14 - t13);
+    const long double t17 = p[2]*p[2];
+    const long double M00 = p[4] + t17*((1.0L/4.0L)*p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double qdd0 = rdet*(F0*M11 - F1*M01);
@@ -235,7 +223,7 @@ int compound_rhs_batch_l(long n, const long double *restrict y, long y_stride, c
     return all;
 }
 
-/* compound_mass_matrix (double). Total ops: 21 */
+/* compound_mass_matrix (double). Total ops: 20 */
 int compound_mass_matrix(const double *restrict y, const double *restrict p, double *restrict M)
 {
     int status = COMPOUND_STATUS_OK;
@@ -248,21 +236,19 @@ int compound_mass_matrix(const double *restrict y, const double *restrict p, dou
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t3 = lane_sin[0];
-    const double t4 = lane_sin[1];
-    const double t5 = lane_cos[0];
-    const double t6 = lane_cos[1];
+    const double t1 = lane_sin[0];
+    const double t2 = lane_sin[1];
+    const double t3 = lane_cos[0];
+    const double t4 = lane_cos[1];
     const double t0 = p[2]*p[2];
-    const double t1 = p[1]*t0;
-    const double t2 = p[0]*t0;
-    const double M00 = p[4] + t1 + (1.0/4.0)*t2;
-    const double t7 = t3*t4 + t5*t6;
-    const double t8 = p[2]*p[1];
-    const double t9 = p[3]*t8;
-    const double t10 = (1.0/2.0)*t9;
-    const double M01 = t10*t7;
-    const double t11 = p[3]*p[3]*p[1];
-    const double M11 = p[5] + (1.0/4.0)*t11;
+    const double M00 = p[4] + t0*((1.0/4.0)*p[0] + p[1]);
+    const double t5 = t1*t2 + t3*t4;
+    const double t6 = (1.0/2.0)*p[2];
+    const double t7 = p[3]*p[1];
+    const double t8 = t6*t7;
+    const double M01 = t5*t8;
+    const double t9 = p[3]*p[3]*p[1];
+    const double M11 = p[5] + (1.0/4.0)*t9;
     M[0] = M00;
     M[1] = M01;
     M[2] = M01;
@@ -289,26 +275,24 @@ int compound_mass_matrix_batch(long n, const double *restrict y, long y_stride, 
     return all;
 }
 
-/* compound_mass_matrix_f (float). Total ops: 21 */
+/* compound_mass_matrix_f (float). Total ops: 20 */
 int compound_mass_matrix_f(const float *restrict y, const float *restrict p, float *restrict M)
 {
     int status = COMPOUND_STATUS_OK;
     float check;
     const float t0 = p[2]*p[2];
-    const float t1 = p[1]*t0;
-    const float t2 = p[0]*t0;
-    const float M00 = p[4] + t1 + (1.0F/4.0F)*t2;
-    const float t3 = sinf(y[0]);
-    const float t4 = sinf(y[1]);
-    const float t5 = cosf(y[0]);
-    const float t6 = cosf(y[1]);
-    const float t7 = t3*t4 + t5*t6;
-    const float t8 = p[2]*p[1];
-    const float t9 = p[3]*t8;
-    const float t10 = (1.0F/2.0F)*t9;
-    const float M01 = t10*t7;
-    const float t11 = p[3]*p[3]*p[1];
-    const float M11 = p[5] + (1.0F/4.0F)*t11;
+    const float M00 = p[4] + t0*((1.0F/4.0F)*p[0] + p[1]);
+    const float t1 = sinf(y[0]);
+    const float t2 = sinf(y[1]);
+    const float t3 = cosf(y[0]);
+    const float t4 = cosf(y[1]);
+    const float t5 = t1*t2 + t3*t4;
+    const float t6 = (1.0F/2.0F)*p[2];
+    const float t7 = p[3]*p[1];
+    const float t8 = t6*t7;
+    const float M01 = t5*t8;
+    const float t9 = p[3]*p[3]*p[1];
+    const float M11 = p[5] + (1.0F/4.0F)*t9;
     M[0] = M00;
     M[1] = M01;
     M[2] = M01;
@@ -335,26 +319,24 @@ int compound_mass_matrix_batch_f(long n, const float *restrict y, long y_stride,
     return all;
 }
 
-/* compound_mass_matrix_l (long double). Total ops: 21 */
+/* compound_mass_matrix_l (long double). Total ops: 20 */
 int compound_mass_matrix_l(const long double *restrict y, const long double *restrict p, long double *restrict M)
 {
     int status = COMPOUND_STATUS_OK;
     long double check;
     const long double t0 = p[2]*p[2];
-    const long double t1 = p[1]*t0;
-    const long double t2 = p[0]*t0;
-    const long double M00 = p[4] + t1 + (1.0L/4.0L)*t2;
-    const long double t3 = sinl(y[0]);
-    const long double t4 = sinl(y[1]);
-    const long double t5 = cosl(y[0]);
-    const long double t6 = cosl(y[1]);
-    const long double t7 = t3*t4 + t5*t6;
-    const long double t8 = p[2]*p[1];
-    const long double t9 = p[3]*t8;
-    const long double t10 = (1.0L/2.0L)*t9;
-    const long double M01 = t10*t7;
-    const long double t11 = p[3]*p[3]*p[1];
-    const long double M11 = p[5] + (1.0L/4.0L)*t11;
+    const long double M00 = p[4] + t0*((1.0L/4.0L)*p[0] + p[1]);
+    const long double t1 = sinl(y[0]);
+    const long double t2 = sinl(y[1]);
+    const long double t3 = cosl(y[0]);
+    const long double t4 = cosl(y[1]);
+    const long double t5 = t1*t2 + t3*t4;
+    const long double t6 = (1.0L/2.0L)*p[2];
+    const long double t7 = p[3]*p[1];
+    const long double t8 = t6*t7;
+    const long double M01 = t5*t8;
+    const long double t9 = p[3]*p[3]*p[1];
+    const long double M11 = p[5] + (1.0L/4.0L)*t9;
     M[0] = M00;
     M[1] = M01;
     M[2] = M01;
@@ -381,7 +363,7 @@ int compound_mass_matrix_batch_l(long n, const long double *restrict y, long y_s
     return all;
 }
 
-/* compound_forcing (double). Total ops: 26 */
+/* compound_forcing (double). Total ops: 27 */
 int compound_forcing(const double *restrict y, const double *restrict p, double *restrict F)
 {
     int status = COMPOUND_STATUS_OK;
@@ -395,25 +377,25 @@ int compound_forcing(const double *restrict y, const double *restrict p, double 
         lane_cos[lane] = cos(lane_angle[lane]);
     }
     const double t0 = lane_sin[0];
-    const double t4 = lane_sin[1];
-    const double t5 = lane_cos[0];
-    const double t6 = lane_cos[1];
-    const double t1 = (1.0/2.0)*p[0];
-    const double t2 = p[6]*p[1] + p[6]*t1;
-    const double t3 = t0*t2;
-    const double t7 = t0*t6 - t4*t5;
+    const double t3 = lane_sin[1];
+    const double t4 = lane_cos[0];
+    const double t5 = lane_cos[1];
+    const double t1 = (1.0/2.0)*p[2];
+    const double t2 = p[6]*(p[0] + 2*p[1]);
+    const double t6 = t0*t5 - t3*t4;
+    const double t7 = p[3]*p[1];
     const double t8 = y[3]*y[3];
-    const double t9 = (1.0/2.0)*p[1];
-    const double t10 = p[3]*t9;
-    const double t11 = t10*t8;
-    const double t12 = -p[2]*(t11*t7 + t3);
-    const double t13 = p[6]*t4;
-    const double t14 = y[2]*y[2];
-    const double t15 = t10*(p[2]*t14*t7 - t13);
-    F[0] = t12;
+    const double t9 = t7*t8;
+    const double t10 = -t1*(t0*t2 + t6*t9);
+    const double t11 = p[6]*t3;
+    const double t12 = y[2]*y[2];
+    const double t13 = (1.0/2.0)*p[1];
+    const double t14 = p[3]*t13;
+    const double t15 = t14*(p[2]*t12*t6 - t11);
+    F[0] = t10;
     F[1] = t15;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t12 - t12) + (t15 - t15);
+    check = (t10 - t10) + (t15 - t15);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -434,31 +416,31 @@ int compound_forcing_batch(long n, const double *restrict y, long y_stride, cons
     return all;
 }
 
-/* compound_forcing_f (float). Total ops: 26 */
+/* compound_forcing_f (float). Total ops: 27 */
 int compound_forcing_f(const float *restrict y, const float *restrict p, float *restrict F)
 {
     int status = COMPOUND_STATUS_OK;
     float check;
     const float t0 = sinf(y[0]);
-    const float t1 = (1.0F/2.0F)*p[0];
-    const float t2 = p[6]*p[1] + p[6]*t1;
-    const float t3 = t0*t2;
-    const float t4 = sinf(y[1]);
-    const float t5 = cosf(y[0]);
-    const float t6 = cosf(y[1]);
-    const float t7 = t0*t6 - t4*t5;
+    const float t1 = (1.0F/2.0F)*p[2];
+    const float t2 = p[6]*(p[0] + 2*p[1]);
+    const float t3 = sinf(y[1]);
+    const float t4 = cosf(y[0]);
+    const float t5 = cosf(y[1]);
+    const float t6 = t0*t5 - t3*t4;
+    const float t7 = p[3]*p[1];
     const float t8 = y[3]*y[3];
-    const float t9 = (1.0F/2.0F)*p[1];
-    const float t10 = p[3]*t9;
-    const float t11 = t10*t8;
-    const float t12 = -p[2]*(t11*t7 + t3);
-    const float t13 = p[6]*t4;
-    const float t14 = y[2]*y[2];
-    const float t15 = t10*(p[2]*t14*t7 - t13);
-    F[0] = t12;
+    const float t9 = t7*t8;
+    const float t10 = -t1*(t0*t2 + t6*t9);
+    const float t11 = p[6]*t3;
+    const float t12 = y[2]*y[2];
+    const float t13 = (1.0F/2.0F)*p[1];
+    const float t14 = p[3]*t13;
+    const float t15 = t14*(p[2]*t12*t6 - t11);
+    F[0] = t10;
     F[1] = t15;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t12 - t12) + (t15 - t15);
+    check = (t10 - t10) + (t15 - t15);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -479,31 +461,31 @@ int compound_forcing_batch_f(long n, const float *restrict y, long y_stride, con
     return all;
 }
 
-/* compound_forcing_l (long double). Total ops: 26 */
+/* compound_forcing_l (long double). Total ops: 27 */
 int compound_forcing_l(const long double *restrict y, const long double *restrict p, long double *restrict F)
 {
     int status = COMPOUND_STATUS_OK;
     long double check;
     const long double t0 = sinl(y[0]);
-    const long double t1 = (1.0L/2.0L)*p[0];
-    const long double t2 = p[6]*p[1] + p[6]*t1;
-    const long double t3 = t0*t2;
-    const long double t4 = sinl(y[1]);
-    const long double t5 = cosl(y[0]);
-    const long double t6 = cosl(y[1]);
-    const long double t7 = t0*t6 - t4*t5;
+    const long double t1 = (1.0L/2.0L)*p[2];
+    const long double t2 = p[6]*(p[0] + 2*p[1]);
+    const long double t3 = sinl(y[1]);
+    const long double t4 = cosl(y[0]);
+    const long double t5 = cosl(y[1]);
+    const long double t6 = t0*t5 - t3*t4;
+    const long double t7 = p[3]*p[1];
     const long double t8 = y[3]*y[3];
-    const long double t9 = (1.0L/2.0L)*p[1];
-    const long double t10 = p[3]*t9;
-    const long double t11 = t10*t8;
-    const long double t12 = -p[2]*(t11*t7 + t3);
-    const long double t13 = p[6]*t4;
-    const long double t14 = y[2]*y[2];
-    const long double t15 = t10*(p[2]*t14*t7 - t13);
-    F[0] = t12;
+    const long double t9 = t7*t8;
+    const long double t10 = -t1*(t0*t2 + t6*t9);
+    const long double t11 = p[6]*t3;
+    const long double t12 = y[2]*y[2];
+    const long double t13 = (1.0L/2.0L)*p[1];
+    const long double t14 = p[3]*t13;
+    const long double t15 = t14*(p[2]*t12*t6 - t11);
+    F[0] = t10;
     F[1] = t15;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t12 - t12) + (t15 - t15);
+    check = (t10 - t10) + (t15 - t15);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -524,12 +506,12 @@ int compound_forcing_batch_l(long n, const long double *restrict y, long y_strid
     return all;
 }
 
-/* compound_energy (double). Total ops: 42 */
+/* compound_energy (double). Total ops: 43 */
 int compound_energy(const double *restrict y, const double *restrict p, double *restrict E)
 {
     int status = COMPOUND_STATUS_OK;
     double check;
-    const double lane_angle[2] = { y[0], y[1] };
+    const double lane_angle[2] = { y[1], y[0] };
     double lane_sin[2], lane_cos[2];
     int lane;
     COMPOUND_SIMD
@@ -537,29 +519,30 @@ int compound_energy(const double *restrict y, const double *restrict p, double *
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t3 = lane_cos[0];
-    const double t10 = lane_sin[0];
-    const double t11 = lane_sin[1];
-    const double t12 = lane_cos[1];
+    const double t5 = lane_cos[0];
+    const double t8 = lane_cos[1];
+    const double t12 = lane_sin[1];
+    const double t13 = lane_sin[0];
     const double t0 = p[2]*p[2];
-    const double t1 = p[1]*t0;
-    const double t2 = p[0]*t0;
-    const double t4 = p[2]*p[1];
-    const double t5 = p[3]*p[3]*p[1];
-    const double t6 = (1.0/2.0)*p[0];
-    const double t7 = y[3]*y[3];
-    const double t8 = (1.0/2.0)*p[1];
-    const double t9 = y[2]*y[2];
-    const double t13 = t10*t11 + t12*t3;
-    const double t14 = p[3]*t4;
-    const double t15 = (1.0/2.0)*t14;
-    const double t16 = t13*t15;
-    const double t17 = t16*y[3];
-    const double t18 = p[3]*t12;
-    const double t19 = -p[6]*(t18*t8 + t3*(p[2]*t6 + t4)) + t17*y[2] + t7*((1.0/2.0)*p[5] + (1.0/8.0)*t5) + t9*((1.0/2.0)*p[4] + (1.0/2.0)*t1 + (1.0/8.0)*t2);
-    E[0] = t19;
+    const double t1 = p[3]*p[3]*p[1];
+    const double t2 = y[3]*y[3];
+    const double t3 = y[2]*y[2];
+    const double t4 = (1.0/2.0)*p[1];
+    const double t6 = p[3]*t5;
+    const double t7 = -p[6]*t4*t6;
+    const double t9 = p[2]*t8;
+    const double t10 = p[6]*((1.0/2.0)*p[0] + p[1]);
+    const double t11 = t10*t9;
+    const double t14 = t12*t13 + t5*t8;
+    const double t15 = (1.0/2.0)*p[2];
+    const double t16 = p[3]*p[1];
+    const double t17 = t15*t16;
+    const double t18 = t14*t17;
+    const double t19 = t18*y[3];
+    const double t20 = -t11 + t19*y[2] + t2*((1.0/2.0)*p[5] + (1.0/8.0)*t1) + t3*((1.0/2.0)*p[4] + (1.0/8.0)*p[0]*t0 + t0*t4) + t7;
+    E[0] = t20;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t19 - t19);
+    check = (t20 - t20);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -580,34 +563,35 @@ int compound_energy_batch(long n, const double *restrict y, long y_stride, const
     return all;
 }
 
-/* compound_energy_f (float). Total ops: 42 */
+/* compound_energy_f (float). Total ops: 43 */
 int compound_energy_f(const float *restrict y, const float *restrict p, float *restrict E)
 {
     int status = COMPOUND_STATUS_OK;
     float check;
     const float t0 = p[2]*p[2];
-    const float t1 = p[1]*t0;
-    const float t2 = p[0]*t0;
-    const float t3 = cosf(y[0]);
-    const float t4 = p[2]*p[1];
-    const float t5 = p[3]*p[3]*p[1];
-    const float t6 = (1.0F/2.0F)*p[0];
-    const float t7 = y[3]*y[3];
-    const float t8 = (1.0F/2.0F)*p[1];
-    const float t9 = y[2]*y[2];
-    const float t10 = sinf(y[0]);
-    const float t11 = sinf(y[1]);
-    const float t12 = cosf(y[1]);
-    const float t13 = t10*t11 + t12*t3;
-    const float t14 = p[3]*t4;
-    const float t15 = (1.0F/2.0F)*t14;
-    const float t16 = t13*t15;
-    const float t17 = t16*y[3];
-    const float t18 = p[3]*t12;
-    const float t19 = -p[6]*(t18*t8 + t3*(p[2]*t6 + t4)) + t17*y[2] + t7*((1.0F/2.0F)*p[5] + (1.0F/8.0F)*t5) + t9*((1.0F/2.0F)*p[4] + (1.0F/2.0F)*t1 + (1.0F/8.0F)*t2);
-    E[0] = t19;
+    const float t1 = p[3]*p[3]*p[1];
+    const float t2 = y[3]*y[3];
+    const float t3 = y[2]*y[2];
+    const float t4 = (1.0F/2.0F)*p[1];
+    const float t5 = cosf(y[1]);
+    const float t6 = p[3]*t5;
+    const float t7 = -p[6]*t4*t6;
+    const float t8 = cosf(y[0]);
+    const float t9 = p[2]*t8;
+    const float t10 = p[6]*((1.0F/2.0F)*p[0] + p[1]);
+    const float t11 = t10*t9;
+    const float t12 = sinf(y[0]);
+    const float t13 = sinf(y[1]);
+    const float t14 = t12*t13 + t5*t8;
+    const float t15 = (1.0F/2.0F)*p[2];
+    const float t16 = p[3]*p[1];
+    const float t17 = t15*t16;
+    const float t18 = t14*t17;
+    const float t19 = t18*y[3];
+    const float t20 = -t11 + t19*y[2] + t2*((1.0F/2.0F)*p[5] + (1.0F/8.0F)*t1) + t3*((1.0F/2.0F)*p[4] + (1.0F/8.0F)*p[0]*t0 + t0*t4) + t7;
+    E[0] = t20;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t19 - t19);
+    check = (t20 - t20);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -628,34 +612,35 @@ int compound_energy_batch_f(long n, const float *restrict y, long y_stride, cons
     return all;
 }
 
-/* compound_energy_l (long double). Total ops: 42 */
+/* compound_energy_l (long double). Total ops: 43 */
 int compound_energy_l(const long double *restrict y, const long double *restrict p, long double *restrict E)
 {
     int status = COMPOUND_STATUS_OK;
     long double check;
     const long double t0 = p[2]*p[2];
-    const long double t1 = p[1]*t0;
-    const long double t2 = p[0]*t0;
-    const long double t3 = cosl(y[0]);
-    const long double t4 = p[2]*p[1];
-    const long double t5 = p[3]*p[3]*p[1];
-    const long double t6 = (1.0L/2.0L)*p[0];
-    const long double t7 = y[3]*y[3];
-    const long double t8 = (1.0L/2.0L)*p[1];
-    const long double t9 = y[2]*y[2];
-    const long double t10 = sinl(y[0]);
-    const long double t11 = sinl(y[1]);
-    const long double t12 = cosl(y[1]);
-    const long double t13 = t10*t11 + t12*t3;
-    const long double t14 = p[3]*t4;
-    const long double t15 = (1.0L/2.0L)*t14;
-    const long double t16 = t13*t15;
-    const long double t17 = t16*y[3];
-    const long double t18 = p[3]*t12;
-    const long double t19 = -p[6]*(t18*t8 + t3*(p[2]*t6 + t4)) + t17*y[2] + t7*((1.0L/2.0L)*p[5] + (1.0L/8.0L)*t5) + t9*((1.0L/2.0L)*p[4] + (1.0L/2.0L)*t1 + (1.0L/8.0L)*t2);
-    E[0] = t19;
+    const long double t1 = p[3]*p[3]*p[1];
+    const long double t2 = y[3]*y[3];
+    const long double t3 = y[2]*y[2];
+    const long double t4 = (1.0L/2.0L)*p[1];
+    const long double t5 = cosl(y[1]);
+    const long double t6 = p[3]*t5;
+    const long double t7 = -p[6]*t4*t6;
+    const long double t8 = cosl(y[0]);
+    const long double t9 = p[2]*t8;
+    const long double t10 = p[6]*((1.0L/2.0L)*p[0] + p[1]);
+    const long double t11 = t10*t9;
+    const long double t12 = sinl(y[0]);
+    const long double t13 = sinl(y[1]);
+    const long double t14 = t12*t13 + t5*t8;
+    const long double t15 = (1.0L/2.0L)*p[2];
+    const long double t16 = p[3]*p[1];
+    const long double t17 = t15*t16;
+    const long double t18 = t14*t17;
+    const long double t19 = t18*y[3];
+    const long double t20 = -t11 + t19*y[2] + t2*((1.0L/2.0L)*p[5] + (1.0L/8.0L)*t1) + t3*((1.0L/2.0L)*p[4] + (1.0L/8.0L)*p[0]*t0 + t0*t4) + t7;
+    E[0] = t20;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t19 - t19);
+    check = (t20 - t20);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -947,7 +932,7 @@ int compound_velocities_batch_l(long n, const long double *restrict y, long y_st
     return all;
 }
 
-/* compound_jacobian (double). Total ops: 108 */
+/* compound_jacobian (double). Total ops: 107 */
 int compound_jacobian(const double *restrict y, const double *restrict p, double *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
@@ -965,55 +950,49 @@ int compound_jacobian(const double *restrict y, const double *restrict p, double
     const double t2 = lane_cos[0];
     const double t3 = lane_cos[1];
     const double t4 = t0*t1 + t2*t3;
-    const double t5 = p[2]*p[1];
-    const double t6 = p[3]*t5;
-    const double t7 = (1.0/2.0)*t6;
+    const double t5 = (1.0/2.0)*p[2];
+    const double t6 = p[3]*p[1];
+    const double t7 = t5*t6;
     const double M01 = t4*t7;
     const double t8 = y[2]*y[2];
     const double t9 = t0*t3 - t1*t2;
     const double t10 = t7*t9;
     const double t11 = p[3]*p[3]*p[1];
     const double M11 = p[5] + (1.0/4.0)*t11;
-    const double t12 = (1.0/2.0)*p[0];
-    const double t13 = p[6]*p[1] + p[6]*t12;
-    const double t14 = t0*t13;
-    const double t15 = y[3]*y[3];
+    const double t12 = p[6]*(p[0] + 2*p[1]);
+    const double t13 = y[3]*y[3];
+    const double t14 = t13*t6;
+    const double F0 = -t5*(t0*t12 + t14*t9);
+    const double t15 = p[6]*t1;
     const double t16 = (1.0/2.0)*p[1];
     const double t17 = p[3]*t16;
-    const double t18 = t15*t17;
-    const double F0 = -p[2]*(t14 + t18*t9);
-    const double t19 = p[6]*t1;
-    const double F1 = t17*(p[2]*t8*t9 - t19);
-    const double t20 = p[2]*p[2];
-    const double t21 = p[1]*t20;
-    const double t22 = p[0]*t20;
-    const double M00 = p[4] + t21 + (1.0/4.0)*t22;
+    const double F1 = t17*(p[2]*t8*t9 - t15);
+    const double t18 = p[2]*p[2];
+    const double M00 = p[4] + t18*((1.0/4.0)*p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double qdd0 = rdet*(F0*M11 - F1*M01);
-    const double t23 = qdd0*t10;
-    const double t24 = M01*t8 + t23;
+    const double t19 = qdd0*t10;
+    const double t20 = M01*t8 + t19;
     const double qdd1 = rdet*(-F0*M01 + F1*M00);
-    const double t25 = qdd1*t10;
-    const double t26 = t13*t2;
-    const double t27 = -p[2]*(t18*t4 + t26) + t25;
-    const double t28 = (1.0/2.0)*p[2]*p[3]*p[1]*t15*t4 - t25;
-    const double t29 = p[6]*t3;
-    const double t30 = (1.0/2.0)*p[3]*p[1]*(-p[2]*t4*t8 - t29) - t23;
-    const double t31 = M01*rdet;
-    const double t32 = t6*t9;
-    const double t33 = t32*y[2];
-    const double t34 = M11*rdet;
-    const double t35 = t32*y[3];
-    const double t36 = M00*rdet;
-    const double t37 = rdet*(-M01*t24 + M11*t27);
-    const double t38 = rdet*(-M01*t30 + M11*t28);
-    const double t39 = -t31*t33;
-    const double t40 = -t34*t35;
-    const double t41 = rdet*(M00*t24 - M01*t27);
-    const double t42 = rdet*(M00*t30 - M01*t28);
-    const double t43 = t33*t36;
-    const double t44 = t31*t35;
+    const double t21 = qdd1*t10;
+    const double t22 = t21 - t5*(t12*t2 + t14*t4);
+    const double t23 = (1.0/2.0)*p[2]*p[3]*p[1]*t13*t4 - t21;
+    const double t24 = (1.0/2.0)*p[3]*p[1]*(-p[6]*t3 - p[2]*t4*t8) - t19;
+    const double t25 = M01*rdet;
+    const double t26 = p[2]*t6*t9;
+    const double t27 = t26*y[2];
+    const double t28 = M11*rdet;
+    const double t29 = t26*y[3];
+    const double t30 = M00*rdet;
+    const double t31 = rdet*(-M01*t20 + M11*t22);
+    const double t32 = rdet*(-M01*t24 + M11*t23);
+    const double t33 = -t25*t27;
+    const double t34 = -t28*t29;
+    const double t35 = rdet*(M00*t20 - M01*t22);
+    const double t36 = rdet*(M00*t24 - M01*t23);
+    const double t37 = t27*t30;
+    const double t38 = t25*t29;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -1022,17 +1001,17 @@ int compound_jacobian(const double *restrict y, const double *restrict p, double
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = t37;
-    J[9] = t38;
-    J[10] = t39;
-    J[11] = t40;
-    J[12] = t41;
-    J[13] = t42;
-    J[14] = t43;
-    J[15] = t44;
+    J[8] = t31;
+    J[9] = t32;
+    J[10] = t33;
+    J[11] = t34;
+    J[12] = t35;
+    J[13] = t36;
+    J[14] = t37;
+    J[15] = t38;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t37 - t37) + (t38 - t38) + (t39 - t39) + (t40 - t40) + (t41 - t41) + (t42 - t42) +
-        (t43 - t43) + (t44 - t44);
+    check = (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) +
+        (t37 - t37) + (t38 - t38);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1053,7 +1032,7 @@ int compound_jacobian_batch(long n, const double *restrict y, long y_stride, con
     return all;
 }
 
-/* compound_jacobian_f (float). Total ops: 108 */
+/* compound_jacobian_f (float). Total ops: 107 */
 int compound_jacobian_f(const float *restrict y, const float *restrict p, float *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
@@ -1063,55 +1042,49 @@ int compound_jacobian_f(const float *restrict y, const float *restrict p, float 
     const float t2 = cosf(y[0]);
     const float t3 = cosf(y[1]);
     const float t4 = t0*t1 + t2*t3;
-    const float t5 = p[2]*p[1];
-    const float t6 = p[3]*t5;
-    const float t7 = (1.0F/2.0F)*t6;
+    const float t5 = (1.0F/2.0F)*p[2];
+    const float t6 = p[3]*p[1];
+    const float t7 = t5*t6;
     const float M01 = t4*t7;
     const float t8 = y[2]*y[2];
     const float t9 = t0*t3 - t1*t2;
     const float t10 = t7*t9;
     const float t11 = p[3]*p[3]*p[1];
     const float M11 = p[5] + (1.0F/4.0F)*t11;
-    const float t12 = (1.0F/2.0F)*p[0];
-    const float t13 = p[6]*p[1] + p[6]*t12;
-    const float t14 = t0*t13;
-    const float t15 = y[3]*y[3];
+    const float t12 = p[6]*(p[0] + 2*p[1]);
+    const float t13 = y[3]*y[3];
+    const float t14 = t13*t6;
+    const float F0 = -t5*(t0*t12 + t14*t9);
+    const float t15 = p[6]*t1;
     const float t16 = (1.0F/2.0F)*p[1];
     const float t17 = p[3]*t16;
-    const float t18 = t15*t17;
-    const float F0 = -p[2]*(t14 + t18*t9);
-    const float t19 = p[6]*t1;
-    const float F1 = t17*(p[2]*t8*t9 - t19);
-    const float t20 = p[2]*p[2];
-    const float t21 = p[1]*t20;
-    const float t22 = p[0]*t20;
-    const float M00 = p[4] + t21 + (1.0F/4.0F)*t22;
+    const float F1 = t17*(p[2]*t8*t9 - t15);
+    const float t18 = p[2]*p[2];
+    const float M00 = p[4] + t18*((1.0F/4.0F)*p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float qdd0 = rdet*(F0*M11 - F1*M01);
-    const float t23 = qdd0*t10;
-    const float t24 = M01*t8 + t23;
+    const float t19 = qdd0*t10;
+    const float t20 = M01*t8 + t19;
     const float qdd1 = rdet*(-F0*M01 + F1*M00);
-    const float t25 = qdd1*t10;
-    const float t26 = t13*t2;
-    const float t27 = -p[2]*(t18*t4 + t26) + t25;
-    const float t28 = (1.0F/2.0F)*p[2]*p[3]*p[1]*t15*t4 - t25;
-    const float t29 = p[6]*t3;
-    const float t30 = (1.0F/2.0F)*p[3]*p[1]*(-p[2]*t4*t8 - t29) - t23;
-    const float t31 = M01*rdet;
-    const float t32 = t6*t9;
-    const float t33 = t32*y[2];
-    const float t34 = M11*rdet;
-    const float t35 = t32*y[3];
-    const float t36 = M00*rdet;
-    const float t37 = rdet*(-M01*t24 + M11*t27);
-    const float t38 = rdet*(-M01*t30 + M11*t28);
-    const float t39 = -t31*t33;
-    const float t40 = -t34*t35;
-    const float t41 = rdet*(M00*t24 - M01*t27);
-    const float t42 = rdet*(M00*t30 - M01*t28);
-    const float t43 = t33*t36;
-    const float t44 = t31*t35;
+    const float t21 = qdd1*t10;
+    const float t22 = t21 - t5*(t12*t2 + t14*t4);
+    const float t23 = (1.0F/2.0F)*p[2]*p[3]*p[1]*t13*t4 - t21;
+    const float t24 = (1.0F/2.0F)*p[3]*p[1]*(-p[6]*t3 - p[2]*t4*t8) - t19;
+    const float t25 = M01*rdet;
+    const float t26 = p[2]*t6*t9;
+    const float t27 = t26*y[2];
+    const float t28 = M11*rdet;
+    const float t29 = t26*y[3];
+    const float t30 = M00*rdet;
+    const float t31 = rdet*(-M01*t20 + M11*t22);
+    const float t32 = rdet*(-M01*t24 + M11*t23);
+    const float t33 = -t25*t27;
+    const float t34 = -t28*t29;
+    const float t35 = rdet*(M00*t20 - M01*t22);
+    const float t36 = rdet*(M00*t24 - M01*t23);
+    const float t37 = t27*t30;
+    const float t38 = t25*t29;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -1120,17 +1093,17 @@ int compound_jacobian_f(const float *restrict y, const float *restrict p, float 
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = t37;
-    J[9] = t38;
-    J[10] = t39;
-    J[11] = t40;
-    J[12] = t41;
-    J[13] = t42;
-    J[14] = t43;
-    J[15] = t44;
+    J[8] = t31;
+    J[9] = t32;
+    J[10] = t33;
+    J[11] = t34;
+    J[12] = t35;
+    J[13] = t36;
+    J[14] = t37;
+    J[15] = t38;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t37 - t37) + (t38 - t38) + (t39 - t39) + (t40 - t40) + (t41 - t41) + (t42 - t42) +
-        (t43 - t43) + (t44 - t44);
+    check = (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) +
+        (t37 - t37) + (t38 - t38);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1151,7 +1124,7 @@ int compound_jacobian_batch_f(long n, const float *restrict y, long y_stride, co
     return all;
 }
 
-/* compound_jacobian_l (long double). Total ops: 108 */
+/* compound_jacobian_l (long double). Total ops: 107 */
 int compound_jacobian_l(const long double *restrict y, const long double *restrict p, long double *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
@@ -1161,55 +1134,49 @@ int compound_jacobian_l(const long double *restrict y, const long double *restri
     const long double t2 = cosl(y[0]);
     const long double t3 = cosl(y[1]);
     const long double t4 = t0*t1 + t2*t3;
-    const long double t5 = p[2]*p[1];
-    const long double t6 = p[3]*t5;
-    const long double t7 = (1.0L/2.0L)*t6;
+    const long double t5 = (1.0L/2.0L)*p[2];
+    const long double t6 = p[3]*p[1];
+    const long double t7 = t5*t6;
     const long double M01 = t4*t7;
     const long double t8 = y[2]*y[2];
     const long double t9 = t0*t3 - t1*t2;
     const long double t10 = t7*t9;
     const long double t11 = p[3]*p[3]*p[1];
     const long double M11 = p[5] + (1.0L/4.0L)*t11;
-    const long double t12 = (1.0L/2.0L)*p[0];
-    const long double t13 = p[6]*p[1] + p[6]*t12;
-    const long double t14 = t0*t13;
-    const long double t15 = y[3]*y[3];
+    const long double t12 = p[6]*(p[0] + 2*p[1]);
+    const long double t13 = y[3]*y[3];
+    const long double t14 = t13*t6;
+    const long double F0 = -t5*(t0*t12 + t14*t9);
+    const long double t15 = p[6]*t1;
     const long double t16 = (1.0L/2.0L)*p[1];
     const long double t17 = p[3]*t16;
-    const long double t18 = t15*t17;
-    const long double F0 = -p[2]*(t14 + t18*t9);
-    const long double t19 = p[6]*t1;
-    const long double F1 = t17*(p[2]*t8*t9 - t19);
-    const long double t20 = p[2]*p[2];
-    const long double t21 = p[1]*t20;
-    const long double t22 = p[0]*t20;
-    const long double M00 = p[4] + t21 + (1.0L/4.0L)*t22;
+    const long double F1 = t17*(p[2]*t8*t9 - t15);
+    const long double t18 = p[2]*p[2];
+    const long double M00 = p[4] + t18*((1.0L/4.0L)*p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double qdd0 = rdet*(F0*M11 - F1*M01);
-    const long double t23 = qdd0*t10;
-    const long double t24 = M01*t8 + t23;
+    const long double t19 = qdd0*t10;
+    const long double t20 = M01*t8 + t19;
     const long double qdd1 = rdet*(-F0*M01 + F1*M00);
-    const long double t25 = qdd1*t10;
-    const long double t26 = t13*t2;
-    const long double t27 = -p[2]*(t18*t4 + t26) + t25;
-    const long double t28 = (1.0L/2.0L)*p[2]*p[3]*p[1]*t15*t4 - t25;
-    const long double t29 = p[6]*t3;
-    const long double t30 = (1.0L/2.0L)*p[3]*p[1]*(-p[2]*t4*t8 - t29) - t23;
-    const long double t31 = M01*rdet;
-    const long double t32 = t6*t9;
-    const long double t33 = t32*y[2];
-    const long double t34 = M11*rdet;
-    const long double t35 = t32*y[3];
-    const long double t36 = M00*rdet;
-    const long double t37 = rdet*(-M01*t24 + M11*t27);
-    const long double t38 = rdet*(-M01*t30 + M11*t28);
-    const long double t39 = -t31*t33;
-    const long double t40 = -t34*t35;
-    const long double t41 = rdet*(M00*t24 - M01*t27);
-    const long double t42 = rdet*(M00*t30 - M01*t28);
-    const long double t43 = t33*t36;
-    const long double t44 = t31*t35;
+    const long double t21 = qdd1*t10;
+    const long double t22 = t21 - t5*(t12*t2 + t14*t4);
+    const long double t23 = (1.0L/2.0L)*p[2]*p[3]*p[1]*t13*t4 - t21;
+    const long double t24 = (1.0L/2.0L)*p[3]*p[1]*(-p[6]*t3 - p[2]*t4*t8) - t19;
+    const long double t25 = M01*rdet;
+    const long double t26 = p[2]*t6*t9;
+    const long double t27 = t26*y[2];
+    const long double t28 = M11*rdet;
+    const long double t29 = t26*y[3];
+    const long double t30 = M00*rdet;
+    const long double t31 = rdet*(-M01*t20 + M11*t22);
+    const long double t32 = rdet*(-M01*t24 + M11*t23);
+    const long double t33 = -t25*t27;
+    const long double t34 = -t28*t29;
+    const long double t35 = rdet*(M00*t20 - M01*t22);
+    const long double t36 = rdet*(M00*t24 - M01*t23);
+    const long double t37 = t27*t30;
+    const long double t38 = t25*t29;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -1218,17 +1185,17 @@ int compound_jacobian_l(const long double *restrict y, const long double *restri
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = t37;
-    J[9] = t38;
-    J[10] = t39;
-    J[11] = t40;
-    J[12] = t41;
-    J[13] = t42;
-    J[14] = t43;
-    J[15] = t44;
+    J[8] = t31;
+    J[9] = t32;
+    J[10] = t33;
+    J[11] = t34;
+    J[12] = t35;
+    J[13] = t36;
+    J[14] = t37;
+    J[15] = t38;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t37 - t37) + (t38 - t38) + (t39 - t39) + (t40 - t40) + (t41 - t41) + (t42 - t42) +
-        (t43 - t43) + (t44 - t44);
+    check = (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) +
+        (t37 - t37) + (t38 - t38);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1249,7 +1216,7 @@ int compound_jacobian_batch_l(long n, const long double *restrict y, long y_stri
     return all;
 }
 
-/* compound_hamiltonian_rhs (double). Total ops: 55 */
+/* compound_hamiltonian_rhs (double). Total ops: 50 */
 int compound_hamiltonian_rhs(const double *restrict x, const double *restrict p, double *restrict xdot)
 {
     int status = COMPOUND_STATUS_OK;
@@ -1267,37 +1234,35 @@ int compound_hamiltonian_rhs(const double *restrict x, const double *restrict p,
     const double t2 = lane_cos[0];
     const double t3 = lane_cos[1];
     const double t4 = t0*t1 + t2*t3;
-    const double t5 = p[2]*p[1];
-    const double t6 = p[3]*t5;
-    const double t7 = (1.0/2.0)*t6;
+    const double t5 = (1.0/2.0)*p[2];
+    const double t6 = p[3]*p[1];
+    const double t7 = t5*t6;
     const double M01 = t4*t7;
     const double t8 = p[3]*p[3]*p[1];
     const double M11 = p[5] + (1.0/4.0)*t8;
     const double t9 = p[2]*p[2];
-    const double t10 = p[1]*t9;
-    const double t11 = p[0]*t9;
-    const double M00 = p[4] + t10 + (1.0/4.0)*t11;
+    const double M00 = p[4] + t9*((1.0/4.0)*p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double v0 = rdet*(-M01*x[3] + M11*x[2]);
     const double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const double t12 = (1.0/2.0)*p[0];
-    const double t13 = p[6]*p[1] + p[6]*t12;
-    const double t14 = t0*t13;
-    const double t15 = t0*t3 - t1*t2;
-    const double t16 = (1.0/2.0)*p[1];
-    const double t17 = p[3]*t16;
-    const double t18 = v0*v1;
-    const double t19 = t17*t18;
-    const double t20 = p[6]*t1;
-    const double t21 = -p[2]*(t14 + t15*t19);
-    const double t22 = t17*(p[2]*t15*v0*v1 - t20);
+    const double t10 = p[6]*((1.0/2.0)*p[0] + p[1]);
+    const double t11 = p[2]*t0;
+    const double t12 = t0*t3 - t1*t2;
+    const double t13 = t12*t7;
+    const double t14 = t13*v1;
+    const double t15 = t14*v0;
+    const double t16 = p[6]*t1;
+    const double t17 = (1.0/2.0)*p[1];
+    const double t18 = p[3]*t17;
+    const double t19 = -t10*t11 - t15;
+    const double t20 = t15 - t16*t18;
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = t21;
-    xdot[3] = t22;
+    xdot[2] = t19;
+    xdot[3] = t20;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (v0 - v0) + (v1 - v1) + (t21 - t21) + (t22 - t22);
+    check = (v0 - v0) + (v1 - v1) + (t19 - t19) + (t20 - t20);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1318,7 +1283,7 @@ int compound_hamiltonian_rhs_batch(long n, const double *restrict x, long x_stri
     return all;
 }
 
-/* compound_hamiltonian_rhs_f (float). Total ops: 55 */
+/* compound_hamiltonian_rhs_f (float). Total ops: 50 */
 int compound_hamiltonian_rhs_f(const float *restrict x, const float *restrict p, float *restrict xdot)
 {
     int status = COMPOUND_STATUS_OK;
@@ -1328,37 +1293,35 @@ int compound_hamiltonian_rhs_f(const float *restrict x, const float *restrict p,
     const float t2 = cosf(x[0]);
     const float t3 = cosf(x[1]);
     const float t4 = t0*t1 + t2*t3;
-    const float t5 = p[2]*p[1];
-    const float t6 = p[3]*t5;
-    const float t7 = (1.0F/2.0F)*t6;
+    const float t5 = (1.0F/2.0F)*p[2];
+    const float t6 = p[3]*p[1];
+    const float t7 = t5*t6;
     const float M01 = t4*t7;
     const float t8 = p[3]*p[3]*p[1];
     const float M11 = p[5] + (1.0F/4.0F)*t8;
     const float t9 = p[2]*p[2];
-    const float t10 = p[1]*t9;
-    const float t11 = p[0]*t9;
-    const float M00 = p[4] + t10 + (1.0F/4.0F)*t11;
+    const float M00 = p[4] + t9*((1.0F/4.0F)*p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float v0 = rdet*(-M01*x[3] + M11*x[2]);
     const float v1 = rdet*(M00*x[3] - M01*x[2]);
-    const float t12 = (1.0F/2.0F)*p[0];
-    const float t13 = p[6]*p[1] + p[6]*t12;
-    const float t14 = t0*t13;
-    const float t15 = t0*t3 - t1*t2;
-    const float t16 = (1.0F/2.0F)*p[1];
-    const float t17 = p[3]*t16;
-    const float t18 = v0*v1;
-    const float t19 = t17*t18;
-    const float t20 = p[6]*t1;
-    const float t21 = -p[2]*(t14 + t15*t19);
-    const float t22 = t17*(p[2]*t15*v0*v1 - t20);
+    const float t10 = p[6]*((1.0F/2.0F)*p[0] + p[1]);
+    const float t11 = p[2]*t0;
+    const float t12 = t0*t3 - t1*t2;
+    const float t13 = t12*t7;
+    const float t14 = t13*v1;
+    const float t15 = t14*v0;
+    const float t16 = p[6]*t1;
+    const float t17 = (1.0F/2.0F)*p[1];
+    const float t18 = p[3]*t17;
+    const float t19 = -t10*t11 - t15;
+    const float t20 = t15 - t16*t18;
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = t21;
-    xdot[3] = t22;
+    xdot[2] = t19;
+    xdot[3] = t20;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (v0 - v0) + (v1 - v1) + (t21 - t21) + (t22 - t22);
+    check = (v0 - v0) + (v1 - v1) + (t19 - t19) + (t20 - t20);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1379,7 +1342,7 @@ int compound_hamiltonian_rhs_batch_f(long n, const float *restrict x, long x_str
     return all;
 }
 
-/* compound_hamiltonian_rhs_l (long double). Total ops: 55 */
+/* compound_hamiltonian_rhs_l (long double). Total ops: 50 */
 int compound_hamiltonian_rhs_l(const long double *restrict x, const long double *restrict p, long double *restrict xdot)
 {
     int status = COMPOUND_STATUS_OK;
@@ -1389,37 +1352,35 @@ int compound_hamiltonian_rhs_l(const long double *restrict x, const long double 
     const long double t2 = cosl(x[0]);
     const long double t3 = cosl(x[1]);
     const long double t4 = t0*t1 + t2*t3;
-    const long double t5 = p[2]*p[1];
-    const long double t6 = p[3]*t5;
-    const long double t7 = (1.0L/2.0L)*t6;
+    const long double t5 = (1.0L/2.0L)*p[2];
+    const long double t6 = p[3]*p[1];
+    const long double t7 = t5*t6;
     const long double M01 = t4*t7;
     const long double t8 = p[3]*p[3]*p[1];
     const long double M11 = p[5] + (1.0L/4.0L)*t8;
     const long double t9 = p[2]*p[2];
-    const long double t10 = p[1]*t9;
-    const long double t11 = p[0]*t9;
-    const long double M00 = p[4] + t10 + (1.0L/4.0L)*t11;
+    const long double M00 = p[4] + t9*((1.0L/4.0L)*p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double v0 = rdet*(-M01*x[3] + M11*x[2]);
     const long double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const long double t12 = (1.0L/2.0L)*p[0];
-    const long double t13 = p[6]*p[1] + p[6]*t12;
-    const long double t14 = t0*t13;
-    const long double t15 = t0*t3 - t1*t2;
-    const long double t16 = (1.0L/2.0L)*p[1];
-    const long double t17 = p[3]*t16;
-    const long double t18 = v0*v1;
-    const long double t19 = t17*t18;
-    const long double t20 = p[6]*t1;
-    const long double t21 = -p[2]*(t14 + t15*t19);
-    const long double t22 = t17*(p[2]*t15*v0*v1 - t20);
+    const long double t10 = p[6]*((1.0L/2.0L)*p[0] + p[1]);
+    const long double t11 = p[2]*t0;
+    const long double t12 = t0*t3 - t1*t2;
+    const long double t13 = t12*t7;
+    const long double t14 = t13*v1;
+    const long double t15 = t14*v0;
+    const long double t16 = p[6]*t1;
+    const long double t17 = (1.0L/2.0L)*p[1];
+    const long double t18 = p[3]*t17;
+    const long double t19 = -t10*t11 - t15;
+    const long double t20 = t15 - t16*t18;
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = t21;
-    xdot[3] = t22;
+    xdot[2] = t19;
+    xdot[3] = t20;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (v0 - v0) + (v1 - v1) + (t21 - t21) + (t22 - t22);
+    check = (v0 - v0) + (v1 - v1) + (t19 - t19) + (t20 - t20);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1440,7 +1401,7 @@ int compound_hamiltonian_rhs_batch_l(long n, const long double *restrict x, long
     return all;
 }
 
-/* compound_hamiltonian_jacobian (double). Total ops: 104 */
+/* compound_hamiltonian_jacobian (double). Total ops: 91 */
 int compound_hamiltonian_jacobian(const double *restrict x, const double *restrict p, double *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
@@ -1458,53 +1419,49 @@ int compound_hamiltonian_jacobian(const double *restrict x, const double *restri
     const double t2 = lane_cos[0];
     const double t3 = lane_cos[1];
     const double t4 = t0*t3 - t1*t2;
-    const double t5 = p[2]*p[1];
-    const double t6 = p[3]*t5;
-    const double t7 = (1.0/2.0)*t6;
+    const double t5 = (1.0/2.0)*p[2];
+    const double t6 = p[3]*p[1];
+    const double t7 = t5*t6;
     const double t8 = t4*t7;
     const double t9 = t0*t1 + t2*t3;
     const double M01 = t7*t9;
     const double t10 = p[3]*p[3]*p[1];
     const double M11 = p[5] + (1.0/4.0)*t10;
     const double t11 = p[2]*p[2];
-    const double t12 = p[1]*t11;
-    const double t13 = p[0]*t11;
-    const double M00 = p[4] + t12 + (1.0/4.0)*t13;
+    const double M00 = p[4] + t11*((1.0/4.0)*p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double v0 = rdet*(-M01*x[3] + M11*x[2]);
-    const double t14 = t8*v0;
+    const double t12 = t8*v0;
     const double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const double t15 = M01*t14 - 1.0/2.0*M11*p[2]*p[3]*p[1]*t4*v1;
-    const double dv0_0 = -rdet*t15;
-    const double dv0_1 = rdet*t15;
+    const double t13 = M01*t12 - 1.0/2.0*M11*p[2]*p[3]*p[1]*t4*v1;
+    const double dv0_0 = -rdet*t13;
+    const double dv0_1 = rdet*t13;
     const double dv0_2 = M11*rdet;
-    const double t16 = M01*rdet;
-    const double dv0_3 = -t16;
-    const double t17 = t8*v1;
-    const double t18 = M00*t14 - M01*t17;
-    const double dv1_0 = rdet*t18;
-    const double dv1_1 = -rdet*t18;
+    const double t14 = M01*rdet;
+    const double dv0_3 = -t14;
+    const double t15 = t8*v1;
+    const double t16 = M00*t12 - M01*t15;
+    const double dv1_0 = rdet*t16;
+    const double dv1_1 = -rdet*t16;
     const double dv1_2 = dv0_3;
     const double dv1_3 = M00*rdet;
-    const double t19 = (1.0/2.0)*p[0];
-    const double t20 = p[6]*p[1] + p[6]*t19;
-    const double t21 = t2*t20;
-    const double t22 = (1.0/2.0)*p[1];
-    const double t23 = p[3]*t22;
-    const double t24 = v0*v1;
-    const double t25 = t23*t24;
-    const double t26 = dv0_0*t17 + dv1_0*t14;
-    const double t27 = dv0_1*t17 + dv1_1*t14;
-    const double t28 = dv0_2*t17 + dv1_2*t14;
-    const double t29 = dv0_3*t17 + dv1_3*t14;
-    const double t30 = p[6]*t3;
-    const double t31 = -p[2]*(t21 + t25*t9) - t26;
-    const double t32 = (1.0/2.0)*p[2]*p[3]*p[1]*t9*v0*v1 - t27;
-    const double t33 = -t28;
-    const double t34 = -t29;
-    const double t35 = M01*t24 + t26;
-    const double t36 = t23*(-p[2]*t24*t9 - t30) + t27;
+    const double t17 = p[2]*t2;
+    const double t18 = p[6]*((1.0/2.0)*p[0] + p[1]);
+    const double t19 = t17*t18;
+    const double t20 = M01*v0*v1;
+    const double t21 = dv0_0*t15 + dv1_0*t12 + t20;
+    const double t22 = dv0_1*t15 + dv1_1*t12 - t20;
+    const double t23 = dv0_2*t15 + dv1_2*t12;
+    const double t24 = dv0_3*t15 + dv1_3*t12;
+    const double t25 = (1.0/2.0)*p[1];
+    const double t26 = p[3]*t3;
+    const double t27 = -p[6]*t25*t26;
+    const double t28 = -t19 - t21;
+    const double t29 = -t22;
+    const double t30 = -t23;
+    const double t31 = -t24;
+    const double t32 = t22 + t27;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1513,19 +1470,19 @@ int compound_hamiltonian_jacobian(const double *restrict x, const double *restri
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = t31;
-    J[9] = t32;
-    J[10] = t33;
-    J[11] = t34;
-    J[12] = t35;
-    J[13] = t36;
-    J[14] = t28;
-    J[15] = t29;
+    J[8] = t28;
+    J[9] = t29;
+    J[10] = t30;
+    J[11] = t31;
+    J[12] = t21;
+    J[13] = t32;
+    J[14] = t23;
+    J[15] = t24;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
-        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t31 - t31) +
-        (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) + (t28 - t28) +
-        (t29 - t29);
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t28 - t28) +
+        (t29 - t29) + (t30 - t30) + (t31 - t31) + (t21 - t21) + (t32 - t32) + (t23 - t23) +
+        (t24 - t24);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1546,7 +1503,7 @@ int compound_hamiltonian_jacobian_batch(long n, const double *restrict x, long x
     return all;
 }
 
-/* compound_hamiltonian_jacobian_f (float). Total ops: 104 */
+/* compound_hamiltonian_jacobian_f (float). Total ops: 91 */
 int compound_hamiltonian_jacobian_f(const float *restrict x, const float *restrict p, float *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
@@ -1556,53 +1513,49 @@ int compound_hamiltonian_jacobian_f(const float *restrict x, const float *restri
     const float t2 = cosf(x[0]);
     const float t3 = cosf(x[1]);
     const float t4 = t0*t3 - t1*t2;
-    const float t5 = p[2]*p[1];
-    const float t6 = p[3]*t5;
-    const float t7 = (1.0F/2.0F)*t6;
+    const float t5 = (1.0F/2.0F)*p[2];
+    const float t6 = p[3]*p[1];
+    const float t7 = t5*t6;
     const float t8 = t4*t7;
     const float t9 = t0*t1 + t2*t3;
     const float M01 = t7*t9;
     const float t10 = p[3]*p[3]*p[1];
     const float M11 = p[5] + (1.0F/4.0F)*t10;
     const float t11 = p[2]*p[2];
-    const float t12 = p[1]*t11;
-    const float t13 = p[0]*t11;
-    const float M00 = p[4] + t12 + (1.0F/4.0F)*t13;
+    const float M00 = p[4] + t11*((1.0F/4.0F)*p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float v0 = rdet*(-M01*x[3] + M11*x[2]);
-    const float t14 = t8*v0;
+    const float t12 = t8*v0;
     const float v1 = rdet*(M00*x[3] - M01*x[2]);
-    const float t15 = M01*t14 - 1.0F/2.0F*M11*p[2]*p[3]*p[1]*t4*v1;
-    const float dv0_0 = -rdet*t15;
-    const float dv0_1 = rdet*t15;
+    const float t13 = M01*t12 - 1.0F/2.0F*M11*p[2]*p[3]*p[1]*t4*v1;
+    const float dv0_0 = -rdet*t13;
+    const float dv0_1 = rdet*t13;
     const float dv0_2 = M11*rdet;
-    const float t16 = M01*rdet;
-    const float dv0_3 = -t16;
-    const float t17 = t8*v1;
-    const float t18 = M00*t14 - M01*t17;
-    const float dv1_0 = rdet*t18;
-    const float dv1_1 = -rdet*t18;
+    const float t14 = M01*rdet;
+    const float dv0_3 = -t14;
+    const float t15 = t8*v1;
+    const float t16 = M00*t12 - M01*t15;
+    const float dv1_0 = rdet*t16;
+    const float dv1_1 = -rdet*t16;
     const float dv1_2 = dv0_3;
     const float dv1_3 = M00*rdet;
-    const float t19 = (1.0F/2.0F)*p[0];
-    const float t20 = p[6]*p[1] + p[6]*t19;
-    const float t21 = t2*t20;
-    const float t22 = (1.0F/2.0F)*p[1];
-    const float t23 = p[3]*t22;
-    const float t24 = v0*v1;
-    const float t25 = t23*t24;
-    const float t26 = dv0_0*t17 + dv1_0*t14;
-    const float t27 = dv0_1*t17 + dv1_1*t14;
-    const float t28 = dv0_2*t17 + dv1_2*t14;
-    const float t29 = dv0_3*t17 + dv1_3*t14;
-    const float t30 = p[6]*t3;
-    const float t31 = -p[2]*(t21 + t25*t9) - t26;
-    const float t32 = (1.0F/2.0F)*p[2]*p[3]*p[1]*t9*v0*v1 - t27;
-    const float t33 = -t28;
-    const float t34 = -t29;
-    const float t35 = M01*t24 + t26;
-    const float t36 = t23*(-p[2]*t24*t9 - t30) + t27;
+    const float t17 = p[2]*t2;
+    const float t18 = p[6]*((1.0F/2.0F)*p[0] + p[1]);
+    const float t19 = t17*t18;
+    const float t20 = M01*v0*v1;
+    const float t21 = dv0_0*t15 + dv1_0*t12 + t20;
+    const float t22 = dv0_1*t15 + dv1_1*t12 - t20;
+    const float t23 = dv0_2*t15 + dv1_2*t12;
+    const float t24 = dv0_3*t15 + dv1_3*t12;
+    const float t25 = (1.0F/2.0F)*p[1];
+    const float t26 = p[3]*t3;
+    const float t27 = -p[6]*t25*t26;
+    const float t28 = -t19 - t21;
+    const float t29 = -t22;
+    const float t30 = -t23;
+    const float t31 = -t24;
+    const float t32 = t22 + t27;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1611,19 +1564,19 @@ int compound_hamiltonian_jacobian_f(const float *restrict x, const float *restri
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = t31;
-    J[9] = t32;
-    J[10] = t33;
-    J[11] = t34;
-    J[12] = t35;
-    J[13] = t36;
-    J[14] = t28;
-    J[15] = t29;
+    J[8] = t28;
+    J[9] = t29;
+    J[10] = t30;
+    J[11] = t31;
+    J[12] = t21;
+    J[13] = t32;
+    J[14] = t23;
+    J[15] = t24;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
-        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t31 - t31) +
-        (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) + (t28 - t28) +
-        (t29 - t29);
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t28 - t28) +
+        (t29 - t29) + (t30 - t30) + (t31 - t31) + (t21 - t21) + (t32 - t32) + (t23 - t23) +
+        (t24 - t24);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1644,7 +1597,7 @@ int compound_hamiltonian_jacobian_batch_f(long n, const float *restrict x, long 
     return all;
 }
 
-/* compound_hamiltonian_jacobian_l (long double). Total ops: 104 */
+/* compound_hamiltonian_jacobian_l (long double). Total ops: 91 */
 int compound_hamiltonian_jacobian_l(const long double *restrict x, const long double *restrict p, long double *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
@@ -1654,53 +1607,49 @@ int compound_hamiltonian_jacobian_l(const long double *restrict x, const long do
     const long double t2 = cosl(x[0]);
     const long double t3 = cosl(x[1]);
     const long double t4 = t0*t3 - t1*t2;
-    const long double t5 = p[2]*p[1];
-    const long double t6 = p[3]*t5;
-    const long double t7 = (1.0L/2.0L)*t6;
+    const long double t5 = (1.0L/2.0L)*p[2];
+    const long double t6 = p[3]*p[1];
+    const long double t7 = t5*t6;
     const long double t8 = t4*t7;
     const long double t9 = t0*t1 + t2*t3;
     const long double M01 = t7*t9;
     const long double t10 = p[3]*p[3]*p[1];
     const long double M11 = p[5] + (1.0L/4.0L)*t10;
     const long double t11 = p[2]*p[2];
-    const long double t12 = p[1]*t11;
-    const long double t13 = p[0]*t11;
-    const long double M00 = p[4] + t12 + (1.0L/4.0L)*t13;
+    const long double M00 = p[4] + t11*((1.0L/4.0L)*p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double v0 = rdet*(-M01*x[3] + M11*x[2]);
-    const long double t14 = t8*v0;
+    const long double t12 = t8*v0;
     const long double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const long double t15 = M01*t14 - 1.0L/2.0L*M11*p[2]*p[3]*p[1]*t4*v1;
-    const long double dv0_0 = -rdet*t15;
-    const long double dv0_1 = rdet*t15;
+    const long double t13 = M01*t12 - 1.0L/2.0L*M11*p[2]*p[3]*p[1]*t4*v1;
+    const long double dv0_0 = -rdet*t13;
+    const long double dv0_1 = rdet*t13;
     const long double dv0_2 = M11*rdet;
-    const long double t16 = M01*rdet;
-    const long double dv0_3 = -t16;
-    const long double t17 = t8*v1;
-    const long double t18 = M00*t14 - M01*t17;
-    const long double dv1_0 = rdet*t18;
-    const long double dv1_1 = -rdet*t18;
+    const long double t14 = M01*rdet;
+    const long double dv0_3 = -t14;
+    const long double t15 = t8*v1;
+    const long double t16 = M00*t12 - M01*t15;
+    const long double dv1_0 = rdet*t16;
+    const long double dv1_1 = -rdet*t16;
     const long double dv1_2 = dv0_3;
     const long double dv1_3 = M00*rdet;
-    const long double t19 = (1.0L/2.0L)*p[0];
-    const long double t20 = p[6]*p[1] + p[6]*t19;
-    const long double t21 = t2*t20;
-    const long double t22 = (1.0L/2.0L)*p[1];
-    const long double t23 = p[3]*t22;
-    const long double t24 = v0*v1;
-    const long double t25 = t23*t24;
-    const long double t26 = dv0_0*t17 + dv1_0*t14;
-    const long double t27 = dv0_1*t17 + dv1_1*t14;
-    const long double t28 = dv0_2*t17 + dv1_2*t14;
-    const long double t29 = dv0_3*t17 + dv1_3*t14;
-    const long double t30 = p[6]*t3;
-    const long double t31 = -p[2]*(t21 + t25*t9) - t26;
-    const long double t32 = (1.0L/2.0L)*p[2]*p[3]*p[1]*t9*v0*v1 - t27;
-    const long double t33 = -t28;
-    const long double t34 = -t29;
-    const long double t35 = M01*t24 + t26;
-    const long double t36 = t23*(-p[2]*t24*t9 - t30) + t27;
+    const long double t17 = p[2]*t2;
+    const long double t18 = p[6]*((1.0L/2.0L)*p[0] + p[1]);
+    const long double t19 = t17*t18;
+    const long double t20 = M01*v0*v1;
+    const long double t21 = dv0_0*t15 + dv1_0*t12 + t20;
+    const long double t22 = dv0_1*t15 + dv1_1*t12 - t20;
+    const long double t23 = dv0_2*t15 + dv1_2*t12;
+    const long double t24 = dv0_3*t15 + dv1_3*t12;
+    const long double t25 = (1.0L/2.0L)*p[1];
+    const long double t26 = p[3]*t3;
+    const long double t27 = -p[6]*t25*t26;
+    const long double t28 = -t19 - t21;
+    const long double t29 = -t22;
+    const long double t30 = -t23;
+    const long double t31 = -t24;
+    const long double t32 = t22 + t27;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1709,19 +1658,19 @@ int compound_hamiltonian_jacobian_l(const long double *restrict x, const long do
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = t31;
-    J[9] = t32;
-    J[10] = t33;
-    J[11] = t34;
-    J[12] = t35;
-    J[13] = t36;
-    J[14] = t28;
-    J[15] = t29;
+    J[8] = t28;
+    J[9] = t29;
+    J[10] = t30;
+    J[11] = t31;
+    J[12] = t21;
+    J[13] = t32;
+    J[14] = t23;
+    J[15] = t24;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
-        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t31 - t31) +
-        (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) + (t28 - t28) +
-        (t29 - t29);
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t28 - t28) +
+        (t29 - t29) + (t30 - t30) + (t31 - t31) + (t21 - t21) + (t32 - t32) + (t23 - t23) +
+        (t24 - t24);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1742,7 +1691,7 @@ int compound_hamiltonian_jacobian_batch_l(long n, const long double *restrict x,
     return all;
 }
 
-/* compound_to_canonical (double). Total ops: 27 */
+/* compound_to_canonical (double). Total ops: 26 */
 int compound_to_canonical(const double *restrict y, const double *restrict p, double *restrict x)
 {
     int status = COMPOUND_STATUS_OK;
@@ -1755,30 +1704,28 @@ int compound_to_canonical(const double *restrict y, const double *restrict p, do
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t4 = lane_sin[0];
-    const double t5 = lane_sin[1];
-    const double t6 = lane_cos[0];
-    const double t7 = lane_cos[1];
+    const double t2 = lane_sin[0];
+    const double t3 = lane_sin[1];
+    const double t4 = lane_cos[0];
+    const double t5 = lane_cos[1];
     const double t0 = p[2]*p[2];
-    const double t1 = p[1]*t0;
-    const double t2 = p[0]*t0;
-    const double t3 = p[4] + t1 + (1.0/4.0)*t2;
-    const double t8 = t4*t5 + t6*t7;
-    const double t9 = p[2]*p[1];
-    const double t10 = p[3]*t9;
-    const double t11 = (1.0/2.0)*t10;
-    const double t12 = t11*t8;
-    const double t13 = t12*y[3];
-    const double t14 = p[3]*p[3]*p[1];
-    const double t15 = p[5] + (1.0/4.0)*t14;
-    const double t16 = t13 + t3*y[2];
-    const double t17 = t12*y[2] + t15*y[3];
+    const double t1 = p[4] + t0*((1.0/4.0)*p[0] + p[1]);
+    const double t6 = t2*t3 + t4*t5;
+    const double t7 = (1.0/2.0)*p[2];
+    const double t8 = p[3]*p[1];
+    const double t9 = t7*t8;
+    const double t10 = t6*t9;
+    const double t11 = t10*y[3];
+    const double t12 = p[3]*p[3]*p[1];
+    const double t13 = p[5] + (1.0/4.0)*t12;
+    const double t14 = t1*y[2] + t11;
+    const double t15 = t10*y[2] + t13*y[3];
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = t16;
-    x[3] = t17;
+    x[2] = t14;
+    x[3] = t15;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (y[0] - y[0]) + (y[1] - y[1]) + (t16 - t16) + (t17 - t17);
+    check = (y[0] - y[0]) + (y[1] - y[1]) + (t14 - t14) + (t15 - t15);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1799,35 +1746,33 @@ int compound_to_canonical_batch(long n, const double *restrict y, long y_stride,
     return all;
 }
 
-/* compound_to_canonical_f (float). Total ops: 27 */
+/* compound_to_canonical_f (float). Total ops: 26 */
 int compound_to_canonical_f(const float *restrict y, const float *restrict p, float *restrict x)
 {
     int status = COMPOUND_STATUS_OK;
     float check;
     const float t0 = p[2]*p[2];
-    const float t1 = p[1]*t0;
-    const float t2 = p[0]*t0;
-    const float t3 = p[4] + t1 + (1.0F/4.0F)*t2;
-    const float t4 = sinf(y[0]);
-    const float t5 = sinf(y[1]);
-    const float t6 = cosf(y[0]);
-    const float t7 = cosf(y[1]);
-    const float t8 = t4*t5 + t6*t7;
-    const float t9 = p[2]*p[1];
-    const float t10 = p[3]*t9;
-    const float t11 = (1.0F/2.0F)*t10;
-    const float t12 = t11*t8;
-    const float t13 = t12*y[3];
-    const float t14 = p[3]*p[3]*p[1];
-    const float t15 = p[5] + (1.0F/4.0F)*t14;
-    const float t16 = t13 + t3*y[2];
-    const float t17 = t12*y[2] + t15*y[3];
+    const float t1 = p[4] + t0*((1.0F/4.0F)*p[0] + p[1]);
+    const float t2 = sinf(y[0]);
+    const float t3 = sinf(y[1]);
+    const float t4 = cosf(y[0]);
+    const float t5 = cosf(y[1]);
+    const float t6 = t2*t3 + t4*t5;
+    const float t7 = (1.0F/2.0F)*p[2];
+    const float t8 = p[3]*p[1];
+    const float t9 = t7*t8;
+    const float t10 = t6*t9;
+    const float t11 = t10*y[3];
+    const float t12 = p[3]*p[3]*p[1];
+    const float t13 = p[5] + (1.0F/4.0F)*t12;
+    const float t14 = t1*y[2] + t11;
+    const float t15 = t10*y[2] + t13*y[3];
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = t16;
-    x[3] = t17;
+    x[2] = t14;
+    x[3] = t15;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (y[0] - y[0]) + (y[1] - y[1]) + (t16 - t16) + (t17 - t17);
+    check = (y[0] - y[0]) + (y[1] - y[1]) + (t14 - t14) + (t15 - t15);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1848,35 +1793,33 @@ int compound_to_canonical_batch_f(long n, const float *restrict y, long y_stride
     return all;
 }
 
-/* compound_to_canonical_l (long double). Total ops: 27 */
+/* compound_to_canonical_l (long double). Total ops: 26 */
 int compound_to_canonical_l(const long double *restrict y, const long double *restrict p, long double *restrict x)
 {
     int status = COMPOUND_STATUS_OK;
     long double check;
     const long double t0 = p[2]*p[2];
-    const long double t1 = p[1]*t0;
-    const long double t2 = p[0]*t0;
-    const long double t3 = p[4] + t1 + (1.0L/4.0L)*t2;
-    const long double t4 = sinl(y[0]);
-    const long double t5 = sinl(y[1]);
-    const long double t6 = cosl(y[0]);
-    const long double t7 = cosl(y[1]);
-    const long double t8 = t4*t5 + t6*t7;
-    const long double t9 = p[2]*p[1];
-    const long double t10 = p[3]*t9;
-    const long double t11 = (1.0L/2.0L)*t10;
-    const long double t12 = t11*t8;
-    const long double t13 = t12*y[3];
-    const long double t14 = p[3]*p[3]*p[1];
-    const long double t15 = p[5] + (1.0L/4.0L)*t14;
-    const long double t16 = t13 + t3*y[2];
-    const long double t17 = t12*y[2] + t15*y[3];
+    const long double t1 = p[4] + t0*((1.0L/4.0L)*p[0] + p[1]);
+    const long double t2 = sinl(y[0]);
+    const long double t3 = sinl(y[1]);
+    const long double t4 = cosl(y[0]);
+    const long double t5 = cosl(y[1]);
+    const long double t6 = t2*t3 + t4*t5;
+    const long double t7 = (1.0L/2.0L)*p[2];
+    const long double t8 = p[3]*p[1];
+    const long double t9 = t7*t8;
+    const long double t10 = t6*t9;
+    const long double t11 = t10*y[3];
+    const long double t12 = p[3]*p[3]*p[1];
+    const long double t13 = p[5] + (1.0L/4.0L)*t12;
+    const long double t14 = t1*y[2] + t11;
+    const long double t15 = t10*y[2] + t13*y[3];
     x[0] = y[0];
     x[1] = y[1];
-    x[2] = t16;
-    x[3] = t17;
+    x[2] = t14;
+    x[3] = t15;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (y[0] - y[0]) + (y[1] - y[1]) + (t16 - t16) + (t17 - t17);
+    check = (y[0] - y[0]) + (y[1] - y[1]) + (t14 - t14) + (t15 - t15);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1897,7 +1840,7 @@ int compound_to_canonical_batch_l(long n, const long double *restrict y, long y_
     return all;
 }
 
-/* compound_from_canonical (double). Total ops: 33 */
+/* compound_from_canonical (double). Total ops: 32 */
 int compound_from_canonical(const double *restrict x, const double *restrict p, double *restrict y)
 {
     int status = COMPOUND_STATUS_OK;
@@ -1915,16 +1858,14 @@ int compound_from_canonical(const double *restrict x, const double *restrict p, 
     const double t2 = lane_cos[0];
     const double t3 = lane_cos[1];
     const double t4 = t0*t1 + t2*t3;
-    const double t5 = p[2]*p[1];
-    const double t6 = p[3]*t5;
-    const double t7 = (1.0/2.0)*t6;
+    const double t5 = (1.0/2.0)*p[2];
+    const double t6 = p[3]*p[1];
+    const double t7 = t5*t6;
     const double M01 = t4*t7;
     const double t8 = p[3]*p[3]*p[1];
     const double M11 = p[5] + (1.0/4.0)*t8;
     const double t9 = p[2]*p[2];
-    const double t10 = p[1]*t9;
-    const double t11 = p[0]*t9;
-    const double M00 = p[4] + t10 + (1.0/4.0)*t11;
+    const double M00 = p[4] + t9*((1.0/4.0)*p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double v0 = rdet*(-M01*x[3] + M11*x[2]);
@@ -1955,7 +1896,7 @@ int compound_from_canonical_batch(long n, const double *restrict x, long x_strid
     return all;
 }
 
-/* compound_from_canonical_f (float). Total ops: 33 */
+/* compound_from_canonical_f (float). Total ops: 32 */
 int compound_from_canonical_f(const float *restrict x, const float *restrict p, float *restrict y)
 {
     int status = COMPOUND_STATUS_OK;
@@ -1965,16 +1906,14 @@ int compound_from_canonical_f(const float *restrict x, const float *restrict p, 
     const float t2 = cosf(x[0]);
     const float t3 = cosf(x[1]);
     const float t4 = t0*t1 + t2*t3;
-    const float t5 = p[2]*p[1];
-    const float t6 = p[3]*t5;
-    const float t7 = (1.0F/2.0F)*t6;
+    const float t5 = (1.0F/2.0F)*p[2];
+    const float t6 = p[3]*p[1];
+    const float t7 = t5*t6;
     const float M01 = t4*t7;
     const float t8 = p[3]*p[3]*p[1];
     const float M11 = p[5] + (1.0F/4.0F)*t8;
     const float t9 = p[2]*p[2];
-    const float t10 = p[1]*t9;
-    const float t11 = p[0]*t9;
-    const float M00 = p[4] + t10 + (1.0F/4.0F)*t11;
+    const float M00 = p[4] + t9*((1.0F/4.0F)*p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float v0 = rdet*(-M01*x[3] + M11*x[2]);
@@ -2005,7 +1944,7 @@ int compound_from_canonical_batch_f(long n, const float *restrict x, long x_stri
     return all;
 }
 
-/* compound_from_canonical_l (long double). Total ops: 33 */
+/* compound_from_canonical_l (long double). Total ops: 32 */
 int compound_from_canonical_l(const long double *restrict x, const long double *restrict p, long double *restrict y)
 {
     int status = COMPOUND_STATUS_OK;
@@ -2015,16 +1954,14 @@ int compound_from_canonical_l(const long double *restrict x, const long double *
     const long double t2 = cosl(x[0]);
     const long double t3 = cosl(x[1]);
     const long double t4 = t0*t1 + t2*t3;
-    const long double t5 = p[2]*p[1];
-    const long double t6 = p[3]*t5;
-    const long double t7 = (1.0L/2.0L)*t6;
+    const long double t5 = (1.0L/2.0L)*p[2];
+    const long double t6 = p[3]*p[1];
+    const long double t7 = t5*t6;
     const long double M01 = t4*t7;
     const long double t8 = p[3]*p[3]*p[1];
     const long double M11 = p[5] + (1.0L/4.0L)*t8;
     const long double t9 = p[2]*p[2];
-    const long double t10 = p[1]*t9;
-    const long double t11 = p[0]*t9;
-    const long double M00 = p[4] + t10 + (1.0L/4.0L)*t11;
+    const long double M00 = p[4] + t9*((1.0L/4.0L)*p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double v0 = rdet*(-M01*x[3] + M11*x[2]);

@@ -27,7 +27,7 @@
 #define TAYLOR_UNROLL
 #endif
 #define NODES 39
-#define NCONST 10
+#define NCONST 11
 
 /* Every variant below is the same code written with the arithmetic of its type R:
  * T_ADD(a, b), T_SUB, T_MUL, T_DIV, T_NEG; T_MULI(a, i) and T_DIVI(a, i) by an int;
@@ -277,14 +277,15 @@ static int compound_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
     }
     C[0] = (1.0/2.0)*p[2]*p[3]*p[1];
     C[1] = -1;
-    C[2] = (p[5] + (1.0/4.0)*p[3]*p[3]*p[1])*(p[4] + (1.0/4.0)*p[2]*p[2]*p[0] + p[2]*p[2]*p[1]);
-    C[3] = (1.0/2.0)*p[6]*p[0] + p[6]*p[1];
-    C[4] = (1.0/2.0)*p[3]*p[1];
-    C[5] = -p[2];
+    C[2] = (p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]))*(p[5] + (1.0/4.0)*p[3]*p[3]*p[1]);
+    C[3] = p[6]*(p[0] + 2*p[1]);
+    C[4] = p[3]*p[1];
+    C[5] = -1.0/2.0*p[2];
     C[6] = p[5] + (1.0/4.0)*p[3]*p[3]*p[1];
     C[7] = p[2];
     C[8] = p[6];
-    C[9] = p[4] + (1.0/4.0)*p[2]*p[2]*p[0] + p[2]*p[2]*p[1];
+    C[9] = (1.0/2.0)*p[3]*p[1];
+    C[10] = p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]);
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
@@ -315,11 +316,11 @@ static int compound_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
         J[28][k] = T_MUL(C[7], J[27][k]);
         J[29][k] = T_MUL(C[8], J[6][k]);
         J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[4], J[30][k]);
+        J[31][k] = T_MUL(C[9], J[30][k]);
         J[32][k] = TAYLOR_MUL(J[31], J[11], k);
         J[33][k] = T_SUB(J[25][k], J[32][k]);
         J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[9], J[31][k]);
+        J[35][k] = T_MUL(C[10], J[31][k]);
         J[36][k] = TAYLOR_MUL(J[24], J[11], k);
         J[37][k] = T_SUB(J[35][k], J[36][k]);
         J[38][k] = TAYLOR_MUL(J[15], J[37], k);
@@ -657,14 +658,15 @@ static int compound_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted
     }
     C[0] = (1.0F/2.0F)*p[2]*p[3]*p[1];
     C[1] = -1;
-    C[2] = (p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1])*(p[4] + (1.0F/4.0F)*p[2]*p[2]*p[0] + p[2]*p[2]*p[1]);
-    C[3] = (1.0F/2.0F)*p[6]*p[0] + p[6]*p[1];
-    C[4] = (1.0F/2.0F)*p[3]*p[1];
-    C[5] = -p[2];
+    C[2] = (p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]))*(p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1]);
+    C[3] = p[6]*(p[0] + 2*p[1]);
+    C[4] = p[3]*p[1];
+    C[5] = -1.0F/2.0F*p[2];
     C[6] = p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1];
     C[7] = p[2];
     C[8] = p[6];
-    C[9] = p[4] + (1.0F/4.0F)*p[2]*p[2]*p[0] + p[2]*p[2]*p[1];
+    C[9] = (1.0F/2.0F)*p[3]*p[1];
+    C[10] = p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]);
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
@@ -695,11 +697,11 @@ static int compound_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted
         J[28][k] = T_MUL(C[7], J[27][k]);
         J[29][k] = T_MUL(C[8], J[6][k]);
         J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[4], J[30][k]);
+        J[31][k] = T_MUL(C[9], J[30][k]);
         J[32][k] = TAYLOR_MUL(J[31], J[11], k);
         J[33][k] = T_SUB(J[25][k], J[32][k]);
         J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[9], J[31][k]);
+        J[35][k] = T_MUL(C[10], J[31][k]);
         J[36][k] = TAYLOR_MUL(J[24], J[11], k);
         J[37][k] = T_SUB(J[35][k], J[36][k]);
         J[38][k] = TAYLOR_MUL(J[15], J[37], k);
@@ -1037,14 +1039,15 @@ static int compound_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted
     }
     C[0] = (1.0L/2.0L)*p[2]*p[3]*p[1];
     C[1] = -1;
-    C[2] = (p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1])*(p[4] + (1.0L/4.0L)*p[2]*p[2]*p[0] + p[2]*p[2]*p[1]);
-    C[3] = (1.0L/2.0L)*p[6]*p[0] + p[6]*p[1];
-    C[4] = (1.0L/2.0L)*p[3]*p[1];
-    C[5] = -p[2];
+    C[2] = (p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]))*(p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1]);
+    C[3] = p[6]*(p[0] + 2*p[1]);
+    C[4] = p[3]*p[1];
+    C[5] = -1.0L/2.0L*p[2];
     C[6] = p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1];
     C[7] = p[2];
     C[8] = p[6];
-    C[9] = p[4] + (1.0L/4.0L)*p[2]*p[2]*p[0] + p[2]*p[2]*p[1];
+    C[9] = (1.0L/2.0L)*p[3]*p[1];
+    C[10] = p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]);
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
@@ -1075,11 +1078,11 @@ static int compound_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted
         J[28][k] = T_MUL(C[7], J[27][k]);
         J[29][k] = T_MUL(C[8], J[6][k]);
         J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[4], J[30][k]);
+        J[31][k] = T_MUL(C[9], J[30][k]);
         J[32][k] = TAYLOR_MUL(J[31], J[11], k);
         J[33][k] = T_SUB(J[25][k], J[32][k]);
         J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[9], J[31][k]);
+        J[35][k] = T_MUL(C[10], J[31][k]);
         J[36][k] = TAYLOR_MUL(J[24], J[11], k);
         J[37][k] = T_SUB(J[35][k], J[36][k]);
         J[38][k] = TAYLOR_MUL(J[15], J[37], k);
@@ -1428,14 +1431,15 @@ static int compound_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wante
     }
     C[0] = T_MUL(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]), p[3]), p[1]);
     C[1] = T_INT(-1);
-    C[2] = T_MUL(T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3]))), T_ADD(T_ADD(p[4], T_MUL(p[1], T_MUL(p[2], p[2]))), T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0]), T_MUL(p[2], p[2]))));
-    C[3] = T_ADD(T_MUL(p[6], p[1]), T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[6]), p[0]));
-    C[4] = T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[3]), p[1]);
-    C[5] = T_NEG(p[2]);
+    C[2] = T_MUL(T_ADD(p[4], T_MUL(T_MUL(p[2], p[2]), T_ADD(p[1], T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0])))), T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3]))));
+    C[3] = T_MUL(p[6], T_ADD(p[0], T_MUL(T_INT(2), p[1])));
+    C[4] = T_MUL(p[3], p[1]);
+    C[5] = T_NEG(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]));
     C[6] = T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3])));
     C[7] = p[2];
     C[8] = p[6];
-    C[9] = T_ADD(T_ADD(p[4], T_MUL(p[1], T_MUL(p[2], p[2]))), T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0]), T_MUL(p[2], p[2])));
+    C[9] = T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[3]), p[1]);
+    C[10] = T_ADD(p[4], T_MUL(T_MUL(p[2], p[2]), T_ADD(p[1], T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0]))));
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
@@ -1466,11 +1470,11 @@ static int compound_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wante
         J[28][k] = T_MUL(C[7], J[27][k]);
         J[29][k] = T_MUL(C[8], J[6][k]);
         J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[4], J[30][k]);
+        J[31][k] = T_MUL(C[9], J[30][k]);
         J[32][k] = TAYLOR_MUL(J[31], J[11], k);
         J[33][k] = T_SUB(J[25][k], J[32][k]);
         J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[9], J[31][k]);
+        J[35][k] = T_MUL(C[10], J[31][k]);
         J[36][k] = TAYLOR_MUL(J[24], J[11], k);
         J[37][k] = T_SUB(J[35][k], J[36][k]);
         J[38][k] = TAYLOR_MUL(J[15], J[37], k);

@@ -44,7 +44,7 @@
 #else
 #define LANES_INLINE static inline
 #endif
-#define NCONST 10
+#define NCONST 11
 
 
 /* ======================================================================== */
@@ -184,14 +184,15 @@ static void compound_lconstants(double (*C)[L], int l, const double *p)
 {
     C[0][l] = (1.0/2.0)*p[2]*p[3]*p[1];
     C[1][l] = -1;
-    C[2][l] = (p[5] + (1.0/4.0)*p[3]*p[3]*p[1])*(p[4] + (1.0/4.0)*p[2]*p[2]*p[0] + p[2]*p[2]*p[1]);
-    C[3][l] = (1.0/2.0)*p[6]*p[0] + p[6]*p[1];
-    C[4][l] = (1.0/2.0)*p[3]*p[1];
-    C[5][l] = -p[2];
+    C[2][l] = (p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]))*(p[5] + (1.0/4.0)*p[3]*p[3]*p[1]);
+    C[3][l] = p[6]*(p[0] + 2*p[1]);
+    C[4][l] = p[3]*p[1];
+    C[5][l] = -1.0/2.0*p[2];
     C[6][l] = p[5] + (1.0/4.0)*p[3]*p[3]*p[1];
     C[7][l] = p[2];
     C[8][l] = p[6];
-    C[9][l] = p[4] + (1.0/4.0)*p[2]*p[2]*p[0] + p[2]*p[2]*p[1];
+    C[9][l] = (1.0/2.0)*p[3]*p[1];
+    C[10][l] = p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]);
 }
 
 /* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
@@ -230,11 +231,11 @@ static void compound_ljet(double (*X)[ORDER_DIM * L], double (*C)[L], int order_
         compound_lscale(T[13], C[7], T[12]);
         compound_lscale(T[14], C[8], H[2] + k * L);
         compound_lsub(T[15], T[13], T[14]);
-        compound_lscale(H[11] + k * L, C[4], T[15]);
+        compound_lscale(H[11] + k * L, C[9], T[15]);
         compound_lmul(T[16], H[11], H[4], k);
         compound_lsub(H[12] + k * L, T[11], T[16]);
         compound_lmul(T[17], H[6], H[12], k);
-        compound_lscale(T[18], C[9], H[11] + k * L);
+        compound_lscale(T[18], C[10], H[11] + k * L);
         compound_lmul(T[19], H[9], H[4], k);
         compound_lsub(H[13] + k * L, T[18], T[19]);
         compound_lmul(T[20], H[6], H[13], k);
@@ -775,14 +776,15 @@ static void compound_lconstants_f(float (*C)[L], int l, const float *p)
 {
     C[0][l] = (1.0F/2.0F)*p[2]*p[3]*p[1];
     C[1][l] = -1;
-    C[2][l] = (p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1])*(p[4] + (1.0F/4.0F)*p[2]*p[2]*p[0] + p[2]*p[2]*p[1]);
-    C[3][l] = (1.0F/2.0F)*p[6]*p[0] + p[6]*p[1];
-    C[4][l] = (1.0F/2.0F)*p[3]*p[1];
-    C[5][l] = -p[2];
+    C[2][l] = (p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]))*(p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1]);
+    C[3][l] = p[6]*(p[0] + 2*p[1]);
+    C[4][l] = p[3]*p[1];
+    C[5][l] = -1.0F/2.0F*p[2];
     C[6][l] = p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1];
     C[7][l] = p[2];
     C[8][l] = p[6];
-    C[9][l] = p[4] + (1.0F/4.0F)*p[2]*p[2]*p[0] + p[2]*p[2]*p[1];
+    C[9][l] = (1.0F/2.0F)*p[3]*p[1];
+    C[10][l] = p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]);
 }
 
 /* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
@@ -821,11 +823,11 @@ static void compound_ljet_f(float (*X)[ORDER_DIM * L], float (*C)[L], int order_
         compound_lscale_f(T[13], C[7], T[12]);
         compound_lscale_f(T[14], C[8], H[2] + k * L);
         compound_lsub_f(T[15], T[13], T[14]);
-        compound_lscale_f(H[11] + k * L, C[4], T[15]);
+        compound_lscale_f(H[11] + k * L, C[9], T[15]);
         compound_lmul_f(T[16], H[11], H[4], k);
         compound_lsub_f(H[12] + k * L, T[11], T[16]);
         compound_lmul_f(T[17], H[6], H[12], k);
-        compound_lscale_f(T[18], C[9], H[11] + k * L);
+        compound_lscale_f(T[18], C[10], H[11] + k * L);
         compound_lmul_f(T[19], H[9], H[4], k);
         compound_lsub_f(H[13] + k * L, T[18], T[19]);
         compound_lmul_f(T[20], H[6], H[13], k);
@@ -1366,14 +1368,15 @@ static void compound_lconstants_l(long double (*C)[L], int l, const long double 
 {
     C[0][l] = (1.0L/2.0L)*p[2]*p[3]*p[1];
     C[1][l] = -1;
-    C[2][l] = (p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1])*(p[4] + (1.0L/4.0L)*p[2]*p[2]*p[0] + p[2]*p[2]*p[1]);
-    C[3][l] = (1.0L/2.0L)*p[6]*p[0] + p[6]*p[1];
-    C[4][l] = (1.0L/2.0L)*p[3]*p[1];
-    C[5][l] = -p[2];
+    C[2][l] = (p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]))*(p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1]);
+    C[3][l] = p[6]*(p[0] + 2*p[1]);
+    C[4][l] = p[3]*p[1];
+    C[5][l] = -1.0L/2.0L*p[2];
     C[6][l] = p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1];
     C[7][l] = p[2];
     C[8][l] = p[6];
-    C[9][l] = p[4] + (1.0L/4.0L)*p[2]*p[2]*p[0] + p[2]*p[2]*p[1];
+    C[9][l] = (1.0L/2.0L)*p[3]*p[1];
+    C[10][l] = p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]);
 }
 
 /* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
@@ -1412,11 +1415,11 @@ static void compound_ljet_l(long double (*X)[ORDER_DIM * L], long double (*C)[L]
         compound_lscale_l(T[13], C[7], T[12]);
         compound_lscale_l(T[14], C[8], H[2] + k * L);
         compound_lsub_l(T[15], T[13], T[14]);
-        compound_lscale_l(H[11] + k * L, C[4], T[15]);
+        compound_lscale_l(H[11] + k * L, C[9], T[15]);
         compound_lmul_l(T[16], H[11], H[4], k);
         compound_lsub_l(H[12] + k * L, T[11], T[16]);
         compound_lmul_l(T[17], H[6], H[12], k);
-        compound_lscale_l(T[18], C[9], H[11] + k * L);
+        compound_lscale_l(T[18], C[10], H[11] + k * L);
         compound_lmul_l(T[19], H[9], H[4], k);
         compound_lsub_l(H[13] + k * L, T[18], T[19]);
         compound_lmul_l(T[20], H[6], H[13], k);

@@ -26,8 +26,8 @@
 #else
 #define TAYLOR_UNROLL
 #endif
-#define NODES 39
-#define NCONST 10
+#define NODES 40
+#define NCONST 9
 
 /* Every variant below is the same code written with the arithmetic of its type R:
  * T_ADD(a, b), T_SUB, T_MUL, T_DIV, T_NEG; T_MULI(a, i) and T_DIVI(a, i) by an int;
@@ -275,16 +275,15 @@ static int planar_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, S 
     if (order < 1 || order > ORDER_DIM - 1) {
         return PLANAR_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[2]*p[3]*p[1];
-    C[1] = -1;
-    C[2] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
-    C[3] = p[4]*p[0] + p[4]*p[1];
-    C[4] = p[3]*p[1];
+    C[0] = p[3]*p[1];
+    C[1] = p[2];
+    C[2] = -1;
+    C[3] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[4] = p[4]*(p[0] + p[1]);
     C[5] = -p[2];
     C[6] = p[3]*p[3]*p[1];
-    C[7] = p[2];
-    C[8] = p[4];
-    C[9] = p[2]*p[2]*(p[0] + p[1]);
+    C[7] = p[4];
+    C[8] = p[2]*p[2]*(p[0] + p[1]);
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
@@ -296,37 +295,38 @@ static int planar_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, S 
         J[9][k] = TAYLOR_MUL(J[5], J[7], k);
         J[10][k] = T_ADD(J[8][k], J[9][k]);
         J[11][k] = T_MUL(C[0], J[10][k]);
-        J[12][k] = TAYLOR_MUL(J[11], J[11], k);
-        J[13][k] = T_MUL(C[1], J[12][k]);
-        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
-        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
-        J[16][k] = T_MUL(C[3], J[4][k]);
-        J[17][k] = TAYLOR_MUL(X[3], X[3], k);
-        J[18][k] = T_MUL(C[4], J[17][k]);
-        J[19][k] = TAYLOR_MUL(J[4], J[7], k);
-        J[20][k] = TAYLOR_MUL(J[6], J[5], k);
-        J[21][k] = T_SUB(J[19][k], J[20][k]);
-        J[22][k] = TAYLOR_MUL(J[18], J[21], k);
-        J[23][k] = T_ADD(J[16][k], J[22][k]);
-        J[24][k] = T_MUL(C[5], J[23][k]);
-        J[25][k] = T_MUL(C[6], J[24][k]);
-        J[26][k] = TAYLOR_MUL(X[2], X[2], k);
-        J[27][k] = TAYLOR_MUL(J[26], J[21], k);
-        J[28][k] = T_MUL(C[7], J[27][k]);
-        J[29][k] = T_MUL(C[8], J[6][k]);
-        J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[4], J[30][k]);
-        J[32][k] = TAYLOR_MUL(J[31], J[11], k);
-        J[33][k] = T_SUB(J[25][k], J[32][k]);
-        J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[9], J[31][k]);
-        J[36][k] = TAYLOR_MUL(J[24], J[11], k);
-        J[37][k] = T_SUB(J[35][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[15], J[37], k);
+        J[12][k] = T_MUL(C[1], J[11][k]);
+        J[13][k] = TAYLOR_MUL(J[12], J[12], k);
+        J[14][k] = T_MUL(C[2], J[13][k]);
+        J[15][k] = T_ADD(J[14][k], k == 0 ? C[3] : T_INT(0));
+        J[16][k] = TAYLOR_DIV(T_INT(k == 0), J[15], J[16], k);
+        J[17][k] = T_MUL(C[4], J[4][k]);
+        J[18][k] = TAYLOR_MUL(J[4], J[7], k);
+        J[19][k] = TAYLOR_MUL(J[6], J[5], k);
+        J[20][k] = T_SUB(J[18][k], J[19][k]);
+        J[21][k] = T_MUL(C[0], J[20][k]);
+        J[22][k] = TAYLOR_MUL(X[3], X[3], k);
+        J[23][k] = TAYLOR_MUL(J[21], J[22], k);
+        J[24][k] = T_ADD(J[17][k], J[23][k]);
+        J[25][k] = T_MUL(C[5], J[24][k]);
+        J[26][k] = T_MUL(C[6], J[25][k]);
+        J[27][k] = TAYLOR_MUL(X[2], X[2], k);
+        J[28][k] = TAYLOR_MUL(J[20], J[27], k);
+        J[29][k] = T_MUL(C[1], J[28][k]);
+        J[30][k] = T_MUL(C[7], J[6][k]);
+        J[31][k] = T_SUB(J[29][k], J[30][k]);
+        J[32][k] = T_MUL(C[0], J[31][k]);
+        J[33][k] = TAYLOR_MUL(J[32], J[12], k);
+        J[34][k] = T_SUB(J[26][k], J[33][k]);
+        J[35][k] = TAYLOR_MUL(J[16], J[34], k);
+        J[36][k] = T_MUL(C[8], J[32][k]);
+        J[37][k] = TAYLOR_MUL(J[25], J[12], k);
+        J[38][k] = T_SUB(J[36][k], J[37][k]);
+        J[39][k] = TAYLOR_MUL(J[16], J[38], k);
         X[0][k + 1] = T_DIVI(X[2][k], k + 1);
         X[1][k + 1] = T_DIVI(X[3][k], k + 1);
-        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
-        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[35][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[39][k], k + 1);
     }
     return PLANAR_INTEGRATE_OK;
 }
@@ -655,16 +655,15 @@ static int planar_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
     if (order < 1 || order > ORDER_DIM - 1) {
         return PLANAR_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[2]*p[3]*p[1];
-    C[1] = -1;
-    C[2] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
-    C[3] = p[4]*p[0] + p[4]*p[1];
-    C[4] = p[3]*p[1];
+    C[0] = p[3]*p[1];
+    C[1] = p[2];
+    C[2] = -1;
+    C[3] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[4] = p[4]*(p[0] + p[1]);
     C[5] = -p[2];
     C[6] = p[3]*p[3]*p[1];
-    C[7] = p[2];
-    C[8] = p[4];
-    C[9] = p[2]*p[2]*(p[0] + p[1]);
+    C[7] = p[4];
+    C[8] = p[2]*p[2]*(p[0] + p[1]);
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
@@ -676,37 +675,38 @@ static int planar_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
         J[9][k] = TAYLOR_MUL(J[5], J[7], k);
         J[10][k] = T_ADD(J[8][k], J[9][k]);
         J[11][k] = T_MUL(C[0], J[10][k]);
-        J[12][k] = TAYLOR_MUL(J[11], J[11], k);
-        J[13][k] = T_MUL(C[1], J[12][k]);
-        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
-        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
-        J[16][k] = T_MUL(C[3], J[4][k]);
-        J[17][k] = TAYLOR_MUL(X[3], X[3], k);
-        J[18][k] = T_MUL(C[4], J[17][k]);
-        J[19][k] = TAYLOR_MUL(J[4], J[7], k);
-        J[20][k] = TAYLOR_MUL(J[6], J[5], k);
-        J[21][k] = T_SUB(J[19][k], J[20][k]);
-        J[22][k] = TAYLOR_MUL(J[18], J[21], k);
-        J[23][k] = T_ADD(J[16][k], J[22][k]);
-        J[24][k] = T_MUL(C[5], J[23][k]);
-        J[25][k] = T_MUL(C[6], J[24][k]);
-        J[26][k] = TAYLOR_MUL(X[2], X[2], k);
-        J[27][k] = TAYLOR_MUL(J[26], J[21], k);
-        J[28][k] = T_MUL(C[7], J[27][k]);
-        J[29][k] = T_MUL(C[8], J[6][k]);
-        J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[4], J[30][k]);
-        J[32][k] = TAYLOR_MUL(J[31], J[11], k);
-        J[33][k] = T_SUB(J[25][k], J[32][k]);
-        J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[9], J[31][k]);
-        J[36][k] = TAYLOR_MUL(J[24], J[11], k);
-        J[37][k] = T_SUB(J[35][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[15], J[37], k);
+        J[12][k] = T_MUL(C[1], J[11][k]);
+        J[13][k] = TAYLOR_MUL(J[12], J[12], k);
+        J[14][k] = T_MUL(C[2], J[13][k]);
+        J[15][k] = T_ADD(J[14][k], k == 0 ? C[3] : T_INT(0));
+        J[16][k] = TAYLOR_DIV(T_INT(k == 0), J[15], J[16], k);
+        J[17][k] = T_MUL(C[4], J[4][k]);
+        J[18][k] = TAYLOR_MUL(J[4], J[7], k);
+        J[19][k] = TAYLOR_MUL(J[6], J[5], k);
+        J[20][k] = T_SUB(J[18][k], J[19][k]);
+        J[21][k] = T_MUL(C[0], J[20][k]);
+        J[22][k] = TAYLOR_MUL(X[3], X[3], k);
+        J[23][k] = TAYLOR_MUL(J[21], J[22], k);
+        J[24][k] = T_ADD(J[17][k], J[23][k]);
+        J[25][k] = T_MUL(C[5], J[24][k]);
+        J[26][k] = T_MUL(C[6], J[25][k]);
+        J[27][k] = TAYLOR_MUL(X[2], X[2], k);
+        J[28][k] = TAYLOR_MUL(J[20], J[27], k);
+        J[29][k] = T_MUL(C[1], J[28][k]);
+        J[30][k] = T_MUL(C[7], J[6][k]);
+        J[31][k] = T_SUB(J[29][k], J[30][k]);
+        J[32][k] = T_MUL(C[0], J[31][k]);
+        J[33][k] = TAYLOR_MUL(J[32], J[12], k);
+        J[34][k] = T_SUB(J[26][k], J[33][k]);
+        J[35][k] = TAYLOR_MUL(J[16], J[34], k);
+        J[36][k] = T_MUL(C[8], J[32][k]);
+        J[37][k] = TAYLOR_MUL(J[25], J[12], k);
+        J[38][k] = T_SUB(J[36][k], J[37][k]);
+        J[39][k] = TAYLOR_MUL(J[16], J[38], k);
         X[0][k + 1] = T_DIVI(X[2][k], k + 1);
         X[1][k + 1] = T_DIVI(X[3][k], k + 1);
-        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
-        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[35][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[39][k], k + 1);
     }
     return PLANAR_INTEGRATE_OK;
 }
@@ -1035,16 +1035,15 @@ static int planar_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
     if (order < 1 || order > ORDER_DIM - 1) {
         return PLANAR_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[2]*p[3]*p[1];
-    C[1] = -1;
-    C[2] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
-    C[3] = p[4]*p[0] + p[4]*p[1];
-    C[4] = p[3]*p[1];
+    C[0] = p[3]*p[1];
+    C[1] = p[2];
+    C[2] = -1;
+    C[3] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[4] = p[4]*(p[0] + p[1]);
     C[5] = -p[2];
     C[6] = p[3]*p[3]*p[1];
-    C[7] = p[2];
-    C[8] = p[4];
-    C[9] = p[2]*p[2]*(p[0] + p[1]);
+    C[7] = p[4];
+    C[8] = p[2]*p[2]*(p[0] + p[1]);
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
@@ -1056,37 +1055,38 @@ static int planar_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
         J[9][k] = TAYLOR_MUL(J[5], J[7], k);
         J[10][k] = T_ADD(J[8][k], J[9][k]);
         J[11][k] = T_MUL(C[0], J[10][k]);
-        J[12][k] = TAYLOR_MUL(J[11], J[11], k);
-        J[13][k] = T_MUL(C[1], J[12][k]);
-        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
-        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
-        J[16][k] = T_MUL(C[3], J[4][k]);
-        J[17][k] = TAYLOR_MUL(X[3], X[3], k);
-        J[18][k] = T_MUL(C[4], J[17][k]);
-        J[19][k] = TAYLOR_MUL(J[4], J[7], k);
-        J[20][k] = TAYLOR_MUL(J[6], J[5], k);
-        J[21][k] = T_SUB(J[19][k], J[20][k]);
-        J[22][k] = TAYLOR_MUL(J[18], J[21], k);
-        J[23][k] = T_ADD(J[16][k], J[22][k]);
-        J[24][k] = T_MUL(C[5], J[23][k]);
-        J[25][k] = T_MUL(C[6], J[24][k]);
-        J[26][k] = TAYLOR_MUL(X[2], X[2], k);
-        J[27][k] = TAYLOR_MUL(J[26], J[21], k);
-        J[28][k] = T_MUL(C[7], J[27][k]);
-        J[29][k] = T_MUL(C[8], J[6][k]);
-        J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[4], J[30][k]);
-        J[32][k] = TAYLOR_MUL(J[31], J[11], k);
-        J[33][k] = T_SUB(J[25][k], J[32][k]);
-        J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[9], J[31][k]);
-        J[36][k] = TAYLOR_MUL(J[24], J[11], k);
-        J[37][k] = T_SUB(J[35][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[15], J[37], k);
+        J[12][k] = T_MUL(C[1], J[11][k]);
+        J[13][k] = TAYLOR_MUL(J[12], J[12], k);
+        J[14][k] = T_MUL(C[2], J[13][k]);
+        J[15][k] = T_ADD(J[14][k], k == 0 ? C[3] : T_INT(0));
+        J[16][k] = TAYLOR_DIV(T_INT(k == 0), J[15], J[16], k);
+        J[17][k] = T_MUL(C[4], J[4][k]);
+        J[18][k] = TAYLOR_MUL(J[4], J[7], k);
+        J[19][k] = TAYLOR_MUL(J[6], J[5], k);
+        J[20][k] = T_SUB(J[18][k], J[19][k]);
+        J[21][k] = T_MUL(C[0], J[20][k]);
+        J[22][k] = TAYLOR_MUL(X[3], X[3], k);
+        J[23][k] = TAYLOR_MUL(J[21], J[22], k);
+        J[24][k] = T_ADD(J[17][k], J[23][k]);
+        J[25][k] = T_MUL(C[5], J[24][k]);
+        J[26][k] = T_MUL(C[6], J[25][k]);
+        J[27][k] = TAYLOR_MUL(X[2], X[2], k);
+        J[28][k] = TAYLOR_MUL(J[20], J[27], k);
+        J[29][k] = T_MUL(C[1], J[28][k]);
+        J[30][k] = T_MUL(C[7], J[6][k]);
+        J[31][k] = T_SUB(J[29][k], J[30][k]);
+        J[32][k] = T_MUL(C[0], J[31][k]);
+        J[33][k] = TAYLOR_MUL(J[32], J[12], k);
+        J[34][k] = T_SUB(J[26][k], J[33][k]);
+        J[35][k] = TAYLOR_MUL(J[16], J[34], k);
+        J[36][k] = T_MUL(C[8], J[32][k]);
+        J[37][k] = TAYLOR_MUL(J[25], J[12], k);
+        J[38][k] = T_SUB(J[36][k], J[37][k]);
+        J[39][k] = TAYLOR_MUL(J[16], J[38], k);
         X[0][k + 1] = T_DIVI(X[2][k], k + 1);
         X[1][k + 1] = T_DIVI(X[3][k], k + 1);
-        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
-        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[35][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[39][k], k + 1);
     }
     return PLANAR_INTEGRATE_OK;
 }
@@ -1426,16 +1426,15 @@ static int planar_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wanted,
     if (order < 1 || order > ORDER_DIM - 1) {
         return PLANAR_INTEGRATE_BAD_INPUT;
     }
-    C[0] = T_MUL(T_MUL(p[2], p[3]), p[1]);
-    C[1] = T_INT(-1);
-    C[2] = T_MUL(T_MUL(T_MUL(p[1], T_MUL(p[2], p[2])), T_MUL(p[3], p[3])), T_ADD(p[0], p[1]));
-    C[3] = T_ADD(T_MUL(p[4], p[0]), T_MUL(p[4], p[1]));
-    C[4] = T_MUL(p[3], p[1]);
+    C[0] = T_MUL(p[3], p[1]);
+    C[1] = p[2];
+    C[2] = T_INT(-1);
+    C[3] = T_MUL(T_MUL(T_MUL(p[1], T_MUL(p[2], p[2])), T_MUL(p[3], p[3])), T_ADD(p[0], p[1]));
+    C[4] = T_MUL(p[4], T_ADD(p[0], p[1]));
     C[5] = T_NEG(p[2]);
     C[6] = T_MUL(p[1], T_MUL(p[3], p[3]));
-    C[7] = p[2];
-    C[8] = p[4];
-    C[9] = T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1]));
+    C[7] = p[4];
+    C[8] = T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1]));
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
@@ -1447,37 +1446,38 @@ static int planar_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wanted,
         J[9][k] = TAYLOR_MUL(J[5], J[7], k);
         J[10][k] = T_ADD(J[8][k], J[9][k]);
         J[11][k] = T_MUL(C[0], J[10][k]);
-        J[12][k] = TAYLOR_MUL(J[11], J[11], k);
-        J[13][k] = T_MUL(C[1], J[12][k]);
-        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
-        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
-        J[16][k] = T_MUL(C[3], J[4][k]);
-        J[17][k] = TAYLOR_MUL(X[3], X[3], k);
-        J[18][k] = T_MUL(C[4], J[17][k]);
-        J[19][k] = TAYLOR_MUL(J[4], J[7], k);
-        J[20][k] = TAYLOR_MUL(J[6], J[5], k);
-        J[21][k] = T_SUB(J[19][k], J[20][k]);
-        J[22][k] = TAYLOR_MUL(J[18], J[21], k);
-        J[23][k] = T_ADD(J[16][k], J[22][k]);
-        J[24][k] = T_MUL(C[5], J[23][k]);
-        J[25][k] = T_MUL(C[6], J[24][k]);
-        J[26][k] = TAYLOR_MUL(X[2], X[2], k);
-        J[27][k] = TAYLOR_MUL(J[26], J[21], k);
-        J[28][k] = T_MUL(C[7], J[27][k]);
-        J[29][k] = T_MUL(C[8], J[6][k]);
-        J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[4], J[30][k]);
-        J[32][k] = TAYLOR_MUL(J[31], J[11], k);
-        J[33][k] = T_SUB(J[25][k], J[32][k]);
-        J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[9], J[31][k]);
-        J[36][k] = TAYLOR_MUL(J[24], J[11], k);
-        J[37][k] = T_SUB(J[35][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[15], J[37], k);
+        J[12][k] = T_MUL(C[1], J[11][k]);
+        J[13][k] = TAYLOR_MUL(J[12], J[12], k);
+        J[14][k] = T_MUL(C[2], J[13][k]);
+        J[15][k] = T_ADD(J[14][k], k == 0 ? C[3] : T_INT(0));
+        J[16][k] = TAYLOR_DIV(T_INT(k == 0), J[15], J[16], k);
+        J[17][k] = T_MUL(C[4], J[4][k]);
+        J[18][k] = TAYLOR_MUL(J[4], J[7], k);
+        J[19][k] = TAYLOR_MUL(J[6], J[5], k);
+        J[20][k] = T_SUB(J[18][k], J[19][k]);
+        J[21][k] = T_MUL(C[0], J[20][k]);
+        J[22][k] = TAYLOR_MUL(X[3], X[3], k);
+        J[23][k] = TAYLOR_MUL(J[21], J[22], k);
+        J[24][k] = T_ADD(J[17][k], J[23][k]);
+        J[25][k] = T_MUL(C[5], J[24][k]);
+        J[26][k] = T_MUL(C[6], J[25][k]);
+        J[27][k] = TAYLOR_MUL(X[2], X[2], k);
+        J[28][k] = TAYLOR_MUL(J[20], J[27], k);
+        J[29][k] = T_MUL(C[1], J[28][k]);
+        J[30][k] = T_MUL(C[7], J[6][k]);
+        J[31][k] = T_SUB(J[29][k], J[30][k]);
+        J[32][k] = T_MUL(C[0], J[31][k]);
+        J[33][k] = TAYLOR_MUL(J[32], J[12], k);
+        J[34][k] = T_SUB(J[26][k], J[33][k]);
+        J[35][k] = TAYLOR_MUL(J[16], J[34], k);
+        J[36][k] = T_MUL(C[8], J[32][k]);
+        J[37][k] = TAYLOR_MUL(J[25], J[12], k);
+        J[38][k] = T_SUB(J[36][k], J[37][k]);
+        J[39][k] = TAYLOR_MUL(J[16], J[38], k);
         X[0][k + 1] = T_DIVI(X[2][k], k + 1);
         X[1][k + 1] = T_DIVI(X[3][k], k + 1);
-        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
-        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[35][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[39][k], k + 1);
     }
     return PLANAR_INTEGRATE_OK;
 }

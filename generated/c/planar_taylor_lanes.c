@@ -44,7 +44,7 @@
 #else
 #define LANES_INLINE static inline
 #endif
-#define NCONST 10
+#define NCONST 9
 
 
 /* ======================================================================== */
@@ -182,22 +182,21 @@ LANES_INLINE void planar_lout(double *LANES_RESTRICT x, const double *LANES_REST
 /* The constants of the jet (expressions of the parameters) for lane l. */
 static void planar_lconstants(double (*C)[L], int l, const double *p)
 {
-    C[0][l] = p[2]*p[3]*p[1];
-    C[1][l] = -1;
-    C[2][l] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
-    C[3][l] = p[4]*p[0] + p[4]*p[1];
-    C[4][l] = p[3]*p[1];
+    C[0][l] = p[3]*p[1];
+    C[1][l] = p[2];
+    C[2][l] = -1;
+    C[3][l] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[4][l] = p[4]*(p[0] + p[1]);
     C[5][l] = -p[2];
     C[6][l] = p[3]*p[3]*p[1];
-    C[7][l] = p[2];
-    C[8][l] = p[4];
-    C[9][l] = p[2]*p[2]*(p[0] + p[1]);
+    C[7][l] = p[4];
+    C[8][l] = p[2]*p[2]*(p[0] + p[1]);
 }
 
 /* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
 static void planar_ljet(double (*X)[ORDER_DIM * L], double (*C)[L], int order_wanted, double sine_min, int *bad)
 {
-    double H[14][ORDER_DIM * L];     /* nodes read at every order */
+    double H[15][ORDER_DIM * L];     /* nodes read at every order */
     double T[21][L];                 /* nodes read at this order only */
     const int order = PLANAR_TAYLOR_ORDER ? PLANAR_TAYLOR_ORDER : order_wanted;
     int k;
@@ -210,34 +209,35 @@ static void planar_ljet(double (*X)[ORDER_DIM * L], double (*C)[L], int order_wa
         planar_lmul(T[0], H[0], H[2], k);
         planar_lmul(T[1], H[1], H[3], k);
         planar_ladd(T[2], T[0], T[1]);
-        planar_lscale(H[4] + k * L, C[0], T[2]);
-        planar_lmul(T[3], H[4], H[4], k);
-        planar_lscale(T[4], C[1], T[3]);
-        planar_lshift(H[5] + k * L, T[4], C[2], k);
+        planar_lscale(T[3], C[0], T[2]);
+        planar_lscale(H[4] + k * L, C[1], T[3]);
+        planar_lmul(T[4], H[4], H[4], k);
+        planar_lscale(T[5], C[2], T[4]);
+        planar_lshift(H[5] + k * L, T[5], C[3], k);
         planar_ldiv(H[6], 0, H[5], k);
-        planar_lscale(T[5], C[3], H[0] + k * L);
-        planar_lmul(T[6], X[3], X[3], k);
-        planar_lscale(H[7] + k * L, C[4], T[6]);
+        planar_lscale(T[6], C[4], H[0] + k * L);
         planar_lmul(T[7], H[0], H[3], k);
         planar_lmul(T[8], H[2], H[1], k);
-        planar_lsub(H[8] + k * L, T[7], T[8]);
-        planar_lmul(T[9], H[7], H[8], k);
-        planar_ladd(T[10], T[5], T[9]);
-        planar_lscale(H[9] + k * L, C[5], T[10]);
-        planar_lscale(T[11], C[6], H[9] + k * L);
-        planar_lmul(H[10] + k * L, X[2], X[2], k);
-        planar_lmul(T[12], H[10], H[8], k);
-        planar_lscale(T[13], C[7], T[12]);
-        planar_lscale(T[14], C[8], H[2] + k * L);
+        planar_lsub(H[7] + k * L, T[7], T[8]);
+        planar_lscale(H[8] + k * L, C[0], H[7] + k * L);
+        planar_lmul(H[9] + k * L, X[3], X[3], k);
+        planar_lmul(T[9], H[8], H[9], k);
+        planar_ladd(T[10], T[6], T[9]);
+        planar_lscale(H[10] + k * L, C[5], T[10]);
+        planar_lscale(T[11], C[6], H[10] + k * L);
+        planar_lmul(H[11] + k * L, X[2], X[2], k);
+        planar_lmul(T[12], H[7], H[11], k);
+        planar_lscale(T[13], C[1], T[12]);
+        planar_lscale(T[14], C[7], H[2] + k * L);
         planar_lsub(T[15], T[13], T[14]);
-        planar_lscale(H[11] + k * L, C[4], T[15]);
-        planar_lmul(T[16], H[11], H[4], k);
-        planar_lsub(H[12] + k * L, T[11], T[16]);
-        planar_lmul(T[17], H[6], H[12], k);
-        planar_lscale(T[18], C[9], H[11] + k * L);
-        planar_lmul(T[19], H[9], H[4], k);
-        planar_lsub(H[13] + k * L, T[18], T[19]);
-        planar_lmul(T[20], H[6], H[13], k);
+        planar_lscale(H[12] + k * L, C[0], T[15]);
+        planar_lmul(T[16], H[12], H[4], k);
+        planar_lsub(H[13] + k * L, T[11], T[16]);
+        planar_lmul(T[17], H[6], H[13], k);
+        planar_lscale(T[18], C[8], H[12] + k * L);
+        planar_lmul(T[19], H[10], H[4], k);
+        planar_lsub(H[14] + k * L, T[18], T[19]);
+        planar_lmul(T[20], H[6], H[14], k);
         planar_lout(X[0] + (k + 1) * L, X[2] + k * L, k);
         planar_lout(X[1] + (k + 1) * L, X[3] + k * L, k);
         planar_lout(X[2] + (k + 1) * L, T[17], k);
@@ -773,22 +773,21 @@ LANES_INLINE void planar_lout_f(float *LANES_RESTRICT x, const float *LANES_REST
 /* The constants of the jet (expressions of the parameters) for lane l. */
 static void planar_lconstants_f(float (*C)[L], int l, const float *p)
 {
-    C[0][l] = p[2]*p[3]*p[1];
-    C[1][l] = -1;
-    C[2][l] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
-    C[3][l] = p[4]*p[0] + p[4]*p[1];
-    C[4][l] = p[3]*p[1];
+    C[0][l] = p[3]*p[1];
+    C[1][l] = p[2];
+    C[2][l] = -1;
+    C[3][l] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[4][l] = p[4]*(p[0] + p[1]);
     C[5][l] = -p[2];
     C[6][l] = p[3]*p[3]*p[1];
-    C[7][l] = p[2];
-    C[8][l] = p[4];
-    C[9][l] = p[2]*p[2]*(p[0] + p[1]);
+    C[7][l] = p[4];
+    C[8][l] = p[2]*p[2]*(p[0] + p[1]);
 }
 
 /* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
 static void planar_ljet_f(float (*X)[ORDER_DIM * L], float (*C)[L], int order_wanted, float sine_min, int *bad)
 {
-    float H[14][ORDER_DIM * L];     /* nodes read at every order */
+    float H[15][ORDER_DIM * L];     /* nodes read at every order */
     float T[21][L];                 /* nodes read at this order only */
     const int order = PLANAR_TAYLOR_ORDER ? PLANAR_TAYLOR_ORDER : order_wanted;
     int k;
@@ -801,34 +800,35 @@ static void planar_ljet_f(float (*X)[ORDER_DIM * L], float (*C)[L], int order_wa
         planar_lmul_f(T[0], H[0], H[2], k);
         planar_lmul_f(T[1], H[1], H[3], k);
         planar_ladd_f(T[2], T[0], T[1]);
-        planar_lscale_f(H[4] + k * L, C[0], T[2]);
-        planar_lmul_f(T[3], H[4], H[4], k);
-        planar_lscale_f(T[4], C[1], T[3]);
-        planar_lshift_f(H[5] + k * L, T[4], C[2], k);
+        planar_lscale_f(T[3], C[0], T[2]);
+        planar_lscale_f(H[4] + k * L, C[1], T[3]);
+        planar_lmul_f(T[4], H[4], H[4], k);
+        planar_lscale_f(T[5], C[2], T[4]);
+        planar_lshift_f(H[5] + k * L, T[5], C[3], k);
         planar_ldiv_f(H[6], 0, H[5], k);
-        planar_lscale_f(T[5], C[3], H[0] + k * L);
-        planar_lmul_f(T[6], X[3], X[3], k);
-        planar_lscale_f(H[7] + k * L, C[4], T[6]);
+        planar_lscale_f(T[6], C[4], H[0] + k * L);
         planar_lmul_f(T[7], H[0], H[3], k);
         planar_lmul_f(T[8], H[2], H[1], k);
-        planar_lsub_f(H[8] + k * L, T[7], T[8]);
-        planar_lmul_f(T[9], H[7], H[8], k);
-        planar_ladd_f(T[10], T[5], T[9]);
-        planar_lscale_f(H[9] + k * L, C[5], T[10]);
-        planar_lscale_f(T[11], C[6], H[9] + k * L);
-        planar_lmul_f(H[10] + k * L, X[2], X[2], k);
-        planar_lmul_f(T[12], H[10], H[8], k);
-        planar_lscale_f(T[13], C[7], T[12]);
-        planar_lscale_f(T[14], C[8], H[2] + k * L);
+        planar_lsub_f(H[7] + k * L, T[7], T[8]);
+        planar_lscale_f(H[8] + k * L, C[0], H[7] + k * L);
+        planar_lmul_f(H[9] + k * L, X[3], X[3], k);
+        planar_lmul_f(T[9], H[8], H[9], k);
+        planar_ladd_f(T[10], T[6], T[9]);
+        planar_lscale_f(H[10] + k * L, C[5], T[10]);
+        planar_lscale_f(T[11], C[6], H[10] + k * L);
+        planar_lmul_f(H[11] + k * L, X[2], X[2], k);
+        planar_lmul_f(T[12], H[7], H[11], k);
+        planar_lscale_f(T[13], C[1], T[12]);
+        planar_lscale_f(T[14], C[7], H[2] + k * L);
         planar_lsub_f(T[15], T[13], T[14]);
-        planar_lscale_f(H[11] + k * L, C[4], T[15]);
-        planar_lmul_f(T[16], H[11], H[4], k);
-        planar_lsub_f(H[12] + k * L, T[11], T[16]);
-        planar_lmul_f(T[17], H[6], H[12], k);
-        planar_lscale_f(T[18], C[9], H[11] + k * L);
-        planar_lmul_f(T[19], H[9], H[4], k);
-        planar_lsub_f(H[13] + k * L, T[18], T[19]);
-        planar_lmul_f(T[20], H[6], H[13], k);
+        planar_lscale_f(H[12] + k * L, C[0], T[15]);
+        planar_lmul_f(T[16], H[12], H[4], k);
+        planar_lsub_f(H[13] + k * L, T[11], T[16]);
+        planar_lmul_f(T[17], H[6], H[13], k);
+        planar_lscale_f(T[18], C[8], H[12] + k * L);
+        planar_lmul_f(T[19], H[10], H[4], k);
+        planar_lsub_f(H[14] + k * L, T[18], T[19]);
+        planar_lmul_f(T[20], H[6], H[14], k);
         planar_lout_f(X[0] + (k + 1) * L, X[2] + k * L, k);
         planar_lout_f(X[1] + (k + 1) * L, X[3] + k * L, k);
         planar_lout_f(X[2] + (k + 1) * L, T[17], k);
@@ -1364,22 +1364,21 @@ LANES_INLINE void planar_lout_l(long double *LANES_RESTRICT x, const long double
 /* The constants of the jet (expressions of the parameters) for lane l. */
 static void planar_lconstants_l(long double (*C)[L], int l, const long double *p)
 {
-    C[0][l] = p[2]*p[3]*p[1];
-    C[1][l] = -1;
-    C[2][l] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
-    C[3][l] = p[4]*p[0] + p[4]*p[1];
-    C[4][l] = p[3]*p[1];
+    C[0][l] = p[3]*p[1];
+    C[1][l] = p[2];
+    C[2][l] = -1;
+    C[3][l] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[4][l] = p[4]*(p[0] + p[1]);
     C[5][l] = -p[2];
     C[6][l] = p[3]*p[3]*p[1];
-    C[7][l] = p[2];
-    C[8][l] = p[4];
-    C[9][l] = p[2]*p[2]*(p[0] + p[1]);
+    C[7][l] = p[4];
+    C[8][l] = p[2]*p[2]*(p[0] + p[1]);
 }
 
 /* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
 static void planar_ljet_l(long double (*X)[ORDER_DIM * L], long double (*C)[L], int order_wanted, long double sine_min, int *bad)
 {
-    long double H[14][ORDER_DIM * L];     /* nodes read at every order */
+    long double H[15][ORDER_DIM * L];     /* nodes read at every order */
     long double T[21][L];                 /* nodes read at this order only */
     const int order = PLANAR_TAYLOR_ORDER ? PLANAR_TAYLOR_ORDER : order_wanted;
     int k;
@@ -1392,34 +1391,35 @@ static void planar_ljet_l(long double (*X)[ORDER_DIM * L], long double (*C)[L], 
         planar_lmul_l(T[0], H[0], H[2], k);
         planar_lmul_l(T[1], H[1], H[3], k);
         planar_ladd_l(T[2], T[0], T[1]);
-        planar_lscale_l(H[4] + k * L, C[0], T[2]);
-        planar_lmul_l(T[3], H[4], H[4], k);
-        planar_lscale_l(T[4], C[1], T[3]);
-        planar_lshift_l(H[5] + k * L, T[4], C[2], k);
+        planar_lscale_l(T[3], C[0], T[2]);
+        planar_lscale_l(H[4] + k * L, C[1], T[3]);
+        planar_lmul_l(T[4], H[4], H[4], k);
+        planar_lscale_l(T[5], C[2], T[4]);
+        planar_lshift_l(H[5] + k * L, T[5], C[3], k);
         planar_ldiv_l(H[6], 0, H[5], k);
-        planar_lscale_l(T[5], C[3], H[0] + k * L);
-        planar_lmul_l(T[6], X[3], X[3], k);
-        planar_lscale_l(H[7] + k * L, C[4], T[6]);
+        planar_lscale_l(T[6], C[4], H[0] + k * L);
         planar_lmul_l(T[7], H[0], H[3], k);
         planar_lmul_l(T[8], H[2], H[1], k);
-        planar_lsub_l(H[8] + k * L, T[7], T[8]);
-        planar_lmul_l(T[9], H[7], H[8], k);
-        planar_ladd_l(T[10], T[5], T[9]);
-        planar_lscale_l(H[9] + k * L, C[5], T[10]);
-        planar_lscale_l(T[11], C[6], H[9] + k * L);
-        planar_lmul_l(H[10] + k * L, X[2], X[2], k);
-        planar_lmul_l(T[12], H[10], H[8], k);
-        planar_lscale_l(T[13], C[7], T[12]);
-        planar_lscale_l(T[14], C[8], H[2] + k * L);
+        planar_lsub_l(H[7] + k * L, T[7], T[8]);
+        planar_lscale_l(H[8] + k * L, C[0], H[7] + k * L);
+        planar_lmul_l(H[9] + k * L, X[3], X[3], k);
+        planar_lmul_l(T[9], H[8], H[9], k);
+        planar_ladd_l(T[10], T[6], T[9]);
+        planar_lscale_l(H[10] + k * L, C[5], T[10]);
+        planar_lscale_l(T[11], C[6], H[10] + k * L);
+        planar_lmul_l(H[11] + k * L, X[2], X[2], k);
+        planar_lmul_l(T[12], H[7], H[11], k);
+        planar_lscale_l(T[13], C[1], T[12]);
+        planar_lscale_l(T[14], C[7], H[2] + k * L);
         planar_lsub_l(T[15], T[13], T[14]);
-        planar_lscale_l(H[11] + k * L, C[4], T[15]);
-        planar_lmul_l(T[16], H[11], H[4], k);
-        planar_lsub_l(H[12] + k * L, T[11], T[16]);
-        planar_lmul_l(T[17], H[6], H[12], k);
-        planar_lscale_l(T[18], C[9], H[11] + k * L);
-        planar_lmul_l(T[19], H[9], H[4], k);
-        planar_lsub_l(H[13] + k * L, T[18], T[19]);
-        planar_lmul_l(T[20], H[6], H[13], k);
+        planar_lscale_l(H[12] + k * L, C[0], T[15]);
+        planar_lmul_l(T[16], H[12], H[4], k);
+        planar_lsub_l(H[13] + k * L, T[11], T[16]);
+        planar_lmul_l(T[17], H[6], H[13], k);
+        planar_lscale_l(T[18], C[8], H[12] + k * L);
+        planar_lmul_l(T[19], H[10], H[4], k);
+        planar_lsub_l(H[14] + k * L, T[18], T[19]);
+        planar_lmul_l(T[20], H[6], H[14], k);
         planar_lout_l(X[0] + (k + 1) * L, X[2] + k * L, k);
         planar_lout_l(X[1] + (k + 1) * L, X[3] + k * L, k);
         planar_lout_l(X[2] + (k + 1) * L, T[17], k);

@@ -57,7 +57,7 @@ extern const char *const spherical_std_param_names[SPHERICAL_STD_N_PARAMS];
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out ydot[8]: y' in state order
- * Total ops: 186
+ * Total ops: 185
  */
 #define SPHERICAL_STD_RHS_Y_SIZE 8
 #define SPHERICAL_STD_RHS_Y_RANK 1
@@ -78,7 +78,7 @@ int spherical_std_rhs_batch_l(long n, const long double *restrict y, long y_stri
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out M[16]: M, row-major
- * Total ops: 31
+ * Total ops: 33
  */
 #define SPHERICAL_STD_MASS_MATRIX_Y_SIZE 8
 #define SPHERICAL_STD_MASS_MATRIX_Y_RANK 1
@@ -101,7 +101,7 @@ int spherical_std_mass_matrix_batch_l(long n, const long double *restrict y, lon
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out F[4]: F
- * Total ops: 101
+ * Total ops: 88
  */
 #define SPHERICAL_STD_FORCING_Y_SIZE 8
 #define SPHERICAL_STD_FORCING_Y_RANK 1
@@ -122,7 +122,7 @@ int spherical_std_forcing_batch_l(long n, const long double *restrict y, long y_
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out E[1]: T + V
- * Total ops: 69
+ * Total ops: 71
  */
 #define SPHERICAL_STD_ENERGY_Y_SIZE 8
 #define SPHERICAL_STD_ENERGY_Y_RANK 1

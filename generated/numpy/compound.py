@@ -34,7 +34,7 @@ def rhs(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns ydot: (..., 4) y' in state order
-    Total ops: 55
+    Total ops: 53
     """
     (y, p), shape, dtype = _prepare("rhs", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -63,42 +63,33 @@ def rhs(y, p):
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    t5 = l1*m2
-    t6 = l2*t5
-    del t5
-    t7 = (1/2)*t6
-    del t6
+    t5 = (1/2)*l1
+    t6 = l2*m2
+    t7 = t5*t6
     M01 = t7*t4
     del t4, t7
     t8 = l2*l2*m2
     M11 = L2 + (1/4)*t8
     del t8
-    t9 = (1/2)*m1
-    t10 = g*m2 + g*t9
-    del t9
-    t11 = t10*sin_theta1
-    del t10
-    t12 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    del cos_theta1, cos_theta2, sin_theta1
-    t13 = theta2_dot*theta2_dot
-    t14 = (1/2)*m2
-    t15 = l2*t14
-    del t14
-    t16 = t15*t13
-    del t13
-    F0 = (-l1)*(t11 + t12*t16)
-    del t11, t16
-    t17 = g*sin_theta2
+    t9 = g*(m1 + 2*m2)
+    t10 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    del cos_theta1, cos_theta2
+    t11 = theta2_dot*theta2_dot
+    t12 = t6*t11
+    del t11, t6
+    F0 = (-t5)*(t9*sin_theta1 + t10*t12)
+    del sin_theta1, t12, t5, t9
+    t13 = g*sin_theta2
     del sin_theta2
-    t18 = theta1_dot*theta1_dot
-    F1 = t15*(l1*(t12*t18) - t17)
-    del t12, t15, t17, t18
-    t19 = l1*l1
-    t20 = m2*t19
-    t21 = m1*t19
-    del t19
-    M00 = L1 + t20 + (1/4)*t21
-    del t20, t21
+    t14 = theta1_dot*theta1_dot
+    t15 = (1/2)*m2
+    t16 = l2*t15
+    del t15
+    F1 = t16*(l1*(t10*t14) - t13)
+    del t10, t13, t14, t16
+    t17 = l1*l1
+    M00 = L1 + t17*((1/4)*m1 + m2)
+    del t17
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
@@ -122,7 +113,7 @@ def mass_matrix(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns M: (..., 2, 2) M, row-major
-    Total ops: 21
+    Total ops: 20
     """
     (y, p), shape, dtype = _prepare("mass_matrix", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -134,11 +125,8 @@ def mass_matrix(y, p):
     L1 = p[..., 4]
     L2 = p[..., 5]
     t0 = l1*l1
-    t1 = m2*t0
-    t2 = m1*t0
+    M00 = L1 + t0*((1/4)*m1 + m2)
     del t0
-    M00 = L1 + t1 + (1/4)*t2
-    del t1, t2
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -153,18 +141,17 @@ def mass_matrix(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t7 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t5 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
-    t8 = l1*m2
-    t9 = l2*t8
-    del t8
-    t10 = (1/2)*t9
+    t6 = (1/2)*l1
+    t7 = l2*m2
+    t8 = t6*t7
+    del t6, t7
+    M01 = t8*t5
+    del t5, t8
+    t9 = l2*l2*m2
+    M11 = L2 + (1/4)*t9
     del t9
-    M01 = t10*t7
-    del t10, t7
-    t11 = l2*l2*m2
-    M11 = L2 + (1/4)*t11
-    del t11
     M = numpy.empty(shape + (2, 2), dtype)
     M[..., 0, 0] = M00
     del M00
@@ -182,7 +169,7 @@ def forcing(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns F: (..., 2) F
-    Total ops: 26
+    Total ops: 27
     """
     (y, p), shape, dtype = _prepare("forcing", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -201,11 +188,8 @@ def forcing(y, p):
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
-    t1 = (1/2)*m1
-    t2 = g*m2 + g*t1
-    del t1
-    t3 = t2*sin_theta1
-    del t2
+    t1 = (1/2)*l1
+    t2 = g*(m1 + 2*m2)
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -213,24 +197,25 @@ def forcing(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t7 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    del cos_theta1, cos_theta2, sin_theta1
+    t6 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    del cos_theta1, cos_theta2
+    t7 = l2*m2
     t8 = theta2_dot*theta2_dot
-    t9 = (1/2)*m2
-    t10 = l2*t9
-    del t9
-    t11 = t10*t8
-    del t8
-    t12 = (-l1)*(t11*t7 + t3)
-    del t11, t3
-    t13 = g*sin_theta2
+    t9 = t7*t8
+    del t7, t8
+    t10 = (-t1)*(t2*sin_theta1 + t6*t9)
+    del sin_theta1, t1, t2, t9
+    t11 = g*sin_theta2
     del sin_theta2
-    t14 = theta1_dot*theta1_dot
-    t15 = t10*(l1*(t14*t7) - t13)
-    del t10, t13, t14, t7
+    t12 = theta1_dot*theta1_dot
+    t13 = (1/2)*m2
+    t14 = l2*t13
+    del t13
+    t15 = t14*(l1*(t12*t6) - t11)
+    del t11, t12, t14, t6
     F = numpy.empty(shape + (2,), dtype)
-    F[..., 0] = t12
-    del t12
+    F[..., 0] = t10
+    del t10
     F[..., 1] = t15
     del t15
     return F
@@ -242,7 +227,7 @@ def energy(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns E: (...) T + V
-    Total ops: 42
+    Total ops: 43
     """
     (y, p), shape, dtype = _prepare("energy", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -257,22 +242,10 @@ def energy(y, p):
     L2 = p[..., 5]
     g = p[..., 6]
     t0 = l1*l1
-    t1 = m2*t0
-    t2 = m1*t0
-    del t0
-    tan_half_theta1 = numpy.tan(0.5*theta1)
-    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
-    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
-    del tan_half_theta1
-    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
-    del rho_theta1, tan_half_sq_theta1
-    t4 = l1*m2
-    t5 = l2*l2*m2
-    t6 = (1/2)*m1
-    t7 = theta2_dot*theta2_dot
-    t8 = (1/2)*m2
-    t9 = theta1_dot*theta1_dot
+    t1 = l2*l2*m2
+    t2 = theta2_dot*theta2_dot
+    t3 = theta1_dot*theta1_dot
+    t4 = (1/2)*m2
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -280,22 +253,35 @@ def energy(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t13 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    del sin_theta1, sin_theta2
-    t14 = l2*t4
-    t15 = (1/2)*t14
-    del t14
-    t16 = t15*t13
-    del t13, t15
-    t17 = t16*theta2_dot
-    del t16
-    t18 = l2*cos_theta2
-    del cos_theta2
-    t19 = t17*theta1_dot + ((1/2)*L2 + (1/8)*t5)*t7 + ((1/2)*L1 + (1/2)*t1 + (1/8)*t2)*t9 - g*((l1*t6 + t4)*cos_theta1 + t8*t18)
-    del cos_theta1, t1, t17, t18, t2, t4, t5, t6, t7, t8, t9
+    t6 = l2*cos_theta2
+    t7 = (-g*t4)*t6
+    del t6
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    t9 = l1*cos_theta1
+    t10 = g*((1/2)*m1 + m2)
+    t11 = t10*t9
+    del t10, t9
+    t14 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    del cos_theta1, cos_theta2, sin_theta1, sin_theta2
+    t15 = (1/2)*l1
+    t16 = l2*m2
+    t17 = t15*t16
+    del t15, t16
+    t18 = t17*t14
+    del t14, t17
+    t19 = t18*theta2_dot
+    del t18
+    t20 = t19*theta1_dot + ((1/2)*L2 + (1/8)*t1)*t2 + ((1/2)*L1 + (1/8)*m1*t0 + t0*t4)*t3 + t7 - t11
+    del t0, t1, t11, t19, t2, t3, t4, t7
     E = numpy.empty(shape + (), dtype)
-    E[...] = t19
-    del t19
+    E[...] = t20
+    del t20
     return E
 
 
@@ -417,7 +403,7 @@ def jacobian(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns J: (..., 4, 4) row-major
-    Total ops: 108
+    Total ops: 107
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -446,10 +432,9 @@ def jacobian(y, p):
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    t5 = l1*m2
-    t6 = l2*t5
-    del t5
-    t7 = (1/2)*t6
+    t5 = (1/2)*l1
+    t6 = l2*m2
+    t7 = t5*t6
     M01 = t7*t4
     t8 = theta1_dot*theta1_dot
     t9 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
@@ -458,71 +443,60 @@ def jacobian(y, p):
     t11 = l2*l2*m2
     M11 = L2 + (1/4)*t11
     del t11
-    t12 = (1/2)*m1
-    t13 = g*m2 + g*t12
-    del t12
-    t14 = t13*sin_theta1
+    t12 = g*(m1 + 2*m2)
+    t13 = theta2_dot*theta2_dot
+    t14 = t6*t13
+    F0 = (-t5)*(t12*sin_theta1 + t14*t9)
     del sin_theta1
-    t15 = theta2_dot*theta2_dot
+    t15 = g*sin_theta2
+    del sin_theta2
     t16 = (1/2)*m2
     t17 = l2*t16
     del t16
-    t18 = t17*t15
-    F0 = (-l1)*(t14 + t18*t9)
-    del t14
-    t19 = g*sin_theta2
-    del sin_theta2
-    F1 = t17*(l1*(t8*t9) - t19)
-    del t17, t19
-    t20 = l1*l1
-    t21 = m2*t20
-    t22 = m1*t20
-    del t20
-    M00 = L1 + t21 + (1/4)*t22
-    del t21, t22
+    F1 = t17*(l1*(t8*t9) - t15)
+    del t15, t17
+    t18 = l1*l1
+    M00 = L1 + t18*((1/4)*m1 + m2)
+    del t18
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
     qdd0 = rdet*(M11*F0 - F1*M01)
-    t23 = qdd0*t10
+    t19 = qdd0*t10
     del qdd0
-    t24 = M01*t8 + t23
+    t20 = M01*t8 + t19
     qdd1 = rdet*(M00*F1 - F0*M01)
     del F0, F1
-    t25 = qdd1*t10
+    t21 = qdd1*t10
     del qdd1, t10
-    t26 = t13*cos_theta1
-    del cos_theta1, t13
-    t27 = t25 - l1*(t18*t4 + t26)
-    del t18, t26
-    t28 = ((1/2)*l1*l2*m2)*(t15*t4) - t25
-    del t15, t25
-    t29 = g*cos_theta2
-    del cos_theta2
-    t30 = ((1/2)*l2*m2)*(-l1*(t4*t8) - t29) - t23
-    del t23, t29, t4, t8
-    t31 = M01*rdet
-    t32 = t6*t9
+    t22 = t21 - t5*(t12*cos_theta1 + t14*t4)
+    del cos_theta1, t12, t14, t5
+    t23 = ((1/2)*l1*l2*m2)*(t13*t4) - t21
+    del t13, t21
+    t24 = ((1/2)*l2*m2)*(-g*cos_theta2 - l1*(t4*t8)) - t19
+    del cos_theta2, t19, t4, t8
+    t25 = M01*rdet
+    t26 = (l1*t6)*t9
     del t6, t9
-    t33 = t32*theta1_dot
-    t34 = M11*rdet
-    t35 = t32*theta2_dot
-    del t32
-    t36 = M00*rdet
-    t37 = rdet*(M11*t27 - M01*t24)
-    t38 = rdet*(M11*t28 - M01*t30)
+    t27 = t26*theta1_dot
+    t28 = M11*rdet
+    t29 = t26*theta2_dot
+    del t26
+    t30 = M00*rdet
+    t31 = rdet*(M11*t22 - M01*t20)
+    t32 = rdet*(M11*t23 - M01*t24)
     del M11
-    t39 = -t31*t33
-    t40 = -t34*t35
-    del t34
-    t41 = rdet*(M00*t24 - M01*t27)
-    del t24, t27
-    t42 = rdet*(M00*t30 - M01*t28)
-    del M00, M01, rdet, t28, t30
-    t43 = t33*t36
-    del t33, t36
-    t44 = t31*t35
-    del t31, t35
+    t33 = -t25*t27
+    t34 = -t28*t29
+    del t28
+    t35 = rdet*(M00*t20 - M01*t22)
+    del t20, t22
+    t36 = rdet*(M00*t24 - M01*t23)
+    del M00, M01, rdet, t23, t24
+    t37 = t27*t30
+    del t27, t30
+    t38 = t25*t29
+    del t25, t29
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -532,22 +506,22 @@ def jacobian(y, p):
     J[..., 1, 1] = 0
     J[..., 1, 2] = 0
     J[..., 1, 3] = 1
-    J[..., 2, 0] = t37
+    J[..., 2, 0] = t31
+    del t31
+    J[..., 2, 1] = t32
+    del t32
+    J[..., 2, 2] = t33
+    del t33
+    J[..., 2, 3] = t34
+    del t34
+    J[..., 3, 0] = t35
+    del t35
+    J[..., 3, 1] = t36
+    del t36
+    J[..., 3, 2] = t37
     del t37
-    J[..., 2, 1] = t38
+    J[..., 3, 3] = t38
     del t38
-    J[..., 2, 2] = t39
-    del t39
-    J[..., 2, 3] = t40
-    del t40
-    J[..., 3, 0] = t41
-    del t41
-    J[..., 3, 1] = t42
-    del t42
-    J[..., 3, 2] = t43
-    del t43
-    J[..., 3, 3] = t44
-    del t44
     return J
 
 
@@ -558,7 +532,7 @@ def hamiltonian_rhs(x, p):
     x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns xdot: (..., 4) x' in canonical order
-    Total ops: 55
+    Total ops: 50
     """
     (x, p), shape, dtype = _prepare("hamiltonian_rhs", (x, 4, "x"), (p, 7, "p"))
     theta1 = x[..., 0]
@@ -587,22 +561,18 @@ def hamiltonian_rhs(x, p):
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    t5 = l1*m2
-    t6 = l2*t5
-    del t5
-    t7 = (1/2)*t6
-    del t6
+    t5 = (1/2)*l1
+    t6 = l2*m2
+    t7 = t5*t6
+    del t5, t6
     M01 = t7*t4
-    del t4, t7
+    del t4
     t8 = l2*l2*m2
     M11 = L2 + (1/4)*t8
     del t8
     t9 = l1*l1
-    t10 = m2*t9
-    t11 = m1*t9
+    M00 = L1 + t9*((1/4)*m1 + m2)
     del t9
-    M00 = L1 + t10 + (1/4)*t11
-    del t10, t11
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
@@ -610,34 +580,34 @@ def hamiltonian_rhs(x, p):
     del M11
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
     del M00, M01, rdet
-    t12 = (1/2)*m1
-    t13 = g*m2 + g*t12
-    del t12
-    t14 = t13*sin_theta1
-    del t13
-    t15 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t10 = g*((1/2)*m1 + m2)
+    t11 = l1*sin_theta1
+    t12 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1
-    t16 = (1/2)*m2
-    t17 = l2*t16
-    del t16
-    t18 = v0*v1
-    t19 = t17*t18
-    del t18
-    t20 = g*sin_theta2
+    t13 = t7*t12
+    del t12, t7
+    t14 = t13*v1
+    del t13
+    t15 = t14*v0
+    del t14
+    t16 = g*sin_theta2
     del sin_theta2
-    t21 = (-l1)*(t14 + t15*t19)
-    del t14, t19
-    t22 = t17*(l1*(t15*v0*v1) - t20)
-    del t15, t17, t20
+    t17 = (1/2)*m2
+    t18 = l2*t17
+    del t17
+    t19 = -t10*t11 - t15
+    del t10, t11
+    t20 = t15 - t18*t16
+    del t15, t16, t18
     xdot = numpy.empty(shape + (4,), dtype)
     xdot[..., 0] = v0
     del v0
     xdot[..., 1] = v1
     del v1
-    xdot[..., 2] = t21
-    del t21
-    xdot[..., 3] = t22
-    del t22
+    xdot[..., 2] = t19
+    del t19
+    xdot[..., 3] = t20
+    del t20
     return xdot
 
 
@@ -648,7 +618,7 @@ def hamiltonian_jacobian(x, p):
     x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns J: (..., 4, 4) row-major
-    Total ops: 104
+    Total ops: 91
     """
     (x, p), shape, dtype = _prepare("hamiltonian_jacobian", (x, 4, "x"), (p, 7, "p"))
     theta1 = x[..., 0]
@@ -677,77 +647,71 @@ def hamiltonian_jacobian(x, p):
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    t5 = l1*m2
-    t6 = l2*t5
-    del t5
-    t7 = (1/2)*t6
-    del t6
+    t5 = (1/2)*l1
+    t6 = l2*m2
+    t7 = t5*t6
+    del t5, t6
     t8 = t7*t4
     t9 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del sin_theta1, sin_theta2
     M01 = t7*t9
-    del t7
+    del t7, t9
     t10 = l2*l2*m2
     M11 = L2 + (1/4)*t10
     del t10
     t11 = l1*l1
-    t12 = m2*t11
-    t13 = m1*t11
+    M00 = L1 + t11*((1/4)*m1 + m2)
     del t11
-    M00 = L1 + t12 + (1/4)*t13
-    del t12, t13
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
     v0 = rdet*(M11*p_theta1 - M01*p_theta2)
-    t14 = t8*v0
+    t12 = t8*v0
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
-    t15 = M01*t14 - ((1/2)*M11*l1*l2*m2)*(t4*v1)
+    t13 = M01*t12 - ((1/2)*M11*l1*l2*m2)*(t4*v1)
     del t4
-    dv0_0 = -rdet*t15
-    dv0_1 = rdet*t15
-    del t15
+    dv0_0 = -rdet*t13
+    dv0_1 = rdet*t13
+    del t13
     dv0_2 = M11*rdet
     del M11
-    t16 = M01*rdet
-    dv0_3 = -t16
-    del t16
-    t17 = t8*v1
+    t14 = M01*rdet
+    dv0_3 = -t14
+    del t14
+    t15 = t8*v1
     del t8
-    t18 = M00*t14 - M01*t17
-    dv1_0 = rdet*t18
-    dv1_1 = -rdet*t18
-    del t18
+    t16 = M00*t12 - M01*t15
+    dv1_0 = rdet*t16
+    dv1_1 = -rdet*t16
+    del t16
     dv1_2 = dv0_3
     dv1_3 = M00*rdet
     del M00, rdet
-    t19 = (1/2)*m1
-    t20 = g*m2 + g*t19
-    del t19
-    t21 = t20*cos_theta1
-    del cos_theta1, t20
-    t22 = (1/2)*m2
-    t23 = l2*t22
-    del t22
-    t24 = v0*v1
-    t25 = t23*t24
-    t26 = dv0_0*t17 + dv1_0*t14
-    t27 = dv0_1*t17 + dv1_1*t14
-    t28 = dv0_2*t17 + dv1_2*t14
-    t29 = dv0_3*t17 + dv1_3*t14
-    del t14, t17
-    t30 = g*cos_theta2
+    t17 = l1*cos_theta1
+    del cos_theta1
+    t18 = g*((1/2)*m1 + m2)
+    t19 = t18*t17
+    del t17, t18
+    t20 = M01*v0*v1
+    del M01, v0, v1
+    t21 = dv0_0*t15 + dv1_0*t12 + t20
+    t22 = dv0_1*t15 + dv1_1*t12 - t20
+    del t20
+    t23 = dv0_2*t15 + dv1_2*t12
+    t24 = dv0_3*t15 + dv1_3*t12
+    del t12, t15
+    t25 = (1/2)*m2
+    t26 = l2*cos_theta2
     del cos_theta2
-    t31 = -l1*(t21 + t25*t9) - t26
-    del t21, t25
-    t32 = ((1/2)*l1*l2*m2)*(t9*v0*v1) - t27
-    del v0, v1
-    t33 = -t28
-    t34 = -t29
-    t35 = M01*t24 + t26
-    del M01, t26
-    t36 = t23*(-l1*(t24*t9) - t30) + t27
-    del t23, t24, t27, t30, t9
+    t27 = (-g*t25)*t26
+    del t25, t26
+    t28 = -t19 - t21
+    del t19
+    t29 = -t22
+    t30 = -t23
+    t31 = -t24
+    t32 = t22 + t27
+    del t22, t27
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = dv0_0
     del dv0_0
@@ -765,22 +729,22 @@ def hamiltonian_jacobian(x, p):
     del dv1_2
     J[..., 1, 3] = dv1_3
     del dv1_3
-    J[..., 2, 0] = t31
-    del t31
-    J[..., 2, 1] = t32
-    del t32
-    J[..., 2, 2] = t33
-    del t33
-    J[..., 2, 3] = t34
-    del t34
-    J[..., 3, 0] = t35
-    del t35
-    J[..., 3, 1] = t36
-    del t36
-    J[..., 3, 2] = t28
+    J[..., 2, 0] = t28
     del t28
-    J[..., 3, 3] = t29
+    J[..., 2, 1] = t29
     del t29
+    J[..., 2, 2] = t30
+    del t30
+    J[..., 2, 3] = t31
+    del t31
+    J[..., 3, 0] = t21
+    del t21
+    J[..., 3, 1] = t32
+    del t32
+    J[..., 3, 2] = t23
+    del t23
+    J[..., 3, 3] = t24
+    del t24
     return J
 
 
@@ -790,7 +754,7 @@ def to_canonical(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns x: (..., 4) x in canonical order
-    Total ops: 27
+    Total ops: 26
     """
     (y, p), shape, dtype = _prepare("to_canonical", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -804,11 +768,8 @@ def to_canonical(y, p):
     L1 = p[..., 4]
     L2 = p[..., 5]
     t0 = l1*l1
-    t1 = m2*t0
-    t2 = m1*t0
+    t1 = L1 + t0*((1/4)*m1 + m2)
     del t0
-    t3 = L1 + t1 + (1/4)*t2
-    del t1, t2
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -823,30 +784,29 @@ def to_canonical(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t8 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t6 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
-    t9 = l1*m2
-    t10 = l2*t9
-    del t9
-    t11 = (1/2)*t10
-    del t10
-    t12 = t11*t8
-    del t11, t8
-    t13 = t12*theta2_dot
-    t14 = l2*l2*m2
-    t15 = L2 + (1/4)*t14
-    del t14
-    t16 = t13 + t3*theta1_dot
-    del t13, t3
-    t17 = t12*theta1_dot + t15*theta2_dot
-    del t12, t15
+    t7 = (1/2)*l1
+    t8 = l2*m2
+    t9 = t7*t8
+    del t7, t8
+    t10 = t9*t6
+    del t6, t9
+    t11 = t10*theta2_dot
+    t12 = l2*l2*m2
+    t13 = L2 + (1/4)*t12
+    del t12
+    t14 = t1*theta1_dot + t11
+    del t1, t11
+    t15 = t10*theta1_dot + t13*theta2_dot
+    del t10, t13
     x = numpy.empty(shape + (4,), dtype)
     x[..., 0] = theta1
     x[..., 1] = theta2
-    x[..., 2] = t16
-    del t16
-    x[..., 3] = t17
-    del t17
+    x[..., 2] = t14
+    del t14
+    x[..., 3] = t15
+    del t15
     return x
 
 
@@ -856,7 +816,7 @@ def from_canonical(x, p):
     x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns y: (..., 4) y in state order
-    Total ops: 33
+    Total ops: 32
     """
     (x, p), shape, dtype = _prepare("from_canonical", (x, 4, "x"), (p, 7, "p"))
     theta1 = x[..., 0]
@@ -885,22 +845,18 @@ def from_canonical(x, p):
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
-    t5 = l1*m2
-    t6 = l2*t5
-    del t5
-    t7 = (1/2)*t6
-    del t6
+    t5 = (1/2)*l1
+    t6 = l2*m2
+    t7 = t5*t6
+    del t5, t6
     M01 = t7*t4
     del t4, t7
     t8 = l2*l2*m2
     M11 = L2 + (1/4)*t8
     del t8
     t9 = l1*l1
-    t10 = m2*t9
-    t11 = m1*t9
+    M00 = L1 + t9*((1/4)*m1 + m2)
     del t9
-    M00 = L1 + t10 + (1/4)*t11
-    del t10, t11
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det

@@ -34,7 +34,7 @@ def rhs(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns ydot: (..., 4) y' in state order
-    Total ops: 47
+    Total ops: 44
     """
     (y, p), shape, dtype = _prepare("rhs", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -61,31 +61,28 @@ def rhs(y, p):
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    t5 = l1*m2
-    t6 = l2*t5
-    del t5
-    M01 = t6*t4
-    del t4, t6
+    t5 = l2*m2
+    t6 = t5*t4
+    del t4
+    M01 = l1*t6
+    del t6
     M11 = l2*l2*m2
-    t7 = g*m1 + g*m2
-    t8 = t7*sin_theta1
-    del t7
-    t9 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    del cos_theta1, cos_theta2, sin_theta1
-    t10 = theta2_dot*theta2_dot
-    t11 = l2*m2
-    t12 = t11*t10
-    del t10
-    F0 = (-l1)*(t12*t9 + t8)
-    del t12, t8
-    t13 = g*sin_theta2
+    t7 = m1 + m2
+    t8 = g*t7
+    t9 = theta2_dot*theta2_dot
+    t10 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    del cos_theta1, cos_theta2
+    t11 = t5*t10
+    F0 = (-l1)*(t8*sin_theta1 + t11*t9)
+    del sin_theta1, t11, t8, t9
+    t12 = g*sin_theta2
     del sin_theta2
-    t14 = theta1_dot*theta1_dot
-    F1 = t11*(l1*(t14*t9) - t13)
-    del t11, t13, t14, t9
-    t15 = l1*l1
-    M00 = t15*(m1 + m2)
-    del t15
+    t13 = theta1_dot*theta1_dot
+    F1 = t5*(l1*(t10*t13) - t12)
+    del t10, t12, t13, t5
+    t14 = l1*l1
+    M00 = t14*t7
+    del t14, t7
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
@@ -119,8 +116,9 @@ def mass_matrix(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     t0 = l1*l1
-    M00 = t0*(m1 + m2)
-    del t0
+    t1 = m1 + m2
+    M00 = t0*t1
+    del t0, t1
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -135,13 +133,13 @@ def mass_matrix(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t5 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t6 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
-    t6 = l1*m2
-    t7 = l2*t6
-    del t6
-    M01 = t7*t5
-    del t5, t7
+    t7 = l2*m2
+    t8 = t7*t6
+    del t6, t7
+    M01 = l1*t8
+    del t8
     M11 = l2*l2*m2
     M = numpy.empty(shape + (2, 2), dtype)
     M[..., 0, 0] = M00
@@ -160,7 +158,7 @@ def forcing(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns F: (..., 2) F
-    Total ops: 24
+    Total ops: 23
     """
     (y, p), shape, dtype = _prepare("forcing", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -179,9 +177,11 @@ def forcing(y, p):
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
-    t1 = g*m1 + g*m2
-    t2 = t1*sin_theta1
+    t1 = m1 + m2
+    t2 = g*t1
     del t1
+    t3 = theta2_dot*theta2_dot
+    t4 = l2*m2
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -189,19 +189,16 @@ def forcing(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t6 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    del cos_theta1, cos_theta2, sin_theta1
-    t7 = theta2_dot*theta2_dot
-    t8 = l2*m2
-    t9 = t8*t7
-    del t7
-    t10 = (-l1)*(t2 + t6*t9)
-    del t2, t9
+    t8 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    del cos_theta1, cos_theta2
+    t9 = t4*t8
+    t10 = (-l1)*(t2*sin_theta1 + t3*t9)
+    del sin_theta1, t2, t3, t9
     t11 = g*sin_theta2
     del sin_theta2
     t12 = theta1_dot*theta1_dot
-    t13 = t8*(l1*(t12*t6) - t11)
-    del t11, t12, t6, t8
+    t13 = t4*(l1*(t12*t8) - t11)
+    del t11, t12, t4, t8
     F = numpy.empty(shape + (2,), dtype)
     F[..., 0] = t10
     del t10
@@ -216,7 +213,7 @@ def energy(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns E: (...) T + V
-    Total ops: 34
+    Total ops: 36
     """
     (y, p), shape, dtype = _prepare("energy", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -228,20 +225,9 @@ def energy(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    tan_half_theta1 = numpy.tan(0.5*theta1)
-    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
-    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
-    del tan_half_theta1
-    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
-    del rho_theta1, tan_half_sq_theta1
-    t1 = l1*m2
-    t2 = l2*l2*m2
-    t3 = theta2_dot*theta2_dot
-    t4 = theta1_dot*theta1_dot
-    t5 = l1*l1
-    t6 = (1/2)*t5
-    del t5
+    t0 = l2*l2*m2
+    t1 = theta2_dot*theta2_dot
+    t2 = theta1_dot*theta1_dot
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -249,20 +235,39 @@ def energy(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t10 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    del sin_theta1, sin_theta2
-    t11 = l2*t1
-    t12 = t11*t10
-    del t10, t11
-    t13 = t12*theta2_dot
-    del t12
-    t14 = l2*cos_theta2
-    del cos_theta2
-    t15 = t13*theta1_dot + ((1/2)*t2)*t3 + (m1*t6 + m2*t6)*t4 - g*((l1*m1 + t1)*cos_theta1 + m2*t14)
-    del cos_theta1, t1, t13, t14, t2, t3, t4, t6
+    t4 = l2*cos_theta2
+    t5 = (-g*m2)*t4
+    del t4
+    t6 = m1 + m2
+    t7 = g*t6
+    del t6
+    tan_half_theta1 = numpy.tan(0.5*theta1)
+    tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
+    rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
+    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    del tan_half_theta1
+    cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
+    del rho_theta1, tan_half_sq_theta1
+    t9 = l1*cos_theta1
+    t10 = t7*t9
+    del t7, t9
+    t11 = l1*l1
+    t12 = (1/2)*t11
+    del t11
+    t15 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    del cos_theta1, cos_theta2, sin_theta1, sin_theta2
+    t16 = l2*m2
+    t17 = t16*t15
+    del t15, t16
+    t18 = l1*t17
+    del t17
+    t19 = t18*theta2_dot
+    del t18
+    t20 = ((1/2)*t0)*t1 + t19*theta1_dot + (m1*t12 + m2*t12)*t2 + t5 - t10
+    del t0, t1, t10, t12, t19, t2, t5
     E = numpy.empty(shape + (), dtype)
-    E[...] = t15
-    del t15
+    E[...] = t20
+    del t20
     return E
 
 
@@ -384,7 +389,7 @@ def jacobian(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 4, 4) row-major
-    Total ops: 98
+    Total ops: 95
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -396,6 +401,7 @@ def jacobian(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
+    t0 = l2*m2
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -410,74 +416,68 @@ def jacobian(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    t5 = l1*m2
-    t6 = l2*t5
-    del t5
-    M01 = t6*t4
-    t7 = theta1_dot*theta1_dot
-    t8 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    t9 = t6*t8
-    del t6
+    t5 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t6 = t0*t5
+    t7 = l1*t6
+    t8 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t9 = t0*t8
+    M01 = l1*t9
     M11 = l2*l2*m2
-    t10 = g*m1 + g*m2
-    t11 = t10*sin_theta1
-    del sin_theta1
+    t10 = m1 + m2
+    t11 = g*t10
     t12 = theta2_dot*theta2_dot
-    t13 = l2*m2
-    t14 = t13*t12
-    F0 = (-l1)*(t11 + t14*t8)
-    del t11
-    t15 = g*sin_theta2
+    F0 = (-l1)*(t11*sin_theta1 + t12*t6)
+    del sin_theta1, t6
+    t13 = g*sin_theta2
     del sin_theta2
-    F1 = t13*(l1*(t7*t8) - t15)
-    del t13, t15, t8
-    t16 = l1*l1
-    M00 = t16*(m1 + m2)
-    del t16
+    t14 = theta1_dot*theta1_dot
+    F1 = t0*(l1*(t14*t5) - t13)
+    del t13, t5
+    t15 = l1*l1
+    M00 = t10*t15
+    del t10, t15
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
     qdd0 = rdet*(M11*F0 - F1*M01)
-    t17 = qdd0*t9
+    t16 = qdd0*t7
     del qdd0
-    t18 = M01*t7 + t17
+    t17 = l1*(t14*t8)
+    del t14
+    t18 = t0*t17 + t16
+    del t0
     qdd1 = rdet*(M00*F1 - F0*M01)
     del F0, F1
-    t19 = qdd1*t9
+    t19 = qdd1*t7
     del qdd1
-    t20 = t10*cos_theta1
-    del cos_theta1, t10
-    t21 = t19 - l1*(t14*t4 + t20)
-    del t14, t20
-    t22 = (l1*l2*m2)*(t12*t4) - t19
-    del t12, t19
-    t23 = g*cos_theta2
-    del cos_theta2
-    t24 = (l2*m2)*(-l1*(t4*t7) - t23) - t17
-    del t17, t23, t4, t7
-    t25 = M01*rdet
-    t26 = 2*t9
-    del t9
-    t27 = t26*theta1_dot
-    t28 = M11*rdet
-    t29 = t26*theta2_dot
-    del t26
-    t30 = M00*rdet
-    t31 = rdet*(M11*t21 - M01*t18)
-    t32 = rdet*(M11*t22 - M01*t24)
+    t20 = t19 - l1*(t11*cos_theta1 + t12*t9)
+    del cos_theta1, t11, t9
+    t21 = (l1*l2*m2)*(t12*t8) - t19
+    del t12, t19, t8
+    t22 = (l2*m2)*(-g*cos_theta2 - t17) - t16
+    del cos_theta2, t16, t17
+    t23 = M01*rdet
+    t24 = 2*t7
+    del t7
+    t25 = t24*theta1_dot
+    t26 = M11*rdet
+    t27 = t24*theta2_dot
+    del t24
+    t28 = M00*rdet
+    t29 = rdet*(M11*t20 - M01*t18)
+    t30 = rdet*(M11*t21 - M01*t22)
     del M11
-    t33 = -t25*t27
-    t34 = -t28*t29
-    del t28
-    t35 = rdet*(M00*t18 - M01*t21)
-    del t18, t21
-    t36 = rdet*(M00*t24 - M01*t22)
-    del M00, M01, rdet, t22, t24
-    t37 = t27*t30
-    del t27, t30
-    t38 = t25*t29
-    del t25, t29
+    t31 = -t23*t25
+    t32 = -t26*t27
+    del t26
+    t33 = rdet*(M00*t18 - M01*t20)
+    del t18, t20
+    t34 = rdet*(M00*t22 - M01*t21)
+    del M00, M01, rdet, t21, t22
+    t35 = t25*t28
+    del t25, t28
+    t36 = t23*t27
+    del t23, t27
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -487,22 +487,22 @@ def jacobian(y, p):
     J[..., 1, 1] = 0
     J[..., 1, 2] = 0
     J[..., 1, 3] = 1
-    J[..., 2, 0] = t31
+    J[..., 2, 0] = t29
+    del t29
+    J[..., 2, 1] = t30
+    del t30
+    J[..., 2, 2] = t31
     del t31
-    J[..., 2, 1] = t32
+    J[..., 2, 3] = t32
     del t32
-    J[..., 2, 2] = t33
+    J[..., 3, 0] = t33
     del t33
-    J[..., 2, 3] = t34
+    J[..., 3, 1] = t34
     del t34
-    J[..., 3, 0] = t35
+    J[..., 3, 2] = t35
     del t35
-    J[..., 3, 1] = t36
+    J[..., 3, 3] = t36
     del t36
-    J[..., 3, 2] = t37
-    del t37
-    J[..., 3, 3] = t38
-    del t38
     return J
 
 
@@ -513,7 +513,7 @@ def hamiltonian_rhs(x, p):
     x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns xdot: (..., 4) x' in canonical order
-    Total ops: 47
+    Total ops: 42
     """
     (x, p), shape, dtype = _prepare("hamiltonian_rhs", (x, 4, "x"), (p, 5, "p"))
     theta1 = x[..., 0]
@@ -540,14 +540,15 @@ def hamiltonian_rhs(x, p):
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    t5 = l1*m2
-    t6 = l2*t5
-    del t5
-    M01 = t6*t4
-    del t4, t6
+    t5 = l2*m2
+    t6 = t5*t4
+    del t4
+    M01 = l1*t6
+    del t6
     M11 = l2*l2*m2
     t7 = l1*l1
-    M00 = t7*(m1 + m2)
+    t8 = m1 + m2
+    M00 = t7*t8
     del t7
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
@@ -556,30 +557,34 @@ def hamiltonian_rhs(x, p):
     del M11
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
     del M00, M01, rdet
-    t8 = g*m1 + g*m2
-    t9 = t8*sin_theta1
+    t9 = g*t8
     del t8
-    t10 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t10 = l1*sin_theta1
+    t11 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1
-    t11 = l2*m2
-    t12 = v0*v1
-    t13 = t11*t12
+    t12 = t5*t11
+    del t11
+    t13 = l1*t12
     del t12
-    t14 = g*sin_theta2
+    t14 = t13*v1
+    del t13
+    t15 = t14*v0
+    del t14
+    t16 = g*sin_theta2
     del sin_theta2
-    t15 = (-l1)*(t10*t13 + t9)
-    del t13, t9
-    t16 = t11*(l1*(t10*v0*v1) - t14)
-    del t10, t11, t14
+    t17 = -t9*t10 - t15
+    del t10, t9
+    t18 = t15 - t5*t16
+    del t15, t16, t5
     xdot = numpy.empty(shape + (4,), dtype)
     xdot[..., 0] = v0
     del v0
     xdot[..., 1] = v1
     del v1
-    xdot[..., 2] = t15
-    del t15
-    xdot[..., 3] = t16
-    del t16
+    xdot[..., 2] = t17
+    del t17
+    xdot[..., 3] = t18
+    del t18
     return xdot
 
 
@@ -590,7 +595,7 @@ def hamiltonian_jacobian(x, p):
     x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 4, 4) row-major
-    Total ops: 94
+    Total ops: 83
     """
     (x, p), shape, dtype = _prepare("hamiltonian_jacobian", (x, 4, "x"), (p, 5, "p"))
     theta1 = x[..., 0]
@@ -617,66 +622,71 @@ def hamiltonian_jacobian(x, p):
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    t5 = l1*m2
-    t6 = l2*t5
-    del t5
-    t7 = t6*t4
+    t5 = l2*m2
+    t6 = t5*t4
+    t7 = l1*t6
+    del t6
     t8 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del sin_theta1, sin_theta2
-    M01 = t6*t8
-    del t6
-    M11 = l2*l2*m2
-    t9 = l1*l1
-    M00 = t9*(m1 + m2)
+    t9 = t5*t8
+    del t5, t8
+    M01 = l1*t9
     del t9
+    M11 = l2*l2*m2
+    t10 = l1*l1
+    t11 = m1 + m2
+    M00 = t10*t11
+    del t10
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
     v0 = rdet*(M11*p_theta1 - M01*p_theta2)
-    t10 = t7*v0
+    t12 = t7*v0
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
-    t11 = M01*t10 - (M11*l1*l2*m2)*(t4*v1)
+    t13 = M01*t12 - (M11*l1*l2*m2)*(t4*v1)
     del t4
-    dv0_0 = -rdet*t11
-    dv0_1 = rdet*t11
-    del t11
+    dv0_0 = -rdet*t13
+    dv0_1 = rdet*t13
+    del t13
     dv0_2 = M11*rdet
     del M11
-    t12 = M01*rdet
-    dv0_3 = -t12
-    del t12
-    t13 = t7*v1
-    del t7
-    t14 = M00*t10 - M01*t13
-    dv1_0 = rdet*t14
-    dv1_1 = -rdet*t14
+    t14 = M01*rdet
+    dv0_3 = -t14
     del t14
+    t15 = t7*v1
+    del t7
+    t16 = M00*t12 - M01*t15
+    dv1_0 = rdet*t16
+    dv1_1 = -rdet*t16
+    del t16
     dv1_2 = dv0_3
     dv1_3 = M00*rdet
     del M00, rdet
-    t15 = g*m1 + g*m2
-    t16 = t15*cos_theta1
-    del cos_theta1, t15
-    t17 = l2*m2
-    t18 = v0*v1
+    t17 = g*t11
+    del t11
+    t18 = l1*cos_theta1
+    del cos_theta1
     t19 = t17*t18
-    t20 = dv0_0*t13 + dv1_0*t10
-    t21 = dv0_1*t13 + dv1_1*t10
-    t22 = dv0_2*t13 + dv1_2*t10
-    t23 = dv0_3*t13 + dv1_3*t10
-    del t10, t13
-    t24 = g*cos_theta2
+    del t17, t18
+    t20 = M01*v0*v1
+    del M01, v0, v1
+    t21 = dv0_0*t15 + dv1_0*t12 + t20
+    t22 = dv0_1*t15 + dv1_1*t12 - t20
+    del t20
+    t23 = dv0_2*t15 + dv1_2*t12
+    t24 = dv0_3*t15 + dv1_3*t12
+    del t12, t15
+    t25 = l2*cos_theta2
     del cos_theta2
-    t25 = -l1*(t16 + t19*t8) - t20
-    del t16, t19
-    t26 = (l1*l2*m2)*(t8*v0*v1) - t21
-    del v0, v1
-    t27 = -t22
-    t28 = -t23
-    t29 = M01*t18 + t20
-    del M01, t20
-    t30 = t17*(-l1*(t18*t8) - t24) + t21
-    del t17, t18, t21, t24, t8
+    t26 = (-g*m2)*t25
+    del t25
+    t27 = -t19 - t21
+    del t19
+    t28 = -t22
+    t29 = -t23
+    t30 = -t24
+    t31 = t22 + t26
+    del t22, t26
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = dv0_0
     del dv0_0
@@ -694,22 +704,22 @@ def hamiltonian_jacobian(x, p):
     del dv1_2
     J[..., 1, 3] = dv1_3
     del dv1_3
-    J[..., 2, 0] = t25
-    del t25
-    J[..., 2, 1] = t26
-    del t26
-    J[..., 2, 2] = t27
+    J[..., 2, 0] = t27
     del t27
-    J[..., 2, 3] = t28
+    J[..., 2, 1] = t28
     del t28
-    J[..., 3, 0] = t29
+    J[..., 2, 2] = t29
     del t29
-    J[..., 3, 1] = t30
+    J[..., 2, 3] = t30
     del t30
-    J[..., 3, 2] = t22
-    del t22
-    J[..., 3, 3] = t23
+    J[..., 3, 0] = t21
+    del t21
+    J[..., 3, 1] = t31
+    del t31
+    J[..., 3, 2] = t23
     del t23
+    J[..., 3, 3] = t24
+    del t24
     return J
 
 
@@ -731,8 +741,9 @@ def to_canonical(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     t0 = l1*l1
-    t1 = t0*(m1 + m2)
-    del t0
+    t1 = m1 + m2
+    t2 = t0*t1
+    del t0, t1
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -747,26 +758,26 @@ def to_canonical(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t6 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t7 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
-    t7 = l1*m2
-    t8 = l2*t7
-    del t7
-    t9 = t8*t6
-    del t6, t8
-    t10 = t9*theta2_dot
-    t11 = l2*l2*m2
-    t12 = t1*theta1_dot + t10
-    del t1, t10
-    t13 = t11*theta2_dot + t9*theta1_dot
-    del t11, t9
+    t8 = l2*m2
+    t9 = t8*t7
+    del t7, t8
+    t10 = l1*t9
+    del t9
+    t11 = t10*theta2_dot
+    t12 = l2*l2*m2
+    t13 = t11 + t2*theta1_dot
+    del t11, t2
+    t14 = t10*theta1_dot + t12*theta2_dot
+    del t10, t12
     x = numpy.empty(shape + (4,), dtype)
     x[..., 0] = theta1
     x[..., 1] = theta2
-    x[..., 2] = t12
-    del t12
-    x[..., 3] = t13
+    x[..., 2] = t13
     del t13
+    x[..., 3] = t14
+    del t14
     return x
 
 
@@ -803,15 +814,16 @@ def from_canonical(x, p):
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
-    t5 = l1*m2
-    t6 = l2*t5
-    del t5
-    M01 = t6*t4
-    del t4, t6
+    t5 = l2*m2
+    t6 = t5*t4
+    del t4, t5
+    M01 = l1*t6
+    del t6
     M11 = l2*l2*m2
     t7 = l1*l1
-    M00 = t7*(m1 + m2)
-    del t7
+    t8 = m1 + m2
+    M00 = t7*t8
+    del t7, t8
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det

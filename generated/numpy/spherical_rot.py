@@ -36,7 +36,7 @@ def rhs(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns ydot: (..., 8) y' in state order
-    Total ops: 202
+    Total ops: 203
     """
     (y, p), shape, dtype = _prepare("rhs", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -91,9 +91,8 @@ def rhs(y, p):
     t12 = l1*l2
     Q11 = t12*t11
     t14 = l1*cos_vartheta1
-    t15 = l2*t6
-    Q01 = t14*t15
-    del t15
+    t15 = l2*t14
+    Q01 = t15*t6
     t16 = Q01*Q01
     t17 = 1.0/m2
     t18 = l1*l1
@@ -118,74 +117,78 @@ def rhs(y, p):
     del t21
     D1_11 = -t26 - t27
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t28 = g*t17*t19
-    t29 = l1*t28
-    t30 = cos_vartheta1*vartheta1_dot
-    t31 = t30*varphi1_dot
-    del t30
-    t32 = 2*Aa
-    t33 = 2*varphi2_dot
-    t34 = t11*t9
+    t28 = g*t19
+    t29 = t28*cos_varphi1
+    del cos_varphi1
+    t30 = l1*t17
+    t31 = 2*varphi1_dot
+    t32 = cos_vartheta1*vartheta1_dot
+    t33 = Aa*t32
+    del t32
+    t34 = 2*varphi2_dot
+    t35 = t11*t9
     del t9
-    t35 = t33*t34
-    del t34
-    t36 = t12*t6
+    t36 = t34*t35
+    del t35
     t37 = varphi2_dot*varphi2_dot
     t38 = sin_vartheta2*t37
-    t39 = vartheta2_dot*vartheta2_dot
-    t40 = t12*t39
-    del t39
-    t41 = t40*t6
-    f1 = -t29*cos_varphi1 - sin_vartheta2*t41 - t32*t31 - t35*vartheta2_dot - t36*t38
-    del cos_varphi1, t29, t31, t32, t35, t36, t38, t41
-    t42 = cos_vartheta2*sin_vartheta2
-    t43 = varphi1_dot*varphi1_dot
-    t44 = cos_vartheta2*sin_vartheta1
-    t45 = t43*t44
-    t46 = 2*varphi1_dot
-    t47 = t14*vartheta1_dot
-    t48 = t6*t8
-    t49 = t47*t48
-    del t48
-    t50 = vartheta1_dot*vartheta1_dot
-    t51 = t11*t44
-    del t44
-    t52 = t12*(cos_vartheta1*sin_vartheta2 - t51)
-    del t12, t51
-    f2 = Ab*(t37*t42) + Q11*t45 + t46*t49 - g*(sin_varphi2*t8) - t50*t52
-    del sin_varphi2, t42, t45, t49, t52
-    t53 = g*cos_varphi2
+    t39 = t12*t6
+    t40 = vartheta2_dot*vartheta2_dot
+    t41 = t12*t40
+    del t40
+    t42 = t41*t6
+    f1 = -sin_vartheta2*t42 - t30*t29 - t31*t33 - t36*vartheta2_dot - t38*t39
+    del t29, t30, t33, t36, t38, t39, t42
+    t43 = g*sin_varphi2
+    del sin_varphi2
+    t44 = cos_vartheta2*sin_vartheta2
+    t45 = varphi1_dot*varphi1_dot
+    t46 = cos_vartheta2*sin_vartheta1
+    t47 = t45*t46
+    t48 = t14*vartheta1_dot
+    t49 = t31*t48
+    del t31, t48
+    t50 = t49*t6
+    del t49
+    t51 = vartheta1_dot*vartheta1_dot
+    t52 = t11*t46
+    del t46
+    t53 = t12*(cos_vartheta1*sin_vartheta2 - t52)
+    del t12, t52
+    f2 = Ab*(t37*t44) + Q11*t47 + t50*t8 - t43*t8 - t51*t53
+    del t43, t44, t47, t50, t53
+    t54 = g*cos_varphi2
     del cos_varphi2
-    t54 = cos_vartheta2*vartheta2_dot
-    t55 = Ab*t33
-    t56 = t11*t47
-    del t47
-    t57 = t46*t56
-    del t46, t56
-    f3 = (l1*l2)*(sin_vartheta1*t43*t6) + (l1*l2)*(sin_vartheta1*t50*t6) - l2*t53 - l2*t57 - t54*t55
-    del t50, t53, t54, t55, t57
-    t58 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t59 = t28*t14
-    del t28
-    t60 = t8*vartheta2_dot
+    t55 = cos_vartheta2*vartheta2_dot
+    t56 = Ab*t34
+    t57 = t11*t15
+    del t15
+    t58 = 2*vartheta1_dot
+    t59 = t57*t58
+    del t57, t58
+    f3 = (l1*l2)*(sin_vartheta1*t45*t6) + (l1*l2)*(sin_vartheta1*t51*t6) - l2*t54 - t55*t56 - t59*varphi1_dot
+    del t51, t54, t55, t56, t59
+    t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t61 = t28*sin_varphi1
+    del sin_varphi1, t28
+    t62 = t17*t14
+    t63 = t8*vartheta2_dot
     del t8
-    t61 = t33*t60
-    del t33, t60
-    t62 = t14*t6
-    del t14, t6
-    t63 = cos_vartheta1*sin_vartheta2
-    t64 = t11*t63
-    del t63
-    t65 = cos_vartheta2*sin_vartheta1 - t64
-    del cos_vartheta2, t64
-    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t11*t37) + (t17*t18*t19)*(cos_vartheta1*sin_vartheta1*t43) - sin_varphi1*t59 - t40*t65 - t61*t62
-    del cos_vartheta1, sin_varphi1, t11, t17, t18, t19, t37, t40, t43, t59, t61, t62, t65
-    t66 = Ab*f0 - Q00*f2 - Q01*f3
+    t64 = t34*t63
+    del t34, t63
+    t65 = t14*t64
+    del t14, t64
+    t66 = cos_vartheta1*sin_vartheta2
+    t67 = cos_vartheta2*sin_vartheta1 - t11*t66
+    del cos_vartheta2, t66
+    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t11*t37) + (t17*t18*t19)*(cos_vartheta1*sin_vartheta1*t45) - t41*t67 - t6*t65 - t61*t62
+    del cos_vartheta1, t11, t17, t18, t19, t37, t41, t45, t6, t61, t62, t65, t67
+    t68 = Ab*f0 - Q00*f2 - Q01*f3
     del Ab
-    qdd0 = D1_11*rD1*t66 - D1_01*t58
+    qdd0 = D1_11*rD1*t68 - D1_01*t60
     del D1_11
-    xr1 = D1_00*t58 - D1_01*rD1*t66
-    del D1_00, D1_01, rD1, t58, t66
+    xr1 = D1_00*t60 - D1_01*rD1*t68
+    del D1_00, D1_01, rD1, t60, t68
     rs1 = 1.0/sin_vartheta1
     del sin_vartheta1
     qdd1 = rs1*xr1
@@ -196,14 +199,14 @@ def rhs(y, p):
     D2_11 = -t16 - t27
     del t16, t27
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t67 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t69 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
     del Q01, Q11, f3
-    t68 = Aa*f2 - Q00*f0 - Q10*f1
+    t70 = Aa*f2 - Q00*f0 - Q10*f1
     del Aa, Q00, Q10, f0, f1, f2
-    qdd2 = D2_11*rD2*t68 - D2_01*t67
+    qdd2 = D2_11*rD2*t70 - D2_01*t69
     del D2_11
-    xr3 = D2_00*t67 - D2_01*rD2*t68
-    del D2_00, D2_01, rD2, t67, t68
+    xr3 = D2_00*t69 - D2_01*rD2*t70
+    del D2_00, D2_01, rD2, t69, t70
     rs3 = 1.0/sin_vartheta2
     del sin_vartheta2
     qdd3 = rs3*xr3
@@ -230,7 +233,7 @@ def mass_matrix(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns M: (..., 4, 4) M, row-major
-    Total ops: 39
+    Total ops: 40
     """
     (y, p), shape, dtype = _prepare("mass_matrix", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -278,18 +281,19 @@ def mass_matrix(y, p):
     t12 = cos_vartheta1*cos_vartheta2
     t13 = t12*t9 + t4
     del t12
-    t14 = l1*m2
-    t15 = l2*t14
-    M02 = t15*t13
+    t14 = l1*l2
+    t15 = t14*t13
     del t13
+    M02 = m2*t15
+    del t15
     t16 = cos_vartheta1*sin_vartheta2
     del cos_vartheta1
     t17 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
     del cos_varphi1, cos_varphi2, sin_varphi1, sin_varphi2
-    t18 = l2*t17
+    t18 = t14*t17
     del t17
-    t19 = t14*t18
-    del t14, t18
+    t19 = m2*t18
+    del t18
     M03 = t16*t19
     del t16
     t20 = sin_vartheta1*sin_vartheta1
@@ -301,17 +305,19 @@ def mass_matrix(y, p):
     del t19, t21
     M12 = -t22
     del t22
-    t23 = t4*t9
-    del t4, t9
-    M13 = t15*t23
-    del t15, t23
-    t24 = l2*l2
-    M22 = m2*t24
+    t23 = t14*t9
+    del t14, t9
+    t24 = t23*t4
+    del t23, t4
+    M13 = m2*t24
     del t24
-    t25 = sin_vartheta2*sin_vartheta2
-    del sin_vartheta2
-    M33 = M22*t25
+    t25 = l2*l2
+    M22 = m2*t25
     del t25
+    t26 = sin_vartheta2*sin_vartheta2
+    del sin_vartheta2
+    M33 = M22*t26
+    del t26
     M = numpy.empty(shape + (4, 4), dtype)
     M[..., 0, 0] = M00
     del M00
@@ -346,7 +352,7 @@ def forcing(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns F: (..., 4) F
-    Total ops: 118
+    Total ops: 104
     """
     (y, p), shape, dtype = _prepare("forcing", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -362,6 +368,7 @@ def forcing(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
+    t0 = m1 + m2
     tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
     tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
     rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
@@ -369,6 +376,13 @@ def forcing(y, p):
     del tan_half_vartheta1
     cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
     del rho_vartheta1, tan_half_sq_vartheta1
+    tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
+    tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
+    rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
+    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    del tan_half_vartheta2
+    cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
+    del rho_vartheta2, tan_half_sq_vartheta2
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
@@ -383,85 +397,60 @@ def forcing(y, p):
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
-    t5 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
-    t6 = varphi2_dot*varphi2_dot
-    tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
-    tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
-    rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
-    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
-    del tan_half_vartheta2
-    cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
-    del rho_vartheta2, tan_half_sq_vartheta2
-    t8 = l2*cos_vartheta2
-    t9 = t8*vartheta2_dot
-    t10 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
-    t12 = cos_vartheta1*sin_vartheta2
-    t13 = t10*t12
-    t15 = cos_vartheta2*sin_vartheta1
-    t16 = l1*m2
-    t17 = l2*t16
-    t18 = vartheta2_dot*vartheta2_dot
-    t19 = t17*t18
-    t20 = g*m1
-    t21 = g*m2
-    t22 = cos_vartheta1*sin_varphi1
+    t7 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
+    t9 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    t10 = g*t0
+    t11 = t10*sin_varphi1
     del sin_varphi1
-    t23 = l1*l1
-    t24 = m1*t23
-    t25 = m2*t23
-    del t23
-    t26 = varphi1_dot*varphi1_dot
-    t27 = sin_vartheta1*t26
-    t28 = 2*t16
-    del t16
-    t29 = 2*varphi2_dot
-    t30 = t29*t9
-    del t29
-    t31 = cos_vartheta1*vartheta1_dot
-    t32 = t31*varphi1_dot
-    del t31
-    t33 = l1*m1
-    t34 = l2*t5
-    t35 = m2*sin_vartheta2
-    t36 = t34*t35
-    del t34
-    t37 = l1*sin_vartheta1
-    t38 = cos_vartheta2*sin_vartheta2
-    del cos_vartheta2, sin_vartheta2
-    t39 = t5*t8
-    t40 = t10*t15
-    t41 = l2*l2
-    t42 = m2*t41
-    del t41
-    t43 = vartheta1_dot*vartheta1_dot
-    t44 = t17*t43
-    t45 = g*cos_varphi2
+    t12 = varphi1_dot*varphi1_dot
+    t13 = varphi2_dot*varphi2_dot
+    t14 = vartheta2_dot*vartheta2_dot
+    t16 = cos_vartheta2*sin_vartheta1
+    t17 = l2*m2
+    t18 = l2*cos_vartheta2
+    t19 = t18*vartheta2_dot
+    t20 = 2*varphi2_dot
+    t21 = t19*t20
+    del t19, t20
+    t22 = m2*t21
+    t23 = t10*cos_varphi1
+    del cos_varphi1, t10
+    t24 = sin_vartheta2*t13
+    t25 = 2*varphi1_dot
+    t26 = l1*cos_vartheta1
+    t27 = t26*vartheta1_dot
+    del t26
+    t28 = t25*t27
+    del t25, t27
+    t29 = t17*sin_vartheta2
+    t30 = l1*sin_vartheta1
+    t31 = cos_vartheta1*sin_vartheta2
+    t32 = g*sin_varphi2
+    del sin_varphi2
+    t33 = t28*t9
+    t34 = t16*t7
+    t35 = vartheta1_dot*vartheta1_dot
+    t36 = l1*t35
+    t37 = g*cos_varphi2
     del cos_varphi2
-    t46 = 2*varphi1_dot
-    t47 = l1*cos_vartheta1
-    t48 = t47*vartheta1_dot
-    del t47
-    t49 = t10*t48
-    del t48
-    t50 = t46*t49
-    del t46, t49
-    t51 = (t24 + t25)*(cos_vartheta1*t27) + t17*(t13*t6) + t13*t19 + (-l1*t20 - l1*t21)*t22 - t28*(cos_vartheta1*t5*t9*varphi2_dot) - t15*t19
-    del cos_vartheta1, t13, t15, t19, t22, t24, t25, t27, t9
-    t52 = -t37*((t20 + t21)*cos_varphi1 + m2*(t10*t30) + t18*t36 + (t28 + 2*t33)*t32 + t36*t6)
-    del cos_varphi1, t10, t18, t20, t33, t36, t37
-    t53 = t17*(t26*t40) + t28*(t32*t39) + t42*(t38*t6) + t40*t44 - t21*(sin_varphi2*t8) - t12*t44
-    del sin_varphi2, t12, t17, t21, t28, t32, t38, t39, t40, t42, t44, t6, t8
-    t54 = l2*(t35*(l1*(sin_vartheta1*t26*t5) + l1*(sin_vartheta1*t43*t5) - t30 - t45 - t50))
-    del sin_vartheta1, t26, t30, t35, t43, t45, t5, t50
+    t38 = t28*t7
+    t39 = l1*((l1*t0)*(cos_vartheta1*sin_vartheta1*t12) + (l2*m2)*(cos_vartheta1*sin_vartheta2*t13*t7) + (l2*m2)*(cos_vartheta1*sin_vartheta2*t14*t7) - cos_vartheta1*t11 - cos_vartheta1*t22*t9 - t17*(t14*t16))
+    del cos_vartheta1, sin_vartheta2, t11, t13, t16
+    t40 = -t30*(t0*t28 + t14*t29*t9 + t17*(t24*t9) + t22*t7 + t23)
+    del t0, t14, t22, t23, t28, t30, t7
+    t41 = t17*(cos_vartheta2*t33 + l1*(t12*t34) + t18*t24 + t34*t36 - cos_vartheta2*t32 - t31*t36)
+    del cos_vartheta2, t17, t18, t24, t31, t32, t33, t34, t36
+    t42 = t29*(l1*(sin_vartheta1*t12*t9) + l1*(sin_vartheta1*t35*t9) - t21 - t37 - t38)
+    del sin_vartheta1, t12, t21, t29, t35, t37, t38, t9
     F = numpy.empty(shape + (4,), dtype)
-    F[..., 0] = t51
-    del t51
-    F[..., 1] = t52
-    del t52
-    F[..., 2] = t53
-    del t53
-    F[..., 3] = t54
-    del t54
+    F[..., 0] = t39
+    del t39
+    F[..., 1] = t40
+    del t40
+    F[..., 2] = t41
+    del t41
+    F[..., 3] = t42
+    del t42
     return F
 
 
@@ -471,7 +460,7 @@ def energy(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns E: (...) T + V
-    Total ops: 80
+    Total ops: 82
     """
     (y, p), shape, dtype = _prepare("energy", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -517,23 +506,24 @@ def energy(y, p):
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
     t7 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
-    t8 = varphi1_dot*varphi1_dot
-    t9 = varphi2_dot*varphi2_dot
-    t11 = l2*cos_vartheta2
-    t12 = t11*vartheta2_dot
-    del t11
-    t13 = vartheta2_dot*vartheta2_dot
-    t15 = cos_vartheta1*vartheta1_dot
-    t16 = vartheta1_dot*vartheta1_dot
-    t17 = l1*m2
-    t18 = l2*t17
+    t8 = l1*l2
+    t9 = varphi1_dot*varphi1_dot
+    t10 = varphi2_dot*varphi2_dot
+    t12 = l2*cos_vartheta2
+    t13 = t12*vartheta2_dot
+    del t12
+    t14 = vartheta2_dot*vartheta2_dot
+    t16 = l1*cos_vartheta1
+    t17 = t16*vartheta1_dot
+    del t16
+    t18 = vartheta1_dot*vartheta1_dot
     t19 = cos_vartheta1*sin_vartheta2
     del cos_vartheta1
     t20 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
     del cos_varphi1, cos_varphi2
-    t21 = l2*t20
+    t21 = t8*t20
     del t20
-    t22 = t17*t21
+    t22 = m2*t21
     del t21
     t23 = t19*t22
     del t19
@@ -542,33 +532,39 @@ def energy(y, p):
     del cos_vartheta2
     t26 = t22*t25
     del t22, t25
-    t27 = t2*t7
-    t28 = t18*t27
+    t27 = t8*t7
+    t28 = t2*t27
     del t27
-    t29 = l2*l2
-    t30 = m2*t29
-    del t29
-    t31 = sin_vartheta2*sin_vartheta2
-    t32 = t30*t31
-    del t31
-    t33 = sin_varphi1*sin_vartheta1
-    del sin_varphi1, sin_vartheta1
-    t34 = l1*m1
-    t35 = l1*l1
-    t36 = m1*t35
-    t37 = m2*t35
-    del t35
-    t38 = (1/2)*t36 + (1/2)*t37
-    del t36, t37
-    t39 = sin_varphi2*sin_vartheta2
+    t29 = m2*t28
+    del t28
+    t30 = l2*l2
+    t31 = m2*t30
+    del t30
+    t32 = sin_vartheta2*sin_vartheta2
+    t33 = t31*t32
+    del t32
+    t34 = sin_varphi2*sin_vartheta2
     del sin_varphi2, sin_vartheta2
-    t40 = l2*t39
-    del t39
-    t41 = g*(m2*t40 + (t17 + t34)*t33) + t17*(t12*t15*t7) + ((1/2)*t30)*t13 + t38*t16 + t18*(t2*vartheta1_dot*vartheta2_dot) + t23*varphi2_dot*vartheta1_dot + t38*(t24*t8) + t28*varphi1_dot*varphi2_dot + 1/2*(t32*t9) - t26*varphi1_dot*vartheta2_dot
-    del t12, t13, t15, t16, t17, t18, t2, t23, t24, t26, t28, t30, t32, t33, t34, t38, t40, t7, t8, t9
-    E = numpy.empty(shape + (), dtype)
-    E[...] = t41
+    t35 = l2*m2
+    t36 = m1 + m2
+    t37 = g*t36
+    del t36
+    t38 = sin_varphi1*sin_vartheta1
+    del sin_varphi1, sin_vartheta1
+    t39 = l1*t38
+    del t38
+    t40 = t37*t39
+    del t37, t39
+    t41 = l1*l1
+    t42 = (1/2)*t41
     del t41
+    t43 = m1*t42 + m2*t42
+    del t42
+    t44 = (g*t35)*t34 + m2*(t13*t17*t7) + (m2*t8)*(t2*vartheta1_dot*vartheta2_dot) + 1/2*(t10*t33) + ((1/2)*t31)*t14 + t43*t18 + t23*varphi2_dot*vartheta1_dot + t43*(t24*t9) + t29*varphi1_dot*varphi2_dot + t40 - t26*varphi1_dot*vartheta2_dot
+    del t10, t13, t14, t17, t18, t2, t23, t24, t26, t29, t31, t33, t34, t35, t40, t43, t7, t8, t9
+    E = numpy.empty(shape + (), dtype)
+    E[...] = t44
+    del t44
     return E
 
 
@@ -766,7 +762,7 @@ def jacobian(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 8, 8) row-major
-    Total ops: 720
+    Total ops: 721
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -799,7 +795,6 @@ def jacobian(y, p):
     t2 = 1.0/m2
     t3 = l1*l1
     t4 = m1 + m2
-    t6 = l1*cos_vartheta1
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
@@ -814,14 +809,14 @@ def jacobian(y, p):
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
-    t11 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    t9 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    t11 = l1*cos_vartheta1
     t12 = l2*t11
-    Q01 = t12*t6
-    del t12
+    Q01 = t12*t9
     t13 = varphi1_dot*varphi1_dot
     t14 = vartheta1_dot*vartheta1_dot
     t15 = l1*l2
-    t16 = t15*t11
+    t16 = t15*t9
     t17 = sin_vartheta1*t16
     t18 = sin_vartheta1*vartheta1_dot
     t19 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
@@ -831,7 +826,7 @@ def jacobian(y, p):
     Ab = l2*l2
     t23 = l2*cos_vartheta2
     t24 = l1*t23
-    t25 = t11*t24
+    t25 = t24*t9
     Q10 = -t25
     t26 = Q01*Q01
     t27 = t3*t4
@@ -852,11 +847,13 @@ def jacobian(y, p):
     del t28
     D1_11 = -t33 - t34
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t35 = g*t2*t4
-    t36 = l1*t35
-    t37 = cos_vartheta1*vartheta1_dot
-    t38 = t37*varphi1_dot
-    t39 = 2*Aa
+    t35 = g*t4
+    t36 = t35*cos_varphi1
+    del cos_varphi1
+    t37 = l1*t2
+    t38 = cos_vartheta1*vartheta1_dot
+    t39 = Aa*t38
+    del t38
     t40 = 2*varphi2_dot
     t41 = t19*t24
     del t24
@@ -865,251 +862,256 @@ def jacobian(y, p):
     t44 = sin_vartheta2*t43
     t45 = vartheta2_dot*vartheta2_dot
     t46 = t15*t45
-    t47 = t11*t46
-    f1 = -t36*cos_varphi1 - sin_vartheta2*t47 - t16*t44 - t39*t38 - t42*vartheta2_dot
-    del t38
-    t48 = cos_vartheta2*sin_vartheta2
-    t49 = cos_vartheta2*sin_vartheta1
-    t50 = t13*t49
-    t51 = t6*vartheta1_dot
-    t52 = t11*t23
-    t53 = t51*t52
-    t54 = t19*t49
-    t55 = t15*(cos_vartheta1*sin_vartheta2 - t54)
-    del t54
-    f2 = Ab*(t43*t48) + Q11*t50 + t20*t53 - g*(sin_varphi2*t23) - t14*t55
-    t56 = g*cos_varphi2
+    t47 = t46*t9
+    f1 = -sin_vartheta2*t47 - t16*t44 - t20*t39 - t37*t36 - t42*vartheta2_dot
+    t48 = g*sin_varphi2
+    t49 = cos_vartheta2*sin_vartheta2
+    t50 = cos_vartheta2*sin_vartheta1
+    t51 = t13*t50
+    t52 = t11*vartheta1_dot
+    t53 = t20*t52
+    t54 = t53*t9
+    t55 = t19*t50
+    t56 = t15*(cos_vartheta1*sin_vartheta2 - t55)
+    del t55
+    f2 = Ab*(t43*t49) + Q11*t51 + t23*t54 - t14*t56 - t23*t48
+    del t48, t54
+    t57 = g*cos_varphi2
     del cos_varphi2
-    t57 = cos_vartheta2*vartheta2_dot
-    t58 = Ab*t40
-    t59 = t19*t51
-    del t51
-    t60 = t20*t59
-    f3 = (l1*l2)*(sin_vartheta1*t11*t13) + (l1*l2)*(sin_vartheta1*t11*t14) - l2*t56 - l2*t60 - t57*t58
-    t61 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t62 = t35*t6
-    t63 = t23*vartheta2_dot
-    t64 = t40*t63
-    t65 = t11*t6
-    t66 = cos_vartheta1*sin_vartheta2
-    t67 = t19*t66
-    t68 = cos_vartheta2*sin_vartheta1 - t67
+    t58 = cos_vartheta2*vartheta2_dot
+    t59 = Ab*t40
+    t60 = t12*t19
+    del t12
+    t61 = 2*vartheta1_dot
+    t62 = t60*t61
+    f3 = (l1*l2)*(sin_vartheta1*t13*t9) + (l1*l2)*(sin_vartheta1*t14*t9) - l2*t57 - t58*t59 - t62*varphi1_dot
+    t63 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t64 = t35*sin_varphi1
+    t65 = t2*t11
+    t66 = t23*vartheta2_dot
+    t67 = t40*t66
+    t68 = t11*t67
     del t67
-    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t19*t43) + (t2*t3*t4)*(cos_vartheta1*sin_vartheta1*t13) - sin_varphi1*t62 - t46*t68 - t64*t65
-    t69 = Ab*f0 - Q00*f2 - Q01*f3
-    qdd0 = D1_11*rD1*t69 - D1_01*t61
-    t70 = Q01*t13 + Q01*t14 + qdd0*t17 + t18*t21
-    t71 = 2*vartheta1_dot
-    t72 = t71*varphi1_dot
-    t73 = t16*t49
-    t74 = -t31
+    t69 = cos_vartheta1*sin_vartheta2
+    t70 = cos_vartheta2*sin_vartheta1 - t19*t69
+    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t19*t43) + (t2*t3*t4)*(cos_vartheta1*sin_vartheta1*t13) - t46*t70 - t64*t65 - t68*t9
+    t71 = Ab*f0 - Q00*f2 - Q01*f3
+    qdd0 = D1_11*rD1*t71 - D1_01*t63
+    t72 = Q01*t13 + Q01*t14 + qdd0*t17 + t18*t21
+    t73 = t61*varphi1_dot
+    t74 = t16*t50
+    t75 = -t31
     del t31
-    t75 = t15*t14
-    t76 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t13*t19) - qdd0*t55 - t72*t73 - t74*t75
-    t77 = (2*Ab*t2*t3*t4)*(sin_vartheta1*varphi1_dot*vartheta1_dot) - Q10*t76 - Q11*t70
-    t78 = D1_01*rD1
-    t79 = cos_vartheta1*cos_vartheta1
-    t80 = sin_varphi1*sin_vartheta1
-    t81 = l1*t80
-    del t80
+    t76 = t15*t14
+    t77 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t13*t19) - qdd0*t56 - t73*t74 - t75*t76
+    t78 = (2*Ab*t2*t3*t4)*(sin_vartheta1*varphi1_dot*vartheta1_dot) - Q10*t77 - Q11*t72
+    t79 = D1_01*rD1
+    t80 = cos_vartheta1*cos_vartheta1
+    t81 = sin_varphi1*sin_vartheta1
+    del sin_varphi1
+    t82 = l1*t81
+    del t81
+    t83 = t35*t82
+    del t35, t82
     D2_00 = -t32 - t33
     del t32, t33
     D2_01 = -Q00*Q01 - Q10*Q11
     D2_11 = -t26 - t34
     del t26, t34
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t82 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t84 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
     del f3
-    t83 = Aa*f2 - Q00*f0 - Q10*f1
+    t85 = Aa*f2 - Q00*f0 - Q10*f1
     del f0, f1, f2
-    xr3 = D2_00*t82 - D2_01*rD2*t83
-    t84 = t16*xr3
-    t85 = t40*vartheta2_dot
-    t86 = t19*t29
-    t87 = t30 + t86
-    del t30, t86
-    qdd2 = D2_11*rD2*t83 - D2_01*t82
-    del t82, t83
-    t88 = Aa*(t13*(-1 + 2*t79)) + sin_vartheta1*t84 + t35*t81 + t73*t85 - Q11*t29*t43 - qdd2*t55 - t46*t87
-    del t35, t73, t79, t81
-    t89 = Ab*t88 - Q00*t76 - Q01*t70
-    t90 = sin_vartheta1*t13
-    xr1 = D1_00*t61 - D1_01*rD1*t69
-    del D1_01, t61, t69
+    xr3 = D2_00*t84 - D2_01*rD2*t85
+    t86 = t16*xr3
+    t87 = t40*vartheta2_dot
+    t88 = t19*t29 + t30
+    del t30
+    qdd2 = D2_11*rD2*t85 - D2_01*t84
+    del t84, t85
+    t89 = Aa*(t13*(-1 + 2*t80)) + sin_vartheta1*t86 + t2*t83 + t74*t87 - Q11*t29*t43 - qdd2*t56 - t46*t88
+    del t74, t80, t83
+    t90 = Ab*t89 - Q00*t77 - Q01*t72
+    xr1 = D1_00*t63 - D1_01*rD1*t71
+    del D1_01, t63, t71
     t91 = t16*xr1
-    t92 = t19*t6
-    t93 = l2*t92
-    t94 = Q01*t72 + Q11*sin_vartheta1*t14 + Q11*t90 + t91 - qdd0*t93
-    del t14, t90
-    t95 = t52*t6
-    del t52, t6
-    t96 = qdd0*t95 + t23*t60 + t41*xr1 - t11*t49*t75 - t16*t50
-    del t50, t60
-    t97 = qdd2*t41 + t25*t85 + t84 - Q11*sin_vartheta2*t45 - Q11*t44
-    del t44, t84, t85
-    t98 = t36*sin_varphi1 + t97
-    del sin_varphi1, t36
-    t99 = Ab*t98 - Q10*t96 - Q11*t94
-    t100 = t16*t66
-    t101 = t100*t43 + t47*t66 + t64*t92 + t93*xr3 - qdd2*t95
-    del t47, t64, t92
-    t102 = -cos_varphi1*t62 - t101
-    del cos_varphi1, t62
-    t103 = Ab*t102 - Q00*t96 - Q01*t94
-    t104 = sin_vartheta2*vartheta2_dot
-    t105 = t104*t58
-    t106 = sin_vartheta2*t16
-    t107 = (2*l1*l2)*(sin_vartheta2*t19*varphi2_dot*vartheta2_dot) - qdd2*t106 - t25*t43 - t25*t45
+    t92 = Q01*t73 + Q11*sin_vartheta1*t13 + Q11*sin_vartheta1*t14 + t91 - qdd0*t60
+    del t14
+    t93 = t19*t53
+    del t53
+    t94 = t11*t23*t9
+    t95 = qdd0*t94 + t23*t93 + t41*xr1 - t16*t51 - t50*t76*t9
+    del t51, t93
+    t96 = qdd2*t41 + t25*t87 + t86 - Q11*sin_vartheta2*t45 - Q11*t44
+    del t44, t86, t87
+    t97 = t37*t64 + t96
+    del t37, t64
+    t98 = Ab*t97 - Q10*t95 - Q11*t92
+    t99 = t16*t69
+    t100 = t19*t68 + t43*t99 + t47*t69 + t60*xr3 - qdd2*t94
+    del t47, t68
+    t101 = -t100 - t36*t65
+    del t36, t65
+    t102 = Ab*t101 - Q00*t95 - Q01*t92
+    t103 = sin_vartheta2*vartheta2_dot
+    t104 = t103*t59
+    t105 = sin_vartheta2*t16
+    t106 = (2*l1*l2)*(sin_vartheta2*t19*varphi2_dot*vartheta2_dot) - qdd2*t105 - t25*t43 - t25*t45
     del t25, t45
+    t107 = Q11*t29
+    del t29
     t108 = cos_vartheta2*cos_vartheta2
-    t109 = t15*t68
-    del t15, t68
-    t110 = Ab*(t43*(-1 + 2*t108)) + (g*l2)*(sin_varphi2*sin_vartheta2) - Q11*t13*t29 - qdd0*t109 - sin_vartheta2*t91 - t100*t72 - t75*t87
-    del qdd0, t100, t108, t13, t29, t72, t75, t87, t91
-    t111 = Ab*t107 - Q10*t110 - Q11*t105
-    t112 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t19*t43) + (2*l1*l2)*(cos_vartheta1*sin_vartheta2*t11*varphi2_dot*vartheta2_dot) - qdd2*t109 - t46*t74
-    del qdd2, t19, t43, t46, t74
-    t113 = Ab*t112 - Q00*t110 - Q01*t105
-    del t105
-    t114 = -t97
-    del t97
-    t115 = (g*l2)*sin_varphi2 - t94
+    t109 = t15*t70
+    del t15, t70
+    t110 = Ab*(t43*(-1 + 2*t108)) + (g*l2)*(sin_varphi2*sin_vartheta2) - qdd0*t109 - sin_vartheta2*t91 - t107*t13 - t73*t99 - t76*t88
+    del qdd0, t107, t108, t13, t73, t76, t88, t91, t99
+    t111 = Ab*t106 - Q10*t110 - Q11*t104
+    t112 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t19*t43) + (2*l1*l2)*(cos_vartheta1*sin_vartheta2*t9*varphi2_dot*vartheta2_dot) - qdd2*t109 - t46*t75
+    del qdd2, t19, t43, t46, t75
+    t113 = Ab*t112 - Q00*t110 - Q01*t104
+    del t104
+    t114 = -t96
+    del t96
+    t115 = (g*l2)*sin_varphi2 - t92
     del sin_varphi2
-    t116 = -t23*t56 - t96
-    del t23, t56
-    t117 = Ab*t114 - Q10*t116 - Q11*t115
-    t118 = Ab*t101 - Q00*t116 - Q01*t115
-    t119 = (2*l1*l2)*(sin_vartheta1*t11*vartheta1_dot) - t20*t93
-    del t11, t93
-    t120 = t20*t95 - t55*t71
-    del t55, t71
-    t121 = -Q00*t120 - Q01*t119
-    t122 = Aa*t20
-    t123 = cos_vartheta1*t122
-    t124 = -Ab*t123 - Q10*t120 - Q11*t119
-    t125 = t39*t37
-    del t37, t39
-    t126 = t17*t20 - (2*l2)*t59
-    del t17, t20, t59
-    t127 = t21*t49 + 2*t53
-    del t21, t49, t53
-    t128 = -Ab*t125 - Q10*t127 - Q11*t126
-    t129 = (2*Ab*t2*t3*t4)*(cos_vartheta1*sin_vartheta1*varphi1_dot) - Q00*t127 - Q01*t126
-    del t2, t3, t4
-    t130 = cos_vartheta2*t58
-    t131 = -2*(t104*t16) - t42
-    del t104, t16, t42
-    t132 = Ab*t131 + Q11*t130
-    t133 = 2*vartheta2_dot
-    t134 = -t109*t133 - t40*t95
-    del t109, t95
-    t135 = Ab*t134 + Q01*t130
-    t136 = Ab*t57
+    t116 = -t23*t57 - t95
     del t57
-    t137 = 2*t136
-    t138 = t48*t58
-    del t48, t58
-    t139 = -t106*t40 - t133*t41
-    del t106, t133, t41
-    t140 = Ab*t139 + Q11*t137 - Q10*t138
-    t141 = 2*Q01
-    t142 = Q11*t40*t66 - 2*(t63*t65)
-    del t40, t63, t65, t66
-    t143 = Ab*t142 + t136*t141 - Q00*t138
-    del t136, t138
+    t117 = Ab*t114 - Q10*t116 - Q11*t115
+    t118 = Ab*t100 - Q00*t116 - Q01*t115
+    t119 = (2*l1*l2)*(sin_vartheta1*t9*vartheta1_dot) - t20*t60
+    del t60
+    t120 = t20*t94 - t56*t61
+    del t56, t61
+    t121 = -Q00*t120 - Q01*t119
+    t122 = Aa*cos_vartheta1
+    t123 = t122*t20
+    t124 = -Ab*t123 - Q10*t120 - Q11*t119
+    t125 = 2*t39
+    del t39
+    t126 = t17*t20 - t62
+    del t17, t62
+    t127 = 2*t9
+    del t9
+    t128 = t127*t23*t52 + t21*t50
+    del t21, t23, t50, t52
+    t129 = -Ab*t125 - Q10*t128 - Q11*t126
+    t130 = (2*Ab*t2*t3*t4)*(cos_vartheta1*sin_vartheta1*varphi1_dot) - Q00*t128 - Q01*t126
+    del t2, t3, t4
+    t131 = cos_vartheta2*t59
+    t132 = -2*(t103*t16) - t42
+    del t103, t16, t42
+    t133 = Ab*t132 + Q11*t131
+    t134 = 2*vartheta2_dot
+    t135 = -t109*t134 - t40*t94
+    del t109, t94
+    t136 = Ab*t135 + Q01*t131
+    t137 = Ab*t58
+    del t58
+    t138 = 2*t137
+    t139 = t49*t59
+    del t49, t59
+    t140 = -t105*t40 - t134*t41
+    del t105, t134, t41
+    t141 = Ab*t140 + Q11*t138 - Q10*t139
+    t142 = 2*Q01
+    t143 = Q11*t40*t69 - t11*t127*t66
+    del t11, t127, t40, t66, t69
+    t144 = Ab*t143 + t137*t142 - Q00*t139
+    del t137, t139
     rs1 = 1.0/sin_vartheta1
     qdd1 = rs1*xr1
     del xr1
-    t144 = D1_00*rD1
-    t145 = t122*t18
-    del t122, t18
-    t146 = Aa*t70 - Q01*t88 - Q11*t145
-    del t70
-    t147 = D2_01*rD2
+    t145 = D1_00*rD1
+    t146 = Aa*(t18*t20)
+    del t18, t20
+    t147 = Aa*t72 - Q01*t89 - Q11*t146
+    del t72
+    t148 = D2_01*rD2
     del D2_01
-    t148 = Aa*t76 - Q00*t88 - Q10*t145
-    del t145, t76, t88
-    t149 = Aa*t94 - Q01*t102 - Q11*t98
-    del t94
-    t150 = Aa*t96 - Q00*t102 - Q10*t98
-    del t102, t96, t98
-    t151 = (2*Aa*Ab)*(sin_vartheta2*varphi2_dot*vartheta2_dot) - Q01*t112 - Q11*t107
-    t152 = Aa*t110 - Q00*t112 - Q10*t107
-    del t107, t110, t112
-    t153 = Aa*t115 - Q01*t101 - Q11*t114
+    t149 = Aa*t77 - Q00*t89 - Q10*t146
+    del t146, t77, t89
+    t150 = Aa*t92 - Q01*t101 - Q11*t97
+    del t92
+    t151 = Aa*t95 - Q00*t101 - Q10*t97
+    del t101, t95, t97
+    t152 = (2*Aa*Ab)*(sin_vartheta2*varphi2_dot*vartheta2_dot) - Q01*t112 - Q11*t106
+    t153 = Aa*t110 - Q00*t112 - Q10*t106
+    del t106, t110, t112
+    t154 = Aa*t115 - Q01*t100 - Q11*t114
     del t115
-    t154 = Aa*t116 - Q00*t101 - Q10*t114
-    del t101, t114, t116
-    t155 = Aa*t119 + Q11*t123
+    t155 = Aa*t116 - Q00*t100 - Q10*t114
+    del t100, t114, t116
+    t156 = Aa*t119 + Q11*t123
     del t119
-    t156 = Aa*t120 + Q10*t123
+    t157 = Aa*t120 + Q10*t123
     del t120
-    t157 = Aa*t126 + Q11*t125 - Aa*(cos_vartheta1*sin_vartheta1*t141*varphi1_dot)
-    del t126, t141
-    t158 = Aa*t127 + Q10*t125 - Q00*sin_vartheta1*t123
-    del sin_vartheta1, t123, t125, t127
-    t159 = -Q00*t134 - Q10*t131
-    t160 = -Aa*t130 - Q01*t134 - Q11*t131
-    del t130, t131, t134
-    t161 = -Aa*t137 - Q01*t142 - Q11*t139
-    del Q01, Q11, t137
-    t162 = (2*Aa*Ab)*(cos_vartheta2*sin_vartheta2*varphi2_dot) - Q00*t142 - Q10*t139
-    del Aa, Ab, Q00, Q10, t139, t142
-    t163 = D2_00*rD2
+    t158 = Aa*t126 + Q11*t125 - sin_vartheta1*t122*t142*varphi1_dot
+    del t122, t126, t142
+    t159 = Aa*t128 + Q10*t125 - Q00*sin_vartheta1*t123
+    del sin_vartheta1, t123, t125, t128
+    t160 = -Q00*t135 - Q10*t132
+    t161 = -Aa*t131 - Q01*t135 - Q11*t132
+    del t131, t132, t135
+    t162 = -Aa*t138 - Q01*t143 - Q11*t140
+    del Q01, Q11, t138
+    t163 = (2*Aa*Ab)*(cos_vartheta2*sin_vartheta2*varphi2_dot) - Q00*t143 - Q10*t140
+    del Aa, Ab, Q00, Q10, t140, t143
+    t164 = D2_00*rD2
     rs3 = 1.0/sin_vartheta2
     del sin_vartheta2
     qdd3 = rs3*xr3
     del xr3
-    t164 = D1_11*rD1*t89 - t77*t78
-    t165 = D1_11*rD1*t103 - t78*t99
-    t166 = D1_11*rD1*t113 - t111*t78
-    t167 = D1_11*rD1*t118 - t117*t78
-    t168 = D1_11*rD1*t121 - t124*t78
-    t169 = D1_11*rD1*t129 - t128*t78
-    t170 = D1_11*rD1*t135 - t132*t78
-    t171 = D1_11*rD1*t143 - t140*t78
+    t165 = D1_11*rD1*t90 - t78*t79
+    t166 = D1_11*rD1*t102 - t79*t98
+    t167 = D1_11*rD1*t113 - t111*t79
+    t168 = D1_11*rD1*t118 - t117*t79
+    t169 = D1_11*rD1*t121 - t124*t79
+    t170 = D1_11*rD1*t130 - t129*t79
+    t171 = D1_11*rD1*t136 - t133*t79
+    t172 = D1_11*rD1*t144 - t141*t79
     del D1_11
-    t172 = rs1*(D1_00*rD1*t77 - cos_vartheta1*qdd1 - t78*t89)
-    del D1_00, cos_vartheta1, qdd1, rD1, t77, t89
-    t173 = rs1*(t144*t99 - t103*t78)
-    del t103, t99
-    t174 = rs1*(t111*t144 - t113*t78)
+    t173 = rs1*(D1_00*rD1*t78 - cos_vartheta1*qdd1 - t79*t90)
+    del D1_00, cos_vartheta1, qdd1, rD1, t78, t90
+    t174 = rs1*(t145*t98 - t102*t79)
+    del t102, t98
+    t175 = rs1*(t111*t145 - t113*t79)
     del t111, t113
-    t175 = rs1*(t117*t144 - t118*t78)
+    t176 = rs1*(t117*t145 - t118*t79)
     del t117, t118
-    t176 = rs1*(t124*t144 - t121*t78)
+    t177 = rs1*(t124*t145 - t121*t79)
     del t121, t124
-    t177 = rs1*(t128*t144 - t129*t78)
-    del t128, t129
-    t178 = rs1*(t132*t144 - t135*t78)
-    del t132, t135
-    t179 = rs1*(t140*t144 - t143*t78)
-    del rs1, t140, t143, t144, t78
-    t180 = D2_11*rD2*t148 - t146*t147
-    t181 = D2_11*rD2*t150 - t147*t149
-    t182 = D2_11*rD2*t152 - t147*t151
-    t183 = D2_11*rD2*t154 - t147*t153
-    t184 = D2_11*rD2*t156 - t147*t155
-    t185 = D2_11*rD2*t158 - t147*t157
-    t186 = D2_11*rD2*t159 - t147*t160
-    t187 = D2_11*rD2*t162 - t147*t161
+    t178 = rs1*(t129*t145 - t130*t79)
+    del t129, t130
+    t179 = rs1*(t133*t145 - t136*t79)
+    del t133, t136
+    t180 = rs1*(t141*t145 - t144*t79)
+    del rs1, t141, t144, t145, t79
+    t181 = D2_11*rD2*t149 - t147*t148
+    t182 = D2_11*rD2*t151 - t148*t150
+    t183 = D2_11*rD2*t153 - t148*t152
+    t184 = D2_11*rD2*t155 - t148*t154
+    t185 = D2_11*rD2*t157 - t148*t156
+    t186 = D2_11*rD2*t159 - t148*t158
+    t187 = D2_11*rD2*t160 - t148*t161
+    t188 = D2_11*rD2*t163 - t148*t162
     del D2_11
-    t188 = rs3*(t146*t163 - t147*t148)
-    del t146, t148
-    t189 = rs3*(t149*t163 - t147*t150)
-    del t149, t150
-    t190 = rs3*(D2_00*rD2*t151 - cos_vartheta2*qdd3 - t147*t152)
-    del D2_00, cos_vartheta2, qdd3, rD2, t151, t152
-    t191 = rs3*(t153*t163 - t147*t154)
-    del t153, t154
-    t192 = rs3*(t155*t163 - t147*t156)
-    del t155, t156
-    t193 = rs3*(t157*t163 - t147*t158)
-    del t157, t158
-    t194 = rs3*(t160*t163 - t147*t159)
-    del t159, t160
-    t195 = rs3*(t161*t163 - t147*t162)
-    del rs3, t147, t161, t162, t163
+    t189 = rs3*(t147*t164 - t148*t149)
+    del t147, t149
+    t190 = rs3*(t150*t164 - t148*t151)
+    del t150, t151
+    t191 = rs3*(D2_00*rD2*t152 - cos_vartheta2*qdd3 - t148*t153)
+    del D2_00, cos_vartheta2, qdd3, rD2, t152, t153
+    t192 = rs3*(t154*t164 - t148*t155)
+    del t154, t155
+    t193 = rs3*(t156*t164 - t148*t157)
+    del t156, t157
+    t194 = rs3*(t158*t164 - t148*t159)
+    del t158, t159
+    t195 = rs3*(t161*t164 - t148*t160)
+    del t160, t161
+    t196 = rs3*(t162*t164 - t148*t163)
+    del rs3, t148, t162, t163, t164
     J = numpy.empty(shape + (8, 8), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -1143,70 +1145,70 @@ def jacobian(y, p):
     J[..., 3, 5] = 0
     J[..., 3, 6] = 0
     J[..., 3, 7] = 1
-    J[..., 4, 0] = t164
-    del t164
-    J[..., 4, 1] = t165
+    J[..., 4, 0] = t165
     del t165
-    J[..., 4, 2] = t166
+    J[..., 4, 1] = t166
     del t166
-    J[..., 4, 3] = t167
+    J[..., 4, 2] = t167
     del t167
-    J[..., 4, 4] = t168
+    J[..., 4, 3] = t168
     del t168
-    J[..., 4, 5] = t169
+    J[..., 4, 4] = t169
     del t169
-    J[..., 4, 6] = t170
+    J[..., 4, 5] = t170
     del t170
-    J[..., 4, 7] = t171
+    J[..., 4, 6] = t171
     del t171
-    J[..., 5, 0] = t172
+    J[..., 4, 7] = t172
     del t172
-    J[..., 5, 1] = t173
+    J[..., 5, 0] = t173
     del t173
-    J[..., 5, 2] = t174
+    J[..., 5, 1] = t174
     del t174
-    J[..., 5, 3] = t175
+    J[..., 5, 2] = t175
     del t175
-    J[..., 5, 4] = t176
+    J[..., 5, 3] = t176
     del t176
-    J[..., 5, 5] = t177
+    J[..., 5, 4] = t177
     del t177
-    J[..., 5, 6] = t178
+    J[..., 5, 5] = t178
     del t178
-    J[..., 5, 7] = t179
+    J[..., 5, 6] = t179
     del t179
-    J[..., 6, 0] = t180
+    J[..., 5, 7] = t180
     del t180
-    J[..., 6, 1] = t181
+    J[..., 6, 0] = t181
     del t181
-    J[..., 6, 2] = t182
+    J[..., 6, 1] = t182
     del t182
-    J[..., 6, 3] = t183
+    J[..., 6, 2] = t183
     del t183
-    J[..., 6, 4] = t184
+    J[..., 6, 3] = t184
     del t184
-    J[..., 6, 5] = t185
+    J[..., 6, 4] = t185
     del t185
-    J[..., 6, 6] = t186
+    J[..., 6, 5] = t186
     del t186
-    J[..., 6, 7] = t187
+    J[..., 6, 6] = t187
     del t187
-    J[..., 7, 0] = t188
+    J[..., 6, 7] = t188
     del t188
-    J[..., 7, 1] = t189
+    J[..., 7, 0] = t189
     del t189
-    J[..., 7, 2] = t190
+    J[..., 7, 1] = t190
     del t190
-    J[..., 7, 3] = t191
+    J[..., 7, 2] = t191
     del t191
-    J[..., 7, 4] = t192
+    J[..., 7, 3] = t192
     del t192
-    J[..., 7, 5] = t193
+    J[..., 7, 4] = t193
     del t193
-    J[..., 7, 6] = t194
+    J[..., 7, 5] = t194
     del t194
-    J[..., 7, 7] = t195
+    J[..., 7, 6] = t195
     del t195
+    J[..., 7, 7] = t196
+    del t196
     return J
 
 
@@ -1327,10 +1329,10 @@ def to_spherical_alt(y):
     del cos_varphi1, t16
     t23 = t6*varphi1_dot
     del t6
-    t24 = cos_vartheta1*sin_varphi1
-    del cos_vartheta1, sin_varphi1
-    t25 = t24*vartheta1_dot
-    del t24
+    t24 = cos_vartheta1*vartheta1_dot
+    del cos_vartheta1
+    t25 = sin_varphi1*t24
+    del sin_varphi1, t24
     t26 = t23 + t25
     t27 = sin_vartheta2*vartheta2_dot
     del sin_vartheta2
@@ -1384,7 +1386,7 @@ def to_spherical_std(y):
 
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     returns y_out: (..., 8) state of 'spherical_std'
-    Total ops: 91
+    Total ops: 90
     """
     (y,), shape, dtype = _prepare("to_spherical_std", (y, 8, "y"))
     vartheta1 = y[..., 0]
@@ -1456,9 +1458,9 @@ def to_spherical_std(y):
     del t6
     t20 = t16*varphi1_dot
     del t16
-    t21 = cos_vartheta1*sin_varphi1
-    t22 = t21*vartheta1_dot
-    del t21
+    t21 = cos_vartheta1*vartheta1_dot
+    del cos_vartheta1
+    t22 = sin_varphi1*t21
     t23 = t20 + t22
     del t20, t22
     tan_half_spherical_std_phi1 = numpy.tan(0.5*spherical_std_phi1)
@@ -1468,18 +1470,16 @@ def to_spherical_std(y):
     del tan_half_spherical_std_phi1
     cos_spherical_std_phi1 = rho_spherical_std_phi1*(1 - tan_half_sq_spherical_std_phi1)
     del rho_spherical_std_phi1, tan_half_sq_spherical_std_phi1
-    t27 = cos_vartheta1*vartheta1_dot
-    del cos_vartheta1
-    t28 = sin_vartheta2*vartheta2_dot
-    t29 = cos_varphi2*cos_vartheta2*vartheta2_dot - t14*varphi2_dot
+    t27 = sin_vartheta2*vartheta2_dot
+    t28 = cos_varphi2*cos_vartheta2*vartheta2_dot - t14*varphi2_dot
     del t14
-    t30 = t17*varphi2_dot
+    t29 = t17*varphi2_dot
     del t17
-    t31 = cos_vartheta2*vartheta2_dot
+    t30 = cos_vartheta2*vartheta2_dot
     del cos_vartheta2
-    t32 = sin_varphi2*t31
-    t33 = t30 + t32
-    del t30, t32
+    t31 = sin_varphi2*t30
+    t32 = t29 + t31
+    del t29, t31
     tan_half_spherical_std_phi2 = numpy.tan(0.5*spherical_std_phi2)
     tan_half_sq_spherical_std_phi2 = tan_half_spherical_std_phi2*tan_half_spherical_std_phi2
     rho_spherical_std_phi2 = 1.0/(1 + tan_half_sq_spherical_std_phi2)
@@ -1487,14 +1487,14 @@ def to_spherical_std(y):
     del tan_half_spherical_std_phi2
     cos_spherical_std_phi2 = rho_spherical_std_phi2*(1 - tan_half_sq_spherical_std_phi2)
     del rho_spherical_std_phi2, tan_half_sq_spherical_std_phi2
-    t37 = cos_spherical_std_phi1*cos_spherical_std_theta1*t19 + sin_spherical_std_theta1*t23 - cos_spherical_std_theta1*sin_spherical_std_phi1*t18
+    t36 = cos_spherical_std_phi1*cos_spherical_std_theta1*t19 + sin_spherical_std_theta1*t23 - cos_spherical_std_theta1*sin_spherical_std_phi1*t18
     del cos_spherical_std_theta1, t19, t23
-    t38 = (sin_spherical_std_phi1*sin_varphi1*sin_vartheta1*varphi1_dot - cos_spherical_std_phi1*t18 - cos_varphi1*sin_spherical_std_phi1*t27)/sin_spherical_std_theta1
-    del cos_spherical_std_phi1, cos_varphi1, sin_spherical_std_phi1, sin_spherical_std_theta1, sin_varphi1, sin_vartheta1, t18, t27
-    t39 = cos_spherical_std_phi2*cos_spherical_std_theta2*t29 + sin_spherical_std_theta2*t33 - cos_spherical_std_theta2*sin_spherical_std_phi2*t28
-    del cos_spherical_std_theta2, t29, t33
-    t40 = (sin_spherical_std_phi2*sin_varphi2*sin_vartheta2*varphi2_dot - cos_spherical_std_phi2*t28 - cos_varphi2*sin_spherical_std_phi2*t31)/sin_spherical_std_theta2
-    del cos_spherical_std_phi2, cos_varphi2, sin_spherical_std_phi2, sin_spherical_std_theta2, sin_varphi2, sin_vartheta2, t28, t31
+    t37 = (sin_spherical_std_phi1*sin_varphi1*sin_vartheta1*varphi1_dot - cos_spherical_std_phi1*t18 - cos_varphi1*sin_spherical_std_phi1*t21)/sin_spherical_std_theta1
+    del cos_spherical_std_phi1, cos_varphi1, sin_spherical_std_phi1, sin_spherical_std_theta1, sin_varphi1, sin_vartheta1, t18, t21
+    t38 = cos_spherical_std_phi2*cos_spherical_std_theta2*t28 + sin_spherical_std_theta2*t32 - cos_spherical_std_theta2*sin_spherical_std_phi2*t27
+    del cos_spherical_std_theta2, t28, t32
+    t39 = (sin_spherical_std_phi2*sin_varphi2*sin_vartheta2*varphi2_dot - cos_spherical_std_phi2*t27 - cos_varphi2*sin_spherical_std_phi2*t30)/sin_spherical_std_theta2
+    del cos_spherical_std_phi2, cos_varphi2, sin_spherical_std_phi2, sin_spherical_std_theta2, sin_varphi2, sin_vartheta2, t27, t30
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_std_theta1
     del spherical_std_theta1
@@ -1504,12 +1504,12 @@ def to_spherical_std(y):
     del spherical_std_theta2
     y_out[..., 3] = spherical_std_phi2
     del spherical_std_phi2
-    y_out[..., 4] = t37
+    y_out[..., 4] = t36
+    del t36
+    y_out[..., 5] = t37
     del t37
-    y_out[..., 5] = t38
+    y_out[..., 6] = t38
     del t38
-    y_out[..., 6] = t39
+    y_out[..., 7] = t39
     del t39
-    y_out[..., 7] = t40
-    del t40
     return y_out

@@ -36,7 +36,7 @@ def rhs(y, p):
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns ydot: (..., 8) y' in state order
-    Total ops: 186
+    Total ops: 185
     """
     (y, p), shape, dtype = _prepare("rhs", (y, 8, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -110,9 +110,9 @@ def rhs(y, p):
     del t18
     D1_11 = -t23 - t24
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t25 = t9*sin_t2
-    t26 = phi2_dot*phi2_dot
-    t27 = sin_theta2*t26
+    t25 = phi2_dot*phi2_dot
+    t26 = sin_theta2*t25
+    t27 = t9*sin_t2
     t28 = theta2_dot*theta2_dot
     t29 = t9*t28
     del t28
@@ -122,67 +122,64 @@ def rhs(y, p):
     del t6
     t33 = t31*t32
     del t32
-    t34 = cos_theta1*theta1_dot
-    t35 = phi1_dot*t34
-    del t34
-    t36 = 2*Aa
-    f1 = -sin_theta2*t30 - t25*t27 - t33*theta2_dot - t36*t35
-    del t27, t30, t33, t35, t36
-    t37 = l2*sin_theta2
-    t38 = g*t37
-    del t37
-    t39 = cos_theta2*sin_theta2
-    t40 = phi1_dot*phi1_dot
-    t41 = cos_theta2*sin_theta1
-    t42 = t40*t41
-    t43 = t11*theta1_dot
-    t44 = 2*phi1_dot
-    t45 = t43*t44
-    del t43, t44
-    t46 = sin_t2*t5
-    t47 = theta1_dot*theta1_dot
-    t48 = cos_t2*t41
-    t49 = t9*(cos_theta1*sin_theta2 - t48)
-    del t48
-    f2 = Ab*(t26*t39) + Q11*t42 + t45*t46 - t38 - t47*t49
-    del t38, t39, t42, t45, t46, t49
-    t50 = cos_theta2*theta2_dot
+    t34 = 2*phi1_dot
+    t35 = cos_theta1*theta1_dot
+    t36 = Aa*t35
+    del t35
+    f1 = -sin_theta2*t30 - t26*t27 - t33*theta2_dot - t34*t36
+    del t26, t30, t33, t36
+    t37 = g*sin_theta2
+    t38 = cos_theta2*sin_theta2
+    t39 = phi1_dot*phi1_dot
+    t40 = cos_theta2*sin_theta1
+    t41 = t39*t40
+    t42 = t11*theta1_dot
+    t43 = t34*t42
+    del t34, t42
+    t44 = sin_t2*t43
+    del t43
+    t45 = theta1_dot*theta1_dot
+    t46 = cos_t2*t40
+    t47 = t9*(cos_theta1*sin_theta2 - t46)
+    del t46
+    f2 = Ab*(t25*t38) + Q11*t41 + t44*t5 - l2*t37 - t45*t47
+    del t37, t38, t41, t44, t47
+    t48 = cos_theta2*theta2_dot
     del cos_theta2
-    t51 = Ab*t31
-    t52 = sin_theta1*t40
-    t53 = t9*t47
-    del t47, t9
-    t54 = sin_t2*t53
-    del t53
-    t55 = cos_t2*t12
+    t49 = Ab*t31
+    t50 = sin_theta1*t39
+    t51 = t9*t45
+    del t45, t9
+    t52 = sin_t2*t51
+    del t51
+    t53 = cos_t2*t12
     del t12
-    t56 = 2*theta1_dot
-    t57 = t55*t56
-    del t55, t56
-    f3 = sin_theta1*t54 + t25*t52 - phi1_dot*t57 - t50*t51
-    del t25, t50, t51, t52, t54, t57
-    t58 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t59 = l1*sin_theta1
-    t60 = g*t14*t16
-    t61 = t5*theta2_dot
+    t54 = 2*theta1_dot
+    t55 = t53*t54
+    del t53, t54
+    f3 = sin_theta1*t52 + t27*t50 - phi1_dot*t55 - t48*t49
+    del t27, t48, t49, t50, t52, t55
+    t56 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t57 = g*t16
+    t58 = t57*sin_theta1
+    del t57
+    t59 = t5*theta2_dot
     del t5
-    t62 = t31*t61
-    del t31, t61
-    t63 = t11*t62
-    del t11, t62
-    t64 = cos_theta1*sin_theta2
-    t65 = cos_t2*t64
-    del t64
-    t66 = t41 - t65
-    del t41, t65
-    f0 = (l1*l2)*(cos_t2*cos_theta1*sin_theta2*t26) + (t14*t15*t16)*(cos_theta1*sin_theta1*t40) - sin_t2*t63 - t29*t66 - t60*t59
-    del cos_t2, cos_theta1, sin_t2, t14, t15, t16, t26, t29, t40, t59, t60, t63, t66
-    t67 = Ab*f0 - Q00*f2 - Q01*f3
+    t60 = t31*t59
+    del t31, t59
+    t61 = t11*t60
+    del t11, t60
+    t62 = cos_theta1*sin_theta2
+    t63 = t40 - cos_t2*t62
+    del t40, t62
+    f0 = (l1*l2)*(cos_t2*cos_theta1*sin_theta2*t25) + (t14*t15*t16)*(cos_theta1*sin_theta1*t39) - (l1*t14)*t58 - sin_t2*t61 - t29*t63
+    del cos_t2, cos_theta1, sin_t2, t14, t15, t16, t25, t29, t39, t58, t61, t63
+    t64 = Ab*f0 - Q00*f2 - Q01*f3
     del Ab
-    qdd0 = D1_11*rD1*t67 - D1_01*t58
+    qdd0 = D1_11*rD1*t64 - D1_01*t56
     del D1_11
-    xr1 = D1_00*t58 - D1_01*rD1*t67
-    del D1_00, D1_01, rD1, t58, t67
+    xr1 = D1_00*t56 - D1_01*rD1*t64
+    del D1_00, D1_01, rD1, t56, t64
     rs1 = 1.0/sin_theta1
     del sin_theta1
     qdd1 = rs1*xr1
@@ -193,14 +190,14 @@ def rhs(y, p):
     D2_11 = -t13 - t24
     del t13, t24
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t68 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t65 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
     del Q01, Q11, f3
-    t69 = Aa*f2 - Q00*f0 - Q10*f1
+    t66 = Aa*f2 - Q00*f0 - Q10*f1
     del Aa, Q00, Q10, f0, f1, f2
-    qdd2 = D2_11*rD2*t69 - D2_01*t68
+    qdd2 = D2_11*rD2*t66 - D2_01*t65
     del D2_11
-    xr3 = D2_00*t68 - D2_01*rD2*t69
-    del D2_00, D2_01, rD2, t68, t69
+    xr3 = D2_00*t65 - D2_01*rD2*t66
+    del D2_00, D2_01, rD2, t65, t66
     rs3 = 1.0/sin_theta2
     del sin_theta2
     qdd3 = rs3*xr3
@@ -227,7 +224,7 @@ def mass_matrix(y, p):
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns M: (..., 4, 4) M, row-major
-    Total ops: 31
+    Total ops: 33
     """
     (y, p), shape, dtype = _prepare("mass_matrix", (y, 8, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -269,37 +266,41 @@ def mass_matrix(y, p):
     t9 = cos_theta1*cos_theta2
     t10 = cos_t5*t9 + t4
     del t9
-    t11 = l1*m2
-    t12 = l2*t11
-    del t11
-    M02 = t12*t10
+    t11 = l1*l2
+    t12 = t11*t10
     del t10
+    M02 = m2*t12
+    del t12
     t13 = cos_theta1*sin_theta2
     del cos_theta1
-    t15 = t12*sin_t5
+    t15 = t11*sin_t5
     del sin_t5
-    M03 = t13*t15
+    t16 = m2*t15
+    del t15
+    M03 = t13*t16
     del t13
-    t16 = sin_theta1*sin_theta1
-    M11 = M00*t16
-    del t16
-    t17 = cos_theta2*sin_theta1
+    t17 = sin_theta1*sin_theta1
+    M11 = M00*t17
+    del t17
+    t18 = cos_theta2*sin_theta1
     del cos_theta2, sin_theta1
-    t18 = t15*t17
-    del t15, t17
-    M12 = -t18
-    del t18
-    t19 = cos_t5*t4
-    del cos_t5, t4
-    M13 = t12*t19
-    del t12, t19
-    t20 = l2*l2
-    M22 = m2*t20
-    del t20
-    t21 = sin_theta2*sin_theta2
-    del sin_theta2
-    M33 = M22*t21
+    t19 = t16*t18
+    del t16, t18
+    M12 = -t19
+    del t19
+    t20 = t11*cos_t5
+    del cos_t5, t11
+    t21 = t20*t4
+    del t20, t4
+    M13 = m2*t21
     del t21
+    t22 = l2*l2
+    M22 = m2*t22
+    del t22
+    t23 = sin_theta2*sin_theta2
+    del sin_theta2
+    M33 = M22*t23
+    del t23
     M = numpy.empty(shape + (4, 4), dtype)
     M[..., 0, 0] = M00
     del M00
@@ -334,7 +335,7 @@ def forcing(y, p):
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns F: (..., 4) F
-    Total ops: 101
+    Total ops: 88
     """
     (y, p), shape, dtype = _prepare("forcing", (y, 8, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -350,6 +351,7 @@ def forcing(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
+    t0 = m1 + m2
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -357,15 +359,6 @@ def forcing(y, p):
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
-    t2 = phi1 - phi2
-    tan_half_t2 = numpy.tan(0.5*t2)
-    del t2
-    tan_half_sq_t2 = tan_half_t2*tan_half_t2
-    rho_t2 = 1.0/(1 + tan_half_sq_t2)
-    sin_t2 = 2*(rho_t2*tan_half_t2)
-    del tan_half_t2
-    cos_t2 = rho_t2*(1 - tan_half_sq_t2)
-    del rho_t2, tan_half_sq_t2
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -373,74 +366,63 @@ def forcing(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t5 = l2*cos_theta2
-    t6 = t5*theta2_dot
-    t7 = phi2_dot*phi2_dot
-    t8 = cos_theta2*sin_theta1
-    t11 = cos_theta1*sin_theta2
-    t12 = cos_t2*t11
-    t13 = phi1_dot*phi1_dot
-    t14 = sin_theta1*t13
-    t15 = l1*m2
-    t16 = l2*t15
-    t17 = theta2_dot*theta2_dot
+    t3 = phi1 - phi2
+    tan_half_t3 = numpy.tan(0.5*t3)
+    del t3
+    tan_half_sq_t3 = tan_half_t3*tan_half_t3
+    rho_t3 = 1.0/(1 + tan_half_sq_t3)
+    sin_t3 = 2*(rho_t3*tan_half_t3)
+    del tan_half_t3
+    cos_t3 = rho_t3*(1 - tan_half_sq_t3)
+    del rho_t3, tan_half_sq_t3
+    t7 = g*t0
+    t8 = t7*sin_theta1
+    del t7
+    t9 = phi2_dot*phi2_dot
+    t10 = phi1_dot*phi1_dot
+    t12 = cos_theta2*sin_theta1
+    t13 = theta2_dot*theta2_dot
+    t14 = l2*m2
+    t15 = l2*cos_theta2
+    t16 = t15*theta2_dot
+    t17 = 2*phi2_dot
     t18 = t16*t17
-    t19 = l1*m1
-    t20 = 2*t15
-    t21 = l1*l1
-    t22 = m1*t21
-    t23 = m2*t21
-    del t21
-    t24 = l1*sin_theta1
-    t25 = cos_theta1*theta1_dot
-    t26 = phi1_dot*t25
-    del t25
-    t27 = l2*sin_theta2
-    t28 = m2*t27
-    t29 = sin_t2*t28
-    t30 = m2*t5
-    t31 = 2*phi2_dot
-    t32 = t31*theta2_dot
-    t33 = g*t27
-    del t27
-    t34 = cos_theta2*sin_theta2
-    del cos_theta2, sin_theta2
-    t35 = sin_t2*t5
-    del t5
-    t36 = cos_t2*t8
-    t37 = l2*l2
-    t38 = m2*t37
-    del t37
-    t39 = theta1_dot*theta1_dot
-    t40 = t16*t39
-    t41 = t31*t6
-    del t31
-    t42 = sin_t2*t24
-    t43 = l1*cos_theta1
-    t44 = t43*theta1_dot
-    del t43
-    t45 = 2*phi1_dot
-    t46 = t44*t45
-    del t44, t45
-    t47 = cos_t2*t46
-    del t46
-    t48 = (t22 + t23)*(cos_theta1*t14) + (-g*t15 - g*t19)*sin_theta1 + t16*(t12*t7) + t12*t18 - t20*(cos_theta1*phi2_dot*sin_t2*t6) - t18*t8
-    del cos_theta1, sin_t2, sin_theta1, t12, t14, t15, t18, t22, t23, t6, t8
-    t49 = -t24*(cos_t2*t30*t32 + t17*t29 + (2*t19 + t20)*t26 + t29*t7)
-    del cos_t2, t17, t19, t24, t29, t30, t32
-    t50 = t16*(t13*t36) + t20*(t26*t35) + t38*(t34*t7) + t36*t40 - m2*t33 - t11*t40
-    del t11, t16, t20, t26, t33, t34, t35, t36, t38, t40, t7
-    t51 = t28*(t13*t42 + t39*t42 - t41 - t47)
-    del t13, t28, t39, t41, t42, t47
+    del t16, t17
+    t19 = m2*t18
+    t20 = sin_theta2*t9
+    t21 = 2*phi1_dot
+    t22 = l1*cos_theta1
+    t23 = t22*theta1_dot
+    del t22
+    t24 = t21*t23
+    del t21, t23
+    t25 = t14*sin_theta2
+    t26 = l1*sin_theta1
+    t27 = cos_theta1*sin_theta2
+    t28 = g*sin_theta2
+    t29 = sin_t3*t24
+    t30 = cos_t3*t12
+    t31 = theta1_dot*theta1_dot
+    t32 = l1*t31
+    t33 = sin_t3*t26
+    t34 = cos_t3*t24
+    t35 = l1*((l2*m2)*(cos_t3*cos_theta1*sin_theta2*t13) + (l2*m2)*(cos_t3*cos_theta1*sin_theta2*t9) + (l1*t0)*(cos_theta1*sin_theta1*t10) - cos_theta1*sin_t3*t19 - t14*(t12*t13) - t8)
+    del cos_theta1, sin_theta1, sin_theta2, t12, t8, t9
+    t36 = -t26*(cos_t3*t19 + sin_t3*t13*t25 + t14*(sin_t3*t20) + t0*t24)
+    del cos_t3, sin_t3, t0, t13, t19, t24, t26
+    t37 = t14*(cos_theta2*t29 + l1*(t10*t30) + t15*t20 + t30*t32 - t27*t32 - t28)
+    del cos_theta2, t14, t15, t20, t27, t28, t29, t30, t32
+    t38 = t25*(t10*t33 + t31*t33 - t18 - t34)
+    del t10, t18, t25, t31, t33, t34
     F = numpy.empty(shape + (4,), dtype)
-    F[..., 0] = t48
-    del t48
-    F[..., 1] = t49
-    del t49
-    F[..., 2] = t50
-    del t50
-    F[..., 3] = t51
-    del t51
+    F[..., 0] = t35
+    del t35
+    F[..., 1] = t36
+    del t36
+    F[..., 2] = t37
+    del t37
+    F[..., 3] = t38
+    del t38
     return F
 
 
@@ -450,7 +432,7 @@ def energy(y, p):
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns E: (...) T + V
-    Total ops: 69
+    Total ops: 71
     """
     (y, p), shape, dtype = _prepare("energy", (y, 8, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -490,49 +472,57 @@ def energy(y, p):
     del tan_half_t3
     cos_t3 = rho_t3*(1 - tan_half_sq_t3)
     del rho_t3, tan_half_sq_t3
+    t5 = l1*l2
     t7 = l2*cos_theta2
     t8 = t7*theta2_dot
     t9 = phi2_dot*phi2_dot
     t10 = phi1_dot*phi1_dot
     t11 = theta2_dot*theta2_dot
-    t12 = cos_theta1*theta1_dot
-    t13 = theta1_dot*theta1_dot
-    t14 = l1*m2
-    t15 = l2*t14
+    t13 = l1*cos_theta1
+    t14 = t13*theta1_dot
+    t15 = theta1_dot*theta1_dot
     t16 = cos_theta1*sin_theta2
-    t18 = t15*sin_t3
+    del cos_theta1
+    t18 = t5*sin_t3
     del sin_t3
-    t19 = t16*t18
+    t19 = m2*t18
+    del t18
+    t20 = t16*t19
     del t16
-    t20 = sin_theta1*sin_theta1
-    t21 = cos_theta2*sin_theta1
+    t21 = sin_theta1*sin_theta1
+    t22 = cos_theta2*sin_theta1
     del cos_theta2, sin_theta1
-    t22 = t18*t21
-    del t18, t21
-    t23 = cos_t3*t2
-    t24 = t15*t23
-    del t23
-    t25 = l2*l2
+    t23 = t19*t22
+    del t19, t22
+    t24 = t5*cos_t3
+    t25 = t2*t24
+    del t24
     t26 = m2*t25
     del t25
-    t27 = sin_theta2*sin_theta2
-    del sin_theta2
-    t28 = t26*t27
+    t27 = l2*l2
+    t28 = m2*t27
     del t27
-    t29 = l1*m1
-    t30 = m2*t7
+    t29 = sin_theta2*sin_theta2
+    del sin_theta2
+    t30 = t28*t29
+    del t29
+    t31 = g*t7
     del t7
-    t31 = l1*l1
-    t32 = m1*t31
-    t33 = m2*t31
-    del t31
-    t34 = (1/2)*t32 + (1/2)*t33
-    del t32, t33
-    t35 = t14*(cos_t3*t12*t8) + phi1_dot*phi2_dot*t24 + phi2_dot*t19*theta1_dot + t34*(t10*t20) + ((1/2)*t26)*t11 + t34*t13 + t15*(t2*theta1_dot*theta2_dot) + 1/2*(t28*t9) - g*((t14 + t29)*cos_theta1 + t30) - phi1_dot*t22*theta2_dot
-    del cos_t3, cos_theta1, t10, t11, t12, t13, t14, t15, t19, t2, t20, t22, t24, t26, t28, t29, t30, t34, t8, t9
-    E = numpy.empty(shape + (), dtype)
-    E[...] = t35
+    t32 = m1 + m2
+    t33 = g*t32
+    del t32
+    t34 = t33*t13
+    del t13, t33
+    t35 = l1*l1
+    t36 = (1/2)*t35
     del t35
+    t37 = m1*t36 + m2*t36
+    del t36
+    t38 = m2*(cos_t3*t14*t8) + (m2*t5)*(t2*theta1_dot*theta2_dot) + phi1_dot*phi2_dot*t26 + phi2_dot*t20*theta1_dot + t37*(t10*t21) + ((1/2)*t28)*t11 + t37*t15 + 1/2*(t30*t9) - m2*t31 - phi1_dot*t23*theta2_dot - t34
+    del cos_t3, t10, t11, t14, t15, t2, t20, t21, t23, t26, t28, t30, t31, t34, t37, t5, t8, t9
+    E = numpy.empty(shape + (), dtype)
+    E[...] = t38
+    del t38
     return E
 
 
@@ -699,14 +689,14 @@ def velocities(y, p):
     t22 = cos_phi2*sin_theta2
     t23 = l2*t22
     del t22
-    t24 = l2*sin_theta2
+    t24 = sin_theta2*theta2_dot
     del sin_theta2
     t25 = -t6
     t26 = l2*(cos_phi2*cos_theta2*theta2_dot) - phi2_dot*t19 - t6
     del cos_phi2, cos_theta2, t19, t6
     t27 = phi2_dot*t23 + sin_phi2*t21 + t11
     del sin_phi2, t21, t23
-    t28 = t13 + t24*theta2_dot
+    t28 = l2*t24 + t13
     del t24
     vel = numpy.empty(shape + (2, 3), dtype)
     vel[..., 0, 0] = t25
@@ -819,249 +809,248 @@ def jacobian(y, p):
     del t21
     t39 = t37*t38
     t40 = cos_theta1*theta1_dot
-    t41 = phi1_dot*t40
-    t42 = 2*Aa
-    f1 = -sin_theta2*t36 - t13*t33 - t39*theta2_dot - t42*t41
-    del t41
-    t43 = l2*sin_theta2
-    t44 = g*t43
-    del t43
-    t45 = cos_theta2*sin_theta2
-    t46 = cos_theta2*sin_theta1
-    t47 = t10*t46
-    t48 = t8*theta1_dot
-    t49 = t17*t48
-    t50 = sin_t5*t20
-    t51 = cos_t5*t46
-    t52 = t12*(cos_theta1*sin_theta2 - t51)
-    del t51
-    f2 = Ab*(t32*t45) + Q11*t47 + t49*t50 - t11*t52 - t44
-    del t44, t50
-    t53 = cos_theta2*theta2_dot
-    t54 = Ab*t37
-    t55 = sin_theta1*t10
-    t56 = t12*t11
-    t57 = sin_t5*t56
-    t58 = cos_t5*t9
+    t41 = Aa*t40
+    del t40
+    f1 = -sin_theta2*t36 - t13*t33 - t17*t41 - t39*theta2_dot
+    t42 = g*sin_theta2
+    t43 = cos_theta2*sin_theta2
+    t44 = cos_theta2*sin_theta1
+    t45 = t10*t44
+    t46 = t8*theta1_dot
+    t47 = t17*t46
+    t48 = sin_t5*t47
+    t49 = cos_t5*t44
+    t50 = t12*(cos_theta1*sin_theta2 - t49)
+    del t49
+    f2 = Ab*(t32*t43) + Q11*t45 + t20*t48 - l2*t42 - t11*t50
+    del t42, t48
+    t51 = cos_theta2*theta2_dot
+    t52 = Ab*t37
+    t53 = sin_theta1*t10
+    t54 = t12*t11
+    t55 = sin_t5*t54
+    t56 = cos_t5*t9
     del t9
-    t59 = 2*theta1_dot
-    t60 = t58*t59
-    f3 = sin_theta1*t57 + t13*t55 - phi1_dot*t60 - t53*t54
-    t61 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t62 = l1*sin_theta1
-    t63 = g*t2*t4
-    t64 = t20*theta2_dot
-    t65 = t37*t64
-    t66 = t65*t8
-    del t65
-    t67 = cos_theta1*sin_theta2
-    t68 = cos_t5*t67
-    t69 = t46 - t68
-    del t68
-    f0 = (l1*l2)*(cos_t5*cos_theta1*sin_theta2*t32) + (t2*t3*t4)*(cos_theta1*sin_theta1*t10) - sin_t5*t66 - t35*t69 - t63*t62
-    del t62
-    t70 = Ab*f0 - Q00*f2 - Q01*f3
-    qdd0 = D1_11*rD1*t70 - D1_01*t61
-    t71 = Q01*t10 + Q01*t11 + qdd0*t14 + t15*t18
-    t72 = phi1_dot*t59
-    t73 = -t28
+    t57 = 2*theta1_dot
+    t58 = t56*t57
+    f3 = sin_theta1*t55 + t13*t53 - phi1_dot*t58 - t51*t52
+    t59 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t60 = g*t4
+    t61 = t60*sin_theta1
+    t62 = t20*theta2_dot
+    t63 = t37*t62
+    t64 = t63*t8
+    del t63
+    t65 = cos_theta1*sin_theta2
+    t66 = t44 - cos_t5*t65
+    f0 = (l1*l2)*(cos_t5*cos_theta1*sin_theta2*t32) + (t2*t3*t4)*(cos_theta1*sin_theta1*t10) - (l1*t2)*t61 - sin_t5*t64 - t35*t66
+    del t61
+    t67 = Ab*f0 - Q00*f2 - Q01*f3
+    qdd0 = D1_11*rD1*t67 - D1_01*t59
+    t68 = Q01*t10 + Q01*t11 + qdd0*t14 + t15*t18
+    t69 = phi1_dot*t57
+    t70 = -t28
     del t28
-    t74 = (l1*l2)*(cos_t5*cos_theta1*cos_theta2*t10) - qdd0*t52 - t13*t46*t72 - t56*t73
-    t75 = (2*Ab*t2*t3*t4)*(phi1_dot*sin_theta1*theta1_dot) - Q10*t74 - Q11*t71
-    t76 = D1_01*rD1
-    t77 = cos_theta1*cos_theta1
-    t78 = cos_t5*t26
-    t79 = t27 + t78
-    del t27, t78
+    t71 = (l1*l2)*(cos_t5*cos_theta1*cos_theta2*t10) - qdd0*t50 - t13*t44*t69 - t54*t70
+    t72 = (2*Ab*t2*t3*t4)*(phi1_dot*sin_theta1*theta1_dot) - Q10*t71 - Q11*t68
+    t73 = D1_01*rD1
+    t74 = cos_theta1*cos_theta1
+    t75 = t60*t8
+    del t60
+    t76 = cos_t5*t26 + t27
+    del t27
     D2_00 = -t29 - t30
     del t29, t30
     D2_01 = -Q00*Q01 - Q10*Q11
     D2_11 = -t23 - t31
     del t23, t31
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t80 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t77 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
     del f3
-    t81 = Aa*f2 - Q00*f0 - Q10*f1
+    t78 = Aa*f2 - Q00*f0 - Q10*f1
     del f0, f1, f2
-    qdd2 = D2_11*rD2*t81 - D2_01*t80
-    xr3 = D2_00*t80 - D2_01*rD2*t81
-    del t80, t81
-    t82 = (2*l1*l2)*(cos_theta2*phi2_dot*sin_t5*sin_theta1*theta2_dot) + (l1*l2)*(sin_t5*sin_theta1*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t77)) - Q11*t26*t32 - qdd2*t52 - t35*t79 - t63*t8
-    del t63, t77
-    t83 = Ab*t82 - Q00*t74 - Q01*t71
-    xr1 = D1_00*t61 - D1_01*rD1*t70
-    del D1_01, t61, t70
-    t84 = t13*xr1
-    t85 = Q01*t72 + Q11*sin_theta1*t11 + Q11*t55 + t84 - qdd0*t58
-    del t11, t55
-    t86 = t37*theta2_dot
-    t87 = qdd2*t38 + t13*xr3 + t22*t86 - Q11*sin_theta2*t34 - Q11*t33
+    qdd2 = D2_11*rD2*t78 - D2_01*t77
+    xr3 = D2_00*t77 - D2_01*rD2*t78
+    del t77, t78
+    t79 = (2*l1*l2)*(cos_theta2*phi2_dot*sin_t5*sin_theta1*theta2_dot) + (l1*l2)*(sin_t5*sin_theta1*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t74)) - Q11*t26*t32 - qdd2*t50 - t2*t75 - t35*t76
+    del t74, t75
+    t80 = Ab*t79 - Q00*t71 - Q01*t68
+    xr1 = D1_00*t59 - D1_01*rD1*t67
+    del D1_01, t59, t67
+    t81 = t13*xr1
+    t82 = Q01*t69 + Q11*sin_theta1*t11 + Q11*t53 + t81 - qdd0*t56
+    del t11, t53
+    t83 = t37*theta2_dot
+    t84 = qdd2*t38 + t13*xr3 + t22*t83 - Q11*sin_theta2*t34 - Q11*t33
     del t33
-    t88 = cos_t5*t49
-    del t49
-    t89 = t20*t8
-    t90 = sin_t5*t89
-    t91 = qdd0*t90 + t20*t88 + t38*xr1 - t13*t47 - t46*t57
-    del t47, t57, t88
-    t92 = Ab*t87 - Q10*t91 - Q11*t85
-    t93 = t13*t67
-    t94 = cos_t5*t66 + t32*t93 + t36*t67 + t58*xr3 - (l1*l2)*(cos_theta1*cos_theta2*qdd2*sin_t5)
-    del t36, t66
-    t95 = -t94
-    t96 = Ab*t95 - Q00*t91 - Q01*t85
-    t97 = sin_theta2*theta2_dot
-    t98 = t54*t97
-    t99 = sin_theta2*t13
-    t100 = (2*l1*l2)*(cos_t5*phi2_dot*sin_theta2*theta2_dot) - qdd2*t99 - t22*t32 - t22*t34
+    t85 = cos_t5*t47
+    del t47
+    t86 = t20*t8
+    t87 = sin_t5*t86
+    t88 = qdd0*t87 + t20*t85 + t38*xr1 - t13*t45 - t44*t55
+    del t45, t55, t85
+    t89 = Ab*t84 - Q10*t88 - Q11*t82
+    t90 = t13*t65
+    t91 = cos_t5*t64 + t32*t90 + t36*t65 + t56*xr3 - (l1*l2)*(cos_theta1*cos_theta2*qdd2*sin_t5)
+    del t36, t64
+    t92 = -t91
+    t93 = Ab*t92 - Q00*t88 - Q01*t82
+    t94 = sin_theta2*theta2_dot
+    t95 = t52*t94
+    t96 = sin_theta2*t13
+    t97 = (2*l1*l2)*(cos_t5*phi2_dot*sin_theta2*theta2_dot) - qdd2*t96 - t22*t32 - t22*t34
     del t22, t34
-    t101 = cos_theta2*cos_theta2
-    t102 = t12*t69
-    del t12, t69
-    t103 = Ab*(t32*(-1 + 2*t101)) - Q11*t10*t26 - g*t20 - qdd0*t102 - sin_theta2*t84 - t56*t79 - t72*t93
-    del qdd0, t10, t101, t26, t56, t72, t79, t84
-    t104 = Ab*t100 - Q10*t103 - Q11*t98
-    t105 = cos_t5*t32*t89 + t86*t93 - qdd2*t102 - t35*t73
-    del cos_t5, qdd2, t32, t35, t73, t86, t89, t93
-    t106 = Ab*t105 - Q00*t103 - Q01*t98
-    del t98
-    t107 = -t87
-    t108 = -t85
-    t109 = -t91
-    t110 = Ab*t107 - Q10*t109 - Q11*t108
-    t111 = Ab*t94 - Q00*t109 - Q01*t108
-    t112 = (2*l1*l2)*(sin_t5*sin_theta1*theta1_dot) - t17*t58
-    del t58
-    t113 = t17*t90 - t52*t59
-    del t52, t59
-    t114 = -Q00*t113 - Q01*t112
-    t115 = Aa*t17
-    t116 = cos_theta1*t115
-    t117 = -Ab*t116 - Q10*t113 - Q11*t112
-    t118 = t42*t40
-    del t40, t42
-    t119 = t14*t17 - t60
-    del t14, t17, t60
-    t120 = 2*sin_t5
+    t98 = Q11*t26
+    del t26
+    t99 = cos_theta2*cos_theta2
+    t100 = g*t20
+    t101 = t12*t66
+    del t12, t66
+    t102 = Ab*(t32*(-1 + 2*t99)) - qdd0*t101 - sin_theta2*t81 - t10*t98 - t100 - t54*t76 - t69*t90
+    del qdd0, t10, t100, t54, t69, t76, t81, t98, t99
+    t103 = Ab*t97 - Q10*t102 - Q11*t95
+    t104 = cos_t5*t32*t86 + t83*t90 - qdd2*t101 - t35*t70
+    del cos_t5, qdd2, t32, t35, t70, t83, t86, t90
+    t105 = Ab*t104 - Q00*t102 - Q01*t95
+    del t95
+    t106 = -t84
+    t107 = -t82
+    t108 = -t88
+    t109 = Ab*t106 - Q10*t108 - Q11*t107
+    t110 = Ab*t91 - Q00*t108 - Q01*t107
+    t111 = (2*l1*l2)*(sin_t5*sin_theta1*theta1_dot) - t17*t56
+    del t56
+    t112 = t17*t87 - t50*t57
+    del t50, t57
+    t113 = -Q00*t112 - Q01*t111
+    t114 = Aa*cos_theta1
+    t115 = t114*t17
+    t116 = -Ab*t115 - Q10*t112 - Q11*t111
+    t117 = 2*t41
+    del t41
+    t118 = t14*t17 - t58
+    del t14, t58
+    t119 = 2*sin_t5
     del sin_t5
-    t121 = t120*t20*t48 + t18*t46
-    del t18, t20, t46, t48
-    t122 = -Ab*t118 - Q10*t121 - Q11*t119
-    t123 = (2*Ab*t2*t3*t4)*(cos_theta1*phi1_dot*sin_theta1) - Q00*t121 - Q01*t119
+    t120 = t119*t20*t46 + t18*t44
+    del t18, t20, t44, t46
+    t121 = -Ab*t117 - Q10*t120 - Q11*t118
+    t122 = (2*Ab*t2*t3*t4)*(cos_theta1*phi1_dot*sin_theta1) - Q00*t120 - Q01*t118
     del t2, t3, t4
-    t124 = cos_theta2*t54
-    t125 = -2*(t13*t97) - t39
-    del t13, t39, t97
-    t126 = Ab*t125 + Q11*t124
-    t127 = 2*theta2_dot
-    t128 = -t102*t127 - t37*t90
-    del t102, t90
-    t129 = Ab*t128 + Q01*t124
-    t130 = Ab*t53
-    del t53
-    t131 = 2*t130
-    t132 = t45*t54
-    del t45, t54
-    t133 = -t127*t38 - t37*t99
-    del t127, t38, t99
-    t134 = Ab*t133 + Q11*t131 - Q10*t132
-    t135 = 2*Q01
-    t136 = Q11*t37*t67 - t120*t64*t8
-    del t120, t37, t64, t67, t8
-    t137 = Ab*t136 + t130*t135 - Q00*t132
-    del t130, t132
+    t123 = cos_theta2*t52
+    t124 = -2*(t13*t94) - t39
+    del t13, t39, t94
+    t125 = Ab*t124 + Q11*t123
+    t126 = 2*theta2_dot
+    t127 = -t101*t126 - t37*t87
+    del t101, t87
+    t128 = Ab*t127 + Q01*t123
+    t129 = Ab*t51
+    del t51
+    t130 = 2*t129
+    t131 = t43*t52
+    del t43, t52
+    t132 = -t126*t38 - t37*t96
+    del t126, t38, t96
+    t133 = Ab*t132 + Q11*t130 - Q10*t131
+    t134 = 2*Q01
+    t135 = Q11*t37*t65 - t119*t62*t8
+    del t119, t37, t62, t65, t8
+    t136 = Ab*t135 + t129*t134 - Q00*t131
+    del t129, t131
     rs1 = 1.0/sin_theta1
     qdd1 = rs1*xr1
     del xr1
-    t138 = D1_00*rD1
-    t139 = t115*t15
-    del t115, t15
-    t140 = Aa*t71 - Q01*t82 - Q11*t139
-    del t71
-    t141 = D2_01*rD2
+    t137 = D1_00*rD1
+    t138 = Aa*(t15*t17)
+    del t15, t17
+    t139 = Aa*t68 - Q01*t79 - Q11*t138
+    del t68
+    t140 = D2_01*rD2
     del D2_01
-    t142 = Aa*t74 - Q00*t82 - Q10*t139
-    del t139, t74, t82
-    t143 = Aa*t85 - Q01*t95 - Q11*t87
-    del t85
-    t144 = Aa*t91 - Q00*t95 - Q10*t87
-    del t87, t91, t95
-    t145 = (2*Aa*Ab)*(phi2_dot*sin_theta2*theta2_dot) - Q01*t105 - Q11*t100
-    t146 = Aa*t103 - Q00*t105 - Q10*t100
-    del t100, t103, t105
-    t147 = Aa*t108 - Q01*t94 - Q11*t107
-    del t108
-    t148 = Aa*t109 - Q00*t94 - Q10*t107
-    del t107, t109, t94
-    t149 = Aa*t112 + Q11*t116
+    t141 = Aa*t71 - Q00*t79 - Q10*t138
+    del t138, t71, t79
+    t142 = Aa*t82 - Q01*t92 - Q11*t84
+    del t82
+    t143 = Aa*t88 - Q00*t92 - Q10*t84
+    del t84, t88, t92
+    t144 = (2*Aa*Ab)*(phi2_dot*sin_theta2*theta2_dot) - Q01*t104 - Q11*t97
+    t145 = Aa*t102 - Q00*t104 - Q10*t97
+    del t102, t104, t97
+    t146 = Aa*t107 - Q01*t91 - Q11*t106
+    del t107
+    t147 = Aa*t108 - Q00*t91 - Q10*t106
+    del t106, t108, t91
+    t148 = Aa*t111 + Q11*t115
+    del t111
+    t149 = Aa*t112 + Q10*t115
     del t112
-    t150 = Aa*t113 + Q10*t116
-    del t113
-    t151 = Aa*t119 + Q11*t118 - Aa*(cos_theta1*phi1_dot*sin_theta1*t135)
-    del t119, t135
-    t152 = Aa*t121 + Q10*t118 - Q00*sin_theta1*t116
-    del sin_theta1, t116, t118, t121
-    t153 = -Q00*t128 - Q10*t125
-    t154 = -Aa*t124 - Q01*t128 - Q11*t125
-    del t124, t125, t128
-    t155 = -Aa*t131 - Q01*t136 - Q11*t133
-    del Q01, Q11, t131
-    t156 = (2*Aa*Ab)*(cos_theta2*phi2_dot*sin_theta2) - Q00*t136 - Q10*t133
-    del Aa, Ab, Q00, Q10, t133, t136
-    t157 = D2_00*rD2
+    t150 = Aa*t118 + Q11*t117 - phi1_dot*sin_theta1*t114*t134
+    del t114, t118, t134
+    t151 = Aa*t120 + Q10*t117 - Q00*sin_theta1*t115
+    del sin_theta1, t115, t117, t120
+    t152 = -Q00*t127 - Q10*t124
+    t153 = -Aa*t123 - Q01*t127 - Q11*t124
+    del t123, t124, t127
+    t154 = -Aa*t130 - Q01*t135 - Q11*t132
+    del Q01, Q11, t130
+    t155 = (2*Aa*Ab)*(cos_theta2*phi2_dot*sin_theta2) - Q00*t135 - Q10*t132
+    del Aa, Ab, Q00, Q10, t132, t135
+    t156 = D2_00*rD2
     rs3 = 1.0/sin_theta2
     del sin_theta2
     qdd3 = rs3*xr3
     del xr3
-    t158 = D1_11*rD1*t83 - t75*t76
-    t159 = D1_11*rD1*t96 - t76*t92
-    t160 = D1_11*rD1*t106 - t104*t76
-    t161 = D1_11*rD1*t111 - t110*t76
-    t162 = D1_11*rD1*t114 - t117*t76
-    t163 = D1_11*rD1*t123 - t122*t76
-    t164 = D1_11*rD1*t129 - t126*t76
-    t165 = D1_11*rD1*t137 - t134*t76
+    t157 = D1_11*rD1*t80 - t72*t73
+    t158 = D1_11*rD1*t93 - t73*t89
+    t159 = D1_11*rD1*t105 - t103*t73
+    t160 = D1_11*rD1*t110 - t109*t73
+    t161 = D1_11*rD1*t113 - t116*t73
+    t162 = D1_11*rD1*t122 - t121*t73
+    t163 = D1_11*rD1*t128 - t125*t73
+    t164 = D1_11*rD1*t136 - t133*t73
     del D1_11
-    t166 = rs1*(D1_00*rD1*t75 - cos_theta1*qdd1 - t76*t83)
-    del D1_00, cos_theta1, qdd1, rD1, t75, t83
-    t167 = rs1*(t138*t92 - t76*t96)
-    del t92, t96
-    t168 = rs1*(t104*t138 - t106*t76)
-    del t104, t106
-    t169 = rs1*(t110*t138 - t111*t76)
-    del t110, t111
-    t170 = rs1*(t117*t138 - t114*t76)
-    del t114, t117
-    t171 = rs1*(t122*t138 - t123*t76)
-    del t122, t123
-    t172 = rs1*(t126*t138 - t129*t76)
-    del t126, t129
-    t173 = rs1*(t134*t138 - t137*t76)
-    del rs1, t134, t137, t138, t76
-    t174 = D2_11*rD2*t142 - t140*t141
-    t175 = D2_11*rD2*t144 - t141*t143
-    t176 = D2_11*rD2*t146 - t141*t145
-    t177 = D2_11*rD2*t148 - t141*t147
-    t178 = D2_11*rD2*t150 - t141*t149
-    t179 = D2_11*rD2*t152 - t141*t151
-    t180 = D2_11*rD2*t153 - t141*t154
-    t181 = D2_11*rD2*t156 - t141*t155
+    t165 = rs1*(D1_00*rD1*t72 - cos_theta1*qdd1 - t73*t80)
+    del D1_00, cos_theta1, qdd1, rD1, t72, t80
+    t166 = rs1*(t137*t89 - t73*t93)
+    del t89, t93
+    t167 = rs1*(t103*t137 - t105*t73)
+    del t103, t105
+    t168 = rs1*(t109*t137 - t110*t73)
+    del t109, t110
+    t169 = rs1*(t116*t137 - t113*t73)
+    del t113, t116
+    t170 = rs1*(t121*t137 - t122*t73)
+    del t121, t122
+    t171 = rs1*(t125*t137 - t128*t73)
+    del t125, t128
+    t172 = rs1*(t133*t137 - t136*t73)
+    del rs1, t133, t136, t137, t73
+    t173 = D2_11*rD2*t141 - t139*t140
+    t174 = D2_11*rD2*t143 - t140*t142
+    t175 = D2_11*rD2*t145 - t140*t144
+    t176 = D2_11*rD2*t147 - t140*t146
+    t177 = D2_11*rD2*t149 - t140*t148
+    t178 = D2_11*rD2*t151 - t140*t150
+    t179 = D2_11*rD2*t152 - t140*t153
+    t180 = D2_11*rD2*t155 - t140*t154
     del D2_11
-    t182 = rs3*(t140*t157 - t141*t142)
-    del t140, t142
-    t183 = rs3*(t143*t157 - t141*t144)
-    del t143, t144
-    t184 = rs3*(D2_00*rD2*t145 - cos_theta2*qdd3 - t141*t146)
-    del D2_00, cos_theta2, qdd3, rD2, t145, t146
-    t185 = rs3*(t147*t157 - t141*t148)
-    del t147, t148
-    t186 = rs3*(t149*t157 - t141*t150)
-    del t149, t150
-    t187 = rs3*(t151*t157 - t141*t152)
-    del t151, t152
-    t188 = rs3*(t154*t157 - t141*t153)
-    del t153, t154
-    t189 = rs3*(t155*t157 - t141*t156)
-    del rs3, t141, t155, t156, t157
+    t181 = rs3*(t139*t156 - t140*t141)
+    del t139, t141
+    t182 = rs3*(t142*t156 - t140*t143)
+    del t142, t143
+    t183 = rs3*(D2_00*rD2*t144 - cos_theta2*qdd3 - t140*t145)
+    del D2_00, cos_theta2, qdd3, rD2, t144, t145
+    t184 = rs3*(t146*t156 - t140*t147)
+    del t146, t147
+    t185 = rs3*(t148*t156 - t140*t149)
+    del t148, t149
+    t186 = rs3*(t150*t156 - t140*t151)
+    del t150, t151
+    t187 = rs3*(t153*t156 - t140*t152)
+    del t152, t153
+    t188 = rs3*(t154*t156 - t140*t155)
+    del rs3, t140, t154, t155, t156
     J = numpy.empty(shape + (8, 8), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -1095,70 +1084,70 @@ def jacobian(y, p):
     J[..., 3, 5] = 0
     J[..., 3, 6] = 0
     J[..., 3, 7] = 1
-    J[..., 4, 0] = t158
+    J[..., 4, 0] = t157
+    del t157
+    J[..., 4, 1] = t158
     del t158
-    J[..., 4, 1] = t159
+    J[..., 4, 2] = t159
     del t159
-    J[..., 4, 2] = t160
+    J[..., 4, 3] = t160
     del t160
-    J[..., 4, 3] = t161
+    J[..., 4, 4] = t161
     del t161
-    J[..., 4, 4] = t162
+    J[..., 4, 5] = t162
     del t162
-    J[..., 4, 5] = t163
+    J[..., 4, 6] = t163
     del t163
-    J[..., 4, 6] = t164
+    J[..., 4, 7] = t164
     del t164
-    J[..., 4, 7] = t165
+    J[..., 5, 0] = t165
     del t165
-    J[..., 5, 0] = t166
+    J[..., 5, 1] = t166
     del t166
-    J[..., 5, 1] = t167
+    J[..., 5, 2] = t167
     del t167
-    J[..., 5, 2] = t168
+    J[..., 5, 3] = t168
     del t168
-    J[..., 5, 3] = t169
+    J[..., 5, 4] = t169
     del t169
-    J[..., 5, 4] = t170
+    J[..., 5, 5] = t170
     del t170
-    J[..., 5, 5] = t171
+    J[..., 5, 6] = t171
     del t171
-    J[..., 5, 6] = t172
+    J[..., 5, 7] = t172
     del t172
-    J[..., 5, 7] = t173
+    J[..., 6, 0] = t173
     del t173
-    J[..., 6, 0] = t174
+    J[..., 6, 1] = t174
     del t174
-    J[..., 6, 1] = t175
+    J[..., 6, 2] = t175
     del t175
-    J[..., 6, 2] = t176
+    J[..., 6, 3] = t176
     del t176
-    J[..., 6, 3] = t177
+    J[..., 6, 4] = t177
     del t177
-    J[..., 6, 4] = t178
+    J[..., 6, 5] = t178
     del t178
-    J[..., 6, 5] = t179
+    J[..., 6, 6] = t179
     del t179
-    J[..., 6, 6] = t180
+    J[..., 6, 7] = t180
     del t180
-    J[..., 6, 7] = t181
+    J[..., 7, 0] = t181
     del t181
-    J[..., 7, 0] = t182
+    J[..., 7, 1] = t182
     del t182
-    J[..., 7, 1] = t183
+    J[..., 7, 2] = t183
     del t183
-    J[..., 7, 2] = t184
+    J[..., 7, 3] = t184
     del t184
-    J[..., 7, 3] = t185
+    J[..., 7, 4] = t185
     del t185
-    J[..., 7, 4] = t186
+    J[..., 7, 5] = t186
     del t186
-    J[..., 7, 5] = t187
+    J[..., 7, 6] = t187
     del t187
-    J[..., 7, 6] = t188
+    J[..., 7, 7] = t188
     del t188
-    J[..., 7, 7] = t189
-    del t189
     return J
 
 
