@@ -41,6 +41,13 @@ class CacheError(DeriveError):
     exit_status = 2
 
 
+class WriteError(DeriveError, OSError):
+    """A file could not be written (no space left, a quota, an I/O error); the message names
+    the path and the system's reason (exit status 2: free space or choose another place).
+    Also an OSError, for callers that handle the system's errors."""
+    exit_status = 2
+
+
 class UsageError(InputError):
     """A wrong command-line argument or an unwritable output path."""
 

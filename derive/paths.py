@@ -18,14 +18,17 @@ Written (only where the user says):
 from __future__ import annotations
 
 
+import atexit
 import os
+import shutil
 import stat
+import sys
 import tempfile
 from functools import cache
 from importlib import resources
 from pathlib import Path
 
-from .errors import CacheError, PackageDataError
+from .errors import CacheError, PackageDataError, WriteError
 
 # The package's version, here at the bottom of the house so that every stage can stamp
 # what it writes with it without importing the package face (derive/__init__.py).
@@ -94,24 +97,42 @@ def replace_file(path: Path, write, mode: int | None = None) -> None:
     never sees a half-written file, a concurrent writer of the same content wins the race
     harmlessly, and a symbolic link planted at `path` is replaced, not written through.
     `write(tmp)` writes the temporary file (its suffix is the final one, for writers that
-    go by it); `mode` sets its permissions (mkstemp makes it 0600)."""
+    go by it); `mode` sets its permissions (mkstemp makes it 0600).
+    A write the system refuses (no space left, a quota, an I/O error) leaves nothing behind
+    and is a WriteError naming `path` and the reason."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=path.suffix)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=path.suffix)
+    except OSError as exc:
+        raise write_error(path, exc) from None
     os.close(fd)
     try:
         write(Path(tmp))
         if mode is not None:
             os.chmod(tmp, mode)
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise write_error(path, exc) from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
 
 
+def write_error(path: Path, exc: OSError) -> WriteError:
+    """The one-line error of a refused write: the path and the system's reason."""
+    if isinstance(exc, WriteError):
+        return exc
+    return WriteError(f"cannot write '{path}': {exc.strerror or exc}")
+
+
 def cache_dir() -> Path:
     """The cache: created private (0700); one owned by another user or writable by others
-    is refused (derive loads compiled code from it), in one line."""
+    is refused (derive loads compiled code from it), in one line.  One that cannot be
+    written (a read-only mount, no write permission) is replaced, for this process, by a
+    private temporary cache removed at exit, with one note on stderr: the run works,
+    computing what it needs, and nothing is reused or kept."""
     root = os.environ.get("DERIVE_CACHE_DIR") or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "derive")
     return _checked_cache(root)
@@ -133,7 +154,21 @@ def _checked_cache(root: str) -> Path:
         raise CacheError(f"the cache directory '{path}' is writable by others (mode "
                          f"{st.st_mode & 0o777:o}): derive loads compiled code from it; "
                          f"chmod go-w it or set DERIVE_CACHE_DIR to a private folder")
+    try:
+        fd, probe = tempfile.mkstemp(dir=path, prefix=".write-probe-")
+    except OSError as exc:
+        return _temporary_cache(path, exc)
+    os.close(fd)
+    os.unlink(probe)
     return path
+
+
+def _temporary_cache(path: Path, exc: OSError) -> Path:
+    temporary = Path(tempfile.mkdtemp(prefix="derive-cache-"))     # 0700, ours
+    atexit.register(shutil.rmtree, temporary, ignore_errors=True)
+    print(f"derive: note: the cache directory '{path}' is not writable ({exc.strerror or exc}); "
+          f"working in a temporary cache removed at exit (nothing is reused or kept)", file=sys.stderr)
+    return temporary
 
 
 # -- a user's input file (a model, a scene, a sweep): a regular file of bounded size ---------

@@ -17,13 +17,15 @@ QUIET_FOR = 2.0          # s: stages shorter than this never draw anything
 
 
 class Progress:
-    """`label [#####.....] done/total elapsed`, redrawn in place."""
+    """`label [#####.....] done/total elapsed`, redrawn in place; once a part is done, the
+    remaining time estimated from the mean time per part so far (`~12 s left`)."""
 
     def __init__(self, label: str, total: int, stream=None, width: int = 30, force: bool = False):
         self.label, self.total, self.width = label, max(total, 1), width
         self.stream = stream or sys.stderr
         self.enabled = force or _isatty(self.stream)
         self.start = time.perf_counter()
+        self._drawn = 0
         self.update(0)
 
     def update(self, done: int) -> None:
@@ -31,8 +33,14 @@ class Progress:
             return
         filled = int(self.width * done / self.total)
         elapsed = time.perf_counter() - self.start
-        self.stream.write(f"\r{self.label} [{'#' * filled}{'.' * (self.width - filled)}] "
-                          f"{done}/{self.total} {elapsed:5.1f} s")
+        text = (f"\r{self.label} [{'#' * filled}{'.' * (self.width - filled)}] "
+                f"{done}/{self.total} {elapsed:5.1f} s")
+        left = remaining(done, self.total, elapsed)
+        if left is not None:
+            text += f", ~{_duration(left)} left"
+        pad = max(0, self._drawn - len(text))
+        self.stream.write(text + " " * pad)
+        self._drawn = len(text)
         self.stream.flush()
 
     def close(self) -> None:
@@ -91,6 +99,24 @@ class Stage:
             if self._drawn:
                 self.stream.write("\r" + " " * self._drawn + "\r")
                 self.stream.flush()
+
+
+def remaining(done: int, total: int, elapsed: float) -> float | None:
+    """Seconds left if the remaining parts take as long as the done ones did on average;
+    None before the first part is done (nothing to estimate from)."""
+    if done <= 0 or done >= total or elapsed <= 0:
+        return None
+    return elapsed / done * (total - done)
+
+
+def _duration(seconds: float) -> str:
+    """`12 s`, `3 min 5 s`, `2 h 7 min`: whole units (at least 1 s)."""
+    s = max(1, round(seconds))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60} s"
+    return f"{s // 3600} h {s % 3600 // 60} min"
 
 
 def _isatty(stream) -> bool:

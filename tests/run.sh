@@ -19,11 +19,12 @@ if [[ "${1:-}" == "--slow" ]]; then
 fi
 
 # clang and gcc/g++: the generated C is compiled with each of them (make: examples/c);
+# libclang-rt-dev: clang's sanitizer runtimes (MemorySanitizer runs the generated C);
 # pdflatex: `derive latex --pdf` compiles the report;
 # pdftoppm, pdftotext: the PDF pages are rendered and their text checked.
 # lmodern: the Latin Modern T1 fonts (vector, with ligatures), without which pdflatex falls
 # back to bitmap fonts whose text does not extract cleanly.
-PACKAGES=(clang texlive-latex-base texlive-latex-recommended texlive-fonts-recommended lmodern poppler-utils)
+PACKAGES=(clang libclang-rt-dev texlive-latex-base texlive-latex-recommended texlive-fonts-recommended lmodern poppler-utils)
 missing_tools() {
   missing=()
   for tool in clang pdflatex pdftoppm pdftotext g++; do
@@ -31,6 +32,10 @@ missing_tools() {
   done
   if command -v kpsewhich >/dev/null 2>&1 && [[ -z "$(kpsewhich lmodern.sty 2>/dev/null)" ]]; then
     missing+=("lmodern.sty")
+  fi
+  if command -v clang >/dev/null 2>&1 && ! echo 'int main(void){return 0;}' |
+      clang -fsanitize=memory -x c - -o /dev/null >/dev/null 2>&1; then
+    missing+=("msan-runtime")
   fi
   command -v cc >/dev/null 2>&1 || command -v gcc >/dev/null 2>&1 || missing+=("cc")
   command -v make >/dev/null 2>&1 || missing+=("make")

@@ -29,7 +29,7 @@ from pathlib import Path
 import sympy as sp
 
 from .. import cachefile
-from ..paths import VERSION as __version__, cache_dir, package_root
+from ..paths import VERSION as __version__, cache_dir, package_root, write_error
 from ..derivation import derive
 from ..derivation.derivation import cache_key
 from ..model import load_model
@@ -155,9 +155,13 @@ def _digest(text: str) -> str:
 def _write_tree(folder: Path, files: dict[str, str]) -> None:
     """Write `files` under `folder` atomically: a temporary sibling renamed into place
     (a concurrent writer of the same key wins the race harmlessly: same content).  The
-    `.complete` marker, written last, lists every file with its SHA-256."""
-    folder.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}-", dir=folder.parent))
+    `.complete` marker, written last, lists every file with its SHA-256.  A write the
+    system refuses (no space left, ...) leaves nothing behind: a WriteError naming the folder."""
+    try:
+        folder.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}-", dir=folder.parent))
+    except OSError as exc:
+        raise write_error(folder, exc) from None
     try:
         for rel, text in files.items():
             path = tmp / rel
@@ -169,6 +173,8 @@ def _write_tree(folder: Path, files: dict[str, str]) -> None:
         except OSError:
             if not (folder / ".complete").is_file():
                 raise
+    except OSError as exc:
+        raise write_error(folder, exc) from None
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)

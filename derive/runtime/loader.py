@@ -20,6 +20,7 @@ with stride 0, without copying.
 from __future__ import annotations
 
 import ctypes
+import errno
 import hashlib
 import importlib.util
 import os
@@ -36,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..paths import cache_dir
+from ..paths import cache_dir, write_error
 from ..errors import BuildError, CompilerMissingError, SimulationInputError
 from ..model.description import forget_on_model_change
 from ..codegen.names import VECTOR_MATH
@@ -152,20 +153,35 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
         # a truncated or altered library would crash the process (SIGBUS) or run other code
         if state is not None:
             print(f"derive: note: the cached library {lib} {state}; rebuilding it", file=sys.stderr)
-    lib.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
-        out = Path(tmp) / lib.name
-        cmd = [*compiler_command(cc), *flags, "-I", str(sources[0].parent), *map(str, sources), "-o", str(out), *libs, "-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode != 0:
-            names = ", ".join(src.name for src in sources)
-            raise LoaderError(f"compiling {names} failed ({' '.join(cmd)}):\n{proc.stderr}")
-        digest = Path(tmp) / (lib.name + ".sha256")
-        digest.write_text(_sha256(out))
-        os.replace(digest, lib.with_name(lib.name + ".sha256"))      # the checksum first, then
-        os.replace(out, lib)                                           # the library it vouches for
+    try:
+        lib.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
+            out = Path(tmp) / lib.name
+            cmd = [*compiler_command(cc), *flags, "-I", str(sources[0].parent), *map(str, sources), "-o", str(out), *libs, "-lm"]
+            proc = subprocess.run(cmd, capture_output=True, text=True)
+            if proc.returncode != 0:
+                refused = _refused_write(proc.stderr)
+                if refused:            # the disk, not the code: one line naming the library
+                    raise write_error(lib, OSError(refused, os.strerror(refused)))
+                names = ", ".join(src.name for src in sources)
+                raise LoaderError(f"compiling {names} failed ({' '.join(cmd)}):\n{proc.stderr}")
+            digest = Path(tmp) / (lib.name + ".sha256")
+            digest.write_text(_sha256(out))
+            os.replace(digest, lib.with_name(lib.name + ".sha256"))      # the checksum first, then
+            os.replace(out, lib)                                           # the library it vouches for
+    except OSError as exc:
+        raise write_error(lib, exc) from None
     _verified.add(str(lib))
     return lib
+
+
+def _refused_write(compiler_output: str) -> int | None:
+    """The errno of a write the system refused, when the compiler (or its linker) says it
+    could not write for lack of space or a file-size limit."""
+    for code in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+        if os.strerror(code) in compiler_output:
+            return code
+    return None
 
 
 _verified: set[str] = set()            # libraries whose checksum this process has checked
