@@ -89,4 +89,6 @@ fi
 
 export PIP_ROOT_USER_ACTION=ignore
 "$PY" -m pip install -q -e '.[test,sweep]'
-exec "$PY" -m pytest -q -n auto "${tier[@]}" "$@"
+# --dist loadgroup: the files marked xdist_group (each shares one long cold build) run on
+# one worker each, sent out first; every other test is handed out alone, as with --dist load.
+exec "$PY" -m pytest -q -n auto --dist loadgroup "${tier[@]}" "$@"

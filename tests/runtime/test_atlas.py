@@ -14,6 +14,10 @@ from derive.runtime import simulate  # noqa: E402
 from derive.runtime.atlas_runner import atlas_library, numpy_atlas  # noqa: E402
 from derive.codegen.integrators import ATLAS_CHARTS  # noqa: E402
 
+# One worker runs this file (--dist loadgroup, tests/run.sh): the spherical atlas is built once
+# with a cold cache, not by two workers at the same time.
+pytestmark = pytest.mark.xdist_group("spherical_atlas")
+
 M1, M2, L1, L2, G = 1.0, 1.5, 1.0, 0.8, 9.81
 P = [M1, M2, L1, L2, G]
 

@@ -20,6 +20,10 @@ from derive.derivation import cartesian  # noqa: E402
 from derive.model import load_model  # noqa: E402
 from derive.model.atlas import atlas_for  # noqa: E402
 
+# One worker runs this file (--dist loadgroup, tests/run.sh): the triple chain's three charts are derived once
+# with a cold cache, not by two workers at the same time.
+pytestmark = pytest.mark.xdist_group("triple_spherical_atlas")
+
 TRIPLE = str(Path(__file__).resolve().parents[2] / "examples" / "models" / "triple_spherical.toml")
 MASSES, LENGTHS, G = (1.0, 0.8, 0.6), (1.0, 0.9, 0.7), 9.81
 P = {"m1": 1.0, "m2": 0.8, "m3": 0.6, "l1": 1.0, "l2": 0.9, "l3": 0.7, "g": G}
