@@ -54,10 +54,11 @@ def mass_centres(model: Model, s: ModelSymbols) -> list[sp.Matrix]:
 
 @dataclass(frozen=True)
 class LinkBlock:
-    """One link's rows of the equations: its coordinates, where they sit in q, and
-    D = de/du, the Jacobian of its unit vector in its own chart's coordinates."""
+    """One link's rows of the equations: where its coordinates sit in q, its unit vector e
+    and D = de/du, the Jacobian of e in its own chart's coordinates."""
     index: int
     rows: slice
+    e: sp.Matrix
     D: sp.Matrix
 
 
@@ -65,7 +66,7 @@ def link_blocks(model: Model, s: ModelSymbols) -> list[LinkBlock]:
     blocks, k = [], 0
     for i, (link, e) in enumerate(zip(model.links, link_directions(model, s))):
         n = len(link.chart.coordinates)
-        blocks.append(LinkBlock(i, slice(k, k + n), e.jacobian(sp.Matrix(s.q[k:k + n]))))
+        blocks.append(LinkBlock(i, slice(k, k + n), e, e.jacobian(sp.Matrix(s.q[k:k + n]))))
         k += n
     return blocks
 
@@ -99,21 +100,22 @@ class ChainForm:
         return expr.xreplace(self.values)
 
 
-def _weight(model: Model, s: ModelSymbols, i: int, k: int) -> sp.Expr:
-    """Where link i's vector enters body k's mass centre: whole before it, com on its own."""
-    return sp.S.One if i < k else parse_quantity(model.links[k].body.com, s)
-
-
 def chain_form(model: Model, s: ModelSymbols) -> ChainForm:
     """M and V of a chain of links (module docstring, ChainForm), built link pair by pair."""
     blocks, n = link_blocks(model, s), len(s.q)
     lengths = [parse_quantity(link.length, s) for link in model.links]
     masses = [parse_quantity(link.body.mass, s) for link in model.links]
+    coms = [parse_quantity(link.body.com, s) for link in model.links]
+
+    def weight(i: int, k: int) -> sp.Expr:
+        """Where link i's vector enters body k's mass centre: whole before it, com on its own."""
+        return sp.S.One if i < k else coms[k]
+
     M, values = sp.zeros(n, n), {}
     for a in blocks:
         for b in blocks[a.index:]:
             i, j = a.index, b.index
-            K = lengths[i] * lengths[j] * sp.Add(*[masses[k] * _weight(model, s, i, k) * _weight(model, s, j, k)
+            K = lengths[i] * lengths[j] * sp.Add(*[masses[k] * weight(i, k) * weight(j, k)
                                                    for k in range(j, len(blocks))])
             if i == j:
                 K += parse_quantity(model.links[i].body.inertia, s)
@@ -125,13 +127,13 @@ def chain_form(model: Model, s: ModelSymbols) -> ChainForm:
             M[a.rows, b.rows] = block
             M[b.rows, a.rows] = block.T
     g, V = s.param("g"), sp.S.Zero
-    for link, e, b in zip(model.links, link_directions(model, s), blocks):
+    for b in blocks:
         i = b.index
-        nu = g * lengths[i] * sp.Add(*[masses[k] * _weight(model, s, i, k) for k in range(i, len(blocks))])
+        nu = g * lengths[i] * sp.Add(*[masses[k] * weight(i, k) for k in range(i, len(blocks))])
         if nu != 0:
             symbol = sp.Dummy(f"nu{i}")
             values[symbol] = nu
-            V += symbol * e[-1]
+            V += symbol * b.e[-1]
     return ChainForm(M, V, values)
 
 

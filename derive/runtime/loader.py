@@ -155,22 +155,28 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
             print(f"derive: note: the cached library {lib} {state}; rebuilding it", file=sys.stderr)
     try:
         lib.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
-            out = Path(tmp) / lib.name
-            cmd = [*compiler_command(cc), *flags, "-I", str(sources[0].parent), *map(str, sources), "-o", str(out), *libs, "-lm"]
-            proc = subprocess.run(cmd, capture_output=True, text=True)
-            if proc.returncode != 0:
-                refused = _refused_write(proc.stderr)
-                if refused:            # the disk, not the code: one line naming the library
-                    raise write_error(lib, OSError(refused, os.strerror(refused)))
-                names = ", ".join(src.name for src in sources)
-                raise LoaderError(f"compiling {names} failed ({' '.join(cmd)}):\n{proc.stderr}")
+        tmp = tempfile.mkdtemp(dir=lib.parent)
+    except OSError as exc:
+        raise write_error(lib, exc) from None
+    try:
+        out = Path(tmp) / lib.name
+        cmd = [*compiler_command(cc), *flags, "-I", str(sources[0].parent), *map(str, sources), "-o", str(out), *libs, "-lm"]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            refused = _refused_write(proc.stderr)
+            if refused:                # the disk, not the code: one line naming the library
+                raise write_error(lib, OSError(refused, os.strerror(refused)))
+            names = ", ".join(src.name for src in sources)
+            raise LoaderError(f"compiling {names} failed ({' '.join(cmd)}):\n{proc.stderr}")
+        try:
             digest = Path(tmp) / (lib.name + ".sha256")
             digest.write_text(_sha256(out))
             os.replace(digest, lib.with_name(lib.name + ".sha256"))      # the checksum first, then
             os.replace(out, lib)                                           # the library it vouches for
-    except OSError as exc:
-        raise write_error(lib, exc) from None
+        except OSError as exc:
+            raise write_error(lib, exc) from None
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
     _verified.add(str(lib))
     return lib
 
