@@ -11,7 +11,8 @@ import numpy as np
 
 from .. import peers as P
 from ..reference import comparison_vector
-from .problems import PEER_DIVISORS, PEER_RTOLS, BenchOptions, Config, Problem, energy_of, fixed_step, prepared
+from . import toolkit
+from .problems import PEER_DIVISORS, PEER_RTOLS, BenchOptions, Config, Problem, fixed_step, prepared
 from ...derivation.cartesian import cartesian_to_state, link_lengths
 
 # the two lambdify peers: plain `sympy.lambdify` (its default, cse=False) and the stronger
@@ -120,7 +121,7 @@ def peer_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
         out += _lsoda_configs(problem)
     if problem.model == "planar":
         out += _loop_configs(problem, opts.quick)
-    energy, y0 = energy_of(problem), list(problem.y0)
+    energy, y0 = toolkit.energy_of(problem), list(problem.y0)
     for c in out:
         c.observe = (lambda e: lambda final: abs(e(final) - e(y0)) / (abs(e(y0)) or 1.0))(energy)
     return out

@@ -13,7 +13,6 @@ from typing import Callable
 
 import numpy as np
 
-from ...runtime.loader import load
 from ...runtime.simulate import normalise_params, normalise_y0
 
 TARGET = 1e-8
@@ -148,13 +147,6 @@ def prepared(problem: Problem):
     p = normalise_params(problem.model, list(problem.params))
     state, chart, _ = normalise_y0(problem.model, problem.y0_input(), p)
     return np.asarray(state), chart, p
-
-
-def energy_of(problem: Problem):
-    """y -> the energy of state y under the problem's parameters (the generated C kernel)."""
-    m = load(problem.model)
-    p = np.asarray(problem.params, np.float64)
-    return lambda y: float(m.energy(np.asarray(y, np.float64), p))
 
 
 def relative_energy_error(E: np.ndarray) -> float:

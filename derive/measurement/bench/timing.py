@@ -103,16 +103,13 @@ def rhs_cost_ns(problem: Problem, chained: bool = True, repeats: int = 7, evals:
     p = np.ascontiguousarray(r.params, np.float64)
     total = 0.0
     for name in sorted(set(charts)):
-        y = np.ascontiguousarray(r.y[charts == name], np.float64)
-        out = np.empty_like(y)
-        fn = toolkit.rhs_cost_loop(name)
         reps = max(1, evals // len(r.y))
-        args = (len(y), y.shape[1], y.ctypes.data, p.ctypes.data, out.ctypes.data, reps, int(chained), 0.0)
-        fn(*args)
+        run = toolkit.rhs_cost_run(name, r.y[charts == name], p, reps, chained)
+        run()
         times = []
         for _ in range(repeats):
             t0 = time.thread_time()
-            fn(*args)
+            run()
             times.append(time.thread_time() - t0)
         total += statistics.median(times) / reps
     return total / len(r.y) * 1e9

@@ -3,9 +3,10 @@
 The rest of the package reaches the generated code only through the functions here,
 one a kind of run: an integration to t_end (C, NumPy, the spherical atlas), the
 single-trajectory fixed-step loops, the batched RK4 (C and NumPy), the scalar RK4 over
-a batch, and the C loop that times one rhs evaluation.  Each returns a prepared callable:
-building libraries, options and arrays happens when it is made, so that a timed call is
-the integration alone, as the peers' calls are.
+a batch, the energy kernel, and the C loop that times one rhs evaluation.  Each returns
+a prepared callable: building libraries, options and arrays happens when it is made, so
+that a timed call is the integration alone, as the peers' calls are.  (The untimed runs
+that go through derive.simulate, the public API, are not here.)
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from ...codegen.sources import c_source
 from ...paths import bench_c_dir
 from ...runtime.atlas_runner import ATLAS_CHARTS, atlas_library, numpy_atlas
 from ...runtime.build import integrator_library
-from ...runtime.loader import CompiledModel, build_fastest
+from ...runtime.loader import CompiledModel, build_fastest, load
 from ...runtime.simulate import numpy_module
 from ...runtime.throughput import fixed_library, throughput_library, throughput_numpy
 from .problems import np_dtype, prepared
@@ -167,15 +168,16 @@ def numpy_batch_rk4(model: str):
     return throughput_numpy(model).rk4
 
 
-def rhs_cost_loop(model: str):
-    """derive/measurement/c/rhs_cost.c compiled against the model's generated C as the integrators are
-    (loader.build_fastest: libmvec's vector sin/cos where they build).
+def energy_of(problem):
+    """y -> the energy of state y under the problem's parameters (the generated C kernel)."""
+    m = load(problem.model)
+    p = np.asarray(problem.params, np.float64)
+    return lambda y: float(m.energy(np.asarray(y, np.float64), p))
 
-    Returns
-    -------
-    callable
-        The C function rhs_cost_loop(n, dim, y, p, out, reps, chained, eps) -> double.
-    """
+
+def _rhs_cost_loop(model: str):
+    """derive/measurement/c/rhs_cost.c compiled against the model's generated C as the integrators are
+    (loader.build_fastest: libmvec's vector sin/cos where they build)."""
     path, _ = build_fastest(f"{model}_rhs_cost", [c_source(model, f"{model}.c"), bench_c_dir() / "rhs_cost.c"],
                             extra=(f"-DRHS={model}_rhs", "-include", f"{model}.h"))
     # the loader opens the library; the loop is not a batch kernel of a header, so its
@@ -185,3 +187,31 @@ def rhs_cost_loop(model: str):
     fn.argtypes = [ctypes.c_long, ctypes.c_long, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
                    ctypes.c_long, ctypes.c_int, ctypes.c_double]
     return fn
+
+
+def rhs_cost_run(model: str, y: np.ndarray, p: np.ndarray, reps: int, chained: bool):
+    """The generated C rhs of `model` evaluated `reps` times over the states y, in a C loop.
+
+    Parameters
+    ----------
+    model : str
+        A model or chart with a generated rhs.
+    y : ndarray, (n, dim)
+        The states, float64.
+    p : ndarray
+        The parameters, float64.
+    reps : int
+        Passes over the states.
+    chained : bool
+        Each evaluation's input depends on the previous output, as in an integrator.
+
+    Returns
+    -------
+    callable
+        run() -> None, one call of the loop (the arrays are held and passed as made).
+    """
+    fn = _rhs_cost_loop(model)
+    y, p = np.ascontiguousarray(y, np.float64), np.ascontiguousarray(p, np.float64)
+    out = np.empty_like(y)
+    args = (len(y), y.shape[1], y.ctypes.data, p.ctypes.data, out.ctypes.data, reps, int(chained), 0.0)
+    return lambda: fn(*args)

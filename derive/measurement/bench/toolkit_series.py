@@ -16,7 +16,7 @@ import numpy as np
 
 from . import toolkit
 from .problems import (ADAPTIVE_RTOLS, FIXED_DIVISORS, LOOP_DIVISORS, NUMPY_KNOBS, OBSERVATIONS,
-                       QUICK_KNOBS, QUICK_LOOP_DIVISORS, BenchOptions, Config, Problem, energy_of,
+                       QUICK_KNOBS, QUICK_LOOP_DIVISORS, BenchOptions, Config, Problem,
                        fixed_step, prepared, relative_energy_error)
 from ...codegen.contract import ADAPTIVE, METHODS
 from ...codegen.loops import evaluations, throughput_models
@@ -118,7 +118,7 @@ def loop_observer(problem: Problem, method: str, step: float):
         state, _, p = prepared(problem)
         y, pa = np.asarray(state, np.float64), np.asarray(p, np.float64)
         per = int(round(problem.t_end / step)) // (OBSERVATIONS - 1)
-        energy = energy_of(problem)
+        energy = toolkit.energy_of(problem)
         E = [energy(y)]
         for _ in range(OBSERVATIONS - 1):
             y, done = loop(method, y, pa, step, per)
