@@ -10,7 +10,8 @@
    33 ns, CasADi 34 ns per evaluation.)  The batch entry point
    planar_rhs_batch is timed too (per state, blocks of 1024 states).
 2. NumPy: generated/numpy/planar.py `rhs` on B = 10^5 states against the same
-   equations written by hand in NumPy.  Target: generated faster.
+   equations written by hand in NumPy (derive/measurement/peers.py, the benchmark's
+   peer).  Target: generated faster.
 Ratios are printed; nothing is asserted.
 """
 from __future__ import annotations
@@ -25,6 +26,8 @@ import timeit
 from pathlib import Path
 
 import numpy as np
+
+from derive.measurement.peers import hand_numpy_rhs_batch
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "bench"
@@ -44,20 +47,6 @@ def c_benchmark(evals: int, repeats: int) -> dict[str, float]:
     return {k: float(v) for k, v in (line.split() for line in out.splitlines()) if k != "sink"}
 
 
-def hand_numpy_rhs(y, p):
-    """Seed 000 (1.34)-(1.35) by hand, vectorised over the leading axis of y."""
-    m1, m2, l1, l2, g = p
-    th1, th2, w1, w2 = y[:, 0], y[:, 1], y[:, 2], y[:, 3]
-    mu = 1.0 + m1 / m2
-    d = th1 - th2
-    s, c = np.sin(d), np.cos(d)
-    a, b, e = mu * l1 * l1, l1 * l2 * c, l2 * l2
-    f1 = -w2 * w2 * l1 * l2 * s - mu * g * l1 * np.sin(th1)
-    f2 = w1 * w1 * l1 * l2 * s - g * l2 * np.sin(th2)
-    det = a * e - b * b
-    return np.stack([w1, w2, (e * f1 - b * f2) / det, (a * f2 - b * f1) / det], axis=-1)
-
-
 def numpy_benchmark(batch: int, repeats: int) -> dict[str, float]:
     spec = importlib.util.spec_from_file_location("generated_planar", ROOT / "generated" / "numpy" / "planar.py")
     gen = importlib.util.module_from_spec(spec)
@@ -65,10 +54,10 @@ def numpy_benchmark(batch: int, repeats: int) -> dict[str, float]:
     rng = np.random.default_rng(0)
     y = np.concatenate([rng.uniform(-np.pi, np.pi, (batch, 2)), rng.uniform(-3, 3, (batch, 2))], axis=1)
     p = np.array([1.0, 1.3, 0.9, 1.1, 9.81])
-    assert np.allclose(gen.rhs(y, p), hand_numpy_rhs(y, p), rtol=1e-12, atol=1e-12)
+    assert np.allclose(gen.rhs(y, p), hand_numpy_rhs_batch(y, *p), rtol=1e-12, atol=1e-12)
     times = {"hand": [], "generated": []}
     for _ in range(repeats):            # alternate, keep the best of each
-        times["hand"].append(min(timeit.repeat(lambda: hand_numpy_rhs(y, p), number=3, repeat=1)) / 3)
+        times["hand"].append(min(timeit.repeat(lambda: hand_numpy_rhs_batch(y, *p), number=3, repeat=1)) / 3)
         times["generated"].append(min(timeit.repeat(lambda: gen.rhs(y, p), number=3, repeat=1)) / 3)
     result = {k: min(v) * 1e3 for k, v in times.items()}
     try:

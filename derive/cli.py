@@ -434,7 +434,7 @@ def cmd_all(args) -> int:
     return 0 if ok else 1
 
 
-# -- derive bench (the work-precision benchmark: derive/measurement/bench.py) ----------
+# -- derive bench (the work-precision benchmark: derive/measurement/bench/) -------------
 
 def cmd_bench(args) -> int:
     from .measurement.bench import BenchOptions, console_report, run_bench, write_all  # start-up: a command imports its stage when it runs

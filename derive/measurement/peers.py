@@ -11,16 +11,21 @@ same reference as the toolkit's methods.
 - SciPy `odeint` (LSODA), with the hand-written NumPy rhs and with a
   numba-jitted rhs (where numba is installed);
 - a numba-compiled RK4 loop, where numba is installed;
-- a hand-written C RK4 loop (bench/peers/planar_rk4_hand.c), compiled here.
+- a hand-written C RK4 loop (derive/measurement/c/peers/planar_rk4_hand.c), compiled here.
 
 Throughput peers (many trajectories, fixed-step RK4): a vectorised NumPy RK4
 written by hand, a numba `parallel=True` RK4 over the batch, and the
-hand-written C RK4 loop run over the batch (bench/peers/planar_rk4_batch_hand.c).
+hand-written C RK4 loop run over the batch (derive/measurement/c/peers/planar_rk4_batch_hand.c).
 Every numba peer returns None when numba does not import; the benchmark says so.
+
+The hand-written equations are written once a language: planar_accelerations in Python
+(called with math's, NumPy's or heyoka's sin and cos, and compiled by numba) and
+derive/measurement/c/planar_hand.c in C.
 """
 from __future__ import annotations
 
 import ctypes
+import importlib
 import math
 from functools import cache
 
@@ -32,17 +37,56 @@ from ..paths import bench_c_dir
 from ..runtime.loader import build
 
 
+def planar_accelerations(sin, cos):
+    """The planar double pendulum's accelerations written by hand, seed 000 (1.34)-(1.35).
+
+    Parameters
+    ----------
+    sin, cos : callable
+        math's for one state, NumPy's for arrays of states, heyoka's for its expressions;
+        numba compiles the function made with math's.
+
+    Returns
+    -------
+    callable
+        accelerations(th1, th2, w1, w2, m1, m2, l1, l2, g) -> (th1'', th2'').
+    """
+    def accelerations(th1, th2, w1, w2, m1, m2, l1, l2, g):
+        mu = 1.0 + m1 / m2
+        d = th1 - th2
+        s, c = sin(d), cos(d)
+        a, b, e = mu * l1 * l1, l1 * l2 * c, l2 * l2
+        f1 = -w2 * w2 * l1 * l2 * s - mu * g * l1 * sin(th1)
+        f2 = w1 * w1 * l1 * l2 * s - g * l2 * sin(th2)
+        det = a * e - b * b
+        return (e * f1 - b * f2) / det, (a * f2 - b * f1) / det
+    return accelerations
+
+
+_scalar_accelerations = planar_accelerations(math.sin, math.cos)
+_array_accelerations = planar_accelerations(np.sin, np.cos)
+
+
+def have_numba() -> bool:
+    """Whether numba imports (its peers run only then)."""
+    try:
+        importlib.import_module("numba")
+    except ImportError:
+        return False
+    return True
+
+
+@cache
+def _numba_accelerations():
+    """planar_accelerations compiled by numba (for the numba peers, which check that it imports)."""
+    import numba    # the bench extra: a peer
+    return numba.njit(cache=False)(_scalar_accelerations)
+
 
 def hand_numpy_rhs(t, y, m1, m2, l1, l2, g):
     """Seed 000 (1.34)-(1.35) by hand, scalar state, as a SciPy user writes it."""
-    mu = 1.0 + m1 / m2
-    d = y[0] - y[1]
-    s, c = math.sin(d), math.cos(d)
-    a, b, e = mu * l1 * l1, l1 * l2 * c, l2 * l2
-    f1 = -y[3] * y[3] * l1 * l2 * s - mu * g * l1 * math.sin(y[0])
-    f2 = y[2] * y[2] * l1 * l2 * s - g * l2 * math.sin(y[1])
-    det = a * e - b * b
-    return np.array([y[2], y[3], (e * f1 - b * f2) / det, (a * f2 - b * f1) / det])
+    a1, a2 = _scalar_accelerations(y[0], y[1], y[2], y[3], m1, m2, l1, l2, g)
+    return np.array([y[2], y[3], a1, a2])
 
 
 @cache
@@ -85,18 +129,12 @@ def numba_rk4():
         import numba    # the bench extra: a peer
     except ImportError:
         return None
+    acc = _numba_accelerations()
 
     @numba.njit(cache=False, fastmath=False)
     def rhs(y, m1, m2, l1, l2, g, out):
-        mu = 1.0 + m1 / m2
-        d = y[0] - y[1]
-        s, c = math.sin(d), math.cos(d)
-        a, b, e = mu * l1 * l1, l1 * l2 * c, l2 * l2
-        f1 = -y[3] * y[3] * l1 * l2 * s - mu * g * l1 * math.sin(y[0])
-        f2 = y[2] * y[2] * l1 * l2 * s - g * l2 * math.sin(y[1])
-        det = a * e - b * b
         out[0], out[1] = y[2], y[3]
-        out[2], out[3] = (e * f1 - b * f2) / det, (a * f2 - b * f1) / det
+        out[2], out[3] = acc(y[0], y[1], y[2], y[3], m1, m2, l1, l2, g)
 
     @numba.njit(cache=False)
     def rk4(y0, p, h, n):
@@ -149,19 +187,13 @@ def numba_rhs():
         import numba    # the bench extra: a peer
     except ImportError:
         return None
+    acc = _numba_accelerations()
 
     @numba.njit(cache=False)
     def rhs(t, y, m1, m2, l1, l2, g):
-        mu = 1.0 + m1 / m2
-        d = y[0] - y[1]
-        s, c = math.sin(d), math.cos(d)
-        a, b, e = mu * l1 * l1, l1 * l2 * c, l2 * l2
-        f1 = -y[3] * y[3] * l1 * l2 * s - mu * g * l1 * math.sin(y[0])
-        f2 = y[2] * y[2] * l1 * l2 * s - g * l2 * math.sin(y[1])
-        det = a * e - b * b
         out = np.empty(4)
         out[0], out[1] = y[2], y[3]
-        out[2], out[3] = (e * f1 - b * f2) / det, (a * f2 - b * f1) / det
+        out[2], out[3] = acc(y[0], y[1], y[2], y[3], m1, m2, l1, l2, g)
         return out
 
     rhs(0.0, np.zeros(4), 1.0, 1.0, 1.0, 1.0, 9.81)     # compile now
@@ -170,17 +202,11 @@ def numba_rhs():
 
 # -- throughput peers: many trajectories, fixed-step RK4 ---------------------------
 
-def _hand_numpy_rhs_batch(y, m1, m2, l1, l2, g):
+def hand_numpy_rhs_batch(y, m1, m2, l1, l2, g):
     """Seed 000 (1.34)-(1.35) by hand on arrays y (B, 4), as a NumPy user writes it."""
     th1, th2, w1, w2 = y[:, 0], y[:, 1], y[:, 2], y[:, 3]
-    mu = 1.0 + m1 / m2
-    d = th1 - th2
-    s, c = np.sin(d), np.cos(d)
-    a, b, e = mu * l1 * l1, l1 * l2 * c, l2 * l2
-    f1 = -w2 * w2 * l1 * l2 * s - mu * g * l1 * np.sin(th1)
-    f2 = w1 * w1 * l1 * l2 * s - g * l2 * np.sin(th2)
-    det = a * e - b * b
-    return np.stack([w1, w2, (e * f1 - b * f2) / det, (a * f2 - b * f1) / det], axis=1)
+    a1, a2 = _array_accelerations(th1, th2, w1, w2, m1, m2, l1, l2, g)
+    return np.stack([w1, w2, a1, a2], axis=1)
 
 
 def numpy_rk4_batch(y0, p, h: float, n: int) -> np.ndarray:
@@ -188,10 +214,10 @@ def numpy_rk4_batch(y0, p, h: float, n: int) -> np.ndarray:
     y = np.array(y0, dtype=np.float64)
     args = tuple(float(v) for v in p)
     for _ in range(n):
-        k1 = _hand_numpy_rhs_batch(y, *args)
-        k2 = _hand_numpy_rhs_batch(y + 0.5 * h * k1, *args)
-        k3 = _hand_numpy_rhs_batch(y + 0.5 * h * k2, *args)
-        k4 = _hand_numpy_rhs_batch(y + h * k3, *args)
+        k1 = hand_numpy_rhs_batch(y, *args)
+        k2 = hand_numpy_rhs_batch(y + 0.5 * h * k1, *args)
+        k3 = hand_numpy_rhs_batch(y + 0.5 * h * k2, *args)
+        k4 = hand_numpy_rhs_batch(y + h * k3, *args)
         y = y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
     return y
 
@@ -203,12 +229,12 @@ def numba_rk4_parallel():
         import numba    # the bench extra: a peer
     except ImportError:
         return None
+    acc = _numba_accelerations()
 
     @numba.njit(parallel=True, cache=False)
     def rk4_batch(y0, p, h, n):
         y = y0.copy()
         m1, m2, l1, l2, g = p[0], p[1], p[2], p[3], p[4]
-        mu = 1.0 + m1 / m2
         for i in numba.prange(y.shape[0]):
             a0, a1, a2, a3 = y[i, 0], y[i, 1], y[i, 2], y[i, 3]
             k = np.empty((4, 4))
@@ -222,14 +248,8 @@ def numba_rk4_parallel():
                         s1 = a1 + f * k[st - 1, 1]
                         s2 = a2 + f * k[st - 1, 2]
                         s3 = a3 + f * k[st - 1, 3]
-                    d = s0 - s1
-                    sd, cd = math.sin(d), math.cos(d)
-                    a, b, e = mu * l1 * l1, l1 * l2 * cd, l2 * l2
-                    f1 = -s3 * s3 * l1 * l2 * sd - mu * g * l1 * math.sin(s0)
-                    f2 = s2 * s2 * l1 * l2 * sd - g * l2 * math.sin(s1)
-                    det = a * e - b * b
                     k[st, 0], k[st, 1] = s2, s3
-                    k[st, 2], k[st, 3] = (e * f1 - b * f2) / det, (a * f2 - b * f1) / det
+                    k[st, 2], k[st, 3] = acc(s0, s1, s2, s3, m1, m2, l1, l2, g)
                 a0 += h / 6.0 * (k[0, 0] + 2.0 * k[1, 0] + 2.0 * k[2, 0] + k[3, 0])
                 a1 += h / 6.0 * (k[0, 1] + 2.0 * k[1, 1] + 2.0 * k[2, 1] + k[3, 1])
                 a2 += h / 6.0 * (k[0, 2] + 2.0 * k[1, 2] + 2.0 * k[2, 2] + k[3, 2])

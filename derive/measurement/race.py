@@ -49,7 +49,7 @@ from ..errors import ToolMissingError
 from ..runtime.ensemble import ensemble
 from ..runtime.simulate import simulate
 from ..codegen.contract import FIXED, IMPLICIT, TOLERANCE_METHODS
-from .peers import lambdified_rhs, solve_ivp_final
+from .peers import lambdified_rhs, planar_accelerations, solve_ivp_final
 import mpmath
 from concurrent.futures import ThreadPoolExecutor
 import platform
@@ -94,14 +94,8 @@ def heyoka_system(hy):
     (m1, m2, l1, l2, g): seed 000 (1.34)-(1.35), the compact form a heyoka user writes."""
     th1, th2, w1, w2 = hy.make_vars("th1", "th2", "w1", "w2")
     m1, m2, l1, l2, g = (hy.par[i] for i in range(5))
-    mu = 1.0 + m1 / m2
-    d = th1 - th2
-    s, c = hy.sin(d), hy.cos(d)
-    a, b, e = mu * l1 * l1, l1 * l2 * c, l2 * l2
-    f1 = -w2 * w2 * l1 * l2 * s - mu * g * l1 * hy.sin(th1)
-    f2 = w1 * w1 * l1 * l2 * s - g * l2 * hy.sin(th2)
-    det = a * e - b * b
-    return [(th1, w1), (th2, w2), (w1, (e * f1 - b * f2) / det), (w2, (a * f2 - b * f1) / det)]
+    a1, a2 = planar_accelerations(hy.sin, hy.cos)(th1, th2, w1, w2, m1, m2, l1, l2, g)
+    return [(th1, w1), (th2, w2), (w1, a1), (w2, a2)]
 
 
 def _timed(run) -> float:

@@ -66,7 +66,7 @@ def _run(problem, rtol: float):
 
 
 def compute(problem) -> Reference:
-    """The reference of a benchmark problem (see derive/measurement/bench.py PROBLEMS)."""
+    """The reference of a benchmark problem (see derive/measurement/bench/problems.py, PROBLEMS)."""
     start = time.perf_counter()
     tight, run = _run(problem, RTOL)
     seconds = time.perf_counter() - start

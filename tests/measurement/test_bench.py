@@ -97,14 +97,14 @@ def test_chaotic_runs_past_their_trust_horizon_are_not_compared():
     assert info.reference_horizon >= chaotic.t_end            # the reference resolves 1e-10 there
     cache, rhs = {}, {}
     loose = B.Config(chaotic, "toolkit", "dop853 C float32", "dop853", "c", "float32", 1e-3, None,
-                     B._toolkit_runner(chaotic, "dop853", "c", "float32", 1e-3, None),
-                     B._toolkit_observer(chaotic, "dop853", "c", "float32", 1e-3, None))
+                     B.toolkit_runner(chaotic, "dop853", "c", "float32", 1e-3, None),
+                     B.toolkit_observer(chaotic, "dop853", "c", "float32", 1e-3, None))
     row = B.measure(loose, info, opts, cache, rhs)
     assert row["status"] == "beyond trust horizon" and "final_error" not in row
     assert row["horizon_resolve"] < chaotic.t_end and row["horizon_target"] == 0.0
     tight = B.Config(chaotic, "toolkit", "dop853 C float64", "dop853", "c", "float64", 1e-12, None,
-                     B._toolkit_runner(chaotic, "dop853", "c", "float64", 1e-12, None),
-                     B._toolkit_observer(chaotic, "dop853", "c", "float64", 1e-12, None))
+                     B.toolkit_runner(chaotic, "dop853", "c", "float64", 1e-12, None),
+                     B.toolkit_observer(chaotic, "dop853", "c", "float64", 1e-12, None))
     row = B.measure(tight, info, opts, cache, rhs)
     assert row["status"] == "ok" and row["final_error"] < 1e-7
     assert row["horizon_resolve"] > chaotic.t_end

@@ -1,0 +1,217 @@
+"""Every call the benchmark makes into derive's integrators, loops and kernels.
+
+The rest of the package reaches the generated code only through the functions here,
+one a kind of run: an integration to t_end (C, NumPy, the spherical atlas), the
+single-trajectory fixed-step loops, the batched RK4 (C and NumPy), the scalar RK4 over
+a batch, the energy kernel, and the C loop that times one rhs evaluation.  Each returns
+a prepared callable: building libraries, options and arrays happens when it is made, so
+that a timed call is the integration alone, as the peers' calls are.  (The untimed runs
+that go through derive.simulate, the public API, are not here.)
+"""
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+from ..reference import comparison_vector
+from ...codegen.contract import METHODS, SINE_MIN
+from ...codegen.sources import c_source
+from ...paths import bench_c_dir
+from ...runtime.atlas_runner import ATLAS_CHARTS, atlas_library, numpy_atlas
+from ...runtime.build import integrator_library
+from ...runtime.loader import CompiledModel, build_fastest, load
+from ...runtime.simulate import numpy_module
+from ...runtime.throughput import fixed_library, throughput_library, throughput_numpy
+from .problems import np_dtype, prepared
+
+
+def integrator_options(rtol, step) -> dict:
+    """The options of one integrator run: rtol (atol = rtol 1e-3) or the fixed step h."""
+    return {"rtol": rtol if rtol is not None else 1e-9, "atol": (rtol if rtol is not None else 1e-9) * 1e-3,
+            "h": step or 0.0, "hmin": 0.0, "hmax": 0.0, "max_steps": 100_000_000, "newton_tol": 0.0,
+            "newton_max": 30, "sine_min": float(SINE_MIN)}
+
+
+def integrator_run(problem, method: str, backend: str, dtype: str, rtol, step):
+    """One integration of `problem` from 0 to t_end by a generated integrator.
+
+    Parameters
+    ----------
+    problem : Problem
+    method : str
+        One of derive.codegen.contract.METHODS.
+    backend : {"c", "numpy"}
+    dtype : {"float32", "float64", "longdouble"}
+    rtol : float or None
+        The tolerance of an adaptive method; None for a fixed step.
+    step : float or None
+        The step of a fixed-step method; None for an adaptive one.
+
+    Returns
+    -------
+    callable
+        run() -> (comparison vector at t_end, rhs evaluations, ok, message).
+    """
+    dt = np_dtype(dtype)
+    state, chart, p = prepared(problem)
+    y0, pd, t = np.asarray(state, dt), np.asarray(p, dt), np.array([0.0, problem.t_end], dt)
+    opt = integrator_options(rtol, step)
+    idx = METHODS.index(method)
+    vec = lambda y, ch: comparison_vector(problem.model, y, ch, p)
+    if problem.model == "spherical":
+        if backend == "c":
+            return _c_atlas_run(idx, chart, y0, pd, t, opt, vec)
+        return _numpy_atlas_run(method, chart, y0, pd, t, dt, opt, vec)
+    if backend == "c":
+        return _c_run(integrator_library(problem.model), idx, y0, pd, t, opt, vec)
+    return _numpy_run(numpy_module(f"{problem.model}_integrate"), method, y0, pd, t, dt, opt, vec)
+
+
+def _c_options(lib, opt: dict):
+    o = lib.defaults()
+    for k, v in opt.items():
+        setattr(o, k, v)
+    return o
+
+
+def _c_run(lib, idx, y0, pd, t, opt, vec):
+    o, y0b = _c_options(lib, opt), y0[None, :]
+
+    def run():
+        y, infos = lib.run(idx, y0b, pd, t, o)
+        inf = infos[0]
+        return vec(y[0, -1], None), inf.nfev, inf.status == 0, f"status {inf.status}"
+    return run
+
+
+def _c_atlas_run(idx, chart, y0, pd, t, opt, vec):
+    lib = atlas_library()
+    o, y0b, c0 = _c_options(lib, opt), y0[None, :], [ATLAS_CHARTS.index(chart)]
+
+    def run():
+        y, charts, infos = lib.run(idx, c0, y0b, pd, t, o)
+        inf = infos[0]
+        ch = ATLAS_CHARTS[charts[0, -1]] if charts[0, -1] >= 0 else None
+        return vec(y[0, -1], ch), inf.nfev, inf.status == 0, f"status {inf.status}"
+    return run
+
+
+def _numpy_run(mod, method, y0, pd, t, dt, opt, vec):
+    def run():
+        st, y, inf = mod.integrate(method, y0, pd, t, dt, **opt)
+        return vec(y[-1], None), int(inf["nfev"]), st == 0, f"status {st}"
+    return run
+
+
+def _numpy_atlas_run(method, chart, y0, pd, t, dt, opt, vec):
+    mod, c0 = numpy_atlas(), ATLAS_CHARTS.index(chart)
+
+    def run():
+        st, y, charts, inf = mod.integrate(method, c0, y0, pd, t, dt, **opt)
+        ch = ATLAS_CHARTS[charts[-1]] if charts[-1] >= 0 else None
+        return vec(y[-1], ch), int(inf["nfev"]), st == 0, f"status {st}"
+    return run
+
+
+def loop_run(model: str):
+    """The generated single-trajectory fixed-step loops of a model (<model>_fixed_<method>).
+
+    Returns
+    -------
+    callable
+        run(method, y0, p, h, nsteps) -> (state after the steps completed, steps completed).
+    """
+    return fixed_library(model).run
+
+
+def scalar_rk4(model: str, h: float):
+    """The generated scalar RK4 integrator at step h, run over a batch one trajectory after another.
+
+    Returns
+    -------
+    callable
+        run(y0 (B, n), p, nsteps) -> the states after nsteps steps, (B, n).
+    """
+    lib = integrator_library(model)
+    o = lib.defaults()
+    o.h = h
+    idx = METHODS.index("rk4")
+
+    def run(y0, p, nsteps):
+        y, _ = lib.run(idx, y0, p, np.array([0.0, h * nsteps]), o)
+        return y[:, -1]
+    return run
+
+
+def c_batch_rk4(model: str, soa: bool = False):
+    """The generated batched RK4 in C (<model>_throughput_rk4).
+
+    Parameters
+    ----------
+    model : str
+    soa : bool
+        True: run(Y, p, h, nsteps, threads) on states Y (n, B), in place, -> (status, steps);
+        False: run(y0 (B, n), p, h, nsteps, threads) -> (y, status, steps).
+    """
+    tp = throughput_library(model)
+    return tp.rk4_soa if soa else tp.rk4
+
+
+def c_batch_vector_math(model: str) -> bool:
+    """Whether the batched C RK4 was built with libmvec's vector sin and cos."""
+    return throughput_library(model).vector_math
+
+
+def numpy_batch_rk4(model: str):
+    """The generated batched RK4 in NumPy: run(Y (n, B), p, h, nsteps) -> (Y, status, steps)."""
+    return throughput_numpy(model).rk4
+
+
+def energy_of(problem):
+    """y -> the energy of state y under the problem's parameters (the generated C kernel)."""
+    m = load(problem.model)
+    p = np.asarray(problem.params, np.float64)
+    return lambda y: float(m.energy(np.asarray(y, np.float64), p))
+
+
+def _rhs_cost_loop(model: str):
+    """derive/measurement/c/rhs_cost.c compiled against the model's generated C as the integrators are
+    (loader.build_fastest: libmvec's vector sin/cos where they build)."""
+    path, _ = build_fastest(f"{model}_rhs_cost", [c_source(model, f"{model}.c"), bench_c_dir() / "rhs_cost.c"],
+                            extra=(f"-DRHS={model}_rhs", "-include", f"{model}.h"))
+    # the loader opens the library; the loop is not a batch kernel of a header, so its
+    # C signature is declared here
+    fn = CompiledModel(f"{model}_rhs_cost", path, "").lib.rhs_cost_loop
+    fn.restype = ctypes.c_double
+    fn.argtypes = [ctypes.c_long, ctypes.c_long, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
+                   ctypes.c_long, ctypes.c_int, ctypes.c_double]
+    return fn
+
+
+def rhs_cost_run(model: str, y: np.ndarray, p: np.ndarray, reps: int, chained: bool):
+    """The generated C rhs of `model` evaluated `reps` times over the states y, in a C loop.
+
+    Parameters
+    ----------
+    model : str
+        A model or chart with a generated rhs.
+    y : ndarray, (n, dim)
+        The states, float64.
+    p : ndarray
+        The parameters, float64.
+    reps : int
+        Passes over the states.
+    chained : bool
+        Each evaluation's input depends on the previous output, as in an integrator.
+
+    Returns
+    -------
+    callable
+        run() -> None, one call of the loop (the arrays are held and passed as made).
+    """
+    fn = _rhs_cost_loop(model)
+    y, p = np.ascontiguousarray(y, np.float64), np.ascontiguousarray(p, np.float64)
+    out = np.empty_like(y)
+    args = (len(y), y.shape[1], y.ctypes.data, p.ctypes.data, out.ctypes.data, reps, int(chained), 0.0)
+    return lambda: fn(*args)
