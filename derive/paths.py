@@ -7,6 +7,7 @@ Read (package data, shipped in the wheel, found with importlib.resources):
   scenes/           the example scenes (`derive run default`)
   measurement/c/    the C sources the benchmark compiles (rhs cost loop, hand-written peers)
   codegen/backends/c/library/   the integrators' C library, copied beside generated C
+  codegen/backends/numpy/library/   the NumPy one, copied beside generated NumPy
 
 Written (only where the user says):
   the cache         cache_dir(): derivations, verdicts, rendered sources, compiled libraries;
@@ -77,6 +78,11 @@ def bench_c_dir() -> Path:
 def c_library_file(name: str) -> Path:
     """A file of the integrators' hand-written C library (derive_integrators.h, ...)."""
     return package_data("codegen", "backends", "c", "library", name)
+
+
+def numpy_library_file(name: str) -> Path:
+    """A file of the integrators' hand-written NumPy library (derive_integrators.py)."""
+    return package_data("codegen", "backends", "numpy", "library", name)
 
 
 @cache

@@ -28,7 +28,7 @@ from ..model.atlas import ATLAS, load_atlas
 from ..derivation.cartesian import RULE_CHARTS, _sines_of_unit, rule_models, rule_sines
 from .contract import (ADAPTIVE, ATLAS_CHARTS, IMPLICIT, METHODS,  # noqa: F401  (re-exported)
                        SINE_MIN, SINE_RULE, SINE_SWITCH)
-from ..paths import VERSION as __version__, c_library_file
+from ..paths import VERSION as __version__, c_library_file, numpy_library_file
 
 NEWTON_THETA_MAX = "0.5"  # implicit methods: a contraction rate above this re-evaluates the Jacobian
 NEWTON_THETA_DIVERGE = "2"   # implicit methods: an increment growing this much is NEWTON at once
@@ -245,14 +245,15 @@ def contract_c(M: str, prefix: str, n: str, sine_min_macro: str) -> dict:
 def contract_numpy() -> dict:
     """The run contract as the NumPy templates print it."""
     names = [f'"{x}"' for x in contract.STATUS_NAMES]
-    init = {"int": "OK", "long": "0", "double": "0.0"}
+    init = {"int": "0", "long": "0", "double": "0.0"}      # the status field: OK (0)
     info = [f'"{f.name}": {"None" if f.length else init[f.ctype]}' for f in contract.INFO]
     return {
         "status_unpack": f"{', '.join(s.macro for s in contract.STATUS_TABLE)} = range({len(contract.STATUS_TABLE)})",
-        "status_names": _wrap("STATUS_NAMES = (", names, ")", 80),
+        "status_codes": _wrap("STATUS_CODES = {", [f'"{s.macro}": {s.code}' for s in contract.STATUS_TABLE], "}", 88),
+        "status_names": _wrap("STATUS_NAMES = (", names, ")", 88),
         "methods": "METHODS = (" + ", ".join(f'"{m}"' for m in contract.METHODS) + ")",
-        "defaults": _wrap("DEFAULTS = {", [f'"{f.name}": {f.py_default}' for f in contract.OPTIONS], "}", 99),
-        "new_info": _wrap("    return {", info, "}", 100),
+        "defaults": _wrap("DEFAULTS = {", [f'"{f.name}": {f.py_default}' for f in contract.OPTIONS], "}", 88),
+        "info": _wrap("INFO = {", info, "}", 88),
     }
 
 
@@ -422,6 +423,7 @@ def render_atlas(name: str = ATLAS) -> dict[str, str]:
     files.update(library_files(("derive_driver.h",)))
     files[f"numpy/{P}.py"] = render(
         "numpy/atlas.py.jinja", dict(ctx, template="templates/numpy/atlas.py.jinja", explicit=None))
+    files.update(numpy_library_files())
     return files
 
 
@@ -473,13 +475,38 @@ def _adams_py() -> dict:
             "milne": repr(tb.py_literal(tb.value(str(tb.adams_milne(ABM_STEPS)))))}
 
 
-def render_numpy(name: str) -> dict[str, str]:
-    info = model_info(name)
+NUMPY_LIBRARY = ("derive_integrators.py",)     # derive/codegen/backends/numpy/library/
+NUMPY_LIBRARY_SOURCE = "codegen/backends/numpy/library"
+
+
+def render_numpy_tableaus() -> dict[str, str]:
+    """numpy/derive_tableaus.py: the run contract and every method's coefficients as the
+    NumPy library reads them, the same for every model (its first line names no model)."""
     explicit, gauss = numpy_tableaus()
-    ctx = {"P": name, "title": info.title, "has_ham": info.has_ham, "has_guards": info.nguards > 0,
-           "n": info.n, "n_params": info.n_params + info.n_inputs, "sine_min": SINE_MIN, "sources": SOURCES,
-           "model_params": info.n_params, "has_inputs": info.n_inputs > 0,
-           "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE,
-           "explicit": explicit, "gauss": gauss, "contract_py": contract_numpy(), "adams": _adams_py(),
-           "template": "templates/numpy/integrate.py.jinja"}
-    return {f"numpy/{name}_integrate.py": render("numpy/integrate.py.jinja", ctx)}
+    ctx = {"version": __version__, "template": "templates/numpy/tableaus.py.jinja", "sources": SOURCES,
+           "sine_min": SINE_MIN, "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE,
+           "abm_steps": ABM_STEPS, "explicit": explicit, "gauss": gauss, "adams": _adams_py(),
+           "contract_py": contract_numpy()}
+    return {"numpy/derive_tableaus.py": render("numpy/tableaus.py.jinja", ctx)}
+
+
+def numpy_library_files() -> dict[str, str]:
+    """The hand-written NumPy library, copied verbatim into a generated tree (numpy/<file>)
+    under one first line that names the derive that copied it, and its rendered data:
+    the same for every model, beside every model's thin <model>_integrate.py."""
+    files = {}
+    for file in NUMPY_LIBRARY:
+        text = numpy_library_file(file).read_text()
+        files[f"numpy/{file}"] = (f"# Copied by derive {__version__} from {NUMPY_LIBRARY_SOURCE}/{file} "
+                                  f"for every model; do not edit.\n{text}")
+    files.update(render_numpy_tableaus())
+    return files
+
+
+def render_numpy(name: str) -> dict[str, str]:
+    """numpy/<model>_integrate.py, a few lines that give the model's kernels to the shared
+    library (numpy_library_files, written beside it)."""
+    info = model_info(name)
+    ctx = {"P": name, "title": info.title, "n": info.n, "n_params": info.n_params + info.n_inputs,
+           "has_inputs": info.n_inputs > 0, "template": "templates/numpy/integrate.py.jinja"}
+    return {f"numpy/{name}_integrate.py": render("numpy/integrate.py.jinja", ctx), **numpy_library_files()}

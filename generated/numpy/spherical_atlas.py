@@ -5,7 +5,8 @@ same logic, thresholds and status codes as c/spherical_atlas.h:
 charts 0 = spherical_std, 1 = spherical_alt, 2 = spherical_rot;
 switch below SINE_SWITCH = 0.3, the rule of seed 000 section 5.1 with
 SINE_RULE = 0.5 picks the chart (all its polar sines >= 0.5), and no kernel is
-evaluated below SINE_MIN = 0.1.
+evaluated below SINE_MIN = 0.1.  The methods and the stepping loop are those of
+derive_integrators.py (`library`), run on each chart's kernels; this file adds the charts.
 
 integrate(method, chart0, y0, p, t, dtype, **options) -> (status, y_out, charts, info)
 """
@@ -16,6 +17,8 @@ import numpy
 
 
 def _load(name):
+    """The module <name>.py of this file's folder, loaded from its path (the folder need
+    not be on sys.path)."""
     spec = importlib.util.spec_from_file_location(
         "_derive_atlas_" + name, pathlib.Path(__file__).with_name(name + ".py"))
     mod = importlib.util.module_from_spec(spec)
@@ -24,15 +27,16 @@ def _load(name):
 
 
 CHARTS = ['spherical_std', 'spherical_alt', 'spherical_rot']
-_INTEGRATORS = [_load(ch + "_integrate") for ch in CHARTS]
-_KERNELS = [m.kernels for m in _INTEGRATORS]
+library = _load("derive_integrators")        # the methods and the stepping loop
+_KERNELS = [_load(ch) for ch in CHARTS]
+_SYSTEMS = [library.System(k) for k in _KERNELS]
 OK, STEP_UNDERFLOW, MAX_STEPS, NEWTON, NONFINITE, CHART_SINGULAR, BAD_INPUT, CANCELLED, MULTISTEP_UNSTABLE = range(9)
 SINE_MIN = 0.1
 SINE_SWITCH = 0.3
 SINE_RULE = 0.5
 STD, ALT, ROT = 0, 1, 2   # the standard, second and rotated chart
 N_STATES, N_LINKS, N_PARAMS = 8, 2, 5
-DEFAULTS = dict(_INTEGRATORS[0].DEFAULTS, sine_switch=SINE_SWITCH, sine_rule=SINE_RULE)
+DEFAULTS = dict(library.DEFAULTS, sine_switch=SINE_SWITCH, sine_rule=SINE_RULE)
 
 
 def choose_chart(chart, y, p, rule=SINE_RULE):
@@ -68,31 +72,30 @@ class _Atlas:
         self.z = None
 
     def eval(self, z):
-        return _INTEGRATORS[self.chart]._eval(z, self.p, self.opt, self.info)
+        return _SYSTEMS[self.chart].eval(z, self.p, self.opt, self.info)
 
     def step(self, z, h, K=None):
-        m = _INTEGRATORS[self.chart]
+        system = _SYSTEMS[self.chart]
         if self.method in ("midpoint", "gauss2"):
-            st, zn = m.gauss_step(self.method, z, h, self.p, self.opt, self.info)
+            st, zn = library.gauss_step(system, self.method, z, h, self.p, self.opt, self.info)
             return st, zn, 0.0
         if K is None:
             K = numpy.zeros((16, len(z)), z.dtype)
         if self.method == "rk4":
-            st, K[0] = m._eval(z, self.p, self.opt, self.info)
+            st, K[0] = system.eval(z, self.p, self.opt, self.info)
             if st:
                 return st, None, None
-        return m.explicit_step(self.method, z, h, self.p, K, self.opt, self.info)
+        return library.explicit_step(system, self.method, z, h, self.p, K, self.opt, self.info)
 
     def dense_prepare(self, z, zn, h, K):
         if self.method == "dop853":
-            return _INTEGRATORS[self.chart].dop853_dense_prepare(z, zn, h, self.p, K, self.opt, self.info)
+            return library.dop853_dense_prepare(_SYSTEMS[self.chart], z, zn, h, self.p, K, self.opt, self.info)
         return OK, None
 
     def dense(self, z, zn, h, K, F, theta):
-        m = _INTEGRATORS[self.chart]
         if self.method == "dop853":
-            return m.dop853_dense(z, F, theta)
-        return m.dopri5_dense(z, h, K, theta)
+            return library.dop853_dense(z, F, theta)
+        return library.dopri5_dense(z, h, K, theta)
 
     def inp(self, y):
         return OK, y
@@ -120,194 +123,6 @@ class _Atlas:
         self.info["chart"] = self.chart
 
 
-# -- the stepping loop, shared (as text) with the spherical atlas ------------------
-
-def _hinit(c, z, f0, direction, hmax, order):
-    """Hairer's starting step (Solving ODEs I, II.4)."""
-    sk = c.opt["atol"] + c.opt["rtol"] * numpy.abs(z)
-    dnf = float(numpy.sum((f0 / sk) ** 2))
-    dny = float(numpy.sum((z / sk) ** 2))
-    h = 1e-6 if (dnf <= 1e-10 or dny <= 1e-10) else (dny / dnf) ** 0.5 * 0.01
-    h = min(h, hmax)
-    st, f1 = c.eval(z + direction * h * f0)
-    if st:
-        return h
-    der2 = float(numpy.sum(((f1 - f0) / sk) ** 2)) ** 0.5 / h
-    der12 = max(der2, dnf ** 0.5)
-    h1 = max(1e-6, h * 1e-3) if der12 <= 1e-15 else (0.01 / der12) ** (1.0 / order)
-    return min(100 * h, h1, hmax)
-
-
-def _fixed_step(c, z, h, partial):
-    """One fixed step (partial: a shortened one to an output off the grid): the step
-    budget, the chart switch at the start, the redo after a chart singularity, the
-    finiteness of the result.  -> (status, z (perhaps switched), z_new)."""
-    info = c.info
-    if info["nsteps"] >= c.opt["max_steps"]:
-        return MAX_STEPS, z, None
-    sw = c.switch(z, False)
-    if sw < 0:
-        return -sw, z, None
-    if sw == 1:
-        z = c.z
-    info["nsteps"] += 1
-    # a multistep method's shortened steps are one-step steps (its history is the grid's)
-    st, zn, err = (getattr(c, "partial_step", c.step) if partial else c.step)(z, h)
-    if st == CHART_SINGULAR:
-        sw = c.switch(z, True)       # switch at the step start and redo
-        if sw < 0:
-            return -sw, z, None
-        if sw == 1:
-            z = c.z
-            st, zn, err = c.step(z, h)
-    if st:
-        return st, z, None
-    if not numpy.all(numpy.isfinite(zn)):
-        return NONFINITE, z, None
-    info["naccepted"] += 1
-    if err > 0:        # abm12: Milne's estimate, in units of atol + rtol |z|_max (as the step scaled it)
-        info["local_error"] += float(err) * (c.opt["atol"] + c.opt["rtol"] * float(numpy.max(numpy.abs(z))))
-    return OK, z, zn
-
-
-def _drive(c, y0, t_out):
-    """From y0 at t_out[0] through every output time; returns (status, y_out)."""
-    info, method, opt = c.info, c.method, c.opt
-    nt, n = len(t_out), len(y0)
-    y_out = numpy.full((nt, n), numpy.nan, c.dtype)
-    t, h = t_out[0], c.dtype.type(0)
-    z = y0
-    eps = float(numpy.finfo(c.dtype).eps)
-
-    def done(st, z, t, h):
-        info["status"], info["t"], info["h"] = st, float(t), float(h)
-        c.set_y(z)
-        y_out[info["nout"]:] = numpy.nan
-        return st, y_out
-
-    st, z = c.inp(y0)
-    if st:
-        return done(st, y0, t, h)
-    st, y_out[0] = c.out(z)
-    if st:
-        return done(st, z, t, h)
-    info["nout"] = 1
-    if nt == 1:
-        return done(OK, z, t, h)
-    direction = 1 if t_out[-1] > t_out[0] else -1
-    if method not in ("dopri5", "dop853"):
-        # the grid t0 + k h whatever the outputs; an output between grid points is a
-        # shortened step from the grid point before it into a side state (as in the C)
-        h = c.dtype.type(direction * opt["h"])
-        info["h_end"] = 0.0
-        kgrid, zside = 0, None
-        for iout in range(1, nt):
-            slack = 16 * eps * (abs(float(t_out[0])) + abs(float(t_out[iout])) + abs(float(h)))
-            while True:
-                tnext = t_out[0] + c.dtype.type(kgrid + 1) * h
-                if float((tnext - t_out[iout]) * direction) > slack:
-                    break
-                st, z, zn = _fixed_step(c, z, h, False)
-                if st:
-                    return done(st, z, t, h)
-                z, t, kgrid = zn, tnext, kgrid + 1
-            if float((t_out[iout] - t) * direction) <= slack:
-                zside, info["h_end"] = None, 0.0
-                st, y_out[iout] = c.out(z)
-            else:
-                info["h_end"] = float(t_out[iout] - t)
-                st, z, zside = _fixed_step(c, z, t_out[iout] - t, True)
-                if st:
-                    return done(st, z, t, h)
-                st, y_out[iout] = c.out(zside)
-            if st:
-                return done(st, z, t, h)
-            info["nout"] += 1
-        return done(OK, z if zside is None else zside, t_out[-1], h)
-
-    if method == "dopri5":
-        order, facmin, facmax, fsal = 5.0, 0.2, 10.0, 6
-    else:
-        order, facmin, facmax, fsal = 8.0, 0.333, 6.0, 12
-    tend = t_out[-1]
-    hmax = opt["hmax"] if opt["hmax"] > 0 else abs(float(tend - t))
-    st, f0 = c.eval(z)
-    if st:
-        return done(st, z, t, h)
-    K = numpy.zeros((16, n), c.dtype)
-    K[0] = f0
-    if opt["h"] > 0:
-        h = min(opt["h"], hmax)
-    else:
-        h = _hinit(c, z, K[0], direction, hmax, order)
-    h = c.dtype.type(direction * h)
-    cause, rejected, iout = 0, False, 1
-    while iout < nt:
-        if info["nsteps"] >= opt["max_steps"]:
-            return done(MAX_STEPS, z, t, h)
-        last = False
-        if (t + h - tend) * direction >= 0:
-            h = tend - t
-            last = True
-        hmin = max(16 * eps * abs(float(t)), opt["hmin"])
-        if abs(float(h)) <= hmin or h == 0:
-            return done(cause or STEP_UNDERFLOW, z, t, h)
-        info["nsteps"] += 1
-        st, zn, err = c.step(z, h, K)
-        if st == 0 and err <= 1 and method == "dop853":
-            st, K[12] = c.eval(zn)
-        if st or not err <= 1:
-            info["nrejected"] += 1
-            if st:
-                cause, fac = st, 0.25
-            elif err != err:
-                cause, fac = NONFINITE, 0.25
-            else:
-                cause, fac = 0, min(1.0, max(facmin, 0.9 * float(err) ** (-1.0 / order)))
-            rejected = True
-            h = h * c.dtype.type(fac)
-            continue
-        cause = 0
-        tnew = tend if last else t + h
-        dense = None
-        while iout < nt and (t_out[iout] - tnew) * direction <= 0:
-            if t_out[iout] == tnew:
-                st, y_out[iout] = c.out(zn)
-            else:
-                if dense is None:
-                    st, dense = c.dense_prepare(z, zn, h, K)
-                    if st:
-                        return done(st, z, t, h)
-                theta = (t_out[iout] - t) / h
-                st, y_out[iout] = c.out(c.dense(z, zn, h, K, dense, theta))
-            if st:
-                return done(st, z, t, h)
-            info["nout"] += 1
-            iout += 1
-        # the step's local-error estimate in the state's units (err is scaled per component
-        # by atol + rtol max(|y|, |y_new|): the largest of those scales bounds it)
-        size = max(float(numpy.max(numpy.abs(z))), float(numpy.max(numpy.abs(zn))))
-        info["local_error"] += float(err) * (opt["atol"] + opt["rtol"] * size)
-        z, t = zn, tnew
-        K[0] = K[fsal]
-        info["naccepted"] += 1
-        sw = c.switch(z, False)
-        if sw < 0:
-            return done(-sw, z, t, h)
-        if sw == 1:
-            z = c.z
-            st, K[0] = c.eval(z)
-            if st:
-                return done(st, z, t, h)
-        fac = 0.9 * float(err) ** (-1.0 / order) if err > 0 else facmax
-        fac = max(facmin, min(fac, 1.0 if rejected else facmax))
-        rejected = False
-        h = h * c.dtype.type(fac)
-        if abs(float(h)) > hmax:
-            h = c.dtype.type(direction * hmax)
-    return done(OK, z, t, h)
-
-
 def integrate(method, chart0, y0, p, t, dtype=numpy.float64, **options):
     """One trajectory from y0 in chart0 (or, for chart0 < 0, a standard-chart state
     from which the rule picks the chart): (status, y_out (len(t), N_STATES), charts (len(t),), info)."""
@@ -316,10 +131,10 @@ def integrate(method, chart0, y0, p, t, dtype=numpy.float64, **options):
     y0 = numpy.asarray(y0, dtype).reshape(N_STATES)
     p = numpy.asarray(p, dtype).reshape(N_PARAMS)
     t = numpy.asarray(t, dtype).reshape(-1)
-    info = _INTEGRATORS[0].new_info()
+    info = library.new_info()
     info.update(t=float(t[0]) if len(t) else 0.0, y=numpy.array(y0, numpy.float64), nswitches=0, chart=chart0)
     charts = numpy.full(len(t), -1, numpy.intc)
-    st = _INTEGRATORS[0].check(method, y0, p, t, opt)
+    st = library.check(method, y0, p, t, opt)
     if not st and (method in ("rk8", "abm12") or chart0 >= len(CHARTS) or not opt["sine_switch"] >= opt["sine_min"]
                    or not opt["sine_rule"] > opt["sine_switch"]):
         st = BAD_INPUT
@@ -330,7 +145,7 @@ def integrate(method, chart0, y0, p, t, dtype=numpy.float64, **options):
     if st:
         info["status"] = st
         return st, numpy.full((len(t), N_STATES), numpy.nan, dtype), charts, info
-    st, y_out = _drive(_Atlas(method, chart0, p, opt, info, dtype, charts), y0, t)
+    st, y_out = library.drive(_Atlas(method, chart0, p, opt, info, dtype, charts), y0, t)
     charts[info["nout"]:] = -1
     return st, y_out, charts, info
 

@@ -108,8 +108,9 @@ def test_output_is_identical_across_hash_seeds(tmp_path):
         assert a == (ROOT / "generated" / rel).read_bytes(), f"{rel} differs from the checked-in file"
 
 
-# the files the same for every model: the C integrators' library and their tableaus
-SHARED_FILES = {"c/derive_integrators.h", "c/derive_driver.h", "c/derive_tableaus.h"}
+# the files the same for every model: the integrators' libraries (C, NumPy) and their tableaus
+SHARED_FILES = {"c/derive_integrators.h", "c/derive_driver.h", "c/derive_tableaus.h",
+                "numpy/derive_integrators.py", "numpy/derive_tableaus.py"}
 
 
 def test_files_carry_preamble_op_counts_and_no_dates_or_versions():
@@ -286,6 +287,34 @@ def test_the_integrators_method_code_is_written_once():
         assert sum(line == '#include "derive_integrators.h"' for line in lines) == 3     # one per real type
     atlas = (GEN_C / "spherical_atlas.c").read_text()
     assert "Hairer's starting step" not in atlas and atlas.count('#include "derive_driver.h"') == 3
+
+
+def test_the_numpy_integrators_are_written_once():
+    """The NumPy method code is the library, copied verbatim under its first line: a
+    model's <model>_integrate.py is a few lines that give it the model's kernels, and
+    the atlas has no stepping loop of its own."""
+    from derive.paths import numpy_library_file
+    gen = ROOT / "generated" / "numpy"
+    first, rest = (gen / "derive_integrators.py").read_text().split("\n", 1)
+    assert SHARED.search(first) and rest == numpy_library_file("derive_integrators.py").read_text()
+    thin = sorted(gen.glob("*_integrate.py"))
+    assert len(thin) == len(model_names())
+    for path in thin:
+        text = path.read_text()
+        assert len(text.splitlines()) < 40 and "def integrate" not in text, path.name
+    assert "Hairer's starting step" not in (gen / "spherical_atlas.py").read_text()
+
+
+@pytest.mark.parametrize("model", ["planar", "spherical_std", "compound"])
+def test_the_numpy_library_reads_the_model_off_its_kernels(model):
+    """What the library reads off a kernel module (sizes, chart guards, a Hamiltonian
+    form, inputs) is what the derivation says of the model."""
+    from derive.codegen.integrators import model_info
+    from derive.runtime.loader import numpy_module
+    system = numpy_module(f"{model}_integrate").system
+    info = model_info(model)
+    assert (system.n, system.n_params, system.guarded, system.hamiltonian, system.has_inputs) == \
+        (info.n, info.n_params + info.n_inputs, info.nguards > 0, info.has_ham, info.n_inputs > 0)
 
 
 _OUT_MAIN = r"""

@@ -104,8 +104,8 @@ def test_rk8_loop_equals_dop853_steps_at_a_fixed_step(model):
     for y0 in _states(3, seed=8):
         y, info, K = np.array(y0), mod.new_info(), [None] * 16
         for _ in range(50):
-            _, K[0] = mod._eval(y, p, opt, info)
-            _, y, _ = mod.explicit_step("dop853", y, 0.02, p, K, opt, info)
+            _, K[0] = mod.system.eval(y, p, opt, info)
+            _, y, _ = mod.library.explicit_step(mod.system, "dop853", y, 0.02, p, K, opt, info)
         got, done = fixed_library(model).run("rk8", y0, p, 0.02, 50)
         assert done == 50 and np.abs(got - y).max() <= 1e-12
 

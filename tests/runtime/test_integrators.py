@@ -57,8 +57,8 @@ def _fixed_explicit(name, h, T=1.0, dtype=np.longdouble):
     K = np.zeros((16, 4), dtype)
     n = int(round(T / h))
     for _ in range(n):
-        st, K[0] = mod._eval(y, p, opt, info)
-        st, y, _ = mod.explicit_step(name, y, dtype(h), p, K, opt, info)
+        st, K[0] = mod.system.eval(y, p, opt, info)
+        st, y, _ = mod.library.explicit_step(mod.system, name, y, dtype(h), p, K, opt, info)
         assert st == 0
     return y
 
@@ -87,15 +87,15 @@ def test_dense_output_order(name, order):
     errs = []
     for h in (0.2, 0.1, 0.05):
         K = np.zeros((16, 4), dtype)
-        _, K[0] = mod._eval(y, p, opt, info)
-        _, yn, _ = mod.explicit_step(name, y, dtype(h), p, K, opt, info)
+        _, K[0] = mod.system.eval(y, p, opt, info)
+        _, yn, _ = mod.library.explicit_step(mod.system, name, y, dtype(h), p, K, opt, info)
         theta = dtype(0.37)
         if name == "dop853":
-            _, K[12] = mod._eval(yn, p, opt, info)
-            _, F = mod.dop853_dense_prepare(y, yn, dtype(h), p, K, opt, info)
-            yd = mod.dop853_dense(y, F, theta)
+            _, K[12] = mod.system.eval(yn, p, opt, info)
+            _, F = mod.library.dop853_dense_prepare(mod.system, y, yn, dtype(h), p, K, opt, info)
+            yd = mod.library.dop853_dense(y, F, theta)
         else:
-            yd = mod.dopri5_dense(y, dtype(h), K, theta)
+            yd = mod.library.dopri5_dense(y, dtype(h), K, theta)
         ref = simulate("planar", Y0, [0.0, float(theta * dtype(h))], PLANAR, method="dop853",
                        rtol=1e-17, atol=1e-20, dtype="longdouble").y[-1]
         errs.append(float(np.max(np.abs(yd - ref))))

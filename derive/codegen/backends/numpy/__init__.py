@@ -2,8 +2,11 @@
 broadcasts over leading axes of its arrays.
 
 Its artifacts: per model <model>.py (the kernels, templates/numpy/module.py.jinja),
-<model>_integrate.py (the integrators, derive/codegen/integrators.py), for a model
-without chart guards <model>_throughput.py; per atlas <atlas>.py.  Parameters become
+<model>_integrate.py (a few lines giving the kernels to the integrators' library), for a
+model without chart guards <model>_throughput.py; per atlas <atlas>.py; for every model
+alike derive_integrators.py (the methods and the stepping loop, hand-written in library/
+and copied verbatim) and derive_tableaus.py (the run contract and the coefficients it
+reads, rendered once; both derive/codegen/integrators.py).  Parameters become
 kernel locals, so names Python reserves or the kernels use are renamed
 (derive/codegen/names.py: `reserved` below is that list).
 """

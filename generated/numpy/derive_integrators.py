@@ -1,0 +1,713 @@
+# Copied by derive 0.2.0 from codegen/backends/numpy/library/derive_integrators.py for every model; do not edit.
+"""derive_integrators.py: the NumPy integrators of derive, written once for every model.
+
+The same methods, step control, status codes and output conventions as the C library
+(derive_integrators.h, derive_driver.h): rk4, dopri5, dop853 (adaptive, dense output),
+midpoint, gauss2 (implicit, simplified Newton with the generated Jacobian), rk8 and
+abm12 (fixed step; abm12 stops with MULTISTEP_UNSTABLE, see abm12_step).
+
+A model is its generated kernel module (<model>.py beside this file), passed in:
+
+    integrate(kernels, method, y0, p, t, dtype=numpy.float64, **options)
+        -> (status, y_out (len(t), n), info)          one trajectory
+    integrate_batch(kernels, method, y0s, p, t, ...)  many, one per row of y0s
+
+What a model brings is read off its module (see System): the sizes from its name
+tables, chart guards where it has polar_sines (no kernel is evaluated where a polar
+sine is below options["sine_min"]), Hamilton's equations where it has
+hamiltonian_rhs (the implicit methods then run on x = (q, p) and are symplectic; else
+on y' = f(y) with the generated jacobian: symmetric, order 2s, not symplectic in y),
+run-time inputs where it has INPUT_NAMES (p is then the parameters, then the inputs).
+
+The run contract (status codes, METHODS, DEFAULTS, the info fields) and the methods'
+coefficients are derive_tableaus.py's, rendered once for every model; this file is
+copied verbatim beside it (derive/codegen/backends/numpy/library/).  Only numpy is
+imported: a folder of generated NumPy runs without derive.
+"""
+import importlib.util
+import pathlib
+
+import numpy
+
+
+def _beside(name):
+    """The module <name>.py of this file's folder, loaded from its path (so that the
+    folder need not be on sys.path, as when derive loads a generated tree by path)."""
+    spec = importlib.util.spec_from_file_location(
+        "_derive_" + name, pathlib.Path(__file__).with_name(name + ".py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+_data = _beside("derive_tableaus")
+# the status codes in the contract's order (a test holds these names to it)
+(OK, STEP_UNDERFLOW, MAX_STEPS, NEWTON, NONFINITE, CHART_SINGULAR, BAD_INPUT, CANCELLED,
+ MULTISTEP_UNSTABLE) = _data.STATUS_CODES.values()
+STATUS_NAMES = _data.STATUS_NAMES
+METHODS = _data.METHODS
+SINE_MIN = _data.SINE_MIN
+NEWTON_THETA_MAX = _data.NEWTON_THETA_MAX
+NEWTON_THETA_DIVERGE = _data.NEWTON_THETA_DIVERGE
+DEFAULTS = _data.DEFAULTS
+IMPLICIT = ("midpoint", "gauss2")
+_CACHE = {}
+
+
+def new_info():
+    """A run's info dict, every counter zero (the fields of the C info struct)."""
+    return dict(_data.INFO)
+
+
+def _tab(name, dtype):
+    """The tableau with every coefficient as a scalar of dtype (parsed from its string)."""
+    key = (name, dtype.name)
+    if key not in _CACHE:
+        def conv(x):
+            if isinstance(x, str):
+                return numpy.array([x]).astype(dtype)[0]
+            if isinstance(x, (list, tuple)):
+                return [conv(e) for e in x]
+            return x
+        _CACHE[key] = {k: conv(v) for k, v in _data.TABLEAUS[name].items()}
+    return _CACHE[key]
+
+
+def _status_of(f):
+    return OK if numpy.all(numpy.isfinite(f)) else NONFINITE
+
+
+class System:
+    """What the methods need of one model: its kernel module's sizes and its guarded,
+    counted right-hand side, and the implicit methods' system and Jacobian.
+
+    Parameters
+    ----------
+    kernels : module
+        The model's generated NumPy kernels (<model>.py): rhs and jacobian; polar_sines
+        for a model with chart guards; hamiltonian_rhs, hamiltonian_jacobian,
+        to_canonical and from_canonical for one with a Hamiltonian form.
+    """
+
+    def __init__(self, kernels):
+        self.kernels = kernels
+        self.n = len(kernels.STATE_NAMES)
+        self.n_model_params = len(kernels.PARAM_NAMES)
+        inputs = getattr(kernels, "INPUT_NAMES", ())
+        self.has_inputs = len(inputs) > 0
+        self.n_params = self.n_model_params + len(inputs)      # p = (parameters, inputs)
+        self.guarded = hasattr(kernels, "polar_sines")
+        self.hamiltonian = hasattr(kernels, "hamiltonian_rhs")
+
+    def guard(self, y, opt):
+        """OK, or why no kernel may be evaluated at y (its chart is singular there)."""
+        if not self.guarded:
+            return OK
+        s = self.kernels.polar_sines(y)
+        if not numpy.all(numpy.isfinite(s)):
+            return NONFINITE
+        if not numpy.all(numpy.abs(s) >= opt["sine_min"]):
+            return CHART_SINGULAR
+        return OK
+
+    def _split(self, p):
+        """The kernels' arguments after the state: p, or the parameters and the inputs."""
+        if self.has_inputs:
+            return p[..., :self.n_model_params], p[..., self.n_model_params:]
+        return (p,)
+
+    def eval(self, y, p, opt, info):
+        """f(y), counted and guarded: (status, f)."""
+        g = self.guard(y, opt)
+        if g:
+            return g, numpy.full_like(y, numpy.nan)
+        info["nfev"] += 1
+        with numpy.errstate(all="ignore"):      # a non-finite result is reported by status
+            f = self.kernels.rhs(y, *self._split(p)).astype(y.dtype, copy=False)
+        return _status_of(f), f
+
+    def sys_eval(self, x, p, opt, info):
+        """The implicit methods' system: Hamilton's equations where the model has them."""
+        if not self.hamiltonian:
+            return self.eval(x, p, opt, info)
+        info["nfev"] += 1
+        with numpy.errstate(all="ignore"):
+            f = self.kernels.hamiltonian_rhs(x, p).astype(x.dtype, copy=False)
+        return _status_of(f), f
+
+    def sys_jac(self, x, p, opt, info):
+        """The Jacobian of sys_eval, counted (and guarded, for y' = f(y)): (status, J)."""
+        if self.hamiltonian:
+            info["njev"] += 1
+            J = self.kernels.hamiltonian_jacobian(x, p).astype(x.dtype, copy=False)
+            return _status_of(J), J
+        g = self.guard(x, opt)
+        if g:
+            return g, None
+        info["njev"] += 1
+        J = self.kernels.jacobian(x, *self._split(p)).astype(x.dtype, copy=False)
+        return _status_of(J), J
+
+
+# -- one step of each method -------------------------------------------------------
+
+def _combo(row, K):
+    acc = None
+    for j, a in row:
+        term = a * K[j]
+        acc = term if acc is None else acc + term
+    return acc
+
+
+def explicit_step(system, name, y, h, p, K, opt, info):
+    """One step of rk4, dopri5 or dop853; K[0] = f(y) on entry.  (status, y_new, err)."""
+    tab = _tab(name, y.dtype)
+    for i, row in enumerate(tab["rows"], start=1):
+        st, K[i] = system.eval(y + h * _combo(row, K), p, opt, info)
+        if st:
+            return st, None, None
+    y_new = y + h * _combo(tab["b"], K)
+    if name == "rk4":
+        return OK, y_new, 0.0
+    sk = opt["atol"] + opt["rtol"] * numpy.maximum(numpy.abs(y), numpy.abs(y_new))
+    if name == "dopri5":
+        st, K[6] = system.eval(y_new, p, opt, info)
+        if st:
+            return st, None, None
+        e = h * _combo(tab["e"], K) / sk
+        return OK, y_new, float(numpy.sqrt(numpy.mean(e * e)))
+    e3 = float(numpy.sum((_combo(tab["e3"], K) / sk) ** 2))
+    e5 = float(numpy.sum((_combo(tab["e5"], K) / sk) ** 2))
+    deno = e5 + 0.01 * e3
+    if deno <= 0:
+        deno = 1.0
+    return OK, y_new, abs(float(h)) * e5 * (1.0 / (len(y) * deno)) ** 0.5
+
+
+def dopri5_dense(y, h, K, theta):
+    """dopri5's 4th-order dense output at y + theta h (K: the step's stages)."""
+    tab = _tab("dopri5", y.dtype)
+    acc = numpy.zeros_like(y)
+    for k, coefs in tab["p"]:
+        b = coefs[3]
+        for j in (2, 1, 0):
+            b = coefs[j] + theta * b
+        acc = acc + (theta * b) * K[k]
+    return y + h * acc
+
+
+def dop853_dense_prepare(system, y, y_new, h, p, K, opt, info):
+    """dop853's three extra stages and the 7 coefficient rows of its dense output:
+    (status, F); K[12] = f(y_new) on entry."""
+    tab = _tab("dop853", y.dtype)
+    for i, row in tab["extra"]:
+        st, K[i] = system.eval(y + h * _combo(row, K), p, opt, info)
+        if st:
+            return st, None
+    F = numpy.empty((7,) + y.shape, y.dtype)
+    F[0] = y_new - y
+    F[1] = h * K[0] - F[0]
+    F[2] = F[0] - h * K[12] - F[1]
+    for r, row in enumerate(tab["d"]):
+        F[3 + r] = h * _combo(row, K)
+    return OK, F
+
+
+def dop853_dense(y, F, theta):
+    """dop853's 7th-order dense output at y + theta h from dop853_dense_prepare's F."""
+    s1 = 1 - theta
+    return y + theta * (F[0] + s1 * (F[1] + theta * (F[2] + s1 * (F[3] + theta * (F[4] + s1 * (F[5] + theta * F[6]))))))
+
+
+def _gauss_matrix(A, h, J, dtype):
+    """W = I - h (a_ij J_j) (J_j: the Jacobian for stage j), and W in the dtype of the solve."""
+    ns, n = len(A), J[0].shape[0]
+    W = numpy.eye(ns * n, dtype=dtype)
+    for i in range(ns):
+        for j in range(ns):
+            W[i * n:(i + 1) * n, j * n:(j + 1) * n] -= h * A[i][j] * J[j]
+    solve_dtype = numpy.float64 if dtype == numpy.longdouble else dtype
+    Wf = W.astype(solve_dtype)
+    return W, Wf, bool(numpy.all(numpy.isfinite(Wf)))
+
+
+def gauss_step(system, name, x, h, p, opt, info):
+    """One step of midpoint or gauss2 on the system's x: (status, x_new).
+
+    Simplified Newton with the Jacobian at x.  With the contraction rate
+    theta_k = |dZ_k| / |dZ_k-1|: an increment that shrinks slowly (NEWTON_THETA_MAX <
+    theta < 1) re-evaluates the Jacobian at the current stage values x + Z_j (one per
+    stage, W = I - h (a_ij J_j)) and restarts the rate estimate; one that grows (1 <=
+    theta < NEWTON_THETA_DIVERGE) does the same at the iterate before it, once per
+    step.  NEWTON, the last resort, when an increment grows again, grows by
+    NEWTON_THETA_DIVERGE or more, is not finite, or no convergence in
+    opt["newton_max"] iterations (the same logic as the C step)."""
+    tab = _tab(name, x.dtype)
+    ns, A, c, d = tab["ns"], tab["A"], tab["c"], tab["d"]
+    n = len(x)
+    eps = numpy.finfo(x.dtype).eps
+    tol = opt["newton_tol"] if opt["newton_tol"] > 0 else 10 * eps
+    rounding = 1000 * eps
+    theta_max = x.dtype.type(NEWTON_THETA_MAX)
+    theta_diverge = x.dtype.type(NEWTON_THETA_DIVERGE)
+    st, J0 = system.sys_jac(x, p, opt, info)
+    if st:
+        return st, None
+    st, f0 = system.sys_eval(x, p, opt, info)
+    if st:
+        return st, None
+    Z = numpy.array([c[i] * h * f0 for i in range(ns)])
+    W, Wf, finite = _gauss_matrix(A, h, [J0] * ns, x.dtype)
+    if not finite:
+        return NEWTON, None
+    solve_dtype = Wf.dtype
+    Am = numpy.array(A, dtype=x.dtype)
+    Fv = numpy.empty((ns, n), x.dtype)
+    prev, grown, conv = 0.0, False, False
+    for it in range(opt["newton_max"]):
+        Zold = Z
+        for i in range(ns):
+            st, Fv[i] = system.sys_eval(x + Z[i], p, opt, info)
+            if st:
+                return st, None
+        G = -(Z - h * numpy.einsum("ij,jk->ik", Am, Fv))
+        try:
+            dZ = numpy.linalg.solve(Wf, G.reshape(-1).astype(solve_dtype)).astype(x.dtype)
+        except numpy.linalg.LinAlgError:
+            return NEWTON, None
+        if x.dtype == numpy.longdouble:
+            # one step of iterative refinement brings the double solve to long double
+            r = G.reshape(-1) - W @ dZ
+            dZ = dZ + numpy.linalg.solve(Wf, r.astype(solve_dtype)).astype(x.dtype)
+        Z = Z + dZ.reshape(ns, n)
+        nrm = float(numpy.max(numpy.abs(dZ.reshape(ns, n)) / (1 + numpy.abs(x))))
+        info["nnewton"] += 1
+        bad = 0                 # 1: slow, 2: growing
+        if nrm != nrm or nrm > 1e30:
+            return NEWTON, None
+        elif nrm <= tol:
+            conv = True
+            break
+        elif prev > 0:
+            theta = nrm / prev
+            if theta < 1 and theta / (1 - theta) * nrm <= tol:
+                conv = True
+                break
+            if nrm <= rounding:
+                if theta >= 1:
+                    conv = True     # stagnation at rounding level
+                    break
+            elif theta >= theta_diverge:
+                return NEWTON, None     # diverges: the step is too large for the motion
+            elif theta >= 1:
+                bad = 2
+            elif theta > theta_max:
+                bad = 1
+        if bad:
+            if bad == 2:
+                if grown:
+                    return NEWTON, None     # grows again after a re-evaluation
+                grown, Z = True, Zold
+            J = []
+            for j in range(ns):
+                st, Jj = system.sys_jac(x + Z[j], p, opt, info)
+                if st:
+                    return st, None
+                J.append(Jj)
+            W, Wf, finite = _gauss_matrix(A, h, J, x.dtype)
+            if not finite:
+                return NEWTON, None
+            prev = 0.0              # restart: the rate is estimated anew
+            continue
+        prev = nrm
+    if not conv:
+        return NEWTON, None
+    return OK, x + sum(d[i] * Z[i] for i in range(ns))
+
+
+def abm12_step(c, z, h):
+    """abm12 on the grid, as in the C: rk8 for the first 11 steps, then PECE; a step whose
+    local error (Milne's estimate from the predictor-corrector difference) exceeds
+    atol + rtol |y|_max is MULTISTEP_UNSTABLE.  c: the run (_Run), its history c.hist."""
+    w = _tab("abm12", z.dtype)
+    k = len(w["ab"])
+    if not c.hist:
+        st, f = c.eval(z)
+        if st:
+            return st, None, None
+        c.hist = [f]
+    err = 0.0
+    if len(c.hist) < k:
+        K = numpy.zeros((16, len(z)), z.dtype)
+        K[0] = c.hist[0]
+        st, zn, _ = explicit_step(c.system, "dop853", z, h, c.p, K, c.opt, c.info)
+    else:
+        yp = z + h * sum(w["ab"][j] * c.hist[j] for j in range(k - 1, -1, -1))
+        st, fp = c.eval(yp)
+        if st:
+            return st, None, None
+        zn = z + h * (sum(w["am"][j] * c.hist[j - 1] for j in range(k - 1, 0, -1)) + w["am"][0] * fp)
+        err = float(w["milne"] * numpy.max(numpy.abs(zn - yp))) / (c.opt["atol"] + c.opt["rtol"] * float(numpy.max(numpy.abs(z))))
+        if not err <= 1:
+            return MULTISTEP_UNSTABLE, None, None
+    if st:
+        return st, None, None
+    st, f = c.eval(zn)
+    c.hist = [f] + c.hist[:k - 1]
+    return st, zn, err
+
+
+class _Run:
+    """The driver's view of one run of one model (one chart, never switches)."""
+
+    def __init__(self, system, method, p, opt, info, dtype):
+        self.system, self.method, self.p, self.opt, self.info, self.dtype = system, method, p, opt, info, dtype
+        self.canonical = system.hamiltonian and method in IMPLICIT
+        self.z = None
+        self.hist = []          # abm12: f at the last grid points, newest first
+
+    def eval(self, z):
+        return self.system.eval(z, self.p, self.opt, self.info)
+
+    def step(self, z, h, K=None):
+        if self.method in IMPLICIT:
+            st, zn = gauss_step(self.system, self.method, z, h, self.p, self.opt, self.info)
+            return st, zn, 0.0
+        if self.method == "abm12":
+            return abm12_step(self, z, h)
+        if K is None:
+            K = numpy.zeros((16, len(z)), z.dtype)
+        if self.method in ("rk4", "rk8"):
+            st, K[0] = self.eval(z)
+            if st:
+                return st, None, None
+        if self.method == "rk8":           # DOP853's 8th-order formula, its error unused
+            st, zn, _ = explicit_step(self.system, "dop853", z, h, self.p, K, self.opt, self.info)
+            return st, zn, 0.0
+        return explicit_step(self.system, self.method, z, h, self.p, K, self.opt, self.info)
+
+    def partial_step(self, z, h):
+        """A shortened step off the grid: abm12 takes an rk8 step (its history is the grid's)."""
+        if self.method != "abm12":
+            return self.step(z, h)
+        K = numpy.zeros((16, len(z)), z.dtype)
+        st, K[0] = self.eval(z)
+        if st:
+            return st, None, None
+        st, zn, _ = explicit_step(self.system, "dop853", z, h, self.p, K, self.opt, self.info)
+        return st, zn, 0.0
+
+    def dense_prepare(self, z, zn, h, K):
+        if self.method == "dop853":
+            return dop853_dense_prepare(self.system, z, zn, h, self.p, K, self.opt, self.info)
+        return OK, None
+
+    def dense(self, z, zn, h, K, F, theta):
+        if self.method == "dop853":
+            return dop853_dense(z, F, theta)
+        return dopri5_dense(z, h, K, theta)
+
+    def inp(self, y):
+        if self.canonical:
+            x = self.system.kernels.to_canonical(y, self.p).astype(self.dtype, copy=False)
+            return _status_of(x), x
+        return self.system.guard(y, self.opt), y
+
+    def out(self, z):
+        if self.canonical:
+            y = self.system.kernels.from_canonical(z, self.p).astype(self.dtype, copy=False)
+            return _status_of(y), y
+        return OK, z
+
+    def switch(self, z, force):
+        return 0
+
+    def set_y(self, z):
+        st, y = self.out(z)
+        self.info["y"] = numpy.array(y if st == OK else z, dtype=numpy.float64)
+
+
+# -- the stepping loop, shared with the chart atlas --------------------------------
+# A run (c) gives the loop: c.info, c.opt, c.method, c.dtype; c.eval(z) -> (status, f);
+# c.step(z, h[, K]) -> (status, z_new, err); c.partial_step (optional); c.dense_prepare,
+# c.dense; c.inp(y) and c.out(z) (the state the method runs on and back); c.switch(z,
+# force) -> 0, 1 (switched: the new state in c.z) or -status; c.set_y(z).
+
+def _hinit(c, z, f0, direction, hmax, order):
+    """Hairer's starting step (Solving ODEs I, II.4)."""
+    sk = c.opt["atol"] + c.opt["rtol"] * numpy.abs(z)
+    dnf = float(numpy.sum((f0 / sk) ** 2))
+    dny = float(numpy.sum((z / sk) ** 2))
+    h = 1e-6 if (dnf <= 1e-10 or dny <= 1e-10) else (dny / dnf) ** 0.5 * 0.01
+    h = min(h, hmax)
+    st, f1 = c.eval(z + direction * h * f0)
+    if st:
+        return h
+    der2 = float(numpy.sum(((f1 - f0) / sk) ** 2)) ** 0.5 / h
+    der12 = max(der2, dnf ** 0.5)
+    h1 = max(1e-6, h * 1e-3) if der12 <= 1e-15 else (0.01 / der12) ** (1.0 / order)
+    return min(100 * h, h1, hmax)
+
+
+def _fixed_step(c, z, h, partial):
+    """One fixed step (partial: a shortened one to an output off the grid): the step
+    budget, the chart switch at the start, the redo after a chart singularity, the
+    finiteness of the result.  -> (status, z (perhaps switched), z_new)."""
+    info = c.info
+    if info["nsteps"] >= c.opt["max_steps"]:
+        return MAX_STEPS, z, None
+    sw = c.switch(z, False)
+    if sw < 0:
+        return -sw, z, None
+    if sw == 1:
+        z = c.z
+    info["nsteps"] += 1
+    # a multistep method's shortened steps are one-step steps (its history is the grid's)
+    st, zn, err = (getattr(c, "partial_step", c.step) if partial else c.step)(z, h)
+    if st == CHART_SINGULAR:
+        sw = c.switch(z, True)       # switch at the step start and redo
+        if sw < 0:
+            return -sw, z, None
+        if sw == 1:
+            z = c.z
+            st, zn, err = c.step(z, h)
+    if st:
+        return st, z, None
+    if not numpy.all(numpy.isfinite(zn)):
+        return NONFINITE, z, None
+    info["naccepted"] += 1
+    if err > 0:        # abm12: Milne's estimate, in units of atol + rtol |z|_max (as the step scaled it)
+        info["local_error"] += float(err) * (c.opt["atol"] + c.opt["rtol"] * float(numpy.max(numpy.abs(z))))
+    return OK, z, zn
+
+
+def _drive_fixed(c, z, t_out, direction, done, y_out):
+    """The fixed-step methods: the grid t0 + k h whatever the outputs; an output between
+    grid points is a shortened step from the grid point before it into a side state (as
+    in the C)."""
+    info, nt = c.info, len(t_out)
+    eps = float(numpy.finfo(c.dtype).eps)
+    t = t_out[0]
+    h = c.dtype.type(direction * c.opt["h"])
+    info["h_end"] = 0.0
+    kgrid, zside = 0, None
+    for iout in range(1, nt):
+        slack = 16 * eps * (abs(float(t_out[0])) + abs(float(t_out[iout])) + abs(float(h)))
+        while True:
+            tnext = t_out[0] + c.dtype.type(kgrid + 1) * h
+            if float((tnext - t_out[iout]) * direction) > slack:
+                break
+            st, z, zn = _fixed_step(c, z, h, False)
+            if st:
+                return done(st, z, t, h)
+            z, t, kgrid = zn, tnext, kgrid + 1
+        if float((t_out[iout] - t) * direction) <= slack:
+            zside, info["h_end"] = None, 0.0
+            st, y_out[iout] = c.out(z)
+        else:
+            info["h_end"] = float(t_out[iout] - t)
+            st, z, zside = _fixed_step(c, z, t_out[iout] - t, True)
+            if st:
+                return done(st, z, t, h)
+            st, y_out[iout] = c.out(zside)
+        if st:
+            return done(st, z, t, h)
+        info["nout"] += 1
+    return done(OK, z if zside is None else zside, t_out[-1], h)
+
+
+def _drive_adaptive(c, z, t_out, direction, done, y_out):
+    """dopri5 and dop853: Hairer's step-size control, dense output between steps."""
+    info, method, opt = c.info, c.method, c.opt
+    nt, n = len(t_out), len(z)
+    eps = float(numpy.finfo(c.dtype).eps)
+    t, h = t_out[0], c.dtype.type(0)
+    if method == "dopri5":
+        order, facmin, facmax, fsal = 5.0, 0.2, 10.0, 6
+    else:
+        order, facmin, facmax, fsal = 8.0, 0.333, 6.0, 12
+    tend = t_out[-1]
+    hmax = opt["hmax"] if opt["hmax"] > 0 else abs(float(tend - t))
+    st, f0 = c.eval(z)
+    if st:
+        return done(st, z, t, h)
+    K = numpy.zeros((16, n), c.dtype)
+    K[0] = f0
+    if opt["h"] > 0:
+        h = min(opt["h"], hmax)
+    else:
+        h = _hinit(c, z, K[0], direction, hmax, order)
+    h = c.dtype.type(direction * h)
+    cause, rejected, iout = 0, False, 1
+    while iout < nt:
+        if info["nsteps"] >= opt["max_steps"]:
+            return done(MAX_STEPS, z, t, h)
+        last = False
+        if (t + h - tend) * direction >= 0:
+            h = tend - t
+            last = True
+        hmin = max(16 * eps * abs(float(t)), opt["hmin"])
+        if abs(float(h)) <= hmin or h == 0:
+            return done(cause or STEP_UNDERFLOW, z, t, h)
+        info["nsteps"] += 1
+        st, zn, err = c.step(z, h, K)
+        if st == 0 and err <= 1 and method == "dop853":
+            st, K[12] = c.eval(zn)
+        if st or not err <= 1:
+            info["nrejected"] += 1
+            if st:
+                cause, fac = st, 0.25
+            elif err != err:
+                cause, fac = NONFINITE, 0.25
+            else:
+                cause, fac = 0, min(1.0, max(facmin, 0.9 * float(err) ** (-1.0 / order)))
+            rejected = True
+            h = h * c.dtype.type(fac)
+            continue
+        cause = 0
+        tnew = tend if last else t + h
+        dense = None
+        while iout < nt and (t_out[iout] - tnew) * direction <= 0:
+            if t_out[iout] == tnew:
+                st, y_out[iout] = c.out(zn)
+            else:
+                if dense is None:
+                    st, dense = c.dense_prepare(z, zn, h, K)
+                    if st:
+                        return done(st, z, t, h)
+                theta = (t_out[iout] - t) / h
+                st, y_out[iout] = c.out(c.dense(z, zn, h, K, dense, theta))
+            if st:
+                return done(st, z, t, h)
+            info["nout"] += 1
+            iout += 1
+        # the step's local-error estimate in the state's units (err is scaled per component
+        # by atol + rtol max(|y|, |y_new|): the largest of those scales bounds it)
+        size = max(float(numpy.max(numpy.abs(z))), float(numpy.max(numpy.abs(zn))))
+        info["local_error"] += float(err) * (opt["atol"] + opt["rtol"] * size)
+        z, t = zn, tnew
+        K[0] = K[fsal]
+        info["naccepted"] += 1
+        sw = c.switch(z, False)
+        if sw < 0:
+            return done(-sw, z, t, h)
+        if sw == 1:
+            z = c.z
+            st, K[0] = c.eval(z)
+            if st:
+                return done(st, z, t, h)
+        fac = 0.9 * float(err) ** (-1.0 / order) if err > 0 else facmax
+        fac = max(facmin, min(fac, 1.0 if rejected else facmax))
+        rejected = False
+        h = h * c.dtype.type(fac)
+        if abs(float(h)) > hmax:
+            h = c.dtype.type(direction * hmax)
+    return done(OK, z, t, h)
+
+
+def drive(c, y0, t_out):
+    """From y0 at t_out[0] through every output time: (status, y_out); c: the run."""
+    info = c.info
+    nt, n = len(t_out), len(y0)
+    y_out = numpy.full((nt, n), numpy.nan, c.dtype)
+    t, h = t_out[0], c.dtype.type(0)
+
+    def done(st, z, t, h):
+        info["status"], info["t"], info["h"] = st, float(t), float(h)
+        c.set_y(z)
+        y_out[info["nout"]:] = numpy.nan
+        return st, y_out
+
+    st, z = c.inp(y0)
+    if st:
+        return done(st, y0, t, h)
+    st, y_out[0] = c.out(z)
+    if st:
+        return done(st, z, t, h)
+    info["nout"] = 1
+    if nt == 1:
+        return done(OK, z, t, h)
+    direction = 1 if t_out[-1] > t_out[0] else -1
+    if c.method not in ("dopri5", "dop853"):
+        return _drive_fixed(c, z, t_out, direction, done, y_out)
+    return _drive_adaptive(c, z, t_out, direction, done, y_out)
+
+
+# -- the entry points ----------------------------------------------------------------
+
+def check(method, y0, p, t, opt):
+    """BAD_INPUT or OK, as the C entry points check."""
+    if method not in METHODS or len(t) < 1:
+        return BAD_INPUT
+    if not (numpy.all(numpy.isfinite(y0)) and numpy.all(numpy.isfinite(p)) and numpy.all(numpy.isfinite(t))):
+        return BAD_INPUT
+    if len(t) > 1 and not numpy.all(numpy.sign(numpy.diff(t)) * numpy.sign(t[-1] - t[0]) > 0):
+        return BAD_INPUT
+    if method in ("dopri5", "dop853"):
+        if not (0 < opt["rtol"] < 1 and opt["atol"] >= 0 and opt["h"] >= 0 and opt["hmin"] >= 0 and opt["hmax"] >= 0):
+            return BAD_INPUT
+    elif len(t) > 1 and not 0 < opt["h"] < 1e300:
+        return BAD_INPUT
+    elif len(t) > 1 and not abs(float(t[-1]) - float(t[0])) / opt["h"] <= 2.0 ** 53:
+        return BAD_INPUT            # more than 2^53 grid steps: k h no longer tells grid points apart
+    if opt["max_steps"] < 1 or not 0 <= opt["sine_min"] < 1:
+        return BAD_INPUT
+    return OK
+
+
+def integrate(kernels, method, y0, p, t, dtype=numpy.float64, **options):
+    """One trajectory of the model whose kernel module is `kernels`.
+
+    Parameters
+    ----------
+    kernels : module or System
+        The model's generated kernels (<model>.py), or a System made of them.
+    method : str
+        One of METHODS.
+    y0 : array_like, shape (n,)
+        The initial state.
+    p : array_like, shape (n_params,)
+        The parameters (then the run-time inputs, for a model with inputs).
+    t : array_like
+        The output times, strictly monotone; t[0] is the start.
+    dtype : numpy dtype
+        The real type of the run (float32, float64, longdouble).
+    **options
+        Any of DEFAULTS (rtol, atol, h, hmin, hmax, max_steps, newton_tol, newton_max,
+        sine_min, cancel).
+
+    Returns
+    -------
+    status : int
+        OK or the code that stopped the run (STATUS_NAMES[status] says it).
+    y_out : ndarray, shape (len(t), n)
+        The state at each output time (NaN from the first one not reached).
+    info : dict
+        The run's counters and where it stopped (new_info's fields).
+    """
+    system = kernels if isinstance(kernels, System) else System(kernels)
+    n = system.n
+    dtype = numpy.dtype(dtype)
+    opt = dict(DEFAULTS, **options)
+    y0 = numpy.asarray(y0, dtype).reshape(n)
+    p = numpy.asarray(p, dtype).reshape(system.n_params)
+    t = numpy.asarray(t, dtype).reshape(-1)
+    info = new_info()
+    info["t"], info["y"] = float(t[0]) if len(t) else 0.0, numpy.array(y0, numpy.float64)
+    st = check(method, y0, p, t, opt)
+    if st:
+        info["status"] = st
+        return st, numpy.full((len(t), n), numpy.nan, dtype), info
+    st, y_out = drive(_Run(system, method, p, opt, info, dtype), y0, t)
+    return st, y_out, info
+
+
+def integrate_batch(kernels, method, y0, p, t, dtype=numpy.float64, **options):
+    """Many trajectories, one integrate a row: y0 (B, n), p (n_params,) or (B, n_params)
+    -> (statuses (B,), y_out (B, len(t), n), infos)."""
+    system = kernels if isinstance(kernels, System) else System(kernels)
+    y0 = numpy.asarray(y0, dtype).reshape(-1, system.n)
+    p = numpy.broadcast_to(numpy.asarray(p, dtype), (len(y0), system.n_params))
+    results = [integrate(system, method, y0[i], p[i], t, dtype, **options) for i in range(len(y0))]
+    return (numpy.array([r[0] for r in results]), numpy.array([r[1] for r in results]).reshape(len(y0), -1, system.n),
+            [r[2] for r in results])
