@@ -232,16 +232,21 @@ def precision(name: str) -> Precision:
 
 # -- Taylor's order rule ---------------------------------------------------------------
 # The order for a tolerance (Jorba and Zou 2005): ceil(-ln(tol) / DIVISOR + OFFSET) in
-# [ORDER_MIN, ORDER_MAX]; the generated C renders the same numbers (templates/c/taylor.c.jinja).
+# [ORDER_MIN, ORDER_MAX].  The rule is written once, as an expression that reads the same
+# in Python (math's ceil and log) and in C (<math.h>'s, on a double): taylor_order
+# evaluates it, the generated C renders it (DERIVE_TAYLOR_ORDER_FOR, derive_taylor.h),
+# so both make the same double operations in the same order.
 TAYLOR_ORDER_DIVISOR = 2
 TAYLOR_ORDER_OFFSET = 1
 TAYLOR_ORDER_MIN = 2
 TAYLOR_ORDER_MAX = 60       # largest order compiled in (tol 1e-34 for quad needs 41; double <= 20)
+TAYLOR_ORDER_RULE = f"ceil(-log(tol) / {TAYLOR_ORDER_DIVISOR} + {TAYLOR_ORDER_OFFSET})"
+_ORDER_RULE = compile(TAYLOR_ORDER_RULE, "<the Taylor order rule>", "eval")
 
 
 def taylor_order(tol: float) -> int:
-    """The Taylor order for a tolerance, as the generated C computes it."""
-    p = math.ceil(-math.log(tol) / TAYLOR_ORDER_DIVISOR + TAYLOR_ORDER_OFFSET)
+    """The Taylor order for a tolerance, as the generated C computes it (the same expression)."""
+    p = eval(_ORDER_RULE, {"__builtins__": {}}, {"ceil": math.ceil, "log": math.log, "tol": float(tol)})
     return min(max(p, TAYLOR_ORDER_MIN), TAYLOR_ORDER_MAX)
 
 

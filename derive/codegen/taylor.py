@@ -42,9 +42,9 @@ from ..errors import SpecError
 from ..model.description import forget_on_model_change
 from .sources import kernels
 from .emit import render
-from .integrators import model_info
-from .contract import (INFO, TAYLOR_ORDER_DIVISOR, TAYLOR_ORDER_MAX, TAYLOR_ORDER_MIN,
-                       TAYLOR_ORDER_OFFSET)
+from .integrators import library_files, model_info
+from .contract import (INFO, STATUS_TABLE, TAYLOR_ORDER_DIVISOR, TAYLOR_ORDER_MAX, TAYLOR_ORDER_MIN,
+                       TAYLOR_ORDER_OFFSET, TAYLOR_ORDER_RULE)
 
 # the order rule's numbers, rendered into the C (the rule itself: codegen/contract.py)
 ORDER_RULE = {"order_max": TAYLOR_ORDER_MAX, "order_min": TAYLOR_ORDER_MIN,
@@ -389,7 +389,7 @@ def _native_ops(ctype: str, m: str) -> list[tuple[str, str]]:
             ("T_DIVI(a, i)", f"((a) / ({ctype})(i))"), ("T_INT(i)", f"(({ctype})(i))"), ("T_D(x)", f"(({ctype})(x))"),
             ("T_SQRT(a)", f"sqrt{m}(a)"), ("T_SIN(a)", f"sin{m}(a)"), ("T_COS(a)", f"cos{m}(a)"),
             ("T_EXP(a)", f"exp{m}(a)"), ("T_S(a)", "(a)"), ("T_ABS(a)", f"fabs{m}(a)"), ("T_FROMS(x)", "(x)"),
-            ("T_LE(a, b)", "((a) <= (b))")]
+            ("T_LE(a, b)", "((a) <= (b))"), ("T_SEXP(x)", f"exp{m}(x)"), ("T_SPOW(x, y)", f"pow{m}(x, y)")]
 
 
 _DD_OPS = [("T_ADD(a, b)", "dd_add(a, b)"), ("T_SUB(a, b)", "dd_sub(a, b)"), ("T_MUL(a, b)", "dd_mul(a, b)"),
@@ -397,7 +397,8 @@ _DD_OPS = [("T_ADD(a, b)", "dd_add(a, b)"), ("T_SUB(a, b)", "dd_sub(a, b)"), ("T
            ("T_DIVI(a, i)", "dd_div_d(a, (double)(i))"), ("T_INT(i)", "dd_d((double)(i))"), ("T_D(x)", "dd_d(x)"),
            ("T_SQRT(a)", "dd_sqrt(a)"), ("T_SIN(a)", "dd_sin(a)"), ("T_COS(a)", "dd_cos(a)"),
            ("T_EXP(a)", "dd_exp(a)"), ("T_S(a)", "((a).hi)"), ("T_ABS(a)", "fabs((a).hi)"),
-           ("T_FROMS(x)", "dd_d(x)"), ("T_LE(a, b)", "dd_le(a, b)")]
+           ("T_FROMS(x)", "dd_d(x)"), ("T_LE(a, b)", "dd_le(a, b)"), ("T_SEXP(x)", "exp(x)"),
+           ("T_SPOW(x, y)", "pow(x, y)")]
 
 
 def _skip_key(ctype: str) -> str:
@@ -405,10 +406,11 @@ def _skip_key(ctype: str) -> str:
     return {"derive_dd": "DOUBLE_DOUBLE", "derive_quad": "QUAD"}.get(ctype, ctype.upper().replace(" ", "_"))
 
 
-def _variant(name, ctype, stype, suffix, m, nan, ops, native_constants, sfun):
+def _variant(name, ctype, stype, suffix, m, nan, ops, native_constants, tag):
+    """One precision: its C types, names and arithmetic macros; `tag` names the static
+    functions of derive_taylor.h for it (derive_taylor_mul_d, ...)."""
     return {"name": name, "key": _skip_key(ctype), "ctype": ctype, "stype": stype, "s": suffix, "m": m, "nan": nan,
-            "ops": [(k, v) for k, v in ops], "native_constants": native_constants,
-            "sfun": {"exp": f"exp{sfun}", "pow": f"pow{sfun}"}}
+            "ops": [(k, v) for k, v in ops] + [("T_NAN", nan)], "native_constants": native_constants, "tag": tag}
 
 
 # The precision ladder of the Taylor integrator, as data: (file, variants).  The native
@@ -416,21 +418,51 @@ def _variant(name, ctype, stype, suffix, m, nan, ops, native_constants, sfun):
 # <model>_taylor_quad.c (GCC's __float128 and <quadmath.h>, kept apart so the other
 # file compiles wherever C99 does).
 TAYLOR_VARIANTS = {
-    "double": _variant("double", "double", "double", "", "", 'nan("")', _native_ops("double", ""), True, ""),
-    "float": _variant("float", "float", "float", "_f", "f", 'nanf("")', _native_ops("float", "f"), True, "f"),
+    "double": _variant("double", "double", "double", "", "", 'nan("")', _native_ops("double", ""), True, "_d"),
+    "float": _variant("float", "float", "float", "_f", "f", 'nanf("")', _native_ops("float", "f"), True, "_f"),
     "long double": _variant("long double", "long double", "long double", "_l", "l", 'nanl("")',
-                            _native_ops("long double", "l"), True, "l"),
+                            _native_ops("long double", "l"), True, "_l"),
     "double-double": _variant("double-double", "derive_dd", "double", "_dd", "", 'dd_d(nan(""))', _DD_OPS,
-                              False, ""),
+                              False, "_dd"),
     "quad": _variant("IEEE binary128 (__float128)", "derive_quad", "derive_quad", "_q", "q", 'nanq("")',
-                     _native_ops("derive_quad", "q"), False, "q"),
+                     _native_ops("derive_quad", "q"), False, "_q"),
 }
 TAYLOR_FILES = {"taylor": ("double", "float", "long double", "double-double"), "taylor_quad": ("quad",)}
 
 
+# The public functions of <model>_taylor.c, each a call of derive_taylor.h's static one:
+# (return type, name, parameters, the arguments); {R}: the real type, {P}: the model.
+# The prototypes are <model>_taylor.h's.
+PUBLIC = (
+    ("int", "taylor_coefficients", "const {R} *y, const {R} *p, int order, {R} *coef, double sine_min",
+     "y, p, order, coef, sine_min"),
+    ("int", "taylor", "const {R} *y0, const {R} *p, long nt, const {R} *t_out, {R} *y_out, "
+     "const {P}_integrate_options *opt, {P}_integrate_info *info", "y0, p, nt, t_out, y_out, opt, info"),
+    ("long", "taylor_batch", "long n, const {R} *y0, long y0_stride, const {R} *p, long p_stride, long nt, "
+     "const {R} *t, {R} *y_out, const {P}_integrate_options *opt, {P}_integrate_info *info",
+     "n, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info"),
+)
+LIBRARY = ("derive_dd.h", "derive_taylor.h")      # derive/codegen/backends/c/library/
+
+
+def _public(P: str, v: dict) -> list[dict]:
+    return [{"head": f"{ret} {P}_{fn}{v['s']}({params.format(R=v['ctype'], P=P)})",
+             "body": f"return derive_{fn}{v['tag']}({args});"} for ret, fn, params, args in PUBLIC]
+
+
+def library_context(name: str, info) -> dict:
+    """What derive_taylor.h (and derive_taylor_lanes.h) need of a model, once per file: the
+    status codes, the info's scalars to clear and the order rule (contract.py), rendered."""
+    M = name.upper()
+    return {"status_names": [(f"{M}_INTEGRATE_{s.macro}", f"DERIVE_{s.macro}") for s in STATUS_TABLE],
+            "info_clear": " ".join(f"(info)->{f.name} = 0;" for f in INFO if not f.length),
+            "order_for": TAYLOR_ORDER_RULE}
+
+
 def render_taylor(name: str) -> dict[str, str]:
-    """<name>_taylor.{h,c} and <name>_taylor_quad.{h,c}: the Taylor integrator of one
-    model on the precision ladder (C backend artifact), from one template."""
+    """<name>_taylor.{h,c} and <name>_taylor_quad.{h,c}: the jet of one model on the
+    precision ladder and the glue that includes derive_taylor.h for each precision (C
+    backend artifact), from one template; the library headers copied beside them."""
     info = model_info(name)
     d = rhs_decomposition(name)
     slots = _slots(name)
@@ -440,19 +472,18 @@ def render_taylor(name: str) -> dict[str, str]:
             "sqrt": "sqrt" in kinds, "chain": bool(kinds.keys() & {"sin", "cos", "exp"})}
     out = {}
     for stem, names in TAYLOR_FILES.items():
-        variants = [dict(TAYLOR_VARIANTS[v], taylor=c_statements(d, TAYLOR_VARIANTS[v], slots)) for v in names]
+        variants = [dict(TAYLOR_VARIANTS[v], taylor=c_statements(d, TAYLOR_VARIANTS[v], slots),
+                         public=_public(name, TAYLOR_VARIANTS[v])) for v in names]
         header = f"{name}_{stem}.h"
-        used = " ".join(line for v in variants for part in ("constants", "ops") for line in v["taylor"][part])
-        dd_uses = {k: f"T_{k.upper()}(" in used for k in ("sqrt", "sin", "cos", "exp")}
         ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops), "uses": uses,
-               "nconst": len(d.constants), **ORDER_RULE, "header": header,
+               "nconst": len(d.constants), **ORDER_RULE, **library_context(name, info), "header": header,
                "guard": f"{M}_{stem.upper()}_H", "quad": "quad" in names, "dd": "double-double" in names,
-               "dd_uses": dd_uses, "precisions": _precisions([TAYLOR_VARIANTS[v] for v in names]),
-               "info_scalars": [f.name for f in INFO if not f.length],
+               "precisions": _precisions([TAYLOR_VARIANTS[v] for v in names]),
                "op_summary": ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())),
                "nparams": f"{M}_N_PARAMS + {M}_N_INPUTS" if info.n_inputs else f"{M}_N_PARAMS"}
         out[f"c/{header}"] = render("c/taylor.h.jinja", dict(ctx, template="templates/c/taylor.h.jinja"))
         out[f"c/{name}_{stem}.c"] = render("c/taylor.c.jinja", dict(ctx, template="templates/c/taylor.c.jinja"))
+    out.update(library_files(LIBRARY))
     return out
 
 

@@ -20,7 +20,8 @@
  * Options and info are doubles whatever the type (rtol, hmax, the final state in info).
  *
  * Status codes, options and info: compound_integrate.h.  Reentrant: no globals, no
- * allocation.  Needs only <math.h>, <quadmath.h>, compound.h and compound_integrate.h.
+ * allocation.  Needs only <math.h>, <quadmath.h>, compound.h, compound_integrate.h and, for
+ * the .c file, derive's run time derive_taylor.h (copied beside it).
  */
 #ifndef COMPOUND_TAYLOR_QUAD_H
 #define COMPOUND_TAYLOR_QUAD_H

@@ -16,11 +16,12 @@
  * Compile with -DPLANAR_TAYLOR_ORDER=p to fix the order (unrolled: faster) instead.
  *
  * Double-double: a value is the unevaluated sum hi + lo of two doubles (about 106
- * bits, 32 digits); the arithmetic is in the .c file, needing only C99's fma.
+ * bits, 32 digits); the arithmetic is derive_dd.h, needing only C99's fma.
  * Options and info are doubles whatever the type (rtol, hmax, the final state in info).
  *
  * Status codes, options and info: planar_integrate.h.  Reentrant: no globals, no
- * allocation.  Needs only <math.h>, planar.h and planar_integrate.h.
+ * allocation.  Needs only <math.h>, planar.h, planar_integrate.h and, for
+ * the .c file, derive's run time derive_taylor.h and derive_dd.h (copied beside it).
  */
 #ifndef PLANAR_TAYLOR_H
 #define PLANAR_TAYLOR_H

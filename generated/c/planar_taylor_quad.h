@@ -20,7 +20,8 @@
  * Options and info are doubles whatever the type (rtol, hmax, the final state in info).
  *
  * Status codes, options and info: planar_integrate.h.  Reentrant: no globals, no
- * allocation.  Needs only <math.h>, <quadmath.h>, planar.h and planar_integrate.h.
+ * allocation.  Needs only <math.h>, <quadmath.h>, planar.h, planar_integrate.h and, for
+ * the .c file, derive's run time derive_taylor.h (copied beside it).
  */
 #ifndef PLANAR_TAYLOR_QUAD_H
 #define PLANAR_TAYLOR_QUAD_H

@@ -20,7 +20,8 @@
  * Options and info are doubles whatever the type (rtol, hmax, the final state in info).
  *
  * Status codes, options and info: spherical_alt_integrate.h.  Reentrant: no globals, no
- * allocation.  Needs only <math.h>, <quadmath.h>, spherical_alt.h and spherical_alt_integrate.h.
+ * allocation.  Needs only <math.h>, <quadmath.h>, spherical_alt.h, spherical_alt_integrate.h and, for
+ * the .c file, derive's run time derive_taylor.h (copied beside it).
  */
 #ifndef SPHERICAL_ALT_TAYLOR_QUAD_H
 #define SPHERICAL_ALT_TAYLOR_QUAD_H

@@ -16,11 +16,12 @@
  * Compile with -DSPHERICAL_ROT_TAYLOR_ORDER=p to fix the order (unrolled: faster) instead.
  *
  * Double-double: a value is the unevaluated sum hi + lo of two doubles (about 106
- * bits, 32 digits); the arithmetic is in the .c file, needing only C99's fma.
+ * bits, 32 digits); the arithmetic is derive_dd.h, needing only C99's fma.
  * Options and info are doubles whatever the type (rtol, hmax, the final state in info).
  *
  * Status codes, options and info: spherical_rot_integrate.h.  Reentrant: no globals, no
- * allocation.  Needs only <math.h>, spherical_rot.h and spherical_rot_integrate.h.
+ * allocation.  Needs only <math.h>, spherical_rot.h, spherical_rot_integrate.h and, for
+ * the .c file, derive's run time derive_taylor.h and derive_dd.h (copied beside it).
  */
 #ifndef SPHERICAL_ROT_TAYLOR_H
 #define SPHERICAL_ROT_TAYLOR_H

@@ -20,7 +20,8 @@
  * Options and info are doubles whatever the type (rtol, hmax, the final state in info).
  *
  * Status codes, options and info: spherical_rot_integrate.h.  Reentrant: no globals, no
- * allocation.  Needs only <math.h>, <quadmath.h>, spherical_rot.h and spherical_rot_integrate.h.
+ * allocation.  Needs only <math.h>, <quadmath.h>, spherical_rot.h, spherical_rot_integrate.h and, for
+ * the .c file, derive's run time derive_taylor.h (copied beside it).
  */
 #ifndef SPHERICAL_ROT_TAYLOR_QUAD_H
 #define SPHERICAL_ROT_TAYLOR_QUAD_H

@@ -108,9 +108,10 @@ def test_output_is_identical_across_hash_seeds(tmp_path):
         assert a == (ROOT / "generated" / rel).read_bytes(), f"{rel} differs from the checked-in file"
 
 
-# the files the same for every model: the integrators' libraries (C, NumPy) and their tableaus
-SHARED_FILES = {"c/derive_integrators.h", "c/derive_driver.h", "c/derive_tableaus.h",
-                "numpy/derive_integrators.py", "numpy/derive_tableaus.py"}
+# the files the same for every model: the integrators' libraries (C, NumPy), the Taylor
+# run time and double-double arithmetic (C), and the tableaus
+SHARED_FILES = {"c/derive_integrators.h", "c/derive_driver.h", "c/derive_tableaus.h", "c/derive_taylor.h",
+                "c/derive_dd.h", "numpy/derive_integrators.py", "numpy/derive_tableaus.py"}
 
 
 def test_files_carry_preamble_op_counts_and_no_dates_or_versions():
@@ -315,6 +316,36 @@ def test_the_numpy_library_reads_the_model_off_its_kernels(model):
     info = model_info(model)
     assert (system.n, system.n_params, system.guarded, system.hamiltonian, system.has_inputs) == \
         (info.n, info.n_params + info.n_inputs, info.nguards > 0, info.has_ham, info.n_inputs > 0)
+TAYLOR_LIBRARY = ("derive_taylor.h", "derive_dd.h")     # derive/codegen/backends/c/library/
+
+
+def test_the_taylor_run_time_is_written_once():
+    """The Taylor integrator's loop, step rule, dense output and double-double arithmetic
+    are the library, copied verbatim; a model's <model>_taylor.c and _taylor_quad.c keep
+    its jet and the glue (one inclusion per precision), and none of the library's lines."""
+    from derive.paths import c_library_file
+    for name in TAYLOR_LIBRARY:
+        first, rest = (GEN_C / name).read_text().split("\n", 1)
+        assert SHARED.search(first) and rest == c_library_file(name).read_text(), name
+    library = {line.strip() for name in TAYLOR_LIBRARY for line in (GEN_C / name).read_text().splitlines()
+               if len(line.strip()) >= 40 and not line.startswith("#")}
+    files = sorted(GEN_C.glob("*_taylor.c")) + sorted(GEN_C.glob("*_taylor_quad.c"))
+    assert files
+    for path in files:
+        lines = path.read_text().splitlines()
+        assert not library & {line.strip() for line in lines}, path.name
+        assert "dd_two_sum" not in path.read_text() and "Jorba" not in path.read_text(), path.name
+        quad = path.name.endswith("_quad.c")
+        assert sum(line == '#include "derive_taylor.h"' for line in lines) == (1 if quad else 4), path.name
+        assert (sum(line == '#include "derive_dd.h"' for line in lines) == 0) == quad, path.name
+
+
+def test_the_taylor_order_rule_is_one_expression():
+    """The C computes the order from the very expression taylor_order evaluates."""
+    from derive.codegen.contract import TAYLOR_ORDER_RULE, taylor_order
+    text = (GEN_C / "planar_taylor.c").read_text()
+    assert f"#define DERIVE_TAYLOR_ORDER_FOR(tol) ({TAYLOR_ORDER_RULE})" in text
+    assert [taylor_order(t) for t in (1.0, 1e-6, 1e-12, 2e-18, 1e-300)] == [2, 8, 15, 22, 60]
 
 
 _OUT_MAIN = r"""

@@ -1,0 +1,366 @@
+/* Copied by derive 0.2.0 from codegen/backends/c/library/derive_taylor.h for every model; do not edit. */
+/* derive_taylor.h: the run time of derive's Taylor integrator, written once for every
+ * model and every precision (derive/codegen/backends/c/library/).  What a model's
+ * generated <model>_taylor.c keeps is its jet: the decomposition of its rhs into
+ * elementary operations, one recurrence call each, order by order.
+ *
+ * Here: the coefficient recurrences of the operations (product, quotient, square root,
+ * and the chain rule of sin, cos and exp), the series by Horner, the order for a
+ * tolerance and the step for a jet (Jorba & Zou 2005, as heyoka), dense output at the
+ * output times inside a step, the status of a run, and the entry points' bodies.
+ *
+ * Standalone C99, only <math.h> (and what the precision's arithmetic needs: derive_dd.h,
+ * <quadmath.h>); reentrant: no globals, no allocation.  Included once per precision, in
+ * the one translation unit of the model's jet, so the jet is a direct call of a static
+ * function the compiler sees (and may inline), as in a file written for the model.
+ *
+ * Defined once per translation unit, before the first inclusion:
+ *   DERIVE_N, DERIVE_N_P        the state size (a constant) and the length of p
+ *   DERIVE_OPTIONS, DERIVE_INFO the model's options and info structs
+ *   DERIVE_TAYLOR_INFO_CLEAR(info)  zeroes info's counters and scalars
+ *   DERIVE_OK, DERIVE_STEP_UNDERFLOW, DERIVE_MAX_STEPS, DERIVE_NONFINITE,
+ *   DERIVE_CHART_SINGULAR, DERIVE_BAD_INPUT, DERIVE_CANCELLED   the status codes
+ *   DERIVE_TAYLOR_ORDER         the order fixed at compile time, 0: from the tolerance
+ *   DERIVE_TAYLOR_ORDER_MIN, DERIVE_TAYLOR_ORDER_MAX   the orders of the tolerance rule
+ *   DERIVE_TAYLOR_ORDER_FOR(tol)  the rule's unclamped order for a tolerance (a double;
+ *                               rendered from the Python rule, derive/codegen/contract.py)
+ *   DERIVE_TAYLOR_DIM           coefficients per row: the largest order + 1
+ *   DERIVE_TAYLOR_UNROLL        a pragma before the recurrences' loops (or nothing)
+ *   DERIVE_TAYLOR_USES_MUL, _DIV, _SQRT, _CHAIN   1 where the jet uses that recurrence
+ *                               (the others are left out: static functions never called)
+ *
+ * Defined before each inclusion (the including file undefines them after its jet):
+ *   R, S                        the coefficients' type and the native type the step-size
+ *                               control runs in (R itself, double for double-double)
+ *   T_ADD(a, b), T_SUB, T_MUL, T_DIV, T_NEG, T_MULI(a, i), T_DIVI(a, i) (by an int),
+ *   T_INT(i), T_D(x) (an int, a double as R), T_SQRT, T_SIN, T_COS, T_EXP   R's arithmetic
+ *   T_S(a), T_ABS(a), T_FROMS(s), T_LE(a, b)   a in S, |a| in S, s as R, a <= b
+ *   T_SEXP(x), T_SPOW(x, y)     exp and pow in S; T_NAN a NaN of R
+ *   DERIVE_TAYLOR_T(x)          the precision's name tag (x##_d, x##_dd, ...)
+ *   DERIVE_TAYLOR_JET           the model's jet, defined after the inclusion:
+ *                               int jet(R (*X)[DIM], const R *p, int order, S sine_min)
+ *                               fills X[i][1..order] from X[i][0]; OK or a status
+ *   DERIVE_TAYLOR_DOUBLE_DOUBLE (defined or not) the sums of products as Dot2 (derive_dd.h)
+ *
+ * It defines (static; T the tag) TAYLOR_MUL, TAYLOR_DIV, TAYLOR_SQRT, TAYLOR_SIN,
+ * TAYLOR_COS and TAYLOR_EXP for the jet (undefined at the next inclusion), and
+ *   derive_taylor_coefficients_T (y, p, order, coef, sine_min)
+ *   derive_taylor_T (y0, p, nt, t_out, y_out, opt, info): a whole run
+ *   derive_taylor_batch_T (n, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info)
+ */
+
+#undef TAYLOR_MUL
+#undef TAYLOR_DIV
+#undef TAYLOR_SQRT
+#undef TAYLOR_SIN
+#undef TAYLOR_COS
+#undef TAYLOR_EXP
+
+static int DERIVE_TAYLOR_JET(R (*X)[DERIVE_TAYLOR_DIM], const R *p, int order_wanted, S sine_min);
+
+#if DERIVE_TAYLOR_USES_MUL
+/* coefficient k of a b */
+static R DERIVE_TAYLOR_T(derive_taylor_mul)(const R *a, const R *b, int k)
+{
+#ifdef DERIVE_TAYLOR_DOUBLE_DOUBLE
+    double s_ = 0, c_ = 0;
+    int j;
+    DERIVE_TAYLOR_UNROLL
+    for (j = 0; j <= k; ++j) {
+        DD_DOT_STEP(a[j], b[k - j]);
+    }
+    return dd_quick(s_, c_);
+#else
+    R acc = T_INT(0);
+    int j;
+    DERIVE_TAYLOR_UNROLL
+    for (j = 0; j <= k; ++j) {
+        acc = T_ADD(acc, T_MUL(a[j], b[k - j]));
+    }
+    return acc;
+#endif
+}
+#endif
+
+#if DERIVE_TAYLOR_USES_DIV
+/* coefficient k of u = a / b, given a_k and u_0..u_{k-1} */
+static R DERIVE_TAYLOR_T(derive_taylor_div)(R ak, const R *b, const R *u, int k)
+{
+#ifdef DERIVE_TAYLOR_DOUBLE_DOUBLE
+    double s_ = 0, c_ = 0;
+    int j;
+    for (j = 1; j <= k; ++j) {
+        DD_DOT_STEP(b[j], u[k - j]);
+    }
+    return T_DIV(T_SUB(ak, dd_quick(s_, c_)), b[0]);
+#else
+    R acc = ak;
+    int j;
+    for (j = 1; j <= k; ++j) {
+        acc = T_SUB(acc, T_MUL(b[j], u[k - j]));
+    }
+    return T_DIV(acc, b[0]);
+#endif
+}
+#endif
+
+#if DERIVE_TAYLOR_USES_SQRT
+/* coefficient k of u = sqrt(a) */
+static R DERIVE_TAYLOR_T(derive_taylor_sqrt)(const R *a, const R *u, int k)
+{
+    R acc;
+    int j;
+    if (k == 0) {
+        return T_SQRT(a[0]);
+    }
+    acc = a[k];
+    for (j = 1; j < k; ++j) {
+        acc = T_SUB(acc, T_MUL(u[j], u[k - j]));
+    }
+    return T_DIV(acc, T_MULI(u[0], 2));
+}
+#endif
+
+#if DERIVE_TAYLOR_USES_CHAIN
+/* (1/k) sum_{j=1..k} j a_j w_{k-j}: coefficient k (k >= 1) of sin a (w = cos a), of
+ * -cos a (w = sin a) and of exp a (w = exp a) */
+static R DERIVE_TAYLOR_T(derive_taylor_chain)(const R *a, const R *w, int k)
+{
+#ifdef DERIVE_TAYLOR_DOUBLE_DOUBLE
+    double s_ = 0, c_ = 0;
+    R ja;
+    int j;
+    DERIVE_TAYLOR_UNROLL
+    for (j = 1; j <= k; ++j) {
+        ja = T_MULI(a[j], j);
+        DD_DOT_STEP(ja, w[k - j]);
+    }
+    return T_DIVI(dd_quick(s_, c_), k);
+#else
+    R acc = T_INT(0);
+    int j;
+    DERIVE_TAYLOR_UNROLL
+    for (j = 1; j <= k; ++j) {
+        acc = T_ADD(acc, T_MUL(T_MULI(a[j], j), w[k - j]));
+    }
+    return T_DIVI(acc, k);
+#endif
+}
+#endif
+
+#define TAYLOR_MUL DERIVE_TAYLOR_T(derive_taylor_mul)
+#define TAYLOR_DIV DERIVE_TAYLOR_T(derive_taylor_div)
+#define TAYLOR_SQRT DERIVE_TAYLOR_T(derive_taylor_sqrt)
+#define TAYLOR_SIN(a, c, k) DERIVE_TAYLOR_T(derive_taylor_chain)(a, c, k)
+#define TAYLOR_COS(a, s, k) T_NEG(DERIVE_TAYLOR_T(derive_taylor_chain)(a, s, k))
+#define TAYLOR_EXP(a, u, k) DERIVE_TAYLOR_T(derive_taylor_chain)(a, u, k)
+
+/* the series x_0 + x_1 tau + ... + x_order tau^order by Horner */
+static R DERIVE_TAYLOR_T(derive_taylor_horner)(const R *x, int order, R tau)
+{
+    R acc = x[order];
+    int k;
+    for (k = order - 1; k >= 0; --k) {
+        acc = T_ADD(T_MUL(acc, tau), x[k]);
+    }
+    return acc;
+}
+
+/* 1 if every z[k] is finite: z - z is 0 for a number, NaN for an infinity or a NaN */
+static int DERIVE_TAYLOR_T(derive_taylor_finite)(const R *z, long n)
+{
+    S check = 0;
+    long k;
+    for (k = 0; k < n; ++k) {
+        check += T_S(z[k]) - T_S(z[k]);
+    }
+    return check == 0;
+}
+
+/* The order for a tolerance, clamped to [ORDER_MIN, ORDER_MAX] (a NaN: ORDER_MIN). */
+static int DERIVE_TAYLOR_T(derive_taylor_order)(S tol)
+{
+    double p = DERIVE_TAYLOR_ORDER_FOR((double)tol);
+    if (DERIVE_TAYLOR_ORDER) {
+        return DERIVE_TAYLOR_ORDER;
+    }
+    if (!(p >= DERIVE_TAYLOR_ORDER_MIN)) {
+        return DERIVE_TAYLOR_ORDER_MIN;
+    }
+    return p > DERIVE_TAYLOR_ORDER_MAX ? DERIVE_TAYLOR_ORDER_MAX : (int)p;
+}
+
+static int DERIVE_TAYLOR_T(derive_taylor_coefficients)(const R *y, const R *p, int order, R *coef, double sine_min)
+{
+    R X[DERIVE_N][DERIVE_TAYLOR_DIM];
+    int i, k, st;
+    if (order < 1 || order > DERIVE_TAYLOR_DIM - 1 || (DERIVE_TAYLOR_ORDER && order != DERIVE_TAYLOR_ORDER)) {
+        return DERIVE_BAD_INPUT;
+    }
+    for (i = 0; i < DERIVE_N; ++i) {
+        X[i][0] = y[i];
+    }
+    st = DERIVE_TAYLOR_JET(X, p, order, (S)sine_min);
+    for (i = 0; i < DERIVE_N; ++i) {
+        for (k = 0; k <= order; ++k) {
+            coef[i * (order + 1) + k] = X[i][k];
+        }
+    }
+    return st;
+}
+
+static int DERIVE_TAYLOR_T(derive_taylor)(const R *y0, const R *p, long nt, const R *t_out, R *y_out, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
+{
+    R X[DERIVE_N][DERIVE_TAYLOR_DIM];
+    R t, h = T_INT(0), tend, tau, span;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety;
+    long iout = 1, steps = 0, row, j;
+    int i, order, dir, st = DERIVE_OK, last;
+    DERIVE_INFO local;
+
+    if (!info) {
+        info = &local;
+    }
+    DERIVE_TAYLOR_INFO_CLEAR(info);
+    info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
+    for (i = 0; i < DERIVE_N; ++i) {
+        info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
+    }
+    tol = (S)opt->rtol;
+    if (nt < 1 || !DERIVE_TAYLOR_T(derive_taylor_finite)(y0, DERIVE_N) || !DERIVE_TAYLOR_T(derive_taylor_finite)(p, DERIVE_N_P) ||
+        !DERIVE_TAYLOR_T(derive_taylor_finite)(t_out, nt) || !(tol > 0) || !(opt->hmax >= 0) || opt->max_steps < 1) {
+        st = DERIVE_BAD_INPUT;
+        goto done;
+    }
+    for (j = 2; j < nt; ++j) {
+        if (!(T_S(T_SUB(t_out[j], t_out[j - 1])) * T_S(T_SUB(t_out[1], t_out[0])) > 0)) {
+            st = DERIVE_BAD_INPUT;
+            goto done;
+        }
+    }
+    order = DERIVE_TAYLOR_T(derive_taylor_order)(tol);
+    /* Jorba & Zou's step factor: e^-2 exp(-0.7/(p-1)) */
+    safety = T_SEXP((S)-2 - (S)0.7 / (S)(order - 1));
+    for (i = 0; i < DERIVE_N; ++i) {
+        X[i][0] = y0[i];
+        y_out[i] = y0[i];
+    }
+    info->nout = 1;
+    t = t_out[0];
+    if (nt == 1) {
+        goto done;
+    }
+    tend = t_out[nt - 1];
+    dir = T_S(T_SUB(tend, t)) > 0 ? 1 : -1;
+    span = T_MULI(T_SUB(tend, t), dir);
+    if (!(T_S(span) > 0)) {
+        st = DERIVE_BAD_INPUT;
+        goto done;
+    }
+    hmax = opt->hmax > 0 ? (S)opt->hmax : T_S(span);
+    while (iout < nt) {
+        if (steps >= opt->max_steps) {
+            st = DERIVE_MAX_STEPS;
+            break;
+        }
+        if (opt->cancel && *opt->cancel) {
+            st = DERIVE_CANCELLED;
+            break;
+        }
+        st = DERIVE_TAYLOR_JET(X, p, order, (S)opt->sine_min);
+        info->nfev += 1;
+        if (st) {
+            break;
+        }
+        m = 1;
+        n1 = 0;
+        n2 = 0;
+        for (i = 0; i < DERIVE_N; ++i) {
+            m = T_ABS(X[i][0]) > m ? T_ABS(X[i][0]) : m;
+            n1 = T_ABS(X[i][order - 1]) > n1 ? T_ABS(X[i][order - 1]) : n1;
+            n2 = T_ABS(X[i][order]) > n2 ? T_ABS(X[i][order]) : n2;
+        }
+        if (!(n1 - n1 == 0) || !(n2 - n2 == 0)) {
+            st = DERIVE_NONFINITE;
+            break;
+        }
+        /* the series' radius rho from the last two coefficients (-1: no growth in them), the
+         * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
+        rho = -1;
+        if (n1 > 0) {
+            rho = T_SPOW(m / n1, (S)1 / (S)(order - 1));
+        }
+        if (n2 > 0) {
+            r = T_SPOW(m / n2, (S)1 / (S)order);
+            rho = rho < 0 || r < rho ? r : rho;
+        }
+        hs = rho > 0 ? rho * safety : hmax;
+        if (!(hs <= hmax)) {
+            hs = hmax;
+        }
+        if (!(hs > 0)) {
+            st = DERIVE_STEP_UNDERFLOW;
+            break;
+        }
+        /* the step in R: the last one exactly to tend */
+        last = hs >= T_S(T_MULI(T_SUB(tend, t), dir));
+        h = last ? T_MULI(T_SUB(tend, t), dir) : T_FROMS(hs);
+        /* dense output: every output time inside this step from the series */
+        while (iout < nt && (last || T_LE(T_MULI(T_SUB(t_out[iout], t), dir), h))) {
+            tau = T_SUB(t_out[iout], t);
+            row = iout * DERIVE_N;
+            for (i = 0; i < DERIVE_N; ++i) {
+                y_out[row + i] = DERIVE_TAYLOR_T(derive_taylor_horner)(X[i], order, tau);
+            }
+            if (!DERIVE_TAYLOR_T(derive_taylor_finite)(y_out + row, DERIVE_N)) {
+                st = DERIVE_NONFINITE;
+                break;
+            }
+            iout += 1;
+            info->nout = iout;
+        }
+        if (st) {
+            break;
+        }
+        for (i = 0; i < DERIVE_N; ++i) {
+            X[i][0] = DERIVE_TAYLOR_T(derive_taylor_horner)(X[i], order, T_MULI(h, dir));
+        }
+        /* the truncation error: the first term left out, |x_p| h^p (h / rho) from the last
+         * (the coefficients fall off as rho^-k) */
+        info->local_error += rho > 0 ? (double)(n2 * T_SPOW(T_S(h), (S)order) * (T_S(h) / rho)) : 0;
+        t = last ? tend : T_ADD(t, T_MULI(h, dir));
+        steps += 1;
+        info->naccepted += 1;
+        info->t = (double)T_S(t);
+        info->h = (double)T_S(T_MULI(h, dir));
+        for (i = 0; i < DERIVE_N; ++i) {
+            info->y[i] = (double)T_S(X[i][0]);
+        }
+        if (!DERIVE_TAYLOR_T(derive_taylor_finite)(&X[0][0], 1)) {
+            st = DERIVE_NONFINITE;
+            break;
+        }
+    }
+done:
+    info->nsteps = steps;
+    info->status = st;
+    if (st) {
+        for (row = info->nout > 0 ? info->nout : 0; row < nt; ++row) {
+            for (i = 0; i < DERIVE_N; ++i) {
+                y_out[row * DERIVE_N + i] = T_NAN;
+            }
+        }
+    }
+    return st;
+}
+
+static long DERIVE_TAYLOR_T(derive_taylor_batch)(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
+{
+    long i, failed = 0;
+    for (i = 0; i < n; ++i) {
+        if (DERIVE_TAYLOR_T(derive_taylor)(y0 + i * y0_stride, p + i * p_stride, nt, t, y_out + i * nt * DERIVE_N, opt, info ? info + i : 0) != 0) {
+            failed += 1;
+        }
+    }
+    return failed;
+}
