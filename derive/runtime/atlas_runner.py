@@ -30,7 +30,8 @@ from ..codegen.sources import c_source
 from ..model import load_model
 from ..model.atlas import ATLAS, load_atlas
 from ..codegen import contract
-from .build import CTYPES, SUFFIX, build_fastest, dtype_key, info_struct, options_struct
+from .build import build_fastest, dtype_key, info_struct, options_struct
+from .shared_library import ATLAS_BATCH, ATLAS_CHOOSE_CHART, ATLAS_DEFAULTS, CTYPES, SharedLibrary
 from ..codegen.contract import (ATLAS_CHARTS, COUNTERS, LOCAL_ERROR_METHODS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH, STATUS_NAMES)
 from ..codegen.integrators import model_info
 from .observables import _observables, _velocities, numpy_module
@@ -39,8 +40,14 @@ from .result import LOCAL_SUM, SimulationResult
 __all__ = ["ATLAS_CHARTS", "SINE_MIN", "SINE_RULE", "SINE_SWITCH", "atlas_library", "run_atlas"]
 
 
-class AtlasLibrary:
-    """The compiled atlas `name` (its driver and its members' integrators and kernels)."""
+class AtlasLibrary(SharedLibrary):
+    """The compiled atlas `name` (its driver and its members' integrators and kernels).
+
+    Parameters
+    ----------
+    name : str
+        An atlas of derive/model/catalog/atlases.toml (or of a user's chain).
+    """
 
     def __init__(self, name: str = ATLAS):
         self.atlas = load_atlas(name)
@@ -50,29 +57,18 @@ class AtlasLibrary:
         sources = [c_source(name, f"{P}.c")]       # the charts' files are beside it
         for ch in self.atlas.charts:
             sources += [c_source(name, f"{ch}_integrate.c"), c_source(name, f"{ch}.c")]
-        self.path, self.flags = build_fastest(P, sources)
-        self.lib = ctypes.CDLL(str(self.path))
+        path, self.flags = build_fastest(P, sources)
+        super().__init__(path)
         self.Options = options_struct(contract.ATLAS_OPTIONS)
         self.Info = info_struct(self.n, contract.ATLAS_INFO)
-        self.defaults_fn = self.lib[f"{P}_defaults"]
-        self.defaults_fn.argtypes = [ctypes.POINTER(self.Options)]
-        self.choose_chart = {dt: self.lib[f"{P}_choose_chart{suffix}"] for dt, suffix in SUFFIX.items()}
-        self.fns = {}
-        for dt, suffix in SUFFIX.items():
-            ptr = ctypes.POINTER(CTYPES[dt])
-            ip = ctypes.POINTER(ctypes.c_int)
-            self.choose_chart[dt].restype = ctypes.c_int
-            self.choose_chart[dt].argtypes = [ctypes.c_int, ptr, ptr, CTYPES[dt]]
-            fn = self.lib[f"{P}_integrate_batch{suffix}"]
-            fn.restype = ctypes.c_long
-            fn.argtypes = [ctypes.c_long, ctypes.c_int, ip, ptr, ctypes.c_long, ptr, ctypes.c_long,
-                           ctypes.c_long, ptr, ptr, ip, ctypes.POINTER(self.Options),
-                           ctypes.POINTER(self.Info)]
-            self.fns[dt] = fn
+        self.defaults_fn = self.bind(ATLAS_DEFAULTS, model=P)
+        self.choose_chart = self.bind_precisions(ATLAS_CHOOSE_CHART, model=P)
+        self.fns = self.bind_precisions(ATLAS_BATCH, model=P)
 
     def defaults(self):
+        """The options struct as <atlas>_defaults fills it."""
         o = self.Options()
-        self.defaults_fn(ctypes.byref(o))
+        self.defaults_fn(ctypes.addressof(o))
         return o
 
     def run(self, method: int, charts0, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt):
@@ -91,7 +87,8 @@ class AtlasLibrary:
         ip = ctypes.POINTER(ctypes.c_int)
         self.fns[dt](B, method, c0.ctypes.data_as(ip), y0.ctypes.data_as(ptr), self.n,
                      p.ctypes.data_as(ptr), pstride, len(t), t.ctypes.data_as(ptr),
-                     out.ctypes.data_as(ptr), charts.ctypes.data_as(ip), ctypes.byref(opt), infos)
+                     out.ctypes.data_as(ptr), charts.ctypes.data_as(ip), ctypes.addressof(opt),
+                     ctypes.addressof(infos))
         return out, charts, infos
 
 

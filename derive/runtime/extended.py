@@ -33,6 +33,7 @@ from ..codegen.sources import c_source
 from ..errors import BuildError, SimulationInputError
 from ..model.description import forget_on_model_change
 from .build import address, info_struct, integrator_library
+from .shared_library import TAYLOR_BATCH, TAYLOR_COEFFICIENTS, SharedLibrary
 from ..codegen.integrators import model_info
 from ..codegen.taylor import taylor_problem
 from ..codegen.contract import taylor_order
@@ -170,7 +171,7 @@ def as_longdouble(values: list) -> np.ndarray:
 
 # -- the compiled integrators --------------------------------------------------------
 
-class ExtendedTaylor:
+class ExtendedTaylor(SharedLibrary):
     """ctypes access to <model>_taylor_batch_dd (in <model>_taylor.c) or _q (in
     <model>_taylor_quad.c, with libquadmath), compiled with the order fixed."""
 
@@ -198,14 +199,10 @@ class ExtendedTaylor:
                 raise BuildError(f"binary128 (dtype='quad') needs GCC's __float128 and libquadmath, and "
                                  f"building with them failed: {str(exc).splitlines()[0]}") from None
             raise
-        self.lib = ctypes.CDLL(str(path))
+        super().__init__(path)
         self.Info = info_struct(self.n)
-        vp = ctypes.c_void_p
-        self.batch = self.lib[f"{model}_taylor_batch{_SUFFIX[precision]}"]
-        self.batch.restype = ctypes.c_long
-        self.batch.argtypes = [ctypes.c_long, vp, ctypes.c_long, vp, ctypes.c_long, ctypes.c_long, vp, vp, vp, vp]
-        self.coefficients_fn = self.lib[f"{model}_taylor_coefficients{_SUFFIX[precision]}"]
-        self.coefficients_fn.restype = ctypes.c_int
+        self.batch = self.bind(TAYLOR_BATCH, model=model, suffix=_SUFFIX[precision])
+        self.coefficients_fn = self.bind(TAYLOR_COEFFICIENTS, model=model, suffix=_SUFFIX[precision])
 
     def run(self, y0: list, p: list, t: list, opt) -> tuple[list, object]:
         """One trajectory from exact values -> (the outputs as exact values, row-major
@@ -223,8 +220,7 @@ class ExtendedTaylor:
         enc = ENCODE[self.precision]
         yw, pw = enc(y), enc(p) if p else enc([0])
         out = _aligned((self.n * (self.order + 1), 2), _WORDS[self.precision])
-        self.coefficients_fn.argtypes = [ctypes.c_void_p] * 2 + [ctypes.c_int, ctypes.c_void_p, ctypes.c_double]
-        st = self.coefficients_fn(address(yw), address(pw), self.order, address(out), ctypes.c_double(sine_min))
+        st = self.coefficients_fn(address(yw), address(pw), self.order, address(out), float(sine_min))
         return int(st), DECODE[self.precision](out)
 
 
