@@ -30,7 +30,7 @@ from ..codegen.sources import c_source
 from ..model import load_model
 from ..model.atlas import ATLAS, load_atlas
 from ..codegen import contract
-from .build import build_fastest, dtype_key, info_struct, options_struct
+from .build import OptionsCache, build_fastest, dtype_key, info_struct, options_struct
 from .shared_library import ATLAS_BATCH, ATLAS_CHOOSE_CHART, ATLAS_DEFAULTS, CTYPES, SharedLibrary
 from ..codegen.contract import (ATLAS_CHARTS, COUNTERS, LOCAL_ERROR_METHODS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH, STATUS_NAMES)
 from ..codegen.integrators import model_info
@@ -40,7 +40,7 @@ from .result import LOCAL_SUM, SimulationResult
 __all__ = ["ATLAS_CHARTS", "SINE_MIN", "SINE_RULE", "SINE_SWITCH", "atlas_library", "run_atlas"]
 
 
-class AtlasLibrary(SharedLibrary):
+class AtlasLibrary(OptionsCache, SharedLibrary):
     """The compiled atlas `name` (its driver and its members' integrators and kernels).
 
     Parameters

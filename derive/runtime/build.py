@@ -19,7 +19,7 @@ from ..codegen.sources import c_source
 from ..model.description import forget_on_model_change
 from ..codegen.integrators import model_info
 
-__all__ = ["CTYPES", "SUFFIX", "IntegratorLibrary", "address", "dtype_key", "info_struct",
+__all__ = ["CTYPES", "SUFFIX", "IntegratorLibrary", "OptionsCache", "address", "dtype_key", "info_struct",
            "integrator_library", "options_struct", "run_batch"]
 
 
@@ -43,7 +43,33 @@ def address(a: np.ndarray) -> int:
 _addressof, _char_view = ctypes.addressof, ctypes.c_char.from_buffer
 
 
-class IntegratorLibrary(SharedLibrary):
+class OptionsCache:
+    """The options structs of a library whose `defaults()` gives its C defaults, one per
+    distinct set of values (the integrators only read them: const)."""
+
+    def options(self, values: dict):
+        """The options struct for `values` (field -> value; the rest the C defaults),
+        built once per distinct set of values.  A run's own cancel flag makes a struct
+        of its own (a pointer is no cache key)."""
+        if values.get("cancel") is not None:
+            return self._filled(values)
+        cache = self.__dict__.setdefault("_options", {})
+        key = tuple(values.items())
+        opt = cache.get(key)
+        if opt is None:
+            if len(cache) > 256:
+                cache.clear()
+            opt = cache[key] = self._filled(values)
+        return opt
+
+    def _filled(self, values: dict):
+        opt = self.defaults()
+        for k, v in values.items():
+            setattr(opt, k, v)
+        return opt
+
+
+class IntegratorLibrary(OptionsCache, SharedLibrary):
     """The RK methods of one model: <model>_integrate_batch{,_f,_l} and the options struct.
 
     Parameters
@@ -63,32 +89,11 @@ class IntegratorLibrary(SharedLibrary):
         self.Info = info_struct(n)
         self._defaults = self.bind(INTEGRATE_DEFAULTS, model=model)
         self.fns = self.bind_precisions(INTEGRATE_BATCH, model=model)
-        self._options: dict[tuple, object] = {}
 
     def defaults(self):
         """The options struct as <model>_integrate_defaults fills it."""
         opt = self.Options()
         self._defaults(ctypes.addressof(opt))
-        return opt
-
-    def options(self, values: dict):
-        """The options struct for `values` (field -> value; the rest the C defaults),
-        built once per distinct set of values: the integrators only read it (const).  A
-        run's own cancel flag makes a struct of its own (a pointer is no cache key)."""
-        if values.get("cancel") is not None:
-            return self._filled(values)
-        key = tuple(values.items())
-        opt = self._options.get(key)
-        if opt is None:
-            if len(self._options) > 256:
-                self._options.clear()
-            opt = self._options[key] = self._filled(values)
-        return opt
-
-    def _filled(self, values: dict):
-        opt = self.defaults()
-        for k, v in values.items():
-            setattr(opt, k, v)
         return opt
 
     def run(self, method: int, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:

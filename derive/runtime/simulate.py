@@ -34,15 +34,14 @@ from ..derivation import cartesian
 from . import dense
 from . import events as events_module
 from .atlas_runner import run_atlas
-from .build import dtype_key, integrator_library
+from .build import dtype_key
 from ..codegen.integrators import model_info
-from ..codegen.contract import (ADAPTIVE, ATLAS_CHARTS, ATLAS_METHODS, COUNTERS, DEFAULT_METHOD, FIXED_ORDER,
-                                LOCAL_ERROR_METHODS, MAX_GRID_STEPS, METHODS, PRECISION, PRECISION_NAMES,
-                                PRECISION_TABLE, RUN_METHODS, SINE_MIN, STATUS, STATUS_NAMES, TAYLOR,
-                                TOLERANCE_METHODS, default_options, taylor_order)
+from ..codegen.contract import (ADAPTIVE, ATLAS_METHODS, COUNTERS, DEFAULT_METHOD, FIXED_ORDER, PRECISION,
+                                PRECISION_NAMES, PRECISION_TABLE, RUN_METHODS, STATUS, TAYLOR, TOLERANCE_METHODS,
+                                default_options)
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
-from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, Settings, plain_times
-from .taylor_library import taylor_library
+from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, plain_times
+from .runner import Settings, runner
 from . import extended
 from .result import LAZY, LOCAL_SUM, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
@@ -392,22 +391,10 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
             return _run_held(model, method, state, ts, p, o, dt, backend, u)
         return _run_single(model, method, state, ts, p, o, dt, backend, u)
 
-    if method in TOLERANCE_METHODS and max_steps is None and not isinstance(u, HeldInputs):
-        result = _run_estimated(run, method, ts, opt, backend)
-    elif method not in TOLERANCE_METHODS and _fixed_steps(ts, opt) <= QUICK_STEPS:
-        result = run(opt)              # a short fixed-step run: no cancellation machinery
-    elif method in TOLERANCE_METHODS and opt["max_steps"] <= PILOT_STEPS[backend] and \
-            not isinstance(u, HeldInputs):
-        result = run(opt)              # a step budget no larger than a pilot's: as short
-    else:
-        result = _interruptible(run, opt, backend)
-    if method in TOLERANCE_METHODS:
-        result.rtol = opt["rtol"]
-    else:
-        result.step = opt["h"]
-    if method in ADAPTIVE and _atlas(model) is None:
-        held = None if u is None else np.array([u.at(a) for a in ts]) if isinstance(u, HeldInputs) else u
-        result.sol = dense.dense_output(result, model, method, backend, dt, opt, p, held)
+    held = isinstance(u, HeldInputs)
+    result = _drive(run, method, ts, opt, backend, max_steps is not None, held=held)
+    result = _finish(result, model, method, backend, dt, opt, p, atlas=_atlas(model) is not None,
+                     inputs=lambda: np.array([u.at(a) for a in ts]) if held else u)
     if wanted:
         result = events_module.locate(result, wanted, opt["rtol"])
     if error_estimate == "rerun":
@@ -571,29 +558,14 @@ def _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_st
     if not plan.fits(nt, span, s, max_steps is not None):
         return None                              # _check_size refuses it, with the figure
     opt = s.opt
+    execute = plan.runner.execute
 
     def run(o):                                  # a run with other options (cancellable, ...)
-        return plan.execute(s, plan.lib.options(o), buf, nt)
+        return execute(s, plan.runner.options(o), buf, nt)
 
-    # as the general path: an adaptive run's pilot in this thread (most runs end within it), a
-    # short run directly (a fixed step, or a step budget within a pilot's), the rest
-    # cancellable (_interruptible)
-    if plan.tolerance and max_steps is None:
-        result = plan.execute(s, s.pilot, buf, nt)
-        if result.status == STATUS["MAX_STEPS"] and opt["max_steps"] > s.pilot_steps:
-            result = _run_estimated(run, method, result.t, opt, "c", pilot=result)
-    elif opt["max_steps"] <= s.pilot_steps if plan.tolerance else \
-            (span / opt["h"] if opt["h"] else 0.0) <= QUICK_STEPS:
-        result = plan.execute(s, s.struct, buf, nt)
-    else:
-        result = _interruptible(run, opt, "c")
-    if plan.tolerance:
-        result.rtol = opt["rtol"]
-    else:
-        result.step = opt["h"]
-    if plan.adaptive:
-        result.sol = dense.dense_output(result, plan.model, method, "c", plan.dt, opt, result.params)
-    return result
+    result = _drive(run, method, buf[plan.n + plan.n_params:], opt, "c", max_steps is not None,
+                    pilot=lambda: execute(s, s.pilot, buf, nt), direct=lambda: execute(s, s.struct, buf, nt))
+    return _finish(result, plan.model, method, "c", plan.dt, opt, result.params)
 
 
 def _fast_settings(plan, args: tuple) -> Settings | None:
@@ -612,7 +584,7 @@ def _fast_settings(plan, args: tuple) -> Settings | None:
                       step=step, hmax=hmax, max_steps=max_steps, newton_tol=newton_tol,
                       newton_max=newton_max, sine_min=sine_min)
     try:
-        s = Settings(plan, opt, PILOT_STEPS["c"])
+        s = Settings(plan.runner, opt, PILOT_STEPS["c"])
     except Exception:          # e.g. no Taylor integrator: the general path says so, in its order
         return None
     if len(plan.settings) >= SETTINGS_MAX:
@@ -671,6 +643,37 @@ QUICK_STEPS = 20_000    # a fixed-step run this short runs directly (millisecond
 def _fixed_steps(ts: np.ndarray, opt: dict) -> float:
     span = float(abs(ts[-1] - ts[0])) if len(ts) > 1 else 0.0
     return span / opt["h"] if opt.get("h") else 0.0
+
+
+def _drive(run, method: str, ts: np.ndarray, opt: dict, backend: str, budget_given: bool,
+           held: bool = False, pilot=None, direct=None) -> SimulationResult:
+    """run(opt) as simulate runs it (both paths): an adaptive run's pilot first, in this
+    thread (most runs end within it), a short run directly (a fixed step, or a step budget
+    within a pilot's), the rest cancellable (_interruptible).  `pilot`, `direct`: the
+    pilot run and the direct run, where the caller has them ready (the fast path)."""
+    if method in TOLERANCE_METHODS:
+        if not budget_given and not held:
+            return _run_estimated(run, method, ts, opt, backend, pilot() if pilot else None)
+        quick = opt["max_steps"] <= PILOT_STEPS[backend] and not held
+    else:
+        quick = _fixed_steps(ts, opt) <= QUICK_STEPS
+    if quick:
+        return direct() if direct else run(opt)
+    return _interruptible(run, opt, backend)
+
+
+def _finish(result: SimulationResult, model: str, method: str, backend: str, dt: np.dtype, opt: dict,
+            p: np.ndarray, atlas: bool = False, inputs=None) -> SimulationResult:
+    """A run's tolerance or step, and an adaptive single-model run's continuous solution
+    (`inputs`: a function giving the inputs at each output, or None)."""
+    if method in TOLERANCE_METHODS:
+        result.rtol = opt["rtol"]
+    else:
+        result.step = opt["h"]
+    if method in ADAPTIVE and not atlas:
+        result.sol = dense.dense_output(result, model, method, backend, dt, opt, p,
+                                        None if inputs is None else inputs())
+    return result
 
 
 def _run_estimated(run, method: str, ts: np.ndarray, opt: dict, backend: str,
@@ -835,47 +838,16 @@ def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> Simu
 
 
 def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> SimulationResult:
-    y0 = np.asarray(y0, dt)
-    pd = np.asarray(p, dt)
-    if u is not None and len(u):            # the integrators take p = (params, inputs)
-        pd = np.concatenate([pd, np.asarray(u, dt)])
-    tsd = np.asarray(ts, dt)
+    """One run of a single model through its runner (the fast path's call too)."""
+    r = runner(model, method, dtype_key(dt), backend)
+    n, n_params, n_inputs = r.n, r.n_params, r.n_inputs
+    buf = np.empty(n + n_params + n_inputs + len(ts), dt)   # y0, the parameters and inputs, t
+    buf[:n], buf[n:n + n_params] = y0, p
+    if n_inputs:
+        buf[n + n_params:n + n_params + n_inputs] = u
+    buf[n + n_params + n_inputs:] = ts
     if backend == "c":
-        lib = integrator_library(model)
-        o = lib.options(opt)
-        if method == TAYLOR:
-            y, infos = taylor_library(model, taylor_order(opt["rtol"])).run(y0[None, :], pd, tsd, o)
-        else:
-            y, infos = lib.run(METHODS.index(method), y0[None, :], pd, tsd, o)
-        y, inf = y[0], infos[0]
-        counters = {k: int(getattr(inf, k)) for k in COUNTERS}
-        status, t_stop, y_stop = int(inf.status), float(inf.t), np.array(inf.y[:])
-        h_end = float(inf.h_end)
-        local_error = float(inf.local_error)
-    else:
-        mod = numpy_module(f"{model}_integrate")
-        status, y, inf = mod.integrate(method, y0, pd, tsd, dt, **opt)
-        counters = {k: int(inf[k]) for k in COUNTERS}
-        t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
-        h_end = float(inf["h_end"])
-        local_error = float(inf["local_error"])
-    pm = np.asarray(p, dt)
-
-    def observe():       # run on first access of r.energy, r.positions or r.velocities
-        return (*_observables(model, y, pm, backend, dt), _velocities(model, y, pm, backend, dt))
-
-    single_chart = model_info(model).nguards > 0     # a chart model: its chart at every output
-    return SimulationResult(
-        model=model, method=method, backend=backend, dtype=dtype_key(dt), t=np.asarray(ts, dt), y=y,
-        energy=LAZY, positions=LAZY, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
-        y_stop=y_stop, chart=np.array([model] * len(ts), dtype=object) if single_chart else None,
-        switches=0, chart_stop=model if single_chart else None, params=pm, velocities=LAZY,
-        observe=observe, last_step=h_end if method not in TOLERANCE_METHODS and h_end else None,
-        **_local_error(method, local_error), **counters)
-
-
-def _local_error(method: str, local_error: float) -> dict:
-    """A result's error fields from its run's info.local_error (result.py: "local sum")."""
-    if method not in LOCAL_ERROR_METHODS:
-        return {"error_estimate": None, "error_kind": None}
-    return {"error_estimate": local_error, "error_kind": LOCAL_SUM}
+        s = Settings(r, opt)
+        return r.execute(s, s.struct, buf, len(ts))
+    pd = buf[n:n + n_params + n_inputs]
+    return r.numpy_run(buf[:n], pd, buf[n:n + n_params], buf[n + n_params + n_inputs:], opt)
