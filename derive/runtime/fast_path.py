@@ -21,7 +21,7 @@ from .build import dtype_key
 from ..codegen.contract import ADAPTIVE, TOLERANCE_METHODS
 from ..codegen.integrators import model_info
 from ..model import load_model
-from .runner import Settings, runner
+from .runner import Settings, runner_for
 
 LIST_MAX = 64          # arrays up to this size are checked as Python lists (faster than NumPy's)
 LONG_MAX = 10 ** 6     # longer output times: the general path (it checks their memory first)
@@ -101,7 +101,7 @@ class RunPlan:
         self.max_bytes, self.max_steps = max_bytes, max_steps
         self.tolerance = method in TOLERANCE_METHODS
         self.adaptive = method in ADAPTIVE
-        self.runner = runner(model, method, self.dtype)
+        self.runner = runner_for(model, method, self.dtype)
         self.settings: dict[tuple, Settings] = self.runner.settings
         self.checked: set[tuple] = set()
 

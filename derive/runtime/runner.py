@@ -8,10 +8,11 @@ rule: contract.taylor_order) and the batch call (y0 batch, params batch, times -
 infos).  `derive.simulate` (its general path and its fast path alike), `derive.ensemble`,
 the atlas and a sweep's runs call it:
 
-    r = runner("planar", "dop853", "float64")
+    r = runner_for("planar", "dop853", "float64")
     opt = r.options({"rtol": 1e-10})
     y, infos = r.batch(y0s, p, t, opt)                 # y0s (B, n) -> y (B, nt, n)
-    result = r.execute(r.settings_for(values), opt, buf, nt)   # one run -> SimulationResult
+    s = Settings(r, run_opt)                            # validated options: struct, entry point
+    result = r.execute(s, s.struct, buf, nt)           # buf = (y0, p, t) -> SimulationResult
 
 `settings` is the fast path's cache: validated option arguments -> `Settings`.
 """
@@ -28,7 +29,7 @@ from ..codegen.contract import (COUNTERS, LOCAL_ERROR_METHODS, METHODS, STATUS_N
 from ..codegen.integrators import model_info
 from ..model.atlas import find_atlas
 from ..model.description import forget_on_model_change
-from .atlas_runner import atlas_library
+from .atlas_library import atlas_library, numpy_atlas
 from .build import address, integrator_library
 from .extended import extended_taylor
 from .observables import _observables, _velocities, numpy_module
@@ -141,6 +142,12 @@ class Runner:
             return taylor_ensemble_library(self.model, self.order(rtol), self.dtype)
         return _MethodBound(self.lib, self.index)
 
+    def numpy_integrator(self):
+        """The generated NumPy module the numpy backend runs (its integrate)."""
+        if self.atlas is not None:
+            return numpy_atlas(self.model)
+        return numpy_module(f"{self.model}_integrate")
+
     def exact_library(self, rtol: float):
         """The extended-precision Taylor build (double-double, quad) for a tolerance."""
         return extended_taylor(self.model, self.dtype, self.order(rtol))
@@ -226,7 +233,7 @@ class Runner:
         SimulationResult
         """
         dt = self.dt
-        status, y, inf = numpy_module(f"{self.model}_integrate").integrate(self.method, y0, p, t, dt, **opt)
+        status, y, inf = self.numpy_integrator().integrate(self.method, y0, p, t, dt, **opt)
         h_end = float(inf["h_end"])
         nt = len(t)
         return self.make_result(
@@ -256,7 +263,7 @@ def _observe(model: str, y: np.ndarray, p: np.ndarray, dt: np.dtype, backend: st
 
 @forget_on_model_change
 @lru_cache(maxsize=256)
-def runner(model: str, method: str, dtype: str = "float64", backend: str = "c") -> Runner:
+def runner_for(model: str, method: str, dtype: str = "float64", backend: str = "c") -> Runner:
     """The runner of (model, method, dtype, backend), made once (a resolved model name)."""
     return Runner(model, method, dtype, backend)
 

@@ -41,8 +41,8 @@ from ..codegen.contract import (ADAPTIVE, ATLAS_METHODS, COUNTERS, DEFAULT_METHO
                                 default_options)
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
 from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, plain_times
-from .runner import Settings, runner
-from . import extended
+from .runner import Settings, runner_for
+from . import extended, extended_run
 from .result import LAZY, LOCAL_SUM, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
 from ..model.atlas import ATLAS, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
@@ -430,8 +430,8 @@ def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, s
     run_options(TAYLOR, np.dtype(np.float64), ts, hmax=hmax, max_steps=max_steps, sine_min=sine_min)
     if isinstance(y0, Mapping) and set(y0) & {"cartesian", "chart", "state"}:
         raise SimulationInputError(f"dtype '{precision}' takes y0 as the state (a sequence or a mapping by name)")
-    result = extended.simulate_extended(model, precision, y0, t, params, rtol, hmax, max_steps, sine_min,
-                                        inputs)
+    result = extended_run.simulate_extended(model, precision, y0, t, params, rtol, hmax, max_steps, sine_min,
+                                            inputs)
     y, pm, dt = result.y, result.params, np.dtype(np.longdouble)
 
     def observe():       # in long double, on first access of r.energy, r.positions or r.velocities
@@ -839,7 +839,7 @@ def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> Simu
 
 def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> SimulationResult:
     """One run of a single model through its runner (the fast path's call too)."""
-    r = runner(model, method, dtype_key(dt), backend)
+    r = runner_for(model, method, dtype_key(dt), backend)
     n, n_params, n_inputs = r.n, r.n_params, r.n_inputs
     buf = np.empty(n + n_params + n_inputs + len(ts), dt)   # y0, the parameters and inputs, t
     buf[:n], buf[n:n + n_params] = y0, p
