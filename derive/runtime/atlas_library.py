@@ -8,7 +8,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..codegen import contract
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
 from ..codegen.sources import c_source
 from ..model.atlas import ATLAS, load_atlas
 from .build import OptionsCache, build_fastest, dtype_key, info_struct, options_struct

@@ -17,7 +17,7 @@ from .shared_library import (CTYPES, INTEGRATE_BATCH, INTEGRATE_DEFAULTS, SUFFIX
                              options_struct)
 from ..codegen.sources import c_source
 from ..model.description import forget_on_model_change
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
 
 __all__ = ["CTYPES", "SUFFIX", "IntegratorLibrary", "OptionsCache", "address", "dtype_key", "info_struct",
            "integrator_library", "options_struct", "run_batch"]

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import SimulationInputError
 from .build import dtype_key
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
 from ..codegen.contract import COUNTERS, DEFAULT_METHOD, RUN_METHODS, STATUS_NAMES, TOLERANCE_METHODS
 from .simulate import (_atlas, _check_size, _dtype, _finite_array, check_parameter_values, normalise_t,
                        resolve_model, run_options)

@@ -33,7 +33,7 @@ from ..errors import BuildError, SimulationInputError
 from ..model.description import forget_on_model_change
 from .build import address, info_struct
 from .shared_library import TAYLOR_BATCH, TAYLOR_COEFFICIENTS, SharedLibrary
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
 from ..codegen.taylor import taylor_problem
 from ..codegen.contract import EXTENDED, PRECISION, PRECISION_NAMES
 

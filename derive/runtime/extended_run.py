@@ -8,7 +8,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from ..codegen.contract import COUNTERS, STATUS_NAMES, TAYLOR
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
 from ..errors import SimulationInputError
 from .extended import DEFAULT_RTOL, UNIT_ROUNDOFF, as_longdouble, exact
 from .result import LOCAL_SUM, SimulationResult

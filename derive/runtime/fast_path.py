@@ -19,7 +19,7 @@ import numpy as np
 
 from .build import dtype_key
 from ..codegen.contract import ADAPTIVE, TOLERANCE_METHODS
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
 from ..model import load_model
 from .runner import Settings, runner_for
 

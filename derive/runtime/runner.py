@@ -26,7 +26,7 @@ import numpy as np
 
 from ..codegen.contract import (COUNTERS, LOCAL_ERROR_METHODS, METHODS, STATUS_NAMES, TAYLOR,
                                 TOLERANCE_METHODS, taylor_order)
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
 from ..model.atlas import find_atlas
 from ..model.description import forget_on_model_change
 from .atlas_library import atlas_library, numpy_atlas

@@ -23,19 +23,21 @@ import os
 import signal
 import threading
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from ..errors import SimulationError, SimulationInputError  # noqa: F401  (SimulationError: re-exported)
-from ..model import ModelError, is_model_file, load_model
+from ..model import Model, ModelError, is_model_file, load_model
 from ..model.description import forget_on_model_change, parameter_problem
 from ..derivation import cartesian
 from . import dense
 from . import events as events_module
 from .atlas_runner import run_atlas
 from .build import dtype_key
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
+from ..codegen.integrators import ModelInfo
 from ..codegen.contract import (ADAPTIVE, ATLAS_METHODS, COUNTERS, DEFAULT_METHOD, FIXED_ORDER, PRECISION,
                                 PRECISION_NAMES, PRECISION_TABLE, RUN_METHODS, STATUS, TAYLOR, TOLERANCE_METHODS,
                                 default_options)
@@ -45,7 +47,7 @@ from .runner import Settings, runner_for
 from . import extended, extended_run
 from .result import LAZY, LOCAL_SUM, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
-from ..model.atlas import ATLAS, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
+from ..model.atlas import ATLAS, Atlas, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
 # the rungs of the precision ladder the RK methods compute in: every name of each
 # (the contract's table) -> its NumPy type, and simulate's default tolerance in each
 _DTYPES = {name: np.dtype(key).type for name, key in PRECISION_NAMES.items()
@@ -99,25 +101,54 @@ def resolve_model(model, atlas: bool = False) -> str:
         raise SimulationInputError(f"atlas=True: {exc}") from None
 
 
-def _atlas(model: str):
+@dataclass(frozen=True, eq=False)
+class ModelRef:
+    """A resolved run name and what a run reads of it, looked up once (model_ref) and
+    passed down; formats as its name, so a message reads the same with a name or a ref."""
+    name: str
+    atlas: Atlas | None          # the chart atlas the name stands for, or None (a single model)
+    standard: str                # whose description, parameters and state order a run takes
+    description: Model           # the standard model's
+    info: ModelInfo              # the standard model's sizes and names
+
+    def __str__(self) -> str:
+        return self.name
+
+    def __format__(self, spec: str) -> str:
+        return format(self.name, spec)
+
+
+@forget_on_model_change
+@lru_cache(maxsize=256)
+def model_ref(name: str) -> ModelRef:
+    """The ModelRef of a resolved name (resolve_model's)."""
+    atlas = find_atlas(name)
+    standard = atlas.charts[0] if atlas is not None else name
+    return ModelRef(name, atlas, standard, load_model(standard), model_info(standard))
+
+
+def _ref(model) -> ModelRef:
+    return model if isinstance(model, ModelRef) else model_ref(model)
+
+
+def _atlas(model):
     """The atlas a run name stands for, or None (a single model)."""
-    return find_atlas(model)
+    return _ref(model).atlas
 
 
-def _standard(model: str) -> str:
+def _standard(model) -> str:
     """The model whose description, parameters and state order a run takes (an atlas: its
     standard chart)."""
-    atlas = _atlas(model)
-    return atlas.charts[0] if atlas is not None else model
+    return _ref(model).standard
 
 
-def _described(model: str):
+def _described(model):
     """The model description behind a run (an atlas: its standard chart)."""
-    return load_model(_standard(model))
+    return _ref(model).description
 
 
-def normalise_params(model: str, params) -> np.ndarray:
-    names = model_info(_standard(model)).param_names
+def normalise_params(model, params) -> np.ndarray:
+    names = _ref(model).info.param_names
     if isinstance(params, Mapping):
         unknown = sorted(set(params) - set(names))
         if unknown:
@@ -236,32 +267,33 @@ def _cartesian_y0(model: str, value, p: np.ndarray) -> np.ndarray:
     return c
 
 
-def _chart_models(model: str) -> tuple[str, ...]:
+def _chart_models(model) -> tuple[str, ...]:
     """The charts a mapping y0 may name: an atlas's members, a chart model's own atlas's."""
-    atlas = _atlas(model)
-    if atlas is not None:
-        return atlas.charts
-    description = load_model(model)
+    ref = _ref(model)
+    if ref.atlas is not None:
+        return ref.atlas.charts
+    description = ref.description
     family = atlas_family(description) if description.dimension == 3 else None
     if family is not None:
         return family.charts
-    return (model,) if model_info(model).nguards > 0 else ()
+    return (ref.name,) if ref.info.nguards > 0 else ()
 
 
-def normalise_y0(model: str, y0, p: np.ndarray) -> tuple[np.ndarray, str | None, np.ndarray | None]:
+def normalise_y0(model, y0, p: np.ndarray) -> tuple[np.ndarray, str | None, np.ndarray | None]:
     """(state, chart model, Cartesian state or None).  For an atlas the chart is chosen."""
-    atlas = _atlas(model)
-    charts = _chart_models(model)
-    spherical = bool(charts) or (atlas is None and model_info(model).nguards > 0)
-    lengths = cartesian.link_lengths(_standard(model), p) if spherical else ()
+    ref = _ref(model)
+    atlas, info = ref.atlas, ref.info
+    charts = _chart_models(ref)
+    spherical = bool(charts) or (atlas is None and info.nguards > 0)
+    lengths = cartesian.link_lengths(ref.standard, p) if spherical else ()
     if isinstance(y0, Mapping):
         keys = set(y0)
         if not spherical:
             raise SimulationInputError(f"model '{model}' takes y0 as a sequence of "
-                                       f"{model_info(model).n} numbers")
-        n = model_info(_standard(model)).n
+                                       f"{info.n} numbers")
+        n = info.n
         if keys == {"cartesian"}:
-            c = _cartesian_y0(model, y0["cartesian"], p)
+            c = _cartesian_y0(ref, y0["cartesian"], p)
         elif keys == {"chart", "state"} and y0["chart"] in charts:
             s = _finite_array(y0["state"], "y0['state']").astype(np.float64).reshape(-1)
             if s.size != n:
@@ -270,15 +302,15 @@ def normalise_y0(model: str, y0, p: np.ndarray) -> tuple[np.ndarray, str | None,
         else:
             raise SimulationInputError(f"y0 as a mapping must be {{'cartesian': [{3 * len(lengths) * 2} numbers]}} or "
                                        f"{{'chart': one of {', '.join(charts)}, 'state': [{n} numbers]}}")
-        chart = cartesian.choose_chart(c, lengths, atlas.name) if atlas is not None else model
+        chart = cartesian.choose_chart(c, lengths, atlas.name) if atlas is not None else ref.name
         return cartesian.cartesian_to_state(chart, c, lengths), chart, c
-    n = model_info(_standard(model)).n
+    n = info.n
     if isinstance(y0, str):
         raise SimulationInputError(f"y0 must be {n} numbers, got a string")
     a = _finite_array(y0, "y0").reshape(-1)
     if a.size != n:
         raise SimulationInputError(f"model '{model}' takes y0 with {n} numbers "
-                                   f"({', '.join(model_info(_standard(model)).state_names)}), got {a.size}")
+                                   f"({', '.join(info.state_names)}), got {a.size}")
     if atlas is not None:
         # a standard-chart state (exact at the poles too): through Cartesian coordinates
         c = cartesian.state_to_cartesian(atlas.charts[0], a.astype(np.float64), lengths)
@@ -286,7 +318,7 @@ def normalise_y0(model: str, y0, p: np.ndarray) -> tuple[np.ndarray, str | None,
         if chart == atlas.charts[0]:
             return a, chart, c
         return cartesian.cartesian_to_state(chart, c, lengths), chart, c
-    return a, (model if spherical else None), None
+    return a, (ref.name if spherical else None), None
 
 
 def normalise_t(t) -> np.ndarray:
@@ -358,34 +390,35 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
         if fast is not None:
             return fast
     model = resolve_model(model, atlas)
+    ref = model_ref(model)          # looked up once, passed down
     _check_error_estimate(error_estimate)
     if not isinstance(method, str) or method not in RUN_METHODS:
         raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(RUN_METHODS)})")
     if backend not in ("c", "numpy"):
         raise SimulationInputError(f"unknown backend {backend!r} (use 'c' or 'numpy')")
-    if method == TAYLOR and (backend != "c" or _atlas(model) is not None):
+    if method == TAYLOR and (backend != "c" or ref.atlas is not None):
         raise SimulationInputError("the Taylor integrator runs in generated C on single-chart models: "
                                    "use backend='c' and a model, not the atlas")
     if precision is not None:
-        return _simulate_extended(model, precision, y0, t, params, method, rtol=rtol, atol=atol, step=step,
+        return _simulate_extended(ref, precision, y0, t, params, method, rtol=rtol, atol=atol, step=step,
                                   max_steps=max_steps, sine_min=sine_min, hmax=hmax, inputs=inputs,
                                   events=events, error_estimate=error_estimate)
     dt = _dtype(dtype)
-    p = normalise_params(model, params)
-    u = normalise_inputs(model, inputs)
+    p = normalise_params(ref, params)
+    u = normalise_inputs(ref, inputs)
     ts = normalise_t(t)
-    state, chart, _ = normalise_y0(model, y0, p)
-    _check_angles(model, state, dt)
+    state, chart, _ = normalise_y0(ref, y0, p)
+    _check_angles(ref, state, dt)
     opt = run_options(method, dt, ts, rtol=rtol, atol=atol, step=step, hmax=hmax, max_steps=max_steps,
                       newton_tol=newton_tol, newton_max=newton_max, sine_min=sine_min)
-    if _atlas(model) is not None and method not in ATLAS_METHODS:
+    if ref.atlas is not None and method not in ATLAS_METHODS:
         raise SimulationInputError(f"the chart atlas has no method '{method}' "
                                    f"(it has {', '.join(ATLAS_METHODS)})")
     _check_size(method, ts, state, opt, dt, budget_given=max_steps is not None)
-    wanted = _events_of(model, method, events)
+    wanted = _events_of(ref, method, events)
 
     def run(o):
-        if _atlas(model) is not None:
+        if ref.atlas is not None:
             return run_atlas(method, state, chart, ts, p, o, dt, backend, model)
         if isinstance(u, HeldInputs):
             return _run_held(model, method, state, ts, p, o, dt, backend, u)
@@ -393,7 +426,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
 
     held = isinstance(u, HeldInputs)
     result = _drive(run, method, ts, opt, backend, max_steps is not None, held=held)
-    result = _finish(result, model, method, backend, dt, opt, p, atlas=_atlas(model) is not None,
+    result = _finish(result, model, method, backend, dt, opt, p, atlas=ref.atlas is not None,
                      inputs=lambda: np.array([u.at(a) for a in ts]) if held else u)
     if wanted:
         result = events_module.locate(result, wanted, opt["rtol"])
@@ -422,11 +455,12 @@ def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, s
     if error_estimate != "local":
         raise SimulationInputError(f"dtype '{precision}' estimates its error from its own run "
                                    f"(error_estimate='local'); for a rerun, run again at a smaller rtol")
-    p = normalise_params(model, params)             # the usual checks, one line each
-    normalise_inputs(model, inputs)
+    model, ref = str(model), _ref(model)
+    p = normalise_params(ref, params)             # the usual checks, one line each
+    normalise_inputs(ref, inputs)
     ts = normalise_t(t)
-    state, _, _ = normalise_y0(model, y0, p)
-    _check_angles(model, state, np.dtype(np.longdouble))
+    state, _, _ = normalise_y0(ref, y0, p)
+    _check_angles(ref, state, np.dtype(np.longdouble))
     run_options(TAYLOR, np.dtype(np.float64), ts, hmax=hmax, max_steps=max_steps, sine_min=sine_min)
     if isinstance(y0, Mapping) and set(y0) & {"cartesian", "chart", "state"}:
         raise SimulationInputError(f"dtype '{precision}' takes y0 as the state (a sequence or a mapping by name)")
@@ -755,7 +789,7 @@ def _events_of(model: str, method: str, events) -> tuple:
     if method not in ADAPTIVE:
         raise SimulationInputError(f"events need the dense output of an adaptive method "
                                    f"({', '.join(ADAPTIVE)}), not {method}")
-    return events_module.parse_events(model_info(model), events)
+    return events_module.parse_events(_ref(model).info, events)
 
 
 MAX_ANGLE_ULP = 1e-3             # radians: a coordinate rounded coarser than this cannot move

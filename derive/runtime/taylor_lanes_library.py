@@ -22,7 +22,7 @@ from ..errors import BuildError, SimulationInputError
 from ..model.description import forget_on_model_change
 from .build import info_struct, run_batch
 from .shared_library import SUFFIX, TAYLOR_LANES_BATCH, SharedLibrary
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
 from ..codegen.taylor import taylor_problem
 from .taylor_library import taylor_library
 from ..codegen.taylor_lanes import variant_number

@@ -19,7 +19,7 @@ from ..errors import SimulationInputError
 from ..model.description import forget_on_model_change
 from .build import address, dtype_key, info_struct, run_batch
 from .shared_library import TAYLOR_BATCH, TAYLOR_COEFFICIENTS, SharedLibrary
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
 from ..codegen.taylor import taylor_problem
 
 
