@@ -9,12 +9,11 @@ infos).  `derive.simulate` (its general path and its fast path alike), `derive.e
 the atlas and a sweep's runs call it:
 
     r = runner_for("planar", "dop853", "float64")
-    opt = r.options({"rtol": 1e-10})
-    y, infos = r.batch(y0s, p, t, opt)                 # y0s (B, n) -> y (B, nt, n)
-    s = Settings(r, run_opt)                            # validated options: struct, entry point
-    result = r.execute(s, s.struct, buf, nt)           # buf = (y0, p, t) -> SimulationResult
+    y, infos, blocks = r.batch(y0s, p, t, r.options({"rtol": 1e-10}), threads=2)
+    s = Settings(r, opt)                 # opt: simulate's run_options -> struct, entry point
+    result = r.execute(s, s.struct, buf, nt)        # buf = (y0, p, t) -> SimulationResult
 
-`settings` is the fast path's cache: validated option arguments -> `Settings`.
+`Runner.settings` is the fast path's cache: its option arguments -> `Settings`.
 """
 from __future__ import annotations
 
