@@ -30,6 +30,7 @@ from .atlas_library import AtlasLibrary, atlas_library, numpy_atlas  # noqa: F40
 from .runner import runner_for
 from ..codegen.contract import (ATLAS_CHARTS, COUNTERS, LOCAL_ERROR_METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH,
                                 STATUS_NAMES)
+from ..codegen.contract import METHODS  # noqa: F401  (re-exported: the contract's table)
 from .observables import _observables, _velocities
 from .result import LOCAL_SUM, SimulationResult
 

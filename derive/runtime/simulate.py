@@ -38,6 +38,7 @@ from .atlas_runner import run_atlas
 from .build import dtype_key
 from .model_sizes import model_info
 from ..codegen.integrators import ModelInfo
+from ..codegen.contract import METHODS, STATUS_NAMES  # noqa: F401  (re-exported: the contract's tables)
 from ..codegen.contract import (ADAPTIVE, ATLAS_METHODS, COUNTERS, DEFAULT_METHOD, FIXED_ORDER, PRECISION,
                                 PRECISION_NAMES, PRECISION_TABLE, RUN_METHODS, STATUS, TAYLOR, TOLERANCE_METHODS,
                                 default_options)
