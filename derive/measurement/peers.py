@@ -35,6 +35,7 @@ import sympy as sp
 from ..derivation import derive
 from ..paths import bench_c_dir
 from ..runtime.loader import build
+from ..runtime.shared_library import SharedLibrary
 
 
 def planar_accelerations(sin, cos):
@@ -158,7 +159,7 @@ def numba_rk4():
 
 def _hand_c(source: str, symbol: str, *argtypes):
     """A function of a hand-written C peer (derive/measurement/c/peers/<source>), compiled into the build cache."""
-    fn = ctypes.CDLL(str(build(bench_c_dir() / "peers" / source)))[symbol]
+    fn = SharedLibrary(build(bench_c_dir() / "peers" / source)).lib[symbol]
     fn.restype = None
     fn.argtypes = list(argtypes)
     return fn

@@ -21,88 +21,20 @@ then continues in the new chart (FSAL stage re-evaluated).
 """
 from __future__ import annotations
 
-import ctypes
-from functools import lru_cache
-
 import numpy as np
 
-from ..codegen.sources import c_source
 from ..model import load_model
 from ..model.atlas import ATLAS, load_atlas
-from ..codegen import contract
-from .build import CTYPES, SUFFIX, build_fastest, dtype_key, info_struct, options_struct
-from ..codegen.contract import (ATLAS_CHARTS, COUNTERS, LOCAL_ERROR_METHODS, METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH, STATUS_NAMES)
-from ..codegen.integrators import model_info
-from .observables import _observables, _velocities, numpy_module
+from .build import dtype_key
+from .atlas_library import AtlasLibrary, atlas_library, numpy_atlas  # noqa: F401  (re-exported)
+from .runner import runner_for
+from ..codegen.contract import (ATLAS_CHARTS, COUNTERS, LOCAL_ERROR_METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH,
+                                STATUS_NAMES)
+from ..codegen.contract import METHODS  # noqa: F401  (re-exported: the contract's table)
+from .observables import _observables, _velocities
 from .result import LOCAL_SUM, SimulationResult
 
 __all__ = ["ATLAS_CHARTS", "SINE_MIN", "SINE_RULE", "SINE_SWITCH", "atlas_library", "run_atlas"]
-
-
-class AtlasLibrary:
-    """The compiled atlas `name` (its driver and its members' integrators and kernels)."""
-
-    def __init__(self, name: str = ATLAS):
-        self.atlas = load_atlas(name)
-        P = self.atlas.prefix
-        info = model_info(self.atlas.charts[0])
-        self.n, self.n_params = info.n, info.n_params
-        sources = [c_source(name, f"{P}.c")]       # the charts' files are beside it
-        for ch in self.atlas.charts:
-            sources += [c_source(name, f"{ch}_integrate.c"), c_source(name, f"{ch}.c")]
-        self.path, self.flags = build_fastest(P, sources)
-        self.lib = ctypes.CDLL(str(self.path))
-        self.Options = options_struct(contract.ATLAS_OPTIONS)
-        self.Info = info_struct(self.n, contract.ATLAS_INFO)
-        self.defaults_fn = self.lib[f"{P}_defaults"]
-        self.defaults_fn.argtypes = [ctypes.POINTER(self.Options)]
-        self.choose_chart = {dt: self.lib[f"{P}_choose_chart{suffix}"] for dt, suffix in SUFFIX.items()}
-        self.fns = {}
-        for dt, suffix in SUFFIX.items():
-            ptr = ctypes.POINTER(CTYPES[dt])
-            ip = ctypes.POINTER(ctypes.c_int)
-            self.choose_chart[dt].restype = ctypes.c_int
-            self.choose_chart[dt].argtypes = [ctypes.c_int, ptr, ptr, CTYPES[dt]]
-            fn = self.lib[f"{P}_integrate_batch{suffix}"]
-            fn.restype = ctypes.c_long
-            fn.argtypes = [ctypes.c_long, ctypes.c_int, ip, ptr, ctypes.c_long, ptr, ctypes.c_long,
-                           ctypes.c_long, ptr, ptr, ip, ctypes.POINTER(self.Options),
-                           ctypes.POINTER(self.Info)]
-            self.fns[dt] = fn
-
-    def defaults(self):
-        o = self.Options()
-        self.defaults_fn(ctypes.byref(o))
-        return o
-
-    def run(self, method: int, charts0, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt):
-        """y0 (B, n) in charts0 (B,) (-1: standard chart, rule picks) -> y, charts, infos."""
-        dt = dtype_key(y0.dtype)
-        ptr = ctypes.POINTER(CTYPES[dt])
-        y0 = np.ascontiguousarray(y0)
-        B = y0.shape[0]
-        c0 = np.ascontiguousarray(np.broadcast_to(np.asarray(charts0, np.intc), (B,)))
-        p = np.ascontiguousarray(p, dtype=y0.dtype)
-        pstride = 0 if p.ndim == 1 else self.n_params
-        t = np.ascontiguousarray(t, dtype=y0.dtype)
-        out = np.empty((B, len(t), self.n), y0.dtype)
-        charts = np.empty((B, len(t)), np.intc)
-        infos = (self.Info * B)()
-        ip = ctypes.POINTER(ctypes.c_int)
-        self.fns[dt](B, method, c0.ctypes.data_as(ip), y0.ctypes.data_as(ptr), self.n,
-                     p.ctypes.data_as(ptr), pstride, len(t), t.ctypes.data_as(ptr),
-                     out.ctypes.data_as(ptr), charts.ctypes.data_as(ip), ctypes.byref(opt), infos)
-        return out, charts, infos
-
-
-@lru_cache(maxsize=None)
-def atlas_library(name: str = ATLAS) -> AtlasLibrary:
-    return AtlasLibrary(name)
-
-
-@lru_cache(maxsize=None)
-def numpy_atlas(name: str = ATLAS):
-    return numpy_module(load_atlas(name).prefix)
 
 
 def observables(charts_of: tuple[str, ...], y: np.ndarray, charts: np.ndarray, p: np.ndarray,
@@ -128,20 +60,16 @@ def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str, n
     pd = np.asarray(p, dt)
     tsd = np.asarray(ts, dt)
     chart0 = charts_of.index(chart)
+    r = runner_for(name, method, dtype_key(dt), backend)
     if backend == "c":
-        lib = atlas_library(name)
-        o = lib.defaults()
-        for k, v in opt.items():
-            setattr(o, k, v)
-        y, charts, infos = lib.run(METHODS.index(method), [chart0], y0[None, :], pd, tsd, o)
+        y, charts, infos = r.atlas_batch([chart0], y0[None, :], pd, tsd, r.options(opt))
         y, charts, inf = y[0], charts[0], infos[0]
         counters = {k: int(getattr(inf, k)) for k in COUNTERS}
         status, t_stop, y_stop = int(inf.status), float(inf.t), np.array(inf.y[:])
         switches, chart_stop = int(inf.nswitches), int(inf.chart)
         local_error = float(inf.local_error)
     else:
-        mod = numpy_atlas(name)
-        status, y, charts, inf = mod.integrate(method, chart0, y0, pd, tsd, dt, **opt)
+        status, y, charts, inf = r.numpy_integrator().integrate(method, chart0, y0, pd, tsd, dt, **opt)
         counters = {k: int(inf[k]) for k in COUNTERS}
         t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
         switches, chart_stop = int(inf["nswitches"]), int(inf["chart"])

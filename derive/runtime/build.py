@@ -13,15 +13,14 @@ from functools import lru_cache
 import numpy as np
 
 from .loader import build_fastest
+from .shared_library import (CTYPES, INTEGRATE_BATCH, INTEGRATE_DEFAULTS, SUFFIX, SharedLibrary, info_struct,
+                             options_struct)
 from ..codegen.sources import c_source
 from ..model.description import forget_on_model_change
-from ..codegen import contract
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
 
-_C_TYPES = {"double": ctypes.c_double, "float": ctypes.c_float, "long double": ctypes.c_longdouble}
-# the hardware rungs of the precision ladder (the contract's table): ctypes type, suffix
-CTYPES = {p.key: _C_TYPES[p.ctype] for p in contract.PRECISION_TABLE if not p.taylor_only}
-SUFFIX = {p.key: p.suffix for p in contract.PRECISION_TABLE if not p.taylor_only}
+__all__ = ["CTYPES", "SUFFIX", "IntegratorLibrary", "OptionsCache", "address", "dtype_key", "info_struct",
+           "integrator_library", "options_struct", "run_batch"]
 
 
 @lru_cache(maxsize=64)
@@ -44,69 +43,57 @@ def address(a: np.ndarray) -> int:
 _addressof, _char_view = ctypes.addressof, ctypes.c_char.from_buffer
 
 
-_C_TYPES = {"double": ctypes.c_double, "long": ctypes.c_long, "int": ctypes.c_int,
-            "const volatile int *": ctypes.POINTER(ctypes.c_int)}
-
-
-def ctypes_fields(fields, n: int = 0) -> list[tuple]:
-    """(name, ctypes type) of contract fields (derive/codegen/contract.py); arrays get length n."""
-    return [(f.name, _C_TYPES[f.ctype] * n if f.length else _C_TYPES[f.ctype]) for f in fields]
-
-
-def options_struct(extra: tuple = ()) -> type:
-    """The <model>_integrate_options struct (extra: contract fields appended, e.g. the atlas')."""
-    return type("Options", (ctypes.Structure,), {"_fields_": ctypes_fields(contract.OPTIONS + tuple(extra))})
-
-
-def info_struct(n: int, extra: tuple = ()) -> type:
-    """The <model>_integrate_info struct for n states (extra: contract fields appended)."""
-    return type("Info", (ctypes.Structure,), {"_fields_": ctypes_fields(contract.INFO + tuple(extra), n)})
-
-
-class IntegratorLibrary:
-    """ctypes access to <model>_integrate_batch{,_f,_l}."""
-
-    def __init__(self, model: str, n: int, n_params: int):
-        self.model, self.n, self.n_params = model, n, n_params
-        src = [c_source(model, f"{model}_integrate.c"), c_source(model, f"{model}.c")]
-        self.path, self.flags = build_fastest(f"{model}_integrate", src)
-        self.lib = ctypes.CDLL(str(self.path))
-        self.Options = options_struct()
-        self.Info = info_struct(n)
-        self.lib[f"{model}_integrate_defaults"].argtypes = [ctypes.POINTER(self.Options)]
-        self.fns = {}
-        self._options: dict[tuple, object] = {}
-        vp = ctypes.c_void_p
-        for dt, suffix in SUFFIX.items():
-            fn = self.lib[f"{model}_integrate_batch{suffix}"]
-            fn.restype = ctypes.c_long
-            fn.argtypes = [ctypes.c_long, ctypes.c_int, vp, ctypes.c_long, vp, ctypes.c_long,
-                           ctypes.c_long, vp, vp, vp, vp]
-            self.fns[dt] = fn
-
-    def defaults(self):
-        opt = self.Options()
-        self.lib[f"{self.model}_integrate_defaults"](ctypes.byref(opt))
-        return opt
+class OptionsCache:
+    """The options structs of a library whose `defaults()` gives its C defaults, one per
+    distinct set of values (the integrators only read them: const)."""
 
     def options(self, values: dict):
         """The options struct for `values` (field -> value; the rest the C defaults),
-        built once per distinct set of values: the integrators only read it (const).  A
-        run's own cancel flag makes a struct of its own (a pointer is no cache key)."""
+        built once per distinct set of values.  A run's own cancel flag makes a struct
+        of its own (a pointer is no cache key)."""
         if values.get("cancel") is not None:
             return self._filled(values)
+        cache = self.__dict__.setdefault("_options", {})
         key = tuple(values.items())
-        opt = self._options.get(key)
+        opt = cache.get(key)
         if opt is None:
-            if len(self._options) > 256:
-                self._options.clear()
-            opt = self._options[key] = self._filled(values)
+            if len(cache) > 256:
+                cache.clear()
+            opt = cache[key] = self._filled(values)
         return opt
 
     def _filled(self, values: dict):
         opt = self.defaults()
         for k, v in values.items():
             setattr(opt, k, v)
+        return opt
+
+
+class IntegratorLibrary(OptionsCache, SharedLibrary):
+    """The RK methods of one model: <model>_integrate_batch{,_f,_l} and the options struct.
+
+    Parameters
+    ----------
+    model : str
+        A resolved model name.
+    n, n_params : int
+        Its states and its parameters with its inputs (the integrators take p = (params, inputs)).
+    """
+
+    def __init__(self, model: str, n: int, n_params: int):
+        self.model, self.n, self.n_params = model, n, n_params
+        src = [c_source(model, f"{model}_integrate.c"), c_source(model, f"{model}.c")]
+        path, self.flags = build_fastest(f"{model}_integrate", src)
+        super().__init__(path)
+        self.Options = options_struct()
+        self.Info = info_struct(n)
+        self._defaults = self.bind(INTEGRATE_DEFAULTS, model=model)
+        self.fns = self.bind_precisions(INTEGRATE_BATCH, model=model)
+
+    def defaults(self):
+        """The options struct as <model>_integrate_defaults fills it."""
+        opt = self.Options()
+        self._defaults(ctypes.addressof(opt))
         return opt
 
     def run(self, method: int, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:

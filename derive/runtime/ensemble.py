@@ -25,22 +25,18 @@ Not here yet (issue 15): SIMD lanes for the other methods; the catalogue atlas
 from __future__ import annotations
 
 import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import SimulationInputError
-from .build import dtype_key, integrator_library
-from ..codegen.integrators import model_info
-from ..codegen.contract import (COUNTERS, DEFAULT_METHOD, METHODS, RUN_METHODS, STATUS_NAMES, TAYLOR,
-                                TOLERANCE_METHODS, taylor_order)
+from .build import dtype_key
+from .model_sizes import model_info
+from ..codegen.contract import COUNTERS, DEFAULT_METHOD, RUN_METHODS, STATUS_NAMES, TOLERANCE_METHODS
 from .simulate import (_atlas, _check_size, _dtype, _finite_array, check_parameter_values, normalise_t,
                        resolve_model, run_options)
 from ..model import load_model
-from .taylor_lanes_library import taylor_ensemble_library
-
-MIN_BLOCK = 16          # trajectories per thread below which another thread does not pay
+from .runner import runner_for
 
 
 @dataclass
@@ -151,26 +147,6 @@ def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | N
 
 def _run_blocks(model: str, method: str, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt: dict,
                 threads: int):
-    """The batch entry point over `threads` contiguous blocks of trajectories at once."""
-    lib = integrator_library(model)
-    o = lib.options(opt)
-    if method == TAYLOR:
-        taylor = taylor_ensemble_library(model, taylor_order(opt["rtol"]), dtype_key(y0.dtype))
-
-        def run(y, pp):
-            return taylor.run(y, pp, t, o)
-    else:
-        index = METHODS.index(method)
-
-        def run(y, pp):
-            return lib.run(index, y, pp, t, o)
-    B = len(y0)
-    blocks = max(1, min(threads, B // MIN_BLOCK))
-    edges = np.linspace(0, B, blocks + 1).astype(int)
-    p = np.ascontiguousarray(p)
-    if blocks == 1:
-        y, infos = run(y0, p)
-        return y, list(infos), 1
-    with ThreadPoolExecutor(max_workers=blocks) as pool:
-        parts = list(pool.map(lambda ab: run(y0[ab[0]:ab[1]], p[ab[0]:ab[1]]), zip(edges[:-1], edges[1:])))
-    return (np.concatenate([y for y, _ in parts]), [i for _, infos in parts for i in infos], blocks)
+    """The runner's batch call over `threads` contiguous blocks of trajectories at once."""
+    r = runner_for(model, method, dtype_key(y0.dtype))
+    return r.batch(y0, p, t, r.options(opt), threads)

@@ -20,7 +20,6 @@ import ctypes
 import shutil
 import subprocess
 import sys
-from collections.abc import Mapping, Sequence
 from decimal import Decimal
 from fractions import Fraction
 from functools import lru_cache
@@ -32,12 +31,11 @@ from .loader import PORTABLE_FLAGS, build_library, default_compiler
 from ..codegen.sources import c_source
 from ..errors import BuildError, SimulationInputError
 from ..model.description import forget_on_model_change
-from .build import address, info_struct, integrator_library
-from ..codegen.integrators import model_info
+from .build import address, info_struct
+from .shared_library import TAYLOR_BATCH, TAYLOR_COEFFICIENTS, SharedLibrary
+from .model_sizes import model_info
 from ..codegen.taylor import taylor_problem
-from ..codegen.contract import taylor_order
-from ..codegen.contract import COUNTERS, EXTENDED, PRECISION, PRECISION_NAMES, STATUS_NAMES
-from .result import LOCAL_SUM, SimulationResult
+from ..codegen.contract import EXTENDED, PRECISION, PRECISION_NAMES
 
 # The rungs above long double (the contract's precision table): unit roundoff, default
 # tolerance, every name of each, the suffix of their entry points.
@@ -170,7 +168,7 @@ def as_longdouble(values: list) -> np.ndarray:
 
 # -- the compiled integrators --------------------------------------------------------
 
-class ExtendedTaylor:
+class ExtendedTaylor(SharedLibrary):
     """ctypes access to <model>_taylor_batch_dd (in <model>_taylor.c) or _q (in
     <model>_taylor_quad.c, with libquadmath), compiled with the order fixed."""
 
@@ -198,14 +196,10 @@ class ExtendedTaylor:
                 raise BuildError(f"binary128 (dtype='quad') needs GCC's __float128 and libquadmath, and "
                                  f"building with them failed: {str(exc).splitlines()[0]}") from None
             raise
-        self.lib = ctypes.CDLL(str(path))
+        super().__init__(path)
         self.Info = info_struct(self.n)
-        vp = ctypes.c_void_p
-        self.batch = self.lib[f"{model}_taylor_batch{_SUFFIX[precision]}"]
-        self.batch.restype = ctypes.c_long
-        self.batch.argtypes = [ctypes.c_long, vp, ctypes.c_long, vp, ctypes.c_long, ctypes.c_long, vp, vp, vp, vp]
-        self.coefficients_fn = self.lib[f"{model}_taylor_coefficients{_SUFFIX[precision]}"]
-        self.coefficients_fn.restype = ctypes.c_int
+        self.batch = self.bind(TAYLOR_BATCH, model=model, suffix=_SUFFIX[precision])
+        self.coefficients_fn = self.bind(TAYLOR_COEFFICIENTS, model=model, suffix=_SUFFIX[precision])
 
     def run(self, y0: list, p: list, t: list, opt) -> tuple[list, object]:
         """One trajectory from exact values -> (the outputs as exact values, row-major
@@ -223,8 +217,7 @@ class ExtendedTaylor:
         enc = ENCODE[self.precision]
         yw, pw = enc(y), enc(p) if p else enc([0])
         out = _aligned((self.n * (self.order + 1), 2), _WORDS[self.precision])
-        self.coefficients_fn.argtypes = [ctypes.c_void_p] * 2 + [ctypes.c_int, ctypes.c_void_p, ctypes.c_double]
-        st = self.coefficients_fn(address(yw), address(pw), self.order, address(out), ctypes.c_double(sine_min))
+        st = self.coefficients_fn(address(yw), address(pw), self.order, address(out), float(sine_min))
         return int(st), DECODE[self.precision](out)
 
 
@@ -256,56 +249,3 @@ def extended_taylor(model: str, precision: str, order: int) -> ExtendedTaylor:
     if sys.byteorder != "little":
         raise SimulationInputError(f"dtype '{precision}' runs on little-endian machines only")
     return ExtendedTaylor(model, precision, order)
-
-
-# -- inputs in the model's order, exactly --------------------------------------------
-
-def ordered_values(value, names: tuple[str, ...], what: str) -> list:
-    """A mapping by name or a sequence in `names` order -> the exact values in that order
-    (simulate's own checks have run: the names and the length are right)."""
-    if isinstance(value, Mapping):
-        raw = [value[n] for n in names]
-    elif isinstance(value, np.ndarray):
-        raw = list(value.reshape(-1))
-    elif isinstance(value, Sequence) and not isinstance(value, str):
-        raw = list(value)
-    else:
-        raise SimulationInputError(f"{what} must be a sequence (or a mapping by name) for the precision ladder")
-    if len(raw) != len(names):
-        raise SimulationInputError(f"{what} must have {len(names)} values ({', '.join(names)}), got {len(raw)}")
-    return [exact(v, what) for v in raw]
-
-
-def simulate_extended(model: str, precision: str, y0, t, params, rtol, hmax, max_steps, sine_min,
-                      inputs):
-    """simulate(..., dtype='double-double' | 'quad'): the Taylor integrator on one
-    trajectory; the checks of simulate have run on the same arguments before."""
-    info = model_info(model)
-    tol = DEFAULT_RTOL[precision] if rtol is None else rtol
-    floor = 10 * UNIT_ROUNDOFF[precision]
-    if not isinstance(tol, (int, float, np.floating)) or not floor <= tol < 1:
-        raise SimulationInputError(f"rtol = {tol!r} is outside [10 eps, 1) for {precision} "
-                                   f"(10 eps = {floor:.3g})")
-    ys = ordered_values(y0, info.state_names, "y0")
-    ps = ordered_values(params, info.param_names, "params")
-    if info.n_inputs:
-        ps += ordered_values(inputs, info.input_names, "inputs")
-    ts = [exact(v, "t") for v in (t.reshape(-1) if isinstance(t, np.ndarray) else list(t))]
-    order = taylor_order(tol)
-    lib = integrator_library(model)
-    values = {"rtol": float(tol), "hmax": float(hmax or 0.0), "sine_min": float(sine_min or 0.0)}
-    if max_steps is not None:
-        values["max_steps"] = int(max_steps)
-    opt = lib.options(values)
-    out, inf = extended_taylor(model, precision, order).run(ys, ps, ts, opt)
-    exact_y = np.empty((len(ts), info.n), object)
-    exact_y.flat[:] = out
-    y = as_longdouble(out).reshape(len(ts), info.n)
-    counters = {k: int(getattr(inf, k)) for k in COUNTERS}
-    status = int(inf.status)
-    pm = as_longdouble(ps[:info.n_params])
-    return SimulationResult(
-        model=model, method="taylor", backend="c", dtype=precision, t=as_longdouble(ts), y=y,
-        energy=None, positions=None, status=status, status_name=STATUS_NAMES[status],
-        t_stop=float(inf.t), y_stop=np.array(inf.y[:]), params=pm, rtol=float(tol), y_exact=exact_y,
-        error_estimate=float(inf.local_error), error_kind=LOCAL_SUM, **counters)

@@ -1,12 +1,12 @@
-"""simulate's common case in microseconds: what a (model, method, dtype) run needs, made once.
+"""simulate's common case in microseconds: the checks of a (model, method, dtype) run, made once.
 
-A call of derive.simulate on a built model used to spend about 50 us in Python around a
+A call of derive.simulate on a built model would spend most of its time in Python around a
 C run of a microsecond or two: NumPy round trips of four-element lists, the checks
-redone on every call, thirty dataclass assignments, a ctypes pointer per array.  A
-RunPlan holds everything that does not change between calls of one (model, method,
-dtype): the model's sizes and names, the C entry point, the validated options of each
-distinct set of option arguments (with their ctypes structs), the parameter vectors
-that passed the model's physical checks, and a prototype of the result.
+redone on every call.  A RunPlan holds what does not change between calls of one (model,
+method, dtype): the model's sizes and names and the parameter vectors that passed the
+model's physical checks.  The run is the runner's (derive/runtime/runner.py), the same
+call the general path makes; its `settings` cache the validated options of each
+distinct set of option arguments (with their ctypes structs and entry point).
 
 The plan only accelerates.  `plain_numbers` and friends accept an argument only when it
 is plainly valid (Python or float64 numbers, finite, of the right count); anything else,
@@ -15,19 +15,13 @@ So no check is dropped, and the two paths return equal results (tests/test_fast_
 """
 from __future__ import annotations
 
-import ctypes
-from functools import partial
-
 import numpy as np
 
-from .build import address, dtype_key, integrator_library
-from ..codegen.contract import (ADAPTIVE, COUNTERS, LOCAL_ERROR_METHODS, METHODS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS)
-from .observables import _observables, _velocities
-from .result import LAZY, LOCAL_SUM, result_factory
-from ..codegen.contract import taylor_order
-from .taylor_library import taylor_library
-from ..codegen.integrators import model_info
+from .build import dtype_key
+from ..codegen.contract import ADAPTIVE, TOLERANCE_METHODS
+from .model_sizes import model_info
 from ..model import load_model
+from .runner import Settings, runner_for
 
 LIST_MAX = 64          # arrays up to this size are checked as Python lists (faster than NumPy's)
 LONG_MAX = 10 ** 6     # longer output times: the general path (it checks their memory first)
@@ -35,7 +29,6 @@ INT_MAX = 2 ** 53      # a larger int is not exactly a double: left to the gener
 SETTINGS_MAX = 256     # distinct option sets remembered per plan
 CHECKED_MAX = 4096     # parameter vectors remembered per plan
 
-_addressof = ctypes.addressof
 
 
 class NotPlanned(Exception):
@@ -86,31 +79,10 @@ def plain_times(t) -> tuple[list | None, np.ndarray | None]:
     return None, None
 
 
-class Settings:
-    """One set of option arguments of a plan, validated: the options dict (as run_options
-    makes it), its ctypes struct and the pilot's, and the entry point for it."""
-    __slots__ = ("opt", "struct", "pilot", "pilot_steps", "call", "Info", "y_offset", "step", "limit")
-
-    def __init__(self, plan: "RunPlan", opt: dict, pilot_steps: int):
-        lib = plan.lib
-        self.opt = opt
-        self.struct = lib.options(opt)
-        self.pilot_steps = pilot_steps
-        self.pilot = lib.options(dict(opt, max_steps=min(pilot_steps, opt["max_steps"])))
-        if plan.method == TAYLOR:
-            taylor = taylor_library(plan.model, taylor_order(opt["rtol"]))
-            self.call, self.Info = partial(taylor.fns[plan.dtype], 1), taylor.Info
-        else:
-            self.call = partial(lib.fns[plan.dtype], 1, METHODS.index(plan.method))
-            self.Info = lib.Info
-        self.y_offset = self.Info.y.offset          # info.y read as an array in place
-        # the step that bounds a run's step count (fixed: h; adaptive: hmax, 0: none)
-        self.step = opt["hmax"] if plan.method in TOLERANCE_METHODS else opt["h"]
-        self.limit = opt["max_steps"]
-
-
 class RunPlan:
-    """What simulate needs of one (model, method, dtype) on the C backend, made once."""
+    """The argument checks simulate's fast path makes of one (model, method, dtype) on the
+    C backend, made once; the run itself is the runner's (`runner`, its `settings` the
+    validated option sets)."""
 
     def __init__(self, model: str, method: str, dt: np.dtype, max_bytes: int, max_steps: float):
         """model: a resolved model name; max_bytes, max_steps: _check_size's limits."""
@@ -129,15 +101,9 @@ class RunPlan:
         self.max_bytes, self.max_steps = max_bytes, max_steps
         self.tolerance = method in TOLERANCE_METHODS
         self.adaptive = method in ADAPTIVE
-        self.single_chart = info.nguards > 0
-        self.local_error = method in LOCAL_ERROR_METHODS
-        self.lib = integrator_library(model)
-        self.settings: dict[tuple, Settings] = {}
+        self.runner = runner_for(model, method, self.dtype)
+        self.settings: dict[tuple, Settings] = self.runner.settings
         self.checked: set[tuple] = set()
-        self.make_result = result_factory(
-            model=model, method=method, backend="c", dtype=self.dtype, energy=LAZY, positions=LAZY,
-            velocities=LAZY, switches=0, chart_stop=model if self.single_chart else None,
-            error_kind=LOCAL_SUM if self.local_error else None)
 
     # -- the arguments ----------------------------------------------------------------
 
@@ -171,38 +137,3 @@ class RunPlan:
             return False
         steps = span / s.step if s.step else 0.0
         return steps <= self.max_steps and (budget_given or steps <= s.limit)
-
-    # -- the run ----------------------------------------------------------------------
-
-    def execute(self, s: Settings, struct, buf: np.ndarray, nt: int):
-        """One C run: buf holds y0, then the parameters, then the nt output times (in the
-        plan's dtype, contiguous): one pointer for all three.  -> SimulationResult."""
-        n, np_, isz = self.n, self.n_params, self.itemsize
-        out = np.empty((nt, n), self.dt)
-        info = s.Info()
-        base = address(buf)
-        s.call(base, n, base + n * isz, 0, nt, base + (n + np_) * isz, address(out),
-               _addressof(struct), _addressof(info))
-        status = info.status
-        t = buf[n + np_:]
-        p = buf[n:n + np_]
-        h_end = info.h_end
-        return self.make_result(
-            t=t, y=out, status=status, status_name=STATUS_NAMES[status], t_stop=info.t,
-            y_stop=np.frombuffer(info, np.float64, n, s.y_offset), params=p,
-            chart=np.array([self.model] * nt, dtype=object) if self.single_chart else None,
-            observe=partial(_observe, self.model, out, p, self.dt),
-            last_step=h_end if h_end and not self.tolerance else None,
-            nfev=info.nfev, njev=info.njev, nsteps=info.nsteps, naccepted=info.naccepted,
-            nrejected=info.nrejected, nnewton=info.nnewton,
-            error_estimate=info.local_error if self.local_error else None)
-
-
-def _observe(model: str, y: np.ndarray, p: np.ndarray, dt: np.dtype) -> tuple:
-    """A run's energy, positions and velocities (on first access of one: result.py)."""
-    return (*_observables(model, y, p, "c", dt), _velocities(model, y, p, "c", dt))
-
-
-
-assert set(COUNTERS) == {"nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton"}, \
-    "RunPlan.execute reads these counters by name"

@@ -43,6 +43,7 @@ from ..model.description import forget_on_model_change
 from ..codegen.names import VECTOR_MATH
 from ..model.atlas import atlases, find_atlas
 from ..codegen.sources import model_sources, numpy_source
+from .shared_library import EntryPoint, SharedLibrary
 
 DEFAULT_FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared")
 PORTABLE_FLAGS = DEFAULT_FLAGS
@@ -249,18 +250,17 @@ def build(source: Path, cc: str | None = None, flags: tuple[str, ...] = DEFAULT_
 class CKernel:
     """One batch entry point, called with NumPy arrays."""
 
-    def __init__(self, lib, cname: str, suffix: str, inputs, outputs):
+    def __init__(self, lib: SharedLibrary, cname: str, suffix: str, inputs, outputs):
         self.name = cname
         self.dtype, ctype = _VARIANTS[suffix]
         self.inputs = inputs          # [(name, size)]
         self.outputs = outputs        # [(name, size, shape)]
-        ptr = ctypes.POINTER(ctype)
-        self._ptr = ptr
-        fn = getattr(lib, f"{cname}_batch{suffix}")
-        fn.restype = ctypes.c_int
-        fn.argtypes = ([ctypes.c_long] + [ptr, ctypes.c_long] * len(inputs)
-                       + [ptr] * len(outputs) + [ctypes.POINTER(ctypes.c_int)])
-        self._fn = fn
+        self._ptr = ctypes.POINTER(ctype)
+        # n, each input with its row stride, the outputs, the status array
+        entry = EntryPoint(f"{cname}_batch{{suffix}}", "int",
+                           ("long", *("real *", "long") * len(inputs), *("real *",) * len(outputs),
+                            "int *"))
+        self._fn = lib.bind(entry, ctype, suffix=suffix)
 
     def __repr__(self) -> str:
         ins = ", ".join(f"{n}[{s}]" for n, s in self.inputs)
@@ -300,13 +300,21 @@ class CKernel:
         return result
 
 
-class CompiledModel:
-    """The kernels of one generated C file, as attributes (rhs, rhs_f, rhs_l, ...)."""
+class CompiledModel(SharedLibrary):
+    """The kernels of one generated C file, as attributes (rhs, rhs_f, rhs_l, ...).
+
+    Parameters
+    ----------
+    model : str
+    lib_path : pathlib.Path
+        The library built from <model>.c.
+    header : str
+        The text of <model>.h, whose prototypes and size macros declare the kernels.
+    """
 
     def __init__(self, model: str, lib_path: Path, header: str):
         self.model = model
-        self.path = lib_path
-        self.lib = ctypes.CDLL(str(lib_path))
+        super().__init__(lib_path)
         self.kernels: dict[str, CKernel] = {}
         macros = {m: int(v) for m, v in _DEFINE.findall(header)}
         prefix = model.upper()
@@ -327,11 +335,11 @@ class CompiledModel:
                 else:
                     shape = ((), (size,))[rank] if rank < 2 else (macros[f"{m}_ROWS"], macros[f"{m}_COLS"])
                     outputs.append((name, size, shape))
-            self.kernels[kname + suffix] = CKernel(self.lib, cname, suffix, inputs, outputs)
+            self.kernels[kname + suffix] = CKernel(self, cname, suffix, inputs, outputs)
         self.names = {}
         for table, count in re.findall(rf"^extern const char \*const {model}_(\w+)\[{prefix}_N_(\w+)\];$",
                                        header, re.M):
-            arr = (ctypes.c_char_p * macros[f"{prefix}_N_{count}"]).in_dll(self.lib, f"{model}_{table}")
+            arr = self.value(ctypes.c_char_p * macros[f"{prefix}_N_{count}"], f"{model}_{table}")
             self.names[table] = tuple(s.decode() for s in arr)
 
     def __getattr__(self, name: str) -> CKernel:

@@ -11,7 +11,7 @@ from dataclasses import MISSING, dataclass, field, fields
 import numpy as np
 
 from ..errors import SimulationError
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
 
 
 @dataclass

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import CompilerMissingError, SimulationInputError
 from ..model.atlas import ATLAS
-from ..codegen.integrators import model_info
+from .model_sizes import model_info
 from .simulate import HeldInputs, normalise_inputs, normalise_params, resolve_model
 from .loader import load, numpy_module
 

@@ -23,30 +23,32 @@ import os
 import signal
 import threading
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from ..errors import SimulationError, SimulationInputError  # noqa: F401  (SimulationError: re-exported)
-from ..model import ModelError, is_model_file, load_model
+from ..model import Model, ModelError, is_model_file, load_model
 from ..model.description import forget_on_model_change, parameter_problem
 from ..derivation import cartesian
 from . import dense
 from . import events as events_module
 from .atlas_runner import run_atlas
-from .build import dtype_key, integrator_library
-from ..codegen.integrators import model_info
-from ..codegen.contract import (ADAPTIVE, ATLAS_CHARTS, ATLAS_METHODS, COUNTERS, DEFAULT_METHOD, FIXED_ORDER,
-                                LOCAL_ERROR_METHODS, MAX_GRID_STEPS, METHODS, PRECISION, PRECISION_NAMES,
-                                PRECISION_TABLE, RUN_METHODS, SINE_MIN, STATUS, STATUS_NAMES, TAYLOR,
-                                TOLERANCE_METHODS, default_options, taylor_order)
+from .build import dtype_key
+from .model_sizes import model_info
+from ..codegen.integrators import ModelInfo
+from ..codegen.contract import METHODS, STATUS_NAMES  # noqa: F401  (re-exported: the contract's tables)
+from ..codegen.contract import (ADAPTIVE, ATLAS_METHODS, COUNTERS, DEFAULT_METHOD, FIXED_ORDER, PRECISION,
+                                PRECISION_NAMES, PRECISION_TABLE, RUN_METHODS, STATUS, TAYLOR, TOLERANCE_METHODS,
+                                default_options)
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
-from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, Settings, plain_times
-from .taylor_library import taylor_library
-from . import extended
+from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, plain_times
+from .runner import Settings, runner_for
+from . import extended, extended_run
 from .result import LAZY, LOCAL_SUM, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
-from ..model.atlas import ATLAS, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
+from ..model.atlas import ATLAS, Atlas, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
 # the rungs of the precision ladder the RK methods compute in: every name of each
 # (the contract's table) -> its NumPy type, and simulate's default tolerance in each
 _DTYPES = {name: np.dtype(key).type for name, key in PRECISION_NAMES.items()
@@ -100,25 +102,54 @@ def resolve_model(model, atlas: bool = False) -> str:
         raise SimulationInputError(f"atlas=True: {exc}") from None
 
 
-def _atlas(model: str):
+@dataclass(frozen=True, eq=False)
+class ModelRef:
+    """A resolved run name and what a run reads of it, looked up once (model_ref) and
+    passed down; formats as its name, so a message reads the same with a name or a ref."""
+    name: str
+    atlas: Atlas | None          # the chart atlas the name stands for, or None (a single model)
+    standard: str                # whose description, parameters and state order a run takes
+    description: Model           # the standard model's
+    info: ModelInfo              # the standard model's sizes and names
+
+    def __str__(self) -> str:
+        return self.name
+
+    def __format__(self, spec: str) -> str:
+        return format(self.name, spec)
+
+
+@forget_on_model_change
+@lru_cache(maxsize=256)
+def model_ref(name: str) -> ModelRef:
+    """The ModelRef of a resolved name (resolve_model's)."""
+    atlas = find_atlas(name)
+    standard = atlas.charts[0] if atlas is not None else name
+    return ModelRef(name, atlas, standard, load_model(standard), model_info(standard))
+
+
+def _ref(model) -> ModelRef:
+    return model if isinstance(model, ModelRef) else model_ref(model)
+
+
+def _atlas(model):
     """The atlas a run name stands for, or None (a single model)."""
-    return find_atlas(model)
+    return _ref(model).atlas
 
 
-def _standard(model: str) -> str:
+def _standard(model) -> str:
     """The model whose description, parameters and state order a run takes (an atlas: its
     standard chart)."""
-    atlas = _atlas(model)
-    return atlas.charts[0] if atlas is not None else model
+    return _ref(model).standard
 
 
-def _described(model: str):
+def _described(model):
     """The model description behind a run (an atlas: its standard chart)."""
-    return load_model(_standard(model))
+    return _ref(model).description
 
 
-def normalise_params(model: str, params) -> np.ndarray:
-    names = model_info(_standard(model)).param_names
+def normalise_params(model, params) -> np.ndarray:
+    names = _ref(model).info.param_names
     if isinstance(params, Mapping):
         unknown = sorted(set(params) - set(names))
         if unknown:
@@ -237,32 +268,33 @@ def _cartesian_y0(model: str, value, p: np.ndarray) -> np.ndarray:
     return c
 
 
-def _chart_models(model: str) -> tuple[str, ...]:
+def _chart_models(model) -> tuple[str, ...]:
     """The charts a mapping y0 may name: an atlas's members, a chart model's own atlas's."""
-    atlas = _atlas(model)
-    if atlas is not None:
-        return atlas.charts
-    description = load_model(model)
+    ref = _ref(model)
+    if ref.atlas is not None:
+        return ref.atlas.charts
+    description = ref.description
     family = atlas_family(description) if description.dimension == 3 else None
     if family is not None:
         return family.charts
-    return (model,) if model_info(model).nguards > 0 else ()
+    return (ref.name,) if ref.info.nguards > 0 else ()
 
 
-def normalise_y0(model: str, y0, p: np.ndarray) -> tuple[np.ndarray, str | None, np.ndarray | None]:
+def normalise_y0(model, y0, p: np.ndarray) -> tuple[np.ndarray, str | None, np.ndarray | None]:
     """(state, chart model, Cartesian state or None).  For an atlas the chart is chosen."""
-    atlas = _atlas(model)
-    charts = _chart_models(model)
-    spherical = bool(charts) or (atlas is None and model_info(model).nguards > 0)
-    lengths = cartesian.link_lengths(_standard(model), p) if spherical else ()
+    ref = _ref(model)
+    atlas, info = ref.atlas, ref.info
+    charts = _chart_models(ref)
+    spherical = bool(charts) or (atlas is None and info.nguards > 0)
+    lengths = cartesian.link_lengths(ref.standard, p) if spherical else ()
     if isinstance(y0, Mapping):
         keys = set(y0)
         if not spherical:
             raise SimulationInputError(f"model '{model}' takes y0 as a sequence of "
-                                       f"{model_info(model).n} numbers")
-        n = model_info(_standard(model)).n
+                                       f"{info.n} numbers")
+        n = info.n
         if keys == {"cartesian"}:
-            c = _cartesian_y0(model, y0["cartesian"], p)
+            c = _cartesian_y0(ref, y0["cartesian"], p)
         elif keys == {"chart", "state"} and y0["chart"] in charts:
             s = _finite_array(y0["state"], "y0['state']").astype(np.float64).reshape(-1)
             if s.size != n:
@@ -271,15 +303,15 @@ def normalise_y0(model: str, y0, p: np.ndarray) -> tuple[np.ndarray, str | None,
         else:
             raise SimulationInputError(f"y0 as a mapping must be {{'cartesian': [{3 * len(lengths) * 2} numbers]}} or "
                                        f"{{'chart': one of {', '.join(charts)}, 'state': [{n} numbers]}}")
-        chart = cartesian.choose_chart(c, lengths, atlas.name) if atlas is not None else model
+        chart = cartesian.choose_chart(c, lengths, atlas.name) if atlas is not None else ref.name
         return cartesian.cartesian_to_state(chart, c, lengths), chart, c
-    n = model_info(_standard(model)).n
+    n = info.n
     if isinstance(y0, str):
         raise SimulationInputError(f"y0 must be {n} numbers, got a string")
     a = _finite_array(y0, "y0").reshape(-1)
     if a.size != n:
         raise SimulationInputError(f"model '{model}' takes y0 with {n} numbers "
-                                   f"({', '.join(model_info(_standard(model)).state_names)}), got {a.size}")
+                                   f"({', '.join(info.state_names)}), got {a.size}")
     if atlas is not None:
         # a standard-chart state (exact at the poles too): through Cartesian coordinates
         c = cartesian.state_to_cartesian(atlas.charts[0], a.astype(np.float64), lengths)
@@ -287,7 +319,7 @@ def normalise_y0(model: str, y0, p: np.ndarray) -> tuple[np.ndarray, str | None,
         if chart == atlas.charts[0]:
             return a, chart, c
         return cartesian.cartesian_to_state(chart, c, lengths), chart, c
-    return a, (model if spherical else None), None
+    return a, (ref.name if spherical else None), None
 
 
 def normalise_t(t) -> np.ndarray:
@@ -359,55 +391,44 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
         if fast is not None:
             return fast
     model = resolve_model(model, atlas)
+    ref = model_ref(model)          # looked up once, passed down
     _check_error_estimate(error_estimate)
     if not isinstance(method, str) or method not in RUN_METHODS:
         raise SimulationInputError(f"unknown method {method!r} (known: {', '.join(RUN_METHODS)})")
     if backend not in ("c", "numpy"):
         raise SimulationInputError(f"unknown backend {backend!r} (use 'c' or 'numpy')")
-    if method == TAYLOR and (backend != "c" or _atlas(model) is not None):
+    if method == TAYLOR and (backend != "c" or ref.atlas is not None):
         raise SimulationInputError("the Taylor integrator runs in generated C on single-chart models: "
                                    "use backend='c' and a model, not the atlas")
     if precision is not None:
-        return _simulate_extended(model, precision, y0, t, params, method, rtol=rtol, atol=atol, step=step,
+        return _simulate_extended(ref, precision, y0, t, params, method, rtol=rtol, atol=atol, step=step,
                                   max_steps=max_steps, sine_min=sine_min, hmax=hmax, inputs=inputs,
                                   events=events, error_estimate=error_estimate)
     dt = _dtype(dtype)
-    p = normalise_params(model, params)
-    u = normalise_inputs(model, inputs)
+    p = normalise_params(ref, params)
+    u = normalise_inputs(ref, inputs)
     ts = normalise_t(t)
-    state, chart, _ = normalise_y0(model, y0, p)
-    _check_angles(model, state, dt)
+    state, chart, _ = normalise_y0(ref, y0, p)
+    _check_angles(ref, state, dt)
     opt = run_options(method, dt, ts, rtol=rtol, atol=atol, step=step, hmax=hmax, max_steps=max_steps,
                       newton_tol=newton_tol, newton_max=newton_max, sine_min=sine_min)
-    if _atlas(model) is not None and method not in ATLAS_METHODS:
+    if ref.atlas is not None and method not in ATLAS_METHODS:
         raise SimulationInputError(f"the chart atlas has no method '{method}' "
                                    f"(it has {', '.join(ATLAS_METHODS)})")
     _check_size(method, ts, state, opt, dt, budget_given=max_steps is not None)
-    wanted = _events_of(model, method, events)
+    wanted = _events_of(ref, method, events)
 
     def run(o):
-        if _atlas(model) is not None:
+        if ref.atlas is not None:
             return run_atlas(method, state, chart, ts, p, o, dt, backend, model)
         if isinstance(u, HeldInputs):
             return _run_held(model, method, state, ts, p, o, dt, backend, u)
         return _run_single(model, method, state, ts, p, o, dt, backend, u)
 
-    if method in TOLERANCE_METHODS and max_steps is None and not isinstance(u, HeldInputs):
-        result = _run_estimated(run, method, ts, opt, backend)
-    elif method not in TOLERANCE_METHODS and _fixed_steps(ts, opt) <= QUICK_STEPS:
-        result = run(opt)              # a short fixed-step run: no cancellation machinery
-    elif method in TOLERANCE_METHODS and opt["max_steps"] <= PILOT_STEPS[backend] and \
-            not isinstance(u, HeldInputs):
-        result = run(opt)              # a step budget no larger than a pilot's: as short
-    else:
-        result = _interruptible(run, opt, backend)
-    if method in TOLERANCE_METHODS:
-        result.rtol = opt["rtol"]
-    else:
-        result.step = opt["h"]
-    if method in ADAPTIVE and _atlas(model) is None:
-        held = None if u is None else np.array([u.at(a) for a in ts]) if isinstance(u, HeldInputs) else u
-        result.sol = dense.dense_output(result, model, method, backend, dt, opt, p, held)
+    held = isinstance(u, HeldInputs)
+    result = _drive(run, method, ts, opt, backend, max_steps is not None, held=held)
+    result = _finish(result, model, method, backend, dt, opt, p, atlas=ref.atlas is not None,
+                     inputs=lambda: np.array([u.at(a) for a in ts]) if held else u)
     if wanted:
         result = events_module.locate(result, wanted, opt["rtol"])
     if error_estimate == "rerun":
@@ -435,16 +456,17 @@ def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, s
     if error_estimate != "local":
         raise SimulationInputError(f"dtype '{precision}' estimates its error from its own run "
                                    f"(error_estimate='local'); for a rerun, run again at a smaller rtol")
-    p = normalise_params(model, params)             # the usual checks, one line each
-    normalise_inputs(model, inputs)
+    model, ref = str(model), _ref(model)
+    p = normalise_params(ref, params)             # the usual checks, one line each
+    normalise_inputs(ref, inputs)
     ts = normalise_t(t)
-    state, _, _ = normalise_y0(model, y0, p)
-    _check_angles(model, state, np.dtype(np.longdouble))
+    state, _, _ = normalise_y0(ref, y0, p)
+    _check_angles(ref, state, np.dtype(np.longdouble))
     run_options(TAYLOR, np.dtype(np.float64), ts, hmax=hmax, max_steps=max_steps, sine_min=sine_min)
     if isinstance(y0, Mapping) and set(y0) & {"cartesian", "chart", "state"}:
         raise SimulationInputError(f"dtype '{precision}' takes y0 as the state (a sequence or a mapping by name)")
-    result = extended.simulate_extended(model, precision, y0, t, params, rtol, hmax, max_steps, sine_min,
-                                        inputs)
+    result = extended_run.simulate_extended(model, precision, y0, t, params, rtol, hmax, max_steps, sine_min,
+                                            inputs)
     y, pm, dt = result.y, result.params, np.dtype(np.longdouble)
 
     def observe():       # in long double, on first access of r.energy, r.positions or r.velocities
@@ -571,29 +593,14 @@ def _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_st
     if not plan.fits(nt, span, s, max_steps is not None):
         return None                              # _check_size refuses it, with the figure
     opt = s.opt
+    execute = plan.runner.execute
 
     def run(o):                                  # a run with other options (cancellable, ...)
-        return plan.execute(s, plan.lib.options(o), buf, nt)
+        return execute(s, plan.runner.options(o), buf, nt)
 
-    # as the general path: an adaptive run's pilot in this thread (most runs end within it), a
-    # short run directly (a fixed step, or a step budget within a pilot's), the rest
-    # cancellable (_interruptible)
-    if plan.tolerance and max_steps is None:
-        result = plan.execute(s, s.pilot, buf, nt)
-        if result.status == STATUS["MAX_STEPS"] and opt["max_steps"] > s.pilot_steps:
-            result = _run_estimated(run, method, result.t, opt, "c", pilot=result)
-    elif opt["max_steps"] <= s.pilot_steps if plan.tolerance else \
-            (span / opt["h"] if opt["h"] else 0.0) <= QUICK_STEPS:
-        result = plan.execute(s, s.struct, buf, nt)
-    else:
-        result = _interruptible(run, opt, "c")
-    if plan.tolerance:
-        result.rtol = opt["rtol"]
-    else:
-        result.step = opt["h"]
-    if plan.adaptive:
-        result.sol = dense.dense_output(result, plan.model, method, "c", plan.dt, opt, result.params)
-    return result
+    result = _drive(run, method, buf[plan.n + plan.n_params:], opt, "c", max_steps is not None,
+                    pilot=lambda: execute(s, s.pilot, buf, nt), direct=lambda: execute(s, s.struct, buf, nt))
+    return _finish(result, plan.model, method, "c", plan.dt, opt, result.params)
 
 
 def _fast_settings(plan, args: tuple) -> Settings | None:
@@ -612,7 +619,7 @@ def _fast_settings(plan, args: tuple) -> Settings | None:
                       step=step, hmax=hmax, max_steps=max_steps, newton_tol=newton_tol,
                       newton_max=newton_max, sine_min=sine_min)
     try:
-        s = Settings(plan, opt, PILOT_STEPS["c"])
+        s = Settings(plan.runner, opt, PILOT_STEPS["c"])
     except Exception:          # e.g. no Taylor integrator: the general path says so, in its order
         return None
     if len(plan.settings) >= SETTINGS_MAX:
@@ -671,6 +678,37 @@ QUICK_STEPS = 20_000    # a fixed-step run this short runs directly (millisecond
 def _fixed_steps(ts: np.ndarray, opt: dict) -> float:
     span = float(abs(ts[-1] - ts[0])) if len(ts) > 1 else 0.0
     return span / opt["h"] if opt.get("h") else 0.0
+
+
+def _drive(run, method: str, ts: np.ndarray, opt: dict, backend: str, budget_given: bool,
+           held: bool = False, pilot=None, direct=None) -> SimulationResult:
+    """run(opt) as simulate runs it (both paths): an adaptive run's pilot first, in this
+    thread (most runs end within it), a short run directly (a fixed step, or a step budget
+    within a pilot's), the rest cancellable (_interruptible).  `pilot`, `direct`: the
+    pilot run and the direct run, where the caller has them ready (the fast path)."""
+    if method in TOLERANCE_METHODS:
+        if not budget_given and not held:
+            return _run_estimated(run, method, ts, opt, backend, pilot() if pilot else None)
+        quick = opt["max_steps"] <= PILOT_STEPS[backend] and not held
+    else:
+        quick = _fixed_steps(ts, opt) <= QUICK_STEPS
+    if quick:
+        return direct() if direct else run(opt)
+    return _interruptible(run, opt, backend)
+
+
+def _finish(result: SimulationResult, model: str, method: str, backend: str, dt: np.dtype, opt: dict,
+            p: np.ndarray, atlas: bool = False, inputs=None) -> SimulationResult:
+    """A run's tolerance or step, and an adaptive single-model run's continuous solution
+    (`inputs`: a function giving the inputs at each output, or None)."""
+    if method in TOLERANCE_METHODS:
+        result.rtol = opt["rtol"]
+    else:
+        result.step = opt["h"]
+    if method in ADAPTIVE and not atlas:
+        result.sol = dense.dense_output(result, model, method, backend, dt, opt, p,
+                                        None if inputs is None else inputs())
+    return result
 
 
 def _run_estimated(run, method: str, ts: np.ndarray, opt: dict, backend: str,
@@ -752,7 +790,7 @@ def _events_of(model: str, method: str, events) -> tuple:
     if method not in ADAPTIVE:
         raise SimulationInputError(f"events need the dense output of an adaptive method "
                                    f"({', '.join(ADAPTIVE)}), not {method}")
-    return events_module.parse_events(model_info(model), events)
+    return events_module.parse_events(_ref(model).info, events)
 
 
 MAX_ANGLE_ULP = 1e-3             # radians: a coordinate rounded coarser than this cannot move
@@ -835,47 +873,16 @@ def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> Simu
 
 
 def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> SimulationResult:
-    y0 = np.asarray(y0, dt)
-    pd = np.asarray(p, dt)
-    if u is not None and len(u):            # the integrators take p = (params, inputs)
-        pd = np.concatenate([pd, np.asarray(u, dt)])
-    tsd = np.asarray(ts, dt)
+    """One run of a single model through its runner (the fast path's call too)."""
+    r = runner_for(model, method, dtype_key(dt), backend)
+    n, n_params, n_inputs = r.n, r.n_params, r.n_inputs
+    buf = np.empty(n + n_params + n_inputs + len(ts), dt)   # y0, the parameters and inputs, t
+    buf[:n], buf[n:n + n_params] = y0, p
+    if n_inputs:
+        buf[n + n_params:n + n_params + n_inputs] = u
+    buf[n + n_params + n_inputs:] = ts
     if backend == "c":
-        lib = integrator_library(model)
-        o = lib.options(opt)
-        if method == TAYLOR:
-            y, infos = taylor_library(model, taylor_order(opt["rtol"])).run(y0[None, :], pd, tsd, o)
-        else:
-            y, infos = lib.run(METHODS.index(method), y0[None, :], pd, tsd, o)
-        y, inf = y[0], infos[0]
-        counters = {k: int(getattr(inf, k)) for k in COUNTERS}
-        status, t_stop, y_stop = int(inf.status), float(inf.t), np.array(inf.y[:])
-        h_end = float(inf.h_end)
-        local_error = float(inf.local_error)
-    else:
-        mod = numpy_module(f"{model}_integrate")
-        status, y, inf = mod.integrate(method, y0, pd, tsd, dt, **opt)
-        counters = {k: int(inf[k]) for k in COUNTERS}
-        t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
-        h_end = float(inf["h_end"])
-        local_error = float(inf["local_error"])
-    pm = np.asarray(p, dt)
-
-    def observe():       # run on first access of r.energy, r.positions or r.velocities
-        return (*_observables(model, y, pm, backend, dt), _velocities(model, y, pm, backend, dt))
-
-    single_chart = model_info(model).nguards > 0     # a chart model: its chart at every output
-    return SimulationResult(
-        model=model, method=method, backend=backend, dtype=dtype_key(dt), t=np.asarray(ts, dt), y=y,
-        energy=LAZY, positions=LAZY, status=status, status_name=STATUS_NAMES[status], t_stop=t_stop,
-        y_stop=y_stop, chart=np.array([model] * len(ts), dtype=object) if single_chart else None,
-        switches=0, chart_stop=model if single_chart else None, params=pm, velocities=LAZY,
-        observe=observe, last_step=h_end if method not in TOLERANCE_METHODS and h_end else None,
-        **_local_error(method, local_error), **counters)
-
-
-def _local_error(method: str, local_error: float) -> dict:
-    """A result's error fields from its run's info.local_error (result.py: "local sum")."""
-    if method not in LOCAL_ERROR_METHODS:
-        return {"error_estimate": None, "error_kind": None}
-    return {"error_estimate": local_error, "error_kind": LOCAL_SUM}
+        s = Settings(r, opt)
+        return r.execute(s, s.struct, buf, len(ts))
+    pd = buf[n:n + n_params + n_inputs]
+    return r.numpy_run(buf[:n], pd, buf[n:n + n_params], buf[n + n_params + n_inputs:], opt)

@@ -10,7 +10,6 @@ integrator's: -ffp-contract=off (a fused multiply-add rounds otherwise).
 """
 from __future__ import annotations
 
-import ctypes
 import platform
 from functools import lru_cache
 from pathlib import Path
@@ -21,8 +20,9 @@ from .loader import PORTABLE_FLAGS, build_library
 from ..codegen.sources import c_source
 from ..errors import BuildError, SimulationInputError
 from ..model.description import forget_on_model_change
-from .build import SUFFIX, info_struct, run_batch
-from ..codegen.integrators import model_info
+from .build import info_struct, run_batch
+from .shared_library import SUFFIX, TAYLOR_LANES_BATCH, SharedLibrary
+from .model_sizes import model_info
 from ..codegen.taylor import taylor_problem
 from .taylor_library import taylor_library
 from ..codegen.taylor_lanes import variant_number
@@ -72,7 +72,7 @@ def simd_build(dtype: str = "float64") -> tuple[tuple[str, ...], int]:
     return (), PORTABLE_LANES[dtype]
 
 
-class TaylorLanesLibrary:
+class TaylorLanesLibrary(SharedLibrary):
     """ctypes access to <model>_taylor_lanes_batch{,_f,_l} for one scalar type, compiled
     with a fixed order (only that type: unrolled, each takes a while to compile)."""
 
@@ -91,14 +91,10 @@ class TaylorLanesLibrary:
         extra = (f"-D{M}_TAYLOR_ORDER={order}", f"-D{M}_TAYLOR_LANES={self.lanes}",
                  f"-D{M}_TAYLOR_LANES_ONLY={variant_number(SUFFIX[dtype])}")
         stem = f"{model}_taylor_lanes{SUFFIX[dtype]}_p{order}_l{self.lanes}"
-        self.path, self.flags = _build(stem, source, simd, extra)
-        self.lib = ctypes.CDLL(str(self.path))
+        path, self.flags = _build(stem, source, simd, extra)
+        super().__init__(path)
         self.Info = info_struct(self.n)
-        vp = ctypes.c_void_p
-        fn = self.lib[f"{model}_taylor_lanes_batch{SUFFIX[dtype]}"]
-        fn.restype = ctypes.c_long
-        fn.argtypes = [ctypes.c_long, vp, ctypes.c_long, vp, ctypes.c_long, ctypes.c_long, vp, vp, vp, vp]
-        self.fns = {dtype: fn}
+        self.fns = self.bind_precisions(TAYLOR_LANES_BATCH, (dtype,), model=model)
 
     def run(self, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:
         """As TaylorLibrary.run (y0 of this library's dtype): y0 (B, n), p (B, np) or (np,),

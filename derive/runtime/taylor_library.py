@@ -9,7 +9,6 @@ macro, reads the order from options.rtol, for use in other projects.
 """
 from __future__ import annotations
 
-import ctypes
 from functools import lru_cache
 
 import numpy as np
@@ -18,13 +17,22 @@ from .loader import build_fastest
 from ..codegen.sources import c_source
 from ..errors import SimulationInputError
 from ..model.description import forget_on_model_change
-from .build import SUFFIX, address, dtype_key, info_struct, run_batch
-from ..codegen.integrators import model_info
+from .build import address, dtype_key, info_struct, run_batch
+from .shared_library import TAYLOR_BATCH, TAYLOR_COEFFICIENTS, SharedLibrary
+from .model_sizes import model_info
 from ..codegen.taylor import taylor_problem
 
 
-class TaylorLibrary:
-    """ctypes access to <model>_taylor_batch{,_f,_l}, compiled with a fixed order."""
+class TaylorLibrary(SharedLibrary):
+    """ctypes access to <model>_taylor_batch{,_f,_l}, compiled with a fixed order.
+
+    Parameters
+    ----------
+    model : str
+        A resolved model name.
+    order : int
+        The Taylor order compiled in (contract.taylor_order of the tolerance).
+    """
 
     def __init__(self, model: str, order: int):
         info = model_info(model)
@@ -33,23 +41,13 @@ class TaylorLibrary:
         source = c_source(model, f"{model}_taylor.c")
         if not source.is_file():
             raise SimulationInputError(f"model '{model}' has no Taylor integrator: {taylor_problem(model)}")
-        self.path, self.flags = build_fastest(f"{model}_taylor_p{order}", [source],
-                                              extra=(f"-D{model.upper()}_TAYLOR_ORDER={order}",
-                                                     f"-D{model.upper()}_TAYLOR_SKIP_DOUBLE_DOUBLE"))
-        self.lib = ctypes.CDLL(str(self.path))
+        path, self.flags = build_fastest(f"{model}_taylor_p{order}", [source],
+                                         extra=(f"-D{model.upper()}_TAYLOR_ORDER={order}",
+                                                f"-D{model.upper()}_TAYLOR_SKIP_DOUBLE_DOUBLE"))
+        super().__init__(path)
         self.Info = info_struct(self.n)
-        vp = ctypes.c_void_p
-        self.fns = {}
-        for dt, suffix in SUFFIX.items():
-            fn = self.lib[f"{model}_taylor_batch{suffix}"]
-            fn.restype = ctypes.c_long
-            fn.argtypes = [ctypes.c_long, vp, ctypes.c_long, vp, ctypes.c_long, ctypes.c_long, vp, vp, vp, vp]
-            self.fns[dt] = fn
-        self.coefficient_fns = {}
-        for dt, suffix in SUFFIX.items():
-            fn = self.lib[f"{model}_taylor_coefficients{suffix}"]
-            fn.restype = ctypes.c_int
-            self.coefficient_fns[dt] = fn
+        self.fns = self.bind_precisions(TAYLOR_BATCH, model=model)
+        self.coefficient_fns = self.bind_precisions(TAYLOR_COEFFICIENTS, model=model)
 
     def run(self, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:
         """y0 (B, n), p (B, np) or (np,), t (nt,), opt: the integrators' options struct
@@ -62,9 +60,8 @@ class TaylorLibrary:
         y = np.ascontiguousarray(y)
         p = np.ascontiguousarray(p, dtype=y.dtype)
         out = np.empty((self.n, self.order + 1), y.dtype)
-        st = self.coefficient_fns[dt](ctypes.c_void_p(address(y)), ctypes.c_void_p(address(p)),
-                                      ctypes.c_int(self.order), ctypes.c_void_p(address(out)),
-                                      ctypes.c_double(sine_min))
+        st = self.coefficient_fns[dt](address(y), address(p), int(self.order), address(out),
+                                      float(sine_min))
         return int(st), out
 
 

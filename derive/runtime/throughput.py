@@ -17,6 +17,7 @@ from functools import lru_cache
 import numpy as np
 
 from .loader import LoaderError, build_fastest, build_library, numpy_module
+from .shared_library import FIXED_STEPS, THROUGHPUT_RK4, SharedLibrary
 from ..codegen.names import VECTOR_MATH
 from ..codegen.sources import c_source
 from ..model.description import forget_on_model_change
@@ -30,7 +31,7 @@ VECTOR_FLAGS = ("-std=c99", "-O3", "-march=native", "-ffp-contract=off", "-fopen
 
 # -- build and call -------------------------------------------------------------
 
-class ThroughputLibrary:
+class ThroughputLibrary(SharedLibrary):
     """ctypes access to <model>_throughput_rk4; `vector_math` says whether libmvec is in use."""
 
     def __init__(self, model: str, vector_math: bool | None = None):
@@ -46,7 +47,7 @@ class ThroughputLibrary:
         last = None
         for flags in attempts:
             try:
-                self.path = build_library(f"{model}_throughput", [src], flags=flags)
+                path = build_library(f"{model}_throughput", [src], flags=flags)
                 self.flags = flags
                 break
             except LoaderError as exc:          # no libmvec, no -march=native: portable build
@@ -54,14 +55,10 @@ class ThroughputLibrary:
         else:
             raise last
         self.vector_math = self.flags is VECTOR_FLAGS
-        self.lib = ctypes.CDLL(str(self.path))
-        fn = self.lib[f"{model}_throughput_rk4"]
-        fn.restype = ctypes.c_long
-        fn.argtypes = [ctypes.c_long, ctypes.c_void_p, ctypes.c_long, ctypes.c_void_p, ctypes.c_double,
-                       ctypes.c_long, ctypes.c_void_p, ctypes.c_void_p]
-        self.fn = fn
-        self.n = ctypes.c_int.in_dll(self.lib, f"{model}_throughput_n_states").value
-        self.n_params = ctypes.c_int.in_dll(self.lib, f"{model}_throughput_n_params").value
+        super().__init__(path)
+        self.fn = self.bind(THROUGHPUT_RK4, model=model)
+        self.n = self.value(ctypes.c_int, f"{model}_throughput_n_states").value
+        self.n_params = self.value(ctypes.c_int, f"{model}_throughput_n_params").value
 
     def rk4_soa(self, y: np.ndarray, p, h: float, nsteps: int, threads: int | None = None):
         """In place on y (n_states, B) float64 C-contiguous; -> (status (B,), steps (B,))."""
@@ -98,7 +95,7 @@ class ThroughputLibrary:
         return y.T.copy(), status, steps
 
 
-class FixedLibrary:
+class FixedLibrary(SharedLibrary):
     """ctypes access to <model>_fixed_<method> (generated/c/<model>_fixed.c, built as the
     integrators are, by loader.build_fastest): one trajectory, a fixed step, the rhs inlined."""
 
@@ -107,14 +104,9 @@ class FixedLibrary:
         src = c_source(model, f"{model}_fixed.c")
         if not src.is_file():
             raise LoaderError(f"model '{model}' has no fixed-step loops (its rhs has a chart guard)")
-        self.path, self.flags = build_fastest(f"{model}_fixed", [src])
-        self.lib = ctypes.CDLL(str(self.path))
-        self.fns = {}
-        for method in FIXED_METHODS:
-            fn = self.lib[f"{model}_fixed_{method}"]
-            fn.restype = ctypes.c_long
-            fn.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_long]
-            self.fns[method] = fn
+        path, self.flags = build_fastest(f"{model}_fixed", [src])
+        super().__init__(path)
+        self.fns = {method: self.bind(FIXED_STEPS, model=model, suffix=method) for method in FIXED_METHODS}
 
     def run(self, method: str, y0, p, h: float, nsteps: int) -> tuple[np.ndarray, int]:
         """-> (state after the steps completed, steps completed)."""

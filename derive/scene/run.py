@@ -31,7 +31,7 @@ from .artifacts import Step, prepare
 from .plan import Plan, plan, planar_positions_in_3d
 from ..progress import Progress, Stage
 from .scene import Scene, SceneError
-from ..codegen.integrators import model_info
+from ..runtime.model_sizes import model_info
 from ..runtime.events import locate, parse_events
 from ..model import load_model
 from ..runtime.loader import load, numpy_module

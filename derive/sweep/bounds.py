@@ -19,7 +19,7 @@ import numpy as np
 
 from ..model import load_model
 from .sweep_file import Sweep
-from ..codegen.integrators import model_info
+from ..runtime.model_sizes import model_info
 from ..runtime.loader import load
 
 GRID_POINTS = 2 ** 16           # grid points over the other coordinates, at most

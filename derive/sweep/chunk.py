@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..runtime.build import integrator_library
-from ..codegen.contract import METHODS
+from ..runtime.runner import runner_for
 from . import level_crossings as ev
 from .bounds import energy as _energy, n_params as _n_params, unreachable
 from .sweep_file import Sweep
@@ -154,9 +154,8 @@ def lyapunov(model: str, y0: np.ndarray, p: np.ndarray, t_end: float, n_params: 
     """The largest Lyapunov exponent of each trajectory: the algorithm of
     derive.measurement.trust.largest_lyapunov (the same run, grid, Jacobian, Taylor
     step and start vector), batched over trajectories."""
-    lib = integrator_library(model)
-    opt = lib.defaults()
-    opt.rtol, opt.atol = 1e-11, 1e-13
+    reference = runner_for(model, "dop853")
+    opt = reference.options({"rtol": 1e-11, "atol": 1e-13})
     steps = max(200, int(JACOBIAN_STEPS_PER_UNIT_TIME * t_end))
     grid = np.linspace(0.0, t_end, 2 * steps + 1)
     dt = t_end / steps
@@ -167,7 +166,7 @@ def lyapunov(model: str, y0: np.ndarray, p: np.ndarray, t_end: float, n_params: 
     jacobian = load(model).jacobian
     for lo in range(0, len(y0), LYAPUNOV_BATCH):
         sl = slice(lo, lo + LYAPUNOV_BATCH)
-        y, infos = lib.run(METHODS.index("dop853"), y0[sl].astype(float), p[sl], grid, opt)
+        y, infos, _ = reference.batch(y0[sl].astype(float), p[sl], grid, opt)
         ok = status_of(infos) == 0
         args = (y[:, 1::2], p[sl, None, :n_params])
         if p.shape[1] > n_params:                      # a model's inputs follow its parameters
