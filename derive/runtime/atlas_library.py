@@ -37,15 +37,9 @@ class AtlasLibrary(OptionsCache, SharedLibrary):
         super().__init__(path)
         self.Options = options_struct(contract.ATLAS_OPTIONS)
         self.Info = info_struct(self.n, contract.ATLAS_INFO)
-        self.defaults_fn = self.bind(ATLAS_DEFAULTS, model=P)
+        self._defaults = self.bind(ATLAS_DEFAULTS, model=P)
         self.choose_chart = self.bind_precisions(ATLAS_CHOOSE_CHART, model=P)
         self.fns = self.bind_precisions(ATLAS_BATCH, model=P)
-
-    def defaults(self):
-        """The options struct as <atlas>_defaults fills it."""
-        o = self.Options()
-        self.defaults_fn(ctypes.addressof(o))
-        return o
 
     def run(self, method: int, charts0, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt):
         """y0 (B, n) in charts0 (B,) (-1: standard chart, rule picks) -> y, charts, infos."""

@@ -44,8 +44,15 @@ _addressof, _char_view = ctypes.addressof, ctypes.c_char.from_buffer
 
 
 class OptionsCache:
-    """The options structs of a library whose `defaults()` gives its C defaults, one per
-    distinct set of values (the integrators only read them: const)."""
+    """The options structs of a library, one per distinct set of values (the integrators
+    only read them: const).  A subclass sets `Options` (the struct type) and `_defaults`
+    (its bound C function that fills a struct with the defaults)."""
+
+    def defaults(self):
+        """The options struct as the library's defaults function fills it."""
+        opt = self.Options()
+        self._defaults(ctypes.addressof(opt))
+        return opt
 
     def options(self, values: dict):
         """The options struct for `values` (field -> value; the rest the C defaults),
@@ -89,12 +96,6 @@ class IntegratorLibrary(OptionsCache, SharedLibrary):
         self.Info = info_struct(n)
         self._defaults = self.bind(INTEGRATE_DEFAULTS, model=model)
         self.fns = self.bind_precisions(INTEGRATE_BATCH, model=model)
-
-    def defaults(self):
-        """The options struct as <model>_integrate_defaults fills it."""
-        opt = self.Options()
-        self._defaults(ctypes.addressof(opt))
-        return opt
 
     def run(self, method: int, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:
         """y0 (B, n), p (B, np) or (np,), t (nt,) -> y (B, nt, n), infos (B,)."""
