@@ -16,9 +16,12 @@ from __future__ import annotations
 import socket
 from urllib.parse import urlsplit
 
+import contextlib
 import dataclasses
 import logging
 import os
+import signal
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -80,9 +83,27 @@ def _executor(scheduler: str | None, workers: int | None):
             raise UsageError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
         return client, None, f"the Dask cluster at {address}"
     n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=logging.ERROR)
+    with _workers_ignore_ctrl_c():
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                               silence_logs=logging.ERROR)
     return Client(cluster), cluster, f"a local cluster of {n} worker process{'es' * (n != 1)}"
+
+
+@contextlib.contextmanager
+def _workers_ignore_ctrl_c():
+    """Start the local workers with SIGINT ignored: Ctrl-C reaches the terminal's whole
+    process group, and each worker process would print its own KeyboardInterrupt traceback.
+    An ignored signal stays ignored across the workers' exec (and Python then installs no
+    KeyboardInterrupt handler), so only this process sees Ctrl-C; it closes the cluster,
+    which stops the workers."""
+    if threading.current_thread() is not threading.main_thread():
+        yield                       # signal handlers belong to the main thread
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _reachable(address: str, timeout: float = 5.0) -> None:

@@ -445,3 +445,31 @@ def test_killed_sweep_process_resumes(tmp_path):
     assert "done before" in r.stdout and ", 0 done before" not in r.stdout
     same(derive.sweep(path, out=tmp_path / "fresh", workers=0),
          __import__("derive.sweep.store", fromlist=["load"]).load(tmp_path / "o" / "s.zarr"))
+
+
+@pytest.mark.slow
+def test_ctrl_c_during_a_sweep_on_local_workers_is_one_line(tmp_path):
+    """Ctrl-C reaches the terminal's whole process group, the local Dask workers too: the
+    sweep still stops with one line and status 130 (no worker tracebacks), and its rerun
+    resumes the store to the end."""
+    import time
+    import zarr
+    path = write(tmp_path, record='["flip_time"]', stop=10.0, outputs=501, n1=40, n2=40, chunk=40)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    cmd = [sys.executable, "-m", "derive", "sweep", str(path), "--out", str(tmp_path / "o"), "--workers", "2"]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True,          # its own group, as a terminal's job
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    deadline = time.monotonic() + 180
+    while time.monotonic() < deadline:
+        time.sleep(0.2)
+        try:
+            if int(np.asarray(zarr.open_group(str(tmp_path / "o" / "s.zarr"), mode="r")["chunk_done"][...]).sum()):
+                break
+        except Exception:
+            continue
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130 and err.strip().splitlines() == ["derive: interrupted"], (proc.returncode, err)
+    r = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    assert r.returncode == 0 and "done before" in r.stdout, r.stderr
