@@ -119,10 +119,14 @@ class Runner:
         return taylor_order(rtol)
 
     def options(self, values: dict, uncapped: bool = False):
-        """The options struct for `values` over the C defaults; `uncapped`: a Taylor run's
-        step not capped by hmax (TAYLOR_HMAX, a batch of a sweep)."""
+        """The options of a run: on the C backend the options struct for `values` over the
+        C defaults, on the NumPy backend the values themselves (its integrators take them
+        as keywords); `uncapped`: a Taylor run's step not capped by hmax (TAYLOR_HMAX, a
+        batch of a sweep)."""
         if uncapped and self.method == TAYLOR:
             values = dict(values, hmax=TAYLOR_HMAX)
+        if self.backend == "numpy":
+            return dict(values)
         return self.lib.options(values)
 
     def entry(self, rtol: float) -> tuple:
@@ -154,7 +158,8 @@ class Runner:
     # -- the calls ------------------------------------------------------------------------
 
     def batch(self, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt, threads: int = 1) -> tuple:
-        """B trajectories in `threads` contiguous blocks at once (ctypes releases the GIL).
+        """B trajectories in `threads` contiguous blocks at once (ctypes releases the GIL);
+        on the NumPy backend one call of the generated integrate_batch, in this thread.
 
         Parameters
         ----------
@@ -163,17 +168,20 @@ class Runner:
         p : ndarray (np,) or (B, np)
             The parameters (with the inputs), one vector for all or one row per trajectory.
         t : ndarray (nt,)
-        opt : options struct
+        opt : options struct or dict
             From `options` (its rtol sets a Taylor run's order).
         threads : int
 
         Returns
         -------
         y : ndarray (B, nt, n)
-        infos : list of info structs
+        infos : list of info structs (C) or of dicts (NumPy), one per trajectory
         blocks : int
             How many blocks ran.
         """
+        if self.backend == "numpy":
+            _, y, infos = self.numpy_integrator().integrate_batch(self.method, y0, p, t, self.dt, **opt)
+            return y, list(infos), 1
         library = self.batch_library(opt.rtol)
         B = len(y0)
         blocks = max(1, min(threads, B // MIN_BLOCK))
