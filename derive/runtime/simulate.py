@@ -845,15 +845,18 @@ def _check_size(method: str, ts: np.ndarray, state, opt: dict, dt: np.dtype, bud
 
 
 def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> SimulationResult:
-    """One run per output interval, each with the inputs sampled at its start."""
-    first = _run_single(model, method, y0, ts[:1], p, opt, dt, backend, u.at(ts[0]))
+    """One run per output interval, each with the inputs sampled at its start (one runner
+    and one set of options for them all)."""
+    r = runner_for(model, method, dtype_key(dt), backend)
+    s = Settings(r, opt) if backend == "c" else None
+    first = _run_on(r, s, y0, ts[:1], p, opt, dt, u.at(ts[0]))
     parts, y = [first], first.y[-1]
     for a, b in zip(ts[:-1], ts[1:]):
-        r = _run_single(model, method, y, np.array([a, b]), p, opt, dt, backend, u.at(a))
-        parts.append(r)
-        if not r.ok:
+        part = _run_on(r, s, y, np.array([a, b]), p, opt, dt, u.at(a))
+        parts.append(part)
+        if not part.ok:
             break
-        y = r.y[-1]
+        y = part.y[-1]
     last = parts[-1]
     n = len(ts)
 
@@ -873,16 +876,21 @@ def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> Simu
 
 
 def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> SimulationResult:
-    """One run of a single model through its runner (the fast path's call too)."""
+    """One run of a single model through its runner."""
     r = runner_for(model, method, dtype_key(dt), backend)
+    return _run_on(r, Settings(r, opt) if backend == "c" else None, y0, ts, p, opt, dt, u)
+
+
+def _run_on(r, s: Settings | None, y0, ts, p, opt: dict, dt, u=None) -> SimulationResult:
+    """One run of runner `r` from y0 over the output times ts: in C with the settings `s`
+    (None on the NumPy backend, which takes the options `opt` as they are)."""
     n, n_params, n_inputs = r.n, r.n_params, r.n_inputs
     buf = np.empty(n + n_params + n_inputs + len(ts), dt)   # y0, the parameters and inputs, t
     buf[:n], buf[n:n + n_params] = y0, p
     if n_inputs:
         buf[n + n_params:n + n_params + n_inputs] = u
     buf[n + n_params + n_inputs:] = ts
-    if backend == "c":
-        s = Settings(r, opt)
+    if s is not None:
         return r.execute(s, s.struct, buf, len(ts))
     pd = buf[n:n + n_params + n_inputs]
     return r.numpy_run(buf[:n], pd, buf[n:n + n_params], buf[n + n_params + n_inputs:], opt)
