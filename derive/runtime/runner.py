@@ -112,7 +112,7 @@ class Runner:
     @property
     def lib(self):
         """The library whose options struct the run takes (the atlas': its own driver's)."""
-        return atlas_library(self.model) if self.atlas is not None else integrator_library(self.model)
+        return _rk_library(self.model, self.atlas)
 
     def order(self, rtol: float) -> int:
         """The Taylor order for a tolerance (contract.taylor_order, as the generated C)."""
@@ -266,6 +266,24 @@ class _MethodBound:
 def _observe(model: str, y: np.ndarray, p: np.ndarray, dt: np.dtype, backend: str) -> tuple:
     """A run's energy, positions and velocities (on first access of one: result.py)."""
     return (*_observables(model, y, p, backend, dt), _velocities(model, y, p, backend, dt))
+
+
+def _rk_library(model: str, atlas):
+    """The library the RK methods of `model` run in: an atlas' driver, or the model's
+    integrator library (built on first use)."""
+    return atlas_library(model) if atlas is not None else integrator_library(model)
+
+
+def library_path(model: str):
+    """The compiled library the RK methods of `model` (a resolved model name or an atlas'
+    key) run in, built now if it is not in the build cache: the library every runner of
+    the model takes its options struct from.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    return _rk_library(model, find_atlas(model)).path
 
 
 @forget_on_model_change
