@@ -1,6 +1,6 @@
 """The one dispatch from (model, method, precision, backend) to compiled code.
 
-A `Runner` owns what every caller of an integrator used to choose for itself: the entry
+A `Runner` owns what a caller of an integrator would otherwise choose for itself: the entry
 point (the RK methods' library, Taylor's scalar integrator at the order for the
 tolerance, its SIMD lanes for a batch, the extended-precision Taylor build, the chart
 atlas' driver, the generated NumPy module), the options struct, the Taylor order (one

@@ -669,10 +669,11 @@ def run_options(method: str, dt: np.dtype, ts: np.ndarray, rtol=None, atol=None,
 
 # an adaptive run's first steps, which tell how long the whole would take: most runs end
 # within them (then that is the result: no work is repeated); a run that needs more starts
-# again, cancellable, after the estimate.  In C 50,000 steps are about 25 ms of DOP853 on
-# the planar model here; the NumPy backend (Python, about 100 us a step) takes 200.
+# again, cancellable, after the estimate.  The budget is one short enough to need no
+# Ctrl-C: in C tens of thousands of steps, on the NumPy backend (Python code per step) a
+# few hundred.
 PILOT_STEPS = {"c": 50_000, "numpy": 200}
-QUICK_STEPS = 20_000    # a fixed-step run this short runs directly (milliseconds), not cancellable
+QUICK_STEPS = 20_000    # a fixed-step run this short runs directly (too short to need Ctrl-C)
 
 
 def _fixed_steps(ts: np.ndarray, opt: dict) -> float:
