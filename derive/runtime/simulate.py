@@ -55,6 +55,7 @@ _DTYPES = {name: np.dtype(key).type for name, key in PRECISION_NAMES.items()
            if not PRECISION[key].taylor_only}
 _DEFAULT_RTOL = {p.key: p.default_rtol for p in PRECISION_TABLE if not p.taylor_only}
 _DEFAULT_OPTIONS = default_options()
+MAX_STEPS_STATUS = STATUS["MAX_STEPS"]      # a run that stopped at its step budget
 
 
 # -- input normalisation -----------------------------------------------------
@@ -598,8 +599,15 @@ def _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_st
     def run(o):                                  # a run with other options (cancellable, ...)
         return execute(s, plan.runner.options(o), buf, nt)
 
-    result = _drive(run, method, buf[plan.n + plan.n_params:], opt, "c", max_steps is not None,
-                    pilot=lambda: execute(s, s.pilot, buf, nt), direct=lambda: execute(s, s.struct, buf, nt))
+    if plan.tolerance and max_steps is None:
+        # _drive's first case, the common one, without the calls around it: the pilot, which
+        # is the run unless it stopped at its step budget (then _run_estimated decides)
+        result = execute(s, s.pilot, buf, nt)
+        if result.status == MAX_STEPS_STATUS:
+            result = _run_estimated(run, method, buf[plan.n + plan.n_params:], opt, "c", result)
+    else:
+        result = _drive(run, method, buf[plan.n + plan.n_params:], opt, "c", max_steps is not None,
+                        direct=lambda: execute(s, s.struct, buf, nt))
     return _finish(result, plan.model, method, "c", plan.dt, opt, result.params)
 
 
@@ -682,14 +690,14 @@ def _fixed_steps(ts: np.ndarray, opt: dict) -> float:
 
 
 def _drive(run, method: str, ts: np.ndarray, opt: dict, backend: str, budget_given: bool,
-           held: bool = False, pilot=None, direct=None) -> SimulationResult:
+           held: bool = False, direct=None) -> SimulationResult:
     """run(opt) as simulate runs it (both paths): an adaptive run's pilot first, in this
     thread (most runs end within it), a short run directly (a fixed step, or a step budget
-    within a pilot's), the rest cancellable (_interruptible).  `pilot`, `direct`: the
-    pilot run and the direct run, where the caller has them ready (the fast path)."""
+    within a pilot's), the rest cancellable (_interruptible).  `direct`: the direct run,
+    where the caller has it ready (the fast path, which also runs the pilot itself)."""
     if method in TOLERANCE_METHODS:
         if not budget_given and not held:
-            return _run_estimated(run, method, ts, opt, backend, pilot() if pilot else None)
+            return _run_estimated(run, method, ts, opt, backend)
         quick = opt["max_steps"] <= PILOT_STEPS[backend] and not held
     else:
         quick = _fixed_steps(ts, opt) <= QUICK_STEPS
@@ -726,7 +734,7 @@ def _run_estimated(run, method: str, ts: np.ndarray, opt: dict, backend: str,
     pilot_steps = PILOT_STEPS[backend]
     if pilot is None:
         pilot = run(dict(opt, max_steps=min(pilot_steps, opt["max_steps"])))
-    if pilot.status != STATUS["MAX_STEPS"] or opt["max_steps"] <= pilot_steps:
+    if pilot.status != MAX_STEPS_STATUS or opt["max_steps"] <= pilot_steps:
         return pilot
     span = float(abs(ts[-1] - ts[0]))
     covered = abs(pilot.t_stop - float(ts[0]))
