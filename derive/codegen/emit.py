@@ -234,12 +234,12 @@ def half_angle_sincos(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: lis
     T = tan(x/2), u = T*T, r = 1/(1 + u), sin x = 2 T r, cos x = (1 - u) r.
 
     NumPy evaluates float64 sin and cos element by element through libm, but tan through
-    its SIMD loops (where NumPy ships them, e.g. SVML on AVX-512): measured here 10 ns per
-    element for sin or cos against 1.4 ns for tan, so one tan and five array operations
-    replace a sin/cos pair at a fifth of the cost.  Accuracy: a few ulp absolute (tested
-    against mpmath); x/2 is exact and |tan(x/2)| stays far below overflow for every double x
-    (no double lies within 1e-19 of an odd multiple of pi/2).  The new names are
-    sin_<x>/cos_<x> (tan_half_<x>, ...) for a named x, numbered otherwise.
+    its SIMD loops (where NumPy ships them, e.g. SVML on AVX-512), several times cheaper
+    per element, so one tan and five array operations replace a sin/cos pair for less.
+    Accuracy: a few ulp absolute (tested against mpmath); x/2 is exact and |tan(x/2)|
+    stays far below overflow for every double x (no double lies within 1e-19 of an odd
+    multiple of pi/2).  The new names are sin_<x>/cos_<x> (tan_half_<x>, ...) for a
+    named x, numbered otherwise.
     """
     args: list[sp.Expr] = []                 # in order of first use
     for e in [e for _, e in assignments] + [sp.sympify(e) for e in outputs]:
@@ -304,9 +304,8 @@ def trig_lanes(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: list[sp.Ex
 
     Compiled with glibc's libmvec (-DDERIVE_VECTOR_MATH; see loader.VECTOR_MATH_FLAGS) the
     loop is one 2-lane vector sin and one vector cos per pair of angles instead of a
-    scalar sincos per angle: measured here, the abm12 loop on the planar rhs (2 angles)
-    runs 1.3x faster.  Compiled without it, the loop is plain C and costs what the
-    scalar calls cost.  libmvec's sin/cos are accurate to 4 ulp (glibc's manual), against
+    scalar sincos per angle, which is cheaper.  Compiled without it, the loop is plain C
+    and costs what the scalar calls cost.  libmvec's sin/cos are accurate to 4 ulp (glibc's manual), against
     1 ulp for the scalar ones.  Needs two angles at least; returns (None, unchanged) else.
     """
     defs = dict(assignments)
@@ -323,8 +322,8 @@ def trig_lanes(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: list[sp.Ex
                 angles.append(angle)
             kind, k = f.func.__name__, angles.index(angle)
             # a temporary t = sin(x) keeps its name, so the rest prints as before: GCC's
-            # schedule follows the printed operand order (with fresh names sorting
-            # differently, the abm12 loop measured 25% slower)
+            # schedule follows the printed operand order (fresh names, sorting
+            # differently, give the abm12 loop a slower schedule)
             repl[f] = named.get(f) or sp.Symbol(f"{kind}_lane{k}", real=True)
             values.append((repl[f], kind, k))
     if len(angles) < 2:

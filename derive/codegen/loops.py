@@ -30,9 +30,9 @@ CSE as the kernels, the RK4 combinations from rk4.toml with the same literals
 as the scalar integrator), so the arithmetic is the scalar path's except for
 the vector sin/cos (a few ulp); tests check agreement to 1e-12 over spans
 inside the trust horizon.  The fixed loops take the rhs's sin/cos as lanes
-(emit.trig_lanes), as the kernels do, and are built by loader.build_fastest:
-measured here (planar, chaotic case, libmvec against the portable build)
-abm12 runs 1.38x faster, rk4 and rk8 about 10% slower.
+(emit.trig_lanes), as the kernels do, and are built by loader.build_fastest
+(libmvec's vector sin/cos where they build): that pays for abm12 and costs rk4 and
+rk8 a little against the portable build.
 
     tp = throughput_library("planar")
     y, status, steps = tp.rk4(y0s, p, h, nsteps, threads=2)     # y0s (B, 4)
@@ -92,9 +92,9 @@ def _inputs(body):
 #   correct with AM, evaluate): 2 rhs evaluations per step whatever the order, which pays
 #   when the rhs dominates and the tolerance is tight; the first k-1 steps (the history) are
 #   taken with the "start" method at the same step.  Weights derived in tableau.adams.
-#   Order 12 is the sweet spot measured on the planar problems: abm9 needs about 20% more
-#   time for a final error of 1e-8, abm16 is unstable at every step of the sweep (its
-#   weights reach 1e3 and amplify rounding).
+#   Order 12: on the planar problems abm9 needs more time for a final error of 1e-8,
+#   abm16 is unstable at every step of the sweep (its weights reach 1e3 and amplify
+#   rounding).
 FIXED_METHODS = {
     "rk4": {"kind": "rk", "tableau": "rk4", "title": "classical RK4 (rk4.toml)"},
     "rk8": {"kind": "rk", "tableau": "dop853",

@@ -104,8 +104,8 @@ def lambdified_rhs(model: str = "planar", cse: bool = True):
     """y' = (q', M^-1 F) lambdified from the derivation, the usual SymPy route.
 
     cse=False is `sympy.lambdify`'s default (what a user gets from the plain call);
-    cse=True eliminates common subexpressions first, a stronger peer (about half the
-    time per evaluation on the planar model)."""
+    cse=True eliminates common subexpressions first, a stronger peer (fewer operations
+    per evaluation)."""
     f = sp.lambdify(*derivation_rhs(model), "numpy", cse=cse)
     return lambda t, y, *p: np.array(f(y, p))
 
@@ -183,7 +183,7 @@ def hand_c_rk4():
 @cache
 def numba_rhs():
     """The hand-written rhs jitted by numba, called by odeint like a Python function
-    (the issue's LSODA peer); None without numba."""
+    (the LSODA peer of the quoted figures, analysis.QUOTED_FIGURES); None without numba."""
     try:
         import numba    # the bench extra: a peer
     except ImportError:

@@ -8,23 +8,23 @@ method at a sweep of steps; heyoka: `taylor_adaptive` at a sweep of `tol`), each
 setting timed as the minimum wall time of repeated calls (the integrator built and
 compiled before, by both tools: build time is not in the figures), its final state
 compared with a reference.  A row's figure for a tool is the fastest setting whose
-final-state error (max-norm) is at most the target (1e-8): the "time to 1e-8" of the
-issue.  The ratio is heyoka's time over derive's (above 1: derive is faster).
+final-state error (max-norm) is at most the target (1e-8): its "time to 1e-8".  The
+ratio is heyoka's time over derive's (above 1: derive is faster).
 
-Rows (issue 15's table, plus the long double row):
+Rows:
 - regular: y0 = (1, 0.5, 0, 0) to t = 20;
 - chaotic: y0 = (2.5, 2, 0, 0) to t = 5;
 - long double: the chaotic y0 to t = 10, heyoka in long double, derive in long double
   and double-double (its fastest way there);
 - quad: the chaotic y0 to t = 20, past long double's horizon: derive's Taylor
-  integrator in double-double and quad against heyoka in real128 (issue 16);
+  integrator in double-double and quad against heyoka in real128;
 - ensemble: 4096 states (angles uniform in [-1, 1], rates 0, seed 0) to t = 10, every
-  final error <= 1e-8: `derive.ensemble` (threads = cores) against heyoka's
-  `ensemble_propagate_until_batch` (its SIMD batch integrator, batch = its recommended
-  SIMD width, threads over batches);
+  final error <= 1e-8: `derive.ensemble` (threads = cores) against heyoka's SIMD batch
+  integrator (`taylor_adaptive_batch`, batch = its recommended SIMD width and twice it,
+  one integrator a thread, the threads sharing the batches: _heyoka_ensemble);
 - one call on a trivial span (t = 1e-6): the fixed cost of a call.
 And SciPy's solve_ivp DOP853 with a lambdified rhs of the derivation (what a SymPy user
-writes) on the regular and chaotic rows, for the issue's 200x target.
+writes) on the regular and chaotic rows, the peer of `derive bench`'s 200x target.
 
 References: the long double runs of `derive.simulate` at its tightest tolerance for the
 double rows and the ensemble (their error, about 1e-13 here, is far below the target);
@@ -295,11 +295,11 @@ def ensemble_row(hy, B: int = 4096, t_end: float = 10.0) -> Row:
 
 
 def _heyoka_ensemble(hy, sys_, y0, t_end: float, tol: float, width: int, threads: int):
-    """The fastest way we found to run an ensemble with heyoka: one SIMD batch integrator
+    """An ensemble with heyoka at its fastest: one SIMD batch integrator
     (`taylor_adaptive_batch`, `width` lanes) per thread, built before timing, each thread
     resetting and propagating its share of the batches (heyoka releases the GIL while it
-    integrates).  Its own `ensemble_propagate_until_batch` copies the integrator per
-    batch and ran several times slower here."""
+    integrates); not its own `ensemble_propagate_until_batch`, which copies the
+    integrator for every batch."""
     B = len(y0)
     pars = np.tile(np.array(PARAMS)[:, None], width)
     integrators = [hy.taylor_adaptive_batch(sys_, np.zeros((4, width)), pars=pars, tol=tol, compact_mode=False)

@@ -5,8 +5,8 @@ the inputs, never on t, and inputs are held constant over each output interval. 
 solution at t between the output rows t_k <= t < t_k+1 is the solution from y_k over the
 offset t - t_k, and every interval can start at time 0 (a time shift).  sol(t) integrates
 from the last output row at or before t with the run's own method, tolerances, options
-and inputs; the C batch entry point (or the NumPy batch function) integrates all the
-intervals a query needs at once, one trajectory per interval.
+and inputs; the runner's batch call (the C batch entry point, or the NumPy batch function)
+integrates all the intervals a query needs at once, one trajectory per interval.
 
 Why it is as accurate as the run: y_k is the run's own output; from it the same method
 at the same rtol and atol integrates a span no longer than one output interval, so the
@@ -30,9 +30,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SimulationInputError
-from .build import integrator_library
-from ..codegen.contract import ADAPTIVE, METHODS
-from .observables import numpy_module
+from .build import dtype_key
+from ..codegen.contract import ADAPTIVE
+from .runner import runner_for
 
 MAX_ELEMENTS = 2 ** 23           # numbers of one batch call's output (64 MiB in double)
 
@@ -151,17 +151,15 @@ class DenseOutput:
         if self.inputs is not None:
             p = np.concatenate([p, np.asarray(self.inputs, self.dtype)[rows]], axis=1)
         p = np.ascontiguousarray(p)
+        r = runner_for(self.model, self.method, dtype_key(self.dtype), self.backend)
         if self.backend == "c":
-            lib = integrator_library(self.model)
-            o = lib.defaults()
-            for key, value in self.options.items():
-                setattr(o, key, value)
-            y, infos = lib.run(METHODS.index(self.method), y0, p, times, o)
+            y, infos, _ = r.batch(y0, p, times, r.options(self.options))
             accepted = np.array([info.naccepted for info in infos], int)
         else:
-            mod = numpy_module(f"{self.model}_integrate")
+            # the NumPy integrators' floating-point warnings (a trajectory that fails) are not
+            # the query's: the NaN rows say what failed, as the C backend's do
             with np.errstate(all="ignore"):
-                _, y, infos = mod.integrate_batch(self.method, y0, p, times, self.dtype, **self.options)
+                y, infos, _ = r.batch(y0, p, times, r.options(self.options))
             accepted = np.array([info["naccepted"] for info in infos], int)
         return y, accepted
 

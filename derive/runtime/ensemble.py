@@ -19,8 +19,9 @@ lane with its own step, time and outputs, and each trajectory bit for bit what
 `simulate(method="taylor")` gives (long double, which has no vector instructions, runs
 the scalar integrator).
 
-Not here yet (issue 15): SIMD lanes for the other methods; the catalogue atlas
-("spherical") and held inputs (a function of t) go through `simulate`.
+The other methods run one trajectory after another within a block (no SIMD lanes).
+The chart atlas ("spherical") and held inputs (a function of t) are refused here: they
+run through `simulate`.
 """
 from __future__ import annotations
 

@@ -224,7 +224,7 @@ class ExtendedTaylor(SharedLibrary):
 @lru_cache(maxsize=None)
 def _fma_flags() -> tuple[str, ...]:
     """-mfma where this machine's processor has the instruction: double-double's products
-    use C99's fma, a library call without it (3x slower here).  The flag is part of the
+    use C99's fma, a slow library call without it.  The flag is part of the
     build key, so a machine without FMA builds its own library."""
     try:
         with open("/proc/cpuinfo") as f:

@@ -1,6 +1,6 @@
 """The one dispatch from (model, method, precision, backend) to compiled code.
 
-A `Runner` owns what every caller of an integrator used to choose for itself: the entry
+A `Runner` owns what a caller of an integrator would otherwise choose for itself: the entry
 point (the RK methods' library, Taylor's scalar integrator at the order for the
 tolerance, its SIMD lanes for a batch, the extended-precision Taylor build, the chart
 atlas' driver, the generated NumPy module), the options struct, the Taylor order (one
@@ -112,17 +112,21 @@ class Runner:
     @property
     def lib(self):
         """The library whose options struct the run takes (the atlas': its own driver's)."""
-        return atlas_library(self.model) if self.atlas is not None else integrator_library(self.model)
+        return _rk_library(self.model, self.atlas)
 
     def order(self, rtol: float) -> int:
         """The Taylor order for a tolerance (contract.taylor_order, as the generated C)."""
         return taylor_order(rtol)
 
     def options(self, values: dict, uncapped: bool = False):
-        """The options struct for `values` over the C defaults; `uncapped`: a Taylor run's
-        step not capped by hmax (TAYLOR_HMAX, a batch of a sweep)."""
+        """The options of a run: on the C backend the options struct for `values` over the
+        C defaults, on the NumPy backend the values themselves (its integrators take them
+        as keywords); `uncapped`: a Taylor run's step not capped by hmax (TAYLOR_HMAX, a
+        batch of a sweep)."""
         if uncapped and self.method == TAYLOR:
             values = dict(values, hmax=TAYLOR_HMAX)
+        if self.backend == "numpy":
+            return dict(values)
         return self.lib.options(values)
 
     def entry(self, rtol: float) -> tuple:
@@ -154,7 +158,8 @@ class Runner:
     # -- the calls ------------------------------------------------------------------------
 
     def batch(self, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt, threads: int = 1) -> tuple:
-        """B trajectories in `threads` contiguous blocks at once (ctypes releases the GIL).
+        """B trajectories in `threads` contiguous blocks at once (ctypes releases the GIL);
+        on the NumPy backend one call of the generated integrate_batch, in this thread.
 
         Parameters
         ----------
@@ -163,17 +168,20 @@ class Runner:
         p : ndarray (np,) or (B, np)
             The parameters (with the inputs), one vector for all or one row per trajectory.
         t : ndarray (nt,)
-        opt : options struct
+        opt : options struct or dict
             From `options` (its rtol sets a Taylor run's order).
         threads : int
 
         Returns
         -------
         y : ndarray (B, nt, n)
-        infos : list of info structs
+        infos : list of info structs (C) or of dicts (NumPy), one per trajectory
         blocks : int
             How many blocks ran.
         """
+        if self.backend == "numpy":
+            _, y, infos = self.numpy_integrator().integrate_batch(self.method, y0, p, t, self.dt, **opt)
+            return y, list(infos), 1
         library = self.batch_library(opt.rtol)
         B = len(y0)
         blocks = max(1, min(threads, B // MIN_BLOCK))
@@ -258,6 +266,24 @@ class _MethodBound:
 def _observe(model: str, y: np.ndarray, p: np.ndarray, dt: np.dtype, backend: str) -> tuple:
     """A run's energy, positions and velocities (on first access of one: result.py)."""
     return (*_observables(model, y, p, backend, dt), _velocities(model, y, p, backend, dt))
+
+
+def _rk_library(model: str, atlas):
+    """The library the RK methods of `model` run in: an atlas' driver, or the model's
+    integrator library (built on first use)."""
+    return atlas_library(model) if atlas is not None else integrator_library(model)
+
+
+def library_path(model: str):
+    """The compiled library the RK methods of `model` (a resolved model name or an atlas'
+    key) run in, built now if it is not in the build cache: the library every runner of
+    the model takes its options struct from.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    return _rk_library(model, find_atlas(model)).path
 
 
 @forget_on_model_change

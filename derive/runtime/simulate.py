@@ -55,6 +55,7 @@ _DTYPES = {name: np.dtype(key).type for name, key in PRECISION_NAMES.items()
            if not PRECISION[key].taylor_only}
 _DEFAULT_RTOL = {p.key: p.default_rtol for p in PRECISION_TABLE if not p.taylor_only}
 _DEFAULT_OPTIONS = default_options()
+MAX_STEPS_STATUS = STATUS["MAX_STEPS"]      # a run that stopped at its step budget
 
 
 # -- input normalisation -----------------------------------------------------
@@ -598,8 +599,15 @@ def _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_st
     def run(o):                                  # a run with other options (cancellable, ...)
         return execute(s, plan.runner.options(o), buf, nt)
 
-    result = _drive(run, method, buf[plan.n + plan.n_params:], opt, "c", max_steps is not None,
-                    pilot=lambda: execute(s, s.pilot, buf, nt), direct=lambda: execute(s, s.struct, buf, nt))
+    if plan.tolerance and max_steps is None:
+        # _drive's first case, the common one, without the calls around it: the pilot, which
+        # is the run unless it stopped at its step budget (then _run_estimated decides)
+        result = execute(s, s.pilot, buf, nt)
+        if result.status == MAX_STEPS_STATUS:
+            result = _run_estimated(run, method, buf[plan.n + plan.n_params:], opt, "c", result)
+    else:
+        result = _drive(run, method, buf[plan.n + plan.n_params:], opt, "c", max_steps is not None,
+                        direct=lambda: execute(s, s.struct, buf, nt))
     return _finish(result, plan.model, method, "c", plan.dt, opt, result.params)
 
 
@@ -669,10 +677,11 @@ def run_options(method: str, dt: np.dtype, ts: np.ndarray, rtol=None, atol=None,
 
 # an adaptive run's first steps, which tell how long the whole would take: most runs end
 # within them (then that is the result: no work is repeated); a run that needs more starts
-# again, cancellable, after the estimate.  In C 50,000 steps are about 25 ms of DOP853 on
-# the planar model here; the NumPy backend (Python, about 100 us a step) takes 200.
+# again, cancellable, after the estimate.  The budget is one short enough to need no
+# Ctrl-C: in C tens of thousands of steps, on the NumPy backend (Python code per step) a
+# few hundred.
 PILOT_STEPS = {"c": 50_000, "numpy": 200}
-QUICK_STEPS = 20_000    # a fixed-step run this short runs directly (milliseconds), not cancellable
+QUICK_STEPS = 20_000    # a fixed-step run this short runs directly (too short to need Ctrl-C)
 
 
 def _fixed_steps(ts: np.ndarray, opt: dict) -> float:
@@ -681,14 +690,14 @@ def _fixed_steps(ts: np.ndarray, opt: dict) -> float:
 
 
 def _drive(run, method: str, ts: np.ndarray, opt: dict, backend: str, budget_given: bool,
-           held: bool = False, pilot=None, direct=None) -> SimulationResult:
+           held: bool = False, direct=None) -> SimulationResult:
     """run(opt) as simulate runs it (both paths): an adaptive run's pilot first, in this
     thread (most runs end within it), a short run directly (a fixed step, or a step budget
-    within a pilot's), the rest cancellable (_interruptible).  `pilot`, `direct`: the
-    pilot run and the direct run, where the caller has them ready (the fast path)."""
+    within a pilot's), the rest cancellable (_interruptible).  `direct`: the direct run,
+    where the caller has it ready (the fast path, which also runs the pilot itself)."""
     if method in TOLERANCE_METHODS:
         if not budget_given and not held:
-            return _run_estimated(run, method, ts, opt, backend, pilot() if pilot else None)
+            return _run_estimated(run, method, ts, opt, backend)
         quick = opt["max_steps"] <= PILOT_STEPS[backend] and not held
     else:
         quick = _fixed_steps(ts, opt) <= QUICK_STEPS
@@ -725,7 +734,7 @@ def _run_estimated(run, method: str, ts: np.ndarray, opt: dict, backend: str,
     pilot_steps = PILOT_STEPS[backend]
     if pilot is None:
         pilot = run(dict(opt, max_steps=min(pilot_steps, opt["max_steps"])))
-    if pilot.status != STATUS["MAX_STEPS"] or opt["max_steps"] <= pilot_steps:
+    if pilot.status != MAX_STEPS_STATUS or opt["max_steps"] <= pilot_steps:
         return pilot
     span = float(abs(ts[-1] - ts[0]))
     covered = abs(pilot.t_stop - float(ts[0]))
@@ -845,15 +854,18 @@ def _check_size(method: str, ts: np.ndarray, state, opt: dict, dt: np.dtype, bud
 
 
 def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> SimulationResult:
-    """One run per output interval, each with the inputs sampled at its start."""
-    first = _run_single(model, method, y0, ts[:1], p, opt, dt, backend, u.at(ts[0]))
+    """One run per output interval, each with the inputs sampled at its start (one runner
+    and one set of options for them all)."""
+    r = runner_for(model, method, dtype_key(dt), backend)
+    s = Settings(r, opt) if backend == "c" else None
+    first = _run_on(r, s, y0, ts[:1], p, opt, dt, u.at(ts[0]))
     parts, y = [first], first.y[-1]
     for a, b in zip(ts[:-1], ts[1:]):
-        r = _run_single(model, method, y, np.array([a, b]), p, opt, dt, backend, u.at(a))
-        parts.append(r)
-        if not r.ok:
+        part = _run_on(r, s, y, np.array([a, b]), p, opt, dt, u.at(a))
+        parts.append(part)
+        if not part.ok:
             break
-        y = r.y[-1]
+        y = part.y[-1]
     last = parts[-1]
     n = len(ts)
 
@@ -873,16 +885,21 @@ def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> Simu
 
 
 def _run_single(model, method, y0, ts, p, opt, dt, backend, u=None) -> SimulationResult:
-    """One run of a single model through its runner (the fast path's call too)."""
+    """One run of a single model through its runner."""
     r = runner_for(model, method, dtype_key(dt), backend)
+    return _run_on(r, Settings(r, opt) if backend == "c" else None, y0, ts, p, opt, dt, u)
+
+
+def _run_on(r, s: Settings | None, y0, ts, p, opt: dict, dt, u=None) -> SimulationResult:
+    """One run of runner `r` from y0 over the output times ts: in C with the settings `s`
+    (None on the NumPy backend, which takes the options `opt` as they are)."""
     n, n_params, n_inputs = r.n, r.n_params, r.n_inputs
     buf = np.empty(n + n_params + n_inputs + len(ts), dt)   # y0, the parameters and inputs, t
     buf[:n], buf[n:n + n_params] = y0, p
     if n_inputs:
         buf[n + n_params:n + n_params + n_inputs] = u
     buf[n + n_params + n_inputs:] = ts
-    if backend == "c":
-        s = Settings(r, opt)
+    if s is not None:
         return r.execute(s, s.struct, buf, len(ts))
     pd = buf[n:n + n_params + n_inputs]
     return r.numpy_run(buf[:n], pd, buf[n:n + n_params], buf[n + n_params + n_inputs:], opt)

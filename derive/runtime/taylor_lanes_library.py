@@ -2,10 +2,10 @@
 
 Compiled like the scalar one (taylor_library.py: one cached library per order, the order
 fixed with -D<MODEL>_TAYLOR_ORDER=p) plus the lanes (-D<MODEL>_TAYLOR_LANES=L), only the
-scalar type asked for (-D<MODEL>_TAYLOR_LANES_ONLY: the order unrolled, the long double
-variant alone took two minutes to compile here) and the vector instructions this machine
-has (SIMD_LEVELS, by the CPU's flags; none known: the portable build, whose lane loops
-are SSE2 pairs on x86-64, plain loops elsewhere).  The numbers are the scalar
+scalar type asked for (-D<MODEL>_TAYLOR_LANES_ONLY: with the order unrolled, each
+scalar type's variant is a long compile, the long double one longest) and the vector
+instructions this machine has (SIMD_LEVELS, by the CPU's flags; none known: the
+portable build, whose lane loops are SSE2 pairs on x86-64, plain loops elsewhere).  The numbers are the scalar
 integrator's: -ffp-contract=off (a fused multiply-add rounds otherwise).
 """
 from __future__ import annotations
@@ -27,24 +27,22 @@ from ..codegen.taylor import taylor_problem
 from .taylor_library import taylor_library
 from ..codegen.taylor_lanes import variant_number
 
-# (CPU flag, compiler flags, lanes by scalar type), best first.  Measured here (Zen 4,
-# planar at order 12, one thread, CPU time per trajectory on a loaded machine; scalar
-# integrator 210 us): AVX-512 8 lanes 56, 16 lanes 61, 4 lanes 138; AVX2 4 lanes 74, 8
-# lanes 86; SSE2 (portable) 4 lanes 131, 2 lanes 137.  float (order 7, scalar 178 us):
-# AVX-512 8 lanes 40, 16 lanes 43; AVX2 8 lanes 45.
+# (CPU flag, compiler flags, lanes by scalar type), best first.  The lanes of each level
+# are the count that ran a trajectory in the least CPU time (planar, order 12 in double,
+# order 7 in float).
 SIMD_LEVELS = (
     ("avx512f", ("-mavx2", "-mavx512f"), {"float64": 8, "float32": 8}),
     ("avx2", ("-mavx2",), {"float64": 4, "float32": 8}),
 )
 PORTABLE_LANES = {"float64": 4, "float32": 4}   # SSE2 pairs on x86-64, else plain loops
-# long double has no vector unit (x87): its lanes ran 0.7-0.8x the scalar integrator's
-# speed here, so its ensembles run the scalar one
+# long double has no vector unit (x87): its lanes are slower than the scalar integrator,
+# so its ensembles run the scalar one
 LANE_TYPES = ("float64", "float32")
 EXACT_FLAGS = ("-ffp-contract=off",)
 # the portable flags, loops peeled (a few lanes stay in registers), no contraction; GCC
 # and clang spellings.  sin and cos may fuse (unlike the scalar build, loader.
-# VECTOR_MATH_FLAGS): glibc's sincos gives sin's and cos' numbers (checked here on 5e7
-# arguments; the tests compare every lane with the scalar run bit for bit) at 1.07x.
+# VECTOR_MATH_FLAGS): glibc's sincos gives sin's and cos' numbers (checked on 5e7
+# arguments; the tests compare every lane with the scalar run bit for bit), a little faster.
 LANES_FLAGS = (*PORTABLE_FLAGS, "-fpeel-loops", *EXACT_FLAGS)
 
 

@@ -3,8 +3,8 @@
 The order follows the tolerance (p = ceil(-ln(tol)/2 + 1), Jorba & Zou; the same rule
 as the C, derive/codegen/taylor.py), and derive compiles the integrator
 with that order fixed (-D<MODEL>_TAYLOR_ORDER=p), which lets the compiler unroll the
-recurrences: about 2.5x faster than the generic build here.  Each order is one cached
-library, built on first use (about a second); the generic file, compiled without the
+recurrences (the generic build loops over an order read at run time).  Each order is one
+cached library, built on first use; the generic file, compiled without the
 macro, reads the order from options.rtol, for use in other projects.
 """
 from __future__ import annotations

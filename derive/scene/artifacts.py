@@ -15,11 +15,9 @@ from dataclasses import dataclass
 from ..codegen import sources
 from ..derivation import derive
 from ..derivation.derivation import is_cached
-from ..model.atlas import find_atlas
 from ..paths import cache_dir
-from ..runtime import build
 from ..runtime.loader import load
-from ..runtime.atlas_runner import atlas_library
+from ..runtime.runner import library_path
 
 
 @dataclass
@@ -53,10 +51,7 @@ def _generated(name: str) -> Step:
 def _library(name: str) -> Step:
     start = time.perf_counter()
     before = set((cache_dir() / "c-build").glob("*/*.so"))
-    if find_atlas(name) is not None:
-        libraries = [atlas_library(name).path]
-    else:
-        libraries = [build.integrator_library(name).path]
+    libraries = [library_path(name)]
     for model in sources.members(name):
         libraries.append(load(model).path)
     # Only this model's libraries count: another process may build others meanwhile.

@@ -19,8 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..runtime.build import integrator_library
-from ..runtime.runner import runner_for
+from ..runtime.runner import library_path, runner_for
 from . import level_crossings as ev
 from .bounds import energy as _energy, n_params as _n_params, unreachable
 from .sweep_file import Sweep
@@ -47,10 +46,10 @@ def variables(sweep: Sweep) -> list[str]:
 
 def prepare(sweep: Sweep) -> None:
     """Build (or load from the cache) every integrator the sweep's chunks use, alongside
-    one another (each a compiler process: a Taylor library of high order takes a compiler
-    ten seconds and more)."""
+    one another (each a compiler process, and a Taylor library of high order is a long
+    compile)."""
     model = model_name(sweep)
-    integrator_library(model)                    # renders the model's sources, once
+    library_path(model)                          # renders the sources and builds the RK library, once
     scene = sweep.scene
     settings = [(scene.rtol, scene.atol, scene.step, np.float64)]
     if any(e.accuracy is not None for e in sweep.events):

@@ -1,4 +1,4 @@
-"""Independent physics checks of the derivation (issue: derivation core, item 5).
+"""Independent physics checks of the derivation.
 
 These do not look at the seeds at all: they test the derived equations against
 facts any correct double pendulum must satisfy.  Each check returns a

@@ -9,7 +9,7 @@ energy error over 41 output times, the median wall time of repeated runs (timing
 the rhs evaluations, and the trust horizon of the run (trust.py).  From the rows
 (analysis.py): the time each method and peer needs to reach a final-state error of
 `target` (1e-8; interpolated on the work-precision front), the ratios against the peers
-and the targets of the issue, the integrator overhead (time / (rhs evaluations x cost of
+and the benchmark's targets, the integrator overhead (time / (rhs evaluations x cost of
 one generated rhs)), and the throughput of the batched RK4 against its peers
 (batch_rates.py).  writers.py and plots.py write them; toolkit.py is the one place that
 calls derive's compiled code.

@@ -1,6 +1,6 @@
 """From the rows: work-precision fronts, each series' time to the target error, the best
 toolkit method, and the targets (speed-ups against the peers, integrator overhead,
-throughput) beside the peer figures quoted in the issue."""
+throughput) beside the quoted peer figures the targets were set against."""
 from __future__ import annotations
 
 import math
@@ -9,14 +9,15 @@ from .peer_series import IVP_CSE, IVP_DEFAULT
 from .problems import knob
 from .suite import BenchResult
 
-# peer figures quoted in the issue ("measured here"), shown beside this run's.  The issue
-# names its peer "solve_ivp DOP853 + lambdify" without saying how it lambdified: its
-# figures are shown beside both variants (the default's is the closer one, see the summary).
-ISSUE_LAMBDIFY = {"regular": 74e-3, "chaotic": 196e-3}
-ISSUE_FIGURES = {**{(p, s): v for p, v in ISSUE_LAMBDIFY.items() for s in (IVP_DEFAULT, IVP_CSE)},
+# the quoted peer figures the targets were set against (times to 1e-8 in seconds, and
+# trajectory-steps/s), shown beside this run's.  The quoted "solve_ivp DOP853 + lambdify"
+# does not say how it lambdified: its figures are shown beside both variants (the
+# summary says which is the closer one).
+QUOTED_LAMBDIFY = {"regular": 74e-3, "chaotic": 196e-3}
+QUOTED_FIGURES = {**{(p, s): v for p, v in QUOTED_LAMBDIFY.items() for s in (IVP_DEFAULT, IVP_CSE)},
                  ("regular", "odeint LSODA + numba rhs"): 10e-3, ("chaotic", "odeint LSODA + numba rhs"): 21e-3,
                  ("regular", "hand-written C RK4"): 0.85e-3, ("chaotic", "hand-written C RK4"): 7.7e-3}
-ISSUE_THROUGHPUT = (("vectorised NumPy", 5.3e6), ("numba parallel", 1.7e7),
+QUOTED_THROUGHPUT = (("vectorised NumPy", 5.3e6), ("numba parallel", 1.7e7),
                     ("hand-written SIMD C, one core", 5.9e7))
 PEER_LABELS = {IVP_DEFAULT: " -- plain sympy.lambdify, cse=False",
                IVP_CSE: " -- stronger peer, common subexpressions eliminated"}
@@ -141,7 +142,8 @@ def _throughput_targets(result: BenchResult) -> list[dict]:
 
 
 def targets(result: BenchResult) -> list[dict]:
-    """The issue's targets (items 4 and 5), measured in this run.
+    """The benchmark's targets (speed-ups against the peers, integrator overhead,
+    throughput), measured in this run.
 
     Returns
     -------

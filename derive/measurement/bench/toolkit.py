@@ -1,9 +1,11 @@
 """Every call the benchmark makes into derive's integrators, loops and kernels.
 
 The rest of the package reaches the generated code only through the functions here,
-one a kind of run: an integration to t_end (C, NumPy, the spherical atlas), the
-single-trajectory fixed-step loops, the batched RK4 (C and NumPy), the scalar RK4 over
-a batch, the energy kernel, and the C loop that times one rhs evaluation.  Each returns
+one a kind of run: an integration to t_end (C, NumPy, the spherical atlas) and the
+scalar RK4 over a batch, both through the run time's runner (derive.runtime.runner, the
+dispatch derive.simulate and derive.ensemble take); the single-trajectory fixed-step
+loops, the batched RK4 (C and NumPy) and the energy kernel, through the run time's
+wrappers of those kernels; and the C loop that times one rhs evaluation.  Each returns
 a prepared callable: building libraries, options and arrays happens when it is made, so
 that a timed call is the integration alone, as the peers' calls are.  (The untimed runs
 that go through derive.simulate, the public API, are not here.)
@@ -15,13 +17,13 @@ import ctypes
 import numpy as np
 
 from ..reference import comparison_vector
-from ...codegen.contract import METHODS, SINE_MIN
+from ...codegen.contract import SINE_MIN
 from ...codegen.sources import c_source
+from ...model.atlas import ATLAS
 from ...paths import bench_c_dir
-from ...runtime.atlas_runner import ATLAS_CHARTS, atlas_library, numpy_atlas
-from ...runtime.build import integrator_library
+from ...runtime.atlas_runner import ATLAS_CHARTS
 from ...runtime.loader import CompiledModel, build_fastest, load
-from ...runtime.simulate import numpy_module
+from ...runtime.runner import runner_for
 from ...runtime.throughput import fixed_library, throughput_library, throughput_numpy
 from .problems import np_dtype, prepared
 
@@ -34,7 +36,9 @@ def integrator_options(rtol, step) -> dict:
 
 
 def integrator_run(problem, method: str, backend: str, dtype: str, rtol, step):
-    """One integration of `problem` from 0 to t_end by a generated integrator.
+    """One integration of `problem` from 0 to t_end by a generated integrator, called
+    through the run time's runner (derive.runtime.runner: the dispatch simulate and
+    ensemble take) without simulate's argument checks and result object.
 
     Parameters
     ----------
@@ -56,56 +60,50 @@ def integrator_run(problem, method: str, backend: str, dtype: str, rtol, step):
     dt = np_dtype(dtype)
     state, chart, p = prepared(problem)
     y0, pd, t = np.asarray(state, dt), np.asarray(p, dt), np.array([0.0, problem.t_end], dt)
-    opt = integrator_options(rtol, step)
-    idx = METHODS.index(method)
+    r = runner_for(problem.model, method, dtype, backend)
+    opt = r.options(integrator_options(rtol, step))
     vec = lambda y, ch: comparison_vector(problem.model, y, ch, p)
-    if problem.model == "spherical":
+    if problem.model == ATLAS:
         if backend == "c":
-            return _c_atlas_run(idx, chart, y0, pd, t, opt, vec)
-        return _numpy_atlas_run(method, chart, y0, pd, t, dt, opt, vec)
+            return _c_atlas_run(r, chart, y0, pd, t, opt, vec)
+        return _numpy_atlas_run(r, method, chart, y0, pd, t, dt, opt, vec)
     if backend == "c":
-        return _c_run(integrator_library(problem.model), idx, y0, pd, t, opt, vec)
-    return _numpy_run(numpy_module(f"{problem.model}_integrate"), method, y0, pd, t, dt, opt, vec)
+        return _c_run(r, y0, pd, t, opt, vec)
+    return _numpy_run(r, method, y0, pd, t, dt, opt, vec)
 
 
-def _c_options(lib, opt: dict):
-    o = lib.defaults()
-    for k, v in opt.items():
-        setattr(o, k, v)
-    return o
-
-
-def _c_run(lib, idx, y0, pd, t, opt, vec):
-    o, y0b = _c_options(lib, opt), y0[None, :]
+def _c_run(r, y0, pd, t, opt, vec):
+    y0b = y0[None, :]
 
     def run():
-        y, infos = lib.run(idx, y0b, pd, t, o)
+        y, infos, _ = r.batch(y0b, pd, t, opt)
         inf = infos[0]
         return vec(y[0, -1], None), inf.nfev, inf.status == 0, f"status {inf.status}"
     return run
 
 
-def _c_atlas_run(idx, chart, y0, pd, t, opt, vec):
-    lib = atlas_library()
-    o, y0b, c0 = _c_options(lib, opt), y0[None, :], [ATLAS_CHARTS.index(chart)]
+def _c_atlas_run(r, chart, y0, pd, t, opt, vec):
+    y0b, c0 = y0[None, :], [ATLAS_CHARTS.index(chart)]
 
     def run():
-        y, charts, infos = lib.run(idx, c0, y0b, pd, t, o)
+        y, charts, infos = r.atlas_batch(c0, y0b, pd, t, opt)
         inf = infos[0]
         ch = ATLAS_CHARTS[charts[0, -1]] if charts[0, -1] >= 0 else None
         return vec(y[0, -1], ch), inf.nfev, inf.status == 0, f"status {inf.status}"
     return run
 
 
-def _numpy_run(mod, method, y0, pd, t, dt, opt, vec):
+def _numpy_run(r, method, y0, pd, t, dt, opt, vec):
+    mod = r.numpy_integrator()
+
     def run():
         st, y, inf = mod.integrate(method, y0, pd, t, dt, **opt)
         return vec(y[-1], None), int(inf["nfev"]), st == 0, f"status {st}"
     return run
 
 
-def _numpy_atlas_run(method, chart, y0, pd, t, dt, opt, vec):
-    mod, c0 = numpy_atlas(), ATLAS_CHARTS.index(chart)
+def _numpy_atlas_run(r, method, chart, y0, pd, t, dt, opt, vec):
+    mod, c0 = r.numpy_integrator(), ATLAS_CHARTS.index(chart)
 
     def run():
         st, y, charts, inf = mod.integrate(method, c0, y0, pd, t, dt, **opt)
@@ -133,13 +131,11 @@ def scalar_rk4(model: str, h: float):
     callable
         run(y0 (B, n), p, nsteps) -> the states after nsteps steps, (B, n).
     """
-    lib = integrator_library(model)
-    o = lib.defaults()
-    o.h = h
-    idx = METHODS.index("rk4")
+    r = runner_for(model, "rk4")
+    o = r.options({"h": h})
 
     def run(y0, p, nsteps):
-        y, _ = lib.run(idx, y0, p, np.array([0.0, h * nsteps]), o)
+        y, _, _ = r.batch(y0, p, np.array([0.0, h * nsteps]), o)
         return y[:, -1]
     return run
 

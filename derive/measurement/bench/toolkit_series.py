@@ -4,9 +4,10 @@ Toolkit series are `method backend scalar`: the generated integrators in C (`C`,
 float32/float64/long double) and NumPy, and the generated single-trajectory fixed-step
 loops (`C-loop`: rk4; rk8 = DOP853's 8th-order formula at a fixed step; abm12 = the
 12-step Adams-Bashforth-Moulton pair, two rhs evaluations a step; derive/codegen/loops.py).
-The timed runs call the compiled code through toolkit.py, as the peers are called, so
-the Python overhead of derive.simulate is not in them; the untimed observation run
-(energies) goes through derive.simulate.
+The timed runs call the compiled code through toolkit.py (the integrators through the
+run time's runner, the dispatch derive.simulate takes), as the peers are called, so the
+argument checks and result object of derive.simulate are not in them; the untimed
+observation run (energies) goes through derive.simulate.
 """
 from __future__ import annotations
 

@@ -6,7 +6,7 @@ import csv
 import math
 from pathlib import Path
 
-from .analysis import ISSUE_FIGURES, ISSUE_LAMBDIFY, ISSUE_THROUGHPUT, best_toolkit, series_times, targets
+from .analysis import QUOTED_FIGURES, QUOTED_LAMBDIFY, QUOTED_THROUGHPUT, best_toolkit, series_times, targets
 from .peer_series import IVP_CSE, IVP_DEFAULT
 from .plots import write_plots
 from .problems import BenchOptions
@@ -194,7 +194,7 @@ def _targets_section(result: BenchResult, times: dict) -> list[str]:
     lines = ["## Targets", "", "| what | target | measured | met |", "|---|---|---|---|"]
     for t in targets(result):
         lines.append(f"| {t['what']} | {t['target']} | {t['measured']} | {'yes' if t['met'] else '**no**'} |")
-    lines += _issue_table(result, times)
+    lines += _quoted_table(result, times)
     lines += ["", "Overhead = CPU time of the run / (rhs evaluations x CPU time of one generated C rhs "
               "evaluation, double, timed in a C loop over the states each problem visits, each "
               "evaluation waiting for the one before as in an integrator, median; derive/measurement/c/rhs_cost.c): "
@@ -204,8 +204,8 @@ def _targets_section(result: BenchResult, times: dict) -> list[str]:
     return lines
 
 
-def _issue_table(result: BenchResult, times: dict) -> list[str]:
-    rows = [(p, peer, fig, times.get((p, peer))) for (p, peer), fig in ISSUE_FIGURES.items()
+def _quoted_table(result: BenchResult, times: dict) -> list[str]:
+    rows = [(p, peer, fig, times.get((p, peer))) for (p, peer), fig in QUOTED_FIGURES.items()
             if p in result.infos]
     if not rows:
         return []
@@ -222,14 +222,14 @@ def _issue_table(result: BenchResult, times: dict) -> list[str]:
     lines += _closest_lambdify(times, result)
     lines.append("")
     lines.append("Throughput peers quoted in the issue (trajectory-steps/s): "
-                 + ", ".join(f"{k} {v:.2g}" for k, v in ISSUE_THROUGHPUT) + ".")
+                 + ", ".join(f"{k} {v:.2g}" for k, v in QUOTED_THROUGHPUT) + ".")
     return lines
 
 
 def _closest_lambdify(times: dict, result: BenchResult) -> list[str]:
-    """Which lambdify variant this run's figures are closer to the issue's (log ratio)."""
+    """Which lambdify variant of this run is closer to the quoted lambdify figure (log ratio)."""
     out = []
-    for prob, fig in ISSUE_LAMBDIFY.items():
+    for prob, fig in QUOTED_LAMBDIFY.items():
         if prob not in result.infos:
             continue
         here = {s: (times.get((prob, s)) or {}).get("time") for s in (IVP_DEFAULT, IVP_CSE)}
