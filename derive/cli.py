@@ -348,7 +348,7 @@ def _print_run(summary: dict) -> None:
 def cmd_run(args) -> int:
     from .scene import load_scene    # start-up: a command imports its stage when it runs
     from .scene.outputs import write_outputs
-    from .scene.run import EXIT_TARGET_MISSED, missed_reason, run, summary, target_met
+    from .scene.run import EXIT_TARGET_MISSED, missed_reason, pole_hint, run, summary, target_met
     scene = load_scene(args.scene)
     if args.output_dir:
         scene.output_dir = Path(args.output_dir)
@@ -362,7 +362,7 @@ def cmd_run(args) -> int:
     s = summary(outcome)
     s["outputs_seconds"] = time.perf_counter() - t0
     if not outcome.result.ok:
-        status, reason = 1, f"run failed: {outcome.result.message}"
+        status, reason = 1, f"run failed: {outcome.result.message}{pole_hint(outcome)}"
     elif target_met(outcome) is False:
         status, reason = EXIT_TARGET_MISSED, missed_reason(outcome)
     else:

@@ -14,6 +14,7 @@ Choosing the method for an accuracy target (the final-state error):
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -21,12 +22,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..codegen.contract import (ADAPTIVE, DEFAULT_METHOD, EXTENDED, LADDER, PRECISION as LADDER_TABLE,
-                                PRECISION_NAMES, PRECISION_TABLE, TAYLOR)
+                                PRECISION_NAMES, PRECISION_TABLE, STATUS, STATUS_NAMES, TAYLOR)
+from ..errors import ModelError
 from ..runtime.result import as_fields
 from ..runtime.simulate import SimulationError, SimulationResult, normalise_params, simulate
 from ..measurement.trust import (Lyapunov, REFERENCE_RTOL, atlas_lyapunov, initial_error,
                                  largest_lyapunov, trust_horizon, unit_roundoff)
-from ..model.atlas import find_atlas, standard_member
+from ..model.atlas import Atlas, atlas_for, find_atlas, standard_member
 from .artifacts import Step, prepare
 from .plan import Plan, plan, planar_positions_in_3d
 from ..progress import Progress, Stage
@@ -285,9 +287,77 @@ def _reference(p: Plan, scene: Scene, c: Choice) -> SimulationResult:
     return integrate(p, scene, c, None, tighten=c.rtol / rtol, dtype=dtype)
 
 
+CHART_SINGULAR = STATUS_NAMES[STATUS["CHART_SINGULAR"]]
+
+
 def run(scene: Scene, show_progress: bool = True) -> Outcome:
+    """Plan, prepare and run `scene` to the accuracy it asks (see the module doc).
+
+    A spherical chain run in one chart whose motion meets that chart's pole runs again on
+    the chain's chart atlas, unless the scene asked for one chart (``pendulum.atlas =
+    false``): the atlas is built only where the motion needs it.
+
+    Parameters
+    ----------
+    scene : Scene
+        The parsed scene (`derive.scene.load_scene`).
+    show_progress : bool
+        Draw the stage and integration status lines.
+
+    Returns
+    -------
+    Outcome
+        The run, its accuracy figures and what it prepared.
+    """
     start = time.perf_counter()
     p = plan(scene)
+    o = _run_plan(scene, p, show_progress, start)
+    atlas = _atlas_for_the_pole(scene, p, o.result)
+    if atlas is None:
+        return o
+    on_atlas = dataclasses.replace(scene, model=atlas.name, atlas=True, initial=_on_the_atlas(scene))
+    again = _run_plan(on_atlas, plan(on_atlas), show_progress, start)
+    again.plan.reason = f"{p.model}'s chart meets its pole at t = {o.result.t_stop:.4g}: ran on its chart atlas"
+    again.steps = o.steps + again.steps
+    return again
+
+
+def _atlas_for_the_pole(scene: Scene, p: Plan, result: SimulationResult) -> Atlas | None:
+    """The chart atlas to run the scene on, where its one-chart run stopped at the chart's
+    pole and the scene did not ask for one chart; else None."""
+    if scene.atlas is not None or result.status_name != CHART_SINGULAR or p.model != scene.model \
+            or find_atlas(p.model) is not None:
+        return None
+    try:
+        return atlas_for(p.model)
+    except ModelError:                  # no atlas for this chain: its stop says why
+        return None
+
+
+def _on_the_atlas(scene: Scene) -> dict:
+    """A one-chart scene's initial state as its atlas takes it: the state in the scene's
+    chart, which is the atlas's first member."""
+    if "state" not in scene.initial:
+        return scene.initial                    # Cartesian: the atlas picks its chart
+    return {"state": {"chart": scene.model, **scene.initial["state"]}}
+
+
+def pole_hint(o: Outcome) -> str:
+    """The way out of a stop at a chart's pole, for the one-line reason ("" for another stop)."""
+    if o.result.status_name != CHART_SINGULAR or find_atlas(o.plan.model) is not None:
+        return ""
+    try:
+        atlas_for(o.plan.model)
+    except ModelError as exc:
+        return (f" (the motion meets a pole of {o.plan.model}'s chart; {exc}: write its links in a chart "
+                f"whose poles the motion avoids, e.g. chart = \"second\")")
+    return (f" (the motion meets a pole of {o.plan.model}'s chart; the scene asked for one chart: "
+            f"pendulum.atlas = true runs it on the chart atlas, which switches charts there)")
+
+
+def _run_plan(scene: Scene, p: Plan, show_progress: bool, start: float) -> Outcome:
+    """`run` of one plan: prepare, estimate the motion's Lyapunov exponent, choose the method,
+    integrate, measure the achieved error (tightening where it misses the target)."""
     with Stage("preparing", enabled=None if show_progress else False) as stage:
         steps = prepare(p.model, scene.backend, stage)
         if scene.step is not None:

@@ -46,6 +46,7 @@ class Scene:
     inputs: dict | None = None       # a model's run-time inputs, held constant (pendulum.inputs)
     plots: tuple[str, ...] = ()
     events: dict | None = None       # [events]: name -> expression or {expression, direction, terminal}
+    atlas: bool | None = None        # pendulum.atlas; None: the chart atlas where the motion needs it
 
 
 def _table(t: dict, key: str, where: str, required: bool = True) -> dict:
@@ -87,10 +88,10 @@ def _parameter_names(model: str) -> tuple[str, ...]:
     return load_model(standard_member(model)).parameters
 
 
-def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
+def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float], bool | None]:
     _known(t, ("model", "parameters", "inputs", "atlas"), "[pendulum]")
-    atlas = t.get("atlas", False)
-    if not isinstance(atlas, bool):
+    atlas = t.get("atlas")
+    if atlas is not None and not isinstance(atlas, bool):
         raise SceneError(f"'pendulum.atlas' must be true or false, got {atlas!r}")
     if "model" not in t:
         raise SceneError("[pendulum]: missing key 'model'")
@@ -125,7 +126,7 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float]]:
         name, why = problem
         raise SceneError(f"'pendulum.parameters.{name}' {why}, got {params[name]:g}" if name else
                          f"'pendulum.parameters': {why}")
-    return model, params
+    return model, params, atlas
 
 
 def _parse_inputs(t: dict, model: str) -> dict | None:
@@ -325,7 +326,7 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
 
 def scene_from_table(t: dict, source: str = "<scene>") -> Scene:
     """A scene from its parsed TOML table (a sweep file is a scene plus tables of its own)."""
-    model, params = _parse_pendulum(_table(t, "pendulum", source), Path(source).parent)
+    model, params, atlas = _parse_pendulum(_table(t, "pendulum", source), Path(source).parent)
     inputs = _parse_inputs(_table(t, "pendulum", source), model)
     initial = _parse_initial(_table(t, "initial", source), model)
     start, stop, outputs = _parse_time(_table(t, "time", source))
@@ -338,7 +339,7 @@ def scene_from_table(t: dict, source: str = "<scene>") -> Scene:
         raise SceneError("'title' must be a string")
     return Scene(source=source, title=title, model=model, parameters=params, initial=initial,
                  t_start=start, t_stop=stop, outputs=outputs, inputs=inputs, events=events,
-                 **accuracy, **output)
+                 atlas=atlas, **accuracy, **output)
 
 
 def _output_folder(directory: Path, source: str) -> Path:

@@ -161,6 +161,43 @@ def test_a_user_atlas_c_is_clean_under_werror(atlas, cc, tmp_path):
     assert "#define TRIPLE_SPHERICAL_ATLAS_N_STATES 12" in header and "N_PARAMS 7" in header
 
 
+def _pole_scene(tmp_path, atlas_line: str) -> Path:
+    """A scene of the triple chain from THROUGH_THE_POLE (Cartesian), with `atlas_line`."""
+    c = THROUGH_THE_POLE
+    vec = lambda k: "[" + ", ".join(f"{v:.17g}" for v in c[3 * k:3 * k + 3]) + "]"
+    cart = ", ".join(f"{n}{i + 1} = {vec(3 * (n == 'v') + i)}" for n in "xv" for i in range(3))
+    scene = tmp_path / "triple_pole.toml"
+    scene.write_text(f'title = "Triple through a pole"\n[pendulum]\nmodel = "{TRIPLE}"\n{atlas_line}\n'
+                     f'parameters = {{ {", ".join(f"{k} = {v}" for k, v in P.items())} }}\n'
+                     f'[initial]\ncartesian = {{ {cart} }}\n[time]\nstop = 2.0\noutputs = 41\n'
+                     f'[accuracy]\nmethod = "dop853"\nrtol = 1e-10\n'
+                     f'[output]\ndirectory = "{tmp_path / "out"}"\ntrajectory = ["csv", "npz"]\nplots = ["paths", "energy"]\n')
+    return scene
+
+
+@pytest.mark.slow
+def test_a_user_chain_scene_through_a_pole_runs_on_its_atlas_unless_one_chart_is_asked(tmp_path):
+    """No `pendulum.atlas`: the one-chart run meets the standard chart's pole, and the scene
+    runs on the chain's atlas instead, saying so; `atlas = false`: the stop, with the way out."""
+    import json
+    import os
+    import sys
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2]))
+    cli = lambda scene: subprocess.run([sys.executable, "-m", "derive", "run", str(scene), "--json"],
+                                       capture_output=True, text=True, env=env, cwd=tmp_path, timeout=900)
+    auto = cli(_pole_scene(tmp_path, ""))
+    assert auto.returncode == 0, auto.stderr
+    s = json.loads(auto.stdout)
+    assert s["model"] == "triple_spherical_atlas" and s["ok"]
+    rows = (tmp_path / "out" / "triple_pole.csv").read_text().splitlines()[1:]
+    assert len({r.rsplit(",", 1)[1] for r in rows}) > 1          # it left the standard chart
+    assert "triple_spherical's chart meets its pole at t = " in s["model_reason"]
+    one = cli(_pole_scene(tmp_path, "atlas = false"))
+    assert one.returncode == 1 and "chart singular" in one.stderr
+    assert "pendulum.atlas = true runs it on the chart atlas" in one.stderr
+    assert len(one.stderr.strip().splitlines()) == 1
+
+
 def test_an_atlas_scene_for_a_user_chain_writes_every_bob_and_the_chart(tmp_path):
     """[pendulum] atlas = true: CSV and NPZ with the chart of every row and the positions
     and velocities of all three bobs; the plots draw three bobs."""
@@ -169,15 +206,7 @@ def test_an_atlas_scene_for_a_user_chain_writes_every_bob_and_the_chart(tmp_path
     from derive.scene.outputs import write_outputs
     from derive.scene.run import run
     c = THROUGH_THE_POLE
-    vec = lambda k: "[" + ", ".join(f"{v:.17g}" for v in c[3 * k:3 * k + 3]) + "]"
-    cart = ", ".join(f"{n}{i + 1} = {vec(3 * (n == 'v') + i)}" for n in "xv" for i in range(3))
-    scene = tmp_path / "triple_pole.toml"
-    scene.write_text(f'title = "Triple through a pole"\n[pendulum]\nmodel = "{TRIPLE}"\natlas = true\n'
-                     f'parameters = {{ {", ".join(f"{k} = {v}" for k, v in P.items())} }}\n'
-                     f'[initial]\ncartesian = {{ {cart} }}\n[time]\nstop = 2.0\noutputs = 41\n'
-                     f'[accuracy]\nmethod = "dop853"\nrtol = 1e-10\n'
-                     f'[output]\ndirectory = "{tmp_path / "out"}"\ntrajectory = ["csv", "npz"]\nplots = ["paths", "energy"]\n')
-    s = load_scene(scene)
+    s = load_scene(_pole_scene(tmp_path, "atlas = true"))
     assert s.model == "triple_spherical_atlas"
     o = run(s, show_progress=False)
     assert o.result.ok and len(set(o.result.chart)) > 1      # chunks restart in the rule's chart

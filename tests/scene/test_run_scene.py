@@ -131,14 +131,29 @@ def test_simulation_result_states_its_trust_horizon():
     assert trust.trust_horizon_of(chaotic, 1e-4) > trust.trust_horizon_of(chaotic, 1e-8)
 
 
-def test_a_single_chart_scene_at_its_pole_stops_with_a_reason(tmp_path):
-    text = DEFAULT.replace('model = "planar"', 'model = "spherical_std"').replace(
-        "theta1 = 2.5, theta2 = 2.0, theta1_dot = 0.0, theta2_dot = 0.0",
-        "theta1 = 0.05, phi1 = 0.3, theta2 = 1.0, phi2 = 0.0, phi1_dot = 1.0").replace(
-        "[initial]", "[initial]\nrest = true")
+AT_THE_POLE = DEFAULT.replace('model = "planar"', 'model = "spherical_std"').replace(
+    "theta1 = 2.5, theta2 = 2.0, theta1_dot = 0.0, theta2_dot = 0.0",
+    "theta1 = 0.05, phi1 = 0.3, theta2 = 1.0, phi2 = 0.0, phi1_dot = 1.0").replace(
+    "[initial]", "[initial]\nrest = true")
+
+
+def test_a_scene_asking_for_one_chart_stops_at_its_pole_and_names_the_way_out(tmp_path):
+    text = AT_THE_POLE.replace("[pendulum]", "[pendulum]\natlas = false")
     run_ = derive_cli("run", _write(tmp_path, text), "--output-dir", str(tmp_path))
     assert run_.returncode == 1 and "Traceback" not in run_.stderr
     assert "chart singular" in run_.stdout and "theta1=0.05" in run_.stdout
+    reason = run_.stderr.strip().splitlines()
+    assert len(reason) == 1 and "pendulum.atlas = true runs it on the chart atlas" in reason[0], reason
+
+
+def test_a_one_chart_scene_through_its_pole_runs_on_the_chart_atlas(tmp_path):
+    """No `pendulum.atlas`: the scene's chart meets its pole at the start, so the scene runs
+    again on the atlas and says why."""
+    run_ = derive_cli("run", _write(tmp_path, AT_THE_POLE), "--json", "--output-dir", str(tmp_path))
+    assert run_.returncode == 0, run_.stderr
+    s = json.loads(run_.stdout)
+    assert s["model"] == "spherical" and s["ok"] and s["achieved_error"] <= s["target"]
+    assert "spherical_std's chart meets its pole at t = 0: ran on its chart atlas" in s["model_reason"]
 
 
 def test_scene_edge_cases_get_a_clean_answer(tmp_path):
