@@ -10,6 +10,7 @@ from dataclasses import MISSING, dataclass, field, fields
 
 import numpy as np
 
+from ..codegen.contract import STATUS_NAMES, STATUS
 from ..errors import SimulationError
 from .model_sizes import model_info
 
@@ -78,6 +79,9 @@ class SimulationResult:
     # simulate(..., events=...): per event (in the order given) its crossings
     events: dict[str, "EventRecord"] | None = None
     terminal_event: str | None = None      # the event that stopped the run at t_stop (status ok)
+    # abm12: (rtol, atol) of its stability guard (a step whose Milne estimate exceeds atol + rtol |y|
+    # is not taken): a run it stopped names them in its message
+    guard: tuple[float, float] | None = None
 
     @property
     def t_events(self) -> list[np.ndarray]:
@@ -104,7 +108,15 @@ class SimulationResult:
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(names, self.y_stop))
         where = f" in chart {self.chart_stop}" if self.chart_stop else ""
         return (f"integration stopped at t = {self.t_stop:.17g}: {self.status_name}{where}; "
-                f"state {state}")
+                f"state {state}{self._guard_note()}")
+
+    def _guard_note(self) -> str:
+        """Which guard stopped a multistep run, at which threshold, and how to loosen it."""
+        if self.status_name != MULTISTEP_STOP or self.guard is None:
+            return ""
+        rtol, atol = self.guard
+        return (f"; the guard: Milne's error estimate above atol + rtol |y| (rtol {rtol:.3g}, "
+                f"atol {atol:.3g}): loosen rtol (and atol), or take a smaller step")
 
     def raise_for_status(self) -> "SimulationResult":
         if not self.ok:
@@ -112,6 +124,7 @@ class SimulationResult:
         return self
 
 
+MULTISTEP_STOP = STATUS_NAMES[STATUS["MULTISTEP_UNSTABLE"]]    # abm12's guard stopped the run
 LAZY = object()                # energy/positions/velocities not computed yet (see `observe`)
 LOCAL_SUM = "local sum"        # error_kind of a run's own sum of local-error estimates
 _OBSERVED = ("energy", "positions", "velocities")

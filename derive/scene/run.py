@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..codegen.contract import (ADAPTIVE, DEFAULT_METHOD, EXTENDED, LADDER, PRECISION as LADDER_TABLE,
+from ..codegen.contract import (ADAPTIVE, DEFAULT_METHOD, EXTENDED, LADDER, MULTISTEP, PRECISION as LADDER_TABLE,
                                 PRECISION_NAMES, PRECISION_TABLE, TAYLOR)
 from ..runtime.result import as_fields
 from ..runtime.simulate import SimulationError, SimulationResult, normalise_params, simulate
@@ -61,6 +61,7 @@ class Choice:
     dtype: str
     predicted: float | None        # predicted final-state error
     note: str = ""
+    guard: tuple | None = None     # abm12: (rtol, atol) of its stability guard (None: simulate's)
 
 
 @dataclass
@@ -97,7 +98,7 @@ def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
 def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
     if scene.method is not None:
         return Choice(scene.method, scene.rtol, None if scene.scalar in EXTENDED else scene.atol, scene.step,
-                      _dtype_of(scene.scalar), None, "as the scene asks")
+                      _dtype_of(scene.scalar), None, "as the scene asks", guard=scene.guard)
     growth = lyap.error_growth(scene.t_stop - scene.t_start) if lyap else 1.0
     rtol = min(scene.target / (SAFETY * growth), RTOL_MAX)
     method, dtype, rtol, note = climb(rtol, scene.target)
@@ -193,9 +194,11 @@ def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
     bounds = np.linspace(0, len(t) - 1, pieces + 1).astype(int)
     y0, parts = p.y0, []
     for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+        # abm12's rtol and atol are its guard's (its step is the step; it runs untightened)
+        rtol, atol = c.guard if c.guard is not None and c.method in MULTISTEP else (c.rtol, c.atol)
         r = simulate(p.model, y0, t[a:b + 1], p.params, method=c.method,
-                     rtol=None if c.rtol is None else c.rtol / tighten,
-                     atol=None if c.atol is None or (dtype or c.dtype) in EXTENDED else c.atol / tighten,
+                     rtol=None if rtol is None else rtol / tighten,
+                     atol=None if atol is None or (dtype or c.dtype) in EXTENDED else atol / tighten,
                      step=None if c.step is None else c.step / tighten,
                      dtype=dtype or c.dtype, backend=scene.backend, inputs=scene.inputs)
         parts.append(r)

@@ -49,6 +49,8 @@ def identity(sweep: Sweep) -> str:
              "accuracy": [s.method, s.rtol, s.atol, s.step], "record": sweep.record,
              "events": [(e.name, e.coordinate, e.level, e.accuracy) for e in sweep.events], "chunk": sweep.chunk,
              "axes": [(a.name, a.kind) for a in sweep.axes]}
+    if s.guard is not None:              # abm12's guard (only where given: older stores keep their hash)
+        parts["guard"] = list(s.guard)
     h.update(json.dumps(parts, sort_keys=True).encode())
     for a in sweep.axes:
         h.update(np.ascontiguousarray(a.values, float).tobytes())

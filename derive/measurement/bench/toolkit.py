@@ -15,7 +15,7 @@ import ctypes
 import numpy as np
 
 from ..reference import comparison_vector
-from ...codegen.contract import METHODS, SINE_MIN
+from ...codegen.contract import METHODS, MULTISTEP, SINE_MIN, STATUS, STATUS_NAMES
 from ...codegen.sources import c_source
 from ...paths import bench_c_dir
 from ...runtime.atlas_runner import ATLAS_CHARTS, atlas_library, numpy_atlas
@@ -27,7 +27,8 @@ from .problems import np_dtype, prepared
 
 
 def integrator_options(rtol, step) -> dict:
-    """The options of one integrator run: rtol (atol = rtol 1e-3) or the fixed step h."""
+    """The options of one integrator run: rtol (atol = rtol 1e-3) or the fixed step h; a
+    fixed step's rtol and atol are simulate's defaults (abm12's guard: 1e-9, 1e-12)."""
     return {"rtol": rtol if rtol is not None else 1e-9, "atol": (rtol if rtol is not None else 1e-9) * 1e-3,
             "h": step or 0.0, "hmin": 0.0, "hmax": 0.0, "max_steps": 100_000_000, "newton_tol": 0.0,
             "newton_max": 30, "sine_min": float(SINE_MIN)}
@@ -75,13 +76,36 @@ def _c_options(lib, opt: dict):
     return o
 
 
+def status_text(status: int, method: str, opt: dict) -> str:
+    """A run's status in words, as a failed row's note gives it.
+
+    Parameters
+    ----------
+    status : int
+        The integrator's status code.
+    method : str
+    opt : dict
+        The run's options (integrator_options).
+
+    Returns
+    -------
+    str
+        The status's name; for a multistep run its guard stopped, the guard and its threshold.
+    """
+    text = STATUS_NAMES[status] if 0 <= status < len(STATUS_NAMES) else f"status {status}"
+    if status == STATUS["MULTISTEP_UNSTABLE"] and method in MULTISTEP:
+        text += (f": Milne's error estimate above atol + rtol |y| (rtol {opt['rtol']:.3g}, "
+                 f"atol {opt['atol']:.3g}, simulate's defaults)")
+    return text
+
+
 def _c_run(lib, idx, y0, pd, t, opt, vec):
     o, y0b = _c_options(lib, opt), y0[None, :]
 
     def run():
         y, infos = lib.run(idx, y0b, pd, t, o)
         inf = infos[0]
-        return vec(y[0, -1], None), inf.nfev, inf.status == 0, f"status {inf.status}"
+        return vec(y[0, -1], None), inf.nfev, inf.status == 0, status_text(inf.status, METHODS[idx], opt)
     return run
 
 
@@ -100,7 +124,7 @@ def _c_atlas_run(idx, chart, y0, pd, t, opt, vec):
 def _numpy_run(mod, method, y0, pd, t, dt, opt, vec):
     def run():
         st, y, inf = mod.integrate(method, y0, pd, t, dt, **opt)
-        return vec(y[-1], None), int(inf["nfev"]), st == 0, f"status {st}"
+        return vec(y[-1], None), int(inf["nfev"]), st == 0, status_text(st, method, opt)
     return run
 
 
