@@ -12,6 +12,7 @@ import numpy as np
 
 from ..codegen.contract import STATUS_NAMES, STATUS
 from ..errors import SimulationError
+from .energy_error import exact_energy_error, relative_energy_error
 from .model_sizes import model_info
 
 
@@ -117,6 +118,28 @@ class SimulationResult:
         rtol, atol = self.guard
         return (f"; the guard: Milne's error estimate above atol + rtol |y| (rtol {rtol:.3g}, "
                 f"atol {atol:.3g}): loosen rtol (and atol), or take a smaller step")
+
+    @property
+    def energy_error(self) -> float:
+        """The largest relative energy error max |E(t) - E0| / energy_scale over the run's
+        outputs (NaN where none is finite); above long double from its exact states
+        (derive/runtime/energy_error.py).  With applied forces or damping it is the work
+        they did, not an error."""
+        return self._energy_error()[0]
+
+    @property
+    def energy_scale(self) -> float:
+        """What energy_error is relative to: max(|E0|, W), W = |g| sum_k m_k d_k the depth
+        of the potential well (derive/model/energy_scale.py): it cannot vanish, as |E0|
+        can for a motion like any other."""
+        return self._energy_error()[1]
+
+    def _energy_error(self) -> tuple[float, float]:
+        if "_energy_error_of" not in self.__dict__:
+            self.__dict__["_energy_error_of"] = (
+                exact_energy_error(self) if self.y_exact is not None else
+                relative_energy_error(self.energy, self.model, np.asarray(self.params, np.float64)))
+        return self.__dict__["_energy_error_of"]
 
     def raise_for_status(self) -> "SimulationResult":
         if not self.ok:

@@ -34,6 +34,7 @@ import numpy as np
 from ..paths import VERSION as __version__
 from ..errors import UsageError
 from .layout import Layout
+from ..model.energy_scale import SCALE_TEXT
 from .sweep_file import SAMPLE_DIM, Sweep
 
 DONE = "chunk_done"
@@ -57,6 +58,11 @@ def identity(sweep: Sweep) -> str:
     return h.hexdigest()
 
 
+# what a variable is, where its name does not say it all
+VARIABLE_ATTRS = {"energy_error": {"long_name": f"largest |E - E0| / {SCALE_TEXT} over the samples "
+                                                f"(m g l: the depth of the potential well, derive.model.energy_scale)"}}
+
+
 def _dataset(sweep: Sweep, layout: Layout, names: list[str]):
     import dask.array as da    # the sweep extra
     import xarray as xr    # the sweep extra
@@ -69,7 +75,8 @@ def _dataset(sweep: Sweep, layout: Layout, names: list[str]):
     data = {}
     for name in names:
         dtype, fill = (np.int8, NOT_RUN) if name == "status" else (np.float64, np.nan)
-        data[name] = (sweep.dims, da.full(sweep.shape, fill, dtype=dtype, chunks=layout.chunks))
+        data[name] = (sweep.dims, da.full(sweep.shape, fill, dtype=dtype, chunks=layout.chunks),
+                      VARIABLE_ATTRS.get(name, {}))
     done_dims = tuple(f"chunk_{d}" for d in sweep.dims)
     data[DONE] = (done_dims, da.zeros(layout.grid, dtype=np.int8, chunks=(1,) * len(layout.grid)))
     attrs = {"title": sweep.scene.title, "model": sweep.scene.model, "sweep_sha256": identity(sweep),

@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from ...runtime.energy_error import scale_of
 from ...runtime.simulate import normalise_params, normalise_y0
 
 TARGET = 1e-8
@@ -152,13 +153,18 @@ def prepared(problem: Problem):
     return np.asarray(state), chart, p
 
 
-def relative_energy_error(E: np.ndarray) -> float:
-    """The largest |E - E[0]| / |E[0]| of a run's energies; inf when one is not finite."""
+def energy_scale(problem: Problem, e0: float) -> float:
+    """max(|E0|, m g l): what the benchmark's energy errors are relative to, as derive's
+    (derive/runtime/energy_error.py)."""
+    return float(scale_of(problem.model, problem.params, e0))
+
+
+def relative_energy_error(E: np.ndarray, problem: Problem) -> float:
+    """The largest |E - E[0]| / max(|E[0]|, m g l) of a run's energies; inf when one is not finite."""
     E = np.asarray(E, dtype=np.float64)
     if not np.all(np.isfinite(E)):
         return math.inf
-    scale = abs(float(E[0])) or 1.0
-    return float(np.max(np.abs(E - E[0]))) / scale
+    return float(np.max(np.abs(E - E[0]))) / energy_scale(problem, float(E[0]))
 
 
 def knob(r: dict) -> str:

@@ -134,7 +134,7 @@ def loop_observer(problem: Problem, method: str, step: float):
             if done != per:
                 return math.inf
             E.append(energy(y))
-        return relative_energy_error(np.array(E))
+        return relative_energy_error(np.array(E), problem)
     return observe
 
 
@@ -161,5 +161,5 @@ def toolkit_observer(problem: Problem, method: str, backend: str, dtype: str, rt
         r = simulate(problem.model, problem.y0_input(), np.linspace(0.0, problem.t_end, OBSERVATIONS),
                      list(problem.params), method=method, rtol=rtol, atol=None if rtol is None else rtol * 1e-3,
                      step=step, dtype=dtype, backend=backend)
-        return relative_energy_error(r.energy) if r.ok else math.inf
+        return relative_energy_error(r.energy, problem) if r.ok else math.inf
     return observe
