@@ -319,20 +319,14 @@ def _print_run(summary: dict) -> None:
     print(f"method  {s['method']}, {tol}, {s['dtype']}, backend {s['backend']}"
           + (f" -- {s['note']}" if s["note"] else ""))
     if s["lyapunov_exponent"] is not None and s["trust_horizon"] is not None:
-        print(f"chaos   largest Lyapunov exponent {s['lyapunov_exponent']:.3g}; trust horizon "
-              f"t = {s['trust_horizon']:.3g} for error {s['target'] or 1e-8:g}"
+        print(f"chaos   largest Lyapunov exponent {s['lyapunov_exponent']:.3g}; {_horizon_text(s)}"
               + (f" ({s['lyapunov_note']})" if s.get("lyapunov_note") else ""))
-    if s["target"] is not None:
-        achieved = "not measured" if s["achieved_error"] is None else f"{s['achieved_error']:.2g}"
-        verdict = {True: "met", False: "MISSED", None: "not measured"}[s["target_met"]]
-        print(f"error   target {s['target']:g}, predicted {s['predicted_error']:.2g}, achieved {achieved} "
-              f"({verdict}; reference at rtol {s['reference_rtol']:.2g})")
-    if not s["ok"]:
+    print(f"error   {_error_text(s)}")
+    if not s["ok"] and s["status"] != "meaningless":      # (a meaningless result: the reason says why)
         print(f"stopped {s['message']}")
     print(f"result  {s['status']} at t = {s['t_stop']:g} after {s['nfev']} rhs evaluations"
-          + (f", {s['chart_switches']} chart switches" if s["chart_switches"] is not None else "")
-          + (f"; relative energy error {s['relative_energy_error']:.2g}" if s["conservative"] else
-             f"; relative energy change {s['relative_energy_error']:.2g} (the work of forces and damping)"))
+          + (f", {s['chart_switches']} chart switches" if s["chart_switches"] is not None else ""))
+    print(f"energy  {_energy_text(s)}")
     for name, e in (s.get("events") or {}).items():
         when = ", ".join(f"{t:.10g}" for t in e["t"][:3]) + (", ..." if len(e["t"]) > 3 else "")
         print(f"event   {name} ({e['expression']}): {len(e['t'])} crossing{'s' * (len(e['t']) != 1)}"
@@ -345,10 +339,44 @@ def _print_run(summary: dict) -> None:
           + (f" (writing the files {s['outputs_seconds']:.2f} s)" if s["files"] else ""))
 
 
+def _horizon_text(s: dict) -> str:
+    """The trust horizon in words: a horizon at the start is "never within" that error."""
+    import math    # start-up: a command imports its stage when it runs
+    level, horizon = s["horizon_error"], s["trust_horizon"]
+    if s["early_error"] is not None and horizon <= s["t_start"]:
+        return f"never within error {level:g} (its early error, about {s['early_error']:.2g}, is above it)"
+    if math.isinf(horizon):
+        return f"trust horizon beyond the run for error {level:g}"
+    return f"trust horizon t = {horizon:.3g} for error {level:g}"
+
+
+def _error_text(s: dict) -> str:
+    """The achieved final-state error against the reference run, and the target's verdict."""
+    reference = (f"reference {s['reference_method']} at rtol {s['reference_rtol']:.2g} in "
+                 f"{s['reference_precision']}") if s["reference_rtol"] is not None else ""
+    achieved = None if s["achieved_error"] is None else f"{s['achieved_error']:.2g}"
+    if s["target"] is not None:
+        verdict = {True: "met", False: "MISSED", None: "not measured"}[s["target_met"]]
+        return (f"target {s['target']:g}, predicted {s['predicted_error']:.2g}, achieved {achieved or 'not measured'} "
+                f"({'; '.join(x for x in (verdict, reference, s['not_measured']) if x)})")
+    if achieved is not None:
+        return f"final-state error {achieved} (no target; {reference})"
+    why = s["not_measured"] or "the run stopped"
+    own = (f"; its own local-error sum {s['error_estimate']:.2g} (not a global error)"
+           if s["error_estimate"] is not None else "")
+    return f"not measured: {why}{own}"
+
+
+def _energy_text(s: dict) -> str:
+    """The relative energy error (or change) and what it is relative to."""
+    what = "relative error" if s["conservative"] else "relative change (the work of forces and damping)"
+    return (f"{what} {s['relative_energy_error']:.2g} of {s['energy_scale']:.4g} = {s['energy_scale_is']}")
+
+
 def cmd_run(args) -> int:
     from .scene import load_scene    # start-up: a command imports its stage when it runs
     from .scene.outputs import write_outputs
-    from .scene.run import EXIT_TARGET_MISSED, missed_reason, pole_hint, run, summary, target_met
+    from .scene.run import run, summary, verdict
     scene = load_scene(args.scene)
     if args.output_dir:
         scene.output_dir = Path(args.output_dir)
@@ -361,17 +389,14 @@ def cmd_run(args) -> int:
     outcome.seconds = time.perf_counter() - start
     s = summary(outcome)
     s["outputs_seconds"] = time.perf_counter() - t0
-    if not outcome.result.ok:
-        status, reason = 1, f"run failed: {outcome.result.message}{pole_hint(outcome)}"
-    elif target_met(outcome) is False:
-        status, reason = EXIT_TARGET_MISSED, missed_reason(outcome)
-    else:
-        status, reason = 0, None
+    status, reason = verdict(outcome)
     s["exit_status"], s["reason"] = status, reason
     if args.json:
         print(json.dumps(_json_safe(s), indent=1, allow_nan=False))
     elif not args.quiet:
         _print_run(s)
+    for line in s["warnings"]:      # even with --quiet: a run past its trust horizon
+        print(f"derive: {line}", file=sys.stderr)
     if reason is not None:          # even with --quiet: the one line that says why
         print(f"derive: {reason}", file=sys.stderr)
     return status

@@ -10,7 +10,9 @@ from dataclasses import MISSING, dataclass, field, fields
 
 import numpy as np
 
+from ..codegen.contract import STATUS_NAMES, STATUS
 from ..errors import SimulationError
+from .energy_error import exact_energy_error, relative_energy_error
 from .model_sizes import model_info
 
 
@@ -78,6 +80,9 @@ class SimulationResult:
     # simulate(..., events=...): per event (in the order given) its crossings
     events: dict[str, "EventRecord"] | None = None
     terminal_event: str | None = None      # the event that stopped the run at t_stop (status ok)
+    # abm12: (rtol, atol) of its stability guard (a step whose Milne estimate exceeds atol + rtol |y|
+    # is not taken): a run it stopped names them in its message
+    guard: tuple[float, float] | None = None
 
     @property
     def t_events(self) -> list[np.ndarray]:
@@ -104,7 +109,37 @@ class SimulationResult:
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(names, self.y_stop))
         where = f" in chart {self.chart_stop}" if self.chart_stop else ""
         return (f"integration stopped at t = {self.t_stop:.17g}: {self.status_name}{where}; "
-                f"state {state}")
+                f"state {state}{self._guard_note()}")
+
+    def _guard_note(self) -> str:
+        """Which guard stopped a multistep run, at which threshold, and how to loosen it."""
+        if self.status_name != MULTISTEP_STOP or self.guard is None:
+            return ""
+        rtol, atol = self.guard
+        return (f"; the guard: Milne's error estimate above atol + rtol |y| (rtol {rtol:.3g}, "
+                f"atol {atol:.3g}): loosen rtol (and atol), or take a smaller step")
+
+    @property
+    def energy_error(self) -> float:
+        """The largest relative energy error max |E(t) - E0| / energy_scale over the run's
+        outputs (NaN where none is finite); above long double from its exact states
+        (derive/runtime/energy_error.py).  With applied forces or damping it is the work
+        they did, not an error."""
+        return self._energy_error()[0]
+
+    @property
+    def energy_scale(self) -> float:
+        """What energy_error is relative to: max(|E0|, W), W = |g| sum_k m_k d_k the depth
+        of the potential well (derive/model/energy_scale.py): it cannot vanish, as |E0|
+        can for a motion like any other."""
+        return self._energy_error()[1]
+
+    def _energy_error(self) -> tuple[float, float]:
+        if "_energy_error_of" not in self.__dict__:
+            self.__dict__["_energy_error_of"] = (
+                exact_energy_error(self) if self.y_exact is not None else
+                relative_energy_error(self.energy, self.model, np.asarray(self.params, np.float64)))
+        return self.__dict__["_energy_error_of"]
 
     def raise_for_status(self) -> "SimulationResult":
         if not self.ok:
@@ -112,6 +147,7 @@ class SimulationResult:
         return self
 
 
+MULTISTEP_STOP = STATUS_NAMES[STATUS["MULTISTEP_UNSTABLE"]]    # abm12's guard stopped the run
 LAZY = object()                # energy/positions/velocities not computed yet (see `observe`)
 LOCAL_SUM = "local sum"        # error_kind of a run's own sum of local-error estimates
 _OBSERVED = ("energy", "positions", "velocities")

@@ -40,8 +40,8 @@ from .model_sizes import model_info
 from ..codegen.integrators import ModelInfo
 from ..codegen.contract import METHODS, STATUS_NAMES  # noqa: F401  (re-exported: the contract's tables)
 from ..codegen.contract import (ADAPTIVE, ATLAS_METHODS, COUNTERS, DEFAULT_METHOD, FIXED_ORDER, PRECISION,
-                                PRECISION_NAMES, PRECISION_TABLE, RUN_METHODS, STATUS, TAYLOR, TOLERANCE_METHODS,
-                                default_options)
+                                MULTISTEP, PRECISION_NAMES, PRECISION_TABLE, RUN_METHODS, STATUS, TAYLOR,
+                                TOLERANCE_METHODS, default_options)
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
 from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, plain_times
 from .runner import Settings, runner_for
@@ -362,7 +362,9 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     the grid), so a result does not depend on how many outputs were asked for.
     abm12 (12-step Adams-Bashforth-Moulton, PECE) has a small stability region: it
     stops with status 'multistep unstable' before a step whose predictor-corrector
-    difference exceeds atol + rtol |y| (rtol: the dtype's default unless given).  On the
+    difference (Milne's estimate of its local error) exceeds atol + rtol |y| (rtol: the
+    dtype's default unless given; atol: rtol 1e-3): r.guard is that (rtol, atol), and the
+    message of a run it stopped names them (a looser rtol loosens the guard).  On the
     planar double pendulum (unit masses and lengths, g = 9.81) h = 0.01 is too large for
     many states with fast rotation; see README "Fixed-step methods".
     Ctrl-C stops a run of the C backend within a step (the generated loops read a
@@ -708,12 +710,15 @@ def _drive(run, method: str, ts: np.ndarray, opt: dict, backend: str, budget_giv
 
 def _finish(result: SimulationResult, model: str, method: str, backend: str, dt: np.dtype, opt: dict,
             p: np.ndarray, atlas: bool = False, inputs=None) -> SimulationResult:
-    """A run's tolerance or step, and an adaptive single-model run's continuous solution
-    (`inputs`: a function giving the inputs at each output, or None)."""
+    """A run's tolerance or step (a multistep run: its guard's rtol and atol too), and an
+    adaptive single-model run's continuous solution (`inputs`: a function giving the inputs
+    at each output, or None)."""
     if method in TOLERANCE_METHODS:
         result.rtol = opt["rtol"]
     else:
         result.step = opt["h"]
+        if method in MULTISTEP:
+            result.guard = (float(opt["rtol"]), float(opt["atol"]))
     if method in ADAPTIVE and not atlas:
         result.sol = dense.dense_output(result, model, method, backend, dt, opt, p,
                                         None if inputs is None else inputs())

@@ -11,7 +11,7 @@ from ..model import load_model
 from ..model.atlas import find_atlas
 from ..paths import replace_file
 from .scene import SceneError
-from .run import conservative
+from .run import SCALE_TEXT, conservative, energy_error
 from ..progress import Stage
 
 
@@ -174,17 +174,19 @@ def energy_floor(dtype: str) -> float:
 
 
 def energy_figure(plt, o):
-    """|E - E0| / |E0| on a log axis that starts at the run's unit roundoff."""
+    """|E - E0| / max(|E0|, m g l) (the scale of the run's relative energy error,
+    derive/model/energy_scale.py) on a log axis that starts at the run's unit roundoff."""
     e = np.asarray(o.energy, float)
     fig, ax = plt.subplots(figsize=(6, 3))
     floor = energy_floor(o.choice.dtype)
+    scale = energy_error(o)[1]
     with np.errstate(invalid="ignore"):          # NaN after a run's stop stays NaN (not drawn)
-        rel = np.maximum(np.abs(e - e[0]) / max(abs(e[0]), 1e-300), floor)
+        rel = np.maximum(np.abs(e - e[0]) / scale, floor)
     ax.semilogy(o.result.t.astype(float), rel)
     top = float(np.nanmax(rel)) if np.isfinite(rel).any() else floor
     ax.set_ylim(floor, max(top * 10, floor * 100))     # a constant energy: a decade above the floor
     ax.set_xlabel("t")
-    ax.set_ylabel("|E - E0| / |E0|")
+    ax.set_ylabel(f"|E - E0| / {SCALE_TEXT}")
     what = "energy error" if conservative(o) else "energy change (work of forces and damping)"
     ax.set_title(f"{_plain(o.scene.title)}: {what} ({o.choice.method}, {o.choice.dtype})", fontsize=9)
     return fig

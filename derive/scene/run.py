@@ -11,19 +11,26 @@ Choosing the method for an accuracy target (the final-state error):
    pretended);
 3. a reference run a thousand times tighter measures the achieved error, and
    the trust horizon says until when the run resolves the true motion.
+
+A scene that fixes its method (and no target) is judged by the same reference run
+(for a fixed step: DOP853 far tighter than the step's local error h^order): its
+error is measured and printed, a run past its trust horizon says so, and a result
+that means nothing (a conservative model's relative energy error above 1, a
+non-finite state) is no "ok" (verdict()).
 """
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..codegen.contract import (ADAPTIVE, DEFAULT_METHOD, EXTENDED, LADDER, PRECISION as LADDER_TABLE,
-                                PRECISION_NAMES, PRECISION_TABLE, STATUS, STATUS_NAMES, TAYLOR)
+from ..codegen.contract import (ADAPTIVE, DEFAULT_METHOD, EXTENDED, FIXED_ORDER, LADDER, MULTISTEP,
+                                PRECISION as LADDER_TABLE, PRECISION_NAMES, PRECISION_TABLE,
+                                REFERENCE_METHOD, STATUS, STATUS_NAMES, TAYLOR)
 from ..errors import ModelError
+from ..runtime.energy_error import SCALE_TEXT, relative_energy_error
 from ..runtime.result import as_fields
 from ..runtime.simulate import SimulationError, SimulationResult, normalise_params, simulate
 from ..measurement.trust import (Lyapunov, REFERENCE_RTOL, atlas_lyapunov, initial_error,
@@ -51,6 +58,8 @@ PRECISION = {p.key: p.title for p in PRECISION_TABLE}
 # 15 times double-double, so a scene asks for it (scalar = "quad").
 CLIMB = ("float64", "longdouble", "double-double")
 EXIT_TARGET_MISSED = 3     # `derive run`: the run finished, but its accuracy target was not met
+EXIT_FAILED = 1            # `derive run`: the run stopped, or its result means nothing
+HORIZON_ERROR = 1e-8       # the error a trust horizon is for, where the scene sets no target
 CHUNKS = 20          # the integration runs in this many pieces, for the progress bar
 
 
@@ -63,6 +72,7 @@ class Choice:
     dtype: str
     predicted: float | None        # predicted final-state error
     note: str = ""
+    guard: tuple | None = None     # abm12: (rtol, atol) of its stability guard (None: simulate's)
 
 
 @dataclass
@@ -81,6 +91,9 @@ class Outcome:
     files: list[str] = field(default_factory=list)
     velocities: np.ndarray | None = None     # like positions
     show_progress: bool = False          # whether writing the outputs may draw a status line
+    early_error: float | None = None     # the error the run commits early on (its trust horizon's e0)
+    unmeasured: str = ""                 # why the achieved error was not measured ("" if it was)
+    energy_error: tuple | None = None    # (relative energy error, scale), once computed (energy_error())
 
 
 def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
@@ -99,15 +112,17 @@ def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
 def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
     if scene.method is not None:
         return Choice(scene.method, scene.rtol, None if scene.scalar in EXTENDED else scene.atol, scene.step,
-                      _dtype_of(scene.scalar), None, "as the scene asks")
+                      _dtype_of(scene.scalar), None, "as the scene asks", guard=scene.guard)
     growth = lyap.error_growth(scene.t_stop - scene.t_start) if lyap else 1.0
-    rtol = min(scene.target / (SAFETY * growth), RTOL_MAX)
-    method, dtype, rtol, note = climb(rtol, scene.target)
+    needed = min(scene.target / (SAFETY * growth), RTOL_MAX)
+    method, dtype, rtol, note = climb(needed, scene.target)
     if scene.scalar == "long double" and dtype in ("float64", "longdouble"):
         dtype = "longdouble"
-    elif scene.scalar in EXTENDED:
-        method, dtype = "taylor", scene.scalar
-        rtol = max(rtol, REFERENCE_RTOL_MIN[dtype])
+    elif scene.scalar in EXTENDED:          # the rung the scene asks for, whatever climb would pick
+        method, dtype = TAYLOR, scene.scalar
+        rtol = max(needed, _run_floor(dtype))
+        note = (f"target {scene.target:g} needs rtol {needed:.2g}, beyond {PRECISION[dtype]}: run at its "
+                f"floor rtol {rtol:g}, which reports what it achieves" if rtol > needed else "")
     elif scene.scalar == "float":            # the lowest precision: float where it can, else climb
         if rtol >= FLOAT_RTOL_MIN:
             method, dtype = DEFAULT_METHOD, "float32"
@@ -121,6 +136,42 @@ def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
 
 def _dtype_of(scalar: str) -> str:
     return PRECISION_NAMES.get(scalar, scalar)
+
+
+def _run_floor(key: str) -> float:
+    """The tightest rtol the planner gives a run on a rung at the top of its ladder: 100
+    times the rung's floor, so that its reference run stays tighter than the run."""
+    return 100 * LADDER_TABLE[key].rtol_floor
+
+
+def _not_below(scene: Scene, climbed: tuple, wanted: float) -> tuple[str, str, float]:
+    """(method, dtype, rtol) of a rerun at tolerance `wanted`: climb's choice, kept on the
+    rung the scene asks for (accuracy.scalar) where climb picks a lower one (a scene that
+    asks for quad runs in quad, at the tolerance wanted down to its floor)."""
+    method, dtype, rtol = climbed
+    asked = _dtype_of(scene.scalar)
+    if asked in LADDER and LADDER.index(dtype) < LADDER.index(asked) and asked != "float32":
+        if asked in EXTENDED:
+            return TAYLOR, asked, max(wanted, _run_floor(asked))
+        return method, asked, rtol
+    return method, dtype, rtol
+
+
+def local_tolerance(c: Choice) -> float:
+    """What a run's tolerance is for its early error (as derive.trust_horizon takes it).
+
+    Parameters
+    ----------
+    c : Choice
+
+    Returns
+    -------
+    float
+        rtol; for a fixed step h^order; 0 where neither is known.
+    """
+    if c.rtol is not None:
+        return c.rtol
+    return c.step ** FIXED_ORDER[c.method] if c.step is not None and c.method in FIXED_ORDER else 0.0
 
 
 def _rung_method(key: str) -> str:
@@ -137,7 +188,7 @@ def climb(rtol: float, target: float | None) -> tuple[str, str, float, str]:
     hardware = [k for k in CLIMB if not LADDER_TABLE[k].taylor_only]
     why = f"target {target:g} needs rtol {rtol:.2g}, beyond {LADDER_TABLE[hardware[-1]].title}"
     for key in CLIMB:
-        floor = 100 * LADDER_TABLE[key].rtol_floor if key == top else LADDER_TABLE[key].rtol_floor
+        floor = _run_floor(key) if key == top else LADDER_TABLE[key].rtol_floor
         if rtol >= floor:
             climbed = LADDER_TABLE[key].taylor_only
             note = f"{why}: climbed the precision ladder to {LADDER_TABLE[key].title} (Taylor)" if climbed else ""
@@ -195,9 +246,11 @@ def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
     bounds = np.linspace(0, len(t) - 1, pieces + 1).astype(int)
     y0, parts = p.y0, []
     for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+        # abm12's rtol and atol are its guard's (its step is the step; it runs untightened)
+        rtol, atol = c.guard if c.guard is not None and c.method in MULTISTEP else (c.rtol, c.atol)
         r = simulate(p.model, y0, t[a:b + 1], p.params, method=c.method,
-                     rtol=None if c.rtol is None else c.rtol / tighten,
-                     atol=None if c.atol is None or (dtype or c.dtype) in EXTENDED else c.atol / tighten,
+                     rtol=None if rtol is None else rtol / tighten,
+                     atol=None if atol is None or (dtype or c.dtype) in EXTENDED else atol / tighten,
                      step=None if c.step is None else c.step / tighten,
                      dtype=dtype or c.dtype, backend=scene.backend, inputs=scene.inputs)
         parts.append(r)
@@ -265,13 +318,17 @@ MAX_TIGHTENINGS = 3
 
 
 def reference_rtol(c: Choice) -> tuple[float, str]:
-    """(tolerance, precision) of the reference run: a thousand times tighter than the run,
-    in the run's precision or the rung of the ladder above it that takes that tolerance;
-    never tighter than quad can take (then the reference is only as much tighter as it
-    can be, and says so)."""
-    tight = (c.rtol or 1.0) / 1000
+    """(tolerance, precision) of the reference run: a thousand times tighter than the run
+    (a fixed step: than its local error h^order), in the run's precision or the rung of
+    the ladder above it that takes that tolerance; never tighter than quad can take (then
+    the reference is only as much tighter as it can be), never looser than RTOL_MAX / 1000.
+    A fixed-step run's reference stays in the hardware types (DOP853): its error is far
+    above their floor."""
+    tight = min(local_tolerance(c) or 1.0, RTOL_MAX) / 1000    # a huge step: as for the loosest target
     above = LADDER[LADDER.index(CLIMB[-1]) + 1:]          # rungs a scene asks for (quad)
     ladder = CLIMB + (above[:above.index(c.dtype) + 1] if c.dtype in above else ())
+    if c.rtol is None:
+        ladder = tuple(k for k in ladder if not LADDER_TABLE[k].taylor_only)
     start = ladder.index(c.dtype) if c.dtype in ladder else 0
     for dtype in ladder[start:]:
         if tight >= REFERENCE_RTOL_MIN[dtype]:
@@ -279,12 +336,55 @@ def reference_rtol(c: Choice) -> tuple[float, str]:
     return REFERENCE_RTOL_MIN[ladder[-1]], ladder[-1]
 
 
+def reference_method(c: Choice) -> str:
+    """The method of a run's reference run.
+
+    Parameters
+    ----------
+    c : Choice
+
+    Returns
+    -------
+    str
+        The run's own where it has a tolerance ("taylor" above long double), else (a
+        fixed step) REFERENCE_METHOD, DOP853.
+    """
+    if reference_rtol(c)[1] in EXTENDED:
+        return TAYLOR
+    return c.method if c.rtol is not None else REFERENCE_METHOD
+
+
 def _reference(p: Plan, scene: Scene, c: Choice) -> SimulationResult:
-    """The same run, far tighter (reference_rtol); above long double with Taylor's method."""
+    """The same run, far tighter (reference_rtol); above long double with Taylor's method;
+    a fixed-step run's with DOP853."""
     rtol, dtype = reference_rtol(c)
-    if dtype in EXTENDED and c.method != "taylor":
-        c = Choice("taylor", c.rtol, None, None, dtype, c.predicted, c.note)
+    if c.rtol is None:
+        c = Choice(reference_method(c), rtol, None if dtype in EXTENDED else rtol, None, dtype, None)
+    elif dtype in EXTENDED and c.method != TAYLOR:
+        c = Choice(TAYLOR, c.rtol, None, None, dtype, c.predicted, c.note)
     return integrate(p, scene, c, None, tighten=c.rtol / rtol, dtype=dtype)
+
+
+def reference_steps(scene: Scene, lyap: Lyapunov | None, c: Choice) -> float | None:
+    """About how many steps a run's reference run takes.
+
+    Parameters
+    ----------
+    scene : Scene
+    lyap : Lyapunov or None
+        Its steps a unit of time (at REFERENCE_RTOL) are scaled to the reference's tolerance.
+    c : Choice
+
+    Returns
+    -------
+    float or None
+        The steps over the scene's span; None where the rate is not known.
+    """
+    if lyap is None or not lyap.steps_per_time:
+        return None
+    rtol, dtype = reference_rtol(c)
+    order = ORDER.get(reference_method(c), ORDER[REFERENCE_METHOD])
+    return lyap.steps_per_time * max(1.0, (REFERENCE_RTOL / rtol) ** (1 / order)) * (scene.t_stop - scene.t_start)
 
 
 CHART_SINGULAR = STATUS_NAMES[STATUS["CHART_SINGULAR"]]
@@ -370,9 +470,12 @@ def _run_plan(scene: Scene, p: Plan, show_progress: bool, start: float) -> Outco
     result = integrate(p, scene, c, progress)
     if progress:
         progress.close()
-    achieved = None
-    measurable = c.method in ("dop853", "dopri5", "taylor")
-    if result.ok and measurable:
+    achieved, unmeasured = None, ""
+    steps_needed = reference_steps(scene, lyap, c) if c.rtol is None else None
+    if steps_needed is not None and steps_needed > MAX_SCENE_STEPS:     # a fixed step's judge, too dear
+        unmeasured = (f"its reference run ({REFERENCE_METHOD} at rtol {reference_rtol(c)[0]:.2g}) would take "
+                      f"about {steps_needed:.2g} steps")
+    if result.ok and not unmeasured:
         reference, ref_rtol = _reference(p, scene, c), reference_rtol(c)[0]
         achieved = _final_error(result, reference) if reference.ok else None
         # Tolerance proportionality is only approximate: when the measured error
@@ -383,12 +486,14 @@ def _run_plan(scene: Scene, p: Plan, show_progress: bool, start: float) -> Outco
             factor = SAFETY * achieved / scene.target
             if scene.method is not None:
                 break                     # the scene fixed its method: measured, not changed
-            if c.dtype == "float32" and c.rtol / factor < FLOAT_RTOL_MIN:     # float cannot go tighter
-                c.note = (c.note + "; " if c.note else "") + "beyond float: climbed the precision ladder"
             method, dtype, rtol, climbed = climb(c.rtol / factor, scene.target)
+            method, dtype, rtol = _not_below(scene, (method, dtype, rtol), c.rtol / factor)
             if dtype == c.dtype and rtol >= c.rtol:
                 break                     # at the top rung's floor: a rerun would change nothing
-            if climbed and dtype != c.dtype:      # a new rung: say why (once)
+            if c.dtype == "float32" and dtype != c.dtype:     # float cannot go tighter
+                c.note = (c.note + "; " if c.note else "") + \
+                    f"beyond float: climbed the precision ladder to {PRECISION[dtype]}"
+            elif climbed and dtype != c.dtype:      # a new rung: say why (once)
                 c.note = (c.note + "; " if c.note else "") + climbed
             c.method, c.dtype, c.rtol = method, dtype, rtol
             c.atol = None if c.dtype in EXTENDED else c.rtol
@@ -399,15 +504,32 @@ def _run_plan(scene: Scene, p: Plan, show_progress: bool, start: float) -> Outco
             if c.rtol < 100 * ref_rtol:           # the reference must stay far tighter
                 reference, ref_rtol = _reference(p, scene, c), reference_rtol(c)[0]
             achieved = _final_error(result, reference) if reference.ok else None
+        if result.ok and not reference.ok:
+            unmeasured = f"its reference run stopped at t = {reference.t_stop:g} ({reference.status_name})"
     result = _events(p, scene, c, result)
-    horizon = None
+    horizon = e0 = None
     if lyap is not None:
-        e0 = initial_error(c.rtol if c.rtol is not None else 0.0, c.dtype,
-                           float(np.max(np.abs(np.asarray(result.y[0], float)))))
-        horizon = trust_horizon(lyap, scene.target or 1e-8, e0) + scene.t_start
+        e0 = initial_error(local_tolerance(c), c.dtype, float(np.max(np.abs(np.asarray(result.y[0], float)))))
+        horizon = trust_horizon(lyap, horizon_error(scene), e0) + scene.t_start
     positions, velocities, energy = _observables(scene, p, result)
     return Outcome(scene, p, steps, c, lyap, horizon, result, positions, energy, achieved,
-                   time.perf_counter() - start, velocities=velocities, show_progress=show_progress)
+                   time.perf_counter() - start, velocities=velocities, show_progress=show_progress,
+                   early_error=e0, unmeasured=unmeasured)
+
+
+def horizon_error(scene: Scene) -> float:
+    """The error a scene's trust horizon is for.
+
+    Parameters
+    ----------
+    scene : Scene
+
+    Returns
+    -------
+    float
+        Its accuracy target, else HORIZON_ERROR (1e-8).
+    """
+    return scene.target if scene.target is not None else HORIZON_ERROR
 
 
 def conservative(o: Outcome) -> bool:
@@ -424,14 +546,141 @@ def target_met(o: Outcome) -> bool | None:
 
 
 def missed_reason(o: Outcome) -> str:
-    """One line: why the target was not met, with the trust horizon where it explains it."""
+    """One line: why the target was not met: the precision (or its floor tolerance) where
+    the run's early error is above the target from the start, the trust horizon where the
+    motion's chaos explains it, else the figures."""
     precision = PRECISION.get(o.choice.dtype, o.choice.dtype)
+    if never_trusted(o):
+        return (f"target {o.scene.target:g} out of reach with {precision} at rtol {o.choice.rtol:.2g}: "
+                f"its early error, about {o.early_error:.2g}, is above the target from the start; "
+                f"achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
     if o.trust_horizon is not None and o.trust_horizon < o.scene.t_stop:
         return (f"target {o.scene.target:g} out of reach after t = {o.trust_horizon:.3g} with {precision}: "
                 f"the motion's trust horizon (largest Lyapunov exponent "
                 f"{o.lyapunov.exponent:.3g}); achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
     return (f"target {o.scene.target:g} missed with {precision} at rtol {o.choice.rtol:.2g}: "
             f"achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
+
+
+def never_trusted(o: Outcome) -> bool:
+    """Whether a run's early error is above its trust horizon's error from the start.
+
+    Parameters
+    ----------
+    o : Outcome
+
+    Returns
+    -------
+    bool
+        True for a trust horizon at the start: not "trust nothing" but "never within
+        that error".
+    """
+    return o.trust_horizon is not None and o.trust_horizon <= o.scene.t_start
+
+
+def energy_error(o: Outcome) -> tuple[float, float]:
+    """The relative energy error of the scene's pendulum over the run, and its scale.
+
+    Parameters
+    ----------
+    o : Outcome
+
+    Returns
+    -------
+    (float, float)
+        max |E - E0| / scale and the scale max(|E0|, m g l) (derive/runtime/energy_error.py);
+        above long double from the exact states.
+    """
+    if o.energy_error is None:
+        r, p = o.result, o.plan
+        if r.y_exact is not None and (p.model == o.scene.model or p.plane is not None):
+            o.energy_error = (r.energy_error, r.energy_scale)
+        else:
+            o.energy_error = relative_energy_error(o.energy, o.scene.model,
+                                                   normalise_params(o.scene.model, o.scene.parameters))
+    return o.energy_error
+
+
+def meaningless(o: Outcome) -> str | None:
+    """Why a finished run's result plainly means nothing, if it does.
+
+    Parameters
+    ----------
+    o : Outcome
+
+    Returns
+    -------
+    str or None
+        One line for a non-finite state or energy, or a conservative model whose relative
+        energy error is above 1; None otherwise (and for a run that stopped: its stop says why).
+    """
+    r = o.result
+    if not r.ok:
+        return None
+    fix = ("give a smaller accuracy.step" if o.choice.step is not None and o.choice.method not in ADAPTIVE
+           else "give a smaller accuracy.rtol") + " or an accuracy.target"
+    knob = f"step {o.choice.step:g}" if o.choice.rtol is None else f"rtol {o.choice.rtol:.2g}"
+    t = np.asarray(r.t, float)
+    ran = (t - r.t_stop) * np.sign(t[-1] - t[0]) <= 0         # the rows up to a terminal event's stop
+    for what, values in (("state", r.y), ("energy", o.energy)):
+        if not np.all(np.isfinite(np.asarray(values, float)[ran])):
+            return f"result meaningless: the {what} is not finite by t = {r.t_stop:g}; {fix}"
+    error, scale = energy_error(o)
+    if conservative(o) and not error <= 1:
+        return (f"result meaningless: relative energy error {error:.2g} at t = {r.t_stop:g} (above 1): "
+                f"{o.choice.method} at {knob} does not follow the motion; {fix}")
+    return None
+
+
+def verdict(o: Outcome) -> tuple[int, str | None]:
+    """The judgement of a scene's run, for `derive run`.
+
+    Parameters
+    ----------
+    o : Outcome
+
+    Returns
+    -------
+    (int, str or None)
+        The exit status and the one line that says why: EXIT_FAILED for a stop or a
+        meaningless result, EXIT_TARGET_MISSED for a missed target, else (0, None).
+    """
+    if not o.result.ok:
+        return EXIT_FAILED, f"run failed: {o.result.message}{pole_hint(o)}"
+    why = meaningless(o)
+    if why is not None:
+        return EXIT_FAILED, why
+    if target_met(o) is False:
+        return EXIT_TARGET_MISSED, missed_reason(o)
+    return 0, None
+
+
+def run_warnings(o: Outcome) -> list[str]:
+    """The warnings of a scene's run, one line each.
+
+    Parameters
+    ----------
+    o : Outcome
+
+    Returns
+    -------
+    list of str
+        A run with no target that goes past its trust horizon (a run with a target is
+        judged by it instead), unless its measured error is within the horizon's error
+        all the same (the horizon is a prediction; the measurement is the run's).
+    """
+    if o.scene.target is not None or not o.result.ok or o.trust_horizon is None:
+        return []
+    level = horizon_error(o.scene)
+    if o.achieved is not None and o.achieved <= level:
+        return []
+    if never_trusted(o):
+        return [f"warning: the run is never within error {level:g} of the true motion: its early "
+                f"error, about {o.early_error:.2g}, is above it from the start"]
+    if o.trust_horizon < o.scene.t_stop:
+        return [f"warning: t = {o.scene.t_stop:g} is past the trust horizon t = {o.trust_horizon:.3g} "
+                f"for error {level:g}: the run does not resolve the true motion beyond it"]
+    return []
 
 
 def _event_summary(r: SimulationResult) -> dict | None:
@@ -445,11 +694,9 @@ def _event_summary(r: SimulationResult) -> dict | None:
 
 def summary(o: Outcome) -> dict:
     r = o.result
-    e = np.asarray(o.energy, float)
-    change = np.abs(e - e[0])
-    change = change[np.isfinite(change)]            # a run that stopped is NaN after its stop
-    drift = float(change.max() / max(abs(e[0]), 1e-300)) if change.size else math.nan
-    reference = reference_rtol(o.choice) if o.choice.rtol is not None else None
+    drift, scale = energy_error(o)
+    nonsense = meaningless(o)
+    reference = None if o.unmeasured else reference_rtol(o.choice)
     return {
         "scene": o.scene.source, "title": o.scene.title,
         "model": o.plan.model, "model_reason": o.plan.reason,
@@ -460,17 +707,22 @@ def summary(o: Outcome) -> dict:
         "target_met": target_met(o), "precision": PRECISION.get(o.choice.dtype, o.choice.dtype),
         "reference_rtol": reference[0] if reference else None,
         "reference_precision": PRECISION.get(reference[1], reference[1]) if reference else None,
+        "reference_method": reference_method(o.choice) if reference else None,
+        "not_measured": o.unmeasured or None,
+        "error_estimate": r.error_estimate, "error_kind": r.error_kind,     # the run's own (result.py)
         "lyapunov_exponent": o.lyapunov.exponent if o.lyapunov else None,
         "lyapunov_window": o.lyapunov.t_end if o.lyapunov else None,   # the span it was measured over
         "lyapunov_note": o.lyapunov.window_note if o.lyapunov else "",
-        "trust_horizon": o.trust_horizon,
-        "status": r.status_name, "ok": r.ok, "message": r.message, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
+        "t_start": o.scene.t_start, "trust_horizon": o.trust_horizon, "horizon_error": horizon_error(o.scene),
+        "early_error": o.early_error,
+        "status": "meaningless" if nonsense else r.status_name, "ok": r.ok and nonsense is None,
+        "message": nonsense or r.message, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
         "chart_switches": int(r.switches) if r.chart is not None else None,
         "final_state": [float(v) for v in (r.y[-1] if r.ok and not r.terminal_event else r.y_stop)],
         "events": _event_summary(r), "terminal_event": r.terminal_event,
-        "relative_energy_error": drift,
+        "relative_energy_error": drift, "energy_scale": scale, "energy_scale_is": SCALE_TEXT,
         # with applied forces or damping the energy changes by the work they do: not an error
         "conservative": conservative(o),
         "steps": [s.line() for s in o.steps], "files": o.files, "seconds": o.seconds,
-        "note": o.choice.note,
+        "note": o.choice.note, "warnings": run_warnings(o),
     }

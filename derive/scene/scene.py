@@ -11,7 +11,7 @@ from ..paths import exists, read_input_text
 from ..model.description import NAME, parameter_problem
 from ..paths import scenes_dir
 from ..model import ModelError, is_model_file, load_model
-from ..codegen.contract import ATLAS_CHARTS, EXTENDED, FIXED, RUN_METHODS, SCALARS as CONTRACT_SCALARS, TAYLOR     # the run contract
+from ..codegen.contract import ATLAS_CHARTS, EXTENDED, FIXED, MULTISTEP, RUN_METHODS, SCALARS as CONTRACT_SCALARS, TAYLOR     # the run contract
 
 from ..model.atlas import ATLAS, atlas_for, find_atlas, standard_member  # noqa: E402  (chart atlases)
 from ..runtime.events import parse_events
@@ -47,6 +47,7 @@ class Scene:
     plots: tuple[str, ...] = ()
     events: dict | None = None       # [events]: name -> expression or {expression, direction, terminal}
     atlas: bool | None = None        # pendulum.atlas; None: the chart atlas where the motion needs it
+    guard: tuple | None = None       # abm12: (rtol, atol) of its stability guard (None: simulate's default)
 
 
 def _table(t: dict, key: str, where: str, required: bool = True) -> dict:
@@ -259,13 +260,16 @@ def _parse_accuracy(t: dict) -> dict:
             if "step" not in t:
                 raise SceneError(f"[accuracy]: method '{method}' needs 'step'")
             out["step"] = _number(t["step"], "accuracy.step", positive=True)
+            if method in MULTISTEP:       # rtol, atol: the threshold of its stability guard
+                out["guard"] = tuple(_number(t[k], f"accuracy.{k}", positive=True) if k in t else None
+                                     for k in ("rtol", "atol"))
         else:
             out["rtol"] = _number(t.get("rtol", 1e-9), "accuracy.rtol", positive=True)
             out["atol"] = _number(t.get("atol", 1e-12), "accuracy.atol", positive=True)
     else:
         out["target"] = 1e-8
     for key in ("step", "rtol", "atol"):
-        if key in t and out[key] is None:
+        if key in t and out[key] is None and not (key != "step" and "guard" in out):
             raise SceneError(f"'accuracy.{key}' does not apply here")
     out["scalar"] = _choice(t.get("scalar", "double"), "accuracy.scalar", SCALARS)
     if out["scalar"] in EXTENDED and out["method"] not in (None, TAYLOR):

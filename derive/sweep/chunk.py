@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..runtime.energy_error import scale_of
 from ..runtime.runner import library_path, runner_for
 from . import level_crossings as ev
 from .bounds import energy as _energy, n_params as _n_params, unreachable
@@ -98,6 +99,8 @@ class _Batch:
         self.energy = "energy_error" in sweep.record
         if self.energy:
             self.E0 = _energy(model, y0, p[:, :self.n_params])
+            # relative to max(|E0|, m g l), which cannot vanish as |E0| can (runtime/energy_error.py)
+            self.scale = np.broadcast_to(scale_of(model, self.p[:, :self.n_params], self.E0), (B,))
             self.drift = np.zeros(B)
 
     def slab(self, ts: np.ndarray) -> None:
@@ -117,7 +120,7 @@ class _Batch:
         if self.energy:
             E = _energy(self.model, y, p_rows[:, None, :self.n_params])
             change = np.nanmax(np.abs(E - self.E0[rows, None]), axis=1, initial=0.0)
-            self.drift[rows] = np.fmax(self.drift[rows], change / np.maximum(np.abs(self.E0[rows]), 1e-300))
+            self.drift[rows] = np.fmax(self.drift[rows], change / self.scale[rows])
         self.state[rows] = y[:, -1]
         self.status[rows] = np.where(self.status[rows] == 0, st, self.status[rows])
         self.active[rows[st != 0]] = False

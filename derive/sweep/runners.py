@@ -58,7 +58,8 @@ def runner(model: str, method: str, rtol: float | None, atol: float | None, step
 def scene_runner(sweep: Sweep, model: str):
     """The runner of the sweep's own method and tolerance (the first pass)."""
     scene = sweep.scene
-    return runner(model, scene.method, scene.rtol, scene.atol, scene.step)
+    rtol, atol = scene.guard if scene.guard is not None else (scene.rtol, scene.atol)    # abm12: its guard's
+    return runner(model, scene.method, rtol, atol, scene.step)
 
 
 def status_of(infos) -> np.ndarray:

@@ -34,6 +34,7 @@ import numpy as np
 from ..paths import VERSION as __version__
 from ..errors import UsageError
 from .layout import Layout
+from ..model.energy_scale import SCALE_TEXT
 from .sweep_file import SAMPLE_DIM, Sweep
 
 DONE = "chunk_done"
@@ -49,10 +50,17 @@ def identity(sweep: Sweep) -> str:
              "accuracy": [s.method, s.rtol, s.atol, s.step], "record": sweep.record,
              "events": [(e.name, e.coordinate, e.level, e.accuracy) for e in sweep.events], "chunk": sweep.chunk,
              "axes": [(a.name, a.kind) for a in sweep.axes]}
+    if s.guard is not None:              # abm12's guard (only where given: older stores keep their hash)
+        parts["guard"] = list(s.guard)
     h.update(json.dumps(parts, sort_keys=True).encode())
     for a in sweep.axes:
         h.update(np.ascontiguousarray(a.values, float).tobytes())
     return h.hexdigest()
+
+
+# what a variable is, where its name does not say it all
+VARIABLE_ATTRS = {"energy_error": {"long_name": f"largest |E - E0| / {SCALE_TEXT} over the samples "
+                                                f"(m g l: the depth of the potential well, derive.model.energy_scale)"}}
 
 
 def _dataset(sweep: Sweep, layout: Layout, names: list[str]):
@@ -67,7 +75,8 @@ def _dataset(sweep: Sweep, layout: Layout, names: list[str]):
     data = {}
     for name in names:
         dtype, fill = (np.int8, NOT_RUN) if name == "status" else (np.float64, np.nan)
-        data[name] = (sweep.dims, da.full(sweep.shape, fill, dtype=dtype, chunks=layout.chunks))
+        data[name] = (sweep.dims, da.full(sweep.shape, fill, dtype=dtype, chunks=layout.chunks),
+                      VARIABLE_ATTRS.get(name, {}))
     done_dims = tuple(f"chunk_{d}" for d in sweep.dims)
     data[DONE] = (done_dims, da.zeros(layout.grid, dtype=np.int8, chunks=(1,) * len(layout.grid)))
     attrs = {"title": sweep.scene.title, "model": sweep.scene.model, "sweep_sha256": identity(sweep),

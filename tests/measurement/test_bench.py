@@ -163,3 +163,26 @@ def test_the_two_lambdify_peers_compute_the_same_rhs():
     a, b = plain(0.0, y, *p), cse(0.0, y, *p)
     assert np.allclose(a, b, rtol=1e-13, atol=0)
     assert np.allclose(a, P.hand_numpy_rhs(0.0, y, *p), rtol=1e-12, atol=0)
+
+
+def test_abm12_is_timed_as_simulate_runs_it():
+    """The benchmark's abm12 is simulate's: the generated integrator with its stability
+    guard at simulate's default rtol (not the guard-free loop).  At h = 0.01 on the regular
+    problem it fails as simulate does, naming the guard; at h = 0.005 its final state and
+    rhs evaluations are simulate's, bit for bit."""
+    from derive import simulate
+    from derive.measurement.bench.toolkit_series import toolkit_configs
+    problem = next(p for p in B.PROBLEMS if p.name == "regular")
+    configs = toolkit_configs(problem, B.BenchOptions())
+    assert not [c for c in configs if c.method == "abm12" and c.backend == "c-loop"]
+    abm12 = {round(c.step, 6): c for c in configs if c.series == "abm12 C float64"}
+    final, nfev, ok, message = abm12[0.01].make()()
+    assert not ok and message == ("multistep unstable (step too large for abm12): Milne's error estimate "
+                                  "above atol + rtol |y| (rtol 1e-09, atol 1e-12, simulate's defaults)")
+    for step in (0.01, 0.005):
+        final, nfev, ok, message = abm12[step].make()()
+        r = simulate(problem.model, problem.y0_input(), [0.0, problem.t_end], list(problem.params),
+                     method="abm12", step=abm12[step].step)
+        assert ok == r.ok and nfev == r.nfev
+        if ok:
+            assert np.array_equal(np.asarray(final, np.float64), r.y[-1])

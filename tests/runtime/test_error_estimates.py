@@ -100,3 +100,23 @@ def test_a_bad_error_estimate_is_one_line():
 def test_the_start_alone_needs_no_rerun():
     r = derive.simulate("planar", REGULAR, [0.0], PLANAR, method="rk4", error_estimate="rerun")
     assert r.error_estimate == 0.0 and r.error_y.shape == (1, 4) and not r.error_y.any()
+
+
+def test_the_energy_error_is_relative_to_a_scale_that_cannot_vanish():
+    """Released at rest with both links horizontal, E0 is 0 to rounding: |E - E0| / |E0|
+    would be far above 1 for an accurate run.  r.energy_error is relative to max(|E0|, m g l)
+    = 9.81 (1 + 2) for unit masses and lengths, the potential well's depth."""
+    r = derive.simulate("planar", [np.pi / 2, np.pi / 2, 0, 0], np.linspace(0, 5, 101), PLANAR, rtol=1e-10)
+    change = float(np.max(np.abs(r.energy - r.energy[0])))
+    assert abs(r.energy[0]) < 1e-12 and change / abs(r.energy[0]) > 1          # the old figure
+    assert r.energy_scale == pytest.approx(29.43) and r.energy_error == pytest.approx(change / 29.43)
+    assert r.energy_error < 1e-8
+    fast = derive.simulate("planar", [0.0, 0.0, 20.0, 0.0], [0, 1], PLANAR)       # |E0| above m g l
+    assert fast.energy_scale == pytest.approx(abs(float(fast.energy[0])))
+
+
+def test_a_double_double_energy_error_is_the_runs_not_its_rounding():
+    """Above long double the energies are evaluated from the exact states: the figure is
+    the run's own drift (about 1e-25 at rtol 1e-22), not 0 nor long double's 1e-19."""
+    r = derive.simulate("planar", [2.5, 2.0, 0, 0], np.linspace(0, 1, 11), PLANAR, dtype="double-double", rtol=1e-22)
+    assert 0 < r.energy_error < 1e-22 and r.energy_scale == pytest.approx(29.43)

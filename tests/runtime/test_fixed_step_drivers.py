@@ -198,6 +198,20 @@ def test_abm12_is_accurate_or_says_it_is_unstable():
     assert kinds["accurate"] > 10 and kinds["unstable"] > 10, kinds
 
 
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_abm12_stopped_by_its_guard_names_it_and_how_to_loosen_it(backend):
+    """The regular case at h = 0.01 (the benchmark's step): at the default rtol the guard
+    stops it at t = 0.77, and the message says which guard, its threshold and the option
+    that loosens it; loosened (rtol = 1e-6) it reaches t = 20."""
+    y0, t = [1.0, 0.5, 0.0, 0.0], np.linspace(0, 20, 201)
+    r = derive.simulate("planar", y0, t, PLANAR, method="abm12", step=0.01, backend=backend)
+    assert not r.ok and r.t_stop == pytest.approx(0.77) and r.guard == pytest.approx((1e-9, 1e-12))
+    assert r.message.endswith("; the guard: Milne's error estimate above atol + rtol |y| (rtol 1e-09, "
+                              "atol 1e-12): loosen rtol (and atol), or take a smaller step"), r.message
+    loose = derive.simulate("planar", y0, t, PLANAR, method="abm12", step=0.01, rtol=1e-6, backend=backend)
+    assert loose.ok and loose.guard == pytest.approx((1e-6, 1e-9)), loose.message
+
+
 def test_abm12_numpy_and_c_agree():
     c = derive.simulate("planar", Y0, np.linspace(0, 1, 11), PLANAR, method="abm12", step=0.005)
     n = derive.simulate("planar", Y0, np.linspace(0, 1, 11), PLANAR, method="abm12", step=0.005,

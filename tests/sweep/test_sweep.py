@@ -145,6 +145,21 @@ def test_cli_sweep_writes_store_and_images(tmp_path, capsys):
     assert "0 computed on this process, 3 done before" in capsys.readouterr().out
 
 
+def test_energy_error_has_no_outlier_where_the_energy_is_zero(tmp_path):
+    """The grid holds theta1 = theta2 = pi/2 at rest, where E0 = 0 to rounding: relative to
+    |E0| its energy error was an outlier by orders of magnitude; relative to max(|E0|, m g l)
+    it is one of the others, and the store says what the variable is relative to."""
+    path = tmp_path / "e.toml"
+    path.write_text(SMALL.format(record='["energy_error"]', stop=2.0, outputs=101, n1=3, n2=3, chunk=9)
+                    .replace('linspace = ["-pi", "pi"]', 'linspace = ["-pi/2", "pi/2"]')
+                    .replace("linspace = [-3.0, 3.0]", 'linspace = ["-pi/2", "pi/2"]'))
+    ds = derive.sweep(path, out=tmp_path / "o", workers=0)
+    errors = ds.energy_error.values
+    assert abs(ds.theta1.values[-1] - np.pi / 2) < 1e-15 and abs(ds.theta2.values[-1] - np.pi / 2) < 1e-15
+    assert np.all(errors < 1e-8) and errors[-1, -1] < 100 * np.median(errors)
+    assert "max(|E0|, m g l)" in ds.energy_error.attrs["long_name"]
+
+
 # -- event location -------------------------------------------------------------------------
 
 def _textbook_rhs(t, y):

@@ -19,6 +19,7 @@ from ..trust import Lyapunov, atlas_lyapunov, initial_error, largest_lyapunov, t
 from . import toolkit
 from .problems import DTYPE_EPS, METHOD_ORDER, BenchOptions, Config, Problem, np_dtype, prepared
 from .timing import Timing, timed_rounds
+from ...codegen.contract import MULTISTEP
 from ...codegen.loops import FIXED_METHODS
 from ...derivation.cartesian import cartesian_to_state, link_lengths, state_to_cartesian
 from ...runtime.simulate import simulate
@@ -144,7 +145,9 @@ def horizons(info: ProblemInfo, c: Config, opts: BenchOptions, cache: dict) -> t
     if c.rtol is not None:
         e0 = initial_error(c.rtol, np_dtype(c.dtype), info.scale)
     else:
-        backend = "c-loop" if c.backend == "c-loop" else "c"
+        # a multistep method's own steps follow its start: measured on its loop (the same
+        # formula; one step of the integrator would be the starter's)
+        backend = "c-loop" if c.backend == "c-loop" or c.method in MULTISTEP else "c"
         key = (c.method if c.method in METHOD_ORDER else "rk4", c.dtype, c.step, backend)
         if key not in cache:
             if "samples" not in cache:

@@ -12,7 +12,7 @@ import numpy as np
 from .. import peers as P
 from ..reference import comparison_vector
 from . import toolkit
-from .problems import PEER_DIVISORS, PEER_RTOLS, BenchOptions, Config, Problem, fixed_step, prepared
+from .problems import PEER_DIVISORS, PEER_RTOLS, BenchOptions, Config, Problem, energy_scale, fixed_step, prepared
 from ...derivation.cartesian import cartesian_to_state, link_lengths
 
 # the two lambdify peers: plain `sympy.lambdify` (its default, cse=False) and the stronger
@@ -123,7 +123,7 @@ def peer_configs(problem: Problem, opts: BenchOptions) -> list[Config]:
         out += _loop_configs(problem, opts.quick)
     energy, y0 = toolkit.energy_of(problem), list(problem.y0)
     for c in out:
-        c.observe = (lambda e: lambda final: abs(e(final) - e(y0)) / (abs(e(y0)) or 1.0))(energy)
+        c.observe = (lambda e: lambda final: abs(e(final) - e(y0)) / energy_scale(problem, e(y0)))(energy)
     return out
 
 

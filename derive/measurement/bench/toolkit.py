@@ -17,7 +17,7 @@ import ctypes
 import numpy as np
 
 from ..reference import comparison_vector
-from ...codegen.contract import SINE_MIN
+from ...codegen.contract import MULTISTEP, SINE_MIN, STATUS, STATUS_NAMES
 from ...codegen.sources import c_source
 from ...model.atlas import ATLAS
 from ...paths import bench_c_dir
@@ -29,7 +29,8 @@ from .problems import np_dtype, prepared
 
 
 def integrator_options(rtol, step) -> dict:
-    """The options of one integrator run: rtol (atol = rtol 1e-3) or the fixed step h."""
+    """The options of one integrator run: rtol (atol = rtol 1e-3) or the fixed step h; a
+    fixed step's rtol and atol are simulate's defaults (abm12's guard: 1e-9, 1e-12)."""
     return {"rtol": rtol if rtol is not None else 1e-9, "atol": (rtol if rtol is not None else 1e-9) * 1e-3,
             "h": step or 0.0, "hmin": 0.0, "hmax": 0.0, "max_steps": 100_000_000, "newton_tol": 0.0,
             "newton_max": 30, "sine_min": float(SINE_MIN)}
@@ -72,13 +73,36 @@ def integrator_run(problem, method: str, backend: str, dtype: str, rtol, step):
     return _numpy_run(r, method, y0, pd, t, dt, opt, vec)
 
 
+def status_text(status: int, method: str, opt: dict) -> str:
+    """A run's status in words, as a failed row's note gives it.
+
+    Parameters
+    ----------
+    status : int
+        The integrator's status code.
+    method : str
+    opt : dict
+        The run's options (integrator_options).
+
+    Returns
+    -------
+    str
+        The status's name; for a multistep run its guard stopped, the guard and its threshold.
+    """
+    text = STATUS_NAMES[status] if 0 <= status < len(STATUS_NAMES) else f"status {status}"
+    if status == STATUS["MULTISTEP_UNSTABLE"] and method in MULTISTEP:
+        text += (f": Milne's error estimate above atol + rtol |y| (rtol {opt['rtol']:.3g}, "
+                 f"atol {opt['atol']:.3g}, simulate's defaults)")
+    return text
+
+
 def _c_run(r, y0, pd, t, opt, vec):
     y0b = y0[None, :]
 
     def run():
         y, infos, _ = r.batch(y0b, pd, t, opt)
         inf = infos[0]
-        return vec(y[0, -1], None), inf.nfev, inf.status == 0, f"status {inf.status}"
+        return vec(y[0, -1], None), inf.nfev, inf.status == 0, status_text(inf.status, r.method, opt)
     return run
 
 
@@ -98,7 +122,7 @@ def _numpy_run(r, method, y0, pd, t, dt, opt, vec):
 
     def run():
         st, y, inf = mod.integrate(method, y0, pd, t, dt, **opt)
-        return vec(y[-1], None), int(inf["nfev"]), st == 0, f"status {st}"
+        return vec(y[-1], None), int(inf["nfev"]), st == 0, status_text(st, method, opt)
     return run
 
 

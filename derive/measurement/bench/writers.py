@@ -98,7 +98,8 @@ def _header(result: BenchResult, opts: BenchOptions) -> list[str]:
              f"{m.get('loadavg')} (the machine may be shared: timings are medians of repeats).",
              "", f"Command: `derive bench{' --quick' if opts.quick else ''} --repeats {opts.repeats}` "
              f"({result.seconds:.0f} s).  Every row of `bench.csv`: final-state error against the reference, "
-             "largest relative energy error over 41 output times (peers: at t_end), median wall time, "
+             "largest relative energy error over 41 output times (peers: at t_end; relative to max(|E0|, m g l), "
+             "m g l the potential well's depth), median wall time, "
              "rhs evaluations, trust horizons.  Timings call the compiled integrators directly.", ""]
     for n in result.notes:
         lines.append(f"- Note: {n}")
