@@ -73,7 +73,7 @@ def integrator_run(problem, method: str, backend: str, dtype: str, rtol, step):
     return _numpy_run(r, method, y0, pd, t, dt, opt, vec)
 
 
-def status_text(status: int, method: str, opt: dict) -> str:
+def status_text(status: int, method: str, opt) -> str:
     """A run's status in words, as a failed row's note gives it.
 
     Parameters
@@ -81,8 +81,8 @@ def status_text(status: int, method: str, opt: dict) -> str:
     status : int
         The integrator's status code.
     method : str
-    opt : dict
-        The run's options (integrator_options).
+    opt : dict or ctypes.Structure
+        The run's options (integrator_options, or the runner's struct of them).
 
     Returns
     -------
@@ -91,8 +91,9 @@ def status_text(status: int, method: str, opt: dict) -> str:
     """
     text = STATUS_NAMES[status] if 0 <= status < len(STATUS_NAMES) else f"status {status}"
     if status == STATUS["MULTISTEP_UNSTABLE"] and method in MULTISTEP:
-        text += (f": Milne's error estimate above atol + rtol |y| (rtol {opt['rtol']:.3g}, "
-                 f"atol {opt['atol']:.3g}, simulate's defaults)")
+        get = opt.get if isinstance(opt, dict) else lambda key: getattr(opt, key)
+        text += (f": Milne's error estimate above atol + rtol |y| (rtol {get('rtol'):.3g}, "
+                 f"atol {get('atol'):.3g}, simulate's defaults)")
     return text
 
 
