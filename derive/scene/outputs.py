@@ -24,10 +24,29 @@ TIME_LABEL = "t (s)"
 ENERGY_UNIT = "J"
 
 
+def state_columns(model: str) -> list[str]:
+    """The names of a model's state columns.  An atlas's rows are in different charts
+    (the chart column says which): a column is named by its entry in every member chart,
+    joined by "_or_" where they differ (theta1_or_vartheta1, ...).
+
+    Parameters
+    ----------
+    model : str
+        A model or an atlas.
+
+    Returns
+    -------
+    list of str
+    """
+    atlas = find_atlas(model)
+    if atlas is None:
+        return list(load_model(model).state_names)
+    per_chart = [load_model(chart).state_names for chart in atlas.charts]
+    return ["_or_".join(dict.fromkeys(names)) for names in zip(*per_chart)]
+
+
 def _state_names(o) -> list[str]:
-    if find_atlas(o.plan.model) is not None:         # rows in different charts
-        return [f"y{k}" for k in range(o.result.y.shape[1])]
-    return list(load_model(o.plan.model).state_names)
+    return state_columns(o.plan.model)
 
 
 def _columns(o) -> tuple[list[str], np.ndarray]:

@@ -251,3 +251,43 @@ def test_the_trust_horizon_of_a_numpy_run_needs_no_compiler(tmp_path, monkeypatc
     monkeypatch.setattr(loader, "build_library", no_compiler)
     horizon = trust_horizon_of(r)
     assert 2.0 < horizon < 30.0                  # chaotic: lambda ~ 2, e0 ~ 1e-10
+
+
+def test_an_atlas_run_names_its_columns_and_its_final_state(tmp_path, capsys):
+    """The atlas's rows are in different charts: the CSV names each state column by its
+    entry in every chart (no y0..y7) beside the chart column, the NPZ says the same, and
+    --json names the final state's entries in the chart it ends in."""
+    text = (SCENES / "spherical_pole.toml").read_text()
+    for old, new in [("stop = 10.0", "stop = 2.0"), ("outputs = 1001", "outputs = 201"),
+                     ('trajectory = ["csv"]', 'trajectory = ["csv", "npz"]'),
+                     ('plots = ["paths", "energy", "animation"]', "plots = []")]:
+        assert old in text, old
+        text = text.replace(old, new)
+    (tmp_path / "s.toml").write_text(text)
+    run_ = subprocess.run([sys.executable, "-m", "derive", "run", str(tmp_path / "s.toml"), "--json",
+                           "--output-dir", str(tmp_path / "out")], env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                          cwd=tmp_path, capture_output=True, text=True, timeout=1200)
+    assert run_.returncode == 0, run_.stderr
+    s = json.loads(run_.stdout)
+    lines = (tmp_path / "out" / "s.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    assert header[:9] == ["t", "theta1_or_vartheta1", "phi1_or_varphi1", "theta2_or_vartheta2",
+                          "phi2_or_varphi2", "theta1_dot_or_vartheta1_dot", "phi1_dot_or_varphi1_dot",
+                          "theta2_dot_or_vartheta2_dot", "phi2_dot_or_varphi2_dot"]
+    assert header[-1] == "chart" and not any(c.startswith("y") and c[1:].isdigit() for c in header)
+    charts = [line.rsplit(",", 1)[1] for line in lines[1:]]
+    assert set(charts) <= {"spherical_std", "spherical_alt", "spherical_rot"}
+    changes = sum(a != b for a, b in zip(charts, charts[1:]))
+    assert changes >= 1 and s["chart_switches"] >= changes        # every change of chart is counted
+    from derive.model import load_model
+    assert s["final_chart"] == charts[-1]
+    assert s["state_names"] == load_model(charts[-1]).state_names
+    last = [float(v) for v in lines[-1].split(",")[1:9]]
+    np.testing.assert_allclose(s["final_state"], last, rtol=0, atol=1e-15)
+    with np.load(tmp_path / "out" / "s.npz") as npz:
+        assert list(npz["state_names"]) == header[1:9] and list(npz["chart"]) == charts
+    from derive.cli import _print_run
+    _print_run(s)
+    state = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("state "))
+    first = s["state_names"][0]
+    assert state.startswith(f"state   {first} = ") and state.endswith(f"(chart {charts[-1]})")
