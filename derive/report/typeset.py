@@ -391,6 +391,12 @@ def _ident_tex(tok: str) -> str:
     return out
 
 
+def _symbol_a(toks, i: int) -> bool:
+    """The letter a as a symbol, not the article: right before a comma or a bracket, as
+    in (c, a) or (a, c)."""
+    return toks[i][1] == "a" and i + 1 < len(toks) and toks[i + 1][1] in ",;)"
+
+
 def _is_word(tok: str) -> bool:
     """An English word (text), not a symbol, function or derivative name (math)."""
     if not re.fullmatch(r"[A-Za-z]+", tok):
@@ -514,7 +520,7 @@ def prose(text: str, display: bool = False, literal=()) -> str:
         elif kind == "ident" and re.fullmatch(r"[A-Za-z]+_[a-z]{3,}", tok):
             kinds.append("name")
         elif kind == "ident":
-            kinds.append("text" if _is_word(tok) else "math")
+            kinds.append("text" if _is_word(tok) and not _symbol_a(toks, len(kinds)) else "math")
         elif kind in ("num", "op", "power", "dims"):
             kinds.append("math")
         elif kind == "other" and tok in _UNI:
