@@ -332,7 +332,8 @@ def _print_run(summary: dict) -> None:
         print(f"event   {name} ({e['expression']}): {len(e['t'])} crossing{'s' * (len(e['t']) != 1)}"
               + (f" at t = {when}" if e["t"] else "")
               + (" -- terminal: the run stops there" if s.get("terminal_event") == name else ""))
-    print(f"state   {', '.join(f'{v:.10g}' for v in s['final_state'])}")
+    print(f"state   {', '.join(f'{n} = {v:.10g}' for n, v in zip(s['state_names'], s['final_state']))}"
+          + (f" (chart {s['final_chart']})" if s["final_chart"] else ""))
     for f in s["files"]:
         print(f"wrote   {f}")
     print(f"time    {s['seconds']:.2f} s"

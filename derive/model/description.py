@@ -89,6 +89,9 @@ class Link:
     body: Body
 
 
+SI_UNITS = {"length": "m", "mass": "kg", "inertia": "kg m²", "gravity": "m/s²", "fraction": ""}
+
+
 @dataclass(frozen=True)
 class Model:
     name: str
@@ -124,6 +127,27 @@ class Model:
                 if name is not None:
                     roles.setdefault(name, role)
         return roles
+
+    def unit_of(self, name: str) -> str | None:
+        """The SI unit of a coordinate, rate or parameter called `name` (a scene's numbers
+        are SI by convention): rad and rad/s for the chart angles and their rates, m, kg,
+        kg m² and m/s² for lengths, masses, inertias and g, "" for a fraction of a length;
+        None where it is not known (a damping coefficient, an input, another name).
+
+        Parameters
+        ----------
+        name : str
+            A state or parameter name of this model.
+
+        Returns
+        -------
+        str or None
+        """
+        if name in self.coordinate_names:
+            return "rad"
+        if name in self.rate_names:
+            return "rad/s"
+        return SI_UNITS.get(self.parameter_roles().get(name, "") if name in self.parameters else "")
 
     @cached_property
     def content_hash(self) -> str:

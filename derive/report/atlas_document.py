@@ -21,7 +21,7 @@ def _chart(name: str) -> dict:
     u = list(d.symbols.q[:2])
     e = link.chart.unit_vector(u)
     sine = link.chart.polar_sine_of(u)
-    return {"model": name.replace("_", r"\_"), "chart": link.chart.name, "title": ts.prose(d.model.title),
+    return {"model": name.replace("_", r"\_"), "chart": link.chart.name, "title": ts.text(d.model.title),
             "source": ts.prose(link.chart.source if hasattr(link.chart, "source") else d.model.source),
             "unit": r"\begin{pmatrix}" + r" \\ ".join(ts.tex(x, n) for x in e) + r"\end{pmatrix}",
             "coords": ", ".join(f"${ts.tex(x, n)}$" for x in u),

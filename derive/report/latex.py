@@ -43,7 +43,7 @@ def _entries(m: sp.Matrix, names, symbol: str, symmetric: bool = False, budget=t
 
 
 def _vector(v, names) -> str:
-    return r"\begin{pmatrix}" + r" \\ ".join(ts.tex(x, names) for x in v) + r"\end{pmatrix}"
+    return ts.full_size(r"\begin{pmatrix}" + r" \\ ".join(ts.tex(x, names) for x in v) + r"\end{pmatrix}")
 
 
 def _body(link, n) -> str:
@@ -53,7 +53,8 @@ def _body(link, n) -> str:
         return f"a point mass ${mass}$ at its tip"
     com = sp.sympify(b.com)
     inertia = ts.tex(sp.sympify(b.inertia), n)
-    return (f"a rod of mass ${mass}$ with its centre of mass at ${ts.tex(com, n)}$ of its length "
+    at = f"{com.p}/{com.q}" if isinstance(com, sp.Rational) and com.q != 1 else ts.tex(com, n)
+    return (f"a rod of mass ${mass}$ with its centre of mass at ${at}$ of its length "
             f"and moment of inertia ${inertia}$ about it")
 
 
@@ -83,11 +84,13 @@ def physics_rows(checks, names) -> list[dict]:
     for c in checks:
         exprs = [f"${ts.symbol_tex(k)} = {ts.tex(v, names)}$" for k, v in getattr(c, "exprs", {}).items()]
         states = getattr(c, "states", 0)
-        rows.append({"name": ts.prose(c.name), "passed": c.passed,
+        models = getattr(c, "models", ())
+        detail = re.sub(r"\bTrue\b", "yes", re.sub(r"\bFalse\b", "no", c.detail))
+        rows.append({"name": ts.prose(c.name, literal=models), "passed": c.passed,
                      "states": str(states) if states else "exact",
                      "tolerance": _num(getattr(c, "tolerance", "")),
                      "worst": _num(getattr(c, "worst", "")),
-                     "detail": ts.prose(c.detail) if not exprs else ", ".join(exprs)})
+                     "detail": ts.prose(detail) if not exprs else ", ".join(exprs)})
     return rows
 
 
@@ -126,7 +129,7 @@ def result_rows(results) -> list[dict]:
     rows = []
     for r in results:
         claim = table.get(r.key)
-        row = {"seed": r.seed[:3], "equation": _equation_label(r.equation), "what": ts.prose(r.what),
+        row = {"seed": r.seed[:3], "equation": _equation_label(r.equation), "what": ts.prose(r.what, display=True),
                "verdict": r.verdict, "summary": "", "printed": [], "derived": [], "same": False,
                "discrepancy": [], "corrected": [], "origin": ""}
         if r.verdict != "match" or r.summary != "printed = derived (exact and numeric)":
@@ -159,7 +162,7 @@ def _seed_groups(rows) -> list[dict]:
 
 
 def _title(text: str) -> str:
-    return ts.prose(text)
+    return ts.text(text)
 
 
 def context(d: Derivation, results, checks=(), paper: str = "a4") -> dict:
@@ -180,8 +183,8 @@ def context(d: Derivation, results, checks=(), paper: str = "a4") -> dict:
         "T": ts.expr_lines(d.T, n), "V": ts.expr_lines(d.V, n),
         "mass_matrix": _entries(d.M, n, "M", symmetric=True),
         "forcing": _entries(d.F, n, "F"),
-        "accelerations": r"\begin{pmatrix}" + r" \\ ".join(
-            n[qd].replace(r"\dot{", r"\ddot{", 1) for qd in s.qd) + r"\end{pmatrix}",
+        "accelerations": r"\bigl(" + ", ".join(
+            n[qd].replace(r"\dot{", r"\ddot{", 1) for qd in s.qd) + r"\bigr)",
         "rates": _vector(s.qd, n), "momenta": _vector(s.p, n),
         "hamiltonian": None, "seedforms": None, "forces": _forces(d, n),
         "groups": _seed_groups(result_rows(results)), "n_results": len(results),

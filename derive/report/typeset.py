@@ -77,6 +77,12 @@ def tex(expr, names) -> str:
     return text.replace(r"\operatorname{atan}_{2}", r"\operatorname{atan2}")
 
 
+def full_size(tex_: str) -> str:
+    """Fractions at the size of the display around them: a matrix entry is set in text
+    style, where a plain fraction shrinks to script size."""
+    return tex_.replace(r"\frac{", r"\dfrac{")
+
+
 # -- widths and splitting ---------------------------------------------------------------
 
 def width(t: str) -> float:
@@ -200,7 +206,7 @@ def matrix_lines(m: sp.Matrix, names, budget: float = WIDTH, label: str = "") ->
     row_w = max(sum(width(e) + 2 for e in row) for row in entries) if m.rows else 0
     if row_w <= budget and m.rows <= 8:
         body = r" \\ ".join(" & ".join(row) for row in entries)
-        return [rf"\begin{{pmatrix}} {body} \end{{pmatrix}}"]
+        return [full_size(rf"\begin{{pmatrix}} {body} \end{{pmatrix}}")]
     lines, zeros = [], 0
     for i in range(m.rows):
         for j in range(m.cols):
@@ -313,7 +319,8 @@ _TEXT2 = {"of", "at", "is", "in", "as", "by", "to", "an", "or", "be", "on", "if"
 _FUNCS = {"sin": r"\sin", "cos": r"\cos", "tan": r"\tan", "atan2": r"\operatorname{atan2}",
           "sqrt": r"\sqrt", "diag": r"\operatorname{diag}", "det": r"\det", "exp": r"\exp",
           "acos": r"\arccos", "atan": r"\arctan"}
-_UNI = {"θ": r"\theta", "ϑ": r"\vartheta", "φ": r"\phi", "ϕ": r"\phi", "μ": r"\mu", "π": r"\pi",
+# φ (U+03C6) is the second chart's \varphi, ϕ (U+03D5) the standard chart's \phi
+_UNI = {"θ": r"\theta", "ϑ": r"\vartheta", "φ": r"\varphi", "ϕ": r"\phi", "μ": r"\mu", "π": r"\pi",
         "Δ": r"\Delta", "∂": r"\partial", "·": r"\cdot", "×": r"\times", "ρ": r"\rho",
         "≥": r"\ge", "≤": r"\le", "→": r"\to", "∓": r"\mp", "±": r"\pm", "²": "^{2}", "′": "'",
         "−": "-", "≠": r"\ne", "≈": r"\approx", "ω": r"\omega", "λ": r"\lambda", "√": r"\surd"}
@@ -323,11 +330,14 @@ _SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": 
             ">": r"\textgreater{}", "|": r"\textbar{}"}
 
 _TOKEN = re.compile(r"""
-    (?P<ref>\(\d+\.\d+\)(?:-\(\d+\.\d+\))?|\d+\.\d+-\d+\.\d+|§\s?\d+(?:\.\d+)*)
+    (?P<held>[\ue000-\ue1ff])
+  | (?P<abbr>\b(?:i\.e|e\.g)\.)
+  | (?P<ref>\(\d+\.\d+\)(?:-\(\d+\.\d+\))?|\d+\.\d+-\d+\.\d+|§\s?\d+(?:\.\d+)*)
+  | (?P<dims>\d+x\d+\b)
   | (?P<num>\d+(?:\.\d+)?(?:e-?\d+)?)
   | (?P<apos>\u2019s\b)
-  | (?P<ident>(?:[A-Za-z]|[\u0370-\u03ff])+[\u0307\u0308]?\d*(?:_[A-Za-z0-9]+)?[~]?'*(?:\^(?:-?\d+|[a-zA-Z]\b)|\^(?![\w(-]))?'*)
-  | (?P<power>\^(?:-?\d+|[a-zA-Z]\b))
+  | (?P<ident>(?:[A-Za-z]+|[\u0370-\u03ff])[\u0307\u0308]?~?\d*(?:_[A-Za-z0-9]+)?~?'*(?:\^(?:-?\d+|[tT]\b)|\^(?=[A-Z]\^|[^\w(-]|$))?'*)
+  | (?P<power>\^(?:-?\d+|[tT]\b))
   | (?P<op><=|>=|!=|[=+\-*/<>|^'~]|[\u00b7\u00d7\u2202\u2265\u2264\u2192\u00b1\u2213\u2260\u2248\u221a\u00b2\u2032\u2212])
   | (?P<space>\s+)
   | (?P<punct>[(),;:.\[\]])
@@ -336,17 +346,25 @@ _TOKEN = re.compile(r"""
 
 
 def _ident_tex(tok: str) -> str:
-    m = re.fullmatch(r"((?:[A-Za-z]|[\u0370-\u03ff])+)([\u0307\u0308]?)(\d*)(?:_([A-Za-z0-9]+))?(~?)('*)"
+    m = re.fullmatch(r"((?:[A-Za-z]|[\u0370-\u03ff])+)([\u0307\u0308]?)(~?)(\d*)(?:_([A-Za-z0-9]+))?(~?)('*)"
                      r"(?:\^(-?\d+|[a-zA-Z])|(\^))?('*)", tok)
     if not m:
         return tok
-    base, accent, digits, sub, tilde, primes, power, hat, primes2 = m.groups()
+    base, accent, tilde1, digits, sub, tilde, primes, power, hat, primes2 = m.groups()
     primes = (primes or "") + (primes2 or "")
+    tilde = tilde or tilde1
     if base + digits in _FUNCS and not sub:
         out, digits = _FUNCS[base + digits], ""
     elif base.startswith("d") and len(base) > 1 and not _is_word(base):
+        # a d not in a quotient (those are held as fractions): d theta is a difference
         inner = _ident_tex(base[1:] + accent)
-        out, accent = "d" + (inner[1:-1] if inner.startswith("{") else inner), ""
+        inner = inner[1:-1] if inner.startswith("{") else inner
+        out = (r"\Delta " if base[1:] in _GREEK or base[1:] in _ABBREV else "d") + inner
+        accent = ""
+    elif re.fullmatch(r"t[A-Z]", base):
+        out = "{" + base[1] + "}^{T}"          # tQ: the transpose of Q
+    elif re.fullmatch(r"[A-Za-z]{3,}", base) and base not in _GREEK and base not in _ABBREV:
+        out = rf"\mathrm{{{base}}}"             # a word inside a formula (matrix^-1)
     elif base in _GREEK:
         out = "\\" + base
     elif base in _ABBREV:
@@ -373,6 +391,12 @@ def _ident_tex(tok: str) -> str:
     return out
 
 
+def _symbol_a(toks, i: int) -> bool:
+    """The letter a as a symbol, not the article: right before a comma or a bracket, as
+    in (c, a) or (a, c)."""
+    return toks[i][1] == "a" and i + 1 < len(toks) and toks[i + 1][1] in ",;)"
+
+
 def _is_word(tok: str) -> bool:
     """An English word (text), not a symbol, function or derivative name (math)."""
     if not re.fullmatch(r"[A-Za-z]+", tok):
@@ -388,25 +412,128 @@ def _is_word(tok: str) -> bool:
     return len(tok) >= 3
 
 
-def prose(text: str) -> str:
+_GREEK_WORD = re.compile(r"(?<![A-Za-z])(%s)(\d*)(?![A-Za-z])" % "|".join(sorted(_GREEK, key=len, reverse=True)))
+
+
+def text(words: str) -> str:
+    """Plain text (a title) as LaTeX text: upright words, hyphens as hyphens, LaTeX's special
+    characters escaped; only Greek letters, by name (theta) or Unicode, set as math.
+
+    Parameters
+    ----------
+    words : str
+        The text.
+
+    Returns
+    -------
+    str
+        LaTeX paragraph text.
+    """
+    out, at = [], 0
+    for m in _GREEK_WORD.finditer(words):
+        out.append(_plain_text(words[at:m.start()]))
+        out.append(f"$\\{m.group(1)}" + (f"_{{{m.group(2)}}}" if m.group(2) else "") + "$")
+        at = m.end()
+    out.append(_plain_text(words[at:]))
+    return "".join(out)
+
+
+def _plain_text(words: str) -> str:
+    return "".join(f"${_UNI[ch].strip()}$" if ch in _UNI and "\u0370" <= ch <= "\u03ff"
+                   else _SPECIAL.get(ch, ch) for ch in words)
+
+
+# a symbol a derivative is taken of or by: q_i', theta_i^2, th1, L, t
+_SYM = r"(?:[A-Za-z]+|[\u0370-\u03ff])[\u0307\u0308]?~?\d*(?:_[A-Za-z0-9]+)?'*(?:\^\d+)?"
+_QUOTIENT = re.compile(rf"(?<![\w'\\])d(2?)({_SYM})/d({_SYM})(?:(\s+)d({_SYM}))?")
+_TIME = re.compile(r"(?<![\w'\\])d/dt\b")
+_HELD = 0xE000          # private-use characters stand for pieces set before tokenizing
+
+
+def _symbolic(sym: str) -> bool:
+    """A derivative's numerator or denominator is one symbol, not a word (dark/dim)."""
+    base = re.match(r"[A-Za-z]+|[\u0370-\u03ff]", sym).group()
+    return len(base) == 1 or base in _GREEK or base in _ABBREV
+
+
+def _quotient(m: re.Match, display: bool) -> tuple[str, str]:
+    """A derivative dN/dD (d2N/dD1 dD2) as LaTeX, and the text it leaves unconsumed: a
+    partial derivative, except d/dt of a time derivative."""
+    order, num, den, gap, den2 = m.groups()
+    if not (_symbolic(num) and _symbolic(den) and (den2 is None or _symbolic(den2))):
+        return "", m.group()
+    rest = ""
+    if den2 is not None and not order:
+        rest, den2 = gap + "d" + den2, None
+    d = "d" if den == "t" and not order else r"\partial "
+    top = (d.strip() + "^{2} " if order else d) + _ident_tex(num)
+    bottom = d + _ident_tex(den) + (rf"\,\partial {_ident_tex(den2)}" if den2 else "")
+    tex = rf"\dfrac{{{top}}}{{{bottom}}}" if display else f"{top}/{bottom}"
+    return tex, rest
+
+
+def prose(text: str, display: bool = False, literal=()) -> str:
     """An ASCII description ("dq_i/dtheta_i . J q_i = l_i^2 (standard chart)") as LaTeX
-    text with the mathematical runs in math mode; everything else escaped."""
-    text = re.sub(r"\bd2(?=[A-Za-z])", "d\u00b2", text.replace("'s ", "\u2019s ").replace("->", "\u2192"))
+    text with the mathematical runs in math mode; everything else escaped.
+
+    Parameters
+    ----------
+    text : str
+        The description.
+    display : bool
+        Set derivatives as full-size fractions (a heading of its own); otherwise
+        slashed, d/dt and dL/dq as d/dt and the partial derivative.
+    literal : iterable of str
+        Names set as typewriter text wherever they stand as a word (model names).
+
+    Returns
+    -------
+    str
+        LaTeX paragraph text.
+    """
+    held: list[str] = []
+    text_held: set[int] = set()
+
+    def hold(tex: str, as_text: bool = False) -> str:
+        held.append(tex)
+        if as_text:
+            text_held.add(len(held) - 1)
+        return chr(_HELD + len(held) - 1)
+
+    text = re.sub(r"(?<=[A-Za-z]{2})'s\b", "\u2019s", text).replace("->", "\u2192")
+    text = re.sub(r"(?<!\S)'(\([^']*\))'", "\u2018\\1\u2019", text)     # '(a quotation)'
+    for name in sorted(set(literal), key=len, reverse=True):
+        text = re.sub(rf"(?<![\w]){re.escape(name)}(?![\w])",
+                      lambda m: hold(r"\texttt{" + m.group().replace("_", r"\_") + "}", True), text)
+    text = _TIME.sub(lambda m: hold(r"\dfrac{d}{dt}" if display else r"d/dt\,{}"), text)
+
+    def quotient(m):
+        tex, rest = _quotient(m, display)
+        return hold(tex) + rest if tex else rest
+    text = _QUOTIENT.sub(quotient, text)
+    text = re.sub(r"\bd2(?=[A-Za-z])", "d\u00b2", text)
     toks = [(m.lastgroup, m.group()) for m in _TOKEN.finditer(text)]
     kinds = []
     for kind, tok in toks:
-        if kind == "ident" and re.fullmatch(r"[A-Za-z]+_[a-z]{3,}", tok):
+        if kind == "held":
+            kinds.append("text" if ord(tok) - _HELD in text_held else "math")
+        elif kind == "ident" and re.fullmatch(r"[A-Za-z]+_[a-z]{3,}", tok):
             kinds.append("name")
         elif kind == "ident":
-            kinds.append("text" if _is_word(tok) else "math")
-        elif kind in ("num", "op", "power"):
+            kinds.append("text" if _is_word(tok) and not _symbol_a(toks, len(kinds)) else "math")
+        elif kind in ("num", "op", "power", "dims"):
             kinds.append("math")
         elif kind == "other" and tok in _UNI:
             kinds.append("math")
-        elif kind in ("ref", "apos"):
+        elif kind in ("ref", "apos", "abbr") or tok in "\u2018\u2019":
             kinds.append("text")
         else:
             kinds.append("neutral")
+    # a hyphen inside a word (PDF-extraction, 6-entry, x-axis) is text, not a minus
+    for i, (kind, tok) in enumerate(toks):
+        if (tok == "-" and 0 < i < len(toks) - 1 and "space" not in (toks[i - 1][0], toks[i + 1][0])
+                and "text" in (kinds[i - 1], kinds[i + 1])):
+            kinds[i] = "hyphen"
     # a neutral token is math when math lies on both sides of it (before any text)
     n = len(toks)
     math_at = [k == "math" for k in kinds]
@@ -426,18 +553,26 @@ def prose(text: str) -> str:
     def flush():
         if run:
             body = "".join(run).strip()
-            body = _sqrt_braces(body).replace(", ", r",\allowbreak ")
+            body = _big_parens(_sqrt_braces(body).replace(", ", r",\allowbreak "))
             out.append(f"${body}$")
             trailing = "".join(run)[len("".join(run).rstrip()):]
             if trailing:
                 out.append(" ")
             run.clear()
-    for (kind, tok), is_math in zip(toks, math_at):
+    for i, ((kind, tok), is_math) in enumerate(zip(toks, math_at)):
+        if kind == "held":
+            tok = held[ord(tok) - _HELD]
+        if (is_math and kind == "space" and i >= 3 and toks[i - 2][1] == "/"
+                and toks[i - 1][0] == toks[i - 3][0] == "num"):
+            kind, tok = "held", r"\,{}"      # 1/2 m1: the number apart from its factor
+        elif (is_math and kind == "space" and 0 < i < n - 1 and toks[i - 1][0] == "num"
+                and toks[i + 1][1] == "("):
+            kind, tok = "held", r"\;"        # 0.5 (>= 0.5): a number apart from a remark
         if is_math:
-            run.append(_math_token(kind, tok))
+            run.append(tok if kind == "held" else _math_token(kind, tok))
         else:
             flush()
-            out.append(_text_token(kind, tok))
+            out.append(tok if kind == "held" else _text_token(kind, tok))
     flush()
     return "".join(out)
 
@@ -454,6 +589,8 @@ def _math_token(kind, tok):
         return r"\cdot "
     if kind == "other":
         return _UNI.get(tok, "")
+    if kind == "dims":
+        return tok.replace("x", r"\times ")
     if kind == "num" and "e" in tok:
         mant, exp = tok.split("e")
         return rf"{mant}\times 10^{{{int(exp)}}}"
@@ -467,8 +604,23 @@ def _text_token(kind, tok):
         return tok.replace("-", "--") if "§" not in tok else tok.replace("§", r"\S{}")
     if tok == "§":
         return r"\S{}"
-    return "".join(_SPECIAL.get(ch, ch) for ch in tok.replace("\u2019", "'")
+    return "".join(_SPECIAL.get(ch, ch) for ch in tok.replace("\u2019", "'").replace("\u2018", "`")
                    if ord(ch) < 0x300 or ch in _SPECIAL)
+
+
+def _big_parens(body: str) -> str:
+    """Parentheses around a full-size fraction grow with it (\\left( ... \\right))."""
+    if r"\dfrac" not in body:
+        return body
+    chars, stack = list(body), []
+    for k, ch in enumerate(chars):
+        if ch == "(" and (k == 0 or body[k - 1] != "\\"):
+            stack.append(k)
+        elif ch == ")" and stack and body[k - 1] != "\\":
+            start = stack.pop()
+            if r"\dfrac" in body[start:k]:
+                chars[start], chars[k] = r"\left(", r"\right)"
+    return "".join(chars)
 
 
 def _sqrt_braces(body: str) -> str:

@@ -3,22 +3,50 @@ from __future__ import annotations
 
 import os
 import tempfile
+import textwrap
 from pathlib import Path
 
 import numpy as np
+import sympy as sp
 
+from ..derivation import derive
 from ..model import load_model
 from ..model.atlas import find_atlas
 from ..paths import replace_file
+from ..runtime.simulate import normalise_params
 from .scene import SceneError
 from .run import SCALE_TEXT, conservative, energy_error
 from ..progress import Stage
 
+# Axis labels.  A scene's numbers are SI by convention (lengths in m, masses in kg, g in
+# m/s^2), so times are in s, positions in m, energies in J; angles are in rad.
+TIME_LABEL = "t (s)"
+ENERGY_UNIT = "J"
+
+
+def state_columns(model: str) -> list[str]:
+    """The names of a model's state columns.  An atlas's rows are in different charts
+    (the chart column says which): a column is named by its entry in every member chart,
+    joined by "_or_" where they differ (theta1_or_vartheta1, ...).
+
+    Parameters
+    ----------
+    model : str
+        A model or an atlas.
+
+    Returns
+    -------
+    list of str
+    """
+    atlas = find_atlas(model)
+    if atlas is None:
+        return list(load_model(model).state_names)
+    per_chart = [load_model(chart).state_names for chart in atlas.charts]
+    return ["_or_".join(dict.fromkeys(names)) for names in zip(*per_chart)]
+
 
 def _state_names(o) -> list[str]:
-    if find_atlas(o.plan.model) is not None:         # rows in different charts
-        return [f"y{k}" for k in range(o.result.y.shape[1])]
-    return list(load_model(o.plan.model).state_names)
+    return state_columns(o.plan.model)
 
 
 def _columns(o) -> tuple[list[str], np.ndarray]:
@@ -132,7 +160,7 @@ def _plots(o, out: Path, stem: str) -> list[str]:
         if kind in o.scene.plots:
             fig = figure(plt, o)
             path = out / f"{stem}_{kind}.png"
-            _replace(path, lambda tmp: fig.savefig(tmp, dpi=120, bbox_inches="tight"))
+            _replace(path, lambda tmp: fig.savefig(tmp, dpi=120))
             plt.close(fig)
             written.append(str(path))
     if "animation" in o.scene.plots:
@@ -141,6 +169,36 @@ def _plots(o, out: Path, stem: str) -> list[str]:
             if gif is not None:
                 written.append(gif)
     return written
+
+
+def fit_title(fig, set_title, text: str):
+    """Set a title broken into lines that fit the figure's width: a layout engine makes
+    room for a title's height, not for its width (a long line would be cut off).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    set_title : callable
+        Sets the text (``ax.set_title``, ``fig.suptitle``) and returns the artist.
+    text : str
+        The title, as text ($ is no mathematics).
+
+    Returns
+    -------
+    matplotlib.text.Text
+    """
+    text, chars = _plain(text), max(len(text), 1)
+    while True:
+        artist = set_title("\n".join(textwrap.wrap(text, chars)) or " ")
+        fig.canvas.draw()                    # the layout places it: where it lands is known now
+        box = artist.get_window_extent()
+        if chars <= 16 or (box.x0 >= 0 and box.x1 <= fig.bbox.width):
+            return artist
+        chars = int(chars * 0.85)
+
+
+def _axis_label(axis: int) -> str:
+    return f"{'xyz'[axis]} (m)"
 
 
 # (horizontal axis, vertical axis, what the view is) of the paths plot: a planar pendulum in
@@ -159,12 +217,12 @@ def paths_figure(plt, o):
             ax.plot(pos[:, k, h], pos[:, k, v], lw=0.7, color=f"C{k}", label=f"bob {k + 1}")
         ax.plot([0], [0], "ko", ms=3)
         ax.set_aspect("equal")
-        ax.set_xlabel("xyz"[h])
-        ax.set_ylabel("xyz"[v])
+        ax.set_xlabel(_axis_label(h))
+        ax.set_ylabel(_axis_label(v))
         if name:
             ax.set_title(name, fontsize=8)
     axes[0][0].legend(fontsize=8)
-    fig.suptitle(_plain(o.scene.title), fontsize=9)
+    fit_title(fig, lambda text: fig.suptitle(text, fontsize=9), o.scene.title)
     return fig
 
 
@@ -174,10 +232,15 @@ def energy_floor(dtype: str) -> float:
 
 
 def energy_figure(plt, o):
-    """|E - E0| / max(|E0|, m g l) (the scale of the run's relative energy error,
-    derive/model/energy_scale.py) on a log axis that starts at the run's unit roundoff."""
+    """What the energy says about the run.  Conservative: |E - E0| / max(|E0|, m g l) (the
+    scale of the run's relative energy error, derive/model/energy_scale.py), the energy
+    error, on a log axis that starts at the run's unit roundoff.  Driven or damped (the
+    energy is not conserved): the energy balance, E - E0 against the work W of the applied
+    forces minus the energy D dissipated, in J, and what is left of it."""
+    if not conservative(o):
+        return energy_balance_figure(plt, o)
     e = np.asarray(o.energy, float)
-    fig, ax = plt.subplots(figsize=(6, 3))
+    fig, ax = plt.subplots(figsize=(6, 3), layout="constrained")
     floor = energy_floor(o.choice.dtype)
     scale = energy_error(o)[1]
     with np.errstate(invalid="ignore"):          # NaN after a run's stop stays NaN (not drawn)
@@ -185,10 +248,129 @@ def energy_figure(plt, o):
     ax.semilogy(o.result.t.astype(float), rel)
     top = float(np.nanmax(rel)) if np.isfinite(rel).any() else floor
     ax.set_ylim(floor, max(top * 10, floor * 100))     # a constant energy: a decade above the floor
-    ax.set_xlabel("t")
+    ax.set_xlabel(TIME_LABEL)
     ax.set_ylabel(f"|E - E0| / {SCALE_TEXT}")
-    what = "energy error" if conservative(o) else "energy change (work of forces and damping)"
-    ax.set_title(f"{_plain(o.scene.title)}: {what} ({o.choice.method}, {o.choice.dtype})", fontsize=9)
+    fit_title(fig, lambda text: ax.set_title(text, fontsize=9),
+               f"{o.scene.title}: energy error ({o.choice.method}, {o.choice.dtype})")
+    return fig
+
+
+def _power_functions(o):
+    """f(y) -> (q'.Q, q'.dR/dq') at states y (rows): the power of the applied forces and
+    the power dissipated (in W), from the derivation of the model that ran."""
+    d = derive(o.plan.model)
+    s = d.symbols
+    forces = (sum((qd * Q for qd, Q in zip(s.qd, d.forces)), sp.S.Zero)
+              if d.forces is not None else sp.S.Zero)
+    dissipated = (sum((qd * d.dissipation.diff(qd) for qd in s.qd), sp.S.Zero)
+                  if d.dissipation is not None else sp.S.Zero)
+    args = (*s.q, *s.qd, *s.params, *s.u)
+    f = [sp.lambdify(args, expr, "numpy") for expr in (forces, dissipated)]
+    p = [float(x) for x in normalise_params(o.plan.model, o.plan.params)]
+    u = [float((o.scene.inputs or {})[x.name]) for x in s.u]
+
+    def power(y):
+        y = np.asarray(y, float)
+        with np.errstate(invalid="ignore"):          # NaN rows after a run's stop stay NaN
+            return tuple(np.asarray(g(*y.T, *p, *u), float) + np.zeros(len(y)) for g in f)
+    return power, (forces != 0, dissipated != 0)
+
+
+GAUSS = np.polynomial.legendre.leggauss(3)      # nodes and weights on [-1, 1]
+
+
+def work_and_dissipation(o) -> tuple[np.ndarray, np.ndarray, str, tuple[bool, bool]]:
+    """W(t) and D(t) at the output times: the work of the applied forces and the energy
+    dissipated since t0.  On the run's continuous solution (adaptive methods) by 3-point
+    Gauss quadrature per output interval (far below the run's own error); else by the
+    trapezoid rule with its end correction on the output rows (fourth order in the output
+    interval).
+
+    Parameters
+    ----------
+    o : Outcome
+        A scene's run (derive.scene.run.run).
+
+    Returns
+    -------
+    work, dissipated : numpy.ndarray
+        In J, at each output time (0 at the first).
+    how : str
+        The quadrature used, in words.
+    present : tuple of bool
+        Whether the model has applied forces, and dissipation.
+    """
+    t = np.asarray(o.result.t, float)
+    power, present = _power_functions(o)
+    if o.result.sol is not None and len(t) > 1:
+        nodes, weights = GAUSS
+        mid, half = (t[1:] + t[:-1]) / 2, (t[1:] - t[:-1]) / 2
+        at = (mid[:, None] + half[:, None] * nodes[None, :]).ravel()
+        ys = o.result.sol(at)
+        parts = [(p.reshape(len(mid), len(nodes)) * weights).sum(axis=1) * half for p in power(ys)]
+        how = "3-point Gauss quadrature on the continuous solution"
+    elif len(t) > 2:
+        # the trapezoid rule with its end correction (Euler-Maclaurin), the derivatives
+        # by second-order differences: fourth order in the output interval
+        h = np.diff(t)
+        parts = []
+        for p in power(o.result.y):
+            dp = np.gradient(p, t, edge_order=2)
+            parts.append(h * (p[1:] + p[:-1]) / 2 - h ** 2 * (dp[1:] - dp[:-1]) / 12)
+        how = "the corrected trapezoid rule on the output rows"
+    else:
+        parts = [np.diff(t) * (p[1:] + p[:-1]) / 2 for p in power(o.result.y)]
+        how = "the trapezoid rule on the output rows"
+    work, loss = (np.concatenate([[0.0], np.cumsum(part)]) for part in parts)
+    return work, loss, how, present
+
+
+def energy_balance_figure(plt, o):
+    """A driven or damped run's energy balance: above, E - E0 and W - D, the work of the
+    applied forces (W) minus the energy dissipated (D) since t0, which it equals in an
+    exact motion; below, on a log axis, what the balance leaves (the run's energy error)
+    and how W and D were integrated (:func:`work_and_dissipation`).
+
+    Parameters
+    ----------
+    plt : module
+        matplotlib.pyplot.
+    o : Outcome
+        A scene's run.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    t = np.asarray(o.result.t, float)
+    e = np.asarray(o.energy, float)
+    work, loss, how, (forced, damped) = work_and_dissipation(o)
+    change = e - e[0]
+    fig, (ax, low) = plt.subplots(2, 1, figsize=(6, 4.8), sharex=True, height_ratios=(3, 2),
+                                  layout="constrained")
+    ax.plot(t, change, lw=1.6, color="C0", label="E - E0")
+    if forced:
+        ax.plot(t, work, lw=0.8, ls="--", color="C1", label="W: work of the applied forces")
+    if damped:
+        ax.plot(t, -loss, lw=0.8, ls=":", color="C2", label="-D: energy dissipated")
+    ax.plot(t, work - loss, lw=0.8, color="k", label="W - D")
+    ax.axhline(0.0, color="0.8", lw=0.5, zorder=0)
+    ax.set_ylabel(f"energy ({ENERGY_UNIT})")
+    ax.legend(fontsize=7, ncols=2, loc="lower left", framealpha=0.8)
+    # what is left of the balance: the run's energy error (and the quadrature's)
+    scale = np.nanmax(np.abs(np.concatenate([e, work, loss]))) if np.isfinite(e).any() else 1.0
+    floor = energy_floor(o.choice.dtype) * max(float(scale), 1e-300)
+    with np.errstate(invalid="ignore"):
+        gap = np.maximum(np.abs(change - (work - loss)), floor)
+    low.semilogy(t, gap, color="C3", lw=0.9)
+    top = float(np.nanmax(gap)) if np.isfinite(gap).any() else floor
+    low.set_ylim(floor, max(top * 10, floor * 100))
+    low.set_ylabel(f"|E - E0 - (W - D)| ({ENERGY_UNIT})", fontsize=8)
+    low.set_xlabel(TIME_LABEL)
+    low.set_title(f"what the balance leaves (W, D by {how})", fontsize=7)
+    fit_title(fig, lambda text: ax.set_title(text, fontsize=9),
+               f"{o.scene.title}: energy balance (not conserved: driven/damped; "
+               f"{o.choice.method}, {o.choice.dtype})")
     return fig
 
 
@@ -197,22 +379,49 @@ def _plain(text: str) -> str:
     return text.replace("$", r"\$")
 
 
+FPS = 25                # frames per second of the animation
+MAX_FRAMES = 150        # at most this many frames (6 s at FPS), spread over the outputs
+
+
 def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str | None:
-    from matplotlib.animation import PillowWriter    # the plot extra, imported when a figure is drawn
-    made = animation_figure(plt, o, horizontal, vertical)
-    if made is None:
+    """The GIF, drawn by blitting: the axes, title and labels are rendered once, each
+    frame redraws only the chain, its trail and the time stamp (a full redraw per frame,
+    as matplotlib's writers do, cost about 0.3 s of CPU a frame)."""
+    from PIL import Image    # matplotlib's own dependency: the plot extra, imported when drawn
+    parts = _animation_parts(plt, o, horizontal, vertical)
+    if parts is None:
         return None
-    fig, anim = made
-    path = out / f"{stem}.gif"
-    _replace(path, lambda tmp: anim.save(tmp, writer=PillowWriter(fps=25)))
+    fig, frames, draw = parts
+    canvas = fig.canvas
+    canvas.draw()                            # the layout, settled once
+    fig.set_layout_engine("none")
+    ax = fig.axes[0]
+    artists = draw(0)
+    for a in artists:
+        a.set_visible(False)
+    canvas.draw()
+    background = canvas.copy_from_bbox(fig.bbox)
+    for a in artists:
+        a.set_visible(True)
+    images = []
+    for i in range(len(frames)):
+        canvas.restore_region(background)
+        for a in draw(i):
+            ax.draw_artist(a)
+        canvas.blit(fig.bbox)
+        rgb = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba()).convert("RGB")
+        images.append(rgb.quantize(colors=64, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE))
     plt.close(fig)
+    path = out / f"{stem}.gif"
+    _replace(path, lambda tmp: images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:],
+                                             duration=round(1000 / FPS), loop=0))
     return str(path)
 
 
-def animation_figure(plt, o, horizontal: int = 0, vertical: int | None = None):
-    """(figure, FuncAnimation) of the chain moving, titled, with a time stamp in each frame;
-    None for a run with no state to show (it failed at its start)."""
-    from matplotlib.animation import FuncAnimation    # the plot extra, imported when a figure is drawn
+def _animation_parts(plt, o, horizontal: int = 0, vertical: int | None = None):
+    """(figure, frame rows, draw) of the chain moving: draw(i) puts frame i into the
+    chain, trail and time-stamp artists and returns them; None for a run with no state
+    to show (it failed at its start)."""
     pos = np.asarray(o.positions, float)
     vertical = pos.shape[-1] - 1 if vertical is None else vertical
     # only the part of the run that has a state (a run that stopped is NaN after its stop)
@@ -220,16 +429,16 @@ def animation_figure(plt, o, horizontal: int = 0, vertical: int | None = None):
     if alive == 0:
         return None
     t = np.asarray(o.result.t, float)
-    frames = np.linspace(0, alive - 1, min(alive, 150)).astype(int)
+    frames = np.linspace(0, alive - 1, min(alive, MAX_FRAMES)).astype(int)
     scale = float(np.max(np.abs(pos[:alive]))) or 1.0        # scaled: |x| near 1e300 does not overflow
     reach = scale * float(np.max(np.linalg.norm(pos[:alive] / scale, axis=-1))) * 1.05
-    fig, ax = plt.subplots(figsize=(4, 4.3), layout="constrained")
+    fig, ax = plt.subplots(figsize=(4, 4.3), dpi=100, layout="constrained")
     ax.set_xlim(-reach, reach)
     ax.set_ylim(-reach, reach)
     ax.set_aspect("equal")
-    ax.set_xlabel("xyz"[horizontal])
-    ax.set_ylabel("xyz"[vertical])
-    ax.set_title(_plain(o.scene.title), fontsize=9)
+    ax.set_xlabel(_axis_label(horizontal))
+    ax.set_ylabel(_axis_label(vertical))
+    fit_title(fig, lambda text: ax.set_title(text, fontsize=9), o.scene.title)
     line, = ax.plot([], [], "o-", lw=2, color="tab:blue")
     trail, = ax.plot([], [], lw=0.6, color="tab:red")
     stamp = ax.text(0.02, 0.96, "", transform=ax.transAxes, fontsize=8, va="top")
@@ -238,8 +447,19 @@ def animation_figure(plt, o, horizontal: int = 0, vertical: int | None = None):
         k = frames[i]
         line.set_data([0, *pos[k, :, horizontal]], [0, *pos[k, :, vertical]])     # the whole chain
         trail.set_data(pos[:k + 1, -1, horizontal], pos[:k + 1, -1, vertical])    # its last bob
-        stamp.set_text(f"t = {t[k]:.2f}")
+        stamp.set_text(f"t = {t[k]:.2f} s")
         return line, trail, stamp
 
     draw(0)                                  # the first frame as the figure (and for a still)
+    return fig, frames, draw
+
+
+def animation_figure(plt, o, horizontal: int = 0, vertical: int | None = None):
+    """(figure, FuncAnimation) of the chain moving, titled, with a time stamp in each frame;
+    None for a run with no state to show (it failed at its start)."""
+    from matplotlib.animation import FuncAnimation    # the plot extra, imported when a figure is drawn
+    parts = _animation_parts(plt, o, horizontal, vertical)
+    if parts is None:
+        return None
+    fig, frames, draw = parts
     return fig, FuncAnimation(fig, draw, frames=len(frames), blit=True)

@@ -275,6 +275,9 @@ def _join(parts: list[SimulationResult]) -> SimulationResult:
         setattr(out, attr, sum(getattr(r, attr) for r in parts))
     if first.chart is not None:
         out.chart = cat("chart")
+        # a piece that starts in another chart than the last one ended in (the rule picks
+        # the chart of a start): a switch too
+        out.switches += sum(r.chart[0] != prev.chart[-1] for prev, r in zip(parts, parts[1:]))
     if first.sol is not None:                 # the dense output over the joined rows
         inputs = None if first.sol.inputs is None else \
             np.concatenate([first.sol.inputs] + [r.sol.inputs[1:] for r in parts[1:]])
@@ -692,6 +695,22 @@ def _event_summary(r: SimulationResult) -> dict | None:
             for name, e in r.events.items()}
 
 
+def final_chart(o: Outcome) -> str | None:
+    """The chart of the final state of an atlas run (the chart then in use), or None."""
+    r = o.result
+    if r.chart is None:
+        return None
+    last = r.chart[-1] if r.ok and not r.terminal_event else None
+    return last if last is not None else r.chart_stop
+
+
+def final_state_names(o: Outcome) -> list[str]:
+    """The names of the final state's entries: the state of the model that ran, in the
+    final chart for an atlas run."""
+    chart = final_chart(o)
+    return list(load_model(chart).state_names if chart else model_info(o.plan.model).state_names)
+
+
 def summary(o: Outcome) -> dict:
     r = o.result
     drift, scale = energy_error(o)
@@ -719,6 +738,8 @@ def summary(o: Outcome) -> dict:
         "message": nonsense or r.message, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
         "chart_switches": int(r.switches) if r.chart is not None else None,
         "final_state": [float(v) for v in (r.y[-1] if r.ok and not r.terminal_event else r.y_stop)],
+        "state_names": final_state_names(o),         # of final_state's entries, in final_chart
+        "final_chart": final_chart(o),
         "events": _event_summary(r), "terminal_event": r.terminal_event,
         "relative_energy_error": drift, "energy_scale": scale, "energy_scale_is": SCALE_TEXT,
         # with applied forces or damping the energy changes by the work they do: not an error

@@ -5,9 +5,58 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import DeriveError
+from ..model import load_model
 from ..paths import replace_file
+from ..scene.outputs import fit_title
 
 SKIP = ("status", "chunk_done")
+MAX_TICKS = 8          # labelled ticks of an axis of listed values, at most
+
+
+def _units(model_name: str):
+    """name -> its unit ("" none, None unknown): the model's states and parameters and the
+    recorded quantities (event times in s, the Lyapunov exponent in 1/s, the relative
+    energy error none, max_abs_<q> and final_<state> the unit of q and of the state)."""
+    try:
+        model = load_model(model_name)
+    except DeriveError:                      # a store whose model file has gone: no units
+        model = None
+
+    def unit(name: str) -> str | None:
+        if name.endswith("_time") or name.endswith("_time_error"):
+            return "s"
+        if name == "lyapunov_exponent":
+            return "1/s"
+        if name == "energy_error":
+            return ""
+        if model is None:
+            return None
+        for prefix in ("max_abs_", "final_"):
+            if name.startswith(prefix) and model.unit_of(name[len(prefix):]) is not None:
+                return model.unit_of(name[len(prefix):])
+        return model.unit_of(name)
+    return unit
+
+
+def _label(name: str, unit: str | None) -> str:
+    return f"{name} ({unit})" if unit else name
+
+
+def _list_ticks(axis, values: np.ndarray) -> None:
+    """An axis of listed (not evenly spaced) values: ticks at the values themselves, at most
+    MAX_TICKS of them labelled, slanted when their labels would run into each other."""
+    from matplotlib.ticker import FixedLocator, NullLocator    # the plot extra, imported when drawn
+    step = int(np.ceil(len(values) / MAX_TICKS))
+    shown = values[::step]
+    axis.set_major_locator(FixedLocator(shown))
+    axis.set_minor_locator(NullLocator())
+    labels = [f"{v:.4g}" for v in shown]
+    axis.set_ticklabels(labels)
+    if axis.axis_name == "x" and sum(len(label) + 2 for label in labels) > 48:
+        for label in axis.get_ticklabels():
+            label.set_rotation(35)
+            label.set_horizontalalignment("right")
 
 
 def _uniform(values: np.ndarray) -> bool:
@@ -34,32 +83,57 @@ def write_images(ds, folder: Path, stem: str, title: str) -> list[Path]:
     import matplotlib.pyplot as plt    # the plot extra, imported when a figure is drawn
     files = []
     for name in names:
-        da = ds[name]
-        xdim, ydim = da.dims
-        x, y = np.asarray(ds[xdim]), np.asarray(ds[ydim])
-        z = np.asarray(da.values, float).T                 # rows along y
-        fig, ax = plt.subplots(figsize=(6.4, 5.2), dpi=150)
-        cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")   # NaN (no event, a failed run): grey
-        norm = _norm(name, z)
-        if norm is not None:
-            z = np.where(z > 0, z, np.nan)                 # a log scale: zero is shown as none
-        if _uniform(x) and _uniform(y):
-            image = ax.imshow(np.ma.masked_invalid(z), origin="lower", cmap=cmap, aspect="auto", norm=norm,
-                              extent=(x[0], x[-1], y[0], y[-1]), interpolation="nearest")
-        else:
-            image = ax.pcolormesh(x, y, np.ma.masked_invalid(z), cmap=cmap, shading="nearest", norm=norm)
-            for values, setter in ((x, ax.set_xscale), (y, ax.set_yscale)):
-                if np.all(values > 0) and len(values) > 2 and not _uniform(values):
-                    setter("log")
-        bar = fig.colorbar(image, ax=ax)
-        bar.set_label(name.replace("_", " ") + (" (grey: none)" if name.endswith("_time") else
-                                                " (estimate)" if name.endswith("_time_error") else ""))
-        ax.set_xlabel(xdim)
-        ax.set_ylabel(ydim)
-        ax.set_title(title)
-        fig.tight_layout()
+        fig = image_figure(plt, ds, name, title)
         path = Path(folder) / f"{stem}_{name}.png"
         replace_file(path, lambda tmp, fig=fig: fig.savefig(tmp), mode=0o644)
         plt.close(fig)
         files.append(path)
     return files
+
+
+def image_figure(plt, ds, name: str, title: str):
+    """The map of one quantity over the sweep's two dimensions: axes and colour bar named
+    with their units where known, listed values as the ticks, the title inside the figure.
+
+    Parameters
+    ----------
+    plt : module
+        matplotlib.pyplot.
+    ds : xarray.Dataset
+        The sweep's dataset (its ``model`` attribute gives the units).
+    name : str
+        A two-dimensional data variable of `ds`.
+    title : str
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    unit = _units(ds.attrs.get("model", ""))
+    da = ds[name]
+    xdim, ydim = da.dims
+    x, y = np.asarray(ds[xdim]), np.asarray(ds[ydim])
+    z = np.asarray(da.values, float).T                 # rows along y
+    fig, ax = plt.subplots(figsize=(6.4, 5.2), dpi=150, layout="constrained")
+    cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")   # NaN (no event, a failed run): grey
+    norm = _norm(name, z)
+    if norm is not None:
+        z = np.where(z > 0, z, np.nan)                 # a log scale: zero is shown as none
+    if _uniform(x) and _uniform(y):
+        image = ax.imshow(np.ma.masked_invalid(z), origin="lower", cmap=cmap, aspect="auto", norm=norm,
+                          extent=(x[0], x[-1], y[0], y[-1]), interpolation="nearest")
+    else:
+        image = ax.pcolormesh(x, y, np.ma.masked_invalid(z), cmap=cmap, shading="nearest", norm=norm)
+        for values, setter, axis in ((x, ax.set_xscale, ax.xaxis), (y, ax.set_yscale, ax.yaxis)):
+            if np.all(values > 0) and len(values) > 2 and not _uniform(values):
+                setter("log")
+            if not _uniform(values):
+                _list_ticks(axis, values)
+    bar = fig.colorbar(image, ax=ax)
+    bar.set_label(_label(name.replace("_", " "), unit(name))
+                  + (" (grey: none)" if name.endswith("_time") else
+                     " (estimate)" if name.endswith("_time_error") else ""))
+    ax.set_xlabel(_label(xdim, unit(xdim)))
+    ax.set_ylabel(_label(ydim, unit(ydim)))
+    fit_title(fig, lambda text: fig.suptitle(text), title)
+    return fig

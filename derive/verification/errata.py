@@ -163,11 +163,11 @@ ERRATA: list[Erratum] = [
     # -- section 3 -------------------------------------------------------------
     Erratum("3.17", "rate vector (th1'^2, 2 th1' ph1', ph1'^2, 2 th2' ph2')",
             "dimension mismatch: the rate vector has 4 entries but B has 6 columns; "
-            "θ̇2² and φ̇2² are missing: (θ̇1², 2θ̇1φ̇1, φ̇1², θ̇2², 2θ̇2φ̇2, φ̇2²)",
+            "θ̇2² and ϕ̇2² are missing: (θ̇1², 2θ̇1ϕ̇1, ϕ̇1², θ̇2², 2θ̇2ϕ̇2, ϕ̇2²)",
             lambda c: ShapeMismatch((4, 1), (6, 1), ((3, c.theta2_dot**2), (5, c.phi2_dot**2))),
             sf.w_std, REAL),
     Erratum("3.27", "reduced equation A~ x + B~ w + G = 0 (x with phi_i' sin theta_i)",
-            "the unknown vector has φ̇_i sin θ_i where φ̈_i sin θ_i (a lost dot)",
+            "the unknown vector has ϕ̇_i sin θ_i where ϕ̈_i sin θ_i (a lost dot)",
             lambda c: c.A_red_lagrange * Matrix([0, (c.phi1_dot - c.phi1_ddot) * sin(c.theta1),
                                                  0, (c.phi2_dot - c.phi2_ddot) * sin(c.theta2)]),
             lambda c: (sf.A_red_328(c) * _reduced_x(c, (c.phi1_ddot, c.phi2_ddot))

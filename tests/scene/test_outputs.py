@@ -7,6 +7,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 import warnings
 from pathlib import Path
 
@@ -51,7 +52,7 @@ def test_a_spherical_run_shows_two_projections_with_equal_axes(spherical):
     try:
         axes = fig.axes
         assert len(axes) == 2
-        assert [(a.get_xlabel(), a.get_ylabel()) for a in axes] == [("x", "y"), ("x", "z")]
+        assert [(a.get_xlabel(), a.get_ylabel()) for a in axes] == [("x (m)", "y (m)"), ("x (m)", "z (m)")]
         assert all(a.get_aspect() == 1.0 for a in axes)                   # equal axes
         pos = np.asarray(spherical.positions, float)
         for a, v in zip(axes, (1, 2)):          # each view draws both bobs' paths in its plane
@@ -68,7 +69,7 @@ def test_a_planar_run_shows_its_plane(tmp_path):
     fig = paths_figure(plt, o)
     try:
         assert len(fig.axes) == 1 and fig.axes[0].get_aspect() == 1.0
-        assert (fig.axes[0].get_xlabel(), fig.axes[0].get_ylabel()) == ("x", "y")
+        assert (fig.axes[0].get_xlabel(), fig.axes[0].get_ylabel()) == ("x (m)", "y (m)")
     finally:
         plt.close(fig)
 
@@ -107,21 +108,93 @@ def test_the_animation_has_a_title_and_a_time_stamp(spherical):
     try:
         ax = fig.axes[0]
         assert ax.get_title() == "Double spherical pendulum through the poles"
-        assert [t.get_text() for t in ax.texts] == ["t = 0.00"]
+        assert [t.get_text() for t in ax.texts] == ["t = 0.00 s"]
         assert ax.get_aspect() == 1.0
     finally:
         plt.close(fig)
 
 
-@pytest.mark.slow
-def test_the_animation_has_a_frame_per_output(spherical, tmp_path):
+def test_the_animation_has_a_frame_per_output_and_is_cheap(spherical, tmp_path):
+    """Blitted: the axes are drawn once, each frame only the chain (a full redraw per frame
+    cost about 0.3 s of CPU a frame, 17 s for these 51)."""
     spherical.scene.plots = ("animation",)
     spherical.scene.trajectory = ()
     spherical.scene.output_dir = tmp_path
+    start = time.process_time()
     files = write_outputs(spherical)
+    cpu = time.process_time() - start
     from PIL import Image
     with Image.open(files[0]) as gif:
-        assert gif.n_frames == 51
+        assert gif.n_frames == 51 and gif.info["duration"] == 40          # 25 frames a second
+        first = np.asarray(gif.convert("RGB"))
+        gif.seek(50)
+        last = np.asarray(gif.convert("RGB"))
+    assert (first != last).any()                  # the chain moves
+    assert cpu < 6.0, f"{cpu:.1f} s of CPU for 51 frames"
+
+
+def test_a_long_title_is_wrapped_inside_every_figure(spherical):
+    long = ("A double spherical pendulum released through the poles of its standard chart, "
+            "with a title far longer than any figure is wide")
+    spherical.scene.title = long
+    try:
+        made = [paths_figure(plt, spherical), energy_figure(plt, spherical), animation_figure(plt, spherical)[0]]
+        for fig in made:
+            fig.canvas.draw()
+            titles = [t for t in (fig._suptitle, *(a.title for a in fig.axes)) if t is not None and t.get_text()]
+            assert titles
+            for t in titles:
+                box = t.get_window_extent()
+                assert box.x0 >= 0 and box.x1 <= fig.bbox.width, t.get_text()
+        assert "\n" in made[-1].axes[0].get_title()        # 4 inches wide: broken into lines
+    finally:
+        spherical.scene.title = "Double spherical pendulum through the poles"
+        plt.close("all")
+
+
+DRIVEN = """\
+title = "Damped, torque-driven double pendulum"
+[pendulum]
+model = "driven.toml"
+parameters = { m1 = 1.0, m2 = 1.0, l1 = 1.0, l2 = 1.0, g = 9.81, c1 = 0.1, c2 = 0.1 }
+inputs = { tau1 = 0.5, tau2 = 0.0 }
+[initial]
+state = { theta1 = 1.0, theta2 = 0.5 }
+rest = true
+[time]
+stop = 3.0
+outputs = 151
+[accuracy]
+%s
+[output]
+plots = ["energy"]
+"""
+
+
+@pytest.mark.parametrize("accuracy, how", [("target = 1e-8", "Gauss"),
+                                           ('method = "rk4"\nstep = 0.005', "corrected trapezoid")])
+def test_a_driven_damped_run_plots_its_energy_balance(tmp_path, accuracy, how):
+    """Not conserved: the plot is E - E0 against the work of the torque minus the energy the
+    damping dissipated (in J, over t in s), and what the balance leaves is the run's error."""
+    (tmp_path / "driven.toml").write_text((ROOT / "examples" / "models" / "driven.toml").read_text())
+    (tmp_path / "s.toml").write_text(DRIVEN % accuracy)
+    o = run(load_scene(tmp_path / "s.toml"), show_progress=False)
+    fig = energy_figure(plt, o)
+    try:
+        top, low = fig.axes
+        assert "not conserved: driven/damped" in " ".join(top.get_title().split())
+        assert top.get_ylabel() == "energy (J)" and low.get_xlabel() == "t (s)"
+        lines = {ln.get_label(): ln.get_ydata() for ln in top.get_lines()}
+        assert {"E - E0", "W: work of the applied forces", "-D: energy dissipated", "W - D"} <= set(lines)
+        change, balance = lines["E - E0"], lines["W - D"]
+        assert np.ptp(change) > 0.5                                   # the energy changes a lot
+        assert np.max(np.abs(change - balance)) < 1e-5 * np.ptp(change)   # ... by the work done
+        assert np.max(lines["-D: energy dissipated"]) <= 0 and np.min(lines["-D: energy dissipated"]) < -0.1
+        assert how in low.get_title()
+        residual = low.get_lines()[0].get_ydata()
+        assert np.allclose(residual[5:], np.maximum(np.abs(change - balance), low.get_ylim()[0])[5:])
+    finally:
+        plt.close(fig)
 
 
 def _no_compiler_env(tmp_path: Path) -> dict:
@@ -178,3 +251,43 @@ def test_the_trust_horizon_of_a_numpy_run_needs_no_compiler(tmp_path, monkeypatc
     monkeypatch.setattr(loader, "build_library", no_compiler)
     horizon = trust_horizon_of(r)
     assert 2.0 < horizon < 30.0                  # chaotic: lambda ~ 2, e0 ~ 1e-10
+
+
+def test_an_atlas_run_names_its_columns_and_its_final_state(tmp_path, capsys):
+    """The atlas's rows are in different charts: the CSV names each state column by its
+    entry in every chart (no y0..y7) beside the chart column, the NPZ says the same, and
+    --json names the final state's entries in the chart it ends in."""
+    text = (SCENES / "spherical_pole.toml").read_text()
+    for old, new in [("stop = 10.0", "stop = 2.0"), ("outputs = 1001", "outputs = 201"),
+                     ('trajectory = ["csv"]', 'trajectory = ["csv", "npz"]'),
+                     ('plots = ["paths", "energy", "animation"]', "plots = []")]:
+        assert old in text, old
+        text = text.replace(old, new)
+    (tmp_path / "s.toml").write_text(text)
+    run_ = subprocess.run([sys.executable, "-m", "derive", "run", str(tmp_path / "s.toml"), "--json",
+                           "--output-dir", str(tmp_path / "out")], env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                          cwd=tmp_path, capture_output=True, text=True, timeout=1200)
+    assert run_.returncode == 0, run_.stderr
+    s = json.loads(run_.stdout)
+    lines = (tmp_path / "out" / "s.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    assert header[:9] == ["t", "theta1_or_vartheta1", "phi1_or_varphi1", "theta2_or_vartheta2",
+                          "phi2_or_varphi2", "theta1_dot_or_vartheta1_dot", "phi1_dot_or_varphi1_dot",
+                          "theta2_dot_or_vartheta2_dot", "phi2_dot_or_varphi2_dot"]
+    assert header[-1] == "chart" and not any(c.startswith("y") and c[1:].isdigit() for c in header)
+    charts = [line.rsplit(",", 1)[1] for line in lines[1:]]
+    assert set(charts) <= {"spherical_std", "spherical_alt", "spherical_rot"}
+    changes = sum(a != b for a, b in zip(charts, charts[1:]))
+    assert changes >= 1 and s["chart_switches"] >= changes        # every change of chart is counted
+    from derive.model import load_model
+    assert s["final_chart"] == charts[-1]
+    assert s["state_names"] == load_model(charts[-1]).state_names
+    last = [float(v) for v in lines[-1].split(",")[1:9]]
+    np.testing.assert_allclose(s["final_state"], last, rtol=0, atol=1e-15)
+    with np.load(tmp_path / "out" / "s.npz") as npz:
+        assert list(npz["state_names"]) == header[1:9] and list(npz["chart"]) == charts
+    from derive.cli import _print_run
+    _print_run(s)
+    state = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("state "))
+    first = s["state_names"][0]
+    assert state.startswith(f"state   {first} = ") and state.endswith(f"(chart {charts[-1]})")

@@ -20,7 +20,8 @@ ROOT = Path(__file__).resolve().parents[2]
 DERIVE = ROOT / "derive"
 # the packages of derive's optional extras (pyproject.toml): imported where they are used,
 # so that derive runs without them
-EXTRAS = {"matplotlib", "scipy", "numba", "heyoka", "dask", "distributed", "xarray", "zarr"}
+# PIL (Pillow) comes with matplotlib: the plot extra writes its GIFs with it
+EXTRAS = {"matplotlib", "PIL", "scipy", "numba", "heyoka", "dask", "distributed", "xarray", "zarr"}
 # derive/cli.py: each command imports its stage when it runs (start-up); derive/__main__.py:
 # the CLI imported under a guard, so that Ctrl-C during the imports is one line too
 LAZY_MODULES = {"derive/cli.py", "derive/__main__.py"}
