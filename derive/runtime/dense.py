@@ -32,7 +32,7 @@ import numpy as np
 from ..errors import SimulationInputError
 from .build import integrator_library
 from ..codegen.contract import ADAPTIVE, METHODS
-from .observables import numpy_module
+from .loader import numpy_integrators
 
 MAX_ELEMENTS = 2 ** 23           # numbers of one batch call's output (64 MiB in double)
 
@@ -159,7 +159,7 @@ class DenseOutput:
             y, infos = lib.run(METHODS.index(self.method), y0, p, times, o)
             accepted = np.array([info.naccepted for info in infos], int)
         else:
-            mod = numpy_module(f"{self.model}_integrate")
+            mod = numpy_integrators(self.model)
             with np.errstate(all="ignore"):
                 _, y, infos = mod.integrate_batch(self.method, y0, p, times, self.dtype, **self.options)
             accepted = np.array([info["naccepted"] for info in infos], int)
