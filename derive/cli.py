@@ -83,10 +83,14 @@ def cmd_derive(args) -> int:
 
 
 def _tally(results, checks) -> tuple[str, bool]:
-    """'N seed formulas: a match, b errata, c failed; k/K physics checks pass', and all-good."""
+    """'N seed formulas: a match, b errata, c failed; k/K physics checks pass', and all-good;
+    for models no seed formula belongs to (a user's own), the physics checks alone, named."""
     n_err = sum(r.verdict == "erratum" for r in results)
     n_bad = sum(r.verdict not in ("match", "erratum") for r in results)
     n_ok = sum(c.passed for c in checks)
+    if not results:
+        kinds = dict.fromkeys(c.name.split(": ", 1)[-1] for c in checks)
+        return f"{n_ok}/{len(checks)} physics checks pass ({'; '.join(kinds)})", n_ok == len(checks)
     text = (f"{len(results)} seed formulas: {len(results) - n_err - n_bad} match, {n_err} errata, "
             f"{n_bad} failed; {n_ok}/{len(checks)} physics checks pass")
     return text, n_bad == 0 and n_ok == len(checks)
@@ -374,7 +378,20 @@ def _energy_text(s: dict) -> str:
     return (f"{what} {s['relative_energy_error']:.2g} of {s['energy_scale']:.4g} = {s['energy_scale_is']}")
 
 
+def _list_examples() -> int:
+    from .scene.scene import example_listing    # start-up: a command imports its stage when it runs
+    rows = example_listing()
+    width = max(len(name) for name, _, _ in rows)
+    for name, title, sweep in rows:
+        print(f"{name:{width}s}  {title}" + (f" (a sweep: derive sweep {name})" if sweep else ""))
+    return 0
+
+
 def cmd_run(args) -> int:
+    if args.list:
+        return _list_examples()
+    if args.scene is None:
+        raise UsageError("derive run: give a scene file or an example's name (derive run --list lists them)")
     from .scene import load_scene    # start-up: a command imports its stage when it runs
     from .scene.outputs import write_outputs
     from .scene.run import run, summary, verdict
@@ -603,7 +620,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_latex)
     p = sub.add_parser("run", help="simulate a scene file (TOML), deriving and building only what it needs",
                        epilog=EXIT_CODES)
-    p.add_argument("scene", help="scene file, or the name of an example scene (default, spherical_pole, ...)")
+    p.add_argument("scene", nargs="?", help="scene file, or the name of an example scene (default, "
+                                            "spherical_pole, ...: see --list)")
+    p.add_argument("--list", action="store_true", help="list the example scenes, one line each, and exit")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
     p.add_argument("--json", action="store_true", help="print a machine-readable summary")
     p.add_argument("--output-dir", help="write outputs here instead of the scene's output.directory")

@@ -1,7 +1,10 @@
-"""Progress on a terminal: a bar for work counted in parts, a status line for stages.
+"""Progress on a terminal: a bar for work counted in parts, a status line for stages;
+and, for a log, plain progress lines.
 
-Both write to stderr and only when it is a terminal, so logs, pipes and CI get
-no carriage-return noise, and --json output on stdout stays clean.
+The bar and the status line write to stderr and only when it is a terminal, so logs,
+pipes and CI get no carriage-return noise, and --json output on stdout stays clean.
+ProgressLines writes whole lines to stdout when it is not a terminal (a log, a pipe),
+so a long run piped to a file says how far it is while it runs.
 
     with Stage("derive") as stage:          # silent for the first 2 s, then
         for name in models:                 # "derive planar (2/5) 3.4 s", redrawn
@@ -47,6 +50,37 @@ class Progress:
         if not self.enabled:
             return
         self.stream.write("\n")
+        self.stream.flush()
+
+
+class ProgressLines:
+    """`label: 12/40 chunks (30%), 4.1 s, ~9.6 s left`, one plain line a part when there are
+    at most `steps` parts, else one each 1/steps of them; written (and flushed) only where
+    the stream is not a terminal (a terminal has the bar)."""
+
+    def __init__(self, label: str, total: int, unit: str = "parts", stream=None, steps: int = 20,
+                 force: bool = False):
+        self.label, self.total, self.unit, self.steps = label, max(total, 1), unit, steps
+        self.stream = stream or sys.stdout
+        self.enabled = force or not _isatty(self.stream)
+        self.start = time.perf_counter()
+        self._first = self._mark = None
+
+    def update(self, done: int) -> None:
+        if not self.enabled:
+            return
+        mark = done if self.total <= self.steps else done * self.steps // self.total
+        if self._first is None:
+            self._first = done                   # done before this run (a resumed one)
+        elif mark == self._mark and done < self.total:
+            return
+        self._mark = mark
+        elapsed = time.perf_counter() - self.start
+        text = f"{self.label}: {done}/{self.total} {self.unit} ({100 * done // self.total}%), {elapsed:.1f} s"
+        left = remaining(done - self._first, self.total - self._first, elapsed)
+        if left is not None:
+            text += f", ~{_duration(left)} left"
+        self.stream.write(text + "\n")
         self.stream.flush()
 
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..derivation.charts import chart_change
+from .names import internal
 
 
 def is_spherical(chart) -> bool:
@@ -30,7 +31,7 @@ def conversion(source, target, s) -> Conversion:
     change = chart_change(source, target)
     if change.source_symbols.state != s.state:
         raise ValueError(f"conversion from '{source.name}' built for other symbols")
-    names = [sp.Symbol(f"{target.name}_{c}{i}", real=True)
+    names = [internal(f"{target.name}_{c}{i}")
              for i, link in enumerate(target.links, 1) for c in link.chart.coordinates]
     rename = dict(zip(change.target_q, names))
     rates = [r.xreplace(rename) for r in change.rates]

@@ -93,6 +93,7 @@ STATUS_TABLE = (
            ("the chart is singular there: a polar sine below",
             "options.sine_min (the mass matrix is singular)")),
     Status(6, "BAD_INPUT", "bad input", ("non-finite or inconsistent input (y0, p, t, options),",
+                                         "a fixed-step method without its step options.h > 0,",
                                          "or a fixed step too small for the span",
                                          "(|t_end - t0| / h above 2^53)")),
     Status(7, "CANCELLED", "cancelled", ("*options.cancel became non-zero (checked every step)",)),
@@ -133,7 +134,7 @@ INFO = (
     Field("t", "double", doc="time reached (where it stopped on failure)"),
     Field("h", "double", doc="last step size (fixed: the step h of the grid)"),
     Field("h_end", "double", doc="fixed: the shortened step to the last output (0: on the grid)"),
-    Field("y", "double", doc="state at t", length="n"),
+    Field("y", "double", doc="state at t (double in every variant)", length="n"),
     # what derive.simulate reports as r.error_estimate with error_kind "local sum"
     Field("local_error", "double", doc="sum of the accepted steps' local-error estimates, in the state's "
           "units (dopri5, dop853, abm12, taylor; 0: none)"),

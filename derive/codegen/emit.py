@@ -15,6 +15,7 @@ import sympy as sp
 
 from ..errors import PackageDataError
 from .. import paths
+from .names import internal
 from .spec import Kernel, ModelSpec
 
 
@@ -33,7 +34,7 @@ class Body:
 def _numbered(prefix: str):
     i = 0
     while True:
-        yield sp.Symbol(f"{prefix}{i}", real=True)
+        yield internal(f"{prefix}{i}")
         i += 1
 
 
@@ -204,14 +205,14 @@ def cse_file(spec: ModelSpec) -> list[Body]:
         for j, expr in enumerate(mine):
             if not (expr.is_Symbol or expr.is_Number):
                 if expr not in lifted:
-                    lifted[expr] = sp.Symbol(f"_out{j}")
+                    lifted[expr] = internal(f"_out{j}", real=False)
                     local[lifted[expr]] = expr
                     order.append(lifted[expr])
                 mine[j] = lifted[expr]
         rename, n = {}, 0
         for sym in order:
             if sym.name.startswith("_"):
-                rename[sym] = sp.Symbol(f"t{n}", real=True)
+                rename[sym] = internal(f"t{n}")
                 n += 1
         assignments = [(rename.get(s, s), (local[s] if s in local else defs[s].xreplace(alias))
                         .xreplace(rename)) for s in order]
@@ -250,9 +251,13 @@ def half_angle_sincos(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: lis
         return assignments, outputs
     lowered: dict[sp.Expr, list[tuple[sp.Symbol, sp.Expr]]] = {}
     repl: dict[sp.Expr, sp.Symbol] = {}
+    tags: set[str] = set()
     for i, x in enumerate(args):
         tag = x.name if x.is_Symbol else f"a{i}"
-        T, u, r, sn, cs = (sp.Symbol(f"{n}_{tag}", real=True) for n in ("tan_half", "tan_half_sq", "rho", "sin", "cos"))
+        while tag in tags:                   # an input called a0 beside a numbered angle
+            tag += "_"
+        tags.add(tag)
+        T, u, r, sn, cs = (internal(f"{n}_{tag}") for n in ("tan_half", "tan_half_sq", "rho", "sin", "cos"))
         lowered[x] = [(T, sp.tan(sp.Float(0.5) * x)), (u, T ** 2), (r, 1 / (1 + u)),
                       (sn, 2 * T * r), (cs, (1 - u) * r)]
         repl[sp.sin(x)], repl[sp.cos(x)] = sn, cs
@@ -324,7 +329,7 @@ def trig_lanes(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: list[sp.Ex
             # a temporary t = sin(x) keeps its name, so the rest prints as before: GCC's
             # schedule follows the printed operand order (fresh names, sorting
             # differently, give the abm12 loop a slower schedule)
-            repl[f] = named.get(f) or sp.Symbol(f"{kind}_lane{k}", real=True)
+            repl[f] = named.get(f) or internal(f"{kind}_lane{k}")
             values.append((repl[f], kind, k))
     if len(angles) < 2:
         return None, assignments, outputs

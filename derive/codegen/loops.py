@@ -241,7 +241,7 @@ def numpy_context(name: str) -> dict:
     for sym, e in assignments:
         if e.free_symbols & varying:
             varying.add(sym)
-    slots = numpy_slots(state + params)
+    slots = numpy_slots(state + params, {s.name for s, _ in assignments})
     pr = PyNumPyPrinter(slots, varying)
     const = [{"name": s.name, "value": pr.doprint_checked(e)} for s, e in assignments
              if s not in varying]

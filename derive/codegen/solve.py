@@ -26,9 +26,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
-
-def _sym(name: str) -> sp.Symbol:
-    return sp.Symbol(name, real=True)
+from .names import internal as _sym
 
 
 @dataclass

@@ -25,6 +25,7 @@ from ..errors import SpecError
 from ..model import load_model, model_names
 from ..model.atlas import atlas_family
 from . import chart_kernels as charts, solve
+from .names import internal
 
 
 @dataclass(frozen=True)
@@ -326,7 +327,7 @@ def _hamiltonian_jacobian(d, x: Input, p: Input, mass, qdot) -> Kernel:
             if e.is_number:
                 dv[j][k] = e
             else:
-                dv[j][k] = sp.Symbol(f"dv{j}_{k}", real=True)
+                dv[j][k] = internal(f"dv{j}_{k}")
                 stages.append((dv[j][k], e))
     J = sp.zeros(n, n)
     for i in range(nq):

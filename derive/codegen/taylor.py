@@ -389,7 +389,9 @@ def _native_ops(ctype: str, m: str) -> list[tuple[str, str]]:
             ("T_DIVI(a, i)", f"((a) / ({ctype})(i))"), ("T_INT(i)", f"(({ctype})(i))"), ("T_D(x)", f"(({ctype})(x))"),
             ("T_SQRT(a)", f"sqrt{m}(a)"), ("T_SIN(a)", f"sin{m}(a)"), ("T_COS(a)", f"cos{m}(a)"),
             ("T_EXP(a)", f"exp{m}(a)"), ("T_S(a)", "(a)"), ("T_ABS(a)", f"fabs{m}(a)"), ("T_FROMS(x)", "(x)"),
-            ("T_LE(a, b)", "((a) <= (b))"), ("T_SEXP(x)", f"exp{m}(x)"), ("T_SPOW(x, y)", f"pow{m}(x, y)")]
+            ("T_LE(a, b)", "((a) <= (b))"), ("T_SEXP(x)", f"exp{m}(x)"), ("T_SPOW(x, y)", f"pow{m}(x, y)"),
+            # C99's isnan is type-generic; C++'s overloads know no __float128
+            ("T_SNAN(x)", "isnanq(x)" if m == "q" else "isnan(x)")]
 
 
 _DD_OPS = [("T_ADD(a, b)", "dd_add(a, b)"), ("T_SUB(a, b)", "dd_sub(a, b)"), ("T_MUL(a, b)", "dd_mul(a, b)"),
@@ -398,7 +400,7 @@ _DD_OPS = [("T_ADD(a, b)", "dd_add(a, b)"), ("T_SUB(a, b)", "dd_sub(a, b)"), ("T
            ("T_SQRT(a)", "dd_sqrt(a)"), ("T_SIN(a)", "dd_sin(a)"), ("T_COS(a)", "dd_cos(a)"),
            ("T_EXP(a)", "dd_exp(a)"), ("T_S(a)", "((a).hi)"), ("T_ABS(a)", "fabs((a).hi)"),
            ("T_FROMS(x)", "dd_d(x)"), ("T_LE(a, b)", "dd_le(a, b)"), ("T_SEXP(x)", "exp(x)"),
-           ("T_SPOW(x, y)", "pow(x, y)")]
+           ("T_SPOW(x, y)", "pow(x, y)"), ("T_SNAN(x)", "isnan(x)")]
 
 
 def _skip_key(ctype: str) -> str:

@@ -24,9 +24,6 @@ from .expressions import FUNCTIONS, parse_expression
 # Names the generated code uses itself (M, F, p, y, u, lambda, ...) are allowed:
 # the code generators rename them where a target language needs it.
 RESERVED_NAMES = frozenset(FUNCTIONS) | {"pi"}
-# Generated stage names (M01, F0, qdd1, t3, ...): an input may not look like one
-# (inputs are real symbols, as stages are, so the two would be the same symbol).
-STAGE_NAME = re.compile(r"^(t|M|F|qdd|v|dv|D|rD|L|z|f|xr|rs|Q|det|rdet|A[ab])\d*(_\d+)?$")
 # a model's NumPy module is <name>.py: it may not shadow what the generated code imports
 SHADOWING = frozenset(sys.stdlib_module_names) | {"numpy", "scipy", "sympy", "mpmath", "derive", "kernels"}
 # A model's generated files are <name><suffix>.c/.h/.py for these suffixes (the kernels:
@@ -454,10 +451,6 @@ def _check_names(model: "Model", where: str) -> None:
                 raise ModelError(f"{where}: the {kind} '{n}' has the name of a state ({', '.join(model.state_names)})")
     for n in set(model.parameters) & set(model.inputs):
         raise ModelError(f"{where}: '{n}' is both a parameter and an input")
-    for n in model.inputs:
-        if STAGE_NAME.match(n):
-            raise ModelError(f"{where}: the input name '{n}' looks like a name the generated code uses "
-                             f"for its own intermediate values (M01, F0, qdd1, t3, ...); rename it")
     for coord, _ in model.forces:
         if coord not in coords:
             raise ModelError(f"{where}: forces.{coord}: not a coordinate (coordinates: {', '.join(coords)})")

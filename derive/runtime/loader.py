@@ -31,9 +31,10 @@ import shutil
 import subprocess
 import sys
 import tempfile
-from functools import lru_cache
+from functools import lru_cache, partial
 from math import prod
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -381,10 +382,42 @@ def numpy_module(name: str):
     its model."""
     atlas = find_atlas(name) or next((a for a in atlases().values() if a.prefix == name), None)
     model = atlas.name if atlas is not None else name.removesuffix("_integrate").removesuffix("_throughput")
-    path = numpy_source(model, f"{name}.py")
+    return _import(numpy_source(model, f"{name}.py"), f"_derive_generated_{name}", model)
+
+
+def _import(path: Path, name: str, model: str):
     if not path.is_file():
         raise SimulationInputError(f"no generated NumPy module {path.name} for model '{model}'")
-    spec = importlib.util.spec_from_file_location(f"_derive_generated_{name}", path)
+    spec = importlib.util.spec_from_file_location(name, path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
+
+
+@forget_on_model_change
+@lru_cache(maxsize=None)
+def numpy_integrators(model: str) -> SimpleNamespace:
+    """The NumPy integrators of a model, bound to the kernels numpy_module(model) imported.
+
+    What the generated <model>_integrate.py gives a folder of generated NumPy (it loads the
+    kernels beside it by file name, for a folder off sys.path), made here from the same
+    library, derive_integrators.py of the model's rendering, and the session's one copy of
+    the kernel module, the one the observables use.
+
+    Parameters
+    ----------
+    model : str
+        A model's name (catalogue or loaded model file); not the atlas (numpy_atlas).
+
+    Returns
+    -------
+    types.SimpleNamespace
+        integrate(method, y0, p, t, dtype, **options) and integrate_batch (the library's,
+        with the kernels bound), library, system, METHODS, STATUS_NAMES, DEFAULTS, new_info.
+    """
+    library = _import(numpy_source(model, "derive_integrators.py"), f"_derive_generated_{model}_library", model)
+    system = library.System(numpy_module(model))
+    return SimpleNamespace(library=library, system=system, integrate=partial(library.integrate, system),
+                           integrate_batch=partial(library.integrate_batch, system), METHODS=library.METHODS,
+                           STATUS_NAMES=library.STATUS_NAMES, DEFAULTS=library.DEFAULTS,
+                           new_info=library.new_info)

@@ -31,7 +31,8 @@ from ..model.description import forget_on_model_change
 from .atlas_library import atlas_library, numpy_atlas
 from .build import address, integrator_library
 from .extended import extended_taylor
-from .observables import _observables, _velocities, numpy_module
+from .loader import numpy_integrators
+from .observables import _observables, _velocities
 from .result import LAZY, LOCAL_SUM, result_factory
 from .taylor_lanes_library import taylor_ensemble_library
 from .taylor_library import taylor_library
@@ -149,7 +150,7 @@ class Runner:
         """The generated NumPy module the numpy backend runs (its integrate)."""
         if self.atlas is not None:
             return numpy_atlas(self.model)
-        return numpy_module(f"{self.model}_integrate")
+        return numpy_integrators(self.model)
 
     def exact_library(self, rtol: float):
         """The extended-precision Taylor build (double-double, quad) for a tolerance."""

@@ -67,7 +67,29 @@ def _dtype(dtype) -> np.dtype:
     return np.dtype(_DTYPES[key])
 
 
+def _first_text(value):
+    """The first string among the numbers of `value` (nested sequences or an array), or None:
+    NumPy would read "9.81" as 9.81, a scene file refuses it, and so does a call."""
+    if isinstance(value, (str, bytes)):
+        return value
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind in "SU":
+            return value.flat[0] if value.size else None
+        if value.dtype.kind != "O":
+            return None
+        value = value.ravel().tolist()
+    if isinstance(value, (list, tuple)):
+        for x in value:
+            text = _first_text(x)
+            if text is not None:
+                return text
+    return None
+
+
 def _finite_array(value, what: str) -> np.ndarray:
+    text = _first_text(value)
+    if text is not None:
+        raise SimulationInputError(f"{what} must be numbers, got the string {text!r}")
     try:
         a = np.array(value, dtype=np.longdouble)
     except (TypeError, ValueError):
@@ -169,6 +191,9 @@ def normalise_params(model, params) -> np.ndarray:
     else:
         raise SimulationInputError(f"params must be a mapping by name or a sequence in the order "
                                    f"{', '.join(names)}, got {type(params).__name__}")
+    for n, v in zip(names, values):       # a string such as "9.81" is no number (as in a scene)
+        if isinstance(v, (bool, str, bytes)):
+            raise SimulationInputError(f"parameter {n} must be a number, got {type(v).__name__} {v!r}")
     p = _finite_array(values, "params")
     described = _described(model)
     key = (described.content_hash, tuple(p.tolist()))

@@ -62,6 +62,15 @@ def _columns(o) -> tuple[list[str], np.ndarray]:
     return names, data
 
 
+def _number_format(o):
+    """How a CSV writes one number: to the precision of the run's type.  A float32 run's
+    values are written as the shortest decimal that reads back as that float32 (0.1, not
+    0.10000000149011612, its float64 value to 17 digits); any other run's to 17 digits."""
+    if np.asarray(o.result.y).dtype == np.float32:
+        return lambda v: str(np.float32(v))
+    return lambda v: f"{v:.17g}"
+
+
 def writable_dir(path: Path) -> Path:
     """Create `path` if needed and prove it writable (OSError otherwise), before long work."""
     path.mkdir(parents=True, exist_ok=True)
@@ -96,9 +105,12 @@ def write_outputs(o) -> list[str]:
     if "csv" in o.scene.trajectory:
         path = out / f"{stem}.csv"
         header = ",".join(names)
-        if o.result.chart is not None:
-            header += ",chart"
-            rows = [",".join(f"{v:.17g}" for v in row) + f",{c}" for row, c in zip(data, o.result.chart)]
+        number = _number_format(o)
+        if o.result.chart is not None or np.asarray(o.result.y).dtype == np.float32:
+            charts = o.result.chart
+            header += ",chart" if charts is not None else ""
+            rows = [",".join(number(v) for v in row) + (f",{charts[i]}" if charts is not None else "")
+                    for i, row in enumerate(data)]
             _replace(path, lambda tmp: tmp.write_text(header + "\n" + "\n".join(rows) + "\n"))
         else:
             _replace(path, lambda tmp: np.savetxt(tmp, data, delimiter=",", header=header, comments="",
@@ -126,7 +138,8 @@ def _events_csv(o, path: Path) -> str:
             for t, d, y in zip(e.t, e.direction, np.asarray(e.y, float))]
     rows.sort(key=lambda row: row[0] * (1 if o.result.t[-1] >= o.result.t[0] else -1))
     header = ",".join(["event", "t", "direction"] + _state_names(o))
-    lines = [f"{name},{t:.17g},{d:+d}," + ",".join(f"{v:.17g}" for v in y) for t, name, d, y in rows]
+    number = _number_format(o)
+    lines = [f"{name},{number(t)},{d:+d}," + ",".join(number(v) for v in y) for t, name, d, y in rows]
     _replace(path, lambda tmp: tmp.write_text(header + "\n" + "".join(line + "\n" for line in lines)))
     return str(path)
 

@@ -366,6 +366,22 @@ def example_scenes() -> list[str]:
     return sorted(p.stem for p in scenes_dir().glob("*.toml"))
 
 
+def example_listing() -> list[tuple[str, str, bool]]:
+    """The example scenes and sweeps shipped with derive, for `derive run --list`.
+
+    Returns
+    -------
+    list of (str, str, bool)
+        Each example's name, its title and whether it is a sweep (it has [axes]: run by
+        `derive sweep`, the others by `derive run`), by name.
+    """
+    out = []
+    for name in example_scenes():
+        table = tomllib.loads((scenes_dir() / f"{name}.toml").read_text())
+        out.append((name, str(table.get("title", "")), "axes" in table))
+    return out
+
+
 def scene_path(arg: str | Path) -> Path:
     """A scene file's path: the path given, or the example scene of that name."""
     path = Path(arg)

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import UsageError
-from ..progress import Progress
+from ..progress import Progress, ProgressLines
 from .chunk import integrate, prepare, variables
 from .layout import Layout, chunk_inputs
 from .mirror import mirror_axes, mirrored, plan as mirror_plan
@@ -154,8 +154,10 @@ def _run(sweep, path, folder, stem, layout, names, scheduler, workers, progress,
     done = open_store(path, sweep, layout, names)
     writer = Writer(path, layout)
     bar = Progress(f"sweeping {stem}", layout.count) if progress else None
+    lines = ProgressLines(f"sweeping {stem}", layout.count, "chunks") if progress else None
     if bar:
         bar.update(len(done))
+        lines.update(len(done))
     unfinished = [k for k in range(layout.count) if k not in done]
     local = scheduler is None and not os.environ.get(SCHEDULER_ENV)
     client = cluster = None
@@ -189,6 +191,7 @@ def _run(sweep, path, folder, stem, layout, names, scheduler, workers, progress,
                 mirror_chunks += chunk != k
                 if bar:
                     bar.update(len(done) + computed)
+                    lines.update(len(done) + computed)
                 if on_chunk is not None:
                     on_chunk(chunk)
     finally:

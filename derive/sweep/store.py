@@ -88,8 +88,11 @@ def _dataset(sweep: Sweep, layout: Layout, names: list[str]):
 
 
 def _encoding(ds, names: list[str]) -> dict:
-    enc = {name: {"_FillValue": NOT_RUN if name == "status" else np.nan} for name in names}
-    enc[DONE] = {"_FillValue": 0}
+    """NaN marks a value not computed; the integer arrays (status, chunk_done) have no CF
+    _FillValue, which would make xarray read them back as floats: open_store writes their
+    initial values (-1: not run; 0: not done) instead."""
+    enc = {name: {"_FillValue": None if name == "status" else np.nan} for name in names}
+    enc[DONE] = {"_FillValue": None}
     return enc
 
 
@@ -105,6 +108,10 @@ def open_store(path: Path, sweep: Sweep, layout: Layout, names: list[str]) -> se
         ds = _dataset(sweep, layout, names)
         ds.to_zarr(tmp / "store.zarr", mode="w", compute=False, encoding=_encoding(ds, names),
                   consolidated=False)
+        group = _group(tmp / "store.zarr", "r+")
+        if "status" in names:
+            group["status"][...] = NOT_RUN
+        group[DONE][...] = 0
         (tmp / "store.zarr").rename(path)             # a reader never meets a half-made store
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -256,7 +263,7 @@ def load(path: Path):
         ds = ds.load()
     order = [n for n in ds.attrs.get("variables", []) if n in ds] + [DONE]
     ds = ds[order + [n for n in ds.data_vars if n not in order]]
-    for name in ("status", DONE):        # integers with a fill value come back as floats
+    for name in ("status", DONE):        # integers with a _FillValue (older stores) come back as floats
         if name in ds:
             ds[name] = ds[name].fillna(NOT_RUN if name == "status" else 0).astype(np.int8)
     return ds

@@ -364,7 +364,9 @@ def _base_state(scene: Scene, description, source: str) -> np.ndarray:
     return np.array([state[n] for n in description.state_names], float)
 
 
-def parse_sweep(text: str, source: str = "<sweep>") -> Sweep:
+def parse_sweep(text: str, source: str = "<sweep>", run_as: str | None = None) -> Sweep:
+    """A sweep from its text; `source` names it in messages, `run_as` is how the user named
+    it (for the hint that a scene is run by derive run)."""
     try:
         t = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -374,6 +376,9 @@ def parse_sweep(text: str, source: str = "<sweep>") -> Sweep:
     for key in t:
         if key not in set(SCENE_KEYS + SWEEP_KEYS):
             raise SceneError(f"{source}: unknown key '{key}' (allowed: {', '.join(dict.fromkeys(SCENE_KEYS + SWEEP_KEYS))})")
+    if "axes" not in t and "record" not in t:
+        raise SceneError(f"{source}: a scene, not a sweep (it has no [axes] and no record); "
+                         f"run it with `derive run {run_as or source}`")
     pendulum = t.get("pendulum")
     model = pendulum.get("model") if isinstance(pendulum, dict) else None
     # a sweep's [events] are its own (a coordinate and a level), not a scene's expressions
@@ -433,12 +438,12 @@ def _check_parameters(sweep: Sweep, description, source: str) -> None:
 
 def load_sweep(path: str | Path) -> Sweep:
     """A sweep from a file, or one of the example sweeps shipped with derive by name (flip_map)."""
-    path = scene_path(path)
+    name, path = path, scene_path(path)
     if not exists(path) and len(str(path)) <= 255:
         raise SceneError(f"sweep file '{path}' does not exist")
     text = read_input_text(path, "sweep", SceneError)       # a regular file of bounded size
     try:
-        return parse_sweep(text, str(path))
+        return parse_sweep(text, str(path), str(name))
     except SceneError as exc:
         message = str(exc)
         raise SceneError(message if message.startswith(str(path)) else f"{path}: {message}") from None

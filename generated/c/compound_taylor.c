@@ -96,6 +96,7 @@
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) exp(x)
 #define T_SPOW(x, y) pow(x, y)
+#define T_SNAN(x) isnan(x)
 #define T_NAN nan("")
 
 #define DERIVE_TAYLOR_T(x) x##_d
@@ -205,6 +206,7 @@ long compound_taylor_batch(long n, const double *y0, long y0_stride, const doubl
 #undef T_LE
 #undef T_SEXP
 #undef T_SPOW
+#undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET
@@ -236,6 +238,7 @@ long compound_taylor_batch(long n, const double *y0, long y0_stride, const doubl
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expf(x)
 #define T_SPOW(x, y) powf(x, y)
+#define T_SNAN(x) isnan(x)
 #define T_NAN nanf("")
 
 #define DERIVE_TAYLOR_T(x) x##_f
@@ -345,6 +348,7 @@ long compound_taylor_batch_f(long n, const float *y0, long y0_stride, const floa
 #undef T_LE
 #undef T_SEXP
 #undef T_SPOW
+#undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET
@@ -376,6 +380,7 @@ long compound_taylor_batch_f(long n, const float *y0, long y0_stride, const floa
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expl(x)
 #define T_SPOW(x, y) powl(x, y)
+#define T_SNAN(x) isnan(x)
 #define T_NAN nanl("")
 
 #define DERIVE_TAYLOR_T(x) x##_l
@@ -485,6 +490,7 @@ long compound_taylor_batch_l(long n, const long double *y0, long y0_stride, cons
 #undef T_LE
 #undef T_SEXP
 #undef T_SPOW
+#undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET
@@ -516,6 +522,7 @@ long compound_taylor_batch_l(long n, const long double *y0, long y0_stride, cons
 #define T_LE(a, b) dd_le(a, b)
 #define T_SEXP(x) exp(x)
 #define T_SPOW(x, y) pow(x, y)
+#define T_SNAN(x) isnan(x)
 #define T_NAN dd_d(nan(""))
 
 #define DERIVE_TAYLOR_T(x) x##_dd
@@ -626,6 +633,7 @@ long compound_taylor_batch_dd(long n, const derive_dd *y0, long y0_stride, const
 #undef T_LE
 #undef T_SEXP
 #undef T_SPOW
+#undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET

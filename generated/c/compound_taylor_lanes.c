@@ -290,7 +290,7 @@ static int compound_lfinite(const double *z, long n)
     for (k = 0; k < n; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One lane's trajectory. */
@@ -882,7 +882,7 @@ static int compound_lfinite_f(const float *z, long n)
     for (k = 0; k < n; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One lane's trajectory. */
@@ -1474,7 +1474,7 @@ static int compound_lfinite_l(const long double *z, long n)
     for (k = 0; k < n; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One lane's trajectory. */

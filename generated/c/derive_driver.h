@@ -76,7 +76,7 @@ static int DERIVE_T(derive_finite)(const DERIVE_REAL *z)
     for (k = 0; k < DERIVE_N; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One fixed step z -> zn of length h (partial: a shortened step to an output time off
@@ -144,7 +144,7 @@ static int DERIVE_T(derive_drive)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *restr
     const DERIVE_REAL eps = DERIVE_EPS;
     DERIVE_REAL tnext, slack;
     long iout = 1, kgrid = 0;
-    int st, k, cause = 0, rejected = 0, dense_ready, fsal, last, sw;
+    int st, k, cause = 0, rejected = 0, dense_ready, fsal, last, sw, side = 0;   /* side: the last output is off the grid */
 
     st = DERIVE_DRIVER_IN(c, y0, z);
     if (st) {
@@ -188,8 +188,10 @@ static int DERIVE_T(derive_drive)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *restr
             if ((t_out[iout] - t) * dir <= slack) {
                 st = DERIVE_DRIVER_OUT(c, z, y_out + iout * DERIVE_N);
                 c->info->h_end = 0;
+                side = 0;
             } else {
                 c->info->h_end = (double)(t_out[iout] - t);
+                side = 1;
                 st = DERIVE_T(derive_fixed)(c, z, t_out[iout] - t, K, tmp, 1);
                 if (st) {
                     goto done;
@@ -202,7 +204,7 @@ static int DERIVE_T(derive_drive)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *restr
             c->info->nout += 1;
         }
         /* the run ends at the last output time (the side state there) */
-        if (c->info->h_end != 0) {
+        if (side) {
             for (k = 0; k < DERIVE_N; ++k) {
                 z[k] = tmp[k];
             }
@@ -253,7 +255,7 @@ static int DERIVE_T(derive_drive)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *restr
         if (hmin < (DERIVE_REAL)c->opt->hmin) {
             hmin = (DERIVE_REAL)c->opt->hmin;
         }
-        if (DERIVE_MATH(fabs)(h) <= hmin || DERIVE_MATH(fabs)(h) == 0) {
+        if (DERIVE_MATH(fabs)(h) <= hmin || DERIVE_MATH(fabs)(h) <= 0) {     /* |h| <= 0: h is zero */
             st = cause ? cause : DERIVE_STEP_UNDERFLOW;
             goto done;
         }
@@ -267,7 +269,7 @@ static int DERIVE_T(derive_drive)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *restr
             if (st) {
                 cause = st;
                 fac = (DERIVE_REAL)0.25;
-            } else if (err != err) {
+            } else if (isnan(err)) {
                 cause = DERIVE_NONFINITE;
                 fac = (DERIVE_REAL)0.25;
             } else {
@@ -289,7 +291,7 @@ static int DERIVE_T(derive_drive)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *restr
         tnew = last ? tend : t + h;
         dense_ready = 0;
         while (iout < nt && (t_out[iout] - tnew) * dir <= 0) {
-            if (t_out[iout] == tnew) {
+            if (!(t_out[iout] < tnew || t_out[iout] > tnew)) {     /* the output time is the step's end */
                 st = DERIVE_DRIVER_OUT(c, zn, y_out + iout * DERIVE_N);
             } else {
                 if (!dense_ready) {
@@ -375,7 +377,7 @@ static int DERIVE_T(derive_check)(int method, const DERIVE_REAL *y0, long ny, co
     for (i = 0; i < nt; ++i) {
         check += t[i] - t[i];
     }
-    if (check != 0) {
+    if (isnan(check)) {
         return DERIVE_BAD_INPUT;
     }
     for (i = 1; i < nt; ++i) {

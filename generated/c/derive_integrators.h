@@ -338,7 +338,7 @@ static int DERIVE_T(derive_gauss)(int ns, const DERIVE_REAL *A, const DERIVE_REA
         }
         info->nnewton += 1;
         bad = 0;                /* 1: slow, 2: growing */
-        if (nrm != nrm || nrm > (DERIVE_REAL)1e30) {
+        if (isnan(nrm) || nrm > (DERIVE_REAL)1e30) {
             return DERIVE_NEWTON;
         } else if (nrm <= tol) {
             conv = 1;

@@ -32,6 +32,7 @@
  *   PLANAR_INTEGRATE_CHART_SINGULAR      5  the chart is singular there: a polar sine below
  *                                        options.sine_min (the mass matrix is singular)
  *   PLANAR_INTEGRATE_BAD_INPUT           6  non-finite or inconsistent input (y0, p, t, options),
+ *                                        a fixed-step method without its step options.h > 0,
  *                                        or a fixed step too small for the span
  *                                        (|t_end - t0| / h above 2^53)
  *   PLANAR_INTEGRATE_CANCELLED           7  *options.cancel became non-zero (checked every step)
@@ -41,7 +42,9 @@
  *                                        or too large for the motion; no step is taken from it
  * On failure info.t is the time reached, info.y the state there (y = (q, q')),
  * rows of y_out from the first output time not reached on are NaN, and
- * info.nout counts the rows written.
+ * info.nout counts the rows written.  One info struct serves every variant (_f, none,
+ * _l): its t, h, h_end, y and local_error are doubles whatever the run's type (a long
+ * double run's rounded to double); y_out has the run's own type.
  *
  * Output times t[0..nt-1] are strictly monotone (increasing or decreasing: the
  * integration runs backwards when they decrease); y_out[0] = y0.  Fixed-step
@@ -125,7 +128,7 @@ typedef struct planar_integrate_info {
     double t;           /* time reached (where it stopped on failure) */
     double h;           /* last step size (fixed: the step h of the grid) */
     double h_end;       /* fixed: the shortened step to the last output (0: on the grid) */
-    double y[PLANAR_N_STATES];   /* state at t */
+    double y[PLANAR_N_STATES];   /* state at t (double in every variant) */
     double local_error; /* sum of the accepted steps' local-error estimates, in the state's units (dopri5, dop853, abm12, taylor; 0: none) */
 } planar_integrate_info;
 

@@ -96,6 +96,7 @@
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) exp(x)
 #define T_SPOW(x, y) pow(x, y)
+#define T_SNAN(x) isnan(x)
 #define T_NAN nan("")
 
 #define DERIVE_TAYLOR_T(x) x##_d
@@ -204,6 +205,7 @@ long planar_taylor_batch(long n, const double *y0, long y0_stride, const double 
 #undef T_LE
 #undef T_SEXP
 #undef T_SPOW
+#undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET
@@ -235,6 +237,7 @@ long planar_taylor_batch(long n, const double *y0, long y0_stride, const double 
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expf(x)
 #define T_SPOW(x, y) powf(x, y)
+#define T_SNAN(x) isnan(x)
 #define T_NAN nanf("")
 
 #define DERIVE_TAYLOR_T(x) x##_f
@@ -343,6 +346,7 @@ long planar_taylor_batch_f(long n, const float *y0, long y0_stride, const float 
 #undef T_LE
 #undef T_SEXP
 #undef T_SPOW
+#undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET
@@ -374,6 +378,7 @@ long planar_taylor_batch_f(long n, const float *y0, long y0_stride, const float 
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expl(x)
 #define T_SPOW(x, y) powl(x, y)
+#define T_SNAN(x) isnan(x)
 #define T_NAN nanl("")
 
 #define DERIVE_TAYLOR_T(x) x##_l
@@ -482,6 +487,7 @@ long planar_taylor_batch_l(long n, const long double *y0, long y0_stride, const 
 #undef T_LE
 #undef T_SEXP
 #undef T_SPOW
+#undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET
@@ -513,6 +519,7 @@ long planar_taylor_batch_l(long n, const long double *y0, long y0_stride, const 
 #define T_LE(a, b) dd_le(a, b)
 #define T_SEXP(x) exp(x)
 #define T_SPOW(x, y) pow(x, y)
+#define T_SNAN(x) isnan(x)
 #define T_NAN dd_d(nan(""))
 
 #define DERIVE_TAYLOR_T(x) x##_dd
@@ -622,6 +629,7 @@ long planar_taylor_batch_dd(long n, const derive_dd *y0, long y0_stride, const d
 #undef T_LE
 #undef T_SEXP
 #undef T_SPOW
+#undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET

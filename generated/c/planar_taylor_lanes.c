@@ -289,7 +289,7 @@ static int planar_lfinite(const double *z, long n)
     for (k = 0; k < n; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One lane's trajectory. */
@@ -880,7 +880,7 @@ static int planar_lfinite_f(const float *z, long n)
     for (k = 0; k < n; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One lane's trajectory. */
@@ -1471,7 +1471,7 @@ static int planar_lfinite_l(const long double *z, long n)
     for (k = 0; k < n; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One lane's trajectory. */

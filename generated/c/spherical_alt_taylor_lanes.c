@@ -456,7 +456,7 @@ static int spherical_alt_lfinite(const double *z, long n)
     for (k = 0; k < n; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One lane's trajectory. */
@@ -1214,7 +1214,7 @@ static int spherical_alt_lfinite_f(const float *z, long n)
     for (k = 0; k < n; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One lane's trajectory. */
@@ -1972,7 +1972,7 @@ static int spherical_alt_lfinite_l(const long double *z, long n)
     for (k = 0; k < n; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One lane's trajectory. */

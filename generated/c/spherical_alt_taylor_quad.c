@@ -96,6 +96,7 @@
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expq(x)
 #define T_SPOW(x, y) powq(x, y)
+#define T_SNAN(x) isnanq(x)
 #define T_NAN nanq("")
 
 #define DERIVE_TAYLOR_T(x) x##_q
@@ -362,6 +363,7 @@ long spherical_alt_taylor_batch_q(long n, const derive_quad *y0, long y0_stride,
 #undef T_LE
 #undef T_SEXP
 #undef T_SPOW
+#undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET

@@ -91,7 +91,7 @@ static int spherical_rot_guard(const double *restrict y, const spherical_rot_int
     int k;
     spherical_rot_polar_sines(y, sines);
     for (k = 0; k < 2; ++k) {
-        if (sines[k] != sines[k]) {
+        if (isnan(sines[k])) {
             return SPHERICAL_ROT_INTEGRATE_NONFINITE;
         }
         if (!(fabs(sines[k]) >= (double)opt->sine_min)) {
@@ -204,7 +204,7 @@ static int spherical_rot_guard_f(const float *restrict y, const spherical_rot_in
     int k;
     spherical_rot_polar_sines_f(y, sines);
     for (k = 0; k < 2; ++k) {
-        if (sines[k] != sines[k]) {
+        if (isnan(sines[k])) {
             return SPHERICAL_ROT_INTEGRATE_NONFINITE;
         }
         if (!(fabsf(sines[k]) >= (float)opt->sine_min)) {
@@ -317,7 +317,7 @@ static int spherical_rot_guard_l(const long double *restrict y, const spherical_
     int k;
     spherical_rot_polar_sines_l(y, sines);
     for (k = 0; k < 2; ++k) {
-        if (sines[k] != sines[k]) {
+        if (isnan(sines[k])) {
             return SPHERICAL_ROT_INTEGRATE_NONFINITE;
         }
         if (!(fabsl(sines[k]) >= (long double)opt->sine_min)) {

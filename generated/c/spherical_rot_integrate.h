@@ -39,6 +39,7 @@
  *   SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR      5  the chart is singular there: a polar sine below
  *                                        options.sine_min (the mass matrix is singular)
  *   SPHERICAL_ROT_INTEGRATE_BAD_INPUT           6  non-finite or inconsistent input (y0, p, t, options),
+ *                                        a fixed-step method without its step options.h > 0,
  *                                        or a fixed step too small for the span
  *                                        (|t_end - t0| / h above 2^53)
  *   SPHERICAL_ROT_INTEGRATE_CANCELLED           7  *options.cancel became non-zero (checked every step)
@@ -48,7 +49,9 @@
  *                                        or too large for the motion; no step is taken from it
  * On failure info.t is the time reached, info.y the state there (y = (q, q')),
  * rows of y_out from the first output time not reached on are NaN, and
- * info.nout counts the rows written.
+ * info.nout counts the rows written.  One info struct serves every variant (_f, none,
+ * _l): its t, h, h_end, y and local_error are doubles whatever the run's type (a long
+ * double run's rounded to double); y_out has the run's own type.
  *
  * Output times t[0..nt-1] are strictly monotone (increasing or decreasing: the
  * integration runs backwards when they decrease); y_out[0] = y0.  Fixed-step
@@ -132,7 +135,7 @@ typedef struct spherical_rot_integrate_info {
     double t;           /* time reached (where it stopped on failure) */
     double h;           /* last step size (fixed: the step h of the grid) */
     double h_end;       /* fixed: the shortened step to the last output (0: on the grid) */
-    double y[SPHERICAL_ROT_N_STATES];   /* state at t */
+    double y[SPHERICAL_ROT_N_STATES];   /* state at t (double in every variant) */
     double local_error; /* sum of the accepted steps' local-error estimates, in the state's units (dopri5, dop853, abm12, taylor; 0: none) */
 } spherical_rot_integrate_info;
 

@@ -441,7 +441,7 @@ static int spherical_std_lfinite(const double *z, long n)
     for (k = 0; k < n; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One lane's trajectory. */
@@ -1184,7 +1184,7 @@ static int spherical_std_lfinite_f(const float *z, long n)
     for (k = 0; k < n; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One lane's trajectory. */
@@ -1927,7 +1927,7 @@ static int spherical_std_lfinite_l(const long double *z, long n)
     for (k = 0; k < n; ++k) {
         check += z[k] - z[k];
     }
-    return check == 0;
+    return !isnan(check);
 }
 
 /* One lane's trajectory. */

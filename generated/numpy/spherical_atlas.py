@@ -127,17 +127,22 @@ def integrate(method, chart0, y0, p, t, dtype=numpy.float64, **options):
     """One trajectory from y0 in chart0 (or, for chart0 < 0, a standard-chart state
     from which the rule picks the chart): (status, y_out (len(t), N_STATES), charts (len(t),), info)."""
     dtype = numpy.dtype(dtype)
-    opt = dict(DEFAULTS, **options)
+    opt = library.options_of(options, DEFAULTS)
     y0 = numpy.asarray(y0, dtype).reshape(N_STATES)
     p = numpy.asarray(p, dtype).reshape(N_PARAMS)
     t = numpy.asarray(t, dtype).reshape(-1)
     info = library.new_info()
     info.update(t=float(t[0]) if len(t) else 0.0, y=numpy.array(y0, numpy.float64), nswitches=0, chart=chart0)
     charts = numpy.full(len(t), -1, numpy.intc)
-    st = library.check(method, y0, p, t, opt)
-    if not st and (method in ("rk8", "abm12") or chart0 >= len(CHARTS) or not opt["sine_switch"] >= opt["sine_min"]
-                   or not opt["sine_rule"] > opt["sine_switch"]):
-        st = BAD_INPUT
+    why = library.problem(method, y0, p, t, opt)
+    if not why and method in ("rk8", "abm12"):
+        why = f"the atlas has no {method}"
+    if not why and chart0 >= len(CHARTS):
+        why = f"chart0 = {chart0} is no chart (0 to {len(CHARTS) - 1}, or -1: the rule's)"
+    if not why and not (opt["sine_rule"] > opt["sine_switch"] >= opt["sine_min"]):
+        why = "the thresholds need sine_min <= sine_switch < sine_rule"
+    info["reason"] = why
+    st = BAD_INPUT if why else OK
     if not st and chart0 < 0:
         chart0 = choose_chart(STD, y0, p, opt["sine_rule"])
         st, y0 = convert(STD, chart0, y0)

@@ -5,8 +5,10 @@ import ctypes
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+import derive
 from derive.codegen import contract
 from derive.runtime.build import info_struct, options_struct
 
@@ -135,3 +137,15 @@ def test_no_restatement_of_the_contract_outside_it():
         if any(f'"{n}"' in text for n in names) or '"rk4", "dopri5"' in text or "METHOD_RK4 0" in text:
             offenders.append(str(path.relative_to(ROOT)))
     assert offenders == []
+
+
+def test_the_header_says_the_info_struct_is_double_in_every_variant():
+    """One info struct for the float, double and long double entry points: its state is
+    double (an ABI shared by the variants), and the header says so; y_out keeps the type."""
+    h = " ".join(re.sub(r"\n \*", " ", (GEN / "c" / "planar_integrate.h").read_text()).split())
+    assert ("One info struct serves every variant (_f, none, _l): its t, h, h_end, y and local_error "
+            "are doubles whatever the run's type") in h
+    assert "double y[PLANAR_N_STATES]; /* state at t (double in every variant) */" in h
+    r = derive.simulate("planar", [1.0, 0.5, 0.0, 0.0], [0.0, 0.5], [1, 1, 1, 1, 9.81], dtype="longdouble")
+    assert r.y.dtype == np.longdouble and r.y_stop.dtype == np.float64
+    assert np.array_equal(r.y_stop, r.y[-1].astype(np.float64))

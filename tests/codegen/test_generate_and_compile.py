@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[2]
 GEN_C = ROOT / "generated" / "c"
 C_FILES = sorted(GEN_C.glob("*.c"))                    # every generated C file
 KERNEL_C = [GEN_C / f"{name}.c" for name in model_names()]   # the kernels of each model
-WARN = ["-Wall", "-Wextra", "-Werror", "-pedantic", "-O2"]
+WARN = ["-Wall", "-Wextra", "-Werror", "-pedantic", "-Wfloat-equal", "-O2"]   # -Wfloat-equal: NaN tests by isnan
 
 
 # -- golden files ------------------------------------------------------------------

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ctypes
+import importlib.util
 import os
 import re
 import signal
@@ -16,7 +17,7 @@ import numpy as np
 import pytest
 
 import derive
-from derive.runtime.loader import load
+from derive.runtime.loader import load, numpy_integrators
 from derive.runtime.build import integrator_library
 from derive.codegen.contract import METHODS, STATUS
 from derive.runtime.simulate import numpy_module
@@ -81,6 +82,49 @@ def test_c_refuses_more_than_2_53_grid_steps_without_undefined_behaviour(suffix)
 def test_numpy_refuses_more_than_2_53_grid_steps():
     st, _, info = numpy_module("planar_integrate").integrate("rk4", Y0, P, [0.0, 1.0], h=1e-30)
     assert st == STATUS["BAD_INPUT"] and info["nsteps"] == 0
+    assert info["reason"] == "h = 1e-30 makes more than 2^53 steps over the span of t"
+
+
+def _generated(name):
+    """A module of the checkout's generated/numpy, imported by path as a user would."""
+    path = ROOT / "generated" / "numpy" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"user_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_generated_numpy_integrators_say_what_is_wrong():
+    """A misspelt option is refused, naming it and the options; a fixed-step method without
+    h is BAD_INPUT with a reason saying so (the atlas alike)."""
+    mod, atlas = _generated("planar_integrate"), _generated("spherical_atlas")
+    with pytest.raises(TypeError, match=re.escape("unknown option 'rtoll' (options: rtol, atol, h, hmin, "
+                                                  "hmax, max_steps, newton_tol, newton_max, sine_min, "
+                                                  "cancel); did you mean 'rtol'?")):
+        mod.integrate("dop853", Y0, P, [0.0, 1.0], rtoll=1e-10)
+    with pytest.raises(TypeError, match="unknown option 'steps'"):
+        mod.integrate_batch("rk4", [Y0, Y0], P, [0.0, 1.0], steps=0.01)
+    st, y, info = mod.integrate("rk4", Y0, P, [0.0, 1.0])
+    assert mod.STATUS_NAMES[st] == "bad input" and np.isnan(y[1]).all()
+    assert info["reason"].startswith("rk4 is a fixed-step method: it needs the option h, the step")
+    st, _, info = mod.integrate("rk4", Y0, P, [0.0, 1.0], h=0.01)
+    assert st == 0 and info["reason"] is None
+    y0 = [0.3, 0.2, 0.4, 0.1, 0.0, 0.0, 0.0, 0.0]
+    with pytest.raises(TypeError, match="unknown option 'sine_swich' .*; did you mean 'sine_switch'"):
+        atlas.integrate("dop853", -1, y0, P, [0.0, 1.0], sine_swich=0.2)
+    assert atlas.integrate("rk8", -1, y0, P, [0.0, 1.0], h=0.01)[3]["reason"] == "the atlas has no rk8"
+    assert "fixed-step method" in atlas.integrate("rk4", -1, y0, P, [0.0, 1.0])[3]["reason"]
+
+
+def test_the_numpy_backend_integrates_the_kernels_the_observables_use():
+    """derive's NumPy runs bind the library to numpy_module(model), the one copy of the
+    kernels in a session, with the same numbers as the generated <model>_integrate.py."""
+    bound = numpy_integrators("planar")
+    assert bound.system.kernels is numpy_module("planar")
+    t = np.linspace(0, 1, 5)
+    r = derive.simulate("planar", Y0, t, PLANAR, method="rk4", step=0.01, backend="numpy")
+    _, y, _ = numpy_module("planar_integrate").integrate("rk4", Y0, P, t, h=0.01)
+    assert np.array_equal(r.y, y)
 
 
 @pytest.mark.parametrize("kwargs, fragment", [

@@ -291,3 +291,16 @@ def test_an_atlas_run_names_its_columns_and_its_final_state(tmp_path, capsys):
     state = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("state "))
     first = s["state_names"][0]
     assert state.startswith(f"state   {first} = ") and state.endswith(f"(chart {charts[-1]})")
+
+
+def test_a_float32_runs_csv_has_no_noise_digits(tmp_path):
+    """Written to float32's precision: 0.1 reads 0.1 (not 0.10000000149011612), and every
+    value reads back as the float32 the run computed."""
+    o = outcome(tmp_path, "default", SHORT_PLANAR + [("target = 1e-8", 'method = "dop853"\nrtol = 1e-5\nscalar = "float"'),
+                                                     ("theta1 = 2.5", "theta1 = 0.1")])
+    write_outputs(o)
+    rows = (Path(o.scene.output_dir) / "default.csv").read_text().splitlines()
+    first = rows[1].split(",")
+    assert first[:2] == ["0.0", "0.1"] and all(len(v.lstrip("-").replace(".", "").lstrip("0")) <= 10 for v in first)
+    data = np.loadtxt(rows[1:], delimiter=",", dtype=np.float32)
+    assert np.array_equal(data[:, 1:5], np.asarray(o.result.y))

@@ -15,6 +15,9 @@ import derive
 from derive.cli import main
 from derive.errors import SceneError, UsageError
 from derive.sweep import MISSING_EXTRA, level_crossings as events, run_sweep
+from derive.sweep.chunk import variables
+from derive.sweep.layout import Layout
+from derive.sweep.store import open_store
 from derive.sweep.sweep_file import load_sweep, parse_sweep
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -425,6 +428,44 @@ def test_bad_sweep_file_from_the_shell_and_a_missing_extra(tmp_path):
     hide = "import sys; sys.modules['zarr'] = None; from derive.cli import main; sys.exit(main(sys.argv[1:]))"
     r = subprocess.run([sys.executable, "-c", hide, "sweep", str(path)], capture_output=True, text=True, env=env)
     assert r.returncode == 2 and r.stderr.strip() == f"derive: error: {MISSING_EXTRA}"
+
+
+def test_a_sweep_piped_to_a_log_says_how_far_it_is(tmp_path):
+    """stdout not a terminal (a pipe, here): a plain line per chunk as it finishes, then the
+    summary; --quiet prints none."""
+    path = write(tmp_path, record='["flip_time"]', stop=0.5, outputs=26, n1=6, n2=5, chunk=5)   # 6 chunks
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    cmd = [sys.executable, "-m", "derive", "sweep", str(path), "--out", str(tmp_path / "o"), "--workers", "0"]
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    progress = [line for line in lines if line.startswith("sweeping s: ")]
+    assert progress[0] == "sweeping s: 0/6 chunks (0%), " + progress[0].split(", ")[1]
+    assert [line.split(" chunks")[0] for line in progress] == [f"sweeping s: {k}/6" for k in range(7)]
+    assert progress[-1].startswith("sweeping s: 6/6 chunks (100%)")
+    assert lines.index(progress[-1]) < next(i for i, line in enumerate(lines) if line.startswith("sweep   "))
+    assert "\r" not in r.stdout + r.stderr
+    r = subprocess.run(cmd[:5] + ["--out", str(tmp_path / "q"), "--workers", "0", "--quiet"],
+                       capture_output=True, text=True, env=env)
+    assert r.returncode == 0 and r.stdout == "", r.stdout
+
+
+def test_status_is_stored_as_an_integer(tmp_path):
+    """status reads back as integers (0 ok, -1 not run) with xarray alone, and through
+    derive's load; so does chunk_done."""
+    import xarray as xr    # the sweep extra
+    path = write(tmp_path, record='["flip_time"]', stop=0.5, outputs=26, n1=6, n2=5, chunk=5)
+    sweep = load_sweep(path)
+    open_store(tmp_path / "fresh.zarr", sweep, Layout(sweep), variables(sweep))   # no chunk run yet
+    with xr.open_zarr(tmp_path / "fresh.zarr", consolidated=False) as ds:
+        assert ds.status.dtype == np.int8 and (ds.status.values == -1).all()
+        assert ds.chunk_done.dtype == np.int8 and (ds.chunk_done.values == 0).all()
+    loaded = derive.sweep(path, out=tmp_path / "o", workers=0)
+    assert loaded.status.dtype == np.int8 and (loaded.status == 0).all()
+    with xr.open_zarr(tmp_path / "o" / "s.zarr", consolidated=False) as ds:
+        assert ds.status.dtype == np.int8 and (ds.status.values == 0).all()
+        assert ds.chunk_done.dtype == np.int8 and (ds.chunk_done.values == 1).all()
+        assert ds.flip_time.dtype == np.float64
 
 
 def test_sweep_file_is_not_a_scene():

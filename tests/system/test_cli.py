@@ -49,6 +49,8 @@ def test_verify_table_and_summary():
     (["latex", "triple"], "unknown model 'triple'"),
     (["latex", "planar", "-o", "/no/such/dir/x.tex"], "does not exist"),
     (["verify", "--colour"], "unrecognized arguments"),
+    (["run"], "derive run: give a scene file or an example's name (derive run --list lists them)"),
+    (["sweep", "default"], "a scene, not a sweep (it has no [axes] and no record); run it with `derive run default`"),
 ])
 def test_bad_input_is_one_line_and_exit_2(args, message):
     run = derive(*args)
@@ -73,3 +75,26 @@ def test_bench_refuses_an_unwritable_output_directory_before_running():
     run = derive("bench", "--quick", "--quiet", "--no-throughput", "--out", "/proc/no-such-dir")
     assert run.returncode == 2 and "cannot write to '/proc/no-such-dir'" in run.stderr
     assert len(run.stderr.strip().splitlines()) == 1
+
+
+def test_run_list_names_every_example_with_its_title():
+    run = derive("run", "--list")
+    assert run.returncode == 0, run.stderr
+    lines = dict(line.split(maxsplit=1) for line in run.stdout.splitlines())
+    examples = sorted(p.stem for p in (ROOT / "derive" / "scenes").glob("*.toml"))
+    assert sorted(lines) == examples
+    assert lines["default"] == "Chaotic planar double pendulum"
+    assert lines["flip_map"].endswith("(a sweep: derive sweep flip_map)")
+    assert "sweep" not in lines["spherical_pole"]
+
+
+def test_verify_of_an_own_model_names_its_physics_checks(tmp_path):
+    """No seed formula belongs to a user's model: no '0 seed formulas' line, the checks instead."""
+    (tmp_path / "mine.toml").write_text(
+        'name = "mine_verify"\ndimension = 2\nparameters = ["m1", "l1", "g"]\n'
+        '[[links]]\nchart = "planar"\nlength = "l1"\nbody = { kind = "point", mass = "m1" }\n')
+    run = derive("verify", "mine.toml", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert "seed formulas" not in run.stdout
+    assert ("3/3 physics checks pass (M symmetric positive definite; energy conserved; "
+            "bob accelerations = Cartesian constraint forces)") in run.stdout

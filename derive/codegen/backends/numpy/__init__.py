@@ -34,9 +34,10 @@ class NumPyBackend(Backend):
         kernels = []
         for b in bodies:
             k = b.kernel
-            slots = numpy_slots([s for inp in k.inputs for s in inp.vector.symbols])
-            varying = {s for inp in k.inputs if inp.vector.key != "param" for s in inp.vector.symbols}
             assignments, flat = half_angle_sincos(b.assignments, [e for exprs in b.outputs for e in exprs])
+            slots = numpy_slots([s for inp in k.inputs for s in inp.vector.symbols],
+                                {s.name for s, _ in assignments})
+            varying = {s for inp in k.inputs if inp.vector.key != "param" for s in inp.vector.symbols}
             outputs = unflatten(flat, b.outputs)
             for sym, e in assignments:
                 if e.free_symbols & varying:

@@ -106,7 +106,7 @@ static inline derive_dd dd_div_d(derive_dd a, double b)
 
 static inline int dd_le(derive_dd a, derive_dd b)
 {
-    return a.hi < b.hi || (a.hi == b.hi && a.lo <= b.lo);
+    return a.hi < b.hi || (a.hi <= b.hi && a.lo <= b.lo);      /* after <, <= is == */
 }
 
 /* sqrt(a) = x + (a - x^2)/(2x) from the double x = sqrt(a.hi) (one Newton step, Karp & Markstein) */
@@ -115,7 +115,7 @@ static inline derive_dd dd_sqrt(derive_dd a)
     double x;
     derive_dd x2;
     if (!(a.hi > 0)) {
-        return dd_d(a.hi == 0 ? 0.0 : sqrt(a.hi));      /* 0, or NaN below 0 */
+        return dd_d(a.hi >= 0 ? 0.0 : sqrt(a.hi));      /* here a.hi >= 0 is a.hi == 0: 0, or NaN below 0 */
     }
     x = sqrt(a.hi);
     x2 = dd_mul(dd_d(x), dd_d(x));

@@ -34,7 +34,7 @@
  *   T_ADD(a, b), T_SUB, T_MUL, T_DIV, T_NEG, T_MULI(a, i), T_DIVI(a, i) (by an int),
  *   T_INT(i), T_D(x) (an int, a double as R), T_SQRT, T_SIN, T_COS, T_EXP   R's arithmetic
  *   T_S(a), T_ABS(a), T_FROMS(s), T_LE(a, b)   a in S, |a| in S, s as R, a <= b
- *   T_SEXP(x), T_SPOW(x, y)     exp and pow in S; T_NAN a NaN of R
+ *   T_SEXP(x), T_SPOW(x, y)     exp and pow in S; T_SNAN(x) whether x in S is a NaN; T_NAN a NaN of R
  *   DERIVE_TAYLOR_T(x)          the precision's name tag (x##_d, x##_dd, ...)
  *   DERIVE_TAYLOR_JET           the model's jet, defined after the inclusion:
  *                               int jet(R (*X)[DIM], const R *p, int order, S sine_min)
@@ -173,7 +173,7 @@ static int DERIVE_TAYLOR_T(derive_taylor_finite)(const R *z, long n)
     for (k = 0; k < n; ++k) {
         check += T_S(z[k]) - T_S(z[k]);
     }
-    return check == 0;
+    return !T_SNAN(check);
 }
 
 /* The order for a tolerance, clamped to [ORDER_MIN, ORDER_MAX] (a NaN: ORDER_MIN). */
@@ -279,7 +279,7 @@ static int DERIVE_TAYLOR_T(derive_taylor)(const R *y0, const R *p, long nt, cons
             n1 = T_ABS(X[i][order - 1]) > n1 ? T_ABS(X[i][order - 1]) : n1;
             n2 = T_ABS(X[i][order]) > n2 ? T_ABS(X[i][order]) : n2;
         }
-        if (!(n1 - n1 == 0) || !(n2 - n2 == 0)) {
+        if (T_SNAN(n1 - n1) || T_SNAN(n2 - n2)) {      /* an infinity or a NaN */
             st = DERIVE_NONFINITE;
             break;
         }

@@ -23,6 +23,7 @@ coefficients are derive_tableaus.py's, rendered once for every model; this file 
 copied verbatim beside it (derive/codegen/backends/numpy/library/).  Only numpy is
 imported: a folder of generated NumPy runs without derive.
 """
+import difflib
 import importlib.util
 import pathlib
 
@@ -54,8 +55,38 @@ _CACHE = {}
 
 
 def new_info():
-    """A run's info dict, every counter zero (the fields of the C info struct)."""
-    return dict(_data.INFO)
+    """A run's info dict, every counter zero: the fields of the C info struct, and
+    "reason", which for BAD_INPUT is one line saying what is wrong (else None)."""
+    return dict(_data.INFO, reason=None)
+
+
+def options_of(options, defaults=None):
+    """The options of a run: `defaults` (DEFAULTS) updated by `options`.
+
+    Parameters
+    ----------
+    options : dict
+        The caller's options, each a key of `defaults`.
+    defaults : dict, optional
+        Every option with its default (DEFAULTS unless given).
+
+    Returns
+    -------
+    dict
+        The merged options.
+
+    Raises
+    ------
+    TypeError
+        For a key that is no option (a typo): one line naming it and the options.
+    """
+    defaults = DEFAULTS if defaults is None else defaults
+    for key in options:
+        if key not in defaults:
+            near = difflib.get_close_matches(str(key), list(defaults), n=1)
+            hint = f"; did you mean '{near[0]}'?" if near else ""
+            raise TypeError(f"unknown option '{key}' (options: {', '.join(defaults)}){hint}")
+    return dict(defaults, **options)
 
 
 def _tab(name, dtype):
@@ -634,24 +665,39 @@ def drive(c, y0, t_out):
 
 # -- the entry points ----------------------------------------------------------------
 
-def check(method, y0, p, t, opt):
-    """BAD_INPUT or OK, as the C entry points check."""
-    if method not in METHODS or len(t) < 1:
-        return BAD_INPUT
-    if not (numpy.all(numpy.isfinite(y0)) and numpy.all(numpy.isfinite(p)) and numpy.all(numpy.isfinite(t))):
-        return BAD_INPUT
+def problem(method, y0, p, t, opt):
+    """What makes a run's input BAD_INPUT, as the C entry points check: one line, or None."""
+    if method not in METHODS:
+        return f"unknown method {method!r} (methods: {', '.join(METHODS)})"
+    if len(t) < 1:
+        return "no output times (t is empty)"
+    for name, values in (("y0", y0), ("p", p), ("t", t)):
+        if not numpy.all(numpy.isfinite(values)):
+            return f"{name} has a value that is not finite"
     if len(t) > 1 and not numpy.all(numpy.sign(numpy.diff(t)) * numpy.sign(t[-1] - t[0]) > 0):
-        return BAD_INPUT
+        return "the output times t are not strictly monotone"
     if method in ("dopri5", "dop853"):
-        if not (0 < opt["rtol"] < 1 and opt["atol"] >= 0 and opt["h"] >= 0 and opt["hmin"] >= 0 and opt["hmax"] >= 0):
-            return BAD_INPUT
+        if not 0 < opt["rtol"] < 1:
+            return f"rtol = {opt['rtol']!r} is outside (0, 1)"
+        for key in ("atol", "h", "hmin", "hmax"):
+            if not opt[key] >= 0:
+                return f"{key} = {opt[key]!r} is negative"
     elif len(t) > 1 and not 0 < opt["h"] < 1e300:
-        return BAD_INPUT
+        return (f"{method} is a fixed-step method: it needs the option h, the step (0 < h < 1e300; "
+                f"h = {opt['h']!r})")
     elif len(t) > 1 and not abs(float(t[-1]) - float(t[0])) / opt["h"] <= 2.0 ** 53:
-        return BAD_INPUT            # more than 2^53 grid steps: k h no longer tells grid points apart
-    if opt["max_steps"] < 1 or not 0 <= opt["sine_min"] < 1:
-        return BAD_INPUT
-    return OK
+        # more than 2^53 grid steps: k h no longer tells grid points apart
+        return f"h = {opt['h']!r} makes more than 2^53 steps over the span of t"
+    if opt["max_steps"] < 1:
+        return f"max_steps = {opt['max_steps']!r} is below 1"
+    if not 0 <= opt["sine_min"] < 1:
+        return f"sine_min = {opt['sine_min']!r} is outside [0, 1)"
+    return None
+
+
+def check(method, y0, p, t, opt):
+    """BAD_INPUT or OK, as the C entry points check (problem says why)."""
+    return BAD_INPUT if problem(method, y0, p, t, opt) else OK
 
 
 def integrate(kernels, method, y0, p, t, dtype=numpy.float64, **options):
@@ -673,7 +719,7 @@ def integrate(kernels, method, y0, p, t, dtype=numpy.float64, **options):
         The real type of the run (float32, float64, longdouble).
     **options
         Any of DEFAULTS (rtol, atol, h, hmin, hmax, max_steps, newton_tol, newton_max,
-        sine_min, cancel).
+        sine_min, cancel); another key raises TypeError.  A fixed-step method needs h.
 
     Returns
     -------
@@ -682,21 +728,22 @@ def integrate(kernels, method, y0, p, t, dtype=numpy.float64, **options):
     y_out : ndarray, shape (len(t), n)
         The state at each output time (NaN from the first one not reached).
     info : dict
-        The run's counters and where it stopped (new_info's fields).
+        The run's counters and where it stopped (new_info's fields); as in C, its t, h,
+        h_end, y and local_error are float64 whatever dtype is (y_out has dtype).
     """
     system = kernels if isinstance(kernels, System) else System(kernels)
     n = system.n
     dtype = numpy.dtype(dtype)
-    opt = dict(DEFAULTS, **options)
+    opt = options_of(options)
     y0 = numpy.asarray(y0, dtype).reshape(n)
     p = numpy.asarray(p, dtype).reshape(system.n_params)
     t = numpy.asarray(t, dtype).reshape(-1)
     info = new_info()
     info["t"], info["y"] = float(t[0]) if len(t) else 0.0, numpy.array(y0, numpy.float64)
-    st = check(method, y0, p, t, opt)
-    if st:
-        info["status"] = st
-        return st, numpy.full((len(t), n), numpy.nan, dtype), info
+    info["reason"] = problem(method, y0, p, t, opt)
+    if info["reason"]:
+        info["status"] = BAD_INPUT
+        return BAD_INPUT, numpy.full((len(t), n), numpy.nan, dtype), info
     st, y_out = drive(_Run(system, method, p, opt, info, dtype), y0, t)
     return st, y_out, info
 
@@ -705,6 +752,7 @@ def integrate_batch(kernels, method, y0, p, t, dtype=numpy.float64, **options):
     """Many trajectories, one integrate a row: y0 (B, n), p (n_params,) or (B, n_params)
     -> (statuses (B,), y_out (B, len(t), n), infos)."""
     system = kernels if isinstance(kernels, System) else System(kernels)
+    options_of(options)                  # a typo fails once, not once per trajectory
     y0 = numpy.asarray(y0, dtype).reshape(-1, system.n)
     p = numpy.broadcast_to(numpy.asarray(p, dtype), (len(y0), system.n_params))
     results = [integrate(system, method, y0[i], p[i], t, dtype, **options) for i in range(len(y0))]
