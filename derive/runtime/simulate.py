@@ -86,6 +86,24 @@ def _first_text(value):
     return None
 
 
+def _decimals_as_floats(value):
+    """`value` with every string in it read as a float (nested mappings and sequences): what
+    the checks of an extended-precision run see, where a string is an exact decimal.  A
+    string that is no number stays, for the checks to name it."""
+    if isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    if isinstance(value, Mapping):
+        return {k: _decimals_as_floats(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_decimals_as_floats(v) for v in value]
+    if isinstance(value, np.ndarray) and value.dtype.kind in "OSU":
+        return [_decimals_as_floats(v) for v in value.tolist()]
+    return value
+
+
 def _finite_array(value, what: str) -> np.ndarray:
     text = _first_text(value)
     if text is not None:
@@ -485,10 +503,12 @@ def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, s
         raise SimulationInputError(f"dtype '{precision}' estimates its error from its own run "
                                    f"(error_estimate='local'); for a rerun, run again at a smaller rtol")
     model, ref = str(model), _ref(model)
-    p = normalise_params(ref, params)             # the usual checks, one line each
-    normalise_inputs(ref, inputs)
-    ts = normalise_t(t)
-    state, _, _ = normalise_y0(ref, y0, p)
+    # the usual checks, one line each; here a string is an exact decimal (the run reads
+    # every input exactly), checked as the number nearest it
+    p = normalise_params(ref, _decimals_as_floats(params))
+    normalise_inputs(ref, _decimals_as_floats(inputs))
+    ts = normalise_t(_decimals_as_floats(t))
+    state, _, _ = normalise_y0(ref, _decimals_as_floats(y0), p)
     _check_angles(ref, state, np.dtype(np.longdouble))
     run_options(TAYLOR, np.dtype(np.float64), ts, hmax=hmax, max_steps=max_steps, sine_min=sine_min)
     if isinstance(y0, Mapping) and set(y0) & {"cartesian", "chart", "state"}:
