@@ -431,10 +431,15 @@ def _atlas_for_the_pole(scene: Scene, p: Plan, result: SimulationResult) -> Atla
     if scene.atlas is not None or result.status_name != CHART_SINGULAR or p.model != scene.model \
             or find_atlas(p.model) is not None:
         return None
+    return _chart_atlas(p.model)[0]     # None: no atlas for this chain (its stop says why)
+
+
+def _chart_atlas(model: str) -> tuple[Atlas | None, str]:
+    """The chart atlas that runs `model` across its charts' poles, or None and why not."""
     try:
-        return atlas_for(p.model)
-    except ModelError:                  # no atlas for this chain: its stop says why
-        return None
+        return atlas_for(model), ""
+    except ModelError as exc:
+        return None, str(exc)
 
 
 def _on_the_atlas(scene: Scene) -> dict:
@@ -449,10 +454,9 @@ def pole_hint(o: Outcome) -> str:
     """The way out of a stop at a chart's pole, for the one-line reason ("" for another stop)."""
     if o.result.status_name != CHART_SINGULAR or find_atlas(o.plan.model) is not None:
         return ""
-    try:
-        atlas_for(o.plan.model)
-    except ModelError as exc:
-        return (f" (the motion meets a pole of {o.plan.model}'s chart; {exc}: write its links in a chart "
+    atlas, why_not = _chart_atlas(o.plan.model)
+    if atlas is None:
+        return (f" (the motion meets a pole of {o.plan.model}'s chart; {why_not}: write its links in a chart "
                 f"whose poles the motion avoids, e.g. chart = \"second\")")
     return (f" (the motion meets a pole of {o.plan.model}'s chart; the scene asked for one chart: "
             f"pendulum.atlas = true runs it on the chart atlas, which switches charts there)")

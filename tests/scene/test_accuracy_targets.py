@@ -4,24 +4,10 @@ tolerance stays inside what its precision can take), never "result ok" for a mis
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-DEFAULT = (ROOT / "scenes" / "default.toml").read_text()
-
-
-def run_scene(tmp_path: Path, text: str, *flags):
-    scene = tmp_path / "scene.toml"
-    scene.write_text(text)
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    return subprocess.run([sys.executable, "-m", "derive", "run", str(scene), "--output-dir",
-                           str(tmp_path / "out"), *flags], cwd=tmp_path, env=env,
-                          capture_output=True, text=True, timeout=900)
+from tests.scene.scene_cli import DEFAULT, run_scene
 
 
 def test_just_inside_the_horizon_the_target_is_met(tmp_path):
