@@ -23,6 +23,7 @@ import os
 import signal
 import threading
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -83,9 +84,11 @@ def _executor(scheduler: str | None, workers: int | None):
             raise UsageError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
         return client, None, f"the Dask cluster at {address}"
     n = workers or os.cpu_count() or 1
+    # Workers log only CRITICAL: a task's error reaches this process as the task's exception,
+    # and the ERROR a worker logs when Ctrl-C closes the scheduler mid-heartbeat is noise
     with _workers_ignore_ctrl_c():
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                               silence_logs=logging.ERROR)
+                               silence_logs=logging.CRITICAL)
     return Client(cluster), cluster, f"a local cluster of {n} worker process{'es' * (n != 1)}"
 
 
@@ -194,6 +197,11 @@ def _run(sweep, path, folder, stem, layout, names, scheduler, workers, progress,
                     lines.update(len(done) + computed)
                 if on_chunk is not None:
                     on_chunk(chunk)
+    except KeyboardInterrupt:
+        # Ctrl-C inside Dask's or Zarr's event loop leaves coroutines that were never awaited;
+        # their warnings at collection time would follow the one line "derive: interrupted"
+        warnings.filterwarnings("ignore", message="coroutine .* was never awaited", category=RuntimeWarning)
+        raise
     finally:
         seconds = time.perf_counter() - start
         n_workers = len(client.scheduler_info()["workers"]) if client is not None else 0
