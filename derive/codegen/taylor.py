@@ -18,7 +18,9 @@ arguments (normalised derivatives; a_j, b_j the arguments' coefficients):
                     c_k = -(1/k) sum_{j=1..k} j a_j s_{k-j}
     u = exp(a)      u_k = (1/k) sum_{j=1..k} j a_j u_{k-j}
 
-and y^[k+1] = f^[k] / (k + 1).  Subexpressions free of the state (parameters, inputs,
+and y^[k+1] = f^[k] / (k + 1).  Each kind of operation is a row of OPERATIONS: its
+recurrence, its statement in the scalar jet and in the lanes' (taylor_lanes.py), the
+coefficients it keeps and its cost.  Subexpressions free of the state (parameters, inputs,
 numbers) are constants of the step, computed once (printed by the C printer); only
 the others carry coefficient arrays.  Integer powers are products (squares, then
 repeated multiplication), negative powers divisions, half-integer powers square roots.
@@ -34,6 +36,7 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass, field
 from functools import lru_cache
+from typing import Callable
 
 import sympy as sp
 
@@ -53,7 +56,7 @@ ORDER_RULE = {"order_max": TAYLOR_ORDER_MAX, "order_min": TAYLOR_ORDER_MIN,
 
 @dataclass
 class Op:
-    kind: str                 # var, add, sub, scale, shift, mul, div, inv, sqrt, sin, cos, exp, square
+    kind: str                 # a row of OPERATIONS: var, add, sub, scale, shift, mul, div, inv, sqrt, sin, cos, exp, square
     args: tuple = ()          # node indices (jets) or, for scale/shift, (node, constant index)
     index: int = -1           # var: the state slot
 
@@ -218,6 +221,139 @@ def decompose(rhs_body, state: tuple[sp.Symbol, ...]) -> Decomposition:
     return b.d
 
 
+# -- the operations: one table for every emitter -----------------------------------------
+
+@dataclass(frozen=True)
+class Operation:
+    """One kind of elementary operation (heyoka's table of them, in small): its recurrence,
+    its statement in the scalar jet (derive_taylor.h) and in the lanes' jet
+    (derive_taylor_lanes.h), the nodes whose every coefficient it reads, and its cost.
+
+    The statements are functions of (u, a): u the node's coefficients, a its arguments
+    (the nodes' coefficients, None for none, then a constant's index for scale and shift).
+    For the scalar jet a node is its row (J[i], X[i]: u[k] its coefficient k); for the
+    lanes a taylor_lanes._Lanes (u.row every order's lanes, u.cur order k's).  None: no
+    statement (a state; cos, which its sin's statement computes: `with_previous`)."""
+    meaning: str                          # u_k from the arguments' coefficients
+    scalar: Callable | None               # (u, a) -> the scalar jet's C statement
+    lane: Callable | None                 # (u, a) -> the lanes' jet's C statement
+    history: Callable = lambda i, args: ()   # (node, args) -> the nodes read at every order
+    cost: Callable = lambda k: 0          # k -> the additions, multiplications and divisions of u_k (k >= 1)
+    calls: str | None = None              # derive_taylor.h's recurrence it calls (DERIVE_TAYLOR_USES_*)
+    lane_calls: str | None = None         # derive_taylor_lanes.h's (DERIVE_LANES_USES_*)
+    consts: int = 0                       # trailing args that are constants' indices
+    with_previous: str | None = None      # computed by the statement of the operation before it, of this kind
+
+
+def _shift(u, a):
+    shift = f"k == 0 ? C[{a[1]}] : T_INT(0)"
+    return f"{u}[k] = {shift};" if a[0] is None else f"{u}[k] = T_ADD({a[0]}[k], {shift});"
+
+
+def _operands(i, args):                   # a product reads its operands' every coefficient
+    return args
+
+
+def _quotient(i, args):                   # a quotient its divisor's and its own
+    return (args[-1], i)
+
+
+def _own(i, args):                        # a square root its own
+    return (i,)
+
+
+def _chain(i, args):                      # sin, cos, exp: the argument's and their own
+    return (args[0], i)
+
+
+def _chain_cost(k):                       # (1/k) sum_{j=1..k} j a_j w_{k-j}
+    return 3 * k + 1
+
+
+OPERATIONS = {
+    "var": Operation("a state: the solution's own coefficients", None, None),
+    "add": Operation("u_k = a_k + b_k",
+                     lambda u, a: f"{u}[k] = T_ADD({a[0]}[k], {a[1]}[k]);",
+                     lambda u, a: f"LANES_ADD({u.cur}, {a[0].cur}, {a[1].cur});",
+                     cost=lambda k: 1, lane_calls="ADD"),
+    "sub": Operation("u_k = a_k - b_k",
+                     lambda u, a: f"{u}[k] = T_SUB({a[0]}[k], {a[1]}[k]);",
+                     lambda u, a: f"LANES_SUB({u.cur}, {a[0].cur}, {a[1].cur});",
+                     cost=lambda k: 1, lane_calls="SUB"),
+    "scale": Operation("u_k = c a_k (c a constant)",
+                       lambda u, a: f"{u}[k] = T_MUL(C[{a[1]}], {a[0]}[k]);",
+                       lambda u, a: f"LANES_SCALE({u.cur}, C[{a[1]}], {a[0].cur});",
+                       cost=lambda k: 1, lane_calls="SCALE", consts=1),
+    "shift": Operation("u_0 = a_0 + c, u_k = a_k (a none: the constant c alone)", _shift,
+                       lambda u, a: f"LANES_SHIFT({u.cur}, {'0' if a[0] is None else a[0].cur}, C[{a[1]}], k);",
+                       cost=lambda k: 1, lane_calls="SHIFT", consts=1),
+    "mul": Operation("u_k = sum_{j=0..k} a_j b_{k-j}",
+                     lambda u, a: f"{u}[k] = TAYLOR_MUL({a[0]}, {a[1]}, k);",
+                     lambda u, a: f"LANES_MUL({u.cur}, {a[0].row}, {a[1].row}, k);",
+                     history=_operands, cost=lambda k: 2 * (k + 1), calls="MUL", lane_calls="MUL"),
+    "square": Operation("u = a a: u_k = sum_{j=0..k} a_j a_{k-j}",
+                        lambda u, a: f"{u}[k] = TAYLOR_MUL({a[0]}, {a[0]}, k);",
+                        lambda u, a: f"LANES_MUL({u.cur}, {a[0].row}, {a[0].row}, k);",
+                        history=_operands, cost=lambda k: 2 * (k + 1), calls="MUL", lane_calls="MUL"),
+    "div": Operation("u = a / b: u_k = (a_k - sum_{j=1..k} b_j u_{k-j}) / b_0",
+                     lambda u, a: f"{u}[k] = TAYLOR_DIV({a[0]}[k], {a[1]}, {u}, k);",
+                     lambda u, a: f"LANES_DIV({u.row}, {a[0].cur}, {a[1].row}, k);",
+                     history=_quotient, cost=lambda k: 2 * k + 1, calls="DIV", lane_calls="DIV"),
+    "inv": Operation("u = 1 / b: u_k = ([k = 0] - sum_{j=1..k} b_j u_{k-j}) / b_0",
+                     lambda u, a: f"{u}[k] = TAYLOR_DIV(T_INT(k == 0), {a[0]}, {u}, k);",
+                     lambda u, a: f"LANES_DIV({u.row}, 0, {a[0].row}, k);",
+                     history=_quotient, cost=lambda k: 2 * k + 1, calls="DIV", lane_calls="DIV"),
+    "sqrt": Operation("u = sqrt(a): u_k = (a_k - sum_{j=1..k-1} u_j u_{k-j}) / (2 u_0)",
+                      lambda u, a: f"{u}[k] = TAYLOR_SQRT({a[0]}, {u}, k);",
+                      lambda u, a: f"LANES_SQRT({u.row}, {a[0].cur}, k);",
+                      history=_own, cost=lambda k: 2 * k, calls="SQRT", lane_calls="SQRT"),
+    "sin": Operation("s = sin a (c = cos a, its pair): s_k = (1/k) sum_{j=1..k} j a_j c_{k-j}",
+                     lambda u, a: f"{u}[k] = k == 0 ? T_SIN({a[0]}[0]) : TAYLOR_SIN({a[0]}, {a[1]}, k);",
+                     lambda u, a: f"LANES_SINCOS({u.row}, {a[1].row}, {a[0].row}, k);",
+                     history=_chain, cost=_chain_cost, calls="CHAIN", lane_calls="SINCOS"),
+    "cos": Operation("c = cos a (s = sin a, its pair): c_k = -(1/k) sum_{j=1..k} j a_j s_{k-j}",
+                     lambda u, a: f"{u}[k] = k == 0 ? T_COS({a[0]}[0]) : TAYLOR_COS({a[0]}, {a[1]}, k);",
+                     None, history=_chain, cost=_chain_cost, calls="CHAIN", with_previous="sin"),
+    "exp": Operation("u = exp a: u_k = (1/k) sum_{j=1..k} j a_j u_{k-j}",
+                     lambda u, a: f"{u}[k] = k == 0 ? T_EXP({a[0]}[0]) : TAYLOR_EXP({a[0]}, {u}, k);",
+                     lambda u, a: f"LANES_EXP({u.row}, {a[0].row}, k);",
+                     history=_chain, cost=_chain_cost, calls="CHAIN", lane_calls="EXP"),
+}
+
+
+def operation(op: Op) -> Operation:
+    if op.kind not in OPERATIONS:                # pragma: no cover (the builder makes no other)
+        raise SpecError(f"unknown Taylor operation {op.kind}")
+    return OPERATIONS[op.kind]
+
+
+def operands(op: Op, ref: Callable) -> list:
+    """The statement's a: each node argument through ref (None stays None), then the
+    constants' indices."""
+    n = len(op.args) - operation(op).consts
+    return [None if x is None else ref(x) for x in op.args[:n]] + list(op.args[n:])
+
+
+def history_nodes(d: Decomposition) -> set[int]:
+    """The nodes whose every coefficient so far is read (operands of products, quotients'
+    divisors and the quotients, square roots, sin/cos and exp and their arguments); the
+    others are read only at the order being computed."""
+    return {j for i, op in enumerate(d.ops) for j in operation(op).history(i, op.args)}
+
+
+def uses(d: Decomposition, lanes: bool = False) -> set[str]:
+    """The recurrences the jet's operations call: derive_taylor.h's, or with `lanes`
+    derive_taylor_lanes.h's."""
+    return {operation(op).lane_calls if lanes else operation(op).calls for op in d.ops} - {None}
+
+
+def jet_cost(d: Decomposition, order: int) -> int:
+    """The additions, multiplications and divisions of one jet to `order` past order 0
+    (which is the libm calls and the constants): the recurrences and the outputs'
+    divisions by k + 1."""
+    return sum(operation(op).cost(k) for k in range(1, order) for op in d.ops) + d.n * (order - 1)
+
+
 # -- C: the statements of the jet ------------------------------------------------------
 
 def c_statements(d: Decomposition, variant: dict, slots: dict) -> dict:
@@ -235,40 +371,8 @@ def c_statements(d: Decomposition, variant: dict, slots: dict) -> dict:
         op = d.ops[i]
         return f"X[{op.index}]" if op.kind == "var" else f"J[{i}]"
 
-    lines = []
-    for i, op in enumerate(d.ops):
-        nodes = op.args[:1] if op.kind in ("scale", "shift") else op.args    # then a constant index
-        a = [None if x is None else ref(x) for x in nodes] + list(op.args[len(nodes):])
-        u = ref(i)
-        if op.kind == "var":
-            continue
-        elif op.kind == "add":
-            lines.append(f"{u}[k] = T_ADD({a[0]}[k], {a[1]}[k]);")
-        elif op.kind == "sub":
-            lines.append(f"{u}[k] = T_SUB({a[0]}[k], {a[1]}[k]);")
-        elif op.kind == "scale":
-            lines.append(f"{u}[k] = T_MUL(C[{a[1]}], {a[0]}[k]);")
-        elif op.kind == "shift":
-            shift = f"k == 0 ? C[{a[1]}] : T_INT(0)"
-            lines.append(f"{u}[k] = {shift};" if a[0] is None else f"{u}[k] = T_ADD({a[0]}[k], {shift});")
-        elif op.kind == "mul":
-            lines.append(f"{u}[k] = TAYLOR_MUL({a[0]}, {a[1]}, k);")
-        elif op.kind == "square":
-            lines.append(f"{u}[k] = TAYLOR_MUL({a[0]}, {a[0]}, k);")
-        elif op.kind == "div":
-            lines.append(f"{u}[k] = TAYLOR_DIV({a[0]}[k], {a[1]}, {u}, k);")
-        elif op.kind == "inv":
-            lines.append(f"{u}[k] = TAYLOR_DIV(T_INT(k == 0), {a[0]}, {u}, k);")
-        elif op.kind == "sqrt":
-            lines.append(f"{u}[k] = TAYLOR_SQRT({a[0]}, {u}, k);")
-        elif op.kind == "sin":
-            lines.append(f"{u}[k] = k == 0 ? T_SIN({a[0]}[0]) : TAYLOR_SIN({a[0]}, {a[1]}, k);")
-        elif op.kind == "cos":
-            lines.append(f"{u}[k] = k == 0 ? T_COS({a[0]}[0]) : TAYLOR_COS({a[0]}, {a[1]}, k);")
-        elif op.kind == "exp":
-            lines.append(f"{u}[k] = k == 0 ? T_EXP({a[0]}[0]) : TAYLOR_EXP({a[0]}, {u}, k);")
-        else:                                   # pragma: no cover (every kind above)
-            raise SpecError(f"unknown Taylor operation {op.kind}")
+    lines = [operation(op).scalar(ref(i), operands(op, ref)) for i, op in enumerate(d.ops)
+             if operation(op).scalar]
     outputs = []
     for i, (kind, j) in enumerate(d.outputs):
         src = f"{ref(j)}[k]" if kind == "node" else f"(k == 0 ? C[{j}] : T_INT(0))"
@@ -470,14 +574,14 @@ def render_taylor(name: str) -> dict[str, str]:
     slots = _slots(name)
     kinds = counts(d)
     M = name.upper()
-    uses = {"mul": bool(kinds.keys() & {"mul", "square"}), "div": bool(kinds.keys() & {"div", "inv"}),
-            "sqrt": "sqrt" in kinds, "chain": bool(kinds.keys() & {"sin", "cos", "exp"})}
+    called = uses(d)
     out = {}
     for stem, names in TAYLOR_FILES.items():
         variants = [dict(TAYLOR_VARIANTS[v], taylor=c_statements(d, TAYLOR_VARIANTS[v], slots),
                          public=_public(name, TAYLOR_VARIANTS[v])) for v in names]
         header = f"{name}_{stem}.h"
-        ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops), "uses": uses,
+        ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops),
+               "uses": {k.lower(): k in called for k in ("MUL", "DIV", "SQRT", "CHAIN")},
                "nconst": len(d.constants), **ORDER_RULE, **library_context(name, info), "header": header,
                "guard": f"{M}_{stem.upper()}_H", "quad": "quad" in names, "dd": "double-double" in names,
                "precisions": _precisions([TAYLOR_VARIANTS[v] for v in names]),

@@ -1,7 +1,7 @@
 """Taylor's method across trajectories in SIMD lanes (heyoka's batch mode), emitted per
 model as standalone C99: <model>_taylor_lanes.{h,c}.
 
-The scalar integrator (taylor_codegen.py, <model>_taylor.c) computes the jet of one
+The scalar integrator (taylor.py, <model>_taylor.c) computes the jet of one
 trajectory, J[node][k]; this one computes it for L trajectories at once with the lane
 innermost, J[node][k * L + lane], so every recurrence is a loop over L lanes the compiler
 turns into vector instructions (plain C loops: no intrinsics, no vector extensions; on a
@@ -15,14 +15,19 @@ and in the same order (sums from j = 0 up, the same divisions, sin/cos/exp at or
 the scalar libm call per lane), so with floating-point contraction off
 (-ffp-contract=off: no fused multiply-adds, which the scalar build does not use either)
 each trajectory is bit for bit what `simulate(method="taylor")` gives.
+
+The run time (the recurrences for L lanes, the step, dense output, the lanes' bookkeeping)
+is the hand-written derive_taylor_lanes.h (derive/codegen/backends/c/library/), included
+once per precision; a model's file is its jet (OPERATIONS' lane statements, taylor.py),
+its constants and the public entry points.
 """
 from __future__ import annotations
 
 from ..errors import SpecError
-from .taylor import ORDER_RULE, TAYLOR_VARIANTS, Decomposition, _slots, c_statements, counts, rhs_decomposition
-from .integrators import _C_VARIANTS, c_variants, model_info
+from .taylor import (ORDER_RULE, TAYLOR_VARIANTS, Decomposition, _slots, c_statements, history_nodes, jet_cost,
+                     library_context, operands, operation, rhs_decomposition, uses)
+from .integrators import _C_VARIANTS, c_variants, library_files, model_info
 from .emit import render
-from .contract import INFO
 
 LANES_DEFAULT = 4        # the generic build's lanes (AVX2: four doubles)
 
@@ -33,108 +38,94 @@ def variant_number(suffix: str) -> int:
     return [s for _, s, _ in _C_VARIANTS].index(suffix) + 1
 
 
-def history_nodes(d: Decomposition) -> set[int]:
-    """The nodes whose every coefficient so far is read (operands of products, quotients'
-    divisors and the quotients, square roots, sin/cos and exp and their arguments); the
-    others are read only at the order being computed, so one row of lanes holds them."""
-    keep = set()
-    for i, op in enumerate(d.ops):
-        if op.kind in ("mul", "square"):
-            keep.update(op.args)
-        elif op.kind in ("div", "inv"):
-            keep.update((op.args[-1], i))
-        elif op.kind == "sqrt":
-            keep.add(i)
-        elif op.kind in ("sin", "cos", "exp"):
-            keep.update((op.args[0], i))
-    return keep
+class _Lanes:
+    """A node's coefficients in the lanes' jet: X[i] (a state), H[h] (history_nodes: every
+    order, coefficient k at + k * L) or T[t] (the others: the current order only)."""
+
+    def __init__(self, slot: str):
+        self.slot = slot
+
+    @property
+    def row(self) -> str:        # every coefficient (a state's: X[i] itself)
+        assert self.slot[0] in "XH", self.slot
+        return self.slot
+
+    @property
+    def cur(self) -> str:        # coefficient k
+        return self.slot if self.slot[0] == "T" else f"{self.slot} + k * L"
 
 
-def lane_statements(d: Decomposition, P: str, s: str) -> dict:
-    """The jet body of one variant: one call per operation computing coefficient k in every
-    lane, the outputs X[i][k + 1] and the guards.  Coefficients live in X (the states), H
-    (history_nodes: H[h] + k * L) or T (the others, the current order only: T[t]); C[c]
-    are the lane's constants.  Only the nodes read at other orders take ORDER_DIM rows:
-    the planar jet's working set is then about half, within a 32 KB L1 cache."""
+def lane_statements(d: Decomposition) -> dict:
+    """The jet body (the same text in every precision: the recurrences' names are macros of
+    derive_taylor_lanes.h): one call per operation computing coefficient k in every lane
+    (OPERATIONS' lane statements), the outputs X[i][k + 1] and the guards.  Coefficients
+    live in X (the states), H (history_nodes: H[h] + k * L) or T (the others, the current
+    order only: T[t]); C[c] are the lane's constants.  Only the nodes read at other orders
+    take ORDER_DIM rows: the planar jet's working set is then about half, within a 32 KB
+    L1 cache."""
     hist = history_nodes(d)
     slot, nh, nt = {}, 0, 0
     for i, op in enumerate(d.ops):
         if op.kind == "var":
-            slot[i] = f"X[{op.index}]"
+            slot[i] = _Lanes(f"X[{op.index}]")
         elif i in hist:
-            slot[i], nh = f"H[{nh}]", nh + 1
+            slot[i], nh = _Lanes(f"H[{nh}]"), nh + 1
         else:
-            slot[i], nt = f"T[{nt}]", nt + 1
-
-    def row(i):                  # every coefficient of node i (a state's: X[i] itself)
-        assert slot[i][0] in "XH", (i, d.ops[i])
-        return slot[i]
-
-    def cur(i):                  # coefficient k of node i
-        return slot[i] if slot[i][0] == "T" else f"{slot[i]} + k * L"
-
-    def fn(name):
-        return f"{P}_l{name}{s}"
+            slot[i], nt = _Lanes(f"T[{nt}]"), nt + 1
 
     lines = []
     for i, op in enumerate(d.ops):
-        if op.kind == "var":
-            continue
-        if op.kind in ("add", "sub"):
-            lines.append(f"{fn(op.kind)}({cur(i)}, {cur(op.args[0])}, {cur(op.args[1])});")
-        elif op.kind == "scale":
-            lines.append(f"{fn('scale')}({cur(i)}, C[{op.args[1]}], {cur(op.args[0])});")
-        elif op.kind == "shift":
-            base = "0" if op.args[0] is None else cur(op.args[0])
-            lines.append(f"{fn('shift')}({cur(i)}, {base}, C[{op.args[1]}], k);")
-        elif op.kind in ("mul", "square"):
-            a = row(op.args[0])
-            b = a if op.kind == "square" else row(op.args[1])
-            lines.append(f"{fn('mul')}({cur(i)}, {a}, {b}, k);")
-        elif op.kind == "div":
-            lines.append(f"{fn('div')}({row(i)}, {cur(op.args[0])}, {row(op.args[1])}, k);")
-        elif op.kind == "inv":
-            lines.append(f"{fn('div')}({row(i)}, 0, {row(op.args[0])}, k);")
-        elif op.kind == "sqrt":
-            lines.append(f"{fn('sqrt')}({row(i)}, {cur(op.args[0])}, k);")
-        elif op.kind == "sin":            # with its cos (the next operation): one sincos
-            lines.append(f"{fn('sincos')}({row(i)}, {row(op.args[1])}, {row(op.args[0])}, k);")
-        elif op.kind == "cos":
-            if d.ops[i - 1].kind != "sin" or d.ops[i - 1].args != (op.args[0], i):   # pragma: no cover
-                raise SpecError("a cos without its sin before it in the Taylor decomposition")
-        elif op.kind == "exp":
-            lines.append(f"{fn('exp')}({row(i)}, {row(op.args[0])}, k);")
-        else:                                   # pragma: no cover (every kind above)
-            raise SpecError(f"unknown Taylor operation {op.kind}")
+        entry = operation(op)
+        if entry.with_previous:            # cos: its sin's statement computes it (one sincos)
+            before = d.ops[i - 1] if i else None
+            if before is None or before.kind != entry.with_previous or before.args != (op.args[0], i):
+                raise SpecError(f"a {op.kind} without its {entry.with_previous} before it in the Taylor "
+                                "decomposition")    # pragma: no cover (the builder pairs them)
+        elif entry.lane:
+            lines.append(entry.lane(slot[i], operands(op, slot.__getitem__)))
     outputs = []
     for i, (kind, j) in enumerate(d.outputs):
         if kind == "node":
-            outputs.append(f"{fn('out')}(X[{i}] + (k + 1) * L, {cur(j)}, k);")
+            outputs.append(f"LANES_OUT(X[{i}] + (k + 1) * L, {slot[j].cur}, k);")
         else:
-            outputs.append(f"{fn('outc')}(X[{i}] + (k + 1) * L, C[{j}], k);")
-    return {"ops": lines, "outputs": outputs, "guards": [cur(g) for g in d.guards],
-            "nhist": nh, "ncur": nt}
+            outputs.append(f"LANES_OUTC(X[{i}] + (k + 1) * L, C[{j}], k);")
+    return {"ops": lines, "outputs": outputs, "guards": [slot[g].cur for g in d.guards],
+            "nhist": nh, "ncur": nt, "reads_constants": any("C[" in line for line in lines + outputs)}
+
+
+LIBRARY = ("derive_taylor_lanes.h",)        # derive/codegen/backends/c/library/
+# the recurrences of derive_taylor_lanes.h a jet may leave out (DERIVE_LANES_USES_<NAME>)
+LANES_RECURRENCES = ("ADD", "SUB", "SCALE", "SHIFT", "MUL", "DIV", "SQRT", "SINCOS", "EXP", "OUT", "OUTC", "GUARD")
+COST_ORDER = 12                             # the order the header's cost is given for
+
+
+def lanes_uses(d: Decomposition) -> dict[str, bool]:
+    """Which of derive_taylor_lanes.h's recurrences the jet calls: the operations' (the
+    table), the outputs' (a node's, a constant's) and the chart guard."""
+    called = uses(d, lanes=True)
+    called |= {"OUT" if kind == "node" else "OUTC" for kind, _ in d.outputs}
+    called |= {"GUARD"} if d.guards else set()
+    return {name: name in called for name in LANES_RECURRENCES}
 
 
 def render_taylor_lanes(name: str) -> dict[str, str]:
-    """<name>_taylor_lanes.h and .c: the lane-parallel Taylor integrator (C backend artifact)."""
+    """<name>_taylor_lanes.h and .c: the lane-parallel Taylor integrator (C backend artifact):
+    the model's jet and constants and the glue that includes derive_taylor_lanes.h for each
+    precision; the library header copied beside them."""
     info = model_info(name)
     d = rhs_decomposition(name)
     slots = _slots(name)
     variants = [dict(v, constants=c_statements(d, TAYLOR_VARIANTS[v["ctype"]], slots)["constants"],
-                     lanes=lane_statements(d, name, v["s"])) for v in c_variants()]
-    kinds = counts(d)
+                     tag=TAYLOR_VARIANTS[v["ctype"]]["tag"]) for v in c_variants()]
     M = name.upper()
-    uses = {"mul": bool(kinds.keys() & {"mul", "square"}), "div": bool(kinds.keys() & {"div", "inv"}),
-            "sqrt": "sqrt" in kinds, "sincos": "sin" in kinds, "exp": "exp" in kinds,
-            "add": "add" in kinds, "sub": "sub" in kinds, "scale": "scale" in kinds, "shift": "shift" in kinds,
-            "outc": any(kind == "const" for kind, _ in d.outputs)}
-    ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops), "uses": uses,
-           "nconst": len(d.constants), **ORDER_RULE, "lanes_default": LANES_DEFAULT,
+    ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops),
+           "uses": lanes_uses(d), "jet": lane_statements(d), "nconst": len(d.constants), **ORDER_RULE,
+           **library_context(name, info), "lanes_default": LANES_DEFAULT,
+           "cost": jet_cost(d, COST_ORDER), "cost_order": COST_ORDER,
            "nstore": d.n + len(history_nodes(d) - {i for i, op in enumerate(d.ops) if op.kind == "var"}),
-           "info_scalars": [f.name for f in INFO if not f.length],
            "nparams": f"{M}_N_PARAMS + {M}_N_INPUTS" if info.n_inputs else f"{M}_N_PARAMS"}
     return {f"c/{name}_taylor_lanes.h": render("c/taylor_lanes.h.jinja",
                                                  dict(ctx, template="templates/c/taylor_lanes.h.jinja")),
             f"c/{name}_taylor_lanes.c": render("c/taylor_lanes.c.jinja",
-                                                 dict(ctx, template="templates/c/taylor_lanes.c.jinja"))}
+                                                 dict(ctx, template="templates/c/taylor_lanes.c.jinja")),
+            **library_files(LIBRARY)}

@@ -109,9 +109,10 @@ def test_output_is_identical_across_hash_seeds(tmp_path):
 
 
 # the files the same for every model: the integrators' libraries (C, NumPy), the Taylor
-# run time and double-double arithmetic (C), and the tableaus
+# run times (scalar, lanes) and double-double arithmetic (C), and the tableaus
 SHARED_FILES = {"c/derive_integrators.h", "c/derive_driver.h", "c/derive_tableaus.h", "c/derive_taylor.h",
-                "c/derive_dd.h", "numpy/derive_integrators.py", "numpy/derive_tableaus.py"}
+                "c/derive_taylor_lanes.h", "c/derive_dd.h", "numpy/derive_integrators.py",
+                "numpy/derive_tableaus.py"}
 
 
 def test_files_carry_preamble_op_counts_and_no_dates_or_versions():
@@ -317,18 +318,24 @@ def test_the_numpy_library_reads_the_model_off_its_kernels(model):
     assert (system.n, system.n_params, system.guarded, system.hamiltonian, system.has_inputs) == \
         (info.n, info.n_params + info.n_inputs, info.nguards > 0, info.has_ham, info.n_inputs > 0)
 TAYLOR_LIBRARY = ("derive_taylor.h", "derive_dd.h")     # derive/codegen/backends/c/library/
+LANES_LIBRARY = ("derive_taylor_lanes.h",)
+
+
+def _library_lines(names) -> set[str]:
+    """The library's lines a model's file could repeat (long enough to say something)."""
+    from derive.paths import c_library_file
+    for name in names:
+        first, rest = (GEN_C / name).read_text().split("\n", 1)
+        assert SHARED.search(first) and rest == c_library_file(name).read_text(), name
+    return {line.strip() for name in names for line in (GEN_C / name).read_text().splitlines()
+            if len(line.strip()) >= 40 and not line.startswith("#")}
 
 
 def test_the_taylor_run_time_is_written_once():
     """The Taylor integrator's loop, step rule, dense output and double-double arithmetic
     are the library, copied verbatim; a model's <model>_taylor.c and _taylor_quad.c keep
     its jet and the glue (one inclusion per precision), and none of the library's lines."""
-    from derive.paths import c_library_file
-    for name in TAYLOR_LIBRARY:
-        first, rest = (GEN_C / name).read_text().split("\n", 1)
-        assert SHARED.search(first) and rest == c_library_file(name).read_text(), name
-    library = {line.strip() for name in TAYLOR_LIBRARY for line in (GEN_C / name).read_text().splitlines()
-               if len(line.strip()) >= 40 and not line.startswith("#")}
+    library = _library_lines(TAYLOR_LIBRARY)
     files = sorted(GEN_C.glob("*_taylor.c")) + sorted(GEN_C.glob("*_taylor_quad.c"))
     assert files
     for path in files:
@@ -338,6 +345,45 @@ def test_the_taylor_run_time_is_written_once():
         quad = path.name.endswith("_quad.c")
         assert sum(line == '#include "derive_taylor.h"' for line in lines) == (1 if quad else 4), path.name
         assert (sum(line == '#include "derive_dd.h"' for line in lines) == 0) == quad, path.name
+
+
+def test_the_taylor_lanes_run_time_is_written_once():
+    """The lanes' recurrences, step, dense output and bookkeeping are derive_taylor_lanes.h,
+    copied verbatim; a model's <model>_taylor_lanes.c keeps its jet, its constants and the
+    glue (one inclusion per native precision), and none of the library's lines."""
+    from derive.codegen.integrators import c_variants
+    library = _library_lines(LANES_LIBRARY)
+    files = sorted(GEN_C.glob("*_taylor_lanes.c"))
+    assert len(files) == len(sorted(GEN_C.glob("*_taylor.c")))
+    for path in files:
+        text = path.read_text()
+        lines = text.splitlines()
+        assert not library & {line.strip() for line in lines}, path.name
+        assert "Jorba" not in text and "frexp" not in text and "traj" not in text, path.name
+        assert sum(line == '#include "derive_taylor_lanes.h"' for line in lines) == len(c_variants()), path.name
+        assert len(lines) < 1000, f"{path.name}: {len(lines)} lines"
+
+
+def test_one_operation_table_writes_both_jets():
+    """Every kind of operation the decomposition makes is a row of taylor.OPERATIONS, whose
+    statements both emitters write: the scalar jet one per operation, the lanes' jet one
+    per operation but cos (its sin's sincos computes it); the recurrences a jet calls
+    and its cost come from the same rows."""
+    from collections import Counter
+    from derive.codegen.taylor import (OPERATIONS, TAYLOR_VARIANTS, _slots, c_statements, jet_cost,
+                                       rhs_decomposition, uses)
+    from derive.codegen.taylor_lanes import lane_statements, lanes_uses
+    for name in ("planar", "compound"):
+        d = rhs_decomposition(name)
+        kinds = Counter(op.kind for op in d.ops)
+        assert set(kinds) <= set(OPERATIONS)
+        scalar = c_statements(d, TAYLOR_VARIANTS["double"], _slots(name))["ops"]
+        lanes = lane_statements(d)["ops"]
+        assert len(scalar) == len(d.ops) - kinds["var"] and len(lanes) == len(scalar) - kinds["cos"]
+        assert uses(d) == {"MUL", "DIV", "CHAIN"}
+        assert {k for k, used in lanes_uses(d).items() if used} >= {"MUL", "DIV", "SINCOS", "OUT"}
+        assert jet_cost(d, 1) == 0 and jet_cost(d, 3) > jet_cost(d, 2) > 0
+    assert [OPERATIONS["mul"].cost(k) for k in (1, 2)] == [4, 6]        # k + 1 products and sums
 
 
 def test_the_taylor_order_rule_is_one_expression():
