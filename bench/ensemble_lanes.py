@@ -51,7 +51,7 @@ def derive_run(y0, rtol: float, threads: int, scalar: bool = False):
     def run():
         saved = lanes_module.taylor_ensemble_library
         if scalar:          # the path before the lanes: the scalar integrator per trajectory
-            lanes_module.taylor_ensemble_library = lambda model, order, dtype: taylor_library(model, order)
+            lanes_module.taylor_ensemble_library = lambda model, order, dtype: taylor_library(model, order, dtype)
         try:
             return derive.ensemble("planar", y0, [0.0, T_END], PARAMS, method="taylor", rtol=rtol,
                                    threads=threads).y[:, -1]

@@ -536,6 +536,17 @@ TAYLOR_VARIANTS = {
 TAYLOR_FILES = {"taylor": ("double", "float", "long double", "double-double"), "taylor_quad": ("quad",)}
 
 
+def taylor_skip_flags(model: str, ctype: str) -> tuple[str, ...]:
+    """-D<M>_TAYLOR_SKIP_<KEY> for every variant of <model>_taylor.c but the one of C type
+    `ctype` (contract.Precision.ctype): a run compiles only the precision it runs in, which
+    at a fixed, unrolled order is most of the compile time."""
+    keep = _skip_key(ctype)
+    keys = [TAYLOR_VARIANTS[v]["key"] for v in TAYLOR_FILES["taylor"]]
+    if keep not in keys:
+        raise ValueError(f"{model}_taylor.c has no {ctype} variant")
+    return tuple(f"-D{model.upper()}_TAYLOR_SKIP_{k}" for k in keys if k != keep)
+
+
 # The public functions of <model>_taylor.c, each a call of derive_taylor.h's static one:
 # (return type, name, parameters, the arguments); {R}: the real type, {P}: the model.
 # The prototypes are <model>_taylor.h's.

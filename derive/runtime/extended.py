@@ -34,7 +34,7 @@ from ..model.description import forget_on_model_change
 from .build import address, info_struct
 from .shared_library import TAYLOR_BATCH, TAYLOR_COEFFICIENTS, SharedLibrary
 from .model_sizes import model_info
-from ..codegen.taylor import taylor_problem
+from ..codegen.taylor import taylor_problem, taylor_skip_flags
 from ..codegen.contract import EXTENDED, PRECISION, PRECISION_NAMES
 
 # The rungs above long double (the contract's precision table): unit roundoff, default
@@ -183,7 +183,7 @@ class ExtendedTaylor(SharedLibrary):
         M = model.upper()
         flags = (*PORTABLE_FLAGS, "-O3", f"-D{M}_TAYLOR_ORDER={order}", *_fma_flags())
         if precision == "double-double":          # only the variant that runs (compile time)
-            flags += tuple(f"-D{M}_TAYLOR_SKIP_{k}" for k in ("DOUBLE", "FLOAT", "LONG_DOUBLE"))
+            flags += taylor_skip_flags(model, PRECISION[precision].ctype)
         libs = ()
         if precision == "quad":
             cc = default_compiler()

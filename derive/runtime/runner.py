@@ -134,7 +134,7 @@ class Runner:
         """(the single-trajectory entry point with its leading arguments bound, its info
         struct): one trajectory of the RK library's method, or Taylor's scalar integrator."""
         if self.method == TAYLOR:
-            taylor = taylor_library(self.model, self.order(rtol))
+            taylor = taylor_library(self.model, self.order(rtol), self.dtype)
             return partial(taylor.fns[self.dtype], 1), taylor.Info
         lib = self.lib
         return partial(lib.fns[self.dtype], 1, self.index), lib.Info

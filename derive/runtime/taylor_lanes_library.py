@@ -117,7 +117,7 @@ def taylor_ensemble_library(model: str, order: int, dtype: str):
     without vector instructions the scalar integrator (the same interface: .run)."""
     if dtype in LANE_TYPES:
         return taylor_lanes_library(model, order, dtype)
-    return taylor_library(model, order)
+    return taylor_library(model, order, dtype)
 
 
 @forget_on_model_change

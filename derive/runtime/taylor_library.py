@@ -1,10 +1,12 @@
-"""The generated Taylor integrator (<model>_taylor.c) at run time: compiled once per order.
+"""The generated Taylor integrator (<model>_taylor.c) at run time: compiled once per order
+and precision.
 
 The order follows the tolerance (p = ceil(-ln(tol)/2 + 1), Jorba & Zou; the same rule
 as the C, derive/codegen/taylor.py), and derive compiles the integrator
 with that order fixed (-D<MODEL>_TAYLOR_ORDER=p), which lets the compiler unroll the
 recurrences (the generic build loops over an order read at run time).  Each order is one
-cached library, built on first use; the generic file, compiled without the
+cached library, built on first use with only the variant of the precision that runs
+(the four unrolled variants would take about four times as long to compile); the generic file, compiled without the
 macro, reads the order from options.rtol, for use in other projects.
 """
 from __future__ import annotations
@@ -18,13 +20,14 @@ from ..codegen.sources import c_source
 from ..errors import SimulationInputError
 from ..model.description import forget_on_model_change
 from .build import address, dtype_key, info_struct, run_batch
-from .shared_library import TAYLOR_BATCH, TAYLOR_COEFFICIENTS, SharedLibrary
+from .shared_library import SUFFIX, TAYLOR_BATCH, TAYLOR_COEFFICIENTS, SharedLibrary
 from .model_sizes import model_info
-from ..codegen.taylor import taylor_problem
+from ..codegen.contract import PRECISION
+from ..codegen.taylor import taylor_problem, taylor_skip_flags
 
 
 class TaylorLibrary(SharedLibrary):
-    """ctypes access to <model>_taylor_batch{,_f,_l}, compiled with a fixed order.
+    """ctypes access to <model>_taylor_batch{,_f,_l}, one of them, compiled with a fixed order.
 
     Parameters
     ----------
@@ -32,22 +35,25 @@ class TaylorLibrary(SharedLibrary):
         A resolved model name.
     order : int
         The Taylor order compiled in (contract.taylor_order of the tolerance).
+    dtype : str
+        The hardware precision compiled in (a key of contract.PRECISION: float32,
+        float64, longdouble); fns and coefficient_fns hold its entry points only.
     """
 
-    def __init__(self, model: str, order: int):
+    def __init__(self, model: str, order: int, dtype: str = "float64"):
         info = model_info(model)
-        self.model, self.order, self.n = model, order, info.n
+        self.model, self.order, self.n, self.dtype = model, order, info.n, dtype
         self.n_params = info.n_params + info.n_inputs
         source = c_source(model, f"{model}_taylor.c")
         if not source.is_file():
             raise SimulationInputError(f"model '{model}' has no Taylor integrator: {taylor_problem(model)}")
-        path, self.flags = build_fastest(f"{model}_taylor_p{order}", [source],
+        path, self.flags = build_fastest(f"{model}_taylor_p{order}{SUFFIX[dtype]}", [source],
                                          extra=(f"-D{model.upper()}_TAYLOR_ORDER={order}",
-                                                f"-D{model.upper()}_TAYLOR_SKIP_DOUBLE_DOUBLE"))
+                                                *taylor_skip_flags(model, PRECISION[dtype].ctype)))
         super().__init__(path)
         self.Info = info_struct(self.n)
-        self.fns = self.bind_precisions(TAYLOR_BATCH, model=model)
-        self.coefficient_fns = self.bind_precisions(TAYLOR_COEFFICIENTS, model=model)
+        self.fns = self.bind_precisions(TAYLOR_BATCH, dtypes=(dtype,), model=model)
+        self.coefficient_fns = self.bind_precisions(TAYLOR_COEFFICIENTS, dtypes=(dtype,), model=model)
 
     def run(self, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:
         """y0 (B, n), p (B, np) or (np,), t (nt,), opt: the integrators' options struct
@@ -67,5 +73,7 @@ class TaylorLibrary(SharedLibrary):
 
 @forget_on_model_change
 @lru_cache(maxsize=None)
-def taylor_library(model: str, order: int) -> TaylorLibrary:
-    return TaylorLibrary(model, order)
+def taylor_library(model: str, order: int, dtype: str = "float64") -> TaylorLibrary:
+    """The Taylor integrator of `model` at `order` in the hardware precision `dtype`, built
+    on first use (cached on disk and in this process)."""
+    return TaylorLibrary(model, order, dtype)
