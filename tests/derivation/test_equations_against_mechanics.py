@@ -106,6 +106,7 @@ def model_toml(name, dimension, parameters, chart, links, extra="") -> str:
 
 # -- the references themselves -----------------------------------------------------------
 
+@pytest.mark.slow     # integrates both references of several chains: about 20 s
 def test_mechanics_references_agree_with_the_cartesian_chain():
     """The two independent references describe the same physics: at random states of a
     4-link planar chain and a 3-link spherical chain (standard and second chart), the tip

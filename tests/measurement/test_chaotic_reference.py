@@ -195,6 +195,7 @@ def test_float64_follows_the_reference_only_for_a_while():
     assert errors[20.0] > 1e-8
 
 
+@pytest.mark.slow     # an mpmath reference to t = 10 and a long double Taylor build: about 30 s
 def test_long_double_taylor_follows_the_reference_to_t_10():
     """derive's Taylor integrator in long double at rtol 2e-18 (the tightest its order-22
     build allows; measured: 6e-18 at t = 2, 8e-10 at t = 10, 4e-2 at t = 20)."""

@@ -98,8 +98,8 @@ def test_the_rule_for_n_links(atlas):
     assert max(min(cartesian.polar_sines(m, c, LENGTHS)) for m in atlas.charts) < 1e-12
 
 
-@pytest.mark.parametrize("backend", [pytest.param("c", marks=pytest.mark.slow),   # compiles the chain atlas: minutes
-                                     "numpy"])
+@pytest.mark.slow     # numpy: ~45 s of the triple chain's atlas; c: compiles it, minutes
+@pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_triple_chain_through_a_pole_agrees_with_a_cartesian_reference(backend):
     """Both at rtol 1e-12 (the reference 1e-13, DOP853 in SciPy on the constraint-force
     equations); over 5 s this motion amplifies a 1e-12 local error to about 1e-11 (measured
@@ -120,6 +120,7 @@ def test_triple_chain_through_a_pole_agrees_with_a_cartesian_reference(backend):
     assert np.max(np.abs(r.energy - r.energy[0])) < 1e-9 * abs(r.energy[0])
 
 
+@pytest.mark.slow     # runs the triple chain on its atlas
 def test_the_charts_of_a_user_chain_agree(atlas):
     """The same motion integrated in the standard and in the second chart, away from both
     singularities, agrees after converting (to Cartesian, by each chart's own kernels)."""
@@ -146,8 +147,8 @@ def test_bad_atlas_requests_are_one_line():
         derive.simulate(TRIPLE, {"cartesian": bad}, [0, 1], P, atlas=True)
 
 
-@pytest.mark.parametrize("cc", ["gcc", pytest.param("clang", marks=pytest.mark.slow),
-                                pytest.param("g++", marks=pytest.mark.slow)])
+@pytest.mark.slow     # compiles the triple chain's atlas C, ~40 s a compiler
+@pytest.mark.parametrize("cc", ["gcc", "clang", "g++"])
 def test_a_user_atlas_c_is_clean_under_werror(atlas, cc, tmp_path):
     from derive.codegen.sources import model_sources
     folder = model_sources(atlas.name) / "c"
@@ -198,6 +199,7 @@ def test_a_user_chain_scene_through_a_pole_runs_on_its_atlas_unless_one_chart_is
     assert len(one.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.slow     # runs the triple chain on its atlas
 def test_an_atlas_scene_for_a_user_chain_writes_every_bob_and_the_chart(tmp_path):
     """[pendulum] atlas = true: CSV and NPZ with the chart of every row and the positions
     and velocities of all three bobs; the plots draw three bobs."""
@@ -221,6 +223,7 @@ def test_an_atlas_scene_for_a_user_chain_writes_every_bob_and_the_chart(tmp_path
     assert any(f.endswith(".png") for f in files)
 
 
+@pytest.mark.slow     # runs the triple chain on its atlas
 def test_verify_checks_the_charts_of_a_user_chain():
     """derive verify (physics.model_checks) of a user's spherical chain compares its charts:
     the same Cartesian accelerations in all three, and a round trip through the second."""

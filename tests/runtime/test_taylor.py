@@ -82,7 +82,8 @@ def test_long_double_chaotic_run():
     assert np.max(np.abs(np.asarray(r.y[-1], float) - ref)) < 1e-12
 
 
-@pytest.mark.parametrize("name", ["triple", "driven"])
+@pytest.mark.parametrize("name", [pytest.param("triple", marks=pytest.mark.slow),   # derives and compiles a triple
+                                  "driven"])
 def test_user_models_agree_with_dop853(name):
     path = EXAMPLES / f"{name}.toml"
     from derive.model import load_model

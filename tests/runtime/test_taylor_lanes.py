@@ -138,7 +138,7 @@ def test_a_step_budget_ends_each_lane_where_simulate_ends():
     _assert_simulate(few, y0, t, params, rtol=1e-10, max_steps=3)
 
 
-@pytest.mark.parametrize("lanes", [1, 3])
+@pytest.mark.parametrize("lanes", [1, pytest.param(3, marks=pytest.mark.slow)])   # 3: one more lanes build
 def test_the_number_of_lanes_changes_no_result(lanes):
     """Any lane count (and the portable build without vector flags) gives the same numbers."""
     y0, params = _states(10, seed=16), _params(10, seed=17)

@@ -36,7 +36,8 @@ def test_past_long_doubles_horizon_the_run_climbs_and_meets_the_target(tmp_path,
 
 
 @pytest.mark.parametrize("edit, fragment", [
-    (lambda t: t.replace("stop = 5.0", "stop = 30.0"), "out of reach after t = "),     # past double-double's horizon
+    pytest.param(lambda t: t.replace("stop = 5.0", "stop = 30.0"), "out of reach after t = ",  # past double-double's
+                 marks=pytest.mark.slow),                                                    # horizon: ~40 s
     # below what the top rung resolves: the precision, not the motion, is the cause
     (lambda t: t.replace("target = 1e-8", "target = 1e-40"),
      "out of reach with double-double at rtol 1e-27: its early error, about 2.5e-27, is above the target"),

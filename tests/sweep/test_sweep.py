@@ -84,6 +84,7 @@ def test_two_worker_processes_equal_one_process(tmp_path, cluster):
     np.testing.assert_array_equal(ds.theta1.values, np.linspace(-np.pi, np.pi, 6))
 
 
+@pytest.mark.slow     # kills a worker of the cluster and waits for its successor
 def test_killed_worker_loses_no_chunk(tmp_path, cluster):
     """A worker killed (SIGKILL) while it runs a chunk: Dask runs its tasks again on the other
     (and on the worker the nanny restarts); every chunk is written once, as in one process."""
@@ -312,6 +313,7 @@ def _long_double_flips(sweep, y0, rtol=1e-17):
 
 # -- the mirror symmetry ------------------------------------------------------------------
 
+@pytest.mark.slow     # the sweep twice, with and without mirror images: about 45 s
 def test_mirror_images_equal_computing_every_chunk(tmp_path):
     """The flip map on a 40 x 40 grid: half the chunks computed and half written as their
     mirror images equals every chunk computed, bit for bit (the verified flip times and their
@@ -430,6 +432,7 @@ def test_bad_sweep_file_from_the_shell_and_a_missing_extra(tmp_path):
     assert r.returncode == 2 and r.stderr.strip() == f"derive: error: {MISSING_EXTRA}"
 
 
+@pytest.mark.slow     # a sweep of its own on a local cluster
 def test_a_sweep_piped_to_a_log_says_how_far_it_is(tmp_path):
     """stdout not a terminal (a pipe, here): a plain line per chunk as it finishes, then the
     summary; --quiet prints none."""
