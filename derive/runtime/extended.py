@@ -174,9 +174,8 @@ class ExtendedTaylor(SharedLibrary):
 
     One library serves every order: it is compiled without -D<M>_TAYLOR_ORDER, so it takes
     the order from options.rtol by the same rule as contract.taylor_order.  Unrolled at a
-    fixed order the extended arithmetic runs no faster (planar, double-double, t = 20:
-    24.0 ms unrolled at order 24, 23.5 ms generic; the same bits), while each new
-    tolerance would cost a compile of 5-12 s (quad: ~30 s)."""
+    fixed order the extended arithmetic runs no faster and gives the same bits, while each
+    new tolerance would cost a compile of its own."""
 
     def __init__(self, model: str, precision: str, order: int):
         info = model_info(model)

@@ -6,7 +6,7 @@ as the C, derive/codegen/taylor.py), and derive compiles the integrator
 with that order fixed (-D<MODEL>_TAYLOR_ORDER=p), which lets the compiler unroll the
 recurrences (the generic build loops over an order read at run time).  Each order is one
 cached library, built on first use with only the variant of the precision that runs
-(the four unrolled variants would take about four times as long to compile); the generic file, compiled without the
+(compiling the four unrolled variants takes about four times as long); the generic file, compiled without the
 macro, reads the order from options.rtol, for use in other projects.
 """
 from __future__ import annotations
