@@ -160,38 +160,39 @@ def _golden_root() -> Path:
 
 def cmd_generate(args) -> int:
     from .codegen import generate    # start-up: a command imports its stage when it runs
+    from .codegen.backends import selected
     names, bad = _model_args(args.models, allow_atlas=True)
+    backends = None if args.backend is None else tuple(b.name for b in selected(args.backend))
     if args.out:
         out, shown = Path(args.out), args.out.rstrip("/") or "/"
     else:
         if names:
             raise UsageError("give --out DIR for these models: without --out, derive generate "
                              "rewrites the catalogue's golden generated/ only")
+        if backends is not None:
+            raise UsageError("give --out DIR with --backend: the golden generated/ holds the "
+                             "default backends only")
         out, shown = _golden_root() / "generated", "generated"
     names = names or generate.catalogue_names()
+    if not args.check:
+        _writable_folder(out)
     with Stage("generating") as stage:
-        files = {}
-        for i, name in enumerate(names, 1):
-            stage.set(f"{name} ({i}/{len(names)})")
-            files.update(generate.render_models([name]))
-        if not args.check:
-            _writable_folder(out)
         # --out DIR: only these models' files (others generated there before stay)
-        changed, diff = generate.write_tree(out, files, check=args.check, shown=shown,
-                                            prune=not args.out)
-    note = generate.manifest_note(out)
+        written = generate.write_models(out, names, backends, check=args.check, prune=not args.out,
+                                        shown=shown,
+                                        progress=lambda i, n, name: stage.set(f"{name} ({i}/{n})"))
+    changed = written.changed
     if args.check:
-        if note:
-            print(f"note: {note}", file=sys.stderr)
+        if written.note:
+            print(f"note: {written.note}", file=sys.stderr)
         if changed:
-            sys.stdout.write(diff)
+            sys.stdout.write(written.diff)
             print(f"{shown}/ is stale: {len(changed)} file(s) differ; run `derive generate"
                   f"{' ' + ' '.join(args.models) + ' --out ' + args.out if args.out else ''}`",
                   file=sys.stderr)
             return 1
-        print(f"{shown}/ is up to date ({len(files)} files of {len(names)} models)")
+        print(f"{shown}/ is up to date ({len(written.files)} files of {len(names)} models)")
         return 2 if bad else 0
-    generate.write_manifest(out)
     if not args.out:
         print(f"rewrote the golden files in {out} (the catalogue: {len(names)} models)")
     print(f"wrote {len(changed)} changed file(s)" if changed else f"{shown}/ already up to date")
@@ -610,6 +611,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="write DIR/c/ and DIR/numpy/ (default: the checkout's generated/)")
     p.add_argument("--check", action="store_true",
                    help="write nothing; exit 1 with a diff when the folder is stale")
+    p.add_argument("--backend", action="append", metavar="NAME",
+                   help="a target language, as its folder of derive/codegen/backends/ is named (a "
+                        "wrong name lists them); repeat for several; needs --out (default: every backend that needs no "
+                        "optional extra)")
     p.set_defaults(func=cmd_generate)
     p = sub.add_parser("latex", help="write the derivation of a model as a standalone .tex", epilog=EXIT_CODES)
     p.add_argument("model", help=f"{model_help}, or 'spherical' for the chart atlas")

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import difflib
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..model import model_names
@@ -18,12 +19,15 @@ def catalogue_names() -> list[str]:
     return [*model_names(), ATLAS]
 
 
-def render_models(names, fresh: bool = False) -> dict[str, str]:
-    """The generated files of `names` (catalogue names or model files): path -> text;
-    from the cache where it holds them (fresh=True: rendered now, the cache unread)."""
+def render_models(names, fresh: bool = False, backends: tuple[str, ...] | None = None) -> dict[str, str]:
+    """The generated files of `names` (catalogue names or model files) in the languages
+    `backends` (None: the default ones): path -> text; from the cache where it holds them
+    (fresh=True: rendered now, the cache unread)."""
     files: dict[str, str] = {}
+    if backends is not None:
+        backends = tuple(sorted(set(backends)))     # one cache entry per set of backends
     for name in names:
-        for rel, text in (render_fresh(name) if fresh else render(name)).items():
+        for rel, text in (render_fresh(name, backends) if fresh else render(name, backends)).items():
             if rel in files and files[rel] != text:
                 raise ValueError(f"two models write generated/{rel}")
             files[rel] = text
@@ -83,6 +87,58 @@ def write_tree(out: Path, files: dict[str, str], check: bool = False,
                 path.parent.mkdir(parents=True, exist_ok=True)
                 path.write_text(new)
     return changed, "".join(diffs)
+
+
+@dataclass
+class Written:
+    """What `write_models` did: the files of the models, the paths that changed (or, with
+    check, differ), their unified diff, and a note on the SymPy that made the folder."""
+    files: dict[str, str]
+    changed: list[str]
+    diff: str
+    note: str | None
+
+
+def write_models(out: Path, names, backends: tuple[str, ...] | None = None, check: bool = False,
+                 prune: bool = False, shown: str | None = None, progress=None) -> Written:
+    """`derive generate`: render `names` in the languages `backends` into folder `out`.
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The folder (out/c/, out/numpy/, ... one per backend).
+    names : list of str
+        Catalogue model names, model files' names, or an atlas.
+    backends : tuple of str, optional
+        Backend names (None: the default ones, `backends.default_names`).
+    check : bool, optional
+        Write nothing, only compare.
+    prune : bool, optional
+        Also remove the files derive made in `out` that nothing produces any more (the
+        golden tree; an --out folder keeps other models' files).
+    shown : str, optional
+        How `out` is named in the changed paths and the diff (default: `out` itself).
+    progress : callable, optional
+        Called as progress(i, total, name) before model `name` is rendered.
+
+    Returns
+    -------
+    Written
+        The files, the changed paths, the diff and the manifest note (`manifest_note`,
+        read before the manifest is rewritten).
+    """
+    out = Path(out)
+    files: dict[str, str] = {}
+    for i, name in enumerate(names, 1):
+        if progress is not None:
+            progress(i, len(names), name)
+        files.update(render_models([name], backends=backends))
+    changed, diff = write_tree(out, files, check=check, shown=str(out) if shown is None else shown,
+                               prune=prune)
+    note = manifest_note(out)
+    if not check:
+        write_manifest(out)
+    return Written(files, changed, diff, note)
 
 
 def generate_all(root: Path, check: bool = False,

@@ -83,37 +83,45 @@ def kernels(name: str):
     return spec, cse_file(spec)
 
 
-def _raw(name: str) -> dict[str, str]:
-    """Every backend's artifacts for `name` (derive/codegen/backends discovers them)."""
+def _raw(name: str, backends: tuple[str, ...] | None = None) -> dict[str, str]:
+    """The artifacts of the backends called `backends` (None: the default ones; derive/
+    codegen/backends discovers them) for `name`."""
     files: dict[str, str] = {}
+    chosen = registry.selected(backends)
     if find_atlas(name) is not None:
-        for backend in registry.backends():
+        for backend in chosen:
             files.update(backend.atlas_files(name))
         return files
     d = derive(name)
     spec, bodies = kernels(name)
-    for backend in registry.backends():
+    for backend in chosen:
         files.update(backend.model_files(name, spec, bodies, guarded=bool(d.polar_sines)))
     return files
 
 
-def render_fresh(name: str) -> dict[str, str]:
-    """The generated files of one model (or the atlas's own), rendered now:
-    path under generated/ -> text."""
-    return dict(sorted(provenance(name, _raw(name)).items()))
+def render_fresh(name: str, backends: tuple[str, ...] | None = None) -> dict[str, str]:
+    """The generated files of one model (or the atlas's own), rendered now by the backends
+    called `backends` (None: the default ones): path under generated/ -> text."""
+    return dict(sorted(provenance(name, _raw(name, backends)).items()))
+
+
+def _backend_tag(backends: tuple[str, ...] | None) -> str:
+    """The part of a rendered file's cache name that says which backends rendered it."""
+    names = tuple(b.name for b in registry.selected(backends))
+    return "" if names == registry.default_names() else "-" + "+".join(names)
 
 
 @forget_on_model_change
 @lru_cache(maxsize=None)
-def render(name: str) -> dict[str, str]:
-    """render_fresh(name), kept in the cache under the key of everything that shapes it,
-    so `derive generate` after editing one model renders only that model.  (Do not
-    modify the returned dict: it is shared.)"""
-    path = cache_dir() / "rendered" / f"{name}-{sources_key(name)}.json"
+def render(name: str, backends: tuple[str, ...] | None = None) -> dict[str, str]:
+    """render_fresh(name, backends), kept in the cache under the key of everything that
+    shapes it, so `derive generate` after editing one model renders only that model.  (Do
+    not modify the returned dict: it is shared.)"""
+    path = cache_dir() / "rendered" / f"{name}{_backend_tag(backends)}-{sources_key(name)}.json"
     files = cachefile.load(path) if path.is_file() else cachefile.MISSING
     if isinstance(files, dict):
         return files
-    files = render_fresh(name)                  # absent or damaged: render (again)
+    files = render_fresh(name, backends)        # absent or damaged: render (again)
     cachefile.store(path, files)
     return files
 

@@ -3,14 +3,22 @@ from __future__ import annotations
 
 from derive.codegen import backends as backends_pkg
 from derive.codegen import sources
-from derive.codegen.backends import Backend, backends, managed_suffixes
+from derive.codegen.backends import Backend, backends, default_names, managed_suffixes, selected
 
 
 def test_every_backend_folder_is_discovered():
     names = [b.name for b in backends()]
-    assert names == sorted(names) == ["c", "numpy"]
+    assert names == sorted(names) == ["c", "jax", "numpy"]
     for b in backends():
         assert isinstance(b, Backend) and b.suffixes and b.reserved and b.printer
+
+
+def test_only_the_backends_that_need_no_extra_are_rendered_unasked():
+    """jax needs the jax extra: the golden tree and the run time's cache hold c and numpy."""
+    assert default_names() == ("c", "numpy")
+    assert [b.name for b in selected()] == ["c", "numpy"]
+    assert [b.name for b in selected(["numpy", "jax", "numpy"])] == ["jax", "numpy"]
+    assert {rel.split("/")[0] for rel in sources.render_fresh("planar")} == {"c", "numpy"}
 
 
 def test_each_backend_writes_only_its_folder_and_suffixes():

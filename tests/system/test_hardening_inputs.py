@@ -245,10 +245,16 @@ def test_every_artifact_name_of_every_backend_is_reserved():
     """Every file any backend writes for a model (or an atlas) is the model's own name or a
     name no model file may take: so no model's files can be another's."""
     from derive.codegen.backends import backends
+    from derive.codegen.generate import render_models
     from derive.model.atlas import ATLAS, load_atlas
     from derive.model.description import model_name_problem
-    assert {b.name for b in backends()} == {"c", "numpy"}     # a new backend: check its files here
+    assert {b.name for b in backends()} == {"c", "jax", "numpy"}     # a new backend: check its files here
     produced = _produced(["planar", "spherical_std", ATLAS])
+    # jax (rendered only on request) writes jax/<model>_jax.py: a folder of its own, one file
+    # per model whose name carries the model's, so no two models' files can be one
+    for name in ("planar", "spherical_std", ATLAS):
+        jax_files = render_models([name], backends=("jax",))
+        assert list(jax_files) == ([] if name == ATLAS else [f"jax/{name}_jax.py"])
     golden = {Path(p).stem for p in (ROOT / "generated").glob("*/*") if p.suffix in (".c", ".h", ".py")}
     assert set().union(*produced.values()) <= golden | {"derive_tableaus"}
     for name, stems in produced.items():

@@ -20,6 +20,11 @@ class Backend:
     suffixes: tuple[str, ...]       # the files it writes there
     printer: type                   # its SymPy printer (derive/codegen/printers.py)
     reserved: frozenset[str]        # identifiers the language reserves
+    # rendered without being asked for: into the golden generated/ and the run time's cache.
+    # A language whose code needs an optional extra (jax) is rendered only on request
+    # (`derive generate --backend NAME --out DIR`), so that neither the golden tree nor a
+    # run pays for it.
+    by_default: bool = True
 
     def kernel_files(self, spec: ModelSpec, bodies) -> dict[str, str]:
         """The model's kernels: path in a generated tree -> text."""

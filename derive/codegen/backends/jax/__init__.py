@@ -1,0 +1,101 @@
+"""The JAX backend: one module per model, <model>_jax.py, of jax.numpy kernels that
+`jax.jit`, `jax.grad` and `jax.vmap` accept (pure functions, no in-place writes).
+
+Its artifacts: per model jax/<model>_jax.py (every kernel the NumPy module has: rhs,
+energy, the mass matrix, ...; templates/jax/module.py.jinja), nothing per atlas and no
+integrators: a JAX user steps the rhs with their own loop (jax.lax.fori_loop, diffrax)
+and differentiates through it.  The module imports jax, which is the `jax` extra, so the
+backend is rendered only on request (`by_default = False`: derive generate MODEL
+--backend jax --out DIR); the golden generated/ and the run time do not hold it.
+
+Unlike the NumPy backend it keeps sin and cos as they are (no half-angle tangent: XLA
+has its own vectorised sin/cos, and the tangent's pole at pi would make gradients
+there NaN).  Parameters become kernel locals, renamed as in NumPy where they clash
+(derive/codegen/names.py), and `jax` itself is never a local.
+"""
+from __future__ import annotations
+
+import sympy as sp
+from sympy.printing.numpy import JaxPrinter
+from sympy.printing.codeprinter import PrintMethodNotImplementedError
+from sympy.printing.precedence import precedence
+
+from ....errors import PrintError
+from ...emit import live_assignments, render
+from ...names import KERNEL_NAMES, PYTHON_RESERVED, numpy_slots
+from ...printers import _SlotMixin
+from ..base import Backend, common_context, slot_doc, wrap
+
+MODULE_NAMES = frozenset({"jax"})       # the kernels' module: never a local's name
+
+
+class JaxSlotPrinter(_SlotMixin, JaxPrinter):
+    """jax.numpy, symbols printed as their local name; small integer powers as products."""
+
+    def __init__(self, slots: dict):
+        super().__init__({"fully_qualified_modules": True})
+        self._settings_slots = slots
+
+    def _print_Pow(self, expr, rational=False):
+        b, e = expr.base, expr.exp
+        if e.is_Integer and 1 <= abs(int(e)) <= 3:
+            base = self.parenthesize(b, precedence(sp.Mul(2, 2, evaluate=False)))
+            prod = self._product(base, abs(int(e)))
+            return prod if e > 0 else f"1.0/({prod})" if abs(int(e)) > 1 else f"1.0/{base}"
+        if e == sp.S.Half:
+            return f"jax.numpy.sqrt({self._print(b)})"
+        return super()._print_Pow(expr, rational=rational)
+
+    def doprint_checked(self, expr) -> str:
+        """The expression in jax.numpy, or a PrintError naming what has no translation."""
+        try:
+            text = self.doprint(expr)
+        except PrintMethodNotImplementedError as exc:
+            raise PrintError(f"no JAX translation for {type(expr).__name__} in: {expr} ({exc})") from None
+        if self._not_supported:
+            bad = sorted(str(e) for e in self._not_supported)
+            self._not_supported.clear()
+            raise PrintError(f"no JAX translation for: {bad[0]}")
+        return text
+
+
+def kernel_context(body) -> dict:
+    """What templates/jax/module.py.jinja prints of one kernel (after the file's CSE)."""
+    k = body.kernel
+    flat = [e for exprs in body.outputs for e in exprs]
+    kept = live_assignments(body.assignments, flat)        # guards have no JAX counterpart
+    needed = set().union(*(sp.sympify(e).free_symbols for e in flat), *(e.free_symbols for _, e in kept))
+    slots = numpy_slots([s for inp in k.inputs for s in inp.vector.symbols],
+                        {s.name for s, _ in kept} | MODULE_NAMES)
+    pr = JaxSlotPrinter(slots)
+    return {
+        "name": k.name, "doc": wrap(k.doc, 80), "ops": body.ops,
+        "inputs": [{"name": i.name, "size": i.size, "doc": f"{i.vector.doc}: ({slot_doc(i.vector)})"}
+                   for i in k.inputs],
+        "unpack": [{"name": slots[s], "source": f"{inp.name}[..., {i}]"}
+                   for inp in k.inputs for i, s in enumerate(inp.vector.symbols) if s in needed],
+        "unpack_target": "(" + ", ".join(i.name for i in k.inputs) + ("," if len(k.inputs) == 1 else "") + ")",
+        "locals": [{"name": s.name, "value": pr.doprint_checked(e)} for s, e in kept],
+        "outputs": [{"name": out.name, "cells": [pr.doprint_checked(e) for e in exprs],
+                     "shape_py": repr(tuple(out.shape)),
+                     "shape_doc": "(" + ", ".join(["..."] + [str(d) for d in out.shape]) + ")",
+                     "doc": out.doc}
+                    for out, exprs in zip(k.outputs, body.outputs)],
+    }
+
+
+class JaxBackend(Backend):
+    """One module per model, <model>_jax.py, of pure jax.numpy kernels."""
+    name = "jax"
+    suffixes = (".py",)
+    printer = JaxSlotPrinter
+    reserved = PYTHON_RESERVED | KERNEL_NAMES | MODULE_NAMES
+    by_default = False
+
+    def kernel_files(self, spec, bodies):
+        ctx = common_context(spec, "templates/jax/module.py.jinja")
+        ctx["kernels"] = [kernel_context(b) for b in bodies]
+        return {f"jax/{spec.name}_jax.py": render("jax/module.py.jinja", ctx)}
+
+
+BACKEND = JaxBackend()
