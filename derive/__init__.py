@@ -3,7 +3,9 @@
 ``derive.simulate(model, y0, t, params, ...)`` runs the generated integrators
 (imported on first use, so ``import derive`` stays light); ``derive.trust_horizon(result,
 target)`` says until when a run resolves the true motion to target; ``derive.sweep(file, ...)``
-runs a sweep file on Dask and returns an xarray Dataset (the `sweep` extra).  Every failure derive
+runs a sweep file on Dask and returns an xarray Dataset (the `sweep` extra);
+``derive.load_model(name_or_path)`` is a model as one object (derive/api.py): its equations
+as SymPy objects, and `derive generate` and `derive latex` as methods.  Every failure derive
 expects is a ``derive.DeriveError`` (see derive/errors.py).
 """
 import importlib
@@ -15,14 +17,16 @@ from .errors import (BuildError, CompilerMissingError, DeriveError, InputError, 
 
 __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "ModelError",
            "SceneError", "SimulationError", "SimulationInputError", "ToolMissingError",
-           "__version__", "ensemble", "scipy_rhs", "simulate", "sweep", "trust_horizon"]
+           "Pendulum", "__version__", "ensemble", "equations", "load_model", "scipy_rhs", "simulate", "sweep",
+           "trust_horizon"]
 
 
 # The public functions, imported on first use (``import derive`` stays light): the name,
 # the module that defines it, and its name there.  ``derive.sweep`` is the sweep stage itself.
 _LAZY = {"simulate": ("runtime.simulate", "simulate"), "ensemble": ("runtime.ensemble", "ensemble"),
          "scipy_rhs": ("runtime.scipy_rhs", "scipy_rhs"),
-         "trust_horizon": ("measurement.trust", "trust_horizon_of"), "sweep": ("sweep", None)}
+         "trust_horizon": ("measurement.trust", "trust_horizon_of"), "sweep": ("sweep", None),
+         "load_model": ("api", "load_model"), "equations": ("api", "equations"), "Pendulum": ("api", "Pendulum")}
 
 
 def __getattr__(name):

@@ -10,15 +10,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shutil
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 from .paths import VERSION as __version__
-from .errors import DeriveError, ToolMissingError, UsageError
+from .errors import DeriveError, UsageError
 from .model import is_model_file, load_model, model_names
 from .model.atlas import atlas_names
 from .paths import checkout_root
@@ -228,67 +225,17 @@ def _writable_file(path: Path) -> Path:
     return path
 
 
-PDFLATEX_MISSING = "pdflatex not found: install TeX Live (texlive-latex-base) or omit --pdf"
-
-
-def pdflatex(tex: Path) -> Path:
-    """Compile `tex` twice (references settle) in a temporary folder; only the PDF comes
-    back beside it.  A failure leaves the log beside the .tex and names the first error."""
-    exe = shutil.which("pdflatex")
-    if exe is None:
-        raise ToolMissingError(PDFLATEX_MISSING)
-    pdf = tex.with_suffix(".pdf")
-    with tempfile.TemporaryDirectory(prefix="derive-latex-") as tmp:
-        work = Path(tmp) / tex.name
-        shutil.copyfile(tex, work)
-        for _ in range(2):
-            run = subprocess.run([exe, "-interaction=nonstopmode", "-halt-on-error", work.name],
-                                 cwd=tmp, capture_output=True, text=True, errors="replace")
-            if run.returncode != 0:
-                log = work.with_suffix(".log")
-                text = log.read_text(errors="replace") if log.is_file() else run.stdout
-                tex.with_suffix(".log").write_text(text)
-                first = next((ln for ln in text.splitlines() if ln.startswith("!")), "no error line")
-                raise DeriveError(f"pdflatex failed on {tex}: {first[1:].strip()} "
-                                  f"(log: {tex.with_suffix('.log')})")
-        shutil.copyfile(work.with_suffix(".pdf"), pdf)
-    return pdf
-
-
 def cmd_latex(args) -> int:
-    from .codegen.sources import ATLAS    # start-up: a command imports its stage when it runs
+    from .report.document import document, pdflatex    # start-up: a command imports its stage when it runs
     name = _model_arg(args.model, allow_atlas=True)
     out = _writable_file(Path(args.output or f"{name}.tex"))
-    from .derivation import derive
-    from .model import load_model
-    from .report.atlas_document import render_atlas
-    from .report.latex import render
-    from .verification.cached import physics_model, verify_model
     with Stage("latex") as stage:
-        if name == ATLAS:
-            from .codegen.integrators import ATLAS_CHARTS
-            results, checks = [], []
-            for chart in ATLAS_CHARTS:
-                stage.set(f"verifying {chart}")
-                results += [r for r in verify_model(chart) if r.equation.startswith("5.")]
-                checks += [c for c in physics_model(chart) if len(c.models) == 2]
-            stage.set("typesetting")
-            text = render_atlas(results, checks, args.paper)
-        else:
-            model = load_model(args.model)
-            stage.set(f"deriving {name}")
-            d = derive(model)
-            stage.set(f"verifying the seed formulas of {name}")
-            results = verify_model(name)
-            stage.set(f"physics checks of {name}")
-            checks = physics_model(model)
-            stage.set("typesetting")
-            text = render(d, results, checks, args.paper)
+        doc = document(args.model, args.paper, progress=stage.set)
     try:
-        out.write_text(text)
+        out.write_text(doc.text)
     except OSError as exc:
         raise UsageError(f"cannot write '{out}': {exc.strerror or exc}") from None
-    print(f"wrote {out} ({len(results)} verified formulas, {len(checks)} physics checks)")
+    print(f"wrote {out} ({len(doc.results)} verified formulas, {len(doc.checks)} physics checks)")
     if args.pdf:
         with Stage("pdflatex"):
             pdf = pdflatex(out)

@@ -164,9 +164,13 @@ def trust_horizon_of(result, target: float = 1e-8) -> float | None:
     times the state's size) grows like e0 exp(lambda t)."""
     exponent = lyapunov_exponent(result)
     if exponent is None:
+        result.__dict__.setdefault("_trust_horizons", {})[target] = None
         return None
     local = result.rtol if result.rtol is not None else (result.step or 0.0) ** FIXED_ORDER[result.method]
     dtype = np.dtype(np.longdouble) if result.dtype == "longdouble" else result.dtype
     e0 = initial_error(local, dtype, float(np.max(np.abs(np.asarray(result.y[0], float)))))
     lyap = Lyapunov(exponent, float(result.t[-1] - result.t[0]), result.model, "")
-    return float(result.t[0]) + trust_horizon(lyap, target, e0)
+    horizon = float(result.t[0]) + trust_horizon(lyap, target, e0)
+    # kept on the result, so its summary (SimulationResult._repr_html_) can show it
+    result.__dict__.setdefault("_trust_horizons", {})[target] = horizon
+    return horizon

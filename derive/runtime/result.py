@@ -7,11 +7,12 @@ trust.trust_horizon_of(r, target), public as derive.trust_horizon(r, target).
 from __future__ import annotations
 
 from dataclasses import MISSING, dataclass, field, fields
+from html import escape
 
 import numpy as np
 
 from ..codegen.contract import STATUS_NAMES, STATUS
-from ..errors import SimulationError
+from ..errors import SimulationError, ToolMissingError
 from .energy_error import exact_energy_error, relative_energy_error
 from .model_sizes import model_info
 
@@ -146,6 +147,38 @@ class SimulationResult:
             raise SimulationError(self.message)
         return self
 
+    def _repr_html_(self) -> str:
+        """A short table of the run (Jupyter shows it for a result)."""
+        return summary_html(self)
+
+    def to_xarray(self):
+        """The run as an xarray Dataset (xarray is in the `sweep` extra).
+
+        Returns
+        -------
+        xarray.Dataset
+            A dimension `t` (the output times) and one variable per state component, named
+            as the model's state (theta1, theta1_dot, ...; on the chart atlas, with a `chart`
+            variable naming the chart of each row, the chart's state names if the run stayed
+            in one chart, else y0, y1, ...), and the energy; the
+            attrs hold the model, method, dtype, status and the parameters by name.
+
+        Raises
+        ------
+        ToolMissingError
+            xarray is not installed.
+
+        Examples
+        --------
+        >>> import derive
+        >>> r = derive.simulate("planar", [1.0, 0.5, 0, 0], [0.0, 0.5, 1.0],
+        ...                     {"m1": 1, "m2": 1, "l1": 1, "l2": 1, "g": 9.81}, backend="numpy")
+        >>> ds = r.to_xarray()
+        >>> list(ds.data_vars)[:2], ds.sizes["t"], ds.attrs["method"]
+        (['theta1', 'theta2'], 3, 'dop853')
+        """
+        return to_dataset(self)
+
 
 MULTISTEP_STOP = STATUS_NAMES[STATUS["MULTISTEP_UNSTABLE"]]    # abm12's guard stopped the run
 LAZY = object()                # energy/positions/velocities not computed yet (see `observe`)
@@ -210,3 +243,66 @@ class EventRecord:
 
 def _state_names(model: str) -> tuple[str, ...]:
     return model_info(model).state_names
+
+
+XARRAY_MISSING = "SimulationResult.to_xarray needs xarray, in the sweep extra: pip install 'derive[sweep]'"
+
+
+def _row_model(result: SimulationResult) -> str:
+    """The model whose state a row of r.y is: the model, or on the atlas its first chart."""
+    return result.model if result.chart is None else str(result.chart[0])
+
+
+def _parameters(result: SimulationResult) -> dict[str, float]:
+    names = model_info(_row_model(result)).param_names
+    return {n: float(v) for n, v in zip(names, np.asarray(result.params, np.float64).ravel())}
+
+
+def to_dataset(result: SimulationResult):
+    """The run as an xarray Dataset: see SimulationResult.to_xarray."""
+    try:
+        import xarray
+    except ImportError:
+        raise ToolMissingError(XARRAY_MISSING) from None
+    # an atlas run that switched charts holds states of several charts: named by position
+    names = (_state_names(_row_model(result)) if not result.switches else
+             tuple(f"y{i}" for i in range(result.y.shape[1])))
+    data = {n: ("t", np.asarray(result.y[:, i])) for i, n in enumerate(names)}
+    data["energy"] = ("t", np.asarray(result.energy))
+    if result.chart is not None:
+        data["chart"] = ("t", np.asarray(result.chart, dtype=str))
+    attrs = {"model": result.model, "method": result.method, "dtype": result.dtype,
+             "backend": result.backend, "status": result.status_name, "ok": int(result.ok),
+             "t_stop": float(result.t_stop), "nsteps": int(result.nsteps),
+             "params": ", ".join(f"{k}={v:.17g}" for k, v in _parameters(result).items()),
+             **{f"param_{k}": v for k, v in _parameters(result).items()}}
+    for key in ("rtol", "step", "error_estimate", "error_kind"):
+        if getattr(result, key) is not None:
+            attrs[key] = getattr(result, key)
+    return xarray.Dataset(data, coords={"t": np.asarray(result.t)}, attrs=attrs)
+
+
+def summary_rows(result: SimulationResult) -> list[tuple[str, str]]:
+    """(label, value) of what a glance at a run needs: the rows of its HTML summary."""
+    tol = (f"rtol {result.rtol:.3g}" if result.rtol is not None else
+           f"step {result.step:.6g}" if result.step is not None else "")
+    rows = [("model", result.model), ("method", " ".join(filter(None, [result.method, tol]))),
+            ("dtype", result.dtype), ("backend", result.backend),
+            ("status", result.status_name if result.ok else result.message),
+            ("steps", f"{result.nsteps} ({result.naccepted} accepted, {result.nrejected} rejected)"),
+            ("final time", f"{result.t_stop:.17g}")]
+    if result.error_estimate is not None:
+        rows.append(("error estimate", f"{result.error_estimate:.3g} ({result.error_kind})"))
+    rows.append(("energy error", f"{result.energy_error:.3g} (relative)"))
+    horizons = result.__dict__.get("_trust_horizons", {})
+    rows.append(("trust horizon", "; ".join(f"t = {h:.6g} to {target:.0e}" if h is not None else
+                                            f"none to {target:.0e}" for target, h in sorted(horizons.items()))
+                 or "not measured: derive.trust_horizon(result, target)"))
+    return rows
+
+
+def summary_html(result: SimulationResult) -> str:
+    """The summary rows as an HTML table."""
+    body = "".join(f"<tr><th style='text-align:left'>{escape(k)}</th><td style='text-align:left'>"
+                   f"{escape(v)}</td></tr>" for k, v in summary_rows(result))
+    return f"<table><caption>derive.SimulationResult</caption>{body}</table>"
