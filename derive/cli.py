@@ -184,8 +184,9 @@ def cmd_generate(args) -> int:
             print(f"note: {written.note}", file=sys.stderr)
         if changed:
             sys.stdout.write(written.diff)
+            chosen = "".join(f" --backend {b}" for b in backends or ())
             print(f"{shown}/ is stale: {len(changed)} file(s) differ; run `derive generate"
-                  f"{' ' + ' '.join(args.models) + ' --out ' + args.out if args.out else ''}`",
+                  f"{' ' + ' '.join(args.models) + ' --out ' + args.out + chosen if args.out else ''}`",
                   file=sys.stderr)
             return 1
         print(f"{shown}/ is up to date ({len(written.files)} files of {len(names)} models)")

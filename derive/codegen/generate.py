@@ -91,8 +91,19 @@ def write_tree(out: Path, files: dict[str, str], check: bool = False,
 
 @dataclass
 class Written:
-    """What `write_models` did: the files of the models, the paths that changed (or, with
-    check, differ), their unified diff, and a note on the SymPy that made the folder."""
+    """What `write_models` did.
+
+    Parameters
+    ----------
+    files : dict
+        Every file of the models: path in the folder -> text.
+    changed : list of str
+        The paths written (with check: those that differ), as the folder is shown.
+    diff : str
+        Their unified diff.
+    note : str or None
+        A note when another SymPy made the folder (`manifest_note`).
+    """
     files: dict[str, str]
     changed: list[str]
     diff: str
@@ -126,6 +137,23 @@ def write_models(out: Path, names, backends: tuple[str, ...] | None = None, chec
     Written
         The files, the changed paths, the diff and the manifest note (`manifest_note`,
         read before the manifest is rewritten).
+
+    Raises
+    ------
+    UsageError
+        An unknown backend name.
+    ModelError
+        An unknown model.
+    WriteError
+        A file the system refuses to write.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as out:
+    ...     written = write_models(Path(out), ["planar"], ("jax",))
+    ...     list(written.files), written.changed == [f"{out}/jax/planar_jax.py"]
+    (['jax/planar_jax.py'], True)
     """
     out = Path(out)
     files: dict[str, str] = {}

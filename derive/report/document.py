@@ -25,7 +25,22 @@ PDFLATEX_MISSING = "pdflatex not found: install TeX Live (texlive-latex-base) or
 
 @dataclass
 class Document:
-    """The LaTeX text of a model's document, and the formulas and checks it reports."""
+    """The LaTeX text of a model's document, and the formulas and checks it reports.
+
+    Parameters
+    ----------
+    text : str
+        The standalone LaTeX document.
+    results : list
+        The verified seed formulas it reports.
+    checks : list
+        The physics checks it reports.
+
+    Examples
+    --------
+    >>> Document("%", [], []).text
+    '%'
+    """
     text: str
     results: list
     checks: list
@@ -100,6 +115,15 @@ def pdflatex(tex: Path) -> Path:
         No pdflatex on the PATH.
     DeriveError
         pdflatex failed: the log is left beside the .tex and the message names its first error.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     tex = Path(folder) / "planar.tex"
+    ...     _ = tex.write_text(document("planar").text)
+    ...     pdflatex(tex).name, sorted(p.name for p in Path(folder).iterdir())
+    ('planar.pdf', ['planar.pdf', 'planar.tex'])
     """
     exe = shutil.which("pdflatex")
     if exe is None:

@@ -259,7 +259,30 @@ def _parameters(result: SimulationResult) -> dict[str, float]:
 
 
 def to_dataset(result: SimulationResult):
-    """The run as an xarray Dataset: see SimulationResult.to_xarray."""
+    """The run as an xarray Dataset: see SimulationResult.to_xarray.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run.
+
+    Returns
+    -------
+    xarray.Dataset
+        As SimulationResult.to_xarray.
+
+    Raises
+    ------
+    ToolMissingError
+        xarray is not installed.
+
+    Examples
+    --------
+    >>> import derive
+    >>> r = derive.simulate("planar", [1.0, 0.5, 0, 0], [0.0, 1.0], [1, 1, 1, 1, 9.81], backend="numpy")
+    >>> to_dataset(r).attrs["params"]
+    'm1=1, m2=1, l1=1, l2=1, g=9.8100000000000005'
+    """
     try:
         import xarray
     except ImportError:
@@ -283,7 +306,27 @@ def to_dataset(result: SimulationResult):
 
 
 def summary_rows(result: SimulationResult) -> list[tuple[str, str]]:
-    """(label, value) of what a glance at a run needs: the rows of its HTML summary."""
+    """(label, value) of what a glance at a run needs: the rows of its HTML summary.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run.
+
+    Returns
+    -------
+    list of (str, str)
+        The model, method (with its tolerance or step), dtype, backend, status (the
+        message of a failed run), steps, final time, error estimate where the run has
+        one, energy error, and the trust horizons measured so far.
+
+    Examples
+    --------
+    >>> import derive
+    >>> r = derive.simulate("planar", [1.0, 0.5, 0, 0], [0.0, 1.0], [1, 1, 1, 1, 9.81], backend="numpy")
+    >>> dict(summary_rows(r))["final time"], dict(summary_rows(r))["status"]
+    ('1', 'ok')
+    """
     tol = (f"rtol {result.rtol:.3g}" if result.rtol is not None else
            f"step {result.step:.6g}" if result.step is not None else "")
     rows = [("model", result.model), ("method", " ".join(filter(None, [result.method, tol]))),
@@ -302,7 +345,25 @@ def summary_rows(result: SimulationResult) -> list[tuple[str, str]]:
 
 
 def summary_html(result: SimulationResult) -> str:
-    """The summary rows as an HTML table."""
+    """The summary rows (`summary_rows`) as an HTML table.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run.
+
+    Returns
+    -------
+    str
+        One <table>, every value HTML-escaped.
+
+    Examples
+    --------
+    >>> import derive
+    >>> r = derive.simulate("planar", [1.0, 0.5, 0, 0], [0.0, 1.0], [1, 1, 1, 1, 9.81], backend="numpy")
+    >>> summary_html(r).startswith("<table>") and "<td style='text-align:left'>planar</td>" in summary_html(r)
+    True
+    """
     body = "".join(f"<tr><th style='text-align:left'>{escape(k)}</th><td style='text-align:left'>"
                    f"{escape(v)}</td></tr>" for k, v in summary_rows(result))
     return f"<table><caption>derive.SimulationResult</caption>{body}</table>"

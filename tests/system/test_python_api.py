@@ -15,6 +15,8 @@ import derive
 from derive import api
 from derive.cli import main
 from derive.derivation import derive as derivation_of
+from derive.codegen import backends, generate
+from derive.codegen.backends import jax as jax_backend
 from derive.report import document, equations as equations_module
 from derive.runtime import result as result_module
 
@@ -22,7 +24,11 @@ ROOT = Path(__file__).resolve().parents[2]
 PLANAR = {"m1": 1.0, "m2": 1.3, "l1": 0.9, "l2": 1.1, "g": 9.81}
 
 
-@pytest.mark.parametrize("module", [api, equations_module, document, result_module])
+# every module with a new public function or class (issue 26, items 4 and 5)
+# (document's pdflatex example compiles a PDF twice: the slow tier)
+@pytest.mark.parametrize("module", [api, equations_module, pytest.param(document, marks=pytest.mark.slow),
+                                    result_module, backends, generate, jax_backend],
+                         ids=lambda m: m.__name__)
 def test_the_examples_of_the_docstrings_run(module):
     failed, tried = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert tried > 0 and failed == 0

@@ -44,7 +44,18 @@ def managed_suffixes() -> dict[str, tuple[str, ...]]:
 
 
 def default_names() -> tuple[str, ...]:
-    """The names of the backends rendered when none is chosen (`Backend.by_default`)."""
+    """The names of the backends rendered when none is chosen (`Backend.by_default`).
+
+    Returns
+    -------
+    tuple of str
+        Sorted by name: what generated/ and the run time's cache hold.
+
+    Examples
+    --------
+    >>> default_names()
+    ('c', 'numpy')
+    """
     return tuple(b.name for b in backends() if b.by_default)
 
 
@@ -66,6 +77,15 @@ def selected(names=None) -> tuple[Backend, ...]:
     ------
     UsageError
         A name no backend has, or no name at all; the message lists the known names.
+
+    Examples
+    --------
+    >>> [b.name for b in selected(["numpy", "jax"])]
+    ['jax', 'numpy']
+    >>> selected(["fortran"])
+    Traceback (most recent call last):
+    ...
+    derive.errors.UsageError: unknown backend 'fortran' (known: c, jax, numpy)
     """
     every = backends()
     if names is None:

@@ -30,7 +30,20 @@ MODULE_NAMES = frozenset({"jax"})       # the kernels' module: never a local's n
 
 
 class JaxSlotPrinter(_SlotMixin, JaxPrinter):
-    """jax.numpy, symbols printed as their local name; small integer powers as products."""
+    """jax.numpy, symbols printed as their local name; small integer powers as products.
+
+    Parameters
+    ----------
+    slots : dict
+        symbol -> the local it is read from in the kernel.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> x, y = sp.symbols("x y")
+    >>> JaxSlotPrinter({x: "theta1"}).doprint_checked(sp.sin(x) * y**2 + 1 / y)
+    'y*y*jax.numpy.sin(theta1) + 1.0/y'
+    """
 
     def __init__(self, slots: dict):
         super().__init__({"fully_qualified_modules": True})
@@ -60,7 +73,32 @@ class JaxSlotPrinter(_SlotMixin, JaxPrinter):
 
 
 def kernel_context(body) -> dict:
-    """What templates/jax/module.py.jinja prints of one kernel (after the file's CSE)."""
+    """What templates/jax/module.py.jinja prints of one kernel (after the file's CSE).
+
+    Parameters
+    ----------
+    body : derive.codegen.emit.Body
+        The kernel after the file's CSE pass.
+
+    Returns
+    -------
+    dict
+        Its name, documentation, inputs, the locals unpacked and computed (printed in
+        jax.numpy), and its outputs' cells.
+
+    Raises
+    ------
+    PrintError
+        An expression with no jax.numpy translation.
+
+    Examples
+    --------
+    >>> from derive.codegen.sources import kernels
+    >>> spec, bodies = kernels("planar")
+    >>> rhs = kernel_context(bodies[0])
+    >>> rhs["name"], [i["name"] for i in rhs["inputs"]], len(rhs["outputs"][0]["cells"])
+    ('rhs', ['y', 'p'], 4)
+    """
     k = body.kernel
     flat = [e for exprs in body.outputs for e in exprs]
     kept = live_assignments(body.assignments, flat)        # guards have no JAX counterpart
@@ -85,7 +123,13 @@ def kernel_context(body) -> dict:
 
 
 class JaxBackend(Backend):
-    """One module per model, <model>_jax.py, of pure jax.numpy kernels."""
+    """One module per model, <model>_jax.py, of pure jax.numpy kernels.
+
+    Examples
+    --------
+    >>> BACKEND.name, BACKEND.by_default
+    ('jax', False)
+    """
     name = "jax"
     suffixes = (".py",)
     printer = JaxSlotPrinter
