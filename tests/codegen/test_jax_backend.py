@@ -12,6 +12,7 @@ import pytest
 
 from derive.cli import main
 from derive.codegen.generate import render_models, write_tree
+from derive.model import load_model
 
 try:
     import jax
@@ -115,3 +116,24 @@ def test_a_bad_backend_choice_is_one_line(tmp_path, capsys, args, fragment):
     assert main(["generate", *args]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("derive: error: ") and fragment in err, err
+
+
+def test_parameters_named_like_the_kernels_own_names_agree_with_numpy(tmp_path, jax64):
+    """A model whose parameters are called jax, p, y, lambda and M: the JAX locals are renamed
+    (the module `jax` stays the module), and its rhs is NumPy's."""
+    text = ('name = "jaxnamed"\ndimension = 2\nparameters = ["jax", "p", "y", "lambda", "M", "g"]\n'
+            '[[links]]\nchart = "planar"\nlength = "lambda"\nbody = { kind = "point", mass = "jax" }\n'
+            '[[links]]\nchart = "planar"\nlength = "y"\n'
+            'body = { kind = "rod", mass = "p", com = "1/2", inertia = "M" }\n')
+    path = tmp_path / "jaxnamed.toml"
+    path.write_text(text)
+    load_model(path)
+    write_tree(tmp_path, render_models(["jaxnamed"], backends=("jax", "numpy")), prune=False)
+    jax_module = _module(tmp_path / "jax" / "jaxnamed_jax.py", "jaxnamed_jax")
+    numpy_module = _module(tmp_path / "numpy" / "jaxnamed.py", "jaxnamed_np")
+    assert jax_module.PARAM_NAMES == ("jax", "p", "y", "lambda", "M", "g")
+    params = np.array([1.0, 1.5, 0.8, 1.0, 0.05, 9.81])
+    y = np.random.default_rng(9).uniform(-3.0, 3.0, (32, 4))
+    want = numpy_module.rhs(y, params)
+    np.testing.assert_allclose(np.asarray(jax64.jit(jax_module.rhs)(y, params)), want,
+                               rtol=1e-12, atol=1e-12 * np.max(np.abs(want)))
