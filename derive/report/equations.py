@@ -87,7 +87,8 @@ class Equations:
     def _repr_latex_(self) -> str:
         """The equations as one LaTeX display (Jupyter typesets it)."""
         q = r",\ ".join(self._tex(s) for s in self.coordinates)
-        rows = [rf"&\text{{{self.model}: coordinates }} {q}",
+        # no model name in the display: an underscore in \text is an error in LaTeX
+        rows = [rf"&\text{{coordinates }} {q}",
                 rf"M &= {self._tex(self.M)}", rf"F &= {self._tex(self.F)}",
                 rf"T &= {self._tex(self.T)}", rf"V &= {self._tex(self.V)}",
                 r"L &= T - V, \quad E = T + V"]

@@ -131,3 +131,14 @@ def test_to_xarray_without_xarray_is_one_line_naming_the_extra(monkeypatch):
     with pytest.raises(derive.ToolMissingError) as info:
         r.to_xarray()
     assert str(info.value) == result_module.XARRAY_MISSING and "derive[sweep]" in str(info.value)
+
+
+@pytest.mark.parametrize("model", ["planar", "spherical_std"])
+def test_the_notebook_display_is_valid_latex(model, tmp_path):
+    """_repr_latex_ compiles with amsmath (pdflatex, required by tests/run.sh)."""
+    display = derive.equations(model)._repr_latex_()
+    body = r"\[" + display.removeprefix("$$").removesuffix("$$") + r"\]"
+    tex = tmp_path / "display.tex"
+    tex.write_text("\\documentclass{article}\n\\usepackage{amsmath}\n\\begin{document}\n"
+                   f"{body}\n\\end{{document}}\n")
+    assert document.pdflatex(tex).is_file()
