@@ -92,7 +92,7 @@ class Pendulum:
         """
         return equations_of(derive(self.description))
 
-    def generate(self, out, backends=("c", "numpy"), check: bool = False) -> list[Path]:
+    def generate(self, out, backends=None, check: bool = False) -> list[Path]:
         """Write the model's generated code into `out`, as `derive generate MODEL --out OUT`.
 
         Parameters
@@ -102,6 +102,8 @@ class Pendulum:
             there stay.
         backends : tuple of str, optional
             The languages (folders of derive/codegen/backends/): 'c', 'numpy', 'jax'.
+            Default: those `derive generate` writes unasked, c and numpy (the ones that
+            need no optional extra).
         check : bool, optional
             Write nothing; the returned paths are those that differ.
 

@@ -16,6 +16,7 @@ from derive import api
 from derive.cli import main
 from derive.derivation import derive as derivation_of
 from derive.codegen import backends, generate
+from derive.codegen.backends import default_names
 from derive.codegen.backends import jax as jax_backend
 from derive.report import document, equations as equations_module
 from derive.runtime import result as result_module
@@ -142,3 +143,8 @@ def test_the_notebook_display_is_valid_latex(model, tmp_path):
     tex.write_text("\\documentclass{article}\n\\usepackage{amsmath}\n\\begin{document}\n"
                    f"{body}\n\\end{{document}}\n")
     assert document.pdflatex(tex).is_file()
+
+
+def test_generate_by_default_writes_the_backends_the_command_writes_unasked(tmp_path):
+    files = derive.load_model("planar").generate(tmp_path)
+    assert {p.relative_to(tmp_path).parts[0] for p in files} == set(default_names()) == {"c", "numpy"}
