@@ -212,7 +212,12 @@ def _writable_folder(path: Path) -> Path:
 # -- derive latex -----------------------------------------------------------------------
 
 class _OneLineParser(argparse.ArgumentParser):
-    """argparse, but a usage mistake is one line on stderr and exit status 2."""
+    """argparse, but a usage mistake is one line on stderr and exit status 2, and an option
+    is only ever its full name (argparse would take `latex --out tex` for `--output tex`)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
@@ -229,7 +234,10 @@ def _writable_file(path: Path) -> Path:
 def cmd_latex(args) -> int:
     from .report.document import document, pdflatex    # start-up: a command imports its stage when it runs
     name = _model_arg(args.model, allow_atlas=True)
-    out = _writable_file(Path(args.output or f"{name}.tex"))
+    if args.out is not None:
+        out = _writable_file(_writable_folder(args.out) / f"{name}.tex")
+    else:
+        out = _writable_file(Path(args.output or f"{name}.tex"))
     with Stage("latex") as stage:
         doc = document(args.model, args.paper, progress=stage.set)
     try:
@@ -566,7 +574,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_generate)
     p = sub.add_parser("latex", help="write the derivation of a model as a standalone .tex", epilog=EXIT_CODES)
     p.add_argument("model", help=f"{model_help}, or 'spherical' for the chart atlas")
-    p.add_argument("-o", "--output", help="output .tex path (default: MODEL.tex here)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("-o", "--output", help="output .tex path (default: MODEL.tex here)")
+    where.add_argument("--out", type=Path, help="output directory (made if missing): writes OUT/MODEL.tex")
     p.add_argument("--pdf", action="store_true", help="also compile it with pdflatex (TeX Live)")
     p.add_argument("--paper", choices=("a4", "letter"), default="a4",
                    help="paper size, portrait (default: a4)")

@@ -170,3 +170,15 @@ def test_cc_with_flags_is_a_command(tmp_path):
     from derive.runtime.loader import compiler_command, compiler_identity
     assert compiler_command("gcc -O2") == ["gcc", "-O2"]
     assert "gcc" in compiler_identity("gcc -O2")
+
+
+def test_an_option_is_only_its_full_name(tmp_path):
+    """argparse's prefix matching took `latex --out tex` for `--output tex` and wrote a file
+    named `tex`: a shortened option is refused, and `latex --out DIR` is the output folder
+    every other command's --out is."""
+    one_line(cli("latex", "planar", "--outp", "x", cwd=tmp_path), 2, "unrecognized arguments: --outp")
+    run = cli("latex", "planar", "--out", "tex", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["planar.tex", "tex"]
+    assert "\\documentclass" in (tmp_path / "tex" / "planar.tex").read_text()
+    one_line(cli("latex", "planar", "--out", "a", "-o", "b.tex", cwd=tmp_path), 2, "not allowed with")
