@@ -86,23 +86,27 @@ def exit_statuses() -> str:
 
 
 def api() -> str:
-    """One autodoc entry per name in ``derive.__all__``: functions, classes, the sweep module."""
+    """One autodoc entry per name in ``derive.__all__``: functions, exceptions, the sweep function.
+
+    In an ``{eval-rst}`` block: autodoc writes reStructuredText, which MyST would read as Markdown.
+    """
     import inspect
 
     import derive
-    parts = []
+    entries = []
     for name in sorted(derive.__all__, key=lambda n: (not n[0].islower(), n)):
         value = getattr(derive, name)
         if name == "__version__":
-            parts.append(f"```{{py:data}} derive.__version__\nThe version of derive, `{value}`.\n```\n")
+            entries.append(f".. py:data:: derive.__version__\n\n   The version of derive, ``{value}``.")
+        elif inspect.isclass(value) and issubclass(value, BaseException):
+            entries.append(f".. autoexception:: derive.{name}\n   :show-inheritance:")
         elif inspect.isclass(value):
-            parts.append(f"```{{autoexception}} derive.{name}\n:show-inheritance:\n```\n"
-                         if issubclass(value, BaseException) else f"```{{autoclass}} derive.{name}\n```\n")
-        elif inspect.ismodule(value):
-            parts.append(f"```{{autofunction}} derive.sweep.{name}\n```\n")
+            entries.append(f".. autoclass:: derive.{name}")
+        elif inspect.ismodule(value):            # derive.sweep: the stage, callable as its function
+            entries.append(f".. autofunction:: derive.sweep.{name}")
         else:
-            parts.append(f"```{{autofunction}} derive.{name}\n```\n")
-    return "\n".join(parts)
+            entries.append(f".. autofunction:: derive.{name}")
+    return "```{eval-rst}\n" + "\n\n".join(entries) + "\n```\n"
 
 
 def methods() -> str:
