@@ -405,11 +405,11 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     the grid), so a result does not depend on how many outputs were asked for.
     abm12 (12-step Adams-Bashforth-Moulton, PECE) has a small stability region: it
     stops with status 'multistep unstable' before a step whose predictor-corrector
-    difference (Milne's estimate of its local error) exceeds atol + rtol |y| (rtol: the
+    difference (Milne's estimate of its local error) exceeds atol + rtol abs(y) (rtol: the
     dtype's default unless given; atol: rtol 1e-3): r.guard is that (rtol, atol), and the
     message of a run it stopped names them (a looser rtol loosens the guard).  On the
     planar double pendulum (unit masses and lengths, g = 9.81) h = 0.01 is too large for
-    many states with fast rotation; see README "Fixed-step methods".
+    many states with fast rotation; see docs/methods.md, "Fixed-step methods".
     Ctrl-C stops a run of the C backend within a step (the generated loops read a
     cancellation flag) and raises KeyboardInterrupt.
     model: a catalogue name, the path of a model file, or "spherical" (the chart atlas).
