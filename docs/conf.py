@@ -29,3 +29,5 @@ html_title = f"derive {release}"
 autodoc_member_order = "bysource"
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
+# Flags and options are written as typed: no "--out" turned into an en dash.
+smartquotes = False

@@ -118,10 +118,12 @@ def methods() -> str:
 
 
 def statuses() -> str:
+    """The status codes, their descriptions filled in as the generated headers' are."""
     from derive.codegen.contract import STATUS_TABLE
+    from derive.codegen.integrators import NEWTON_THETA_DIVERGE, NEWTON_THETA_MAX
     return _table(("code", "C macro", "`status_name`", "meaning"),
                   ((s.code, f"`<MODEL>_INTEGRATE_{s.macro}`", s.name,
-                    " ".join(s.doc).replace("{theta_diverge}", "a factor").replace("{theta_max}", "a bound"))
+                    " ".join(s.doc).format(theta_max=NEWTON_THETA_MAX, theta_diverge=NEWTON_THETA_DIVERGE))
                    for s in STATUS_TABLE))
 
 
@@ -184,10 +186,11 @@ def c_header(name: str) -> str:
 
 
 def bench(name: str) -> str:
-    """A file the benchmark wrote into bench/results/, as it is: headings one level down, its
-    images shown from the copies the build publishes (docs/_ext/derive_figures.py)."""
+    """A file the benchmark wrote into bench/results/, as it is: its headings two levels down
+    (under a section of the page), its images shown from the copies the build publishes
+    (docs/_ext/derive_figures.py)."""
     text = (BENCH_RESULTS / name).read_text()
-    text = re.sub(r"^(#+) ", r"#\1 ", text, flags=re.MULTILINE)
+    text = re.sub(r"^(#+) ", r"##\1 ", text, flags=re.MULTILINE)
     return re.sub(r"!\[([^\]]*)\]\(([\w.-]+\.png)\)",
                   r'<img src="_figures/bench/\2" alt="\1" width="100%">', text)
 
