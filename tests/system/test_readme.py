@@ -55,3 +55,13 @@ def test_a_single_chart_stops_at_its_pole_and_the_atlas_runs_through():
     r = derive.simulate("spherical", {"cartesian": down}, [0, 1], p, method="dop853", rtol=1e-10)
     assert r.ok and r.chart[0] != "spherical_std"
     assert "`second`" in CONVENTIONS and "atlas=True" in CONVENTIONS
+
+
+def test_a_state_is_the_coordinates_then_their_rates():
+    """docs/conventions.md states the order; the models' state names are in it."""
+    from derive.model import load_model
+    for name in ("planar", "spherical_std"):
+        names = list(load_model(name).state_names)
+        assert f"`({', '.join(names[:4])}" in CONVENTIONS.replace("\n", " ")
+        coordinates = names[:len(names) // 2]
+        assert names[len(names) // 2:] == [c + "_dot" for c in coordinates]
