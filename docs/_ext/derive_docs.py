@@ -81,7 +81,7 @@ def exit_statuses() -> str:
     """The exit statuses, as ``derive --help`` states them (derive/cli.py, EXIT_CODES)."""
     from derive.cli import EXIT_CODES
     text = EXIT_CODES.removeprefix("exit status: ")
-    rows = [(m.group(1), m.group(2).strip()) for m in re.finditer(r"(\d) ([^;]+)", text)]
+    rows = [(m.group(1), m.group(2).strip()) for m in re.finditer(r"(\d+) ([^;]+)", text)]
     return _table(("exit status", "meaning"), rows)
 
 
