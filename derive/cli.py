@@ -21,8 +21,10 @@ from .model.atlas import atlas_names
 from .paths import checkout_root
 from .progress import Stage
 
+INTERRUPTED = 130            # Ctrl-C: the shell's status for a command stopped by SIGINT (derive/__main__.py)
 EXIT_CODES = ("exit status: 0 done (and an accuracy target met); 1 a run or check that failed; "
-              "2 bad input or a missing tool; 3 a run that finished but missed its accuracy target")
+              "2 bad input or a missing tool; 3 a run that finished but missed its accuracy target; "
+              f"{INTERRUPTED} interrupted (Ctrl-C)")
 
 
 def _model_arg(arg: str, allow_atlas: bool = False) -> str:
@@ -623,7 +625,7 @@ def main(argv: list[str] | None = None) -> int:
         return exc.exit_status
     except KeyboardInterrupt:
         print("derive: interrupted", file=sys.stderr)
-        return 130
+        return INTERRUPTED
     except BrokenPipeError:
         return 1
     except Exception as exc:            # a bug in derive: still one line, unless asked

@@ -6,8 +6,8 @@
 #
 # Further arguments go to pytest.  Installs the system tools the tests need
 # from Debian when they are missing and it may (root, or sudo without a
-# password), then the project with its test and sweep extras (tests/sweep/test_sweep.py runs
-# sweeps on a local Dask cluster), then runs pytest on every
+# password), then the project with its test, sweep and docs extras (tests/sweep/test_sweep.py runs
+# sweeps on a local Dask cluster; tests/system/test_docs.py builds docs/ with Sphinx), then runs pytest on every
 # core (pytest-xdist).  A missing tool is an error (exit 2), never a skip.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -88,7 +88,7 @@ then
 fi
 
 export PIP_ROOT_USER_ACTION=ignore
-"$PY" -m pip install -q -e '.[test,sweep]'
+"$PY" -m pip install -q -e '.[test,sweep,docs]'
 # --dist loadgroup: the files marked xdist_group (each shares one long cold build) run on
 # one worker each, sent out first; every other test is handed out alone, as with --dist load.
 exec "$PY" -m pytest -q -n auto --dist loadgroup "${tier[@]}" "$@"

@@ -159,9 +159,23 @@ def lyapunov_exponent(result) -> float | None:
 
 
 def trust_horizon_of(result, target: float = 1e-8) -> float | None:
-    """The time until which a run resolves the true motion to `target`: its early
-    error e0 (the tolerance, or h^order for a fixed step, at least the unit roundoff,
-    times the state's size) grows like e0 exp(lambda t)."""
+    """The time until which a run resolves the true motion to `target`.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run of `derive.simulate`.
+    target : float
+        The error to stay within.
+
+    Returns
+    -------
+    float or None
+        The time at which the run's early error e0 (the tolerance, or h^order for a fixed
+        step, at least the unit roundoff, times the state's size), growing like
+        e0 exp(lambda t) with lambda the largest Lyapunov exponent, reaches `target`; None
+        when no exponent can be estimated.
+    """
     exponent = lyapunov_exponent(result)
     if exponent is None:
         result.__dict__.setdefault("_trust_horizons", {})[target] = None

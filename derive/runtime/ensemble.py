@@ -102,9 +102,30 @@ def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | N
              newton_max: int | None = None, sine_min: float | None = None) -> EnsembleResult:
     """Integrate B trajectories of `model` (y0 of shape (B, n)) to every output time in t.
 
-    method, rtol, atol, step, dtype as for `derive.simulate`; params (and inputs) one
-    vector for all or one row per trajectory, or a mapping by name of scalars or (B,)
-    arrays; threads: how many blocks run at once (None: one per core)."""
+    Each trajectory is bit for bit the same `derive.simulate` call; with method="taylor"
+    the blocks run in SIMD lanes (docs/sweeps.md, "Ensembles").
+
+    Parameters
+    ----------
+    model : str or path
+        A catalogue name or the path of a model file (one chart: not the atlas).
+    y0 : array_like, shape (B, n)
+        The initial states, one row per trajectory.
+    t : sequence
+        The output times, shared by every trajectory.
+    params, inputs : optional
+        One vector for all or one row per trajectory, or a mapping by name of scalars or
+        (B,) arrays.
+    method, rtol, atol, step, dtype, max_steps, hmax, newton_tol, newton_max, sine_min : optional
+        As for `derive.simulate`.
+    threads : int, optional
+        How many blocks run at once (None: one per core).
+
+    Returns
+    -------
+    EnsembleResult
+        ``y`` of shape (B, len(t), n), ``status`` (B,) and per-trajectory counters.
+    """
     model = resolve_model(model)
     if _atlas(model) is not None:
         raise SimulationInputError("ensemble runs single-chart models; the chart atlas "

@@ -35,6 +35,25 @@ class ScipyRHS(NamedTuple):
 
 
 def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
+    """The generated kernels of a model as ``fun(t, y)`` and ``jac(t, y)`` for SciPy.
+
+    Parameters
+    ----------
+    model : str or path
+        A catalogue model name or the path of a model file (one chart: not the atlas).
+    params : mapping or sequence
+        The parameters, by name or in the model's order.
+    inputs : mapping, sequence or callable, optional
+        The model's run-time inputs; a function of t is evaluated at every t asked.
+    backend : {"c", "numpy"}
+        The compiled C kernels (the default; NumPy without a C compiler) or the NumPy ones.
+
+    Returns
+    -------
+    ScipyRHS
+        A named tuple ``(fun, jac)``: ``fun`` takes y of shape (n,) or (n, k), ``jac``
+        returns the (n, n) matrix d(ydot)/dy; a state a kernel cannot evaluate gives NaN.
+    """
     model = resolve_model(model)
     if model == ATLAS:
         raise SimulationInputError(f"scipy_rhs: the chart atlas '{ATLAS}' switches charts, which solve_ivp "

@@ -392,40 +392,77 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
              error_estimate: str = "local") -> SimulationResult:
     """Integrate `model` from y0 at t[0] and report every output time in t.
 
-    method: rk4, midpoint, gauss2, rk8, abm12 (fixed step: `step` required), dopri5,
-    dop853 (adaptive: rtol, atol; `step` is the initial step, optional; the default), taylor
-    (the generated Taylor integrator: order and step from rtol).  dtype: float32, float64,
-    longdouble, or the top of the precision ladder, "double-double" (106 bits) and "quad"
-    (IEEE binary128, 113 bits), which run taylor (the default there) and give r.y_exact, the
-    values exactly as mpmath numbers, beside r.y in long double (derive/runtime/extended.py).
-    backend: "c" (compiled generated C) or "numpy".
+    Parameters
+    ----------
+    model : str or path
+        A catalogue name, the path of a model file, or "spherical" (the chart atlas).
+    y0 : sequence or mapping
+        The initial state, the coordinates then their rates, in order; a spherical model or
+        the atlas also takes {'cartesian': [...]} (positions then velocities of the bobs) or
+        {'chart': name, 'state': [...]}.
+    t : sequence
+        The output times, strictly monotone (decreasing: the run goes backwards).
+    params : mapping or sequence
+        The model's parameters, by name or in order.
+    method : str, optional
+        rk4, midpoint, gauss2, rk8, abm12 (fixed step: `step` required), dopri5, dop853
+        (adaptive: rtol, atol; `step` is the initial step, optional; the default), taylor
+        (the generated Taylor integrator: order and step from rtol).
+    rtol, atol : float, optional
+        Tolerances of the adaptive methods and Taylor (default: the dtype's), and of abm12's
+        stability guard.
+    step : float, optional
+        The fixed step h (the initial step of an adaptive method).
+    dtype : str
+        float32, float64, longdouble, or the top of the precision ladder, "double-double"
+        (106 bits) and "quad" (IEEE binary128, 113 bits), which run taylor (the default
+        there) and give r.y_exact, the values exactly as mpmath numbers, beside r.y in long
+        double (derive/runtime/extended.py).
+    backend : {"c", "numpy"}
+        Compiled generated C, or the generated NumPy.
+    max_steps, sine_min, newton_tol, newton_max, hmax : optional
+        The integrator's options (docs/c-api.md lists them with their defaults).
+    inputs : mapping, sequence or callable, optional
+        The model's run-time inputs: a mapping by name or a sequence in the model's order,
+        held constant over the run; or a function of t returning one, sampled at each output
+        time and held until the next (zero-order hold).
+    atlas : bool
+        True: run the model's chart atlas (a chain of spherical links in the standard
+        chart: its standard, second and rotated charts, switched by the rule of seed 000
+        section 5.1; y0 in the standard chart, as {'cartesian': [...]} or {'chart', 'state'}).
+    events : mapping, optional
+        Zero crossings to locate, {name: expression or {expression, direction, terminal}}
+        (derive/runtime/events.py); r.events, r.t_events, r.y_events.
+    error_estimate : {"local", "rerun"}
+        "local" (free): r.error_estimate is the run's own sum of local-error estimates
+        (dopri5, dop853, abm12, taylor; None for the others); "rerun": a second run at
+        rtol / 100 (a fixed step: half the step) gives an estimate of the global error of
+        r.y, per output row in r.error_y.  r.error_kind says which (result.py).
+
+    Returns
+    -------
+    SimulationResult
+        The states r.y at every output time, r.status and r.status_name, the counters,
+        positions, energy; adaptive runs have r.sol(t), the continuous solution
+        (derive/runtime/dense.py).
+
+    Notes
+    -----
     A fixed step h steps on the grid t[0] + k h whatever the output times: an output
     between grid points is reached by a shortened step from the grid point before it
     (r.step is h, r.last_step the shortened step to the last output, None when it is on
     the grid), so a result does not depend on how many outputs were asked for.
+
     abm12 (12-step Adams-Bashforth-Moulton, PECE) has a small stability region: it
     stops with status 'multistep unstable' before a step whose predictor-corrector
-    difference (Milne's estimate of its local error) exceeds atol + rtol |y| (rtol: the
+    difference (Milne's estimate of its local error) exceeds atol + rtol abs(y) (rtol: the
     dtype's default unless given; atol: rtol 1e-3): r.guard is that (rtol, atol), and the
     message of a run it stopped names them (a looser rtol loosens the guard).  On the
     planar double pendulum (unit masses and lengths, g = 9.81) h = 0.01 is too large for
-    many states with fast rotation; see README "Fixed-step methods".
+    many states with fast rotation; see docs/methods.md, "Fixed-step methods".
+
     Ctrl-C stops a run of the C backend within a step (the generated loops read a
     cancellation flag) and raises KeyboardInterrupt.
-    model: a catalogue name, the path of a model file, or "spherical" (the chart atlas).
-    atlas=True: run the model's chart atlas (a chain of spherical links in the standard
-    chart: its standard, second and rotated charts, switched by the rule of seed 000
-    section 5.1; y0 in the standard chart, as {'cartesian': [...]} or {'chart', 'state'}).
-    inputs: the model's run-time inputs: a mapping by name or a sequence in the model's
-    order, held constant over the run; or a function of t returning one, sampled at each
-    output time and held until the next (zero-order hold).
-    events: zero crossings to locate, {name: expression or {expression, direction,
-    terminal}} (derive/runtime/events.py); r.events, r.t_events, r.y_events.
-    Adaptive runs have r.sol(t), the continuous solution (derive/runtime/dense.py).
-    error_estimate: "local" (free): r.error_estimate is the run's own sum of local-error
-    estimates (dopri5, dop853, abm12, taylor; None for the others); "rerun": a second run
-    at rtol / 100 (a fixed step: half the step) gives an estimate of the global error of
-    r.y, per output row in r.error_y.  r.error_kind says which (result.py).
     """
     precision = extended.precision_of(dtype)
     if method is None:

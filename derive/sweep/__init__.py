@@ -34,10 +34,31 @@ def require_extra() -> None:
 
 def sweep(source, out=None, scheduler: str | None = None, workers: int | None = None,
           progress: bool = False, on_chunk=None):
-    """Run a sweep file into OUT/<name>.zarr (resuming a stopped one) and return its data
-    as an xarray Dataset.  workers=0: in this process; scheduler='tcp://HOST:PORT' (or
-    DASK_SCHEDULER_ADDRESS): an existing Dask cluster; else a local cluster of `workers`
-    processes (default one per core)."""
+    """Run a sweep file into OUT/<name>.zarr (resuming a stopped one) and return its data.
+
+    Called as ``derive.sweep(...)`` (the sweep extra: Dask, Zarr, xarray).
+
+    Parameters
+    ----------
+    source : str or path
+        A sweep file, or the name of an example sweep (``flip_map``).
+    out : str or path, optional
+        The output folder (default: the file's ``output.directory``).
+    scheduler : str, optional
+        An existing Dask cluster, ``tcp://HOST:PORT`` (or ``DASK_SCHEDULER_ADDRESS``).
+    workers : int, optional
+        Without a scheduler: a local cluster of this many processes (default one per core);
+        0: in this process.
+    progress : bool
+        A progress bar (a plain line per chunk where stdout is no terminal).
+    on_chunk : callable, optional
+        ``on_chunk(k)`` is called after chunk k is written (an exception there stops the sweep).
+
+    Returns
+    -------
+    xarray.Dataset
+        The quantities recorded, one dimension per grid axis.
+    """
     return run_sweep(source, out, scheduler, workers, progress, on_chunk).dataset
 
 

@@ -265,7 +265,7 @@ def errata_by_key() -> dict:
 
 
 def errata_markdown() -> str:
-    """The errata as a Markdown table (equation, what, summary, origin) for the README."""
+    """The errata as a Markdown table (equation, what, summary, origin) for docs/errata.md."""
     lines = ["| Seed | Eq. | What | Erratum | Origin |", "|---|---|---|---|---|"]
     for e in ERRATA:
         seed = e.seed.split("_")[0]

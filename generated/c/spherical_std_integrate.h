@@ -65,8 +65,8 @@
  * abm12 takes its first 11 steps with rk8, then two evaluations a step; its shortened
  * steps to off-grid outputs are rk8 steps.  It stops with MULTISTEP_UNSTABLE before a
  * step whose local error, Milne's estimate from the predictor-corrector difference,
- * exceeds atol + rtol |y|_max: its stability region is small (README, "Fixed-step
- * methods"), and a step outside it grows the parasitic solutions, and that difference.
+ * exceeds atol + rtol |y|_max: its stability region is small (docs/methods.md,
+ * "Fixed-step methods"), and a step outside it grows the parasitic solutions, and that difference.
  *
  * Cancellation: a caller (a signal handler, another thread) that sets *options.cancel
  * non-zero stops a run before its next step with CANCELLED; a batch checks it for

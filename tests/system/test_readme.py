@@ -1,18 +1,14 @@
-"""The README's and the docs' promises stay true: the errata table is the recorded errata, the
-angle convention and the chart poles are what the code does."""
+"""The README's and the docs' promises stay true: the two commands, the pointers into the docs,
+the angle convention and the chart poles are what the code does (the errata table, on
+docs/errata.md, is made from the recorded errata: tests/system/test_docs.py)."""
 from pathlib import Path
 
 import numpy as np
 
 import derive
 from derive.runtime.loader import load
-from derive.verification.errata import errata_markdown
 
 README = (Path(__file__).resolve().parents[2] / "README.md").read_text()
-
-
-def test_readme_errata_table_is_current():
-    assert errata_markdown().strip() in README
 
 
 def test_readme_states_the_two_commands():
@@ -21,11 +17,22 @@ def test_readme_states_the_two_commands():
 
 
 CONVENTIONS = (Path(__file__).resolve().parents[2] / "docs" / "conventions.md").read_text()
+MODELS = (Path(__file__).resolve().parents[2] / "docs" / "models.md").read_text()
+CLI = (Path(__file__).resolve().parents[2] / "docs" / "cli.md").read_text()
 
 
 def test_the_readme_points_to_the_conventions_and_the_list_of_examples():
     assert "[docs/conventions.md](docs/conventions.md)" in README and "derive run --list" in README
-    assert "θ = 0 hangs" in README and "θ = 0 hangs straight down" in CONVENTIONS
+    assert "downward vertical, counterclockwise" in README and "θ = 0 hangs straight down" in CONVENTIONS
+    assert "θ = 0 hangs straight down" in MODELS and "`chart = \"second\"`" in MODELS
+    assert "derive run --list" in CLI
+
+
+def test_the_readme_is_a_readme():
+    """At most 150 lines: the manual is docs/, and the README links into it."""
+    assert len(README.splitlines()) <= 150
+    for page in ("install", "tutorial", "models", "cli", "python", "c-api", "errata", "performance"):
+        assert f"(docs/{page}.md)" in README
 
 
 def test_the_angle_convention_is_what_the_kernels_compute():
@@ -48,3 +55,13 @@ def test_a_single_chart_stops_at_its_pole_and_the_atlas_runs_through():
     r = derive.simulate("spherical", {"cartesian": down}, [0, 1], p, method="dop853", rtol=1e-10)
     assert r.ok and r.chart[0] != "spherical_std"
     assert "`second`" in CONVENTIONS and "atlas=True" in CONVENTIONS
+
+
+def test_a_state_is_the_coordinates_then_their_rates():
+    """docs/conventions.md states the order; the models' state names are in it."""
+    from derive.model import load_model
+    for name in ("planar", "spherical_std"):
+        names = list(load_model(name).state_names)
+        assert f"`({', '.join(names[:4])}" in CONVENTIONS.replace("\n", " ")
+        coordinates = names[:len(names) // 2]
+        assert names[len(names) // 2:] == [c + "_dot" for c in coordinates]
