@@ -361,9 +361,12 @@ def _error_text(s: dict) -> str:
                  f"{s['reference_precision']}") if s["reference_rtol"] is not None else ""
     achieved = None if s["achieved_error"] is None else f"{s['achieved_error']:.2g}"
     if s["target"] is not None:
-        verdict = {True: "met", False: "MISSED", None: "not measured"}[s["target_met"]]
-        return (f"target {s['target']:g}, predicted {s['predicted_error']:.2g}, achieved {achieved or 'not measured'} "
-                f"({'; '.join(x for x in (verdict, reference, s['not_measured']) if x)})")
+        head = f"target {s['target']:g}, predicted {s['predicted_error']:.2g}"
+        if achieved is None:          # said once: why it was not measured
+            why = s["not_measured"] or "the run stopped"
+            return f"{head}, achieved not measured: {why}" + (f" ({reference})" if reference else "")
+        verdict = {True: "met", False: "MISSED"}[s["target_met"]]
+        return f"{head}, achieved {achieved} ({'; '.join(x for x in (verdict, reference) if x)})"
     if achieved is not None:
         return f"final-state error {achieved} (no target; {reference})"
     why = s["not_measured"] or "the run stopped"

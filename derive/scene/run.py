@@ -653,7 +653,7 @@ def verdict(o: Outcome) -> tuple[int, str | None]:
         meaningless result, EXIT_TARGET_MISSED for a missed target, else (0, None).
     """
     if not o.result.ok:
-        return EXIT_FAILED, f"run failed: {o.result.message}{pole_hint(o)}"
+        return EXIT_FAILED, f"run failed: {o.result.stop_description}{pole_hint(o)}"
     why = meaningless(o)
     if why is not None:
         return EXIT_FAILED, why
@@ -739,7 +739,7 @@ def summary(o: Outcome) -> dict:
         "t_start": o.scene.t_start, "trust_horizon": o.trust_horizon, "horizon_error": horizon_error(o.scene),
         "early_error": o.early_error,
         "status": "meaningless" if nonsense else r.status_name, "ok": r.ok and nonsense is None,
-        "message": nonsense or r.message, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
+        "message": nonsense or r.stop_description, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
         "chart_switches": int(r.switches) if r.chart is not None else None,
         "final_state": [float(v) for v in (r.y[-1] if r.ok and not r.terminal_event else r.y_stop)],
         "state_names": final_state_names(o),         # of final_state's entries, in final_chart
