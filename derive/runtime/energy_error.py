@@ -48,6 +48,28 @@ def scale_of(model: str, params, e0):
     return energy_scale(description, values, e0)
 
 
+def relative_change(energy, e0, scale):
+    """|E - E0| / scale: the one division behind every relative energy error (a run's, a
+    scene's plot, a sweep's, the benchmark's), by a scale of scale_of, never by |E0|.
+
+    Parameters
+    ----------
+    energy : array_like
+        Energies, in their own precision (NaN stays NaN).
+    e0 : float or ndarray
+        The energy at the start (broadcast against `energy`: one per row for a batch).
+    scale : float or ndarray
+        scale_of's scale (broadcast as e0).
+
+    Returns
+    -------
+    ndarray
+        The relative change of each energy.
+    """
+    with np.errstate(invalid="ignore"):
+        return np.abs(np.asarray(energy) - e0) / scale
+
+
 def relative_energy_error(energy, model: str, params) -> tuple[float, float]:
     """The relative energy error of a run's energies.
 
@@ -70,7 +92,7 @@ def relative_energy_error(energy, model: str, params) -> tuple[float, float]:
     scale = scale_of(model, params, float(e[0]) if e.size else 0.0)
     if finite.size == 0 or not np.isfinite(e[0]):
         return math.nan, scale
-    return float(np.max(np.abs(finite - e[0]))) / scale, scale
+    return float(np.max(relative_change(finite, e[0], scale))), scale
 
 
 @forget_on_model_change

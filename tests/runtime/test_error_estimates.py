@@ -115,6 +115,17 @@ def test_the_energy_error_is_relative_to_a_scale_that_cannot_vanish():
     assert fast.energy_scale == pytest.approx(abs(float(fast.energy[0])))
 
 
+def test_the_benchmark_and_a_run_give_one_relative_energy_error():
+    """One division (energy_error.relative_change) by one scale: the benchmark's figure of a
+    run's energies is the run's own, on a motion with E0 = 0 as on any other."""
+    from derive.measurement.bench.problems import Problem, relative_energy_error
+    for y0 in ([np.pi / 2, np.pi / 2, 0, 0], [1.0, 0.5, 0, 0]):
+        r = derive.simulate("planar", y0, np.linspace(0, 5, 41), PLANAR, rtol=1e-10)
+        problem = Problem("zero", "planar", tuple(y0), 5.0, tuple(PLANAR[n] for n in ("m1", "m2", "l1", "l2", "g")), "")
+        assert relative_energy_error(r.energy, problem) == pytest.approx(r.energy_error, rel=1e-12)
+        assert 0 < r.energy_error < 1e-8
+
+
 def test_a_double_double_energy_error_is_the_runs_not_its_rounding():
     """Above long double the energies are evaluated from the exact states: the figure is
     the run's own drift (about 1e-25 at rtol 1e-22), not 0 nor long double's 1e-19."""
