@@ -378,7 +378,13 @@ def _error_text(s: dict) -> str:
 def _energy_text(s: dict) -> str:
     """The relative energy error (or change) and what it is relative to."""
     what = "relative error" if s["conservative"] else "relative change (the work of forces and damping)"
-    return (f"{what} {s['relative_energy_error']:.2g} of {s['energy_scale']:.4g} = {s['energy_scale_is']}")
+    error, scale = s["relative_energy_error"], f"{s['energy_scale']:.4g} = {s['energy_scale_is']}"
+    if error is None or not abs(error) < float("inf"):          # overflowed (inf) or none finite (NaN)
+        text = f"{what} not finite (its scale {scale})"
+    else:
+        text = f"{what} {error:.2g} of {scale}"
+    stopped = not s["ok"] and s["status"] != "meaningless"
+    return text + (", over the outputs before the stop" if stopped else "")
 
 
 def _list_examples() -> int:

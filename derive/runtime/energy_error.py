@@ -85,13 +85,16 @@ def relative_energy_error(energy, model: str, params) -> tuple[float, float]:
     -------
     (float, float)
         max |E - E0| / scale over the finite energies, in their own precision (NaN when
-        none is finite), and the scale.
+        none is finite; inf where an energy overflowed, which no figure of the others may
+        hide), and the scale.
     """
     e = np.asarray(energy)
     finite = e[np.isfinite(e)]
-    scale = scale_of(model, params, float(e[0]) if e.size else 0.0)
+    scale = scale_of(model, params, float(e[0]) if e.size and np.isfinite(e[0]) else 0.0)
     if finite.size == 0 or not np.isfinite(e[0]):
         return math.nan, scale
+    if np.isinf(e).any():
+        return math.inf, scale
     return float(np.max(relative_change(finite, e[0], scale))), scale
 
 

@@ -45,6 +45,7 @@ def test_a_step_of_100_is_not_ok(tmp_path):
     run = run_scene(tmp_path, text)
     assert run.returncode == 1, run.stderr
     assert "result  meaningless at t = 200" in run.stdout
+    assert "energy  relative error not finite (its scale 29.43 = max(|E0|, m g l))" in run.stdout
     assert run.stderr.strip().splitlines()[-1] == ("derive: result meaningless: the energy is not finite by "
                                                    "t = 200; give a smaller accuracy.step or an accuracy.target")
 
