@@ -554,17 +554,19 @@ def target_met(o: Outcome) -> bool | None:
 
 def missed_reason(o: Outcome) -> str:
     """One line: why the target was not met: the precision (or its floor tolerance) where
-    the run's early error is above the target from the start, the trust horizon where the
-    motion's chaos explains it, else the figures."""
+    the run's early error is above the target from the start, that early error and the
+    motion's chaos where it grows past the target before the end (the trust horizon), else
+    the figures."""
     precision = PRECISION.get(o.choice.dtype, o.choice.dtype)
     if never_trusted(o):
         return (f"target {o.scene.target:g} out of reach with {precision} at rtol {o.choice.rtol:.2g}: "
                 f"its early error, about {o.early_error:.2g}, is above the target from the start; "
                 f"achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
     if o.trust_horizon is not None and o.trust_horizon < o.scene.t_stop:
-        return (f"target {o.scene.target:g} out of reach after t = {o.trust_horizon:.3g} with {precision}: "
-                f"the motion's trust horizon (largest Lyapunov exponent "
-                f"{o.lyapunov.exponent:.3g}); achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
+        return (f"target {o.scene.target:g} out of reach after t = {o.trust_horizon:.3g} with {precision} at "
+                f"rtol {o.choice.rtol:.2g}: its early error, about {o.early_error:.2g}, grows past the target "
+                f"there (the trust horizon of the motion's largest Lyapunov exponent {o.lyapunov.exponent:.3g}); "
+                f"achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
     return (f"target {o.scene.target:g} missed with {precision} at rtol {o.choice.rtol:.2g}: "
             f"achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
 

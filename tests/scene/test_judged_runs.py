@@ -94,6 +94,19 @@ def test_a_scene_that_asks_for_quad_is_planned_in_quad_and_says_so():
     assert reachable.dtype == "quad" and reachable.rtol == pytest.approx(1e-27) and reachable.note == ""
 
 
+def test_a_target_just_above_the_top_precisions_floor_names_its_early_error(tmp_path):
+    """1e-26 with double-double at its floor rtol 1e-27: the early error (2.5e-27) is below
+    the target at the start and the chaos carries it past: the line names the precision,
+    its tolerance and that early error, not the motion alone."""
+    run = run_scene(tmp_path, accuracy(DEFAULT, "target = 1e-26"), "--quiet")
+    assert run.returncode == 3, run.stderr
+    line, = run.stderr.strip().splitlines()
+    assert line.startswith("derive: target 1e-26 out of reach after t = 0.")
+    assert ("with double-double at rtol 1e-27: its early error, about 2.5e-27, grows past the target there "
+            "(the trust horizon of the motion's largest Lyapunov exponent 2.") in line
+    assert line.endswith(" at t = 5") and "achieved 1." in line
+
+
 def test_abm12_names_its_guard_and_a_scene_can_loosen_it(tmp_path):
     """At h = 0.01 on the regular case the guard stops abm12 at t = 0.77: the line names it,
     its threshold and the key that loosens it; accuracy.rtol = 1e-6 then runs to t = 20."""
