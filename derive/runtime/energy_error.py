@@ -125,7 +125,6 @@ def exact_energy_error(result) -> tuple[float, float]:
         rows = [row for row in result.y_exact if all(mpmath.isfinite(v) for v in row)]
         if not rows:
             return math.nan, scale_of(result.model, np.asarray(result.params, np.float64), 0.0)
-        E = [energy(*row, *params) for row in rows]
-        change = max(abs(x - E[0]) for x in E)
+        E = np.array([energy(*row, *params) for row in rows], dtype=object)     # mpmath numbers
         scale = scale_of(result.model, np.asarray(result.params, np.float64), float(E[0]))
-        return float(change / scale), scale
+        return float(max(relative_change(E, E[0], scale))), scale
