@@ -320,9 +320,12 @@ def _error_text(s: dict) -> str:
                  f"{s['reference_precision']}") if s["reference_rtol"] is not None else ""
     achieved = None if s["achieved_error"] is None else f"{s['achieved_error']:.2g}"
     if s["target"] is not None:
-        verdict = {True: "met", False: "MISSED", None: "not measured"}[s["target_met"]]
-        return (f"target {s['target']:g}, predicted {s['predicted_error']:.2g}, achieved {achieved or 'not measured'} "
-                f"({'; '.join(x for x in (verdict, reference, s['not_measured']) if x)})")
+        head = f"target {s['target']:g}, predicted {s['predicted_error']:.2g}"
+        if achieved is None:          # said once: why it was not measured
+            why = s["not_measured"] or "the run stopped"
+            return f"{head}, achieved not measured: {why}" + (f" ({reference})" if reference else "")
+        verdict = {True: "met", False: "MISSED"}[s["target_met"]]
+        return f"{head}, achieved {achieved} ({'; '.join(x for x in (verdict, reference) if x)})"
     if achieved is not None:
         return f"final-state error {achieved} (no target; {reference})"
     why = s["not_measured"] or "the run stopped"
@@ -334,7 +337,13 @@ def _error_text(s: dict) -> str:
 def _energy_text(s: dict) -> str:
     """The relative energy error (or change) and what it is relative to."""
     what = "relative error" if s["conservative"] else "relative change (the work of forces and damping)"
-    return (f"{what} {s['relative_energy_error']:.2g} of {s['energy_scale']:.4g} = {s['energy_scale_is']}")
+    error, scale = s["relative_energy_error"], f"{s['energy_scale']:.4g} = {s['energy_scale_is']}"
+    if error is None or not abs(error) < float("inf"):          # overflowed (inf) or none finite (NaN)
+        text = f"{what} not finite (its scale {scale})"
+    else:
+        text = f"{what} {error:.2g} of {scale}"
+    stopped = not s["ok"] and s["status"] != "meaningless"
+    return text + (", over the outputs before the stop" if stopped else "")
 
 
 def _list_examples() -> int:

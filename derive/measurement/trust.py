@@ -51,8 +51,8 @@ class Lyapunov:
         """Why the exponent was measured over less than the span asked for ("" when it was not)."""
         if self.requested is None or self.requested <= self.t_end:
             return ""
-        return (f"measured over t = 0 to {self.t_end:g} of the {self.requested:g} asked (the exponent is "
-                f"a property of the motion; the window is bounded at {MAX_WINDOW:g} to bound its cost)")
+        return (f"measured over t = 0 to {self.t_end:g} of the {self.requested:g} asked: the exponent is "
+                f"a property of the motion, and the window is bounded at {MAX_WINDOW:g} to bound its cost")
 
     def error_growth(self, t: float) -> float:
         """exp(lambda t), or inf where that overflows a double (no error survives it)."""

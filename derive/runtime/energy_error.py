@@ -48,6 +48,28 @@ def scale_of(model: str, params, e0):
     return energy_scale(description, values, e0)
 
 
+def relative_change(energy, e0, scale):
+    """|E - E0| / scale: the one division behind every relative energy error (a run's, a
+    scene's plot, a sweep's, the benchmark's), by a scale of scale_of, never by |E0|.
+
+    Parameters
+    ----------
+    energy : array_like
+        Energies, in their own precision (NaN stays NaN).
+    e0 : float or ndarray
+        The energy at the start (broadcast against `energy`: one per row for a batch).
+    scale : float or ndarray
+        scale_of's scale (broadcast as e0).
+
+    Returns
+    -------
+    ndarray
+        The relative change of each energy.
+    """
+    with np.errstate(invalid="ignore"):
+        return np.abs(np.asarray(energy) - e0) / scale
+
+
 def relative_energy_error(energy, model: str, params) -> tuple[float, float]:
     """The relative energy error of a run's energies.
 
@@ -63,14 +85,17 @@ def relative_energy_error(energy, model: str, params) -> tuple[float, float]:
     -------
     (float, float)
         max |E - E0| / scale over the finite energies, in their own precision (NaN when
-        none is finite), and the scale.
+        none is finite; inf where an energy overflowed, which no figure of the others may
+        hide), and the scale.
     """
     e = np.asarray(energy)
     finite = e[np.isfinite(e)]
-    scale = scale_of(model, params, float(e[0]) if e.size else 0.0)
+    scale = scale_of(model, params, float(e[0]) if e.size and np.isfinite(e[0]) else 0.0)
     if finite.size == 0 or not np.isfinite(e[0]):
         return math.nan, scale
-    return float(np.max(np.abs(finite - e[0]))) / scale, scale
+    if np.isinf(e).any():
+        return math.inf, scale
+    return float(np.max(relative_change(finite, e[0], scale))), scale
 
 
 @forget_on_model_change
@@ -100,7 +125,6 @@ def exact_energy_error(result) -> tuple[float, float]:
         rows = [row for row in result.y_exact if all(mpmath.isfinite(v) for v in row)]
         if not rows:
             return math.nan, scale_of(result.model, np.asarray(result.params, np.float64), 0.0)
-        E = [energy(*row, *params) for row in rows]
-        change = max(abs(x - E[0]) for x in E)
+        E = np.array([energy(*row, *params) for row in rows], dtype=object)     # mpmath numbers
         scale = scale_of(result.model, np.asarray(result.params, np.float64), float(E[0]))
-        return float(change / scale), scale
+        return float(max(relative_change(E, E[0], scale))), scale

@@ -12,7 +12,8 @@ from html import escape
 import numpy as np
 
 from ..codegen.contract import STATUS_NAMES, STATUS
-from ..errors import SimulationError, ToolMissingError
+from ..errors import ModelError, SimulationError, ToolMissingError
+from ..model.atlas import atlas_for, find_atlas
 from .energy_error import exact_energy_error, relative_energy_error
 from .model_sizes import model_info
 
@@ -101,6 +102,16 @@ class SimulationResult:
 
     @property
     def message(self) -> str:
+        """What happened, in one line: a stop names its status, the state there and the
+        way out (the guard to loosen, the chart atlas that runs through a chart's pole)."""
+        if self.ok:
+            return self.stop_description
+        return self.stop_description + self._pole_note()
+
+    @property
+    def stop_description(self) -> str:
+        """message without the way out of a pole, which derive.simulate's caller takes
+        (atlas=True) and a scene names by its own key (pendulum.atlas)."""
         if self.ok and self.terminal_event:
             return (f"ok: {self.model} with {self.method} stopped by the terminal event "
                     f"'{self.terminal_event}' at t = {self.t_stop:.17g}")
@@ -119,6 +130,18 @@ class SimulationResult:
         rtol, atol = self.guard
         return (f"; the guard: Milne's error estimate above atol + rtol |y| (rtol {rtol:.3g}, "
                 f"atol {atol:.3g}): loosen rtol (and atol), or take a smaller step")
+
+    def _pole_note(self) -> str:
+        """The way out of a one-chart run's stop at its chart's pole: the chain's atlas."""
+        if self.status_name != CHART_SINGULAR or find_atlas(self.model) is not None:
+            return ""
+        try:
+            atlas_for(self.model)
+        except ModelError as exc:
+            return (f"; the motion meets a pole of {self.model}'s chart ({exc}): write its links in a "
+                    f"chart whose poles the motion avoids, e.g. chart = \"second\"")
+        return (f"; the motion meets a pole of {self.model}'s chart: simulate(..., atlas=True) runs it "
+                f"on the chain's chart atlas, which switches charts there")
 
     @property
     def energy_error(self) -> float:
@@ -181,6 +204,7 @@ class SimulationResult:
 
 
 MULTISTEP_STOP = STATUS_NAMES[STATUS["MULTISTEP_UNSTABLE"]]    # abm12's guard stopped the run
+CHART_SINGULAR = STATUS_NAMES[STATUS["CHART_SINGULAR"]]         # a chart's pole stopped the run
 LAZY = object()                # energy/positions/velocities not computed yet (see `observe`)
 LOCAL_SUM = "local sum"        # error_kind of a run's own sum of local-error estimates
 _OBSERVED = ("energy", "positions", "velocities")

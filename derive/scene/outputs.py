@@ -14,6 +14,7 @@ from ..model import load_model
 from ..model.atlas import find_atlas
 from ..paths import replace_file
 from ..runtime.simulate import normalise_params
+from ..runtime.energy_error import relative_change
 from .scene import SceneError
 from .run import SCALE_TEXT, conservative, energy_error
 from ..progress import Stage
@@ -257,7 +258,7 @@ def energy_figure(plt, o):
     floor = energy_floor(o.choice.dtype)
     scale = energy_error(o)[1]
     with np.errstate(invalid="ignore"):          # NaN after a run's stop stays NaN (not drawn)
-        rel = np.maximum(np.abs(e - e[0]) / scale, floor)
+        rel = np.maximum(relative_change(e, e[0], scale), floor)
     ax.semilogy(o.result.t.astype(float), rel)
     top = float(np.nanmax(rel)) if np.isfinite(rel).any() else floor
     ax.set_ylim(floor, max(top * 10, floor * 100))     # a constant energy: a decade above the floor

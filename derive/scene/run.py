@@ -554,17 +554,19 @@ def target_met(o: Outcome) -> bool | None:
 
 def missed_reason(o: Outcome) -> str:
     """One line: why the target was not met: the precision (or its floor tolerance) where
-    the run's early error is above the target from the start, the trust horizon where the
-    motion's chaos explains it, else the figures."""
+    the run's early error is above the target from the start, that early error and the
+    motion's chaos where it grows past the target before the end (the trust horizon), else
+    the figures."""
     precision = PRECISION.get(o.choice.dtype, o.choice.dtype)
     if never_trusted(o):
         return (f"target {o.scene.target:g} out of reach with {precision} at rtol {o.choice.rtol:.2g}: "
                 f"its early error, about {o.early_error:.2g}, is above the target from the start; "
                 f"achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
     if o.trust_horizon is not None and o.trust_horizon < o.scene.t_stop:
-        return (f"target {o.scene.target:g} out of reach after t = {o.trust_horizon:.3g} with {precision}: "
-                f"the motion's trust horizon (largest Lyapunov exponent "
-                f"{o.lyapunov.exponent:.3g}); achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
+        return (f"target {o.scene.target:g} out of reach after t = {o.trust_horizon:.3g} with {precision} at "
+                f"rtol {o.choice.rtol:.2g}: its early error, about {o.early_error:.2g}, grows past the target "
+                f"there (the trust horizon of the motion's largest Lyapunov exponent {o.lyapunov.exponent:.3g}); "
+                f"achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
     return (f"target {o.scene.target:g} missed with {precision} at rtol {o.choice.rtol:.2g}: "
             f"achieved {o.achieved:.2g} at t = {o.scene.t_stop:g}")
 
@@ -653,7 +655,7 @@ def verdict(o: Outcome) -> tuple[int, str | None]:
         meaningless result, EXIT_TARGET_MISSED for a missed target, else (0, None).
     """
     if not o.result.ok:
-        return EXIT_FAILED, f"run failed: {o.result.message}{pole_hint(o)}"
+        return EXIT_FAILED, f"run failed: {o.result.stop_description}{pole_hint(o)}"
     why = meaningless(o)
     if why is not None:
         return EXIT_FAILED, why
@@ -739,7 +741,7 @@ def summary(o: Outcome) -> dict:
         "t_start": o.scene.t_start, "trust_horizon": o.trust_horizon, "horizon_error": horizon_error(o.scene),
         "early_error": o.early_error,
         "status": "meaningless" if nonsense else r.status_name, "ok": r.ok and nonsense is None,
-        "message": nonsense or r.message, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
+        "message": nonsense or r.stop_description, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
         "chart_switches": int(r.switches) if r.chart is not None else None,
         "final_state": [float(v) for v in (r.y[-1] if r.ok and not r.terminal_event else r.y_stop)],
         "state_names": final_state_names(o),         # of final_state's entries, in final_chart

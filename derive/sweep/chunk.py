@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..runtime.energy_error import scale_of
+from ..runtime.energy_error import relative_change, scale_of
 from ..runtime.runner import library_path, runner_for
 from . import level_crossings as ev
 from .bounds import energy as _energy, n_params as _n_params, unreachable
@@ -119,8 +119,8 @@ class _Batch:
         self._maxima(rows, y, ts)
         if self.energy:
             E = _energy(self.model, y, p_rows[:, None, :self.n_params])
-            change = np.nanmax(np.abs(E - self.E0[rows, None]), axis=1, initial=0.0)
-            self.drift[rows] = np.fmax(self.drift[rows], change / self.scale[rows])
+            change = relative_change(E, self.E0[rows, None], self.scale[rows, None])
+            self.drift[rows] = np.fmax(self.drift[rows], np.nanmax(change, axis=1, initial=0.0))
         self.state[rows] = y[:, -1]
         self.status[rows] = np.where(self.status[rows] == 0, st, self.status[rows])
         self.active[rows[st != 0]] = False

@@ -7,6 +7,7 @@ import numpy as np
 
 from ..errors import DeriveError
 from ..model import load_model
+from ..model.energy_scale import SCALE_TEXT
 from ..paths import replace_file
 from ..scene.outputs import fit_title
 
@@ -132,7 +133,8 @@ def image_figure(plt, ds, name: str, title: str):
     bar = fig.colorbar(image, ax=ax)
     bar.set_label(_label(name.replace("_", " "), unit(name))
                   + (" (grey: none)" if name.endswith("_time") else
-                     " (estimate)" if name.endswith("_time_error") else ""))
+                     " (estimate)" if name.endswith("_time_error") else
+                     f": |E - E0| / {SCALE_TEXT}" if name == "energy_error" else ""))
     ax.set_xlabel(_label(xdim, unit(xdim)))
     ax.set_ylabel(_label(ydim, unit(ydim)))
     fit_title(fig, lambda text: fig.suptitle(text), title)

@@ -252,6 +252,12 @@ def test_single_chart_stops_at_its_singularity(backend):
     r = simulate("spherical_std", y0, np.linspace(0, 5, 51), P, method="dop853", backend=backend)
     assert r.status == 5 and r.status_name.startswith("chart singular"), r.message
     assert 0 < r.t_stop < 5 and "spherical_std" in r.message
+    # the message names the way out, and taking it runs through
+    assert r.message.endswith("; the motion meets a pole of spherical_std's chart: simulate(..., atlas=True) "
+                              "runs it on the chain's chart atlas, which switches charts there"), r.message
+    assert "atlas=True" not in r.stop_description       # a scene names its own key instead
+    through = simulate("spherical_std", y0, np.linspace(0, 5, 51), P, method="dop853", backend=backend, atlas=True)
+    assert through.ok and through.t_stop == 5.0 and through.energy_error < 1e-6, through.message
     s = cartesian.polar_sines("spherical_std", cartesian.state_to_cartesian("spherical_std", r.y_stop, (L1, L2)), (L1, L2))
     assert 0.1 <= min(s) < 0.2, s
     done = r.t <= r.t_stop

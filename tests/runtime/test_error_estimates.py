@@ -115,8 +115,27 @@ def test_the_energy_error_is_relative_to_a_scale_that_cannot_vanish():
     assert fast.energy_scale == pytest.approx(abs(float(fast.energy[0])))
 
 
+def test_the_benchmark_and_a_run_give_one_relative_energy_error():
+    """One division (energy_error.relative_change) by one scale: the benchmark's figure of a
+    run's energies is the run's own, on a motion with E0 = 0 as on any other."""
+    from derive.measurement.bench.problems import Problem, relative_energy_error
+    for y0 in ([np.pi / 2, np.pi / 2, 0, 0], [1.0, 0.5, 0, 0]):
+        r = derive.simulate("planar", y0, np.linspace(0, 5, 41), PLANAR, rtol=1e-10)
+        problem = Problem("zero", "planar", tuple(y0), 5.0, tuple(PLANAR[n] for n in ("m1", "m2", "l1", "l2", "g")), "")
+        assert relative_energy_error(r.energy, problem) == pytest.approx(r.energy_error, rel=1e-12)
+        assert 0 < r.energy_error < 1e-8
+
+
 def test_a_double_double_energy_error_is_the_runs_not_its_rounding():
     """Above long double the energies are evaluated from the exact states: the figure is
     the run's own drift (about 1e-25 at rtol 1e-22), not 0 nor long double's 1e-19."""
     r = derive.simulate("planar", [2.5, 2.0, 0, 0], np.linspace(0, 1, 11), PLANAR, dtype="double-double", rtol=1e-22)
     assert 0 < r.energy_error < 1e-22 and r.energy_scale == pytest.approx(29.43)
+
+
+def test_an_energy_that_overflows_is_an_infinite_error_not_the_largest_finite_one():
+    """rk4 at step 100 on a small swing: the energy at t = 200 overflows; the figure is inf,
+    not the change up to t = 100, which would read as a (huge) measurement."""
+    r = derive.simulate("planar", [0.1, 0.1, 0, 0], [0.0, 100.0, 200.0], PLANAR, method="rk4", step=100.0)
+    assert r.ok and np.isinf(r.energy[-1]) and np.isfinite(r.energy[1])
+    assert r.energy_error == np.inf and r.energy_scale == pytest.approx(29.43)

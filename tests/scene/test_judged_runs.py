@@ -45,6 +45,7 @@ def test_a_step_of_100_is_not_ok(tmp_path):
     run = run_scene(tmp_path, text)
     assert run.returncode == 1, run.stderr
     assert "result  meaningless at t = 200" in run.stdout
+    assert "energy  relative error not finite (its scale 29.43 = max(|E0|, m g l))" in run.stdout
     assert run.stderr.strip().splitlines()[-1] == ("derive: result meaningless: the energy is not finite by "
                                                    "t = 200; give a smaller accuracy.step or an accuracy.target")
 
@@ -93,6 +94,19 @@ def test_a_scene_that_asks_for_quad_is_planned_in_quad_and_says_so():
     assert reachable.dtype == "quad" and reachable.rtol == pytest.approx(1e-27) and reachable.note == ""
 
 
+def test_a_target_just_above_the_top_precisions_floor_names_its_early_error(tmp_path):
+    """1e-26 with double-double at its floor rtol 1e-27: the early error (2.5e-27) is below
+    the target at the start and the chaos carries it past: the line names the precision,
+    its tolerance and that early error, not the motion alone."""
+    run = run_scene(tmp_path, accuracy(DEFAULT, "target = 1e-26"), "--quiet")
+    assert run.returncode == 3, run.stderr
+    line, = run.stderr.strip().splitlines()
+    assert line.startswith("derive: target 1e-26 out of reach after t = 0.")
+    assert ("with double-double at rtol 1e-27: its early error, about 2.5e-27, grows past the target there "
+            "(the trust horizon of the motion's largest Lyapunov exponent 2.") in line
+    assert line.endswith(" at t = 5") and "achieved 1." in line
+
+
 def test_abm12_names_its_guard_and_a_scene_can_loosen_it(tmp_path):
     """At h = 0.01 on the regular case the guard stops abm12 at t = 0.77: the line names it,
     its threshold and the key that loosens it; accuracy.rtol = 1e-6 then runs to t = 20."""
@@ -132,3 +146,55 @@ def test_a_double_double_energy_error_is_a_figure_not_zero(tmp_path):
     assert run.returncode == 0, run.stderr
     s = json.loads(run.stdout)
     assert s["precision"] == "double-double" and 0 < s["relative_energy_error"] < 1e-20
+
+
+USER_CHAIN = """name = "my_chain"
+title = "A user's double spherical chain"
+dimension = 3
+parameters = ["m1", "m2", "l1", "l2", "g"]
+[[links]]
+chart = "standard"
+length = "l1"
+body = { kind = "point", mass = "m1" }
+[[links]]
+chart = "standard"
+length = "l2"
+body = { kind = "point", mass = "m2" }
+"""
+
+USER_CHAIN_SCENE = """title = "my chain"
+[pendulum]
+model = "my_chain.toml"
+parameters = { m1 = 1.0, m2 = 1.0, l1 = 1.0, l2 = 1.0, g = 9.81 }
+[initial]
+state = { theta1 = 0.4, phi1 = 0.0, theta2 = 0.8, phi2 = 1.0, theta1_dot = -2.0, phi1_dot = 0.5, theta2_dot = 1.0, phi2_dot = 0.3 }
+[time]
+stop = 3.0
+outputs = 31
+[accuracy]
+target = 1e-8
+"""
+
+
+@pytest.mark.slow      # derives the three charts of a new chain: about 150 s with a cold cache
+def test_a_users_spherical_chain_runs_through_its_charts_pole_on_its_atlas(tmp_path):
+    """A model file of the user's own in the standard chart, whose motion meets theta1 = 0 at
+    t = 1.61: the scene runs again on the chain's chart atlas, as the catalogue's spherical
+    does, and says why; asked for one chart, it stops there and names the way out."""
+    (tmp_path / "my_chain.toml").write_text(USER_CHAIN)
+    run = run_scene(tmp_path, USER_CHAIN_SCENE, "--json")
+    assert run.returncode == 0, run.stderr
+    s = json.loads(run.stdout)
+    assert s["model"] == "my_chain_atlas" and s["ok"] and s["t_stop"] == 3.0 and s["chart_switches"] >= 1
+    assert s["model_reason"] == "my_chain's chart meets its pole at t = 1.611: ran on its chart atlas"
+    assert s["achieved_error"] <= s["target"]
+    one_chart = run_scene(tmp_path, USER_CHAIN_SCENE.replace("[pendulum]", "[pendulum]\natlas = false"))
+    assert one_chart.returncode == 1 and "Traceback" not in one_chart.stderr
+    stopped = [line for line in one_chart.stdout.splitlines() if line.startswith("stopped ")]
+    assert stopped and "at t = 1.61" in stopped[0] and "simulate(" not in stopped[0]
+    error = [line for line in one_chart.stdout.splitlines() if line.startswith("error   ")][0]
+    assert error.endswith("achieved not measured: the run stopped (reference dop853 at rtol 1e-12 in double)")
+    reason, = one_chart.stderr.strip().splitlines()
+    assert reason.startswith("derive: run failed: integration stopped at t = 1.61")
+    assert reason.endswith("(the motion meets a pole of my_chain's chart; the scene asked for one chart: "
+                           "pendulum.atlas = true runs it on the chart atlas, which switches charts there)")

@@ -142,6 +142,10 @@ def test_a_scene_asking_for_one_chart_stops_at_its_pole_and_names_the_way_out(tm
     run_ = derive_cli("run", _write(tmp_path, text), "--output-dir", str(tmp_path))
     assert run_.returncode == 1 and "Traceback" not in run_.stderr
     assert "chart singular" in run_.stdout and "theta1=0.05" in run_.stdout
+    error = [line for line in run_.stdout.splitlines() if line.startswith("error   ")][0]
+    assert error.count("not measured") == 1 and "achieved not measured: the run stopped (reference " in error
+    energy = [line for line in run_.stdout.splitlines() if line.startswith("energy  ")][0]
+    assert energy.endswith(", over the outputs before the stop")
     reason = run_.stderr.strip().splitlines()
     assert len(reason) == 1 and "pendulum.atlas = true runs it on the chart atlas" in reason[0], reason
 

@@ -47,3 +47,15 @@ def test_the_images_are_written(ds, tmp_path):
     files = write_images(ds, tmp_path, "s", TITLE)
     assert [f.name for f in files] == ["s_max_abs_theta2.png"]
     assert files[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_energy_error_says_what_it_is_relative_to():
+    """Not a bare "energy error": relative to max(|E0|, m g l), a scale that cannot vanish."""
+    theta1 = np.linspace(-3, 3, 7)
+    data = xr.Dataset({"energy_error": (("m2", "theta1"), np.full((3, 7), 1e-9))},
+                      coords={"m2": [0.5, 1.0, 2.0], "theta1": theta1}, attrs={"model": "planar"})
+    fig = image_figure(plt, data, "energy_error", "energy error")
+    try:
+        assert fig.axes[1].get_ylabel() == "energy error: |E - E0| / max(|E0|, m g l)"
+    finally:
+        plt.close(fig)

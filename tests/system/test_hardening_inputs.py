@@ -304,6 +304,7 @@ def test_the_lyapunov_window_is_the_one_asked_for_or_says_why_not():
     long = largest_lyapunov("planar", y0, p, 200.0)
     assert long.t_end == MAX_WINDOW and long.requested == 200.0
     assert f"t = 0 to {MAX_WINDOW:g} of the 200 asked" in long.window_note
+    assert "(" not in long.window_note      # the chaos line sets it in parentheses of its own
 
 
 def test_a_long_scene_says_over_what_its_exponent_was_measured(tmp_path):

@@ -13,7 +13,7 @@ from typing import Callable
 
 import numpy as np
 
-from ...runtime.energy_error import scale_of
+from ...runtime.energy_error import relative_change, scale_of
 from ...runtime.simulate import normalise_params, normalise_y0
 
 TARGET = 1e-8
@@ -164,7 +164,7 @@ def relative_energy_error(E: np.ndarray, problem: Problem) -> float:
     E = np.asarray(E, dtype=np.float64)
     if not np.all(np.isfinite(E)):
         return math.inf
-    return float(np.max(np.abs(E - E[0]))) / energy_scale(problem, float(E[0]))
+    return float(np.max(relative_change(E, E[0], energy_scale(problem, float(E[0])))))
 
 
 def knob(r: dict) -> str:
