@@ -16,7 +16,7 @@ from .errors import (BuildError, CompilerMissingError, DeriveError, InputError, 
                      ToolMissingError)
 
 __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "ModelError",
-           "SceneError", "SimulationError", "SimulationInputError", "ToolMissingError",
+           "SceneError", "SimulationError", "SimulationInputError", "SimulationResult", "ToolMissingError",
            "Pendulum", "__version__", "ensemble", "equations", "load_model", "scipy_rhs", "simulate", "sweep",
            "trust_horizon"]
 
@@ -25,6 +25,7 @@ __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "M
 # the module that defines it, and its name there.  ``derive.sweep`` is the sweep stage itself.
 _LAZY = {"simulate": ("runtime.simulate", "simulate"), "ensemble": ("runtime.ensemble", "ensemble"),
          "scipy_rhs": ("runtime.scipy_rhs", "scipy_rhs"),
+         "SimulationResult": ("runtime.result", "SimulationResult"),
          "trust_horizon": ("measurement.trust", "trust_horizon_of"), "sweep": ("sweep", None),
          "load_model": ("api", "load_model"), "equations": ("api", "equations"), "Pendulum": ("api", "Pendulum")}
 

@@ -179,7 +179,7 @@ class Pendulum:
         return pdflatex(tex) if pdf else tex
 
     def simulate(self, y0, t, params, **options) -> SimulationResult:
-        """Run the model: derive.simulate(model, y0, t, params, **options).
+        """Run the model: ``derive.simulate(model, y0, t, params, **options)``.
 
         Parameters
         ----------

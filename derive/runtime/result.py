@@ -145,7 +145,7 @@ class SimulationResult:
 
     @property
     def energy_error(self) -> float:
-        """The largest relative energy error max |E(t) - E0| / energy_scale over the run's
+        """The largest relative energy error ``max |E(t) - E0| / energy_scale`` over the run's
         outputs (NaN where none is finite); above long double from its exact states
         (derive/runtime/energy_error.py).  With applied forces or damping it is the work
         they did, not an error."""
@@ -153,9 +153,9 @@ class SimulationResult:
 
     @property
     def energy_scale(self) -> float:
-        """What energy_error is relative to: max(|E0|, W), W = |g| sum_k m_k d_k the depth
-        of the potential well (derive/model/energy_scale.py): it cannot vanish, as |E0|
-        can for a motion like any other."""
+        """What energy_error is relative to: ``max(|E0|, W)``, ``W = |g| sum_k m_k d_k`` the
+        depth of the potential well (derive/model/energy_scale.py): it cannot vanish, as
+        ``|E0|`` can for a motion like any other."""
         return self._energy_error()[1]
 
     def _energy_error(self) -> tuple[float, float]:

@@ -101,7 +101,7 @@ def api() -> str:
         elif inspect.isclass(value) and issubclass(value, BaseException):
             entries.append(f".. autoexception:: derive.{name}\n   :show-inheritance:")
         elif inspect.isclass(value):
-            entries.append(f".. autoclass:: derive.{name}")
+            entries.append(f".. autoclass:: derive.{name}\n   :members:")
         elif inspect.ismodule(value):            # derive.sweep: the stage, callable as its function
             entries.append(f".. autofunction:: derive.sweep.{name}")
         else:
