@@ -258,6 +258,27 @@ def _names(t: dict, key: str, where: str) -> tuple[str, ...]:
     return tuple(values)
 
 
+def _check_com_is_a_fraction(link: Link, params: tuple[str, ...], where: str) -> None:
+    """Refuse a rod's `com` that grows with its own link's length (`com = "L/2"`): that is a
+    distance where a fraction of the length is meant, and it would pass the run-time [0, 1]
+    check for L <= 2 while giving a wrong inertia.  A fraction built from lengths (`d/L`)
+    is fine: it scales as L^-1."""
+    if link.body.kind != "rod":
+        return
+    symbols = {n: sp.Symbol(n) for n in params}
+    try:
+        com = parse_expression(link.body.com, symbols, "com")
+        length = parse_expression(link.length, symbols, "length")
+    except ModelError:
+        return                       # the derivation reports a bad expression, in its words
+    for L in length.free_symbols & com.free_symbols:
+        scaling = sp.simplify(L * sp.diff(com, L) / com)     # com ~ L^scaling
+        if scaling.is_number and scaling > 0:
+            raise ModelError(f"{where} body: com = {link.body.com!r} grows with the link's length "
+                             f"{L}: com is a fraction of the length in [0, 1] "
+                             f"(com = \"1/2\" is the middle)")
+
+
 def _quantity_problem(key: str, value: float) -> str | None:
     """Why a link's length, mass, inertia or centre of mass cannot be `value`, or None."""
     if key in ("length", "body mass") and not value > 0:
@@ -389,6 +410,7 @@ def parse_model(text: str, origin: str) -> Model:
         for p in (link.length, link.body.mass, link.body.inertia, link.body.com):
             if NAME.match(p) and p not in params:
                 raise ModelError(f"{where}: '{p}' is not a declared parameter")
+        _check_com_is_a_fraction(link, params, where)
         links.append(link)
     if not links:
         raise ModelError(f"{origin}: a model needs at least one [[links]] table")

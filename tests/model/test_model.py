@@ -68,3 +68,22 @@ def test_the_atlas_is_data():
     assert (contract.SINE_MIN, contract.SINE_SWITCH, contract.SINE_RULE) == (a.sine_min, a.sine_switch, a.sine_rule)
     assert set(rule_models().values()) == set(a.charts) and a.charts[0] == rule_models()["standard"]
     assert "atlases" not in model_names() and "charts" not in model_names()
+
+
+ROD = GOOD.replace('body = { kind = "point", mass = "m1" }',
+                   'body = { kind = "rod", mass = "m1", com = "COM", inertia = "m1*l1**2/12" }').replace(
+    '"m1", "l1", "g"', '"m1", "l1", "d", "g"')
+
+
+@pytest.mark.parametrize("com", ["l1/2", "0.5*l1", "l1**2/3"])
+def test_a_com_that_is_a_distance_is_refused(com):
+    """`com` is a fraction of the length: one that grows with the link's length is a distance
+    written where a fraction is meant (it would pass the [0, 1] check for short links)."""
+    with pytest.raises(ModelError, match=r"link 1 body: com = .* grows with the link's length l1: "
+                                         r"com is a fraction of the length"):
+        parse_model(ROD.replace("COM", com), "toy.toml")
+
+
+@pytest.mark.parametrize("com", ["1/2", "d/l1", "d", "(l1 - d)/l1"])
+def test_a_com_that_is_a_fraction_is_taken(com):
+    assert parse_model(ROD.replace("COM", com), "toy.toml").links[0].body.com == com
