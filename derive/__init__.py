@@ -15,13 +15,15 @@ from .errors import (BuildError, CompilerMissingError, DeriveError, InputError, 
 
 __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "ModelError",
            "SceneError", "SimulationError", "SimulationInputError", "ToolMissingError",
-           "__version__", "ensemble", "scipy_rhs", "simulate", "sweep", "trust_horizon"]
+           "__version__", "ensemble", "equilibria", "linearize", "scipy_rhs", "simulate", "sweep",
+           "trust_horizon"]
 
 
 # The public functions, imported on first use (``import derive`` stays light): the name,
 # the module that defines it, and its name there.  ``derive.sweep`` is the sweep stage itself.
 _LAZY = {"simulate": ("runtime.simulate", "simulate"), "ensemble": ("runtime.ensemble", "ensemble"),
          "scipy_rhs": ("runtime.scipy_rhs", "scipy_rhs"),
+         "linearize": ("runtime.linearize", "linearize"), "equilibria": ("runtime.linearize", "equilibria"),
          "trust_horizon": ("measurement.trust", "trust_horizon_of"), "sweep": ("sweep", None)}
 
 

@@ -37,7 +37,7 @@ from ..model.description import forget_on_model_change
 
 from ..model.atlas import ATLAS, find_atlas, load_atlas
 from .emit import cse_file
-from .spec import model_spec
+from .spec import linearize_spec, model_spec
 from . import backends as registry      # looked up at each call: a test may add a backend
 
 ATLAS_CHARTS = load_atlas(ATLAS).charts
@@ -83,6 +83,14 @@ def kernels(name: str):
     return spec, cse_file(spec)
 
 
+@forget_on_model_change
+@lru_cache(maxsize=None)
+def linearize_kernels(name: str):
+    """(spec, bodies) of the model's <model>_linearize file (its own CSE pass)."""
+    spec = linearize_spec(derive(name))
+    return spec, cse_file(spec)
+
+
 def _raw(name: str) -> dict[str, str]:
     """Every backend's artifacts for `name` (derive/codegen/backends discovers them)."""
     files: dict[str, str] = {}
@@ -94,6 +102,7 @@ def _raw(name: str) -> dict[str, str]:
     spec, bodies = kernels(name)
     for backend in registry.backends():
         files.update(backend.model_files(name, spec, bodies, guarded=bool(d.polar_sines)))
+        files.update(backend.kernel_files(*linearize_kernels(name)))
     return files
 
 
