@@ -26,6 +26,7 @@ import numpy as np
 import sympy as sp
 
 from ..derivation import derive
+from ..derivation.lagrange import link_blocks
 from ..errors import ModelError, SimulationInputError
 from ..model.description import forget_on_model_change
 from ..model.expressions import parse_expression
@@ -245,7 +246,6 @@ def _link_rests(d) -> list[list[dict]]:
     singular points, where the gradient vanishes with e slanted, are left out), one
     point for each, angles in (-pi, pi]; a coordinate the height does not depend on
     (an azimuth at the pole) is 0."""
-    from ..derivation.lagrange import link_blocks
     s = d.symbols
     rests = []
     for block in link_blocks(d.model, s):
