@@ -299,9 +299,9 @@ def test_inputs_as_a_function_of_time_are_held_over_each_output_interval():
     has 0.5, the run equals two constant-input runs one after the other."""
     load_model(EXAMPLES / "driven.toml")
     p = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81, "c1": 0.1, "c2": 0.05}
-    u = lambda t: {"tau1": 3.0 if t < 0.5 else -1.0, "tau2": 0.5}
+    u = lambda t, y: {"tau1": 3.0 if t < 0.5 else -1.0, "tau2": 0.5}
     t = np.linspace(0, 1, 11)
-    held = derive.simulate("driven", [0.2, 0, 0, 0], t, p, inputs=u, rtol=1e-12)
+    held = derive.simulate("driven", [0.2, 0, 0, 0], t, p, inputs=u, rtol=1e-12, hold="zoh")
     a = derive.simulate("driven", [0.2, 0, 0, 0], t[:6], p, inputs=[3.0, 0.5], rtol=1e-12)
     b = derive.simulate("driven", a.y[-1], t[5:], p, inputs=[-1.0, 0.5], rtol=1e-12)
     assert held.ok and held.y.shape == (11, 4) and held.velocities.shape == (11, 2, 2)
