@@ -8,9 +8,9 @@ loop over their tableau (derive/codegen/tableaus), calling the model's compiled 
 kernel (or its NumPy kernel) once per stage with u(t_stage, y_stage).  Chosen over a
 ctypes callback from the generated C loop into Python: that costs the same Python call
 per stage (the user's u is Python either way), needs a callback slot in every generated
-integrator (changing each model's files) and would hold the GIL from inside C.  A stage
+integrator (changing each model's files) and takes the GIL back at every stage.  A stage
 costs the Python loop, the user's function and one direct call of <model>_rhs on
-buffers whose addresses are taken once; the figures are in README (Inputs).  Such a
+buffers whose addresses are taken once (the commit that added this module has the figures).  Such a
 run has no dense output (r.sol is None), events or rerun estimate.
 """
 from __future__ import annotations

@@ -10,10 +10,11 @@ and the rows of q'' come from differentiating M q'' = F implicitly,
     d q''/d z = M^-1 (dF/dz - (dM/dz) q''),
 
 with dF/dz and dM/dz symbolic (the derivation's), evaluated at the point, and the
-solve numerical.  M^-1 F is never formed symbolically: for the planar double pendulum
-that Jacobian and its lambdify take 1.1 s against 0.06 s for the implicit pieces, for
-the triple chain 8.4 s (14869 operations) against 0.3 s, and the implicit form is the
-one the generated `<model>_linearize` kernels compute too (derive/codegen/spec.py).
+solve numerical.  M^-1 F is never formed symbolically, not even for the small models:
+measured, its Jacobian and lambdify cost the planar double pendulum about 18 times the
+implicit pieces and the triple chain about 26 times (the commit that added this module
+has the figures), and the implicit form is the one the generated `<model>_linearize`
+kernels compute too (derive/codegen/spec.py).
 """
 from __future__ import annotations
 

@@ -104,6 +104,7 @@ def test_damping_makes_the_hanging_rest_stable():
     assert sorted(e["stability"] for e in found) == ["stable", "unstable", "unstable", "unstable"]
 
 
+@pytest.mark.slow          # two spherical derivations, from a cold cache
 def test_spherical_rests_in_a_regular_chart_and_at_a_pole():
     P = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
     rot = [e["stability"] for e in derive.equilibria("spherical_rot", P)]
