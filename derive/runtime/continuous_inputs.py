@@ -138,7 +138,9 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
         energy=pad(energy), positions=pad(positions), velocities=pad(velocities), status=status,
         status_name=STATUS_NAMES[status], t_stop=float(ts64[reached - 1]), y_stop=out[reached - 1].copy(),
         njev=0, nnewton=0, params=pd, error_estimate=local_sum if method == "dopri5" else None,
-        error_kind=LOCAL_SUM if method == "dopri5" else None, **counts)
+        error_kind=LOCAL_SUM if method == "dopri5" else None,
+        rtol=float(opt["rtol"]) if method == "dopri5" else None,
+        step=float(opt["h"]) if method == "rk4" else None, **counts)
 
 
 def _fixed(f, A, b, c, ts, y, h, out, counts):

@@ -136,3 +136,20 @@ def test_cli_bad_input_is_one_line_and_exit_2(capsys, args, words):
     assert main(["linearize", "planar", "--param", "m1=1,m2=1,l1=1,l2=1,g=9.81", *args]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("derive: error:") and words in err
+
+
+@pytest.mark.slow          # a spherical derivation and its kernels' compile, from a cold cache
+@pytest.mark.parametrize("model", ["spherical_std", "spherical_rot"])
+def test_spherical_linearize_kernels_agree_with_linearize(model):
+    """spherical_std's kernels solve the seed's reduced system (its block inverse), not
+    M q'' = F: their A is checked against the implicit form of derive.linearize."""
+    P = {"m1": 1.2, "m2": 0.8, "l1": 1.0, "l2": 1.3, "g": 9.81}
+    p = np.array(list(P.values()))
+    rng = np.random.default_rng(6)
+    c, py = load(model, file=f"{model}_linearize"), numpy_module(f"{model}_linearize")
+    for _ in range(5):
+        y = np.concatenate([rng.uniform(0.4, 2.7, 1), rng.uniform(-3, 3, 1), rng.uniform(0.4, 2.7, 1),
+                            rng.uniform(-3, 3, 5)])
+        A, _ = derive.linearize(model, y, P)
+        np.testing.assert_allclose(c.linearize(y, p), A, rtol=1e-10, atol=1e-10)
+        np.testing.assert_allclose(py.linearize(y, p), A, rtol=1e-10, atol=1e-10)
