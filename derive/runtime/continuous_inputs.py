@@ -3,7 +3,7 @@ stage of the integrator, so a run's error follows its method's order whatever th
 output grid (the zero-order hold, hold="zoh", keeps u constant per output interval).
 
 The generated integrators take the inputs as constants of a run, so here the explicit
-Runge-Kutta methods (rk4 on the fixed grid t0 + k h, dopri5 adaptive) step in a Python
+Runge-Kutta methods (rk4 and rk8 on the fixed grid t0 + k h, dopri5 adaptive) step in a Python
 loop over their tableau (derive/codegen/tableaus), calling the model's compiled rhs
 kernel (or its NumPy kernel) once per stage with u(t_stage, y_stage).  Chosen over a
 ctypes callback from the generated C loop into Python: that costs the same Python call
@@ -25,7 +25,8 @@ from .observables import _observables, _velocities
 from .result import LOCAL_SUM, SimulationResult
 from .shared_library import EntryPoint
 
-CONTINUOUS_METHODS = ("rk4", "dopri5")     # explicit: a stage is one rhs call at (t, y)
+CONTINUOUS_METHODS = ("rk4", "rk8", "dopri5")     # explicit: a stage is one rhs call at (t, y)
+FIXED_TABLEAU = {"rk4": "rk4", "rk8": "dop853"}   # rk8: DOP853's 8th-order formula at a fixed step
 
 
 class ContinuousInputs:
@@ -51,11 +52,12 @@ class ContinuousInputs:
 
 
 def _tableau(method: str):
-    t = load_tableau(method)
+    t = load_tableau(FIXED_TABLEAU.get(method, method))
     s = t.stages
     A = np.zeros((s, s))
     for (i, j), v in t.a.items():
-        A[i, j] = float(v)
+        if i < s:                                 # rows past the step's stages: dense output
+            A[i, j] = float(v)
     c = np.array([float(x) for x in t.c[:s]])
     b = np.array([float(x) for x in t.b[:s]])
     e = np.zeros(s)
@@ -103,7 +105,7 @@ def _step(f, A, b, c, t, y, h, K0=None):
 
 def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, opt: dict,
                    backend: str, u: ContinuousInputs) -> SimulationResult:
-    """One run with u(t, y) evaluated at every stage (rk4 or dopri5), in float64."""
+    """One run with u(t, y) evaluated at every stage (rk4, rk8 or dopri5), in float64."""
     if method not in CONTINUOUS_METHODS:
         raise SimulationInputError(f"inputs as a function u(t, y) run {' or '.join(CONTINUOUS_METHODS)} "
                                    f"(explicit stages at their own times), not {method}; or give "
@@ -121,7 +123,7 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
     out = np.full((len(ts64), len(y)), np.nan)
     out[0] = y
     status, local_sum = STATUS["OK"], 0.0
-    if method == "rk4":
+    if method in FIXED_TABLEAU:
         y, status = _fixed(f, A, b, c, ts64, y, float(opt["h"]), out, counts)
     else:
         y, status, local_sum = _adaptive(f, A, b, c, e, order, ts64, y, opt, out, counts)
@@ -140,7 +142,7 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
         njev=0, nnewton=0, params=pd, error_estimate=local_sum if method == "dopri5" else None,
         error_kind=LOCAL_SUM if method == "dopri5" else None,
         rtol=float(opt["rtol"]) if method == "dopri5" else None,
-        step=float(opt["h"]) if method == "rk4" else None, **counts)
+        step=float(opt["h"]) if method in FIXED_TABLEAU else None, **counts)
 
 
 def _fixed(f, A, b, c, ts, y, h, out, counts):

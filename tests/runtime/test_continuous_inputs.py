@@ -67,6 +67,13 @@ def test_dopri5_meets_its_tolerance(model, reference, backend):
     assert np.abs(r.y - reference).max() < 1e-7
 
 
+def test_rk8_is_far_more_accurate_than_rk4_at_the_same_step(model, reference):
+    r8 = derive.simulate(model, Y0, T, P, method="rk8", step=0.1, inputs=drive)
+    r4 = derive.simulate(model, Y0, T, P, method="rk4", step=0.1, inputs=drive)
+    e8, e4 = np.abs(r8.y - reference).max(), np.abs(r4.y - reference).max()
+    assert r8.ok and r8.step == 0.1 and e8 < 1e-8 and e8 < 1e-4 * e4, (e8, e4)
+
+
 def test_zero_order_hold_stays_wrong_at_any_step(model, reference):
     errors = [np.abs(derive.simulate(model, Y0, T, P, method="rk4", step=h, inputs=drive, hold="zoh").y
                      - reference).max() for h in (0.05, 0.025)]
