@@ -3,15 +3,17 @@ stage of the integrator, so a run's error follows its method's order whatever th
 output grid (the zero-order hold, hold="zoh", keeps u constant per output interval).
 
 The generated integrators take the inputs as constants of a run, so here the explicit
-Runge-Kutta methods (rk4 and rk8 on the fixed grid t0 + k h, dopri5 adaptive) step in a Python
-loop over their tableau (derive/codegen/tableaus), calling the model's compiled rhs
-kernel (or its NumPy kernel) once per stage with u(t_stage, y_stage).  Chosen over a
-ctypes callback from the generated C loop into Python: that costs the same Python call
-per stage (the user's u is Python either way), needs a callback slot in every generated
-integrator (changing each model's files) and takes the GIL back at every stage.  A stage
-costs the Python loop, the user's function and one direct call of <model>_rhs on
-buffers whose addresses are taken once (the commit that added this module has the figures).  Such a
-run has no dense output (r.sol is None), events or rerun estimate.
+Runge-Kutta methods (rk4 and rk8 on the fixed grid t0 + k h, dopri5 and dop853
+adaptive) step in a Python loop over their tableau (derive/codegen/tableaus), calling
+the model's compiled rhs kernel (or its NumPy kernel) once per stage with
+u(t_stage, y_stage).  Chosen over a ctypes callback from the generated C loop into
+Python: that costs the same Python call per stage (the user's u is Python either way),
+needs a callback slot in every generated integrator (changing each model's files) and
+takes the GIL back at every stage.  A stage costs the Python loop, the user's function
+and one direct call of <model>_rhs on buffers whose addresses are taken once (the
+commits that added this module have the figures).  Such a run has no dense output
+(r.sol is None), events or rerun estimate; the implicit methods and abm12 take
+hold="zoh".
 """
 from __future__ import annotations
 
@@ -25,7 +27,7 @@ from .observables import _observables, _velocities
 from .result import LOCAL_SUM, SimulationResult
 from .shared_library import EntryPoint
 
-CONTINUOUS_METHODS = ("rk4", "rk8", "dopri5")     # explicit: a stage is one rhs call at (t, y)
+CONTINUOUS_METHODS = ("rk4", "rk8", "dopri5", "dop853")     # explicit: a stage is one rhs call at (t, y)
 FIXED_TABLEAU = {"rk4": "rk4", "rk8": "dop853"}   # rk8: DOP853's 8th-order formula at a fixed step
 
 
@@ -52,6 +54,9 @@ class ContinuousInputs:
 
 
 def _tableau(method: str):
+    """(A, b, c, error weights, order) of a method's step, as float64 arrays; the error
+    weights: dopri5's e (one row, over its 7 stages with FSAL), dop853's (e3, e5) rows
+    (b - bhh and the 5th-order estimate over its 12), none for the fixed steps."""
     t = load_tableau(FIXED_TABLEAU.get(method, method))
     s = t.stages
     A = np.zeros((s, s))
@@ -60,10 +65,30 @@ def _tableau(method: str):
             A[i, j] = float(v)
     c = np.array([float(x) for x in t.c[:s]])
     b = np.array([float(x) for x in t.b[:s]])
-    e = np.zeros(s)
-    for k, v in t.extra.get("e", {}).items():
-        e[k] = float(v)
+
+    def row(weights, minus=None):
+        out = np.zeros(s)
+        for k, v in weights.items():
+            out[k] = float(v)
+        return out if minus is None else minus - out
+
+    if method == "dopri5":
+        e = row(t.extra["e"])[None, :]
+    elif method == "dop853":
+        e = np.array([row(t.extra["e3_minus"], b), row(t.extra["e5"])])
+    else:
+        e = None
     return A, b, c, e, t.order
+
+
+def _error_norm(method: str, e, K, h: float, scale) -> float:
+    """The step's scaled error norm (<= 1: accepted), as the generated integrators take it."""
+    if method == "dopri5":
+        return float(np.sqrt(np.mean((h * (e[0] @ K) / scale) ** 2)))
+    e3 = float(np.sum(((e[0] @ K) / scale) ** 2))        # dop853 (Hairer's DOP853)
+    e5 = float(np.sum(((e[1] @ K) / scale) ** 2))
+    deno = e5 + 0.01 * e3
+    return abs(h) * e5 / np.sqrt(len(scale) * (deno if deno > 0 else 1.0))
 
 
 RHS = EntryPoint("{model}_rhs", "int", ("void *", "void *", "void *", "void *"))
@@ -105,7 +130,7 @@ def _step(f, A, b, c, t, y, h, K0=None):
 
 def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, opt: dict,
                    backend: str, u: ContinuousInputs) -> SimulationResult:
-    """One run with u(t, y) evaluated at every stage (rk4, rk8 or dopri5), in float64."""
+    """One run with u(t, y) evaluated at every stage (rk4, rk8, dopri5, dop853), in float64."""
     if method not in CONTINUOUS_METHODS:
         raise SimulationInputError(f"inputs as a function u(t, y) run {' or '.join(CONTINUOUS_METHODS)} "
                                    f"(explicit stages at their own times), not {method}; or give "
@@ -126,7 +151,8 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
     if method in FIXED_TABLEAU:
         y, status = _fixed(f, A, b, c, ts64, y, float(opt["h"]), out, counts)
     else:
-        y, status, local_sum = _adaptive(f, A, b, c, e, order, ts64, y, opt, out, counts)
+        y, status, local_sum = _adaptive(method, f, A, b, c, e, order, ts64, y, opt, out, counts)
+    fixed = method in FIXED_TABLEAU
     reached = int(np.sum(np.isfinite(out[:, 0])))
     pd = np.asarray(p, np.float64)
     energy, positions = _observables(model, out[:reached], pd, backend, np.dtype(np.float64))
@@ -139,9 +165,9 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
         model=model, method=method, backend=backend, dtype="float64", t=ts64, y=out,
         energy=pad(energy), positions=pad(positions), velocities=pad(velocities), status=status,
         status_name=STATUS_NAMES[status], t_stop=float(ts64[reached - 1]), y_stop=out[reached - 1].copy(),
-        njev=0, nnewton=0, params=pd, error_estimate=local_sum if method == "dopri5" else None,
-        error_kind=LOCAL_SUM if method == "dopri5" else None,
-        rtol=float(opt["rtol"]) if method == "dopri5" else None,
+        njev=0, nnewton=0, params=pd, error_estimate=None if fixed else local_sum,
+        error_kind=None if fixed else LOCAL_SUM,
+        rtol=None if fixed else float(opt["rtol"]),
         step=float(opt["h"]) if method in FIXED_TABLEAU else None, **counts)
 
 
@@ -165,8 +191,8 @@ def _fixed(f, A, b, c, ts, y, h, out, counts):
     return y, STATUS["OK"]
 
 
-def _adaptive(f, A, b, c, e, order, ts, y, opt, out, counts):
-    """dopri5 with the usual step control (Hairer, Norsett, Wanner II.4): accept where the
+def _adaptive(method, f, A, b, c, e, order, ts, y, opt, out, counts):
+    """dopri5 or dop853 with the usual step control (Hairer, Norsett, Wanner II.4): accept where the
     scaled error norm is <= 1, the next step h (0.9 err^(-1/order)) within [0.2, 10] h;
     each output reached by a step that ends on it."""
     rtol, atol = float(opt["rtol"]), float(opt["atol"])
@@ -184,7 +210,7 @@ def _adaptive(f, A, b, c, e, order, ts, y, opt, out, counts):
             h = direction * min(abs(h), hmax, abs(ts[j] - t))
             y_new, K = _step(f, A, b, c, t, y, h, K0)
             scale = atol + rtol * np.maximum(np.abs(y), np.abs(y_new))
-            err = float(np.sqrt(np.mean((h * (e @ K) / scale) ** 2)))
+            err = _error_norm(method, e, K, h, scale)
             counts["nsteps"] += 1
             if not np.isfinite(err):
                 return y, STATUS["NONFINITE"], local_sum
@@ -192,7 +218,8 @@ def _adaptive(f, A, b, c, e, order, ts, y, opt, out, counts):
                 counts["naccepted"] += 1
                 local_sum += err * float(np.max(scale))
                 t = ts[j] if abs(ts[j] - t - h) <= 1e-14 * abs(ts[j]) + 1e-300 else t + h
-                y, K0 = y_new, K[-1]           # FSAL: the last stage is f at the new point
+                # dopri5 is FSAL (its last stage is f at the new point); dop853 evaluates it
+                y, K0 = y_new, (K[-1] if method == "dopri5" else f(t, y_new))
             else:
                 counts["nrejected"] += 1
             h *= min(10.0, max(0.2, 0.9 * (err if err > 0 else 1e-10) ** (-1.0 / order)))

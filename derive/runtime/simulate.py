@@ -432,7 +432,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     section 5.1; y0 in the standard chart, as {'cartesian': [...]} or {'chart', 'state'}).
     inputs: the model's run-time inputs: a mapping by name or a sequence in the model's
     order, held constant over the run; or a function u(t, y) returning one, evaluated at
-    every stage of the integrator (rk4, rk8 or dopri5, stepped in Python over the compiled rhs:
+    every stage of the integrator (rk4, rk8, dopri5 or dop853, stepped in Python over the compiled rhs:
     derive/runtime/continuous_inputs.py), so the error follows the method's order.
     hold="zoh": such a function is sampled at each output time instead (with the state
     there) and held until the next (a zero-order hold: a digital controller), any method.

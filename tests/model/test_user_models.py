@@ -109,8 +109,9 @@ def test_inputs_are_an_argument_of_their_own(tmp_path):
     assert np.all(r0.y == 0)
     for bad, message in ((None, "needs its inputs (tau1, tau2)"), ({"tau1": 1.0}, "missing input 'tau2'"),
                          ({"tau1": 1, "tau2": 0, "tau3": 0}, "unknown input 'tau3'"),
-                         (lambda t: [0], "got 1 from inputs(0)"), ([1.0], "takes 2 inputs"),
-                         (lambda t: 1 / 0, "inputs(0) raised ZeroDivisionError")):
+                         (lambda t, y: [0], "got 1 from inputs(0, y)"), ([1.0], "takes 2 inputs"),
+                         (lambda t, y: 1 / 0, "inputs(0, y) raised ZeroDivisionError"),
+                         (lambda t: 0, "inputs(0, y) raised TypeError")):
         with pytest.raises(derive.SimulationInputError, match=re.escape(message)):
             derive.simulate("driven", [0, 0, 0, 0], [0, 1], p, inputs=bad)
     with pytest.raises(derive.SimulationInputError, match="has no inputs"):
