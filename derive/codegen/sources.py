@@ -86,7 +86,18 @@ def kernels(name: str):
 @forget_on_model_change
 @lru_cache(maxsize=None)
 def linearize_kernels(name: str):
-    """(spec, bodies) of the model's <model>_linearize file (its own CSE pass)."""
+    """The kernel spec and CSE bodies of a model's <model>_linearize file (its own CSE pass).
+
+    Parameters
+    ----------
+    name : str
+        A model's name (not an atlas).
+
+    Returns
+    -------
+    tuple
+        (ModelSpec, list of emit.Body), as `kernels` gives for the model's own file.
+    """
     spec = linearize_spec(derive(name))
     return spec, cse_file(spec)
 

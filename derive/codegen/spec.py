@@ -320,7 +320,18 @@ def linearize_spec(d) -> ModelSpec:
     inputs) B = df/du of y' = f(y; p, u), both by differentiating M q'' = F implicitly,
     d q''/dz = M^-1 (dF/dz - (dM/dz) q''), through the in-code solve of rhs (derive/codegen/
     solve.py): M^-1 F is never formed, whatever the size of the model.  A file of its own,
-    so the model's kernel file (and its one CSE pass) stays as it was."""
+    so the model's kernel file (and its one CSE pass) stays as it was.
+
+    Parameters
+    ----------
+    d : Derivation
+        The model's derivation.
+
+    Returns
+    -------
+    ModelSpec
+        Named <model>_linearize, its C functions prefixed with the model's name.
+    """
     s = d.symbols
     state, params, _ = _vectors(d)
     y, p = Input("y", state), Input("p", params)

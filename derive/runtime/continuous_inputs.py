@@ -130,7 +130,32 @@ def _step(f, A, b, c, t, y, h, K0=None):
 
 def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, opt: dict,
                    backend: str, u: ContinuousInputs) -> SimulationResult:
-    """One run with u(t, y) evaluated at every stage (rk4, rk8, dopri5, dop853), in float64."""
+    """One run with u(t, y) evaluated at every stage, in float64 (simulate's checks have run).
+
+    Parameters
+    ----------
+    model : str
+        A resolved model name (one chart, with inputs).
+    method : str
+        rk4, rk8 (fixed step opt["h"]), dopri5 or dop853 (opt["rtol"], opt["atol"]).
+    y0 : array_like
+        The initial state.
+    ts : ndarray
+        The output times, strictly monotone; ts[0] is the start.
+    p : ndarray
+        The parameters.
+    opt : dict
+        simulate's run options (run_options).
+    backend : str
+        "c" (the compiled rhs kernel) or "numpy".
+    u : ContinuousInputs
+        The inputs' function, checked at each call.
+
+    Returns
+    -------
+    SimulationResult
+        As simulate's; sol is None, the counters count this loop's steps and rhs calls.
+    """
     if method not in CONTINUOUS_METHODS:
         raise SimulationInputError(f"inputs as a function u(t, y) run {' or '.join(CONTINUOUS_METHODS)} "
                                    f"(explicit stages at their own times), not {method}; or give "

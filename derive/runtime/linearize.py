@@ -59,7 +59,7 @@ class Pieces:
 
 @forget_on_model_change
 @lru_cache(maxsize=64)
-def pieces(name: str) -> Pieces:
+def _pieces(name: str) -> Pieces:
     """The lambdified pieces of the implicit Jacobian of model `name` (a resolved name)."""
     d = derive(name)
     s = d.symbols
@@ -130,7 +130,7 @@ def _number(value, what: str) -> float:
 def _inputs_values(ref, inputs) -> np.ndarray:
     names = ref.description.inputs
     if not names:
-        if inputs:
+        if inputs is not None and len(inputs):
             raise SimulationInputError(f"model '{ref}' has no inputs; got inputs={inputs!r}")
         return np.zeros(0)
     if inputs is None:
@@ -179,7 +179,7 @@ def linearize(model, state, params, inputs=None) -> tuple[np.ndarray, np.ndarray
     x = _state_values(ref, state)
     p = np.asarray(normalise_params(ref, params), np.float64)
     u = _inputs_values(ref, inputs)
-    return _jacobians(pieces(ref.name), x, p, u, ref)
+    return _jacobians(_pieces(ref.name), x, p, u, ref)
 
 
 def _jacobians(pc: Pieces, x: np.ndarray, p: np.ndarray, u: np.ndarray, where) -> tuple[np.ndarray, np.ndarray]:
@@ -283,13 +283,14 @@ def equilibria(model, params) -> list[dict]:
     -------
     list of dict
         One per equilibrium: ``state`` (a dict by state name, rates 0), ``stability``
-        ('stable', 'marginal', 'unstable' or 'unknown': see `stability`) and
+        ('stable', 'marginal', 'unstable': see `stability`; 'chart singular' where the
+        model's chart is, e.g. spherical_std at a pole, with NaN eigenvalues) and
         ``eigenvalues`` (of A there, a complex ndarray).
     """
     ref = _resolve(model)
     p = np.asarray(normalise_params(ref, params), np.float64)
     d = derive(ref.name)
-    pc = pieces(ref.name)
+    pc = _pieces(ref.name)
     u = np.zeros(pc.n_inputs)
     names = list(ref.info.state_names)
     out = []
