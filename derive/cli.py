@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -596,6 +597,8 @@ def cmd_linearize(args) -> int:
     params = {n: parse_value(v, f"--param {n}") for n, v in _assignments(args.param, "--param").items()}
     inputs = {n: parse_value(v, f"--input {n}") for n, v in _assignments(args.input, "--input").items()}
     state = _assignments(args.at, "--at")
+    if args.equilibria:
+        return _print_equilibria(ref, params, args.json)
     A, B = linearize(ref.name, state, params, inputs or None)
     names, inputs_names = list(ref.info.state_names), list(ref.info.input_names)
     at = dict.fromkeys(names, 0.0) | {n: parse_value(v, f"--at {n}") for n, v in state.items()}
@@ -614,6 +617,21 @@ def cmd_linearize(args) -> int:
     return 0
 
 
+def _print_equilibria(ref, params: dict, as_json: bool) -> int:
+    from .runtime.linearize import equilibria    # start-up: imported when it runs
+    found = equilibria(ref.name, params)
+    if as_json:
+        print(json.dumps({"ok": True, "model": ref.name, "equilibria": [
+            {"state": e["state"], "stability": e["stability"],
+             "eigenvalues": [[float(z.real), float(z.imag)] for z in e["eigenvalues"]]} for e in found]}, indent=1))
+        return 0
+    for e in found:
+        at = ", ".join(f"{n} = {v:.6g}" for n, v in e["state"].items() if not n.endswith("_dot"))
+        top = max(z.real for z in e["eigenvalues"])
+        print(f"{e['stability']:15s} {at}" + ("" if math.isnan(top) else f"  (largest real part {top:.3g})"))
+    return 0
+
+
 def _linearize_parser(sub, model_help: str) -> None:
     p = sub.add_parser("linearize", help="the linearisation A = df/dx, B = df/du of a model at a state",
                        epilog=EXIT_CODES)
@@ -622,7 +640,9 @@ def _linearize_parser(sub, model_help: str) -> None:
                    help="the state (repeat or separate by commas; left out: 0; values may use pi)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="a parameter (every one is needed)")
     p.add_argument("--input", action="append", metavar="NAME=VALUE", help="an input (left out: 0)")
-    p.add_argument("--json", action="store_true", help="print A and B as JSON")
+    p.add_argument("--equilibria", action="store_true",
+                   help="list the equilibria (q' = 0, u = 0) with their stability instead")
+    p.add_argument("--json", action="store_true", help="print A and B (or the equilibria) as JSON")
     p.set_defaults(func=cmd_linearize)
 
 

@@ -127,6 +127,15 @@ def test_cli_prints_A_and_B_as_json(capsys):
     assert out["input_names"] == ["tau1", "tau2"] and out["state"]["theta1"] == np.pi / 2
 
 
+def test_cli_lists_the_equilibria(capsys):
+    assert main(["linearize", DRIVEN, "--param", "m1=1.1,m2=0.6,l1=1.2,l2=0.8,g=9.81,c1=0.3,c2=0.15",
+                 "--equilibria", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)["equilibria"]
+    expected = derive.equilibria(DRIVEN, driven_params())
+    assert [e["stability"] for e in out] == [e["stability"] for e in expected]
+    assert [e["state"] for e in out] == [e["state"] for e in expected]
+
+
 @pytest.mark.parametrize("args, words", [
     (["--at", "theta1=up"], "no number"),
     (["--at", "phi=1"], "unknown state name 'phi'"),
