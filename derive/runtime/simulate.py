@@ -448,7 +448,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     if method is None:
         method = TAYLOR if precision else DEFAULT_METHOD
     if FAST_PATH and precision is None and backend == "c" and not atlas and inputs is None and events is None and \
-            isinstance(error_estimate, str) and error_estimate == "local":
+            hold is None and isinstance(error_estimate, str) and error_estimate == "local":
         fast = _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_steps,
                               sine_min, newton_tol, newton_max, hmax)
         if fast is not None:

@@ -87,3 +87,5 @@ def test_continuous_inputs_refuse_an_implicit_method_in_one_line(model):
         derive.simulate(model, Y0, T, P, method="gauss2", step=0.1, inputs=drive)
     with pytest.raises(derive.SimulationInputError, match="unknown hold"):
         derive.simulate(model, Y0, T, P, method="rk4", step=0.1, inputs=drive, hold="foh")
+    with pytest.raises(derive.SimulationInputError, match="unknown hold"):     # the fast path too
+        derive.simulate("planar", [0.1, 0, 0, 0], [0, 1], [1, 1, 1, 1, 9.81], hold="foh")
