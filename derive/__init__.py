@@ -17,7 +17,7 @@ from .errors import (BuildError, CompilerMissingError, DeriveError, InputError, 
 
 __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "ModelError",
            "SceneError", "SimulationError", "SimulationInputError", "SimulationResult", "ToolMissingError",
-           "Pendulum", "__version__", "ensemble", "equations", "load_model", "scipy_rhs", "simulate", "sweep",
+           "Pendulum", "__version__", "ensemble", "equations", "equilibria", "linearize", "load_model", "scipy_rhs", "simulate", "sweep",
            "trust_horizon"]
 
 
@@ -27,7 +27,8 @@ _LAZY = {"simulate": ("runtime.simulate", "simulate"), "ensemble": ("runtime.ens
          "scipy_rhs": ("runtime.scipy_rhs", "scipy_rhs"),
          "SimulationResult": ("runtime.result", "SimulationResult"),
          "trust_horizon": ("measurement.trust", "trust_horizon_of"), "sweep": ("sweep", None),
-         "load_model": ("api", "load_model"), "equations": ("api", "equations"), "Pendulum": ("api", "Pendulum")}
+         "load_model": ("api", "load_model"), "equations": ("api", "equations"), "Pendulum": ("api", "Pendulum"),
+         "linearize": ("runtime.linearize", "linearize"), "equilibria": ("runtime.linearize", "equilibria")}
 
 
 def __getattr__(name):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import time
@@ -538,6 +539,81 @@ def cmd_sweep(args) -> int:
     return 0
 
 
+def _assignments(items: list[str] | None, what: str) -> dict[str, str]:
+    """NAME=VALUE pairs from repeated (or comma-separated) options, the values as written."""
+    out: dict[str, str] = {}
+    for item in items or []:
+        for pair in filter(None, (s.strip() for s in item.split(","))):
+            name, eq, value = pair.partition("=")
+            if not eq or not name.strip() or not value.strip():
+                raise UsageError(f"{what}: expected NAME=VALUE, got {pair!r}")
+            out[name.strip()] = value.strip()
+    return out
+
+
+def _matrix_lines(title: str, M, rows: list[str], cols: list[str]) -> list[str]:
+    width = max([len(c) for c in cols] + [12])
+    head = " " * (max(map(len, rows), default=0) + 2) + " ".join(f"{c:>{width}}" for c in cols)
+    return [title, head] + [f"{r:<{max(map(len, rows))}}  " + " ".join(f"{v:>{width}.6g}" for v in row)
+                            for r, row in zip(rows, M)]
+
+
+def cmd_linearize(args) -> int:
+    from .runtime.linearize import linearize, parse_value    # start-up: imported when it runs
+    from .runtime.simulate import model_ref, resolve_model
+    ref = model_ref(resolve_model(args.model))
+    params = {n: parse_value(v, f"--param {n}") for n, v in _assignments(args.param, "--param").items()}
+    inputs = {n: parse_value(v, f"--input {n}") for n, v in _assignments(args.input, "--input").items()}
+    state = _assignments(args.at, "--at")
+    if args.equilibria:
+        return _print_equilibria(ref, params, args.json)
+    A, B = linearize(ref.name, state, params, inputs or None)
+    names, inputs_names = list(ref.info.state_names), list(ref.info.input_names)
+    at = dict.fromkeys(names, 0.0) | {n: parse_value(v, f"--at {n}") for n, v in state.items()}
+    if args.json:
+        print(json.dumps({"ok": True, "model": ref.name, "state": at, "params": params,
+                          "inputs": {n: inputs.get(n, 0.0) for n in inputs_names},
+                          "state_names": names, "input_names": inputs_names,
+                          "A": A.tolist(), "B": B.tolist()}, indent=1))
+        return 0
+    print(f"{ref.name} at " + ", ".join(f"{n} = {v:g}" for n, v in at.items()))
+    print("\n".join(_matrix_lines("A = df/dx", A, names, names)))
+    if inputs_names:
+        print("\n".join(_matrix_lines("B = df/du", B, names, inputs_names)))
+    else:
+        print("B = df/du: the model has no inputs")
+    return 0
+
+
+def _print_equilibria(ref, params: dict, as_json: bool) -> int:
+    from .runtime.linearize import equilibria    # start-up: imported when it runs
+    found = equilibria(ref.name, params)
+    if as_json:
+        print(json.dumps({"ok": True, "model": ref.name, "equilibria": [
+            {"state": e["state"], "stability": e["stability"],
+             "eigenvalues": [[float(z.real), float(z.imag)] for z in e["eigenvalues"]]} for e in found]}, indent=1))
+        return 0
+    for e in found:
+        at = ", ".join(f"{n} = {v:.6g}" for n, v in e["state"].items() if not n.endswith("_dot"))
+        top = max(z.real for z in e["eigenvalues"])
+        print(f"{e['stability']:15s} {at}" + ("" if math.isnan(top) else f"  (largest real part {top:.3g})"))
+    return 0
+
+
+def _linearize_parser(sub, model_help: str) -> None:
+    p = sub.add_parser("linearize", help="the linearisation A = df/dx, B = df/du of a model at a state",
+                       epilog=EXIT_CODES)
+    p.add_argument("model", help=model_help)
+    p.add_argument("--at", action="append", metavar="NAME=VALUE",
+                   help="the state (repeat or separate by commas; left out: 0; values may use pi)")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="a parameter (every one is needed)")
+    p.add_argument("--input", action="append", metavar="NAME=VALUE", help="an input (left out: 0)")
+    p.add_argument("--equilibria", action="store_true",
+                   help="list the equilibria (q' = 0, u = 0) with their stability instead")
+    p.add_argument("--json", action="store_true", help="print A and B (or the equilibria) as JSON")
+    p.set_defaults(func=cmd_linearize)
+
+
 def _sweep_parser(sub) -> None:
     p = sub.add_parser("sweep", help="run a sweep file (a scene plus axes and quantities) on Dask into "
                                      "a Zarr store, with an image per quantity of a 2-D sweep",
@@ -618,6 +694,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "extra); writes race.md, race.csv, race.png")
     p.set_defaults(func=cmd_bench)
     _sweep_parser(sub)
+    _linearize_parser(sub, model_help)
     return parser
 
 

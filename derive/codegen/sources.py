@@ -37,7 +37,7 @@ from ..model.description import forget_on_model_change
 
 from ..model.atlas import ATLAS, find_atlas, load_atlas
 from .emit import cse_file
-from .spec import model_spec
+from .spec import linearize_spec, model_spec
 from . import backends as registry      # looked up at each call: a test may add a backend
 
 ATLAS_CHARTS = load_atlas(ATLAS).charts
@@ -83,6 +83,25 @@ def kernels(name: str):
     return spec, cse_file(spec)
 
 
+@forget_on_model_change
+@lru_cache(maxsize=None)
+def linearize_kernels(name: str):
+    """The kernel spec and CSE bodies of a model's <model>_linearize file (its own CSE pass).
+
+    Parameters
+    ----------
+    name : str
+        A model's name (not an atlas).
+
+    Returns
+    -------
+    tuple
+        (ModelSpec, list of emit.Body), as `kernels` gives for the model's own file.
+    """
+    spec = linearize_spec(derive(name))
+    return spec, cse_file(spec)
+
+
 def _raw(name: str, backends: tuple[str, ...] | None = None) -> dict[str, str]:
     """The artifacts of the backends called `backends` (None: the default ones; derive/
     codegen/backends discovers them) for `name`."""
@@ -96,6 +115,7 @@ def _raw(name: str, backends: tuple[str, ...] | None = None) -> dict[str, str]:
     spec, bodies = kernels(name)
     for backend in chosen:
         files.update(backend.model_files(name, spec, bodies, guarded=bool(d.polar_sines)))
+        files.update(backend.kernel_files(*linearize_kernels(name)))
     return files
 
 

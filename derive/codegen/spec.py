@@ -85,6 +85,13 @@ class ModelSpec:
     source: str
     vectors: tuple[Vector, ...]
     kernels: tuple[Kernel, ...] = field(default=())
+    # what C function names start with (<prefix>_<kernel>); the file name when None.  A
+    # model's second file (<model>_linearize) keeps the model's: planar_linearize()
+    function_prefix: str | None = None
+
+    @property
+    def prefix(self) -> str:
+        return self.function_prefix or self.name
 
     @property
     def has_guards(self) -> bool:
@@ -301,6 +308,54 @@ def model_spec(d) -> ModelSpec:
         ((canonical,) if canonical is not None else ())
     spec = ModelSpec(model.name, model.title, model.source, vectors,
                      tuple(_normalise(k) for k in kernels))
+    check_spec(spec)
+    return spec
+
+
+LINEARIZE = "linearize"      # the kernel, and the suffix of its file: <model>_linearize
+
+
+def linearize_spec(d) -> ModelSpec:
+    """The file <model>_linearize: one kernel writing A = df/dy and (for a model with
+    inputs) B = df/du of y' = f(y; p, u), both by differentiating M q'' = F implicitly,
+    d q''/dz = M^-1 (dF/dz - (dM/dz) q''), through the in-code solve of rhs (derive/codegen/
+    solve.py): M^-1 F is never formed, whatever the size of the model.  A file of its own,
+    so the model's kernel file (and its one CSE pass) stays as it was.
+
+    Parameters
+    ----------
+    d : Derivation
+        The model's derivation.
+
+    Returns
+    -------
+    ModelSpec
+        Named <model>_linearize, its C functions prefixed with the model's name.
+    """
+    s = d.symbols
+    state, params, _ = _vectors(d)
+    y, p = Input("y", state), Input("p", params)
+    dyn = dynamics(d)
+    jac = solve.jacobian(dyn, s)
+    nq, n = len(s.q), len(s.state)
+    outputs = [Output("A", (n, n), tuple(jac.exprs), "A = df/dy, row-major")]
+    stages = list(dyn.stages) + list(jac.stages)
+    inputs, vectors = (y, p), (state, params)
+    if s.u:
+        u_vector = Vector("input", "INPUTS", "input_names", s.u, "the run-time inputs")
+        inputs, vectors = (y, p, Input("u", u_vector)), (state, params, u_vector)
+        B = sp.zeros(n, len(s.u))
+        for k, uk in enumerate(s.u):
+            col, st = dyn.derivative(uk)
+            stages += st
+            for i in range(nq):
+                B[nq + i, k] = col[i]
+        outputs.append(Output("B", (n, len(s.u)), tuple(B), "B = df/du, row-major"))
+    doc = ("The linearisation of rhs at (y, u): A = df/dy" + (", B = df/du" if s.u else "") +
+           ", by differentiating M q'' = F implicitly and reusing the solve of rhs.")
+    kernel = Kernel(LINEARIZE, doc, inputs, tuple(outputs), tuple(stages), tuple(d.polar_sines))
+    spec = ModelSpec(f"{d.model.name}_{LINEARIZE}", d.model.title, d.model.source, vectors,
+                     (_normalise(kernel),), function_prefix=d.model.name)
     check_spec(spec)
     return spec
 

@@ -27,13 +27,13 @@ RESERVED_NAMES = frozenset(FUNCTIONS) | {"pi"}
 # a model's NumPy module is <name>.py: it may not shadow what the generated code imports
 SHADOWING = frozenset(sys.stdlib_module_names) | {"numpy", "scipy", "sympy", "mpmath", "derive", "kernels"}
 # A model's generated files are <name><suffix>.c/.h/.py for these suffixes (the kernels:
-# none; the integrators, Taylor scalar, lanes and quad, loops, a chain's atlas and its
+# none; the integrators, Taylor scalar, lanes and quad, loops, the linearisation, a chain's atlas and its
 # derived members); a name that ends with one would write another model's files, and a
 # name with derive's prefix the library files every model shares (derive_integrators.h,
 # derive_driver.h, derive_tableaus.h).  tests/test_hardening_inputs.py checks these
 # against every file every backend writes.
 ARTIFACT_SUFFIXES = ("_integrate", "_taylor", "_taylor_lanes", "_taylor_quad", "_throughput",
-                     "_fixed", "_atlas", "_second", "_rotated")
+                     "_fixed", "_linearize", "_atlas", "_second", "_rotated")
 SHARED_PREFIX = "derive_"
 MAX_NAME = 64                # characters: a model's name is a file name's and a C prefix's part
 

@@ -20,7 +20,7 @@ lane with its own step, time and outputs, and each trajectory bit for bit what
 the scalar integrator).
 
 The other methods run one trajectory after another within a block (no SIMD lanes).
-The chart atlas ("spherical") and held inputs (a function of t) are refused here: they
+The chart atlas ("spherical") and inputs given as a function u(t, y) are refused here: they
 run through `simulate`.
 """
 from __future__ import annotations

@@ -311,18 +311,21 @@ class CompiledModel(SharedLibrary):
         The library built from <model>.c.
     header : str
         The text of <model>.h, whose prototypes and size macros declare the kernels.
+    functions : str, optional
+        What the kernels' C names start with, where it is not `model` (the file's stem):
+        the file planar_linearize.c holds planar_linearize().
     """
 
-    def __init__(self, model: str, lib_path: Path, header: str):
+    def __init__(self, model: str, lib_path: Path, header: str, functions: str | None = None):
         self.model = model
         super().__init__(lib_path)
         self.kernels: dict[str, CKernel] = {}
         macros = {m: int(v) for m, v in _DEFINE.findall(header)}
-        prefix = model.upper()
+        prefix, functions = model.upper(), functions or model
         for cname, suffix, argtext in _PROTO.findall(header):
-            if not cname.startswith(model + "_"):
+            if not cname.startswith(functions + "_"):
                 continue
-            kname = cname[len(model) + 1:]
+            kname = cname[len(functions) + 1:]
             inputs, outputs = [], []
             for arg in argtext.split(", "):
                 words = arg.replace("*", " ").split()
@@ -358,30 +361,34 @@ _loaded: dict[Path, CompiledModel] = {}
 
 
 def load(model: str, generated: Path | None = None, cc: str | None = None,
-         flags: tuple[str, ...] = DEFAULT_FLAGS, cache: Path | None = None) -> CompiledModel:
-    """Compile (if needed) and open the kernels <model>.c, from `generated` (a folder of
-    generated C, e.g. a checkout's generated/c) or else the cache's rendering; return them."""
+         flags: tuple[str, ...] = DEFAULT_FLAGS, cache: Path | None = None,
+         file: str | None = None) -> CompiledModel:
+    """Compile (if needed) and open the kernels <model>.c (or the model's file <file>.c,
+    e.g. 'planar_linearize'), from `generated` (a folder of generated C, e.g. a checkout's
+    generated/c) or else the cache's rendering; return them."""
     if generated is None:
         folder = model_sources(model) / "c"
     else:
         folder = Path(generated)
-    source = folder / f"{model}.c"
+    stem = file or model
+    source = folder / f"{stem}.c"
     if not source.is_file():
         raise LoaderError(f"no generated C for model '{model}' at {source}")
     lib = build(source, cc, flags, cache)
     if lib not in _loaded:
-        _loaded[lib] = CompiledModel(model, lib, source.with_suffix(".h").read_text())
+        _loaded[lib] = CompiledModel(stem, lib, source.with_suffix(".h").read_text(), functions=model)
     return _loaded[lib]
 
 
 @forget_on_model_change
 @lru_cache(maxsize=None)
 def numpy_module(name: str):
-    """The generated NumPy module `name` (a model, '<model>_integrate', '<model>_throughput'
-    or an atlas's prefix such as 'spherical_atlas'), imported from the cache's rendering of
-    its model."""
+    """The generated NumPy module `name` (a model, '<model>_integrate', '<model>_throughput',
+    '<model>_linearize' or an atlas's prefix such as 'spherical_atlas'), imported from the
+    cache's rendering of its model."""
     atlas = find_atlas(name) or next((a for a in atlases().values() if a.prefix == name), None)
-    model = atlas.name if atlas is not None else name.removesuffix("_integrate").removesuffix("_throughput")
+    model = atlas.name if atlas is not None else \
+        name.removesuffix("_integrate").removesuffix("_throughput").removesuffix("_linearize")
     return _import(numpy_source(model, f"{name}.py"), f"_derive_generated_{name}", model)
 
 

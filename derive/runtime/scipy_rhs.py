@@ -10,9 +10,9 @@ ctypes batch entry points, in double); without a C compiler, or with backend="nu
 by the generated NumPy kernels.  fun accepts y of shape (n,) or (n, k) (solve_ivp's
 vectorized=True); jac returns the (n, n) matrix d(ydot)/dy.
 
-The models are autonomous, so t only matters for inputs given as a function of t:
-those are evaluated at every t the integrator asks (a continuous input, not the
-zero-order hold of simulate, which samples inputs at output times).  A kernel that
+The models are autonomous, so t only matters for inputs given as a function u(t, y):
+those are evaluated at every (t, y) the integrator asks (a continuous input, as simulate
+does without hold="zoh").  A kernel that
 cannot evaluate a state (a chart model's polar sine below its threshold) gives NaN,
 which solve_ivp reports as a failed step.
 """
@@ -65,20 +65,25 @@ def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
     info = model_info(model)
     rhs, jacobian = _kernels(model, backend)
 
-    def arguments(t: float) -> tuple:
+    def arguments(t: float, y) -> tuple:
         """The kernels' arguments after y: (p,), or (p, u) for a model with inputs."""
         if u is None:
             return (p,)
-        return (p, np.asarray(u.at(t) if isinstance(u, HeldInputs) else u, np.float64))
+        if not isinstance(u, HeldInputs):
+            return (p, np.asarray(u, np.float64))
+        if np.ndim(y) == 2:                  # one input vector per column of y
+            return (p, np.array([u.at(t, column) for column in np.asarray(y).T], np.float64))
+        return (p, np.asarray(u.at(t, y), np.float64))
 
     def fun(t, y):
         y = np.asarray(y, np.float64)
         if y.ndim == 2:                      # solve_ivp(vectorized=True): (n, k)
-            return np.asarray(rhs(np.ascontiguousarray(y.T), *arguments(t))).T
-        return np.asarray(rhs(y.reshape(info.n), *arguments(t)))
+            return np.asarray(rhs(np.ascontiguousarray(y.T), *arguments(t, y))).T
+        return np.asarray(rhs(y.reshape(info.n), *arguments(t, y)))
 
     def jac(t, y):
-        return np.asarray(jacobian(np.asarray(y, np.float64).reshape(info.n), *arguments(t)))
+        y = np.asarray(y, np.float64).reshape(info.n)
+        return np.asarray(jacobian(y, *arguments(t, y)))
 
     return ScipyRHS(fun, jac)
 

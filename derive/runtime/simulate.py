@@ -45,7 +45,7 @@ from ..codegen.contract import (ADAPTIVE, ATLAS_METHODS, COUNTERS, DEFAULT_METHO
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
 from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, plain_times
 from .runner import Settings, runner_for
-from . import extended, extended_run
+from . import continuous_inputs, extended, extended_run
 from .result import LAZY, LOCAL_SUM, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
 from ..model.atlas import ATLAS, Atlas, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
@@ -251,19 +251,33 @@ def normalise_inputs(model: str, inputs) -> np.ndarray | None:
 
 
 class HeldInputs:
-    """Inputs given as a function of t: sampled at each output time and held until the
-    next (a zero-order hold, as a digital controller applies them); the run integrates
-    each output interval with its inputs constant, so it is exact for that input."""
+    """Inputs given as a function u(t, y), sampled at each output time (with the state
+    there) and held until the next (hold="zoh": a zero-order hold, as a digital controller
+    applies them); the run integrates each output interval with its inputs constant, so
+    it is exact for that input.  (Without hold, simulate evaluates u at every stage:
+    derive/runtime/continuous_inputs.py.)"""
 
     def __init__(self, model: str, names, function):
         self.model, self.names, self.function = model, names, function
 
-    def at(self, t: float) -> np.ndarray:
+    def at(self, t: float, y) -> np.ndarray:
         try:
-            value = self.function(float(t))
+            value = self.function(float(t), np.array(y, np.float64))
         except Exception as exc:       # the user's function failed: say where, in one line
-            raise SimulationInputError(f"inputs({float(t):g}) raised {type(exc).__name__}: {exc}") from None
-        return _input_values(self.model, self.names, value, f"inputs({float(t):g})")
+            raise SimulationInputError(f"inputs({float(t):g}, y) raised {type(exc).__name__}: {exc}") from None
+        return _input_values(self.model, self.names, value, f"inputs({float(t):g}, y)")
+
+
+HOLDS = (None, "zoh")        # hold=: None, inputs u(t, y) at every stage; "zoh", per output interval
+
+
+def _check_hold(hold, u, dtype) -> None:
+    if hold not in HOLDS:
+        raise SimulationInputError(f"unknown hold {hold!r} (None: inputs u(t, y) at every stage; "
+                                   f"'zoh': held per output interval)")
+    if hold is None and isinstance(u, HeldInputs) and np.dtype(_dtype(dtype)) != np.float64:
+        raise SimulationInputError("inputs u(t, y) at every stage run in float64; give hold='zoh' "
+                                   f"for dtype {dtype}")
 
 
 def _input_values(model: str, names, inputs, what: str = "inputs") -> np.ndarray:
@@ -389,7 +403,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
              backend: str = "c", max_steps: int | None = None, sine_min: float | None = None,
              newton_tol: float | None = None, newton_max: int | None = None,
              hmax: float | None = None, inputs=None, atlas: bool = False, events=None,
-             error_estimate: str = "local") -> SimulationResult:
+             error_estimate: str = "local", hold: str | None = None) -> SimulationResult:
     """Integrate `model` from y0 at t[0] and report every output time in t.
 
     Parameters
@@ -424,8 +438,13 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
         The integrator's options (docs/c-api.md lists them with their defaults).
     inputs : mapping, sequence or callable, optional
         The model's run-time inputs: a mapping by name or a sequence in the model's order,
-        held constant over the run; or a function of t returning one, sampled at each output
-        time and held until the next (zero-order hold).
+        held constant over the run; or a function u(t, y) returning one, evaluated at every
+        stage of the integrator (rk4, rk8, dopri5 or dop853, stepped in Python over the
+        compiled rhs: derive/runtime/continuous_inputs.py), so the error follows the method's
+        order.
+    hold : {None, "zoh"}
+        "zoh": a callable `inputs` is sampled at each output time instead (with the state
+        there) and held until the next (a zero-order hold: a digital controller), any method.
     atlas : bool
         True: run the model's chart atlas (a chain of spherical links in the standard
         chart: its standard, second and rotated charts, switched by the rule of seed 000
@@ -468,7 +487,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     if method is None:
         method = TAYLOR if precision else DEFAULT_METHOD
     if FAST_PATH and precision is None and backend == "c" and not atlas and inputs is None and events is None and \
-            isinstance(error_estimate, str) and error_estimate == "local":
+            hold is None and isinstance(error_estimate, str) and error_estimate == "local":
         fast = _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_steps,
                               sine_min, newton_tol, newton_max, hmax)
         if fast is not None:
@@ -490,6 +509,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     dt = _dtype(dtype)
     p = normalise_params(ref, params)
     u = normalise_inputs(ref, inputs)
+    _check_hold(hold, u, dtype)
     ts = normalise_t(t)
     state, chart, _ = normalise_y0(ref, y0, p)
     _check_angles(ref, state, dt)
@@ -500,6 +520,13 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
                                    f"(it has {', '.join(ATLAS_METHODS)})")
     _check_size(method, ts, state, opt, dt, budget_given=max_steps is not None)
     wanted = _events_of(ref, method, events)
+    if isinstance(u, HeldInputs) and hold is None:
+        if wanted or error_estimate != "local" or ref.atlas is not None:
+            raise SimulationInputError("inputs u(t, y) at every stage: no events, rerun estimate or atlas "
+                                       "(give hold='zoh' for those)")
+        return continuous_inputs.run_continuous(model, method, state, ts, p, opt, backend,
+                                                continuous_inputs.ContinuousInputs(ref, u.names, u.function,
+                                                                                   _input_values))
 
     def run(o):
         if ref.atlas is not None:
@@ -511,13 +538,13 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     held = isinstance(u, HeldInputs)
     result = _drive(run, method, ts, opt, backend, max_steps is not None, held=held)
     result = _finish(result, model, method, backend, dt, opt, p, atlas=ref.atlas is not None,
-                     inputs=lambda: np.array([u.at(a) for a in ts]) if held else u)
+                     inputs=lambda: np.array([u.at(a, y) for a, y in zip(ts, result.y)]) if held else u)
     if wanted:
         result = events_module.locate(result, wanted, opt["rtol"])
     if error_estimate == "rerun":
         again = dict(method=method, rtol=rtol, atol=atol, step=step, dtype=dtype, backend=backend,
                      max_steps=max_steps, sine_min=sine_min, newton_tol=newton_tol, newton_max=newton_max,
-                     hmax=hmax, inputs=inputs, atlas=atlas)
+                     hmax=hmax, inputs=inputs, atlas=atlas, hold=hold)
         _estimate_by_rerun(result, lambda **tighter: simulate(model, y0, t, params, **{**again, **tighter}),
                            method, opt, dt, max_steps)
     return result
@@ -945,10 +972,10 @@ def _run_held(model, method, y0, ts, p, opt, dt, backend, u: HeldInputs) -> Simu
     and one set of options for them all)."""
     r = runner_for(model, method, dtype_key(dt), backend)
     s = Settings(r, opt) if backend == "c" else None
-    first = _run_on(r, s, y0, ts[:1], p, opt, dt, u.at(ts[0]))
+    first = _run_on(r, s, y0, ts[:1], p, opt, dt, u.at(ts[0], y0))
     parts, y = [first], first.y[-1]
     for a, b in zip(ts[:-1], ts[1:]):
-        part = _run_on(r, s, y, np.array([a, b]), p, opt, dt, u.at(a))
+        part = _run_on(r, s, y, np.array([a, b]), p, opt, dt, u.at(a, y))
         parts.append(part)
         if not part.ok:
             break

@@ -109,8 +109,9 @@ def test_inputs_are_an_argument_of_their_own(tmp_path):
     assert np.all(r0.y == 0)
     for bad, message in ((None, "needs its inputs (tau1, tau2)"), ({"tau1": 1.0}, "missing input 'tau2'"),
                          ({"tau1": 1, "tau2": 0, "tau3": 0}, "unknown input 'tau3'"),
-                         (lambda t: [0], "got 1 from inputs(0)"), ([1.0], "takes 2 inputs"),
-                         (lambda t: 1 / 0, "inputs(0) raised ZeroDivisionError")):
+                         (lambda t, y: [0], "got 1 from inputs(0, y)"), ([1.0], "takes 2 inputs"),
+                         (lambda t, y: 1 / 0, "inputs(0, y) raised ZeroDivisionError"),
+                         (lambda t: 0, "inputs(0, y) raised TypeError")):
         with pytest.raises(derive.SimulationInputError, match=re.escape(message)):
             derive.simulate("driven", [0, 0, 0, 0], [0, 1], p, inputs=bad)
     with pytest.raises(derive.SimulationInputError, match="has no inputs"):
@@ -299,9 +300,9 @@ def test_inputs_as_a_function_of_time_are_held_over_each_output_interval():
     has 0.5, the run equals two constant-input runs one after the other."""
     load_model(EXAMPLES / "driven.toml")
     p = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81, "c1": 0.1, "c2": 0.05}
-    u = lambda t: {"tau1": 3.0 if t < 0.5 else -1.0, "tau2": 0.5}
+    u = lambda t, y: {"tau1": 3.0 if t < 0.5 else -1.0, "tau2": 0.5}
     t = np.linspace(0, 1, 11)
-    held = derive.simulate("driven", [0.2, 0, 0, 0], t, p, inputs=u, rtol=1e-12)
+    held = derive.simulate("driven", [0.2, 0, 0, 0], t, p, inputs=u, rtol=1e-12, hold="zoh")
     a = derive.simulate("driven", [0.2, 0, 0, 0], t[:6], p, inputs=[3.0, 0.5], rtol=1e-12)
     b = derive.simulate("driven", a.y[-1], t[5:], p, inputs=[-1.0, 0.5], rtol=1e-12)
     assert held.ok and held.y.shape == (11, 4) and held.velocities.shape == (11, 2, 2)

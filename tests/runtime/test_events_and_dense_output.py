@@ -80,8 +80,8 @@ def test_scipy_rhs_jacobian_is_the_derivative_and_backends_agree():
 
 
 def test_scipy_rhs_inputs_as_a_function_of_t():
-    """Inputs given as a function are evaluated at the t solve_ivp asks."""
-    fun, _ = derive.scipy_rhs(str(MODELS / "driven.toml"), DRIVEN, inputs=lambda t: {"tau1": t, "tau2": 0.0})
+    """Inputs given as a function u(t, y) are evaluated at the t solve_ivp asks."""
+    fun, _ = derive.scipy_rhs(str(MODELS / "driven.toml"), DRIVEN, inputs=lambda t, y: {"tau1": t, "tau2": 0.0})
     y = np.array([0.1, 0.2, 0.0, 0.0])
     assert not np.allclose(fun(0.0, y), fun(1.0, y))
 
@@ -135,7 +135,7 @@ def test_sol_numpy_backend_backward_time_and_held_inputs():
     back = simulate("planar", c.y[-1], t[::-1], PLANAR, method="dop853", rtol=1e-12)
     assert np.max(np.abs(back.sol(tq) - c.sol(tq))) < 1e-8
     model = str(MODELS / "driven.toml")
-    held = simulate(model, y0, t, DRIVEN, method="dop853", rtol=1e-11, inputs=lambda s: {"tau1": s, "tau2": 0.0})
+    held = simulate(model, y0, t, DRIVEN, method="dop853", rtol=1e-11, inputs=lambda s, y: {"tau1": s, "tau2": 0.0}, hold="zoh")
     k = 1                                                  # 0.77 is in [0.5, 1.0): inputs at 0.5
     direct = simulate(model, held.y[k], [t[k], 0.77], DRIVEN, method="dop853", rtol=1e-11,
                       inputs={"tau1": t[k], "tau2": 0.0}).y[-1]

@@ -193,7 +193,8 @@ def test_a_scene_naming_a_device_as_its_model(tmp_path):
     ("derive_integrators", "starts with 'derive_'"), ("derive_driver", "starts with 'derive_'"),
     ("planar_integrate", "ends with '_integrate'"), ("planar_taylor", "ends with '_taylor'"),
     ("planar_taylor_lanes", "ends with '_taylor_lanes'"), ("mine_fixed", "ends with '_fixed'"),
-    ("mine_second", "ends with '_second'"), ("spherical", "chart atlas"),
+    ("mine_second", "ends with '_second'"), ("planar_linearize", "ends with '_linearize'"),
+    ("spherical", "chart atlas"),
     ("a" * 65, "65 characters long (at most 64)"), ("a" * 260, "260 characters long"),
 ])
 def test_a_model_name_that_would_collide_or_is_too_long_is_refused(tmp_path, name, message):

@@ -88,7 +88,7 @@ class CBackend(Backend):
                                  "locals": locals_,
                                  "assigns": assigns, "guards": guards, "check": check})
             kernels.append({
-                "name": k.name, "cname": f"{spec.name}_{k.name}", "macro": kmacro,
+                "name": k.name, "cname": f"{spec.prefix}_{k.name}", "macro": kmacro,
                 "doc": wrap(k.doc, 76), "ops": b.ops, "args": args,
                 "inputs": [a for a in args if a["const"]], "outputs": [a for a in args if not a["const"]],
                 "unused": b.unused_inputs, "has_guards": bool(b.guards), "variants": variants})

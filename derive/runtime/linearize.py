@@ -1,0 +1,309 @@
+"""`derive.linearize` and `derive.equilibria`: the linear model of a pendulum at a point.
+
+With the state x = (q, q') and the inputs u, the model is x' = f(x, u) = (q', q''),
+M(q) q'' = F(q, q', u).  Its linearisation at (x, u) is
+
+    A = df/dx  (n_states x n_states),   B = df/du  (n_states x n_inputs),
+
+and the rows of q'' come from differentiating M q'' = F implicitly,
+
+    d q''/d z = M^-1 (dF/dz - (dM/dz) q''),
+
+with dF/dz and dM/dz symbolic (the derivation's), evaluated at the point, and the
+solve numerical.  M^-1 F is never formed symbolically, not even for the small models:
+measured, its Jacobian and lambdify cost the planar double pendulum about 18 times the
+implicit pieces and the triple chain about 26 times (the commit that added this module
+has the figures), and the implicit form is the one the generated `<model>_linearize`
+kernels compute too (derive/codegen/spec.py).
+"""
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+import sympy as sp
+
+from ..derivation import derive
+from ..derivation.lagrange import link_blocks
+from ..errors import ModelError, SimulationInputError
+from ..model.description import forget_on_model_change
+from ..model.expressions import parse_expression
+from .simulate import _input_values, model_ref, normalise_params, resolve_model
+
+# A real part of an eigenvalue of A within this (relative to the largest magnitude) is
+# taken as zero: the conservative pendulum's hanging modes are exactly imaginary, and
+# the rounding of the solve leaves a real part of order 1e-16 of the spectrum.
+MARGINAL = 1e-9
+POLAR_SINE_MIN = 1e-6      # the generated kernels' default chart-singularity threshold
+
+
+class ChartSingular(SimulationInputError):
+    """The state is a singular point of the model's chart (or its mass matrix is singular)."""
+
+
+@dataclass(frozen=True)
+class Pieces:
+    """A model's M, F and their derivatives as NumPy functions of (q, q', p, u)."""
+    nq: int
+    n_inputs: int
+    mass: object          # M(q, p)
+    forcing: object       # F(q, q', p, u)
+    dF_dx: object         # dF/d(q, q'), nq x 2 nq
+    dF_du: object         # dF/du, nq x n_inputs
+    dM_dq: object         # [dM/dq_k for k], nq matrices nq x nq
+    polar_sines: object   # the chart's polar sines (one per spherical link), or None
+
+
+@forget_on_model_change
+@lru_cache(maxsize=64)
+def _pieces(name: str) -> Pieces:
+    """The lambdified pieces of the implicit Jacobian of model `name` (a resolved name)."""
+    d = derive(name)
+    s = d.symbols
+    args = [list(s.q), list(s.qd), list(s.params), list(s.u)]
+    x = sp.Matrix(s.state)
+
+    def numeric(expr):
+        return sp.lambdify(args, expr, "numpy")
+
+    dF_du = d.F.jacobian(sp.Matrix(s.u)) if s.u else sp.zeros(len(s.q), 0)
+    return Pieces(len(s.q), len(s.u), numeric(d.M), numeric(d.F), numeric(d.F.jacobian(x)),
+                  numeric(dF_du), numeric([d.M.diff(qk) for qk in s.q]),
+                  numeric(list(d.polar_sines)) if d.polar_sines else None)
+
+
+def _state_values(ref, state) -> np.ndarray:
+    """The state as floats in the model's order: a sequence, or a mapping by name where
+    a coordinate or rate left out is 0 and a value may be an expression such as 'pi/2'."""
+    names = list(ref.info.state_names)
+    if isinstance(state, Mapping):
+        unknown = sorted(set(state) - set(names))
+        if unknown:
+            raise SimulationInputError(f"unknown state name '{unknown[0]}' of model '{ref}' "
+                                       f"(state: {', '.join(names)})")
+        return np.array([_number(state.get(n, 0.0), f"state {n}") for n in names], np.float64)
+    values = np.asarray(state, dtype=object).reshape(-1)
+    if len(values) != len(names):
+        raise SimulationInputError(f"model '{ref}' has {len(names)} state values ({', '.join(names)}), "
+                                   f"got {len(values)}")
+    return np.array([_number(v, f"state {n}") for n, v in zip(names, values)], np.float64)
+
+
+def parse_value(value, what: str) -> float:
+    """A finite float from a number or an expression of numbers and pi ('pi', '3*pi/4').
+
+    Parameters
+    ----------
+    value : str or number
+    what : str
+        What the value is, for the message of a bad one.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    SimulationInputError
+        Not a number, or not finite.
+    """
+    return _number(value, what)
+
+
+def _number(value, what: str) -> float:
+    """A finite float from a number or an expression of numbers and pi ('pi', '3*pi/4')."""
+    if isinstance(value, str):
+        try:
+            value = float(parse_expression(value, {}, what).evalf())
+        except (ModelError, TypeError, ValueError):
+            raise SimulationInputError(f"{what}: {value!r} is no number (a number or an expression such as 3*pi/4)") from None
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+        raise SimulationInputError(f"{what} must be a number, got {value!r}")
+    if not np.isfinite(float(value)):
+        raise SimulationInputError(f"{what} is not finite: {value!r}")
+    return float(value)
+
+
+def _inputs_values(ref, inputs) -> np.ndarray:
+    names = ref.description.inputs
+    if not names:
+        if inputs is not None and len(inputs):
+            raise SimulationInputError(f"model '{ref}' has no inputs; got inputs={inputs!r}")
+        return np.zeros(0)
+    if inputs is None:
+        return np.zeros(len(names))               # u = 0: the unforced model
+    if isinstance(inputs, Mapping):
+        inputs = {n: inputs.get(n, 0.0) for n in names} if not set(inputs) - set(names) else inputs
+    return np.asarray(_input_values(ref, names, inputs), np.float64)
+
+
+def _resolve(model):
+    ref = model_ref(resolve_model(model))
+    if ref.atlas is not None:
+        raise SimulationInputError(f"'{ref}' is a chart atlas: linearize one of its charts "
+                                   f"({', '.join(ref.atlas.charts)})")
+    return ref
+
+
+def linearize(model, state, params, inputs=None) -> tuple[np.ndarray, np.ndarray]:
+    """The linearisation x' ~ A (x - x0) + B (u - u0) of a model at a state and inputs.
+
+    Parameters
+    ----------
+    model : str or path
+        A catalogue name or the path of a model file (not a chart atlas).
+    state : mapping or sequence
+        The state x0 = (q, q'): a sequence in the model's state order, or a mapping by
+        name in which a value left out is 0 and a value may be an expression ("pi").
+    params : mapping or sequence
+        The parameters, as `derive.simulate` takes them.
+    inputs : mapping or sequence, optional
+        The inputs u0 (default 0; a mapping may leave some out, they are 0).
+
+    Returns
+    -------
+    A : ndarray, shape (n_states, n_states)
+        df/dx at (x0, u0), x = (q, q').
+    B : ndarray, shape (n_states, n_inputs)
+        df/du at (x0, u0); zero columns for a model without inputs.
+
+    Raises
+    ------
+    SimulationInputError
+        An unknown model, name or value, or a singular mass matrix at the state.
+    """
+    ref = _resolve(model)
+    x = _state_values(ref, state)
+    p = np.asarray(normalise_params(ref, params), np.float64)
+    u = _inputs_values(ref, inputs)
+    return _jacobians(_pieces(ref.name), x, p, u, ref)
+
+
+def _jacobians(pc: Pieces, x: np.ndarray, p: np.ndarray, u: np.ndarray, where) -> tuple[np.ndarray, np.ndarray]:
+    """A and B at one point from the implicit form (module docstring)."""
+    nq = pc.nq
+    q, qd = x[:nq], x[nq:]
+    if pc.polar_sines is not None and \
+            np.min(np.abs(np.asarray(pc.polar_sines(q, qd, p, u), np.float64))) < POLAR_SINE_MIN:
+        raise ChartSingular(f"model '{where}': the chart is singular at state {x.tolist()} (a polar "
+                            f"sine below {POLAR_SINE_MIN:g}): linearize in another chart of the link")
+    M = np.asarray(pc.mass(q, qd, p, u), np.float64)
+    F = np.asarray(pc.forcing(q, qd, p, u), np.float64).reshape(nq)
+    try:
+        qdd = np.linalg.solve(M, F)
+        dM = np.asarray(pc.dM_dq(q, qd, p, u), np.float64).reshape(nq, nq, nq)
+        rhs = np.asarray(pc.dF_dx(q, qd, p, u), np.float64).reshape(nq, 2 * nq)
+        rhs[:, :nq] -= np.einsum("kij,j->ik", dM, qdd)
+        dqdd_dx = np.linalg.solve(M, rhs)
+        dqdd_du = np.linalg.solve(M, np.asarray(pc.dF_du(q, qd, p, u), np.float64).reshape(nq, pc.n_inputs))
+    except np.linalg.LinAlgError:
+        raise ChartSingular(f"model '{where}': the mass matrix is singular at state "
+                                   f"{x.tolist()} (a chart singularity?)") from None
+    A = np.zeros((2 * nq, 2 * nq))
+    A[:nq, nq:] = np.eye(nq)
+    A[nq:, :] = dqdd_dx
+    B = np.zeros((2 * nq, pc.n_inputs))
+    B[nq:, :] = dqdd_du
+    return A, B
+
+
+# -- equilibria --------------------------------------------------------------------
+
+
+def stability(A: np.ndarray) -> str:
+    """'unstable' (an eigenvalue with a positive real part), 'stable' (all negative), or
+    'marginal' (the largest real part is zero: a conservative centre).
+
+    Parameters
+    ----------
+    A : ndarray
+        The state matrix of a linearisation (finite).
+
+    Returns
+    -------
+    str
+    """
+    eig = np.linalg.eigvals(A)
+    scale = max(float(np.max(np.abs(eig), initial=0.0)), 1.0)
+    top = float(eig.real.max())
+    if top > MARGINAL * scale:
+        return "unstable"
+    return "marginal" if top >= -MARGINAL * scale else "stable"
+
+
+def _wrapped(angle: sp.Expr) -> float:
+    """An exact angle as the float of its value in (-pi, pi] (pi stays the double nearest pi)."""
+    turns = sp.floor((angle + sp.pi) / (2 * sp.pi))
+    angle = angle - 2 * sp.pi * turns
+    return float(sp.pi if angle == -sp.pi else angle)
+
+
+def _link_rests(d) -> list[list[dict]]:
+    """For each link, its coordinate values hanging and upright (the height of its
+    direction stationary, d e[-1] / d q_link = 0, with e vertical: a chart's own
+    singular points, where the gradient vanishes with e slanted, are left out), one
+    point for each, angles in (-pi, pi]; a coordinate the height does not depend on
+    (an azimuth at the pole) is 0."""
+    s = d.symbols
+    rests = []
+    for block in link_blocks(d.model, s):
+        coords = list(s.q[block.rows])
+        eqs = [e for e in (sp.expand_trig(block.e[-1].diff(c)) for c in coords) if e != 0]
+        found = sp.solve(eqs, coords, dict=True) if eqs else [{}]
+        by_side: dict[int, dict] = {}
+        for sol in found:
+            at = {c: sp.sympify(sol.get(c, 0)).subs({o: 0 for o in coords}) for c in coords}
+            if not all(v.is_number for v in at.values()):
+                continue
+            height = float(block.e[-1].subs(at))
+            if abs(abs(height) - 1) > 1e-12:
+                continue
+            by_side.setdefault(int(np.sign(height)), {c.name: _wrapped(v) for c, v in at.items()})
+        rests.append([by_side[k] for k in sorted(by_side)])          # hanging (-1) first
+    return rests
+
+
+def equilibria(model, params) -> list[dict]:
+    """The equilibria of a model with q' = 0 and u = 0 (dV/dq = 0), with their stability.
+
+    For a chain each link rests hanging or upright, so a chain of N links has 2^N of
+    them (a spherical link in a chart whose pole is there has its azimuth set to 0).
+
+    Parameters
+    ----------
+    model : str or path
+        A catalogue name or the path of a model file (not a chart atlas).
+    params : mapping or sequence
+        The parameters, as `derive.simulate` takes them.
+
+    Returns
+    -------
+    list of dict
+        One per equilibrium: ``state`` (a dict by state name, rates 0), ``stability``
+        ('stable', 'marginal', 'unstable': see `stability`; 'chart singular' where the
+        model's chart is, e.g. spherical_std at a pole, with NaN eigenvalues) and
+        ``eigenvalues`` (of A there, a complex ndarray).
+    """
+    ref = _resolve(model)
+    p = np.asarray(normalise_params(ref, params), np.float64)
+    d = derive(ref.name)
+    pc = _pieces(ref.name)
+    u = np.zeros(pc.n_inputs)
+    names = list(ref.info.state_names)
+    out = []
+    for combo in itertools.product(*_link_rests(d)):
+        state = dict.fromkeys(names, 0.0)
+        for part in combo:
+            state.update(part)
+        x = np.array([state[n] for n in names])
+        try:
+            A, _ = _jacobians(pc, x, p, u, ref)
+        except ChartSingular:
+            out.append({"state": state, "stability": "chart singular",
+                        "eigenvalues": np.full(len(names), np.nan + 0j)})
+            continue
+        out.append({"state": state, "stability": stability(A), "eigenvalues": np.linalg.eigvals(A)})
+    return out
