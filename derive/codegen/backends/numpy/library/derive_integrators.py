@@ -454,7 +454,7 @@ class _Run:
 
     def set_y(self, z):
         st, y = self.out(z)
-        self.info["y"] = numpy.array(y if st == OK else z, dtype=numpy.float64)
+        self.info["y"] = numpy.array(y if st == OK else z, dtype=self.dtype)
 
 
 # -- the stepping loop, shared with the chart atlas --------------------------------
@@ -728,8 +728,9 @@ def integrate(kernels, method, y0, p, t, dtype=numpy.float64, **options):
     y_out : ndarray, shape (len(t), n)
         The state at each output time (NaN from the first one not reached).
     info : dict
-        The run's counters and where it stopped (new_info's fields); as in C, its t, h,
-        h_end, y and local_error are float64 whatever dtype is (y_out has dtype).
+        The run's counters and where it stopped (new_info's fields); its y has dtype (a
+        longdouble run's state to its full precision, as C's long double info.y), its t,
+        h, h_end and local_error are float64 whatever dtype is.
     """
     system = kernels if isinstance(kernels, System) else System(kernels)
     n = system.n
@@ -739,7 +740,7 @@ def integrate(kernels, method, y0, p, t, dtype=numpy.float64, **options):
     p = numpy.asarray(p, dtype).reshape(system.n_params)
     t = numpy.asarray(t, dtype).reshape(-1)
     info = new_info()
-    info["t"], info["y"] = float(t[0]) if len(t) else 0.0, numpy.array(y0, numpy.float64)
+    info["t"], info["y"] = float(t[0]) if len(t) else 0.0, numpy.array(y0, dtype)
     info["reason"] = problem(method, y0, p, t, opt)
     if info["reason"]:
         info["status"] = BAD_INPUT
