@@ -143,7 +143,7 @@ def test_no_restatement_of_the_contract_outside_it():
 def test_a_long_double_runs_stop_state_is_long_double(backend):
     """One info struct for the float, double and long double entry points: its y is long
     double (it holds every variant's state exactly), the header says so, and a long double
-    run's y_stop keeps the bits a double would round away, at the end and where it stops."""
+    run's y_stop keeps the bits a double would round away: at the end, where it stops, at a terminal event."""
     h = " ".join(re.sub(r"\n \*", " ", (GEN / "c" / "planar_integrate.h").read_text()).split())
     assert "One info struct serves every variant (_f, none, _l): its y is long double" in h
     assert "long double y[PLANAR_N_STATES]; /* state at t (long double in every variant" in h
@@ -156,5 +156,9 @@ def test_a_long_double_runs_stop_state_is_long_double(backend):
     assert stopped.status_name == "maximum number of steps reached" and 0 < stopped.t_stop < 0.5
     assert stopped.y_stop.dtype == np.longdouble and np.isfinite(stopped.y_stop).all()
     assert (stopped.y_stop != stopped.y_stop.astype(np.float64)).any()
+    event = derive.simulate("planar", y0, [0.0, 1.0], p, dtype="longdouble", backend=backend,
+                            events={"bottom": {"expression": "theta1", "terminal": True}})
+    assert event.terminal_event == "bottom" and event.y_stop.dtype == np.longdouble
+    assert np.array_equal(event.y_stop, event.events["bottom"].y[-1])
     d = derive.simulate("planar", y0, [0.0, 0.5], p, backend=backend)
     assert d.y_stop.dtype == np.float64 and np.array_equal(d.y_stop, d.y[-1])
