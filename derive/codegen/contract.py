@@ -134,7 +134,8 @@ INFO = (
     Field("t", "double", doc="time reached (where it stopped on failure)"),
     Field("h", "double", doc="last step size (fixed: the step h of the grid)"),
     Field("h_end", "double", doc="fixed: the shortened step to the last output (0: on the grid)"),
-    Field("y", "double", doc="state at t (double in every variant)", length="n"),
+    Field("y", "long double", doc="state at t (long double in every variant: each one's state exactly)",
+          length="n"),
     # what derive.simulate reports as r.error_estimate with error_kind "local sum"
     Field("local_error", "double", doc="sum of the accepted steps' local-error estimates, in the state's "
           "units (dopri5, dop853, abm12, taylor; 0: none)"),

@@ -249,7 +249,9 @@ def _names(t: dict, key: str, where: str) -> tuple[str, ...]:
         if not NAME.match(v):
             raise ModelError(f"{where}: '{key}': {v!r} is not a name (letters, digits, _)")
         if v in RESERVED_NAMES:
-            raise ModelError(f"{where}: '{key}': '{v}' is reserved (reserved: {', '.join(sorted(RESERVED_NAMES))})")
+            raise ModelError(f"{where}: '{key}': '{v}' is reserved: a function or constant of the expression "
+                                 f"grammar, an expression could not use it as a name (reserved: "
+                                 f"{', '.join(sorted(RESERVED_NAMES))})")
     seen = set()
     for v in values:
         if v in seen:
@@ -470,9 +472,10 @@ def _check_names(model: "Model", where: str) -> None:
     for kind, names in (("parameter", model.parameters), ("input", model.inputs)):
         for n in names:
             if n in model.state_names:
-                raise ModelError(f"{where}: the {kind} '{n}' has the name of a state ({', '.join(model.state_names)})")
+                raise ModelError(f"{where}: the {kind} '{n}' has the name of a state ({', '.join(model.state_names)}): "
+                                 f"an expression could not tell them apart")
     for n in set(model.parameters) & set(model.inputs):
-        raise ModelError(f"{where}: '{n}' is both a parameter and an input")
+        raise ModelError(f"{where}: '{n}' is both a parameter and an input: a name has one value")
     for coord, _ in model.forces:
         if coord not in coords:
             raise ModelError(f"{where}: forces.{coord}: not a coordinate (coordinates: {', '.join(coords)})")

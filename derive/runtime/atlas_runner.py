@@ -28,6 +28,7 @@ from ..model.atlas import ATLAS, load_atlas
 from .build import dtype_key
 from .atlas_library import AtlasLibrary, atlas_library, numpy_atlas  # noqa: F401  (re-exported)
 from .runner import runner_for
+from .shared_library import info_state, stop_state
 from ..codegen.contract import (ATLAS_CHARTS, COUNTERS, LOCAL_ERROR_METHODS, SINE_MIN, SINE_RULE, SINE_SWITCH,
                                 STATUS_NAMES)
 from ..codegen.contract import METHODS  # noqa: F401  (re-exported: the contract's table)
@@ -65,13 +66,13 @@ def run_atlas(method: str, y0, chart: str, ts, p, opt: dict, dt, backend: str, n
         y, charts, infos = r.atlas_batch([chart0], y0[None, :], pd, tsd, r.options(opt))
         y, charts, inf = y[0], charts[0], infos[0]
         counters = {k: int(getattr(inf, k)) for k in COUNTERS}
-        status, t_stop, y_stop = int(inf.status), float(inf.t), np.array(inf.y[:])
+        status, t_stop, y_stop = int(inf.status), float(inf.t), info_state(inf, len(y0), dt)
         switches, chart_stop = int(inf.nswitches), int(inf.chart)
         local_error = float(inf.local_error)
     else:
         status, y, charts, inf = r.numpy_integrator().integrate(method, chart0, y0, pd, tsd, dt, **opt)
         counters = {k: int(inf[k]) for k in COUNTERS}
-        t_stop, y_stop = float(inf["t"]), np.asarray(inf["y"], float)
+        t_stop, y_stop = float(inf["t"]), stop_state(inf["y"], dt)
         switches, chart_stop = int(inf["nswitches"]), int(inf["chart"])
         local_error = float(inf["local_error"])
     ok_rows = charts >= 0

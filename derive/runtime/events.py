@@ -39,6 +39,7 @@ from ..errors import ModelError, SimulationInputError
 from ..model.description import NAME
 from ..model.expressions import parse_expression
 from .result import EventRecord
+from .shared_library import stop_state
 
 SAMPLES_MIN_LEVEL = 2          # at least 2^2 sample intervals per output interval
 SAMPLES_PER_STEP = 2           # samples per accepted step, at least (on average)
@@ -302,6 +303,6 @@ def _truncate(result, stop: float, y_stop, direction: float, t0: float) -> None:
         result.chart = np.array(result.chart, dtype=object)
         result.chart[after] = None
     result.status, result.status_name = 0, "ok"
-    result.t_stop, result.y_stop = stop, np.asarray(y_stop, float)
+    result.t_stop, result.y_stop = stop, stop_state(y_stop, np.asarray(result.y).dtype)   # long double kept
     if result.sol is not None:
         result.sol.t_end = stop

@@ -13,6 +13,7 @@ from ..errors import SimulationInputError
 from .extended import DEFAULT_RTOL, UNIT_ROUNDOFF, as_longdouble, exact
 from .result import LOCAL_SUM, SimulationResult
 from .runner import runner_for
+from .shared_library import info_state
 
 
 def ordered_values(value, names: tuple[str, ...], what: str) -> list:
@@ -60,5 +61,5 @@ def simulate_extended(model: str, precision: str, y0, t, params, rtol, hmax, max
     return SimulationResult(
         model=model, method="taylor", backend="c", dtype=precision, t=as_longdouble(ts), y=y,
         energy=None, positions=None, status=status, status_name=STATUS_NAMES[status],
-        t_stop=float(inf.t), y_stop=np.array(inf.y[:]), params=pm, rtol=float(tol), y_exact=exact_y,
+        t_stop=float(inf.t), y_stop=info_state(inf, info.n, np.longdouble), params=pm, rtol=float(tol), y_exact=exact_y,
         error_estimate=float(inf.local_error), error_kind=LOCAL_SUM, **counters)

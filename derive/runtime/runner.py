@@ -34,6 +34,7 @@ from .extended import extended_taylor
 from .loader import numpy_integrators
 from .observables import _observables, _velocities
 from .result import LAZY, LOCAL_SUM, result_factory
+from .shared_library import info_state, stop_state
 from .taylor_lanes_library import taylor_ensemble_library
 from .taylor_library import taylor_library
 
@@ -60,7 +61,7 @@ class Settings:
     pilot_steps : int or None
         The step budget of an adaptive run's pilot (None: no pilot struct).
     """
-    __slots__ = ("opt", "struct", "pilot", "pilot_steps", "call", "Info", "y_offset", "step", "limit")
+    __slots__ = ("opt", "struct", "pilot", "pilot_steps", "call", "Info", "step", "limit")
 
     def __init__(self, runner: "Runner", opt: dict, pilot_steps: int | None = None):
         self.opt = opt
@@ -69,7 +70,6 @@ class Settings:
         self.pilot = None if pilot_steps is None else \
             runner.options(dict(opt, max_steps=min(pilot_steps, opt["max_steps"])))
         self.call, self.Info = runner.entry(opt["rtol"])
-        self.y_offset = self.Info.y.offset          # info.y read as an array in place
         # the step that bounds a run's step count (fixed: h; adaptive: hmax, 0: none)
         self.step = opt["hmax"] if runner.tolerance else opt["h"]
         self.limit = opt["max_steps"]
@@ -225,7 +225,7 @@ class Runner:
         h_end = info.h_end
         return self.make_result(
             t=t, y=out, status=status, status_name=STATUS_NAMES[status], t_stop=info.t,
-            y_stop=np.frombuffer(info, np.float64, n, s.y_offset), params=p,
+            y_stop=info_state(info, n, self.dt), params=p,
             chart=np.array([self.model] * nt, dtype=object) if self.single_chart else None,
             observe=partial(_observe, self.model, out, p, self.dt, "c"),
             last_step=h_end if h_end and not self.tolerance else None,
@@ -246,7 +246,7 @@ class Runner:
         nt = len(t)
         return self.make_result(
             t=t, y=y, status=status, status_name=STATUS_NAMES[status], t_stop=float(inf["t"]),
-            y_stop=np.asarray(inf["y"], float), params=pm,
+            y_stop=stop_state(inf["y"], dt), params=pm,
             chart=np.array([self.model] * nt, dtype=object) if self.single_chart else None,
             observe=partial(_observe, self.model, y, pm, dt, "numpy"),
             last_step=h_end if h_end and not self.tolerance else None,

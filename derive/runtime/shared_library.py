@@ -18,6 +18,8 @@ import ctypes
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from ..codegen import contract
 
 _REALS = {"double": ctypes.c_double, "float": ctypes.c_float, "long double": ctypes.c_longdouble}
@@ -71,13 +73,52 @@ FIXED_STEPS = EntryPoint("{model}_fixed_{suffix}", "long", ("void *", "void *", 
 
 
 # the contract's field types (options and info structs)
-_FIELD_TYPES = {"double": ctypes.c_double, "long": ctypes.c_long, "int": ctypes.c_int,
+_FIELD_TYPES = {"double": ctypes.c_double, "long double": ctypes.c_longdouble, "long": ctypes.c_long, "int": ctypes.c_int,
                 "const volatile int *": ctypes.POINTER(ctypes.c_int)}
 
 
 def ctypes_fields(fields, n: int = 0) -> list[tuple]:
     """(name, ctypes type) of contract fields (derive/codegen/contract.py); arrays get length n."""
     return [(f.name, _FIELD_TYPES[f.ctype] * n if f.length else _FIELD_TYPES[f.ctype]) for f in fields]
+
+
+def info_state(info, n: int, dtype) -> np.ndarray:
+    """The state an info struct holds (its long double y), as a run of `dtype` reports it.
+
+    Parameters
+    ----------
+    info : ctypes.Structure
+        An info struct (info_struct's type), of a run of n states.
+    n : int
+        The number of states.
+    dtype : numpy dtype
+        The run's real type.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        A copy: np.longdouble for a long double run (its full precision), float64 for a
+        float or double run (exactly its value).
+    """
+    return stop_state(np.frombuffer(info, np.longdouble, n, type(info).y.offset), dtype)
+
+
+def stop_state(y, dtype) -> np.ndarray:
+    """A run's stop state as a result reports it (a NumPy run's info["y"], say).
+
+    Parameters
+    ----------
+    y : array_like
+        The state.
+    dtype : numpy dtype
+        The run's real type.
+
+    Returns
+    -------
+    ndarray
+        np.longdouble for a long double run, else float64.
+    """
+    return np.array(y, np.longdouble if np.dtype(dtype) == np.longdouble else np.float64)
 
 
 def options_struct(extra: tuple = ()) -> type:

@@ -717,6 +717,24 @@ def final_state_names(o: Outcome) -> list[str]:
     return list(load_model(chart).state_names if chart else model_info(o.plan.model).state_names)
 
 
+def final_state(o: Outcome) -> list[float]:
+    """The state a run ended in.
+
+    Parameters
+    ----------
+    o : Outcome
+        The scene's run.
+
+    Returns
+    -------
+    list of float
+        Its last output row, or the state where it stopped (a failed run, a terminal
+        event), in the entries of final_state_names(o).
+    """
+    r = o.result
+    return [float(v) for v in (r.y[-1] if r.ok and not r.terminal_event else r.y_stop)]
+
+
 def summary(o: Outcome) -> dict:
     r = o.result
     drift, scale = energy_error(o)
@@ -743,8 +761,10 @@ def summary(o: Outcome) -> dict:
         "status": "meaningless" if nonsense else r.status_name, "ok": r.ok and nonsense is None,
         "message": nonsense or r.stop_description, "t_stop": float(r.t_stop), "nfev": int(r.nfev),
         "chart_switches": int(r.switches) if r.chart is not None else None,
-        "final_state": [float(v) for v in (r.y[-1] if r.ok and not r.terminal_event else r.y_stop)],
+        "final_state": final_state(o),
         "state_names": final_state_names(o),         # of final_state's entries, in final_chart
+        # the same by name (an atlas run's names are those of final_chart's coordinates)
+        "final_state_by_name": dict(zip(final_state_names(o), final_state(o))),
         "final_chart": final_chart(o),
         "events": _event_summary(r), "terminal_event": r.terminal_event,
         "relative_energy_error": drift, "energy_scale": scale, "energy_scale_is": SCALE_TEXT,

@@ -224,7 +224,7 @@ static int DERIVE_TAYLOR_T(derive_taylor)(const R *y0, const R *p, long nt, cons
     DERIVE_TAYLOR_INFO_CLEAR(info);
     info->t = nt > 0 ? (double)T_S(t_out[0]) : 0;
     for (i = 0; i < DERIVE_N; ++i) {
-        info->y[i] = nt > 0 ? (double)T_S(y0[i]) : 0;
+        info->y[i] = nt > 0 ? (long double)T_S(y0[i]) : 0;
     }
     tol = (S)opt->rtol;
     if (nt < 1 || !DERIVE_TAYLOR_T(derive_taylor_finite)(y0, DERIVE_N) || !DERIVE_TAYLOR_T(derive_taylor_finite)(p, DERIVE_N_P) ||
@@ -334,7 +334,7 @@ static int DERIVE_TAYLOR_T(derive_taylor)(const R *y0, const R *p, long nt, cons
         info->t = (double)T_S(t);
         info->h = (double)T_S(T_MULI(h, dir));
         for (i = 0; i < DERIVE_N; ++i) {
-            info->y[i] = (double)T_S(X[i][0]);
+            info->y[i] = (long double)T_S(X[i][0]);
         }
         if (!DERIVE_TAYLOR_T(derive_taylor_finite)(&X[0][0], 1)) {
             st = DERIVE_NONFINITE;

@@ -433,7 +433,7 @@ static int DERIVE_LANES_T(derive_lanes_start)(DERIVE_LANES_T(derive_lanes_run) *
     DERIVE_TAYLOR_INFO_CLEAR(info);
     info->t = r->nt > 0 ? (double)r->t[0] : 0;
     for (i = 0; i < DERIVE_N; ++i) {
-        info->y[i] = r->nt > 0 ? (double)y0[i] : 0;
+        info->y[i] = r->nt > 0 ? (long double)y0[i] : 0;
     }
     if (!r->shared_ok || !DERIVE_LANES_T(derive_lanes_finite)(y0, DERIVE_N) || !DERIVE_LANES_T(derive_lanes_finite)(p, DERIVE_N_P)) {
         DERIVE_LANES_T(derive_lanes_finish)(r, l, DERIVE_BAD_INPUT);
@@ -574,7 +574,7 @@ static int DERIVE_LANES_T(derive_lanes_advanced)(DERIVE_LANES_T(derive_lanes_run
     ln->info->t = (double)ln->t;
     ln->info->h = (double)(ln->h * ln->dir);
     for (i = 0; i < DERIVE_N; ++i) {
-        ln->info->y[i] = (double)r->X[i][l];
+        ln->info->y[i] = (long double)r->X[i][l];
     }
     if (!DERIVE_LANES_T(derive_lanes_finite)(&r->X[0][l], 1)) {
         return DERIVE_NONFINITE;

@@ -316,7 +316,7 @@ static void spherical_atlas_set_y(spherical_atlas_ctx *c, const double *z)
 {
     int k;
     for (k = 0; k < NA; ++k) {
-        c->info->y[k] = (double)z[k];
+        c->info->y[k] = (long double)z[k];
     }
     c->info->chart = c->chart;
 }
@@ -362,7 +362,7 @@ int spherical_atlas_integrate(int method, int chart0, const double *restrict y0,
     info->t = nt > 0 && t ? (double)t[0] : 0;
     info->h = info->h_end = info->local_error = 0;
     for (k = 0; k < NA; ++k) {
-        info->y[k] = y0 ? (double)y0[k] : 0;
+        info->y[k] = y0 ? (long double)y0[k] : 0;
     }
     st = derive_check_d(method, y0, NA, p, SPHERICAL_ATLAS_N_PARAMS, nt, t, opt);
     if (!st && (chart0 >= SPHERICAL_ATLAS_N_CHARTS || !(opt->sine_switch >= opt->sine_min) || !(opt->sine_rule > opt->sine_switch))) {
@@ -707,7 +707,7 @@ static void spherical_atlas_set_y_f(spherical_atlas_ctx_f *c, const float *z)
 {
     int k;
     for (k = 0; k < NA; ++k) {
-        c->info->y[k] = (double)z[k];
+        c->info->y[k] = (long double)z[k];
     }
     c->info->chart = c->chart;
 }
@@ -753,7 +753,7 @@ int spherical_atlas_integrate_f(int method, int chart0, const float *restrict y0
     info->t = nt > 0 && t ? (double)t[0] : 0;
     info->h = info->h_end = info->local_error = 0;
     for (k = 0; k < NA; ++k) {
-        info->y[k] = y0 ? (double)y0[k] : 0;
+        info->y[k] = y0 ? (long double)y0[k] : 0;
     }
     st = derive_check_f(method, y0, NA, p, SPHERICAL_ATLAS_N_PARAMS, nt, t, opt);
     if (!st && (chart0 >= SPHERICAL_ATLAS_N_CHARTS || !(opt->sine_switch >= opt->sine_min) || !(opt->sine_rule > opt->sine_switch))) {
@@ -1098,7 +1098,7 @@ static void spherical_atlas_set_y_l(spherical_atlas_ctx_l *c, const long double 
 {
     int k;
     for (k = 0; k < NA; ++k) {
-        c->info->y[k] = (double)z[k];
+        c->info->y[k] = (long double)z[k];
     }
     c->info->chart = c->chart;
 }
@@ -1144,7 +1144,7 @@ int spherical_atlas_integrate_l(int method, int chart0, const long double *restr
     info->t = nt > 0 && t ? (double)t[0] : 0;
     info->h = info->h_end = info->local_error = 0;
     for (k = 0; k < NA; ++k) {
-        info->y[k] = y0 ? (double)y0[k] : 0;
+        info->y[k] = y0 ? (long double)y0[k] : 0;
     }
     st = derive_check_l(method, y0, NA, p, SPHERICAL_ATLAS_N_PARAMS, nt, t, opt);
     if (!st && (chart0 >= SPHERICAL_ATLAS_N_CHARTS || !(opt->sine_switch >= opt->sine_min) || !(opt->sine_rule > opt->sine_switch))) {

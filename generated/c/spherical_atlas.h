@@ -81,7 +81,7 @@ typedef struct spherical_atlas_info {
     int status;
     long nfev, njev, nsteps, naccepted, nrejected, nnewton, nout;
     double t, h, h_end;
-    double y[8];
+    long double y[8];
     double local_error;
     long nswitches;      /* chart switches */
     int chart;           /* chart at t */

@@ -50,8 +50,9 @@
  * On failure info.t is the time reached, info.y the state there (y = (q, q')),
  * rows of y_out from the first output time not reached on are NaN, and
  * info.nout counts the rows written.  One info struct serves every variant (_f, none,
- * _l): its t, h, h_end, y and local_error are doubles whatever the run's type (a long
- * double run's rounded to double); y_out has the run's own type.
+ * _l): its y is long double, which holds each variant's state exactly (a long double
+ * run's to its full precision); its t, h, h_end and local_error are doubles whatever
+ * the run's type; y_out has the run's own type.
  *
  * Output times t[0..nt-1] are strictly monotone (increasing or decreasing: the
  * integration runs backwards when they decrease); y_out[0] = y0.  Fixed-step
@@ -135,7 +136,7 @@ typedef struct spherical_rot_integrate_info {
     double t;           /* time reached (where it stopped on failure) */
     double h;           /* last step size (fixed: the step h of the grid) */
     double h_end;       /* fixed: the shortened step to the last output (0: on the grid) */
-    double y[SPHERICAL_ROT_N_STATES];   /* state at t (double in every variant) */
+    long double y[SPHERICAL_ROT_N_STATES];   /* state at t (long double in every variant: each one's state exactly) */
     double local_error; /* sum of the accepted steps' local-error estimates, in the state's units (dopri5, dop853, abm12, taylor; 0: none) */
 } spherical_rot_integrate_info;
 

@@ -119,7 +119,7 @@ class _Atlas:
         return 1
 
     def set_y(self, z):
-        self.info["y"] = numpy.array(z, dtype=numpy.float64)
+        self.info["y"] = numpy.array(z, dtype=self.dtype)
         self.info["chart"] = self.chart
 
 

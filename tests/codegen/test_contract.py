@@ -24,7 +24,7 @@ def _struct(text: str, name: str) -> list[tuple[str, str]]:
     body = re.sub(r"/\*.*?\*/", "", body, flags=re.S)
     out = []
     for decl in filter(None, (d.strip() for d in body.split(";"))):
-        ctype, names = re.match(r"((?:const |volatile )*\w+(?: \*)?)\s*(.+)$", decl, re.S).groups()
+        ctype, names = re.match(r"((?:const |volatile )*(?:long double|\w+)(?: \*)?)\s*(.+)$", decl, re.S).groups()
         out += [(ctype, re.sub(r"\[.*\]", "", n.strip())) for n in names.split(",")]
     return out
 
@@ -102,12 +102,12 @@ def test_numpy_integrators_state_the_contract():
 
 
 def test_ctypes_structs_are_the_contract_fields():
-    ct = {"double": ctypes.c_double, "long": ctypes.c_long, "int": ctypes.c_int,
+    ct = {"double": ctypes.c_double, "long double": ctypes.c_longdouble, "long": ctypes.c_long, "int": ctypes.c_int,
           "const volatile int *": ctypes.POINTER(ctypes.c_int)}
     assert [(n, t) for n, t in options_struct()._fields_] == [(f.name, ct[f.ctype]) for f in contract.OPTIONS]
     info = info_struct(4)._fields_
     assert [n for n, _ in info] == list(contract.INFO_NAMES)
-    assert dict(info)["y"] == ctypes.c_double * 4
+    assert dict(info)["y"] == ctypes.c_longdouble * 4
     assert [n for n, _ in info_struct(8, contract.ATLAS_INFO)._fields_][-2:] == ["nswitches", "chart"]
 
 
@@ -139,13 +139,26 @@ def test_no_restatement_of_the_contract_outside_it():
     assert offenders == []
 
 
-def test_the_header_says_the_info_struct_is_double_in_every_variant():
-    """One info struct for the float, double and long double entry points: its state is
-    double (an ABI shared by the variants), and the header says so; y_out keeps the type."""
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_a_long_double_runs_stop_state_is_long_double(backend):
+    """One info struct for the float, double and long double entry points: its y is long
+    double (it holds every variant's state exactly), the header says so, and a long double
+    run's y_stop keeps the bits a double would round away: at the end, where it stops, at a terminal event."""
     h = " ".join(re.sub(r"\n \*", " ", (GEN / "c" / "planar_integrate.h").read_text()).split())
-    assert ("One info struct serves every variant (_f, none, _l): its t, h, h_end, y and local_error "
-            "are doubles whatever the run's type") in h
-    assert "double y[PLANAR_N_STATES]; /* state at t (double in every variant) */" in h
-    r = derive.simulate("planar", [1.0, 0.5, 0.0, 0.0], [0.0, 0.5], [1, 1, 1, 1, 9.81], dtype="longdouble")
-    assert r.y.dtype == np.longdouble and r.y_stop.dtype == np.float64
-    assert np.array_equal(r.y_stop, r.y[-1].astype(np.float64))
+    assert "One info struct serves every variant (_f, none, _l): its y is long double" in h
+    assert "long double y[PLANAR_N_STATES]; /* state at t (long double in every variant" in h
+    y0, p = [1.0, 0.5, 0.0, 0.0], [1, 1, 1, 1, 9.81]
+    r = derive.simulate("planar", y0, [0.0, 0.5], p, dtype="longdouble", backend=backend)
+    assert r.ok and r.y.dtype == np.longdouble and r.y_stop.dtype == np.longdouble
+    assert np.array_equal(r.y_stop, r.y[-1])                        # every bit of the last row
+    assert (r.y_stop != r.y_stop.astype(np.float64)).any()          # bits a double has not
+    stopped = derive.simulate("planar", y0, [0.0, 0.5], p, dtype="longdouble", backend=backend, max_steps=3)
+    assert stopped.status_name == "maximum number of steps reached" and 0 < stopped.t_stop < 0.5
+    assert stopped.y_stop.dtype == np.longdouble and np.isfinite(stopped.y_stop).all()
+    assert (stopped.y_stop != stopped.y_stop.astype(np.float64)).any()
+    event = derive.simulate("planar", y0, [0.0, 1.0], p, dtype="longdouble", backend=backend,
+                            events={"bottom": {"expression": "theta1", "terminal": True}})
+    assert event.terminal_event == "bottom" and event.y_stop.dtype == np.longdouble
+    assert np.array_equal(event.y_stop, event.events["bottom"].y[-1])
+    d = derive.simulate("planar", y0, [0.0, 0.5], p, backend=backend)
+    assert d.y_stop.dtype == np.float64 and np.array_equal(d.y_stop, d.y[-1])

@@ -159,6 +159,59 @@ def test_batch_entry_point_matches_single_runs():
     assert not st.any() and np.max(np.abs(yn - y)) < 1e-10
 
 
+def _counting(kernels):
+    """The kernel module with its rhs counting its calls (calls[0])."""
+    import types
+    counted, calls = types.ModuleType(kernels.__name__), [0]
+    counted.__dict__.update(kernels.__dict__)
+
+    def rhs(*args):
+        calls[0] += 1
+        return kernels.rhs(*args)
+    counted.rhs = rhs
+    return counted, calls
+
+
+@pytest.mark.parametrize("model,method,dtype,options", [
+    ("planar", "dop853", np.float64, {}), ("planar", "dopri5", np.float32, {"rtol": 1e-5}),
+    ("planar", "rk4", np.float64, {"h": 0.03}), ("planar", "rk8", np.longdouble, {"h": 0.1}),
+    ("spherical_std", "dop853", np.float64, {})])
+def test_the_numpy_batch_is_integrate_row_by_row_in_array_calls(model, method, dtype, options):
+    """integrate_batch of the generated NumPy integrators: each row bit for bit what
+    integrate gives it (outputs, status, counters, where it stopped, a bad row's reason),
+    rows ending early (bad input, a non-finite state, a singular chart) or not; and the
+    batch calls rhs about as often as its longest row needs (every running row in each
+    call), not once a row."""
+    mod = numpy_module(f"{model}_integrate")
+    lib, kernels = mod.library, mod.kernels
+    rng = np.random.default_rng(3)
+    n = len(kernels.STATE_NAMES)
+    y0 = np.column_stack([rng.uniform(0.5, 2.0, (6, n // 2)), rng.uniform(-1, 1, (6, n // 2))]).astype(dtype)
+    y0[1, 0] = np.nan                       # bad input
+    y0[2, n // 2] = np.finfo(dtype).max ** dtype(0.6)      # its square overflows: a non-finite state
+    if model == "spherical_std":
+        y0[3, 0] = 0.01                     # at the standard chart's pole: chart singular
+    p = np.tile([1.0, 1.0, 1.0, 1.0, 9.81], (6, 1))
+    p[:, 4] = rng.uniform(1.0, 20.0, 6)     # one parameter vector a row
+    t = np.linspace(1.0, 0.0, 5)            # backwards in time
+    counted, calls = _counting(kernels)
+    st, y, infos = lib.integrate_batch(lib.System(counted), method, y0, p, t, dtype, **options)
+    assert y.dtype == dtype and y.shape == (6, 5, n)
+    keys = ("status", "nfev", "nsteps", "naccepted", "nrejected", "nout", "t", "h", "h_end", "local_error", "reason")
+    for k in range(6):
+        sk, yk, ik = lib.integrate(lib.System(kernels), method, y0[k], p[k], t, dtype, **options)
+        assert st[k] == sk and np.array_equal(y[k], yk, equal_nan=True), k
+        assert {key: infos[k][key] for key in keys} == {key: ik[key] for key in keys}, k
+        assert infos[k]["y"].dtype == ik["y"].dtype and np.array_equal(infos[k]["y"], ik["y"], equal_nan=True), k
+    names = {lib.STATUS_NAMES[s] for s in st}
+    assert {"ok", "bad input", "non-finite state or derivative"} <= names
+    assert model != "spherical_std" or "chart singular (polar sine below threshold)" in names
+    assert "y0 has a value that is not finite" in infos[1]["reason"]
+    nfev = [i["nfev"] for i in infos]
+    # beyond the longest row's: dop853's dense-output stages, at steps where only others output
+    assert calls[0] <= max(nfev) + 3 * len(t) * len(y0) and calls[0] < sum(nfev) / 2, (calls[0], nfev)
+
+
 def test_float_double_long_double_same_run():
     """RK4, 2000 steps of 5e-3: float within 1e-3 of long double, double within 1e-12."""
     t = np.linspace(0, 10, 3)

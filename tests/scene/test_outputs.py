@@ -256,7 +256,8 @@ def test_the_trust_horizon_of_a_numpy_run_needs_no_compiler(tmp_path, monkeypatc
 def test_an_atlas_run_names_its_columns_and_its_final_state(tmp_path, capsys):
     """The atlas's rows are in different charts: the CSV names each state column by its
     entry in every chart (no y0..y7) beside the chart column, the NPZ says the same, and
-    --json names the final state's entries in the chart it ends in."""
+    --json names the final state's entries in the chart it ends in (a list of names beside the
+    values, and a name -> value map)."""
     text = (SCENES / "spherical_pole.toml").read_text()
     for old, new in [("stop = 10.0", "stop = 2.0"), ("outputs = 1001", "outputs = 201"),
                      ('trajectory = ["csv"]', 'trajectory = ["csv", "npz"]'),
@@ -284,6 +285,8 @@ def test_an_atlas_run_names_its_columns_and_its_final_state(tmp_path, capsys):
     assert s["state_names"] == load_model(charts[-1]).state_names
     last = [float(v) for v in lines[-1].split(",")[1:9]]
     np.testing.assert_allclose(s["final_state"], last, rtol=0, atol=1e-15)
+    assert list(s["final_state_by_name"]) == s["state_names"]             # by name, in state order
+    assert list(s["final_state_by_name"].values()) == s["final_state"]
     with np.load(tmp_path / "out" / "s.npz") as npz:
         assert list(npz["state_names"]) == header[1:9] and list(npz["chart"]) == charts
     from derive.cli import _print_run

@@ -619,7 +619,7 @@ static void DERIVE_T(derive_ctx_set_y)(DERIVE_T(derive_ctx) *c, const DERIVE_REA
         }
     }
     for (k = 0; k < DERIVE_N; ++k) {
-        c->info->y[k] = (double)y[k];
+        c->info->y[k] = (long double)y[k];
     }
 }
 
@@ -657,7 +657,7 @@ static int DERIVE_T(derive_integrate)(int method, const DERIVE_REAL *restrict y0
     info->t = nt > 0 && t ? (double)t[0] : 0;
     info->h = info->h_end = info->local_error = 0;
     for (k = 0; k < DERIVE_N; ++k) {
-        info->y[k] = y0 ? (double)y0[k] : 0;
+        info->y[k] = y0 ? (long double)y0[k] : 0;
     }
     info->status = DERIVE_T(derive_check)(method, y0, DERIVE_N, p, DERIVE_N_P, nt, t, opt);
     if (info->status) {

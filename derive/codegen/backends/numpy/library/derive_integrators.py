@@ -9,7 +9,8 @@ A model is its generated kernel module (<model>.py beside this file), passed in:
 
     integrate(kernels, method, y0, p, t, dtype=numpy.float64, **options)
         -> (status, y_out (len(t), n), info)          one trajectory
-    integrate_batch(kernels, method, y0s, p, t, ...)  many, one per row of y0s
+    integrate_batch(kernels, method, y0s, p, t, ...)  many, one per row of y0s (the
+        explicit methods as arrays: each kernel call evaluates every running row)
 
 What a model brings is read off its module (see System): the sizes from its name
 tables, chart guards where it has polar_sines (no kernel is evaluated where a polar
@@ -454,7 +455,7 @@ class _Run:
 
     def set_y(self, z):
         st, y = self.out(z)
-        self.info["y"] = numpy.array(y if st == OK else z, dtype=numpy.float64)
+        self.info["y"] = numpy.array(y if st == OK else z, dtype=self.dtype)
 
 
 # -- the stepping loop, shared with the chart atlas --------------------------------
@@ -728,8 +729,9 @@ def integrate(kernels, method, y0, p, t, dtype=numpy.float64, **options):
     y_out : ndarray, shape (len(t), n)
         The state at each output time (NaN from the first one not reached).
     info : dict
-        The run's counters and where it stopped (new_info's fields); as in C, its t, h,
-        h_end, y and local_error are float64 whatever dtype is (y_out has dtype).
+        The run's counters and where it stopped (new_info's fields); its y has dtype (a
+        longdouble run's state to its full precision, as C's long double info.y), its t,
+        h, h_end and local_error are float64 whatever dtype is.
     """
     system = kernels if isinstance(kernels, System) else System(kernels)
     n = system.n
@@ -739,7 +741,7 @@ def integrate(kernels, method, y0, p, t, dtype=numpy.float64, **options):
     p = numpy.asarray(p, dtype).reshape(system.n_params)
     t = numpy.asarray(t, dtype).reshape(-1)
     info = new_info()
-    info["t"], info["y"] = float(t[0]) if len(t) else 0.0, numpy.array(y0, numpy.float64)
+    info["t"], info["y"] = float(t[0]) if len(t) else 0.0, numpy.array(y0, dtype)
     info["reason"] = problem(method, y0, p, t, opt)
     if info["reason"]:
         info["status"] = BAD_INPUT
@@ -748,13 +750,402 @@ def integrate(kernels, method, y0, p, t, dtype=numpy.float64, **options):
     return st, y_out, info
 
 
+# -- many trajectories at once -----------------------------------------------------
+# The explicit methods (rk4, rk8, dopri5, dop853) run a batch as arrays (B, n): each
+# kernel call evaluates every running trajectory, each trajectory keeps its own step,
+# time, outputs and counters, and one leaves the batch when it ends; the same operations
+# as integrate's, row by row.  The implicit methods and abm12 (a Newton solve and a
+# history per trajectory) run integrate once a row.
+BATCHED = ("rk4", "rk8", "dopri5", "dop853")
+
+
+def _root(x):
+    """x ** 0.5 of a float64 array as integrate's Python floats take it (libm's pow): an
+    array's ** 0.5 is numpy's sqrt, which differs from pow in the last bit now and then."""
+    return numpy.power(x, numpy.full_like(x, 0.5))
+
+
+class _Batch:
+    """The running state of a batch of B trajectories of one explicit method."""
+
+    def __init__(self, system, method, y0, p, t_out, opt, dtype):
+        B, n = y0.shape
+        self.system, self.method, self.p, self.opt, self.dtype = system, method, p, opt, dtype
+        self.t_out, self.nt = t_out, len(t_out)
+        self.z = y0.copy()
+        self.t = numpy.full(B, t_out[0], dtype)
+        self.h = numpy.zeros(B, dtype)
+        self.y_out = numpy.full((B, self.nt, n), numpy.nan, dtype)
+        self.count = {k: numpy.zeros(B, numpy.int64) for k in ("nfev", "nsteps", "naccepted", "nrejected", "nout")}
+        self.local_error = numpy.zeros(B)
+        self.h_end = numpy.zeros(B)
+        self.status = numpy.full(B, -1)           # -1: running
+        self.t_stop, self.h_stop = numpy.zeros(B), numpy.zeros(B)
+        self.y_stop = y0.copy()
+
+    def eval(self, rows, y, counted=None):
+        """f(y) of trajectories `rows` (y: their states), guarded; counted where `counted`
+        (default every row): (status (R,), f)."""
+        system, opt = self.system, self.opt
+        st = numpy.zeros(len(rows), numpy.int64)
+        with numpy.errstate(all="ignore"):      # a non-finite result is reported by status
+            if system.guarded:
+                s = system.kernels.polar_sines(y)
+                st = numpy.where(~numpy.all(numpy.isfinite(s), axis=-1), NONFINITE,
+                                 numpy.where(numpy.all(numpy.abs(s) >= opt["sine_min"], axis=-1), OK, CHART_SINGULAR))
+            f = system.kernels.rhs(y, *system._split(self.p[rows])).astype(y.dtype, copy=False)
+        ok = st == OK
+        f[~ok] = numpy.nan
+        self.count["nfev"][rows] += ok if counted is None else ok & counted
+        st = numpy.where(ok & ~numpy.all(numpy.isfinite(f), axis=-1), NONFINITE, st)
+        return st, f
+
+    def stages(self, rows, name, z, h, K, st, rows_of):
+        """The stages K[i] of tableau rows `rows_of` (name's) from z; st: each row's status
+        so far (the first failure stays, later stages of that row are not counted)."""
+        h = h[:, None]
+        for i, row in rows_of:
+            with numpy.errstate(all="ignore"):      # a failed row's stages are not used
+                y = z + h * _combo(row, K)
+            s, K[i] = self.eval(rows, y, st == OK)
+            st = numpy.where(st == OK, s, st)
+        return st
+
+    def step(self, rows, z, h, K, st):
+        """One explicit step of trajectories `rows`; K[0] = f(z) on entry, st its status:
+        (status, z_new, err)."""
+        name = "dop853" if self.method == "rk8" else self.method
+        tab, opt = _tab(name, z.dtype), self.opt
+        st = self.stages(rows, name, z, h, K, st, enumerate(tab["rows"], start=1))
+        with numpy.errstate(all="ignore"):
+            zn = z + h[:, None] * _combo(tab["b"], K)
+        if self.method in ("rk4", "rk8"):
+            return st, zn, numpy.zeros(len(rows))
+        with numpy.errstate(all="ignore"):
+            sk = opt["atol"] + opt["rtol"] * numpy.maximum(numpy.abs(z), numpy.abs(zn))
+            if name == "dopri5":
+                s, K[6] = self.eval(rows, zn, st == OK)
+                st = numpy.where(st == OK, s, st)
+                e = h[:, None] * _combo(tab["e"], K) / sk
+                return st, zn, numpy.sqrt(numpy.mean(e * e, axis=-1)).astype(numpy.float64)
+            e3 = numpy.sum((_combo(tab["e3"], K) / sk) ** 2, axis=-1).astype(numpy.float64)
+            e5 = numpy.sum((_combo(tab["e5"], K) / sk) ** 2, axis=-1).astype(numpy.float64)
+            deno = e5 + 0.01 * e3
+            deno = numpy.where(deno <= 0, 1.0, deno)
+            return st, zn, numpy.abs(h.astype(numpy.float64)) * e5 * _root(1.0 / (z.shape[1] * deno))
+
+    def finish(self, rows, status, z, t, h):
+        """Trajectories `rows` end with `status` in state z at t (h: their last step)."""
+        self.status[rows] = status
+        self.t_stop[rows], self.h_stop[rows] = t.astype(numpy.float64), h.astype(numpy.float64)
+        self.y_stop[rows] = z
+        for r in rows:
+            self.y_out[r, self.count["nout"][r]:] = numpy.nan
+
+    def running(self):
+        return numpy.flatnonzero(self.status < 0)
+
+    def infos(self):
+        infos = []
+        for r in range(len(self.status)):
+            info = new_info()
+            info.update({k: int(v[r]) for k, v in self.count.items()})
+            info.update(status=int(self.status[r]), t=float(self.t_stop[r]), h=float(self.h_stop[r]),
+                        h_end=float(self.h_end[r]), y=self.y_stop[r].copy(), local_error=float(self.local_error[r]))
+            infos.append(info)
+        return infos
+
+
+def _batch_start(b, direction):
+    """drive's start for every row: the guard at y0, the first output row; rows of one
+    output time end there.  -> the running rows."""
+    rows = numpy.arange(len(b.z))
+    h0 = numpy.zeros(len(rows), b.dtype)
+    if b.system.guarded:
+        with numpy.errstate(all="ignore"):
+            s = b.system.kernels.polar_sines(b.z)
+        st = numpy.where(~numpy.all(numpy.isfinite(s), axis=-1), NONFINITE,
+                         numpy.where(numpy.all(numpy.abs(s) >= b.opt["sine_min"], axis=-1), OK, CHART_SINGULAR))
+        bad = st != OK
+        b.finish(rows[bad], st[bad], b.z[bad], b.t[bad], h0[bad])
+        rows = rows[~bad]
+    b.y_out[rows, 0] = b.z[rows]
+    b.count["nout"][rows] = 1
+    if b.nt == 1:
+        b.finish(rows, OK, b.z[rows], b.t[rows], h0[:len(rows)])
+        return rows[:0]
+    return rows
+
+
+def _batch_hinit(b, rows, f0, direction, hmax, order):
+    """_hinit for trajectories `rows` (the same operations, row by row)."""
+    z, opt = b.z[rows], b.opt
+    with numpy.errstate(all="ignore"):
+        sk = opt["atol"] + opt["rtol"] * numpy.abs(z)
+        dnf = numpy.sum((f0 / sk) ** 2, axis=-1).astype(numpy.float64)
+        dny = numpy.sum((z / sk) ** 2, axis=-1).astype(numpy.float64)
+        h = numpy.where((dnf <= 1e-10) | (dny <= 1e-10), 1e-6, _root(dny / dnf) * 0.01)
+        h = numpy.minimum(h, hmax)
+        st, f1 = b.eval(rows, z + (direction * h).astype(b.dtype)[:, None] * f0)
+        der2 = _root(numpy.sum(((f1 - f0) / sk) ** 2, axis=-1).astype(numpy.float64)) / h
+        der12 = numpy.maximum(der2, _root(dnf))
+        h1 = numpy.where(der12 <= 1e-15, numpy.maximum(1e-6, h * 1e-3), (0.01 / der12) ** (1.0 / order))
+        return numpy.where(st != OK, h, numpy.minimum(numpy.minimum(100 * h, h1), hmax))
+
+
+def _batch_adaptive(b, rows, direction):
+    """_drive_adaptive for every row at once: dopri5 and dop853, each row its own step."""
+    opt, dt, t_out, nt = b.opt, b.dtype, b.t_out, b.nt
+    eps = float(numpy.finfo(dt).eps)
+    if b.method == "dopri5":
+        order, facmin, facmax, fsal = 5.0, 0.2, 10.0, 6
+    else:
+        order, facmin, facmax, fsal = 8.0, 0.333, 6.0, 12
+    tend = t_out[-1]
+    hmax = opt["hmax"] if opt["hmax"] > 0 else abs(float(tend - t_out[0]))
+    B, n = b.z.shape
+    K = numpy.zeros((16, B, n), dt)
+    st, K[0, rows] = b.eval(rows, b.z[rows])
+    bad = st != OK
+    b.finish(rows[bad], st[bad], b.z[rows[bad]], b.t[rows[bad]], b.h[rows[bad]])
+    rows = rows[~bad]
+    if opt["h"] > 0:
+        h = numpy.full(len(rows), min(opt["h"], hmax))
+    else:
+        h = _batch_hinit(b, rows, K[0, rows], direction, hmax, order)
+    b.h[rows] = (direction * h).astype(dt)
+    cause = numpy.zeros(B, numpy.int64)
+    rejected = numpy.zeros(B, bool)
+    iout = numpy.ones(B, numpy.int64)
+    while True:
+        rows = b.running()
+        if not len(rows):
+            return
+        over = b.count["nsteps"][rows] >= opt["max_steps"]
+        b.finish(rows[over], MAX_STEPS, b.z[rows[over]], b.t[rows[over]], b.h[rows[over]])
+        rows = rows[~over]
+        last = (b.t[rows] + b.h[rows] - tend) * direction >= 0
+        b.h[rows[last]] = tend - b.t[rows[last]]
+        hmin = numpy.maximum(16 * eps * numpy.abs(b.t[rows].astype(numpy.float64)), opt["hmin"])
+        under = (numpy.abs(b.h[rows].astype(numpy.float64)) <= hmin) | (b.h[rows] == 0)
+        u = rows[under]
+        b.finish(u, numpy.where(cause[u] != 0, cause[u], STEP_UNDERFLOW), b.z[u], b.t[u], b.h[u])
+        rows, last = rows[~under], last[~under]
+        if not len(rows):
+            continue
+        b.count["nsteps"][rows] += 1
+        z, h, Kr = b.z[rows], b.h[rows], K[:, rows]
+        st, zn, err = b.step(rows, z, h, Kr, numpy.zeros(len(rows), numpy.int64))
+        if b.method == "dop853":
+            good = (st == OK) & (err <= 1)
+            s, Kr[12, good] = b.eval(rows[good], zn[good])
+            st[good] = s
+        fail = (st != OK) | ~(err <= 1)
+        # rejected: a smaller step from the same state
+        r, sr, er = rows[fail], st[fail], err[fail]
+        b.count["nrejected"][r] += 1
+        with numpy.errstate(all="ignore"):
+            shrink = numpy.minimum(1.0, numpy.maximum(facmin, 0.9 * er ** (-1.0 / order)))
+        nonfinite = er != er
+        fac = numpy.where((sr != OK) | nonfinite, 0.25, shrink)
+        cause[r] = numpy.where(sr != OK, sr, numpy.where(nonfinite, NONFINITE, 0))
+        rejected[r] = True
+        b.h[r] = h[fail] * fac.astype(dt)
+        K[:, r] = Kr[:, fail]
+        # accepted: the outputs it passes, then the next step
+        acc = ~fail
+        a, z, zn, h, err, Kr = rows[acc], z[acc], zn[acc], h[acc], err[acc], Kr[:, acc]
+        cause[a] = 0
+        tnew = numpy.where(last[acc], tend, b.t[a] + h)
+        stopped = _batch_outputs(b, a, z, zn, h, Kr, tnew, iout, direction)
+        keep = ~stopped
+        a, z, zn, h, err, Kr, tnew = a[keep], z[keep], zn[keep], h[keep], err[keep], Kr[:, keep], tnew[keep]
+        size = numpy.maximum(numpy.max(numpy.abs(z), axis=-1), numpy.max(numpy.abs(zn), axis=-1)).astype(numpy.float64)
+        b.local_error[a] += err * (opt["atol"] + opt["rtol"] * size)
+        b.z[a], b.t[a] = zn, tnew
+        Kr[0] = Kr[fsal]
+        K[:, a] = Kr
+        b.count["naccepted"][a] += 1
+        with numpy.errstate(all="ignore"):
+            grow = numpy.where(err > 0, 0.9 * err ** (-1.0 / order), facmax)
+        fac = numpy.maximum(facmin, numpy.minimum(grow, numpy.where(rejected[a], 1.0, facmax)))
+        rejected[a] = False
+        hn = h * fac.astype(dt)
+        b.h[a] = numpy.where(numpy.abs(hn.astype(numpy.float64)) > hmax, dt.type(direction * hmax), hn)
+        ended = iout[a] >= nt
+        b.finish(a[ended], OK, b.z[a[ended]], b.t[a[ended]], b.h[a[ended]])
+
+
+def _batch_outputs(b, rows, z, zn, h, K, tnew, iout, direction):
+    """The output times each accepted step of trajectories `rows` passes: its end state,
+    or its dense output.  -> the rows that stopped (dop853's dense-output stages failed)."""
+    nt, t_out = b.nt, b.t_out
+    R, n = z.shape
+    stopped = numpy.zeros(R, bool)
+    prepared = numpy.zeros(R, bool)
+    F = numpy.zeros((7, R, n), b.dtype) if b.method == "dop853" else None
+    while True:
+        at = numpy.minimum(iout[rows], nt - 1)
+        due = (iout[rows] < nt) & ((t_out[at] - tnew) * direction <= 0) & ~stopped
+        if not due.any():
+            return stopped
+        exact = due & (t_out[at] == tnew)
+        dense = due & ~exact
+        if F is not None and (dense & ~prepared).any():
+            need = dense & ~prepared
+            st = _batch_dense_prepare(b, rows, z, zn, h, K, need, F)
+            prepared |= need
+            failed = need & (st != OK)
+            b.finish(rows[failed], st[failed], z[failed], b.t[rows[failed]], h[failed])
+            stopped |= failed
+            dense &= ~failed
+        with numpy.errstate(all="ignore"):
+            theta = ((t_out[at] - b.t[rows]) / h)[:, None]
+            y = dop853_dense(z, F, theta) if F is not None else dopri5_dense(z, h[:, None], K, theta)
+        b.y_out[rows[exact], iout[rows[exact]]] = zn[exact]
+        b.y_out[rows[dense], iout[rows[dense]]] = y[dense]
+        moved = rows[exact | dense]
+        b.count["nout"][moved] += 1
+        iout[moved] += 1
+
+
+def _batch_dense_prepare(b, rows, z, zn, h, K, need, F):
+    """dop853_dense_prepare for the trajectories of mask `need`: their three extra stages
+    into K and their rows of F.  -> each row's status."""
+    tab = _tab("dop853", z.dtype)
+    sel = numpy.flatnonzero(need)
+    Ks, zs, hs = K[:, sel], z[sel], h[sel]
+    st = numpy.zeros(len(rows), numpy.int64)
+    st[sel] = b.stages(rows[sel], "dop853", zs, hs, Ks, numpy.zeros(len(sel), numpy.int64), tab["extra"])
+    K[:, sel] = Ks
+    hc = hs[:, None]
+    F[0, sel] = zn[sel] - zs
+    F[1, sel] = hc * Ks[0] - F[0, sel]
+    F[2, sel] = F[0, sel] - hc * Ks[12] - F[1, sel]
+    for r, row in enumerate(tab["d"]):
+        F[3 + r, sel] = hc * _combo(row, Ks)
+    return st
+
+
+def _batch_fixed_step(b, rows, z, h):
+    """_fixed_step of rk4 or rk8 for trajectories `rows`, all at the same h: (status, z_new)."""
+    over = b.count["nsteps"][rows] >= b.opt["max_steps"]
+    b.count["nsteps"][rows[~over]] += 1
+    K = numpy.zeros((16,) + z.shape, b.dtype)
+    st, K[0] = b.eval(rows, z, ~over)
+    st = numpy.where(over, MAX_STEPS, st)
+    st, zn, _ = b.step(rows, z, numpy.full(len(rows), h, b.dtype), K, st)
+    st = numpy.where((st == OK) & ~numpy.all(numpy.isfinite(zn), axis=-1), NONFINITE, st)
+    b.count["naccepted"][rows[st == OK]] += 1
+    return st, zn
+
+
+def _batch_fixed(b, rows, direction):
+    """_drive_fixed for every row at once: the grid t0 + k h, shared by the rows."""
+    dt, t_out, nt = b.dtype, b.t_out, b.nt
+    eps = float(numpy.finfo(dt).eps)
+    t = t_out[0]
+    h = dt.type(direction * b.opt["h"])
+    h_end, kgrid, side = 0.0, 0, None
+    z = b.z[rows]
+
+    def stop(bad, st):
+        """Rows `bad` (a mask) end with status st at the grid point t: -> the others."""
+        b.h_end[rows[bad]] = h_end
+        b.finish(rows[bad], st[bad], z[bad], numpy.full(bad.sum(), t, dt), numpy.full(bad.sum(), h, dt))
+        return rows[~bad], z[~bad], ~bad
+    for iout in range(1, nt):
+        slack = 16 * eps * (abs(float(t_out[0])) + abs(float(t_out[iout])) + abs(float(h)))
+        while len(rows):
+            tnext = t_out[0] + dt.type(kgrid + 1) * h
+            if float((tnext - t_out[iout]) * direction) > slack:
+                break
+            st, zn = _batch_fixed_step(b, rows, z, h)
+            rows, z, keep = stop(st != OK, st)
+            z, t, kgrid = zn[keep], tnext, kgrid + 1
+        if not len(rows):
+            return
+        if float((t_out[iout] - t) * direction) <= slack:
+            side, h_end = None, 0.0
+            b.y_out[rows, iout] = z
+        else:
+            h_end = float(t_out[iout] - t)
+            st, side = _batch_fixed_step(b, rows, z, t_out[iout] - t)
+            rows, z, keep = stop(st != OK, st)
+            side = side[keep]
+            b.y_out[rows, iout] = side
+        b.count["nout"][rows] += 1
+    b.h_end[rows] = h_end
+    b.finish(rows, OK, z if side is None else side, numpy.full(len(rows), t_out[-1], dt), numpy.full(len(rows), h, dt))
+
+
+def _batch_problems(method, y0, p, t, opt):
+    """problem() of each row: the rows' shared checks once, a row's own (a value of its y0
+    or p not finite) where it has one."""
+    common = problem(method, numpy.zeros(y0.shape[1], y0.dtype), numpy.zeros(p.shape[1], p.dtype), t, opt)
+    finite = numpy.all(numpy.isfinite(y0), axis=1) & numpy.all(numpy.isfinite(p), axis=1)
+    return [common if finite[i] else problem(method, y0[i], p[i], t, opt) for i in range(len(y0))]
+
+
 def integrate_batch(kernels, method, y0, p, t, dtype=numpy.float64, **options):
-    """Many trajectories, one integrate a row: y0 (B, n), p (n_params,) or (B, n_params)
-    -> (statuses (B,), y_out (B, len(t), n), infos)."""
+    """Many trajectories of the model whose kernel module is `kernels`.
+
+    The explicit methods (BATCHED: rk4, rk8, dopri5, dop853) integrate the batch as arrays,
+    every kernel call evaluating all its running trajectories, each with its own steps,
+    status and counters, as integrate would; the implicit methods and abm12 call integrate
+    once a row.
+
+    Parameters
+    ----------
+    kernels : module or System
+        The model's generated kernels (<model>.py), or a System made of them.
+    method : str
+        One of METHODS.
+    y0 : array_like, shape (B, n)
+        The initial states, one a row.
+    p : array_like, shape (n_params,) or (B, n_params)
+        The parameters (then the inputs): one vector for every row, or one a row.
+    t : array_like
+        The output times, strictly monotone, shared by the rows.
+    dtype : numpy dtype
+        The real type of the run.
+    **options
+        As integrate's; another key raises TypeError (once, not once a row).
+
+    Returns
+    -------
+    statuses : ndarray, shape (B,)
+    y_out : ndarray, shape (B, len(t), n)
+    infos : list of dict
+        Each row's info, as integrate's.
+    """
     system = kernels if isinstance(kernels, System) else System(kernels)
-    options_of(options)                  # a typo fails once, not once per trajectory
+    opt = options_of(options)            # a typo fails once, not once per trajectory
+    dtype = numpy.dtype(dtype)
     y0 = numpy.asarray(y0, dtype).reshape(-1, system.n)
     p = numpy.broadcast_to(numpy.asarray(p, dtype), (len(y0), system.n_params))
-    results = [integrate(system, method, y0[i], p[i], t, dtype, **options) for i in range(len(y0))]
-    return (numpy.array([r[0] for r in results]), numpy.array([r[1] for r in results]).reshape(len(y0), -1, system.n),
-            [r[2] for r in results])
+    if method not in BATCHED:
+        results = [integrate(system, method, y0[i], p[i], t, dtype, **options) for i in range(len(y0))]
+        return (numpy.array([r[0] for r in results], dtype=int),
+                numpy.array([r[1] for r in results]).reshape(len(y0), -1, system.n), [r[2] for r in results])
+    t = numpy.asarray(t, dtype).reshape(-1)
+    reasons = _batch_problems(method, y0, p, t, opt)
+    good = numpy.array([r is None for r in reasons], bool)
+    statuses = numpy.full(len(y0), BAD_INPUT, int)
+    y_out = numpy.full((len(y0), len(t), system.n), numpy.nan, dtype)
+    infos = []
+    for i, reason in enumerate(reasons):
+        info = new_info()
+        info.update(status=BAD_INPUT, t=float(t[0]) if len(t) else 0.0, y=numpy.array(y0[i], dtype), reason=reason)
+        infos.append(info)
+    if good.any():
+        rows = numpy.flatnonzero(good)
+        b = _Batch(system, method, y0[rows], numpy.ascontiguousarray(p[rows]), t, opt, dtype)
+        direction = 1 if t[-1] > t[0] else -1
+        running = _batch_start(b, direction)
+        if len(running):
+            (_batch_adaptive if method in ("dopri5", "dop853") else _batch_fixed)(b, running, direction)
+        statuses[rows], y_out[rows] = b.status, b.y_out
+        for r, info in zip(rows, b.infos()):
+            infos[r] = info
+    return statuses, y_out, infos
