@@ -282,8 +282,9 @@ def abridge(lines: list[str], cap: int = CAP) -> list[str]:
     for k, line in enumerate(lines):
         if total + len(line) > cap and out:
             rest = len(lines) - k
+            # -{}- : two hyphens, as typed (typewriter T1 fonts ligature -- into an en dash)
             out.append(rf"\qquad \dots \text{{ ({rest} more line{'s' if rest > 1 else ''}; "
-                       rf"in full in \texttt{{derive verify --json}})}}")
+                       rf"in full in \texttt{{derive verify -{{}}-json}})}}")
             return out
         out.append(line)
         total += len(line)

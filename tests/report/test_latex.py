@@ -152,3 +152,19 @@ def test_a_triple_pendulum_has_its_hamiltonian_form_without_a_closed_inverse(tmp
     check_document("triple", text, log, pages)
     flat = " ".join(text.split())
     assert "Hamiltonian form" in flat and "solved in the code" in flat
+
+
+def test_an_abridged_formula_names_the_command_as_typed(tmp_path):
+    """The note under an abridged formula reads "derive verify --json" in the PDF, two
+    hyphens a reader can type (typewriter T1 fonts would join -- into an en dash)."""
+    sys.path.insert(0, str(ROOT))
+    from derive.report import latex, typeset as ts
+    lines = ts.abridge([f"x_{{{k}}} = {k}" for k in range(40)], cap=60)
+    preamble = latex.environment().get_template("preamble.tex.j2").render(paper="a4paper")
+    (tmp_path / "doc.tex").write_text(preamble + "\\begin{document}\n\\begin{align*}\n"
+                                      + " \\\\\n".join(lines) + "\n\\end{align*}\n\\end{document}\n")
+    subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "doc.tex"], cwd=tmp_path,
+                   capture_output=True, timeout=300, check=True)
+    text = subprocess.run(["pdftotext", str(tmp_path / "doc.pdf"), "-"], capture_output=True,
+                          text=True, check=True).stdout
+    assert "more lines; in full in derive verify --json" in " ".join(text.split()), text
