@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 import tempfile
 import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -94,7 +95,27 @@ def output_dir(o) -> Path:
         raise SceneError(f"'output.directory': cannot write to '{out}': {exc.strerror}") from None
 
 
+def _noted(o, path: Path | str, start: float, what: str = "") -> str:
+    """Record what writing `path` took, the summary prints it beside the file's name
+    (a GIF's seconds are the ones a user waits for); returns the path as text."""
+    seconds = time.perf_counter() - start
+    o.file_notes[str(path)] = f"{what}, {seconds:.1f} s" if what else f"{seconds:.1f} s"
+    return str(path)
+
+
 def write_outputs(o) -> list[str]:
+    """Write the trajectory, plots and animation a scene asks for into its output folder.
+
+    Parameters
+    ----------
+    o : Outcome
+        A scene's run (derive.scene.run.run); ``o.file_notes`` gets what each file took.
+
+    Returns
+    -------
+    list of str
+        The files written.
+    """
     wanted = o.scene.trajectory + o.scene.plots
     if not wanted:
         return []
@@ -102,6 +123,7 @@ def write_outputs(o) -> list[str]:
     stem = Path(o.scene.source).stem
     written = []
     names, data = _columns(o)
+    start = time.perf_counter()
     if "csv" in o.scene.trajectory:
         path = out / f"{stem}.csv"
         header = ",".join(names)
@@ -115,10 +137,12 @@ def write_outputs(o) -> list[str]:
         else:
             _replace(path, lambda tmp: np.savetxt(tmp, data, delimiter=",", header=header, comments="",
                                                   fmt="%.17g"))
-        written.append(str(path))
+        written.append(_noted(o, path, start))
         if o.result.events is not None:
-            written.append(_events_csv(o, out / f"{stem}_events.csv"))
+            start = time.perf_counter()
+            written.append(_noted(o, _events_csv(o, out / f"{stem}_events.csv"), start))
     if "npz" in o.scene.trajectory:
+        start = time.perf_counter()
         path = out / f"{stem}.npz"
         extra = {"chart": np.asarray(o.result.chart, dtype=str)} if o.result.chart is not None else {}
         arrays = dict(t=np.asarray(o.result.t, float), y=np.asarray(o.result.y, float),
@@ -126,7 +150,7 @@ def write_outputs(o) -> list[str]:
                       energy=np.asarray(o.energy, float),
                       state_names=np.array(_state_names(o)), **extra, **_event_arrays(o))
         _replace(path, lambda tmp: np.savez(tmp, **arrays))
-        written.append(str(path))
+        written.append(_noted(o, path, start))
     if o.scene.plots:
         written += _plots(o, out, stem)
     return written
@@ -171,16 +195,19 @@ def _plots(o, out: Path, stem: str) -> list[str]:
     written = []
     for kind, figure in (("paths", paths_figure), ("energy", energy_figure)):
         if kind in o.scene.plots:
+            start = time.perf_counter()
             fig = figure(plt, o)
             path = out / f"{stem}_{kind}.png"
             _replace(path, lambda tmp: fig.savefig(tmp, dpi=120))
             plt.close(fig)
-            written.append(str(path))
+            written.append(_noted(o, path, start))
     if "animation" in o.scene.plots:
+        start = time.perf_counter()
         with Stage("writing the animation", enabled=None if o.show_progress else False):
             gif = _animation(plt, o, pos, out, stem, horizontal, vertical)
-            if gif is not None:
-                written.append(gif)
+        if gif is not None:
+            path, frames = gif
+            written.append(_noted(o, path, start, f"{frames} frames at {FPS}/s"))
     return written
 
 
@@ -396,10 +423,10 @@ FPS = 25                # frames per second of the animation
 MAX_FRAMES = 150        # at most this many frames (6 s at FPS), spread over the outputs
 
 
-def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str | None:
-    """The GIF, drawn by blitting: the axes, title and labels are rendered once, each
-    frame redraws only the chain, its trail and the time stamp (a full redraw per frame,
-    as matplotlib's writers do, cost about 0.3 s of CPU a frame)."""
+def _animation(plt, o, pos, out, stem, horizontal, vertical) -> tuple[Path, int] | None:
+    """The GIF and its number of frames, drawn by blitting: the axes, title and labels are
+    rendered once, each frame redraws only the chain, its trail and the time stamp (a full
+    redraw per frame, as matplotlib's writers do, is many times the cost)."""
     from PIL import Image    # matplotlib's own dependency: the plot extra, imported when drawn
     parts = _animation_parts(plt, o, horizontal, vertical)
     if parts is None:
@@ -428,7 +455,7 @@ def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str | None:
     path = out / f"{stem}.gif"
     _replace(path, lambda tmp: images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:],
                                              duration=round(1000 / FPS), loop=0))
-    return str(path)
+    return path, len(images)
 
 
 def _animation_parts(plt, o, horizontal: int = 0, vertical: int | None = None):
