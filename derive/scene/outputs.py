@@ -246,12 +246,31 @@ def _axis_label(axis: int) -> str:
 VIEWS = {2: ((0, 1, None),), 3: ((0, 1, "from above (x-y)"), (0, 2, "from the side (x-z)"))}
 
 
+PANEL_WIDTH = 4.6          # inches of one view of the paths plot
+PANEL_MARGIN = 0.9         # inches of it left of the data: tick labels, axis name
+PANEL_HEIGHTS = (2.2, 5.0)  # inches of its data area, at least and at most
+PANEL_FRAME = 1.0          # inches above and below the data area: title, tick labels, axis name
+
+
+def _paths_height(pos: np.ndarray, views) -> float:
+    """The paths figure's height for its widest view's data to fill the width at equal axes
+    (a figure of fixed shape left a wide path, a swing, in a band of empty space)."""
+    finite = pos[np.isfinite(pos).all(axis=(1, 2))]
+    ratios = []
+    for h, v, _ in views:
+        span = [max(np.ptp(np.append(finite[:, :, a], 0.0)), 1e-300) if len(finite) else 1.0 for a in (h, v)]
+        ratios.append(span[1] / span[0])
+    data = min(max((PANEL_WIDTH - PANEL_MARGIN) * max(ratios), PANEL_HEIGHTS[0]), PANEL_HEIGHTS[1])
+    return data + PANEL_FRAME
+
+
 def paths_figure(plt, o):
-    """The bobs' paths with equal axes: one view of a planar run, two of a spherical one."""
+    """The bobs' paths with equal axes: one view of a planar run, two of a spherical one,
+    the figure as tall as the paths need."""
     pos = np.asarray(o.positions, float)
     views = VIEWS[pos.shape[-1]]
-    fig, axes = plt.subplots(1, len(views), figsize=(4.6 * len(views) + 0.4, 4.8), squeeze=False,
-                             layout="constrained")
+    fig, axes = plt.subplots(1, len(views), figsize=(PANEL_WIDTH * len(views) + 0.4, _paths_height(pos, views)),
+                             squeeze=False, layout="constrained")
     for ax, (h, v, name) in zip(axes[0], views):
         for k in range(pos.shape[1]):
             ax.plot(pos[:, k, h], pos[:, k, v], lw=0.7, color=f"C{k}", label=f"bob {k + 1}")

@@ -60,8 +60,20 @@ def test_a_spherical_run_shows_two_projections_with_equal_axes(spherical):
             assert len(lines) == 2
             assert np.allclose(lines[1].get_ydata(), pos[:, 1, v])
         assert fig.get_suptitle() == "Double spherical pendulum through the poles"
+        paths_fill_their_figure(fig)
     finally:
         plt.close(fig)
+
+
+def paths_fill_their_figure(fig):
+    """Equal axes in a figure of the paths' shape: the title sits just above the views and
+    the data areas span the width (no band of empty space above and below a wide swing)."""
+    fig.canvas.draw()
+    title = fig._suptitle.get_window_extent()
+    tops = [a.get_tightbbox().y1 for a in fig.axes]
+    assert title.y0 - max(tops) < 0.25 * fig.dpi, (title, tops)
+    data_width = sum(a.get_window_extent().width for a in fig.axes)
+    assert data_width > 0.7 * fig.bbox.width, (data_width, fig.bbox.width)
 
 
 def test_a_planar_run_shows_its_plane(tmp_path):
@@ -70,6 +82,7 @@ def test_a_planar_run_shows_its_plane(tmp_path):
     try:
         assert len(fig.axes) == 1 and fig.axes[0].get_aspect() == 1.0
         assert (fig.axes[0].get_xlabel(), fig.axes[0].get_ylabel()) == ("x (m)", "y (m)")
+        paths_fill_their_figure(fig)
     finally:
         plt.close(fig)
 
@@ -193,6 +206,9 @@ def test_a_driven_damped_run_plots_its_energy_balance(tmp_path, accuracy, how):
         assert how in low.get_title()
         residual = low.get_lines()[0].get_ydata()
         assert np.allclose(residual[5:], np.maximum(np.abs(change - balance), low.get_ylim()[0])[5:])
+        plt.close(fig)
+        fig = paths_figure(plt, o)              # a swing twice as wide as deep
+        paths_fill_their_figure(fig)
     finally:
         plt.close(fig)
 
