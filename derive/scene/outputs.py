@@ -407,7 +407,8 @@ def energy_balance_figure(plt, o):
     change = e - e[0]
     fig, (ax, low) = plt.subplots(2, 1, figsize=(6, 4.8), sharex=True, height_ratios=(3, 2),
                                   layout="constrained")
-    ax.plot(t, change, lw=1.6, color="C0", label="E - E0")
+    # a wide pale band under the thin W - D: where the balance holds, both are seen
+    ax.plot(t, change, lw=5, alpha=0.35, color="C0", solid_capstyle="butt", label="E - E0")
     if forced:
         ax.plot(t, work, lw=0.8, ls="--", color="C1", label="W: work of the applied forces")
     if damped:
