@@ -92,6 +92,7 @@ def test_planar_document_reads_like_a_paper(tmp_path):
     # words keep their hyphens (not a minus sign), a table says yes rather than True
     assert "PDF-extraction" in flat and "chain-rule" in flat and "\u2212extraction" not in flat
     assert "True" not in text and "M equal: yes" in flat
+    assert "blocks coupling θ and ϕ zero: yes" in flat and "− ϕ blocks" not in flat   # no minus
     # derivatives are fractions, not ASCII run together (d/dtdq'1/d...)
     assert "d/dtd" not in flat and "dL/dq" not in flat and "dq" not in flat
     tex = (tmp_path / "doc.tex").read_text()
