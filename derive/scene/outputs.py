@@ -15,14 +15,30 @@ from ..model import load_model
 from ..model.atlas import find_atlas
 from ..paths import replace_file
 from ..runtime.simulate import normalise_params
-from .scene import SceneError
+from .scene import UNITS, SceneError
 from .run import SCALE_TEXT, conservative, energy_error
 from ..progress import Stage
 
-# Axis labels.  A scene's numbers are SI by convention (lengths in m, masses in kg, g in
-# m/s^2), so times are in s, positions in m, energies in J; angles are in rad.
-TIME_LABEL = "t (s)"
-ENERGY_UNIT = "J"
+def unit(o, quantity: str) -> str:
+    """The unit the plots give a time, length or energy of a run: SI unless the scene's
+    output.units says its numbers are in model units (scene.UNITS).
+
+    Parameters
+    ----------
+    o : Outcome
+        A scene's run.
+    quantity : str
+        "time", "length" or "energy".
+
+    Returns
+    -------
+    str
+    """
+    return UNITS[o.scene.units][quantity]
+
+
+def _time_label(o) -> str:
+    return f"t ({unit(o, 'time')})"
 
 
 def state_columns(model: str) -> list[str]:
@@ -237,8 +253,8 @@ def fit_title(fig, set_title, text: str):
         chars = int(chars * 0.85)
 
 
-def _axis_label(axis: int) -> str:
-    return f"{'xyz'[axis]} (m)"
+def _axis_label(o, axis: int) -> str:
+    return f"{'xyz'[axis]} ({unit(o, 'length')})"
 
 
 # (horizontal axis, vertical axis, what the view is) of the paths plot: a planar pendulum in
@@ -276,8 +292,8 @@ def paths_figure(plt, o):
             ax.plot(pos[:, k, h], pos[:, k, v], lw=0.7, color=f"C{k}", label=f"bob {k + 1}")
         ax.plot([0], [0], "ko", ms=3)
         ax.set_aspect("equal")
-        ax.set_xlabel(_axis_label(h))
-        ax.set_ylabel(_axis_label(v))
+        ax.set_xlabel(_axis_label(o, h))
+        ax.set_ylabel(_axis_label(o, v))
         if name:
             ax.set_title(name, fontsize=8)
     axes[0][0].legend(fontsize=8)
@@ -295,7 +311,7 @@ def energy_figure(plt, o):
     scale of the run's relative energy error, derive/model/energy_scale.py), the energy
     error, on a log axis that starts at the run's unit roundoff.  Driven or damped (the
     energy is not conserved): the energy balance, E - E0 against the work W of the applied
-    forces minus the energy D dissipated, in J, and what is left of it."""
+    forces minus the energy D dissipated, in J (or model units), and what is left of it."""
     if not conservative(o):
         return energy_balance_figure(plt, o)
     e = np.asarray(o.energy, float)
@@ -307,7 +323,7 @@ def energy_figure(plt, o):
     ax.semilogy(o.result.t.astype(float), rel)
     top = float(np.nanmax(rel)) if np.isfinite(rel).any() else floor
     ax.set_ylim(floor, max(top * 10, floor * 100))     # a constant energy: a decade above the floor
-    ax.set_xlabel(TIME_LABEL)
+    ax.set_xlabel(_time_label(o))
     ax.set_ylabel(f"|E - E0| / {SCALE_TEXT}")
     fit_title(fig, lambda text: ax.set_title(text, fontsize=9),
                f"{o.scene.title}: energy error ({o.choice.method}, {o.choice.dtype})")
@@ -415,7 +431,7 @@ def energy_balance_figure(plt, o):
         ax.plot(t, -loss, lw=0.8, ls=":", color="C2", label="-D: energy dissipated")
     ax.plot(t, work - loss, lw=0.8, color="k", label="W - D")
     ax.axhline(0.0, color="0.8", lw=0.5, zorder=0)
-    ax.set_ylabel(f"energy ({ENERGY_UNIT})")
+    ax.set_ylabel(f"energy ({unit(o, 'energy')})")
     ax.legend(fontsize=7, ncols=2, loc="lower left", framealpha=0.8)
     # what is left of the balance: the run's energy error (and the quadrature's)
     scale = np.nanmax(np.abs(np.concatenate([e, work, loss]))) if np.isfinite(e).any() else 1.0
@@ -425,8 +441,8 @@ def energy_balance_figure(plt, o):
     low.semilogy(t, gap, color="C3", lw=0.9)
     top = float(np.nanmax(gap)) if np.isfinite(gap).any() else floor
     low.set_ylim(floor, max(top * 10, floor * 100))
-    low.set_ylabel(f"|E - E0 - (W - D)| ({ENERGY_UNIT})", fontsize=8)
-    low.set_xlabel(TIME_LABEL)
+    low.set_ylabel(f"|E - E0 - (W - D)| ({unit(o, 'energy')})", fontsize=8)
+    low.set_xlabel(_time_label(o))
     low.set_title(f"what the balance leaves (W, D by {how})", fontsize=7)
     fit_title(fig, lambda text: ax.set_title(text, fontsize=9),
                f"{o.scene.title}: energy balance (not conserved: driven/damped; "
@@ -496,8 +512,8 @@ def _animation_parts(plt, o, horizontal: int = 0, vertical: int | None = None):
     ax.set_xlim(-reach, reach)
     ax.set_ylim(-reach, reach)
     ax.set_aspect("equal")
-    ax.set_xlabel(_axis_label(horizontal))
-    ax.set_ylabel(_axis_label(vertical))
+    ax.set_xlabel(_axis_label(o, horizontal))
+    ax.set_ylabel(_axis_label(o, vertical))
     fit_title(fig, lambda text: ax.set_title(text, fontsize=9), o.scene.title)
     line, = ax.plot([], [], "o-", lw=2, color="tab:blue")
     trail, = ax.plot([], [], lw=0.6, color="tab:red")
@@ -507,7 +523,7 @@ def _animation_parts(plt, o, horizontal: int = 0, vertical: int | None = None):
         k = frames[i]
         line.set_data([0, *pos[k, :, horizontal]], [0, *pos[k, :, vertical]])     # the whole chain
         trail.set_data(pos[:k + 1, -1, horizontal], pos[:k + 1, -1, vertical])    # its last bob
-        stamp.set_text(f"t = {t[k]:.2f} s")
+        stamp.set_text(f"t = {t[k]:.2f}" + (" s" if o.scene.units == "SI" else ""))
         return line, trail, stamp
 
     draw(0)                                  # the first frame as the figure (and for a still)

@@ -213,6 +213,39 @@ def test_a_driven_damped_run_plots_its_energy_balance(tmp_path, accuracy, how):
         plt.close(fig)
 
 
+def test_a_scene_in_model_units_says_so_on_every_axis(tmp_path):
+    """output.units = "model" (g = 1, unit lengths: not SI numbers): times, lengths and
+    energies are labelled in model units, angles stay radians; SI by default."""
+    si = outcome(tmp_path, "default", SHORT_PLANAR)
+    model = outcome(tmp_path, "default", SHORT_PLANAR + [("[output]\n", '[output]\nunits = "model"\n'),
+                                                         ("g = 9.81", "g = 1.0")])
+    labels = {}
+    for o in (si, model):
+        figs = [paths_figure(plt, o), energy_figure(plt, o), animation_figure(plt, o)[0]]
+        try:
+            labels[o.scene.units] = ([(a.get_xlabel(), a.get_ylabel()) for f in figs for a in f.axes],
+                                     figs[2].axes[0].texts[0].get_text())
+        finally:
+            for f in figs:
+                plt.close(f)
+    assert labels["SI"] == ([("x (m)", "y (m)"), ("t (s)", "|E - E0| / max(|E0|, m g l)"), ("x (m)", "y (m)")],
+                            "t = 0.00 s")
+    assert labels["model"] == ([("x (model units)", "y (model units)"),
+                                ("t (model units)", "|E - E0| / max(|E0|, m g l)"),
+                                ("x (model units)", "y (model units)")], "t = 0.00")
+
+
+def test_the_units_of_a_scene_are_checked(tmp_path):
+    text = (SCENES / "default.toml").read_text().replace("[output]\n", '[output]\nunits = "imperial"\n')
+    (tmp_path / "s.toml").write_text(text)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    run_ = subprocess.run([sys.executable, "-m", "derive", "run", str(tmp_path / "s.toml")], env=env,
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert run_.returncode == 2 and run_.stderr.strip().splitlines() == [
+        f"derive: error: {tmp_path / 's.toml'}: 'output.units' must be one of SI, model; got 'imperial'"], \
+        run_.stderr
+
+
 def _no_compiler_env(tmp_path: Path) -> dict:
     empty = tmp_path / "bin"
     empty.mkdir()
