@@ -165,23 +165,8 @@ def test_a_long_title_is_wrapped_inside_every_figure(spherical):
         plt.close("all")
 
 
-DRIVEN = """\
-title = "Damped, torque-driven double pendulum"
-[pendulum]
-model = "driven.toml"
-parameters = { m1 = 1.0, m2 = 1.0, l1 = 1.0, l2 = 1.0, g = 9.81, c1 = 0.1, c2 = 0.1 }
-inputs = { tau1 = 0.5, tau2 = 0.0 }
-[initial]
-state = { theta1 = 1.0, theta2 = 0.5 }
-rest = true
-[time]
-stop = 3.0
-outputs = 151
-[accuracy]
-%s
-[output]
-plots = ["energy"]
-"""
+# the example scene of the driven model (examples/scenes), shorter
+DRIVEN = (ROOT / "examples" / "scenes" / "driven.toml").read_text().replace("stop = 10.0", "stop = 3.0")
 
 
 @pytest.mark.parametrize("accuracy, how", [("target = 1e-8", "Gauss"),
@@ -190,7 +175,8 @@ def test_a_driven_damped_run_plots_its_energy_balance(tmp_path, accuracy, how):
     """Not conserved: the plot is E - E0 against the work of the torque minus the energy the
     damping dissipated (in J, over t in s), and what the balance leaves is the run's error."""
     (tmp_path / "driven.toml").write_text((ROOT / "examples" / "models" / "driven.toml").read_text())
-    (tmp_path / "s.toml").write_text(DRIVEN % accuracy)
+    (tmp_path / "s.toml").write_text(DRIVEN.replace("../models/driven.toml", "driven.toml")
+                                     .replace("target = 1e-8", accuracy))
     o = run(load_scene(tmp_path / "s.toml"), show_progress=False)
     fig = energy_figure(plt, o)
     try:

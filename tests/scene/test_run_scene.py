@@ -172,7 +172,8 @@ def test_scene_edge_cases_get_a_clean_answer(tmp_path):
     # each file says what writing it took; the GIF, the slow one, its frames too
     wrote = dict(re.findall(r"^wrote   .*/(\S+) \((.*)\)$", run_.stdout, re.M))
     assert set(wrote) == {"odd.csv", "odd.gif", "odd_energy.png", "odd_paths.png"}, run_.stdout
-    assert re.fullmatch(r"150 frames at 25/s, \d+\.\d s", wrote["odd.gif"]), wrote
+    assert re.fullmatch(r"150 frames at 25/s, \d+\.\d s of CPU in \d+\.\d s", wrote["odd.gif"]), wrote
+    assert all(re.fullmatch(r"\d+\.\d s of CPU in \d+\.\d s", wrote[f]) for f in wrote if f != "odd.gif"), wrote
     forgot = DEFAULT.replace("theta1_dot = 0.0, ", "")
     (tmp_path / "forgot.toml").write_text(forgot)
     run_ = derive_cli("run", str(tmp_path / "forgot.toml"), cwd=tmp_path)
