@@ -299,7 +299,8 @@ def _print_run(summary: dict) -> None:
     print(f"state   {', '.join(f'{n} = {v:.10g}' for n, v in zip(s['state_names'], s['final_state']))}"
           + (f" (chart {s['final_chart']})" if s["final_chart"] else ""))
     for f in s["files"]:
-        print(f"wrote   {f}")
+        note = s.get("file_notes", {}).get(f)
+        print(f"wrote   {f}" + (f" ({note})" if note else ""))
     print(f"time    {s['seconds']:.2f} s"
           + (f" (writing the files {s['outputs_seconds']:.2f} s)" if s["files"] else ""))
 

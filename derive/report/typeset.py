@@ -133,17 +133,30 @@ def _pieces(terms, names, budget) -> list[str]:
             continue
         coeff, factors = t.as_coeff_mul()
         group = tex(coeff, names) if coeff not in (1, -1) else ("-" if coeff == -1 else "")
+        groups = []
         for f in factors:
             ft = tex(f, names)
             if f.is_Add:
                 ft = rf"\left({ft}\right)"
             if group.strip("-") and width(group) + width(ft) > budget:
-                out.append(group)
+                groups.append(group)
                 group = r"\cdot " + ft
             else:
                 group = f"{group} {ft}".strip()
-        out.append(group)
+        out += _no_orphan(groups, group, budget)
     return out
+
+
+ORPHAN = 0.3        # a product's last line narrower than this part of the budget joins the one before
+
+
+def _no_orphan(groups: list[str], last: str, budget: float) -> list[str]:
+    """A product's lines, its last one (a lone factor, "\\cdot \\sin(x)") put back on the line
+    before when it is short and the two overrun the budget by at most a quarter (the
+    budget is an estimate well on the safe side): no line of one small factor."""
+    if groups and width(last) < ORPHAN * budget and width(groups[-1]) + width(last) <= 1.25 * budget:
+        return groups[:-1] + [groups[-1] + " " + last.removeprefix(r"\cdot ")]
+    return groups + [last]
 
 
 def _split(pieces: list[str], budget: float) -> list[str]:
@@ -282,8 +295,9 @@ def abridge(lines: list[str], cap: int = CAP) -> list[str]:
     for k, line in enumerate(lines):
         if total + len(line) > cap and out:
             rest = len(lines) - k
+            # -{}- : two hyphens, as typed (typewriter T1 fonts ligature -- into an en dash)
             out.append(rf"\qquad \dots \text{{ ({rest} more line{'s' if rest > 1 else ''}; "
-                       rf"in full in \texttt{{derive verify --json}})}}")
+                       rf"in full in \texttt{{derive verify -{{}}-json}})}}")
             return out
         out.append(line)
         total += len(line)

@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 import tempfile
 import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -15,14 +16,30 @@ from ..model.atlas import find_atlas
 from ..paths import replace_file
 from ..runtime.simulate import normalise_params
 from ..runtime.energy_error import relative_change
-from .scene import SceneError
+from .scene import UNITS, SceneError
 from .run import SCALE_TEXT, conservative, energy_error
 from ..progress import Stage
 
-# Axis labels.  A scene's numbers are SI by convention (lengths in m, masses in kg, g in
-# m/s^2), so times are in s, positions in m, energies in J; angles are in rad.
-TIME_LABEL = "t (s)"
-ENERGY_UNIT = "J"
+def unit(o, quantity: str) -> str:
+    """The unit the plots give a time, length or energy of a run: SI unless the scene's
+    output.units says its numbers are in model units (scene.UNITS).
+
+    Parameters
+    ----------
+    o : Outcome
+        A scene's run.
+    quantity : str
+        "time", "length" or "energy".
+
+    Returns
+    -------
+    str
+    """
+    return UNITS[o.scene.units][quantity]
+
+
+def _time_label(o) -> str:
+    return f"t ({unit(o, 'time')})"
 
 
 def state_columns(model: str) -> list[str]:
@@ -95,7 +112,34 @@ def output_dir(o) -> Path:
         raise SceneError(f"'output.directory': cannot write to '{out}': {exc.strerror}") from None
 
 
+def _clock() -> tuple[float, float]:
+    """(wall, CPU) seconds now: what writing a file took, and what of it was its own work."""
+    return time.perf_counter(), time.process_time()
+
+
+def _noted(o, path: Path | str, start: tuple[float, float], what: str = "") -> str:
+    """Record what writing `path` took since `start` (:func:`_clock`), the summary prints it
+    beside the file's name: the wall time a user waits and the CPU time that is the file's
+    own cost (on a busy machine the two differ); returns the path as text."""
+    wall, cpu = (now - then for now, then in zip(_clock(), start))
+    cost = f"{cpu:.1f} s of CPU in {wall:.1f} s"
+    o.file_notes[str(path)] = f"{what}, {cost}" if what else cost
+    return str(path)
+
+
 def write_outputs(o) -> list[str]:
+    """Write the trajectory, plots and animation a scene asks for into its output folder.
+
+    Parameters
+    ----------
+    o : Outcome
+        A scene's run (derive.scene.run.run); ``o.file_notes`` gets what each file took.
+
+    Returns
+    -------
+    list of str
+        The files written.
+    """
     wanted = o.scene.trajectory + o.scene.plots
     if not wanted:
         return []
@@ -103,6 +147,7 @@ def write_outputs(o) -> list[str]:
     stem = Path(o.scene.source).stem
     written = []
     names, data = _columns(o)
+    start = _clock()
     if "csv" in o.scene.trajectory:
         path = out / f"{stem}.csv"
         header = ",".join(names)
@@ -116,10 +161,12 @@ def write_outputs(o) -> list[str]:
         else:
             _replace(path, lambda tmp: np.savetxt(tmp, data, delimiter=",", header=header, comments="",
                                                   fmt="%.17g"))
-        written.append(str(path))
+        written.append(_noted(o, path, start))
         if o.result.events is not None:
-            written.append(_events_csv(o, out / f"{stem}_events.csv"))
+            start = _clock()
+            written.append(_noted(o, _events_csv(o, out / f"{stem}_events.csv"), start))
     if "npz" in o.scene.trajectory:
+        start = _clock()
         path = out / f"{stem}.npz"
         extra = {"chart": np.asarray(o.result.chart, dtype=str)} if o.result.chart is not None else {}
         arrays = dict(t=np.asarray(o.result.t, float), y=np.asarray(o.result.y, float),
@@ -127,7 +174,7 @@ def write_outputs(o) -> list[str]:
                       energy=np.asarray(o.energy, float),
                       state_names=np.array(_state_names(o)), **extra, **_event_arrays(o))
         _replace(path, lambda tmp: np.savez(tmp, **arrays))
-        written.append(str(path))
+        written.append(_noted(o, path, start))
     if o.scene.plots:
         written += _plots(o, out, stem)
     return written
@@ -172,16 +219,19 @@ def _plots(o, out: Path, stem: str) -> list[str]:
     written = []
     for kind, figure in (("paths", paths_figure), ("energy", energy_figure)):
         if kind in o.scene.plots:
+            start = _clock()
             fig = figure(plt, o)
             path = out / f"{stem}_{kind}.png"
             _replace(path, lambda tmp: fig.savefig(tmp, dpi=120))
             plt.close(fig)
-            written.append(str(path))
+            written.append(_noted(o, path, start))
     if "animation" in o.scene.plots:
+        start = _clock()
         with Stage("writing the animation", enabled=None if o.show_progress else False):
             gif = _animation(plt, o, pos, out, stem, horizontal, vertical)
-            if gif is not None:
-                written.append(gif)
+        if gif is not None:
+            path, frames = gif
+            written.append(_noted(o, path, start, f"{frames} frames at {FPS}/s"))
     return written
 
 
@@ -211,8 +261,8 @@ def fit_title(fig, set_title, text: str):
         chars = int(chars * 0.85)
 
 
-def _axis_label(axis: int) -> str:
-    return f"{'xyz'[axis]} (m)"
+def _axis_label(o, axis: int) -> str:
+    return f"{'xyz'[axis]} ({unit(o, 'length')})"
 
 
 # (horizontal axis, vertical axis, what the view is) of the paths plot: a planar pendulum in
@@ -220,19 +270,38 @@ def _axis_label(axis: int) -> str:
 VIEWS = {2: ((0, 1, None),), 3: ((0, 1, "from above (x-y)"), (0, 2, "from the side (x-z)"))}
 
 
+PANEL_WIDTH = 4.6          # inches of one view of the paths plot
+PANEL_MARGIN = 0.9         # inches of it left of the data: tick labels, axis name
+PANEL_HEIGHTS = (2.2, 5.0)  # inches of its data area, at least and at most
+PANEL_FRAME = 1.0          # inches above and below the data area: title, tick labels, axis name
+
+
+def _paths_height(pos: np.ndarray, views) -> float:
+    """The paths figure's height for its widest view's data to fill the width at equal axes
+    (a figure of fixed shape left a wide path, a swing, in a band of empty space)."""
+    finite = pos[np.isfinite(pos).all(axis=(1, 2))]
+    ratios = []
+    for h, v, _ in views:
+        span = [max(np.ptp(np.append(finite[:, :, a], 0.0)), 1e-300) if len(finite) else 1.0 for a in (h, v)]
+        ratios.append(span[1] / span[0])
+    data = min(max((PANEL_WIDTH - PANEL_MARGIN) * max(ratios), PANEL_HEIGHTS[0]), PANEL_HEIGHTS[1])
+    return data + PANEL_FRAME
+
+
 def paths_figure(plt, o):
-    """The bobs' paths with equal axes: one view of a planar run, two of a spherical one."""
+    """The bobs' paths with equal axes: one view of a planar run, two of a spherical one,
+    the figure as tall as the paths need."""
     pos = np.asarray(o.positions, float)
     views = VIEWS[pos.shape[-1]]
-    fig, axes = plt.subplots(1, len(views), figsize=(4.6 * len(views) + 0.4, 4.8), squeeze=False,
-                             layout="constrained")
+    fig, axes = plt.subplots(1, len(views), figsize=(PANEL_WIDTH * len(views) + 0.4, _paths_height(pos, views)),
+                             squeeze=False, layout="constrained")
     for ax, (h, v, name) in zip(axes[0], views):
         for k in range(pos.shape[1]):
             ax.plot(pos[:, k, h], pos[:, k, v], lw=0.7, color=f"C{k}", label=f"bob {k + 1}")
         ax.plot([0], [0], "ko", ms=3)
         ax.set_aspect("equal")
-        ax.set_xlabel(_axis_label(h))
-        ax.set_ylabel(_axis_label(v))
+        ax.set_xlabel(_axis_label(o, h))
+        ax.set_ylabel(_axis_label(o, v))
         if name:
             ax.set_title(name, fontsize=8)
     axes[0][0].legend(fontsize=8)
@@ -250,7 +319,7 @@ def energy_figure(plt, o):
     scale of the run's relative energy error, derive/model/energy_scale.py), the energy
     error, on a log axis that starts at the run's unit roundoff.  Driven or damped (the
     energy is not conserved): the energy balance, E - E0 against the work W of the applied
-    forces minus the energy D dissipated, in J, and what is left of it."""
+    forces minus the energy D dissipated, in J (or model units), and what is left of it."""
     if not conservative(o):
         return energy_balance_figure(plt, o)
     e = np.asarray(o.energy, float)
@@ -262,7 +331,7 @@ def energy_figure(plt, o):
     ax.semilogy(o.result.t.astype(float), rel)
     top = float(np.nanmax(rel)) if np.isfinite(rel).any() else floor
     ax.set_ylim(floor, max(top * 10, floor * 100))     # a constant energy: a decade above the floor
-    ax.set_xlabel(TIME_LABEL)
+    ax.set_xlabel(_time_label(o))
     ax.set_ylabel(f"|E - E0| / {SCALE_TEXT}")
     fit_title(fig, lambda text: ax.set_title(text, fontsize=9),
                f"{o.scene.title}: energy error ({o.choice.method}, {o.choice.dtype})")
@@ -362,14 +431,15 @@ def energy_balance_figure(plt, o):
     change = e - e[0]
     fig, (ax, low) = plt.subplots(2, 1, figsize=(6, 4.8), sharex=True, height_ratios=(3, 2),
                                   layout="constrained")
-    ax.plot(t, change, lw=1.6, color="C0", label="E - E0")
+    # a wide pale band under the thin W - D: where the balance holds, both are seen
+    ax.plot(t, change, lw=5, alpha=0.35, color="C0", solid_capstyle="butt", label="E - E0")
     if forced:
         ax.plot(t, work, lw=0.8, ls="--", color="C1", label="W: work of the applied forces")
     if damped:
         ax.plot(t, -loss, lw=0.8, ls=":", color="C2", label="-D: energy dissipated")
     ax.plot(t, work - loss, lw=0.8, color="k", label="W - D")
     ax.axhline(0.0, color="0.8", lw=0.5, zorder=0)
-    ax.set_ylabel(f"energy ({ENERGY_UNIT})")
+    ax.set_ylabel(f"energy ({unit(o, 'energy')})")
     ax.legend(fontsize=7, ncols=2, loc="lower left", framealpha=0.8)
     # what is left of the balance: the run's energy error (and the quadrature's)
     scale = np.nanmax(np.abs(np.concatenate([e, work, loss]))) if np.isfinite(e).any() else 1.0
@@ -379,8 +449,8 @@ def energy_balance_figure(plt, o):
     low.semilogy(t, gap, color="C3", lw=0.9)
     top = float(np.nanmax(gap)) if np.isfinite(gap).any() else floor
     low.set_ylim(floor, max(top * 10, floor * 100))
-    low.set_ylabel(f"|E - E0 - (W - D)| ({ENERGY_UNIT})", fontsize=8)
-    low.set_xlabel(TIME_LABEL)
+    low.set_ylabel(f"|E - E0 - (W - D)| ({unit(o, 'energy')})", fontsize=8)
+    low.set_xlabel(_time_label(o))
     low.set_title(f"what the balance leaves (W, D by {how})", fontsize=7)
     fit_title(fig, lambda text: ax.set_title(text, fontsize=9),
                f"{o.scene.title}: energy balance (not conserved: driven/damped; "
@@ -397,10 +467,10 @@ FPS = 25                # frames per second of the animation
 MAX_FRAMES = 150        # at most this many frames (6 s at FPS), spread over the outputs
 
 
-def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str | None:
-    """The GIF, drawn by blitting: the axes, title and labels are rendered once, each
-    frame redraws only the chain, its trail and the time stamp (a full redraw per frame,
-    as matplotlib's writers do, cost about 0.3 s of CPU a frame)."""
+def _animation(plt, o, pos, out, stem, horizontal, vertical) -> tuple[Path, int] | None:
+    """The GIF and its number of frames, drawn by blitting: the axes, title and labels are
+    rendered once, each frame redraws only the chain, its trail and the time stamp (a full
+    redraw per frame, as matplotlib's writers do, is many times the cost)."""
     from PIL import Image    # matplotlib's own dependency: the plot extra, imported when drawn
     parts = _animation_parts(plt, o, horizontal, vertical)
     if parts is None:
@@ -429,7 +499,7 @@ def _animation(plt, o, pos, out, stem, horizontal, vertical) -> str | None:
     path = out / f"{stem}.gif"
     _replace(path, lambda tmp: images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:],
                                              duration=round(1000 / FPS), loop=0))
-    return str(path)
+    return path, len(images)
 
 
 def _animation_parts(plt, o, horizontal: int = 0, vertical: int | None = None):
@@ -450,8 +520,8 @@ def _animation_parts(plt, o, horizontal: int = 0, vertical: int | None = None):
     ax.set_xlim(-reach, reach)
     ax.set_ylim(-reach, reach)
     ax.set_aspect("equal")
-    ax.set_xlabel(_axis_label(horizontal))
-    ax.set_ylabel(_axis_label(vertical))
+    ax.set_xlabel(_axis_label(o, horizontal))
+    ax.set_ylabel(_axis_label(o, vertical))
     fit_title(fig, lambda text: ax.set_title(text, fontsize=9), o.scene.title)
     line, = ax.plot([], [], "o-", lw=2, color="tab:blue")
     trail, = ax.plot([], [], lw=0.6, color="tab:red")
@@ -461,7 +531,7 @@ def _animation_parts(plt, o, horizontal: int = 0, vertical: int | None = None):
         k = frames[i]
         line.set_data([0, *pos[k, :, horizontal]], [0, *pos[k, :, vertical]])     # the whole chain
         trail.set_data(pos[:k + 1, -1, horizontal], pos[:k + 1, -1, vertical])    # its last bob
-        stamp.set_text(f"t = {t[k]:.2f} s")
+        stamp.set_text(f"t = {t[k]:.2f}" + (" s" if o.scene.units == "SI" else ""))
         return line, trail, stamp
 
     draw(0)                                  # the first frame as the figure (and for a still)

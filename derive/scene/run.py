@@ -89,6 +89,7 @@ class Outcome:
     achieved: float | None
     seconds: float
     files: list[str] = field(default_factory=list)
+    file_notes: dict[str, str] = field(default_factory=dict)   # file -> what writing it took
     velocities: np.ndarray | None = None     # like positions
     show_progress: bool = False          # whether writing the outputs may draw a status line
     early_error: float | None = None     # the error the run commits early on (its trust horizon's e0)
@@ -770,6 +771,7 @@ def summary(o: Outcome) -> dict:
         "relative_energy_error": drift, "energy_scale": scale, "energy_scale_is": SCALE_TEXT,
         # with applied forces or damping the energy changes by the work they do: not an error
         "conservative": conservative(o),
-        "steps": [s.line() for s in o.steps], "files": o.files, "seconds": o.seconds,
+        "steps": [s.line() for s in o.steps], "files": o.files,
+        "file_notes": o.file_notes, "seconds": o.seconds,
         "note": o.choice.note, "warnings": run_warnings(o),
     }

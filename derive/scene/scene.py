@@ -21,6 +21,11 @@ FIXED_STEP = FIXED
 SCALARS = CONTRACT_SCALARS      # the precision ladder, lowest first (the contract's table)
 TRAJECTORY_FORMATS = ("csv", "npz")
 PLOTS = ("paths", "energy", "animation")
+# output.units: what the plots call a time, a length and an energy.  A scene's numbers are
+# SI by convention (kg, m, s, g = 9.81); "model" says they are not (g = 1, unit lengths...).
+# Angles are radians either way.
+UNITS = {"SI": {"time": "s", "length": "m", "energy": "J"},
+         "model": {"time": "model units", "length": "model units", "energy": "model units"}}
 MAX_OUTPUTS = 10_000_000        # output times of one scene: ~3 GiB with its observables
 
 
@@ -45,6 +50,7 @@ class Scene:
     trajectory: tuple[str, ...] = ()
     inputs: dict | None = None       # a model's run-time inputs, held constant (pendulum.inputs)
     plots: tuple[str, ...] = ()
+    units: str = "SI"                # output.units: a key of UNITS
     events: dict | None = None       # [events]: name -> expression or {expression, direction, terminal}
     atlas: bool | None = None        # pendulum.atlas; None: the chart atlas where the motion needs it
     guard: tuple | None = None       # abm12: (rtol, atol) of its stability guard (None: simulate's default)
@@ -279,7 +285,7 @@ def _parse_accuracy(t: dict) -> dict:
 
 
 def _parse_output(t: dict) -> dict:
-    _known(t, ("directory", "trajectory", "plots"), "[output]")
+    _known(t, ("directory", "trajectory", "plots", "units"), "[output]")
     directory = t.get("directory", "out")
     if not isinstance(directory, str) or not directory:
         raise SceneError("'output.directory' must be a non-empty string")
@@ -291,7 +297,8 @@ def _parse_output(t: dict) -> dict:
         if not isinstance(value, list):
             raise SceneError(f"'output.{key}' must be a list")
         lists[key] = tuple(_choice(v, f"output.{key}", allowed) for v in value)
-    return {"output_dir": Path(directory), **lists}
+    units = _choice(t.get("units", "SI"), "output.units", tuple(UNITS))
+    return {"output_dir": Path(directory), "units": units, **lists}
 
 
 def _parse_events(t: dict, model: str, accuracy: dict) -> dict | None:

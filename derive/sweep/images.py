@@ -46,18 +46,42 @@ def _label(name: str, unit: str | None) -> str:
 
 def _list_ticks(axis, values: np.ndarray) -> None:
     """An axis of listed (not evenly spaced) values: ticks at the values themselves, at most
-    MAX_TICKS of them labelled, slanted when their labels would run into each other."""
+    MAX_TICKS of them labelled (:func:`_unclutter` drops the labels that would still touch,
+    once the figure is laid out)."""
     from matplotlib.ticker import FixedLocator, NullLocator    # the plot extra, imported when drawn
     step = int(np.ceil(len(values) / MAX_TICKS))
     shown = values[::step]
     axis.set_major_locator(FixedLocator(shown))
     axis.set_minor_locator(NullLocator())
-    labels = [f"{v:.4g}" for v in shown]
-    axis.set_ticklabels(labels)
-    if axis.axis_name == "x" and sum(len(label) + 2 for label in labels) > 48:
-        for label in axis.get_ticklabels():
-            label.set_rotation(35)
-            label.set_horizontalalignment("right")
+    axis.set_ticklabels([_tick_text(v) for v in shown])
+
+
+def _tick_text(value: float) -> str:
+    """A listed value as a tick label, with the minus sign matplotlib's own ticks use."""
+    return f"{value:.4g}".replace("-", "\u2212")
+
+
+GAP = 4                 # pixels between two tick labels, at least
+
+
+def _unclutter(fig, axis) -> None:
+    """Blank the labels of a listed axis that run into a label kept before them (values
+    bunched together: 0, 0.05, 0.1), measured as drawn; the last value keeps its label."""
+    fig.canvas.draw()
+    labels = axis.get_ticklabels()
+    along = (lambda b: (b.x0, b.x1)) if axis.axis_name == "x" else (lambda b: (b.y0, b.y1))
+    spans = sorted(((along(label.get_window_extent()), label) for label in labels if label.get_text()),
+                   key=lambda s: s[0][0] + s[0][1])      # in the order of the values (label centres)
+    kept = []
+    touches = lambda span: bool(kept) and span[0] < kept[-1][0][1] + GAP
+    for span, label in spans:
+        while label is spans[-1][1] and len(kept) > 1 and touches(span):
+            kept.pop()[1].set_text("")              # the last value rather than those before
+        if touches(span):
+            label.set_text("")
+            continue
+        kept.append((span, label))
+    axis.set_ticklabels([label.get_text() for label in labels])    # (a redraw reads the formatter)
 
 
 def _uniform(values: np.ndarray) -> bool:
@@ -120,6 +144,7 @@ def image_figure(plt, ds, name: str, title: str):
     norm = _norm(name, z)
     if norm is not None:
         z = np.where(z > 0, z, np.nan)                 # a log scale: zero is shown as none
+    listed = []
     if _uniform(x) and _uniform(y):
         image = ax.imshow(np.ma.masked_invalid(z), origin="lower", cmap=cmap, aspect="auto", norm=norm,
                           extent=(x[0], x[-1], y[0], y[-1]), interpolation="nearest")
@@ -130,6 +155,7 @@ def image_figure(plt, ds, name: str, title: str):
                 setter("log")
             if not _uniform(values):
                 _list_ticks(axis, values)
+                listed.append(axis)
     bar = fig.colorbar(image, ax=ax)
     bar.set_label(_label(name.replace("_", " "), unit(name))
                   + (" (grey: none)" if name.endswith("_time") else
@@ -138,4 +164,6 @@ def image_figure(plt, ds, name: str, title: str):
     ax.set_xlabel(_label(xdim, unit(xdim)))
     ax.set_ylabel(_label(ydim, unit(ydim)))
     fit_title(fig, lambda text: fig.suptitle(text), title)
+    for axis in listed:
+        _unclutter(fig, axis)
     return fig

@@ -98,7 +98,7 @@ def planar_is_vertical_plane_of_spherical() -> Check:
 
     At phi = 0 the standard chart's link lies in the x-z plane as (sin t, 0, -cos t),
     the planar chart's (sin t, -cos t); so the theta rows of M and F must equal
-    planar's, the theta-phi blocks of M must vanish and the phi rows of F too
+    planar's, the blocks of M coupling theta and phi must vanish and the phi rows of F too
     (the motion stays in the plane).
     """
     s, p = derive("spherical_std"), derive("planar")
@@ -115,7 +115,7 @@ def planar_is_vertical_plane_of_spherical() -> Check:
     stays = matrix_is_zero(F.extract([1, 3], [0]), angles)
     ok = same_M and same_F and decoupled and stays
     return Check("planar = spherical_std in the plane phi = 0", ok,
-                 f"M equal: {same_M}, F equal: {same_F}, theta-phi blocks zero: {decoupled}, "
+                 f"M equal: {same_M}, F equal: {same_F}, blocks coupling theta and phi zero: {decoupled}, "
                  f"phi forcing zero: {stays}", ("planar", "spherical_std"), 0, "exact")
 
 

@@ -92,6 +92,7 @@ def test_planar_document_reads_like_a_paper(tmp_path):
     # words keep their hyphens (not a minus sign), a table says yes rather than True
     assert "PDF-extraction" in flat and "chain-rule" in flat and "\u2212extraction" not in flat
     assert "True" not in text and "M equal: yes" in flat
+    assert "blocks coupling θ and ϕ zero: yes" in flat and "− ϕ blocks" not in flat   # no minus
     # derivatives are fractions, not ASCII run together (d/dtdq'1/d...)
     assert "d/dtd" not in flat and "dL/dq" not in flat and "dq" not in flat
     tex = (tmp_path / "doc.tex").read_text()
@@ -152,3 +153,19 @@ def test_a_triple_pendulum_has_its_hamiltonian_form_without_a_closed_inverse(tmp
     check_document("triple", text, log, pages)
     flat = " ".join(text.split())
     assert "Hamiltonian form" in flat and "solved in the code" in flat
+
+
+def test_an_abridged_formula_names_the_command_as_typed(tmp_path):
+    """The note under an abridged formula reads "derive verify --json" in the PDF, two
+    hyphens a reader can type (typewriter T1 fonts would join -- into an en dash)."""
+    sys.path.insert(0, str(ROOT))
+    from derive.report import latex, typeset as ts
+    lines = ts.abridge([f"x_{{{k}}} = {k}" for k in range(40)], cap=60)
+    preamble = latex.environment().get_template("preamble.tex.j2").render(paper="a4paper")
+    (tmp_path / "doc.tex").write_text(preamble + "\\begin{document}\n\\begin{align*}\n"
+                                      + " \\\\\n".join(lines) + "\n\\end{align*}\n\\end{document}\n")
+    subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "doc.tex"], cwd=tmp_path,
+                   capture_output=True, timeout=300, check=True)
+    text = subprocess.run(["pdftotext", str(tmp_path / "doc.pdf"), "-"], capture_output=True,
+                          text=True, check=True).stdout
+    assert "more lines; in full in derive verify --json" in " ".join(text.split()), text

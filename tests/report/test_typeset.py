@@ -35,3 +35,17 @@ def test_model_names_and_titles_are_upright_text():
     assert ts.text("My double pendulum") == "My double pendulum"
     assert ts.text("Four-link chain, 50% damped (theta, varphi)") == \
         r"Four-link chain, 50\% damped ($\theta$, $\varphi$)"
+
+
+def test_a_long_product_leaves_no_line_of_one_small_factor():
+    """A product a little wider than its line (the spherical atlas's claims) is not broken
+    to leave its last factor, sin(vartheta1), alone on a line; a much wider one is still
+    broken into lines that fit."""
+    import sympy as sp
+    th, ph, vt, vp, w, l = sp.symbols("theta1 phi1 vartheta1 varphi1 w1 l1")
+    term = -w * l * sp.cos(th) ** 2 * sp.sin(ph) ** 4 * sp.sin(vp) * sp.sin(vt)
+    lines = ts.expr_lines(term, ts.Names(), budget=36)
+    assert len(lines) == 1 and ts.width(lines[0]) <= 1.25 * 36, lines
+    wide = ts.expr_lines(term * sp.cos(vp) ** 3 * sp.cos(ph) * sp.sin(th) ** 2, ts.Names(), budget=36)
+    assert len(wide) == 2 and all(ts.width(ln) <= 1.25 * 36 for ln in wide), wide
+    assert ts.width(wide[-1]) >= ts.ORPHAN * 36, wide

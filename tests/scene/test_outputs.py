@@ -60,8 +60,20 @@ def test_a_spherical_run_shows_two_projections_with_equal_axes(spherical):
             assert len(lines) == 2
             assert np.allclose(lines[1].get_ydata(), pos[:, 1, v])
         assert fig.get_suptitle() == "Double spherical pendulum through the poles"
+        paths_fill_their_figure(fig)
     finally:
         plt.close(fig)
+
+
+def paths_fill_their_figure(fig):
+    """Equal axes in a figure of the paths' shape: the title sits just above the views and
+    the data areas span the width (no band of empty space above and below a wide swing)."""
+    fig.canvas.draw()
+    title = fig._suptitle.get_window_extent()
+    tops = [a.get_tightbbox().y1 for a in fig.axes]
+    assert title.y0 - max(tops) < 0.25 * fig.dpi, (title, tops)
+    data_width = sum(a.get_window_extent().width for a in fig.axes)
+    assert data_width > 0.7 * fig.bbox.width, (data_width, fig.bbox.width)
 
 
 def test_a_planar_run_shows_its_plane(tmp_path):
@@ -70,6 +82,7 @@ def test_a_planar_run_shows_its_plane(tmp_path):
     try:
         assert len(fig.axes) == 1 and fig.axes[0].get_aspect() == 1.0
         assert (fig.axes[0].get_xlabel(), fig.axes[0].get_ylabel()) == ("x (m)", "y (m)")
+        paths_fill_their_figure(fig)
     finally:
         plt.close(fig)
 
@@ -152,23 +165,8 @@ def test_a_long_title_is_wrapped_inside_every_figure(spherical):
         plt.close("all")
 
 
-DRIVEN = """\
-title = "Damped, torque-driven double pendulum"
-[pendulum]
-model = "driven.toml"
-parameters = { m1 = 1.0, m2 = 1.0, l1 = 1.0, l2 = 1.0, g = 9.81, c1 = 0.1, c2 = 0.1 }
-inputs = { tau1 = 0.5, tau2 = 0.0 }
-[initial]
-state = { theta1 = 1.0, theta2 = 0.5 }
-rest = true
-[time]
-stop = 3.0
-outputs = 151
-[accuracy]
-%s
-[output]
-plots = ["energy"]
-"""
+# the example scene of the driven model (examples/scenes), shorter
+DRIVEN = (ROOT / "examples" / "scenes" / "driven.toml").read_text().replace("stop = 10.0", "stop = 3.0")
 
 
 @pytest.mark.parametrize("accuracy, how", [("target = 1e-8", "Gauss"),
@@ -177,7 +175,8 @@ def test_a_driven_damped_run_plots_its_energy_balance(tmp_path, accuracy, how):
     """Not conserved: the plot is E - E0 against the work of the torque minus the energy the
     damping dissipated (in J, over t in s), and what the balance leaves is the run's error."""
     (tmp_path / "driven.toml").write_text((ROOT / "examples" / "models" / "driven.toml").read_text())
-    (tmp_path / "s.toml").write_text(DRIVEN % accuracy)
+    (tmp_path / "s.toml").write_text(DRIVEN.replace("../models/driven.toml", "driven.toml")
+                                     .replace("target = 1e-8", accuracy))
     o = run(load_scene(tmp_path / "s.toml"), show_progress=False)
     fig = energy_figure(plt, o)
     try:
@@ -193,8 +192,44 @@ def test_a_driven_damped_run_plots_its_energy_balance(tmp_path, accuracy, how):
         assert how in low.get_title()
         residual = low.get_lines()[0].get_ydata()
         assert np.allclose(residual[5:], np.maximum(np.abs(change - balance), low.get_ylim()[0])[5:])
+        plt.close(fig)
+        fig = paths_figure(plt, o)              # a swing twice as wide as deep
+        paths_fill_their_figure(fig)
     finally:
         plt.close(fig)
+
+
+def test_a_scene_in_model_units_says_so_on_every_axis(tmp_path):
+    """output.units = "model" (g = 1, unit lengths: not SI numbers): times, lengths and
+    energies are labelled in model units, angles stay radians; SI by default."""
+    si = outcome(tmp_path, "default", SHORT_PLANAR)
+    model = outcome(tmp_path, "default", SHORT_PLANAR + [("[output]\n", '[output]\nunits = "model"\n'),
+                                                         ("g = 9.81", "g = 1.0")])
+    labels = {}
+    for o in (si, model):
+        figs = [paths_figure(plt, o), energy_figure(plt, o), animation_figure(plt, o)[0]]
+        try:
+            labels[o.scene.units] = ([(a.get_xlabel(), a.get_ylabel()) for f in figs for a in f.axes],
+                                     figs[2].axes[0].texts[0].get_text())
+        finally:
+            for f in figs:
+                plt.close(f)
+    assert labels["SI"] == ([("x (m)", "y (m)"), ("t (s)", "|E - E0| / max(|E0|, m g l)"), ("x (m)", "y (m)")],
+                            "t = 0.00 s")
+    assert labels["model"] == ([("x (model units)", "y (model units)"),
+                                ("t (model units)", "|E - E0| / max(|E0|, m g l)"),
+                                ("x (model units)", "y (model units)")], "t = 0.00")
+
+
+def test_the_units_of_a_scene_are_checked(tmp_path):
+    text = (SCENES / "default.toml").read_text().replace("[output]\n", '[output]\nunits = "imperial"\n')
+    (tmp_path / "s.toml").write_text(text)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    run_ = subprocess.run([sys.executable, "-m", "derive", "run", str(tmp_path / "s.toml")], env=env,
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert run_.returncode == 2 and run_.stderr.strip().splitlines() == [
+        f"derive: error: {tmp_path / 's.toml'}: 'output.units' must be one of SI, model; got 'imperial'"], \
+        run_.stderr
 
 
 def _no_compiler_env(tmp_path: Path) -> dict:

@@ -1,6 +1,7 @@
 """`derive run SCENE` end to end, as a user meets it."""
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -168,10 +169,15 @@ def test_scene_edge_cases_get_a_clean_answer(tmp_path):
     text = DEFAULT.replace('title = "Chaotic planar double pendulum"', 'title = "Cost $5 and 100% \\\\alpha"')
     text = text.replace('trajectory = ["csv"]', 'trajectory = ["csv"]\nplots = ["paths", "energy", "animation"]')
     scene.write_text(text)
-    run_ = derive_cli("run", str(scene), "--quiet", cwd=tmp_path)
+    run_ = derive_cli("run", str(scene), cwd=tmp_path)
     assert run_.returncode == 0, run_.stderr
     assert sorted(p.name for p in (tmp_path / "sub" / "out" / "default").iterdir()) == \
         ["odd.csv", "odd.gif", "odd_energy.png", "odd_paths.png"]
+    # each file says what writing it took; the GIF, the slow one, its frames too
+    wrote = dict(re.findall(r"^wrote   .*/(\S+) \((.*)\)$", run_.stdout, re.M))
+    assert set(wrote) == {"odd.csv", "odd.gif", "odd_energy.png", "odd_paths.png"}, run_.stdout
+    assert re.fullmatch(r"150 frames at 25/s, \d+\.\d s of CPU in \d+\.\d s", wrote["odd.gif"]), wrote
+    assert all(re.fullmatch(r"\d+\.\d s of CPU in \d+\.\d s", wrote[f]) for f in wrote if f != "odd.gif"), wrote
     forgot = DEFAULT.replace("theta1_dot = 0.0, ", "")
     (tmp_path / "forgot.toml").write_text(forgot)
     run_ = derive_cli("run", str(tmp_path / "forgot.toml"), cwd=tmp_path)

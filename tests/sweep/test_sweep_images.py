@@ -59,3 +59,32 @@ def test_the_energy_error_says_what_it_is_relative_to():
         assert fig.axes[1].get_ylabel() == "energy error: |E - E0| / max(|E0|, m g l)"
     finally:
         plt.close(fig)
+
+
+def labelled_ticks_apart(fig, axis):
+    """The labels of an axis as drawn: none touches the next (matplotlib's text extents)."""
+    fig.canvas.draw()
+    spans = sorted(((b.x0, b.x1) if axis.axis_name == "x" else (b.y0, b.y1))
+                   for b in (lab.get_window_extent() for lab in axis.get_ticklabels() if lab.get_text()))
+    assert all(a[1] < b[0] for a, b in zip(spans, spans[1:])), f"tick labels overlap: {spans}"
+    return len(spans)
+
+
+def test_bunched_listed_values_keep_their_labels_apart():
+    """Listed values bunched together on a linear axis (0, 0.05, ... among -2 and 2): the
+    labels that would run into each other are left out, the ends and the first of a bunch
+    kept, the minus sign matplotlib's own."""
+    bunched = [-2.0, 0.0, 0.05, 0.1, 0.15, 0.2, 2.0]
+    theta1 = np.linspace(-3, 3, 7)
+    z = np.add.outer(np.asarray(bunched), theta1)
+    data = xr.Dataset({"max_abs_theta2": (("theta2", "theta1"), z)},
+                      coords={"theta2": bunched, "theta1": theta1}, attrs={"model": "planar"})
+    fig = image_figure(plt, data, "max_abs_theta2", "bunched")
+    try:
+        ax = fig.axes[0]
+        assert labelled_ticks_apart(fig, ax.xaxis) >= 3
+        shown = [lab.get_text() for lab in ax.get_xticklabels() if lab.get_text()]
+        assert shown[0] == "\u22122" and shown[-1] == "2" and "0" in shown, shown
+        assert list(ax.get_xticks()) == bunched                   # a tick at every value still
+    finally:
+        plt.close(fig)
