@@ -135,12 +135,23 @@ def resolve_model(model, atlas: bool = False) -> str:
             name = load_model(model).name
         except ModelError as exc:
             raise SimulationInputError(f"{exc}; or '{ATLAS}' for the chart atlas") from None
+    refuse_explicit_time(load_model(name))
     if not atlas:
         return name
     try:
         return atlas_for(name).name
     except ModelError as exc:
         raise SimulationInputError(f"atlas=True: {exc}") from None
+
+
+def refuse_explicit_time(model: Model) -> None:
+    """Refuse, in one line, to run a time-dependent model: its kernels take the time t,
+    but no integrator passes it yet (issue 23 item 3, first cut: derivation and kernels)."""
+    if model.is_time_dependent:
+        raise SimulationInputError(
+            f"{model.name}: explicit time in the model (t in its forces, dissipation or pivot) is "
+            f"not supported by the integrators yet (none passes t to the rhs); its equations "
+            f"and kernels are: derive derive | latex | generate")
 
 
 @dataclass(frozen=True, eq=False)
