@@ -117,10 +117,11 @@ def _finite_array(value, what: str) -> np.ndarray:
     return a
 
 
-def resolve_model(model, atlas: bool = False) -> str:
+def resolve_model(model, atlas: bool = False, explicit_time: bool = False) -> str:
     """The name of a model argument: a catalogue name, a model file read before (by its
     name), the path of a model file, or 'spherical' (the chart atlas).  With atlas=True,
-    the key of the model's chart atlas (a spherical chain's: '<name>_atlas')."""
+    the key of the model's chart atlas (a spherical chain's: '<name>_atlas').  A
+    time-dependent model is refused unless explicit_time (a caller that passes t)."""
     if isinstance(model, os.PathLike) or (isinstance(model, str) and is_model_file(model)):
         try:
             name = load_model(model).name
@@ -135,7 +136,8 @@ def resolve_model(model, atlas: bool = False) -> str:
             name = load_model(model).name
         except ModelError as exc:
             raise SimulationInputError(f"{exc}; or '{ATLAS}' for the chart atlas") from None
-    refuse_explicit_time(load_model(name))
+    if not explicit_time:
+        refuse_explicit_time(load_model(name))
     if not atlas:
         return name
     try:
