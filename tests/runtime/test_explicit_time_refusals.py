@@ -31,6 +31,11 @@ def test_simulate_refuses_in_one_line(method, backend):
     assert "\n" not in str(info.value) and "not supported by the integrators yet" in str(info.value)
 
 
+def test_the_atlas_refuses_too():
+    with pytest.raises(derive.SimulationInputError, match=WHY):
+        derive.simulate(PIVOT, [0.1, 0.0], np.linspace(0, 1, 3), PIVOT_P, atlas=True)
+
+
 def test_an_ensemble_of_a_forced_pendulum_refuses():
     p = {"m": 1.0, "l": 1.0, "g": 9.81, "c": 0.1, "F0": 1.0, "w": 3.0}
     with pytest.raises(derive.SimulationInputError, match=WHY):
