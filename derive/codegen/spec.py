@@ -24,6 +24,7 @@ from sympy.core.function import AppliedUndef
 from ..errors import SpecError
 from ..model import load_model, model_names
 from ..model.atlas import atlas_family
+from ..derivation.symbols import t as TIME
 from . import chart_kernels as charts, solve
 from .names import internal
 
@@ -92,6 +93,11 @@ class ModelSpec:
     @property
     def prefix(self) -> str:
         return self.function_prefix or self.name
+
+    @property
+    def is_time_dependent(self) -> bool:
+        """Whether some kernel takes the time t (the model is time-dependent)."""
+        return any(v.key == "time" for v in self.vectors)
 
     @property
     def has_guards(self) -> bool:
@@ -255,10 +261,12 @@ def model_spec(d) -> ModelSpec:
         (y, p), (Output("pos", (len(d.tips), dim), tuple(pos), "tip k, axis j at [k][j]"),)))
 
     q_col, qd_col = sp.Matrix(s.q), sp.Matrix(s.qd)
-    vel = [sp.expand(c) for tip in d.tips for c in tip.jacobian(q_col) * qd_col]
+    # with a moving pivot, d pos / dt has the partial in t too (zero otherwise)
+    vel = [sp.expand(c) for tip in d.tips for c in tip.jacobian(q_col) * qd_col + tip.diff(TIME)]
     kernels.append(Kernel(
         "velocities", f"Cartesian velocities of the bobs (link tips), shape ({len(d.tips)}, {dim}): "
-                      "d pos / dt = (d pos / dq) q'.",
+                      "d pos / dt = (d pos / dq) q'" + (" + d pos / dt at fixed q."
+                                                          if d.model.is_time_dependent else "."),
         (y, p), (Output("vel", (len(d.tips), dim), tuple(vel), "tip k, axis j at [k][j]"),)))
 
     jac = solve.jacobian(dyn, s)
@@ -304,8 +312,9 @@ def model_spec(d) -> ModelSpec:
                 (Output("y_out", (n,), tuple(conv.exprs), f"state of '{target}'"),),
                 tuple(conv.stages), tuple(conv.guards)))
 
+    kernels, time = _with_time(kernels, d)
     vectors = (state, params) + ((inputs,) if inputs is not None else ()) + \
-        ((canonical,) if canonical is not None else ())
+        ((canonical,) if canonical is not None else ()) + ((time,) if time is not None else ())
     spec = ModelSpec(model.name, model.title, model.source, vectors,
                      tuple(_normalise(k) for k in kernels))
     check_spec(spec)
@@ -354,10 +363,28 @@ def linearize_spec(d) -> ModelSpec:
     doc = ("The linearisation of rhs at (y, u): A = df/dy" + (", B = df/du" if s.u else "") +
            ", by differentiating M q'' = F implicitly and reusing the solve of rhs.")
     kernel = Kernel(LINEARIZE, doc, inputs, tuple(outputs), tuple(stages), tuple(d.polar_sines))
+    (kernel,), time = _with_time([kernel], d)        # at the time t, for a time-dependent model
+    vectors += (time,) if time is not None else ()
     spec = ModelSpec(f"{d.model.name}_{LINEARIZE}", d.model.title, d.model.source, vectors,
                      (_normalise(kernel),), function_prefix=d.model.name)
     check_spec(spec)
     return spec
+
+
+def _with_time(kernels: list[Kernel], d) -> tuple[list[Kernel], Vector | None]:
+    """A time-dependent model's kernels whose expressions use the time t take it as their
+    first argument, a vector of one slot (`<m>_rhs(t, y, p, ydot)` with `const double *t`
+    in C, `rhs(t, y, p)` with t of shape (..., 1) in NumPy: batched like y, each point at
+    its own time).  Every other kernel, and every time-independent model's, is as before."""
+    if not d.model.is_time_dependent:
+        return kernels, None
+    time = Vector("time", "TIME", "time_names", (TIME,),
+                  "the time t (a time-dependent model's kernels that use it take it first)")
+    used = [any(TIME in sp.sympify(e).free_symbols
+                for e in (*(e for o in k.outputs for e in o.exprs), *(e for _, e in k.stages), *k.guards))
+            for k in kernels]
+    return [Kernel(k.name, k.doc, (Input("t", time), *k.inputs), k.outputs, k.stages, k.guards)
+            if uses else k for k, uses in zip(kernels, used)], time
 
 
 def _hamiltonian_jacobian(d, x: Input, p: Input, mass, qdot) -> Kernel:

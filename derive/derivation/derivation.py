@@ -71,10 +71,14 @@ def compute(model: Model) -> Derivation:
     F = lagrange.forcing(form, s)
     if R is not None or Q is not None:
         F = F + lagrange.non_conservative(R, Q, s)
+    T = lagrange.kinetic_energy(M, s)
+    pivot = lagrange.pivot_terms(model, s)
+    if pivot is not None:           # a moving pivot: T, V and F gain its terms (M does not)
+        T, V, F = T + pivot.T, V + pivot.V, F + pivot.F
     d = Derivation(model=model, symbols=s,
                    tips=lagrange.tip_positions(model, s),
                    centres=lagrange.mass_centres(model, s),
-                   M=M, F=F, T=lagrange.kinetic_energy(M, s), V=V, dissipation=R, forces=Q)
+                   M=M, F=F, T=T, V=V, dissipation=R, forces=Q)
     k = 0
     for link in model.links:
         n = len(link.chart.coordinates)

@@ -6,6 +6,12 @@ quadratic form T = 1/2 q'^T M(q) q', so Lagrange's equation (seed 000 (1.1))
 becomes M q'' = F with
     F_j = 1/2 q'^T (dM/dq_j) q' - sum_k q'_k (dM/dq_k q')_j - dV/dq_j,
 the Christoffel form.  It is exact and needs no time-dependent symbols.
+
+A prescribed pivot motion r0(t) (a rheonomic constraint) moves every body by r0(t):
+its velocity gains r0'(t), so T gains T_pivot = sum_k m_k r0'.(J_k q') + 1/2 sum_k m_k |r0'|^2
+(linear in q', M unchanged) and V gains g sum_k m_k r0[-1](t).  Lagrange's equation with
+explicit time, d/dt dT/dq' = d2T/dq'dq q' + d2T/dq'dq' q'' + d2T/dq'dt, then adds to F
+    dT_pivot/dq_j - sum_k d2T_pivot/dq'_j dq_k q'_k - d2T_pivot/dq'_j dt.
 """
 from __future__ import annotations
 
@@ -15,7 +21,7 @@ import sympy as sp
 
 from ..model import Model
 from ..model.expressions import parse_expression
-from .symbols import ModelSymbols, names, parse_quantity
+from .symbols import ModelSymbols, motion_names, names, parse_quantity, t
 
 
 def link_directions(model: Model, s: ModelSymbols) -> list[sp.Matrix]:
@@ -34,18 +40,29 @@ def link_vectors(model: Model, s: ModelSymbols) -> list[sp.Matrix]:
             for link, e in zip(model.links, link_directions(model, s))]
 
 
+def pivot_position(model: Model, s: ModelSymbols) -> sp.Matrix:
+    """r0(t; p): where the chain hangs from, the origin unless the model prescribes it."""
+    if model.pivot is None:
+        return sp.zeros(model.dimension, 1)
+    where = model.origin or model.name
+    return sp.Matrix([parse_expression(text, motion_names(s), f"{where}: pivot {axis}")
+                      for axis, text in zip("xyz", model.pivot)])
+
+
 def tip_positions(model: Model, s: ModelSymbols) -> list[sp.Matrix]:
-    """x_1 = q_1, x_2 = q_1 + q_2 (seed 000 below (1.3)): each link's tip."""
-    tips, x = [], sp.zeros(model.dimension, 1)
+    """x_1 = r0 + q_1, x_2 = r0 + q_1 + q_2 (seed 000 below (1.3)): each link's tip."""
+    tips, x = [], pivot_position(model, s)
     for qi in link_vectors(model, s):
         x = x + qi
         tips.append(x)
     return tips
 
 
-def mass_centres(model: Model, s: ModelSymbols) -> list[sp.Matrix]:
-    """Where each body's mass sits: the tip for a point, com*l along the link for a rod."""
-    centres, base = [], sp.zeros(model.dimension, 1)
+def mass_centres(model: Model, s: ModelSymbols, pivot: bool = True) -> list[sp.Matrix]:
+    """Where each body's mass sits: the tip for a point, com*l along the link for a rod;
+    from the pivot r0(t) (`pivot`), or from the origin (the chain's own shape)."""
+    centres = []
+    base = pivot_position(model, s) if pivot else sp.zeros(model.dimension, 1)
     for link, qi in zip(model.links, link_vectors(model, s)):
         centres.append(base + parse_quantity(link.body.com, s) * qi)
         base = base + qi
@@ -197,3 +214,30 @@ def forcing(form: ChainForm, s: ModelSymbols) -> sp.Matrix:
     F = sp.Matrix([(qd.T * dM[j] * qd)[0, 0] / 2 - Mqd_dot[j] - V.diff(s.q[j])
                    for j in range(len(s.q))])
     return F.applyfunc(lambda f: sp.factor_terms(form.filled(sp.expand(f))))
+
+
+@dataclass(frozen=True)
+class PivotTerms:
+    """What a prescribed pivot motion adds to T, V and F (module docstring)."""
+    T: sp.Expr
+    V: sp.Expr
+    F: sp.Matrix
+
+
+def pivot_terms(model: Model, s: ModelSymbols) -> PivotTerms | None:
+    """T_pivot, V_pivot and F_pivot of a model whose pivot moves, None for a fixed pivot
+    at the origin (the catalogue's: its equations stay exactly as they were)."""
+    if model.pivot is None:
+        return None
+    r0 = pivot_position(model, s)
+    r0_dot = r0.diff(t)
+    qd = sp.Matrix(s.qd)
+    masses = [parse_quantity(link.body.mass, s) for link in model.links]
+    T = sp.S.Zero
+    for m, c in zip(masses, mass_centres(model, s, pivot=False)):
+        T += m * (r0_dot.T * (c.jacobian(s.q) * qd))[0, 0] + m * (r0_dot.T * r0_dot)[0, 0] / 2
+    V = s.param("g") * sp.Add(*masses) * r0[-1]
+    dT_dqd = [T.diff(v) for v in s.qd]
+    F = sp.Matrix([T.diff(qj) - sum(dT_dqd[j].diff(qk) * vk for qk, vk in zip(s.q, s.qd))
+                   - dT_dqd[j].diff(t) for j, qj in enumerate(s.q)])
+    return PivotTerms(sp.expand(T), sp.expand(V), F.applyfunc(lambda f: sp.factor_terms(sp.expand(f))))

@@ -12,7 +12,12 @@ import sympy as sp
 
 from .. import cachefile
 from ..model import Model
+from ..model.description import TIME
 from ..model.expressions import parse_expression
+
+# The time: a plain symbol like the others, so a time-dependent model's equations
+# M q'' = F(q, q', p, u, t) print and lambdify as a time-independent model's do.
+t = sp.Symbol(TIME, real=True)
 
 
 @cachefile.register
@@ -49,8 +54,13 @@ def model_symbols(model: Model) -> ModelSymbols:
 
 
 def names(symbols: ModelSymbols) -> dict[str, sp.Symbol]:
-    """Every name a model's expressions may use: parameters, inputs, coordinates, rates."""
-    return {s.name: s for s in (*symbols.params, *symbols.u, *symbols.q, *symbols.qd)}
+    """Every name a model's expressions may use: parameters, inputs, coordinates, rates, the time."""
+    return {s.name: s for s in (*symbols.params, *symbols.u, *symbols.q, *symbols.qd, t)}
+
+
+def motion_names(symbols: ModelSymbols) -> dict[str, sp.Symbol]:
+    """The names a prescribed motion (the pivot's) may use: parameters and the time."""
+    return {s.name: s for s in (*symbols.params, t)}
 
 
 def parse_quantity(text: str, symbols: ModelSymbols) -> sp.Expr:

@@ -23,7 +23,9 @@ from .expressions import FUNCTIONS, parse_expression
 # expression grammar and the constants (a parameter `sin` would shadow sin()).
 # Names the generated code uses itself (M, F, p, y, u, lambda, ...) are allowed:
 # the code generators rename them where a target language needs it.
-RESERVED_NAMES = frozenset(FUNCTIONS) | {"pi"}
+# The time symbol `t` is reserved too: forces, dissipation and the pivot's motion may use it.
+TIME = "t"
+RESERVED_NAMES = frozenset(FUNCTIONS) | {"pi", TIME}
 # a model's NumPy module is <name>.py: it may not shadow what the generated code imports
 SHADOWING = frozenset(sys.stdlib_module_names) | {"numpy", "scipy", "sympy", "mpmath", "derive", "kernels"}
 # A model's generated files are <name><suffix>.c/.h/.py for these suffixes (the kernels:
@@ -103,10 +105,24 @@ class Model:
     dissipation: str | None = None               # Rayleigh dissipation function R(q', q; p)
     forces: tuple[tuple[str, str], ...] = ()     # generalized force Q_j per coordinate name
     origin: str = ""                             # the file it was read from
+    pivot: tuple[str, ...] | None = None         # the pivot's prescribed position r0(t; p), or fixed at 0
 
     @property
     def is_conservative(self) -> bool:
-        return self.dissipation is None and not self.forces
+        """Whether the model's energy is conserved: no dissipation, no applied forces and
+        no explicit time (a moving pivot does work on the chain)."""
+        return self.dissipation is None and not self.forces and not self.is_time_dependent
+
+    @cached_property
+    def is_time_dependent(self) -> bool:
+        """Whether the time `t` occurs anywhere in the description (forces, dissipation,
+        the pivot's motion): the equations are then M q'' = F(q, q', p, u, t)."""
+        names = {n: sp.Symbol(n) for n in (*self.parameters, *self.inputs, *self.state_names, TIME)}
+        where = self.origin or self.name
+        texts = [*(text for _, text in self.forces), *(self.pivot or ())]
+        if self.dissipation is not None:
+            texts.append(self.dissipation)
+        return any(names[TIME] in parse_expression(text, names, where).free_symbols for text in texts)
 
     @property
     def bodies(self) -> int:
@@ -362,8 +378,8 @@ def _link_quantities(model: "Model") -> list:
 
 
 def _check_expressions(model: "Model", where: str) -> None:
-    """Every expression of the model parses and uses only names it declares."""
-    names = {n: sp.Symbol(n) for n in (*model.parameters, *model.inputs, *model.state_names)}
+    """Every expression of the model parses and uses only names it declares (and the time)."""
+    names = {n: sp.Symbol(n) for n in (*model.parameters, *model.inputs, *model.state_names, TIME)}
     params = {n: sp.Symbol(n) for n in model.parameters}
     for i, link in enumerate(model.links, 1):
         for key, value in (("length", link.length), ("body mass", link.body.mass),
@@ -380,6 +396,20 @@ def _check_expressions(model: "Model", where: str) -> None:
             raise ModelError(f"{where}: dissipation uses no rate ({', '.join(model.rate_names)})")
     for coord, text in model.forces:
         parse_expression(text, names, f"{where}: forces.{coord}")
+    motion = {n: names[n] for n in (*model.parameters, TIME)}     # prescribed: no state, no input
+    for axis, text in zip("xyz", model.pivot or ()):
+        parse_expression(text, motion, f"{where}: pivot {axis}")
+
+
+def _pivot(t: dict, dimension: int, where: str) -> tuple[str, ...] | None:
+    """The pivot's position, one expression per axis, or None (fixed at the origin)."""
+    if "pivot" not in t:
+        return None
+    value = t["pivot"]
+    if not isinstance(value, list) or len(value) != dimension:
+        raise ModelError(f"{where}: 'pivot' must be a list of {dimension} expressions "
+                         f"(x, {'y' if dimension == 2 else 'y, z'}) in the parameters and the time t")
+    return tuple(_quantity({"pivot": v}, "pivot", where) for v in value)
 
 
 def parse_model(text: str, origin: str) -> Model:
@@ -390,7 +420,7 @@ def parse_model(text: str, origin: str) -> Model:
     except RecursionError:             # tomllib recurses once per nested inline table
         raise ModelError(f"{origin}: not valid TOML (tables nested too deeply)") from None
     _no_unknown(t, {"name", "title", "source", "dimension", "parameters", "forms", "links",
-                    "inputs", "dissipation", "forces"}, origin)
+                    "inputs", "dissipation", "forces", "pivot"}, origin)
     dimension = _require(t, "dimension", int, origin)
     if dimension not in (2, 3):
         raise ModelError(f"{origin}: 'dimension' must be 2 (planar) or 3 (spherical), got {dimension}")
@@ -442,12 +472,15 @@ def parse_model(text: str, origin: str) -> Model:
     model = Model(name=name, title=_text(t, "title", origin), source=_text(t, "source", origin),
                   dimension=dimension, parameters=params, forms=forms, links=tuple(links), text=text,
                   inputs=inputs, dissipation=dissipation, origin=origin,
+                  pivot=_pivot(t, dimension, origin),
                   forces=tuple((k, _quantity(forces_table, k, f"{origin}: forces")) for k in forces_table))
     _check_names(model, origin)
     _check_expressions(model, origin)
     if "hamiltonian" in forms and not model.is_conservative:
+        why = ("dissipation" if dissipation else "applied forces" if model.forces
+               else "explicit time (a moving pivot)")
         raise ModelError(f"{origin}: the Hamiltonian form is for conservative models; this one has "
-                         f"{'dissipation' if dissipation else 'applied forces'} (remove 'hamiltonian' from 'forms')")
+                         f"{why} (remove 'hamiltonian' from 'forms')")
     if "paper" in forms and (dimension != 3 or len(links) != 2):
         raise ModelError(f"{origin}: the 'paper' forms are the seed's double spherical pendulum's "
                          f"(dimension 3, two links)")

@@ -10,9 +10,10 @@ ctypes batch entry points, in double); without a C compiler, or with backend="nu
 by the generated NumPy kernels.  fun accepts y of shape (n,) or (n, k) (solve_ivp's
 vectorized=True); jac returns the (n, n) matrix d(ydot)/dy.
 
-The models are autonomous, so t only matters for inputs given as a function u(t, y):
+For a time-independent model t only matters for inputs given as a function u(t, y):
 those are evaluated at every (t, y) the integrator asks (a continuous input, as simulate
-does without hold="zoh").  A kernel that
+does without hold="zoh").  A time-dependent model's kernels take t (t in its forces,
+dissipation or pivot): fun and jac pass the t the integrator asks.  A kernel that
 cannot evaluate a state (a chart model's polar sine below its threshold) gives NaN,
 which solve_ivp reports as a failed step.
 """
@@ -23,6 +24,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from ..errors import CompilerMissingError, SimulationInputError
+from ..model import load_model
 from ..model.atlas import ATLAS
 from .model_sizes import model_info
 from .simulate import HeldInputs, normalise_inputs, normalise_params, resolve_model
@@ -54,7 +56,7 @@ def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
         A named tuple ``(fun, jac)``: ``fun`` takes y of shape (n,) or (n, k), ``jac``
         returns the (n, n) matrix d(ydot)/dy; a state a kernel cannot evaluate gives NaN.
     """
-    model = resolve_model(model)
+    model = resolve_model(model, explicit_time=True)
     if model == ATLAS:
         raise SimulationInputError(f"scipy_rhs: the chart atlas '{ATLAS}' switches charts, which solve_ivp "
                                    f"cannot do; give one chart model (spherical_std, spherical_alt, spherical_rot)")
@@ -64,6 +66,8 @@ def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
     u = normalise_inputs(model, inputs)
     info = model_info(model)
     rhs, jacobian = _kernels(model, backend)
+    if load_model(model).is_time_dependent:     # the kernels' first argument: the time, one slot
+        rhs, jacobian = _at_time(rhs), _at_time(jacobian)
 
     def arguments(t: float, y) -> tuple:
         """The kernels' arguments after y: (p,), or (p, u) for a model with inputs."""
@@ -75,17 +79,27 @@ def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
             return (p, np.array([u.at(t, column) for column in np.asarray(y).T], np.float64))
         return (p, np.asarray(u.at(t, y), np.float64))
 
+    time = (lambda t: (t,)) if load_model(model).is_time_dependent else (lambda t: ())
+
     def fun(t, y):
         y = np.asarray(y, np.float64)
         if y.ndim == 2:                      # solve_ivp(vectorized=True): (n, k)
-            return np.asarray(rhs(np.ascontiguousarray(y.T), *arguments(t, y))).T
-        return np.asarray(rhs(y.reshape(info.n), *arguments(t, y)))
+            return np.asarray(rhs(*time(t), np.ascontiguousarray(y.T), *arguments(t, y))).T
+        return np.asarray(rhs(*time(t), y.reshape(info.n), *arguments(t, y)))
 
     def jac(t, y):
         y = np.asarray(y, np.float64).reshape(info.n)
-        return np.asarray(jacobian(y, *arguments(t, y)))
+        return np.asarray(jacobian(*time(t), y, *arguments(t, y)))
 
     return ScipyRHS(fun, jac)
+
+
+def _at_time(kernel):
+    """kernel(t, y, ...) as a function of (t, y, ...) with t a number: t as its one-slot
+    vector, one per state of a batch y."""
+    def call(t, y, *rest):
+        return kernel(np.full(y.shape[:-1] + (1,), t, np.float64), y, *rest)
+    return call
 
 
 def _kernels(model: str, backend: str):

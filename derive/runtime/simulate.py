@@ -117,10 +117,11 @@ def _finite_array(value, what: str) -> np.ndarray:
     return a
 
 
-def resolve_model(model, atlas: bool = False) -> str:
+def resolve_model(model, atlas: bool = False, explicit_time: bool = False) -> str:
     """The name of a model argument: a catalogue name, a model file read before (by its
     name), the path of a model file, or 'spherical' (the chart atlas).  With atlas=True,
-    the key of the model's chart atlas (a spherical chain's: '<name>_atlas')."""
+    the key of the model's chart atlas (a spherical chain's: '<name>_atlas').  A
+    time-dependent model is refused unless explicit_time (a caller that passes t)."""
     if isinstance(model, os.PathLike) or (isinstance(model, str) and is_model_file(model)):
         try:
             name = load_model(model).name
@@ -135,12 +136,24 @@ def resolve_model(model, atlas: bool = False) -> str:
             name = load_model(model).name
         except ModelError as exc:
             raise SimulationInputError(f"{exc}; or '{ATLAS}' for the chart atlas") from None
+    if not explicit_time:
+        refuse_explicit_time(load_model(name))
     if not atlas:
         return name
     try:
         return atlas_for(name).name
     except ModelError as exc:
         raise SimulationInputError(f"atlas=True: {exc}") from None
+
+
+def refuse_explicit_time(model: Model) -> None:
+    """Refuse, in one line, to run a time-dependent model: its kernels take the time t,
+    but no integrator passes it yet (issue 23 item 3, first cut: derivation and kernels)."""
+    if model.is_time_dependent:
+        raise SimulationInputError(
+            f"{model.name}: explicit time in the model (t in its forces, dissipation or pivot) is "
+            f"not supported by the integrators yet (none passes t to the rhs); its equations "
+            f"and kernels are: derive derive | latex | generate")
 
 
 @dataclass(frozen=True, eq=False)

@@ -15,6 +15,8 @@ from ..codegen.contract import ATLAS_CHARTS, EXTENDED, FIXED, MULTISTEP, RUN_MET
 
 from ..model.atlas import ATLAS, atlas_for, find_atlas, standard_member  # noqa: E402  (chart atlases)
 from ..runtime.events import parse_events
+from ..runtime.simulate import refuse_explicit_time
+from ..errors import SimulationInputError
 from types import SimpleNamespace
 SPHERICAL_CHART_MODELS = ATLAS_CHARTS
 FIXED_STEP = FIXED
@@ -114,9 +116,12 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float], bool 
         if atlas:                           # the chain run through its chart atlas
             model = atlas_for(model).name
         names = _parameter_names(model)
+        refuse_explicit_time(load_model(standard_member(model)))
     except ModelError as exc:
         hint = "" if is_model_file(t["model"]) else f"; or '{ATLAS}', the chart atlas"
         raise SceneError(f"'pendulum.model': {exc}{hint}") from None
+    except SimulationInputError as exc:         # a model no integrator runs yet
+        raise SceneError(f"'pendulum.model': {exc}") from None
     given = _table(t, "parameters", "[pendulum]")
     for key in given:
         if key not in names:

@@ -17,7 +17,7 @@ from ..derivation import derive
 from ..derivation.charts import chart_change
 from ..model import load_model, model_names
 from .zero import DIGITS, matrix_is_zero, random_point, trig_is_zero
-from ..derivation.symbols import parse_quantity
+from ..derivation.symbols import parse_quantity, t as TIME
 from ..errors import ModelError
 from ..model.atlas import atlas_for
 from ..model.reductions import reduction
@@ -52,8 +52,10 @@ _system_functions: dict[str, tuple] = {}
 
 
 def _args(d) -> tuple:
-    """What a model's expressions depend on: state, parameters, run-time inputs."""
-    return d.symbols.state + d.symbols.params + d.symbols.u
+    """What a model's expressions depend on: state, parameters, run-time inputs (and the
+    time, for a time-dependent model: the random points are random times too)."""
+    time = (TIME,) if d.model.is_time_dependent else ()
+    return d.symbols.state + d.symbols.params + d.symbols.u + time
 
 
 def _system(d) -> tuple:
@@ -224,11 +226,13 @@ def energy_conservation(name, n_points: int = 20) -> Check:
     d = derive(name)
     s = d.symbols
     args = list(_args(d))
-    E = d.energy
+    explicit = d.model.is_time_dependent
+    E = jacobi_energy(d) if explicit else d.energy
     grad_q = _numeric(sp.Matrix([E.diff(x) for x in s.q]), args)
     grad_qd = _numeric(sp.Matrix([E.diff(x) for x in s.qd]), args)
+    dE_dt = _numeric(E.diff(TIME), args)
     qd = sp.Matrix(s.qd)
-    power = sp.S.Zero
+    power = -d.L.diff(TIME)         # the work of the prescribed motion (zero without t in L)
     if d.forces is not None:
         power += (qd.T * d.forces)[0, 0]
     if d.dissipation is not None:
@@ -241,17 +245,27 @@ def energy_conservation(name, n_points: int = 20) -> Check:
             vals = [pt[x] for x in args]
             acc = accelerations(d, pt)
             terms = ([a * pt[x] for a, x in zip(grad_q(*vals), s.qd)]
-                     + [b * acc[k] for k, b in enumerate(grad_qd(*vals))] + [-power_of(*vals)])
+                     + [b * acc[k] for k, b in enumerate(grad_qd(*vals))] + [dE_dt(*vals), -power_of(*vals)])
             scale = sum(abs(t) for t in terms) or 1
             worst = max(worst, abs(sum(terms)) / scale)
     ok = worst < mpmath.mpf(10) ** -30
     if d.model.is_conservative:
         title, what = "energy conserved", "dE/dt"
+    elif explicit:      # with explicit time T + V is not conserved: Jacobi's h balances
+        title = ("power balance dh/dt = q'.Q - q'.dR/dq' - dL/dt|explicit, h = q'.dL/dq' - L "
+                 "(explicit time: energy not conserved)")
+        what = "dh/dt - q'.Q + q'.dR/dq' + dL/dt|explicit"
     else:
         title, what = "power balance dE/dt = q'.Q - q'.dR/dq'", "dE/dt - q'.Q + q'.dR/dq'"
     return Check(f"{d.name}: {title}", ok,
                  f"largest relative {what} over {n_points} states: {mpmath.nstr(worst, 3)}",
                  (d.name,), n_points, "1e-30", mpmath.nstr(worst, 3))
+
+
+def jacobi_energy(d) -> sp.Expr:
+    """Jacobi's energy h = q'.dL/dq' - L: what balances the power of a time-dependent
+    model (for a time-independent one it is T + V)."""
+    return sp.expand(sum(v * d.L.diff(v) for v in d.symbols.qd) - d.L)
 
 
 def cartesian_constraint_forces(name, n_points: int = 20) -> Check | None:

@@ -45,6 +45,8 @@ class Backend:
     def model_files(self, name: str, spec: ModelSpec, bodies, guarded: bool) -> dict[str, str]:
         """Every artifact this language emits for one model."""
         files = dict(self.kernel_files(spec, bodies))
+        if spec.is_time_dependent:    # the integrators and loops do not pass the time t yet
+            return files
         files.update(self.integrator_files(name))
         if not guarded:
             files.update(self.loop_files(name))

@@ -1,0 +1,71 @@
+"""What the run time does with a time-dependent model (issue 23 item 3, first cut): its
+kernels take t, but no integrator passes it yet, so every way of running one refuses in
+one line naming why (exit status 2 on the command line); `derive verify` balances the
+power with Jacobi's energy and does not claim conservation."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import derive
+from derive.model import load_model
+from derive.verification import physics
+
+ROOT = Path(__file__).resolve().parents[2]
+PIVOT = str(ROOT / "examples" / "models" / "driven_pivot.toml")
+FORCED = str(ROOT / "examples" / "models" / "forced_pendulum.toml")
+PIVOT_P = {"m": 1.0, "l": 1.0, "g": 9.81, "a": 0.01, "w": 3.0}
+WHY = "explicit time in the model"
+
+
+@pytest.mark.parametrize("method, backend", [("dop853", "c"), ("rk4", "c"), ("taylor", "c"),
+                                             ("dop853", "numpy"), ("rk4", "numpy")])
+def test_simulate_refuses_in_one_line(method, backend):
+    with pytest.raises(derive.SimulationInputError, match=WHY) as info:
+        derive.simulate(PIVOT, [0.1, 0.0], np.linspace(0, 1, 3), PIVOT_P, method=method, backend=backend)
+    assert "\n" not in str(info.value) and "not supported by the integrators yet" in str(info.value)
+
+
+def test_the_atlas_refuses_too():
+    with pytest.raises(derive.SimulationInputError, match=WHY):
+        derive.simulate(PIVOT, [0.1, 0.0], np.linspace(0, 1, 3), PIVOT_P, atlas=True)
+
+
+def test_an_ensemble_of_a_forced_pendulum_refuses():
+    p = {"m": 1.0, "l": 1.0, "g": 9.81, "c": 0.1, "F0": 1.0, "w": 3.0}
+    with pytest.raises(derive.SimulationInputError, match=WHY):
+        derive.ensemble(FORCED, np.zeros((3, 2)), np.linspace(0, 1, 3), p)
+
+
+def test_a_scene_of_a_time_dependent_model_exits_2_with_one_line(tmp_path):
+    scene = tmp_path / "pivot.toml"
+    scene.write_text(f'[pendulum]\nmodel = "{PIVOT}"\nparameters = {{ m = 1.0, l = 1.0, g = 9.81, '
+                     f'a = 0.01, w = 3.0 }}\n[initial]\nstate = {{ theta1 = 0.1, theta1_dot = 0.0 }}\n'
+                     f'[time]\nstop = 1.0\noutputs = 11\n[output]\ndirectory = "{tmp_path / "out"}"\n')
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    run = subprocess.run([sys.executable, "-m", "derive", "run", str(scene)], env=env,
+                         capture_output=True, text=True, timeout=600)
+    assert run.returncode == 2, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("derive: error: ") and WHY in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("model", [PIVOT, FORCED])
+def test_verify_balances_the_power_and_claims_no_conservation(model):
+    check = physics.energy_conservation(load_model(model))
+    assert check.passed, check.detail
+    assert "energy not conserved" in check.name and "conserved" not in check.name.replace("not conserved", "")
+
+
+def test_the_power_balance_could_fail(monkeypatch):
+    """T + V in place of Jacobi's h: the driven pivot's mechanical energy is not balanced
+    by the same power, and the check says so (it is not a check that always passes)."""
+    model = load_model(PIVOT)
+    monkeypatch.setattr(physics, "jacobi_energy", lambda d: d.energy)
+    assert not physics.energy_conservation(model).passed
