@@ -202,3 +202,15 @@ def test_the_notebook_display_is_valid_latex(model, tmp_path):
 def test_generate_by_default_writes_the_backends_the_command_writes_unasked(tmp_path):
     files = derive.load_model("planar").generate(tmp_path)
     assert {p.relative_to(tmp_path).parts[0] for p in files} == set(default_names()) == {"c", "numpy"}
+
+
+@pytest.mark.parametrize("target", [0.0, -1e-6, float("nan"), "1e-6"])
+def test_trust_horizon_of_a_target_that_is_no_error_bound_is_one_line(target):
+    """A negative target gave t0 and NaN gave NaN, as if measured: now an InputError."""
+    with pytest.raises(derive.InputError, match="target must be a positive number"):
+        derive.trust_horizon(_run(), target)
+
+
+def test_trust_horizon_of_something_else_than_a_run_is_one_line():
+    with pytest.raises(derive.InputError, match="must be a run of derive.simulate, got str"):
+        derive.trust_horizon("planar", 1e-6)
