@@ -197,6 +197,13 @@ class Pendulum:
         SimulationResult
             The run; see derive.simulate.
 
+        Raises
+        ------
+        SimulationInputError
+            Arguments derive.simulate refuses (a state of the wrong size, an unknown method).
+        BuildError
+            backend "c": the model's library cannot be compiled.
+
         Examples
         --------
         >>> r = load_model("planar").simulate([1.0, 0.5, 0, 0], [0.0, 1.0],

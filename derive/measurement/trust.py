@@ -21,6 +21,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from ..errors import InputError
 from ..runtime import loader     # looked up at each call (a test checks which backend runs)
 from ..runtime.simulate import (SimulationError, normalise_inputs, normalise_params, normalise_y0,
                                 simulate)
@@ -158,6 +159,16 @@ def lyapunov_exponent(result) -> float | None:
     return result.__dict__["_lyapunov"]
 
 
+def _check_trust_arguments(result, target) -> None:
+    """One line for what no horizon can be measured of (a negative target gave t0, NaN gave NaN)."""
+    if not all(hasattr(result, name) for name in ("model", "t", "y", "params", "rtol")):
+        raise InputError(f"trust_horizon: result must be a run of derive.simulate, got {type(result).__name__}")
+    if isinstance(target, bool) or not isinstance(target, (int, float, np.floating, np.integer)) \
+            or not math.isfinite(target) or target <= 0:
+        raise InputError(f"trust_horizon: target must be a positive number (the error to stay within), "
+                         f"got {target!r}")
+
+
 def trust_horizon_of(result, target: float = 1e-8) -> float | None:
     """The time until which a run resolves the true motion to `target`.
 
@@ -175,7 +186,29 @@ def trust_horizon_of(result, target: float = 1e-8) -> float | None:
         step, at least the unit roundoff, times the state's size), growing like
         e0 exp(lambda t) with lambda the largest Lyapunov exponent, reaches `target`; None
         when no exponent can be estimated.
+
+    Raises
+    ------
+    InputError
+        `result` is not a run of derive.simulate, or `target` not a positive number.
+    BuildError
+        The variational equations of a C run need a model's compiled library, and it cannot
+        be built (a NumPy run's estimate needs no compiler).
+
+    Examples
+    --------
+    >>> import derive
+    >>> r = derive.simulate("planar", [1.0, 0.5, 0, 0], [0.0, 5.0], [1, 1, 1, 1, 9.81],
+    ...                     rtol=1e-8, backend="numpy")
+    >>> horizon = derive.trust_horizon(r, 1e-6)
+    >>> 0.0 < horizon < derive.trust_horizon(r, 1e-3)     # a looser target is met for longer
+    True
+    >>> derive.trust_horizon(r, 0.0)
+    Traceback (most recent call last):
+    ...
+    derive.errors.InputError: trust_horizon: target must be a positive number (the error to stay within), got 0.0
     """
+    _check_trust_arguments(result, target)
     exponent = lyapunov_exponent(result)
     if exponent is None:
         result.__dict__.setdefault("_trust_horizons", {})[target] = None

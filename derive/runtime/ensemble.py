@@ -125,6 +125,28 @@ def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | N
     -------
     EnsembleResult
         ``y`` of shape (B, len(t), n), ``status`` (B,) and per-trajectory counters.
+
+    Raises
+    ------
+    SimulationInputError
+        As derive.simulate's, and a y0 that is not (B, n), params or inputs of neither one
+        vector nor B rows, the chart atlas (one chart only).
+    BuildError
+        The model's library cannot be compiled; CompilerMissingError, a BuildError, where
+        there is no C compiler (the ensemble runs compiled C only).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import derive
+    >>> y0 = np.array([[1.0, 0.5, 0.0, 0.0], [0.5, 1.0, 0.0, 0.0]])
+    >>> params = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
+    >>> ens = derive.ensemble("planar", y0, [0.0, 0.5, 1.0], params, rtol=1e-8, threads=1)
+    >>> ens.y.shape, ens.status_names
+    ((2, 3, 4), ['ok', 'ok'])
+    >>> one = derive.simulate("planar", y0[1], [0.0, 0.5, 1.0], params, rtol=1e-8)
+    >>> bool(np.array_equal(ens.y[1], one.y))            # bit for bit one derive.simulate call
+    True
     """
     model = resolve_model(model)
     if _atlas(model) is not None:

@@ -174,6 +174,21 @@ def linearize(model, state, params, inputs=None) -> tuple[np.ndarray, np.ndarray
     ------
     SimulationInputError
         An unknown model, name or value, or a singular mass matrix at the state.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import derive
+    >>> params = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
+    >>> A, B = derive.linearize("planar", {"theta1": 0.0, "theta2": 0.0}, params)
+    >>> A.shape, B.shape                       # planar has no inputs: B has no columns
+    ((4, 4), (4, 0))
+    >>> omega = np.sort(np.abs(np.linalg.eigvals(A).imag))[::2]     # hanging: two normal modes
+    >>> np.round(omega ** 2 / 9.81, 4)        # 2 -+ sqrt(2) for unit masses and lengths
+    array([0.5858, 3.4142])
+    >>> A, _ = derive.linearize("planar", {"theta1": "pi", "theta2": "pi"}, params)
+    >>> bool(np.linalg.eigvals(A).real.max() > 0)     # upright: unstable
+    True
     """
     ref = _resolve(model)
     x = _state_values(ref, state)
@@ -286,6 +301,22 @@ def equilibria(model, params) -> list[dict]:
         ('stable', 'marginal', 'unstable': see `stability`; 'chart singular' where the
         model's chart is, e.g. spherical_std at a pole, with NaN eigenvalues) and
         ``eigenvalues`` (of A there, a complex ndarray).
+
+    Raises
+    ------
+    SimulationInputError
+        An unknown model, the chart atlas, parameters that do not fit the model.
+
+    Examples
+    --------
+    >>> import derive
+    >>> params = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
+    >>> for rest in derive.equilibria("planar", params):
+    ...     print(round(rest["state"]["theta1"], 4), round(rest["state"]["theta2"], 4), rest["stability"])
+    0.0 0.0 marginal
+    0.0 3.1416 unstable
+    3.1416 0.0 unstable
+    3.1416 3.1416 unstable
     """
     ref = _resolve(model)
     p = np.asarray(normalise_params(ref, params), np.float64)

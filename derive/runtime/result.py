@@ -20,27 +20,109 @@ from .model_sizes import model_info
 
 @dataclass
 class SimulationResult:
-    """One run of derive.simulate.
+    """One run of derive.simulate: the states at the output times, and how the run went.
 
-    error_estimate, error_kind: the run's estimate of its own error, and what it is.
-      "local sum" (the default, free: the run computes it as it steps): the sum over the
-      accepted steps of each step's local-error estimate, in the state's units (the
-      largest component's tolerance scale times the step's scaled error norm): the embedded
-      pair's estimate for dopri5 and dop853 (that of the lower-order solution, so usually
-      larger than the propagated solution's own), Milne's predictor-corrector estimate for
-      abm12 (its rk8 start steps are not counted), for taylor the first term left out of
-      the series, estimated from the last.  It is no global error: the global error is
-      this sum only if the errors neither grow nor cancel (they grow like exp(lambda t) in
-      a chaotic motion, derive.measurement.trust).  None for rk4, rk8, midpoint and gauss2,
-      which have no estimate of their own.
-      "rerun at rtol=..." or "rerun at step=..." (simulate(..., error_estimate="rerun")):
-      the largest difference, over the output rows and states, between this run and a
-      second, more accurate run (rtol and atol / 100; a fixed step halved, the difference
-      Richardson-scaled by 1 / (1 - 2^-order)): an estimate of the global error of r.y
-      itself, per row and state in error_y (NaN where either run has no value, or, on the
-      atlas, the two runs are in different charts).  Where the error is roundoff (about
-      1e-13 and below in double) the difference underestimates it: a smaller step or
-      tolerance does not reduce roundoff.
+    A run that stopped early is returned, not raised (``ok`` is False, ``status_name``
+    says why); ``raise_for_status()`` raises it as a SimulationError.
+
+    Attributes
+    ----------
+    model, method, backend, dtype : str
+        What ran: the model (``"spherical"`` for the chart atlas), the method, ``"c"`` or
+        ``"numpy"``, and the floating-point type.
+    t : ndarray, shape (len(t),)
+        The output times.
+    y : ndarray, shape (len(t), n)
+        The state at each output time, coordinates then rates (a spherical model's in the
+        chart then in use; NaN after a stop).
+    energy : ndarray, shape (len(t),)
+        The total energy at each output time (computed on first access).
+    positions, velocities : ndarray, shape (len(t), bobs, dim)
+        The Cartesian positions and velocities of the bobs (computed on first access).
+    status : int
+        The integrator's status, 0 for a run to its end (derive/codegen/contract.py lists them).
+    status_name : str
+        Its name: ``"ok"``, ``"maximum number of steps reached"``, ...
+    ok : bool
+        ``status == 0``.
+    message : str
+        What happened, in one line (a stop names its time, its state and the way out).
+    t_stop : float
+        The time reached (where the run stopped, on a stop).
+    y_stop : ndarray, shape (n,)
+        The state there.
+    nfev, njev : int
+        The evaluations of the right-hand side and of its Jacobian.
+    nsteps, naccepted, nrejected : int
+        The steps tried, accepted and rejected (an adaptive method's step-size control).
+    nnewton : int
+        The Newton iterations of an implicit method (gauss2).
+    chart : ndarray of str or None
+        On the chart atlas: the chart's model at each output time.
+    switches : int
+        On the chart atlas: the number of chart switches.
+    chart_stop : str or None
+        The chart in use at t_stop (the chart atlas and spherical models).
+    params : ndarray
+        The parameters (then the inputs held constant) in the model's order.
+    rtol, step, last_step : float or None
+        The tolerance of an adaptive method; the fixed step h of a fixed-step method and the
+        shortened step to the last output (None where that is on the grid).
+    y_exact : ndarray of mpmath numbers or None
+        dtype "double-double" or "quad": the states exactly (y is rounded to long double).
+    sol : callable or None
+        Adaptive methods: ``r.sol(t)``, the continuous solution (derive/runtime/dense.py).
+    error_estimate : float or None
+        The run's estimate of its own error; ``error_kind`` says which (see the Notes).
+    error_kind : str or None
+        ``"local sum"``, ``"rerun at rtol=..."`` or ``"rerun at step=..."``.
+    error_y : ndarray, shape (len(t), n), or None
+        ``error_estimate="rerun"``: the estimate per output row and state.
+    events : dict of EventRecord or None
+        ``simulate(..., events=...)``: per event, in the order given, its crossings (t, y,
+        direction); ``t_events`` and ``y_events`` hold them as SciPy's solve_ivp does.
+    terminal_event : str or None
+        The event that stopped the run at t_stop (status ok).
+    guard : tuple of float or None
+        abm12: the (rtol, atol) of its stability guard.
+    energy_error, energy_scale : float
+        The largest relative energy error over the outputs, and what it is relative to.
+
+    Notes
+    -----
+    The two kinds of error_estimate (error_kind says which):
+
+    "local sum" (the default, free: the run computes it as it steps): the sum over the
+    accepted steps of each step's local-error estimate, in the state's units (the
+    largest component's tolerance scale times the step's scaled error norm): the embedded
+    pair's estimate for dopri5 and dop853 (that of the lower-order solution, so usually
+    larger than the propagated solution's own), Milne's predictor-corrector estimate for
+    abm12 (its rk8 start steps are not counted), for taylor the first term left out of
+    the series, estimated from the last.  It is no global error: the global error is
+    this sum only if the errors neither grow nor cancel (they grow like exp(lambda t) in
+    a chaotic motion, derive.measurement.trust).  None for rk4, rk8, midpoint and gauss2,
+    which have no estimate of their own.
+
+    "rerun at rtol=..." or "rerun at step=..." (simulate(..., error_estimate="rerun")):
+    the largest difference, over the output rows and states, between this run and a
+    second, more accurate run (rtol and atol / 100; a fixed step halved, the difference
+    Richardson-scaled by 1 / (1 - 2^-order)): an estimate of the global error of r.y
+    itself, per row and state in error_y (NaN where either run has no value, or, on the
+    atlas, the two runs are in different charts).  Where the error is roundoff (about
+    1e-13 and below in double) the difference underestimates it: a smaller step or
+    tolerance does not reduce roundoff.
+
+    Examples
+    --------
+    >>> import derive
+    >>> r = derive.simulate("planar", [1.0, 0.5, 0, 0], [0.0, 0.5, 1.0],
+    ...                     {"m1": 1, "m2": 1, "l1": 1, "l2": 1, "g": 9.81}, rtol=1e-8, backend="numpy")
+    >>> r.ok, r.status_name, r.method, r.y.shape, r.positions.shape
+    (True, 'ok', 'dop853', (3, 4), (3, 2, 2))
+    >>> r.energy_error < 1e-8, r.error_kind
+    (True, 'local sum')
+    >>> print(r.message)
+    ok: planar with dop853 to t = 1
     """
     model: str
     method: str
@@ -166,6 +248,26 @@ class SimulationResult:
         return self.__dict__["_energy_error_of"]
 
     def raise_for_status(self) -> "SimulationResult":
+        """The run itself if it reached its end; a SimulationError naming the stop if not.
+
+        Returns
+        -------
+        SimulationResult
+            self, so that ``r = derive.simulate(...).raise_for_status()`` reads as one call.
+
+        Raises
+        ------
+        SimulationError
+            The run stopped before its end; the message is ``r.message``.
+
+        Examples
+        --------
+        >>> import derive
+        >>> r = derive.simulate("planar", [1.0, 0.5, 0, 0], [0.0, 1.0], [1, 1, 1, 1, 9.81],
+        ...                     backend="numpy").raise_for_status()
+        >>> r.ok
+        True
+        """
         if not self.ok:
             raise SimulationError(self.message)
         return self

@@ -55,6 +55,31 @@ def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
     ScipyRHS
         A named tuple ``(fun, jac)``: ``fun`` takes y of shape (n,) or (n, k), ``jac``
         returns the (n, n) matrix d(ydot)/dy; a state a kernel cannot evaluate gives NaN.
+
+    Raises
+    ------
+    SimulationInputError
+        An unknown model or backend, the chart atlas, parameters or inputs that do not fit.
+    BuildError
+        backend "c": the model's kernels do not compile (without a compiler at all the NumPy
+        kernels are used instead, not an error).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.integrate import solve_ivp
+    >>> import derive
+    >>> params = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
+    >>> fun, jac = derive.scipy_rhs("planar", params, backend="numpy")
+    >>> bool(np.all(fun(0.0, [0.0, 0.0, 0.0, 0.0]) == 0))      # at rest, hanging
+    True
+    >>> jac(0.0, [0.0, 0.0, 0.0, 0.0]).shape
+    (4, 4)
+    >>> sol = solve_ivp(fun, (0.0, 1.0), [1.0, 0.5, 0.0, 0.0], method="DOP853", rtol=1e-10, atol=1e-10)
+    >>> r = derive.simulate("planar", [1.0, 0.5, 0.0, 0.0], [0.0, 1.0], params, rtol=1e-10,
+    ...                     backend="numpy")
+    >>> bool(abs(sol.y[:, -1] - r.y[-1]).max() < 1e-7)
+    True
     """
     model = resolve_model(model, explicit_time=True)
     if model == ATLAS:

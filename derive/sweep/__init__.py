@@ -58,6 +58,39 @@ def sweep(source, out=None, scheduler: str | None = None, workers: int | None = 
     -------
     xarray.Dataset
         The quantities recorded, one dimension per grid axis.
+
+    Raises
+    ------
+    ToolMissingError
+        A package of the sweep extra (dask, distributed, zarr, xarray) is not installed.
+    SceneError
+        The sweep file does not exist or is wrong (the message names the key).
+    InputError
+        An output folder that cannot be written, a scheduler that cannot be reached.
+    BuildError
+        The model's library cannot be compiled (the sweep runs compiled C).
+
+    Examples
+    --------
+    A sweep of three initial angles, run in this process (workers=0: no cluster), its store
+    in a temporary folder:
+
+    >>> import os, tempfile
+    >>> import derive
+    >>> lines = ['record = ["energy_error"]',
+    ...          '[pendulum]', 'model = "planar"',
+    ...          'parameters = { m1 = 1.0, m2 = 1.0, l1 = 1.0, l2 = 1.0, g = 9.81 }',
+    ...          '[initial]', 'state = { theta1 = 0.0, theta2 = 0.0 }', 'rest = true',
+    ...          '[time]', 'stop = 1.0', 'outputs = 3',
+    ...          '[accuracy]', 'method = "dop853"', 'rtol = 1e-8',
+    ...          '[axes]', 'theta1 = { linspace = [0.1, 0.5], num = 3 }']
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = os.path.join(folder, "tiny.toml")
+    ...     with open(path, "w") as f:
+    ...         _ = f.write("\\n".join(lines))
+    ...     ds = derive.sweep(path, out=folder, workers=0)
+    ...     print(ds["theta1"].values, ds["status"].values, bool((ds["energy_error"] < 1e-8).all()))
+    [0.1 0.3 0.5] [0 0 0] True
     """
     return run_sweep(source, out, scheduler, workers, progress, on_chunk).dataset
 

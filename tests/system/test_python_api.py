@@ -3,6 +3,8 @@ and latex methods, and a run's HTML summary and xarray Dataset."""
 from __future__ import annotations
 
 import doctest
+import importlib
+import inspect
 import subprocess
 import sys
 from pathlib import Path
@@ -10,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
+from numpydoc.docscrape import ClassDoc, FunctionDoc
 
 import derive
 from derive import api
@@ -18,21 +21,72 @@ from derive.derivation import derive as derivation_of
 from derive.codegen import backends, generate
 from derive.codegen.backends import default_names
 from derive.codegen.backends import jax as jax_backend
+from derive import errors as errors_module
+from derive.measurement import trust as trust_module
 from derive.report import document, equations as equations_module
 from derive.runtime import result as result_module
 
 ROOT = Path(__file__).resolve().parents[2]
+# by import_module: derive.runtime's package namespace holds the functions of the same names
+ensemble_module, linearize_module, scipy_rhs_module, simulate_module, sweep_module = (
+    importlib.import_module(f"derive.{name}")
+    for name in ("runtime.ensemble", "runtime.linearize", "runtime.scipy_rhs", "runtime.simulate", "sweep"))
 PLANAR = {"m1": 1.0, "m2": 1.3, "l1": 0.9, "l2": 1.1, "g": 9.81}
 
 
-# every module with a new public function or class (issue 26, items 4 and 5)
-# (document's pdflatex example compiles a PDF twice: the slow tier)
-@pytest.mark.parametrize("module", [api, equations_module, pytest.param(document, marks=pytest.mark.slow),
-                                    result_module, backends, generate, jax_backend],
-                         ids=lambda m: m.__name__)
+# every module that defines a name of derive.__all__, and those with a new public function or
+# class (issue 26, items 4 and 5); document's pdflatex example compiles a PDF twice: the slow tier
+DOCTESTED = [api, equations_module, pytest.param(document, marks=pytest.mark.slow), result_module,
+             backends, generate, jax_backend, errors_module, simulate_module, ensemble_module,
+             scipy_rhs_module, trust_module, linearize_module, sweep_module]
+
+
+@pytest.mark.parametrize("module", DOCTESTED, ids=lambda m: m.__name__)
 def test_the_examples_of_the_docstrings_run(module):
     failed, tried = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert tried > 0 and failed == 0
+
+
+def _public_objects():
+    """derive.__all__ as (name, object): derive.sweep, the stage that is callable, by its function."""
+    for name in derive.__all__:
+        if name == "__version__":
+            continue
+        value = getattr(derive, name)
+        yield name, (value.sweep if inspect.ismodule(value) else value)
+
+
+def _missing_sections(doc, wanted) -> list[str]:
+    return [section for section in wanted if not doc[section]]
+
+
+def test_the_module_list_of_the_doctests_holds_every_public_name():
+    tested = {(m.values[0] if hasattr(m, "values") else m).__name__ for m in DOCTESTED}
+    defining = {obj.__module__ for _, obj in _public_objects()}
+    assert defining <= tested, sorted(defining - tested)
+
+
+@pytest.mark.parametrize("name", [n for n in derive.__all__ if n != "__version__"])
+def test_every_public_name_has_the_numpydoc_sections(name):
+    """issue 26: a function has Parameters, Returns, Raises and Examples; a class a description
+    and Examples (an exception: Examples); Pendulum's public methods Returns and Examples, and
+    Parameters where they take any."""
+    obj = dict(_public_objects())[name]
+    if not inspect.isclass(obj):
+        doc = FunctionDoc(obj)
+        assert not _missing_sections(doc, ("Summary", "Parameters", "Returns", "Raises", "Examples"))
+        return
+    doc = ClassDoc(obj)
+    if issubclass(obj, BaseException):
+        assert not _missing_sections(doc, ("Summary", "Extended Summary", "Examples"))
+        return
+    assert not _missing_sections(doc, ("Summary", "Examples"))
+    for method_name in doc.methods:
+        method = getattr(obj, method_name)
+        wanted = ("Summary", "Returns", "Examples")
+        if len(inspect.signature(method).parameters) > 1:             # more than self
+            wanted += ("Parameters",)
+        assert not _missing_sections(FunctionDoc(method), wanted), method_name
 
 
 def test_import_derive_stays_light_and_names_the_new_functions():
@@ -148,3 +202,15 @@ def test_the_notebook_display_is_valid_latex(model, tmp_path):
 def test_generate_by_default_writes_the_backends_the_command_writes_unasked(tmp_path):
     files = derive.load_model("planar").generate(tmp_path)
     assert {p.relative_to(tmp_path).parts[0] for p in files} == set(default_names()) == {"c", "numpy"}
+
+
+@pytest.mark.parametrize("target", [0.0, -1e-6, float("nan"), "1e-6"])
+def test_trust_horizon_of_a_target_that_is_no_error_bound_is_one_line(target):
+    """A negative target gave t0 and NaN gave NaN, as if measured: now an InputError."""
+    with pytest.raises(derive.InputError, match="target must be a positive number"):
+        derive.trust_horizon(_run(), target)
+
+
+def test_trust_horizon_of_something_else_than_a_run_is_one_line():
+    with pytest.raises(derive.InputError, match="must be a run of derive.simulate, got str"):
+        derive.trust_horizon("planar", 1e-6)
