@@ -360,12 +360,43 @@ def _power_functions(o):
 
 
 GAUSS = np.polynomial.legendre.leggauss(3)      # nodes and weights on [-1, 1]
+MAX_PIECES = 64                                  # sub-intervals per output interval, at most
+
+
+def _gauss_on(result, t: np.ndarray, power, pieces: int) -> list[np.ndarray]:
+    """The integral of each power over each output interval, by 3-point Gauss on `pieces`
+    equal sub-intervals of it, on the run's continuous solution."""
+    nodes, weights = GAUSS
+    edges = t[:-1, None] + (t[1:] - t[:-1])[:, None] * np.linspace(0.0, 1.0, pieces + 1)[None, :]
+    mid, half = (edges[:, 1:] + edges[:, :-1]) / 2, (edges[:, 1:] - edges[:, :-1]) / 2
+    at = (mid[..., None] + half[..., None] * nodes).ravel()
+    shape = mid.shape + (len(nodes),)
+    return [((q.reshape(shape) * weights).sum(axis=2) * half).sum(axis=1) for q in power(result.sol(at))]
+
+
+def _gauss_converged(result, t: np.ndarray, power) -> tuple[list[np.ndarray], int, float]:
+    """W and D per output interval, the sub-intervals doubled until the running sums move by
+    less than 1e-13 of the energy scale: one Gauss rule per output interval is far from
+    enough for a fast motion sampled coarsely (its error, 1e-5 J, hid a run's 1e-9).
+    Returns the parts, the pieces per interval and the last change in J."""
+    tol = 1e-13 * float(result.energy_scale)
+    pieces, parts = 1, _gauss_on(result, t, power, 1)
+    change = float("inf")
+    while pieces < MAX_PIECES:
+        finer = _gauss_on(result, t, power, 2 * pieces)
+        change = max(float(np.nanmax(np.abs(np.cumsum(a) - np.cumsum(b)), initial=0.0))
+                     for a, b in zip(parts, finer))
+        pieces, parts = 2 * pieces, finer
+        if change <= tol:
+            break
+    return parts, pieces, change
 
 
 def work_and_dissipation(o) -> tuple[np.ndarray, np.ndarray, str, tuple[bool, bool]]:
     """W(t) and D(t) at the output times: the work of the applied forces and the energy
     dissipated since t0.  On the run's continuous solution (adaptive methods) by 3-point
-    Gauss quadrature per output interval (far below the run's own error); else by the
+    Gauss quadrature, each output interval cut until the sums converge (_gauss_converged);
+    else by the
     trapezoid rule with its end correction on the output rows (fourth order in the output
     interval).
 
@@ -386,12 +417,8 @@ def work_and_dissipation(o) -> tuple[np.ndarray, np.ndarray, str, tuple[bool, bo
     t = np.asarray(o.result.t, float)
     power, present = _power_functions(o)
     if o.result.sol is not None and len(t) > 1:
-        nodes, weights = GAUSS
-        mid, half = (t[1:] + t[:-1]) / 2, (t[1:] - t[:-1]) / 2
-        at = (mid[:, None] + half[:, None] * nodes[None, :]).ravel()
-        ys = o.result.sol(at)
-        parts = [(p.reshape(len(mid), len(nodes)) * weights).sum(axis=1) * half for p in power(ys)]
-        how = "3-point Gauss quadrature on the continuous solution"
+        parts, pieces, _ = _gauss_converged(o.result, t, power)
+        how = f"3-point Gauss on the continuous solution, {pieces} piece(s) per output interval"
     elif len(t) > 2:
         # the trapezoid rule with its end correction (Euler-Maclaurin), the derivatives
         # by second-order differences: fourth order in the output interval
