@@ -7,8 +7,9 @@
 
 int main(void)
 {
-    /* parameters in the model's order: m1, m2, l1, l2, L2, g, c */
-    const double p[DAMPED_N_PARAMS] = {1.0, 0.5, 1.0, 1.0, 0.0417, 9.81, 0.05};
+    /* parameters in the model's order: m1, m2, l1, l2, L2, g, c (a model with inputs: then
+     * its inputs; DAMPED_INTEGRATE_N_P counts what the integrators read) */
+    const double p[DAMPED_INTEGRATE_N_P] = {1.0, 0.5, 1.0, 1.0, 0.0417, 9.81, 0.05};
     const double y0[DAMPED_N_STATES] = {2.0, 1.0, 0.0, 0.0};   /* theta1, theta2, their rates */
     double t[11], y[11][DAMPED_N_STATES];
     damped_integrate_options opt;

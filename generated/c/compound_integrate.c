@@ -58,7 +58,7 @@ static int compound_kernel_status(int kst)
 
 /* The library's view of this model (derive_integrators.h lists what it needs). */
 #define DERIVE_N N
-#define DERIVE_N_P (COMPOUND_N_PARAMS)
+#define DERIVE_N_P COMPOUND_INTEGRATE_N_P
 #define DERIVE_OPTIONS compound_integrate_options
 #define DERIVE_INFO compound_integrate_info
 #define DERIVE_DEFAULTS compound_integrate_defaults

@@ -58,7 +58,7 @@ static int planar_kernel_status(int kst)
 
 /* The library's view of this model (derive_integrators.h lists what it needs). */
 #define DERIVE_N N
-#define DERIVE_N_P (PLANAR_N_PARAMS)
+#define DERIVE_N_P PLANAR_INTEGRATE_N_P
 #define DERIVE_OPTIONS planar_integrate_options
 #define DERIVE_INFO planar_integrate_info
 #define DERIVE_DEFAULTS planar_integrate_defaults

@@ -58,7 +58,7 @@ static int spherical_alt_kernel_status(int kst)
 
 /* The library's view of this model (derive_integrators.h lists what it needs). */
 #define DERIVE_N N
-#define DERIVE_N_P (SPHERICAL_ALT_N_PARAMS)
+#define DERIVE_N_P SPHERICAL_ALT_INTEGRATE_N_P
 #define DERIVE_OPTIONS spherical_alt_integrate_options
 #define DERIVE_INFO spherical_alt_integrate_info
 #define DERIVE_DEFAULTS spherical_alt_integrate_defaults

@@ -99,6 +99,8 @@
 #define SPHERICAL_ROT_INTEGRATE_MULTISTEP_UNSTABLE 8
 
 #define SPHERICAL_ROT_INTEGRATE_SINE_MIN 0.1
+/* The length of the p every integrator below reads: the parameters (SPHERICAL_ROT_N_PARAMS). */
+#define SPHERICAL_ROT_INTEGRATE_N_P (SPHERICAL_ROT_N_PARAMS)
 #define SPHERICAL_ROT_INTEGRATE_MAX_STAGES 16
 
 #ifdef __cplusplus
@@ -145,7 +147,8 @@ const char *spherical_rot_integrate_status_name(int status);
 
 /* ---- double ---- */
 
-/* Integrate from y0 at t[0] to the output times t[0..nt-1]; y_out is nt x SPHERICAL_ROT_N_STATES. */
+/* Integrate from y0 at t[0] to the output times t[0..nt-1]; y_out is nt x SPHERICAL_ROT_N_STATES;
+ * p holds SPHERICAL_ROT_INTEGRATE_N_P numbers. */
 int spherical_rot_integrate(int method, const double *restrict y0, const double *restrict p, long nt, const double *restrict t, double *restrict y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info);
 /* n trajectories: y0 + i*y0_stride, p + i*p_stride (0 broadcasts), one shared t;
  * y_out + i*nt*N, info + i (info may be NULL).  Returns the number that failed. */
@@ -171,7 +174,8 @@ int spherical_rot_midpoint_step(const double *restrict x, double h, const double
 int spherical_rot_gauss2_step(const double *restrict x, double h, const double *restrict p, double *restrict x_new, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info);
 /* ---- float ---- */
 
-/* Integrate from y0 at t[0] to the output times t[0..nt-1]; y_out is nt x SPHERICAL_ROT_N_STATES. */
+/* Integrate from y0 at t[0] to the output times t[0..nt-1]; y_out is nt x SPHERICAL_ROT_N_STATES;
+ * p holds SPHERICAL_ROT_INTEGRATE_N_P numbers. */
 int spherical_rot_integrate_f(int method, const float *restrict y0, const float *restrict p, long nt, const float *restrict t, float *restrict y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info);
 /* n trajectories: y0 + i*y0_stride, p + i*p_stride (0 broadcasts), one shared t;
  * y_out + i*nt*N, info + i (info may be NULL).  Returns the number that failed. */
@@ -197,7 +201,8 @@ int spherical_rot_midpoint_step_f(const float *restrict x, float h, const float 
 int spherical_rot_gauss2_step_f(const float *restrict x, float h, const float *restrict p, float *restrict x_new, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info);
 /* ---- long double ---- */
 
-/* Integrate from y0 at t[0] to the output times t[0..nt-1]; y_out is nt x SPHERICAL_ROT_N_STATES. */
+/* Integrate from y0 at t[0] to the output times t[0..nt-1]; y_out is nt x SPHERICAL_ROT_N_STATES;
+ * p holds SPHERICAL_ROT_INTEGRATE_N_P numbers. */
 int spherical_rot_integrate_l(int method, const long double *restrict y0, const long double *restrict p, long nt, const long double *restrict t, long double *restrict y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info);
 /* n trajectories: y0 + i*y0_stride, p + i*p_stride (0 broadcasts), one shared t;
  * y_out + i*nt*N, info + i (info may be NULL).  Returns the number that failed. */

@@ -58,7 +58,7 @@ static int spherical_std_kernel_status(int kst)
 
 /* The library's view of this model (derive_integrators.h lists what it needs). */
 #define DERIVE_N N
-#define DERIVE_N_P (SPHERICAL_STD_N_PARAMS)
+#define DERIVE_N_P SPHERICAL_STD_INTEGRATE_N_P
 #define DERIVE_OPTIONS spherical_std_integrate_options
 #define DERIVE_INFO spherical_std_integrate_info
 #define DERIVE_DEFAULTS spherical_std_integrate_defaults

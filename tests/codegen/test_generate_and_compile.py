@@ -569,3 +569,24 @@ def test_trig_lanes_need_two_angles():
     lanes, assignments, outputs = emit.trig_lanes([(t, sp.sin(x))], [t * sp.cos(y)])
     assert [str(a) for a in lanes.angles] == ["x", "y"] and assignments == []
     assert [(str(s), kind, k) for s, kind, k in lanes.values] == [("t0", "sin", 0), ("cos_lane1", "cos", 1)]
+
+
+def test_the_integrators_say_how_long_p_is(tmp_path):
+    """<MODEL>_INTEGRATE_N_P is what the integrators read from p: the parameters, then a
+    model's inputs (sized by <MODEL>_N_PARAMS alone, a model with inputs read past its
+    array: a user trial found it under AddressSanitizer)."""
+    out = tmp_path / "gen"
+    run = subprocess.run([sys.executable, "-m", "derive", "generate", str(ROOT / "examples" / "models" / "driven.toml"),
+                          "--out", str(out)], capture_output=True, text=True,
+                         env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    assert run.returncode == 0, run.stderr
+    program = tmp_path / "n_p.c"
+    program.write_text('#include <stdio.h>\n#include "driven_integrate.h"\n#include "planar_integrate.h"\n'
+                       'int main(void) { printf("%d %d %d %d\\n", DRIVEN_INTEGRATE_N_P, DRIVEN_N_PARAMS, '
+                       'DRIVEN_N_INPUTS, PLANAR_INTEGRATE_N_P); return 0; }\n')
+    cc = shutil.which("gcc") or shutil.which("cc")
+    _compile([cc, "-std=c99", *WARN, f"-I{out / 'c'}", f"-I{GEN_C}", "-o", "n_p", str(program)], tmp_path)
+    printed = subprocess.run([str(tmp_path / "n_p")], capture_output=True, text=True).stdout.split()
+    assert printed == ["9", "7", "2", "5"]
+    assert "p holds DRIVEN_INTEGRATE_N_P numbers (the parameters, then the inputs)" in \
+        (out / "c" / "driven_integrate.h").read_text()
