@@ -13,6 +13,7 @@ import numpy as np
 
 from ..codegen.contract import STATUS_NAMES, STATUS
 from ..errors import ModelError, SimulationError, ToolMissingError
+from ..model import load_model
 from ..model.atlas import atlas_for, find_atlas
 from .energy_error import exact_energy_error, relative_energy_error
 from .model_sizes import model_info
@@ -462,12 +463,24 @@ def summary_rows(result: SimulationResult) -> list[tuple[str, str]]:
             ("final time", f"{result.t_stop:.17g}")]
     if result.error_estimate is not None:
         rows.append(("error estimate", f"{result.error_estimate:.3g} ({result.error_kind})"))
-    rows.append(("energy error", f"{result.energy_error:.3g} (relative)"))
+    rows.append(_energy_row(result))
     horizons = result.__dict__.get("_trust_horizons", {})
     rows.append(("trust horizon", "; ".join(f"t = {h:.6g} to {target:.0e}" if h is not None else
                                             f"none to {target:.0e}" for target, h in sorted(horizons.items()))
                  or "not measured: derive.trust_horizon(result, target)"))
     return rows
+
+
+def _energy_row(result: SimulationResult) -> tuple[str, str]:
+    """A conservative model's energy change is the run's error; a driven or damped one's is
+    mostly the work of its forces and damping, which a table must not call an error."""
+    try:
+        conservative = find_atlas(result.model) is not None or load_model(result.model).is_conservative
+    except ModelError:
+        conservative = True
+    if conservative:
+        return "energy error", f"{result.energy_error:.3g} (relative)"
+    return "energy change", f"{result.energy_error:.3g} (relative; the work of forces and damping, not an error)"
 
 
 def summary_html(result: SimulationResult) -> str:

@@ -170,6 +170,16 @@ def test_a_runs_html_summary_says_what_it_was():
     assert f"t = {horizon:.6g} to 1e-06" in r._repr_html_()
 
 
+def test_a_damped_runs_summary_calls_its_energy_change_no_error():
+    """A damped model loses energy by its physics: the table says so, it is no error."""
+    r = derive.simulate(str(ROOT / "examples" / "models" / "driven.toml"), [1.0, 0.5, 0, 0], [0.0, 2.0],
+                        {"m1": 1, "m2": 1, "l1": 1, "l2": 1, "g": 9.81, "c1": 0.1, "c2": 0.1},
+                        inputs={"tau1": 0, "tau2": 0}, backend="numpy")
+    html = r._repr_html_()
+    assert "energy change" in html and "not an error" in html and "energy error" not in html
+    assert f"{r.energy_error:.3g}" in html and r.energy_error > 1e-3
+
+
 def test_to_xarray_has_one_variable_per_state_along_t():
     r = _run()
     ds = r.to_xarray()
