@@ -548,6 +548,9 @@ def _assignments(items: list[str] | None, what: str) -> dict[str, str]:
             name, eq, value = pair.partition("=")
             if not eq or not name.strip() or not value.strip():
                 raise UsageError(f"{what}: expected NAME=VALUE, got {pair!r}")
+            if name.strip() in out:
+                raise UsageError(f"{what}: '{name.strip()}' is given twice "
+                                 f"({out[name.strip()]} and {value.strip()}); give it once")
             out[name.strip()] = value.strip()
     return out
 
@@ -555,7 +558,7 @@ def _assignments(items: list[str] | None, what: str) -> dict[str, str]:
 def _matrix_lines(title: str, M, rows: list[str], cols: list[str]) -> list[str]:
     width = max([len(c) for c in cols] + [12])
     head = " " * (max(map(len, rows), default=0) + 2) + " ".join(f"{c:>{width}}" for c in cols)
-    return [title, head] + [f"{r:<{max(map(len, rows))}}  " + " ".join(f"{v:>{width}.6g}" for v in row)
+    return [title, head] + [f"{r:<{max(map(len, rows))}}  " + " ".join(f"{v + 0.0:>{width}.6g}" for v in row)
                             for r, row in zip(rows, M)]
 
 

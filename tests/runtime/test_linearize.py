@@ -2,6 +2,7 @@
 `derive linearize`: against closed forms written here, finite differences of the rhs,
 and each other."""
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -127,6 +128,12 @@ def test_cli_prints_A_and_B_as_json(capsys):
     assert out["input_names"] == ["tau1", "tau2"] and out["state"]["theta1"] == np.pi / 2
 
 
+def test_cli_prints_no_negative_zero(capsys):
+    assert main(["linearize", "planar", "--param", "m1=1,m2=1,l1=1,l2=1,g=9.81"]) == 0
+    out = capsys.readouterr().out
+    assert not re.search(r"(?<![\w.])-0(?![\w.])", out) and re.search(r" 0(\s|$)", out), out
+
+
 def test_cli_lists_the_equilibria(capsys):
     assert main(["linearize", DRIVEN, "--param", "m1=1.1,m2=0.6,l1=1.2,l2=0.8,g=9.81,c1=0.3,c2=0.15",
                  "--equilibria", "--json"]) == 0
@@ -140,6 +147,8 @@ def test_cli_lists_the_equilibria(capsys):
     (["--at", "theta1=up"], "no number"),
     (["--at", "phi=1"], "unknown state name 'phi'"),
     (["--at", "theta1"], "expected NAME=VALUE"),
+    (["--at", "theta1=1,theta1=2"], "'theta1' is given twice (1 and 2)"),
+    (["--param", "g=1"], "'g' is given twice (9.81 and 1)"),
 ])
 def test_cli_bad_input_is_one_line_and_exit_2(capsys, args, words):
     assert main(["linearize", "planar", "--param", "m1=1,m2=1,l1=1,l2=1,g=9.81", *args]) == 2
