@@ -276,6 +276,26 @@ def _names(t: dict, key: str, where: str) -> tuple[str, ...]:
     return tuple(values)
 
 
+def _check_signs(link: Link, params: tuple[str, ...], where: str) -> None:
+    """Refuse a length or mass that no positive parameter values make positive (`-l2`,
+    `m1*(1-2)`), and an inertia that none make >= 0, when the model is read: the run-time
+    check would only catch them when a run starts, after derive, verify and generate had
+    passed them.  (The roles' own values are checked per run: parameter_problem.)"""
+    positive = {n: sp.Symbol(n, real=True) if n == "g" else sp.Symbol(n, positive=True)
+                for n in params}                         # g may be zero or negative
+    for key, text, bad in (("length", link.length, lambda e: e.is_nonpositive),
+                           ("body mass", link.body.mass, lambda e: e.is_nonpositive),
+                           ("body inertia", link.body.inertia, lambda e: e.is_negative)):
+        try:
+            expr = parse_expression(text, positive, key)
+        except ModelError:
+            continue                      # the derivation reports a bad expression, in its words
+        if expr.free_symbols and bad(expr):
+            need = "positive" if key != "body inertia" else ">= 0"
+            raise ModelError(f"{where}: {key} = {text} is never {need} (its parameters are "
+                             f"positive numbers)")
+
+
 def _check_com_is_a_fraction(link: Link, params: tuple[str, ...], where: str) -> None:
     """Refuse a rod's `com` that grows with its own link's length (`com = "L/2"`): that is a
     distance where a fraction of the length is meant, and it would pass the run-time [0, 1]
@@ -443,6 +463,7 @@ def parse_model(text: str, origin: str) -> Model:
             if NAME.match(p) and p not in params:
                 raise ModelError(f"{where}: '{p}' is not a declared parameter")
         _check_com_is_a_fraction(link, params, where)
+        _check_signs(link, params, where)
         links.append(link)
     if not links:
         raise ModelError(f"{origin}: a model needs at least one [[links]] table")

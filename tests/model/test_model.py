@@ -1,4 +1,6 @@
 """Model descriptions: the catalogue loads, and bad descriptions are named errors."""
+import re
+
 import pytest
 
 from derive.model import ModelError, load_model, model_names
@@ -87,3 +89,19 @@ def test_a_com_that_is_a_distance_is_refused(com):
 @pytest.mark.parametrize("com", ["1/2", "d/l1", "d", "(l1 - d)/l1"])
 def test_a_com_that_is_a_fraction_is_taken(com):
     assert parse_model(ROD.replace("COM", com), "toy.toml").links[0].body.com == com
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda t: t.replace('length = "l1"', 'length = "-l1"'), "link 1: length = -l1 is never positive"),
+    (lambda t: t.replace('mass = "m1"', 'mass = "m1*(1-2)"'), "link 1: body mass = m1*(1-2) is never positive"),
+])
+def test_a_quantity_no_parameter_values_make_possible_is_refused_when_read(edit, message):
+    """A length or mass that is negative for every positive parameter passed derive, verify
+    and generate and was caught only when a run started (a user trial)."""
+    with pytest.raises(ModelError, match=re.escape(message)):
+        parse_model(edit(GOOD), "toy.toml")
+
+
+@pytest.mark.parametrize("length", ["l1 - 0.5", "2*l1", "l1*g"])
+def test_a_quantity_some_values_make_possible_is_taken(length):
+    assert parse_model(GOOD.replace('length = "l1"', f'length = "{length}"'), "toy.toml").links[0].length == length
