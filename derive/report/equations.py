@@ -29,7 +29,10 @@ class Equations:
     coordinates, rates, parameters, inputs, momenta : tuple of sympy.Symbol
         The generalized coordinates q, their rates q', the parameters (in the model's
         order), the run-time inputs, and the canonical momenta p (named even where the
-        model has no Hamiltonian form).
+        model has no Hamiltonian form).  The symbols carry SymPy assumptions (coordinates
+        and rates real; lengths, masses, inertias and the other parameters positive, g
+        real), so an expression built with plain ``sp.symbols("m1 l1")`` is not equal to
+        one of these: build with these symbols (``m1, m2, l1, l2, g = eq.parameters``).
     M : sympy.Matrix
         The mass matrix.
     F : sympy.Matrix
