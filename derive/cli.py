@@ -14,10 +14,9 @@ import sys
 import time
 from pathlib import Path
 
-from .paths import VERSION as __version__
+from .paths import BENCH_OUT, VERSION as __version__
 from .errors import DeriveError, UsageError
-from .model import is_model_file, load_model, model_names
-from .model.atlas import atlas_names
+from .model.listing import is_model_file, model_names
 from .paths import checkout_root
 from .progress import Stage
 
@@ -29,6 +28,8 @@ EXIT_CODES = ("exit status: 0 done (and an accuracy target met); 1 a run or chec
 
 def _model_arg(arg: str, allow_atlas: bool = False) -> str:
     """A model argument (a catalogue name, or the path of a model file) as a model name."""
+    from .model import load_model    # start-up: a command imports its stage when it runs
+    from .model.atlas import atlas_names
     if is_model_file(arg):
         return load_model(arg).name
     if allow_atlas and arg in atlas_names():
@@ -347,7 +348,7 @@ def _energy_text(s: dict) -> str:
 
 
 def _list_examples() -> int:
-    from .scene.scene import example_listing    # start-up: a command imports its stage when it runs
+    from .scene.examples import example_listing    # start-up: a command imports its stage when it runs
     rows = example_listing()
     width = max(len(name) for name, _, _ in rows)
     for name, title, sweep in rows:
@@ -553,7 +554,6 @@ def _sweep_parser(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .measurement.bench import DEFAULT_OUT    # start-up: a command imports its stage when it runs
     parser = _OneLineParser(
         prog="derive", description="Derive, verify and generate code for pendulums.",
         epilog=EXIT_CODES)
@@ -607,7 +607,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="work-precision benchmark of every model, method, precision and "
                                      "backend against scipy/numba/hand-written peers", epilog=EXIT_CODES)
     p.add_argument("--quick", action="store_true", help="a small subset (seconds), for smoke tests")
-    p.add_argument("--out", default=DEFAULT_OUT, help=f"output directory (default: ./{DEFAULT_OUT})")
+    p.add_argument("--out", default=BENCH_OUT, help=f"output directory (default: ./{BENCH_OUT})")
     p.add_argument("--repeats", type=int, default=5, help="timed runs per configuration (median; default 5)")
     p.add_argument("--problems", help="comma-separated subset of: regular, chaotic, compound, spherical_pole")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")

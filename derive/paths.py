@@ -34,6 +34,7 @@ from .errors import CacheError, PackageDataError, WriteError
 # The package's version, here at the bottom of the house so that every stage can stamp
 # what it writes with it without importing the package face (derive/__init__.py).
 VERSION = "0.2.0"
+BENCH_OUT = "derive-bench"     # `derive bench` writes here (relative to the current directory)
 
 
 @cache
