@@ -17,7 +17,7 @@ from pathlib import Path
 from .paths import BENCH_OUT, VERSION as __version__
 from .errors import DeriveError, UsageError
 from .model.listing import is_model_file, model_names
-from .paths import checkout_root
+from .paths import checkout_root, writable_dir
 from .progress import Stage
 
 INTERRUPTED = 130            # Ctrl-C: the shell's status for a command stopped by SIGINT (derive/__main__.py)
@@ -203,7 +203,6 @@ def cmd_generate(args) -> int:
 
 
 def _writable_folder(path: Path) -> Path:
-    from .scene.outputs import writable_dir    # start-up: a command imports its stage when it runs
     try:
         return writable_dir(path)
     except OSError as exc:
@@ -413,7 +412,7 @@ def cmd_all(args) -> int:
     """The main job: derive, verify, generate (check), compile, run the default scene."""
     from .codegen.sources import ATLAS    # start-up: a command imports its stage when it runs
     from .scene import load_scene
-    from .scene.artifacts import prepare
+    from .scene.artifacts import prepare_c
     from .scene.run import run, summary
     start = time.perf_counter()
     t0 = time.perf_counter()
@@ -433,8 +432,7 @@ def cmd_all(args) -> int:
     print(f"generate  {text} ({time.perf_counter() - t0:.1f} s)")
     t0 = time.perf_counter()
     with Stage("compile") as stage:
-        for name in model_names() + [ATLAS]:
-            prepare(name, "c", stage)
+        prepare_c(model_names() + [ATLAS], stage)
     print(f"compile   C kernels and integrators of every model ({time.perf_counter() - t0:.1f} s)")
     outcome = run(load_scene("default"), show_progress=sys.stderr.isatty())
     s = summary(outcome)

@@ -178,6 +178,32 @@ def _temporary_cache(path: Path, exc: OSError) -> Path:
     return temporary
 
 
+def writable_dir(path: Path) -> Path:
+    """Create `path` if needed and prove it writable, before long work.
+
+    Parameters
+    ----------
+    path : Path
+        An output folder the user named.
+
+    Returns
+    -------
+    Path
+        `path`, now an existing folder this process can write into.
+
+    Raises
+    ------
+    OSError
+        When it cannot be made or written.
+    """
+    path.mkdir(parents=True, exist_ok=True)
+    # a probe of its own (not a fixed name): concurrent runs into one folder do not race
+    fd, probe = tempfile.mkstemp(dir=path, prefix=".derive-write-test-")
+    os.close(fd)
+    os.unlink(probe)
+    return path
+
+
 # -- a user's input file (a model, a scene, a sweep): a regular file of bounded size ---------
 # A device (/dev/zero), a FIFO, a socket or a directory is refused before anything is read,
 # and so is a file larger than MAX_BYTES: an input file of derive is a page of TOML.  The
