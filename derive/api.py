@@ -24,7 +24,7 @@ from .report.document import document, pdflatex
 from .report.equations import Equations, equations_of
 from .runtime.result import SimulationResult
 from .runtime.simulate import simulate
-from .scene.outputs import writable_dir
+from .paths import writable_dir
 
 __all__ = ["Pendulum", "equations", "load_model"]
 

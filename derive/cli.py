@@ -15,11 +15,10 @@ import sys
 import time
 from pathlib import Path
 
-from .paths import VERSION as __version__
+from .paths import BENCH_OUT, VERSION as __version__
 from .errors import DeriveError, UsageError
-from .model import is_model_file, load_model, model_names
-from .model.atlas import atlas_names
-from .paths import checkout_root
+from .model.listing import is_model_file, model_names
+from .paths import checkout_root, writable_dir
 from .progress import Stage
 
 INTERRUPTED = 130            # Ctrl-C: the shell's status for a command stopped by SIGINT (derive/__main__.py)
@@ -30,6 +29,8 @@ EXIT_CODES = ("exit status: 0 done (and an accuracy target met); 1 a run or chec
 
 def _model_arg(arg: str, allow_atlas: bool = False) -> str:
     """A model argument (a catalogue name, or the path of a model file) as a model name."""
+    from .model import load_model    # start-up: a command imports its stage when it runs
+    from .model.atlas import atlas_names
     if is_model_file(arg):
         return load_model(arg).name
     if allow_atlas and arg in atlas_names():
@@ -203,7 +204,6 @@ def cmd_generate(args) -> int:
 
 
 def _writable_folder(path: Path) -> Path:
-    from .scene.outputs import writable_dir    # start-up: a command imports its stage when it runs
     try:
         return writable_dir(path)
     except OSError as exc:
@@ -349,7 +349,7 @@ def _energy_text(s: dict) -> str:
 
 
 def _list_examples() -> int:
-    from .scene.scene import example_listing    # start-up: a command imports its stage when it runs
+    from .scene.examples import example_listing    # start-up: a command imports its stage when it runs
     rows = example_listing()
     width = max(len(name) for name, _, _ in rows)
     for name, title, sweep in rows:
@@ -414,7 +414,7 @@ def cmd_all(args) -> int:
     """The main job: derive, verify, generate (check), compile, run the default scene."""
     from .codegen.sources import ATLAS    # start-up: a command imports its stage when it runs
     from .scene import load_scene
-    from .scene.artifacts import prepare
+    from .scene.artifacts import prepare_c
     from .scene.run import run, summary
     start = time.perf_counter()
     t0 = time.perf_counter()
@@ -434,8 +434,7 @@ def cmd_all(args) -> int:
     print(f"generate  {text} ({time.perf_counter() - t0:.1f} s)")
     t0 = time.perf_counter()
     with Stage("compile") as stage:
-        for name in model_names() + [ATLAS]:
-            prepare(name, "c", stage)
+        prepare_c(model_names() + [ATLAS], stage)
     print(f"compile   C kernels and integrators of every model ({time.perf_counter() - t0:.1f} s)")
     outcome = run(load_scene("default"), show_progress=sys.stderr.isatty())
     s = summary(outcome)
@@ -633,7 +632,6 @@ def _sweep_parser(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .measurement.bench import DEFAULT_OUT    # start-up: a command imports its stage when it runs
     parser = _OneLineParser(
         prog="derive", description="Derive, verify and generate code for pendulums.",
         epilog=EXIT_CODES)
@@ -687,7 +685,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="work-precision benchmark of every model, method, precision and "
                                      "backend against scipy/numba/hand-written peers", epilog=EXIT_CODES)
     p.add_argument("--quick", action="store_true", help="a small subset (seconds), for smoke tests")
-    p.add_argument("--out", default=DEFAULT_OUT, help=f"output directory (default: ./{DEFAULT_OUT})")
+    p.add_argument("--out", default=BENCH_OUT, help=f"output directory (default: ./{BENCH_OUT})")
     p.add_argument("--repeats", type=int, default=5, help="timed runs per configuration (median; default 5)")
     p.add_argument("--problems", help="comma-separated subset of: regular, chaotic, compound, spherical_pole")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")

@@ -34,6 +34,7 @@ from .errors import CacheError, PackageDataError, WriteError
 # The package's version, here at the bottom of the house so that every stage can stamp
 # what it writes with it without importing the package face (derive/__init__.py).
 VERSION = "0.2.0"
+BENCH_OUT = "derive-bench"     # `derive bench` writes here (relative to the current directory)
 
 
 @cache
@@ -175,6 +176,32 @@ def _temporary_cache(path: Path, exc: OSError) -> Path:
     print(f"derive: note: the cache directory '{path}' is not writable ({exc.strerror or exc}); "
           f"working in a temporary cache removed at exit (nothing is reused or kept)", file=sys.stderr)
     return temporary
+
+
+def writable_dir(path: Path) -> Path:
+    """Create `path` if needed and prove it writable, before long work.
+
+    Parameters
+    ----------
+    path : Path
+        An output folder the user named.
+
+    Returns
+    -------
+    Path
+        `path`, now an existing folder this process can write into.
+
+    Raises
+    ------
+    OSError
+        When it cannot be made or written.
+    """
+    path.mkdir(parents=True, exist_ok=True)
+    # a probe of its own (not a fixed name): concurrent runs into one folder do not race
+    fd, probe = tempfile.mkstemp(dir=path, prefix=".derive-write-test-")
+    os.close(fd)
+    os.unlink(probe)
+    return path
 
 
 # -- a user's input file (a model, a scene, a sweep): a regular file of bounded size ---------

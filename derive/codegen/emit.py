@@ -9,6 +9,7 @@ expressions get their base as a temporary, so printers can write x*x.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
 import jinja2
 import sympy as sp
@@ -354,7 +355,20 @@ def lanes_context(lanes: TrigLanes | None, printer) -> dict | None:
 
 
 def environment() -> jinja2.Environment:
-    return jinja2.Environment(loader=jinja2.FileSystemLoader(str(paths.templates_dir())),
+    """The Jinja2 environment of the code templates (derive/templates/).
+
+    Returns
+    -------
+    jinja2.Environment
+        One per templates folder and process: a template (and every macro file it imports)
+        is compiled once, however many files render it.
+    """
+    return _environment(str(paths.templates_dir()))
+
+
+@cache
+def _environment(folder: str) -> jinja2.Environment:
+    return jinja2.Environment(loader=jinja2.FileSystemLoader(folder),
                               undefined=jinja2.StrictUndefined, trim_blocks=True,
                               lstrip_blocks=True, keep_trailing_newline=True,
                               autoescape=False)

@@ -9,6 +9,7 @@ these strings.
 from __future__ import annotations
 
 import tomllib
+from fractions import Fraction
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -134,17 +135,21 @@ def adams(k: int) -> tuple[list[sp.Rational], list[sp.Rational]]:
     """
     if k < 1:
         raise ValueError("an Adams method needs at least one step")
-    s = sp.Symbol("s")
 
     def weights(nodes):
+        # exact arithmetic over Q on coefficient lists (lowest power first): the same
+        # rationals as SymPy's Poly over QQ, without its construction per factor
         out = []
         for j, nj in enumerate(nodes):
-            basis = sp.Poly(1, s, domain="QQ")       # exact polynomial arithmetic over Q
+            basis = [Fraction(1)]
             for m, nm in enumerate(nodes):
-                if m != j:
-                    basis *= sp.Poly((s - nm) / sp.Integer(nj - nm), s, domain="QQ")
-            antiderivative = basis.integrate()
-            out.append(sp.Rational(antiderivative.eval(1) - antiderivative.eval(0)))
+                if m != j:              # times (s - nm) / (nj - nm)
+                    scale = Fraction(1, nj - nm)
+                    shifted = [Fraction(0)] + basis
+                    basis = [hi * scale - nm * scale * lo
+                             for hi, lo in zip(shifted, basis + [Fraction(0)])]
+            integral = sum(c / (p + 1) for p, c in enumerate(basis))      # over s in [0, 1]
+            out.append(sp.Rational(integral.numerator, integral.denominator))
         return out
 
     return weights([-j for j in range(k)]), weights([1 - j for j in range(k)])

@@ -11,6 +11,7 @@ and the columns of a spherical chart's Jacobian are orthogonal, so
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import sympy as sp
 
@@ -37,7 +38,25 @@ def _link_slices(model: Model):
         k += n
 
 
+# Kept per pair of models (a Model is a frozen value: an edited model is another key): the
+# physics checks ask for the same pair in both directions and again for the round trip,
+# and the atlas's conversion kernels for the same pairs; every change costs trigsimp calls.
+# Do not modify the returned ChartChange: it is shared.
+@lru_cache(maxsize=64)
 def chart_change(source: Model, target: Model) -> ChartChange:
+    """The coordinates and rates of `target`'s charts in terms of `source`'s (seed 000 §5.2).
+
+    Parameters
+    ----------
+    source, target : Model
+        Two models of the same links in other charts.
+
+    Returns
+    -------
+    ChartChange
+        The target coordinates as expressions of the source coordinates, and the target
+        rates of the source state (and the target coordinates).
+    """
     if [len(l.chart.coordinates) for l in source.links] != [len(l.chart.coordinates) for l in target.links]:
         raise ValueError(f"'{source.name}' and '{target.name}' do not have the same links")
     a, b = model_symbols(source), model_symbols(target)

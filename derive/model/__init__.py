@@ -6,9 +6,24 @@ a joint chart (how its unit vector depends on its coordinates, see
 rod with its centre of mass somewhere along it and a moment of inertia about
 that centre).  Nothing downstream knows a model by name: a new model is a new
 TOML file, in ``catalog/`` or anywhere (pass its path).
+
+The names below are imported on first use: ``derive.model.listing`` (the catalogue's
+names, for the command line's help) is then read without SymPy, which the descriptions need.
 """
-from .description import (Body, Chart, Link, Model, ModelError, is_model_file, load_chart,
-                          load_model, load_model_file, model_names)
+import importlib
+
+from .listing import is_model_file, model_names
 
 __all__ = ["Body", "Chart", "Link", "Model", "ModelError", "is_model_file", "load_chart",
            "load_model", "load_model_file", "model_names"]
+
+_FROM_DESCRIPTION = {"Body", "Chart", "Link", "Model", "ModelError", "load_chart", "load_model",
+                     "load_model_file"}
+
+
+def __getattr__(name):
+    if name not in _FROM_DESCRIPTION:
+        raise AttributeError(f"module 'derive.model' has no attribute {name!r}")
+    value = getattr(importlib.import_module(".description", __name__), name)
+    globals()[name] = value            # resolved once: later uses find it directly
+    return value

@@ -18,6 +18,7 @@ from ..errors import ModelError
 from ..paths import read_input_text
 from ..paths import catalog_dir
 from .expressions import FUNCTIONS, parse_expression
+from .listing import DATA_FILES, is_model_file, model_names  # noqa: F401  (their home is listing.py)
 
 # Names a model may not give a parameter, input or coordinate: the functions of the
 # expression grammar and the constants (a parameter `sin` would shadow sin()).
@@ -223,13 +224,6 @@ def load_chart(name: str) -> Chart:
         raise ModelError(f"{where}: inverse has {len(chart.inverse)} entries for "
                          f"{len(chart.coordinates)} coordinates")
     return chart
-
-
-DATA_FILES = ("charts", "atlases", "reductions")      # catalogue files that are not models
-
-
-def model_names() -> list[str]:
-    return sorted(p.stem for p in catalog_dir().glob("*.toml") if p.stem not in DATA_FILES)
 
 
 def _quantity(t: dict, key: str, where: str) -> str:
@@ -537,12 +531,6 @@ def _check_names(model: "Model", where: str) -> None:
 
 NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 _from_files: dict[str, Model] = {}          # models read from files, by name, in this process
-
-
-def is_model_file(text: str | os.PathLike) -> bool:
-    """Whether a model argument names a file (a path or a .toml name), not a catalogue entry."""
-    s = os.fspath(text)
-    return s.endswith(".toml") or "/" in s or os.sep in s
 
 
 def load_model_file(path: str | os.PathLike) -> Model:

@@ -9,7 +9,9 @@ Each step reports whether it was reused or done now, so `derive run` can say so:
 """
 from __future__ import annotations
 
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 from ..codegen import sources
@@ -66,13 +68,49 @@ def prepare(name: str, backend: str, stage=None) -> list[Step]:
         if stage is not None:
             stage.set(what)
 
+    steps = _python_steps(name, doing)
+    if backend == "c":
+        doing(f"compiling the C of {name}")
+        steps.append(_library(name))
+    return steps
+
+
+def _python_steps(name: str, doing) -> list[Step]:
+    """The derivations and the rendered code of `name`: SymPy and Jinja2, in this thread."""
     steps = []
     for m in sources.members(name):
         doing(f"deriving {m}")
         steps.append(_derivation(m))
     doing(f"generating the code of {name}")
     steps.append(_generated(name))
-    if backend == "c":
-        doing(f"compiling the C of {name}")
-        steps.append(_library(name))
     return steps
+
+
+def prepare_c(names: list[str], stage=None, workers: int | None = None) -> list[Step]:
+    """``prepare(name, "c")`` of every model of `names`, the compilers running side by side.
+
+    Parameters
+    ----------
+    names : list of str
+        Models (or atlases) to derive, render and compile.
+    stage : derive.progress.Stage, optional
+        Told what is being done.
+    workers : int, optional
+        Compilers at once (default: one per core).
+
+    Returns
+    -------
+    list of Step
+        Every model's steps, in the order of `names`.
+    """
+    def doing(what: str) -> None:
+        if stage is not None:
+            stage.set(what)
+
+    # SymPy and Jinja2 hold the interpreter: one model after another; a compiler is a
+    # process of its own, so the compiles overlap (threads wait on them)
+    steps = {name: _python_steps(name, doing) for name in names}
+    doing(f"compiling the C of {len(names)} models")
+    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
+        libraries = dict(zip(names, pool.map(_library, names)))
+    return [step for name in names for step in (*steps[name], libraries[name])]

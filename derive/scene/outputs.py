@@ -1,8 +1,6 @@
 """Write what a scene asks for: trajectory (CSV, NPZ), plots (PNG), animation (GIF)."""
 from __future__ import annotations
 
-import os
-import tempfile
 import textwrap
 import time
 from pathlib import Path
@@ -13,7 +11,7 @@ import sympy as sp
 from ..derivation import derive
 from ..model import load_model
 from ..model.atlas import find_atlas
-from ..paths import replace_file
+from ..paths import replace_file, writable_dir
 from ..runtime.simulate import normalise_params
 from ..runtime.energy_error import relative_change
 from .scene import UNITS, SceneError
@@ -87,16 +85,6 @@ def _number_format(o):
     if np.asarray(o.result.y).dtype == np.float32:
         return lambda v: str(np.float32(v))
     return lambda v: f"{v:.17g}"
-
-
-def writable_dir(path: Path) -> Path:
-    """Create `path` if needed and prove it writable (OSError otherwise), before long work."""
-    path.mkdir(parents=True, exist_ok=True)
-    # a probe of its own (not a fixed name): concurrent runs into one folder do not race
-    fd, probe = tempfile.mkstemp(dir=path, prefix=".derive-write-test-")
-    os.close(fd)
-    os.unlink(probe)
-    return path
 
 
 def _replace(path: Path, write) -> None:

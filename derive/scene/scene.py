@@ -10,6 +10,7 @@ from ..errors import SceneError
 from ..paths import exists, read_input_text
 from ..model.description import NAME, parameter_problem
 from ..paths import scenes_dir
+from .examples import example_listing, example_scenes  # noqa: F401  (their home is examples.py)
 from ..model import ModelError, is_model_file, load_model
 from ..codegen.contract import ATLAS_CHARTS, EXTENDED, FIXED, MULTISTEP, RUN_METHODS, SCALARS as CONTRACT_SCALARS, TAYLOR     # the run contract
 
@@ -371,27 +372,6 @@ def _output_folder(directory: Path, source: str) -> Path:
     except Exception:                 # no package data: a broken install is reported elsewhere
         pass
     return Path(source).parent / directory
-
-
-def example_scenes() -> list[str]:
-    """The example scenes shipped with derive (`derive run default`)."""
-    return sorted(p.stem for p in scenes_dir().glob("*.toml"))
-
-
-def example_listing() -> list[tuple[str, str, bool]]:
-    """The example scenes and sweeps shipped with derive, for `derive run --list`.
-
-    Returns
-    -------
-    list of (str, str, bool)
-        Each example's name, its title and whether it is a sweep (it has [axes]: run by
-        `derive sweep`, the others by `derive run`), by name.
-    """
-    out = []
-    for name in example_scenes():
-        table = tomllib.loads((scenes_dir() / f"{name}.toml").read_text())
-        out.append((name, str(table.get("title", "")), "axes" in table))
-    return out
 
 
 def scene_path(arg: str | Path) -> Path:

@@ -16,6 +16,28 @@ def derive(*args, cwd=ROOT):
                           capture_output=True, text=True, timeout=600)
 
 
+# what a command that needs none of them must not import at start-up (cli.py's imports)
+HEAVY = ("sympy", "numpy", "matplotlib", "jinja2", "derive.measurement.bench", "derive.model.description")
+
+
+def _imported(*args):
+    """The modules `python -m derive ARGS` imports, as -X importtime reports them."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    run = subprocess.run([sys.executable, "-X", "importtime", "-m", "derive", *args], cwd=ROOT, env=env,
+                         capture_output=True, text=True, timeout=120)
+    lines = [line for line in run.stderr.splitlines() if line.startswith("import time:")]
+    return run, {line.rsplit("|", 1)[1].strip() for line in lines}
+
+
+@pytest.mark.parametrize("args, status", [(("--help",), 0), (("--version",), 0), (("run", "--list"), 0),
+                                          (("generate", "--no-such-option"), 2), (("bench", "--help"), 0)])
+def test_a_light_command_starts_without_sympy_or_numpy(args, status):
+    run, modules = _imported(*args)
+    assert run.returncode == status, run.stderr[-2000:]
+    assert {"derive.cli", "argparse"} <= modules        # the report was read
+    assert sorted(m for m in modules if m.split(".")[0] in HEAVY or m in HEAVY) == []
+
+
 @pytest.mark.slow     # verifies every formula of every seed claim: about 50 s
 def test_verify_json_lists_every_formula():
     run = derive("verify", "--json")

@@ -11,8 +11,9 @@ from .peer_series import IVP_CSE, IVP_DEFAULT
 from .plots import write_plots
 from .problems import BenchOptions
 from .suite import BenchResult
+from ...paths import BENCH_OUT
 
-DEFAULT_OUT = "derive-bench"     # `derive bench` writes here (relative to the current directory)
+DEFAULT_OUT = BENCH_OUT          # `derive bench` writes here (its home: derive/paths.py, for the CLI's help)
 CSV_COLUMNS = ("problem", "model", "kind", "series", "method", "backend", "dtype", "rtol", "step",
                "status", "final_error", "energy_error", "seconds", "cpu_seconds", "repeats", "nfev", "overhead",
                "e0", "horizon_target", "horizon_resolve", "note")
