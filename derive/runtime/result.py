@@ -43,7 +43,7 @@ class SimulationResult:
     status : int
         The integrator's status, 0 for a run to its end (derive/codegen/contract.py lists them).
     status_name : str
-        Its name: ``"ok"``, ``"maximum number of steps reached"``, ...
+        Its name: ``"ok"``, or the name of the status that stopped the run (derive.codegen.contract.STATUS_TABLE).
     ok : bool
         ``status == 0``.
     message : str
