@@ -251,11 +251,11 @@ def test_every_artifact_name_of_every_backend_is_reserved():
     from derive.model.description import model_name_problem
     assert {b.name for b in backends()} == {"c", "jax", "numpy"}     # a new backend: check its files here
     produced = _produced(["planar", "spherical_std", ATLAS])
-    # jax (rendered only on request) writes jax/<model>_jax.py: a folder of its own, one file
-    # per model whose name carries the model's, so no two models' files can be one
+    # jax (rendered only on request) writes jax/<model>_jax.py and jax/<model>_linearize_jax.py:
+    # a folder of its own, files whose names carry the model's, so no two models' files can be one
     for name in ("planar", "spherical_std", ATLAS):
         jax_files = render_models([name], backends=("jax",))
-        assert list(jax_files) == ([] if name == ATLAS else [f"jax/{name}_jax.py"])
+        assert list(jax_files) == ([] if name == ATLAS else [f"jax/{name}_jax.py", f"jax/{name}_linearize_jax.py"])
     golden = {Path(p).stem for p in (ROOT / "generated").glob("*/*") if p.suffix in (".c", ".h", ".py")}
     assert set().union(*produced.values()) <= golden | {"derive_tableaus"}
     for name, stems in produced.items():
