@@ -322,6 +322,7 @@ class CompiledModel(SharedLibrary):
         self.kernels: dict[str, CKernel] = {}
         macros = {m: int(v) for m, v in _DEFINE.findall(header)}
         prefix, functions = model.upper(), functions or model
+        kernel_prefix = functions.upper()      # the kernels' macros: <FUNCTIONS>_<KERNEL>_<ARG>_SIZE
         for cname, suffix, argtext in _PROTO.findall(header):
             if not cname.startswith(functions + "_"):
                 continue
@@ -332,7 +333,7 @@ class CompiledModel(SharedLibrary):
                 name = words[-1]
                 if name == "status" or (len(words) == 2 and words[0] == "long"):
                     continue
-                m = f"{prefix}_{kname.upper()}_{name.upper()}"
+                m = f"{kernel_prefix}_{kname.upper()}_{name.upper()}"
                 size, rank = macros[f"{m}_SIZE"], macros[f"{m}_RANK"]
                 if words[0] == "const":
                     inputs.append((name, size))

@@ -121,7 +121,7 @@ int compound_linearize_batch(long n, const double *restrict y, long y_stride, co
     int all = COMPOUND_LINEARIZE_STATUS_OK;
     long i;
     for (i = 0; i < n; ++i) {
-        const int point_status = compound_linearize(y + i * y_stride, p + i * p_stride, A + i * COMPOUND_LINEARIZE_LINEARIZE_A_SIZE);
+        const int point_status = compound_linearize(y + i * y_stride, p + i * p_stride, A + i * COMPOUND_LINEARIZE_A_SIZE);
         if (status) {
             status[i] = point_status;
         }
@@ -202,7 +202,7 @@ int compound_linearize_batch_f(long n, const float *restrict y, long y_stride, c
     int all = COMPOUND_LINEARIZE_STATUS_OK;
     long i;
     for (i = 0; i < n; ++i) {
-        const int point_status = compound_linearize_f(y + i * y_stride, p + i * p_stride, A + i * COMPOUND_LINEARIZE_LINEARIZE_A_SIZE);
+        const int point_status = compound_linearize_f(y + i * y_stride, p + i * p_stride, A + i * COMPOUND_LINEARIZE_A_SIZE);
         if (status) {
             status[i] = point_status;
         }
@@ -283,7 +283,7 @@ int compound_linearize_batch_l(long n, const long double *restrict y, long y_str
     int all = COMPOUND_LINEARIZE_STATUS_OK;
     long i;
     for (i = 0; i < n; ++i) {
-        const int point_status = compound_linearize_l(y + i * y_stride, p + i * p_stride, A + i * COMPOUND_LINEARIZE_LINEARIZE_A_SIZE);
+        const int point_status = compound_linearize_l(y + i * y_stride, p + i * p_stride, A + i * COMPOUND_LINEARIZE_A_SIZE);
         if (status) {
             status[i] = point_status;
         }

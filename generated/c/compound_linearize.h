@@ -58,14 +58,14 @@ extern const char *const compound_linearize_param_names[COMPOUND_LINEARIZE_N_PAR
  *   out A[16]: A = df/dy, row-major
  * Total ops: 101
  */
-#define COMPOUND_LINEARIZE_LINEARIZE_Y_SIZE 4
-#define COMPOUND_LINEARIZE_LINEARIZE_Y_RANK 1
-#define COMPOUND_LINEARIZE_LINEARIZE_P_SIZE 7
-#define COMPOUND_LINEARIZE_LINEARIZE_P_RANK 1
-#define COMPOUND_LINEARIZE_LINEARIZE_A_SIZE 16
-#define COMPOUND_LINEARIZE_LINEARIZE_A_RANK 2
-#define COMPOUND_LINEARIZE_LINEARIZE_A_ROWS 4
-#define COMPOUND_LINEARIZE_LINEARIZE_A_COLS 4
+#define COMPOUND_LINEARIZE_Y_SIZE 4
+#define COMPOUND_LINEARIZE_Y_RANK 1
+#define COMPOUND_LINEARIZE_P_SIZE 7
+#define COMPOUND_LINEARIZE_P_RANK 1
+#define COMPOUND_LINEARIZE_A_SIZE 16
+#define COMPOUND_LINEARIZE_A_RANK 2
+#define COMPOUND_LINEARIZE_A_ROWS 4
+#define COMPOUND_LINEARIZE_A_COLS 4
 int compound_linearize(const double *restrict y, const double *restrict p, double *restrict A);
 int compound_linearize_f(const float *restrict y, const float *restrict p, float *restrict A);
 int compound_linearize_l(const long double *restrict y, const long double *restrict p, long double *restrict A);

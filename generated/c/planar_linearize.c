@@ -122,7 +122,7 @@ int planar_linearize_batch(long n, const double *restrict y, long y_stride, cons
     int all = PLANAR_LINEARIZE_STATUS_OK;
     long i;
     for (i = 0; i < n; ++i) {
-        const int point_status = planar_linearize(y + i * y_stride, p + i * p_stride, A + i * PLANAR_LINEARIZE_LINEARIZE_A_SIZE);
+        const int point_status = planar_linearize(y + i * y_stride, p + i * p_stride, A + i * PLANAR_LINEARIZE_A_SIZE);
         if (status) {
             status[i] = point_status;
         }
@@ -204,7 +204,7 @@ int planar_linearize_batch_f(long n, const float *restrict y, long y_stride, con
     int all = PLANAR_LINEARIZE_STATUS_OK;
     long i;
     for (i = 0; i < n; ++i) {
-        const int point_status = planar_linearize_f(y + i * y_stride, p + i * p_stride, A + i * PLANAR_LINEARIZE_LINEARIZE_A_SIZE);
+        const int point_status = planar_linearize_f(y + i * y_stride, p + i * p_stride, A + i * PLANAR_LINEARIZE_A_SIZE);
         if (status) {
             status[i] = point_status;
         }
@@ -286,7 +286,7 @@ int planar_linearize_batch_l(long n, const long double *restrict y, long y_strid
     int all = PLANAR_LINEARIZE_STATUS_OK;
     long i;
     for (i = 0; i < n; ++i) {
-        const int point_status = planar_linearize_l(y + i * y_stride, p + i * p_stride, A + i * PLANAR_LINEARIZE_LINEARIZE_A_SIZE);
+        const int point_status = planar_linearize_l(y + i * y_stride, p + i * p_stride, A + i * PLANAR_LINEARIZE_A_SIZE);
         if (status) {
             status[i] = point_status;
         }

@@ -58,14 +58,14 @@ extern const char *const planar_linearize_param_names[PLANAR_LINEARIZE_N_PARAMS]
  *   out A[16]: A = df/dy, row-major
  * Total ops: 90
  */
-#define PLANAR_LINEARIZE_LINEARIZE_Y_SIZE 4
-#define PLANAR_LINEARIZE_LINEARIZE_Y_RANK 1
-#define PLANAR_LINEARIZE_LINEARIZE_P_SIZE 5
-#define PLANAR_LINEARIZE_LINEARIZE_P_RANK 1
-#define PLANAR_LINEARIZE_LINEARIZE_A_SIZE 16
-#define PLANAR_LINEARIZE_LINEARIZE_A_RANK 2
-#define PLANAR_LINEARIZE_LINEARIZE_A_ROWS 4
-#define PLANAR_LINEARIZE_LINEARIZE_A_COLS 4
+#define PLANAR_LINEARIZE_Y_SIZE 4
+#define PLANAR_LINEARIZE_Y_RANK 1
+#define PLANAR_LINEARIZE_P_SIZE 5
+#define PLANAR_LINEARIZE_P_RANK 1
+#define PLANAR_LINEARIZE_A_SIZE 16
+#define PLANAR_LINEARIZE_A_RANK 2
+#define PLANAR_LINEARIZE_A_ROWS 4
+#define PLANAR_LINEARIZE_A_COLS 4
 int planar_linearize(const double *restrict y, const double *restrict p, double *restrict A);
 int planar_linearize_f(const float *restrict y, const float *restrict p, float *restrict A);
 int planar_linearize_l(const long double *restrict y, const long double *restrict p, long double *restrict A);

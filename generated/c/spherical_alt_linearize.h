@@ -58,14 +58,14 @@ extern const char *const spherical_alt_linearize_param_names[SPHERICAL_ALT_LINEA
  *   out A[64]: A = df/dy, row-major
  * Total ops: 691
  */
-#define SPHERICAL_ALT_LINEARIZE_LINEARIZE_Y_SIZE 8
-#define SPHERICAL_ALT_LINEARIZE_LINEARIZE_Y_RANK 1
-#define SPHERICAL_ALT_LINEARIZE_LINEARIZE_P_SIZE 5
-#define SPHERICAL_ALT_LINEARIZE_LINEARIZE_P_RANK 1
-#define SPHERICAL_ALT_LINEARIZE_LINEARIZE_A_SIZE 64
-#define SPHERICAL_ALT_LINEARIZE_LINEARIZE_A_RANK 2
-#define SPHERICAL_ALT_LINEARIZE_LINEARIZE_A_ROWS 8
-#define SPHERICAL_ALT_LINEARIZE_LINEARIZE_A_COLS 8
+#define SPHERICAL_ALT_LINEARIZE_Y_SIZE 8
+#define SPHERICAL_ALT_LINEARIZE_Y_RANK 1
+#define SPHERICAL_ALT_LINEARIZE_P_SIZE 5
+#define SPHERICAL_ALT_LINEARIZE_P_RANK 1
+#define SPHERICAL_ALT_LINEARIZE_A_SIZE 64
+#define SPHERICAL_ALT_LINEARIZE_A_RANK 2
+#define SPHERICAL_ALT_LINEARIZE_A_ROWS 8
+#define SPHERICAL_ALT_LINEARIZE_A_COLS 8
 int spherical_alt_linearize(const double *restrict y, const double *restrict p, double *restrict A);
 int spherical_alt_linearize_f(const float *restrict y, const float *restrict p, float *restrict A);
 int spherical_alt_linearize_l(const long double *restrict y, const long double *restrict p, long double *restrict A);

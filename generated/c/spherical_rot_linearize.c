@@ -341,7 +341,7 @@ int spherical_rot_linearize_batch(long n, const double *restrict y, long y_strid
     int all = SPHERICAL_ROT_LINEARIZE_STATUS_OK;
     long i;
     for (i = 0; i < n; ++i) {
-        const int point_status = spherical_rot_linearize(y + i * y_stride, p + i * p_stride, A + i * SPHERICAL_ROT_LINEARIZE_LINEARIZE_A_SIZE);
+        const int point_status = spherical_rot_linearize(y + i * y_stride, p + i * p_stride, A + i * SPHERICAL_ROT_LINEARIZE_A_SIZE);
         if (status) {
             status[i] = point_status;
         }
@@ -643,7 +643,7 @@ int spherical_rot_linearize_batch_f(long n, const float *restrict y, long y_stri
     int all = SPHERICAL_ROT_LINEARIZE_STATUS_OK;
     long i;
     for (i = 0; i < n; ++i) {
-        const int point_status = spherical_rot_linearize_f(y + i * y_stride, p + i * p_stride, A + i * SPHERICAL_ROT_LINEARIZE_LINEARIZE_A_SIZE);
+        const int point_status = spherical_rot_linearize_f(y + i * y_stride, p + i * p_stride, A + i * SPHERICAL_ROT_LINEARIZE_A_SIZE);
         if (status) {
             status[i] = point_status;
         }
@@ -945,7 +945,7 @@ int spherical_rot_linearize_batch_l(long n, const long double *restrict y, long 
     int all = SPHERICAL_ROT_LINEARIZE_STATUS_OK;
     long i;
     for (i = 0; i < n; ++i) {
-        const int point_status = spherical_rot_linearize_l(y + i * y_stride, p + i * p_stride, A + i * SPHERICAL_ROT_LINEARIZE_LINEARIZE_A_SIZE);
+        const int point_status = spherical_rot_linearize_l(y + i * y_stride, p + i * p_stride, A + i * SPHERICAL_ROT_LINEARIZE_A_SIZE);
         if (status) {
             status[i] = point_status;
         }

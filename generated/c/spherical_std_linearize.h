@@ -58,14 +58,14 @@ extern const char *const spherical_std_linearize_param_names[SPHERICAL_STD_LINEA
  *   out A[64]: A = df/dy, row-major
  * Total ops: 671
  */
-#define SPHERICAL_STD_LINEARIZE_LINEARIZE_Y_SIZE 8
-#define SPHERICAL_STD_LINEARIZE_LINEARIZE_Y_RANK 1
-#define SPHERICAL_STD_LINEARIZE_LINEARIZE_P_SIZE 5
-#define SPHERICAL_STD_LINEARIZE_LINEARIZE_P_RANK 1
-#define SPHERICAL_STD_LINEARIZE_LINEARIZE_A_SIZE 64
-#define SPHERICAL_STD_LINEARIZE_LINEARIZE_A_RANK 2
-#define SPHERICAL_STD_LINEARIZE_LINEARIZE_A_ROWS 8
-#define SPHERICAL_STD_LINEARIZE_LINEARIZE_A_COLS 8
+#define SPHERICAL_STD_LINEARIZE_Y_SIZE 8
+#define SPHERICAL_STD_LINEARIZE_Y_RANK 1
+#define SPHERICAL_STD_LINEARIZE_P_SIZE 5
+#define SPHERICAL_STD_LINEARIZE_P_RANK 1
+#define SPHERICAL_STD_LINEARIZE_A_SIZE 64
+#define SPHERICAL_STD_LINEARIZE_A_RANK 2
+#define SPHERICAL_STD_LINEARIZE_A_ROWS 8
+#define SPHERICAL_STD_LINEARIZE_A_COLS 8
 int spherical_std_linearize(const double *restrict y, const double *restrict p, double *restrict A);
 int spherical_std_linearize_f(const float *restrict y, const float *restrict p, float *restrict A);
 int spherical_std_linearize_l(const long double *restrict y, const long double *restrict p, long double *restrict A);

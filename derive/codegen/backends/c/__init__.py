@@ -56,7 +56,7 @@ class CBackend(Backend):
         for b in bodies:
             k = b.kernel
             slots = {s: f"{inp.name}[{i}]" for inp in k.inputs for i, s in enumerate(inp.vector.symbols)}
-            kmacro = f"{macro}_{k.name.upper()}"
+            kmacro = f"{spec.prefix.upper()}_{k.name.upper()}"     # planar_linearize(): PLANAR_LINEARIZE_A_SIZE
             args = []
             for inp in k.inputs:
                 args.append({"name": inp.name, "const": True, "size": inp.size,
