@@ -91,7 +91,8 @@ def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
     u = normalise_inputs(model, inputs)
     info = model_info(model)
     rhs, jacobian = _kernels(model, backend)
-    if load_model(model).is_time_dependent:     # the kernels' first argument: the time, one slot
+    timed = load_model(model).is_time_dependent
+    if timed:                                   # the kernels' first argument: the time, one slot
         rhs, jacobian = _at_time(rhs), _at_time(jacobian)
 
     def arguments(t: float, y) -> tuple:
@@ -104,7 +105,7 @@ def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
             return (p, np.array([u.at(t, column) for column in np.asarray(y).T], np.float64))
         return (p, np.asarray(u.at(t, y), np.float64))
 
-    time = (lambda t: (t,)) if load_model(model).is_time_dependent else (lambda t: ())
+    time = (lambda t: (t,)) if timed else (lambda t: ())
 
     def fun(t, y):
         y = np.asarray(y, np.float64)
