@@ -16,7 +16,7 @@ from .errors import (BuildError, CompilerMissingError, DeriveError, InputError, 
                      ToolMissingError)
 
 __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "ModelError",
-           "SceneError", "SimulationError", "SimulationInputError", "SimulationResult", "ToolMissingError",
+           "SceneError", "EnsembleResult", "SimulationError", "SimulationInputError", "SimulationResult", "ToolMissingError",
            "Pendulum", "__version__", "ensemble", "equations", "equilibria", "linearize", "load_model", "scipy_rhs", "simulate", "sweep",
            "trust_horizon"]
 
@@ -26,6 +26,7 @@ __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "M
 _LAZY = {"simulate": ("runtime.simulate", "simulate"), "ensemble": ("runtime.ensemble", "ensemble"),
          "scipy_rhs": ("runtime.scipy_rhs", "scipy_rhs"),
          "SimulationResult": ("runtime.result", "SimulationResult"),
+         "EnsembleResult": ("runtime.ensemble", "EnsembleResult"),
          "trust_horizon": ("measurement.trust", "trust_horizon_of"), "sweep": ("sweep", None),
          "load_model": ("api", "load_model"), "equations": ("api", "equations"), "Pendulum": ("api", "Pendulum"),
          "linearize": ("runtime.linearize", "linearize"), "equilibria": ("runtime.linearize", "equilibria")}

@@ -42,6 +42,51 @@ from .runner import runner_for
 
 @dataclass
 class EnsembleResult:
+    """B runs of derive.ensemble on one output grid: each row is the `derive.simulate` run
+    of its initial state, bit for bit.
+
+    A trajectory that stopped early is kept, not raised: its ``status`` says why and its
+    rows after ``t_stop`` are NaN.
+
+    Attributes
+    ----------
+    model, method, dtype : str
+        What ran: the model, the method and the floating-point type.
+    t : ndarray, shape (nt,)
+        The output times, shared by every trajectory.
+    y : ndarray, shape (B, nt, n)
+        The states, coordinates then rates; NaN after a trajectory stopped.
+    status : ndarray of int, shape (B,)
+        Each trajectory's contract status, 0 for a run to its end
+        (derive.codegen.contract.STATUS_TABLE lists them).
+    t_stop : ndarray, shape (B,)
+        The time each trajectory reached.
+    nfev, njev, nsteps, naccepted, nrejected, nnewton : ndarray of int, shape (B,)
+        Each trajectory's counters, as a SimulationResult's.
+    threads : int
+        How many blocks ran at once.
+    rtol, step : float or None
+        The tolerance or the fixed step the run used.
+    ok : ndarray of bool, shape (B,)
+        ``status == 0`` per trajectory.
+    status_names : list of str
+        The name of each trajectory's status (``"ok"`` or why it stopped).
+    all_ok : bool
+        Whether every trajectory ran to its end.
+
+    See Also
+    --------
+    derive.ensemble : which returns it.
+    derive.SimulationResult : one trajectory.
+
+    Examples
+    --------
+    >>> import numpy as np, derive
+    >>> runs = derive.ensemble("planar", np.array([[1.0, 0.5, 0, 0], [0.2, 0, 0, 0]]),
+    ...                        [0.0, 1.0], {"m1": 1, "m2": 1, "l1": 1, "l2": 1, "g": 9.81})
+    >>> runs.y.shape, runs.all_ok
+    ((2, 2, 4), True)
+    """
     model: str
     method: str
     dtype: str
