@@ -17,8 +17,11 @@ from sympy.printing.precedence import precedence
 from ..errors import PrintError
 
 
-class _SlotMixin:
-    """Symbols print as their slot (y[0], p[3]) or local name; integer powers as products."""
+class SlotPrinting:
+    """Symbols print as their slot (y[0], p[3]) or local name; integer powers as products.
+
+    The mixin every backend's printer takes (C, NumPy, and a backend folder's own, such as
+    JAX's): a new target language mixes it into SymPy's printer for that language."""
 
     def _slot(self, expr):
         slots = self._settings_slots
@@ -36,7 +39,7 @@ class _SlotMixin:
         return "*".join([base] * n)
 
 
-class CPrinter(_SlotMixin, C99CodePrinter):
+class CPrinter(SlotPrinting, C99CodePrinter):
     """C99 for one floating type: `float` (sinf, 1.0F), `double`, `long double` (sinl, 1.0L)."""
 
     TYPES = {"float": float32, "double": float64, "long double": float80}
@@ -75,7 +78,7 @@ class CPrinter(_SlotMixin, C99CodePrinter):
         return text
 
 
-class PyNumPyPrinter(_SlotMixin, NumPyPrinter):
+class PyNumPyPrinter(SlotPrinting, NumPyPrinter):
     """NumPy with the module imported as `numpy`; x**-1 as 1/x, x**2 as x*x.
 
     `varying` are the symbols that hold one value per state (arrays over a

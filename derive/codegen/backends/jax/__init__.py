@@ -23,13 +23,13 @@ from sympy.printing.precedence import precedence
 from ....errors import PrintError
 from ...emit import live_assignments, render
 from ...names import KERNEL_NAMES, PYTHON_RESERVED, numpy_slots
-from ...printers import _SlotMixin
+from ...printers import SlotPrinting
 from ..base import Backend, common_context, slot_doc, wrap
 
 MODULE_NAMES = frozenset({"jax"})       # the kernels' module: never a local's name
 
 
-class JaxSlotPrinter(_SlotMixin, JaxPrinter):
+class JaxSlotPrinter(SlotPrinting, JaxPrinter):
     """jax.numpy, symbols printed as their local name; small integer powers as products.
 
     Parameters
