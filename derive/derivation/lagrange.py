@@ -12,6 +12,14 @@ its velocity gains r0'(t), so T gains T_pivot = sum_k m_k r0'.(J_k q') + 1/2 sum
 (linear in q', M unchanged) and V gains g sum_k m_k r0[-1](t).  Lagrange's equation with
 explicit time, d/dt dT/dq' = d2T/dq'dq q' + d2T/dq'dq' q'' + d2T/dq'dt, then adds to F
     dT_pivot/dq_j - sum_k d2T_pivot/dq'_j dq_k q'_k - d2T_pivot/dq'_j dt.
+
+A model that is not a serial chain (a kinematic tree: links naming their parent, joint
+offsets, prismatic sliders, massless links; `Model.is_chain`) takes the general path,
+`tree_form`: each body's centre r_k(q, t) from the tree (`tree_geometry`), its Jacobian
+J_k = dr_k/dq, M = sum_k m_k J_k^T J_k + I_k E_k^T E_k (E_k = de_k/dq, a rod's turning),
+each entry folded by one trigsimp; V = g sum_k m_k r_k[-1]; F by the same Christoffel
+form (`forcing`), plus the explicit-time terms of T - 1/2 q'^T M q' (the velocity's
+part dr_k/dt: a moving pivot) by the formula above (`explicit_time_forcing`).
 """
 from __future__ import annotations
 
@@ -19,7 +27,9 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from ..errors import ModelError
 from ..model import Model
+from ..model.description import PRISMATIC
 from ..model.expressions import parse_expression
 from .symbols import ModelSymbols, motion_names, names, parse_quantity, t
 
@@ -237,7 +247,112 @@ def pivot_terms(model: Model, s: ModelSymbols) -> PivotTerms | None:
     for m, c in zip(masses, mass_centres(model, s, pivot=False)):
         T += m * (r0_dot.T * (c.jacobian(s.q) * qd))[0, 0] + m * (r0_dot.T * r0_dot)[0, 0] / 2
     V = s.param("g") * sp.Add(*masses) * r0[-1]
+    return PivotTerms(sp.expand(T), sp.expand(V), explicit_time_forcing(T, s))
+
+
+def explicit_time_forcing(T: sp.Expr, s: ModelSymbols) -> sp.Matrix:
+    """What the part T of the kinetic energy that is not 1/2 q'^T M q' (the terms linear in
+    and free of q', from explicit time) adds to F (module docstring):
+    dT/dq_j - sum_k d2T/dq'_j dq_k q'_k - d2T/dq'_j dt."""
     dT_dqd = [T.diff(v) for v in s.qd]
     F = sp.Matrix([T.diff(qj) - sum(dT_dqd[j].diff(qk) * vk for qk, vk in zip(s.q, s.qd))
                    - dT_dqd[j].diff(t) for j, qj in enumerate(s.q)])
-    return PivotTerms(sp.expand(T), sp.expand(V), F.applyfunc(lambda f: sp.factor_terms(sp.expand(f))))
+    return F.applyfunc(lambda f: sp.factor_terms(sp.expand(f)))
+
+
+def model_potential(model: Model, s: ModelSymbols) -> sp.Expr | None:
+    """The model's own potential V(q, p, t) (added to gravity's), or None."""
+    if model.potential is None:
+        return None
+    return parse_expression(model.potential, names(s), f"{model.origin or model.name}: potential")
+
+
+# -- the general path: a kinematic tree --------------------------------------
+
+@dataclass
+class TreeGeometry:
+    """Where each link's joint, tip and body centre are (functions of q, p and t), each
+    link's direction e (None for a slider: it does not turn) and its frame (the rotation
+    from the link's axes to the world's; None where the link has none: a spherical link's
+    direction does not fix its spin)."""
+    joints: list[sp.Matrix]
+    tips: list[sp.Matrix]
+    centres: list[sp.Matrix]
+    directions: list[sp.Matrix | None]
+    frames: list[sp.Matrix | None]
+
+
+def _planar_frame(e: sp.Matrix) -> sp.Matrix:
+    """The rotation R of a planar link with direction e: R (0, -1) = e (the link's axes turn
+    with it: its own downward axis is along the link)."""
+    return sp.Matrix([[-e[1], -e[0]], [e[0], -e[1]]])
+
+
+def _unit_axis(link, s: ModelSymbols) -> sp.Matrix:
+    axis = sp.Matrix([parse_quantity(a, s) for a in link.axis])
+    return axis / sp.sqrt(sum(a**2 for a in axis))
+
+
+def tree_geometry(model: Model, s: ModelSymbols) -> TreeGeometry:
+    """The positions of a kinematic tree, link by link from its parent (module docstring)."""
+    where = model.origin or model.name
+    r0, dim = pivot_position(model, s), model.dimension
+    geo = TreeGeometry([], [], [], [], [])
+    for i, link in enumerate(model.links, 1):
+        if link.parent < 0:
+            base, tip, frame = r0, r0, sp.eye(dim)
+        else:
+            base, tip, frame = geo.joints[link.parent], geo.tips[link.parent], geo.frames[link.parent]
+        if frame is None and (link.offset is not None or link.joint == PRISMATIC):
+            raise ModelError(f"{where}: link {i}: its parent (link {link.parent + 1}) is a spherical "
+                             f"link, whose direction does not fix a frame for an offset or an axis")
+        joint = tip if link.offset is None else base + frame * sp.Matrix(
+            [parse_quantity(x, s) for x in link.offset])
+        q = [s.q[j] for j in model.link_coordinates(link)]
+        if link.joint == PRISMATIC:
+            end, e, own_frame = joint + q[0] * (frame * _unit_axis(link, s)), None, frame
+            centre = end
+        else:
+            e = link.chart.unit_vector(q)
+            length = parse_quantity(link.length, s)
+            end = joint + length * e
+            com = parse_quantity(link.body.com, s) if link.body is not None else sp.S.One
+            centre = joint + com * length * e
+            own_frame = _planar_frame(e) if dim == 2 and len(q) == 1 else None
+        geo.joints.append(joint)
+        geo.tips.append(end)
+        geo.centres.append(centre)
+        geo.directions.append(e)
+        geo.frames.append(own_frame)
+    return geo
+
+
+def _fold(x: sp.Expr) -> sp.Expr:
+    """One entry of M, expanded and its sin^2 + cos^2 folded (an entry is a short
+    trigonometric polynomial: the one simplification the general path makes)."""
+    return sp.trigsimp(sp.expand(x))
+
+
+def tree_form(model: Model, s: ModelSymbols, geo: TreeGeometry) -> tuple[ChainForm, sp.Expr]:
+    """M and V of a kinematic tree (as a ChainForm without placeholders, so `forcing` takes
+    it) and the explicit-time part of T (T - 1/2 q'^T M q'), module docstring."""
+    n, qd = len(s.q), sp.Matrix(s.qd)
+    q = sp.Matrix(s.q)
+    M, V, T_time = sp.zeros(n, n), sp.S.Zero, sp.S.Zero
+    g = s.param("g")
+    for link, centre, e in zip(model.links, geo.centres, geo.directions):
+        if link.body is None:
+            continue
+        m = parse_quantity(link.body.mass, s)
+        J = centre.jacobian(q)
+        M += m * J.T * J
+        inertia = parse_quantity(link.body.inertia, s)
+        if e is not None and inertia != 0:
+            E = e.jacobian(q)
+            M += inertia * E.T * E
+        moving = centre.diff(t)
+        if moving != sp.zeros(*moving.shape):
+            T_time += m * (moving.T * (J * qd))[0, 0] + m * (moving.T * moving)[0, 0] / 2
+        V += m * g * centre[-1]
+    M = M.applyfunc(_fold)
+    return ChainForm(M, sp.expand(V), {}), sp.expand(T_time)
