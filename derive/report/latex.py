@@ -48,6 +48,8 @@ def _vector(v, names) -> str:
 
 def _body(link, n) -> str:
     b = link.body
+    if b is None:
+        return "no mass (a frame for the links it carries)"
     mass = ts.tex(sp.sympify(b.mass), n)
     if b.kind == "point":
         return f"a point mass ${mass}$ at its tip"
