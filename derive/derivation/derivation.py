@@ -82,10 +82,11 @@ def compute(model: Model) -> Derivation:
     T = lagrange.kinetic_energy(M, s)
     if pivot is not None:           # explicit time (a moving pivot): T, V and F gain its terms
         T, V, F = T + pivot.T, V + pivot.V, F + pivot.F
-    potential = lagrange.model_potential(model, s)
-    if potential is not None:       # the model's own potential, beside gravity's
-        V = V + potential
-        F = F - sp.Matrix([sp.expand(potential.diff(qj)) for qj in s.q])
+    for potential in (lagrange.model_potential(model, s),
+                      lagrange.spring_potential(model, s, tips, centres)):
+        if potential is not None:   # the model's own potential and its springs', beside gravity's
+            V = V + potential
+            F = F - sp.Matrix([sp.factor_terms(sp.expand(potential.diff(qj))) for qj in s.q])
     d = Derivation(model=model, symbols=s, tips=tips, centres=centres,
                    M=M, F=F, T=T, V=V, dissipation=R, forces=Q)
     for link in model.links:

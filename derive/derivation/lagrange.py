@@ -267,6 +267,40 @@ def model_potential(model: Model, s: ModelSymbols) -> sp.Expr | None:
     return parse_expression(model.potential, names(s), f"{model.origin or model.name}: potential")
 
 
+def spring_potential(model: Model, s: ModelSymbols, tips: list[sp.Matrix],
+                     centres: list[sp.Matrix]) -> sp.Expr | None:
+    """The energy of the model's springs, or None: k/2 (|b - a| - rest)^2 for a linear
+    spring between points a and b (k/2 |b - a|^2 at rest length 0: no square root), and
+    k/2 (q - q_parent - rest)^2 for a torsional one at a hinge (the parent's angle where the
+    parent is a one-angle hinge too: the spring twists with the joint's relative angle)."""
+    if not model.springs:
+        return None
+    by_name = {link.name: i for i, link in enumerate(model.links) if link.name}
+
+    def point(text: str) -> sp.Matrix:
+        if text == "pivot":
+            return pivot_position(model, s)
+        if text.endswith(".centre"):
+            return centres[by_name[text[:-len(".centre")]]]
+        return tips[by_name[text]]
+
+    V = sp.S.Zero
+    for spring in model.springs:
+        k, rest = parse_quantity(spring.stiffness, s), parse_quantity(spring.rest, s)
+        if spring.between is not None:
+            d = point(spring.between[1]) - point(spring.between[0])
+            square = sp.trigsimp(sp.expand(sum(x**2 for x in d)))   # r^2 (sin^2 + cos^2) is r^2
+            V += k * square / 2 if rest == 0 else k * (sp.sqrt(square) - rest)**2 / 2
+        else:
+            link = model.links[spring.joint]
+            angle = s.q[model.link_coordinates(link)[0]]
+            parent = model.links[link.parent] if link.parent >= 0 else None
+            if parent is not None and parent.joint != PRISMATIC and len(parent.coordinates) == 1:
+                angle -= s.q[model.link_coordinates(parent)[0]]
+            V += k * (angle - rest)**2 / 2
+    return V
+
+
 # -- the general path: a kinematic tree --------------------------------------
 
 @dataclass

@@ -103,6 +103,17 @@ class Link:
     coordinates: tuple[str, ...] = ()       # the names of the joint's coordinates in the model
 
 
+@dataclass(frozen=True)
+class Spring:
+    """A linear spring between two points (`between`: "pivot", a link's name for its tip, or
+    "<link>.centre" for its body's centre of mass), or a torsional spring at a hinge
+    (`joint`: a link's name; it pulls the link's angle towards its parent's + `rest`)."""
+    stiffness: str
+    rest: str = "0"
+    between: tuple[str, str] | None = None
+    joint: int | None = None             # the link index of a torsional spring
+
+
 SI_UNITS = {"length": "m", "mass": "kg", "inertia": "kg m²", "gravity": "m/s²", "fraction": ""}
 
 
@@ -123,6 +134,7 @@ class Model:
     pivot: tuple[str, ...] | None = None         # the pivot's prescribed position r0(t; p), or fixed at 0
     potential: str | None = None                 # a potential V(q, p, t) added to gravity's
     order: tuple[str, ...] | None = None         # the coordinates' order in the state, when not the links'
+    springs: tuple[Spring, ...] = ()
 
     @property
     def is_chain(self) -> bool:
@@ -612,6 +624,62 @@ def _order(t: dict, links: list[Link], origin: str) -> tuple[str, ...] | None:
     return None if list(order) == own else order
 
 
+CENTRE = ".centre"        # a spring's end at a link's body centre, "<link>.centre"
+
+
+def _spring_point(text, links: list[Link], where: str) -> str:
+    names = {link.name for link in links if link.name}
+    link = text[:-len(CENTRE)] if isinstance(text, str) and text.endswith(CENTRE) else text
+    if text != PIVOT and link not in names:
+        raise ModelError(f"{where}: 'between': {text!r} is not '{PIVOT}', a link's name (its tip) "
+                         f"or '<link>{CENTRE}' (named links: {', '.join(sorted(names)) or 'none'})")
+    return text
+
+
+def _parse_springs(t: dict, links: list[Link], params: tuple[str, ...], origin: str) -> tuple[Spring, ...]:
+    """The [[springs]] tables: linear (`between`, `stiffness`, `rest_length`) or torsional
+    (`joint`, `stiffness`, `rest_angle`)."""
+    tables = t.get("springs", [])
+    if not isinstance(tables, list):
+        raise ModelError(f"{origin}: 'springs' must be an array of tables ([[springs]])")
+    out, by_name = [], {link.name: i for i, link in enumerate(links) if link.name}
+    for i, st in enumerate(tables, 1):
+        where = f"{origin}: spring {i}"
+        if not isinstance(st, dict):
+            raise ModelError(f"{where}: must be a table")
+        if ("between" in st) == ("joint" in st):
+            raise ModelError(f"{where}: give 'between' (two points: a linear spring) or 'joint' "
+                             f"(a link's name: a torsional spring), one of them")
+        if "between" in st:
+            _no_unknown(st, {"between", "stiffness", "rest_length"}, where)
+            ends = st["between"]
+            if not isinstance(ends, list) or len(ends) != 2:
+                raise ModelError(f"{where}: 'between' must be a list of two points")
+            spring = Spring(_quantity(st, "stiffness", where) if "stiffness" in st else "",
+                            _quantity(st, "rest_length", where) if "rest_length" in st else "0",
+                            between=tuple(_spring_point(e, links, where) for e in ends))
+        else:
+            _no_unknown(st, {"joint", "stiffness", "rest_angle"}, where)
+            joint = st["joint"]
+            if joint not in by_name:
+                raise ModelError(f"{where}: 'joint' = {joint!r} is not a link's name "
+                                 f"(named links: {', '.join(sorted(by_name)) or 'none'})")
+            link = links[by_name[joint]]
+            if link.joint != CHART_JOINT or len(link.coordinates) != 1:
+                raise ModelError(f"{where}: a torsional spring is at a hinge of one angle; link "
+                                 f"'{joint}' has {'a slider' if link.joint == PRISMATIC else 'a ball joint'}")
+            spring = Spring(_quantity(st, "stiffness", where) if "stiffness" in st else "",
+                            _quantity(st, "rest_angle", where) if "rest_angle" in st else "0",
+                            joint=by_name[joint])
+        if not spring.stiffness:
+            raise ModelError(f"{where}: missing key 'stiffness'")
+        symbols = {n: sp.Symbol(n, positive=True) for n in params}
+        for key, text in (("stiffness", spring.stiffness), ("rest", spring.rest)):
+            parse_expression(text, symbols, f"{where}: {key}")
+        out.append(spring)
+    return tuple(out)
+
+
 def parse_model(text: str, origin: str) -> Model:
     try:
         t = tomllib.loads(text)
@@ -620,7 +688,7 @@ def parse_model(text: str, origin: str) -> Model:
     except RecursionError:             # tomllib recurses once per nested inline table
         raise ModelError(f"{origin}: not valid TOML (tables nested too deeply)") from None
     _no_unknown(t, {"name", "title", "source", "dimension", "parameters", "forms", "links",
-                    "inputs", "dissipation", "forces", "pivot", "potential", "coordinates"}, origin)
+                    "inputs", "dissipation", "forces", "pivot", "potential", "coordinates", "springs"}, origin)
     dimension = _require(t, "dimension", int, origin)
     if dimension not in (2, 3):
         raise ModelError(f"{origin}: 'dimension' must be 2 (planar) or 3 (spherical), got {dimension}")
@@ -660,7 +728,7 @@ def parse_model(text: str, origin: str) -> Model:
                   dimension=dimension, parameters=params, forms=forms, links=tuple(links), text=text,
                   inputs=inputs, dissipation=dissipation, origin=origin,
                   pivot=_pivot(t, dimension, origin), potential=potential,
-                  order=_order(t, links, origin),
+                  order=_order(t, links, origin), springs=_parse_springs(t, links, params, origin),
                   forces=tuple((k, _quantity(forces_table, k, f"{origin}: forces")) for k in forces_table))
     _check_names(model, origin)
     _check_expressions(model, origin)

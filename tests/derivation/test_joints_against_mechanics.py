@@ -184,3 +184,80 @@ def test_elastic_pendulum_against_mechanics():
 
 def test_pendulum_tree_against_mechanics():
     _check("pendulum_tree.toml", pendulum_tree_reference)
+
+
+# -- springs: the same physics as a spring force or a torque in the reference ---------------
+
+ELASTIC_BY_A_SPRING = '''
+name = "elastic_spring"
+dimension = 2
+parameters = ["m", "k", "r0", "g"]
+coordinates = ["r", "theta"]
+[[links]]
+name = "arm"
+chart = "planar"
+coordinate = "theta"
+[[links]]
+name = "bob"
+parent = "arm"
+joint = "prismatic"
+axis = [0, -1]
+coordinate = "r"
+body = { kind = "point", mass = "m" }
+[[springs]]
+between = ["pivot", "bob"]
+stiffness = "k"
+rest_length = "r0"
+'''
+
+TWISTED = '''
+name = "twisted_double"
+dimension = 2
+parameters = ["m1", "m2", "l1", "l2", "k1", "k2", "a", "g"]
+[[links]]
+name = "upper"
+chart = "planar"
+length = "l1"
+body = { kind = "point", mass = "m1" }
+[[links]]
+name = "lower"
+chart = "planar"
+length = "l2"
+body = { kind = "point", mass = "m2" }
+[[springs]]                        # a torsional spring at the elbow, rest angle a
+joint = "lower"
+stiffness = "k1"
+rest_angle = "a"
+[[springs]]                        # a zero-length spring from the pivot to the lower bob
+between = ["pivot", "lower"]
+stiffness = "k2"
+'''
+
+
+def twisted_reference() -> Reference:
+    """A planar double pendulum with a torsional spring at the elbow (the torque
+    -k1 (theta2 - theta1 - a) on link 2, its reaction on link 1) and the force -k2 x2 on
+    the lower bob (a zero-length spring from the pivot)."""
+    m1, m2, l1, l2, k1, k2, a, g = sp.symbols("m1 m2 l1 l2 k1 k2 a g")
+    th1, th2 = dynamicsymbols("theta1 theta2")
+    N = ReferenceFrame("N")
+    A1, A2 = N.orientnew("A1", "Axis", [th1, N.z]), N.orientnew("A2", "Axis", [th2, N.z])
+    O = Point("O")
+    O.set_vel(N, 0)
+    b1 = O.locatenew("B1", -l1 * A1.y)
+    b2 = b1.locatenew("B2", -l2 * A2.y)
+    for P in (b1, b2):
+        P.set_vel(N, P.pos_from(O).dt(N))
+    torque = -k1 * (th2 - th1 - a) * N.z
+    forces = [(b1, -m1 * g * N.y), (b2, -m2 * g * N.y - k2 * b2.pos_from(O)),
+              (A2, torque), (A1, -torque)]
+    return lagranges([Particle("b1", b1, m1), Particle("b2", b2, m2)], forces, [th1, th2],
+                     ["theta1", "theta2"], dict(m1=m1, m2=m2, l1=l1, l2=l2, k1=k1, k2=k2, a=a, g=g), N)
+
+
+def test_springs_against_mechanics(tmp_path):
+    for text, reference in ((ELASTIC_BY_A_SPRING, elastic_pendulum_reference), (TWISTED, twisted_reference)):
+        path = tmp_path / "model.toml"
+        path.write_text(text)
+        worst = worst_differences(str(path), reference(), np.random.default_rng(5))
+        assert max(worst) < TOL, f"{text.split()[2]}: M, F, q'' differ by {worst}"
