@@ -29,7 +29,7 @@ import sympy as sp
 
 from ..errors import ModelError
 from ..model import Model
-from ..model.description import PRISMATIC
+from ..model.description import PRISMATIC, REVOLUTE
 from ..model.expressions import parse_expression
 from .symbols import ModelSymbols, motion_names, names, parse_quantity, t
 
@@ -322,6 +322,13 @@ def _planar_frame(e: sp.Matrix) -> sp.Matrix:
     return sp.Matrix([[-e[1], -e[0]], [e[0], -e[1]]])
 
 
+def _turn(axis: sp.Matrix, angle: sp.Expr) -> sp.Matrix:
+    """The rotation by `angle` about the unit vector `axis` (Rodrigues: counterclockwise
+    seen from the axis's tip)."""
+    cross = sp.Matrix([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return sp.cos(angle) * sp.eye(3) + sp.sin(angle) * cross + (1 - sp.cos(angle)) * axis * axis.T
+
+
 def _unit_axis(link, s: ModelSymbols) -> sp.Matrix:
     axis = sp.Matrix([parse_quantity(a, s) for a in link.axis])
     return axis / sp.sqrt(sum(a**2 for a in axis))
@@ -337,7 +344,7 @@ def tree_geometry(model: Model, s: ModelSymbols) -> TreeGeometry:
             base, tip, frame = r0, r0, sp.eye(dim)
         else:
             base, tip, frame = geo.joints[link.parent], geo.tips[link.parent], geo.frames[link.parent]
-        if frame is None and (link.offset is not None or link.joint == PRISMATIC):
+        if frame is None and (link.offset is not None or link.joint in (PRISMATIC, REVOLUTE)):
             raise ModelError(f"{where}: link {i}: its parent (link {link.parent + 1}) is a spherical "
                              f"link, whose direction does not fix a frame for an offset or an axis")
         joint = tip if link.offset is None else base + frame * sp.Matrix(
@@ -347,12 +354,16 @@ def tree_geometry(model: Model, s: ModelSymbols) -> TreeGeometry:
             end, e, own_frame = joint + q[0] * (frame * _unit_axis(link, s)), None, frame
             centre = end
         else:
-            e = link.chart.unit_vector(q)
+            if link.joint == REVOLUTE:      # down the parent's -z, turned about the axis
+                own_frame = frame * _turn(_unit_axis(link, s), q[0])
+                e = own_frame * sp.Matrix([0, 0, -1])
+            else:
+                e = link.chart.unit_vector(q)
+                own_frame = _planar_frame(e) if dim == 2 and len(q) == 1 else None
             length = parse_quantity(link.length, s)
             end = joint + length * e
             com = parse_quantity(link.body.com, s) if link.body is not None else sp.S.One
             centre = joint + com * length * e
-            own_frame = _planar_frame(e) if dim == 2 and len(q) == 1 else None
         geo.joints.append(joint)
         geo.tips.append(end)
         geo.centres.append(centre)

@@ -84,9 +84,11 @@ class Body:
 
 # The joints a link may have (sympy.physics.mechanics' words): a chart joint is the
 # hinge or ball of charts.toml (absolute angles of the link's direction); a prismatic
-# joint slides along an axis fixed in its parent's frame (its coordinate is a length).
-CHART_JOINT, PRISMATIC = "chart", "prismatic"
-JOINTS = (CHART_JOINT, PRISMATIC)
+# joint slides along an axis fixed in its parent's frame (its coordinate is a length); a
+# revolute joint (3-D) turns the link about an axis fixed in its parent's frame (its
+# angle is relative to the parent, zero where the link points down the parent's -z).
+CHART_JOINT, PRISMATIC, REVOLUTE = "chart", "prismatic", "revolute"
+JOINTS = (CHART_JOINT, PRISMATIC, REVOLUTE)
 PIVOT = "pivot"           # the parent name of a link that hangs from the pivot
 
 
@@ -234,7 +236,7 @@ def link_quantities(link: Link) -> list[tuple[str, str]]:
     """(key, text) of a link's length (a chart joint's: a slider has none) and its body's
     mass, com and inertia (none for a massless link)."""
     joint_frame = link.body is None and link.length == "0"     # a massless hinge without an arm
-    out = [("length", link.length)] if link.joint == CHART_JOINT and not joint_frame else []
+    out = [("length", link.length)] if link.joint != PRISMATIC and not joint_frame else []
     if link.body is not None:
         out += [("body mass", link.body.mass), ("body com", link.body.com),
                 ("body inertia", link.body.inertia)]
@@ -527,11 +529,12 @@ def _joint_coordinates(lt: dict, n: int, default: tuple[str, ...], where: str) -
     return given
 
 
-def _slider_chart(coordinate: str, dimension: int) -> Chart:
-    """The stand-in chart of a prismatic joint: one coordinate (a length), no unit vector."""
-    return Chart(name=PRISMATIC, dimension=dimension, coordinates=(coordinate,), latex=(coordinate,),
+def _axis_chart(joint: str, coordinate: str, dimension: int) -> Chart:
+    """The stand-in chart of a prismatic or revolute joint: one coordinate (a length or an
+    angle), no unit vector of its own (its axis is in the parent's frame)."""
+    return Chart(name=joint, dimension=dimension, coordinates=(coordinate,), latex=(coordinate,),
                  unit=(), inverse=(), polar_sine=None, singular_axis=None,
-                 source="a prismatic joint (a slider)")
+                 source=f"a {joint} joint about or along an axis in its parent's frame")
 
 
 def _parse_link(lt: dict, i: int, dimension: int, named: dict[str, int], where: str) -> Link:
@@ -574,8 +577,22 @@ def _parse_link(lt: dict, i: int, dimension: int, named: dict[str, int], where: 
         coordinates = _joint_coordinates(lt, 1, (), where)
         if body is not None and body.kind != "point":
             raise ModelError(f"{where}: a slider's body is a point (a cart), got '{body.kind}'")
-        return Link(_slider_chart(coordinates[0], dimension), "0", body, name, parent_index, joint,
-                    axis, offset, coordinates)
+        return Link(_axis_chart(PRISMATIC, coordinates[0], dimension), "0", body, name, parent_index,
+                    joint, axis, offset, coordinates)
+    if joint == REVOLUTE:
+        if dimension != 3:
+            raise ModelError(f"{where}: a revolute joint is 3-D; a planar hinge is chart = \"planar\" "
+                             f"(its angle absolute, from the downward vertical)")
+        if "chart" in lt:
+            raise ModelError(f"{where}: a revolute joint has no 'chart' (its axis is 'axis')")
+        axis = _vector(lt, "axis", dimension, where)
+        if axis is None:
+            raise ModelError(f"{where}: a revolute joint needs 'axis' (in the parent's frame, "
+                             f"e.g. axis = [0, 1, 0])")
+        coordinates = _joint_coordinates(lt, 1, (f"theta{i}",), where)
+        length = _require(lt, "length", str, where) if body is not None or "length" in lt else "0"
+        return Link(_axis_chart(REVOLUTE, coordinates[0], dimension), length, body, name,
+                    parent_index, joint, axis, offset, coordinates)
     if "axis" in lt:
         raise ModelError(f"{where}: 'axis' is a prismatic joint's (a chart's axes are in charts.toml)")
     try:
@@ -665,7 +682,7 @@ def _parse_springs(t: dict, links: list[Link], params: tuple[str, ...], origin: 
                 raise ModelError(f"{where}: 'joint' = {joint!r} is not a link's name "
                                  f"(named links: {', '.join(sorted(by_name)) or 'none'})")
             link = links[by_name[joint]]
-            if link.joint != CHART_JOINT or len(link.coordinates) != 1:
+            if link.joint == PRISMATIC or len(link.coordinates) != 1:
                 raise ModelError(f"{where}: a torsional spring is at a hinge of one angle; link "
                                  f"'{joint}' has {'a slider' if link.joint == PRISMATIC else 'a ball joint'}")
             spring = Spring(_quantity(st, "stiffness", where) if "stiffness" in st else "",

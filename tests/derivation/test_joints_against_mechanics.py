@@ -135,6 +135,26 @@ def pendulum_tree_reference() -> Reference:
                      dict(m1=m1, m2=m2, m3=m3, l1=l1, l2=l2, l3=l3, d=d, g=g), N)
 
 
+def hinge_ball_reference() -> Reference:
+    """A link on a hinge about N.y (its frame turned by psi, the link along -A.z), then a
+    ball joint at its tip, the second link's direction in the second chart
+    (cos vartheta, sin vartheta cos varphi, sin vartheta sin varphi); gravity along -z."""
+    m1, m2, l1, l2, g = sp.symbols("m1 m2 l1 l2 g")
+    psi, vt, vp = dynamicsymbols("psi vartheta2 varphi2")
+    N = ReferenceFrame("N")
+    A = N.orientnew("A", "Axis", [psi, N.y])
+    O = Point("O")
+    O.set_vel(N, 0)
+    b1 = O.locatenew("B1", -l1 * A.z)
+    b2 = b1.locatenew("B2", l2 * (sp.cos(vt) * N.x + sp.sin(vt) * sp.cos(vp) * N.y
+                                  + sp.sin(vt) * sp.sin(vp) * N.z))
+    for P in (b1, b2):
+        P.set_vel(N, P.pos_from(O).dt(N))
+    forces = [(b1, -m1 * g * N.z), (b2, -m2 * g * N.z)]
+    return lagranges([Particle("b1", b1, m1), Particle("b2", b2, m2)], forces, [psi, vt, vp],
+                     ["psi", "vartheta2", "varphi2"], dict(m1=m1, m2=m2, l1=l1, l2=l2, g=g), N)
+
+
 def worst_differences(model_file: str, ref: Reference, rng) -> tuple[float, float, float]:
     """The largest relative differences of M, F and q'' over POINTS random points."""
     d = derive(str(EXAMPLES / model_file))
@@ -180,6 +200,10 @@ def test_double_pendulum_cart_against_mechanics():
 
 def test_elastic_pendulum_against_mechanics():
     _check("elastic_pendulum.toml", elastic_pendulum_reference)
+
+
+def test_hinge_ball_against_mechanics():
+    _check("hinge_ball.toml", hinge_ball_reference)
 
 
 def test_pendulum_tree_against_mechanics():
