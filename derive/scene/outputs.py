@@ -9,6 +9,8 @@ import numpy as np
 import sympy as sp
 
 from ..derivation import derive
+from ..derivation.lagrange import tree_geometry
+from ..derivation.symbols import t as time_symbol
 from ..model import load_model
 from ..model.atlas import find_atlas
 from ..paths import replace_file, writable_dir
@@ -526,11 +528,9 @@ def _tree_drawing(o, pos: np.ndarray):
     model = load_model(o.scene.model)
     if model.is_chain:
         return None
-    from ..derivation.lagrange import tree_geometry      # a tree's joints, where it has offsets
-    from ..derivation.symbols import t as time
     d = derive(model)
     s = d.symbols
-    joints = sp.lambdify([time, *s.state, *s.params], sp.Matrix.hstack(*tree_geometry(model, s).joints),
+    joints = sp.lambdify([time_symbol, *s.state, *s.params], sp.Matrix.hstack(*tree_geometry(model, s).joints),
                          "numpy")
     p = [float(o.scene.parameters[x.name]) for x in s.params]
     gap = np.full(pos.shape[-1], np.nan)
