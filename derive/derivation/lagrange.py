@@ -16,8 +16,10 @@ explicit time, d/dt dT/dq' = d2T/dq'dq q' + d2T/dq'dq' q'' + d2T/dq'dt, then add
 A model that is not a serial chain (a kinematic tree: links naming their parent, joint
 offsets, prismatic sliders, massless links; `Model.is_chain`) takes the general path,
 `tree_form`: each body's centre r_k(q, t) from the tree (`tree_geometry`), its Jacobian
-J_k = dr_k/dq, M = sum_k m_k J_k^T J_k + I_k E_k^T E_k (E_k = de_k/dq, a rod's turning),
-each entry folded by one trigsimp; V = g sum_k m_k r_k[-1]; F by the same Christoffel
+J_k = dr_k/dq, M = sum_k m_k J_k^T J_k + I_k E_k^T E_k (E_k = de_k/dq, a rod's turning)
++ W_k^T I_k W_k (a rigid body's tensor I_k in its frame; its angular velocity in its own
+axes W_k q' by the recursion omega_k = turn_k^T omega_parent + axis_k q'_k, exact without
+simplifying), each entry folded by one trigsimp; V = g sum_k m_k r_k[-1]; F by the same Christoffel
 form (`forcing`), plus the explicit-time terms of T - 1/2 q'^T M q' (the velocity's
 part dr_k/dt: a moving pivot) by the formula above (`explicit_time_forcing`).
 """
@@ -314,6 +316,7 @@ class TreeGeometry:
     centres: list[sp.Matrix]
     directions: list[sp.Matrix | None]
     frames: list[sp.Matrix | None]
+    rates: list[sp.Matrix | None]        # W_k: the frame's angular velocity in its own axes is W_k q'
 
 
 def _planar_frame(e: sp.Matrix) -> sp.Matrix:
@@ -338,12 +341,14 @@ def tree_geometry(model: Model, s: ModelSymbols) -> TreeGeometry:
     """The positions of a kinematic tree, link by link from its parent (module docstring)."""
     where = model.origin or model.name
     r0, dim = pivot_position(model, s), model.dimension
-    geo = TreeGeometry([], [], [], [], [])
+    geo = TreeGeometry([], [], [], [], [], [])
     for i, link in enumerate(model.links, 1):
         if link.parent < 0:
-            base, tip, frame = r0, r0, sp.eye(dim)
+            base, tip, frame, rates = r0, r0, sp.eye(dim), sp.zeros(3, len(s.q))
         else:
             base, tip, frame = geo.joints[link.parent], geo.tips[link.parent], geo.frames[link.parent]
+            rates = geo.rates[link.parent]
+        own_rates = rates if link.joint == PRISMATIC else None
         if frame is None and (link.offset is not None or link.joint in (PRISMATIC, REVOLUTE)):
             raise ModelError(f"{where}: link {i}: its parent (link {link.parent + 1}) is a spherical "
                              f"link, whose direction does not fix a frame for an offset or an axis")
@@ -355,8 +360,14 @@ def tree_geometry(model: Model, s: ModelSymbols) -> TreeGeometry:
             centre = end
         else:
             if link.joint == REVOLUTE:      # down the parent's -z, turned about the axis
-                own_frame = frame * _turn(_unit_axis(link, s), q[0])
+                axis = _unit_axis(link, s)
+                turn = _turn(axis, q[0])
+                own_frame = frame * turn
                 e = own_frame * sp.Matrix([0, 0, -1])
+                if rates is not None:       # omega = turn^T omega_parent + axis q'_j, in own axes
+                    spin = sp.zeros(3, len(s.q))
+                    spin[:, model.link_coordinates(link)[0]] = axis
+                    own_rates = (turn.T * rates + spin).applyfunc(sp.expand)
             else:
                 e = link.chart.unit_vector(q)
                 own_frame = _planar_frame(e) if dim == 2 and len(q) == 1 else None
@@ -364,11 +375,14 @@ def tree_geometry(model: Model, s: ModelSymbols) -> TreeGeometry:
             end = joint + length * e
             com = parse_quantity(link.body.com, s) if link.body is not None else sp.S.One
             centre = joint + com * length * e
+            if link.body is not None and link.body.centre is not None:     # a rigid body's
+                centre = joint + own_frame * sp.Matrix([parse_quantity(c, s) for c in link.body.centre])
         geo.joints.append(joint)
         geo.tips.append(end)
         geo.centres.append(centre)
         geo.directions.append(e)
         geo.frames.append(own_frame)
+        geo.rates.append(own_rates)
     return geo
 
 
@@ -385,12 +399,15 @@ def tree_form(model: Model, s: ModelSymbols, geo: TreeGeometry) -> tuple[ChainFo
     q = sp.Matrix(s.q)
     M, V, T_time = sp.zeros(n, n), sp.S.Zero, sp.S.Zero
     g = s.param("g")
-    for link, centre, e in zip(model.links, geo.centres, geo.directions):
+    for link, centre, e, W in zip(model.links, geo.centres, geo.directions, geo.rates):
         if link.body is None:
             continue
         m = parse_quantity(link.body.mass, s)
         J = centre.jacobian(q)
         M += m * J.T * J
+        if link.body.tensor is not None:          # a rigid body turning with its link's frame
+            tensor = sp.Matrix([[parse_quantity(x, s) for x in row] for row in link.body.tensor])
+            M += W.T * tensor * W
         inertia = parse_quantity(link.body.inertia, s)
         if e is not None and inertia != 0:
             E = e.jacobian(q)

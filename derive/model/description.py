@@ -76,10 +76,14 @@ class Chart:
 
 @dataclass(frozen=True)
 class Body:
-    kind: str            # "point" or "rod"
+    kind: str            # "point", "rod" or "rigid"
     mass: str            # parameter name
     com: str = "1"       # centre of mass along the link, fraction of its length
     inertia: str = "0"   # moment of inertia about the centre of mass
+    # a rigid body's: its centre of mass in the link's frame from the joint (None: the
+    # link's tip) and its inertia tensor about that centre in the link's frame (3 x 3)
+    centre: tuple[str, ...] | None = None
+    tensor: tuple[tuple[str, ...], ...] | None = None
 
 
 # The joints a link may have (sympy.physics.mechanics' words): a chart joint is the
@@ -180,7 +184,8 @@ class Model:
         role_of = {"length": "length", "body mass": "mass", "body inertia": "inertia",
                    "body com": "fraction"}
         for link in self.links:
-            for value, role in ((text, role_of[key]) for key, text in link_quantities(link)):
+            for value, role in ((text, role_of[key]) for key, text in link_quantities(link)
+                                if key in role_of):      # a tensor's or a centre's entries: no role
                 name = _bare_parameter(value, self.parameters)      # l1, but also 1*l1, +l1, (l1)
                 if name is not None:
                     roles.setdefault(name, role)
@@ -240,6 +245,8 @@ def link_quantities(link: Link) -> list[tuple[str, str]]:
     if link.body is not None:
         out += [("body mass", link.body.mass), ("body com", link.body.com),
                 ("body inertia", link.body.inertia)]
+        out += [("body centre", c) for c in link.body.centre or ()]
+        out += [("body inertia tensor", x) for row in link.body.tensor or () for x in row]
     return out
 
 
@@ -293,14 +300,39 @@ def _quantity(t: dict, key: str, where: str) -> str:
     return str(value)
 
 
+def _parse_rigid_body(t: dict, mass: str, where: str) -> Body:
+    """A rigid body: `inertia` a symmetric 3 x 3 tensor about its centre of mass in the link's
+    frame, `centre` (optional) that centre in the link's frame from the joint."""
+    _no_unknown(t, {"kind", "mass", "centre", "inertia"}, where)
+    rows = t.get("inertia")
+    if (not isinstance(rows, list) or len(rows) != 3
+            or not all(isinstance(r, list) and len(r) == 3 for r in rows)):
+        raise ModelError(f"{where}: a rigid body's 'inertia' is its 3 x 3 tensor about its centre "
+                         f"of mass in the link's frame, a list of three rows")
+    tensor = tuple(tuple(_quantity({"inertia": v}, "inertia", where) for v in row) for row in rows)
+    if any(tensor[i][j] != tensor[j][i] for i in range(3) for j in range(i)):
+        raise ModelError(f"{where}: a rigid body's 'inertia' must be symmetric (row i, column j "
+                         f"equal to row j, column i)")
+    centre = t.get("centre")
+    if centre is not None:
+        if not isinstance(centre, list) or len(centre) != 3:
+            raise ModelError(f"{where}: 'centre' must be a list of 3 numbers or expressions (in the "
+                             f"link's frame, from its joint)")
+        centre = tuple(_quantity({"centre": v}, "centre", where) for v in centre)
+    return Body("rigid", mass, centre=centre, tensor=tensor)
+
+
 def _parse_body(t: dict, where: str) -> Body:
-    _no_unknown(t, {"kind", "mass", "com", "inertia"}, where)
     kind = _require(t, "kind", str, where)
-    if kind not in ("point", "rod"):
-        raise ModelError(f"{where}: body kind must be 'point' or 'rod', got '{kind}'")
+    if kind not in ("point", "rod", "rigid"):
+        raise ModelError(f"{where}: body kind must be 'point' or 'rod' (or 'rigid' on a revolute "
+                         f"joint), got '{kind}'")
     if "mass" not in t:
         raise ModelError(f"{where}: missing key 'mass'")
     mass = _quantity(t, "mass", where)
+    if kind == "rigid":
+        return _parse_rigid_body(t, mass, where)
+    _no_unknown(t, {"kind", "mass", "com", "inertia"}, where)
     if kind == "point":
         if "com" in t or "inertia" in t:
             raise ModelError(f"{where}: a point body has no 'com' or 'inertia'")
@@ -590,9 +622,14 @@ def _parse_link(lt: dict, i: int, dimension: int, named: dict[str, int], where: 
             raise ModelError(f"{where}: a revolute joint needs 'axis' (in the parent's frame, "
                              f"e.g. axis = [0, 1, 0])")
         coordinates = _joint_coordinates(lt, 1, (f"theta{i}",), where)
-        length = _require(lt, "length", str, where) if body is not None or "length" in lt else "0"
+        length = (_require(lt, "length", str, where) if (body is not None and body.centre is None)
+                  or "length" in lt else "0")
         return Link(_axis_chart(REVOLUTE, coordinates[0], dimension), length, body, name,
                     parent_index, joint, axis, offset, coordinates)
+    if body is not None and body.kind == "rigid":
+        raise ModelError(f"{where}: a rigid body needs a frame that turns with it (a revolute "
+                         f"joint); a chart gives only the link's direction, not its spin "
+                         f"(a planar link's body is a 'rod')")
     if "axis" in lt:
         raise ModelError(f"{where}: 'axis' is a prismatic joint's (a chart's axes are in charts.toml)")
     try:

@@ -53,6 +53,12 @@ def _body(link, n) -> str:
     mass = ts.tex(sp.sympify(b.mass), n)
     if b.kind == "point":
         return f"a point mass ${mass}$ at its tip"
+    if b.kind == "rigid":
+        rows = r" \\ ".join(" & ".join(ts.tex(sp.sympify(x), n) for x in row) for row in b.tensor)
+        return (f"a rigid body of mass ${mass}$ with its centre of mass at "
+                + ("its tip" if b.centre is None else "$(" + ", ".join(ts.tex(sp.sympify(c), n) for c in b.centre)
+                   + ")$ in its frame")
+                + r" and inertia tensor $\begin{pmatrix}" + rows + r"\end{pmatrix}$ about it")
     com = sp.sympify(b.com)
     inertia = ts.tex(sp.sympify(b.inertia), n)
     at = f"{com.p}/{com.q}" if isinstance(com, sp.Rational) and com.q != 1 else ts.tex(com, n)

@@ -155,6 +155,23 @@ def hinge_ball_reference() -> Reference:
                      ["psi", "vartheta2", "varphi2"], dict(m1=m1, m2=m2, l1=l1, l2=l2, g=g), N)
 
 
+def spinning_body_reference() -> Reference:
+    """A RigidBody whose frame is N turned by alpha about x, beta about the new y, gamma
+    about the newest z (sympy's 'Body' XYZ orientation: a Cardan joint and a spin), its
+    centre l down its own -z from the pivot, central inertia diag(A, B, C) in its frame."""
+    m, l, A, B, C, g = sp.symbols("m l A B C g")
+    alpha, beta, gamma = dynamicsymbols("alpha beta gamma")
+    N = ReferenceFrame("N")
+    F = N.orientnew("F", "Body", [alpha, beta, gamma], "XYZ")
+    O = Point("O")
+    O.set_vel(N, 0)
+    G = O.locatenew("G", -l * F.z)
+    G.v2pt_theory(O, N, F)
+    body = RigidBody("body", G, F, m, (inertia(F, A, B, C), G))
+    return lagranges([body], [(G, -m * g * N.z)], [alpha, beta, gamma], ["alpha", "beta", "gamma"],
+                     dict(m=m, l=l, A=A, B=B, C=C, g=g), N)
+
+
 def worst_differences(model_file: str, ref: Reference, rng) -> tuple[float, float, float]:
     """The largest relative differences of M, F and q'' over POINTS random points."""
     d = derive(str(EXAMPLES / model_file))
@@ -204,6 +221,10 @@ def test_elastic_pendulum_against_mechanics():
 
 def test_hinge_ball_against_mechanics():
     _check("hinge_ball.toml", hinge_ball_reference)
+
+
+def test_spinning_rigid_body_against_mechanics():
+    _check("spinning_body.toml", spinning_body_reference)
 
 
 def test_pendulum_tree_against_mechanics():

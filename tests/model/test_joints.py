@@ -40,7 +40,7 @@ def test_a_chain_file_is_read_as_before_and_takes_the_chain_path():
 def test_the_examples_are_trees_with_the_states_the_issue_names():
     expected = {"cart_pole": ["x", "theta"], "double_pendulum_cart": ["x", "theta1", "theta2"],
                 "elastic_pendulum": ["r", "theta"], "pendulum_tree": ["theta1", "theta2", "theta3"],
-                "hinge_ball": ["psi", "vartheta2", "varphi2"]}
+                "hinge_ball": ["psi", "vartheta2", "varphi2"], "spinning_body": ["alpha", "beta", "gamma"]}
     for name, coordinates in expected.items():
         m = load_model(EXAMPLES / f"{name}.toml")
         assert not m.is_chain
@@ -134,3 +134,20 @@ def test_a_spherical_parent_has_no_frame_for_an_offset(tmp_path):
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("derive: error: ")
     assert "is a spherical link, whose direction does not fix a frame" in lines[0]
+
+
+def test_a_rigid_body_needs_a_revolute_joint_and_a_symmetric_tensor():
+    head = 'name = "rigid"\ndimension = 3\nparameters = ["m", "l", "A", "B", "g"]\n'
+    tensor = '[["A", "0", "0"], ["0", "A", "0"], ["0", "0", "B"]]'
+    body = f'body = {{ kind = "rigid", mass = "m", inertia = {tensor} }}\n'
+    spun = model('[[links]]\njoint = "revolute"\naxis = [0, 1, 0]\nlength = "l"\n' + body, head=head)
+    assert spun.links[0].body.tensor[2] == ("0", "0", "B") and spun.coordinate_names == ["theta1"]
+    refused = [('[[links]]\nchart = "second"\nlength = "l"\n' + body, "a rigid body needs a frame"),
+               ('[[links]]\njoint = "revolute"\naxis = [0, 1, 0]\nlength = "l"\n'
+                'body = { kind = "rigid", mass = "m", inertia = [["A", "1", "0"], ["0", "A", "0"], ["0", "0", "B"]] }\n',
+                "must be symmetric"),
+               ('[[links]]\njoint = "revolute"\naxis = [0, 1, 0]\nlength = "l"\n'
+                'body = { kind = "rigid", mass = "m", inertia = ["A", "A", "B"] }\n', "a list of three rows")]
+    for link, message in refused:
+        with pytest.raises(ModelError, match=message):
+            model(link, head=head)
