@@ -255,7 +255,19 @@ def pivot_terms(model: Model, s: ModelSymbols) -> PivotTerms | None:
 def explicit_time_forcing(T: sp.Expr, s: ModelSymbols) -> sp.Matrix:
     """What the part T of the kinetic energy that is not 1/2 q'^T M q' (the terms linear in
     and free of q', from explicit time) adds to F (module docstring):
-    dT/dq_j - sum_k d2T/dq'_j dq_k q'_k - d2T/dq'_j dt."""
+    dT/dq_j - sum_k d2T/dq'_j dq_k q'_k - d2T/dq'_j dt.
+
+    Parameters
+    ----------
+    T : sympy.Expr
+        The explicit-time part of the kinetic energy, in (q, q', p, t).
+    s : ModelSymbols
+
+    Returns
+    -------
+    sympy.Matrix
+        Its terms of F, one per coordinate.
+    """
     dT_dqd = [T.diff(v) for v in s.qd]
     F = sp.Matrix([T.diff(qj) - sum(dT_dqd[j].diff(qk) * vk for qk, vk in zip(s.q, s.qd))
                    - dT_dqd[j].diff(t) for j, qj in enumerate(s.q)])
@@ -263,7 +275,18 @@ def explicit_time_forcing(T: sp.Expr, s: ModelSymbols) -> sp.Matrix:
 
 
 def model_potential(model: Model, s: ModelSymbols) -> sp.Expr | None:
-    """The model's own potential V(q, p, t) (added to gravity's), or None."""
+    """The model's own potential V(q, p, t) (added to gravity's), or None.
+
+    Parameters
+    ----------
+    model : Model
+    s : ModelSymbols
+
+    Returns
+    -------
+    sympy.Expr or None
+        The parsed `potential` of the model file; None without one.
+    """
     if model.potential is None:
         return None
     return parse_expression(model.potential, names(s), f"{model.origin or model.name}: potential")
@@ -274,7 +297,20 @@ def spring_potential(model: Model, s: ModelSymbols, tips: list[sp.Matrix],
     """The energy of the model's springs, or None: k/2 (|b - a| - rest)^2 for a linear
     spring between points a and b (k/2 |b - a|^2 at rest length 0: no square root), and
     k/2 (q - q_parent - rest)^2 for a torsional one at a hinge (the parent's angle where the
-    parent is a one-angle hinge too: the spring twists with the joint's relative angle)."""
+    parent is a one-angle hinge too: the spring twists with the joint's relative angle).
+
+    Parameters
+    ----------
+    model : Model
+    s : ModelSymbols
+    tips, centres : list of sympy.Matrix
+        Each link's tip and body centre (the derivation's), where the springs' ends are.
+
+    Returns
+    -------
+    sympy.Expr or None
+        The springs' energy; None for a model without [[springs]].
+    """
     if not model.springs:
         return None
     by_name = {link.name: i for i, link in enumerate(model.links) if link.name}
@@ -338,7 +374,25 @@ def _unit_axis(link, s: ModelSymbols) -> sp.Matrix:
 
 
 def tree_geometry(model: Model, s: ModelSymbols) -> TreeGeometry:
-    """The positions of a kinematic tree, link by link from its parent (module docstring)."""
+    """The positions of a kinematic tree, link by link from its parent (module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        A model that is not a chain (Model.is_chain is False); a chain works too.
+    s : ModelSymbols
+
+    Returns
+    -------
+    TreeGeometry
+        Joints, tips, body centres, directions, frames and body rates, per link.
+
+    Raises
+    ------
+    ModelError
+        A link with an offset, a slider or a revolute joint on a spherical parent (whose
+        direction fixes no frame).
+    """
     where = model.origin or model.name
     r0, dim = pivot_position(model, s), model.dimension
     geo = TreeGeometry([], [], [], [], [], [])
@@ -394,7 +448,20 @@ def _fold(x: sp.Expr) -> sp.Expr:
 
 def tree_form(model: Model, s: ModelSymbols, geo: TreeGeometry) -> tuple[ChainForm, sp.Expr]:
     """M and V of a kinematic tree (as a ChainForm without placeholders, so `forcing` takes
-    it) and the explicit-time part of T (T - 1/2 q'^T M q'), module docstring."""
+    it) and the explicit-time part of T (T - 1/2 q'^T M q'), module docstring.
+
+    Parameters
+    ----------
+    model : Model
+    s : ModelSymbols
+    geo : TreeGeometry
+        The tree's positions (tree_geometry).
+
+    Returns
+    -------
+    (ChainForm, sympy.Expr)
+        M and V (gravity's) with no placeholders, and T's explicit-time part.
+    """
     n, qd = len(s.q), sp.Matrix(s.qd)
     q = sp.Matrix(s.q)
     M, V, T_time = sp.zeros(n, n), sp.S.Zero, sp.S.Zero

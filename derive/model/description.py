@@ -173,7 +173,18 @@ class Model:
         return len(self.links)
 
     def link_coordinates(self, link: Link) -> list[int]:
-        """Where `link`'s coordinates sit in the state's coordinates q."""
+        """Where `link`'s coordinates sit in the state's coordinates q.
+
+        Parameters
+        ----------
+        link : Link
+            One of this model's links.
+
+        Returns
+        -------
+        list of int
+            The indices of its coordinates in coordinate_names.
+        """
         names = self.coordinate_names
         return [names.index(c) for c in link.coordinates]
 
@@ -239,7 +250,18 @@ class Model:
 
 def link_quantities(link: Link) -> list[tuple[str, str]]:
     """(key, text) of a link's length (a chart joint's: a slider has none) and its body's
-    mass, com and inertia (none for a massless link)."""
+    mass, com and inertia (none for a massless link), a rigid body's centre and tensor.
+
+    Parameters
+    ----------
+    link : Link
+
+    Returns
+    -------
+    list of (str, str)
+        (key, expression text): "length", "body mass", "body com", "body inertia",
+        "body centre", "body inertia tensor".
+    """
     joint_frame = link.body is None and link.length == "0"     # a massless hinge without an arm
     out = [("length", link.length)] if link.joint != PRISMATIC and not joint_frame else []
     if link.body is not None:
