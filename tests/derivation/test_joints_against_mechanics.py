@@ -306,3 +306,17 @@ def test_springs_against_mechanics(tmp_path):
         path.write_text(text)
         worst = worst_differences(str(path), reference(), np.random.default_rng(5))
         assert max(worst) < TOL, f"{text.split()[2]}: M, F, q'' differ by {worst}"
+
+
+def test_cart_pole_linearised_upright_is_its_closed_form():
+    """At the upright rest (theta = pi) x'' = (m g / M) theta + F / M and
+    theta'' = ((M + m) g / (M l)) theta + F / (M l), theta measured from upright."""
+    import derive
+    M, m, l, g = 1.3, 0.4, 0.7, 9.81
+    A, B = derive.linearize(str(EXAMPLES / "cart_pole.toml"), state={"theta": "pi"},
+                            params={"M": M, "m": m, "l": l, "g": g}, inputs={"F": 0.0})
+    expected_A = np.zeros((4, 4))
+    expected_A[0, 2] = expected_A[1, 3] = 1.0
+    expected_A[2, 1], expected_A[3, 1] = m * g / M, (M + m) * g / (M * l)
+    assert np.allclose(A, expected_A, rtol=1e-12, atol=1e-12)
+    assert np.allclose(np.ravel(B), [0.0, 0.0, 1 / M, 1 / (M * l)], rtol=1e-12, atol=1e-12)
