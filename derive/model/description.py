@@ -98,13 +98,13 @@ PIVOT = "pivot"           # the parent name of a link that hangs from the pivot
 
 @dataclass(frozen=True)
 class Link:
-    chart: Chart                 # a prismatic link's is a stand-in: its coordinate, no unit vector
+    chart: Chart                 # a slider's or revolute joint's is a stand-in: its coordinate, no unit vector
     length: str                  # "0" for a slider (its body sits where it slides to)
     body: Body | None            # None: a massless link (a frame for its children)
     name: str = ""
     parent: int = -1             # index of the parent link, -1 for the pivot
     joint: str = CHART_JOINT
-    axis: tuple[str, ...] = ()   # a slider's axis in its parent's frame
+    axis: tuple[str, ...] = ()   # a slider's or revolute joint's axis in its parent's frame
     offset: tuple[str, ...] | None = None   # the joint's place in the parent's frame (None: its tip)
     coordinates: tuple[str, ...] = ()       # the names of the joint's coordinates in the model
 
@@ -571,8 +571,9 @@ def _joint_coordinates(lt: dict, n: int, default: tuple[str, ...], where: str) -
         if n != 1:
             raise ModelError(f"{where}: this joint has {n} coordinates: name them with "
                              f"'coordinates = [...]'")
-        given = _names({"coordinate": [lt["coordinate"]]} if isinstance(lt["coordinate"], str)
-                       else {"coordinate": lt["coordinate"]}, "coordinate", where)
+        if not isinstance(lt["coordinate"], str):
+            raise ModelError(f"{where}: 'coordinate' must be a name (a string)")
+        given = _names({"coordinate": [lt["coordinate"]]}, "coordinate", where)
     elif "coordinates" in lt:
         given = _names(lt, "coordinates", where)
     else:
