@@ -448,8 +448,8 @@ def conversion_targets(model) -> list[str]:
     """The other members of the model's chart atlas (catalogue, or its chain's: see
     derive/model/atlas.py); for a spherical model in no atlas, the catalogue models
     with the same link structure in different spherical charts."""
-    if not all(charts.is_spherical(link.chart) for link in model.links):
-        return []
+    if not model.is_chain or not all(charts.is_spherical(link.chart) for link in model.links):
+        return []               # (a tree's links are not a catalogue chain's in other charts)
     family = atlas_family(model)
     if family is not None:
         return sorted(m for m in family.charts if m != model.name)

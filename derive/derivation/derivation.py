@@ -63,7 +63,15 @@ class Derivation:
 def compute(model: Model) -> Derivation:
     start = time.perf_counter()
     s = model_symbols(model)
-    form = lagrange.chain_form(model, s)
+    if model.is_chain:              # today's structured chain form (the catalogue's path)
+        form = lagrange.chain_form(model, s)
+        tips, centres = lagrange.tip_positions(model, s), lagrange.mass_centres(model, s)
+        pivot = lagrange.pivot_terms(model, s)
+    else:                           # a kinematic tree: positions, Jacobians, M, V
+        geo = lagrange.tree_geometry(model, s)
+        form, T_time = lagrange.tree_form(model, s, geo)
+        tips, centres = geo.tips, geo.centres
+        pivot = lagrange.PivotTerms(T_time, sp.S.Zero, lagrange.explicit_time_forcing(T_time, s))
     M = lagrange.mass_matrix(form)
     V = lagrange.potential_energy(form)
     R = lagrange.dissipation_function(model, s)
@@ -72,20 +80,19 @@ def compute(model: Model) -> Derivation:
     if R is not None or Q is not None:
         F = F + lagrange.non_conservative(R, Q, s)
     T = lagrange.kinetic_energy(M, s)
-    pivot = lagrange.pivot_terms(model, s)
-    if pivot is not None:           # a moving pivot: T, V and F gain its terms (M does not)
+    if pivot is not None:           # explicit time (a moving pivot): T, V and F gain its terms
         T, V, F = T + pivot.T, V + pivot.V, F + pivot.F
-    d = Derivation(model=model, symbols=s,
-                   tips=lagrange.tip_positions(model, s),
-                   centres=lagrange.mass_centres(model, s),
+    for potential in (lagrange.model_potential(model, s),
+                      lagrange.spring_potential(model, s, tips, centres)):
+        if potential is not None:   # the model's own potential and its springs', beside gravity's
+            V = V + potential
+            F = F - sp.Matrix([sp.factor_terms(sp.expand(potential.diff(qj))) for qj in s.q])
+    d = Derivation(model=model, symbols=s, tips=tips, centres=centres,
                    M=M, F=F, T=T, V=V, dissipation=R, forces=Q)
-    k = 0
     for link in model.links:
-        n = len(link.chart.coordinates)
-        sine = link.chart.polar_sine_of(list(s.q[k:k + n]))
+        sine = link.chart.polar_sine_of([s.q[j] for j in model.link_coordinates(link)])
         if sine is not None:
             d.polar_sines.append(sine)
-        k += n
     if "hamiltonian" in model.forms:
         dL_dq = hamilton.lagrangian_gradient(form, s)
         if len(s.q) <= 2:           # closed forms are short: seed 001 writes them out

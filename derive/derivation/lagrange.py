@@ -12,6 +12,16 @@ its velocity gains r0'(t), so T gains T_pivot = sum_k m_k r0'.(J_k q') + 1/2 sum
 (linear in q', M unchanged) and V gains g sum_k m_k r0[-1](t).  Lagrange's equation with
 explicit time, d/dt dT/dq' = d2T/dq'dq q' + d2T/dq'dq' q'' + d2T/dq'dt, then adds to F
     dT_pivot/dq_j - sum_k d2T_pivot/dq'_j dq_k q'_k - d2T_pivot/dq'_j dt.
+
+A model that is not a serial chain (a kinematic tree: links naming their parent, joint
+offsets, prismatic sliders, massless links; `Model.is_chain`) takes the general path,
+`tree_form`: each body's centre r_k(q, t) from the tree (`tree_geometry`), its Jacobian
+J_k = dr_k/dq, M = sum_k m_k J_k^T J_k + I_k E_k^T E_k (E_k = de_k/dq, a rod's turning)
++ W_k^T I_k W_k (a rigid body's tensor I_k in its frame; its angular velocity in its own
+axes W_k q' by the recursion omega_k = turn_k^T omega_parent + axis_k q'_k, exact without
+simplifying), each entry folded by one trigsimp; V = g sum_k m_k r_k[-1]; F by the same Christoffel
+form (`forcing`), plus the explicit-time terms of T - 1/2 q'^T M q' (the velocity's
+part dr_k/dt: a moving pivot) by the formula above (`explicit_time_forcing`).
 """
 from __future__ import annotations
 
@@ -19,7 +29,9 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from ..errors import ModelError
 from ..model import Model
+from ..model.description import PRISMATIC, REVOLUTE
 from ..model.expressions import parse_expression
 from .symbols import ModelSymbols, motion_names, names, parse_quantity, t
 
@@ -237,7 +249,239 @@ def pivot_terms(model: Model, s: ModelSymbols) -> PivotTerms | None:
     for m, c in zip(masses, mass_centres(model, s, pivot=False)):
         T += m * (r0_dot.T * (c.jacobian(s.q) * qd))[0, 0] + m * (r0_dot.T * r0_dot)[0, 0] / 2
     V = s.param("g") * sp.Add(*masses) * r0[-1]
+    return PivotTerms(sp.expand(T), sp.expand(V), explicit_time_forcing(T, s))
+
+
+def explicit_time_forcing(T: sp.Expr, s: ModelSymbols) -> sp.Matrix:
+    """What the part T of the kinetic energy that is not 1/2 q'^T M q' (the terms linear in
+    and free of q', from explicit time) adds to F (module docstring):
+    dT/dq_j - sum_k d2T/dq'_j dq_k q'_k - d2T/dq'_j dt.
+
+    Parameters
+    ----------
+    T : sympy.Expr
+        The explicit-time part of the kinetic energy, in (q, q', p, t).
+    s : ModelSymbols
+
+    Returns
+    -------
+    sympy.Matrix
+        Its terms of F, one per coordinate.
+    """
     dT_dqd = [T.diff(v) for v in s.qd]
     F = sp.Matrix([T.diff(qj) - sum(dT_dqd[j].diff(qk) * vk for qk, vk in zip(s.q, s.qd))
                    - dT_dqd[j].diff(t) for j, qj in enumerate(s.q)])
-    return PivotTerms(sp.expand(T), sp.expand(V), F.applyfunc(lambda f: sp.factor_terms(sp.expand(f))))
+    return F.applyfunc(lambda f: sp.factor_terms(sp.expand(f)))
+
+
+def model_potential(model: Model, s: ModelSymbols) -> sp.Expr | None:
+    """The model's own potential V(q, p, t) (added to gravity's), or None.
+
+    Parameters
+    ----------
+    model : Model
+    s : ModelSymbols
+
+    Returns
+    -------
+    sympy.Expr or None
+        The parsed `potential` of the model file; None without one.
+    """
+    if model.potential is None:
+        return None
+    return parse_expression(model.potential, names(s), f"{model.origin or model.name}: potential")
+
+
+def spring_potential(model: Model, s: ModelSymbols, tips: list[sp.Matrix],
+                     centres: list[sp.Matrix]) -> sp.Expr | None:
+    """The energy of the model's springs, or None: k/2 (|b - a| - rest)^2 for a linear
+    spring between points a and b (k/2 |b - a|^2 at rest length 0: no square root), and
+    k/2 (q - q_parent - rest)^2 for a torsional one at a hinge (the parent's angle where the
+    parent is a one-angle hinge too: the spring twists with the joint's relative angle).
+
+    Parameters
+    ----------
+    model : Model
+    s : ModelSymbols
+    tips, centres : list of sympy.Matrix
+        Each link's tip and body centre (the derivation's), where the springs' ends are.
+
+    Returns
+    -------
+    sympy.Expr or None
+        The springs' energy; None for a model without [[springs]].
+    """
+    if not model.springs:
+        return None
+    by_name = {link.name: i for i, link in enumerate(model.links) if link.name}
+
+    def point(text: str) -> sp.Matrix:
+        if text == "pivot":
+            return pivot_position(model, s)
+        if text.endswith(".centre"):
+            return centres[by_name[text[:-len(".centre")]]]
+        return tips[by_name[text]]
+
+    V = sp.S.Zero
+    for spring in model.springs:
+        k, rest = parse_quantity(spring.stiffness, s), parse_quantity(spring.rest, s)
+        if spring.between is not None:
+            d = point(spring.between[1]) - point(spring.between[0])
+            square = sp.trigsimp(sp.expand(sum(x**2 for x in d)))   # r^2 (sin^2 + cos^2) is r^2
+            V += k * square / 2 if rest == 0 else k * (sp.sqrt(square) - rest)**2 / 2
+        else:
+            link = model.links[spring.joint]
+            angle = s.q[model.link_coordinates(link)[0]]
+            parent = model.links[link.parent] if link.parent >= 0 else None
+            if parent is not None and parent.joint != PRISMATIC and len(parent.coordinates) == 1:
+                angle -= s.q[model.link_coordinates(parent)[0]]
+            V += k * (angle - rest)**2 / 2
+    return V
+
+
+# -- the general path: a kinematic tree --------------------------------------
+
+@dataclass
+class TreeGeometry:
+    """Where each link's joint, tip and body centre are (functions of q, p and t), each
+    link's direction e (None for a slider: it does not turn) and its frame (the rotation
+    from the link's axes to the world's; None where the link has none: a spherical link's
+    direction does not fix its spin)."""
+    joints: list[sp.Matrix]
+    tips: list[sp.Matrix]
+    centres: list[sp.Matrix]
+    directions: list[sp.Matrix | None]
+    frames: list[sp.Matrix | None]
+    rates: list[sp.Matrix | None]        # W_k: the frame's angular velocity in its own axes is W_k q'
+
+
+def _planar_frame(e: sp.Matrix) -> sp.Matrix:
+    """The rotation R of a planar link with direction e: R (0, -1) = e (the link's axes turn
+    with it: its own downward axis is along the link)."""
+    return sp.Matrix([[-e[1], -e[0]], [e[0], -e[1]]])
+
+
+def _turn(axis: sp.Matrix, angle: sp.Expr) -> sp.Matrix:
+    """The rotation by `angle` about the unit vector `axis` (Rodrigues: counterclockwise
+    seen from the axis's tip)."""
+    cross = sp.Matrix([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return sp.cos(angle) * sp.eye(3) + sp.sin(angle) * cross + (1 - sp.cos(angle)) * axis * axis.T
+
+
+def _unit_axis(link, s: ModelSymbols) -> sp.Matrix:
+    axis = sp.Matrix([parse_quantity(a, s) for a in link.axis])
+    return axis / sp.sqrt(sum(a**2 for a in axis))
+
+
+def tree_geometry(model: Model, s: ModelSymbols) -> TreeGeometry:
+    """The positions of a kinematic tree, link by link from its parent (module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        A model that is not a chain (Model.is_chain is False); a chain works too.
+    s : ModelSymbols
+
+    Returns
+    -------
+    TreeGeometry
+        Joints, tips, body centres, directions, frames and body rates, per link.
+
+    Raises
+    ------
+    ModelError
+        A link with an offset, a slider or a revolute joint on a spherical parent (whose
+        direction fixes no frame).
+    """
+    where = model.origin or model.name
+    r0, dim = pivot_position(model, s), model.dimension
+    geo = TreeGeometry([], [], [], [], [], [])
+    for i, link in enumerate(model.links, 1):
+        if link.parent < 0:
+            base, tip, frame, rates = r0, r0, sp.eye(dim), sp.zeros(3, len(s.q))
+        else:
+            base, tip, frame = geo.joints[link.parent], geo.tips[link.parent], geo.frames[link.parent]
+            rates = geo.rates[link.parent]
+        own_rates = rates if link.joint == PRISMATIC else None
+        if frame is None and (link.offset is not None or link.joint in (PRISMATIC, REVOLUTE)):
+            raise ModelError(f"{where}: link {i}: its parent (link {link.parent + 1}) is a spherical "
+                             f"link, whose direction does not fix a frame for an offset or an axis")
+        joint = tip if link.offset is None else base + frame * sp.Matrix(
+            [parse_quantity(x, s) for x in link.offset])
+        q = [s.q[j] for j in model.link_coordinates(link)]
+        if link.joint == PRISMATIC:
+            end, e, own_frame = joint + q[0] * (frame * _unit_axis(link, s)), None, frame
+            centre = end
+        else:
+            if link.joint == REVOLUTE:      # down the parent's -z, turned about the axis
+                axis = _unit_axis(link, s)
+                turn = _turn(axis, q[0])
+                own_frame = frame * turn
+                e = own_frame * sp.Matrix([0, 0, -1])
+                if rates is not None:       # omega = turn^T omega_parent + axis q'_j, in own axes
+                    spin = sp.zeros(3, len(s.q))
+                    spin[:, model.link_coordinates(link)[0]] = axis
+                    own_rates = (turn.T * rates + spin).applyfunc(sp.expand)
+            else:
+                e = link.chart.unit_vector(q)
+                own_frame = _planar_frame(e) if dim == 2 and len(q) == 1 else None
+            length = parse_quantity(link.length, s)
+            end = joint + length * e
+            com = parse_quantity(link.body.com, s) if link.body is not None else sp.S.One
+            centre = joint + com * length * e
+            if link.body is not None and link.body.centre is not None:     # a rigid body's
+                centre = joint + own_frame * sp.Matrix([parse_quantity(c, s) for c in link.body.centre])
+        geo.joints.append(joint)
+        geo.tips.append(end)
+        geo.centres.append(centre)
+        geo.directions.append(e)
+        geo.frames.append(own_frame)
+        geo.rates.append(own_rates)
+    return geo
+
+
+def _fold(x: sp.Expr) -> sp.Expr:
+    """One entry of M, expanded and its sin^2 + cos^2 folded (an entry is a short
+    trigonometric polynomial: the one simplification the general path makes)."""
+    return sp.trigsimp(sp.expand(x))
+
+
+def tree_form(model: Model, s: ModelSymbols, geo: TreeGeometry) -> tuple[ChainForm, sp.Expr]:
+    """M and V of a kinematic tree (as a ChainForm without placeholders, so `forcing` takes
+    it) and the explicit-time part of T (T - 1/2 q'^T M q'), module docstring.
+
+    Parameters
+    ----------
+    model : Model
+    s : ModelSymbols
+    geo : TreeGeometry
+        The tree's positions (tree_geometry).
+
+    Returns
+    -------
+    (ChainForm, sympy.Expr)
+        M and V (gravity's) with no placeholders, and T's explicit-time part.
+    """
+    n, qd = len(s.q), sp.Matrix(s.qd)
+    q = sp.Matrix(s.q)
+    M, V, T_time = sp.zeros(n, n), sp.S.Zero, sp.S.Zero
+    g = s.param("g")
+    for link, centre, e, W in zip(model.links, geo.centres, geo.directions, geo.rates):
+        if link.body is None:
+            continue
+        m = parse_quantity(link.body.mass, s)
+        J = centre.jacobian(q)
+        M += m * J.T * J
+        if link.body.tensor is not None:          # a rigid body turning with its link's frame
+            tensor = sp.Matrix([[parse_quantity(x, s) for x in row] for row in link.body.tensor])
+            M += W.T * tensor * W
+        inertia = parse_quantity(link.body.inertia, s)
+        if e is not None and inertia != 0:
+            E = e.jacobian(q)
+            M += inertia * E.T * E
+        moving = centre.diff(t)
+        if moving != sp.zeros(*moving.shape):
+            T_time += m * (moving.T * (J * qd))[0, 0] + m * (moving.T * moving)[0, 0] / 2
+        V += m * g * centre[-1]
+    M = M.applyfunc(_fold)
+    return ChainForm(M, sp.expand(V), {}), sp.expand(T_time)

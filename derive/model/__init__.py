@@ -1,10 +1,11 @@
 """Stage 1, the model: pendulum descriptions read from data files.
 
-A model is a chain of links hanging from a pivot at the origin.  Each link has
-a joint chart (how its unit vector depends on its coordinates, see
-``catalog/charts.toml``), a length and a body (a point mass at its tip, or a
-rod with its centre of mass somewhere along it and a moment of inertia about
-that centre).  Nothing downstream knows a model by name: a new model is a new
+A model is a chain of links hanging from a pivot at the origin, or a tree of them (a
+link may name its parent, sit at an offset on it, slide along an axis or turn about
+one: docs/models.md).  Each link has a joint (a chart: how its unit vector depends
+on its coordinates, see ``catalog/charts.toml``; or a prismatic or revolute joint),
+a length and a body (a point mass at its tip, or a rod with its centre of mass
+somewhere along it and a moment of inertia about that centre; none: massless).  Nothing downstream knows a model by name: a new model is a new
 TOML file, in ``catalog/`` or anywhere (pass its path).
 
 The names below are imported on first use: ``derive.model.listing`` (the catalogue's

@@ -138,6 +138,8 @@ def _toml(value) -> str:
 def chain_problem(model: Model) -> str | None:
     """Why `model` has no chain atlas, or None."""
     first = chain_rule().link_charts[0]
+    if not model.is_chain:
+        return "an atlas is for a serial chain of spherical links (this model is a tree)"
     if any(link.chart.name != first for link in model.links):
         return f"an atlas is for a chain whose links are all spherical in the '{first}' chart"
     if not model.is_conservative or model.inputs:

@@ -76,17 +76,48 @@ class Chart:
 
 @dataclass(frozen=True)
 class Body:
-    kind: str            # "point" or "rod"
+    kind: str            # "point", "rod" or "rigid"
     mass: str            # parameter name
     com: str = "1"       # centre of mass along the link, fraction of its length
     inertia: str = "0"   # moment of inertia about the centre of mass
+    # a rigid body's: its centre of mass in the link's frame from the joint (None: the
+    # link's tip) and its inertia tensor about that centre in the link's frame (3 x 3)
+    centre: tuple[str, ...] | None = None
+    tensor: tuple[tuple[str, ...], ...] | None = None
+
+
+# The joints a link may have (sympy.physics.mechanics' words): a chart joint is the
+# hinge or ball of charts.toml (absolute angles of the link's direction); a prismatic
+# joint slides along an axis fixed in its parent's frame (its coordinate is a length); a
+# revolute joint (3-D) turns the link about an axis fixed in its parent's frame (its
+# angle is relative to the parent, zero where the link points down the parent's -z).
+CHART_JOINT, PRISMATIC, REVOLUTE = "chart", "prismatic", "revolute"
+JOINTS = (CHART_JOINT, PRISMATIC, REVOLUTE)
+PIVOT = "pivot"           # the parent name of a link that hangs from the pivot
 
 
 @dataclass(frozen=True)
 class Link:
-    chart: Chart
-    length: str
-    body: Body
+    chart: Chart                 # a slider's or revolute joint's is a stand-in: its coordinate, no unit vector
+    length: str                  # "0" for a slider (its body sits where it slides to)
+    body: Body | None            # None: a massless link (a frame for its children)
+    name: str = ""
+    parent: int = -1             # index of the parent link, -1 for the pivot
+    joint: str = CHART_JOINT
+    axis: tuple[str, ...] = ()   # a slider's or revolute joint's axis in its parent's frame
+    offset: tuple[str, ...] | None = None   # the joint's place in the parent's frame (None: its tip)
+    coordinates: tuple[str, ...] = ()       # the names of the joint's coordinates in the model
+
+
+@dataclass(frozen=True)
+class Spring:
+    """A linear spring between two points (`between`: "pivot", a link's name for its tip, or
+    "<link>.centre" for its body's centre of mass), or a torsional spring at a hinge
+    (`joint`: a link's name; it pulls the link's angle towards its parent's + `rest`)."""
+    stiffness: str
+    rest: str = "0"
+    between: tuple[str, str] | None = None
+    joint: int | None = None             # the link index of a torsional spring
 
 
 SI_UNITS = {"length": "m", "mass": "kg", "inertia": "kg m²", "gravity": "m/s²", "fraction": ""}
@@ -107,6 +138,18 @@ class Model:
     forces: tuple[tuple[str, str], ...] = ()     # generalized force Q_j per coordinate name
     origin: str = ""                             # the file it was read from
     pivot: tuple[str, ...] | None = None         # the pivot's prescribed position r0(t; p), or fixed at 0
+    potential: str | None = None                 # a potential V(q, p, t) added to gravity's
+    order: tuple[str, ...] | None = None         # the coordinates' order in the state, when not the links'
+    springs: tuple[Spring, ...] = ()
+
+    @property
+    def is_chain(self) -> bool:
+        """Whether the model is a serial chain of chart joints with a body on every link,
+        each hanging from the tip of the link before (today's chain form derives it);
+        otherwise a kinematic tree (lagrange.tree_form)."""
+        return self.order is None and all(
+            link.joint == CHART_JOINT and link.parent == i - 1 and link.offset is None
+            and link.body is not None for i, link in enumerate(self.links))
 
     @property
     def is_conservative(self) -> bool:
@@ -121,8 +164,7 @@ class Model:
         names = {n: sp.Symbol(n) for n in (*self.parameters, *self.inputs, *self.state_names, TIME)}
         where = self.origin or self.name
         texts = [*(text for _, text in self.forces), *(self.pivot or ())]
-        if self.dissipation is not None:
-            texts.append(self.dissipation)
+        texts += [text for text in (self.dissipation, self.potential) if text is not None]
         return any(names[TIME] in parse_expression(text, names, where).free_symbols for text in texts)
 
     @property
@@ -130,13 +172,31 @@ class Model:
         """The number of bobs (one body per link)."""
         return len(self.links)
 
+    def link_coordinates(self, link: Link) -> list[int]:
+        """Where `link`'s coordinates sit in the state's coordinates q.
+
+        Parameters
+        ----------
+        link : Link
+            One of this model's links.
+
+        Returns
+        -------
+        list of int
+            The indices of its coordinates in coordinate_names.
+        """
+        names = self.coordinate_names
+        return [names.index(c) for c in link.coordinates]
+
     def parameter_roles(self) -> dict[str, str]:
         """'length', 'mass', 'inertia' or 'fraction' for each parameter a link uses that
         way; 'gravity' for g; other parameters (damping, ...) have no role."""
         roles = {"g": "gravity"}
+        role_of = {"length": "length", "body mass": "mass", "body inertia": "inertia",
+                   "body com": "fraction"}
         for link in self.links:
-            for value, role in ((link.length, "length"), (link.body.mass, "mass"),
-                                (link.body.inertia, "inertia"), (link.body.com, "fraction")):
+            for value, role in ((text, role_of[key]) for key, text in link_quantities(link)
+                                if key in role_of):      # a tensor's or a centre's entries: no role
                 name = _bare_parameter(value, self.parameters)      # l1, but also 1*l1, +l1, (l1)
                 if name is not None:
                     roles.setdefault(name, role)
@@ -157,10 +217,11 @@ class Model:
         -------
         str or None
         """
+        lengths = {c for link in self.links if link.joint == PRISMATIC for c in link.coordinates}
         if name in self.coordinate_names:
-            return "rad"
+            return "m" if name in lengths else "rad"
         if name in self.rate_names:
-            return "rad/s"
+            return "m/s" if name[:-len("_dot")] in lengths else "rad/s"
         return SI_UNITS.get(self.parameter_roles().get(name, "") if name in self.parameters else "")
 
     @cached_property
@@ -172,7 +233,11 @@ class Model:
 
     @property
     def coordinate_names(self) -> list[str]:
-        return [f"{c}{i}" for i, link in enumerate(self.links, 1) for c in link.chart.coordinates]
+        """The generalized coordinates: the links' in link order (a chart's letters and the
+        link's number, theta1, unless the link names them), or in the model's `coordinates`."""
+        if self.order is not None:
+            return list(self.order)
+        return [c for link in self.links for c in link.coordinates]
 
     @property
     def rate_names(self) -> list[str]:
@@ -181,6 +246,30 @@ class Model:
     @property
     def state_names(self) -> list[str]:
         return self.coordinate_names + self.rate_names
+
+
+def link_quantities(link: Link) -> list[tuple[str, str]]:
+    """(key, text) of a link's length (a chart joint's: a slider has none) and its body's
+    mass, com and inertia (none for a massless link), a rigid body's centre and tensor.
+
+    Parameters
+    ----------
+    link : Link
+
+    Returns
+    -------
+    list of (str, str)
+        (key, expression text): "length", "body mass", "body com", "body inertia",
+        "body centre", "body inertia tensor".
+    """
+    joint_frame = link.body is None and link.length == "0"     # a massless hinge without an arm
+    out = [("length", link.length)] if link.joint != PRISMATIC and not joint_frame else []
+    if link.body is not None:
+        out += [("body mass", link.body.mass), ("body com", link.body.com),
+                ("body inertia", link.body.inertia)]
+        out += [("body centre", c) for c in link.body.centre or ()]
+        out += [("body inertia tensor", x) for row in link.body.tensor or () for x in row]
+    return out
 
 
 def _require(table: dict, key: str, kind: type, where: str):
@@ -233,14 +322,39 @@ def _quantity(t: dict, key: str, where: str) -> str:
     return str(value)
 
 
+def _parse_rigid_body(t: dict, mass: str, where: str) -> Body:
+    """A rigid body: `inertia` a symmetric 3 x 3 tensor about its centre of mass in the link's
+    frame, `centre` (optional) that centre in the link's frame from the joint."""
+    _no_unknown(t, {"kind", "mass", "centre", "inertia"}, where)
+    rows = t.get("inertia")
+    if (not isinstance(rows, list) or len(rows) != 3
+            or not all(isinstance(r, list) and len(r) == 3 for r in rows)):
+        raise ModelError(f"{where}: a rigid body's 'inertia' is its 3 x 3 tensor about its centre "
+                         f"of mass in the link's frame, a list of three rows")
+    tensor = tuple(tuple(_quantity({"inertia": v}, "inertia", where) for v in row) for row in rows)
+    if any(tensor[i][j] != tensor[j][i] for i in range(3) for j in range(i)):
+        raise ModelError(f"{where}: a rigid body's 'inertia' must be symmetric (row i, column j "
+                         f"equal to row j, column i)")
+    centre = t.get("centre")
+    if centre is not None:
+        if not isinstance(centre, list) or len(centre) != 3:
+            raise ModelError(f"{where}: 'centre' must be a list of 3 numbers or expressions (in the "
+                             f"link's frame, from its joint)")
+        centre = tuple(_quantity({"centre": v}, "centre", where) for v in centre)
+    return Body("rigid", mass, centre=centre, tensor=tensor)
+
+
 def _parse_body(t: dict, where: str) -> Body:
-    _no_unknown(t, {"kind", "mass", "com", "inertia"}, where)
     kind = _require(t, "kind", str, where)
-    if kind not in ("point", "rod"):
-        raise ModelError(f"{where}: body kind must be 'point' or 'rod', got '{kind}'")
+    if kind not in ("point", "rod", "rigid"):
+        raise ModelError(f"{where}: body kind must be 'point' or 'rod' (or 'rigid' on a revolute "
+                         f"joint), got '{kind}'")
     if "mass" not in t:
         raise ModelError(f"{where}: missing key 'mass'")
     mass = _quantity(t, "mass", where)
+    if kind == "rigid":
+        return _parse_rigid_body(t, mass, where)
+    _no_unknown(t, {"kind", "mass", "com", "inertia"}, where)
     if kind == "point":
         if "com" in t or "inertia" in t:
             raise ModelError(f"{where}: a point body has no 'com' or 'inertia'")
@@ -277,9 +391,9 @@ def _check_signs(link: Link, params: tuple[str, ...], where: str) -> None:
     passed them.  (The roles' own values are checked per run: parameter_problem.)"""
     positive = {n: sp.Symbol(n, real=True) if n == "g" else sp.Symbol(n, positive=True)
                 for n in params}                         # g may be zero or negative
-    for key, text, bad in (("length", link.length, lambda e: e.is_nonpositive),
-                           ("body mass", link.body.mass, lambda e: e.is_nonpositive),
-                           ("body inertia", link.body.inertia, lambda e: e.is_negative)):
+    bad_if = {"length": lambda e: e.is_nonpositive, "body mass": lambda e: e.is_nonpositive,
+              "body inertia": lambda e: e.is_negative}
+    for key, text, bad in ((k, text, bad_if[k]) for k, text in link_quantities(link) if k in bad_if):
         try:
             expr = parse_expression(text, positive, key)
         except ModelError:
@@ -295,7 +409,7 @@ def _check_com_is_a_fraction(link: Link, params: tuple[str, ...], where: str) ->
     distance where a fraction of the length is meant, and it would pass the run-time [0, 1]
     check for L <= 2 while giving a wrong inertia.  A fraction built from lengths (`d/L`)
     is fine: it scales as L^-1."""
-    if link.body.kind != "rod":
+    if link.body is None or link.body.kind != "rod":
         return
     symbols = {n: sp.Symbol(n) for n in params}
     try:
@@ -381,8 +495,7 @@ def _link_quantities(model: "Model") -> list:
         params = {n: sp.Symbol(n) for n in model.parameters}
         out = []
         for i, link in enumerate(model.links, 1):
-            for key, text in (("length", link.length), ("body mass", link.body.mass),
-                              ("body com", link.body.com), ("body inertia", link.body.inertia)):
+            for key, text in link_quantities(link):
                 expr = parse_expression(text, params, f"link {i} {key}")
                 if expr.free_symbols:     # every spelling, a bare parameter too (1*l1 is l1)
                     names = sorted(s.name for s in expr.free_symbols)
@@ -396,8 +509,7 @@ def _check_expressions(model: "Model", where: str) -> None:
     names = {n: sp.Symbol(n) for n in (*model.parameters, *model.inputs, *model.state_names, TIME)}
     params = {n: sp.Symbol(n) for n in model.parameters}
     for i, link in enumerate(model.links, 1):
-        for key, value in (("length", link.length), ("body mass", link.body.mass),
-                           ("body com", link.body.com), ("body inertia", link.body.inertia)):
+        for key, value in link_quantities(link):
             expr = parse_expression(value, params, f"{where}: link {i} {key}")
             if not expr.free_symbols:
                 problem = _quantity_problem(key, float(expr))
@@ -413,6 +525,15 @@ def _check_expressions(model: "Model", where: str) -> None:
     motion = {n: names[n] for n in (*model.parameters, TIME)}     # prescribed: no state, no input
     for axis, text in zip("xyz", model.pivot or ()):
         parse_expression(text, motion, f"{where}: pivot {axis}")
+    if model.potential is not None:               # V(q, p, t): no rate, no input
+        configuration = {n: names[n] for n in (*model.parameters, *model.coordinate_names, TIME)}
+        parse_expression(model.potential, configuration, f"{where}: potential")
+    for i, link in enumerate(model.links, 1):
+        for key, texts in (("offset", link.offset or ()), ("axis", link.axis)):
+            for text in texts:
+                parse_expression(text, params, f"{where}: link {i} {key}")
+        if link.axis and all(sp.sympify(0) == parse_expression(a, params, "axis") for a in link.axis):
+            raise ModelError(f"{where}: link {i} axis is the zero vector (a slider needs a direction)")
 
 
 def _pivot(t: dict, dimension: int, where: str) -> tuple[str, ...] | None:
@@ -426,6 +547,216 @@ def _pivot(t: dict, dimension: int, where: str) -> tuple[str, ...] | None:
     return tuple(_quantity({"pivot": v}, "pivot", where) for v in value)
 
 
+LINK_KEYS = {"chart", "length", "body", "name", "parent", "joint", "axis", "offset", "coordinate",
+             "coordinates"}
+
+
+def _vector(lt: dict, key: str, dimension: int, where: str) -> tuple[str, ...] | None:
+    """A link's `offset` or `axis`: a list of `dimension` numbers or parameter expressions."""
+    if key not in lt:
+        return None
+    value = lt[key]
+    if not isinstance(value, list) or len(value) != dimension:
+        raise ModelError(f"{where}: '{key}' must be a list of {dimension} numbers or expressions "
+                         f"(in the parent's frame)")
+    return tuple(_quantity({key: v}, key, where) for v in value)
+
+
+def _joint_coordinates(lt: dict, n: int, default: tuple[str, ...], where: str) -> tuple[str, ...]:
+    """The names a link gives its joint's `n` coordinates (`coordinate = "x"` for one,
+    `coordinates = [...]`), or `default`."""
+    if "coordinate" in lt and "coordinates" in lt:
+        raise ModelError(f"{where}: give 'coordinate' or 'coordinates', not both")
+    if "coordinate" in lt:
+        if n != 1:
+            raise ModelError(f"{where}: this joint has {n} coordinates: name them with "
+                             f"'coordinates = [...]'")
+        if not isinstance(lt["coordinate"], str):
+            raise ModelError(f"{where}: 'coordinate' must be a name (a string)")
+        given = _names({"coordinate": [lt["coordinate"]]}, "coordinate", where)
+    elif "coordinates" in lt:
+        given = _names(lt, "coordinates", where)
+    else:
+        return default
+    if len(given) != n:
+        raise ModelError(f"{where}: the joint has {n} coordinate{'s' * (n != 1)}, "
+                         f"'coordinates' names {len(given)}")
+    return given
+
+
+def _axis_chart(joint: str, coordinate: str, dimension: int) -> Chart:
+    """The stand-in chart of a prismatic or revolute joint: one coordinate (a length or an
+    angle), no unit vector of its own (its axis is in the parent's frame)."""
+    return Chart(name=joint, dimension=dimension, coordinates=(coordinate,), latex=(coordinate,),
+                 unit=(), inverse=(), polar_sine=None, singular_axis=None,
+                 source=f"a {joint} joint about or along an axis in its parent's frame")
+
+
+def _parse_link(lt: dict, i: int, dimension: int, named: dict[str, int], where: str) -> Link:
+    """One [[links]] table: its joint (chart or prismatic), its parent, its body."""
+    _no_unknown(lt, LINK_KEYS, where)
+    name = lt.get("name", "")
+    if not isinstance(name, str) or (name and not NAME.match(name)):
+        raise ModelError(f"{where}: 'name' must be an identifier (letters, digits, _)")
+    if name == PIVOT or name in named:
+        raise ModelError(f"{where}: 'name' = {name!r} is taken ("
+                         f"{'the pivot' if name == PIVOT else 'by an earlier link'})")
+    parent = lt.get("parent", None)
+    if parent is None:
+        parent_index = i - 2           # the link before (0-based), the pivot for the first
+    elif not isinstance(parent, str) or (parent != PIVOT and parent not in named):
+        raise ModelError(f"{where}: 'parent' = {parent!r} is not '{PIVOT}' or an earlier link's name "
+                         f"(named: {', '.join(named) or 'none'})")
+    else:
+        parent_index = -1 if parent == PIVOT else named[parent]
+    joint = lt.get("joint", CHART_JOINT)
+    if joint not in JOINTS:
+        raise ModelError(f"{where}: unknown joint {joint!r} (known: {', '.join(JOINTS)}; a hinge "
+                         f"or ball joint is a 'chart')")
+    body = _parse_body(lt["body"], where + " body") if isinstance(lt.get("body"), dict) else None
+    if "body" in lt and body is None:
+        raise ModelError(f"{where}: 'body' must be a table")
+    offset = _vector(lt, "offset", dimension, where)
+    if joint == PRISMATIC:
+        for key in ("chart", "length"):
+            if key in lt:
+                raise ModelError(f"{where}: a prismatic joint has no '{key}' (its coordinate is the "
+                                 f"length it slides)")
+        axis = _vector(lt, "axis", dimension, where)
+        if axis is None:
+            raise ModelError(f"{where}: a prismatic joint needs 'axis' (its direction in the "
+                             f"parent's frame, e.g. axis = [1, 0])")
+        if "coordinate" not in lt and "coordinates" not in lt:
+            raise ModelError(f"{where}: a prismatic joint needs 'coordinate' (the name of the "
+                             f"length it slides, e.g. coordinate = \"x\")")
+        coordinates = _joint_coordinates(lt, 1, (), where)
+        if body is not None and body.kind != "point":
+            raise ModelError(f"{where}: a slider's body is a point (a cart), got '{body.kind}'")
+        return Link(_axis_chart(PRISMATIC, coordinates[0], dimension), "0", body, name, parent_index,
+                    joint, axis, offset, coordinates)
+    if joint == REVOLUTE:
+        if dimension != 3:
+            raise ModelError(f"{where}: a revolute joint is 3-D; a planar hinge is chart = \"planar\" "
+                             f"(its angle absolute, from the downward vertical)")
+        if "chart" in lt:
+            raise ModelError(f"{where}: a revolute joint has no 'chart' (its axis is 'axis')")
+        axis = _vector(lt, "axis", dimension, where)
+        if axis is None:
+            raise ModelError(f"{where}: a revolute joint needs 'axis' (in the parent's frame, "
+                             f"e.g. axis = [0, 1, 0])")
+        coordinates = _joint_coordinates(lt, 1, (f"theta{i}",), where)
+        length = (_require(lt, "length", str, where) if (body is not None and body.centre is None)
+                  or "length" in lt else "0")
+        return Link(_axis_chart(REVOLUTE, coordinates[0], dimension), length, body, name,
+                    parent_index, joint, axis, offset, coordinates)
+    if body is not None and body.kind == "rigid":
+        raise ModelError(f"{where}: a rigid body needs a frame that turns with it (a revolute "
+                         f"joint); a chart gives only the link's direction, not its spin "
+                         f"(a planar link's body is a 'rod')")
+    if "axis" in lt:
+        raise ModelError(f"{where}: 'axis' is a prismatic joint's (a chart's axes are in charts.toml)")
+    try:
+        chart = load_chart(_require(lt, "chart", str, where))
+    except ModelError as exc:
+        raise ModelError(str(exc) if str(exc).startswith(where) else f"{where}: 'chart': {exc}") from None
+    if chart.dimension != dimension:
+        raise ModelError(f"{where}: chart '{chart.name}' is {chart.dimension}-D in a {dimension}-D model")
+    length = _require(lt, "length", str, where) if body is not None or "length" in lt else "0"
+    coordinates = _joint_coordinates(lt, len(chart.coordinates),
+                                     tuple(f"{c}{i}" for c in chart.coordinates), where)
+    return Link(chart, length, body, name, parent_index, joint, (), offset, coordinates)
+
+
+def _parse_links(tables: list, dimension: int, params: tuple[str, ...], origin: str) -> list[Link]:
+    links, named = [], {}
+    for i, lt in enumerate(tables, 1):
+        where = f"{origin}: link {i}"
+        if not isinstance(lt, dict):
+            raise ModelError(f"{where}: must be a table")
+        link = _parse_link(lt, i, dimension, named, where)
+        for _, p in link_quantities(link):
+            if NAME.match(p) and p not in params:
+                raise ModelError(f"{where}: '{p}' is not a declared parameter")
+        _check_com_is_a_fraction(link, params, where)
+        _check_signs(link, params, where)
+        if link.name:
+            named[link.name] = i - 1
+        links.append(link)
+    coordinates = [c for link in links for c in link.coordinates]
+    for c in coordinates:
+        if coordinates.count(c) > 1:
+            raise ModelError(f"{origin}: the coordinate '{c}' is named by two links")
+    return links
+
+
+def _order(t: dict, links: list[Link], origin: str) -> tuple[str, ...] | None:
+    """The model's `coordinates`: the links' coordinates in the state's order, or None."""
+    if "coordinates" not in t:
+        return None
+    order = _names(t, "coordinates", origin)
+    own = [c for link in links for c in link.coordinates]
+    if sorted(order) != sorted(own):
+        raise ModelError(f"{origin}: 'coordinates' must list the links' coordinates "
+                         f"({', '.join(own)}) once each, in the state's order")
+    return None if list(order) == own else order
+
+
+CENTRE = ".centre"        # a spring's end at a link's body centre, "<link>.centre"
+
+
+def _spring_point(text, links: list[Link], where: str) -> str:
+    names = {link.name for link in links if link.name}
+    link = text[:-len(CENTRE)] if isinstance(text, str) and text.endswith(CENTRE) else text
+    if text != PIVOT and link not in names:
+        raise ModelError(f"{where}: 'between': {text!r} is not '{PIVOT}', a link's name (its tip) "
+                         f"or '<link>{CENTRE}' (named links: {', '.join(sorted(names)) or 'none'})")
+    return text
+
+
+def _parse_springs(t: dict, links: list[Link], params: tuple[str, ...], origin: str) -> tuple[Spring, ...]:
+    """The [[springs]] tables: linear (`between`, `stiffness`, `rest_length`) or torsional
+    (`joint`, `stiffness`, `rest_angle`)."""
+    tables = t.get("springs", [])
+    if not isinstance(tables, list):
+        raise ModelError(f"{origin}: 'springs' must be an array of tables ([[springs]])")
+    out, by_name = [], {link.name: i for i, link in enumerate(links) if link.name}
+    for i, st in enumerate(tables, 1):
+        where = f"{origin}: spring {i}"
+        if not isinstance(st, dict):
+            raise ModelError(f"{where}: must be a table")
+        if ("between" in st) == ("joint" in st):
+            raise ModelError(f"{where}: give 'between' (two points: a linear spring) or 'joint' "
+                             f"(a link's name: a torsional spring), one of them")
+        if "between" in st:
+            _no_unknown(st, {"between", "stiffness", "rest_length"}, where)
+            ends = st["between"]
+            if not isinstance(ends, list) or len(ends) != 2:
+                raise ModelError(f"{where}: 'between' must be a list of two points")
+            spring = Spring(_quantity(st, "stiffness", where) if "stiffness" in st else "",
+                            _quantity(st, "rest_length", where) if "rest_length" in st else "0",
+                            between=tuple(_spring_point(e, links, where) for e in ends))
+        else:
+            _no_unknown(st, {"joint", "stiffness", "rest_angle"}, where)
+            joint = st["joint"]
+            if joint not in by_name:
+                raise ModelError(f"{where}: 'joint' = {joint!r} is not a link's name "
+                                 f"(named links: {', '.join(sorted(by_name)) or 'none'})")
+            link = links[by_name[joint]]
+            if link.joint == PRISMATIC or len(link.coordinates) != 1:
+                raise ModelError(f"{where}: a torsional spring is at a hinge of one angle; link "
+                                 f"'{joint}' has {'a slider' if link.joint == PRISMATIC else 'a ball joint'}")
+            spring = Spring(_quantity(st, "stiffness", where) if "stiffness" in st else "",
+                            _quantity(st, "rest_angle", where) if "rest_angle" in st else "0",
+                            joint=by_name[joint])
+        if not spring.stiffness:
+            raise ModelError(f"{where}: missing key 'stiffness'")
+        symbols = {n: sp.Symbol(n, positive=True) for n in params}
+        for key, text in (("stiffness", spring.stiffness), ("rest", spring.rest)):
+            parse_expression(text, symbols, f"{where}: {key}")
+        out.append(spring)
+    return tuple(out)
+
+
 def parse_model(text: str, origin: str) -> Model:
     try:
         t = tomllib.loads(text)
@@ -434,31 +765,14 @@ def parse_model(text: str, origin: str) -> Model:
     except RecursionError:             # tomllib recurses once per nested inline table
         raise ModelError(f"{origin}: not valid TOML (tables nested too deeply)") from None
     _no_unknown(t, {"name", "title", "source", "dimension", "parameters", "forms", "links",
-                    "inputs", "dissipation", "forces", "pivot"}, origin)
+                    "inputs", "dissipation", "forces", "pivot", "potential", "coordinates", "springs"}, origin)
     dimension = _require(t, "dimension", int, origin)
     if dimension not in (2, 3):
         raise ModelError(f"{origin}: 'dimension' must be 2 (planar) or 3 (spherical), got {dimension}")
     _require(t, "parameters", list, origin)
     params = _names(t, "parameters", origin)
     inputs = _names(t, "inputs", origin)
-    links = []
-    for i, lt in enumerate(_require(t, "links", list, origin), 1):
-        where = f"{origin}: link {i}"
-        _no_unknown(lt, {"chart", "length", "body"}, where)
-        try:
-            chart = load_chart(_require(lt, "chart", str, where))
-        except ModelError as exc:
-            raise ModelError(str(exc) if str(exc).startswith(where) else f"{where}: 'chart': {exc}") from None
-        if chart.dimension != dimension:
-            raise ModelError(f"{where}: chart '{chart.name}' is {chart.dimension}-D in a {dimension}-D model")
-        link = Link(chart, _require(lt, "length", str, where),
-                    _parse_body(_require(lt, "body", dict, where), where + " body"))
-        for p in (link.length, link.body.mass, link.body.inertia, link.body.com):
-            if NAME.match(p) and p not in params:
-                raise ModelError(f"{where}: '{p}' is not a declared parameter")
-        _check_com_is_a_fraction(link, params, where)
-        _check_signs(link, params, where)
-        links.append(link)
+    links = _parse_links(_require(t, "links", list, origin), dimension, params, origin)
     if not links:
         raise ModelError(f"{origin}: a model needs at least one [[links]] table")
     if "g" not in params:
@@ -481,13 +795,17 @@ def parse_model(text: str, origin: str) -> Model:
     dissipation = t.get("dissipation")
     if dissipation is not None and not isinstance(dissipation, str):
         raise ModelError(f"{origin}: 'dissipation' must be an expression (a string)")
+    potential = t.get("potential")
+    if potential is not None and not isinstance(potential, str):
+        raise ModelError(f"{origin}: 'potential' must be an expression (a string)")
     forces_table = t.get("forces", {})
     if not isinstance(forces_table, dict):
         raise ModelError(f"{origin}: 'forces' must be a table from coordinate name to expression")
     model = Model(name=name, title=_text(t, "title", origin), source=_text(t, "source", origin),
                   dimension=dimension, parameters=params, forms=forms, links=tuple(links), text=text,
                   inputs=inputs, dissipation=dissipation, origin=origin,
-                  pivot=_pivot(t, dimension, origin),
+                  pivot=_pivot(t, dimension, origin), potential=potential,
+                  order=_order(t, links, origin), springs=_parse_springs(t, links, params, origin),
                   forces=tuple((k, _quantity(forces_table, k, f"{origin}: forces")) for k in forces_table))
     _check_names(model, origin)
     _check_expressions(model, origin)
@@ -496,6 +814,10 @@ def parse_model(text: str, origin: str) -> Model:
                else "explicit time (a moving pivot)")
         raise ModelError(f"{origin}: the Hamiltonian form is for conservative models; this one has "
                          f"{why} (remove 'hamiltonian' from 'forms')")
+    if not model.is_chain and ("hamiltonian" in forms or "paper" in forms):
+        raise ModelError(f"{origin}: the Hamiltonian and 'paper' forms are a chain's; this model is "
+                         f"a tree (a parent, an offset, a slider, a massless link or a coordinate "
+                         f"order): remove them from 'forms'")
     if "paper" in forms and (dimension != 3 or len(links) != 2):
         raise ModelError(f"{origin}: the 'paper' forms are the seed's double spherical pendulum's "
                          f"(dimension 3, two links)")

@@ -10,7 +10,8 @@ d_k the depth of body k's centre of mass below the pivot with the chain hanging
 straight down (the lengths of the links before it plus its centre of mass along its
 own): the potential energy lies in [-W, W], so W is the size of the energy a motion
 can exchange (W = |g| (m1 l1 + m2 (l1 + l2)) = 29.43 for the planar double pendulum
-with unit masses and lengths).  It is 0 only without gravity and at rest (then the
+with unit masses and lengths).  In a tree, the links before body k are those on its
+path to the pivot; offsets and sliders add no depth (W is then a scale, not a bound).  It is 0 only without gravity and at rest (then the
 error is absolute).
 """
 from __future__ import annotations
@@ -42,13 +43,15 @@ def well_depth(model: Model, values: dict):
     """
     if model.content_hash not in _depths:
         params = {n: sp.Symbol(n) for n in model.parameters}
-        depth, W = sp.S.Zero, sp.S.Zero
+        depths, W = [], sp.S.Zero      # the depth of each link's tip, hanging straight down
         for i, link in enumerate(model.links, 1):
             length = parse_expression(link.length, params, f"link {i} length")
-            mass = parse_expression(link.body.mass, params, f"link {i} body mass")
-            com = parse_expression(link.body.com, params, f"link {i} body com")
-            W += mass * (depth + com * length)
-            depth += length
+            depth = depths[link.parent] if link.parent >= 0 else sp.S.Zero
+            if link.body is not None:
+                mass = parse_expression(link.body.mass, params, f"link {i} body mass")
+                com = parse_expression(link.body.com, params, f"link {i} body com")
+                W += mass * (depth + com * length)
+            depths.append(depth + length)
         W = sp.Abs(params["g"]) * W
         _depths[model.content_hash] = sp.lambdify([params[n] for n in model.parameters], W, "numpy")
     out = _depths[model.content_hash](*[values[n] for n in model.parameters])

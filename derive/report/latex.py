@@ -15,6 +15,7 @@ import sympy as sp
 
 from ..derivation import Derivation
 from ..errors import PackageDataError
+from ..model.expressions import parse_expression
 from .. import paths
 
 from . import typeset as ts
@@ -46,11 +47,41 @@ def _vector(v, names) -> str:
     return ts.full_size(r"\begin{pmatrix}" + r" \\ ".join(ts.tex(x, names) for x in v) + r"\end{pmatrix}")
 
 
+def _joint(model, link, i: int, n) -> str:
+    """How link i hangs: its length and chart, or its slider's or hinge's axis, and where
+    it sits when that is not the previous link's tip."""
+    length = ts.tex(sp.Symbol(link.length), n)
+    params = {x: sp.Symbol(x) for x in model.parameters}
+
+    def vector(texts) -> str:
+        return "$(" + ", ".join(ts.tex(parse_expression(x, params, "link"), n) for x in texts) + ")$"
+    axis = vector(link.axis)
+    if link.joint == "prismatic":
+        text = f"slides along {axis} in its parent's frame (a prismatic joint)"
+    elif link.joint == "revolute":
+        text = f"has length ${length}$ and turns about {axis} in its parent's frame (a revolute joint)"
+    else:
+        text = f"has length ${length}$, chart \\texttt{{{_escape(link.chart.name)}}}"
+    if link.parent != i - 2 or link.offset is not None:
+        where = "the pivot" if link.parent < 0 else f"link {link.parent + 1}"
+        at = "" if link.offset is None else f" at {vector(link.offset)} in its frame"
+        text += f", hangs from {where}{at}"
+    return text
+
+
 def _body(link, n) -> str:
     b = link.body
+    if b is None:
+        return "no mass (a frame for the links it carries)"
     mass = ts.tex(sp.sympify(b.mass), n)
     if b.kind == "point":
         return f"a point mass ${mass}$ at its tip"
+    if b.kind == "rigid":
+        rows = r" \\ ".join(" & ".join(ts.tex(sp.sympify(x), n) for x in row) for row in b.tensor)
+        return (f"a rigid body of mass ${mass}$ with its centre of mass at "
+                + ("its tip" if b.centre is None else "$(" + ", ".join(ts.tex(sp.sympify(c), n) for c in b.centre)
+                   + ")$ in its frame")
+                + r" and inertia tensor $\begin{pmatrix}" + rows + r"\end{pmatrix}$ about it")
     com = sp.sympify(b.com)
     inertia = ts.tex(sp.sympify(b.inertia), n)
     at = f"{com.p}/{com.q}" if isinstance(com, sp.Rational) and com.q != 1 else ts.tex(com, n)
@@ -175,8 +206,7 @@ def context(d: Derivation, results, checks=(), paper: str = "a4") -> dict:
         "conservative": d.model.is_conservative,
         "coordinates": ", ".join(f"${ts.tex(q, n)}$" for q in s.q),
         "parameters": ", ".join(f"${ts.tex(p, n)}$" for p in s.params),
-        "links": [{"index": i, "chart": _escape(link.chart.name), "body": _body(link, n),
-                   "length": ts.tex(sp.Symbol(link.length), n),
+        "links": [{"index": i, "joint": _joint(d.model, link, i, n), "body": _body(link, n),
                    "tip": _vector(tip, n), "centre": _vector(c, n),
                    "same": sp.simplify(tip - c) == sp.zeros(*tip.shape)}
                   for i, (link, tip, c) in enumerate(zip(d.model.links, d.tips, d.centres), 1)],

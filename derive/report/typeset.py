@@ -41,16 +41,24 @@ def names_for(d) -> dict:
     """LaTeX names of every symbol a derivation or its seed claims use: coordinates with
     the chart's own letters (primes for the rotated chart), rates, accelerations, momenta,
     the seed's Cartesian link components.  Braced, so a power never doubles a prime."""
-    names, k = {}, 0
+    names, s = {}, d.symbols
     for i, link in enumerate(d.model.links, 1):
-        for tex, q, qd, p in zip(link.chart.latex, d.symbols.q[k:], d.symbols.qd[k:], d.symbols.p[k:]):
+        at = d.model.link_coordinates(link)
+        own = [f"{c}{i}" for c in link.chart.coordinates]
+        if list(link.coordinates) != own:       # named by the model (x, theta): its own letters
+            for j in at:
+                for x in (s.q[j], s.qd[j], sp.Symbol(f"{s.q[j].name}_ddot", real=True)):
+                    names[x] = symbol_tex(x.name)
+                names[s.p[j]] = "{p_{" + symbol_tex(s.q[j].name) + "}}"
+            continue
+        for tex, j in zip(link.chart.latex, at):
+            q, qd, p = s.q[j], s.qd[j], s.p[j]
             base = tex.rstrip("'")
             prime = "^{" + r"\prime" * (len(tex) - len(base)) + "}" if tex != base else ""
             names[q] = f"{{{base}{prime}_{{{i}}}}}"
             names[qd] = f"{{\\dot{{{base}}}{prime}_{{{i}}}}}"
             names[sp.Symbol(f"{q.name}_ddot", real=True)] = f"{{\\ddot{{{base}}}{prime}_{{{i}}}}}"
             names[p] = f"{{p_{{{base}{prime}_{{{i}}}}}}}"
-            k += 1
     for x in d.symbols.params:
         names[x] = symbol_tex(x.name)
     return names

@@ -9,6 +9,8 @@ import numpy as np
 import sympy as sp
 
 from ..derivation import derive
+from ..derivation.lagrange import tree_geometry
+from ..derivation.symbols import t as time_symbol
 from ..model import load_model
 from ..model.atlas import find_atlas
 from ..paths import replace_file, writable_dir
@@ -517,6 +519,34 @@ def _animation(plt, o, pos, out, stem, horizontal, vertical) -> tuple[Path, int]
     return path, len(images)
 
 
+def _tree_drawing(o, pos: np.ndarray):
+    """The points a tree's frames draw (outputs, points, dimension): each link a segment
+    from its joint to its tip, a joint at an offset joined to its parent's joint (or the
+    pivot), NaN between segments; None for a serial chain (drawn pivot, tip, tip, ...)."""
+    if find_atlas(o.scene.model) is not None:
+        return None
+    model = load_model(o.scene.model)
+    if model.is_chain:
+        return None
+    d = derive(model)
+    s = d.symbols
+    joints = sp.lambdify([time_symbol, *s.state, *s.params], sp.Matrix.hstack(*tree_geometry(model, s).joints),
+                         "numpy")
+    p = [float(o.scene.parameters[x.name]) for x in s.params]
+    gap = np.full(pos.shape[-1], np.nan)
+    frames = []
+    for k, (tk, yk) in enumerate(zip(np.asarray(o.result.t, float), np.asarray(o.result.y, float))):
+        at = np.asarray(joints(tk, *yk[:len(s.state)], *p), float).T
+        points = []
+        for i, link in enumerate(model.links):
+            base = at[link.parent] if link.parent >= 0 else np.zeros(pos.shape[-1])
+            if link.offset is not None:
+                points += [base, at[i], gap]
+            points += [at[i], pos[k, i], gap]
+        frames.append(points)
+    return np.asarray(frames, float)
+
+
 def _animation_parts(plt, o, horizontal: int = 0, vertical: int | None = None):
     """(figure, frame rows, draw) of the chain moving: draw(i) puts frame i into the
     chain, trail and time-stamp artists and returns them; None for a run with no state
@@ -540,11 +570,15 @@ def _animation_parts(plt, o, horizontal: int = 0, vertical: int | None = None):
     fit_title(fig, lambda text: ax.set_title(text, fontsize=9), o.scene.title)
     line, = ax.plot([], [], "o-", lw=2, color="tab:blue")
     trail, = ax.plot([], [], lw=0.6, color="tab:red")
+    tree = _tree_drawing(o, pos)
     stamp = ax.text(0.02, 0.96, "", transform=ax.transAxes, fontsize=8, va="top")
 
     def draw(i):
         k = frames[i]
-        line.set_data([0, *pos[k, :, horizontal]], [0, *pos[k, :, vertical]])     # the whole chain
+        if tree is None:
+            line.set_data([0, *pos[k, :, horizontal]], [0, *pos[k, :, vertical]])     # the whole chain
+        else:
+            line.set_data(tree[k, :, horizontal], tree[k, :, vertical])
         trail.set_data(pos[:k + 1, -1, horizontal], pos[:k + 1, -1, vertical])    # its last bob
         stamp.set_text(f"t = {t[k]:.2f}" + (" s" if o.scene.units == "SI" else ""))
         return line, trail, stamp

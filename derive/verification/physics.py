@@ -272,9 +272,11 @@ def cartesian_constraint_forces(name, n_points: int = 20) -> Check | None:
     """For a chain of point masses: the bobs' accelerations from the derivation equal those
     of the Cartesian formulation m_k a_k = m_k g + tension forces along the links, the
     tensions solved from the second derivatives of the constraints |x_k - x_{k-1}| = l_k.
-    None for a chain with a rod (its rotational inertia is no point mass)."""
+    None for a chain with a rod (its rotational inertia is no point mass), and for a model
+    that is not a serial chain (a slider, a branch or an offset is no constraint
+    |x_k - x_{k-1}| = l_k; M positive definite and the energy balance check those)."""
     d = derive(name)
-    if any(link.body.kind != "point" for link in d.model.links):
+    if not d.model.is_chain or any(link.body.kind != "point" for link in d.model.links):
         return None
     s, dim = d.symbols, d.model.dimension
     args = list(_args(d))
