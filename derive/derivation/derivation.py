@@ -11,7 +11,8 @@ import sympy as sp
 from .. import cachefile
 from ..model import Model, load_model
 from ..paths import cache_dir, package_root
-from . import hamilton, lagrange
+from . import constraints, hamilton, lagrange
+from .constraints import ConstraintForm
 from .paper import PaperForms, paper_forms
 from .symbols import ModelSymbols, model_symbols
 
@@ -45,6 +46,7 @@ class Derivation:
     dissipation: sp.Expr | None = None     # Rayleigh's R(q', q); F includes -dR/dq'
     forces: sp.Matrix | None = None        # applied generalized forces Q; F includes them
     polar_sines: list[sp.Expr] = field(default_factory=list)
+    constraints: ConstraintForm | None = None  # a closed loop: M q'' + J^T lambda = F, J q'' = gamma
     seconds: float = 0.0           # time the derivation took when it was computed
 
     @property
@@ -78,7 +80,8 @@ def compute(model: Model) -> Derivation:
     d = Derivation(model=model, symbols=s,
                    tips=lagrange.tip_positions(model, s),
                    centres=lagrange.mass_centres(model, s),
-                   M=M, F=F, T=T, V=V, dissipation=R, forces=Q)
+                   M=M, F=F, T=T, V=V, dissipation=R, forces=Q,
+                   constraints=constraints.constraint_form(model, s))
     k = 0
     for link in model.links:
         n = len(link.chart.coordinates)
