@@ -45,7 +45,7 @@ from ..codegen.contract import (ADAPTIVE, ATLAS_METHODS, COUNTERS, DEFAULT_METHO
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
 from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, plain_times
 from .runner import Settings, runner_for
-from . import continuous_inputs, extended, extended_run
+from . import constraints, continuous_inputs, extended, extended_run
 from .result import LAZY, LOCAL_SUM, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
 from ..model.atlas import ATLAS, Atlas, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
@@ -557,6 +557,9 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     ts = normalise_t(t)
     state, chart, _ = normalise_y0(ref, y0, p)
     _check_angles(ref, state, dt)
+    loop = ref.atlas is None and constraints.is_constrained(model)
+    if loop:
+        constraints.check_initial_state(model, state, p)
     opt = run_options(method, dt, ts, rtol=rtol, atol=atol, step=step, hmax=hmax, max_steps=max_steps,
                       newton_tol=newton_tol, newton_max=newton_max, sine_min=sine_min)
     if ref.atlas is not None and method not in ATLAS_METHODS:
@@ -568,9 +571,10 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
         if wanted or error_estimate != "local" or ref.atlas is not None:
             raise SimulationInputError("inputs u(t, y) at every stage: no events, rerun estimate or atlas "
                                        "(give hold='zoh' for those)")
-        return continuous_inputs.run_continuous(model, method, state, ts, p, opt, backend,
-                                                continuous_inputs.ContinuousInputs(ref, u.names, u.function,
-                                                                                   _input_values))
+        result = continuous_inputs.run_continuous(model, method, state, ts, p, opt, backend,
+                                                  continuous_inputs.ContinuousInputs(ref, u.names, u.function,
+                                                                                     _input_values))
+        return constraints.report_drift(result, model, p) if loop else result
 
     def run(o):
         if ref.atlas is not None:
@@ -591,7 +595,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
                      hmax=hmax, inputs=inputs, atlas=atlas, hold=hold)
         _estimate_by_rerun(result, lambda **tighter: simulate(model, y0, t, params, **{**again, **tighter}),
                            method, opt, dt, max_steps)
-    return result
+    return constraints.report_drift(result, model, p) if loop else result
 
 
 def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, step, max_steps, sine_min,
@@ -618,6 +622,9 @@ def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, s
     ts = normalise_t(_decimals_as_floats(t))
     state, _, _ = normalise_y0(ref, _decimals_as_floats(y0), p)
     _check_angles(ref, state, np.dtype(np.longdouble))
+    loop = constraints.is_constrained(model)
+    if loop:
+        constraints.check_initial_state(model, state, p)
     run_options(TAYLOR, np.dtype(np.float64), ts, hmax=hmax, max_steps=max_steps, sine_min=sine_min)
     if isinstance(y0, Mapping) and set(y0) & {"cartesian", "chart", "state"}:
         raise SimulationInputError(f"dtype '{precision}' takes y0 as the state (a sequence or a mapping by name)")
@@ -630,7 +637,7 @@ def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, s
 
     result.observe = observe
     result.energy = result.positions = result.velocities = LAZY
-    return result
+    return constraints.report_drift(result, model, pm) if loop else result
 
 
 # -- error_estimate="rerun" ------------------------------------------------------------

@@ -1,0 +1,222 @@
+"""A closed loop's run time: the start on the constraints, and the drift reported.
+
+A model with `constraints` (derive/derivation/constraints.py) runs as the index-1 system
+[M J^T; J 0] [q''; lambda] = [F; gamma], which keeps Phi'' = 0 exactly but lets the
+truncation and roundoff errors of a run move it off Phi = 0, J q' = 0 (the drift,
+growing linearly in J q' and quadratically in Phi at worst).  What derive does about it:
+
+* a run starts only from a state on the constraints (|Phi| and |J q'| within the
+  contract's CONSTRAINT_START_TOLERANCE): another is refused in one line naming the
+  largest residual; `consistent_state` projects a state onto them, on request only (a
+  projection moves the state the user gave, which nobody should get without asking);
+* every run reports its drift, the largest |Phi| and |J q'| over its outputs
+  (`SimulationResult.constraint_drift`), and its message says so where the drift exceeds
+  the contract's CONSTRAINT_DRIFT_BOUND.
+
+No Baumgarte term in the kernels: its two gains are problem- and step-dependent, and it
+changes the equations a demanding user integrates (the energy of a conservative loop is
+no longer exact); an honest figure of the drift of the exact equations, with the
+tolerance as the control (a tighter rtol, a smaller drift), is what such a user trusts,
+and projection onto the constraints (`consistent_state`, the closest state by least
+squares) is the tool where a state must be put back on them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..codegen.contract import CONSTRAINT_DRIFT_BOUND, CONSTRAINT_START_TOLERANCE
+from ..errors import SimulationInputError
+from ..model import load_model
+from .loader import numpy_module
+
+PROJECTION_ITERATIONS = 50         # Gauss-Newton on Phi(q) = 0: quadratic, a handful suffice
+
+
+@dataclass(frozen=True)
+class ConstraintDrift:
+    """How far a closed loop's run left its constraints, over its outputs.
+
+    Attributes
+    ----------
+    phi : float
+        The largest |Phi(q)| (position level).
+    phi_dot : float
+        The largest |J q'| (velocity level).
+    bound : float
+        The bound above which the run's message reports the drift (the contract's
+        CONSTRAINT_DRIFT_BOUND).
+    """
+    phi: float
+    phi_dot: float
+    bound: float = CONSTRAINT_DRIFT_BOUND
+
+    @property
+    def exceeded(self) -> bool:
+        """Whether either residual exceeds the bound (a NaN residual does)."""
+        return not (self.phi <= self.bound and self.phi_dot <= self.bound)
+
+    def __str__(self) -> str:
+        return f"max |Phi| = {self.phi:.3g}, max |J q'| = {self.phi_dot:.3g}"
+
+
+def is_constrained(model: str) -> bool:
+    """Whether the model (a resolved name) closes a loop; False for an atlas or unknown name.
+
+    Parameters
+    ----------
+    model : str
+        A model's name.
+
+    Returns
+    -------
+    bool
+    """
+    try:
+        return load_model(model).is_constrained
+    except Exception:          # an atlas' name is no model file: it has no constraints
+        return False
+
+
+def residuals(model: str, y, p) -> tuple[np.ndarray, np.ndarray]:
+    """Phi(q) and J q' at states y (..., n), by the generated NumPy kernel, in double.
+
+    Parameters
+    ----------
+    model : str
+        A closed loop's name.
+    y : array_like, shape (..., n)
+        States.
+    p : array_like, shape (n_params,)
+        The parameters.
+
+    Returns
+    -------
+    phi, phi_dot : ndarray, shape (..., m)
+    """
+    y = np.asarray(y, dtype=np.float64)
+    p = np.asarray(p, dtype=np.float64)[:len(load_model(model).parameters)]   # without the inputs
+    with np.errstate(all="ignore"):
+        phi, phi_dot = numpy_module(model).constraints(y, p)
+    return np.asarray(phi, dtype=np.float64), np.asarray(phi_dot, dtype=np.float64)
+
+
+def check_initial_state(model: str, y0, p) -> None:
+    """Refuse, in one line naming the largest residual, a start off the constraints.
+
+    Parameters
+    ----------
+    model : str
+        A closed loop's name.
+    y0 : array_like, shape (n,)
+        The initial state.
+    p : array_like
+        The parameters (then any inputs).
+
+    Raises
+    ------
+    SimulationInputError
+        |Phi(q0)| or |J q0'| above the contract's CONSTRAINT_START_TOLERANCE.
+    """
+    phi, phi_dot = residuals(model, y0, p)
+    for level, values in (("Phi", phi), ("J q'", phi_dot)):
+        worst = int(np.argmax(np.abs(values)))
+        value = float(np.abs(values[worst]))
+        if not value <= CONSTRAINT_START_TOLERANCE:
+            raise SimulationInputError(
+                f"{model}: the initial state is off the loop's constraints: |{level}| = {value:.3g} "
+                f"(constraint {worst + 1}) exceeds {CONSTRAINT_START_TOLERANCE:g}; "
+                f"derive.consistent_state(model, y0, params) projects it onto them")
+
+
+def drift(model: str, y, p) -> ConstraintDrift:
+    """The largest |Phi| and |J q'| over a run's output rows (rows after a stop, NaN, are
+    left out).
+
+    Parameters
+    ----------
+    model : str
+        A closed loop's name.
+    y : array_like, shape (rows, n)
+        The run's states.
+    p : array_like
+        The parameters.
+
+    Returns
+    -------
+    ConstraintDrift
+    """
+    y = np.asarray(y, dtype=np.float64)
+    y = y[np.isfinite(y).all(axis=1)] if y.ndim == 2 else y
+    if len(y) == 0:
+        return ConstraintDrift(0.0, 0.0)
+    phi, phi_dot = residuals(model, y, p)
+    return ConstraintDrift(float(np.abs(phi).max()), float(np.abs(phi_dot).max()))
+
+
+def report_drift(result, model: str, p):
+    """`result` with its constraint_drift set (a closed loop's run), returned."""
+    result.constraint_drift = drift(model, result.y, p)
+    return result
+
+
+def consistent_state(model, y0, params) -> np.ndarray:
+    """The state on a closed loop's constraints closest to y0: the coordinates by
+    Gauss-Newton on Phi(q) = 0 (each correction the least-squares one, -J^+ Phi), then
+    the rates projected orthogonally onto J q' = 0.
+
+    Parameters
+    ----------
+    model : str or path
+        A model with `constraints` (a name or the path of its file).
+    y0 : sequence
+        A state, coordinates then rates.
+    params : mapping or sequence
+        The parameters, by name or in order.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        A state with |Phi| and |J q'| at roundoff.
+
+    Raises
+    ------
+    SimulationInputError
+        The model has no constraints, the state has the wrong size, or the iteration does
+        not converge (no closed configuration near y0, or J loses rank there).
+
+    Examples
+    --------
+    >>> import derive
+    >>> p = dict(m1=1, m2=2, m3=1.5, l1=0.5, l2=2, l3=1.5, d=2, g=9.81)
+    >>> y = derive.consistent_state("examples/models/four_bar.toml", [0.3, 2.6, 0.6, 1, 0, 0], p)
+    >>> bool(abs(y[0] - 0.3) < 0.01)
+    True
+    """
+    from .simulate import normalise_params, resolve_model      # simulate imports this module
+    name = resolve_model(model)
+    if not load_model(name).is_constrained:
+        raise SimulationInputError(f"{name}: the model has no constraints (no 'constraints' key): "
+                                   f"every state is consistent")
+    p = np.asarray(normalise_params(name, params), dtype=np.float64)
+    y = np.array(y0, dtype=np.float64)
+    nq = len(load_model(name).coordinate_names)
+    if y.shape != (2 * nq,):
+        raise SimulationInputError(f"{name}: y0 has shape {y.shape}, the state has {2 * nq} entries")
+    kernels = numpy_module(name)
+    for _ in range(PROJECTION_ITERATIONS):
+        J = np.asarray(kernels.constraint_jacobian(y, p), dtype=np.float64)
+        phi, _ = residuals(name, y, p)
+        step = np.linalg.lstsq(J, phi, rcond=None)[0]
+        y[:nq] -= step
+        if np.abs(step).max() <= 1e-15 * max(1.0, np.abs(y[:nq]).max()):
+            break
+    phi, _ = residuals(name, y, p)
+    if not np.abs(phi).max() <= CONSTRAINT_START_TOLERANCE:
+        raise SimulationInputError(f"{name}: no closed configuration found near y0 (|Phi| = "
+                                   f"{np.abs(phi).max():.3g} after {PROJECTION_ITERATIONS} "
+                                   f"Gauss-Newton steps): start nearer a closed loop")
+    J = np.asarray(kernels.constraint_jacobian(y, p), dtype=np.float64)
+    y[nq:] -= np.linalg.lstsq(J, J @ y[nq:], rcond=None)[0]
+    return y
