@@ -142,6 +142,12 @@ def cmd_verify(args) -> int:
         print()
     for c in checks:
         print(f"{'ok  ' if c.passed else 'FAIL'} {c.name}: {c.detail}")
+    if names:
+        from .model import load_model                       # start-up: a command imports its stage when it runs
+        from .verification.physics import not_applicable
+        for name in names:
+            for check, why in not_applicable(name):
+                print(f"n/a  {load_model(name).name}: {check}: {why}")
     derivations = "warm" if all(w for _, _, w in rows) else "cold"
     print(f"\n{tally}")
     print(f"time {seconds:.1f} s (derivations {derive_seconds:.1f} s from a {derivations} cache; "

@@ -130,6 +130,30 @@ def check_initial_state(model: str, y0, p) -> None:
                 f"derive.consistent_state(model, y0, params) projects it onto them")
 
 
+def check_initial_states(model: str, ys, ps) -> None:
+    """check_initial_state for each row of an ensemble, the trajectory named.
+
+    Parameters
+    ----------
+    model : str
+        A closed loop's name.
+    ys : array_like, shape (B, n)
+        The initial states.
+    ps : array_like, shape (B, n_params + n_inputs)
+        Their parameters.
+
+    Raises
+    ------
+    SimulationInputError
+        The first trajectory that starts off the constraints.
+    """
+    for b, (y, p) in enumerate(zip(np.asarray(ys), np.asarray(ps))):
+        try:
+            check_initial_state(model, y, p)
+        except SimulationInputError as exc:
+            raise SimulationInputError(f"trajectory {b}: {exc}") from None
+
+
 def drift(model: str, y, p) -> ConstraintDrift:
     """The largest |Phi| and |J q'| over a run's output rows (rows after a stop, NaN, are
     left out).
