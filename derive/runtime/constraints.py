@@ -29,6 +29,7 @@ import numpy as np
 from ..codegen.contract import CONSTRAINT_DRIFT_BOUND, CONSTRAINT_START_TOLERANCE
 from ..errors import SimulationInputError
 from ..model import load_model
+from ..model.atlas import find_atlas
 from .loader import numpy_module
 
 PROJECTION_ITERATIONS = 50         # Gauss-Newton on Phi(q) = 0: quadratic, a handful suffice
@@ -62,7 +63,7 @@ class ConstraintDrift:
 
 
 def is_constrained(model: str) -> bool:
-    """Whether the model (a resolved name) closes a loop; False for an atlas or unknown name.
+    """Whether the model (a resolved name) closes a loop; False for a chart atlas.
 
     Parameters
     ----------
@@ -73,10 +74,9 @@ def is_constrained(model: str) -> bool:
     -------
     bool
     """
-    try:
-        return load_model(model).is_constrained
-    except Exception:          # an atlas' name is no model file: it has no constraints
+    if find_atlas(model) is not None:       # an atlas' name is no model's: it has no constraints
         return False
+    return load_model(model).is_constrained
 
 
 def residuals(model: str, y, p) -> tuple[np.ndarray, np.ndarray]:
