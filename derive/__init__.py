@@ -29,7 +29,7 @@ _LAZY = {"simulate": ("runtime.simulate", "simulate"), "ensemble": ("runtime.ens
          "trust_horizon": ("measurement.trust", "trust_horizon_of"), "sweep": ("sweep", None),
          "load_model": ("api", "load_model"), "equations": ("api", "equations"), "Pendulum": ("api", "Pendulum"),
          "linearize": ("runtime.linearize", "linearize"),
-         "consistent_state": ("runtime.constraints", "consistent_state"), "equilibria": ("runtime.linearize", "equilibria")}
+         "consistent_state": ("runtime.loop_state", "consistent_state"), "equilibria": ("runtime.linearize", "equilibria")}
 
 
 def __getattr__(name):

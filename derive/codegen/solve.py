@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
+from ..derivation.loop_closure import augmented_system
 from .names import internal as _sym
 
 
@@ -163,14 +164,13 @@ class MassMatrixDynamics:
 
 class ConstrainedDynamics:
     """A closed loop's q'' and multipliers lambda from the augmented system
-    [M J^T; J 0] [q''; lambda] = [F; gamma] (derive/derivation/constraints.py), by the
+    [M J^T; J 0] [q''; lambda] = [F; gamma] (derive/derivation/loop_closure.py), by the
     same L D L^T stages as an open chain's M: the leading block M is symmetric positive
     definite, so the first n pivots are M's and the last m are those of the Schur
     complement -J M^-1 J^T, negative definite where J has full rank; no pivot vanishes
     and no pivoting is needed."""
 
     def __init__(self, d):
-        from ..derivation.constraints import augmented_system
         self.s = d.symbols
         self.M, self.F = augmented_system(d.M, d.F, d.constraints)
         n, m = d.M.rows, d.constraints.J.rows

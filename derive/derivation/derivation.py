@@ -11,8 +11,8 @@ import sympy as sp
 from .. import cachefile
 from ..model import Model, load_model
 from ..paths import cache_dir, package_root
-from . import constraints, hamilton, lagrange
-from .constraints import ConstraintForm
+from . import hamilton, lagrange, loop_closure
+from .loop_closure import ConstraintForm
 from .paper import PaperForms, paper_forms
 from .symbols import ModelSymbols, model_symbols
 
@@ -81,7 +81,7 @@ def compute(model: Model) -> Derivation:
                    tips=lagrange.tip_positions(model, s),
                    centres=lagrange.mass_centres(model, s),
                    M=M, F=F, T=T, V=V, dissipation=R, forces=Q,
-                   constraints=constraints.constraint_form(model, s))
+                   constraints=loop_closure.constraint_form(model, s))
     k = 0
     for link in model.links:
         n = len(link.chart.coordinates)

@@ -129,7 +129,7 @@ class Model:
     @property
     def is_constrained(self) -> bool:
         """Whether the model closes a loop: holonomic constraints Phi(q; p) = 0 on its
-        coordinates, enforced by Lagrange multipliers (derive/derivation/constraints.py)."""
+        coordinates, enforced by Lagrange multipliers (derive/derivation/loop_closure.py)."""
         return bool(self.constraints)
 
     @property

@@ -1,13 +1,13 @@
 """A closed loop's run time: the start on the constraints, and the drift reported.
 
-A model with `constraints` (derive/derivation/constraints.py) runs as the index-1 system
+A model with `constraints` (derive/derivation/loop_closure.py) runs as the index-1 system
 [M J^T; J 0] [q''; lambda] = [F; gamma], which keeps Phi'' = 0 exactly but lets the
 truncation and roundoff errors of a run move it off Phi = 0, J q' = 0 (the drift,
 growing linearly in J q' and quadratically in Phi at worst).  What derive does about it:
 
 * a run starts only from a state on the constraints (|Phi| and |J q'| within the
   contract's CONSTRAINT_START_TOLERANCE): another is refused in one line naming the
-  largest residual; `consistent_state` projects a state onto them, on request only (a
+  largest residual; `derive.consistent_state` (loop_state.py) projects a state onto them, on request only (a
   projection moves the state the user gave, which nobody should get without asking);
 * every run reports its drift, the largest |Phi| and |J q'| over its outputs
   (`SimulationResult.constraint_drift`), and its message says so where the drift exceeds
@@ -17,8 +17,8 @@ No Baumgarte term in the kernels: its two gains are problem- and step-dependent,
 changes the equations a demanding user integrates (the energy of a conservative loop is
 no longer exact); an honest figure of the drift of the exact equations, with the
 tolerance as the control (a tighter rtol, a smaller drift), is what such a user trusts,
-and projection onto the constraints (`consistent_state`, the closest state by least
-squares) is the tool where a state must be put back on them.
+and projection onto the constraints (`derive.consistent_state`, the closest state by
+least squares) is the tool where a state must be put back on them.
 """
 from __future__ import annotations
 
@@ -31,8 +31,6 @@ from ..errors import SimulationInputError
 from ..model import load_model
 from ..model.atlas import find_atlas
 from .loader import numpy_module
-
-PROJECTION_ITERATIONS = 50         # Gauss-Newton on Phi(q) = 0: quadratic, a handful suffice
 
 
 @dataclass(frozen=True)
@@ -183,64 +181,3 @@ def report_drift(result, model: str, p):
     """`result` with its constraint_drift set (a closed loop's run), returned."""
     result.constraint_drift = drift(model, result.y, p)
     return result
-
-
-def consistent_state(model, y0, params) -> np.ndarray:
-    """The state on a closed loop's constraints closest to y0: the coordinates by
-    Gauss-Newton on Phi(q) = 0 (each correction the least-squares one, -J^+ Phi), then
-    the rates projected orthogonally onto J q' = 0.
-
-    Parameters
-    ----------
-    model : str or path
-        A model with `constraints` (a name or the path of its file).
-    y0 : sequence
-        A state, coordinates then rates.
-    params : mapping or sequence
-        The parameters, by name or in order.
-
-    Returns
-    -------
-    ndarray, shape (n,)
-        A state with |Phi| and |J q'| at roundoff.
-
-    Raises
-    ------
-    SimulationInputError
-        The model has no constraints, the state has the wrong size, or the iteration does
-        not converge (no closed configuration near y0, or J loses rank there).
-
-    Examples
-    --------
-    >>> import derive
-    >>> p = dict(m1=1, m2=2, m3=1.5, l1=0.5, l2=2, l3=1.5, d=2, g=9.81)
-    >>> y = derive.consistent_state("examples/models/four_bar.toml", [0.3, 2.6, 0.6, 1, 0, 0], p)
-    >>> bool(abs(y[0] - 0.3) < 0.01)
-    True
-    """
-    from .simulate import normalise_params, resolve_model      # simulate imports this module
-    name = resolve_model(model)
-    if not load_model(name).is_constrained:
-        raise SimulationInputError(f"{name}: the model has no constraints (no 'constraints' key): "
-                                   f"every state is consistent")
-    p = np.asarray(normalise_params(name, params), dtype=np.float64)
-    y = np.array(y0, dtype=np.float64)
-    nq = len(load_model(name).coordinate_names)
-    if y.shape != (2 * nq,):
-        raise SimulationInputError(f"{name}: y0 has shape {y.shape}, the state has {2 * nq} entries")
-    kernels = numpy_module(name)
-    for _ in range(PROJECTION_ITERATIONS):
-        J = np.asarray(kernels.constraint_jacobian(y, p), dtype=np.float64)
-        phi, _ = residuals(name, y, p)
-        step = np.linalg.lstsq(J, phi, rcond=None)[0]
-        y[:nq] -= step
-        if np.abs(step).max() <= 1e-15 * max(1.0, np.abs(y[:nq]).max()):
-            break
-    phi, _ = residuals(name, y, p)
-    if not np.abs(phi).max() <= CONSTRAINT_START_TOLERANCE:
-        raise SimulationInputError(f"{name}: no closed configuration found near y0 (|Phi| = "
-                                   f"{np.abs(phi).max():.3g} after {PROJECTION_ITERATIONS} "
-                                   f"Gauss-Newton steps): start nearer a closed loop")
-    J = np.asarray(kernels.constraint_jacobian(y, p), dtype=np.float64)
-    y[nq:] -= np.linalg.lstsq(J, J @ y[nq:], rcond=None)[0]
-    return y

@@ -26,13 +26,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..codegen.contract import CONSTRAINT_START_TOLERANCE
-from ..codegen.contract import (ADAPTIVE, DEFAULT_METHOD, EXTENDED, FIXED_ORDER, LADDER, MULTISTEP,
+from ..codegen.contract import (ADAPTIVE, CONSTRAINT_START_TOLERANCE, DEFAULT_METHOD, EXTENDED, FIXED_ORDER, LADDER, MULTISTEP,
                                 PRECISION as LADDER_TABLE, PRECISION_NAMES, PRECISION_TABLE,
                                 REFERENCE_METHOD, STATUS, STATUS_NAMES, TAYLOR)
 from ..errors import ModelError
 from ..runtime.energy_error import SCALE_TEXT, relative_energy_error
 from ..runtime import constraints
+from ..runtime.loop_state import consistent_state
 from ..runtime.result import as_fields
 from ..runtime.simulate import SimulationError, SimulationResult, normalise_params, simulate
 from ..measurement.trust import (Lyapunov, REFERENCE_RTOL, atlas_lyapunov, initial_error,
@@ -276,7 +276,7 @@ def _on_the_loop(p: Plan, y):
     phi, phi_dot = constraints.residuals(p.model, np.asarray(y, dtype=float), normalise_params(p.model, p.params))
     if max(np.abs(phi).max(), np.abs(phi_dot).max()) <= CONSTRAINT_START_TOLERANCE:
         return y
-    return constraints.consistent_state(p.model, np.asarray(y, dtype=float), p.params)
+    return consistent_state(p.model, np.asarray(y, dtype=float), p.params)
 
 
 def _join(parts: list[SimulationResult]) -> SimulationResult:

@@ -15,6 +15,7 @@ import sympy as sp
 from .. import cachefile
 from ..derivation import derive
 from ..derivation.charts import chart_change
+from ..derivation.loop_closure import augmented_system
 from ..model import load_model, model_names
 from .zero import DIGITS, matrix_is_zero, random_point, trig_is_zero
 from ..derivation.symbols import parse_quantity, t as TIME
@@ -79,7 +80,6 @@ def accelerations(d, point: dict) -> mpmath.matrix:
 def _loop_system(d) -> tuple:
     """A closed loop's [M J^T; J 0], [F; gamma] and J compiled once (functions of the
     state, parameters and inputs)."""
-    from ..derivation.constraints import augmented_system
     key = (d.name, d.model.content_hash, "loop")
     if key not in _system_functions:
         args = _args(d)
