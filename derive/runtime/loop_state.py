@@ -7,14 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..codegen.contract import CONSTRAINT_START_TOLERANCE
 from ..errors import SimulationInputError
 from ..model import load_model
 from . import constraints
-from .loader import numpy_module
 from .simulate import normalise_params, resolve_model
-
-PROJECTION_ITERATIONS = 50         # Gauss-Newton on Phi(q) = 0: quadratic, a handful suffice
 
 
 def consistent_state(model, y0, params) -> np.ndarray:
@@ -59,19 +55,4 @@ def consistent_state(model, y0, params) -> np.ndarray:
     nq = len(load_model(name).coordinate_names)
     if y.shape != (2 * nq,):
         raise SimulationInputError(f"{name}: y0 has shape {y.shape}, the state has {2 * nq} entries")
-    kernels = numpy_module(name)
-    for _ in range(PROJECTION_ITERATIONS):
-        J = np.asarray(kernels.constraint_jacobian(y, p), dtype=np.float64)
-        phi, _ = constraints.residuals(name, y, p)
-        step = np.linalg.lstsq(J, phi, rcond=None)[0]
-        y[:nq] -= step
-        if np.abs(step).max() <= 1e-15 * max(1.0, np.abs(y[:nq]).max()):
-            break
-    phi, _ = constraints.residuals(name, y, p)
-    if not np.abs(phi).max() <= CONSTRAINT_START_TOLERANCE:
-        raise SimulationInputError(f"{name}: no closed configuration found near y0 (|Phi| = "
-                                   f"{np.abs(phi).max():.3g} after {PROJECTION_ITERATIONS} "
-                                   f"Gauss-Newton steps): start nearer a closed loop")
-    J = np.asarray(kernels.constraint_jacobian(y, p), dtype=np.float64)
-    y[nq:] -= np.linalg.lstsq(J, J @ y[nq:], rcond=None)[0]
-    return y
+    return constraints.project(name, y, p)

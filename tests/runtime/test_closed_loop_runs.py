@@ -3,6 +3,7 @@ derive.simulate, its constraint drift bounded over t = 100 and reported with the
 energy conserved, a start off the loop refused in one line (or projected on request)."""
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -90,3 +91,42 @@ def test_consistent_state_projects_onto_the_loop_on_request():
 def test_consistent_state_of_an_open_chain_is_refused():
     with pytest.raises(derive.SimulationInputError, match="has no constraints"):
         derive.consistent_state("planar", [1.0, 0.5, 0, 0], [1, 1, 1, 1, 9.81])
+
+
+@pytest.mark.parametrize("method, step", [("dop853", None), pytest.param("rk4", 0.01, marks=pytest.mark.slow)])
+def test_projection_after_every_step_keeps_the_loop_closed(method, step):
+    t = np.linspace(0, 5, 51)
+    free = derive.simulate(FOUR_BAR, Y0, t, P, method=method, step=step, backend="numpy")
+    held = derive.simulate(FOUR_BAR, Y0, t, P, method=method, step=step, backend="numpy", project=True)
+    assert held.ok and held.sol is None
+    phi, phi_dot = independent_residuals(held.y)
+    assert phi < 1e-13 and phi_dot < 1e-13
+    assert held.constraint_drift.phi < 1e-13 and held.constraint_drift.phi < free.constraint_drift.phi / 100
+    reference = derive.simulate(FOUR_BAR, Y0, t, P, rtol=1e-13, backend="numpy")
+    assert np.abs(held.y - reference.y).max() < np.abs(free.y - reference.y).max()   # nearer the motion
+    assert held.energy_error < 1e-7
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"method": "gauss2", "step": 0.01}, "project=True runs rk4, rk8, dopri5 or dop853"),
+    ({"events": {"crank": "theta1"}}, "with no events"),
+    ({"error_estimate": "rerun"}, "with no rerun estimate"),
+    ({"dtype": "double-double", "backend": "c"}, "with no dtype double-double or quad"),
+    ({"project": "yes"}, "project must be True or False"),
+])
+def test_projection_refuses_what_it_cannot_do_in_one_line(options, message):
+    options = {"project": True, "backend": "numpy", **options}
+    with pytest.raises(derive.SimulationInputError, match=re.escape(message)) as info:
+        derive.simulate(FOUR_BAR, Y0, [0.0, 1.0], P, **options)
+    assert "\n" not in str(info.value)
+
+
+def test_projection_of_an_open_chain_is_refused():
+    with pytest.raises(derive.SimulationInputError, match="project=True is for a closed loop"):
+        derive.simulate("planar", [1.0, 0.5, 0, 0], [0.0, 1.0], [1, 1, 1, 1, 9.81], project=True)
+
+
+@pytest.mark.slow
+def test_projection_runs_the_compiled_rhs_over_t_100():
+    r = derive.simulate(FOUR_BAR, Y0, np.linspace(0, 100, 1001), P, project=True)
+    assert r.ok and r.backend == "c" and r.constraint_drift.phi < 1e-13 and r.energy_error < 1e-9
