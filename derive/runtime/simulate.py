@@ -555,7 +555,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     if method == TAYLOR and (backend != "c" or ref.atlas is not None):
         raise SimulationInputError("the Taylor integrator runs in generated C on single-chart models: "
                                    "use backend='c' and a model, not the atlas")
-    _check_project(project, ref, precision, atlas, events, error_estimate, hold)
+    _check_project(project, ref, precision, dtype, atlas, events, error_estimate, hold)
     if precision is not None:
         return _simulate_extended(ref, precision, y0, t, params, method, rtol=rtol, atol=atol, step=step,
                                   max_steps=max_steps, sine_min=sine_min, hmax=hmax, inputs=inputs,
@@ -612,7 +612,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     return constraints.report_drift(result, model, p) if loop else result
 
 
-def _check_project(project, ref, precision, atlas, events, error_estimate, hold) -> None:
+def _check_project(project, ref, precision, dtype, atlas, events, error_estimate, hold) -> None:
     """project=True: a closed loop's run, projected after every step (simulate's docstring);
     refused in one line for anything else."""
     if not isinstance(project, bool):
@@ -622,7 +622,8 @@ def _check_project(project, ref, precision, atlas, events, error_estimate, hold)
     if atlas or not constraints.is_constrained(str(ref)):
         raise SimulationInputError(f"project=True is for a closed loop (a model with constraints); "
                                    f"'{ref}' has none")
-    for given, what in ((precision is not None, "dtype double-double or quad"), (events is not None, "events"),
+    other_dtype = precision is not None or np.dtype(_dtype(dtype)) != np.float64
+    for given, what in ((other_dtype, f"dtype {dtype}"), (events is not None, "events"),
                         (error_estimate != "local", "rerun estimate"), (hold is not None, "hold='zoh'")):
         if given:
             raise SimulationInputError(f"project=True steps in Python in float64, with no {what}: run "

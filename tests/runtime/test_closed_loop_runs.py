@@ -111,7 +111,8 @@ def test_projection_after_every_step_keeps_the_loop_closed(method, step):
     ({"method": "gauss2", "step": 0.01}, "project=True runs rk4, rk8, dopri5 or dop853"),
     ({"events": {"crank": "theta1"}}, "with no events"),
     ({"error_estimate": "rerun"}, "with no rerun estimate"),
-    ({"dtype": "double-double", "backend": "c"}, "with no dtype double-double or quad"),
+    ({"dtype": "double-double", "backend": "c"}, "with no dtype double-double"),
+    ({"dtype": "float32"}, "with no dtype float32"),
     ({"project": "yes"}, "project must be True or False"),
 ])
 def test_projection_refuses_what_it_cannot_do_in_one_line(options, message):

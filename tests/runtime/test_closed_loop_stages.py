@@ -146,3 +146,16 @@ def test_a_scene_of_the_four_bar_reports_its_drift(tmp_path):
     run = cli("run", str(scene))
     assert run.returncode == 0, run.stderr
     assert "loop    constraint drift max |Phi| = " in run.stdout
+
+
+@pytest.mark.slow
+def test_the_generated_c_of_a_loop_is_clean_under_werror(tmp_path):
+    run = cli("generate", FOUR_BAR, "--out", str(tmp_path / "gen"))
+    assert run.returncode == 0, run.stderr
+    header = (tmp_path / "gen" / "c" / "four_bar.h").read_text()
+    assert "four_bar_constraints(" in header and "four_bar_multipliers(" in header
+    for name in ("four_bar.c", "four_bar_integrate.c", "four_bar_fixed.c", "four_bar_linearize.c"):
+        proc = subprocess.run(["cc", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-O1", "-c",
+                               str(tmp_path / "gen" / "c" / name), "-o", str(tmp_path / "x.o")],
+                              capture_output=True, text=True)
+        assert proc.returncode == 0, (name, proc.stderr)
