@@ -17,7 +17,7 @@ from .errors import (BuildError, CompilerMissingError, DeriveError, InputError, 
 
 __all__ = ["BuildError", "CompilerMissingError", "DeriveError", "InputError", "ModelError",
            "SceneError", "EnsembleResult", "SimulationError", "SimulationInputError", "SimulationResult", "ToolMissingError",
-           "Pendulum", "__version__", "ensemble", "equations", "equilibria", "linearize", "load_model", "scipy_rhs", "simulate", "sweep",
+           "Pendulum", "__version__", "consistent_state", "ensemble", "equations", "equilibria", "linearize", "load_model", "scipy_rhs", "simulate", "sweep",
            "trust_horizon"]
 
 
@@ -29,7 +29,8 @@ _LAZY = {"simulate": ("runtime.simulate", "simulate"), "ensemble": ("runtime.ens
          "EnsembleResult": ("runtime.ensemble", "EnsembleResult"),
          "trust_horizon": ("measurement.trust", "trust_horizon_of"), "sweep": ("sweep", None),
          "load_model": ("api", "load_model"), "equations": ("api", "equations"), "Pendulum": ("api", "Pendulum"),
-         "linearize": ("runtime.linearize", "linearize"), "equilibria": ("runtime.linearize", "equilibria")}
+         "linearize": ("runtime.linearize", "linearize"),
+         "consistent_state": ("runtime.loop_state", "consistent_state"), "equilibria": ("runtime.linearize", "equilibria")}
 
 
 def __getattr__(name):

@@ -142,6 +142,12 @@ def cmd_verify(args) -> int:
         print()
     for c in checks:
         print(f"{'ok  ' if c.passed else 'FAIL'} {c.name}: {c.detail}")
+    if names:
+        from .model import load_model                       # start-up: a command imports its stage when it runs
+        from .verification.physics import not_applicable
+        for name in names:
+            for check, why in not_applicable(name):
+                print(f"n/a  {load_model(name).name}: {check}: {why}")
     derivations = "warm" if all(w for _, _, w in rows) else "cold"
     print(f"\n{tally}")
     print(f"time {seconds:.1f} s (derivations {derive_seconds:.1f} s from a {derivations} cache; "
@@ -291,6 +297,11 @@ def _print_run(summary: dict) -> None:
     print(f"result  {s['status']} at t = {s['t_stop']:g} after {s['nfev']} rhs evaluations"
           + (f", {s['chart_switches']} chart switches" if s["chart_switches"] is not None else ""))
     print(f"energy  {_energy_text(s)}")
+    if s.get("constraint_drift"):
+        c = s["constraint_drift"]
+        print(f"loop    constraint drift max |Phi| = {c['phi']:.3g}, max |J q'| = {c['phi_dot']:.3g} "
+              + (f"(above the bound {c['bound']:g}: tighten the target)" if c["exceeded"] else
+                 f"(within {c['bound']:g})"))
     for name, e in (s.get("events") or {}).items():
         when = ", ".join(f"{t:.10g}" for t in e["t"][:3]) + (", ..." if len(e["t"]) > 3 else "")
         print(f"event   {name} ({e['expression']}): {len(e['t'])} crossing{'s' * (len(e['t']) != 1)}"

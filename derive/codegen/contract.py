@@ -184,6 +184,14 @@ SINE_SWITCH = _ATLAS.sine_switch    # atlas: switch chart when a polar sine drop
 SINE_RULE = _ATLAS.sine_rule        # seed 000 section 5.1: "not small" means >= 0.5
 
 
+# A closed loop (a model's `constraints`, derive/runtime/constraints.py): a run starts only
+# from a state whose residuals |Phi| and |J q'| are within CONSTRAINT_START_TOLERANCE
+# (absolute, in the constraints' own units: lengths and lengths per second for a loop
+# closure), and one whose largest residual over its outputs exceeds CONSTRAINT_DRIFT_BOUND
+# says so in its message.
+CONSTRAINT_START_TOLERANCE = 1e-9
+CONSTRAINT_DRIFT_BOUND = 1e-6
+
 DEFAULT_METHOD = "dop853"          # simulate's, ensemble's and a sweep's method when none is given
 REFERENCE_METHOD = "dop853"        # the reference runs (trust horizons, rerun estimates, the race)
 

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
+from ..derivation.loop_closure import augmented_system
 from .names import internal as _sym
 
 
@@ -158,6 +159,40 @@ class MassMatrixDynamics:
             return [sp.S.Zero] * len(r), []
         if self.mass.n <= 2:
             return self.mass.apply(r), []
+        return self.mass._substitute(r, f"d{yk.name}_")
+
+
+class ConstrainedDynamics:
+    """A closed loop's q'' and multipliers lambda from the augmented system
+    [M J^T; J 0] [q''; lambda] = [F; gamma] (derive/derivation/loop_closure.py), by the
+    same L D L^T stages as an open chain's M: the leading block M is symmetric positive
+    definite, so the first n pivots are M's and the last m are those of the Schur
+    complement -J M^-1 J^T, negative definite where J has full rank; no pivot vanishes
+    and no pivoting is needed."""
+
+    def __init__(self, d):
+        self.s = d.symbols
+        self.M, self.F = augmented_system(d.M, d.F, d.constraints)
+        n, m = d.M.rows, d.constraints.J.rows
+        self.mass = MassMatrixStages(self.M)
+        self.method = (f"L D L^T factorisation of the {n + m}x{n + m} augmented system "
+                       f"[M J^T; J 0] [q''; lambda] = [F; gamma] ({m} constraints)")
+        bsyms = [_sym(f"F{i}") for i in range(n + m)]
+        self.forcing_stages = list(zip(bsyms, self.F))
+        self.qdd = [_sym(f"qdd{i}") for i in range(n)]
+        self.multipliers = [_sym(f"lam{i}") for i in range(m)]
+        self.unknowns = self.qdd + self.multipliers
+        _, solve_stages = self.mass._substitute(bsyms, "qdd_", self.unknowns)
+        self.stages = self.mass.stages + self.forcing_stages + list(self.mass.inverse_stages) + solve_stages
+
+    def derivative(self, yk: sp.Symbol) -> tuple[list[sp.Expr], list]:
+        """d(q'', lambda)/d y_k = A^-1 (db/dy_k - (dA/dy_k) (q'', lambda)); the first n
+        entries are d q''/d y_k."""
+        x = self.unknowns
+        r = [self.F[i].diff(yk) - sum(self.M[i, j].diff(yk) * x[j] for j in range(len(x)))
+             for i in range(len(x))]
+        if all(e == 0 for e in r):
+            return [sp.S.Zero] * len(r), []
         return self.mass._substitute(r, f"d{yk.name}_")
 
 

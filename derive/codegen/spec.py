@@ -217,6 +217,8 @@ def dynamics(d) -> solve.Dynamics:
     are there, else the closed-form 2x2, or L D L^T for any other number of coordinates."""
     if d.paper is not None:
         return solve.ReducedDynamics(d)
+    if d.constraints is not None:
+        return solve.ConstrainedDynamics(d)
     return solve.MassMatrixDynamics(d)
 
 
@@ -269,6 +271,9 @@ def model_spec(d) -> ModelSpec:
                                                           if d.model.is_time_dependent else "."),
         (y, p), (Output("vel", (len(d.tips), dim), tuple(vel), "tip k, axis j at [k][j]"),)))
 
+    if d.constraints is not None:
+        kernels += _constraint_kernels(d, dyn, yp, y, p, guards)
+
     jac = solve.jacobian(dyn, s)
     kernels.append(Kernel(
         "jacobian", "The Jacobian of rhs with respect to y, J[i][k] = d f_i / d y_k, by "
@@ -319,6 +324,28 @@ def model_spec(d) -> ModelSpec:
                      tuple(_normalise(k) for k in kernels))
     check_spec(spec)
     return spec
+
+
+def _constraint_kernels(d, dyn, yp, y: Input, p: Input, guards) -> list[Kernel]:
+    """A closed loop's kernels: the residuals (Phi, J q') the run time reports as the
+    drift, J for projecting a state onto the constraints, and the multipliers lambda
+    (the constraint forces J^T lambda) from the solve of rhs."""
+    c, nq = d.constraints, len(d.symbols.q)
+    m = c.J.rows
+    return [
+        Kernel("constraints", "The loop closure's residuals: Phi(q) and J q', both zero on the "
+                              "constrained motion (the drift a run reports).",
+               (y, p), (Output("phi", (m,), tuple(c.Phi), "Phi, one per constraint"),
+                        Output("phi_dot", (m,), tuple(c.velocity), "J q', one per constraint"))),
+        Kernel("constraint_jacobian", "J = dPhi/dq, shape (constraints, coordinates) (reads the "
+                                      "coordinates of y only).",
+               (y, p), (Output("Jc", (m, nq), tuple(c.J), "row-major"),)),
+        Kernel("multipliers", "The Lagrange multipliers lambda of M q'' + J^T lambda = F, J q'' = gamma "
+                              f"({dyn.method}); J^T lambda is the generalized constraint force, with "
+                              "the sign of a force the loop takes out of F.",
+               yp, (Output("lam", (m,), tuple(dyn.multipliers), "lambda, one per constraint"),),
+               tuple(dyn.stages), guards),
+    ]
 
 
 LINEARIZE = "linearize"      # the kernel, and the suffix of its file: <model>_linearize

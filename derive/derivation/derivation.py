@@ -11,7 +11,8 @@ import sympy as sp
 from .. import cachefile
 from ..model import Model, load_model
 from ..paths import cache_dir, package_root
-from . import hamilton, lagrange
+from . import hamilton, lagrange, loop_closure
+from .loop_closure import ConstraintForm
 from .paper import PaperForms, paper_forms
 from .symbols import ModelSymbols, model_symbols
 
@@ -45,6 +46,7 @@ class Derivation:
     dissipation: sp.Expr | None = None     # Rayleigh's R(q', q); F includes -dR/dq'
     forces: sp.Matrix | None = None        # applied generalized forces Q; F includes them
     polar_sines: list[sp.Expr] = field(default_factory=list)
+    constraints: ConstraintForm | None = None  # a closed loop: M q'' + J^T lambda = F, J q'' = gamma
     seconds: float = 0.0           # time the derivation took when it was computed
 
     @property
@@ -88,7 +90,8 @@ def compute(model: Model) -> Derivation:
             V = V + potential
             F = F - sp.Matrix([sp.factor_terms(sp.expand(potential.diff(qj))) for qj in s.q])
     d = Derivation(model=model, symbols=s, tips=tips, centres=centres,
-                   M=M, F=F, T=T, V=V, dissipation=R, forces=Q)
+                   M=M, F=F, T=T, V=V, dissipation=R, forces=Q,
+                   constraints=loop_closure.constraint_form(model, s))
     for link in model.links:
         sine = link.chart.polar_sine_of([s.q[j] for j in model.link_coordinates(link)])
         if sine is not None:

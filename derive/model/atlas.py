@@ -145,6 +145,9 @@ def chain_problem(model: Model) -> str | None:
     if not model.is_conservative or model.inputs:
         return ("an atlas is for a conservative chain without inputs (forces and dissipation "
                 "are written in one chart's coordinates)")
+    if model.is_constrained:
+        return ("an atlas is for an open chain: a closed loop's constraints are written in one "
+                "chart's coordinates")
     return None
 
 

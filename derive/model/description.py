@@ -141,6 +141,7 @@ class Model:
     potential: str | None = None                 # a potential V(q, p, t) added to gravity's
     order: tuple[str, ...] | None = None         # the coordinates' order in the state, when not the links'
     springs: tuple[Spring, ...] = ()
+    constraints: tuple[str, ...] = ()            # holonomic loop closures Phi(q; p) = 0
 
     @property
     def is_chain(self) -> bool:
@@ -166,6 +167,12 @@ class Model:
         texts = [*(text for _, text in self.forces), *(self.pivot or ())]
         texts += [text for text in (self.dissipation, self.potential) if text is not None]
         return any(names[TIME] in parse_expression(text, names, where).free_symbols for text in texts)
+
+    @property
+    def is_constrained(self) -> bool:
+        """Whether the model closes a loop: holonomic constraints Phi(q; p) = 0 on its
+        coordinates, enforced by Lagrange multipliers (derive/derivation/loop_closure.py)."""
+        return bool(self.constraints)
 
     @property
     def bodies(self) -> int:
@@ -534,6 +541,35 @@ def _check_expressions(model: "Model", where: str) -> None:
                 parse_expression(text, params, f"{where}: link {i} {key}")
         if link.axis and all(sp.sympify(0) == parse_expression(a, params, "axis") for a in link.axis):
             raise ModelError(f"{where}: link {i} axis is the zero vector (a slider needs a direction)")
+    _check_constraints(model, names, where)
+
+
+def _check_constraints(model: "Model", names: dict, where: str) -> None:
+    """Each loop closure is an expression of the coordinates and parameters that uses a
+    coordinate: holonomic and scleronomic (no rate, no input, no time)."""
+    allowed = {n: names[n] for n in (*model.parameters, *model.coordinate_names)}
+    coordinates = {names[n] for n in model.coordinate_names}
+    for i, text in enumerate(model.constraints, 1):
+        key = f"{where}: constraints[{i}]"
+        if names[TIME] in parse_expression(text, names, key).free_symbols:
+            raise ModelError(f"{key}: uses the time t: only constraints fixed in time "
+                             f"(scleronomic, Phi(q; p) = 0) are supported")
+        expr = parse_expression(text, allowed, key + " (a holonomic constraint: coordinates "
+                                                      "and parameters only)")
+        if not expr.free_symbols & coordinates:
+            raise ModelError(f"{key}: {text!r} uses no coordinate ({', '.join(model.coordinate_names)})")
+    if len(model.constraints) >= len(model.coordinate_names):
+        raise ModelError(f"{where}: {len(model.constraints)} constraints on "
+                         f"{len(model.coordinate_names)} coordinates leave no degree of freedom")
+
+
+def _constraints(t: dict, where: str) -> tuple[str, ...]:
+    """The model's loop closures, each an expression that is zero on the constrained motion."""
+    value = t.get("constraints", [])
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise ModelError(f"{where}: 'constraints' must be a list of expressions (strings), each "
+                         f"zero when the loop is closed")
+    return tuple(value)
 
 
 def _pivot(t: dict, dimension: int, where: str) -> tuple[str, ...] | None:
@@ -765,7 +801,8 @@ def parse_model(text: str, origin: str) -> Model:
     except RecursionError:             # tomllib recurses once per nested inline table
         raise ModelError(f"{origin}: not valid TOML (tables nested too deeply)") from None
     _no_unknown(t, {"name", "title", "source", "dimension", "parameters", "forms", "links",
-                    "inputs", "dissipation", "forces", "pivot", "potential", "coordinates", "springs"}, origin)
+                    "inputs", "dissipation", "forces", "pivot", "potential", "coordinates", "springs",
+                    "constraints"}, origin)
     dimension = _require(t, "dimension", int, origin)
     if dimension not in (2, 3):
         raise ModelError(f"{origin}: 'dimension' must be 2 (planar) or 3 (spherical), got {dimension}")
@@ -805,7 +842,7 @@ def parse_model(text: str, origin: str) -> Model:
                   dimension=dimension, parameters=params, forms=forms, links=tuple(links), text=text,
                   inputs=inputs, dissipation=dissipation, origin=origin,
                   pivot=_pivot(t, dimension, origin), potential=potential,
-                  order=_order(t, links, origin), springs=_parse_springs(t, links, params, origin),
+                  order=_order(t, links, origin), springs=_parse_springs(t, links, params, origin), constraints=_constraints(t, origin),
                   forces=tuple((k, _quantity(forces_table, k, f"{origin}: forces")) for k in forces_table))
     _check_names(model, origin)
     _check_expressions(model, origin)
@@ -818,6 +855,10 @@ def parse_model(text: str, origin: str) -> Model:
         raise ModelError(f"{origin}: the Hamiltonian and 'paper' forms are a chain's; this model is "
                          f"a tree (a parent, an offset, a slider, a massless link or a coordinate "
                          f"order): remove them from 'forms'")
+    if model.is_constrained and ("hamiltonian" in forms or "paper" in forms):
+        raise ModelError(f"{origin}: the {'Hamiltonian' if 'hamiltonian' in forms else 'paper'} form "
+                         f"is for unconstrained chains; this model has constraints (a closed loop): "
+                         f"keep forms = [\"lagrangian\"]")
     if "paper" in forms and (dimension != 3 or len(links) != 2):
         raise ModelError(f"{origin}: the 'paper' forms are the seed's double spherical pendulum's "
                          f"(dimension 3, two links)")

@@ -43,6 +43,16 @@ def _entries(m: sp.Matrix, names, symbol: str, symmetric: bool = False, budget=t
     return rows
 
 
+def _loop(d: Derivation, names) -> dict | None:
+    """A closed loop's constraints, their Jacobian and the acceleration-level right side,
+    for the section that closes the equations with multipliers; None for an open chain."""
+    c = d.constraints
+    if c is None:
+        return None
+    return {"count": c.J.rows, "Phi": _entries(c.Phi, names, r"\Phi"), "J": _entries(c.J, names, "J"),
+            "gamma": _entries(c.gamma, names, r"\gamma")}
+
+
 def _vector(v, names) -> str:
     return ts.full_size(r"\begin{pmatrix}" + r" \\ ".join(ts.tex(x, names) for x in v) + r"\end{pmatrix}")
 
@@ -219,6 +229,7 @@ def context(d: Derivation, results, checks=(), paper: str = "a4") -> dict:
         "hamiltonian": None, "seedforms": None, "forces": _forces(d, n),
         "groups": _seed_groups(result_rows(results)), "n_results": len(results),
         "checks": physics_rows(checks, n),
+        "loop": _loop(d, n),
     }
     if d.hamiltonian is not None and d.hamiltonian.H is None:
         # beyond two coordinates no closed-form inverse is written: the code solves M q' = p

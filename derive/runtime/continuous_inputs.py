@@ -22,6 +22,7 @@ import numpy as np
 from ..codegen.contract import STATUS, STATUS_NAMES
 from ..codegen.tableau import load as load_tableau
 from ..errors import SimulationInputError
+from ..model import load_model
 from .loader import load, numpy_module
 from .observables import _observables, _velocities
 from .result import LOCAL_SUM, SimulationResult
@@ -92,20 +93,24 @@ def _error_norm(method: str, e, K, h: float, scale) -> float:
 
 
 RHS = EntryPoint("{model}_rhs", "int", ("void *", "void *", "void *", "void *"))
+RHS_WITHOUT_INPUTS = EntryPoint("{model}_rhs", "int", ("void *", "void *", "void *"))   # a loop run with project=True
 
 
 def _rhs(model: str, backend: str, p: np.ndarray, n: int):
     """rhs(y, u) -> y', p bound.  In C the kernel's own entry point on fixed buffers: the
     loader's general batch call (broadcasting, array checks) costs several times more."""
+    inputs = bool(load_model(model).inputs)
     if backend != "c":
         kernel = numpy_module(model).rhs
+        if not inputs:
+            return lambda y, u: np.asarray(kernel(y, p), np.float64)
         return lambda y, u: np.asarray(kernel(y, p, u), np.float64)
-    fn = load(model).bind(RHS, model=model)
+    fn = load(model).bind(RHS if inputs else RHS_WITHOUT_INPUTS, model=model)
     buffers = (np.empty(n), np.ascontiguousarray(p, np.float64),
-               np.empty(len(load(model).names["input_names"])), np.empty(n))
+               np.empty(len(load(model).names["input_names"]) if inputs else 0), np.empty(n))
     # the addresses of (y, p, u, y'), taken once (arr.ctypes costs more than the kernel);
     # rhs reads `buffers`, so the closure keeps every buffer alive
-    where = [a.ctypes.data for a in buffers]
+    where = [a.ctypes.data for a in buffers] if inputs else [a.ctypes.data for a in buffers[:2] + buffers[3:]]
 
     def rhs(y, u):
         state, _, inputs, out = buffers
@@ -129,7 +134,7 @@ def _step(f, A, b, c, t, y, h, K0=None):
 
 
 def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, opt: dict,
-                   backend: str, u: ContinuousInputs) -> SimulationResult:
+                   backend: str, u: ContinuousInputs | None, project=None) -> SimulationResult:
     """One run with u(t, y) evaluated at every stage, in float64 (simulate's checks have run).
 
     Parameters
@@ -148,14 +153,22 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
         simulate's run options (run_options).
     backend : str
         "c" (the compiled rhs kernel) or "numpy".
-    u : ContinuousInputs
-        The inputs' function, checked at each call.
+    u : ContinuousInputs or None
+        The inputs' function, checked at each call; None for a model without inputs (a
+        closed loop run with `project`).
+    project : callable, optional
+        y -> y on a closed loop's constraints, applied after every accepted step and to
+        every output (derive/runtime/constraints.py): simulate(..., project=True).
 
     Returns
     -------
     SimulationResult
         As simulate's; sol is None, the counters count this loop's steps and rhs calls.
     """
+    if method not in CONTINUOUS_METHODS and u is None:
+        listed = f"{', '.join(CONTINUOUS_METHODS[:-1])} or {CONTINUOUS_METHODS[-1]}"
+        raise SimulationInputError(f"project=True runs {listed} (stepped in "
+                                   f"Python, projected after every step), not {method}")
     if method not in CONTINUOUS_METHODS:
         raise SimulationInputError(f"inputs as a function u(t, y) run {' or '.join(CONTINUOUS_METHODS)} "
                                    f"(explicit stages at their own times), not {method}; or give "
@@ -163,9 +176,15 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
     rhs = _rhs(model, backend, np.asarray(p, np.float64), len(y0))
     counts = {"nfev": 0, "nsteps": 0, "naccepted": 0, "nrejected": 0}
 
+    none = np.zeros(0)
+
     def f(t, y):
         counts["nfev"] += 1
-        return rhs(y, u(t, y))
+        return rhs(y, none if u is None else u(t, y))
+
+    if project is None:
+        def project(y):
+            return y
 
     A, b, c, e, order = _tableau(method)
     ts64 = np.asarray(ts, np.float64)
@@ -174,9 +193,9 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
     out[0] = y
     status, local_sum = STATUS["OK"], 0.0
     if method in FIXED_TABLEAU:
-        y, status = _fixed(f, A, b, c, ts64, y, float(opt["h"]), out, counts)
+        y, status = _fixed(f, A, b, c, ts64, y, float(opt["h"]), out, counts, project)
     else:
-        y, status, local_sum = _adaptive(method, f, A, b, c, e, order, ts64, y, opt, out, counts)
+        y, status, local_sum = _adaptive(method, f, A, b, c, e, order, ts64, y, opt, out, counts, project)
     fixed = method in FIXED_TABLEAU
     reached = int(np.sum(np.isfinite(out[:, 0])))
     pd = np.asarray(p, np.float64)
@@ -196,7 +215,7 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
         step=float(opt["h"]) if method in FIXED_TABLEAU else None, **counts)
 
 
-def _fixed(f, A, b, c, ts, y, h, out, counts):
+def _fixed(f, A, b, c, ts, y, h, out, counts, project):
     """The grid t0 + k h; an output between grid points by a shortened step from the grid
     point before it (as the generated fixed-step loop does)."""
     t0, direction = ts[0], np.sign(ts[-1] - ts[0]) or 1.0
@@ -204,22 +223,22 @@ def _fixed(f, A, b, c, ts, y, h, out, counts):
     k, t = 0, t0
     for j in range(1, len(ts)):
         while (t0 + (k + 1) * h - ts[j]) * direction <= 0:
-            y, _ = _step(f, A, b, c, t, y, h)
+            y = project(_step(f, A, b, c, t, y, h)[0])
             k += 1
             t = t0 + k * h
             counts["nsteps"] += 1
             counts["naccepted"] += 1
         rest = ts[j] - t
-        out[j] = y if rest == 0 else _step(f, A, b, c, t, y, rest)[0]
+        out[j] = y if rest == 0 else project(_step(f, A, b, c, t, y, rest)[0])
         if not np.isfinite(out[j]).all():
             return y, STATUS["NONFINITE"]
     return y, STATUS["OK"]
 
 
-def _adaptive(method, f, A, b, c, e, order, ts, y, opt, out, counts):
+def _adaptive(method, f, A, b, c, e, order, ts, y, opt, out, counts, project):
     """dopri5 or dop853 with the usual step control (Hairer, Norsett, Wanner II.4): accept where the
     scaled error norm is <= 1, the next step h (0.9 err^(-1/order)) within [0.2, 10] h;
-    each output reached by a step that ends on it."""
+    each output reached by a step that ends on it; `project` applied to each accepted step."""
     rtol, atol = float(opt["rtol"]), float(opt["atol"])
     direction = np.sign(ts[-1] - ts[0]) or 1.0
     t = ts[0]
@@ -243,8 +262,11 @@ def _adaptive(method, f, A, b, c, e, order, ts, y, opt, out, counts):
                 counts["naccepted"] += 1
                 local_sum += err * float(np.max(scale))
                 t = ts[j] if abs(ts[j] - t - h) <= 1e-14 * abs(ts[j]) + 1e-300 else t + h
-                # dopri5 is FSAL (its last stage is f at the new point); dop853 evaluates it
-                y, K0 = y_new, (K[-1] if method == "dopri5" else f(t, y_new))
+                # dopri5 is FSAL (its last stage is f at the new point, unless projected away
+                # from it); dop853 evaluates it
+                projected = project(y_new)
+                fsal = method == "dopri5" and projected is y_new
+                y, K0 = projected, (K[-1] if fsal else f(t, projected))
             else:
                 counts["nrejected"] += 1
             h *= min(10.0, max(0.2, 0.9 * (err if err > 0 else 1e-10) ** (-1.0 / order)))

@@ -38,6 +38,7 @@ from .simulate import (_atlas, _check_size, _dtype, _finite_array, check_paramet
                        resolve_model, run_options)
 from ..model import load_model
 from .runner import runner_for
+from . import constraints
 
 
 @dataclass
@@ -103,6 +104,8 @@ class EnsembleResult:
     threads: int
     rtol: float | None = None
     step: float | None = None
+    # a closed loop: per trajectory, its largest constraint residuals (derive/runtime/constraints.py)
+    constraint_drift: tuple | None = None
 
     @property
     def ok(self) -> np.ndarray:
@@ -217,6 +220,9 @@ def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | N
         p = np.concatenate([p, _per_trajectory(inputs, B, description.inputs, "inputs", model)], axis=1)
     elif inputs is not None:
         raise SimulationInputError(f"model '{model}' has no inputs; got inputs={inputs!r}")
+    loop = description.is_constrained
+    if loop:
+        constraints.check_initial_states(model, ys, p)
     ts = normalise_t(t)
     opt = run_options(method, dt, ts, rtol=rtol, atol=atol, step=step, hmax=hmax, max_steps=max_steps,
                       newton_tol=newton_tol, newton_max=newton_max, sine_min=sine_min)
@@ -228,10 +234,12 @@ def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | N
     y, infos, used = _run_blocks(model, method, ys.astype(dt), p.astype(dt), ts.astype(dt), opt, int(threads))
     status = np.array([i.status for i in infos], np.intc)
     counters = {k: np.array([getattr(i, k) for i in infos], np.int64) for k in COUNTERS}
+    drift = tuple(constraints.drift(model, rows, pb) for rows, pb in zip(y, p)) if loop else None
     return EnsembleResult(model=model, method=method, dtype=np.dtype(dt).name, t=ts.astype(dt), y=y,
                           status=status, t_stop=np.array([i.t for i in infos], float), threads=used,
                           rtol=opt["rtol"] if method in TOLERANCE_METHODS else None,
-                          step=None if method in TOLERANCE_METHODS else opt["h"], **counters)
+                          step=None if method in TOLERANCE_METHODS else opt["h"],
+                          constraint_drift=drift, **counters)
 
 
 def _run_blocks(model: str, method: str, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt: dict,

@@ -88,8 +88,8 @@ class RunPlan:
         """model: a resolved model name; max_bytes, max_steps: _check_size's limits."""
         info = model_info(model)
         description = load_model(model)
-        if description.inputs or info.n_inputs:
-            raise NotPlanned(model)
+        if description.inputs or info.n_inputs or description.is_constrained:
+            raise NotPlanned(model)         # a closed loop: its start is checked, its drift reported
         self.model, self.method, self.dt, self.dtype = model, method, dt, dtype_key(dt)
         self.description = description
         self.n, self.n_params = info.n, info.n_params

@@ -29,6 +29,7 @@ import sympy as sp
 from ..derivation import derive
 from ..derivation.lagrange import link_blocks
 from ..errors import ModelError, SimulationInputError
+from ..model import load_model
 from ..model.description import forget_on_model_change
 from ..model.expressions import parse_expression
 from .simulate import _input_values, model_ref, normalise_params, resolve_model
@@ -145,6 +146,11 @@ def _resolve(model):
     if ref.atlas is not None:
         raise SimulationInputError(f"'{ref}' is a chart atlas: linearize one of its charts "
                                    f"({', '.join(ref.atlas.charts)})")
+    if load_model(str(ref)).is_constrained:
+        raise SimulationInputError(f"model '{ref}' has constraints (a closed loop): its coordinates are "
+                                   f"not independent, so neither a linearisation in them nor the rests of "
+                                   f"an open chain are the loop's (no reduction to independent coordinates "
+                                   f"yet); derive.simulate runs it")
     return ref
 
 

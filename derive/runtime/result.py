@@ -88,6 +88,10 @@ class SimulationResult:
         abm12: the (rtol, atol) of its stability guard.
     energy_error, energy_scale : float
         The largest relative energy error over the outputs, and what it is relative to.
+    constraint_drift : ConstraintDrift or None
+        A closed loop (a model with constraints): the largest |Phi| and |J q'| over the
+        outputs (``.phi``, ``.phi_dot``), and the bound (``.bound``) above which the message
+        reports them (``.exceeded``); None for an open chain (derive/runtime/constraints.py).
 
     Notes
     -----
@@ -168,6 +172,8 @@ class SimulationResult:
     # abm12: (rtol, atol) of its stability guard (a step whose Milne estimate exceeds atol + rtol |y|
     # is not taken): a run it stopped names them in its message
     guard: tuple[float, float] | None = None
+    # a closed loop's run: its largest constraint residuals over the outputs (ConstraintDrift)
+    constraint_drift: object | None = None
 
     @property
     def t_events(self) -> list[np.ndarray]:
@@ -188,8 +194,16 @@ class SimulationResult:
         """What happened, in one line: a stop names its status, the state there and the
         way out (the guard to loosen, the chart atlas that runs through a chart's pole)."""
         if self.ok:
-            return self.stop_description
-        return self.stop_description + self._pole_note()
+            return self.stop_description + self._drift_note()
+        return self.stop_description + self._pole_note() + self._drift_note()
+
+    def _drift_note(self) -> str:
+        """A closed loop's drift off its constraints, where it exceeds the bound."""
+        drift = self.constraint_drift
+        if drift is None or not drift.exceeded:
+            return ""
+        return (f"; the constraint drift exceeds {drift.bound:g}: {drift} (tighten rtol, or a "
+                f"smaller step)")
 
     @property
     def stop_description(self) -> str:
@@ -464,6 +478,8 @@ def summary_rows(result: SimulationResult) -> list[tuple[str, str]]:
     if result.error_estimate is not None:
         rows.append(("error estimate", f"{result.error_estimate:.3g} ({result.error_kind})"))
     rows.append(_energy_row(result))
+    if result.constraint_drift is not None:
+        rows.append(("constraint drift", f"{result.constraint_drift} (bound {result.constraint_drift.bound:g})"))
     horizons = result.__dict__.get("_trust_horizons", {})
     rows.append(("trust horizon", "; ".join(f"t = {h:.6g} to {target:.0e}" if h is not None else
                                             f"none to {target:.0e}" for target, h in sorted(horizons.items()))

@@ -45,7 +45,7 @@ from ..codegen.contract import (ADAPTIVE, ATLAS_METHODS, COUNTERS, DEFAULT_METHO
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
 from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, plain_times
 from .runner import Settings, runner_for
-from . import continuous_inputs, extended, extended_run
+from . import constraints, continuous_inputs, extended, extended_run
 from .result import LAZY, LOCAL_SUM, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
 from ..model.atlas import ATLAS, Atlas, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
@@ -416,7 +416,8 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
              backend: str = "c", max_steps: int | None = None, sine_min: float | None = None,
              newton_tol: float | None = None, newton_max: int | None = None,
              hmax: float | None = None, inputs=None, atlas: bool = False, events=None,
-             error_estimate: str = "local", hold: str | None = None) -> SimulationResult:
+             error_estimate: str = "local", hold: str | None = None,
+             project: bool = False) -> SimulationResult:
     """Integrate `model` from y0 at t[0] and report every output time in t.
 
     Parameters
@@ -470,6 +471,13 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
         (dopri5, dop853, abm12, taylor; None for the others); "rerun": a second run at
         rtol / 100 (a fixed step: half the step) gives an estimate of the global error of
         r.y, per output row in r.error_y.  r.error_kind says which (result.py).
+    project : bool
+        A closed loop (a model with constraints) only: True projects the state onto the
+        constraints after every step (rk4, rk8, dopri5 or dop853, stepped in Python over
+        the compiled rhs, as inputs u(t, y) are; no events, rerun estimate or dense
+        output), so r.constraint_drift is at roundoff; False (the default) runs the
+        generated loop on the exact index-1 equations and reports their drift
+        (derive/runtime/constraints.py).
 
     Returns
     -------
@@ -483,7 +491,8 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     ------
     SimulationInputError
         An unknown model, method, dtype or option, a missing parameter, a state or inputs
-        of the wrong size, output times that are not strictly monotone.
+        of the wrong size, output times that are not strictly monotone; a closed loop's
+        initial state off its constraints (derive.consistent_state projects it).
     BuildError
         backend "c": the model's library cannot be compiled (the message holds the
         compiler's output); CompilerMissingError, a BuildError, where there is no compiler.
@@ -531,7 +540,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     if method is None:
         method = TAYLOR if precision else DEFAULT_METHOD
     if FAST_PATH and precision is None and backend == "c" and not atlas and inputs is None and events is None and \
-            hold is None and isinstance(error_estimate, str) and error_estimate == "local":
+            hold is None and project is False and isinstance(error_estimate, str) and error_estimate == "local":
         fast = _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_steps,
                               sine_min, newton_tol, newton_max, hmax)
         if fast is not None:
@@ -546,6 +555,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     if method == TAYLOR and (backend != "c" or ref.atlas is not None):
         raise SimulationInputError("the Taylor integrator runs in generated C on single-chart models: "
                                    "use backend='c' and a model, not the atlas")
+    _check_project(project, ref, precision, dtype, atlas, events, error_estimate, hold)
     if precision is not None:
         return _simulate_extended(ref, precision, y0, t, params, method, rtol=rtol, atol=atol, step=step,
                                   max_steps=max_steps, sine_min=sine_min, hmax=hmax, inputs=inputs,
@@ -557,6 +567,9 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     ts = normalise_t(t)
     state, chart, _ = normalise_y0(ref, y0, p)
     _check_angles(ref, state, dt)
+    loop = ref.atlas is None and constraints.is_constrained(model)
+    if loop:
+        constraints.check_initial_state(model, state, p)
     opt = run_options(method, dt, ts, rtol=rtol, atol=atol, step=step, hmax=hmax, max_steps=max_steps,
                       newton_tol=newton_tol, newton_max=newton_max, sine_min=sine_min)
     if ref.atlas is not None and method not in ATLAS_METHODS:
@@ -564,13 +577,18 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
                                    f"(it has {', '.join(ATLAS_METHODS)})")
     _check_size(method, ts, state, opt, dt, budget_given=max_steps is not None)
     wanted = _events_of(ref, method, events)
+    if project:
+        result = continuous_inputs.run_continuous(model, method, state, ts, p, opt, backend, _stage_inputs(ref, u),
+                                                  project=lambda y: constraints.project(model, y, p))
+        return constraints.report_drift(result, model, p)
     if isinstance(u, HeldInputs) and hold is None:
         if wanted or error_estimate != "local" or ref.atlas is not None:
             raise SimulationInputError("inputs u(t, y) at every stage: no events, rerun estimate or atlas "
                                        "(give hold='zoh' for those)")
-        return continuous_inputs.run_continuous(model, method, state, ts, p, opt, backend,
-                                                continuous_inputs.ContinuousInputs(ref, u.names, u.function,
-                                                                                   _input_values))
+        result = continuous_inputs.run_continuous(model, method, state, ts, p, opt, backend,
+                                                  continuous_inputs.ContinuousInputs(ref, u.names, u.function,
+                                                                                     _input_values))
+        return constraints.report_drift(result, model, p) if loop else result
 
     def run(o):
         if ref.atlas is not None:
@@ -591,7 +609,35 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
                      hmax=hmax, inputs=inputs, atlas=atlas, hold=hold)
         _estimate_by_rerun(result, lambda **tighter: simulate(model, y0, t, params, **{**again, **tighter}),
                            method, opt, dt, max_steps)
-    return result
+    return constraints.report_drift(result, model, p) if loop else result
+
+
+def _check_project(project, ref, precision, dtype, atlas, events, error_estimate, hold) -> None:
+    """project=True: a closed loop's run, projected after every step (simulate's docstring);
+    refused in one line for anything else."""
+    if not isinstance(project, bool):
+        raise SimulationInputError(f"project must be True or False, got {project!r}")
+    if not project:
+        return
+    if atlas or not constraints.is_constrained(str(ref)):
+        raise SimulationInputError(f"project=True is for a closed loop (a model with constraints); "
+                                   f"'{ref}' has none")
+    other_dtype = precision is not None or np.dtype(_dtype(dtype)) != np.float64
+    for given, what in ((other_dtype, f"dtype {dtype}"), (events is not None, "events"),
+                        (error_estimate != "local", "rerun estimate"), (hold is not None, "hold='zoh'")):
+        if given:
+            raise SimulationInputError(f"project=True steps in Python in float64, with no {what}: run "
+                                       f"without project= (its drift is reported) for those")
+
+
+def _stage_inputs(ref, u) -> "continuous_inputs.ContinuousInputs | None":
+    """The inputs of a run stepped in Python: a function u(t, y) as given, constant inputs as
+    one returning them, None for a model without inputs."""
+    if u is None:
+        return None
+    if isinstance(u, HeldInputs):
+        return continuous_inputs.ContinuousInputs(ref, u.names, u.function, _input_values)
+    return continuous_inputs.ContinuousInputs(ref, ref.description.inputs, lambda t, y: u, _input_values)
 
 
 def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, step, max_steps, sine_min,
@@ -618,6 +664,9 @@ def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, s
     ts = normalise_t(_decimals_as_floats(t))
     state, _, _ = normalise_y0(ref, _decimals_as_floats(y0), p)
     _check_angles(ref, state, np.dtype(np.longdouble))
+    loop = constraints.is_constrained(model)
+    if loop:
+        constraints.check_initial_state(model, state, p)
     run_options(TAYLOR, np.dtype(np.float64), ts, hmax=hmax, max_steps=max_steps, sine_min=sine_min)
     if isinstance(y0, Mapping) and set(y0) & {"cartesian", "chart", "state"}:
         raise SimulationInputError(f"dtype '{precision}' takes y0 as the state (a sequence or a mapping by name)")
@@ -630,7 +679,7 @@ def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, s
 
     result.observe = observe
     result.energy = result.positions = result.velocities = LAZY
-    return result
+    return constraints.report_drift(result, model, pm) if loop else result
 
 
 # -- error_estimate="rerun" ------------------------------------------------------------

@@ -26,11 +26,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..codegen.contract import (ADAPTIVE, DEFAULT_METHOD, EXTENDED, FIXED_ORDER, LADDER, MULTISTEP,
+from ..codegen.contract import (ADAPTIVE, CONSTRAINT_START_TOLERANCE, DEFAULT_METHOD, EXTENDED, FIXED_ORDER, LADDER, MULTISTEP,
                                 PRECISION as LADDER_TABLE, PRECISION_NAMES, PRECISION_TABLE,
                                 REFERENCE_METHOD, STATUS, STATUS_NAMES, TAYLOR)
 from ..errors import ModelError
 from ..runtime.energy_error import SCALE_TEXT, relative_energy_error
+from ..runtime import constraints
+from ..runtime.loop_state import consistent_state
 from ..runtime.result import as_fields
 from ..runtime.simulate import SimulationError, SimulationResult, normalise_params, simulate
 from ..measurement.trust import (Lyapunov, REFERENCE_RTOL, atlas_lyapunov, initial_error,
@@ -260,8 +262,21 @@ def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
         if not r.ok:
             break
         last = r.y[-1] if r.y_exact is None else list(r.y_exact[-1])    # the ladder's rungs restart exactly
+        last = _on_the_loop(p, last)
         y0 = last if find_atlas(p.model) is None else {"chart": r.chart[-1], "state": list(r.y[-1])}
     return _join(parts)
+
+
+def _on_the_loop(p: Plan, y):
+    """A closed loop's next piece starts on its constraints: a piece's last state, drifted
+    off them beyond the start tolerance simulate holds every start to, is projected back
+    (derive.consistent_state); within it, and for an open chain, it is kept as it is."""
+    if not constraints.is_constrained(p.model):
+        return y
+    phi, phi_dot = constraints.residuals(p.model, np.asarray(y, dtype=float), normalise_params(p.model, p.params))
+    if max(np.abs(phi).max(), np.abs(phi_dot).max()) <= CONSTRAINT_START_TOLERANCE:
+        return y
+    return consistent_state(p.model, np.asarray(y, dtype=float), p.params)
 
 
 def _join(parts: list[SimulationResult]) -> SimulationResult:
@@ -272,6 +287,9 @@ def _join(parts: list[SimulationResult]) -> SimulationResult:
                               "y_exact": None if first.y_exact is None else cat("y_exact")})
     for attr in ("status", "status_name", "t_stop", "y_stop", "chart_stop"):
         setattr(out, attr, getattr(last, attr))
+    if first.constraint_drift is not None:        # a closed loop: the largest over the pieces
+        out.constraint_drift = constraints.ConstraintDrift(max(r.constraint_drift.phi for r in parts),
+                                                           max(r.constraint_drift.phi_dot for r in parts))
     for attr in ("nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton", "switches"):
         setattr(out, attr, sum(getattr(r, attr) for r in parts))
     if first.chart is not None:
@@ -771,6 +789,10 @@ def summary(o: Outcome) -> dict:
         "relative_energy_error": drift, "energy_scale": scale, "energy_scale_is": SCALE_TEXT,
         # with applied forces or damping the energy changes by the work they do: not an error
         "conservative": conservative(o),
+        # a closed loop: its largest |Phi| and |J q'| over the run, and their bound
+        "constraint_drift": None if r.constraint_drift is None else
+        {"phi": r.constraint_drift.phi, "phi_dot": r.constraint_drift.phi_dot, "bound": r.constraint_drift.bound,
+         "exceeded": r.constraint_drift.exceeded},
         "steps": [s.line() for s in o.steps], "files": o.files,
         "file_notes": o.file_notes, "seconds": o.seconds,
         "note": o.choice.note, "warnings": run_warnings(o),

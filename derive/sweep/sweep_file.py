@@ -390,6 +390,11 @@ def parse_sweep(text: str, source: str = "<sweep>", run_as: str | None = None) -
                          f"not the chart atlas '{ATLAS}'")
     _accuracy(t, scene, source)
     description = load_model(scene.model)
+    if description.is_constrained:
+        raise SceneError(f"{source}: '{description.name}' has constraints (a closed loop): a sweep's axes "
+                         f"set states and parameters independently, which moves its starts off the loop "
+                         f"(no sweep over a loop's independent coordinate yet); run a scene, or "
+                         f"derive.ensemble with starts from derive.consistent_state")
     if taylor:
         _use_taylor(scene, source)
     axes = _parse_axes(t.get("axes"), description, source)

@@ -15,6 +15,7 @@ import sympy as sp
 from .. import cachefile
 from ..derivation import derive
 from ..derivation.charts import chart_change
+from ..derivation.loop_closure import augmented_system
 from ..model import load_model, model_names
 from .zero import DIGITS, matrix_is_zero, random_point, trig_is_zero
 from ..derivation.symbols import parse_quantity, t as TIME
@@ -74,6 +75,85 @@ def accelerations(d, point: dict) -> mpmath.matrix:
     with mpmath.workdps(DIGITS):
         return mpmath.lu_solve(mpmath.matrix(M_of(*values).tolist()),
                                mpmath.matrix(F_of(*values).tolist()))
+
+
+def _loop_system(d) -> tuple:
+    """A closed loop's [M J^T; J 0], [F; gamma] and J compiled once (functions of the
+    state, parameters and inputs)."""
+    key = (d.name, d.model.content_hash, "loop")
+    if key not in _system_functions:
+        args = _args(d)
+        A, b = augmented_system(d.M, d.F, d.constraints)
+        _system_functions[key] = (_numeric(A, args), _numeric(b, args), _numeric(d.constraints.J, args))
+    return _system_functions[key]
+
+
+def on_the_loop(d, point: dict) -> dict:
+    """`point` with its rates projected onto J q' = 0 (q' - J^T (J J^T)^-1 J q'), in
+    40-digit arithmetic: a state a closed loop's motion can pass through at these
+    coordinates' rates (Phi(q) = 0 is not needed by the identities checked at it)."""
+    J_of = _loop_system(d)[2]
+    rates = d.symbols.qd
+    with mpmath.workdps(DIGITS):
+        J = mpmath.matrix(J_of(*[point[s] for s in _args(d)]).tolist())
+        v = mpmath.matrix([point[r] for r in rates])
+        v = v - J.T * mpmath.lu_solve(J * J.T, J * v)
+    return {**point, **{r: v[k] for k, r in enumerate(rates)}}
+
+
+def loop_accelerations(d, point: dict) -> mpmath.matrix:
+    """A closed loop's q'' at a point, from its augmented system in 40-digit arithmetic."""
+    A_of, b_of, _ = _loop_system(d)
+    values = [point[s] for s in _args(d)]
+    with mpmath.workdps(DIGITS):
+        x = mpmath.lu_solve(mpmath.matrix(A_of(*values).tolist()), mpmath.matrix(b_of(*values).tolist()))
+    return x[:len(d.symbols.q), 0] if len(d.symbols.q) > 1 else mpmath.matrix([x[0]])
+
+
+def loop_stays_closed(name, n_points: int = 20) -> Check:
+    """A closed loop's accelerations keep it closed: the second time derivative of each
+    constraint, d2 Phi/dt2 = (dPhi/dq) q'' + q'^T (d2 Phi/dq2) q' (from Phi itself, not
+    from the derivation's gamma), vanishes at random states with J q' = 0."""
+    d = derive(name)
+    s, args = d.symbols, list(_args(d))
+    qd = sp.Matrix(s.qd)
+    Phi = d.constraints.Phi
+    grad = _numeric(Phi.jacobian(sp.Matrix(s.q)), args)
+    curvature = _numeric(sp.Matrix([(qd.T * sp.hessian(c, s.q) * qd)[0, 0] for c in Phi]), args)
+    rng, worst = random.Random(17), mpmath.mpf(0)
+    with mpmath.workdps(DIGITS):
+        for _ in range(n_points):
+            pt = on_the_loop(d, random_point(_args(d), rng))
+            vals = [pt[x] for x in args]
+            acc = loop_accelerations(d, pt)
+            G, C = mpmath.matrix(grad(*vals).tolist()), mpmath.matrix(curvature(*vals).tolist())
+            for i in range(len(Phi)):
+                terms = [G[i, j] * acc[j] for j in range(len(s.q))] + [C[i]]
+                worst = max(worst, abs(sum(terms)) / (sum(abs(t) for t in terms) or 1))
+    return Check(f"{d.name}: the loop stays closed (d2 Phi/dt2 = 0)", worst < mpmath.mpf(10) ** -30,
+                 f"largest relative d2 Phi/dt2 over {n_points} states with J q' = 0: {mpmath.nstr(worst, 3)}",
+                 (d.name,), n_points, "1e-30", mpmath.nstr(worst, 3))
+
+
+def not_applicable(name) -> list[tuple[str, str]]:
+    """(check, why) of the physics checks that do not apply to a model: a closed loop's.
+
+    Parameters
+    ----------
+    name : str or Model
+        A model.
+
+    Returns
+    -------
+    list of (str, str)
+        Empty for an open chain.
+    """
+    model = name if not isinstance(name, str) else load_model(name)
+    if not model.is_constrained:
+        return []
+    return [("Cartesian constraint forces", "for open chains of point masses: a closed loop's "
+                                            "constraint forces are its multipliers' J^T lambda"),
+            ("Hamiltonian form", "a closed loop has none here (its coordinates are not independent)")]
 
 
 def mass_matrix_spd(name: str, n_points: int = 20) -> Check:
@@ -239,11 +319,13 @@ def energy_conservation(name, n_points: int = 20) -> Check:
         power -= sum(v * d.dissipation.diff(v) for v in s.qd)
     power_of = _numeric(power, args)
     rng, worst = random.Random(13), mpmath.mpf(0)
+    loop = d.constraints is not None      # on J q' = 0, where the constraint forces do no work
     with mpmath.workdps(DIGITS):
         for _ in range(n_points):
             pt = random_point(_args(d), rng)
+            pt = on_the_loop(d, pt) if loop else pt
             vals = [pt[x] for x in args]
-            acc = accelerations(d, pt)
+            acc = loop_accelerations(d, pt) if loop else accelerations(d, pt)
             terms = ([a * pt[x] for a, x in zip(grad_q(*vals), s.qd)]
                      + [b * acc[k] for k, b in enumerate(grad_qd(*vals))] + [dE_dt(*vals), -power_of(*vals)])
             scale = sum(abs(t) for t in terms) or 1
@@ -257,8 +339,9 @@ def energy_conservation(name, n_points: int = 20) -> Check:
         what = "dh/dt - q'.Q + q'.dR/dq' + dL/dt|explicit"
     else:
         title, what = "power balance dE/dt = q'.Q - q'.dR/dq'", "dE/dt - q'.Q + q'.dR/dq'"
+    where = " with J q' = 0 (q'' of the closed loop)" if loop else ""
     return Check(f"{d.name}: {title}", ok,
-                 f"largest relative {what} over {n_points} states: {mpmath.nstr(worst, 3)}",
+                 f"largest relative {what} over {n_points} states{where}: {mpmath.nstr(worst, 3)}",
                  (d.name,), n_points, "1e-30", mpmath.nstr(worst, 3))
 
 
@@ -367,6 +450,8 @@ def model_checks(name) -> list[Check]:
     the plane of the spherical pendulum, the compound pendulum's point masses)."""
     d = derive(name)
     checks = [mass_matrix_spd(name), energy_conservation(name)]
+    if d.constraints is not None:        # a closed loop: not_applicable() names what is left out
+        return checks + [loop_stays_closed(name)]
     if d.hamiltonian is not None and d.hamiltonian.H is not None:
         checks.append(hamiltonian_consistency(name))
     if d.model.is_conservative:          # (applied forces have no Cartesian form here)

@@ -28,9 +28,10 @@ from derive.runtime import result as result_module
 
 ROOT = Path(__file__).resolve().parents[2]
 # by import_module: derive.runtime's package namespace holds the functions of the same names
-ensemble_module, linearize_module, scipy_rhs_module, simulate_module, sweep_module = (
+ensemble_module, linearize_module, loop_state_module, scipy_rhs_module, simulate_module, sweep_module = (
     importlib.import_module(f"derive.{name}")
-    for name in ("runtime.ensemble", "runtime.linearize", "runtime.scipy_rhs", "runtime.simulate", "sweep"))
+    for name in ("runtime.ensemble", "runtime.linearize", "runtime.loop_state", "runtime.scipy_rhs",
+                 "runtime.simulate", "sweep"))
 PLANAR = {"m1": 1.0, "m2": 1.3, "l1": 0.9, "l2": 1.1, "g": 9.81}
 
 
@@ -38,7 +39,7 @@ PLANAR = {"m1": 1.0, "m2": 1.3, "l1": 0.9, "l2": 1.1, "g": 9.81}
 # class (issue 26, items 4 and 5); document's pdflatex example compiles a PDF twice: the slow tier
 DOCTESTED = [api, equations_module, pytest.param(document, marks=pytest.mark.slow), result_module,
              backends, generate, jax_backend, errors_module, simulate_module, ensemble_module,
-             scipy_rhs_module, trust_module, linearize_module, sweep_module]
+             scipy_rhs_module, trust_module, linearize_module, loop_state_module, sweep_module]
 
 
 @pytest.mark.parametrize("module", DOCTESTED, ids=lambda m: m.__name__)

@@ -1,0 +1,58 @@
+"""A state put onto a closed loop's constraints, on request: `derive.consistent_state`.
+
+Its own module, above simulate (it resolves a model and its parameters as simulate does)
+and the constraint checks (derive/runtime/constraints.py, which simulate imports).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SimulationInputError
+from ..model import load_model
+from . import constraints
+from .simulate import normalise_params, resolve_model
+
+
+def consistent_state(model, y0, params) -> np.ndarray:
+    """The state on a closed loop's constraints closest to y0: the coordinates by
+    Gauss-Newton on Phi(q) = 0 (each correction the least-squares one, -J^+ Phi), then
+    the rates projected orthogonally onto J q' = 0.
+
+    Parameters
+    ----------
+    model : str or path
+        A model with `constraints` (a name or the path of its file).
+    y0 : sequence
+        A state, coordinates then rates.
+    params : mapping or sequence
+        The parameters, by name or in order.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        A state with |Phi| and |J q'| at roundoff.
+
+    Raises
+    ------
+    SimulationInputError
+        The model has no constraints, the state has the wrong size, or the iteration does
+        not converge (no closed configuration near y0, or J loses rank there).
+
+    Examples
+    --------
+    >>> import derive
+    >>> p = dict(m1=1, m2=2, m3=1.5, l1=0.5, l2=2, l3=1.5, d=2, g=9.81)
+    >>> y = derive.consistent_state("examples/models/four_bar.toml", [0.3, 2.6, 0.6, 1, 0, 0], p)
+    >>> bool(abs(y[0] - 0.3) < 0.01)
+    True
+    """
+    name = resolve_model(model)
+    if not load_model(name).is_constrained:
+        raise SimulationInputError(f"{name}: the model has no constraints (no 'constraints' key): "
+                                   f"every state is consistent")
+    p = np.asarray(normalise_params(name, params), dtype=np.float64)
+    y = np.array(y0, dtype=np.float64)
+    nq = len(load_model(name).coordinate_names)
+    if y.shape != (2 * nq,):
+        raise SimulationInputError(f"{name}: y0 has shape {y.shape}, the state has {2 * nq} entries")
+    return constraints.project(name, y, p)
