@@ -2,6 +2,8 @@
 
 - The tutorial's plots: the build runs the tutorial's scene (docs/tutorial/scene.toml) with
   ``python -m derive run`` into ``<outdir>/_figures/`` and the tutorial page shows them.
+- The control page's plot: the build runs examples/cart_pole_lqr.py (the cart-pole balanced by
+  LQR) with ``--plot <outdir>/_figures/cart_pole_lqr.png``.
 - The benchmark's plots: every PNG that ``derive bench`` and bench/*.py wrote into
   bench/results/ is copied to ``<outdir>/_figures/bench/`` as it is.
 
@@ -32,6 +34,16 @@ def run_tutorial_scene(figures: Path) -> None:
         raise RuntimeError(f"the tutorial's scene failed (exit {done.returncode}): {done.stderr.strip()}")
 
 
+def run_lqr_example(figures: Path) -> None:
+    """The control page's example run as the page shows it, its plot written into figures."""
+    figures.mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    done = subprocess.run([sys.executable, str(ROOT / "examples" / "cart_pole_lqr.py"), "--plot",
+                           str(figures / "cart_pole_lqr.png")], env=env, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"examples/cart_pole_lqr.py failed (exit {done.returncode}): {done.stderr.strip()}")
+
+
 def copy_bench_plots(figures: Path) -> None:
     target = figures / "bench"
     target.mkdir(parents=True, exist_ok=True)
@@ -46,6 +58,7 @@ def _build_figures(app) -> None:
     copy_bench_plots(figures)
     if not os.environ.get("DERIVE_DOCS_NO_RUN"):
         run_tutorial_scene(figures)
+        run_lqr_example(figures)
 
 
 def setup(app):
