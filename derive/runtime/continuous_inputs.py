@@ -11,23 +11,29 @@ Python: that costs the same Python call per stage (the user's u is Python either
 needs a callback slot in every generated integrator (changing each model's files) and
 takes the GIL back at every stage.  A stage costs the Python loop, the user's function
 and one direct call of <model>_rhs on buffers whose addresses are taken once (the
-commits that added this module have the figures).  Such a run has no dense output
-(r.sol is None), events or rerun estimate; the implicit methods and abm12 take
+commits that added this module have the figures).  The implicit methods and abm12 take
 hold="zoh".
+
+A time-dependent model (t in its forces, dissipation or pivot: issue 23 item 3) runs
+here too, inputs or not: the generated integrators are written for autonomous models,
+and this loop passes each stage's time to the kernels that take it.  A run's r.sol and
+its events are on its own steps (stage_solution.py).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..codegen.contract import STATUS, STATUS_NAMES
+from ..codegen.contract import IMPLICIT, METHODS, MULTISTEP, STATUS, STATUS_NAMES
 from ..codegen.tableau import load as load_tableau
 from ..errors import SimulationInputError
 from .loader import load, numpy_module
-from .observables import _observables, _velocities
+from .observables import _observables, _velocities, takes_time
 from .result import LOCAL_SUM, SimulationResult
 from .shared_library import EntryPoint
+from .stage_solution import StageSolution, locate_on_steps
 
-CONTINUOUS_METHODS = ("rk4", "rk8", "dopri5", "dop853")     # explicit: a stage is one rhs call at (t, y)
+# the contract's explicit one-step methods: each stage is one rhs call at its own (t, y)
+CONTINUOUS_METHODS = tuple(m for m in METHODS if m not in IMPLICIT and m not in MULTISTEP)
 FIXED_TABLEAU = {"rk4": "rk4", "rk8": "dop853"}   # rk8: DOP853's 8th-order formula at a fixed step
 
 
@@ -91,25 +97,41 @@ def _error_norm(method: str, e, K, h: float, scale) -> float:
     return abs(h) * e5 / np.sqrt(len(scale) * (deno if deno > 0 else 1.0))
 
 
-RHS = EntryPoint("{model}_rhs", "int", ("void *", "void *", "void *", "void *"))
+def _rhs_entry(kernel) -> EntryPoint:
+    """The declaration of <model>_rhs: a pointer per array of the kernel (t first for a
+    time-dependent model, y, p, u for one with inputs), then y'."""
+    return EntryPoint("{model}_rhs", "int", ("void *",) * (len(kernel.inputs) + 1))
 
 
 def _rhs(model: str, backend: str, p: np.ndarray, n: int):
-    """rhs(y, u) -> y', p bound.  In C the kernel's own entry point on fixed buffers: the
-    loader's general batch call (broadcasting, array checks) costs several times more."""
+    """rhs(t, y, u) -> y', p bound; t is passed where the kernel takes it, u where the
+    model has inputs (None otherwise).  In C the kernel's own entry point on fixed
+    buffers: the loader's general batch call (broadcasting, array checks) costs several
+    times more."""
     if backend != "c":
         kernel = numpy_module(model).rhs
-        return lambda y, u: np.asarray(kernel(y, p, u), np.float64)
-    fn = load(model).bind(RHS, model=model)
-    buffers = (np.empty(n), np.ascontiguousarray(p, np.float64),
-               np.empty(len(load(model).names["input_names"])), np.empty(n))
-    # the addresses of (y, p, u, y'), taken once (arr.ctypes costs more than the kernel);
-    # rhs reads `buffers`, so the closure keeps every buffer alive
-    where = [a.ctypes.data for a in buffers]
+        timed = takes_time(kernel)
 
-    def rhs(y, u):
-        state, _, inputs, out = buffers
-        state[:], inputs[:] = y, u
+        def rhs_numpy(t, y, u):
+            args = ((np.array([t]),) if timed else ()) + (y, p) + ((u,) if u is not None else ())
+            return np.asarray(kernel(*args), np.float64)
+        return rhs_numpy
+    library = load(model)
+    fn = library.bind(_rhs_entry(library.rhs), model=model)
+    sizes = {"t": 1, "y": n, "p": len(p), "u": len(library.names.get("input_names", ()))}
+    buffers = {name: np.empty(sizes[name]) for name, _ in library.rhs.inputs}
+    buffers["p"][:] = p
+    out = np.empty(n)
+    # the addresses of the arrays and of y', taken once (arr.ctypes costs more than the
+    # kernel); rhs reads `buffers`, so the closure keeps every buffer alive
+    where = [buffers[name].ctypes.data for name, _ in library.rhs.inputs] + [out.ctypes.data]
+
+    def rhs(t, y, u):
+        buffers["y"][:] = y
+        if "t" in buffers:
+            buffers["t"][0] = t
+        if u is not None:
+            buffers["u"][:] = u
         fn(*where)
         return out.copy()
 
@@ -129,13 +151,15 @@ def _step(f, A, b, c, t, y, h, K0=None):
 
 
 def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, opt: dict,
-                   backend: str, u: ContinuousInputs) -> SimulationResult:
-    """One run with u(t, y) evaluated at every stage, in float64 (simulate's checks have run).
+                   backend: str, u=None, events=()) -> SimulationResult:
+    """One run stepped in Python with every stage at its own time, in float64 (simulate's
+    checks have run): u(t, y) evaluated at every stage, and t passed to the kernels of a
+    time-dependent model.
 
     Parameters
     ----------
     model : str
-        A resolved model name (one chart, with inputs).
+        A resolved model name (one chart).
     method : str
         rk4, rk8 (fixed step opt["h"]), dopri5 or dop853 (opt["rtol"], opt["atol"]).
     y0 : array_like
@@ -148,13 +172,17 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
         simulate's run options (run_options).
     backend : str
         "c" (the compiled rhs kernel) or "numpy".
-    u : ContinuousInputs
-        The inputs' function, checked at each call.
+    u : ContinuousInputs, ndarray or None
+        The inputs' function (checked at each call), the inputs held over the run, or None
+        (a model without inputs).
+    events : tuple of Event
+        Zero crossings to locate on the run's steps (derive/runtime/stage_solution.py).
 
     Returns
     -------
     SimulationResult
-        As simulate's; sol is None, the counters count this loop's steps and rhs calls.
+        As simulate's; r.sol(t) is one step of the method from the accepted step before t
+        (stage_solution.StageSolution); the counters count this loop's steps and rhs calls.
     """
     if method not in CONTINUOUS_METHODS:
         raise SimulationInputError(f"inputs as a function u(t, y) run {' or '.join(CONTINUOUS_METHODS)} "
@@ -162,31 +190,33 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
                                    f"hold='zoh' to hold them per output interval")
     rhs = _rhs(model, backend, np.asarray(p, np.float64), len(y0))
     counts = {"nfev": 0, "nsteps": 0, "naccepted": 0, "nrejected": 0}
+    inputs = _inputs_at(u)
 
     def f(t, y):
         counts["nfev"] += 1
-        return rhs(y, u(t, y))
+        return rhs(t, y, inputs(t, y))
 
     A, b, c, e, order = _tableau(method)
     ts64 = np.asarray(ts, np.float64)
     y = np.asarray(y0, np.float64).copy()
     out = np.full((len(ts64), len(y)), np.nan)
     out[0] = y
-    status, local_sum = STATUS["OK"], 0.0
+    starts: list = [(float(ts64[0]), y.copy())]          # each accepted step's (t, y): r.sol
+    local_sum = 0.0
     if method in FIXED_TABLEAU:
-        y, status = _fixed(f, A, b, c, ts64, y, float(opt["h"]), out, counts)
+        y, status = _fixed(f, A, b, c, ts64, y, float(opt["h"]), out, counts, starts)
     else:
-        y, status, local_sum = _adaptive(method, f, A, b, c, e, order, ts64, y, opt, out, counts)
+        y, status, local_sum = _adaptive(method, f, A, b, c, e, order, ts64, y, opt, out, counts, starts)
     fixed = method in FIXED_TABLEAU
     reached = int(np.sum(np.isfinite(out[:, 0])))
     pd = np.asarray(p, np.float64)
-    energy, positions = _observables(model, out[:reached], pd, backend, np.dtype(np.float64))
-    velocities = _velocities(model, out[:reached], pd, backend, np.dtype(np.float64))
+    energy, positions = _observables(model, out[:reached], pd, backend, np.dtype(np.float64), ts64[:reached])
+    velocities = _velocities(model, out[:reached], pd, backend, np.dtype(np.float64), ts64[:reached])
 
     def pad(a):
         return np.concatenate([a, np.full((len(ts64) - reached,) + a.shape[1:], np.nan)])
 
-    return SimulationResult(
+    result = SimulationResult(
         model=model, method=method, backend=backend, dtype="float64", t=ts64, y=out,
         energy=pad(energy), positions=pad(positions), velocities=pad(velocities), status=status,
         status_name=STATUS_NAMES[status], t_stop=float(ts64[reached - 1]), y_stop=out[reached - 1].copy(),
@@ -194,9 +224,22 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
         error_kind=None if fixed else LOCAL_SUM,
         rtol=None if fixed else float(opt["rtol"]),
         step=float(opt["h"]) if method in FIXED_TABLEAU else None, **counts)
+    step = (lambda t, y, h: _step(f, A, b, c, t, y, h)[0])
+    result.sol = StageSolution(step, starts, float(ts64[0]), result.t_stop, pd, inputs)
+    if events:
+        result = locate_on_steps(result, events, float(opt.get("rtol") or 1e-10))
+    return result
 
 
-def _fixed(f, A, b, c, ts, y, h, out, counts):
+def _inputs_at(u):
+    """u as a function of (t, y): the user's (checked), the held values, or None."""
+    if u is None or callable(u):
+        return u if u is not None else (lambda t, y: None)
+    held = np.asarray(u, np.float64)
+    return lambda t, y: held
+
+
+def _fixed(f, A, b, c, ts, y, h, out, counts, starts):
     """The grid t0 + k h; an output between grid points by a shortened step from the grid
     point before it (as the generated fixed-step loop does)."""
     t0, direction = ts[0], np.sign(ts[-1] - ts[0]) or 1.0
@@ -209,6 +252,7 @@ def _fixed(f, A, b, c, ts, y, h, out, counts):
             t = t0 + k * h
             counts["nsteps"] += 1
             counts["naccepted"] += 1
+            starts.append((t, y))
         rest = ts[j] - t
         out[j] = y if rest == 0 else _step(f, A, b, c, t, y, rest)[0]
         if not np.isfinite(out[j]).all():
@@ -216,7 +260,7 @@ def _fixed(f, A, b, c, ts, y, h, out, counts):
     return y, STATUS["OK"]
 
 
-def _adaptive(method, f, A, b, c, e, order, ts, y, opt, out, counts):
+def _adaptive(method, f, A, b, c, e, order, ts, y, opt, out, counts, starts):
     """dopri5 or dop853 with the usual step control (Hairer, Norsett, Wanner II.4): accept where the
     scaled error norm is <= 1, the next step h (0.9 err^(-1/order)) within [0.2, 10] h;
     each output reached by a step that ends on it."""
@@ -245,6 +289,7 @@ def _adaptive(method, f, A, b, c, e, order, ts, y, opt, out, counts):
                 t = ts[j] if abs(ts[j] - t - h) <= 1e-14 * abs(ts[j]) + 1e-300 else t + h
                 # dopri5 is FSAL (its last stage is f at the new point); dop853 evaluates it
                 y, K0 = y_new, (K[-1] if method == "dopri5" else f(t, y_new))
+                starts.append((t, y))
             else:
                 counts["nrejected"] += 1
             h *= min(10.0, max(0.2, 0.9 * (err if err > 0 else 1e-10) ** (-1.0 / order)))

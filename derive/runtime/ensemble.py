@@ -148,7 +148,8 @@ def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | N
     >>> bool(np.array_equal(ens.y[1], one.y))            # bit for bit one derive.simulate call
     True
     """
-    model = resolve_model(model)
+    model = resolve_model(model, stage="derive.ensemble (the generated batch integrators, autonomous models "
+                                       "only)")
     if _atlas(model) is not None:
         raise SimulationInputError("ensemble runs single-chart models; the chart atlas "
                                    f"'{model}' runs through derive.simulate")
