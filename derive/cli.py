@@ -322,7 +322,9 @@ def _error_text(s: dict) -> str:
                  f"{s['reference_precision']}") if s["reference_rtol"] is not None else ""
     achieved = None if s["achieved_error"] is None else f"{s['achieved_error']:.2g}"
     if s["target"] is not None:
-        head = f"target {s['target']:g}, predicted {s['predicted_error']:.2g}"
+        predicted = ("not estimated" if s["predicted_error"] is None       # no Lyapunov estimate
+                     else f"{s['predicted_error']:.2g}")
+        head = f"target {s['target']:g}, predicted {predicted}"
         if achieved is None:          # said once: why it was not measured
             why = s["not_measured"] or "the run stopped"
             return f"{head}, achieved not measured: {why}" + (f" ({reference})" if reference else "")

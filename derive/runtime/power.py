@@ -78,8 +78,9 @@ def power_functions(model: str, params, inputs=None):
         A resolved model name.
     params : array_like
         The parameters, in the model's order.
-    inputs : array_like, optional
-        The inputs held over the run, in the model's order (None: none).
+    inputs : array_like or callable, optional
+        The inputs held over the run, in the model's order, or u(t, y) giving them at each
+        row (None: none).
 
     Returns
     -------
@@ -92,12 +93,20 @@ def power_functions(model: str, params, inputs=None):
     """
     args, (forces, dissipated, explicit, gap), present = _expressions(model)
     p = [float(x) for x in np.ravel(params)]
-    u = [] if inputs is None else [float(x) for x in np.ravel(inputs)]
+
+    def inputs_at(t, y) -> list:
+        if inputs is None:
+            return []
+        if not callable(inputs):
+            return [float(x) for x in np.ravel(inputs)]
+        rows = np.array([np.full(len(args) - 1 - len(p) - y.shape[1], np.nan) if not np.isfinite(r).all()
+                         else inputs(a, r) for a, r in zip(t, y)], float)
+        return list(rows.T)
 
     def at(g, t, y):
         t, y = np.asarray(t, float), np.asarray(y, float)
         with np.errstate(invalid="ignore"):          # NaN rows after a run's stop stay NaN
-            return np.asarray(g(t, *y.T, *p, *u), float) + np.zeros(len(y))
+            return np.asarray(g(t, *y.T, *p, *inputs_at(t, y)), float) + np.zeros(len(y))
 
     return (lambda t, y: tuple(at(g, t, y) for g in (forces, dissipated, explicit)),
             lambda t, y: at(gap, t, y), present)
@@ -110,8 +119,8 @@ def energy_balance(result, inputs=None) -> EnergyBalance:
     ----------
     result : SimulationResult
         A run of a single model (its energy, states and, where it has one, r.sol).
-    inputs : array_like, optional
-        The inputs it held over the run (None: none).
+    inputs : array_like or callable, optional
+        The inputs it held over the run, or u(t, y) (None: none).
 
     Returns
     -------
@@ -120,17 +129,17 @@ def energy_balance(result, inputs=None) -> EnergyBalance:
     t = np.asarray(result.t, float)
     power, gap, _ = power_functions(result.model, result.params, inputs)
     if result.sol is not None and len(t) > 1:
-        parts, pieces = _gauss_converged(result, t, power)
+        parts, pieces = gauss_converged(result, t, power)
         how = f"3-point Gauss on the continuous solution, {pieces} piece(s) per output interval"
     else:
-        parts, how = _trapezoid(t, power(t, result.y)), "the corrected trapezoid rule on the output rows"
+        parts, how = trapezoid(t, power(t, result.y)), "the corrected trapezoid rule on the output rows"
     work, dissipated, explicit = (np.concatenate([[0.0], np.cumsum(part)]) for part in parts)
     g = gap(t, result.y)
     e = np.asarray(result.energy, float)
     return EnergyBalance(e - e[0], work, dissipated, explicit + (g - g[0]), how)
 
 
-def _trapezoid(t: np.ndarray, powers) -> list[np.ndarray]:
+def trapezoid(t: np.ndarray, powers) -> list[np.ndarray]:
     """Each power's integral over each output interval: the trapezoid rule with its end
     correction (Euler-Maclaurin), derivatives by second-order differences (fourth order)."""
     h = np.diff(t)
@@ -151,7 +160,7 @@ def _gauss_on(sol, t: np.ndarray, power, pieces: int) -> list[np.ndarray]:
     return [((q.reshape(shape) * weights).sum(axis=2) * half).sum(axis=1) for q in power(at, sol(at))]
 
 
-def _gauss_converged(result, t: np.ndarray, power) -> tuple[list[np.ndarray], int]:
+def gauss_converged(result, t: np.ndarray, power) -> tuple[list[np.ndarray], int]:
     """The Gauss sums, pieces doubled until the running sums move by less than CONVERGED
     of the energy scale: one rule per output interval is far from enough for a fast
     motion sampled coarsely."""

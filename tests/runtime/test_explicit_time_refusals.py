@@ -37,18 +37,21 @@ def test_an_ensemble_of_a_forced_pendulum_refuses():
     assert "derive.simulate with rk4" in str(info.value)
 
 
-def test_a_scene_of_a_time_dependent_model_exits_2_with_one_line(tmp_path):
+def test_a_scene_of_a_time_dependent_model_with_taylor_exits_2_with_one_line(tmp_path):
+    """A scene of the driven pivot runs (tests/scene/test_explicit_time_scenes.py); one
+    that asks for Taylor's method, which does not pass t, is refused before any work."""
     scene = tmp_path / "pivot.toml"
     scene.write_text(f'[pendulum]\nmodel = "{PIVOT}"\nparameters = {{ m = 1.0, l = 1.0, g = 9.81, '
                      f'a = 0.01, w = 3.0 }}\n[initial]\nstate = {{ theta1 = 0.1, theta1_dot = 0.0 }}\n'
-                     f'[time]\nstop = 1.0\noutputs = 11\n[output]\ndirectory = "{tmp_path / "out"}"\n')
+                     f'[time]\nstop = 1.0\noutputs = 11\n[accuracy]\nmethod = "taylor"\n'
+                     f'[output]\ndirectory = "{tmp_path / "out"}"\n')
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     run = subprocess.run([sys.executable, "-m", "derive", "run", str(scene)], env=env,
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == 2, run.stderr
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("derive: error: ") and WHY in lines[0]
-    assert not (tmp_path / "out").exists()
+    assert "dop853" in lines[0] and not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize("model", [PIVOT, FORCED])
