@@ -67,3 +67,22 @@ def test_the_power_balance_could_fail(monkeypatch):
     model = load_model(PIVOT)
     monkeypatch.setattr(physics, "jacobi_energy", lambda d: d.energy)
     assert not physics.energy_conservation(model).passed
+
+
+def test_taylor_and_its_lanes_refuse_naming_what_runs_it():
+    """Taylor's jet carries the state, not t: the scalar and the lane libraries (what
+    derive.ensemble's taylor runs) say so in one line."""
+    from derive.runtime.taylor_lanes_library import taylor_lanes_library
+    from derive.runtime.taylor_library import taylor_library
+    name = load_model(PIVOT).name
+    for make in (lambda: taylor_library(name, 10), lambda: taylor_lanes_library(name, 10)):
+        with pytest.raises(derive.SimulationInputError, match="explicit time in the model") as info:
+            make()
+        assert "\n" not in str(info.value) and "dop853" in str(info.value)
+
+
+def test_the_trust_horizon_of_a_time_dependent_run_is_refused_in_one_line():
+    r = derive.simulate(PIVOT, [0.1, 0.0], np.linspace(0, 1, 3), PIVOT_P)
+    with pytest.raises(derive.InputError, match="explicit time in the model") as info:
+        derive.trust_horizon(r, 1e-6)
+    assert "\n" not in str(info.value) and "rerun" in str(info.value)
