@@ -51,6 +51,7 @@ def test_an_autonomous_models_linearisation_does_not_depend_on_t():
     assert np.array_equal(A0, A1)
 
 
+@pytest.mark.slow          # two processes, each deriving the model: about 10 s
 def test_the_command_line_takes_the_time():
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     args = [sys.executable, "-m", "derive", "linearize", PIVOT, "--at", "theta1=0.4", "--json"] + \

@@ -29,12 +29,17 @@ def test_the_atlas_refuses_in_one_line_naming_what_runs_it():
     assert "\n" not in str(info.value) and "the chart atlas" in str(info.value) and "dop853" in str(info.value)
 
 
-def test_an_ensemble_of_a_forced_pendulum_refuses():
+def test_an_ensemble_of_a_forced_pendulum_runs_each_member_as_simulate_does():
     p = {"m": 1.0, "l": 1.0, "g": 9.81, "c": 0.1, "F0": 1.0, "w": 3.0}
-    with pytest.raises(derive.SimulationInputError, match=WHY) as info:
-        derive.ensemble(FORCED, np.zeros((3, 2)), np.linspace(0, 1, 3), p)
-    assert "\n" not in str(info.value) and "derive.ensemble" in str(info.value)
-    assert "derive.simulate with rk4" in str(info.value)
+    y0 = np.array([[0.1, 0.0], [0.5, -0.2], [1.0, 0.3]])
+    times = np.linspace(0, 2, 5)
+    ens = derive.ensemble(FORCED, y0, times, p, method="dopri5", rtol=1e-10)
+    assert ens.y.shape == (3, 5, 2) and list(ens.status_names) == ["ok"] * 3
+    for row, y in zip(y0, ens.y):
+        assert np.array_equal(y, derive.simulate(FORCED, row, times, p, method="dopri5", rtol=1e-10).y)
+    with pytest.raises(derive.SimulationInputError, match=WHY) as info:       # Taylor's lanes: no t
+        derive.ensemble(FORCED, y0, times, p, method="taylor")
+    assert "\n" not in str(info.value) and "dop853" in str(info.value)
 
 
 def test_a_scene_of_a_time_dependent_model_with_taylor_exits_2_with_one_line(tmp_path):
