@@ -116,3 +116,13 @@ def test_a_sweep_of_a_time_dependent_model_is_refused_in_one_line(tmp_path):
     with pytest.raises(SceneError, match="explicit time in the model") as info:
         load_sweep(path)
     assert "\n" not in str(info.value) and "derive.simulate" in str(info.value)
+
+
+def test_a_stepped_scenes_events_are_found_on_its_steps(tmp_path):
+    o = run(load_scene(pivot_scene(tmp_path, 'method = "dop853"\nrtol = 1e-12\natol = 1e-14',
+                                   '[events]\ndown = "theta1"\n')), show_progress=False)
+    found = o.result.events["down"]
+    direct = derive.simulate(str(MODELS / "driven_pivot.toml"), [0.3, 0.0], np.linspace(0, 10, 21), PIVOT_P,
+                             method="dop853", rtol=1e-12, atol=1e-14, events={"down": "theta1"})
+    assert len(found) > 3 and np.array_equal(found.t, direct.events["down"].t)
+    assert np.max(np.abs(found.y[:, 0])) < 1e-9
