@@ -128,3 +128,13 @@ def test_a_rerun_estimate_bounds_the_error_of_a_time_dependent_run():
     r = derive.simulate(FORCED, [0.3, 0.0], times, FORCED_P, method="rk4", step=0.05, error_estimate="rerun")
     actual = np.abs(r.y - reference(forced_ode, FORCED_P, [0.3, 0.0], times).y.T)
     assert np.max(actual) > 0 and np.allclose(r.error_y, actual, rtol=0.1, atol=1e-12)
+
+
+@pytest.mark.parametrize("method", ["dopri5", "dop853"])
+def test_an_adaptive_runs_steps_do_not_depend_on_its_outputs(method):
+    """The outputs are reached inside the steps (one step from the step's start), not by
+    shortening them: 11 or 1001 outputs, the same steps and the same final state."""
+    coarse = derive.simulate(PIVOT, [0.2, 0.0], np.linspace(0, 10, 11), PIVOT_P, method=method, rtol=1e-9)
+    fine = derive.simulate(PIVOT, [0.2, 0.0], np.linspace(0, 10, 1001), PIVOT_P, method=method, rtol=1e-9)
+    assert coarse.naccepted == fine.naccepted and np.array_equal(coarse.y[-1], fine.y[-1])
+    assert np.max(np.abs(fine.y[::100] - coarse.y)) < 1e-8

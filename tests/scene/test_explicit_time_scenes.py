@@ -17,6 +17,7 @@ from derive.errors import SceneError
 from derive.scene import load_scene
 from derive.scene.outputs import work_and_dissipation
 from derive.scene.run import run
+from derive.scene.stepped import is_stepped
 from derive.sweep.sweep_file import load_sweep
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -126,3 +127,9 @@ def test_a_stepped_scenes_events_are_found_on_its_steps(tmp_path):
                              method="dop853", rtol=1e-12, atol=1e-14, events={"down": "theta1"})
     assert len(found) > 3 and np.array_equal(found.t, direct.events["down"].t)
     assert np.max(np.abs(found.y[:, 0])) < 1e-9
+
+
+@pytest.mark.parametrize("name", ["driven_pivot", "driven_in_t"])
+def test_the_example_scenes_of_explicit_time_are_read(name):
+    scene = load_scene(ROOT / "examples" / "scenes" / f"{name}.toml")
+    assert is_stepped(scene)
