@@ -333,7 +333,9 @@ def _error_text(s: dict) -> str:
                  f"{s['reference_precision']}") if s["reference_rtol"] is not None else ""
     achieved = None if s["achieved_error"] is None else f"{s['achieved_error']:.2g}"
     if s["target"] is not None:
-        head = f"target {s['target']:g}, predicted {s['predicted_error']:.2g}"
+        predicted = ("not estimated" if s["predicted_error"] is None       # no Lyapunov estimate
+                     else f"{s['predicted_error']:.2g}")
+        head = f"target {s['target']:g}, predicted {predicted}"
         if achieved is None:          # said once: why it was not measured
             why = s["not_measured"] or "the run stopped"
             return f"{head}, achieved not measured: {why}" + (f" ({reference})" if reference else "")
@@ -575,13 +577,13 @@ def _matrix_lines(title: str, M, rows: list[str], cols: list[str]) -> list[str]:
 def cmd_linearize(args) -> int:
     from .runtime.linearize import linearize, parse_value    # start-up: imported when it runs
     from .runtime.simulate import model_ref, resolve_model
-    ref = model_ref(resolve_model(args.model))
+    ref = model_ref(resolve_model(args.model, explicit_time=True))
     params = {n: parse_value(v, f"--param {n}") for n, v in _assignments(args.param, "--param").items()}
     inputs = {n: parse_value(v, f"--input {n}") for n, v in _assignments(args.input, "--input").items()}
     state = _assignments(args.at, "--at")
     if args.equilibria:
         return _print_equilibria(ref, params, args.json)
-    A, B = linearize(ref.name, state, params, inputs or None)
+    A, B = linearize(ref.name, state, params, inputs or None, t=args.time)
     names, inputs_names = list(ref.info.state_names), list(ref.info.input_names)
     at = dict.fromkeys(names, 0.0) | {n: parse_value(v, f"--at {n}") for n, v in state.items()}
     if args.json:
@@ -590,7 +592,8 @@ def cmd_linearize(args) -> int:
                           "state_names": names, "input_names": inputs_names,
                           "A": A.tolist(), "B": B.tolist()}, indent=1))
         return 0
-    print(f"{ref.name} at " + ", ".join(f"{n} = {v:g}" for n, v in at.items()))
+    when = "" if args.time is None else f" and t = {parse_value(args.time, '--time'):g}"
+    print(f"{ref.name} at " + ", ".join(f"{n} = {v:g}" for n, v in at.items()) + when)
     print("\n".join(_matrix_lines("A = df/dx", A, names, names)))
     if inputs_names:
         print("\n".join(_matrix_lines("B = df/du", B, names, inputs_names)))
@@ -622,6 +625,8 @@ def _linearize_parser(sub, model_help: str) -> None:
                    help="the state (repeat or separate by commas; left out: 0; values may use pi)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="a parameter (every one is needed)")
     p.add_argument("--input", action="append", metavar="NAME=VALUE", help="an input (left out: 0)")
+    p.add_argument("--time", metavar="T", default=None,
+                   help="the time t to linearize at (a time-dependent model needs it)")
     p.add_argument("--equilibria", action="store_true",
                    help="list the equilibria (q' = 0, u = 0) with their stability instead")
     p.add_argument("--json", action="store_true", help="print A and B (or the equilibria) as JSON")

@@ -610,7 +610,11 @@ def _precisions(variants: list[dict]) -> str:
 
 
 def taylor_problem(name: str) -> str | None:
-    """Why model `name` has no Taylor integrator (an operation without a recurrence), or None."""
+    """Why model `name` has no Taylor integrator (explicit time, an operation without a
+    recurrence), or None."""
+    if kernels(name)[0].is_time_dependent:
+        return ("explicit time in the model: the jet carries the state, not t; use derive.simulate "
+                "with rk4, rk8, dopri5 or dop853 (each stage at its own time)")
     try:
         rhs_decomposition(name)
     except SpecError as exc:

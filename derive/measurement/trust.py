@@ -26,7 +26,8 @@ from ..runtime import loader     # looked up at each call (a test checks which b
 from ..runtime.simulate import (SimulationError, normalise_inputs, normalise_params, normalise_y0,
                                 simulate)
 from ..derivation.cartesian import cartesian_to_state, link_lengths
-from ..model.atlas import load_atlas
+from ..model import load_model
+from ..model.atlas import find_atlas, load_atlas
 from ..runtime.extended import UNIT_ROUNDOFF
 from ..codegen.contract import FIXED_ORDER, REFERENCE_METHOD
 
@@ -167,6 +168,10 @@ def _check_trust_arguments(result, target) -> None:
             or not math.isfinite(target) or target <= 0:
         raise InputError(f"trust_horizon: target must be a positive number (the error to stay within), "
                          f"got {target!r}")
+    if find_atlas(result.model) is None and load_model(result.model).is_time_dependent:
+        raise InputError(f"trust_horizon: {result.model}: explicit time in the model: the Lyapunov estimate "
+                         f"integrates the variational equations with the generated integrators, which do not "
+                         f"pass t; use error_estimate='rerun' in derive.simulate for the run's error instead")
 
 
 def trust_horizon_of(result, target: float = 1e-8) -> float | None:

@@ -28,6 +28,7 @@ import sympy as sp
 
 from ..derivation import derive
 from ..derivation.lagrange import link_blocks
+from ..derivation.symbols import t as TIME
 from ..errors import ModelError, SimulationInputError
 from ..model import load_model
 from ..model.description import forget_on_model_change
@@ -47,7 +48,8 @@ class ChartSingular(SimulationInputError):
 
 @dataclass(frozen=True)
 class Pieces:
-    """A model's M, F and their derivatives as NumPy functions of (q, q', p, u)."""
+    """A model's M, F and their derivatives as NumPy functions of (q, q', p, u, [t]) (t:
+    the time, which only a time-dependent model's use)."""
     nq: int
     n_inputs: int
     mass: object          # M(q, p)
@@ -64,7 +66,7 @@ def _pieces(name: str) -> Pieces:
     """The lambdified pieces of the implicit Jacobian of model `name` (a resolved name)."""
     d = derive(name)
     s = d.symbols
-    args = [list(s.q), list(s.qd), list(s.params), list(s.u)]
+    args = [list(s.q), list(s.qd), list(s.params), list(s.u), [TIME]]
     x = sp.Matrix(s.state)
 
     def numeric(expr):
@@ -141,8 +143,8 @@ def _inputs_values(ref, inputs) -> np.ndarray:
     return np.asarray(_input_values(ref, names, inputs), np.float64)
 
 
-def _resolve(model):
-    ref = model_ref(resolve_model(model))
+def _resolve(model, explicit_time: bool = False, stage: str | None = None):
+    ref = model_ref(resolve_model(model, explicit_time=explicit_time, stage=stage))
     if ref.atlas is not None:
         raise SimulationInputError(f"'{ref}' is a chart atlas: linearize one of its charts "
                                    f"({', '.join(ref.atlas.charts)})")
@@ -154,8 +156,9 @@ def _resolve(model):
     return ref
 
 
-def linearize(model, state, params, inputs=None) -> tuple[np.ndarray, np.ndarray]:
-    """The linearisation x' ~ A (x - x0) + B (u - u0) of a model at a state and inputs.
+def linearize(model, state, params, inputs=None, t=None) -> tuple[np.ndarray, np.ndarray]:
+    """The linearisation x' ~ A (x - x0) + B (u - u0) of a model at a state and inputs (and,
+    for a time-dependent model, at a time t).
 
     Parameters
     ----------
@@ -168,6 +171,9 @@ def linearize(model, state, params, inputs=None) -> tuple[np.ndarray, np.ndarray
         The parameters, as `derive.simulate` takes them.
     inputs : mapping or sequence, optional
         The inputs u0 (default 0; a mapping may leave some out, they are 0).
+    t : float or str, optional
+        The time of the linearisation: required for a time-dependent model (t in its
+        forces, dissipation or pivot), whose A and B depend on it; any other model's do not.
 
     Returns
     -------
@@ -179,7 +185,8 @@ def linearize(model, state, params, inputs=None) -> tuple[np.ndarray, np.ndarray
     Raises
     ------
     SimulationInputError
-        An unknown model, name or value, or a singular mass matrix at the state.
+        An unknown model, name or value, a singular mass matrix at the state, or a
+        time-dependent model without t.
 
     Examples
     --------
@@ -196,30 +203,41 @@ def linearize(model, state, params, inputs=None) -> tuple[np.ndarray, np.ndarray
     >>> bool(np.linalg.eigvals(A).real.max() > 0)     # upright: unstable
     True
     """
-    ref = _resolve(model)
+    ref = _resolve(model, explicit_time=True)
     x = _state_values(ref, state)
     p = np.asarray(normalise_params(ref, params), np.float64)
     u = _inputs_values(ref, inputs)
-    return _jacobians(_pieces(ref.name), x, p, u, ref)
+    return _jacobians(_pieces(ref.name), x, p, u, ref, _time(ref, t))
 
 
-def _jacobians(pc: Pieces, x: np.ndarray, p: np.ndarray, u: np.ndarray, where) -> tuple[np.ndarray, np.ndarray]:
-    """A and B at one point from the implicit form (module docstring)."""
+def _time(ref, t) -> float:
+    """The time of a linearisation: a time-dependent model's must be given."""
+    if t is None:
+        if ref.description.is_time_dependent:
+            raise SimulationInputError(f"{ref}: explicit time in the model (t in its forces, dissipation or "
+                                       f"pivot): its A and B depend on t; give t= (the time to linearize at)")
+        return 0.0
+    return _number(t, "t")
+
+
+def _jacobians(pc: Pieces, x: np.ndarray, p: np.ndarray, u: np.ndarray, where,
+               t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """A and B at one point (at the time t) from the implicit form (module docstring)."""
     nq = pc.nq
-    q, qd = x[:nq], x[nq:]
+    q, qd, at = x[:nq], x[nq:], [t]
     if pc.polar_sines is not None and \
-            np.min(np.abs(np.asarray(pc.polar_sines(q, qd, p, u), np.float64))) < POLAR_SINE_MIN:
+            np.min(np.abs(np.asarray(pc.polar_sines(q, qd, p, u, at), np.float64))) < POLAR_SINE_MIN:
         raise ChartSingular(f"model '{where}': the chart is singular at state {x.tolist()} (a polar "
                             f"sine below {POLAR_SINE_MIN:g}): linearize in another chart of the link")
-    M = np.asarray(pc.mass(q, qd, p, u), np.float64)
-    F = np.asarray(pc.forcing(q, qd, p, u), np.float64).reshape(nq)
+    M = np.asarray(pc.mass(q, qd, p, u, at), np.float64)
+    F = np.asarray(pc.forcing(q, qd, p, u, at), np.float64).reshape(nq)
     try:
         qdd = np.linalg.solve(M, F)
-        dM = np.asarray(pc.dM_dq(q, qd, p, u), np.float64).reshape(nq, nq, nq)
-        rhs = np.asarray(pc.dF_dx(q, qd, p, u), np.float64).reshape(nq, 2 * nq)
+        dM = np.asarray(pc.dM_dq(q, qd, p, u, at), np.float64).reshape(nq, nq, nq)
+        rhs = np.asarray(pc.dF_dx(q, qd, p, u, at), np.float64).reshape(nq, 2 * nq)
         rhs[:, :nq] -= np.einsum("kij,j->ik", dM, qdd)
         dqdd_dx = np.linalg.solve(M, rhs)
-        dqdd_du = np.linalg.solve(M, np.asarray(pc.dF_du(q, qd, p, u), np.float64).reshape(nq, pc.n_inputs))
+        dqdd_du = np.linalg.solve(M, np.asarray(pc.dF_du(q, qd, p, u, at), np.float64).reshape(nq, pc.n_inputs))
     except np.linalg.LinAlgError:
         raise ChartSingular(f"model '{where}': the mass matrix is singular at state "
                                    f"{x.tolist()} (a chart singularity?)") from None
@@ -311,7 +329,8 @@ def equilibria(model, params) -> list[dict]:
     Raises
     ------
     SimulationInputError
-        An unknown model, the chart atlas, parameters that do not fit the model.
+        An unknown model, the chart atlas, parameters that do not fit the model, a
+        time-dependent model.
 
     Examples
     --------
@@ -324,7 +343,11 @@ def equilibria(model, params) -> list[dict]:
     3.1416 0.0 unstable
     3.1416 3.1416 unstable
     """
-    ref = _resolve(model)
+    ref = _resolve(model, explicit_time=True)
+    if ref.description.is_time_dependent:
+        raise SimulationInputError(f"{ref}: explicit time in the model (t in its forces, dissipation or pivot): "
+                                   f"a rest state of q'' = f(q, q', t) need not exist; linearize at a time "
+                                   f"instead, derive.linearize(model, state, params, t=...)")
     p = np.asarray(normalise_params(ref, params), np.float64)
     d = derive(ref.name)
     pc = _pieces(ref.name)

@@ -17,6 +17,7 @@ from ..model import load_model
 from ..model.atlas import atlas_for, find_atlas
 from .energy_error import exact_energy_error, relative_energy_error
 from .model_sizes import model_info
+from .power import energy_balance
 
 
 @dataclass
@@ -491,12 +492,23 @@ def _energy_row(result: SimulationResult) -> tuple[str, str]:
     """A conservative model's energy change is the run's error; a driven or damped one's is
     mostly the work of its forces and damping, which a table must not call an error."""
     try:
-        conservative = find_atlas(result.model) is not None or load_model(result.model).is_conservative
+        description = None if find_atlas(result.model) is not None else load_model(result.model)
     except ModelError:
-        conservative = True
-    if conservative:
+        description = None
+    if description is None or description.is_conservative:
         return "energy error", f"{result.energy_error:.3g} (relative)"
+    if description.is_time_dependent and not description.inputs:
+        return _balance_row(result)
     return "energy change", f"{result.energy_error:.3g} (relative; the work of forces and damping, not an error)"
+
+
+def _balance_row(result: SimulationResult) -> tuple[str, str]:
+    """A time-dependent model's E changes by the work of its drives (the moving pivot,
+    forces in t): what the balance E - E0 = W - D + M leaves is the run's energy error."""
+    balance = energy_balance(result)
+    worst = float(np.nanmax(balance.residual, initial=0.0)) / float(result.energy_scale)
+    return ("energy balance", f"{worst:.3g} (relative: |E - E0 - (W - D + M)|, W the work of the forces, "
+                              f"D dissipated, M the prescribed motion's work)")
 
 
 def summary_html(result: SimulationResult) -> str:

@@ -117,11 +117,12 @@ def _finite_array(value, what: str) -> np.ndarray:
     return a
 
 
-def resolve_model(model, atlas: bool = False, explicit_time: bool = False) -> str:
+def resolve_model(model, atlas: bool = False, explicit_time: bool = False, stage: str | None = None) -> str:
     """The name of a model argument: a catalogue name, a model file read before (by its
     name), the path of a model file, or 'spherical' (the chart atlas).  With atlas=True,
     the key of the model's chart atlas (a spherical chain's: '<name>_atlas').  A
-    time-dependent model is refused unless explicit_time (a caller that passes t)."""
+    time-dependent model is refused unless explicit_time (a caller that passes t); `stage`
+    names the caller in that refusal."""
     if isinstance(model, os.PathLike) or (isinstance(model, str) and is_model_file(model)):
         try:
             name = load_model(model).name
@@ -137,7 +138,7 @@ def resolve_model(model, atlas: bool = False, explicit_time: bool = False) -> st
         except ModelError as exc:
             raise SimulationInputError(f"{exc}; or '{ATLAS}' for the chart atlas") from None
     if not explicit_time:
-        refuse_explicit_time(load_model(name))
+        refuse_explicit_time(load_model(name), stage or ("the chart atlas" if atlas else "this stage"))
     if not atlas:
         return name
     try:
@@ -146,14 +147,34 @@ def resolve_model(model, atlas: bool = False, explicit_time: bool = False) -> st
         raise SimulationInputError(f"atlas=True: {exc}") from None
 
 
-def refuse_explicit_time(model: Model) -> None:
-    """Refuse, in one line, to run a time-dependent model: its kernels take the time t,
-    but no integrator passes it yet (issue 23 item 3, first cut: derivation and kernels)."""
+# what runs a time-dependent model: the refusals of the stages that do not say so
+TIMED_RUNS = (f"derive.simulate with {', '.join(continuous_inputs.CONTINUOUS_METHODS)} (each stage at "
+              f"its own time t) or derive.scipy_rhs with solve_ivp")
+
+
+def refuse_explicit_time(model: Model, stage: str = "this stage") -> None:
+    """Refuse, in one line naming why and what runs it instead, to run a time-dependent
+    model where `stage` (ensembles, the atlas, ...) does not pass the time t to its kernels."""
     if model.is_time_dependent:
         raise SimulationInputError(
-            f"{model.name}: explicit time in the model (t in its forces, dissipation or pivot) is "
-            f"not supported by the integrators yet (none passes t to the rhs); its equations "
-            f"and kernels are: derive derive | latex | generate")
+            f"{model.name}: explicit time in the model (t in its forces, dissipation or pivot): "
+            f"{stage} does not pass t to its kernels; use {TIMED_RUNS}")
+
+
+def _check_timed(ref, method: str, dt: np.dtype, hold) -> None:
+    """What a run of a time-dependent model takes: an explicit method stepped in Python with
+    each stage at its own t (the generated integrators are for autonomous models), float64."""
+    why = f"{ref.name}: explicit time in the model (t in its forces, dissipation or pivot)"
+    if method not in continuous_inputs.CONTINUOUS_METHODS:
+        raise SimulationInputError(f"{why}: method {method} does not pass t to the kernels; use "
+                                   f"{', '.join(continuous_inputs.CONTINUOUS_METHODS)} (each stage at its "
+                                   f"own time) or derive.scipy_rhs with solve_ivp")
+    if np.dtype(dt) != np.float64:
+        raise SimulationInputError(f"{why}: its runs step in float64 (the stages in Python over the kernels), "
+                                   f"not {np.dtype(dt).name}; give dtype='float64'")
+    if hold is not None:
+        raise SimulationInputError(f"{why}: hold={hold!r} is not available (the held inputs run the generated "
+                                   f"integrators, which do not pass t); give inputs u(t, y) at every stage")
 
 
 @dataclass(frozen=True, eq=False)
@@ -455,7 +476,9 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
         held constant over the run; or a function u(t, y) returning one, evaluated at every
         stage of the integrator (rk4, rk8, dopri5 or dop853, stepped in Python over the
         compiled rhs: derive/runtime/continuous_inputs.py), so the error follows the method's
-        order.
+        order.  A time-dependent model (t in its forces, dissipation or pivot) runs the same
+        way, each stage at its own t, with those four methods in float64 (events and r.sol
+        on its steps: derive/runtime/stage_solution.py); other methods refuse it in one line.
     hold : {None, "zoh"}
         "zoh": a callable `inputs` is sampled at each output time instead (with the state
         there) and held until the next (a zero-order hold: a digital controller), any method.
@@ -545,7 +568,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
                               sine_min, newton_tol, newton_max, hmax)
         if fast is not None:
             return fast
-    model = resolve_model(model, atlas)
+    model = resolve_model(model, atlas, explicit_time=not atlas)
     ref = model_ref(model)          # looked up once, passed down
     _check_error_estimate(error_estimate)
     if not isinstance(method, str) or method not in RUN_METHODS:
@@ -581,13 +604,21 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
         result = continuous_inputs.run_continuous(model, method, state, ts, p, opt, backend, _stage_inputs(ref, u),
                                                   project=lambda y: constraints.project(model, y, p))
         return constraints.report_drift(result, model, p)
-    if isinstance(u, HeldInputs) and hold is None:
-        if wanted or error_estimate != "local" or ref.atlas is not None:
-            raise SimulationInputError("inputs u(t, y) at every stage: no events, rerun estimate or atlas "
-                                       "(give hold='zoh' for those)")
-        result = continuous_inputs.run_continuous(model, method, state, ts, p, opt, backend,
-                                                  continuous_inputs.ContinuousInputs(ref, u.names, u.function,
-                                                                                     _input_values))
+    timed = ref.description.is_time_dependent
+    if timed or (isinstance(u, HeldInputs) and hold is None):
+        if timed:
+            _check_timed(ref, method, dt, hold)
+        elif ref.atlas is not None:
+            raise SimulationInputError("inputs u(t, y) at every stage: not on the chart atlas "
+                                       "(give hold='zoh' for it)")
+        stages_u = continuous_inputs.ContinuousInputs(ref, u.names, u.function, _input_values) \
+            if isinstance(u, HeldInputs) else u
+        result = continuous_inputs.run_continuous(model, method, state, ts, p, opt, backend, stages_u, wanted)
+        if error_estimate == "rerun":
+            again = dict(method=method, rtol=rtol, atol=atol, step=step, backend=backend, max_steps=max_steps,
+                         hmax=hmax, inputs=inputs)
+            _estimate_by_rerun(result, lambda **tighter: simulate(model, y0, t, params, **{**again, **tighter}),
+                               method, opt, dt, max_steps)
         return constraints.report_drift(result, model, p) if loop else result
 
     def run(o):

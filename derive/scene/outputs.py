@@ -6,7 +6,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import sympy as sp
 
 from ..derivation import derive
 from ..derivation.lagrange import tree_geometry
@@ -16,6 +15,8 @@ from ..model.atlas import find_atlas
 from ..paths import replace_file, writable_dir
 from ..runtime.simulate import normalise_params
 from ..runtime.energy_error import relative_change
+from ..runtime.power import gauss_converged, power_functions, trapezoid
+from .stepped import run_inputs
 from .scene import UNITS, SceneError
 from .run import SCALE_TEXT, conservative, energy_error
 from ..progress import Stage
@@ -329,66 +330,22 @@ def energy_figure(plt, o):
 
 
 def _power_functions(o):
-    """f(y) -> (q'.Q, q'.dR/dq') at states y (rows): the power of the applied forces and
-    the power dissipated (in W), from the derivation of the model that ran."""
-    d = derive(o.plan.model)
-    s = d.symbols
-    forces = (sum((qd * Q for qd, Q in zip(s.qd, d.forces)), sp.S.Zero)
-              if d.forces is not None else sp.S.Zero)
-    dissipated = (sum((qd * d.dissipation.diff(qd) for qd in s.qd), sp.S.Zero)
-                  if d.dissipation is not None else sp.S.Zero)
-    args = (*s.q, *s.qd, *s.params, *s.u)
-    f = [sp.lambdify(args, expr, "numpy") for expr in (forces, dissipated)]
-    p = [float(x) for x in normalise_params(o.plan.model, o.plan.params)]
-    u = [float((o.scene.inputs or {})[x.name]) for x in s.u]
-
-    def power(y):
-        y = np.asarray(y, float)
-        with np.errstate(invalid="ignore"):          # NaN rows after a run's stop stay NaN
-            return tuple(np.asarray(g(*y.T, *p, *u), float) + np.zeros(len(y)) for g in f)
-    return power, (forces != 0, dissipated != 0)
-
-
-GAUSS = np.polynomial.legendre.leggauss(3)      # nodes and weights on [-1, 1]
-MAX_PIECES = 64                                  # sub-intervals per output interval, at most
-
-
-def _gauss_on(result, t: np.ndarray, power, pieces: int) -> list[np.ndarray]:
-    """The integral of each power over each output interval, by 3-point Gauss on `pieces`
-    equal sub-intervals of it, on the run's continuous solution."""
-    nodes, weights = GAUSS
-    edges = t[:-1, None] + (t[1:] - t[:-1])[:, None] * np.linspace(0.0, 1.0, pieces + 1)[None, :]
-    mid, half = (edges[:, 1:] + edges[:, :-1]) / 2, (edges[:, 1:] - edges[:, :-1]) / 2
-    at = (mid[..., None] + half[..., None] * nodes).ravel()
-    shape = mid.shape + (len(nodes),)
-    return [((q.reshape(shape) * weights).sum(axis=2) * half).sum(axis=1) for q in power(result.sol(at))]
-
-
-def _gauss_converged(result, t: np.ndarray, power) -> tuple[list[np.ndarray], int, float]:
-    """W and D per output interval, the sub-intervals doubled until the running sums move by
-    less than 1e-13 of the energy scale: one Gauss rule per output interval is far from
-    enough for a fast motion sampled coarsely (its error, 1e-5 J, hid a run's 1e-9).
-    Returns the parts, the pieces per interval and the last change in J."""
-    tol = 1e-13 * float(result.energy_scale)
-    pieces, parts = 1, _gauss_on(result, t, power, 1)
-    change = float("inf")
-    while pieces < MAX_PIECES:
-        finer = _gauss_on(result, t, power, 2 * pieces)
-        change = max(float(np.nanmax(np.abs(np.cumsum(a) - np.cumsum(b)), initial=0.0))
-                     for a, b in zip(parts, finer))
-        pieces, parts = 2 * pieces, finer
-        if change <= tol:
-            break
-    return parts, pieces, change
+    """f(t, y) -> (q'.Q, q'.dR/dq', -dL/dt|explicit) at the rows (t, y): the power of the
+    applied forces, the power dissipated and the prescribed motion's (in W); g(t, y) = E - h;
+    and which are present (derive/runtime/power.py), from the derivation of the model that ran."""
+    p = normalise_params(o.plan.model, o.plan.params)
+    inputs = run_inputs(o.scene)
+    if isinstance(inputs, dict):
+        inputs = [float(inputs[n]) for n in load_model(o.plan.model).inputs]
+    return power_functions(o.plan.model, p, inputs)
 
 
 def work_and_dissipation(o) -> tuple[np.ndarray, np.ndarray, str, tuple[bool, bool]]:
-    """W(t) and D(t) at the output times: the work of the applied forces and the energy
-    dissipated since t0.  On the run's continuous solution (adaptive methods) by 3-point
-    Gauss quadrature, each output interval cut until the sums converge (_gauss_converged);
-    else by the
-    trapezoid rule with its end correction on the output rows (fourth order in the output
-    interval).
+    """W(t) and D(t) at the output times: the work of the applied forces (and of a
+    prescribed motion: a moving pivot's) and the energy dissipated since t0.  On the run's
+    continuous solution by 3-point Gauss quadrature, each output interval cut until the
+    sums converge (derive/runtime/power.py); else by the trapezoid rule with its end
+    correction on the output rows (fourth order in the output interval).
 
     Parameters
     ----------
@@ -402,27 +359,21 @@ def work_and_dissipation(o) -> tuple[np.ndarray, np.ndarray, str, tuple[bool, bo
     how : str
         The quadrature used, in words.
     present : tuple of bool
-        Whether the model has applied forces, and dissipation.
+        Whether the model has applied forces or explicit time, and dissipation.
     """
     t = np.asarray(o.result.t, float)
-    power, present = _power_functions(o)
+    power, gap, (forced, damped, timed) = _power_functions(o)
     if o.result.sol is not None and len(t) > 1:
-        parts, pieces, _ = _gauss_converged(o.result, t, power)
+        parts, pieces = gauss_converged(o.result, t, power)
         how = f"3-point Gauss on the continuous solution, {pieces} piece(s) per output interval"
-    elif len(t) > 2:
-        # the trapezoid rule with its end correction (Euler-Maclaurin), the derivatives
-        # by second-order differences: fourth order in the output interval
-        h = np.diff(t)
-        parts = []
-        for p in power(o.result.y):
-            dp = np.gradient(p, t, edge_order=2)
-            parts.append(h * (p[1:] + p[:-1]) / 2 - h ** 2 * (dp[1:] - dp[:-1]) / 12)
-        how = "the corrected trapezoid rule on the output rows"
     else:
-        parts = [np.diff(t) * (p[1:] + p[:-1]) / 2 for p in power(o.result.y)]
-        how = "the trapezoid rule on the output rows"
-    work, loss = (np.concatenate([[0.0], np.cumsum(part)]) for part in parts)
-    return work, loss, how, present
+        parts = trapezoid(t, power(t, o.result.y))
+        how = "the corrected trapezoid rule on the output rows" if len(t) > 2 else "the trapezoid rule on the output rows"
+    work, loss, motion = (np.concatenate([[0.0], np.cumsum(part)]) for part in parts)
+    if timed:                        # the moving pivot's work joins the forces'
+        g = gap(t, o.result.y)
+        work = work + motion + (g - g[0])
+    return work, loss, how, (forced or timed, damped)
 
 
 def energy_balance_figure(plt, o):
@@ -451,7 +402,8 @@ def energy_balance_figure(plt, o):
     # a wide pale band under the thin W - D: where the balance holds, both are seen
     ax.plot(t, change, lw=5, alpha=0.35, color="C0", solid_capstyle="butt", label="E - E0")
     if forced:
-        ax.plot(t, work, lw=0.8, ls="--", color="C1", label="W: work of the applied forces")
+        ax.plot(t, work, lw=0.8, ls="--", color="C1", label="W: work of the applied forces" +
+                (" and the moving pivot" if load_model(o.plan.model).is_time_dependent else ""))
     if damped:
         ax.plot(t, -loss, lw=0.8, ls=":", color="C2", label="-D: energy dissipated")
     ax.plot(t, work - loss, lw=0.8, color="k", label="W - D")

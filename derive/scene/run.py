@@ -46,6 +46,9 @@ from ..runtime.model_sizes import model_info
 from ..runtime.events import locate, parse_events
 from ..model import load_model
 from ..runtime.loader import load, numpy_module
+from ..runtime.observables import call_kernel
+from ..runtime.stage_solution import StageSolution, locate_on_steps
+from . import stepped
 
 SAFETY = 10.0
 RTOL_MAX = 1e-3            # a looser target is met at this tolerance: DOP853 is not run looser
@@ -101,7 +104,10 @@ class Outcome:
 
 def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
     """None when the motion cannot be followed (e.g. a single chart meets its
-    singularity): the scene's own run then reports why."""
+    singularity): the scene's own run then reports why.  None for a stepped scene (the
+    estimate runs the generated integrators, which do not pass t)."""
+    if stepped.is_stepped(scene):
+        return None
     try:
         if find_atlas(p.model) is not None:
             return atlas_lyapunov(p.y0, p.params, scene.t_stop - scene.t_start, atlas=p.model,
@@ -113,6 +119,8 @@ def _lyapunov(p: Plan, scene: Scene) -> Lyapunov | None:
 
 
 def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
+    if stepped.is_stepped(scene):
+        return _stepped_choice(scene)
     if scene.method is not None:
         return Choice(scene.method, scene.rtol, None if scene.scalar in EXTENDED else scene.atol, scene.step,
                       _dtype_of(scene.scalar), None, "as the scene asks", guard=scene.guard)
@@ -135,6 +143,17 @@ def choose(scene: Scene, lyap: Lyapunov | None) -> Choice:
             note = note or why               # (climb's note, beyond long double, says it all)
     atol = None if dtype in EXTENDED else rtol
     return Choice(method, rtol, atol, None, dtype, rtol * growth, note)
+
+
+def _stepped_choice(scene: Scene) -> Choice:
+    """A stepped scene's run (stepped.py): its own method, else dop853 at the target / SAFETY
+    (no Lyapunov estimate to scale it by), in float64."""
+    if scene.method is not None:
+        return Choice(scene.method, scene.rtol, scene.atol, scene.step, "float64", None, "as the scene asks")
+    rtol = min(max(scene.target / SAFETY, stepped.RTOL_MIN), RTOL_MAX)
+    return Choice(stepped.METHOD, rtol, rtol, None, "float64", None,
+                  "each stage at its own time t (explicit time or inputs in t): dop853 in float64, "
+                  "no Lyapunov estimate")
 
 
 def _dtype_of(scalar: str) -> str:
@@ -245,7 +264,9 @@ def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
     """The scene's run in CHUNKS pieces (fixed, so results do not depend on the display);
     a fixed-step run in one piece: its grid t0 + k step must not restart at a piece's start."""
     t = np.linspace(scene.t_start, scene.t_stop, scene.outputs)
-    pieces = 1 if c.step is not None and c.method not in ADAPTIVE else min(CHUNKS, len(t) - 1)
+    # a stepped run in one piece too: its continuous solution is its own steps
+    pieces = 1 if (c.step is not None and c.method not in ADAPTIVE) or stepped.is_stepped(scene) else \
+        min(CHUNKS, len(t) - 1)
     bounds = np.linspace(0, len(t) - 1, pieces + 1).astype(int)
     y0, parts = p.y0, []
     for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
@@ -255,7 +276,7 @@ def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
                      rtol=None if rtol is None else rtol / tighten,
                      atol=None if atol is None or (dtype or c.dtype) in EXTENDED else atol / tighten,
                      step=None if c.step is None else c.step / tighten,
-                     dtype=dtype or c.dtype, backend=scene.backend, inputs=scene.inputs)
+                     dtype=dtype or c.dtype, backend=scene.backend, inputs=stepped.run_inputs(scene))
         parts.append(r)
         if progress:
             progress.update(k + 1)
@@ -297,7 +318,9 @@ def _join(parts: list[SimulationResult]) -> SimulationResult:
         # a piece that starts in another chart than the last one ended in (the rule picks
         # the chart of a start): a switch too
         out.switches += sum(r.chart[0] != prev.chart[-1] for prev, r in zip(parts, parts[1:]))
-    if first.sol is not None:                 # the dense output over the joined rows
+    if isinstance(first.sol, StageSolution):  # a stepped run, in one piece: its own steps
+        out.sol = first.sol
+    elif first.sol is not None:               # the dense output over the joined rows
         inputs = None if first.sol.inputs is None else \
             np.concatenate([first.sol.inputs] + [r.sol.inputs[1:] for r in parts[1:]])
         out.sol = first.sol.rows_of(out.t, out.y, inputs, last.sol.t_end)
@@ -309,7 +332,10 @@ def _events(p: Plan, scene: Scene, c: Choice, result: SimulationResult) -> Simul
     a terminal event then truncates the outputs)."""
     if not scene.events or result.sol is None:
         return result
-    return locate(result, parse_events(model_info(p.model), scene.events), c.rtol)
+    events = parse_events(model_info(p.model), scene.events)
+    if isinstance(result.sol, StageSolution):       # a stepped run: on its own steps
+        return locate_on_steps(result, events, c.rtol)
+    return locate(result, events, c.rtol)
 
 
 def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -321,8 +347,8 @@ def _observables(scene: Scene, p: Plan, r: SimulationResult) -> tuple[np.ndarray
         # a reduction with the same coordinates: the scene's own kernels on the run's states
         own = normalise_params(scene.model, scene.parameters).astype(np.float64)
         m = load(scene.model) if scene.backend == "c" else numpy_module(scene.model)   # no compiler needed
-        y = r.y.astype(np.float64)
-        return m.positions(y, own), m.velocities(y, own), m.energy(y, own)
+        y, t = r.y.astype(np.float64), np.asarray(r.t, np.float64)
+        return tuple(call_kernel(k, t, y, own) for k in (m.positions, m.velocities, m.energy))
     return r.positions, r.velocities, r.energy
 
 
@@ -378,7 +404,11 @@ def reference_method(c: Choice) -> str:
 
 def _reference(p: Plan, scene: Scene, c: Choice) -> SimulationResult:
     """The same run, far tighter (reference_rtol); above long double with Taylor's method;
-    a fixed-step run's with DOP853."""
+    a fixed-step run's with DOP853; a stepped run's in float64 at no less than stepped.RTOL_MIN."""
+    if stepped.is_stepped(scene):
+        rtol = max(reference_rtol(c)[0], stepped.RTOL_MIN / 10)
+        method = c.method if c.rtol is not None and c.method in ADAPTIVE else REFERENCE_METHOD
+        return integrate(p, scene, Choice(method, rtol, rtol, None, "float64", None), None)
     rtol, dtype = reference_rtol(c)
     if c.rtol is None:
         c = Choice(reference_method(c), rtol, None if dtype in EXTENDED else rtol, None, dtype, None)
@@ -510,8 +540,8 @@ def _run_plan(scene: Scene, p: Plan, show_progress: bool, start: float) -> Outco
             if achieved is None or achieved <= scene.target or c.rtol <= REFERENCE_RTOL_MIN[c.dtype]:
                 break
             factor = SAFETY * achieved / scene.target
-            if scene.method is not None:
-                break                     # the scene fixed its method: measured, not changed
+            if scene.method is not None or stepped.is_stepped(scene):
+                break                     # the scene fixed its method (or the stepped one): measured
             method, dtype, rtol, climbed = climb(c.rtol / factor, scene.target)
             method, dtype, rtol = _not_below(scene, (method, dtype, rtol), c.rtol / factor)
             if dtype == c.dtype and rtol >= c.rtol:

@@ -16,8 +16,7 @@ from ..codegen.contract import ATLAS_CHARTS, EXTENDED, FIXED, MULTISTEP, RUN_MET
 
 from ..model.atlas import ATLAS, atlas_for, find_atlas, standard_member  # noqa: E402  (chart atlases)
 from ..runtime.events import parse_events
-from ..runtime.simulate import refuse_explicit_time
-from ..errors import SimulationInputError
+from . import stepped
 from types import SimpleNamespace
 SPHERICAL_CHART_MODELS = ATLAS_CHARTS
 FIXED_STEP = FIXED
@@ -51,7 +50,7 @@ class Scene:
     backend: str
     output_dir: Path
     trajectory: tuple[str, ...] = ()
-    inputs: dict | None = None       # a model's run-time inputs, held constant (pendulum.inputs)
+    inputs: dict | None = None       # a model's run-time inputs (pendulum.inputs): numbers, or expressions in t
     plots: tuple[str, ...] = ()
     units: str = "SI"                # output.units: a key of UNITS
     events: dict | None = None       # [events]: name -> expression or {expression, direction, terminal}
@@ -117,12 +116,9 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float], bool 
         if atlas:                           # the chain run through its chart atlas
             model = atlas_for(model).name
         names = _parameter_names(model)
-        refuse_explicit_time(load_model(standard_member(model)))
     except ModelError as exc:
         hint = "" if is_model_file(t["model"]) else f"; or '{ATLAS}', the chart atlas"
         raise SceneError(f"'pendulum.model': {exc}{hint}") from None
-    except SimulationInputError as exc:         # a model no integrator runs yet
-        raise SceneError(f"'pendulum.model': {exc}") from None
     given = _table(t, "parameters", "[pendulum]")
     for key in given:
         if key not in names:
@@ -143,7 +139,8 @@ def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float], bool 
 
 
 def _parse_inputs(t: dict, model: str) -> dict | None:
-    """pendulum.inputs: every run-time input of the model, a number (held constant)."""
+    """pendulum.inputs: every run-time input of the model, a number (held constant) or an
+    expression in t, the states and the parameters (evaluated at every stage: stepped.py)."""
     names = load_model(standard_member(model)).inputs
     given = t.get("inputs")
     if given is None:
@@ -160,7 +157,8 @@ def _parse_inputs(t: dict, model: str) -> dict | None:
     missing = [n for n in names if n not in given]
     if missing:
         raise SceneError(f"'pendulum.inputs.{missing[0]}' is missing")
-    return {n: _number(given[n], f"pendulum.inputs.{n}") for n in names}
+    values = {n: stepped.input_value(given[n], f"pendulum.inputs.{n}", model) for n in names}
+    return {n: v if isinstance(v, str) else _number(v, f"pendulum.inputs.{n}") for n, v in values.items()}
 
 
 def _missing_rates(state: dict, names, coordinates, rest: bool, where: str) -> dict:
@@ -354,9 +352,11 @@ def scene_from_table(t: dict, source: str = "<scene>") -> Scene:
     title = t.get("title", Path(source).stem)
     if not isinstance(title, str):
         raise SceneError("'title' must be a string")
-    return Scene(source=source, title=title, model=model, parameters=params, initial=initial,
-                 t_start=start, t_stop=stop, outputs=outputs, inputs=inputs, events=events,
-                 atlas=atlas, **accuracy, **output)
+    scene = Scene(source=source, title=title, model=model, parameters=params, initial=initial,
+                  t_start=start, t_stop=stop, outputs=outputs, inputs=inputs, events=events,
+                  atlas=atlas, **accuracy, **output)
+    stepped.check(scene)
+    return scene
 
 
 def _output_folder(directory: Path, source: str) -> Path:

@@ -43,6 +43,7 @@ from ..codegen.contract import DEFAULT_METHOD, TAYLOR, TOLERANCE_METHODS
 from ..model import load_model, model_names
 from ..model.atlas import ATLAS
 from ..model.expressions import parse_expression
+from ..scene.stepped import is_stepped
 from ..scene.scene import SCENE_KEYS, Scene, scene_from_table, scene_path
 from ..codegen.taylor import taylor_problem
 from ..model.description import parameter_problem
@@ -389,6 +390,10 @@ def parse_sweep(text: str, source: str = "<sweep>", run_as: str | None = None) -
         raise SceneError(f"{source}: 'pendulum.model': a sweep runs one chart model (e.g. spherical_std), "
                          f"not the chart atlas '{ATLAS}'")
     _accuracy(t, scene, source)
+    if is_stepped(scene):
+        raise SceneError(f"{source}: 'pendulum': explicit time in the model or inputs in t: a sweep runs the "
+                         f"generated batch integrators, which do not pass t; run each case as a scene "
+                         f"(`derive run`) or with derive.simulate (rk4, rk8, dopri5, dop853)")
     description = load_model(scene.model)
     if description.is_constrained:
         raise SceneError(f"{source}: '{description.name}' has constraints (a closed loop): a sweep's axes "

@@ -1,7 +1,7 @@
-"""What the run time does with a time-dependent model (issue 23 item 3, first cut): its
-kernels take t, but no integrator passes it yet, so every way of running one refuses in
-one line naming why (exit status 2 on the command line); `derive verify` balances the
-power with Jacobi's energy and does not claim conservation."""
+"""What the run time refuses of a time-dependent model (issue 23 item 3): the stages that
+do not pass t to its kernels refuse in one line naming why and what runs it instead (exit
+status 2 on the command line); derive.simulate runs it (test_explicit_time_simulate.py);
+`derive verify` balances the power with Jacobi's energy and does not claim conservation."""
 from __future__ import annotations
 
 import os
@@ -23,37 +23,40 @@ PIVOT_P = {"m": 1.0, "l": 1.0, "g": 9.81, "a": 0.01, "w": 3.0}
 WHY = "explicit time in the model"
 
 
-@pytest.mark.parametrize("method, backend", [("dop853", "c"), ("rk4", "c"), ("taylor", "c"),
-                                             ("dop853", "numpy"), ("rk4", "numpy")])
-def test_simulate_refuses_in_one_line(method, backend):
+def test_the_atlas_refuses_in_one_line_naming_what_runs_it():
     with pytest.raises(derive.SimulationInputError, match=WHY) as info:
-        derive.simulate(PIVOT, [0.1, 0.0], np.linspace(0, 1, 3), PIVOT_P, method=method, backend=backend)
-    assert "\n" not in str(info.value) and "not supported by the integrators yet" in str(info.value)
-
-
-def test_the_atlas_refuses_too():
-    with pytest.raises(derive.SimulationInputError, match=WHY):
         derive.simulate(PIVOT, [0.1, 0.0], np.linspace(0, 1, 3), PIVOT_P, atlas=True)
+    assert "\n" not in str(info.value) and "the chart atlas" in str(info.value) and "dop853" in str(info.value)
 
 
-def test_an_ensemble_of_a_forced_pendulum_refuses():
+def test_an_ensemble_of_a_forced_pendulum_runs_each_member_as_simulate_does():
     p = {"m": 1.0, "l": 1.0, "g": 9.81, "c": 0.1, "F0": 1.0, "w": 3.0}
-    with pytest.raises(derive.SimulationInputError, match=WHY):
-        derive.ensemble(FORCED, np.zeros((3, 2)), np.linspace(0, 1, 3), p)
+    y0 = np.array([[0.1, 0.0], [0.5, -0.2], [1.0, 0.3]])
+    times = np.linspace(0, 2, 5)
+    ens = derive.ensemble(FORCED, y0, times, p, method="dopri5", rtol=1e-10)
+    assert ens.y.shape == (3, 5, 2) and list(ens.status_names) == ["ok"] * 3
+    for row, y in zip(y0, ens.y):
+        assert np.array_equal(y, derive.simulate(FORCED, row, times, p, method="dopri5", rtol=1e-10).y)
+    with pytest.raises(derive.SimulationInputError, match=WHY) as info:       # Taylor's lanes: no t
+        derive.ensemble(FORCED, y0, times, p, method="taylor")
+    assert "\n" not in str(info.value) and "dop853" in str(info.value)
 
 
-def test_a_scene_of_a_time_dependent_model_exits_2_with_one_line(tmp_path):
+def test_a_scene_of_a_time_dependent_model_with_taylor_exits_2_with_one_line(tmp_path):
+    """A scene of the driven pivot runs (tests/scene/test_explicit_time_scenes.py); one
+    that asks for Taylor's method, which does not pass t, is refused before any work."""
     scene = tmp_path / "pivot.toml"
     scene.write_text(f'[pendulum]\nmodel = "{PIVOT}"\nparameters = {{ m = 1.0, l = 1.0, g = 9.81, '
                      f'a = 0.01, w = 3.0 }}\n[initial]\nstate = {{ theta1 = 0.1, theta1_dot = 0.0 }}\n'
-                     f'[time]\nstop = 1.0\noutputs = 11\n[output]\ndirectory = "{tmp_path / "out"}"\n')
+                     f'[time]\nstop = 1.0\noutputs = 11\n[accuracy]\nmethod = "taylor"\n'
+                     f'[output]\ndirectory = "{tmp_path / "out"}"\n')
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     run = subprocess.run([sys.executable, "-m", "derive", "run", str(scene)], env=env,
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == 2, run.stderr
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("derive: error: ") and WHY in lines[0]
-    assert not (tmp_path / "out").exists()
+    assert "dop853" in lines[0] and not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize("model", [PIVOT, FORCED])
@@ -69,3 +72,22 @@ def test_the_power_balance_could_fail(monkeypatch):
     model = load_model(PIVOT)
     monkeypatch.setattr(physics, "jacobi_energy", lambda d: d.energy)
     assert not physics.energy_conservation(model).passed
+
+
+def test_taylor_and_its_lanes_refuse_naming_what_runs_it():
+    """Taylor's jet carries the state, not t: the scalar and the lane libraries (what
+    derive.ensemble's taylor runs) say so in one line."""
+    from derive.runtime.taylor_lanes_library import taylor_lanes_library
+    from derive.runtime.taylor_library import taylor_library
+    name = load_model(PIVOT).name
+    for make in (lambda: taylor_library(name, 10), lambda: taylor_lanes_library(name, 10)):
+        with pytest.raises(derive.SimulationInputError, match="explicit time in the model") as info:
+            make()
+        assert "\n" not in str(info.value) and "dop853" in str(info.value)
+
+
+def test_the_trust_horizon_of_a_time_dependent_run_is_refused_in_one_line():
+    r = derive.simulate(PIVOT, [0.1, 0.0], np.linspace(0, 1, 3), PIVOT_P)
+    with pytest.raises(derive.InputError, match="explicit time in the model") as info:
+        derive.trust_horizon(r, 1e-6)
+    assert "\n" not in str(info.value) and "rerun" in str(info.value)

@@ -358,7 +358,7 @@ def test_the_energy_balance_does_not_depend_on_the_output_grid(tmp_path):
     work, loss, how, _ = work_and_dissipation(o)
     assert "pieces per output interval" in how or "piece(s) per output interval" in how
     fine = np.linspace(o.result.t[0], o.result.t[-1], 20_001)
-    powers = _power_functions(o)[0](o.result.sol(fine))
+    powers = _power_functions(o)[0](fine, o.result.sol(fine))
     h = fine[1] - fine[0]
     simpson = [h / 3 * (q[0] + q[-1] + 4 * q[1:-1:2].sum() + 2 * q[2:-1:2].sum()) for q in powers]
     assert abs(work[-1] - simpson[0]) < 1e-9 and abs(loss[-1] - simpson[1]) < 1e-9, \
