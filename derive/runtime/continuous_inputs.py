@@ -236,7 +236,7 @@ def run_continuous(model: str, method: str, y0, ts: np.ndarray, p: np.ndarray, o
         error_kind=None if fixed else LOCAL_SUM,
         rtol=None if fixed else float(opt["rtol"]),
         step=float(opt["h"]) if method in FIXED_TABLEAU else None, **counts)
-    step = (lambda t, y, h: _step(f, A, b, c, t, y, h)[0])
+    step = (lambda t, y, h: project(_step(f, A, b, c, t, y, h)[0]))     # as the outputs are made
     result.sol = StageSolution(step, starts, float(ts64[0]), result.t_stop, pd, inputs)
     if events:
         result = locate_on_steps(result, events, float(opt.get("rtol") or 1e-10))
