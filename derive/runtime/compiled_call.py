@@ -1,0 +1,145 @@
+"""simulate's plain call compiled: from its Python arguments to its result in one C call.
+
+Measured (cProfile and timed loops of `derive.simulate` on a trivial span), a plain call
+spent about a tenth of its time in the integrator and in ctypes' conversion of its
+arguments, the rest in Python around them: reading and checking the arguments, filling
+the buffer, reading the info struct, building the result and its continuous solution.
+So the call itself is compiled: c/compiled_call.c is a CPython extension module, built
+on first use into derive's build cache with the C compiler derive already uses (as the
+kernels are: derive/runtime/loader.py), against this Python's and NumPy's headers.  A
+`Call` of it holds one runner's settings (Runner.compiled_call); called with (y0, t,
+params) it makes simulate's fast-path checks in C, calls the runner's entry point and
+returns the SimulationResult, or None for anything not plainly valid (then the Python
+fast path runs, which refuses bad input with its one line).  Where the extension cannot be
+built (no Python headers, no compiler), simulate runs the Python fast path as before.
+
+The Python fast path registers the Call of each set of option arguments it has run
+(`register`), so the second call with them is compiled; `lookup` finds it by simulate's
+own arguments.  Cleared when a model file is read again with new content.
+"""
+from __future__ import annotations
+
+import importlib.machinery
+import importlib.util
+import sys
+import sysconfig
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import BuildError
+from ..model.description import forget_on_model_change
+from .loader import build_library
+
+SOURCE = Path(__file__).with_name("c") / "compiled_call.c"
+MODULE = "_derive_compiled_call"
+FLAGS = ("-std=c11", "-O2", "-fPIC", "-shared")
+CALLS_MAX = 256          # registered calls kept (then forgotten, and registered again on use)
+REALS = {"float32": 0, "float64": 1, "longdouble": 2}      # compiled_call.c's REAL_* codes
+
+
+class _Extension:
+    """The compiled module, built and imported once per process (None where it cannot be)."""
+    module = None
+    tried = False
+
+    @classmethod
+    def get(cls):
+        if not cls.tried:
+            cls.tried = True
+            cls.module = _build_and_import()
+        return cls.module
+
+
+def _build_and_import():
+    """The extension module, or None where it cannot be built (the Python fast path runs)."""
+    include = sysconfig.get_paths().get("include")
+    if not include or not (Path(include) / "Python.h").is_file():
+        return None
+    flags = (*FLAGS, "-I", include, "-I", np.get_include(),
+             f"-DDERIVE_ABI={sys.implementation.cache_tag}_{np.__version__}")
+    try:
+        path = build_library(MODULE, [SOURCE], flags=flags)
+    except BuildError:
+        return None
+    loader = importlib.machinery.ExtensionFileLoader(MODULE, str(path))
+    spec = importlib.util.spec_from_file_location(MODULE, str(path), loader=loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
+def available() -> bool:
+    """Whether the compiled call path is built (or can be): otherwise simulate's Python fast path runs."""
+    return _Extension.get() is not None
+
+
+class _Calls(dict):
+    """The registered calls by simulate's arguments (call_key), and the keys run once."""
+
+    def __init__(self):
+        super().__init__()
+        self.once: set = set()
+
+    def cache_clear(self) -> None:          # forget_on_model_change's hook
+        self.clear()
+        self.once.clear()
+
+
+_calls = forget_on_model_change(_Calls())
+
+
+def registry() -> dict:
+    """The registered calls by call_key (a dict: simulate reads it directly)."""
+    return _calls
+
+
+def lookup(key: tuple):
+    """The registered Call for simulate's arguments `key` (call_key), or None."""
+    try:
+        return _calls.get(key)
+    except TypeError:              # an unhashable argument: the Python paths decide
+        return None
+
+
+def call_key(model, method, dtype, rtol, atol, step, hmax, max_steps, newton_tol, newton_max, sine_min) -> tuple:
+    """The key of a call's option arguments as simulate received them (the type of rtol too:
+    the result reports rtol as given)."""
+    return (model, method, dtype, rtol, type(rtol), atol, step, hmax, max_steps, newton_tol, newton_max,
+            sine_min)
+
+
+def seen_twice(key: tuple) -> bool:
+    """Whether simulate has run with the option arguments `key` before (a call that is
+    made once is not worth compiling its path for)."""
+    try:
+        if key in _calls.once:
+            return True
+        if len(_calls.once) >= CALLS_MAX:
+            _calls.once.clear()
+        _calls.once.add(key)
+    except TypeError:
+        pass
+    return False
+
+
+def register(key: tuple, call) -> None:
+    """Remember `call` (Runner.compiled_call's) for simulate's arguments `key`."""
+    if call is None:
+        return
+    if len(_calls) >= CALLS_MAX:
+        _calls.clear()
+    try:
+        _calls[key] = call
+    except TypeError:
+        pass
+
+
+def make_call(spec: dict):
+    """A Call of the extension for `spec` (Runner.compiled_call fills it), or None when the
+    extension is not available."""
+    module = _Extension.get()
+    return None if module is None else module.Call(spec)
+
+
+__all__ = ["REALS", "available", "call_key", "lookup", "make_call", "register", "registry", "seen_twice"]
