@@ -29,6 +29,7 @@ import numpy as np
 
 from ..errors import BuildError
 from ..model.description import forget_on_model_change
+from ..codegen.contract import STATUS
 from .loader import build_library
 
 SOURCE = Path(__file__).with_name("c") / "compiled_call.c"
@@ -36,19 +37,28 @@ MODULE = "_derive_compiled_call"
 FLAGS = ("-std=c11", "-O2", "-fPIC", "-shared")
 CALLS_MAX = 256          # registered calls kept (then forgotten, and registered again on use)
 REALS = {"float32": 0, "float64": 1, "longdouble": 2}      # compiled_call.c's REAL_* codes
+MAX_STEPS_STATUS = STATUS["MAX_STEPS"]      # a pilot stopped at its step budget: simulate goes on
 
 
 class _Extension:
-    """The compiled module, built and imported once per process (None where it cannot be)."""
+    """The compiled module, built and imported once per process (None where it cannot be);
+    `dispatch` its simulate's arguments -> result (None until it is built)."""
     module = None
     tried = False
+    dispatch = None
 
     @classmethod
     def get(cls):
         if not cls.tried:
             cls.tried = True
             cls.module = _build_and_import()
+            if cls.module is not None:
+                cls.module.use(_calls, MAX_STEPS_STATUS)
+                cls.dispatch = cls.module.dispatch
         return cls.module
+
+
+COMPILED = _Extension    # simulate reads COMPILED.dispatch: None, or the compiled dispatch
 
 
 def _build_and_import():
@@ -84,14 +94,15 @@ class _Calls(dict):
     def cache_clear(self) -> None:          # forget_on_model_change's hook
         self.clear()
         self.once.clear()
+        self.changed()
+
+    def changed(self) -> None:
+        """Tell the compiled dispatch, which remembers the call it found last."""
+        if _Extension.module is not None:
+            _Extension.module.forget()
 
 
 _calls = forget_on_model_change(_Calls())
-
-
-def registry() -> dict:
-    """The registered calls by call_key (a dict: simulate reads it directly)."""
-    return _calls
 
 
 def lookup(key: tuple):
@@ -103,10 +114,9 @@ def lookup(key: tuple):
 
 
 def call_key(model, method, dtype, rtol, atol, step, hmax, max_steps, newton_tol, newton_max, sine_min) -> tuple:
-    """The key of a call's option arguments as simulate received them (the type of rtol too:
-    the result reports rtol as given)."""
-    return (model, method, dtype, rtol, type(rtol), atol, step, hmax, max_steps, newton_tol, newton_max,
-            sine_min)
+    """The key of a call's option arguments as simulate received them (as c/compiled_call.c's
+    dispatch makes it; equal arguments are one key, as in the fast path's settings)."""
+    return (model, method, dtype, rtol, atol, step, hmax, max_steps, newton_tol, newton_max, sine_min)
 
 
 def seen_twice(key: tuple) -> bool:
@@ -133,6 +143,7 @@ def register(key: tuple, call) -> None:
         _calls[key] = call
     except TypeError:
         pass
+    _calls.changed()
 
 
 def make_call(spec: dict):
@@ -142,4 +153,4 @@ def make_call(spec: dict):
     return None if module is None else module.Call(spec)
 
 
-__all__ = ["REALS", "available", "call_key", "lookup", "make_call", "register", "registry", "seen_twice"]
+__all__ = ["REALS", "available", "call_key", "lookup", "make_call", "register", "seen_twice", "COMPILED"]

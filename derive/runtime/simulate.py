@@ -529,24 +529,35 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     >>> r.nsteps, r.step
     (100, 0.01)
     """
+    dispatch = compiled_call.COMPILED.dispatch
+    pilot = None
+    if FAST_PATH and dispatch is not None:
+        # a repeated plain call: its compiled call, if it has one (the whole of its Python)
+        done = dispatch(model, y0, t, params, method, rtol, atol, step, dtype, backend, max_steps, sine_min,
+                        newton_tol, newton_max, hmax, inputs, atlas, events, error_estimate, hold)
+        if done is not None:
+            if type(done) is not tuple:
+                return done
+            pilot = done[0]                 # an adaptive run's pilot, stopped at its step budget
+    return _simulate(model, y0, t, params, method, rtol, atol, step, dtype, backend, max_steps, sine_min,
+                     newton_tol, newton_max, hmax, inputs, atlas, events, error_estimate, hold, pilot)
+
+
+def _simulate(model, y0, t, params, method, rtol, atol, step, dtype, backend, max_steps, sine_min, newton_tol,
+              newton_max, hmax, inputs, atlas, events, error_estimate, hold, pilot) -> SimulationResult:
+    """simulate's Python paths: the fast path (fast_path.py; `pilot`: a compiled call's
+    pilot that stopped at its step budget, to go on from) and the general path.  Apart
+    from simulate, which would otherwise make the cells of this function's closures on
+    every call, the compiled ones too."""
     plain = FAST_PATH and backend == "c" and not atlas and inputs is None and events is None and \
         hold is None and isinstance(error_estimate, str) and error_estimate == "local"
-    if plain:
-        # the compiled call of these option arguments (compiled_call.call_key, spelt out here:
-        # this is the whole of a plain call's Python)
-        key = (model, method, dtype, rtol, type(rtol), atol, step, hmax, max_steps, newton_tol, newton_max,
-               sine_min)
-        try:
-            call = _compiled_calls.get(key)
-        except TypeError:                 # an unhashable argument: the Python paths decide
-            call = key = None
-        pilot = None if call is None else call(y0, t, params)
-        if pilot is not None and not (call.pilot and pilot.status == MAX_STEPS_STATUS):
-            return pilot
     precision = extended.precision_of(dtype)
+    original_method = method
     if method is None:
         method = TAYLOR if precision else DEFAULT_METHOD
     if plain and precision is None:
+        key = compiled_call.call_key(model, original_method, dtype, rtol, atol, step, hmax, max_steps,
+                                     newton_tol, newton_max, sine_min)
         fast = _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_steps,
                               sine_min, newton_tol, newton_max, hmax, arguments=key, pilot=pilot)
         if fast is not None:
@@ -708,7 +719,6 @@ def _estimate_by_rerun(result: SimulationResult, rerun, method: str, opt: dict, 
 # -- the fast path: simulate's common case through a plan (derive/runtime/fast_path.py) ------
 
 FAST_PATH = True       # off: every call takes the general path (tests compare the two)
-_compiled_calls = compiled_call.registry()      # simulate's arguments -> their compiled call
 
 
 @forget_on_model_change

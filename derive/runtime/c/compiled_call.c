@@ -38,7 +38,7 @@ static const char *field_names[F_COUNT] = {
     "t", "y", "status", "status_name", "t_stop", "y_stop", "params", "observe", "last_step",
     "nfev", "njev", "nsteps", "naccepted", "nrejected", "nnewton", "error_estimate"};
 static PyObject *fields[F_COUNT];
-static PyObject *no_args;          /* the empty tuple object.__new__ takes */
+static long max_steps_status = -1;      /* the status of a run stopped at its step budget */
 
 typedef struct {
     PyObject_HEAD
@@ -53,6 +53,8 @@ typedef struct {
     Py_ssize_t off_status, off_t, off_h_end, off_local_error, off_y, off_counters[COUNTERS];
     PyObject *options_owner, *names, *checked, *status_names, *cls, *prototype;
     PyObject *partial, *observe, *model, *dtype, *backend;
+    double last_params[DERIVE_COMPILED_CALL_MAX_N];    /* the last vector found in checked */
+    int has_last;
     vectorcallfunc vectorcall;
 } Call;
 
@@ -134,31 +136,34 @@ static int plain_vector(PyObject *obj, int n, int real, double *values)
     return 1;
 }
 
-/* The parameter values (a dict by exactly the model's names, or a plain sequence) and the
-   key the plan remembers them by (fast_path.RunPlan.params, then tuple(p)): a new
-   reference, or NULL (not plain, or not checked yet: Python's fast path decides). */
-static PyObject *plain_params(Call *c, PyObject *params, double *values)
+/* The parameter values (a dict by exactly the model's names, or a plain sequence:
+   fast_path.RunPlan.params) into values, when the plan has them among the vectors that
+   passed the model's checks (by tuple(p), as the plan remembers them): 1, or 0 (not
+   plain, or not checked yet: Python's fast path decides). */
+static int plain_params(Call *c, PyObject *params, double *values)
 {
     PyObject *key;
     if (PyDict_CheckExact(params)) {
         if (PyDict_GET_SIZE(params) != c->n_params)
-            return NULL;
-        key = PyTuple_New(c->n_params);
-        if (!key)
-            return NULL;
+            return 0;
         for (int i = 0; i < c->n_params; i++) {
             PyObject *v = PyDict_GetItemWithError(params, PyTuple_GET_ITEM(c->names, i));
             if (!v || !plain_number(v, c->real, &values[i])) {
                 PyErr_Clear();
-                Py_DECREF(key);
-                return NULL;
+                return 0;
             }
-            Py_INCREF(v);
-            PyTuple_SET_ITEM(key, i, v);
         }
+    } else if (!plain_vector(params, c->n_params, c->real, values)) {
+        return 0;
+    }
+    /* the model's checks depend on the values only: the vector found last needs no lookup */
+    if (c->has_last && !memcmp(values, c->last_params, sizeof(double) * (size_t)c->n_params))
+        return 1;
+    if (PyDict_CheckExact(params)) {
+        key = PyTuple_New(c->n_params);
+        for (int i = 0; key && i < c->n_params; i++)
+            PyTuple_SET_ITEM(key, i, PyFloat_FromDouble(values[i]));
     } else {
-        if (!plain_vector(params, c->n_params, c->real, values))
-            return NULL;
         if (PyTuple_CheckExact(params)) {
             key = params;
             Py_INCREF(key);
@@ -169,16 +174,20 @@ static PyObject *plain_params(Call *c, PyObject *params, double *values)
             for (int i = 0; key && i < c->n_params; i++)
                 PyTuple_SET_ITEM(key, i, PyFloat_FromDouble(values[i]));
         }
-        if (!key)
-            return NULL;
+    }
+    if (!key) {
+        PyErr_Clear();
+        return 0;
     }
     int known = PySet_Contains(c->checked, key);
+    Py_DECREF(key);
     if (known != 1) {
         PyErr_Clear();
-        Py_DECREF(key);
-        return NULL;
+        return 0;
     }
-    return key;
+    memcpy(c->last_params, values, sizeof(double) * (size_t)c->n_params);
+    c->has_last = 1;
+    return 1;
 }
 
 /* -- the run's reals -------------------------------------------------------------------- */
@@ -322,26 +331,22 @@ static PyObject *result(Call *c, const char *info, PyArrayObject *t, PyArrayObje
                          PyFloat_FromDouble(*(const double *)(info + c->off_local_error)));
     else
         bad |= PyDict_SetItem(d, fields[F_ERROR_ESTIMATE], Py_None);
-    PyObject *r = bad ? NULL : PyBaseObject_Type.tp_new((PyTypeObject *)c->cls, no_args, NULL);
+    /* tp_alloc, not object.__new__: the instance values object.__new__ makes would be
+       discarded for the dict set next */
+    PyObject *r = bad ? NULL : ((PyTypeObject *)c->cls)->tp_alloc((PyTypeObject *)c->cls, 0);
     if (r && PyObject_GenericSetDict(r, d, NULL) < 0)
         Py_CLEAR(r);
     Py_DECREF(d);
     return r;
 }
 
-/* Call(y0, t, params) -> SimulationResult, or None (Python's fast path decides). */
-static PyObject *call_vectorcall(PyObject *self, PyObject *const *args, size_t nargsf, PyObject *kw)
+/* One run of the call c: args (y0, t, params) -> SimulationResult, or None (Python's fast
+   path decides). */
+static PyObject *run(Call *c, PyObject *const *args)
 {
-    Call *c = (Call *)self;
-    if (PyVectorcall_NARGS(nargsf) != 3 || kw) {
-        PyErr_SetString(PyExc_TypeError, "Call(y0, t, params)");
-        return NULL;
-    }
     double y0[DERIVE_COMPILED_CALL_MAX_N], pv[DERIVE_COMPILED_CALL_MAX_N], span = 0;
-    PyObject *key = plain_params(c, args[2], pv);
-    if (!key)
+    if (!plain_params(c, args[2], pv))
         Py_RETURN_NONE;
-    Py_DECREF(key);
     if (!plain_vector(args[0], c->n, c->real, y0))
         Py_RETURN_NONE;
     double qmax = 0;
@@ -383,6 +388,120 @@ static PyObject *call_vectorcall(PyObject *self, PyObject *const *args, size_t n
     Py_DECREF(t);
     return r;
 }
+
+/* Call(y0, t, params) -> SimulationResult, or None (Python's fast path decides). */
+static PyObject *call_vectorcall(PyObject *self, PyObject *const *args, size_t nargsf, PyObject *kw)
+{
+    if (PyVectorcall_NARGS(nargsf) != 3 || kw) {
+        PyErr_SetString(PyExc_TypeError, "Call(y0, t, params)");
+        return NULL;
+    }
+    return run((Call *)self, args);
+}
+
+/* -- simulate's arguments to their call ------------------------------------------------ */
+
+static PyObject *registry;       /* call_key -> Call (compiled_call.py's registry) */
+static PyObject *local;          /* "local", simulate's default error_estimate */
+
+/* simulate's arguments, in its signature's order */
+enum { A_MODEL, A_Y0, A_T, A_PARAMS, A_METHOD, A_RTOL, A_ATOL, A_STEP, A_DTYPE, A_BACKEND, A_MAX_STEPS,
+       A_SINE_MIN, A_NEWTON_TOL, A_NEWTON_MAX, A_HMAX, A_INPUTS, A_ATLAS, A_EVENTS, A_ERROR_ESTIMATE,
+       A_HOLD, A_COUNT };
+
+/* The key of simulate's call (compiled_call.call_key) has these arguments, in this order. */
+enum { KEY_SIZE = 11 };
+static const int key_args[KEY_SIZE] = {A_MODEL, A_METHOD, A_DTYPE, A_RTOL, A_ATOL, A_STEP, A_HMAX, A_MAX_STEPS,
+                                       A_NEWTON_TOL, A_NEWTON_MAX, A_SINE_MIN};
+/* the key found last and its call: a loop passes the same objects every time, and the
+   same objects are the same key, found without hashing it (forget() drops them) */
+static PyObject *last_key, *last_call;
+
+static PyObject *last_call_of(PyObject *const *a)
+{
+    if (!last_key)
+        return NULL;
+    for (int k = 0; k < KEY_SIZE; k++)
+        if (PyTuple_GET_ITEM(last_key, k) != a[key_args[k]])
+            return NULL;
+    return last_call;
+}
+
+/* dispatch(*simulate's twenty arguments) -> the result of their registered call; (the
+   result,) for an adaptive run's pilot that stopped at its step budget (simulate goes on
+   from it); None where there is no call or the call declines (the Python paths run). */
+static PyObject *dispatch(PyObject *module, PyObject *const *a, Py_ssize_t nargs)
+{
+    if (nargs != A_COUNT) {
+        PyErr_SetString(PyExc_TypeError, "dispatch takes simulate's twenty arguments");
+        return NULL;
+    }
+    /* simulate's plain call: backend "c", no atlas, inputs, events or hold, the local estimate */
+    if (!registry || !PyUnicode_CheckExact(a[A_BACKEND]) || PyUnicode_CompareWithASCIIString(a[A_BACKEND], "c") ||
+        a[A_ATLAS] != Py_False || a[A_INPUTS] != Py_None || a[A_EVENTS] != Py_None || a[A_HOLD] != Py_None ||
+        !PyUnicode_CheckExact(a[A_ERROR_ESTIMATE]) || PyUnicode_Compare(a[A_ERROR_ESTIMATE], local))
+        Py_RETURN_NONE;
+    PyObject *call = last_call_of(a);
+    if (!call) {
+        PyObject *key = PyTuple_Pack(KEY_SIZE, a[A_MODEL], a[A_METHOD], a[A_DTYPE], a[A_RTOL], a[A_ATOL],
+                                     a[A_STEP], a[A_HMAX], a[A_MAX_STEPS], a[A_NEWTON_TOL], a[A_NEWTON_MAX],
+                                     a[A_SINE_MIN]);
+        if (!key)
+            return NULL;
+        call = PyDict_GetItemWithError(registry, key);       /* borrowed */
+        if (!call) {
+            Py_DECREF(key);
+            PyErr_Clear();              /* an unhashable argument: the Python paths decide */
+            Py_RETURN_NONE;
+        }
+        Py_XSETREF(last_key, key);
+        Py_INCREF(call);
+        Py_XSETREF(last_call, call);
+    }
+    Py_INCREF(call);
+    PyObject *args[3] = {a[A_Y0], a[A_T], a[A_PARAMS]};
+    PyObject *r = run((Call *)call, args);
+    int pilot = ((Call *)call)->pilot;
+    Py_DECREF(call);
+    if (!r || r == Py_None || !pilot)
+        return r;
+    PyObject *status = PyObject_GetAttr(r, fields[F_STATUS]);
+    long code = status ? PyLong_AsLong(status) : -1;
+    Py_XDECREF(status);
+    if (code != max_steps_status)
+        return r;
+    PyObject *stopped = PyTuple_Pack(1, r);
+    Py_DECREF(r);
+    return stopped;
+}
+
+/* forget(): the registry changed (cleared, or a key given another call) */
+static PyObject *forget(PyObject *module, PyObject *unused)
+{
+    Py_CLEAR(last_key);
+    Py_CLEAR(last_call);
+    Py_RETURN_NONE;
+}
+
+/* use(registry, max_steps_status): the registry dispatch reads, and the status of a run
+   stopped at its step budget. */
+static PyObject *use(PyObject *module, PyObject *args)
+{
+    PyObject *d;
+    if (!PyArg_ParseTuple(args, "O!l", &PyDict_Type, &d, &max_steps_status))
+        return NULL;
+    Py_INCREF(d);
+    Py_XSETREF(registry, d);
+    return forget(module, NULL);
+}
+
+static PyMethodDef functions[] = {
+    {"forget", forget, METH_NOARGS, "forget(): the registry changed"},
+    {"dispatch", (PyCFunction)(void (*)(void))dispatch, METH_FASTCALL,
+     "dispatch(*simulate's arguments) -> result, (pilot,) or None"},
+    {"use", use, METH_VARARGS, "use(registry, max_steps_status)"},
+    {NULL}
+};
 
 /* -- the Call type ------------------------------------------------------------------------ */
 
@@ -516,7 +635,7 @@ static PyTypeObject CallType = {
 
 static struct PyModuleDef module = {
     PyModuleDef_HEAD_INIT, "_derive_compiled_call",
-    "simulate's plain call in C (derive/runtime/compiled_call.py)", -1, NULL,
+    "simulate's plain call in C (derive/runtime/compiled_call.py)", -1, functions,
 };
 
 PyMODINIT_FUNC PyInit__derive_compiled_call(void)
@@ -525,7 +644,7 @@ PyMODINIT_FUNC PyInit__derive_compiled_call(void)
     for (int f = 0; f < F_COUNT; f++)
         if (!(fields[f] = PyUnicode_InternFromString(field_names[f])))
             return NULL;
-    if (!(no_args = PyTuple_New(0)) || PyType_Ready(&CallType) < 0)
+    if (!(local = PyUnicode_InternFromString("local")) || PyType_Ready(&CallType) < 0)
         return NULL;
     PyObject *m = PyModule_Create(&module);
     if (!m)
