@@ -80,7 +80,14 @@ def _build_and_import():
 
 
 def available() -> bool:
-    """Whether the compiled call path is built (or can be): otherwise simulate's Python fast path runs."""
+    """Whether the compiled call path is built (building it on the first call).
+
+    Returns
+    -------
+    bool
+        False where it cannot be built (no Python headers, no compiler): simulate's Python
+        fast path runs then.
+    """
     return _Extension.get() is not None
 
 
@@ -106,7 +113,18 @@ _calls = forget_on_model_change(_Calls())
 
 
 def lookup(key: tuple):
-    """The registered Call for simulate's arguments `key` (call_key), or None."""
+    """The registered call of simulate's option arguments.
+
+    Parameters
+    ----------
+    key : tuple
+        From call_key.
+
+    Returns
+    -------
+    Call or None
+        None: none registered (or an unhashable argument).
+    """
     try:
         return _calls.get(key)
     except TypeError:              # an unhashable argument: the Python paths decide
@@ -114,14 +132,35 @@ def lookup(key: tuple):
 
 
 def call_key(model, method, dtype, rtol, atol, step, hmax, max_steps, newton_tol, newton_max, sine_min) -> tuple:
-    """The key of a call's option arguments as simulate received them (as c/compiled_call.c's
-    dispatch makes it; equal arguments are one key, as in the fast path's settings)."""
+    """The key of a call's option arguments as simulate received them.
+
+    Parameters
+    ----------
+    model, method, dtype, rtol, atol, step, hmax, max_steps, newton_tol, newton_max, sine_min
+        simulate's arguments of those names, as given (method None included).
+
+    Returns
+    -------
+    tuple
+        The key c/compiled_call.c's dispatch makes of them (equal arguments are one key, as
+        in the fast path's settings).
+    """
     return (model, method, dtype, rtol, atol, step, hmax, max_steps, newton_tol, newton_max, sine_min)
 
 
 def seen_twice(key: tuple) -> bool:
-    """Whether simulate has run with the option arguments `key` before (a call that is
-    made once is not worth compiling its path for)."""
+    """Whether simulate has run with these option arguments before (a call made once is
+    not worth building the extension for); remembers them.
+
+    Parameters
+    ----------
+    key : tuple
+        From call_key.
+
+    Returns
+    -------
+    bool
+    """
     try:
         if key in _calls.once:
             return True
@@ -134,7 +173,15 @@ def seen_twice(key: tuple) -> bool:
 
 
 def register(key: tuple, call) -> None:
-    """Remember `call` (Runner.compiled_call's) for simulate's arguments `key`."""
+    """Remember a compiled call for simulate's option arguments.
+
+    Parameters
+    ----------
+    key : tuple
+        From call_key.
+    call : Call or None
+        Runner.compiled_call's (None: nothing to remember).
+    """
     if call is None:
         return
     if len(_calls) >= CALLS_MAX:
@@ -147,8 +194,19 @@ def register(key: tuple, call) -> None:
 
 
 def make_call(spec: dict):
-    """A Call of the extension for `spec` (Runner.compiled_call fills it), or None when the
-    extension is not available."""
+    """A Call of the extension.
+
+    Parameters
+    ----------
+    spec : dict
+        What the call holds (Runner.compiled_call fills it: c/compiled_call.c's call_new
+        reads it).
+
+    Returns
+    -------
+    Call or None
+        None where the extension is not available.
+    """
     module = _Extension.get()
     return None if module is None else module.Call(spec)
 
