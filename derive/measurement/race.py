@@ -48,7 +48,7 @@ import numpy as np
 from ..errors import ToolMissingError
 from ..runtime.ensemble import ensemble
 from ..runtime.simulate import simulate
-from ..codegen.contract import FIXED, IMPLICIT, MULTISTEP, TOLERANCE_METHODS
+from ..codegen.contract import FIXED, IMPLICIT, MULTISTEP, TOLERANCE_METHODS, taylor_order
 from .peers import lambdified_rhs, planar_accelerations, solve_ivp_final
 import mpmath
 from concurrent.futures import ThreadPoolExecutor
@@ -90,13 +90,24 @@ def _heyoka():
     return heyoka
 
 
-def heyoka_system(hy):
-    """The planar double pendulum in heyoka's expression system, parameters as par[0..4]
-    (m1, m2, l1, l2, g): seed 000 (1.34)-(1.35), the compact form a heyoka user writes."""
+def heyoka_system(hy, folded: bool = False):
+    """The planar double pendulum in heyoka's expression system: seed 000 (1.34)-(1.35), the
+    compact form a heyoka user writes.  Parameters as par[0..4] (m1, m2, l1, l2, g), or
+    `folded`: their values (PARAMS) written in as numbers, so that heyoka folds them at
+    construction (the fair peer of a kernel specialised to those values)."""
     th1, th2, w1, w2 = hy.make_vars("th1", "th2", "w1", "w2")
-    m1, m2, l1, l2, g = (hy.par[i] for i in range(5))
+    m1, m2, l1, l2, g = PARAMS if folded else (hy.par[i] for i in range(5))
     a1, a2 = planar_accelerations(hy.sin, hy.cos)(th1, th2, w1, w2, m1, m2, l1, l2, g)
     return [(th1, w1), (th2, w2), (w1, a1), (w2, a2)]
+
+
+# heyoka's two settings: (the tool's label in the race, parameters folded in as numbers)
+HEYOKA_SETTINGS = (("heyoka", False), ("heyoka-numbers", True))
+
+
+def _heyoka_pars(folded: bool, values):
+    """The pars= argument of a heyoka integrator: the parameters, or none when folded."""
+    return {} if folded else {"pars": np.array(values)}
 
 
 def _timed(run) -> float:
@@ -155,24 +166,27 @@ def _derive_points(y0, t_end: float, ref, dtype: str = "float64") -> list[Point]
 
 
 def _heyoka_points(hy, y0, t_end: float, ref, fp_type=float, tols=None, error=None) -> list[Point]:
-    sys_ = heyoka_system(hy)
+    """heyoka at a sweep of tol, in both settings (HEYOKA_SETTINGS)."""
     points = []
     if tols is None:
         tols = (1e-8, 1e-10, 1e-12, 1e-14, 1e-16) if fp_type is float else (1e-12, 1e-14, 1e-16, 1e-18)
-    for tol in tols:
-        ta = hy.taylor_adaptive(sys_, np.array([fp_type(v) for v in y0]), pars=np.array([fp_type(v) for v in PARAMS]),
-                                tol=fp_type(tol), fp_type=fp_type, compact_mode=False)
-        start = np.array([fp_type(v) for v in y0])
+    for name, folded in HEYOKA_SETTINGS:
+        sys_ = heyoka_system(hy, folded)
+        for tol in tols:
+            ta = hy.taylor_adaptive(sys_, np.array([fp_type(v) for v in y0]),
+                                    **_heyoka_pars(folded, [fp_type(v) for v in PARAMS]),
+                                    tol=fp_type(tol), fp_type=fp_type, compact_mode=False)
+            start = np.array([fp_type(v) for v in y0])
 
-        def run(ta=ta, start=start):
-            ta.time = fp_type(0.0)
-            ta.state[:] = start
-            ta.propagate_until(fp_type(t_end))
-            return ta.state.copy()
+            def run(ta=ta, start=start):
+                ta.time = fp_type(0.0)
+                ta.state[:] = start
+                ta.propagate_until(fp_type(t_end))
+                return ta.state.copy()
 
-        final = run()
-        label = "heyoka taylor" if fp_type in (float, np.longdouble) else "heyoka taylor real128"
-        points.append(Point(label, f"tol={tol:g}", _timed(run), (error or _error)(final, ref)))
+            final = run()
+            label = f"{name} taylor" if fp_type in (float, np.longdouble) else f"{name} taylor real128"
+            points.append(Point(label, f"tol={tol:g}", _timed(run), (error or _error)(final, ref)))
     return points
 
 
@@ -291,24 +305,25 @@ def ensemble_row(hy, B: int = 4096, t_end: float = 10.0) -> Row:
             r = run()
             row.points.append(Point(f"derive {method}", f"rtol={rtol:g}", _timed(run),
                                     worst(r.y[:, -1]) if r.all_ok else math.inf))
-    sys_ = heyoka_system(hy)
-    for width in sorted({hy.recommended_simd_size(), 2 * hy.recommended_simd_size()}):
-        for tol in (1e-10, 1e-12, 1e-14, 1e-16):
-            run = _heyoka_ensemble(hy, sys_, y0, t_end, tol, width, threads)
-            final = run()
-            row.points.append(Point(f"heyoka taylor batch {width}", f"tol={tol:g}", _timed(run), worst(final)))
+    for name, folded in HEYOKA_SETTINGS:
+        sys_ = heyoka_system(hy, folded)
+        for width in sorted({hy.recommended_simd_size(), 2 * hy.recommended_simd_size()}):
+            for tol in (1e-10, 1e-12, 1e-14, 1e-16):
+                run = _heyoka_ensemble(hy, sys_, y0, t_end, tol, width, threads, folded)
+                final = run()
+                row.points.append(Point(f"{name} taylor batch {width}", f"tol={tol:g}", _timed(run), worst(final)))
     return row
 
 
-def _heyoka_ensemble(hy, sys_, y0, t_end: float, tol: float, width: int, threads: int):
+def _heyoka_ensemble(hy, sys_, y0, t_end: float, tol: float, width: int, threads: int, folded: bool = False):
     """An ensemble with heyoka at its fastest: one SIMD batch integrator
     (`taylor_adaptive_batch`, `width` lanes) per thread, built before timing, each thread
     resetting and propagating its share of the batches (heyoka releases the GIL while it
     integrates); not its own `ensemble_propagate_until_batch`, which copies the
-    integrator for every batch."""
+    integrator for every batch.  `folded`: sys_ has the parameters as numbers."""
     B = len(y0)
-    pars = np.tile(np.array(PARAMS)[:, None], width)
-    integrators = [hy.taylor_adaptive_batch(sys_, np.zeros((4, width)), pars=pars, tol=tol, compact_mode=False)
+    pars = {} if folded else {"pars": np.tile(np.array(PARAMS)[:, None], width)}
+    integrators = [hy.taylor_adaptive_batch(sys_, np.zeros((4, width)), **pars, tol=tol, compact_mode=False)
                    for _ in range(threads)]
     chunks = [(k, min(k + width, B)) for k in range(0, B, width)]
     shares = [chunks[i::threads] for i in range(threads)]
@@ -333,26 +348,83 @@ def _heyoka_ensemble(hy, sys_, y0, t_end: float, tol: float, width: int, threads
     return run
 
 
+CALL_ROUNDS = 60         # rounds of the trivial call, each tool's batch in turn
+CALL_BATCH = 200         # calls per batch (the figure: the fastest batch's time per call)
+
+
 def trivial_call_row(hy) -> Row:
+    """The fixed cost of a call: `derive.simulate` on a trivial span against heyoka's
+    `propagate_until` (resetting time and state, as a user's loop over initial states
+    does), in both heyoka settings; the tools' batches of calls interleaved round by round,
+    so that the load of a shared machine falls on all of them alike, each tool's figure the
+    fastest batch."""
     y0 = (1.0, 0.5, 0.0, 0.0)
     row = Row("one call", "one call on a trivial span (t = 1e-6): the fixed cost of a call")
-    simulate("planar", y0, [0.0, 1e-6], PARAMS)
-    for _ in range(3):
-        n = 2000
-        t0 = time.perf_counter()
-        for _ in range(n):
-            simulate("planar", y0, [0.0, 1e-6], PARAMS)
-        row.points.append(Point("derive dop853", "simulate", (time.perf_counter() - t0) / n, 0.0))
-    ta = hy.taylor_adaptive(heyoka_system(hy), np.array(y0), pars=np.array(PARAMS), tol=1e-15)
-    start = np.array(y0)
-    for _ in range(3):
-        n = 2000
-        t0 = time.perf_counter()
-        for _ in range(n):
+    calls = {"derive dop853": lambda: simulate("planar", y0, [0.0, 1e-6], PARAMS)}
+    for name, folded in HEYOKA_SETTINGS:
+        ta = hy.taylor_adaptive(heyoka_system(hy, folded), np.array(y0), **_heyoka_pars(folded, PARAMS), tol=1e-15)
+        start = np.array(y0)
+
+        def call(ta=ta, start=start):
             ta.time = 0.0
             ta.state[:] = start
             ta.propagate_until(1e-6)
-        row.points.append(Point("heyoka taylor", "propagate_until", (time.perf_counter() - t0) / n, 0.0))
+        calls[f"{name} taylor"] = call
+    best = dict.fromkeys(calls, math.inf)
+    for f in calls.values():
+        f()
+        f()                      # the second call of a kind: derive's compiled call path from here
+    for _ in range(CALL_ROUNDS):
+        for tool, f in calls.items():
+            t0 = time.perf_counter()
+            for _ in range(CALL_BATCH):
+                f()
+            best[tool] = min(best[tool], (time.perf_counter() - t0) / CALL_BATCH)
+    knobs = {"derive dop853": "simulate"}
+    row.points += [Point(tool, knobs.get(tool, "propagate_until"), seconds, 0.0) for tool, seconds in best.items()]
+    return row
+
+
+# -- time per step, per Taylor order --------------------------------------------------
+
+STEP_TOLS = (1e-6, 1e-8, 1e-10, 1e-12, 1e-14)     # Taylor orders 8, 11, 13, 15, 18
+
+
+def per_step_row(hy, y0=(2.5, 2.0, 0.0, 0.0), t_end: float = 5.0) -> Row:
+    """Taylor's method against itself: derive's `taylor` and heyoka (both settings) at the
+    same tolerance, so the same order and step rule (Jorba and Zou), on the chaotic row;
+    each figure a run's time over its steps (one call, the call's cost spread over the
+    steps), and heyoka's `ta.step()` alone (a Python loop of single steps).  The setting
+    names the order and the steps: the steps differ a little between the tools (their
+    step-size formulas use the coefficients of the last two orders in different norms)."""
+    row = Row("per step", f"chaotic, y0 = {tuple(y0)}, t = {t_end:g}: time per step, Taylor's method")
+    ref = _derive_reference(y0, t_end)
+    for tol in STEP_TOLS:
+        run = lambda: simulate("planar", y0, [0.0, t_end], PARAMS, method="taylor", rtol=tol)
+        r = run()
+        row.points.append(Point("derive taylor", f"order={taylor_order(tol)} steps={r.nsteps} rtol={tol:g}",
+                                _timed(run) / r.nsteps, _error(r.y[-1], ref)))
+    for name, folded in HEYOKA_SETTINGS:
+        sys_ = heyoka_system(hy, folded)
+        for tol in STEP_TOLS:
+            ta = hy.taylor_adaptive(sys_, np.array(y0), **_heyoka_pars(folded, PARAMS), tol=tol, compact_mode=False)
+            start = np.array(y0)
+
+            def run(ta=ta, start=start):
+                ta.time = 0.0
+                ta.state[:] = start
+                return ta.propagate_until(t_end)[3]          # (outcome, min_h, max_h, steps, ...)
+            steps = run()
+            final = ta.state.copy()
+            knob = f"order={ta.order} steps={steps} tol={tol:g}"
+            row.points.append(Point(f"{name} taylor", knob, _timed(run) / steps, _error(final, ref)))
+
+            def single_steps(ta=ta, start=start, steps=steps):
+                ta.time = 0.0
+                ta.state[:] = start
+                for _ in range(steps):
+                    ta.step()
+            row.points.append(Point(f"{name} taylor step()", knob, _timed(single_steps) / steps, math.nan))
     return row
 
 
@@ -363,24 +435,34 @@ class Race:
     rows: list[Row]
     heyoka_version: str
     machine: str
+    load: str = ""           # the machine's load averages at the start and the end of the run
+
+
+def _load() -> str:
+    try:
+        return "/".join(f"{v:.2f}" for v in os.getloadavg())
+    except OSError:          # no load average on this system
+        return "?"
 
 
 def run_race(quick: bool = False, progress=None) -> Race:
     hy = _heyoka()
+    load = _load()
     jobs = [lambda: trajectory_row(hy, "regular", "regular, y0 = (1, 0.5, 0, 0), t = 20", (1.0, 0.5, 0.0, 0.0), 20.0,
                                    scipy=not quick),
             lambda: trajectory_row(hy, "chaotic", "chaotic, y0 = (2.5, 2, 0, 0), t = 5", (2.5, 2.0, 0.0, 0.0), 5.0,
                                    scipy=not quick),
             lambda: trivial_call_row(hy)]
     if not quick:
-        jobs += [lambda: long_double_row(hy), lambda: quad_row(hy), lambda: ensemble_row(hy)]
+        jobs += [lambda: per_step_row(hy), lambda: long_double_row(hy), lambda: quad_row(hy),
+                 lambda: ensemble_row(hy)]
     rows = []
     for k, job in enumerate(jobs):
         rows.append(job())
         if progress:
             progress(k + 1, len(jobs))
     machine = f"{platform.machine()}, {os.cpu_count()} cores, {platform.python_implementation()} {platform.python_version()}"
-    return Race(rows, hy.__version__, machine)
+    return Race(rows, hy.__version__, machine, f"{load} at the start, {_load()} at the end (1/5/15 min)")
 
 
 def _ms(seconds: float | None) -> str:
@@ -389,40 +471,86 @@ def _ms(seconds: float | None) -> str:
     return f"{seconds * 1e6:.1f} us" if seconds < 1e-3 else f"{seconds * 1e3:.3g} ms"
 
 
+# the peers of a row's summary: (label prefix of its points, the column's name)
+PEERS = (("heyoka taylor", "heyoka"), ("heyoka-numbers", "heyoka-numbers"))
+TABLE_ROWS_SKIPPED = ("per step",)       # a table of its own (step_table)
+
+
 def summary_rows(race: Race) -> list[dict]:
+    """One dict a row: derive's best, each heyoka setting's best and its ratio (heyoka's
+    time / derive's), solve_ivp's ratio."""
     out = []
     for row in race.rows:
-        if row.name == "one call":
-            ours = min(p.seconds for p in row.points if p.tool.startswith("derive"))
-            theirs = min(p.seconds for p in row.points if p.tool.startswith("heyoka"))
-            out.append({"row": row.title, "derive": _ms(ours), "derive setting": "simulate",
-                        "heyoka": _ms(theirs), "heyoka setting": "propagate_until",
-                        "ratio": theirs / ours, "scipy": None})
+        if row.name in TABLE_ROWS_SKIPPED:
             continue
-        ours, theirs = row.best("derive"), row.best("heyoka")
+        ours = row.best("derive")
+        s = {"row": row.title, "derive": _ms(ours and ours.seconds),
+             "derive setting": f"{' '.join(ours.tool.split()[1:])} {ours.knob}" if ours else ""}
+        if row.name == "one call":
+            s["derive setting"] = "simulate"
+        for prefix, name in PEERS:
+            theirs = row.best(prefix)
+            s[name] = _ms(theirs and theirs.seconds)
+            s[f"{name} setting"] = theirs.knob if theirs else ""
+            s[f"{name} ratio"] = (theirs.seconds / ours.seconds) if ours and theirs else None
         scipy = row.best("scipy")
-        out.append({"row": row.title, "derive": _ms(ours and ours.seconds),
-                    "derive setting": f"{' '.join(ours.tool.split()[1:])} {ours.knob}" if ours else "",
-                    "heyoka": _ms(theirs and theirs.seconds), "heyoka setting": theirs.knob if theirs else "",
-                    "ratio": (theirs.seconds / ours.seconds) if ours and theirs else None,
-                    "scipy": (scipy.seconds / ours.seconds) if ours and scipy else None})
+        s["ratio"] = s["heyoka ratio"]
+        s["scipy"] = (scipy.seconds / ours.seconds) if ours and scipy else None
+        out.append(s)
     return out
+
+
+def step_table(race: Race) -> list[dict]:
+    """The per-step row by tolerance: each tool's time per step and its steps and order."""
+    row = next((r for r in race.rows if r.name == "per step"), None)
+    if row is None:
+        return []
+    by_tol: dict[str, dict] = {}
+    for p in row.points:
+        knobs = dict(k.split("=") for k in p.knob.split())
+        tol = knobs.get("rtol", knobs.get("tol"))
+        by_tol.setdefault(tol, {"tol": tol})[p.tool] = (p.seconds, knobs["order"], knobs["steps"])
+    return list(by_tol.values())
+
+
+def _ratio(a, b) -> str:
+    return f"{a / b:.2f}" if a and b else "-"
 
 
 def markdown(race: Race) -> str:
     lines = [f"# derive against heyoka {race.heyoka_version}, through both public APIs",
-             "", f"Machine: {race.machine}. Time to a final-state error <= {TARGET:g} (fastest setting "
-                 "of each tool, minimum wall time of repeated calls); ratio = heyoka's time / derive's "
-                 "(above 1: derive faster); solve_ivp = SciPy DOP853 with a lambdified rhs, its time / derive's.",
-             "", "| row | derive | setting | heyoka | setting | heyoka / derive | solve_ivp / derive |",
-             "|---|---|---|---|---|---|---|"]
+             "", f"Machine: {race.machine}; load {race.load or '?'}. Time to a final-state error <= "
+                 f"{TARGET:g} (fastest setting of each tool, minimum wall time of repeated calls); "
+                 "heyoka with the parameters as par[] (heyoka) and folded in as numbers "
+                 "(heyoka-numbers); ratio = heyoka's time / derive's (above 1: derive faster); "
+                 "solve_ivp = SciPy DOP853 with a lambdified rhs, its time / derive's.",
+             "", "| row | derive | setting | heyoka | setting | heyoka / derive | heyoka-numbers | setting | "
+                 "heyoka-numbers / derive | solve_ivp / derive |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary_rows(race):
-        ratio = f"{s['ratio']:.2f}" if s["ratio"] else "-"
+        ratios = {k: f"{s[k]:.2f}" if s[k] else "-" for k in ("heyoka ratio", "heyoka-numbers ratio")}
         scipy = f"{s['scipy']:.0f}" if s["scipy"] else "-"
         lines.append(f"| {s['row']} | {s['derive']} | {s['derive setting']} | {s['heyoka']} | "
-                     f"{s['heyoka setting']} | {ratio} | {scipy} |")
+                     f"{s['heyoka setting']} | {ratios['heyoka ratio']} | {s['heyoka-numbers']} | "
+                     f"{s['heyoka-numbers setting']} | {ratios['heyoka-numbers ratio']} | {scipy} |")
+    steps = step_table(race)
+    if steps:
+        lines += ["", "Time per step of Taylor's method (chaotic y0 to t = 5; a run's time over its steps; "
+                      "step(): heyoka's single steps from Python), by tolerance and order:", "",
+                  "| tol | order | derive | steps | heyoka | steps | heyoka / derive | heyoka-numbers | "
+                  "heyoka-numbers / derive | heyoka step() | heyoka-numbers step() |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for s in steps:
+            d, h, f = (s.get(k, (None, "-", "-")) for k in ("derive taylor", "heyoka taylor", "heyoka-numbers taylor"))
+            hs, fs = (s.get(k, (None,))[0] for k in ("heyoka taylor step()", "heyoka-numbers taylor step()"))
+            lines.append(f"| {s['tol']} | {d[1]} | {_us(d[0])} | {d[2]} | {_us(h[0])} | {h[2]} | {_ratio(h[0], d[0])} | "
+                         f"{_us(f[0])} | {_ratio(f[0], d[0])} | {_us(hs)} | {_us(fs)} |")
     notes = [f"- {r.name}: {r.note}" for r in race.rows if r.note]
     return "\n".join(lines + ([""] + notes if notes else [])) + "\n"
+
+
+def _us(seconds) -> str:
+    return "-" if seconds is None else f"{seconds * 1e6:.3g} us"
 
 
 def write_race(race: Race, out: Path, plots: bool = True) -> list[Path]:
@@ -444,7 +572,7 @@ def _plot(race: Race, path: Path) -> Path:
     import matplotlib    # the plot extra, imported when a figure is drawn
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt    # the plot extra, imported when a figure is drawn
-    rows = [r for r in race.rows if r.name != "one call"]
+    rows = [r for r in race.rows if r.name not in ("one call", *TABLE_ROWS_SKIPPED)]
     tools = sorted({p.tool for r in rows for p in r.points})
     colours = {tool: f"C{i % 10}" for i, tool in enumerate(tools)}      # one colour per tool everywhere
     fig, axes = plt.subplots(1, len(rows), figsize=(4.6 * len(rows), 4.2), squeeze=False)

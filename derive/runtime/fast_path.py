@@ -131,6 +131,25 @@ class RunPlan:
             return None
         return y
 
+    def compiled_checks(self, budget_given: bool) -> dict:
+        """What the compiled call path (derive/runtime/compiled_call.py) checks, as this
+        plan does: the names and remembered vectors of `params`, `state`'s angle limit,
+        `fits`' limits.
+
+        Parameters
+        ----------
+        budget_given : bool
+            max_steps was given.
+
+        Returns
+        -------
+        dict
+            Fields of the call's spec (Runner.compiled_call).
+        """
+        return {"names": tuple(self.param_names), "checked": self.checked, "n_coordinates": self.n_coordinates,
+                "eps": self.eps, "row_bytes": self.row_bytes, "max_bytes": self.max_bytes,
+                "max_steps": self.max_steps, "budget_given": int(budget_given)}
+
     def fits(self, nt: int, span: float, s: Settings, budget_given: bool) -> bool:
         """Whether _check_size would let the run through (else the general path refuses it)."""
         if nt * self.row_bytes > self.max_bytes or not span - span == 0:

@@ -348,6 +348,31 @@ for _name in _OBSERVED:          # after @dataclass: its __init__ assigns throug
     setattr(SimulationResult, _name, _observed(_name))
 
 
+class LazySolution:
+    """A result's continuous solution made on first access of r.sol: `make(result)` builds
+    it (simulate's compiled call path: most runs never ask for it, and building it costs
+    more than the run of a short span)."""
+    __slots__ = ("make",)
+
+    def __init__(self, make):
+        self.make = make
+
+
+def _solution_get(self):
+    value = self.__dict__.get("_sol")
+    if type(value) is LazySolution:
+        value = self.__dict__["_sol"] = value.make(self)
+    return value
+
+
+def _solution_set(self, value):
+    self.__dict__["_sol"] = value
+
+
+SimulationResult.sol = property(_solution_get, _solution_set,
+                                doc="adaptive methods: r.sol(t), the continuous solution (derive/runtime/dense.py)")
+
+
 def result_factory(**constant):
     """A maker of results sharing the `constant` fields (one plan's model, method, dtype,
     ...): the dataclass __init__ runs once, here, and each result starts as a copy of that
@@ -364,6 +389,7 @@ def result_factory(**constant):
         state.update(prototype)
         state.update(varying)
         return result
+    make.prototype = prototype        # the compiled call path starts its results from it too
     return make
 
 

@@ -33,7 +33,8 @@ from .build import address, integrator_library
 from .extended import extended_taylor
 from .loader import numpy_integrators
 from .observables import _observables, _velocities
-from .result import LAZY, LOCAL_SUM, result_factory
+from . import compiled_call
+from .result import LAZY, LOCAL_SUM, SimulationResult, result_factory
 from .shared_library import info_state, stop_state
 from .taylor_lanes_library import taylor_ensemble_library
 from .taylor_library import taylor_library
@@ -61,7 +62,7 @@ class Settings:
     pilot_steps : int or None
         The step budget of an adaptive run's pilot (None: no pilot struct).
     """
-    __slots__ = ("opt", "struct", "pilot", "pilot_steps", "call", "Info", "step", "limit")
+    __slots__ = ("opt", "struct", "pilot", "pilot_steps", "call", "Info", "step", "limit", "compiled")
 
     def __init__(self, runner: "Runner", opt: dict, pilot_steps: int | None = None):
         self.opt = opt
@@ -73,6 +74,7 @@ class Settings:
         # the step that bounds a run's step count (fixed: h; adaptive: hmax, 0: none)
         self.step = opt["hmax"] if runner.tolerance else opt["h"]
         self.limit = opt["max_steps"]
+        self.compiled = None        # its compiled call (Runner.compiled_call), once made
 
 
 class Runner:
@@ -133,11 +135,17 @@ class Runner:
     def entry(self, rtol: float) -> tuple:
         """(the single-trajectory entry point with its leading arguments bound, its info
         struct): one trajectory of the RK library's method, or Taylor's scalar integrator."""
+        fn, index, Info = self.entry_point(rtol)
+        return (partial(fn, 1) if index is None else partial(fn, 1, index)), Info
+
+    def entry_point(self, rtol: float) -> tuple:
+        """(the batch entry point, its method argument or None for Taylor's, which has
+        none, its info struct)."""
         if self.method == TAYLOR:
             taylor = taylor_library(self.model, self.order(rtol), self.dtype)
-            return partial(taylor.fns[self.dtype], 1), taylor.Info
+            return taylor.fns[self.dtype], None, taylor.Info
         lib = self.lib
-        return partial(lib.fns[self.dtype], 1, self.index), lib.Info
+        return lib.fns[self.dtype], self.index, lib.Info
 
     def batch_library(self, rtol: float):
         """The library a batch runs in (its .run(y0, p, t, opt)): Taylor's SIMD lanes
@@ -232,6 +240,40 @@ class Runner:
             nfev=info.nfev, njev=info.njev, nsteps=info.nsteps, naccepted=info.naccepted,
             nrejected=info.nrejected, nnewton=info.nnewton,
             error_estimate=info.local_error if self.local_error else None)
+
+    def compiled_call(self, s: Settings, struct, checks: dict, finish: dict):
+        """The run of `execute` with the settings `s` and options `struct`, compiled with
+        its argument checks and its result (derive/runtime/compiled_call.py): a callable
+        (y0, t, params) -> SimulationResult or None, or None where there is none (the
+        extension not built; a chart model, whose results name their chart).
+
+        Parameters
+        ----------
+        s : Settings
+        struct : options struct
+            The one the run passes (s.pilot or s.struct).
+        checks : dict
+            The argument checks of the call (RunPlan.compiled_checks).
+        finish : dict
+            The result's fields simulate's _finish sets (rtol or step and guard, sol).
+
+        Returns
+        -------
+        compiled_call.Call or None
+        """
+        if self.backend != "c" or self.single_chart or self.atlas is not None or self.n_inputs or \
+                self.dtype not in compiled_call.REALS or not compiled_call.available():
+            return None
+        fn, index, Info = self.entry_point(s.opt["rtol"])
+        offsets = {name: getattr(Info, name).offset for name in ("status", "t", "h_end", "local_error", "y", *COUNTERS)}
+        spec = dict(checks, entry=ctypes.cast(fn, ctypes.c_void_p).value, method=-1 if index is None else index,
+                    n=self.n, n_params=self.n_params, real=compiled_call.REALS[self.dtype],
+                    tolerance=int(self.tolerance), local_error=int(self.local_error),
+                    info_size=ctypes.sizeof(Info), offsets=offsets, options=_addressof(struct),
+                    options_owner=struct, step=s.step, limit=s.limit, status_names=STATUS_NAMES,
+                    cls=SimulationResult, prototype={**self.make_result.prototype, **finish},
+                    partial=partial, observe=_observe, model=self.model, dtype=self.dt, backend="c")
+        return compiled_call.make_call(spec)
 
     def numpy_run(self, y0: np.ndarray, p: np.ndarray, pm: np.ndarray, t: np.ndarray, opt: dict):
         """One run of the generated NumPy module (p with the inputs, pm without).

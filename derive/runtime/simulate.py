@@ -19,12 +19,13 @@ A run that cannot go on returns a result whose `status` says why
 from __future__ import annotations
 
 import ctypes
+import math
 import os
 import signal
 import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import lru_cache, partial
 
 import numpy as np
 
@@ -46,7 +47,8 @@ from .observables import _observables, _velocities, numpy_module  # noqa: F401  
 from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, plain_times
 from .runner import Settings, runner_for
 from . import constraints, continuous_inputs, extended, extended_run
-from .result import LAZY, LOCAL_SUM, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
+from . import compiled_call
+from .result import LAZY, LOCAL_SUM, LazySolution, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
 from ..model.atlas import ATLAS, Atlas, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
 # the rungs of the precision ladder the RK methods compute in: every name of each
@@ -559,13 +561,37 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     >>> r.nsteps, r.step
     (100, 0.01)
     """
+    dispatch = compiled_call.COMPILED.dispatch
+    pilot = None
+    if FAST_PATH and dispatch is not None and project is False:
+        # a repeated plain call: its compiled call, if it has one (the whole of its Python)
+        done = dispatch(model, y0, t, params, method, rtol, atol, step, dtype, backend, max_steps, sine_min,
+                        newton_tol, newton_max, hmax, inputs, atlas, events, error_estimate, hold)
+        if done is not None:
+            if type(done) is not tuple:
+                return done
+            pilot = done[0]                 # an adaptive run's pilot, stopped at its step budget
+    return _simulate(model, y0, t, params, method, rtol, atol, step, dtype, backend, max_steps, sine_min,
+                     newton_tol, newton_max, hmax, inputs, atlas, events, error_estimate, hold, pilot, project)
+
+
+def _simulate(model, y0, t, params, method, rtol, atol, step, dtype, backend, max_steps, sine_min, newton_tol,
+              newton_max, hmax, inputs, atlas, events, error_estimate, hold, pilot, project) -> SimulationResult:
+    """simulate's Python paths: the fast path (fast_path.py; `pilot`: a compiled call's
+    pilot that stopped at its step budget, to go on from) and the general path.  Apart
+    from simulate, which would otherwise make the cells of this function's closures on
+    every call, the compiled ones too."""
+    plain = FAST_PATH and backend == "c" and not atlas and inputs is None and events is None and \
+        hold is None and project is False and isinstance(error_estimate, str) and error_estimate == "local"
     precision = extended.precision_of(dtype)
+    original_method = method
     if method is None:
         method = TAYLOR if precision else DEFAULT_METHOD
-    if FAST_PATH and precision is None and backend == "c" and not atlas and inputs is None and events is None and \
-            hold is None and project is False and isinstance(error_estimate, str) and error_estimate == "local":
+    if plain and precision is None:
+        key = compiled_call.call_key(model, original_method, dtype, rtol, atol, step, hmax, max_steps,
+                                     newton_tol, newton_max, sine_min)
         fast = _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_steps,
-                              sine_min, newton_tol, newton_max, hmax)
+                              sine_min, newton_tol, newton_max, hmax, arguments=key, pilot=pilot)
         if fast is not None:
             return fast
     model = resolve_model(model, atlas, explicit_time=not atlas)
@@ -792,13 +818,17 @@ def run_plan(model: str, method: str, dtype) -> RunPlan:
 
 
 def _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_steps, sine_min,
-                   newton_tol, newton_max, hmax) -> SimulationResult | None:
+                   newton_tol, newton_max, hmax, arguments=None, pilot=None) -> SimulationResult | None:
     """simulate(...) for a model by name on the C backend, without inputs or events, when
     every argument is plainly valid: the same result as the general path, in a few
     microseconds.  None for anything else (the general path then runs, and refuses bad
     input with its one line); what it refuses itself (the model's parameter checks, the
     option checks of run_options) it refuses with the general path's words, at the same
-    point of the same order of checks."""
+    point of the same order of checks.
+
+    `arguments`: simulate's option arguments (compiled_call.call_key): a second run with them
+    registers their compiled call.  `pilot`: an adaptive run's pilot that stopped at its
+    step budget, run already by that compiled call."""
     try:
         plan = run_plan(model, method, dtype)
     except (NotPlanned, TypeError):              # TypeError: an unhashable argument
@@ -837,13 +867,46 @@ def _fast_simulate(model, y0, t, params, method, rtol, atol, step, dtype, max_st
     if plan.tolerance and max_steps is None:
         # _drive's first case, the common one, without the calls around it: the pilot, which
         # is the run unless it stopped at its step budget (then _run_estimated decides)
-        result = execute(s, s.pilot, buf, nt)
+        result = execute(s, s.pilot, buf, nt) if pilot is None else pilot
         if result.status == MAX_STEPS_STATUS:
-            result = _run_estimated(run, method, buf[plan.n + plan.n_params:], opt, "c", result)
+            return _finish(_run_estimated(run, method, buf[plan.n + plan.n_params:], opt, "c", result),
+                           plan.model, method, "c", plan.dt, opt, result.params)
     else:
         result = _drive(run, method, buf[plan.n + plan.n_params:], opt, "c", max_steps is not None,
                         direct=lambda: execute(s, s.struct, buf, nt))
+    if arguments is not None and nt > 1:
+        _register_compiled(arguments, plan, s, max_steps is not None)
     return _finish(result, plan.model, method, "c", plan.dt, opt, result.params)
+
+
+def _register_compiled(key: tuple, plan: RunPlan, s: Settings, budget_given: bool) -> None:
+    """On the second run with the option arguments `key`, their compiled call
+    (derive/runtime/compiled_call.py): the same run as the fast path's, its checks, its
+    result, _finish's fields, in one C call.  A run the fast path makes other than
+    directly (cancellable: _drive) has none."""
+    if not compiled_call.seen_twice(key):
+        return
+    if s.compiled is None:
+        opt = s.opt
+        if plan.tolerance:
+            if budget_given and opt["max_steps"] > PILOT_STEPS["c"]:
+                return
+            struct, quick, finish = (s.struct if budget_given else s.pilot), math.inf, {"rtol": opt["rtol"]}
+        else:
+            struct, quick, finish = s.struct, QUICK_STEPS, {"step": opt["h"]}
+            if plan.method in MULTISTEP:
+                finish["guard"] = (float(opt["rtol"]), float(opt["atol"]))
+        if plan.method in ADAPTIVE:
+            finish["_sol"] = LazySolution(partial(_solution, plan.model, plan.method, plan.dt, opt))
+        checks = dict(plan.compiled_checks(budget_given), quick_steps=quick,
+                      pilot=int(plan.tolerance and not budget_given))
+        s.compiled = plan.runner.compiled_call(s, struct, checks, finish) or False
+    compiled_call.register(key, s.compiled or None)
+
+
+def _solution(model: str, method: str, dt: np.dtype, opt: dict, result: SimulationResult):
+    """A compiled call's r.sol, made on first access (as _finish makes it)."""
+    return dense.dense_output(result, model, method, "c", dt, opt, result.params)
 
 
 def _fast_settings(plan, args: tuple) -> Settings | None:

@@ -40,4 +40,39 @@ def test_race_quick_writes_its_table(tmp_path):
         assert row in text
     rows = (tmp_path / "race.csv").read_text().splitlines()
     assert any(r.startswith("regular,heyoka taylor") for r in rows)
+    assert any(r.startswith("regular,heyoka-numbers taylor") for r in rows)
     assert (tmp_path / "race.png").stat().st_size > 10_000
+
+
+def test_heyoka_with_the_parameters_folded_in_integrates_the_same_equations():
+    """heyoka's second setting (the parameters written in as numbers) is the par[] system at
+    the race's parameter values."""
+    hy = race._heyoka()
+    rng = np.random.default_rng(5)
+    y = np.column_stack([rng.uniform(-3, 3, (50, 2)), rng.uniform(-4, 4, (50, 2))])
+    by_par, folded = (race.heyoka_system(hy, f) for f in (False, True))
+    f_par = hy.cfunc([rhs for _, rhs in by_par], vars=[v for v, _ in by_par])
+    f_num = hy.cfunc([rhs for _, rhs in folded], vars=[v for v, _ in folded])
+    pars = np.ascontiguousarray(np.tile(np.array(race.PARAMS)[:, None], 50))
+    theirs = f_par(np.ascontiguousarray(y.T), pars=pars)
+    assert np.allclose(f_num(np.ascontiguousarray(y.T)), theirs, rtol=1e-13, atol=1e-13)
+
+
+def test_the_table_has_both_heyoka_settings_their_ratios_and_the_steps():
+    """The summary's ratios are the peers' times over derive's; the per-step table pairs the
+    tools by tolerance (made-up points: the table's logic, no timing)."""
+    P = race.Point
+    rows = [race.Row("chaotic", "chaotic", [P("derive taylor", "rtol=1e-10", 2e-4, 1e-9),
+                                             P("heyoka taylor", "tol=1e-10", 1e-4, 1e-9),
+                                             P("heyoka-numbers taylor", "tol=1e-10", 5e-5, 1e-9),
+                                             P("heyoka-numbers taylor", "tol=1e-8", 1e-5, 1e-6)]),
+            race.Row("per step", "per step", [P("derive taylor", "order=13 steps=150 rtol=1e-10", 1e-6, 0.0),
+                                               P("heyoka taylor", "order=13 steps=151 tol=1e-10", 2e-6, 0.0),
+                                               P("heyoka-numbers taylor", "order=13 steps=151 tol=1e-10", 5e-7, 0.0)])]
+    summary = race.summary_rows(race.Race(rows, "7", "m"))
+    assert len(summary) == 1
+    assert summary[0]["heyoka ratio"] == pytest.approx(0.5)
+    assert summary[0]["heyoka-numbers ratio"] == pytest.approx(0.25)     # the 1e-6 point misses the target
+    text = race.markdown(race.Race(rows, "7", "m", "1/2/3"))
+    assert "| 1e-10 | 13 | 1 us | 150 | 2 us | 151 | 2.00 | 0.5 us | 0.50 |" in text
+    assert "heyoka-numbers / derive" in text and "load 1/2/3" in text
