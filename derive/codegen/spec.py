@@ -332,6 +332,9 @@ def _constraint_kernels(d, dyn, yp, y: Input, p: Input, guards) -> list[Kernel]:
     (the constraint forces J^T lambda) from the solve of rhs."""
     c, nq = d.constraints, len(d.symbols.q)
     m = c.J.rows
+    q = sp.Matrix(d.symbols.q)
+    # d(Phi, J q')/dy: its null space is the tangent space of the constrained motion's states
+    G = sp.Matrix(sp.BlockMatrix([[c.J, sp.zeros(m, nq)], [c.velocity.jacobian(q), c.J]]))
     return [
         Kernel("constraints", "The loop closure's residuals: Phi(q) and J q', both zero on the "
                               "constrained motion (the drift a run reports).",
@@ -340,6 +343,10 @@ def _constraint_kernels(d, dyn, yp, y: Input, p: Input, guards) -> list[Kernel]:
         Kernel("constraint_jacobian", "J = dPhi/dq, shape (constraints, coordinates) (reads the "
                                       "coordinates of y only).",
                (y, p), (Output("Jc", (m, nq), tuple(c.J), "row-major"),)),
+        Kernel("constraint_state_jacobian", "G = d(Phi, J q')/dy, shape (2 constraints, states): "
+                                            "its null space is the tangent space of the states on "
+                                            "the loop (a variational vector stays in it).",
+               (y, p), (Output("G", (2 * m, 2 * nq), tuple(G.applyfunc(sp.expand)), "row-major"),)),
         Kernel("multipliers", "The Lagrange multipliers lambda of M q'' + J^T lambda = F, J q'' = gamma "
                               f"({dyn.method}); J^T lambda is the generalized constraint force, with "
                               "the sign of a force the loop takes out of F.",

@@ -62,6 +62,18 @@ class Lyapunov:
         return math.exp(x) if x < 700 else math.inf
 
 
+def _tangent_projections(model: str, kernels, args) -> np.ndarray | None:
+    """A closed loop's orthogonal projections onto the tangent space of its states, the
+    null space of G = d(Phi, J q')/dy, at each state of `args`; None for an open chain.
+    Without them the variational vector would grow along directions off the constraints
+    (which the index-1 equations let drift), not only along the motion's."""
+    if not load_model(model).is_constrained:
+        return None
+    G = np.asarray(kernels.constraint_state_jacobian(*args[:2]), np.float64)
+    eye = np.eye(G.shape[-1])
+    return np.stack([eye - g.T @ np.linalg.solve(g @ g.T, g) for g in G])
+
+
 def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs=None,
                      backend: str = "c") -> Lyapunov:
     """lambda from the variational equations along y(t), t in [0, min(t_end, MAX_WINDOW)]
@@ -79,12 +91,16 @@ def largest_lyapunov(model: str, y0, params, t_end: float, seed: int = 0, inputs
         args += (normalise_inputs(model, inputs).astype(np.float64),)
     kernels = loader.load(model) if backend == "c" else loader.numpy_module(model)
     jac = np.asarray(kernels.jacobian(*args), np.float64)
+    on_loop = _tangent_projections(model, kernels, args)
     dt = t_end / n
     rng = np.random.default_rng(seed)
     delta = rng.standard_normal(run.y.shape[1])
     delta /= np.linalg.norm(delta)
     log_growth = 0.0
-    for J in jac:
+    for k, J in enumerate(jac):
+        if on_loop is not None:       # a closed loop: off the constraints is no motion of it
+            delta = on_loop[k] @ delta
+            delta /= np.linalg.norm(delta)
         A = J * dt
         term = A @ delta
         step = delta + term

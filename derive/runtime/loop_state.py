@@ -30,7 +30,7 @@ def consistent_state(model, y0, params) -> np.ndarray:
     Returns
     -------
     ndarray, shape (n,)
-        A state with |Phi| and |J q'| at roundoff.
+        A state whose residuals ``|Phi|`` and ``|J q'|`` are at roundoff.
 
     Raises
     ------

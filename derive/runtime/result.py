@@ -90,7 +90,7 @@ class SimulationResult:
     energy_error, energy_scale : float
         The largest relative energy error over the outputs, and what it is relative to.
     constraint_drift : ConstraintDrift or None
-        A closed loop (a model with constraints): the largest |Phi| and |J q'| over the
+        A closed loop (a model with constraints): the largest ``|Phi|`` and ``|J q'|`` over the
         outputs (``.phi``, ``.phi_dot``), and the bound (``.bound``) above which the message
         reports them (``.exceeded``); None for an open chain (derive/runtime/constraints.py).
 

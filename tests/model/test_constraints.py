@@ -55,6 +55,7 @@ def test_one_constraint_on_two_coordinates_is_a_model():
     ('constraints = ["theta1", "theta2"]', "2 constraints on 2 coordinates leave no degree of freedom"),
     ('constraints = ["theta1 - theta2"]\nforms = ["lagrangian", "hamiltonian"]',
      "the Hamiltonian form is for unconstrained chains"),
+    ('constraints = ["theta1 - theta2"]\nforms = ["lagrangian", "paper"]', "the paper form is for unconstrained chains"),
 ])
 def test_a_bad_constraint_is_one_line_naming_the_key(extra, message):
     with pytest.raises(ModelError) as info:

@@ -159,3 +159,25 @@ def test_the_generated_c_of_a_loop_is_clean_under_werror(tmp_path):
                                str(tmp_path / "gen" / "c" / name), "-o", str(tmp_path / "x.o")],
                               capture_output=True, text=True)
         assert proc.returncode == 0, (name, proc.stderr)
+
+
+def test_the_lyapunov_tangent_vector_is_held_to_the_loop(monkeypatch):
+    """Each step's projection is onto the null space of G = d(Phi, J q')/dy, of the
+    dimension of the loop's states (2: one degree of freedom), and the exponent uses them."""
+    from derive.measurement import trust
+    from derive.runtime.loader import numpy_module
+    load_model(FOUR_BAR)
+    p = np.array(list(P.values()))
+    kernels = numpy_module("four_bar")
+    states = np.stack([Y0, derive.consistent_state(FOUR_BAR, Y0 + 0.1, P)])
+    projections = trust._tangent_projections("four_bar", kernels, (states, p))
+    G = np.asarray(kernels.constraint_state_jacobian(states, p))
+    for g, proj in zip(G, projections):
+        assert np.abs(g @ proj).max() < 1e-12 and np.abs(proj @ proj - proj).max() < 1e-12
+        assert np.linalg.matrix_rank(proj) == 2          # 1 degree of freedom: (q, q') on the loop
+    seen = []
+    real = trust._tangent_projections
+    monkeypatch.setattr(trust, "_tangent_projections", lambda *args: seen.append(real(*args)) or seen[-1])
+    exponent = trust.largest_lyapunov("four_bar", Y0, P, 10.0, backend="numpy").exponent
+    assert seen and len(seen[0]) > 100 and np.isfinite(exponent)     # a projection at every step
+    assert trust._tangent_projections("planar", kernels, (states, p)) is None
