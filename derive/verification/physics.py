@@ -136,7 +136,9 @@ def loop_stays_closed(name, n_points: int = 20) -> Check:
 
 
 def not_applicable(name) -> list[tuple[str, str]]:
-    """(check, why) of the physics checks that do not apply to a model: a closed loop's.
+    """(check, why) of the physics checks that do not apply to a model, so that none is left
+    out silently: a closed loop's, and the Cartesian check where the model is no
+    conservative chain of point masses (model_checks leaves it out there).
 
     Parameters
     ----------
@@ -146,14 +148,25 @@ def not_applicable(name) -> list[tuple[str, str]]:
     Returns
     -------
     list of (str, str)
-        Empty for an open chain.
+        Empty for a conservative open chain of point masses.
     """
     model = name if not isinstance(name, str) else load_model(name)
-    if not model.is_constrained:
-        return []
-    return [("Cartesian constraint forces", "for open chains of point masses: a closed loop's "
-                                            "constraint forces are its multipliers' J^T lambda"),
-            ("Hamiltonian form", "a closed loop has none here (its coordinates are not independent)")]
+    if model.is_constrained:
+        return [("Cartesian constraint forces", "for open chains of point masses: a closed loop's "
+                                                "constraint forces are its multipliers' J^T lambda"),
+                ("Hamiltonian form", "a closed loop has none here (its coordinates are not independent)")]
+    cartesian = "Cartesian constraint forces"
+    if not model.is_chain:
+        return [(cartesian, "for serial chains of point masses: a slider, a branch, an offset or a "
+                            "massless link is no constraint |x_k - x_k-1| = l_k (M positive definite "
+                            "and the energy balance check this model)")]
+    if any(link.body.kind != "point" for link in model.links):
+        return [(cartesian, "for chains of point masses: a rod's or a rigid body's rotational inertia "
+                            "is no point mass (M positive definite and the energy balance check it)")]
+    if not model.is_conservative:
+        return [(cartesian, "for conservative chains: applied forces, damping and explicit time have "
+                            "no Cartesian form here (the power balance checks them)")]
+    return []
 
 
 def mass_matrix_spd(name: str, n_points: int = 20) -> Check:
