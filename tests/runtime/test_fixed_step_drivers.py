@@ -161,15 +161,23 @@ def test_a_set_cancellation_flag_stops_the_c_loop(method):
     assert infos[0].status == STATUS["OK"]
 
 
-def _interrupt_after(code: list[str], seconds: float = 1.0):
+def _interrupt_after(code: list[str], seconds: float = 1.0, ready: str | None = None):
+    """SIGINT `seconds` after the start, or after the program printed the line `ready`
+    (then `seconds` more: on a loaded machine the imports alone can take seconds)."""
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.Popen(code, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
                             cwd=str(ROOT))
+    before = ""
+    if ready is not None:
+        for line in proc.stdout:
+            before += line
+            if line.strip() == ready:
+                break
     time.sleep(seconds)
     sent = time.perf_counter()
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=30)
-    return proc.returncode, out, err, time.perf_counter() - sent
+    return proc.returncode, before + out, err, time.perf_counter() - sent
 
 
 def test_ctrl_c_stops_a_long_c_run_of_the_api():
@@ -184,7 +192,7 @@ def test_ctrl_c_stops_a_long_c_run_of_the_api():
         except KeyboardInterrupt as exc:
             print("KeyboardInterrupt", exc)
     """)
-    code_, out, err, waited = _interrupt_after([sys.executable, "-c", code], seconds=3.0)
+    code_, out, err, waited = _interrupt_after([sys.executable, "-c", code], seconds=1.0, ready="warm")
     assert "KeyboardInterrupt run cancelled at t = " in out, (out, err)
     assert waited < 5, waited
 
