@@ -77,7 +77,7 @@ def compute(model: Model) -> Derivation:
     M = lagrange.mass_matrix(form)
     V = lagrange.potential_energy(form)
     R = lagrange.dissipation_function(model, s)
-    Q = lagrange.generalized_forces(model, s)
+    Q = lagrange.generalized_forces(model, s, tips, centres)
     F = lagrange.forcing(form, s)
     if R is not None or Q is not None:
         F = F + lagrange.non_conservative(R, Q, s)

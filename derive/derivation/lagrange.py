@@ -193,15 +193,37 @@ def dissipation_function(model: Model, s: ModelSymbols) -> sp.Expr | None:
     return parse_expression(model.dissipation, names(s), f"{model.origin or model.name}: dissipation")
 
 
-def generalized_forces(model: Model, s: ModelSymbols) -> sp.Matrix | None:
+def generalized_forces(model: Model, s: ModelSymbols, tips: list[sp.Matrix],
+                       centres: list[sp.Matrix]) -> sp.Matrix | None:
     """The applied generalized forces Q (one per coordinate; zero where the model gives
-    none), or None for a model without [forces]."""
-    if not model.forces:
+    none): the model's [forces] on coordinates, plus each of its [[loads]] mapped through
+    its point's Jacobian, Q_j += f . dr/dq_j (the virtual work f . dr = sum_j Q_j dq_j);
+    None for a model with neither.
+
+    Parameters
+    ----------
+    model : Model
+    s : ModelSymbols
+    tips, centres : list of sympy.Matrix
+        Each link's tip and body centre (the derivation's), where the loads act.
+
+    Returns
+    -------
+    sympy.Matrix or None
+        Q, one entry per coordinate.
+    """
+    if not model.forces and not model.loads:
         return None
     given = dict(model.forces)
     where = model.origin or model.name
-    return sp.Matrix([parse_expression(given[q.name], names(s), f"{where}: forces.{q.name}")
-                      if q.name in given else sp.S.Zero for q in s.q])
+    Q = sp.Matrix([parse_expression(given[q.name], names(s), f"{where}: forces.{q.name}")
+                   if q.name in given else sp.S.Zero for q in s.q])
+    for i, load in enumerate(model.loads, 1):
+        f = sp.Matrix([parse_expression(text, names(s), f"{where}: load {i} force {axis}")
+                       for axis, text in zip("xyz", load.force)])
+        r = named_point(model, s, tips, centres, load.point)
+        Q += (r.jacobian(sp.Matrix(s.q)).T * f).applyfunc(sp.expand)
+    return Q
 
 
 def non_conservative(R: sp.Expr | None, Q: sp.Matrix | None, s: ModelSymbols) -> sp.Matrix:
@@ -292,6 +314,18 @@ def model_potential(model: Model, s: ModelSymbols) -> sp.Expr | None:
     return parse_expression(model.potential, names(s), f"{model.origin or model.name}: potential")
 
 
+def named_point(model: Model, s: ModelSymbols, tips: list[sp.Matrix], centres: list[sp.Matrix],
+                text: str) -> sp.Matrix:
+    """Where a spring's end or a load's point is: "pivot", a link's name for its tip,
+    "<link>.centre" for its body's centre of mass."""
+    by_name = {link.name: i for i, link in enumerate(model.links) if link.name}
+    if text == "pivot":
+        return pivot_position(model, s)
+    if text.endswith(".centre"):
+        return centres[by_name[text[:-len(".centre")]]]
+    return tips[by_name[text]]
+
+
 def spring_potential(model: Model, s: ModelSymbols, tips: list[sp.Matrix],
                      centres: list[sp.Matrix]) -> sp.Expr | None:
     """The energy of the model's springs, or None: k/2 (|b - a| - rest)^2 for a linear
@@ -313,14 +347,8 @@ def spring_potential(model: Model, s: ModelSymbols, tips: list[sp.Matrix],
     """
     if not model.springs:
         return None
-    by_name = {link.name: i for i, link in enumerate(model.links) if link.name}
-
     def point(text: str) -> sp.Matrix:
-        if text == "pivot":
-            return pivot_position(model, s)
-        if text.endswith(".centre"):
-            return centres[by_name[text[:-len(".centre")]]]
-        return tips[by_name[text]]
+        return named_point(model, s, tips, centres, text)
 
     V = sp.S.Zero
     for spring in model.springs:

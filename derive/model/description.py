@@ -120,6 +120,16 @@ class Spring:
     joint: int | None = None             # the link index of a torsional spring
 
 
+@dataclass(frozen=True)
+class Load:
+    """A force applied at a point of the model (sympy.physics.mechanics' Force on a Point):
+    `point` is "pivot", a link's name for its tip or "<link>.centre"; `force` its components
+    (x, y[, z]) in the fixed frame, expressions in the state, parameters, inputs and t.  Its
+    generalized force is Q_j = force . dr/dq_j (the point's Jacobian)."""
+    point: str
+    force: tuple[str, ...]
+
+
 SI_UNITS = {"length": "m", "mass": "kg", "inertia": "kg m²", "gravity": "m/s²", "fraction": ""}
 
 
@@ -142,6 +152,7 @@ class Model:
     order: tuple[str, ...] | None = None         # the coordinates' order in the state, when not the links'
     springs: tuple[Spring, ...] = ()
     constraints: tuple[str, ...] = ()            # holonomic loop closures Phi(q; p) = 0
+    loads: tuple[Load, ...] = ()                 # forces applied at points ([[loads]])
 
     @property
     def is_chain(self) -> bool:
@@ -156,7 +167,8 @@ class Model:
     def is_conservative(self) -> bool:
         """Whether the model's energy is conserved: no dissipation, no applied forces and
         no explicit time (a moving pivot does work on the chain)."""
-        return self.dissipation is None and not self.forces and not self.is_time_dependent
+        return (self.dissipation is None and not self.forces and not self.loads
+                and not self.is_time_dependent)
 
     @cached_property
     def is_time_dependent(self) -> bool:
@@ -164,7 +176,8 @@ class Model:
         the pivot's motion): the equations are then M q'' = F(q, q', p, u, t)."""
         names = {n: sp.Symbol(n) for n in (*self.parameters, *self.inputs, *self.state_names, TIME)}
         where = self.origin or self.name
-        texts = [*(text for _, text in self.forces), *(self.pivot or ())]
+        texts = [*(text for _, text in self.forces), *(self.pivot or ()),
+                 *(text for load in self.loads for text in load.force)]
         texts += [text for text in (self.dissipation, self.potential) if text is not None]
         return any(names[TIME] in parse_expression(text, names, where).free_symbols for text in texts)
 
@@ -529,6 +542,9 @@ def _check_expressions(model: "Model", where: str) -> None:
             raise ModelError(f"{where}: dissipation uses no rate ({', '.join(model.rate_names)})")
     for coord, text in model.forces:
         parse_expression(text, names, f"{where}: forces.{coord}")
+    for i, load in enumerate(model.loads, 1):
+        for axis, text in zip("xyz", load.force):
+            parse_expression(text, names, f"{where}: load {i} force {axis}")
     motion = {n: names[n] for n in (*model.parameters, TIME)}     # prescribed: no state, no input
     for axis, text in zip("xyz", model.pivot or ()):
         parse_expression(text, motion, f"{where}: pivot {axis}")
@@ -749,6 +765,37 @@ def _spring_point(text, links: list[Link], where: str) -> str:
     return text
 
 
+def _parse_loads(t: dict, links: list[Link], dimension: int, origin: str) -> tuple[Load, ...]:
+    """The [[loads]] tables: a force (`force`, one expression per axis) at a `point`."""
+    tables = t.get("loads", [])
+    if not isinstance(tables, list):
+        raise ModelError(f"{origin}: 'loads' must be an array of tables ([[loads]])")
+    out = []
+    for i, lt in enumerate(tables, 1):
+        where = f"{origin}: load {i}"
+        if not isinstance(lt, dict):
+            raise ModelError(f"{where}: must be a table")
+        _no_unknown(lt, {"point", "force"}, where)
+        for key in ("point", "force"):
+            if key not in lt:
+                raise ModelError(f"{where}: missing key '{key}'")
+        force = lt["force"]
+        if not isinstance(force, list) or len(force) != dimension or \
+                not all(isinstance(c, (str, int, float)) and not isinstance(c, bool) for c in force):
+            raise ModelError(f"{where}: 'force' must be a list of {dimension} expressions (its "
+                             f"{', '.join('xyz'[:dimension])} components in the fixed frame)")
+        point = _load_point(lt["point"], links, where)
+        out.append(Load(point, tuple(str(c) for c in force)))
+    return tuple(out)
+
+
+def _load_point(text, links: list[Link], where: str) -> str:
+    try:
+        return _spring_point(text, links, where)
+    except ModelError as exc:          # the same points as a spring's ends, named by this key
+        raise ModelError(str(exc).replace("'between'", "'point'")) from None
+
+
 def _parse_springs(t: dict, links: list[Link], params: tuple[str, ...], origin: str) -> tuple[Spring, ...]:
     """The [[springs]] tables: linear (`between`, `stiffness`, `rest_length`) or torsional
     (`joint`, `stiffness`, `rest_angle`)."""
@@ -802,7 +849,7 @@ def parse_model(text: str, origin: str) -> Model:
         raise ModelError(f"{origin}: not valid TOML (tables nested too deeply)") from None
     _no_unknown(t, {"name", "title", "source", "dimension", "parameters", "forms", "links",
                     "inputs", "dissipation", "forces", "pivot", "potential", "coordinates", "springs",
-                    "constraints"}, origin)
+                    "constraints", "loads"}, origin)
     dimension = _require(t, "dimension", int, origin)
     if dimension not in (2, 3):
         raise ModelError(f"{origin}: 'dimension' must be 2 (planar) or 3 (spherical), got {dimension}")
@@ -843,11 +890,12 @@ def parse_model(text: str, origin: str) -> Model:
                   inputs=inputs, dissipation=dissipation, origin=origin,
                   pivot=_pivot(t, dimension, origin), potential=potential,
                   order=_order(t, links, origin), springs=_parse_springs(t, links, params, origin), constraints=_constraints(t, origin),
+                  loads=_parse_loads(t, links, dimension, origin),
                   forces=tuple((k, _quantity(forces_table, k, f"{origin}: forces")) for k in forces_table))
     _check_names(model, origin)
     _check_expressions(model, origin)
     if "hamiltonian" in forms and not model.is_conservative:
-        why = ("dissipation" if dissipation else "applied forces" if model.forces
+        why = ("dissipation" if dissipation else "applied forces" if model.forces or model.loads
                else "explicit time (a moving pivot)")
         raise ModelError(f"{origin}: the Hamiltonian form is for conservative models; this one has "
                          f"{why} (remove 'hamiltonian' from 'forms')")

@@ -320,3 +320,56 @@ def test_cart_pole_linearised_upright_is_its_closed_form():
     expected_A[2, 1], expected_A[3, 1] = m * g / M, (M + m) * g / (M * l)
     assert np.allclose(A, expected_A, rtol=1e-12, atol=1e-12)
     assert np.allclose(np.ravel(B), [0.0, 0.0, 1 / M, 1 / (M * l)], rtol=1e-12, atol=1e-12)
+
+
+WINDY = """
+name = "windy"
+dimension = 2
+parameters = ["m1", "m2", "l1", "l2", "c", "w", "g"]
+inputs = ["P"]
+[[links]]
+name = "upper"
+chart = "planar"
+length = "l1"
+body = { kind = "rod", mass = "m1", com = "1/2", inertia = "m1*l1**2/12" }
+[[links]]
+name = "lower"
+chart = "planar"
+length = "l2"
+body = { kind = "point", mass = "m2" }
+[[loads]]                       # a gust on the lower bob, in t and in its height
+point = "lower"
+force = ["c*sin(w*t)", "-c*theta2_dot"]
+[[loads]]                       # a push at the upper rod's centre, a run-time input
+point = "upper.centre"
+force = ["P", "0"]
+"""
+
+
+def windy_reference() -> Reference:
+    """The same double pendulum with the two forces applied at their points (sympy's
+    Force on a Point: LagrangesMethod maps them through the points' velocities)."""
+    m1, m2, l1, l2, c, w, g, P = sp.symbols("m1 m2 l1 l2 c w g P")
+    th1, th2 = dynamicsymbols("theta1 theta2")
+    N = ReferenceFrame("N")
+    A1, A2 = N.orientnew("A1", "Axis", [th1, N.z]), N.orientnew("A2", "Axis", [th2, N.z])
+    O = Point("O")
+    O.set_vel(N, 0)
+    centre = O.locatenew("C1", -l1 / 2 * A1.y)
+    elbow = O.locatenew("E", -l1 * A1.y)
+    bob = elbow.locatenew("B2", -l2 * A2.y)
+    for point in (centre, elbow, bob):
+        point.set_vel(N, point.pos_from(O).dt(N))
+    rod = RigidBody("rod", centre, A1, m1, (inertia(A1, 0, 0, m1 * l1**2 / 12), centre))
+    forces = [(centre, -m1 * g * N.y + P * N.x),
+              (bob, -m2 * g * N.y + c * sp.sin(w * time) * N.x - c * th2.diff(time) * N.y)]
+    return lagranges([rod, Particle("b2", bob, m2)], forces, [th1, th2], ["theta1", "theta2"],
+                     dict(m1=m1, m2=m2, l1=l1, l2=l2, c=c, w=w, g=g, P=P), N)
+
+
+def test_loads_at_points_against_mechanics(tmp_path):
+    """[[loads]]: forces at a link's tip and at a body's centre, in t, a rate and an input."""
+    path = tmp_path / "windy.toml"
+    path.write_text(WINDY)
+    worst = worst_differences(str(path), windy_reference(), np.random.default_rng(11))
+    assert max(worst) < TOL, f"windy: M, F, q'' differ by {worst}"

@@ -151,3 +151,20 @@ def test_a_rigid_body_needs_a_revolute_joint_and_a_symmetric_tensor():
     for link, message in refused:
         with pytest.raises(ModelError, match=message):
             model(link, head=head)
+
+
+def test_loads_at_points_are_read_and_checked():
+    m = model(hinge("m1", 'name = "a"'), hinge("m2", 'name = "b"'),
+              extra='[[loads]]\npoint = "b"\nforce = ["k*sin(t)", "-k*theta2_dot"]\n'
+                    '[[loads]]\npoint = "a.centre"\nforce = [1, 0]\n')
+    assert [(load.point, load.force) for load in m.loads] == [
+        ("b", ("k*sin(t)", "-k*theta2_dot")), ("a.centre", ("1", "0"))]
+    assert not m.is_conservative and m.is_time_dependent and m.is_chain
+    for extra, message in (('[[loads]]\npoint = "c"\nforce = ["1", "0"]\n', "'point': 'c' is not 'pivot'"),
+                           ('[[loads]]\npoint = "a"\nforce = ["1"]\n', "'force' must be a list of 2"),
+                           ('[[loads]]\npoint = "a"\n', "missing key 'force'"),
+                           ('[[loads]]\npoint = "a"\nforce = ["1", "0"]\ntorque = "1"\n', "unknown key 'torque'"),
+                           ('[[loads]]\npoint = "a"\nforce = ["F", "0"]\n', "load 1 force x: the name 'F'")):
+        with pytest.raises(ModelError) as err:
+            model(hinge("m1", 'name = "a"'), extra=extra)
+        assert message in str(err.value), str(err.value)

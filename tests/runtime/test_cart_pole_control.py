@@ -1,14 +1,13 @@
-"""The controls engineer's path on the cart-pole (issue 23 items 6-8): derive.linearize at the
-upright equilibrium against its closed form, and the LQR example (examples/cart_pole_lqr.py)
-balancing the nonlinear model, checked against the cart-pole's equations written here and
-integrated by SciPy with the same feedback."""
+"""The controls engineer's path on the cart-pole (issue 23 items 6-8): the LQR example
+(examples/cart_pole_lqr.py) balancing the nonlinear model, checked against the cart-pole's
+equations written here and integrated by SciPy with the same feedback.  (The linearisation
+at upright against its closed form: tests/derivation/test_joints_against_mechanics.py.)"""
 from __future__ import annotations
 
 import importlib.util
 from pathlib import Path
 
 import numpy as np
-import pytest
 from scipy.integrate import solve_ivp
 
 import derive
@@ -22,25 +21,6 @@ def _lqr_example():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
-
-
-def _upright_closed_form(M, m, l, g):
-    """theta = pi + phi: (M + m) x'' - m l phi'' = F, -x'' + l phi'' - g phi = 0 to first order."""
-    A = np.zeros((4, 4))
-    A[0, 2] = A[1, 3] = 1.0
-    A[2, 1] = m * g / M
-    A[3, 1] = (M + m) * g / (M * l)
-    B = np.array([[0.0], [0.0], [1.0 / M], [1.0 / (M * l)]])
-    return A, B
-
-
-@pytest.mark.parametrize("params", [dict(M=1.0, m=0.1, l=0.5, g=9.81), dict(M=2.7, m=0.8, l=1.3, g=3.7)])
-def test_the_cart_poles_upright_linearisation_is_its_closed_form(params):
-    A, B = derive.linearize(MODEL, {"theta": "pi"}, params, {"F": 0.0})
-    A0, B0 = _upright_closed_form(**params)
-    np.testing.assert_allclose(A, A0, atol=1e-12)
-    np.testing.assert_allclose(B, B0, atol=1e-12)
-    assert np.linalg.eigvals(A).real.max() > 0          # upright is unstable without control
 
 
 def _cart_pole_rhs(M, m, l, g, force):
