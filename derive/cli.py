@@ -57,17 +57,25 @@ def _model_args(args: list[str], allow_atlas: bool = False) -> list[str]:
     return names, bad
 
 
-def _derive_all(models: list[str], stage: Stage | None = None) -> tuple[float, list[tuple[str, float, bool]]]:
+def _derive_all(models: list[str], stage: Stage | None = None,
+                pairs: list[tuple[str, str]] = ()) -> tuple[float, list[tuple[str, float, bool]]]:
+    """Derive `models` (the uncached ones side by side in worker processes, with the chart
+    changes `pairs` a later step needs), then read them: (seconds, [(name, seconds, warm)])."""
     from .derivation import derive    # start-up: a command imports its stage when it runs
+    from .derivation.batch import derive_uncached
     from .derivation.derivation import is_cached
-    rows, start = [], time.perf_counter()
+    start = time.perf_counter()
+    warm = {name: is_cached(name) for name in models}
+    if stage is not None and not all(warm.values()):
+        stage.set(f"{sum(not w for w in warm.values())} models side by side")
+    derived = derive_uncached([m for m in models if not warm[m]], list(pairs))
+    rows = []
     for i, name in enumerate(models, 1):
         if stage is not None:
             stage.set(f"{name} ({i}/{len(models)})")
-        warm = is_cached(name)
         t0 = time.perf_counter()
         derive(name)
-        rows.append((name, time.perf_counter() - t0, warm))
+        rows.append((name, derived.get(name, time.perf_counter() - t0), warm[name]))
     return time.perf_counter() - start, rows
 
 
