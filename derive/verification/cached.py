@@ -16,6 +16,7 @@ from .. import cachefile
 from ..derivation.derivation import cache_key
 from ..paths import cache_dir, package_root
 from ..model import Model, load_model, model_names
+from ..workers import run_all
 from . import claims, judge, physics   # claims and physics register the dataclasses entries hold
 
 
@@ -76,6 +77,15 @@ def verify_model(name: str):
     return results
 
 
+def _judged_side_by_side() -> tuple[list, list]:
+    """judge.run_all() and physics.run_all(), their calls shared among worker processes
+    (derive.workers): the physics checks first, as their longest calls are longer."""
+    claim_calls, check_calls = judge.judging_calls(), physics.check_calls()
+    done = run_all(check_calls + claim_calls)
+    checks = done[:len(check_calls)]
+    return [r for share in done[len(check_calls):] for r in share], checks
+
+
 def verify_all(fresh: bool = False):
     """(seed results, physics checks, whether they came from the cache)."""
     path = cache_dir() / "verification" / f"results-{verification_key()}.json"
@@ -83,6 +93,6 @@ def verify_all(fresh: bool = False):
     if isinstance(cached, tuple):
         results, checks = cached
         return results, checks, True
-    results, checks = judge.run_all(), physics.run_all()
+    results, checks = _judged_side_by_side()
     cachefile.store(path, (results, checks))
     return results, checks, False
