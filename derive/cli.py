@@ -79,6 +79,14 @@ def _derive_all(models: list[str], stage: Stage | None = None,
     return time.perf_counter() - start, rows
 
 
+def _chart_pairs() -> list[tuple[str, str]]:
+    """(source, target) of every chart change the catalogue's physics checks and atlas
+    kernels need: each spherical model to the other members of its atlas."""
+    from .codegen.spec import conversion_targets    # start-up: a command imports its stage when it runs
+    from .model import load_model
+    return [(name, target) for name in model_names() for target in conversion_targets(load_model(name))]
+
+
 def cmd_derive(args) -> int:
     from .codegen.sources import members    # start-up: a command imports its stage when it runs
     models, bad = _model_args(args.models, allow_atlas=True)
@@ -109,7 +117,7 @@ def _verify(fresh: bool = False):
     from .verification.cached import verify_all    # start-up: a command imports its stage when it runs
     with Stage("verifying") as stage:
         stage.set("deriving")
-        derive_seconds, rows = _derive_all(model_names(), stage)
+        derive_seconds, rows = _derive_all(model_names(), stage, _chart_pairs())
         stage.set("judging the seed formulas and the physics checks")
         results, checks, from_cache = verify_all(fresh=fresh)
     return derive_seconds, rows, results, checks, from_cache
@@ -424,19 +432,25 @@ def cmd_all(args) -> int:
     from .scene import load_scene
     from .scene.artifacts import prepare_c
     from .scene.run import run, summary
+    from .codegen.generate import catalogue_names
+    from .codegen.sources import is_render_cached, render_into_cache
     start = time.perf_counter()
     t0 = time.perf_counter()
     with Stage("derive") as stage:
-        seconds, rows = _derive_all(model_names(), stage)
+        seconds, rows = _derive_all(model_names(), stage, _chart_pairs())
     cached = sum(w for _, _, w in rows)
     print(f"derive    {len(rows)} models in {seconds:.1f} s ({cached} from the cache)")
     t0 = time.perf_counter()
     from .verification.cached import verify_all
+    # the generated code needs the derivations only: the workers render it meanwhile
+    by_cost = sorted(catalogue_names(), key=lambda name: name.startswith("spherical_"), reverse=True)
+    renders = [(render_into_cache, (name,)) for name in by_cost if not is_render_cached(name)]
     with Stage("verify") as stage:
-        stage.set("the seed formulas and the physics checks")
-        results, checks, from_cache = verify_all()
+        stage.set("the seed formulas and the physics checks (and rendering the code)")
+        results, checks, from_cache = verify_all(alongside=renders)
     tally, verified = _tally(results, checks)
-    print(f"verify    {tally} ({time.perf_counter() - t0:.1f} s{', cached' if from_cache else ''})")
+    rendered = f", the code of {len(renders)} models rendered meanwhile" if renders else ""
+    print(f"verify    {tally} ({time.perf_counter() - t0:.1f} s{', cached' if from_cache else ''}{rendered})")
     t0 = time.perf_counter()
     text, generated = _generate_step()
     print(f"generate  {text} ({time.perf_counter() - t0:.1f} s)")

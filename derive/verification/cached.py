@@ -77,22 +77,32 @@ def verify_model(name: str):
     return results
 
 
-def _judged_side_by_side() -> tuple[list, list]:
+def _judged_side_by_side(alongside) -> tuple[list, list]:
     """judge.run_all() and physics.run_all(), their calls shared among worker processes
-    (derive.workers): the physics checks first, as their longest calls are longer."""
+    (derive.workers) with the calls `alongside`: the longest kinds first."""
     claim_calls, check_calls = judge.judging_calls(), physics.check_calls()
-    done = run_all(check_calls + claim_calls)
+    done = run_all(list(alongside) + check_calls + claim_calls)[len(alongside):]
     checks = done[:len(check_calls)]
     return [r for share in done[len(check_calls):] for r in share], checks
 
 
-def verify_all(fresh: bool = False):
-    """(seed results, physics checks, whether they came from the cache)."""
+def verify_all(fresh: bool = False, alongside=()):
+    """(seed results, physics checks, whether they came from the cache).
+
+    Parameters
+    ----------
+    fresh : bool
+        Judge again even when the verdicts are in the cache.
+    alongside : sequence of (callable, tuple)
+        Independent calls of the command (rendering the generated code, say) for the same
+        worker processes to make meanwhile; their results are dropped.
+    """
     path = cache_dir() / "verification" / f"results-{verification_key()}.json"
     cached = None if fresh else _read(path)
     if isinstance(cached, tuple):
+        run_all(alongside)
         results, checks = cached
         return results, checks, True
-    results, checks = _judged_side_by_side()
+    results, checks = _judged_side_by_side(alongside)
     cachefile.store(path, (results, checks))
     return results, checks, False
