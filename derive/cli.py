@@ -57,18 +57,34 @@ def _model_args(args: list[str], allow_atlas: bool = False) -> list[str]:
     return names, bad
 
 
-def _derive_all(models: list[str], stage: Stage | None = None) -> tuple[float, list[tuple[str, float, bool]]]:
+def _derive_all(models: list[str], stage: Stage | None = None,
+                pairs: list[tuple[str, str]] = ()) -> tuple[float, list[tuple[str, float, bool]]]:
+    """Derive `models` (the uncached ones side by side in worker processes, with the chart
+    changes `pairs` a later step needs), then read them: (seconds, [(name, seconds, warm)])."""
     from .derivation import derive    # start-up: a command imports its stage when it runs
+    from .derivation.batch import derive_uncached
     from .derivation.derivation import is_cached
-    rows, start = [], time.perf_counter()
+    start = time.perf_counter()
+    warm = {name: is_cached(name) for name in models}
+    if stage is not None and not all(warm.values()):
+        stage.set(f"{sum(not w for w in warm.values())} models side by side")
+    derived = derive_uncached([m for m in models if not warm[m]], list(pairs))
+    rows = []
     for i, name in enumerate(models, 1):
         if stage is not None:
             stage.set(f"{name} ({i}/{len(models)})")
-        warm = is_cached(name)
         t0 = time.perf_counter()
         derive(name)
-        rows.append((name, time.perf_counter() - t0, warm))
+        rows.append((name, derived.get(name, time.perf_counter() - t0), warm[name]))
     return time.perf_counter() - start, rows
+
+
+def _chart_pairs() -> list[tuple[str, str]]:
+    """(source, target) of every chart change the catalogue's physics checks and atlas
+    kernels need: each spherical model to the other members of its atlas."""
+    from .codegen.spec import conversion_targets    # start-up: a command imports its stage when it runs
+    from .model import load_model
+    return [(name, target) for name in model_names() for target in conversion_targets(load_model(name))]
 
 
 def cmd_derive(args) -> int:
@@ -101,7 +117,7 @@ def _verify(fresh: bool = False):
     from .verification.cached import verify_all    # start-up: a command imports its stage when it runs
     with Stage("verifying") as stage:
         stage.set("deriving")
-        derive_seconds, rows = _derive_all(model_names(), stage)
+        derive_seconds, rows = _derive_all(model_names(), stage, _chart_pairs())
         stage.set("judging the seed formulas and the physics checks")
         results, checks, from_cache = verify_all(fresh=fresh)
     return derive_seconds, rows, results, checks, from_cache
@@ -429,19 +445,25 @@ def cmd_all(args) -> int:
     from .scene import load_scene
     from .scene.artifacts import prepare_c
     from .scene.run import run, summary
+    from .codegen.generate import catalogue_names
+    from .codegen.sources import is_render_cached, render_into_cache
     start = time.perf_counter()
     t0 = time.perf_counter()
     with Stage("derive") as stage:
-        seconds, rows = _derive_all(model_names(), stage)
+        seconds, rows = _derive_all(model_names(), stage, _chart_pairs())
     cached = sum(w for _, _, w in rows)
     print(f"derive    {len(rows)} models in {seconds:.1f} s ({cached} from the cache)")
     t0 = time.perf_counter()
     from .verification.cached import verify_all
+    # the generated code needs the derivations only: the workers render it meanwhile
+    by_cost = sorted(catalogue_names(), key=lambda name: name.startswith("spherical_"), reverse=True)
+    renders = [(render_into_cache, (name,)) for name in by_cost if not is_render_cached(name)]
     with Stage("verify") as stage:
-        stage.set("the seed formulas and the physics checks")
-        results, checks, from_cache = verify_all()
+        stage.set("the seed formulas and the physics checks (and rendering the code)")
+        results, checks, from_cache = verify_all(alongside=renders)
     tally, verified = _tally(results, checks)
-    print(f"verify    {tally} ({time.perf_counter() - t0:.1f} s{', cached' if from_cache else ''})")
+    rendered = f", the code of {len(renders)} models rendered meanwhile" if renders else ""
+    print(f"verify    {tally} ({time.perf_counter() - t0:.1f} s{', cached' if from_cache else ''}{rendered})")
     t0 = time.perf_counter()
     text, generated = _generate_step()
     print(f"generate  {text} ({time.perf_counter() - t0:.1f} s)")

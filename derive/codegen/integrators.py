@@ -25,7 +25,7 @@ from ..model.description import forget_on_model_change
 from . import contract, tableau as tb
 from ..model import load_chart, load_model
 from ..model.atlas import ATLAS, load_atlas
-from ..derivation.cartesian import RULE_CHARTS, _sines_of_unit, rule_models, rule_sines
+from ..derivation.chart_rule import RULE_CHARTS, _sines_of_unit, rule_models, rule_sines
 from .contract import (ADAPTIVE, ATLAS_CHARTS, IMPLICIT, METHODS,  # noqa: F401  (re-exported)
                        SINE_MIN, SINE_RULE, SINE_SWITCH)
 from ..paths import VERSION as __version__, c_library_file, numpy_library_file

@@ -40,6 +40,7 @@ rk8 a little against the portable build.
 """
 from __future__ import annotations
 
+import re
 from functools import lru_cache
 
 
@@ -137,16 +138,48 @@ def _rhs_parts(name: str, lanes: bool):
     return trig_lanes(body.assignments, body.outputs[0]) if lanes else (None, body.assignments, body.outputs[0])
 
 
+_STATE_TOKEN = re.compile("\x00([0-9]+)\x00")     # state component c, before it is named
+
+
+def _state_token(c: int) -> str:
+    return f"\x00{c}\x00"
+
+
+_printed: dict[int, tuple] = {}        # id(parts) -> (parts, its printed rhs)
+
+
+def _printed_rhs(parts, state, params) -> dict:
+    """The rhs (_rhs_parts) printed once, the state components as tokens (_STATE_TOKEN) that
+    each stage then names: a stage's rhs differs from another's in those names only (a
+    symbol prints as its slot, whatever the slot's text), and printing is the generator's
+    largest cost for a large model."""
+    key = id(parts)
+    if key in _printed and _printed[key][0] is parts:
+        return _printed[key][1]
+    lanes, assignments, outputs = parts
+    slots = {s: f"p{i}" for i, s in enumerate(params)}
+    slots.update({s: _state_token(i) for i, s in enumerate(state)})
+    pr = CPrinter(slots, "double")
+    printed = {"lanes": lanes_context(lanes, pr),
+               "lines": [f"const double {sym.name} = {pr.doprint_checked(e)};" for sym, e in assignments],
+               "outputs": [pr.doprint_checked(e) for e in outputs]}
+    _printed[key] = (parts, printed)
+    return printed
+
+
 def _c_rhs(parts, state, params, src: str, target) -> dict:
     """The rhs (_rhs_parts) printed on the state held in src<c> (or src[c]), output c stored to
     target(c): its sin/cos lanes and the lines after them."""
-    lanes, assignments, outputs = parts
-    slots = {s: f"p{i}" for i, s in enumerate(params)}
-    slots.update({s: src.format(c=i) for i, s in enumerate(state)})
-    pr = CPrinter(slots, "double")
-    lines = [f"const double {sym.name} = {pr.doprint_checked(e)};" for sym, e in assignments]
-    return {"lanes": lanes_context(lanes, pr),
-            "lines": lines + [f"{target(i)} = {pr.doprint_checked(e)};" for i, e in enumerate(outputs)]}
+    printed = _printed_rhs(parts, state, params)
+    def named(text: str) -> str:
+        return _STATE_TOKEN.sub(lambda m: src.format(c=int(m.group(1))), text)
+
+    lanes = printed["lanes"]
+    if lanes is not None:
+        lanes = dict(lanes, angles=named(lanes["angles"]))
+    return {"lanes": lanes,
+            "lines": [named(line) for line in printed["lines"]]
+                     + [f"{target(i)} = {named(e)};" for i, e in enumerate(printed["outputs"])]}
 
 
 def _c_stages(parts, state, params, rows, b) -> tuple[list[dict], list[str]]:

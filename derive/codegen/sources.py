@@ -137,13 +137,34 @@ def render(name: str, backends: tuple[str, ...] | None = None) -> dict[str, str]
     """render_fresh(name, backends), kept in the cache under the key of everything that
     shapes it, so `derive generate` after editing one model renders only that model.  (Do
     not modify the returned dict: it is shared.)"""
-    path = cache_dir() / "rendered" / f"{name}{_backend_tag(backends)}-{sources_key(name)}.json"
+    path = _render_path(name, backends)
     files = cachefile.load(path) if path.is_file() else cachefile.MISSING
     if isinstance(files, dict):
         return files
     files = render_fresh(name, backends)        # absent or damaged: render (again)
     cachefile.store(path, files)
     return files
+
+
+def _render_path(name: str, backends: tuple[str, ...] | None = None) -> Path:
+    return cache_dir() / "rendered" / f"{name}{_backend_tag(backends)}-{sources_key(name)}.json"
+
+
+def is_render_cached(name: str) -> bool:
+    """Whether :func:`render` of `name` (the default backends) reads the cache."""
+    return _render_path(name).is_file()
+
+
+def render_into_cache(name: str) -> None:
+    """Render one model's (or atlas's) generated files into the cache (what a worker process
+    does, so that the command, reading them back with :func:`render`, finds them there).
+
+    Parameters
+    ----------
+    name : str
+        A catalogue model or an atlas.
+    """
+    render(name)
 
 
 # -- the copy in the cache ---------------------------------------------------------

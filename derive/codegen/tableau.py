@@ -13,8 +13,10 @@ from fractions import Fraction
 from dataclasses import dataclass, field
 from functools import lru_cache
 
+import math
+import struct
+
 import mpmath
-import numpy as np
 import sympy as sp
 
 from ..model.expressions import parse_expression
@@ -33,10 +35,19 @@ def value(text: str) -> mpmath.mpf:
             return mpmath.mpf(sp.N(parse_expression(text, {}, "tableau coefficient"), DIGITS + 10))
 
 
+def _as_float32(x: float) -> float:
+    """x rounded to the nearest float (IEEE single; beyond its range, +-inf), as NumPy's
+    float32 rounds it: the generator does not import NumPy for one conversion."""
+    try:
+        return struct.unpack("f", struct.pack("f", x))[0]
+    except OverflowError:
+        return math.copysign(math.inf, x)
+
+
 def literal(x: mpmath.mpf, ctype: str) -> str:
     """A C literal of x for the C type (float, double, long double)."""
     if ctype == "float":
-        s = repr(float(np.float32(float(x))))
+        s = repr(_as_float32(float(x)))
         suffix = "f"
     elif ctype == "double":
         s = repr(float(x))

@@ -39,10 +39,10 @@ from ..model import load_chart, load_model
 from ..model.atlas import ATLAS, load_atlas
 from ..model.description import forget_on_model_change
 from ..model.expressions import parse_expression
+# the rule's symbolic side (no NumPy: the code generator prints it), kept importable from here
+from .chart_rule import RULE_CHARTS, _XYZ, _polar_index, _sines_of_unit, rule_models, rule_sines  # noqa: F401
 
 CHARTS = load_atlas(ATLAS).charts     # the catalogue atlas's members
-RULE_CHARTS = ("standard", "second", "rotated")   # the charts seed 000 section 5.1 names
-_XYZ = "xyz"
 
 
 @dataclass(frozen=True)
@@ -72,34 +72,6 @@ class LinkChart:
         qd = [0.0 if s == 0.0 and sing else rate(*q, s, *ed)
               for rate, sing in zip(self.rates, self.singular)]
         return q, np.array(qd, float)
-
-
-def _polar_index(chart) -> int:
-    """The coordinate in the chart's polar sine (theta of sin(theta))."""
-    q = [sp.Symbol(c, real=True) for c in chart.coordinates]
-    ps = chart.polar_sine_of(q)
-    return next(k for k, c in enumerate(q) if ps.has(c))
-
-
-def _sines_of_unit(chart, X) -> tuple[sp.Expr, sp.Expr]:
-    """The polar sine and |sin| of the azimuth (the other coordinate) of a spherical chart
-    as functions of the unit vector X: sin(q(X)) through the chart's robust inverse,
-    simplified (sqrt(x^2 + y^2)/|X| and |y|/sqrt(x^2 + y^2) for the standard chart)."""
-    q = [sp.Symbol(c, real=True) for c in chart.coordinates]
-    inv = chart.coordinates_of(X)
-    polar = _polar_index(chart)
-    st = sp.simplify(chart.polar_sine_of(q).subs(dict(zip(q, inv)), simultaneous=True))
-    return st, sp.simplify(sp.Abs(sp.sin(inv[1 - polar])))
-
-
-@lru_cache(maxsize=None)
-def rule_sines() -> tuple[tuple[sp.Symbol, ...], sp.Expr, sp.Expr]:
-    """The ingredients of the rule of section 5.1 as expressions of a link's unit vector
-    (x, y, z), from the standard chart's data: |sin theta| (its polar sine) and |sin phi|
-    (its azimuth); the atlas templates print the same expressions."""
-    chart = load_chart("standard")
-    X = tuple(sp.Symbol(c, real=True) for c in _XYZ[:chart.dimension])
-    return (X,) + _sines_of_unit(chart, X)
 
 
 @lru_cache(maxsize=None)
@@ -225,20 +197,6 @@ def polar_sines(chart: str, c, lengths) -> list[float]:
     """Each link's polar sine in the chart (its distance from the chart's singular axis)."""
     links = model_charts(chart)
     return [lc.polar_sine(u) for lc, (u, _) in zip(links, _units(c, lengths, links[0].dimension), strict=True)]
-
-
-@lru_cache(maxsize=None)
-def rule_models(atlas: str = ATLAS) -> dict[str, str]:
-    """Which member of `atlas` uses each chart the rule names (from the model descriptions)."""
-    out = {}
-    for m in load_atlas(atlas).charts:
-        names = {link.chart.name for link in load_model(m).links}
-        if len(names) == 1:
-            out[names.pop()] = m
-    missing = [c for c in RULE_CHARTS if c not in out]
-    if missing:
-        raise ValueError(f"no member of atlas '{atlas}' uses chart '{missing[0]}' on every link")
-    return out
 
 
 def std_sines(c, lengths) -> tuple[list[float], list[float]]:

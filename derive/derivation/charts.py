@@ -10,15 +10,21 @@ and the columns of a spherical chart's Jacobian are orthogonal, so
 """
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 
 import sympy as sp
 
-from ..model import Model
+from .. import cachefile
+from ..model import Model, load_model
+from ..paths import cache_dir
+from .derivation import cache_key
 from .symbols import ModelSymbols, model_symbols
 
 
+@cachefile.register
 @dataclass
 class ChartChange:
     source: str
@@ -38,12 +44,71 @@ def _link_slices(model: Model):
         k += n
 
 
-# Kept per pair of models (a Model is a frozen value: an edited model is another key): the
-# physics checks ask for the same pair in both directions and again for the round trip,
-# and the atlas's conversion kernels for the same pairs; every change costs trigsimp calls.
+def cache_path(source: Model, target: Model) -> Path:
+    """Where the chart change from `source` to `target` is (or will be) cached: keyed by
+    both models' derivation keys (their descriptions, the SymPy version, this code)."""
+    key = hashlib.sha256(f"{cache_key(source)} {cache_key(target)}".encode()).hexdigest()[:24]
+    return cache_dir() / "chart-changes" / f"{source.name}-{target.name}-{key}.json"
+
+
+# Kept per pair of models (a Model is a frozen value: an edited model is another key), in
+# memory and on disk: the physics checks ask for the same pair in both directions and
+# again for the round trip, and the atlas's conversion kernels for the same pairs, in
+# this process or in a worker of the same run; every change costs trigsimp calls.
 # Do not modify the returned ChartChange: it is shared.
 @lru_cache(maxsize=64)
 def chart_change(source: Model, target: Model) -> ChartChange:
+    """The coordinates and rates of `target`'s charts in terms of `source`'s (seed 000 §5.2),
+    from the disk cache or computed now (and stored there).
+
+    Parameters
+    ----------
+    source, target : Model
+        Two models of the same links in other charts.
+
+    Returns
+    -------
+    ChartChange
+        The target coordinates as expressions of the source coordinates, and the target
+        rates of the source state (and the target coordinates).
+    """
+    path = cache_path(source, target)
+    change = cachefile.load(path) if path.is_file() else cachefile.MISSING
+    if isinstance(change, ChartChange) and (change.source, change.target) == (source.name, target.name):
+        return change
+    change = _computed(source, target)
+    cachefile.store(path, change)
+    return change
+
+
+def store_chart_change(source: str, target: str) -> None:
+    """Compute the chart change between two catalogue models into the disk cache (what a
+    worker process of a command does, so that the command and its other workers read it).
+
+    Parameters
+    ----------
+    source, target : str
+        Catalogue model names.
+    """
+    chart_change(load_model(source), load_model(target))
+
+
+def is_chart_change_cached(source: str, target: str) -> bool:
+    """Whether :func:`chart_change` of these two catalogue models reads the disk cache.
+
+    Parameters
+    ----------
+    source, target : str
+        Catalogue model names.
+
+    Returns
+    -------
+    bool
+    """
+    return cache_path(load_model(source), load_model(target)).is_file()
+
+
+def _computed(source: Model, target: Model) -> ChartChange:
     """The coordinates and rates of `target`'s charts in terms of `source`'s (seed 000 §5.2).
 
     Parameters

@@ -105,7 +105,23 @@ def _gram(a: LinkBlock, b: LinkBlock) -> sp.Matrix:
     trigonometric polynomial that trigsimp folds (sin^2 + cos^2, cos(a - b)) cheaply.
     These are the only simplifications the derivation needs: every other term of M, V
     and F is a product of them with parameters and rates."""
-    return (a.D.T * b.D).applyfunc(lambda x: sp.trigsimp(sp.expand(x)))
+    return (a.D.T * b.D).applyfunc(lambda x: _folded(sp.expand(x)))
+
+
+_FOLDED: dict = {}      # an entry's shape (its symbols renamed in order) -> trigsimp of it
+
+
+def _folded(x: sp.Expr) -> sp.Expr:
+    """trigsimp(x), computed once per shape: a chain's Gram entries are the same few
+    polynomials (sin^2 + cos^2, sin a sin b + cos a cos b) in other angles, and trigsimp is
+    the derivation's largest cost.  The symbols are renamed in their order (names that sort
+    as theirs, the same assumptions), so the shape prints and sorts as the entry does."""
+    symbols = sorted(x.free_symbols, key=lambda s: s.name)
+    shape = [sp.Symbol(f"_gram{k:04d}", **s.assumptions0) for k, s in enumerate(symbols)]
+    key = x.xreplace(dict(zip(symbols, shape)))
+    if key not in _FOLDED:
+        _FOLDED[key] = sp.trigsimp(key)
+    return _FOLDED[key].xreplace(dict(zip(shape, symbols)))
 
 
 @dataclass

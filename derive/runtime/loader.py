@@ -162,25 +162,83 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
         raise write_error(lib, exc) from None
     try:
         out = Path(tmp) / lib.name
-        cmd = [*compiler_command(cc), *flags, "-I", str(sources[0].parent), *map(str, sources), "-o", str(out), *libs, "-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode != 0:
-            refused = _refused_write(proc.stderr)
-            if refused:                # the disk, not the code: one line naming the library
-                raise write_error(lib, OSError(refused, os.strerror(refused)))
-            names = ", ".join(src.name for src in sources)
-            raise LoaderError(f"compiling {names} failed ({' '.join(cmd)}):\n{proc.stderr}")
-        try:
-            digest = Path(tmp) / (lib.name + ".sha256")
-            digest.write_text(_sha256(out))
-            os.replace(digest, lib.with_name(lib.name + ".sha256"))      # the checksum first, then
-            os.replace(out, lib)                                           # the library it vouches for
-        except OSError as exc:
-            raise write_error(lib, exc) from None
+        # several sources: each compiled once into an object of its own (an atlas library
+        # links the objects its charts' libraries were built from), then linked
+        inputs = [_object(src, cc, flags, root) for src in sources] if len(sources) > 1 else sources
+        cmd = [*compiler_command(cc), *flags, "-I", str(sources[0].parent), *map(str, inputs), "-o", str(out), *libs, "-lm"]
+        _compile(cmd, lib, sources)
+        _store_checked(out, lib)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     _verified.add(str(lib))
     return lib
+
+
+def _compile(cmd: list[str], target: Path, sources: list[Path]) -> None:
+    """Run the compiler; a failure is a LoaderError with its output (a refused write, one
+    line naming `target`)."""
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        refused = _refused_write(proc.stderr)
+        if refused:                # the disk, not the code: one line naming the library
+            raise write_error(target, OSError(refused, os.strerror(refused)))
+        names = ", ".join(src.name for src in sources)
+        raise LoaderError(f"compiling {names} failed ({' '.join(cmd)}):\n{proc.stderr}")
+
+
+def _store_checked(built: Path, target: Path) -> None:
+    """Move a freshly built file into the cache at `target`, its checksum beside it first."""
+    try:
+        digest = built.with_name(built.name + ".sha256")
+        digest.write_text(_sha256(built))
+        os.replace(digest, target.with_name(target.name + ".sha256"))   # the checksum first, then
+        os.replace(built, target)                                         # the file it vouches for
+    except OSError as exc:
+        raise write_error(target, exc) from None
+
+
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
+
+
+def _included(src: Path) -> list[Path]:
+    """`src` and every local header it includes, directly or through another (each once)."""
+    seen, todo = [], [src]
+    while todo:
+        path = todo.pop()
+        if path in seen or not path.is_file():
+            continue
+        seen.append(path)
+        todo += [path.parent / name for name in _INCLUDE.findall(path.read_text(errors="replace"))]
+    return seen
+
+
+def _object(src: Path, cc: str, flags: tuple[str, ...], root: Path) -> Path:
+    """`src` compiled (-c) into the object cache beside the libraries, keyed by its text and
+    the local headers it includes, the compiler identity and the flags: the same source
+    under the same flags is compiled once, whichever folder and library it is for."""
+    compile_flags = [f for f in flags if f != "-shared" and not f.startswith(("-Wl,", "-l"))]
+    h = hashlib.sha256()
+    for part in _included(src):
+        h.update(part.name.encode() + b"\0" + hashlib.sha256(part.read_bytes()).digest())
+    h.update(hashlib.sha256(compiler_identity(cc).encode()).digest())
+    h.update(hashlib.sha256("\0".join(compile_flags).encode()).digest())
+    obj = root / "objects" / h.hexdigest()[:32] / f"{src.stem}.o"
+    if obj.is_file() and _intact(obj) is True:
+        return obj
+    try:
+        obj.parent.mkdir(parents=True, exist_ok=True)
+        tmp = tempfile.mkdtemp(dir=obj.parent)
+    except OSError as exc:
+        raise write_error(obj, exc) from None
+    try:
+        out = Path(tmp) / obj.name
+        _compile([*compiler_command(cc), *compile_flags, "-I", str(src.parent), "-c", str(src), "-o", str(out)],
+                 obj, [src])
+        _store_checked(out, obj)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    _verified.add(str(obj))
+    return obj
 
 
 def _refused_write(compiler_output: str) -> int | None:

@@ -16,6 +16,7 @@ from .. import cachefile
 from ..derivation.derivation import cache_key
 from ..paths import cache_dir, package_root
 from ..model import Model, load_model, model_names
+from ..workers import run_all
 from . import claims, judge, physics   # claims and physics register the dataclasses entries hold
 
 
@@ -76,13 +77,32 @@ def verify_model(name: str):
     return results
 
 
-def verify_all(fresh: bool = False):
-    """(seed results, physics checks, whether they came from the cache)."""
+def _judged_side_by_side(alongside) -> tuple[list, list]:
+    """judge.run_all() and physics.run_all(), their calls shared among worker processes
+    (derive.workers) with the calls `alongside`: the longest kinds first."""
+    claim_calls, check_calls = judge.judging_calls(), physics.check_calls()
+    done = run_all(list(alongside) + check_calls + claim_calls)[len(alongside):]
+    checks = done[:len(check_calls)]
+    return [r for share in done[len(check_calls):] for r in share], checks
+
+
+def verify_all(fresh: bool = False, alongside=()):
+    """(seed results, physics checks, whether they came from the cache).
+
+    Parameters
+    ----------
+    fresh : bool
+        Judge again even when the verdicts are in the cache.
+    alongside : sequence of (callable, tuple)
+        Independent calls of the command (rendering the generated code, say) for the same
+        worker processes to make meanwhile; their results are dropped.
+    """
     path = cache_dir() / "verification" / f"results-{verification_key()}.json"
     cached = None if fresh else _read(path)
     if isinstance(cached, tuple):
+        run_all(alongside)
         results, checks = cached
         return results, checks, True
-    results, checks = judge.run_all(), physics.run_all()
+    results, checks = _judged_side_by_side(alongside)
     cachefile.store(path, (results, checks))
     return results, checks, False

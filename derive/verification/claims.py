@@ -450,8 +450,14 @@ def _domain(symbols) -> dict:
 
 
 def sample(symbols, n: int = N_POINTS, seed: int = 1) -> list[dict]:
+    """`n` random points of `symbols` (40 digits; the same points for the same symbols).
+    Do not modify them: they are shared."""
+    return _sample(tuple(sorted(symbols, key=lambda s: s.name)), n, seed)
+
+
+@cache
+def _sample(symbols: tuple, n: int, seed: int) -> list[dict]:
     rng = random.Random(seed)
-    symbols = sorted(symbols, key=lambda s: s.name)
     return [zero.random_point(symbols, rng, _domain(symbols)) for _ in range(n)]
 
 
@@ -472,17 +478,23 @@ def _mp_matrix(values, shape):
     return m
 
 
+def _values(x, points) -> list[list]:
+    """Values of an expression or matrix at each point (40 digits)."""
+    try:
+        return zero.mp_values(x, points)
+    except zero.Unsupported:          # a node the walk does not know: lambdify it
+        f = zero.mp_function(x, sorted(_free(x), key=lambda s: s.name))
+        return [f(pt) for pt in points]
+
+
 def _numeric(x, points) -> list[list]:
     """Values of an expression, matrix or Solve at each point (40 digits)."""
-    syms = sorted(_free(x), key=lambda s: s.name)
     if not isinstance(x, Solve):
-        f = zero.mp_function(x, syms)
-        return [f(pt) for pt in points]
-    fP, fr = zero.mp_function(x.P, syms), zero.mp_function(x.r, syms)
+        return _values(x, points)
     out = []
-    for pt in points:
+    for P, r in zip(_values(x.P, points), _values(x.r, points)):
         with mpmath.workdps(zero.DIGITS):
-            sol = mpmath.inverse(_mp_matrix(fP(pt), x.P.shape)) * _mp_matrix(fr(pt), x.r.shape)
+            sol = mpmath.inverse(_mp_matrix(P, x.P.shape)) * _mp_matrix(r, x.r.shape)
             out.append([sol[k // x.r.shape[1], k % x.r.shape[1]] for k in range(len(x.r))])
     return out
 

@@ -93,3 +93,44 @@ def _results() -> tuple[Result, ...]:
 def run_all() -> list[Result]:
     """Every claim judged (cached per process: the derivations do not change under us)."""
     return list(_results())
+
+
+def judged(keys: tuple[str, ...]) -> list[Result]:
+    """The verdicts of the claims with these keys, in their order (one worker's share of
+    :func:`judging_calls`).
+
+    Parameters
+    ----------
+    keys : tuple of str
+        Claim keys (Claim.key).
+
+    Returns
+    -------
+    list of Result
+    """
+    table = claims_by_key()
+    return [judge(table[key]) for key in keys]
+
+
+def judging_calls(share: int = 8) -> list[tuple]:
+    """Every claim's judgement as calls of :func:`judged`, `share` claims of one model a
+    call, in claim order: concatenated, their results are :func:`run_all`'s.
+
+    Parameters
+    ----------
+    share : int
+        Claims per call (a worker builds a model's context once, then judges its claims).
+
+    Returns
+    -------
+    list of (callable, tuple)
+    """
+    calls, run = [], []
+    for claim in all_claims():
+        if run and (len(run) == share or claims_by_key()[run[-1]].model != claim.model):
+            calls.append((judged, (tuple(run),)))
+            run = []
+        run.append(claim.key)
+    if run:
+        calls.append((judged, (tuple(run),)))
+    return calls

@@ -499,12 +499,27 @@ def chain_chart_checks(d) -> list[Check]:
             + [chart_round_trip(charts[0], charts[1])])
 
 
+def _compound_check() -> Check:
+    return compound_point_mass_equivalence()[0]
+
+
+def check_calls() -> list[tuple]:
+    """Every physics check of the catalogue as a call (function, arguments), in the order
+    of :func:`run_all`'s checks: independent, so workers may make them side by side.
+
+    Returns
+    -------
+    list of (callable, tuple)
+    """
+    calls = [(mass_matrix_spd, (name,)) for name in model_names()]
+    calls += [(energy_conservation, (name,)) for name in model_names()]
+    calls += [(hamiltonian_consistency, (name,)) for name in model_names() if derive(name).hamiltonian]
+    calls += [(planar_is_vertical_plane_of_spherical, ()), (_compound_check, ())]
+    calls += [(charts_agree_on_accelerations, pair) for pair in SPHERICAL_PAIRS]
+    calls += [(chart_round_trip, pair) for pair in SPHERICAL_PAIRS]
+    return calls
+
+
 def run_all() -> list[Check]:
-    checks = [mass_matrix_spd(name) for name in model_names()]
-    checks += [energy_conservation(name) for name in model_names()]
-    checks += [hamiltonian_consistency(name) for name in model_names() if derive(name).hamiltonian]
-    checks.append(planar_is_vertical_plane_of_spherical())
-    checks.append(compound_point_mass_equivalence()[0])
-    checks += [charts_agree_on_accelerations(a, b) for a, b in SPHERICAL_PAIRS]
-    checks += [chart_round_trip(a, b) for a, b in SPHERICAL_PAIRS]
-    return checks
+    """Every physics check of the catalogue, made here, in order."""
+    return [f(*args) for f, args in check_calls()]

@@ -245,3 +245,113 @@ def relative_error(xs, ys) -> float:
     with mpmath.workdps(DIGITS):
         return max((float(abs(x - y) / max(abs(x), abs(y), 1)) for x, y in zip(xs, ys)),
                    default=0.0)
+
+
+# -- many points at once ------------------------------------------------------------
+#
+# lambdify prints and compiles every expression, and the compiled code recomputes each
+# repeated subexpression; the claims' expressions are large trees with many shared
+# subtrees (the derivation's M and F).  Walking the tree once, each distinct subtree
+# evaluated once for all the points together, gives the same 40-digit values for less.
+
+_MP_FUNCTIONS = {sp.sin: mpmath.sin, sp.cos: mpmath.cos, sp.tan: mpmath.tan,
+                 sp.asin: mpmath.asin, sp.acos: mpmath.acos, sp.atan: mpmath.atan,
+                 sp.atan2: mpmath.atan2, sp.exp: mpmath.exp, sp.log: mpmath.log,
+                 sp.sinh: mpmath.sinh, sp.cosh: mpmath.cosh, sp.tanh: mpmath.tanh,
+                 sp.Abs: abs, sp.sign: mpmath.sign}
+
+
+class Unsupported(ValueError):
+    """An expression :func:`mp_values` cannot walk (mp_function can: lambdify it)."""
+
+
+class _PointValues:
+    """The values of SymPy expressions at several points: expression -> one value a point,
+    every distinct subexpression evaluated once (the memo)."""
+
+    def __init__(self, points: list[dict]):
+        self.n = len(points)
+        self.memo: dict = {}
+        self.points = points
+
+    def __call__(self, e) -> list:
+        values = self.memo.get(e)
+        if values is None:
+            values = self.memo[e] = self._evaluate(e)
+        return values
+
+    def _constant(self, value) -> list:
+        return [value] * self.n
+
+    def _evaluate(self, e) -> list:
+        if e.is_Symbol:
+            try:
+                return [pt[e] for pt in self.points]
+            except KeyError:
+                raise Unsupported(f"no value for {e}") from None
+        if e.is_Integer:
+            return self._constant(mpmath.mpf(int(e)))
+        if e.is_Rational:
+            return self._constant(mpmath.mpf(int(e.p)) / int(e.q))
+        if e.is_Float:
+            return self._constant(mpmath.mpf(e))
+        if e is sp.pi:
+            return self._constant(+mpmath.pi)
+        if e is sp.E:
+            return self._constant(+mpmath.e)
+        if e.is_Add or e.is_Mul:
+            return self._fold(e)
+        if e.is_Pow:
+            return self._power(e)
+        f = _MP_FUNCTIONS.get(type(e))
+        if f is None:
+            raise Unsupported(f"cannot evaluate {type(e).__name__}")
+        args = [self(a) for a in e.args]
+        return [f(*xs) for xs in zip(*args)]
+
+    def _fold(self, e) -> list:
+        first, *rest = [self(a) for a in e.args]
+        out = list(first)
+        for values in rest:
+            if e.is_Add:
+                out = [x + y for x, y in zip(out, values)]
+            else:
+                out = [x * y for x, y in zip(out, values)]
+        return out
+
+    def _power(self, e) -> list:
+        base, k = self(e.base), e.exp
+        if k.is_Integer:
+            return [x ** int(k) for x in base]
+        if k == sp.S.Half:
+            return [mpmath.sqrt(x) for x in base]
+        if k == -sp.S.Half:
+            return [1 / mpmath.sqrt(x) for x in base]
+        return [mpmath.power(x, y) for x, y in zip(base, self(k))]
+
+
+def mp_values(expr, points: list[dict]) -> list[list]:
+    """The values of `expr` (expression or matrix) at each point, 40 digits: what
+    ``[mp_function(expr)(pt) for pt in points]`` gives, for a fraction of the work.
+
+    Parameters
+    ----------
+    expr : sympy expression or matrix
+    points : list of dict
+        Symbol -> mpmath number; each point gives every free symbol of `expr`.
+
+    Returns
+    -------
+    list of list
+        One list a point, of the entries' values (a matrix row by row).
+
+    Raises
+    ------
+    Unsupported
+        For a node outside arithmetic and the elementary functions (use mp_function).
+    """
+    entries = list(_matrix(expr))
+    with mpmath.workdps(DIGITS):
+        values = _PointValues(points)
+        columns = [[mpmath.mpmathify(v) for v in values(e)] for e in entries]
+    return [[column[k] for column in columns] for k in range(len(points))]

@@ -170,3 +170,26 @@ def test_the_fast_exact_test_agrees_with_trig_is_zero():
     f = sp.cos(th)**2 + sp.sin(th)**2 * sp.cos(ph)**2
     assert zero.circle_is_zero((R**3 - R * f) / (1 + R), [th, ph], [(R, f)])
     assert not zero.circle_is_zero(R - f, [th, ph], [(R, f)])
+
+
+def test_the_tree_walk_gives_lambdify_s_values():
+    """zero.mp_values (the claims' numeric side) against zero.mp_function (lambdify) on
+    an expression with every kind of node it walks, shared subtrees and a matrix."""
+    import random
+
+    from derive.verification import zero
+
+    x, y = sp.symbols("x y", real=True)
+    a = sp.Symbol("a", positive=True)
+    shared = sp.cos(x - y) * a**2
+    m = sp.Matrix([[shared + sp.sin(x)**3 / shared, sp.atan2(y, x) - sp.pi * a**-3],
+                   [sp.sqrt(a) * sp.Rational(3, 7) + sp.exp(-x) * sp.Float("0.1", 40),
+                    sp.acos(sp.cos(x) / 2) + sp.Abs(y) ** sp.Rational(3, 2)]])
+    rng = random.Random(7)
+    points = [zero.random_point([x, y, a], rng) for _ in range(6)]
+    f = zero.mp_function(m, [x, y, a])
+    walked = zero.mp_values(m, points)
+    assert len(walked) == len(points) and all(len(v) == 4 for v in walked)
+    assert max(zero.relative_error(f(pt), v) for pt, v in zip(points, walked)) < 1e-38
+    with pytest.raises(zero.Unsupported):
+        zero.mp_values(sp.gamma(x), points)
