@@ -31,6 +31,9 @@ from derive.derivation import derive
 from derive.model import load_model, model_names
 
 ROOT = Path(__file__).resolve().parents[2]
+# one pytest-xdist worker runs the file: each model's 30-digit reference (reference() below,
+# memoised in the process) is computed once, not once on each worker that draws a test of it
+pytestmark = pytest.mark.xdist_group("kernels_against_derivation")
 MODELS = model_names()
 N = 1000                    # random states per model
 N_JAC_SPHERICAL = 200       # the 60-digit finite-difference Jacobian costs 24 ms per state
