@@ -37,6 +37,13 @@ FIRST = (
 )
 
 
+def pytest_configure(config):
+    # pytest-xdist registers its marker; without the plugin (-p no:xdist, -n 0 runs) the
+    # files that name a group must still pass --strict-markers
+    config.addinivalue_line("markers", "xdist_group(name): the tests of one group run on one "
+                                       "pytest-xdist worker (--dist loadgroup)")
+
+
 def pytest_collection_modifyitems(config, items):
     def rank(item):
         base = item.nodeid.split("[", 1)[0]

@@ -31,12 +31,29 @@ from derive.derivation import derive
 from derive.model import load_model, model_names
 
 ROOT = Path(__file__).resolve().parents[2]
+# one pytest-xdist worker runs the file: each model's 30-digit reference (reference() below,
+# memoised in the process) is computed once, not once on each worker that draws a test of it
+pytestmark = pytest.mark.xdist_group("kernels_against_derivation")
 MODELS = model_names()
 N = 1000                    # random states per model
 N_JAC_SPHERICAL = 200       # the 60-digit finite-difference Jacobian costs 24 ms per state
 TOL = 1e-12
 SLACK = TOL / np.finfo(np.float64).eps
 VARIANTS = {"": np.float64, "_f": np.float32, "_l": np.longdouble}
+
+
+# What the parametrisations below need of a model, read from its description: the derivation
+# itself (seconds of SymPy per model with a cold cache) would be made on every pytest-xdist
+# worker at once while the tests are collected.
+def has_hamiltonian_form(name: str) -> bool:
+    """Whether the derivation has a Hamiltonian form (derive(name).hamiltonian is not None)."""
+    return "hamiltonian" in load_model(name).forms
+
+
+def has_poles(name: str) -> bool:
+    """Whether a link's chart has a polar sine (derive(name).polar_sines is not empty)."""
+    return any(link.chart.polar_sine is not None for link in load_model(name).links)
+
 
 
 def numpy_module(name: str):
@@ -164,7 +181,7 @@ def test_jacobian_matches_high_precision_differences(name):
                  allowed(np.float64, kappa ** 2))
 
 
-@pytest.mark.parametrize("name", [m for m in MODELS if derive(m).hamiltonian is not None])
+@pytest.mark.parametrize("name", [m for m in MODELS if has_hamiltonian_form(m)])
 def test_hamiltonian_form(name):
     d = derive(name)
     ref = reference(name)
@@ -199,7 +216,7 @@ def test_hamiltonian_form(name):
 
 # -- spherical charts: polar sines, conversions, status ------------------------
 
-SPHERICAL = [m for m in MODELS if derive(m).polar_sines]
+SPHERICAL = [m for m in MODELS if has_poles(m)]
 
 
 @pytest.mark.parametrize("name", SPHERICAL)
@@ -298,7 +315,7 @@ def test_status_codes(name):
     assert np.all(status == 0)
 
 
-@pytest.mark.parametrize("name", [m for m in MODELS if not derive(m).polar_sines])
+@pytest.mark.parametrize("name", [m for m in MODELS if not has_poles(m)])
 def test_status_codes_planar(name):
     lib = load(name)
     y, p = sample(name, 20)

@@ -41,7 +41,9 @@ def test_energy_is_conserved_along_the_equations(name):
             assert abs(rate) < mpmath.mpf(10) ** -30
 
 
-@pytest.mark.parametrize("name", ["planar", "compound"])
+# compound's (rods with inertia: about 10 s of CPU in trig_is_zero) in the slow tier; its
+# Hamiltonian is held against seed 001's printed H in the fast tier (tests/verification)
+@pytest.mark.parametrize("name", ["planar", pytest.param("compound", marks=pytest.mark.slow)])
 def test_hamiltonian_force_is_lagrangian_gradient(name):
     """-dH/dq at p = M q' is dL/dq (seed 001's form of p'), exactly."""
     d = derive(name)

@@ -15,6 +15,10 @@ from derive.measurement import bench as B
 from derive.measurement import peers as P
 from derive.measurement import reference as R
 
+# one worker runs the file: the module's `derive bench --quick` (the fixture below) is run
+# once, not once on each pytest-xdist worker that draws one of its tests
+pytestmark = pytest.mark.xdist_group("bench_quick")
+
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):

@@ -4,16 +4,15 @@ expressions that are data.  (The equations themselves are checked against indepe
 sympy.physics.mechanics and Cartesian references in tests/derivation/test_equations_against_mechanics.py.)"""
 from __future__ import annotations
 
-import os
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from tests.codegen.test_generate_and_compile import quad_flags
+from tests.in_process import derive_cli
 
 import derive
 from derive.runtime.loader import load
@@ -24,9 +23,9 @@ EXAMPLES = ROOT / "examples" / "models"
 
 
 def cli(*args, cwd):
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    return subprocess.run([sys.executable, "-m", "derive", *args], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=900)
+    """`derive *args` in `cwd`, in this process (tests/in_process.py): these tests check what
+    the commands print and write; the process around them is tests/system/test_cli_errors.py's."""
+    return derive_cli(*args, cwd=cwd)
 
 
 def write(tmp_path: Path, name: str, text: str) -> Path:
@@ -158,16 +157,20 @@ def test_inputs_may_have_the_names_of_the_generated_codes_own_values(tmp_path):
     assert load("torqued").names["input_names"] == tuple(names)
 
 
-@pytest.mark.parametrize("cc", ["gcc", pytest.param("clang", marks=pytest.mark.slow),
-                                pytest.param("g++", marks=pytest.mark.slow)])
+# The fast tier: clang's warnings (its front end's, the same at any -O) without building;
+# the slow tier: the -O2 builds, with gcc's optimiser-driven warnings (about 20 s of CPU).
+@pytest.mark.parametrize("cc", ["clang-syntax", *(pytest.param(c, marks=pytest.mark.slow)
+                                                  for c in ("gcc", "clang", "g++"))])
 def test_a_user_models_c_is_clean_under_werror(tmp_path, cc):
     gen = tmp_path / "gen"
     run = cli("generate", str(EXAMPLES / "triple.toml"), str(EXAMPLES / "driven.toml"), "--out", str(gen), cwd=tmp_path)
     assert run.returncode == 0, run.stderr
-    flags = ["-std=c99", "-pedantic"] if cc != "g++" else ["-x", "c++"]
+    compiler, build = ("clang", ["-fsyntax-only"]) if cc == "clang-syntax" else \
+        (cc, ["-O2", "-c", "-o", str(tmp_path / "x.o")])
+    flags = ["-std=c99", "-pedantic"] if compiler != "g++" else ["-x", "c++"]
     for src in sorted((gen / "c").glob("*.c")):
-        proc = subprocess.run([cc, *flags, *quad_flags(cc, src), "-Wall", "-Wextra", "-Werror", "-O2", "-c", str(src),
-                               "-o", str(tmp_path / "x.o")], capture_output=True, text=True)
+        proc = subprocess.run([compiler, *flags, *quad_flags(compiler, src), "-Wall", "-Wextra", "-Werror",
+                               *build, str(src)], capture_output=True, text=True)
         assert proc.returncode == 0, (src.name, proc.stderr)
 
 

@@ -367,8 +367,10 @@ def test_generated_integrators_are_deterministic():
     assert a == b and "c/spherical_atlas.c" in a and "numpy/planar_integrate.py" in a
 
 
-@pytest.mark.parametrize("cc", ["gcc", pytest.param("clang", marks=pytest.mark.slow),
-                                pytest.param("g++", marks=pytest.mark.slow)])
+# slow: the integrators (and the atlas) are among the files every compiler builds with these
+# warnings and more in test_generate_and_compile.py's slow test_generated_c_compiles_warning_free
+@pytest.mark.slow
+@pytest.mark.parametrize("cc", ["gcc", "clang", "g++"])
 def test_integrators_compile_warning_free(cc, tmp_path):
     GENERATED_C = Path(__file__).resolve().parents[2] / "generated" / "c"
     flags = ["-std=c99", "-pedantic"] if cc != "g++" else ["-x", "c++"]

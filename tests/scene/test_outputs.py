@@ -21,6 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from derive.scene import load_scene  # noqa: E402
 from derive.scene.outputs import animation_figure, energy_figure, paths_figure, write_outputs  # noqa: E402
 from derive.scene.run import run  # noqa: E402
+from tests.in_process import derive_cli  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENES = ROOT / "derive" / "scenes"
@@ -224,9 +225,7 @@ def test_a_scene_in_model_units_says_so_on_every_axis(tmp_path):
 def test_the_units_of_a_scene_are_checked(tmp_path):
     text = (SCENES / "default.toml").read_text().replace("[output]\n", '[output]\nunits = "imperial"\n')
     (tmp_path / "s.toml").write_text(text)
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    run_ = subprocess.run([sys.executable, "-m", "derive", "run", str(tmp_path / "s.toml")], env=env,
-                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    run_ = derive_cli("run", tmp_path / "s.toml", cwd=tmp_path)
     assert run_.returncode == 2 and run_.stderr.strip().splitlines() == [
         f"derive: error: {tmp_path / 's.toml'}: 'output.units' must be one of SI, model; got 'imperial'"], \
         run_.stderr
@@ -300,9 +299,7 @@ def test_an_atlas_run_names_its_columns_and_its_final_state(tmp_path, capsys):
         assert old in text, old
         text = text.replace(old, new)
     (tmp_path / "s.toml").write_text(text)
-    run_ = subprocess.run([sys.executable, "-m", "derive", "run", str(tmp_path / "s.toml"), "--json",
-                           "--output-dir", str(tmp_path / "out")], env=dict(os.environ, PYTHONPATH=str(ROOT)),
-                          cwd=tmp_path, capture_output=True, text=True, timeout=1200)
+    run_ = derive_cli("run", tmp_path / "s.toml", "--json", "--output-dir", tmp_path / "out", cwd=tmp_path)
     assert run_.returncode == 0, run_.stderr
     s = json.loads(run_.stdout)
     lines = (tmp_path / "out" / "s.csv").read_text().splitlines()

@@ -1,9 +1,6 @@
 """`derive run SCENE` end to end, as a user meets it."""
 import json
-import os
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,15 +10,16 @@ from derive import simulate
 from derive.measurement import trust
 from derive.scene import load_scene, parse_scene
 from derive.scene.run import run
+from tests import in_process
 
 ROOT = Path(__file__).resolve().parents[2]
 DEFAULT = (ROOT / "scenes" / "default.toml").read_text()
 
 
 def derive_cli(*args, cwd=ROOT):
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    return subprocess.run([sys.executable, "-m", "derive", *args], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=600)
+    """`derive *args` in `cwd`, in this process (tests/in_process.py): these tests check what
+    a run prints, writes and returns; the process around it is tests/system/test_cli_errors.py's."""
+    return in_process.derive_cli(*args, cwd=cwd)
 
 
 def test_default_scene_meets_its_target_and_reuses_the_cache(tmp_path):

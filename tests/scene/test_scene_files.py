@@ -4,6 +4,7 @@ from pathlib import Path
 import pytest
 
 from derive.scene import SceneError, load_scene, parse_scene
+from tests.in_process import derive_cli
 
 ROOT = Path(__file__).resolve().parents[2]
 GOOD = (ROOT / "scenes" / "default.toml").read_text()
@@ -130,8 +131,6 @@ def test_scene_events_reach_the_outputs(tmp_path):
     """`derive run` of a scene with a terminal event: the JSON names the event, the run stops
     there with exit 0, the CSV of crossings and the NPZ arrays agree with the API."""
     import json
-    import subprocess
-    import sys
 
     import numpy as np
 
@@ -144,8 +143,7 @@ def test_scene_events_reach_the_outputs(tmp_path):
             .replace('directory = "out/default"', f'directory = "{tmp_path}"'))
     path = tmp_path / "ev.toml"
     path.write_text(text)
-    run_ = subprocess.run([sys.executable, "-m", "derive", "run", str(path), "--json"],
-                          capture_output=True, text=True, timeout=600)
+    run_ = derive_cli("run", path, "--json")
     assert run_.returncode == 0, run_.stderr
     s = json.loads(run_.stdout)
     direct = simulate("planar", [0.5, 0.0, 0, 9.0], np.linspace(0, 5, 501),
@@ -162,8 +160,7 @@ def test_scene_events_reach_the_outputs(tmp_path):
     data = np.load(tmp_path / "ev.npz")
     assert np.array_equal(data["events_flip_t"], s["events"]["flip"]["t"])
     assert np.all(np.isnan(data["y"][data["t"] > s["t_stop"]]))
-    text_run = subprocess.run([sys.executable, "-m", "derive", "run", str(path)], capture_output=True,
-                              text=True, timeout=600)
+    text_run = derive_cli("run", path)
     assert "event   flip (cos(theta2/2)): 4 crossings" in text_run.stdout and "terminal" in text_run.stdout
 
 
@@ -180,12 +177,9 @@ def test_a_scene_with_events_runs_its_own_model(name, expression):
 
 
 def test_a_bad_event_in_a_scene_exits_2_with_one_line(tmp_path):
-    import subprocess
-    import sys
     path = tmp_path / "bad.toml"
     path.write_text(GOOD + "\n[events]\nflip = \"__import__('os')\"\n")
-    run_ = subprocess.run([sys.executable, "-m", "derive", "run", str(path)], capture_output=True, text=True,
-                          timeout=600)
+    run_ = derive_cli("run", path)
     assert run_.returncode == 2 and run_.stdout == ""
     assert len(run_.stderr.strip().splitlines()) == 1
     assert "events.flip.expression: the function '__import__'" in run_.stderr

@@ -23,6 +23,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 SEED = 13
 OTHER_UID = 54321            # a user that is not us (the tests chown to it when run as root)
+# one worker runs the file: the pristine cache (a derivation and a build from nothing, the
+# fixture below) is made once, not once on each pytest-xdist worker that draws one of its tests
+pytestmark = pytest.mark.xdist_group("cache_damage")
 
 # the run every case repeats: a derivation, the C and the NumPy backend; prints its results
 PROBE = """
