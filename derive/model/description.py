@@ -567,9 +567,15 @@ def _check_constraints(model: "Model", names: dict, where: str) -> None:
     coordinates = {names[n] for n in model.coordinate_names}
     for i, text in enumerate(model.constraints, 1):
         key = f"{where}: constraints[{i}]"
-        if names[TIME] in parse_expression(text, names, key).free_symbols:
+        used = parse_expression(text, names, key).free_symbols
+        if names[TIME] in used:
             raise ModelError(f"{key}: uses the time t: only constraints fixed in time "
                              f"(scleronomic, Phi(q; p) = 0) are supported")
+        rates = sorted(n for n in model.rate_names if names[n] in used)
+        if rates:                      # a velocity constraint: rolling without slipping, a knife edge
+            raise ModelError(f"{key}: uses the rate {rates[0]}: a non-holonomic (velocity) constraint, "
+                             f"such as a rolling disc's, is out of scope; constraints are holonomic, "
+                             f"Phi(q; p) = 0 in the coordinates and parameters")
         expr = parse_expression(text, allowed, key + " (a holonomic constraint: coordinates "
                                                       "and parameters only)")
         if not expr.free_symbols & coordinates:

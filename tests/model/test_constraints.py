@@ -49,7 +49,7 @@ def test_one_constraint_on_two_coordinates_is_a_model():
     ('constraints = "theta1 - theta2"', "'constraints' must be a list of expressions"),
     ('constraints = [1]', "'constraints' must be a list of expressions"),
     ('constraints = ["theta1 - t"]', "constraints[1]: uses the time t"),
-    ('constraints = ["theta1_dot - theta2_dot"]', "constraints[1]"),
+    ('constraints = ["theta1_dot - theta2_dot"]', "uses the rate theta1_dot: a non-holonomic (velocity) constraint"),
     ('constraints = ["l1 - d"]', "uses no coordinate"),
     ('constraints = ["theta1 - wobble"]', "constraints[1]"),
     ('constraints = ["theta1", "theta2"]', "2 constraints on 2 coordinates leave no degree of freedom"),
