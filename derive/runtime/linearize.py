@@ -305,6 +305,19 @@ def _link_rests(d) -> list[list[dict]]:
     return rests
 
 
+def _check_rests_are_a_chains(model, where: str) -> None:
+    """equilibria() enumerates a chain's rests under gravity (each link hanging or upright);
+    a model with more in it has other rests, which that list would miss or get wrong."""
+    what = ("a slider, a branch, an offset or a massless link" if not model.is_chain
+            else "springs" if model.springs else "a potential of its own" if model.potential is not None
+            else "loads at points" if model.loads else None)
+    if what is not None:
+        raise SimulationInputError(f"{where}: equilibria lists the rests of a chain under gravity alone "
+                                   f"(each link hanging or upright); this model has {what}, whose rests "
+                                   f"are elsewhere: linearize at a state you choose, "
+                                   f"derive.linearize(model, state, params)")
+
+
 def equilibria(model, params) -> list[dict]:
     """The equilibria of a model with q' = 0 and u = 0 (dV/dq = 0), with their stability.
 
@@ -348,6 +361,7 @@ def equilibria(model, params) -> list[dict]:
         raise SimulationInputError(f"{ref}: explicit time in the model (t in its forces, dissipation or pivot): "
                                    f"a rest state of q'' = f(q, q', t) need not exist; linearize at a time "
                                    f"instead, derive.linearize(model, state, params, t=...)")
+    _check_rests_are_a_chains(ref.description, str(ref))
     p = np.asarray(normalise_params(ref, params), np.float64)
     d = derive(ref.name)
     pc = _pieces(ref.name)

@@ -166,6 +166,9 @@ def not_applicable(name) -> list[tuple[str, str]]:
     if not model.is_conservative:
         return [(cartesian, "for conservative chains: applied forces, damping and explicit time have "
                             "no Cartesian form here (the power balance checks them)")]
+    if model.springs or model.potential is not None:
+        return [(cartesian, "for chains under gravity alone: the Cartesian formulation here has no "
+                            "springs or potential of the model's own (the energy check covers them)")]
     return []
 
 
@@ -372,7 +375,7 @@ def cartesian_constraint_forces(name, n_points: int = 20) -> Check | None:
     that is not a serial chain (a slider, a branch or an offset is no constraint
     |x_k - x_{k-1}| = l_k; M positive definite and the energy balance check those)."""
     d = derive(name)
-    if not d.model.is_chain or any(link.body.kind != "point" for link in d.model.links):
+    if not_applicable(d.model):           # the Cartesian side knows gravity and point masses only
         return None
     s, dim = d.symbols, d.model.dimension
     args = list(_args(d))

@@ -171,3 +171,11 @@ def test_spherical_linearize_kernels_agree_with_linearize(model):
         A, _ = derive.linearize(model, y, P)
         np.testing.assert_allclose(c.linearize(y, p), A, rtol=1e-10, atol=1e-10)
         np.testing.assert_allclose(py.linearize(y, p), A, rtol=1e-10, atol=1e-10)
+
+
+def test_equilibria_of_a_model_whose_rests_are_no_chains_are_refused_in_one_line():
+    """A user's trial: equilibria of the cart-pole crashed (TypeError in the chain's link
+    blocks); a slider, springs or a potential have rests the hanging/upright list misses."""
+    cart_pole = Path(__file__).resolve().parents[2] / "examples" / "models" / "cart_pole.toml"
+    with pytest.raises(derive.SimulationInputError, match="this model has a slider, a branch"):
+        derive.equilibria(cart_pole, {"M": 1.0, "m": 0.5, "l": 1.0, "g": 9.81})

@@ -25,3 +25,35 @@ def test_a_model_without_the_cartesian_check_is_told_why(model, reason):
 def test_a_conservative_chain_of_point_masses_runs_the_cartesian_check():
     assert not_applicable("planar") == []
     assert any("Cartesian" in c.name for c in model_checks("planar"))
+
+
+SPRUNG = """
+name = "sprung"
+dimension = 2
+parameters = ["m1", "m2", "l1", "l2", "k", "g"]
+[[links]]
+name = "upper"
+chart = "planar"
+length = "l1"
+body = { kind = "point", mass = "m1" }
+[[links]]
+name = "lower"
+chart = "planar"
+length = "l2"
+body = { kind = "point", mass = "m2" }
+[[springs]]
+between = ["pivot", "lower"]
+stiffness = "k"
+rest_length = "1/2"
+"""
+
+
+def test_a_chain_with_a_spring_is_told_why_it_has_no_cartesian_check_and_passes(tmp_path):
+    """A user's trial: a double pendulum with a spring FAILED the Cartesian check (that side
+    knows gravity alone) though its equations were right."""
+    path = tmp_path / "sprung.toml"
+    path.write_text(SPRUNG)
+    (check, why), = not_applicable(str(path))
+    assert check == "Cartesian constraint forces" and "springs or potential" in why
+    checks = model_checks(str(path))
+    assert checks and all(c.passed for c in checks) and not any("Cartesian" in c.name for c in checks)
