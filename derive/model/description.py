@@ -583,6 +583,25 @@ def _check_constraints(model: "Model", names: dict, where: str) -> None:
     if len(model.constraints) >= len(model.coordinate_names):
         raise ModelError(f"{where}: {len(model.constraints)} constraints on "
                          f"{len(model.coordinate_names)} coordinates leave no degree of freedom")
+    _check_constraints_independent(model, allowed, where)
+
+
+def _check_constraints_independent(model: "Model", allowed: dict, where: str) -> None:
+    """The closures' Jacobian dPhi/dq has full rank at a generic configuration: dependent
+    constraints (one a multiple of another) leave the multipliers undetermined."""
+    if len(model.constraints) < 2:
+        return
+    coordinates = [allowed[n] for n in model.coordinate_names]
+    J = sp.Matrix([parse_expression(text, allowed, where) for text in model.constraints]).jacobian(coordinates)
+    rng = __import__("random").Random(1)
+    ranks = []
+    for _ in range(2):                 # two generic points: a rank drop at both is no coincidence
+        at = {sym: sp.Float(rng.uniform(0.5, 1.5)) for sym in allowed.values()}
+        values = J.xreplace(at).evalf()
+        ranks.append(sp.Matrix(values).rank(iszerofunc=lambda x: abs(x) < 1e-12))
+    if max(ranks) < len(model.constraints):
+        raise ModelError(f"{where}: the {len(model.constraints)} constraints are dependent (their Jacobian "
+                         f"dPhi/dq has rank {max(ranks)}): keep only independent ones")
 
 
 def _constraints(t: dict, where: str) -> tuple[str, ...]:
@@ -791,6 +810,9 @@ def _parse_loads(t: dict, links: list[Link], dimension: int, origin: str) -> tup
             raise ModelError(f"{where}: 'force' must be a list of {dimension} expressions (its "
                              f"{', '.join('xyz'[:dimension])} components in the fixed frame)")
         point = _load_point(lt["point"], links, where)
+        if point == PIVOT and "pivot" not in t:
+            raise ModelError(f"{where}: a load at the fixed pivot does no work (it never moves): "
+                             f"put it at a link's tip or '<link>{CENTRE}'")
         out.append(Load(point, tuple(str(c) for c in force)))
     return tuple(out)
 
@@ -824,6 +846,8 @@ def _parse_springs(t: dict, links: list[Link], params: tuple[str, ...], origin: 
             spring = Spring(_quantity(st, "stiffness", where) if "stiffness" in st else "",
                             _quantity(st, "rest_length", where) if "rest_length" in st else "0",
                             between=tuple(_spring_point(e, links, where) for e in ends))
+            if ends[0] == ends[1]:
+                raise ModelError(f"{where}: 'between' names {ends[0]!r} twice: a spring joins two points")
         else:
             _no_unknown(st, {"joint", "stiffness", "rest_angle"}, where)
             joint = st["joint"]
@@ -841,7 +865,9 @@ def _parse_springs(t: dict, links: list[Link], params: tuple[str, ...], origin: 
             raise ModelError(f"{where}: missing key 'stiffness'")
         symbols = {n: sp.Symbol(n, positive=True) for n in params}
         for key, text in (("stiffness", spring.stiffness), ("rest", spring.rest)):
-            parse_expression(text, symbols, f"{where}: {key}")
+            value = parse_expression(text, symbols, f"{where}: {key}")
+            if key == "rest" and spring.between is not None and value.is_negative:
+                raise ModelError(f"{where}: rest_length = {text!r} is negative: a length is >= 0")
         out.append(spring)
     return tuple(out)
 

@@ -62,3 +62,12 @@ def test_a_bad_constraint_is_one_line_naming_the_key(extra, message):
         parse_model(TWO_LINKS.format(extra=extra), "case.toml")
     text = str(info.value)
     assert message in text and text.startswith("case.toml") and "\n" not in text
+
+
+def test_dependent_constraints_are_refused_when_read():
+    """A user's trial: two closures, one twice the other, passed the reader and failed later
+    as an internal error (a singular augmented system)."""
+    three = TWO_LINKS.format(extra='constraints = ["theta1 - theta3", "2*theta1 - 2*theta3"]') + \
+        '[[links]]\nchart = "planar"\nlength = "l2"\nbody = { kind = "point", mass = "m2" }\n'
+    with pytest.raises(ModelError, match=r"the 2 constraints are dependent \(their Jacobian dPhi/dq has rank 1\)"):
+        parse_model(three, "case.toml")

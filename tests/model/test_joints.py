@@ -168,3 +168,14 @@ def test_loads_at_points_are_read_and_checked():
         with pytest.raises(ModelError) as err:
             model(hinge("m1", 'name = "a"'), extra=extra)
         assert message in str(err.value), str(err.value)
+
+
+def test_degenerate_springs_and_loads_are_refused_in_one_line():
+    """A user's trial: these were accepted and did nothing (or nonsense)."""
+    for extra, message in (('[[springs]]\nbetween = ["a", "a"]\nstiffness = "k"\n', "names 'a' twice"),
+                           ('[[springs]]\nbetween = ["pivot", "a"]\nstiffness = "k"\nrest_length = "-1"\n',
+                            "rest_length = '-1' is negative"),
+                           ('[[loads]]\npoint = "pivot"\nforce = ["1", "0"]\n', "a load at the fixed pivot does no work")):
+        with pytest.raises(ModelError) as err:
+            model(hinge("m1", 'name = "a"'), extra=extra)
+        assert message in str(err.value) and "\n" not in str(err.value), str(err.value)
