@@ -69,6 +69,11 @@ class ConstraintDrift:
         return f"max |Phi| = {self.phi:.3g}, max |J q'| = {self.phi_dot:.3g}"
 
 
+# a start whose constraint Jacobian has a singular value this small (relative to its
+# largest) is a toggle position: the augmented system is singular there
+SINGULAR_START = 1e-10
+
+
 def is_constrained(model: str) -> bool:
     """Whether the model (a resolved name) closes a loop; False for a chart atlas.
 
@@ -180,6 +185,15 @@ def check_initial_state(model: str, y0, p) -> None:
                 f"{model}: the initial state is off the loop's constraints: |{level}| = {value:.3g} "
                 f"(constraint {worst + 1}) exceeds {CONSTRAINT_START_TOLERANCE:g}; "
                 f"derive.consistent_state(model, y0, params) projects it onto them")
+    J = np.asarray(numpy_module(model).constraint_jacobian(np.asarray(y0, np.float64),
+                                                           np.asarray(p, np.float64)[:len(load_model(model).parameters)]),
+                   dtype=np.float64)
+    singular = np.linalg.svd(J, compute_uv=False)
+    if singular.min() <= SINGULAR_START * max(1.0, singular.max()):
+        raise SimulationInputError(
+            f"{model}: the initial state is a singular configuration of the loop (dPhi/dq has rank "
+            f"{int(np.sum(singular > SINGULAR_START * max(1.0, singular.max())))} of {len(singular)} there, "
+            f"e.g. a linkage stretched straight: its multipliers are undetermined); start away from it")
 
 
 def check_initial_states(model: str, ys, ps) -> None:

@@ -150,3 +150,31 @@ def test_a_loop_of_two_coordinates_runs(tmp_path):
     assert r.ok and not r.constraint_drift.exceeded and r.energy_error < 1e-7
     tip_x = p["l1"] * np.sin(r.y[:, 0]) + p["l2"] * np.sin(r.y[:, 1])
     assert np.abs(tip_x - p["d"]).max() < 1e-6 and np.ptp(r.y[:, 0]) > 0.05      # it moved
+
+
+PINNED = """name = "pinned_double"
+dimension = 2
+parameters = ["m1", "m2", "l1", "l2", "d", "g"]
+constraints = ["l1*sin(theta1) + l2*sin(theta2) - d"]   # the tip stays on the line x = d
+[[links]]
+chart = "planar"
+length = "l1"
+body = { kind = "point", mass = "m1" }
+[[links]]
+chart = "planar"
+length = "l2"
+body = { kind = "point", mass = "m2" }
+"""
+
+
+def test_a_start_at_a_singular_configuration_of_the_loop_is_refused_in_one_line(tmp_path):
+    """A user's trial: stretched straight to x = d = l1 + l2 (dPhi/dq = 0 there) the run
+    stopped at t = 3.5e-9 on a step-size underflow that never named the cause."""
+    path = tmp_path / "pinned.toml"
+    path.write_text(PINNED)
+    p = dict(m1=1.0, m2=1.0, l1=1.0, l2=1.0, d=2.0, g=9.81)
+    with pytest.raises(derive.SimulationInputError, match="a singular configuration of the loop"):
+        derive.simulate(str(path), [np.pi / 2, np.pi / 2, 0, 0], [0, 1], p)
+    p["d"] = 1.5                                   # away from it the same loop runs
+    y0 = derive.consistent_state(str(path), [1.0, 1.0, 0, 0], p)
+    assert derive.simulate(str(path), y0, [0, 1], p).ok
