@@ -540,10 +540,13 @@ def _run_plan(scene: Scene, p: Plan, show_progress: bool, start: float) -> Outco
             if achieved is None or achieved <= scene.target or c.rtol <= REFERENCE_RTOL_MIN[c.dtype]:
                 break
             factor = SAFETY * achieved / scene.target
-            if scene.method is not None or stepped.is_stepped(scene):
-                break                     # the scene fixed its method (or the stepped one): measured
-            method, dtype, rtol, climbed = climb(c.rtol / factor, scene.target)
-            method, dtype, rtol = _not_below(scene, (method, dtype, rtol), c.rtol / factor)
+            if scene.method is not None:
+                break                     # the scene fixed its method: measured, reported
+            if stepped.is_stepped(scene):  # dop853 in float64, stepped in Python: only rtol tightens
+                method, dtype, rtol, climbed = c.method, c.dtype, max(c.rtol / factor, stepped.RTOL_MIN), None
+            else:
+                method, dtype, rtol, climbed = climb(c.rtol / factor, scene.target)
+                method, dtype, rtol = _not_below(scene, (method, dtype, rtol), c.rtol / factor)
             if dtype == c.dtype and rtol >= c.rtol:
                 break                     # at the top rung's floor: a rerun would change nothing
             if c.dtype == "float32" and dtype != c.dtype:     # float cannot go tighter
