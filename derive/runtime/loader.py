@@ -164,7 +164,8 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
         out = Path(tmp) / lib.name
         # several sources: each compiled once into an object of its own (an atlas library
         # links the objects its charts' libraries were built from), then linked
-        inputs = [_object(src, cc, flags, root) for src in sources] if len(sources) > 1 else sources
+        folders = list(dict.fromkeys(src.parent for src in sources))      # each source sees every header
+        inputs = [_object(src, cc, flags, root, folders) for src in sources] if len(sources) > 1 else sources
         cmd = [*compiler_command(cc), *flags, "-I", str(sources[0].parent), *map(str, inputs), "-o", str(out), *libs, "-lm"]
         _compile(cmd, lib, sources)
         _store_checked(out, lib)
@@ -212,13 +213,27 @@ def _included(src: Path) -> list[Path]:
     return seen
 
 
-def _object(src: Path, cc: str, flags: tuple[str, ...], root: Path) -> Path:
+def _forced_includes(flags, folders: list[Path]) -> list[Path]:
+    """The headers `-include NAME` flags force into every source, found in `folders`."""
+    names = [flags[i + 1] for i, f in enumerate(flags[:-1]) if f == "-include"]
+    found = []
+    for name in names:
+        found += [folder / name for folder in folders if (folder / name).is_file()][:1]
+    return found
+
+
+def _object(src: Path, cc: str, flags: tuple[str, ...], root: Path, folders: list[Path]) -> Path:
     """`src` compiled (-c) into the object cache beside the libraries, keyed by its text and
-    the local headers it includes, the compiler identity and the flags: the same source
-    under the same flags is compiled once, whichever folder and library it is for."""
+    the local headers it includes (and those `-include` flags force in), the compiler
+    identity and the flags: the same source under the same flags is compiled once,
+    whichever folder and library it is for.  `folders`: every source folder of the
+    library, searched for headers (a source may include another folder's, as the
+    benchmark's rhs_cost.c includes the model's header)."""
     compile_flags = [f for f in flags if f != "-shared" and not f.startswith(("-Wl,", "-l"))]
     h = hashlib.sha256()
-    for part in _included(src):
+    parts = [path for header in _forced_includes(compile_flags, [src.parent, *folders])
+             for path in _included(header)] + _included(src)
+    for part in parts:
         h.update(part.name.encode() + b"\0" + hashlib.sha256(part.read_bytes()).digest())
     h.update(hashlib.sha256(compiler_identity(cc).encode()).digest())
     h.update(hashlib.sha256("\0".join(compile_flags).encode()).digest())
@@ -232,8 +247,8 @@ def _object(src: Path, cc: str, flags: tuple[str, ...], root: Path) -> Path:
         raise write_error(obj, exc) from None
     try:
         out = Path(tmp) / obj.name
-        _compile([*compiler_command(cc), *compile_flags, "-I", str(src.parent), "-c", str(src), "-o", str(out)],
-                 obj, [src])
+        includes = [arg for folder in dict.fromkeys([src.parent, *folders]) for arg in ("-I", str(folder))]
+        _compile([*compiler_command(cc), *compile_flags, *includes, "-c", str(src), "-o", str(out)], obj, [src])
         _store_checked(out, obj)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
