@@ -17,6 +17,7 @@ from ..derivation import Derivation
 from ..derivation.lagrange import pivot_position
 from ..derivation.symbols import t as time_symbol
 from ..errors import PackageDataError
+from ..model.description import in_words
 from ..model.expressions import parse_expression
 from .. import paths
 
@@ -244,6 +245,9 @@ def context(d: Derivation, results, checks=(), paper: str = "a4") -> dict:
         "loop": _loop(d, n),
         "pivot": _vector(pivot_position(d.model, s), n) if d.model.pivot is not None else None,
         "energy": _energy(d),
+        "explicit_time": in_words([w.replace("the moving pivot", "the moving pivot does work")
+                                   for w in d.model.work_done_by
+                                   if w in ("the moving pivot", "the time-dependent potential")]),
         "F_args": r"q, \dot q" + (", u" if d.model.inputs else "") + (", t" if d.model.is_time_dependent else ""),
     }
     if d.hamiltonian is not None and d.hamiltonian.H is None:
