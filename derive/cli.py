@@ -365,9 +365,15 @@ def _error_text(s: dict) -> str:
     return f"not measured: {why}{own}"
 
 
+def _in_words(items: list[str]) -> str:
+    """["a", "b", "c"] -> "a, b and c" (as derive.model.description.in_words, not imported at start-up)."""
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+
 def _energy_text(s: dict) -> str:
     """The relative energy error (or change) and what it is relative to."""
-    what = "relative error" if s["conservative"] else "relative change (the work of forces and damping)"
+    what = ("relative error" if s["conservative"] else
+            f"relative change (the work of {_in_words(s.get('work_done_by') or ['forces and damping'])})")
     error, scale = s["relative_energy_error"], f"{s['energy_scale']:.4g} = {s['energy_scale_is']}"
     if error is None or not abs(error) < float("inf"):          # overflowed (inf) or none finite (NaN)
         text = f"{what} not finite (its scale {scale})"

@@ -41,6 +41,12 @@ SHARED_PREFIX = "derive_"
 MAX_NAME = 64                # characters: a model's name is a file name's and a C prefix's part
 
 
+def in_words(items) -> str:
+    """("a", "b", "c") -> "a, b and c" (the sources of work in `Model.work_done_by`)."""
+    items = list(items)
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1] if items else ""
+
+
 def charts_file() -> Path:
     return catalog_dir() / "charts.toml"
 
@@ -169,6 +175,29 @@ class Model:
         no explicit time (a moving pivot does work on the chain)."""
         return (self.dissipation is None and not self.forces and not self.loads
                 and not self.is_time_dependent)
+
+    @property
+    def work_done_by(self) -> tuple[str, ...]:
+        """What changes the model's energy E = T + V, in words, for the texts that say why
+        it is not conserved: "the moving pivot", "the time-dependent potential", "the
+        applied forces", "the loads", "the damping" (those the model has; none: conserved)."""
+        names = {n: sp.Symbol(n) for n in (*self.parameters, *self.inputs, *self.state_names, TIME)}
+        where = self.origin or self.name
+
+        def timed(texts) -> bool:
+            return any(names[TIME] in parse_expression(text, names, where).free_symbols for text in texts)
+        out = []
+        if self.pivot is not None and timed(self.pivot):
+            out.append("the moving pivot")
+        if self.potential is not None and timed([self.potential]):
+            out.append("the time-dependent potential")
+        if self.forces:
+            out.append("the applied forces")
+        if self.loads:
+            out.append("the loads")
+        if self.dissipation is not None:
+            out.append("the damping")
+        return tuple(out)
 
     @cached_property
     def is_time_dependent(self) -> bool:

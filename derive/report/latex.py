@@ -14,7 +14,10 @@ import jinja2
 import sympy as sp
 
 from ..derivation import Derivation
+from ..derivation.lagrange import pivot_position
+from ..derivation.symbols import t as time_symbol
 from ..errors import PackageDataError
+from ..model.description import in_words
 from ..model.expressions import parse_expression
 from .. import paths
 
@@ -51,6 +54,16 @@ def _loop(d: Derivation, names) -> dict | None:
         return None
     return {"count": c.J.rows, "Phi": _entries(c.Phi, names, r"\Phi"), "J": _entries(c.J, names, "J"),
             "gamma": _entries(c.gamma, names, r"\gamma")}
+
+
+def _energy(d: Derivation) -> str:
+    """What the document says of E = T + V: "conserved"; "balance" (dE/dt = q'.Q - q'.dR/dq',
+    forces or dissipation without explicit time in L); or "jacobi" where L itself depends on t
+    (a moving pivot): E is not conserved and Jacobi's h = q'.dL/dq' - L obeys
+    dh/dt = q'.Q - q'.dR/dq' - dL/dt|explicit, the balance derive verify checks."""
+    if d.model.is_conservative:
+        return "conserved"
+    return "jacobi" if time_symbol in (d.T - d.V).free_symbols else "balance"
 
 
 def _vector(v, names) -> str:
@@ -230,6 +243,12 @@ def context(d: Derivation, results, checks=(), paper: str = "a4") -> dict:
         "groups": _seed_groups(result_rows(results)), "n_results": len(results),
         "checks": physics_rows(checks, n),
         "loop": _loop(d, n),
+        "pivot": _vector(pivot_position(d.model, s), n) if d.model.pivot is not None else None,
+        "energy": _energy(d),
+        "explicit_time": in_words([w.replace("the moving pivot", "the moving pivot does work")
+                                   for w in d.model.work_done_by
+                                   if w in ("the moving pivot", "the time-dependent potential")]),
+        "F_args": r"q, \dot q" + (", u" if d.model.inputs else "") + (", t" if d.model.is_time_dependent else ""),
     }
     if d.hamiltonian is not None and d.hamiltonian.H is None:
         # beyond two coordinates no closed-form inverse is written: the code solves M q' = p

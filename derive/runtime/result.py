@@ -14,6 +14,7 @@ import numpy as np
 from ..codegen.contract import STATUS_NAMES, STATUS
 from ..errors import ModelError, SimulationError, ToolMissingError
 from ..model import load_model
+from ..model.description import in_words
 from ..model.atlas import atlas_for, find_atlas
 from .energy_error import exact_energy_error, relative_energy_error
 from .model_sizes import model_info
@@ -516,7 +517,8 @@ def summary_rows(result: SimulationResult) -> list[tuple[str, str]]:
 
 def _energy_row(result: SimulationResult) -> tuple[str, str]:
     """A conservative model's energy change is the run's error; a driven or damped one's is
-    mostly the work of its forces and damping, which a table must not call an error."""
+    mostly the work of what drives or damps it (Model.work_done_by), which a table must not
+    call an error."""
     try:
         description = None if find_atlas(result.model) is not None else load_model(result.model)
     except ModelError:
@@ -525,7 +527,8 @@ def _energy_row(result: SimulationResult) -> tuple[str, str]:
         return "energy error", f"{result.energy_error:.3g} (relative)"
     if description.is_time_dependent and not description.inputs:
         return _balance_row(result)
-    return "energy change", f"{result.energy_error:.3g} (relative; the work of forces and damping, not an error)"
+    return "energy change", (f"{result.energy_error:.3g} (relative; the work of "
+                             f"{in_words(description.work_done_by)}, not an error)")
 
 
 def _balance_row(result: SimulationResult) -> tuple[str, str]:

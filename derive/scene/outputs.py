@@ -11,6 +11,7 @@ from ..derivation import derive
 from ..derivation.lagrange import tree_geometry
 from ..derivation.symbols import t as time_symbol
 from ..model import load_model
+from ..model.description import in_words
 from ..model.atlas import find_atlas
 from ..paths import replace_file, writable_dir
 from ..runtime.simulate import normalise_params
@@ -402,8 +403,9 @@ def energy_balance_figure(plt, o):
     # a wide pale band under the thin W - D: where the balance holds, both are seen
     ax.plot(t, change, lw=5, alpha=0.35, color="C0", solid_capstyle="butt", label="E - E0")
     if forced:
-        ax.plot(t, work, lw=0.8, ls="--", color="C1", label="W: work of the applied forces" +
-                (" and the moving pivot" if load_model(o.plan.model).is_time_dependent else ""))
+        drives = [w for w in load_model(o.plan.model).work_done_by if w != "the damping"]
+        ax.plot(t, work, lw=0.8, ls="--", color="C1",
+                label="W: work of " + (in_words(drives) or "the applied forces"))
     if damped:
         ax.plot(t, -loss, lw=0.8, ls=":", color="C2", label="-D: energy dissipated")
     ax.plot(t, work - loss, lw=0.8, color="k", label="W - D")

@@ -822,6 +822,8 @@ def summary(o: Outcome) -> dict:
         "relative_energy_error": drift, "energy_scale": scale, "energy_scale_is": SCALE_TEXT,
         # with applied forces or damping the energy changes by the work they do: not an error
         "conservative": conservative(o),
+        # what does that work, in words, from the model's description ("the moving pivot", ...)
+        "work_done_by": list(load_model(standard_member(o.scene.model)).work_done_by),
         # a closed loop: its largest |Phi| and |J q'| over the run, and their bound
         "constraint_drift": None if r.constraint_drift is None else
         {"phi": r.constraint_drift.phi, "phi_dot": r.constraint_drift.phi_dot, "bound": r.constraint_drift.bound,

@@ -169,3 +169,92 @@ def test_an_abridged_formula_names_the_command_as_typed(tmp_path):
     text = subprocess.run(["pdftotext", str(tmp_path / "doc.pdf"), "-"], capture_output=True,
                           text=True, check=True).stdout
     assert "more lines; in full in derive verify --json" in " ".join(text.split()), text
+
+
+KAPITZA = """\
+name = "kapitza"
+dimension = 2
+parameters = ["m", "l", "g", "a", "w"]
+pivot = ["0", "a*cos(w*t)"]
+[[links]]
+chart = "planar"
+length = "l"
+body = { kind = "point", mass = "m" }
+"""
+
+DP_LOAD = """\
+name = "dp_load"
+dimension = 2
+parameters = ["m1", "m2", "l1", "l2", "g", "F0", "w"]
+[[links]]
+name = "upper"
+chart = "planar"
+length = "l1"
+body = { kind = "point", mass = "m1" }
+[[links]]
+name = "lower"
+chart = "planar"
+length = "l2"
+body = { kind = "point", mass = "m2" }
+[[loads]]
+point = "lower"
+force = ["F0*cos(w*t)", "0"]
+"""
+
+PINNED = """\
+name = "pinned_double"
+dimension = 2
+parameters = ["m1", "m2", "l1", "l2", "d", "g"]
+constraints = ["l1*sin(theta1) + l2*sin(theta2) - d"]
+[[links]]
+chart = "planar"
+length = "l1"
+body = { kind = "point", mass = "m1" }
+[[links]]
+chart = "planar"
+length = "l2"
+body = { kind = "point", mass = "m2" }
+"""
+
+
+def latex_of(text: str, name: str, tmp_path: Path) -> str:
+    model = tmp_path / f"{name}.toml"
+    model.write_text(text)
+    run = cli("latex", str(model), "-o", str(tmp_path / f"{name}.tex"))
+    assert run.returncode == 0, run.stdout + run.stderr
+    return (tmp_path / f"{name}.tex").read_text()
+
+
+def test_a_moving_pivot_is_written_up_with_its_motion_and_jacobis_balance(tmp_path):
+    """A moving pivot (explicit time in L): page 1 says where the pivot is, r0(t), not "at the
+    origin"; E = T + V is said not to be conserved and Jacobi's h balance is stated (the one
+    derive verify checks); F takes t."""
+    tex = latex_of(KAPITZA, "kapitza", tmp_path)
+    flat = " ".join(tex.split())
+    assert "the pivot is at the origin" not in flat
+    assert r"\mathbf{r}_{0}(t) = \begin{pmatrix}0 \\ {a} \cos{\left({t} {w} \right)}\end{pmatrix}" in flat
+    assert "obeys the power balance $\\dot E" not in flat
+    assert "is not conserved" in flat and r"h = \dot q \cdot \partial L/\partial \dot q - L" in flat
+    assert r"- \partial L/\partial t$" in flat
+    assert r"M(q)\,\ddot q = F(q, \dot q, t)$" in flat
+
+
+def test_a_time_dependent_load_keeps_the_power_balance_and_f_takes_t(tmp_path):
+    """A load F0 cos(w t) without a moving pivot: L has no explicit t, so dE/dt = q'.Q - q'.dR/dq'
+    holds; the pivot is at the origin; F(q, q', t)."""
+    flat = " ".join(latex_of(DP_LOAD, "dp_load", tmp_path).split())
+    assert "the pivot is at the origin" in flat and "obeys the power balance" in flat
+    assert r"M(q)\,\ddot q = F(q, \dot q, t)$" in flat and "Jacobi" not in flat
+
+
+def test_one_loop_closure_is_singular(tmp_path):
+    flat = " ".join(latex_of(PINNED, "pinned_double", tmp_path).split())
+    assert "the 1 loop closures" not in flat
+    assert r"the loop closure $\Phi(q) = 0$," in flat and "holds on the motion" in flat
+    assert r"M(q)\,\ddot q = F(q, \dot q)$" in flat
+
+
+def test_inputs_appear_in_the_forcing_arguments(tmp_path):
+    run = cli("latex", str(ROOT / "examples" / "models" / "driven.toml"), "-o", str(tmp_path / "d.tex"))
+    assert run.returncode == 0, run.stderr
+    assert r"M(q)\,\ddot q = F(q, \dot q, u)$" in (tmp_path / "d.tex").read_text()

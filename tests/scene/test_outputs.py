@@ -361,3 +361,89 @@ def test_the_energy_balance_does_not_depend_on_the_output_grid(tmp_path):
     assert abs(work[-1] - simpson[0]) < 1e-9 and abs(loss[-1] - simpson[1]) < 1e-9, \
         (work[-1], simpson[0], loss[-1], simpson[1])
     assert np.ptp(o.result.energy) > 1.0                # a motion that gains energy, fast
+
+
+KAPITZA = """\
+name = "kapitza"
+dimension = 2
+parameters = ["m", "l", "g", "a", "w"]
+pivot = ["0", "a*cos(w*t)"]
+[[links]]
+chart = "planar"
+length = "l"
+body = { kind = "point", mass = "m" }
+"""
+
+DP_LOAD = """\
+name = "dp_load"
+dimension = 2
+parameters = ["m1", "m2", "l1", "l2", "g", "F0", "w"]
+[[links]]
+name = "upper"
+chart = "planar"
+length = "l1"
+body = { kind = "point", mass = "m1" }
+[[links]]
+name = "lower"
+chart = "planar"
+length = "l2"
+body = { kind = "point", mass = "m2" }
+[[loads]]
+point = "lower"
+force = ["F0*cos(w*t)", "0"]
+"""
+
+TIMED_SCENE = """\
+title = "{name}"
+[pendulum]
+model = "{name}.toml"
+parameters = {{ {parameters} }}
+[initial]
+state = {{ {state} }}
+rest = true
+[time]
+stop = 1.0
+outputs = 51
+[output]
+plots = ["energy"]
+"""
+
+
+def timed_scene(tmp_path: Path, name: str) -> Path:
+    model, parameters, state = {
+        "kapitza": (KAPITZA, "m = 1.0, l = 1.0, g = 9.81, a = 0.1, w = 3.0", "theta1 = 0.3"),
+        "dp_load": (DP_LOAD, "m1 = 1.0, m2 = 1.0, l1 = 1.0, l2 = 1.0, g = 9.81, F0 = 1.0, w = 3.0",
+                    "theta1 = 0.3, theta2 = 0.1")}[name]
+    (tmp_path / f"{name}.toml").write_text(model)
+    (tmp_path / "s.toml").write_text(TIMED_SCENE.format(name=name, parameters=parameters, state=state))
+    return tmp_path / "s.toml"
+
+
+@pytest.mark.parametrize("name, does_work", [("kapitza", "the moving pivot"), ("dp_load", "the loads")])
+def test_the_energy_texts_name_what_does_the_work(tmp_path, name, does_work):
+    """A moving pivot without forces or damping, a load without a moving pivot: the scene's
+    energy line and the energy plot's W name only what the model has."""
+    scene = timed_scene(tmp_path, name)
+    run_ = derive_cli("run", scene, "--output-dir", tmp_path / "out", cwd=tmp_path)
+    assert run_.returncode == 0, run_.stdout + run_.stderr
+    energy = next(ln for ln in run_.stdout.splitlines() if ln.startswith("energy"))
+    assert f"relative change (the work of {does_work}) " in energy, energy
+    assert "forces and damping" not in energy
+    o = run(load_scene(scene), show_progress=False)
+    fig = energy_figure(plt, o)
+    try:
+        labels = {ln.get_label() for ln in fig.axes[0].get_lines()}
+        assert f"W: work of {does_work}" in labels, labels
+    finally:
+        plt.close(fig)
+
+
+def test_a_summary_table_names_what_does_the_work():
+    """derive.SimulationResult's summary of a driven, damped model (inputs): its energy change
+    is the work of the applied forces and the damping, the words from the model."""
+    import derive
+    from derive.runtime.result import summary_rows
+    r = derive.simulate(str(ROOT / "examples" / "models" / "driven.toml"), [1.0, 0.5, 0, 0], [0.0, 0.5],
+                        [1, 1, 1, 1, 9.81, 0.1, 0.1], inputs=[0.5, 0.0], backend="numpy")
+    rows = dict(summary_rows(r))
+    assert "the work of the applied forces and the damping, not an error" in rows["energy change"], rows

@@ -179,3 +179,28 @@ def test_the_site_builds_with_warnings_as_errors(tmp_path):
         assert (out / "_figures" / "bench" / png.name).read_bytes() == png.read_bytes()
     assert "derive.simulate" in (out / "python.html").read_text()
     assert "derive run" in (out / "cli.html").read_text()
+
+
+def test_the_explicit_time_pages_say_what_the_code_runs():
+    """docs/models.md and docs/events.md on a time-dependent model (a moving pivot): an
+    ensemble runs (each member by simulate's per-stage path), so the page does not list
+    ensembles among the refusals; r.sol and events work, so events.md does not say every
+    model is autonomous."""
+    import re
+
+    import numpy as np
+
+    import derive
+    model = str(ROOT / "examples" / "models" / "driven_pivot.toml")
+    params = {"m": 1.0, "l": 1.0, "g": 9.81, "a": 0.1, "w": 3.0}
+    ens = derive.ensemble(model, [[0.3, 0.0], [0.2, 0.0]], [0.0, 0.5], params)
+    assert ens.status_names == ["ok", "ok"]
+    r = derive.simulate(model, [0.3, 0.0], np.linspace(0, 2, 5), params, events={"turn": "theta1_dot"})
+    assert r.sol is not None and len(r.events["turn"].t) >= 1
+    models = " ".join((DOCS / "models.md").read_text().split())
+    refused = re.search(r"Refused in one line, naming what runs it: ([^.]*)\.", models).group(1)
+    assert "ensembles" not in refused and "sweeps" in refused
+    assert "`derive.ensemble` runs one too" in models
+    events = " ".join((DOCS / "events.md").read_text().split())
+    assert "The models are autonomous" not in events
+    assert "A time-dependent model" in events and "stage_solution.py" in events
