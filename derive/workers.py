@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Sequence
 
 from .errors import UsageError
@@ -63,6 +62,9 @@ def run_all(calls: Sequence[tuple[Callable, tuple]], jobs: int | None = None) ->
     jobs = min(jobs or job_count(), len(calls))
     if jobs <= 1 or not _can_fork():
         return [f(*args) for f, args in calls]
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("fork")) as pool:
-        futures = [pool.submit(f, *args) for f, args in calls]
-        return [future.result() for future in futures]
+    # a Pool, not a ProcessPoolExecutor: leaving its block on an exception (Ctrl-C in this
+    # process, a call that raised) terminates the workers at once, where the executor
+    # would wait for every running call to finish (minutes of derivations after Ctrl-C)
+    with multiprocessing.get_context("fork").Pool(jobs) as pool:
+        pending = [pool.apply_async(f, args) for f, args in calls]
+        return [result.get() for result in pending]
