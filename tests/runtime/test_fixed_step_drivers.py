@@ -165,8 +165,10 @@ def _interrupt_after(code: list[str], seconds: float = 1.0, ready: str | None = 
     """SIGINT `seconds` after the start, or after the program printed the line `ready`
     (then `seconds` more: on a loaded machine the imports alone can take seconds)."""
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    # SIGINT's default action in the child: a pytest-xdist worker runs with SIGINT ignored,
+    # and an ignored signal stays ignored across exec (the child would never see Ctrl-C)
     proc = subprocess.Popen(code, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
-                            cwd=str(ROOT))
+                            cwd=str(ROOT), preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     before = ""
     if ready is not None:
         for line in proc.stdout:

@@ -326,8 +326,11 @@ def test_ctrl_c_at_any_moment_of_derive_run_is_one_line_and_130(tmp_path, second
                    .replace("target = 1e-8", 'method = "rk4"\nstep = 1e-5')
     (tmp_path / "long.toml").write_text(scene)
     env = dict(os.environ, PYTHONPATH=str(ROOT))
+    # SIGINT's default action in the child: a pytest-xdist worker runs with SIGINT ignored,
+    # and an ignored signal stays ignored across exec (the child would never see Ctrl-C)
     proc = subprocess.Popen([sys.executable, "-m", "derive", "run", "long.toml", "--quiet"], cwd=tmp_path,
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(seconds)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)
