@@ -152,7 +152,7 @@ def test_a_loop_of_two_coordinates_runs(tmp_path):
     assert np.abs(tip_x - p["d"]).max() < 1e-6 and np.ptp(r.y[:, 0]) > 0.05      # it moved
 
 
-PINNED = """name = "pinned_double"
+PINNED = """name = "pinned_straight"
 dimension = 2
 parameters = ["m1", "m2", "l1", "l2", "d", "g"]
 constraints = ["l1*sin(theta1) + l2*sin(theta2) - d"]   # the tip stays on the line x = d
