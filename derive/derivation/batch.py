@@ -4,7 +4,7 @@ stored in the disk cache, from which the command then reads them as from a warm 
 from __future__ import annotations
 
 from ..model import Model, load_model
-from ..workers import run_all
+from .workers import run_all
 from .charts import is_chart_change_cached, store_chart_change
 from .derivation import derive, is_cached
 

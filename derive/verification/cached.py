@@ -16,7 +16,7 @@ from .. import cachefile
 from ..derivation.derivation import cache_key
 from ..paths import cache_dir, package_root
 from ..model import Model, load_model, model_names
-from ..workers import run_all
+from ..derivation.workers import run_all
 from . import claims, judge, physics   # claims and physics register the dataclasses entries hold
 
 

@@ -1,11 +1,11 @@
-"""derive.workers: calls shared among forked worker processes come back in order, an error in
+"""derive.derivation.workers: calls shared among forked worker processes come back in order, an error in
 one is raised in the caller, and DERIVE_JOBS is read as the house reads any input."""
 import os
 
 import pytest
 
 from derive.errors import UsageError
-from derive.workers import job_count, run_all
+from derive.derivation.workers import job_count, run_all
 
 
 def _pid_and_square(x):

@@ -15,7 +15,7 @@ import multiprocessing
 import os
 from typing import Callable, Sequence
 
-from .errors import UsageError
+from ..errors import UsageError
 
 
 def job_count() -> int:
