@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from tests.parameters import named_double_pendulum
 
 ROOT = Path(__file__).resolve().parents[2]
 # pdflatex, pdftotext and pdftoppm are required, never skipped for: tests/run.sh installs them
@@ -182,24 +183,7 @@ length = "l"
 body = { kind = "point", mass = "m" }
 """
 
-DP_LOAD = """\
-name = "dp_load"
-dimension = 2
-parameters = ["m1", "m2", "l1", "l2", "g", "F0", "w"]
-[[links]]
-name = "upper"
-chart = "planar"
-length = "l1"
-body = { kind = "point", mass = "m1" }
-[[links]]
-name = "lower"
-chart = "planar"
-length = "l2"
-body = { kind = "point", mass = "m2" }
-[[loads]]
-point = "lower"
-force = ["F0*cos(w*t)", "0"]
-"""
+DP_LOAD = named_double_pendulum("dp_load", ["m1", "m2", "l1", "l2", "g", "F0", "w"], '[[loads]]\npoint = "lower"\nforce = ["F0*cos(w*t)", "0"]\n')
 
 PINNED = """\
 name = "pinned_double"

@@ -19,6 +19,7 @@ from derive.scene.outputs import work_and_dissipation
 from derive.scene.run import run
 from derive.scene.stepped import is_stepped
 from derive.sweep.sweep_file import load_sweep
+from tests.parameters import named_double_pendulum
 
 ROOT = Path(__file__).resolve().parents[2]
 MODELS = ROOT / "examples" / "models"
@@ -135,23 +136,7 @@ def test_the_example_scenes_of_explicit_time_are_read(name):
     assert is_stepped(scene)
 
 
-LOADED = """name = "dp_load"
-dimension = 2
-parameters = ["m1", "m2", "l1", "l2", "g", "F0", "w"]
-[[links]]
-name = "upper"
-chart = "planar"
-length = "l1"
-body = { kind = "point", mass = "m1" }
-[[links]]
-name = "lower"
-chart = "planar"
-length = "l2"
-body = { kind = "point", mass = "m2" }
-[[loads]]
-point = "lower"
-force = ["F0*cos(w*t)", "0"]
-"""
+LOADED = named_double_pendulum("dp_load", ["m1", "m2", "l1", "l2", "g", "F0", "w"], '[[loads]]\npoint = "lower"\nforce = ["F0*cos(w*t)", "0"]\n')
 
 
 def test_a_stepped_scene_that_misses_its_target_at_first_tightens_rtol_and_meets_it(tmp_path):

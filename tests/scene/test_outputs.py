@@ -22,6 +22,7 @@ from derive.scene import load_scene  # noqa: E402
 from derive.scene.outputs import animation_figure, energy_figure, paths_figure, write_outputs  # noqa: E402
 from derive.scene.run import run  # noqa: E402
 from tests.in_process import derive_cli  # noqa: E402
+from tests.parameters import named_double_pendulum  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENES = ROOT / "derive" / "scenes"
@@ -374,24 +375,7 @@ length = "l"
 body = { kind = "point", mass = "m" }
 """
 
-DP_LOAD = """\
-name = "dp_load"
-dimension = 2
-parameters = ["m1", "m2", "l1", "l2", "g", "F0", "w"]
-[[links]]
-name = "upper"
-chart = "planar"
-length = "l1"
-body = { kind = "point", mass = "m1" }
-[[links]]
-name = "lower"
-chart = "planar"
-length = "l2"
-body = { kind = "point", mass = "m2" }
-[[loads]]
-point = "lower"
-force = ["F0*cos(w*t)", "0"]
-"""
+DP_LOAD = named_double_pendulum("dp_load", ["m1", "m2", "l1", "l2", "g", "F0", "w"], '[[loads]]\npoint = "lower"\nforce = ["F0*cos(w*t)", "0"]\n')
 
 TIMED_SCENE = """\
 title = "{name}"

@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from derive.verification.physics import model_checks, not_applicable
+from tests.parameters import named_double_pendulum
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "models"
 
@@ -27,25 +28,7 @@ def test_a_conservative_chain_of_point_masses_runs_the_cartesian_check():
     assert any("Cartesian" in c.name for c in model_checks("planar"))
 
 
-SPRUNG = """
-name = "sprung"
-dimension = 2
-parameters = ["m1", "m2", "l1", "l2", "k", "g"]
-[[links]]
-name = "upper"
-chart = "planar"
-length = "l1"
-body = { kind = "point", mass = "m1" }
-[[links]]
-name = "lower"
-chart = "planar"
-length = "l2"
-body = { kind = "point", mass = "m2" }
-[[springs]]
-between = ["pivot", "lower"]
-stiffness = "k"
-rest_length = "1/2"
-"""
+SPRUNG = named_double_pendulum("sprung", ["m1", "m2", "l1", "l2", "k", "g"], '[[springs]]\nbetween = ["pivot", "lower"]\nstiffness = "k"\nrest_length = "1/2"\n')
 
 
 def test_a_chain_with_a_spring_is_told_why_it_has_no_cartesian_check_and_passes(tmp_path):
