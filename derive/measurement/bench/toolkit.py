@@ -235,4 +235,9 @@ def rhs_cost_run(model: str, y: np.ndarray, p: np.ndarray, reps: int, chained: b
     y, p = np.ascontiguousarray(y, np.float64), np.ascontiguousarray(p, np.float64)
     out = np.empty_like(y)
     args = (len(y), y.shape[1], y.ctypes.data, p.ctypes.data, out.ctypes.data, reps, int(chained), 0.0)
-    return lambda: fn(*args)
+    held = (y, p, out)      # the C loop reads and writes these addresses: they live as long as run
+
+    def run():
+        fn(*args)
+        return held
+    return run
