@@ -31,6 +31,22 @@ import pathlib
 import numpy
 
 
+def _power(x, y):
+    """x ** y elementwise (x float64, y a number) by numpy's power ufunc, both operands
+    arrays: the one power integrate (through _pow1) and integrate_batch take, so that a
+    batch's rows are integrate's runs bit for bit on any machine.  numpy's power runs SIMD
+    loops (SVML on AVX-512) that differ from libm's pow, the Python float's, in the last bit
+    for some arguments (6% of them on one AVX-512 machine); an array's ** 0.5 is numpy's
+    sqrt, which differs from pow too."""
+    x = numpy.asarray(x, numpy.float64)
+    return numpy.power(x, numpy.full_like(x, y))
+
+
+def _pow1(x, y):
+    """x ** y of one number as integrate_batch takes it on a row (_power)."""
+    return float(_power(numpy.array([x], numpy.float64), y)[0])
+
+
 def _beside(name):
     """The module <name>.py of this file's folder, loaded from its path (so that the
     folder need not be on sys.path, as when derive loads a generated tree by path)."""
@@ -212,7 +228,7 @@ def explicit_step(system, name, y, h, p, K, opt, info):
     deno = e5 + 0.01 * e3
     if deno <= 0:
         deno = 1.0
-    return OK, y_new, abs(float(h)) * e5 * (1.0 / (len(y) * deno)) ** 0.5
+    return OK, y_new, abs(float(h)) * e5 * _pow1(1.0 / (len(y) * deno), 0.5)
 
 
 def dopri5_dense(y, h, K, theta):
@@ -469,14 +485,14 @@ def _hinit(c, z, f0, direction, hmax, order):
     sk = c.opt["atol"] + c.opt["rtol"] * numpy.abs(z)
     dnf = float(numpy.sum((f0 / sk) ** 2))
     dny = float(numpy.sum((z / sk) ** 2))
-    h = 1e-6 if (dnf <= 1e-10 or dny <= 1e-10) else (dny / dnf) ** 0.5 * 0.01
+    h = 1e-6 if (dnf <= 1e-10 or dny <= 1e-10) else _pow1(dny / dnf, 0.5) * 0.01
     h = min(h, hmax)
     st, f1 = c.eval(z + direction * h * f0)
     if st:
         return h
-    der2 = float(numpy.sum(((f1 - f0) / sk) ** 2)) ** 0.5 / h
-    der12 = max(der2, dnf ** 0.5)
-    h1 = max(1e-6, h * 1e-3) if der12 <= 1e-15 else (0.01 / der12) ** (1.0 / order)
+    der2 = _pow1(float(numpy.sum(((f1 - f0) / sk) ** 2)), 0.5) / h
+    der12 = max(der2, _pow1(dnf, 0.5))
+    h1 = max(1e-6, h * 1e-3) if der12 <= 1e-15 else _pow1(0.01 / der12, 1.0 / order)
     return min(100 * h, h1, hmax)
 
 
@@ -591,7 +607,7 @@ def _drive_adaptive(c, z, t_out, direction, done, y_out):
             elif err != err:
                 cause, fac = NONFINITE, 0.25
             else:
-                cause, fac = 0, min(1.0, max(facmin, 0.9 * float(err) ** (-1.0 / order)))
+                cause, fac = 0, min(1.0, max(facmin, 0.9 * _pow1(float(err), -1.0 / order)))
             rejected = True
             h = h * c.dtype.type(fac)
             continue
@@ -627,7 +643,7 @@ def _drive_adaptive(c, z, t_out, direction, done, y_out):
             st, K[0] = c.eval(z)
             if st:
                 return done(st, z, t, h)
-        fac = 0.9 * float(err) ** (-1.0 / order) if err > 0 else facmax
+        fac = 0.9 * _pow1(float(err), -1.0 / order) if err > 0 else facmax
         fac = max(facmin, min(fac, 1.0 if rejected else facmax))
         rejected = False
         h = h * c.dtype.type(fac)
@@ -759,12 +775,6 @@ def integrate(kernels, method, y0, p, t, dtype=numpy.float64, **options):
 BATCHED = ("rk4", "rk8", "dopri5", "dop853")
 
 
-def _root(x):
-    """x ** 0.5 of a float64 array as integrate's Python floats take it (libm's pow): an
-    array's ** 0.5 is numpy's sqrt, which differs from pow in the last bit now and then."""
-    return numpy.power(x, numpy.full_like(x, 0.5))
-
-
 class _Batch:
     """The running state of a batch of B trajectories of one explicit method."""
 
@@ -832,7 +842,7 @@ class _Batch:
             e5 = numpy.sum((_combo(tab["e5"], K) / sk) ** 2, axis=-1).astype(numpy.float64)
             deno = e5 + 0.01 * e3
             deno = numpy.where(deno <= 0, 1.0, deno)
-            return st, zn, numpy.abs(h.astype(numpy.float64)) * e5 * _root(1.0 / (z.shape[1] * deno))
+            return st, zn, numpy.abs(h.astype(numpy.float64)) * e5 * _power(1.0 / (z.shape[1] * deno), 0.5)
 
     def finish(self, rows, status, z, t, h):
         """Trajectories `rows` end with `status` in state z at t (h: their last step)."""
@@ -884,12 +894,12 @@ def _batch_hinit(b, rows, f0, direction, hmax, order):
         sk = opt["atol"] + opt["rtol"] * numpy.abs(z)
         dnf = numpy.sum((f0 / sk) ** 2, axis=-1).astype(numpy.float64)
         dny = numpy.sum((z / sk) ** 2, axis=-1).astype(numpy.float64)
-        h = numpy.where((dnf <= 1e-10) | (dny <= 1e-10), 1e-6, _root(dny / dnf) * 0.01)
+        h = numpy.where((dnf <= 1e-10) | (dny <= 1e-10), 1e-6, _power(dny / dnf, 0.5) * 0.01)
         h = numpy.minimum(h, hmax)
         st, f1 = b.eval(rows, z + (direction * h).astype(b.dtype)[:, None] * f0)
-        der2 = _root(numpy.sum(((f1 - f0) / sk) ** 2, axis=-1).astype(numpy.float64)) / h
-        der12 = numpy.maximum(der2, _root(dnf))
-        h1 = numpy.where(der12 <= 1e-15, numpy.maximum(1e-6, h * 1e-3), (0.01 / der12) ** (1.0 / order))
+        der2 = _power(numpy.sum(((f1 - f0) / sk) ** 2, axis=-1).astype(numpy.float64), 0.5) / h
+        der12 = numpy.maximum(der2, _power(dnf, 0.5))
+        h1 = numpy.where(der12 <= 1e-15, numpy.maximum(1e-6, h * 1e-3), _power(0.01 / der12, 1.0 / order))
         return numpy.where(st != OK, h, numpy.minimum(numpy.minimum(100 * h, h1), hmax))
 
 
@@ -945,7 +955,7 @@ def _batch_adaptive(b, rows, direction):
         r, sr, er = rows[fail], st[fail], err[fail]
         b.count["nrejected"][r] += 1
         with numpy.errstate(all="ignore"):
-            shrink = numpy.minimum(1.0, numpy.maximum(facmin, 0.9 * er ** (-1.0 / order)))
+            shrink = numpy.minimum(1.0, numpy.maximum(facmin, 0.9 * _power(er, -1.0 / order)))
         nonfinite = er != er
         fac = numpy.where((sr != OK) | nonfinite, 0.25, shrink)
         cause[r] = numpy.where(sr != OK, sr, numpy.where(nonfinite, NONFINITE, 0))
@@ -967,7 +977,7 @@ def _batch_adaptive(b, rows, direction):
         K[:, a] = Kr
         b.count["naccepted"][a] += 1
         with numpy.errstate(all="ignore"):
-            grow = numpy.where(err > 0, 0.9 * err ** (-1.0 / order), facmax)
+            grow = numpy.where(err > 0, 0.9 * _power(err, -1.0 / order), facmax)
         fac = numpy.maximum(facmin, numpy.minimum(grow, numpy.where(rejected[a], 1.0, facmax)))
         rejected[a] = False
         hn = h * fac.astype(dt)
