@@ -45,7 +45,7 @@ from .runner import runner_for
 from . import constraints
 
 
-@dataclass
+@dataclass(repr=False)
 class EnsembleResult:
     """B runs of derive.ensemble on one output grid: each row is the `derive.simulate` run
     of its initial state, bit for bit.
@@ -122,6 +122,16 @@ class EnsembleResult:
     @property
     def all_ok(self) -> bool:
         return bool(np.all(self.status == 0))
+
+    def __repr__(self) -> str:
+        """One line: what ran, how many ended ok, the arrays by shape (not every value)."""
+        knob = (f", rtol {self.rtol:.3g}" if self.rtol is not None else "") + \
+            (f", step {self.step:.3g}" if self.step is not None else "")
+        stopped = {name: self.status_names.count(name) for name in set(self.status_names) - {"ok"}}
+        ends = f"{int(np.sum(self.ok))} of {len(self.status)} ok" + (f", stopped {stopped}" if stopped else "")
+        span = f", t = {float(self.t[0]):.6g}..{float(self.t[-1]):.6g}" if len(self.t) else ""
+        return (f"<EnsembleResult {self.model}: {self.method} {self.dtype}{knob}; {ends}; "
+                f"y {tuple(np.shape(self.y))}{span}; threads {self.threads}>")
 
 
 def _per_trajectory(value, B: int, names, what: str, model: str) -> np.ndarray:

@@ -21,7 +21,12 @@ from .model_sizes import model_info
 from .power import energy_balance
 
 
-@dataclass
+def _short(x) -> str:
+    """A time as a repr shows it: a few digits."""
+    return f"{float(x):.6g}"
+
+
+@dataclass(repr=False)
 class SimulationResult:
     """One run of derive.simulate: the states at the output times, and how the run went.
 
@@ -176,6 +181,21 @@ class SimulationResult:
     guard: tuple[float, float] | None = None
     # a closed loop's run: its largest constraint residuals over the outputs (ConstraintDrift)
     constraint_drift: object | None = None
+
+    def __repr__(self) -> str:
+        """One line: what ran, how it ended, the arrays by shape.  The dataclass's repr
+        printed every array and computed the lazy energy and positions to print them."""
+        span = f"t = {_short(self.t[0])}..{_short(self.t[-1])}" if len(self.t) else "no outputs"
+        knob = (f", rtol {self.rtol:.3g}" if self.rtol is not None else "") + \
+            (f", step {self.step:.3g}" if self.step is not None else "")
+        extra = "".join(f", {name} {value}" for name, value in (
+            ("error_estimate", None if self.error_estimate is None else f"{self.error_estimate:.3g}"),
+            ("switches", self.switches or None), ("terminal_event", self.terminal_event),
+            ("events", None if not self.events else {k: len(v) for k, v in self.events.items()}),
+            ("constraint_drift", self.constraint_drift)) if value is not None)
+        return (f"<SimulationResult {self.model}: {self.method} {self.backend} {self.dtype}{knob}; "
+                f"{self.status_name}; {len(self.t)} outputs {span}, y {tuple(np.shape(self.y))}; "
+                f"nfev {self.nfev}, nsteps {self.nsteps}{extra}>")
 
     @property
     def t_events(self) -> list[np.ndarray]:
