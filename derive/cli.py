@@ -611,9 +611,16 @@ def cmd_linearize(args) -> int:
     state = _assignments(args.at, "--at")
     if args.equilibria:
         return _print_equilibria(ref, params, args.json)
-    A, B = linearize(ref.name, state, params, inputs or None, t=args.time)
     names, inputs_names = list(ref.info.state_names), list(ref.info.input_names)
+    independent = [n.strip() for item in args.independent or [] for n in item.split(",") if n.strip()] or None
+    if args.project:
+        from .runtime.loop_state import consistent_state       # start-up: imported when it runs
+        from .runtime.linearize import state_values
+        state = dict(zip(names, consistent_state(ref.name, state_values(ref, state), params).tolist()))
+    A, B = linearize(ref.name, state, params, inputs or None, t=args.time, independent=independent)
     at = dict.fromkeys(names, 0.0) | {n: parse_value(v, f"--at {n}") for n, v in state.items()}
+    if independent:       # a closed loop's A and B are in its free coordinates and their rates
+        names = independent + [f"{n}_dot" for n in independent]
     if args.json:
         print(json.dumps({"ok": True, "model": ref.name, "state": at, "params": params,
                           "inputs": {n: inputs.get(n, 0.0) for n in inputs_names},
@@ -657,6 +664,11 @@ def _linearize_parser(sub, model_help: str) -> None:
                    help="the time t to linearize at (a time-dependent model needs it)")
     p.add_argument("--equilibria", action="store_true",
                    help="list the equilibria (q' = 0, u = 0) with their stability instead")
+    p.add_argument("--independent", action="append", metavar="NAME",
+                   help="a closed loop: a coordinate it leaves free (repeat or separate by commas); "
+                        "A and B are in these coordinates and their rates")
+    p.add_argument("--project", action="store_true",
+                   help="a closed loop: first put the state on the loop (derive.consistent_state)")
     p.add_argument("--json", action="store_true", help="print A and B (or the equilibria) as JSON")
     p.set_defaults(func=cmd_linearize)
 

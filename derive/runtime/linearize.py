@@ -58,6 +58,10 @@ class Pieces:
     dF_du: object         # dF/du, nq x n_inputs
     dM_dq: object         # [dM/dq_k for k], nq matrices nq x nq
     polar_sines: object   # the chart's polar sines (one per spherical link), or None
+    # a closed loop (a model with constraints), else None: Phi, J = dPhi/dq, [dJ/dq_k for k]
+    phi: object = None
+    J: object = None
+    dJ_dq: object = None
 
 
 @forget_on_model_change
@@ -73,14 +77,34 @@ def _pieces(name: str) -> Pieces:
         return sp.lambdify(args, expr, "numpy")
 
     dF_du = d.F.jacobian(sp.Matrix(s.u)) if s.u else sp.zeros(len(s.q), 0)
+    loop = {}
+    if d.constraints is not None:
+        c = d.constraints
+        loop = dict(phi=numeric(c.Phi), J=numeric(c.J), dJ_dq=numeric([c.J.diff(qk) for qk in s.q]))
     return Pieces(len(s.q), len(s.u), numeric(d.M), numeric(d.F), numeric(d.F.jacobian(x)),
                   numeric(dF_du), numeric([d.M.diff(qk) for qk in s.q]),
-                  numeric(list(d.polar_sines)) if d.polar_sines else None)
+                  numeric(list(d.polar_sines)) if d.polar_sines else None, **loop)
+
+
+def state_values(ref, state) -> np.ndarray:
+    """The state as floats in the model's order: a sequence, or a mapping by name where
+    a coordinate or rate left out is 0 and a value may be an expression such as 'pi/2'.
+
+    Parameters
+    ----------
+    ref : ModelRef
+        The resolved model (derive.runtime.simulate.model_ref).
+    state : mapping or sequence
+
+    Returns
+    -------
+    ndarray, shape (n_states,)
+    """
+    return _state_values(ref, state)
 
 
 def _state_values(ref, state) -> np.ndarray:
-    """The state as floats in the model's order: a sequence, or a mapping by name where
-    a coordinate or rate left out is 0 and a value may be an expression such as 'pi/2'."""
+    """state_values's work."""
     names = list(ref.info.state_names)
     if isinstance(state, Mapping):
         unknown = sorted(set(state) - set(names))
@@ -143,22 +167,27 @@ def _inputs_values(ref, inputs) -> np.ndarray:
     return np.asarray(_input_values(ref, names, inputs), np.float64)
 
 
-def _resolve(model, explicit_time: bool = False, stage: str | None = None):
+def _resolve(model, explicit_time: bool = False, stage: str | None = None, loops: bool = False):
     ref = model_ref(resolve_model(model, explicit_time=explicit_time, stage=stage))
     if ref.atlas is not None:
         raise SimulationInputError(f"'{ref}' is a chart atlas: linearize one of its charts "
                                    f"({', '.join(ref.atlas.charts)})")
-    if load_model(str(ref)).is_constrained:
-        raise SimulationInputError(f"model '{ref}' has constraints (a closed loop): its coordinates are "
-                                   f"not independent, so neither a linearisation in them nor the rests of "
-                                   f"an open chain are the loop's (no reduction to independent coordinates "
-                                   f"yet); derive.simulate runs it")
+    if not loops and load_model(str(ref)).is_constrained:
+        raise SimulationInputError(f"model '{ref}' has constraints (a closed loop): the rests of an open "
+                                   f"chain are not the loop's; derive.linearize takes its rest points with "
+                                   f"independent= (the coordinates the loop leaves free)")
     return ref
 
 
-def linearize(model, state, params, inputs=None, t=None) -> tuple[np.ndarray, np.ndarray]:
+def linearize(model, state, params, inputs=None, t=None, independent=None) -> tuple[np.ndarray, np.ndarray]:
     """The linearisation x' ~ A (x - x0) + B (u - u0) of a model at a state and inputs (and,
     for a time-dependent model, at a time t).
+
+    A closed loop (a model with constraints Phi(q) = 0) is linearized in the coordinates
+    it leaves free: `independent` names them (as many as the coordinates less the
+    constraints), x = (z, z') with z those coordinates, and the others follow from the
+    loop (q = g(z) near the state).  Its state must be on the loop and at rest (q' = 0:
+    its equilibria, and the rest points a controller starts from).
 
     Parameters
     ----------
@@ -174,11 +203,14 @@ def linearize(model, state, params, inputs=None, t=None) -> tuple[np.ndarray, np
     t : float or str, optional
         The time of the linearisation: required for a time-dependent model (t in its
         forces, dissipation or pivot), whose A and B depend on it; any other model's do not.
+    independent : sequence of str, optional
+        A closed loop's free coordinates, in the order of the reduced state (required for
+        a closed loop, refused for an open chain).
 
     Returns
     -------
     A : ndarray, shape (n_states, n_states)
-        df/dx at (x0, u0), x = (q, q').
+        df/dx at (x0, u0), x = (q, q'); a closed loop's x = (z, z'), 2 len(independent).
     B : ndarray, shape (n_states, n_inputs)
         df/du at (x0, u0); zero columns for a model without inputs.
 
@@ -186,7 +218,8 @@ def linearize(model, state, params, inputs=None, t=None) -> tuple[np.ndarray, np
     ------
     SimulationInputError
         An unknown model, name or value, a singular mass matrix at the state, or a
-        time-dependent model without t.
+        time-dependent model without t; for a closed loop, a state off the loop or not at
+        rest, or independent coordinates the loop does not leave free there.
 
     Examples
     --------
@@ -203,11 +236,17 @@ def linearize(model, state, params, inputs=None, t=None) -> tuple[np.ndarray, np
     >>> bool(np.linalg.eigvals(A).real.max() > 0)     # upright: unstable
     True
     """
-    ref = _resolve(model, explicit_time=True)
+    ref = _resolve(model, explicit_time=True, loops=True)
     x = _state_values(ref, state)
     p = np.asarray(normalise_params(ref, params), np.float64)
     u = _inputs_values(ref, inputs)
-    return _jacobians(_pieces(ref.name), x, p, u, ref, _time(ref, t))
+    pc = _pieces(ref.name)
+    if pc.J is None:
+        if independent is not None:
+            raise SimulationInputError(f"model '{ref}' has no constraints: independent= is for a closed "
+                                       f"loop's free coordinates (all of an open chain's are)")
+        return _jacobians(pc, x, p, u, ref, _time(ref, t))
+    return _loop_jacobians(pc, x, p, u, ref, _time(ref, t), _free_coordinates(ref, pc, independent))
 
 
 def _time(ref, t) -> float:
@@ -246,6 +285,107 @@ def _jacobians(pc: Pieces, x: np.ndarray, p: np.ndarray, u: np.ndarray, where,
     A[nq:, :] = dqdd_dx
     B = np.zeros((2 * nq, pc.n_inputs))
     B[nq:, :] = dqdd_du
+    return A, B
+
+
+# -- closed loops --------------------------------------------------------------------
+#
+# On the loop the coordinates are q = g(z), z the free ones, and q' = G z' with
+# G = dg/dz = [I; D] (rows of z: I; the others: D = -J_d^-1 J_z, J_z and J_d the columns
+# of J = dPhi/dq of z and of the others).  J G = 0, so G^T removes the multipliers from
+# M q'' + J^T lambda = F, and with q'' = G z'' + G' z' the loop's equations in z are
+#
+#     M_r z'' = G^T (F - M G' z'),    M_r = G^T M G.
+#
+# At rest (z' = 0) the term G' z' is of second order in z': it drops out of the
+# derivatives, and with z'' = M_r^-1 G^T F at the point,
+#
+#     dz''/dz_k  = M_r^-1 (dG_k^T F + G^T (dF/dq) G_k - (dM_r/dz_k) z''),
+#     dz''/dz'   = M_r^-1 G^T (dF/dq') G,      dz''/du = M_r^-1 G^T dF/du,
+#
+# where G_k is G's column k, dG_k = dG/dz_k, and dD/dz_k = -J_d^-1 (dJ/dz_k) G (the
+# derivative of J G = 0 along z_k, dJ/dz_k = sum_j dJ/dq_j G_jk) gives dG's other rows.
+# dG_k^T F does not vanish: at rest F = J^T lambda holds the loop (its constraint forces),
+# and the curvature of the loop turns them into stiffness.
+
+LOOP_CLOSED = 1e-9          # |Phi| and |J q'| (relative to the lengths' scale) taken as zero
+
+
+def _free_coordinates(ref, pc: Pieces, independent) -> list[int]:
+    """The indices of a closed loop's free coordinates, from `independent` (their names)."""
+    names = list(ref.info.state_names[:pc.nq])
+    if independent is None:
+        raise SimulationInputError(f"model '{ref}' has constraints (a closed loop): give independent= (--independent: the "
+                                   f"coordinates it leaves free, of {', '.join(names)}), e.g. "
+                                   f"independent={names[:1]!r}")
+    chosen = [independent] if isinstance(independent, str) else list(independent)
+    unknown = [c for c in chosen if c not in names]
+    if unknown:
+        raise SimulationInputError(f"independent: '{unknown[0]}' is no coordinate of model '{ref}' "
+                                   f"(coordinates: {', '.join(names)})")
+    if len(set(chosen)) != len(chosen):
+        raise SimulationInputError(f"independent: a coordinate named twice: {chosen}")
+    return [names.index(c) for c in chosen]
+
+
+def _loop_jacobians(pc: Pieces, x: np.ndarray, p: np.ndarray, u: np.ndarray, where, t: float,
+                    free: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """A and B of a closed loop at a rest point on the loop, in its free coordinates
+    (the section's comment)."""
+    nq = pc.nq
+    q, qd, at = x[:nq], x[nq:], [t]
+    args = (q, qd, p, u, at)
+    J = np.atleast_2d(np.asarray(pc.J(*args), np.float64))
+    m = J.shape[0]
+    names = list(where.info.state_names)
+    if len(free) != nq - m:
+        raise SimulationInputError(f"model '{where}': its {m} constraints leave {nq - m} of its {nq} coordinates "
+                                   f"free; independent= names {len(free)}")
+    phi = np.abs(np.asarray(pc.phi(*args), np.float64)).max()
+    scale = max(1.0, float(np.abs(p).max()))
+    if phi > LOOP_CLOSED * scale:
+        raise SimulationInputError(f"model '{where}': the state is off the loop (|Phi| = {phi:.3g}); "
+                                   f"derive.consistent_state (the command line: --project) puts it on")
+    if np.abs(qd).max() > 0:
+        moving = [n for n, v in zip(names[nq:], qd) if v]
+        raise SimulationInputError(f"model '{where}': a closed loop is linearized at rest (q' = 0), got "
+                                   f"{moving[0]} = {qd[names[nq:].index(moving[0])]:g}")
+    dep = [i for i in range(nq) if i not in free]
+    Jd, Jz = J[:, dep], J[:, free]
+    if np.linalg.cond(Jd) > 1e12:
+        raise SimulationInputError(f"model '{where}': the loop does not leave "
+                                   f"{', '.join(names[i] for i in free)} free at this state (the others' "
+                                   f"columns of dPhi/dq are singular there): choose other independent=")
+    k = nq - m
+    G = np.zeros((nq, k))
+    G[free, :] = np.eye(k)
+    G[dep, :] = -np.linalg.solve(Jd, Jz)
+    M = np.asarray(pc.mass(*args), np.float64)
+    F = np.asarray(pc.forcing(*args), np.float64).reshape(nq)
+    dF = np.asarray(pc.dF_dx(*args), np.float64).reshape(nq, 2 * nq)
+    dM = np.asarray(pc.dM_dq(*args), np.float64).reshape(nq, nq, nq)
+    dJ = np.asarray(pc.dJ_dq(*args), np.float64).reshape(nq, m, nq)
+    Mr = G.T @ M @ G
+    try:
+        zdd = np.linalg.solve(Mr, G.T @ F)
+    except np.linalg.LinAlgError:
+        raise ChartSingular(f"model '{where}': the loop's mass matrix is singular at state {x.tolist()}") from None
+    K = np.empty((k, k))
+    for c in range(k):
+        dJc = np.einsum("jab,j->ab", dJ, G[:, c])          # dJ/dz_c
+        dG = np.zeros((nq, k))
+        dG[dep, :] = -np.linalg.solve(Jd, dJc @ G)
+        dMc = np.einsum("jab,j->ab", dM, G[:, c])          # dM/dz_c
+        dMr = dG.T @ M @ G + G.T @ dMc @ G + G.T @ M @ dG
+        K[:, c] = dG.T @ F + G.T @ dF[:, :nq] @ G[:, c] - dMr @ zdd
+    C = G.T @ dF[:, nq:] @ G
+    Bu = G.T @ np.asarray(pc.dF_du(*args), np.float64).reshape(nq, pc.n_inputs)
+    A = np.zeros((2 * k, 2 * k))
+    A[:k, k:] = np.eye(k)
+    A[k:, :k] = np.linalg.solve(Mr, K)
+    A[k:, k:] = np.linalg.solve(Mr, C)
+    B = np.zeros((2 * k, pc.n_inputs))
+    B[k:, :] = np.linalg.solve(Mr, Bu)
     return A, B
 
 

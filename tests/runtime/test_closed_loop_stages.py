@@ -35,10 +35,11 @@ def one_error_line(run: subprocess.CompletedProcess, why: str) -> None:
     assert len(lines) == 1 and lines[0].startswith("derive: error: ") and why in lines[0], run.stderr
 
 
-def test_linearize_refuses_a_loop_in_one_line():
+def test_linearize_of_a_loop_asks_for_its_free_coordinates_in_one_line():
+    """(tests/runtime/test_closed_loop_linearize.py linearizes it with them.)"""
     with pytest.raises(derive.SimulationInputError, match=LOOP_PATTERN) as info:
         derive.linearize(FOUR_BAR, state={"theta1": Y0[0], "theta2": Y0[1], "theta3": Y0[2]}, params=P)
-    assert "\n" not in str(info.value) and "not independent" in str(info.value)
+    assert "\n" not in str(info.value) and "give independent=" in str(info.value)
 
 
 def test_equilibria_refuses_a_loop_in_one_line():
