@@ -95,8 +95,8 @@ class CBackend(Backend):
         ctx["kernels"] = kernels
         return ctx
 
-    def integrator_files(self, name):
-        files = render_c(name)
+    def integrator_files(self, name, timed=False):
+        files = render_c(name)      # a time-dependent model's too: the library passes each stage's t
         if taylor_problem(name) is None:      # a model with an operation no recurrence covers: none
             files.update(render_taylor(name))
             files.update(render_taylor_lanes(name))
