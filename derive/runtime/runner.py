@@ -235,7 +235,7 @@ class Runner:
             t=t, y=out, status=status, status_name=STATUS_NAMES[status], t_stop=info.t,
             y_stop=info_state(info, n, self.dt), params=p,
             chart=np.array([self.model] * nt, dtype=object) if self.single_chart else None,
-            observe=partial(_observe, self.model, out, p, self.dt, "c"),
+            observe=partial(_observe, self.model, out, p, self.dt, "c", t),
             last_step=h_end if h_end and not self.tolerance else None,
             nfev=info.nfev, njev=info.njev, nsteps=info.nsteps, naccepted=info.naccepted,
             nrejected=info.nrejected, nnewton=info.nnewton,
@@ -290,7 +290,7 @@ class Runner:
             t=t, y=y, status=status, status_name=STATUS_NAMES[status], t_stop=float(inf["t"]),
             y_stop=stop_state(inf["y"], dt), params=pm,
             chart=np.array([self.model] * nt, dtype=object) if self.single_chart else None,
-            observe=partial(_observe, self.model, y, pm, dt, "numpy"),
+            observe=partial(_observe, self.model, y, pm, dt, "numpy", t),
             last_step=h_end if h_end and not self.tolerance else None,
             error_estimate=float(inf["local_error"]) if self.local_error else None,
             **{k: int(inf[k]) for k in COUNTERS})
@@ -306,9 +306,10 @@ class _MethodBound:
         return self.lib.run(self.index, y0, p, t, opt)
 
 
-def _observe(model: str, y: np.ndarray, p: np.ndarray, dt: np.dtype, backend: str) -> tuple:
-    """A run's energy, positions and velocities (on first access of one: result.py)."""
-    return (*_observables(model, y, p, backend, dt), _velocities(model, y, p, backend, dt))
+def _observe(model: str, y: np.ndarray, p: np.ndarray, dt: np.dtype, backend: str, t=None) -> tuple:
+    """A run's energy, positions and velocities (on first access of one: result.py); t, the
+    output times, for a time-dependent model's kernels (a moving pivot's positions)."""
+    return (*_observables(model, y, p, backend, dt, t), _velocities(model, y, p, backend, dt, t))
 
 
 def _rk_library(model: str, atlas):

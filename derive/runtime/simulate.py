@@ -149,9 +149,9 @@ def resolve_model(model, atlas: bool = False, explicit_time: bool = False, stage
         raise SimulationInputError(f"atlas=True: {exc}") from None
 
 
-# what runs a time-dependent model: the refusals of the stages that do not say so
-TIMED_RUNS = (f"derive.simulate with {', '.join(continuous_inputs.CONTINUOUS_METHODS)} (each stage at "
-              f"its own time t) or derive.scipy_rhs with solve_ivp")
+# what runs a time-dependent model: the refusals of the stages that do not pass t say so
+TIMED_RUNS = ("derive.simulate or derive.ensemble of the single-chart model (every method but taylor, "
+              "each stage at its own time t) or derive.scipy_rhs with solve_ivp")
 
 
 def refuse_explicit_time(model: Model, stage: str = "this stage") -> None:
@@ -163,20 +163,20 @@ def refuse_explicit_time(model: Model, stage: str = "this stage") -> None:
             f"{stage} does not pass t to its kernels; use {TIMED_RUNS}")
 
 
-def _check_timed(ref, method: str, dt: np.dtype, hold) -> None:
-    """What a run of a time-dependent model takes: an explicit method stepped in Python with
-    each stage at its own t (the generated integrators are for autonomous models), float64."""
-    why = f"{ref.name}: explicit time in the model (t in its forces, dissipation or pivot)"
+def _check_timed(ref, method: str, dt: np.dtype, backend: str) -> None:
+    """What a time-dependent model's run stepped in Python takes (inputs u(t, y) at every
+    stage, or the NumPy backend, whose integrators do not pass t): an explicit one-step
+    method, each stage at its own t, in float64.  The generated C runs every method."""
+    why = (f"{ref.name}: explicit time in the model (t in its forces, dissipation or pivot), stepped in "
+           + ("Python for inputs u(t, y) at every stage" if backend == "c" else
+              "Python on the NumPy backend (its integrators do not pass t)"))
     if method not in continuous_inputs.CONTINUOUS_METHODS:
-        raise SimulationInputError(f"{why}: method {method} does not pass t to the kernels; use "
-                                   f"{', '.join(continuous_inputs.CONTINUOUS_METHODS)} (each stage at its "
-                                   f"own time) or derive.scipy_rhs with solve_ivp")
+        raise SimulationInputError(f"{why}: method {method} is not one of "
+                                   f"{', '.join(continuous_inputs.CONTINUOUS_METHODS)}; backend='c' runs it"
+                                   + (" with hold='zoh'" if backend == "c" else ""))
     if np.dtype(dt) != np.float64:
-        raise SimulationInputError(f"{why}: its runs step in float64 (the stages in Python over the kernels), "
-                                   f"not {np.dtype(dt).name}; give dtype='float64'")
-    if hold is not None:
-        raise SimulationInputError(f"{why}: hold={hold!r} is not available (the held inputs run the generated "
-                                   f"integrators, which do not pass t); give inputs u(t, y) at every stage")
+        raise SimulationInputError(f"{why}: it runs in float64, not {np.dtype(dt).name}; backend='c' runs it"
+                                   + (" with hold='zoh'" if backend == "c" else ""))
 
 
 @dataclass(frozen=True, eq=False)
@@ -631,9 +631,11 @@ def _simulate(model, y0, t, params, method, rtol, atol, step, dtype, backend, ma
                                                   project=lambda y: constraints.project(model, y, p))
         return constraints.report_drift(result, model, p)
     timed = ref.description.is_time_dependent
-    if timed or (isinstance(u, HeldInputs) and hold is None):
+    # stepped in Python: inputs u(t, y) at every stage, or a time-dependent model on the
+    # NumPy backend (its integrators do not pass t); the generated C passes t to each stage
+    if (isinstance(u, HeldInputs) and hold is None) or (timed and backend == "numpy"):
         if timed:
-            _check_timed(ref, method, dt, hold)
+            _check_timed(ref, method, dt, backend)
         elif ref.atlas is not None:
             raise SimulationInputError("inputs u(t, y) at every stage: not on the chart atlas "
                                        "(give hold='zoh' for it)")
