@@ -226,6 +226,28 @@ def _targets(description) -> dict[str, tuple[str, int]]:
     return names
 
 
+# what a time-dependent model's sweep cannot record: its energy is not conserved (the
+# drive does work), and the Lyapunov estimate runs Taylor's jet, which carries no t
+TIMED_UNRECORDED = {"energy_error": "its energy is not conserved (the drive does work)",
+                    "lyapunov_exponent": "the estimate runs Taylor's method, which does not pass t"}
+
+
+def _check_timed_record(record, events, description, source: str) -> None:
+    """One line for a record a time-dependent model's sweep cannot make."""
+    if not description.is_time_dependent:
+        return
+    if events:
+        # level_crossings refines a crossing by a run from the sample before it started at
+        # time 0: a time shift, which a model with explicit time does not have
+        raise SceneError(f"{source}: 'events': a sweep of '{description.name}' (explicit time in the model) "
+                         f"locates no events yet (their refinement restarts each sample at t = 0); record "
+                         f"the states, or run derive.simulate with events=")
+    for name, why in TIMED_UNRECORDED.items():
+        if name in record:
+            raise SceneError(f"{source}: 'record': {name} of '{description.name}' (explicit time in the model): "
+                             f"{why}")
+
+
 def _parse_axes(table, description, source: str) -> tuple[Axis, ...]:
     if not isinstance(table, dict) or not table:
         raise SceneError(f"{source}: missing table [axes] (at least one axis to sweep)")
@@ -390,10 +412,12 @@ def parse_sweep(text: str, source: str = "<sweep>", run_as: str | None = None) -
         raise SceneError(f"{source}: 'pendulum.model': a sweep runs one chart model (e.g. spherical_std), "
                          f"not the chart atlas '{ATLAS}'")
     _accuracy(t, scene, source)
-    if is_stepped(scene):
-        raise SceneError(f"{source}: 'pendulum': explicit time in the model or inputs in t: a sweep runs the "
-                         f"generated batch integrators, which do not pass t; run each case as a scene "
-                         f"(`derive run`) or with derive.simulate (rk4, rk8, dopri5, dop853)")
+    if any(isinstance(v, str) for v in (scene.inputs or {}).values()):
+        # a model with explicit time runs (the batch integrators pass each stage's t); inputs
+        # given as expressions of t would need u(t, y) at every stage, which only Python steps
+        raise SceneError(f"{source}: 'pendulum': inputs in t: a sweep runs the generated batch integrators, "
+                         f"which hold the inputs constant; run each case as a scene (`derive run`) or "
+                         f"with derive.simulate (inputs u(t, y))")
     description = load_model(scene.model)
     if description.is_constrained:
         raise SceneError(f"{source}: '{description.name}' has constraints (a closed loop): a sweep's axes "
@@ -405,6 +429,7 @@ def parse_sweep(text: str, source: str = "<sweep>", run_as: str | None = None) -
     axes = _parse_axes(t.get("axes"), description, source)
     events = _parse_events(t.get("events"), description, source)
     record = _parse_record(t.get("record"), description, events, source)
+    _check_timed_record(record, events, description, source)
     if scene.method not in TOLERANCE_METHODS and any(e.accuracy is not None for e in events):
         raise SceneError(f"{source}: 'events': an event's accuracy is verified by tightening the "
                          f"tolerance: it needs a method with one (dopri5, dop853, taylor), not {scene.method}")

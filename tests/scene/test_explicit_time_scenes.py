@@ -112,12 +112,23 @@ def test_the_command_line_runs_a_time_dependent_scene(tmp_path):
     assert done.returncode == 0, done.stderr
 
 
-def test_a_sweep_of_a_time_dependent_model_is_refused_in_one_line(tmp_path):
+def test_a_sweep_of_a_time_dependent_model_loads_and_refuses_what_it_cannot_record(tmp_path):
+    """The batch integrators pass t (tests/runtime/test_rk_explicit_time.py runs a sweep);
+    an energy error (the drive does work) or events (refined from each sample at t = 0)
+    are refused in one line."""
     path = pivot_scene(tmp_path, 'method = "dop853"\nrtol = 1e-10\natol = 1e-13')
-    path.write_text('record = ["final_state"]\n' + path.read_text() + '[axes]\na = { list = [0.0, 0.05, 0.1] }\n')
+    scene = path.read_text()
+    path.write_text('record = ["final_state"]\n' + scene + '[axes]\na = { list = [0.0, 0.05, 0.1] }\n')
+    assert load_sweep(path).record
+    path.write_text('record = ["energy_error"]\n' + scene + '[axes]\na = { list = [0.0, 0.05, 0.1] }\n')
     with pytest.raises(SceneError, match="explicit time in the model") as info:
         load_sweep(path)
-    assert "\n" not in str(info.value) and "derive.simulate" in str(info.value)
+    assert "\n" not in str(info.value) and "energy_error" in str(info.value)
+    path.write_text('record = ["flip_time"]\n' + scene + '[axes]\na = { list = [0.0, 0.05, 0.1] }\n'
+                    '[events.flip]\ncoordinate = "theta1"\nlevel = "0.2"\n')
+    with pytest.raises(SceneError, match="explicit time in the model") as info:
+        load_sweep(path)
+    assert "\n" not in str(info.value) and "events" in str(info.value)
 
 
 def test_a_stepped_scenes_events_are_found_on_its_steps(tmp_path):
