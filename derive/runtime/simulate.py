@@ -478,9 +478,10 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
         held constant over the run; or a function u(t, y) returning one, evaluated at every
         stage of the integrator (rk4, rk8, dopri5 or dop853, stepped in Python over the
         compiled rhs: derive/runtime/continuous_inputs.py), so the error follows the method's
-        order.  A time-dependent model (t in its forces, dissipation or pivot) runs the same
-        way, each stage at its own t, with those four methods in float64 (events and r.sol
-        on its steps: derive/runtime/stage_solution.py); other methods refuse it in one line.
+        order.  A time-dependent model (t in its forces, dissipation or pivot) runs in the
+        generated C like any model (every method but taylor, each stage at its own t); with
+        inputs u(t, y) at every stage, or on the NumPy backend, it steps in Python with those
+        four methods in float64 (events and r.sol on its steps: derive/runtime/stage_solution.py).
     hold : {None, "zoh"}
         "zoh": a callable `inputs` is sampled at each output time instead (with the state
         there) and held until the next (a zero-order hold: a digital controller), any method.
