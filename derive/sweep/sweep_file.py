@@ -43,7 +43,6 @@ from ..codegen.contract import DEFAULT_METHOD, TAYLOR, TOLERANCE_METHODS
 from ..model import load_model, model_names
 from ..model.atlas import ATLAS
 from ..model.expressions import parse_expression
-from ..scene.stepped import is_stepped
 from ..scene.scene import SCENE_KEYS, Scene, scene_from_table, scene_path
 from ..codegen.taylor import taylor_problem
 from ..model.description import parameter_problem
