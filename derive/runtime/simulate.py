@@ -813,7 +813,8 @@ def run_plan(model: str, method: str, dtype) -> RunPlan:
             not isinstance(method, str) or method not in RUN_METHODS:
         raise NotPlanned(model)
     try:
-        return RunPlan(resolve_model(model), method, _dtype(dtype), MAX_OUTPUT_BYTES, MAX_FIXED_STEPS)
+        return RunPlan(resolve_model(model, explicit_time=True), method, _dtype(dtype), MAX_OUTPUT_BYTES,
+                       MAX_FIXED_STEPS)      # a time-dependent model too: its integrators pass t
     except NotPlanned:
         raise
     except Exception as exc:       # a bad name or dtype, a failed build: the general path says it

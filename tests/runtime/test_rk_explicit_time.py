@@ -224,3 +224,30 @@ def test_a_sweep_over_the_drive_frequency(tmp_path):
         assert abs(ds["final_theta1"].values[k] - expected[0, -1]) < 1e-8
         assert abs(ds["final_theta1_dot"].values[k] - expected[1, -1]) < 1e-8
         assert ds["max_abs_theta1"].values[k] >= np.max(np.abs(expected[0])) - 1e-8
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float64", "longdouble"])
+@pytest.mark.parametrize("kw", [{"method": "dop853", "rtol": 1e-5}, {"method": "rk4", "step": 0.01}])
+def test_a_repeated_call_by_name_takes_the_compiled_call_and_gives_the_general_paths_result(monkeypatch, dtype, kw):
+    """A model file read before, called by its name: repeated plain calls run the compiled
+    call (runtime/compiled_call.py), whose result (energy and positions at the rows' t
+    included) is the general path's bit for bit."""
+    import importlib
+    simulate_module = importlib.import_module("derive.runtime.simulate")
+    name = derive.load_model(PIVOT).name
+    runs = [derive.simulate(name, Y0, TIMES, PIVOT_P, dtype=dtype, **kw) for _ in range(3)]
+    with monkeypatch.context() as m:
+        m.setattr(simulate_module, "FAST_PATH", False)
+        general = derive.simulate(name, Y0, TIMES, PIVOT_P, dtype=dtype, **kw)
+    assert simulate_module.run_plan(name, kw["method"], dtype) is not None
+    from derive.runtime import compiled_call
+    if compiled_call.available():
+        key = compiled_call.call_key(name, kw["method"], dtype, kw.get("rtol"), None, kw.get("step"), None, None,
+                                     None, None, None)
+        assert compiled_call.lookup(key) is not None      # the repeated call is the compiled one
+    for r in runs:
+        for field in ("y", "energy", "positions", "velocities", "t_stop", "nfev", "status"):
+            a, b = getattr(r, field), getattr(general, field)
+            assert np.array_equal(np.asarray(a), np.asarray(b)), field
+    bob_x = PIVOT_P["a"] * np.cos(PIVOT_P["w"] * TIMES) + PIVOT_P["l"] * np.sin(runs[-1].y[:, 0].astype(float))
+    assert np.max(np.abs(runs[-1].positions[:, 0, 0] - bob_x)) < (1e-5 if dtype == "float32" else 1e-12)
