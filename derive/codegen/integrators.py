@@ -456,19 +456,25 @@ def _py_row(terms) -> list[tuple[int, str]]:
     return [(j, tb.py_literal(v)) for j, v in terms if v != 0]
 
 
+def _py_nodes(t: tb.Tableau) -> str:
+    """Every stage's node c_i (its time t + c_i h: a time-dependent model's rhs reads it)."""
+    return repr([tb.py_literal(x) for x in t.c])
+
+
 @lru_cache(maxsize=None)
 def numpy_tableaus() -> tuple[list[dict], list[dict]]:
     explicit = []
     rk4 = tb.load("rk4")
     explicit.append({"name": "rk4", "rows": repr([_py_row(rk4.row(i)) for i in range(1, 4)]),
-                     "b": repr(_py_row(enumerate(rk4.b))), "extra": []})
+                     "b": repr(_py_row(enumerate(rk4.b))), "extra": [("c", _py_nodes(rk4))]})
     d5 = tb.load("dopri5")
     p = d5.extra["p"]
     poly = [(k, [tb.py_literal(p.get((k, j), mpmath.mpf(0))) for j in range(4)])
             for k in range(7) if any(p.get((k, j), 0) != 0 for j in range(4))]
     explicit.append({"name": "dopri5", "rows": repr([_py_row(d5.row(i)) for i in range(1, 6)]),
                      "b": repr(_py_row(d5.row(6))),
-                     "extra": [("e", repr(_py_row(sorted(d5.extra["e"].items())))), ("p", repr(poly))]})
+                     "extra": [("e", repr(_py_row(sorted(d5.extra["e"].items())))), ("p", repr(poly)),
+                               ("c", _py_nodes(d5))]})
     d8 = tb.load("dop853")
     b = dict(d8.row(12))
     with mpmath.workdps(tb.DIGITS):
@@ -480,7 +486,8 @@ def numpy_tableaus() -> tuple[list[dict], list[dict]]:
                                ("e5", repr(_py_row(sorted(d8.extra["e5"].items())))),
                                ("extra", repr([(i, _py_row(d8.row(i))) for i in range(13, 16)])),
                                ("d", repr([_py_row(sorted((j, v) for (i, j), v in d.items() if i == r))
-                                           for r in range(4)]))]})
+                                           for r in range(4)])),
+                               ("c", _py_nodes(d8))]})
     gauss = []
     for name in IMPLICIT:
         t = tb.load(name)

@@ -15,9 +15,9 @@ commits that added this module have the figures).  The implicit methods and abm1
 hold="zoh".
 
 A time-dependent model (t in its forces, dissipation or pivot: issue 23 item 3) runs
-here with inputs u(t, y), or on the NumPy backend (whose integrators do not pass t); this
-loop passes each stage's time to the kernels that take it.  Otherwise it runs in the
-generated C, which passes each stage's t itself.  A run's r.sol and its events are on
+here with inputs u(t, y); this loop passes each stage's time to the kernels that take it.
+Otherwise it runs in the generated integrators (C or NumPy), which pass each stage's t
+themselves.  A run's r.sol and its events are on
 its own steps (stage_solution.py).
 """
 from __future__ import annotations

@@ -163,20 +163,17 @@ def refuse_explicit_time(model: Model, stage: str = "this stage") -> None:
             f"{stage} does not pass t to its kernels; use {TIMED_RUNS}")
 
 
-def _check_timed(ref, method: str, dt: np.dtype, backend: str) -> None:
-    """What a time-dependent model's run stepped in Python takes (inputs u(t, y) at every
-    stage, or the NumPy backend, whose integrators do not pass t): an explicit one-step
-    method, each stage at its own t, in float64.  The generated C runs every method."""
-    why = (f"{ref.name}: explicit time in the model (t in its forces, dissipation or pivot), stepped in "
-           + ("Python for inputs u(t, y) at every stage" if backend == "c" else
-              "Python on the NumPy backend (its integrators do not pass t)"))
+def _check_timed(ref, method: str, dt: np.dtype) -> None:
+    """What a time-dependent model's run with inputs u(t, y) at every stage takes (it steps
+    in Python): an explicit one-step method, each stage at its own t, in float64.  The
+    generated integrators run every method, with hold='zoh'."""
+    why = (f"{ref.name}: explicit time in the model (t in its forces, dissipation or pivot) with inputs "
+           f"u(t, y) at every stage, stepped in Python")
     if method not in continuous_inputs.CONTINUOUS_METHODS:
         raise SimulationInputError(f"{why}: method {method} is not one of "
-                                   f"{', '.join(continuous_inputs.CONTINUOUS_METHODS)}; backend='c' runs it"
-                                   + (" with hold='zoh'" if backend == "c" else ""))
+                                   f"{', '.join(continuous_inputs.CONTINUOUS_METHODS)}; hold='zoh' runs it")
     if np.dtype(dt) != np.float64:
-        raise SimulationInputError(f"{why}: it runs in float64, not {np.dtype(dt).name}; backend='c' runs it"
-                                   + (" with hold='zoh'" if backend == "c" else ""))
+        raise SimulationInputError(f"{why}: it runs in float64, not {np.dtype(dt).name}; hold='zoh' runs it")
 
 
 @dataclass(frozen=True, eq=False)
@@ -479,9 +476,9 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
         stage of the integrator (rk4, rk8, dopri5 or dop853, stepped in Python over the
         compiled rhs: derive/runtime/continuous_inputs.py), so the error follows the method's
         order.  A time-dependent model (t in its forces, dissipation or pivot) runs in the
-        generated C like any model (every method but taylor, each stage at its own t); with
-        inputs u(t, y) at every stage, or on the NumPy backend, it steps in Python with those
-        four methods in float64 (events and r.sol on its steps: derive/runtime/stage_solution.py).
+        generated C or NumPy like any model (every method but taylor, each stage at its own
+        t); with inputs u(t, y) at every stage it steps in Python with those four methods in
+        float64 (events and r.sol on its steps: derive/runtime/stage_solution.py).
     hold : {None, "zoh"}
         "zoh": a callable `inputs` is sampled at each output time instead (with the state
         there) and held until the next (a zero-order hold: a digital controller), any method.
@@ -632,11 +629,11 @@ def _simulate(model, y0, t, params, method, rtol, atol, step, dtype, backend, ma
                                                   project=lambda y: constraints.project(model, y, p))
         return constraints.report_drift(result, model, p)
     timed = ref.description.is_time_dependent
-    # stepped in Python: inputs u(t, y) at every stage, or a time-dependent model on the
-    # NumPy backend (its integrators do not pass t); the generated C passes t to each stage
-    if (isinstance(u, HeldInputs) and hold is None) or (timed and backend == "numpy"):
+    # stepped in Python: inputs u(t, y) at every stage (the generated integrators, C and
+    # NumPy, pass each stage's t to a time-dependent model themselves)
+    if isinstance(u, HeldInputs) and hold is None:
         if timed:
-            _check_timed(ref, method, dt, backend)
+            _check_timed(ref, method, dt)
         elif ref.atlas is not None:
             raise SimulationInputError("inputs u(t, y) at every stage: not on the chart atlas "
                                        "(give hold='zoh' for it)")

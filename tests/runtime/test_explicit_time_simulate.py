@@ -1,9 +1,9 @@
-"""derive.simulate runs a time-dependent model (issue 23 item 3): in the generated C each
-stage's rhs takes its own time t (tests/runtime/test_rk_explicit_time.py has every method
-and precision); on the NumPy backend the explicit RK methods step in Python with each
-stage at its own time (derive/runtime/continuous_inputs.py), events and dense output on
-those steps (derive/runtime/stage_solution.py).  References: solve_ivp of the ODEs written
-here by hand, independent of the derivation."""
+"""derive.simulate runs a time-dependent model (issue 23 item 3): in the generated C and
+NumPy integrators each stage's rhs takes its own time t (tests/runtime/test_rk_explicit_time.py
+has every method and precision); with inputs u(t, y) at every stage the explicit RK
+methods step in Python with each stage at its own time (derive/runtime/continuous_inputs.py),
+events and dense output on those steps (derive/runtime/stage_solution.py).  References:
+solve_ivp of the ODEs written here by hand, independent of the derivation."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -86,12 +86,10 @@ def test_dense_output_is_the_run_between_its_rows():
     # continuous across an output row, where the next interval's run starts at its own t
     knot = times[3]
     assert np.max(np.abs(r.sol(knot - 1e-12) - r.sol(knot + 1e-12))) < 1e-10
-    # on the NumPy backend (stepped in Python): the run between its steps
-    stepped = derive.simulate(PIVOT, [0.2, 0.0], times, PIVOT_P, method="dop853", rtol=1e-12, atol=1e-14,
-                              backend="numpy")
-    assert np.max(np.abs(stepped.sol(between) - expected)) < 1e-9
-    knot = stepped.sol.t_starts[5]
-    assert np.max(np.abs(stepped.sol(knot - 1e-12) - stepped.sol(knot + 1e-12))) < 1e-10
+    # on the NumPy backend: the same re-integration from each row's own t
+    numpy_run = derive.simulate(PIVOT, [0.2, 0.0], times, PIVOT_P, method="dop853", rtol=1e-12, atol=1e-14,
+                                backend="numpy")
+    assert np.max(np.abs(numpy_run.sol(between) - expected)) < 1e-9
 
 
 @pytest.mark.parametrize("method", ["dopri5", "dop853"])
@@ -122,16 +120,33 @@ def test_taylor_which_does_not_pass_t_refuses_in_one_line():
     assert all(m in text for m in CONTINUOUS_METHODS)
 
 
+FORCED_INPUT = """name = "forced_u"
+title = "Forced damped pendulum with a torque input"
+dimension = 2
+parameters = ["m", "l", "g", "c", "F0", "w"]
+inputs = ["u"]
+dissipation = "c*theta1_dot**2/2"
+[forces]
+theta1 = "F0*cos(w*t) + u"
+[[links]]
+chart = "planar"
+length = "l"
+body = { kind = "point", mass = "m" }
+"""
+
+
 @pytest.mark.parametrize("kw, word", [({"method": "gauss2", "step": 0.01}, "gauss2"),
                                       ({"method": "abm12", "step": 0.01}, "abm12"),
                                       ({"dtype": "float32"}, "float64")])
-def test_the_numpy_backend_which_steps_in_python_refuses_the_rest_in_one_line(kw, word):
-    """The NumPy integrators do not pass t: that backend steps the explicit one-step methods
-    in float64 in Python; the rest it refuses, naming the C backend that runs them."""
-    with pytest.raises(derive.SimulationInputError, match="explicit time") as info:
-        derive.simulate(PIVOT, [0.2, 0.0], [0.0, 1.0], PIVOT_P, backend="numpy", **kw)
+def test_inputs_at_every_stage_step_in_python_and_refuse_the_rest_in_one_line(tmp_path, kw, word):
+    """Inputs u(t, y) at every stage step the explicit one-step methods in float64 in
+    Python; the rest is refused, naming hold='zoh', which runs them."""
+    model = tmp_path / "forced_u.toml"
+    model.write_text(FORCED_INPUT)
+    with pytest.raises(derive.SimulationInputError, match="every stage") as info:
+        derive.simulate(str(model), [0.2, 0.0], [0.0, 1.0], FORCED_P, inputs=lambda t, y: [0.0], **kw)
     text = str(info.value)
-    assert "\n" not in text and word in text and "backend='c'" in text
+    assert "\n" not in text and word in text and "hold='zoh'" in text
 
 
 def test_a_rerun_estimate_bounds_the_error_of_a_time_dependent_run():

@@ -89,9 +89,7 @@ class NumPyBackend(Backend):
         return {f"numpy/{spec.name}.py": render("numpy/module.py.jinja", ctx)}
 
     def integrator_files(self, name, timed=False):
-        if timed:       # the NumPy library's evaluations do not pass t: derive.simulate steps these in Python
-            return {}
-        return render_numpy(name)
+        return render_numpy(name)       # a time-dependent model's too: the library passes each stage's t
 
     def loop_files(self, name):
         return own(render_loops(name), self.name)
