@@ -377,17 +377,26 @@ def _library_names(M: str) -> list[tuple[str, str]]:
             + [(f"{M}_INTEGRATE_{s.macro}", f"DERIVE_{s.macro}") for s in contract.STATUS_TABLE])
 
 
+def _takes_time(name: str, kernel: str) -> bool:
+    """Whether the model's generated `kernel` takes the time t first (its expressions use t)."""
+    from .sources import kernels         # here: sources imports the backends, which import this
+    spec = kernels(name)[0]
+    return any(i.vector.key == "time" for k in spec.kernels if k.name == kernel for i in k.inputs)
+
+
 def render_c(name: str) -> dict[str, str]:
     """c/<model>_integrate.{h,c} and the shared library files.  A time-dependent model's
     (t in its forces, dissipation or pivot) defines DERIVE_TIMED: the library then passes
     every stage's own time to the rhs (derive_integrators.h)."""
     info = model_info(name)
-    timed = derive(name).model.is_time_dependent
+    rhs_t, jac_t = (_takes_time(name, k) for k in ("rhs", "jacobian"))
+    timed = rhs_t or jac_t        # a model whose motion has t (not only, say, its energy)
     if timed and info.has_ham:
         # a rheonomic H(q, p, t) would need its own canonical map at every stage's time
         raise SpecError(f"{name}: a Hamiltonian form with explicit time is not supported by the "
                               f"implicit methods (they run on H(q, p) without t)")
     ctx = {"P": name, "M": name.upper(), "title": info.title, "has_ham": info.has_ham, "timed": timed,
+           "rhs_t": rhs_t, "jac_t": jac_t,
            "has_guards": info.nguards > 0, "nguards": info.nguards, "sine_min": SINE_MIN,
            "has_inputs": info.n_inputs > 0,
            "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE, "sources": SOURCES,

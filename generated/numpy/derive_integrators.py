@@ -122,6 +122,11 @@ def _tab(name, dtype):
     return _CACHE[key]
 
 
+def _takes_time(kernel):
+    """Whether a generated kernel takes the time t first."""
+    return next(iter(inspect.signature(kernel).parameters), None) == "t"
+
+
 def _status_of(f):
     return OK if numpy.all(numpy.isfinite(f)) else NONFINITE
 
@@ -147,13 +152,15 @@ class System:
         self.n_params = self.n_model_params + len(inputs)      # p = (parameters, inputs)
         self.guarded = hasattr(kernels, "polar_sines")
         self.hamiltonian = hasattr(kernels, "hamiltonian_rhs")
-        # a time-dependent model's rhs takes the time first (each stage passes its own)
-        self.timed = next(iter(inspect.signature(kernels.rhs).parameters), None) == "t"
+        # a time-dependent model's rhs (and Jacobian) take the time first, where their
+        # expressions use it (each stage passes its own)
+        self.timed = _takes_time(kernels.rhs)
+        self.jacobian_timed = hasattr(kernels, "jacobian") and _takes_time(kernels.jacobian)
 
-    def _time(self, t, y):
-        """The kernels' leading argument: t as one slot, (1,) or (B, 1); none for an
-        autonomous model."""
-        return (numpy.asarray(t, y.dtype)[..., None],) if self.timed else ()
+    def _time(self, t, y, timed=None):
+        """A kernel's leading argument: t as one slot, (1,) or (B, 1); none for a kernel
+        without it (`timed`: whether it takes it, default the rhs's)."""
+        return (numpy.asarray(t, y.dtype)[..., None],) if (self.timed if timed is None else timed) else ()
 
     def guard(self, y, opt):
         """OK, or why no kernel may be evaluated at y (its chart is singular there)."""
@@ -201,7 +208,7 @@ class System:
         if g:
             return g, None
         info["njev"] += 1
-        J = self.kernels.jacobian(*self._time(t, x), x, *self._split(p)).astype(x.dtype, copy=False)
+        J = self.kernels.jacobian(*self._time(t, x, self.jacobian_timed), x, *self._split(p)).astype(x.dtype, copy=False)
         return _status_of(J), J
 
 

@@ -279,3 +279,33 @@ def test_inputs_at_every_stage_of_a_time_dependent_model_step_in_python(tmp_path
     expected = reference(lambda t, y, *a: np.add(forced_ode(t, y, *a), [0.0, u(t, y)[0] / ml2]),
                          FORCED_P, Y0, TIMES).y.T
     assert r.ok and np.max(np.abs(r.y - expected)) < 1e-9
+
+
+GLIDE = """name = "glide"
+title = "Pendulum on a pivot gliding at constant speed"
+dimension = 2
+parameters = ["m", "l", "g", "v"]
+pivot = ["v*t", "0"]
+[[links]]
+chart = "planar"
+length = "l"
+body = { kind = "point", mass = "m" }
+"""
+
+
+def test_a_model_whose_motion_has_no_t_gets_the_autonomous_integrators(tmp_path):
+    """A pivot gliding at constant speed: the model is time-dependent (its positions and
+    energy have t) but its rhs is not (Galilean invariance), so its integrators are the
+    autonomous ones, and its swing is a fixed pivot's."""
+    model = tmp_path / "glide.toml"
+    model.write_text(GLIDE)
+    out = tmp_path / "gen"
+    derive.load_model(model).generate(out)
+    text = (out / "c" / "glide_integrate.c").read_text()
+    from derive.model import load_model
+    assert "DERIVE_TIMED" not in text and load_model(model).is_time_dependent
+    params = {"m": 1.0, "l": 0.9, "g": 9.81, "v": 0.7}
+    r = derive.simulate(str(model), Y0, TIMES, params, method="dop853", rtol=1e-11, atol=1e-11)
+    fixed = reference(lambda t, y, m, l, g, v: [y[1], -(g / l) * np.sin(y[0])], params, Y0, TIMES).y.T
+    assert np.max(np.abs(r.y - fixed)) < 1e-8
+    assert np.max(np.abs(r.positions[:, 0, 0] - (0.7 * TIMES + 0.9 * np.sin(r.y[:, 0])))) < 1e-12
