@@ -20,6 +20,7 @@ import mpmath
 
 from .emit import render
 from .printers import CPrinter, PyNumPyPrinter
+from .sources import kernels
 from ..derivation import derive
 from ..model.description import forget_on_model_change
 from . import contract, tableau as tb
@@ -379,7 +380,6 @@ def _library_names(M: str) -> list[tuple[str, str]]:
 
 def _takes_time(name: str, kernel: str) -> bool:
     """Whether the model's generated `kernel` takes the time t first (its expressions use t)."""
-    from .sources import kernels         # here: sources imports the backends, which import this
     spec = kernels(name)[0]
     return any(i.vector.key == "time" for k in spec.kernels if k.name == kernel for i in k.inputs)
 

@@ -72,17 +72,26 @@ def _rhs_body(name: str):
 
 
 def _inputs(body):
-    """(state symbols, parameter symbols) of the rhs kernel; the loops take the run-time
-    inputs as parameters after the model's own (p = (params, inputs), as the integrators)."""
-    state, params, inputs = None, None, []
+    """(state symbols, parameter symbols, time symbols) of the rhs kernel; the loops take
+    the run-time inputs as parameters after the model's own (p = (params, inputs), as the
+    integrators), and the time (a time-dependent model's rhs: [t]; else []) as each
+    stage's own."""
+    state, params, inputs, time = None, None, [], []
     for inp in body.kernel.inputs:
         if inp.vector.key == "param":
             params = list(inp.vector.symbols)
         elif inp.vector.key == "input":
             inputs = list(inp.vector.symbols)
+        elif inp.vector.key == "time":
+            time = list(inp.vector.symbols)
         else:
             state = list(inp.vector.symbols)
-    return state, params + inputs
+    return state, params + inputs, time
+
+
+def takes_time(name: str) -> bool:
+    """Whether the loops of model `name` take the start time t_start (its rhs has t)."""
+    return bool(_inputs(_rhs_body(name))[2])
 
 
 # Fixed-step methods of the single-trajectory loops, as data:
@@ -115,6 +124,12 @@ def evaluations(method: str, nsteps: int) -> int:
 
 
 @lru_cache(maxsize=None)
+def _nodes(method: str) -> tuple[str, ...]:
+    """Each stage's node c_i as a C double literal (a time-dependent rhs's stage time)."""
+    return tuple(tb.literal(c, "double") for c in tb.load(FIXED_METHODS[method]["tableau"]).c)
+
+
+@lru_cache(maxsize=None)
 def _explicit(method: str) -> tuple[list[list[tuple[int, str]]], list[tuple[int, str]]]:
     """Stage rows 1..s-1 and weights as C double literals (zeros dropped), as the scalar
     integrator prints them."""
@@ -139,6 +154,7 @@ def _rhs_parts(name: str, lanes: bool):
 
 
 _STATE_TOKEN = re.compile("\x00([0-9]+)\x00")     # state component c, before it is named
+_TIME_TOKEN = "\x00t\x00"                         # the stage's time, before it is named
 
 
 def _state_token(c: int) -> str:
@@ -148,7 +164,7 @@ def _state_token(c: int) -> str:
 _printed: dict[int, tuple] = {}        # id(parts) -> (parts, its printed rhs)
 
 
-def _printed_rhs(parts, state, params) -> dict:
+def _printed_rhs(parts, state, params, time=()) -> dict:
     """The rhs (_rhs_parts) printed once, the state components as tokens (_STATE_TOKEN) that
     each stage then names: a stage's rhs differs from another's in those names only (a
     symbol prints as its slot, whatever the slot's text), and printing is the generator's
@@ -159,6 +175,7 @@ def _printed_rhs(parts, state, params) -> dict:
     lanes, assignments, outputs = parts
     slots = {s: f"p{i}" for i, s in enumerate(params)}
     slots.update({s: _state_token(i) for i, s in enumerate(state)})
+    slots.update({s: _TIME_TOKEN for s in time})
     pr = CPrinter(slots, "double")
     printed = {"lanes": lanes_context(lanes, pr),
                "lines": [f"const double {sym.name} = {pr.doprint_checked(e)};" for sym, e in assignments],
@@ -167,12 +184,13 @@ def _printed_rhs(parts, state, params) -> dict:
     return printed
 
 
-def _c_rhs(parts, state, params, src: str, target) -> dict:
+def _c_rhs(parts, state, params, src: str, target, time=(), at: str = "tk") -> dict:
     """The rhs (_rhs_parts) printed on the state held in src<c> (or src[c]), output c stored to
-    target(c): its sin/cos lanes and the lines after them."""
-    printed = _printed_rhs(parts, state, params)
+    target(c), at the time `at` (a C expression; for a time-dependent rhs, `time` its time
+    symbol): its sin/cos lanes and the lines after them."""
+    printed = _printed_rhs(parts, state, params, time)
     def named(text: str) -> str:
-        return _STATE_TOKEN.sub(lambda m: src.format(c=int(m.group(1))), text)
+        return _STATE_TOKEN.sub(lambda m: src.format(c=int(m.group(1))), text).replace(_TIME_TOKEN, at)
 
     lanes = printed["lanes"]
     if lanes is not None:
@@ -182,13 +200,15 @@ def _c_rhs(parts, state, params, src: str, target) -> dict:
                      + [f"{target(i)} = {named(e)};" for i, e in enumerate(printed["outputs"])]}
 
 
-def _c_stages(parts, state, params, rows, b) -> tuple[list[dict], list[str]]:
-    """Each stage: the rhs printed on its input (y for the first, s after), its outputs k<stage>_<c>,
-    then the next stage's input s<c> = y<c> + h * (...); finally n<c> = y<c> + h * (b . k)."""
+def _c_stages(parts, state, params, rows, b, time=(), nodes=()) -> tuple[list[dict], list[str]]:
+    """Each stage: the rhs printed on its input (y for the first, s after) at its time
+    (tk + c_i h, a time-dependent rhs's), its outputs k<stage>_<c>, then the next stage's
+    input s<c> = y<c> + h * (...); finally n<c> = y<c> + h * (b . k)."""
     n = len(state)
     stages = []
     for stage in range(len(rows) + 1):
-        rhs = _c_rhs(parts, state, params, "y{c}" if stage == 0 else "s{c}", lambda i: f"k{stage}_{i}")
+        at = "tk" if stage == 0 or not time else f"(tk + {nodes[stage]} * h)"
+        rhs = _c_rhs(parts, state, params, "y{c}" if stage == 0 else "s{c}", lambda i: f"k{stage}_{i}", time, at)
         combo = None
         if stage < len(rows):
             combo = [f"s{c} = y{c} + h * ({_combo(rows[stage], lambda j: f'k{j}_{c}')});" for c in range(n)]
@@ -197,7 +217,7 @@ def _c_stages(parts, state, params, rows, b) -> tuple[list[dict], list[str]]:
     return stages, final
 
 
-def _adams_context(parts, state, params, method: str) -> dict:
+def _adams_context(parts, state, params, method: str, time=()) -> dict:
     """The PECE step of a k-step Adams pair: history f[j] = rhs j steps back, hab/ham = h * weights."""
     k = FIXED_METHODS[method]["steps"]
     ab, am = tb.adams(k)
@@ -209,9 +229,9 @@ def _adams_context(parts, state, params, method: str) -> dict:
     correct = [f"n{c} = y{c} + ({' + '.join(['ham[0] * fp' + str(c)] + [f'ham[{j}] * f[{j - 1}][{c}]' for j in range(1, k)])});"
                for c in range(n)]
     return {"k": k, "start": FIXED_METHODS[method]["start"], "ab": literals(ab), "am": literals(am),
-            "rhs_y": _c_rhs(parts, state, params, "y{c}", lambda i: f"fn{i}"),
-            "rhs_s": _c_rhs(parts, state, params, "s{c}", lambda i: f"fp{i}"),
-            "rhs_n": _c_rhs(parts, state, params, "n{c}", lambda i: f"fn{i}"),
+            "rhs_y": _c_rhs(parts, state, params, "y{c}", lambda i: f"fn{i}", time),
+            "rhs_s": _c_rhs(parts, state, params, "s{c}", lambda i: f"fp{i}", time),
+            "rhs_n": _c_rhs(parts, state, params, "n{c}", lambda i: f"fn{i}", time),
             "predict": predict, "correct": correct,
             "fp_decl": ", ".join(f"fp{c}" for c in range(n)), "fn_decl": ", ".join(f"fn{c}" for c in range(n))}
 
@@ -227,11 +247,11 @@ def _used_params(body, params) -> list[int]:
 
 def c_context(name: str) -> dict:
     body = _rhs_body(name)
-    state, params = _inputs(body)
+    state, params, time = _inputs(body)
     n = len(state)
     rows, b = _explicit("rk4")
-    stages, final = _c_stages(_rhs_parts(name, False), state, params, rows, b)
-    return {"P": name, "M": name.upper(), "title": derive(name).model.title, "n": n,
+    stages, final = _c_stages(_rhs_parts(name, False), state, params, rows, b, time, _nodes("rk4"))
+    return {"P": name, "M": name.upper(), "title": derive(name).model.title, "n": n, "timed": bool(time),
             "n_params": len(params), "block": BLOCK,
             "params_used": _used_params(body, params), "stages": stages, "final": final,
             "vector_math": list(VECTOR_MATH), "ops": body.ops,
@@ -245,20 +265,20 @@ def c_context(name: str) -> dict:
 def fixed_context(name: str) -> dict:
     """The single-trajectory fixed-step loops (<model>_fixed.c): rk4 and rk8, rhs inlined."""
     body = _rhs_body(name)
-    state, params = _inputs(body)
+    state, params, time = _inputs(body)
     n = len(state)
     methods = []
     for method, m in FIXED_METHODS.items():
         entry = {"name": method, "title": m["title"], "kind": m["kind"]}
         if m["kind"] == "rk":
             rows, b = _explicit(method)
-            stages, final = _c_stages(_rhs_parts(name, True), state, params, rows, b)
+            stages, final = _c_stages(_rhs_parts(name, True), state, params, rows, b, time, _nodes(method))
             entry.update(nstages=len(rows) + 1, stages=stages, final=final,
                          k_decl=", ".join(f"k{j}_{c}" for j in range(len(rows) + 1) for c in range(n)))
         else:
-            entry.update(_adams_context(_rhs_parts(name, True), state, params, method))
+            entry.update(_adams_context(_rhs_parts(name, True), state, params, method, time))
         methods.append(entry)
-    return {"P": name, "M": name.upper(), "title": derive(name).model.title, "n": n,
+    return {"P": name, "M": name.upper(), "title": derive(name).model.title, "n": n, "timed": bool(time),
             "n_params": len(params), "params_used": _used_params(body, params), "methods": methods,
             "vector_math": list(VECTOR_MATH), "ops": body.ops, "state_names": ", ".join(s.name for s in state),
             "param_names": ", ".join(s.name for s in params),
@@ -268,13 +288,13 @@ def fixed_context(name: str) -> dict:
 
 def numpy_context(name: str) -> dict:
     body = _rhs_body(name)
-    state, params = _inputs(body)
-    varying = set(state)
+    state, params, time = _inputs(body)
+    varying = set(state) | set(time)
     assignments, outs = half_angle_sincos(body.assignments, list(body.outputs[0]))
     for sym, e in assignments:
         if e.free_symbols & varying:
             varying.add(sym)
-    slots = numpy_slots(state + params, {s.name for s, _ in assignments})
+    slots = numpy_slots(time + state + params, {s.name for s, _ in assignments})
     pr = PyNumPyPrinter(slots, varying)
     const = [{"name": s.name, "value": pr.doprint_checked(e)} for s, e in assignments
              if s not in varying]
@@ -289,8 +309,10 @@ def numpy_context(name: str) -> dict:
         # whole (n, B) arrays: the same operations, in the same order, as the scalar C
         combo = " + ".join(f"K[{j}]" if v == 1 else f"{tb.py_literal(v)} * K[{j}]" for j, v in terms)
         stages.append({"index": stage, "arg": "Y" if stage == 0 else "S",
+                       "at": "T" if stage == 0 else f"T + {tb.literal(t.c[stage], 'double')} * h",
                        "next": f"{'N' if last else 'S'} = Y + h * ({combo})"})
     return {"P": name, "title": derive(name).model.title, "template": TEMPLATE_PY,
+            "timed": bool(time), "time": slots[time[0]] if time else None,
             "n": len(state), "n_params": len(params),
             "state": [slots[s] for s in state], "params": [slots[s] for s in params],
             "state_repr": repr(tuple(s.name for s in state)),

@@ -70,6 +70,10 @@ ATLAS_CHOOSE_CHART = EntryPoint("{model}_choose_chart{suffix}", "int", ("int", "
 THROUGHPUT_RK4 = EntryPoint("{model}_throughput_rk4", "long",
                             ("long", "void *", "long", "void *", "double", "long", "void *", "void *"))
 FIXED_STEPS = EntryPoint("{model}_fixed_{suffix}", "long", ("void *", "void *", "double", "long"))
+# a time-dependent model's loops take the start time first (t_start; the throughput loop's after p)
+THROUGHPUT_RK4_TIMED = EntryPoint("{model}_throughput_rk4", "long", ("long", "void *", "long", "void *", "double",
+                                                                       "double", "long", "void *", "void *"))
+FIXED_STEPS_TIMED = EntryPoint("{model}_fixed_{suffix}", "long", ("double", "void *", "void *", "double", "long"))
 
 
 # the contract's field types (options and info structs)

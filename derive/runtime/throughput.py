@@ -17,11 +17,11 @@ from functools import lru_cache
 import numpy as np
 
 from .loader import LoaderError, build_fastest, build_library, numpy_module
-from .shared_library import FIXED_STEPS, THROUGHPUT_RK4, SharedLibrary
+from .shared_library import FIXED_STEPS, FIXED_STEPS_TIMED, THROUGHPUT_RK4, THROUGHPUT_RK4_TIMED, SharedLibrary
 from ..codegen.names import VECTOR_MATH
 from ..codegen.sources import c_source
 from ..model.description import forget_on_model_change
-from ..codegen.loops import BLOCK, FIXED_METHODS
+from ..codegen.loops import BLOCK, FIXED_METHODS, takes_time
 
 PORTABLE_FLAGS = ("-std=c99", "-O3", "-ffp-contract=off", "-fPIC", "-shared")
 VECTOR_FLAGS = ("-std=c99", "-O3", "-march=native", "-ffp-contract=off", "-fopenmp-simd",
@@ -56,12 +56,14 @@ class ThroughputLibrary(SharedLibrary):
             raise last
         self.vector_math = self.flags is VECTOR_FLAGS
         super().__init__(path)
-        self.fn = self.bind(THROUGHPUT_RK4, model=model)
+        self.timed = takes_time(model)      # the rhs has t: the loop takes the start time
+        self.fn = self.bind(THROUGHPUT_RK4_TIMED if self.timed else THROUGHPUT_RK4, model=model)
         self.n = self.value(ctypes.c_int, f"{model}_throughput_n_states").value
         self.n_params = self.value(ctypes.c_int, f"{model}_throughput_n_params").value
 
-    def rk4_soa(self, y: np.ndarray, p, h: float, nsteps: int, threads: int | None = None):
-        """In place on y (n_states, B) float64 C-contiguous; -> (status (B,), steps (B,))."""
+    def rk4_soa(self, y: np.ndarray, p, h: float, nsteps: int, threads: int | None = None, t_start: float = 0.0):
+        """In place on y (n_states, B) float64 C-contiguous, from the time t_start (a
+        time-dependent model's; the others ignore it); -> (status (B,), steps (B,))."""
         if y.dtype != np.float64 or not y.flags.c_contiguous or y.ndim != 2 or y.shape[0] != self.n:
             raise ValueError(f"y must be a C-contiguous float64 array of shape ({self.n}, B)")
         p = np.ascontiguousarray(p, dtype=np.float64).reshape(self.n_params)
@@ -75,7 +77,8 @@ class ThroughputLibrary(SharedLibrary):
 
         def work(k):
             a, e = int(bounds[k]), int(bounds[k + 1])
-            failed[k] = self.fn(e - a, y.ctypes.data + 8 * a, B, p.ctypes.data, float(h), int(nsteps),
+            time = (float(t_start),) if self.timed else ()
+            failed[k] = self.fn(e - a, y.ctypes.data + 8 * a, B, p.ctypes.data, *time, float(h), int(nsteps),
                                 status.ctypes.data + status.itemsize * a, steps.ctypes.data + 8 * a)
 
         if threads == 1:
@@ -88,10 +91,10 @@ class ThroughputLibrary(SharedLibrary):
                 t.join()
         return status, steps
 
-    def rk4(self, y0, p, h: float, nsteps: int, threads: int | None = None):
-        """y0 (B, n_states) -> (y (B, n_states), status (B,), steps completed (B,))."""
+    def rk4(self, y0, p, h: float, nsteps: int, threads: int | None = None, t_start: float = 0.0):
+        """y0 (B, n_states) at t_start -> (y (B, n_states), status (B,), steps completed (B,))."""
         y = np.ascontiguousarray(np.asarray(y0, np.float64).reshape(-1, self.n).T)
-        status, steps = self.rk4_soa(y, p, h, nsteps, threads)
+        status, steps = self.rk4_soa(y, p, h, nsteps, threads, t_start)
         return y.T.copy(), status, steps
 
 
@@ -106,15 +109,19 @@ class FixedLibrary(SharedLibrary):
             raise LoaderError(f"model '{model}' has no fixed-step loops (its rhs has a chart guard)")
         path, self.flags = build_fastest(f"{model}_fixed", [src])
         super().__init__(path)
-        self.fns = {method: self.bind(FIXED_STEPS, model=model, suffix=method) for method in FIXED_METHODS}
+        self.timed = takes_time(model)      # the rhs has t: the loops take the start time
+        entry = FIXED_STEPS_TIMED if self.timed else FIXED_STEPS
+        self.fns = {method: self.bind(entry, model=model, suffix=method) for method in FIXED_METHODS}
 
-    def run(self, method: str, y0, p, h: float, nsteps: int) -> tuple[np.ndarray, int]:
-        """-> (state after the steps completed, steps completed)."""
+    def run(self, method: str, y0, p, h: float, nsteps: int, t_start: float = 0.0) -> tuple[np.ndarray, int]:
+        """From y0 at t_start (a time-dependent model's; the others ignore it) -> (state after
+        the steps completed, steps completed)."""
         if method not in self.fns:
             raise ValueError(f"unknown fixed-step method '{method}' (known: {', '.join(self.fns)})")
         y = np.array(y0, dtype=np.float64).reshape(-1)
         p = np.ascontiguousarray(p, dtype=np.float64)
-        done = self.fns[method](y.ctypes.data, p.ctypes.data, float(h), int(nsteps))
+        time = (float(t_start),) if self.timed else ()
+        done = self.fns[method](*time, y.ctypes.data, p.ctypes.data, float(h), int(nsteps))
         return y, int(done)
 
 

@@ -48,7 +48,7 @@ class Backend:
         """Every artifact this language emits for one model."""
         files = dict(self.kernel_files(spec, bodies))
         files.update(self.integrator_files(name, spec.is_time_dependent))
-        if not guarded and not spec.is_time_dependent:    # the inlined loops do not pass t yet
+        if not guarded:         # a time-dependent model's too: each stage's t inlined
             files.update(self.loop_files(name))
         return files
 
