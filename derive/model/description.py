@@ -616,6 +616,9 @@ def _check_constraints(model: "Model", names: dict, where: str) -> None:
                                                       "and parameters only)")
         if not expr.free_symbols & coordinates:
             raise ModelError(f"{key}: {text!r} uses no coordinate ({', '.join(model.coordinate_names)})")
+    if not model.coordinate_names:
+        raise ModelError(f"{where}: every joint is prescribed: the model has no coordinate to integrate "
+                         f"(leave at least one joint free)")
     if len(model.constraints) >= len(model.coordinate_names):
         raise ModelError(f"{where}: {len(model.constraints)} constraints on "
                          f"{len(model.coordinate_names)} coordinates leave no degree of freedom")

@@ -518,6 +518,7 @@ def _loop_equilibria(ref, p: np.ndarray, free: list[int]) -> list[dict]:
         return []
     for y in _newton_rests(ref, np.array(starts), p, free):
         y[:nq] = _wrap(y[:nq], angles)
+        y[:nq][np.abs(y[:nq]) < LOOP_SAME * 1e-6] = 0.0       # roundoff about an exact zero (hanging straight)
         if any(np.abs(_wrap(y[:nq] - other[:nq], angles)).max() < LOOP_SAME for other, _ in rests):
             continue
         try:

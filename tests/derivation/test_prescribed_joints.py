@@ -120,3 +120,10 @@ def test_a_wrong_prescribed_joint_is_one_line(link, message):
     with pytest.raises(ModelError, match=message) as info:
         parse_model(text, "bad.toml")
     assert "\n" not in str(info.value)
+
+
+def test_a_model_whose_every_joint_is_prescribed_is_one_line():
+    text = ('name = "bad"\ndimension = 2\nparameters = ["m", "l", "w", "g"]\n[[links]]\nchart = "planar"\n'
+            'length = "l"\nprescribed = "w*t"\nbody = { kind = "point", mass = "m" }\n')
+    with pytest.raises(ModelError, match="every joint is prescribed: the model has no coordinate"):
+        parse_model(text, "bad.toml")
