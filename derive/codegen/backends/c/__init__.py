@@ -22,7 +22,7 @@ from ...names import VECTOR_MATH
 from ...printers import CPrinter
 from ..base import Backend, Variant, common_context, join_terms, own, slot_doc, unflatten, wrap
 from ...integrators import render_atlas, render_c
-from ...taylor import render_taylor, taylor_problem
+from ...taylor import render_taylor, taylor_lanes_problem, taylor_problem
 from ...taylor_lanes import render_taylor_lanes
 from ...loops import render_loops
 
@@ -97,9 +97,26 @@ class CBackend(Backend):
 
     def integrator_files(self, name):
         files = render_c(name)
-        if taylor_problem(name) is None:      # a model with an operation no recurrence covers: none
+        files.update(self.taylor_files(name))
+        return files
+
+    def taylor_files(self, name):
+        """The Taylor integrator (none for a model with an operation no recurrence covers),
+        in SIMD lanes too (not for a model with explicit time: taylor_lanes_problem)."""
+        files = {}
+        if taylor_problem(name) is None:
             files.update(render_taylor(name))
+        if taylor_lanes_problem(name) is None:
             files.update(render_taylor_lanes(name))
+        return files
+
+    def timed_files(self, name):
+        """A time-dependent model's: the Taylor integrator (t in its jet) with the options,
+        info and status codes of <model>_integrate.h, which it includes."""
+        files = self.taylor_files(name)
+        if files:
+            header = f"c/{name}_integrate.h"
+            files[header] = render_c(name)[header]
         return files
 
     def loop_files(self, name):
