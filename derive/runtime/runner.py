@@ -26,6 +26,7 @@ import numpy as np
 from ..codegen.contract import (COUNTERS, LOCAL_ERROR_METHODS, METHODS, STATUS_NAMES, TAYLOR,
                                 TOLERANCE_METHODS, taylor_order)
 from .model_sizes import model_info
+from ..codegen.sources import kernels
 from ..model.atlas import find_atlas
 from ..model.description import forget_on_model_change
 from .atlas_library import atlas_library, numpy_atlas
@@ -37,7 +38,7 @@ from . import compiled_call
 from .result import LAZY, LOCAL_SUM, SimulationResult, result_factory
 from .shared_library import info_state, stop_state
 from .taylor_lanes_library import taylor_ensemble_library
-from .taylor_library import taylor_library
+from .taylor_library import taylor_library, taylor_options
 
 # A batch run of Taylor's method (a sweep's) is not capped by hmax: the generated Taylor
 # integrator caps its step's radius at hmax (the run's span when hmax is 0) before it
@@ -99,6 +100,7 @@ class Runner:
         info = model_info(self.atlas.charts[0] if self.atlas is not None else model)
         self.n, self.n_params, self.n_inputs = info.n, info.n_params, info.n_inputs
         self.single_chart = self.atlas is None and info.nguards > 0
+        self.timed = self.atlas is None and kernels(model)[0].is_time_dependent
         self.tolerance = method in TOLERANCE_METHODS
         self.local_error = method in LOCAL_ERROR_METHODS
         self.index = METHODS.index(method) if method in METHODS else None
@@ -114,7 +116,10 @@ class Runner:
 
     @property
     def lib(self):
-        """The library whose options struct the run takes (the atlas': its own driver's)."""
+        """The library whose options struct the run takes (the atlas': its own driver's; a
+        time-dependent model's Taylor run: the contract's defaults, it has no RK library)."""
+        if self.method == TAYLOR and self.timed:
+            return taylor_options()
         return _rk_library(self.model, self.atlas)
 
     def order(self, rtol: float) -> int:
@@ -149,7 +154,10 @@ class Runner:
 
     def batch_library(self, rtol: float):
         """The library a batch runs in (its .run(y0, p, t, opt)): Taylor's SIMD lanes
-        (bit for bit the scalar integrator's numbers), or the RK library."""
+        (bit for bit the scalar integrator's numbers; a time-dependent model's: the scalar
+        integrator's batch, codegen/taylor.py taylor_lanes_problem), or the RK library."""
+        if self.method == TAYLOR and self.timed:     # no lanes for explicit time: the scalar batch
+            return taylor_library(self.model, self.order(rtol), self.dtype)
         if self.method == TAYLOR:
             return taylor_ensemble_library(self.model, self.order(rtol), self.dtype)
         return _MethodBound(self.lib, self.index)
