@@ -223,7 +223,7 @@ class ExtendedTaylor(SharedLibrary):
         the solution through y (at the time t, an exact value: a time-dependent model's)."""
         enc = ENCODE[self.precision]
         yw, pw = enc(y), enc(p) if p else enc([0])
-        tw = enc([t])
+        tw = enc([exact(t, "t")])
         out = _aligned((self.n * (self.order + 1), 2), _WORDS[self.precision])
         at = (address(tw),) if self.timed else ()
         st = self.coefficients_fn(*at, address(yw), address(pw), self.order, address(out), float(sine_min))
