@@ -8,7 +8,7 @@ method="taylor" (the generated C: t in the jet) and method="dop853" (what runs a
 time-dependent model's RK methods in this checkout), and heyoka beside them where it is
 installed (hy.time in its jet, tol = 1e-12, propagate_grid).  Each is timed as the best
 of --repeat runs after a first one (which builds the library / JIT-compiles); the error
-of each at the last output is against SciPy's DOP853 at rtol 3e-14 (its floor) on the equation
+of each, the largest over the outputs, is against SciPy's DOP853 at rtol 3e-14 (its floor) on the equation
 written here by hand.  Prints every figure, measured in this run, and the ratio.
 """
 from __future__ import annotations
