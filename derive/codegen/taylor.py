@@ -285,7 +285,8 @@ OPERATIONS = {
     "var": Operation("a state: the solution's own coefficients", None, None),
     # the jet's argument t0 (the time at the start of the step): u_0 = t0, u_1 = 1, u_k = 0 past
     "time": Operation("u = t: u_0 = t0, u_1 = 1, u_k = 0 (k >= 2)",
-                      lambda u, a: f"{u}[k] = k == 0 ? t0 : T_INT(k == 1);", None),
+                      lambda u, a: f"{u}[k] = k == 0 ? t0 : T_INT(k == 1);",
+                      lambda u, a: f"LANES_TIME({u.cur}, t0, k);"),
     "add": Operation("u_k = a_k + b_k",
                      lambda u, a: f"{u}[k] = T_ADD({a[0]}[k], {a[1]}[k]);",
                      lambda u, a: f"LANES_ADD({u.cur}, {a[0].cur}, {a[1].cur});",
@@ -642,14 +643,3 @@ def taylor_problem(name: str) -> str | None:
         return str(exc)
     return None
 
-
-def taylor_lanes_problem(name: str) -> str | None:
-    """Why model `name` has no Taylor integrator in SIMD lanes (<model>_taylor_lanes.c),
-    or None: its scalar one's problem, or explicit time (the lanes' jet has no time of
-    its own per lane yet; an ensemble of such a model runs the scalar integrator, one
-    trajectory after another in each block)."""
-    problem = taylor_problem(name)
-    if problem is None and kernels(name)[0].is_time_dependent:
-        return ("explicit time in the model: the lanes' jet takes no time t per lane; the scalar Taylor "
-                "integrator (<model>_taylor.c) runs it")
-    return problem

@@ -154,10 +154,7 @@ class Runner:
 
     def batch_library(self, rtol: float):
         """The library a batch runs in (its .run(y0, p, t, opt)): Taylor's SIMD lanes
-        (bit for bit the scalar integrator's numbers; a time-dependent model's: the scalar
-        integrator's batch, codegen/taylor.py taylor_lanes_problem), or the RK library."""
-        if self.method == TAYLOR and self.timed:     # no lanes for explicit time: the scalar batch
-            return taylor_library(self.model, self.order(rtol), self.dtype)
+        (bit for bit the scalar integrator's numbers), or the RK library."""
         if self.method == TAYLOR:
             return taylor_ensemble_library(self.model, self.order(rtol), self.dtype)
         return _MethodBound(self.lib, self.index)

@@ -23,7 +23,7 @@ from ..model.description import forget_on_model_change
 from .build import info_struct, run_batch
 from .shared_library import SUFFIX, TAYLOR_LANES_BATCH, SharedLibrary
 from .model_sizes import model_info
-from ..codegen.taylor import taylor_lanes_problem
+from ..codegen.taylor import taylor_problem
 from .taylor_library import taylor_library
 from ..codegen.taylor_lanes import variant_number
 
@@ -81,8 +81,7 @@ class TaylorLanesLibrary(SharedLibrary):
         self.n_params = info.n_params + info.n_inputs
         source = c_source(model, f"{model}_taylor_lanes.c")
         if not source.is_file():
-            raise SimulationInputError(f"model '{model}' has no Taylor integrator in SIMD lanes: "
-                                       f"{taylor_lanes_problem(model)}")
+            raise SimulationInputError(f"model '{model}' has no Taylor integrator: {taylor_problem(model)}")
         flags, default_lanes = simd_build(dtype)
         self.lanes = lanes or default_lanes
         simd = flags if simd is None else simd

@@ -22,7 +22,7 @@ from ...names import VECTOR_MATH
 from ...printers import CPrinter
 from ..base import Backend, Variant, common_context, join_terms, own, slot_doc, unflatten, wrap
 from ...integrators import render_atlas, render_c
-from ...taylor import render_taylor, taylor_lanes_problem, taylor_problem
+from ...taylor import render_taylor, taylor_problem
 from ...taylor_lanes import render_taylor_lanes
 from ...loops import render_loops
 
@@ -101,12 +101,11 @@ class CBackend(Backend):
         return files
 
     def taylor_files(self, name):
-        """The Taylor integrator (none for a model with an operation no recurrence covers),
-        in SIMD lanes too (not for a model with explicit time: taylor_lanes_problem)."""
+        """The Taylor integrator, scalar and in SIMD lanes (none for a model with an
+        operation no recurrence covers)."""
         files = {}
         if taylor_problem(name) is None:
             files.update(render_taylor(name))
-        if taylor_lanes_problem(name) is None:
             files.update(render_taylor_lanes(name))
         return files
 
