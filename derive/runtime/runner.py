@@ -240,7 +240,7 @@ class Runner:
             t=t, y=out, status=status, status_name=STATUS_NAMES[status], t_stop=info.t,
             y_stop=info_state(info, n, self.dt), params=p,
             chart=np.array([self.model] * nt, dtype=object) if self.single_chart else None,
-            observe=partial(_observe, self.model, out, p, self.dt, "c"),
+            observe=partial(_observe, self.model, out, p, self.dt, "c", t if self.timed else None),
             last_step=h_end if h_end and not self.tolerance else None,
             nfev=info.nfev, njev=info.njev, nsteps=info.nsteps, naccepted=info.naccepted,
             nrejected=info.nrejected, nnewton=info.nnewton,
@@ -266,7 +266,7 @@ class Runner:
         -------
         compiled_call.Call or None
         """
-        if self.backend != "c" or self.single_chart or self.atlas is not None or self.n_inputs or \
+        if self.backend != "c" or self.single_chart or self.atlas is not None or self.n_inputs or self.timed or \
                 self.dtype not in compiled_call.REALS or not compiled_call.available():
             return None
         fn, index, Info = self.entry_point(s.opt["rtol"])
@@ -311,9 +311,10 @@ class _MethodBound:
         return self.lib.run(self.index, y0, p, t, opt)
 
 
-def _observe(model: str, y: np.ndarray, p: np.ndarray, dt: np.dtype, backend: str) -> tuple:
-    """A run's energy, positions and velocities (on first access of one: result.py)."""
-    return (*_observables(model, y, p, backend, dt), _velocities(model, y, p, backend, dt))
+def _observe(model: str, y: np.ndarray, p: np.ndarray, dt: np.dtype, backend: str, t=None) -> tuple:
+    """A run's energy, positions and velocities (on first access of one: result.py); t:
+    the rows' times, for a time-dependent model's kernels that take it (a Taylor run's)."""
+    return (*_observables(model, y, p, backend, dt, t), _velocities(model, y, p, backend, dt, t))
 
 
 def _rk_library(model: str, atlas):

@@ -733,7 +733,8 @@ def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, s
     y, pm, dt = result.y, result.params, np.dtype(np.longdouble)
 
     def observe():       # in long double, on first access of r.energy, r.positions or r.velocities
-        return (*_observables(model, y, pm, "c", dt), _velocities(model, y, pm, "c", dt))
+        t = result.t if ref.description.is_time_dependent else None      # a moving pivot's kernels take t
+        return (*_observables(model, y, pm, "c", dt, t), _velocities(model, y, pm, "c", dt, t))
 
     result.observe = observe
     result.energy = result.positions = result.velocities = LAZY

@@ -91,6 +91,24 @@ def test_a_run_that_starts_late_steps_from_its_own_start_time(model):
     assert np.max(np.abs(shifted - ref)) > 1e-3
 
 
+@pytest.mark.parametrize("dtype", ["float64", "longdouble", "double-double"])
+def test_energy_positions_and_velocities_are_at_the_rows_times(dtype):
+    """The moving pivot's kernels take t: a Taylor run's r.energy, r.positions and
+    r.velocities are at each row's own time (by hand: the bob at (a cos(w t) + l sin(theta),
+    -l cos(theta)), E = T + V)."""
+    p = floats(PARAMS[PIVOT])
+    times = np.linspace(0.5, 5.0, 7)
+    r = derive.simulate(PIVOT, [0.3, 0.2], times, p, method="taylor", rtol=1e-13, dtype=dtype)
+    th, om = np.asarray(r.y, float).T
+    m, l, g, a, w = (p[k] for k in ("m", "l", "g", "a", "w"))
+    pos = np.stack([a * np.cos(w * times) + l * np.sin(th), -l * np.cos(th)], -1)
+    vel = np.stack([-a * w * np.sin(w * times) + l * om * np.cos(th), l * om * np.sin(th)], -1)
+    energy = 0.5 * m * (vel ** 2).sum(-1) + m * g * pos[:, 1]
+    assert np.max(np.abs(np.asarray(r.positions, float)[:, 0] - pos)) < 1e-14
+    assert np.max(np.abs(np.asarray(r.velocities, float)[:, 0] - vel)) < 1e-14
+    assert np.max(np.abs(np.asarray(r.energy, float) - energy)) < 1e-13
+
+
 # -- long double, double-double, quad against mpmath ------------------------------------------
 
 SPAN = ("0", "0.5", "1")          # a short span: mpmath's odefun at 36 digits takes seconds
