@@ -28,6 +28,8 @@ import derive
 from derive.model import load_model
 from derive.runtime import extended
 from derive.runtime.extended import extended_taylor
+from derive.runtime.power import energy_balance
+from derive.runtime.result import summary_rows
 from derive.runtime.runner import runner_for
 from derive.runtime.taylor_lanes_library import taylor_lanes_library
 from derive.runtime.taylor_library import taylor_library
@@ -219,8 +221,8 @@ def test_output_times_inside_steps_are_the_series_and_do_not_change_the_steps(mo
 
 
 def test_events_are_refused_in_one_line_as_for_an_autonomous_taylor_run():
-    """Taylor's runs have dense output at the output times, not r.sol: events need an
-    adaptive RK method, for a time-dependent model as for an autonomous one."""
+    """Events need an adaptive RK method's dense output (derive/runtime/events.py), for a
+    time-dependent model's Taylor run as for an autonomous one's."""
     messages = []
     for model, y0, p in ((FORCED, [0.4, -0.3], floats(PARAMS[FORCED])),
                          ("planar", [1.0, 0.5, 0.0, 0.0], {"m1": 1, "m2": 1, "l1": 1, "l2": 1, "g": 9.81})):
@@ -228,8 +230,29 @@ def test_events_are_refused_in_one_line_as_for_an_autonomous_taylor_run():
             derive.simulate(model, y0, [0.0, 1.0], p, method="taylor", events={"down": "theta1"})
         messages.append(str(info.value))
     assert messages[0] == messages[1] and "\n" not in messages[0] and "dop853" in messages[0]
-    r = derive.simulate(FORCED, [0.4, -0.3], [0.0, 1.0], floats(PARAMS[FORCED]), method="taylor")
-    assert r.sol is None
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_sol_between_rows_is_the_solution_at_its_own_time(model):
+    """r.sol(t) integrates each interval from its row at the row's time: y_k at t_k
+    exactly, the hand ODE's solution between rows (within 1e-11 of SciPy's), and a
+    continuous function (what the energy balance's Gauss sums need: its residual is at
+    roundoff, not the trapezoid rule's error on 11 rows)."""
+    y0, p = [float(v) for v in Y0[model]], floats(PARAMS[model])
+    rows = np.linspace(2.0, 12.0, 11)
+    r = derive.simulate(model, y0, rows, p, method="taylor", rtol=1e-13)
+    assert np.array_equal(r.sol(rows), r.y) and r.sol(2.0).shape == (2,)
+    between = np.linspace(2.0, 12.0, 337)
+    assert np.max(np.abs(r.sol(between) - scipy_reference(model, 2.0, between, Y0[model]))) < 1e-11
+    e = 1e-7                          # across a row: the slope's change and no jump past the tolerance
+    before, after = r.sol(np.array([5.0 - e, 5.0 + e]))
+    slope = np.array(hand_rhs(model, p, np)(5.0, r.sol(5.0)))
+    assert np.max(np.abs(after - before - 2 * e * slope)) < 1e-11
+    assert "Gauss" in energy_balance(r).how
+    row = [v for v in summary_rows(r) if v[0] == "energy balance"][0][1]
+    assert float(row.split()[0]) < 1e-12
+    with pytest.raises(derive.SimulationInputError, match="outside the run's span"):
+        r.sol(1.0)
 
 
 @pytest.mark.parametrize("dtype", ["float32", "float64", "longdouble"])
