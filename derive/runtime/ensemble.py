@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import SimulationInputError
 from .build import dtype_key
 from .model_sizes import model_info
-from ..codegen.contract import COUNTERS, DEFAULT_METHOD, RUN_METHODS, STATUS_NAMES, TOLERANCE_METHODS
+from ..codegen.contract import COUNTERS, DEFAULT_METHOD, RUN_METHODS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS
 from . import continuous_inputs
 from .simulate import (_atlas, _check_size, _check_timed, _dtype, _finite_array, check_parameter_values,
                        model_ref, normalise_t, resolve_model, run_options)
@@ -245,7 +245,7 @@ def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | N
         threads = os.cpu_count() or 1
     if not isinstance(threads, (int, np.integer)) or threads < 1:
         raise SimulationInputError(f"threads = {threads!r} must be a positive integer")
-    if description.is_time_dependent:
+    if description.is_time_dependent and method != TAYLOR:     # Taylor's jet has t: the C batch
         return _timed_ensemble(model, method, ys, p, ts, opt, dt)
     y, infos, used = _run_blocks(model, method, ys.astype(dt), p.astype(dt), ts.astype(dt), opt, int(threads))
     status = np.array([i.status for i in infos], np.intc)

@@ -46,6 +46,7 @@ from ..codegen.contract import (ADAPTIVE, ATLAS_METHODS, COUNTERS, DEFAULT_METHO
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
 from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, plain_times
 from .runner import Settings, runner_for
+from .taylor_solution import TaylorSolution
 from . import constraints, continuous_inputs, extended, extended_run
 from . import compiled_call
 from .result import LAZY, LOCAL_SUM, LazySolution, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
@@ -630,7 +631,8 @@ def _simulate(model, y0, t, params, method, rtol, atol, step, dtype, backend, ma
         result = continuous_inputs.run_continuous(model, method, state, ts, p, opt, backend, _stage_inputs(ref, u),
                                                   project=lambda y: constraints.project(model, y, p))
         return constraints.report_drift(result, model, p)
-    timed = ref.description.is_time_dependent
+    # Taylor's jet has t in it: a time-dependent model runs the generated C like any other
+    timed = ref.description.is_time_dependent and method != TAYLOR
     if timed or (isinstance(u, HeldInputs) and hold is None):
         if timed:
             _check_timed(ref, method, dt, hold)
@@ -732,7 +734,8 @@ def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, s
     y, pm, dt = result.y, result.params, np.dtype(np.longdouble)
 
     def observe():       # in long double, on first access of r.energy, r.positions or r.velocities
-        return (*_observables(model, y, pm, "c", dt), _velocities(model, y, pm, "c", dt))
+        t = result.t if ref.description.is_time_dependent else None      # a moving pivot's kernels take t
+        return (*_observables(model, y, pm, "c", dt, t), _velocities(model, y, pm, "c", dt, t))
 
     result.observe = observe
     result.energy = result.positions = result.velocities = LAZY
@@ -1018,7 +1021,17 @@ def _finish(result: SimulationResult, model: str, method: str, backend: str, dt:
     if method in ADAPTIVE and not atlas:
         result.sol = dense.dense_output(result, model, method, backend, dt, opt, p,
                                         None if inputs is None else inputs())
+    if method == TAYLOR and not atlas and _ref(model).description.is_time_dependent:
+        result.sol = _taylor_solution(result, model, dt, opt, p, None if inputs is None else inputs())
     return result
+
+
+def _taylor_solution(result: SimulationResult, model: str, dt, opt: dict, p, inputs):
+    """A time-dependent model's Taylor run's r.sol (derive/runtime/taylor_solution.py: each
+    interval from its row at its own time); `inputs` held over the run, or None."""
+    values = np.asarray(p, dt) if inputs is None else np.concatenate([np.asarray(p, dt), np.asarray(inputs, dt)])
+    end = float(result.t_stop) if not result.ok else float(result.t[-1])
+    return TaylorSolution(model, dt, opt, values, result.t, result.y, end)
 
 
 def _run_estimated(run, method: str, ts: np.ndarray, opt: dict, backend: str,

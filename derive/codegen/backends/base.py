@@ -34,6 +34,11 @@ class Backend:
         """The integrators of model `name` (derive/codegen/integrators.py renders them)."""
         return {}
 
+    def timed_files(self, name: str) -> dict[str, str]:
+        """What runs a time-dependent model beyond its kernels (the C backend: the Taylor
+        integrator, whose jet has t in it); none by default."""
+        return {}
+
     def loop_files(self, name: str) -> dict[str, str]:
         """The fixed-step and batched loops (only for a model without chart guards)."""
         return {}
@@ -46,7 +51,7 @@ class Backend:
         """Every artifact this language emits for one model."""
         files = dict(self.kernel_files(spec, bodies))
         if spec.is_time_dependent:    # the integrators and loops do not pass the time t yet
-            return files
+            return {**files, **self.timed_files(name)}
         files.update(self.integrator_files(name))
         if not guarded:
             files.update(self.loop_files(name))

@@ -97,9 +97,25 @@ class CBackend(Backend):
 
     def integrator_files(self, name):
         files = render_c(name)
-        if taylor_problem(name) is None:      # a model with an operation no recurrence covers: none
+        files.update(self.taylor_files(name))
+        return files
+
+    def taylor_files(self, name):
+        """The Taylor integrator, scalar and in SIMD lanes (none for a model with an
+        operation no recurrence covers)."""
+        files = {}
+        if taylor_problem(name) is None:
             files.update(render_taylor(name))
             files.update(render_taylor_lanes(name))
+        return files
+
+    def timed_files(self, name):
+        """A time-dependent model's: the Taylor integrator (t in its jet) with the options,
+        info and status codes of <model>_integrate.h, which it includes."""
+        files = self.taylor_files(name)
+        if files:
+            header = f"c/{name}_integrate.h"
+            files[header] = render_c(name)[header]
         return files
 
     def loop_files(self, name):
