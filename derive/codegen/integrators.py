@@ -28,6 +28,7 @@ from ..model.atlas import ATLAS, load_atlas
 from ..derivation.chart_rule import RULE_CHARTS, _sines_of_unit, rule_models, rule_sines
 from .contract import (ADAPTIVE, ATLAS_CHARTS, IMPLICIT, METHODS,  # noqa: F401  (re-exported)
                        SINE_MIN, SINE_RULE, SINE_SWITCH)
+from ..errors import SpecError
 from ..paths import VERSION as __version__, c_library_file, numpy_library_file
 
 NEWTON_THETA_MAX = "0.5"  # implicit methods: a contraction rate above this re-evaluates the Jacobian
@@ -78,16 +79,22 @@ def _combo(terms, ctype: str, array: str = "K", index: str = "k") -> str:
     return " + ".join(parts) if parts else "0"
 
 
+def _stages(t: tb.Tableau, rows, ctype: str) -> list[dict]:
+    """Stages `rows` of tableau t: each one's combination of the stages before it and its
+    node c_i (the stage's time is t + c_i h: a time-dependent model's rhs reads it)."""
+    return [{"index": i, "combo": _combo(t.row(i), ctype), "c": tb.literal(t.c[i], ctype)} for i in rows]
+
+
 def _explicit(ctype: str) -> list[dict]:
     out = []
     rk4 = tb.load("rk4")
     out.append({"name": "rk4", "title": "Classical RK4 (seed 001).", "error": "none",
-                "stages": [{"index": i, "combo": _combo(rk4.row(i), ctype)} for i in range(1, 4)],
+                "stages": _stages(rk4, range(1, 4), ctype),
                 "b_combo": _combo(list(enumerate(rk4.b)), ctype)})
     d5 = tb.load("dopri5")
     out.append({"name": "dopri5", "title": "Dormand-Prince 5(4): stages 1-5, y_new, FSAL stage 6, error.",
                 "error": "dopri5", "fsal": 6,
-                "stages": [{"index": i, "combo": _combo(d5.row(i), ctype)} for i in range(1, 6)],
+                "stages": _stages(d5, range(1, 6), ctype),
                 "b_combo": _combo(d5.row(6), ctype),
                 "e_combo": _combo(sorted(d5.extra["e"].items()), ctype)})
     d8 = tb.load("dop853")
@@ -97,7 +104,7 @@ def _explicit(ctype: str) -> list[dict]:
         e3 = [(j, b.get(j, mpmath.mpf(0)) - d8.extra["e3_minus"].get(j, mpmath.mpf(0))) for j in range(12)]
     out.append({"name": "dop853", "title": "Dormand-Prince 8(5,3): stages 1-11, y_new, error as in Hairer's DOP853.",
                 "error": "dop853",
-                "stages": [{"index": i, "combo": _combo(d8.row(i), ctype)} for i in range(1, 12)],
+                "stages": _stages(d8, range(1, 12), ctype),
                 "b_combo": _combo(d8.row(12), ctype),
                 "e3_combo": _combo(e3, ctype),
                 "e5_combo": _combo(sorted(d8.extra["e5"].items()), ctype)})
@@ -122,7 +129,7 @@ def _dopri5_dense(ctype: str) -> tuple[list[dict], str]:
 
 def _dop853_dense(ctype: str) -> tuple[list[dict], list[dict]]:
     d8 = tb.load("dop853")
-    extra = [{"index": i, "combo": _combo(d8.row(i), ctype)} for i in range(13, 16)]
+    extra = _stages(d8, range(13, 16), ctype)
     d = d8.extra["d"]
     rows = []
     for r in range(4):
@@ -266,7 +273,10 @@ LIBRARY_SOURCE = "codegen/backends/c/library"
 
 
 def _combo_macros(prefix: str, stages: list[dict], tag: str) -> list[tuple[str, str]]:
-    return [(f"DERIVE_{prefix}_A{row['index']}{tag}(K, k)", f"({row['combo']})") for row in stages]
+    """Each stage's combination DERIVE_<M>_A<i>, then its node DERIVE_<M>_C<i>."""
+    return [macro for row in stages for macro in
+            ((f"DERIVE_{prefix}_A{row['index']}{tag}(K, k)", f"({row['combo']})"),
+             (f"DERIVE_{prefix}_C{row['index']}{tag}", row["c"]))]
 
 
 def _tableau_macros(v: dict) -> list[tuple[str, str]]:
@@ -344,10 +354,17 @@ def _public_functions() -> tuple:
     )
 
 
-def _public(P: str, v: dict) -> list[dict]:
-    """The public functions of one C type: each calls the library's derive_<name>_<tag>."""
+# the building blocks that evaluate the rhs: a time-dependent model's take the step's start time
+_EVALUATING = ("rk4_step", "dopri5_step", "dop853_step", "dop853_dense_prepare", "midpoint_step", "gauss2_step")
+
+
+def _public(P: str, v: dict, timed: bool = False) -> list[dict]:
+    """The public functions of one C type: each calls the library's derive_<name>_<tag>;
+    for a time-dependent model (timed) the building blocks that evaluate take t first."""
     out = []
     for ret, name, params, args in _public_functions():
+        if timed and name in _EVALUATING:
+            params, args = "{R} t, " + params, "t, " + args
         call = f"derive_{name}{TABLEAU_TAGS[v['ctype']]}({args});"
         out.append({"head": f"{ret} {P}_{name}{v['s']}({params.format(R=v['ctype'], P=P)})",
                     "body": call if ret == "void" else f"return {call}"})
@@ -360,13 +377,30 @@ def _library_names(M: str) -> list[tuple[str, str]]:
             + [(f"{M}_INTEGRATE_{s.macro}", f"DERIVE_{s.macro}") for s in contract.STATUS_TABLE])
 
 
+def _takes_time(name: str, kernel: str) -> bool:
+    """Whether the model's generated `kernel` takes the time t first (its expressions use t)."""
+    from .sources import kernels         # here: sources imports the backends, which import this
+    spec = kernels(name)[0]
+    return any(i.vector.key == "time" for k in spec.kernels if k.name == kernel for i in k.inputs)
+
+
 def render_c(name: str) -> dict[str, str]:
+    """c/<model>_integrate.{h,c} and the shared library files.  A time-dependent model's
+    (t in its forces, dissipation or pivot) defines DERIVE_TIMED: the library then passes
+    every stage's own time to the rhs (derive_integrators.h)."""
     info = model_info(name)
-    ctx = {"P": name, "M": name.upper(), "title": info.title, "has_ham": info.has_ham,
+    rhs_t, jac_t = (_takes_time(name, k) for k in ("rhs", "jacobian"))
+    timed = rhs_t or jac_t        # a model whose motion has t (not only, say, its energy)
+    if timed and info.has_ham:
+        # a rheonomic H(q, p, t) would need its own canonical map at every stage's time
+        raise SpecError(f"{name}: a Hamiltonian form with explicit time is not supported by the "
+                              f"implicit methods (they run on H(q, p) without t)")
+    ctx = {"P": name, "M": name.upper(), "title": info.title, "has_ham": info.has_ham, "timed": timed,
+           "rhs_t": rhs_t, "jac_t": jac_t,
            "has_guards": info.nguards > 0, "nguards": info.nguards, "sine_min": SINE_MIN,
            "has_inputs": info.n_inputs > 0,
            "theta_max": NEWTON_THETA_MAX, "theta_diverge": NEWTON_THETA_DIVERGE, "sources": SOURCES,
-           "variants": [dict(v, tag=TABLEAU_TAGS[v["ctype"]], public=_public(name, v)) for v in c_variants()],
+           "variants": [dict(v, tag=TABLEAU_TAGS[v["ctype"]], public=_public(name, v, timed)) for v in c_variants()],
            "library_names": _library_names(name.upper()),
            "contract": contract_c(name.upper(), f"{name.upper()}_INTEGRATE", f"{name.upper()}_N_STATES",
                                   f"{name.upper()}_INTEGRATE_SINE_MIN")}
@@ -431,19 +465,25 @@ def _py_row(terms) -> list[tuple[int, str]]:
     return [(j, tb.py_literal(v)) for j, v in terms if v != 0]
 
 
+def _py_nodes(t: tb.Tableau) -> str:
+    """Every stage's node c_i (its time t + c_i h: a time-dependent model's rhs reads it)."""
+    return repr([tb.py_literal(x) for x in t.c])
+
+
 @lru_cache(maxsize=None)
 def numpy_tableaus() -> tuple[list[dict], list[dict]]:
     explicit = []
     rk4 = tb.load("rk4")
     explicit.append({"name": "rk4", "rows": repr([_py_row(rk4.row(i)) for i in range(1, 4)]),
-                     "b": repr(_py_row(enumerate(rk4.b))), "extra": []})
+                     "b": repr(_py_row(enumerate(rk4.b))), "extra": [("c", _py_nodes(rk4))]})
     d5 = tb.load("dopri5")
     p = d5.extra["p"]
     poly = [(k, [tb.py_literal(p.get((k, j), mpmath.mpf(0))) for j in range(4)])
             for k in range(7) if any(p.get((k, j), 0) != 0 for j in range(4))]
     explicit.append({"name": "dopri5", "rows": repr([_py_row(d5.row(i)) for i in range(1, 6)]),
                      "b": repr(_py_row(d5.row(6))),
-                     "extra": [("e", repr(_py_row(sorted(d5.extra["e"].items())))), ("p", repr(poly))]})
+                     "extra": [("e", repr(_py_row(sorted(d5.extra["e"].items())))), ("p", repr(poly)),
+                               ("c", _py_nodes(d5))]})
     d8 = tb.load("dop853")
     b = dict(d8.row(12))
     with mpmath.workdps(tb.DIGITS):
@@ -455,7 +495,8 @@ def numpy_tableaus() -> tuple[list[dict], list[dict]]:
                                ("e5", repr(_py_row(sorted(d8.extra["e5"].items())))),
                                ("extra", repr([(i, _py_row(d8.row(i))) for i in range(13, 16)])),
                                ("d", repr([_py_row(sorted((j, v) for (i, j), v in d.items() if i == r))
-                                           for r in range(4)]))]})
+                                           for r in range(4)])),
+                               ("c", _py_nodes(d8))]})
     gauss = []
     for name in IMPLICIT:
         t = tb.load(name)

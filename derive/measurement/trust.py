@@ -186,8 +186,8 @@ def _check_trust_arguments(result, target) -> None:
                          f"got {target!r}")
     if find_atlas(result.model) is None and load_model(result.model).is_time_dependent:
         raise InputError(f"trust_horizon: {result.model}: explicit time in the model: the Lyapunov estimate "
-                         f"integrates the variational equations with the generated integrators, which do not "
-                         f"pass t; use error_estimate='rerun' in derive.simulate for the run's error instead")
+                         f"steps the variational equations with the generated Jacobian, which it evaluates "
+                         f"without t; use error_estimate='rerun' in derive.simulate for the run's error instead")
 
 
 def trust_horizon_of(result, target: float = 1e-8) -> float | None:

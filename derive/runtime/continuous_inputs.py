@@ -15,9 +15,10 @@ commits that added this module have the figures).  The implicit methods and abm1
 hold="zoh".
 
 A time-dependent model (t in its forces, dissipation or pivot: issue 23 item 3) runs
-here too, inputs or not: the generated integrators are written for autonomous models,
-and this loop passes each stage's time to the kernels that take it.  A run's r.sol and
-its events are on its own steps (stage_solution.py).
+here with inputs u(t, y); this loop passes each stage's time to the kernels that take it.
+Otherwise it runs in the generated integrators (C or NumPy), which pass each stage's t
+themselves.  A run's r.sol and its events are on
+its own steps (stage_solution.py).
 """
 from __future__ import annotations
 

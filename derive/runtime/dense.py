@@ -1,9 +1,12 @@
 """`r.sol(t)`: the continuous solution of an adaptive run (dopri5, dop853), at any t in its span.
 
-The models are autonomous: the right-hand side depends on the state, the parameters and
+For an autonomous model the right-hand side depends on the state, the parameters and
 the inputs, never on t, and inputs are held constant over each output interval.  So the
 solution at t between the output rows t_k <= t < t_k+1 is the solution from y_k over the
-offset t - t_k, and every interval can start at time 0 (a time shift).  sol(t) integrates
+offset t - t_k, and every interval can start at time 0 (a time shift).  A time-dependent
+model's (t in its forces, dissipation or pivot) has no such shift: each interval starts
+at its own t_k (one batch call per output row, the integrator passing each stage's t).
+sol(t) integrates
 from the last output row at or before t with the run's own method, tolerances, options
 and inputs; the runner's batch call (the C batch entry point, or the NumPy batch function)
 integrates all the intervals a query needs at once, one trajectory per interval.
@@ -33,6 +36,8 @@ from ..errors import SimulationInputError
 from .build import dtype_key
 from ..codegen.contract import ADAPTIVE
 from .runner import runner_for
+from ..model import load_model
+from ..model.atlas import find_atlas
 
 MAX_ELEMENTS = 2 ** 23           # numbers of one batch call's output (64 MiB in double)
 
@@ -127,6 +132,8 @@ class DenseOutput:
         """From each row y_rows[i] at time 0 to `end` (one size class: every interval the same
         end), the states at offsets[i]; and the accepted steps of each trajectory.  Several
         queries of one row share its trajectory; the batch is cut so its output fits in memory."""
+        if self.timed:
+            return self._integrate_timed(rows, offsets, end)
         out = np.empty((len(rows), self.y.shape[1]), self.dtype)
         steps = np.zeros(len(rows), int)
         unique_rows, which = np.unique(rows, return_inverse=True)
@@ -144,13 +151,50 @@ class DenseOutput:
             steps[mine] = accepted[i]
         return out, steps
 
+    def _integrate_timed(self, rows: np.ndarray, offsets: np.ndarray, end: float) -> tuple[np.ndarray, np.ndarray]:
+        """`integrate` for a time-dependent model: each row's own run from its time t_k to
+        t_k + end through its own query times (the same end for every query of the row, so
+        sol is still one deterministic run per interval)."""
+        out = np.empty((len(rows), self.y.shape[1]), self.dtype)
+        steps = np.zeros(len(rows), int)
+        t_rows = np.asarray(self.t, self.dtype)
+        d = self.direction
+        for row in np.unique(rows):
+            mine = rows == row
+            start = t_rows[row]
+            at = (start + offsets[mine]).astype(self.dtype)
+            times = np.unique(np.concatenate([[start, start + self.dtype.type(end)], at]).astype(self.dtype) * d) * d
+            y, accepted = self._call(self._row_y0(row), self._row_p(row), times)
+            out[mine] = y[0, np.searchsorted(times * d, at * d)]
+            steps[mine] = accepted[0]
+        return out, steps
+
+    def _row_y0(self, row: int) -> np.ndarray:
+        return np.ascontiguousarray(np.asarray(self.y, self.dtype)[row:row + 1])
+
+    def _row_p(self, row: int) -> np.ndarray:
+        p = np.asarray(self.params, self.dtype)[None, :]
+        if self.inputs is not None:
+            p = np.concatenate([p, np.asarray(self.inputs, self.dtype)[row:row + 1]], axis=1)
+        return np.ascontiguousarray(p)
+
+    @property
+    def timed(self) -> bool:
+        """Whether the model has explicit time (no time shift: each row starts at its t)."""
+        if "_timed" not in self.__dict__:
+            self.__dict__["_timed"] = find_atlas(self.model) is None and load_model(self.model).is_time_dependent
+        return self.__dict__["_timed"]
+
     def _batch(self, rows: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """One batch call: trajectory b from y_rows[b] at times[0] = 0 through `times`."""
         y0 = np.ascontiguousarray(np.asarray(self.y, self.dtype)[rows])
         p = np.broadcast_to(np.asarray(self.params, self.dtype), (len(rows), len(self.params)))
         if self.inputs is not None:
             p = np.concatenate([p, np.asarray(self.inputs, self.dtype)[rows]], axis=1)
-        p = np.ascontiguousarray(p)
+        return self._call(np.ascontiguousarray(y0), np.ascontiguousarray(p), times)
+
+    def _call(self, y0: np.ndarray, p: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The runner's batch call: trajectory b from y0[b] at times[0] through `times`."""
         r = runner_for(self.model, self.method, dtype_key(self.dtype), self.backend)
         if self.backend == "c":
             y, infos, _ = r.batch(y0, p, times, r.options(self.options))

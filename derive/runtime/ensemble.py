@@ -20,9 +20,8 @@ lane with its own step, time and outputs, and each trajectory bit for bit what
 the scalar integrator).
 
 The other methods run one trajectory after another within a block (no SIMD lanes).
-A time-dependent model (t in its forces, dissipation or pivot) runs each trajectory
-through simulate's per-stage path (rk4, rk8, dopri5, dop853 in float64), one after
-another.
+A time-dependent model (t in its forces, dissipation or pivot) runs the same way: its
+generated integrators pass each stage's own time to the rhs.
 The chart atlas ("spherical") and inputs given as a function u(t, y) are refused here: they
 run through `simulate`.
 """
@@ -36,10 +35,9 @@ import numpy as np
 from ..errors import SimulationInputError
 from .build import dtype_key
 from .model_sizes import model_info
-from ..codegen.contract import COUNTERS, DEFAULT_METHOD, RUN_METHODS, STATUS_NAMES, TAYLOR, TOLERANCE_METHODS
-from . import continuous_inputs
-from .simulate import (_atlas, _check_size, _check_timed, _dtype, _finite_array, check_parameter_values,
-                       model_ref, normalise_t, resolve_model, run_options)
+from ..codegen.contract import COUNTERS, DEFAULT_METHOD, RUN_METHODS, STATUS_NAMES, TOLERANCE_METHODS
+from .simulate import (_atlas, _check_size, _dtype, _finite_array, check_parameter_values,
+                       normalise_t, resolve_model, run_options)
 from ..model import load_model
 from .runner import runner_for
 from . import constraints
@@ -245,8 +243,6 @@ def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | N
         threads = os.cpu_count() or 1
     if not isinstance(threads, (int, np.integer)) or threads < 1:
         raise SimulationInputError(f"threads = {threads!r} must be a positive integer")
-    if description.is_time_dependent and method != TAYLOR:     # Taylor's jet has t: the C batch
-        return _timed_ensemble(model, method, ys, p, ts, opt, dt)
     y, infos, used = _run_blocks(model, method, ys.astype(dt), p.astype(dt), ts.astype(dt), opt, int(threads))
     status = np.array([i.status for i in infos], np.intc)
     counters = {k: np.array([getattr(i, k) for i in infos], np.int64) for k in COUNTERS}
@@ -256,26 +252,6 @@ def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | N
                           rtol=opt["rtol"] if method in TOLERANCE_METHODS else None,
                           step=None if method in TOLERANCE_METHODS else opt["h"],
                           constraint_drift=drift, **counters)
-
-
-def _timed_ensemble(model: str, method: str, ys: np.ndarray, p: np.ndarray, ts: np.ndarray, opt: dict,
-                    dt) -> EnsembleResult:
-    """A time-dependent model's ensemble: each trajectory by simulate's per-stage path
-    (continuous_inputs.run_continuous, t passed at every stage), one after another: its
-    loop is Python, which threads would not run side by side (the GIL)."""
-    ref = model_ref(model)
-    _check_timed(ref, method, dt, None)
-    n_params = len(ref.info.param_names)
-    runs = [continuous_inputs.run_continuous(model, method, y0, ts, row[:n_params], opt, "c",
-                                             row[n_params:] if len(row) > n_params else None)
-            for y0, row in zip(np.asarray(ys, np.float64), np.asarray(p, np.float64))]
-    counters = {k: np.array([getattr(r, k) for r in runs], np.int64) for k in COUNTERS}
-    return EnsembleResult(model=model, method=method, dtype="float64", t=np.asarray(ts, np.float64),
-                          y=np.array([r.y for r in runs]).reshape(len(runs), len(ts), ref.info.n),
-                          status=np.array([r.status for r in runs], np.intc),
-                          t_stop=np.array([r.t_stop for r in runs], float), threads=1,
-                          rtol=opt["rtol"] if method in TOLERANCE_METHODS else None,
-                          step=None if method in TOLERANCE_METHODS else opt["h"], **counters)
 
 
 def _run_blocks(model: str, method: str, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt: dict,

@@ -266,7 +266,7 @@ class Runner:
         -------
         compiled_call.Call or None
         """
-        if self.backend != "c" or self.single_chart or self.atlas is not None or self.n_inputs or self.timed or \
+        if self.backend != "c" or self.single_chart or self.atlas is not None or self.n_inputs or \
                 self.dtype not in compiled_call.REALS or not compiled_call.available():
             return None
         fn, index, Info = self.entry_point(s.opt["rtol"])
@@ -295,7 +295,7 @@ class Runner:
             t=t, y=y, status=status, status_name=STATUS_NAMES[status], t_stop=float(inf["t"]),
             y_stop=stop_state(inf["y"], dt), params=pm,
             chart=np.array([self.model] * nt, dtype=object) if self.single_chart else None,
-            observe=partial(_observe, self.model, y, pm, dt, "numpy"),
+            observe=partial(_observe, self.model, y, pm, dt, "numpy", t),
             last_step=h_end if h_end and not self.tolerance else None,
             error_estimate=float(inf["local_error"]) if self.local_error else None,
             **{k: int(inf[k]) for k in COUNTERS})
@@ -312,8 +312,8 @@ class _MethodBound:
 
 
 def _observe(model: str, y: np.ndarray, p: np.ndarray, dt: np.dtype, backend: str, t=None) -> tuple:
-    """A run's energy, positions and velocities (on first access of one: result.py); t:
-    the rows' times, for a time-dependent model's kernels that take it (a Taylor run's)."""
+    """A run's energy, positions and velocities (on first access of one: result.py); t, the
+    output times, for a time-dependent model's kernels (a moving pivot's positions)."""
     return (*_observables(model, y, p, backend, dt, t), _velocities(model, y, p, backend, dt, t))
 
 

@@ -150,9 +150,9 @@ def resolve_model(model, atlas: bool = False, explicit_time: bool = False, stage
         raise SimulationInputError(f"atlas=True: {exc}") from None
 
 
-# what runs a time-dependent model: the refusals of the stages that do not say so
-TIMED_RUNS = (f"derive.simulate with {', '.join(continuous_inputs.CONTINUOUS_METHODS)} (each stage at "
-              f"its own time t) or derive.scipy_rhs with solve_ivp")
+# what runs a time-dependent model: the refusals of the stages that do not pass t say so
+TIMED_RUNS = ("derive.simulate or derive.ensemble of the single-chart model (every method but taylor, "
+              "each stage at its own time t) or derive.scipy_rhs with solve_ivp")
 
 
 def refuse_explicit_time(model: Model, stage: str = "this stage") -> None:
@@ -164,20 +164,17 @@ def refuse_explicit_time(model: Model, stage: str = "this stage") -> None:
             f"{stage} does not pass t to its kernels; use {TIMED_RUNS}")
 
 
-def _check_timed(ref, method: str, dt: np.dtype, hold) -> None:
-    """What a run of a time-dependent model takes: an explicit method stepped in Python with
-    each stage at its own t (the generated integrators are for autonomous models), float64."""
-    why = f"{ref.name}: explicit time in the model (t in its forces, dissipation or pivot)"
+def _check_timed(ref, method: str, dt: np.dtype) -> None:
+    """What a time-dependent model's run with inputs u(t, y) at every stage takes (it steps
+    in Python): an explicit one-step method, each stage at its own t, in float64.  The
+    generated integrators run every method, with hold='zoh'."""
+    why = (f"{ref.name}: explicit time in the model (t in its forces, dissipation or pivot) with inputs "
+           f"u(t, y) at every stage, stepped in Python")
     if method not in continuous_inputs.CONTINUOUS_METHODS:
-        raise SimulationInputError(f"{why}: method {method} does not pass t to the kernels; use "
-                                   f"{', '.join(continuous_inputs.CONTINUOUS_METHODS)} (each stage at its "
-                                   f"own time) or derive.scipy_rhs with solve_ivp")
+        raise SimulationInputError(f"{why}: method {method} is not one of "
+                                   f"{', '.join(continuous_inputs.CONTINUOUS_METHODS)}; hold='zoh' runs it")
     if np.dtype(dt) != np.float64:
-        raise SimulationInputError(f"{why}: its runs step in float64 (the stages in Python over the kernels), "
-                                   f"not {np.dtype(dt).name}; give dtype='float64'")
-    if hold is not None:
-        raise SimulationInputError(f"{why}: hold={hold!r} is not available (the held inputs run the generated "
-                                   f"integrators, which do not pass t); give inputs u(t, y) at every stage")
+        raise SimulationInputError(f"{why}: it runs in float64, not {np.dtype(dt).name}; hold='zoh' runs it")
 
 
 @dataclass(frozen=True, eq=False)
@@ -479,9 +476,10 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
         held constant over the run; or a function u(t, y) returning one, evaluated at every
         stage of the integrator (rk4, rk8, dopri5 or dop853, stepped in Python over the
         compiled rhs: derive/runtime/continuous_inputs.py), so the error follows the method's
-        order.  A time-dependent model (t in its forces, dissipation or pivot) runs the same
-        way, each stage at its own t, with those four methods in float64 (events and r.sol
-        on its steps: derive/runtime/stage_solution.py); other methods refuse it in one line.
+        order.  A time-dependent model (t in its forces, dissipation or pivot) runs in the
+        generated C or NumPy like any model (every method but taylor, each stage at its own
+        t); with inputs u(t, y) at every stage it steps in Python with those four methods in
+        float64 (events and r.sol on its steps: derive/runtime/stage_solution.py).
     hold : {None, "zoh"}
         "zoh": a callable `inputs` is sampled at each output time instead (with the state
         there) and held until the next (a zero-order hold: a digital controller), any method.
@@ -631,11 +629,12 @@ def _simulate(model, y0, t, params, method, rtol, atol, step, dtype, backend, ma
         result = continuous_inputs.run_continuous(model, method, state, ts, p, opt, backend, _stage_inputs(ref, u),
                                                   project=lambda y: constraints.project(model, y, p))
         return constraints.report_drift(result, model, p)
-    # Taylor's jet has t in it: a time-dependent model runs the generated C like any other
-    timed = ref.description.is_time_dependent and method != TAYLOR
-    if timed or (isinstance(u, HeldInputs) and hold is None):
+    timed = ref.description.is_time_dependent
+    # stepped in Python: inputs u(t, y) at every stage (the generated integrators, C and
+    # NumPy, pass each stage's t to a time-dependent model themselves)
+    if isinstance(u, HeldInputs) and hold is None:
         if timed:
-            _check_timed(ref, method, dt, hold)
+            _check_timed(ref, method, dt)
         elif ref.atlas is not None:
             raise SimulationInputError("inputs u(t, y) at every stage: not on the chart atlas "
                                        "(give hold='zoh' for it)")
@@ -813,7 +812,8 @@ def run_plan(model: str, method: str, dtype) -> RunPlan:
             not isinstance(method, str) or method not in RUN_METHODS:
         raise NotPlanned(model)
     try:
-        return RunPlan(resolve_model(model), method, _dtype(dtype), MAX_OUTPUT_BYTES, MAX_FIXED_STEPS)
+        return RunPlan(resolve_model(model, explicit_time=True), method, _dtype(dtype), MAX_OUTPUT_BYTES,
+                       MAX_FIXED_STEPS)      # a time-dependent model too: its integrators pass t
     except NotPlanned:
         raise
     except Exception as exc:       # a bad name or dtype, a failed build: the general path says it

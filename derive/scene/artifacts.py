@@ -20,8 +20,6 @@ from ..derivation.derivation import is_cached
 from ..paths import cache_dir
 from ..runtime.loader import load
 from ..runtime.runner import library_path
-from ..model import load_model
-from ..model.atlas import find_atlas
 
 
 @dataclass
@@ -55,9 +53,7 @@ def _generated(name: str) -> Step:
 def _library(name: str) -> Step:
     start = time.perf_counter()
     before = set((cache_dir() / "c-build").glob("*/*.so"))
-    # a time-dependent model has no integrators (they do not pass t): its kernels only
-    timed = find_atlas(name) is None and load_model(name).is_time_dependent
-    libraries = [] if timed else [library_path(name)]
+    libraries = [library_path(name)]     # a time-dependent model's too: they pass each stage's t
     for model in sources.members(name):
         libraries.append(load(model).path)
     # Only this model's libraries count: another process may build others meanwhile.

@@ -43,7 +43,6 @@ from ..codegen.contract import DEFAULT_METHOD, TAYLOR, TOLERANCE_METHODS
 from ..model import load_model, model_names
 from ..model.atlas import ATLAS
 from ..model.expressions import parse_expression
-from ..scene.stepped import is_stepped
 from ..scene.scene import SCENE_KEYS, Scene, scene_from_table, scene_path
 from ..codegen.taylor import taylor_problem
 from ..model.description import parameter_problem
@@ -226,6 +225,28 @@ def _targets(description) -> dict[str, tuple[str, int]]:
     names.update({n: ("parameter", i) for i, n in enumerate(description.parameters)})
     names.update({n: ("input", len(description.parameters) + i) for i, n in enumerate(description.inputs)})
     return names
+
+
+# what a time-dependent model's sweep cannot record: its energy is not conserved (the
+# drive does work), and the Lyapunov estimate runs Taylor's jet, which carries no t
+TIMED_UNRECORDED = {"energy_error": "its energy is not conserved (the drive does work)",
+                    "lyapunov_exponent": "the estimate runs Taylor's method, which does not pass t"}
+
+
+def _check_timed_record(record, events, description, source: str) -> None:
+    """One line for a record a time-dependent model's sweep cannot make."""
+    if not description.is_time_dependent:
+        return
+    if events:
+        # level_crossings refines a crossing by a run from the sample before it started at
+        # time 0: a time shift, which a model with explicit time does not have
+        raise SceneError(f"{source}: 'events': a sweep of '{description.name}' (explicit time in the model) "
+                         f"locates no events yet (their refinement restarts each sample at t = 0); record "
+                         f"the states, or run derive.simulate with events=")
+    for name, why in TIMED_UNRECORDED.items():
+        if name in record:
+            raise SceneError(f"{source}: 'record': {name} of '{description.name}' (explicit time in the model): "
+                             f"{why}")
 
 
 def _parse_axes(table, description, source: str) -> tuple[Axis, ...]:
@@ -422,10 +443,12 @@ def parse_sweep(text: str, source: str = "<sweep>", run_as: str | None = None) -
         raise SceneError(f"{source}: 'pendulum.model': a sweep runs one chart model (e.g. spherical_std), "
                          f"not the chart atlas '{ATLAS}'")
     _accuracy(t, scene, source)
-    if is_stepped(scene):
-        raise SceneError(f"{source}: 'pendulum': explicit time in the model or inputs in t: a sweep runs the "
-                         f"generated batch integrators, which do not pass t; run each case as a scene "
-                         f"(`derive run`) or with derive.simulate (rk4, rk8, dopri5, dop853)")
+    if any(isinstance(v, str) for v in (scene.inputs or {}).values()):
+        # a model with explicit time runs (the batch integrators pass each stage's t); inputs
+        # given as expressions of t would need u(t, y) at every stage, which only Python steps
+        raise SceneError(f"{source}: 'pendulum': inputs in t: a sweep runs the generated batch integrators, "
+                         f"which hold the inputs constant; run each case as a scene (`derive run`) or "
+                         f"with derive.simulate (inputs u(t, y))")
     description = load_model(scene.model)
     free = _loop_free(scene, description, source)
     if taylor:
@@ -434,6 +457,7 @@ def parse_sweep(text: str, source: str = "<sweep>", run_as: str | None = None) -
     _check_loop_axes(axes, free, description, source)
     events = _parse_events(t.get("events"), description, source)
     record = _parse_record(t.get("record"), description, events, source)
+    _check_timed_record(record, events, description, source)
     if scene.method not in TOLERANCE_METHODS and any(e.accuracy is not None for e in events):
         raise SceneError(f"{source}: 'events': an event's accuracy is verified by tightening the "
                          f"tolerance: it needs a method with one (dopri5, dop853, taylor), not {scene.method}")

@@ -20,6 +20,13 @@
  *   DERIVE_MAX_STAGES          the rows of the stage array K
  *   DERIVE_METHOD_RK4 .. DERIVE_METHOD_GAUSS2   the method codes (RK4, RK8, ABM12, DOPRI5,
  *                              DOP853, MIDPOINT, GAUSS2)
+ *   DERIVE_TIMED               (only for a time-dependent model: t in its forces,
+ *                              dissipation or pivot) every evaluation takes the time first,
+ *                              DERIVE_EVAL(t, y, p, f, opt, info) and the SYS_ ones alike,
+ *                              each stage at its own time t + c_i h; the step functions
+ *                              below then take the step's start time t before y.  Without
+ *                              it the time is never formed: an autonomous model's code is
+ *                              what it was before the time existed (DERIVE_WITH_T).
  *   DERIVE_OK, DERIVE_STEP_UNDERFLOW, DERIVE_MAX_STEPS, DERIVE_NEWTON, DERIVE_NONFINITE,
  *   DERIVE_CHART_SINGULAR, DERIVE_BAD_INPUT, DERIVE_CANCELLED, DERIVE_MULTISTEP_UNSTABLE
  *                              the status codes
@@ -54,13 +61,23 @@
 
 #ifndef DERIVE_INTEGRATORS_SHARED
 #define DERIVE_INTEGRATORS_SHARED
-/* One explicit stage: ys = y + h * (combination of the stages before), K[i] = f(ys)
- * (in a step function: its y, h, p, K, ys, k, st, opt and info). */
-#define DERIVE_STAGE(combo, i)                                  \
+/* DERIVE_WITH_T(x): "x," in a time-dependent model's code, nothing in an autonomous
+ * one's: the time as an argument or a parameter, so one text serves both kinds of model
+ * (derive_driver.h defines it the same way). */
+#ifndef DERIVE_WITH_T
+#ifdef DERIVE_TIMED
+#define DERIVE_WITH_T(x) x,
+#else
+#define DERIVE_WITH_T(x)
+#endif
+#endif
+/* One explicit stage: ys = y + h * (combination of the stages before), K[i] = f(t + c h, ys)
+ * (in a step function: its t, y, h, p, K, ys, k, st, opt and info). */
+#define DERIVE_STAGE(combo, c, i)                               \
     for (k = 0; k < DERIVE_N; ++k) {                            \
         ys[k] = y[k] + h * (DERIVE_T(combo)(K, k));             \
     }                                                           \
-    st = DERIVE_EVAL(ys, p, K[i], opt, info);                   \
+    st = DERIVE_EVAL(DERIVE_WITH_T(t + DERIVE_T(c) * h) ys, p, K[i], opt, info); \
     if (st) {                                                   \
         return st;                                              \
     }
@@ -69,14 +86,14 @@
 #endif
 
 /* Classical RK4 (seed 001). */
-static inline int DERIVE_T(derive_rk4_step)(const DERIVE_REAL *restrict y, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL (*restrict K)[DERIVE_N], DERIVE_REAL *restrict y_new, DERIVE_REAL *restrict err, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
+static inline int DERIVE_T(derive_rk4_step)(DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *restrict y, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL (*restrict K)[DERIVE_N], DERIVE_REAL *restrict y_new, DERIVE_REAL *restrict err, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
 {
     DERIVE_REAL ys[DERIVE_N];
     int st, k;
     (void)opt;
-    DERIVE_STAGE(DERIVE_RK4_A1, 1)
-    DERIVE_STAGE(DERIVE_RK4_A2, 2)
-    DERIVE_STAGE(DERIVE_RK4_A3, 3)
+    DERIVE_STAGE(DERIVE_RK4_A1, DERIVE_RK4_C1, 1)
+    DERIVE_STAGE(DERIVE_RK4_A2, DERIVE_RK4_C2, 2)
+    DERIVE_STAGE(DERIVE_RK4_A3, DERIVE_RK4_C3, 3)
     for (k = 0; k < DERIVE_N; ++k) {
         y_new[k] = y[k] + h * (DERIVE_T(DERIVE_RK4_B)(K, k));
     }
@@ -85,20 +102,20 @@ static inline int DERIVE_T(derive_rk4_step)(const DERIVE_REAL *restrict y, DERIV
 }
 
 /* Dormand-Prince 5(4): stages 1-5, y_new, FSAL stage 6, error. */
-static inline int DERIVE_T(derive_dopri5_step)(const DERIVE_REAL *restrict y, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL (*restrict K)[DERIVE_N], DERIVE_REAL *restrict y_new, DERIVE_REAL *restrict err, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
+static inline int DERIVE_T(derive_dopri5_step)(DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *restrict y, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL (*restrict K)[DERIVE_N], DERIVE_REAL *restrict y_new, DERIVE_REAL *restrict err, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
 {
     DERIVE_REAL ys[DERIVE_N];
     DERIVE_REAL sum = 0, e;
     int st, k;
-    DERIVE_STAGE(DERIVE_DOPRI5_A1, 1)
-    DERIVE_STAGE(DERIVE_DOPRI5_A2, 2)
-    DERIVE_STAGE(DERIVE_DOPRI5_A3, 3)
-    DERIVE_STAGE(DERIVE_DOPRI5_A4, 4)
-    DERIVE_STAGE(DERIVE_DOPRI5_A5, 5)
+    DERIVE_STAGE(DERIVE_DOPRI5_A1, DERIVE_DOPRI5_C1, 1)
+    DERIVE_STAGE(DERIVE_DOPRI5_A2, DERIVE_DOPRI5_C2, 2)
+    DERIVE_STAGE(DERIVE_DOPRI5_A3, DERIVE_DOPRI5_C3, 3)
+    DERIVE_STAGE(DERIVE_DOPRI5_A4, DERIVE_DOPRI5_C4, 4)
+    DERIVE_STAGE(DERIVE_DOPRI5_A5, DERIVE_DOPRI5_C5, 5)
     for (k = 0; k < DERIVE_N; ++k) {
         y_new[k] = y[k] + h * (DERIVE_T(DERIVE_DOPRI5_B)(K, k));
     }
-    st = DERIVE_EVAL(y_new, p, K[6], opt, info);
+    st = DERIVE_EVAL(DERIVE_WITH_T(t + h) y_new, p, K[6], opt, info);
     if (st) {
         return st;
     }
@@ -111,22 +128,22 @@ static inline int DERIVE_T(derive_dopri5_step)(const DERIVE_REAL *restrict y, DE
 }
 
 /* Dormand-Prince 8(5,3): stages 1-11, y_new, error as in Hairer's DOP853. */
-static inline int DERIVE_T(derive_dop853_step)(const DERIVE_REAL *restrict y, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL (*restrict K)[DERIVE_N], DERIVE_REAL *restrict y_new, DERIVE_REAL *restrict err, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
+static inline int DERIVE_T(derive_dop853_step)(DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *restrict y, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL (*restrict K)[DERIVE_N], DERIVE_REAL *restrict y_new, DERIVE_REAL *restrict err, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
 {
     DERIVE_REAL ys[DERIVE_N];
     DERIVE_REAL e3 = 0, e5 = 0, sk, e, deno;
     int st, k;
-    DERIVE_STAGE(DERIVE_DOP853_A1, 1)
-    DERIVE_STAGE(DERIVE_DOP853_A2, 2)
-    DERIVE_STAGE(DERIVE_DOP853_A3, 3)
-    DERIVE_STAGE(DERIVE_DOP853_A4, 4)
-    DERIVE_STAGE(DERIVE_DOP853_A5, 5)
-    DERIVE_STAGE(DERIVE_DOP853_A6, 6)
-    DERIVE_STAGE(DERIVE_DOP853_A7, 7)
-    DERIVE_STAGE(DERIVE_DOP853_A8, 8)
-    DERIVE_STAGE(DERIVE_DOP853_A9, 9)
-    DERIVE_STAGE(DERIVE_DOP853_A10, 10)
-    DERIVE_STAGE(DERIVE_DOP853_A11, 11)
+    DERIVE_STAGE(DERIVE_DOP853_A1, DERIVE_DOP853_C1, 1)
+    DERIVE_STAGE(DERIVE_DOP853_A2, DERIVE_DOP853_C2, 2)
+    DERIVE_STAGE(DERIVE_DOP853_A3, DERIVE_DOP853_C3, 3)
+    DERIVE_STAGE(DERIVE_DOP853_A4, DERIVE_DOP853_C4, 4)
+    DERIVE_STAGE(DERIVE_DOP853_A5, DERIVE_DOP853_C5, 5)
+    DERIVE_STAGE(DERIVE_DOP853_A6, DERIVE_DOP853_C6, 6)
+    DERIVE_STAGE(DERIVE_DOP853_A7, DERIVE_DOP853_C7, 7)
+    DERIVE_STAGE(DERIVE_DOP853_A8, DERIVE_DOP853_C8, 8)
+    DERIVE_STAGE(DERIVE_DOP853_A9, DERIVE_DOP853_C9, 9)
+    DERIVE_STAGE(DERIVE_DOP853_A10, DERIVE_DOP853_C10, 10)
+    DERIVE_STAGE(DERIVE_DOP853_A11, DERIVE_DOP853_C11, 11)
     for (k = 0; k < DERIVE_N; ++k) {
         y_new[k] = y[k] + h * (DERIVE_T(DERIVE_DOP853_B)(K, k));
     }
@@ -158,13 +175,13 @@ static inline void DERIVE_T(derive_dopri5_dense)(const DERIVE_REAL *restrict y, 
 }
 
 /* DOP853 dense output: from K[0..12] of an accepted step, K[13..15] and F[0..6]. */
-static inline int DERIVE_T(derive_dop853_dense_prepare)(const DERIVE_REAL *restrict y, const DERIVE_REAL *restrict y_new, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL (*restrict K)[DERIVE_N], DERIVE_REAL (*restrict F)[DERIVE_N], const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
+static inline int DERIVE_T(derive_dop853_dense_prepare)(DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *restrict y, const DERIVE_REAL *restrict y_new, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL (*restrict K)[DERIVE_N], DERIVE_REAL (*restrict F)[DERIVE_N], const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
 {
     DERIVE_REAL ys[DERIVE_N];
     int st, k;
-    DERIVE_STAGE(DERIVE_DOP853_A13, 13)
-    DERIVE_STAGE(DERIVE_DOP853_A14, 14)
-    DERIVE_STAGE(DERIVE_DOP853_A15, 15)
+    DERIVE_STAGE(DERIVE_DOP853_A13, DERIVE_DOP853_C13, 13)
+    DERIVE_STAGE(DERIVE_DOP853_A14, DERIVE_DOP853_C14, 14)
+    DERIVE_STAGE(DERIVE_DOP853_A15, DERIVE_DOP853_C15, 15)
     for (k = 0; k < DERIVE_N; ++k) {
         F[0][k] = y_new[k] - y[k];
         F[1][k] = h * K[0][k] - F[0][k];
@@ -232,7 +249,7 @@ static int DERIVE_T(derive_gauss_factor)(int ns, const DERIVE_REAL *A, DERIVE_RE
 }
 
 /* The Jacobian at each stage value x + Z_j (ns evaluations, counted in njev). */
-static int DERIVE_T(derive_gauss_stage_jac)(int ns, const DERIVE_REAL *restrict x, DERIVE_REAL (*Z)[DERIVE_N], const DERIVE_REAL *restrict p, DERIVE_REAL *J, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
+static int DERIVE_T(derive_gauss_stage_jac)(int ns, DERIVE_WITH_T(const DERIVE_REAL *c) DERIVE_WITH_T(DERIVE_REAL t) DERIVE_WITH_T(DERIVE_REAL h) const DERIVE_REAL *restrict x, DERIVE_REAL (*Z)[DERIVE_N], const DERIVE_REAL *restrict p, DERIVE_REAL *J, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
 {
     DERIVE_REAL xs[DERIVE_N];
     int st, j, k;
@@ -240,7 +257,7 @@ static int DERIVE_T(derive_gauss_stage_jac)(int ns, const DERIVE_REAL *restrict 
         for (k = 0; k < DERIVE_N; ++k) {
             xs[k] = x[k] + Z[j][k];
         }
-        st = DERIVE_SYS_JAC(xs, p, J + j * DERIVE_N * DERIVE_N, opt, info);
+        st = DERIVE_SYS_JAC(DERIVE_WITH_T(t + c[j] * h) xs, p, J + j * DERIVE_N * DERIVE_N, opt, info);
         if (st) {
             return st;
         }
@@ -258,7 +275,7 @@ static int DERIVE_T(derive_gauss_stage_jac)(int ns, const DERIVE_REAL *restrict 
  * the last resort, when an increment grows again, grows by DERIVE_THETA_DIVERGE or more,
  * is not finite, or no convergence in opt->newton_max iterations: a step is never taken
  * from an unconverged iteration, nor from a far-off root the iteration wandered to. */
-static int DERIVE_T(derive_gauss)(int ns, const DERIVE_REAL *A, const DERIVE_REAL *c, const DERIVE_REAL *d, const DERIVE_REAL *restrict x, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL *restrict x_new, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
+static int DERIVE_T(derive_gauss)(int ns, const DERIVE_REAL *A, const DERIVE_REAL *c, const DERIVE_REAL *d, DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *restrict x, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL *restrict x_new, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
 {
     DERIVE_REAL J[2 * DERIVE_N * DERIVE_N], W[4 * DERIVE_N * DERIVE_N], G[2 * DERIVE_N], Z[2][DERIVE_N], Zold[2][DERIVE_N], Fv[2][DERIVE_N], xs[DERIVE_N];
     DERIVE_REAL nrm, prev = 0, theta, tmp;
@@ -268,14 +285,14 @@ static int DERIVE_T(derive_gauss)(int ns, const DERIVE_REAL *A, const DERIVE_REA
     int piv[2 * DERIVE_N];
     int st, i, j, k, it, conv = 0, bad, grown = 0;
 
-    st = DERIVE_SYS_JAC(x, p, J, opt, info);
+    st = DERIVE_SYS_JAC(DERIVE_WITH_T(t) x, p, J, opt, info);
     if (st) {
         return st;
     }
     for (k = DERIVE_N * DERIVE_N; k < ns * DERIVE_N * DERIVE_N; ++k) {
         J[k] = J[k - DERIVE_N * DERIVE_N];
     }
-    st = DERIVE_SYS_EVAL(x, p, Fv[0], opt, info);
+    st = DERIVE_SYS_EVAL(DERIVE_WITH_T(t) x, p, Fv[0], opt, info);
     if (st) {
         return st;
     }
@@ -294,7 +311,7 @@ static int DERIVE_T(derive_gauss)(int ns, const DERIVE_REAL *A, const DERIVE_REA
                 Zold[i][k] = Z[i][k];
                 xs[k] = x[k] + Z[i][k];
             }
-            st = DERIVE_SYS_EVAL(xs, p, Fv[i], opt, info);
+            st = DERIVE_SYS_EVAL(DERIVE_WITH_T(t + c[i] * h) xs, p, Fv[i], opt, info);
             if (st) {
                 return st;
             }
@@ -374,7 +391,7 @@ static int DERIVE_T(derive_gauss)(int ns, const DERIVE_REAL *A, const DERIVE_REA
                     }
                 }
             }
-            st = DERIVE_T(derive_gauss_stage_jac)(ns, x, Z, p, J, opt, info);
+            st = DERIVE_T(derive_gauss_stage_jac)(ns, DERIVE_WITH_T(c) DERIVE_WITH_T(t) DERIVE_WITH_T(h) x, Z, p, J, opt, info);
             if (st) {
                 return st;
             }
@@ -401,21 +418,21 @@ static int DERIVE_T(derive_gauss)(int ns, const DERIVE_REAL *A, const DERIVE_REA
 }
 
 /* The implicit midpoint rule (1-stage Gauss-Legendre, order 2). */
-static inline int DERIVE_T(derive_midpoint_step)(const DERIVE_REAL *restrict x, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL *restrict x_new, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
+static inline int DERIVE_T(derive_midpoint_step)(DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *restrict x, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL *restrict x_new, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
 {
     const DERIVE_REAL A[1] = DERIVE_T(DERIVE_MIDPOINT_A);
     const DERIVE_REAL c[1] = DERIVE_T(DERIVE_MIDPOINT_C);
     const DERIVE_REAL d[1] = DERIVE_T(DERIVE_MIDPOINT_D);
-    return DERIVE_T(derive_gauss)(1, A, c, d, x, h, p, x_new, opt, info);
+    return DERIVE_T(derive_gauss)(1, A, c, d, DERIVE_WITH_T(t) x, h, p, x_new, opt, info);
 }
 
 /* 2-stage Gauss-Legendre (order 4). */
-static inline int DERIVE_T(derive_gauss2_step)(const DERIVE_REAL *restrict x, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL *restrict x_new, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
+static inline int DERIVE_T(derive_gauss2_step)(DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *restrict x, DERIVE_REAL h, const DERIVE_REAL *restrict p, DERIVE_REAL *restrict x_new, const DERIVE_OPTIONS *opt, DERIVE_INFO *info)
 {
     const DERIVE_REAL A[4] = DERIVE_T(DERIVE_GAUSS2_A);
     const DERIVE_REAL c[2] = DERIVE_T(DERIVE_GAUSS2_C);
     const DERIVE_REAL d[2] = DERIVE_T(DERIVE_GAUSS2_D);
-    return DERIVE_T(derive_gauss)(2, A, c, d, x, h, p, x_new, opt, info);
+    return DERIVE_T(derive_gauss)(2, A, c, d, DERIVE_WITH_T(t) x, h, p, x_new, opt, info);
 }
 
 /* -- the driver's view of a model: one chart, seven methods -- */
@@ -429,17 +446,17 @@ typedef struct DERIVE_T(derive_ctx) {
     DERIVE_REAL hist[DERIVE_ABM12_STEPS][DERIVE_N];    /* abm12: f at the last grid points, newest first */
 } DERIVE_T(derive_ctx);
 
-static int DERIVE_T(derive_ctx_eval)(DERIVE_T(derive_ctx) *c, const DERIVE_REAL *z, DERIVE_REAL *f)
+static int DERIVE_T(derive_ctx_eval)(DERIVE_T(derive_ctx) *c, DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *z, DERIVE_REAL *f)
 {
-    return DERIVE_EVAL(z, c->p, f, c->opt, c->info);
+    return DERIVE_EVAL(DERIVE_WITH_T(t) z, c->p, f, c->opt, c->info);
 }
 
 /* rk8: the 8th-order formula of DOP853 at a fixed step (its error estimate unused). */
-static int DERIVE_T(derive_rk8_step)(DERIVE_T(derive_ctx) *c, const DERIVE_REAL *z, DERIVE_REAL h, DERIVE_REAL (*K)[DERIVE_N], DERIVE_REAL *zn)
+static int DERIVE_T(derive_rk8_step)(DERIVE_T(derive_ctx) *c, DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *z, DERIVE_REAL h, DERIVE_REAL (*K)[DERIVE_N], DERIVE_REAL *zn)
 {
     DERIVE_REAL unused;
-    const int st = DERIVE_EVAL(z, c->p, K[0], c->opt, c->info);
-    return st ? st : DERIVE_T(derive_dop853_step)(z, h, c->p, K, zn, &unused, c->opt, c->info);
+    const int st = DERIVE_EVAL(DERIVE_WITH_T(t) z, c->p, K[0], c->opt, c->info);
+    return st ? st : DERIVE_T(derive_dop853_step)(DERIVE_WITH_T(t) z, h, c->p, K, zn, &unused, c->opt, c->info);
 }
 
 /* abm12 on the grid: the 12-step Adams-Bashforth-Moulton pair in PECE mode (predict
@@ -449,7 +466,7 @@ static int DERIVE_T(derive_rk8_step)(DERIVE_T(derive_ctx) *c, const DERIVE_REAL 
  * predictor-corrector difference grows with them.  Milne's estimate of the local error,
  * DERIVE_ABM12_MILNE |y_c - y_p|_max (tableau.adams_milne), above atol + rtol |y|_max:
  * the step is not taken, MULTISTEP_UNSTABLE.  *err is that ratio. */
-static int DERIVE_T(derive_abm12_step)(DERIVE_T(derive_ctx) *c, const DERIVE_REAL *z, DERIVE_REAL h, DERIVE_REAL (*K)[DERIVE_N], DERIVE_REAL *zn, DERIVE_REAL *err)
+static int DERIVE_T(derive_abm12_step)(DERIVE_T(derive_ctx) *c, DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *z, DERIVE_REAL h, DERIVE_REAL (*K)[DERIVE_N], DERIVE_REAL *zn, DERIVE_REAL *err)
 {
     const DERIVE_REAL ab[DERIVE_ABM12_STEPS] = DERIVE_T(DERIVE_ABM12_AB);
     const DERIVE_REAL am[DERIVE_ABM12_STEPS] = DERIVE_T(DERIVE_ABM12_AM);
@@ -457,14 +474,14 @@ static int DERIVE_T(derive_abm12_step)(DERIVE_T(derive_ctx) *c, const DERIVE_REA
     int st, j, k;
     *err = 0;
     if (c->nhist == 0) {
-        st = DERIVE_EVAL(z, c->p, c->hist[0], c->opt, c->info);
+        st = DERIVE_EVAL(DERIVE_WITH_T(t) z, c->p, c->hist[0], c->opt, c->info);
         if (st) {
             return st;
         }
         c->nhist = 1;
     }
     if (c->nhist < DERIVE_ABM12_STEPS) {
-        st = DERIVE_T(derive_rk8_step)(c, z, h, K, zn);
+        st = DERIVE_T(derive_rk8_step)(c, DERIVE_WITH_T(t) z, h, K, zn);
     } else {
         for (k = 0; k < DERIVE_N; ++k) {
             sum = 0;
@@ -473,7 +490,7 @@ static int DERIVE_T(derive_abm12_step)(DERIVE_T(derive_ctx) *c, const DERIVE_REA
             }
             yp[k] = z[k] + h * sum;
         }
-        st = DERIVE_EVAL(yp, c->p, fp, c->opt, c->info);
+        st = DERIVE_EVAL(DERIVE_WITH_T(t + h) yp, c->p, fp, c->opt, c->info);
         if (st) {
             return st;
         }
@@ -504,53 +521,53 @@ static int DERIVE_T(derive_abm12_step)(DERIVE_T(derive_ctx) *c, const DERIVE_REA
             c->hist[j][k] = c->hist[j - 1][k];
         }
     }
-    st = DERIVE_EVAL(zn, c->p, c->hist[0], c->opt, c->info);
+    st = DERIVE_EVAL(DERIVE_WITH_T(t + h) zn, c->p, c->hist[0], c->opt, c->info);
     if (c->nhist < DERIVE_ABM12_STEPS) {
         c->nhist += 1;
     }
     return st;
 }
 
-static int DERIVE_T(derive_ctx_step)(DERIVE_T(derive_ctx) *c, const DERIVE_REAL *z, DERIVE_REAL h, DERIVE_REAL (*K)[DERIVE_N], DERIVE_REAL *zn, DERIVE_REAL *err)
+static int DERIVE_T(derive_ctx_step)(DERIVE_T(derive_ctx) *c, DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *z, DERIVE_REAL h, DERIVE_REAL (*K)[DERIVE_N], DERIVE_REAL *zn, DERIVE_REAL *err)
 {
     int st;
     switch (c->method) {
     case DERIVE_METHOD_RK4:
-        st = DERIVE_EVAL(z, c->p, K[0], c->opt, c->info);
-        return st ? st : DERIVE_T(derive_rk4_step)(z, h, c->p, K, zn, err, c->opt, c->info);
+        st = DERIVE_EVAL(DERIVE_WITH_T(t) z, c->p, K[0], c->opt, c->info);
+        return st ? st : DERIVE_T(derive_rk4_step)(DERIVE_WITH_T(t) z, h, c->p, K, zn, err, c->opt, c->info);
     case DERIVE_METHOD_RK8:
         *err = 0;
-        return DERIVE_T(derive_rk8_step)(c, z, h, K, zn);
+        return DERIVE_T(derive_rk8_step)(c, DERIVE_WITH_T(t) z, h, K, zn);
     case DERIVE_METHOD_ABM12:
-        return DERIVE_T(derive_abm12_step)(c, z, h, K, zn, err);
+        return DERIVE_T(derive_abm12_step)(c, DERIVE_WITH_T(t) z, h, K, zn, err);
     case DERIVE_METHOD_DOPRI5:
-        return DERIVE_T(derive_dopri5_step)(z, h, c->p, K, zn, err, c->opt, c->info);
+        return DERIVE_T(derive_dopri5_step)(DERIVE_WITH_T(t) z, h, c->p, K, zn, err, c->opt, c->info);
     case DERIVE_METHOD_DOP853:
-        return DERIVE_T(derive_dop853_step)(z, h, c->p, K, zn, err, c->opt, c->info);
+        return DERIVE_T(derive_dop853_step)(DERIVE_WITH_T(t) z, h, c->p, K, zn, err, c->opt, c->info);
     case DERIVE_METHOD_MIDPOINT:
         *err = 0;
-        return DERIVE_T(derive_midpoint_step)(z, h, c->p, zn, c->opt, c->info);
+        return DERIVE_T(derive_midpoint_step)(DERIVE_WITH_T(t) z, h, c->p, zn, c->opt, c->info);
     default:
         *err = 0;
-        return DERIVE_T(derive_gauss2_step)(z, h, c->p, zn, c->opt, c->info);
+        return DERIVE_T(derive_gauss2_step)(DERIVE_WITH_T(t) z, h, c->p, zn, c->opt, c->info);
     }
 }
 
 /* A shortened step to an output time off the grid: the method's own step, but rk8 for
  * abm12 (its history belongs to the grid, and a multistep formula needs equal steps). */
-static int DERIVE_T(derive_ctx_partial_step)(DERIVE_T(derive_ctx) *c, const DERIVE_REAL *z, DERIVE_REAL h, DERIVE_REAL (*K)[DERIVE_N], DERIVE_REAL *zn)
+static int DERIVE_T(derive_ctx_partial_step)(DERIVE_T(derive_ctx) *c, DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *z, DERIVE_REAL h, DERIVE_REAL (*K)[DERIVE_N], DERIVE_REAL *zn)
 {
     DERIVE_REAL err;
     if (c->method == DERIVE_METHOD_ABM12) {
-        return DERIVE_T(derive_rk8_step)(c, z, h, K, zn);
+        return DERIVE_T(derive_rk8_step)(c, DERIVE_WITH_T(t) z, h, K, zn);
     }
-    return DERIVE_T(derive_ctx_step)(c, z, h, K, zn, &err);
+    return DERIVE_T(derive_ctx_step)(c, DERIVE_WITH_T(t) z, h, K, zn, &err);
 }
 
-static int DERIVE_T(derive_ctx_dense_prepare)(DERIVE_T(derive_ctx) *c, const DERIVE_REAL *z, const DERIVE_REAL *zn, DERIVE_REAL h, DERIVE_REAL (*K)[DERIVE_N], DERIVE_REAL (*F)[DERIVE_N])
+static int DERIVE_T(derive_ctx_dense_prepare)(DERIVE_T(derive_ctx) *c, DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *z, const DERIVE_REAL *zn, DERIVE_REAL h, DERIVE_REAL (*K)[DERIVE_N], DERIVE_REAL (*F)[DERIVE_N])
 {
     if (c->method == DERIVE_METHOD_DOP853) {
-        return DERIVE_T(derive_dop853_dense_prepare)(z, zn, h, c->p, K, F, c->opt, c->info);
+        return DERIVE_T(derive_dop853_dense_prepare)(DERIVE_WITH_T(t) z, zn, h, c->p, K, F, c->opt, c->info);
     }
     return DERIVE_OK;
 }

@@ -27,6 +27,7 @@ imported: a folder of generated NumPy runs without derive.
 """
 import difflib
 import importlib.util
+import inspect
 import pathlib
 
 import numpy
@@ -121,6 +122,11 @@ def _tab(name, dtype):
     return _CACHE[key]
 
 
+def _takes_time(kernel):
+    """Whether a generated kernel takes the time t first."""
+    return next(iter(inspect.signature(kernel).parameters), None) == "t"
+
+
 def _status_of(f):
     return OK if numpy.all(numpy.isfinite(f)) else NONFINITE
 
@@ -146,6 +152,15 @@ class System:
         self.n_params = self.n_model_params + len(inputs)      # p = (parameters, inputs)
         self.guarded = hasattr(kernels, "polar_sines")
         self.hamiltonian = hasattr(kernels, "hamiltonian_rhs")
+        # a time-dependent model's rhs (and Jacobian) take the time first, where their
+        # expressions use it (each stage passes its own)
+        self.timed = _takes_time(kernels.rhs)
+        self.jacobian_timed = hasattr(kernels, "jacobian") and _takes_time(kernels.jacobian)
+
+    def _time(self, t, y, timed=None):
+        """A kernel's leading argument: t as one slot, (1,) or (B, 1); none for a kernel
+        without it (`timed`: whether it takes it, default the rhs's)."""
+        return (numpy.asarray(t, y.dtype)[..., None],) if (self.timed if timed is None else timed) else ()
 
     def guard(self, y, opt):
         """OK, or why no kernel may be evaluated at y (its chart is singular there)."""
@@ -164,26 +179,26 @@ class System:
             return p[..., :self.n_model_params], p[..., self.n_model_params:]
         return (p,)
 
-    def eval(self, y, p, opt, info):
-        """f(y), counted and guarded: (status, f)."""
+    def eval(self, y, p, opt, info, t=None):
+        """f(t, y) (t: a time-dependent model's only), counted and guarded: (status, f)."""
         g = self.guard(y, opt)
         if g:
             return g, numpy.full_like(y, numpy.nan)
         info["nfev"] += 1
         with numpy.errstate(all="ignore"):      # a non-finite result is reported by status
-            f = self.kernels.rhs(y, *self._split(p)).astype(y.dtype, copy=False)
+            f = self.kernels.rhs(*self._time(t, y), y, *self._split(p)).astype(y.dtype, copy=False)
         return _status_of(f), f
 
-    def sys_eval(self, x, p, opt, info):
+    def sys_eval(self, x, p, opt, info, t=None):
         """The implicit methods' system: Hamilton's equations where the model has them."""
         if not self.hamiltonian:
-            return self.eval(x, p, opt, info)
+            return self.eval(x, p, opt, info, t)
         info["nfev"] += 1
         with numpy.errstate(all="ignore"):
             f = self.kernels.hamiltonian_rhs(x, p).astype(x.dtype, copy=False)
         return _status_of(f), f
 
-    def sys_jac(self, x, p, opt, info):
+    def sys_jac(self, x, p, opt, info, t=None):
         """The Jacobian of sys_eval, counted (and guarded, for y' = f(y)): (status, J)."""
         if self.hamiltonian:
             info["njev"] += 1
@@ -193,7 +208,7 @@ class System:
         if g:
             return g, None
         info["njev"] += 1
-        J = self.kernels.jacobian(x, *self._split(p)).astype(x.dtype, copy=False)
+        J = self.kernels.jacobian(*self._time(t, x, self.jacobian_timed), x, *self._split(p)).astype(x.dtype, copy=False)
         return _status_of(J), J
 
 
@@ -207,11 +222,17 @@ def _combo(row, K):
     return acc
 
 
-def explicit_step(system, name, y, h, p, K, opt, info):
-    """One step of rk4, dopri5 or dop853; K[0] = f(y) on entry.  (status, y_new, err)."""
+def _at(t, c, h):
+    """A stage's time t + c h (None, an autonomous model's, stays None)."""
+    return None if t is None else t + c * h
+
+
+def explicit_step(system, name, y, h, p, K, opt, info, t=None):
+    """One step of rk4, dopri5 or dop853 from time t (a time-dependent model's; each stage
+    at t + c_i h); K[0] = f(y) on entry.  (status, y_new, err)."""
     tab = _tab(name, y.dtype)
     for i, row in enumerate(tab["rows"], start=1):
-        st, K[i] = system.eval(y + h * _combo(row, K), p, opt, info)
+        st, K[i] = system.eval(y + h * _combo(row, K), p, opt, info, _at(t, tab["c"][i], h))
         if st:
             return st, None, None
     y_new = y + h * _combo(tab["b"], K)
@@ -219,7 +240,7 @@ def explicit_step(system, name, y, h, p, K, opt, info):
         return OK, y_new, 0.0
     sk = opt["atol"] + opt["rtol"] * numpy.maximum(numpy.abs(y), numpy.abs(y_new))
     if name == "dopri5":
-        st, K[6] = system.eval(y_new, p, opt, info)
+        st, K[6] = system.eval(y_new, p, opt, info, _at(t, 1, h))
         if st:
             return st, None, None
         e = h * _combo(tab["e"], K) / sk
@@ -244,12 +265,12 @@ def dopri5_dense(y, h, K, theta):
     return y + h * acc
 
 
-def dop853_dense_prepare(system, y, y_new, h, p, K, opt, info):
-    """dop853's three extra stages and the 7 coefficient rows of its dense output:
-    (status, F); K[12] = f(y_new) on entry."""
+def dop853_dense_prepare(system, y, y_new, h, p, K, opt, info, t=None):
+    """dop853's three extra stages (at t + c_i h) and the 7 coefficient rows of its dense
+    output: (status, F); K[12] = f(y_new) on entry."""
     tab = _tab("dop853", y.dtype)
     for i, row in tab["extra"]:
-        st, K[i] = system.eval(y + h * _combo(row, K), p, opt, info)
+        st, K[i] = system.eval(y + h * _combo(row, K), p, opt, info, _at(t, tab["c"][i], h))
         if st:
             return st, None
     F = numpy.empty((7,) + y.shape, y.dtype)
@@ -279,8 +300,9 @@ def _gauss_matrix(A, h, J, dtype):
     return W, Wf, bool(numpy.all(numpy.isfinite(Wf)))
 
 
-def gauss_step(system, name, x, h, p, opt, info):
-    """One step of midpoint or gauss2 on the system's x: (status, x_new).
+def gauss_step(system, name, x, h, p, opt, info, t=None):
+    """One step of midpoint or gauss2 on the system's x from time t (a time-dependent
+    model's; stage i at t + c_i h): (status, x_new).
 
     Simplified Newton with the Jacobian at x.  With the contraction rate
     theta_k = |dZ_k| / |dZ_k-1|: an increment that shrinks slowly (NEWTON_THETA_MAX <
@@ -298,10 +320,10 @@ def gauss_step(system, name, x, h, p, opt, info):
     rounding = 1000 * eps
     theta_max = x.dtype.type(NEWTON_THETA_MAX)
     theta_diverge = x.dtype.type(NEWTON_THETA_DIVERGE)
-    st, J0 = system.sys_jac(x, p, opt, info)
+    st, J0 = system.sys_jac(x, p, opt, info, t)
     if st:
         return st, None
-    st, f0 = system.sys_eval(x, p, opt, info)
+    st, f0 = system.sys_eval(x, p, opt, info, t)
     if st:
         return st, None
     Z = numpy.array([c[i] * h * f0 for i in range(ns)])
@@ -315,7 +337,7 @@ def gauss_step(system, name, x, h, p, opt, info):
     for it in range(opt["newton_max"]):
         Zold = Z
         for i in range(ns):
-            st, Fv[i] = system.sys_eval(x + Z[i], p, opt, info)
+            st, Fv[i] = system.sys_eval(x + Z[i], p, opt, info, _at(t, c[i], h))
             if st:
                 return st, None
         G = -(Z - h * numpy.einsum("ij,jk->ik", Am, Fv))
@@ -358,7 +380,7 @@ def gauss_step(system, name, x, h, p, opt, info):
                 grown, Z = True, Zold
             J = []
             for j in range(ns):
-                st, Jj = system.sys_jac(x + Z[j], p, opt, info)
+                st, Jj = system.sys_jac(x + Z[j], p, opt, info, _at(t, c[j], h))
                 if st:
                     return st, None
                 J.append(Jj)
@@ -388,10 +410,10 @@ def abm12_step(c, z, h):
     if len(c.hist) < k:
         K = numpy.zeros((16, len(z)), z.dtype)
         K[0] = c.hist[0]
-        st, zn, _ = explicit_step(c.system, "dop853", z, h, c.p, K, c.opt, c.info)
+        st, zn, _ = explicit_step(c.system, "dop853", z, h, c.p, K, c.opt, c.info, c.time())
     else:
         yp = z + h * sum(w["ab"][j] * c.hist[j] for j in range(k - 1, -1, -1))
-        st, fp = c.eval(yp)
+        st, fp = c.eval(yp, _at(c.time(), 1, h))
         if st:
             return st, None, None
         zn = z + h * (sum(w["am"][j] * c.hist[j - 1] for j in range(k - 1, 0, -1)) + w["am"][0] * fp)
@@ -400,7 +422,7 @@ def abm12_step(c, z, h):
             return MULTISTEP_UNSTABLE, None, None
     if st:
         return st, None, None
-    st, f = c.eval(zn)
+    st, f = c.eval(zn, _at(c.time(), 1, h))
     c.hist = [f] + c.hist[:k - 1]
     return st, zn, err
 
@@ -413,13 +435,20 @@ class _Run:
         self.canonical = system.hamiltonian and method in IMPLICIT
         self.z = None
         self.hist = []          # abm12: f at the last grid points, newest first
+        self.t = None           # the time the driver has reached (it sets it: _set_time)
 
-    def eval(self, z):
-        return self.system.eval(z, self.p, self.opt, self.info)
+    def time(self):
+        """The driver's time, for a time-dependent model's kernels (None: an autonomous one)."""
+        return self.t if self.system.timed else None
+
+    def eval(self, z, t=None):
+        """f at z, at time t (default: the driver's)."""
+        return self.system.eval(z, self.p, self.opt, self.info, self.time() if t is None else t)
 
     def step(self, z, h, K=None):
+        t = self.time()
         if self.method in IMPLICIT:
-            st, zn = gauss_step(self.system, self.method, z, h, self.p, self.opt, self.info)
+            st, zn = gauss_step(self.system, self.method, z, h, self.p, self.opt, self.info, t)
             return st, zn, 0.0
         if self.method == "abm12":
             return abm12_step(self, z, h)
@@ -430,9 +459,9 @@ class _Run:
             if st:
                 return st, None, None
         if self.method == "rk8":           # DOP853's 8th-order formula, its error unused
-            st, zn, _ = explicit_step(self.system, "dop853", z, h, self.p, K, self.opt, self.info)
+            st, zn, _ = explicit_step(self.system, "dop853", z, h, self.p, K, self.opt, self.info, t)
             return st, zn, 0.0
-        return explicit_step(self.system, self.method, z, h, self.p, K, self.opt, self.info)
+        return explicit_step(self.system, self.method, z, h, self.p, K, self.opt, self.info, t)
 
     def partial_step(self, z, h):
         """A shortened step off the grid: abm12 takes an rk8 step (its history is the grid's)."""
@@ -442,12 +471,12 @@ class _Run:
         st, K[0] = self.eval(z)
         if st:
             return st, None, None
-        st, zn, _ = explicit_step(self.system, "dop853", z, h, self.p, K, self.opt, self.info)
+        st, zn, _ = explicit_step(self.system, "dop853", z, h, self.p, K, self.opt, self.info, self.time())
         return st, zn, 0.0
 
     def dense_prepare(self, z, zn, h, K):
         if self.method == "dop853":
-            return dop853_dense_prepare(self.system, z, zn, h, self.p, K, self.opt, self.info)
+            return dop853_dense_prepare(self.system, z, zn, h, self.p, K, self.opt, self.info, self.time())
         return OK, None
 
     def dense(self, z, zn, h, K, F, theta):
@@ -476,19 +505,30 @@ class _Run:
 
 
 # -- the stepping loop, shared with the chart atlas --------------------------------
+# The loop sets c.t, the time it has reached (a step's start), before each evaluation and
+# step: a time-dependent model's run (_Run) passes it, and each stage's, to the kernels.
 # A run (c) gives the loop: c.info, c.opt, c.method, c.dtype; c.eval(z) -> (status, f);
 # c.step(z, h[, K]) -> (status, z_new, err); c.partial_step (optional); c.dense_prepare,
 # c.dense; c.inp(y) and c.out(z) (the state the method runs on and back); c.switch(z,
 # force) -> 0, 1 (switched: the new state in c.z) or -status; c.set_y(z).
 
+def _eval_at(c, z, t):
+    """c.eval(z) with the driver's time at t for the call."""
+    reached, c.t = c.t, t
+    try:
+        return c.eval(z)
+    finally:
+        c.t = reached
+
+
 def _hinit(c, z, f0, direction, hmax, order):
-    """Hairer's starting step (Solving ODEs I, II.4)."""
+    """Hairer's starting step (Solving ODEs I, II.4), from the time c.t."""
     sk = c.opt["atol"] + c.opt["rtol"] * numpy.abs(z)
     dnf = float(numpy.sum((f0 / sk) ** 2))
     dny = float(numpy.sum((z / sk) ** 2))
     h = 1e-6 if (dnf <= 1e-10 or dny <= 1e-10) else _pow1(dny / dnf, 0.5) * 0.01
     h = min(h, hmax)
-    st, f1 = c.eval(z + direction * h * f0)
+    st, f1 = _eval_at(c, z + direction * h * f0, c.t + c.dtype.type(direction * h))
     if st:
         return h
     der2 = _pow1(float(numpy.sum(((f1 - f0) / sk) ** 2)), 0.5) / h
@@ -545,6 +585,7 @@ def _drive_fixed(c, z, t_out, direction, done, y_out):
             tnext = t_out[0] + c.dtype.type(kgrid + 1) * h
             if float((tnext - t_out[iout]) * direction) > slack:
                 break
+            c.t = t
             st, z, zn = _fixed_step(c, z, h, False)
             if st:
                 return done(st, z, t, h)
@@ -554,6 +595,7 @@ def _drive_fixed(c, z, t_out, direction, done, y_out):
             st, y_out[iout] = c.out(z)
         else:
             info["h_end"] = float(t_out[iout] - t)
+            c.t = t
             st, z, zside = _fixed_step(c, z, t_out[iout] - t, True)
             if st:
                 return done(st, z, t, h)
@@ -576,6 +618,7 @@ def _drive_adaptive(c, z, t_out, direction, done, y_out):
         order, facmin, facmax, fsal = 8.0, 0.333, 6.0, 12
     tend = t_out[-1]
     hmax = opt["hmax"] if opt["hmax"] > 0 else abs(float(tend - t))
+    c.t = t
     st, f0 = c.eval(z)
     if st:
         return done(st, z, t, h)
@@ -598,9 +641,10 @@ def _drive_adaptive(c, z, t_out, direction, done, y_out):
         if abs(float(h)) <= hmin or h == 0:
             return done(cause or STEP_UNDERFLOW, z, t, h)
         info["nsteps"] += 1
+        c.t = t
         st, zn, err = c.step(z, h, K)
         if st == 0 and err <= 1 and method == "dop853":
-            st, K[12] = c.eval(zn)
+            st, K[12] = _eval_at(c, zn, t + h)
         if st or not err <= 1:
             info["nrejected"] += 1
             if st:
@@ -634,6 +678,7 @@ def _drive_adaptive(c, z, t_out, direction, done, y_out):
         size = max(float(numpy.max(numpy.abs(z))), float(numpy.max(numpy.abs(zn))))
         info["local_error"] += float(err) * (opt["atol"] + opt["rtol"] * size)
         z, t = zn, tnew
+        c.t = t
         K[0] = K[fsal]
         info["naccepted"] += 1
         sw = c.switch(z, False)
@@ -666,6 +711,7 @@ def drive(c, y0, t_out):
         y_out[info["nout"]:] = numpy.nan
         return st, y_out
 
+    c.t = t
     st, z = c.inp(y0)
     if st:
         return done(st, y0, t, h)
@@ -794,9 +840,9 @@ class _Batch:
         self.t_stop, self.h_stop = numpy.zeros(B), numpy.zeros(B)
         self.y_stop = y0.copy()
 
-    def eval(self, rows, y, counted=None):
-        """f(y) of trajectories `rows` (y: their states), guarded; counted where `counted`
-        (default every row): (status (R,), f)."""
+    def eval(self, rows, y, counted=None, t=None):
+        """f(t, y) of trajectories `rows` (y: their states; t: their times, a time-dependent
+        model's), guarded; counted where `counted` (default every row): (status (R,), f)."""
         system, opt = self.system, self.opt
         st = numpy.zeros(len(rows), numpy.int64)
         with numpy.errstate(all="ignore"):      # a non-finite result is reported by status
@@ -804,30 +850,31 @@ class _Batch:
                 s = system.kernels.polar_sines(y)
                 st = numpy.where(~numpy.all(numpy.isfinite(s), axis=-1), NONFINITE,
                                  numpy.where(numpy.all(numpy.abs(s) >= opt["sine_min"], axis=-1), OK, CHART_SINGULAR))
-            f = system.kernels.rhs(y, *system._split(self.p[rows])).astype(y.dtype, copy=False)
+            f = system.kernels.rhs(*system._time(t, y), y, *system._split(self.p[rows])).astype(y.dtype, copy=False)
         ok = st == OK
         f[~ok] = numpy.nan
         self.count["nfev"][rows] += ok if counted is None else ok & counted
         st = numpy.where(ok & ~numpy.all(numpy.isfinite(f), axis=-1), NONFINITE, st)
         return st, f
 
-    def stages(self, rows, name, z, h, K, st, rows_of):
-        """The stages K[i] of tableau rows `rows_of` (name's) from z; st: each row's status
-        so far (the first failure stays, later stages of that row are not counted)."""
-        h = h[:, None]
+    def stages(self, rows, name, z, h, K, st, rows_of, t=None):
+        """The stages K[i] of tableau rows `rows_of` (name's) from z at the times t (each
+        stage at t + c_i h); st: each row's status so far (the first failure stays, later
+        stages of that row are not counted)."""
+        c = _tab(name, z.dtype)["c"]
         for i, row in rows_of:
             with numpy.errstate(all="ignore"):      # a failed row's stages are not used
-                y = z + h * _combo(row, K)
-            s, K[i] = self.eval(rows, y, st == OK)
+                y = z + h[:, None] * _combo(row, K)
+            s, K[i] = self.eval(rows, y, st == OK, _at(t, c[i], h))
             st = numpy.where(st == OK, s, st)
         return st
 
-    def step(self, rows, z, h, K, st):
-        """One explicit step of trajectories `rows`; K[0] = f(z) on entry, st its status:
-        (status, z_new, err)."""
+    def step(self, rows, z, h, K, st, t=None):
+        """One explicit step of trajectories `rows` from their times t (a time-dependent
+        model's); K[0] = f(z) on entry, st its status: (status, z_new, err)."""
         name = "dop853" if self.method == "rk8" else self.method
         tab, opt = _tab(name, z.dtype), self.opt
-        st = self.stages(rows, name, z, h, K, st, enumerate(tab["rows"], start=1))
+        st = self.stages(rows, name, z, h, K, st, enumerate(tab["rows"], start=1), t)
         with numpy.errstate(all="ignore"):
             zn = z + h[:, None] * _combo(tab["b"], K)
         if self.method in ("rk4", "rk8"):
@@ -835,7 +882,7 @@ class _Batch:
         with numpy.errstate(all="ignore"):
             sk = opt["atol"] + opt["rtol"] * numpy.maximum(numpy.abs(z), numpy.abs(zn))
             if name == "dopri5":
-                s, K[6] = self.eval(rows, zn, st == OK)
+                s, K[6] = self.eval(rows, zn, st == OK, _at(t, 1, h))
                 st = numpy.where(st == OK, s, st)
                 e = h[:, None] * _combo(tab["e"], K) / sk
                 return st, zn, numpy.sqrt(numpy.mean(e * e, axis=-1)).astype(numpy.float64)
@@ -897,7 +944,8 @@ def _batch_hinit(b, rows, f0, direction, hmax, order):
         dny = numpy.sum((z / sk) ** 2, axis=-1).astype(numpy.float64)
         h = numpy.where((dnf <= 1e-10) | (dny <= 1e-10), 1e-6, _power(dny / dnf, 0.5) * 0.01)
         h = numpy.minimum(h, hmax)
-        st, f1 = b.eval(rows, z + (direction * h).astype(b.dtype)[:, None] * f0)
+        st, f1 = b.eval(rows, z + (direction * h).astype(b.dtype)[:, None] * f0, None,
+                        b.t[rows] + (direction * h).astype(b.dtype))
         der2 = _power(numpy.sum(((f1 - f0) / sk) ** 2, axis=-1).astype(numpy.float64), 0.5) / h
         der12 = numpy.maximum(der2, _power(dnf, 0.5))
         h1 = numpy.where(der12 <= 1e-15, numpy.maximum(1e-6, h * 1e-3), _power(0.01 / der12, 1.0 / order))
@@ -916,7 +964,7 @@ def _batch_adaptive(b, rows, direction):
     hmax = opt["hmax"] if opt["hmax"] > 0 else abs(float(tend - t_out[0]))
     B, n = b.z.shape
     K = numpy.zeros((16, B, n), dt)
-    st, K[0, rows] = b.eval(rows, b.z[rows])
+    st, K[0, rows] = b.eval(rows, b.z[rows], None, b.t[rows])
     bad = st != OK
     b.finish(rows[bad], st[bad], b.z[rows[bad]], b.t[rows[bad]], b.h[rows[bad]])
     rows = rows[~bad]
@@ -946,10 +994,10 @@ def _batch_adaptive(b, rows, direction):
             continue
         b.count["nsteps"][rows] += 1
         z, h, Kr = b.z[rows], b.h[rows], K[:, rows]
-        st, zn, err = b.step(rows, z, h, Kr, numpy.zeros(len(rows), numpy.int64))
+        st, zn, err = b.step(rows, z, h, Kr, numpy.zeros(len(rows), numpy.int64), b.t[rows])
         if b.method == "dop853":
             good = (st == OK) & (err <= 1)
-            s, Kr[12, good] = b.eval(rows[good], zn[good])
+            s, Kr[12, good] = b.eval(rows[good], zn[good], None, b.t[rows[good]] + h[good])
             st[good] = s
         fail = (st != OK) | ~(err <= 1)
         # rejected: a smaller step from the same state
@@ -1027,7 +1075,8 @@ def _batch_dense_prepare(b, rows, z, zn, h, K, need, F):
     sel = numpy.flatnonzero(need)
     Ks, zs, hs = K[:, sel], z[sel], h[sel]
     st = numpy.zeros(len(rows), numpy.int64)
-    st[sel] = b.stages(rows[sel], "dop853", zs, hs, Ks, numpy.zeros(len(sel), numpy.int64), tab["extra"])
+    st[sel] = b.stages(rows[sel], "dop853", zs, hs, Ks, numpy.zeros(len(sel), numpy.int64), tab["extra"],
+                       b.t[rows[sel]])
     K[:, sel] = Ks
     hc = hs[:, None]
     F[0, sel] = zn[sel] - zs
@@ -1038,14 +1087,16 @@ def _batch_dense_prepare(b, rows, z, zn, h, K, need, F):
     return st
 
 
-def _batch_fixed_step(b, rows, z, h):
-    """_fixed_step of rk4 or rk8 for trajectories `rows`, all at the same h: (status, z_new)."""
+def _batch_fixed_step(b, rows, z, h, t):
+    """_fixed_step of rk4 or rk8 for trajectories `rows`, all at the same h from the grid
+    time t: (status, z_new)."""
     over = b.count["nsteps"][rows] >= b.opt["max_steps"]
     b.count["nsteps"][rows[~over]] += 1
     K = numpy.zeros((16,) + z.shape, b.dtype)
-    st, K[0] = b.eval(rows, z, ~over)
+    ts = numpy.full(len(rows), t, b.dtype)
+    st, K[0] = b.eval(rows, z, ~over, ts)
     st = numpy.where(over, MAX_STEPS, st)
-    st, zn, _ = b.step(rows, z, numpy.full(len(rows), h, b.dtype), K, st)
+    st, zn, _ = b.step(rows, z, numpy.full(len(rows), h, b.dtype), K, st, ts)
     st = numpy.where((st == OK) & ~numpy.all(numpy.isfinite(zn), axis=-1), NONFINITE, st)
     b.count["naccepted"][rows[st == OK]] += 1
     return st, zn
@@ -1071,7 +1122,7 @@ def _batch_fixed(b, rows, direction):
             tnext = t_out[0] + dt.type(kgrid + 1) * h
             if float((tnext - t_out[iout]) * direction) > slack:
                 break
-            st, zn = _batch_fixed_step(b, rows, z, h)
+            st, zn = _batch_fixed_step(b, rows, z, h, t)
             rows, z, keep = stop(st != OK, st)
             z, t, kgrid = zn[keep], tnext, kgrid + 1
         if not len(rows):
@@ -1081,7 +1132,7 @@ def _batch_fixed(b, rows, direction):
             b.y_out[rows, iout] = z
         else:
             h_end = float(t_out[iout] - t)
-            st, side = _batch_fixed_step(b, rows, z, t_out[iout] - t)
+            st, side = _batch_fixed_step(b, rows, z, t_out[iout] - t, t)
             rows, z, keep = stop(st != OK, st)
             side = side[keep]
             b.y_out[rows, iout] = side

@@ -433,6 +433,25 @@ def test_a_model_generated_with_out_compiles_from_that_folder_alone(tmp_path):
     assert run.returncode == 0 and run.stdout.strip() == "0", run.stdout
 
 
+def test_a_time_dependent_models_integrators_compile_warning_free(tmp_path):
+    """A model with explicit time (t in a force, a moving pivot) gets <model>_integrate.{c,h}:
+    the library with DERIVE_TIMED, every stage's time passed to the rhs.  Generated into a
+    folder of its own, every file compiles with each compiler's warnings as errors."""
+    out = tmp_path / "out"
+    models = [str(ROOT / "examples" / "models" / f"{m}.toml") for m in ("forced_pendulum", "driven_pivot")]
+    run = subprocess.run([sys.executable, "-m", "derive", "generate", *models, "--out", str(out)],
+                         env=dict(os.environ, PYTHONPATH=str(ROOT)), capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    sources = sorted((out / "c").glob("*.c"))
+    assert {"forced_pendulum_integrate.c", "driven_pivot_integrate.c"} <= {s.name for s in sources}
+    assert "#define DERIVE_TIMED" in (out / "c" / "driven_pivot_integrate.c").read_text()
+    for compiler, flags in COMPILERS:
+        if shutil.which(compiler) is None:
+            pytest.fail(f"{compiler} is required here (tests/run.sh installs it)")
+        _compile_all([[compiler, *flags, "-I", str(out / "c"), "-c", str(source),
+                       "-o", str(tmp_path / f"{source.stem}_{compiler}.o")] for source in sources], tmp_path)
+
+
 # -- the spec: checks with readable errors ------------------------------------------
 
 def _toy_kernel(output, stages=()):

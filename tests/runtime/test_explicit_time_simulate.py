@@ -1,8 +1,9 @@
-"""derive.simulate runs a time-dependent model (issue 23 item 3): the explicit RK methods
-step in Python with each stage at its own time t, passed to the kernels
-(derive/runtime/continuous_inputs.py); events and dense output on those steps
-(derive/runtime/stage_solution.py).  References: solve_ivp of the ODEs written here by
-hand, independent of the derivation."""
+"""derive.simulate runs a time-dependent model (issue 23 item 3): in the generated C and
+NumPy integrators each stage's rhs takes its own time t (tests/runtime/test_rk_explicit_time.py
+has every method and precision); with inputs u(t, y) at every stage the explicit RK
+methods step in Python with each stage at its own time (derive/runtime/continuous_inputs.py),
+events and dense output on those steps (derive/runtime/stage_solution.py).  References:
+solve_ivp of the ODEs written here by hand, independent of the derivation."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -82,9 +83,13 @@ def test_dense_output_is_the_run_between_its_rows():
     between = np.linspace(0.05, 4.95, 37)
     expected = reference(pivot_ode, PIVOT_P, [0.2, 0.0], np.concatenate([[0.0], between])).y.T[1:]
     assert np.max(np.abs(r.sol(between) - expected)) < 1e-9
-    # continuous across a step: just before and just after an accepted step's end
-    knot = r.sol.t_starts[5]
+    # continuous across an output row, where the next interval's run starts at its own t
+    knot = times[3]
     assert np.max(np.abs(r.sol(knot - 1e-12) - r.sol(knot + 1e-12))) < 1e-10
+    # on the NumPy backend: the same re-integration from each row's own t
+    numpy_run = derive.simulate(PIVOT, [0.2, 0.0], times, PIVOT_P, method="dop853", rtol=1e-12, atol=1e-14,
+                                backend="numpy")
+    assert np.max(np.abs(numpy_run.sol(between) - expected)) < 1e-9
 
 
 @pytest.mark.parametrize("method", ["dopri5", "dop853"])
@@ -107,20 +112,33 @@ def test_events_of_a_time_dependent_run_match_solve_ivps(method):
     assert np.isnan(stop.y[-1]).all() and np.isnan(stop.sol(expected[1] + 0.1)).all()
 
 
-@pytest.mark.parametrize("method", ["gauss2", "midpoint", "abm12"])     # taylor runs: test_taylor_explicit_time.py
-def test_a_method_that_does_not_pass_t_refuses_in_one_line(method):
-    with pytest.raises(derive.SimulationInputError) as info:
-        derive.simulate(PIVOT, [0.2, 0.0], [0.0, 1.0], PIVOT_P, method=method, step=0.01)
+FORCED_INPUT = """name = "forced_u"
+title = "Forced damped pendulum with a torque input"
+dimension = 2
+parameters = ["m", "l", "g", "c", "F0", "w"]
+inputs = ["u"]
+dissipation = "c*theta1_dot**2/2"
+[forces]
+theta1 = "F0*cos(w*t) + u"
+[[links]]
+chart = "planar"
+length = "l"
+body = { kind = "point", mass = "m" }
+"""
+
+
+@pytest.mark.parametrize("kw, word", [({"method": "gauss2", "step": 0.01}, "gauss2"),
+                                      ({"method": "abm12", "step": 0.01}, "abm12"),
+                                      ({"dtype": "float32"}, "float64")])
+def test_inputs_at_every_stage_step_in_python_and_refuse_the_rest_in_one_line(tmp_path, kw, word):
+    """Inputs u(t, y) at every stage step the explicit one-step methods in float64 in
+    Python; the rest is refused, naming hold='zoh', which runs them."""
+    model = tmp_path / "forced_u.toml"
+    model.write_text(FORCED_INPUT)
+    with pytest.raises(derive.SimulationInputError, match="every stage") as info:
+        derive.simulate(str(model), [0.2, 0.0], [0.0, 1.0], FORCED_P, inputs=lambda t, y: [0.0], **kw)
     text = str(info.value)
-    assert "\n" not in text and "explicit time in the model" in text and method in text
-    assert all(m in text for m in CONTINUOUS_METHODS)
-
-
-def test_float32_and_the_zero_order_hold_refuse_in_one_line():
-    for kw, word in (({"dtype": "float32"}, "float64"), ({"hold": "zoh"}, "hold")):
-        with pytest.raises(derive.SimulationInputError, match="explicit time") as info:
-            derive.simulate(PIVOT, [0.2, 0.0], [0.0, 1.0], PIVOT_P, **kw)
-        assert "\n" not in str(info.value) and word in str(info.value)
+    assert "\n" not in text and word in text and "hold='zoh'" in text
 
 
 def test_a_rerun_estimate_bounds_the_error_of_a_time_dependent_run():

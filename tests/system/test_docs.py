@@ -183,9 +183,9 @@ def test_the_site_builds_with_warnings_as_errors(tmp_path):
 
 def test_the_explicit_time_pages_say_what_the_code_runs():
     """docs/models.md and docs/events.md on a time-dependent model (a moving pivot): an
-    ensemble runs (each member by simulate's per-stage path), so the page does not list
-    ensembles among the refusals; r.sol and events work, so events.md does not say every
-    model is autonomous."""
+    ensemble and a sweep run (in the generated C, each stage at its own t), so the page
+    does not list them among the refusals; r.sol and events work, so events.md does not
+    say every model is autonomous."""
     import re
 
     import numpy as np
@@ -199,8 +199,8 @@ def test_the_explicit_time_pages_say_what_the_code_runs():
     assert r.sol is not None and len(r.events["turn"].t) >= 1
     models = " ".join((DOCS / "models.md").read_text().split())
     refused = re.search(r"Refused in one line, naming what runs it: ([^.]*)\.", models).group(1)
-    assert "ensembles" not in refused and "sweeps" in refused
-    assert "`derive.ensemble` runs one too" in models
+    assert "ensembles" not in refused and "sweeps" not in refused and "Taylor" in refused
+    assert "`derive.ensemble` runs one in C with threads" in models
     events = " ".join((DOCS / "events.md").read_text().split())
     assert "The models are autonomous" not in events
     assert "A time-dependent model" in events and "stage_solution.py" in events

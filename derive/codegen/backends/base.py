@@ -30,13 +30,10 @@ class Backend:
         """The model's kernels: path in a generated tree -> text."""
         raise NotImplementedError
 
-    def integrator_files(self, name: str) -> dict[str, str]:
-        """The integrators of model `name` (derive/codegen/integrators.py renders them)."""
-        return {}
-
-    def timed_files(self, name: str) -> dict[str, str]:
-        """What runs a time-dependent model beyond its kernels (the C backend: the Taylor
-        integrator, whose jet has t in it); none by default."""
+    def integrator_files(self, name: str, timed: bool = False) -> dict[str, str]:
+        """The integrators of model `name` (derive/codegen/integrators.py renders them);
+        timed: the model has explicit time (a backend whose integrators cannot pass t to
+        the rhs emits none for it)."""
         return {}
 
     def loop_files(self, name: str) -> dict[str, str]:
@@ -50,10 +47,8 @@ class Backend:
     def model_files(self, name: str, spec: ModelSpec, bodies, guarded: bool) -> dict[str, str]:
         """Every artifact this language emits for one model."""
         files = dict(self.kernel_files(spec, bodies))
-        if spec.is_time_dependent:    # the integrators and loops do not pass the time t yet
-            return {**files, **self.timed_files(name)}
-        files.update(self.integrator_files(name))
-        if not guarded:
+        files.update(self.integrator_files(name, spec.is_time_dependent))
+        if not guarded and not spec.is_time_dependent:    # the inlined loops do not pass t yet
             files.update(self.loop_files(name))
         return files
 

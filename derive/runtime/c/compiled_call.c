@@ -310,8 +310,9 @@ static PyObject *result(Call *c, const char *info, PyArrayObject *t, PyArrayObje
         Py_DECREF(y_stop);
         return NULL;
     }
-    PyObject *observe_args[6] = {c->observe, c->model, (PyObject *)out, (PyObject *)p, c->dtype,
-                                 c->backend};
+    /* the output times last: a time-dependent model's energy and positions take them */
+    PyObject *observe_args[7] = {c->observe, c->model, (PyObject *)out, (PyObject *)p, c->dtype,
+                                 c->backend, (PyObject *)t};
     double h_end = *(const double *)(info + c->off_h_end);
     PyObject *status_name = PyTuple_GET_ITEM(c->status_names, status);
     Py_INCREF(t); Py_INCREF(out); Py_INCREF(p); Py_INCREF(status_name);
@@ -319,7 +320,7 @@ static PyObject *result(Call *c, const char *info, PyArrayObject *t, PyArrayObje
         set_field(d, F_STATUS, PyLong_FromLong(status)) | set_field(d, F_STATUS_NAME, status_name) |
         set_field(d, F_T_STOP, PyFloat_FromDouble(*(const double *)(info + c->off_t))) |
         set_field(d, F_Y_STOP, (PyObject *)y_stop) | set_field(d, F_PARAMS, (PyObject *)p) |
-        set_field(d, F_OBSERVE, PyObject_Vectorcall(c->partial, observe_args, 6, NULL));
+        set_field(d, F_OBSERVE, PyObject_Vectorcall(c->partial, observe_args, 7, NULL));
     if (h_end && !c->tolerance)
         bad |= set_field(d, F_LAST_STEP, PyFloat_FromDouble(h_end));
     else

@@ -95,27 +95,18 @@ class CBackend(Backend):
         ctx["kernels"] = kernels
         return ctx
 
-    def integrator_files(self, name):
-        files = render_c(name)
+    def integrator_files(self, name, timed=False):
+        files = render_c(name)      # a time-dependent model's too: the library passes each stage's t
         files.update(self.taylor_files(name))
         return files
 
     def taylor_files(self, name):
         """The Taylor integrator, scalar and in SIMD lanes (none for a model with an
-        operation no recurrence covers)."""
+        operation no recurrence covers); a time-dependent model's has t in its jet."""
         files = {}
         if taylor_problem(name) is None:
             files.update(render_taylor(name))
             files.update(render_taylor_lanes(name))
-        return files
-
-    def timed_files(self, name):
-        """A time-dependent model's: the Taylor integrator (t in its jet) with the options,
-        info and status codes of <model>_integrate.h, which it includes."""
-        files = self.taylor_files(name)
-        if files:
-            header = f"c/{name}_integrate.h"
-            files[header] = render_c(name)[header]
         return files
 
     def loop_files(self, name):

@@ -88,8 +88,8 @@ class NumPyBackend(Backend):
         ctx["kernels"] = kernels
         return {f"numpy/{spec.name}.py": render("numpy/module.py.jinja", ctx)}
 
-    def integrator_files(self, name):
-        return render_numpy(name)
+    def integrator_files(self, name, timed=False):
+        return render_numpy(name)       # a time-dependent model's too: the library passes each stage's t
 
     def loop_files(self, name):
         return own(render_loops(name), self.name)

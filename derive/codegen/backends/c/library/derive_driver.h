@@ -23,6 +23,10 @@
  *                  and, for a caller with a multistep method, DERIVE_DRIVER_PARTIAL_STEP(c, z,
  *                  h, K, zn): a one-step method for the shortened steps to output times off
  *                  the grid, which must not touch the multistep method's history.
+ *   the time       DERIVE_TIMED, for a time-dependent model's context only: then EVAL, STEP,
+ *                  PARTIAL_STEP and DENSE_PREPARE take the time first, after c (EVAL the
+ *                  time of z, the others the step's start time): the driver passes the
+ *                  time it has reached, or a stage's (DERIVE_WITH_T below).
  *
  * It defines (static) DERIVE_T(derive_drive)(c, y0, nt, t_out, y_out), the whole run, and
  * DERIVE_T(derive_check)(method, y0, ny, p, np, nt, t, opt), the checks of the entry
@@ -32,9 +36,19 @@
 #define restrict __restrict
 #endif
 
+/* "x," in a time-dependent model's code, nothing in an autonomous one's (as in
+ * derive_integrators.h): an autonomous model's driver never forms the time. */
+#ifndef DERIVE_WITH_T
+#ifdef DERIVE_TIMED
+#define DERIVE_WITH_T(x) x,
+#else
+#define DERIVE_WITH_T(x)
+#endif
+#endif
+
 
 /* Hairer's starting step (Solving ODEs I, II.4). */
-static DERIVE_REAL DERIVE_T(derive_hinit)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *z, const DERIVE_REAL *f0, DERIVE_REAL dir, DERIVE_REAL hmax, DERIVE_REAL order, DERIVE_REAL *z1, DERIVE_REAL *f1)
+static DERIVE_REAL DERIVE_T(derive_hinit)(DERIVE_DRIVER_CTX *c, DERIVE_WITH_T(DERIVE_REAL t) const DERIVE_REAL *z, const DERIVE_REAL *f0, DERIVE_REAL dir, DERIVE_REAL hmax, DERIVE_REAL order, DERIVE_REAL *z1, DERIVE_REAL *f1)
 {
     DERIVE_REAL dnf = 0, dny = 0, der2 = 0, der12, h, h1, sk;
     int k;
@@ -50,7 +64,7 @@ static DERIVE_REAL DERIVE_T(derive_hinit)(DERIVE_DRIVER_CTX *c, const DERIVE_REA
     for (k = 0; k < DERIVE_N; ++k) {
         z1[k] = z[k] + dir * h * f0[k];
     }
-    if (DERIVE_DRIVER_EVAL(c, z1, f1) != 0) {
+    if (DERIVE_DRIVER_EVAL(c, DERIVE_WITH_T(t + dir * h) z1, f1) != 0) {
         return h;
     }
     for (k = 0; k < DERIVE_N; ++k) {
@@ -82,7 +96,7 @@ static int DERIVE_T(derive_finite)(const DERIVE_REAL *z)
  * the grid, by DERIVE_DRIVER_PARTIAL_STEP where there is one): the step budget, the
  * caller's cancellation flag, the chart switch at the step start and the redo of a step
  * that met a chart singularity, the finiteness of the result.  0 or a status. */
-static int DERIVE_T(derive_fixed)(DERIVE_DRIVER_CTX *c, DERIVE_REAL *z, DERIVE_REAL h, DERIVE_REAL (*K)[DERIVE_N], DERIVE_REAL *zn, int partial)
+static int DERIVE_T(derive_fixed)(DERIVE_DRIVER_CTX *c, DERIVE_WITH_T(DERIVE_REAL t) DERIVE_REAL *z, DERIVE_REAL h, DERIVE_REAL (*K)[DERIVE_N], DERIVE_REAL *zn, int partial)
 {
     DERIVE_REAL err = 0, size = 0;
     int st, sw, k;
@@ -101,9 +115,9 @@ static int DERIVE_T(derive_fixed)(DERIVE_DRIVER_CTX *c, DERIVE_REAL *z, DERIVE_R
     }
     c->info->nsteps += 1;
 #ifdef DERIVE_DRIVER_PARTIAL_STEP
-    st = partial ? DERIVE_DRIVER_PARTIAL_STEP(c, z, h, K, zn) : DERIVE_DRIVER_STEP(c, z, h, K, zn, &err);
+    st = partial ? DERIVE_DRIVER_PARTIAL_STEP(c, DERIVE_WITH_T(t) z, h, K, zn) : DERIVE_DRIVER_STEP(c, DERIVE_WITH_T(t) z, h, K, zn, &err);
 #else
-    st = DERIVE_DRIVER_STEP(c, z, h, K, zn, &err);
+    st = DERIVE_DRIVER_STEP(c, DERIVE_WITH_T(t) z, h, K, zn, &err);
 #endif
     if (st == DERIVE_CHART_SINGULAR) {
         /* switch at the step start (if another chart is better) and redo */
@@ -112,7 +126,7 @@ static int DERIVE_T(derive_fixed)(DERIVE_DRIVER_CTX *c, DERIVE_REAL *z, DERIVE_R
             return -sw;
         }
         if (sw == 1) {
-            st = DERIVE_DRIVER_STEP(c, z, h, K, zn, &err);
+            st = DERIVE_DRIVER_STEP(c, DERIVE_WITH_T(t) z, h, K, zn, &err);
         }
     }
     if (st) {
@@ -174,7 +188,7 @@ static int DERIVE_T(derive_drive)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *restr
                 if ((tnext - t_out[iout]) * dir > slack) {
                     break;
                 }
-                st = DERIVE_T(derive_fixed)(c, z, h, K, zn, 0);
+                st = DERIVE_T(derive_fixed)(c, DERIVE_WITH_T(t) z, h, K, zn, 0);
                 if (st) {
                     goto done;
                 }
@@ -191,7 +205,7 @@ static int DERIVE_T(derive_drive)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *restr
             } else {
                 c->info->h_end = (double)(t_out[iout] - t);
                 side = 1;
-                st = DERIVE_T(derive_fixed)(c, z, t_out[iout] - t, K, tmp, 1);
+                st = DERIVE_T(derive_fixed)(c, DERIVE_WITH_T(t) z, t_out[iout] - t, K, tmp, 1);
                 if (st) {
                     goto done;
                 }
@@ -226,14 +240,14 @@ static int DERIVE_T(derive_drive)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *restr
     }
     tend = t_out[nt - 1];
     hmax = c->opt->hmax > 0 ? (DERIVE_REAL)c->opt->hmax : DERIVE_MATH(fabs)(tend - t);
-    st = DERIVE_DRIVER_EVAL(c, z, K[0]);
+    st = DERIVE_DRIVER_EVAL(c, DERIVE_WITH_T(t) z, K[0]);
     if (st) {
         goto done;
     }
     if (c->opt->h > 0) {
         h = (DERIVE_REAL)c->opt->h < hmax ? (DERIVE_REAL)c->opt->h : hmax;
     } else {
-        h = DERIVE_T(derive_hinit)(c, z, K[0], dir, hmax, order, zn, K[1]);
+        h = DERIVE_T(derive_hinit)(c, DERIVE_WITH_T(t) z, K[0], dir, hmax, order, zn, K[1]);
     }
     h *= dir;
     while (iout < nt) {
@@ -259,9 +273,9 @@ static int DERIVE_T(derive_drive)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *restr
             goto done;
         }
         c->info->nsteps += 1;
-        st = DERIVE_DRIVER_STEP(c, z, h, K, zn, &err);
+        st = DERIVE_DRIVER_STEP(c, DERIVE_WITH_T(t) z, h, K, zn, &err);
         if (st == 0 && err <= 1 && method == DERIVE_METHOD_DOP853) {
-            st = DERIVE_DRIVER_EVAL(c, zn, K[12]);
+            st = DERIVE_DRIVER_EVAL(c, DERIVE_WITH_T(t + h) zn, K[12]);
         }
         if (st != 0 || !(err <= 1)) {
             c->info->nrejected += 1;
@@ -294,7 +308,7 @@ static int DERIVE_T(derive_drive)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *restr
                 st = DERIVE_DRIVER_OUT(c, zn, y_out + iout * DERIVE_N);
             } else {
                 if (!dense_ready) {
-                    st = DERIVE_DRIVER_DENSE_PREPARE(c, z, zn, h, K, F);
+                    st = DERIVE_DRIVER_DENSE_PREPARE(c, DERIVE_WITH_T(t) z, zn, h, K, F);
                     if (st) {
                         goto done;
                     }
@@ -328,7 +342,7 @@ static int DERIVE_T(derive_drive)(DERIVE_DRIVER_CTX *c, const DERIVE_REAL *restr
             goto done;
         }
         if (sw == 1) {
-            st = DERIVE_DRIVER_EVAL(c, z, K[0]);
+            st = DERIVE_DRIVER_EVAL(c, DERIVE_WITH_T(t) z, K[0]);
             if (st) {
                 goto done;
             }
