@@ -609,10 +609,10 @@ def cmd_linearize(args) -> int:
     params = {n: parse_value(v, f"--param {n}") for n, v in _assignments(args.param, "--param").items()}
     inputs = {n: parse_value(v, f"--input {n}") for n, v in _assignments(args.input, "--input").items()}
     state = _assignments(args.at, "--at")
-    if args.equilibria:
-        return _print_equilibria(ref, params, args.json)
-    names, inputs_names = list(ref.info.state_names), list(ref.info.input_names)
     independent = [n.strip() for item in args.independent or [] for n in item.split(",") if n.strip()] or None
+    if args.equilibria:
+        return _print_equilibria(ref, params, args.json, independent)
+    names, inputs_names = list(ref.info.state_names), list(ref.info.input_names)
     if args.project:
         from .runtime.loop_state import consistent_state       # start-up: imported when it runs
         from .runtime.linearize import state_values
@@ -637,9 +637,9 @@ def cmd_linearize(args) -> int:
     return 0
 
 
-def _print_equilibria(ref, params: dict, as_json: bool) -> int:
+def _print_equilibria(ref, params: dict, as_json: bool, independent=None) -> int:
     from .runtime.linearize import equilibria    # start-up: imported when it runs
-    found = equilibria(ref.name, params)
+    found = equilibria(ref.name, params, independent=independent)
     if as_json:
         print(json.dumps({"ok": True, "model": ref.name, "equilibria": [
             {"state": e["state"], "stability": e["stability"],
@@ -666,7 +666,7 @@ def _linearize_parser(sub, model_help: str) -> None:
                    help="list the equilibria (q' = 0, u = 0) with their stability instead")
     p.add_argument("--independent", action="append", metavar="NAME",
                    help="a closed loop: a coordinate it leaves free (repeat or separate by commas); "
-                        "A and B are in these coordinates and their rates")
+                        "A and B (and --equilibria's stability) are in these coordinates and their rates")
     p.add_argument("--project", action="store_true",
                    help="a closed loop: first put the state on the loop (derive.consistent_state)")
     p.add_argument("--json", action="store_true", help="print A and B (or the equilibria) as JSON")

@@ -56,7 +56,7 @@ ORDER_RULE = {"order_max": TAYLOR_ORDER_MAX, "order_min": TAYLOR_ORDER_MIN,
 
 @dataclass
 class Op:
-    kind: str                 # a row of OPERATIONS: var, add, sub, scale, shift, mul, div, inv, sqrt, sin, cos, exp, square
+    kind: str                 # a row of OPERATIONS: var, time, add, sub, scale, shift, mul, div, inv, sqrt, sin, cos, exp, square
     args: tuple = ()          # node indices (jets) or, for scale/shift, (node, constant index)
     index: int = -1           # var: the state slot
 
@@ -68,13 +68,20 @@ class Decomposition:
     constants: list[sp.Expr] = field(default_factory=list)     # state-free values, once per step
     outputs: list[tuple[str, int]] = field(default_factory=list)   # per state: ("node", i) | ("const", c)
     guards: list[int] = field(default_factory=list)            # nodes whose |value| must stay >= sine_min
+    timed: bool = False        # a time-dependent model's: the jet takes t0, the time at the step's start
+
+    @property
+    def reads_time(self) -> bool:
+        """Whether some node is the time t (else a timed jet leaves t0 unused)."""
+        return any(op.kind == "time" for op in self.ops)
 
 
 class _Builder:
-    def __init__(self, state: tuple[sp.Symbol, ...], defs: dict):
+    def __init__(self, state: tuple[sp.Symbol, ...], defs: dict, time: sp.Symbol | None = None):
         self.state = {s: i for i, s in enumerate(state)}
+        self.time = time                  # the time t of a time-dependent model: a jet, not a constant
         self.defs = defs                  # temporary symbol -> expression
-        self.d = Decomposition(n=len(state))
+        self.d = Decomposition(n=len(state), timed=time is not None)
         self.memo: dict = {}              # expression -> ("node", i) | ("const", c)
         self.const_memo: dict = {}
         self.trig: dict = {}              # argument node -> (sin node, cos node)
@@ -92,7 +99,7 @@ class _Builder:
         return ("const", self.const_memo[expr])
 
     def _depends(self, expr) -> bool:
-        return any(s in self.state or (s in self.defs and self._depends(self.defs[s]))
+        return any(s in self.state or s == self.time or (s in self.defs and self._depends(self.defs[s]))
                    for s in expr.free_symbols)
 
     def _const_value(self, expr):
@@ -106,6 +113,8 @@ class _Builder:
             return self.memo[expr]
         if not self._depends(expr):
             out = self._const(self._const_value(expr))
+        elif expr == self.time:           # t(t0 + tau) = t0 + tau: coefficients t0, 1, 0, ...
+            out = ("node", self._op(Op("time")))
         elif expr.is_Symbol:
             out = self.node(self.defs[expr])
         elif expr.is_Add:
@@ -210,10 +219,12 @@ def _negated(expr) -> bool:
     return expr.is_Mul and expr.args[0].is_Number and expr.args[0] < 0
 
 
-def decompose(rhs_body, state: tuple[sp.Symbol, ...]) -> Decomposition:
-    """The elementary operations of a model's CSE'd rhs kernel (derive/codegen/emit.Body)."""
+def decompose(rhs_body, state: tuple[sp.Symbol, ...], time: sp.Symbol | None = None) -> Decomposition:
+    """The elementary operations of a model's CSE'd rhs kernel (derive/codegen/emit.Body);
+    `time`: the symbol t of a time-dependent model, a variable of the jet (heyoka's
+    `time`), whose Taylor coefficients over a step from t0 are t0, 1, 0, 0, ..."""
     defs = dict(rhs_body.assignments)
-    b = _Builder(state, defs)
+    b = _Builder(state, defs, time)
     for expr in rhs_body.outputs[0]:
         b.d.outputs.append(b.node(expr))
     for g in rhs_body.guards:
@@ -272,6 +283,10 @@ def _chain_cost(k):                       # (1/k) sum_{j=1..k} j a_j w_{k-j}
 
 OPERATIONS = {
     "var": Operation("a state: the solution's own coefficients", None, None),
+    # the jet's argument t0 (the time at the start of the step): u_0 = t0, u_1 = 1, u_k = 0 past
+    "time": Operation("u = t: u_0 = t0, u_1 = 1, u_k = 0 (k >= 2)",
+                      lambda u, a: f"{u}[k] = k == 0 ? t0 : T_INT(k == 1);",
+                      lambda u, a: f"LANES_TIME({u.cur}, t0, k);"),
     "add": Operation("u_k = a_k + b_k",
                      lambda u, a: f"{u}[k] = T_ADD({a[0]}[k], {a[1]}[k]);",
                      lambda u, a: f"LANES_ADD({u.cur}, {a[0].cur}, {a[1].cur});",
@@ -469,7 +484,8 @@ def rhs_decomposition(name: str) -> Decomposition:
     spec, bodies = kernels(name)
     body = next(b for b in bodies if b.kernel.name == "rhs")
     state = next(i.vector.symbols for i in body.kernel.inputs if i.vector.key == "state")
-    return decompose(body, tuple(state))
+    time = next((i.vector.symbols[0] for i in body.kernel.inputs if i.vector.key == "time"), None)
+    return decompose(body, tuple(state), time)
 
 
 def _slots(name: str) -> dict:
@@ -478,7 +494,7 @@ def _slots(name: str) -> dict:
     body = next(b for b in bodies if b.kernel.name == "rhs")
     slots, offset = {}, 0
     for inp in body.kernel.inputs:
-        if inp.vector.key == "state":
+        if inp.vector.key in ("state", "time"):      # the jet's own variables, not p's
             continue
         for i, s in enumerate(inp.vector.symbols):
             slots[s] = f"p[{offset + i}]"
@@ -562,9 +578,18 @@ PUBLIC = (
 LIBRARY = ("derive_dd.h", "derive_taylor.h")      # derive/codegen/backends/c/library/
 
 
-def _public(P: str, v: dict) -> list[dict]:
-    return [{"head": f"{ret} {P}_{fn}{v['s']}({params.format(R=v['ctype'], P=P)})",
-             "body": f"return derive_{fn}{v['tag']}({args});"} for ret, fn, params, args in PUBLIC]
+# a time-dependent model's taylor_coefficients takes the time first, as its kernels do (t[0])
+TIMED_COEFFICIENTS = ("const {R} *t, ", "t, ")
+
+
+def _public(P: str, v: dict, timed: bool = False) -> list[dict]:
+    out = []
+    for ret, fn, params, args in PUBLIC:
+        if timed and fn == "taylor_coefficients":
+            params, args = TIMED_COEFFICIENTS[0] + params, TIMED_COEFFICIENTS[1] + args
+        out.append({"head": f"{ret} {P}_{fn}{v['s']}({params.format(R=v['ctype'], P=P)})",
+                    "body": f"return derive_{fn}{v['tag']}({args});"})
+    return out
 
 
 def library_context(name: str, info) -> dict:
@@ -589,11 +614,11 @@ def render_taylor(name: str) -> dict[str, str]:
     out = {}
     for stem, names in TAYLOR_FILES.items():
         variants = [dict(TAYLOR_VARIANTS[v], taylor=c_statements(d, TAYLOR_VARIANTS[v], slots),
-                         public=_public(name, TAYLOR_VARIANTS[v])) for v in names]
+                         public=_public(name, TAYLOR_VARIANTS[v], d.timed)) for v in names]
         header = f"{name}_{stem}.h"
         ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops),
                "uses": {k.lower(): k in called for k in ("MUL", "DIV", "SQRT", "CHAIN")},
-               "nconst": len(d.constants), **ORDER_RULE, **library_context(name, info), "header": header,
+               "nconst": len(d.constants), "timed": d.timed, "reads_time": d.reads_time, **ORDER_RULE, **library_context(name, info), "header": header,
                "guard": f"{M}_{stem.upper()}_H", "quad": "quad" in names, "dd": "double-double" in names,
                "precisions": _precisions([TAYLOR_VARIANTS[v] for v in names]),
                "op_summary": ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())),
@@ -610,13 +635,11 @@ def _precisions(variants: list[dict]) -> str:
 
 
 def taylor_problem(name: str) -> str | None:
-    """Why model `name` has no Taylor integrator (explicit time, an operation without a
-    recurrence), or None."""
-    if kernels(name)[0].is_time_dependent:
-        return ("explicit time in the model: the jet carries the state, not t; use derive.simulate "
-                "with rk4, rk8, dopri5 or dop853 (each stage at its own time)")
+    """Why model `name` has no Taylor integrator (an operation without a recurrence), or
+    None.  Explicit time is no problem: t is a variable of the jet."""
     try:
         rhs_decomposition(name)
     except SpecError as exc:
         return str(exc)
     return None
+

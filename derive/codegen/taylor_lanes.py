@@ -119,7 +119,8 @@ def render_taylor_lanes(name: str) -> dict[str, str]:
                      tag=TAYLOR_VARIANTS[v["ctype"]]["tag"]) for v in c_variants()]
     M = name.upper()
     ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops),
-           "uses": lanes_uses(d), "jet": lane_statements(d), "nconst": len(d.constants), **ORDER_RULE,
+           "uses": lanes_uses(d), "jet": lane_statements(d), "nconst": len(d.constants),
+           "timed": d.timed, "reads_time": d.reads_time, **ORDER_RULE,
            **library_context(name, info), "lanes_default": LANES_DEFAULT,
            "cost": jet_cost(d, COST_ORDER), "cost_order": COST_ORDER,
            "nstore": d.n + len(history_nodes(d) - {i for i, op in enumerate(d.ops) if op.kind == "var"}),

@@ -78,7 +78,7 @@ def compute(model: Model) -> Derivation:
     V = lagrange.potential_energy(form)
     R = lagrange.dissipation_function(model, s)
     Q = lagrange.generalized_forces(model, s, tips, centres)
-    F = lagrange.forcing(form, s)
+    F = lagrange.forcing(form, s) + lagrange.moving_mass_forcing(M, s)
     if R is not None or Q is not None:
         F = F + lagrange.non_conservative(R, Q, s)
     T = lagrange.kinetic_energy(M, s)

@@ -22,6 +22,14 @@ axes W_k q' by the recursion omega_k = turn_k^T omega_parent + axis_k q'_k, exac
 simplifying), each entry folded by one trigsimp; V = g sum_k m_k r_k[-1]; F by the same Christoffel
 form (`forcing`), plus the explicit-time terms of T - 1/2 q'^T M q' (the velocity's
 part dr_k/dt: a moving pivot) by the formula above (`explicit_time_forcing`).
+
+A prescribed joint (`prescribed = "w*t"` on a link: its coordinate is f(t; p), not a
+state) enters the tree's geometry as that expression: a centre's dr_k/dt and a turning
+direction's de_k/dt|_q gain its rate f'(t), a rigid body's angular velocity W_k q' + w_k(t)
+its axis times f'(t) (the recursion carries w_k), and T's explicit-time part collects the
+cross and square terms.  Where the joint changes the bodies' geometry (a slider pulled in,
+a turntable turning a rotor's axes) M depends on t too, and F gains -(dM/dt) q'
+(`moving_mass_forcing`).
 """
 from __future__ import annotations
 
@@ -50,6 +58,14 @@ def link_vectors(model: Model, s: ModelSymbols) -> list[sp.Matrix]:
     """q_i = l_i e_i: the vector along each link, pivot to tip."""
     return [parse_quantity(link.length, s) * e
             for link, e in zip(model.links, link_directions(model, s))]
+
+
+def joint_values(model: Model, s: ModelSymbols, link) -> list[sp.Expr]:
+    """A link's joint coordinates: its symbols in q, or a prescribed joint's f(t; p)."""
+    if link.prescribed:
+        where = model.origin or model.name
+        return [parse_expression(text, motion_names(s), f"{where}: prescribed") for text in link.prescribed]
+    return [s.q[j] for j in model.link_coordinates(link)]
 
 
 def pivot_position(model: Model, s: ModelSymbols) -> sp.Matrix:
@@ -290,6 +306,27 @@ def pivot_terms(model: Model, s: ModelSymbols) -> PivotTerms | None:
     return PivotTerms(sp.expand(T), sp.expand(V), explicit_time_forcing(T, s))
 
 
+def moving_mass_forcing(M: sp.Matrix, s: ModelSymbols) -> sp.Matrix:
+    """-(dM/dt) q': what a mass matrix with explicit time adds to F (d/dt dT/dq' holds
+    dM/dt|_q q' beside the Christoffel terms).  Zero unless a prescribed joint moves the
+    bodies' geometry in time (a slider pulled in, a turntable turning a rotor's axes); a
+    moving pivot translates every body and leaves M unchanged.
+
+    Parameters
+    ----------
+    M : sympy.Matrix
+    s : ModelSymbols
+
+    Returns
+    -------
+    sympy.Matrix
+    """
+    dM = M.diff(t)
+    if dM == sp.zeros(*M.shape):
+        return sp.zeros(M.shape[0], 1)
+    return (-dM * sp.Matrix(s.qd)).applyfunc(lambda f: sp.factor_terms(sp.expand(f)))
+
+
 def explicit_time_forcing(T: sp.Expr, s: ModelSymbols) -> sp.Matrix:
     """What the part T of the kinetic energy that is not 1/2 q'^T M q' (the terms linear in
     and free of q', from explicit time) adds to F (module docstring):
@@ -375,10 +412,10 @@ def spring_potential(model: Model, s: ModelSymbols, tips: list[sp.Matrix],
             V += k * square / 2 if rest == 0 else k * (sp.sqrt(square) - rest)**2 / 2
         else:
             link = model.links[spring.joint]
-            angle = s.q[model.link_coordinates(link)[0]]
+            angle = joint_values(model, s, link)[0]
             parent = model.links[link.parent] if link.parent >= 0 else None
-            if parent is not None and parent.joint != PRISMATIC and len(parent.coordinates) == 1:
-                angle -= s.q[model.link_coordinates(parent)[0]]
+            if parent is not None and parent.joint != PRISMATIC and len(joint_values(model, s, parent)) == 1:
+                angle -= joint_values(model, s, parent)[0]
             V += k * (angle - rest)**2 / 2
     return V
 
@@ -396,7 +433,8 @@ class TreeGeometry:
     centres: list[sp.Matrix]
     directions: list[sp.Matrix | None]
     frames: list[sp.Matrix | None]
-    rates: list[sp.Matrix | None]        # W_k: the frame's angular velocity in its own axes is W_k q'
+    rates: list[sp.Matrix | None]        # W_k: the frame's angular velocity in its own axes is W_k q' + w_k
+    spins: list[sp.Matrix | None] = None  # w_k(t): its part from prescribed joints (zero without them)
 
 
 def _planar_frame(e: sp.Matrix) -> sp.Matrix:
@@ -439,20 +477,21 @@ def tree_geometry(model: Model, s: ModelSymbols) -> TreeGeometry:
     """
     where = model.origin or model.name
     r0, dim = pivot_position(model, s), model.dimension
-    geo = TreeGeometry([], [], [], [], [], [])
+    geo = TreeGeometry([], [], [], [], [], [], [])
     for i, link in enumerate(model.links, 1):
         if link.parent < 0:
-            base, tip, frame, rates = r0, r0, sp.eye(dim), sp.zeros(3, len(s.q))
+            base, tip, frame, rates, spin_t = r0, r0, sp.eye(dim), sp.zeros(3, len(s.q)), sp.zeros(3, 1)
         else:
             base, tip, frame = geo.joints[link.parent], geo.tips[link.parent], geo.frames[link.parent]
-            rates = geo.rates[link.parent]
+            rates, spin_t = geo.rates[link.parent], geo.spins[link.parent]
         own_rates = rates if link.joint == PRISMATIC else None
+        own_spin = spin_t if link.joint == PRISMATIC else None
         if frame is None and (link.offset is not None or link.joint in (PRISMATIC, REVOLUTE)):
             raise ModelError(f"{where}: link {i}: its parent (link {link.parent + 1}) is a spherical "
                              f"link, whose direction does not fix a frame for an offset or an axis")
         joint = tip if link.offset is None else base + frame * sp.Matrix(
             [parse_quantity(x, s) for x in link.offset])
-        q = [s.q[j] for j in model.link_coordinates(link)]
+        q = joint_values(model, s, link)
         if link.joint == PRISMATIC:
             end, e, own_frame = joint + q[0] * (frame * _unit_axis(link, s)), None, frame
             centre = end
@@ -464,7 +503,11 @@ def tree_geometry(model: Model, s: ModelSymbols) -> TreeGeometry:
                 e = own_frame * sp.Matrix([0, 0, -1])
                 if rates is not None:       # omega = turn^T omega_parent + axis q'_j, in own axes
                     spin = sp.zeros(3, len(s.q))
-                    spin[:, model.link_coordinates(link)[0]] = axis
+                    if link.prescribed:     # a driven joint turns at f'(t): omega's part in t
+                        own_spin = (turn.T * spin_t + axis * q[0].diff(t)).applyfunc(sp.expand)
+                    else:
+                        spin[:, model.link_coordinates(link)[0]] = axis
+                        own_spin = (turn.T * spin_t).applyfunc(sp.expand)
                     own_rates = (turn.T * rates + spin).applyfunc(sp.expand)
             else:
                 e = link.chart.unit_vector(q)
@@ -481,6 +524,7 @@ def tree_geometry(model: Model, s: ModelSymbols) -> TreeGeometry:
         geo.directions.append(e)
         geo.frames.append(own_frame)
         geo.rates.append(own_rates)
+        geo.spins.append(own_spin)
     return geo
 
 
@@ -510,7 +554,7 @@ def tree_form(model: Model, s: ModelSymbols, geo: TreeGeometry) -> tuple[ChainFo
     q = sp.Matrix(s.q)
     M, V, T_time = sp.zeros(n, n), sp.S.Zero, sp.S.Zero
     g = s.param("g")
-    for link, centre, e, W in zip(model.links, geo.centres, geo.directions, geo.rates):
+    for link, centre, e, W, w in zip(model.links, geo.centres, geo.directions, geo.rates, geo.spins):
         if link.body is None:
             continue
         m = parse_quantity(link.body.mass, s)
@@ -519,10 +563,15 @@ def tree_form(model: Model, s: ModelSymbols, geo: TreeGeometry) -> tuple[ChainFo
         if link.body.tensor is not None:          # a rigid body turning with its link's frame
             tensor = sp.Matrix([[parse_quantity(x, s) for x in row] for row in link.body.tensor])
             M += W.T * tensor * W
+            if w is not None and w != sp.zeros(3, 1):     # omega = W q' + w(t): a driven joint's spin
+                T_time += (w.T * tensor * (W * qd))[0, 0] + (w.T * tensor * w)[0, 0] / 2
         inertia = parse_quantity(link.body.inertia, s)
         if e is not None and inertia != 0:
             E = e.jacobian(q)
             M += inertia * E.T * E
+            turning = e.diff(t)                   # a rod turned by a driven joint: de/dt = E q' + de/dt|_q
+            if turning != sp.zeros(*turning.shape):
+                T_time += inertia * (turning.T * (E * qd))[0, 0] + inertia * (turning.T * turning)[0, 0] / 2
         moving = centre.diff(t)
         if moving != sp.zeros(*moving.shape):
             T_time += m * (moving.T * (J * qd))[0, 0] + m * (moving.T * moving)[0, 0] / 2

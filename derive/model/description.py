@@ -7,7 +7,7 @@ import os
 import re
 import sys
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cache, cached_property
 from pathlib import Path
 
@@ -113,6 +113,7 @@ class Link:
     axis: tuple[str, ...] = ()   # a slider's or revolute joint's axis in its parent's frame
     offset: tuple[str, ...] | None = None   # the joint's place in the parent's frame (None: its tip)
     coordinates: tuple[str, ...] = ()       # the names of the joint's coordinates in the model
+    prescribed: tuple[str, ...] = ()        # a joint driven in time: its coordinate's f(t; p), no state
 
 
 @dataclass(frozen=True)
@@ -167,7 +168,7 @@ class Model:
         otherwise a kinematic tree (lagrange.tree_form)."""
         return self.order is None and all(
             link.joint == CHART_JOINT and link.parent == i - 1 and link.offset is None
-            and link.body is not None for i, link in enumerate(self.links))
+            and link.body is not None and not link.prescribed for i, link in enumerate(self.links))
 
     @property
     def is_conservative(self) -> bool:
@@ -189,6 +190,8 @@ class Model:
         out = []
         if self.pivot is not None and timed(self.pivot):
             out.append("the moving pivot")
+        if any(link.prescribed for link in self.links):
+            out.append("the prescribed joint motion")
         if self.potential is not None and timed([self.potential]):
             out.append("the time-dependent potential")
         if self.forces:
@@ -206,7 +209,8 @@ class Model:
         names = {n: sp.Symbol(n) for n in (*self.parameters, *self.inputs, *self.state_names, TIME)}
         where = self.origin or self.name
         texts = [*(text for _, text in self.forces), *(self.pivot or ()),
-                 *(text for load in self.loads for text in load.force)]
+                 *(text for load in self.loads for text in load.force),
+                 *(text for link in self.links for text in link.prescribed)]
         texts += [text for text in (self.dissipation, self.potential) if text is not None]
         return any(names[TIME] in parse_expression(text, names, where).free_symbols for text in texts)
 
@@ -577,6 +581,9 @@ def _check_expressions(model: "Model", where: str) -> None:
     motion = {n: names[n] for n in (*model.parameters, TIME)}     # prescribed: no state, no input
     for axis, text in zip("xyz", model.pivot or ()):
         parse_expression(text, motion, f"{where}: pivot {axis}")
+    for i, link in enumerate(model.links, 1):
+        for text in link.prescribed:
+            parse_expression(text, motion, f"{where}: link {i} prescribed")
     if model.potential is not None:               # V(q, p, t): no rate, no input
         configuration = {n: names[n] for n in (*model.parameters, *model.coordinate_names, TIME)}
         parse_expression(model.potential, configuration, f"{where}: potential")
@@ -609,6 +616,9 @@ def _check_constraints(model: "Model", names: dict, where: str) -> None:
                                                       "and parameters only)")
         if not expr.free_symbols & coordinates:
             raise ModelError(f"{key}: {text!r} uses no coordinate ({', '.join(model.coordinate_names)})")
+    if not model.coordinate_names:
+        raise ModelError(f"{where}: every joint is prescribed: the model has no coordinate to integrate "
+                         f"(leave at least one joint free)")
     if len(model.constraints) >= len(model.coordinate_names):
         raise ModelError(f"{where}: {len(model.constraints)} constraints on "
                          f"{len(model.coordinate_names)} coordinates leave no degree of freedom")
@@ -654,7 +664,7 @@ def _pivot(t: dict, dimension: int, where: str) -> tuple[str, ...] | None:
 
 
 LINK_KEYS = {"chart", "length", "body", "name", "parent", "joint", "axis", "offset", "coordinate",
-             "coordinates"}
+             "coordinates", "prescribed"}
 
 
 def _vector(lt: dict, key: str, dimension: int, where: str) -> tuple[str, ...] | None:
@@ -699,7 +709,26 @@ def _axis_chart(joint: str, coordinate: str, dimension: int) -> Chart:
 
 
 def _parse_link(lt: dict, i: int, dimension: int, named: dict[str, int], where: str) -> Link:
-    """One [[links]] table: its joint (chart or prismatic), its parent, its body."""
+    """One [[links]] table: its joint (chart or prismatic), its parent, its body; a joint
+    with `prescribed` motion has no coordinate in the state (its value is f(t; p))."""
+    link = _parse_joint(lt, i, dimension, named, where)
+    if "prescribed" not in lt:
+        return link
+    text = lt["prescribed"]
+    if len(link.coordinates) != 1:
+        raise ModelError(f"{where}: 'prescribed' drives a joint of one coordinate (a planar hinge, a "
+                         f"revolute joint or a slider); this one has {len(link.coordinates)}")
+    if not isinstance(text, (str, int, float)) or isinstance(text, bool):
+        raise ModelError(f"{where}: 'prescribed' must be an expression in t and the parameters, "
+                         f"e.g. prescribed = \"w*t\"")
+    if "coordinate" in lt or "coordinates" in lt:
+        raise ModelError(f"{where}: a prescribed joint has no coordinate of the state (leave out "
+                         f"'coordinate'): its value is 'prescribed'")
+    return replace(link, coordinates=(), prescribed=(str(text),))
+
+
+def _parse_joint(lt: dict, i: int, dimension: int, named: dict[str, int], where: str) -> Link:
+    """One [[links]] table's joint, parent and body (_parse_link)."""
     _no_unknown(lt, LINK_KEYS, where)
     name = lt.get("name", "")
     if not isinstance(name, str) or (name and not NAME.match(name)):
@@ -732,10 +761,10 @@ def _parse_link(lt: dict, i: int, dimension: int, named: dict[str, int], where: 
         if axis is None:
             raise ModelError(f"{where}: a prismatic joint needs 'axis' (its direction in the "
                              f"parent's frame, e.g. axis = [1, 0])")
-        if "coordinate" not in lt and "coordinates" not in lt:
+        if "coordinate" not in lt and "coordinates" not in lt and "prescribed" not in lt:
             raise ModelError(f"{where}: a prismatic joint needs 'coordinate' (the name of the "
                              f"length it slides, e.g. coordinate = \"x\")")
-        coordinates = _joint_coordinates(lt, 1, (), where)
+        coordinates = _joint_coordinates(lt, 1, (f"s{i}",), where)     # s_i: a driven slider's stand-in
         if body is not None and body.kind != "point":
             raise ModelError(f"{where}: a slider's body is a point (a cart), got '{body.kind}'")
         return Link(_axis_chart(PRISMATIC, coordinates[0], dimension), "0", body, name, parent_index,

@@ -89,6 +89,11 @@ def _joint(model, link, i: int, n) -> str:
         where = "the pivot" if link.parent < 0 else f"link {link.parent + 1}"
         at = "" if link.offset is None else f" at {vector(link.offset)} in its frame"
         text += f", hangs from {where}{at}"
+    if link.prescribed:
+        timed = {**params, "t": sp.Symbol("t")}
+        what = "length it slides" if link.joint == "prismatic" else "angle"
+        value = ts.tex(parse_expression(link.prescribed[0], timed, "link"), n)
+        text += f", driven: its {what} is prescribed, ${value}$ (no coordinate of the state)"
     return text
 
 

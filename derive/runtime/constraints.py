@@ -100,15 +100,15 @@ def residuals(model: str, y, p) -> tuple[np.ndarray, np.ndarray]:
         A closed loop's name.
     y : array_like, shape (..., n)
         States.
-    p : array_like, shape (n_params,)
-        The parameters.
+    p : array_like, shape (..., n_params)
+        The parameters (any inputs after them are dropped), broadcasting against y.
 
     Returns
     -------
     phi, phi_dot : ndarray, shape (..., m)
     """
     y = np.asarray(y, dtype=np.float64)
-    p = np.asarray(p, dtype=np.float64)[:len(load_model(model).parameters)]   # without the inputs
+    p = np.asarray(p, dtype=np.float64)[..., :len(load_model(model).parameters)]   # without the inputs
     with np.errstate(all="ignore"):
         phi, phi_dot = numpy_module(model).constraints(y, p)
     return np.asarray(phi, dtype=np.float64), np.asarray(phi_dot, dtype=np.float64)
@@ -249,3 +249,114 @@ def report_drift(result, model: str, p):
     """`result` with its constraint_drift set (a closed loop's run), returned."""
     result.constraint_drift = drift(model, result.y, p)
     return result
+
+
+def free_indices(model: str, independent) -> list[int]:
+    """The indices of the coordinates `independent` names (a name or a sequence of names):
+    the coordinates a closed loop leaves free, as many as the coordinates less the
+    constraints, each named once.
+
+    Parameters
+    ----------
+    model : str
+        A closed loop's name.
+    independent : str or sequence of str
+        Coordinate names.
+
+    Returns
+    -------
+    list of int
+
+    Raises
+    ------
+    SimulationInputError
+        An unknown name, a name given twice, or not as many names as the loop leaves free.
+    """
+    d = load_model(model)
+    names = list(d.coordinate_names)
+    chosen = [independent] if isinstance(independent, str) else list(independent)
+    unknown = [c for c in chosen if c not in names]
+    if unknown:
+        raise SimulationInputError(f"independent: '{unknown[0]}' is no coordinate of model '{model}' "
+                                   f"(its coordinates: {', '.join(names)})")
+    if len(set(chosen)) != len(chosen):
+        raise SimulationInputError(f"independent: a coordinate named twice: {chosen}")
+    free = len(names) - len(d.constraints)
+    if len(chosen) != free:
+        raise SimulationInputError(f"independent: model '{model}' has {len(names)} coordinates and "
+                                   f"{len(d.constraints)} constraints, so {free} free coordinate"
+                                   f"{'s' * (free != 1)}; got {len(chosen)} ({', '.join(chosen) or 'none'})")
+    return [names.index(c) for c in chosen]
+
+
+def close_from_free(model: str, ys, ps, free: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """States on the loop from their free coordinates: each row's free coordinates and
+    their rates are kept; the other coordinates, from the row's values as the first guess
+    (which picks the loop's branch), by Newton on Phi(q) = 0 in them alone; their rates
+    from J q' = 0, i.e. J_d q_d' = -J_z z'.  Vectorised over rows (a sweep's chunk).
+
+    Parameters
+    ----------
+    model : str
+        A closed loop's name.
+    ys : array_like, shape (B, n)
+        States: the free coordinates and rates as wanted, the others guesses.
+    ps : array_like, shape (B, n_params) or (n_params,)
+        The parameters (then any inputs) of each row.
+    free : list of int
+        The free coordinates' indices (`free_indices`).
+
+    Returns
+    -------
+    closed : ndarray, shape (B, n)
+        The states; a row that did not close keeps its values.
+    ok : ndarray of bool, shape (B,)
+        Whether the row closed: |Phi| and |J q'| within the contract's
+        CONSTRAINT_START_TOLERANCE, with J_d (dPhi/dq in the other coordinates)
+        well conditioned there.  Not: the loop cannot close at these free coordinates
+        (a crank angle the linkage cannot reach), Newton left the guess's basin, or the
+        free coordinates do not determine the others there (a singular configuration).
+    """
+    kernels = numpy_module(model)
+    y = np.array(ys, dtype=np.float64, ndmin=2)
+    B, n = y.shape
+    nq = n // 2
+    p = np.broadcast_to(np.asarray(ps, dtype=np.float64)[..., :len(load_model(model).parameters)],
+                        (B, len(load_model(model).parameters)))
+    dep = [i for i in range(nq) if i not in free]
+    ok = np.all(np.isfinite(y), axis=1) & np.all(np.isfinite(p), axis=1)
+    y[~ok] = 0.0
+    with np.errstate(all="ignore"):
+        for _ in range(PROJECTION_ITERATIONS):
+            J = np.asarray(kernels.constraint_jacobian(y, p), dtype=np.float64).reshape(B, -1, nq)
+            Jd = J[:, :, dep]
+            usable = ok & _well_conditioned(Jd)
+            phi, _ = residuals(model, y, p)
+            step = np.zeros((B, len(dep)))
+            if usable.any():
+                step[usable] = np.linalg.solve(Jd[usable], phi[usable][..., None])[..., 0]
+            y[:, dep] -= np.where(usable[:, None], step, 0.0)
+            scale = np.maximum(1.0, np.abs(y[:, :nq]).max(axis=1))
+            if np.all(~usable | (np.abs(step).max(axis=1) <= PROJECTION_STEP * scale)):
+                break
+        J = np.asarray(kernels.constraint_jacobian(y, p), dtype=np.float64).reshape(B, -1, nq)
+        Jd, Jz = J[:, :, dep], J[:, :, free]
+        ok &= _well_conditioned(Jd)
+        rates = np.zeros((B, len(dep)))
+        zdot = y[:, [nq + i for i in free]]
+        if ok.any():
+            rates[ok] = -np.linalg.solve(Jd[ok], (Jz[ok] @ zdot[ok][..., None]))[..., 0]
+        y[:, [nq + i for i in dep]] = np.where(ok[:, None], rates, y[:, [nq + i for i in dep]])
+        phi, phi_dot = residuals(model, y, p)
+        ok &= (np.abs(phi).max(axis=1) <= CONSTRAINT_START_TOLERANCE) \
+            & (np.abs(phi_dot).max(axis=1) <= CONSTRAINT_START_TOLERANCE)
+    y[~ok] = np.asarray(ys, dtype=np.float64).reshape(B, n)[~ok]
+    return y, ok
+
+
+def _well_conditioned(Jd: np.ndarray) -> np.ndarray:
+    """Rows whose J_d may be solved with: finite, and its smallest singular value above
+    the contract's singular-start threshold relative to its largest (as check_initial_state)."""
+    finite = np.all(np.isfinite(Jd), axis=(1, 2))
+    s = np.linalg.svd(np.where(finite[:, None, None], Jd, 0.0), compute_uv=False)
+    return finite & (s[:, -1] > SINGULAR_START * np.maximum(1.0, s[:, 0]))

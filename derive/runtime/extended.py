@@ -28,11 +28,11 @@ import mpmath
 import numpy as np
 
 from .loader import PORTABLE_FLAGS, build_library, default_compiler
-from ..codegen.sources import c_source
+from ..codegen.sources import c_source, kernels
 from ..errors import BuildError, SimulationInputError
 from ..model.description import forget_on_model_change
 from .build import address, info_struct
-from .shared_library import TAYLOR_BATCH, TAYLOR_COEFFICIENTS, SharedLibrary
+from .shared_library import TAYLOR_BATCH, TAYLOR_COEFFICIENTS, TAYLOR_COEFFICIENTS_TIMED, SharedLibrary
 from .model_sizes import model_info
 from ..codegen.taylor import taylor_problem, taylor_skip_flags
 from ..codegen.contract import EXTENDED, PRECISION, PRECISION_NAMES
@@ -203,7 +203,9 @@ class ExtendedTaylor(SharedLibrary):
         super().__init__(path)
         self.Info = info_struct(self.n)
         self.batch = self.bind(TAYLOR_BATCH, model=model, suffix=_SUFFIX[precision])
-        self.coefficients_fn = self.bind(TAYLOR_COEFFICIENTS, model=model, suffix=_SUFFIX[precision])
+        self.timed = kernels(model)[0].is_time_dependent
+        self.coefficients_fn = self.bind(TAYLOR_COEFFICIENTS_TIMED if self.timed else TAYLOR_COEFFICIENTS,
+                                         model=model, suffix=_SUFFIX[precision])
 
     def run(self, y0: list, p: list, t: list, opt) -> tuple[list, object]:
         """One trajectory from exact values -> (the outputs as exact values, row-major
@@ -216,12 +218,15 @@ class ExtendedTaylor(SharedLibrary):
                    ctypes.addressof(opt), ctypes.addressof(infos))
         return DECODE[self.precision](out), infos[0]
 
-    def coefficients(self, y: list, p: list, sine_min: float = 0.0) -> tuple[int, list]:
-        """(status, the normalised Taylor coefficients, row-major (n, order + 1), exact)."""
+    def coefficients(self, y: list, p: list, sine_min: float = 0.0, t=0) -> tuple[int, list]:
+        """(status, the normalised Taylor coefficients, row-major (n, order + 1), exact) of
+        the solution through y (at the time t, an exact value: a time-dependent model's)."""
         enc = ENCODE[self.precision]
         yw, pw = enc(y), enc(p) if p else enc([0])
+        tw = enc([exact(t, "t")])
         out = _aligned((self.n * (self.order + 1), 2), _WORDS[self.precision])
-        st = self.coefficients_fn(address(yw), address(pw), self.order, address(out), float(sine_min))
+        at = (address(tw),) if self.timed else ()
+        st = self.coefficients_fn(*at, address(yw), address(pw), self.order, address(out), float(sine_min))
         return int(st), DECODE[self.precision](out)
 
 

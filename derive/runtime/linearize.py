@@ -31,14 +31,24 @@ from ..derivation.lagrange import link_blocks
 from ..derivation.symbols import t as TIME
 from ..errors import ModelError, SimulationInputError
 from ..model import load_model
-from ..model.description import forget_on_model_change
+from ..model.description import PRISMATIC, forget_on_model_change
 from ..model.expressions import parse_expression
+from . import constraints
+from .loader import numpy_module
 from .simulate import _input_values, model_ref, normalise_params, resolve_model
 
 # A real part of an eigenvalue of A within this (relative to the largest magnitude) is
 # taken as zero: the conservative pendulum's hanging modes are exactly imaginary, and
 # the rounding of the solve leaves a real part of order 1e-16 of the spectrum.
 MARGINAL = 1e-9
+LOOP_SEED = 0              # a loop's rests: the random coordinates projected to find its branches ...
+LOOP_STARTS = 24           # ... this many of them
+LOOP_GRID = 48             # starts per branch over the free coordinates (a grid of about this many)
+LOOP_NEWTON = 60           # Newton steps on z'' = 0 from each start
+LOOP_MAX_STEP = 0.5        # ... each at most this long (radians), so a start stays on its branch
+LOOP_SAME = 1e-7           # two closed configurations closer than this are one
+LOOP_DIFFERENCE = 1e-6     # the central differences of z''(z), relative to max(1, |z|)
+LOOP_STEP_TOLERANCE = 1e-12   # Newton stops at a correction this small (relative to max(1, |q|))
 POLAR_SINE_MIN = 1e-6      # the generated kernels' default chart-singularity threshold
 
 
@@ -458,11 +468,121 @@ def _check_rests_are_a_chains(model, where: str) -> None:
                                    f"derive.linearize(model, state, params)")
 
 
-def equilibria(model, params) -> list[dict]:
+def _angles(model) -> np.ndarray:
+    """Which coordinates are angles (wrapped to (-pi, pi]): all but a slider's length."""
+    return np.array([link.joint != PRISMATIC for link in model.links for _ in link.coordinates], bool)
+
+
+def _wrap(q: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    return np.where(angles, np.angle(np.exp(1j * q)), q)
+
+
+def _loop_branches(ref, p: np.ndarray, pc: Pieces) -> list[np.ndarray]:
+    """The loop's distinct closed configurations reached from random coordinates (its
+    branches: a four-bar closes in two mirror images), each a guess for the others."""
+    rng = np.random.default_rng(LOOP_SEED)
+    nq = pc.nq
+    angles = _angles(ref.description)
+    found: list[np.ndarray] = []
+    for _ in range(LOOP_STARTS):
+        y = np.zeros(2 * nq)
+        y[:nq] = np.where(angles, rng.uniform(-np.pi, np.pi, nq), rng.normal(0.0, 1.0, nq))
+        try:
+            q = _wrap(constraints.project(ref.name, y, p)[:nq], angles)
+        except SimulationInputError:
+            continue
+        if not any(np.abs(_wrap(q - other, angles)).max() < LOOP_SAME for other in found):
+            found.append(q)
+    return found
+
+
+def _loop_equilibria(ref, p: np.ndarray, free: list[int]) -> list[dict]:
+    """A closed loop's rests, q' = 0 and u = 0 with z'' = 0 in its free coordinates z:
+    Newton on z''(z) from a grid of z on every branch found, all starts at once (the
+    NumPy kernels are vectorised), the others closed from the current state at every
+    step (continuation keeps the branch); each rest once, its stability from A."""
+    pc = _pieces(ref.name)
+    nq, names = pc.nq, list(ref.info.state_names)
+    k = len(free)
+    angles = _angles(ref.description)
+    u = np.zeros(pc.n_inputs)
+    grid = np.linspace(-np.pi, np.pi, max(2, round(LOOP_GRID ** (1 / k))), endpoint=False)
+    starts = []
+    for guess in _loop_branches(ref, p, pc):
+        for z in itertools.product(grid, repeat=k):
+            y = np.r_[guess, np.zeros(nq)]
+            y[free] = z
+            starts.append(y)
+    rests: list[tuple[np.ndarray, np.ndarray]] = []
+    if not starts:
+        return []
+    for y in _newton_rests(ref, np.array(starts), p, free):
+        y[:nq] = _wrap(y[:nq], angles)
+        y[:nq][np.abs(y[:nq]) < LOOP_SAME * 1e-6] = 0.0       # roundoff about an exact zero (hanging straight)
+        if any(np.abs(_wrap(y[:nq] - other[:nq], angles)).max() < LOOP_SAME for other, _ in rests):
+            continue
+        try:
+            A, _ = _loop_jacobians(pc, y, p, u, ref, 0.0, free)
+        except SimulationInputError:           # the free coordinates are not free there
+            continue
+        rests.append((y, A))
+    rests.sort(key=lambda r: tuple(np.round(r[0][:nq], 9)))
+    return [{"state": dict(zip(names, map(float, y))), "stability": stability(A),
+             "eigenvalues": np.linalg.eigvals(A)} for y, A in rests]
+
+
+def _newton_rests(ref, Y: np.ndarray, p: np.ndarray, free: list[int]) -> np.ndarray:
+    """The rests Newton reaches from the starts Y (S, n): rows of z''(z) = 0 on the loop,
+    the Jacobian by central differences (each side closed too); rows that leave the loop,
+    lose their free coordinates or do not converge are dropped."""
+    name, nq, k = ref.name, Y.shape[1] // 2, len(free)
+    kernels = numpy_module(name)
+    n_inputs = len(ref.info.input_names)
+    extra = (np.zeros(n_inputs),) if n_inputs else ()
+
+    def accelerations(y):
+        closed, ok = constraints.close_from_free(name, y, p, free)
+        with np.errstate(all="ignore"):
+            f = np.asarray(kernels.rhs(closed, p, *extra), np.float64)[:, [nq + i for i in free]]
+        return closed, ok & np.all(np.isfinite(f), axis=1), f
+
+    active = np.ones(len(Y), bool)
+    done = np.zeros(len(Y), bool)
+    for _ in range(LOOP_NEWTON):
+        rows = np.flatnonzero(active & ~done)
+        if not len(rows):
+            break
+        Y[rows], ok, f = accelerations(Y[rows])
+        D = np.empty((len(rows), k, k))
+        for c in range(k):
+            h = LOOP_DIFFERENCE * np.maximum(1.0, np.abs(Y[rows, free[c]]))
+            plus, minus = Y[rows].copy(), Y[rows].copy()
+            plus[:, free[c]] += h
+            minus[:, free[c]] -= h
+            _, ok_p, fp = accelerations(plus)
+            _, ok_m, fm = accelerations(minus)
+            ok &= ok_p & ok_m
+            D[:, :, c] = (fp - fm) / (2 * h[:, None])
+        ok &= np.all(np.isfinite(D), axis=(1, 2)) & (np.abs(np.linalg.det(np.where(ok[:, None, None], D, 1.0))) > 0)
+        active[rows[~ok]] = False
+        rows, f, D = rows[ok], f[ok], D[ok]
+        step = np.clip(np.linalg.solve(D, f[..., None])[..., 0], -LOOP_MAX_STEP, LOOP_MAX_STEP)
+        Y[np.ix_(rows, free)] -= step
+        scale = np.maximum(1.0, np.abs(Y[rows, :nq]).max(axis=1))
+        done[rows[np.abs(step).max(axis=1) <= LOOP_STEP_TOLERANCE * scale]] = True
+    rows = np.flatnonzero(active & done)
+    closed, ok = constraints.close_from_free(name, Y[rows], p, free)
+    return closed[ok]
+
+
+def equilibria(model, params, independent=None) -> list[dict]:
     """The equilibria of a model with q' = 0 and u = 0 (dV/dq = 0), with their stability.
 
     For a chain each link rests hanging or upright, so a chain of N links has 2^N of
     them (a spherical link in a chart whose pole is there has its azimuth set to 0).
+    A closed loop's rests are found numerically in the coordinates it leaves free
+    (`independent`): Newton on their accelerations at rest from a grid of starts on every
+    branch of the loop, each rest listed once with its stability in those coordinates.
 
     Parameters
     ----------
@@ -470,6 +590,8 @@ def equilibria(model, params) -> list[dict]:
         A catalogue name or the path of a model file (not a chart atlas).
     params : mapping or sequence
         The parameters, as `derive.simulate` takes them.
+    independent : sequence of str, optional
+        A closed loop's free coordinates (as `derive.linearize` takes them); only for a loop.
 
     Returns
     -------
@@ -483,7 +605,7 @@ def equilibria(model, params) -> list[dict]:
     ------
     SimulationInputError
         An unknown model, the chart atlas, parameters that do not fit the model, a
-        time-dependent model.
+        time-dependent model, a closed loop without `independent`.
 
     Examples
     --------
@@ -496,11 +618,16 @@ def equilibria(model, params) -> list[dict]:
     3.1416 0.0 unstable
     3.1416 3.1416 unstable
     """
-    ref = _resolve(model, explicit_time=True)
+    ref = _resolve(model, explicit_time=True, loops=True)
     if ref.description.is_time_dependent:
         raise SimulationInputError(f"{ref}: explicit time in the model (t in its forces, dissipation or pivot): "
                                    f"a rest state of q'' = f(q, q', t) need not exist; linearize at a time "
                                    f"instead, derive.linearize(model, state, params, t=...)")
+    if ref.description.is_constrained:
+        free = _free_coordinates(ref, _pieces(ref.name), independent)
+        return _loop_equilibria(ref, np.asarray(normalise_params(ref, params), np.float64), free)
+    if independent is not None:
+        raise SimulationInputError(f"model '{ref}' has no constraints: independent= is for a closed loop")
     _check_rests_are_a_chains(ref.description, str(ref))
     p = np.asarray(normalise_params(ref, params), np.float64)
     d = derive(ref.name)

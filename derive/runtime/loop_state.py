@@ -13,10 +13,17 @@ from . import constraints
 from .simulate import normalise_params, resolve_model
 
 
-def consistent_state(model, y0, params) -> np.ndarray:
-    """The state on a closed loop's constraints closest to y0: the coordinates by
-    Gauss-Newton on Phi(q) = 0 (each correction the least-squares one, -J^+ Phi), then
-    the rates projected orthogonally onto J q' = 0.
+def consistent_state(model, y0, params, independent=None) -> np.ndarray:
+    """A state on a closed loop's constraints, from y0.
+
+    Without `independent`: the state closest to y0, the coordinates by Gauss-Newton on
+    Phi(q) = 0 (each correction the least-squares one, -J^+ Phi), then the rates
+    projected orthogonally onto J q' = 0.  With `independent` (the coordinates the loop
+    leaves free, e.g. a four-bar's crank angle): those coordinates and their rates are
+    kept exactly as y0 gives them, and the others are solved for, by Newton on
+    Phi(q) = 0 from y0's values (the guess picks the loop's branch), their rates from
+    J q' = 0.  This is how a start of a linkage is usually given: "the crank at 0.3,
+    turning at 1 rad/s".
 
     Parameters
     ----------
@@ -26,6 +33,9 @@ def consistent_state(model, y0, params) -> np.ndarray:
         A state, coordinates then rates.
     params : mapping or sequence
         The parameters, by name or in order.
+    independent : str or sequence of str, optional
+        The free coordinates, held at y0's values (as many as the coordinates less the
+        constraints).
 
     Returns
     -------
@@ -36,7 +46,9 @@ def consistent_state(model, y0, params) -> np.ndarray:
     ------
     SimulationInputError
         The model has no constraints, the state has the wrong size, or the iteration does
-        not converge (no closed configuration near y0, or J loses rank there).
+        not converge (no closed configuration near y0, or J loses rank there); with
+        `independent`: a name that is no coordinate, or the loop cannot close at those
+        free coordinates from this guess.
 
     Examples
     --------
@@ -45,6 +57,10 @@ def consistent_state(model, y0, params) -> np.ndarray:
     >>> y = derive.consistent_state("examples/models/four_bar.toml", [0.3, 2.6, 0.6, 1, 0, 0], p)
     >>> bool(abs(y[0] - 0.3) < 0.01)
     True
+    >>> y = derive.consistent_state("examples/models/four_bar.toml", [0.3, 2.6, 0.6, 1, 0, 0], p,
+    ...                             independent=["theta1"])
+    >>> float(y[0]), float(y[3])           # the crank's angle and rate, as given
+    (0.3, 1.0)
     """
     name = resolve_model(model)
     if not load_model(name).is_constrained:
@@ -55,4 +71,14 @@ def consistent_state(model, y0, params) -> np.ndarray:
     nq = len(load_model(name).coordinate_names)
     if y.shape != (2 * nq,):
         raise SimulationInputError(f"{name}: y0 has shape {y.shape}, the state has {2 * nq} entries")
-    return constraints.project(name, y, p)
+    if independent is None:
+        return constraints.project(name, y, p)
+    free = constraints.free_indices(name, independent)
+    closed, ok = constraints.close_from_free(name, y[None, :], p, free)
+    if not ok[0]:
+        names = [load_model(name).coordinate_names[i] for i in free]
+        raise SimulationInputError(
+            f"{name}: the loop does not close at {', '.join(f'{c} = {y[i]:.6g}' for c, i in zip(names, free))} "
+            f"from this guess of the other coordinates (out of the linkage's reach, or a singular "
+            f"configuration where they are not determined): change the free coordinates or the guess")
+    return closed[0]

@@ -61,6 +61,9 @@ TAYLOR_BATCH = EntryPoint("{model}_taylor_batch{suffix}", "long", ("long", *_BAT
 TAYLOR_LANES_BATCH = EntryPoint("{model}_taylor_lanes_batch{suffix}", "long", ("long", *_BATCH_ARGS))
 TAYLOR_COEFFICIENTS = EntryPoint("{model}_taylor_coefficients{suffix}", "int",
                                  ("void *", "void *", "int", "void *", "double"))
+# a time-dependent model's: the time first (a pointer to one value, as its kernels take t)
+TAYLOR_COEFFICIENTS_TIMED = EntryPoint("{model}_taylor_coefficients{suffix}", "int",
+                                       ("void *", "void *", "void *", "int", "void *", "double"))
 # the atlas (spherical_atlas.h): the charts in and out beside the states
 ATLAS_BATCH = EntryPoint("{model}_integrate_batch{suffix}", "long",
                          ("long", "int", "int *", "real *", "long", "real *", "long", "long", "real *",

@@ -46,6 +46,7 @@ from ..codegen.contract import (ADAPTIVE, ATLAS_METHODS, COUNTERS, DEFAULT_METHO
 from .observables import _observables, _velocities, numpy_module  # noqa: F401  (re-exported)
 from .fast_path import CHECKED_MAX, SETTINGS_MAX, NotPlanned, RunPlan, plain_times
 from .runner import Settings, runner_for
+from .taylor_solution import TaylorSolution
 from . import constraints, continuous_inputs, extended, extended_run
 from . import compiled_call
 from .result import LAZY, LOCAL_SUM, LazySolution, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
@@ -150,8 +151,8 @@ def resolve_model(model, atlas: bool = False, explicit_time: bool = False, stage
 
 
 # what runs a time-dependent model: the refusals of the stages that do not pass t say so
-TIMED_RUNS = ("derive.simulate or derive.ensemble of the single-chart model (every method but taylor, "
-              "each stage at its own time t) or derive.scipy_rhs with solve_ivp")
+TIMED_RUNS = ("derive.simulate or derive.ensemble of the single-chart model (every method, each stage "
+              "at its own time t) or derive.scipy_rhs with solve_ivp")
 
 
 def refuse_explicit_time(model: Model, stage: str = "this stage") -> None:
@@ -476,8 +477,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
         stage of the integrator (rk4, rk8, dopri5 or dop853, stepped in Python over the
         compiled rhs: derive/runtime/continuous_inputs.py), so the error follows the method's
         order.  A time-dependent model (t in its forces, dissipation or pivot) runs in the
-        generated C or NumPy like any model (every method but taylor, each stage at its own
-        t); with inputs u(t, y) at every stage it steps in Python with those four methods in
+        generated C or NumPy like any model (every method, each stage at its own t); with inputs u(t, y) at every stage it steps in Python with those four methods in
         float64 (events and r.sol on its steps: derive/runtime/stage_solution.py).
     hold : {None, "zoh"}
         "zoh": a callable `inputs` is sampled at each output time instead (with the state
@@ -732,7 +732,8 @@ def _simulate_extended(model, precision, y0, t, params, method, *, rtol, atol, s
     y, pm, dt = result.y, result.params, np.dtype(np.longdouble)
 
     def observe():       # in long double, on first access of r.energy, r.positions or r.velocities
-        return (*_observables(model, y, pm, "c", dt), _velocities(model, y, pm, "c", dt))
+        t = result.t if ref.description.is_time_dependent else None      # a moving pivot's kernels take t
+        return (*_observables(model, y, pm, "c", dt, t), _velocities(model, y, pm, "c", dt, t))
 
     result.observe = observe
     result.energy = result.positions = result.velocities = LAZY
@@ -1019,7 +1020,17 @@ def _finish(result: SimulationResult, model: str, method: str, backend: str, dt:
     if method in ADAPTIVE and not atlas:
         result.sol = dense.dense_output(result, model, method, backend, dt, opt, p,
                                         None if inputs is None else inputs())
+    if method == TAYLOR and not atlas and _ref(model).description.is_time_dependent:
+        result.sol = _taylor_solution(result, model, dt, opt, p, None if inputs is None else inputs())
     return result
+
+
+def _taylor_solution(result: SimulationResult, model: str, dt, opt: dict, p, inputs):
+    """A time-dependent model's Taylor run's r.sol (derive/runtime/taylor_solution.py: each
+    interval from its row at its own time); `inputs` held over the run, or None."""
+    values = np.asarray(p, dt) if inputs is None else np.concatenate([np.asarray(p, dt), np.asarray(inputs, dt)])
+    end = float(result.t_stop) if not result.ok else float(result.t[-1])
+    return TaylorSolution(model, dt, opt, values, result.t, result.y, end)
 
 
 def _run_estimated(run, method: str, ts: np.ndarray, opt: dict, backend: str,

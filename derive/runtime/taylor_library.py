@@ -19,10 +19,11 @@ from .loader import build_fastest
 from ..codegen.sources import c_source
 from ..errors import SimulationInputError
 from ..model.description import forget_on_model_change
-from .build import address, dtype_key, info_struct, run_batch
-from .shared_library import SUFFIX, TAYLOR_BATCH, TAYLOR_COEFFICIENTS, SharedLibrary
+from .build import OptionsCache, address, dtype_key, info_struct, options_struct, run_batch
+from .shared_library import SUFFIX, TAYLOR_BATCH, TAYLOR_COEFFICIENTS, TAYLOR_COEFFICIENTS_TIMED, SharedLibrary
 from .model_sizes import model_info
-from ..codegen.contract import PRECISION
+from ..codegen.contract import OPTIONS, PRECISION, SINE_MIN
+from ..codegen.sources import kernels
 from ..codegen.taylor import taylor_problem, taylor_skip_flags
 
 
@@ -52,23 +53,52 @@ class TaylorLibrary(SharedLibrary):
                                                 *taylor_skip_flags(model, PRECISION[dtype].ctype)))
         super().__init__(path)
         self.Info = info_struct(self.n)
+        self.timed = kernels(model)[0].is_time_dependent
         self.fns = self.bind_precisions(TAYLOR_BATCH, dtypes=(dtype,), model=model)
-        self.coefficient_fns = self.bind_precisions(TAYLOR_COEFFICIENTS, dtypes=(dtype,), model=model)
+        self.coefficient_fns = self.bind_precisions(TAYLOR_COEFFICIENTS_TIMED if self.timed else TAYLOR_COEFFICIENTS,
+                                                    dtypes=(dtype,), model=model)
 
     def run(self, y0: np.ndarray, p: np.ndarray, t: np.ndarray, opt) -> tuple:
         """y0 (B, n), p (B, np) or (np,), t (nt,), opt: the integrators' options struct
         (from IntegratorLibrary.options: the same layout) -> y (B, nt, n), infos (B,)."""
         return run_batch(self.fns, self.Info, self.n, self.n_params, y0, p, t, opt)
 
-    def coefficients(self, y: np.ndarray, p: np.ndarray, sine_min: float = 0.0) -> tuple[int, np.ndarray]:
-        """(status, the normalised Taylor coefficients (n, order + 1)) of the solution through y."""
+    def coefficients(self, y: np.ndarray, p: np.ndarray, sine_min: float = 0.0, t: float = 0.0
+                     ) -> tuple[int, np.ndarray]:
+        """(status, the normalised Taylor coefficients (n, order + 1)) of the solution through
+        y (at the time t: a time-dependent model's; an autonomous model's jet reads no t)."""
         dt = dtype_key(y.dtype)
         y = np.ascontiguousarray(y)
         p = np.ascontiguousarray(p, dtype=y.dtype)
         out = np.empty((self.n, self.order + 1), y.dtype)
-        st = self.coefficient_fns[dt](address(y), address(p), int(self.order), address(out),
+        at = (address(np.array([t], y.dtype)),) if self.timed else ()
+        st = self.coefficient_fns[dt](*at, address(y), address(p), int(self.order), address(out),
                                       float(sine_min))
         return int(st), out
+
+
+class TaylorOptions(OptionsCache):
+    """The options struct of the Taylor integrator filled with the contract's defaults, as
+    <model>_integrate_defaults fills it (codegen/contract.py OPTIONS: sine_min the model's
+    SINE_MIN, cancel none): for a model whose runs have no RK library to ask (explicit
+    time: its Taylor files include <model>_integrate.h only)."""
+
+    def __init__(self):
+        self.Options = options_struct()
+
+    def defaults(self):
+        opt = self.Options()
+        for f in OPTIONS:
+            value = float(SINE_MIN) if f.name == "sine_min" else f.default     # SINE_MIN: as C prints it
+            if value is not None:
+                setattr(opt, f.name, value)
+        return opt
+
+
+@lru_cache(maxsize=None)
+def taylor_options() -> TaylorOptions:
+    """The one TaylorOptions (the struct is the same for every model)."""
+    return TaylorOptions()
 
 
 @forget_on_model_change

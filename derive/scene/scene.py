@@ -6,7 +6,9 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import SceneError
+import numpy as np
+
+from ..errors import SceneError, SimulationInputError
 from ..paths import exists, read_input_text
 from ..model.description import NAME, parameter_problem
 from ..paths import scenes_dir
@@ -16,6 +18,7 @@ from ..codegen.contract import ATLAS_CHARTS, EXTENDED, FIXED, MULTISTEP, RUN_MET
 
 from ..model.atlas import ATLAS, atlas_for, find_atlas, standard_member  # noqa: E402  (chart atlases)
 from ..runtime.events import parse_events
+from ..runtime import constraints
 from . import stepped
 from types import SimpleNamespace
 SPHERICAL_CHART_MODELS = ATLAS_CHARTS
@@ -175,7 +178,9 @@ def _missing_rates(state: dict, names, coordinates, rest: bool, where: str) -> d
 
 
 def _parse_initial(t: dict, model: str) -> dict:
-    _known(t, ("state", "cartesian", "rest"), "[initial]")
+    _known(t, ("state", "cartesian", "rest", "independent"), "[initial]")
+    if "independent" in t:
+        return _parse_loop_initial(t, model)
     rest = t.get("rest", False)
     if not isinstance(rest, bool):
         raise SceneError(f"'initial.rest' must be true or false, got {rest!r}")
@@ -202,6 +207,66 @@ def _parse_initial(t: dict, model: str) -> dict:
         return {"state": {n: _number(v, f"initial.state[{i}]") for i, (n, v) in
                           enumerate(zip(names, state))}}
     raise SceneError("'initial.state' must be a table of named values or a list")
+
+
+def _parse_loop_initial(t: dict, model: str) -> dict:
+    """[initial] of a closed loop given by its free coordinates (`independent`): those and
+    their rates as for any state; the other coordinates optional, guesses (default 0)
+    that pick the loop's branch; their rates not given (the loop determines them).  The
+    state is closed when the parameters are known (close_loop_start)."""
+    if find_atlas(model) is not None or not load_model(model).is_constrained:
+        raise SceneError(f"'initial.independent': model '{model}' has no constraints (a closed loop's "
+                         f"free coordinates); give its whole 'initial.state'")
+    independent = t["independent"]
+    if isinstance(independent, str):
+        independent = [independent]
+    if not isinstance(independent, list) or not all(isinstance(c, str) for c in independent):
+        raise SceneError(f"'initial.independent' must be a list of coordinate names, got {t['independent']!r}")
+    try:
+        free = constraints.free_indices(model, independent)
+    except SimulationInputError as exc:
+        raise SceneError(f"'initial.independent': {str(exc).split(': ', 1)[1]}") from None
+    state, rest = t.get("state"), t.get("rest", False)
+    if not isinstance(state, dict):
+        raise SceneError("'initial.state' must be a table of named values with 'initial.independent'")
+    if not isinstance(rest, bool):
+        raise SceneError(f"'initial.rest' must be true or false, got {rest!r}")
+    d = load_model(model)
+    names, coordinates = d.state_names, d.coordinate_names
+    free_names = [coordinates[i] for i in free]
+    nq = len(coordinates)
+    determined = [names[nq + i] for i in range(nq) if i not in free]
+    for key in state:
+        if key not in names:
+            raise SceneError(f"'initial.state.{key}': not a state of '{model}' (its states: {', '.join(names)})")
+        if key in determined:
+            raise SceneError(f"'initial.state.{key}': the loop determines it from the free rates "
+                             f"({', '.join(names[nq + i] for i in free)}); leave it out")
+    wanted = free_names + [names[nq + i] for i in free]
+    full = _missing_rates({k: v for k, v in state.items() if k in wanted}, wanted, free_names, rest,
+                          "initial.state")
+    values = {n: _number(state.get(n, 0.0), f"initial.state.{n}") for n in names if n not in wanted}
+    values.update({n: _number(full[n], f"initial.state.{n}") for n in wanted})
+    return {"state": {n: values[n] for n in names}, "independent": tuple(free_names)}
+
+
+def close_loop_start(initial: dict, model: str, parameters: dict, inputs: dict | None = None) -> dict:
+    """A loop's [initial] given by its free coordinates, closed at the scene's parameters:
+    the other coordinates and their rates solved (derive.consistent_state with
+    independent=).  Any other [initial] is returned as it is."""
+    if "independent" not in initial:
+        return initial
+    d = load_model(model)
+    p = [parameters[n] for n in d.parameters]
+    y = [initial["state"][n] for n in d.state_names]
+    free = constraints.free_indices(model, initial["independent"])
+    closed, ok = constraints.close_from_free(model, np.array([y]), np.array(p, float), free)
+    if not ok[0]:
+        at = ", ".join(f"{c} = {initial['state'][c]:.6g}" for c in initial["independent"])
+        raise SceneError(f"'initial': the loop of '{model}' does not close at {at} from the guesses of "
+                         f"the other coordinates in 'initial.state' (out of the linkage's reach, or a "
+                         f"singular configuration): change them")
+    return {**initial, "state": dict(zip(d.state_names, map(float, closed[0])))}
 
 
 def _atlas_state(state: dict, atlas: str = ATLAS, rest: bool = False) -> dict:
@@ -352,6 +417,7 @@ def scene_from_table(t: dict, source: str = "<scene>") -> Scene:
     title = t.get("title", Path(source).stem)
     if not isinstance(title, str):
         raise SceneError("'title' must be a string")
+    initial = close_loop_start(initial, model, params)
     scene = Scene(source=source, title=title, model=model, parameters=params, initial=initial,
                   t_start=start, t_stop=stop, outputs=outputs, inputs=inputs, events=events,
                   atlas=atlas, **accuracy, **output)

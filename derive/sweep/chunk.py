@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..codegen.contract import STATUS
+from ..runtime import constraints
 from ..runtime.energy_error import relative_change, scale_of
 from ..runtime.runner import library_path, runner_for
 from . import level_crossings as ev
@@ -31,6 +33,7 @@ from ..measurement.trust import JACOBIAN_STEPS_PER_UNIT_TIME
 from concurrent.futures import ThreadPoolExecutor
 
 SLABS = 10                      # pieces of the time span
+CONSTRAINT_DRIFT = "constraint_drift"   # a loop's largest |Phi| or |J q'| over the samples
 LYAPUNOV_BATCH = 64             # trajectories per Lyapunov batch (its fine grid is memory)
 
 
@@ -42,6 +45,8 @@ def variables(sweep: Sweep) -> list[str]:
     for q in sweep.record:
         names += [f"final_{s}" for s in sweep.state_names] if q == "final_state" else [q]
         names += [f"{q}_error"] if q in verified else []
+    # a closed loop's drift off its constraints, always: what it stores is then never silently off the loop
+    names += [CONSTRAINT_DRIFT] if sweep.free else []
     return names + ["status"]
 
 
@@ -63,7 +68,12 @@ def integrate(sweep: Sweep, y0: np.ndarray, p: np.ndarray) -> dict[str, np.ndarr
     """Quantities of the trajectories y0 (B, n) with parameters p (B, np), flat; event
     times with an `accuracy` verified (verify.py)."""
     model = model_name(sweep)
+    closed = np.ones(len(y0), bool)
+    if sweep.free:                    # a loop's starts, solved onto it from their free coordinates
+        y0, closed = constraints.close_from_free(model, y0, p, list(sweep.free))
     batch = _Batch(sweep, model, y0, p)
+    batch.status[~closed] = STATUS["BAD_INPUT"]       # the loop cannot close there: not run
+    batch.active &= closed
     if sweep.events_only:
         batch.active &= ~unreachable(model, sweep, y0, p)
     scene = sweep.scene
@@ -96,6 +106,7 @@ class _Batch:
         coordinates = sweep.state_names[: self.n // 2]
         self.maxima = {q: i for i, q in enumerate(coordinates) if f"max_abs_{q}" in sweep.record}
         self.peak = {q: np.abs(self.state[:, i]).astype(np.float64) for q, i in self.maxima.items()}
+        self.loop_drift = np.zeros(B) if sweep.free else None
         self.energy = "energy_error" in sweep.record
         if self.energy:
             self.E0 = _energy(model, y0, p[:, :self.n_params])
@@ -117,6 +128,10 @@ class _Batch:
             found = ev.locate(rerun, y, ts, e.index, e.level, search=pending)
             self.times[e.name][rows] = np.where(pending, found, self.times[e.name][rows])
         self._maxima(rows, y, ts)
+        if self.loop_drift is not None:
+            phi, phi_dot = constraints.residuals(self.model, y, p_rows[:, None, :self.n_params])
+            worst = np.fmax(np.nanmax(np.abs(phi), axis=(1, 2)), np.nanmax(np.abs(phi_dot), axis=(1, 2)))
+            self.loop_drift[rows] = np.fmax(self.loop_drift[rows], worst)
         if self.energy:
             E = _energy(self.model, y, p_rows[:, None, :self.n_params])
             change = relative_change(E, self.E0[rows, None], self.scale[rows, None])
@@ -149,6 +164,8 @@ class _Batch:
                 out[q] = np.where(ok, self.peak[q[len("max_abs_"):]], np.nan)
             elif q.endswith("_time"):
                 out[q] = self.times[q[: -len("_time")]]
+        if self.loop_drift is not None:
+            out[CONSTRAINT_DRIFT] = np.where(ok, self.loop_drift, np.nan)
         return out
 
 

@@ -50,6 +50,8 @@ def mirror_axes(sweep: Sweep) -> tuple[int, ...] | None:
     grid is not its own mirror image."""
     if sweep.random_axes or not sweep.axes or not _quantities_allow(sweep):
         return None
+    if sweep.free:                  # a loop's starts are solved onto it: not checked odd, computed whole
+        return None
     states = {a.index for a in sweep.axes if a.target == "state"}
     if not states:
         return None

@@ -60,7 +60,9 @@ def identity(sweep: Sweep) -> str:
 
 # what a variable is, where its name does not say it all
 VARIABLE_ATTRS = {"energy_error": {"long_name": f"largest |E - E0| / {SCALE_TEXT} over the samples "
-                                                f"(m g l: the depth of the potential well, derive.model.energy_scale)"}}
+                                                f"(m g l: the depth of the potential well, derive.model.energy_scale)"},
+                  "constraint_drift": {"long_name": "a closed loop's largest |Phi| or |J q'| over the samples "
+                                                    "(its drift off the constraints)"}}
 
 
 def _dataset(sweep: Sweep, layout: Layout, names: list[str]):
@@ -83,7 +85,8 @@ def _dataset(sweep: Sweep, layout: Layout, names: list[str]):
              "source": Path(sweep.source).name, "method": sweep.scene.method,
              "rtol": sweep.scene.rtol or 0.0, "t_start": sweep.scene.t_start, "t_stop": sweep.scene.t_stop,
              "derive_version": __version__, "variables": list(names),
-             "status": "integrator status per trajectory: 0 ok, -1 not run (derive.codegen.contract)"}
+             "status": "integrator status per trajectory: 0 ok, -1 not run (derive.codegen.contract)"
+                       + ("; 6 bad input: a start where the loop does not close" if sweep.free else "")}
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 

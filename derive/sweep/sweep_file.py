@@ -46,6 +46,7 @@ from ..model.expressions import parse_expression
 from ..scene.scene import SCENE_KEYS, Scene, scene_from_table, scene_path
 from ..codegen.taylor import taylor_problem
 from ..model.description import parameter_problem
+from ..runtime import constraints
 
 SWEEP_KEYS = ("axes", "events", "record", "sweep")
 GRID_KINDS = ("linspace", "logspace", "list")
@@ -94,6 +95,7 @@ class Sweep:
     y0: np.ndarray                        # the base state
     p: np.ndarray                         # the base parameters (and inputs)
     text: str = field(repr=False, default="")    # the file as read (its hash names the sweep)
+    free: tuple[int, ...] = ()            # a closed loop's free coordinates (each start closed from them)
 
     @property
     def grid_axes(self) -> tuple[Axis, ...]:
@@ -379,6 +381,36 @@ def _use_taylor(scene: Scene, source: str) -> None:
     scene.method, scene.atol = TAYLOR, None
 
 
+def _loop_free(scene: Scene, description, source: str) -> tuple[int, ...]:
+    """A closed loop's free coordinates ([initial] independent): a sweep's axes set
+    states and parameters independently, so each start is closed on the loop from them
+    (chunk.py), and a sweep of a loop without them is refused."""
+    if not description.is_constrained:
+        return ()
+    if "independent" not in scene.initial:
+        raise SceneError(f"{source}: '{description.name}' has constraints (a closed loop): name its free "
+                         f"coordinates in [initial], e.g. independent = [\"{description.coordinate_names[0]}\"], "
+                         f"so that each start is solved onto the loop from them (the axes set states and "
+                         f"parameters independently, which moves a start off the loop)")
+    return tuple(constraints.free_indices(description.name, scene.initial["independent"]))
+
+
+def _check_loop_axes(axes, free: tuple[int, ...], description, source: str) -> None:
+    """A loop's sweep: an axis may not set what the loop determines (its other
+    coordinates' values are guesses only, their rates solved)."""
+    if not free:
+        return
+    nq = len(description.coordinate_names)
+    for a in axes:
+        if a.target == "state" and a.index % nq not in free:
+            kind = "guess" if a.index < nq else "rate"
+            raise SceneError(f"{_where(source, f'axes.{a.name}')}: the loop determines {a.name} from its free "
+                             f"coordinates ({', '.join(description.coordinate_names[i] for i in free)}) "
+                             f"and their rates, so it cannot be an axis"
+                             + (" (its value in [initial] is only the guess that picks the branch)"
+                                if kind == "guess" else ""))
+
+
 def _base_state(scene: Scene, description, source: str) -> np.ndarray:
     if "state" not in scene.initial:
         raise SceneError(f"{source}: a sweep starts from 'initial.state' (axes override its values)")
@@ -418,14 +450,11 @@ def parse_sweep(text: str, source: str = "<sweep>", run_as: str | None = None) -
                          f"which hold the inputs constant; run each case as a scene (`derive run`) or "
                          f"with derive.simulate (inputs u(t, y))")
     description = load_model(scene.model)
-    if description.is_constrained:
-        raise SceneError(f"{source}: '{description.name}' has constraints (a closed loop): a sweep's axes "
-                         f"set states and parameters independently, which moves its starts off the loop "
-                         f"(no sweep over a loop's independent coordinate yet); run a scene, or "
-                         f"derive.ensemble with starts from derive.consistent_state")
+    free = _loop_free(scene, description, source)
     if taylor:
         _use_taylor(scene, source)
     axes = _parse_axes(t.get("axes"), description, source)
+    _check_loop_axes(axes, free, description, source)
     events = _parse_events(t.get("events"), description, source)
     record = _parse_record(t.get("record"), description, events, source)
     _check_timed_record(record, events, description, source)
@@ -440,7 +469,7 @@ def parse_sweep(text: str, source: str = "<sweep>", run_as: str | None = None) -
                   axes=axes, events=events, record=record, chunk=chunk, mirror=mirror,
                   state_names=tuple(description.state_names),
                   parameter_names=tuple(description.parameters) + tuple(description.inputs),
-                  y0=y0, p=p, text=text)
+                  y0=y0, p=p, text=text, free=free)
     if sweep.size > MAX_TRAJECTORIES:
         raise SceneError(f"{source}: {sweep.size:,} trajectories are more than one sweep takes "
                          f"({MAX_TRAJECTORIES:,}); split it")

@@ -28,6 +28,10 @@
  *   DERIVE_TAYLOR_UNROLL        a pragma before the recurrences' loops (or nothing)
  *   DERIVE_TAYLOR_USES_MUL, _DIV, _SQRT, _CHAIN   1 where the jet uses that recurrence
  *                               (the others are left out: static functions never called)
+ *   DERIVE_TAYLOR_TIMED         (defined or not) a time-dependent model's: its jet takes
+ *                               the time at the step's start, jet(X, p, R t0, order,
+ *                               sine_min) (t is a variable of the jet: t0, 1, 0, ...),
+ *                               and derive_taylor_coefficients_T takes a pointer to it first
  *
  * Defined before each inclusion (the including file undefines them after its jet):
  *   R, S                        the coefficients' type and the native type the step-size
@@ -44,7 +48,7 @@
  *
  * It defines (static; T the tag) TAYLOR_MUL, TAYLOR_DIV, TAYLOR_SQRT, TAYLOR_SIN,
  * TAYLOR_COS and TAYLOR_EXP for the jet (undefined at the next inclusion), and
- *   derive_taylor_coefficients_T (y, p, order, coef, sine_min)
+ *   derive_taylor_coefficients_T (y, p, order, coef, sine_min); timed: (t, y, p, ...)
  *   derive_taylor_T (y0, p, nt, t_out, y_out, opt, info): a whole run
  *   derive_taylor_batch_T (n, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info)
  */
@@ -56,7 +60,15 @@
 #undef TAYLOR_COS
 #undef TAYLOR_EXP
 
+#undef DERIVE_TAYLOR_JET_AT
+#ifdef DERIVE_TAYLOR_TIMED
+static int DERIVE_TAYLOR_JET(R (*X)[DERIVE_TAYLOR_DIM], const R *p, R t0, int order_wanted, S sine_min);
+#define DERIVE_TAYLOR_JET_AT(X, p, t0, order, sine_min) DERIVE_TAYLOR_JET(X, p, t0, order, sine_min)
+#else
 static int DERIVE_TAYLOR_JET(R (*X)[DERIVE_TAYLOR_DIM], const R *p, int order_wanted, S sine_min);
+/* an autonomous jet: the time of the step is not its argument */
+#define DERIVE_TAYLOR_JET_AT(X, p, t0, order, sine_min) DERIVE_TAYLOR_JET(X, p, order, sine_min)
+#endif
 
 #if DERIVE_TAYLOR_USES_MUL
 /* coefficient k of a b */
@@ -190,17 +202,25 @@ static int DERIVE_TAYLOR_T(derive_taylor_order)(S tol)
     return p > DERIVE_TAYLOR_ORDER_MAX ? DERIVE_TAYLOR_ORDER_MAX : (int)p;
 }
 
+#ifdef DERIVE_TAYLOR_TIMED
+static int DERIVE_TAYLOR_T(derive_taylor_coefficients)(const R *t, const R *y, const R *p, int order, R *coef, double sine_min)
+#else
 static int DERIVE_TAYLOR_T(derive_taylor_coefficients)(const R *y, const R *p, int order, R *coef, double sine_min)
+#endif
 {
     R X[DERIVE_N][DERIVE_TAYLOR_DIM];
     int i, k, st;
+#ifndef DERIVE_TAYLOR_TIMED
+    const R *t = 0;      /* not read: the jet of an autonomous model takes no time */
+#endif
     if (order < 1 || order > DERIVE_TAYLOR_DIM - 1 || (DERIVE_TAYLOR_ORDER && order != DERIVE_TAYLOR_ORDER)) {
         return DERIVE_BAD_INPUT;
     }
     for (i = 0; i < DERIVE_N; ++i) {
         X[i][0] = y[i];
     }
-    st = DERIVE_TAYLOR_JET(X, p, order, (S)sine_min);
+    (void)t;
+    st = DERIVE_TAYLOR_JET_AT(X, p, *t, order, (S)sine_min);
     for (i = 0; i < DERIVE_N; ++i) {
         for (k = 0; k <= order; ++k) {
             coef[i * (order + 1) + k] = X[i][k];
@@ -267,7 +287,7 @@ static int DERIVE_TAYLOR_T(derive_taylor)(const R *y0, const R *p, long nt, cons
             st = DERIVE_CANCELLED;
             break;
         }
-        st = DERIVE_TAYLOR_JET(X, p, order, (S)opt->sine_min);
+        st = DERIVE_TAYLOR_JET_AT(X, p, t, order, (S)opt->sine_min);     /* t: the step's start */
         info->nfev += 1;
         if (st) {
             break;

@@ -55,7 +55,8 @@ def closed_state(theta1, rate1, p, branch) -> np.ndarray:
     r = B - A
     L = np.hypot(*r)
     a = (l2 ** 2 - l3 ** 2 + L ** 2) / (2 * L)
-    C = A + a * r / L + branch * np.sqrt(l2 ** 2 - a ** 2) * np.array([-r[1], r[0]]) / L
+    with np.errstate(invalid="ignore"):          # NaN where the circles do not meet (out of reach)
+        C = A + a * r / L + branch * np.sqrt(l2 ** 2 - a ** 2) * np.array([-r[1], r[0]]) / L
     theta2 = np.arctan2(*(C - A) * [1, -1])
     theta3 = np.arctan2(*(B - C) * [1, -1])
     J = np.array([[l1 * np.cos(theta1), l2 * np.cos(theta2), l3 * np.cos(theta3)],

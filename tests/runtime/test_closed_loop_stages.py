@@ -42,7 +42,7 @@ def test_linearize_of_a_loop_asks_for_its_free_coordinates_in_one_line():
     assert "\n" not in str(info.value) and "give independent=" in str(info.value)
 
 
-def test_equilibria_refuses_a_loop_in_one_line():
+def test_equilibria_of_a_loop_without_its_free_coordinates_is_one_line():
     with pytest.raises(derive.SimulationInputError, match=LOOP_PATTERN):
         derive.equilibria(FOUR_BAR, P)
 

@@ -37,9 +37,10 @@ def test_an_ensemble_of_a_forced_pendulum_runs_each_member_as_simulate_does():
     assert ens.y.shape == (3, 5, 2) and list(ens.status_names) == ["ok"] * 3
     for row, y in zip(y0, ens.y):
         assert np.array_equal(y, derive.simulate(FORCED, row, times, p, method="dopri5", rtol=1e-10).y)
-    with pytest.raises(derive.SimulationInputError, match=WHY) as info:       # Taylor's lanes: no t
-        derive.ensemble(FORCED, y0, times, p, method="taylor")
-    assert "\n" not in str(info.value) and "dop853" in str(info.value)
+    # Taylor's jet has t in it: its ensemble runs in C (tests/runtime/test_taylor_explicit_time.py)
+    ens = derive.ensemble(FORCED, y0, times, p, method="taylor", rtol=1e-10)
+    for row, y in zip(y0, ens.y):
+        assert np.array_equal(y, derive.simulate(FORCED, row, times, p, method="taylor", rtol=1e-10).y)
 
 
 def test_a_scene_of_a_time_dependent_model_with_taylor_exits_2_with_one_line(tmp_path):
@@ -72,18 +73,6 @@ def test_the_power_balance_could_fail(monkeypatch):
     model = load_model(PIVOT)
     monkeypatch.setattr(physics, "jacobi_energy", lambda d: d.energy)
     assert not physics.energy_conservation(model).passed
-
-
-def test_taylor_and_its_lanes_refuse_naming_what_runs_it():
-    """Taylor's jet carries the state, not t: the scalar and the lane libraries (what
-    derive.ensemble's taylor runs) say so in one line."""
-    from derive.runtime.taylor_lanes_library import taylor_lanes_library
-    from derive.runtime.taylor_library import taylor_library
-    name = load_model(PIVOT).name
-    for make in (lambda: taylor_library(name, 10), lambda: taylor_lanes_library(name, 10)):
-        with pytest.raises(derive.SimulationInputError, match="explicit time in the model") as info:
-            make()
-        assert "\n" not in str(info.value) and "dop853" in str(info.value)
 
 
 def test_the_trust_horizon_of_a_time_dependent_run_is_refused_in_one_line():

@@ -112,14 +112,6 @@ def test_events_of_a_time_dependent_run_match_solve_ivps(method):
     assert np.isnan(stop.y[-1]).all() and np.isnan(stop.sol(expected[1] + 0.1)).all()
 
 
-def test_taylor_which_does_not_pass_t_refuses_in_one_line():
-    with pytest.raises(derive.SimulationInputError) as info:
-        derive.simulate(PIVOT, [0.2, 0.0], [0.0, 1.0], PIVOT_P, method="taylor")
-    text = str(info.value)
-    assert "\n" not in text and "explicit time in the model" in text and "taylor" in text.lower()
-    assert all(m in text for m in CONTINUOUS_METHODS)
-
-
 FORCED_INPUT = """name = "forced_u"
 title = "Forced damped pendulum with a torque input"
 dimension = 2

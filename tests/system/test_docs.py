@@ -199,7 +199,7 @@ def test_the_explicit_time_pages_say_what_the_code_runs():
     assert r.sol is not None and len(r.events["turn"].t) >= 1
     models = " ".join((DOCS / "models.md").read_text().split())
     refused = re.search(r"Refused in one line, naming what runs it: ([^.]*)\.", models).group(1)
-    assert "ensembles" not in refused and "sweeps" not in refused and "Taylor" in refused
+    assert "ensembles" not in refused and "sweeps" not in refused and "trust horizons" in refused
     assert "`derive.ensemble` runs one in C with threads" in models
     events = " ".join((DOCS / "events.md").read_text().split())
     assert "The models are autonomous" not in events

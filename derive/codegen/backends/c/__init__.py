@@ -97,7 +97,14 @@ class CBackend(Backend):
 
     def integrator_files(self, name, timed=False):
         files = render_c(name)      # a time-dependent model's too: the library passes each stage's t
-        if taylor_problem(name) is None:      # a model with an operation no recurrence covers: none
+        files.update(self.taylor_files(name))
+        return files
+
+    def taylor_files(self, name):
+        """The Taylor integrator, scalar and in SIMD lanes (none for a model with an
+        operation no recurrence covers); a time-dependent model's has t in its jet."""
+        files = {}
+        if taylor_problem(name) is None:
             files.update(render_taylor(name))
             files.update(render_taylor_lanes(name))
         return files

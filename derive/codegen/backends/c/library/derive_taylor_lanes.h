@@ -41,6 +41,9 @@
  *                               where the compiler can: each is then a few vector instructions)
  *   DERIVE_LANES_USES_ADD, _SUB, _SCALE, _SHIFT, _MUL, _DIV, _SQRT, _SINCOS, _EXP, _OUT,
  *   _OUTC, _GUARD               1 where the jet uses that recurrence (the others are left out)
+ *   DERIVE_TAYLOR_TIMED         (defined or not) a time-dependent model's: its jet takes each
+ *                               lane's time at the step's start, jet(X, C, const R *t0,
+ *                               order, sine_min, bad), and LANES_TIME(u, t0, k) is defined
  *
  * Defined before each inclusion (the including file undefines them after its jet):
  *   R                           the coefficients' type (double, float or long double)
@@ -57,7 +60,8 @@
  * It defines (static; T the tag) for the jet LANES_ADD(u, a, b), LANES_SUB, LANES_SCALE(u,
  * c, a), LANES_SHIFT(u, a, c, k), LANES_MUL(u, a, b, k), LANES_DIV(u, ak, b, k),
  * LANES_SQRT(u, ak, k), LANES_SINCOS(s, c, a, k), LANES_EXP(u, a, k), LANES_OUT(x, f, k),
- * LANES_OUTC(x, c, k) and LANES_GUARD(bad, g, sine_min) (undefined at the next inclusion),
+ * LANES_OUTC(x, c, k), LANES_GUARD(bad, g, sine_min) and, timed, LANES_TIME(u, t0, k)
+ * (undefined at the next inclusion),
  * and derive_taylor_lanes_batch_T (n, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info).
  */
 
@@ -73,8 +77,13 @@
 #undef LANES_OUT
 #undef LANES_OUTC
 #undef LANES_GUARD
+#undef LANES_TIME
 
+#ifdef DERIVE_TAYLOR_TIMED
+static void DERIVE_LANES_JET(R (*X)[DERIVE_TAYLOR_DIM * L], R (*C)[L], const R *t0, int order_wanted, R sine_min, int *bad);
+#else
 static void DERIVE_LANES_JET(R (*X)[DERIVE_TAYLOR_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad);
+#endif
 static void DERIVE_LANES_CONSTANTS(R (*C)[L], int l, const R *p);
 
 /* Each function below is derive_taylor.h's recurrence for every lane: the same operations
@@ -302,6 +311,18 @@ DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_guard)(int *DERIVE_LANES_RE
 #define LANES_OUT DERIVE_LANES_T(derive_lanes_out)
 #define LANES_OUTC DERIVE_LANES_T(derive_lanes_outc)
 #define LANES_GUARD DERIVE_LANES_T(derive_lanes_guard)
+#ifdef DERIVE_TAYLOR_TIMED
+
+/* coefficient k of u = t over a step from t0: t0, 1, 0, ... (each lane its own t0) */
+DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_time)(R *DERIVE_LANES_RESTRICT u, const R *DERIVE_LANES_RESTRICT t0, int k)
+{
+    int l;
+    for (l = 0; l < L; ++l) {
+        u[l] = k == 0 ? t0[l] : (R)(k == 1);
+    }
+}
+#define LANES_TIME DERIVE_LANES_T(derive_lanes_time)
+#endif
 
 /* X[i][0] = the series at tau[l] in every lane (tau 0: unchanged), by Horner as the
  * scalar integrator advances; the states side by side (independent chains of
@@ -374,6 +395,9 @@ typedef struct {
     R X[DERIVE_N][DERIVE_TAYLOR_DIM * L];
     R C[DERIVE_LANES_NCONST][L];
     R tau[L];
+#ifdef DERIVE_TAYLOR_TIMED
+    R t0[L];                    /* each lane's time at the step's start (the jet's t) */
+#endif
     int bad[L];
     DERIVE_LANES_T(derive_lane) lane[L];
 } DERIVE_LANES_T(derive_lanes_run);
@@ -660,7 +684,14 @@ static long DERIVE_LANES_T(derive_taylor_lanes_batch)(long n, const R *y0, long 
         for (l = 0; l < L; ++l) {
             r->bad[l] = 0;
         }
+#ifdef DERIVE_TAYLOR_TIMED
+        for (l = 0; l < L; ++l) {      /* an idle lane's (never read): 0 */
+            r->t0[l] = r->lane[l].traj >= 0 ? r->lane[l].t : 0;
+        }
+        DERIVE_LANES_JET(r->X, r->C, r->t0, r->order, sine_min, r->bad);
+#else
         DERIVE_LANES_JET(r->X, r->C, r->order, sine_min, r->bad);
+#endif
         for (l = 0; l < L; ++l) {
             r->tau[l] = 0;
             if (r->lane[l].traj >= 0) {
