@@ -448,7 +448,7 @@ def test_a_time_dependent_models_integrators_compile_warning_free(tmp_path):
     for compiler, flags in COMPILERS:
         if shutil.which(compiler) is None:
             pytest.fail(f"{compiler} is required here (tests/run.sh installs it)")
-        _compile_all([[compiler, *flags, "-I", str(out / "c"), "-c", str(source),
+        _compile_all([[compiler, *flags, *quad_flags(compiler, source), "-I", str(out / "c"), "-c", str(source),
                        "-o", str(tmp_path / f"{source.stem}_{compiler}.o")] for source in sources], tmp_path)
 
 
