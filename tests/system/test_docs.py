@@ -183,8 +183,8 @@ def test_the_site_builds_with_warnings_as_errors(tmp_path):
 
 def test_the_explicit_time_pages_say_what_the_code_runs():
     """docs/models.md and docs/events.md on a time-dependent model (a moving pivot): an
-    ensemble and a sweep run (in the generated C, each stage at its own t), so the page
-    does not list them among the refusals; r.sol and events work, so events.md does not
+    ensemble, a sweep and Taylor's method run (in the generated C, each stage or jet at its
+    own t), so the page does not list them among the refusals; r.sol and events work, so events.md does not
     say every model is autonomous."""
     import re
 
@@ -199,7 +199,10 @@ def test_the_explicit_time_pages_say_what_the_code_runs():
     assert r.sol is not None and len(r.events["turn"].t) >= 1
     models = " ".join((DOCS / "models.md").read_text().split())
     refused = re.search(r"Refused in one line, naming what runs it: ([^.]*)\.", models).group(1)
-    assert "ensembles" not in refused and "sweeps" not in refused and "Taylor" in refused
+    assert "ensembles" not in refused and "sweeps" not in refused and "Taylor" not in refused
+    # Taylor's jet has t in it (tests/runtime/test_taylor_explicit_time.py): the page says it runs
+    assert derive.simulate(model, [0.3, 0.0], [0.0, 0.5], params, method="taylor").ok
+    assert "Taylor's method runs it as well" in models
     assert "`derive.ensemble` runs one in C with threads" in models
     events = " ".join((DOCS / "events.md").read_text().split())
     assert "The models are autonomous" not in events
