@@ -146,8 +146,17 @@ def render(name: str, backends: tuple[str, ...] | None = None) -> dict[str, str]
     return files
 
 
+def _cache_name(name: str) -> str:
+    """A model's name as its cache entries are named: never a path (a path here would put
+    the entry beside the model's file, outside the cache: a caller that did not resolve it)."""
+    if "/" in name or "\\" in name:
+        raise ValueError(f"the code generator got the path {name!r} where a model's name belongs "
+                         f"(resolve it first: derive.runtime.simulate.resolve_model)")
+    return name
+
+
 def _render_path(name: str, backends: tuple[str, ...] | None = None) -> Path:
-    return cache_dir() / "rendered" / f"{name}{_backend_tag(backends)}-{sources_key(name)}.json"
+    return cache_dir() / "rendered" / f"{_cache_name(name)}{_backend_tag(backends)}-{sources_key(name)}.json"
 
 
 def is_render_cached(name: str) -> bool:
@@ -190,7 +199,7 @@ def sources_key(name: str) -> str:
 
 
 def sources_folder(name: str) -> Path:
-    return cache_dir() / "generated" / f"{name}-{sources_key(name)}"
+    return cache_dir() / "generated" / f"{_cache_name(name)}-{sources_key(name)}"
 
 
 def is_rendered(name: str) -> bool:

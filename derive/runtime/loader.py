@@ -31,6 +31,9 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from functools import lru_cache, partial
 from math import prod
 from pathlib import Path
@@ -148,6 +151,13 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
     key = build_key(sources, cc, tuple(flags) + tuple(libs))
     root = Path(cache) if cache is not None else cache_dir() / "c-build"
     lib = root / key[:32] / f"lib{stem}.so"
+    with _building(lib):        # another thread building this very library: wait for it, then reuse it
+        return _built_library(lib, sources, cc, flags, root, libs)
+
+
+def _built_library(lib: Path, sources: list[Path], cc: str, flags: tuple[str, ...], root: Path,
+                   libs: tuple[str, ...]) -> Path:
+    """The library `lib` from the cache, or built now (build_library's work, under its lock)."""
     if lib.is_file():
         state = _intact(lib)
         if state is True:
@@ -165,7 +175,7 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
         # several sources: each compiled once into an object of its own (an atlas library
         # links the objects its charts' libraries were built from), then linked
         folders = list(dict.fromkeys(src.parent for src in sources))      # each source sees every header
-        inputs = [_object(src, cc, flags, root, folders) for src in sources] if len(sources) > 1 else sources
+        inputs = _objects(sources, cc, flags, root, folders) if len(sources) > 1 else sources
         cmd = [*compiler_command(cc), *flags, "-I", str(sources[0].parent), *map(str, inputs), "-o", str(out), *libs, "-lm"]
         _compile(cmd, lib, sources)
         _store_checked(out, lib)
@@ -175,10 +185,50 @@ def build_library(stem: str, sources: list[Path], cc: str | None = None,
     return lib
 
 
+def _objects(sources: list[Path], cc: str, flags: tuple[str, ...], root: Path, folders: list[Path]) -> list[Path]:
+    """The object of every source (_object), compiled side by side: a compiler is a process
+    of its own, so the threads only wait on them (at most _compilers at once)."""
+    with ThreadPoolExecutor(max_workers=len(sources)) as pool:
+        return list(pool.map(lambda src: _object(src, cc, flags, root, folders), sources))
+
+
+# The build cache's entries being made in this process, each by one thread: a thread that
+# wants one another thread is building waits for it and reuses it (the atlas library
+# wants its charts' objects while their own libraries compile them).
+_targets: dict[Path, threading.Lock] = {}
+_targets_lock = threading.Lock()
+
+
+@contextmanager
+def _building(target: Path):
+    """Hold the lock of one build cache entry (a library or an object) of this process."""
+    with _targets_lock:
+        lock = _targets.setdefault(target, threading.Lock())
+    with lock:
+        yield
+
+
+def _compiler_slots() -> int:
+    """How many compilers run at once: ``$DERIVE_JOBS``, else one per core this process may use."""
+    text = os.environ.get("DERIVE_JOBS", "").strip()
+    if text.isdigit() and int(text) >= 1:
+        return int(text)
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:              # not Linux: the machine's count
+        return os.cpu_count() or 1
+
+
+# Compilers are CPU-bound processes: more at once than cores only share the cores (and
+# memory), so the threads that build side by side take turns here.
+_compilers = threading.BoundedSemaphore(_compiler_slots())
+
+
 def _compile(cmd: list[str], target: Path, sources: list[Path]) -> None:
     """Run the compiler; a failure is a LoaderError with its output (a refused write, one
     line naming `target`)."""
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+    with _compilers:
+        proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         refused = _refused_write(proc.stderr)
         if refused:                # the disk, not the code: one line naming the library
@@ -238,6 +288,12 @@ def _object(src: Path, cc: str, flags: tuple[str, ...], root: Path, folders: lis
     h.update(hashlib.sha256(compiler_identity(cc).encode()).digest())
     h.update(hashlib.sha256("\0".join(compile_flags).encode()).digest())
     obj = root / "objects" / h.hexdigest()[:32] / f"{src.stem}.o"
+    with _building(obj):        # another thread compiling this very object: wait for it, then reuse it
+        return _built_object(obj, src, cc, compile_flags, folders)
+
+
+def _built_object(obj: Path, src: Path, cc: str, compile_flags: list[str], folders: list[Path]) -> Path:
+    """The object `obj` from the cache, or compiled now (_object's work, under its lock)."""
     if obj.is_file() and _intact(obj) is True:
         return obj
     try:

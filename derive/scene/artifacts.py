@@ -9,7 +9,6 @@ Each step reports whether it was reused or done now, so `derive run` can say so:
 """
 from __future__ import annotations
 
-import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -53,9 +52,12 @@ def _generated(name: str) -> Step:
 def _library(name: str) -> Step:
     start = time.perf_counter()
     before = set((cache_dir() / "c-build").glob("*/*.so"))
-    libraries = [library_path(name)]     # a time-dependent model's too: they pass each stage's t
-    for model in sources.members(name):
-        libraries.append(load(model).path)
+    # a time-dependent model's integrators too: they pass each stage's t
+    builds = [lambda: library_path(name)]
+    builds += [lambda model=model: load(model).path for model in sources.members(name)]
+    # side by side: the threads wait on compilers (the loader runs one per core at once)
+    with ThreadPoolExecutor(max_workers=len(builds)) as pool:
+        libraries = list(pool.map(lambda build: build(), builds))
     # Only this model's libraries count: another process may build others meanwhile.
     built = set(libraries) - before
     return Step(f"compiled C for {name}", not built, time.perf_counter() - start)
@@ -96,7 +98,8 @@ def prepare_c(names: list[str], stage=None, workers: int | None = None) -> list[
     stage : derive.progress.Stage, optional
         Told what is being done.
     workers : int, optional
-        Compilers at once (default: one per core).
+        Models compiled at once (default: all of them; the loader runs at most one
+        compiler per core at once, derive.runtime.loader).
 
     Returns
     -------
@@ -108,9 +111,11 @@ def prepare_c(names: list[str], stage=None, workers: int | None = None) -> list[
             stage.set(what)
 
     # SymPy and Jinja2 hold the interpreter: one model after another; a compiler is a
-    # process of its own, so the compiles overlap (threads wait on them)
+    # process of its own, so the compiles overlap (threads wait on them): every model's at
+    # once, so that the cores stay busy to the last compile (an object two libraries
+    # share, an atlas's and its chart's, is compiled once: the other waits for it)
     steps = {name: _python_steps(name, doing) for name in names}
     doing(f"compiling the C of {len(names)} models")
-    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
+    with ThreadPoolExecutor(max_workers=workers or len(names) or 1) as pool:
         libraries = dict(zip(names, pool.map(_library, names)))
     return [step for name in names for step in (*steps[name], libraries[name])]
