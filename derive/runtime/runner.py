@@ -117,7 +117,8 @@ class Runner:
     @property
     def lib(self):
         """The library whose options struct the run takes (the atlas': its own driver's; a
-        time-dependent model's Taylor run: the contract's defaults, it has no RK library)."""
+        time-dependent model's Taylor run: the contract's defaults, TaylorOptions, so that
+        it builds no RK library)."""
         if self.method == TAYLOR and self.timed:
             return taylor_options()
         return _rk_library(self.model, self.atlas)

@@ -80,8 +80,9 @@ class TaylorLibrary(SharedLibrary):
 class TaylorOptions(OptionsCache):
     """The options struct of the Taylor integrator filled with the contract's defaults, as
     <model>_integrate_defaults fills it (codegen/contract.py OPTIONS: sine_min the model's
-    SINE_MIN, cancel none): for a model whose runs have no RK library to ask (explicit
-    time: its Taylor files include <model>_integrate.h only)."""
+    SINE_MIN, cancel none): a time-dependent model's Taylor run takes it, so that it
+    builds no RK library (<model>_integrate.c) to ask.  tests/runtime/test_taylor_explicit_time.py
+    holds it equal to <model>_integrate_defaults."""
 
     def __init__(self):
         self.Options = options_struct()
