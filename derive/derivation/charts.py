@@ -21,7 +21,7 @@ from .. import cachefile
 from ..model import Model, load_model
 from ..paths import cache_dir
 from .derivation import cache_key
-from .symbols import ModelSymbols, model_symbols
+from .symbols import ModelSymbols, model_symbols, per_shape
 
 
 @cachefile.register
@@ -135,11 +135,12 @@ def _computed(source: Model, target: Model) -> ChartChange:
         coords += lb.chart.coordinates_of(list(e_a))
         velocity = e_a.jacobian(qa) * sp.Matrix(a.qd[sa])
         J_b = lb.chart.unit_vector(qb).jacobian(qb)
-        gram = (J_b.T * J_b).applyfunc(sp.trigsimp)
+        gram = (J_b.T * J_b).applyfunc(lambda x: per_shape(sp.trigsimp, x))
         if not gram.is_diagonal():
             raise ValueError(f"chart '{lb.chart.name}' is not orthogonal; (5.11)-(5.14) do not apply")
         for k in range(len(qb)):
             # factor_terms exposes the sin u inside de/dv, so one power of the
             # Gram entry sin^2 u cancels: the code divides by sin u, not sin^2 u.
-            rates.append(sp.factor_terms(sp.trigsimp(velocity.dot(J_b[:, k]))) / gram[k, k])
+            # trigsimp once per shape: the second link's rates are the first's in other angles
+            rates.append(sp.factor_terms(per_shape(sp.trigsimp, velocity.dot(J_b[:, k]))) / gram[k, k])
     return ChartChange(source.name, target.name, a, b, coords, target_q, rates)

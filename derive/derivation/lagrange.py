@@ -41,7 +41,7 @@ from ..errors import ModelError
 from ..model import Model
 from ..model.description import PRISMATIC, REVOLUTE
 from ..model.expressions import parse_expression
-from .symbols import ModelSymbols, motion_names, names, parse_quantity, t
+from .symbols import ModelSymbols, motion_names, names, parse_quantity, per_shape, t
 
 
 def link_directions(model: Model, s: ModelSymbols) -> list[sp.Matrix]:
@@ -124,20 +124,11 @@ def _gram(a: LinkBlock, b: LinkBlock) -> sp.Matrix:
     return (a.D.T * b.D).applyfunc(lambda x: _folded(sp.expand(x)))
 
 
-_FOLDED: dict = {}      # an entry's shape (its symbols renamed in order) -> trigsimp of it
-
-
 def _folded(x: sp.Expr) -> sp.Expr:
-    """trigsimp(x), computed once per shape: a chain's Gram entries are the same few
-    polynomials (sin^2 + cos^2, sin a sin b + cos a cos b) in other angles, and trigsimp is
-    the derivation's largest cost.  The symbols are renamed in their order (names that sort
-    as theirs, the same assumptions), so the shape prints and sorts as the entry does."""
-    symbols = sorted(x.free_symbols, key=lambda s: s.name)
-    shape = [sp.Symbol(f"_gram{k:04d}", **s.assumptions0) for k, s in enumerate(symbols)]
-    key = x.xreplace(dict(zip(symbols, shape)))
-    if key not in _FOLDED:
-        _FOLDED[key] = sp.trigsimp(key)
-    return _FOLDED[key].xreplace(dict(zip(shape, symbols)))
+    """trigsimp(x), computed once per shape (symbols.per_shape): a chain's Gram entries are
+    the same few polynomials (sin^2 + cos^2, sin a sin b + cos a cos b) in other angles, and
+    trigsimp is the derivation's largest cost."""
+    return per_shape(sp.trigsimp, x)
 
 
 @dataclass

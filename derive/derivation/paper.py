@@ -19,7 +19,7 @@ import sympy as sp
 from .. import cachefile
 from ..model import Model
 from .lagrange import link_vectors
-from .symbols import ModelSymbols
+from .symbols import ModelSymbols, per_shape
 
 
 @cachefile.register
@@ -45,10 +45,14 @@ class PaperForms:
         return D_hat * self.A_hat
 
 
-def _tidy(expr: sp.Expr) -> sp.Expr:
+def _tidied(expr: sp.Expr) -> sp.Expr:
     # Cancel the polar sines exactly: expand double angles so sin(2u) shows its
     # sin(u) factor, cancel, then let trigsimp fold cos(a)cos(b)+sin(a)sin(b).
     return sp.trigsimp(sp.factor_terms(sp.cancel(sp.expand_trig(expr))))
+
+
+def _tidy(expr: sp.Expr) -> sp.Expr:
+    return per_shape(_tidied, expr)     # the two links' entries are often one shape
 
 
 def paper_forms(model: Model, s: ModelSymbols) -> PaperForms:
@@ -66,13 +70,13 @@ def paper_forms(model: Model, s: ModelSymbols) -> PaperForms:
     weight = [[mu, 1], [1, 1]]          # (2.21): mu on the (1,1) block only
 
     def block(i, j, cols):
-        return sp.Matrix(2, len(cols), lambda r, c: sp.trigsimp(sp.expand(
+        return sp.Matrix(2, len(cols), lambda r, c: per_shape(sp.trigsimp, sp.expand(
             weight[i][j] * cols[c].dot(first[i][r]))))
 
     A = sp.Matrix(sp.BlockMatrix([[block(i, j, first[j]) for j in range(2)] for i in range(2)]))
     B = sp.Matrix(sp.BlockMatrix([[block(i, j, second[j]) for j in range(2)] for i in range(2)]))
     weights_g = [mu * g, g]
-    G = sp.Matrix([sp.trigsimp(weights_g[i] * qvec[i][2].diff(c))
+    G = sp.Matrix([per_shape(sp.trigsimp, weights_g[i] * qvec[i][2].diff(c))
                    for i in range(2) for c in coords[i]])
     w = sp.Matrix([du1**2, 2 * du1 * dv1, dv1**2, du2**2, 2 * du2 * dv2, dv2**2])
 

@@ -7,6 +7,7 @@ the chain rule with the rates as explicit symbols (see lagrange.py).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import sympy as sp
 
@@ -66,3 +67,34 @@ def motion_names(symbols: ModelSymbols) -> dict[str, sp.Symbol]:
 def parse_quantity(text: str, symbols: ModelSymbols) -> sp.Expr:
     """A length, mass, inertia or fraction from a description: a parameter or a number."""
     return parse_expression(text, {s.name: s for s in symbols.params}, "model quantity")
+
+
+_PER_SHAPE: dict = {}       # (simplification, an expression's shape) -> the simplified shape
+
+
+def per_shape(simplify: Callable[[sp.Expr], sp.Expr], x: sp.Expr) -> sp.Expr:
+    """``simplify(x)``, computed once per shape of `x` in this process.
+
+    A shape is `x` with its symbols renamed in the order of their names (names that sort
+    as theirs, the same assumptions), so it prints, sorts and simplifies as `x` does, and
+    the result renamed back is what ``simplify(x)`` gives.  The derivation's trigsimp
+    calls (its largest cost) meet the same few shapes again and again: a chain's Gram
+    entries in other angles, the seed's two links' blocks, a chart change's two links.
+
+    Parameters
+    ----------
+    simplify : callable
+        A deterministic SymPy simplification (sympy.trigsimp, say).
+    x : sympy.Expr
+
+    Returns
+    -------
+    sympy.Expr
+    """
+    x = sp.sympify(x)
+    symbols = sorted(x.free_symbols, key=lambda s: s.name)
+    shape = [sp.Symbol(f"_gram{k:04d}", **s.assumptions0) for k, s in enumerate(symbols)]
+    key = (simplify, x.xreplace(dict(zip(symbols, shape))))
+    if key not in _PER_SHAPE:
+        _PER_SHAPE[key] = simplify(key[1])
+    return _PER_SHAPE[key].xreplace(dict(zip(shape, symbols)))
