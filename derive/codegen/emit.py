@@ -141,22 +141,41 @@ def compound_angle_rewrites(spec: ModelSpec) -> dict[sp.Expr, sp.Expr]:
     return out
 
 
-def cse_file(spec: ModelSpec) -> list[Body]:
-    """One CSE pass over all outputs of the file, split back into kernels."""
+def cse_file(spec: ModelSpec, also: ModelSpec | None = None) -> list[Body]:
+    """One CSE pass over all outputs of the file, split back into kernels.
+
+    `also`: a second file whose kernels repeat most of this one's expressions (the model's
+    <model>_linearize: A is the jacobian kernel's J).  Its roots join the one pass, those
+    equal to one of this file's counted once (so this file's own bodies are what they are
+    without it), and its bodies follow this file's in the list returned: the second file
+    costs no second CSE pass, and its printers meet expressions already printed."""
+    files = [spec] + ([also] if also is not None else [])
     stage_defs: dict[sp.Symbol, sp.Expr] = {}
-    for k in spec.kernels:
-        for sym, expr in k.stages:
-            stage_defs.setdefault(sym, expr)
+    for f in files:
+        for k in f.kernels:
+            for sym, expr in k.stages:
+                stage_defs.setdefault(sym, expr)
     stage_syms = list(stage_defs)
-    varying = varying_symbols(spec)
+    varying = set().union(*(varying_symbols(f) for f in files))
     roots: list[sp.Expr] = [stage_defs[s] for s in stage_syms]
-    spans = []
+    spans: list[list[int]] = []
     for k in spec.kernels:
         start = len(roots)
         roots += list(k.guards)
         for out in k.outputs:
             roots += list(out.exprs)
-        spans.append((start, len(roots)))
+        spans.append(list(range(start, len(roots))))
+    first = {}
+    for i, r in enumerate(roots):
+        first.setdefault(r, i)
+    for k in (also.kernels if also is not None else ()):
+        span = []
+        for r in list(k.guards) + [e for out in k.outputs for e in out.exprs]:
+            if r not in first:
+                first[r] = len(roots)
+                roots.append(r)
+            span.append(first[r])
+        spans.append(span)
     memo: dict = {}
     angles = compound_angle_rewrites(spec)
     roots = [collect_constants(sp.sympify(r).xreplace(angles), varying, memo) for r in roots]
@@ -170,8 +189,9 @@ def cse_file(spec: ModelSpec) -> list[Body]:
     position = {sym: i for i, sym in enumerate(list(defs))}
 
     bodies = []
-    for k, (start, end) in zip(spec.kernels, spans):
-        mine = reduced[start:end]
+    all_kernels = [k for f in files for k in f.kernels]
+    for k, span in zip(all_kernels, spans):
+        mine = [reduced[i] for i in span]
         order: list[sp.Symbol] = []
         done: set[sp.Symbol] = set()
 

@@ -14,6 +14,8 @@ from sympy.printing.codeprinter import PrintMethodNotImplementedError
 from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.precedence import precedence
 
+import re
+
 from ..errors import PrintError
 
 
@@ -76,6 +78,80 @@ class CPrinter(SlotPrinting, C99CodePrinter):
             self._not_supported.clear()
             raise PrintError(f"no C translation for: {bad[0]}")
         return text
+
+
+# What CVariantPrinter writes where the floating type shows, before a variant names it.
+_FUNC_SUFFIX = "\x01"         # a math function's suffix: sin -> sinf, sinl
+_LITERAL_SUFFIX = "\x02"      # a literal's suffix: 1.0 -> 1.0F, 1.0L
+_MACRO_SUFFIX = "\x04"        # a math macro's suffix (C99CodePrinter's math_macros)
+_FLOAT_MARK = re.compile("\x03([0-9]+)\x03")   # a Float, by its index in the printer's table
+
+
+class CVariantPrinter(CPrinter):
+    """C for every floating type at once: each expression is printed once, with the places
+    where the types differ (a math function's suffix, a literal's suffix, a Float's digits)
+    left as marks, and `text(expr, ctype)` fills them in for one type.
+
+    The float, double and long double variants of a kernel are the same expression tree
+    printed three times, and printing is the generator's largest cost for a large model:
+    this prints it once.  The text of a variant is byte for byte what CPrinter(slots,
+    ctype) prints (a test compares them), as those three places are the only ones where
+    SymPy's C99 printer consults the type."""
+
+    def __init__(self, slots: dict):
+        super().__init__(slots, "double")
+        self._floats: list = []
+        self._float_index: dict = {}
+        self._memo: dict = {}
+        self._variants = {ctype: CPrinter(slots, ctype) for ctype in self.TYPES}
+
+    def _get_func_suffix(self, type_):
+        return _FUNC_SUFFIX
+
+    def _get_literal_suffix(self, type_):
+        return _LITERAL_SUFFIX
+
+    def _get_math_macro_suffix(self, type_):
+        return _MACRO_SUFFIX
+
+    def _float_suffix(self) -> str:
+        return _LITERAL_SUFFIX
+
+    def _print_Float(self, flt):
+        if flt not in self._float_index:
+            self._float_index[flt] = len(self._floats)
+            self._floats.append(flt)
+        return f"\x03{self._float_index[flt]}\x03"
+
+    def marked(self, expr) -> str:
+        """The text of `expr` with its type marks (printed once per expression)."""
+        if expr not in self._memo:
+            self._memo[expr] = self.doprint_checked(expr)
+        return self._memo[expr]
+
+    def text(self, expr, ctype: str) -> str:
+        """`expr` in C for the floating type `ctype` (float, double or long double)."""
+        pr = self._variants[ctype]
+        real_type = pr.type_aliases.get(real, real)
+        marked = _FLOAT_MARK.sub(lambda m: pr._print_Float(self._floats[int(m.group(1))]), self.marked(expr))
+        return (marked.replace(_FUNC_SUFFIX, pr._get_func_suffix(real))
+                .replace(_LITERAL_SUFFIX, pr._get_literal_suffix(real))
+                .replace(_MACRO_SUFFIX, pr._get_math_macro_suffix(real_type)))
+
+    def typed(self, ctype: str) -> "TypedPrinter":
+        """A printer for one floating type that shares this one's printed texts."""
+        return TypedPrinter(self, ctype)
+
+
+class TypedPrinter:
+    """CVariantPrinter for one floating type: what a CPrinter(slots, ctype) is to its callers
+    (doprint_checked), each expression printed once for all the types."""
+
+    def __init__(self, shared: CVariantPrinter, ctype: str):
+        self.shared, self.ctype = shared, ctype
+
+    def doprint_checked(self, expr) -> str:
+        return self.shared.text(expr, self.ctype)
 
 
 class PyNumPyPrinter(SlotPrinting, NumPyPrinter):

@@ -76,17 +76,25 @@ def provenance(name: str, files: dict[str, str]) -> dict[str, str]:
 
 @forget_on_model_change
 @lru_cache(maxsize=None)
+def _both_files(name: str):
+    """(spec, bodies, linearize spec, its bodies): the model's kernel file and its
+    <model>_linearize, whose A is the kernel file's J, after one CSE pass over both."""
+    d = derive(name)
+    spec = model_spec(d)
+    lin = linearize_spec(d, spec)
+    bodies = cse_file(spec, also=lin)
+    return spec, bodies[:len(spec.kernels)], lin, bodies[len(spec.kernels):]
+
+
 def kernels(name: str):
     """(spec, bodies): a model's kernel specs and their code after the one CSE pass, shared
     by every file of the model (kernels, integrators, loops): CSE runs once per model."""
-    spec = model_spec(derive(name))
-    return spec, cse_file(spec)
+    return _both_files(name)[:2]
 
 
-@forget_on_model_change
-@lru_cache(maxsize=None)
 def linearize_kernels(name: str):
-    """The kernel spec and CSE bodies of a model's <model>_linearize file (its own CSE pass).
+    """The kernel spec and CSE bodies of a model's <model>_linearize file (from the model's
+    one CSE pass: its A is the kernel file's jacobian).
 
     Parameters
     ----------
@@ -98,8 +106,7 @@ def linearize_kernels(name: str):
     tuple
         (ModelSpec, list of emit.Body), as `kernels` gives for the model's own file.
     """
-    spec = linearize_spec(derive(name))
-    return spec, cse_file(spec)
+    return _both_files(name)[2:]
 
 
 def _raw(name: str, backends: tuple[str, ...] | None = None) -> dict[str, str]:

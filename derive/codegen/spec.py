@@ -358,17 +358,20 @@ def _constraint_kernels(d, dyn, yp, y: Input, p: Input, guards) -> list[Kernel]:
 LINEARIZE = "linearize"      # the kernel, and the suffix of its file: <model>_linearize
 
 
-def linearize_spec(d) -> ModelSpec:
+def linearize_spec(d, model: ModelSpec | None = None) -> ModelSpec:
     """The file <model>_linearize: one kernel writing A = df/dy and (for a model with
     inputs) B = df/du of y' = f(y; p, u), both by differentiating M q'' = F implicitly,
     d q''/dz = M^-1 (dF/dz - (dM/dz) q''), through the in-code solve of rhs (derive/codegen/
     solve.py): M^-1 F is never formed, whatever the size of the model.  A file of its own,
-    so the model's kernel file (and its one CSE pass) stays as it was.
+    so the model's kernel file stays as it was; its A is the model file's jacobian J, taken
+    from `model` (its ModelSpec) when given rather than differentiated again.
 
     Parameters
     ----------
     d : Derivation
         The model's derivation.
+    model : ModelSpec, optional
+        model_spec(d), whose jacobian kernel's J and stages A reuses.
 
     Returns
     -------
@@ -379,10 +382,14 @@ def linearize_spec(d) -> ModelSpec:
     state, params, _ = _vectors(d)
     y, p = Input("y", state), Input("p", params)
     dyn = dynamics(d)
-    jac = solve.jacobian(dyn, s)
     nq, n = len(s.q), len(s.state)
-    outputs = [Output("A", (n, n), tuple(jac.exprs), "A = df/dy, row-major")]
-    stages = list(dyn.stages) + list(jac.stages)
+    known = next((k for k in model.kernels if k.name == "jacobian"), None) if model is not None else None
+    if known is not None:           # J of the model file: its expressions and stages, as they are
+        exprs, stages = known.outputs[0].exprs, list(known.stages)
+    else:
+        jac = solve.jacobian(dyn, s)
+        exprs, stages = tuple(jac.exprs), list(dyn.stages) + list(jac.stages)
+    outputs = [Output("A", (n, n), tuple(exprs), "A = df/dy, row-major")]
     inputs, vectors = (y, p), (state, params)
     if s.u:
         u_vector = Vector("input", "INPUTS", "input_names", s.u, "the run-time inputs")

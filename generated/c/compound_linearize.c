@@ -38,59 +38,67 @@ const char *const compound_linearize_param_names[COMPOUND_LINEARIZE_N_PARAMS] = 
     "m1", "m2", "l1", "l2", "L1", "L2", "g"
 };
 
-/* compound_linearize (double). Total ops: 101 */
+/* compound_linearize (double). Total ops: 107 */
 int compound_linearize(const double *restrict y, const double *restrict p, double *restrict A)
 {
     int status = COMPOUND_LINEARIZE_STATUS_OK;
     double check;
-    const double lane_angle[3] = { y[0] - y[1], y[0], y[1] };
-    double lane_sin[3], lane_cos[3];
+    const double lane_angle[2] = { y[0], y[1] };
+    double lane_sin[2], lane_cos[2];
     int lane;
     COMPOUND_LINEARIZE_SIMD
-    for (lane = 0; lane < 3; ++lane) {
+    for (lane = 0; lane < 2; ++lane) {
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t1 = lane_cos[0];
-    const double t6 = lane_sin[0];
-    const double sin_lane1 = lane_sin[1];
-    const double sin_lane2 = lane_sin[2];
-    const double cos_lane1 = lane_cos[1];
-    const double cos_lane2 = lane_cos[2];
-    const double t2 = (1.0/2.0)*p[2];
-    const double t3 = p[3]*p[1];
-    const double t4 = t2*t3;
-    const double M01 = t1*t4;
-    const double t5 = y[2]*y[2];
-    const double t7 = t4*t6;
-    const double M11 = p[5] + (1.0/4.0)*p[3]*p[3]*p[1];
-    const double t8 = p[6]*(p[0] + 2*p[1]);
-    const double t9 = y[3]*y[3];
-    const double t10 = t3*t9;
-    const double F0 = -t2*(sin_lane1*t8 + t10*t6);
-    const double F1 = (1.0/2.0)*t3*(-p[6]*sin_lane2 + p[2]*t5*t6);
-    const double M00 = p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]);
+    const double t0 = lane_sin[0];
+    const double t1 = lane_sin[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
+    const double t4 = t0*t1 + t2*t3;
+    const double t5 = (1.0/2.0)*p[2];
+    const double t6 = p[3]*p[1];
+    const double t7 = t5*t6;
+    const double M01 = t4*t7;
+    const double t8 = y[2]*y[2];
+    const double t9 = t0*t3 - t1*t2;
+    const double t10 = t7*t9;
+    const double t11 = p[3]*p[3]*p[1];
+    const double M11 = p[5] + (1.0/4.0)*t11;
+    const double t12 = p[6]*(p[0] + 2*p[1]);
+    const double t13 = y[3]*y[3];
+    const double t14 = t13*t6;
+    const double F0 = -t5*(t0*t12 + t14*t9);
+    const double t15 = p[6]*t1;
+    const double t16 = (1.0/2.0)*p[1];
+    const double t17 = p[3]*t16;
+    const double F1 = t17*(p[2]*t8*t9 - t15);
+    const double t18 = p[2]*p[2];
+    const double M00 = p[4] + t18*((1.0/4.0)*p[0] + p[1]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double qdd0 = rdet*(F0*M11 - F1*M01);
-    const double t11 = qdd0*t7;
-    const double t12 = M01*t5 + t11;
+    const double t19 = qdd0*t10;
+    const double t20 = M01*t8 + t19;
     const double qdd1 = rdet*(-F0*M01 + F1*M00);
-    const double t13 = qdd1*t7;
-    const double t14 = t13 - t2*(cos_lane1*t8 + t1*t10);
-    const double t15 = (1.0/2.0)*p[2]*p[3]*p[1]*t1*t9 - t13;
-    const double t16 = (1.0/2.0)*p[3]*p[1]*(-cos_lane2*p[6] - p[2]*t1*t5) - t11;
-    const double t17 = p[2]*rdet*t3*t6;
-    const double t18 = t17*y[2];
-    const double t19 = t17*y[3];
-    const double t20 = rdet*(-M01*t12 + M11*t14);
-    const double t21 = rdet*(-M01*t16 + M11*t15);
-    const double t22 = -M01*t18;
-    const double t23 = -M11*t19;
-    const double t24 = rdet*(M00*t12 - M01*t14);
-    const double t25 = rdet*(M00*t16 - M01*t15);
-    const double t26 = M00*t18;
-    const double t27 = M01*t19;
+    const double t21 = qdd1*t10;
+    const double t22 = t21 - t5*(t12*t2 + t14*t4);
+    const double t23 = (1.0/2.0)*p[2]*p[3]*p[1]*t13*t4 - t21;
+    const double t24 = (1.0/2.0)*p[3]*p[1]*(-p[6]*t3 - p[2]*t4*t8) - t19;
+    const double t25 = M01*rdet;
+    const double t26 = p[2]*t6*t9;
+    const double t27 = t26*y[2];
+    const double t28 = M11*rdet;
+    const double t29 = t26*y[3];
+    const double t30 = M00*rdet;
+    const double t31 = rdet*(-M01*t20 + M11*t22);
+    const double t32 = rdet*(-M01*t24 + M11*t23);
+    const double t33 = -t25*t27;
+    const double t34 = -t28*t29;
+    const double t35 = rdet*(M00*t20 - M01*t22);
+    const double t36 = rdet*(M00*t24 - M01*t23);
+    const double t37 = t27*t30;
+    const double t38 = t25*t29;
     A[0] = 0;
     A[1] = 0;
     A[2] = 1;
@@ -99,17 +107,17 @@ int compound_linearize(const double *restrict y, const double *restrict p, doubl
     A[5] = 0;
     A[6] = 0;
     A[7] = 1;
-    A[8] = t20;
-    A[9] = t21;
-    A[10] = t22;
-    A[11] = t23;
-    A[12] = t24;
-    A[13] = t25;
-    A[14] = t26;
-    A[15] = t27;
+    A[8] = t31;
+    A[9] = t32;
+    A[10] = t33;
+    A[11] = t34;
+    A[12] = t35;
+    A[13] = t36;
+    A[14] = t37;
+    A[15] = t38;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t20 - t20) + (t21 - t21) + (t22 - t22) + (t23 - t23) + (t24 - t24) + (t25 - t25) +
-        (t26 - t26) + (t27 - t27);
+    check = (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) +
+        (t37 - t37) + (t38 - t38);
     if (isnan(check)) {
         status |= COMPOUND_LINEARIZE_STATUS_NONFINITE;
     }
@@ -130,48 +138,59 @@ int compound_linearize_batch(long n, const double *restrict y, long y_stride, co
     return all;
 }
 
-/* compound_linearize_f (float). Total ops: 101 */
+/* compound_linearize_f (float). Total ops: 107 */
 int compound_linearize_f(const float *restrict y, const float *restrict p, float *restrict A)
 {
     int status = COMPOUND_LINEARIZE_STATUS_OK;
     float check;
-    const float t0 = y[0] - y[1];
-    const float t1 = cosf(t0);
-    const float t2 = (1.0F/2.0F)*p[2];
-    const float t3 = p[3]*p[1];
-    const float t4 = t2*t3;
-    const float M01 = t1*t4;
-    const float t5 = y[2]*y[2];
-    const float t6 = sinf(t0);
-    const float t7 = t4*t6;
-    const float M11 = p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1];
-    const float t8 = p[6]*(p[0] + 2*p[1]);
-    const float t9 = y[3]*y[3];
-    const float t10 = t3*t9;
-    const float F0 = -t2*(t10*t6 + t8*sinf(y[0]));
-    const float F1 = (1.0F/2.0F)*t3*(-p[6]*sinf(y[1]) + p[2]*t5*t6);
-    const float M00 = p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]);
+    const float t0 = sinf(y[0]);
+    const float t1 = sinf(y[1]);
+    const float t2 = cosf(y[0]);
+    const float t3 = cosf(y[1]);
+    const float t4 = t0*t1 + t2*t3;
+    const float t5 = (1.0F/2.0F)*p[2];
+    const float t6 = p[3]*p[1];
+    const float t7 = t5*t6;
+    const float M01 = t4*t7;
+    const float t8 = y[2]*y[2];
+    const float t9 = t0*t3 - t1*t2;
+    const float t10 = t7*t9;
+    const float t11 = p[3]*p[3]*p[1];
+    const float M11 = p[5] + (1.0F/4.0F)*t11;
+    const float t12 = p[6]*(p[0] + 2*p[1]);
+    const float t13 = y[3]*y[3];
+    const float t14 = t13*t6;
+    const float F0 = -t5*(t0*t12 + t14*t9);
+    const float t15 = p[6]*t1;
+    const float t16 = (1.0F/2.0F)*p[1];
+    const float t17 = p[3]*t16;
+    const float F1 = t17*(p[2]*t8*t9 - t15);
+    const float t18 = p[2]*p[2];
+    const float M00 = p[4] + t18*((1.0F/4.0F)*p[0] + p[1]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float qdd0 = rdet*(F0*M11 - F1*M01);
-    const float t11 = qdd0*t7;
-    const float t12 = M01*t5 + t11;
+    const float t19 = qdd0*t10;
+    const float t20 = M01*t8 + t19;
     const float qdd1 = rdet*(-F0*M01 + F1*M00);
-    const float t13 = qdd1*t7;
-    const float t14 = t13 - t2*(t1*t10 + t8*cosf(y[0]));
-    const float t15 = (1.0F/2.0F)*p[2]*p[3]*p[1]*t1*t9 - t13;
-    const float t16 = (1.0F/2.0F)*p[3]*p[1]*(-p[6]*cosf(y[1]) - p[2]*t1*t5) - t11;
-    const float t17 = p[2]*rdet*t3*t6;
-    const float t18 = t17*y[2];
-    const float t19 = t17*y[3];
-    const float t20 = rdet*(-M01*t12 + M11*t14);
-    const float t21 = rdet*(-M01*t16 + M11*t15);
-    const float t22 = -M01*t18;
-    const float t23 = -M11*t19;
-    const float t24 = rdet*(M00*t12 - M01*t14);
-    const float t25 = rdet*(M00*t16 - M01*t15);
-    const float t26 = M00*t18;
-    const float t27 = M01*t19;
+    const float t21 = qdd1*t10;
+    const float t22 = t21 - t5*(t12*t2 + t14*t4);
+    const float t23 = (1.0F/2.0F)*p[2]*p[3]*p[1]*t13*t4 - t21;
+    const float t24 = (1.0F/2.0F)*p[3]*p[1]*(-p[6]*t3 - p[2]*t4*t8) - t19;
+    const float t25 = M01*rdet;
+    const float t26 = p[2]*t6*t9;
+    const float t27 = t26*y[2];
+    const float t28 = M11*rdet;
+    const float t29 = t26*y[3];
+    const float t30 = M00*rdet;
+    const float t31 = rdet*(-M01*t20 + M11*t22);
+    const float t32 = rdet*(-M01*t24 + M11*t23);
+    const float t33 = -t25*t27;
+    const float t34 = -t28*t29;
+    const float t35 = rdet*(M00*t20 - M01*t22);
+    const float t36 = rdet*(M00*t24 - M01*t23);
+    const float t37 = t27*t30;
+    const float t38 = t25*t29;
     A[0] = 0;
     A[1] = 0;
     A[2] = 1;
@@ -180,17 +199,17 @@ int compound_linearize_f(const float *restrict y, const float *restrict p, float
     A[5] = 0;
     A[6] = 0;
     A[7] = 1;
-    A[8] = t20;
-    A[9] = t21;
-    A[10] = t22;
-    A[11] = t23;
-    A[12] = t24;
-    A[13] = t25;
-    A[14] = t26;
-    A[15] = t27;
+    A[8] = t31;
+    A[9] = t32;
+    A[10] = t33;
+    A[11] = t34;
+    A[12] = t35;
+    A[13] = t36;
+    A[14] = t37;
+    A[15] = t38;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t20 - t20) + (t21 - t21) + (t22 - t22) + (t23 - t23) + (t24 - t24) + (t25 - t25) +
-        (t26 - t26) + (t27 - t27);
+    check = (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) +
+        (t37 - t37) + (t38 - t38);
     if (isnan(check)) {
         status |= COMPOUND_LINEARIZE_STATUS_NONFINITE;
     }
@@ -211,48 +230,59 @@ int compound_linearize_batch_f(long n, const float *restrict y, long y_stride, c
     return all;
 }
 
-/* compound_linearize_l (long double). Total ops: 101 */
+/* compound_linearize_l (long double). Total ops: 107 */
 int compound_linearize_l(const long double *restrict y, const long double *restrict p, long double *restrict A)
 {
     int status = COMPOUND_LINEARIZE_STATUS_OK;
     long double check;
-    const long double t0 = y[0] - y[1];
-    const long double t1 = cosl(t0);
-    const long double t2 = (1.0L/2.0L)*p[2];
-    const long double t3 = p[3]*p[1];
-    const long double t4 = t2*t3;
-    const long double M01 = t1*t4;
-    const long double t5 = y[2]*y[2];
-    const long double t6 = sinl(t0);
-    const long double t7 = t4*t6;
-    const long double M11 = p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1];
-    const long double t8 = p[6]*(p[0] + 2*p[1]);
-    const long double t9 = y[3]*y[3];
-    const long double t10 = t3*t9;
-    const long double F0 = -t2*(t10*t6 + t8*sinl(y[0]));
-    const long double F1 = (1.0L/2.0L)*t3*(-p[6]*sinl(y[1]) + p[2]*t5*t6);
-    const long double M00 = p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]);
+    const long double t0 = sinl(y[0]);
+    const long double t1 = sinl(y[1]);
+    const long double t2 = cosl(y[0]);
+    const long double t3 = cosl(y[1]);
+    const long double t4 = t0*t1 + t2*t3;
+    const long double t5 = (1.0L/2.0L)*p[2];
+    const long double t6 = p[3]*p[1];
+    const long double t7 = t5*t6;
+    const long double M01 = t4*t7;
+    const long double t8 = y[2]*y[2];
+    const long double t9 = t0*t3 - t1*t2;
+    const long double t10 = t7*t9;
+    const long double t11 = p[3]*p[3]*p[1];
+    const long double M11 = p[5] + (1.0L/4.0L)*t11;
+    const long double t12 = p[6]*(p[0] + 2*p[1]);
+    const long double t13 = y[3]*y[3];
+    const long double t14 = t13*t6;
+    const long double F0 = -t5*(t0*t12 + t14*t9);
+    const long double t15 = p[6]*t1;
+    const long double t16 = (1.0L/2.0L)*p[1];
+    const long double t17 = p[3]*t16;
+    const long double F1 = t17*(p[2]*t8*t9 - t15);
+    const long double t18 = p[2]*p[2];
+    const long double M00 = p[4] + t18*((1.0L/4.0L)*p[0] + p[1]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double qdd0 = rdet*(F0*M11 - F1*M01);
-    const long double t11 = qdd0*t7;
-    const long double t12 = M01*t5 + t11;
+    const long double t19 = qdd0*t10;
+    const long double t20 = M01*t8 + t19;
     const long double qdd1 = rdet*(-F0*M01 + F1*M00);
-    const long double t13 = qdd1*t7;
-    const long double t14 = t13 - t2*(t1*t10 + t8*cosl(y[0]));
-    const long double t15 = (1.0L/2.0L)*p[2]*p[3]*p[1]*t1*t9 - t13;
-    const long double t16 = (1.0L/2.0L)*p[3]*p[1]*(-p[6]*cosl(y[1]) - p[2]*t1*t5) - t11;
-    const long double t17 = p[2]*rdet*t3*t6;
-    const long double t18 = t17*y[2];
-    const long double t19 = t17*y[3];
-    const long double t20 = rdet*(-M01*t12 + M11*t14);
-    const long double t21 = rdet*(-M01*t16 + M11*t15);
-    const long double t22 = -M01*t18;
-    const long double t23 = -M11*t19;
-    const long double t24 = rdet*(M00*t12 - M01*t14);
-    const long double t25 = rdet*(M00*t16 - M01*t15);
-    const long double t26 = M00*t18;
-    const long double t27 = M01*t19;
+    const long double t21 = qdd1*t10;
+    const long double t22 = t21 - t5*(t12*t2 + t14*t4);
+    const long double t23 = (1.0L/2.0L)*p[2]*p[3]*p[1]*t13*t4 - t21;
+    const long double t24 = (1.0L/2.0L)*p[3]*p[1]*(-p[6]*t3 - p[2]*t4*t8) - t19;
+    const long double t25 = M01*rdet;
+    const long double t26 = p[2]*t6*t9;
+    const long double t27 = t26*y[2];
+    const long double t28 = M11*rdet;
+    const long double t29 = t26*y[3];
+    const long double t30 = M00*rdet;
+    const long double t31 = rdet*(-M01*t20 + M11*t22);
+    const long double t32 = rdet*(-M01*t24 + M11*t23);
+    const long double t33 = -t25*t27;
+    const long double t34 = -t28*t29;
+    const long double t35 = rdet*(M00*t20 - M01*t22);
+    const long double t36 = rdet*(M00*t24 - M01*t23);
+    const long double t37 = t27*t30;
+    const long double t38 = t25*t29;
     A[0] = 0;
     A[1] = 0;
     A[2] = 1;
@@ -261,17 +291,17 @@ int compound_linearize_l(const long double *restrict y, const long double *restr
     A[5] = 0;
     A[6] = 0;
     A[7] = 1;
-    A[8] = t20;
-    A[9] = t21;
-    A[10] = t22;
-    A[11] = t23;
-    A[12] = t24;
-    A[13] = t25;
-    A[14] = t26;
-    A[15] = t27;
+    A[8] = t31;
+    A[9] = t32;
+    A[10] = t33;
+    A[11] = t34;
+    A[12] = t35;
+    A[13] = t36;
+    A[14] = t37;
+    A[15] = t38;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t20 - t20) + (t21 - t21) + (t22 - t22) + (t23 - t23) + (t24 - t24) + (t25 - t25) +
-        (t26 - t26) + (t27 - t27);
+    check = (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) + (t36 - t36) +
+        (t37 - t37) + (t38 - t38);
     if (isnan(check)) {
         status |= COMPOUND_LINEARIZE_STATUS_NONFINITE;
     }

@@ -33,7 +33,7 @@ def linearize(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns A: (..., 4, 4) A = df/dy, row-major
-    Total ops: 101
+    Total ops: 107
     """
     (y, p), shape, dtype = _prepare("linearize", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -47,26 +47,6 @@ def linearize(y, p):
     L1 = p[..., 4]
     L2 = p[..., 5]
     g = p[..., 6]
-    t0 = theta1 - theta2
-    tan_half_t0 = numpy.tan(0.5*t0)
-    del t0
-    tan_half_sq_t0 = tan_half_t0*tan_half_t0
-    rho_t0 = 1.0/(1 + tan_half_sq_t0)
-    sin_t0 = 2*(rho_t0*tan_half_t0)
-    del tan_half_t0
-    cos_t0 = rho_t0*(1 - tan_half_sq_t0)
-    del rho_t0, tan_half_sq_t0
-    t2 = (1/2)*l1
-    t3 = l2*m2
-    t4 = t2*t3
-    M01 = t4*cos_t0
-    t5 = theta1_dot*theta1_dot
-    t7 = t4*sin_t0
-    del t4
-    M11 = L2 + (1/4)*l2*l2*m2
-    t8 = g*(m1 + 2*m2)
-    t9 = theta2_dot*theta2_dot
-    t10 = t3*t9
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -74,8 +54,6 @@ def linearize(y, p):
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
-    F0 = (-t2)*(sin_t0*t10 + t8*sin_theta1)
-    del sin_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -83,44 +61,72 @@ def linearize(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    F1 = ((1/2)*t3)*(l1*(sin_t0*t5) - g*sin_theta2)
+    t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t5 = (1/2)*l1
+    t6 = l2*m2
+    t7 = t5*t6
+    M01 = t7*t4
+    t8 = theta1_dot*theta1_dot
+    t9 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t10 = t7*t9
+    del t7
+    t11 = l2*l2*m2
+    M11 = L2 + (1/4)*t11
+    del t11
+    t12 = g*(m1 + 2*m2)
+    t13 = theta2_dot*theta2_dot
+    t14 = t6*t13
+    F0 = (-t5)*(t12*sin_theta1 + t14*t9)
+    del sin_theta1
+    t15 = g*sin_theta2
     del sin_theta2
-    M00 = L1 + l1*l1*((1/4)*m1 + m2)
+    t16 = (1/2)*m2
+    t17 = l2*t16
+    del t16
+    F1 = t17*(l1*(t8*t9) - t15)
+    del t15, t17
+    t18 = l1*l1
+    M00 = L1 + t18*((1/4)*m1 + m2)
+    del t18
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
     qdd0 = rdet*(M11*F0 - F1*M01)
-    t11 = qdd0*t7
+    t19 = qdd0*t10
     del qdd0
-    t12 = M01*t5 + t11
+    t20 = M01*t8 + t19
     qdd1 = rdet*(M00*F1 - F0*M01)
     del F0, F1
-    t13 = qdd1*t7
-    del qdd1, t7
-    t14 = t13 - t2*(cos_t0*t10 + t8*cos_theta1)
-    del cos_theta1, t10, t2, t8
-    t15 = ((1/2)*l1*l2*m2)*(cos_t0*t9) - t13
-    del t13, t9
-    t16 = ((1/2)*l2*m2)*(-l1*(cos_t0*t5) - g*cos_theta2) - t11
-    del cos_t0, cos_theta2, t11, t5
-    t17 = (l1*t3)*(rdet*sin_t0)
-    del sin_t0, t3
-    t18 = t17*theta1_dot
-    t19 = t17*theta2_dot
-    del t17
-    t20 = rdet*(M11*t14 - M01*t12)
-    t21 = rdet*(M11*t15 - M01*t16)
-    t22 = -M01*t18
-    t23 = (-M11)*t19
+    t21 = qdd1*t10
+    del qdd1, t10
+    t22 = t21 - t5*(t12*cos_theta1 + t14*t4)
+    del cos_theta1, t12, t14, t5
+    t23 = ((1/2)*l1*l2*m2)*(t13*t4) - t21
+    del t13, t21
+    t24 = ((1/2)*l2*m2)*(-g*cos_theta2 - l1*(t4*t8)) - t19
+    del cos_theta2, t19, t4, t8
+    t25 = M01*rdet
+    t26 = (l1*t6)*t9
+    del t6, t9
+    t27 = t26*theta1_dot
+    t28 = M11*rdet
+    t29 = t26*theta2_dot
+    del t26
+    t30 = M00*rdet
+    t31 = rdet*(M11*t22 - M01*t20)
+    t32 = rdet*(M11*t23 - M01*t24)
     del M11
-    t24 = rdet*(M00*t12 - M01*t14)
-    del t12, t14
-    t25 = rdet*(M00*t16 - M01*t15)
-    del rdet, t15, t16
-    t26 = M00*t18
-    del M00, t18
-    t27 = M01*t19
-    del M01, t19
+    t33 = -t25*t27
+    t34 = -t28*t29
+    del t28
+    t35 = rdet*(M00*t20 - M01*t22)
+    del t20, t22
+    t36 = rdet*(M00*t24 - M01*t23)
+    del M00, M01, rdet, t23, t24
+    t37 = t27*t30
+    del t27, t30
+    t38 = t25*t29
+    del t25, t29
     A = numpy.empty(shape + (4, 4), dtype)
     A[..., 0, 0] = 0
     A[..., 0, 1] = 0
@@ -130,20 +136,20 @@ def linearize(y, p):
     A[..., 1, 1] = 0
     A[..., 1, 2] = 0
     A[..., 1, 3] = 1
-    A[..., 2, 0] = t20
-    del t20
-    A[..., 2, 1] = t21
-    del t21
-    A[..., 2, 2] = t22
-    del t22
-    A[..., 2, 3] = t23
-    del t23
-    A[..., 3, 0] = t24
-    del t24
-    A[..., 3, 1] = t25
-    del t25
-    A[..., 3, 2] = t26
-    del t26
-    A[..., 3, 3] = t27
-    del t27
+    A[..., 2, 0] = t31
+    del t31
+    A[..., 2, 1] = t32
+    del t32
+    A[..., 2, 2] = t33
+    del t33
+    A[..., 2, 3] = t34
+    del t34
+    A[..., 3, 0] = t35
+    del t35
+    A[..., 3, 1] = t36
+    del t36
+    A[..., 3, 2] = t37
+    del t37
+    A[..., 3, 3] = t38
+    del t38
     return A

@@ -33,7 +33,7 @@ def linearize(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns A: (..., 4, 4) A = df/dy, row-major
-    Total ops: 90
+    Total ops: 95
     """
     (y, p), shape, dtype = _prepare("linearize", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -46,23 +46,6 @@ def linearize(y, p):
     l2 = p[..., 3]
     g = p[..., 4]
     t0 = l2*m2
-    t1 = theta1 - theta2
-    tan_half_t1 = numpy.tan(0.5*t1)
-    del t1
-    tan_half_sq_t1 = tan_half_t1*tan_half_t1
-    rho_t1 = 1.0/(1 + tan_half_sq_t1)
-    sin_t1 = 2*(rho_t1*tan_half_t1)
-    del tan_half_t1
-    cos_t1 = rho_t1*(1 - tan_half_sq_t1)
-    del rho_t1, tan_half_sq_t1
-    t3 = t0*sin_t1
-    t4 = l1*t3
-    t6 = t0*cos_t1
-    M01 = l1*t6
-    M11 = l2*l2*m2
-    t7 = m1 + m2
-    t8 = g*t7
-    t9 = theta2_dot*theta2_dot
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -70,9 +53,6 @@ def linearize(y, p):
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
-    F0 = (-l1)*(t8*sin_theta1 + t3*t9)
-    del sin_theta1, t3
-    t10 = theta1_dot*theta1_dot
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -80,48 +60,68 @@ def linearize(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    F1 = t0*(l1*(sin_t1*t10) - g*sin_theta2)
-    del sin_t1, sin_theta2
-    M00 = l1*l1*t7
-    del t7
+    t5 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t6 = t0*t5
+    t7 = l1*t6
+    t8 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t9 = t0*t8
+    M01 = l1*t9
+    M11 = l2*l2*m2
+    t10 = m1 + m2
+    t11 = g*t10
+    t12 = theta2_dot*theta2_dot
+    F0 = (-l1)*(t11*sin_theta1 + t12*t6)
+    del sin_theta1, t6
+    t13 = g*sin_theta2
+    del sin_theta2
+    t14 = theta1_dot*theta1_dot
+    F1 = t0*(l1*(t14*t5) - t13)
+    del t13, t5
+    t15 = l1*l1
+    M00 = t10*t15
+    del t10, t15
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
     qdd0 = rdet*(M11*F0 - F1*M01)
-    t11 = qdd0*t4
+    t16 = qdd0*t7
     del qdd0
-    t12 = l1*(cos_t1*t10)
-    del t10
-    t13 = t0*t12 + t11
+    t17 = l1*(t14*t8)
+    del t14
+    t18 = t0*t17 + t16
     del t0
     qdd1 = rdet*(M00*F1 - F0*M01)
     del F0, F1
-    t14 = qdd1*t4
+    t19 = qdd1*t7
     del qdd1
-    t15 = t14 - l1*(t8*cos_theta1 + t6*t9)
-    del cos_theta1, t6, t8
-    t16 = (l1*l2*m2)*(cos_t1*t9) - t14
-    del cos_t1, t14, t9
-    t17 = (l2*m2)*(-g*cos_theta2 - t12) - t11
-    del cos_theta2, t11, t12
-    t18 = 2*(rdet*t4)
-    del t4
-    t19 = t18*theta1_dot
-    t20 = t18*theta2_dot
-    del t18
-    t21 = rdet*(M11*t15 - M01*t13)
-    t22 = rdet*(M11*t16 - M01*t17)
-    t23 = -M01*t19
-    t24 = (-M11)*t20
+    t20 = t19 - l1*(t11*cos_theta1 + t12*t9)
+    del cos_theta1, t11, t9
+    t21 = (l1*l2*m2)*(t12*t8) - t19
+    del t12, t19, t8
+    t22 = (l2*m2)*(-g*cos_theta2 - t17) - t16
+    del cos_theta2, t16, t17
+    t23 = M01*rdet
+    t24 = 2*t7
+    del t7
+    t25 = t24*theta1_dot
+    t26 = M11*rdet
+    t27 = t24*theta2_dot
+    del t24
+    t28 = M00*rdet
+    t29 = rdet*(M11*t20 - M01*t18)
+    t30 = rdet*(M11*t21 - M01*t22)
     del M11
-    t25 = rdet*(M00*t13 - M01*t15)
-    del t13, t15
-    t26 = rdet*(M00*t17 - M01*t16)
-    del rdet, t16, t17
-    t27 = M00*t19
-    del M00, t19
-    t28 = M01*t20
-    del M01, t20
+    t31 = -t23*t25
+    t32 = -t26*t27
+    del t26
+    t33 = rdet*(M00*t18 - M01*t20)
+    del t18, t20
+    t34 = rdet*(M00*t22 - M01*t21)
+    del M00, M01, rdet, t21, t22
+    t35 = t25*t28
+    del t25, t28
+    t36 = t23*t27
+    del t23, t27
     A = numpy.empty(shape + (4, 4), dtype)
     A[..., 0, 0] = 0
     A[..., 0, 1] = 0
@@ -131,20 +131,20 @@ def linearize(y, p):
     A[..., 1, 1] = 0
     A[..., 1, 2] = 0
     A[..., 1, 3] = 1
-    A[..., 2, 0] = t21
-    del t21
-    A[..., 2, 1] = t22
-    del t22
-    A[..., 2, 2] = t23
-    del t23
-    A[..., 2, 3] = t24
-    del t24
-    A[..., 3, 0] = t25
-    del t25
-    A[..., 3, 1] = t26
-    del t26
-    A[..., 3, 2] = t27
-    del t27
-    A[..., 3, 3] = t28
-    del t28
+    A[..., 2, 0] = t29
+    del t29
+    A[..., 2, 1] = t30
+    del t30
+    A[..., 2, 2] = t31
+    del t31
+    A[..., 2, 3] = t32
+    del t32
+    A[..., 3, 0] = t33
+    del t33
+    A[..., 3, 1] = t34
+    del t34
+    A[..., 3, 2] = t35
+    del t35
+    A[..., 3, 3] = t36
+    del t36
     return A

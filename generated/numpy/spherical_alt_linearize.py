@@ -35,7 +35,7 @@ def linearize(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns A: (..., 8, 8) A = df/dy, row-major
-    Total ops: 691
+    Total ops: 721
     """
     (y, p), shape, dtype = _prepare("linearize", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -65,55 +65,9 @@ def linearize(y, p):
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
-    t2 = l1*l1
-    t3 = 1.0/m2
+    t2 = 1.0/m2
+    t3 = l1*l1
     t4 = m1 + m2
-    t6 = l1*l2
-    t7 = varphi1 - varphi2
-    tan_half_t7 = numpy.tan(0.5*t7)
-    del t7
-    tan_half_sq_t7 = tan_half_t7*tan_half_t7
-    rho_t7 = 1.0/(1 + tan_half_sq_t7)
-    sin_t7 = 2*(rho_t7*tan_half_t7)
-    del tan_half_t7
-    cos_t7 = rho_t7*(1 - tan_half_sq_t7)
-    del rho_t7, tan_half_sq_t7
-    t9 = t6*sin_t7
-    Q01 = cos_vartheta1*t9
-    t10 = varphi1_dot*varphi1_dot
-    t11 = 2*vartheta1_dot
-    t12 = t11*varphi1_dot
-    t13 = vartheta1_dot*vartheta1_dot
-    t14 = sin_vartheta1*t9
-    Q11 = t6*cos_t7
-    t16 = Q11*sin_vartheta1
-    Ab = l2*l2
-    t18 = cos_vartheta2*t9
-    Q10 = -t18
-    t19 = Q01*Q01
-    t20 = t3*t4
-    Aa = t2*t20
-    AaAb = Aa*Ab
-    t21 = -AaAb
-    del AaAb
-    t22 = sin_vartheta1*sin_vartheta2
-    t23 = cos_vartheta1*cos_vartheta2
-    t24 = cos_t7*t23
-    t25 = t22 + t24
-    Q00 = t6*t25
-    t26 = t21 + Q00*Q00
-    D1_00 = -t19 - t26
-    D1_01 = -Q00*Q10 - Q01*Q11
-    t27 = Q10*Q10
-    t28 = t21 + Q11*Q11
-    del t21
-    D1_11 = -t27 - t28
-    rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t29 = 2*vartheta2_dot
-    t30 = varphi2_dot*varphi2_dot
-    t31 = vartheta2_dot*vartheta2_dot
-    t32 = g*l1*t20
-    del t20
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
@@ -121,14 +75,6 @@ def linearize(y, p):
     del tan_half_varphi1
     cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
     del rho_varphi1, tan_half_sq_varphi1
-    t33 = t32*cos_varphi1
-    del cos_varphi1
-    t34 = sin_vartheta2*t9
-    t35 = cos_vartheta2*varphi2_dot
-    t36 = Q11*t35
-    t37 = Aa*cos_vartheta1
-    f1 = -t12*t37 - t29*t36 - t30*t34 - t31*t34 - t33
-    t38 = t23*t9
     tan_half_varphi2 = numpy.tan(0.5*varphi2)
     tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
     rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
@@ -136,233 +82,309 @@ def linearize(y, p):
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
-    t40 = g*l2
-    t41 = cos_vartheta2*sin_vartheta2
-    t42 = cos_vartheta2*sin_vartheta1
-    t43 = t10*t42
-    t44 = t6*(cos_vartheta1*sin_vartheta2 - cos_t7*t42)
-    f2 = Ab*(t30*t41) + Q11*t43 + t12*t38 - t40*(cos_vartheta2*sin_varphi2) - t13*t44
-    t45 = t40*cos_varphi2
-    del cos_varphi2, t40
-    t46 = Ab*t35
-    del t35
-    t47 = Q11*cos_vartheta1
-    t48 = t11*t47
-    f3 = (l1*l2)*(sin_t7*sin_vartheta1*t10) + (l1*l2)*(sin_t7*sin_vartheta1*t13) - t29*t46 - t45 - t48*varphi1_dot
-    t49 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t50 = t32*sin_varphi1
-    del sin_varphi1, t32
-    t51 = t29*varphi2_dot
-    t52 = cos_vartheta1*sin_vartheta2
-    t53 = t42 - cos_t7*t52
-    t54 = t6*t31
-    f0 = (l1*l2)*(cos_t7*cos_vartheta1*sin_vartheta2*t30) + (t2*t3*t4)*(cos_vartheta1*sin_vartheta1*t10) - cos_vartheta1*t50 - t38*t51 - t53*t54
-    t55 = Ab*f0 - Q00*f2 - Q01*f3
-    qdd0 = D1_11*rD1*t55 - D1_01*t49
-    t56 = Q01*t10 + Q01*t13 + qdd0*t14 + t12*t16
-    t57 = t42*t9
-    t58 = -t25
-    del t25
-    t59 = t6*t13
-    t60 = (l1*l2)*(cos_t7*cos_vartheta1*cos_vartheta2*t10) - qdd0*t44 - t12*t57 - t58*t59
-    t61 = (2*Ab*t2*t3*t4)*(sin_vartheta1*varphi1_dot*vartheta1_dot) - Q10*t60 - Q11*t56
-    t62 = D1_01*rD1
-    D2_00 = -t26 - t27
-    del t26, t27
-    D2_01 = -Q00*Q01 - Q10*Q11
-    D2_11 = -t19 - t28
-    del t19, t28
-    rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t63 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
-    del f3
-    t64 = Aa*f2 - Q00*f0 - Q10*f1
-    del f0, f1, f2
-    xr3 = D2_00*t63 - D2_01*rD2*t64
-    t65 = t9*xr3
-    t66 = cos_t7*t22 + t23
-    del t23
-    qdd2 = D2_11*rD2*t64 - D2_01*t63
-    del t63, t64
-    t67 = Aa*(t10*(-1 + 2*cos_vartheta1*cos_vartheta1)) + sin_vartheta1*t50 + sin_vartheta1*t65 + t51*t57 - Q11*t22*t30 - qdd2*t44 - t54*t66
-    t68 = Ab*t67 - Q00*t60 - Q01*t56
-    xr1 = D1_00*t49 - D1_01*rD1*t55
-    del D1_01, t49, t55
-    t69 = t9*xr1
-    t70 = Q01*t12 + t10*t16 + t13*t16 + t69 - qdd0*t47
-    del t16
-    t71 = Q11*cos_vartheta2
-    t72 = t6*t24
+    t9 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    t11 = l1*cos_vartheta1
+    t12 = l2*t11
+    Q01 = t12*t9
+    t13 = varphi1_dot*varphi1_dot
+    t14 = vartheta1_dot*vartheta1_dot
+    t15 = l1*l2
+    t16 = t15*t9
+    t17 = sin_vartheta1*t16
+    t18 = sin_vartheta1*vartheta1_dot
+    t19 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
+    Q11 = t15*t19
+    t20 = 2*varphi1_dot
+    t21 = Q11*t20
+    Ab = l2*l2
+    t23 = l2*cos_vartheta2
+    t24 = l1*t23
+    t25 = t24*t9
+    Q10 = -t25
+    t26 = Q01*Q01
+    t27 = t3*t4
+    Aa = t2*t27
+    del t27
+    AaAb = Aa*Ab
+    t28 = -AaAb
+    del AaAb
+    t29 = sin_vartheta1*sin_vartheta2
+    t30 = cos_vartheta1*cos_vartheta2
+    t31 = t19*t30 + t29
+    Q00 = t15*t31
+    t32 = t28 + Q00*Q00
+    D1_00 = -t26 - t32
+    D1_01 = -Q00*Q10 - Q01*Q11
+    t33 = Q10*Q10
+    t34 = t28 + Q11*Q11
+    del t28
+    D1_11 = -t33 - t34
+    rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
+    t35 = g*t4
+    t36 = t35*cos_varphi1
+    del cos_varphi1
+    t37 = l1*t2
+    t38 = cos_vartheta1*vartheta1_dot
+    t39 = Aa*t38
+    del t38
+    t40 = 2*varphi2_dot
+    t41 = t19*t24
     del t24
-    t73 = qdd0*t38 + t12*t72 + t71*xr1 - t13*t57 - t43*t9
-    del t13, t43, t57
-    t74 = Q11*sin_vartheta2
-    t75 = qdd2*t71 + t18*t51 + t65 - t30*t74 - t31*t74
-    del t65, t74
-    t76 = t50 + t75
-    del t50
-    t77 = Ab*t76 - Q10*t73 - Q11*t70
-    t78 = t52*t9
-    del t9
-    t79 = t30*t78 + t31*t78 + t47*xr3 + t51*t72 - qdd2*t38
-    del t51, t72
-    t80 = -cos_vartheta1*t33 - t79
-    del t33
-    t81 = Ab*t80 - Q00*t73 - Q01*t70
-    t82 = Ab*t29
-    t83 = sin_vartheta2*t82*varphi2_dot
-    t84 = (2*l1*l2)*(cos_t7*sin_vartheta2*varphi2_dot*vartheta2_dot) - qdd2*t34 - t18*t30 - t18*t31
-    del t18, t31
-    t85 = t6*t53
-    del t53, t6
-    t86 = Ab*(t30*(-1 + 2*cos_vartheta2*cos_vartheta2)) + (g*l2)*(sin_varphi2*sin_vartheta2) - Q11*t10*t22 - qdd0*t85 - sin_vartheta2*t69 - t12*t78 - t59*t66
-    del qdd0, t10, t22, t59, t66, t69, t78
-    t87 = Ab*t84 - Q10*t86 - Q11*t83
-    t88 = (l1*l2)*(cos_t7*cos_vartheta1*cos_vartheta2*t30) + (2*l1*l2)*(cos_vartheta1*sin_t7*sin_vartheta2*varphi2_dot*vartheta2_dot) - qdd2*t85 - t54*t58
-    del cos_t7, qdd2, t30, t54, t58
-    t89 = Ab*t88 - Q00*t86 - Q01*t83
-    del t83
-    t90 = -t75
-    del t75
-    t91 = (g*l2)*sin_varphi2 - t70
+    t42 = t40*t41
+    t43 = varphi2_dot*varphi2_dot
+    t44 = sin_vartheta2*t43
+    t45 = vartheta2_dot*vartheta2_dot
+    t46 = t15*t45
+    t47 = t46*t9
+    f1 = -sin_vartheta2*t47 - t16*t44 - t20*t39 - t37*t36 - t42*vartheta2_dot
+    t48 = g*sin_varphi2
+    t49 = cos_vartheta2*sin_vartheta2
+    t50 = cos_vartheta2*sin_vartheta1
+    t51 = t13*t50
+    t52 = t11*vartheta1_dot
+    t53 = t20*t52
+    t54 = t53*t9
+    t55 = t19*t50
+    t56 = t15*(cos_vartheta1*sin_vartheta2 - t55)
+    del t55
+    f2 = Ab*(t43*t49) + Q11*t51 + t23*t54 - t14*t56 - t23*t48
+    del t48, t54
+    t57 = g*cos_varphi2
+    del cos_varphi2
+    t58 = cos_vartheta2*vartheta2_dot
+    t59 = Ab*t40
+    t60 = t12*t19
+    del t12
+    t61 = 2*vartheta1_dot
+    t62 = t60*t61
+    f3 = (l1*l2)*(sin_vartheta1*t13*t9) + (l1*l2)*(sin_vartheta1*t14*t9) - l2*t57 - t58*t59 - t62*varphi1_dot
+    t63 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t64 = t35*sin_varphi1
+    t65 = t2*t11
+    t66 = t23*vartheta2_dot
+    t67 = t40*t66
+    t68 = t11*t67
+    del t67
+    t69 = cos_vartheta1*sin_vartheta2
+    t70 = cos_vartheta2*sin_vartheta1 - t19*t69
+    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t19*t43) + (t2*t3*t4)*(cos_vartheta1*sin_vartheta1*t13) - t46*t70 - t64*t65 - t68*t9
+    t71 = Ab*f0 - Q00*f2 - Q01*f3
+    qdd0 = D1_11*rD1*t71 - D1_01*t63
+    t72 = Q01*t13 + Q01*t14 + qdd0*t17 + t18*t21
+    t73 = t61*varphi1_dot
+    t74 = t16*t50
+    t75 = -t31
+    del t31
+    t76 = t15*t14
+    t77 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t13*t19) - qdd0*t56 - t73*t74 - t75*t76
+    t78 = (2*Ab*t2*t3*t4)*(sin_vartheta1*varphi1_dot*vartheta1_dot) - Q10*t77 - Q11*t72
+    t79 = D1_01*rD1
+    t80 = cos_vartheta1*cos_vartheta1
+    t81 = sin_varphi1*sin_vartheta1
+    del sin_varphi1
+    t82 = l1*t81
+    del t81
+    t83 = t35*t82
+    del t35, t82
+    D2_00 = -t32 - t33
+    del t32, t33
+    D2_01 = -Q00*Q01 - Q10*Q11
+    D2_11 = -t26 - t34
+    del t26, t34
+    rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
+    t84 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    del f3
+    t85 = Aa*f2 - Q00*f0 - Q10*f1
+    del f0, f1, f2
+    xr3 = D2_00*t84 - D2_01*rD2*t85
+    t86 = t16*xr3
+    t87 = t40*vartheta2_dot
+    t88 = t19*t29 + t30
+    del t30
+    qdd2 = D2_11*rD2*t85 - D2_01*t84
+    del t84, t85
+    t89 = Aa*(t13*(-1 + 2*t80)) + sin_vartheta1*t86 + t2*t83 + t74*t87 - Q11*t29*t43 - qdd2*t56 - t46*t88
+    del t74, t80, t83
+    t90 = Ab*t89 - Q00*t77 - Q01*t72
+    xr1 = D1_00*t63 - D1_01*rD1*t71
+    del D1_01, t63, t71
+    t91 = t16*xr1
+    t92 = Q01*t73 + Q11*sin_vartheta1*t13 + Q11*sin_vartheta1*t14 + t91 - qdd0*t60
+    del t14
+    t93 = t19*t53
+    del t53
+    t94 = t11*t23*t9
+    t95 = qdd0*t94 + t23*t93 + t41*xr1 - t16*t51 - t50*t76*t9
+    del t51, t93
+    t96 = qdd2*t41 + t25*t87 + t86 - Q11*sin_vartheta2*t45 - Q11*t44
+    del t44, t86, t87
+    t97 = t37*t64 + t96
+    del t37, t64
+    t98 = Ab*t97 - Q10*t95 - Q11*t92
+    t99 = t16*t69
+    t100 = t19*t68 + t43*t99 + t47*t69 + t60*xr3 - qdd2*t94
+    del t47, t68
+    t101 = -t100 - t36*t65
+    del t36, t65
+    t102 = Ab*t101 - Q00*t95 - Q01*t92
+    t103 = sin_vartheta2*vartheta2_dot
+    t104 = t103*t59
+    t105 = sin_vartheta2*t16
+    t106 = (2*l1*l2)*(sin_vartheta2*t19*varphi2_dot*vartheta2_dot) - qdd2*t105 - t25*t43 - t25*t45
+    del t25, t45
+    t107 = Q11*t29
+    del t29
+    t108 = cos_vartheta2*cos_vartheta2
+    t109 = t15*t70
+    del t15, t70
+    t110 = Ab*(t43*(-1 + 2*t108)) + (g*l2)*(sin_varphi2*sin_vartheta2) - qdd0*t109 - sin_vartheta2*t91 - t107*t13 - t73*t99 - t76*t88
+    del qdd0, t107, t108, t13, t73, t76, t88, t91, t99
+    t111 = Ab*t106 - Q10*t110 - Q11*t104
+    t112 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t19*t43) + (2*l1*l2)*(cos_vartheta1*sin_vartheta2*t9*varphi2_dot*vartheta2_dot) - qdd2*t109 - t46*t75
+    del qdd2, t19, t43, t46, t75
+    t113 = Ab*t112 - Q00*t110 - Q01*t104
+    del t104
+    t114 = -t96
+    del t96
+    t115 = (g*l2)*sin_varphi2 - t92
     del sin_varphi2
-    t92 = -cos_vartheta2*t45 - t73
-    del t45
-    t93 = Ab*t90 - Q10*t92 - Q11*t91
-    t94 = Ab*t79 - Q00*t92 - Q01*t91
-    t95 = 2*varphi1_dot
-    t96 = (2*l1*l2)*(sin_t7*sin_vartheta1*vartheta1_dot) - t47*t95
-    del sin_t7, t47
-    t97 = t38*t95 - t11*t44
-    del t44
-    t98 = -Q00*t97 - Q01*t96
-    t99 = Ab*t37
-    t100 = -Q10*t97 - Q11*t96 - t95*t99
-    t101 = t14*t95 - t48
-    del t14, t48
-    t102 = Q11*t42*t95 + t11*t38
-    del t42
-    t103 = -Q10*t102 - Q11*t101 - t11*t99
-    del t99
-    t104 = (2*Ab*t2*t3*t4)*(cos_vartheta1*sin_vartheta1*varphi1_dot) - Q00*t102 - Q01*t101
+    t116 = -t23*t57 - t95
+    del t57
+    t117 = Ab*t114 - Q10*t116 - Q11*t115
+    t118 = Ab*t100 - Q00*t116 - Q01*t115
+    t119 = (2*l1*l2)*(sin_vartheta1*t9*vartheta1_dot) - t20*t60
+    del t60
+    t120 = t20*t94 - t56*t61
+    del t56, t61
+    t121 = -Q00*t120 - Q01*t119
+    t122 = Aa*cos_vartheta1
+    t123 = t122*t20
+    t124 = -Ab*t123 - Q10*t120 - Q11*t119
+    t125 = 2*t39
+    del t39
+    t126 = t17*t20 - t62
+    del t17, t62
+    t127 = 2*t9
+    del t9
+    t128 = t127*t23*t52 + t21*t50
+    del t21, t23, t50, t52
+    t129 = -Ab*t125 - Q10*t128 - Q11*t126
+    t130 = (2*Ab*t2*t3*t4)*(cos_vartheta1*sin_vartheta1*varphi1_dot) - Q00*t128 - Q01*t126
     del t2, t3, t4
-    t105 = 2*t46
-    del t46
-    t106 = -t29*t34 - 2*t36
-    del t36
-    t107 = Ab*t106 + Q11*t105
-    t108 = 2*varphi2_dot
-    t109 = -t108*t38 - t29*t85
-    del t85
-    t110 = Ab*t109 + Q01*t105
-    t111 = cos_vartheta2*t82
-    del t82
-    t112 = Ab*(t108*t41)
-    del t41
-    t113 = -t108*t34 - t29*t71
-    del t34, t71
-    t114 = Ab*t113 + Q11*t111 - Q10*t112
-    t115 = Q11*t108*t52 - t29*t38
-    del t108, t29, t38, t52
-    t116 = Ab*t115 + Q01*t111 - Q00*t112
-    del t112
+    t131 = cos_vartheta2*t59
+    t132 = -2*(t103*t16) - t42
+    del t103, t16, t42
+    t133 = Ab*t132 + Q11*t131
+    t134 = 2*vartheta2_dot
+    t135 = -t109*t134 - t40*t94
+    del t109, t94
+    t136 = Ab*t135 + Q01*t131
+    t137 = Ab*t58
+    del t58
+    t138 = 2*t137
+    t139 = t49*t59
+    del t49, t59
+    t140 = -t105*t40 - t134*t41
+    del t105, t134, t41
+    t141 = Ab*t140 + Q11*t138 - Q10*t139
+    t142 = 2*Q01
+    t143 = Q11*t40*t69 - t11*t127*t66
+    del t11, t127, t40, t66, t69
+    t144 = Ab*t143 + t137*t142 - Q00*t139
+    del t137, t139
     rs1 = 1.0/sin_vartheta1
     qdd1 = rs1*xr1
     del xr1
-    t117 = D1_00*rD1
-    t118 = Aa*(sin_vartheta1*t12)
-    del t12
-    t119 = Aa*t56 - Q01*t67 - Q11*t118
-    del t56
-    t120 = D2_01*rD2
+    t145 = D1_00*rD1
+    t146 = Aa*(t18*t20)
+    del t18, t20
+    t147 = Aa*t72 - Q01*t89 - Q11*t146
+    del t72
+    t148 = D2_01*rD2
     del D2_01
-    t121 = Aa*t60 - Q00*t67 - Q10*t118
-    del t118, t60, t67
-    t122 = Aa*t70 - Q01*t80 - Q11*t76
-    del t70
-    t123 = Aa*t73 - Q00*t80 - Q10*t76
-    del t73, t76, t80
-    t124 = (2*Aa*Ab)*(sin_vartheta2*varphi2_dot*vartheta2_dot) - Q01*t88 - Q11*t84
-    t125 = Aa*t86 - Q00*t88 - Q10*t84
-    del t84, t86, t88
-    t126 = Aa*t91 - Q01*t79 - Q11*t90
-    del t91
-    t127 = Aa*t92 - Q00*t79 - Q10*t90
-    del t79, t90, t92
-    t128 = t37*t95
-    t129 = Aa*t96 + Q11*t128
-    del t96
-    t130 = Aa*t97 + Q10*t128
-    del t128, t97
-    t131 = t11*t37
-    del t11, t37
-    t132 = Aa*(cos_vartheta1*sin_vartheta1*t95)
-    del sin_vartheta1, t95
-    t133 = Aa*t101 + Q11*t131 - Q01*t132
-    del t101
-    t134 = Aa*t102 + Q10*t131 - Q00*t132
-    del t102, t131, t132
-    t135 = -Q00*t109 - Q10*t106
-    t136 = -Aa*t105 - Q01*t109 - Q11*t106
-    del t105, t106, t109
-    t137 = -Aa*t111 - Q01*t115 - Q11*t113
-    del Q01, Q11, t111
-    t138 = (2*Aa*Ab)*(cos_vartheta2*sin_vartheta2*varphi2_dot) - Q00*t115 - Q10*t113
-    del Aa, Ab, Q00, Q10, t113, t115
-    t139 = D2_00*rD2
+    t149 = Aa*t77 - Q00*t89 - Q10*t146
+    del t146, t77, t89
+    t150 = Aa*t92 - Q01*t101 - Q11*t97
+    del t92
+    t151 = Aa*t95 - Q00*t101 - Q10*t97
+    del t101, t95, t97
+    t152 = (2*Aa*Ab)*(sin_vartheta2*varphi2_dot*vartheta2_dot) - Q01*t112 - Q11*t106
+    t153 = Aa*t110 - Q00*t112 - Q10*t106
+    del t106, t110, t112
+    t154 = Aa*t115 - Q01*t100 - Q11*t114
+    del t115
+    t155 = Aa*t116 - Q00*t100 - Q10*t114
+    del t100, t114, t116
+    t156 = Aa*t119 + Q11*t123
+    del t119
+    t157 = Aa*t120 + Q10*t123
+    del t120
+    t158 = Aa*t126 + Q11*t125 - sin_vartheta1*t122*t142*varphi1_dot
+    del t122, t126, t142
+    t159 = Aa*t128 + Q10*t125 - Q00*sin_vartheta1*t123
+    del sin_vartheta1, t123, t125, t128
+    t160 = -Q00*t135 - Q10*t132
+    t161 = -Aa*t131 - Q01*t135 - Q11*t132
+    del t131, t132, t135
+    t162 = -Aa*t138 - Q01*t143 - Q11*t140
+    del Q01, Q11, t138
+    t163 = (2*Aa*Ab)*(cos_vartheta2*sin_vartheta2*varphi2_dot) - Q00*t143 - Q10*t140
+    del Aa, Ab, Q00, Q10, t140, t143
+    t164 = D2_00*rD2
     rs3 = 1.0/sin_vartheta2
     del sin_vartheta2
     qdd3 = rs3*xr3
     del xr3
-    t140 = D1_11*rD1*t68 - t61*t62
-    t141 = D1_11*rD1*t81 - t62*t77
-    t142 = D1_11*rD1*t89 - t62*t87
-    t143 = D1_11*rD1*t94 - t62*t93
-    t144 = D1_11*rD1*t98 - t100*t62
-    t145 = D1_11*rD1*t104 - t103*t62
-    t146 = D1_11*rD1*t110 - t107*t62
-    t147 = D1_11*rD1*t116 - t114*t62
+    t165 = D1_11*rD1*t90 - t78*t79
+    t166 = D1_11*rD1*t102 - t79*t98
+    t167 = D1_11*rD1*t113 - t111*t79
+    t168 = D1_11*rD1*t118 - t117*t79
+    t169 = D1_11*rD1*t121 - t124*t79
+    t170 = D1_11*rD1*t130 - t129*t79
+    t171 = D1_11*rD1*t136 - t133*t79
+    t172 = D1_11*rD1*t144 - t141*t79
     del D1_11
-    t148 = rs1*(D1_00*rD1*t61 - cos_vartheta1*qdd1 - t62*t68)
-    del D1_00, cos_vartheta1, qdd1, rD1, t61, t68
-    t149 = rs1*(t117*t77 - t62*t81)
-    del t77, t81
-    t150 = rs1*(t117*t87 - t62*t89)
-    del t87, t89
-    t151 = rs1*(t117*t93 - t62*t94)
-    del t93, t94
-    t152 = rs1*(t100*t117 - t62*t98)
-    del t100, t98
-    t153 = rs1*(t103*t117 - t104*t62)
-    del t103, t104
-    t154 = rs1*(t107*t117 - t110*t62)
-    del t107, t110
-    t155 = rs1*(t114*t117 - t116*t62)
-    del rs1, t114, t116, t117, t62
-    t156 = D2_11*rD2*t121 - t119*t120
-    t157 = D2_11*rD2*t123 - t120*t122
-    t158 = D2_11*rD2*t125 - t120*t124
-    t159 = D2_11*rD2*t127 - t120*t126
-    t160 = D2_11*rD2*t130 - t120*t129
-    t161 = D2_11*rD2*t134 - t120*t133
-    t162 = D2_11*rD2*t135 - t120*t136
-    t163 = D2_11*rD2*t138 - t120*t137
-    del D2_11
-    t164 = rs3*(t119*t139 - t120*t121)
-    del t119, t121
-    t165 = rs3*(t122*t139 - t120*t123)
-    del t122, t123
-    t166 = rs3*(D2_00*rD2*t124 - cos_vartheta2*qdd3 - t120*t125)
-    del D2_00, cos_vartheta2, qdd3, rD2, t124, t125
-    t167 = rs3*(t126*t139 - t120*t127)
-    del t126, t127
-    t168 = rs3*(t129*t139 - t120*t130)
+    t173 = rs1*(D1_00*rD1*t78 - cos_vartheta1*qdd1 - t79*t90)
+    del D1_00, cos_vartheta1, qdd1, rD1, t78, t90
+    t174 = rs1*(t145*t98 - t102*t79)
+    del t102, t98
+    t175 = rs1*(t111*t145 - t113*t79)
+    del t111, t113
+    t176 = rs1*(t117*t145 - t118*t79)
+    del t117, t118
+    t177 = rs1*(t124*t145 - t121*t79)
+    del t121, t124
+    t178 = rs1*(t129*t145 - t130*t79)
     del t129, t130
-    t169 = rs3*(t133*t139 - t120*t134)
-    del t133, t134
-    t170 = rs3*(t136*t139 - t120*t135)
-    del t135, t136
-    t171 = rs3*(t137*t139 - t120*t138)
-    del rs3, t120, t137, t138, t139
+    t179 = rs1*(t133*t145 - t136*t79)
+    del t133, t136
+    t180 = rs1*(t141*t145 - t144*t79)
+    del rs1, t141, t144, t145, t79
+    t181 = D2_11*rD2*t149 - t147*t148
+    t182 = D2_11*rD2*t151 - t148*t150
+    t183 = D2_11*rD2*t153 - t148*t152
+    t184 = D2_11*rD2*t155 - t148*t154
+    t185 = D2_11*rD2*t157 - t148*t156
+    t186 = D2_11*rD2*t159 - t148*t158
+    t187 = D2_11*rD2*t160 - t148*t161
+    t188 = D2_11*rD2*t163 - t148*t162
+    del D2_11
+    t189 = rs3*(t147*t164 - t148*t149)
+    del t147, t149
+    t190 = rs3*(t150*t164 - t148*t151)
+    del t150, t151
+    t191 = rs3*(D2_00*rD2*t152 - cos_vartheta2*qdd3 - t148*t153)
+    del D2_00, cos_vartheta2, qdd3, rD2, t152, t153
+    t192 = rs3*(t154*t164 - t148*t155)
+    del t154, t155
+    t193 = rs3*(t156*t164 - t148*t157)
+    del t156, t157
+    t194 = rs3*(t158*t164 - t148*t159)
+    del t158, t159
+    t195 = rs3*(t161*t164 - t148*t160)
+    del t160, t161
+    t196 = rs3*(t162*t164 - t148*t163)
+    del rs3, t148, t162, t163, t164
     A = numpy.empty(shape + (8, 8), dtype)
     A[..., 0, 0] = 0
     A[..., 0, 1] = 0
@@ -396,68 +418,68 @@ def linearize(y, p):
     A[..., 3, 5] = 0
     A[..., 3, 6] = 0
     A[..., 3, 7] = 1
-    A[..., 4, 0] = t140
-    del t140
-    A[..., 4, 1] = t141
-    del t141
-    A[..., 4, 2] = t142
-    del t142
-    A[..., 4, 3] = t143
-    del t143
-    A[..., 4, 4] = t144
-    del t144
-    A[..., 4, 5] = t145
-    del t145
-    A[..., 4, 6] = t146
-    del t146
-    A[..., 4, 7] = t147
-    del t147
-    A[..., 5, 0] = t148
-    del t148
-    A[..., 5, 1] = t149
-    del t149
-    A[..., 5, 2] = t150
-    del t150
-    A[..., 5, 3] = t151
-    del t151
-    A[..., 5, 4] = t152
-    del t152
-    A[..., 5, 5] = t153
-    del t153
-    A[..., 5, 6] = t154
-    del t154
-    A[..., 5, 7] = t155
-    del t155
-    A[..., 6, 0] = t156
-    del t156
-    A[..., 6, 1] = t157
-    del t157
-    A[..., 6, 2] = t158
-    del t158
-    A[..., 6, 3] = t159
-    del t159
-    A[..., 6, 4] = t160
-    del t160
-    A[..., 6, 5] = t161
-    del t161
-    A[..., 6, 6] = t162
-    del t162
-    A[..., 6, 7] = t163
-    del t163
-    A[..., 7, 0] = t164
-    del t164
-    A[..., 7, 1] = t165
+    A[..., 4, 0] = t165
     del t165
-    A[..., 7, 2] = t166
+    A[..., 4, 1] = t166
     del t166
-    A[..., 7, 3] = t167
+    A[..., 4, 2] = t167
     del t167
-    A[..., 7, 4] = t168
+    A[..., 4, 3] = t168
     del t168
-    A[..., 7, 5] = t169
+    A[..., 4, 4] = t169
     del t169
-    A[..., 7, 6] = t170
+    A[..., 4, 5] = t170
     del t170
-    A[..., 7, 7] = t171
+    A[..., 4, 6] = t171
     del t171
+    A[..., 4, 7] = t172
+    del t172
+    A[..., 5, 0] = t173
+    del t173
+    A[..., 5, 1] = t174
+    del t174
+    A[..., 5, 2] = t175
+    del t175
+    A[..., 5, 3] = t176
+    del t176
+    A[..., 5, 4] = t177
+    del t177
+    A[..., 5, 5] = t178
+    del t178
+    A[..., 5, 6] = t179
+    del t179
+    A[..., 5, 7] = t180
+    del t180
+    A[..., 6, 0] = t181
+    del t181
+    A[..., 6, 1] = t182
+    del t182
+    A[..., 6, 2] = t183
+    del t183
+    A[..., 6, 3] = t184
+    del t184
+    A[..., 6, 4] = t185
+    del t185
+    A[..., 6, 5] = t186
+    del t186
+    A[..., 6, 6] = t187
+    del t187
+    A[..., 6, 7] = t188
+    del t188
+    A[..., 7, 0] = t189
+    del t189
+    A[..., 7, 1] = t190
+    del t190
+    A[..., 7, 2] = t191
+    del t191
+    A[..., 7, 3] = t192
+    del t192
+    A[..., 7, 4] = t193
+    del t193
+    A[..., 7, 5] = t194
+    del t194
+    A[..., 7, 6] = t195
+    del t195
+    A[..., 7, 7] = t196
+    del t196
     return A

@@ -35,7 +35,7 @@ def linearize(y, p):
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns A: (..., 8, 8) A = df/dy, row-major
-    Total ops: 671
+    Total ops: 694
     """
     (y, p), shape, dtype = _prepare("linearize", (y, 8, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -65,277 +65,306 @@ def linearize(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t2 = l1*l1
-    t3 = 1.0/m2
+    t2 = 1.0/m2
+    t3 = l1*l1
     t4 = m1 + m2
-    t6 = l1*l2
-    t7 = phi1 - phi2
-    tan_half_t7 = numpy.tan(0.5*t7)
-    del t7
-    tan_half_sq_t7 = tan_half_t7*tan_half_t7
-    rho_t7 = 1.0/(1 + tan_half_sq_t7)
-    sin_t7 = 2*(rho_t7*tan_half_t7)
-    del tan_half_t7
-    cos_t7 = rho_t7*(1 - tan_half_sq_t7)
-    del rho_t7, tan_half_sq_t7
-    t9 = t6*sin_t7
-    Q01 = cos_theta1*t9
+    t5 = phi1 - phi2
+    tan_half_t5 = numpy.tan(0.5*t5)
+    del t5
+    tan_half_sq_t5 = tan_half_t5*tan_half_t5
+    rho_t5 = 1.0/(1 + tan_half_sq_t5)
+    sin_t5 = 2*(rho_t5*tan_half_t5)
+    del tan_half_t5
+    cos_t5 = rho_t5*(1 - tan_half_sq_t5)
+    del rho_t5, tan_half_sq_t5
+    t8 = l1*cos_theta1
+    t9 = l2*t8
+    Q01 = sin_t5*t9
     t10 = phi1_dot*phi1_dot
-    t11 = 2*theta1_dot
-    t12 = phi1_dot*t11
-    t13 = theta1_dot*theta1_dot
-    t14 = sin_theta1*t9
-    Q11 = t6*cos_t7
-    t16 = Q11*sin_theta1
+    t11 = theta1_dot*theta1_dot
+    t12 = l1*l2
+    t13 = t12*sin_t5
+    t14 = sin_theta1*t13
+    t15 = sin_theta1*theta1_dot
+    Q11 = t12*cos_t5
+    t17 = 2*phi1_dot
+    t18 = Q11*t17
     Ab = l2*l2
-    t18 = cos_theta2*t9
-    Q10 = -t18
-    t19 = Q01*Q01
-    t20 = t3*t4
-    Aa = t2*t20
-    AaAb = Aa*Ab
-    t21 = -AaAb
-    del AaAb
-    t22 = sin_theta1*sin_theta2
-    t23 = cos_theta1*cos_theta2
-    t24 = cos_t7*t23
-    t25 = t22 + t24
-    Q00 = t6*t25
-    t26 = t21 + Q00*Q00
-    D1_00 = -t19 - t26
-    D1_01 = -Q00*Q10 - Q01*Q11
-    t27 = Q10*Q10
-    t28 = t21 + Q11*Q11
-    del t21
-    D1_11 = -t27 - t28
-    rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t29 = 2*theta2_dot
-    t30 = phi2_dot*phi2_dot
-    t31 = theta2_dot*theta2_dot
-    t32 = sin_theta2*t9
-    t33 = cos_theta2*phi2_dot
-    t34 = Q11*t33
-    t35 = Aa*cos_theta1
-    f1 = -t12*t35 - t29*t34 - t30*t32 - t31*t32
-    t36 = t23*t9
-    t37 = g*l2
-    t38 = cos_theta2*sin_theta2
-    t39 = cos_theta2*sin_theta1
-    t40 = t10*t39
-    t41 = t6*(cos_theta1*sin_theta2 - cos_t7*t39)
-    f2 = Ab*(t30*t38) + Q11*t40 + t12*t36 - t37*sin_theta2 - t13*t41
-    t42 = Ab*t33
-    del t33
-    t43 = Q11*cos_theta1
-    t44 = t11*t43
-    f3 = t10*t14 + t13*t14 - phi1_dot*t44 - t29*t42
-    t45 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t46 = g*l1*t20
-    del t20
-    t47 = phi2_dot*t29
-    t48 = cos_theta1*sin_theta2
-    t49 = t39 - cos_t7*t48
-    t50 = t6*t31
-    f0 = (l1*l2)*(cos_t7*cos_theta1*sin_theta2*t30) + (t2*t3*t4)*(cos_theta1*sin_theta1*t10) - t46*sin_theta1 - t36*t47 - t49*t50
-    t51 = Ab*f0 - Q00*f2 - Q01*f3
-    qdd0 = D1_11*rD1*t51 - D1_01*t45
-    t52 = Q01*t10 + Q01*t13 + qdd0*t14 + t12*t16
-    t53 = t39*t9
-    t54 = -t25
-    del t25
-    t55 = t6*t13
-    t56 = (l1*l2)*(cos_t7*cos_theta1*cos_theta2*t10) - qdd0*t41 - t12*t53 - t54*t55
-    t57 = (2*Ab*t2*t3*t4)*(phi1_dot*sin_theta1*theta1_dot) - Q10*t56 - Q11*t52
-    t58 = D1_01*rD1
-    t59 = cos_t7*t22 + t23
-    del t23
-    D2_00 = -t26 - t27
-    del t26, t27
-    D2_01 = -Q00*Q01 - Q10*Q11
-    D2_11 = -t19 - t28
-    del t19, t28
-    rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t60 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
-    del f3
-    t61 = Aa*f2 - Q00*f0 - Q10*f1
-    del f0, f1, f2
-    qdd2 = D2_11*rD2*t61 - D2_01*t60
-    xr3 = D2_00*t60 - D2_01*rD2*t61
-    del t60, t61
-    t62 = (2*l1*l2)*(cos_theta2*phi2_dot*sin_t7*sin_theta1*theta2_dot) + (l1*l2)*(sin_t7*sin_theta1*xr3) + (t2*t3*t4)*(t10*(-1 + 2*cos_theta1*cos_theta1)) - Q11*t22*t30 - t46*cos_theta1 - qdd2*t41 - t50*t59
-    del t46
-    t63 = Ab*t62 - Q00*t56 - Q01*t52
-    xr1 = D1_00*t45 - D1_01*rD1*t51
-    del D1_01, t45, t51
-    t64 = t9*xr1
-    t65 = Q01*t12 + t10*t16 + t13*t16 + t64 - qdd0*t43
-    del t16
-    t66 = Q11*cos_theta2
-    t67 = Q11*sin_theta2
-    t68 = qdd2*t66 + t18*t47 + t9*xr3 - t30*t67 - t31*t67
-    del t67
-    t69 = t6*t24
+    t20 = l2*cos_theta2
+    t21 = l1*t20
+    t22 = sin_t5*t21
+    Q10 = -t22
+    t23 = Q01*Q01
+    t24 = t3*t4
+    Aa = t2*t24
     del t24
-    t70 = qdd0*t36 + t12*t69 + t66*xr1 - t13*t53 - t40*t9
-    del t13, t40, t53
-    t71 = Ab*t68 - Q10*t70 - Q11*t65
-    t72 = t48*t9
+    AaAb = Aa*Ab
+    t25 = -AaAb
+    del AaAb
+    t26 = sin_theta1*sin_theta2
+    t27 = cos_theta1*cos_theta2
+    t28 = cos_t5*t27 + t26
+    Q00 = t12*t28
+    t29 = t25 + Q00*Q00
+    D1_00 = -t23 - t29
+    D1_01 = -Q00*Q10 - Q01*Q11
+    t30 = Q10*Q10
+    t31 = t25 + Q11*Q11
+    del t25
+    D1_11 = -t30 - t31
+    rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
+    t32 = phi2_dot*phi2_dot
+    t33 = sin_theta2*t32
+    t34 = theta2_dot*theta2_dot
+    t35 = t12*t34
+    t36 = sin_t5*t35
+    t37 = 2*phi2_dot
+    t38 = cos_t5*t21
+    del t21
+    t39 = t37*t38
+    t40 = cos_theta1*theta1_dot
+    t41 = Aa*t40
+    del t40
+    f1 = -sin_theta2*t36 - t13*t33 - t17*t41 - t39*theta2_dot
+    t42 = g*sin_theta2
+    t43 = cos_theta2*sin_theta2
+    t44 = cos_theta2*sin_theta1
+    t45 = t10*t44
+    t46 = t8*theta1_dot
+    t47 = t17*t46
+    t48 = sin_t5*t47
+    t49 = cos_t5*t44
+    t50 = t12*(cos_theta1*sin_theta2 - t49)
+    del t49
+    f2 = Ab*(t32*t43) + Q11*t45 + t20*t48 - l2*t42 - t11*t50
+    del t42, t48
+    t51 = cos_theta2*theta2_dot
+    t52 = Ab*t37
+    t53 = sin_theta1*t10
+    t54 = t12*t11
+    t55 = sin_t5*t54
+    t56 = cos_t5*t9
     del t9
-    t73 = t30*t72 + t31*t72 + t43*xr3 + t47*t69 - (l1*l2)*(cos_theta1*cos_theta2*qdd2*sin_t7)
-    t74 = -t73
-    t75 = Ab*t74 - Q00*t70 - Q01*t65
-    t76 = Ab*t29
-    t77 = phi2_dot*sin_theta2*t76
-    t78 = (2*l1*l2)*(cos_t7*phi2_dot*sin_theta2*theta2_dot) - qdd2*t32 - t18*t30 - t18*t31
-    del cos_t7, t18, t31
-    t79 = t6*t49
-    del t49, t6
-    t80 = Ab*(t30*(-1 + 2*cos_theta2*cos_theta2)) - Q11*t10*t22 - t37*cos_theta2 - qdd0*t79 - sin_theta2*t64 - t12*t72 - t55*t59
-    del qdd0, t10, t22, t37, t55, t59, t64
-    t81 = Ab*t78 - Q10*t80 - Q11*t77
-    t82 = t30*t69 + t47*t72 - qdd2*t79 - t50*t54
-    del qdd2, t30, t47, t50, t54, t69, t72
-    t83 = Ab*t82 - Q00*t80 - Q01*t77
-    del t77
-    t84 = -t68
-    t85 = -t65
-    t86 = -t70
-    t87 = Ab*t84 - Q10*t86 - Q11*t85
-    t88 = Ab*t73 - Q00*t86 - Q01*t85
-    t89 = 2*phi1_dot
-    t90 = (2*l1*l2)*(sin_t7*sin_theta1*theta1_dot) - t43*t89
-    del sin_t7, t43
-    t91 = t36*t89 - t11*t41
+    t57 = 2*theta1_dot
+    t58 = t56*t57
+    f3 = sin_theta1*t55 + t13*t53 - phi1_dot*t58 - t51*t52
+    t59 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t60 = g*t4
+    t61 = t60*sin_theta1
+    t62 = t20*theta2_dot
+    t63 = t37*t62
+    t64 = t63*t8
+    del t63
+    t65 = cos_theta1*sin_theta2
+    t66 = t44 - cos_t5*t65
+    f0 = (l1*l2)*(cos_t5*cos_theta1*sin_theta2*t32) + (t2*t3*t4)*(cos_theta1*sin_theta1*t10) - (l1*t2)*t61 - sin_t5*t64 - t35*t66
+    del t61
+    t67 = Ab*f0 - Q00*f2 - Q01*f3
+    qdd0 = D1_11*rD1*t67 - D1_01*t59
+    t68 = Q01*t10 + Q01*t11 + qdd0*t14 + t15*t18
+    t69 = phi1_dot*t57
+    t70 = -t28
+    del t28
+    t71 = (l1*l2)*(cos_t5*cos_theta1*cos_theta2*t10) - qdd0*t50 - t13*t44*t69 - t54*t70
+    t72 = (2*Ab*t2*t3*t4)*(phi1_dot*sin_theta1*theta1_dot) - Q10*t71 - Q11*t68
+    t73 = D1_01*rD1
+    t74 = cos_theta1*cos_theta1
+    t75 = t60*t8
+    del t60
+    t76 = cos_t5*t26 + t27
+    del t27
+    D2_00 = -t29 - t30
+    del t29, t30
+    D2_01 = -Q00*Q01 - Q10*Q11
+    D2_11 = -t23 - t31
+    del t23, t31
+    rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
+    t77 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    del f3
+    t78 = Aa*f2 - Q00*f0 - Q10*f1
+    del f0, f1, f2
+    qdd2 = D2_11*rD2*t78 - D2_01*t77
+    xr3 = D2_00*t77 - D2_01*rD2*t78
+    del t77, t78
+    t79 = (2*l1*l2)*(cos_theta2*phi2_dot*sin_t5*sin_theta1*theta2_dot) + (l1*l2)*(sin_t5*sin_theta1*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t74)) - Q11*t26*t32 - qdd2*t50 - t2*t75 - t35*t76
+    del t74, t75
+    t80 = Ab*t79 - Q00*t71 - Q01*t68
+    xr1 = D1_00*t59 - D1_01*rD1*t67
+    del D1_01, t59, t67
+    t81 = t13*xr1
+    t82 = Q01*t69 + Q11*sin_theta1*t11 + Q11*t53 + t81 - qdd0*t56
+    del t11, t53
+    t83 = t37*theta2_dot
+    t84 = qdd2*t38 + t13*xr3 + t22*t83 - Q11*sin_theta2*t34 - Q11*t33
+    del t33
+    t85 = cos_t5*t47
+    del t47
+    t86 = t20*t8
+    t87 = sin_t5*t86
+    t88 = qdd0*t87 + t20*t85 + t38*xr1 - t13*t45 - t44*t55
+    del t45, t55, t85
+    t89 = Ab*t84 - Q10*t88 - Q11*t82
+    t90 = t13*t65
+    t91 = cos_t5*t64 + t32*t90 + t36*t65 + t56*xr3 - (l1*l2)*(cos_theta1*cos_theta2*qdd2*sin_t5)
+    del t36, t64
+    t92 = -t91
+    t93 = Ab*t92 - Q00*t88 - Q01*t82
+    t94 = sin_theta2*theta2_dot
+    t95 = t52*t94
+    t96 = sin_theta2*t13
+    t97 = (2*l1*l2)*(cos_t5*phi2_dot*sin_theta2*theta2_dot) - qdd2*t96 - t22*t32 - t22*t34
+    del t22, t34
+    t98 = Q11*t26
+    del t26
+    t99 = cos_theta2*cos_theta2
+    t100 = g*t20
+    t101 = t12*t66
+    del t12, t66
+    t102 = Ab*(t32*(-1 + 2*t99)) - qdd0*t101 - sin_theta2*t81 - t10*t98 - t100 - t54*t76 - t69*t90
+    del qdd0, t10, t100, t54, t69, t76, t81, t98, t99
+    t103 = Ab*t97 - Q10*t102 - Q11*t95
+    t104 = cos_t5*t32*t86 + t83*t90 - qdd2*t101 - t35*t70
+    del cos_t5, qdd2, t32, t35, t70, t83, t86, t90
+    t105 = Ab*t104 - Q00*t102 - Q01*t95
+    del t95
+    t106 = -t84
+    t107 = -t82
+    t108 = -t88
+    t109 = Ab*t106 - Q10*t108 - Q11*t107
+    t110 = Ab*t91 - Q00*t108 - Q01*t107
+    t111 = (2*l1*l2)*(sin_t5*sin_theta1*theta1_dot) - t17*t56
+    del t56
+    t112 = t17*t87 - t50*t57
+    del t50, t57
+    t113 = -Q00*t112 - Q01*t111
+    t114 = Aa*cos_theta1
+    t115 = t114*t17
+    t116 = -Ab*t115 - Q10*t112 - Q11*t111
+    t117 = 2*t41
     del t41
-    t92 = -Q00*t91 - Q01*t90
-    t93 = Ab*t35
-    t94 = -Q10*t91 - Q11*t90 - t89*t93
-    t95 = t14*t89 - t44
-    del t14, t44
-    t96 = Q11*t39*t89 + t11*t36
-    del t39
-    t97 = -Q10*t96 - Q11*t95 - t11*t93
-    del t93
-    t98 = (2*Ab*t2*t3*t4)*(cos_theta1*phi1_dot*sin_theta1) - Q00*t96 - Q01*t95
+    t118 = t14*t17 - t58
+    del t14, t58
+    t119 = 2*sin_t5
+    del sin_t5
+    t120 = t119*t20*t46 + t18*t44
+    del t18, t20, t44, t46
+    t121 = -Ab*t117 - Q10*t120 - Q11*t118
+    t122 = (2*Ab*t2*t3*t4)*(cos_theta1*phi1_dot*sin_theta1) - Q00*t120 - Q01*t118
     del t2, t3, t4
-    t99 = 2*t42
-    del t42
-    t100 = -t29*t32 - 2*t34
-    del t34
-    t101 = Ab*t100 + Q11*t99
-    t102 = 2*phi2_dot
-    t103 = -t102*t36 - t29*t79
-    del t79
-    t104 = Ab*t103 + Q01*t99
-    t105 = cos_theta2*t76
-    del t76
-    t106 = Ab*(t102*t38)
-    del t38
-    t107 = -t102*t32 - t29*t66
-    del t32, t66
-    t108 = Ab*t107 + Q11*t105 - Q10*t106
-    t109 = Q11*t102*t48 - t29*t36
-    del t102, t29, t36, t48
-    t110 = Ab*t109 + Q01*t105 - Q00*t106
-    del t106
+    t123 = cos_theta2*t52
+    t124 = -2*(t13*t94) - t39
+    del t13, t39, t94
+    t125 = Ab*t124 + Q11*t123
+    t126 = 2*theta2_dot
+    t127 = -t101*t126 - t37*t87
+    del t101, t87
+    t128 = Ab*t127 + Q01*t123
+    t129 = Ab*t51
+    del t51
+    t130 = 2*t129
+    t131 = t43*t52
+    del t43, t52
+    t132 = -t126*t38 - t37*t96
+    del t126, t38, t96
+    t133 = Ab*t132 + Q11*t130 - Q10*t131
+    t134 = 2*Q01
+    t135 = Q11*t37*t65 - t119*t62*t8
+    del t119, t37, t62, t65, t8
+    t136 = Ab*t135 + t129*t134 - Q00*t131
+    del t129, t131
     rs1 = 1.0/sin_theta1
     qdd1 = rs1*xr1
     del xr1
-    t111 = D1_00*rD1
-    t112 = Aa*(sin_theta1*t12)
-    del t12
-    t113 = Aa*t52 - Q01*t62 - Q11*t112
-    del t52
-    t114 = D2_01*rD2
+    t137 = D1_00*rD1
+    t138 = Aa*(t15*t17)
+    del t15, t17
+    t139 = Aa*t68 - Q01*t79 - Q11*t138
+    del t68
+    t140 = D2_01*rD2
     del D2_01
-    t115 = Aa*t56 - Q00*t62 - Q10*t112
-    del t112, t56, t62
-    t116 = Aa*t65 - Q01*t74 - Q11*t68
-    del t65
-    t117 = Aa*t70 - Q00*t74 - Q10*t68
-    del t68, t70, t74
-    t118 = (2*Aa*Ab)*(phi2_dot*sin_theta2*theta2_dot) - Q01*t82 - Q11*t78
-    t119 = Aa*t80 - Q00*t82 - Q10*t78
-    del t78, t80, t82
-    t120 = Aa*t85 - Q01*t73 - Q11*t84
-    del t85
-    t121 = Aa*t86 - Q00*t73 - Q10*t84
-    del t73, t84, t86
-    t122 = t35*t89
-    t123 = Aa*t90 + Q11*t122
-    del t90
-    t124 = Aa*t91 + Q10*t122
-    del t122, t91
-    t125 = t11*t35
-    del t11, t35
-    t126 = Aa*(cos_theta1*sin_theta1*t89)
-    del sin_theta1, t89
-    t127 = Aa*t95 + Q11*t125 - Q01*t126
-    del t95
-    t128 = Aa*t96 + Q10*t125 - Q00*t126
-    del t125, t126, t96
-    t129 = -Q00*t103 - Q10*t100
-    t130 = -Aa*t99 - Q01*t103 - Q11*t100
-    del t100, t103, t99
-    t131 = -Aa*t105 - Q01*t109 - Q11*t107
-    del Q01, Q11, t105
-    t132 = (2*Aa*Ab)*(cos_theta2*phi2_dot*sin_theta2) - Q00*t109 - Q10*t107
-    del Aa, Ab, Q00, Q10, t107, t109
-    t133 = D2_00*rD2
+    t141 = Aa*t71 - Q00*t79 - Q10*t138
+    del t138, t71, t79
+    t142 = Aa*t82 - Q01*t92 - Q11*t84
+    del t82
+    t143 = Aa*t88 - Q00*t92 - Q10*t84
+    del t84, t88, t92
+    t144 = (2*Aa*Ab)*(phi2_dot*sin_theta2*theta2_dot) - Q01*t104 - Q11*t97
+    t145 = Aa*t102 - Q00*t104 - Q10*t97
+    del t102, t104, t97
+    t146 = Aa*t107 - Q01*t91 - Q11*t106
+    del t107
+    t147 = Aa*t108 - Q00*t91 - Q10*t106
+    del t106, t108, t91
+    t148 = Aa*t111 + Q11*t115
+    del t111
+    t149 = Aa*t112 + Q10*t115
+    del t112
+    t150 = Aa*t118 + Q11*t117 - phi1_dot*sin_theta1*t114*t134
+    del t114, t118, t134
+    t151 = Aa*t120 + Q10*t117 - Q00*sin_theta1*t115
+    del sin_theta1, t115, t117, t120
+    t152 = -Q00*t127 - Q10*t124
+    t153 = -Aa*t123 - Q01*t127 - Q11*t124
+    del t123, t124, t127
+    t154 = -Aa*t130 - Q01*t135 - Q11*t132
+    del Q01, Q11, t130
+    t155 = (2*Aa*Ab)*(cos_theta2*phi2_dot*sin_theta2) - Q00*t135 - Q10*t132
+    del Aa, Ab, Q00, Q10, t132, t135
+    t156 = D2_00*rD2
     rs3 = 1.0/sin_theta2
     del sin_theta2
     qdd3 = rs3*xr3
     del xr3
-    t134 = D1_11*rD1*t63 - t57*t58
-    t135 = D1_11*rD1*t75 - t58*t71
-    t136 = D1_11*rD1*t83 - t58*t81
-    t137 = D1_11*rD1*t88 - t58*t87
-    t138 = D1_11*rD1*t92 - t58*t94
-    t139 = D1_11*rD1*t98 - t58*t97
-    t140 = D1_11*rD1*t104 - t101*t58
-    t141 = D1_11*rD1*t110 - t108*t58
+    t157 = D1_11*rD1*t80 - t72*t73
+    t158 = D1_11*rD1*t93 - t73*t89
+    t159 = D1_11*rD1*t105 - t103*t73
+    t160 = D1_11*rD1*t110 - t109*t73
+    t161 = D1_11*rD1*t113 - t116*t73
+    t162 = D1_11*rD1*t122 - t121*t73
+    t163 = D1_11*rD1*t128 - t125*t73
+    t164 = D1_11*rD1*t136 - t133*t73
     del D1_11
-    t142 = rs1*(D1_00*rD1*t57 - cos_theta1*qdd1 - t58*t63)
-    del D1_00, cos_theta1, qdd1, rD1, t57, t63
-    t143 = rs1*(t111*t71 - t58*t75)
-    del t71, t75
-    t144 = rs1*(t111*t81 - t58*t83)
-    del t81, t83
-    t145 = rs1*(t111*t87 - t58*t88)
-    del t87, t88
-    t146 = rs1*(t111*t94 - t58*t92)
-    del t92, t94
-    t147 = rs1*(t111*t97 - t58*t98)
-    del t97, t98
-    t148 = rs1*(t101*t111 - t104*t58)
-    del t101, t104
-    t149 = rs1*(t108*t111 - t110*t58)
-    del rs1, t108, t110, t111, t58
-    t150 = D2_11*rD2*t115 - t113*t114
-    t151 = D2_11*rD2*t117 - t114*t116
-    t152 = D2_11*rD2*t119 - t114*t118
-    t153 = D2_11*rD2*t121 - t114*t120
-    t154 = D2_11*rD2*t124 - t114*t123
-    t155 = D2_11*rD2*t128 - t114*t127
-    t156 = D2_11*rD2*t129 - t114*t130
-    t157 = D2_11*rD2*t132 - t114*t131
+    t165 = rs1*(D1_00*rD1*t72 - cos_theta1*qdd1 - t73*t80)
+    del D1_00, cos_theta1, qdd1, rD1, t72, t80
+    t166 = rs1*(t137*t89 - t73*t93)
+    del t89, t93
+    t167 = rs1*(t103*t137 - t105*t73)
+    del t103, t105
+    t168 = rs1*(t109*t137 - t110*t73)
+    del t109, t110
+    t169 = rs1*(t116*t137 - t113*t73)
+    del t113, t116
+    t170 = rs1*(t121*t137 - t122*t73)
+    del t121, t122
+    t171 = rs1*(t125*t137 - t128*t73)
+    del t125, t128
+    t172 = rs1*(t133*t137 - t136*t73)
+    del rs1, t133, t136, t137, t73
+    t173 = D2_11*rD2*t141 - t139*t140
+    t174 = D2_11*rD2*t143 - t140*t142
+    t175 = D2_11*rD2*t145 - t140*t144
+    t176 = D2_11*rD2*t147 - t140*t146
+    t177 = D2_11*rD2*t149 - t140*t148
+    t178 = D2_11*rD2*t151 - t140*t150
+    t179 = D2_11*rD2*t152 - t140*t153
+    t180 = D2_11*rD2*t155 - t140*t154
     del D2_11
-    t158 = rs3*(t113*t133 - t114*t115)
-    del t113, t115
-    t159 = rs3*(t116*t133 - t114*t117)
-    del t116, t117
-    t160 = rs3*(D2_00*rD2*t118 - cos_theta2*qdd3 - t114*t119)
-    del D2_00, cos_theta2, qdd3, rD2, t118, t119
-    t161 = rs3*(t120*t133 - t114*t121)
-    del t120, t121
-    t162 = rs3*(t123*t133 - t114*t124)
-    del t123, t124
-    t163 = rs3*(t127*t133 - t114*t128)
-    del t127, t128
-    t164 = rs3*(t130*t133 - t114*t129)
-    del t129, t130
-    t165 = rs3*(t131*t133 - t114*t132)
-    del rs3, t114, t131, t132, t133
+    t181 = rs3*(t139*t156 - t140*t141)
+    del t139, t141
+    t182 = rs3*(t142*t156 - t140*t143)
+    del t142, t143
+    t183 = rs3*(D2_00*rD2*t144 - cos_theta2*qdd3 - t140*t145)
+    del D2_00, cos_theta2, qdd3, rD2, t144, t145
+    t184 = rs3*(t146*t156 - t140*t147)
+    del t146, t147
+    t185 = rs3*(t148*t156 - t140*t149)
+    del t148, t149
+    t186 = rs3*(t150*t156 - t140*t151)
+    del t150, t151
+    t187 = rs3*(t153*t156 - t140*t152)
+    del t152, t153
+    t188 = rs3*(t154*t156 - t140*t155)
+    del rs3, t140, t154, t155, t156
     A = numpy.empty(shape + (8, 8), dtype)
     A[..., 0, 0] = 0
     A[..., 0, 1] = 0
@@ -369,68 +398,68 @@ def linearize(y, p):
     A[..., 3, 5] = 0
     A[..., 3, 6] = 0
     A[..., 3, 7] = 1
-    A[..., 4, 0] = t134
-    del t134
-    A[..., 4, 1] = t135
-    del t135
-    A[..., 4, 2] = t136
-    del t136
-    A[..., 4, 3] = t137
-    del t137
-    A[..., 4, 4] = t138
-    del t138
-    A[..., 4, 5] = t139
-    del t139
-    A[..., 4, 6] = t140
-    del t140
-    A[..., 4, 7] = t141
-    del t141
-    A[..., 5, 0] = t142
-    del t142
-    A[..., 5, 1] = t143
-    del t143
-    A[..., 5, 2] = t144
-    del t144
-    A[..., 5, 3] = t145
-    del t145
-    A[..., 5, 4] = t146
-    del t146
-    A[..., 5, 5] = t147
-    del t147
-    A[..., 5, 6] = t148
-    del t148
-    A[..., 5, 7] = t149
-    del t149
-    A[..., 6, 0] = t150
-    del t150
-    A[..., 6, 1] = t151
-    del t151
-    A[..., 6, 2] = t152
-    del t152
-    A[..., 6, 3] = t153
-    del t153
-    A[..., 6, 4] = t154
-    del t154
-    A[..., 6, 5] = t155
-    del t155
-    A[..., 6, 6] = t156
-    del t156
-    A[..., 6, 7] = t157
+    A[..., 4, 0] = t157
     del t157
-    A[..., 7, 0] = t158
+    A[..., 4, 1] = t158
     del t158
-    A[..., 7, 1] = t159
+    A[..., 4, 2] = t159
     del t159
-    A[..., 7, 2] = t160
+    A[..., 4, 3] = t160
     del t160
-    A[..., 7, 3] = t161
+    A[..., 4, 4] = t161
     del t161
-    A[..., 7, 4] = t162
+    A[..., 4, 5] = t162
     del t162
-    A[..., 7, 5] = t163
+    A[..., 4, 6] = t163
     del t163
-    A[..., 7, 6] = t164
+    A[..., 4, 7] = t164
     del t164
-    A[..., 7, 7] = t165
+    A[..., 5, 0] = t165
     del t165
+    A[..., 5, 1] = t166
+    del t166
+    A[..., 5, 2] = t167
+    del t167
+    A[..., 5, 3] = t168
+    del t168
+    A[..., 5, 4] = t169
+    del t169
+    A[..., 5, 5] = t170
+    del t170
+    A[..., 5, 6] = t171
+    del t171
+    A[..., 5, 7] = t172
+    del t172
+    A[..., 6, 0] = t173
+    del t173
+    A[..., 6, 1] = t174
+    del t174
+    A[..., 6, 2] = t175
+    del t175
+    A[..., 6, 3] = t176
+    del t176
+    A[..., 6, 4] = t177
+    del t177
+    A[..., 6, 5] = t178
+    del t178
+    A[..., 6, 6] = t179
+    del t179
+    A[..., 6, 7] = t180
+    del t180
+    A[..., 7, 0] = t181
+    del t181
+    A[..., 7, 1] = t182
+    del t182
+    A[..., 7, 2] = t183
+    del t183
+    A[..., 7, 3] = t184
+    del t184
+    A[..., 7, 4] = t185
+    del t185
+    A[..., 7, 5] = t186
+    del t186
+    A[..., 7, 6] = t187
+    del t187
+    A[..., 7, 7] = t188
+    del t188
     return A

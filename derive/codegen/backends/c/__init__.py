@@ -19,7 +19,7 @@ import sympy as sp
 
 from ...emit import lanes_context, render, trig_lanes
 from ...names import VECTOR_MATH
-from ...printers import CPrinter
+from ...printers import CPrinter, CVariantPrinter
 from ..base import Backend, Variant, common_context, join_terms, own, slot_doc, unflatten, wrap
 from ...integrators import render_atlas, render_c
 from ...taylor import render_taylor, taylor_problem
@@ -67,8 +67,9 @@ class CBackend(Backend):
                              "macro": f"{kmacro}_{out.name.upper()}", "rank": len(out.shape),
                              "shape": list(out.shape), "doc": out.doc})
             variants = []
+            shared = CVariantPrinter(slots)        # each expression printed once for the three types
             for v in self.variants:
-                pr = CPrinter(slots, v.ctype)
+                pr = shared.typed(v.ctype)
                 roots = b.outputs + [b.guards]
                 lanes, assignments, flat = None, b.assignments, [e for exprs in roots for e in exprs]
                 if v.ctype == "double":     # libmvec has vector sin/cos for double only
