@@ -189,6 +189,13 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None) -> list[Body]:
     position = {sym: i for i, sym in enumerate(list(defs))}
 
     bodies = []
+    counted: dict = {}          # kernels share assignments (stages, the linearize file's A): counted once
+
+    def count(e) -> int:
+        if e not in counted:
+            counted[e] = sp.count_ops(e)
+        return counted[e]
+
     all_kernels = [k for f in files for k in f.kernels]
     for k, span in zip(all_kernels, spans):
         mine = [reduced[i] for i in span]
@@ -235,15 +242,19 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None) -> list[Body]:
             if sym.name.startswith("_"):
                 rename[sym] = internal(f"t{n}")
                 n += 1
-        assignments = [(rename.get(s, s), (local[s] if s in local else defs[s].xreplace(alias))
-                        .xreplace(rename)) for s in order]
+        # alias, then rename, as one substitution (xreplace is simultaneous)
+        both = {a: rename.get(b, b) for a, b in alias.items()}
+        both.update((a, b) for a, b in rename.items() if a not in both)
+        assignments = [(rename.get(s, s), local[s].xreplace(rename) if s in local else defs[s].xreplace(both))
+                       for s in order]
         mine = [sp.sympify(e).xreplace(rename) for e in mine]
         guards = mine[:len(k.guards)]
         outputs, i = [], len(k.guards)
         for out in k.outputs:
             outputs.append(mine[i:i + out.size])
             i += out.size
-        ops = sum(sp.count_ops(e) for _, e in assignments) + sum(sp.count_ops(e) for e in mine)
+        # a renaming leaves the count as it is: counted before it, once per expression of the file
+        ops = sum(count(local[s] if s in local else defs[s]) for s in order) + sum(count(e) for e in mine)
         used = _free_names([e for _, e in assignments] + mine)
         unused = [inp.name for inp in k.inputs if not (set(inp.vector.symbols) & used)]
         bodies.append(Body(k, assignments, outputs, guards, int(ops), unused))

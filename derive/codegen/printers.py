@@ -15,6 +15,7 @@ from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.precedence import precedence
 
 import re
+from collections import OrderedDict
 
 from ..errors import PrintError
 
@@ -98,6 +99,8 @@ class CVariantPrinter(CPrinter):
     ctype) prints (a test compares them), as those three places are the only ones where
     SymPy's C99 printer consults the type."""
 
+    memoised = True         # shared_printer keeps it as it is
+
     def __init__(self, slots: dict):
         super().__init__(slots, "double")
         self._floats: list = []
@@ -152,6 +155,42 @@ class TypedPrinter:
 
     def doprint_checked(self, expr) -> str:
         return self.shared.text(expr, self.ctype)
+
+
+_SHARED: "OrderedDict[tuple, object]" = OrderedDict()
+_SHARED_MAX = 64        # printers kept (a few per model: its kernels' argument layouts)
+
+
+def shared_printer(cls: type, slots: dict, *args):
+    """The printer `cls(slots, *args)`, one per distinct (cls, slots, args) of this process,
+    memoising what it prints: a model's files print the same expressions with the same
+    slots more than once (<model>_linearize's A is the kernel file's jacobian, line for
+    line), and each is printed once.  Its output is exactly a fresh printer's."""
+    key = (cls, frozenset(slots.items()), *(frozenset(a) if isinstance(a, (set, frozenset)) else a for a in args))
+    if key in _SHARED:
+        _SHARED.move_to_end(key)
+        return _SHARED[key]
+    printer = cls(slots, *args)
+    printer = _SHARED[key] = printer if getattr(printer, "memoised", False) else _Memo(printer)
+    if len(_SHARED) > _SHARED_MAX:
+        _SHARED.popitem(last=False)
+    return printer
+
+
+class _Memo:
+    """A printer whose doprint_checked remembers each expression's text (and passes every
+    other attribute through)."""
+
+    def __init__(self, printer):
+        self.printer, self.texts = printer, {}
+
+    def doprint_checked(self, expr) -> str:
+        if expr not in self.texts:
+            self.texts[expr] = self.printer.doprint_checked(expr)
+        return self.texts[expr]
+
+    def __getattr__(self, name):
+        return getattr(self.printer, name)
 
 
 class PyNumPyPrinter(SlotPrinting, NumPyPrinter):

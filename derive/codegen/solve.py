@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from ..derivation.loop_closure import augmented_system
+from ..symbolic import Derivatives, MatrixDerivatives
 from .names import internal as _sym
 
 
@@ -136,6 +137,16 @@ class MassMatrixStages:
         return Solution(syms, list(self.inverse_stages) + stages)
 
 
+def _implicit_residual(dyn, yk: sp.Symbol, x: list) -> list[sp.Expr]:
+    """dF/dy_k - (dM/dy_k) x of the system M x = F of `dyn` (its M and F), the derivatives by
+    SymEngine (derive/symbolic.py, made once per system): the right-hand side of the
+    implicit derivative M dx/dy_k = dF/dy_k - (dM/dy_k) x."""
+    if getattr(dyn, "_dF", None) is None:
+        dyn._dF, dyn._dM = Derivatives(list(dyn.F)), MatrixDerivatives(dyn.M)
+    n = len(x)
+    return [dyn._dF.diff(i, yk) - sum(dyn._dM.entry(i, j, yk) * x[j] for j in range(n)) for i in range(n)]
+
+
 class MassMatrixDynamics:
     """q'' = M^-1 F: the closed-form 2x2 inverse, or L D L^T for any other size."""
 
@@ -152,9 +163,7 @@ class MassMatrixDynamics:
 
     def derivative(self, yk: sp.Symbol) -> tuple[list[sp.Expr], list]:
         """d q''/d y_k = M^-1 (dF/dy_k - (dM/dy_k) q'')."""
-        r = [self.F[i].diff(yk) - sum(self.M[i, j].diff(yk) * self.qdd[j]
-                                      for j in range(len(self.qdd)))
-             for i in range(len(self.qdd))]
+        r = _implicit_residual(self, yk, self.qdd)
         if all(e == 0 for e in r):
             return [sp.S.Zero] * len(r), []
         if self.mass.n <= 2:
@@ -188,9 +197,7 @@ class ConstrainedDynamics:
     def derivative(self, yk: sp.Symbol) -> tuple[list[sp.Expr], list]:
         """d(q'', lambda)/d y_k = A^-1 (db/dy_k - (dA/dy_k) (q'', lambda)); the first n
         entries are d q''/d y_k."""
-        x = self.unknowns
-        r = [self.F[i].diff(yk) - sum(self.M[i, j].diff(yk) * x[j] for j in range(len(x)))
-             for i in range(len(x))]
+        r = _implicit_residual(self, yk, self.unknowns)
         if all(e == 0 for e in r):
             return [sp.S.Zero] * len(r), []
         return self.mass._substitute(r, f"d{yk.name}_")

@@ -19,7 +19,7 @@ import sympy as sp
 
 from ...emit import lanes_context, render, trig_lanes
 from ...names import VECTOR_MATH
-from ...printers import CPrinter, CVariantPrinter
+from ...printers import CPrinter, CVariantPrinter, shared_printer
 from ..base import Backend, Variant, common_context, join_terms, own, slot_doc, unflatten, wrap
 from ...integrators import render_atlas, render_c
 from ...taylor import render_taylor, taylor_problem
@@ -67,7 +67,7 @@ class CBackend(Backend):
                              "macro": f"{kmacro}_{out.name.upper()}", "rank": len(out.shape),
                              "shape": list(out.shape), "doc": out.doc})
             variants = []
-            shared = CVariantPrinter(slots)        # each expression printed once for the three types
+            shared = shared_printer(CVariantPrinter, slots)   # each expression printed once for the three types
             for v in self.variants:
                 pr = shared.typed(v.ctype)
                 roots = b.outputs + [b.guards]

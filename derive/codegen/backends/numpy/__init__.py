@@ -16,7 +16,7 @@ import sympy as sp
 
 from ...emit import half_angle_sincos, live_assignments, render
 from ...names import KERNEL_NAMES, PYTHON_RESERVED, numpy_slots
-from ...printers import PyNumPyPrinter
+from ...printers import PyNumPyPrinter, shared_printer
 from ..base import Backend, common_context, own, slot_doc, unflatten, wrap
 from ...integrators import render_atlas, render_numpy
 from ...loops import render_loops
@@ -42,7 +42,7 @@ class NumPyBackend(Backend):
             for sym, e in assignments:
                 if e.free_symbols & varying:
                     varying.add(sym)
-            pr = PyNumPyPrinter(slots, varying)
+            pr = shared_printer(PyNumPyPrinter, slots, varying)    # the linearize file's A: the jacobian's texts
             # only what the outputs need (guards have no NumPy counterpart)
             kept = live_assignments(assignments, flat)
             needed = set().union(*(sp.sympify(e).free_symbols for e in flat), *(e.free_symbols for _, e in kept))
