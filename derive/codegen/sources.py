@@ -18,11 +18,13 @@ tableaus) say "for every model" instead (`SHARED`).
 from __future__ import annotations
 
 import hashlib
+import multiprocessing
 import os
 import re
 import shutil
 import sys
 import tempfile
+import threading
 from functools import cache, lru_cache
 from pathlib import Path
 
@@ -31,6 +33,7 @@ import sympy as sp
 from .. import cachefile
 from ..paths import VERSION as __version__, cache_dir, package_root, write_error
 from ..derivation import derive
+from ..derivation.workers import run_all
 from ..derivation.derivation import cache_key
 from ..model import load_model
 from ..model.description import forget_on_model_change
@@ -118,11 +121,33 @@ def _raw(name: str, backends: tuple[str, ...] | None = None) -> dict[str, str]:
         for backend in chosen:
             files.update(backend.atlas_files(name))
         return files
-    d = derive(name)
+    kernels(name)                   # the one CSE pass, before any worker starts: they share it
+    names = [b.name for b in chosen]
+    jobs = 1 if sum(b.ops for b in kernels(name)[1]) < PARALLEL_OPS or not may_fork() else None
+    for part in run_all([(_backend_files, (name, b)) for b in names], jobs):
+        files.update(part)
+    return files
+
+
+# A model whose kernels have this many operations (after CSE) renders its languages side by
+# side, one process each (derivation/workers.py): below it, starting a process costs more
+# than it saves (a 5-link chain's kernels have about 3,000).
+PARALLEL_OPS = 2000
+
+
+def may_fork() -> bool:
+    """Whether this process may start workers: not itself a worker (a pool's processes may
+    have no children) and with no other thread (a fork copies a lock another thread holds)."""
+    return not multiprocessing.current_process().daemon and threading.active_count() == 1
+
+
+def _backend_files(name: str, backend: str) -> dict[str, str]:
+    """Every file the backend called `backend` writes for the model `name` (its kernels, its
+    integrators and loops, its linearize file): one worker's share of _raw."""
+    (chosen,) = registry.selected((backend,))
     spec, bodies = kernels(name)
-    for backend in chosen:
-        files.update(backend.model_files(name, spec, bodies, guarded=bool(d.polar_sines)))
-        files.update(backend.kernel_files(*linearize_kernels(name)))
+    files = dict(chosen.model_files(name, spec, bodies, guarded=bool(derive(name).polar_sines)))
+    files.update(chosen.kernel_files(*linearize_kernels(name)))
     return files
 
 

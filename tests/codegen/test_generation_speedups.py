@@ -1,0 +1,115 @@
+"""The generator's shortcuts give what the long way gives: the C types printed once
+(CVariantPrinter), shared printers, SymEngine's derivatives (derive/symbolic.py), the
+linearize file's A taken from the jacobian kernel, and the languages rendered side by side."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from derive.codegen import sources
+from derive.codegen.printers import CPrinter, CVariantPrinter, PyNumPyPrinter, shared_printer
+from derive.derivation.derivation import derive
+from derive.model import model_names
+from derive.symbolic import Derivatives, MatrixDerivatives
+
+x, y, z = sp.symbols("x y z", real=True)
+EXPRESSIONS = [
+    sp.Rational(1, 2) * x + 2 * y * sp.sin(x) - sp.Float(1.25) * sp.cos(y) ** 2 / x,
+    sp.sqrt(x) + sp.pi * x ** 5 + 1 / x ** 2 + x ** sp.Rational(3, 2) + sp.exp(-x) + sp.Abs(x),
+    sp.Integer(3) / 7, 1 / (x + y), sp.sqrt(2) * x, sp.E * x, sp.log(x) + sp.atan2(x, y),
+    sp.Float("9.81") * x + sp.Float(0.1) * x ** 2 + sp.Float("1e-20") + sp.Float(123456789.123),
+    sp.tanh(z) ** 3 - sp.asin(y / 2) + sp.sign(x) * sp.Rational(-7, 3),
+]
+
+
+@pytest.mark.parametrize("ctype", ["float", "double", "long double"])
+def test_the_types_printed_once_read_as_each_printed_alone(ctype):
+    """Byte for byte CPrinter's text, for every type, whichever type asked first."""
+    slots = {x: "y[0]", y: "p[1]"}
+    shared = CVariantPrinter(slots)
+    for e in reversed(EXPRESSIONS):             # fill the memo in another order
+        shared.text(e, "float")
+    for e in EXPRESSIONS:
+        assert shared.text(e, ctype) == CPrinter(slots, ctype).doprint(e)
+
+
+def test_a_shared_printer_prints_as_a_fresh_one():
+    slots, varying = {x: "x", y: "y"}, {x}
+    a = shared_printer(PyNumPyPrinter, slots, varying)
+    assert shared_printer(PyNumPyPrinter, dict(slots), set(varying)) is a
+    assert shared_printer(PyNumPyPrinter, slots, {y}) is not a
+    for e in EXPRESSIONS:
+        assert a.doprint_checked(e) == PyNumPyPrinter(slots, varying).doprint_checked(e)
+        assert a.doprint_checked(e) == a.doprint_checked(e)
+
+
+def _models():
+    return [*model_names(), "examples/models/triple.toml", "examples/models/cart_pole.toml",
+            "examples/models/elastic_pendulum.toml", "examples/models/four_bar.toml",
+            "examples/models/driven_gyroscope.toml"]
+
+
+@pytest.mark.parametrize("model", _models())
+def test_symengine_derivatives_are_sympys(model):
+    """Every derivative the generator takes (of F and M, by every state) is the expression
+    SymPy's diff gives, symbol for symbol (assumptions and all)."""
+    d = derive(model)
+    s = d.symbols
+    dF, dM = Derivatives(list(d.F)), MatrixDerivatives(d.M)
+    for v in s.state:
+        for i, f in enumerate(d.F):
+            assert dF.diff(i, v) == f.diff(v)
+        assert dM.diff(v) == d.M.diff(v)
+
+
+def test_what_symengine_leaves_unevaluated_is_sympys():
+    """abs and sign: SymEngine keeps d|x|/dx unevaluated; the result is SymPy's."""
+    e = [sp.Abs(x) * y + sp.sign(x), sp.Dummy("k") * sp.sin(x) ** 2]
+    d = Derivatives(e)
+    assert d.diff(0, x) == e[0].diff(x) and not d.diff(0, x).has(sp.Derivative)
+    assert d.diff(1, x) == e[1].diff(x)          # a Dummy comes back as itself
+    assert d.diff(0, z) == 0
+
+
+@pytest.mark.parametrize("model", ["planar", "examples/models/cart_pole.toml"])
+def test_the_linearize_file_reads_the_jacobian_kernel(model):
+    """Its A has the jacobian kernel's expressions (not differentiated again), and the CSE
+    bodies of both give the same numbers at a random state."""
+    from derive.runtime.simulate import resolve_model
+    name = resolve_model(model)
+    spec, bodies = sources.kernels(name)
+    lin, (lbody,) = sources.linearize_kernels(name)
+    jac = next(k for k in spec.kernels if k.name == "jacobian")
+    assert lin.kernels[0].outputs[0].exprs == jac.outputs[0].exprs
+    jbody = next(b for b in bodies if b.kernel.name == "jacobian")
+    rng = np.random.default_rng(3)
+    values = {}
+    for inp in jbody.kernel.inputs:
+        for sym in inp.vector.symbols:
+            values[sym] = sp.Float(rng.uniform(0.5, 1.5))
+
+    def evaluate(body, output):
+        env = dict(values)
+        for sym, e in body.assignments:
+            env[sym] = e.xreplace(env).evalf(30)
+        return [sp.sympify(e).xreplace(env).evalf(30) for e in body.outputs[output]]
+
+    a, j = evaluate(lbody, 0), evaluate(jbody, 0)
+    assert max(abs(u - v) for u, v in zip(a, j)) < 1e-25
+
+
+def test_languages_rendered_side_by_side_are_the_same_files(monkeypatch):
+    """A model large enough to render its languages in worker processes gets the files it
+    gets rendered in one process."""
+    from derive.runtime.simulate import resolve_model
+    name = resolve_model("examples/models/triple.toml")
+    monkeypatch.setattr(sources, "PARALLEL_OPS", 0)
+    monkeypatch.setattr(sources, "may_fork", lambda: True)
+    asked = []
+    real = sources.run_all
+    monkeypatch.setattr(sources, "run_all", lambda calls, jobs=None: asked.append(jobs) or real(calls, 2))
+    side_by_side = sources.render_fresh(name)
+    assert asked == [None]                      # the worker path was taken
+    monkeypatch.setattr(sources, "PARALLEL_OPS", 10 ** 9)
+    assert sources.render_fresh(name) == side_by_side
