@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from ..derivation.loop_closure import augmented_system
-from ..symbolic import Derivatives, MatrixDerivatives
+from ..derivation.symbolic import Derivatives, MatrixDerivatives
 from .names import internal as _sym
 
 
@@ -139,7 +139,7 @@ class MassMatrixStages:
 
 def _implicit_residual(dyn, yk: sp.Symbol, x: list) -> list[sp.Expr]:
     """dF/dy_k - (dM/dy_k) x of the system M x = F of `dyn` (its M and F), the derivatives by
-    SymEngine (derive/symbolic.py, made once per system): the right-hand side of the
+    SymEngine (derive/derivation/symbolic.py, made once per system): the right-hand side of the
     implicit derivative M dx/dy_k = dF/dy_k - (dM/dy_k) x."""
     if getattr(dyn, "_dF", None) is None:
         dyn._dF, dyn._dM = Derivatives(list(dyn.F)), MatrixDerivatives(dyn.M)

@@ -220,7 +220,6 @@ def toolkit_hash() -> str:
             if path.is_file() and "__pycache__" not in path.parts:
                 h.update(str(path.relative_to(root)).encode())
                 h.update(hashlib.sha256(path.read_bytes()).digest())
-    h.update(hashlib.sha256((root / "symbolic.py").read_bytes()).digest())
     return h.hexdigest()
 
 

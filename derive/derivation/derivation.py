@@ -118,7 +118,6 @@ def _code_hash() -> str:
     for path in sorted((package_root() / "derivation").glob("*.py")):
         h.update(path.read_bytes())
     h.update((package_root() / "model" / "description.py").read_bytes())
-    h.update((package_root() / "symbolic.py").read_bytes())
     return h.hexdigest()
 
 

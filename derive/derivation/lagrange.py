@@ -41,7 +41,7 @@ from ..errors import ModelError
 from ..model import Model
 from ..model.description import PRISMATIC, REVOLUTE
 from ..model.expressions import parse_expression
-from ..symbolic import MatrixDerivatives
+from .symbolic import MatrixDerivatives
 from .symbols import ModelSymbols, motion_names, names, parse_quantity, per_shape, t
 
 
@@ -267,7 +267,7 @@ def forcing(form: ChainForm, s: ModelSymbols) -> sp.Matrix:
     term by term), then filled with the parameter coefficients."""
     qd = sp.Matrix(s.qd)
     M, V = form.M, form.V
-    dM_dq = MatrixDerivatives(M)          # by SymEngine (derive/symbolic.py): the same expressions, faster
+    dM_dq = MatrixDerivatives(M)          # by SymEngine (derive/derivation/symbolic.py): the same expressions, faster
     dM = [dM_dq.diff(qk) for qk in s.q]
     Mqd_dot = sum((dM[k] * qd * s.qd[k] for k in range(len(s.q))), sp.zeros(len(s.q), 1))
     F = sp.Matrix([(qd.T * dM[j] * qd)[0, 0] / 2 - Mqd_dot[j] - V.diff(s.q[j])

@@ -1,5 +1,5 @@
 """The generator's shortcuts give what the long way gives: the C types printed once
-(CVariantPrinter), shared printers, SymEngine's derivatives (derive/symbolic.py), the
+(CVariantPrinter), shared printers, SymEngine's derivatives (derive/derivation/symbolic.py), the
 linearize file's A taken from the jacobian kernel, and the languages rendered side by side."""
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from derive.codegen import sources
 from derive.codegen.printers import CPrinter, CVariantPrinter, PyNumPyPrinter, shared_printer
 from derive.derivation.derivation import derive
 from derive.model import model_names
-from derive.symbolic import Derivatives, MatrixDerivatives
+from derive.derivation.symbolic import Derivatives, MatrixDerivatives
 
 x, y, z = sp.symbols("x y z", real=True)
 EXPRESSIONS = [

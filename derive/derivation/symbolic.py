@@ -11,7 +11,7 @@ result brought back:
 The result is SymPy's own: each symbol is renamed to a plain one on the way in (SymEngine
 keeps no assumptions, and a Dummy would come back as another Dummy) and renamed back on
 the way out, which rebuilds the expression with SymPy's automatic evaluation, so it is
-the expression SymPy's diff gives (tests/derivation/test_symbolic.py compares them on the
+the expression SymPy's diff gives (tests/codegen/test_generation_speedups.py compares them on the
 catalogue and chains).  What SymEngine cannot take or give back exactly (an unevaluated
 derivative: of abs or sign, say) is done by SymPy instead.
 """
