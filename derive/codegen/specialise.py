@@ -17,8 +17,8 @@ model by its name, renders, compiles and caches it as any model: one set of file
 libraries per model and value set, in the cache only (never in generated/).
 
 Exactness: a value is taken as the binary number it is (a float as given, a long double
-with all its bits): an integer as a SymPy Integer (so that 1 * x is x), any other value
-as a Float of FOLD_BITS bits holding it exactly.  SymPy folds products and sums of them
+with all its bits): 0 and +-1 as SymPy Integers (so that 1 * x is x), any other value as
+a Float of FOLD_BITS bits holding it exactly.  SymPy folds products and sums of them
 at that precision (exact for the few factors a derivation multiplies), and each folded
 constant is printed rounded to the generated type's precision (the C printer's digits),
 so a specialised kernel computes the general kernel's function with constants rounded
@@ -30,6 +30,8 @@ import dataclasses
 import hashlib
 import tomllib
 from collections.abc import Mapping
+from functools import cache
+from pathlib import Path
 
 import sympy as sp
 
@@ -63,18 +65,29 @@ def exact_value(value) -> tuple[int, int]:
 
 
 def folded_number(ratio: tuple[int, int]) -> sp.Number:
-    """The SymPy number a value is folded in as: an Integer, or a Float of FOLD_BITS bits
-    holding the value exactly."""
+    """The SymPy number a value is folded in as: 0, 1 and -1 as Integers (the terms they
+    remove and the factors they drop are most of what folding gains), any other value as a
+    Float of FOLD_BITS bits holding it exactly.  Not an Integer 20 (a frequency w = 20):
+    the code generator writes sin(n u) with an integer n as a polynomial in sin u and cos u
+    (spec._multiple_angles, for sin 2u), whose cancellation at n = 20 would cost digits."""
     n, d = ratio
-    if d == 1:
+    if d == 1 and abs(n) <= 1:
         return sp.Integer(n)
     return sp.Float(sp.Rational(n, d), precision=FOLD_BITS)
 
 
+@cache
+def _code_hash() -> str:
+    """This module's text: how values are folded is part of what a specialised model is
+    (its derivation is cached under its name's digest)."""
+    return hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
+
+
 def specialised_name(model: Model, exact: Mapping[str, tuple[int, int]]) -> str:
-    """`<name>_s<digest>`: the digest of the model's content and the exact values (so an
-    edit of the model, or another value set, is another model)."""
-    h = hashlib.sha256(model.content_hash.encode())
+    """`<name>_s<digest>`: the digest of the model's content, the exact values and the
+    folding code (so an edit of the model or of this module, or another value set, is
+    another model)."""
+    h = hashlib.sha256(f"{model.content_hash}\0{_code_hash()}".encode())
     for name in model.parameters:
         if name in exact:
             n, d = exact[name]
