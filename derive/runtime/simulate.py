@@ -588,7 +588,7 @@ def _specialised(model, params, specialise, backend, dtype, atlas) -> str:
     folded in (derive/runtime/specialised.py), looked up by the call's arguments after the
     first call; `model` itself for specialise=False."""
     key = specialised.call_key(model, params, backend, dtype) if specialise is True and atlas is False else None
-    name = specialised.KNOWN.get(key) if key is not None else None
+    name = specialised.KNOWN.get(key)
     if name is not None:
         return name
     if not specialised.check_specialise(specialise):

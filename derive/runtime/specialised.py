@@ -99,13 +99,17 @@ KNOWN_MAX = 4096
 
 def call_key(model, params, backend, dtype):
     """The key of a call's specialised model in KNOWN, or None (an argument that is no key:
-    the call is resolved afresh)."""
-    if isinstance(params, Mapping):
-        params = ("by name", *params.items())
-    elif isinstance(params, np.ndarray):
-        params = ("array", params.dtype.str, *params.ravel().tolist())
-    elif isinstance(params, list):
-        params = tuple(params)
+    the call is resolved afresh).  Cheap for the common arguments (a repeated call's whole
+    cost of specialise=True is this and one dictionary lookup): a tuple as it is, a dict by
+    its items in their order, a list or an array by its values."""
+    kind = type(params)
+    if kind is not tuple:
+        if kind is dict or isinstance(params, Mapping):
+            params = ("by name", *params.items())
+        elif kind is list:
+            params = ("in order", *params)
+        elif isinstance(params, np.ndarray):
+            params = ("array", params.dtype.str, *params.ravel().tolist())
     key = (model, params, backend, dtype)
     try:
         hash(key)
