@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+from numbers import Integral
 import tomllib
 from collections.abc import Mapping
 from functools import cache
@@ -55,8 +56,8 @@ def exact_value(value) -> tuple[int, int]:
     terms): a Python or NumPy float (any width) or an integer."""
     if isinstance(value, bool):
         raise SpecError(f"a parameter value must be a number, got {value!r}")
-    if isinstance(value, int):
-        return value, 1
+    if isinstance(value, Integral):            # int, NumPy's integers
+        return int(value), 1
     try:
         n, d = value.as_integer_ratio()
     except (AttributeError, OverflowError, ValueError):

@@ -568,7 +568,13 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     (100, 0.01)
     """
     if specialise is not False:
-        model = _specialised(model, params, specialise, backend, dtype, atlas)
+        known = None
+        if type(params) is tuple and specialise is True and atlas is False:
+            try:        # a repeated call with a tuple of parameters: one lookup (specialised.call_key's key)
+                known = KNOWN_SPECIALISED.get((model, params, backend, dtype))
+            except TypeError:          # an unhashable argument: _specialised's checks word it
+                pass
+        model = known or _specialised(model, params, specialise, backend, dtype, atlas)
     dispatch = compiled_call.COMPILED.dispatch
     pilot = None
     if FAST_PATH and dispatch is not None and project is False:
@@ -581,6 +587,9 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
             pilot = done[0]                 # an adaptive run's pilot, stopped at its step budget
     return _simulate(model, y0, t, params, method, rtol, atol, step, dtype, backend, max_steps, sine_min,
                      newton_tol, newton_max, hmax, inputs, atlas, events, error_estimate, hold, pilot, project)
+
+
+KNOWN_SPECIALISED = specialised.KNOWN
 
 
 def _specialised(model, params, specialise, backend, dtype, atlas) -> str:

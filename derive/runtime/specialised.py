@@ -19,6 +19,7 @@ decisions rounding may tip): tests/runtime/test_specialised.py measures both.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from functools import lru_cache
 
 import numpy as np
 
@@ -76,12 +77,20 @@ def folded_model(name: str, names: Sequence[str], values, fixed=None) -> str:
     SimulationInputError
         Values that leave the equations undefined.
     """
-    chosen = {n: v for n, v, keep in zip(names, values, fixed if fixed is not None else [True] * len(names))
-              if keep}
+    chosen = tuple((n, v) for n, v, keep in zip(names, values, fixed if fixed is not None else [True] * len(names))
+                   if keep)
     try:
-        return fold(name, chosen)
+        return _folded(name, chosen)
     except SpecError as exc:
         raise SimulationInputError(f"specialise=True: {exc}") from None
+
+
+@forget_on_model_change
+@lru_cache(maxsize=1024)
+def _folded(name: str, chosen: tuple) -> str:
+    """codegen's specialise(name, dict(chosen)), once per model and value set in a process
+    (it reads the specialised derivation's cache entry: milliseconds, not a call's cost)."""
+    return fold(name, dict(chosen))
 
 
 class _Names(dict):

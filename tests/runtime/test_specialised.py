@@ -126,6 +126,7 @@ def test_one_build_per_value_set_reused_by_a_new_process():
     (PARAMS, {"specialise": "yes"}, "specialise must be True or False"),
     (PARAMS, {"backend": "numpy"}, "backend='c'"),
     (PARAMS, {"dtype": "quad"}, "extended precisions read p at run time"),
+    (([1.0], 0.6, 0.7, 1.3, 9.81), {}, "params must be numbers"),          # a tuple that is no key
 ])
 def test_bad_input_is_one_line(params, options, message):
     options = {"specialise": True, **options}
