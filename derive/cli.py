@@ -296,7 +296,8 @@ def _json_safe(value):
 def _print_run(summary: dict) -> None:
     s = summary
     print(f"scene   {s['scene']}: {s['title']}")
-    print(f"model   {s['model']} ({s['model_reason']})")
+    print(f"model   {s['model']} ({s['model_reason']})"
+          + (f"; kernels {s['specialised']}, the parameters folded in" if s.get("specialised") else ""))
     for line in s["steps"]:
         print(f"        {line}")
     tol = f"rtol {s['rtol']:.2g}" if s["rtol"] is not None else f"step {s['step']:g}"

@@ -407,6 +407,18 @@ def _int(n: int) -> str:
     return f"T_INT({n})"
 
 
+def _float_parts(e: sp.Float) -> str:
+    """A Float wider than a double (a value folded in exactly: derive/codegen/specialise.py)
+    as the sum of three doubles, each the rounding of what the ones before leave, as pi's
+    parts: its binary value to about 2^-160, whatever its decimal digits."""
+    rest, parts = sp.Rational(e), []
+    for _ in range(3):
+        part = float(rest)
+        parts.append(f"T_D({part!r})")
+        rest -= sp.Rational(part)
+    return f"T_ADD(T_ADD({parts[0]}, {parts[1]}), {parts[2]})"
+
+
 def macro_expression(expr, slots: dict) -> str:
     """A state-free expression (parameters, inputs, numbers) in the template's arithmetic
     macros, for the types without C operators (double-double) or literals C99 has not
@@ -421,6 +433,8 @@ def macro_expression(expr, slots: dict) -> str:
         return _int(int(e))
     if e.is_Rational:
         return f"T_DIV({_int(int(e.p))}, {_int(int(e.q))})"
+    if e.is_Float and e._prec > 53:
+        return _float_parts(e)
     if e.is_Float:
         return macro_expression(sp.Rational(repr(float(e))), slots)
     if e is sp.pi:

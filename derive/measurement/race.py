@@ -26,6 +26,14 @@ Rows:
 And SciPy's solve_ivp DOP853 with a lambdified rhs of the derivation (what a SymPy user
 writes) on the regular and chaotic rows, the peer of `derive bench`'s 200x target.
 
+Two pairings, in one run (issue 25 items 3 and 5): derive with the parameters passed at
+run time (its general kernels: "derive") against heyoka with them as `par[]` ("heyoka"),
+and derive with them folded into its kernels (`specialise=True`: "derive-specialised",
+derive/codegen/specialise.py) against heyoka with them written in as numbers
+("heyoka-numbers").  derive's two settings are timed interleaved, setting by setting, so
+that a shared machine's load falls on both alike.  The extended rungs (double-double,
+quad) read p at run time and have no specialised setting.
+
 References: the long double runs of `derive.simulate` at its tightest tolerance for the
 double rows and the ensemble (their error, about 1e-13 here, is far below the target);
 for the long double row, heyoka in quadruple precision (real128) at tol 1e-30, checked
@@ -76,9 +84,15 @@ class Row:
     points: list[Point] = field(default_factory=list)
     note: str = ""
 
-    def best(self, prefix: str) -> Point | None:
-        ok = [p for p in self.points if p.tool.startswith(prefix) and p.error <= TARGET]
+    def best(self, tool: str) -> Point | None:
+        """The fastest point of `tool` ("derive", "derive-specialised", "heyoka", ...: the first
+        word of a point's label) that meets the target, or None."""
+        ok = [p for p in self.points if p.tool.split()[0] == tool and p.error <= TARGET]
         return min(ok, key=lambda p: p.seconds) if ok else None
+
+
+# derive's two settings: (the tool's label in the race, specialise=)
+DERIVE_SETTINGS = (("derive", False), ("derive-specialised", True))
 
 
 def _heyoka():
@@ -112,15 +126,33 @@ def _heyoka_pars(folded: bool, values):
 
 def _timed(run) -> float:
     """Minimum wall time of repeated calls of run() (at least 3, for MIN_SECONDS)."""
-    best, spent, n = math.inf, 0.0, 0
-    while n < 3 or spent < MIN_SECONDS:
-        t0 = time.perf_counter()
-        run()
-        dt = time.perf_counter() - t0
-        best, spent, n = min(best, dt), spent + dt, n + 1
+    return _timed_together([run])[0]
+
+
+def _timed_together(runs) -> list[float]:
+    """The minimum wall time of each of `runs`, called in turn round by round (at least 3
+    rounds, for MIN_SECONDS each on average), so that the load of a shared machine falls on
+    them alike."""
+    best, spent, n = [math.inf] * len(runs), 0.0, 0
+    while n < 3 or spent < MIN_SECONDS * len(runs):
+        for i, run in enumerate(runs):
+            t0 = time.perf_counter()
+            run()
+            dt = time.perf_counter() - t0
+            best[i], spent = min(best[i], dt), spent + dt
+        n += 1
         if n >= 2000:
             break
     return best
+
+
+def _both_settings(make, label: str, knob: str, error) -> list[Point]:
+    """One setting of derive in both DERIVE_SETTINGS, timed together: make(specialise) is
+    the run (a callable returning its result), error(result) its final error."""
+    runs = [make(specialise) for _, specialise in DERIVE_SETTINGS]
+    errors = [error(run()) for run in runs]          # the first call builds (not timed)
+    return [Point(f"{name} {label}", knob, seconds, e)
+            for (name, _), seconds, e in zip(DERIVE_SETTINGS, _timed_together(runs), errors)]
 
 
 def _error(y, ref) -> float:
@@ -140,16 +172,19 @@ def _derive_reference(y0, t_end: float) -> np.ndarray:
 
 
 def _derive_points(y0, t_end: float, ref, dtype: str = "float64") -> list[Point]:
+    """derive at a sweep of its settings, each in both DERIVE_SETTINGS (timed together)."""
     points = []
     rtols = (1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14) if dtype == "float64" else \
         (1e-10, 1e-12, 1e-13, 1e-14, 1e-15, 1e-16, 1e-17, 2e-18)
+
+    def error(r):
+        return _error(r.y[-1], ref) if r.ok else math.inf
     for method in TOLERANCE_METHODS:          # dopri5, dop853 and taylor
         for rtol in rtols:
-            run = lambda: simulate("planar", y0, [0.0, t_end], PARAMS, method=method, rtol=rtol,
-                                          dtype=dtype)
-            r = run()
-            points.append(Point(f"derive {method}", f"rtol={rtol:g}", _timed(run),
-                                _error(r.y[-1], ref) if r.ok else math.inf))
+            def make(specialise, method=method, rtol=rtol):
+                return lambda: simulate("planar", y0, [0.0, t_end], PARAMS, method=method, rtol=rtol,
+                                        dtype=dtype, specialise=specialise)
+            points += _both_settings(make, method, f"rtol={rtol:g}", error)
     if dtype == "float64":
         for method in (m for m in FIXED if m not in IMPLICIT):
             # a multistep method also with its stability guard loosened (simulate's rtol=):
@@ -157,11 +192,11 @@ def _derive_points(y0, t_end: float, ref, dtype: str = "float64") -> list[Point]
             guards = (None, GUARD_LOOSENED) if method in MULTISTEP else (None,)
             for h in (0.02, 0.01, 0.005, 0.0025, 0.00125):
                 for guard in guards:
-                    run = lambda: simulate("planar", y0, [0.0, t_end], PARAMS, method=method, step=h, rtol=guard)
-                    r = run()
+                    def make(specialise, method=method, h=h, guard=guard):
+                        return lambda: simulate("planar", y0, [0.0, t_end], PARAMS, method=method, step=h,
+                                                rtol=guard, specialise=specialise)
                     knob = f"h={h:g}" + (f" rtol={guard:g}" if guard is not None else "")
-                    points.append(Point(f"derive {method}", knob, _timed(run),
-                                        _error(r.y[-1], ref) if r.ok else math.inf))
+                    points += _both_settings(make, method, knob, error)
     return points
 
 
@@ -300,11 +335,11 @@ def ensemble_row(hy, B: int = 4096, t_end: float = 10.0) -> Row:
 
     for method in TOLERANCE_METHODS:
         for rtol in (1e-9, 1e-10, 1e-11, 1e-12, 1e-13):
-            run = lambda: ensemble("planar", y0, [0.0, t_end], PARAMS, method=method, rtol=rtol,
-                                          threads=threads)
-            r = run()
-            row.points.append(Point(f"derive {method}", f"rtol={rtol:g}", _timed(run),
-                                    worst(r.y[:, -1]) if r.all_ok else math.inf))
+            def make(specialise, method=method, rtol=rtol):
+                return lambda: ensemble("planar", y0, [0.0, t_end], PARAMS, method=method, rtol=rtol,
+                                        threads=threads, specialise=specialise)
+            row.points += _both_settings(make, method, f"rtol={rtol:g}",
+                                         lambda r: worst(r.y[:, -1]) if r.all_ok else math.inf)
     for name, folded in HEYOKA_SETTINGS:
         sys_ = heyoka_system(hy, folded)
         for width in sorted({hy.recommended_simd_size(), 2 * hy.recommended_simd_size()}):
@@ -360,7 +395,9 @@ def trivial_call_row(hy) -> Row:
     fastest batch."""
     y0 = (1.0, 0.5, 0.0, 0.0)
     row = Row("one call", "one call on a trivial span (t = 1e-6): the fixed cost of a call")
-    calls = {"derive dop853": lambda: simulate("planar", y0, [0.0, 1e-6], PARAMS)}
+    calls = {f"{name} dop853": (lambda specialise=specialise: simulate("planar", y0, [0.0, 1e-6], PARAMS,
+                                                                      specialise=specialise))
+             for name, specialise in DERIVE_SETTINGS}
     for name, folded in HEYOKA_SETTINGS:
         ta = hy.taylor_adaptive(heyoka_system(hy, folded), np.array(y0), **_heyoka_pars(folded, PARAMS), tol=1e-15)
         start = np.array(y0)
@@ -380,8 +417,8 @@ def trivial_call_row(hy) -> Row:
             for _ in range(CALL_BATCH):
                 f()
             best[tool] = min(best[tool], (time.perf_counter() - t0) / CALL_BATCH)
-    knobs = {"derive dop853": "simulate"}
-    row.points += [Point(tool, knobs.get(tool, "propagate_until"), seconds, 0.0) for tool, seconds in best.items()]
+    row.points += [Point(tool, "simulate" if tool.startswith("derive") else "propagate_until", seconds, 0.0)
+                   for tool, seconds in best.items()]
     return row
 
 
@@ -400,10 +437,13 @@ def per_step_row(hy, y0=(2.5, 2.0, 0.0, 0.0), t_end: float = 5.0) -> Row:
     row = Row("per step", f"chaotic, y0 = {tuple(y0)}, t = {t_end:g}: time per step, Taylor's method")
     ref = _derive_reference(y0, t_end)
     for tol in STEP_TOLS:
-        run = lambda: simulate("planar", y0, [0.0, t_end], PARAMS, method="taylor", rtol=tol)
-        r = run()
-        row.points.append(Point("derive taylor", f"order={taylor_order(tol)} steps={r.nsteps} rtol={tol:g}",
-                                _timed(run) / r.nsteps, _error(r.y[-1], ref)))
+        runs = [lambda specialise=specialise: simulate("planar", y0, [0.0, t_end], PARAMS, method="taylor", rtol=tol,
+                                                       specialise=specialise)
+                for _, specialise in DERIVE_SETTINGS]
+        results = [run() for run in runs]
+        for (name, _), r, seconds in zip(DERIVE_SETTINGS, results, _timed_together(runs)):
+            row.points.append(Point(f"{name} taylor", f"order={taylor_order(tol)} steps={r.nsteps} rtol={tol:g}",
+                                    seconds / r.nsteps, _error(r.y[-1], ref)))
     for name, folded in HEYOKA_SETTINGS:
         sys_ = heyoka_system(hy, folded)
         for tol in STEP_TOLS:
@@ -471,33 +511,48 @@ def _ms(seconds: float | None) -> str:
     return f"{seconds * 1e6:.1f} us" if seconds < 1e-3 else f"{seconds * 1e3:.3g} ms"
 
 
-# the peers of a row's summary: (label prefix of its points, the column's name)
-PEERS = (("heyoka taylor", "heyoka"), ("heyoka-numbers", "heyoka-numbers"))
+# the pairings of the summary, in one run: derive's general kernels against heyoka with
+# par[], derive's specialised kernels against heyoka with the numbers folded in (the fair
+# comparison of each), as (derive's setting, its peer)
+PAIRS = (("derive", "heyoka"), ("derive-specialised", "heyoka-numbers"))
 TABLE_ROWS_SKIPPED = ("per step",)       # a table of its own (step_table)
 
 
 def summary_rows(race: Race) -> list[dict]:
-    """One dict a row: derive's best, each heyoka setting's best and its ratio (heyoka's
-    time / derive's), solve_ivp's ratio."""
+    """One dict a row: for each pairing (PAIRS) derive's best and its peer's, with their
+    settings and the ratio (the peer's time / derive's, under the peer's name); solve_ivp's
+    time over the general derive's.  A tool with no point in the row reads "-" (the extended
+    rungs have no specialised setting), one whose points all miss the target "not reached"."""
     out = []
     for row in race.rows:
         if row.name in TABLE_ROWS_SKIPPED:
             continue
-        ours = row.best("derive")
-        s = {"row": row.title, "derive": _ms(ours and ours.seconds),
-             "derive setting": f"{' '.join(ours.tool.split()[1:])} {ours.knob}" if ours else ""}
-        if row.name == "one call":
-            s["derive setting"] = "simulate"
-        for prefix, name in PEERS:
-            theirs = row.best(prefix)
-            s[name] = _ms(theirs and theirs.seconds)
-            s[f"{name} setting"] = theirs.knob if theirs else ""
-            s[f"{name} ratio"] = (theirs.seconds / ours.seconds) if ours and theirs else None
-        scipy = row.best("scipy")
+        s = {"row": row.title}
+        for ours_name, peer in PAIRS:
+            ours, theirs = row.best(ours_name), row.best(peer)
+            for name, point in ((ours_name, ours), (peer, theirs)):
+                s[name] = _ms(point and point.seconds) if _has(row, name) else "-"
+                s[f"{name} setting"] = _setting(row, point) if point else ""
+            s[f"{peer} ratio"] = (theirs.seconds / ours.seconds) if ours and theirs else None
+        general, scipy = row.best("derive"), row.best("scipy")
         s["ratio"] = s["heyoka ratio"]
-        s["scipy"] = (scipy.seconds / ours.seconds) if ours and scipy else None
+        s["scipy"] = (scipy.seconds / general.seconds) if general and scipy else None
         out.append(s)
     return out
+
+
+def _has(row: Row, tool: str) -> bool:
+    return any(p.tool.split()[0] == tool for p in row.points)
+
+
+def _setting(row: Row, point: Point) -> str:
+    """How a summary names a point's setting: derive's its method and knob (the call row:
+    simulate), a peer's its knob."""
+    if not point.tool.startswith("derive"):
+        return point.knob
+    if row.name == "one call":
+        return "simulate" + (" specialise=True" if point.tool.startswith("derive-specialised") else "")
+    return f"{' '.join(point.tool.split()[1:])} {point.knob}"
 
 
 def step_table(race: Race) -> list[dict]:
@@ -520,31 +575,35 @@ def _ratio(a, b) -> str:
 def markdown(race: Race) -> str:
     lines = [f"# derive against heyoka {race.heyoka_version}, through both public APIs",
              "", f"Machine: {race.machine}; load {race.load or '?'}. Time to a final-state error <= "
-                 f"{TARGET:g} (fastest setting of each tool, minimum wall time of repeated calls); "
-                 "heyoka with the parameters as par[] (heyoka) and folded in as numbers "
-                 "(heyoka-numbers); ratio = heyoka's time / derive's (above 1: derive faster); "
+                 f"{TARGET:g} (fastest setting of each tool, minimum wall time of repeated calls). "
+                 "Two pairings: derive with the parameters passed at run time against heyoka with them "
+                 "as par[] (heyoka), and derive with them folded into its kernels (specialise=True: "
+                 "derive specialised) against heyoka with them written in as numbers (heyoka-numbers); "
+                 "each ratio = the heyoka setting's time / its derive's (above 1: derive faster); "
                  "solve_ivp = SciPy DOP853 with a lambdified rhs, its time / derive's.",
-             "", "| row | derive | setting | heyoka | setting | heyoka / derive | heyoka-numbers | setting | "
-                 "heyoka-numbers / derive | solve_ivp / derive |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "", "| row | derive | setting | heyoka | setting | heyoka / derive | derive specialised | setting | "
+                 "heyoka-numbers | setting | heyoka-numbers / derive specialised | solve_ivp / derive |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary_rows(race):
         ratios = {k: f"{s[k]:.2f}" if s[k] else "-" for k in ("heyoka ratio", "heyoka-numbers ratio")}
         scipy = f"{s['scipy']:.0f}" if s["scipy"] else "-"
         lines.append(f"| {s['row']} | {s['derive']} | {s['derive setting']} | {s['heyoka']} | "
-                     f"{s['heyoka setting']} | {ratios['heyoka ratio']} | {s['heyoka-numbers']} | "
+                     f"{s['heyoka setting']} | {ratios['heyoka ratio']} | {s['derive-specialised']} | "
+                     f"{s['derive-specialised setting']} | {s['heyoka-numbers']} | "
                      f"{s['heyoka-numbers setting']} | {ratios['heyoka-numbers ratio']} | {scipy} |")
     steps = step_table(race)
     if steps:
         lines += ["", "Time per step of Taylor's method (chaotic y0 to t = 5; a run's time over its steps; "
                       "step(): heyoka's single steps from Python), by tolerance and order:", "",
-                  "| tol | order | derive | steps | heyoka | steps | heyoka / derive | heyoka-numbers | "
-                  "heyoka-numbers / derive | heyoka step() | heyoka-numbers step() |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|"]
+                  "| tol | order | derive | steps | heyoka | steps | heyoka / derive | derive specialised | "
+                  "heyoka-numbers | heyoka-numbers / derive specialised | heyoka step() | heyoka-numbers step() |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for s in steps:
-            d, h, f = (s.get(k, (None, "-", "-")) for k in ("derive taylor", "heyoka taylor", "heyoka-numbers taylor"))
+            d, h, ds, f = (s.get(k, (None, "-", "-")) for k in ("derive taylor", "heyoka taylor",
+                                                                  "derive-specialised taylor", "heyoka-numbers taylor"))
             hs, fs = (s.get(k, (None,))[0] for k in ("heyoka taylor step()", "heyoka-numbers taylor step()"))
             lines.append(f"| {s['tol']} | {d[1]} | {_us(d[0])} | {d[2]} | {_us(h[0])} | {h[2]} | {_ratio(h[0], d[0])} | "
-                         f"{_us(f[0])} | {_ratio(f[0], d[0])} | {_us(hs)} | {_us(fs)} |")
+                         f"{_us(ds[0])} | {_us(f[0])} | {_ratio(f[0], ds[0])} | {_us(hs)} | {_us(fs)} |")
     notes = [f"- {r.name}: {r.note}" for r in race.rows if r.note]
     return "\n".join(lines + ([""] + notes if notes else [])) + "\n"
 
@@ -581,7 +640,8 @@ def _plot(race: Race, path: Path) -> Path:
             pts = sorted((p.seconds, max(p.error, 1e-20)) for p in row.points
                          if p.tool == tool and math.isfinite(p.error))
             if pts:
-                style = "s-" if tool.startswith("heyoka") else "^--" if tool.startswith("scipy") else "o-"
+                style = {"heyoka": "s-", "heyoka-numbers": "s--", "scipy": "^--",
+                         "derive-specialised": "o:"}.get(tool.split()[0], "o-")
                 ax.loglog([e for _, e in pts], [s for s, _ in pts], style, ms=3, label=tool,
                           color=colours[tool])
         ax.axvline(TARGET, color="grey", lw=0.8, ls=":")

@@ -158,8 +158,25 @@ def member_model(model: Model, chart: str, name: str) -> Model:
     t["name"] = name
     t["title"] = f"{t.get('title') or model.name}; every link in the {chart} chart (atlas member)"
     t["links"] = [dict(link, chart=chart) for link in t["links"]]
-    text = "".join(f"{json.dumps(k)} = {_toml(v)}\n" for k, v in t.items())
-    return parse_model(text, f"{model.origin or model.name} (atlas member '{name}')")
+    return parse_model(description_text(t), f"{model.origin or model.name} (atlas member '{name}')")
+
+
+def description_text(table: dict) -> str:
+    """A model description's TOML text from its table (as tomllib reads one): each key a
+    line, every table inline.  What a description derived from another is written as (an
+    atlas member here, a specialised model: derive/codegen/specialise.py), so that it is
+    hashed, cached and read again as any model file is.
+
+    Parameters
+    ----------
+    table : dict
+        The description's keys and values.
+
+    Returns
+    -------
+    str
+    """
+    return "".join(f"{json.dumps(k)} = {_toml(v)}\n" for k, v in table.items())
 
 
 def chain_atlas(model: Model) -> Atlas:

@@ -40,7 +40,7 @@ from .simulate import (_atlas, _check_size, _dtype, _finite_array, check_paramet
                        normalise_t, resolve_model, run_options)
 from ..model import load_model
 from .runner import runner_for
-from . import constraints
+from . import constraints, specialised
 
 
 @dataclass(repr=False)
@@ -159,7 +159,8 @@ def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | N
              atol: float | None = None, step: float | None = None, dtype="float64",
              threads: int | None = None, inputs=None, max_steps: int | None = None,
              hmax: float | None = None, newton_tol: float | None = None,
-             newton_max: int | None = None, sine_min: float | None = None) -> EnsembleResult:
+             newton_max: int | None = None, sine_min: float | None = None,
+             specialise: bool = False) -> EnsembleResult:
     """Integrate B trajectories of `model` (y0 of shape (B, n)) to every output time in t.
 
     Each trajectory is bit for bit the same `derive.simulate` call; with method="taylor"
@@ -180,6 +181,10 @@ def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | N
         As for `derive.simulate`.
     threads : int, optional
         How many blocks run at once (None: one per core).
+    specialise : bool, optional
+        True: kernels with the parameters that are the same for every trajectory folded in
+        as constants (derive.simulate's specialise=; a parameter that varies stays a
+        run-time one); result.model names the specialised model.
 
     Returns
     -------
@@ -225,6 +230,9 @@ def ensemble(model, y0, t, params, method: str = DEFAULT_METHOD, rtol: float | N
     p = _per_trajectory(params, B, info.param_names, "parameters", model)
     for row in np.unique(p, axis=0) if B else ():
         check_parameter_values(description, dict(zip(info.param_names, row)))
+    if specialised.check_specialise(specialise) and B:
+        specialised.refuse_unspecialisable("c", dtype_key(dt), False, "ensemble")
+        model = specialised.folded_model(model, info.param_names, p[0], np.all(p == p[0], axis=0))
     if description.inputs:
         if inputs is None or callable(inputs):
             raise SimulationInputError(f"model '{model}' needs its inputs ({', '.join(description.inputs)}) "

@@ -49,6 +49,7 @@ from .runner import Settings, runner_for
 from .taylor_solution import TaylorSolution
 from . import constraints, continuous_inputs, extended, extended_run
 from . import compiled_call
+from . import specialised
 from .result import LAZY, LOCAL_SUM, LazySolution, SimulationResult, as_fields  # noqa: F401  (SimulationResult: re-exported)
 
 from ..model.atlas import ATLAS, Atlas, atlas_family, atlas_for, find_atlas  # noqa: E402  (chart atlases)
@@ -438,7 +439,7 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
              newton_tol: float | None = None, newton_max: int | None = None,
              hmax: float | None = None, inputs=None, atlas: bool = False, events=None,
              error_estimate: str = "local", hold: str | None = None,
-             project: bool = False) -> SimulationResult:
+             project: bool = False, specialise: bool = False) -> SimulationResult:
     """Integrate `model` from y0 at t[0] and report every output time in t.
 
     Parameters
@@ -501,6 +502,13 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
         output), so r.constraint_drift is at roundoff; False (the default) runs the
         generated loop on the exact index-1 equations and reports their drift
         (derive/runtime/constraints.py).
+    specialise : bool
+        True: run kernels with the parameter values folded in as constants (the derivation
+        with the numbers substituted, then CSE and compilation again: built once per model
+        and value set into the cache, derive/codegen/specialise.py); r.model names that
+        specialised model.  The same equations: the run agrees with the general one to
+        rounding (an adaptive RK run: to its tolerance).  Compiled C in float32, float64 or
+        long double, one chart (not the atlas).
 
     Returns
     -------
@@ -559,6 +567,14 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
     >>> r.nsteps, r.step
     (100, 0.01)
     """
+    if specialise is not False:
+        known = None
+        if type(params) is tuple and specialise is True and atlas is False:
+            try:        # a repeated call with a tuple of parameters: one lookup (specialised.call_key's key)
+                known = KNOWN_SPECIALISED.get((model, params, backend, dtype))
+            except TypeError:          # an unhashable argument: _specialised's checks word it
+                pass
+        model = known or _specialised(model, params, specialise, backend, dtype, atlas)
     dispatch = compiled_call.COMPILED.dispatch
     pilot = None
     if FAST_PATH and dispatch is not None and project is False:
@@ -571,6 +587,30 @@ def simulate(model: str, y0, t, params, method: str | None = None, rtol: float |
             pilot = done[0]                 # an adaptive run's pilot, stopped at its step budget
     return _simulate(model, y0, t, params, method, rtol, atol, step, dtype, backend, max_steps, sine_min,
                      newton_tol, newton_max, hmax, inputs, atlas, events, error_estimate, hold, pilot, project)
+
+
+KNOWN_SPECIALISED = specialised.KNOWN
+
+
+def _specialised(model, params, specialise, backend, dtype, atlas) -> str:
+    """The name of the model simulate(..., specialise=True) runs: `model` with `params`
+    folded in (derive/runtime/specialised.py), looked up by the call's arguments after the
+    first call; `model` itself for specialise=False."""
+    key = specialised.call_key(model, params, backend, dtype) if specialise is True and atlas is False else None
+    name = specialised.KNOWN.get(key)
+    if name is not None:
+        return name
+    if not specialised.check_specialise(specialise):
+        return model
+    precision = extended.precision_of(dtype)
+    specialised.refuse_unspecialisable(backend, None if precision else dtype_key(_dtype(dtype)), atlas)
+    ref = model_ref(resolve_model(model, explicit_time=True))
+    if ref.atlas is not None:
+        specialised.refuse_unspecialisable(backend, dtype_key(_dtype(dtype)), True)
+    p = normalise_params(ref, params)
+    name = specialised.folded_model(ref.name, ref.info.param_names, p)
+    specialised.remember(key, name)
+    return name
 
 
 def _simulate(model, y0, t, params, method, rtol, atol, step, dtype, backend, max_steps, sine_min, newton_tol,

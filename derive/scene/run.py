@@ -35,6 +35,7 @@ from ..runtime import constraints
 from ..runtime.loop_state import consistent_state
 from ..runtime.result import as_fields
 from ..runtime.simulate import SimulationError, SimulationResult, normalise_params, simulate
+from ..runtime.specialised import folded_model
 from ..measurement.trust import (Lyapunov, REFERENCE_RTOL, atlas_lyapunov, initial_error,
                                  largest_lyapunov, trust_horizon, unit_roundoff)
 from ..model.atlas import Atlas, atlas_for, find_atlas, standard_member
@@ -260,9 +261,11 @@ def check_effort(scene: Scene, lyap: Lyapunov | None, c: Choice) -> None:
 
 
 def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
-              tighten: float = 1.0, dtype: str | None = None) -> SimulationResult:
+              tighten: float = 1.0, dtype: str | None = None, specialise: bool = False) -> SimulationResult:
     """The scene's run in CHUNKS pieces (fixed, so results do not depend on the display);
-    a fixed-step run in one piece: its grid t0 + k step must not restart at a piece's start."""
+    a fixed-step run in one piece: its grid t0 + k step must not restart at a piece's start.
+    `specialise`: on kernels with the parameters folded in (specialised_model), on the rungs
+    that have them (not double-double or quad, which read p at run time)."""
     t = np.linspace(scene.t_start, scene.t_stop, scene.outputs)
     # a stepped run in one piece too: its continuous solution is its own steps
     pieces = 1 if (c.step is not None and c.method not in ADAPTIVE) or stepped.is_stepped(scene) else \
@@ -276,7 +279,8 @@ def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
                      rtol=None if rtol is None else rtol / tighten,
                      atol=None if atol is None or (dtype or c.dtype) in EXTENDED else atol / tighten,
                      step=None if c.step is None else c.step / tighten,
-                     dtype=dtype or c.dtype, backend=scene.backend, inputs=stepped.run_inputs(scene))
+                     dtype=dtype or c.dtype, backend=scene.backend, inputs=stepped.run_inputs(scene),
+                     specialise=specialise and (dtype or c.dtype) not in EXTENDED)
         parts.append(r)
         if progress:
             progress.update(k + 1)
@@ -286,6 +290,17 @@ def integrate(p: Plan, scene: Scene, c: Choice, progress: Progress | None,
         last = _on_the_loop(p, last)
         y0 = last if find_atlas(p.model) is None else {"chart": r.chart[-1], "state": list(r.y[-1])}
     return _join(parts)
+
+
+def specialised_model(p: Plan, scene: Scene) -> str | None:
+    """The model a scene with pendulum.specialise = true runs: the planned model with the
+    plan's parameters folded into its kernels (derive/runtime/specialised.py); None without
+    the key, or on the chart atlas (a scene whose chart meets its pole runs again there,
+    with p at run time).  Only the scene's own run takes it: the reference it is measured
+    against runs the general kernels, so the measured error includes what folding changed."""
+    if not scene.specialise or find_atlas(p.model) is not None:
+        return None
+    return folded_model(p.model, model_info(p.model).param_names, normalise_params(p.model, p.params))
 
 
 def _on_the_loop(p: Plan, y):
@@ -518,12 +533,15 @@ def _run_plan(scene: Scene, p: Plan, show_progress: bool, start: float) -> Outco
         steps = prepare(p.model, scene.backend, stage)
         if scene.step is not None:
             check_effort(scene, None, choose(scene, None))     # a fixed step: before any work
+        specialised = specialised_model(p, scene)
+        if specialised is not None:
+            steps += prepare(specialised, scene.backend, stage)
         stage.set("estimating the largest Lyapunov exponent")
         lyap = _lyapunov(p, scene)
     c = choose(scene, lyap)
     check_effort(scene, lyap, c)
     progress = Progress("integrating", CHUNKS) if show_progress else None
-    result = integrate(p, scene, c, progress)
+    result = integrate(p, scene, c, progress, specialise=specialised is not None)
     if progress:
         progress.close()
     achieved, unmeasured = None, ""
@@ -557,7 +575,7 @@ def _run_plan(scene: Scene, p: Plan, show_progress: bool, start: float) -> Outco
             c.method, c.dtype, c.rtol = method, dtype, rtol
             c.atol = None if c.dtype in EXTENDED else c.rtol
             c.note = (c.note + "; " if c.note else "") + f"tightened rtol after measuring {achieved:.2g}"
-            result = integrate(p, scene, c, None)
+            result = integrate(p, scene, c, None, specialise=specialised is not None)
             if not result.ok:
                 break
             if c.rtol < 100 * ref_rtol:           # the reference must stay far tighter
@@ -795,6 +813,8 @@ def summary(o: Outcome) -> dict:
     return {
         "scene": o.scene.source, "title": o.scene.title,
         "model": o.plan.model, "model_reason": o.plan.reason,
+        # pendulum.specialise: the kernels the run took, the parameters folded in (or None)
+        "specialised": r.model if o.scene.specialise and r.model != o.plan.model else None,
         "method": o.choice.method, "rtol": o.choice.rtol, "step": o.choice.step,
         "last_step": r.last_step,
         "dtype": o.choice.dtype, "backend": o.scene.backend,

@@ -59,6 +59,7 @@ class Scene:
     events: dict | None = None       # [events]: name -> expression or {expression, direction, terminal}
     atlas: bool | None = None        # pendulum.atlas; None: the chart atlas where the motion needs it
     guard: tuple | None = None       # abm12: (rtol, atol) of its stability guard (None: simulate's default)
+    specialise: bool = False         # pendulum.specialise: the run's kernels with the parameters folded in
 
 
 def _table(t: dict, key: str, where: str, required: bool = True) -> dict:
@@ -101,7 +102,7 @@ def _parameter_names(model: str) -> tuple[str, ...]:
 
 
 def _parse_pendulum(t: dict, folder: Path) -> tuple[str, dict[str, float], bool | None]:
-    _known(t, ("model", "parameters", "inputs", "atlas"), "[pendulum]")
+    _known(t, ("model", "parameters", "inputs", "atlas", "specialise"), "[pendulum]")
     atlas = t.get("atlas")
     if atlas is not None and not isinstance(atlas, bool):
         raise SceneError(f"'pendulum.atlas' must be true or false, got {atlas!r}")
@@ -418,11 +419,28 @@ def scene_from_table(t: dict, source: str = "<scene>") -> Scene:
     if not isinstance(title, str):
         raise SceneError("'title' must be a string")
     initial = close_loop_start(initial, model, params)
+    specialise = _parse_specialise(_table(t, "pendulum", source), model, accuracy)
     scene = Scene(source=source, title=title, model=model, parameters=params, initial=initial,
                   t_start=start, t_stop=stop, outputs=outputs, inputs=inputs, events=events,
-                  atlas=atlas, **accuracy, **output)
+                  atlas=atlas, specialise=specialise, **accuracy, **output)
     stepped.check(scene)
     return scene
+
+
+def _parse_specialise(t: dict, model: str, accuracy: dict) -> bool:
+    """pendulum.specialise: true runs the scene on kernels with its parameters folded in
+    (derive.simulate's specialise=); refused where no such kernels run: the chart atlas, the
+    NumPy backend."""
+    value = t.get("specialise", False)
+    if not isinstance(value, bool):
+        raise SceneError(f"'pendulum.specialise' must be true or false, got {value!r}")
+    if value and find_atlas(model) is not None:
+        raise SceneError(f"'pendulum.specialise' runs one chart's model, not the chart atlas '{model}': "
+                         f"leave it out, or run one chart")
+    if value and accuracy.get("backend", "c") != "c":
+        raise SceneError("'pendulum.specialise' folds the parameters into compiled C: it runs with "
+                         "accuracy.backend = \"c\"")
+    return value
 
 
 def _output_folder(directory: Path, source: str) -> Path:

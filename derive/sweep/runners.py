@@ -14,15 +14,26 @@ from ..model.description import _from_files
 from ..paths import cache_dir, replace_file
 from ..runtime.build import dtype_key
 from ..runtime.runner import runner_for
+from ..runtime.specialised import folded_model
 from .sweep_file import Sweep
 
 
 def model_name(sweep: Sweep) -> str:
     """The model's name here; a model file's description is written into this machine's
-    cache and read from there (a worker needs no copy of the sweep's files)."""
-    if sweep.model_text is None:
-        return sweep.scene.model
-    return _register(sweep.model_text)
+    cache and read from there (a worker needs no copy of the sweep's files).  With
+    pendulum.specialise = true, the model with the parameters the sweep does not sweep
+    folded in (each worker makes the same one: its name is the digest of the values)."""
+    name = sweep.scene.model if sweep.model_text is None else _register(sweep.model_text)
+    if not sweep.scene.specialise:
+        return name
+    # (sweep.swept, not the axes: a chunk's task carries the sweep without them)
+    return _specialised(name, tuple((k, v) for k, v in sweep.scene.parameters.items() if k not in sweep.swept))
+
+
+@lru_cache(maxsize=64)
+def _specialised(name: str, fixed: tuple) -> str:
+    values = dict(fixed)
+    return folded_model(name, tuple(values), tuple(values.values()))
 
 
 @lru_cache(maxsize=None)

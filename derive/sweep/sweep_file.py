@@ -96,6 +96,7 @@ class Sweep:
     p: np.ndarray                         # the base parameters (and inputs)
     text: str = field(repr=False, default="")    # the file as read (its hash names the sweep)
     free: tuple[int, ...] = ()            # a closed loop's free coordinates (each start closed from them)
+    swept: tuple[str, ...] = ()           # the parameters on an axis (pendulum.specialise folds the others)
 
     @property
     def grid_axes(self) -> tuple[Axis, ...]:
@@ -469,7 +470,8 @@ def parse_sweep(text: str, source: str = "<sweep>", run_as: str | None = None) -
                   axes=axes, events=events, record=record, chunk=chunk, mirror=mirror,
                   state_names=tuple(description.state_names),
                   parameter_names=tuple(description.parameters) + tuple(description.inputs),
-                  y0=y0, p=p, text=text, free=free)
+                  y0=y0, p=p, text=text, free=free,
+                  swept=tuple(a.name for a in axes if a.target == "parameter"))
     if sweep.size > MAX_TRAJECTORIES:
         raise SceneError(f"{source}: {sweep.size:,} trajectories are more than one sweep takes "
                          f"({MAX_TRAJECTORIES:,}); split it")

@@ -41,6 +41,8 @@ def test_race_quick_writes_its_table(tmp_path):
     rows = (tmp_path / "race.csv").read_text().splitlines()
     assert any(r.startswith("regular,heyoka taylor") for r in rows)
     assert any(r.startswith("regular,heyoka-numbers taylor") for r in rows)
+    assert any(r.startswith("regular,derive-specialised ") for r in rows)
+    assert any(r.startswith("one call,derive-specialised dop853,simulate") for r in rows)
     assert (tmp_path / "race.png").stat().st_size > 10_000
 
 
@@ -58,21 +60,34 @@ def test_heyoka_with_the_parameters_folded_in_integrates_the_same_equations():
     assert np.allclose(f_num(np.ascontiguousarray(y.T)), theirs, rtol=1e-13, atol=1e-13)
 
 
-def test_the_table_has_both_heyoka_settings_their_ratios_and_the_steps():
-    """The summary's ratios are the peers' times over derive's; the per-step table pairs the
-    tools by tolerance (made-up points: the table's logic, no timing)."""
+def test_the_table_pairs_each_derive_setting_with_its_heyoka_setting():
+    """Two pairings in one table: derive (p at run time) against heyoka with par[], derive
+    specialised (the numbers folded in) against heyoka-numbers; each ratio is the peer's time
+    over its derive's; the per-step table pairs the tools by tolerance the same way
+    (made-up points: the table's logic, no timing)."""
     P = race.Point
     rows = [race.Row("chaotic", "chaotic", [P("derive taylor", "rtol=1e-10", 2e-4, 1e-9),
+                                             P("derive-specialised taylor", "rtol=1e-10", 1e-4, 1e-9),
+                                             P("derive-specialised dop853", "rtol=1e-12", 5e-5, 1e-7),
                                              P("heyoka taylor", "tol=1e-10", 1e-4, 1e-9),
                                              P("heyoka-numbers taylor", "tol=1e-10", 5e-5, 1e-9),
                                              P("heyoka-numbers taylor", "tol=1e-8", 1e-5, 1e-6)]),
+            race.Row("quad", "quad", [P("derive taylor double-double", "rtol=1e-24", 1e-1, 1e-20),
+                                       P("heyoka taylor real128", "tol=1e-24", 1.0, 1e-20)]),
             race.Row("per step", "per step", [P("derive taylor", "order=13 steps=150 rtol=1e-10", 1e-6, 0.0),
+                                               P("derive-specialised taylor", "order=13 steps=150 rtol=1e-10",
+                                                 4e-7, 0.0),
                                                P("heyoka taylor", "order=13 steps=151 tol=1e-10", 2e-6, 0.0),
                                                P("heyoka-numbers taylor", "order=13 steps=151 tol=1e-10", 5e-7, 0.0)])]
     summary = race.summary_rows(race.Race(rows, "7", "m"))
-    assert len(summary) == 1
-    assert summary[0]["heyoka ratio"] == pytest.approx(0.5)
-    assert summary[0]["heyoka-numbers ratio"] == pytest.approx(0.25)     # the 1e-6 point misses the target
+    assert len(summary) == 2
+    chaotic, quad = summary
+    assert chaotic["heyoka ratio"] == pytest.approx(0.5)                # heyoka par[] / derive general
+    # heyoka-numbers / derive specialised: the points that miss the target (1e-6, 1e-7) do not count
+    assert chaotic["heyoka-numbers ratio"] == pytest.approx(0.5)
+    assert chaotic["derive-specialised setting"] == "taylor rtol=1e-10"
+    assert quad["derive-specialised"] == "-" and quad["heyoka-numbers ratio"] is None   # no such setting there
+    assert quad["heyoka ratio"] == pytest.approx(10)
     text = race.markdown(race.Race(rows, "7", "m", "1/2/3"))
-    assert "| 1e-10 | 13 | 1 us | 150 | 2 us | 151 | 2.00 | 0.5 us | 0.50 |" in text
-    assert "heyoka-numbers / derive" in text and "load 1/2/3" in text
+    assert "| 1e-10 | 13 | 1 us | 150 | 2 us | 151 | 2.00 | 0.4 us | 0.5 us | 1.25 |" in text
+    assert "heyoka-numbers / derive specialised" in text and "load 1/2/3" in text
