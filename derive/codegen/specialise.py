@@ -68,9 +68,9 @@ def exact_value(value) -> tuple[int, int]:
 def folded_number(ratio: tuple[int, int]) -> sp.Number:
     """The SymPy number a value is folded in as: 0, 1 and -1 as Integers (the terms they
     remove and the factors they drop are most of what folding gains), any other value as a
-    Float of FOLD_BITS bits holding it exactly.  Not an Integer 20 (a frequency w = 20):
-    the code generator writes sin(n u) with an integer n as a polynomial in sin u and cos u
-    (spec._multiple_angles, for sin 2u), whose cancellation at n = 20 would cost digits."""
+    Float of FOLD_BITS bits holding it exactly, so that a folded expression keeps the
+    general one's shape (a frequency w = 2 folded as the Integer 2 would turn sin(w t)
+    into 2 sin t cos t: spec._multiple_angles)."""
     n, d = ratio
     if d == 1 and abs(n) <= 1:
         return sp.Integer(n)

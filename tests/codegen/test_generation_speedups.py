@@ -113,3 +113,13 @@ def test_languages_rendered_side_by_side_are_the_same_files(monkeypatch):
     assert asked == [None]                      # the worker path was taken
     monkeypatch.setattr(sources, "PARALLEL_OPS", 10 ** 9)
     assert sources.render_fresh(name) == side_by_side
+
+
+def test_only_the_double_angle_is_expanded():
+    """sin(2u) becomes 2 sin u cos u (one call fewer); cos(20 t) stays one call (its
+    degree-20 polynomial in sin t, cos t cancels to about 1e-9)."""
+    from derive.codegen.spec import _multiple_angles
+    t = sp.Symbol("t", real=True)
+    assert _multiple_angles(sp.sin(2 * t)) == 2 * sp.sin(t) * sp.cos(t)
+    assert _multiple_angles(sp.cos(20 * t)) == sp.cos(20 * t)
+    assert _multiple_angles(sp.sin(3 * x) + sp.cos(y)) == sp.sin(3 * x) + sp.cos(y)

@@ -74,8 +74,8 @@ def test_adaptive_runs_agree_to_their_tolerance(dtype):
 
 
 def test_an_integer_frequency_keeps_its_digits():
-    """w = 20 in cos(w t) (a driven pivot): folded as 20.0, not the integer 20 whose
-    multiple angle the code generator would expand into a degree-20 polynomial (1e-9 off)."""
+    """w = 20 in cos(w t) (a driven pivot): the folded kernel agrees with the general one to
+    rounding (a degree-20 polynomial for cos(20 t), the multiple angle expanded, was 1e-9 off)."""
     model = str(ROOT / "examples" / "models" / "driven_pivot.toml")
     params = {"m": 1.0, "l": 1.0, "g": 9.81, "a": 0.1, "w": 20.0}
     a, b = _both(model, [0.1, 0.0], np.linspace(0, 2, 11), params, method="rk4", step=1e-3)
