@@ -106,15 +106,23 @@ def scipy_rhs(model, params, inputs=None, backend: str = "c") -> ScipyRHS:
         return (p, np.asarray(u.at(t, y), np.float64))
 
     time = (lambda t: (t,)) if timed else (lambda t: ())
+    # one state at a time, the parameters (and fixed inputs) bound once: what solve_ivp calls
+    fast = hasattr(rhs, "at_point") and not timed and not isinstance(u, HeldInputs)
+    point = rhs.at_point(*arguments(0.0, None)) if fast else None
+    jac_point = jacobian.at_point(*arguments(0.0, None)) if fast else None
 
     def fun(t, y):
         y = np.asarray(y, np.float64)
         if y.ndim == 2:                      # solve_ivp(vectorized=True): (n, k)
             return np.asarray(rhs(*time(t), np.ascontiguousarray(y.T), *arguments(t, y))).T
+        if point is not None:
+            return point(y)
         return np.asarray(rhs(*time(t), y.reshape(info.n), *arguments(t, y)))
 
     def jac(t, y):
         y = np.asarray(y, np.float64).reshape(info.n)
+        if jac_point is not None:
+            return jac_point(y)
         return np.asarray(jacobian(*time(t), y, *arguments(t, y)))
 
     return ScipyRHS(fun, jac)

@@ -123,3 +123,28 @@ def test_only_the_double_angle_is_expanded():
     assert _multiple_angles(sp.sin(2 * t)) == 2 * sp.sin(t) * sp.cos(t)
     assert _multiple_angles(sp.cos(20 * t)) == sp.cos(20 * t)
     assert _multiple_angles(sp.sin(3 * x) + sp.cos(y)) == sp.sin(3 * x) + sp.cos(y)
+
+
+@pytest.mark.parametrize("model", ["planar", "spherical_std", "examples/models/cart_pole.toml"])
+def test_a_kernel_at_one_point_is_the_batch_call(model):
+    """CKernel.at_point (what scipy_rhs's fun and jac call for one state) gives the batch
+    entry point's numbers, NaN included (a chart's singular state)."""
+    from derive.runtime.loader import load
+    from derive.runtime.simulate import resolve_model
+    name = resolve_model(model)
+    kernels = load(name)
+    from derive.model import load_model
+    info = load_model(name)
+    rng = np.random.default_rng(5)
+    p = rng.uniform(0.5, 1.5, len(info.parameters))
+    fixed = (p,) if not info.inputs else (p, rng.uniform(-1, 1, len(info.inputs)))
+    rhs, jac = kernels.rhs.at_point(*fixed), kernels.jacobian.at_point(*fixed)
+    n = 2 * len(info.coordinate_names)
+    states = [rng.uniform(-1, 1, n) for _ in range(5)]
+    if model == "spherical_std":
+        states.append(np.zeros(n))              # theta = 0: the standard chart's pole
+    for y in states:
+        np.testing.assert_array_equal(rhs(y), kernels.rhs(y, *fixed))
+        np.testing.assert_array_equal(jac(y), kernels.jacobian(y, *fixed))
+    with pytest.raises(ValueError, match="must have"):
+        rhs(np.zeros(n + 1))
