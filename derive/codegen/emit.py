@@ -141,8 +141,10 @@ def compound_angle_rewrites(spec: ModelSpec) -> dict[sp.Expr, sp.Expr]:
     return out
 
 
-def cse_file(spec: ModelSpec) -> list[Body]:
-    """One CSE pass over all outputs of the file, split back into kernels."""
+def cse_file(spec: ModelSpec, compound_angles: bool = True) -> list[Body]:
+    """One CSE pass over all outputs of the file, split back into kernels; without
+    `compound_angles`, sin/cos of a compound angle stay whole (compound_angle_rewrites is
+    for the scalar kernels: Taylor's jet weighs it by its own costs, codegen/taylor.py)."""
     stage_defs: dict[sp.Symbol, sp.Expr] = {}
     for k in spec.kernels:
         for sym, expr in k.stages:
@@ -158,7 +160,7 @@ def cse_file(spec: ModelSpec) -> list[Body]:
             roots += list(out.exprs)
         spans.append((start, len(roots)))
     memo: dict = {}
-    angles = compound_angle_rewrites(spec)
+    angles = compound_angle_rewrites(spec) if compound_angles else {}
     roots = [collect_constants(sp.sympify(r).xreplace(angles), varying, memo) for r in roots]
 
     fresh = _numbered("_cse")

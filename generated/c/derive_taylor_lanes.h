@@ -66,10 +66,14 @@
  * and derive_taylor_lanes_batch_T (n, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info).
  */
 
+#include "derive_sincos.h"
+
 #undef LANES_ADD
 #undef LANES_SUB
 #undef LANES_SCALE
 #undef LANES_SHIFT
+#undef LANES_CSUB
+#undef LANES_SQUARE
 #undef LANES_MUL
 #undef LANES_DIV
 #undef LANES_SQRT
@@ -132,20 +136,40 @@ DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_shift)(R *DERIVE_LANES_REST
     }
 }
 #endif
+#if DERIVE_LANES_USES_CSUB
+
+/* u = c - a at order 0, -a above (c the lane's constant) */
+DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_csub)(R *DERIVE_LANES_RESTRICT u, const R *DERIVE_LANES_RESTRICT c, const R *DERIVE_LANES_RESTRICT a, int k)
+{
+    int l;
+    for (l = 0; l < L; ++l) {
+        u[l] = k == 0 ? c[l] - a[l] : -a[l];
+    }
+}
+#endif
+
+/* The sums of products in derive_taylor.h's order: from the middle out (the terms of the
+ * oldest coefficients first), each from -0. */
 #if DERIVE_LANES_USES_MUL
 
-/* coefficient k of a b: sum_{j=0..k} a_j b_{k-j} */
+/* coefficient k of a b: sum_{j=0..k} a_j b_{k-j}, the pairs (j, k - j) inward out */
 DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_mul)(R *DERIVE_LANES_RESTRICT u, const R *DERIVE_LANES_RESTRICT a, const R *DERIVE_LANES_RESTRICT b, int k)
 {
     R acc[L];
     int j, l;
     for (l = 0; l < L; ++l) {
-        acc[l] = 0;
+        acc[l] = -(R)0;
+    }
+    if (k % 2 == 0) {
+        for (l = 0; l < L; ++l) {
+            acc[l] += a[k / 2 * L + l] * b[k / 2 * L + l];
+        }
     }
     DERIVE_TAYLOR_UNROLL
-    for (j = 0; j <= k; ++j) {
+    for (j = (k + 1) / 2 - 1; j >= 0; --j) {
         for (l = 0; l < L; ++l) {
             acc[l] += a[j * L + l] * b[(k - j) * L + l];
+            acc[l] += a[(k - j) * L + l] * b[j * L + l];
         }
     }
     for (l = 0; l < L; ++l) {
@@ -153,95 +177,166 @@ DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_mul)(R *DERIVE_LANES_RESTRI
     }
 }
 #endif
+#if DERIVE_LANES_USES_SQUARE || DERIVE_LANES_USES_SQRT
+
+/* sum_{j=1..k-1} a_j a_{k-j} (k >= 1) as 2 sum_{1<=j<k/2} a_j a_{k-j} (+ a_{k/2}^2, k even) */
+DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_inner_square)(R *DERIVE_LANES_RESTRICT acc, const R *DERIVE_LANES_RESTRICT a, int k)
+{
+    int j, l;
+    for (l = 0; l < L; ++l) {
+        acc[l] = -(R)0;
+    }
+    DERIVE_TAYLOR_UNROLL
+    for (j = (k + 1) / 2 - 1; j >= 1; --j) {
+        for (l = 0; l < L; ++l) {
+            acc[l] += a[j * L + l] * a[(k - j) * L + l];
+        }
+    }
+    for (l = 0; l < L; ++l) {
+        acc[l] += acc[l];
+    }
+    if (k % 2 == 0) {
+        for (l = 0; l < L; ++l) {
+            acc[l] += a[k / 2 * L + l] * a[k / 2 * L + l];
+        }
+    }
+}
+#endif
+#if DERIVE_LANES_USES_SQUARE
+
+/* coefficient k of a a: the inner products, then 2 a_0 a_k */
+DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_square)(R *DERIVE_LANES_RESTRICT u, const R *DERIVE_LANES_RESTRICT a, int k)
+{
+    R acc[L];
+    int l;
+    if (k == 0) {
+        for (l = 0; l < L; ++l) {
+            u[l] = a[l] * a[l];
+        }
+        return;
+    }
+    DERIVE_LANES_T(derive_lanes_inner_square)(acc, a, k);
+    for (l = 0; l < L; ++l) {
+        u[l] = acc[l] + a[l] * (R)2 * a[k * L + l];
+    }
+}
+#endif
 #if DERIVE_LANES_USES_DIV
 
-/* coefficient k of u = a / b, given a_k (ak null: u = 1 / b) and u_0..u_{k-1} */
+/* coefficient k of u = a / b, given a_k (ak null: u = 1 / b) and u_0..u_{k-1}:
+ * (a_k - sum_{j=1..k} b_j u_{k-j}) / b_0, the pairs of 1 <= j < k inward out, then b_k u_0 */
 DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_div)(R *DERIVE_LANES_RESTRICT u, const R *DERIVE_LANES_RESTRICT ak, const R *DERIVE_LANES_RESTRICT b, int k)
 {
     R acc[L];
     int j, l;
-    for (l = 0; l < L; ++l) {
-        acc[l] = ak ? ak[l] : (R)(k == 0);
-    }
-    for (j = 1; j <= k; ++j) {
+    if (k == 0) {
         for (l = 0; l < L; ++l) {
-            acc[l] -= b[j * L + l] * u[(k - j) * L + l];
+            u[l] = (ak ? ak[l] : (R)1) / b[l];
+        }
+        return;
+    }
+    for (l = 0; l < L; ++l) {
+        acc[l] = -(R)0;
+    }
+    if (k % 2 == 0) {
+        for (l = 0; l < L; ++l) {
+            acc[l] += b[k / 2 * L + l] * u[k / 2 * L + l];
+        }
+    }
+    DERIVE_TAYLOR_UNROLL
+    for (j = (k + 1) / 2 - 1; j >= 1; --j) {
+        for (l = 0; l < L; ++l) {
+            acc[l] += b[j * L + l] * u[(k - j) * L + l];
+            acc[l] += b[(k - j) * L + l] * u[j * L + l];
         }
     }
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = acc[l] / b[l];
+        acc[l] += b[k * L + l] * u[l];
+        u[k * L + l] = ((ak ? ak[l] : (R)0) - acc[l]) / b[l];
     }
 }
 #endif
 #if DERIVE_LANES_USES_SQRT
 
-/* coefficient k of u = sqrt(a), given a_k */
+/* coefficient k of u = sqrt(a), given a_k: (a_k - sum_{j=1..k-1} u_j u_{k-j}) / (2 u_0) */
 DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_sqrt)(R *DERIVE_LANES_RESTRICT u, const R *DERIVE_LANES_RESTRICT ak, int k)
 {
     R acc[L];
-    int j, l;
+    int l;
     if (k == 0) {
         for (l = 0; l < L; ++l) {
             u[l] = DERIVE_LANES_M(sqrt)(ak[l]);
         }
         return;
     }
+    DERIVE_LANES_T(derive_lanes_inner_square)(acc, u, k);
     for (l = 0; l < L; ++l) {
-        acc[l] = ak[l];
-    }
-    for (j = 1; j < k; ++j) {
-        for (l = 0; l < L; ++l) {
-            acc[l] -= u[j * L + l] * u[(k - j) * L + l];
-        }
-    }
-    for (l = 0; l < L; ++l) {
-        u[k * L + l] = acc[l] / (2 * u[l]);
+        u[k * L + l] = (ak[l] - acc[l]) / (u[l] * (R)2);
     }
 }
 #endif
 #if DERIVE_LANES_USES_SINCOS || DERIVE_LANES_USES_EXP
 
-/* acc = (1/k) sum_{j=1..k} j a_j w_{k-j} (k >= 1): coefficient k of sin a (w = cos a), of
- * -cos a (w = sin a) and of exp a (w = exp a) */
-DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_chain)(R *DERIVE_LANES_RESTRICT acc, const R *DERIVE_LANES_RESTRICT a, const R *DERIVE_LANES_RESTRICT w, int k)
+/* acc = sum_{j=1..k} j a_j w_{k-j} (k >= 1), the pairs of 1 <= j < k inward out, then
+ * k a_k w_0; with v (not null) also vacc = sum_{j=1..k} j a_j v_{k-j}, each j a_j once */
+DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_chain)(R *DERIVE_LANES_RESTRICT acc, R *DERIVE_LANES_RESTRICT vacc, const R *DERIVE_LANES_RESTRICT a, const R *w, const R *v, int k)
 {
+    R ja;
     int j, l;
     for (l = 0; l < L; ++l) {
-        acc[l] = 0;
+        acc[l] = -(R)0;
+        vacc[l] = -(R)0;
+    }
+    if (k % 2 == 0) {
+        for (l = 0; l < L; ++l) {
+            ja = a[k / 2 * L + l] * (R)(k / 2);
+            acc[l] += ja * w[k / 2 * L + l];
+            vacc[l] += v ? ja * v[k / 2 * L + l] : (R)0;
+        }
     }
     DERIVE_TAYLOR_UNROLL
-    for (j = 1; j <= k; ++j) {
+    for (j = (k + 1) / 2 - 1; j >= 1; --j) {
         for (l = 0; l < L; ++l) {
-            acc[l] += (R)j * a[j * L + l] * w[(k - j) * L + l];
+            ja = a[j * L + l] * (R)j;
+            acc[l] += ja * w[(k - j) * L + l];
+            vacc[l] += v ? ja * v[(k - j) * L + l] : (R)0;
+            ja = a[(k - j) * L + l] * (R)(k - j);
+            acc[l] += ja * w[j * L + l];
+            vacc[l] += v ? ja * v[j * L + l] : (R)0;
         }
     }
     for (l = 0; l < L; ++l) {
-        acc[l] /= (R)k;
+        ja = a[k * L + l] * (R)k;
+        acc[l] += ja * w[l];
+        vacc[l] += v ? ja * v[l] : (R)0;
     }
 }
 #endif
 #if DERIVE_LANES_USES_SINCOS
 
-/* coefficient k of s = sin a and c = cos a; at order 0 libm's sin and cos, lane by lane
- * (GCC fuses the two calls into glibc's sincos, whose results are sin's and cos') */
+/* coefficient k of s = sin a and c = cos a together; at order 0 derive_sincos.h's
+ * function, the scalar integrator's (its polynomial in vector instructions, libm's sin
+ * and cos past its range, lane by lane) */
 DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_sincos)(R *DERIVE_LANES_RESTRICT s, R *DERIVE_LANES_RESTRICT c, const R *DERIVE_LANES_RESTRICT a, int k)
 {
-    R acc[L];
+    R ssum[L], csum[L];
     int l;
     if (k == 0) {
         for (l = 0; l < L; ++l) {
-            s[l] = DERIVE_LANES_M(sin)(a[l]);
-            c[l] = DERIVE_LANES_M(cos)(a[l]);
+            DERIVE_LANES_M(derive_sincos_reduced)(a[l], &s[l], &c[l]);
+        }
+        for (l = 0; l < L; ++l) {
+            if (DERIVE_LANES_M(derive_sincos_outside)(a[l])) {
+                s[l] = DERIVE_LANES_M(sin)(a[l]);
+                c[l] = DERIVE_LANES_M(cos)(a[l]);
+            }
         }
         return;
     }
-    DERIVE_LANES_T(derive_lanes_chain)(acc, a, c, k);
+    DERIVE_LANES_T(derive_lanes_chain)(ssum, csum, a, c, s, k);
     for (l = 0; l < L; ++l) {
-        s[k * L + l] = acc[l];
-    }
-    DERIVE_LANES_T(derive_lanes_chain)(acc, a, s, k);
-    for (l = 0; l < L; ++l) {
-        c[k * L + l] = -acc[l];
+        s[k * L + l] = ssum[l] / (R)k;
+        c[k * L + l] = -(csum[l] / (R)k);
     }
 }
 #endif
@@ -250,7 +345,7 @@ DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_sincos)(R *DERIVE_LANES_RES
 /* coefficient k of u = exp a */
 DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_exp)(R *u, const R *DERIVE_LANES_RESTRICT a, int k)
 {
-    R acc[L];
+    R acc[L], unused[L];
     int l;
     if (k == 0) {
         for (l = 0; l < L; ++l) {
@@ -258,9 +353,9 @@ DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_exp)(R *u, const R *DERIVE_
         }
         return;
     }
-    DERIVE_LANES_T(derive_lanes_chain)(acc, a, u, k);
+    DERIVE_LANES_T(derive_lanes_chain)(acc, unused, a, u, 0, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = acc[l];
+        u[k * L + l] = acc[l] / (R)k;
     }
 }
 #endif
@@ -304,6 +399,8 @@ DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_guard)(int *DERIVE_LANES_RE
 #define LANES_SUB DERIVE_LANES_T(derive_lanes_sub)
 #define LANES_SCALE DERIVE_LANES_T(derive_lanes_scale)
 #define LANES_SHIFT DERIVE_LANES_T(derive_lanes_shift)
+#define LANES_CSUB DERIVE_LANES_T(derive_lanes_csub)
+#define LANES_SQUARE DERIVE_LANES_T(derive_lanes_square)
 #define LANES_MUL DERIVE_LANES_T(derive_lanes_mul)
 #define LANES_DIV DERIVE_LANES_T(derive_lanes_div)
 #define LANES_SQRT DERIVE_LANES_T(derive_lanes_sqrt)
@@ -514,6 +611,22 @@ static int DERIVE_LANES_T(derive_lanes_smaller)(R x1, R y1, R x2, R y2)
     return 0;
 }
 
+/* x^n (n >= 1) by squaring, as derive_taylor.h's derive_taylor_powi */
+static R DERIVE_LANES_T(derive_lanes_powi)(R x, int n)
+{
+    R result = 1, square = x;
+    for (;;) {
+        if (n & 1) {
+            result *= square;
+        }
+        n >>= 1;
+        if (!n) {
+            return result;
+        }
+        square *= square;
+    }
+}
+
 /* Lane l after the jet: its step (Jorba & Zou, as the scalar) and the output times inside
  * it; r->tau[l] the step.  Returns a status (OK: advance). */
 static int DERIVE_LANES_T(derive_lanes_step)(DERIVE_LANES_T(derive_lanes_run) *r, int l)
@@ -591,7 +704,7 @@ static int DERIVE_LANES_T(derive_lanes_advanced)(DERIVE_LANES_T(derive_lanes_run
     int i;
     /* the truncation error, as the scalar estimates it: the first term left out,
      * |x_p| h^p (h / rho) */
-    ln->info->local_error += ln->rho > 0 ? (double)(ln->n2 * DERIVE_LANES_M(pow)(ln->h, (R)r->order) * (ln->h / ln->rho)) : 0;
+    ln->info->local_error += ln->rho > 0 ? (double)(ln->n2 * DERIVE_LANES_T(derive_lanes_powi)(ln->h, r->order) * (ln->h / ln->rho)) : 0;
     ln->t = ln->last ? ln->tend : ln->t + ln->h * ln->dir;
     ln->steps += 1;
     ln->info->naccepted += 1;
