@@ -532,6 +532,19 @@ def counts(d: Decomposition) -> dict:
 # -- rendering -------------------------------------------------------------------------
 
 COST_ORDER = 12          # the order at which jets' costs are weighed (taylor_order(1e-9) is 11)
+# The jet's cost (jet_cost) up to which derive_taylor.h inlines the recurrences at a fixed
+# order: unrolled, the jet's code is about 11 bytes an operation (x86-64, AVX-512 build) on
+# some 4 KB of the rest, and past 32 KB it outgrows the instruction cache of most x86-64
+# cores, after which calls of the recurrences (their loops: some 20 KB in all) run as fast
+# and steadier.  Planar (jet_cost, us a step inlined / called, one AVX-512 build): order 13
+# (2766) 0.38 / 0.59; 14 (3190) 0.49 to 0.74 / 0.60, the inlined figure varying from one
+# build of the same file to the next by where its code lands in memory; 16 (4131) 0.77 / 0.73.
+INLINE_BUDGET = 2800
+
+
+def inline_max(d: Decomposition) -> int:
+    """The largest order whose jet costs at most INLINE_BUDGET (0: none)."""
+    return max((p for p in range(2, TAYLOR_ORDER_MAX + 1) if jet_cost(d, p) <= INLINE_BUDGET), default=0)
 
 
 @forget_on_model_change
@@ -695,7 +708,7 @@ def render_taylor(name: str) -> dict[str, str]:
         header = f"{name}_{stem}.h"
         ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops),
                "uses": {k: k in called for k in TAYLOR_CALLS},
-               "nconst": len(d.constants), "timed": d.timed, "reads_time": d.reads_time, **ORDER_RULE, **library_context(name, info), "header": header,
+               "nconst": len(d.constants), "timed": d.timed, "inline_max": inline_max(d), "reads_time": d.reads_time, **ORDER_RULE, **library_context(name, info), "header": header,
                "guard": f"{M}_{stem.upper()}_H", "quad": "quad" in names, "dd": "double-double" in names,
                "precisions": _precisions([TAYLOR_VARIANTS[v] for v in names]),
                "op_summary": ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())),

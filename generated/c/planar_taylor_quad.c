@@ -52,6 +52,8 @@
 #define DERIVE_TAYLOR_ORDER_FOR(tol) (ceil(-log(tol) / 2 + 1))
 #define DERIVE_TAYLOR_DIM ORDER_DIM
 #define DERIVE_TAYLOR_UNROLL TAYLOR_UNROLL
+/* the orders up to which the recurrences are inlined (the unrolled jet within the instruction cache) */
+#define DERIVE_TAYLOR_INLINE_MAX 13
 #define DERIVE_TAYLOR_USES_DIV 1
 #define DERIVE_TAYLOR_USES_EXP 0
 #define DERIVE_TAYLOR_USES_MUL 1

@@ -79,12 +79,17 @@ static int DERIVE_TAYLOR_JET(R (*X)[DERIVE_TAYLOR_DIM], const R *p, int order_wa
  * for every x, which the compiler drops where the order is fixed. */
 #define DERIVE_TAYLOR_ZERO T_NEG(T_INT(0))
 
-/* With the order fixed, each recurrence is inlined where the jet calls it, its k known:
- * its loops unroll into straight arithmetic (forced, where the compiler can: GCC leaves
- * the longer ones as calls otherwise).  Double-double's stay calls: unrolled, their
- * every operation a dozen, they would outgrow the instruction cache. */
+/* With the order fixed and at most DERIVE_TAYLOR_INLINE_MAX (the unrolled jet within the
+ * instruction cache: codegen/taylor.py INLINE_BUDGET), each recurrence is inlined where the
+ * jet calls it, its k known: its loops unroll into straight arithmetic (forced, where the
+ * compiler can: GCC leaves the longer ones as calls otherwise).  Double-double's stay
+ * calls: unrolled, their every operation a dozen, they would outgrow the cache. */
+#ifndef DERIVE_TAYLOR_INLINE_MAX
+#define DERIVE_TAYLOR_INLINE_MAX 0
+#endif
 #undef DERIVE_TAYLOR_INLINE
-#if DERIVE_TAYLOR_ORDER && defined(__GNUC__) && !defined(DERIVE_TAYLOR_DOUBLE_DOUBLE)
+#if DERIVE_TAYLOR_ORDER && DERIVE_TAYLOR_ORDER <= DERIVE_TAYLOR_INLINE_MAX && defined(__GNUC__) && \
+    !defined(DERIVE_TAYLOR_DOUBLE_DOUBLE)
 #define DERIVE_TAYLOR_INLINE static inline __attribute__((always_inline))
 #else
 #define DERIVE_TAYLOR_INLINE static
