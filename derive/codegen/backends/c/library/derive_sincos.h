@@ -31,6 +31,13 @@
 
 #define DERIVE_SINCOS_MAX 32768.0
 
+/* inlined where called (forced where the compiler can: a lane loop vectorises only then) */
+#if defined(__GNUC__)
+#define DERIVE_SINCOS_INLINE static inline __attribute__((always_inline))
+#else
+#define DERIVE_SINCOS_INLINE static inline
+#endif
+
 /* Whether x is past the polynomial's range (or not a number): then libm's sin and cos. */
 static inline int derive_sincos_outside(double x)
 {
@@ -39,7 +46,7 @@ static inline int derive_sincos_outside(double x)
 
 /* sin x and cos x for |x| <= DERIVE_SINCOS_MAX (else the values of 0: the caller takes
  * libm's), without branches: a loop over lanes of it vectorises. */
-static inline void derive_sincos_reduced(double x, double *s, double *c)
+DERIVE_SINCOS_INLINE void derive_sincos_reduced(double x, double *s, double *c)
 {
     const double shifter = 6755399441055744.0;                /* 1.5 2^52: adding it rounds to an integer */
     const double two_over_pi = 6.3661977236758138e-01;        /* 0x1.45f306dc9c883p-1 */
@@ -95,7 +102,7 @@ static inline int derive_sincos_outsidef(float x)
     return derive_sincos_outside((double)x);
 }
 
-static inline void derive_sincos_reducedf(float x, float *s, float *c)
+DERIVE_SINCOS_INLINE void derive_sincos_reducedf(float x, float *s, float *c)
 {
     double sd, cd;
     derive_sincos_reduced((double)x, &sd, &cd);
