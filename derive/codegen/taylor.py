@@ -583,7 +583,7 @@ def _slots(name: str) -> dict:
 
 
 def _sincos(m: str) -> str:
-    """sin and cos of a into s and c in the C type of <math.h> suffix m: derive_sincos.h's
+    """sin and cos of a into s and c in the C type of <math.h> suffix m: derive_taylor_math.h's
     function (the lanes' too) for the types with lanes, libm's (quadmath's) for the others."""
     if m in ("", "f", "l"):
         return f"derive_sincos{m}(a, &(s), &(c))"
@@ -598,8 +598,8 @@ def _native_ops(ctype: str, m: str) -> list[tuple[str, str]]:
             ("T_SQRT(a)", f"sqrt{m}(a)"), ("T_SIN(a)", f"sin{m}(a)"), ("T_COS(a)", f"cos{m}(a)"),
             ("T_SINCOS(a, s, c)", _sincos(m)),
             ("T_EXP(a)", f"exp{m}(a)"), ("T_S(a)", "(a)"), ("T_ABS(a)", f"fabs{m}(a)"), ("T_FROMS(x)", "(x)"),
-            ("T_LE(a, b)", "((a) <= (b))"), ("T_SEXP(x)", f"exp{m}(x)"), ("T_SPOW(x, y)", f"pow{m}(x, y)"),
-            ("T_SFREXP(x, e)", f"frexp{m}(x, e)"),
+            ("T_LE(a, b)", "((a) <= (b))"), ("T_SEXP(x)", f"exp{m}(x)"),
+            ("T_SROOT(x, y)", f"derive_root{m}(x, y)" if m in ("", "f", "l") else f"pow{m}(x, y)"),
             # C99's isnan is type-generic; C++'s overloads know no __float128
             ("T_SNAN(x)", "isnanq(x)" if m == "q" else "isnan(x)")]
 
@@ -610,7 +610,7 @@ _DD_OPS = [("T_ADD(a, b)", "dd_add(a, b)"), ("T_SUB(a, b)", "dd_sub(a, b)"), ("T
            ("T_SQRT(a)", "dd_sqrt(a)"), ("T_SIN(a)", "dd_sin(a)"), ("T_COS(a)", "dd_cos(a)"),
            ("T_SINCOS(a, s, c)", "((s) = dd_sin(a), (c) = dd_cos(a))"), ("T_EXP(a)", "dd_exp(a)"), ("T_S(a)", "((a).hi)"), ("T_ABS(a)", "fabs((a).hi)"),
            ("T_FROMS(x)", "dd_d(x)"), ("T_LE(a, b)", "dd_le(a, b)"), ("T_SEXP(x)", "exp(x)"),
-           ("T_SPOW(x, y)", "pow(x, y)"), ("T_SFREXP(x, e)", "frexp(x, e)"), ("T_SNAN(x)", "isnan(x)")]
+           ("T_SROOT(x, y)", "derive_root(x, y)"), ("T_SNAN(x)", "isnan(x)")]
 
 
 def _skip_key(ctype: str) -> str:
@@ -665,7 +665,7 @@ PUBLIC = (
      "const {R} *t, {R} *y_out, const {P}_integrate_options *opt, {P}_integrate_info *info",
      "n, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info"),
 )
-LIBRARY = ("derive_dd.h", "derive_sincos.h", "derive_taylor.h")      # derive/codegen/backends/c/library/
+LIBRARY = ("derive_dd.h", "derive_taylor_math.h", "derive_taylor.h")      # derive/codegen/backends/c/library/
 
 
 # a time-dependent model's taylor_coefficients takes the time first, as its kernels do (t[0])

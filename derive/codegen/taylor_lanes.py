@@ -93,7 +93,7 @@ def lane_statements(d: Decomposition) -> dict:
             "nhist": nh, "ncur": nt, "reads_constants": any("C[" in line for line in lines + outputs)}
 
 
-LIBRARY = ("derive_sincos.h", "derive_taylor_lanes.h")        # derive/codegen/backends/c/library/
+LIBRARY = ("derive_taylor_math.h", "derive_taylor_lanes.h")        # derive/codegen/backends/c/library/
 # the recurrences of derive_taylor_lanes.h a jet may leave out (DERIVE_LANES_USES_<NAME>)
 LANES_RECURRENCES = ("ADD", "SUB", "SCALE", "SHIFT", "CSUB", "MUL", "SQUARE", "DIV", "SQRT", "SINCOS", "EXP", "OUT",
                      "OUTC", "GUARD")

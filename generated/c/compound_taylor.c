@@ -100,8 +100,7 @@
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) exp(x)
-#define T_SPOW(x, y) pow(x, y)
-#define T_SFREXP(x, e) frexp(x, e)
+#define T_SROOT(x, y) derive_root(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN nan("")
 
@@ -203,8 +202,7 @@ long compound_taylor_batch(long n, const double *y0, long y0_stride, const doubl
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
-#undef T_SFREXP
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
@@ -237,8 +235,7 @@ long compound_taylor_batch(long n, const double *y0, long y0_stride, const doubl
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expf(x)
-#define T_SPOW(x, y) powf(x, y)
-#define T_SFREXP(x, e) frexpf(x, e)
+#define T_SROOT(x, y) derive_rootf(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN nanf("")
 
@@ -340,8 +337,7 @@ long compound_taylor_batch_f(long n, const float *y0, long y0_stride, const floa
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
-#undef T_SFREXP
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
@@ -374,8 +370,7 @@ long compound_taylor_batch_f(long n, const float *y0, long y0_stride, const floa
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expl(x)
-#define T_SPOW(x, y) powl(x, y)
-#define T_SFREXP(x, e) frexpl(x, e)
+#define T_SROOT(x, y) derive_rootl(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN nanl("")
 
@@ -477,8 +472,7 @@ long compound_taylor_batch_l(long n, const long double *y0, long y0_stride, cons
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
-#undef T_SFREXP
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
@@ -511,8 +505,7 @@ long compound_taylor_batch_l(long n, const long double *y0, long y0_stride, cons
 #define T_FROMS(x) dd_d(x)
 #define T_LE(a, b) dd_le(a, b)
 #define T_SEXP(x) exp(x)
-#define T_SPOW(x, y) pow(x, y)
-#define T_SFREXP(x, e) frexp(x, e)
+#define T_SROOT(x, y) derive_root(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN dd_d(nan(""))
 
@@ -615,8 +608,7 @@ long compound_taylor_batch_dd(long n, const derive_dd *y0, long y0_stride, const
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
-#undef T_SFREXP
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T

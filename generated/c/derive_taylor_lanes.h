@@ -66,7 +66,7 @@
  * and derive_taylor_lanes_batch_T (n, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info).
  */
 
-#include "derive_sincos.h"
+#include "derive_taylor_math.h"
 
 #undef LANES_ADD
 #undef LANES_SUB
@@ -314,7 +314,7 @@ DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_chain)(R *DERIVE_LANES_REST
 #endif
 #if DERIVE_LANES_USES_SINCOS
 
-/* coefficient k of s = sin a and c = cos a together; at order 0 derive_sincos.h's
+/* coefficient k of s = sin a and c = cos a together; at order 0 derive_taylor_math.h's
  * function, the scalar integrator's (its polynomial in vector instructions, libm's sin
  * and cos past its range, lane by lane) */
 DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_sincos)(R *DERIVE_LANES_RESTRICT s, R *DERIVE_LANES_RESTRICT c, const R *DERIVE_LANES_RESTRICT a, int k)
@@ -493,6 +493,7 @@ typedef struct {
     R X[DERIVE_N][DERIVE_TAYLOR_DIM * L];
     R C[DERIVE_LANES_NCONST][L];
     R tau[L];
+    R rho[L], n1[L], n2[L];     /* each lane's radius and norms of its last two orders */
 #ifdef DERIVE_TAYLOR_TIMED
     R t0[L];                    /* each lane's time at the step's start (the jet's t) */
 #endif
@@ -587,30 +588,6 @@ static int DERIVE_LANES_T(derive_lanes_start)(DERIVE_LANES_T(derive_lanes_run) *
     return 1;
 }
 
-/* 1 if x1^y1 < x2^y2, 2 if x2^y2 < x1^y1 (x > 0, 0 < y <= 1), where their binary logarithms
- * differ by more than this estimate's error; else (or x not finite) 0.  log2 x = b + log2 f
- * with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in [1/2, 1): the
- * estimate is at most 0.0861 y below log2 of the power, 0.1 y with rounding. */
-static int DERIVE_LANES_T(derive_lanes_smaller)(R x1, R y1, R x2, R y2)
-{
-    R f1, f2, l1, l2;
-    int b1, b2;
-    if (!DERIVE_LANES_T(derive_lanes_finite)(&x1, 1) || !DERIVE_LANES_T(derive_lanes_finite)(&x2, 1)) {
-        return 0;
-    }
-    f1 = DERIVE_LANES_M(frexp)(x1, &b1);
-    f2 = DERIVE_LANES_M(frexp)(x2, &b2);
-    l1 = ((R)b1 + 2 * (f1 - 1)) * y1;
-    l2 = ((R)b2 + 2 * (f2 - 1)) * y2;
-    if (l1 + (R)0.1 * y1 < l2) {
-        return 1;
-    }
-    if (l2 + (R)0.1 * y2 < l1) {
-        return 2;
-    }
-    return 0;
-}
-
 /* x^n (n >= 1) by squaring, as derive_taylor.h's derive_taylor_powi */
 static R DERIVE_LANES_T(derive_lanes_powi)(R x, int n)
 {
@@ -627,46 +604,70 @@ static R DERIVE_LANES_T(derive_lanes_powi)(R x, int n)
     }
 }
 
+/* Every lane's series' radius after the jet, as the scalar computes it: the norms m =
+ * max(1, |y|), n1 = |y^[p-1]|, n2 = |y^[p]| (max over the states), rho the smaller of
+ * (m/n1)^(1/(p-1)) and (m/n2)^(1/p) (-1: no growth in the last coefficients), the roots
+ * derive_taylor_math.h's in one loop over the lanes (vector instructions), libm's pow past
+ * its range lane by lane.  An idle lane's numbers are a running lane's copy. */
+static void DERIVE_LANES_T(derive_lanes_radius)(DERIVE_LANES_T(derive_lanes_run) *r)
+{
+    const int order = r->order;
+    const R y1 = (R)1 / (R)(order - 1), y2 = (R)1 / (R)order;
+    R m[L], x1[L], x2[L], q1[L], q2[L], a;
+    int i, l;
+    for (l = 0; l < L; ++l) {
+        m[l] = 1;
+        r->n1[l] = 0;
+        r->n2[l] = 0;
+    }
+    for (i = 0; i < DERIVE_N; ++i) {
+        for (l = 0; l < L; ++l) {
+            a = DERIVE_LANES_M(fabs)(r->X[i][l]);
+            m[l] = a > m[l] ? a : m[l];
+            a = DERIVE_LANES_M(fabs)(r->X[i][(order - 1) * L + l]);
+            r->n1[l] = a > r->n1[l] ? a : r->n1[l];
+            a = DERIVE_LANES_M(fabs)(r->X[i][order * L + l]);
+            r->n2[l] = a > r->n2[l] ? a : r->n2[l];
+        }
+    }
+    for (l = 0; l < L; ++l) {
+        x1[l] = r->n1[l] > 0 ? m[l] / r->n1[l] : (R)1;
+        x2[l] = r->n2[l] > 0 ? m[l] / r->n2[l] : (R)1;
+        q1[l] = DERIVE_LANES_M(derive_root_reduced)(x1[l], y1);
+        q2[l] = DERIVE_LANES_M(derive_root_reduced)(x2[l], y2);
+    }
+    for (l = 0; l < L; ++l) {
+        if (DERIVE_LANES_M(derive_root_outside)(x1[l])) {
+            q1[l] = DERIVE_LANES_M(pow)(x1[l], y1);
+        }
+        if (DERIVE_LANES_M(derive_root_outside)(x2[l])) {
+            q2[l] = DERIVE_LANES_M(pow)(x2[l], y2);
+        }
+    }
+    for (l = 0; l < L; ++l) {
+        r->rho[l] = r->n1[l] > 0 ? q1[l] : (R)-1;
+        r->rho[l] = r->n2[l] > 0 && (r->rho[l] < 0 || q2[l] < r->rho[l]) ? q2[l] : r->rho[l];
+    }
+}
+
 /* Lane l after the jet: its step (Jorba & Zou, as the scalar) and the output times inside
  * it; r->tau[l] the step.  Returns a status (OK: advance). */
 static int DERIVE_LANES_T(derive_lanes_step)(DERIVE_LANES_T(derive_lanes_run) *r, int l)
 {
     DERIVE_LANES_T(derive_lane) *ln = &r->lane[l];
     const int order = r->order;
-    const R y1 = (R)1 / (R)(order - 1), y2 = (R)1 / (R)order;
-    R m = 1, n1 = 0, n2 = 0, a0, a1, a2, x1, x2, rho, q, h, tau;
+    R rho = r->rho[l], h, tau;
     long row;
-    int i, which;
+    int i;
     ln->info->nfev += 1;
     if (r->bad[l]) {
         return DERIVE_CHART_SINGULAR;
     }
-    for (i = 0; i < DERIVE_N; ++i) {
-        a0 = DERIVE_LANES_M(fabs)(r->X[i][l]);
-        a1 = DERIVE_LANES_M(fabs)(r->X[i][(order - 1) * L + l]);
-        a2 = DERIVE_LANES_M(fabs)(r->X[i][order * L + l]);
-        m = a0 > m ? a0 : m;
-        n1 = a1 > n1 ? a1 : n1;
-        n2 = a2 > n2 ? a2 : n2;
-    }
-    if (!DERIVE_LANES_T(derive_lanes_finite)(&n1, 1) || !DERIVE_LANES_T(derive_lanes_finite)(&n2, 1)) {
+    if (!DERIVE_LANES_T(derive_lanes_finite)(&r->n1[l], 1) || !DERIVE_LANES_T(derive_lanes_finite)(&r->n2[l], 1)) {
         return DERIVE_NONFINITE;
     }
-    /* the series' radius rho, the smaller of (m/n1)^(1/(p-1)) and (m/n2)^(1/p) (-1: no
-     * growth in the last coefficients), as the scalar computes it, with one pow where
-     * their exponents show which is the smaller; the step rho times the safety factor,
-     * capped by hmax (never the cap shrunk), the last one exactly to tend */
-    x1 = n1 > 0 ? m / n1 : 0;
-    x2 = n2 > 0 ? m / n2 : 0;
-    which = n1 > 0 && n2 > 0 ? DERIVE_LANES_T(derive_lanes_smaller)(x1, y1, x2, y2) : 0;
-    rho = -1;
-    if (n1 > 0 && which != 2) {
-        rho = DERIVE_LANES_M(pow)(x1, y1);
-    }
-    if (n2 > 0 && which != 1) {
-        q = DERIVE_LANES_M(pow)(x2, y2);
-        rho = rho < 0 || q < rho ? q : rho;
-    }
+    /* the step rho times the safety factor, capped by hmax (never the cap shrunk), the
+     * last one exactly to tend */
     h = rho > 0 ? rho * r->safety : ln->hmax;
     if (!(h <= ln->hmax)) {
         h = ln->hmax;
@@ -692,7 +693,7 @@ static int DERIVE_LANES_T(derive_lanes_step)(DERIVE_LANES_T(derive_lanes_run) *r
     }
     ln->h = h;
     ln->rho = rho;
-    ln->n2 = n2;
+    ln->n2 = r->n2[l];
     r->tau[l] = h * ln->dir;
     return DERIVE_OK;
 }
@@ -806,6 +807,7 @@ static long DERIVE_LANES_T(derive_taylor_lanes_batch)(long n, const R *y0, long 
 #else
         DERIVE_LANES_JET(r->X, r->C, r->order, sine_min, r->bad);
 #endif
+        DERIVE_LANES_T(derive_lanes_radius)(r);
         for (l = 0; l < L; ++l) {
             r->tau[l] = 0;
             if (r->lane[l].traj >= 0) {

@@ -100,8 +100,7 @@
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) exp(x)
-#define T_SPOW(x, y) pow(x, y)
-#define T_SFREXP(x, e) frexp(x, e)
+#define T_SROOT(x, y) derive_root(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN nan("")
 
@@ -334,8 +333,7 @@ long spherical_alt_taylor_batch(long n, const double *y0, long y0_stride, const 
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
-#undef T_SFREXP
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
@@ -368,8 +366,7 @@ long spherical_alt_taylor_batch(long n, const double *y0, long y0_stride, const 
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expf(x)
-#define T_SPOW(x, y) powf(x, y)
-#define T_SFREXP(x, e) frexpf(x, e)
+#define T_SROOT(x, y) derive_rootf(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN nanf("")
 
@@ -602,8 +599,7 @@ long spherical_alt_taylor_batch_f(long n, const float *y0, long y0_stride, const
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
-#undef T_SFREXP
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
@@ -636,8 +632,7 @@ long spherical_alt_taylor_batch_f(long n, const float *y0, long y0_stride, const
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expl(x)
-#define T_SPOW(x, y) powl(x, y)
-#define T_SFREXP(x, e) frexpl(x, e)
+#define T_SROOT(x, y) derive_rootl(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN nanl("")
 
@@ -870,8 +865,7 @@ long spherical_alt_taylor_batch_l(long n, const long double *y0, long y0_stride,
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
-#undef T_SFREXP
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
@@ -904,8 +898,7 @@ long spherical_alt_taylor_batch_l(long n, const long double *y0, long y0_stride,
 #define T_FROMS(x) dd_d(x)
 #define T_LE(a, b) dd_le(a, b)
 #define T_SEXP(x) exp(x)
-#define T_SPOW(x, y) pow(x, y)
-#define T_SFREXP(x, e) frexp(x, e)
+#define T_SROOT(x, y) derive_root(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN dd_d(nan(""))
 
@@ -1139,8 +1132,7 @@ long spherical_alt_taylor_batch_dd(long n, const derive_dd *y0, long y0_stride, 
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
-#undef T_SFREXP
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T

@@ -97,8 +97,7 @@
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expq(x)
-#define T_SPOW(x, y) powq(x, y)
-#define T_SFREXP(x, e) frexpq(x, e)
+#define T_SROOT(x, y) powq(x, y)
 #define T_SNAN(x) isnanq(x)
 #define T_NAN nanq("")
 
@@ -331,8 +330,7 @@ long spherical_alt_taylor_batch_q(long n, const derive_quad *y0, long y0_stride,
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
-#undef T_SFREXP
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T

@@ -38,7 +38,7 @@
  *   T_ADD(a, b), T_SUB, T_MUL, T_DIV, T_NEG, T_MULI(a, i), T_DIVI(a, i) (by an int),
  *   T_INT(i), T_D(x) (an int, a double as R), T_SQRT, T_SIN, T_COS, T_EXP   R's arithmetic
  *   T_S(a), T_ABS(a), T_FROMS(s), T_LE(a, b)   a in S, |a| in S, s as R, a <= b
- *   T_SEXP(x), T_SPOW(x, y)     exp and pow in S; T_SNAN(x) whether x in S is a NaN; T_NAN a NaN of R
+ *   T_SEXP(x), T_SROOT(x, y)    exp and x^y (derive_taylor_math.h's root) in S; T_SNAN(x) whether x in S is a NaN; T_NAN a NaN of R
  *   DERIVE_TAYLOR_T(x)          the precision's name tag (x##_d, x##_dd, ...)
  *   DERIVE_TAYLOR_JET           the model's jet, defined after the inclusion:
  *                               int jet(R (*X)[DIM], const R *p, int order, S sine_min)
@@ -52,7 +52,7 @@
  *   derive_taylor_batch_T (n, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info)
  */
 
-#include "derive_sincos.h"
+#include "derive_taylor_math.h"
 
 #undef TAYLOR_MUL
 #undef TAYLOR_SQUARE
@@ -336,32 +336,6 @@ static int DERIVE_TAYLOR_T(derive_taylor_finite)(const R *z, long n)
     return !T_SNAN(check);
 }
 
-/* 1 if x1^y1 < x2^y2, 2 if x2^y2 < x1^y1 (x > 0, 0 < y <= 1), where their binary logarithms
- * differ by more than this estimate's error; else (or x not finite) 0: which of the two
- * radii is the smaller without computing both (one pow a step where the test decides;
- * derive_taylor_lanes.h's test, the same arithmetic).  log2 x = b + log2 f with x = f 2^b
- * (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in [1/2, 1): the estimate is
- * at most 0.0861 y below log2 of the power, 0.1 y with rounding. */
-static int DERIVE_TAYLOR_T(derive_taylor_smaller)(S x1, S y1, S x2, S y2)
-{
-    S f1, f2, l1, l2;
-    int b1, b2;
-    if (T_SNAN(x1 - x1) || T_SNAN(x2 - x2)) {
-        return 0;
-    }
-    f1 = T_SFREXP(x1, &b1);
-    f2 = T_SFREXP(x2, &b2);
-    l1 = ((S)b1 + 2 * (f1 - 1)) * y1;
-    l2 = ((S)b2 + 2 * (f2 - 1)) * y2;
-    if (l1 + (S)0.1 * y1 < l2) {
-        return 1;
-    }
-    if (l2 + (S)0.1 * y2 < l1) {
-        return 2;
-    }
-    return 0;
-}
-
 /* x^n (n >= 1) by squaring: the truncation error's h^p without a pow */
 static S DERIVE_TAYLOR_T(derive_taylor_powi)(S x, int n)
 {
@@ -422,9 +396,9 @@ static int DERIVE_TAYLOR_T(derive_taylor)(const R *y0, const R *p, long nt, cons
 {
     R X[DERIVE_N][DERIVE_TAYLOR_DIM];
     R t, h = T_INT(0), tend, tau, span;
-    S hs, tol, m, n1, n2, rho, r, hmax, safety, x1, x2, y1, y2;
+    S hs, tol, m, n1, n2, rho, r, hmax, safety, y1, y2;
     long iout = 1, steps = 0, row, j;
-    int i, order, dir, st = DERIVE_OK, last, which;
+    int i, order, dir, st = DERIVE_OK, last;
     DERIVE_INFO local;
 
     if (!info) {
@@ -497,15 +471,12 @@ static int DERIVE_TAYLOR_T(derive_taylor)(const R *y0, const R *p, long nt, cons
         }
         /* the series' radius rho from the last two coefficients (-1: no growth in them), the
          * step rho times the safety factor, then capped by hmax (never the cap shrunk) */
-        x1 = n1 > 0 ? m / n1 : 0;
-        x2 = n2 > 0 ? m / n2 : 0;
-        which = n1 > 0 && n2 > 0 ? DERIVE_TAYLOR_T(derive_taylor_smaller)(x1, y1, x2, y2) : 0;
         rho = -1;
-        if (n1 > 0 && which != 2) {
-            rho = T_SPOW(x1, y1);
+        if (n1 > 0) {
+            rho = T_SROOT(m / n1, y1);
         }
-        if (n2 > 0 && which != 1) {
-            r = T_SPOW(x2, y2);
+        if (n2 > 0) {
+            r = T_SROOT(m / n2, y2);
             rho = rho < 0 || r < rho ? r : rho;
         }
         hs = rho > 0 ? rho * safety : hmax;

@@ -1,5 +1,6 @@
-"""derive_sincos.h: the sin/cos pair of the Taylor integrators (scalar and SIMD lanes), against
-mpmath, and its lane loop (vector instructions) against its scalar call, bit for bit."""
+"""derive_taylor_math.h: the sin/cos pair and the radius' root of the Taylor integrators (scalar
+and SIMD lanes), against mpmath, and their lane loops (vector instructions) against their
+scalar calls, bit for bit."""
 from __future__ import annotations
 
 import ctypes
@@ -17,7 +18,7 @@ from tests.codegen.test_generate_and_compile import GEN_C
 # the scalar call, and the lanes' loop as derive_taylor_lanes.h writes it (the polynomial
 # for every lane, vectorised; libm's sin and cos past its range, lane by lane)
 SOURCE = r"""
-#include "derive_sincos.h"
+#include "derive_taylor_math.h"
 #define LANES 8
 void scalar(long n, const double *x, double *s, double *c)
 {
@@ -44,6 +45,32 @@ void lanes(long n, const double *x, double *s, double *c)       /* n a multiple 
     long i;
     for (i = 0; i < n; i += LANES) {
         lanes8(x + i, s + i, c + i);
+    }
+}
+void root(long n, const double *x, double *y, double *out)
+{
+    long i;
+    for (i = 0; i < n; ++i) {
+        out[i] = derive_root(x[i], y[i]);
+    }
+}
+static void root8(const double *restrict x, const double *restrict y, double *restrict out)
+{
+    int l;
+    for (l = 0; l < LANES; ++l) {
+        out[l] = derive_root_reduced(x[l], y[l]);
+    }
+    for (l = 0; l < LANES; ++l) {
+        if (derive_root_outside(x[l])) {
+            out[l] = pow(x[l], y[l]);
+        }
+    }
+}
+void root_lanes(long n, const double *x, double *y, double *out)
+{
+    long i;
+    for (i = 0; i < n; i += LANES) {
+        root8(x + i, y + i, out + i);
     }
 }
 void scalar_f(long n, const float *x, float *s, float *c)
@@ -126,3 +153,31 @@ def test_float_is_the_double_rounded(library):
     s, c = _call(library, "scalar_f", x, np.float32)
     sd, cd = _call(library, "scalar", x.astype(np.float64))
     assert np.array_equal(s, sd.astype(np.float32)) and np.array_equal(c, cd.astype(np.float32))
+
+
+def _roots(lib, name, x, y):
+    x, y = np.ascontiguousarray(x, float), np.ascontiguousarray(y, float)
+    out = np.empty_like(x)
+    ptr = ctypes.POINTER(ctypes.c_double)
+    getattr(lib, name)(ctypes.c_long(len(x)), *(a.ctypes.data_as(ptr) for a in (x, y, out)))
+    return out
+
+
+def test_the_root_of_the_radius(library):
+    """x^y, y = 1/p for the orders p: within 1e-13 of mpmath over the polynomial's range
+    (2^-1000 to 2^1000), pow's past it; the lanes' loop bit for bit the scalar call."""
+    rng = np.random.default_rng(7)
+    n = 4000
+    x = np.concatenate([2.0 ** rng.uniform(-1000, 1000, n - 16), [2.0 ** -1000, 2.0 ** 1000, 1.0, 1.5, 0.75,
+                                                                    1e-305, 1e305, np.inf, 5e-324, 2.0 ** 0.5,
+                                                                    np.nextafter(2.0 ** 0.5, 2), 3.0, 7.0, 1e10,
+                                                                    1e-10, 0.5]])
+    y = 1.0 / rng.integers(1, 60, n)
+    got = _roots(library, "root", x, y)
+    assert np.array_equal(got, _roots(library, "root_lanes", x, y))
+    inside = (x >= 2.0 ** -1000) & (x <= 2.0 ** 1000)
+    with mpmath.workprec(120):
+        worst = max(float(abs(mpmath.mpf(g) / mpmath.power(mpmath.mpf(a), mpmath.mpf(b)) - 1))
+                    for g, a, b in zip(got[inside], x[inside], y[inside]))
+    assert worst < 1e-13, worst
+    assert np.array_equal(got[~inside], x[~inside] ** y[~inside])          # numpy's pow is libm's
