@@ -4,10 +4,12 @@
  * generated <model>_taylor.c keeps is its jet: the decomposition of its rhs into
  * elementary operations, one recurrence call each, order by order.
  *
- * Here: the coefficient recurrences of the operations (product, quotient, square root,
- * and the chain rule of sin, cos and exp), the series by Horner, the order for a
- * tolerance and the step for a jet (Jorba & Zou 2005, as heyoka), dense output at the
- * output times inside a step, the status of a run, and the entry points' bodies.
+ * Here: the coefficient recurrences of the operations (product, square, quotient, square
+ * root, and the chain rule of sin and cos together and of exp), the series by Horner, the
+ * order for a tolerance and the step for a jet (Jorba & Zou 2005, as heyoka), dense output
+ * at the output times inside a step, the status of a run, and the entry points' bodies.
+ * The functions of numbers the lanes share (sin/cos, the radius' root) are
+ * derive_taylor_math.h's, included here.
  *
  * Standalone C99, only <math.h> (and what the precision's arithmetic needs: derive_dd.h,
  * <quadmath.h>); reentrant: no globals, no allocation.  Included once per precision, in
@@ -26,8 +28,10 @@
  *                               rendered from the Python rule, derive/codegen/contract.py)
  *   DERIVE_TAYLOR_DIM           coefficients per row: the largest order + 1
  *   DERIVE_TAYLOR_UNROLL        a pragma before the recurrences' loops (or nothing)
- *   DERIVE_TAYLOR_USES_MUL, _DIV, _SQRT, _CHAIN   1 where the jet uses that recurrence
- *                               (the others are left out: static functions never called)
+ *   DERIVE_TAYLOR_INLINE_MAX    the largest fixed order at which the recurrences are inlined
+ *                               (codegen/taylor.py INLINE_BUDGET; 0 or undefined: none)
+ *   DERIVE_TAYLOR_USES_MUL, _SQUARE, _DIV, _SQRT, _SINCOS, _EXP   1 where the jet uses that
+ *                               recurrence (the others are left out: functions never called)
  *   DERIVE_TAYLOR_TIMED         (defined or not) a time-dependent model's: its jet takes
  *                               the time at the step's start, jet(X, p, R t0, order,
  *                               sine_min) (t is a variable of the jet: t0, 1, 0, ...),
@@ -38,16 +42,19 @@
  *                               control runs in (R itself, double for double-double)
  *   T_ADD(a, b), T_SUB, T_MUL, T_DIV, T_NEG, T_MULI(a, i), T_DIVI(a, i) (by an int),
  *   T_INT(i), T_D(x) (an int, a double as R), T_SQRT, T_SIN, T_COS, T_EXP   R's arithmetic
+ *   T_SINCOS(a, s, c)           s = sin a, c = cos a (derive_taylor_math.h's where it has R)
  *   T_S(a), T_ABS(a), T_FROMS(s), T_LE(a, b)   a in S, |a| in S, s as R, a <= b
- *   T_SEXP(x), T_SROOT(x, y)    exp and x^y (derive_taylor_math.h's root) in S; T_SNAN(x) whether x in S is a NaN; T_NAN a NaN of R
+ *   T_SEXP(x), T_SROOT(x, y)    exp and x^y in S (the root: derive_taylor_math.h's where it
+ *                               has S); T_SNAN(x) whether x in S is a NaN; T_NAN a NaN of R
+ *   T_INLINE_ALL                (defined or not) inline the recurrences at any fixed order
  *   DERIVE_TAYLOR_T(x)          the precision's name tag (x##_d, x##_dd, ...)
  *   DERIVE_TAYLOR_JET           the model's jet, defined after the inclusion:
  *                               int jet(R (*X)[DIM], const R *p, int order, S sine_min)
  *                               fills X[i][1..order] from X[i][0]; OK or a status
  *   DERIVE_TAYLOR_DOUBLE_DOUBLE (defined or not) the sums of products as Dot2 (derive_dd.h)
  *
- * It defines (static; T the tag) TAYLOR_MUL, TAYLOR_DIV, TAYLOR_SQRT, TAYLOR_SIN,
- * TAYLOR_COS and TAYLOR_EXP for the jet (undefined at the next inclusion), and
+ * It defines (static; T the tag) TAYLOR_MUL, TAYLOR_SQUARE, TAYLOR_DIV, TAYLOR_SQRT,
+ * TAYLOR_SINCOS and TAYLOR_EXP for the jet (undefined at the next inclusion), and
  *   derive_taylor_coefficients_T (y, p, order, coef, sine_min); timed: (t, y, p, ...)
  *   derive_taylor_T (y0, p, nt, t_out, y_out, opt, info): a whole run
  *   derive_taylor_batch_T (n, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info)
@@ -84,13 +91,15 @@ static int DERIVE_TAYLOR_JET(R (*X)[DERIVE_TAYLOR_DIM], const R *p, int order_wa
  * instruction cache: codegen/taylor.py INLINE_BUDGET), each recurrence is inlined where the
  * jet calls it, its k known: its loops unroll into straight arithmetic (forced, where the
  * compiler can: GCC leaves the longer ones as calls otherwise).  Double-double's stay
- * calls: unrolled, their every operation a dozen, they would outgrow the cache. */
+ * calls: unrolled, their every operation a dozen, they would outgrow the cache.  With
+ * T_INLINE_ALL (long double: x87 arithmetic, bound by its operations, not their fetching)
+ * at every fixed order. */
 #ifndef DERIVE_TAYLOR_INLINE_MAX
 #define DERIVE_TAYLOR_INLINE_MAX 0
 #endif
 #undef DERIVE_TAYLOR_INLINE
-#if DERIVE_TAYLOR_ORDER && DERIVE_TAYLOR_ORDER <= DERIVE_TAYLOR_INLINE_MAX && defined(__GNUC__) && \
-    !defined(DERIVE_TAYLOR_DOUBLE_DOUBLE)
+#if DERIVE_TAYLOR_ORDER && (DERIVE_TAYLOR_ORDER <= DERIVE_TAYLOR_INLINE_MAX || defined(T_INLINE_ALL)) && \
+    defined(__GNUC__) && !defined(DERIVE_TAYLOR_DOUBLE_DOUBLE)
 #define DERIVE_TAYLOR_INLINE static inline __attribute__((always_inline))
 #else
 #define DERIVE_TAYLOR_INLINE static

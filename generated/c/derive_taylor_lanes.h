@@ -15,9 +15,12 @@
  * integrator's.
  *
  * Here: the recurrences for L lanes (sum, difference, scaling and shift by a constant,
- * product, quotient, square root, sin and cos together, exp, the solution's coefficient
- * from the rhs', the chart guard), the advance and dense output by Horner, the step for a
- * jet (Jorba & Zou 2005, as the scalar), the lanes' bookkeeping and the batch's body.
+ * a constant less a node, product, square, quotient, square root, sin and cos together,
+ * exp, the solution's coefficient from the rhs', the chart guard), the advance and dense
+ * output by Horner, the step for a jet (Jorba & Zou 2005, as the scalar: every lane's
+ * radius in one loop), the lanes' bookkeeping and the batch's body.  sin/cos and the
+ * radius' root are derive_taylor_math.h's, the scalar integrator's: branch-free, so that
+ * their loops over the lanes vectorise.
  *
  * Standalone C99, only <math.h>; reentrant: no globals, no allocation (the jet of the L
  * lanes is on the stack).  Included once per precision (double, float, long double), in
@@ -40,8 +43,8 @@
  *   DERIVE_LANES_RESTRICT       restrict (C++: __restrict): the lane loops' rows are disjoint
  *   DERIVE_LANES_INLINE         how the recurrences are declared (static inline, forced
  *                               where the compiler can: each is then a few vector instructions)
- *   DERIVE_LANES_USES_ADD, _SUB, _SCALE, _SHIFT, _MUL, _DIV, _SQRT, _SINCOS, _EXP, _OUT,
- *   _OUTC, _GUARD               1 where the jet uses that recurrence (the others are left out)
+ *   DERIVE_LANES_USES_ADD, _SUB, _SCALE, _SHIFT, _CSUB, _MUL, _SQUARE, _DIV, _SQRT, _SINCOS,
+ *   _EXP, _OUT, _OUTC, _GUARD   1 where the jet uses that recurrence (the others are left out)
  *   DERIVE_TAYLOR_TIMED         (defined or not) a time-dependent model's: its jet takes each
  *                               lane's time at the step's start, jet(X, C, const R *t0,
  *                               order, sine_min, bad), and LANES_TIME(u, t0, k) is defined
@@ -59,7 +62,8 @@
  *                               from lane l's parameters p
  *
  * It defines (static; T the tag) for the jet LANES_ADD(u, a, b), LANES_SUB, LANES_SCALE(u,
- * c, a), LANES_SHIFT(u, a, c, k), LANES_MUL(u, a, b, k), LANES_DIV(u, ak, b, k),
+ * c, a), LANES_SHIFT(u, a, c, k), LANES_CSUB(u, c, a, k), LANES_MUL(u, a, b, k),
+ * LANES_SQUARE(u, a, k), LANES_DIV(u, ak, b, k),
  * LANES_SQRT(u, ak, k), LANES_SINCOS(s, c, a, k), LANES_EXP(u, a, k), LANES_OUT(x, f, k),
  * LANES_OUTC(x, c, k), LANES_GUARD(bad, g, sine_min) and, timed, LANES_TIME(u, t0, k)
  * (undefined at the next inclusion),

@@ -370,6 +370,7 @@ long planar_taylor_batch_f(long n, const float *y0, long y0_stride, const float 
 #define T_SEXP(x) expl(x)
 #define T_SROOT(x, y) derive_rootl(x, y)
 #define T_SNAN(x) isnan(x)
+#define T_INLINE_ALL 1
 #define T_NAN nanl("")
 
 #define DERIVE_TAYLOR_T(x) x##_l
@@ -471,6 +472,7 @@ long planar_taylor_batch_l(long n, const long double *y0, long y0_stride, const 
 #undef T_SEXP
 #undef T_SROOT
 #undef T_SNAN
+#undef T_INLINE_ALL
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET

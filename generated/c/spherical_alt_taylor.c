@@ -634,6 +634,7 @@ long spherical_alt_taylor_batch_f(long n, const float *y0, long y0_stride, const
 #define T_SEXP(x) expl(x)
 #define T_SROOT(x, y) derive_rootl(x, y)
 #define T_SNAN(x) isnan(x)
+#define T_INLINE_ALL 1
 #define T_NAN nanl("")
 
 #define DERIVE_TAYLOR_T(x) x##_l
@@ -867,6 +868,7 @@ long spherical_alt_taylor_batch_l(long n, const long double *y0, long y0_stride,
 #undef T_SEXP
 #undef T_SROOT
 #undef T_SNAN
+#undef T_INLINE_ALL
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET
