@@ -242,7 +242,8 @@ def _negated(expr) -> bool:
 
 def _pruned(d: Decomposition) -> Decomposition:
     """d without the nodes nothing reads (a scaling folded into another, an inverse turned
-    into quotients), renumbered in order; the states stay (X[i] is the solution)."""
+    into quotients) and the constants none reads, renumbered in order; the states stay
+    (X[i] is the solution)."""
     live = {i for i, op in enumerate(d.ops) if op.kind == "var"}
     live |= {j for kind, j in d.outputs if kind == "node"} | set(d.guards)
     for i in range(len(d.ops) - 1, -1, -1):
@@ -251,15 +252,22 @@ def _pruned(d: Decomposition) -> Decomposition:
     # sin and cos read each other: a pair stays whole when either is read
     live |= {j for i in list(live) if d.ops[i].kind in ("sin", "cos") for j in d.ops[i].args}
     new = {i: n for n, i in enumerate(sorted(live))}
-    out = Decomposition(n=d.n, constants=d.constants, timed=d.timed)
+    used = sorted({c for i in live for c in _const_args(d.ops[i])} | {j for kind, j in d.outputs if kind == "const"})
+    const = {c: n for n, c in enumerate(used)}
+    out = Decomposition(n=d.n, constants=[d.constants[c] for c in used], timed=d.timed)
     for i in sorted(live):
         op = d.ops[i]
         k = len(op.args) - operation(op).consts
-        args = tuple(None if a is None else new[a] for a in op.args[:k]) + op.args[k:]
+        args = tuple(None if a is None else new[a] for a in op.args[:k]) + tuple(const[c] for c in op.args[k:])
         out.ops.append(Op(op.kind, args, op.index))
-    out.outputs = [(kind, new[j] if kind == "node" else j) for kind, j in d.outputs]
+    out.outputs = [(kind, new[j] if kind == "node" else const[j]) for kind, j in d.outputs]
     out.guards = [new[g] for g in d.guards]
     return out
+
+
+def _const_args(op: Op) -> tuple:
+    """The constants' indices an operation reads."""
+    return op.args[len(op.args) - operation(op).consts:]
 
 
 def _node_args(op: Op) -> tuple:
