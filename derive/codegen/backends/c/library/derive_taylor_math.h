@@ -28,7 +28,8 @@
  *   x = 2^e m (the bits of x), m in [sqrt(1/2), sqrt(2)), ln m = 2 atanh t = 2 (t + t^3/3
  *   + ... + t^19/19), t = (m - 1)/(m + 1) (|t| <= 0.172: the rest below 5e-18 relative),
  *   z = y (e + ln m / ln 2) = k + f (k the nearest integer, |f| <= 1/2), 2^f = exp(f ln 2)
- *   by its series to degree 13 (the rest below 5e-18), 2^k from its bits;
+ *   by its series to degree 13 (the rest below 5e-18), 2^k from its bits; both series by
+ *   Estrin's scheme (a short chain of operations: the root is on the step's critical path);
  * relative error below 1e-13 (the rounding of e + log2 m, times y; tested against
  * mpmath), ample for a step size.  Past that range (or not a number), libm's pow.
  *
@@ -176,7 +177,7 @@ DERIVE_MATH_INLINE double derive_root_reduced(double x, double y)
     const double ln2 = 6.9314718055994529e-01, inv_ln2 = 1.4426950408889634e+00;
     const double sqrt2 = 1.4142135623730951e+00;
     derive_bits b, e_bits, scale;
-    double e, m, t, t2, ln_m, z, k, w, p;
+    double e, m, t, t2, t4, t8, ln_m, z, k, w, w2, w4, w8, p;
     b.d = derive_root_outside(x) ? 1.0 : x;
     /* x = 2^e m: the exponent field as a double (2^52 + field, less 2^52), m in [1, 2) */
     e_bits.u = (b.u >> 52) | 0x4330000000000000ULL;
@@ -185,16 +186,25 @@ DERIVE_MATH_INLINE double derive_root_reduced(double x, double y)
     m = b.d > sqrt2 ? 0.5 * b.d : b.d;
     e = b.d > sqrt2 ? e + 1.0 : e;
     t = (m - 1.0) / (m + 1.0);
+    /* the series by Estrin's scheme (powers t^2, t^4, t^8, t^16 side by side): it sits on
+     * the step's critical path, where Horner's rule would chain ten multiply-adds */
     t2 = t * t;
-    ln_m = 2.0 * t * (1.0 + t2 * (1.0 / 3 + t2 * (1.0 / 5 + t2 * (1.0 / 7 + t2 * (1.0 / 9 + t2 * (1.0 / 11
-           + t2 * (1.0 / 13 + t2 * (1.0 / 15 + t2 * (1.0 / 17 + t2 * (1.0 / 19))))))))));
+    t4 = t2 * t2;
+    t8 = t4 * t4;
+    ln_m = 2.0 * t * (((1.0 + t2 * (1.0 / 3)) + t4 * (1.0 / 5 + t2 * (1.0 / 7)))
+                      + t8 * ((1.0 / 9 + t2 * (1.0 / 11)) + t4 * (1.0 / 13 + t2 * (1.0 / 15)))
+                      + t8 * t8 * (1.0 / 17 + t2 * (1.0 / 19)));
     z = y * (e + ln_m * inv_ln2);
     b.d = z + shifter;                       /* its low bits: k, the integer nearest z */
     k = b.d - shifter;
     w = (z - k) * ln2;
-    p = 1.0 + w * (1.0 + w * (1.0 / 2 + w * (1.0 / 6 + w * (1.0 / 24 + w * (1.0 / 120 + w * (1.0 / 720
-        + w * (1.0 / 5040 + w * (1.0 / 40320 + w * (1.0 / 362880 + w * (1.0 / 3628800
-        + w * (1.0 / 39916800 + w * (1.0 / 479001600 + w * (1.0 / 6227020800.0)))))))))))));
+    w2 = w * w;
+    w4 = w2 * w2;
+    w8 = w4 * w4;
+    p = ((1.0 + w) + w2 * (1.0 / 2 + w * (1.0 / 6))) + w4 * ((1.0 / 24 + w * (1.0 / 120))
+        + w2 * (1.0 / 720 + w * (1.0 / 5040)))
+        + w8 * (((1.0 / 40320 + w * (1.0 / 362880)) + w2 * (1.0 / 3628800 + w * (1.0 / 39916800)))
+                + w4 * (1.0 / 479001600 + w * (1.0 / 6227020800.0)));
     scale.u = (b.u - 0x4338000000000000ULL + 1023ULL) << 52;      /* 2^k (|k| <= 1000) */
     return p * scale.d;
 }
