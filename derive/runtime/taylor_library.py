@@ -16,6 +16,7 @@ from functools import lru_cache
 import numpy as np
 
 from .loader import build_fastest
+from .vector_build import EXACT_FLAGS, simd_build
 from ..codegen.sources import c_source
 from ..errors import BuildError, SimulationInputError
 from ..model.description import forget_on_model_change
@@ -81,7 +82,6 @@ def _build(stem: str, source, extra: tuple[str, ...]):
     three-operand instructions and twice the registers for the unrolled jet) and no
     contraction, as the lanes are built (so that each lane stays bit for bit this run);
     without them where the compiler refuses them."""
-    from .taylor_lanes_library import EXACT_FLAGS, simd_build     # it imports this module
     simd = simd_build("float64")[0]
     if simd:
         try:

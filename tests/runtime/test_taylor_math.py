@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from derive.runtime.loader import default_compiler
-from derive.runtime.taylor_lanes_library import EXACT_FLAGS, simd_build
+from derive.runtime.vector_build import EXACT_FLAGS, simd_build
 from tests.codegen.test_generate_and_compile import GEN_C
 
 # the scalar call, and the lanes' loop as derive_taylor_lanes.h writes it (the polynomial
