@@ -141,14 +141,16 @@ def compound_angle_rewrites(spec: ModelSpec) -> dict[sp.Expr, sp.Expr]:
     return out
 
 
-def cse_file(spec: ModelSpec, also: ModelSpec | None = None) -> list[Body]:
+def cse_file(spec: ModelSpec, also: ModelSpec | None = None, compound_angles: bool = True) -> list[Body]:
     """One CSE pass over all outputs of the file, split back into kernels.
 
     `also`: a second file whose kernels repeat most of this one's expressions (the model's
     <model>_linearize: A is the jacobian kernel's J).  Its roots join the one pass, those
     equal to one of this file's counted once (so this file's own bodies are what they are
     without it), and its bodies follow this file's in the list returned: the second file
-    costs no second CSE pass, and its printers meet expressions already printed."""
+    costs no second CSE pass, and its printers meet expressions already printed.  Without
+    `compound_angles`, sin/cos of a compound angle stay whole (compound_angle_rewrites is
+    for the scalar kernels: Taylor's jet weighs it by its own costs, codegen/taylor.py)."""
     files = [spec] + ([also] if also is not None else [])
     stage_defs: dict[sp.Symbol, sp.Expr] = {}
     for f in files:
@@ -177,7 +179,7 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None) -> list[Body]:
             span.append(first[r])
         spans.append(span)
     memo: dict = {}
-    angles = compound_angle_rewrites(spec)
+    angles = compound_angle_rewrites(spec) if compound_angles else {}
     roots = [collect_constants(sp.sympify(r).xreplace(angles), varying, memo) for r in roots]
 
     fresh = _numbered("_cse")

@@ -34,7 +34,7 @@ step is the polynomial evaluated there (Horner), to the tolerance of the step.
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from typing import Callable
 
@@ -44,7 +44,7 @@ from .printers import CPrinter
 from ..errors import SpecError
 from ..model.description import forget_on_model_change
 from .sources import kernels
-from .emit import render
+from .emit import cse_file, render
 from .integrators import library_files, model_info
 from .contract import (INFO, STATUS_TABLE, TAYLOR_ORDER_DIVISOR, TAYLOR_ORDER_MAX, TAYLOR_ORDER_MIN,
                        TAYLOR_ORDER_OFFSET, TAYLOR_ORDER_RULE)
@@ -84,12 +84,17 @@ class _Builder:
         self.d = Decomposition(n=len(state), timed=time is not None)
         self.memo: dict = {}              # expression -> ("node", i) | ("const", c)
         self.const_memo: dict = {}
+        self.op_memo: dict = {}           # (kind, args) -> node: an operation made twice is one node
         self.trig: dict = {}              # argument node -> (sin node, cos node)
         for s, i in self.state.items():
             self.memo[s] = ("node", self._op(Op("var", (), i)))
 
     def _op(self, op: Op) -> int:
+        key = (op.kind, op.args, op.index)
+        if op.kind not in ("sin", "cos") and key in self.op_memo:
+            return self.op_memo[key]
         self.d.ops.append(op)
+        self.op_memo[key] = len(self.d.ops) - 1
         return len(self.d.ops) - 1
 
     def _const(self, expr: sp.Expr) -> tuple[str, int]:
@@ -145,38 +150,54 @@ class _Builder:
         # negative terms as subtractions: a - b rather than a + (-1) b
         pos = [a for a in jets if not _negated(a)]
         neg = [-a for a in jets if _negated(a)]
+        c = self._const(self._const_value(sp.Add(*consts)))[1] if consts else None
         if pos:
             acc = self.node(pos[0])[1]
             for a in pos[1:]:
                 acc = self._op(Op("add", (acc, self.node(a)[1])))
             for a in neg:
                 acc = self._op(Op("sub", (acc, self.node(a)[1])))
-        else:
-            acc = self._op(Op("scale", (self.node(neg[0])[1], self._const(sp.Integer(-1))[1])))
-            for a in neg[1:]:
-                acc = self._op(Op("sub", (acc, self.node(a)[1])))
-        if consts:
-            acc = self._op(Op("shift", (acc, self._const(self._const_value(sp.Add(*consts)))[1])))
+            if c is not None:
+                acc = self._op(Op("shift", (acc, c)))
+            return ("node", acc)
+        first = self.node(neg[0])[1]
+        # c - a (one node, not -1 a then a shift by c), or -a
+        acc = self._op(Op("csub", (first, c))) if c is not None else self._scaled(first, sp.Integer(-1))
+        for a in neg[1:]:
+            acc = self._op(Op("sub", (acc, self.node(a)[1])))
         return ("node", acc)
 
     def _mul(self, args) -> tuple[str, int]:
         consts = [a for a in args if not self._depends(a)]
         jets = [a for a in args if self._depends(a)]
-        num = [a for a in jets if not (a.is_Pow and a.exp.is_negative)]
-        den = [1 / a for a in jets if a.is_Pow and a.exp.is_negative]
+        num = [self.node(a)[1] for a in jets if not (a.is_Pow and a.exp.is_negative)]
+        den = [self.node(1 / a)[1] for a in jets if a.is_Pow and a.exp.is_negative]
+        # a factor 1/b (an inverse the CSE named) divides by b: a quotient costs what the
+        # product by 1/b costs, and the inverse's own recurrence may then go
+        inverses = [i for i in num if self.d.ops[i].kind == "inv"]
+        if len(inverses) < len(num):
+            num = [i for i in num if i not in inverses]
+            den += [self.d.ops[i].args[0] for i in inverses]
         acc = None
-        for a in num:
-            i = self.node(a)[1]
+        for i in num:
             acc = i if acc is None else self._op(Op("mul", (acc, i)))
         if den:
             d = None
-            for a in den:
-                i = self.node(a)[1]
+            for i in den:
                 d = i if d is None else self._op(Op("mul", (d, i)))
             acc = self._op(Op("inv", (d,))) if acc is None else self._op(Op("div", (acc, d)))
         if consts:
-            acc = self._op(Op("scale", (acc, self._const(self._const_value(sp.Mul(*consts)))[1])))
+            acc = self._scaled(acc, self._const_value(sp.Mul(*consts)))
         return ("node", acc)
+
+    def _scaled(self, node: int, c: sp.Expr) -> int:
+        """c times a node; c (c0 a) as one scaling (c c0) a."""
+        op = self.d.ops[node]
+        if op.kind == "scale":
+            node, c = op.args[0], c * self.d.constants[op.args[1]]
+        if c == 1:
+            return node
+        return self._op(Op("scale", (node, self._const(c)[1])))
 
     def _pow(self, base, e) -> tuple[str, int]:
         b = self._jet(base)
@@ -219,6 +240,42 @@ def _negated(expr) -> bool:
     return expr.is_Mul and expr.args[0].is_Number and expr.args[0] < 0
 
 
+def _pruned(d: Decomposition) -> Decomposition:
+    """d without the nodes nothing reads (a scaling folded into another, an inverse turned
+    into quotients) and the constants none reads, renumbered in order; the states stay
+    (X[i] is the solution)."""
+    live = {i for i, op in enumerate(d.ops) if op.kind == "var"}
+    live |= {j for kind, j in d.outputs if kind == "node"} | set(d.guards)
+    for i in range(len(d.ops) - 1, -1, -1):
+        if i in live:
+            live |= set(_node_args(d.ops[i]))
+    # sin and cos read each other: a pair stays whole when either is read
+    live |= {j for i in list(live) if d.ops[i].kind in ("sin", "cos") for j in d.ops[i].args}
+    new = {i: n for n, i in enumerate(sorted(live))}
+    used = sorted({c for i in live for c in _const_args(d.ops[i])} | {j for kind, j in d.outputs if kind == "const"})
+    const = {c: n for n, c in enumerate(used)}
+    out = Decomposition(n=d.n, constants=[d.constants[c] for c in used], timed=d.timed)
+    for i in sorted(live):
+        op = d.ops[i]
+        k = len(op.args) - operation(op).consts
+        args = tuple(None if a is None else new[a] for a in op.args[:k]) + tuple(const[c] for c in op.args[k:])
+        out.ops.append(Op(op.kind, args, op.index))
+    out.outputs = [(kind, new[j] if kind == "node" else const[j]) for kind, j in d.outputs]
+    out.guards = [new[g] for g in d.guards]
+    return out
+
+
+def _const_args(op: Op) -> tuple:
+    """The constants' indices an operation reads."""
+    return op.args[len(op.args) - operation(op).consts:]
+
+
+def _node_args(op: Op) -> tuple:
+    """The nodes an operation reads (its arguments but the constants' indices)."""
+    k = len(op.args) - operation(op).consts
+    return tuple(a for a in op.args[:k] if a is not None)
+
+
 def decompose(rhs_body, state: tuple[sp.Symbol, ...], time: sp.Symbol | None = None) -> Decomposition:
     """The elementary operations of a model's CSE'd rhs kernel (derive/codegen/emit.Body);
     `time`: the symbol t of a time-dependent model, a variable of the jet (heyoka's
@@ -229,7 +286,7 @@ def decompose(rhs_body, state: tuple[sp.Symbol, ...], time: sp.Symbol | None = N
         b.d.outputs.append(b.node(expr))
     for g in rhs_body.guards:
         b.d.guards.append(b._jet(g))
-    return b.d
+    return _pruned(b.d)
 
 
 # -- the operations: one table for every emitter -----------------------------------------
@@ -277,8 +334,8 @@ def _chain(i, args):                      # sin, cos, exp: the argument's and th
     return (args[0], i)
 
 
-def _chain_cost(k):                       # (1/k) sum_{j=1..k} j a_j w_{k-j}
-    return 3 * k + 1
+def _square_cost(k):                      # 2 sum_{j<k/2} a_j a_{k-j} (+ a_{k/2}^2): half a product's
+    return 2 * ((k - 1) // 2) + (2 if k % 2 == 0 else 0) + 3
 
 
 OPERATIONS = {
@@ -302,14 +359,18 @@ OPERATIONS = {
     "shift": Operation("u_0 = a_0 + c, u_k = a_k (a none: the constant c alone)", _shift,
                        lambda u, a: f"LANES_SHIFT({u.cur}, {'0' if a[0] is None else a[0].cur}, C[{a[1]}], k);",
                        cost=lambda k: 1, lane_calls="SHIFT", consts=1),
+    "csub": Operation("u = c - a: u_0 = c - a_0, u_k = -a_k (c a constant)",
+                      lambda u, a: f"{u}[k] = k == 0 ? T_SUB(C[{a[1]}], {a[0]}[0]) : T_NEG({a[0]}[k]);",
+                      lambda u, a: f"LANES_CSUB({u.cur}, C[{a[1]}], {a[0].cur}, k);",
+                      cost=lambda k: 1, lane_calls="CSUB", consts=1),
     "mul": Operation("u_k = sum_{j=0..k} a_j b_{k-j}",
                      lambda u, a: f"{u}[k] = TAYLOR_MUL({a[0]}, {a[1]}, k);",
                      lambda u, a: f"LANES_MUL({u.cur}, {a[0].row}, {a[1].row}, k);",
-                     history=_operands, cost=lambda k: 2 * (k + 1), calls="MUL", lane_calls="MUL"),
-    "square": Operation("u = a a: u_k = sum_{j=0..k} a_j a_{k-j}",
-                        lambda u, a: f"{u}[k] = TAYLOR_MUL({a[0]}, {a[0]}, k);",
-                        lambda u, a: f"LANES_MUL({u.cur}, {a[0].row}, {a[0].row}, k);",
-                        history=_operands, cost=lambda k: 2 * (k + 1), calls="MUL", lane_calls="MUL"),
+                     history=_operands, cost=lambda k: 2 * k + 1, calls="MUL", lane_calls="MUL"),
+    "square": Operation("u = a a: u_k = 2 sum_{j<k/2} a_j a_{k-j} (+ a_{k/2}^2, k even)",
+                        lambda u, a: f"{u}[k] = TAYLOR_SQUARE({a[0]}, k);",
+                        lambda u, a: f"LANES_SQUARE({u.cur}, {a[0].row}, k);",
+                        history=_operands, cost=_square_cost, calls="SQUARE", lane_calls="SQUARE"),
     "div": Operation("u = a / b: u_k = (a_k - sum_{j=1..k} b_j u_{k-j}) / b_0",
                      lambda u, a: f"{u}[k] = TAYLOR_DIV({a[0]}[k], {a[1]}, {u}, k);",
                      lambda u, a: f"LANES_DIV({u.row}, {a[0].cur}, {a[1].row}, k);",
@@ -321,19 +382,21 @@ OPERATIONS = {
     "sqrt": Operation("u = sqrt(a): u_k = (a_k - sum_{j=1..k-1} u_j u_{k-j}) / (2 u_0)",
                       lambda u, a: f"{u}[k] = TAYLOR_SQRT({a[0]}, {u}, k);",
                       lambda u, a: f"LANES_SQRT({u.row}, {a[0].cur}, k);",
-                      history=_own, cost=lambda k: 2 * k, calls="SQRT", lane_calls="SQRT"),
+                      history=_own, cost=lambda k: _square_cost(k) + 1, calls="SQRT", lane_calls="SQRT"),
+    # one statement computes the pair (the products j a_j shared): sin's, with its cos
     "sin": Operation("s = sin a (c = cos a, its pair): s_k = (1/k) sum_{j=1..k} j a_j c_{k-j}",
-                     lambda u, a: f"{u}[k] = k == 0 ? T_SIN({a[0]}[0]) : TAYLOR_SIN({a[0]}, {a[1]}, k);",
+                     lambda u, a: f"TAYLOR_SINCOS({u}, {a[1]}, {a[0]}, k);",
                      lambda u, a: f"LANES_SINCOS({u.row}, {a[1].row}, {a[0].row}, k);",
-                     history=_chain, cost=_chain_cost, calls="CHAIN", lane_calls="SINCOS"),
+                     history=_chain, cost=lambda k: 5 * k + 1, calls="SINCOS", lane_calls="SINCOS"),
     "cos": Operation("c = cos a (s = sin a, its pair): c_k = -(1/k) sum_{j=1..k} j a_j s_{k-j}",
-                     lambda u, a: f"{u}[k] = k == 0 ? T_COS({a[0]}[0]) : TAYLOR_COS({a[0]}, {a[1]}, k);",
-                     None, history=_chain, cost=_chain_cost, calls="CHAIN", with_previous="sin"),
+                     None, None, history=_chain, with_previous="sin"),
     "exp": Operation("u = exp a: u_k = (1/k) sum_{j=1..k} j a_j u_{k-j}",
-                     lambda u, a: f"{u}[k] = k == 0 ? T_EXP({a[0]}[0]) : TAYLOR_EXP({a[0]}, {u}, k);",
+                     lambda u, a: f"{u}[k] = TAYLOR_EXP({a[0]}, {u}, k);",
                      lambda u, a: f"LANES_EXP({u.row}, {a[0].row}, k);",
-                     history=_chain, cost=_chain_cost, calls="CHAIN", lane_calls="EXP"),
+                     history=_chain, cost=lambda k: 3 * k, calls="EXP", lane_calls="EXP"),
 }
+# the recurrences of derive_taylor.h a jet may call (DERIVE_TAYLOR_USES_<NAME>: the others left out)
+TAYLOR_CALLS = tuple(sorted({row.calls for row in OPERATIONS.values()} - {None}))
 
 
 def operation(op: Op) -> Operation:
@@ -490,16 +553,41 @@ def counts(d: Decomposition) -> dict:
 
 # -- rendering -------------------------------------------------------------------------
 
+COST_ORDER = 12          # the order at which jets' costs are weighed (taylor_order(1e-9) is 11)
+# The jet's cost (jet_cost) up to which derive_taylor.h inlines the recurrences at a fixed
+# order: unrolled, the jet's code is about 11 bytes an operation (x86-64, AVX-512 build) on
+# some 4 KB of the rest, and past 32 KB it outgrows the instruction cache of most x86-64
+# cores, after which calls of the recurrences (their loops: some 20 KB in all) run as fast
+# and steadier.  Planar (jet_cost, us a step inlined / called, one AVX-512 build): order 13
+# (2766) 0.38 / 0.59; 14 (3190) 0.49 to 0.74 / 0.60, the inlined figure varying from one
+# build of the same file to the next by where its code lands in memory; 16 (4131) 0.77 / 0.73.
+INLINE_BUDGET = 2800
+
+
+def inline_max(d: Decomposition) -> int:
+    """The largest order whose jet costs at most INLINE_BUDGET (0: none)."""
+    return max((p for p in range(2, TAYLOR_ORDER_MAX + 1) if jet_cost(d, p) <= INLINE_BUDGET), default=0)
+
+
 @forget_on_model_change
 @lru_cache(maxsize=None)
 def rhs_decomposition(name: str) -> Decomposition:
-    """The decomposition of model `name`'s rhs (from the one CSE pass of its kernels), made
-    once: the C backend asks whether there is one, then renders it."""
+    """The decomposition of model `name`'s rhs, made once: the C backend asks whether there
+    is one, then renders it.
+
+    Two are made and the cheaper jet (jet_cost at COST_ORDER) kept: from the kernels' one
+    CSE pass, whose compound angles are rewritten for the scalar kernels (sin(a - b) as
+    sin a cos b - cos a sin b: one libm call fewer, emit.compound_angle_rewrites), and from
+    a CSE pass of the rhs alone with the angles whole.  For a jet the trade differs: the
+    rewrite costs four products and two sums a order, the pair sin/cos(a - b) about two
+    products, so the whole angle is usually the cheaper."""
     spec, bodies = kernels(name)
     body = next(b for b in bodies if b.kernel.name == "rhs")
+    whole = next(b for b in cse_file(replace(spec, kernels=(body.kernel,)), compound_angles=False))
     state = next(i.vector.symbols for i in body.kernel.inputs if i.vector.key == "state")
     time = next((i.vector.symbols[0] for i in body.kernel.inputs if i.vector.key == "time"), None)
-    return decompose(body, tuple(state), time)
+    jets = [decompose(b, tuple(state), time) for b in (whole, body)]
+    return min(jets, key=lambda d: jet_cost(d, COST_ORDER))
 
 
 def _slots(name: str) -> dict:
@@ -516,14 +604,24 @@ def _slots(name: str) -> dict:
     return slots
 
 
+def _sincos(m: str) -> str:
+    """sin and cos of a into s and c in the C type of <math.h> suffix m: derive_taylor_math.h's
+    function (the lanes' too) for the types with lanes, libm's (quadmath's) for the others."""
+    if m in ("", "f", "l"):
+        return f"derive_sincos{m}(a, &(s), &(c))"
+    return f"((s) = sin{m}(a), (c) = cos{m}(a))"
+
+
 def _native_ops(ctype: str, m: str) -> list[tuple[str, str]]:
     """The arithmetic macros of a C floating type (m: its <math.h> suffix, q: quadmath)."""
     return [("T_ADD(a, b)", "((a) + (b))"), ("T_SUB(a, b)", "((a) - (b))"), ("T_MUL(a, b)", "((a) * (b))"),
             ("T_DIV(a, b)", "((a) / (b))"), ("T_NEG(a)", "(-(a))"), ("T_MULI(a, i)", f"((a) * ({ctype})(i))"),
             ("T_DIVI(a, i)", f"((a) / ({ctype})(i))"), ("T_INT(i)", f"(({ctype})(i))"), ("T_D(x)", f"(({ctype})(x))"),
             ("T_SQRT(a)", f"sqrt{m}(a)"), ("T_SIN(a)", f"sin{m}(a)"), ("T_COS(a)", f"cos{m}(a)"),
+            ("T_SINCOS(a, s, c)", _sincos(m)),
             ("T_EXP(a)", f"exp{m}(a)"), ("T_S(a)", "(a)"), ("T_ABS(a)", f"fabs{m}(a)"), ("T_FROMS(x)", "(x)"),
-            ("T_LE(a, b)", "((a) <= (b))"), ("T_SEXP(x)", f"exp{m}(x)"), ("T_SPOW(x, y)", f"pow{m}(x, y)"),
+            ("T_LE(a, b)", "((a) <= (b))"), ("T_SEXP(x)", f"exp{m}(x)"),
+            ("T_SROOT(x, y)", f"derive_root{m}(x, y)" if m in ("", "f", "l") else f"pow{m}(x, y)"),
             # C99's isnan is type-generic; C++'s overloads know no __float128
             ("T_SNAN(x)", "isnanq(x)" if m == "q" else "isnan(x)")]
 
@@ -532,9 +630,16 @@ _DD_OPS = [("T_ADD(a, b)", "dd_add(a, b)"), ("T_SUB(a, b)", "dd_sub(a, b)"), ("T
            ("T_DIV(a, b)", "dd_div(a, b)"), ("T_NEG(a)", "dd_neg(a)"), ("T_MULI(a, i)", "dd_mul_d(a, (double)(i))"),
            ("T_DIVI(a, i)", "dd_div_d(a, (double)(i))"), ("T_INT(i)", "dd_d((double)(i))"), ("T_D(x)", "dd_d(x)"),
            ("T_SQRT(a)", "dd_sqrt(a)"), ("T_SIN(a)", "dd_sin(a)"), ("T_COS(a)", "dd_cos(a)"),
-           ("T_EXP(a)", "dd_exp(a)"), ("T_S(a)", "((a).hi)"), ("T_ABS(a)", "fabs((a).hi)"),
+           ("T_SINCOS(a, s, c)", "((s) = dd_sin(a), (c) = dd_cos(a))"), ("T_EXP(a)", "dd_exp(a)"), ("T_S(a)", "((a).hi)"), ("T_ABS(a)", "fabs((a).hi)"),
            ("T_FROMS(x)", "dd_d(x)"), ("T_LE(a, b)", "dd_le(a, b)"), ("T_SEXP(x)", "exp(x)"),
-           ("T_SPOW(x, y)", "pow(x, y)"), ("T_SNAN(x)", "isnan(x)")]
+           ("T_SROOT(x, y)", "derive_root(x, y)"), ("T_SNAN(x)", "isnan(x)")]
+
+
+# x87 arithmetic (long double) is bound by its operations (80-bit loads and stores), not by
+# fetching them: its jet runs faster with the recurrences inlined at every fixed order, past
+# INLINE_BUDGET too (planar: 5.19 against 5.61 us a step at order 15, 6.16 / 6.68 at 17, 8.9
+# / 9.4 at 22), so derive_taylor.h is told (T_INLINE_ALL) to inline them for it.
+X87_INLINE = [("T_INLINE_ALL", "1")]
 
 
 def _skip_key(ctype: str) -> str:
@@ -557,7 +662,7 @@ TAYLOR_VARIANTS = {
     "double": _variant("double", "double", "double", "", "", 'nan("")', _native_ops("double", ""), True, "_d"),
     "float": _variant("float", "float", "float", "_f", "f", 'nanf("")', _native_ops("float", "f"), True, "_f"),
     "long double": _variant("long double", "long double", "long double", "_l", "l", 'nanl("")',
-                            _native_ops("long double", "l"), True, "_l"),
+                            _native_ops("long double", "l") + X87_INLINE, True, "_l"),
     "double-double": _variant("double-double", "derive_dd", "double", "_dd", "", 'dd_d(nan(""))', _DD_OPS,
                               False, "_dd"),
     "quad": _variant("IEEE binary128 (__float128)", "derive_quad", "derive_quad", "_q", "q", 'nanq("")',
@@ -589,7 +694,7 @@ PUBLIC = (
      "const {R} *t, {R} *y_out, const {P}_integrate_options *opt, {P}_integrate_info *info",
      "n, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info"),
 )
-LIBRARY = ("derive_dd.h", "derive_taylor.h")      # derive/codegen/backends/c/library/
+LIBRARY = ("derive_dd.h", "derive_taylor_math.h", "derive_taylor.h")      # derive/codegen/backends/c/library/
 
 
 # a time-dependent model's taylor_coefficients takes the time first, as its kernels do (t[0])
@@ -631,8 +736,8 @@ def render_taylor(name: str) -> dict[str, str]:
                          public=_public(name, TAYLOR_VARIANTS[v], d.timed)) for v in names]
         header = f"{name}_{stem}.h"
         ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops),
-               "uses": {k.lower(): k in called for k in ("MUL", "DIV", "SQRT", "CHAIN")},
-               "nconst": len(d.constants), "timed": d.timed, "reads_time": d.reads_time, **ORDER_RULE, **library_context(name, info), "header": header,
+               "uses": {k: k in called for k in TAYLOR_CALLS},
+               "nconst": len(d.constants), "timed": d.timed, "inline_max": inline_max(d), "reads_time": d.reads_time, **ORDER_RULE, **library_context(name, info), "header": header,
                "guard": f"{M}_{stem.upper()}_H", "quad": "quad" in names, "dd": "double-double" in names,
                "precisions": _precisions([TAYLOR_VARIANTS[v] for v in names]),
                "op_summary": ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())),

@@ -24,7 +24,7 @@ its constants and the public entry points.
 from __future__ import annotations
 
 from ..errors import SpecError
-from .taylor import (ORDER_RULE, TAYLOR_VARIANTS, Decomposition, _slots, c_statements, history_nodes, jet_cost,
+from .taylor import (COST_ORDER, ORDER_RULE, TAYLOR_VARIANTS, Decomposition, _slots, c_statements, history_nodes, jet_cost,
                      library_context, operands, operation, rhs_decomposition, uses)
 from .integrators import _C_VARIANTS, c_variants, library_files, model_info
 from .emit import render
@@ -93,10 +93,10 @@ def lane_statements(d: Decomposition) -> dict:
             "nhist": nh, "ncur": nt, "reads_constants": any("C[" in line for line in lines + outputs)}
 
 
-LIBRARY = ("derive_taylor_lanes.h",)        # derive/codegen/backends/c/library/
+LIBRARY = ("derive_taylor_math.h", "derive_taylor_lanes.h")        # derive/codegen/backends/c/library/
 # the recurrences of derive_taylor_lanes.h a jet may leave out (DERIVE_LANES_USES_<NAME>)
-LANES_RECURRENCES = ("ADD", "SUB", "SCALE", "SHIFT", "MUL", "DIV", "SQRT", "SINCOS", "EXP", "OUT", "OUTC", "GUARD")
-COST_ORDER = 12                             # the order the header's cost is given for
+LANES_RECURRENCES = ("ADD", "SUB", "SCALE", "SHIFT", "CSUB", "MUL", "SQUARE", "DIV", "SQRT", "SINCOS", "EXP", "OUT",
+                     "OUTC", "GUARD")
 
 
 def lanes_uses(d: Decomposition) -> dict[str, bool]:

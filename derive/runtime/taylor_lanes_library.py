@@ -4,13 +4,12 @@ Compiled like the scalar one (taylor_library.py: one cached library per order, t
 fixed with -D<MODEL>_TAYLOR_ORDER=p) plus the lanes (-D<MODEL>_TAYLOR_LANES=L), only the
 scalar type asked for (-D<MODEL>_TAYLOR_LANES_ONLY: with the order unrolled, each
 scalar type's variant is a long compile, the long double one longest) and the vector
-instructions this machine has (SIMD_LEVELS, by the CPU's flags; none known: the
+instructions this machine has (vector_build.SIMD_LEVELS, by the CPU's flags; none known: the
 portable build, whose lane loops are SSE2 pairs on x86-64, plain loops elsewhere).  The numbers are the scalar
 integrator's: -ffp-contract=off (a fused multiply-add rounds otherwise).
 """
 from __future__ import annotations
 
-import platform
 from functools import lru_cache
 from pathlib import Path
 
@@ -26,48 +25,17 @@ from .model_sizes import model_info
 from ..codegen.taylor import taylor_problem
 from .taylor_library import taylor_library
 from ..codegen.taylor_lanes import variant_number
+from .vector_build import EXACT_FLAGS, simd_build
 
-# (CPU flag, compiler flags, lanes by scalar type), best first.  The lanes of each level
-# are the count that ran a trajectory in the least CPU time (planar, order 12 in double,
-# order 7 in float).
-SIMD_LEVELS = (
-    ("avx512f", ("-mavx2", "-mavx512f"), {"float64": 8, "float32": 8}),
-    ("avx2", ("-mavx2",), {"float64": 4, "float32": 8}),
-)
-PORTABLE_LANES = {"float64": 4, "float32": 4}   # SSE2 pairs on x86-64, else plain loops
 # long double has no vector unit (x87): its lanes are slower than the scalar integrator,
 # so its ensembles run the scalar one
 LANE_TYPES = ("float64", "float32")
-EXACT_FLAGS = ("-ffp-contract=off",)
 # the portable flags, loops peeled (a few lanes stay in registers), no contraction; GCC
-# and clang spellings.  sin and cos may fuse (unlike the scalar build, loader.
-# VECTOR_MATH_FLAGS): glibc's sincos gives sin's and cos' numbers (checked on 5e7
-# arguments; the tests compare every lane with the scalar run bit for bit), a little faster.
+# and clang spellings.  sin, cos and the radius' root are derive_taylor_math.h's, the scalar
+# integrator's (libm's past their ranges, lane by lane: there sin and cos may fuse into
+# glibc's sincos, which gives sin's and cos' numbers; the tests compare every lane with
+# the scalar run bit for bit).
 LANES_FLAGS = (*PORTABLE_FLAGS, "-fpeel-loops", *EXACT_FLAGS)
-
-
-@lru_cache(maxsize=1)
-def cpu_flags() -> frozenset[str]:
-    """The CPU's feature flags (Linux /proc/cpuinfo; elsewhere none known)."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("flags"):
-                return frozenset(line.split(":", 1)[1].split())
-    except OSError:
-        pass
-    return frozenset()
-
-
-def simd_build(dtype: str = "float64") -> tuple[tuple[str, ...], int]:
-    """(compiler flags, lanes) for this machine and scalar type: the widest vector unit it
-    has.  The flags name the instructions (never -march=native), so the build cache, keyed
-    by the flags, never hands a library for one CPU to another."""
-    if platform.machine() in ("x86_64", "AMD64"):
-        have = cpu_flags()
-        for flag, flags, lanes in SIMD_LEVELS:
-            if flag in have:
-                return flags, lanes[dtype]
-    return (), PORTABLE_LANES[dtype]
 
 
 class TaylorLanesLibrary(SharedLibrary):

@@ -16,8 +16,9 @@ from functools import lru_cache
 import numpy as np
 
 from .loader import build_fastest
+from .vector_build import EXACT_FLAGS, simd_build
 from ..codegen.sources import c_source
-from ..errors import SimulationInputError
+from ..errors import BuildError, SimulationInputError
 from ..model.description import forget_on_model_change
 from .build import OptionsCache, address, dtype_key, info_struct, options_struct, run_batch
 from .shared_library import SUFFIX, TAYLOR_BATCH, TAYLOR_COEFFICIENTS, TAYLOR_COEFFICIENTS_TIMED, SharedLibrary
@@ -48,9 +49,8 @@ class TaylorLibrary(SharedLibrary):
         source = c_source(model, f"{model}_taylor.c")
         if not source.is_file():
             raise SimulationInputError(f"model '{model}' has no Taylor integrator: {taylor_problem(model)}")
-        path, self.flags = build_fastest(f"{model}_taylor_p{order}{SUFFIX[dtype]}", [source],
-                                         extra=(f"-D{model.upper()}_TAYLOR_ORDER={order}",
-                                                *taylor_skip_flags(model, PRECISION[dtype].ctype)))
+        extra = (f"-D{model.upper()}_TAYLOR_ORDER={order}", *taylor_skip_flags(model, PRECISION[dtype].ctype))
+        path, self.flags = _build(f"{model}_taylor_p{order}{SUFFIX[dtype]}", source, extra)
         super().__init__(path)
         self.Info = info_struct(self.n)
         self.timed = kernels(model)[0].is_time_dependent
@@ -75,6 +75,20 @@ class TaylorLibrary(SharedLibrary):
         st = self.coefficient_fns[dt](*at, address(y), address(p), int(self.order), address(out),
                                       float(sine_min))
         return int(st), out
+
+
+def _build(stem: str, source, extra: tuple[str, ...]):
+    """The library with this machine's vector instructions (the lanes' flags, as scalar code:
+    three-operand instructions and twice the registers for the unrolled jet) and no
+    contraction, as the lanes are built (so that each lane stays bit for bit this run);
+    without them where the compiler refuses them."""
+    simd = simd_build("float64")[0]
+    if simd:
+        try:
+            return build_fastest(stem, [source], extra=(*simd, *EXACT_FLAGS, *extra))
+        except BuildError:
+            pass
+    return build_fastest(stem, [source], extra=(*EXACT_FLAGS, *extra))
 
 
 class TaylorOptions(OptionsCache):

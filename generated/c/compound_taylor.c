@@ -31,8 +31,8 @@
 #else
 #define TAYLOR_UNROLL
 #endif
-#define NODES 39
-#define NCONST 11
+#define NODES 34
+#define NCONST 10
 
 /* The library's view of this model (derive_taylor.h lists what it needs). */
 #define DERIVE_N N
@@ -55,10 +55,14 @@
 #define DERIVE_TAYLOR_ORDER_FOR(tol) (ceil(-log(tol) / 2 + 1))
 #define DERIVE_TAYLOR_DIM ORDER_DIM
 #define DERIVE_TAYLOR_UNROLL TAYLOR_UNROLL
-#define DERIVE_TAYLOR_USES_MUL 1
+/* the orders up to which the recurrences are inlined (the unrolled jet within the instruction cache) */
+#define DERIVE_TAYLOR_INLINE_MAX 13
 #define DERIVE_TAYLOR_USES_DIV 1
+#define DERIVE_TAYLOR_USES_EXP 0
+#define DERIVE_TAYLOR_USES_MUL 1
+#define DERIVE_TAYLOR_USES_SINCOS 1
 #define DERIVE_TAYLOR_USES_SQRT 0
-#define DERIVE_TAYLOR_USES_CHAIN 1
+#define DERIVE_TAYLOR_USES_SQUARE 1
 
 /* Every variant below is the same code written with the arithmetic of its type R:
  * T_ADD(a, b), T_SUB, T_MUL, T_DIV, T_NEG; T_MULI(a, i) and T_DIVI(a, i) by an int;
@@ -89,13 +93,14 @@
 #define T_SQRT(a) sqrt(a)
 #define T_SIN(a) sin(a)
 #define T_COS(a) cos(a)
+#define T_SINCOS(a, s, c) derive_sincos(a, &(s), &(c))
 #define T_EXP(a) exp(a)
 #define T_S(a) (a)
 #define T_ABS(a) fabs(a)
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) exp(x)
-#define T_SPOW(x, y) pow(x, y)
+#define T_SROOT(x, y) derive_root(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN nan("")
 
@@ -113,59 +118,50 @@ static int compound_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
     if (order < 1 || order > ORDER_DIM - 1) {
         return COMPOUND_INTEGRATE_BAD_INPUT;
     }
-    C[0] = (1.0/2.0)*p[2]*p[3]*p[1];
-    C[1] = -1;
-    C[2] = (p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]))*(p[5] + (1.0/4.0)*p[3]*p[3]*p[1]);
-    C[3] = p[6]*(p[0] + 2*p[1]);
-    C[4] = p[3]*p[1];
-    C[5] = -1.0/2.0*p[2];
-    C[6] = p[5] + (1.0/4.0)*p[3]*p[3]*p[1];
-    C[7] = p[2];
-    C[8] = p[6];
-    C[9] = (1.0/2.0)*p[3]*p[1];
-    C[10] = p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]);
+    C[0] = (p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]))*(p[5] + (1.0/4.0)*p[3]*p[3]*p[1]);
+    C[1] = (1.0/2.0)*p[2]*p[3]*p[1];
+    C[2] = p[6]*(p[0] + 2*p[1]);
+    C[3] = p[3]*p[1];
+    C[4] = -1.0/2.0*p[2];
+    C[5] = -1.0/2.0*p[2]*(p[5] + (1.0/4.0)*p[3]*p[3]*p[1]);
+    C[6] = p[2];
+    C[7] = p[6];
+    C[8] = (1.0/2.0)*p[3]*p[1];
+    C[9] = (1.0/2.0)*p[3]*p[1]*(p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]));
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[4][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[5], k);
-        J[5][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[4], k);
-        J[6][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[7], k);
-        J[7][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[6], k);
-        J[8][k] = TAYLOR_MUL(J[4], J[6], k);
-        J[9][k] = TAYLOR_MUL(J[5], J[7], k);
-        J[10][k] = T_ADD(J[8][k], J[9][k]);
-        J[11][k] = T_MUL(C[0], J[10][k]);
-        J[12][k] = TAYLOR_MUL(J[11], J[11], k);
-        J[13][k] = T_MUL(C[1], J[12][k]);
-        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
-        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
-        J[16][k] = T_MUL(C[3], J[4][k]);
-        J[17][k] = TAYLOR_MUL(J[4], J[7], k);
-        J[18][k] = TAYLOR_MUL(J[6], J[5], k);
-        J[19][k] = T_SUB(J[17][k], J[18][k]);
-        J[20][k] = TAYLOR_MUL(X[3], X[3], k);
-        J[21][k] = T_MUL(C[4], J[20][k]);
-        J[22][k] = TAYLOR_MUL(J[19], J[21], k);
-        J[23][k] = T_ADD(J[16][k], J[22][k]);
-        J[24][k] = T_MUL(C[5], J[23][k]);
-        J[25][k] = T_MUL(C[6], J[24][k]);
-        J[26][k] = TAYLOR_MUL(X[2], X[2], k);
-        J[27][k] = TAYLOR_MUL(J[19], J[26], k);
-        J[28][k] = T_MUL(C[7], J[27][k]);
-        J[29][k] = T_MUL(C[8], J[6][k]);
-        J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[9], J[30][k]);
-        J[32][k] = TAYLOR_MUL(J[31], J[11], k);
-        J[33][k] = T_SUB(J[25][k], J[32][k]);
-        J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[10], J[31][k]);
-        J[36][k] = TAYLOR_MUL(J[24], J[11], k);
-        J[37][k] = T_SUB(J[35][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[15], J[37], k);
+        J[4][k] = T_SUB(X[0][k], X[1][k]);
+        TAYLOR_SINCOS(J[5], J[6], J[4], k);
+        J[7][k] = T_MUL(C[1], J[6][k]);
+        J[8][k] = TAYLOR_SQUARE(J[7], k);
+        J[9][k] = k == 0 ? T_SUB(C[0], J[8][0]) : T_NEG(J[8][k]);
+        TAYLOR_SINCOS(J[10], J[11], X[0], k);
+        J[12][k] = T_MUL(C[2], J[10][k]);
+        J[13][k] = TAYLOR_SQUARE(X[3], k);
+        J[14][k] = TAYLOR_MUL(J[5], J[13], k);
+        J[15][k] = T_MUL(C[3], J[14][k]);
+        J[16][k] = T_ADD(J[12][k], J[15][k]);
+        J[17][k] = T_MUL(C[4], J[16][k]);
+        J[18][k] = T_MUL(C[5], J[16][k]);
+        J[19][k] = TAYLOR_SQUARE(X[2], k);
+        J[20][k] = TAYLOR_MUL(J[5], J[19], k);
+        J[21][k] = T_MUL(C[6], J[20][k]);
+        TAYLOR_SINCOS(J[22], J[23], X[1], k);
+        J[24][k] = T_MUL(C[7], J[22][k]);
+        J[25][k] = T_SUB(J[21][k], J[24][k]);
+        J[26][k] = T_MUL(C[8], J[25][k]);
+        J[27][k] = TAYLOR_MUL(J[26], J[7], k);
+        J[28][k] = T_SUB(J[18][k], J[27][k]);
+        J[29][k] = TAYLOR_DIV(J[28][k], J[9], J[29], k);
+        J[30][k] = T_MUL(C[9], J[25][k]);
+        J[31][k] = TAYLOR_MUL(J[17], J[7], k);
+        J[32][k] = T_SUB(J[30][k], J[31][k]);
+        J[33][k] = TAYLOR_DIV(J[32][k], J[9], J[33], k);
         X[0][k + 1] = T_DIVI(X[2][k], k + 1);
         X[1][k + 1] = T_DIVI(X[3][k], k + 1);
-        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
-        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[29][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[33][k], k + 1);
     }
     return COMPOUND_INTEGRATE_OK;
 }
@@ -199,13 +195,14 @@ long compound_taylor_batch(long n, const double *y0, long y0_stride, const doubl
 #undef T_SQRT
 #undef T_SIN
 #undef T_COS
+#undef T_SINCOS
 #undef T_EXP
 #undef T_S
 #undef T_ABS
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
@@ -231,13 +228,14 @@ long compound_taylor_batch(long n, const double *y0, long y0_stride, const doubl
 #define T_SQRT(a) sqrtf(a)
 #define T_SIN(a) sinf(a)
 #define T_COS(a) cosf(a)
+#define T_SINCOS(a, s, c) derive_sincosf(a, &(s), &(c))
 #define T_EXP(a) expf(a)
 #define T_S(a) (a)
 #define T_ABS(a) fabsf(a)
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expf(x)
-#define T_SPOW(x, y) powf(x, y)
+#define T_SROOT(x, y) derive_rootf(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN nanf("")
 
@@ -255,59 +253,50 @@ static int compound_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted
     if (order < 1 || order > ORDER_DIM - 1) {
         return COMPOUND_INTEGRATE_BAD_INPUT;
     }
-    C[0] = (1.0F/2.0F)*p[2]*p[3]*p[1];
-    C[1] = -1;
-    C[2] = (p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]))*(p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1]);
-    C[3] = p[6]*(p[0] + 2*p[1]);
-    C[4] = p[3]*p[1];
-    C[5] = -1.0F/2.0F*p[2];
-    C[6] = p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1];
-    C[7] = p[2];
-    C[8] = p[6];
-    C[9] = (1.0F/2.0F)*p[3]*p[1];
-    C[10] = p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]);
+    C[0] = (p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]))*(p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1]);
+    C[1] = (1.0F/2.0F)*p[2]*p[3]*p[1];
+    C[2] = p[6]*(p[0] + 2*p[1]);
+    C[3] = p[3]*p[1];
+    C[4] = -1.0F/2.0F*p[2];
+    C[5] = -1.0F/2.0F*p[2]*(p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1]);
+    C[6] = p[2];
+    C[7] = p[6];
+    C[8] = (1.0F/2.0F)*p[3]*p[1];
+    C[9] = (1.0F/2.0F)*p[3]*p[1]*(p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]));
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[4][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[5], k);
-        J[5][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[4], k);
-        J[6][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[7], k);
-        J[7][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[6], k);
-        J[8][k] = TAYLOR_MUL(J[4], J[6], k);
-        J[9][k] = TAYLOR_MUL(J[5], J[7], k);
-        J[10][k] = T_ADD(J[8][k], J[9][k]);
-        J[11][k] = T_MUL(C[0], J[10][k]);
-        J[12][k] = TAYLOR_MUL(J[11], J[11], k);
-        J[13][k] = T_MUL(C[1], J[12][k]);
-        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
-        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
-        J[16][k] = T_MUL(C[3], J[4][k]);
-        J[17][k] = TAYLOR_MUL(J[4], J[7], k);
-        J[18][k] = TAYLOR_MUL(J[6], J[5], k);
-        J[19][k] = T_SUB(J[17][k], J[18][k]);
-        J[20][k] = TAYLOR_MUL(X[3], X[3], k);
-        J[21][k] = T_MUL(C[4], J[20][k]);
-        J[22][k] = TAYLOR_MUL(J[19], J[21], k);
-        J[23][k] = T_ADD(J[16][k], J[22][k]);
-        J[24][k] = T_MUL(C[5], J[23][k]);
-        J[25][k] = T_MUL(C[6], J[24][k]);
-        J[26][k] = TAYLOR_MUL(X[2], X[2], k);
-        J[27][k] = TAYLOR_MUL(J[19], J[26], k);
-        J[28][k] = T_MUL(C[7], J[27][k]);
-        J[29][k] = T_MUL(C[8], J[6][k]);
-        J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[9], J[30][k]);
-        J[32][k] = TAYLOR_MUL(J[31], J[11], k);
-        J[33][k] = T_SUB(J[25][k], J[32][k]);
-        J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[10], J[31][k]);
-        J[36][k] = TAYLOR_MUL(J[24], J[11], k);
-        J[37][k] = T_SUB(J[35][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[15], J[37], k);
+        J[4][k] = T_SUB(X[0][k], X[1][k]);
+        TAYLOR_SINCOS(J[5], J[6], J[4], k);
+        J[7][k] = T_MUL(C[1], J[6][k]);
+        J[8][k] = TAYLOR_SQUARE(J[7], k);
+        J[9][k] = k == 0 ? T_SUB(C[0], J[8][0]) : T_NEG(J[8][k]);
+        TAYLOR_SINCOS(J[10], J[11], X[0], k);
+        J[12][k] = T_MUL(C[2], J[10][k]);
+        J[13][k] = TAYLOR_SQUARE(X[3], k);
+        J[14][k] = TAYLOR_MUL(J[5], J[13], k);
+        J[15][k] = T_MUL(C[3], J[14][k]);
+        J[16][k] = T_ADD(J[12][k], J[15][k]);
+        J[17][k] = T_MUL(C[4], J[16][k]);
+        J[18][k] = T_MUL(C[5], J[16][k]);
+        J[19][k] = TAYLOR_SQUARE(X[2], k);
+        J[20][k] = TAYLOR_MUL(J[5], J[19], k);
+        J[21][k] = T_MUL(C[6], J[20][k]);
+        TAYLOR_SINCOS(J[22], J[23], X[1], k);
+        J[24][k] = T_MUL(C[7], J[22][k]);
+        J[25][k] = T_SUB(J[21][k], J[24][k]);
+        J[26][k] = T_MUL(C[8], J[25][k]);
+        J[27][k] = TAYLOR_MUL(J[26], J[7], k);
+        J[28][k] = T_SUB(J[18][k], J[27][k]);
+        J[29][k] = TAYLOR_DIV(J[28][k], J[9], J[29], k);
+        J[30][k] = T_MUL(C[9], J[25][k]);
+        J[31][k] = TAYLOR_MUL(J[17], J[7], k);
+        J[32][k] = T_SUB(J[30][k], J[31][k]);
+        J[33][k] = TAYLOR_DIV(J[32][k], J[9], J[33], k);
         X[0][k + 1] = T_DIVI(X[2][k], k + 1);
         X[1][k + 1] = T_DIVI(X[3][k], k + 1);
-        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
-        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[29][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[33][k], k + 1);
     }
     return COMPOUND_INTEGRATE_OK;
 }
@@ -341,13 +330,14 @@ long compound_taylor_batch_f(long n, const float *y0, long y0_stride, const floa
 #undef T_SQRT
 #undef T_SIN
 #undef T_COS
+#undef T_SINCOS
 #undef T_EXP
 #undef T_S
 #undef T_ABS
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
@@ -373,14 +363,16 @@ long compound_taylor_batch_f(long n, const float *y0, long y0_stride, const floa
 #define T_SQRT(a) sqrtl(a)
 #define T_SIN(a) sinl(a)
 #define T_COS(a) cosl(a)
+#define T_SINCOS(a, s, c) derive_sincosl(a, &(s), &(c))
 #define T_EXP(a) expl(a)
 #define T_S(a) (a)
 #define T_ABS(a) fabsl(a)
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expl(x)
-#define T_SPOW(x, y) powl(x, y)
+#define T_SROOT(x, y) derive_rootl(x, y)
 #define T_SNAN(x) isnan(x)
+#define T_INLINE_ALL 1
 #define T_NAN nanl("")
 
 #define DERIVE_TAYLOR_T(x) x##_l
@@ -397,59 +389,50 @@ static int compound_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted
     if (order < 1 || order > ORDER_DIM - 1) {
         return COMPOUND_INTEGRATE_BAD_INPUT;
     }
-    C[0] = (1.0L/2.0L)*p[2]*p[3]*p[1];
-    C[1] = -1;
-    C[2] = (p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]))*(p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1]);
-    C[3] = p[6]*(p[0] + 2*p[1]);
-    C[4] = p[3]*p[1];
-    C[5] = -1.0L/2.0L*p[2];
-    C[6] = p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1];
-    C[7] = p[2];
-    C[8] = p[6];
-    C[9] = (1.0L/2.0L)*p[3]*p[1];
-    C[10] = p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]);
+    C[0] = (p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]))*(p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1]);
+    C[1] = (1.0L/2.0L)*p[2]*p[3]*p[1];
+    C[2] = p[6]*(p[0] + 2*p[1]);
+    C[3] = p[3]*p[1];
+    C[4] = -1.0L/2.0L*p[2];
+    C[5] = -1.0L/2.0L*p[2]*(p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1]);
+    C[6] = p[2];
+    C[7] = p[6];
+    C[8] = (1.0L/2.0L)*p[3]*p[1];
+    C[9] = (1.0L/2.0L)*p[3]*p[1]*(p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]));
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[4][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[5], k);
-        J[5][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[4], k);
-        J[6][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[7], k);
-        J[7][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[6], k);
-        J[8][k] = TAYLOR_MUL(J[4], J[6], k);
-        J[9][k] = TAYLOR_MUL(J[5], J[7], k);
-        J[10][k] = T_ADD(J[8][k], J[9][k]);
-        J[11][k] = T_MUL(C[0], J[10][k]);
-        J[12][k] = TAYLOR_MUL(J[11], J[11], k);
-        J[13][k] = T_MUL(C[1], J[12][k]);
-        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
-        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
-        J[16][k] = T_MUL(C[3], J[4][k]);
-        J[17][k] = TAYLOR_MUL(J[4], J[7], k);
-        J[18][k] = TAYLOR_MUL(J[6], J[5], k);
-        J[19][k] = T_SUB(J[17][k], J[18][k]);
-        J[20][k] = TAYLOR_MUL(X[3], X[3], k);
-        J[21][k] = T_MUL(C[4], J[20][k]);
-        J[22][k] = TAYLOR_MUL(J[19], J[21], k);
-        J[23][k] = T_ADD(J[16][k], J[22][k]);
-        J[24][k] = T_MUL(C[5], J[23][k]);
-        J[25][k] = T_MUL(C[6], J[24][k]);
-        J[26][k] = TAYLOR_MUL(X[2], X[2], k);
-        J[27][k] = TAYLOR_MUL(J[19], J[26], k);
-        J[28][k] = T_MUL(C[7], J[27][k]);
-        J[29][k] = T_MUL(C[8], J[6][k]);
-        J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[9], J[30][k]);
-        J[32][k] = TAYLOR_MUL(J[31], J[11], k);
-        J[33][k] = T_SUB(J[25][k], J[32][k]);
-        J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[10], J[31][k]);
-        J[36][k] = TAYLOR_MUL(J[24], J[11], k);
-        J[37][k] = T_SUB(J[35][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[15], J[37], k);
+        J[4][k] = T_SUB(X[0][k], X[1][k]);
+        TAYLOR_SINCOS(J[5], J[6], J[4], k);
+        J[7][k] = T_MUL(C[1], J[6][k]);
+        J[8][k] = TAYLOR_SQUARE(J[7], k);
+        J[9][k] = k == 0 ? T_SUB(C[0], J[8][0]) : T_NEG(J[8][k]);
+        TAYLOR_SINCOS(J[10], J[11], X[0], k);
+        J[12][k] = T_MUL(C[2], J[10][k]);
+        J[13][k] = TAYLOR_SQUARE(X[3], k);
+        J[14][k] = TAYLOR_MUL(J[5], J[13], k);
+        J[15][k] = T_MUL(C[3], J[14][k]);
+        J[16][k] = T_ADD(J[12][k], J[15][k]);
+        J[17][k] = T_MUL(C[4], J[16][k]);
+        J[18][k] = T_MUL(C[5], J[16][k]);
+        J[19][k] = TAYLOR_SQUARE(X[2], k);
+        J[20][k] = TAYLOR_MUL(J[5], J[19], k);
+        J[21][k] = T_MUL(C[6], J[20][k]);
+        TAYLOR_SINCOS(J[22], J[23], X[1], k);
+        J[24][k] = T_MUL(C[7], J[22][k]);
+        J[25][k] = T_SUB(J[21][k], J[24][k]);
+        J[26][k] = T_MUL(C[8], J[25][k]);
+        J[27][k] = TAYLOR_MUL(J[26], J[7], k);
+        J[28][k] = T_SUB(J[18][k], J[27][k]);
+        J[29][k] = TAYLOR_DIV(J[28][k], J[9], J[29], k);
+        J[30][k] = T_MUL(C[9], J[25][k]);
+        J[31][k] = TAYLOR_MUL(J[17], J[7], k);
+        J[32][k] = T_SUB(J[30][k], J[31][k]);
+        J[33][k] = TAYLOR_DIV(J[32][k], J[9], J[33], k);
         X[0][k + 1] = T_DIVI(X[2][k], k + 1);
         X[1][k + 1] = T_DIVI(X[3][k], k + 1);
-        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
-        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[29][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[33][k], k + 1);
     }
     return COMPOUND_INTEGRATE_OK;
 }
@@ -483,14 +466,16 @@ long compound_taylor_batch_l(long n, const long double *y0, long y0_stride, cons
 #undef T_SQRT
 #undef T_SIN
 #undef T_COS
+#undef T_SINCOS
 #undef T_EXP
 #undef T_S
 #undef T_ABS
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
+#undef T_SROOT
 #undef T_SNAN
+#undef T_INLINE_ALL
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET
@@ -515,13 +500,14 @@ long compound_taylor_batch_l(long n, const long double *y0, long y0_stride, cons
 #define T_SQRT(a) dd_sqrt(a)
 #define T_SIN(a) dd_sin(a)
 #define T_COS(a) dd_cos(a)
+#define T_SINCOS(a, s, c) ((s) = dd_sin(a), (c) = dd_cos(a))
 #define T_EXP(a) dd_exp(a)
 #define T_S(a) ((a).hi)
 #define T_ABS(a) fabs((a).hi)
 #define T_FROMS(x) dd_d(x)
 #define T_LE(a, b) dd_le(a, b)
 #define T_SEXP(x) exp(x)
-#define T_SPOW(x, y) pow(x, y)
+#define T_SROOT(x, y) derive_root(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN dd_d(nan(""))
 
@@ -540,59 +526,50 @@ static int compound_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wante
     if (order < 1 || order > ORDER_DIM - 1) {
         return COMPOUND_INTEGRATE_BAD_INPUT;
     }
-    C[0] = T_MUL(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]), p[3]), p[1]);
-    C[1] = T_INT(-1);
-    C[2] = T_MUL(T_ADD(p[4], T_MUL(T_MUL(p[2], p[2]), T_ADD(p[1], T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0])))), T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3]))));
-    C[3] = T_MUL(p[6], T_ADD(p[0], T_MUL(T_INT(2), p[1])));
-    C[4] = T_MUL(p[3], p[1]);
-    C[5] = T_NEG(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]));
-    C[6] = T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3])));
-    C[7] = p[2];
-    C[8] = p[6];
-    C[9] = T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[3]), p[1]);
-    C[10] = T_ADD(p[4], T_MUL(T_MUL(p[2], p[2]), T_ADD(p[1], T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0]))));
+    C[0] = T_MUL(T_ADD(p[4], T_MUL(T_MUL(p[2], p[2]), T_ADD(p[1], T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0])))), T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3]))));
+    C[1] = T_MUL(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]), p[3]), p[1]);
+    C[2] = T_MUL(p[6], T_ADD(p[0], T_MUL(T_INT(2), p[1])));
+    C[3] = T_MUL(p[3], p[1]);
+    C[4] = T_NEG(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]));
+    C[5] = T_NEG(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]), T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3])))));
+    C[6] = p[2];
+    C[7] = p[6];
+    C[8] = T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[3]), p[1]);
+    C[9] = T_MUL(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[3]), p[1]), T_ADD(p[4], T_MUL(T_MUL(p[2], p[2]), T_ADD(p[1], T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0])))));
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[4][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[5], k);
-        J[5][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[4], k);
-        J[6][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[7], k);
-        J[7][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[6], k);
-        J[8][k] = TAYLOR_MUL(J[4], J[6], k);
-        J[9][k] = TAYLOR_MUL(J[5], J[7], k);
-        J[10][k] = T_ADD(J[8][k], J[9][k]);
-        J[11][k] = T_MUL(C[0], J[10][k]);
-        J[12][k] = TAYLOR_MUL(J[11], J[11], k);
-        J[13][k] = T_MUL(C[1], J[12][k]);
-        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
-        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
-        J[16][k] = T_MUL(C[3], J[4][k]);
-        J[17][k] = TAYLOR_MUL(J[4], J[7], k);
-        J[18][k] = TAYLOR_MUL(J[6], J[5], k);
-        J[19][k] = T_SUB(J[17][k], J[18][k]);
-        J[20][k] = TAYLOR_MUL(X[3], X[3], k);
-        J[21][k] = T_MUL(C[4], J[20][k]);
-        J[22][k] = TAYLOR_MUL(J[19], J[21], k);
-        J[23][k] = T_ADD(J[16][k], J[22][k]);
-        J[24][k] = T_MUL(C[5], J[23][k]);
-        J[25][k] = T_MUL(C[6], J[24][k]);
-        J[26][k] = TAYLOR_MUL(X[2], X[2], k);
-        J[27][k] = TAYLOR_MUL(J[19], J[26], k);
-        J[28][k] = T_MUL(C[7], J[27][k]);
-        J[29][k] = T_MUL(C[8], J[6][k]);
-        J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[9], J[30][k]);
-        J[32][k] = TAYLOR_MUL(J[31], J[11], k);
-        J[33][k] = T_SUB(J[25][k], J[32][k]);
-        J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[10], J[31][k]);
-        J[36][k] = TAYLOR_MUL(J[24], J[11], k);
-        J[37][k] = T_SUB(J[35][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[15], J[37], k);
+        J[4][k] = T_SUB(X[0][k], X[1][k]);
+        TAYLOR_SINCOS(J[5], J[6], J[4], k);
+        J[7][k] = T_MUL(C[1], J[6][k]);
+        J[8][k] = TAYLOR_SQUARE(J[7], k);
+        J[9][k] = k == 0 ? T_SUB(C[0], J[8][0]) : T_NEG(J[8][k]);
+        TAYLOR_SINCOS(J[10], J[11], X[0], k);
+        J[12][k] = T_MUL(C[2], J[10][k]);
+        J[13][k] = TAYLOR_SQUARE(X[3], k);
+        J[14][k] = TAYLOR_MUL(J[5], J[13], k);
+        J[15][k] = T_MUL(C[3], J[14][k]);
+        J[16][k] = T_ADD(J[12][k], J[15][k]);
+        J[17][k] = T_MUL(C[4], J[16][k]);
+        J[18][k] = T_MUL(C[5], J[16][k]);
+        J[19][k] = TAYLOR_SQUARE(X[2], k);
+        J[20][k] = TAYLOR_MUL(J[5], J[19], k);
+        J[21][k] = T_MUL(C[6], J[20][k]);
+        TAYLOR_SINCOS(J[22], J[23], X[1], k);
+        J[24][k] = T_MUL(C[7], J[22][k]);
+        J[25][k] = T_SUB(J[21][k], J[24][k]);
+        J[26][k] = T_MUL(C[8], J[25][k]);
+        J[27][k] = TAYLOR_MUL(J[26], J[7], k);
+        J[28][k] = T_SUB(J[18][k], J[27][k]);
+        J[29][k] = TAYLOR_DIV(J[28][k], J[9], J[29], k);
+        J[30][k] = T_MUL(C[9], J[25][k]);
+        J[31][k] = TAYLOR_MUL(J[17], J[7], k);
+        J[32][k] = T_SUB(J[30][k], J[31][k]);
+        J[33][k] = TAYLOR_DIV(J[32][k], J[9], J[33], k);
         X[0][k + 1] = T_DIVI(X[2][k], k + 1);
         X[1][k + 1] = T_DIVI(X[3][k], k + 1);
-        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
-        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[29][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[33][k], k + 1);
     }
     return COMPOUND_INTEGRATE_OK;
 }
@@ -626,13 +603,14 @@ long compound_taylor_batch_dd(long n, const derive_dd *y0, long y0_stride, const
 #undef T_SQRT
 #undef T_SIN
 #undef T_COS
+#undef T_SINCOS
 #undef T_EXP
 #undef T_S
 #undef T_ABS
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T

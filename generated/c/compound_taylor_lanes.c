@@ -34,7 +34,7 @@
 #else
 #define TAYLOR_UNROLL
 #endif
-#define NCONST 11
+#define NCONST 10
 
 /* The library's view of this model (derive_taylor_lanes.h lists what it needs). */
 #define DERIVE_N N
@@ -75,8 +75,10 @@
 #define DERIVE_LANES_USES_ADD 1
 #define DERIVE_LANES_USES_SUB 1
 #define DERIVE_LANES_USES_SCALE 1
-#define DERIVE_LANES_USES_SHIFT 1
+#define DERIVE_LANES_USES_SHIFT 0
+#define DERIVE_LANES_USES_CSUB 1
 #define DERIVE_LANES_USES_MUL 1
+#define DERIVE_LANES_USES_SQUARE 1
 #define DERIVE_LANES_USES_DIV 1
 #define DERIVE_LANES_USES_SQRT 0
 #define DERIVE_LANES_USES_SINCOS 1
@@ -100,67 +102,60 @@
 /* The constants of the jet (expressions of the parameters) for lane l. */
 static void compound_lconstants(R (*C)[L], int l, const R *p)
 {
-    C[0][l] = (1.0/2.0)*p[2]*p[3]*p[1];
-    C[1][l] = -1;
-    C[2][l] = (p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]))*(p[5] + (1.0/4.0)*p[3]*p[3]*p[1]);
-    C[3][l] = p[6]*(p[0] + 2*p[1]);
-    C[4][l] = p[3]*p[1];
-    C[5][l] = -1.0/2.0*p[2];
-    C[6][l] = p[5] + (1.0/4.0)*p[3]*p[3]*p[1];
-    C[7][l] = p[2];
-    C[8][l] = p[6];
-    C[9][l] = (1.0/2.0)*p[3]*p[1];
-    C[10][l] = p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]);
+    C[0][l] = (p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]))*(p[5] + (1.0/4.0)*p[3]*p[3]*p[1]);
+    C[1][l] = (1.0/2.0)*p[2]*p[3]*p[1];
+    C[2][l] = p[6]*(p[0] + 2*p[1]);
+    C[3][l] = p[3]*p[1];
+    C[4][l] = -1.0/2.0*p[2];
+    C[5][l] = -1.0/2.0*p[2]*(p[5] + (1.0/4.0)*p[3]*p[3]*p[1]);
+    C[6][l] = p[2];
+    C[7][l] = p[6];
+    C[8][l] = (1.0/2.0)*p[3]*p[1];
+    C[9][l] = (1.0/2.0)*p[3]*p[1]*(p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]));
 }
 
 /* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
 static void compound_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    R H[14][ORDER_DIM * L];     /* nodes read at every order */
-    R T[21][L];                 /* nodes read at this order only */
+    R H[15][ORDER_DIM * L];     /* nodes read at every order */
+    R T[15][L];                 /* nodes read at this order only */
     const int order = COMPOUND_TAYLOR_ORDER ? COMPOUND_TAYLOR_ORDER : order_wanted;
     int k;
     (void)sine_min;
     (void)bad;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        LANES_SINCOS(H[0], H[1], X[0], k);
-        LANES_SINCOS(H[2], H[3], X[1], k);
-        LANES_MUL(T[0], H[0], H[2], k);
-        LANES_MUL(T[1], H[1], H[3], k);
-        LANES_ADD(T[2], T[0], T[1]);
-        LANES_SCALE(H[4] + k * L, C[0], T[2]);
-        LANES_MUL(T[3], H[4], H[4], k);
-        LANES_SCALE(T[4], C[1], T[3]);
-        LANES_SHIFT(H[5] + k * L, T[4], C[2], k);
-        LANES_DIV(H[6], 0, H[5], k);
-        LANES_SCALE(T[5], C[3], H[0] + k * L);
-        LANES_MUL(T[6], H[0], H[3], k);
-        LANES_MUL(T[7], H[2], H[1], k);
-        LANES_SUB(H[7] + k * L, T[6], T[7]);
-        LANES_MUL(T[8], X[3], X[3], k);
-        LANES_SCALE(H[8] + k * L, C[4], T[8]);
-        LANES_MUL(T[9], H[7], H[8], k);
-        LANES_ADD(T[10], T[5], T[9]);
-        LANES_SCALE(H[9] + k * L, C[5], T[10]);
-        LANES_SCALE(T[11], C[6], H[9] + k * L);
-        LANES_MUL(H[10] + k * L, X[2], X[2], k);
-        LANES_MUL(T[12], H[7], H[10], k);
-        LANES_SCALE(T[13], C[7], T[12]);
-        LANES_SCALE(T[14], C[8], H[2] + k * L);
-        LANES_SUB(T[15], T[13], T[14]);
-        LANES_SCALE(H[11] + k * L, C[9], T[15]);
-        LANES_MUL(T[16], H[11], H[4], k);
-        LANES_SUB(H[12] + k * L, T[11], T[16]);
-        LANES_MUL(T[17], H[6], H[12], k);
-        LANES_SCALE(T[18], C[10], H[11] + k * L);
-        LANES_MUL(T[19], H[9], H[4], k);
-        LANES_SUB(H[13] + k * L, T[18], T[19]);
-        LANES_MUL(T[20], H[6], H[13], k);
+        LANES_SUB(H[0] + k * L, X[0] + k * L, X[1] + k * L);
+        LANES_SINCOS(H[1], H[2], H[0], k);
+        LANES_SCALE(H[3] + k * L, C[1], H[2] + k * L);
+        LANES_SQUARE(T[0], H[3], k);
+        LANES_CSUB(H[4] + k * L, C[0], T[0], k);
+        LANES_SINCOS(H[5], H[6], X[0], k);
+        LANES_SCALE(T[1], C[2], H[5] + k * L);
+        LANES_SQUARE(H[7] + k * L, X[3], k);
+        LANES_MUL(T[2], H[1], H[7], k);
+        LANES_SCALE(T[3], C[3], T[2]);
+        LANES_ADD(T[4], T[1], T[3]);
+        LANES_SCALE(H[8] + k * L, C[4], T[4]);
+        LANES_SCALE(T[5], C[5], T[4]);
+        LANES_SQUARE(H[9] + k * L, X[2], k);
+        LANES_MUL(T[6], H[1], H[9], k);
+        LANES_SCALE(T[7], C[6], T[6]);
+        LANES_SINCOS(H[10], H[11], X[1], k);
+        LANES_SCALE(T[8], C[7], H[10] + k * L);
+        LANES_SUB(T[9], T[7], T[8]);
+        LANES_SCALE(H[12] + k * L, C[8], T[9]);
+        LANES_MUL(T[10], H[12], H[3], k);
+        LANES_SUB(T[11], T[5], T[10]);
+        LANES_DIV(H[13], T[11], H[4], k);
+        LANES_SCALE(T[12], C[9], T[9]);
+        LANES_MUL(T[13], H[8], H[3], k);
+        LANES_SUB(T[14], T[12], T[13]);
+        LANES_DIV(H[14], T[14], H[4], k);
         LANES_OUT(X[0] + (k + 1) * L, X[2] + k * L, k);
         LANES_OUT(X[1] + (k + 1) * L, X[3] + k * L, k);
-        LANES_OUT(X[2] + (k + 1) * L, T[17], k);
-        LANES_OUT(X[3] + (k + 1) * L, T[20], k);
+        LANES_OUT(X[2] + (k + 1) * L, H[13] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, H[14] + k * L, k);
     }
 }
 
@@ -190,67 +185,60 @@ long compound_taylor_lanes_batch(long n, const R *y0, long y0_stride, const R *p
 /* The constants of the jet (expressions of the parameters) for lane l. */
 static void compound_lconstants_f(R (*C)[L], int l, const R *p)
 {
-    C[0][l] = (1.0F/2.0F)*p[2]*p[3]*p[1];
-    C[1][l] = -1;
-    C[2][l] = (p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]))*(p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1]);
-    C[3][l] = p[6]*(p[0] + 2*p[1]);
-    C[4][l] = p[3]*p[1];
-    C[5][l] = -1.0F/2.0F*p[2];
-    C[6][l] = p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1];
-    C[7][l] = p[2];
-    C[8][l] = p[6];
-    C[9][l] = (1.0F/2.0F)*p[3]*p[1];
-    C[10][l] = p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]);
+    C[0][l] = (p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]))*(p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1]);
+    C[1][l] = (1.0F/2.0F)*p[2]*p[3]*p[1];
+    C[2][l] = p[6]*(p[0] + 2*p[1]);
+    C[3][l] = p[3]*p[1];
+    C[4][l] = -1.0F/2.0F*p[2];
+    C[5][l] = -1.0F/2.0F*p[2]*(p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1]);
+    C[6][l] = p[2];
+    C[7][l] = p[6];
+    C[8][l] = (1.0F/2.0F)*p[3]*p[1];
+    C[9][l] = (1.0F/2.0F)*p[3]*p[1]*(p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]));
 }
 
 /* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
 static void compound_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    R H[14][ORDER_DIM * L];     /* nodes read at every order */
-    R T[21][L];                 /* nodes read at this order only */
+    R H[15][ORDER_DIM * L];     /* nodes read at every order */
+    R T[15][L];                 /* nodes read at this order only */
     const int order = COMPOUND_TAYLOR_ORDER ? COMPOUND_TAYLOR_ORDER : order_wanted;
     int k;
     (void)sine_min;
     (void)bad;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        LANES_SINCOS(H[0], H[1], X[0], k);
-        LANES_SINCOS(H[2], H[3], X[1], k);
-        LANES_MUL(T[0], H[0], H[2], k);
-        LANES_MUL(T[1], H[1], H[3], k);
-        LANES_ADD(T[2], T[0], T[1]);
-        LANES_SCALE(H[4] + k * L, C[0], T[2]);
-        LANES_MUL(T[3], H[4], H[4], k);
-        LANES_SCALE(T[4], C[1], T[3]);
-        LANES_SHIFT(H[5] + k * L, T[4], C[2], k);
-        LANES_DIV(H[6], 0, H[5], k);
-        LANES_SCALE(T[5], C[3], H[0] + k * L);
-        LANES_MUL(T[6], H[0], H[3], k);
-        LANES_MUL(T[7], H[2], H[1], k);
-        LANES_SUB(H[7] + k * L, T[6], T[7]);
-        LANES_MUL(T[8], X[3], X[3], k);
-        LANES_SCALE(H[8] + k * L, C[4], T[8]);
-        LANES_MUL(T[9], H[7], H[8], k);
-        LANES_ADD(T[10], T[5], T[9]);
-        LANES_SCALE(H[9] + k * L, C[5], T[10]);
-        LANES_SCALE(T[11], C[6], H[9] + k * L);
-        LANES_MUL(H[10] + k * L, X[2], X[2], k);
-        LANES_MUL(T[12], H[7], H[10], k);
-        LANES_SCALE(T[13], C[7], T[12]);
-        LANES_SCALE(T[14], C[8], H[2] + k * L);
-        LANES_SUB(T[15], T[13], T[14]);
-        LANES_SCALE(H[11] + k * L, C[9], T[15]);
-        LANES_MUL(T[16], H[11], H[4], k);
-        LANES_SUB(H[12] + k * L, T[11], T[16]);
-        LANES_MUL(T[17], H[6], H[12], k);
-        LANES_SCALE(T[18], C[10], H[11] + k * L);
-        LANES_MUL(T[19], H[9], H[4], k);
-        LANES_SUB(H[13] + k * L, T[18], T[19]);
-        LANES_MUL(T[20], H[6], H[13], k);
+        LANES_SUB(H[0] + k * L, X[0] + k * L, X[1] + k * L);
+        LANES_SINCOS(H[1], H[2], H[0], k);
+        LANES_SCALE(H[3] + k * L, C[1], H[2] + k * L);
+        LANES_SQUARE(T[0], H[3], k);
+        LANES_CSUB(H[4] + k * L, C[0], T[0], k);
+        LANES_SINCOS(H[5], H[6], X[0], k);
+        LANES_SCALE(T[1], C[2], H[5] + k * L);
+        LANES_SQUARE(H[7] + k * L, X[3], k);
+        LANES_MUL(T[2], H[1], H[7], k);
+        LANES_SCALE(T[3], C[3], T[2]);
+        LANES_ADD(T[4], T[1], T[3]);
+        LANES_SCALE(H[8] + k * L, C[4], T[4]);
+        LANES_SCALE(T[5], C[5], T[4]);
+        LANES_SQUARE(H[9] + k * L, X[2], k);
+        LANES_MUL(T[6], H[1], H[9], k);
+        LANES_SCALE(T[7], C[6], T[6]);
+        LANES_SINCOS(H[10], H[11], X[1], k);
+        LANES_SCALE(T[8], C[7], H[10] + k * L);
+        LANES_SUB(T[9], T[7], T[8]);
+        LANES_SCALE(H[12] + k * L, C[8], T[9]);
+        LANES_MUL(T[10], H[12], H[3], k);
+        LANES_SUB(T[11], T[5], T[10]);
+        LANES_DIV(H[13], T[11], H[4], k);
+        LANES_SCALE(T[12], C[9], T[9]);
+        LANES_MUL(T[13], H[8], H[3], k);
+        LANES_SUB(T[14], T[12], T[13]);
+        LANES_DIV(H[14], T[14], H[4], k);
         LANES_OUT(X[0] + (k + 1) * L, X[2] + k * L, k);
         LANES_OUT(X[1] + (k + 1) * L, X[3] + k * L, k);
-        LANES_OUT(X[2] + (k + 1) * L, T[17], k);
-        LANES_OUT(X[3] + (k + 1) * L, T[20], k);
+        LANES_OUT(X[2] + (k + 1) * L, H[13] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, H[14] + k * L, k);
     }
 }
 
@@ -280,67 +268,60 @@ long compound_taylor_lanes_batch_f(long n, const R *y0, long y0_stride, const R 
 /* The constants of the jet (expressions of the parameters) for lane l. */
 static void compound_lconstants_l(R (*C)[L], int l, const R *p)
 {
-    C[0][l] = (1.0L/2.0L)*p[2]*p[3]*p[1];
-    C[1][l] = -1;
-    C[2][l] = (p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]))*(p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1]);
-    C[3][l] = p[6]*(p[0] + 2*p[1]);
-    C[4][l] = p[3]*p[1];
-    C[5][l] = -1.0L/2.0L*p[2];
-    C[6][l] = p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1];
-    C[7][l] = p[2];
-    C[8][l] = p[6];
-    C[9][l] = (1.0L/2.0L)*p[3]*p[1];
-    C[10][l] = p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]);
+    C[0][l] = (p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]))*(p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1]);
+    C[1][l] = (1.0L/2.0L)*p[2]*p[3]*p[1];
+    C[2][l] = p[6]*(p[0] + 2*p[1]);
+    C[3][l] = p[3]*p[1];
+    C[4][l] = -1.0L/2.0L*p[2];
+    C[5][l] = -1.0L/2.0L*p[2]*(p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1]);
+    C[6][l] = p[2];
+    C[7][l] = p[6];
+    C[8][l] = (1.0L/2.0L)*p[3]*p[1];
+    C[9][l] = (1.0L/2.0L)*p[3]*p[1]*(p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]));
 }
 
 /* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
 static void compound_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    R H[14][ORDER_DIM * L];     /* nodes read at every order */
-    R T[21][L];                 /* nodes read at this order only */
+    R H[15][ORDER_DIM * L];     /* nodes read at every order */
+    R T[15][L];                 /* nodes read at this order only */
     const int order = COMPOUND_TAYLOR_ORDER ? COMPOUND_TAYLOR_ORDER : order_wanted;
     int k;
     (void)sine_min;
     (void)bad;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        LANES_SINCOS(H[0], H[1], X[0], k);
-        LANES_SINCOS(H[2], H[3], X[1], k);
-        LANES_MUL(T[0], H[0], H[2], k);
-        LANES_MUL(T[1], H[1], H[3], k);
-        LANES_ADD(T[2], T[0], T[1]);
-        LANES_SCALE(H[4] + k * L, C[0], T[2]);
-        LANES_MUL(T[3], H[4], H[4], k);
-        LANES_SCALE(T[4], C[1], T[3]);
-        LANES_SHIFT(H[5] + k * L, T[4], C[2], k);
-        LANES_DIV(H[6], 0, H[5], k);
-        LANES_SCALE(T[5], C[3], H[0] + k * L);
-        LANES_MUL(T[6], H[0], H[3], k);
-        LANES_MUL(T[7], H[2], H[1], k);
-        LANES_SUB(H[7] + k * L, T[6], T[7]);
-        LANES_MUL(T[8], X[3], X[3], k);
-        LANES_SCALE(H[8] + k * L, C[4], T[8]);
-        LANES_MUL(T[9], H[7], H[8], k);
-        LANES_ADD(T[10], T[5], T[9]);
-        LANES_SCALE(H[9] + k * L, C[5], T[10]);
-        LANES_SCALE(T[11], C[6], H[9] + k * L);
-        LANES_MUL(H[10] + k * L, X[2], X[2], k);
-        LANES_MUL(T[12], H[7], H[10], k);
-        LANES_SCALE(T[13], C[7], T[12]);
-        LANES_SCALE(T[14], C[8], H[2] + k * L);
-        LANES_SUB(T[15], T[13], T[14]);
-        LANES_SCALE(H[11] + k * L, C[9], T[15]);
-        LANES_MUL(T[16], H[11], H[4], k);
-        LANES_SUB(H[12] + k * L, T[11], T[16]);
-        LANES_MUL(T[17], H[6], H[12], k);
-        LANES_SCALE(T[18], C[10], H[11] + k * L);
-        LANES_MUL(T[19], H[9], H[4], k);
-        LANES_SUB(H[13] + k * L, T[18], T[19]);
-        LANES_MUL(T[20], H[6], H[13], k);
+        LANES_SUB(H[0] + k * L, X[0] + k * L, X[1] + k * L);
+        LANES_SINCOS(H[1], H[2], H[0], k);
+        LANES_SCALE(H[3] + k * L, C[1], H[2] + k * L);
+        LANES_SQUARE(T[0], H[3], k);
+        LANES_CSUB(H[4] + k * L, C[0], T[0], k);
+        LANES_SINCOS(H[5], H[6], X[0], k);
+        LANES_SCALE(T[1], C[2], H[5] + k * L);
+        LANES_SQUARE(H[7] + k * L, X[3], k);
+        LANES_MUL(T[2], H[1], H[7], k);
+        LANES_SCALE(T[3], C[3], T[2]);
+        LANES_ADD(T[4], T[1], T[3]);
+        LANES_SCALE(H[8] + k * L, C[4], T[4]);
+        LANES_SCALE(T[5], C[5], T[4]);
+        LANES_SQUARE(H[9] + k * L, X[2], k);
+        LANES_MUL(T[6], H[1], H[9], k);
+        LANES_SCALE(T[7], C[6], T[6]);
+        LANES_SINCOS(H[10], H[11], X[1], k);
+        LANES_SCALE(T[8], C[7], H[10] + k * L);
+        LANES_SUB(T[9], T[7], T[8]);
+        LANES_SCALE(H[12] + k * L, C[8], T[9]);
+        LANES_MUL(T[10], H[12], H[3], k);
+        LANES_SUB(T[11], T[5], T[10]);
+        LANES_DIV(H[13], T[11], H[4], k);
+        LANES_SCALE(T[12], C[9], T[9]);
+        LANES_MUL(T[13], H[8], H[3], k);
+        LANES_SUB(T[14], T[12], T[13]);
+        LANES_DIV(H[14], T[14], H[4], k);
         LANES_OUT(X[0] + (k + 1) * L, X[2] + k * L, k);
         LANES_OUT(X[1] + (k + 1) * L, X[3] + k * L, k);
-        LANES_OUT(X[2] + (k + 1) * L, T[17], k);
-        LANES_OUT(X[3] + (k + 1) * L, T[20], k);
+        LANES_OUT(X[2] + (k + 1) * L, H[13] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, H[14] + k * L, k);
     }
 }
 

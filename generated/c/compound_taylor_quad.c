@@ -28,8 +28,8 @@
 /* No unrolling: each binary128 operation is a call into libquadmath, which unrolling does
  * not speed up, while it makes the compile many times longer */
 #define TAYLOR_UNROLL
-#define NODES 39
-#define NCONST 11
+#define NODES 34
+#define NCONST 10
 
 /* The library's view of this model (derive_taylor.h lists what it needs). */
 #define DERIVE_N N
@@ -52,10 +52,14 @@
 #define DERIVE_TAYLOR_ORDER_FOR(tol) (ceil(-log(tol) / 2 + 1))
 #define DERIVE_TAYLOR_DIM ORDER_DIM
 #define DERIVE_TAYLOR_UNROLL TAYLOR_UNROLL
-#define DERIVE_TAYLOR_USES_MUL 1
+/* the orders up to which the recurrences are inlined (the unrolled jet within the instruction cache) */
+#define DERIVE_TAYLOR_INLINE_MAX 13
 #define DERIVE_TAYLOR_USES_DIV 1
+#define DERIVE_TAYLOR_USES_EXP 0
+#define DERIVE_TAYLOR_USES_MUL 1
+#define DERIVE_TAYLOR_USES_SINCOS 1
 #define DERIVE_TAYLOR_USES_SQRT 0
-#define DERIVE_TAYLOR_USES_CHAIN 1
+#define DERIVE_TAYLOR_USES_SQUARE 1
 
 /* Every variant below is the same code written with the arithmetic of its type R:
  * T_ADD(a, b), T_SUB, T_MUL, T_DIV, T_NEG; T_MULI(a, i) and T_DIVI(a, i) by an int;
@@ -86,13 +90,14 @@
 #define T_SQRT(a) sqrtq(a)
 #define T_SIN(a) sinq(a)
 #define T_COS(a) cosq(a)
+#define T_SINCOS(a, s, c) ((s) = sinq(a), (c) = cosq(a))
 #define T_EXP(a) expq(a)
 #define T_S(a) (a)
 #define T_ABS(a) fabsq(a)
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expq(x)
-#define T_SPOW(x, y) powq(x, y)
+#define T_SROOT(x, y) powq(x, y)
 #define T_SNAN(x) isnanq(x)
 #define T_NAN nanq("")
 
@@ -110,59 +115,50 @@ static int compound_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted
     if (order < 1 || order > ORDER_DIM - 1) {
         return COMPOUND_INTEGRATE_BAD_INPUT;
     }
-    C[0] = T_MUL(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]), p[3]), p[1]);
-    C[1] = T_INT(-1);
-    C[2] = T_MUL(T_ADD(p[4], T_MUL(T_MUL(p[2], p[2]), T_ADD(p[1], T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0])))), T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3]))));
-    C[3] = T_MUL(p[6], T_ADD(p[0], T_MUL(T_INT(2), p[1])));
-    C[4] = T_MUL(p[3], p[1]);
-    C[5] = T_NEG(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]));
-    C[6] = T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3])));
-    C[7] = p[2];
-    C[8] = p[6];
-    C[9] = T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[3]), p[1]);
-    C[10] = T_ADD(p[4], T_MUL(T_MUL(p[2], p[2]), T_ADD(p[1], T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0]))));
+    C[0] = T_MUL(T_ADD(p[4], T_MUL(T_MUL(p[2], p[2]), T_ADD(p[1], T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0])))), T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3]))));
+    C[1] = T_MUL(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]), p[3]), p[1]);
+    C[2] = T_MUL(p[6], T_ADD(p[0], T_MUL(T_INT(2), p[1])));
+    C[3] = T_MUL(p[3], p[1]);
+    C[4] = T_NEG(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]));
+    C[5] = T_NEG(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]), T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3])))));
+    C[6] = p[2];
+    C[7] = p[6];
+    C[8] = T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[3]), p[1]);
+    C[9] = T_MUL(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[3]), p[1]), T_ADD(p[4], T_MUL(T_MUL(p[2], p[2]), T_ADD(p[1], T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0])))));
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[4][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[5], k);
-        J[5][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[4], k);
-        J[6][k] = k == 0 ? T_SIN(X[1][0]) : TAYLOR_SIN(X[1], J[7], k);
-        J[7][k] = k == 0 ? T_COS(X[1][0]) : TAYLOR_COS(X[1], J[6], k);
-        J[8][k] = TAYLOR_MUL(J[4], J[6], k);
-        J[9][k] = TAYLOR_MUL(J[5], J[7], k);
-        J[10][k] = T_ADD(J[8][k], J[9][k]);
-        J[11][k] = T_MUL(C[0], J[10][k]);
-        J[12][k] = TAYLOR_MUL(J[11], J[11], k);
-        J[13][k] = T_MUL(C[1], J[12][k]);
-        J[14][k] = T_ADD(J[13][k], k == 0 ? C[2] : T_INT(0));
-        J[15][k] = TAYLOR_DIV(T_INT(k == 0), J[14], J[15], k);
-        J[16][k] = T_MUL(C[3], J[4][k]);
-        J[17][k] = TAYLOR_MUL(J[4], J[7], k);
-        J[18][k] = TAYLOR_MUL(J[6], J[5], k);
-        J[19][k] = T_SUB(J[17][k], J[18][k]);
-        J[20][k] = TAYLOR_MUL(X[3], X[3], k);
-        J[21][k] = T_MUL(C[4], J[20][k]);
-        J[22][k] = TAYLOR_MUL(J[19], J[21], k);
-        J[23][k] = T_ADD(J[16][k], J[22][k]);
-        J[24][k] = T_MUL(C[5], J[23][k]);
-        J[25][k] = T_MUL(C[6], J[24][k]);
-        J[26][k] = TAYLOR_MUL(X[2], X[2], k);
-        J[27][k] = TAYLOR_MUL(J[19], J[26], k);
-        J[28][k] = T_MUL(C[7], J[27][k]);
-        J[29][k] = T_MUL(C[8], J[6][k]);
-        J[30][k] = T_SUB(J[28][k], J[29][k]);
-        J[31][k] = T_MUL(C[9], J[30][k]);
-        J[32][k] = TAYLOR_MUL(J[31], J[11], k);
-        J[33][k] = T_SUB(J[25][k], J[32][k]);
-        J[34][k] = TAYLOR_MUL(J[15], J[33], k);
-        J[35][k] = T_MUL(C[10], J[31][k]);
-        J[36][k] = TAYLOR_MUL(J[24], J[11], k);
-        J[37][k] = T_SUB(J[35][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[15], J[37], k);
+        J[4][k] = T_SUB(X[0][k], X[1][k]);
+        TAYLOR_SINCOS(J[5], J[6], J[4], k);
+        J[7][k] = T_MUL(C[1], J[6][k]);
+        J[8][k] = TAYLOR_SQUARE(J[7], k);
+        J[9][k] = k == 0 ? T_SUB(C[0], J[8][0]) : T_NEG(J[8][k]);
+        TAYLOR_SINCOS(J[10], J[11], X[0], k);
+        J[12][k] = T_MUL(C[2], J[10][k]);
+        J[13][k] = TAYLOR_SQUARE(X[3], k);
+        J[14][k] = TAYLOR_MUL(J[5], J[13], k);
+        J[15][k] = T_MUL(C[3], J[14][k]);
+        J[16][k] = T_ADD(J[12][k], J[15][k]);
+        J[17][k] = T_MUL(C[4], J[16][k]);
+        J[18][k] = T_MUL(C[5], J[16][k]);
+        J[19][k] = TAYLOR_SQUARE(X[2], k);
+        J[20][k] = TAYLOR_MUL(J[5], J[19], k);
+        J[21][k] = T_MUL(C[6], J[20][k]);
+        TAYLOR_SINCOS(J[22], J[23], X[1], k);
+        J[24][k] = T_MUL(C[7], J[22][k]);
+        J[25][k] = T_SUB(J[21][k], J[24][k]);
+        J[26][k] = T_MUL(C[8], J[25][k]);
+        J[27][k] = TAYLOR_MUL(J[26], J[7], k);
+        J[28][k] = T_SUB(J[18][k], J[27][k]);
+        J[29][k] = TAYLOR_DIV(J[28][k], J[9], J[29], k);
+        J[30][k] = T_MUL(C[9], J[25][k]);
+        J[31][k] = TAYLOR_MUL(J[17], J[7], k);
+        J[32][k] = T_SUB(J[30][k], J[31][k]);
+        J[33][k] = TAYLOR_DIV(J[32][k], J[9], J[33], k);
         X[0][k + 1] = T_DIVI(X[2][k], k + 1);
         X[1][k + 1] = T_DIVI(X[3][k], k + 1);
-        X[2][k + 1] = T_DIVI(J[34][k], k + 1);
-        X[3][k + 1] = T_DIVI(J[38][k], k + 1);
+        X[2][k + 1] = T_DIVI(J[29][k], k + 1);
+        X[3][k + 1] = T_DIVI(J[33][k], k + 1);
     }
     return COMPOUND_INTEGRATE_OK;
 }
@@ -196,13 +192,14 @@ long compound_taylor_batch_q(long n, const derive_quad *y0, long y0_stride, cons
 #undef T_SQRT
 #undef T_SIN
 #undef T_COS
+#undef T_SINCOS
 #undef T_EXP
 #undef T_S
 #undef T_ABS
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T

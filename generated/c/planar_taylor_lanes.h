@@ -4,8 +4,8 @@
  * (suffix _f), double (no suffix) and long double (suffix _l).
  *
  * The Taylor jet of PLANAR_TAYLOR_LANES trajectories (default 4) is computed at
- * once, lane index innermost (J[node][k][lane], 40 nodes), so each recurrence is a loop
- * over the lanes that the compiler vectorises; at order 12 a jet is 3223 additions,
+ * once, lane index innermost (J[node][k][lane], 34 nodes), so each recurrence is a loop
+ * over the lanes that the compiler vectorises; at order 12 a jet is 2369 additions,
  * multiplications and divisions a lane.  Each lane has its own parameters, step, time,
  * dense output and counters; a lane whose trajectory ends takes the next one of the
  * batch.  Every lane does the arithmetic of planar_taylor, operation by operation, so

@@ -2,8 +2,8 @@
  *
  * spherical_alt: Taylor's method for the kernels of spherical_alt.h (Double spherical pendulum, second chart (vartheta, varphi)), in double (no suffix), float (suffix _f), long double (suffix _l) and double-double (suffix _dd).
  *
- * The rhs is decomposed into 193 elementary operations (6 add, 4 cos, 4 inv, 82 mul, 38 scale, 2 shift, 4 sin, 10 square, 35 sub, 8 var)
- * with 12 constants per step (expressions of the parameters); the Taylor
+ * The rhs is decomposed into 166 elementary operations (5 add, 5 cos, 8 div, 60 mul, 28 scale, 2 shift, 5 sin, 10 square, 35 sub, 8 var)
+ * with 9 constants per step (expressions of the parameters); the Taylor
  * coefficients of the solution come from the recurrence of each operation (automatic
  * differentiation, derive/codegen/taylor.py).  Order and step from the
  * tolerance options.rtol (Jorba & Zou 2005, as heyoka): order p = ceil(-ln(tol)/2 + 1)

@@ -31,8 +31,8 @@
 #else
 #define TAYLOR_UNROLL
 #endif
-#define NODES 178
-#define NCONST 11
+#define NODES 155
+#define NCONST 8
 
 /* The library's view of this model (derive_taylor.h lists what it needs). */
 #define DERIVE_N N
@@ -55,10 +55,14 @@
 #define DERIVE_TAYLOR_ORDER_FOR(tol) (ceil(-log(tol) / 2 + 1))
 #define DERIVE_TAYLOR_DIM ORDER_DIM
 #define DERIVE_TAYLOR_UNROLL TAYLOR_UNROLL
-#define DERIVE_TAYLOR_USES_MUL 1
+/* the orders up to which the recurrences are inlined (the unrolled jet within the instruction cache) */
+#define DERIVE_TAYLOR_INLINE_MAX 5
 #define DERIVE_TAYLOR_USES_DIV 1
+#define DERIVE_TAYLOR_USES_EXP 0
+#define DERIVE_TAYLOR_USES_MUL 1
+#define DERIVE_TAYLOR_USES_SINCOS 1
 #define DERIVE_TAYLOR_USES_SQRT 0
-#define DERIVE_TAYLOR_USES_CHAIN 1
+#define DERIVE_TAYLOR_USES_SQUARE 1
 
 /* Every variant below is the same code written with the arithmetic of its type R:
  * T_ADD(a, b), T_SUB, T_MUL, T_DIV, T_NEG; T_MULI(a, i) and T_DIVI(a, i) by an int;
@@ -89,13 +93,14 @@
 #define T_SQRT(a) sqrt(a)
 #define T_SIN(a) sin(a)
 #define T_COS(a) cos(a)
+#define T_SINCOS(a, s, c) derive_sincos(a, &(s), &(c))
 #define T_EXP(a) exp(a)
 #define T_S(a) (a)
 #define T_ABS(a) fabs(a)
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) exp(x)
-#define T_SPOW(x, y) pow(x, y)
+#define T_SROOT(x, y) derive_root(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN nan("")
 
@@ -113,200 +118,171 @@ static int spherical_std_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wan
     if (order < 1 || order > ORDER_DIM - 1) {
         return SPHERICAL_STD_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[3];
-    C[1] = p[2];
-    C[2] = -1;
-    C[3] = p[2]*p[3];
-    C[4] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
-    C[5] = p[2]*p[2]*(p[0] + p[1])/p[1];
-    C[6] = 2;
-    C[7] = p[4]*(p[0] + p[1]);
-    C[8] = p[2]/p[1];
-    C[9] = p[3]*p[3];
-    C[10] = p[4];
+    C[0] = p[2]*p[3];
+    C[1] = -1;
+    C[2] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[3] = p[2]*p[2]*(p[0] + p[1])/p[1];
+    C[4] = 2;
+    C[5] = p[4]*p[2]*(p[0] + p[1])/p[1];
+    C[6] = p[3]*p[3];
+    C[7] = p[4]*p[3];
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[8][k] = T_SUB(X[1][k], X[3][k]);
-        J[9][k] = k == 0 ? T_SIN(J[8][0]) : TAYLOR_SIN(J[8], J[10], k);
-        J[10][k] = k == 0 ? T_COS(J[8][0]) : TAYLOR_COS(J[8], J[9], k);
-        J[11][k] = k == 0 ? T_SIN(X[2][0]) : TAYLOR_SIN(X[2], J[12], k);
-        J[12][k] = k == 0 ? T_COS(X[2][0]) : TAYLOR_COS(X[2], J[11], k);
-        J[13][k] = T_MUL(C[0], J[12][k]);
-        J[14][k] = T_MUL(C[1], J[13][k]);
-        J[15][k] = TAYLOR_MUL(J[9], J[14], k);
-        J[16][k] = T_MUL(C[2], J[15][k]);
-        J[17][k] = TAYLOR_MUL(J[16], J[16], k);
-        J[18][k] = T_MUL(C[2], J[17][k]);
-        J[19][k] = T_MUL(C[3], J[10][k]);
-        J[20][k] = TAYLOR_MUL(J[19], J[19], k);
-        J[21][k] = T_ADD(J[20][k], k == 0 ? C[4] : T_INT(0));
-        J[22][k] = T_SUB(J[18][k], J[21][k]);
-        J[23][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[24], k);
-        J[24][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[23], k);
-        J[25][k] = T_MUL(C[1], J[24][k]);
-        J[26][k] = T_MUL(C[0], J[25][k]);
-        J[27][k] = TAYLOR_MUL(J[26], J[9], k);
-        J[28][k] = TAYLOR_MUL(J[27], J[27], k);
-        J[29][k] = T_MUL(C[2], J[28][k]);
-        J[30][k] = TAYLOR_MUL(J[23], J[11], k);
-        J[31][k] = TAYLOR_MUL(J[24], J[12], k);
-        J[32][k] = TAYLOR_MUL(J[31], J[10], k);
-        J[33][k] = T_ADD(J[30][k], J[32][k]);
-        J[34][k] = T_MUL(C[3], J[33][k]);
-        J[35][k] = TAYLOR_MUL(J[34], J[34], k);
-        J[36][k] = T_ADD(J[35][k], k == 0 ? C[4] : T_INT(0));
-        J[37][k] = T_SUB(J[29][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[37], J[22], k);
-        J[39][k] = TAYLOR_MUL(J[34], J[16], k);
-        J[40][k] = T_MUL(C[2], J[39][k]);
-        J[41][k] = TAYLOR_MUL(J[27], J[19], k);
-        J[42][k] = T_SUB(J[40][k], J[41][k]);
-        J[43][k] = TAYLOR_MUL(J[42], J[42], k);
-        J[44][k] = T_SUB(J[38][k], J[43][k]);
-        J[45][k] = TAYLOR_DIV(T_INT(k == 0), J[44], J[45], k);
-        J[46][k] = TAYLOR_MUL(J[22], J[45], k);
-        J[47][k] = TAYLOR_MUL(J[23], J[24], k);
-        J[48][k] = TAYLOR_MUL(X[5], X[5], k);
-        J[49][k] = TAYLOR_MUL(J[47], J[48], k);
-        J[50][k] = T_MUL(C[5], J[49][k]);
-        J[51][k] = TAYLOR_MUL(J[11], J[24], k);
-        J[52][k] = TAYLOR_MUL(X[7], X[7], k);
-        J[53][k] = TAYLOR_MUL(J[51], J[52], k);
-        J[54][k] = TAYLOR_MUL(J[53], J[10], k);
-        J[55][k] = T_MUL(C[3], J[54][k]);
-        J[56][k] = T_ADD(J[50][k], J[55][k]);
-        J[57][k] = TAYLOR_MUL(X[6], X[6], k);
-        J[58][k] = T_MUL(C[3], J[57][k]);
-        J[59][k] = TAYLOR_MUL(J[23], J[12], k);
-        J[60][k] = TAYLOR_MUL(J[11], J[24], k);
-        J[61][k] = TAYLOR_MUL(J[60], J[10], k);
-        J[62][k] = T_SUB(J[59][k], J[61][k]);
-        J[63][k] = TAYLOR_MUL(J[58], J[62], k);
+        TAYLOR_SINCOS(J[8], J[9], X[2], k);
+        J[10][k] = T_SUB(X[1][k], X[3][k]);
+        TAYLOR_SINCOS(J[11], J[12], J[10], k);
+        J[13][k] = T_MUL(C[0], J[11][k]);
+        J[14][k] = TAYLOR_MUL(J[9], J[13], k);
+        J[15][k] = T_MUL(C[1], J[14][k]);
+        J[16][k] = TAYLOR_SQUARE(J[15], k);
+        J[17][k] = T_MUL(C[1], J[16][k]);
+        J[18][k] = T_MUL(C[0], J[12][k]);
+        J[19][k] = TAYLOR_SQUARE(J[18], k);
+        J[20][k] = T_ADD(J[19][k], k == 0 ? C[2] : T_INT(0));
+        J[21][k] = T_SUB(J[17][k], J[20][k]);
+        TAYLOR_SINCOS(J[22], J[23], X[0], k);
+        J[24][k] = TAYLOR_MUL(J[22], J[8], k);
+        J[25][k] = TAYLOR_MUL(J[9], J[12], k);
+        J[26][k] = TAYLOR_MUL(J[25], J[23], k);
+        J[27][k] = T_ADD(J[24][k], J[26][k]);
+        J[28][k] = T_MUL(C[0], J[27][k]);
+        J[29][k] = TAYLOR_SQUARE(J[28], k);
+        J[30][k] = T_ADD(J[29][k], k == 0 ? C[2] : T_INT(0));
+        J[31][k] = T_MUL(C[1], J[30][k]);
+        J[32][k] = TAYLOR_MUL(J[13], J[23], k);
+        J[33][k] = TAYLOR_SQUARE(J[32], k);
+        J[34][k] = T_SUB(J[31][k], J[33][k]);
+        J[35][k] = TAYLOR_MUL(J[34], J[21], k);
+        J[36][k] = TAYLOR_MUL(J[28], J[15], k);
+        J[37][k] = T_MUL(C[1], J[36][k]);
+        J[38][k] = TAYLOR_MUL(J[32], J[18], k);
+        J[39][k] = T_SUB(J[37][k], J[38][k]);
+        J[40][k] = TAYLOR_SQUARE(J[39], k);
+        J[41][k] = T_SUB(J[35][k], J[40][k]);
+        J[42][k] = TAYLOR_SQUARE(X[5], k);
+        J[43][k] = TAYLOR_MUL(J[22], J[42], k);
+        J[44][k] = TAYLOR_MUL(J[43], J[23], k);
+        J[45][k] = T_MUL(C[3], J[44][k]);
+        J[46][k] = TAYLOR_SQUARE(X[7], k);
+        J[47][k] = TAYLOR_MUL(J[8], J[46], k);
+        J[48][k] = TAYLOR_MUL(J[47], J[12], k);
+        J[49][k] = TAYLOR_MUL(J[48], J[23], k);
+        J[50][k] = T_MUL(C[0], J[49][k]);
+        J[51][k] = T_ADD(J[45][k], J[50][k]);
+        J[52][k] = TAYLOR_MUL(X[7], X[6], k);
+        J[53][k] = T_MUL(C[4], J[52][k]);
+        J[54][k] = TAYLOR_MUL(J[32], J[9], k);
+        J[55][k] = TAYLOR_MUL(J[53], J[54], k);
+        J[56][k] = T_SUB(J[51][k], J[55][k]);
+        J[57][k] = TAYLOR_SQUARE(X[6], k);
+        J[58][k] = TAYLOR_MUL(J[22], J[9], k);
+        J[59][k] = TAYLOR_MUL(J[8], J[12], k);
+        J[60][k] = TAYLOR_MUL(J[59], J[23], k);
+        J[61][k] = T_SUB(J[58][k], J[60][k]);
+        J[62][k] = TAYLOR_MUL(J[57], J[61], k);
+        J[63][k] = T_MUL(C[0], J[62][k]);
         J[64][k] = T_SUB(J[56][k], J[63][k]);
-        J[65][k] = T_MUL(C[6], X[7][k]);
-        J[66][k] = TAYLOR_MUL(J[13], X[6], k);
-        J[67][k] = TAYLOR_MUL(J[65], J[66], k);
-        J[68][k] = TAYLOR_MUL(J[25], J[67], k);
-        J[69][k] = TAYLOR_MUL(J[9], J[68], k);
-        J[70][k] = T_SUB(J[64][k], J[69][k]);
-        J[71][k] = T_MUL(C[7], J[23][k]);
-        J[72][k] = T_MUL(C[8], J[71][k]);
-        J[73][k] = T_SUB(J[70][k], J[72][k]);
-        J[74][k] = T_MUL(C[9], J[73][k]);
-        J[75][k] = TAYLOR_MUL(J[48], J[59], k);
-        J[76][k] = TAYLOR_MUL(J[19], J[75], k);
-        J[77][k] = T_MUL(C[6], X[5][k]);
-        J[78][k] = TAYLOR_MUL(J[25], X[4], k);
-        J[79][k] = TAYLOR_MUL(J[77], J[78], k);
-        J[80][k] = TAYLOR_MUL(J[9], J[79], k);
-        J[81][k] = TAYLOR_MUL(J[80], J[13], k);
-        J[82][k] = T_ADD(J[76][k], J[81][k]);
-        J[83][k] = TAYLOR_MUL(J[11], J[12], k);
-        J[84][k] = TAYLOR_MUL(J[52], J[83], k);
-        J[85][k] = T_MUL(C[9], J[84][k]);
-        J[86][k] = T_ADD(J[82][k], J[85][k]);
-        J[87][k] = T_MUL(C[10], J[11][k]);
-        J[88][k] = T_MUL(C[0], J[87][k]);
-        J[89][k] = T_SUB(J[86][k], J[88][k]);
-        J[90][k] = TAYLOR_MUL(X[4], X[4], k);
-        J[91][k] = TAYLOR_MUL(J[59], J[10], k);
-        J[92][k] = T_SUB(J[60][k], J[91][k]);
-        J[93][k] = T_MUL(C[3], J[92][k]);
-        J[94][k] = TAYLOR_MUL(J[90], J[93], k);
-        J[95][k] = T_SUB(J[89][k], J[94][k]);
-        J[96][k] = TAYLOR_MUL(J[34], J[95], k);
-        J[97][k] = T_SUB(J[74][k], J[96][k]);
-        J[98][k] = T_MUL(C[3], J[90][k]);
-        J[99][k] = TAYLOR_MUL(J[9], J[98], k);
-        J[100][k] = TAYLOR_MUL(J[23], J[99], k);
-        J[101][k] = T_MUL(C[3], J[9][k]);
-        J[102][k] = TAYLOR_MUL(J[23], J[48], k);
-        J[103][k] = TAYLOR_MUL(J[101], J[102], k);
-        J[104][k] = T_ADD(J[100][k], J[103][k]);
-        J[105][k] = TAYLOR_MUL(J[26], J[10], k);
-        J[106][k] = T_MUL(C[6], X[4][k]);
-        J[107][k] = TAYLOR_MUL(J[105], J[106], k);
-        J[108][k] = TAYLOR_MUL(X[5], J[107], k);
-        J[109][k] = T_SUB(J[104][k], J[108][k]);
-        J[110][k] = TAYLOR_MUL(J[12], X[6], k);
-        J[111][k] = T_MUL(C[9], J[65][k]);
-        J[112][k] = TAYLOR_MUL(J[110], J[111], k);
-        J[113][k] = T_SUB(J[109][k], J[112][k]);
-        J[114][k] = TAYLOR_MUL(J[27], J[113], k);
-        J[115][k] = T_SUB(J[97][k], J[114][k]);
-        J[116][k] = TAYLOR_MUL(J[46], J[115], k);
-        J[117][k] = TAYLOR_MUL(J[58], J[9], k);
-        J[118][k] = TAYLOR_MUL(J[11], J[117], k);
-        J[119][k] = T_MUL(C[2], J[118][k]);
-        J[120][k] = TAYLOR_MUL(J[11], J[52], k);
-        J[121][k] = TAYLOR_MUL(J[120], J[101], k);
-        J[122][k] = T_SUB(J[119][k], J[121][k]);
-        J[123][k] = TAYLOR_MUL(J[14], J[10], k);
-        J[124][k] = TAYLOR_MUL(J[65], J[123], k);
-        J[125][k] = TAYLOR_MUL(J[124], X[6], k);
-        J[126][k] = T_SUB(J[122][k], J[125][k]);
-        J[127][k] = TAYLOR_MUL(J[24], X[4], k);
-        J[128][k] = T_MUL(C[5], J[127][k]);
-        J[129][k] = TAYLOR_MUL(J[77], J[128], k);
-        J[130][k] = T_SUB(J[126][k], J[129][k]);
-        J[131][k] = T_MUL(C[9], J[130][k]);
-        J[132][k] = TAYLOR_MUL(J[16], J[95], k);
-        J[133][k] = T_SUB(J[131][k], J[132][k]);
-        J[134][k] = TAYLOR_MUL(J[19], J[113], k);
-        J[135][k] = T_SUB(J[133][k], J[134][k]);
-        J[136][k] = TAYLOR_MUL(J[45], J[135], k);
-        J[137][k] = TAYLOR_MUL(J[42], J[136], k);
-        J[138][k] = T_SUB(J[116][k], J[137][k]);
-        J[139][k] = TAYLOR_DIV(T_INT(k == 0), J[23], J[139], k);
-        J[140][k] = TAYLOR_MUL(J[37], J[136], k);
-        J[141][k] = TAYLOR_MUL(J[42], J[45], k);
-        J[142][k] = TAYLOR_MUL(J[141], J[115], k);
-        J[143][k] = T_SUB(J[140][k], J[142][k]);
-        J[144][k] = TAYLOR_MUL(J[139], J[143], k);
-        J[145][k] = T_MUL(C[2], J[28][k]);
-        J[146][k] = T_SUB(J[145][k], J[21][k]);
-        J[147][k] = T_MUL(C[2], J[36][k]);
-        J[148][k] = T_SUB(J[147][k], J[17][k]);
-        J[149][k] = TAYLOR_MUL(J[148], J[146], k);
-        J[150][k] = TAYLOR_MUL(J[34], J[27], k);
-        J[151][k] = T_MUL(C[2], J[150][k]);
-        J[152][k] = TAYLOR_MUL(J[16], J[19], k);
-        J[153][k] = T_SUB(J[151][k], J[152][k]);
-        J[154][k] = TAYLOR_MUL(J[153], J[153], k);
-        J[155][k] = T_SUB(J[149][k], J[154][k]);
-        J[156][k] = TAYLOR_DIV(T_INT(k == 0), J[155], J[156], k);
-        J[157][k] = TAYLOR_MUL(J[146], J[156], k);
-        J[158][k] = T_MUL(C[5], J[95][k]);
-        J[159][k] = TAYLOR_MUL(J[34], J[73], k);
-        J[160][k] = T_SUB(J[158][k], J[159][k]);
-        J[161][k] = TAYLOR_MUL(J[16], J[130], k);
-        J[162][k] = T_SUB(J[160][k], J[161][k]);
-        J[163][k] = TAYLOR_MUL(J[157], J[162], k);
-        J[164][k] = T_MUL(C[5], J[113][k]);
-        J[165][k] = TAYLOR_MUL(J[27], J[73], k);
-        J[166][k] = T_SUB(J[164][k], J[165][k]);
-        J[167][k] = TAYLOR_MUL(J[19], J[130], k);
-        J[168][k] = T_SUB(J[166][k], J[167][k]);
-        J[169][k] = TAYLOR_MUL(J[156], J[168], k);
-        J[170][k] = TAYLOR_MUL(J[153], J[169], k);
-        J[171][k] = T_SUB(J[163][k], J[170][k]);
-        J[172][k] = TAYLOR_DIV(T_INT(k == 0), J[11], J[172], k);
-        J[173][k] = TAYLOR_MUL(J[148], J[169], k);
-        J[174][k] = TAYLOR_MUL(J[153], J[156], k);
-        J[175][k] = TAYLOR_MUL(J[174], J[162], k);
-        J[176][k] = T_SUB(J[173][k], J[175][k]);
-        J[177][k] = TAYLOR_MUL(J[172], J[176], k);
-        if (k == 0 && (!(T_ABS(J[23][0]) >= sine_min) || !(T_ABS(J[11][0]) >= sine_min))) {
+        J[65][k] = T_MUL(C[5], J[22][k]);
+        J[66][k] = T_SUB(J[64][k], J[65][k]);
+        J[67][k] = T_MUL(C[6], J[66][k]);
+        J[68][k] = T_MUL(C[6], J[9][k]);
+        J[69][k] = TAYLOR_MUL(J[47], J[68], k);
+        J[70][k] = TAYLOR_MUL(X[5], X[4], k);
+        J[71][k] = T_MUL(C[4], J[70][k]);
+        J[72][k] = TAYLOR_MUL(J[71], J[54], k);
+        J[73][k] = T_ADD(J[69][k], J[72][k]);
+        J[74][k] = TAYLOR_MUL(J[18], J[42], k);
+        J[75][k] = TAYLOR_MUL(J[74], J[58], k);
+        J[76][k] = T_ADD(J[73][k], J[75][k]);
+        J[77][k] = T_MUL(C[7], J[8][k]);
+        J[78][k] = T_SUB(J[76][k], J[77][k]);
+        J[79][k] = TAYLOR_SQUARE(X[4], k);
+        J[80][k] = TAYLOR_MUL(J[8], J[23], k);
+        J[81][k] = TAYLOR_MUL(J[58], J[12], k);
+        J[82][k] = T_SUB(J[80][k], J[81][k]);
+        J[83][k] = TAYLOR_MUL(J[79], J[82], k);
+        J[84][k] = T_MUL(C[0], J[83][k]);
+        J[85][k] = T_SUB(J[78][k], J[84][k]);
+        J[86][k] = TAYLOR_MUL(J[28], J[85], k);
+        J[87][k] = T_SUB(J[67][k], J[86][k]);
+        J[88][k] = TAYLOR_MUL(J[22], J[13], k);
+        J[89][k] = TAYLOR_MUL(J[42], J[88], k);
+        J[90][k] = TAYLOR_MUL(J[79], J[88], k);
+        J[91][k] = T_ADD(J[89][k], J[90][k]);
+        J[92][k] = TAYLOR_MUL(J[53], J[68], k);
+        J[93][k] = T_SUB(J[91][k], J[92][k]);
+        J[94][k] = TAYLOR_MUL(J[18], J[71], k);
+        J[95][k] = TAYLOR_MUL(J[94], J[23], k);
+        J[96][k] = T_SUB(J[93][k], J[95][k]);
+        J[97][k] = TAYLOR_MUL(J[32], J[96], k);
+        J[98][k] = T_SUB(J[87][k], J[97][k]);
+        J[99][k] = TAYLOR_MUL(J[21], J[98], k);
+        J[100][k] = TAYLOR_DIV(J[99][k], J[41], J[100], k);
+        J[101][k] = TAYLOR_MUL(J[47], J[13], k);
+        J[102][k] = T_MUL(C[1], J[101][k]);
+        J[103][k] = TAYLOR_MUL(J[71], J[23], k);
+        J[104][k] = T_MUL(C[3], J[103][k]);
+        J[105][k] = T_SUB(J[102][k], J[104][k]);
+        J[106][k] = TAYLOR_MUL(J[8], J[57], k);
+        J[107][k] = TAYLOR_MUL(J[106], J[13], k);
+        J[108][k] = T_SUB(J[105][k], J[107][k]);
+        J[109][k] = TAYLOR_MUL(J[25], J[53], k);
+        J[110][k] = T_MUL(C[0], J[109][k]);
+        J[111][k] = T_SUB(J[108][k], J[110][k]);
+        J[112][k] = T_MUL(C[6], J[111][k]);
+        J[113][k] = TAYLOR_MUL(J[15], J[85], k);
+        J[114][k] = T_SUB(J[112][k], J[113][k]);
+        J[115][k] = TAYLOR_MUL(J[18], J[96], k);
+        J[116][k] = T_SUB(J[114][k], J[115][k]);
+        J[117][k] = TAYLOR_DIV(J[116][k], J[41], J[117], k);
+        J[118][k] = TAYLOR_MUL(J[39], J[117], k);
+        J[119][k] = T_SUB(J[100][k], J[118][k]);
+        J[120][k] = TAYLOR_MUL(J[34], J[117], k);
+        J[121][k] = TAYLOR_MUL(J[39], J[98], k);
+        J[122][k] = TAYLOR_DIV(J[121][k], J[41], J[122], k);
+        J[123][k] = T_SUB(J[120][k], J[122][k]);
+        J[124][k] = TAYLOR_DIV(J[123][k], J[22], J[124], k);
+        J[125][k] = T_MUL(C[1], J[20][k]);
+        J[126][k] = T_SUB(J[125][k], J[33][k]);
+        J[127][k] = T_SUB(J[31][k], J[16][k]);
+        J[128][k] = TAYLOR_MUL(J[127], J[126], k);
+        J[129][k] = TAYLOR_MUL(J[28], J[32], k);
+        J[130][k] = T_MUL(C[1], J[129][k]);
+        J[131][k] = TAYLOR_MUL(J[15], J[18], k);
+        J[132][k] = T_SUB(J[130][k], J[131][k]);
+        J[133][k] = TAYLOR_SQUARE(J[132], k);
+        J[134][k] = T_SUB(J[128][k], J[133][k]);
+        J[135][k] = T_MUL(C[3], J[85][k]);
+        J[136][k] = TAYLOR_MUL(J[28], J[66], k);
+        J[137][k] = T_SUB(J[135][k], J[136][k]);
+        J[138][k] = TAYLOR_MUL(J[15], J[111], k);
+        J[139][k] = T_SUB(J[137][k], J[138][k]);
+        J[140][k] = TAYLOR_MUL(J[126], J[139], k);
+        J[141][k] = TAYLOR_DIV(J[140][k], J[134], J[141], k);
+        J[142][k] = T_MUL(C[3], J[96][k]);
+        J[143][k] = TAYLOR_MUL(J[32], J[66], k);
+        J[144][k] = T_SUB(J[142][k], J[143][k]);
+        J[145][k] = TAYLOR_MUL(J[18], J[111], k);
+        J[146][k] = T_SUB(J[144][k], J[145][k]);
+        J[147][k] = TAYLOR_DIV(J[146][k], J[134], J[147], k);
+        J[148][k] = TAYLOR_MUL(J[132], J[147], k);
+        J[149][k] = T_SUB(J[141][k], J[148][k]);
+        J[150][k] = TAYLOR_MUL(J[127], J[147], k);
+        J[151][k] = TAYLOR_MUL(J[132], J[139], k);
+        J[152][k] = TAYLOR_DIV(J[151][k], J[134], J[152], k);
+        J[153][k] = T_SUB(J[150][k], J[152][k]);
+        J[154][k] = TAYLOR_DIV(J[153][k], J[8], J[154], k);
+        if (k == 0 && (!(T_ABS(J[22][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }
         X[0][k + 1] = T_DIVI(X[4][k], k + 1);
         X[1][k + 1] = T_DIVI(X[5][k], k + 1);
         X[2][k + 1] = T_DIVI(X[6][k], k + 1);
         X[3][k + 1] = T_DIVI(X[7][k], k + 1);
-        X[4][k + 1] = T_DIVI(J[138][k], k + 1);
-        X[5][k + 1] = T_DIVI(J[144][k], k + 1);
-        X[6][k + 1] = T_DIVI(J[171][k], k + 1);
-        X[7][k + 1] = T_DIVI(J[177][k], k + 1);
+        X[4][k + 1] = T_DIVI(J[119][k], k + 1);
+        X[5][k + 1] = T_DIVI(J[124][k], k + 1);
+        X[6][k + 1] = T_DIVI(J[149][k], k + 1);
+        X[7][k + 1] = T_DIVI(J[154][k], k + 1);
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }
@@ -340,13 +316,14 @@ long spherical_std_taylor_batch(long n, const double *y0, long y0_stride, const 
 #undef T_SQRT
 #undef T_SIN
 #undef T_COS
+#undef T_SINCOS
 #undef T_EXP
 #undef T_S
 #undef T_ABS
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
@@ -372,13 +349,14 @@ long spherical_std_taylor_batch(long n, const double *y0, long y0_stride, const 
 #define T_SQRT(a) sqrtf(a)
 #define T_SIN(a) sinf(a)
 #define T_COS(a) cosf(a)
+#define T_SINCOS(a, s, c) derive_sincosf(a, &(s), &(c))
 #define T_EXP(a) expf(a)
 #define T_S(a) (a)
 #define T_ABS(a) fabsf(a)
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expf(x)
-#define T_SPOW(x, y) powf(x, y)
+#define T_SROOT(x, y) derive_rootf(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN nanf("")
 
@@ -396,200 +374,171 @@ static int spherical_std_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_w
     if (order < 1 || order > ORDER_DIM - 1) {
         return SPHERICAL_STD_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[3];
-    C[1] = p[2];
-    C[2] = -1;
-    C[3] = p[2]*p[3];
-    C[4] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
-    C[5] = p[2]*p[2]*(p[0] + p[1])/p[1];
-    C[6] = 2;
-    C[7] = p[4]*(p[0] + p[1]);
-    C[8] = p[2]/p[1];
-    C[9] = p[3]*p[3];
-    C[10] = p[4];
+    C[0] = p[2]*p[3];
+    C[1] = -1;
+    C[2] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[3] = p[2]*p[2]*(p[0] + p[1])/p[1];
+    C[4] = 2;
+    C[5] = p[4]*p[2]*(p[0] + p[1])/p[1];
+    C[6] = p[3]*p[3];
+    C[7] = p[4]*p[3];
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[8][k] = T_SUB(X[1][k], X[3][k]);
-        J[9][k] = k == 0 ? T_SIN(J[8][0]) : TAYLOR_SIN(J[8], J[10], k);
-        J[10][k] = k == 0 ? T_COS(J[8][0]) : TAYLOR_COS(J[8], J[9], k);
-        J[11][k] = k == 0 ? T_SIN(X[2][0]) : TAYLOR_SIN(X[2], J[12], k);
-        J[12][k] = k == 0 ? T_COS(X[2][0]) : TAYLOR_COS(X[2], J[11], k);
-        J[13][k] = T_MUL(C[0], J[12][k]);
-        J[14][k] = T_MUL(C[1], J[13][k]);
-        J[15][k] = TAYLOR_MUL(J[9], J[14], k);
-        J[16][k] = T_MUL(C[2], J[15][k]);
-        J[17][k] = TAYLOR_MUL(J[16], J[16], k);
-        J[18][k] = T_MUL(C[2], J[17][k]);
-        J[19][k] = T_MUL(C[3], J[10][k]);
-        J[20][k] = TAYLOR_MUL(J[19], J[19], k);
-        J[21][k] = T_ADD(J[20][k], k == 0 ? C[4] : T_INT(0));
-        J[22][k] = T_SUB(J[18][k], J[21][k]);
-        J[23][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[24], k);
-        J[24][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[23], k);
-        J[25][k] = T_MUL(C[1], J[24][k]);
-        J[26][k] = T_MUL(C[0], J[25][k]);
-        J[27][k] = TAYLOR_MUL(J[26], J[9], k);
-        J[28][k] = TAYLOR_MUL(J[27], J[27], k);
-        J[29][k] = T_MUL(C[2], J[28][k]);
-        J[30][k] = TAYLOR_MUL(J[23], J[11], k);
-        J[31][k] = TAYLOR_MUL(J[24], J[12], k);
-        J[32][k] = TAYLOR_MUL(J[31], J[10], k);
-        J[33][k] = T_ADD(J[30][k], J[32][k]);
-        J[34][k] = T_MUL(C[3], J[33][k]);
-        J[35][k] = TAYLOR_MUL(J[34], J[34], k);
-        J[36][k] = T_ADD(J[35][k], k == 0 ? C[4] : T_INT(0));
-        J[37][k] = T_SUB(J[29][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[37], J[22], k);
-        J[39][k] = TAYLOR_MUL(J[34], J[16], k);
-        J[40][k] = T_MUL(C[2], J[39][k]);
-        J[41][k] = TAYLOR_MUL(J[27], J[19], k);
-        J[42][k] = T_SUB(J[40][k], J[41][k]);
-        J[43][k] = TAYLOR_MUL(J[42], J[42], k);
-        J[44][k] = T_SUB(J[38][k], J[43][k]);
-        J[45][k] = TAYLOR_DIV(T_INT(k == 0), J[44], J[45], k);
-        J[46][k] = TAYLOR_MUL(J[22], J[45], k);
-        J[47][k] = TAYLOR_MUL(J[23], J[24], k);
-        J[48][k] = TAYLOR_MUL(X[5], X[5], k);
-        J[49][k] = TAYLOR_MUL(J[47], J[48], k);
-        J[50][k] = T_MUL(C[5], J[49][k]);
-        J[51][k] = TAYLOR_MUL(J[11], J[24], k);
-        J[52][k] = TAYLOR_MUL(X[7], X[7], k);
-        J[53][k] = TAYLOR_MUL(J[51], J[52], k);
-        J[54][k] = TAYLOR_MUL(J[53], J[10], k);
-        J[55][k] = T_MUL(C[3], J[54][k]);
-        J[56][k] = T_ADD(J[50][k], J[55][k]);
-        J[57][k] = TAYLOR_MUL(X[6], X[6], k);
-        J[58][k] = T_MUL(C[3], J[57][k]);
-        J[59][k] = TAYLOR_MUL(J[23], J[12], k);
-        J[60][k] = TAYLOR_MUL(J[11], J[24], k);
-        J[61][k] = TAYLOR_MUL(J[60], J[10], k);
-        J[62][k] = T_SUB(J[59][k], J[61][k]);
-        J[63][k] = TAYLOR_MUL(J[58], J[62], k);
+        TAYLOR_SINCOS(J[8], J[9], X[2], k);
+        J[10][k] = T_SUB(X[1][k], X[3][k]);
+        TAYLOR_SINCOS(J[11], J[12], J[10], k);
+        J[13][k] = T_MUL(C[0], J[11][k]);
+        J[14][k] = TAYLOR_MUL(J[9], J[13], k);
+        J[15][k] = T_MUL(C[1], J[14][k]);
+        J[16][k] = TAYLOR_SQUARE(J[15], k);
+        J[17][k] = T_MUL(C[1], J[16][k]);
+        J[18][k] = T_MUL(C[0], J[12][k]);
+        J[19][k] = TAYLOR_SQUARE(J[18], k);
+        J[20][k] = T_ADD(J[19][k], k == 0 ? C[2] : T_INT(0));
+        J[21][k] = T_SUB(J[17][k], J[20][k]);
+        TAYLOR_SINCOS(J[22], J[23], X[0], k);
+        J[24][k] = TAYLOR_MUL(J[22], J[8], k);
+        J[25][k] = TAYLOR_MUL(J[9], J[12], k);
+        J[26][k] = TAYLOR_MUL(J[25], J[23], k);
+        J[27][k] = T_ADD(J[24][k], J[26][k]);
+        J[28][k] = T_MUL(C[0], J[27][k]);
+        J[29][k] = TAYLOR_SQUARE(J[28], k);
+        J[30][k] = T_ADD(J[29][k], k == 0 ? C[2] : T_INT(0));
+        J[31][k] = T_MUL(C[1], J[30][k]);
+        J[32][k] = TAYLOR_MUL(J[13], J[23], k);
+        J[33][k] = TAYLOR_SQUARE(J[32], k);
+        J[34][k] = T_SUB(J[31][k], J[33][k]);
+        J[35][k] = TAYLOR_MUL(J[34], J[21], k);
+        J[36][k] = TAYLOR_MUL(J[28], J[15], k);
+        J[37][k] = T_MUL(C[1], J[36][k]);
+        J[38][k] = TAYLOR_MUL(J[32], J[18], k);
+        J[39][k] = T_SUB(J[37][k], J[38][k]);
+        J[40][k] = TAYLOR_SQUARE(J[39], k);
+        J[41][k] = T_SUB(J[35][k], J[40][k]);
+        J[42][k] = TAYLOR_SQUARE(X[5], k);
+        J[43][k] = TAYLOR_MUL(J[22], J[42], k);
+        J[44][k] = TAYLOR_MUL(J[43], J[23], k);
+        J[45][k] = T_MUL(C[3], J[44][k]);
+        J[46][k] = TAYLOR_SQUARE(X[7], k);
+        J[47][k] = TAYLOR_MUL(J[8], J[46], k);
+        J[48][k] = TAYLOR_MUL(J[47], J[12], k);
+        J[49][k] = TAYLOR_MUL(J[48], J[23], k);
+        J[50][k] = T_MUL(C[0], J[49][k]);
+        J[51][k] = T_ADD(J[45][k], J[50][k]);
+        J[52][k] = TAYLOR_MUL(X[7], X[6], k);
+        J[53][k] = T_MUL(C[4], J[52][k]);
+        J[54][k] = TAYLOR_MUL(J[32], J[9], k);
+        J[55][k] = TAYLOR_MUL(J[53], J[54], k);
+        J[56][k] = T_SUB(J[51][k], J[55][k]);
+        J[57][k] = TAYLOR_SQUARE(X[6], k);
+        J[58][k] = TAYLOR_MUL(J[22], J[9], k);
+        J[59][k] = TAYLOR_MUL(J[8], J[12], k);
+        J[60][k] = TAYLOR_MUL(J[59], J[23], k);
+        J[61][k] = T_SUB(J[58][k], J[60][k]);
+        J[62][k] = TAYLOR_MUL(J[57], J[61], k);
+        J[63][k] = T_MUL(C[0], J[62][k]);
         J[64][k] = T_SUB(J[56][k], J[63][k]);
-        J[65][k] = T_MUL(C[6], X[7][k]);
-        J[66][k] = TAYLOR_MUL(J[13], X[6], k);
-        J[67][k] = TAYLOR_MUL(J[65], J[66], k);
-        J[68][k] = TAYLOR_MUL(J[25], J[67], k);
-        J[69][k] = TAYLOR_MUL(J[9], J[68], k);
-        J[70][k] = T_SUB(J[64][k], J[69][k]);
-        J[71][k] = T_MUL(C[7], J[23][k]);
-        J[72][k] = T_MUL(C[8], J[71][k]);
-        J[73][k] = T_SUB(J[70][k], J[72][k]);
-        J[74][k] = T_MUL(C[9], J[73][k]);
-        J[75][k] = TAYLOR_MUL(J[48], J[59], k);
-        J[76][k] = TAYLOR_MUL(J[19], J[75], k);
-        J[77][k] = T_MUL(C[6], X[5][k]);
-        J[78][k] = TAYLOR_MUL(J[25], X[4], k);
-        J[79][k] = TAYLOR_MUL(J[77], J[78], k);
-        J[80][k] = TAYLOR_MUL(J[9], J[79], k);
-        J[81][k] = TAYLOR_MUL(J[80], J[13], k);
-        J[82][k] = T_ADD(J[76][k], J[81][k]);
-        J[83][k] = TAYLOR_MUL(J[11], J[12], k);
-        J[84][k] = TAYLOR_MUL(J[52], J[83], k);
-        J[85][k] = T_MUL(C[9], J[84][k]);
-        J[86][k] = T_ADD(J[82][k], J[85][k]);
-        J[87][k] = T_MUL(C[10], J[11][k]);
-        J[88][k] = T_MUL(C[0], J[87][k]);
-        J[89][k] = T_SUB(J[86][k], J[88][k]);
-        J[90][k] = TAYLOR_MUL(X[4], X[4], k);
-        J[91][k] = TAYLOR_MUL(J[59], J[10], k);
-        J[92][k] = T_SUB(J[60][k], J[91][k]);
-        J[93][k] = T_MUL(C[3], J[92][k]);
-        J[94][k] = TAYLOR_MUL(J[90], J[93], k);
-        J[95][k] = T_SUB(J[89][k], J[94][k]);
-        J[96][k] = TAYLOR_MUL(J[34], J[95], k);
-        J[97][k] = T_SUB(J[74][k], J[96][k]);
-        J[98][k] = T_MUL(C[3], J[90][k]);
-        J[99][k] = TAYLOR_MUL(J[9], J[98], k);
-        J[100][k] = TAYLOR_MUL(J[23], J[99], k);
-        J[101][k] = T_MUL(C[3], J[9][k]);
-        J[102][k] = TAYLOR_MUL(J[23], J[48], k);
-        J[103][k] = TAYLOR_MUL(J[101], J[102], k);
-        J[104][k] = T_ADD(J[100][k], J[103][k]);
-        J[105][k] = TAYLOR_MUL(J[26], J[10], k);
-        J[106][k] = T_MUL(C[6], X[4][k]);
-        J[107][k] = TAYLOR_MUL(J[105], J[106], k);
-        J[108][k] = TAYLOR_MUL(X[5], J[107], k);
-        J[109][k] = T_SUB(J[104][k], J[108][k]);
-        J[110][k] = TAYLOR_MUL(J[12], X[6], k);
-        J[111][k] = T_MUL(C[9], J[65][k]);
-        J[112][k] = TAYLOR_MUL(J[110], J[111], k);
-        J[113][k] = T_SUB(J[109][k], J[112][k]);
-        J[114][k] = TAYLOR_MUL(J[27], J[113], k);
-        J[115][k] = T_SUB(J[97][k], J[114][k]);
-        J[116][k] = TAYLOR_MUL(J[46], J[115], k);
-        J[117][k] = TAYLOR_MUL(J[58], J[9], k);
-        J[118][k] = TAYLOR_MUL(J[11], J[117], k);
-        J[119][k] = T_MUL(C[2], J[118][k]);
-        J[120][k] = TAYLOR_MUL(J[11], J[52], k);
-        J[121][k] = TAYLOR_MUL(J[120], J[101], k);
-        J[122][k] = T_SUB(J[119][k], J[121][k]);
-        J[123][k] = TAYLOR_MUL(J[14], J[10], k);
-        J[124][k] = TAYLOR_MUL(J[65], J[123], k);
-        J[125][k] = TAYLOR_MUL(J[124], X[6], k);
-        J[126][k] = T_SUB(J[122][k], J[125][k]);
-        J[127][k] = TAYLOR_MUL(J[24], X[4], k);
-        J[128][k] = T_MUL(C[5], J[127][k]);
-        J[129][k] = TAYLOR_MUL(J[77], J[128], k);
-        J[130][k] = T_SUB(J[126][k], J[129][k]);
-        J[131][k] = T_MUL(C[9], J[130][k]);
-        J[132][k] = TAYLOR_MUL(J[16], J[95], k);
-        J[133][k] = T_SUB(J[131][k], J[132][k]);
-        J[134][k] = TAYLOR_MUL(J[19], J[113], k);
-        J[135][k] = T_SUB(J[133][k], J[134][k]);
-        J[136][k] = TAYLOR_MUL(J[45], J[135], k);
-        J[137][k] = TAYLOR_MUL(J[42], J[136], k);
-        J[138][k] = T_SUB(J[116][k], J[137][k]);
-        J[139][k] = TAYLOR_DIV(T_INT(k == 0), J[23], J[139], k);
-        J[140][k] = TAYLOR_MUL(J[37], J[136], k);
-        J[141][k] = TAYLOR_MUL(J[42], J[45], k);
-        J[142][k] = TAYLOR_MUL(J[141], J[115], k);
-        J[143][k] = T_SUB(J[140][k], J[142][k]);
-        J[144][k] = TAYLOR_MUL(J[139], J[143], k);
-        J[145][k] = T_MUL(C[2], J[28][k]);
-        J[146][k] = T_SUB(J[145][k], J[21][k]);
-        J[147][k] = T_MUL(C[2], J[36][k]);
-        J[148][k] = T_SUB(J[147][k], J[17][k]);
-        J[149][k] = TAYLOR_MUL(J[148], J[146], k);
-        J[150][k] = TAYLOR_MUL(J[34], J[27], k);
-        J[151][k] = T_MUL(C[2], J[150][k]);
-        J[152][k] = TAYLOR_MUL(J[16], J[19], k);
-        J[153][k] = T_SUB(J[151][k], J[152][k]);
-        J[154][k] = TAYLOR_MUL(J[153], J[153], k);
-        J[155][k] = T_SUB(J[149][k], J[154][k]);
-        J[156][k] = TAYLOR_DIV(T_INT(k == 0), J[155], J[156], k);
-        J[157][k] = TAYLOR_MUL(J[146], J[156], k);
-        J[158][k] = T_MUL(C[5], J[95][k]);
-        J[159][k] = TAYLOR_MUL(J[34], J[73], k);
-        J[160][k] = T_SUB(J[158][k], J[159][k]);
-        J[161][k] = TAYLOR_MUL(J[16], J[130], k);
-        J[162][k] = T_SUB(J[160][k], J[161][k]);
-        J[163][k] = TAYLOR_MUL(J[157], J[162], k);
-        J[164][k] = T_MUL(C[5], J[113][k]);
-        J[165][k] = TAYLOR_MUL(J[27], J[73], k);
-        J[166][k] = T_SUB(J[164][k], J[165][k]);
-        J[167][k] = TAYLOR_MUL(J[19], J[130], k);
-        J[168][k] = T_SUB(J[166][k], J[167][k]);
-        J[169][k] = TAYLOR_MUL(J[156], J[168], k);
-        J[170][k] = TAYLOR_MUL(J[153], J[169], k);
-        J[171][k] = T_SUB(J[163][k], J[170][k]);
-        J[172][k] = TAYLOR_DIV(T_INT(k == 0), J[11], J[172], k);
-        J[173][k] = TAYLOR_MUL(J[148], J[169], k);
-        J[174][k] = TAYLOR_MUL(J[153], J[156], k);
-        J[175][k] = TAYLOR_MUL(J[174], J[162], k);
-        J[176][k] = T_SUB(J[173][k], J[175][k]);
-        J[177][k] = TAYLOR_MUL(J[172], J[176], k);
-        if (k == 0 && (!(T_ABS(J[23][0]) >= sine_min) || !(T_ABS(J[11][0]) >= sine_min))) {
+        J[65][k] = T_MUL(C[5], J[22][k]);
+        J[66][k] = T_SUB(J[64][k], J[65][k]);
+        J[67][k] = T_MUL(C[6], J[66][k]);
+        J[68][k] = T_MUL(C[6], J[9][k]);
+        J[69][k] = TAYLOR_MUL(J[47], J[68], k);
+        J[70][k] = TAYLOR_MUL(X[5], X[4], k);
+        J[71][k] = T_MUL(C[4], J[70][k]);
+        J[72][k] = TAYLOR_MUL(J[71], J[54], k);
+        J[73][k] = T_ADD(J[69][k], J[72][k]);
+        J[74][k] = TAYLOR_MUL(J[18], J[42], k);
+        J[75][k] = TAYLOR_MUL(J[74], J[58], k);
+        J[76][k] = T_ADD(J[73][k], J[75][k]);
+        J[77][k] = T_MUL(C[7], J[8][k]);
+        J[78][k] = T_SUB(J[76][k], J[77][k]);
+        J[79][k] = TAYLOR_SQUARE(X[4], k);
+        J[80][k] = TAYLOR_MUL(J[8], J[23], k);
+        J[81][k] = TAYLOR_MUL(J[58], J[12], k);
+        J[82][k] = T_SUB(J[80][k], J[81][k]);
+        J[83][k] = TAYLOR_MUL(J[79], J[82], k);
+        J[84][k] = T_MUL(C[0], J[83][k]);
+        J[85][k] = T_SUB(J[78][k], J[84][k]);
+        J[86][k] = TAYLOR_MUL(J[28], J[85], k);
+        J[87][k] = T_SUB(J[67][k], J[86][k]);
+        J[88][k] = TAYLOR_MUL(J[22], J[13], k);
+        J[89][k] = TAYLOR_MUL(J[42], J[88], k);
+        J[90][k] = TAYLOR_MUL(J[79], J[88], k);
+        J[91][k] = T_ADD(J[89][k], J[90][k]);
+        J[92][k] = TAYLOR_MUL(J[53], J[68], k);
+        J[93][k] = T_SUB(J[91][k], J[92][k]);
+        J[94][k] = TAYLOR_MUL(J[18], J[71], k);
+        J[95][k] = TAYLOR_MUL(J[94], J[23], k);
+        J[96][k] = T_SUB(J[93][k], J[95][k]);
+        J[97][k] = TAYLOR_MUL(J[32], J[96], k);
+        J[98][k] = T_SUB(J[87][k], J[97][k]);
+        J[99][k] = TAYLOR_MUL(J[21], J[98], k);
+        J[100][k] = TAYLOR_DIV(J[99][k], J[41], J[100], k);
+        J[101][k] = TAYLOR_MUL(J[47], J[13], k);
+        J[102][k] = T_MUL(C[1], J[101][k]);
+        J[103][k] = TAYLOR_MUL(J[71], J[23], k);
+        J[104][k] = T_MUL(C[3], J[103][k]);
+        J[105][k] = T_SUB(J[102][k], J[104][k]);
+        J[106][k] = TAYLOR_MUL(J[8], J[57], k);
+        J[107][k] = TAYLOR_MUL(J[106], J[13], k);
+        J[108][k] = T_SUB(J[105][k], J[107][k]);
+        J[109][k] = TAYLOR_MUL(J[25], J[53], k);
+        J[110][k] = T_MUL(C[0], J[109][k]);
+        J[111][k] = T_SUB(J[108][k], J[110][k]);
+        J[112][k] = T_MUL(C[6], J[111][k]);
+        J[113][k] = TAYLOR_MUL(J[15], J[85], k);
+        J[114][k] = T_SUB(J[112][k], J[113][k]);
+        J[115][k] = TAYLOR_MUL(J[18], J[96], k);
+        J[116][k] = T_SUB(J[114][k], J[115][k]);
+        J[117][k] = TAYLOR_DIV(J[116][k], J[41], J[117], k);
+        J[118][k] = TAYLOR_MUL(J[39], J[117], k);
+        J[119][k] = T_SUB(J[100][k], J[118][k]);
+        J[120][k] = TAYLOR_MUL(J[34], J[117], k);
+        J[121][k] = TAYLOR_MUL(J[39], J[98], k);
+        J[122][k] = TAYLOR_DIV(J[121][k], J[41], J[122], k);
+        J[123][k] = T_SUB(J[120][k], J[122][k]);
+        J[124][k] = TAYLOR_DIV(J[123][k], J[22], J[124], k);
+        J[125][k] = T_MUL(C[1], J[20][k]);
+        J[126][k] = T_SUB(J[125][k], J[33][k]);
+        J[127][k] = T_SUB(J[31][k], J[16][k]);
+        J[128][k] = TAYLOR_MUL(J[127], J[126], k);
+        J[129][k] = TAYLOR_MUL(J[28], J[32], k);
+        J[130][k] = T_MUL(C[1], J[129][k]);
+        J[131][k] = TAYLOR_MUL(J[15], J[18], k);
+        J[132][k] = T_SUB(J[130][k], J[131][k]);
+        J[133][k] = TAYLOR_SQUARE(J[132], k);
+        J[134][k] = T_SUB(J[128][k], J[133][k]);
+        J[135][k] = T_MUL(C[3], J[85][k]);
+        J[136][k] = TAYLOR_MUL(J[28], J[66], k);
+        J[137][k] = T_SUB(J[135][k], J[136][k]);
+        J[138][k] = TAYLOR_MUL(J[15], J[111], k);
+        J[139][k] = T_SUB(J[137][k], J[138][k]);
+        J[140][k] = TAYLOR_MUL(J[126], J[139], k);
+        J[141][k] = TAYLOR_DIV(J[140][k], J[134], J[141], k);
+        J[142][k] = T_MUL(C[3], J[96][k]);
+        J[143][k] = TAYLOR_MUL(J[32], J[66], k);
+        J[144][k] = T_SUB(J[142][k], J[143][k]);
+        J[145][k] = TAYLOR_MUL(J[18], J[111], k);
+        J[146][k] = T_SUB(J[144][k], J[145][k]);
+        J[147][k] = TAYLOR_DIV(J[146][k], J[134], J[147], k);
+        J[148][k] = TAYLOR_MUL(J[132], J[147], k);
+        J[149][k] = T_SUB(J[141][k], J[148][k]);
+        J[150][k] = TAYLOR_MUL(J[127], J[147], k);
+        J[151][k] = TAYLOR_MUL(J[132], J[139], k);
+        J[152][k] = TAYLOR_DIV(J[151][k], J[134], J[152], k);
+        J[153][k] = T_SUB(J[150][k], J[152][k]);
+        J[154][k] = TAYLOR_DIV(J[153][k], J[8], J[154], k);
+        if (k == 0 && (!(T_ABS(J[22][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }
         X[0][k + 1] = T_DIVI(X[4][k], k + 1);
         X[1][k + 1] = T_DIVI(X[5][k], k + 1);
         X[2][k + 1] = T_DIVI(X[6][k], k + 1);
         X[3][k + 1] = T_DIVI(X[7][k], k + 1);
-        X[4][k + 1] = T_DIVI(J[138][k], k + 1);
-        X[5][k + 1] = T_DIVI(J[144][k], k + 1);
-        X[6][k + 1] = T_DIVI(J[171][k], k + 1);
-        X[7][k + 1] = T_DIVI(J[177][k], k + 1);
+        X[4][k + 1] = T_DIVI(J[119][k], k + 1);
+        X[5][k + 1] = T_DIVI(J[124][k], k + 1);
+        X[6][k + 1] = T_DIVI(J[149][k], k + 1);
+        X[7][k + 1] = T_DIVI(J[154][k], k + 1);
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }
@@ -623,13 +572,14 @@ long spherical_std_taylor_batch_f(long n, const float *y0, long y0_stride, const
 #undef T_SQRT
 #undef T_SIN
 #undef T_COS
+#undef T_SINCOS
 #undef T_EXP
 #undef T_S
 #undef T_ABS
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
@@ -655,14 +605,16 @@ long spherical_std_taylor_batch_f(long n, const float *y0, long y0_stride, const
 #define T_SQRT(a) sqrtl(a)
 #define T_SIN(a) sinl(a)
 #define T_COS(a) cosl(a)
+#define T_SINCOS(a, s, c) derive_sincosl(a, &(s), &(c))
 #define T_EXP(a) expl(a)
 #define T_S(a) (a)
 #define T_ABS(a) fabsl(a)
 #define T_FROMS(x) (x)
 #define T_LE(a, b) ((a) <= (b))
 #define T_SEXP(x) expl(x)
-#define T_SPOW(x, y) powl(x, y)
+#define T_SROOT(x, y) derive_rootl(x, y)
 #define T_SNAN(x) isnan(x)
+#define T_INLINE_ALL 1
 #define T_NAN nanl("")
 
 #define DERIVE_TAYLOR_T(x) x##_l
@@ -679,200 +631,171 @@ static int spherical_std_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_w
     if (order < 1 || order > ORDER_DIM - 1) {
         return SPHERICAL_STD_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[3];
-    C[1] = p[2];
-    C[2] = -1;
-    C[3] = p[2]*p[3];
-    C[4] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
-    C[5] = p[2]*p[2]*(p[0] + p[1])/p[1];
-    C[6] = 2;
-    C[7] = p[4]*(p[0] + p[1]);
-    C[8] = p[2]/p[1];
-    C[9] = p[3]*p[3];
-    C[10] = p[4];
+    C[0] = p[2]*p[3];
+    C[1] = -1;
+    C[2] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[3] = p[2]*p[2]*(p[0] + p[1])/p[1];
+    C[4] = 2;
+    C[5] = p[4]*p[2]*(p[0] + p[1])/p[1];
+    C[6] = p[3]*p[3];
+    C[7] = p[4]*p[3];
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[8][k] = T_SUB(X[1][k], X[3][k]);
-        J[9][k] = k == 0 ? T_SIN(J[8][0]) : TAYLOR_SIN(J[8], J[10], k);
-        J[10][k] = k == 0 ? T_COS(J[8][0]) : TAYLOR_COS(J[8], J[9], k);
-        J[11][k] = k == 0 ? T_SIN(X[2][0]) : TAYLOR_SIN(X[2], J[12], k);
-        J[12][k] = k == 0 ? T_COS(X[2][0]) : TAYLOR_COS(X[2], J[11], k);
-        J[13][k] = T_MUL(C[0], J[12][k]);
-        J[14][k] = T_MUL(C[1], J[13][k]);
-        J[15][k] = TAYLOR_MUL(J[9], J[14], k);
-        J[16][k] = T_MUL(C[2], J[15][k]);
-        J[17][k] = TAYLOR_MUL(J[16], J[16], k);
-        J[18][k] = T_MUL(C[2], J[17][k]);
-        J[19][k] = T_MUL(C[3], J[10][k]);
-        J[20][k] = TAYLOR_MUL(J[19], J[19], k);
-        J[21][k] = T_ADD(J[20][k], k == 0 ? C[4] : T_INT(0));
-        J[22][k] = T_SUB(J[18][k], J[21][k]);
-        J[23][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[24], k);
-        J[24][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[23], k);
-        J[25][k] = T_MUL(C[1], J[24][k]);
-        J[26][k] = T_MUL(C[0], J[25][k]);
-        J[27][k] = TAYLOR_MUL(J[26], J[9], k);
-        J[28][k] = TAYLOR_MUL(J[27], J[27], k);
-        J[29][k] = T_MUL(C[2], J[28][k]);
-        J[30][k] = TAYLOR_MUL(J[23], J[11], k);
-        J[31][k] = TAYLOR_MUL(J[24], J[12], k);
-        J[32][k] = TAYLOR_MUL(J[31], J[10], k);
-        J[33][k] = T_ADD(J[30][k], J[32][k]);
-        J[34][k] = T_MUL(C[3], J[33][k]);
-        J[35][k] = TAYLOR_MUL(J[34], J[34], k);
-        J[36][k] = T_ADD(J[35][k], k == 0 ? C[4] : T_INT(0));
-        J[37][k] = T_SUB(J[29][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[37], J[22], k);
-        J[39][k] = TAYLOR_MUL(J[34], J[16], k);
-        J[40][k] = T_MUL(C[2], J[39][k]);
-        J[41][k] = TAYLOR_MUL(J[27], J[19], k);
-        J[42][k] = T_SUB(J[40][k], J[41][k]);
-        J[43][k] = TAYLOR_MUL(J[42], J[42], k);
-        J[44][k] = T_SUB(J[38][k], J[43][k]);
-        J[45][k] = TAYLOR_DIV(T_INT(k == 0), J[44], J[45], k);
-        J[46][k] = TAYLOR_MUL(J[22], J[45], k);
-        J[47][k] = TAYLOR_MUL(J[23], J[24], k);
-        J[48][k] = TAYLOR_MUL(X[5], X[5], k);
-        J[49][k] = TAYLOR_MUL(J[47], J[48], k);
-        J[50][k] = T_MUL(C[5], J[49][k]);
-        J[51][k] = TAYLOR_MUL(J[11], J[24], k);
-        J[52][k] = TAYLOR_MUL(X[7], X[7], k);
-        J[53][k] = TAYLOR_MUL(J[51], J[52], k);
-        J[54][k] = TAYLOR_MUL(J[53], J[10], k);
-        J[55][k] = T_MUL(C[3], J[54][k]);
-        J[56][k] = T_ADD(J[50][k], J[55][k]);
-        J[57][k] = TAYLOR_MUL(X[6], X[6], k);
-        J[58][k] = T_MUL(C[3], J[57][k]);
-        J[59][k] = TAYLOR_MUL(J[23], J[12], k);
-        J[60][k] = TAYLOR_MUL(J[11], J[24], k);
-        J[61][k] = TAYLOR_MUL(J[60], J[10], k);
-        J[62][k] = T_SUB(J[59][k], J[61][k]);
-        J[63][k] = TAYLOR_MUL(J[58], J[62], k);
+        TAYLOR_SINCOS(J[8], J[9], X[2], k);
+        J[10][k] = T_SUB(X[1][k], X[3][k]);
+        TAYLOR_SINCOS(J[11], J[12], J[10], k);
+        J[13][k] = T_MUL(C[0], J[11][k]);
+        J[14][k] = TAYLOR_MUL(J[9], J[13], k);
+        J[15][k] = T_MUL(C[1], J[14][k]);
+        J[16][k] = TAYLOR_SQUARE(J[15], k);
+        J[17][k] = T_MUL(C[1], J[16][k]);
+        J[18][k] = T_MUL(C[0], J[12][k]);
+        J[19][k] = TAYLOR_SQUARE(J[18], k);
+        J[20][k] = T_ADD(J[19][k], k == 0 ? C[2] : T_INT(0));
+        J[21][k] = T_SUB(J[17][k], J[20][k]);
+        TAYLOR_SINCOS(J[22], J[23], X[0], k);
+        J[24][k] = TAYLOR_MUL(J[22], J[8], k);
+        J[25][k] = TAYLOR_MUL(J[9], J[12], k);
+        J[26][k] = TAYLOR_MUL(J[25], J[23], k);
+        J[27][k] = T_ADD(J[24][k], J[26][k]);
+        J[28][k] = T_MUL(C[0], J[27][k]);
+        J[29][k] = TAYLOR_SQUARE(J[28], k);
+        J[30][k] = T_ADD(J[29][k], k == 0 ? C[2] : T_INT(0));
+        J[31][k] = T_MUL(C[1], J[30][k]);
+        J[32][k] = TAYLOR_MUL(J[13], J[23], k);
+        J[33][k] = TAYLOR_SQUARE(J[32], k);
+        J[34][k] = T_SUB(J[31][k], J[33][k]);
+        J[35][k] = TAYLOR_MUL(J[34], J[21], k);
+        J[36][k] = TAYLOR_MUL(J[28], J[15], k);
+        J[37][k] = T_MUL(C[1], J[36][k]);
+        J[38][k] = TAYLOR_MUL(J[32], J[18], k);
+        J[39][k] = T_SUB(J[37][k], J[38][k]);
+        J[40][k] = TAYLOR_SQUARE(J[39], k);
+        J[41][k] = T_SUB(J[35][k], J[40][k]);
+        J[42][k] = TAYLOR_SQUARE(X[5], k);
+        J[43][k] = TAYLOR_MUL(J[22], J[42], k);
+        J[44][k] = TAYLOR_MUL(J[43], J[23], k);
+        J[45][k] = T_MUL(C[3], J[44][k]);
+        J[46][k] = TAYLOR_SQUARE(X[7], k);
+        J[47][k] = TAYLOR_MUL(J[8], J[46], k);
+        J[48][k] = TAYLOR_MUL(J[47], J[12], k);
+        J[49][k] = TAYLOR_MUL(J[48], J[23], k);
+        J[50][k] = T_MUL(C[0], J[49][k]);
+        J[51][k] = T_ADD(J[45][k], J[50][k]);
+        J[52][k] = TAYLOR_MUL(X[7], X[6], k);
+        J[53][k] = T_MUL(C[4], J[52][k]);
+        J[54][k] = TAYLOR_MUL(J[32], J[9], k);
+        J[55][k] = TAYLOR_MUL(J[53], J[54], k);
+        J[56][k] = T_SUB(J[51][k], J[55][k]);
+        J[57][k] = TAYLOR_SQUARE(X[6], k);
+        J[58][k] = TAYLOR_MUL(J[22], J[9], k);
+        J[59][k] = TAYLOR_MUL(J[8], J[12], k);
+        J[60][k] = TAYLOR_MUL(J[59], J[23], k);
+        J[61][k] = T_SUB(J[58][k], J[60][k]);
+        J[62][k] = TAYLOR_MUL(J[57], J[61], k);
+        J[63][k] = T_MUL(C[0], J[62][k]);
         J[64][k] = T_SUB(J[56][k], J[63][k]);
-        J[65][k] = T_MUL(C[6], X[7][k]);
-        J[66][k] = TAYLOR_MUL(J[13], X[6], k);
-        J[67][k] = TAYLOR_MUL(J[65], J[66], k);
-        J[68][k] = TAYLOR_MUL(J[25], J[67], k);
-        J[69][k] = TAYLOR_MUL(J[9], J[68], k);
-        J[70][k] = T_SUB(J[64][k], J[69][k]);
-        J[71][k] = T_MUL(C[7], J[23][k]);
-        J[72][k] = T_MUL(C[8], J[71][k]);
-        J[73][k] = T_SUB(J[70][k], J[72][k]);
-        J[74][k] = T_MUL(C[9], J[73][k]);
-        J[75][k] = TAYLOR_MUL(J[48], J[59], k);
-        J[76][k] = TAYLOR_MUL(J[19], J[75], k);
-        J[77][k] = T_MUL(C[6], X[5][k]);
-        J[78][k] = TAYLOR_MUL(J[25], X[4], k);
-        J[79][k] = TAYLOR_MUL(J[77], J[78], k);
-        J[80][k] = TAYLOR_MUL(J[9], J[79], k);
-        J[81][k] = TAYLOR_MUL(J[80], J[13], k);
-        J[82][k] = T_ADD(J[76][k], J[81][k]);
-        J[83][k] = TAYLOR_MUL(J[11], J[12], k);
-        J[84][k] = TAYLOR_MUL(J[52], J[83], k);
-        J[85][k] = T_MUL(C[9], J[84][k]);
-        J[86][k] = T_ADD(J[82][k], J[85][k]);
-        J[87][k] = T_MUL(C[10], J[11][k]);
-        J[88][k] = T_MUL(C[0], J[87][k]);
-        J[89][k] = T_SUB(J[86][k], J[88][k]);
-        J[90][k] = TAYLOR_MUL(X[4], X[4], k);
-        J[91][k] = TAYLOR_MUL(J[59], J[10], k);
-        J[92][k] = T_SUB(J[60][k], J[91][k]);
-        J[93][k] = T_MUL(C[3], J[92][k]);
-        J[94][k] = TAYLOR_MUL(J[90], J[93], k);
-        J[95][k] = T_SUB(J[89][k], J[94][k]);
-        J[96][k] = TAYLOR_MUL(J[34], J[95], k);
-        J[97][k] = T_SUB(J[74][k], J[96][k]);
-        J[98][k] = T_MUL(C[3], J[90][k]);
-        J[99][k] = TAYLOR_MUL(J[9], J[98], k);
-        J[100][k] = TAYLOR_MUL(J[23], J[99], k);
-        J[101][k] = T_MUL(C[3], J[9][k]);
-        J[102][k] = TAYLOR_MUL(J[23], J[48], k);
-        J[103][k] = TAYLOR_MUL(J[101], J[102], k);
-        J[104][k] = T_ADD(J[100][k], J[103][k]);
-        J[105][k] = TAYLOR_MUL(J[26], J[10], k);
-        J[106][k] = T_MUL(C[6], X[4][k]);
-        J[107][k] = TAYLOR_MUL(J[105], J[106], k);
-        J[108][k] = TAYLOR_MUL(X[5], J[107], k);
-        J[109][k] = T_SUB(J[104][k], J[108][k]);
-        J[110][k] = TAYLOR_MUL(J[12], X[6], k);
-        J[111][k] = T_MUL(C[9], J[65][k]);
-        J[112][k] = TAYLOR_MUL(J[110], J[111], k);
-        J[113][k] = T_SUB(J[109][k], J[112][k]);
-        J[114][k] = TAYLOR_MUL(J[27], J[113], k);
-        J[115][k] = T_SUB(J[97][k], J[114][k]);
-        J[116][k] = TAYLOR_MUL(J[46], J[115], k);
-        J[117][k] = TAYLOR_MUL(J[58], J[9], k);
-        J[118][k] = TAYLOR_MUL(J[11], J[117], k);
-        J[119][k] = T_MUL(C[2], J[118][k]);
-        J[120][k] = TAYLOR_MUL(J[11], J[52], k);
-        J[121][k] = TAYLOR_MUL(J[120], J[101], k);
-        J[122][k] = T_SUB(J[119][k], J[121][k]);
-        J[123][k] = TAYLOR_MUL(J[14], J[10], k);
-        J[124][k] = TAYLOR_MUL(J[65], J[123], k);
-        J[125][k] = TAYLOR_MUL(J[124], X[6], k);
-        J[126][k] = T_SUB(J[122][k], J[125][k]);
-        J[127][k] = TAYLOR_MUL(J[24], X[4], k);
-        J[128][k] = T_MUL(C[5], J[127][k]);
-        J[129][k] = TAYLOR_MUL(J[77], J[128], k);
-        J[130][k] = T_SUB(J[126][k], J[129][k]);
-        J[131][k] = T_MUL(C[9], J[130][k]);
-        J[132][k] = TAYLOR_MUL(J[16], J[95], k);
-        J[133][k] = T_SUB(J[131][k], J[132][k]);
-        J[134][k] = TAYLOR_MUL(J[19], J[113], k);
-        J[135][k] = T_SUB(J[133][k], J[134][k]);
-        J[136][k] = TAYLOR_MUL(J[45], J[135], k);
-        J[137][k] = TAYLOR_MUL(J[42], J[136], k);
-        J[138][k] = T_SUB(J[116][k], J[137][k]);
-        J[139][k] = TAYLOR_DIV(T_INT(k == 0), J[23], J[139], k);
-        J[140][k] = TAYLOR_MUL(J[37], J[136], k);
-        J[141][k] = TAYLOR_MUL(J[42], J[45], k);
-        J[142][k] = TAYLOR_MUL(J[141], J[115], k);
-        J[143][k] = T_SUB(J[140][k], J[142][k]);
-        J[144][k] = TAYLOR_MUL(J[139], J[143], k);
-        J[145][k] = T_MUL(C[2], J[28][k]);
-        J[146][k] = T_SUB(J[145][k], J[21][k]);
-        J[147][k] = T_MUL(C[2], J[36][k]);
-        J[148][k] = T_SUB(J[147][k], J[17][k]);
-        J[149][k] = TAYLOR_MUL(J[148], J[146], k);
-        J[150][k] = TAYLOR_MUL(J[34], J[27], k);
-        J[151][k] = T_MUL(C[2], J[150][k]);
-        J[152][k] = TAYLOR_MUL(J[16], J[19], k);
-        J[153][k] = T_SUB(J[151][k], J[152][k]);
-        J[154][k] = TAYLOR_MUL(J[153], J[153], k);
-        J[155][k] = T_SUB(J[149][k], J[154][k]);
-        J[156][k] = TAYLOR_DIV(T_INT(k == 0), J[155], J[156], k);
-        J[157][k] = TAYLOR_MUL(J[146], J[156], k);
-        J[158][k] = T_MUL(C[5], J[95][k]);
-        J[159][k] = TAYLOR_MUL(J[34], J[73], k);
-        J[160][k] = T_SUB(J[158][k], J[159][k]);
-        J[161][k] = TAYLOR_MUL(J[16], J[130], k);
-        J[162][k] = T_SUB(J[160][k], J[161][k]);
-        J[163][k] = TAYLOR_MUL(J[157], J[162], k);
-        J[164][k] = T_MUL(C[5], J[113][k]);
-        J[165][k] = TAYLOR_MUL(J[27], J[73], k);
-        J[166][k] = T_SUB(J[164][k], J[165][k]);
-        J[167][k] = TAYLOR_MUL(J[19], J[130], k);
-        J[168][k] = T_SUB(J[166][k], J[167][k]);
-        J[169][k] = TAYLOR_MUL(J[156], J[168], k);
-        J[170][k] = TAYLOR_MUL(J[153], J[169], k);
-        J[171][k] = T_SUB(J[163][k], J[170][k]);
-        J[172][k] = TAYLOR_DIV(T_INT(k == 0), J[11], J[172], k);
-        J[173][k] = TAYLOR_MUL(J[148], J[169], k);
-        J[174][k] = TAYLOR_MUL(J[153], J[156], k);
-        J[175][k] = TAYLOR_MUL(J[174], J[162], k);
-        J[176][k] = T_SUB(J[173][k], J[175][k]);
-        J[177][k] = TAYLOR_MUL(J[172], J[176], k);
-        if (k == 0 && (!(T_ABS(J[23][0]) >= sine_min) || !(T_ABS(J[11][0]) >= sine_min))) {
+        J[65][k] = T_MUL(C[5], J[22][k]);
+        J[66][k] = T_SUB(J[64][k], J[65][k]);
+        J[67][k] = T_MUL(C[6], J[66][k]);
+        J[68][k] = T_MUL(C[6], J[9][k]);
+        J[69][k] = TAYLOR_MUL(J[47], J[68], k);
+        J[70][k] = TAYLOR_MUL(X[5], X[4], k);
+        J[71][k] = T_MUL(C[4], J[70][k]);
+        J[72][k] = TAYLOR_MUL(J[71], J[54], k);
+        J[73][k] = T_ADD(J[69][k], J[72][k]);
+        J[74][k] = TAYLOR_MUL(J[18], J[42], k);
+        J[75][k] = TAYLOR_MUL(J[74], J[58], k);
+        J[76][k] = T_ADD(J[73][k], J[75][k]);
+        J[77][k] = T_MUL(C[7], J[8][k]);
+        J[78][k] = T_SUB(J[76][k], J[77][k]);
+        J[79][k] = TAYLOR_SQUARE(X[4], k);
+        J[80][k] = TAYLOR_MUL(J[8], J[23], k);
+        J[81][k] = TAYLOR_MUL(J[58], J[12], k);
+        J[82][k] = T_SUB(J[80][k], J[81][k]);
+        J[83][k] = TAYLOR_MUL(J[79], J[82], k);
+        J[84][k] = T_MUL(C[0], J[83][k]);
+        J[85][k] = T_SUB(J[78][k], J[84][k]);
+        J[86][k] = TAYLOR_MUL(J[28], J[85], k);
+        J[87][k] = T_SUB(J[67][k], J[86][k]);
+        J[88][k] = TAYLOR_MUL(J[22], J[13], k);
+        J[89][k] = TAYLOR_MUL(J[42], J[88], k);
+        J[90][k] = TAYLOR_MUL(J[79], J[88], k);
+        J[91][k] = T_ADD(J[89][k], J[90][k]);
+        J[92][k] = TAYLOR_MUL(J[53], J[68], k);
+        J[93][k] = T_SUB(J[91][k], J[92][k]);
+        J[94][k] = TAYLOR_MUL(J[18], J[71], k);
+        J[95][k] = TAYLOR_MUL(J[94], J[23], k);
+        J[96][k] = T_SUB(J[93][k], J[95][k]);
+        J[97][k] = TAYLOR_MUL(J[32], J[96], k);
+        J[98][k] = T_SUB(J[87][k], J[97][k]);
+        J[99][k] = TAYLOR_MUL(J[21], J[98], k);
+        J[100][k] = TAYLOR_DIV(J[99][k], J[41], J[100], k);
+        J[101][k] = TAYLOR_MUL(J[47], J[13], k);
+        J[102][k] = T_MUL(C[1], J[101][k]);
+        J[103][k] = TAYLOR_MUL(J[71], J[23], k);
+        J[104][k] = T_MUL(C[3], J[103][k]);
+        J[105][k] = T_SUB(J[102][k], J[104][k]);
+        J[106][k] = TAYLOR_MUL(J[8], J[57], k);
+        J[107][k] = TAYLOR_MUL(J[106], J[13], k);
+        J[108][k] = T_SUB(J[105][k], J[107][k]);
+        J[109][k] = TAYLOR_MUL(J[25], J[53], k);
+        J[110][k] = T_MUL(C[0], J[109][k]);
+        J[111][k] = T_SUB(J[108][k], J[110][k]);
+        J[112][k] = T_MUL(C[6], J[111][k]);
+        J[113][k] = TAYLOR_MUL(J[15], J[85], k);
+        J[114][k] = T_SUB(J[112][k], J[113][k]);
+        J[115][k] = TAYLOR_MUL(J[18], J[96], k);
+        J[116][k] = T_SUB(J[114][k], J[115][k]);
+        J[117][k] = TAYLOR_DIV(J[116][k], J[41], J[117], k);
+        J[118][k] = TAYLOR_MUL(J[39], J[117], k);
+        J[119][k] = T_SUB(J[100][k], J[118][k]);
+        J[120][k] = TAYLOR_MUL(J[34], J[117], k);
+        J[121][k] = TAYLOR_MUL(J[39], J[98], k);
+        J[122][k] = TAYLOR_DIV(J[121][k], J[41], J[122], k);
+        J[123][k] = T_SUB(J[120][k], J[122][k]);
+        J[124][k] = TAYLOR_DIV(J[123][k], J[22], J[124], k);
+        J[125][k] = T_MUL(C[1], J[20][k]);
+        J[126][k] = T_SUB(J[125][k], J[33][k]);
+        J[127][k] = T_SUB(J[31][k], J[16][k]);
+        J[128][k] = TAYLOR_MUL(J[127], J[126], k);
+        J[129][k] = TAYLOR_MUL(J[28], J[32], k);
+        J[130][k] = T_MUL(C[1], J[129][k]);
+        J[131][k] = TAYLOR_MUL(J[15], J[18], k);
+        J[132][k] = T_SUB(J[130][k], J[131][k]);
+        J[133][k] = TAYLOR_SQUARE(J[132], k);
+        J[134][k] = T_SUB(J[128][k], J[133][k]);
+        J[135][k] = T_MUL(C[3], J[85][k]);
+        J[136][k] = TAYLOR_MUL(J[28], J[66], k);
+        J[137][k] = T_SUB(J[135][k], J[136][k]);
+        J[138][k] = TAYLOR_MUL(J[15], J[111], k);
+        J[139][k] = T_SUB(J[137][k], J[138][k]);
+        J[140][k] = TAYLOR_MUL(J[126], J[139], k);
+        J[141][k] = TAYLOR_DIV(J[140][k], J[134], J[141], k);
+        J[142][k] = T_MUL(C[3], J[96][k]);
+        J[143][k] = TAYLOR_MUL(J[32], J[66], k);
+        J[144][k] = T_SUB(J[142][k], J[143][k]);
+        J[145][k] = TAYLOR_MUL(J[18], J[111], k);
+        J[146][k] = T_SUB(J[144][k], J[145][k]);
+        J[147][k] = TAYLOR_DIV(J[146][k], J[134], J[147], k);
+        J[148][k] = TAYLOR_MUL(J[132], J[147], k);
+        J[149][k] = T_SUB(J[141][k], J[148][k]);
+        J[150][k] = TAYLOR_MUL(J[127], J[147], k);
+        J[151][k] = TAYLOR_MUL(J[132], J[139], k);
+        J[152][k] = TAYLOR_DIV(J[151][k], J[134], J[152], k);
+        J[153][k] = T_SUB(J[150][k], J[152][k]);
+        J[154][k] = TAYLOR_DIV(J[153][k], J[8], J[154], k);
+        if (k == 0 && (!(T_ABS(J[22][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }
         X[0][k + 1] = T_DIVI(X[4][k], k + 1);
         X[1][k + 1] = T_DIVI(X[5][k], k + 1);
         X[2][k + 1] = T_DIVI(X[6][k], k + 1);
         X[3][k + 1] = T_DIVI(X[7][k], k + 1);
-        X[4][k + 1] = T_DIVI(J[138][k], k + 1);
-        X[5][k + 1] = T_DIVI(J[144][k], k + 1);
-        X[6][k + 1] = T_DIVI(J[171][k], k + 1);
-        X[7][k + 1] = T_DIVI(J[177][k], k + 1);
+        X[4][k + 1] = T_DIVI(J[119][k], k + 1);
+        X[5][k + 1] = T_DIVI(J[124][k], k + 1);
+        X[6][k + 1] = T_DIVI(J[149][k], k + 1);
+        X[7][k + 1] = T_DIVI(J[154][k], k + 1);
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }
@@ -906,14 +829,16 @@ long spherical_std_taylor_batch_l(long n, const long double *y0, long y0_stride,
 #undef T_SQRT
 #undef T_SIN
 #undef T_COS
+#undef T_SINCOS
 #undef T_EXP
 #undef T_S
 #undef T_ABS
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
+#undef T_SROOT
 #undef T_SNAN
+#undef T_INLINE_ALL
 #undef T_NAN
 #undef DERIVE_TAYLOR_T
 #undef DERIVE_TAYLOR_JET
@@ -938,13 +863,14 @@ long spherical_std_taylor_batch_l(long n, const long double *y0, long y0_stride,
 #define T_SQRT(a) dd_sqrt(a)
 #define T_SIN(a) dd_sin(a)
 #define T_COS(a) dd_cos(a)
+#define T_SINCOS(a, s, c) ((s) = dd_sin(a), (c) = dd_cos(a))
 #define T_EXP(a) dd_exp(a)
 #define T_S(a) ((a).hi)
 #define T_ABS(a) fabs((a).hi)
 #define T_FROMS(x) dd_d(x)
 #define T_LE(a, b) dd_le(a, b)
 #define T_SEXP(x) exp(x)
-#define T_SPOW(x, y) pow(x, y)
+#define T_SROOT(x, y) derive_root(x, y)
 #define T_SNAN(x) isnan(x)
 #define T_NAN dd_d(nan(""))
 
@@ -963,200 +889,171 @@ static int spherical_std_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_
     if (order < 1 || order > ORDER_DIM - 1) {
         return SPHERICAL_STD_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[3];
-    C[1] = p[2];
-    C[2] = T_INT(-1);
-    C[3] = T_MUL(p[2], p[3]);
-    C[4] = T_NEG(T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]));
-    C[5] = T_DIV(T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1])), p[1]);
-    C[6] = T_INT(2);
-    C[7] = T_MUL(p[4], T_ADD(p[0], p[1]));
-    C[8] = T_DIV(p[2], p[1]);
-    C[9] = T_MUL(p[3], p[3]);
-    C[10] = p[4];
+    C[0] = T_MUL(p[2], p[3]);
+    C[1] = T_INT(-1);
+    C[2] = T_NEG(T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]));
+    C[3] = T_DIV(T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1])), p[1]);
+    C[4] = T_INT(2);
+    C[5] = T_DIV(T_MUL(T_MUL(p[4], p[2]), T_ADD(p[0], p[1])), p[1]);
+    C[6] = T_MUL(p[3], p[3]);
+    C[7] = T_MUL(p[4], p[3]);
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[8][k] = T_SUB(X[1][k], X[3][k]);
-        J[9][k] = k == 0 ? T_SIN(J[8][0]) : TAYLOR_SIN(J[8], J[10], k);
-        J[10][k] = k == 0 ? T_COS(J[8][0]) : TAYLOR_COS(J[8], J[9], k);
-        J[11][k] = k == 0 ? T_SIN(X[2][0]) : TAYLOR_SIN(X[2], J[12], k);
-        J[12][k] = k == 0 ? T_COS(X[2][0]) : TAYLOR_COS(X[2], J[11], k);
-        J[13][k] = T_MUL(C[0], J[12][k]);
-        J[14][k] = T_MUL(C[1], J[13][k]);
-        J[15][k] = TAYLOR_MUL(J[9], J[14], k);
-        J[16][k] = T_MUL(C[2], J[15][k]);
-        J[17][k] = TAYLOR_MUL(J[16], J[16], k);
-        J[18][k] = T_MUL(C[2], J[17][k]);
-        J[19][k] = T_MUL(C[3], J[10][k]);
-        J[20][k] = TAYLOR_MUL(J[19], J[19], k);
-        J[21][k] = T_ADD(J[20][k], k == 0 ? C[4] : T_INT(0));
-        J[22][k] = T_SUB(J[18][k], J[21][k]);
-        J[23][k] = k == 0 ? T_SIN(X[0][0]) : TAYLOR_SIN(X[0], J[24], k);
-        J[24][k] = k == 0 ? T_COS(X[0][0]) : TAYLOR_COS(X[0], J[23], k);
-        J[25][k] = T_MUL(C[1], J[24][k]);
-        J[26][k] = T_MUL(C[0], J[25][k]);
-        J[27][k] = TAYLOR_MUL(J[26], J[9], k);
-        J[28][k] = TAYLOR_MUL(J[27], J[27], k);
-        J[29][k] = T_MUL(C[2], J[28][k]);
-        J[30][k] = TAYLOR_MUL(J[23], J[11], k);
-        J[31][k] = TAYLOR_MUL(J[24], J[12], k);
-        J[32][k] = TAYLOR_MUL(J[31], J[10], k);
-        J[33][k] = T_ADD(J[30][k], J[32][k]);
-        J[34][k] = T_MUL(C[3], J[33][k]);
-        J[35][k] = TAYLOR_MUL(J[34], J[34], k);
-        J[36][k] = T_ADD(J[35][k], k == 0 ? C[4] : T_INT(0));
-        J[37][k] = T_SUB(J[29][k], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[37], J[22], k);
-        J[39][k] = TAYLOR_MUL(J[34], J[16], k);
-        J[40][k] = T_MUL(C[2], J[39][k]);
-        J[41][k] = TAYLOR_MUL(J[27], J[19], k);
-        J[42][k] = T_SUB(J[40][k], J[41][k]);
-        J[43][k] = TAYLOR_MUL(J[42], J[42], k);
-        J[44][k] = T_SUB(J[38][k], J[43][k]);
-        J[45][k] = TAYLOR_DIV(T_INT(k == 0), J[44], J[45], k);
-        J[46][k] = TAYLOR_MUL(J[22], J[45], k);
-        J[47][k] = TAYLOR_MUL(J[23], J[24], k);
-        J[48][k] = TAYLOR_MUL(X[5], X[5], k);
-        J[49][k] = TAYLOR_MUL(J[47], J[48], k);
-        J[50][k] = T_MUL(C[5], J[49][k]);
-        J[51][k] = TAYLOR_MUL(J[11], J[24], k);
-        J[52][k] = TAYLOR_MUL(X[7], X[7], k);
-        J[53][k] = TAYLOR_MUL(J[51], J[52], k);
-        J[54][k] = TAYLOR_MUL(J[53], J[10], k);
-        J[55][k] = T_MUL(C[3], J[54][k]);
-        J[56][k] = T_ADD(J[50][k], J[55][k]);
-        J[57][k] = TAYLOR_MUL(X[6], X[6], k);
-        J[58][k] = T_MUL(C[3], J[57][k]);
-        J[59][k] = TAYLOR_MUL(J[23], J[12], k);
-        J[60][k] = TAYLOR_MUL(J[11], J[24], k);
-        J[61][k] = TAYLOR_MUL(J[60], J[10], k);
-        J[62][k] = T_SUB(J[59][k], J[61][k]);
-        J[63][k] = TAYLOR_MUL(J[58], J[62], k);
+        TAYLOR_SINCOS(J[8], J[9], X[2], k);
+        J[10][k] = T_SUB(X[1][k], X[3][k]);
+        TAYLOR_SINCOS(J[11], J[12], J[10], k);
+        J[13][k] = T_MUL(C[0], J[11][k]);
+        J[14][k] = TAYLOR_MUL(J[9], J[13], k);
+        J[15][k] = T_MUL(C[1], J[14][k]);
+        J[16][k] = TAYLOR_SQUARE(J[15], k);
+        J[17][k] = T_MUL(C[1], J[16][k]);
+        J[18][k] = T_MUL(C[0], J[12][k]);
+        J[19][k] = TAYLOR_SQUARE(J[18], k);
+        J[20][k] = T_ADD(J[19][k], k == 0 ? C[2] : T_INT(0));
+        J[21][k] = T_SUB(J[17][k], J[20][k]);
+        TAYLOR_SINCOS(J[22], J[23], X[0], k);
+        J[24][k] = TAYLOR_MUL(J[22], J[8], k);
+        J[25][k] = TAYLOR_MUL(J[9], J[12], k);
+        J[26][k] = TAYLOR_MUL(J[25], J[23], k);
+        J[27][k] = T_ADD(J[24][k], J[26][k]);
+        J[28][k] = T_MUL(C[0], J[27][k]);
+        J[29][k] = TAYLOR_SQUARE(J[28], k);
+        J[30][k] = T_ADD(J[29][k], k == 0 ? C[2] : T_INT(0));
+        J[31][k] = T_MUL(C[1], J[30][k]);
+        J[32][k] = TAYLOR_MUL(J[13], J[23], k);
+        J[33][k] = TAYLOR_SQUARE(J[32], k);
+        J[34][k] = T_SUB(J[31][k], J[33][k]);
+        J[35][k] = TAYLOR_MUL(J[34], J[21], k);
+        J[36][k] = TAYLOR_MUL(J[28], J[15], k);
+        J[37][k] = T_MUL(C[1], J[36][k]);
+        J[38][k] = TAYLOR_MUL(J[32], J[18], k);
+        J[39][k] = T_SUB(J[37][k], J[38][k]);
+        J[40][k] = TAYLOR_SQUARE(J[39], k);
+        J[41][k] = T_SUB(J[35][k], J[40][k]);
+        J[42][k] = TAYLOR_SQUARE(X[5], k);
+        J[43][k] = TAYLOR_MUL(J[22], J[42], k);
+        J[44][k] = TAYLOR_MUL(J[43], J[23], k);
+        J[45][k] = T_MUL(C[3], J[44][k]);
+        J[46][k] = TAYLOR_SQUARE(X[7], k);
+        J[47][k] = TAYLOR_MUL(J[8], J[46], k);
+        J[48][k] = TAYLOR_MUL(J[47], J[12], k);
+        J[49][k] = TAYLOR_MUL(J[48], J[23], k);
+        J[50][k] = T_MUL(C[0], J[49][k]);
+        J[51][k] = T_ADD(J[45][k], J[50][k]);
+        J[52][k] = TAYLOR_MUL(X[7], X[6], k);
+        J[53][k] = T_MUL(C[4], J[52][k]);
+        J[54][k] = TAYLOR_MUL(J[32], J[9], k);
+        J[55][k] = TAYLOR_MUL(J[53], J[54], k);
+        J[56][k] = T_SUB(J[51][k], J[55][k]);
+        J[57][k] = TAYLOR_SQUARE(X[6], k);
+        J[58][k] = TAYLOR_MUL(J[22], J[9], k);
+        J[59][k] = TAYLOR_MUL(J[8], J[12], k);
+        J[60][k] = TAYLOR_MUL(J[59], J[23], k);
+        J[61][k] = T_SUB(J[58][k], J[60][k]);
+        J[62][k] = TAYLOR_MUL(J[57], J[61], k);
+        J[63][k] = T_MUL(C[0], J[62][k]);
         J[64][k] = T_SUB(J[56][k], J[63][k]);
-        J[65][k] = T_MUL(C[6], X[7][k]);
-        J[66][k] = TAYLOR_MUL(J[13], X[6], k);
-        J[67][k] = TAYLOR_MUL(J[65], J[66], k);
-        J[68][k] = TAYLOR_MUL(J[25], J[67], k);
-        J[69][k] = TAYLOR_MUL(J[9], J[68], k);
-        J[70][k] = T_SUB(J[64][k], J[69][k]);
-        J[71][k] = T_MUL(C[7], J[23][k]);
-        J[72][k] = T_MUL(C[8], J[71][k]);
-        J[73][k] = T_SUB(J[70][k], J[72][k]);
-        J[74][k] = T_MUL(C[9], J[73][k]);
-        J[75][k] = TAYLOR_MUL(J[48], J[59], k);
-        J[76][k] = TAYLOR_MUL(J[19], J[75], k);
-        J[77][k] = T_MUL(C[6], X[5][k]);
-        J[78][k] = TAYLOR_MUL(J[25], X[4], k);
-        J[79][k] = TAYLOR_MUL(J[77], J[78], k);
-        J[80][k] = TAYLOR_MUL(J[9], J[79], k);
-        J[81][k] = TAYLOR_MUL(J[80], J[13], k);
-        J[82][k] = T_ADD(J[76][k], J[81][k]);
-        J[83][k] = TAYLOR_MUL(J[11], J[12], k);
-        J[84][k] = TAYLOR_MUL(J[52], J[83], k);
-        J[85][k] = T_MUL(C[9], J[84][k]);
-        J[86][k] = T_ADD(J[82][k], J[85][k]);
-        J[87][k] = T_MUL(C[10], J[11][k]);
-        J[88][k] = T_MUL(C[0], J[87][k]);
-        J[89][k] = T_SUB(J[86][k], J[88][k]);
-        J[90][k] = TAYLOR_MUL(X[4], X[4], k);
-        J[91][k] = TAYLOR_MUL(J[59], J[10], k);
-        J[92][k] = T_SUB(J[60][k], J[91][k]);
-        J[93][k] = T_MUL(C[3], J[92][k]);
-        J[94][k] = TAYLOR_MUL(J[90], J[93], k);
-        J[95][k] = T_SUB(J[89][k], J[94][k]);
-        J[96][k] = TAYLOR_MUL(J[34], J[95], k);
-        J[97][k] = T_SUB(J[74][k], J[96][k]);
-        J[98][k] = T_MUL(C[3], J[90][k]);
-        J[99][k] = TAYLOR_MUL(J[9], J[98], k);
-        J[100][k] = TAYLOR_MUL(J[23], J[99], k);
-        J[101][k] = T_MUL(C[3], J[9][k]);
-        J[102][k] = TAYLOR_MUL(J[23], J[48], k);
-        J[103][k] = TAYLOR_MUL(J[101], J[102], k);
-        J[104][k] = T_ADD(J[100][k], J[103][k]);
-        J[105][k] = TAYLOR_MUL(J[26], J[10], k);
-        J[106][k] = T_MUL(C[6], X[4][k]);
-        J[107][k] = TAYLOR_MUL(J[105], J[106], k);
-        J[108][k] = TAYLOR_MUL(X[5], J[107], k);
-        J[109][k] = T_SUB(J[104][k], J[108][k]);
-        J[110][k] = TAYLOR_MUL(J[12], X[6], k);
-        J[111][k] = T_MUL(C[9], J[65][k]);
-        J[112][k] = TAYLOR_MUL(J[110], J[111], k);
-        J[113][k] = T_SUB(J[109][k], J[112][k]);
-        J[114][k] = TAYLOR_MUL(J[27], J[113], k);
-        J[115][k] = T_SUB(J[97][k], J[114][k]);
-        J[116][k] = TAYLOR_MUL(J[46], J[115], k);
-        J[117][k] = TAYLOR_MUL(J[58], J[9], k);
-        J[118][k] = TAYLOR_MUL(J[11], J[117], k);
-        J[119][k] = T_MUL(C[2], J[118][k]);
-        J[120][k] = TAYLOR_MUL(J[11], J[52], k);
-        J[121][k] = TAYLOR_MUL(J[120], J[101], k);
-        J[122][k] = T_SUB(J[119][k], J[121][k]);
-        J[123][k] = TAYLOR_MUL(J[14], J[10], k);
-        J[124][k] = TAYLOR_MUL(J[65], J[123], k);
-        J[125][k] = TAYLOR_MUL(J[124], X[6], k);
-        J[126][k] = T_SUB(J[122][k], J[125][k]);
-        J[127][k] = TAYLOR_MUL(J[24], X[4], k);
-        J[128][k] = T_MUL(C[5], J[127][k]);
-        J[129][k] = TAYLOR_MUL(J[77], J[128], k);
-        J[130][k] = T_SUB(J[126][k], J[129][k]);
-        J[131][k] = T_MUL(C[9], J[130][k]);
-        J[132][k] = TAYLOR_MUL(J[16], J[95], k);
-        J[133][k] = T_SUB(J[131][k], J[132][k]);
-        J[134][k] = TAYLOR_MUL(J[19], J[113], k);
-        J[135][k] = T_SUB(J[133][k], J[134][k]);
-        J[136][k] = TAYLOR_MUL(J[45], J[135], k);
-        J[137][k] = TAYLOR_MUL(J[42], J[136], k);
-        J[138][k] = T_SUB(J[116][k], J[137][k]);
-        J[139][k] = TAYLOR_DIV(T_INT(k == 0), J[23], J[139], k);
-        J[140][k] = TAYLOR_MUL(J[37], J[136], k);
-        J[141][k] = TAYLOR_MUL(J[42], J[45], k);
-        J[142][k] = TAYLOR_MUL(J[141], J[115], k);
-        J[143][k] = T_SUB(J[140][k], J[142][k]);
-        J[144][k] = TAYLOR_MUL(J[139], J[143], k);
-        J[145][k] = T_MUL(C[2], J[28][k]);
-        J[146][k] = T_SUB(J[145][k], J[21][k]);
-        J[147][k] = T_MUL(C[2], J[36][k]);
-        J[148][k] = T_SUB(J[147][k], J[17][k]);
-        J[149][k] = TAYLOR_MUL(J[148], J[146], k);
-        J[150][k] = TAYLOR_MUL(J[34], J[27], k);
-        J[151][k] = T_MUL(C[2], J[150][k]);
-        J[152][k] = TAYLOR_MUL(J[16], J[19], k);
-        J[153][k] = T_SUB(J[151][k], J[152][k]);
-        J[154][k] = TAYLOR_MUL(J[153], J[153], k);
-        J[155][k] = T_SUB(J[149][k], J[154][k]);
-        J[156][k] = TAYLOR_DIV(T_INT(k == 0), J[155], J[156], k);
-        J[157][k] = TAYLOR_MUL(J[146], J[156], k);
-        J[158][k] = T_MUL(C[5], J[95][k]);
-        J[159][k] = TAYLOR_MUL(J[34], J[73], k);
-        J[160][k] = T_SUB(J[158][k], J[159][k]);
-        J[161][k] = TAYLOR_MUL(J[16], J[130], k);
-        J[162][k] = T_SUB(J[160][k], J[161][k]);
-        J[163][k] = TAYLOR_MUL(J[157], J[162], k);
-        J[164][k] = T_MUL(C[5], J[113][k]);
-        J[165][k] = TAYLOR_MUL(J[27], J[73], k);
-        J[166][k] = T_SUB(J[164][k], J[165][k]);
-        J[167][k] = TAYLOR_MUL(J[19], J[130], k);
-        J[168][k] = T_SUB(J[166][k], J[167][k]);
-        J[169][k] = TAYLOR_MUL(J[156], J[168], k);
-        J[170][k] = TAYLOR_MUL(J[153], J[169], k);
-        J[171][k] = T_SUB(J[163][k], J[170][k]);
-        J[172][k] = TAYLOR_DIV(T_INT(k == 0), J[11], J[172], k);
-        J[173][k] = TAYLOR_MUL(J[148], J[169], k);
-        J[174][k] = TAYLOR_MUL(J[153], J[156], k);
-        J[175][k] = TAYLOR_MUL(J[174], J[162], k);
-        J[176][k] = T_SUB(J[173][k], J[175][k]);
-        J[177][k] = TAYLOR_MUL(J[172], J[176], k);
-        if (k == 0 && (!(T_ABS(J[23][0]) >= sine_min) || !(T_ABS(J[11][0]) >= sine_min))) {
+        J[65][k] = T_MUL(C[5], J[22][k]);
+        J[66][k] = T_SUB(J[64][k], J[65][k]);
+        J[67][k] = T_MUL(C[6], J[66][k]);
+        J[68][k] = T_MUL(C[6], J[9][k]);
+        J[69][k] = TAYLOR_MUL(J[47], J[68], k);
+        J[70][k] = TAYLOR_MUL(X[5], X[4], k);
+        J[71][k] = T_MUL(C[4], J[70][k]);
+        J[72][k] = TAYLOR_MUL(J[71], J[54], k);
+        J[73][k] = T_ADD(J[69][k], J[72][k]);
+        J[74][k] = TAYLOR_MUL(J[18], J[42], k);
+        J[75][k] = TAYLOR_MUL(J[74], J[58], k);
+        J[76][k] = T_ADD(J[73][k], J[75][k]);
+        J[77][k] = T_MUL(C[7], J[8][k]);
+        J[78][k] = T_SUB(J[76][k], J[77][k]);
+        J[79][k] = TAYLOR_SQUARE(X[4], k);
+        J[80][k] = TAYLOR_MUL(J[8], J[23], k);
+        J[81][k] = TAYLOR_MUL(J[58], J[12], k);
+        J[82][k] = T_SUB(J[80][k], J[81][k]);
+        J[83][k] = TAYLOR_MUL(J[79], J[82], k);
+        J[84][k] = T_MUL(C[0], J[83][k]);
+        J[85][k] = T_SUB(J[78][k], J[84][k]);
+        J[86][k] = TAYLOR_MUL(J[28], J[85], k);
+        J[87][k] = T_SUB(J[67][k], J[86][k]);
+        J[88][k] = TAYLOR_MUL(J[22], J[13], k);
+        J[89][k] = TAYLOR_MUL(J[42], J[88], k);
+        J[90][k] = TAYLOR_MUL(J[79], J[88], k);
+        J[91][k] = T_ADD(J[89][k], J[90][k]);
+        J[92][k] = TAYLOR_MUL(J[53], J[68], k);
+        J[93][k] = T_SUB(J[91][k], J[92][k]);
+        J[94][k] = TAYLOR_MUL(J[18], J[71], k);
+        J[95][k] = TAYLOR_MUL(J[94], J[23], k);
+        J[96][k] = T_SUB(J[93][k], J[95][k]);
+        J[97][k] = TAYLOR_MUL(J[32], J[96], k);
+        J[98][k] = T_SUB(J[87][k], J[97][k]);
+        J[99][k] = TAYLOR_MUL(J[21], J[98], k);
+        J[100][k] = TAYLOR_DIV(J[99][k], J[41], J[100], k);
+        J[101][k] = TAYLOR_MUL(J[47], J[13], k);
+        J[102][k] = T_MUL(C[1], J[101][k]);
+        J[103][k] = TAYLOR_MUL(J[71], J[23], k);
+        J[104][k] = T_MUL(C[3], J[103][k]);
+        J[105][k] = T_SUB(J[102][k], J[104][k]);
+        J[106][k] = TAYLOR_MUL(J[8], J[57], k);
+        J[107][k] = TAYLOR_MUL(J[106], J[13], k);
+        J[108][k] = T_SUB(J[105][k], J[107][k]);
+        J[109][k] = TAYLOR_MUL(J[25], J[53], k);
+        J[110][k] = T_MUL(C[0], J[109][k]);
+        J[111][k] = T_SUB(J[108][k], J[110][k]);
+        J[112][k] = T_MUL(C[6], J[111][k]);
+        J[113][k] = TAYLOR_MUL(J[15], J[85], k);
+        J[114][k] = T_SUB(J[112][k], J[113][k]);
+        J[115][k] = TAYLOR_MUL(J[18], J[96], k);
+        J[116][k] = T_SUB(J[114][k], J[115][k]);
+        J[117][k] = TAYLOR_DIV(J[116][k], J[41], J[117], k);
+        J[118][k] = TAYLOR_MUL(J[39], J[117], k);
+        J[119][k] = T_SUB(J[100][k], J[118][k]);
+        J[120][k] = TAYLOR_MUL(J[34], J[117], k);
+        J[121][k] = TAYLOR_MUL(J[39], J[98], k);
+        J[122][k] = TAYLOR_DIV(J[121][k], J[41], J[122], k);
+        J[123][k] = T_SUB(J[120][k], J[122][k]);
+        J[124][k] = TAYLOR_DIV(J[123][k], J[22], J[124], k);
+        J[125][k] = T_MUL(C[1], J[20][k]);
+        J[126][k] = T_SUB(J[125][k], J[33][k]);
+        J[127][k] = T_SUB(J[31][k], J[16][k]);
+        J[128][k] = TAYLOR_MUL(J[127], J[126], k);
+        J[129][k] = TAYLOR_MUL(J[28], J[32], k);
+        J[130][k] = T_MUL(C[1], J[129][k]);
+        J[131][k] = TAYLOR_MUL(J[15], J[18], k);
+        J[132][k] = T_SUB(J[130][k], J[131][k]);
+        J[133][k] = TAYLOR_SQUARE(J[132], k);
+        J[134][k] = T_SUB(J[128][k], J[133][k]);
+        J[135][k] = T_MUL(C[3], J[85][k]);
+        J[136][k] = TAYLOR_MUL(J[28], J[66], k);
+        J[137][k] = T_SUB(J[135][k], J[136][k]);
+        J[138][k] = TAYLOR_MUL(J[15], J[111], k);
+        J[139][k] = T_SUB(J[137][k], J[138][k]);
+        J[140][k] = TAYLOR_MUL(J[126], J[139], k);
+        J[141][k] = TAYLOR_DIV(J[140][k], J[134], J[141], k);
+        J[142][k] = T_MUL(C[3], J[96][k]);
+        J[143][k] = TAYLOR_MUL(J[32], J[66], k);
+        J[144][k] = T_SUB(J[142][k], J[143][k]);
+        J[145][k] = TAYLOR_MUL(J[18], J[111], k);
+        J[146][k] = T_SUB(J[144][k], J[145][k]);
+        J[147][k] = TAYLOR_DIV(J[146][k], J[134], J[147], k);
+        J[148][k] = TAYLOR_MUL(J[132], J[147], k);
+        J[149][k] = T_SUB(J[141][k], J[148][k]);
+        J[150][k] = TAYLOR_MUL(J[127], J[147], k);
+        J[151][k] = TAYLOR_MUL(J[132], J[139], k);
+        J[152][k] = TAYLOR_DIV(J[151][k], J[134], J[152], k);
+        J[153][k] = T_SUB(J[150][k], J[152][k]);
+        J[154][k] = TAYLOR_DIV(J[153][k], J[8], J[154], k);
+        if (k == 0 && (!(T_ABS(J[22][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }
         X[0][k + 1] = T_DIVI(X[4][k], k + 1);
         X[1][k + 1] = T_DIVI(X[5][k], k + 1);
         X[2][k + 1] = T_DIVI(X[6][k], k + 1);
         X[3][k + 1] = T_DIVI(X[7][k], k + 1);
-        X[4][k + 1] = T_DIVI(J[138][k], k + 1);
-        X[5][k + 1] = T_DIVI(J[144][k], k + 1);
-        X[6][k + 1] = T_DIVI(J[171][k], k + 1);
-        X[7][k + 1] = T_DIVI(J[177][k], k + 1);
+        X[4][k + 1] = T_DIVI(J[119][k], k + 1);
+        X[5][k + 1] = T_DIVI(J[124][k], k + 1);
+        X[6][k + 1] = T_DIVI(J[149][k], k + 1);
+        X[7][k + 1] = T_DIVI(J[154][k], k + 1);
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }
@@ -1190,13 +1087,14 @@ long spherical_std_taylor_batch_dd(long n, const derive_dd *y0, long y0_stride, 
 #undef T_SQRT
 #undef T_SIN
 #undef T_COS
+#undef T_SINCOS
 #undef T_EXP
 #undef T_S
 #undef T_ABS
 #undef T_FROMS
 #undef T_LE
 #undef T_SEXP
-#undef T_SPOW
+#undef T_SROOT
 #undef T_SNAN
 #undef T_NAN
 #undef DERIVE_TAYLOR_T

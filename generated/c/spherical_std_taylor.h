@@ -2,8 +2,8 @@
  *
  * spherical_std: Taylor's method for the kernels of spherical_std.h (Double spherical pendulum, standard chart (theta, phi)), in double (no suffix), float (suffix _f), long double (suffix _l) and double-double (suffix _dd).
  *
- * The rhs is decomposed into 178 elementary operations (5 add, 3 cos, 4 inv, 76 mul, 34 scale, 2 shift, 3 sin, 10 square, 33 sub, 8 var)
- * with 11 constants per step (expressions of the parameters); the Taylor
+ * The rhs is decomposed into 155 elementary operations (5 add, 3 cos, 8 div, 58 mul, 25 scale, 2 shift, 3 sin, 10 square, 33 sub, 8 var)
+ * with 8 constants per step (expressions of the parameters); the Taylor
  * coefficients of the solution come from the recurrence of each operation (automatic
  * differentiation, derive/codegen/taylor.py).  Order and step from the
  * tolerance options.rtol (Jorba & Zou 2005, as heyoka): order p = ceil(-ln(tol)/2 + 1)

@@ -14,9 +14,12 @@
  * integrator's.
  *
  * Here: the recurrences for L lanes (sum, difference, scaling and shift by a constant,
- * product, quotient, square root, sin and cos together, exp, the solution's coefficient
- * from the rhs', the chart guard), the advance and dense output by Horner, the step for a
- * jet (Jorba & Zou 2005, as the scalar), the lanes' bookkeeping and the batch's body.
+ * a constant less a node, product, square, quotient, square root, sin and cos together,
+ * exp, the solution's coefficient from the rhs', the chart guard), the advance and dense
+ * output by Horner, the step for a jet (Jorba & Zou 2005, as the scalar: every lane's
+ * radius in one loop), the lanes' bookkeeping and the batch's body.  sin/cos and the
+ * radius' root are derive_taylor_math.h's, the scalar integrator's: branch-free, so that
+ * their loops over the lanes vectorise.
  *
  * Standalone C99, only <math.h>; reentrant: no globals, no allocation (the jet of the L
  * lanes is on the stack).  Included once per precision (double, float, long double), in
@@ -39,8 +42,8 @@
  *   DERIVE_LANES_RESTRICT       restrict (C++: __restrict): the lane loops' rows are disjoint
  *   DERIVE_LANES_INLINE         how the recurrences are declared (static inline, forced
  *                               where the compiler can: each is then a few vector instructions)
- *   DERIVE_LANES_USES_ADD, _SUB, _SCALE, _SHIFT, _MUL, _DIV, _SQRT, _SINCOS, _EXP, _OUT,
- *   _OUTC, _GUARD               1 where the jet uses that recurrence (the others are left out)
+ *   DERIVE_LANES_USES_ADD, _SUB, _SCALE, _SHIFT, _CSUB, _MUL, _SQUARE, _DIV, _SQRT, _SINCOS,
+ *   _EXP, _OUT, _OUTC, _GUARD   1 where the jet uses that recurrence (the others are left out)
  *   DERIVE_TAYLOR_TIMED         (defined or not) a time-dependent model's: its jet takes each
  *                               lane's time at the step's start, jet(X, C, const R *t0,
  *                               order, sine_min, bad), and LANES_TIME(u, t0, k) is defined
@@ -58,17 +61,22 @@
  *                               from lane l's parameters p
  *
  * It defines (static; T the tag) for the jet LANES_ADD(u, a, b), LANES_SUB, LANES_SCALE(u,
- * c, a), LANES_SHIFT(u, a, c, k), LANES_MUL(u, a, b, k), LANES_DIV(u, ak, b, k),
+ * c, a), LANES_SHIFT(u, a, c, k), LANES_CSUB(u, c, a, k), LANES_MUL(u, a, b, k),
+ * LANES_SQUARE(u, a, k), LANES_DIV(u, ak, b, k),
  * LANES_SQRT(u, ak, k), LANES_SINCOS(s, c, a, k), LANES_EXP(u, a, k), LANES_OUT(x, f, k),
  * LANES_OUTC(x, c, k), LANES_GUARD(bad, g, sine_min) and, timed, LANES_TIME(u, t0, k)
  * (undefined at the next inclusion),
  * and derive_taylor_lanes_batch_T (n, y0, y0_stride, p, p_stride, nt, t, y_out, opt, info).
  */
 
+#include "derive_taylor_math.h"
+
 #undef LANES_ADD
 #undef LANES_SUB
 #undef LANES_SCALE
 #undef LANES_SHIFT
+#undef LANES_CSUB
+#undef LANES_SQUARE
 #undef LANES_MUL
 #undef LANES_DIV
 #undef LANES_SQRT
@@ -131,20 +139,40 @@ DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_shift)(R *DERIVE_LANES_REST
     }
 }
 #endif
+#if DERIVE_LANES_USES_CSUB
+
+/* u = c - a at order 0, -a above (c the lane's constant) */
+DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_csub)(R *DERIVE_LANES_RESTRICT u, const R *DERIVE_LANES_RESTRICT c, const R *DERIVE_LANES_RESTRICT a, int k)
+{
+    int l;
+    for (l = 0; l < L; ++l) {
+        u[l] = k == 0 ? c[l] - a[l] : -a[l];
+    }
+}
+#endif
+
+/* The sums of products in derive_taylor.h's order: from the middle out (the terms of the
+ * oldest coefficients first), each from -0. */
 #if DERIVE_LANES_USES_MUL
 
-/* coefficient k of a b: sum_{j=0..k} a_j b_{k-j} */
+/* coefficient k of a b: sum_{j=0..k} a_j b_{k-j}, the pairs (j, k - j) inward out */
 DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_mul)(R *DERIVE_LANES_RESTRICT u, const R *DERIVE_LANES_RESTRICT a, const R *DERIVE_LANES_RESTRICT b, int k)
 {
     R acc[L];
     int j, l;
     for (l = 0; l < L; ++l) {
-        acc[l] = 0;
+        acc[l] = -(R)0;
+    }
+    if (k % 2 == 0) {
+        for (l = 0; l < L; ++l) {
+            acc[l] += a[k / 2 * L + l] * b[k / 2 * L + l];
+        }
     }
     DERIVE_TAYLOR_UNROLL
-    for (j = 0; j <= k; ++j) {
+    for (j = (k + 1) / 2 - 1; j >= 0; --j) {
         for (l = 0; l < L; ++l) {
             acc[l] += a[j * L + l] * b[(k - j) * L + l];
+            acc[l] += a[(k - j) * L + l] * b[j * L + l];
         }
     }
     for (l = 0; l < L; ++l) {
@@ -152,95 +180,166 @@ DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_mul)(R *DERIVE_LANES_RESTRI
     }
 }
 #endif
+#if DERIVE_LANES_USES_SQUARE || DERIVE_LANES_USES_SQRT
+
+/* sum_{j=1..k-1} a_j a_{k-j} (k >= 1) as 2 sum_{1<=j<k/2} a_j a_{k-j} (+ a_{k/2}^2, k even) */
+DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_inner_square)(R *DERIVE_LANES_RESTRICT acc, const R *DERIVE_LANES_RESTRICT a, int k)
+{
+    int j, l;
+    for (l = 0; l < L; ++l) {
+        acc[l] = -(R)0;
+    }
+    DERIVE_TAYLOR_UNROLL
+    for (j = (k + 1) / 2 - 1; j >= 1; --j) {
+        for (l = 0; l < L; ++l) {
+            acc[l] += a[j * L + l] * a[(k - j) * L + l];
+        }
+    }
+    for (l = 0; l < L; ++l) {
+        acc[l] += acc[l];
+    }
+    if (k % 2 == 0) {
+        for (l = 0; l < L; ++l) {
+            acc[l] += a[k / 2 * L + l] * a[k / 2 * L + l];
+        }
+    }
+}
+#endif
+#if DERIVE_LANES_USES_SQUARE
+
+/* coefficient k of a a: the inner products, then 2 a_0 a_k */
+DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_square)(R *DERIVE_LANES_RESTRICT u, const R *DERIVE_LANES_RESTRICT a, int k)
+{
+    R acc[L];
+    int l;
+    if (k == 0) {
+        for (l = 0; l < L; ++l) {
+            u[l] = a[l] * a[l];
+        }
+        return;
+    }
+    DERIVE_LANES_T(derive_lanes_inner_square)(acc, a, k);
+    for (l = 0; l < L; ++l) {
+        u[l] = acc[l] + a[l] * (R)2 * a[k * L + l];
+    }
+}
+#endif
 #if DERIVE_LANES_USES_DIV
 
-/* coefficient k of u = a / b, given a_k (ak null: u = 1 / b) and u_0..u_{k-1} */
+/* coefficient k of u = a / b, given a_k (ak null: u = 1 / b) and u_0..u_{k-1}:
+ * (a_k - sum_{j=1..k} b_j u_{k-j}) / b_0, the pairs of 1 <= j < k inward out, then b_k u_0 */
 DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_div)(R *DERIVE_LANES_RESTRICT u, const R *DERIVE_LANES_RESTRICT ak, const R *DERIVE_LANES_RESTRICT b, int k)
 {
     R acc[L];
     int j, l;
-    for (l = 0; l < L; ++l) {
-        acc[l] = ak ? ak[l] : (R)(k == 0);
-    }
-    for (j = 1; j <= k; ++j) {
+    if (k == 0) {
         for (l = 0; l < L; ++l) {
-            acc[l] -= b[j * L + l] * u[(k - j) * L + l];
+            u[l] = (ak ? ak[l] : (R)1) / b[l];
+        }
+        return;
+    }
+    for (l = 0; l < L; ++l) {
+        acc[l] = -(R)0;
+    }
+    if (k % 2 == 0) {
+        for (l = 0; l < L; ++l) {
+            acc[l] += b[k / 2 * L + l] * u[k / 2 * L + l];
+        }
+    }
+    DERIVE_TAYLOR_UNROLL
+    for (j = (k + 1) / 2 - 1; j >= 1; --j) {
+        for (l = 0; l < L; ++l) {
+            acc[l] += b[j * L + l] * u[(k - j) * L + l];
+            acc[l] += b[(k - j) * L + l] * u[j * L + l];
         }
     }
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = acc[l] / b[l];
+        acc[l] += b[k * L + l] * u[l];
+        u[k * L + l] = ((ak ? ak[l] : (R)0) - acc[l]) / b[l];
     }
 }
 #endif
 #if DERIVE_LANES_USES_SQRT
 
-/* coefficient k of u = sqrt(a), given a_k */
+/* coefficient k of u = sqrt(a), given a_k: (a_k - sum_{j=1..k-1} u_j u_{k-j}) / (2 u_0) */
 DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_sqrt)(R *DERIVE_LANES_RESTRICT u, const R *DERIVE_LANES_RESTRICT ak, int k)
 {
     R acc[L];
-    int j, l;
+    int l;
     if (k == 0) {
         for (l = 0; l < L; ++l) {
             u[l] = DERIVE_LANES_M(sqrt)(ak[l]);
         }
         return;
     }
+    DERIVE_LANES_T(derive_lanes_inner_square)(acc, u, k);
     for (l = 0; l < L; ++l) {
-        acc[l] = ak[l];
-    }
-    for (j = 1; j < k; ++j) {
-        for (l = 0; l < L; ++l) {
-            acc[l] -= u[j * L + l] * u[(k - j) * L + l];
-        }
-    }
-    for (l = 0; l < L; ++l) {
-        u[k * L + l] = acc[l] / (2 * u[l]);
+        u[k * L + l] = (ak[l] - acc[l]) / (u[l] * (R)2);
     }
 }
 #endif
 #if DERIVE_LANES_USES_SINCOS || DERIVE_LANES_USES_EXP
 
-/* acc = (1/k) sum_{j=1..k} j a_j w_{k-j} (k >= 1): coefficient k of sin a (w = cos a), of
- * -cos a (w = sin a) and of exp a (w = exp a) */
-DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_chain)(R *DERIVE_LANES_RESTRICT acc, const R *DERIVE_LANES_RESTRICT a, const R *DERIVE_LANES_RESTRICT w, int k)
+/* acc = sum_{j=1..k} j a_j w_{k-j} (k >= 1), the pairs of 1 <= j < k inward out, then
+ * k a_k w_0; with v (not null) also vacc = sum_{j=1..k} j a_j v_{k-j}, each j a_j once */
+DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_chain)(R *DERIVE_LANES_RESTRICT acc, R *DERIVE_LANES_RESTRICT vacc, const R *DERIVE_LANES_RESTRICT a, const R *w, const R *v, int k)
 {
+    R ja;
     int j, l;
     for (l = 0; l < L; ++l) {
-        acc[l] = 0;
+        acc[l] = -(R)0;
+        vacc[l] = -(R)0;
+    }
+    if (k % 2 == 0) {
+        for (l = 0; l < L; ++l) {
+            ja = a[k / 2 * L + l] * (R)(k / 2);
+            acc[l] += ja * w[k / 2 * L + l];
+            vacc[l] += v ? ja * v[k / 2 * L + l] : (R)0;
+        }
     }
     DERIVE_TAYLOR_UNROLL
-    for (j = 1; j <= k; ++j) {
+    for (j = (k + 1) / 2 - 1; j >= 1; --j) {
         for (l = 0; l < L; ++l) {
-            acc[l] += (R)j * a[j * L + l] * w[(k - j) * L + l];
+            ja = a[j * L + l] * (R)j;
+            acc[l] += ja * w[(k - j) * L + l];
+            vacc[l] += v ? ja * v[(k - j) * L + l] : (R)0;
+            ja = a[(k - j) * L + l] * (R)(k - j);
+            acc[l] += ja * w[j * L + l];
+            vacc[l] += v ? ja * v[j * L + l] : (R)0;
         }
     }
     for (l = 0; l < L; ++l) {
-        acc[l] /= (R)k;
+        ja = a[k * L + l] * (R)k;
+        acc[l] += ja * w[l];
+        vacc[l] += v ? ja * v[l] : (R)0;
     }
 }
 #endif
 #if DERIVE_LANES_USES_SINCOS
 
-/* coefficient k of s = sin a and c = cos a; at order 0 libm's sin and cos, lane by lane
- * (GCC fuses the two calls into glibc's sincos, whose results are sin's and cos') */
+/* coefficient k of s = sin a and c = cos a together; at order 0 derive_taylor_math.h's
+ * function, the scalar integrator's (its polynomial in vector instructions, libm's sin
+ * and cos past its range, lane by lane) */
 DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_sincos)(R *DERIVE_LANES_RESTRICT s, R *DERIVE_LANES_RESTRICT c, const R *DERIVE_LANES_RESTRICT a, int k)
 {
-    R acc[L];
+    R ssum[L], csum[L];
     int l;
     if (k == 0) {
         for (l = 0; l < L; ++l) {
-            s[l] = DERIVE_LANES_M(sin)(a[l]);
-            c[l] = DERIVE_LANES_M(cos)(a[l]);
+            DERIVE_LANES_M(derive_sincos_reduced)(a[l], &s[l], &c[l]);
+        }
+        for (l = 0; l < L; ++l) {
+            if (DERIVE_LANES_M(derive_sincos_outside)(a[l])) {
+                s[l] = DERIVE_LANES_M(sin)(a[l]);
+                c[l] = DERIVE_LANES_M(cos)(a[l]);
+            }
         }
         return;
     }
-    DERIVE_LANES_T(derive_lanes_chain)(acc, a, c, k);
+    DERIVE_LANES_T(derive_lanes_chain)(ssum, csum, a, c, s, k);
     for (l = 0; l < L; ++l) {
-        s[k * L + l] = acc[l];
-    }
-    DERIVE_LANES_T(derive_lanes_chain)(acc, a, s, k);
-    for (l = 0; l < L; ++l) {
-        c[k * L + l] = -acc[l];
+        s[k * L + l] = ssum[l] / (R)k;
+        c[k * L + l] = -(csum[l] / (R)k);
     }
 }
 #endif
@@ -249,7 +348,7 @@ DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_sincos)(R *DERIVE_LANES_RES
 /* coefficient k of u = exp a */
 DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_exp)(R *u, const R *DERIVE_LANES_RESTRICT a, int k)
 {
-    R acc[L];
+    R acc[L], unused[L];
     int l;
     if (k == 0) {
         for (l = 0; l < L; ++l) {
@@ -257,9 +356,9 @@ DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_exp)(R *u, const R *DERIVE_
         }
         return;
     }
-    DERIVE_LANES_T(derive_lanes_chain)(acc, a, u, k);
+    DERIVE_LANES_T(derive_lanes_chain)(acc, unused, a, u, 0, k);
     for (l = 0; l < L; ++l) {
-        u[k * L + l] = acc[l];
+        u[k * L + l] = acc[l] / (R)k;
     }
 }
 #endif
@@ -303,6 +402,8 @@ DERIVE_LANES_INLINE void DERIVE_LANES_T(derive_lanes_guard)(int *DERIVE_LANES_RE
 #define LANES_SUB DERIVE_LANES_T(derive_lanes_sub)
 #define LANES_SCALE DERIVE_LANES_T(derive_lanes_scale)
 #define LANES_SHIFT DERIVE_LANES_T(derive_lanes_shift)
+#define LANES_CSUB DERIVE_LANES_T(derive_lanes_csub)
+#define LANES_SQUARE DERIVE_LANES_T(derive_lanes_square)
 #define LANES_MUL DERIVE_LANES_T(derive_lanes_mul)
 #define LANES_DIV DERIVE_LANES_T(derive_lanes_div)
 #define LANES_SQRT DERIVE_LANES_T(derive_lanes_sqrt)
@@ -395,6 +496,7 @@ typedef struct {
     R X[DERIVE_N][DERIVE_TAYLOR_DIM * L];
     R C[DERIVE_LANES_NCONST][L];
     R tau[L];
+    R rho[L], n1[L], n2[L];     /* each lane's radius and norms of its last two orders */
 #ifdef DERIVE_TAYLOR_TIMED
     R t0[L];                    /* each lane's time at the step's start (the jet's t) */
 #endif
@@ -489,28 +591,66 @@ static int DERIVE_LANES_T(derive_lanes_start)(DERIVE_LANES_T(derive_lanes_run) *
     return 1;
 }
 
-/* 1 if x1^y1 < x2^y2, 2 if x2^y2 < x1^y1 (x > 0, 0 < y <= 1), where their binary logarithms
- * differ by more than this estimate's error; else (or x not finite) 0.  log2 x = b + log2 f
- * with x = f 2^b (frexp), and log2 f - 2 (f - 1) is in [0, 0.0861] for f in [1/2, 1): the
- * estimate is at most 0.0861 y below log2 of the power, 0.1 y with rounding. */
-static int DERIVE_LANES_T(derive_lanes_smaller)(R x1, R y1, R x2, R y2)
+/* x^n (n >= 1) by squaring, as derive_taylor.h's derive_taylor_powi */
+static R DERIVE_LANES_T(derive_lanes_powi)(R x, int n)
 {
-    R f1, f2, l1, l2;
-    int b1, b2;
-    if (!DERIVE_LANES_T(derive_lanes_finite)(&x1, 1) || !DERIVE_LANES_T(derive_lanes_finite)(&x2, 1)) {
-        return 0;
+    R result = 1, square = x;
+    for (;;) {
+        if (n & 1) {
+            result *= square;
+        }
+        n >>= 1;
+        if (!n) {
+            return result;
+        }
+        square *= square;
     }
-    f1 = DERIVE_LANES_M(frexp)(x1, &b1);
-    f2 = DERIVE_LANES_M(frexp)(x2, &b2);
-    l1 = ((R)b1 + 2 * (f1 - 1)) * y1;
-    l2 = ((R)b2 + 2 * (f2 - 1)) * y2;
-    if (l1 + (R)0.1 * y1 < l2) {
-        return 1;
+}
+
+/* Every lane's series' radius after the jet, as the scalar computes it: the norms m =
+ * max(1, |y|), n1 = |y^[p-1]|, n2 = |y^[p]| (max over the states), rho the smaller of
+ * (m/n1)^(1/(p-1)) and (m/n2)^(1/p) (-1: no growth in the last coefficients), the roots
+ * derive_taylor_math.h's in one loop over the lanes (vector instructions), libm's pow past
+ * its range lane by lane.  An idle lane's numbers are a running lane's copy. */
+static void DERIVE_LANES_T(derive_lanes_radius)(DERIVE_LANES_T(derive_lanes_run) *r)
+{
+    const int order = r->order;
+    const R y1 = (R)1 / (R)(order - 1), y2 = (R)1 / (R)order;
+    R m[L], x1[L], x2[L], q1[L], q2[L], a;
+    int i, l;
+    for (l = 0; l < L; ++l) {
+        m[l] = 1;
+        r->n1[l] = 0;
+        r->n2[l] = 0;
     }
-    if (l2 + (R)0.1 * y2 < l1) {
-        return 2;
+    for (i = 0; i < DERIVE_N; ++i) {
+        for (l = 0; l < L; ++l) {
+            a = DERIVE_LANES_M(fabs)(r->X[i][l]);
+            m[l] = a > m[l] ? a : m[l];
+            a = DERIVE_LANES_M(fabs)(r->X[i][(order - 1) * L + l]);
+            r->n1[l] = a > r->n1[l] ? a : r->n1[l];
+            a = DERIVE_LANES_M(fabs)(r->X[i][order * L + l]);
+            r->n2[l] = a > r->n2[l] ? a : r->n2[l];
+        }
     }
-    return 0;
+    for (l = 0; l < L; ++l) {
+        x1[l] = r->n1[l] > 0 ? m[l] / r->n1[l] : (R)1;
+        x2[l] = r->n2[l] > 0 ? m[l] / r->n2[l] : (R)1;
+        q1[l] = DERIVE_LANES_M(derive_root_reduced)(x1[l], y1);
+        q2[l] = DERIVE_LANES_M(derive_root_reduced)(x2[l], y2);
+    }
+    for (l = 0; l < L; ++l) {
+        if (DERIVE_LANES_M(derive_root_outside)(x1[l])) {
+            q1[l] = DERIVE_LANES_M(pow)(x1[l], y1);
+        }
+        if (DERIVE_LANES_M(derive_root_outside)(x2[l])) {
+            q2[l] = DERIVE_LANES_M(pow)(x2[l], y2);
+        }
+    }
+    for (l = 0; l < L; ++l) {
+        r->rho[l] = r->n1[l] > 0 ? q1[l] : (R)-1;
+        r->rho[l] = r->n2[l] > 0 && (r->rho[l] < 0 || q2[l] < r->rho[l]) ? q2[l] : r->rho[l];
+    }
 }
 
 /* Lane l after the jet: its step (Jorba & Zou, as the scalar) and the output times inside
@@ -519,40 +659,18 @@ static int DERIVE_LANES_T(derive_lanes_step)(DERIVE_LANES_T(derive_lanes_run) *r
 {
     DERIVE_LANES_T(derive_lane) *ln = &r->lane[l];
     const int order = r->order;
-    const R y1 = (R)1 / (R)(order - 1), y2 = (R)1 / (R)order;
-    R m = 1, n1 = 0, n2 = 0, a0, a1, a2, x1, x2, rho, q, h, tau;
+    R rho = r->rho[l], h, tau;
     long row;
-    int i, which;
+    int i;
     ln->info->nfev += 1;
     if (r->bad[l]) {
         return DERIVE_CHART_SINGULAR;
     }
-    for (i = 0; i < DERIVE_N; ++i) {
-        a0 = DERIVE_LANES_M(fabs)(r->X[i][l]);
-        a1 = DERIVE_LANES_M(fabs)(r->X[i][(order - 1) * L + l]);
-        a2 = DERIVE_LANES_M(fabs)(r->X[i][order * L + l]);
-        m = a0 > m ? a0 : m;
-        n1 = a1 > n1 ? a1 : n1;
-        n2 = a2 > n2 ? a2 : n2;
-    }
-    if (!DERIVE_LANES_T(derive_lanes_finite)(&n1, 1) || !DERIVE_LANES_T(derive_lanes_finite)(&n2, 1)) {
+    if (!DERIVE_LANES_T(derive_lanes_finite)(&r->n1[l], 1) || !DERIVE_LANES_T(derive_lanes_finite)(&r->n2[l], 1)) {
         return DERIVE_NONFINITE;
     }
-    /* the series' radius rho, the smaller of (m/n1)^(1/(p-1)) and (m/n2)^(1/p) (-1: no
-     * growth in the last coefficients), as the scalar computes it, with one pow where
-     * their exponents show which is the smaller; the step rho times the safety factor,
-     * capped by hmax (never the cap shrunk), the last one exactly to tend */
-    x1 = n1 > 0 ? m / n1 : 0;
-    x2 = n2 > 0 ? m / n2 : 0;
-    which = n1 > 0 && n2 > 0 ? DERIVE_LANES_T(derive_lanes_smaller)(x1, y1, x2, y2) : 0;
-    rho = -1;
-    if (n1 > 0 && which != 2) {
-        rho = DERIVE_LANES_M(pow)(x1, y1);
-    }
-    if (n2 > 0 && which != 1) {
-        q = DERIVE_LANES_M(pow)(x2, y2);
-        rho = rho < 0 || q < rho ? q : rho;
-    }
+    /* the step rho times the safety factor, capped by hmax (never the cap shrunk), the
+     * last one exactly to tend */
     h = rho > 0 ? rho * r->safety : ln->hmax;
     if (!(h <= ln->hmax)) {
         h = ln->hmax;
@@ -578,7 +696,7 @@ static int DERIVE_LANES_T(derive_lanes_step)(DERIVE_LANES_T(derive_lanes_run) *r
     }
     ln->h = h;
     ln->rho = rho;
-    ln->n2 = n2;
+    ln->n2 = r->n2[l];
     r->tau[l] = h * ln->dir;
     return DERIVE_OK;
 }
@@ -590,7 +708,7 @@ static int DERIVE_LANES_T(derive_lanes_advanced)(DERIVE_LANES_T(derive_lanes_run
     int i;
     /* the truncation error, as the scalar estimates it: the first term left out,
      * |x_p| h^p (h / rho) */
-    ln->info->local_error += ln->rho > 0 ? (double)(ln->n2 * DERIVE_LANES_M(pow)(ln->h, (R)r->order) * (ln->h / ln->rho)) : 0;
+    ln->info->local_error += ln->rho > 0 ? (double)(ln->n2 * DERIVE_LANES_T(derive_lanes_powi)(ln->h, r->order) * (ln->h / ln->rho)) : 0;
     ln->t = ln->last ? ln->tend : ln->t + ln->h * ln->dir;
     ln->steps += 1;
     ln->info->naccepted += 1;
@@ -692,6 +810,7 @@ static long DERIVE_LANES_T(derive_taylor_lanes_batch)(long n, const R *y0, long 
 #else
         DERIVE_LANES_JET(r->X, r->C, r->order, sine_min, r->bad);
 #endif
+        DERIVE_LANES_T(derive_lanes_radius)(r);
         for (l = 0; l < L; ++l) {
             r->tau[l] = 0;
             if (r->lane[l].traj >= 0) {
