@@ -83,6 +83,7 @@ class _Builder:
         self.defs = defs                  # temporary symbol -> expression
         self.d = Decomposition(n=len(state), timed=time is not None)
         self.memo: dict = {}              # expression -> ("node", i) | ("const", c)
+        self.depends_memo: dict = {}      # symbol -> whether it depends on the state or the time
         self.const_memo: dict = {}
         self.op_memo: dict = {}           # (kind, args) -> node: an operation made twice is one node
         self.trig: dict = {}              # argument node -> (sin node, cos node)
@@ -104,8 +105,15 @@ class _Builder:
         return ("const", self.const_memo[expr])
 
     def _depends(self, expr) -> bool:
-        return any(s in self.state or s == self.time or (s in self.defs and self._depends(self.defs[s]))
-                   for s in expr.free_symbols)
+        return any(self._symbol_depends(s) for s in expr.free_symbols)
+
+    def _symbol_depends(self, s) -> bool:
+        """Whether symbol s is the state, the time or a temporary of them (once per symbol:
+        the temporaries of a large model nest deep and share much)."""
+        if s not in self.depends_memo:
+            self.depends_memo[s] = s in self.state or s == self.time or \
+                (s in self.defs and self._depends(self.defs[s]))
+        return self.depends_memo[s]
 
     def _const_value(self, expr):
         """A state-free expression with temporaries substituted (printed once per step)."""
@@ -565,8 +573,15 @@ INLINE_BUDGET = 2800
 
 
 def inline_max(d: Decomposition) -> int:
-    """The largest order whose jet costs at most INLINE_BUDGET (0: none)."""
-    return max((p for p in range(2, TAYLOR_ORDER_MAX + 1) if jet_cost(d, p) <= INLINE_BUDGET), default=0)
+    """The largest order whose jet costs at most INLINE_BUDGET (0: none): jet_cost(d, p),
+    which grows with p, summed order by order."""
+    best, cost = 0, 0
+    for p in range(2, TAYLOR_ORDER_MAX + 1):
+        cost += sum(operation(op).cost(p - 1) for op in d.ops) + d.n       # order p - 1's share
+        if cost > INLINE_BUDGET:
+            break
+        best = p
+    return best
 
 
 @forget_on_model_change

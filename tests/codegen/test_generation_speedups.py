@@ -148,3 +148,14 @@ def test_a_kernel_at_one_point_is_the_batch_call(model):
         np.testing.assert_array_equal(jac(y), kernels.jacobian(y, *fixed))
     with pytest.raises(ValueError, match="must have"):
         rhs(np.zeros(n + 1))
+
+
+@pytest.mark.parametrize("model", ["planar", "spherical_std", "examples/models/triple.toml"])
+def test_inline_max_is_the_largest_order_within_the_budget(model):
+    """inline_max sums the jet's cost order by order: the largest p with jet_cost <= budget."""
+    from derive.codegen.contract import TAYLOR_ORDER_MAX
+    from derive.codegen.taylor import INLINE_BUDGET, inline_max, jet_cost, rhs_decomposition
+    from derive.runtime.simulate import resolve_model
+    d = rhs_decomposition(resolve_model(model))
+    expected = max((p for p in range(2, TAYLOR_ORDER_MAX + 1) if jet_cost(d, p) <= INLINE_BUDGET), default=0)
+    assert inline_max(d) == expected
