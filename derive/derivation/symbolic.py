@@ -19,10 +19,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-try:                                    # a dependency; the fallback keeps a broken install usable
-    import symengine as se
-except ImportError:                     # pragma: no cover (installed with derive)
-    se = None
+import symengine as se
 
 
 class Derivatives:
@@ -53,7 +50,7 @@ class Derivatives:
         """Expression i in SymEngine, or None where SymEngine cannot take it."""
         if i not in self._converted:
             try:
-                self._converted[i] = se.sympify(self.exprs[i].xreplace(self._plain)) if se else None
+                self._converted[i] = se.sympify(self.exprs[i].xreplace(self._plain))
             except (TypeError, ValueError, NotImplementedError, RuntimeError, AttributeError):
                 self._converted[i] = None
         return self._converted[i]

@@ -99,11 +99,15 @@ def test_float32_runs_to_its_precision():
 
 
 def _mpmath_forced(t_end: float, digits: int = 30):
-    """The forced pendulum at t_end by mpmath's Taylor series ODE solver (its own arithmetic)."""
-    m, l, g, c, F0, w = (mpmath.mpf(str(v)) for v in FORCED_P.values())
+    """The forced pendulum at t_end by mpmath's Taylor series ODE solver (its own arithmetic),
+    for the parameters and start derive is given: the doubles nearest the decimals (mpf of a
+    float is exact at any precision; mpf of its decimal string would depend on mpmath's
+    global precision, which another test may have raised, and differ from derive's problem
+    by about 1e-16 at 30 digits)."""
+    m, l, g, c, F0, w = (mpmath.mpf(float(v)) for v in FORCED_P.values())
     with mpmath.workdps(digits):
         f = mpmath.odefun(lambda t, y: [y[1], (F0 * mpmath.cos(w * t) - c * y[1] - m * g * l * mpmath.sin(y[0]))
-                                        / (m * l ** 2)], 0, [mpmath.mpf(str(v)) for v in Y0])
+                                        / (m * l ** 2)], 0, [mpmath.mpf(float(v)) for v in Y0])
         return [float(v) for v in f(mpmath.mpf(t_end))], f(mpmath.mpf(t_end))
 
 
