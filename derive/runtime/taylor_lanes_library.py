@@ -24,7 +24,7 @@ from .build import info_struct, run_batch
 from .shared_library import SUFFIX, TAYLOR_LANES_BATCH, SharedLibrary
 from .model_sizes import model_info
 from ..codegen.taylor import taylor_problem
-from .taylor_library import taylor_library
+from .taylor_library import form_flag, jet_form, taylor_library
 from ..codegen.taylor_lanes import variant_number
 
 # (CPU flag, compiler flags, lanes by scalar type), best first.  The lanes of each level
@@ -75,9 +75,9 @@ class TaylorLanesLibrary(SharedLibrary):
     with a fixed order (only that type: unrolled, each takes a while to compile)."""
 
     def __init__(self, model: str, order: int, dtype: str = "float64", lanes: int | None = None,
-                 simd: tuple[str, ...] | None = None):
+                 simd: tuple[str, ...] | None = None, form: str = "unrolled"):
         info = model_info(model)
-        self.model, self.order, self.n, self.dtype = model, order, info.n, dtype
+        self.model, self.order, self.n, self.dtype, self.form = model, order, info.n, dtype, form
         self.n_params = info.n_params + info.n_inputs
         source = c_source(model, f"{model}_taylor_lanes.c")
         if not source.is_file():
@@ -86,7 +86,7 @@ class TaylorLanesLibrary(SharedLibrary):
         self.lanes = lanes or default_lanes
         simd = flags if simd is None else simd
         M = model.upper()
-        extra = (f"-D{M}_TAYLOR_ORDER={order}", f"-D{M}_TAYLOR_LANES={self.lanes}",
+        extra = (f"-D{M}_TAYLOR_ORDER={order}", form_flag(model, self.form), f"-D{M}_TAYLOR_LANES={self.lanes}",
                  f"-D{M}_TAYLOR_LANES_ONLY={variant_number(SUFFIX[dtype])}")
         stem = f"{model}_taylor_lanes{SUFFIX[dtype]}_p{order}_l{self.lanes}"
         path, self.flags = _build(stem, source, simd, extra)
@@ -120,8 +120,16 @@ def taylor_ensemble_library(model: str, order: int, dtype: str):
     return taylor_library(model, order, dtype)
 
 
+def taylor_lanes_library(model: str, order: int, dtype: str = "float64", lanes: int | None = None,
+                         simd: tuple[str, ...] | None = None, form: str | None = None) -> TaylorLanesLibrary:
+    """The lanes' Taylor integrator of `model` at `order` in `dtype`, built on first use
+    (cached on disk and in this process); `lanes`, `simd`: the machine's by default;
+    `form`: the jet's (taylor_library.JET_FORMS), None for jet_form's choice."""
+    return _taylor_lanes_library(model, order, dtype, lanes, simd, form or jet_form(model, order, lanes=True))
+
+
 @forget_on_model_change
 @lru_cache(maxsize=None)
-def taylor_lanes_library(model: str, order: int, dtype: str = "float64", lanes: int | None = None,
-                         simd: tuple[str, ...] | None = None) -> TaylorLanesLibrary:
-    return TaylorLanesLibrary(model, order, dtype, lanes, simd)
+def _taylor_lanes_library(model: str, order: int, dtype: str, lanes: int | None, simd: tuple[str, ...] | None,
+                          form: str) -> TaylorLanesLibrary:
+    return TaylorLanesLibrary(model, order, dtype, lanes, simd, form)

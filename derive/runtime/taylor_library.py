@@ -11,6 +11,7 @@ macro, reads the order from options.rtol, for use in other projects.
 """
 from __future__ import annotations
 
+import os
 from functools import lru_cache
 
 import numpy as np
@@ -24,7 +25,38 @@ from .shared_library import SUFFIX, TAYLOR_BATCH, TAYLOR_COEFFICIENTS, TAYLOR_CO
 from .model_sizes import model_info
 from ..codegen.contract import OPTIONS, PRECISION, SINE_MIN
 from ..codegen.sources import kernels
-from ..codegen.taylor import taylor_problem, taylor_skip_flags
+from ..codegen.taylor import (LANES_UNROLL_COST, UNROLL_COST, rhs_decomposition, taylor_problem,
+                              taylor_skip_flags, unroll_max)
+
+# The jet's forms (templates/c/taylor.c.jinja): unrolled at the fixed order, or compact
+# (a loop per segment of alike operations over index tables).  DERIVE_TAYLOR_JET picks one
+# for every build; unset or "auto", jet_form chooses by size.
+JET_FORMS = ("unrolled", "compact")
+JET_ENV = "DERIVE_TAYLOR_JET"
+
+
+def jet_form(model: str, order: int | None, lanes: bool = False) -> str:
+    """The form of `model`'s jet a build at `order` compiles (None: the generic build, the
+    order read at run time; `lanes`: of the SIMD lanes' file): $DERIVE_TAYLOR_JET if set
+    (unrolled, compact or auto), else (auto) unrolled while the unrolled jet's cost at the
+    order is within codegen.taylor.UNROLL_COST (LANES_UNROLL_COST for the lanes), compact
+    past it; the generic build compact (its statements are not unrolled: the same speed)."""
+    forced = os.environ.get(JET_ENV, "").strip().lower()
+    if forced in JET_FORMS:
+        return forced
+    if forced not in ("", "auto"):
+        raise SimulationInputError(f"{JET_ENV} must be unrolled, compact or auto, got {forced!r}")
+    if order is None:
+        return "compact"
+    limit = unroll_max(rhs_decomposition(model), LANES_UNROLL_COST if lanes else UNROLL_COST)
+    return "unrolled" if order <= limit else "compact"
+
+
+def form_flag(model: str, form: str) -> str:
+    """-D<M>_TAYLOR_COMPACT=0|1: the jet's form in a build of <model>_taylor{,_quad}.c."""
+    if form not in JET_FORMS:
+        raise ValueError(f"unknown Taylor jet form {form!r} (known: {', '.join(JET_FORMS)})")
+    return f"-D{model.upper()}_TAYLOR_COMPACT={int(form == 'compact')}"
 
 
 class TaylorLibrary(SharedLibrary):
@@ -41,15 +73,15 @@ class TaylorLibrary(SharedLibrary):
         float64, longdouble); fns and coefficient_fns hold its entry points only.
     """
 
-    def __init__(self, model: str, order: int, dtype: str = "float64"):
+    def __init__(self, model: str, order: int, dtype: str = "float64", form: str = "unrolled"):
         info = model_info(model)
-        self.model, self.order, self.n, self.dtype = model, order, info.n, dtype
+        self.model, self.order, self.n, self.dtype, self.form = model, order, info.n, dtype, form
         self.n_params = info.n_params + info.n_inputs
         source = c_source(model, f"{model}_taylor.c")
         if not source.is_file():
             raise SimulationInputError(f"model '{model}' has no Taylor integrator: {taylor_problem(model)}")
         path, self.flags = build_fastest(f"{model}_taylor_p{order}{SUFFIX[dtype]}", [source],
-                                         extra=(f"-D{model.upper()}_TAYLOR_ORDER={order}",
+                                         extra=(f"-D{model.upper()}_TAYLOR_ORDER={order}", form_flag(model, form),
                                                 *taylor_skip_flags(model, PRECISION[dtype].ctype)))
         super().__init__(path)
         self.Info = info_struct(self.n)
@@ -80,8 +112,8 @@ class TaylorLibrary(SharedLibrary):
 class TaylorOptions(OptionsCache):
     """The options struct of the Taylor integrator filled with the contract's defaults, as
     <model>_integrate_defaults fills it (codegen/contract.py OPTIONS: sine_min the model's
-    SINE_MIN, cancel none): a time-dependent model's Taylor run takes it, so that it
-    builds no RK library (<model>_integrate.c) to ask.  tests/runtime/test_taylor_explicit_time.py
+    SINE_MIN, cancel none): a Taylor run takes it, so that it builds no RK library
+    (<model>_integrate.c) to ask.  tests/runtime/test_taylor_explicit_time.py
     holds it equal to <model>_integrate_defaults."""
 
     def __init__(self):
@@ -102,9 +134,14 @@ def taylor_options() -> TaylorOptions:
     return TaylorOptions()
 
 
+def taylor_library(model: str, order: int, dtype: str = "float64", form: str | None = None) -> TaylorLibrary:
+    """The Taylor integrator of `model` at `order` in the hardware precision `dtype`, built
+    on first use (cached on disk and in this process); `form`: its jet's (JET_FORMS), None
+    for jet_form's choice."""
+    return _taylor_library(model, order, dtype, form or jet_form(model, order))
+
+
 @forget_on_model_change
 @lru_cache(maxsize=None)
-def taylor_library(model: str, order: int, dtype: str = "float64") -> TaylorLibrary:
-    """The Taylor integrator of `model` at `order` in the hardware precision `dtype`, built
-    on first use (cached on disk and in this process)."""
-    return TaylorLibrary(model, order, dtype)
+def _taylor_library(model: str, order: int, dtype: str, form: str) -> TaylorLibrary:
+    return TaylorLibrary(model, order, dtype, form)

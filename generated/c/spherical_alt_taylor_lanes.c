@@ -13,7 +13,7 @@
 #define N SPHERICAL_ALT_N_STATES
 #define ORDER_MAX SPHERICAL_ALT_TAYLOR_ORDER_MAX
 
-/* As in spherical_alt_taylor.c: -DSPHERICAL_ALT_TAYLOR_ORDER=p fixes the order (and the recurrences
+/* As in spherical_alt_taylor.c: -DSPHERICAL_ALT_TAYLOR_ORDER=p fixes the order (and the recurrences may
  * unroll), 0 takes it from options.rtol. */
 #ifndef SPHERICAL_ALT_TAYLOR_ORDER
 #define SPHERICAL_ALT_TAYLOR_ORDER 0
@@ -29,7 +29,13 @@
 #endif
 #define L SPHERICAL_ALT_TAYLOR_LANES
 #define ORDER_DIM (SPHERICAL_ALT_TAYLOR_ORDER ? SPHERICAL_ALT_TAYLOR_ORDER + 1 : ORDER_MAX + 1)
-#if SPHERICAL_ALT_TAYLOR_ORDER != 0 && defined(__GNUC__) && !defined(__clang__)
+/* As in spherical_alt_taylor.c: the jet unrolled, or compact (SPHERICAL_ALT_TAYLOR_COMPACT=1: a loop per
+ * segment of alike operations over index tables); by default compact past order 7
+ * or with the order from the tolerance. */
+#ifndef SPHERICAL_ALT_TAYLOR_COMPACT
+#define SPHERICAL_ALT_TAYLOR_COMPACT (SPHERICAL_ALT_TAYLOR_ORDER == 0 || SPHERICAL_ALT_TAYLOR_ORDER > 7)
+#endif
+#if SPHERICAL_ALT_TAYLOR_ORDER != 0 && !SPHERICAL_ALT_TAYLOR_COMPACT && defined(__GNUC__) && !defined(__clang__)
 #define TAYLOR_UNROLL _Pragma("GCC unroll 64")
 #else
 #define TAYLOR_UNROLL
@@ -114,7 +120,319 @@ static void spherical_alt_lconstants(R (*C)[L], int l, const R *p)
     C[11][l] = p[2]/p[1];
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if SPHERICAL_ALT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void spherical_alt_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[84] = {
+        1, 3, 2, 0, 5, 7, 4, 7, 5, 4, 0, 0, 1, 7, 3, 3,
+        2, 3, 2, 82, 83, 83, 3, 3, 2, 2, 82, 3, 19, 20, 20, 1,
+        19, 20, 4, 8, 31, 27, 29, 2, 7, 8, 31, 10, 31, 15, 39, 20,
+        41, 42, 7, 23, 27, 32, 39, 48, 37, 58, 62, 59, 65, 66, 67, 68,
+        73, 63, 77, 55, 57, 83, 66, 86, 87, 88, 65, 54, 59, 70, 91, 97,
+        1, 3, 2, 0
+    };
+    static const int HA1[84] = {
+        80, 81, 82, 83, 0, 0, 0, 6, 6, 6, 3, 7, 10, 9, 4, 6,
+        5, 0, 0, 0, 1, 82, 83, 82, 83, 82, 6, 4, 1, 0, 8, 5,
+        6, 4, 23, 5, 3, 3, 27, 31, 32, 33, 29, 27, 28, 2, 83, 40,
+        27, 9, 44, 17, 3, 3, 36, 36, 57, 28, 46, 44, 52, 31, 35, 71,
+        18, 0, 72, 65, 65, 70, 0, 69, 78, 79, 69, 70, 70, 73, 92, 94,
+        0, 1, 2, 3
+    };
+    static const int TA0[101] = {
+        6, 0, 3, 0, 1, 80, 81, 80, 83, 22, 5, 12, 26, 6, 7, 27,
+        31, 31, 11, 31, 14, 15, 8, 9, 10, 36, 38, 2, 38, 36, 2, 16,
+        24, 20, 21, 45, 25, 26, 30, 26, 46, 10, 27, 48, 45, 33, 49, 50,
+        35, 40, 52, 52, 6, 52, 29, 45, 38, 50, 51, 53, 23, 54, 55, 56,
+        60, 61, 63, 57, 56, 38, 36, 57, 59, 64, 58, 52, 45, 62, 45, 36,
+        61, 60, 64, 80, 52, 38, 82, 81, 74, 67, 57, 56, 68, 75, 76, 89,
+        59, 62, 17, 93, 18
+    };
+    static const int TA1[101] = {
+        0, 1, 2, 81, 80, 81, 10, 7, 4, 4, 25, 19, 13, 0, 11, 28,
+        21, 24, 30, 23, 27, 27, 35, 5, 9, 0, 0, 16, 36, 34, 43, 37,
+        19, 3, 3, 0, 4, 2, 2, 2, 5, 51, 47, 19, 36, 34, 5, 6,
+        2, 3, 0, 45, 53, 38, 43, 13, 14, 4, 2, 2, 49, 24, 12, 22,
+        41, 11, 47, 2, 55, 58, 58, 0, 0, 42, 5, 60, 60, 54, 61, 61,
+        9, 5, 9, 76, 64, 64, 75, 84, 85, 71, 74, 74, 71, 72, 72, 90,
+        77, 77, 78, 96, 79
+    };
+    R H[84][ORDER_DIM * L];     /* nodes read at every order */
+    R T[101][L];                 /* nodes read at this order only */
+    const int order = SPHERICAL_ALT_TAYLOR_ORDER ? SPHERICAL_ALT_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 4; ++u) {
+            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
+        }
+        for (u = 4; u < 7; ++u) {
+            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
+        }
+        for (u = 0; u < 1; ++u) {
+            LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k);
+        }
+        for (u = 7; u < 10; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L);
+        }
+        for (u = 1; u < 3; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 10; u < 11; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 11; u < 14; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 14; u < 17; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 17; u < 19; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 3; u < 6; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 19; u < 21; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 21; u < 26; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 6; u < 8; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 26; u < 27; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
+        }
+        for (u = 8; u < 9; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
+        }
+        for (u = 27; u < 28; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 28; u < 31; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 31; u < 32; ++u) {
+            LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 9; u < 13; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 32; u < 34; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
+        }
+        for (u = 34; u < 35; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 13; u < 15; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 35; u < 36; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 15; u < 23; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 36; u < 38; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 38; u < 45; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 23; u < 25; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 45; u < 46; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 25; u < 27; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 27; u < 28; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 28; u < 32; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 46; u < 51; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 51; u < 52; ++u) {
+            LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]);
+        }
+        for (u = 32; u < 33; ++u) {
+            LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]);
+        }
+        for (u = 33; u < 35; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 35; u < 36; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 36; u < 37; ++u) {
+            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
+        }
+        for (u = 37; u < 40; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 52; u < 54; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 40; u < 45; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 45; u < 46; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 46; u < 48; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
+        }
+        for (u = 48; u < 50; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 50; u < 51; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 51; u < 54; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 54; u < 55; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 55; u < 57; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 54; u < 55; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 55; u < 56; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 57; u < 58; ++u) {
+            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
+        }
+        for (u = 58; u < 60; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 60; u < 62; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 62; u < 64; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 56; u < 60; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 64; u < 67; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 67; u < 68; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 68; u < 71; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 71; u < 73; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 73; u < 74; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 60; u < 63; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 74; u < 75; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 63; u < 65; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 75; u < 80; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 80; u < 82; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 65; u < 66; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 82; u < 83; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 83; u < 84; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 66; u < 67; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 84; u < 86; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 67; u < 69; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 86; u < 89; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 69; u < 70; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 70; u < 71; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 71; u < 74; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 74; u < 77; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 89; u < 95; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 77; u < 78; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 95; u < 96; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 78; u < 79; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 96; u < 98; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 98; u < 99; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 99; u < 100; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 79; u < 80; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 100; u < 101; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        if (k == 0) {
+            LANES_GUARD(bad, H[3] + k * L, sine_min);
+            LANES_GUARD(bad, H[2] + k * L, sine_min);
+        }
+        LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[95], k);
+        LANES_OUT(X[5] + (k + 1) * L, T[98], k);
+        LANES_OUT(X[6] + (k + 1) * L, T[99], k);
+        LANES_OUT(X[7] + (k + 1) * L, T[100], k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_alt_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[84][ORDER_DIM * L];     /* nodes read at every order */
@@ -318,6 +636,7 @@ static void spherical_alt_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wante
         LANES_OUT(X[7] + (k + 1) * L, T[100], k);
     }
 }
+#endif
 
 long spherical_alt_taylor_lanes_batch(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_alt_integrate_options *opt, spherical_alt_integrate_info *info)
 {
@@ -359,7 +678,319 @@ static void spherical_alt_lconstants_f(R (*C)[L], int l, const R *p)
     C[11][l] = p[2]/p[1];
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if SPHERICAL_ALT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void spherical_alt_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[84] = {
+        1, 3, 2, 0, 5, 7, 4, 7, 5, 4, 0, 0, 1, 7, 3, 3,
+        2, 3, 2, 82, 83, 83, 3, 3, 2, 2, 82, 3, 19, 20, 20, 1,
+        19, 20, 4, 8, 31, 27, 29, 2, 7, 8, 31, 10, 31, 15, 39, 20,
+        41, 42, 7, 23, 27, 32, 39, 48, 37, 58, 62, 59, 65, 66, 67, 68,
+        73, 63, 77, 55, 57, 83, 66, 86, 87, 88, 65, 54, 59, 70, 91, 97,
+        1, 3, 2, 0
+    };
+    static const int HA1[84] = {
+        80, 81, 82, 83, 0, 0, 0, 6, 6, 6, 3, 7, 10, 9, 4, 6,
+        5, 0, 0, 0, 1, 82, 83, 82, 83, 82, 6, 4, 1, 0, 8, 5,
+        6, 4, 23, 5, 3, 3, 27, 31, 32, 33, 29, 27, 28, 2, 83, 40,
+        27, 9, 44, 17, 3, 3, 36, 36, 57, 28, 46, 44, 52, 31, 35, 71,
+        18, 0, 72, 65, 65, 70, 0, 69, 78, 79, 69, 70, 70, 73, 92, 94,
+        0, 1, 2, 3
+    };
+    static const int TA0[101] = {
+        6, 0, 3, 0, 1, 80, 81, 80, 83, 22, 5, 12, 26, 6, 7, 27,
+        31, 31, 11, 31, 14, 15, 8, 9, 10, 36, 38, 2, 38, 36, 2, 16,
+        24, 20, 21, 45, 25, 26, 30, 26, 46, 10, 27, 48, 45, 33, 49, 50,
+        35, 40, 52, 52, 6, 52, 29, 45, 38, 50, 51, 53, 23, 54, 55, 56,
+        60, 61, 63, 57, 56, 38, 36, 57, 59, 64, 58, 52, 45, 62, 45, 36,
+        61, 60, 64, 80, 52, 38, 82, 81, 74, 67, 57, 56, 68, 75, 76, 89,
+        59, 62, 17, 93, 18
+    };
+    static const int TA1[101] = {
+        0, 1, 2, 81, 80, 81, 10, 7, 4, 4, 25, 19, 13, 0, 11, 28,
+        21, 24, 30, 23, 27, 27, 35, 5, 9, 0, 0, 16, 36, 34, 43, 37,
+        19, 3, 3, 0, 4, 2, 2, 2, 5, 51, 47, 19, 36, 34, 5, 6,
+        2, 3, 0, 45, 53, 38, 43, 13, 14, 4, 2, 2, 49, 24, 12, 22,
+        41, 11, 47, 2, 55, 58, 58, 0, 0, 42, 5, 60, 60, 54, 61, 61,
+        9, 5, 9, 76, 64, 64, 75, 84, 85, 71, 74, 74, 71, 72, 72, 90,
+        77, 77, 78, 96, 79
+    };
+    R H[84][ORDER_DIM * L];     /* nodes read at every order */
+    R T[101][L];                 /* nodes read at this order only */
+    const int order = SPHERICAL_ALT_TAYLOR_ORDER ? SPHERICAL_ALT_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 4; ++u) {
+            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
+        }
+        for (u = 4; u < 7; ++u) {
+            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
+        }
+        for (u = 0; u < 1; ++u) {
+            LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k);
+        }
+        for (u = 7; u < 10; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L);
+        }
+        for (u = 1; u < 3; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 10; u < 11; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 11; u < 14; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 14; u < 17; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 17; u < 19; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 3; u < 6; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 19; u < 21; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 21; u < 26; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 6; u < 8; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 26; u < 27; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
+        }
+        for (u = 8; u < 9; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
+        }
+        for (u = 27; u < 28; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 28; u < 31; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 31; u < 32; ++u) {
+            LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 9; u < 13; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 32; u < 34; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
+        }
+        for (u = 34; u < 35; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 13; u < 15; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 35; u < 36; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 15; u < 23; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 36; u < 38; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 38; u < 45; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 23; u < 25; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 45; u < 46; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 25; u < 27; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 27; u < 28; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 28; u < 32; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 46; u < 51; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 51; u < 52; ++u) {
+            LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]);
+        }
+        for (u = 32; u < 33; ++u) {
+            LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]);
+        }
+        for (u = 33; u < 35; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 35; u < 36; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 36; u < 37; ++u) {
+            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
+        }
+        for (u = 37; u < 40; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 52; u < 54; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 40; u < 45; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 45; u < 46; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 46; u < 48; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
+        }
+        for (u = 48; u < 50; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 50; u < 51; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 51; u < 54; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 54; u < 55; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 55; u < 57; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 54; u < 55; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 55; u < 56; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 57; u < 58; ++u) {
+            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
+        }
+        for (u = 58; u < 60; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 60; u < 62; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 62; u < 64; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 56; u < 60; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 64; u < 67; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 67; u < 68; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 68; u < 71; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 71; u < 73; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 73; u < 74; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 60; u < 63; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 74; u < 75; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 63; u < 65; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 75; u < 80; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 80; u < 82; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 65; u < 66; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 82; u < 83; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 83; u < 84; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 66; u < 67; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 84; u < 86; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 67; u < 69; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 86; u < 89; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 69; u < 70; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 70; u < 71; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 71; u < 74; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 74; u < 77; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 89; u < 95; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 77; u < 78; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 95; u < 96; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 78; u < 79; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 96; u < 98; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 98; u < 99; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 99; u < 100; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 79; u < 80; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 100; u < 101; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        if (k == 0) {
+            LANES_GUARD(bad, H[3] + k * L, sine_min);
+            LANES_GUARD(bad, H[2] + k * L, sine_min);
+        }
+        LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[95], k);
+        LANES_OUT(X[5] + (k + 1) * L, T[98], k);
+        LANES_OUT(X[6] + (k + 1) * L, T[99], k);
+        LANES_OUT(X[7] + (k + 1) * L, T[100], k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_alt_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[84][ORDER_DIM * L];     /* nodes read at every order */
@@ -563,6 +1194,7 @@ static void spherical_alt_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_OUT(X[7] + (k + 1) * L, T[100], k);
     }
 }
+#endif
 
 long spherical_alt_taylor_lanes_batch_f(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_alt_integrate_options *opt, spherical_alt_integrate_info *info)
 {
@@ -604,7 +1236,319 @@ static void spherical_alt_lconstants_l(R (*C)[L], int l, const R *p)
     C[11][l] = p[2]/p[1];
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if SPHERICAL_ALT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void spherical_alt_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[84] = {
+        1, 3, 2, 0, 5, 7, 4, 7, 5, 4, 0, 0, 1, 7, 3, 3,
+        2, 3, 2, 82, 83, 83, 3, 3, 2, 2, 82, 3, 19, 20, 20, 1,
+        19, 20, 4, 8, 31, 27, 29, 2, 7, 8, 31, 10, 31, 15, 39, 20,
+        41, 42, 7, 23, 27, 32, 39, 48, 37, 58, 62, 59, 65, 66, 67, 68,
+        73, 63, 77, 55, 57, 83, 66, 86, 87, 88, 65, 54, 59, 70, 91, 97,
+        1, 3, 2, 0
+    };
+    static const int HA1[84] = {
+        80, 81, 82, 83, 0, 0, 0, 6, 6, 6, 3, 7, 10, 9, 4, 6,
+        5, 0, 0, 0, 1, 82, 83, 82, 83, 82, 6, 4, 1, 0, 8, 5,
+        6, 4, 23, 5, 3, 3, 27, 31, 32, 33, 29, 27, 28, 2, 83, 40,
+        27, 9, 44, 17, 3, 3, 36, 36, 57, 28, 46, 44, 52, 31, 35, 71,
+        18, 0, 72, 65, 65, 70, 0, 69, 78, 79, 69, 70, 70, 73, 92, 94,
+        0, 1, 2, 3
+    };
+    static const int TA0[101] = {
+        6, 0, 3, 0, 1, 80, 81, 80, 83, 22, 5, 12, 26, 6, 7, 27,
+        31, 31, 11, 31, 14, 15, 8, 9, 10, 36, 38, 2, 38, 36, 2, 16,
+        24, 20, 21, 45, 25, 26, 30, 26, 46, 10, 27, 48, 45, 33, 49, 50,
+        35, 40, 52, 52, 6, 52, 29, 45, 38, 50, 51, 53, 23, 54, 55, 56,
+        60, 61, 63, 57, 56, 38, 36, 57, 59, 64, 58, 52, 45, 62, 45, 36,
+        61, 60, 64, 80, 52, 38, 82, 81, 74, 67, 57, 56, 68, 75, 76, 89,
+        59, 62, 17, 93, 18
+    };
+    static const int TA1[101] = {
+        0, 1, 2, 81, 80, 81, 10, 7, 4, 4, 25, 19, 13, 0, 11, 28,
+        21, 24, 30, 23, 27, 27, 35, 5, 9, 0, 0, 16, 36, 34, 43, 37,
+        19, 3, 3, 0, 4, 2, 2, 2, 5, 51, 47, 19, 36, 34, 5, 6,
+        2, 3, 0, 45, 53, 38, 43, 13, 14, 4, 2, 2, 49, 24, 12, 22,
+        41, 11, 47, 2, 55, 58, 58, 0, 0, 42, 5, 60, 60, 54, 61, 61,
+        9, 5, 9, 76, 64, 64, 75, 84, 85, 71, 74, 74, 71, 72, 72, 90,
+        77, 77, 78, 96, 79
+    };
+    R H[84][ORDER_DIM * L];     /* nodes read at every order */
+    R T[101][L];                 /* nodes read at this order only */
+    const int order = SPHERICAL_ALT_TAYLOR_ORDER ? SPHERICAL_ALT_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 4; ++u) {
+            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
+        }
+        for (u = 4; u < 7; ++u) {
+            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
+        }
+        for (u = 0; u < 1; ++u) {
+            LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k);
+        }
+        for (u = 7; u < 10; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L);
+        }
+        for (u = 1; u < 3; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 10; u < 11; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 11; u < 14; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 14; u < 17; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 17; u < 19; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 3; u < 6; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 19; u < 21; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 21; u < 26; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 6; u < 8; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 26; u < 27; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
+        }
+        for (u = 8; u < 9; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
+        }
+        for (u = 27; u < 28; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 28; u < 31; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 31; u < 32; ++u) {
+            LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 9; u < 13; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 32; u < 34; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
+        }
+        for (u = 34; u < 35; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 13; u < 15; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 35; u < 36; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 15; u < 23; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 36; u < 38; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 38; u < 45; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 23; u < 25; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 45; u < 46; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 25; u < 27; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 27; u < 28; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 28; u < 32; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 46; u < 51; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 51; u < 52; ++u) {
+            LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]);
+        }
+        for (u = 32; u < 33; ++u) {
+            LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]);
+        }
+        for (u = 33; u < 35; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 35; u < 36; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 36; u < 37; ++u) {
+            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
+        }
+        for (u = 37; u < 40; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 52; u < 54; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 40; u < 45; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 45; u < 46; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 46; u < 48; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
+        }
+        for (u = 48; u < 50; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 50; u < 51; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 51; u < 54; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 54; u < 55; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 55; u < 57; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 54; u < 55; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 55; u < 56; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 57; u < 58; ++u) {
+            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
+        }
+        for (u = 58; u < 60; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 60; u < 62; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 62; u < 64; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 56; u < 60; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 64; u < 67; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 67; u < 68; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 68; u < 71; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 71; u < 73; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 73; u < 74; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 60; u < 63; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 74; u < 75; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 63; u < 65; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 75; u < 80; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 80; u < 82; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 65; u < 66; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 82; u < 83; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 83; u < 84; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 66; u < 67; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 84; u < 86; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 67; u < 69; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 86; u < 89; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 69; u < 70; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 70; u < 71; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 71; u < 74; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 74; u < 77; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 89; u < 95; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 77; u < 78; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 95; u < 96; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 78; u < 79; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 96; u < 98; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 98; u < 99; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 99; u < 100; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 79; u < 80; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 100; u < 101; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        if (k == 0) {
+            LANES_GUARD(bad, H[3] + k * L, sine_min);
+            LANES_GUARD(bad, H[2] + k * L, sine_min);
+        }
+        LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[95], k);
+        LANES_OUT(X[5] + (k + 1) * L, T[98], k);
+        LANES_OUT(X[6] + (k + 1) * L, T[99], k);
+        LANES_OUT(X[7] + (k + 1) * L, T[100], k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_alt_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[84][ORDER_DIM * L];     /* nodes read at every order */
@@ -808,6 +1752,7 @@ static void spherical_alt_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_OUT(X[7] + (k + 1) * L, T[100], k);
     }
 }
+#endif
 
 long spherical_alt_taylor_lanes_batch_l(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_alt_integrate_options *opt, spherical_alt_integrate_info *info)
 {

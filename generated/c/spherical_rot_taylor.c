@@ -15,8 +15,8 @@
 #define ORDER_MAX SPHERICAL_ROT_TAYLOR_ORDER_MAX
 
 /* Compiled with -DSPHERICAL_ROT_TAYLOR_ORDER=p (2 <= p <= ORDER_MAX), the order is p whatever
- * the tolerance, and the compiler unrolls the recurrences for it; without, the order
- * follows options.rtol at run time. */
+ * the tolerance (and the compiler may unroll the jet for it); without, the order follows
+ * options.rtol at run time. */
 #ifndef SPHERICAL_ROT_TAYLOR_ORDER
 #define SPHERICAL_ROT_TAYLOR_ORDER 0
 #endif
@@ -25,8 +25,17 @@
 #endif
 /* the coefficient arrays: as long as the fixed order needs, else the longest */
 #define ORDER_DIM (SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER + 1 : ORDER_MAX + 1)
+/* The jet's two forms, the same numbers: unrolled, one statement per operation inside the
+ * order loop, which the compiler unrolls at a fixed order (the fastest steps, but its
+ * size and compile time grow as the operations times the order squared); or compact
+ * (SPHERICAL_ROT_TAYLOR_COMPACT=1), one loop per segment of alike operations over index tables,
+ * whose size grows with the model only.  By default compact past order 3 or
+ * with the order from the tolerance (derive chooses by size, derive/runtime/taylor_library.py). */
+#ifndef SPHERICAL_ROT_TAYLOR_COMPACT
+#define SPHERICAL_ROT_TAYLOR_COMPACT (SPHERICAL_ROT_TAYLOR_ORDER == 0 || SPHERICAL_ROT_TAYLOR_ORDER > 3)
+#endif
 /* GCC unrolls the recurrences' loops completely when asked and the order is fixed */
-#if SPHERICAL_ROT_TAYLOR_ORDER != 0 && defined(__GNUC__) && !defined(__clang__)
+#if SPHERICAL_ROT_TAYLOR_ORDER != 0 && !SPHERICAL_ROT_TAYLOR_COMPACT && defined(__GNUC__) && !defined(__clang__)
 #define TAYLOR_UNROLL _Pragma("GCC unroll 64")
 #else
 #define TAYLOR_UNROLL
@@ -103,7 +112,260 @@
 #define DERIVE_TAYLOR_JET spherical_rot_taylor_jet
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_ROT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_rot_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 1, 3, 2, 0, 5, 7, 6, 4,
+        7, 5, 4, 1, 3, 2, 0, 8, 11, 11, 11, 10, 14, 8, 9, 16,
+        11, 10, 8, 9, 19, 22, 11, 11, 10, 10, 21, 22, 21, 22, 20, 19,
+        34, 44, 45, 45, 46, 47, 43, 23, 38, 44, 12, 45, 13, 30, 42, 48,
+        50, 55, 10, 55, 16, 29, 17, 55, 25, 26, 55, 28, 17, 55, 55, 56,
+        60, 48, 63, 72, 73, 78, 64, 24, 64, 66, 45, 78, 70, 74, 10, 16,
+        27, 39, 40, 82, 85, 86, 87, 98, 94, 86, 89, 28, 48, 92, 93, 95,
+        82, 83, 99, 106, 102, 102, 15, 102, 91, 113, 104, 105, 114, 121, 122, 116,
+        117, 119, 79, 120, 101, 128, 130, 131, 125, 126, 129, 127, 132, 64, 78, 133,
+        138, 134, 135, 137, 139, 136, 140, 145, 102, 82, 148, 82, 78, 147, 146, 150,
+        151, 157, 154, 102, 64, 124, 133, 160, 161, 158, 149, 162, 167, 169, 170, 159,
+        123, 138, 165, 133, 132, 166, 176, 171, 177, 178, 180, 138, 148, 32, 182, 188,
+        33
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 19, 20, 21, 22, 0, 0, 0, 0,
+        6, 6, 6, 8, 9, 10, 11, 9, 10, 12, 15, 13, 3, 7, 10, 9,
+        0, 0, 20, 19, 20, 21, 22, 21, 22, 21, 6, 4, 0, 1, 10, 7,
+        35, 1, 0, 8, 0, 11, 5, 36, 12, 6, 39, 4, 41, 44, 31, 49,
+        48, 37, 55, 40, 57, 51, 59, 39, 48, 48, 50, 48, 54, 49, 3, 5,
+        9, 3, 2, 3, 3, 0, 0, 65, 78, 22, 68, 58, 48, 18, 75, 77,
+        81, 67, 71, 0, 4, 2, 3, 3, 2, 2, 13, 97, 90, 44, 5, 6,
+        78, 84, 2, 3, 0, 82, 103, 64, 109, 52, 53, 100, 100, 62, 76, 4,
+        2, 2, 115, 80, 127, 88, 107, 61, 110, 111, 112, 2, 124, 136, 136, 0,
+        0, 108, 118, 96, 99, 5, 143, 69, 146, 146, 123, 147, 147, 9, 5, 0,
+        9, 153, 144, 151, 151, 159, 159, 152, 142, 163, 164, 0, 141, 155, 156, 168,
+        171, 171, 172, 175, 175, 172, 173, 174, 173, 179, 181, 183, 183, 186, 187, 184,
+        191
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = p[3];
+    C[1] = p[2];
+    C[2] = -1;
+    C[3] = p[2]*p[3];
+    C[4] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[5] = p[2]*p[2]*(p[0] + p[1])/p[1];
+    C[6] = 2;
+    C[7] = p[4]*(p[0] + p[1]);
+    C[8] = 1.0/p[1];
+    C[9] = p[3]*p[3];
+    C[10] = p[4];
+    C[11] = p[2]/p[1];
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 12; ++u) {
+            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 12; u < 16; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 16; u < 19; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 19; u < 23; ++u) {
+            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 23; u < 28; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 28; u < 32; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 32; u < 34; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 34; u < 44; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 44; u < 48; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 48; u < 49; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 49; u < 55; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 55; u < 56; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 56; u < 63; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 63; u < 78; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 78; u < 82; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 82; u < 85; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 85; u < 87; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 87; u < 88; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 88; u < 97; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 97; u < 99; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 99; u < 100; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 100; u < 101; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 101; u < 106; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 106; u < 113; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 113; u < 114; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 114; u < 116; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 116; u < 117; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 117; u < 120; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 120; u < 121; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 121; u < 124; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 124; u < 127; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 127; u < 128; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 128; u < 130; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 130; u < 132; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 132; u < 139; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 139; u < 140; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 140; u < 143; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 143; u < 145; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 145; u < 149; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 149; u < 150; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 150; u < 152; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 152; u < 157; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 157; u < 159; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 159; u < 160; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 160; u < 161; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 161; u < 163; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 163; u < 165; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 165; u < 167; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 167; u < 171; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 171; u < 172; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 172; u < 175; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 175; u < 178; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 178; u < 185; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 185; u < 187; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 187; u < 189; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 189; u < 190; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 190; u < 192; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 192; u < 193; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        if (k == 0 && (!(T_ABS(J[11][0]) >= sine_min) || !(T_ABS(J[10][0]) >= sine_min))) {
+            return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[185][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[189][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[190][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[192][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_ROT_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_rot_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -326,6 +588,7 @@ static int spherical_rot_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wan
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
+#endif
 
 int spherical_rot_taylor_coefficients(const double *y, const double *p, int order, double *coef, double sine_min)
 {
@@ -402,7 +665,260 @@ long spherical_rot_taylor_batch(long n, const double *y0, long y0_stride, const 
 #define DERIVE_TAYLOR_JET spherical_rot_taylor_jet_f
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_ROT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_rot_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 1, 3, 2, 0, 5, 7, 6, 4,
+        7, 5, 4, 1, 3, 2, 0, 8, 11, 11, 11, 10, 14, 8, 9, 16,
+        11, 10, 8, 9, 19, 22, 11, 11, 10, 10, 21, 22, 21, 22, 20, 19,
+        34, 44, 45, 45, 46, 47, 43, 23, 38, 44, 12, 45, 13, 30, 42, 48,
+        50, 55, 10, 55, 16, 29, 17, 55, 25, 26, 55, 28, 17, 55, 55, 56,
+        60, 48, 63, 72, 73, 78, 64, 24, 64, 66, 45, 78, 70, 74, 10, 16,
+        27, 39, 40, 82, 85, 86, 87, 98, 94, 86, 89, 28, 48, 92, 93, 95,
+        82, 83, 99, 106, 102, 102, 15, 102, 91, 113, 104, 105, 114, 121, 122, 116,
+        117, 119, 79, 120, 101, 128, 130, 131, 125, 126, 129, 127, 132, 64, 78, 133,
+        138, 134, 135, 137, 139, 136, 140, 145, 102, 82, 148, 82, 78, 147, 146, 150,
+        151, 157, 154, 102, 64, 124, 133, 160, 161, 158, 149, 162, 167, 169, 170, 159,
+        123, 138, 165, 133, 132, 166, 176, 171, 177, 178, 180, 138, 148, 32, 182, 188,
+        33
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 19, 20, 21, 22, 0, 0, 0, 0,
+        6, 6, 6, 8, 9, 10, 11, 9, 10, 12, 15, 13, 3, 7, 10, 9,
+        0, 0, 20, 19, 20, 21, 22, 21, 22, 21, 6, 4, 0, 1, 10, 7,
+        35, 1, 0, 8, 0, 11, 5, 36, 12, 6, 39, 4, 41, 44, 31, 49,
+        48, 37, 55, 40, 57, 51, 59, 39, 48, 48, 50, 48, 54, 49, 3, 5,
+        9, 3, 2, 3, 3, 0, 0, 65, 78, 22, 68, 58, 48, 18, 75, 77,
+        81, 67, 71, 0, 4, 2, 3, 3, 2, 2, 13, 97, 90, 44, 5, 6,
+        78, 84, 2, 3, 0, 82, 103, 64, 109, 52, 53, 100, 100, 62, 76, 4,
+        2, 2, 115, 80, 127, 88, 107, 61, 110, 111, 112, 2, 124, 136, 136, 0,
+        0, 108, 118, 96, 99, 5, 143, 69, 146, 146, 123, 147, 147, 9, 5, 0,
+        9, 153, 144, 151, 151, 159, 159, 152, 142, 163, 164, 0, 141, 155, 156, 168,
+        171, 171, 172, 175, 175, 172, 173, 174, 173, 179, 181, 183, 183, 186, 187, 184,
+        191
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = p[3];
+    C[1] = p[2];
+    C[2] = -1;
+    C[3] = p[2]*p[3];
+    C[4] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[5] = p[2]*p[2]*(p[0] + p[1])/p[1];
+    C[6] = 2;
+    C[7] = p[4]*(p[0] + p[1]);
+    C[8] = 1.0F/p[1];
+    C[9] = p[3]*p[3];
+    C[10] = p[4];
+    C[11] = p[2]/p[1];
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 12; ++u) {
+            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 12; u < 16; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 16; u < 19; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 19; u < 23; ++u) {
+            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 23; u < 28; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 28; u < 32; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 32; u < 34; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 34; u < 44; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 44; u < 48; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 48; u < 49; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 49; u < 55; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 55; u < 56; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 56; u < 63; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 63; u < 78; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 78; u < 82; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 82; u < 85; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 85; u < 87; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 87; u < 88; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 88; u < 97; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 97; u < 99; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 99; u < 100; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 100; u < 101; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 101; u < 106; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 106; u < 113; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 113; u < 114; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 114; u < 116; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 116; u < 117; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 117; u < 120; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 120; u < 121; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 121; u < 124; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 124; u < 127; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 127; u < 128; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 128; u < 130; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 130; u < 132; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 132; u < 139; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 139; u < 140; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 140; u < 143; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 143; u < 145; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 145; u < 149; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 149; u < 150; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 150; u < 152; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 152; u < 157; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 157; u < 159; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 159; u < 160; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 160; u < 161; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 161; u < 163; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 163; u < 165; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 165; u < 167; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 167; u < 171; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 171; u < 172; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 172; u < 175; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 175; u < 178; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 178; u < 185; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 185; u < 187; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 187; u < 189; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 189; u < 190; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 190; u < 192; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 192; u < 193; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        if (k == 0 && (!(T_ABS(J[11][0]) >= sine_min) || !(T_ABS(J[10][0]) >= sine_min))) {
+            return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[185][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[189][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[190][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[192][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_ROT_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_rot_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -625,6 +1141,7 @@ static int spherical_rot_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_w
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
+#endif
 
 int spherical_rot_taylor_coefficients_f(const float *y, const float *p, int order, float *coef, double sine_min)
 {
@@ -701,7 +1218,260 @@ long spherical_rot_taylor_batch_f(long n, const float *y0, long y0_stride, const
 #define DERIVE_TAYLOR_JET spherical_rot_taylor_jet_l
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_ROT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_rot_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 1, 3, 2, 0, 5, 7, 6, 4,
+        7, 5, 4, 1, 3, 2, 0, 8, 11, 11, 11, 10, 14, 8, 9, 16,
+        11, 10, 8, 9, 19, 22, 11, 11, 10, 10, 21, 22, 21, 22, 20, 19,
+        34, 44, 45, 45, 46, 47, 43, 23, 38, 44, 12, 45, 13, 30, 42, 48,
+        50, 55, 10, 55, 16, 29, 17, 55, 25, 26, 55, 28, 17, 55, 55, 56,
+        60, 48, 63, 72, 73, 78, 64, 24, 64, 66, 45, 78, 70, 74, 10, 16,
+        27, 39, 40, 82, 85, 86, 87, 98, 94, 86, 89, 28, 48, 92, 93, 95,
+        82, 83, 99, 106, 102, 102, 15, 102, 91, 113, 104, 105, 114, 121, 122, 116,
+        117, 119, 79, 120, 101, 128, 130, 131, 125, 126, 129, 127, 132, 64, 78, 133,
+        138, 134, 135, 137, 139, 136, 140, 145, 102, 82, 148, 82, 78, 147, 146, 150,
+        151, 157, 154, 102, 64, 124, 133, 160, 161, 158, 149, 162, 167, 169, 170, 159,
+        123, 138, 165, 133, 132, 166, 176, 171, 177, 178, 180, 138, 148, 32, 182, 188,
+        33
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 19, 20, 21, 22, 0, 0, 0, 0,
+        6, 6, 6, 8, 9, 10, 11, 9, 10, 12, 15, 13, 3, 7, 10, 9,
+        0, 0, 20, 19, 20, 21, 22, 21, 22, 21, 6, 4, 0, 1, 10, 7,
+        35, 1, 0, 8, 0, 11, 5, 36, 12, 6, 39, 4, 41, 44, 31, 49,
+        48, 37, 55, 40, 57, 51, 59, 39, 48, 48, 50, 48, 54, 49, 3, 5,
+        9, 3, 2, 3, 3, 0, 0, 65, 78, 22, 68, 58, 48, 18, 75, 77,
+        81, 67, 71, 0, 4, 2, 3, 3, 2, 2, 13, 97, 90, 44, 5, 6,
+        78, 84, 2, 3, 0, 82, 103, 64, 109, 52, 53, 100, 100, 62, 76, 4,
+        2, 2, 115, 80, 127, 88, 107, 61, 110, 111, 112, 2, 124, 136, 136, 0,
+        0, 108, 118, 96, 99, 5, 143, 69, 146, 146, 123, 147, 147, 9, 5, 0,
+        9, 153, 144, 151, 151, 159, 159, 152, 142, 163, 164, 0, 141, 155, 156, 168,
+        171, 171, 172, 175, 175, 172, 173, 174, 173, 179, 181, 183, 183, 186, 187, 184,
+        191
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = p[3];
+    C[1] = p[2];
+    C[2] = -1;
+    C[3] = p[2]*p[3];
+    C[4] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[5] = p[2]*p[2]*(p[0] + p[1])/p[1];
+    C[6] = 2;
+    C[7] = p[4]*(p[0] + p[1]);
+    C[8] = 1.0L/p[1];
+    C[9] = p[3]*p[3];
+    C[10] = p[4];
+    C[11] = p[2]/p[1];
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 12; ++u) {
+            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 12; u < 16; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 16; u < 19; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 19; u < 23; ++u) {
+            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 23; u < 28; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 28; u < 32; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 32; u < 34; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 34; u < 44; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 44; u < 48; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 48; u < 49; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 49; u < 55; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 55; u < 56; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 56; u < 63; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 63; u < 78; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 78; u < 82; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 82; u < 85; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 85; u < 87; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 87; u < 88; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 88; u < 97; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 97; u < 99; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 99; u < 100; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 100; u < 101; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 101; u < 106; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 106; u < 113; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 113; u < 114; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 114; u < 116; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 116; u < 117; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 117; u < 120; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 120; u < 121; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 121; u < 124; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 124; u < 127; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 127; u < 128; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 128; u < 130; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 130; u < 132; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 132; u < 139; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 139; u < 140; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 140; u < 143; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 143; u < 145; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 145; u < 149; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 149; u < 150; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 150; u < 152; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 152; u < 157; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 157; u < 159; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 159; u < 160; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 160; u < 161; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 161; u < 163; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 163; u < 165; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 165; u < 167; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 167; u < 171; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 171; u < 172; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 172; u < 175; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 175; u < 178; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 178; u < 185; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 185; u < 187; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 187; u < 189; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 189; u < 190; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 190; u < 192; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 192; u < 193; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        if (k == 0 && (!(T_ABS(J[11][0]) >= sine_min) || !(T_ABS(J[10][0]) >= sine_min))) {
+            return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[185][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[189][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[190][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[192][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_ROT_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_rot_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -924,6 +1694,7 @@ static int spherical_rot_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_w
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
+#endif
 
 int spherical_rot_taylor_coefficients_l(const long double *y, const long double *p, int order, long double *coef, double sine_min)
 {
@@ -1001,7 +1772,260 @@ long spherical_rot_taylor_batch_l(long n, const long double *y0, long y0_stride,
 #define DERIVE_TAYLOR_DOUBLE_DOUBLE
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_ROT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_rot_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 1, 3, 2, 0, 5, 7, 6, 4,
+        7, 5, 4, 1, 3, 2, 0, 8, 11, 11, 11, 10, 14, 8, 9, 16,
+        11, 10, 8, 9, 19, 22, 11, 11, 10, 10, 21, 22, 21, 22, 20, 19,
+        34, 44, 45, 45, 46, 47, 43, 23, 38, 44, 12, 45, 13, 30, 42, 48,
+        50, 55, 10, 55, 16, 29, 17, 55, 25, 26, 55, 28, 17, 55, 55, 56,
+        60, 48, 63, 72, 73, 78, 64, 24, 64, 66, 45, 78, 70, 74, 10, 16,
+        27, 39, 40, 82, 85, 86, 87, 98, 94, 86, 89, 28, 48, 92, 93, 95,
+        82, 83, 99, 106, 102, 102, 15, 102, 91, 113, 104, 105, 114, 121, 122, 116,
+        117, 119, 79, 120, 101, 128, 130, 131, 125, 126, 129, 127, 132, 64, 78, 133,
+        138, 134, 135, 137, 139, 136, 140, 145, 102, 82, 148, 82, 78, 147, 146, 150,
+        151, 157, 154, 102, 64, 124, 133, 160, 161, 158, 149, 162, 167, 169, 170, 159,
+        123, 138, 165, 133, 132, 166, 176, 171, 177, 178, 180, 138, 148, 32, 182, 188,
+        33
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 19, 20, 21, 22, 0, 0, 0, 0,
+        6, 6, 6, 8, 9, 10, 11, 9, 10, 12, 15, 13, 3, 7, 10, 9,
+        0, 0, 20, 19, 20, 21, 22, 21, 22, 21, 6, 4, 0, 1, 10, 7,
+        35, 1, 0, 8, 0, 11, 5, 36, 12, 6, 39, 4, 41, 44, 31, 49,
+        48, 37, 55, 40, 57, 51, 59, 39, 48, 48, 50, 48, 54, 49, 3, 5,
+        9, 3, 2, 3, 3, 0, 0, 65, 78, 22, 68, 58, 48, 18, 75, 77,
+        81, 67, 71, 0, 4, 2, 3, 3, 2, 2, 13, 97, 90, 44, 5, 6,
+        78, 84, 2, 3, 0, 82, 103, 64, 109, 52, 53, 100, 100, 62, 76, 4,
+        2, 2, 115, 80, 127, 88, 107, 61, 110, 111, 112, 2, 124, 136, 136, 0,
+        0, 108, 118, 96, 99, 5, 143, 69, 146, 146, 123, 147, 147, 9, 5, 0,
+        9, 153, 144, 151, 151, 159, 159, 152, 142, 163, 164, 0, 141, 155, 156, 168,
+        171, 171, 172, 175, 175, 172, 173, 174, 173, 179, 181, 183, 183, 186, 187, 184,
+        191
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = p[3];
+    C[1] = p[2];
+    C[2] = T_INT(-1);
+    C[3] = T_MUL(p[2], p[3]);
+    C[4] = T_NEG(T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]));
+    C[5] = T_DIV(T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1])), p[1]);
+    C[6] = T_INT(2);
+    C[7] = T_MUL(p[4], T_ADD(p[0], p[1]));
+    C[8] = T_DIV(T_INT(1), p[1]);
+    C[9] = T_MUL(p[3], p[3]);
+    C[10] = p[4];
+    C[11] = T_DIV(p[2], p[1]);
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 12; ++u) {
+            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 12; u < 16; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 16; u < 19; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 19; u < 23; ++u) {
+            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 23; u < 28; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 28; u < 32; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 32; u < 34; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 34; u < 44; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 44; u < 48; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 48; u < 49; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 49; u < 55; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 55; u < 56; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 56; u < 63; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 63; u < 78; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 78; u < 82; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 82; u < 85; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 85; u < 87; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 87; u < 88; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 88; u < 97; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 97; u < 99; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 99; u < 100; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 100; u < 101; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 101; u < 106; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 106; u < 113; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 113; u < 114; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 114; u < 116; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 116; u < 117; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 117; u < 120; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 120; u < 121; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 121; u < 124; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 124; u < 127; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 127; u < 128; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 128; u < 130; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 130; u < 132; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 132; u < 139; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 139; u < 140; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 140; u < 143; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 143; u < 145; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 145; u < 149; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 149; u < 150; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 150; u < 152; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 152; u < 157; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 157; u < 159; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 159; u < 160; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 160; u < 161; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 161; u < 163; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 163; u < 165; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 165; u < 167; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 167; u < 171; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 171; u < 172; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 172; u < 175; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 175; u < 178; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 178; u < 185; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 185; u < 187; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 187; u < 189; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 189; u < 190; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 190; u < 192; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 192; u < 193; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        if (k == 0 && (!(T_ABS(J[11][0]) >= sine_min) || !(T_ABS(J[10][0]) >= sine_min))) {
+            return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[185][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[189][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[190][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[192][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_ROT_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_rot_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -1224,6 +2248,7 @@ static int spherical_rot_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
+#endif
 
 int spherical_rot_taylor_coefficients_dd(const derive_dd *y, const derive_dd *p, int order, derive_dd *coef, double sine_min)
 {

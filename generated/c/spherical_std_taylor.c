@@ -15,8 +15,8 @@
 #define ORDER_MAX SPHERICAL_STD_TAYLOR_ORDER_MAX
 
 /* Compiled with -DSPHERICAL_STD_TAYLOR_ORDER=p (2 <= p <= ORDER_MAX), the order is p whatever
- * the tolerance, and the compiler unrolls the recurrences for it; without, the order
- * follows options.rtol at run time. */
+ * the tolerance (and the compiler may unroll the jet for it); without, the order follows
+ * options.rtol at run time. */
 #ifndef SPHERICAL_STD_TAYLOR_ORDER
 #define SPHERICAL_STD_TAYLOR_ORDER 0
 #endif
@@ -25,8 +25,17 @@
 #endif
 /* the coefficient arrays: as long as the fixed order needs, else the longest */
 #define ORDER_DIM (SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER + 1 : ORDER_MAX + 1)
+/* The jet's two forms, the same numbers: unrolled, one statement per operation inside the
+ * order loop, which the compiler unrolls at a fixed order (the fastest steps, but its
+ * size and compile time grow as the operations times the order squared); or compact
+ * (SPHERICAL_STD_TAYLOR_COMPACT=1), one loop per segment of alike operations over index tables,
+ * whose size grows with the model only.  By default compact past order 4 or
+ * with the order from the tolerance (derive chooses by size, derive/runtime/taylor_library.py). */
+#ifndef SPHERICAL_STD_TAYLOR_COMPACT
+#define SPHERICAL_STD_TAYLOR_COMPACT (SPHERICAL_STD_TAYLOR_ORDER == 0 || SPHERICAL_STD_TAYLOR_ORDER > 4)
+#endif
 /* GCC unrolls the recurrences' loops completely when asked and the order is fixed */
-#if SPHERICAL_STD_TAYLOR_ORDER != 0 && defined(__GNUC__) && !defined(__clang__)
+#if SPHERICAL_STD_TAYLOR_ORDER != 0 && !SPHERICAL_STD_TAYLOR_COMPACT && defined(__GNUC__) && !defined(__clang__)
 #define TAYLOR_UNROLL _Pragma("GCC unroll 64")
 #else
 #define TAYLOR_UNROLL
@@ -103,7 +112,254 @@
 #define DERIVE_TAYLOR_JET spherical_std_taylor_jet
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_STD_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_std_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 1, 2, 0, 5, 7, 6, 4, 7,
+        5, 4, 8, 2, 0, 10, 10, 9, 13, 10, 9, 14, 15, 10, 9, 8,
+        19, 20, 25, 26, 18, 20, 10, 9, 10, 9, 9, 18, 19, 24, 20, 32,
+        31, 33, 46, 37, 38, 39, 41, 32, 11, 33, 12, 40, 10, 36, 44, 9,
+        23, 18, 49, 53, 15, 48, 16, 49, 47, 16, 48, 21, 60, 52, 58, 63,
+        40, 41, 65, 75, 67, 81, 74, 66, 66, 24, 33, 18, 71, 15, 79, 82,
+        83, 87, 87, 83, 18, 91, 14, 5, 93, 83, 82, 77, 95, 99, 105, 96,
+        107, 76, 94, 98, 69, 108, 97, 109, 112, 113, 114, 110, 116, 111, 118, 66,
+        48, 82, 48, 119, 123, 120, 124, 125, 122, 121, 126, 134, 133, 135, 83, 66,
+        138, 83, 82, 141, 137, 139, 117, 119, 140, 136, 149, 148, 147, 152, 153, 154,
+        115, 156, 123, 150, 144, 151, 160, 123, 135, 162, 119, 118, 166, 168, 163, 171,
+        30, 29
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 3, 19, 20, 0, 0, 0, 0, 6,
+        6, 6, 31, 9, 10, 9, 11, 12, 3, 7, 10, 3, 9, 0, 0, 18,
+        0, 1, 8, 0, 3, 19, 20, 20, 19, 20, 19, 27, 6, 18, 4, 1,
+        3, 0, 5, 31, 11, 12, 31, 6, 40, 4, 42, 31, 43, 22, 28, 45,
+        36, 47, 18, 31, 55, 56, 57, 31, 31, 50, 0, 51, 61, 5, 9, 2,
+        54, 59, 2, 3, 3, 3, 4, 0, 48, 80, 68, 70, 17, 72, 64, 0,
+        0, 2, 2, 82, 90, 32, 85, 92, 6, 66, 48, 84, 2, 2, 2, 4,
+        89, 103, 104, 86, 101, 86, 111, 88, 100, 62, 73, 106, 78, 2, 117, 121,
+        121, 122, 122, 0, 0, 34, 35, 95, 9, 5, 131, 102, 9, 115, 133, 133,
+        0, 139, 139, 132, 143, 5, 144, 144, 145, 146, 142, 130, 0, 127, 128, 129,
+        156, 155, 156, 157, 158, 157, 159, 161, 161, 159, 164, 164, 167, 169, 170, 165,
+        173, 175
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_STD_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = p[3];
+    C[1] = p[2];
+    C[2] = -1;
+    C[3] = p[2]*p[3];
+    C[4] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[5] = p[2]*p[2]*(p[0] + p[1])/p[1];
+    C[6] = 2;
+    C[7] = p[4]*(p[0] + p[1]);
+    C[8] = p[2]/p[1];
+    C[9] = p[3]*p[3];
+    C[10] = p[4];
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 9; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 9; u < 11; ++u) {
+            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 11; u < 15; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 15; u < 18; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 18; u < 19; ++u) {
+            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 19; u < 21; ++u) {
+            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 21; u < 24; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 24; u < 29; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 29; u < 31; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 31; u < 32; ++u) {
+            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 32; u < 37; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 37; u < 47; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 47; u < 51; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 51; u < 65; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 65; u < 74; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 74; u < 75; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 75; u < 77; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 77; u < 80; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 80; u < 82; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 82; u < 86; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 86; u < 87; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 87; u < 88; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 88; u < 94; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 94; u < 95; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 95; u < 97; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 97; u < 99; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 99; u < 107; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 107; u < 108; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 108; u < 111; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 111; u < 112; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 112; u < 116; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 116; u < 117; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 117; u < 124; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 124; u < 125; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 125; u < 126; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 126; u < 131; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 131; u < 133; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 133; u < 136; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 136; u < 138; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 138; u < 140; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 140; u < 141; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 141; u < 144; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 144; u < 145; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 145; u < 147; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 147; u < 149; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 149; u < 150; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 150; u < 152; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 152; u < 156; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 156; u < 157; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 157; u < 160; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 160; u < 163; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 163; u < 170; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 170; u < 172; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 172; u < 174; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 174; u < 176; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 176; u < 177; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 177; u < 178; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        if (k == 0 && (!(T_ABS(J[10][0]) >= sine_min) || !(T_ABS(J[9][0]) >= sine_min))) {
+            return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[174][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[177][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[172][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[176][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_STD_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_std_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -310,6 +566,7 @@ static int spherical_std_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wan
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }
+#endif
 
 int spherical_std_taylor_coefficients(const double *y, const double *p, int order, double *coef, double sine_min)
 {
@@ -386,7 +643,254 @@ long spherical_std_taylor_batch(long n, const double *y0, long y0_stride, const 
 #define DERIVE_TAYLOR_JET spherical_std_taylor_jet_f
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_STD_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_std_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 1, 2, 0, 5, 7, 6, 4, 7,
+        5, 4, 8, 2, 0, 10, 10, 9, 13, 10, 9, 14, 15, 10, 9, 8,
+        19, 20, 25, 26, 18, 20, 10, 9, 10, 9, 9, 18, 19, 24, 20, 32,
+        31, 33, 46, 37, 38, 39, 41, 32, 11, 33, 12, 40, 10, 36, 44, 9,
+        23, 18, 49, 53, 15, 48, 16, 49, 47, 16, 48, 21, 60, 52, 58, 63,
+        40, 41, 65, 75, 67, 81, 74, 66, 66, 24, 33, 18, 71, 15, 79, 82,
+        83, 87, 87, 83, 18, 91, 14, 5, 93, 83, 82, 77, 95, 99, 105, 96,
+        107, 76, 94, 98, 69, 108, 97, 109, 112, 113, 114, 110, 116, 111, 118, 66,
+        48, 82, 48, 119, 123, 120, 124, 125, 122, 121, 126, 134, 133, 135, 83, 66,
+        138, 83, 82, 141, 137, 139, 117, 119, 140, 136, 149, 148, 147, 152, 153, 154,
+        115, 156, 123, 150, 144, 151, 160, 123, 135, 162, 119, 118, 166, 168, 163, 171,
+        30, 29
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 3, 19, 20, 0, 0, 0, 0, 6,
+        6, 6, 31, 9, 10, 9, 11, 12, 3, 7, 10, 3, 9, 0, 0, 18,
+        0, 1, 8, 0, 3, 19, 20, 20, 19, 20, 19, 27, 6, 18, 4, 1,
+        3, 0, 5, 31, 11, 12, 31, 6, 40, 4, 42, 31, 43, 22, 28, 45,
+        36, 47, 18, 31, 55, 56, 57, 31, 31, 50, 0, 51, 61, 5, 9, 2,
+        54, 59, 2, 3, 3, 3, 4, 0, 48, 80, 68, 70, 17, 72, 64, 0,
+        0, 2, 2, 82, 90, 32, 85, 92, 6, 66, 48, 84, 2, 2, 2, 4,
+        89, 103, 104, 86, 101, 86, 111, 88, 100, 62, 73, 106, 78, 2, 117, 121,
+        121, 122, 122, 0, 0, 34, 35, 95, 9, 5, 131, 102, 9, 115, 133, 133,
+        0, 139, 139, 132, 143, 5, 144, 144, 145, 146, 142, 130, 0, 127, 128, 129,
+        156, 155, 156, 157, 158, 157, 159, 161, 161, 159, 164, 164, 167, 169, 170, 165,
+        173, 175
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_STD_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = p[3];
+    C[1] = p[2];
+    C[2] = -1;
+    C[3] = p[2]*p[3];
+    C[4] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[5] = p[2]*p[2]*(p[0] + p[1])/p[1];
+    C[6] = 2;
+    C[7] = p[4]*(p[0] + p[1]);
+    C[8] = p[2]/p[1];
+    C[9] = p[3]*p[3];
+    C[10] = p[4];
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 9; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 9; u < 11; ++u) {
+            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 11; u < 15; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 15; u < 18; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 18; u < 19; ++u) {
+            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 19; u < 21; ++u) {
+            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 21; u < 24; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 24; u < 29; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 29; u < 31; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 31; u < 32; ++u) {
+            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 32; u < 37; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 37; u < 47; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 47; u < 51; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 51; u < 65; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 65; u < 74; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 74; u < 75; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 75; u < 77; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 77; u < 80; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 80; u < 82; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 82; u < 86; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 86; u < 87; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 87; u < 88; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 88; u < 94; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 94; u < 95; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 95; u < 97; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 97; u < 99; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 99; u < 107; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 107; u < 108; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 108; u < 111; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 111; u < 112; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 112; u < 116; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 116; u < 117; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 117; u < 124; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 124; u < 125; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 125; u < 126; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 126; u < 131; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 131; u < 133; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 133; u < 136; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 136; u < 138; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 138; u < 140; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 140; u < 141; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 141; u < 144; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 144; u < 145; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 145; u < 147; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 147; u < 149; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 149; u < 150; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 150; u < 152; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 152; u < 156; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 156; u < 157; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 157; u < 160; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 160; u < 163; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 163; u < 170; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 170; u < 172; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 172; u < 174; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 174; u < 176; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 176; u < 177; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 177; u < 178; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        if (k == 0 && (!(T_ABS(J[10][0]) >= sine_min) || !(T_ABS(J[9][0]) >= sine_min))) {
+            return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[174][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[177][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[172][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[176][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_STD_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_std_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -593,6 +1097,7 @@ static int spherical_std_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_w
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }
+#endif
 
 int spherical_std_taylor_coefficients_f(const float *y, const float *p, int order, float *coef, double sine_min)
 {
@@ -669,7 +1174,254 @@ long spherical_std_taylor_batch_f(long n, const float *y0, long y0_stride, const
 #define DERIVE_TAYLOR_JET spherical_std_taylor_jet_l
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_STD_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_std_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 1, 2, 0, 5, 7, 6, 4, 7,
+        5, 4, 8, 2, 0, 10, 10, 9, 13, 10, 9, 14, 15, 10, 9, 8,
+        19, 20, 25, 26, 18, 20, 10, 9, 10, 9, 9, 18, 19, 24, 20, 32,
+        31, 33, 46, 37, 38, 39, 41, 32, 11, 33, 12, 40, 10, 36, 44, 9,
+        23, 18, 49, 53, 15, 48, 16, 49, 47, 16, 48, 21, 60, 52, 58, 63,
+        40, 41, 65, 75, 67, 81, 74, 66, 66, 24, 33, 18, 71, 15, 79, 82,
+        83, 87, 87, 83, 18, 91, 14, 5, 93, 83, 82, 77, 95, 99, 105, 96,
+        107, 76, 94, 98, 69, 108, 97, 109, 112, 113, 114, 110, 116, 111, 118, 66,
+        48, 82, 48, 119, 123, 120, 124, 125, 122, 121, 126, 134, 133, 135, 83, 66,
+        138, 83, 82, 141, 137, 139, 117, 119, 140, 136, 149, 148, 147, 152, 153, 154,
+        115, 156, 123, 150, 144, 151, 160, 123, 135, 162, 119, 118, 166, 168, 163, 171,
+        30, 29
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 3, 19, 20, 0, 0, 0, 0, 6,
+        6, 6, 31, 9, 10, 9, 11, 12, 3, 7, 10, 3, 9, 0, 0, 18,
+        0, 1, 8, 0, 3, 19, 20, 20, 19, 20, 19, 27, 6, 18, 4, 1,
+        3, 0, 5, 31, 11, 12, 31, 6, 40, 4, 42, 31, 43, 22, 28, 45,
+        36, 47, 18, 31, 55, 56, 57, 31, 31, 50, 0, 51, 61, 5, 9, 2,
+        54, 59, 2, 3, 3, 3, 4, 0, 48, 80, 68, 70, 17, 72, 64, 0,
+        0, 2, 2, 82, 90, 32, 85, 92, 6, 66, 48, 84, 2, 2, 2, 4,
+        89, 103, 104, 86, 101, 86, 111, 88, 100, 62, 73, 106, 78, 2, 117, 121,
+        121, 122, 122, 0, 0, 34, 35, 95, 9, 5, 131, 102, 9, 115, 133, 133,
+        0, 139, 139, 132, 143, 5, 144, 144, 145, 146, 142, 130, 0, 127, 128, 129,
+        156, 155, 156, 157, 158, 157, 159, 161, 161, 159, 164, 164, 167, 169, 170, 165,
+        173, 175
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_STD_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = p[3];
+    C[1] = p[2];
+    C[2] = -1;
+    C[3] = p[2]*p[3];
+    C[4] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[5] = p[2]*p[2]*(p[0] + p[1])/p[1];
+    C[6] = 2;
+    C[7] = p[4]*(p[0] + p[1]);
+    C[8] = p[2]/p[1];
+    C[9] = p[3]*p[3];
+    C[10] = p[4];
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 9; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 9; u < 11; ++u) {
+            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 11; u < 15; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 15; u < 18; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 18; u < 19; ++u) {
+            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 19; u < 21; ++u) {
+            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 21; u < 24; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 24; u < 29; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 29; u < 31; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 31; u < 32; ++u) {
+            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 32; u < 37; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 37; u < 47; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 47; u < 51; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 51; u < 65; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 65; u < 74; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 74; u < 75; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 75; u < 77; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 77; u < 80; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 80; u < 82; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 82; u < 86; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 86; u < 87; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 87; u < 88; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 88; u < 94; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 94; u < 95; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 95; u < 97; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 97; u < 99; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 99; u < 107; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 107; u < 108; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 108; u < 111; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 111; u < 112; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 112; u < 116; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 116; u < 117; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 117; u < 124; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 124; u < 125; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 125; u < 126; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 126; u < 131; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 131; u < 133; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 133; u < 136; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 136; u < 138; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 138; u < 140; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 140; u < 141; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 141; u < 144; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 144; u < 145; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 145; u < 147; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 147; u < 149; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 149; u < 150; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 150; u < 152; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 152; u < 156; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 156; u < 157; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 157; u < 160; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 160; u < 163; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 163; u < 170; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 170; u < 172; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 172; u < 174; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 174; u < 176; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 176; u < 177; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 177; u < 178; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        if (k == 0 && (!(T_ABS(J[10][0]) >= sine_min) || !(T_ABS(J[9][0]) >= sine_min))) {
+            return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[174][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[177][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[172][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[176][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_STD_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_std_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -876,6 +1628,7 @@ static int spherical_std_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_w
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }
+#endif
 
 int spherical_std_taylor_coefficients_l(const long double *y, const long double *p, int order, long double *coef, double sine_min)
 {
@@ -953,7 +1706,254 @@ long spherical_std_taylor_batch_l(long n, const long double *y0, long y0_stride,
 #define DERIVE_TAYLOR_DOUBLE_DOUBLE
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_STD_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_std_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 1, 2, 0, 5, 7, 6, 4, 7,
+        5, 4, 8, 2, 0, 10, 10, 9, 13, 10, 9, 14, 15, 10, 9, 8,
+        19, 20, 25, 26, 18, 20, 10, 9, 10, 9, 9, 18, 19, 24, 20, 32,
+        31, 33, 46, 37, 38, 39, 41, 32, 11, 33, 12, 40, 10, 36, 44, 9,
+        23, 18, 49, 53, 15, 48, 16, 49, 47, 16, 48, 21, 60, 52, 58, 63,
+        40, 41, 65, 75, 67, 81, 74, 66, 66, 24, 33, 18, 71, 15, 79, 82,
+        83, 87, 87, 83, 18, 91, 14, 5, 93, 83, 82, 77, 95, 99, 105, 96,
+        107, 76, 94, 98, 69, 108, 97, 109, 112, 113, 114, 110, 116, 111, 118, 66,
+        48, 82, 48, 119, 123, 120, 124, 125, 122, 121, 126, 134, 133, 135, 83, 66,
+        138, 83, 82, 141, 137, 139, 117, 119, 140, 136, 149, 148, 147, 152, 153, 154,
+        115, 156, 123, 150, 144, 151, 160, 123, 135, 162, 119, 118, 166, 168, 163, 171,
+        30, 29
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 3, 19, 20, 0, 0, 0, 0, 6,
+        6, 6, 31, 9, 10, 9, 11, 12, 3, 7, 10, 3, 9, 0, 0, 18,
+        0, 1, 8, 0, 3, 19, 20, 20, 19, 20, 19, 27, 6, 18, 4, 1,
+        3, 0, 5, 31, 11, 12, 31, 6, 40, 4, 42, 31, 43, 22, 28, 45,
+        36, 47, 18, 31, 55, 56, 57, 31, 31, 50, 0, 51, 61, 5, 9, 2,
+        54, 59, 2, 3, 3, 3, 4, 0, 48, 80, 68, 70, 17, 72, 64, 0,
+        0, 2, 2, 82, 90, 32, 85, 92, 6, 66, 48, 84, 2, 2, 2, 4,
+        89, 103, 104, 86, 101, 86, 111, 88, 100, 62, 73, 106, 78, 2, 117, 121,
+        121, 122, 122, 0, 0, 34, 35, 95, 9, 5, 131, 102, 9, 115, 133, 133,
+        0, 139, 139, 132, 143, 5, 144, 144, 145, 146, 142, 130, 0, 127, 128, 129,
+        156, 155, 156, 157, 158, 157, 159, 161, 161, 159, 164, 164, 167, 169, 170, 165,
+        173, 175
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_STD_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = p[3];
+    C[1] = p[2];
+    C[2] = T_INT(-1);
+    C[3] = T_MUL(p[2], p[3]);
+    C[4] = T_NEG(T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]));
+    C[5] = T_DIV(T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1])), p[1]);
+    C[6] = T_INT(2);
+    C[7] = T_MUL(p[4], T_ADD(p[0], p[1]));
+    C[8] = T_DIV(p[2], p[1]);
+    C[9] = T_MUL(p[3], p[3]);
+    C[10] = p[4];
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 9; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 9; u < 11; ++u) {
+            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 11; u < 15; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 15; u < 18; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 18; u < 19; ++u) {
+            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 19; u < 21; ++u) {
+            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 21; u < 24; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 24; u < 29; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 29; u < 31; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 31; u < 32; ++u) {
+            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 32; u < 37; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 37; u < 47; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 47; u < 51; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 51; u < 65; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 65; u < 74; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 74; u < 75; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 75; u < 77; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 77; u < 80; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 80; u < 82; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 82; u < 86; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 86; u < 87; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 87; u < 88; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 88; u < 94; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 94; u < 95; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 95; u < 97; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 97; u < 99; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 99; u < 107; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 107; u < 108; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 108; u < 111; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 111; u < 112; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
+        }
+        for (u = 112; u < 116; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 116; u < 117; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 117; u < 124; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 124; u < 125; ++u) {
+            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 125; u < 126; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 126; u < 131; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 131; u < 133; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
+        }
+        for (u = 133; u < 136; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 136; u < 138; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 138; u < 140; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 140; u < 141; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 141; u < 144; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 144; u < 145; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 145; u < 147; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 147; u < 149; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 149; u < 150; ++u) {
+            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
+        }
+        for (u = 150; u < 152; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 152; u < 156; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 156; u < 157; ++u) {
+            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
+        }
+        for (u = 157; u < 160; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 160; u < 163; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 163; u < 170; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 170; u < 172; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 172; u < 174; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 174; u < 176; ++u) {
+            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
+        }
+        for (u = 176; u < 177; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        for (u = 177; u < 178; ++u) {
+            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
+        }
+        if (k == 0 && (!(T_ABS(J[10][0]) >= sine_min) || !(T_ABS(J[9][0]) >= sine_min))) {
+            return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[174][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[177][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[172][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[176][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_STD_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_std_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -1160,6 +2160,7 @@ static int spherical_std_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }
+#endif
 
 int spherical_std_taylor_coefficients_dd(const derive_dd *y, const derive_dd *p, int order, derive_dd *coef, double sine_min)
 {

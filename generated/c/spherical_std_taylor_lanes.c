@@ -13,7 +13,7 @@
 #define N SPHERICAL_STD_N_STATES
 #define ORDER_MAX SPHERICAL_STD_TAYLOR_ORDER_MAX
 
-/* As in spherical_std_taylor.c: -DSPHERICAL_STD_TAYLOR_ORDER=p fixes the order (and the recurrences
+/* As in spherical_std_taylor.c: -DSPHERICAL_STD_TAYLOR_ORDER=p fixes the order (and the recurrences may
  * unroll), 0 takes it from options.rtol. */
 #ifndef SPHERICAL_STD_TAYLOR_ORDER
 #define SPHERICAL_STD_TAYLOR_ORDER 0
@@ -29,7 +29,13 @@
 #endif
 #define L SPHERICAL_STD_TAYLOR_LANES
 #define ORDER_DIM (SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER + 1 : ORDER_MAX + 1)
-#if SPHERICAL_STD_TAYLOR_ORDER != 0 && defined(__GNUC__) && !defined(__clang__)
+/* As in spherical_std_taylor.c: the jet unrolled, or compact (SPHERICAL_STD_TAYLOR_COMPACT=1: a loop per
+ * segment of alike operations over index tables); by default compact past order 8
+ * or with the order from the tolerance. */
+#ifndef SPHERICAL_STD_TAYLOR_COMPACT
+#define SPHERICAL_STD_TAYLOR_COMPACT (SPHERICAL_STD_TAYLOR_ORDER == 0 || SPHERICAL_STD_TAYLOR_ORDER > 8)
+#endif
+#if SPHERICAL_STD_TAYLOR_ORDER != 0 && !SPHERICAL_STD_TAYLOR_COMPACT && defined(__GNUC__) && !defined(__clang__)
 #define TAYLOR_UNROLL _Pragma("GCC unroll 64")
 #else
 #define TAYLOR_UNROLL
@@ -113,7 +119,300 @@ static void spherical_std_lconstants(R (*C)[L], int l, const R *p)
     C[10][l] = p[4];
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if SPHERICAL_STD_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void spherical_std_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[79] = {
+        1, 2, 0, 5, 7, 4, 7, 5, 4, 0, 0, 5, 6, 2, 1, 2,
+        1, 77, 78, 9, 78, 2, 1, 2, 1, 1, 9, 10, 77, 17, 76, 18,
+        22, 3, 17, 18, 6, 31, 6, 7, 31, 29, 23, 17, 22, 27, 18, 9,
+        40, 6, 37, 47, 36, 48, 52, 53, 49, 55, 57, 58, 65, 59, 69, 51,
+        53, 62, 75, 76, 77, 78, 50, 65, 56, 61, 83, 86, 0, 2, 0
+    };
+    static const int HA1[79] = {
+        3, 77, 78, 0, 0, 0, 6, 6, 6, 76, 3, 3, 9, 3, 4, 0,
+        0, 0, 1, 3, 77, 78, 78, 77, 78, 77, 11, 9, 6, 1, 3, 0,
+        4, 23, 6, 4, 5, 9, 34, 35, 76, 76, 9, 2, 3, 3, 38, 39,
+        8, 41, 28, 28, 50, 30, 14, 20, 43, 4, 34, 63, 41, 0, 64, 61,
+        61, 0, 62, 59, 60, 61, 65, 66, 65, 68, 84, 80, 9, 1, 2
+    };
+    static const int TA0[91] = {
+        6, 2, 2, 1, 2, 3, 78, 20, 21, 24, 4, 23, 2, 19, 28, 1,
+        14, 9, 32, 30, 7, 30, 1, 12, 8, 10, 15, 24, 21, 37, 37, 10,
+        18, 26, 43, 44, 29, 29, 44, 9, 47, 5, 44, 43, 24, 5, 49, 34,
+        38, 42, 35, 44, 23, 33, 19, 51, 54, 50, 52, 37, 30, 43, 30, 53,
+        56, 56, 55, 54, 57, 58, 44, 37, 44, 43, 60, 67, 68, 66, 74, 63,
+        64, 70, 56, 58, 72, 53, 52, 81, 79, 16, 15
+    };
+    static const int TA1[91] = {
+        0, 1, 7, 10, 8, 0, 4, 76, 3, 76, 25, 76, 26, 13, 12, 27,
+        19, 29, 76, 33, 36, 0, 7, 13, 5, 9, 2, 11, 4, 0, 30, 42,
+        3, 16, 0, 0, 2, 2, 43, 46, 17, 45, 37, 30, 32, 48, 6, 2,
+        2, 2, 4, 31, 45, 46, 40, 39, 25, 2, 51, 54, 54, 55, 55, 0,
+        0, 5, 9, 5, 9, 50, 57, 57, 60, 60, 5, 71, 72, 73, 70, 67,
+        67, 69, 71, 71, 69, 73, 73, 82, 85, 74, 75
+    };
+    R H[79][ORDER_DIM * L];     /* nodes read at every order */
+    R T[91][L];                 /* nodes read at this order only */
+    const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 1; ++u) {
+            LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L);
+        }
+        for (u = 1; u < 3; ++u) {
+            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
+        }
+        for (u = 3; u < 6; ++u) {
+            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
+        }
+        for (u = 0; u < 1; ++u) {
+            LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k);
+        }
+        for (u = 6; u < 9; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L);
+        }
+        for (u = 9; u < 10; ++u) {
+            LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k);
+        }
+        for (u = 1; u < 2; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 10; u < 11; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 2; u < 4; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 11; u < 13; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 13; u < 15; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 15; u < 17; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 17; u < 20; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 20; u < 28; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 4; u < 6; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 28; u < 29; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
+        }
+        for (u = 6; u < 7; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
+        }
+        for (u = 29; u < 32; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 7; u < 17; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 32; u < 34; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 34; u < 36; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
+        }
+        for (u = 36; u < 37; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 17; u < 21; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 21; u < 22; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 37; u < 42; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 22; u < 24; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 24; u < 27; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 42; u < 43; ++u) {
+            LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]);
+        }
+        for (u = 27; u < 28; ++u) {
+            LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]);
+        }
+        for (u = 43; u < 46; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 28; u < 29; ++u) {
+            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
+        }
+        for (u = 29; u < 30; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 30; u < 32; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 32; u < 33; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 46; u < 50; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 33; u < 34; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 34; u < 36; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 36; u < 38; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 38; u < 44; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 44; u < 45; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 45; u < 46; ++u) {
+            LANES_MUL(T[u], X[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 46; u < 47; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
+        }
+        for (u = 47; u < 50; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 50; u < 51; ++u) {
+            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
+        }
+        for (u = 51; u < 54; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 54; u < 55; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 50; u < 51; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 51; u < 57; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 55; u < 56; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 56; u < 57; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 57; u < 58; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 58; u < 63; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 63; u < 65; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 57; u < 59; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 65; u < 66; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 66; u < 68; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 59; u < 61; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 68; u < 69; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 69; u < 72; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 61; u < 62; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 72; u < 74; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 62; u < 63; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 74; u < 75; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 75; u < 76; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 63; u < 65; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 76; u < 79; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 65; u < 66; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 66; u < 67; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 67; u < 70; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 70; u < 73; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 79; u < 85; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 73; u < 74; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 85; u < 87; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 87; u < 88; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 74; u < 75; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 88; u < 89; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 75; u < 76; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 89; u < 90; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 90; u < 91; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        if (k == 0) {
+            LANES_GUARD(bad, H[2] + k * L, sine_min);
+            LANES_GUARD(bad, H[1] + k * L, sine_min);
+        }
+        LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[88], k);
+        LANES_OUT(X[5] + (k + 1) * L, T[90], k);
+        LANES_OUT(X[6] + (k + 1) * L, T[87], k);
+        LANES_OUT(X[7] + (k + 1) * L, T[89], k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_std_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[79][ORDER_DIM * L];     /* nodes read at every order */
@@ -303,6 +602,7 @@ static void spherical_std_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wante
         LANES_OUT(X[7] + (k + 1) * L, T[90], k);
     }
 }
+#endif
 
 long spherical_std_taylor_lanes_batch(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
 {
@@ -343,7 +643,300 @@ static void spherical_std_lconstants_f(R (*C)[L], int l, const R *p)
     C[10][l] = p[4];
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if SPHERICAL_STD_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void spherical_std_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[79] = {
+        1, 2, 0, 5, 7, 4, 7, 5, 4, 0, 0, 5, 6, 2, 1, 2,
+        1, 77, 78, 9, 78, 2, 1, 2, 1, 1, 9, 10, 77, 17, 76, 18,
+        22, 3, 17, 18, 6, 31, 6, 7, 31, 29, 23, 17, 22, 27, 18, 9,
+        40, 6, 37, 47, 36, 48, 52, 53, 49, 55, 57, 58, 65, 59, 69, 51,
+        53, 62, 75, 76, 77, 78, 50, 65, 56, 61, 83, 86, 0, 2, 0
+    };
+    static const int HA1[79] = {
+        3, 77, 78, 0, 0, 0, 6, 6, 6, 76, 3, 3, 9, 3, 4, 0,
+        0, 0, 1, 3, 77, 78, 78, 77, 78, 77, 11, 9, 6, 1, 3, 0,
+        4, 23, 6, 4, 5, 9, 34, 35, 76, 76, 9, 2, 3, 3, 38, 39,
+        8, 41, 28, 28, 50, 30, 14, 20, 43, 4, 34, 63, 41, 0, 64, 61,
+        61, 0, 62, 59, 60, 61, 65, 66, 65, 68, 84, 80, 9, 1, 2
+    };
+    static const int TA0[91] = {
+        6, 2, 2, 1, 2, 3, 78, 20, 21, 24, 4, 23, 2, 19, 28, 1,
+        14, 9, 32, 30, 7, 30, 1, 12, 8, 10, 15, 24, 21, 37, 37, 10,
+        18, 26, 43, 44, 29, 29, 44, 9, 47, 5, 44, 43, 24, 5, 49, 34,
+        38, 42, 35, 44, 23, 33, 19, 51, 54, 50, 52, 37, 30, 43, 30, 53,
+        56, 56, 55, 54, 57, 58, 44, 37, 44, 43, 60, 67, 68, 66, 74, 63,
+        64, 70, 56, 58, 72, 53, 52, 81, 79, 16, 15
+    };
+    static const int TA1[91] = {
+        0, 1, 7, 10, 8, 0, 4, 76, 3, 76, 25, 76, 26, 13, 12, 27,
+        19, 29, 76, 33, 36, 0, 7, 13, 5, 9, 2, 11, 4, 0, 30, 42,
+        3, 16, 0, 0, 2, 2, 43, 46, 17, 45, 37, 30, 32, 48, 6, 2,
+        2, 2, 4, 31, 45, 46, 40, 39, 25, 2, 51, 54, 54, 55, 55, 0,
+        0, 5, 9, 5, 9, 50, 57, 57, 60, 60, 5, 71, 72, 73, 70, 67,
+        67, 69, 71, 71, 69, 73, 73, 82, 85, 74, 75
+    };
+    R H[79][ORDER_DIM * L];     /* nodes read at every order */
+    R T[91][L];                 /* nodes read at this order only */
+    const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 1; ++u) {
+            LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L);
+        }
+        for (u = 1; u < 3; ++u) {
+            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
+        }
+        for (u = 3; u < 6; ++u) {
+            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
+        }
+        for (u = 0; u < 1; ++u) {
+            LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k);
+        }
+        for (u = 6; u < 9; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L);
+        }
+        for (u = 9; u < 10; ++u) {
+            LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k);
+        }
+        for (u = 1; u < 2; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 10; u < 11; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 2; u < 4; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 11; u < 13; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 13; u < 15; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 15; u < 17; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 17; u < 20; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 20; u < 28; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 4; u < 6; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 28; u < 29; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
+        }
+        for (u = 6; u < 7; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
+        }
+        for (u = 29; u < 32; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 7; u < 17; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 32; u < 34; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 34; u < 36; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
+        }
+        for (u = 36; u < 37; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 17; u < 21; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 21; u < 22; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 37; u < 42; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 22; u < 24; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 24; u < 27; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 42; u < 43; ++u) {
+            LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]);
+        }
+        for (u = 27; u < 28; ++u) {
+            LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]);
+        }
+        for (u = 43; u < 46; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 28; u < 29; ++u) {
+            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
+        }
+        for (u = 29; u < 30; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 30; u < 32; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 32; u < 33; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 46; u < 50; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 33; u < 34; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 34; u < 36; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 36; u < 38; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 38; u < 44; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 44; u < 45; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 45; u < 46; ++u) {
+            LANES_MUL(T[u], X[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 46; u < 47; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
+        }
+        for (u = 47; u < 50; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 50; u < 51; ++u) {
+            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
+        }
+        for (u = 51; u < 54; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 54; u < 55; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 50; u < 51; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 51; u < 57; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 55; u < 56; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 56; u < 57; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 57; u < 58; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 58; u < 63; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 63; u < 65; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 57; u < 59; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 65; u < 66; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 66; u < 68; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 59; u < 61; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 68; u < 69; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 69; u < 72; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 61; u < 62; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 72; u < 74; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 62; u < 63; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 74; u < 75; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 75; u < 76; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 63; u < 65; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 76; u < 79; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 65; u < 66; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 66; u < 67; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 67; u < 70; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 70; u < 73; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 79; u < 85; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 73; u < 74; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 85; u < 87; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 87; u < 88; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 74; u < 75; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 88; u < 89; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 75; u < 76; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 89; u < 90; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 90; u < 91; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        if (k == 0) {
+            LANES_GUARD(bad, H[2] + k * L, sine_min);
+            LANES_GUARD(bad, H[1] + k * L, sine_min);
+        }
+        LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[88], k);
+        LANES_OUT(X[5] + (k + 1) * L, T[90], k);
+        LANES_OUT(X[6] + (k + 1) * L, T[87], k);
+        LANES_OUT(X[7] + (k + 1) * L, T[89], k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_std_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[79][ORDER_DIM * L];     /* nodes read at every order */
@@ -533,6 +1126,7 @@ static void spherical_std_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_OUT(X[7] + (k + 1) * L, T[90], k);
     }
 }
+#endif
 
 long spherical_std_taylor_lanes_batch_f(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
 {
@@ -573,7 +1167,300 @@ static void spherical_std_lconstants_l(R (*C)[L], int l, const R *p)
     C[10][l] = p[4];
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if SPHERICAL_STD_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void spherical_std_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[79] = {
+        1, 2, 0, 5, 7, 4, 7, 5, 4, 0, 0, 5, 6, 2, 1, 2,
+        1, 77, 78, 9, 78, 2, 1, 2, 1, 1, 9, 10, 77, 17, 76, 18,
+        22, 3, 17, 18, 6, 31, 6, 7, 31, 29, 23, 17, 22, 27, 18, 9,
+        40, 6, 37, 47, 36, 48, 52, 53, 49, 55, 57, 58, 65, 59, 69, 51,
+        53, 62, 75, 76, 77, 78, 50, 65, 56, 61, 83, 86, 0, 2, 0
+    };
+    static const int HA1[79] = {
+        3, 77, 78, 0, 0, 0, 6, 6, 6, 76, 3, 3, 9, 3, 4, 0,
+        0, 0, 1, 3, 77, 78, 78, 77, 78, 77, 11, 9, 6, 1, 3, 0,
+        4, 23, 6, 4, 5, 9, 34, 35, 76, 76, 9, 2, 3, 3, 38, 39,
+        8, 41, 28, 28, 50, 30, 14, 20, 43, 4, 34, 63, 41, 0, 64, 61,
+        61, 0, 62, 59, 60, 61, 65, 66, 65, 68, 84, 80, 9, 1, 2
+    };
+    static const int TA0[91] = {
+        6, 2, 2, 1, 2, 3, 78, 20, 21, 24, 4, 23, 2, 19, 28, 1,
+        14, 9, 32, 30, 7, 30, 1, 12, 8, 10, 15, 24, 21, 37, 37, 10,
+        18, 26, 43, 44, 29, 29, 44, 9, 47, 5, 44, 43, 24, 5, 49, 34,
+        38, 42, 35, 44, 23, 33, 19, 51, 54, 50, 52, 37, 30, 43, 30, 53,
+        56, 56, 55, 54, 57, 58, 44, 37, 44, 43, 60, 67, 68, 66, 74, 63,
+        64, 70, 56, 58, 72, 53, 52, 81, 79, 16, 15
+    };
+    static const int TA1[91] = {
+        0, 1, 7, 10, 8, 0, 4, 76, 3, 76, 25, 76, 26, 13, 12, 27,
+        19, 29, 76, 33, 36, 0, 7, 13, 5, 9, 2, 11, 4, 0, 30, 42,
+        3, 16, 0, 0, 2, 2, 43, 46, 17, 45, 37, 30, 32, 48, 6, 2,
+        2, 2, 4, 31, 45, 46, 40, 39, 25, 2, 51, 54, 54, 55, 55, 0,
+        0, 5, 9, 5, 9, 50, 57, 57, 60, 60, 5, 71, 72, 73, 70, 67,
+        67, 69, 71, 71, 69, 73, 73, 82, 85, 74, 75
+    };
+    R H[79][ORDER_DIM * L];     /* nodes read at every order */
+    R T[91][L];                 /* nodes read at this order only */
+    const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 1; ++u) {
+            LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L);
+        }
+        for (u = 1; u < 3; ++u) {
+            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
+        }
+        for (u = 3; u < 6; ++u) {
+            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
+        }
+        for (u = 0; u < 1; ++u) {
+            LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k);
+        }
+        for (u = 6; u < 9; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L);
+        }
+        for (u = 9; u < 10; ++u) {
+            LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k);
+        }
+        for (u = 1; u < 2; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 10; u < 11; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 2; u < 4; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 11; u < 13; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 13; u < 15; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 15; u < 17; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 17; u < 20; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 20; u < 28; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 4; u < 6; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 28; u < 29; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
+        }
+        for (u = 6; u < 7; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
+        }
+        for (u = 29; u < 32; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
+        }
+        for (u = 7; u < 17; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 32; u < 34; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 34; u < 36; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
+        }
+        for (u = 36; u < 37; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 17; u < 21; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 21; u < 22; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 37; u < 42; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 22; u < 24; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 24; u < 27; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 42; u < 43; ++u) {
+            LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]);
+        }
+        for (u = 27; u < 28; ++u) {
+            LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]);
+        }
+        for (u = 43; u < 46; ++u) {
+            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
+        }
+        for (u = 28; u < 29; ++u) {
+            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
+        }
+        for (u = 29; u < 30; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 30; u < 32; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 32; u < 33; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 46; u < 50; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 33; u < 34; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 34; u < 36; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 36; u < 38; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 38; u < 44; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 44; u < 45; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 45; u < 46; ++u) {
+            LANES_MUL(T[u], X[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 46; u < 47; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
+        }
+        for (u = 47; u < 50; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 50; u < 51; ++u) {
+            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
+        }
+        for (u = 51; u < 54; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 54; u < 55; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 50; u < 51; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 51; u < 57; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 55; u < 56; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 56; u < 57; ++u) {
+            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 57; u < 58; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
+        }
+        for (u = 58; u < 63; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 63; u < 65; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
+        }
+        for (u = 57; u < 59; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 65; u < 66; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 66; u < 68; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 59; u < 61; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 68; u < 69; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 69; u < 72; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 61; u < 62; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 72; u < 74; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 62; u < 63; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 74; u < 75; ++u) {
+            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
+        }
+        for (u = 75; u < 76; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 63; u < 65; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 76; u < 79; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 65; u < 66; ++u) {
+            LANES_DIV(H[u], 0, H[HA0[u]], k);
+        }
+        for (u = 66; u < 67; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 67; u < 70; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 70; u < 73; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 79; u < 85; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 73; u < 74; ++u) {
+            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
+        }
+        for (u = 85; u < 87; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 87; u < 88; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 74; u < 75; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 88; u < 89; ++u) {
+            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
+        }
+        for (u = 75; u < 76; ++u) {
+            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
+        }
+        for (u = 89; u < 90; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        for (u = 90; u < 91; ++u) {
+            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
+        }
+        if (k == 0) {
+            LANES_GUARD(bad, H[2] + k * L, sine_min);
+            LANES_GUARD(bad, H[1] + k * L, sine_min);
+        }
+        LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[88], k);
+        LANES_OUT(X[5] + (k + 1) * L, T[90], k);
+        LANES_OUT(X[6] + (k + 1) * L, T[87], k);
+        LANES_OUT(X[7] + (k + 1) * L, T[89], k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_std_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[79][ORDER_DIM * L];     /* nodes read at every order */
@@ -763,6 +1650,7 @@ static void spherical_std_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_OUT(X[7] + (k + 1) * L, T[90], k);
     }
 }
+#endif
 
 long spherical_std_taylor_lanes_batch_l(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
 {
