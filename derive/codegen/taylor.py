@@ -433,10 +433,10 @@ def compact_statements(d: Decomposition) -> dict:
     Returns
     -------
     dict
-        rows (the nodes), states (n), tables (per operand position the list of every
-        row's operand), segments ((first row, past the last, statement)), outputs and
-        guards (as c_statements' but on J's rows; the outputs write J[i][k + 1], copied to
-        X at the end).
+        rows (the nodes), states (n), row (each node's row), tables (per operand position
+        the list of every row's operand), segments ((first row, past the last,
+        statement)), outputs and guards (as c_statements' but on J's rows; the outputs
+        write J[i][k + 1], copied to X at the end).
     """
     level = jet_levels(d)
     width = max((len(op.args) for op in d.ops), default=0)
@@ -472,8 +472,8 @@ def compact_statements(d: Decomposition) -> dict:
         src = f"J[{row[j]}][k]" if kind == "node" else f"(k == 0 ? C[{j}] : T_INT(0))"
         outputs.append(f"J[{i}][k + 1] = T_DIVI({src}, k + 1);")
     used = [j for j in range(width) if any(f"A{j}[u]" in text for _, _, text in segments)]
-    return {"rows": len(d.ops), "states": d.n, "tables": {j: tables[j] for j in used}, "segments": segments,
-            "outputs": outputs, "guards": [f"J[{row[g]}][0]" for g in d.guards]}
+    return {"rows": len(d.ops), "states": d.n, "row": row, "tables": {j: tables[j] for j in used},
+            "segments": segments, "outputs": outputs, "guards": [f"J[{row[g]}][0]" for g in d.guards]}
 
 
 TABLE_LINE = 16                 # a table's integers per line of C

@@ -108,7 +108,8 @@ def compact_lane_statements(d: Decomposition) -> dict:
     -------
     dict
         segments ((first row, past the last, statement)), tables ({name: every row's
-        operand}: HA0, TA1, ...), nhist, ncur, outputs and guards (lane_statements').
+        operand}: HA0, TA1, ...), nhist, ncur, outputs and guards (lane_statements'),
+        space and row (each node's array, X, H or T, and its row there).
     """
     hist = history_nodes(d)
     level = jet_levels(d)
@@ -154,6 +155,7 @@ def compact_lane_statements(d: Decomposition) -> dict:
     outputs = [f"LANES_OUT(X[{i}] + (k + 1) * L, {cur(j)}, k);" if kind == "node" else
                f"LANES_OUTC(X[{i}] + (k + 1) * L, C[{j}], k);" for i, (kind, j) in enumerate(d.outputs)]
     return {"segments": segments, "tables": tables, "nhist": used["H"], "ncur": used["T"], "outputs": outputs,
+            "space": space, "row": row,
             "guards": [cur(g) for g in d.guards],
             "reads_constants": any("C[" in line for _, _, line in segments) or any("C[" in o for o in outputs)}
 

@@ -24,7 +24,7 @@ from .build import info_struct, run_batch
 from .shared_library import SUFFIX, TAYLOR_LANES_BATCH, SharedLibrary
 from .model_sizes import model_info
 from ..codegen.taylor import taylor_problem
-from .taylor_library import form_flag, jet_form, taylor_library
+from .taylor_library import form_flag, jet_form, size_flags, taylor_library
 from ..codegen.taylor_lanes import variant_number
 
 # (CPU flag, compiler flags, lanes by scalar type), best first.  The lanes of each level
@@ -86,8 +86,8 @@ class TaylorLanesLibrary(SharedLibrary):
         self.lanes = lanes or default_lanes
         simd = flags if simd is None else simd
         M = model.upper()
-        extra = (f"-D{M}_TAYLOR_ORDER={order}", form_flag(model, self.form), f"-D{M}_TAYLOR_LANES={self.lanes}",
-                 f"-D{M}_TAYLOR_LANES_ONLY={variant_number(SUFFIX[dtype])}")
+        extra = (f"-D{M}_TAYLOR_ORDER={order}", form_flag(model, self.form), *size_flags(model, order, form, True),
+                 f"-D{M}_TAYLOR_LANES={self.lanes}", f"-D{M}_TAYLOR_LANES_ONLY={variant_number(SUFFIX[dtype])}")
         stem = f"{model}_taylor_lanes{SUFFIX[dtype]}_p{order}_l{self.lanes}"
         path, self.flags = _build(stem, source, simd, extra)
         super().__init__(path)

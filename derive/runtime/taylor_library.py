@@ -25,7 +25,7 @@ from .shared_library import SUFFIX, TAYLOR_BATCH, TAYLOR_COEFFICIENTS, TAYLOR_CO
 from .model_sizes import model_info
 from ..codegen.contract import OPTIONS, PRECISION, SINE_MIN
 from ..codegen.sources import kernels
-from ..codegen.taylor import (LANES_UNROLL_COST, UNROLL_COST, rhs_decomposition, taylor_problem,
+from ..codegen.taylor import (LANES_UNROLL_COST, UNROLL_COST, jet_cost, rhs_decomposition, taylor_problem,
                               taylor_skip_flags, unroll_max)
 
 # The jet's forms (templates/c/taylor.c.jinja): unrolled at the fixed order, or compact
@@ -50,6 +50,24 @@ def jet_form(model: str, order: int | None, lanes: bool = False) -> str:
         return "compact"
     limit = unroll_max(rhs_decomposition(model), LANES_UNROLL_COST if lanes else UNROLL_COST)
     return "unrolled" if order <= limit else "compact"
+
+
+# An unrolled jet the rule would not choose (forced by DERIVE_TAYLOR_JET) past these costs
+# (jet_cost) is compiled at -O1, which does not unroll it: at -O2 GCC's time and memory
+# grow faster than the jet (a five-link chain at order 18, cost 50762: 67 s and 2.2 GB
+# for the scalar jet, 299 s and 8.8 GB for the lanes'; a three-link chain, 16303: 5.6 s
+# and 290 MB, lanes 28.5 s and 1.05 GB), at -O1 they stay near the compact jet's build
+# (the five-link chain's scalar jet: 1.4 s, 115 MB).
+O2_COST = 20000
+LANES_O2_COST = 10000
+
+
+def size_flags(model: str, order: int, form: str, lanes: bool = False) -> tuple[str, ...]:
+    """The optimisation flags a build of `model`'s jet at `order` in `form` adds to the
+    defaults (-O2): -O1 for an unrolled jet past O2_COST (LANES_O2_COST for the lanes)."""
+    if form != "unrolled" or jet_cost(rhs_decomposition(model), order) <= (LANES_O2_COST if lanes else O2_COST):
+        return ()
+    return ("-O1",)
 
 
 def form_flag(model: str, form: str) -> str:
@@ -82,6 +100,7 @@ class TaylorLibrary(SharedLibrary):
             raise SimulationInputError(f"model '{model}' has no Taylor integrator: {taylor_problem(model)}")
         path, self.flags = build_fastest(f"{model}_taylor_p{order}{SUFFIX[dtype]}", [source],
                                          extra=(f"-D{model.upper()}_TAYLOR_ORDER={order}", form_flag(model, form),
+                                                *size_flags(model, order, form),
                                                 *taylor_skip_flags(model, PRECISION[dtype].ctype)))
         super().__init__(path)
         self.Info = info_struct(self.n)

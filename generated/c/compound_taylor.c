@@ -151,75 +151,29 @@ static int compound_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 4; u < 6; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 6; u < 8; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 8; u < 10; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 11; u < 14; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 14; u < 17; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 17; u < 18; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 18; u < 19; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 19; u < 20; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 20; u < 22; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 22; u < 23; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 23; u < 24; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 24; u < 25; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 25; u < 27; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 27; u < 28; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 28; u < 29; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 29; u < 31; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 31; u < 32; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 32; u < 33; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 33; u < 34; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 34; u < 35; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 35; u < 37; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 37; u < 39; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 4; u < 6; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 6; u < 8; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 8; u < 10; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 10; u < 11; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 11; u < 14; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 14; u < 17; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 17; u < 18; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 18; u < 19; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 19; u < 20; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 20; u < 22; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 22; u < 23; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 23; u < 24; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 24; u < 25; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 25; u < 27; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 27; u < 28; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 28; u < 29; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 29; u < 31; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 31; u < 32; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 32; u < 33; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 33; u < 34; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 34; u < 35; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 35; u < 37; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 37; u < 39; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         J[0][k + 1] = T_DIVI(J[2][k], k + 1);
         J[1][k + 1] = T_DIVI(J[3][k], k + 1);
         J[2][k + 1] = T_DIVI(J[37][k], k + 1);
@@ -415,75 +369,29 @@ static int compound_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 4; u < 6; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 6; u < 8; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 8; u < 10; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 11; u < 14; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 14; u < 17; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 17; u < 18; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 18; u < 19; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 19; u < 20; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 20; u < 22; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 22; u < 23; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 23; u < 24; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 24; u < 25; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 25; u < 27; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 27; u < 28; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 28; u < 29; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 29; u < 31; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 31; u < 32; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 32; u < 33; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 33; u < 34; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 34; u < 35; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 35; u < 37; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 37; u < 39; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 4; u < 6; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 6; u < 8; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 8; u < 10; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 10; u < 11; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 11; u < 14; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 14; u < 17; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 17; u < 18; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 18; u < 19; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 19; u < 20; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 20; u < 22; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 22; u < 23; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 23; u < 24; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 24; u < 25; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 25; u < 27; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 27; u < 28; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 28; u < 29; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 29; u < 31; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 31; u < 32; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 32; u < 33; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 33; u < 34; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 34; u < 35; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 35; u < 37; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 37; u < 39; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         J[0][k + 1] = T_DIVI(J[2][k], k + 1);
         J[1][k + 1] = T_DIVI(J[3][k], k + 1);
         J[2][k + 1] = T_DIVI(J[37][k], k + 1);
@@ -679,75 +587,29 @@ static int compound_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 4; u < 6; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 6; u < 8; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 8; u < 10; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 11; u < 14; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 14; u < 17; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 17; u < 18; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 18; u < 19; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 19; u < 20; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 20; u < 22; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 22; u < 23; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 23; u < 24; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 24; u < 25; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 25; u < 27; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 27; u < 28; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 28; u < 29; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 29; u < 31; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 31; u < 32; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 32; u < 33; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 33; u < 34; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 34; u < 35; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 35; u < 37; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 37; u < 39; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 4; u < 6; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 6; u < 8; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 8; u < 10; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 10; u < 11; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 11; u < 14; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 14; u < 17; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 17; u < 18; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 18; u < 19; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 19; u < 20; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 20; u < 22; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 22; u < 23; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 23; u < 24; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 24; u < 25; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 25; u < 27; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 27; u < 28; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 28; u < 29; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 29; u < 31; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 31; u < 32; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 32; u < 33; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 33; u < 34; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 34; u < 35; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 35; u < 37; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 37; u < 39; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         J[0][k + 1] = T_DIVI(J[2][k], k + 1);
         J[1][k + 1] = T_DIVI(J[3][k], k + 1);
         J[2][k + 1] = T_DIVI(J[37][k], k + 1);
@@ -944,75 +806,29 @@ static int compound_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wante
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 4; u < 6; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 6; u < 8; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 8; u < 10; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 11; u < 14; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 14; u < 17; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 17; u < 18; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 18; u < 19; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 19; u < 20; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 20; u < 22; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 22; u < 23; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 23; u < 24; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 24; u < 25; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 25; u < 27; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 27; u < 28; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 28; u < 29; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 29; u < 31; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 31; u < 32; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 32; u < 33; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 33; u < 34; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 34; u < 35; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 35; u < 37; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 37; u < 39; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 4; u < 6; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 6; u < 8; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 8; u < 10; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 10; u < 11; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 11; u < 14; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 14; u < 17; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 17; u < 18; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 18; u < 19; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 19; u < 20; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 20; u < 22; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 22; u < 23; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 23; u < 24; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 24; u < 25; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 25; u < 27; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 27; u < 28; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 28; u < 29; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 29; u < 31; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 31; u < 32; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 32; u < 33; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 33; u < 34; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 34; u < 35; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 35; u < 37; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 37; u < 39; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         J[0][k + 1] = T_DIVI(J[2][k], k + 1);
         J[1][k + 1] = T_DIVI(J[3][k], k + 1);
         J[2][k + 1] = T_DIVI(J[37][k], k + 1);

@@ -144,78 +144,30 @@ static void planar_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R si
     (void)sine_min;
     (void)bad;
     for (k = 0; k < order; ++k) {
-        for (u = 0; u < 2; ++u) {
-            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
-        }
-        for (u = 2; u < 4; ++u) {
-            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
-        }
-        for (u = 0; u < 1; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 1; u < 3; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 3; u < 6; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 6; u < 7; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 4; u < 5; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 7; u < 8; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 5; u < 6; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 8; u < 9; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 6; u < 7; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 9; u < 10; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 11; u < 12; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 12; u < 13; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 13; u < 14; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 14; u < 15; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 7; u < 9; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 9; u < 10; ++u) {
-            LANES_SHIFT(H[u] + k * L, T[HA0[u]], C[HA1[u]], k);
-        }
-        for (u = 15; u < 17; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 17; u < 19; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 11; u < 13; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 19; u < 21; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
+        for (u = 0; u < 2; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 2; u < 4; ++u) { LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k); }
+        for (u = 0; u < 1; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 1; u < 3; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 3; u < 6; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 4; u < 5; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 7; u < 8; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 5; u < 6; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 8; u < 9; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 9; u < 10; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 11; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 11; u < 12; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 12; u < 13; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 13; u < 14; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 14; u < 15; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 7; u < 9; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 9; u < 10; ++u) { LANES_SHIFT(H[u] + k * L, T[HA0[u]], C[HA1[u]], k); }
+        for (u = 15; u < 17; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 17; u < 19; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 11; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 11; u < 13; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 19; u < 21; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
         LANES_OUT(X[0] + (k + 1) * L, X[2] + k * L, k);
         LANES_OUT(X[1] + (k + 1) * L, X[3] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, T[19], k);
@@ -340,78 +292,30 @@ static void planar_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R 
     (void)sine_min;
     (void)bad;
     for (k = 0; k < order; ++k) {
-        for (u = 0; u < 2; ++u) {
-            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
-        }
-        for (u = 2; u < 4; ++u) {
-            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
-        }
-        for (u = 0; u < 1; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 1; u < 3; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 3; u < 6; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 6; u < 7; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 4; u < 5; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 7; u < 8; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 5; u < 6; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 8; u < 9; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 6; u < 7; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 9; u < 10; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 11; u < 12; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 12; u < 13; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 13; u < 14; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 14; u < 15; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 7; u < 9; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 9; u < 10; ++u) {
-            LANES_SHIFT(H[u] + k * L, T[HA0[u]], C[HA1[u]], k);
-        }
-        for (u = 15; u < 17; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 17; u < 19; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 11; u < 13; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 19; u < 21; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
+        for (u = 0; u < 2; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 2; u < 4; ++u) { LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k); }
+        for (u = 0; u < 1; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 1; u < 3; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 3; u < 6; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 4; u < 5; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 7; u < 8; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 5; u < 6; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 8; u < 9; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 9; u < 10; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 11; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 11; u < 12; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 12; u < 13; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 13; u < 14; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 14; u < 15; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 7; u < 9; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 9; u < 10; ++u) { LANES_SHIFT(H[u] + k * L, T[HA0[u]], C[HA1[u]], k); }
+        for (u = 15; u < 17; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 17; u < 19; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 11; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 11; u < 13; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 19; u < 21; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
         LANES_OUT(X[0] + (k + 1) * L, X[2] + k * L, k);
         LANES_OUT(X[1] + (k + 1) * L, X[3] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, T[19], k);
@@ -536,78 +440,30 @@ static void planar_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R 
     (void)sine_min;
     (void)bad;
     for (k = 0; k < order; ++k) {
-        for (u = 0; u < 2; ++u) {
-            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
-        }
-        for (u = 2; u < 4; ++u) {
-            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
-        }
-        for (u = 0; u < 1; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 1; u < 3; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 3; u < 6; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 6; u < 7; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 4; u < 5; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 7; u < 8; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 5; u < 6; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 8; u < 9; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 6; u < 7; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 9; u < 10; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 11; u < 12; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 12; u < 13; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 13; u < 14; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 14; u < 15; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 7; u < 9; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 9; u < 10; ++u) {
-            LANES_SHIFT(H[u] + k * L, T[HA0[u]], C[HA1[u]], k);
-        }
-        for (u = 15; u < 17; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 17; u < 19; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 11; u < 13; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 19; u < 21; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
+        for (u = 0; u < 2; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 2; u < 4; ++u) { LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k); }
+        for (u = 0; u < 1; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 1; u < 3; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 3; u < 6; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 4; u < 5; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 7; u < 8; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 5; u < 6; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 8; u < 9; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 9; u < 10; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 11; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 11; u < 12; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 12; u < 13; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 13; u < 14; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 14; u < 15; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 7; u < 9; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 9; u < 10; ++u) { LANES_SHIFT(H[u] + k * L, T[HA0[u]], C[HA1[u]], k); }
+        for (u = 15; u < 17; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 17; u < 19; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 11; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 11; u < 13; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 19; u < 21; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
         LANES_OUT(X[0] + (k + 1) * L, X[2] + k * L, k);
         LANES_OUT(X[1] + (k + 1) * L, X[3] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, T[19], k);

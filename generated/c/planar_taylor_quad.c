@@ -146,72 +146,28 @@ static int planar_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 4; u < 6; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 6; u < 8; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 8; u < 10; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 11; u < 13; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 13; u < 16; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 16; u < 17; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 17; u < 18; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 18; u < 20; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 20; u < 21; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 21; u < 23; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 23; u < 24; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 24; u < 25; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 25; u < 26; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 26; u < 27; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 27; u < 30; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 30; u < 31; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 31; u < 33; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 33; u < 35; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 35; u < 36; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 36; u < 38; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 38; u < 40; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 4; u < 6; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 6; u < 8; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 8; u < 10; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 10; u < 11; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 11; u < 13; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 13; u < 16; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 16; u < 17; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 17; u < 18; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 18; u < 20; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 20; u < 21; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 21; u < 23; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 23; u < 24; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 24; u < 25; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 25; u < 26; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 26; u < 27; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 27; u < 30; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 30; u < 31; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 31; u < 33; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 33; u < 35; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 35; u < 36; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 36; u < 38; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 38; u < 40; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         J[0][k + 1] = T_DIVI(J[2][k], k + 1);
         J[1][k + 1] = T_DIVI(J[3][k], k + 1);
         J[2][k + 1] = T_DIVI(J[38][k], k + 1);

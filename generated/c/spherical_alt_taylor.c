@@ -171,180 +171,64 @@ static int spherical_alt_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wan
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 8; u < 12; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 12; u < 16; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 16; u < 19; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 19; u < 23; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 23; u < 28; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 28; u < 32; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 32; u < 34; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 34; u < 44; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 44; u < 48; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 48; u < 49; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 49; u < 55; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 55; u < 56; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 56; u < 63; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 63; u < 78; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 78; u < 82; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 82; u < 85; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 85; u < 87; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 87; u < 88; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 88; u < 97; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 97; u < 99; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 99; u < 100; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 100; u < 101; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 101; u < 106; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 106; u < 113; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 113; u < 114; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 114; u < 116; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 116; u < 117; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 117; u < 120; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 120; u < 121; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 121; u < 124; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 124; u < 127; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 127; u < 128; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 128; u < 130; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 130; u < 132; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 132; u < 139; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 139; u < 140; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 140; u < 143; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 143; u < 145; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 145; u < 149; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 149; u < 150; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 150; u < 152; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 152; u < 157; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 157; u < 159; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 159; u < 160; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 160; u < 161; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 161; u < 163; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 163; u < 165; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 165; u < 167; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 167; u < 171; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 171; u < 172; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 172; u < 175; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 175; u < 178; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 178; u < 185; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 185; u < 187; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 187; u < 189; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 189; u < 190; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 190; u < 192; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 192; u < 193; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 8; u < 12; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 12; u < 16; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 16; u < 19; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 19; u < 23; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 23; u < 28; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 28; u < 32; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 32; u < 34; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 34; u < 44; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 44; u < 48; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 48; u < 49; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 49; u < 55; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 55; u < 56; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 56; u < 63; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 63; u < 78; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 78; u < 82; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 82; u < 85; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 85; u < 87; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 87; u < 88; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 88; u < 97; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 97; u < 99; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 99; u < 100; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 100; u < 101; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 101; u < 106; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 106; u < 113; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 113; u < 114; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 114; u < 116; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 116; u < 117; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 117; u < 120; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 120; u < 121; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 121; u < 124; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 124; u < 127; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 127; u < 128; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 128; u < 130; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 130; u < 132; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 132; u < 139; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 139; u < 140; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 140; u < 143; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 143; u < 145; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 145; u < 149; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 149; u < 150; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 150; u < 152; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 152; u < 157; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 157; u < 159; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 159; u < 160; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 160; u < 161; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 161; u < 163; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 163; u < 165; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 165; u < 167; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 167; u < 171; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 171; u < 172; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 172; u < 175; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 175; u < 178; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 178; u < 185; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 185; u < 187; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 187; u < 189; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 189; u < 190; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 190; u < 192; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 192; u < 193; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         if (k == 0 && (!(T_ABS(J[11][0]) >= sine_min) || !(T_ABS(J[10][0]) >= sine_min))) {
             return SPHERICAL_ALT_INTEGRATE_CHART_SINGULAR;
         }
@@ -724,180 +608,64 @@ static int spherical_alt_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_w
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 8; u < 12; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 12; u < 16; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 16; u < 19; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 19; u < 23; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 23; u < 28; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 28; u < 32; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 32; u < 34; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 34; u < 44; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 44; u < 48; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 48; u < 49; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 49; u < 55; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 55; u < 56; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 56; u < 63; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 63; u < 78; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 78; u < 82; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 82; u < 85; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 85; u < 87; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 87; u < 88; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 88; u < 97; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 97; u < 99; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 99; u < 100; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 100; u < 101; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 101; u < 106; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 106; u < 113; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 113; u < 114; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 114; u < 116; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 116; u < 117; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 117; u < 120; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 120; u < 121; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 121; u < 124; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 124; u < 127; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 127; u < 128; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 128; u < 130; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 130; u < 132; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 132; u < 139; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 139; u < 140; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 140; u < 143; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 143; u < 145; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 145; u < 149; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 149; u < 150; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 150; u < 152; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 152; u < 157; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 157; u < 159; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 159; u < 160; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 160; u < 161; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 161; u < 163; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 163; u < 165; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 165; u < 167; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 167; u < 171; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 171; u < 172; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 172; u < 175; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 175; u < 178; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 178; u < 185; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 185; u < 187; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 187; u < 189; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 189; u < 190; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 190; u < 192; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 192; u < 193; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 8; u < 12; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 12; u < 16; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 16; u < 19; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 19; u < 23; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 23; u < 28; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 28; u < 32; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 32; u < 34; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 34; u < 44; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 44; u < 48; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 48; u < 49; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 49; u < 55; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 55; u < 56; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 56; u < 63; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 63; u < 78; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 78; u < 82; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 82; u < 85; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 85; u < 87; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 87; u < 88; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 88; u < 97; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 97; u < 99; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 99; u < 100; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 100; u < 101; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 101; u < 106; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 106; u < 113; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 113; u < 114; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 114; u < 116; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 116; u < 117; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 117; u < 120; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 120; u < 121; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 121; u < 124; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 124; u < 127; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 127; u < 128; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 128; u < 130; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 130; u < 132; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 132; u < 139; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 139; u < 140; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 140; u < 143; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 143; u < 145; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 145; u < 149; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 149; u < 150; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 150; u < 152; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 152; u < 157; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 157; u < 159; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 159; u < 160; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 160; u < 161; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 161; u < 163; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 163; u < 165; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 165; u < 167; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 167; u < 171; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 171; u < 172; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 172; u < 175; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 175; u < 178; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 178; u < 185; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 185; u < 187; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 187; u < 189; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 189; u < 190; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 190; u < 192; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 192; u < 193; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         if (k == 0 && (!(T_ABS(J[11][0]) >= sine_min) || !(T_ABS(J[10][0]) >= sine_min))) {
             return SPHERICAL_ALT_INTEGRATE_CHART_SINGULAR;
         }
@@ -1277,180 +1045,64 @@ static int spherical_alt_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_w
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 8; u < 12; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 12; u < 16; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 16; u < 19; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 19; u < 23; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 23; u < 28; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 28; u < 32; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 32; u < 34; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 34; u < 44; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 44; u < 48; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 48; u < 49; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 49; u < 55; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 55; u < 56; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 56; u < 63; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 63; u < 78; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 78; u < 82; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 82; u < 85; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 85; u < 87; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 87; u < 88; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 88; u < 97; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 97; u < 99; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 99; u < 100; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 100; u < 101; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 101; u < 106; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 106; u < 113; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 113; u < 114; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 114; u < 116; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 116; u < 117; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 117; u < 120; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 120; u < 121; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 121; u < 124; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 124; u < 127; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 127; u < 128; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 128; u < 130; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 130; u < 132; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 132; u < 139; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 139; u < 140; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 140; u < 143; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 143; u < 145; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 145; u < 149; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 149; u < 150; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 150; u < 152; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 152; u < 157; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 157; u < 159; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 159; u < 160; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 160; u < 161; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 161; u < 163; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 163; u < 165; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 165; u < 167; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 167; u < 171; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 171; u < 172; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 172; u < 175; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 175; u < 178; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 178; u < 185; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 185; u < 187; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 187; u < 189; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 189; u < 190; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 190; u < 192; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 192; u < 193; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 8; u < 12; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 12; u < 16; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 16; u < 19; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 19; u < 23; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 23; u < 28; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 28; u < 32; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 32; u < 34; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 34; u < 44; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 44; u < 48; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 48; u < 49; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 49; u < 55; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 55; u < 56; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 56; u < 63; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 63; u < 78; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 78; u < 82; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 82; u < 85; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 85; u < 87; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 87; u < 88; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 88; u < 97; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 97; u < 99; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 99; u < 100; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 100; u < 101; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 101; u < 106; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 106; u < 113; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 113; u < 114; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 114; u < 116; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 116; u < 117; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 117; u < 120; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 120; u < 121; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 121; u < 124; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 124; u < 127; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 127; u < 128; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 128; u < 130; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 130; u < 132; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 132; u < 139; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 139; u < 140; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 140; u < 143; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 143; u < 145; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 145; u < 149; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 149; u < 150; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 150; u < 152; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 152; u < 157; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 157; u < 159; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 159; u < 160; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 160; u < 161; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 161; u < 163; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 163; u < 165; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 165; u < 167; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 167; u < 171; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 171; u < 172; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 172; u < 175; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 175; u < 178; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 178; u < 185; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 185; u < 187; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 187; u < 189; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 189; u < 190; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 190; u < 192; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 192; u < 193; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         if (k == 0 && (!(T_ABS(J[11][0]) >= sine_min) || !(T_ABS(J[10][0]) >= sine_min))) {
             return SPHERICAL_ALT_INTEGRATE_CHART_SINGULAR;
         }
@@ -1831,180 +1483,64 @@ static int spherical_alt_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 8; u < 12; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 12; u < 16; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 16; u < 19; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 19; u < 23; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 23; u < 28; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 28; u < 32; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 32; u < 34; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 34; u < 44; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 44; u < 48; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 48; u < 49; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 49; u < 55; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 55; u < 56; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 56; u < 63; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 63; u < 78; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 78; u < 82; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 82; u < 85; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 85; u < 87; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 87; u < 88; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 88; u < 97; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 97; u < 99; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 99; u < 100; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 100; u < 101; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 101; u < 106; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 106; u < 113; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 113; u < 114; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 114; u < 116; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 116; u < 117; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 117; u < 120; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 120; u < 121; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 121; u < 124; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 124; u < 127; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 127; u < 128; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 128; u < 130; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 130; u < 132; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 132; u < 139; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 139; u < 140; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 140; u < 143; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 143; u < 145; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 145; u < 149; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 149; u < 150; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 150; u < 152; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 152; u < 157; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 157; u < 159; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 159; u < 160; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 160; u < 161; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 161; u < 163; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 163; u < 165; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 165; u < 167; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 167; u < 171; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 171; u < 172; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 172; u < 175; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 175; u < 178; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 178; u < 185; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 185; u < 187; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 187; u < 189; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 189; u < 190; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 190; u < 192; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 192; u < 193; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 8; u < 12; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 12; u < 16; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 16; u < 19; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 19; u < 23; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 23; u < 28; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 28; u < 32; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 32; u < 34; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 34; u < 44; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 44; u < 48; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 48; u < 49; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 49; u < 55; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 55; u < 56; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 56; u < 63; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 63; u < 78; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 78; u < 82; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 82; u < 85; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 85; u < 87; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 87; u < 88; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 88; u < 97; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 97; u < 99; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 99; u < 100; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 100; u < 101; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 101; u < 106; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 106; u < 113; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 113; u < 114; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 114; u < 116; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 116; u < 117; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 117; u < 120; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 120; u < 121; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 121; u < 124; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 124; u < 127; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 127; u < 128; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 128; u < 130; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 130; u < 132; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 132; u < 139; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 139; u < 140; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 140; u < 143; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 143; u < 145; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 145; u < 149; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 149; u < 150; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 150; u < 152; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 152; u < 157; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 157; u < 159; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 159; u < 160; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 160; u < 161; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 161; u < 163; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 163; u < 165; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 165; u < 167; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 167; u < 171; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 171; u < 172; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 172; u < 175; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 175; u < 178; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 178; u < 185; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 185; u < 187; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 187; u < 189; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 189; u < 190; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 190; u < 192; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 192; u < 193; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         if (k == 0 && (!(T_ABS(J[11][0]) >= sine_min) || !(T_ABS(J[10][0]) >= sine_min))) {
             return SPHERICAL_ALT_INTEGRATE_CHART_SINGULAR;
         }

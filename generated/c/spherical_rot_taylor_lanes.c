@@ -165,258 +165,90 @@ static void spherical_rot_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wante
     const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
     int k, u;
     for (k = 0; k < order; ++k) {
-        for (u = 0; u < 4; ++u) {
-            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
-        }
-        for (u = 4; u < 7; ++u) {
-            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
-        }
-        for (u = 0; u < 1; ++u) {
-            LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k);
-        }
-        for (u = 7; u < 10; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L);
-        }
-        for (u = 1; u < 3; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 11; u < 14; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 14; u < 17; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 17; u < 19; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 3; u < 6; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 19; u < 21; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 21; u < 26; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 6; u < 8; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 26; u < 27; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
-        }
-        for (u = 8; u < 9; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
-        }
-        for (u = 27; u < 28; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 28; u < 31; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 31; u < 32; ++u) {
-            LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 9; u < 13; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 32; u < 34; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
-        }
-        for (u = 34; u < 35; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 13; u < 15; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 35; u < 36; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 15; u < 23; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 36; u < 38; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 38; u < 45; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 23; u < 25; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 45; u < 46; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 25; u < 27; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 27; u < 28; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 28; u < 32; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 46; u < 51; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 51; u < 52; ++u) {
-            LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]);
-        }
-        for (u = 32; u < 33; ++u) {
-            LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]);
-        }
-        for (u = 33; u < 35; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 35; u < 36; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 36; u < 37; ++u) {
-            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
-        }
-        for (u = 37; u < 40; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 52; u < 54; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 40; u < 45; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 45; u < 46; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 46; u < 48; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
-        }
-        for (u = 48; u < 50; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 50; u < 51; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 51; u < 54; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 54; u < 55; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 55; u < 57; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 54; u < 55; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 55; u < 56; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 57; u < 58; ++u) {
-            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
-        }
-        for (u = 58; u < 60; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 60; u < 62; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 62; u < 64; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 56; u < 60; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 64; u < 67; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 67; u < 68; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 68; u < 71; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 71; u < 73; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 73; u < 74; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 60; u < 63; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 74; u < 75; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 63; u < 65; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 75; u < 80; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 80; u < 82; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 65; u < 66; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 82; u < 83; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 83; u < 84; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 66; u < 67; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 84; u < 86; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 67; u < 69; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 86; u < 89; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 69; u < 70; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 70; u < 71; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 71; u < 74; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 74; u < 77; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 89; u < 95; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 77; u < 78; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 95; u < 96; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 78; u < 79; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 96; u < 98; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 98; u < 99; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 99; u < 100; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 79; u < 80; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 100; u < 101; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
+        for (u = 0; u < 4; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 4; u < 7; ++u) { LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k); }
+        for (u = 0; u < 1; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k); }
+        for (u = 7; u < 10; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L); }
+        for (u = 1; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 11; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 11; u < 14; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 14; u < 17; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 17; u < 19; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 3; u < 6; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 19; u < 21; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 21; u < 26; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 6; u < 8; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 26; u < 27; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k); }
+        for (u = 8; u < 9; ++u) { LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k); }
+        for (u = 27; u < 28; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 28; u < 31; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 31; u < 32; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 9; u < 13; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 32; u < 34; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k); }
+        for (u = 34; u < 35; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 13; u < 15; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 35; u < 36; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 15; u < 23; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 36; u < 38; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 38; u < 45; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 23; u < 25; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 45; u < 46; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 25; u < 27; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 27; u < 28; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 28; u < 32; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 46; u < 51; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 51; u < 52; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 32; u < 33; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 33; u < 35; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 35; u < 36; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 36; u < 37; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 37; u < 40; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 52; u < 54; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 40; u < 45; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 45; u < 46; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 46; u < 48; ++u) { LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k); }
+        for (u = 48; u < 50; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 50; u < 51; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 51; u < 54; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 54; u < 55; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 55; u < 57; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 54; u < 55; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 55; u < 56; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 57; u < 58; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 58; u < 60; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 60; u < 62; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 62; u < 64; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 56; u < 60; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 64; u < 67; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 67; u < 68; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 68; u < 71; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 71; u < 73; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 73; u < 74; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 60; u < 63; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 74; u < 75; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 63; u < 65; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 75; u < 80; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 80; u < 82; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 65; u < 66; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 82; u < 83; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 83; u < 84; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 66; u < 67; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 84; u < 86; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 67; u < 69; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 86; u < 89; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 69; u < 70; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 70; u < 71; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 71; u < 74; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 74; u < 77; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 89; u < 95; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 77; u < 78; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 95; u < 96; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 78; u < 79; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 96; u < 98; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 98; u < 99; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 99; u < 100; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 79; u < 80; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 100; u < 101; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
         if (k == 0) {
             LANES_GUARD(bad, H[3] + k * L, sine_min);
             LANES_GUARD(bad, H[2] + k * L, sine_min);
@@ -723,258 +555,90 @@ static void spherical_rot_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
     const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
     int k, u;
     for (k = 0; k < order; ++k) {
-        for (u = 0; u < 4; ++u) {
-            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
-        }
-        for (u = 4; u < 7; ++u) {
-            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
-        }
-        for (u = 0; u < 1; ++u) {
-            LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k);
-        }
-        for (u = 7; u < 10; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L);
-        }
-        for (u = 1; u < 3; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 11; u < 14; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 14; u < 17; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 17; u < 19; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 3; u < 6; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 19; u < 21; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 21; u < 26; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 6; u < 8; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 26; u < 27; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
-        }
-        for (u = 8; u < 9; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
-        }
-        for (u = 27; u < 28; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 28; u < 31; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 31; u < 32; ++u) {
-            LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 9; u < 13; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 32; u < 34; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
-        }
-        for (u = 34; u < 35; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 13; u < 15; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 35; u < 36; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 15; u < 23; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 36; u < 38; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 38; u < 45; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 23; u < 25; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 45; u < 46; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 25; u < 27; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 27; u < 28; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 28; u < 32; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 46; u < 51; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 51; u < 52; ++u) {
-            LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]);
-        }
-        for (u = 32; u < 33; ++u) {
-            LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]);
-        }
-        for (u = 33; u < 35; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 35; u < 36; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 36; u < 37; ++u) {
-            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
-        }
-        for (u = 37; u < 40; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 52; u < 54; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 40; u < 45; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 45; u < 46; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 46; u < 48; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
-        }
-        for (u = 48; u < 50; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 50; u < 51; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 51; u < 54; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 54; u < 55; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 55; u < 57; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 54; u < 55; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 55; u < 56; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 57; u < 58; ++u) {
-            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
-        }
-        for (u = 58; u < 60; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 60; u < 62; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 62; u < 64; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 56; u < 60; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 64; u < 67; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 67; u < 68; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 68; u < 71; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 71; u < 73; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 73; u < 74; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 60; u < 63; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 74; u < 75; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 63; u < 65; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 75; u < 80; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 80; u < 82; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 65; u < 66; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 82; u < 83; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 83; u < 84; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 66; u < 67; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 84; u < 86; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 67; u < 69; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 86; u < 89; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 69; u < 70; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 70; u < 71; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 71; u < 74; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 74; u < 77; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 89; u < 95; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 77; u < 78; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 95; u < 96; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 78; u < 79; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 96; u < 98; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 98; u < 99; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 99; u < 100; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 79; u < 80; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 100; u < 101; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
+        for (u = 0; u < 4; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 4; u < 7; ++u) { LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k); }
+        for (u = 0; u < 1; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k); }
+        for (u = 7; u < 10; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L); }
+        for (u = 1; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 11; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 11; u < 14; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 14; u < 17; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 17; u < 19; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 3; u < 6; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 19; u < 21; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 21; u < 26; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 6; u < 8; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 26; u < 27; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k); }
+        for (u = 8; u < 9; ++u) { LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k); }
+        for (u = 27; u < 28; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 28; u < 31; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 31; u < 32; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 9; u < 13; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 32; u < 34; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k); }
+        for (u = 34; u < 35; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 13; u < 15; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 35; u < 36; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 15; u < 23; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 36; u < 38; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 38; u < 45; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 23; u < 25; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 45; u < 46; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 25; u < 27; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 27; u < 28; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 28; u < 32; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 46; u < 51; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 51; u < 52; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 32; u < 33; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 33; u < 35; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 35; u < 36; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 36; u < 37; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 37; u < 40; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 52; u < 54; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 40; u < 45; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 45; u < 46; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 46; u < 48; ++u) { LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k); }
+        for (u = 48; u < 50; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 50; u < 51; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 51; u < 54; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 54; u < 55; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 55; u < 57; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 54; u < 55; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 55; u < 56; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 57; u < 58; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 58; u < 60; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 60; u < 62; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 62; u < 64; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 56; u < 60; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 64; u < 67; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 67; u < 68; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 68; u < 71; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 71; u < 73; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 73; u < 74; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 60; u < 63; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 74; u < 75; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 63; u < 65; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 75; u < 80; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 80; u < 82; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 65; u < 66; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 82; u < 83; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 83; u < 84; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 66; u < 67; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 84; u < 86; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 67; u < 69; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 86; u < 89; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 69; u < 70; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 70; u < 71; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 71; u < 74; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 74; u < 77; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 89; u < 95; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 77; u < 78; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 95; u < 96; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 78; u < 79; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 96; u < 98; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 98; u < 99; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 99; u < 100; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 79; u < 80; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 100; u < 101; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
         if (k == 0) {
             LANES_GUARD(bad, H[3] + k * L, sine_min);
             LANES_GUARD(bad, H[2] + k * L, sine_min);
@@ -1281,258 +945,90 @@ static void spherical_rot_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
     const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
     int k, u;
     for (k = 0; k < order; ++k) {
-        for (u = 0; u < 4; ++u) {
-            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
-        }
-        for (u = 4; u < 7; ++u) {
-            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
-        }
-        for (u = 0; u < 1; ++u) {
-            LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k);
-        }
-        for (u = 7; u < 10; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L);
-        }
-        for (u = 1; u < 3; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 11; u < 14; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 14; u < 17; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 17; u < 19; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 3; u < 6; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 19; u < 21; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 21; u < 26; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 6; u < 8; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 26; u < 27; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
-        }
-        for (u = 8; u < 9; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
-        }
-        for (u = 27; u < 28; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 28; u < 31; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 31; u < 32; ++u) {
-            LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 9; u < 13; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 32; u < 34; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
-        }
-        for (u = 34; u < 35; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 13; u < 15; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 35; u < 36; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 15; u < 23; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 36; u < 38; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 38; u < 45; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 23; u < 25; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 45; u < 46; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 25; u < 27; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 27; u < 28; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 28; u < 32; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 46; u < 51; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 51; u < 52; ++u) {
-            LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]);
-        }
-        for (u = 32; u < 33; ++u) {
-            LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]);
-        }
-        for (u = 33; u < 35; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 35; u < 36; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 36; u < 37; ++u) {
-            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
-        }
-        for (u = 37; u < 40; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 52; u < 54; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 40; u < 45; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 45; u < 46; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 46; u < 48; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
-        }
-        for (u = 48; u < 50; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 50; u < 51; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 51; u < 54; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 54; u < 55; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 55; u < 57; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 54; u < 55; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 55; u < 56; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 57; u < 58; ++u) {
-            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
-        }
-        for (u = 58; u < 60; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 60; u < 62; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 62; u < 64; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 56; u < 60; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 64; u < 67; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 67; u < 68; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 68; u < 71; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 71; u < 73; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 73; u < 74; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 60; u < 63; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 74; u < 75; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 63; u < 65; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 75; u < 80; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 80; u < 82; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 65; u < 66; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 82; u < 83; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 83; u < 84; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 66; u < 67; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 84; u < 86; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 67; u < 69; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 86; u < 89; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 69; u < 70; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 70; u < 71; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 71; u < 74; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 74; u < 77; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 89; u < 95; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 77; u < 78; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 95; u < 96; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 78; u < 79; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 96; u < 98; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 98; u < 99; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 99; u < 100; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 79; u < 80; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 100; u < 101; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
+        for (u = 0; u < 4; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 4; u < 7; ++u) { LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k); }
+        for (u = 0; u < 1; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k); }
+        for (u = 7; u < 10; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L); }
+        for (u = 1; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 11; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 11; u < 14; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 14; u < 17; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 17; u < 19; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 3; u < 6; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 19; u < 21; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 21; u < 26; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 6; u < 8; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 26; u < 27; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k); }
+        for (u = 8; u < 9; ++u) { LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k); }
+        for (u = 27; u < 28; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 28; u < 31; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 31; u < 32; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 9; u < 13; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 32; u < 34; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k); }
+        for (u = 34; u < 35; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 13; u < 15; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 35; u < 36; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 15; u < 23; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 36; u < 38; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 38; u < 45; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 23; u < 25; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 45; u < 46; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 25; u < 27; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 27; u < 28; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 28; u < 32; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 46; u < 51; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 51; u < 52; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 32; u < 33; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 33; u < 35; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 35; u < 36; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 36; u < 37; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 37; u < 40; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 52; u < 54; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 40; u < 45; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 45; u < 46; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 46; u < 48; ++u) { LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k); }
+        for (u = 48; u < 50; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 50; u < 51; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 51; u < 54; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 54; u < 55; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 55; u < 57; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 54; u < 55; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 55; u < 56; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 57; u < 58; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 58; u < 60; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 60; u < 62; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 62; u < 64; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 56; u < 60; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 64; u < 67; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 67; u < 68; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 68; u < 71; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 71; u < 73; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 73; u < 74; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 60; u < 63; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 74; u < 75; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 63; u < 65; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 75; u < 80; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 80; u < 82; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 65; u < 66; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 82; u < 83; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 83; u < 84; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 66; u < 67; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 84; u < 86; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 67; u < 69; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 86; u < 89; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 69; u < 70; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 70; u < 71; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 71; u < 74; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 74; u < 77; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 89; u < 95; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 77; u < 78; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 95; u < 96; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 78; u < 79; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 96; u < 98; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 98; u < 99; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 99; u < 100; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 79; u < 80; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 100; u < 101; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
         if (k == 0) {
             LANES_GUARD(bad, H[3] + k * L, sine_min);
             LANES_GUARD(bad, H[2] + k * L, sine_min);

@@ -168,177 +168,63 @@ static int spherical_std_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wan
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 8; u < 9; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 9; u < 11; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 11; u < 15; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 15; u < 18; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 18; u < 19; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 19; u < 21; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 21; u < 24; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 24; u < 29; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 29; u < 31; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 31; u < 32; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 32; u < 37; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 37; u < 47; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 47; u < 51; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 51; u < 65; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 65; u < 74; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 74; u < 75; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 75; u < 77; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 77; u < 80; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 80; u < 82; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 82; u < 86; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 86; u < 87; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 87; u < 88; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 88; u < 94; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 94; u < 95; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 95; u < 97; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 97; u < 99; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 99; u < 107; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 107; u < 108; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 108; u < 111; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 111; u < 112; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 112; u < 116; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 116; u < 117; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 117; u < 124; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 124; u < 125; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 125; u < 126; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 126; u < 131; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 131; u < 133; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 133; u < 136; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 136; u < 138; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 138; u < 140; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 140; u < 141; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 141; u < 144; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 144; u < 145; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 145; u < 147; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 147; u < 149; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 149; u < 150; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 150; u < 152; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 152; u < 156; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 156; u < 157; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 157; u < 160; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 160; u < 163; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 163; u < 170; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 170; u < 172; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 172; u < 174; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 174; u < 176; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 176; u < 177; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 177; u < 178; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 8; u < 9; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 9; u < 11; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 11; u < 15; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 15; u < 18; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 18; u < 19; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 19; u < 21; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 21; u < 24; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 24; u < 29; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 29; u < 31; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 31; u < 32; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 32; u < 37; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 37; u < 47; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 47; u < 51; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 51; u < 65; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 65; u < 74; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 74; u < 75; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 75; u < 77; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 77; u < 80; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 80; u < 82; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 82; u < 86; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 86; u < 87; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 87; u < 88; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 88; u < 94; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 94; u < 95; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 95; u < 97; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 97; u < 99; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 99; u < 107; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 107; u < 108; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 108; u < 111; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 111; u < 112; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 112; u < 116; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 116; u < 117; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 117; u < 124; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 124; u < 125; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 125; u < 126; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 126; u < 131; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 131; u < 133; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 133; u < 136; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 136; u < 138; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 138; u < 140; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 140; u < 141; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 141; u < 144; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 144; u < 145; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 145; u < 147; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 147; u < 149; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 149; u < 150; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 150; u < 152; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 152; u < 156; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 156; u < 157; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 157; u < 160; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 160; u < 163; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 163; u < 170; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 170; u < 172; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 172; u < 174; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 174; u < 176; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 176; u < 177; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 177; u < 178; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         if (k == 0 && (!(T_ABS(J[10][0]) >= sine_min) || !(T_ABS(J[9][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }
@@ -699,177 +585,63 @@ static int spherical_std_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_w
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 8; u < 9; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 9; u < 11; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 11; u < 15; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 15; u < 18; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 18; u < 19; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 19; u < 21; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 21; u < 24; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 24; u < 29; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 29; u < 31; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 31; u < 32; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 32; u < 37; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 37; u < 47; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 47; u < 51; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 51; u < 65; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 65; u < 74; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 74; u < 75; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 75; u < 77; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 77; u < 80; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 80; u < 82; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 82; u < 86; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 86; u < 87; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 87; u < 88; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 88; u < 94; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 94; u < 95; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 95; u < 97; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 97; u < 99; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 99; u < 107; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 107; u < 108; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 108; u < 111; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 111; u < 112; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 112; u < 116; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 116; u < 117; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 117; u < 124; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 124; u < 125; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 125; u < 126; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 126; u < 131; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 131; u < 133; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 133; u < 136; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 136; u < 138; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 138; u < 140; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 140; u < 141; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 141; u < 144; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 144; u < 145; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 145; u < 147; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 147; u < 149; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 149; u < 150; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 150; u < 152; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 152; u < 156; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 156; u < 157; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 157; u < 160; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 160; u < 163; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 163; u < 170; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 170; u < 172; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 172; u < 174; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 174; u < 176; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 176; u < 177; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 177; u < 178; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 8; u < 9; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 9; u < 11; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 11; u < 15; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 15; u < 18; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 18; u < 19; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 19; u < 21; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 21; u < 24; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 24; u < 29; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 29; u < 31; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 31; u < 32; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 32; u < 37; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 37; u < 47; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 47; u < 51; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 51; u < 65; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 65; u < 74; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 74; u < 75; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 75; u < 77; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 77; u < 80; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 80; u < 82; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 82; u < 86; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 86; u < 87; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 87; u < 88; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 88; u < 94; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 94; u < 95; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 95; u < 97; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 97; u < 99; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 99; u < 107; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 107; u < 108; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 108; u < 111; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 111; u < 112; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 112; u < 116; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 116; u < 117; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 117; u < 124; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 124; u < 125; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 125; u < 126; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 126; u < 131; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 131; u < 133; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 133; u < 136; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 136; u < 138; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 138; u < 140; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 140; u < 141; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 141; u < 144; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 144; u < 145; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 145; u < 147; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 147; u < 149; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 149; u < 150; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 150; u < 152; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 152; u < 156; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 156; u < 157; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 157; u < 160; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 160; u < 163; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 163; u < 170; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 170; u < 172; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 172; u < 174; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 174; u < 176; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 176; u < 177; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 177; u < 178; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         if (k == 0 && (!(T_ABS(J[10][0]) >= sine_min) || !(T_ABS(J[9][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }
@@ -1230,177 +1002,63 @@ static int spherical_std_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_w
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 8; u < 9; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 9; u < 11; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 11; u < 15; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 15; u < 18; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 18; u < 19; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 19; u < 21; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 21; u < 24; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 24; u < 29; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 29; u < 31; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 31; u < 32; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 32; u < 37; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 37; u < 47; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 47; u < 51; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 51; u < 65; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 65; u < 74; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 74; u < 75; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 75; u < 77; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 77; u < 80; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 80; u < 82; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 82; u < 86; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 86; u < 87; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 87; u < 88; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 88; u < 94; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 94; u < 95; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 95; u < 97; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 97; u < 99; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 99; u < 107; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 107; u < 108; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 108; u < 111; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 111; u < 112; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 112; u < 116; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 116; u < 117; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 117; u < 124; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 124; u < 125; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 125; u < 126; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 126; u < 131; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 131; u < 133; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 133; u < 136; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 136; u < 138; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 138; u < 140; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 140; u < 141; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 141; u < 144; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 144; u < 145; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 145; u < 147; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 147; u < 149; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 149; u < 150; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 150; u < 152; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 152; u < 156; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 156; u < 157; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 157; u < 160; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 160; u < 163; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 163; u < 170; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 170; u < 172; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 172; u < 174; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 174; u < 176; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 176; u < 177; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 177; u < 178; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 8; u < 9; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 9; u < 11; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 11; u < 15; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 15; u < 18; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 18; u < 19; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 19; u < 21; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 21; u < 24; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 24; u < 29; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 29; u < 31; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 31; u < 32; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 32; u < 37; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 37; u < 47; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 47; u < 51; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 51; u < 65; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 65; u < 74; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 74; u < 75; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 75; u < 77; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 77; u < 80; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 80; u < 82; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 82; u < 86; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 86; u < 87; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 87; u < 88; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 88; u < 94; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 94; u < 95; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 95; u < 97; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 97; u < 99; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 99; u < 107; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 107; u < 108; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 108; u < 111; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 111; u < 112; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 112; u < 116; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 116; u < 117; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 117; u < 124; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 124; u < 125; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 125; u < 126; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 126; u < 131; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 131; u < 133; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 133; u < 136; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 136; u < 138; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 138; u < 140; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 140; u < 141; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 141; u < 144; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 144; u < 145; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 145; u < 147; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 147; u < 149; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 149; u < 150; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 150; u < 152; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 152; u < 156; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 156; u < 157; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 157; u < 160; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 160; u < 163; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 163; u < 170; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 170; u < 172; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 172; u < 174; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 174; u < 176; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 176; u < 177; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 177; u < 178; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         if (k == 0 && (!(T_ABS(J[10][0]) >= sine_min) || !(T_ABS(J[9][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }
@@ -1762,177 +1420,63 @@ static int spherical_std_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 8; u < 9; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 9; u < 11; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 11; u < 15; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 15; u < 18; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 18; u < 19; ++u) {
-            J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 19; u < 21; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 21; u < 24; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 24; u < 29; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 29; u < 31; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 31; u < 32; ++u) {
-            J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 32; u < 37; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 37; u < 47; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 47; u < 51; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 51; u < 65; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 65; u < 74; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 74; u < 75; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 75; u < 77; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 77; u < 80; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 80; u < 82; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 82; u < 86; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 86; u < 87; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 87; u < 88; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 88; u < 94; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 94; u < 95; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 95; u < 97; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 97; u < 99; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 99; u < 107; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 107; u < 108; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 108; u < 111; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 111; u < 112; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0));
-        }
-        for (u = 112; u < 116; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 116; u < 117; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 117; u < 124; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 124; u < 125; ++u) {
-            J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 125; u < 126; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 126; u < 131; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 131; u < 133; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k);
-        }
-        for (u = 133; u < 136; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 136; u < 138; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 138; u < 140; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 140; u < 141; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 141; u < 144; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 144; u < 145; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 145; u < 147; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 147; u < 149; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 149; u < 150; ++u) {
-            J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]);
-        }
-        for (u = 150; u < 152; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 152; u < 156; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 156; u < 157; ++u) {
-            J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k);
-        }
-        for (u = 157; u < 160; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 160; u < 163; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 163; u < 170; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 170; u < 172; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 172; u < 174; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 174; u < 176; ++u) {
-            J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]);
-        }
-        for (u = 176; u < 177; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
-        for (u = 177; u < 178; ++u) {
-            J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k);
-        }
+        for (u = 8; u < 9; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 9; u < 11; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 11; u < 15; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 15; u < 18; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 18; u < 19; ++u) { J[u][k] = k == 0 ? T_SIN(J[A0[u]][0]) : TAYLOR_SIN(J[A0[u]], J[A1[u]], k); }
+        for (u = 19; u < 21; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 21; u < 24; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 24; u < 29; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 29; u < 31; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 31; u < 32; ++u) { J[u][k] = k == 0 ? T_COS(J[A0[u]][0]) : TAYLOR_COS(J[A0[u]], J[A1[u]], k); }
+        for (u = 32; u < 37; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 37; u < 47; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 47; u < 51; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 51; u < 65; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 65; u < 74; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 74; u < 75; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 75; u < 77; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 77; u < 80; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 80; u < 82; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 82; u < 86; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 86; u < 87; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 87; u < 88; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 88; u < 94; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 94; u < 95; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 95; u < 97; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 97; u < 99; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 99; u < 107; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 107; u < 108; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 108; u < 111; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 111; u < 112; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 112; u < 116; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 116; u < 117; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 117; u < 124; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 124; u < 125; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 125; u < 126; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 126; u < 131; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 131; u < 133; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A0[u]], k); }
+        for (u = 133; u < 136; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 136; u < 138; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 138; u < 140; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 140; u < 141; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 141; u < 144; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 144; u < 145; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 145; u < 147; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 147; u < 149; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 149; u < 150; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 150; u < 152; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 152; u < 156; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 156; u < 157; ++u) { J[u][k] = TAYLOR_DIV(T_INT(k == 0), J[A0[u]], J[u], k); }
+        for (u = 157; u < 160; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 160; u < 163; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 163; u < 170; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 170; u < 172; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 172; u < 174; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 174; u < 176; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 176; u < 177; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 177; u < 178; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         if (k == 0 && (!(T_ABS(J[10][0]) >= sine_min) || !(T_ABS(J[9][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }

@@ -160,243 +160,85 @@ static void spherical_std_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wante
     const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
     int k, u;
     for (k = 0; k < order; ++k) {
-        for (u = 0; u < 1; ++u) {
-            LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L);
-        }
-        for (u = 1; u < 3; ++u) {
-            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
-        }
-        for (u = 3; u < 6; ++u) {
-            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
-        }
-        for (u = 0; u < 1; ++u) {
-            LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k);
-        }
-        for (u = 6; u < 9; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L);
-        }
-        for (u = 9; u < 10; ++u) {
-            LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k);
-        }
-        for (u = 1; u < 2; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 2; u < 4; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 11; u < 13; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 13; u < 15; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 15; u < 17; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 17; u < 20; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 20; u < 28; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 4; u < 6; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 28; u < 29; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
-        }
-        for (u = 6; u < 7; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
-        }
-        for (u = 29; u < 32; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 7; u < 17; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 32; u < 34; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 34; u < 36; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
-        }
-        for (u = 36; u < 37; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 17; u < 21; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 21; u < 22; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 37; u < 42; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 22; u < 24; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 24; u < 27; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 42; u < 43; ++u) {
-            LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]);
-        }
-        for (u = 27; u < 28; ++u) {
-            LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]);
-        }
-        for (u = 43; u < 46; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 28; u < 29; ++u) {
-            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
-        }
-        for (u = 29; u < 30; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 30; u < 32; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 32; u < 33; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 46; u < 50; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 33; u < 34; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 34; u < 36; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 36; u < 38; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 38; u < 44; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 44; u < 45; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 45; u < 46; ++u) {
-            LANES_MUL(T[u], X[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 46; u < 47; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
-        }
-        for (u = 47; u < 50; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 50; u < 51; ++u) {
-            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
-        }
-        for (u = 51; u < 54; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 54; u < 55; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 50; u < 51; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 51; u < 57; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 55; u < 56; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 56; u < 57; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 57; u < 58; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 58; u < 63; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 63; u < 65; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 57; u < 59; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 65; u < 66; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 66; u < 68; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 59; u < 61; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 68; u < 69; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 69; u < 72; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 61; u < 62; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 72; u < 74; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 62; u < 63; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 74; u < 75; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 75; u < 76; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 63; u < 65; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 76; u < 79; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 65; u < 66; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 66; u < 67; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 67; u < 70; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 70; u < 73; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 79; u < 85; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 73; u < 74; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 85; u < 87; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 87; u < 88; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 74; u < 75; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 88; u < 89; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 75; u < 76; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 89; u < 90; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 90; u < 91; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
+        for (u = 0; u < 1; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 1; u < 3; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 3; u < 6; ++u) { LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k); }
+        for (u = 0; u < 1; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k); }
+        for (u = 6; u < 9; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L); }
+        for (u = 9; u < 10; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 1; u < 2; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 11; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 2; u < 4; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 11; u < 13; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 13; u < 15; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 15; u < 17; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 17; u < 20; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 20; u < 28; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 4; u < 6; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 28; u < 29; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k); }
+        for (u = 29; u < 32; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 7; u < 17; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 32; u < 34; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 34; u < 36; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k); }
+        for (u = 36; u < 37; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 17; u < 21; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 21; u < 22; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 37; u < 42; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 22; u < 24; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 24; u < 27; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 42; u < 43; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 27; u < 28; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 43; u < 46; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 28; u < 29; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 29; u < 30; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 30; u < 32; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 32; u < 33; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 46; u < 50; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 33; u < 34; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 34; u < 36; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 36; u < 38; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 38; u < 44; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 44; u < 45; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 45; u < 46; ++u) { LANES_MUL(T[u], X[TA0[u]], H[TA1[u]], k); }
+        for (u = 46; u < 47; ++u) { LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k); }
+        for (u = 47; u < 50; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 50; u < 51; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 51; u < 54; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 54; u < 55; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 50; u < 51; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 51; u < 57; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 55; u < 56; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 56; u < 57; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 57; u < 58; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 58; u < 63; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 63; u < 65; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 57; u < 59; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 65; u < 66; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 66; u < 68; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 59; u < 61; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 68; u < 69; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 69; u < 72; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 61; u < 62; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 72; u < 74; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 62; u < 63; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 74; u < 75; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 75; u < 76; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 63; u < 65; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 76; u < 79; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 65; u < 66; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 66; u < 67; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 67; u < 70; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 70; u < 73; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 79; u < 85; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 73; u < 74; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 85; u < 87; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 87; u < 88; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 74; u < 75; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 88; u < 89; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 75; u < 76; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 89; u < 90; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 90; u < 91; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
         if (k == 0) {
             LANES_GUARD(bad, H[2] + k * L, sine_min);
             LANES_GUARD(bad, H[1] + k * L, sine_min);
@@ -684,243 +526,85 @@ static void spherical_std_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
     const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
     int k, u;
     for (k = 0; k < order; ++k) {
-        for (u = 0; u < 1; ++u) {
-            LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L);
-        }
-        for (u = 1; u < 3; ++u) {
-            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
-        }
-        for (u = 3; u < 6; ++u) {
-            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
-        }
-        for (u = 0; u < 1; ++u) {
-            LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k);
-        }
-        for (u = 6; u < 9; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L);
-        }
-        for (u = 9; u < 10; ++u) {
-            LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k);
-        }
-        for (u = 1; u < 2; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 2; u < 4; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 11; u < 13; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 13; u < 15; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 15; u < 17; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 17; u < 20; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 20; u < 28; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 4; u < 6; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 28; u < 29; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
-        }
-        for (u = 6; u < 7; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
-        }
-        for (u = 29; u < 32; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 7; u < 17; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 32; u < 34; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 34; u < 36; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
-        }
-        for (u = 36; u < 37; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 17; u < 21; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 21; u < 22; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 37; u < 42; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 22; u < 24; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 24; u < 27; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 42; u < 43; ++u) {
-            LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]);
-        }
-        for (u = 27; u < 28; ++u) {
-            LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]);
-        }
-        for (u = 43; u < 46; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 28; u < 29; ++u) {
-            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
-        }
-        for (u = 29; u < 30; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 30; u < 32; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 32; u < 33; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 46; u < 50; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 33; u < 34; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 34; u < 36; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 36; u < 38; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 38; u < 44; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 44; u < 45; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 45; u < 46; ++u) {
-            LANES_MUL(T[u], X[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 46; u < 47; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
-        }
-        for (u = 47; u < 50; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 50; u < 51; ++u) {
-            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
-        }
-        for (u = 51; u < 54; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 54; u < 55; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 50; u < 51; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 51; u < 57; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 55; u < 56; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 56; u < 57; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 57; u < 58; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 58; u < 63; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 63; u < 65; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 57; u < 59; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 65; u < 66; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 66; u < 68; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 59; u < 61; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 68; u < 69; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 69; u < 72; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 61; u < 62; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 72; u < 74; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 62; u < 63; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 74; u < 75; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 75; u < 76; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 63; u < 65; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 76; u < 79; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 65; u < 66; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 66; u < 67; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 67; u < 70; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 70; u < 73; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 79; u < 85; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 73; u < 74; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 85; u < 87; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 87; u < 88; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 74; u < 75; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 88; u < 89; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 75; u < 76; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 89; u < 90; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 90; u < 91; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
+        for (u = 0; u < 1; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 1; u < 3; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 3; u < 6; ++u) { LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k); }
+        for (u = 0; u < 1; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k); }
+        for (u = 6; u < 9; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L); }
+        for (u = 9; u < 10; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 1; u < 2; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 11; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 2; u < 4; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 11; u < 13; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 13; u < 15; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 15; u < 17; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 17; u < 20; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 20; u < 28; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 4; u < 6; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 28; u < 29; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k); }
+        for (u = 29; u < 32; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 7; u < 17; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 32; u < 34; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 34; u < 36; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k); }
+        for (u = 36; u < 37; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 17; u < 21; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 21; u < 22; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 37; u < 42; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 22; u < 24; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 24; u < 27; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 42; u < 43; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 27; u < 28; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 43; u < 46; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 28; u < 29; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 29; u < 30; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 30; u < 32; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 32; u < 33; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 46; u < 50; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 33; u < 34; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 34; u < 36; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 36; u < 38; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 38; u < 44; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 44; u < 45; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 45; u < 46; ++u) { LANES_MUL(T[u], X[TA0[u]], H[TA1[u]], k); }
+        for (u = 46; u < 47; ++u) { LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k); }
+        for (u = 47; u < 50; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 50; u < 51; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 51; u < 54; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 54; u < 55; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 50; u < 51; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 51; u < 57; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 55; u < 56; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 56; u < 57; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 57; u < 58; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 58; u < 63; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 63; u < 65; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 57; u < 59; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 65; u < 66; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 66; u < 68; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 59; u < 61; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 68; u < 69; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 69; u < 72; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 61; u < 62; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 72; u < 74; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 62; u < 63; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 74; u < 75; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 75; u < 76; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 63; u < 65; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 76; u < 79; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 65; u < 66; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 66; u < 67; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 67; u < 70; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 70; u < 73; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 79; u < 85; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 73; u < 74; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 85; u < 87; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 87; u < 88; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 74; u < 75; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 88; u < 89; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 75; u < 76; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 89; u < 90; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 90; u < 91; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
         if (k == 0) {
             LANES_GUARD(bad, H[2] + k * L, sine_min);
             LANES_GUARD(bad, H[1] + k * L, sine_min);
@@ -1208,243 +892,85 @@ static void spherical_std_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
     const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
     int k, u;
     for (k = 0; k < order; ++k) {
-        for (u = 0; u < 1; ++u) {
-            LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L);
-        }
-        for (u = 1; u < 3; ++u) {
-            LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k);
-        }
-        for (u = 3; u < 6; ++u) {
-            LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k);
-        }
-        for (u = 0; u < 1; ++u) {
-            LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k);
-        }
-        for (u = 6; u < 9; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L);
-        }
-        for (u = 9; u < 10; ++u) {
-            LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k);
-        }
-        for (u = 1; u < 2; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 10; u < 11; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 2; u < 4; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 11; u < 13; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 13; u < 15; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 15; u < 17; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 17; u < 20; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 20; u < 28; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 4; u < 6; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 28; u < 29; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
-        }
-        for (u = 6; u < 7; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
-        }
-        for (u = 29; u < 32; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L);
-        }
-        for (u = 7; u < 17; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 32; u < 34; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 34; u < 36; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k);
-        }
-        for (u = 36; u < 37; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 17; u < 21; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 21; u < 22; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 37; u < 42; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 22; u < 24; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 24; u < 27; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 42; u < 43; ++u) {
-            LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]);
-        }
-        for (u = 27; u < 28; ++u) {
-            LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]);
-        }
-        for (u = 43; u < 46; ++u) {
-            LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]);
-        }
-        for (u = 28; u < 29; ++u) {
-            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
-        }
-        for (u = 29; u < 30; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 30; u < 32; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 32; u < 33; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 46; u < 50; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 33; u < 34; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 34; u < 36; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 36; u < 38; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 38; u < 44; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 44; u < 45; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 45; u < 46; ++u) {
-            LANES_MUL(T[u], X[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 46; u < 47; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k);
-        }
-        for (u = 47; u < 50; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 50; u < 51; ++u) {
-            LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k);
-        }
-        for (u = 51; u < 54; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 54; u < 55; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 50; u < 51; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 51; u < 57; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 55; u < 56; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 56; u < 57; ++u) {
-            LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 57; u < 58; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]);
-        }
-        for (u = 58; u < 63; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 63; u < 65; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k);
-        }
-        for (u = 57; u < 59; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 65; u < 66; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 66; u < 68; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 59; u < 61; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 68; u < 69; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 69; u < 72; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 61; u < 62; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 72; u < 74; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 62; u < 63; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 74; u < 75; ++u) {
-            LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L);
-        }
-        for (u = 75; u < 76; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 63; u < 65; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 76; u < 79; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 65; u < 66; ++u) {
-            LANES_DIV(H[u], 0, H[HA0[u]], k);
-        }
-        for (u = 66; u < 67; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 67; u < 70; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 70; u < 73; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 79; u < 85; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 73; u < 74; ++u) {
-            LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k);
-        }
-        for (u = 85; u < 87; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 87; u < 88; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 74; u < 75; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 88; u < 89; ++u) {
-            LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]);
-        }
-        for (u = 75; u < 76; ++u) {
-            LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]);
-        }
-        for (u = 89; u < 90; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
-        for (u = 90; u < 91; ++u) {
-            LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k);
-        }
+        for (u = 0; u < 1; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 1; u < 3; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 3; u < 6; ++u) { LANES_MUL(H[u] + k * L, X[HA0[u]], X[HA0[u]], k); }
+        for (u = 0; u < 1; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA0[u]], k); }
+        for (u = 6; u < 9; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], X[HA0[u]] + k * L); }
+        for (u = 9; u < 10; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 1; u < 2; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 11; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 2; u < 4; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 11; u < 13; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 13; u < 15; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 15; u < 17; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 17; u < 20; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 20; u < 28; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 4; u < 6; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 28; u < 29; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k); }
+        for (u = 29; u < 32; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 7; u < 17; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 32; u < 34; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 34; u < 36; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], X[HA1[u]], k); }
+        for (u = 36; u < 37; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 17; u < 21; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 21; u < 22; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 37; u < 42; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 22; u < 24; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 24; u < 27; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 42; u < 43; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 27; u < 28; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 43; u < 46; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 28; u < 29; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 29; u < 30; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 30; u < 32; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 32; u < 33; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 46; u < 50; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 33; u < 34; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 34; u < 36; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 36; u < 38; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 38; u < 44; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 44; u < 45; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 45; u < 46; ++u) { LANES_MUL(T[u], X[TA0[u]], H[TA1[u]], k); }
+        for (u = 46; u < 47; ++u) { LANES_MUL(T[u], H[TA0[u]], X[TA1[u]], k); }
+        for (u = 47; u < 50; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 50; u < 51; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 51; u < 54; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 54; u < 55; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 50; u < 51; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 51; u < 57; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 55; u < 56; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 56; u < 57; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 57; u < 58; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 58; u < 63; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 63; u < 65; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA0[u]], k); }
+        for (u = 57; u < 59; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 65; u < 66; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 66; u < 68; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 59; u < 61; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 68; u < 69; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 69; u < 72; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 61; u < 62; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 72; u < 74; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 62; u < 63; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 74; u < 75; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 75; u < 76; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 63; u < 65; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 76; u < 79; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 65; u < 66; ++u) { LANES_DIV(H[u], 0, H[HA0[u]], k); }
+        for (u = 66; u < 67; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 67; u < 70; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 70; u < 73; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 79; u < 85; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 73; u < 74; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 85; u < 87; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 87; u < 88; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 74; u < 75; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 88; u < 89; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 75; u < 76; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 89; u < 90; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 90; u < 91; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
         if (k == 0) {
             LANES_GUARD(bad, H[2] + k * L, sine_min);
             LANES_GUARD(bad, H[1] + k * L, sine_min);
