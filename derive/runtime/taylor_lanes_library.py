@@ -1,7 +1,8 @@
 """The lane-parallel Taylor integrator (<model>_taylor_lanes.c) at run time.
 
 Compiled like the scalar one (taylor_library.py: one cached library per order, the order
-fixed with -D<MODEL>_TAYLOR_ORDER=p) plus the lanes (-D<MODEL>_TAYLOR_LANES=L), only the
+fixed with -D<MODEL>_TAYLOR_ORDER=p, the jet unrolled or compact: jet_form, with the lanes'
+own size limit) plus the lanes (-D<MODEL>_TAYLOR_LANES=L), only the
 scalar type asked for (-D<MODEL>_TAYLOR_LANES_ONLY: with the order unrolled, each
 scalar type's variant is a long compile, the long double one longest) and the vector
 instructions this machine has (SIMD_LEVELS, by the CPU's flags; none known: the
@@ -72,7 +73,8 @@ def simd_build(dtype: str = "float64") -> tuple[tuple[str, ...], int]:
 
 class TaylorLanesLibrary(SharedLibrary):
     """ctypes access to <model>_taylor_lanes_batch{,_f,_l} for one scalar type, compiled
-    with a fixed order (only that type: unrolled, each takes a while to compile)."""
+    with a fixed order (only that type: unrolled, each takes a while to compile) and its
+    jet in `form` (taylor_library.JET_FORMS)."""
 
     def __init__(self, model: str, order: int, dtype: str = "float64", lanes: int | None = None,
                  simd: tuple[str, ...] | None = None, form: str = "unrolled"):

@@ -3,11 +3,14 @@ and precision.
 
 The order follows the tolerance (p = ceil(-ln(tol)/2 + 1), Jorba & Zou; the same rule
 as the C, derive/codegen/taylor.py), and derive compiles the integrator
-with that order fixed (-D<MODEL>_TAYLOR_ORDER=p), which lets the compiler unroll the
-recurrences (the generic build loops over an order read at run time).  Each order is one
-cached library, built on first use with only the variant of the precision that runs
-(compiling the four unrolled variants takes about four times as long); the generic file, compiled without the
-macro, reads the order from options.rtol, for use in other projects.
+with that order fixed (-D<MODEL>_TAYLOR_ORDER=p).  Each order is one cached library, built
+on first use with only the variant of the precision that runs, and with the jet in one of
+its two forms (jet_form: -D<MODEL>_TAYLOR_COMPACT): unrolled by the compiler at that order
+while the jet is small (it steps fastest there), compact past it (one loop per segment of
+alike operations: faster per step for a large jet, and compiled in about a second where
+the unrolled one takes minutes and gigabytes).  Only this library is compiled for a run.
+The generic file, compiled without the order macro, reads the order from options.rtol,
+for use in other projects.
 """
 from __future__ import annotations
 
@@ -89,6 +92,8 @@ class TaylorLibrary(SharedLibrary):
     dtype : str
         The hardware precision compiled in (a key of contract.PRECISION: float32,
         float64, longdouble); fns and coefficient_fns hold its entry points only.
+    form : str
+        The jet's form, unrolled or compact (JET_FORMS; taylor_library chooses it by size).
     """
 
     def __init__(self, model: str, order: int, dtype: str = "float64", form: str = "unrolled"):
