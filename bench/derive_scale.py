@@ -186,17 +186,24 @@ HEYOKA = textwrap.dedent("""
 """)
 
 
+def _checked(cmd: list[str], env: dict | None = None) -> subprocess.CompletedProcess:
+    """A run of cmd that succeeded; a failure ends the benchmark with its error output."""
+    run = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    if run.returncode != 0:
+        sys.exit(f"{cmd[0]} {cmd[1]} {cmd[2].strip()[:40]}... failed:\n{run.stderr[-3000:]}")
+    return run
+
+
 def taylor_first_runs(n: int, model: Path) -> tuple[float, float, float]:
     """(derive s, heyoka s, relative difference of the final states)."""
     y0, p = json.dumps(list(initial_state(n))), json.dumps(list(parameters(n)))
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, DERIVE_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
         t0 = time.perf_counter()
-        ours = subprocess.run([sys.executable, "-c", TAYLOR, str(model), y0, p], env=env, capture_output=True,
-                              text=True, check=True)
+        ours = _checked([sys.executable, "-c", TAYLOR, str(model), y0, p], env=env)
         ours_wall = time.perf_counter() - t0
     t0 = time.perf_counter()
-    theirs = subprocess.run([sys.executable, "-c", HEYOKA, str(n), y0, p], capture_output=True, text=True, check=True)
+    theirs = _checked([sys.executable, "-c", HEYOKA, str(n), y0, p])
     theirs_wall = time.perf_counter() - t0
     a, b = (np.array(json.loads(r.stdout.splitlines()[-1])["y"]) for r in (ours, theirs))
     return ours_wall, theirs_wall, float(np.max(np.abs(a - b)) / np.max(np.abs(b)))

@@ -30,6 +30,13 @@ order p = ceil(-ln(tol)/2 + 1); with m = max(1, |y|_inf) (absolute below 1, rela
 above), rho_j = (m / |y^[j]|_inf)^(1/j) for j = p-1, p, and h = min(rho_{p-1}, rho_p)
 / e^2 * exp(-0.7/(p-1)).  The series is the dense output: every output time inside a
 step is the polynomial evaluated there (Horner), to the tolerance of the step.
+
+The jet is written in two forms, the same arithmetic: unrolled (c_statements: one
+statement per operation in the loop over the orders, which the compiler unrolls at a fixed
+order) and compact (compact_statements, heyoka's compact mode: the operations of one level
+whose statements read alike in one segment, a loop over its rows with the operands' rows
+in index tables).  The unrolled code grows as the operations times the order squared, the
+compact one with the operations alone; UNROLL_COST sets the default between them.
 """
 from __future__ import annotations
 
@@ -433,10 +440,9 @@ def compact_statements(d: Decomposition) -> dict:
     Returns
     -------
     dict
-        rows (the nodes), states (n), row (each node's row), tables (per operand position
-        the list of every row's operand), segments ((first row, past the last,
-        statement)), outputs and guards (as c_statements' but on J's rows; the outputs
-        write J[i][k + 1], copied to X at the end).
+        segments ((first row, past the last, statement)), tables ({name: every row's
+        operand}: A0, A1, ...), outputs and guards (as c_statements' but on J's rows; the
+        outputs write J[i][k + 1], copied to X at the end) and row (each node's row).
     """
     level = jet_levels(d)
     width = max((len(op.args) for op in d.ops), default=0)
@@ -471,17 +477,21 @@ def compact_statements(d: Decomposition) -> dict:
     for i, (kind, j) in enumerate(d.outputs):
         src = f"J[{row[j]}][k]" if kind == "node" else f"(k == 0 ? C[{j}] : T_INT(0))"
         outputs.append(f"J[{i}][k + 1] = T_DIVI({src}, k + 1);")
-    used = [j for j in range(width) if any(f"A{j}[u]" in text for _, _, text in segments)]
-    return {"rows": len(d.ops), "states": d.n, "row": row, "tables": {j: tables[j] for j in used},
-            "segments": segments, "outputs": outputs, "guards": [f"J[{row[g]}][0]" for g in d.guards]}
+    used = {f"A{j}": tables[j] for j in range(width) if any(f"A{j}[u]" in text for _, _, text in segments)}
+    return {"segments": segments, "tables": used, "outputs": outputs,
+            "guards": [f"J[{row[g]}][0]" for g in d.guards], "row": row}
 
 
 TABLE_LINE = 16                 # a table's integers per line of C
 
 
-def _table_lines(values: list[int]) -> list[str]:
-    lines = [", ".join(map(str, values[i:i + TABLE_LINE])) for i in range(0, len(values), TABLE_LINE)]
-    return [line + ("," if i < len(lines) - 1 else "") for i, line in enumerate(lines)]
+def compact_context(compact: dict) -> dict:
+    """A compact jet's dict (compact_statements, taylor_lanes.compact_lane_statements) as
+    its template lays it out: each table as (name, its lines of C)."""
+    def lines(values: list[int]) -> list[str]:
+        rows = [", ".join(map(str, values[i:i + TABLE_LINE])) for i in range(0, len(values), TABLE_LINE)]
+        return [line + ("," if i < len(rows) - 1 else "") for i, line in enumerate(rows)]
+    return dict(compact, tables=[(name, lines(values)) for name, values in compact["tables"].items()])
 
 
 # The unrolled jet's size, and its compile time, grow as its operations' cost at the order
@@ -724,9 +734,7 @@ def render_taylor(name: str) -> dict[str, str]:
     kinds = counts(d)
     M = name.upper()
     called = uses(d)
-    compact = compact_statements(d)
-    compact = dict(compact, tables=[_table_lines(t) for t in compact["tables"].values()],
-                   names=list(compact["tables"]))
+    compact = compact_context(compact_statements(d))
     out = {}
     for stem, names in TAYLOR_FILES.items():
         variants = [dict(TAYLOR_VARIANTS[v], taylor=c_statements(d, TAYLOR_VARIANTS[v], slots),
@@ -734,7 +742,8 @@ def render_taylor(name: str) -> dict[str, str]:
         header = f"{name}_{stem}.h"
         ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops),
                "uses": {k.lower(): k in called for k in ("MUL", "DIV", "SQRT", "CHAIN")},
-               "nconst": len(d.constants), "timed": d.timed, "compact": compact, "unroll_max": unroll_max(d), "reads_time": d.reads_time, **ORDER_RULE, **library_context(name, info), "header": header,
+               "nconst": len(d.constants), "timed": d.timed, "reads_time": d.reads_time, "compact": compact,
+               "unroll_max": unroll_max(d), **ORDER_RULE, **library_context(name, info), "header": header,
                "guard": f"{M}_{stem.upper()}_H", "quad": "quad" in names, "dd": "double-double" in names,
                "precisions": _precisions([TAYLOR_VARIANTS[v] for v in names]),
                "op_summary": ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())),

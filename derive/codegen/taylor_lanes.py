@@ -24,7 +24,7 @@ its constants and the public entry points.
 from __future__ import annotations
 
 from ..errors import SpecError
-from .taylor import (LANES_UNROLL_COST, ORDER_RULE, TAYLOR_VARIANTS, Decomposition, _slots, _table_lines,
+from .taylor import (LANES_UNROLL_COST, ORDER_RULE, TAYLOR_VARIANTS, Decomposition, _slots, compact_context,
                      c_statements, history_nodes, jet_cost, jet_levels, library_context, operands, operation,
                      rhs_decomposition, unroll_max, uses)
 from .integrators import _C_VARIANTS, c_variants, library_files, model_info
@@ -187,7 +187,7 @@ def render_taylor_lanes(name: str) -> dict[str, str]:
     M = name.upper()
     ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops),
            "uses": lanes_uses(d), "jet": lane_statements(d), "nconst": len(d.constants),
-           "compact": _compact_context(compact_lane_statements(d)), "unroll_max": unroll_max(d, LANES_UNROLL_COST),
+           "compact": compact_context(compact_lane_statements(d)), "unroll_max": unroll_max(d, LANES_UNROLL_COST),
            "timed": d.timed, "reads_time": d.reads_time, **ORDER_RULE,
            **library_context(name, info), "lanes_default": LANES_DEFAULT,
            "cost": jet_cost(d, COST_ORDER), "cost_order": COST_ORDER,
@@ -198,8 +198,3 @@ def render_taylor_lanes(name: str) -> dict[str, str]:
             f"c/{name}_taylor_lanes.c": render("c/taylor_lanes.c.jinja",
                                                  dict(ctx, template="templates/c/taylor_lanes.c.jinja")),
             **library_files(LIBRARY)}
-
-
-def _compact_context(compact: dict) -> dict:
-    """compact_lane_statements' dict with its tables as the template's lines of C."""
-    return dict(compact, tables=[(name, _table_lines(values)) for name, values in compact["tables"].items()])
