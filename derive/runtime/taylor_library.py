@@ -51,8 +51,14 @@ def jet_form(model: str, order: int | None, lanes: bool = False) -> str:
         raise SimulationInputError(f"{JET_ENV} must be unrolled, compact or auto, got {forced!r}")
     if order is None:
         return "compact"
-    limit = unroll_max(rhs_decomposition(model), LANES_UNROLL_COST if lanes else UNROLL_COST)
-    return "unrolled" if order <= limit else "compact"
+    return "unrolled" if order <= _unroll_max(model, lanes) else "compact"
+
+
+@forget_on_model_change
+@lru_cache(maxsize=None)
+def _unroll_max(model: str, lanes: bool) -> int:
+    """The last order jet_form unrolls for `model` (once per model and process)."""
+    return unroll_max(rhs_decomposition(model), LANES_UNROLL_COST if lanes else UNROLL_COST)
 
 
 # An unrolled jet the rule would not choose (forced by DERIVE_TAYLOR_JET) past these costs
