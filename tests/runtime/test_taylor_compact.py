@@ -219,3 +219,27 @@ def test_the_extended_builds_are_the_same_bits(precision):
         [extended.exact(v, "y") for v in y], [extended.exact(v, "p") for v in p]) for form in ("unrolled", "compact")]
     (status_u, unrolled), (status_c, compact) = got
     assert status_u == status_c == 0 and unrolled == compact
+
+
+@pytest.mark.parametrize("compiler, flags", [
+    ("gcc", ["-std=c99", "-Wshadow", "-Wconversion", "-Wdouble-promotion"]),
+    ("clang", ["-std=c99"]),
+    ("g++", ["-x", "c++", "-std=c++11"]),
+])
+def test_the_exotic_jets_compile_warning_free(compiler, flags, tmp_path):
+    """The square root, exponential and quotient's statements in both forms (the catalogue's
+    jets have none: tests/codegen compiles those), every precision of the file, at a fixed
+    order, warnings as errors."""
+    import shutil
+    import subprocess
+    from derive.codegen.sources import c_source
+    if shutil.which(compiler) is None:
+        pytest.fail(f"{compiler} is required here (tests/run.sh installs it)")
+    model = derive.load_model(EXOTIC).name
+    source = c_source(model, f"{model}_taylor.c")
+    for compact in (0, 1):
+        cmd = [compiler, *flags, "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wfloat-equal", "-O2",
+               f"-D{model.upper()}_TAYLOR_ORDER=8", f"-D{model.upper()}_TAYLOR_COMPACT={compact}",
+               "-c", str(source), "-o", str(tmp_path / f"jet{compact}.o")]
+        run = subprocess.run(cmd, capture_output=True, text=True)
+        assert run.returncode == 0 and run.stderr == "", f"{' '.join(cmd)}\n{run.stderr}"

@@ -160,8 +160,11 @@ static R DERIVE_TAYLOR_T(derive_taylor_chain)(const R *a, const R *w, int k)
 #endif
 
 #define TAYLOR_MUL DERIVE_TAYLOR_T(derive_taylor_mul)
-#define TAYLOR_DIV DERIVE_TAYLOR_T(derive_taylor_div)
-#define TAYLOR_SQRT DERIVE_TAYLOR_T(derive_taylor_sqrt)
+/* u_0 = a_0 / b_0 reads no coefficient of u: at order 0 the quotient is handed b in its
+ * place, so an unrolled jet never passes the function a row it has not written yet */
+#define TAYLOR_DIV(ak, b, u, k) DERIVE_TAYLOR_T(derive_taylor_div)(ak, b, (k) ? (u) : (b), k)
+/* the same for u_0 = sqrt(a_0), handed a in u's place */
+#define TAYLOR_SQRT(a, u, k) DERIVE_TAYLOR_T(derive_taylor_sqrt)(a, (k) ? (u) : (a), k)
 #define TAYLOR_SIN(a, c, k) DERIVE_TAYLOR_T(derive_taylor_chain)(a, c, k)
 #define TAYLOR_COS(a, s, k) T_NEG(DERIVE_TAYLOR_T(derive_taylor_chain)(a, s, k))
 #define TAYLOR_EXP(a, u, k) DERIVE_TAYLOR_T(derive_taylor_chain)(a, u, k)
