@@ -222,7 +222,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--links", type=int, nargs="+", default=[3, 5, 8, 12])
     parser.add_argument("--taylor-links", type=int, nargs="*", default=[3, 5, 8])
-    parser.add_argument("--taylor-only", action="store_true", help="only the first Taylor runs (no derive-vs-Kane rows)")
+    parser.add_argument("--taylor-only", action="store_true",
+                        help="only the first Taylor runs (no derive-vs-Kane rows)")
     args = parser.parse_args(argv)
     if args.taylor_only:
         args.links = []
