@@ -14,9 +14,10 @@ For planar chains of n point masses (n = 3, 5, 8, 12 by default), in one run:
    to agree at a random state.
 3. **the first Taylor run** (rtol 1e-14, t = 0 to 1, cold cache: derive, generate,
    compile, run) through derive.simulate, against heyoka's `taylor_adaptive`
-   construction (JIT included, parameters as par[]) and the same propagation.
+   construction (JIT included, parameters as par[]; its disk cache of compiled code,
+   on by default since heyoka 7, off: cold too) and the same propagation.
 
-    python3 bench/derive_scale.py [--links 3 5 8 12] [--taylor-links 3 5]
+    python3 bench/derive_scale.py [--links 3 5 8 12] [--taylor-links 3 5 8] [--taylor-only]
 
 Prints a table and the ratios; nothing here is a test (the figures depend on the machine).
 """
@@ -168,6 +169,7 @@ HEYOKA = textwrap.dedent("""
     import sys, time, json
     import heyoka as hy
     n, y0, p = int(sys.argv[1]), json.loads(sys.argv[2]), json.loads(sys.argv[3])
+    hy.llvm_state.set_diskcache_enabled(False)      # cold, as derive's run: no compiled code from a run before
     t0 = time.perf_counter()
     qs = hy.make_vars(*[f"q{i}" for i in range(n)]); vs = hy.make_vars(*[f"v{i}" for i in range(n)])
     m, l, g = [hy.par[i] for i in range(n)], [hy.par[n + i] for i in range(n)], hy.par[2 * n]
@@ -184,20 +186,31 @@ HEYOKA = textwrap.dedent("""
 """)
 
 
+def _checked(cmd: list[str], env: dict | None = None) -> subprocess.CompletedProcess:
+    """A run of cmd that succeeded; a failure ends the benchmark with its error output."""
+    run = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    if run.returncode != 0:
+        sys.exit(f"{cmd[0]} {cmd[1]} {cmd[2].strip()[:40]}... failed:\n{run.stderr[-3000:]}")
+    return run
+
+
 def taylor_first_runs(n: int, model: Path) -> tuple[float, float, float]:
     """(derive s, heyoka s, relative difference of the final states)."""
     y0, p = json.dumps(list(initial_state(n))), json.dumps(list(parameters(n)))
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, DERIVE_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
         t0 = time.perf_counter()
-        ours = subprocess.run([sys.executable, "-c", TAYLOR, str(model), y0, p], env=env, capture_output=True,
-                              text=True, check=True)
+        ours = _checked([sys.executable, "-c", TAYLOR, str(model), y0, p], env=env)
         ours_wall = time.perf_counter() - t0
     t0 = time.perf_counter()
-    theirs = subprocess.run([sys.executable, "-c", HEYOKA, str(n), y0, p], capture_output=True, text=True, check=True)
+    theirs = _checked([sys.executable, "-c", HEYOKA, str(n), y0, p])
     theirs_wall = time.perf_counter() - t0
     a, b = (np.array(json.loads(r.stdout.splitlines()[-1])["y"]) for r in (ours, theirs))
     return ours_wall, theirs_wall, float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+
+
+def _load() -> str:
+    return "/".join(f"{v:.2f}" for v in os.getloadavg())
 
 
 def exponent(ns, seconds) -> float:
@@ -208,13 +221,18 @@ def exponent(ns, seconds) -> float:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--links", type=int, nargs="+", default=[3, 5, 8, 12])
-    parser.add_argument("--taylor-links", type=int, nargs="*", default=[3, 5])
+    parser.add_argument("--taylor-links", type=int, nargs="*", default=[3, 5, 8])
+    parser.add_argument("--taylor-only", action="store_true",
+                        help="only the first Taylor runs (no derive-vs-Kane rows)")
     args = parser.parse_args(argv)
+    if args.taylor_only:
+        args.links = []
     rows, ours_t, theirs_t = [], [], []
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        print(f"{'n':>3} {'derive+generate':>16} {'Kane+lambdify':>14} {'ratio':>6}   {'ops derive':>10} "
-              f"{'ops Kane+LU':>11}   {'rhs derive':>10} {'rhs Kane':>9} {'ratio':>6} {'agree':>8}")
+        if args.links:
+            print(f"{'n':>3} {'derive+generate':>16} {'Kane+lambdify':>14} {'ratio':>6}   {'ops derive':>10} "
+                  f"{'ops Kane+LU':>11}   {'rhs derive':>10} {'rhs Kane':>9} {'ratio':>6} {'agree':>8}")
         for n in args.links:
             model = chain_file(n, folder)
             ours = derive_cold(model, folder / f"gen{n}")
@@ -234,7 +252,8 @@ def main(argv=None) -> int:
             model = chain_file(n, folder)
             ours, theirs, diff = taylor_first_runs(n, model)
             print(f"first Taylor run, {n} links (rtol 1e-14, t = 1, cold): derive {ours:.1f} s, heyoka build + JIT "
-                  f"+ run {theirs:.1f} s, ratio {theirs / ours:.2f}x; final states agree to {diff:.1e}", flush=True)
+                  f"+ run {theirs:.1f} s, ratio {theirs / ours:.2f}x; final states agree to {diff:.1e} "
+                  f"(load average {_load()})", flush=True)
     return 0
 
 

@@ -30,6 +30,13 @@ order p = ceil(-ln(tol)/2 + 1); with m = max(1, |y|_inf) (absolute below 1, rela
 above), rho_j = (m / |y^[j]|_inf)^(1/j) for j = p-1, p, and h = min(rho_{p-1}, rho_p)
 / e^2 * exp(-0.7/(p-1)).  The series is the dense output: every output time inside a
 step is the polynomial evaluated there (Horner), to the tolerance of the step.
+
+The jet is written in two forms, the same arithmetic: unrolled (c_statements: one
+statement per operation in the loop over the orders, which the compiler unrolls at a fixed
+order) and compact (compact_statements, heyoka's compact mode: the operations of one level
+whose statements read alike in one segment, a loop over its rows with the operands' rows
+in index tables).  The unrolled code grows as the operations times the order squared, the
+compact one with the operations alone; UNROLL_COST sets the default between them.
 """
 from __future__ import annotations
 
@@ -467,6 +474,127 @@ def c_statements(d: Decomposition, variant: dict, slots: dict) -> dict:
             "guards": [f"{ref(g)}[0]" for g in d.guards]}
 
 
+# -- C: the compact jet ----------------------------------------------------------------
+
+def jet_levels(d: Decomposition) -> list[int]:
+    """Each node's level: 0 for a state, else one more than the deepest of the nodes it
+    reads at the order being computed.  Nodes of one level are independent at an order, so
+    they may be computed in any order among themselves (the compact jet's segments).
+
+    Which arguments are read at the current order: those made before the node.  The
+    decomposition is in dependency order (computing its nodes one by one is the unrolled
+    jet), so an argument made after the node (sin's cos, cos's sin is before it) can only
+    be read at lower orders, which the previous pass of the order loop has finished."""
+    level = []
+    for i, op in enumerate(d.ops):
+        if op.kind == "var":
+            level.append(0)
+            continue
+        nodes = op.args[:len(op.args) - operation(op).consts]
+        level.append(1 + max((level[j] for j in nodes if j is not None and j < i), default=0))
+    return level
+
+
+def compact_statements(d: Decomposition) -> dict:
+    """The compact jet (heyoka's compact mode, in C): the nodes renumbered into rows of one
+    array J (the states first, J[i] for state i, then level by level), the nodes of one
+    level whose statements read alike in one segment, a loop over its rows.  A segment's
+    statement is its operation's scalar statement (OPERATIONS) written for row u, its
+    operands read from index tables (A0[u], A1[u], ...: the rows of the node arguments,
+    the indices of the constants), so each row of OPERATIONS supplies its compact form.  A
+    node without a statement of its own (cos: its sin's sincos writes it) has a row and no
+    segment.
+
+    The C is then one loop per segment and a few integers per node, whatever the order:
+    its size and compile time grow with the model, not with the model times the order
+    squared as the unrolled jet's do.  Each node is the same expression of the same
+    operands as in the unrolled jet, so the coefficients are the same numbers.
+
+    Returns
+    -------
+    dict
+        segments ((first row, past the last, statement)), tables ({name: every row's
+        operand}: A0, A1, ...), outputs and guards (as c_statements' but on J's rows; the
+        outputs write J[i][k + 1], copied to X at the end) and row (each node's row).
+    """
+    level = jet_levels(d)
+    width = max((len(op.args) for op in d.ops), default=0)
+
+    def statement(op: Op) -> str:
+        entry = operation(op)
+        nodes = len(op.args) - entry.consts
+        a = [None if x is None else f"J[A{j}[u]]" for j, x in enumerate(op.args[:nodes])]
+        a += [f"A{j}[u]" for j in range(nodes, len(op.args))]
+        return entry.scalar("J[u]", a)
+
+    # a state's row is its index; the other nodes by level, then by statement, then as made
+    groups: dict[tuple[int, str], list[int]] = {}
+    for i, op in enumerate(d.ops):
+        if op.kind != "var" and operation(op).scalar:
+            groups.setdefault((level[i], statement(op)), []).append(i)
+    row = {i: op.index for i, op in enumerate(d.ops) if op.kind == "var"}
+    segments = []
+    for (_, text), members in sorted(groups.items(), key=lambda g: (g[0][0], g[1][0])):
+        first = len(row)
+        row.update((i, first + m) for m, i in enumerate(members))
+        segments.append((first, len(row), text))
+    for i in range(len(d.ops)):         # the nodes another's statement writes (cos: its sin's sincos)
+        if i not in row:
+            row[i] = len(row)
+    if sorted(row.values()) != list(range(len(d.ops))):      # pragma: no cover (one var per state)
+        raise SpecError("the Taylor decomposition's states are not its first rows")
+
+    tables = [[0] * len(d.ops) for _ in range(width)]
+    for i, op in enumerate(d.ops):
+        nodes = len(op.args) - operation(op).consts
+        for j, x in enumerate(op.args):
+            tables[j][row[i]] = x if j >= nodes else (0 if x is None else row[x])
+    outputs = []
+    for i, (kind, j) in enumerate(d.outputs):
+        src = f"J[{row[j]}][k]" if kind == "node" else f"(k == 0 ? C[{j}] : T_INT(0))"
+        outputs.append(f"J[{i}][k + 1] = T_DIVI({src}, k + 1);")
+    used = {f"A{j}": tables[j] for j in range(width) if any(f"A{j}[u]" in text for _, _, text in segments)}
+    return {"segments": segments, "tables": used, "outputs": outputs,
+            "guards": [f"J[{row[g]}][0]" for g in d.guards], "row": row}
+
+
+TABLE_LINE = 16                 # a table's integers per line of C
+
+
+def compact_context(compact: dict) -> dict:
+    """A compact jet's dict (compact_statements, taylor_lanes.compact_lane_statements) as
+    its template lays it out: each table as (name, its lines of C)."""
+    def lines(values: list[int]) -> list[str]:
+        rows = [", ".join(map(str, values[i:i + TABLE_LINE])) for i in range(0, len(values), TABLE_LINE)]
+        return [line + ("," if i < len(rows) - 1 else "") for i, line in enumerate(rows)]
+    return dict(compact, tables=[(name, lines(values)) for name, values in compact["tables"].items()])
+
+
+# The unrolled jet's size, and its compile time, grow as its operations' cost at the order
+# (jet_cost: about the nodes times the order squared); past UNROLL_COST the compact jet is
+# the default.  Measured on the development machine (bench/taylor_jet_forms.py; docs/
+# methods.md, "The jet's two forms"): the scalar unrolled jet steps faster than the compact
+# one below about this cost (planar to order 9), slower above it, where its code
+# outgrows the instruction cache; the lanes' unrolled jet stays the faster one, so its
+# limit is the compile: LANES_UNROLL_COST keeps the two-link models unrolled through the
+# double tolerances (order 19) and takes a larger model compact before its compile
+# outgrows seconds and a gigabyte.
+UNROLL_COST = 2000
+LANES_UNROLL_COST = 8000
+
+
+def unroll_max(d: Decomposition, cost: int = UNROLL_COST) -> int:
+    """The largest fixed order whose unrolled jet costs at most `cost` (jet_cost); 1: none
+    (the orders start at TAYLOR_ORDER_MIN = 2)."""
+    order, total = 1, jet_cost(d, 1)
+    while order < TAYLOR_ORDER_MAX:         # jet_cost(d, order + 1), one order more at a time
+        total += sum(operation(op).cost(order) for op in d.ops) + d.n
+        if total > cost:
+            break
+        order += 1
+    return order
+
+
 # pi to about 2^-160 as a sum of three doubles: what double-double and binary128 need
 _PI_PARTS = ("3.141592653589793", "1.2246467991473532e-16", "-2.9947698097183397e-33")
 _EXACT_INT = 2 ** 53                   # integers a double holds exactly
@@ -745,6 +873,7 @@ def render_taylor(name: str) -> dict[str, str]:
     kinds = counts(d)
     M = name.upper()
     called = uses(d)
+    compact = compact_context(compact_statements(d))
     out = {}
     for stem, names in TAYLOR_FILES.items():
         variants = [dict(TAYLOR_VARIANTS[v], taylor=c_statements(d, TAYLOR_VARIANTS[v], slots),
@@ -752,7 +881,8 @@ def render_taylor(name: str) -> dict[str, str]:
         header = f"{name}_{stem}.h"
         ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops),
                "uses": {k: k in called for k in TAYLOR_CALLS},
-               "nconst": len(d.constants), "timed": d.timed, "inline_max": inline_max(d), "reads_time": d.reads_time, **ORDER_RULE, **library_context(name, info), "header": header,
+               "nconst": len(d.constants), "timed": d.timed, "inline_max": inline_max(d), "reads_time": d.reads_time,
+               "compact": compact, "unroll_max": unroll_max(d), **ORDER_RULE, **library_context(name, info), "header": header,
                "guard": f"{M}_{stem.upper()}_H", "quad": "quad" in names, "dd": "double-double" in names,
                "precisions": _precisions([TAYLOR_VARIANTS[v] for v in names]),
                "op_summary": ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())),

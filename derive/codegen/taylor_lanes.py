@@ -24,8 +24,9 @@ its constants and the public entry points.
 from __future__ import annotations
 
 from ..errors import SpecError
-from .taylor import (COST_ORDER, ORDER_RULE, TAYLOR_VARIANTS, Decomposition, _slots, c_statements, history_nodes, jet_cost,
-                     library_context, operands, operation, rhs_decomposition, uses)
+from .taylor import (COST_ORDER, LANES_UNROLL_COST, ORDER_RULE, TAYLOR_VARIANTS, Decomposition, _slots,
+                     compact_context, c_statements, history_nodes, jet_cost, jet_levels, library_context,
+                     operands, operation, rhs_decomposition, unroll_max, uses)
 from .integrators import _C_VARIANTS, c_variants, library_files, model_info
 from .emit import render
 
@@ -93,6 +94,72 @@ def lane_statements(d: Decomposition) -> dict:
             "nhist": nh, "ncur": nt, "reads_constants": any("C[" in line for line in lines + outputs)}
 
 
+def compact_lane_statements(d: Decomposition) -> dict:
+    """The lanes' compact jet (taylor.compact_statements for L lanes): the nodes in the
+    same three arrays as lane_statements' (X the states, H the nodes read at every order,
+    T the others), each node of H and T renumbered so that the nodes of one level whose
+    lane statements read alike are consecutive rows, one loop per segment; the statement
+    is its operation's lane statement (OPERATIONS) written for row u, its operands from
+    index tables (HA0[u], ... for a segment in H, TA0[u], ... in T: the rows of the node
+    arguments, the indices of the constants).  A node without a statement of its own (cos:
+    its sin's sincos writes it) has a row and no segment.
+
+    Returns
+    -------
+    dict
+        segments ((first row, past the last, statement)), tables ({name: every row's
+        operand}: HA0, TA1, ...), nhist, ncur, outputs and guards (lane_statements'),
+        space and row (each node's array, X, H or T, and its row there).
+    """
+    hist = history_nodes(d)
+    level = jet_levels(d)
+    space = {i: "X" if op.kind == "var" else "H" if i in hist else "T" for i, op in enumerate(d.ops)}
+
+    def statement(i: int, op) -> str:
+        entry = operation(op)
+        nodes = len(op.args) - entry.consts
+        a = [None if x is None else _Lanes(f"{space[x]}[{space[i]}A{j}[u]]") for j, x in enumerate(op.args[:nodes])]
+        a += [f"{space[i]}A{j}[u]" for j in range(nodes, len(op.args))]
+        return entry.lane(_Lanes(f"{space[i]}[u]"), a)
+
+    groups: dict[tuple[int, str, str], list[int]] = {}
+    for i, op in enumerate(d.ops):
+        if op.kind != "var" and operation(op).lane:
+            groups.setdefault((level[i], space[i], statement(i, op)), []).append(i)
+    row = {i: op.index for i, op in enumerate(d.ops) if op.kind == "var"}
+    used = {"H": 0, "T": 0}
+    segments = []
+    for (_, where, text), members in sorted(groups.items(), key=lambda g: (g[0][0], g[1][0])):
+        first = used[where]
+        row.update((i, first + m) for m, i in enumerate(members))
+        used[where] += len(members)
+        segments.append((first, used[where], text))
+    for i in range(len(d.ops)):            # the nodes another's statement writes (cos)
+        if i not in row:
+            row[i], used[space[i]] = used[space[i]], used[space[i]] + 1
+
+    width = max((len(op.args) for op in d.ops), default=0)
+    tables = {f"{where}A{j}": [0] * used[where] for where in "HT" for j in range(width)}
+    for i, op in enumerate(d.ops):
+        if space[i] == "X":
+            continue
+        nodes = len(op.args) - operation(op).consts
+        for j, x in enumerate(op.args):
+            tables[f"{space[i]}A{j}"][row[i]] = x if j >= nodes else (0 if x is None else row[x])
+    tables = {name: values for name, values in tables.items()
+              if any(f"{name}[u]" in text for _, _, text in segments)}
+
+    def cur(j: int) -> str:
+        return f"T[{row[j]}]" if space[j] == "T" else f"{space[j]}[{row[j]}] + k * L"
+
+    outputs = [f"LANES_OUT(X[{i}] + (k + 1) * L, {cur(j)}, k);" if kind == "node" else
+               f"LANES_OUTC(X[{i}] + (k + 1) * L, C[{j}], k);" for i, (kind, j) in enumerate(d.outputs)]
+    return {"segments": segments, "tables": tables, "nhist": used["H"], "ncur": used["T"], "outputs": outputs,
+            "space": space, "row": row,
+            "guards": [cur(g) for g in d.guards],
+            "reads_constants": any("C[" in line for _, _, line in segments) or any("C[" in o for o in outputs)}
+
+
 LIBRARY = ("derive_taylor_math.h", "derive_taylor_lanes.h")        # derive/codegen/backends/c/library/
 # the recurrences of derive_taylor_lanes.h a jet may leave out (DERIVE_LANES_USES_<NAME>)
 LANES_RECURRENCES = ("ADD", "SUB", "SCALE", "SHIFT", "CSUB", "MUL", "SQUARE", "DIV", "SQRT", "SINCOS", "EXP", "OUT",
@@ -120,6 +187,7 @@ def render_taylor_lanes(name: str) -> dict[str, str]:
     M = name.upper()
     ctx = {"P": name, "M": M, "title": info.title, "variants": variants, "nops": len(d.ops),
            "uses": lanes_uses(d), "jet": lane_statements(d), "nconst": len(d.constants),
+           "compact": compact_context(compact_lane_statements(d)), "unroll_max": unroll_max(d, LANES_UNROLL_COST),
            "timed": d.timed, "reads_time": d.reads_time, **ORDER_RULE,
            **library_context(name, info), "lanes_default": LANES_DEFAULT,
            "cost": jet_cost(d, COST_ORDER), "cost_order": COST_ORDER,

@@ -35,6 +35,7 @@ from .build import address, info_struct
 from .shared_library import TAYLOR_BATCH, TAYLOR_COEFFICIENTS, TAYLOR_COEFFICIENTS_TIMED, SharedLibrary
 from .model_sizes import model_info
 from ..codegen.taylor import taylor_problem, taylor_skip_flags
+from .taylor_library import form_flag, jet_form
 from ..codegen.contract import EXTENDED, PRECISION, PRECISION_NAMES
 
 # The rungs above long double (the contract's precision table): unit roundoff, default
@@ -175,17 +176,19 @@ class ExtendedTaylor(SharedLibrary):
     One library serves every order: it is compiled without -D<M>_TAYLOR_ORDER, so it takes
     the order from options.rtol by the same rule as contract.taylor_order.  Unrolled at a
     fixed order the extended arithmetic runs no faster and gives the same bits, while each
-    new tolerance would cost a compile of its own."""
+    new tolerance would cost a compile of its own.  The jet's form (`form`: compact or
+    unrolled, taylor_library.JET_FORMS) is compact by default: without a fixed order the
+    statements are not unrolled, and the compact loops ran as fast in both rungs."""
 
-    def __init__(self, model: str, precision: str, order: int):
+    def __init__(self, model: str, precision: str, order: int, form: str = "compact"):
         info = model_info(model)
-        self.model, self.precision, self.order, self.n = model, precision, order, info.n
+        self.model, self.precision, self.order, self.n, self.form = model, precision, order, info.n, form
         self.n_params = info.n_params + info.n_inputs
         stem = f"{model}_taylor_quad" if precision == "quad" else f"{model}_taylor"
         source = c_source(model, f"{stem}.c")
         if not source.is_file():
             raise SimulationInputError(f"model '{model}' has no Taylor integrator: {taylor_problem(model)}")
-        flags = (*PORTABLE_FLAGS, "-O3", *_fma_flags())     # no fixed order: see above
+        flags = (*PORTABLE_FLAGS, "-O3", *_fma_flags(), form_flag(model, form))     # no fixed order: see above
         if precision == "double-double":          # only the variant that runs (compile time)
             flags += taylor_skip_flags(model, PRECISION[precision].ctype)
         libs = ()
@@ -257,4 +260,4 @@ def _quadmath_include(cc: str) -> tuple[str, ...]:
 def extended_taylor(model: str, precision: str, order: int) -> ExtendedTaylor:
     if sys.byteorder != "little":
         raise SimulationInputError(f"dtype '{precision}' runs on little-endian machines only")
-    return ExtendedTaylor(model, precision, order)
+    return ExtendedTaylor(model, precision, order, jet_form(model, None))

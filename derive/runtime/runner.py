@@ -117,9 +117,9 @@ class Runner:
     @property
     def lib(self):
         """The library whose options struct the run takes (the atlas': its own driver's; a
-        time-dependent model's Taylor run: the contract's defaults, TaylorOptions, so that
-        it builds no RK library)."""
-        if self.method == TAYLOR and self.timed:
+        Taylor run: the contract's defaults, TaylorOptions, so that it builds no RK library
+        it does not run: only the jet's library is compiled)."""
+        if self.method == TAYLOR:
             return taylor_options()
         return _rk_library(self.model, self.atlas)
 

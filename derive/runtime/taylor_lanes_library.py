@@ -1,7 +1,8 @@
 """The lane-parallel Taylor integrator (<model>_taylor_lanes.c) at run time.
 
 Compiled like the scalar one (taylor_library.py: one cached library per order, the order
-fixed with -D<MODEL>_TAYLOR_ORDER=p) plus the lanes (-D<MODEL>_TAYLOR_LANES=L), only the
+fixed with -D<MODEL>_TAYLOR_ORDER=p, the jet unrolled or compact: jet_form, with the lanes'
+own size limit) plus the lanes (-D<MODEL>_TAYLOR_LANES=L), only the
 scalar type asked for (-D<MODEL>_TAYLOR_LANES_ONLY: with the order unrolled, each
 scalar type's variant is a long compile, the long double one longest) and the vector
 instructions this machine has (vector_build.SIMD_LEVELS, by the CPU's flags; none known: the
@@ -23,7 +24,7 @@ from .build import info_struct, run_batch
 from .shared_library import SUFFIX, TAYLOR_LANES_BATCH, SharedLibrary
 from .model_sizes import model_info
 from ..codegen.taylor import taylor_problem
-from .taylor_library import taylor_library
+from .taylor_library import form_flag, jet_form, size_flags, taylor_library
 from ..codegen.taylor_lanes import variant_number
 from .vector_build import EXACT_FLAGS, simd_build
 
@@ -40,12 +41,13 @@ LANES_FLAGS = (*PORTABLE_FLAGS, "-fpeel-loops", *EXACT_FLAGS)
 
 class TaylorLanesLibrary(SharedLibrary):
     """ctypes access to <model>_taylor_lanes_batch{,_f,_l} for one scalar type, compiled
-    with a fixed order (only that type: unrolled, each takes a while to compile)."""
+    with a fixed order (only that type: unrolled, each takes a while to compile) and its
+    jet in `form` (taylor_library.JET_FORMS)."""
 
     def __init__(self, model: str, order: int, dtype: str = "float64", lanes: int | None = None,
-                 simd: tuple[str, ...] | None = None):
+                 simd: tuple[str, ...] | None = None, form: str = "unrolled"):
         info = model_info(model)
-        self.model, self.order, self.n, self.dtype = model, order, info.n, dtype
+        self.model, self.order, self.n, self.dtype, self.form = model, order, info.n, dtype, form
         self.n_params = info.n_params + info.n_inputs
         source = c_source(model, f"{model}_taylor_lanes.c")
         if not source.is_file():
@@ -54,8 +56,8 @@ class TaylorLanesLibrary(SharedLibrary):
         self.lanes = lanes or default_lanes
         simd = flags if simd is None else simd
         M = model.upper()
-        extra = (f"-D{M}_TAYLOR_ORDER={order}", f"-D{M}_TAYLOR_LANES={self.lanes}",
-                 f"-D{M}_TAYLOR_LANES_ONLY={variant_number(SUFFIX[dtype])}")
+        extra = (f"-D{M}_TAYLOR_ORDER={order}", form_flag(model, self.form), *size_flags(model, order, form, True),
+                 f"-D{M}_TAYLOR_LANES={self.lanes}", f"-D{M}_TAYLOR_LANES_ONLY={variant_number(SUFFIX[dtype])}")
         stem = f"{model}_taylor_lanes{SUFFIX[dtype]}_p{order}_l{self.lanes}"
         path, self.flags = _build(stem, source, simd, extra)
         super().__init__(path)
@@ -88,8 +90,16 @@ def taylor_ensemble_library(model: str, order: int, dtype: str):
     return taylor_library(model, order, dtype)
 
 
+def taylor_lanes_library(model: str, order: int, dtype: str = "float64", lanes: int | None = None,
+                         simd: tuple[str, ...] | None = None, form: str | None = None) -> TaylorLanesLibrary:
+    """The lanes' Taylor integrator of `model` at `order` in `dtype`, built on first use
+    (cached on disk and in this process); `lanes`, `simd`: the machine's by default;
+    `form`: the jet's (taylor_library.JET_FORMS), None for jet_form's choice."""
+    return _taylor_lanes_library(model, order, dtype, lanes, simd, form or jet_form(model, order, lanes=True))
+
+
 @forget_on_model_change
 @lru_cache(maxsize=None)
-def taylor_lanes_library(model: str, order: int, dtype: str = "float64", lanes: int | None = None,
-                         simd: tuple[str, ...] | None = None) -> TaylorLanesLibrary:
-    return TaylorLanesLibrary(model, order, dtype, lanes, simd)
+def _taylor_lanes_library(model: str, order: int, dtype: str, lanes: int | None, simd: tuple[str, ...] | None,
+                          form: str) -> TaylorLanesLibrary:
+    return TaylorLanesLibrary(model, order, dtype, lanes, simd, form)

@@ -3,14 +3,18 @@ and precision.
 
 The order follows the tolerance (p = ceil(-ln(tol)/2 + 1), Jorba & Zou; the same rule
 as the C, derive/codegen/taylor.py), and derive compiles the integrator
-with that order fixed (-D<MODEL>_TAYLOR_ORDER=p), which lets the compiler unroll the
-recurrences (the generic build loops over an order read at run time).  Each order is one
-cached library, built on first use with only the variant of the precision that runs
-(compiling the four unrolled variants takes about four times as long); the generic file, compiled without the
-macro, reads the order from options.rtol, for use in other projects.
+with that order fixed (-D<MODEL>_TAYLOR_ORDER=p).  Each order is one cached library, built
+on first use with only the variant of the precision that runs, and with the jet in one of
+its two forms (jet_form: -D<MODEL>_TAYLOR_COMPACT): unrolled by the compiler at that order
+while the jet is small (it steps fastest there), compact past it (one loop per segment of
+alike operations: faster per step for a large jet, and compiled in about a second where
+the unrolled one takes minutes and gigabytes).  Only this library is compiled for a run.
+The generic file, compiled without the order macro, reads the order from options.rtol,
+for use in other projects.
 """
 from __future__ import annotations
 
+import os
 from functools import lru_cache
 
 import numpy as np
@@ -25,7 +29,62 @@ from .shared_library import SUFFIX, TAYLOR_BATCH, TAYLOR_COEFFICIENTS, TAYLOR_CO
 from .model_sizes import model_info
 from ..codegen.contract import OPTIONS, PRECISION, SINE_MIN
 from ..codegen.sources import kernels
-from ..codegen.taylor import taylor_problem, taylor_skip_flags
+from ..codegen.taylor import (LANES_UNROLL_COST, UNROLL_COST, jet_cost, rhs_decomposition, taylor_problem,
+                              taylor_skip_flags, unroll_max)
+
+# The jet's forms (templates/c/taylor.c.jinja): unrolled at the fixed order, or compact
+# (a loop per segment of alike operations over index tables).  DERIVE_TAYLOR_JET picks one
+# for every build; unset or "auto", jet_form chooses by size.
+JET_FORMS = ("unrolled", "compact")
+JET_ENV = "DERIVE_TAYLOR_JET"
+
+
+def jet_form(model: str, order: int | None, lanes: bool = False) -> str:
+    """The form of `model`'s jet a build at `order` compiles (None: the generic build, the
+    order read at run time; `lanes`: of the SIMD lanes' file): $DERIVE_TAYLOR_JET if set
+    (unrolled, compact or auto), else (auto) unrolled while the unrolled jet's cost at the
+    order is within codegen.taylor.UNROLL_COST (LANES_UNROLL_COST for the lanes), compact
+    past it; the generic build compact (its statements are not unrolled: the same speed)."""
+    forced = os.environ.get(JET_ENV, "").strip().lower()
+    if forced in JET_FORMS:
+        return forced
+    if forced not in ("", "auto"):
+        raise SimulationInputError(f"{JET_ENV} must be unrolled, compact or auto, got {forced!r}")
+    if order is None:
+        return "compact"
+    return "unrolled" if order <= _unroll_max(model, lanes) else "compact"
+
+
+@forget_on_model_change
+@lru_cache(maxsize=None)
+def _unroll_max(model: str, lanes: bool) -> int:
+    """The last order jet_form unrolls for `model` (once per model and process)."""
+    return unroll_max(rhs_decomposition(model), LANES_UNROLL_COST if lanes else UNROLL_COST)
+
+
+# An unrolled jet the rule would not choose (forced by DERIVE_TAYLOR_JET) past these costs
+# (jet_cost) is compiled at -O1, which does not unroll it: at -O2 GCC's time and memory
+# grow faster than the jet (a five-link chain at order 18, cost 50762: 67 s and 2.2 GB
+# for the scalar jet, 299 s and 8.8 GB for the lanes'; a three-link chain, 16303: 5.6 s
+# and 290 MB, lanes 28.5 s and 1.05 GB), at -O1 they stay near the compact jet's build
+# (the five-link chain's scalar jet: 1.4 s, 115 MB).
+O2_COST = 20000
+LANES_O2_COST = 10000
+
+
+def size_flags(model: str, order: int, form: str, lanes: bool = False) -> tuple[str, ...]:
+    """The optimisation flags a build of `model`'s jet at `order` in `form` adds to the
+    defaults (-O2): -O1 for an unrolled jet past O2_COST (LANES_O2_COST for the lanes)."""
+    if form != "unrolled" or jet_cost(rhs_decomposition(model), order) <= (LANES_O2_COST if lanes else O2_COST):
+        return ()
+    return ("-O1",)
+
+
+def form_flag(model: str, form: str) -> str:
+    """-D<M>_TAYLOR_COMPACT=0|1: the jet's form in a build of <model>_taylor{,_quad}.c."""
+    if form not in JET_FORMS:
+        raise ValueError(f"unknown Taylor jet form {form!r} (known: {', '.join(JET_FORMS)})")
+    return f"-D{model.upper()}_TAYLOR_COMPACT={int(form == 'compact')}"
 
 
 class TaylorLibrary(SharedLibrary):
@@ -40,16 +99,19 @@ class TaylorLibrary(SharedLibrary):
     dtype : str
         The hardware precision compiled in (a key of contract.PRECISION: float32,
         float64, longdouble); fns and coefficient_fns hold its entry points only.
+    form : str
+        The jet's form, unrolled or compact (JET_FORMS; taylor_library chooses it by size).
     """
 
-    def __init__(self, model: str, order: int, dtype: str = "float64"):
+    def __init__(self, model: str, order: int, dtype: str = "float64", form: str = "unrolled"):
         info = model_info(model)
-        self.model, self.order, self.n, self.dtype = model, order, info.n, dtype
+        self.model, self.order, self.n, self.dtype, self.form = model, order, info.n, dtype, form
         self.n_params = info.n_params + info.n_inputs
         source = c_source(model, f"{model}_taylor.c")
         if not source.is_file():
             raise SimulationInputError(f"model '{model}' has no Taylor integrator: {taylor_problem(model)}")
-        extra = (f"-D{model.upper()}_TAYLOR_ORDER={order}", *taylor_skip_flags(model, PRECISION[dtype].ctype))
+        extra = (f"-D{model.upper()}_TAYLOR_ORDER={order}", form_flag(model, form), *size_flags(model, order, form),
+                 *taylor_skip_flags(model, PRECISION[dtype].ctype))
         path, self.flags = _build(f"{model}_taylor_p{order}{SUFFIX[dtype]}", source, extra)
         super().__init__(path)
         self.Info = info_struct(self.n)
@@ -94,8 +156,8 @@ def _build(stem: str, source, extra: tuple[str, ...]):
 class TaylorOptions(OptionsCache):
     """The options struct of the Taylor integrator filled with the contract's defaults, as
     <model>_integrate_defaults fills it (codegen/contract.py OPTIONS: sine_min the model's
-    SINE_MIN, cancel none): a time-dependent model's Taylor run takes it, so that it
-    builds no RK library (<model>_integrate.c) to ask.  tests/runtime/test_taylor_explicit_time.py
+    SINE_MIN, cancel none): a Taylor run takes it, so that it builds no RK library
+    (<model>_integrate.c) to ask.  tests/runtime/test_taylor_explicit_time.py
     holds it equal to <model>_integrate_defaults."""
 
     def __init__(self):
@@ -116,9 +178,14 @@ def taylor_options() -> TaylorOptions:
     return TaylorOptions()
 
 
+def taylor_library(model: str, order: int, dtype: str = "float64", form: str | None = None) -> TaylorLibrary:
+    """The Taylor integrator of `model` at `order` in the hardware precision `dtype`, built
+    on first use (cached on disk and in this process); `form`: its jet's (JET_FORMS), None
+    for jet_form's choice."""
+    return _taylor_library(model, order, dtype, form or jet_form(model, order))
+
+
 @forget_on_model_change
 @lru_cache(maxsize=None)
-def taylor_library(model: str, order: int, dtype: str = "float64") -> TaylorLibrary:
-    """The Taylor integrator of `model` at `order` in the hardware precision `dtype`, built
-    on first use (cached on disk and in this process)."""
-    return TaylorLibrary(model, order, dtype)
+def _taylor_library(model: str, order: int, dtype: str, form: str) -> TaylorLibrary:
+    return TaylorLibrary(model, order, dtype, form)

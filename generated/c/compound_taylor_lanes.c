@@ -13,7 +13,7 @@
 #define N COMPOUND_N_STATES
 #define ORDER_MAX COMPOUND_TAYLOR_ORDER_MAX
 
-/* As in compound_taylor.c: -DCOMPOUND_TAYLOR_ORDER=p fixes the order (and the recurrences
+/* As in compound_taylor.c: -DCOMPOUND_TAYLOR_ORDER=p fixes the order (and the recurrences may
  * unroll), 0 takes it from options.rtol. */
 #ifndef COMPOUND_TAYLOR_ORDER
 #define COMPOUND_TAYLOR_ORDER 0
@@ -29,7 +29,13 @@
 #endif
 #define L COMPOUND_TAYLOR_LANES
 #define ORDER_DIM (COMPOUND_TAYLOR_ORDER ? COMPOUND_TAYLOR_ORDER + 1 : ORDER_MAX + 1)
-#if COMPOUND_TAYLOR_ORDER != 0 && defined(__GNUC__) && !defined(__clang__)
+/* As in compound_taylor.c: the jet unrolled, or compact (COMPOUND_TAYLOR_COMPACT=1: a loop per
+ * segment of alike operations over index tables); by default compact past order 22
+ * or with the order from the tolerance. */
+#ifndef COMPOUND_TAYLOR_COMPACT
+#define COMPOUND_TAYLOR_COMPACT (COMPOUND_TAYLOR_ORDER == 0 || COMPOUND_TAYLOR_ORDER > 22)
+#endif
+#if COMPOUND_TAYLOR_ORDER != 0 && !COMPOUND_TAYLOR_COMPACT && defined(__GNUC__) && !defined(__clang__)
 #define TAYLOR_UNROLL _Pragma("GCC unroll 64")
 #else
 #define TAYLOR_UNROLL
@@ -114,7 +120,56 @@ static void compound_lconstants(R (*C)[L], int l, const R *p)
     C[9][l] = (1.0/2.0)*p[3]*p[1]*(p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]));
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if COMPOUND_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void compound_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[15] = {
+        0, 0, 1, 3, 2, 0, 12, 6, 7, 8, 13, 14, 0, 0, 1
+    };
+    static const int HA1[15] = {
+        1, 13, 14, 0, 0, 12, 1, 0, 4, 8, 7, 7, 5, 1, 2
+    };
+    static const int TA0[15] = {
+        1, 2, 5, 5, 2, 3, 6, 0, 5, 7, 8, 9, 8, 9, 10
+    };
+    static const int TA1[15] = {
+        2, 7, 3, 4, 3, 6, 0, 4, 1, 5, 9, 6, 6, 11, 12
+    };
+    R H[15][ORDER_DIM * L];     /* nodes read at every order */
+    R T[15][L];                 /* nodes read at this order only */
+    const int order = COMPOUND_TAYLOR_ORDER ? COMPOUND_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    (void)sine_min;
+    (void)bad;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 1; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 1; u < 3; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 3; u < 5; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 5; u < 6; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 0; u < 2; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 2; u < 4; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 4; u < 6; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 6; u < 7; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 7; u < 8; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 8; u < 9; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 7; u < 8; ++u) { LANES_CSUB(H[u] + k * L, C[HA1[u]], T[HA0[u]], k); }
+        for (u = 8; u < 10; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 9; u < 11; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 11; u < 13; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 13; u < 15; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 10; u < 12; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        LANES_OUT(X[0] + (k + 1) * L, X[2] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[3] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, H[10] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, H[11] + k * L, k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void compound_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[15][ORDER_DIM * L];     /* nodes read at every order */
@@ -158,6 +213,7 @@ static void compound_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R 
         LANES_OUT(X[3] + (k + 1) * L, H[14] + k * L, k);
     }
 }
+#endif
 
 long compound_taylor_lanes_batch(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const compound_integrate_options *opt, compound_integrate_info *info)
 {
@@ -197,7 +253,56 @@ static void compound_lconstants_f(R (*C)[L], int l, const R *p)
     C[9][l] = (1.0F/2.0F)*p[3]*p[1]*(p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]));
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if COMPOUND_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void compound_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[15] = {
+        0, 0, 1, 3, 2, 0, 12, 6, 7, 8, 13, 14, 0, 0, 1
+    };
+    static const int HA1[15] = {
+        1, 13, 14, 0, 0, 12, 1, 0, 4, 8, 7, 7, 5, 1, 2
+    };
+    static const int TA0[15] = {
+        1, 2, 5, 5, 2, 3, 6, 0, 5, 7, 8, 9, 8, 9, 10
+    };
+    static const int TA1[15] = {
+        2, 7, 3, 4, 3, 6, 0, 4, 1, 5, 9, 6, 6, 11, 12
+    };
+    R H[15][ORDER_DIM * L];     /* nodes read at every order */
+    R T[15][L];                 /* nodes read at this order only */
+    const int order = COMPOUND_TAYLOR_ORDER ? COMPOUND_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    (void)sine_min;
+    (void)bad;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 1; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 1; u < 3; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 3; u < 5; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 5; u < 6; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 0; u < 2; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 2; u < 4; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 4; u < 6; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 6; u < 7; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 7; u < 8; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 8; u < 9; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 7; u < 8; ++u) { LANES_CSUB(H[u] + k * L, C[HA1[u]], T[HA0[u]], k); }
+        for (u = 8; u < 10; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 9; u < 11; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 11; u < 13; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 13; u < 15; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 10; u < 12; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        LANES_OUT(X[0] + (k + 1) * L, X[2] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[3] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, H[10] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, H[11] + k * L, k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void compound_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[15][ORDER_DIM * L];     /* nodes read at every order */
@@ -241,6 +346,7 @@ static void compound_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, 
         LANES_OUT(X[3] + (k + 1) * L, H[14] + k * L, k);
     }
 }
+#endif
 
 long compound_taylor_lanes_batch_f(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const compound_integrate_options *opt, compound_integrate_info *info)
 {
@@ -280,7 +386,56 @@ static void compound_lconstants_l(R (*C)[L], int l, const R *p)
     C[9][l] = (1.0L/2.0L)*p[3]*p[1]*(p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]));
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if COMPOUND_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void compound_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[15] = {
+        0, 0, 1, 3, 2, 0, 12, 6, 7, 8, 13, 14, 0, 0, 1
+    };
+    static const int HA1[15] = {
+        1, 13, 14, 0, 0, 12, 1, 0, 4, 8, 7, 7, 5, 1, 2
+    };
+    static const int TA0[15] = {
+        1, 2, 5, 5, 2, 3, 6, 0, 5, 7, 8, 9, 8, 9, 10
+    };
+    static const int TA1[15] = {
+        2, 7, 3, 4, 3, 6, 0, 4, 1, 5, 9, 6, 6, 11, 12
+    };
+    R H[15][ORDER_DIM * L];     /* nodes read at every order */
+    R T[15][L];                 /* nodes read at this order only */
+    const int order = COMPOUND_TAYLOR_ORDER ? COMPOUND_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    (void)sine_min;
+    (void)bad;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 1; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 1; u < 3; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 3; u < 5; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 5; u < 6; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 0; u < 2; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 2; u < 4; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 4; u < 6; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 6; u < 7; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 7; u < 8; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 8; u < 9; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 7; u < 8; ++u) { LANES_CSUB(H[u] + k * L, C[HA1[u]], T[HA0[u]], k); }
+        for (u = 8; u < 10; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 9; u < 11; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 11; u < 13; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 13; u < 15; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 10; u < 12; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        LANES_OUT(X[0] + (k + 1) * L, X[2] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[3] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, H[10] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, H[11] + k * L, k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void compound_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[15][ORDER_DIM * L];     /* nodes read at every order */
@@ -324,6 +479,7 @@ static void compound_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, 
         LANES_OUT(X[3] + (k + 1) * L, H[14] + k * L, k);
     }
 }
+#endif
 
 long compound_taylor_lanes_batch_l(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const compound_integrate_options *opt, compound_integrate_info *info)
 {

@@ -319,10 +319,14 @@ DERIVE_TAYLOR_INLINE R DERIVE_TAYLOR_T(derive_taylor_exp)(const R *a, const R *u
 
 #define TAYLOR_MUL DERIVE_TAYLOR_T(derive_taylor_mul)
 #define TAYLOR_SQUARE DERIVE_TAYLOR_T(derive_taylor_square)
-#define TAYLOR_DIV DERIVE_TAYLOR_T(derive_taylor_div)
-#define TAYLOR_SQRT DERIVE_TAYLOR_T(derive_taylor_sqrt)
+/* u_0 = a_0 / b_0 reads no coefficient of u: at order 0 the quotient is handed b in its
+ * place, so an unrolled jet never passes the function a row it has not written yet (GCC's
+ * -Wmaybe-uninitialized, in the double-double jet at a fixed order) */
+#define TAYLOR_DIV(ak, b, u, k) DERIVE_TAYLOR_T(derive_taylor_div)(ak, b, (k) ? (u) : (b), k)
+/* the same for u_0 = sqrt(a_0) and u_0 = exp(a_0), handed a in u's place */
+#define TAYLOR_SQRT(a, u, k) DERIVE_TAYLOR_T(derive_taylor_sqrt)(a, (k) ? (u) : (a), k)
 #define TAYLOR_SINCOS DERIVE_TAYLOR_T(derive_taylor_sincos)
-#define TAYLOR_EXP DERIVE_TAYLOR_T(derive_taylor_exp)
+#define TAYLOR_EXP(a, u, k) DERIVE_TAYLOR_T(derive_taylor_exp)(a, (k) ? (u) : (a), k)
 
 /* the series x_0 + x_1 tau + ... + x_order tau^order by Horner */
 static R DERIVE_TAYLOR_T(derive_taylor_horner)(const R *x, int order, R tau)

@@ -12,8 +12,9 @@
  * built without floating-point contraction (-ffp-contract=off; GCC's default under
  * -std=c99) each trajectory is bit for bit what planar_taylor gives for it.
  *
- * Compile with -DPLANAR_TAYLOR_ORDER=p to fix the order (unrolled: faster), as for
- * planar_taylor.c, and -DPLANAR_TAYLOR_LANES=L (1 to 64) to choose the lanes; SIMD flags
+ * Compile with -DPLANAR_TAYLOR_ORDER=p to fix the order, as for planar_taylor.c (with
+ * -DPLANAR_TAYLOR_COMPACT=0 or 1 for the jet's form: unrolled by default up to order 22,
+ * compact past it), and -DPLANAR_TAYLOR_LANES=L (1 to 64) to choose the lanes; SIMD flags
  * (-mavx2, -mavx512f, ...) let the compiler use the machine's vector registers.  Stack use
  * of a call: about 19 x (order + 1) x L values (the states and the nodes read at
  * every order; the others hold one order).  The order unrolled, each type takes a while

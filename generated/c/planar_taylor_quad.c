@@ -15,8 +15,8 @@
 #define ORDER_MAX PLANAR_TAYLOR_ORDER_MAX
 
 /* Compiled with -DPLANAR_TAYLOR_ORDER=p (2 <= p <= ORDER_MAX), the order is p whatever
- * the tolerance, and the compiler unrolls the recurrences for it; without, the order
- * follows options.rtol at run time. */
+ * the tolerance (and the compiler may unroll the jet for it); without, the order follows
+ * options.rtol at run time. */
 #ifndef PLANAR_TAYLOR_ORDER
 #define PLANAR_TAYLOR_ORDER 0
 #endif
@@ -25,6 +25,15 @@
 #endif
 /* the coefficient arrays: as long as the fixed order needs, else the longest */
 #define ORDER_DIM (PLANAR_TAYLOR_ORDER ? PLANAR_TAYLOR_ORDER + 1 : ORDER_MAX + 1)
+/* The jet's two forms, the same numbers: unrolled, one statement per operation inside the
+ * order loop, which the compiler unrolls at a fixed order (the fastest steps, but its
+ * size and compile time grow as the operations times the order squared); or compact
+ * (PLANAR_TAYLOR_COMPACT=1), one loop per segment of alike operations over index tables,
+ * whose size grows with the model only.  By default compact past order 10 or
+ * with the order from the tolerance (derive chooses by size, derive/runtime/taylor_library.py). */
+#ifndef PLANAR_TAYLOR_COMPACT
+#define PLANAR_TAYLOR_COMPACT (PLANAR_TAYLOR_ORDER == 0 || PLANAR_TAYLOR_ORDER > 10)
+#endif
 /* No unrolling: each binary128 operation is a call into libquadmath, which unrolling does
  * not speed up, while it makes the compile many times longer */
 #define TAYLOR_UNROLL
@@ -105,7 +114,72 @@
 #define DERIVE_TAYLOR_JET planar_taylor_jet_q
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if PLANAR_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int planar_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 1, 3, 2, 4, 5, 6, 9, 9, 31, 12,
+        13, 14, 10, 16, 17, 18, 18, 19, 19, 23, 21, 22, 24, 27, 28, 4,
+        0, 1
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 1, 32, 33, 0, 0, 31, 2, 7, 7, 8, 1, 3,
+        6, 0, 15, 11, 0, 4, 5, 3, 8, 14, 14, 25, 26, 20, 20, 9,
+        5, 6
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = PLANAR_TAYLOR_ORDER ? PLANAR_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return PLANAR_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = T_MUL(T_MUL(T_MUL(p[1], T_MUL(p[2], p[2])), T_MUL(p[3], p[3])), T_ADD(p[0], p[1]));
+    C[1] = T_MUL(T_MUL(p[2], p[3]), p[1]);
+    C[2] = T_MUL(p[4], T_ADD(p[0], p[1]));
+    C[3] = T_MUL(p[3], p[1]);
+    C[4] = T_NEG(p[2]);
+    C[5] = T_NEG(T_MUL(T_MUL(p[2], p[1]), T_MUL(p[3], p[3])));
+    C[6] = p[2];
+    C[7] = p[4];
+    C[8] = T_MUL(T_MUL(T_MUL(p[3], p[1]), T_MUL(p[2], p[2])), T_ADD(p[0], p[1]));
+    (void)sine_min;
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 4; u < 5; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 5; u < 7; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
+        for (u = 7; u < 9; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 9; u < 10; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
+        for (u = 10; u < 12; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 12; u < 14; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 14; u < 17; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 17; u < 18; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 18; u < 19; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 19; u < 20; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 20; u < 21; ++u) { J[u][k] = k == 0 ? T_SUB(C[A1[u]], J[A0[u]][0]) : T_NEG(J[A0[u]][k]); }
+        for (u = 21; u < 25; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 25; u < 27; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 27; u < 29; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 29; u < 31; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        J[0][k + 1] = T_DIVI(J[2][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[3][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[29][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[30][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return PLANAR_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int planar_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -161,6 +235,7 @@ static int planar_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
     }
     return PLANAR_INTEGRATE_OK;
 }
+#endif
 
 int planar_taylor_coefficients_q(const derive_quad *y, const derive_quad *p, int order, derive_quad *coef, double sine_min)
 {

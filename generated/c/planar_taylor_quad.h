@@ -13,7 +13,10 @@
  * the number of steps; options.sine_min guards the chart as for the other methods;
  * a non-zero *options.cancel stops the run (CANCELLED).
  * info.nfev counts Taylor expansions (one per step), info.nsteps the steps.
- * Compile with -DPLANAR_TAYLOR_ORDER=p to fix the order (unrolled: faster) instead.
+ * Compile with -DPLANAR_TAYLOR_ORDER=p to fix the order instead; -DPLANAR_TAYLOR_COMPACT=0
+ * or 1 chooses the jet's form: unrolled by the compiler at the fixed order (the default
+ * up to order 10) or compact, a loop per segment of alike operations (the
+ * default past it and without a fixed order: its compile time grows with the model only).
  *
  * IEEE binary128 (__float128, GCC's libquadmath: link with -lquadmath; clang finds
  * <quadmath.h> with -idirafter "$(gcc -print-file-name=include)").

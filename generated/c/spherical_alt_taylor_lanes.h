@@ -12,8 +12,9 @@
  * built without floating-point contraction (-ffp-contract=off; GCC's default under
  * -std=c99) each trajectory is bit for bit what spherical_alt_taylor gives for it.
  *
- * Compile with -DSPHERICAL_ALT_TAYLOR_ORDER=p to fix the order (unrolled: faster), as for
- * spherical_alt_taylor.c, and -DSPHERICAL_ALT_TAYLOR_LANES=L (1 to 64) to choose the lanes; SIMD flags
+ * Compile with -DSPHERICAL_ALT_TAYLOR_ORDER=p to fix the order, as for spherical_alt_taylor.c (with
+ * -DSPHERICAL_ALT_TAYLOR_COMPACT=0 or 1 for the jet's form: unrolled by default up to order 9,
+ * compact past it), and -DSPHERICAL_ALT_TAYLOR_LANES=L (1 to 64) to choose the lanes; SIMD flags
  * (-mavx2, -mavx512f, ...) let the compiler use the machine's vector registers.  Stack use
  * of a call: about 66 x (order + 1) x L values (the states and the nodes read at
  * every order; the others hold one order).  The order unrolled, each type takes a while

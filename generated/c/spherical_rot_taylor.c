@@ -15,8 +15,8 @@
 #define ORDER_MAX SPHERICAL_ROT_TAYLOR_ORDER_MAX
 
 /* Compiled with -DSPHERICAL_ROT_TAYLOR_ORDER=p (2 <= p <= ORDER_MAX), the order is p whatever
- * the tolerance, and the compiler unrolls the recurrences for it; without, the order
- * follows options.rtol at run time. */
+ * the tolerance (and the compiler may unroll the jet for it); without, the order follows
+ * options.rtol at run time. */
 #ifndef SPHERICAL_ROT_TAYLOR_ORDER
 #define SPHERICAL_ROT_TAYLOR_ORDER 0
 #endif
@@ -25,8 +25,17 @@
 #endif
 /* the coefficient arrays: as long as the fixed order needs, else the longest */
 #define ORDER_DIM (SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER + 1 : ORDER_MAX + 1)
+/* The jet's two forms, the same numbers: unrolled, one statement per operation inside the
+ * order loop, which the compiler unrolls at a fixed order (the fastest steps, but its
+ * size and compile time grow as the operations times the order squared); or compact
+ * (SPHERICAL_ROT_TAYLOR_COMPACT=1), one loop per segment of alike operations over index tables,
+ * whose size grows with the model only.  By default compact past order 4 or
+ * with the order from the tolerance (derive chooses by size, derive/runtime/taylor_library.py). */
+#ifndef SPHERICAL_ROT_TAYLOR_COMPACT
+#define SPHERICAL_ROT_TAYLOR_COMPACT (SPHERICAL_ROT_TAYLOR_ORDER == 0 || SPHERICAL_ROT_TAYLOR_ORDER > 4)
+#endif
 /* GCC unrolls the recurrences' loops completely when asked and the order is fixed */
-#if SPHERICAL_ROT_TAYLOR_ORDER != 0 && defined(__GNUC__) && !defined(__clang__)
+#if SPHERICAL_ROT_TAYLOR_ORDER != 0 && !SPHERICAL_ROT_TAYLOR_COMPACT && defined(__GNUC__) && !defined(__clang__)
 #define TAYLOR_UNROLL _Pragma("GCC unroll 64")
 #else
 #define TAYLOR_UNROLL
@@ -108,7 +117,129 @@
 #define DERIVE_TAYLOR_JET spherical_rot_taylor_jet
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_ROT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_rot_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 1, 3, 1, 5, 7, 6,
+        4, 7, 5, 12, 9, 9, 8, 9, 8, 17, 18, 19, 161, 165, 164, 21,
+        163, 9, 161, 8, 21, 23, 26, 161, 161, 27, 22, 8, 22, 33, 25, 22,
+        24, 162, 31, 32, 34, 36, 37, 38, 39, 49, 41, 40, 41, 42, 41, 43,
+        49, 49, 40, 35, 30, 53, 56, 57, 20, 61, 66, 25, 26, 64, 16, 65,
+        56, 33, 69, 68, 70, 72, 78, 71, 50, 44, 15, 82, 83, 84, 88, 91,
+        92, 87, 85, 85, 85, 90, 89, 98, 99, 96, 100, 95, 94, 102, 41, 49,
+        56, 49, 103, 104, 108, 109, 106, 114, 114, 115, 118, 116, 117, 85, 56, 85,
+        41, 119, 120, 123, 105, 124, 107, 129, 131, 132, 130, 133, 134, 93, 115, 97,
+        118, 137, 140, 141, 142, 143, 144, 115, 119, 118, 120, 147, 152, 149, 154, 156,
+        158, 2, 12, 0, 1, 3
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 161, 163, 164, 165, 3, 0, 0, 0,
+        0, 6, 4, 162, 8, 13, 14, 16, 15, 4, 4, 0, 6, 7, 8, 163,
+        10, 161, 11, 163, 19, 19, 163, 27, 162, 163, 162, 162, 28, 162, 28, 27,
+        27, 0, 3, 5, 7, 0, 0, 3, 1, 0, 0, 163, 49, 163, 161, 163,
+        13, 26, 25, 45, 47, 54, 0, 2, 59, 0, 0, 62, 62, 33, 67, 163,
+        49, 63, 46, 55, 1, 0, 0, 1, 73, 76, 81, 29, 48, 71, 75, 79,
+        74, 58, 0, 56, 41, 0, 77, 2, 1, 6, 1, 3, 51, 52, 95, 95,
+        96, 96, 1, 60, 101, 86, 80, 58, 70, 0, 0, 6, 3, 117, 117, 116,
+        116, 93, 97, 125, 126, 127, 128, 121, 110, 111, 122, 112, 113, 136, 136, 139,
+        139, 135, 138, 135, 135, 138, 138, 145, 145, 146, 146, 151, 148, 153, 150, 9,
+        8, 8, 19, 9, 10, 11
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = p[2]*p[3];
+    C[1] = -1;
+    C[2] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[3] = p[2]*p[2]*(p[0] + p[1])/p[1];
+    C[4] = 2;
+    C[5] = p[4]*p[2]*(p[0] + p[1])/p[1];
+    C[6] = p[3]*p[3];
+    C[7] = p[4]*p[3];
+    C[8] = -p[4]*p[2]*(p[0] + p[1])/p[1];
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 12; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
+        for (u = 12; u < 13; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 13; u < 17; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 17; u < 19; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 19; u < 20; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
+        for (u = 20; u < 25; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 25; u < 27; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 27; u < 31; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 31; u < 39; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 39; u < 49; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 49; u < 56; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 56; u < 57; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 57; u < 59; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 59; u < 67; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 67; u < 69; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 69; u < 70; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 70; u < 71; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 71; u < 72; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 72; u < 73; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 73; u < 75; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 75; u < 81; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 81; u < 84; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 84; u < 88; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 88; u < 90; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 90; u < 91; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 91; u < 93; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 93; u < 98; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 98; u < 99; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 99; u < 101; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 101; u < 102; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 102; u < 103; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 103; u < 104; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 104; u < 108; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 108; u < 110; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 110; u < 114; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 114; u < 115; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 115; u < 119; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 119; u < 121; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 121; u < 123; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 123; u < 125; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 125; u < 129; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 129; u < 131; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 131; u < 135; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 135; u < 141; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 141; u < 145; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 145; u < 147; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 147; u < 151; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 151; u < 155; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 155; u < 159; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 159; u < 161; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        if (k == 0 && (!(T_ABS(J[9][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
+            return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[155][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[159][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[157][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[160][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_ROT_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_rot_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -296,6 +427,7 @@ static int spherical_rot_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wan
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
+#endif
 
 int spherical_rot_taylor_coefficients(const double *y, const double *p, int order, double *coef, double sine_min)
 {
@@ -374,7 +506,129 @@ long spherical_rot_taylor_batch(long n, const double *y0, long y0_stride, const 
 #define DERIVE_TAYLOR_JET spherical_rot_taylor_jet_f
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_ROT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_rot_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 1, 3, 1, 5, 7, 6,
+        4, 7, 5, 12, 9, 9, 8, 9, 8, 17, 18, 19, 161, 165, 164, 21,
+        163, 9, 161, 8, 21, 23, 26, 161, 161, 27, 22, 8, 22, 33, 25, 22,
+        24, 162, 31, 32, 34, 36, 37, 38, 39, 49, 41, 40, 41, 42, 41, 43,
+        49, 49, 40, 35, 30, 53, 56, 57, 20, 61, 66, 25, 26, 64, 16, 65,
+        56, 33, 69, 68, 70, 72, 78, 71, 50, 44, 15, 82, 83, 84, 88, 91,
+        92, 87, 85, 85, 85, 90, 89, 98, 99, 96, 100, 95, 94, 102, 41, 49,
+        56, 49, 103, 104, 108, 109, 106, 114, 114, 115, 118, 116, 117, 85, 56, 85,
+        41, 119, 120, 123, 105, 124, 107, 129, 131, 132, 130, 133, 134, 93, 115, 97,
+        118, 137, 140, 141, 142, 143, 144, 115, 119, 118, 120, 147, 152, 149, 154, 156,
+        158, 2, 12, 0, 1, 3
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 161, 163, 164, 165, 3, 0, 0, 0,
+        0, 6, 4, 162, 8, 13, 14, 16, 15, 4, 4, 0, 6, 7, 8, 163,
+        10, 161, 11, 163, 19, 19, 163, 27, 162, 163, 162, 162, 28, 162, 28, 27,
+        27, 0, 3, 5, 7, 0, 0, 3, 1, 0, 0, 163, 49, 163, 161, 163,
+        13, 26, 25, 45, 47, 54, 0, 2, 59, 0, 0, 62, 62, 33, 67, 163,
+        49, 63, 46, 55, 1, 0, 0, 1, 73, 76, 81, 29, 48, 71, 75, 79,
+        74, 58, 0, 56, 41, 0, 77, 2, 1, 6, 1, 3, 51, 52, 95, 95,
+        96, 96, 1, 60, 101, 86, 80, 58, 70, 0, 0, 6, 3, 117, 117, 116,
+        116, 93, 97, 125, 126, 127, 128, 121, 110, 111, 122, 112, 113, 136, 136, 139,
+        139, 135, 138, 135, 135, 138, 138, 145, 145, 146, 146, 151, 148, 153, 150, 9,
+        8, 8, 19, 9, 10, 11
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = p[2]*p[3];
+    C[1] = -1;
+    C[2] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[3] = p[2]*p[2]*(p[0] + p[1])/p[1];
+    C[4] = 2;
+    C[5] = p[4]*p[2]*(p[0] + p[1])/p[1];
+    C[6] = p[3]*p[3];
+    C[7] = p[4]*p[3];
+    C[8] = -p[4]*p[2]*(p[0] + p[1])/p[1];
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 12; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
+        for (u = 12; u < 13; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 13; u < 17; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 17; u < 19; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 19; u < 20; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
+        for (u = 20; u < 25; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 25; u < 27; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 27; u < 31; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 31; u < 39; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 39; u < 49; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 49; u < 56; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 56; u < 57; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 57; u < 59; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 59; u < 67; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 67; u < 69; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 69; u < 70; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 70; u < 71; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 71; u < 72; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 72; u < 73; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 73; u < 75; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 75; u < 81; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 81; u < 84; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 84; u < 88; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 88; u < 90; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 90; u < 91; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 91; u < 93; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 93; u < 98; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 98; u < 99; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 99; u < 101; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 101; u < 102; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 102; u < 103; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 103; u < 104; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 104; u < 108; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 108; u < 110; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 110; u < 114; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 114; u < 115; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 115; u < 119; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 119; u < 121; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 121; u < 123; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 123; u < 125; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 125; u < 129; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 129; u < 131; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 131; u < 135; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 135; u < 141; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 141; u < 145; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 145; u < 147; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 147; u < 151; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 151; u < 155; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 155; u < 159; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 159; u < 161; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        if (k == 0 && (!(T_ABS(J[9][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
+            return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[155][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[159][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[157][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[160][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_ROT_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_rot_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -562,6 +816,7 @@ static int spherical_rot_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_w
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
+#endif
 
 int spherical_rot_taylor_coefficients_f(const float *y, const float *p, int order, float *coef, double sine_min)
 {
@@ -641,7 +896,129 @@ long spherical_rot_taylor_batch_f(long n, const float *y0, long y0_stride, const
 #define DERIVE_TAYLOR_JET spherical_rot_taylor_jet_l
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_ROT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_rot_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 1, 3, 1, 5, 7, 6,
+        4, 7, 5, 12, 9, 9, 8, 9, 8, 17, 18, 19, 161, 165, 164, 21,
+        163, 9, 161, 8, 21, 23, 26, 161, 161, 27, 22, 8, 22, 33, 25, 22,
+        24, 162, 31, 32, 34, 36, 37, 38, 39, 49, 41, 40, 41, 42, 41, 43,
+        49, 49, 40, 35, 30, 53, 56, 57, 20, 61, 66, 25, 26, 64, 16, 65,
+        56, 33, 69, 68, 70, 72, 78, 71, 50, 44, 15, 82, 83, 84, 88, 91,
+        92, 87, 85, 85, 85, 90, 89, 98, 99, 96, 100, 95, 94, 102, 41, 49,
+        56, 49, 103, 104, 108, 109, 106, 114, 114, 115, 118, 116, 117, 85, 56, 85,
+        41, 119, 120, 123, 105, 124, 107, 129, 131, 132, 130, 133, 134, 93, 115, 97,
+        118, 137, 140, 141, 142, 143, 144, 115, 119, 118, 120, 147, 152, 149, 154, 156,
+        158, 2, 12, 0, 1, 3
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 161, 163, 164, 165, 3, 0, 0, 0,
+        0, 6, 4, 162, 8, 13, 14, 16, 15, 4, 4, 0, 6, 7, 8, 163,
+        10, 161, 11, 163, 19, 19, 163, 27, 162, 163, 162, 162, 28, 162, 28, 27,
+        27, 0, 3, 5, 7, 0, 0, 3, 1, 0, 0, 163, 49, 163, 161, 163,
+        13, 26, 25, 45, 47, 54, 0, 2, 59, 0, 0, 62, 62, 33, 67, 163,
+        49, 63, 46, 55, 1, 0, 0, 1, 73, 76, 81, 29, 48, 71, 75, 79,
+        74, 58, 0, 56, 41, 0, 77, 2, 1, 6, 1, 3, 51, 52, 95, 95,
+        96, 96, 1, 60, 101, 86, 80, 58, 70, 0, 0, 6, 3, 117, 117, 116,
+        116, 93, 97, 125, 126, 127, 128, 121, 110, 111, 122, 112, 113, 136, 136, 139,
+        139, 135, 138, 135, 135, 138, 138, 145, 145, 146, 146, 151, 148, 153, 150, 9,
+        8, 8, 19, 9, 10, 11
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = p[2]*p[3];
+    C[1] = -1;
+    C[2] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[3] = p[2]*p[2]*(p[0] + p[1])/p[1];
+    C[4] = 2;
+    C[5] = p[4]*p[2]*(p[0] + p[1])/p[1];
+    C[6] = p[3]*p[3];
+    C[7] = p[4]*p[3];
+    C[8] = -p[4]*p[2]*(p[0] + p[1])/p[1];
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 12; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
+        for (u = 12; u < 13; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 13; u < 17; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 17; u < 19; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 19; u < 20; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
+        for (u = 20; u < 25; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 25; u < 27; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 27; u < 31; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 31; u < 39; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 39; u < 49; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 49; u < 56; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 56; u < 57; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 57; u < 59; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 59; u < 67; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 67; u < 69; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 69; u < 70; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 70; u < 71; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 71; u < 72; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 72; u < 73; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 73; u < 75; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 75; u < 81; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 81; u < 84; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 84; u < 88; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 88; u < 90; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 90; u < 91; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 91; u < 93; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 93; u < 98; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 98; u < 99; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 99; u < 101; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 101; u < 102; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 102; u < 103; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 103; u < 104; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 104; u < 108; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 108; u < 110; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 110; u < 114; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 114; u < 115; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 115; u < 119; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 119; u < 121; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 121; u < 123; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 123; u < 125; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 125; u < 129; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 129; u < 131; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 131; u < 135; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 135; u < 141; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 141; u < 145; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 145; u < 147; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 147; u < 151; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 151; u < 155; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 155; u < 159; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 159; u < 161; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        if (k == 0 && (!(T_ABS(J[9][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
+            return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[155][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[159][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[157][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[160][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_ROT_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_rot_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -829,6 +1206,7 @@ static int spherical_rot_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_w
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
+#endif
 
 int spherical_rot_taylor_coefficients_l(const long double *y, const long double *p, int order, long double *coef, double sine_min)
 {
@@ -909,7 +1287,129 @@ long spherical_rot_taylor_batch_l(long n, const long double *y0, long y0_stride,
 #define DERIVE_TAYLOR_DOUBLE_DOUBLE
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_ROT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_rot_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 1, 3, 1, 5, 7, 6,
+        4, 7, 5, 12, 9, 9, 8, 9, 8, 17, 18, 19, 161, 165, 164, 21,
+        163, 9, 161, 8, 21, 23, 26, 161, 161, 27, 22, 8, 22, 33, 25, 22,
+        24, 162, 31, 32, 34, 36, 37, 38, 39, 49, 41, 40, 41, 42, 41, 43,
+        49, 49, 40, 35, 30, 53, 56, 57, 20, 61, 66, 25, 26, 64, 16, 65,
+        56, 33, 69, 68, 70, 72, 78, 71, 50, 44, 15, 82, 83, 84, 88, 91,
+        92, 87, 85, 85, 85, 90, 89, 98, 99, 96, 100, 95, 94, 102, 41, 49,
+        56, 49, 103, 104, 108, 109, 106, 114, 114, 115, 118, 116, 117, 85, 56, 85,
+        41, 119, 120, 123, 105, 124, 107, 129, 131, 132, 130, 133, 134, 93, 115, 97,
+        118, 137, 140, 141, 142, 143, 144, 115, 119, 118, 120, 147, 152, 149, 154, 156,
+        158, 2, 12, 0, 1, 3
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 161, 163, 164, 165, 3, 0, 0, 0,
+        0, 6, 4, 162, 8, 13, 14, 16, 15, 4, 4, 0, 6, 7, 8, 163,
+        10, 161, 11, 163, 19, 19, 163, 27, 162, 163, 162, 162, 28, 162, 28, 27,
+        27, 0, 3, 5, 7, 0, 0, 3, 1, 0, 0, 163, 49, 163, 161, 163,
+        13, 26, 25, 45, 47, 54, 0, 2, 59, 0, 0, 62, 62, 33, 67, 163,
+        49, 63, 46, 55, 1, 0, 0, 1, 73, 76, 81, 29, 48, 71, 75, 79,
+        74, 58, 0, 56, 41, 0, 77, 2, 1, 6, 1, 3, 51, 52, 95, 95,
+        96, 96, 1, 60, 101, 86, 80, 58, 70, 0, 0, 6, 3, 117, 117, 116,
+        116, 93, 97, 125, 126, 127, 128, 121, 110, 111, 122, 112, 113, 136, 136, 139,
+        139, 135, 138, 135, 135, 138, 138, 145, 145, 146, 146, 151, 148, 153, 150, 9,
+        8, 8, 19, 9, 10, 11
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_ROT_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = T_MUL(p[2], p[3]);
+    C[1] = T_INT(-1);
+    C[2] = T_NEG(T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]));
+    C[3] = T_DIV(T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1])), p[1]);
+    C[4] = T_INT(2);
+    C[5] = T_DIV(T_MUL(T_MUL(p[4], p[2]), T_ADD(p[0], p[1])), p[1]);
+    C[6] = T_MUL(p[3], p[3]);
+    C[7] = T_MUL(p[4], p[3]);
+    C[8] = T_NEG(T_DIV(T_MUL(T_MUL(p[4], p[2]), T_ADD(p[0], p[1])), p[1]));
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 12; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
+        for (u = 12; u < 13; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 13; u < 17; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 17; u < 19; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 19; u < 20; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
+        for (u = 20; u < 25; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 25; u < 27; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 27; u < 31; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 31; u < 39; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 39; u < 49; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 49; u < 56; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 56; u < 57; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 57; u < 59; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 59; u < 67; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 67; u < 69; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 69; u < 70; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 70; u < 71; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 71; u < 72; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 72; u < 73; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 73; u < 75; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 75; u < 81; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 81; u < 84; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 84; u < 88; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 88; u < 90; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 90; u < 91; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 91; u < 93; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 93; u < 98; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 98; u < 99; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 99; u < 101; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 101; u < 102; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 102; u < 103; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 103; u < 104; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 104; u < 108; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 108; u < 110; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 110; u < 114; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 114; u < 115; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 115; u < 119; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 119; u < 121; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 121; u < 123; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 123; u < 125; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 125; u < 129; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 129; u < 131; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 131; u < 135; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 135; u < 141; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 141; u < 145; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 145; u < 147; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 147; u < 151; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 151; u < 155; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 155; u < 159; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 159; u < 161; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        if (k == 0 && (!(T_ABS(J[9][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
+            return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[155][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[159][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[157][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[160][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_ROT_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_rot_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -1097,6 +1597,7 @@ static int spherical_rot_taylor_jet_dd(R (*X)[ORDER_DIM], const R *p, int order_
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }
+#endif
 
 int spherical_rot_taylor_coefficients_dd(const derive_dd *y, const derive_dd *p, int order, derive_dd *coef, double sine_min)
 {

@@ -13,7 +13,7 @@
 #define N SPHERICAL_ROT_N_STATES
 #define ORDER_MAX SPHERICAL_ROT_TAYLOR_ORDER_MAX
 
-/* As in spherical_rot_taylor.c: -DSPHERICAL_ROT_TAYLOR_ORDER=p fixes the order (and the recurrences
+/* As in spherical_rot_taylor.c: -DSPHERICAL_ROT_TAYLOR_ORDER=p fixes the order (and the recurrences may
  * unroll), 0 takes it from options.rtol. */
 #ifndef SPHERICAL_ROT_TAYLOR_ORDER
 #define SPHERICAL_ROT_TAYLOR_ORDER 0
@@ -29,7 +29,13 @@
 #endif
 #define L SPHERICAL_ROT_TAYLOR_LANES
 #define ORDER_DIM (SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER + 1 : ORDER_MAX + 1)
-#if SPHERICAL_ROT_TAYLOR_ORDER != 0 && defined(__GNUC__) && !defined(__clang__)
+/* As in spherical_rot_taylor.c: the jet unrolled, or compact (SPHERICAL_ROT_TAYLOR_COMPACT=1: a loop per
+ * segment of alike operations over index tables); by default compact past order 9
+ * or with the order from the tolerance. */
+#ifndef SPHERICAL_ROT_TAYLOR_COMPACT
+#define SPHERICAL_ROT_TAYLOR_COMPACT (SPHERICAL_ROT_TAYLOR_ORDER == 0 || SPHERICAL_ROT_TAYLOR_ORDER > 9)
+#endif
+#if SPHERICAL_ROT_TAYLOR_ORDER != 0 && !SPHERICAL_ROT_TAYLOR_COMPACT && defined(__GNUC__) && !defined(__clang__)
 #define TAYLOR_UNROLL _Pragma("GCC unroll 64")
 #else
 #define TAYLOR_UNROLL
@@ -113,7 +119,126 @@ static void spherical_rot_lconstants(R (*C)[L], int l, const R *p)
     C[8][l] = -p[4]*p[2]*(p[0] + p[1])/p[1];
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if SPHERICAL_ROT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void spherical_rot_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[58] = {
+        2, 0, 1, 3, 1, 5, 7, 6, 4, 4, 1, 0, 1, 0, 0, 1,
+        9, 53, 1, 54, 53, 16, 11, 0, 12, 21, 19, 19, 6, 18, 35, 46,
+        52, 53, 48, 61, 63, 64, 62, 71, 71, 80, 82, 81, 84, 86, 87, 88,
+        89, 90, 91, 98, 99, 2, 4, 0, 1, 3
+    };
+    static const int HA1[58] = {
+        53, 55, 56, 57, 3, 0, 0, 0, 0, 54, 5, 6, 8, 7, 4, 4,
+        0, 6, 53, 0, 54, 55, 54, 54, 1, 53, 5, 15, 14, 29, 0, 34,
+        42, 37, 25, 27, 58, 47, 43, 25, 33, 72, 65, 73, 67, 41, 43, 41,
+        41, 43, 43, 1, 0, 0, 9, 1, 2, 3
+    };
+    static const int TA0[100] = {
+        7, 5, 1, 10, 55, 53, 0, 10, 12, 15, 57, 56, 53, 11, 18, 14,
+        11, 13, 3, 4, 5, 7, 8, 9, 19, 21, 20, 21, 22, 23, 20, 21,
+        11, 24, 24, 2, 28, 30, 14, 15, 26, 8, 27, 24, 31, 32, 33, 41,
+        34, 18, 13, 7, 44, 45, 30, 30, 30, 49, 51, 50, 54, 55, 56, 57,
+        59, 21, 19, 24, 19, 33, 32, 60, 35, 38, 36, 37, 30, 24, 30, 21,
+        39, 40, 74, 69, 75, 70, 83, 85, 31, 35, 34, 38, 35, 39, 38, 40,
+        47, 49, 93, 95
+    };
+    static const int TA1[100] = {
+        6, 4, 0, 55, 2, 3, 55, 9, 9, 55, 7, 8, 16, 17, 54, 17,
+        16, 16, 3, 5, 7, 0, 0, 3, 0, 0, 55, 19, 55, 55, 14, 22,
+        16, 0, 2, 26, 0, 0, 25, 25, 18, 28, 55, 19, 15, 23, 1, 0,
+        1, 36, 39, 29, 10, 17, 0, 24, 21, 38, 0, 40, 2, 1, 1, 19,
+        20, 32, 32, 33, 33, 6, 3, 1, 0, 0, 6, 3, 37, 37, 36, 36,
+        31, 34, 76, 77, 78, 79, 66, 68, 42, 42, 44, 44, 45, 45, 46, 46,
+        92, 94, 48, 50
+    };
+    R H[58][ORDER_DIM * L];     /* nodes read at every order */
+    R T[100][L];                 /* nodes read at this order only */
+    const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 4; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 4; u < 5; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 5; u < 9; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 0; u < 2; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA1[u]], k); }
+        for (u = 9; u < 10; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 2; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 14; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 14; u < 16; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 16; u < 18; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 3; u < 10; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 18; u < 19; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 10; u < 12; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 12; u < 18; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 19; u < 20; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 20; u < 24; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 18; u < 24; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 24; u < 25; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 24; u < 26; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 26; u < 31; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 25; u < 28; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 28; u < 29; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 31; u < 32; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 32; u < 33; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 33; u < 34; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 34; u < 35; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 35; u < 36; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 36; u < 38; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 38; u < 44; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 29; u < 30; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 44; u < 46; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 46; u < 49; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 30; u < 31; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 49; u < 51; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 51; u < 52; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 52; u < 54; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 31; u < 35; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 54; u < 55; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 55; u < 57; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 57; u < 58; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 58; u < 59; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 59; u < 60; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 60; u < 61; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 61; u < 63; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 63; u < 65; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 65; u < 69; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 69; u < 71; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 71; u < 72; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 35; u < 39; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 39; u < 41; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 72; u < 74; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 74; u < 76; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 76; u < 80; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 80; u < 82; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 82; u < 86; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 41; u < 45; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 86; u < 88; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 88; u < 92; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 45; u < 47; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 47; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 92; u < 96; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 96; u < 98; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 98; u < 100; ++u) { LANES_SUB(T[u], T[TA0[u]], H[TA1[u]] + k * L); }
+        for (u = 51; u < 53; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        if (k == 0) {
+            LANES_GUARD(bad, H[1] + k * L, sine_min);
+            LANES_GUARD(bad, H[0] + k * L, sine_min);
+        }
+        LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[96], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[51] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[97], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[52] + k * L, k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_rot_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[58][ORDER_DIM * L];     /* nodes read at every order */
@@ -289,6 +414,7 @@ static void spherical_rot_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wante
         LANES_OUT(X[7] + (k + 1) * L, H[57] + k * L, k);
     }
 }
+#endif
 
 long spherical_rot_taylor_lanes_batch(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
 {
@@ -327,7 +453,126 @@ static void spherical_rot_lconstants_f(R (*C)[L], int l, const R *p)
     C[8][l] = -p[4]*p[2]*(p[0] + p[1])/p[1];
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if SPHERICAL_ROT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void spherical_rot_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[58] = {
+        2, 0, 1, 3, 1, 5, 7, 6, 4, 4, 1, 0, 1, 0, 0, 1,
+        9, 53, 1, 54, 53, 16, 11, 0, 12, 21, 19, 19, 6, 18, 35, 46,
+        52, 53, 48, 61, 63, 64, 62, 71, 71, 80, 82, 81, 84, 86, 87, 88,
+        89, 90, 91, 98, 99, 2, 4, 0, 1, 3
+    };
+    static const int HA1[58] = {
+        53, 55, 56, 57, 3, 0, 0, 0, 0, 54, 5, 6, 8, 7, 4, 4,
+        0, 6, 53, 0, 54, 55, 54, 54, 1, 53, 5, 15, 14, 29, 0, 34,
+        42, 37, 25, 27, 58, 47, 43, 25, 33, 72, 65, 73, 67, 41, 43, 41,
+        41, 43, 43, 1, 0, 0, 9, 1, 2, 3
+    };
+    static const int TA0[100] = {
+        7, 5, 1, 10, 55, 53, 0, 10, 12, 15, 57, 56, 53, 11, 18, 14,
+        11, 13, 3, 4, 5, 7, 8, 9, 19, 21, 20, 21, 22, 23, 20, 21,
+        11, 24, 24, 2, 28, 30, 14, 15, 26, 8, 27, 24, 31, 32, 33, 41,
+        34, 18, 13, 7, 44, 45, 30, 30, 30, 49, 51, 50, 54, 55, 56, 57,
+        59, 21, 19, 24, 19, 33, 32, 60, 35, 38, 36, 37, 30, 24, 30, 21,
+        39, 40, 74, 69, 75, 70, 83, 85, 31, 35, 34, 38, 35, 39, 38, 40,
+        47, 49, 93, 95
+    };
+    static const int TA1[100] = {
+        6, 4, 0, 55, 2, 3, 55, 9, 9, 55, 7, 8, 16, 17, 54, 17,
+        16, 16, 3, 5, 7, 0, 0, 3, 0, 0, 55, 19, 55, 55, 14, 22,
+        16, 0, 2, 26, 0, 0, 25, 25, 18, 28, 55, 19, 15, 23, 1, 0,
+        1, 36, 39, 29, 10, 17, 0, 24, 21, 38, 0, 40, 2, 1, 1, 19,
+        20, 32, 32, 33, 33, 6, 3, 1, 0, 0, 6, 3, 37, 37, 36, 36,
+        31, 34, 76, 77, 78, 79, 66, 68, 42, 42, 44, 44, 45, 45, 46, 46,
+        92, 94, 48, 50
+    };
+    R H[58][ORDER_DIM * L];     /* nodes read at every order */
+    R T[100][L];                 /* nodes read at this order only */
+    const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 4; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 4; u < 5; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 5; u < 9; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 0; u < 2; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA1[u]], k); }
+        for (u = 9; u < 10; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 2; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 14; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 14; u < 16; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 16; u < 18; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 3; u < 10; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 18; u < 19; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 10; u < 12; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 12; u < 18; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 19; u < 20; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 20; u < 24; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 18; u < 24; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 24; u < 25; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 24; u < 26; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 26; u < 31; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 25; u < 28; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 28; u < 29; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 31; u < 32; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 32; u < 33; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 33; u < 34; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 34; u < 35; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 35; u < 36; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 36; u < 38; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 38; u < 44; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 29; u < 30; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 44; u < 46; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 46; u < 49; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 30; u < 31; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 49; u < 51; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 51; u < 52; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 52; u < 54; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 31; u < 35; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 54; u < 55; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 55; u < 57; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 57; u < 58; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 58; u < 59; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 59; u < 60; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 60; u < 61; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 61; u < 63; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 63; u < 65; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 65; u < 69; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 69; u < 71; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 71; u < 72; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 35; u < 39; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 39; u < 41; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 72; u < 74; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 74; u < 76; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 76; u < 80; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 80; u < 82; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 82; u < 86; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 41; u < 45; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 86; u < 88; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 88; u < 92; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 45; u < 47; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 47; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 92; u < 96; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 96; u < 98; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 98; u < 100; ++u) { LANES_SUB(T[u], T[TA0[u]], H[TA1[u]] + k * L); }
+        for (u = 51; u < 53; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        if (k == 0) {
+            LANES_GUARD(bad, H[1] + k * L, sine_min);
+            LANES_GUARD(bad, H[0] + k * L, sine_min);
+        }
+        LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[96], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[51] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[97], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[52] + k * L, k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_rot_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[58][ORDER_DIM * L];     /* nodes read at every order */
@@ -503,6 +748,7 @@ static void spherical_rot_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_OUT(X[7] + (k + 1) * L, H[57] + k * L, k);
     }
 }
+#endif
 
 long spherical_rot_taylor_lanes_batch_f(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
 {
@@ -541,7 +787,126 @@ static void spherical_rot_lconstants_l(R (*C)[L], int l, const R *p)
     C[8][l] = -p[4]*p[2]*(p[0] + p[1])/p[1];
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if SPHERICAL_ROT_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void spherical_rot_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[58] = {
+        2, 0, 1, 3, 1, 5, 7, 6, 4, 4, 1, 0, 1, 0, 0, 1,
+        9, 53, 1, 54, 53, 16, 11, 0, 12, 21, 19, 19, 6, 18, 35, 46,
+        52, 53, 48, 61, 63, 64, 62, 71, 71, 80, 82, 81, 84, 86, 87, 88,
+        89, 90, 91, 98, 99, 2, 4, 0, 1, 3
+    };
+    static const int HA1[58] = {
+        53, 55, 56, 57, 3, 0, 0, 0, 0, 54, 5, 6, 8, 7, 4, 4,
+        0, 6, 53, 0, 54, 55, 54, 54, 1, 53, 5, 15, 14, 29, 0, 34,
+        42, 37, 25, 27, 58, 47, 43, 25, 33, 72, 65, 73, 67, 41, 43, 41,
+        41, 43, 43, 1, 0, 0, 9, 1, 2, 3
+    };
+    static const int TA0[100] = {
+        7, 5, 1, 10, 55, 53, 0, 10, 12, 15, 57, 56, 53, 11, 18, 14,
+        11, 13, 3, 4, 5, 7, 8, 9, 19, 21, 20, 21, 22, 23, 20, 21,
+        11, 24, 24, 2, 28, 30, 14, 15, 26, 8, 27, 24, 31, 32, 33, 41,
+        34, 18, 13, 7, 44, 45, 30, 30, 30, 49, 51, 50, 54, 55, 56, 57,
+        59, 21, 19, 24, 19, 33, 32, 60, 35, 38, 36, 37, 30, 24, 30, 21,
+        39, 40, 74, 69, 75, 70, 83, 85, 31, 35, 34, 38, 35, 39, 38, 40,
+        47, 49, 93, 95
+    };
+    static const int TA1[100] = {
+        6, 4, 0, 55, 2, 3, 55, 9, 9, 55, 7, 8, 16, 17, 54, 17,
+        16, 16, 3, 5, 7, 0, 0, 3, 0, 0, 55, 19, 55, 55, 14, 22,
+        16, 0, 2, 26, 0, 0, 25, 25, 18, 28, 55, 19, 15, 23, 1, 0,
+        1, 36, 39, 29, 10, 17, 0, 24, 21, 38, 0, 40, 2, 1, 1, 19,
+        20, 32, 32, 33, 33, 6, 3, 1, 0, 0, 6, 3, 37, 37, 36, 36,
+        31, 34, 76, 77, 78, 79, 66, 68, 42, 42, 44, 44, 45, 45, 46, 46,
+        92, 94, 48, 50
+    };
+    R H[58][ORDER_DIM * L];     /* nodes read at every order */
+    R T[100][L];                 /* nodes read at this order only */
+    const int order = SPHERICAL_ROT_TAYLOR_ORDER ? SPHERICAL_ROT_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 4; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 4; u < 5; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 5; u < 9; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 0; u < 2; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA1[u]], k); }
+        for (u = 9; u < 10; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 2; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 10; u < 14; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 14; u < 16; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 16; u < 18; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 3; u < 10; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 18; u < 19; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 10; u < 12; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 12; u < 18; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 19; u < 20; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 20; u < 24; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 18; u < 24; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 24; u < 25; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 24; u < 26; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 26; u < 31; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 25; u < 28; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 28; u < 29; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 31; u < 32; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 32; u < 33; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 33; u < 34; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 34; u < 35; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 35; u < 36; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 36; u < 38; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 38; u < 44; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 29; u < 30; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 44; u < 46; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 46; u < 49; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 30; u < 31; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 49; u < 51; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 51; u < 52; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 52; u < 54; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 31; u < 35; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 54; u < 55; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 55; u < 57; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 57; u < 58; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 58; u < 59; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 59; u < 60; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 60; u < 61; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 61; u < 63; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 63; u < 65; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 65; u < 69; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 69; u < 71; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 71; u < 72; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 35; u < 39; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 39; u < 41; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 72; u < 74; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 74; u < 76; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 76; u < 80; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 80; u < 82; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 82; u < 86; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 41; u < 45; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 86; u < 88; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 88; u < 92; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 45; u < 47; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 47; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 92; u < 96; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 96; u < 98; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 98; u < 100; ++u) { LANES_SUB(T[u], T[TA0[u]], H[TA1[u]] + k * L); }
+        for (u = 51; u < 53; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        if (k == 0) {
+            LANES_GUARD(bad, H[1] + k * L, sine_min);
+            LANES_GUARD(bad, H[0] + k * L, sine_min);
+        }
+        LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[96], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[51] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[97], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[52] + k * L, k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_rot_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[58][ORDER_DIM * L];     /* nodes read at every order */
@@ -717,6 +1082,7 @@ static void spherical_rot_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_OUT(X[7] + (k + 1) * L, H[57] + k * L, k);
     }
 }
+#endif
 
 long spherical_rot_taylor_lanes_batch_l(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_rot_integrate_options *opt, spherical_rot_integrate_info *info)
 {

@@ -13,7 +13,7 @@
 #define N SPHERICAL_STD_N_STATES
 #define ORDER_MAX SPHERICAL_STD_TAYLOR_ORDER_MAX
 
-/* As in spherical_std_taylor.c: -DSPHERICAL_STD_TAYLOR_ORDER=p fixes the order (and the recurrences
+/* As in spherical_std_taylor.c: -DSPHERICAL_STD_TAYLOR_ORDER=p fixes the order (and the recurrences may
  * unroll), 0 takes it from options.rtol. */
 #ifndef SPHERICAL_STD_TAYLOR_ORDER
 #define SPHERICAL_STD_TAYLOR_ORDER 0
@@ -29,7 +29,13 @@
 #endif
 #define L SPHERICAL_STD_TAYLOR_LANES
 #define ORDER_DIM (SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER + 1 : ORDER_MAX + 1)
-#if SPHERICAL_STD_TAYLOR_ORDER != 0 && defined(__GNUC__) && !defined(__clang__)
+/* As in spherical_std_taylor.c: the jet unrolled, or compact (SPHERICAL_STD_TAYLOR_COMPACT=1: a loop per
+ * segment of alike operations over index tables); by default compact past order 9
+ * or with the order from the tolerance. */
+#ifndef SPHERICAL_STD_TAYLOR_COMPACT
+#define SPHERICAL_STD_TAYLOR_COMPACT (SPHERICAL_STD_TAYLOR_ORDER == 0 || SPHERICAL_STD_TAYLOR_ORDER > 9)
+#endif
+#if SPHERICAL_STD_TAYLOR_ORDER != 0 && !SPHERICAL_STD_TAYLOR_COMPACT && defined(__GNUC__) && !defined(__clang__)
 #define TAYLOR_UNROLL _Pragma("GCC unroll 64")
 #else
 #define TAYLOR_UNROLL
@@ -112,7 +118,123 @@ static void spherical_std_lconstants(R (*C)[L], int l, const R *p)
     C[7][l] = p[4]*p[3];
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if SPHERICAL_STD_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void spherical_std_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[54] = {
+        2, 0, 1, 5, 7, 6, 4, 2, 1, 0, 0, 0, 1, 7, 51, 1,
+        52, 51, 13, 9, 0, 1, 8, 18, 16, 16, 6, 15, 28, 39, 45, 46,
+        41, 54, 56, 57, 55, 64, 64, 73, 75, 74, 77, 79, 80, 81, 82, 83,
+        84, 91, 92, 2, 2, 0
+    };
+    static const int HA1[54] = {
+        51, 53, 3, 0, 0, 0, 0, 52, 3, 4, 5, 4, 4, 0, 6, 51,
+        0, 52, 53, 52, 52, 13, 1, 51, 3, 12, 10, 21, 0, 27, 36, 31,
+        17, 19, 3, 40, 37, 17, 26, 65, 58, 66, 60, 39, 41, 39, 39, 41,
+        41, 1, 0, 0, 7, 1
+    };
+    static const int TA0[93] = {
+        7, 5, 1, 1, 0, 8, 0, 12, 51, 9, 15, 11, 9, 10, 5, 7,
+        16, 18, 17, 18, 19, 20, 3, 6, 17, 12, 22, 16, 2, 22, 20, 24,
+        11, 12, 24, 6, 25, 22, 25, 26, 35, 27, 14, 9, 5, 29, 38, 28,
+        28, 28, 42, 44, 43, 47, 48, 49, 50, 52, 18, 16, 22, 16, 31, 30,
+        53, 33, 36, 34, 35, 28, 22, 28, 18, 37, 38, 67, 62, 68, 63, 76,
+        78, 29, 33, 32, 36, 33, 37, 36, 38, 45, 47, 86, 88
+    };
+    static const int TA1[93] = {
+        6, 4, 0, 5, 7, 53, 53, 53, 13, 14, 52, 14, 13, 13, 3, 3,
+        0, 0, 53, 16, 53, 53, 21, 21, 11, 1, 0, 2, 18, 23, 0, 0,
+        23, 23, 15, 26, 53, 16, 15, 1, 0, 1, 30, 33, 27, 11, 13, 0,
+        22, 18, 32, 0, 34, 2, 1, 1, 51, 4, 30, 30, 31, 31, 6, 3,
+        1, 0, 0, 6, 3, 35, 35, 34, 34, 29, 32, 69, 70, 71, 72, 59,
+        61, 40, 40, 42, 42, 43, 43, 44, 44, 85, 87, 46, 48
+    };
+    R H[54][ORDER_DIM * L];     /* nodes read at every order */
+    R T[93][L];                 /* nodes read at this order only */
+    const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 2; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 2; u < 3; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 3; u < 7; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 0; u < 2; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA1[u]], k); }
+        for (u = 7; u < 8; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 2; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 8; u < 11; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 11; u < 13; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 3; u < 5; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 13; u < 15; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 5; u < 8; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 15; u < 16; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 8; u < 14; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 16; u < 17; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 17; u < 22; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 14; u < 16; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 22; u < 23; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 16; u < 18; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 18; u < 25; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 23; u < 26; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 26; u < 27; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 25; u < 26; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 26; u < 27; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 27; u < 28; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 28; u < 30; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 30; u < 32; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 32; u < 38; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 27; u < 28; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 38; u < 39; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 39; u < 42; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 28; u < 29; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 42; u < 44; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 44; u < 45; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 45; u < 47; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 29; u < 33; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 47; u < 48; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 48; u < 50; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 50; u < 51; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 51; u < 52; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 52; u < 53; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 53; u < 54; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 54; u < 56; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 56; u < 58; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 58; u < 62; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 62; u < 64; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 64; u < 65; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 33; u < 37; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 37; u < 39; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 65; u < 67; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 67; u < 69; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 69; u < 73; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 73; u < 75; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 75; u < 79; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 39; u < 43; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 79; u < 81; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 81; u < 85; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 43; u < 45; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 45; u < 49; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 85; u < 89; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 89; u < 91; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 91; u < 93; ++u) { LANES_SUB(T[u], T[TA0[u]], H[TA1[u]] + k * L); }
+        for (u = 49; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        if (k == 0) {
+            LANES_GUARD(bad, H[1] + k * L, sine_min);
+            LANES_GUARD(bad, H[0] + k * L, sine_min);
+        }
+        LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[89], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[49] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[90], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[50] + k * L, k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_std_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[54][ORDER_DIM * L];     /* nodes read at every order */
@@ -279,6 +401,7 @@ static void spherical_std_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wante
         LANES_OUT(X[7] + (k + 1) * L, H[53] + k * L, k);
     }
 }
+#endif
 
 long spherical_std_taylor_lanes_batch(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
 {
@@ -316,7 +439,123 @@ static void spherical_std_lconstants_f(R (*C)[L], int l, const R *p)
     C[7][l] = p[4]*p[3];
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if SPHERICAL_STD_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void spherical_std_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[54] = {
+        2, 0, 1, 5, 7, 6, 4, 2, 1, 0, 0, 0, 1, 7, 51, 1,
+        52, 51, 13, 9, 0, 1, 8, 18, 16, 16, 6, 15, 28, 39, 45, 46,
+        41, 54, 56, 57, 55, 64, 64, 73, 75, 74, 77, 79, 80, 81, 82, 83,
+        84, 91, 92, 2, 2, 0
+    };
+    static const int HA1[54] = {
+        51, 53, 3, 0, 0, 0, 0, 52, 3, 4, 5, 4, 4, 0, 6, 51,
+        0, 52, 53, 52, 52, 13, 1, 51, 3, 12, 10, 21, 0, 27, 36, 31,
+        17, 19, 3, 40, 37, 17, 26, 65, 58, 66, 60, 39, 41, 39, 39, 41,
+        41, 1, 0, 0, 7, 1
+    };
+    static const int TA0[93] = {
+        7, 5, 1, 1, 0, 8, 0, 12, 51, 9, 15, 11, 9, 10, 5, 7,
+        16, 18, 17, 18, 19, 20, 3, 6, 17, 12, 22, 16, 2, 22, 20, 24,
+        11, 12, 24, 6, 25, 22, 25, 26, 35, 27, 14, 9, 5, 29, 38, 28,
+        28, 28, 42, 44, 43, 47, 48, 49, 50, 52, 18, 16, 22, 16, 31, 30,
+        53, 33, 36, 34, 35, 28, 22, 28, 18, 37, 38, 67, 62, 68, 63, 76,
+        78, 29, 33, 32, 36, 33, 37, 36, 38, 45, 47, 86, 88
+    };
+    static const int TA1[93] = {
+        6, 4, 0, 5, 7, 53, 53, 53, 13, 14, 52, 14, 13, 13, 3, 3,
+        0, 0, 53, 16, 53, 53, 21, 21, 11, 1, 0, 2, 18, 23, 0, 0,
+        23, 23, 15, 26, 53, 16, 15, 1, 0, 1, 30, 33, 27, 11, 13, 0,
+        22, 18, 32, 0, 34, 2, 1, 1, 51, 4, 30, 30, 31, 31, 6, 3,
+        1, 0, 0, 6, 3, 35, 35, 34, 34, 29, 32, 69, 70, 71, 72, 59,
+        61, 40, 40, 42, 42, 43, 43, 44, 44, 85, 87, 46, 48
+    };
+    R H[54][ORDER_DIM * L];     /* nodes read at every order */
+    R T[93][L];                 /* nodes read at this order only */
+    const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 2; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 2; u < 3; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 3; u < 7; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 0; u < 2; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA1[u]], k); }
+        for (u = 7; u < 8; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 2; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 8; u < 11; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 11; u < 13; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 3; u < 5; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 13; u < 15; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 5; u < 8; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 15; u < 16; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 8; u < 14; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 16; u < 17; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 17; u < 22; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 14; u < 16; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 22; u < 23; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 16; u < 18; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 18; u < 25; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 23; u < 26; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 26; u < 27; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 25; u < 26; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 26; u < 27; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 27; u < 28; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 28; u < 30; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 30; u < 32; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 32; u < 38; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 27; u < 28; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 38; u < 39; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 39; u < 42; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 28; u < 29; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 42; u < 44; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 44; u < 45; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 45; u < 47; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 29; u < 33; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 47; u < 48; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 48; u < 50; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 50; u < 51; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 51; u < 52; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 52; u < 53; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 53; u < 54; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 54; u < 56; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 56; u < 58; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 58; u < 62; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 62; u < 64; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 64; u < 65; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 33; u < 37; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 37; u < 39; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 65; u < 67; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 67; u < 69; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 69; u < 73; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 73; u < 75; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 75; u < 79; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 39; u < 43; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 79; u < 81; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 81; u < 85; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 43; u < 45; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 45; u < 49; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 85; u < 89; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 89; u < 91; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 91; u < 93; ++u) { LANES_SUB(T[u], T[TA0[u]], H[TA1[u]] + k * L); }
+        for (u = 49; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        if (k == 0) {
+            LANES_GUARD(bad, H[1] + k * L, sine_min);
+            LANES_GUARD(bad, H[0] + k * L, sine_min);
+        }
+        LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[89], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[49] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[90], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[50] + k * L, k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_std_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[54][ORDER_DIM * L];     /* nodes read at every order */
@@ -483,6 +722,7 @@ static void spherical_std_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_OUT(X[7] + (k + 1) * L, H[53] + k * L, k);
     }
 }
+#endif
 
 long spherical_std_taylor_lanes_batch_f(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
 {
@@ -520,7 +760,123 @@ static void spherical_std_lconstants_l(R (*C)[L], int l, const R *p)
     C[7][l] = p[4]*p[3];
 }
 
-/* X[i][1..order] from X[i][0] in every lane: the recurrences, order by order. */
+#if SPHERICAL_STD_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0] in every lane, compact: order by order, each segment a loop
+ * over its rows of H or T, the operands' rows (and the constants' indices) read from the
+ * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
+static void spherical_std_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
+{
+    static const int HA0[54] = {
+        2, 0, 1, 5, 7, 6, 4, 2, 1, 0, 0, 0, 1, 7, 51, 1,
+        52, 51, 13, 9, 0, 1, 8, 18, 16, 16, 6, 15, 28, 39, 45, 46,
+        41, 54, 56, 57, 55, 64, 64, 73, 75, 74, 77, 79, 80, 81, 82, 83,
+        84, 91, 92, 2, 2, 0
+    };
+    static const int HA1[54] = {
+        51, 53, 3, 0, 0, 0, 0, 52, 3, 4, 5, 4, 4, 0, 6, 51,
+        0, 52, 53, 52, 52, 13, 1, 51, 3, 12, 10, 21, 0, 27, 36, 31,
+        17, 19, 3, 40, 37, 17, 26, 65, 58, 66, 60, 39, 41, 39, 39, 41,
+        41, 1, 0, 0, 7, 1
+    };
+    static const int TA0[93] = {
+        7, 5, 1, 1, 0, 8, 0, 12, 51, 9, 15, 11, 9, 10, 5, 7,
+        16, 18, 17, 18, 19, 20, 3, 6, 17, 12, 22, 16, 2, 22, 20, 24,
+        11, 12, 24, 6, 25, 22, 25, 26, 35, 27, 14, 9, 5, 29, 38, 28,
+        28, 28, 42, 44, 43, 47, 48, 49, 50, 52, 18, 16, 22, 16, 31, 30,
+        53, 33, 36, 34, 35, 28, 22, 28, 18, 37, 38, 67, 62, 68, 63, 76,
+        78, 29, 33, 32, 36, 33, 37, 36, 38, 45, 47, 86, 88
+    };
+    static const int TA1[93] = {
+        6, 4, 0, 5, 7, 53, 53, 53, 13, 14, 52, 14, 13, 13, 3, 3,
+        0, 0, 53, 16, 53, 53, 21, 21, 11, 1, 0, 2, 18, 23, 0, 0,
+        23, 23, 15, 26, 53, 16, 15, 1, 0, 1, 30, 33, 27, 11, 13, 0,
+        22, 18, 32, 0, 34, 2, 1, 1, 51, 4, 30, 30, 31, 31, 6, 3,
+        1, 0, 0, 6, 3, 35, 35, 34, 34, 29, 32, 69, 70, 71, 72, 59,
+        61, 40, 40, 42, 42, 43, 43, 44, 44, 85, 87, 46, 48
+    };
+    R H[54][ORDER_DIM * L];     /* nodes read at every order */
+    R T[93][L];                 /* nodes read at this order only */
+    const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
+    int k, u;
+    for (k = 0; k < order; ++k) {
+        for (u = 0; u < 2; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 2; u < 3; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 3; u < 7; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 0; u < 2; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA1[u]], k); }
+        for (u = 7; u < 8; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 2; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 8; u < 11; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 11; u < 13; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 3; u < 5; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 13; u < 15; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 5; u < 8; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 15; u < 16; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 8; u < 14; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 16; u < 17; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 17; u < 22; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 14; u < 16; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 22; u < 23; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 16; u < 18; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 18; u < 25; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 23; u < 26; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 26; u < 27; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 25; u < 26; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 26; u < 27; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 27; u < 28; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 28; u < 30; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 30; u < 32; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 32; u < 38; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 27; u < 28; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 38; u < 39; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 39; u < 42; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 28; u < 29; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 42; u < 44; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 44; u < 45; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 45; u < 47; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 29; u < 33; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 47; u < 48; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 48; u < 50; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 50; u < 51; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 51; u < 52; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 52; u < 53; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 53; u < 54; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
+        for (u = 54; u < 56; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 56; u < 58; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 58; u < 62; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 62; u < 64; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 64; u < 65; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 33; u < 37; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 37; u < 39; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 65; u < 67; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 67; u < 69; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 69; u < 73; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 73; u < 75; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 75; u < 79; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 39; u < 43; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 79; u < 81; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 81; u < 85; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 43; u < 45; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 45; u < 49; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 85; u < 89; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 89; u < 91; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 91; u < 93; ++u) { LANES_SUB(T[u], T[TA0[u]], H[TA1[u]] + k * L); }
+        for (u = 49; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        if (k == 0) {
+            LANES_GUARD(bad, H[1] + k * L, sine_min);
+            LANES_GUARD(bad, H[0] + k * L, sine_min);
+        }
+        LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
+        LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
+        LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
+        LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[89], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[49] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[90], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[50] + k * L, k);
+    }
+}
+#else
+/* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_std_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     R H[54][ORDER_DIM * L];     /* nodes read at every order */
@@ -687,6 +1043,7 @@ static void spherical_std_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_OUT(X[7] + (k + 1) * L, H[53] + k * L, k);
     }
 }
+#endif
 
 long spherical_std_taylor_lanes_batch_l(long n, const R *y0, long y0_stride, const R *p, long p_stride, long nt, const R *t, R *y_out, const spherical_std_integrate_options *opt, spherical_std_integrate_info *info)
 {

@@ -15,8 +15,8 @@
 #define ORDER_MAX SPHERICAL_STD_TAYLOR_ORDER_MAX
 
 /* Compiled with -DSPHERICAL_STD_TAYLOR_ORDER=p (2 <= p <= ORDER_MAX), the order is p whatever
- * the tolerance, and the compiler unrolls the recurrences for it; without, the order
- * follows options.rtol at run time. */
+ * the tolerance (and the compiler may unroll the jet for it); without, the order follows
+ * options.rtol at run time. */
 #ifndef SPHERICAL_STD_TAYLOR_ORDER
 #define SPHERICAL_STD_TAYLOR_ORDER 0
 #endif
@@ -25,6 +25,15 @@
 #endif
 /* the coefficient arrays: as long as the fixed order needs, else the longest */
 #define ORDER_DIM (SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER + 1 : ORDER_MAX + 1)
+/* The jet's two forms, the same numbers: unrolled, one statement per operation inside the
+ * order loop, which the compiler unrolls at a fixed order (the fastest steps, but its
+ * size and compile time grow as the operations times the order squared); or compact
+ * (SPHERICAL_STD_TAYLOR_COMPACT=1), one loop per segment of alike operations over index tables,
+ * whose size grows with the model only.  By default compact past order 4 or
+ * with the order from the tolerance (derive chooses by size, derive/runtime/taylor_library.py). */
+#ifndef SPHERICAL_STD_TAYLOR_COMPACT
+#define SPHERICAL_STD_TAYLOR_COMPACT (SPHERICAL_STD_TAYLOR_ORDER == 0 || SPHERICAL_STD_TAYLOR_ORDER > 4)
+#endif
 /* No unrolling: each binary128 operation is a call into libquadmath, which unrolling does
  * not speed up, while it makes the compile many times longer */
 #define TAYLOR_UNROLL
@@ -105,7 +114,125 @@
 #define DERIVE_TAYLOR_JET spherical_std_taylor_jet_q
 #include "derive_taylor.h"
 
-/* X[i][1..order] from X[i][0]: the recurrences, order by order. */
+#if SPHERICAL_STD_TAYLOR_COMPACT
+/* X[i][1..order] from X[i][0], compact: J holds every node's coefficients, the states in its
+ * first rows; order by order, each segment a loop over its rows, the operands' rows (and
+ * the constants' indices) read from the tables A0, A1, ... */
+static int spherical_std_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
+{
+    static const int A0[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 1, 5, 7, 6, 4, 7,
+        5, 10, 9, 9, 8, 8, 15, 9, 16, 8, 17, 152, 19, 9, 8, 24,
+        152, 152, 26, 20, 8, 20, 29, 9, 22, 20, 21, 153, 28, 31, 32, 41,
+        43, 34, 33, 34, 35, 34, 36, 43, 11, 14, 43, 33, 30, 46, 48, 18,
+        56, 52, 59, 22, 24, 55, 14, 58, 46, 29, 47, 61, 63, 70, 62, 44,
+        37, 13, 64, 74, 75, 79, 82, 83, 78, 76, 76, 76, 81, 80, 89, 90,
+        87, 91, 86, 85, 93, 34, 43, 46, 43, 94, 95, 99, 100, 97, 105, 105,
+        106, 109, 107, 108, 76, 46, 76, 34, 110, 111, 114, 96, 115, 98, 120, 122,
+        123, 121, 124, 125, 84, 106, 88, 109, 128, 131, 132, 133, 134, 135, 106, 110,
+        109, 111, 138, 143, 140, 145, 147, 149, 2, 10, 0
+    };
+    static const int A1[NODES] = {
+        0, 0, 0, 0, 0, 0, 0, 0, 152, 154, 3, 0, 0, 0, 0, 6,
+        4, 153, 8, 11, 12, 13, 4, 5, 4, 7, 0, 6, 154, 152, 154, 154,
+        26, 153, 154, 153, 153, 27, 153, 26, 27, 26, 26, 0, 3, 3, 1, 1,
+        0, 0, 154, 43, 154, 152, 154, 11, 39, 39, 24, 22, 38, 0, 2, 50,
+        57, 0, 0, 53, 53, 29, 60, 154, 43, 54, 45, 1, 0, 0, 1, 65,
+        68, 73, 40, 42, 62, 67, 71, 66, 49, 0, 46, 34, 0, 69, 2, 1,
+        6, 1, 3, 92, 25, 86, 86, 87, 87, 1, 51, 23, 77, 72, 49, 61,
+        0, 0, 6, 3, 108, 108, 107, 107, 84, 88, 116, 117, 118, 119, 112, 101,
+        102, 113, 103, 104, 127, 127, 130, 130, 126, 129, 126, 126, 129, 129, 136, 136,
+        137, 137, 142, 139, 144, 141, 9, 8, 8, 17, 9
+    };
+    R J[NODES][ORDER_DIM];
+    R C[NCONST];
+    const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
+    int i, k, u;
+    if (order < 1 || order > ORDER_DIM - 1) {
+        return SPHERICAL_STD_INTEGRATE_BAD_INPUT;
+    }
+    C[0] = T_MUL(p[2], p[3]);
+    C[1] = T_INT(-1);
+    C[2] = T_NEG(T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]));
+    C[3] = T_DIV(T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1])), p[1]);
+    C[4] = T_INT(2);
+    C[5] = T_DIV(T_MUL(T_MUL(p[4], p[2]), T_ADD(p[0], p[1])), p[1]);
+    C[6] = T_MUL(p[3], p[3]);
+    C[7] = T_MUL(p[4], p[3]);
+    for (i = 0; i < N; ++i) {
+        J[i][0] = X[i][0];
+    }
+    for (k = 0; k < order; ++k) {
+        for (u = 8; u < 10; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
+        for (u = 10; u < 11; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 11; u < 15; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 15; u < 17; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 17; u < 18; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
+        for (u = 18; u < 22; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 22; u < 26; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 26; u < 28; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 28; u < 32; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 32; u < 43; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 43; u < 46; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 46; u < 48; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 48; u < 50; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 50; u < 60; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 60; u < 61; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 61; u < 62; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 62; u < 63; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 63; u < 65; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 65; u < 67; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 67; u < 73; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 73; u < 75; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 75; u < 79; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 79; u < 81; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 81; u < 82; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 82; u < 84; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 84; u < 89; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 89; u < 90; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 90; u < 92; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 92; u < 93; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 93; u < 94; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 94; u < 95; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
+        for (u = 95; u < 99; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 99; u < 101; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 101; u < 105; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 105; u < 106; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 106; u < 110; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 110; u < 112; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 112; u < 114; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 114; u < 116; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 116; u < 120; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 120; u < 122; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 122; u < 126; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 126; u < 132; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 132; u < 136; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 136; u < 138; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 138; u < 142; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 142; u < 146; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 146; u < 150; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 150; u < 152; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        if (k == 0 && (!(T_ABS(J[9][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
+            return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
+        }
+        J[0][k + 1] = T_DIVI(J[4][k], k + 1);
+        J[1][k + 1] = T_DIVI(J[5][k], k + 1);
+        J[2][k + 1] = T_DIVI(J[6][k], k + 1);
+        J[3][k + 1] = T_DIVI(J[7][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[146][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[150][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[148][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[151][k], k + 1);
+    }
+    for (i = 0; i < N; ++i) {
+        for (k = 1; k <= order; ++k) {
+            X[i][k] = J[i][k];
+        }
+    }
+    return SPHERICAL_STD_INTEGRATE_OK;
+}
+#else
+/* X[i][1..order] from X[i][0], unrolled: the recurrences, order by order. */
 static int spherical_std_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     R J[NODES][ORDER_DIM];
@@ -283,6 +410,7 @@ static int spherical_std_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_w
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }
+#endif
 
 int spherical_std_taylor_coefficients_q(const derive_quad *y, const derive_quad *p, int order, derive_quad *coef, double sine_min)
 {

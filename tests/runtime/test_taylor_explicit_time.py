@@ -207,12 +207,13 @@ def test_coefficients_at_a_time_are_the_total_derivatives(model):
     assert worst < 1e-29 * scale
 
 
-def test_a_taylor_runs_options_are_the_integrators_defaults():
+@pytest.mark.parametrize("model", [FORCED, "planar"])
+def test_a_taylor_runs_options_are_the_integrators_defaults(model):
     """TaylorOptions fills the struct from the contract as <model>_integrate_defaults does
-    in C (a time-dependent Taylor run builds no RK library to ask)."""
+    in C (a Taylor run, time-dependent or not, builds no RK library to ask)."""
     from derive.runtime.build import integrator_library
     from derive.runtime.taylor_library import taylor_options
-    ours, theirs = taylor_options().defaults(), integrator_library(load_model(FORCED).name).defaults()
+    ours, theirs = taylor_options().defaults(), integrator_library(load_model(model).name).defaults()
     for name, _ in type(theirs)._fields_:
         a, b = getattr(ours, name), getattr(theirs, name)
         assert (bool(a) == bool(b)) if name == "cancel" else a == b, name
