@@ -63,7 +63,9 @@ ENSEMBLE = textwrap.dedent("""
 """)
 
 CATALOGUE = {"planar": ((2.5, 2.0, 0.0, 0.0), (1.0, 1.0, 1.0, 1.0, 9.81), 5.0),
-             "compound": ((2.5, 2.0, 0.0, 0.0), (1.0, 1.0, 0.5, 0.5, 1.0, 1.0, 9.81), 5.0)}
+             "compound": ((2.5, 2.0, 0.0, 0.0), (1.0, 1.0, 0.5, 0.5, 1.0, 1.0, 9.81), 5.0),
+             # a double spherical pendulum off its chart's poles: (theta1, phi1, theta2, phi2, rates)
+             "spherical_std": ((1.2, 0.3, 2.0, -0.5, 0.0, 0.8, 0.3, -0.6), (1.0, 1.0, 1.0, 1.0, 9.81), 2.0)}
 
 
 def per_step(model: str, y0, p, t_end: float, rtol: float, form: str, env: dict, repeats: int,

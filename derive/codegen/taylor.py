@@ -570,16 +570,29 @@ def compact_context(compact: dict) -> dict:
     return dict(compact, tables=[(name, lines(values)) for name, values in compact["tables"].items()])
 
 
+# The jet's cost (jet_cost) up to which derive_taylor.h inlines the recurrences at a fixed
+# order: unrolled, the jet's code is about 11 bytes an operation (x86-64, AVX-512 build) on
+# some 4 KB of the rest, and past 32 KB it outgrows the instruction cache of most x86-64
+# cores, after which calls of the recurrences (their loops: some 20 KB in all) run as fast
+# and steadier.  Planar (jet_cost, us a step inlined / called, one AVX-512 build): order 13
+# (2766) 0.38 / 0.59; 14 (3190) 0.49 to 0.74 / 0.60, the inlined figure varying from one
+# build of the same file to the next by where its code lands in memory; 16 (4131) 0.77 / 0.73.
+INLINE_BUDGET = 2800
+
+
 # The unrolled jet's size, and its compile time, grow as its operations' cost at the order
 # (jet_cost: about the nodes times the order squared); past UNROLL_COST the compact jet is
 # the default.  Measured on the development machine (bench/taylor_jet_forms.py; docs/
-# methods.md, "The jet's two forms"): the scalar unrolled jet steps faster than the compact
-# one below about this cost (planar to order 9), slower above it, where its code
-# outgrows the instruction cache; the lanes' unrolled jet stays the faster one, so its
-# limit is the compile: LANES_UNROLL_COST keeps the two-link models unrolled through the
-# double tolerances (order 19) and takes a larger model compact before its compile
-# outgrows seconds and a gigabyte.
-UNROLL_COST = 2000
+# methods.md, "The jet's two forms"): the scalar unrolled jet steps faster than the
+# compact one while its recurrences are all inlined (INLINE_BUDGET: planar 0.42 against
+# 0.56 us a step at order 13, the 3-link chain 1.88 / 2.20 at 8); past it the unrolled jet
+# calls them as the compact one does, with more code: planar even at orders 15 and 18
+# (0.70 / 0.69, 0.93 / 1.02 us), the double spherical pendulum slower at every order (1.59
+# against 1.33 us at 8, 5.87 / 4.30 at 18).  The lanes' unrolled jet stays the faster one,
+# so its limit is the compile: LANES_UNROLL_COST keeps the two-link models unrolled
+# through the double tolerances (order 19) and takes a larger model compact before its
+# compile outgrows seconds and a gigabyte.
+UNROLL_COST = INLINE_BUDGET
 LANES_UNROLL_COST = 8000
 
 
@@ -690,14 +703,6 @@ def counts(d: Decomposition) -> dict:
 # -- rendering -------------------------------------------------------------------------
 
 COST_ORDER = 12          # the order at which jets' costs are weighed (taylor_order(1e-9) is 11)
-# The jet's cost (jet_cost) up to which derive_taylor.h inlines the recurrences at a fixed
-# order: unrolled, the jet's code is about 11 bytes an operation (x86-64, AVX-512 build) on
-# some 4 KB of the rest, and past 32 KB it outgrows the instruction cache of most x86-64
-# cores, after which calls of the recurrences (their loops: some 20 KB in all) run as fast
-# and steadier.  Planar (jet_cost, us a step inlined / called, one AVX-512 build): order 13
-# (2766) 0.38 / 0.59; 14 (3190) 0.49 to 0.74 / 0.60, the inlined figure varying from one
-# build of the same file to the next by where its code lands in memory; 16 (4131) 0.77 / 0.73.
-INLINE_BUDGET = 2800
 
 
 def inline_max(d: Decomposition) -> int:

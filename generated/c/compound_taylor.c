@@ -29,10 +29,10 @@
  * order loop, which the compiler unrolls at a fixed order (the fastest steps, but its
  * size and compile time grow as the operations times the order squared); or compact
  * (COMPOUND_TAYLOR_COMPACT=1), one loop per segment of alike operations over index tables,
- * whose size grows with the model only.  By default compact past order 10 or
+ * whose size grows with the model only.  By default compact past order 13 or
  * with the order from the tolerance (derive chooses by size, derive/runtime/taylor_library.py). */
 #ifndef COMPOUND_TAYLOR_COMPACT
-#define COMPOUND_TAYLOR_COMPACT (COMPOUND_TAYLOR_ORDER == 0 || COMPOUND_TAYLOR_ORDER > 10)
+#define COMPOUND_TAYLOR_COMPACT (COMPOUND_TAYLOR_ORDER == 0 || COMPOUND_TAYLOR_ORDER > 13)
 #endif
 /* GCC unrolls the recurrences' loops completely when asked and the order is fixed */
 #if COMPOUND_TAYLOR_ORDER != 0 && !COMPOUND_TAYLOR_COMPACT && defined(__GNUC__) && !defined(__clang__)

@@ -15,7 +15,7 @@
  * info.nfev counts Taylor expansions (one per step), info.nsteps the steps.
  * Compile with -DPLANAR_TAYLOR_ORDER=p to fix the order instead; -DPLANAR_TAYLOR_COMPACT=0
  * or 1 chooses the jet's form: unrolled by the compiler at the fixed order (the default
- * up to order 10) or compact, a loop per segment of alike operations (the
+ * up to order 13) or compact, a loop per segment of alike operations (the
  * default past it and without a fixed order: its compile time grows with the model only).
  *
  * Double-double: a value is the unevaluated sum hi + lo of two doubles (about 106

@@ -29,10 +29,10 @@
  * order loop, which the compiler unrolls at a fixed order (the fastest steps, but its
  * size and compile time grow as the operations times the order squared); or compact
  * (SPHERICAL_ROT_TAYLOR_COMPACT=1), one loop per segment of alike operations over index tables,
- * whose size grows with the model only.  By default compact past order 4 or
+ * whose size grows with the model only.  By default compact past order 5 or
  * with the order from the tolerance (derive chooses by size, derive/runtime/taylor_library.py). */
 #ifndef SPHERICAL_ROT_TAYLOR_COMPACT
-#define SPHERICAL_ROT_TAYLOR_COMPACT (SPHERICAL_ROT_TAYLOR_ORDER == 0 || SPHERICAL_ROT_TAYLOR_ORDER > 4)
+#define SPHERICAL_ROT_TAYLOR_COMPACT (SPHERICAL_ROT_TAYLOR_ORDER == 0 || SPHERICAL_ROT_TAYLOR_ORDER > 5)
 #endif
 /* GCC unrolls the recurrences' loops completely when asked and the order is fixed */
 #if SPHERICAL_ROT_TAYLOR_ORDER != 0 && !SPHERICAL_ROT_TAYLOR_COMPACT && defined(__GNUC__) && !defined(__clang__)

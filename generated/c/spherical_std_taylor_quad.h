@@ -15,7 +15,7 @@
  * info.nfev counts Taylor expansions (one per step), info.nsteps the steps.
  * Compile with -DSPHERICAL_STD_TAYLOR_ORDER=p to fix the order instead; -DSPHERICAL_STD_TAYLOR_COMPACT=0
  * or 1 chooses the jet's form: unrolled by the compiler at the fixed order (the default
- * up to order 4) or compact, a loop per segment of alike operations (the
+ * up to order 5) or compact, a loop per segment of alike operations (the
  * default past it and without a fixed order: its compile time grows with the model only).
  *
  * IEEE binary128 (__float128, GCC's libquadmath: link with -lquadmath; clang finds
