@@ -3,7 +3,9 @@
 For planar chains of n point masses (n = 3, 5, 8, 12 by default), in one run:
 
 1. **derive + generate, cold**: `derive generate chainN.toml --out DIR` in a fresh process
-   with an empty cache (derivation, CSE, every C and NumPy file), wall time; against
+   with an empty cache (derivation, CSE, every C and NumPy file: kernels, Jacobian,
+   linearisation, integrators, the Taylor jet in every precision), wall time, and the same
+   with `--backend numpy` alone (NumPy's files: lambdify's kind of output); against
    sympy.physics.mechanics' KanesMethod + lambdify (cse=True) of the same chain (the
    PyDy n-pendulum), also a fresh process, wall time.  Both include the interpreter's
    start and the imports.  The growth exponent of each is fitted over the sizes run.
@@ -113,12 +115,14 @@ def kane_rhs(n: int):
     return rhs
 
 
-def derive_cold(model: Path, out: Path) -> float:
-    """`derive generate FILE --out DIR` in a fresh process on an empty cache: wall time."""
+def derive_cold(model: Path, out: Path, *backends: str) -> float:
+    """`derive generate FILE --out DIR [--backend B ...]` in a fresh process on an empty
+    cache: wall time (every backend when none is named)."""
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, DERIVE_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
+        chosen = [arg for b in backends for arg in ("--backend", b)]
         t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "derive", "generate", str(model), "--out", str(out)],
+        subprocess.run([sys.executable, "-m", "derive", "generate", str(model), "--out", str(out), *chosen],
                        check=True, env=env, capture_output=True)
         return time.perf_counter() - t0
 
@@ -231,17 +235,19 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         if args.links:
-            print(f"{'n':>3} {'derive+generate':>16} {'Kane+lambdify':>14} {'ratio':>6}   {'ops derive':>10} "
+            print(f"{'n':>3} {'derive+generate':>16} {'numpy only':>11} {'Kane+lambdify':>14} {'ratio':>12}   {'ops derive':>10} "
                   f"{'ops Kane+LU':>11}   {'rhs derive':>10} {'rhs Kane':>9} {'ratio':>6} {'agree':>8}")
         for n in args.links:
             model = chain_file(n, folder)
             ours = derive_cold(model, folder / f"gen{n}")
+            numpy_only = derive_cold(model, folder / f"numpy{n}", "numpy")
             kane = kane_cold(n)
             ops = derive_ops(model)
             kane_ops = kane["ops"] + round(2 * n ** 3 / 3 + 2 * n ** 2)
             call, kane_call, diff = rhs_speed(n, model)
             ours_t.append(ours), theirs_t.append(kane["wall"])
-            print(f"{n:3d} {ours:14.2f} s {kane['wall']:12.2f} s {kane['wall'] / ours:5.2f}x   {ops:10d} "
+            print(f"{n:3d} {ours:14.2f} s {numpy_only:9.2f} s {kane['wall']:12.2f} s "
+                  f"{kane['wall'] / ours:5.2f}x/{kane['wall'] / numpy_only:4.2f}x   {ops:10d} "
                   f"{kane_ops:11d}   {call * 1e6:7.1f} us {kane_call * 1e6:6.1f} us {kane_call / call:5.2f}x "
                   f"{diff:8.1e}", flush=True)
             rows.append(n)
