@@ -65,6 +65,11 @@ import platform
 TARGET = 1e-8
 PARAMS = (1.0, 1.0, 1.0, 1.0, 9.81)
 NAMES = ("m1", "m2", "l1", "l2", "g")
+# One grid of tolerances per row, swept by both tools (a finer grid for one side would let
+# it land nearer the accuracy target: an unfair race): double, long double, the ensemble
+DOUBLE_TOLS = (1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14)
+LONG_DOUBLE_TOLS = (1e-10, 1e-12, 1e-13, 1e-14, 1e-15, 1e-16, 1e-17, 2e-18)
+ENSEMBLE_TOLS = (1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14)
 GUARD_LOOSENED = 1e-6     # abm12's guard loosened (rtol; atol follows at rtol 1e-3)
 MIN_SECONDS = 0.15       # each setting is repeated until this much time has passed (at least 3 times)
 
@@ -174,8 +179,7 @@ def _derive_reference(y0, t_end: float) -> np.ndarray:
 def _derive_points(y0, t_end: float, ref, dtype: str = "float64") -> list[Point]:
     """derive at a sweep of its settings, each in both DERIVE_SETTINGS (timed together)."""
     points = []
-    rtols = (1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14) if dtype == "float64" else \
-        (1e-10, 1e-12, 1e-13, 1e-14, 1e-15, 1e-16, 1e-17, 2e-18)
+    rtols = DOUBLE_TOLS if dtype == "float64" else LONG_DOUBLE_TOLS
 
     def error(r):
         return _error(r.y[-1], ref) if r.ok else math.inf
@@ -204,7 +208,7 @@ def _heyoka_points(hy, y0, t_end: float, ref, fp_type=float, tols=None, error=No
     """heyoka at a sweep of tol, in both settings (HEYOKA_SETTINGS)."""
     points = []
     if tols is None:
-        tols = (1e-8, 1e-10, 1e-12, 1e-14, 1e-16) if fp_type is float else (1e-12, 1e-14, 1e-16, 1e-18)
+        tols = DOUBLE_TOLS if fp_type is float else LONG_DOUBLE_TOLS
     for name, folded in HEYOKA_SETTINGS:
         sys_ = heyoka_system(hy, folded)
         for tol in tols:
@@ -334,7 +338,7 @@ def ensemble_row(hy, B: int = 4096, t_end: float = 10.0) -> Row:
         return float(np.max(np.abs(np.asarray(y, np.longdouble) - ref))) if np.all(np.isfinite(y)) else math.inf
 
     for method in TOLERANCE_METHODS:
-        for rtol in (1e-9, 1e-10, 1e-11, 1e-12, 1e-13):
+        for rtol in ENSEMBLE_TOLS:
             def make(specialise, method=method, rtol=rtol):
                 return lambda: ensemble("planar", y0, [0.0, t_end], PARAMS, method=method, rtol=rtol,
                                         threads=threads, specialise=specialise)
@@ -343,7 +347,7 @@ def ensemble_row(hy, B: int = 4096, t_end: float = 10.0) -> Row:
     for name, folded in HEYOKA_SETTINGS:
         sys_ = heyoka_system(hy, folded)
         for width in sorted({hy.recommended_simd_size(), 2 * hy.recommended_simd_size()}):
-            for tol in (1e-10, 1e-12, 1e-14, 1e-16):
+            for tol in ENSEMBLE_TOLS:
                 run = _heyoka_ensemble(hy, sys_, y0, t_end, tol, width, threads, folded)
                 final = run()
                 row.points.append(Point(f"{name} taylor batch {width}", f"tol={tol:g}", _timed(run), worst(final)))
