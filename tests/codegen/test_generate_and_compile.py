@@ -469,6 +469,7 @@ def test_a_model_generated_with_out_compiles_from_that_folder_alone(tmp_path):
     assert run.returncode == 0 and run.stdout.strip() == "0", run.stdout
 
 
+@pytest.mark.slow      # two models' every C file under three compilers: about 20 s
 def test_a_time_dependent_models_integrators_compile_warning_free(tmp_path):
     """A model with explicit time (t in a force, a moving pivot) gets <model>_integrate.{c,h}:
     the library with DERIVE_TIMED, every stage's time passed to the rhs.  Generated into a
