@@ -23,8 +23,8 @@
  * which up to 2^15 stays below a quarter ulp of the smallest r of each binade).  Past
  * 2^15, and for infinities and NaN, libm's sin and cos.  float: the double function, rounded.
  *
- * derive_root(x, y) = x^y (double; derive_rootf: the double one rounded; derive_rootl:
- * powl) for the radius of the series, x = |y|_inf / |y^[p]|_inf > 0 and y = 1/p: for
+ * derive_root(x, y) = x^y (double; derive_rootf and derive_rootl: the double one,
+ * converted) for the radius of the series, x = |y|_inf / |y^[p]|_inf > 0 and y = 1/p: for
  * 2^-1000 <= x <= 2^1000,
  *   x = 2^e m (the bits of x), m in [sqrt(1/2), sqrt(2)), ln m = 2 atanh t = 2 (t + t^3/3
  *   + ... + t^19/19), t = (m - 1)/(m + 1) (|t| <= 0.172: the rest below 5e-18 relative),
@@ -231,21 +231,22 @@ static inline float derive_rootf(float x, float y)
     return derive_root_outsidef(x) ? powf(x, y) : derive_root_reducedf(x, y);
 }
 
-/* long double: libm's */
+/* long double: the double function too.  The root sets the step size, a heuristic whose
+ * value needs no more digits than double's (double-double's takes the double one as
+ * well); x87's powl costs about as much as a tenth of a long double step. */
 static inline int derive_root_outsidel(long double x)
 {
-    (void)x;
-    return 0;
+    return derive_root_outside((double)x);
 }
 
-static inline long double derive_root_reducedl(long double x, long double y)
+DERIVE_MATH_INLINE long double derive_root_reducedl(long double x, long double y)
 {
-    return powl(x, y);
+    return (long double)derive_root_reduced((double)x, (double)y);
 }
 
 static inline long double derive_rootl(long double x, long double y)
 {
-    return powl(x, y);
+    return derive_root_outsidel(x) ? powl(x, y) : derive_root_reducedl(x, y);
 }
 
 #endif /* DERIVE_TAYLOR_MATH_H */

@@ -73,6 +73,13 @@ void root_lanes(long n, const double *x, double *y, double *out)
         root8(x + i, y + i, out + i);
     }
 }
+void root_l(long n, const long double *x, const long double *y, long double *out)
+{
+    long i;
+    for (i = 0; i < n; ++i) {
+        out[i] = derive_rootl(x[i], y[i]);
+    }
+}
 void scalar_f(long n, const float *x, float *s, float *c)
 {
     long i;
@@ -181,3 +188,20 @@ def test_the_root_of_the_radius(library):
                     for g, a, b in zip(got[inside], x[inside], y[inside]))
     assert worst < 1e-13, worst
     assert np.array_equal(got[~inside], x[~inside] ** y[~inside])          # numpy's pow is libm's
+
+
+def test_the_long_double_root_is_the_double_one(library):
+    """derive_rootl, the step size's root in long double: the double root of the arguments
+    rounded to double, inside its range (a step size needs no more digits; x87's powl cost
+    a tenth of a step), powl past it (beyond double's range too)."""
+    rng = np.random.default_rng(11)
+    x = np.concatenate([2.0 ** rng.uniform(-900, 900, 200), [1.0, 0.75, 3.0]]).astype(np.longdouble)
+    x[0] = np.longdouble(2) ** 1100                       # past double's range: powl's
+    x[1] = np.longdouble(1) + np.longdouble(2) ** -60     # below double's resolution: its rounding
+    y = (1.0 / rng.integers(2, 40, len(x))).astype(np.longdouble)
+    out = np.empty_like(x)
+    ptr = ctypes.POINTER(ctypes.c_longdouble)
+    library.root_l(ctypes.c_long(len(x)), *(a.ctypes.data_as(ptr) for a in (x, y, out)))
+    double = _roots(library, "root", x[1:].astype(np.float64), y[1:].astype(np.float64))
+    assert np.array_equal(out[1:], double.astype(np.longdouble))
+    assert out[0] == x[0] ** y[0]                    # numpy's long double power is powl
