@@ -162,22 +162,37 @@ def test_the_runs_are_the_same_bits(case, chain3):
     assert (iu[0].nsteps, iu[0].nfev, iu[0].local_error) == (ic[0].nsteps, ic[0].nfev, ic[0].local_error)
 
 
-def test_the_compact_lanes_are_the_scalar_runs(chain3):
-    """The lanes' compact jet, a trajectory per lane with its own parameters, against the
-    scalar integrator's unrolled and compact runs of each."""
+def _lane_case(chain3):
+    """Six trajectories of the 3-link chain, each with its own parameters."""
     model = _model("chain3", chain3)
     rng = np.random.default_rng(3)
     y0 = np.array(CASES["chain3"][0]) + rng.uniform(-0.2, 0.2, (6, 6))
     params = np.array(CASES["chain3"][1]) * rng.uniform(0.9, 1.1, (6, 7))
-    t = np.linspace(0.0, 1.5, 4)
-    opt = taylor_options().options(run_options("taylor", np.float64, t, rtol=1e-14))
-    order = taylor_order(1e-14)
+    return model, y0, params, np.linspace(0.0, 1.5, 4)
+
+
+def test_the_compact_lanes_are_the_scalar_runs(chain3):
+    """The lanes' compact jet, a trajectory per lane with its own parameters, against the
+    scalar integrator's unrolled and compact runs of each."""
+    model, y0, params, t = _lane_case(chain3)
+    opt = taylor_options().options(run_options("taylor", np.float64, t, rtol=1e-12))
+    order = taylor_order(1e-12)
     lanes, infos = taylor_lanes_library(model, order, form="compact").run(y0, params, t, opt)
     assert all(i.status == 0 for i in infos)
     for form in ("unrolled", "compact"):
         scalar, _ = taylor_library(model, order, "float64", form).run(y0, params, t, opt)
         assert np.array_equal(lanes, scalar), form
-    forced = taylor_lanes_library(model, order, form="unrolled")      # past LANES_O2_COST: built at -O1
+
+
+@pytest.mark.slow         # the forced unrolled lanes' build at order 18: about 12 s at -O1
+def test_a_forced_unrolled_lanes_build_at_O1_is_the_compact_run(chain3):
+    """Past LANES_O2_COST a forced unrolled lanes' jet is built at -O1, and runs the
+    compact lanes' numbers, bit for bit."""
+    model, y0, params, t = _lane_case(chain3)
+    opt = taylor_options().options(run_options("taylor", np.float64, t, rtol=1e-14))
+    order = taylor_order(1e-14)
+    lanes, _ = taylor_lanes_library(model, order, form="compact").run(y0, params, t, opt)
+    forced = taylor_lanes_library(model, order, form="unrolled")
     assert "-O1" in forced.flags
     assert np.array_equal(forced.run(y0, params, t, opt)[0], lanes)
 
