@@ -706,15 +706,10 @@ COST_ORDER = 12          # the order at which jets' costs are weighed (taylor_or
 
 
 def inline_max(d: Decomposition) -> int:
-    """The largest order whose jet costs at most INLINE_BUDGET (0: none): jet_cost(d, p),
-    which grows with p, summed order by order."""
-    best, cost = 0, 0
-    for p in range(2, TAYLOR_ORDER_MAX + 1):
-        cost += sum(operation(op).cost(p - 1) for op in d.ops) + d.n       # order p - 1's share
-        if cost > INLINE_BUDGET:
-            break
-        best = p
-    return best
+    """The largest order whose jet costs at most INLINE_BUDGET (0: none): unroll_max's
+    search with that budget (whose 1 means none)."""
+    top = unroll_max(d, INLINE_BUDGET)
+    return top if top >= 2 else 0
 
 
 @forget_on_model_change
