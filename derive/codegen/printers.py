@@ -12,7 +12,7 @@ from sympy.codegen.ast import float32, float64, float80, real
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.codeprinter import PrintMethodNotImplementedError
 from sympy.printing.numpy import NumPyPrinter
-from sympy.printing.precedence import precedence
+from sympy.printing.precedence import PRECEDENCE, precedence
 
 import re
 from collections import OrderedDict
@@ -20,11 +20,40 @@ from collections import OrderedDict
 from ..errors import PrintError
 
 
+_MUL = PRECEDENCE["Mul"]
+
+
+def _negative(term) -> bool:
+    """Whether a term of a sum prints with a leading minus (a negative number, or a
+    product whose numeric coefficient, its first argument, is negative)."""
+    if term.is_Number:
+        return bool(term.is_extended_negative)
+    if term.is_Mul:
+        c = term.args[0]
+        return c.is_Number and bool(c.is_extended_negative)
+    return False
+
+
 class SlotPrinting:
-    """Symbols print as their slot (y[0], p[3]) or local name; integer powers as products.
+    """Symbols print as their slot (y[0], p[3]) or local name; integer powers as products;
+    sums, products and powers printed straight from the expression's own argument order.
 
     The mixin every backend's printer takes (C, NumPy, and a backend folder's own, such as
-    JAX's): a new target language mixes it into SymPy's printer for that language."""
+    JAX's): a new target language mixes it into SymPy's printer for that language.
+
+    Why its own sums and products: SymPy's printers put every sum's terms in display order
+    first (`as_ordered_terms`, a sort with expensive keys) and weigh every operand's
+    precedence on the way; for a large model that was most of the generator's time.  A
+    sum's and a product's arguments are already in SymPy's canonical order (the same in
+    every process), so the text is as reproducible printed in that order: positive terms
+    first, then the negative ones subtracted; a product as its coefficient, its numerator
+    factors, then `/` and its denominator.  Whatever else an expression holds (functions,
+    Piecewise, ...) goes to SymPy's printer for the language, whose operands come back here.
+    """
+
+    # Integer powers up to this one print as products (x*x*x): a multiplication each,
+    # where pow() is a library call.
+    POWER_PRODUCT_MAX = 3
 
     def _slot(self, expr):
         slots = self._settings_slots
@@ -41,6 +70,124 @@ class SlotPrinting:
     def _product(self, base: str, n: int) -> str:
         return "*".join([base] * n)
 
+    # -- precedence: a power printed as a product binds like a product ------------------
+    def _precedence(self, expr) -> int:
+        if expr.is_Pow and expr.exp.is_Integer and (abs(int(expr.exp)) <= self.POWER_PRODUCT_MAX
+                                                     or expr.exp < 0):
+            return _MUL
+        return precedence(expr)
+
+    def parenthesize(self, item, level, strict=False):
+        p = self._precedence(item)
+        if p < level or (not strict and p <= level):
+            return f"({self._print(item)})"
+        return self._print(item)
+
+    def _factor(self, expr) -> str:
+        """A factor of a product: parenthesized when it binds looser than a product."""
+        if expr.is_Symbol or expr.is_Function:
+            return self._print(expr)
+        if expr.is_Add or self._precedence(expr) < _MUL:
+            return f"({self._print(expr)})"
+        return self._print(expr)
+
+    def _divisor(self, factors: list) -> str:
+        """The text after `/` for a product's denominator factors."""
+        if len(factors) == 1:
+            f = factors[0]
+            if f.is_Symbol or f.is_Function or (self._precedence(f) > _MUL and not f.is_Pow):
+                return self._print(f)
+            if f.is_Pow and not (f.exp.is_Integer and abs(int(f.exp)) <= self.POWER_PRODUCT_MAX):
+                return self._print(f)       # sqrt(x), pow(x, y): a call binds tightest
+            return f"({self._print(f)})"
+        return "(" + "*".join(self._factor(f) for f in factors) + ")"
+
+    def _coefficient(self, c) -> str:
+        """A positive numeric coefficient as the first factor of a product."""
+        if c.is_Integer or c.is_Float:
+            return self._print(c)
+        return f"({self._print(c)})"                # a fraction: 1.0/3.0, 1/3
+
+    def _product_text(self, coeff, factors: list, negate: bool = False) -> str:
+        """coeff*factors as text: the sign, the coefficient, the numerator, then `/` and the
+        denominator (the factors with a negative rational exponent)."""
+        if negate:
+            coeff = -coeff
+        sign = ""
+        if coeff.is_extended_negative:
+            sign, coeff = "-", -coeff
+        num, den = [], []
+        for f in factors:
+            if f.is_Pow and f.exp.is_Rational and f.exp.is_extended_negative:
+                den.append(f.base if f.exp == -1 else sp.Pow(f.base, -f.exp, evaluate=False))
+            else:
+                num.append(f)
+        parts = [] if coeff == 1 else [self._coefficient(coeff)]
+        parts += [self._factor(f) for f in num]
+        text = "*".join(parts) or self._print(sp.S.One)
+        if den:
+            text += "/" + self._divisor(den)
+        return sign + text
+
+    @staticmethod
+    def _split_coefficient(expr):
+        args = expr.args
+        if args[0].is_Number:
+            return args[0], list(args[1:])
+        return sp.S.One, list(args)
+
+    def _print_Mul(self, expr):
+        return self._product_text(*self._split_coefficient(expr))
+
+    def _unsigned(self, term) -> str:
+        """A negative term of a sum without its minus sign."""
+        if term.is_Number:
+            return self._print(-term)
+        return self._product_text(*self._split_coefficient(term), negate=True)
+
+    def _sum_text(self, terms: list) -> str:
+        pos = [t for t in terms if not _negative(t)]
+        text = " + ".join(self._print(t) for t in pos)
+        for t in terms:
+            if _negative(t):
+                body = self._unsigned(t)
+                text = f"{text} - {body}" if text else f"-{body}"
+        return text
+
+    def _print_Add(self, expr, order=None):
+        return self._sum_text(list(expr.args))
+
+    def _small_power(self, expr):
+        """x**n for a small integer n as a product (x**-n as 1.0/(product)), x**(1/2) as
+        the language's square root; None for any other power."""
+        b, e = expr.base, expr.exp
+        if e.is_Integer and 1 <= abs(int(e)) <= self.POWER_PRODUCT_MAX:
+            base = self._factor(b) if not (b.is_Pow or b.is_Mul or (b.is_Number and b.is_extended_negative)) \
+                else f"({self._print(b)})"
+            prod = self._product(base, abs(int(e)))
+            if e > 0:
+                return prod
+            one = self._print(sp.Float(1))
+            return f"{one}/({prod})" if abs(int(e)) > 1 else f"{one}/{base}"
+        return None
+
+    def doprint_checked(self, expr) -> str:
+        """`expr` in the printer's language, or a PrintError naming what has no translation."""
+        self._not_supported = set()
+        self._number_symbols = set()
+        try:
+            text = self._print(sp.sympify(expr))
+            if self._number_symbols:          # constants SymPy's doprint declares first
+                text = self.doprint(expr)
+        except PrintMethodNotImplementedError as exc:
+            raise PrintError(f"no {self.LANGUAGE_NAME} translation for {type(expr).__name__} in: {expr} ({exc})") \
+                from None
+        if self._not_supported:
+            bad = sorted(str(e) for e in self._not_supported)
+            self._not_supported.clear()
+            raise PrintError(f"no {self.LANGUAGE_NAME} translation for: {bad[0]}")
+        return text
+
 
 class CPrinter(SlotPrinting, C99CodePrinter):
     """C99 for one floating type: `float` (sinf, 1.0F), `double`, `long double` (sinl, 1.0L)."""
@@ -55,30 +202,16 @@ class CPrinter(SlotPrinting, C99CodePrinter):
     def _float_suffix(self) -> str:
         return {"float": "F", "double": "", "long double": "L"}[self.ctype]
 
+    LANGUAGE_NAME = "C"
+    POWER_PRODUCT_MAX = 4
+
     def _print_Pow(self, expr):
-        b, e = expr.base, expr.exp
-        if e.is_Integer and 2 <= abs(int(e)) <= 4:
-            base = self.parenthesize(b, precedence(sp.Mul(2, 2, evaluate=False)))
-            prod = self._product(base, abs(int(e)))
-            if e > 0:
-                return prod
-            return f"{self._print(sp.Float(1))}/({prod})"
-        return super()._print_Pow(expr)
+        small = self._small_power(expr)
+        return small if small is not None else super()._print_Pow(expr)
 
     def _print_Pi(self, expr):
         # M_PI is not C99; print the constant to the type's precision.
         return f"3.14159265358979323846264338327950288{self._float_suffix()}"
-
-    def doprint_checked(self, expr) -> str:
-        try:
-            text = self.doprint(expr)
-        except PrintMethodNotImplementedError as exc:
-            raise PrintError(f"no C translation for {type(expr).__name__} in: {expr} ({exc})") from None
-        if self._not_supported:
-            bad = sorted(str(e) for e in self._not_supported)
-            self._not_supported.clear()
-            raise PrintError(f"no C translation for: {bad[0]}")
-        return text
 
 
 # What CVariantPrinter writes where the floating type shows, before a variant names it.
@@ -203,62 +336,61 @@ class PyNumPyPrinter(SlotPrinting, NumPyPrinter):
     positive terms first so no array is negated just to be added.
     """
 
+    LANGUAGE_NAME = "NumPy"
+
     def __init__(self, slots: dict, varying: set | None = None):
         super().__init__({"fully_qualified_modules": True})
         self._settings_slots = slots
         self._varying = varying or set()
+        self._varies_memo: dict = {}
 
     def _varies(self, expr) -> bool:
-        return bool(expr.free_symbols & self._varying)
+        """Whether expr depends on a varying symbol (memoised: subtrees are shared)."""
+        if expr in self._varying:
+            return True
+        if not expr.args:
+            return False
+        known = self._varies_memo.get(expr)
+        if known is None:
+            known = self._varies_memo[expr] = any(self._varies(a) for a in expr.args)
+        return known
 
     def _print_Mul(self, expr):
+        coeff, factors = self._split_coefficient(expr)
         if not self._varying or not self._varies(expr):
-            return super()._print_Mul(expr)
-        const = [f for f in expr.args if not self._varies(f)]
-        var = [f for f in expr.args if self._varies(f)]
-        if not const or (len(const) == 1 and const[0] in (sp.S.NegativeOne, sp.S.One)):
-            return super()._print_Mul(expr)
-        c = sp.Mul(*const)
-        text = self._print(c) if c.is_Atom and not c.could_extract_minus_sign() else f"({self._print(c)})"
-        v = sp.Mul(*var)
-        return f"{text}*{self.parenthesize(v, precedence(expr))}"
+            return self._product_text(coeff, factors)
+        const = [f for f in factors if not self._varies(f)]
+        var = [f for f in factors if self._varies(f)]
+        if not const and coeff in (sp.S.One, sp.S.NegativeOne):
+            return self._product_text(coeff, var)
+        if not const:                    # a number times arrays: the number first, as it is
+            return self._product_text(coeff, var)
+        c = self._product_text(coeff, const)
+        text = c if (len(const) == 1 and coeff == 1 and const[0].is_Atom) else f"({c})"
+        v = self._product_text(sp.S.One, var)
+        return f"{text}*{v}" if len(var) > 1 or not var[0].is_Add else f"{text}*({v})"
 
     def _print_Add(self, expr, order=None):
         if not self._varying or not self._varies(expr):
-            return super()._print_Add(expr, order=order)
-        terms = self._as_ordered_terms(expr, order=order)
+            return self._sum_text(list(expr.args))
+        terms = list(expr.args)
         const = [t for t in terms if not self._varies(t)]
-        pos = [t for t in terms if self._varies(t) and not t.could_extract_minus_sign()]
-        neg = [t for t in terms if self._varies(t) and t.could_extract_minus_sign()]
         parts = []
         if const:
-            c = sp.Add(*const)
-            parts.append(self._print(c) if c.is_Atom else f"({self._print(c)})")
-        for t in pos:
-            parts.append(self.parenthesize(t, precedence(expr)))
+            c = self._sum_text(const)
+            parts.append(c if len(const) == 1 and const[0].is_Atom and not _negative(const[0]) else f"({c})")
+        parts += [self._print(t) for t in terms if self._varies(t) and not _negative(t)]
         text = " + ".join(parts)
-        for t in neg:
-            body = self.parenthesize(-t, precedence(expr) + 1 if (-t).is_Add else precedence(expr))
-            text = f"{text} - {body}" if text else f"-{body}"
+        for t in terms:
+            if self._varies(t) and _negative(t):
+                body = self._unsigned(t)
+                text = f"{text} - {body}" if text else f"-{body}"
         return text
 
     def _print_Pow(self, expr, rational=False):
-        b, e = expr.base, expr.exp
-        if e.is_Integer and 1 <= abs(int(e)) <= 3:
-            base = self.parenthesize(b, precedence(sp.Mul(2, 2, evaluate=False)))
-            prod = self._product(base, abs(int(e)))
-            return prod if e > 0 else f"1.0/({prod})" if abs(int(e)) > 1 else f"1.0/{base}"
-        if e == sp.S.Half:
-            return f"numpy.sqrt({self._print(b)})"
+        small = self._small_power(expr)
+        if small is not None:
+            return small
+        if expr.exp == sp.S.Half:
+            return f"numpy.sqrt({self._print(expr.base)})"
         return super()._print_Pow(expr, rational=rational)
-
-    def doprint_checked(self, expr) -> str:
-        try:
-            text = self.doprint(expr)
-        except PrintMethodNotImplementedError as exc:
-            raise PrintError(f"no NumPy translation for {type(expr).__name__} in: {expr} ({exc})") from None
-        if self._not_supported:
-            bad = sorted(str(e) for e in self._not_supported)
-            self._not_supported.clear()
-            raise PrintError(f"no NumPy translation for: {bad[0]}")
-        return text

@@ -108,16 +108,16 @@
 /* The constants of the jet (expressions of the parameters) for lane l. */
 static void compound_lconstants(R (*C)[L], int l, const R *p)
 {
-    C[0][l] = (p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]))*(p[5] + (1.0/4.0)*p[3]*p[3]*p[1]);
+    C[0][l] = (p[4] + p[2]*p[2]*(p[1] + (1.0/4.0)*p[0]))*(p[5] + (1.0/4.0)*p[1]*p[3]*p[3]);
     C[1][l] = (1.0/2.0)*p[2]*p[3]*p[1];
     C[2][l] = p[6]*(p[0] + 2*p[1]);
     C[3][l] = p[3]*p[1];
-    C[4][l] = -1.0/2.0*p[2];
-    C[5][l] = -1.0/2.0*p[2]*(p[5] + (1.0/4.0)*p[3]*p[3]*p[1]);
+    C[4][l] = -(1.0/2.0)*p[2];
+    C[5][l] = -(1.0/2.0)*p[2]*(p[5] + (1.0/4.0)*p[1]*p[3]*p[3]);
     C[6][l] = p[2];
     C[7][l] = p[6];
     C[8][l] = (1.0/2.0)*p[3]*p[1];
-    C[9][l] = (1.0/2.0)*p[3]*p[1]*(p[4] + p[2]*p[2]*((1.0/4.0)*p[0] + p[1]));
+    C[9][l] = (1.0/2.0)*p[3]*p[1]*(p[4] + p[2]*p[2]*(p[1] + (1.0/4.0)*p[0]));
 }
 
 #if COMPOUND_TAYLOR_COMPACT
@@ -241,16 +241,16 @@ long compound_taylor_lanes_batch(long n, const R *y0, long y0_stride, const R *p
 /* The constants of the jet (expressions of the parameters) for lane l. */
 static void compound_lconstants_f(R (*C)[L], int l, const R *p)
 {
-    C[0][l] = (p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]))*(p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1]);
+    C[0][l] = (p[4] + p[2]*p[2]*(p[1] + (1.0F/4.0F)*p[0]))*(p[5] + (1.0F/4.0F)*p[1]*p[3]*p[3]);
     C[1][l] = (1.0F/2.0F)*p[2]*p[3]*p[1];
     C[2][l] = p[6]*(p[0] + 2*p[1]);
     C[3][l] = p[3]*p[1];
-    C[4][l] = -1.0F/2.0F*p[2];
-    C[5][l] = -1.0F/2.0F*p[2]*(p[5] + (1.0F/4.0F)*p[3]*p[3]*p[1]);
+    C[4][l] = -(1.0F/2.0F)*p[2];
+    C[5][l] = -(1.0F/2.0F)*p[2]*(p[5] + (1.0F/4.0F)*p[1]*p[3]*p[3]);
     C[6][l] = p[2];
     C[7][l] = p[6];
     C[8][l] = (1.0F/2.0F)*p[3]*p[1];
-    C[9][l] = (1.0F/2.0F)*p[3]*p[1]*(p[4] + p[2]*p[2]*((1.0F/4.0F)*p[0] + p[1]));
+    C[9][l] = (1.0F/2.0F)*p[3]*p[1]*(p[4] + p[2]*p[2]*(p[1] + (1.0F/4.0F)*p[0]));
 }
 
 #if COMPOUND_TAYLOR_COMPACT
@@ -374,16 +374,16 @@ long compound_taylor_lanes_batch_f(long n, const R *y0, long y0_stride, const R 
 /* The constants of the jet (expressions of the parameters) for lane l. */
 static void compound_lconstants_l(R (*C)[L], int l, const R *p)
 {
-    C[0][l] = (p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]))*(p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1]);
+    C[0][l] = (p[4] + p[2]*p[2]*(p[1] + (1.0L/4.0L)*p[0]))*(p[5] + (1.0L/4.0L)*p[1]*p[3]*p[3]);
     C[1][l] = (1.0L/2.0L)*p[2]*p[3]*p[1];
     C[2][l] = p[6]*(p[0] + 2*p[1]);
     C[3][l] = p[3]*p[1];
-    C[4][l] = -1.0L/2.0L*p[2];
-    C[5][l] = -1.0L/2.0L*p[2]*(p[5] + (1.0L/4.0L)*p[3]*p[3]*p[1]);
+    C[4][l] = -(1.0L/2.0L)*p[2];
+    C[5][l] = -(1.0L/2.0L)*p[2]*(p[5] + (1.0L/4.0L)*p[1]*p[3]*p[3]);
     C[6][l] = p[2];
     C[7][l] = p[6];
     C[8][l] = (1.0L/2.0L)*p[3]*p[1];
-    C[9][l] = (1.0L/2.0L)*p[3]*p[1]*(p[4] + p[2]*p[2]*((1.0L/4.0L)*p[0] + p[1]));
+    C[9][l] = (1.0L/2.0L)*p[3]*p[1]*(p[4] + p[2]*p[2]*(p[1] + (1.0L/4.0L)*p[0]));
 }
 
 #if COMPOUND_TAYLOR_COMPACT

@@ -140,15 +140,15 @@ static int planar_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, S 
     if (order < 1 || order > ORDER_DIM - 1) {
         return PLANAR_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[0] = p[1]*p[2]*p[2]*p[3]*p[3]*(p[0] + p[1]);
     C[1] = p[2]*p[3]*p[1];
     C[2] = p[4]*(p[0] + p[1]);
     C[3] = p[3]*p[1];
     C[4] = -p[2];
-    C[5] = -p[2]*p[3]*p[3]*p[1];
+    C[5] = -p[2]*p[1]*p[3]*p[3];
     C[6] = p[2];
     C[7] = p[4];
-    C[8] = p[2]*p[2]*p[3]*p[1]*(p[0] + p[1]);
+    C[8] = p[3]*p[1]*p[2]*p[2]*(p[0] + p[1]);
     (void)sine_min;
     for (i = 0; i < N; ++i) {
         J[i][0] = X[i][0];
@@ -192,15 +192,15 @@ static int planar_taylor_jet(R (*X)[ORDER_DIM], const R *p, int order_wanted, S 
     if (order < 1 || order > ORDER_DIM - 1) {
         return PLANAR_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[0] = p[1]*p[2]*p[2]*p[3]*p[3]*(p[0] + p[1]);
     C[1] = p[2]*p[3]*p[1];
     C[2] = p[4]*(p[0] + p[1]);
     C[3] = p[3]*p[1];
     C[4] = -p[2];
-    C[5] = -p[2]*p[3]*p[3]*p[1];
+    C[5] = -p[2]*p[1]*p[3]*p[3];
     C[6] = p[2];
     C[7] = p[4];
-    C[8] = p[2]*p[2]*p[3]*p[1]*(p[0] + p[1]);
+    C[8] = p[3]*p[1]*p[2]*p[2]*(p[0] + p[1]);
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
@@ -340,15 +340,15 @@ static int planar_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
     if (order < 1 || order > ORDER_DIM - 1) {
         return PLANAR_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[0] = p[1]*p[2]*p[2]*p[3]*p[3]*(p[0] + p[1]);
     C[1] = p[2]*p[3]*p[1];
     C[2] = p[4]*(p[0] + p[1]);
     C[3] = p[3]*p[1];
     C[4] = -p[2];
-    C[5] = -p[2]*p[3]*p[3]*p[1];
+    C[5] = -p[2]*p[1]*p[3]*p[3];
     C[6] = p[2];
     C[7] = p[4];
-    C[8] = p[2]*p[2]*p[3]*p[1]*(p[0] + p[1]);
+    C[8] = p[3]*p[1]*p[2]*p[2]*(p[0] + p[1]);
     (void)sine_min;
     for (i = 0; i < N; ++i) {
         J[i][0] = X[i][0];
@@ -392,15 +392,15 @@ static int planar_taylor_jet_f(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
     if (order < 1 || order > ORDER_DIM - 1) {
         return PLANAR_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[0] = p[1]*p[2]*p[2]*p[3]*p[3]*(p[0] + p[1]);
     C[1] = p[2]*p[3]*p[1];
     C[2] = p[4]*(p[0] + p[1]);
     C[3] = p[3]*p[1];
     C[4] = -p[2];
-    C[5] = -p[2]*p[3]*p[3]*p[1];
+    C[5] = -p[2]*p[1]*p[3]*p[3];
     C[6] = p[2];
     C[7] = p[4];
-    C[8] = p[2]*p[2]*p[3]*p[1]*(p[0] + p[1]);
+    C[8] = p[3]*p[1]*p[2]*p[2]*(p[0] + p[1]);
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
@@ -541,15 +541,15 @@ static int planar_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
     if (order < 1 || order > ORDER_DIM - 1) {
         return PLANAR_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[0] = p[1]*p[2]*p[2]*p[3]*p[3]*(p[0] + p[1]);
     C[1] = p[2]*p[3]*p[1];
     C[2] = p[4]*(p[0] + p[1]);
     C[3] = p[3]*p[1];
     C[4] = -p[2];
-    C[5] = -p[2]*p[3]*p[3]*p[1];
+    C[5] = -p[2]*p[1]*p[3]*p[3];
     C[6] = p[2];
     C[7] = p[4];
-    C[8] = p[2]*p[2]*p[3]*p[1]*(p[0] + p[1]);
+    C[8] = p[3]*p[1]*p[2]*p[2]*(p[0] + p[1]);
     (void)sine_min;
     for (i = 0; i < N; ++i) {
         J[i][0] = X[i][0];
@@ -593,15 +593,15 @@ static int planar_taylor_jet_l(R (*X)[ORDER_DIM], const R *p, int order_wanted, 
     if (order < 1 || order > ORDER_DIM - 1) {
         return PLANAR_INTEGRATE_BAD_INPUT;
     }
-    C[0] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[0] = p[1]*p[2]*p[2]*p[3]*p[3]*(p[0] + p[1]);
     C[1] = p[2]*p[3]*p[1];
     C[2] = p[4]*(p[0] + p[1]);
     C[3] = p[3]*p[1];
     C[4] = -p[2];
-    C[5] = -p[2]*p[3]*p[3]*p[1];
+    C[5] = -p[2]*p[1]*p[3]*p[3];
     C[6] = p[2];
     C[7] = p[4];
-    C[8] = p[2]*p[2]*p[3]*p[1]*(p[0] + p[1]);
+    C[8] = p[3]*p[1]*p[2]*p[2]*(p[0] + p[1]);
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {

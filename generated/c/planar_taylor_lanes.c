@@ -108,15 +108,15 @@
 /* The constants of the jet (expressions of the parameters) for lane l. */
 static void planar_lconstants(R (*C)[L], int l, const R *p)
 {
-    C[0][l] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[0][l] = p[1]*p[2]*p[2]*p[3]*p[3]*(p[0] + p[1]);
     C[1][l] = p[2]*p[3]*p[1];
     C[2][l] = p[4]*(p[0] + p[1]);
     C[3][l] = p[3]*p[1];
     C[4][l] = -p[2];
-    C[5][l] = -p[2]*p[3]*p[3]*p[1];
+    C[5][l] = -p[2]*p[1]*p[3]*p[3];
     C[6][l] = p[2];
     C[7][l] = p[4];
-    C[8][l] = p[2]*p[2]*p[3]*p[1]*(p[0] + p[1]);
+    C[8][l] = p[3]*p[1]*p[2]*p[2]*(p[0] + p[1]);
 }
 
 #if PLANAR_TAYLOR_COMPACT
@@ -240,15 +240,15 @@ long planar_taylor_lanes_batch(long n, const R *y0, long y0_stride, const R *p, 
 /* The constants of the jet (expressions of the parameters) for lane l. */
 static void planar_lconstants_f(R (*C)[L], int l, const R *p)
 {
-    C[0][l] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[0][l] = p[1]*p[2]*p[2]*p[3]*p[3]*(p[0] + p[1]);
     C[1][l] = p[2]*p[3]*p[1];
     C[2][l] = p[4]*(p[0] + p[1]);
     C[3][l] = p[3]*p[1];
     C[4][l] = -p[2];
-    C[5][l] = -p[2]*p[3]*p[3]*p[1];
+    C[5][l] = -p[2]*p[1]*p[3]*p[3];
     C[6][l] = p[2];
     C[7][l] = p[4];
-    C[8][l] = p[2]*p[2]*p[3]*p[1]*(p[0] + p[1]);
+    C[8][l] = p[3]*p[1]*p[2]*p[2]*(p[0] + p[1]);
 }
 
 #if PLANAR_TAYLOR_COMPACT
@@ -372,15 +372,15 @@ long planar_taylor_lanes_batch_f(long n, const R *y0, long y0_stride, const R *p
 /* The constants of the jet (expressions of the parameters) for lane l. */
 static void planar_lconstants_l(R (*C)[L], int l, const R *p)
 {
-    C[0][l] = p[2]*p[2]*p[3]*p[3]*p[1]*(p[0] + p[1]);
+    C[0][l] = p[1]*p[2]*p[2]*p[3]*p[3]*(p[0] + p[1]);
     C[1][l] = p[2]*p[3]*p[1];
     C[2][l] = p[4]*(p[0] + p[1]);
     C[3][l] = p[3]*p[1];
     C[4][l] = -p[2];
-    C[5][l] = -p[2]*p[3]*p[3]*p[1];
+    C[5][l] = -p[2]*p[1]*p[3]*p[3];
     C[6][l] = p[2];
     C[7][l] = p[4];
-    C[8][l] = p[2]*p[2]*p[3]*p[1]*(p[0] + p[1]);
+    C[8][l] = p[3]*p[1]*p[2]*p[2]*(p[0] + p[1]);
 }
 
 #if PLANAR_TAYLOR_COMPACT

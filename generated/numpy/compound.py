@@ -51,14 +51,14 @@ def rhs(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -68,7 +68,7 @@ def rhs(y, p):
     t7 = t5*t6
     M01 = t7*t4
     del t4, t7
-    t8 = l2*l2*m2
+    t8 = m2*l2*l2
     M11 = L2 + (1/4)*t8
     del t8
     t9 = g*(m1 + 2*m2)
@@ -77,18 +77,18 @@ def rhs(y, p):
     t11 = theta2_dot*theta2_dot
     t12 = t6*t11
     del t11, t6
-    F0 = (-t5)*(t9*sin_theta1 + t10*t12)
+    F0 = (-t5)*((t9*sin_theta1 + t10*t12))
     del sin_theta1, t12, t5, t9
     t13 = g*sin_theta2
     del sin_theta2
     t14 = theta1_dot*theta1_dot
     t15 = (1/2)*m2
-    t16 = l2*t15
+    t16 = t15*l2
     del t15
-    F1 = t16*(l1*(t10*t14) - t13)
+    F1 = t16*((l1*t10*t14 - t13))
     del t10, t13, t14, t16
     t17 = l1*l1
-    M00 = L1 + t17*((1/4)*m1 + m2)
+    M00 = L1 + t17*(m2 + (1/4)*m1)
     del t17
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
@@ -125,19 +125,19 @@ def mass_matrix(y, p):
     L1 = p[..., 4]
     L2 = p[..., 5]
     t0 = l1*l1
-    M00 = L1 + t0*((1/4)*m1 + m2)
+    M00 = L1 + t0*(m2 + (1/4)*m1)
     del t0
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -149,7 +149,7 @@ def mass_matrix(y, p):
     del t6, t7
     M01 = t8*t5
     del t5, t8
-    t9 = l2*l2*m2
+    t9 = m2*l2*l2
     M11 = L2 + (1/4)*t9
     del t9
     M = numpy.empty(shape + (2, 2), dtype)
@@ -184,7 +184,7 @@ def forcing(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
@@ -193,7 +193,7 @@ def forcing(y, p):
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -203,15 +203,15 @@ def forcing(y, p):
     t8 = theta2_dot*theta2_dot
     t9 = t7*t8
     del t7, t8
-    t10 = (-t1)*(t2*sin_theta1 + t6*t9)
+    t10 = (-t1)*((t2*sin_theta1 + t6*t9))
     del sin_theta1, t1, t2, t9
     t11 = g*sin_theta2
     del sin_theta2
     t12 = theta1_dot*theta1_dot
     t13 = (1/2)*m2
-    t14 = l2*t13
+    t14 = t13*l2
     del t13
-    t15 = t14*(l1*(t12*t6) - t11)
+    t15 = t14*((l1*t12*t6 - t11))
     del t11, t12, t14, t6
     F = numpy.empty(shape + (2,), dtype)
     F[..., 0] = t10
@@ -242,14 +242,14 @@ def energy(y, p):
     L2 = p[..., 5]
     g = p[..., 6]
     t0 = l1*l1
-    t1 = l2*l2*m2
+    t1 = m2*l2*l2
     t2 = theta2_dot*theta2_dot
     t3 = theta1_dot*theta1_dot
     t4 = (1/2)*m2
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -259,12 +259,12 @@ def energy(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     t9 = l1*cos_theta1
-    t10 = g*((1/2)*m1 + m2)
+    t10 = g*(m2 + (1/2)*m1)
     t11 = t10*t9
     del t10, t9
     t14 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
@@ -277,7 +277,7 @@ def energy(y, p):
     del t14, t17
     t19 = t18*theta2_dot
     del t18
-    t20 = t19*theta1_dot + ((1/2)*L2 + (1/8)*t1)*t2 + ((1/2)*L1 + (1/8)*m1*t0 + t0*t4)*t3 + t7 - t11
+    t20 = t7 + t19*theta1_dot + (((1/2)*L2 + (1/8)*t1))*t2 + (((1/2)*L1 + t0*t4 + (1/8)*t0*m1))*t3 - t11
     del t0, t1, t11, t19, t2, t3, t4, t7
     E = numpy.empty(shape + (), dtype)
     E[...] = t20
@@ -302,7 +302,7 @@ def positions(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
@@ -313,7 +313,7 @@ def positions(y, p):
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -357,7 +357,7 @@ def velocities(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
@@ -372,7 +372,7 @@ def velocities(y, p):
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -420,14 +420,14 @@ def jacobian(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -440,23 +440,23 @@ def jacobian(y, p):
     t9 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
     t10 = t7*t9
     del t7
-    t11 = l2*l2*m2
+    t11 = m2*l2*l2
     M11 = L2 + (1/4)*t11
     del t11
     t12 = g*(m1 + 2*m2)
     t13 = theta2_dot*theta2_dot
     t14 = t6*t13
-    F0 = (-t5)*(t12*sin_theta1 + t14*t9)
+    F0 = (-t5)*((t12*sin_theta1 + t14*t9))
     del sin_theta1
     t15 = g*sin_theta2
     del sin_theta2
     t16 = (1/2)*m2
-    t17 = l2*t16
+    t17 = t16*l2
     del t16
-    F1 = t17*(l1*(t8*t9) - t15)
+    F1 = t17*((l1*t8*t9 - t15))
     del t15, t17
     t18 = l1*l1
-    M00 = L1 + t18*((1/4)*m1 + m2)
+    M00 = L1 + t18*(m2 + (1/4)*m1)
     del t18
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
@@ -464,19 +464,19 @@ def jacobian(y, p):
     qdd0 = rdet*(M11*F0 - F1*M01)
     t19 = qdd0*t10
     del qdd0
-    t20 = M01*t8 + t19
+    t20 = t19 + M01*t8
     qdd1 = rdet*(M00*F1 - F0*M01)
     del F0, F1
     t21 = qdd1*t10
     del qdd1, t10
     t22 = t21 - t5*(t12*cos_theta1 + t14*t4)
     del cos_theta1, t12, t14, t5
-    t23 = ((1/2)*l1*l2*m2)*(t13*t4) - t21
+    t23 = ((1/2)*l1*l2*m2)*t13*t4 - t21
     del t13, t21
-    t24 = ((1/2)*l2*m2)*(-g*cos_theta2 - l1*(t4*t8)) - t19
+    t24 = ((1/2)*l2*m2)*((-cos_theta2*g - t4*t8*l1)) - t19
     del cos_theta2, t19, t4, t8
     t25 = M01*rdet
-    t26 = (l1*t6)*t9
+    t26 = (t6*l1)*t9
     del t6, t9
     t27 = t26*theta1_dot
     t28 = M11*rdet
@@ -549,14 +549,14 @@ def hamiltonian_rhs(x, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -567,11 +567,11 @@ def hamiltonian_rhs(x, p):
     del t5, t6
     M01 = t7*t4
     del t4
-    t8 = l2*l2*m2
+    t8 = m2*l2*l2
     M11 = L2 + (1/4)*t8
     del t8
     t9 = l1*l1
-    M00 = L1 + t9*((1/4)*m1 + m2)
+    M00 = L1 + t9*(m2 + (1/4)*m1)
     del t9
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
@@ -580,7 +580,7 @@ def hamiltonian_rhs(x, p):
     del M11
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
     del M00, M01, rdet
-    t10 = g*((1/2)*m1 + m2)
+    t10 = g*(m2 + (1/2)*m1)
     t11 = l1*sin_theta1
     t12 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1
@@ -593,11 +593,11 @@ def hamiltonian_rhs(x, p):
     t16 = g*sin_theta2
     del sin_theta2
     t17 = (1/2)*m2
-    t18 = l2*t17
+    t18 = t17*l2
     del t17
-    t19 = -t10*t11 - t15
+    t19 = -t15 - t10*t11
     del t10, t11
-    t20 = t15 - t18*t16
+    t20 = t15 - t16*t18
     del t15, t16, t18
     xdot = numpy.empty(shape + (4,), dtype)
     xdot[..., 0] = v0
@@ -635,14 +635,14 @@ def hamiltonian_jacobian(x, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -656,11 +656,11 @@ def hamiltonian_jacobian(x, p):
     del sin_theta1, sin_theta2
     M01 = t7*t9
     del t7, t9
-    t10 = l2*l2*m2
+    t10 = m2*l2*l2
     M11 = L2 + (1/4)*t10
     del t10
     t11 = l1*l1
-    M00 = L1 + t11*((1/4)*m1 + m2)
+    M00 = L1 + t11*(m2 + (1/4)*m1)
     del t11
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
@@ -668,7 +668,7 @@ def hamiltonian_jacobian(x, p):
     v0 = rdet*(M11*p_theta1 - M01*p_theta2)
     t12 = t8*v0
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
-    t13 = M01*t12 - ((1/2)*M11*l1*l2*m2)*(t4*v1)
+    t13 = M01*t12 - (1/2)*M11*t4*v1*l1*l2*m2
     del t4
     dv0_0 = -rdet*t13
     dv0_1 = rdet*t13
@@ -689,12 +689,12 @@ def hamiltonian_jacobian(x, p):
     del M00, rdet
     t17 = l1*cos_theta1
     del cos_theta1
-    t18 = g*((1/2)*m1 + m2)
+    t18 = g*(m2 + (1/2)*m1)
     t19 = t18*t17
     del t17, t18
     t20 = M01*v0*v1
     del M01, v0, v1
-    t21 = dv0_0*t15 + dv1_0*t12 + t20
+    t21 = t20 + dv0_0*t15 + dv1_0*t12
     t22 = dv0_1*t15 + dv1_1*t12 - t20
     del t20
     t23 = dv0_2*t15 + dv1_2*t12
@@ -768,19 +768,19 @@ def to_canonical(y, p):
     L1 = p[..., 4]
     L2 = p[..., 5]
     t0 = l1*l1
-    t1 = L1 + t0*((1/4)*m1 + m2)
+    t1 = L1 + t0*(m2 + (1/4)*m1)
     del t0
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -793,10 +793,10 @@ def to_canonical(y, p):
     t10 = t9*t6
     del t6, t9
     t11 = t10*theta2_dot
-    t12 = l2*l2*m2
+    t12 = m2*l2*l2
     t13 = L2 + (1/4)*t12
     del t12
-    t14 = t1*theta1_dot + t11
+    t14 = t11 + t1*theta1_dot
     del t1, t11
     t15 = t10*theta1_dot + t13*theta2_dot
     del t10, t13
@@ -832,14 +832,14 @@ def from_canonical(x, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -851,11 +851,11 @@ def from_canonical(x, p):
     del t5, t6
     M01 = t7*t4
     del t4, t7
-    t8 = l2*l2*m2
+    t8 = m2*l2*l2
     M11 = L2 + (1/4)*t8
     del t8
     t9 = l1*l1
-    M00 = L1 + t9*((1/4)*m1 + m2)
+    M00 = L1 + t9*(m2 + (1/4)*m1)
     del t9
     det = (M00*M11) - M01*M01
     rdet = 1.0/det

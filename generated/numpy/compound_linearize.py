@@ -50,14 +50,14 @@ def linearize(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -70,23 +70,23 @@ def linearize(y, p):
     t9 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
     t10 = t7*t9
     del t7
-    t11 = l2*l2*m2
+    t11 = m2*l2*l2
     M11 = L2 + (1/4)*t11
     del t11
     t12 = g*(m1 + 2*m2)
     t13 = theta2_dot*theta2_dot
     t14 = t6*t13
-    F0 = (-t5)*(t12*sin_theta1 + t14*t9)
+    F0 = (-t5)*((t12*sin_theta1 + t14*t9))
     del sin_theta1
     t15 = g*sin_theta2
     del sin_theta2
     t16 = (1/2)*m2
-    t17 = l2*t16
+    t17 = t16*l2
     del t16
-    F1 = t17*(l1*(t8*t9) - t15)
+    F1 = t17*((l1*t8*t9 - t15))
     del t15, t17
     t18 = l1*l1
-    M00 = L1 + t18*((1/4)*m1 + m2)
+    M00 = L1 + t18*(m2 + (1/4)*m1)
     del t18
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
@@ -94,19 +94,19 @@ def linearize(y, p):
     qdd0 = rdet*(M11*F0 - F1*M01)
     t19 = qdd0*t10
     del qdd0
-    t20 = M01*t8 + t19
+    t20 = t19 + M01*t8
     qdd1 = rdet*(M00*F1 - F0*M01)
     del F0, F1
     t21 = qdd1*t10
     del qdd1, t10
     t22 = t21 - t5*(t12*cos_theta1 + t14*t4)
     del cos_theta1, t12, t14, t5
-    t23 = ((1/2)*l1*l2*m2)*(t13*t4) - t21
+    t23 = ((1/2)*l1*l2*m2)*t13*t4 - t21
     del t13, t21
-    t24 = ((1/2)*l2*m2)*(-g*cos_theta2 - l1*(t4*t8)) - t19
+    t24 = ((1/2)*l2*m2)*((-cos_theta2*g - t4*t8*l1)) - t19
     del cos_theta2, t19, t4, t8
     t25 = M01*rdet
-    t26 = (l1*t6)*t9
+    t26 = (t6*l1)*t9
     del t6, t9
     t27 = t26*theta1_dot
     t28 = M11*rdet

@@ -49,14 +49,14 @@ def rhs(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -66,19 +66,19 @@ def rhs(y, p):
     del t4
     M01 = l1*t6
     del t6
-    M11 = l2*l2*m2
+    M11 = m2*l2*l2
     t7 = m1 + m2
     t8 = g*t7
     t9 = theta2_dot*theta2_dot
     t10 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
     del cos_theta1, cos_theta2
     t11 = t5*t10
-    F0 = (-l1)*(t8*sin_theta1 + t11*t9)
+    F0 = (-l1)*((t8*sin_theta1 + t11*t9))
     del sin_theta1, t11, t8, t9
     t12 = g*sin_theta2
     del sin_theta2
     t13 = theta1_dot*theta1_dot
-    F1 = t5*(l1*(t10*t13) - t12)
+    F1 = t5*((l1*t10*t13 - t12))
     del t10, t12, t13, t5
     t14 = l1*l1
     M00 = t14*t7
@@ -122,14 +122,14 @@ def mass_matrix(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -140,7 +140,7 @@ def mass_matrix(y, p):
     del t6, t7
     M01 = l1*t8
     del t8
-    M11 = l2*l2*m2
+    M11 = m2*l2*l2
     M = numpy.empty(shape + (2, 2), dtype)
     M[..., 0, 0] = M00
     del M00
@@ -173,7 +173,7 @@ def forcing(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
@@ -185,19 +185,19 @@ def forcing(y, p):
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     t8 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
     del cos_theta1, cos_theta2
     t9 = t4*t8
-    t10 = (-l1)*(t2*sin_theta1 + t3*t9)
+    t10 = (-l1)*((t2*sin_theta1 + t3*t9))
     del sin_theta1, t2, t3, t9
     t11 = g*sin_theta2
     del sin_theta2
     t12 = theta1_dot*theta1_dot
-    t13 = t4*(l1*(t12*t8) - t11)
+    t13 = t4*((l1*t12*t8 - t11))
     del t11, t12, t4, t8
     F = numpy.empty(shape + (2,), dtype)
     F[..., 0] = t10
@@ -225,13 +225,13 @@ def energy(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = l2*l2*m2
+    t0 = m2*l2*l2
     t1 = theta2_dot*theta2_dot
     t2 = theta1_dot*theta1_dot
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -244,7 +244,7 @@ def energy(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
@@ -263,7 +263,7 @@ def energy(y, p):
     del t17
     t19 = t18*theta2_dot
     del t18
-    t20 = ((1/2)*t0)*t1 + t19*theta1_dot + (m1*t12 + m2*t12)*t2 + t5 - t10
+    t20 = t5 + t19*theta1_dot + ((t12*m1 + t12*m2))*t2 + ((1/2)*t0)*t1 - t10
     del t0, t1, t10, t12, t19, t2, t5
     E = numpy.empty(shape + (), dtype)
     E[...] = t20
@@ -288,7 +288,7 @@ def positions(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
@@ -299,7 +299,7 @@ def positions(y, p):
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -343,7 +343,7 @@ def velocities(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
@@ -358,7 +358,7 @@ def velocities(y, p):
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -405,14 +405,14 @@ def jacobian(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -422,16 +422,16 @@ def jacobian(y, p):
     t8 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     t9 = t0*t8
     M01 = l1*t9
-    M11 = l2*l2*m2
+    M11 = m2*l2*l2
     t10 = m1 + m2
     t11 = g*t10
     t12 = theta2_dot*theta2_dot
-    F0 = (-l1)*(t11*sin_theta1 + t12*t6)
+    F0 = (-l1)*((t11*sin_theta1 + t12*t6))
     del sin_theta1, t6
     t13 = g*sin_theta2
     del sin_theta2
     t14 = theta1_dot*theta1_dot
-    F1 = t0*(l1*(t14*t5) - t13)
+    F1 = t0*((l1*t14*t5 - t13))
     del t13, t5
     t15 = l1*l1
     M00 = t10*t15
@@ -442,9 +442,9 @@ def jacobian(y, p):
     qdd0 = rdet*(M11*F0 - F1*M01)
     t16 = qdd0*t7
     del qdd0
-    t17 = l1*(t14*t8)
+    t17 = l1*t14*t8
     del t14
-    t18 = t0*t17 + t16
+    t18 = t16 + t0*t17
     del t0
     qdd1 = rdet*(M00*F1 - F0*M01)
     del F0, F1
@@ -452,9 +452,9 @@ def jacobian(y, p):
     del qdd1
     t20 = t19 - l1*(t11*cos_theta1 + t12*t9)
     del cos_theta1, t11, t9
-    t21 = (l1*l2*m2)*(t12*t8) - t19
+    t21 = (l1*l2*m2)*t12*t8 - t19
     del t12, t19, t8
-    t22 = (l2*m2)*(-g*cos_theta2 - t17) - t16
+    t22 = (l2*m2)*((-t17 - cos_theta2*g)) - t16
     del cos_theta2, t16, t17
     t23 = M01*rdet
     t24 = 2*t7
@@ -528,14 +528,14 @@ def hamiltonian_rhs(x, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -545,7 +545,7 @@ def hamiltonian_rhs(x, p):
     del t4
     M01 = l1*t6
     del t6
-    M11 = l2*l2*m2
+    M11 = m2*l2*l2
     t7 = l1*l1
     t8 = m1 + m2
     M00 = t7*t8
@@ -572,9 +572,9 @@ def hamiltonian_rhs(x, p):
     del t14
     t16 = g*sin_theta2
     del sin_theta2
-    t17 = -t9*t10 - t15
+    t17 = -t15 - t10*t9
     del t10, t9
-    t18 = t15 - t5*t16
+    t18 = t15 - t16*t5
     del t15, t16, t5
     xdot = numpy.empty(shape + (4,), dtype)
     xdot[..., 0] = v0
@@ -610,14 +610,14 @@ def hamiltonian_jacobian(x, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -632,7 +632,7 @@ def hamiltonian_jacobian(x, p):
     del t5, t8
     M01 = l1*t9
     del t9
-    M11 = l2*l2*m2
+    M11 = m2*l2*l2
     t10 = l1*l1
     t11 = m1 + m2
     M00 = t10*t11
@@ -643,7 +643,7 @@ def hamiltonian_jacobian(x, p):
     v0 = rdet*(M11*p_theta1 - M01*p_theta2)
     t12 = t7*v0
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
-    t13 = M01*t12 - (M11*l1*l2*m2)*(t4*v1)
+    t13 = M01*t12 - M11*t4*v1*l1*l2*m2
     del t4
     dv0_0 = -rdet*t13
     dv0_1 = rdet*t13
@@ -670,7 +670,7 @@ def hamiltonian_jacobian(x, p):
     del t17, t18
     t20 = M01*v0*v1
     del M01, v0, v1
-    t21 = dv0_0*t15 + dv1_0*t12 + t20
+    t21 = t20 + dv0_0*t15 + dv1_0*t12
     t22 = dv0_1*t15 + dv1_1*t12 - t20
     del t20
     t23 = dv0_2*t15 + dv1_2*t12
@@ -747,14 +747,14 @@ def to_canonical(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -766,7 +766,7 @@ def to_canonical(y, p):
     t10 = l1*t9
     del t9
     t11 = t10*theta2_dot
-    t12 = l2*l2*m2
+    t12 = m2*l2*l2
     t13 = t11 + t2*theta1_dot
     del t11, t2
     t14 = t10*theta1_dot + t12*theta2_dot
@@ -801,14 +801,14 @@ def from_canonical(x, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -819,7 +819,7 @@ def from_canonical(x, p):
     del t4, t5
     M01 = l1*t6
     del t6
-    M11 = l2*l2*m2
+    M11 = m2*l2*l2
     t7 = l1*l1
     t8 = m1 + m2
     M00 = t7*t8

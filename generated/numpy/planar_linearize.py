@@ -49,14 +49,14 @@ def linearize(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -66,16 +66,16 @@ def linearize(y, p):
     t8 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     t9 = t0*t8
     M01 = l1*t9
-    M11 = l2*l2*m2
+    M11 = m2*l2*l2
     t10 = m1 + m2
     t11 = g*t10
     t12 = theta2_dot*theta2_dot
-    F0 = (-l1)*(t11*sin_theta1 + t12*t6)
+    F0 = (-l1)*((t11*sin_theta1 + t12*t6))
     del sin_theta1, t6
     t13 = g*sin_theta2
     del sin_theta2
     t14 = theta1_dot*theta1_dot
-    F1 = t0*(l1*(t14*t5) - t13)
+    F1 = t0*((l1*t14*t5 - t13))
     del t13, t5
     t15 = l1*l1
     M00 = t10*t15
@@ -86,9 +86,9 @@ def linearize(y, p):
     qdd0 = rdet*(M11*F0 - F1*M01)
     t16 = qdd0*t7
     del qdd0
-    t17 = l1*(t14*t8)
+    t17 = l1*t14*t8
     del t14
-    t18 = t0*t17 + t16
+    t18 = t16 + t0*t17
     del t0
     qdd1 = rdet*(M00*F1 - F0*M01)
     del F0, F1
@@ -96,9 +96,9 @@ def linearize(y, p):
     del qdd1
     t20 = t19 - l1*(t11*cos_theta1 + t12*t9)
     del cos_theta1, t11, t9
-    t21 = (l1*l2*m2)*(t12*t8) - t19
+    t21 = (l1*l2*m2)*t12*t8 - t19
     del t12, t19, t8
-    t22 = (l2*m2)*(-g*cos_theta2 - t17) - t16
+    t22 = (l2*m2)*((-t17 - cos_theta2*g)) - t16
     del cos_theta2, t16, t17
     t23 = M01*rdet
     t24 = 2*t7

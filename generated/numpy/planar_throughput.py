@@ -25,7 +25,7 @@ def rk4(y, p, h, nsteps):
         raise ValueError(f"y must have shape ({N_STATES}, B), got {y.shape}")
     m1, m2, l1, l2, g, = (float(v) for v in numpy.asarray(p, numpy.float64).reshape(N_PARAMS))
     t5 = l2*m2
-    M11 = l2*l2*m2
+    M11 = m2*l2*l2
     t7 = m1 + m2
     t8 = g*t7
     t14 = l1*l1
@@ -36,12 +36,12 @@ def rk4(y, p, h, nsteps):
         tan_half_theta1 = numpy.tan(0.5*theta1)
         tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
         rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-        sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+        sin_theta1 = 2*rho_theta1*tan_half_theta1
         cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
         tan_half_theta2 = numpy.tan(0.5*theta2)
         tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
         rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-        sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+        sin_theta2 = 2*rho_theta2*tan_half_theta2
         cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
         t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
         t6 = t5*t4
@@ -49,10 +49,10 @@ def rk4(y, p, h, nsteps):
         t9 = theta2_dot*theta2_dot
         t10 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
         t11 = t5*t10
-        F0 = (-l1)*(t8*sin_theta1 + t11*t9)
+        F0 = (-l1)*((t8*sin_theta1 + t11*t9))
         t12 = g*sin_theta2
         t13 = theta1_dot*theta1_dot
-        F1 = t5*(l1*(t10*t13) - t12)
+        F1 = t5*((l1*t10*t13 - t12))
         det = (M00*M11) - M01*M01
         rdet = 1.0/det
         qdd0 = rdet*(M11*F0 - F1*M01)

@@ -55,14 +55,14 @@ def rhs(y, p):
     tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
     tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
     rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
-    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    sin_vartheta1 = 2*rho_vartheta1*tan_half_vartheta1
     del tan_half_vartheta1
     cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
     del rho_vartheta1, tan_half_sq_vartheta1
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
-    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    sin_vartheta2 = 2*rho_vartheta2*tan_half_vartheta2
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
@@ -70,14 +70,14 @@ def rhs(y, p):
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
-    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    sin_varphi1 = 2*rho_varphi1*tan_half_varphi1
     del tan_half_varphi1
     cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
     del rho_varphi1, tan_half_sq_varphi1
     tan_half_varphi2 = numpy.tan(0.5*varphi2)
     tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
     rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
-    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    sin_varphi2 = 2*rho_varphi2*tan_half_varphi2
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
@@ -105,7 +105,7 @@ def rhs(y, p):
     del AaAb
     t22 = sin_vartheta1*sin_vartheta2
     t23 = cos_vartheta1*cos_vartheta2
-    t24 = t11*t23 + t22
+    t24 = t22 + t11*t23
     del t22, t23
     Q00 = t12*t24
     del t24
@@ -120,7 +120,7 @@ def rhs(y, p):
     t28 = g*t19
     t29 = t28*cos_varphi1
     del cos_varphi1
-    t30 = l1*t17
+    t30 = t17*l1
     t31 = 2*varphi1_dot
     t32 = cos_vartheta1*vartheta1_dot
     t33 = Aa*t32
@@ -137,7 +137,7 @@ def rhs(y, p):
     t41 = t12*t40
     del t40
     t42 = t41*t6
-    f1 = -sin_vartheta2*t42 - t30*t29 - t31*t33 - t36*vartheta2_dot - t38*t39
+    f1 = -sin_vartheta2*t42 - t29*t30 - t31*t33 - t36*vartheta2_dot - t38*t39
     del t29, t30, t33, t36, t38, t39, t42
     t43 = g*sin_varphi2
     del sin_varphi2
@@ -153,9 +153,9 @@ def rhs(y, p):
     t51 = vartheta1_dot*vartheta1_dot
     t52 = t11*t46
     del t46
-    t53 = t12*(cos_vartheta1*sin_vartheta2 - t52)
+    t53 = t12*((cos_vartheta1*sin_vartheta2 - t52))
     del t12, t52
-    f2 = Ab*(t37*t44) + Q11*t47 + t50*t8 - t43*t8 - t51*t53
+    f2 = Q11*t47 + t50*t8 + Ab*t37*t44 - t43*t8 - t51*t53
     del t43, t44, t47, t50, t53
     t54 = g*cos_varphi2
     del cos_varphi2
@@ -166,7 +166,7 @@ def rhs(y, p):
     t58 = 2*vartheta1_dot
     t59 = t57*t58
     del t57, t58
-    f3 = (l1*l2)*(sin_vartheta1*t45*t6) + (l1*l2)*(sin_vartheta1*t51*t6) - l2*t54 - t55*t56 - t59*varphi1_dot
+    f3 = (l1*l2)*sin_vartheta1*t45*t6 + (l1*l2)*sin_vartheta1*t51*t6 - t54*l2 - t55*t56 - t59*varphi1_dot
     del t51, t54, t55, t56, t59
     t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
     t61 = t28*sin_varphi1
@@ -181,7 +181,7 @@ def rhs(y, p):
     t66 = cos_vartheta1*sin_vartheta2
     t67 = cos_vartheta2*sin_vartheta1 - t11*t66
     del cos_vartheta2, t66
-    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t11*t37) + (t17*t18*t19)*(cos_vartheta1*sin_vartheta1*t45) - t41*t67 - t6*t65 - t61*t62
+    f0 = (t17*t18*t19)*cos_vartheta1*sin_vartheta1*t45 + (l1*l2)*cos_vartheta1*sin_vartheta2*t11*t37 - t41*t67 - t6*t65 - t61*t62
     del cos_vartheta1, t11, t17, t18, t19, t37, t41, t45, t6, t61, t62, t65, t67
     t68 = Ab*f0 - Q00*f2 - Q01*f3
     del Ab
@@ -247,14 +247,14 @@ def mass_matrix(y, p):
     tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
     tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
     rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
-    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    sin_vartheta1 = 2*rho_vartheta1*tan_half_vartheta1
     del tan_half_vartheta1
     cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
     del rho_vartheta1, tan_half_sq_vartheta1
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
-    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    sin_vartheta2 = 2*rho_vartheta2*tan_half_vartheta2
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
@@ -266,20 +266,20 @@ def mass_matrix(y, p):
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
-    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    sin_varphi1 = 2*rho_varphi1*tan_half_varphi1
     del tan_half_varphi1
     cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
     del rho_varphi1, tan_half_sq_varphi1
     tan_half_varphi2 = numpy.tan(0.5*varphi2)
     tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
     rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
-    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    sin_varphi2 = 2*rho_varphi2*tan_half_varphi2
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
     t9 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
     t12 = cos_vartheta1*cos_vartheta2
-    t13 = t12*t9 + t4
+    t13 = t4 + t12*t9
     del t12
     t14 = l1*l2
     t15 = t14*t13
@@ -312,7 +312,7 @@ def mass_matrix(y, p):
     M13 = m2*t24
     del t24
     t25 = l2*l2
-    M22 = m2*t25
+    M22 = t25*m2
     del t25
     t26 = sin_vartheta2*sin_vartheta2
     del sin_vartheta2
@@ -372,28 +372,28 @@ def forcing(y, p):
     tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
     tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
     rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
-    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    sin_vartheta1 = 2*rho_vartheta1*tan_half_vartheta1
     del tan_half_vartheta1
     cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
     del rho_vartheta1, tan_half_sq_vartheta1
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
-    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    sin_vartheta2 = 2*rho_vartheta2*tan_half_vartheta2
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
-    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    sin_varphi1 = 2*rho_varphi1*tan_half_varphi1
     del tan_half_varphi1
     cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
     del rho_varphi1, tan_half_sq_varphi1
     tan_half_varphi2 = numpy.tan(0.5*varphi2)
     tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
     rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
-    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    sin_varphi2 = 2*rho_varphi2*tan_half_varphi2
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
@@ -434,13 +434,13 @@ def forcing(y, p):
     t37 = g*cos_varphi2
     del cos_varphi2
     t38 = t28*t7
-    t39 = l1*((l1*t0)*(cos_vartheta1*sin_vartheta1*t12) + (l2*m2)*(cos_vartheta1*sin_vartheta2*t13*t7) + (l2*m2)*(cos_vartheta1*sin_vartheta2*t14*t7) - cos_vartheta1*t11 - cos_vartheta1*t22*t9 - t17*(t14*t16))
+    t39 = l1*(((t0*l1)*cos_vartheta1*sin_vartheta1*t12 + (l2*m2)*cos_vartheta1*sin_vartheta2*t13*t7 + (l2*m2)*cos_vartheta1*sin_vartheta2*t14*t7 - cos_vartheta1*t11 - cos_vartheta1*t22*t9 - t14*t16*t17))
     del cos_vartheta1, sin_vartheta2, t11, t13, t16
-    t40 = -t30*(t0*t28 + t14*t29*t9 + t17*(t24*t9) + t22*t7 + t23)
+    t40 = -t30*(t23 + t0*t28 + t22*t7 + t14*t29*t9 + t17*t24*t9)
     del t0, t14, t22, t23, t28, t30, t7
-    t41 = t17*(cos_vartheta2*t33 + l1*(t12*t34) + t18*t24 + t34*t36 - cos_vartheta2*t32 - t31*t36)
+    t41 = t17*((cos_vartheta2*t33 + t18*t24 + t34*t36 + l1*t12*t34 - cos_vartheta2*t32 - t31*t36))
     del cos_vartheta2, t17, t18, t24, t31, t32, t33, t34, t36
-    t42 = t29*(l1*(sin_vartheta1*t12*t9) + l1*(sin_vartheta1*t35*t9) - t21 - t37 - t38)
+    t42 = t29*(l1*sin_vartheta1*t12*t9 + l1*sin_vartheta1*t35*t9 - t21 - t37 - t38)
     del sin_vartheta1, t12, t21, t29, t35, t37, t38, t9
     F = numpy.empty(shape + (4,), dtype)
     F[..., 0] = t39
@@ -479,14 +479,14 @@ def energy(y, p):
     tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
     tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
     rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
-    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    sin_vartheta1 = 2*rho_vartheta1*tan_half_vartheta1
     del tan_half_vartheta1
     cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
     del rho_vartheta1, tan_half_sq_vartheta1
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
-    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    sin_vartheta2 = 2*rho_vartheta2*tan_half_vartheta2
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
@@ -494,14 +494,14 @@ def energy(y, p):
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
-    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    sin_varphi1 = 2*rho_varphi1*tan_half_varphi1
     del tan_half_varphi1
     cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
     del rho_varphi1, tan_half_sq_varphi1
     tan_half_varphi2 = numpy.tan(0.5*varphi2)
     tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
     rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
-    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    sin_varphi2 = 2*rho_varphi2*tan_half_varphi2
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
@@ -538,7 +538,7 @@ def energy(y, p):
     t29 = m2*t28
     del t28
     t30 = l2*l2
-    t31 = m2*t30
+    t31 = t30*m2
     del t30
     t32 = sin_vartheta2*sin_vartheta2
     t33 = t31*t32
@@ -558,9 +558,9 @@ def energy(y, p):
     t41 = l1*l1
     t42 = (1/2)*t41
     del t41
-    t43 = m1*t42 + m2*t42
+    t43 = t42*m1 + t42*m2
     del t42
-    t44 = (g*t35)*t34 + m2*(t13*t17*t7) + (m2*t8)*(t2*vartheta1_dot*vartheta2_dot) + 1/2*(t10*t33) + ((1/2)*t31)*t14 + t43*t18 + t23*varphi2_dot*vartheta1_dot + t43*(t24*t9) + t29*varphi1_dot*varphi2_dot + t40 - t26*varphi1_dot*vartheta2_dot
+    t44 = t40 + t43*t18 + (1/2)*t10*t33 + ((1/2)*t31)*t14 + (g*t35)*t34 + t23*varphi2_dot*vartheta1_dot + t43*t24*t9 + t29*varphi1_dot*varphi2_dot + m2*t13*t17*t7 + (t8*m2)*t2*vartheta1_dot*vartheta2_dot - t26*varphi1_dot*vartheta2_dot
     del t10, t13, t14, t17, t18, t2, t23, t24, t26, t29, t31, t33, t34, t35, t40, t43, t7, t8, t9
     E = numpy.empty(shape + (), dtype)
     E[...] = t44
@@ -587,7 +587,7 @@ def positions(y, p):
     tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
     tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
     rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
-    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    sin_vartheta1 = 2*rho_vartheta1*tan_half_vartheta1
     del tan_half_vartheta1
     cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
     del rho_vartheta1, tan_half_sq_vartheta1
@@ -596,7 +596,7 @@ def positions(y, p):
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
-    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    sin_varphi1 = 2*rho_varphi1*tan_half_varphi1
     del tan_half_varphi1
     cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
     del rho_varphi1, tan_half_sq_varphi1
@@ -611,7 +611,7 @@ def positions(y, p):
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
-    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    sin_vartheta2 = 2*rho_vartheta2*tan_half_vartheta2
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
@@ -620,7 +620,7 @@ def positions(y, p):
     tan_half_varphi2 = numpy.tan(0.5*varphi2)
     tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
     rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
-    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    sin_varphi2 = 2*rho_varphi2*tan_half_varphi2
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
@@ -677,7 +677,7 @@ def velocities(y, p):
     tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
     tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
     rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
-    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    sin_vartheta1 = 2*rho_vartheta1*tan_half_vartheta1
     del tan_half_vartheta1
     cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
     del rho_vartheta1, tan_half_sq_vartheta1
@@ -687,14 +687,14 @@ def velocities(y, p):
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
-    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    sin_varphi1 = 2*rho_varphi1*tan_half_varphi1
     del tan_half_varphi1
     cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
     del rho_varphi1, tan_half_sq_varphi1
     t6 = sin_varphi1*sin_vartheta1
     t7 = l1*t6
     del t6
-    t8 = t7*varphi1_dot - l1*(cos_varphi1*cos_vartheta1*vartheta1_dot)
+    t8 = t7*varphi1_dot - cos_varphi1*cos_vartheta1*vartheta1_dot*l1
     del t7
     t9 = l1*cos_vartheta1
     del cos_vartheta1
@@ -709,7 +709,7 @@ def velocities(y, p):
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
-    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    sin_vartheta2 = 2*rho_vartheta2*tan_half_vartheta2
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
@@ -717,7 +717,7 @@ def velocities(y, p):
     tan_half_varphi2 = numpy.tan(0.5*varphi2)
     tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
     rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
-    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    sin_varphi2 = 2*rho_varphi2*tan_half_varphi2
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
@@ -733,11 +733,11 @@ def velocities(y, p):
     del t23
     t25 = -t2
     t26 = -t8
-    t27 = -l2*t15 - t2
+    t27 = -t2 - t15*l2
     del t15, t2
-    t28 = l2*(cos_varphi2*cos_vartheta2*vartheta2_dot) - t20*varphi2_dot - t8
+    t28 = l2*cos_varphi2*cos_vartheta2*vartheta2_dot - t8 - t20*varphi2_dot
     del cos_varphi2, cos_vartheta2, t20, t8
-    t29 = sin_varphi2*t22 + t13 + t24*varphi2_dot
+    t29 = t13 + sin_varphi2*t22 + t24*varphi2_dot
     del sin_varphi2, t22, t24
     vel = numpy.empty(shape + (2, 3), dtype)
     vel[..., 0, 0] = t25
@@ -781,14 +781,14 @@ def jacobian(y, p):
     tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
     tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
     rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
-    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    sin_vartheta1 = 2*rho_vartheta1*tan_half_vartheta1
     del tan_half_vartheta1
     cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
     del rho_vartheta1, tan_half_sq_vartheta1
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
-    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    sin_vartheta2 = 2*rho_vartheta2*tan_half_vartheta2
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
@@ -798,14 +798,14 @@ def jacobian(y, p):
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
-    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    sin_varphi1 = 2*rho_varphi1*tan_half_varphi1
     del tan_half_varphi1
     cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
     del rho_varphi1, tan_half_sq_varphi1
     tan_half_varphi2 = numpy.tan(0.5*varphi2)
     tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
     rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
-    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    sin_varphi2 = 2*rho_varphi2*tan_half_varphi2
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
@@ -837,7 +837,7 @@ def jacobian(y, p):
     del AaAb
     t29 = sin_vartheta1*sin_vartheta2
     t30 = cos_vartheta1*cos_vartheta2
-    t31 = t19*t30 + t29
+    t31 = t29 + t19*t30
     Q00 = t15*t31
     t32 = t28 + Q00*Q00
     D1_00 = -t26 - t32
@@ -850,7 +850,7 @@ def jacobian(y, p):
     t35 = g*t4
     t36 = t35*cos_varphi1
     del cos_varphi1
-    t37 = l1*t2
+    t37 = t2*l1
     t38 = cos_vartheta1*vartheta1_dot
     t39 = Aa*t38
     del t38
@@ -863,7 +863,7 @@ def jacobian(y, p):
     t45 = vartheta2_dot*vartheta2_dot
     t46 = t15*t45
     t47 = t46*t9
-    f1 = -sin_vartheta2*t47 - t16*t44 - t20*t39 - t37*t36 - t42*vartheta2_dot
+    f1 = -sin_vartheta2*t47 - t16*t44 - t20*t39 - t36*t37 - t42*vartheta2_dot
     t48 = g*sin_varphi2
     t49 = cos_vartheta2*sin_vartheta2
     t50 = cos_vartheta2*sin_vartheta1
@@ -872,9 +872,9 @@ def jacobian(y, p):
     t53 = t20*t52
     t54 = t53*t9
     t55 = t19*t50
-    t56 = t15*(cos_vartheta1*sin_vartheta2 - t55)
+    t56 = t15*((cos_vartheta1*sin_vartheta2 - t55))
     del t55
-    f2 = Ab*(t43*t49) + Q11*t51 + t23*t54 - t14*t56 - t23*t48
+    f2 = Q11*t51 + t23*t54 + Ab*t43*t49 - t14*t56 - t23*t48
     del t48, t54
     t57 = g*cos_varphi2
     del cos_varphi2
@@ -884,7 +884,7 @@ def jacobian(y, p):
     del t12
     t61 = 2*vartheta1_dot
     t62 = t60*t61
-    f3 = (l1*l2)*(sin_vartheta1*t13*t9) + (l1*l2)*(sin_vartheta1*t14*t9) - l2*t57 - t58*t59 - t62*varphi1_dot
+    f3 = (l1*l2)*sin_vartheta1*t13*t9 + (l1*l2)*sin_vartheta1*t14*t9 - t57*l2 - t58*t59 - t62*varphi1_dot
     t63 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
     t64 = t35*sin_varphi1
     t65 = t2*t11
@@ -894,7 +894,7 @@ def jacobian(y, p):
     del t67
     t69 = cos_vartheta1*sin_vartheta2
     t70 = cos_vartheta2*sin_vartheta1 - t19*t69
-    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t19*t43) + (t2*t3*t4)*(cos_vartheta1*sin_vartheta1*t13) - t46*t70 - t64*t65 - t68*t9
+    f0 = (t2*t3*t4)*cos_vartheta1*sin_vartheta1*t13 + (l1*l2)*cos_vartheta1*sin_vartheta2*t19*t43 - t46*t70 - t64*t65 - t68*t9
     t71 = Ab*f0 - Q00*f2 - Q01*f3
     qdd0 = D1_11*rD1*t71 - D1_01*t63
     t72 = Q01*t13 + Q01*t14 + qdd0*t17 + t18*t21
@@ -903,8 +903,8 @@ def jacobian(y, p):
     t75 = -t31
     del t31
     t76 = t15*t14
-    t77 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t13*t19) - qdd0*t56 - t73*t74 - t75*t76
-    t78 = (2*Ab*t2*t3*t4)*(sin_vartheta1*varphi1_dot*vartheta1_dot) - Q10*t77 - Q11*t72
+    t77 = (l1*l2)*cos_vartheta1*cos_vartheta2*t13*t19 - qdd0*t56 - t73*t74 - t75*t76
+    t78 = (2*Ab*t2*t3*t4)*sin_vartheta1*varphi1_dot*vartheta1_dot - Q10*t77 - Q11*t72
     t79 = D1_01*rD1
     t80 = cos_vartheta1*cos_vartheta1
     t81 = sin_varphi1*sin_vartheta1
@@ -926,26 +926,26 @@ def jacobian(y, p):
     xr3 = D2_00*t84 - D2_01*rD2*t85
     t86 = t16*xr3
     t87 = t40*vartheta2_dot
-    t88 = t19*t29 + t30
+    t88 = t30 + t19*t29
     del t30
     qdd2 = D2_11*rD2*t85 - D2_01*t84
     del t84, t85
-    t89 = Aa*(t13*(-1 + 2*t80)) + sin_vartheta1*t86 + t2*t83 + t74*t87 - Q11*t29*t43 - qdd2*t56 - t46*t88
+    t89 = sin_vartheta1*t86 + t2*t83 + t74*t87 + Aa*t13*((-1) + 2*t80) - qdd2*t56 - t46*t88 - Q11*t29*t43
     del t74, t80, t83
     t90 = Ab*t89 - Q00*t77 - Q01*t72
     xr1 = D1_00*t63 - D1_01*rD1*t71
     del D1_01, t63, t71
     t91 = t16*xr1
-    t92 = Q01*t73 + Q11*sin_vartheta1*t13 + Q11*sin_vartheta1*t14 + t91 - qdd0*t60
+    t92 = t91 + Q01*t73 + Q11*sin_vartheta1*t13 + Q11*sin_vartheta1*t14 - qdd0*t60
     del t14
     t93 = t19*t53
     del t53
     t94 = t11*t23*t9
     t95 = qdd0*t94 + t23*t93 + t41*xr1 - t16*t51 - t50*t76*t9
     del t51, t93
-    t96 = qdd2*t41 + t25*t87 + t86 - Q11*sin_vartheta2*t45 - Q11*t44
+    t96 = t86 + qdd2*t41 + t25*t87 - Q11*t44 - Q11*sin_vartheta2*t45
     del t44, t86, t87
-    t97 = t37*t64 + t96
+    t97 = t96 + t37*t64
     del t37, t64
     t98 = Ab*t97 - Q10*t95 - Q11*t92
     t99 = t16*t69
@@ -957,17 +957,17 @@ def jacobian(y, p):
     t103 = sin_vartheta2*vartheta2_dot
     t104 = t103*t59
     t105 = sin_vartheta2*t16
-    t106 = (2*l1*l2)*(sin_vartheta2*t19*varphi2_dot*vartheta2_dot) - qdd2*t105 - t25*t43 - t25*t45
+    t106 = (2*l1*l2)*sin_vartheta2*t19*varphi2_dot*vartheta2_dot - qdd2*t105 - t25*t43 - t25*t45
     del t25, t45
     t107 = Q11*t29
     del t29
     t108 = cos_vartheta2*cos_vartheta2
     t109 = t15*t70
     del t15, t70
-    t110 = Ab*(t43*(-1 + 2*t108)) + (g*l2)*(sin_varphi2*sin_vartheta2) - qdd0*t109 - sin_vartheta2*t91 - t107*t13 - t73*t99 - t76*t88
+    t110 = Ab*t43*((-1) + 2*t108) + (g*l2)*sin_varphi2*sin_vartheta2 - qdd0*t109 - sin_vartheta2*t91 - t107*t13 - t73*t99 - t76*t88
     del qdd0, t107, t108, t13, t73, t76, t88, t91, t99
     t111 = Ab*t106 - Q10*t110 - Q11*t104
-    t112 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t19*t43) + (2*l1*l2)*(cos_vartheta1*sin_vartheta2*t9*varphi2_dot*vartheta2_dot) - qdd2*t109 - t46*t75
+    t112 = (l1*l2)*cos_vartheta1*cos_vartheta2*t19*t43 + (2*l1*l2)*cos_vartheta1*sin_vartheta2*t9*varphi2_dot*vartheta2_dot - qdd2*t109 - t46*t75
     del qdd2, t19, t43, t46, t75
     t113 = Ab*t112 - Q00*t110 - Q01*t104
     del t104
@@ -975,11 +975,11 @@ def jacobian(y, p):
     del t96
     t115 = (g*l2)*sin_varphi2 - t92
     del sin_varphi2
-    t116 = -t23*t57 - t95
+    t116 = -t95 - t23*t57
     del t57
     t117 = Ab*t114 - Q10*t116 - Q11*t115
     t118 = Ab*t100 - Q00*t116 - Q01*t115
-    t119 = (2*l1*l2)*(sin_vartheta1*t9*vartheta1_dot) - t20*t60
+    t119 = (2*l1*l2)*sin_vartheta1*t9*vartheta1_dot - t20*t60
     del t60
     t120 = t20*t94 - t56*t61
     del t56, t61
@@ -993,13 +993,13 @@ def jacobian(y, p):
     del t17, t62
     t127 = 2*t9
     del t9
-    t128 = t127*t23*t52 + t21*t50
+    t128 = t21*t50 + t127*t23*t52
     del t21, t23, t50, t52
     t129 = -Ab*t125 - Q10*t128 - Q11*t126
-    t130 = (2*Ab*t2*t3*t4)*(cos_vartheta1*sin_vartheta1*varphi1_dot) - Q00*t128 - Q01*t126
+    t130 = (2*Ab*t2*t3*t4)*cos_vartheta1*sin_vartheta1*varphi1_dot - Q00*t128 - Q01*t126
     del t2, t3, t4
     t131 = cos_vartheta2*t59
-    t132 = -2*(t103*t16) - t42
+    t132 = -t42 - 2*t103*t16
     del t103, t16, t42
     t133 = Ab*t132 + Q11*t131
     t134 = 2*vartheta2_dot
@@ -1023,7 +1023,7 @@ def jacobian(y, p):
     qdd1 = rs1*xr1
     del xr1
     t145 = D1_00*rD1
-    t146 = Aa*(t18*t20)
+    t146 = Aa*t18*t20
     del t18, t20
     t147 = Aa*t72 - Q01*t89 - Q11*t146
     del t72
@@ -1035,7 +1035,7 @@ def jacobian(y, p):
     del t92
     t151 = Aa*t95 - Q00*t101 - Q10*t97
     del t101, t95, t97
-    t152 = (2*Aa*Ab)*(sin_vartheta2*varphi2_dot*vartheta2_dot) - Q01*t112 - Q11*t106
+    t152 = (2*Aa*Ab)*sin_vartheta2*varphi2_dot*vartheta2_dot - Q01*t112 - Q11*t106
     t153 = Aa*t110 - Q00*t112 - Q10*t106
     del t106, t110, t112
     t154 = Aa*t115 - Q01*t100 - Q11*t114
@@ -1055,7 +1055,7 @@ def jacobian(y, p):
     del t131, t132, t135
     t162 = -Aa*t138 - Q01*t143 - Q11*t140
     del Q01, Q11, t138
-    t163 = (2*Aa*Ab)*(cos_vartheta2*sin_vartheta2*varphi2_dot) - Q00*t143 - Q10*t140
+    t163 = (2*Aa*Ab)*cos_vartheta2*sin_vartheta2*varphi2_dot - Q00*t143 - Q10*t140
     del Aa, Ab, Q00, Q10, t140, t143
     t164 = D2_00*rD2
     rs3 = 1.0/sin_vartheta2
@@ -1227,13 +1227,13 @@ def polar_sines(y):
     tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
     rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
     del tan_half_sq_vartheta1
-    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    sin_vartheta1 = 2*rho_vartheta1*tan_half_vartheta1
     del rho_vartheta1, tan_half_vartheta1
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
     del tan_half_sq_vartheta2
-    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    sin_vartheta2 = 2*rho_vartheta2*tan_half_vartheta2
     del rho_vartheta2, tan_half_vartheta2
     sines = numpy.empty(shape + (2,), dtype)
     sines[..., 0] = sin_vartheta1
@@ -1263,52 +1263,52 @@ def to_spherical_rot(y):
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
-    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    sin_varphi1 = 2*rho_varphi1*tan_half_varphi1
     del tan_half_varphi1
     cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
     del rho_varphi1, tan_half_sq_varphi1
     tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
     tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
     rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
-    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    sin_vartheta1 = 2*rho_vartheta1*tan_half_vartheta1
     del tan_half_vartheta1
     cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
     del rho_vartheta1, tan_half_sq_vartheta1
     t2 = sin_vartheta1*sin_vartheta1
     t4 = cos_vartheta1*cos_vartheta1
     t6 = cos_varphi1*sin_vartheta1
-    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(sin_varphi1*sin_varphi1*t2 + t4), t6)
+    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(t4 + t2*sin_varphi1*sin_varphi1), t6)
     del t2, t4
     tan_half_spherical_rot_vartheta1 = numpy.tan(0.5*spherical_rot_vartheta1)
     tan_half_sq_spherical_rot_vartheta1 = tan_half_spherical_rot_vartheta1*tan_half_spherical_rot_vartheta1
     rho_spherical_rot_vartheta1 = 1.0/(1 + tan_half_sq_spherical_rot_vartheta1)
-    sin_spherical_rot_vartheta1 = 2*(rho_spherical_rot_vartheta1*tan_half_spherical_rot_vartheta1)
+    sin_spherical_rot_vartheta1 = 2*rho_spherical_rot_vartheta1*tan_half_spherical_rot_vartheta1
     del tan_half_spherical_rot_vartheta1
     cos_spherical_rot_vartheta1 = rho_spherical_rot_vartheta1*(1 - tan_half_sq_spherical_rot_vartheta1)
     del rho_spherical_rot_vartheta1, tan_half_sq_spherical_rot_vartheta1
     tan_half_varphi2 = numpy.tan(0.5*varphi2)
     tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
     rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
-    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    sin_varphi2 = 2*rho_varphi2*tan_half_varphi2
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
-    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    sin_vartheta2 = 2*rho_vartheta2*tan_half_vartheta2
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
     t10 = sin_vartheta2*sin_vartheta2
     t12 = cos_vartheta2*cos_vartheta2
     t14 = cos_varphi2*sin_vartheta2
-    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(sin_varphi2*sin_varphi2*t10 + t12), t14)
+    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(t12 + t10*sin_varphi2*sin_varphi2), t14)
     del t10, t12
     tan_half_spherical_rot_vartheta2 = numpy.tan(0.5*spherical_rot_vartheta2)
     tan_half_sq_spherical_rot_vartheta2 = tan_half_spherical_rot_vartheta2*tan_half_spherical_rot_vartheta2
     rho_spherical_rot_vartheta2 = 1.0/(1 + tan_half_sq_spherical_rot_vartheta2)
-    sin_spherical_rot_vartheta2 = 2*(rho_spherical_rot_vartheta2*tan_half_spherical_rot_vartheta2)
+    sin_spherical_rot_vartheta2 = 2*rho_spherical_rot_vartheta2*tan_half_spherical_rot_vartheta2
     del tan_half_spherical_rot_vartheta2
     cos_spherical_rot_vartheta2 = rho_spherical_rot_vartheta2*(1 - tan_half_sq_spherical_rot_vartheta2)
     del rho_spherical_rot_vartheta2, tan_half_sq_spherical_rot_vartheta2
@@ -1321,7 +1321,7 @@ def to_spherical_rot(y):
     tan_half_spherical_rot_varphi1 = numpy.tan(0.5*spherical_rot_varphi1)
     tan_half_sq_spherical_rot_varphi1 = tan_half_spherical_rot_varphi1*tan_half_spherical_rot_varphi1
     rho_spherical_rot_varphi1 = 1.0/(1 + tan_half_sq_spherical_rot_varphi1)
-    sin_spherical_rot_varphi1 = 2*(rho_spherical_rot_varphi1*tan_half_spherical_rot_varphi1)
+    sin_spherical_rot_varphi1 = 2*rho_spherical_rot_varphi1*tan_half_spherical_rot_varphi1
     del tan_half_spherical_rot_varphi1
     cos_spherical_rot_varphi1 = rho_spherical_rot_varphi1*(1 - tan_half_sq_spherical_rot_varphi1)
     del rho_spherical_rot_varphi1, tan_half_sq_spherical_rot_varphi1
@@ -1341,7 +1341,7 @@ def to_spherical_rot(y):
     tan_half_spherical_rot_varphi2 = numpy.tan(0.5*spherical_rot_varphi2)
     tan_half_sq_spherical_rot_varphi2 = tan_half_spherical_rot_varphi2*tan_half_spherical_rot_varphi2
     rho_spherical_rot_varphi2 = 1.0/(1 + tan_half_sq_spherical_rot_varphi2)
-    sin_spherical_rot_varphi2 = 2*(rho_spherical_rot_varphi2*tan_half_spherical_rot_varphi2)
+    sin_spherical_rot_varphi2 = 2*rho_spherical_rot_varphi2*tan_half_spherical_rot_varphi2
     del tan_half_spherical_rot_varphi2
     cos_spherical_rot_varphi2 = rho_spherical_rot_varphi2*(1 - tan_half_sq_spherical_rot_varphi2)
     del rho_spherical_rot_varphi2, tan_half_sq_spherical_rot_varphi2
@@ -1356,11 +1356,11 @@ def to_spherical_rot(y):
     t36 = sin_varphi2*t35
     del sin_varphi2, t35
     t37 = t34 + t36
-    t38 = cos_spherical_rot_vartheta1*sin_spherical_rot_varphi1*t27 - cos_spherical_rot_varphi1*cos_spherical_rot_vartheta1*t18 - sin_spherical_rot_vartheta1*t22
+    t38 = cos_spherical_rot_vartheta1*sin_spherical_rot_varphi1*t27 - sin_spherical_rot_vartheta1*t22 - cos_spherical_rot_varphi1*cos_spherical_rot_vartheta1*t18
     del cos_spherical_rot_vartheta1, t22, t27
     t39 = (cos_spherical_rot_varphi1*t24 + cos_spherical_rot_varphi1*t26 + sin_spherical_rot_varphi1*t18)/sin_spherical_rot_vartheta1
     del cos_spherical_rot_varphi1, sin_spherical_rot_varphi1, sin_spherical_rot_vartheta1, t18, t24, t26
-    t40 = cos_spherical_rot_vartheta2*sin_spherical_rot_varphi2*t37 - cos_spherical_rot_varphi2*cos_spherical_rot_vartheta2*t28 - sin_spherical_rot_vartheta2*t32
+    t40 = cos_spherical_rot_vartheta2*sin_spherical_rot_varphi2*t37 - sin_spherical_rot_vartheta2*t32 - cos_spherical_rot_varphi2*cos_spherical_rot_vartheta2*t28
     del cos_spherical_rot_vartheta2, t32, t37
     t41 = (cos_spherical_rot_varphi2*t34 + cos_spherical_rot_varphi2*t36 + sin_spherical_rot_varphi2*t28)/sin_spherical_rot_vartheta2
     del cos_spherical_rot_varphi2, sin_spherical_rot_varphi2, sin_spherical_rot_vartheta2, t28, t34, t36
@@ -1404,52 +1404,52 @@ def to_spherical_std(y):
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
-    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    sin_varphi1 = 2*rho_varphi1*tan_half_varphi1
     del tan_half_varphi1
     cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
     del rho_varphi1, tan_half_sq_varphi1
     tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
     tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
     rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
-    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    sin_vartheta1 = 2*rho_vartheta1*tan_half_vartheta1
     del tan_half_vartheta1
     cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
     del rho_vartheta1, tan_half_sq_vartheta1
     t2 = sin_vartheta1*sin_vartheta1
     t4 = cos_vartheta1*cos_vartheta1
     t6 = sin_varphi1*sin_vartheta1
-    spherical_std_theta1 = numpy.arctan2(numpy.sqrt(cos_varphi1*cos_varphi1*t2 + t4), -t6)
+    spherical_std_theta1 = numpy.arctan2(numpy.sqrt(t4 + t2*cos_varphi1*cos_varphi1), -t6)
     del t2, t4
     tan_half_spherical_std_theta1 = numpy.tan(0.5*spherical_std_theta1)
     tan_half_sq_spherical_std_theta1 = tan_half_spherical_std_theta1*tan_half_spherical_std_theta1
     rho_spherical_std_theta1 = 1.0/(1 + tan_half_sq_spherical_std_theta1)
-    sin_spherical_std_theta1 = 2*(rho_spherical_std_theta1*tan_half_spherical_std_theta1)
+    sin_spherical_std_theta1 = 2*rho_spherical_std_theta1*tan_half_spherical_std_theta1
     del tan_half_spherical_std_theta1
     cos_spherical_std_theta1 = rho_spherical_std_theta1*(1 - tan_half_sq_spherical_std_theta1)
     del rho_spherical_std_theta1, tan_half_sq_spherical_std_theta1
     tan_half_varphi2 = numpy.tan(0.5*varphi2)
     tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
     rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
-    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    sin_varphi2 = 2*rho_varphi2*tan_half_varphi2
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
-    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    sin_vartheta2 = 2*rho_vartheta2*tan_half_vartheta2
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
     t10 = sin_vartheta2*sin_vartheta2
     t12 = cos_vartheta2*cos_vartheta2
     t14 = sin_varphi2*sin_vartheta2
-    spherical_std_theta2 = numpy.arctan2(numpy.sqrt(cos_varphi2*cos_varphi2*t10 + t12), -t14)
+    spherical_std_theta2 = numpy.arctan2(numpy.sqrt(t12 + t10*cos_varphi2*cos_varphi2), -t14)
     del t10, t12
     tan_half_spherical_std_theta2 = numpy.tan(0.5*spherical_std_theta2)
     tan_half_sq_spherical_std_theta2 = tan_half_spherical_std_theta2*tan_half_spherical_std_theta2
     rho_spherical_std_theta2 = 1.0/(1 + tan_half_sq_spherical_std_theta2)
-    sin_spherical_std_theta2 = 2*(rho_spherical_std_theta2*tan_half_spherical_std_theta2)
+    sin_spherical_std_theta2 = 2*rho_spherical_std_theta2*tan_half_spherical_std_theta2
     del tan_half_spherical_std_theta2
     cos_spherical_std_theta2 = rho_spherical_std_theta2*(1 - tan_half_sq_spherical_std_theta2)
     del rho_spherical_std_theta2, tan_half_sq_spherical_std_theta2
@@ -1473,7 +1473,7 @@ def to_spherical_std(y):
     tan_half_spherical_std_phi1 = numpy.tan(0.5*spherical_std_phi1)
     tan_half_sq_spherical_std_phi1 = tan_half_spherical_std_phi1*tan_half_spherical_std_phi1
     rho_spherical_std_phi1 = 1.0/(1 + tan_half_sq_spherical_std_phi1)
-    sin_spherical_std_phi1 = 2*(rho_spherical_std_phi1*tan_half_spherical_std_phi1)
+    sin_spherical_std_phi1 = 2*rho_spherical_std_phi1*tan_half_spherical_std_phi1
     del tan_half_spherical_std_phi1
     cos_spherical_std_phi1 = rho_spherical_std_phi1*(1 - tan_half_sq_spherical_std_phi1)
     del rho_spherical_std_phi1, tan_half_sq_spherical_std_phi1
@@ -1493,17 +1493,17 @@ def to_spherical_std(y):
     tan_half_spherical_std_phi2 = numpy.tan(0.5*spherical_std_phi2)
     tan_half_sq_spherical_std_phi2 = tan_half_spherical_std_phi2*tan_half_spherical_std_phi2
     rho_spherical_std_phi2 = 1.0/(1 + tan_half_sq_spherical_std_phi2)
-    sin_spherical_std_phi2 = 2*(rho_spherical_std_phi2*tan_half_spherical_std_phi2)
+    sin_spherical_std_phi2 = 2*rho_spherical_std_phi2*tan_half_spherical_std_phi2
     del tan_half_spherical_std_phi2
     cos_spherical_std_phi2 = rho_spherical_std_phi2*(1 - tan_half_sq_spherical_std_phi2)
     del rho_spherical_std_phi2, tan_half_sq_spherical_std_phi2
-    t38 = cos_spherical_std_theta1*sin_spherical_std_phi1*t20 + sin_spherical_std_theta1*t24 - cos_spherical_std_phi1*cos_spherical_std_theta1*t18
+    t38 = sin_spherical_std_theta1*t24 + cos_spherical_std_theta1*sin_spherical_std_phi1*t20 - cos_spherical_std_phi1*cos_spherical_std_theta1*t18
     del cos_spherical_std_theta1, t20, t24
-    t39 = (cos_spherical_std_phi1*cos_varphi1*t22 + sin_spherical_std_phi1*t18 - cos_spherical_std_phi1*t19)/sin_spherical_std_theta1
+    t39 = (sin_spherical_std_phi1*t18 + cos_spherical_std_phi1*cos_varphi1*t22 - cos_spherical_std_phi1*t19)/sin_spherical_std_theta1
     del cos_spherical_std_phi1, cos_varphi1, sin_spherical_std_phi1, sin_spherical_std_theta1, t18, t19, t22
-    t40 = cos_spherical_std_theta2*sin_spherical_std_phi2*t30 + sin_spherical_std_theta2*t34 - cos_spherical_std_phi2*cos_spherical_std_theta2*t28
+    t40 = sin_spherical_std_theta2*t34 + cos_spherical_std_theta2*sin_spherical_std_phi2*t30 - cos_spherical_std_phi2*cos_spherical_std_theta2*t28
     del cos_spherical_std_theta2, t30, t34
-    t41 = (cos_spherical_std_phi2*cos_varphi2*t32 + sin_spherical_std_phi2*t28 - cos_spherical_std_phi2*t29)/sin_spherical_std_theta2
+    t41 = (sin_spherical_std_phi2*t28 + cos_spherical_std_phi2*cos_varphi2*t32 - cos_spherical_std_phi2*t29)/sin_spherical_std_theta2
     del cos_spherical_std_phi2, cos_varphi2, sin_spherical_std_phi2, sin_spherical_std_theta2, t28, t29, t32
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_std_theta1

@@ -54,14 +54,14 @@ def linearize(y, p):
     tan_half_vartheta1 = numpy.tan(0.5*vartheta1)
     tan_half_sq_vartheta1 = tan_half_vartheta1*tan_half_vartheta1
     rho_vartheta1 = 1.0/(1 + tan_half_sq_vartheta1)
-    sin_vartheta1 = 2*(rho_vartheta1*tan_half_vartheta1)
+    sin_vartheta1 = 2*rho_vartheta1*tan_half_vartheta1
     del tan_half_vartheta1
     cos_vartheta1 = rho_vartheta1*(1 - tan_half_sq_vartheta1)
     del rho_vartheta1, tan_half_sq_vartheta1
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
-    sin_vartheta2 = 2*(rho_vartheta2*tan_half_vartheta2)
+    sin_vartheta2 = 2*rho_vartheta2*tan_half_vartheta2
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
@@ -71,14 +71,14 @@ def linearize(y, p):
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
-    sin_varphi1 = 2*(rho_varphi1*tan_half_varphi1)
+    sin_varphi1 = 2*rho_varphi1*tan_half_varphi1
     del tan_half_varphi1
     cos_varphi1 = rho_varphi1*(1 - tan_half_sq_varphi1)
     del rho_varphi1, tan_half_sq_varphi1
     tan_half_varphi2 = numpy.tan(0.5*varphi2)
     tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
     rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
-    sin_varphi2 = 2*(rho_varphi2*tan_half_varphi2)
+    sin_varphi2 = 2*rho_varphi2*tan_half_varphi2
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
@@ -110,7 +110,7 @@ def linearize(y, p):
     del AaAb
     t29 = sin_vartheta1*sin_vartheta2
     t30 = cos_vartheta1*cos_vartheta2
-    t31 = t19*t30 + t29
+    t31 = t29 + t19*t30
     Q00 = t15*t31
     t32 = t28 + Q00*Q00
     D1_00 = -t26 - t32
@@ -123,7 +123,7 @@ def linearize(y, p):
     t35 = g*t4
     t36 = t35*cos_varphi1
     del cos_varphi1
-    t37 = l1*t2
+    t37 = t2*l1
     t38 = cos_vartheta1*vartheta1_dot
     t39 = Aa*t38
     del t38
@@ -136,7 +136,7 @@ def linearize(y, p):
     t45 = vartheta2_dot*vartheta2_dot
     t46 = t15*t45
     t47 = t46*t9
-    f1 = -sin_vartheta2*t47 - t16*t44 - t20*t39 - t37*t36 - t42*vartheta2_dot
+    f1 = -sin_vartheta2*t47 - t16*t44 - t20*t39 - t36*t37 - t42*vartheta2_dot
     t48 = g*sin_varphi2
     t49 = cos_vartheta2*sin_vartheta2
     t50 = cos_vartheta2*sin_vartheta1
@@ -145,9 +145,9 @@ def linearize(y, p):
     t53 = t20*t52
     t54 = t53*t9
     t55 = t19*t50
-    t56 = t15*(cos_vartheta1*sin_vartheta2 - t55)
+    t56 = t15*((cos_vartheta1*sin_vartheta2 - t55))
     del t55
-    f2 = Ab*(t43*t49) + Q11*t51 + t23*t54 - t14*t56 - t23*t48
+    f2 = Q11*t51 + t23*t54 + Ab*t43*t49 - t14*t56 - t23*t48
     del t48, t54
     t57 = g*cos_varphi2
     del cos_varphi2
@@ -157,7 +157,7 @@ def linearize(y, p):
     del t12
     t61 = 2*vartheta1_dot
     t62 = t60*t61
-    f3 = (l1*l2)*(sin_vartheta1*t13*t9) + (l1*l2)*(sin_vartheta1*t14*t9) - l2*t57 - t58*t59 - t62*varphi1_dot
+    f3 = (l1*l2)*sin_vartheta1*t13*t9 + (l1*l2)*sin_vartheta1*t14*t9 - t57*l2 - t58*t59 - t62*varphi1_dot
     t63 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
     t64 = t35*sin_varphi1
     t65 = t2*t11
@@ -167,7 +167,7 @@ def linearize(y, p):
     del t67
     t69 = cos_vartheta1*sin_vartheta2
     t70 = cos_vartheta2*sin_vartheta1 - t19*t69
-    f0 = (l1*l2)*(cos_vartheta1*sin_vartheta2*t19*t43) + (t2*t3*t4)*(cos_vartheta1*sin_vartheta1*t13) - t46*t70 - t64*t65 - t68*t9
+    f0 = (t2*t3*t4)*cos_vartheta1*sin_vartheta1*t13 + (l1*l2)*cos_vartheta1*sin_vartheta2*t19*t43 - t46*t70 - t64*t65 - t68*t9
     t71 = Ab*f0 - Q00*f2 - Q01*f3
     qdd0 = D1_11*rD1*t71 - D1_01*t63
     t72 = Q01*t13 + Q01*t14 + qdd0*t17 + t18*t21
@@ -176,8 +176,8 @@ def linearize(y, p):
     t75 = -t31
     del t31
     t76 = t15*t14
-    t77 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t13*t19) - qdd0*t56 - t73*t74 - t75*t76
-    t78 = (2*Ab*t2*t3*t4)*(sin_vartheta1*varphi1_dot*vartheta1_dot) - Q10*t77 - Q11*t72
+    t77 = (l1*l2)*cos_vartheta1*cos_vartheta2*t13*t19 - qdd0*t56 - t73*t74 - t75*t76
+    t78 = (2*Ab*t2*t3*t4)*sin_vartheta1*varphi1_dot*vartheta1_dot - Q10*t77 - Q11*t72
     t79 = D1_01*rD1
     t80 = cos_vartheta1*cos_vartheta1
     t81 = sin_varphi1*sin_vartheta1
@@ -199,26 +199,26 @@ def linearize(y, p):
     xr3 = D2_00*t84 - D2_01*rD2*t85
     t86 = t16*xr3
     t87 = t40*vartheta2_dot
-    t88 = t19*t29 + t30
+    t88 = t30 + t19*t29
     del t30
     qdd2 = D2_11*rD2*t85 - D2_01*t84
     del t84, t85
-    t89 = Aa*(t13*(-1 + 2*t80)) + sin_vartheta1*t86 + t2*t83 + t74*t87 - Q11*t29*t43 - qdd2*t56 - t46*t88
+    t89 = sin_vartheta1*t86 + t2*t83 + t74*t87 + Aa*t13*((-1) + 2*t80) - qdd2*t56 - t46*t88 - Q11*t29*t43
     del t74, t80, t83
     t90 = Ab*t89 - Q00*t77 - Q01*t72
     xr1 = D1_00*t63 - D1_01*rD1*t71
     del D1_01, t63, t71
     t91 = t16*xr1
-    t92 = Q01*t73 + Q11*sin_vartheta1*t13 + Q11*sin_vartheta1*t14 + t91 - qdd0*t60
+    t92 = t91 + Q01*t73 + Q11*sin_vartheta1*t13 + Q11*sin_vartheta1*t14 - qdd0*t60
     del t14
     t93 = t19*t53
     del t53
     t94 = t11*t23*t9
     t95 = qdd0*t94 + t23*t93 + t41*xr1 - t16*t51 - t50*t76*t9
     del t51, t93
-    t96 = qdd2*t41 + t25*t87 + t86 - Q11*sin_vartheta2*t45 - Q11*t44
+    t96 = t86 + qdd2*t41 + t25*t87 - Q11*t44 - Q11*sin_vartheta2*t45
     del t44, t86, t87
-    t97 = t37*t64 + t96
+    t97 = t96 + t37*t64
     del t37, t64
     t98 = Ab*t97 - Q10*t95 - Q11*t92
     t99 = t16*t69
@@ -230,17 +230,17 @@ def linearize(y, p):
     t103 = sin_vartheta2*vartheta2_dot
     t104 = t103*t59
     t105 = sin_vartheta2*t16
-    t106 = (2*l1*l2)*(sin_vartheta2*t19*varphi2_dot*vartheta2_dot) - qdd2*t105 - t25*t43 - t25*t45
+    t106 = (2*l1*l2)*sin_vartheta2*t19*varphi2_dot*vartheta2_dot - qdd2*t105 - t25*t43 - t25*t45
     del t25, t45
     t107 = Q11*t29
     del t29
     t108 = cos_vartheta2*cos_vartheta2
     t109 = t15*t70
     del t15, t70
-    t110 = Ab*(t43*(-1 + 2*t108)) + (g*l2)*(sin_varphi2*sin_vartheta2) - qdd0*t109 - sin_vartheta2*t91 - t107*t13 - t73*t99 - t76*t88
+    t110 = Ab*t43*((-1) + 2*t108) + (g*l2)*sin_varphi2*sin_vartheta2 - qdd0*t109 - sin_vartheta2*t91 - t107*t13 - t73*t99 - t76*t88
     del qdd0, t107, t108, t13, t73, t76, t88, t91, t99
     t111 = Ab*t106 - Q10*t110 - Q11*t104
-    t112 = (l1*l2)*(cos_vartheta1*cos_vartheta2*t19*t43) + (2*l1*l2)*(cos_vartheta1*sin_vartheta2*t9*varphi2_dot*vartheta2_dot) - qdd2*t109 - t46*t75
+    t112 = (l1*l2)*cos_vartheta1*cos_vartheta2*t19*t43 + (2*l1*l2)*cos_vartheta1*sin_vartheta2*t9*varphi2_dot*vartheta2_dot - qdd2*t109 - t46*t75
     del qdd2, t19, t43, t46, t75
     t113 = Ab*t112 - Q00*t110 - Q01*t104
     del t104
@@ -248,11 +248,11 @@ def linearize(y, p):
     del t96
     t115 = (g*l2)*sin_varphi2 - t92
     del sin_varphi2
-    t116 = -t23*t57 - t95
+    t116 = -t95 - t23*t57
     del t57
     t117 = Ab*t114 - Q10*t116 - Q11*t115
     t118 = Ab*t100 - Q00*t116 - Q01*t115
-    t119 = (2*l1*l2)*(sin_vartheta1*t9*vartheta1_dot) - t20*t60
+    t119 = (2*l1*l2)*sin_vartheta1*t9*vartheta1_dot - t20*t60
     del t60
     t120 = t20*t94 - t56*t61
     del t56, t61
@@ -266,13 +266,13 @@ def linearize(y, p):
     del t17, t62
     t127 = 2*t9
     del t9
-    t128 = t127*t23*t52 + t21*t50
+    t128 = t21*t50 + t127*t23*t52
     del t21, t23, t50, t52
     t129 = -Ab*t125 - Q10*t128 - Q11*t126
-    t130 = (2*Ab*t2*t3*t4)*(cos_vartheta1*sin_vartheta1*varphi1_dot) - Q00*t128 - Q01*t126
+    t130 = (2*Ab*t2*t3*t4)*cos_vartheta1*sin_vartheta1*varphi1_dot - Q00*t128 - Q01*t126
     del t2, t3, t4
     t131 = cos_vartheta2*t59
-    t132 = -2*(t103*t16) - t42
+    t132 = -t42 - 2*t103*t16
     del t103, t16, t42
     t133 = Ab*t132 + Q11*t131
     t134 = 2*vartheta2_dot
@@ -296,7 +296,7 @@ def linearize(y, p):
     qdd1 = rs1*xr1
     del xr1
     t145 = D1_00*rD1
-    t146 = Aa*(t18*t20)
+    t146 = Aa*t18*t20
     del t18, t20
     t147 = Aa*t72 - Q01*t89 - Q11*t146
     del t72
@@ -308,7 +308,7 @@ def linearize(y, p):
     del t92
     t151 = Aa*t95 - Q00*t101 - Q10*t97
     del t101, t95, t97
-    t152 = (2*Aa*Ab)*(sin_vartheta2*varphi2_dot*vartheta2_dot) - Q01*t112 - Q11*t106
+    t152 = (2*Aa*Ab)*sin_vartheta2*varphi2_dot*vartheta2_dot - Q01*t112 - Q11*t106
     t153 = Aa*t110 - Q00*t112 - Q10*t106
     del t106, t110, t112
     t154 = Aa*t115 - Q01*t100 - Q11*t114
@@ -328,7 +328,7 @@ def linearize(y, p):
     del t131, t132, t135
     t162 = -Aa*t138 - Q01*t143 - Q11*t140
     del Q01, Q11, t138
-    t163 = (2*Aa*Ab)*(cos_vartheta2*sin_vartheta2*varphi2_dot) - Q00*t143 - Q10*t140
+    t163 = (2*Aa*Ab)*cos_vartheta2*sin_vartheta2*varphi2_dot - Q00*t143 - Q10*t140
     del Aa, Ab, Q00, Q10, t140, t143
     t164 = D2_00*rD2
     rs3 = 1.0/sin_vartheta2

@@ -55,14 +55,14 @@ def rhs(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -72,7 +72,7 @@ def rhs(y, p):
     del t2
     tan_half_sq_t2 = tan_half_t2*tan_half_t2
     rho_t2 = 1.0/(1 + tan_half_sq_t2)
-    sin_t2 = 2*(rho_t2*tan_half_t2)
+    sin_t2 = 2*rho_t2*tan_half_t2
     del tan_half_t2
     cos_t2 = rho_t2*(1 - tan_half_sq_t2)
     del rho_t2, tan_half_sq_t2
@@ -98,7 +98,7 @@ def rhs(y, p):
     del AaAb
     t19 = sin_theta1*sin_theta2
     t20 = cos_theta1*cos_theta2
-    t21 = cos_t2*t20 + t19
+    t21 = t19 + cos_t2*t20
     del t19, t20
     Q00 = t9*t21
     del t21
@@ -140,9 +140,9 @@ def rhs(y, p):
     del t43
     t45 = theta1_dot*theta1_dot
     t46 = cos_t2*t40
-    t47 = t9*(cos_theta1*sin_theta2 - t46)
+    t47 = t9*((cos_theta1*sin_theta2 - t46))
     del t46
-    f2 = Ab*(t25*t38) + Q11*t41 + t44*t5 - l2*t37 - t45*t47
+    f2 = Q11*t41 + t44*t5 + Ab*t25*t38 - t37*l2 - t45*t47
     del t37, t38, t41, t44, t47
     t48 = cos_theta2*theta2_dot
     del cos_theta2
@@ -172,7 +172,7 @@ def rhs(y, p):
     t62 = cos_theta1*sin_theta2
     t63 = t40 - cos_t2*t62
     del t40, t62
-    f0 = (l1*l2)*(cos_t2*cos_theta1*sin_theta2*t25) + (t14*t15*t16)*(cos_theta1*sin_theta1*t39) - (l1*t14)*t58 - sin_t2*t61 - t29*t63
+    f0 = (l1*l2)*cos_t2*cos_theta1*sin_theta2*t25 + (t14*t15*t16)*cos_theta1*sin_theta1*t39 - sin_t2*t61 - t29*t63 - t14*t58*l1
     del cos_t2, cos_theta1, sin_t2, t14, t15, t16, t25, t29, t39, t58, t61, t63
     t64 = Ab*f0 - Q00*f2 - Q01*f3
     del Ab
@@ -238,14 +238,14 @@ def mass_matrix(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -259,12 +259,12 @@ def mass_matrix(y, p):
     del t5
     tan_half_sq_t5 = tan_half_t5*tan_half_t5
     rho_t5 = 1.0/(1 + tan_half_sq_t5)
-    sin_t5 = 2*(rho_t5*tan_half_t5)
+    sin_t5 = 2*rho_t5*tan_half_t5
     del tan_half_t5
     cos_t5 = rho_t5*(1 - tan_half_sq_t5)
     del rho_t5, tan_half_sq_t5
     t9 = cos_theta1*cos_theta2
-    t10 = cos_t5*t9 + t4
+    t10 = t4 + cos_t5*t9
     del t9
     t11 = l1*l2
     t12 = t11*t10
@@ -295,7 +295,7 @@ def mass_matrix(y, p):
     M13 = m2*t21
     del t21
     t22 = l2*l2
-    M22 = m2*t22
+    M22 = t22*m2
     del t22
     t23 = sin_theta2*sin_theta2
     del sin_theta2
@@ -355,14 +355,14 @@ def forcing(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -371,7 +371,7 @@ def forcing(y, p):
     del t3
     tan_half_sq_t3 = tan_half_t3*tan_half_t3
     rho_t3 = 1.0/(1 + tan_half_sq_t3)
-    sin_t3 = 2*(rho_t3*tan_half_t3)
+    sin_t3 = 2*rho_t3*tan_half_t3
     del tan_half_t3
     cos_t3 = rho_t3*(1 - tan_half_sq_t3)
     del rho_t3, tan_half_sq_t3
@@ -406,11 +406,11 @@ def forcing(y, p):
     t32 = l1*t31
     t33 = sin_t3*t26
     t34 = cos_t3*t24
-    t35 = l1*((l2*m2)*(cos_t3*cos_theta1*sin_theta2*t13) + (l2*m2)*(cos_t3*cos_theta1*sin_theta2*t9) + (l1*t0)*(cos_theta1*sin_theta1*t10) - cos_theta1*sin_t3*t19 - t14*(t12*t13) - t8)
+    t35 = l1*(((t0*l1)*cos_theta1*sin_theta1*t10 + (l2*m2)*cos_t3*cos_theta1*sin_theta2*t13 + (l2*m2)*cos_t3*cos_theta1*sin_theta2*t9 - t8 - cos_theta1*sin_t3*t19 - t12*t13*t14))
     del cos_theta1, sin_theta1, sin_theta2, t12, t8, t9
-    t36 = -t26*(cos_t3*t19 + sin_t3*t13*t25 + t14*(sin_t3*t20) + t0*t24)
+    t36 = -t26*(cos_t3*t19 + t0*t24 + sin_t3*t13*t25 + t14*sin_t3*t20)
     del cos_t3, sin_t3, t0, t13, t19, t24, t26
-    t37 = t14*(cos_theta2*t29 + l1*(t10*t30) + t15*t20 + t30*t32 - t27*t32 - t28)
+    t37 = t14*((cos_theta2*t29 + t15*t20 + t30*t32 + l1*t10*t30 - t28 - t27*t32))
     del cos_theta2, t14, t15, t20, t27, t28, t29, t30, t32
     t38 = t25*(t10*t33 + t31*t33 - t18 - t34)
     del t10, t18, t25, t31, t33, t34
@@ -451,14 +451,14 @@ def energy(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -468,7 +468,7 @@ def energy(y, p):
     del t3
     tan_half_sq_t3 = tan_half_t3*tan_half_t3
     rho_t3 = 1.0/(1 + tan_half_sq_t3)
-    sin_t3 = 2*(rho_t3*tan_half_t3)
+    sin_t3 = 2*rho_t3*tan_half_t3
     del tan_half_t3
     cos_t3 = rho_t3*(1 - tan_half_sq_t3)
     del rho_t3, tan_half_sq_t3
@@ -500,7 +500,7 @@ def energy(y, p):
     t26 = m2*t25
     del t25
     t27 = l2*l2
-    t28 = m2*t27
+    t28 = t27*m2
     del t27
     t29 = sin_theta2*sin_theta2
     del sin_theta2
@@ -516,9 +516,9 @@ def energy(y, p):
     t35 = l1*l1
     t36 = (1/2)*t35
     del t35
-    t37 = m1*t36 + m2*t36
+    t37 = t36*m1 + t36*m2
     del t36
-    t38 = m2*(cos_t3*t14*t8) + (m2*t5)*(t2*theta1_dot*theta2_dot) + phi1_dot*phi2_dot*t26 + phi2_dot*t20*theta1_dot + t37*(t10*t21) + ((1/2)*t28)*t11 + t37*t15 + 1/2*(t30*t9) - m2*t31 - phi1_dot*t23*theta2_dot - t34
+    t38 = t37*t15 + ((1/2)*t28)*t11 + (1/2)*t30*t9 + phi1_dot*phi2_dot*t26 + phi2_dot*t20*theta1_dot + t37*t10*t21 + m2*cos_t3*t14*t8 + (t5*m2)*t2*theta1_dot*theta2_dot - t34 - t31*m2 - phi1_dot*t23*theta2_dot
     del cos_t3, t10, t11, t14, t15, t2, t20, t21, t23, t26, t28, t30, t31, t34, t37, t5, t8, t9
     E = numpy.empty(shape + (), dtype)
     E[...] = t38
@@ -545,14 +545,14 @@ def positions(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_phi1 = numpy.tan(0.5*phi1)
     tan_half_sq_phi1 = tan_half_phi1*tan_half_phi1
     rho_phi1 = 1.0/(1 + tan_half_sq_phi1)
-    sin_phi1 = 2*(rho_phi1*tan_half_phi1)
+    sin_phi1 = 2*rho_phi1*tan_half_phi1
     del tan_half_phi1
     cos_phi1 = rho_phi1*(1 - tan_half_sq_phi1)
     del rho_phi1, tan_half_sq_phi1
@@ -569,14 +569,14 @@ def positions(y, p):
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     tan_half_phi2 = numpy.tan(0.5*phi2)
     tan_half_sq_phi2 = tan_half_phi2*tan_half_phi2
     rho_phi2 = 1.0/(1 + tan_half_sq_phi2)
-    sin_phi2 = 2*(rho_phi2*tan_half_phi2)
+    sin_phi2 = 2*rho_phi2*tan_half_phi2
     del tan_half_phi2
     cos_phi2 = rho_phi2*(1 - tan_half_sq_phi2)
     del rho_phi2, tan_half_sq_phi2
@@ -636,21 +636,21 @@ def velocities(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_phi1 = numpy.tan(0.5*phi1)
     tan_half_sq_phi1 = tan_half_phi1*tan_half_phi1
     rho_phi1 = 1.0/(1 + tan_half_sq_phi1)
-    sin_phi1 = 2*(rho_phi1*tan_half_phi1)
+    sin_phi1 = 2*rho_phi1*tan_half_phi1
     del tan_half_phi1
     cos_phi1 = rho_phi1*(1 - tan_half_sq_phi1)
     del rho_phi1, tan_half_sq_phi1
     t4 = sin_phi1*sin_theta1
     t5 = l1*t4
     del t4
-    t6 = phi1_dot*t5 - l1*(cos_phi1*cos_theta1*theta1_dot)
+    t6 = phi1_dot*t5 - cos_phi1*cos_theta1*theta1_dot*l1
     del t5
     t7 = l1*cos_theta1
     del cos_theta1
@@ -669,14 +669,14 @@ def velocities(y, p):
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     tan_half_phi2 = numpy.tan(0.5*phi2)
     tan_half_sq_phi2 = tan_half_phi2*tan_half_phi2
     rho_phi2 = 1.0/(1 + tan_half_sq_phi2)
-    sin_phi2 = 2*(rho_phi2*tan_half_phi2)
+    sin_phi2 = 2*rho_phi2*tan_half_phi2
     del tan_half_phi2
     cos_phi2 = rho_phi2*(1 - tan_half_sq_phi2)
     del rho_phi2, tan_half_sq_phi2
@@ -692,11 +692,11 @@ def velocities(y, p):
     t24 = sin_theta2*theta2_dot
     del sin_theta2
     t25 = -t6
-    t26 = l2*(cos_phi2*cos_theta2*theta2_dot) - phi2_dot*t19 - t6
+    t26 = l2*cos_phi2*cos_theta2*theta2_dot - t6 - phi2_dot*t19
     del cos_phi2, cos_theta2, t19, t6
-    t27 = phi2_dot*t23 + sin_phi2*t21 + t11
+    t27 = t11 + phi2_dot*t23 + sin_phi2*t21
     del sin_phi2, t21, t23
-    t28 = l2*t24 + t13
+    t28 = t13 + l2*t24
     del t24
     vel = numpy.empty(shape + (2, 3), dtype)
     vel[..., 0, 0] = t25
@@ -740,14 +740,14 @@ def jacobian(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -759,7 +759,7 @@ def jacobian(y, p):
     del t5
     tan_half_sq_t5 = tan_half_t5*tan_half_t5
     rho_t5 = 1.0/(1 + tan_half_sq_t5)
-    sin_t5 = 2*(rho_t5*tan_half_t5)
+    sin_t5 = 2*rho_t5*tan_half_t5
     del tan_half_t5
     cos_t5 = rho_t5*(1 - tan_half_sq_t5)
     del rho_t5, tan_half_sq_t5
@@ -789,7 +789,7 @@ def jacobian(y, p):
     del AaAb
     t26 = sin_theta1*sin_theta2
     t27 = cos_theta1*cos_theta2
-    t28 = cos_t5*t27 + t26
+    t28 = t26 + cos_t5*t27
     Q00 = t12*t28
     t29 = t25 + Q00*Q00
     D1_00 = -t23 - t29
@@ -820,9 +820,9 @@ def jacobian(y, p):
     t47 = t17*t46
     t48 = sin_t5*t47
     t49 = cos_t5*t44
-    t50 = t12*(cos_theta1*sin_theta2 - t49)
+    t50 = t12*((cos_theta1*sin_theta2 - t49))
     del t49
-    f2 = Ab*(t32*t43) + Q11*t45 + t20*t48 - l2*t42 - t11*t50
+    f2 = Q11*t45 + t20*t48 + Ab*t32*t43 - t11*t50 - t42*l2
     del t42, t48
     t51 = cos_theta2*theta2_dot
     t52 = Ab*t37
@@ -843,7 +843,7 @@ def jacobian(y, p):
     del t63
     t65 = cos_theta1*sin_theta2
     t66 = t44 - cos_t5*t65
-    f0 = (l1*l2)*(cos_t5*cos_theta1*sin_theta2*t32) + (t2*t3*t4)*(cos_theta1*sin_theta1*t10) - (l1*t2)*t61 - sin_t5*t64 - t35*t66
+    f0 = (l1*l2)*cos_t5*cos_theta1*sin_theta2*t32 + (t2*t3*t4)*cos_theta1*sin_theta1*t10 - sin_t5*t64 - t35*t66 - t2*t61*l1
     del t61
     t67 = Ab*f0 - Q00*f2 - Q01*f3
     qdd0 = D1_11*rD1*t67 - D1_01*t59
@@ -851,13 +851,13 @@ def jacobian(y, p):
     t69 = phi1_dot*t57
     t70 = -t28
     del t28
-    t71 = (l1*l2)*(cos_t5*cos_theta1*cos_theta2*t10) - qdd0*t50 - t13*t44*t69 - t54*t70
-    t72 = (2*Ab*t2*t3*t4)*(phi1_dot*sin_theta1*theta1_dot) - Q10*t71 - Q11*t68
+    t71 = (l1*l2)*cos_t5*cos_theta1*cos_theta2*t10 - qdd0*t50 - t54*t70 - t13*t44*t69
+    t72 = (2*Ab*t2*t3*t4)*phi1_dot*sin_theta1*theta1_dot - Q10*t71 - Q11*t68
     t73 = D1_01*rD1
     t74 = cos_theta1*cos_theta1
     t75 = t60*t8
     del t60
-    t76 = cos_t5*t26 + t27
+    t76 = t27 + cos_t5*t26
     del t27
     D2_00 = -t29 - t30
     del t29, t30
@@ -872,16 +872,16 @@ def jacobian(y, p):
     qdd2 = D2_11*rD2*t78 - D2_01*t77
     xr3 = D2_00*t77 - D2_01*rD2*t78
     del t77, t78
-    t79 = (2*l1*l2)*(cos_theta2*phi2_dot*sin_t5*sin_theta1*theta2_dot) + (l1*l2)*(sin_t5*sin_theta1*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t74)) - Q11*t26*t32 - qdd2*t50 - t2*t75 - t35*t76
+    t79 = (l1*l2)*sin_t5*sin_theta1*xr3 + (t2*t3*t4)*t10*((-1) + 2*t74) + (2*l1*l2)*cos_theta2*phi2_dot*sin_t5*sin_theta1*theta2_dot - qdd2*t50 - t2*t75 - t35*t76 - Q11*t26*t32
     del t74, t75
     t80 = Ab*t79 - Q00*t71 - Q01*t68
     xr1 = D1_00*t59 - D1_01*rD1*t67
     del D1_01, t59, t67
     t81 = t13*xr1
-    t82 = Q01*t69 + Q11*sin_theta1*t11 + Q11*t53 + t81 - qdd0*t56
+    t82 = t81 + Q01*t69 + Q11*t53 + Q11*sin_theta1*t11 - qdd0*t56
     del t11, t53
     t83 = t37*theta2_dot
-    t84 = qdd2*t38 + t13*xr3 + t22*t83 - Q11*sin_theta2*t34 - Q11*t33
+    t84 = qdd2*t38 + t13*xr3 + t22*t83 - Q11*t33 - Q11*sin_theta2*t34
     del t33
     t85 = cos_t5*t47
     del t47
@@ -891,14 +891,14 @@ def jacobian(y, p):
     del t45, t55, t85
     t89 = Ab*t84 - Q10*t88 - Q11*t82
     t90 = t13*t65
-    t91 = cos_t5*t64 + t32*t90 + t36*t65 + t56*xr3 - (l1*l2)*(cos_theta1*cos_theta2*qdd2*sin_t5)
+    t91 = cos_t5*t64 + t32*t90 + t36*t65 + t56*xr3 - cos_theta1*cos_theta2*qdd2*sin_t5*l1*l2
     del t36, t64
     t92 = -t91
     t93 = Ab*t92 - Q00*t88 - Q01*t82
     t94 = sin_theta2*theta2_dot
     t95 = t52*t94
     t96 = sin_theta2*t13
-    t97 = (2*l1*l2)*(cos_t5*phi2_dot*sin_theta2*theta2_dot) - qdd2*t96 - t22*t32 - t22*t34
+    t97 = (2*l1*l2)*cos_t5*phi2_dot*sin_theta2*theta2_dot - qdd2*t96 - t22*t32 - t22*t34
     del t22, t34
     t98 = Q11*t26
     del t26
@@ -906,10 +906,10 @@ def jacobian(y, p):
     t100 = g*t20
     t101 = t12*t66
     del t12, t66
-    t102 = Ab*(t32*(-1 + 2*t99)) - qdd0*t101 - sin_theta2*t81 - t10*t98 - t100 - t54*t76 - t69*t90
+    t102 = Ab*t32*((-1) + 2*t99) - t100 - qdd0*t101 - sin_theta2*t81 - t10*t98 - t54*t76 - t69*t90
     del qdd0, t10, t100, t54, t69, t76, t81, t98, t99
     t103 = Ab*t97 - Q10*t102 - Q11*t95
-    t104 = cos_t5*t32*t86 + t83*t90 - qdd2*t101 - t35*t70
+    t104 = t83*t90 + cos_t5*t32*t86 - qdd2*t101 - t35*t70
     del cos_t5, qdd2, t32, t35, t70, t83, t86, t90
     t105 = Ab*t104 - Q00*t102 - Q01*t95
     del t95
@@ -918,7 +918,7 @@ def jacobian(y, p):
     t108 = -t88
     t109 = Ab*t106 - Q10*t108 - Q11*t107
     t110 = Ab*t91 - Q00*t108 - Q01*t107
-    t111 = (2*l1*l2)*(sin_t5*sin_theta1*theta1_dot) - t17*t56
+    t111 = (2*l1*l2)*sin_t5*sin_theta1*theta1_dot - t17*t56
     del t56
     t112 = t17*t87 - t50*t57
     del t50, t57
@@ -932,13 +932,13 @@ def jacobian(y, p):
     del t14, t58
     t119 = 2*sin_t5
     del sin_t5
-    t120 = t119*t20*t46 + t18*t44
+    t120 = t18*t44 + t119*t20*t46
     del t18, t20, t44, t46
     t121 = -Ab*t117 - Q10*t120 - Q11*t118
-    t122 = (2*Ab*t2*t3*t4)*(cos_theta1*phi1_dot*sin_theta1) - Q00*t120 - Q01*t118
+    t122 = (2*Ab*t2*t3*t4)*cos_theta1*phi1_dot*sin_theta1 - Q00*t120 - Q01*t118
     del t2, t3, t4
     t123 = cos_theta2*t52
-    t124 = -2*(t13*t94) - t39
+    t124 = -t39 - 2*t13*t94
     del t13, t39, t94
     t125 = Ab*t124 + Q11*t123
     t126 = 2*theta2_dot
@@ -962,7 +962,7 @@ def jacobian(y, p):
     qdd1 = rs1*xr1
     del xr1
     t137 = D1_00*rD1
-    t138 = Aa*(t15*t17)
+    t138 = Aa*t15*t17
     del t15, t17
     t139 = Aa*t68 - Q01*t79 - Q11*t138
     del t68
@@ -974,7 +974,7 @@ def jacobian(y, p):
     del t82
     t143 = Aa*t88 - Q00*t92 - Q10*t84
     del t84, t88, t92
-    t144 = (2*Aa*Ab)*(phi2_dot*sin_theta2*theta2_dot) - Q01*t104 - Q11*t97
+    t144 = (2*Aa*Ab)*phi2_dot*sin_theta2*theta2_dot - Q01*t104 - Q11*t97
     t145 = Aa*t102 - Q00*t104 - Q10*t97
     del t102, t104, t97
     t146 = Aa*t107 - Q01*t91 - Q11*t106
@@ -994,7 +994,7 @@ def jacobian(y, p):
     del t123, t124, t127
     t154 = -Aa*t130 - Q01*t135 - Q11*t132
     del Q01, Q11, t130
-    t155 = (2*Aa*Ab)*(cos_theta2*phi2_dot*sin_theta2) - Q00*t135 - Q10*t132
+    t155 = (2*Aa*Ab)*cos_theta2*phi2_dot*sin_theta2 - Q00*t135 - Q10*t132
     del Aa, Ab, Q00, Q10, t132, t135
     t156 = D2_00*rD2
     rs3 = 1.0/sin_theta2
@@ -1166,13 +1166,13 @@ def polar_sines(y):
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
     del tan_half_sq_theta1
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del rho_theta1, tan_half_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
     del tan_half_sq_theta2
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del rho_theta2, tan_half_theta2
     sines = numpy.empty(shape + (2,), dtype)
     sines[..., 0] = sin_theta1
@@ -1202,7 +1202,7 @@ def to_spherical_alt(y):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
@@ -1211,24 +1211,24 @@ def to_spherical_alt(y):
     tan_half_phi1 = numpy.tan(0.5*phi1)
     tan_half_sq_phi1 = tan_half_phi1*tan_half_phi1
     rho_phi1 = 1.0/(1 + tan_half_sq_phi1)
-    sin_phi1 = 2*(rho_phi1*tan_half_phi1)
+    sin_phi1 = 2*rho_phi1*tan_half_phi1
     del tan_half_phi1
     cos_phi1 = rho_phi1*(1 - tan_half_sq_phi1)
     del rho_phi1, tan_half_sq_phi1
     t6 = cos_phi1*sin_theta1
-    spherical_alt_vartheta1 = numpy.arctan2(numpy.sqrt(sin_phi1*sin_phi1*t1 + t3), t6)
+    spherical_alt_vartheta1 = numpy.arctan2(numpy.sqrt(t3 + t1*sin_phi1*sin_phi1), t6)
     del t1, t3
     tan_half_spherical_alt_vartheta1 = numpy.tan(0.5*spherical_alt_vartheta1)
     tan_half_sq_spherical_alt_vartheta1 = tan_half_spherical_alt_vartheta1*tan_half_spherical_alt_vartheta1
     rho_spherical_alt_vartheta1 = 1.0/(1 + tan_half_sq_spherical_alt_vartheta1)
-    sin_spherical_alt_vartheta1 = 2*(rho_spherical_alt_vartheta1*tan_half_spherical_alt_vartheta1)
+    sin_spherical_alt_vartheta1 = 2*rho_spherical_alt_vartheta1*tan_half_spherical_alt_vartheta1
     del tan_half_spherical_alt_vartheta1
     cos_spherical_alt_vartheta1 = rho_spherical_alt_vartheta1*(1 - tan_half_sq_spherical_alt_vartheta1)
     del rho_spherical_alt_vartheta1, tan_half_sq_spherical_alt_vartheta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -1237,17 +1237,17 @@ def to_spherical_alt(y):
     tan_half_phi2 = numpy.tan(0.5*phi2)
     tan_half_sq_phi2 = tan_half_phi2*tan_half_phi2
     rho_phi2 = 1.0/(1 + tan_half_sq_phi2)
-    sin_phi2 = 2*(rho_phi2*tan_half_phi2)
+    sin_phi2 = 2*rho_phi2*tan_half_phi2
     del tan_half_phi2
     cos_phi2 = rho_phi2*(1 - tan_half_sq_phi2)
     del rho_phi2, tan_half_sq_phi2
     t14 = cos_phi2*sin_theta2
-    spherical_alt_vartheta2 = numpy.arctan2(numpy.sqrt(sin_phi2*sin_phi2*t9 + t11), t14)
+    spherical_alt_vartheta2 = numpy.arctan2(numpy.sqrt(t11 + t9*sin_phi2*sin_phi2), t14)
     del t11, t9
     tan_half_spherical_alt_vartheta2 = numpy.tan(0.5*spherical_alt_vartheta2)
     tan_half_sq_spherical_alt_vartheta2 = tan_half_spherical_alt_vartheta2*tan_half_spherical_alt_vartheta2
     rho_spherical_alt_vartheta2 = 1.0/(1 + tan_half_sq_spherical_alt_vartheta2)
-    sin_spherical_alt_vartheta2 = 2*(rho_spherical_alt_vartheta2*tan_half_spherical_alt_vartheta2)
+    sin_spherical_alt_vartheta2 = 2*rho_spherical_alt_vartheta2*tan_half_spherical_alt_vartheta2
     del tan_half_spherical_alt_vartheta2
     cos_spherical_alt_vartheta2 = rho_spherical_alt_vartheta2*(1 - tan_half_sq_spherical_alt_vartheta2)
     del rho_spherical_alt_vartheta2, tan_half_sq_spherical_alt_vartheta2
@@ -1263,7 +1263,7 @@ def to_spherical_alt(y):
     tan_half_spherical_alt_varphi1 = numpy.tan(0.5*spherical_alt_varphi1)
     tan_half_sq_spherical_alt_varphi1 = tan_half_spherical_alt_varphi1*tan_half_spherical_alt_varphi1
     rho_spherical_alt_varphi1 = 1.0/(1 + tan_half_sq_spherical_alt_varphi1)
-    sin_spherical_alt_varphi1 = 2*(rho_spherical_alt_varphi1*tan_half_spherical_alt_varphi1)
+    sin_spherical_alt_varphi1 = 2*rho_spherical_alt_varphi1*tan_half_spherical_alt_varphi1
     del tan_half_spherical_alt_varphi1
     cos_spherical_alt_varphi1 = rho_spherical_alt_varphi1*(1 - tan_half_sq_spherical_alt_varphi1)
     del rho_spherical_alt_varphi1, tan_half_sq_spherical_alt_varphi1
@@ -1282,7 +1282,7 @@ def to_spherical_alt(y):
     tan_half_spherical_alt_varphi2 = numpy.tan(0.5*spherical_alt_varphi2)
     tan_half_sq_spherical_alt_varphi2 = tan_half_spherical_alt_varphi2*tan_half_spherical_alt_varphi2
     rho_spherical_alt_varphi2 = 1.0/(1 + tan_half_sq_spherical_alt_varphi2)
-    sin_spherical_alt_varphi2 = 2*(rho_spherical_alt_varphi2*tan_half_spherical_alt_varphi2)
+    sin_spherical_alt_varphi2 = 2*rho_spherical_alt_varphi2*tan_half_spherical_alt_varphi2
     del tan_half_spherical_alt_varphi2
     cos_spherical_alt_varphi2 = rho_spherical_alt_varphi2*(1 - tan_half_sq_spherical_alt_varphi2)
     del rho_spherical_alt_varphi2, tan_half_sq_spherical_alt_varphi2
@@ -1345,7 +1345,7 @@ def to_spherical_rot(y):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
@@ -1354,24 +1354,24 @@ def to_spherical_rot(y):
     tan_half_phi1 = numpy.tan(0.5*phi1)
     tan_half_sq_phi1 = tan_half_phi1*tan_half_phi1
     rho_phi1 = 1.0/(1 + tan_half_sq_phi1)
-    sin_phi1 = 2*(rho_phi1*tan_half_phi1)
+    sin_phi1 = 2*rho_phi1*tan_half_phi1
     del tan_half_phi1
     cos_phi1 = rho_phi1*(1 - tan_half_sq_phi1)
     del rho_phi1, tan_half_sq_phi1
     t6 = sin_phi1*sin_theta1
-    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(cos_phi1*cos_phi1*t1 + t3), t6)
+    spherical_rot_vartheta1 = numpy.arctan2(numpy.sqrt(t3 + t1*cos_phi1*cos_phi1), t6)
     del t1, t3
     tan_half_spherical_rot_vartheta1 = numpy.tan(0.5*spherical_rot_vartheta1)
     tan_half_sq_spherical_rot_vartheta1 = tan_half_spherical_rot_vartheta1*tan_half_spherical_rot_vartheta1
     rho_spherical_rot_vartheta1 = 1.0/(1 + tan_half_sq_spherical_rot_vartheta1)
-    sin_spherical_rot_vartheta1 = 2*(rho_spherical_rot_vartheta1*tan_half_spherical_rot_vartheta1)
+    sin_spherical_rot_vartheta1 = 2*rho_spherical_rot_vartheta1*tan_half_spherical_rot_vartheta1
     del tan_half_spherical_rot_vartheta1
     cos_spherical_rot_vartheta1 = rho_spherical_rot_vartheta1*(1 - tan_half_sq_spherical_rot_vartheta1)
     del rho_spherical_rot_vartheta1, tan_half_sq_spherical_rot_vartheta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -1380,17 +1380,17 @@ def to_spherical_rot(y):
     tan_half_phi2 = numpy.tan(0.5*phi2)
     tan_half_sq_phi2 = tan_half_phi2*tan_half_phi2
     rho_phi2 = 1.0/(1 + tan_half_sq_phi2)
-    sin_phi2 = 2*(rho_phi2*tan_half_phi2)
+    sin_phi2 = 2*rho_phi2*tan_half_phi2
     del tan_half_phi2
     cos_phi2 = rho_phi2*(1 - tan_half_sq_phi2)
     del rho_phi2, tan_half_sq_phi2
     t14 = sin_phi2*sin_theta2
-    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(cos_phi2*cos_phi2*t9 + t11), t14)
+    spherical_rot_vartheta2 = numpy.arctan2(numpy.sqrt(t11 + t9*cos_phi2*cos_phi2), t14)
     del t11, t9
     tan_half_spherical_rot_vartheta2 = numpy.tan(0.5*spherical_rot_vartheta2)
     tan_half_sq_spherical_rot_vartheta2 = tan_half_spherical_rot_vartheta2*tan_half_spherical_rot_vartheta2
     rho_spherical_rot_vartheta2 = 1.0/(1 + tan_half_sq_spherical_rot_vartheta2)
-    sin_spherical_rot_vartheta2 = 2*(rho_spherical_rot_vartheta2*tan_half_spherical_rot_vartheta2)
+    sin_spherical_rot_vartheta2 = 2*rho_spherical_rot_vartheta2*tan_half_spherical_rot_vartheta2
     del tan_half_spherical_rot_vartheta2
     cos_spherical_rot_vartheta2 = rho_spherical_rot_vartheta2*(1 - tan_half_sq_spherical_rot_vartheta2)
     del rho_spherical_rot_vartheta2, tan_half_sq_spherical_rot_vartheta2
@@ -1418,7 +1418,7 @@ def to_spherical_rot(y):
     tan_half_spherical_rot_varphi1 = numpy.tan(0.5*spherical_rot_varphi1)
     tan_half_sq_spherical_rot_varphi1 = tan_half_spherical_rot_varphi1*tan_half_spherical_rot_varphi1
     rho_spherical_rot_varphi1 = 1.0/(1 + tan_half_sq_spherical_rot_varphi1)
-    sin_spherical_rot_varphi1 = 2*(rho_spherical_rot_varphi1*tan_half_spherical_rot_varphi1)
+    sin_spherical_rot_varphi1 = 2*rho_spherical_rot_varphi1*tan_half_spherical_rot_varphi1
     del tan_half_spherical_rot_varphi1
     cos_spherical_rot_varphi1 = rho_spherical_rot_varphi1*(1 - tan_half_sq_spherical_rot_varphi1)
     del rho_spherical_rot_varphi1, tan_half_sq_spherical_rot_varphi1
@@ -1438,7 +1438,7 @@ def to_spherical_rot(y):
     tan_half_spherical_rot_varphi2 = numpy.tan(0.5*spherical_rot_varphi2)
     tan_half_sq_spherical_rot_varphi2 = tan_half_spherical_rot_varphi2*tan_half_spherical_rot_varphi2
     rho_spherical_rot_varphi2 = 1.0/(1 + tan_half_sq_spherical_rot_varphi2)
-    sin_spherical_rot_varphi2 = 2*(rho_spherical_rot_varphi2*tan_half_spherical_rot_varphi2)
+    sin_spherical_rot_varphi2 = 2*rho_spherical_rot_varphi2*tan_half_spherical_rot_varphi2
     del tan_half_spherical_rot_varphi2
     cos_spherical_rot_varphi2 = rho_spherical_rot_varphi2*(1 - tan_half_sq_spherical_rot_varphi2)
     del rho_spherical_rot_varphi2, tan_half_sq_spherical_rot_varphi2

@@ -54,14 +54,14 @@ def linearize(y, p):
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
-    sin_theta1 = 2*(rho_theta1*tan_half_theta1)
+    sin_theta1 = 2*rho_theta1*tan_half_theta1
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*(rho_theta2*tan_half_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
@@ -73,7 +73,7 @@ def linearize(y, p):
     del t5
     tan_half_sq_t5 = tan_half_t5*tan_half_t5
     rho_t5 = 1.0/(1 + tan_half_sq_t5)
-    sin_t5 = 2*(rho_t5*tan_half_t5)
+    sin_t5 = 2*rho_t5*tan_half_t5
     del tan_half_t5
     cos_t5 = rho_t5*(1 - tan_half_sq_t5)
     del rho_t5, tan_half_sq_t5
@@ -103,7 +103,7 @@ def linearize(y, p):
     del AaAb
     t26 = sin_theta1*sin_theta2
     t27 = cos_theta1*cos_theta2
-    t28 = cos_t5*t27 + t26
+    t28 = t26 + cos_t5*t27
     Q00 = t12*t28
     t29 = t25 + Q00*Q00
     D1_00 = -t23 - t29
@@ -134,9 +134,9 @@ def linearize(y, p):
     t47 = t17*t46
     t48 = sin_t5*t47
     t49 = cos_t5*t44
-    t50 = t12*(cos_theta1*sin_theta2 - t49)
+    t50 = t12*((cos_theta1*sin_theta2 - t49))
     del t49
-    f2 = Ab*(t32*t43) + Q11*t45 + t20*t48 - l2*t42 - t11*t50
+    f2 = Q11*t45 + t20*t48 + Ab*t32*t43 - t11*t50 - t42*l2
     del t42, t48
     t51 = cos_theta2*theta2_dot
     t52 = Ab*t37
@@ -157,7 +157,7 @@ def linearize(y, p):
     del t63
     t65 = cos_theta1*sin_theta2
     t66 = t44 - cos_t5*t65
-    f0 = (l1*l2)*(cos_t5*cos_theta1*sin_theta2*t32) + (t2*t3*t4)*(cos_theta1*sin_theta1*t10) - (l1*t2)*t61 - sin_t5*t64 - t35*t66
+    f0 = (l1*l2)*cos_t5*cos_theta1*sin_theta2*t32 + (t2*t3*t4)*cos_theta1*sin_theta1*t10 - sin_t5*t64 - t35*t66 - t2*t61*l1
     del t61
     t67 = Ab*f0 - Q00*f2 - Q01*f3
     qdd0 = D1_11*rD1*t67 - D1_01*t59
@@ -165,13 +165,13 @@ def linearize(y, p):
     t69 = phi1_dot*t57
     t70 = -t28
     del t28
-    t71 = (l1*l2)*(cos_t5*cos_theta1*cos_theta2*t10) - qdd0*t50 - t13*t44*t69 - t54*t70
-    t72 = (2*Ab*t2*t3*t4)*(phi1_dot*sin_theta1*theta1_dot) - Q10*t71 - Q11*t68
+    t71 = (l1*l2)*cos_t5*cos_theta1*cos_theta2*t10 - qdd0*t50 - t54*t70 - t13*t44*t69
+    t72 = (2*Ab*t2*t3*t4)*phi1_dot*sin_theta1*theta1_dot - Q10*t71 - Q11*t68
     t73 = D1_01*rD1
     t74 = cos_theta1*cos_theta1
     t75 = t60*t8
     del t60
-    t76 = cos_t5*t26 + t27
+    t76 = t27 + cos_t5*t26
     del t27
     D2_00 = -t29 - t30
     del t29, t30
@@ -186,16 +186,16 @@ def linearize(y, p):
     qdd2 = D2_11*rD2*t78 - D2_01*t77
     xr3 = D2_00*t77 - D2_01*rD2*t78
     del t77, t78
-    t79 = (2*l1*l2)*(cos_theta2*phi2_dot*sin_t5*sin_theta1*theta2_dot) + (l1*l2)*(sin_t5*sin_theta1*xr3) + (t2*t3*t4)*(t10*(-1 + 2*t74)) - Q11*t26*t32 - qdd2*t50 - t2*t75 - t35*t76
+    t79 = (l1*l2)*sin_t5*sin_theta1*xr3 + (t2*t3*t4)*t10*((-1) + 2*t74) + (2*l1*l2)*cos_theta2*phi2_dot*sin_t5*sin_theta1*theta2_dot - qdd2*t50 - t2*t75 - t35*t76 - Q11*t26*t32
     del t74, t75
     t80 = Ab*t79 - Q00*t71 - Q01*t68
     xr1 = D1_00*t59 - D1_01*rD1*t67
     del D1_01, t59, t67
     t81 = t13*xr1
-    t82 = Q01*t69 + Q11*sin_theta1*t11 + Q11*t53 + t81 - qdd0*t56
+    t82 = t81 + Q01*t69 + Q11*t53 + Q11*sin_theta1*t11 - qdd0*t56
     del t11, t53
     t83 = t37*theta2_dot
-    t84 = qdd2*t38 + t13*xr3 + t22*t83 - Q11*sin_theta2*t34 - Q11*t33
+    t84 = qdd2*t38 + t13*xr3 + t22*t83 - Q11*t33 - Q11*sin_theta2*t34
     del t33
     t85 = cos_t5*t47
     del t47
@@ -205,14 +205,14 @@ def linearize(y, p):
     del t45, t55, t85
     t89 = Ab*t84 - Q10*t88 - Q11*t82
     t90 = t13*t65
-    t91 = cos_t5*t64 + t32*t90 + t36*t65 + t56*xr3 - (l1*l2)*(cos_theta1*cos_theta2*qdd2*sin_t5)
+    t91 = cos_t5*t64 + t32*t90 + t36*t65 + t56*xr3 - cos_theta1*cos_theta2*qdd2*sin_t5*l1*l2
     del t36, t64
     t92 = -t91
     t93 = Ab*t92 - Q00*t88 - Q01*t82
     t94 = sin_theta2*theta2_dot
     t95 = t52*t94
     t96 = sin_theta2*t13
-    t97 = (2*l1*l2)*(cos_t5*phi2_dot*sin_theta2*theta2_dot) - qdd2*t96 - t22*t32 - t22*t34
+    t97 = (2*l1*l2)*cos_t5*phi2_dot*sin_theta2*theta2_dot - qdd2*t96 - t22*t32 - t22*t34
     del t22, t34
     t98 = Q11*t26
     del t26
@@ -220,10 +220,10 @@ def linearize(y, p):
     t100 = g*t20
     t101 = t12*t66
     del t12, t66
-    t102 = Ab*(t32*(-1 + 2*t99)) - qdd0*t101 - sin_theta2*t81 - t10*t98 - t100 - t54*t76 - t69*t90
+    t102 = Ab*t32*((-1) + 2*t99) - t100 - qdd0*t101 - sin_theta2*t81 - t10*t98 - t54*t76 - t69*t90
     del qdd0, t10, t100, t54, t69, t76, t81, t98, t99
     t103 = Ab*t97 - Q10*t102 - Q11*t95
-    t104 = cos_t5*t32*t86 + t83*t90 - qdd2*t101 - t35*t70
+    t104 = t83*t90 + cos_t5*t32*t86 - qdd2*t101 - t35*t70
     del cos_t5, qdd2, t32, t35, t70, t83, t86, t90
     t105 = Ab*t104 - Q00*t102 - Q01*t95
     del t95
@@ -232,7 +232,7 @@ def linearize(y, p):
     t108 = -t88
     t109 = Ab*t106 - Q10*t108 - Q11*t107
     t110 = Ab*t91 - Q00*t108 - Q01*t107
-    t111 = (2*l1*l2)*(sin_t5*sin_theta1*theta1_dot) - t17*t56
+    t111 = (2*l1*l2)*sin_t5*sin_theta1*theta1_dot - t17*t56
     del t56
     t112 = t17*t87 - t50*t57
     del t50, t57
@@ -246,13 +246,13 @@ def linearize(y, p):
     del t14, t58
     t119 = 2*sin_t5
     del sin_t5
-    t120 = t119*t20*t46 + t18*t44
+    t120 = t18*t44 + t119*t20*t46
     del t18, t20, t44, t46
     t121 = -Ab*t117 - Q10*t120 - Q11*t118
-    t122 = (2*Ab*t2*t3*t4)*(cos_theta1*phi1_dot*sin_theta1) - Q00*t120 - Q01*t118
+    t122 = (2*Ab*t2*t3*t4)*cos_theta1*phi1_dot*sin_theta1 - Q00*t120 - Q01*t118
     del t2, t3, t4
     t123 = cos_theta2*t52
-    t124 = -2*(t13*t94) - t39
+    t124 = -t39 - 2*t13*t94
     del t13, t39, t94
     t125 = Ab*t124 + Q11*t123
     t126 = 2*theta2_dot
@@ -276,7 +276,7 @@ def linearize(y, p):
     qdd1 = rs1*xr1
     del xr1
     t137 = D1_00*rD1
-    t138 = Aa*(t15*t17)
+    t138 = Aa*t15*t17
     del t15, t17
     t139 = Aa*t68 - Q01*t79 - Q11*t138
     del t68
@@ -288,7 +288,7 @@ def linearize(y, p):
     del t82
     t143 = Aa*t88 - Q00*t92 - Q10*t84
     del t84, t88, t92
-    t144 = (2*Aa*Ab)*(phi2_dot*sin_theta2*theta2_dot) - Q01*t104 - Q11*t97
+    t144 = (2*Aa*Ab)*phi2_dot*sin_theta2*theta2_dot - Q01*t104 - Q11*t97
     t145 = Aa*t102 - Q00*t104 - Q10*t97
     del t102, t104, t97
     t146 = Aa*t107 - Q01*t91 - Q11*t106
@@ -308,7 +308,7 @@ def linearize(y, p):
     del t123, t124, t127
     t154 = -Aa*t130 - Q01*t135 - Q11*t132
     del Q01, Q11, t130
-    t155 = (2*Aa*Ab)*(cos_theta2*phi2_dot*sin_theta2) - Q00*t135 - Q10*t132
+    t155 = (2*Aa*Ab)*cos_theta2*phi2_dot*sin_theta2 - Q00*t135 - Q10*t132
     del Aa, Ab, Q00, Q10, t132, t135
     t156 = D2_00*rD2
     rs3 = 1.0/sin_theta2

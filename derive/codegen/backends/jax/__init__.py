@@ -17,10 +17,6 @@ from __future__ import annotations
 
 import sympy as sp
 from sympy.printing.numpy import JaxPrinter
-from sympy.printing.codeprinter import PrintMethodNotImplementedError
-from sympy.printing.precedence import precedence
-
-from ....errors import PrintError
 from ...emit import live_assignments, render
 from ...names import KERNEL_NAMES, PYTHON_RESERVED, numpy_slots
 from ...printers import SlotPrinting
@@ -42,34 +38,22 @@ class JaxSlotPrinter(SlotPrinting, JaxPrinter):
     >>> import sympy as sp
     >>> x, y = sp.symbols("x y")
     >>> JaxSlotPrinter({x: "theta1"}).doprint_checked(sp.sin(x) * y**2 + 1 / y)
-    'y*y*jax.numpy.sin(theta1) + 1.0/y'
+    '1.0/y + y*y*jax.numpy.sin(theta1)'
     """
 
     def __init__(self, slots: dict):
         super().__init__({"fully_qualified_modules": True})
         self._settings_slots = slots
 
-    def _print_Pow(self, expr, rational=False):
-        b, e = expr.base, expr.exp
-        if e.is_Integer and 1 <= abs(int(e)) <= 3:
-            base = self.parenthesize(b, precedence(sp.Mul(2, 2, evaluate=False)))
-            prod = self._product(base, abs(int(e)))
-            return prod if e > 0 else f"1.0/({prod})" if abs(int(e)) > 1 else f"1.0/{base}"
-        if e == sp.S.Half:
-            return f"jax.numpy.sqrt({self._print(b)})"
-        return super()._print_Pow(expr, rational=rational)
+    LANGUAGE_NAME = "JAX"
 
-    def doprint_checked(self, expr) -> str:
-        """The expression in jax.numpy, or a PrintError naming what has no translation."""
-        try:
-            text = self.doprint(expr)
-        except PrintMethodNotImplementedError as exc:
-            raise PrintError(f"no JAX translation for {type(expr).__name__} in: {expr} ({exc})") from None
-        if self._not_supported:
-            bad = sorted(str(e) for e in self._not_supported)
-            self._not_supported.clear()
-            raise PrintError(f"no JAX translation for: {bad[0]}")
-        return text
+    def _print_Pow(self, expr, rational=False):
+        small = self._small_power(expr)
+        if small is not None:
+            return small
+        if expr.exp == sp.S.Half:
+            return f"jax.numpy.sqrt({self._print(expr.base)})"
+        return super()._print_Pow(expr, rational=rational)
 
 
 def kernel_context(body) -> dict:
