@@ -204,12 +204,15 @@ def cmd_generate(args) -> int:
         written = generate.write_models(out, names, backends, check=args.check, prune=not args.out,
                                         shown=shown,
                                         progress=lambda i, n, name: stage.set(f"{name} ({i}/{n})"))
-    changed = written.changed
+    changed, diff = written.changed, written.diff
+    if not args.out:                # the golden files include the templates' compiled form
+        more, more_diff = generate.write_compiled_templates(check=args.check)
+        changed, diff = changed + more, diff + more_diff
     if args.check:
         if written.note:
             print(f"note: {written.note}", file=sys.stderr)
         if changed:
-            sys.stdout.write(written.diff)
+            sys.stdout.write(diff)
             chosen = "".join(f" --backend {b}" for b in backends or ())
             print(f"{shown}/ is stale: {len(changed)} file(s) differ; run `derive generate"
                   f"{' ' + ' '.join(args.models) + ' --out ' + args.out + chosen if args.out else ''}`",

@@ -8,8 +8,11 @@ expressions get their base as a temporary, so printers can write x*x.
 """
 from __future__ import annotations
 
+import hashlib
+import json
 from dataclasses import dataclass
 from functools import cache
+from pathlib import Path
 
 import jinja2
 import sympy as sp
@@ -79,34 +82,53 @@ def varying_symbols(spec: ModelSpec) -> set[sp.Symbol]:
     return varying
 
 
-def _split(term: sp.Expr, varying: set) -> tuple[sp.Expr, sp.Expr]:
-    """term = constant part * varying part."""
+class _Varies:
+    """Whether an expression depends on a varying symbol, each node answered once (the
+    roots share their subtrees; free_symbols walked each one's whole tree again)."""
+
+    def __init__(self, varying: set):
+        self.varying, self.known = varying, {}
+
+    def __call__(self, expr) -> bool:
+        if expr in self.varying:
+            return True
+        if not expr.args:
+            return False
+        answer = self.known.get(expr)
+        if answer is None:
+            answer = self.known[expr] = any(self(a) for a in expr.args)
+        return answer
+
+
+def _split(term: sp.Expr, varies: _Varies) -> tuple[tuple, tuple]:
+    """term = Mul(*constant factors) * Mul(*varying factors), as the two tuples of factors
+    (in the product's own order: equal varying parts are equal tuples, no product built)."""
     factors = term.args if term.is_Mul else (term,)
-    const = [f for f in factors if not (f.free_symbols & varying)]
-    var = [f for f in factors if f.free_symbols & varying]
-    return sp.Mul(*const), sp.Mul(*var)
+    return tuple(f for f in factors if not varies(f)), tuple(f for f in factors if varies(f))
 
 
-def collect_constants(expr: sp.Expr, varying: set, memo: dict) -> sp.Expr:
+def collect_constants(expr: sp.Expr, varying: set, memo: dict, varies: _Varies | None = None) -> sp.Expr:
     """a*V + b*V -> (a + b)*V when a, b are constant over a batch and V varies.
 
     Expanded derivations repeat a state-dependent factor with several parameter
     coefficients (g*m1*sin(theta1) + g*m2*sin(theta1)); collecting them saves
-    operations on every state (and whole-array operations in NumPy).
+    operations on every state (and whole-array operations in NumPy).  `memo` keeps each
+    node's result, `varies` (made from `varying` when not given) each node's dependence.
     """
     if expr in memo:
         return memo[expr]
     if expr.is_Atom:
         return expr
-    args = tuple(collect_constants(a, varying, memo) for a in expr.args)
+    varies = varies or _Varies(varying)
+    args = tuple(collect_constants(a, varying, memo, varies) for a in expr.args)
     new = expr.func(*args) if args != expr.args else expr
     if new.is_Add:
-        groups: dict[sp.Expr, list[sp.Expr]] = {}
+        groups: dict[tuple, list[tuple]] = {}
         for term in new.args:
-            const, var = _split(term, varying)
+            const, var = _split(term, varies)
             groups.setdefault(var, []).append(const)
         if len(groups) < len(new.args):
-            new = sp.Add(*[sp.Add(*consts) * var for var, consts in groups.items()])
+            new = sp.Add(*[sp.Add(*[sp.Mul(*c) for c in consts]) * sp.Mul(*var) for var, consts in groups.items()])
     memo[expr] = new
     return new
 
@@ -179,8 +201,9 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None, compound_angles: bo
             span.append(first[r])
         spans.append(span)
     memo: dict = {}
+    varies = _Varies(varying)
     angles = compound_angle_rewrites(spec) if compound_angles else {}
-    roots = [collect_constants(sp.sympify(r).xreplace(angles), varying, memo) for r in roots]
+    roots = [collect_constants(sp.sympify(r).xreplace(angles), varying, memo, varies) for r in roots]
 
     fresh = _numbered("_cse")
     repl, reduced = sp.cse(roots, symbols=fresh, order="canonical")
@@ -394,17 +417,88 @@ def environment() -> jinja2.Environment:
     -------
     jinja2.Environment
         One per templates folder and process: a template (and every macro file it imports)
-        is compiled once, however many files render it.
+        is compiled once, however many files render it; one whose compiled form ships in
+        templates/compiled/ (and is current) is not compiled at all.
     """
     return _environment(str(paths.templates_dir()))
 
 
+_SETTINGS = dict(undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
+                 keep_trailing_newline=True, autoescape=False)
+COMPILED = "compiled"           # templates/compiled/: the code templates as Jinja2 compiles them
+MANIFEST = "manifest.json"      # there: the Jinja2 version and each template's SHA-256
+
+
 @cache
 def _environment(folder: str) -> jinja2.Environment:
-    return jinja2.Environment(loader=jinja2.FileSystemLoader(folder),
-                              undefined=jinja2.StrictUndefined, trim_blocks=True,
-                              lstrip_blocks=True, keep_trailing_newline=True,
-                              autoescape=False)
+    source = jinja2.FileSystemLoader(folder)
+    compiled = Path(folder) / COMPILED
+    if not (compiled / MANIFEST).is_file():
+        return jinja2.Environment(loader=source, **_SETTINGS)
+    return jinja2.Environment(loader=jinja2.ChoiceLoader([_Precompiled(compiled, Path(folder)), source]),
+                              **_SETTINGS)
+
+
+@cache
+def _source_environment(folder: str) -> jinja2.Environment:
+    """The environment that compiles every template from its source (what
+    templates/compiled/ is made with)."""
+    return jinja2.Environment(loader=jinja2.FileSystemLoader(folder), **_SETTINGS)
+
+
+class _Precompiled(jinja2.ModuleLoader):
+    """The templates of templates/compiled/, each only while it is current: made by the
+    Jinja2 in use from the template's present text (manifest.json holds both), else the
+    next loader compiles the template from its source.
+
+    Why: compiling the C and NumPy templates (parsing, generating Python, compiling that)
+    took about 0.13 s of every fresh process, a sixth of `derive generate` of a small
+    model; the compiled modules ship in the package as .py files (pip byte-compiles them
+    on install), as derive's own modules do."""
+
+    def __init__(self, compiled: Path, sources: Path):
+        super().__init__(str(compiled))
+        self.sources = sources
+        manifest = json.loads((compiled / MANIFEST).read_text())
+        self.digests = manifest["templates"] if manifest.get("jinja2") == jinja2.__version__ else {}
+
+    def load(self, environment, name, globals=None):
+        digest = self.digests.get(name)
+        path = self.sources / name
+        if digest is None or not path.is_file() or _digest(path.read_bytes()) != digest:
+            raise jinja2.TemplateNotFound(name)
+        return super().load(environment, name, globals)
+
+
+def _digest(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def _code_template(name: str) -> bool:
+    return name.endswith(".jinja") and not name.startswith(COMPILED + "/")
+
+
+def compiled_templates() -> dict[str, str]:
+    """templates/compiled/ as the Jinja2 in use makes it from the templates now: file name ->
+    text (a module per code template, and manifest.json).  `derive generate` writes it
+    beside the golden generated/ and `derive generate --check` compares it.
+
+    Returns
+    -------
+    dict
+        ``{"tmpl_<sha1 of the name>.py": Python source, ..., "manifest.json": ...}``.
+    """
+    folder = paths.templates_dir()
+    env = _source_environment(str(folder))
+    files, digests = {}, {}
+    for name in env.list_templates(filter_func=_code_template):
+        text = (folder / name).read_text()
+        files[jinja2.ModuleLoader.get_module_filename(name)] = env.compile(text, name, f"templates/{name}",
+                                                                         raw=True, defer_init=True)
+        digests[name] = _digest(text.encode())
+    files[MANIFEST] = json.dumps({"jinja2": jinja2.__version__, "templates": digests}, indent=1,
+                                 sort_keys=True) + "\n"
+    return dict(sorted(files.items()))
 
 
 def render(template: str, context: dict) -> str:

@@ -7,7 +7,9 @@ from pathlib import Path
 
 from ..model import model_names
 from .backends import managed_suffixes
+from .emit import COMPILED, compiled_templates
 from .sources import ATLAS, PREAMBLE, PROVENANCE, SHARED, render, render_fresh
+from .. import paths
 from ..paths import VERSION as __version__
 import sympy
 import tomllib
@@ -87,6 +89,21 @@ def write_tree(out: Path, files: dict[str, str], check: bool = False,
                 path.parent.mkdir(parents=True, exist_ok=True)
                 path.write_text(new)
     return changed, "".join(diffs)
+
+
+def write_compiled_templates(check: bool = False) -> tuple[list[str], str]:
+    """templates/compiled/ made anew from the templates (`compiled_templates`), beside the
+    golden generated/ (a checkout's package folder; with check=True only compared): the
+    changed paths, as templates/compiled/<file>, and their diff (`write_tree`'s)."""
+    folder = paths.templates_dir() / COMPILED
+    files = compiled_templates()
+    stale = {p.name: None for p in folder.glob("tmpl_*.py") if p.name not in files} if folder.is_dir() else {}
+    changed, diff = write_tree(folder, files, check=check, shown=f"templates/{COMPILED}", prune=False)
+    for name in sorted(stale):                      # a template removed or renamed
+        changed.append(f"templates/{COMPILED}/{name}")
+        if not check:
+            (folder / name).unlink()
+    return changed, diff
 
 
 @dataclass

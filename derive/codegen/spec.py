@@ -122,6 +122,51 @@ def _where(model: str, kernel: Kernel) -> str:
     return f"model '{model}', kernel '{kernel.name}'"
 
 
+_NON_REAL = (sp.zoo, sp.oo, -sp.oo, sp.nan, sp.I)      # in the order check_kernel names them
+
+
+@dataclass
+class _Found:
+    undefined: set = field(default_factory=set)      # applied undefined functions, q(t)
+    derivative: bool = False
+    non_real: set = field(default_factory=set)
+    symbols: set = field(default_factory=set)        # free symbols
+
+
+def _scan(expr, seen: set) -> _Found:
+    """What check_kernel looks for in `expr`, in one walk over its nodes that skips the
+    nodes in `seen` (checked before) and adds the others to it.
+
+    One walk over the expression's graph, each shared subtree once, where atoms(), has()
+    and free_symbols walked the whole tree (a Jacobian entry repeats its subtrees many
+    times) once for each of the seven things looked for."""
+    found = _Found()
+    stack = [(expr, False)]
+    while stack:
+        node, bound = stack.pop()
+        if node in seen:
+            continue
+        seen.add(node)
+        if node.is_Symbol:
+            if not bound:
+                found.symbols.add(node)
+            continue
+        if node.is_Atom:
+            if node in _NON_REAL:
+                found.non_real.add(node)
+            continue
+        if isinstance(node, AppliedUndef):
+            found.undefined.add(node)
+        elif isinstance(node, sp.Derivative):
+            found.derivative = True
+        inner = bound
+        if not bound and getattr(node, "bound_symbols", ()):     # Lambda, Subs, Sum, ...: its own free symbols
+            found.symbols |= node.free_symbols
+            inner = True
+        stack.extend((a, inner) for a in node.args)
+    return found
+
+
 def check_kernel(model: str, kernel: Kernel) -> None:
     """Raise SpecError with a readable message when a kernel cannot be generated."""
     where = _where(model, kernel)
@@ -154,18 +199,19 @@ def check_kernel(model: str, kernel: Kernel) -> None:
     def inputs_text() -> str:
         return "; ".join(f"{i.name} = ({', '.join(i.vector.names)})" for i in kernel.inputs)
 
+    seen: set = set()           # nodes already checked, in this kernel's earlier expressions
+
     def check_expr(expr: sp.Expr, what: str) -> None:
-        expr = sp.sympify(expr)
-        undef = sorted(expr.atoms(AppliedUndef), key=str)
-        if undef:
-            raise SpecError(f"{where}: {what} contains the function '{undef[0]}'; "
+        found = _scan(sp.sympify(expr), seen)
+        if found.undefined:
+            raise SpecError(f"{where}: {what} contains the function '{min(found.undefined, key=str)}'; "
                             "replace q(t) by plain symbols before generating code")
-        if expr.atoms(sp.Derivative):
+        if found.derivative:
             raise SpecError(f"{where}: {what} contains an unevaluated derivative")
-        for bad in (sp.zoo, sp.oo, -sp.oo, sp.nan, sp.I):
-            if expr.has(bad):
+        for bad in _NON_REAL:
+            if bad in found.non_real:
                 raise SpecError(f"{where}: {what} contains the non-real number {bad}")
-        free = sorted(expr.free_symbols - known, key=lambda s: s.name)
+        free = sorted(found.symbols - known, key=lambda s: s.name)
         if free:
             raise SpecError(f"{where}: {what} uses '{free[0].name}', which is no input "
                             f"and no earlier stage (inputs: {inputs_text()})")

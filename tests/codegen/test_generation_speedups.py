@@ -3,6 +3,8 @@
 linearize file's A taken from the jacobian kernel, and the languages rendered side by side."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -159,3 +161,40 @@ def test_inline_max_is_the_largest_order_within_the_budget(model):
     d = rhs_decomposition(resolve_model(model))
     expected = max((p for p in range(2, TAYLOR_ORDER_MAX + 1) if jet_cost(d, p) <= INLINE_BUDGET), default=0)
     assert inline_max(d) == expected
+
+
+def test_the_compiled_templates_are_what_jinja2_makes_of_the_templates_now():
+    """templates/compiled/ (shipped, so a fresh process compiles no template) is, file for
+    file, what the Jinja2 in use compiles from today's templates; made by another Jinja2,
+    none of it is used."""
+    import jinja2
+    from derive import paths
+    from derive.codegen.emit import COMPILED, MANIFEST, _Precompiled, compiled_templates
+    folder = paths.templates_dir() / COMPILED
+    shipped = {p.name: p.read_text() for p in folder.iterdir() if p.is_file()}
+    manifest = json.loads(shipped[MANIFEST])
+    loader = _Precompiled(folder, paths.templates_dir())
+    if manifest["jinja2"] == jinja2.__version__:
+        assert shipped == compiled_templates(), "run `derive generate` to compile the templates anew"
+        assert set(loader.digests) == {n for n in manifest["templates"]} and len(loader.digests) > 20
+    else:
+        assert loader.digests == {}
+
+
+def test_a_template_changed_since_it_was_compiled_is_compiled_from_its_text(tmp_path):
+    """A compiled template whose text has changed since is not used: the environment
+    compiles the template's present text (and uses the compiled form of the others)."""
+    import shutil
+    from derive import paths
+    from derive.codegen.emit import COMPILED, _environment, _Precompiled
+    folder = tmp_path / "templates"
+    shutil.copytree(paths.templates_dir(), folder, ignore=shutil.ignore_patterns("__pycache__"))
+    name = "numpy/tableaus.py.jinja"
+    (folder / name).write_text("changed {{ 1 + 1 }}\n")
+    env = _environment(str(folder))
+    assert isinstance(env.loader.loaders[0], _Precompiled)
+    assert env.get_template(name).render() == "changed 2\n"
+    fresh = env.get_template("numpy/module.py.jinja")
+    assert fresh.filename is None or fresh.filename.endswith(".py")     # loaded from its module
+    (folder / COMPILED / "manifest.json").unlink()                         # nothing compiled: all from text
+    assert _environment(str(folder) + "/").get_template(name).render() == "changed 2\n"
