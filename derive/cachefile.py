@@ -54,6 +54,30 @@ def register_codec(tag: str, cls: type, encode: Callable, decode: Callable) -> N
 
 # -- writing --------------------------------------------------------------------------
 
+_COMPOUND = (sp.Add, sp.Mul, sp.Pow)
+
+
+def _srepr(value, memo: dict) -> str:
+    """sp.srepr(value) up to the order of a sum's terms and a product's factors: the
+    arguments in the expression's own order, where srepr sorts them for display (most of
+    the time of storing a large derivation).  Read back, the constructors put them in the
+    canonical order again, so the entry loads as the same expression."""
+    if not isinstance(value, sp.Basic):         # a matrix: its rows as lists
+        if 0 in value.shape:
+            return sp.srepr(value)
+        rows = ", ".join("[" + ", ".join(_srepr(e, memo) for e in value.row(i)) + "]" for i in range(value.rows))
+        return f"{type(value).__name__}([{rows}])"
+    known = memo.get(value)
+    if known is not None:
+        return known
+    if isinstance(value, _COMPOUND) or (value.args and not value.is_Atom and _SYMPY.get(type(value).__name__) is type(value)):
+        text = f"{type(value).__name__}({', '.join(_srepr(a, memo) for a in value.args)})"
+    else:
+        text = sp.srepr(value)
+    memo[value] = text
+    return text
+
+
 def _encode(value):
     if value is None or isinstance(value, (bool, int, float, str)):
         return value
@@ -61,7 +85,7 @@ def _encode(value):
         if isinstance(value, cls):
             return encode(value)
     if isinstance(value, (sp.Basic, sp.MatrixBase)):
-        return {"__sympy__": sp.srepr(value)}
+        return {"__sympy__": _srepr(value, {})}
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         name = f"{type(value).__module__}.{type(value).__qualname__}"
         if name not in _DATACLASSES:

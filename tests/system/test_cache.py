@@ -30,6 +30,28 @@ def test_entries_round_trip_as_data(tmp_path):
     assert back["m"][0, 0].free_symbols == {x}                  # the assumptions survive
 
 
+@pytest.mark.parametrize("model", ["compound", "spherical_std", "examples/models/cart_pole.toml"])
+def test_a_derivation_stored_loads_as_the_same_expressions(model, tmp_path):
+    """Entries write sums and products in their own argument order (not srepr's sorted
+    display order): read back, every matrix and expression of a derivation is the same."""
+    d = dv.derive(model)
+    value = {"M": d.M, "F": d.F, "T": d.T, "V": d.V}
+    cachefile.store(tmp_path / "d.json", value)
+    back = cachefile.load(tmp_path / "d.json")
+    assert set(back) == set(value)
+    for key in value:
+        assert back[key] == value[key], key
+        assert type(back[key]) is type(value[key])
+
+
+def test_a_function_named_like_sympys_is_not_read_as_sympys(tmp_path):
+    """An undefined function called sin stays a stranger: the entry is refused (recomputed),
+    never read back as the sine."""
+    x = sp.Symbol("x")
+    cachefile.store(tmp_path / "f.json", [sp.Function("sin")(x) + sp.cos(x)])
+    assert cachefile.load(tmp_path / "f.json") is cachefile.MISSING
+
+
 def test_a_flipped_bit_is_recomputed_not_used(tmp_path, monkeypatch):
     monkeypatch.setenv("DERIVE_CACHE_DIR", str(tmp_path / "cache"))
     model = load_model("planar")
