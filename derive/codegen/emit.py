@@ -20,6 +20,7 @@ import sympy as sp
 from ..errors import PackageDataError
 from .. import paths
 from .names import internal
+from .opcount import count_ops
 from .spec import Kernel, ModelSpec
 
 
@@ -215,10 +216,11 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None, compound_angles: bo
 
     bodies = []
     counted: dict = {}          # kernels share assignments (stages, the linearize file's A): counted once
+    subcounts: dict = {}
 
     def count(e) -> int:
         if e not in counted:
-            counted[e] = sp.count_ops(e)
+            counted[e] = count_ops(e, subcounts)
         return counted[e]
 
     all_kernels = [k for f in files for k in f.kernels]

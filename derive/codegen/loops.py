@@ -320,14 +320,19 @@ def numpy_context(name: str) -> dict:
             "const": const, "var": var, "outs": outs, "ops": body.ops, "stages": stages}
 
 
-def render_loops(name: str) -> dict[str, str]:
-    """The batched RK4 and the fixed-step loops of one model whose rhs has no chart guard."""
-    ctx = c_context(name)
-    fctx = fixed_context(name)
-    return {f"c/{name}_throughput.h": render("c/throughput.h.jinja", dict(ctx, template=TEMPLATE_H)),
+def render_loops(name: str, language: str | None = None) -> dict[str, str]:
+    """The batched RK4 and the fixed-step loops of one model whose rhs has no chart guard:
+    path -> text, in every language, or in `language` ("c" or "numpy") only (each backend
+    renders its own in its worker: the other language's contexts cost as much again)."""
+    files = {}
+    if language in (None, "c"):
+        ctx = c_context(name)
+        fctx = fixed_context(name)
+        files.update({
+            f"c/{name}_throughput.h": render("c/throughput.h.jinja", dict(ctx, template=TEMPLATE_H)),
             f"c/{name}_throughput.c": render("c/throughput.c.jinja", dict(ctx, template=TEMPLATE_C)),
             f"c/{name}_fixed.h": render("c/fixed.h.jinja", dict(fctx, template="templates/c/fixed.h.jinja")),
-            f"c/{name}_fixed.c": render("c/fixed.c.jinja", dict(fctx, template="templates/c/fixed.c.jinja")),
-            f"numpy/{name}_throughput.py": render("numpy/throughput.py.jinja", numpy_context(name))}
-
-
+            f"c/{name}_fixed.c": render("c/fixed.c.jinja", dict(fctx, template="templates/c/fixed.c.jinja"))})
+    if language in (None, "numpy"):
+        files[f"numpy/{name}_throughput.py"] = render("numpy/throughput.py.jinja", numpy_context(name))
+    return files

@@ -219,6 +219,7 @@ _FUNC_SUFFIX = "\x01"         # a math function's suffix: sin -> sinf, sinl
 _LITERAL_SUFFIX = "\x02"      # a literal's suffix: 1.0 -> 1.0F, 1.0L
 _MACRO_SUFFIX = "\x04"        # a math macro's suffix (C99CodePrinter's math_macros)
 _FLOAT_MARK = re.compile("\x03([0-9]+)\x03")   # a Float, by its index in the printer's table
+_ANY_MARK = re.compile("[\x01-\x04]")
 
 
 class CVariantPrinter(CPrinter):
@@ -267,9 +268,12 @@ class CVariantPrinter(CPrinter):
 
     def text(self, expr, ctype: str) -> str:
         """`expr` in C for the floating type `ctype` (float, double or long double)."""
+        marked = self.marked(expr)
+        if not _ANY_MARK.search(marked):         # no function, literal or Float: every type's text
+            return marked
         pr = self._variants[ctype]
         real_type = pr.type_aliases.get(real, real)
-        marked = _FLOAT_MARK.sub(lambda m: pr._print_Float(self._floats[int(m.group(1))]), self.marked(expr))
+        marked = _FLOAT_MARK.sub(lambda m: pr._print_Float(self._floats[int(m.group(1))]), marked)
         return (marked.replace(_FUNC_SUFFIX, pr._get_func_suffix(real))
                 .replace(_LITERAL_SUFFIX, pr._get_literal_suffix(real))
                 .replace(_MACRO_SUFFIX, pr._get_math_macro_suffix(real_type)))

@@ -80,3 +80,23 @@ def test_c_text_computes_the_expression(ctype, fmt, rel, tmp_path):
     assert len(out) == len(EXPRESSIONS)
     for e, text in zip(EXPRESSIONS, out):
         assert float(text) == pytest.approx(exact(e), rel=rel), (e, shared.text(e, ctype))
+
+
+def _kernel_models():
+    from derive.model import model_names
+    return [*model_names(), "examples/models/cart_pole.toml", "examples/models/four_bar.toml",
+            "examples/models/driven_gyroscope.toml", "examples/models/elastic_pendulum.toml"]
+
+
+@pytest.mark.parametrize("model", _kernel_models())
+def test_operation_counts_are_sympys(model):
+    """The "Total ops" of every kernel: count_ops (derive/codegen/opcount.py) gives SymPy's
+    count_ops number for every assignment, output and guard of the model's kernels."""
+    from derive.codegen.opcount import count_ops
+    from derive.codegen.sources import kernels
+    _, bodies = kernels(model)
+    exprs = {e for b in bodies for e in [x for _, x in b.assignments] + [x for o in b.outputs for x in o] + list(b.guards)}
+    memo: dict = {}
+    assert len(exprs) > 20
+    for e in exprs:
+        assert count_ops(e, memo) == sp.count_ops(e), e

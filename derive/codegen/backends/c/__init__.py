@@ -111,7 +111,7 @@ class CBackend(Backend):
         return files
 
     def loop_files(self, name):
-        return own(render_loops(name), self.name)
+        return render_loops(name, self.name)
 
     def atlas_files(self, name):
         return own(render_atlas(name), self.name)

@@ -92,7 +92,7 @@ class NumPyBackend(Backend):
         return render_numpy(name)       # a time-dependent model's too: the library passes each stage's t
 
     def loop_files(self, name):
-        return own(render_loops(name), self.name)
+        return render_loops(name, self.name)
 
     def atlas_files(self, name):
         return own(render_atlas(name), self.name)
