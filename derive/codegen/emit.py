@@ -216,6 +216,7 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None, compound_angles: bo
 
     bodies = []
     counted: dict = {}          # kernels share assignments (stages, the linearize file's A): counted once
+    renamed: dict = {}          # a kernel's renamed assignments, by what shapes them
     subcounts: dict = {}
 
     def count(e) -> int:
@@ -272,8 +273,11 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None, compound_angles: bo
         # alias, then rename, as one substitution (xreplace is simultaneous)
         both = {a: rename.get(b, b) for a, b in alias.items()}
         both.update((a, b) for a, b in rename.items() if a not in both)
-        assignments = [(rename.get(s, s), local[s].xreplace(rename) if s in local else defs[s].xreplace(both))
-                       for s in order]
+        key = (tuple(order), tuple(both.items()), tuple(local.items()))
+        if key not in renamed:      # the linearize file's A: the jacobian kernel's assignments again
+            renamed[key] = [(rename.get(s, s), local[s].xreplace(rename) if s in local else defs[s].xreplace(both))
+                            for s in order]
+        assignments = renamed[key]
         mine = [sp.sympify(e).xreplace(rename) for e in mine]
         guards = mine[:len(k.guards)]
         outputs, i = [], len(k.guards)
