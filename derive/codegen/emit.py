@@ -11,7 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass
-from functools import cache
+from functools import cache, lru_cache
 from pathlib import Path
 
 import jinja2
@@ -46,8 +46,47 @@ def _numbered(prefix: str):
 def _free_names(exprs) -> set[sp.Symbol]:
     out = set()
     for e in exprs:
-        out |= sp.sympify(e).free_symbols
+        out |= free_names(sp.sympify(e))
     return out
+
+
+_PLAIN = (sp.Add, sp.Mul, sp.Pow, sp.Function)
+
+
+@lru_cache(maxsize=1 << 18)
+def free_names(expr) -> frozenset:
+    """expr.free_symbols, each node's remembered: the backends ask it of every assignment
+    of every kernel again and again, and free_symbols walked the whole tree each time.
+
+    Parameters
+    ----------
+    expr : sympy.Basic
+
+    Returns
+    -------
+    frozenset of sympy.Symbol
+    """
+    if expr.is_Symbol:
+        return frozenset((expr,))
+    if not expr.args:
+        return frozenset()
+    if not isinstance(expr, _PLAIN):             # Piecewise, Integral...: SymPy's own rules
+        return frozenset(expr.free_symbols)
+    return frozenset().union(*(free_names(a) for a in expr.args))
+
+
+@lru_cache(maxsize=1 << 18)
+def trig_calls(expr) -> tuple:
+    """The sin(x) and cos(x) in expr (atoms(sin, cos)), in default_sort_key order, each
+    node's remembered."""
+    found: set = set()
+    stack = [expr]
+    while stack:
+        e = stack.pop()
+        if isinstance(e, (sp.sin, sp.cos)):
+            found.add(e)
+        stack.extend(e.args)
+    return tuple(sorted(found, key=sp.default_sort_key)) if found else ()
 
 
 def _lift_powers(defs: dict, roots: list[sp.Expr], fresh) -> list[sp.Expr]:
@@ -234,13 +273,13 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None, compound_angles: bo
             if sym in done:
                 return
             done.add(sym)
-            for dep in sorted(defs[sym].free_symbols & defs.keys(), key=position.__getitem__):
+            for dep in sorted(free_names(defs[sym]) & defs.keys(), key=position.__getitem__):
                 visit(dep)
             order.append(sym)
 
         mine = [sp.sympify(e) for e in mine]
         for expr in mine:
-            for dep in sorted(expr.free_symbols & defs.keys(), key=position.__getitem__):
+            for dep in sorted(free_names(expr) & defs.keys(), key=position.__getitem__):
                 visit(dep)
         # a stage of this kernel defined as a bare temporary takes that temporary's
         # place (no copies); done per kernel so stage names stay in their kernels
@@ -307,7 +346,7 @@ def half_angle_sincos(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: lis
     """
     args: list[sp.Expr] = []                 # in order of first use
     for e in [e for _, e in assignments] + [sp.sympify(e) for e in outputs]:
-        for f in sorted(e.atoms(sp.sin, sp.cos), key=sp.default_sort_key):
+        for f in trig_calls(e):
             if f.args[0] not in args:
                 args.append(f.args[0])
     if not args:
@@ -326,7 +365,7 @@ def half_angle_sincos(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: lis
         repl[sp.sin(x)], repl[sp.cos(x)] = sn, cs
     out: list[tuple[sp.Symbol, sp.Expr]] = []
     for sym, e in assignments:
-        for f in sorted(e.atoms(sp.sin, sp.cos), key=sp.default_sort_key):
+        for f in trig_calls(e):
             out.extend(lowered.pop(f.args[0], []))
         e = e.xreplace(repl)
         if e in repl.values():           # t3 = sin(x): use sin_x itself
@@ -345,7 +384,7 @@ def live_assignments(assignments: list[tuple[sp.Symbol, sp.Expr]], roots: list[s
     kept = []
     for sym, e in reversed(assignments):
         if sym in needed:
-            needed |= e.free_symbols
+            needed |= free_names(e)
             kept.append((sym, e))
     return kept[::-1]
 
@@ -382,7 +421,7 @@ def trig_lanes(assignments: list[tuple[sp.Symbol, sp.Expr]], outputs: list[sp.Ex
     repl: dict[sp.Expr, sp.Symbol] = {}
     values: list[tuple[sp.Symbol, str, int]] = []
     for e in [e for _, e in assignments] + [sp.sympify(e) for e in outputs]:
-        for f in sorted(e.atoms(sp.sin, sp.cos), key=sp.default_sort_key):
+        for f in trig_calls(e):
             angle = _inline_arithmetic(f.args[0], defs)
             if f in repl or angle is None:
                 continue

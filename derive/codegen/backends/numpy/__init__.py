@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ...emit import half_angle_sincos, live_assignments, render
+from ...emit import free_names, half_angle_sincos, live_assignments, render
 from ...names import KERNEL_NAMES, PYTHON_RESERVED, numpy_slots
 from ...printers import PyNumPyPrinter, shared_printer
 from ..base import Backend, common_context, own, slot_doc, unflatten, wrap
@@ -40,18 +40,18 @@ class NumPyBackend(Backend):
             varying = {s for inp in k.inputs if inp.vector.key != "param" for s in inp.vector.symbols}
             outputs = unflatten(flat, b.outputs)
             for sym, e in assignments:
-                if e.free_symbols & varying:
+                if free_names(e) & varying:
                     varying.add(sym)
             pr = shared_printer(PyNumPyPrinter, slots, varying)    # the linearize file's A: the jacobian's texts
             # only what the outputs need (guards have no NumPy counterpart)
             kept = live_assignments(assignments, flat)
-            needed = set().union(*(sp.sympify(e).free_symbols for e in flat), *(e.free_symbols for _, e in kept))
+            needed = set().union(*(free_names(sp.sympify(e)) for e in flat), *(free_names(e) for _, e in kept))
             unpack = [{"name": slots[s], "source": f"{inp.name}[..., {i}]"}
                       for inp in k.inputs for i, s in enumerate(inp.vector.symbols) if s in needed]
             # free each temporary after its last use: fewer live arrays, memory reused
             local_syms = {s for s, _ in kept}
-            uses = [e.free_symbols for _, e in kept] + \
-                [sp.sympify(e).free_symbols for exprs in outputs for e in exprs]
+            uses = [free_names(e) for _, e in kept] + \
+                [free_names(sp.sympify(e)) for exprs in outputs for e in exprs]
             last = {}
             for i, used in enumerate(uses):
                 for s in used & local_syms:
