@@ -8,7 +8,8 @@ For planar chains of n point masses (n = 3, 5, 8, 12 by default), in one run:
    with `--backend numpy` alone (NumPy's files: lambdify's kind of output); against
    sympy.physics.mechanics' KanesMethod + lambdify (cse=True) of the same chain (the
    PyDy n-pendulum), also a fresh process, wall time.  Both include the interpreter's
-   start and the imports.  The growth exponent of each is fitted over the sizes run.
+   start and the imports.  Each side runs --repeat times (3), in turn, and the median
+   is printed.  The growth exponent of each is fitted over the sizes run.
 2. **the rhs**: the operations of derive's rhs kernel after CSE (its L D L^T solve
    included) against Kane's M and F after CSE plus a dense LU solve (2/3 n^3 + 2 n^2
    operations); and the time of one call of derive.scipy_rhs (the public API, compiled C)
@@ -19,7 +20,7 @@ For planar chains of n point masses (n = 3, 5, 8, 12 by default), in one run:
    construction (JIT included, parameters as par[]; its disk cache of compiled code,
    on by default since heyoka 7, off: cold too) and the same propagation.
 
-    python3 bench/derive_scale.py [--links 3 5 8 12] [--taylor-links 3 5 8] [--taylor-only]
+    python3 bench/derive_scale.py [--links 3 5 8 12] [--taylor-links 3 5 8] [--taylor-only] [--repeat 3]
 
 Prints a table and the ratios; nothing here is a test (the figures depend on the machine).
 """
@@ -29,6 +30,7 @@ import argparse
 import json
 import math
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -226,6 +228,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--links", type=int, nargs="+", default=[3, 5, 8, 12])
     parser.add_argument("--taylor-links", type=int, nargs="*", default=[3, 5, 8])
+    parser.add_argument("--repeat", type=int, default=3,
+                        help="cold runs of each side per size (their median is printed)")
     parser.add_argument("--taylor-only", action="store_true",
                         help="only the first Taylor runs (no derive-vs-Kane rows)")
     args = parser.parse_args(argv)
@@ -239,9 +243,13 @@ def main(argv=None) -> int:
                   f"{'ops Kane+LU':>11}   {'rhs derive':>10} {'rhs Kane':>9} {'ratio':>6} {'agree':>8}")
         for n in args.links:
             model = chain_file(n, folder)
-            ours = derive_cold(model, folder / f"gen{n}")
-            numpy_only = derive_cold(model, folder / f"numpy{n}", "numpy")
-            kane = kane_cold(n)
+            # each side args.repeat times, taken in turn (derive, numpy only, Kane, derive, ...)
+            # so that a drift of the machine's speed falls on all three; the medians are printed
+            runs = [(derive_cold(model, folder / f"gen{n}"), derive_cold(model, folder / f"numpy{n}", "numpy"),
+                     kane_cold(n)) for _ in range(args.repeat)]
+            ours = statistics.median(r[0] for r in runs)
+            numpy_only = statistics.median(r[1] for r in runs)
+            kane = dict(runs[0][2], wall=statistics.median(r[2]["wall"] for r in runs))
             ops = derive_ops(model)
             kane_ops = kane["ops"] + round(2 * n ** 3 / 3 + 2 * n ** 2)
             call, kane_call, diff = rhs_speed(n, model)

@@ -50,7 +50,7 @@ import sympy as sp
 from .printers import CPrinter
 from ..errors import SpecError
 from ..model.description import forget_on_model_change
-from .sources import kernels
+from .sources import kernels, model_spec_of
 from .emit import cse_file, render
 from .integrators import library_files, model_info
 from .contract import (INFO, STATUS_TABLE, TAYLOR_ORDER_DIVISOR, TAYLOR_ORDER_MAX, TAYLOR_ORDER_MIN,
@@ -724,13 +724,52 @@ def rhs_decomposition(name: str) -> Decomposition:
     a CSE pass of the rhs alone with the angles whole.  For a jet the trade differs: the
     rewrite costs four products and two sums a order, the pair sin/cos(a - b) about two
     products, so the whole angle is usually the cheaper."""
-    spec, bodies = kernels(name)
+    _, bodies = kernels(name)
     body = next(b for b in bodies if b.kernel.name == "rhs")
-    whole = next(b for b in cse_file(replace(spec, kernels=(body.kernel,)), compound_angles=False))
-    state = next(i.vector.symbols for i in body.kernel.inputs if i.vector.key == "state")
-    time = next((i.vector.symbols[0] for i in body.kernel.inputs if i.vector.key == "time"), None)
-    jets = [decompose(b, tuple(state), time) for b in (whole, body)]
+    whole = _WHOLE_ANGLES[name] if name in _WHOLE_ANGLES else whole_angles_decomposition(name)
+    jets = [whole, decompose(body, *_jet_variables(body.kernel))]
     return min(jets, key=lambda d: jet_cost(d, COST_ORDER))
+
+
+def _jet_variables(rhs) -> tuple:
+    """(state symbols, time symbol or None) of an rhs kernel: the jet's variables."""
+    state = next(i.vector.symbols for i in rhs.inputs if i.vector.key == "state")
+    time = next((i.vector.symbols[0] for i in rhs.inputs if i.vector.key == "time"), None)
+    return tuple(state), time
+
+
+@forget_on_model_change
+@lru_cache(maxsize=None)
+def whole_angles_decomposition(name: str) -> Decomposition:
+    """The jet of model `name`'s rhs from a CSE pass of the rhs alone with its compound
+    angles whole (rhs_decomposition weighs it against the kernels' own): it needs the
+    model's spec only, so the C backend has it made in a worker while the kernels' CSE
+    runs (Backend.early_work)."""
+    spec = model_spec_of(name)
+    rhs = next(k for k in spec.kernels if k.name == "rhs")
+    body = next(iter(cse_file(replace(spec, kernels=(rhs,)), compound_angles=False)))
+    return decompose(body, *_jet_variables(rhs))
+
+
+_WHOLE_ANGLES: dict[str, Decomposition] = {}     # made by a worker: prefetch_whole_angles
+
+
+def prefetch_whole_angles(name: str) -> Decomposition | None:
+    """whole_angles_decomposition(name) made in a worker (None where the rhs has no jet:
+    the C backend then says why, as without the worker)."""
+    try:
+        return whole_angles_decomposition(name)
+    except SpecError:
+        return None
+
+
+def keep_whole_angles(name: str, d: Decomposition | None) -> None:
+    """Keep (or, given None, forget) a worker's whole_angles_decomposition of `name` for
+    this process's rhs_decomposition."""
+    if d is None:
+        _WHOLE_ANGLES.pop(name, None)
+    else:
+        _WHOLE_ANGLES[name] = d
 
 
 def _slots(name: str) -> dict:

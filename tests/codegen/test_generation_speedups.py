@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from derive.codegen import sources
+from derive.codegen import sources, taylor
 from derive.codegen.printers import CPrinter, CVariantPrinter, PyNumPyPrinter, shared_printer
 from derive.derivation.derivation import derive
 from derive.model import model_names
@@ -107,14 +107,23 @@ def test_languages_rendered_side_by_side_are_the_same_files(monkeypatch):
     from derive.runtime.simulate import resolve_model
     name = resolve_model("examples/models/triple.toml")
     monkeypatch.setattr(sources, "PARALLEL_OPS", 0)
+    monkeypatch.setattr(sources, "EARLY_STATES", 0)       # the C backend's early work too
     monkeypatch.setattr(sources, "may_fork", lambda: True)
-    asked = []
-    real = sources.run_all
+    monkeypatch.setattr(sources, "job_count", lambda: 2)
+    asked, early = [], []
+    real, real_early = sources.run_all, sources._start_early_work
     monkeypatch.setattr(sources, "run_all", lambda calls, jobs=None: asked.append(jobs) or real(calls, 2))
+    monkeypatch.setattr(sources, "_start_early_work", lambda *a: early.append(real_early(*a)) or early[-1])
     side_by_side = sources.render_fresh(name)
     assert asked == [None]                      # the worker path was taken
+    assert [len(e) for e in early] == [1]       # and the Taylor jet's early work
+    assert sources._EARLY_POOL == [] and "triple" not in taylor._WHOLE_ANGLES      # forgotten after
     monkeypatch.setattr(sources, "PARALLEL_OPS", 10 ** 9)
+    monkeypatch.setattr(sources, "EARLY_STATES", 10 ** 9)
+    taylor.rhs_decomposition.cache_clear()
+    taylor.whole_angles_decomposition.cache_clear()
     assert sources.render_fresh(name) == side_by_side
+    assert early[-1] == {}
 
 
 def test_only_the_double_angle_is_expanded():

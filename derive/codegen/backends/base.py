@@ -36,6 +36,14 @@ class Backend:
         the rhs emits none for it)."""
         return {}
 
+    def early_work(self, name: str):
+        """(work, keep) for work on model `name` that needs its spec but not the kernels'
+        CSE, or None (the default): sources runs work(name) in a worker while the CSE runs
+        and hands its picklable result to keep(name, result) in this process before the
+        backend renders (keep(name, None) after: forget it).  Whatever work would give, the
+        files must be the same without it."""
+        return None
+
     def loop_files(self, name: str) -> dict[str, str]:
         """The fixed-step and batched loops (only for a model without chart guards)."""
         return {}

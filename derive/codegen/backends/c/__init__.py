@@ -22,7 +22,7 @@ from ...names import VECTOR_MATH
 from ...printers import CPrinter, CVariantPrinter, shared_printer
 from ..base import Backend, Variant, common_context, join_terms, own, slot_doc, unflatten, wrap
 from ...integrators import render_atlas, render_c
-from ...taylor import render_taylor, taylor_problem
+from ...taylor import keep_whole_angles, prefetch_whole_angles, render_taylor, taylor_problem
 from ...taylor_lanes import render_taylor_lanes
 from ...loops import render_loops
 
@@ -100,6 +100,11 @@ class CBackend(Backend):
         files = render_c(name)      # a time-dependent model's too: the library passes each stage's t
         files.update(self.taylor_files(name))
         return files
+
+    def early_work(self, name):
+        """The Taylor jet with whole angles (taylor.whole_angles_decomposition) needs only
+        the model's spec: made in a worker while the kernels' CSE runs."""
+        return prefetch_whole_angles, keep_whole_angles
 
     def taylor_files(self, name):
         """The Taylor integrator, scalar and in SIMD lanes (none for a model with an
