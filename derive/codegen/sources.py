@@ -135,6 +135,7 @@ def _raw(name: str, backends: tuple[str, ...] | None = None) -> dict[str, str]:
         kernels(name)               # the one CSE pass, before any worker starts: they share it
         for (work, keep), pending in early.items():
             keep(name, pending.get())
+        _end_early_pool()           # its threads gone, the backends' workers may be forked
         names = [b.name for b in chosen]
         jobs = 1 if sum(b.ops for b in kernels(name)[1]) < PARALLEL_OPS or not may_fork() else None
         for part in run_all([(_backend_files, (name, b)) for b in names], jobs):
@@ -142,9 +143,16 @@ def _raw(name: str, backends: tuple[str, ...] | None = None) -> dict[str, str]:
     finally:
         for work, keep in early:
             keep(name, None)        # what a worker made is used once, by this render
-        if early:
-            _EARLY_POOL.pop().terminate()
+        _end_early_pool(terminate=True)
     return files
+
+
+def _end_early_pool(terminate: bool = False) -> None:
+    """Close the early work's pool (terminate: at once) and wait for its worker and threads."""
+    while _EARLY_POOL:
+        pool = _EARLY_POOL.pop()
+        pool.terminate() if terminate else pool.close()
+        pool.join()
 
 
 # A model with this many states or more (a 5-link planar chain has 10) starts the

@@ -4,6 +4,7 @@ linearize file's A taken from the jacobian kernel, and the languages rendered si
 from __future__ import annotations
 
 import json
+import threading
 
 import numpy as np
 import pytest
@@ -112,11 +113,18 @@ def test_languages_rendered_side_by_side_are_the_same_files(monkeypatch):
     monkeypatch.setattr(sources, "job_count", lambda: 2)
     asked, early = [], []
     real, real_early = sources.run_all, sources._start_early_work
-    monkeypatch.setattr(sources, "run_all", lambda calls, jobs=None: asked.append(jobs) or real(calls, 2))
+    pool_threads = []           # the early work's pool threads alive when the backends' workers fork
+
+    def run_all(calls, jobs=None):
+        pool_threads.extend(t.name for t in threading.enumerate() if "_handle_" in t.name)
+        asked.append(jobs)
+        return real(calls, 2)
+    monkeypatch.setattr(sources, "run_all", run_all)
     monkeypatch.setattr(sources, "_start_early_work", lambda *a: early.append(real_early(*a)) or early[-1])
     side_by_side = sources.render_fresh(name)
     assert asked == [None]                      # the worker path was taken
     assert [len(e) for e in early] == [1]       # and the Taylor jet's early work
+    assert pool_threads == []                   # whose pool had ended (else may_fork says no)
     assert sources._EARLY_POOL == [] and "triple" not in taylor._WHOLE_ANGLES      # forgotten after
     monkeypatch.setattr(sources, "PARALLEL_OPS", 10 ** 9)
     monkeypatch.setattr(sources, "EARLY_STATES", 10 ** 9)
