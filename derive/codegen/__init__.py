@@ -5,7 +5,7 @@ One pipeline for every model and language:
     spec.model_spec(derivation)     kernel specs: named inputs, named outputs, stages
                                     (the in-code solve of M q'' = F, solve.py) and guards;
                                     checked with readable errors (spec.check_kernel)
-    emit.cse_file(spec)             one sympy.cse pass (order='canonical') over all
+    emit.cse_file(spec)             one CSE pass (SymEngine's, else sympy.cse) over all
                                     outputs of a file, split back into kernels
     backends.backends()             one backend object per target language, each in a
                                     folder of its own (backends/c, backends/numpy):

@@ -1,7 +1,7 @@
 """CSE, ordering and rendering: from kernel specs to text.
 
-One ``sympy.cse`` pass (``order='canonical'``) runs over every stage, guard
-and output of a file.  Each kernel then takes the temporaries it needs, in
+One CSE pass (SymEngine's, derivation/symbolic.py; ``sympy.cse`` where SymEngine
+cannot take an expression) runs over every stage, guard and output of a file.  Each kernel then takes the temporaries it needs, in
 dependency order, renumbered t0, t1, ... so that one kernel's code does not
 depend on which other kernels share the file.  Integer powers of compound
 expressions get their base as a temporary, so printers can write x*x.
@@ -17,6 +17,7 @@ from pathlib import Path
 import jinja2
 import sympy as sp
 
+from ..derivation.symbolic import engine_cse
 from ..errors import PackageDataError
 from .. import paths
 from .names import internal
@@ -246,7 +247,8 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None, compound_angles: bo
     roots = [collect_constants(sp.sympify(r).xreplace(angles), varying, memo, varies) for r in roots]
 
     fresh = _numbered("_cse")
-    repl, reduced = sp.cse(roots, symbols=fresh, order="canonical")
+    found = engine_cse(roots, fresh)        # SymEngine's (derivation/symbolic.py), else SymPy's
+    repl, reduced = found if found is not None else sp.cse(roots, symbols=_numbered("_cse"), order="canonical")
     defs: dict[sp.Symbol, sp.Expr] = dict(repl)
     for sym, expr in zip(stage_syms, reduced):
         defs[sym] = expr

@@ -63,8 +63,11 @@ def _count(a, memo: dict) -> int:
 
 def _fraction(a):
     """sympy.fraction(a) for a product whose exponents are numbers; None otherwise."""
+    terms = sp.Mul.make_args(a)
+    if not any(t.is_Pow or (t.is_Rational and not t.is_Integer) or isinstance(t, sp.exp) for t in terms):
+        return a, S.One                 # no denominator and nothing to check: `a` as it is
     numer, denom = [], []
-    for term in sp.Mul.make_args(a):
+    for term in terms:
         if term.is_Pow:
             b, ex = term.base, term.exp
             if not ex.is_Number or b is S.Exp1:

@@ -23,11 +23,12 @@ d q''_j = (dx_j - (dS_jj/dy_k) q''_j) / S_jj.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import sympy as sp
 
 from ..derivation.loop_closure import augmented_system
-from ..derivation.symbolic import Derivatives, MatrixDerivatives
+from ..derivation.symbolic import Derivatives, EngineNames, EngineUnsupported, MatrixDerivatives
 from .names import internal as _sym
 
 
@@ -105,27 +106,35 @@ class MassMatrixStages:
                     (m[0, 0] * b[1] - m[0, 1] * b[0]) * self.rdet]
         return self._substitute(b, None)[0]
 
-    def _substitute(self, b: list[sp.Expr], prefix: str | None, out: list[sp.Symbol] | None = None):
+    def _substitute(self, b: list[sp.Expr], prefix: str | None, out: list[sp.Symbol] | None = None,
+                    names: EngineNames | None = None):
         """(x = M^-1 b, stages) through z = L^-1 b, x = L^-T (z / D).  With a prefix, each
         z_i is a stage <prefix>z<i> and each x_i the stage out[i] (default <prefix><i>), so
-        every value is computed once and the back substitution reuses them."""
-        n, L, stages = self.n, self.L, []
+        every value is computed once and the back substitution reuses them.  With `names`,
+        b is SymEngine's and so are the sums, brought back to SymPy at the end."""
+        n, stages = self.n, []
+        native = (lambda e: e) if names is None else (lambda e: names.engine([e])[0])
+        L = [[native(self.L[i, k]) for k in range(i + 1)] for i in range(n)]
+        rD, zero = [native(r) for r in self.rD], native(sp.S.Zero)
         z = []
         for i in range(n):
-            value = b[i] - sum((L[i, k] * z[k] for k in range(i)), sp.S.Zero)
+            value = b[i] - sum((L[i][k] * z[k] for k in range(i)), zero)
             if prefix is not None and i and not (value.is_number or value.is_Symbol):
                 sym = _sym(f"{prefix}z{i}")
                 stages.append((sym, value))
-                value = sym
+                value = native(sym)
             z.append(value)
         x: list = [None] * n
         for i in reversed(range(n)):
-            value = z[i] * self.rD[i] - sum((L[k, i] * x[k] for k in range(i + 1, n)), sp.S.Zero)
+            value = z[i] * rD[i] - sum((L[k][i] * x[k] for k in range(i + 1, n)), zero)
             if prefix is not None:
                 sym = out[i] if out is not None else _sym(f"{prefix}{i}")
                 stages.append((sym, value))
-                value = sym
+                value = native(sym)
             x[i] = value
+        if names is not None:
+            back = names.sympy(x + [v for _, v in stages])
+            x, stages = back[:n], [(sym, v) for (sym, _), v in zip(stages, back[n:])]
         return x, stages
 
     def solve(self, b: list[sp.Expr], prefix: str) -> Solution:
@@ -137,14 +146,55 @@ class MassMatrixStages:
         return Solution(syms, list(self.inverse_stages) + stages)
 
 
-def _implicit_residual(dyn, yk: sp.Symbol, x: list) -> list[sp.Expr]:
-    """dF/dy_k - (dM/dy_k) x of the system M x = F of `dyn` (its M and F), the derivatives by
-    SymEngine (derive/derivation/symbolic.py, made once per system): the right-hand side of the
-    implicit derivative M dx/dy_k = dF/dy_k - (dM/dy_k) x."""
-    if getattr(dyn, "_dF", None) is None:
-        dyn._dF, dyn._dM = Derivatives(list(dyn.F)), MatrixDerivatives(dyn.M)
-    n = len(x)
-    return [dyn._dF.diff(i, yk) - sum(dyn._dM.entry(i, j, yk) * x[j] for j in range(n)) for i in range(n)]
+class ImplicitDerivative:
+    """d x / d y_k of a system M x = F (x its solution, as stage symbols), from
+    M dx/dy_k = dF/dy_k - (dM/dy_k) x: the right-hand side's derivatives and sums by
+    SymEngine (derive/derivation/symbolic.py) and solved by the system's own L D L^T
+    substitution, in SymEngine too where it takes every entry of M and F (a 12-link
+    chain's Jacobian: 0.4 s in SymPy's arithmetic), and brought back to SymPy once.
+
+    Parameters
+    ----------
+    M : sympy.Matrix
+    F : sequence of sympy.Expr
+    mass : MassMatrixStages
+        M's stages and factorisation.
+    engine : bool, optional
+        Sum and solve in SymEngine where it takes the system (False: in SymPy; the
+        tests compare the two).
+    """
+
+    def __init__(self, M: sp.Matrix, F, mass: MassMatrixStages, engine: bool = True):
+        self.mass = mass
+        names = EngineNames() if engine else None
+        try:
+            if names is not None:
+                names.engine(list(F) + list(M))
+        except (EngineUnsupported, RecursionError):
+            names = None
+        # the sums in SymEngine only through L D L^T (a 2x2 M is solved in closed form)
+        self.names = names if mass.n > 2 else None
+        self.dF, self.dM = Derivatives(list(F), names), MatrixDerivatives(M, names)
+
+    def residual(self, yk: sp.Symbol, x: list) -> list:
+        """dF/dy_k - (dM/dy_k) x, SymEngine's where `names`, else SymPy's."""
+        n = len(x)
+        if self.names is None:
+            return [self.dF.diff(i, yk) - sum(self.dM.entry(i, j, yk) * x[j] for j in range(n))
+                    for i in range(n)]
+        xs = self.names.engine(x)
+        zero = xs[0] * 0
+        return [self.dF.engine_diff(i, yk) - sum((self.dM.engine_entry(i, j, yk) * xs[j] for j in range(n)), zero)
+                for i in range(n)]
+
+    def solve(self, yk: sp.Symbol, x: list) -> tuple[list[sp.Expr], list]:
+        """(dx/dy_k, its stages named d<y_k>_...): zeros where the residual is zero."""
+        r = self.residual(yk, x)
+        if all(e == 0 for e in r):
+            return [sp.S.Zero] * len(r), []
+        if self.mass.n <= 2:
+            return self.mass.apply(r), []
+        return self.mass._substitute(r, f"d{yk.name}_", names=self.names)
 
 
 class MassMatrixDynamics:
@@ -163,12 +213,11 @@ class MassMatrixDynamics:
 
     def derivative(self, yk: sp.Symbol) -> tuple[list[sp.Expr], list]:
         """d q''/d y_k = M^-1 (dF/dy_k - (dM/dy_k) q'')."""
-        r = _implicit_residual(self, yk, self.qdd)
-        if all(e == 0 for e in r):
-            return [sp.S.Zero] * len(r), []
-        if self.mass.n <= 2:
-            return self.mass.apply(r), []
-        return self.mass._substitute(r, f"d{yk.name}_")
+        return self._implicit.solve(yk, self.qdd)
+
+    @cached_property
+    def _implicit(self) -> ImplicitDerivative:
+        return ImplicitDerivative(self.M, self.F, self.mass)
 
 
 class ConstrainedDynamics:
@@ -197,10 +246,11 @@ class ConstrainedDynamics:
     def derivative(self, yk: sp.Symbol) -> tuple[list[sp.Expr], list]:
         """d(q'', lambda)/d y_k = A^-1 (db/dy_k - (dA/dy_k) (q'', lambda)); the first n
         entries are d q''/d y_k."""
-        r = _implicit_residual(self, yk, self.unknowns)
-        if all(e == 0 for e in r):
-            return [sp.S.Zero] * len(r), []
-        return self.mass._substitute(r, f"d{yk.name}_")
+        return self._implicit.solve(yk, self.unknowns)
+
+    @cached_property
+    def _implicit(self) -> ImplicitDerivative:
+        return ImplicitDerivative(self.M, self.F, self.mass)
 
 
 class ReducedDynamics:

@@ -24,6 +24,7 @@ from sympy.core.function import AppliedUndef
 from ..errors import SpecError
 from ..model import load_model, model_names
 from ..model.atlas import atlas_family
+from ..derivation.symbolic import by_engine
 from ..derivation.symbols import t as TIME
 from . import chart_kernels as charts, solve
 from .names import internal
@@ -308,9 +309,12 @@ def model_spec(d) -> ModelSpec:
                      "gravity points along -" + "xyz"[dim - 1] + ".",
         (y, p), (Output("pos", (len(d.tips), dim), tuple(pos), "tip k, axis j at [k][j]"),)))
 
-    q_col, qd_col = sp.Matrix(s.q), sp.Matrix(s.qd)
-    # with a moving pivot, d pos / dt has the partial in t too (zero otherwise)
-    vel = [sp.expand(c) for tip in d.tips for c in tip.jacobian(q_col) * qd_col + tip.diff(TIME)]
+    # d pos / dt = (d pos / dq) q' + the partial in t (a moving pivot's; zero otherwise),
+    # differentiated and expanded by SymEngine (derivation/symbolic.by_engine)
+    def tip_velocities(expand, coordinates, q, qd, time):
+        return [expand(sum(c.diff(qk) * vk for qk, vk in zip(q, qd)) + c.diff(time[0])) for c in coordinates]
+
+    vel = by_engine(tip_velocities, pos, s.q, s.qd, [TIME])
     kernels.append(Kernel(
         "velocities", f"Cartesian velocities of the bobs (link tips), shape ({len(d.tips)}, {dim}): "
                       "d pos / dt = (d pos / dq) q'" + (" + d pos / dt at fixed q."

@@ -41,7 +41,7 @@ from ..errors import ModelError
 from ..model import Model
 from ..model.description import PRISMATIC, REVOLUTE
 from ..model.expressions import parse_expression
-from .symbolic import MatrixDerivatives
+from .symbolic import by_engine
 from .symbols import ModelSymbols, motion_names, names, parse_quantity, per_shape, t
 
 
@@ -206,8 +206,13 @@ def potential_energy(form: ChainForm) -> sp.Expr:
 
 
 def kinetic_energy(M: sp.Matrix, s: ModelSymbols) -> sp.Expr:
-    qd = sp.Matrix(s.qd)
-    return sp.expand((qd.T * M * qd)[0, 0] / 2)
+    """T = 1/2 q'^T M q', expanded (by SymEngine: symbolic.by_engine)."""
+    n = len(s.qd)
+
+    def half_quadratic_form(expand, m, qd):
+        return [expand(sum(qd[i] * m[i * n + j] * qd[j] for i in range(n) for j in range(n)) / 2)]
+
+    return by_engine(half_quadratic_form, list(M), s.qd)[0]
 
 
 def dissipation_function(model: Model, s: ModelSymbols) -> sp.Expr | None:
@@ -265,14 +270,19 @@ def forcing(form: ChainForm, s: ModelSymbols) -> sp.Matrix:
     """F of M q'' = F in the Christoffel form given in the module docstring, expanded
     in the placeholders of `form` (no simplification: the terms that cancel are equal
     term by term), then filled with the parameter coefficients."""
-    qd = sp.Matrix(s.qd)
-    M, V = form.M, form.V
-    dM_dq = MatrixDerivatives(M)          # by SymEngine (derive/derivation/symbolic.py): the same expressions, faster
-    dM = [dM_dq.diff(qk) for qk in s.q]
-    Mqd_dot = sum((dM[k] * qd * s.qd[k] for k in range(len(s.q))), sp.zeros(len(s.q), 1))
-    F = sp.Matrix([(qd.T * dM[j] * qd)[0, 0] / 2 - Mqd_dot[j] - V.diff(s.q[j])
-                   for j in range(len(s.q))])
-    return F.applyfunc(lambda f: sp.factor_terms(form.filled(sp.expand(f))))
+    n = len(s.q)
+
+    def christoffel_form(expand, m, v, q, qd):
+        """F_j = 1/2 q'^T (dM/dq_j) q' - ((dM/dt) q')_j - dV/dq_j, dM/dt = sum_k dM/dq_k q'_k."""
+        dM = [[entry.diff(qk) for entry in m] for qk in q]          # dM[k][a n + b]
+        return [expand(sum(qd[a] * dM[j][a * n + b] * qd[b] for a in range(n) for b in range(n)) / 2
+                       - sum(dM[k][j * n + b] * qd[b] * qd[k] for k in range(n) for b in range(n))
+                       - v[0].diff(q[j]))
+                for j in range(n)]
+
+    # summed, differentiated and expanded by SymEngine (symbolic.by_engine): the same expressions, faster
+    F = by_engine(christoffel_form, list(form.M), [form.V], s.q, s.qd)
+    return sp.Matrix([sp.factor_terms(form.filled(f)) for f in F])
 
 
 @dataclass(frozen=True)
@@ -314,7 +324,9 @@ def moving_mass_forcing(M: sp.Matrix, s: ModelSymbols) -> sp.Matrix:
     -------
     sympy.Matrix
     """
-    dM = M.diff(t)
+    if t not in M.free_symbols:     # no time in M (and no Matrix.diff: it imports sympy.tensor)
+        return sp.zeros(M.shape[0], 1)
+    dM = M.applyfunc(lambda m: m.diff(t))
     if dM == sp.zeros(*M.shape):
         return sp.zeros(M.shape[0], 1)
     return (-dM * sp.Matrix(s.qd)).applyfunc(lambda f: sp.factor_terms(sp.expand(f)))

@@ -54,29 +54,28 @@ int compound_rhs(const double *restrict y, const double *restrict p, double *res
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t0 = lane_sin[0];
-    const double t1 = lane_sin[1];
-    const double t2 = lane_cos[0];
-    const double t3 = lane_cos[1];
+    const double t0 = lane_cos[0];
+    const double t1 = lane_cos[1];
+    const double t2 = lane_sin[0];
+    const double t3 = lane_sin[1];
     const double t4 = t0*t1 + t2*t3;
-    const double t5 = (1.0/2.0)*p[2];
-    const double t6 = p[3]*p[1];
-    const double t7 = t5*t6;
+    const double t5 = (1.0/2.0)*p[1];
+    const double t6 = t5*p[3];
+    const double t7 = t6*p[2];
     const double M01 = t4*t7;
     const double t8 = p[1]*p[3]*p[3];
     const double M11 = p[5] + (1.0/4.0)*t8;
-    const double t9 = p[6]*(p[0] + 2*p[1]);
-    const double t10 = t0*t3 - t1*t2;
-    const double t11 = y[3]*y[3];
-    const double t12 = t11*t6;
-    const double F0 = -t5*(t0*t9 + t10*t12);
-    const double t13 = p[6]*t1;
+    const double t9 = t1*t2 - t0*t3;
+    const double t10 = y[3]*y[3];
+    const double t11 = t10*p[3]*p[1];
+    const double t12 = p[6]*(p[0] + 2*p[1]);
+    const double t13 = (1.0/2.0)*p[2];
+    const double F0 = -t13*(t11*t9 + t12*t2);
     const double t14 = y[2]*y[2];
-    const double t15 = (1.0/2.0)*p[1];
-    const double t16 = t15*p[3];
-    const double F1 = t16*(t10*t14*p[2] - t13);
-    const double t17 = p[2]*p[2];
-    const double M00 = p[4] + t17*(p[1] + (1.0/4.0)*p[0]);
+    const double t15 = t14*p[2];
+    const double F1 = t6*(t15*t9 - p[6]*t3);
+    const double t16 = p[2]*p[2];
+    const double M00 = p[4] + t16*(p[1] + (1.0/4.0)*p[0]);
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double qdd0 = rdet*(F0*M11 - F1*M01);
@@ -112,29 +111,28 @@ int compound_rhs_f(const float *restrict y, const float *restrict p, float *rest
 {
     int status = COMPOUND_STATUS_OK;
     float check;
-    const float t0 = sinf(y[0]);
-    const float t1 = sinf(y[1]);
-    const float t2 = cosf(y[0]);
-    const float t3 = cosf(y[1]);
+    const float t0 = cosf(y[0]);
+    const float t1 = cosf(y[1]);
+    const float t2 = sinf(y[0]);
+    const float t3 = sinf(y[1]);
     const float t4 = t0*t1 + t2*t3;
-    const float t5 = (1.0F/2.0F)*p[2];
-    const float t6 = p[3]*p[1];
-    const float t7 = t5*t6;
+    const float t5 = (1.0F/2.0F)*p[1];
+    const float t6 = t5*p[3];
+    const float t7 = t6*p[2];
     const float M01 = t4*t7;
     const float t8 = p[1]*p[3]*p[3];
     const float M11 = p[5] + (1.0F/4.0F)*t8;
-    const float t9 = p[6]*(p[0] + 2*p[1]);
-    const float t10 = t0*t3 - t1*t2;
-    const float t11 = y[3]*y[3];
-    const float t12 = t11*t6;
-    const float F0 = -t5*(t0*t9 + t10*t12);
-    const float t13 = p[6]*t1;
+    const float t9 = t1*t2 - t0*t3;
+    const float t10 = y[3]*y[3];
+    const float t11 = t10*p[3]*p[1];
+    const float t12 = p[6]*(p[0] + 2*p[1]);
+    const float t13 = (1.0F/2.0F)*p[2];
+    const float F0 = -t13*(t11*t9 + t12*t2);
     const float t14 = y[2]*y[2];
-    const float t15 = (1.0F/2.0F)*p[1];
-    const float t16 = t15*p[3];
-    const float F1 = t16*(t10*t14*p[2] - t13);
-    const float t17 = p[2]*p[2];
-    const float M00 = p[4] + t17*(p[1] + (1.0F/4.0F)*p[0]);
+    const float t15 = t14*p[2];
+    const float F1 = t6*(t15*t9 - p[6]*t3);
+    const float t16 = p[2]*p[2];
+    const float M00 = p[4] + t16*(p[1] + (1.0F/4.0F)*p[0]);
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float qdd0 = rdet*(F0*M11 - F1*M01);
@@ -170,29 +168,28 @@ int compound_rhs_l(const long double *restrict y, const long double *restrict p,
 {
     int status = COMPOUND_STATUS_OK;
     long double check;
-    const long double t0 = sinl(y[0]);
-    const long double t1 = sinl(y[1]);
-    const long double t2 = cosl(y[0]);
-    const long double t3 = cosl(y[1]);
+    const long double t0 = cosl(y[0]);
+    const long double t1 = cosl(y[1]);
+    const long double t2 = sinl(y[0]);
+    const long double t3 = sinl(y[1]);
     const long double t4 = t0*t1 + t2*t3;
-    const long double t5 = (1.0L/2.0L)*p[2];
-    const long double t6 = p[3]*p[1];
-    const long double t7 = t5*t6;
+    const long double t5 = (1.0L/2.0L)*p[1];
+    const long double t6 = t5*p[3];
+    const long double t7 = t6*p[2];
     const long double M01 = t4*t7;
     const long double t8 = p[1]*p[3]*p[3];
     const long double M11 = p[5] + (1.0L/4.0L)*t8;
-    const long double t9 = p[6]*(p[0] + 2*p[1]);
-    const long double t10 = t0*t3 - t1*t2;
-    const long double t11 = y[3]*y[3];
-    const long double t12 = t11*t6;
-    const long double F0 = -t5*(t0*t9 + t10*t12);
-    const long double t13 = p[6]*t1;
+    const long double t9 = t1*t2 - t0*t3;
+    const long double t10 = y[3]*y[3];
+    const long double t11 = t10*p[3]*p[1];
+    const long double t12 = p[6]*(p[0] + 2*p[1]);
+    const long double t13 = (1.0L/2.0L)*p[2];
+    const long double F0 = -t13*(t11*t9 + t12*t2);
     const long double t14 = y[2]*y[2];
-    const long double t15 = (1.0L/2.0L)*p[1];
-    const long double t16 = t15*p[3];
-    const long double F1 = t16*(t10*t14*p[2] - t13);
-    const long double t17 = p[2]*p[2];
-    const long double M00 = p[4] + t17*(p[1] + (1.0L/4.0L)*p[0]);
+    const long double t15 = t14*p[2];
+    const long double F1 = t6*(t15*t9 - p[6]*t3);
+    const long double t16 = p[2]*p[2];
+    const long double M00 = p[4] + t16*(p[1] + (1.0L/4.0L)*p[0]);
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double qdd0 = rdet*(F0*M11 - F1*M01);
@@ -236,16 +233,16 @@ int compound_mass_matrix(const double *restrict y, const double *restrict p, dou
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t1 = lane_sin[0];
-    const double t2 = lane_sin[1];
-    const double t3 = lane_cos[0];
-    const double t4 = lane_cos[1];
+    const double t1 = lane_cos[0];
+    const double t2 = lane_cos[1];
+    const double t3 = lane_sin[0];
+    const double t4 = lane_sin[1];
     const double t0 = p[2]*p[2];
     const double M00 = p[4] + t0*(p[1] + (1.0/4.0)*p[0]);
     const double t5 = t1*t2 + t3*t4;
-    const double t6 = (1.0/2.0)*p[2];
-    const double t7 = p[3]*p[1];
-    const double t8 = t6*t7;
+    const double t6 = (1.0/2.0)*p[1];
+    const double t7 = t6*p[3];
+    const double t8 = t7*p[2];
     const double M01 = t5*t8;
     const double t9 = p[1]*p[3]*p[3];
     const double M11 = p[5] + (1.0/4.0)*t9;
@@ -282,14 +279,14 @@ int compound_mass_matrix_f(const float *restrict y, const float *restrict p, flo
     float check;
     const float t0 = p[2]*p[2];
     const float M00 = p[4] + t0*(p[1] + (1.0F/4.0F)*p[0]);
-    const float t1 = sinf(y[0]);
-    const float t2 = sinf(y[1]);
-    const float t3 = cosf(y[0]);
-    const float t4 = cosf(y[1]);
+    const float t1 = cosf(y[0]);
+    const float t2 = cosf(y[1]);
+    const float t3 = sinf(y[0]);
+    const float t4 = sinf(y[1]);
     const float t5 = t1*t2 + t3*t4;
-    const float t6 = (1.0F/2.0F)*p[2];
-    const float t7 = p[3]*p[1];
-    const float t8 = t6*t7;
+    const float t6 = (1.0F/2.0F)*p[1];
+    const float t7 = t6*p[3];
+    const float t8 = t7*p[2];
     const float M01 = t5*t8;
     const float t9 = p[1]*p[3]*p[3];
     const float M11 = p[5] + (1.0F/4.0F)*t9;
@@ -326,14 +323,14 @@ int compound_mass_matrix_l(const long double *restrict y, const long double *res
     long double check;
     const long double t0 = p[2]*p[2];
     const long double M00 = p[4] + t0*(p[1] + (1.0L/4.0L)*p[0]);
-    const long double t1 = sinl(y[0]);
-    const long double t2 = sinl(y[1]);
-    const long double t3 = cosl(y[0]);
-    const long double t4 = cosl(y[1]);
+    const long double t1 = cosl(y[0]);
+    const long double t2 = cosl(y[1]);
+    const long double t3 = sinl(y[0]);
+    const long double t4 = sinl(y[1]);
     const long double t5 = t1*t2 + t3*t4;
-    const long double t6 = (1.0L/2.0L)*p[2];
-    const long double t7 = p[3]*p[1];
-    const long double t8 = t6*t7;
+    const long double t6 = (1.0L/2.0L)*p[1];
+    const long double t7 = t6*p[3];
+    const long double t8 = t7*p[2];
     const long double M01 = t5*t8;
     const long double t9 = p[1]*p[3]*p[3];
     const long double M11 = p[5] + (1.0L/4.0L)*t9;
@@ -377,25 +374,24 @@ int compound_forcing(const double *restrict y, const double *restrict p, double 
         lane_cos[lane] = cos(lane_angle[lane]);
     }
     const double t0 = lane_sin[0];
+    const double t1 = lane_cos[0];
+    const double t2 = lane_cos[1];
     const double t3 = lane_sin[1];
-    const double t4 = lane_cos[0];
-    const double t5 = lane_cos[1];
-    const double t1 = (1.0/2.0)*p[2];
-    const double t2 = p[6]*(p[0] + 2*p[1]);
-    const double t6 = t0*t5 - t3*t4;
-    const double t7 = p[3]*p[1];
-    const double t8 = y[3]*y[3];
-    const double t9 = t7*t8;
-    const double t10 = -t1*(t0*t2 + t6*t9);
-    const double t11 = p[6]*t3;
+    const double t4 = t0*t2 - t1*t3;
+    const double t5 = y[3]*y[3];
+    const double t6 = t5*p[3]*p[1];
+    const double t7 = p[6]*(p[0] + 2*p[1]);
+    const double t8 = (1.0/2.0)*p[2];
+    const double t9 = -t8*(t0*t7 + t4*t6);
+    const double t10 = (1.0/2.0)*p[1];
+    const double t11 = t10*p[3];
     const double t12 = y[2]*y[2];
-    const double t13 = (1.0/2.0)*p[1];
-    const double t14 = t13*p[3];
-    const double t15 = t14*(t12*t6*p[2] - t11);
-    F[0] = t10;
-    F[1] = t15;
+    const double t13 = t12*p[2];
+    const double t14 = t11*(t13*t4 - p[6]*t3);
+    F[0] = t9;
+    F[1] = t14;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t10 - t10) + (t15 - t15);
+    check = (t9 - t9) + (t14 - t14);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -422,25 +418,24 @@ int compound_forcing_f(const float *restrict y, const float *restrict p, float *
     int status = COMPOUND_STATUS_OK;
     float check;
     const float t0 = sinf(y[0]);
-    const float t1 = (1.0F/2.0F)*p[2];
-    const float t2 = p[6]*(p[0] + 2*p[1]);
+    const float t1 = cosf(y[0]);
+    const float t2 = cosf(y[1]);
     const float t3 = sinf(y[1]);
-    const float t4 = cosf(y[0]);
-    const float t5 = cosf(y[1]);
-    const float t6 = t0*t5 - t3*t4;
-    const float t7 = p[3]*p[1];
-    const float t8 = y[3]*y[3];
-    const float t9 = t7*t8;
-    const float t10 = -t1*(t0*t2 + t6*t9);
-    const float t11 = p[6]*t3;
+    const float t4 = t0*t2 - t1*t3;
+    const float t5 = y[3]*y[3];
+    const float t6 = t5*p[3]*p[1];
+    const float t7 = p[6]*(p[0] + 2*p[1]);
+    const float t8 = (1.0F/2.0F)*p[2];
+    const float t9 = -t8*(t0*t7 + t4*t6);
+    const float t10 = (1.0F/2.0F)*p[1];
+    const float t11 = t10*p[3];
     const float t12 = y[2]*y[2];
-    const float t13 = (1.0F/2.0F)*p[1];
-    const float t14 = t13*p[3];
-    const float t15 = t14*(t12*t6*p[2] - t11);
-    F[0] = t10;
-    F[1] = t15;
+    const float t13 = t12*p[2];
+    const float t14 = t11*(t13*t4 - p[6]*t3);
+    F[0] = t9;
+    F[1] = t14;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t10 - t10) + (t15 - t15);
+    check = (t9 - t9) + (t14 - t14);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -467,25 +462,24 @@ int compound_forcing_l(const long double *restrict y, const long double *restric
     int status = COMPOUND_STATUS_OK;
     long double check;
     const long double t0 = sinl(y[0]);
-    const long double t1 = (1.0L/2.0L)*p[2];
-    const long double t2 = p[6]*(p[0] + 2*p[1]);
+    const long double t1 = cosl(y[0]);
+    const long double t2 = cosl(y[1]);
     const long double t3 = sinl(y[1]);
-    const long double t4 = cosl(y[0]);
-    const long double t5 = cosl(y[1]);
-    const long double t6 = t0*t5 - t3*t4;
-    const long double t7 = p[3]*p[1];
-    const long double t8 = y[3]*y[3];
-    const long double t9 = t7*t8;
-    const long double t10 = -t1*(t0*t2 + t6*t9);
-    const long double t11 = p[6]*t3;
+    const long double t4 = t0*t2 - t1*t3;
+    const long double t5 = y[3]*y[3];
+    const long double t6 = t5*p[3]*p[1];
+    const long double t7 = p[6]*(p[0] + 2*p[1]);
+    const long double t8 = (1.0L/2.0L)*p[2];
+    const long double t9 = -t8*(t0*t7 + t4*t6);
+    const long double t10 = (1.0L/2.0L)*p[1];
+    const long double t11 = t10*p[3];
     const long double t12 = y[2]*y[2];
-    const long double t13 = (1.0L/2.0L)*p[1];
-    const long double t14 = t13*p[3];
-    const long double t15 = t14*(t12*t6*p[2] - t11);
-    F[0] = t10;
-    F[1] = t15;
+    const long double t13 = t12*p[2];
+    const long double t14 = t11*(t13*t4 - p[6]*t3);
+    F[0] = t9;
+    F[1] = t14;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t10 - t10) + (t15 - t15);
+    check = (t9 - t9) + (t14 - t14);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -511,7 +505,7 @@ int compound_energy(const double *restrict y, const double *restrict p, double *
 {
     int status = COMPOUND_STATUS_OK;
     double check;
-    const double lane_angle[2] = { y[1], y[0] };
+    const double lane_angle[2] = { y[0], y[1] };
     double lane_sin[2], lane_cos[2];
     int lane;
     COMPOUND_SIMD
@@ -520,26 +514,26 @@ int compound_energy(const double *restrict y, const double *restrict p, double *
         lane_cos[lane] = cos(lane_angle[lane]);
     }
     const double t5 = lane_cos[0];
-    const double t8 = lane_cos[1];
-    const double t12 = lane_sin[1];
+    const double t9 = lane_cos[1];
     const double t13 = lane_sin[0];
+    const double t14 = lane_sin[1];
     const double t0 = p[2]*p[2];
-    const double t1 = p[1]*p[3]*p[3];
-    const double t2 = y[3]*y[3];
-    const double t3 = y[2]*y[2];
-    const double t4 = (1.0/2.0)*p[1];
-    const double t6 = t5*p[3];
-    const double t7 = -p[6]*t4*t6;
-    const double t9 = t8*p[2];
-    const double t10 = p[6]*(p[1] + (1.0/2.0)*p[0]);
-    const double t11 = t10*t9;
-    const double t14 = t12*t13 + t5*t8;
-    const double t15 = (1.0/2.0)*p[2];
-    const double t16 = p[3]*p[1];
-    const double t17 = t15*t16;
-    const double t18 = t14*t17;
+    const double t1 = (1.0/2.0)*p[1];
+    const double t2 = p[1]*p[3]*p[3];
+    const double t3 = y[3]*y[3];
+    const double t4 = y[2]*y[2];
+    const double t6 = t5*p[2];
+    const double t7 = p[6]*(p[1] + (1.0/2.0)*p[0]);
+    const double t8 = -t6*t7;
+    const double t10 = t9*p[3];
+    const double t11 = p[6]*t1;
+    const double t12 = -t10*t11;
+    const double t15 = t13*t14 + t5*t9;
+    const double t16 = t1*p[3];
+    const double t17 = t16*p[2];
+    const double t18 = t15*t17;
     const double t19 = t18*y[3];
-    const double t20 = t7 + t19*y[2] + t2*((1.0/2.0)*p[5] + (1.0/8.0)*t1) + t3*((1.0/2.0)*p[4] + t0*t4 + (1.0/8.0)*t0*p[0]) - t11;
+    const double t20 = t12 + t8 + t19*y[2] + t3*((1.0/2.0)*p[5] + (1.0/8.0)*t2) + t4*((1.0/2.0)*p[4] + t0*t1 + (1.0/8.0)*t0*p[0]);
     E[0] = t20;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (t20 - t20);
@@ -569,26 +563,26 @@ int compound_energy_f(const float *restrict y, const float *restrict p, float *r
     int status = COMPOUND_STATUS_OK;
     float check;
     const float t0 = p[2]*p[2];
-    const float t1 = p[1]*p[3]*p[3];
-    const float t2 = y[3]*y[3];
-    const float t3 = y[2]*y[2];
-    const float t4 = (1.0F/2.0F)*p[1];
-    const float t5 = cosf(y[1]);
-    const float t6 = t5*p[3];
-    const float t7 = -p[6]*t4*t6;
-    const float t8 = cosf(y[0]);
-    const float t9 = t8*p[2];
-    const float t10 = p[6]*(p[1] + (1.0F/2.0F)*p[0]);
-    const float t11 = t10*t9;
-    const float t12 = sinf(y[0]);
-    const float t13 = sinf(y[1]);
-    const float t14 = t12*t13 + t5*t8;
-    const float t15 = (1.0F/2.0F)*p[2];
-    const float t16 = p[3]*p[1];
-    const float t17 = t15*t16;
-    const float t18 = t14*t17;
+    const float t1 = (1.0F/2.0F)*p[1];
+    const float t2 = p[1]*p[3]*p[3];
+    const float t3 = y[3]*y[3];
+    const float t4 = y[2]*y[2];
+    const float t5 = cosf(y[0]);
+    const float t6 = t5*p[2];
+    const float t7 = p[6]*(p[1] + (1.0F/2.0F)*p[0]);
+    const float t8 = -t6*t7;
+    const float t9 = cosf(y[1]);
+    const float t10 = t9*p[3];
+    const float t11 = p[6]*t1;
+    const float t12 = -t10*t11;
+    const float t13 = sinf(y[0]);
+    const float t14 = sinf(y[1]);
+    const float t15 = t13*t14 + t5*t9;
+    const float t16 = t1*p[3];
+    const float t17 = t16*p[2];
+    const float t18 = t15*t17;
     const float t19 = t18*y[3];
-    const float t20 = t7 + t19*y[2] + t2*((1.0F/2.0F)*p[5] + (1.0F/8.0F)*t1) + t3*((1.0F/2.0F)*p[4] + t0*t4 + (1.0F/8.0F)*t0*p[0]) - t11;
+    const float t20 = t12 + t8 + t19*y[2] + t3*((1.0F/2.0F)*p[5] + (1.0F/8.0F)*t2) + t4*((1.0F/2.0F)*p[4] + t0*t1 + (1.0F/8.0F)*t0*p[0]);
     E[0] = t20;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (t20 - t20);
@@ -618,26 +612,26 @@ int compound_energy_l(const long double *restrict y, const long double *restrict
     int status = COMPOUND_STATUS_OK;
     long double check;
     const long double t0 = p[2]*p[2];
-    const long double t1 = p[1]*p[3]*p[3];
-    const long double t2 = y[3]*y[3];
-    const long double t3 = y[2]*y[2];
-    const long double t4 = (1.0L/2.0L)*p[1];
-    const long double t5 = cosl(y[1]);
-    const long double t6 = t5*p[3];
-    const long double t7 = -p[6]*t4*t6;
-    const long double t8 = cosl(y[0]);
-    const long double t9 = t8*p[2];
-    const long double t10 = p[6]*(p[1] + (1.0L/2.0L)*p[0]);
-    const long double t11 = t10*t9;
-    const long double t12 = sinl(y[0]);
-    const long double t13 = sinl(y[1]);
-    const long double t14 = t12*t13 + t5*t8;
-    const long double t15 = (1.0L/2.0L)*p[2];
-    const long double t16 = p[3]*p[1];
-    const long double t17 = t15*t16;
-    const long double t18 = t14*t17;
+    const long double t1 = (1.0L/2.0L)*p[1];
+    const long double t2 = p[1]*p[3]*p[3];
+    const long double t3 = y[3]*y[3];
+    const long double t4 = y[2]*y[2];
+    const long double t5 = cosl(y[0]);
+    const long double t6 = t5*p[2];
+    const long double t7 = p[6]*(p[1] + (1.0L/2.0L)*p[0]);
+    const long double t8 = -t6*t7;
+    const long double t9 = cosl(y[1]);
+    const long double t10 = t9*p[3];
+    const long double t11 = p[6]*t1;
+    const long double t12 = -t10*t11;
+    const long double t13 = sinl(y[0]);
+    const long double t14 = sinl(y[1]);
+    const long double t15 = t13*t14 + t5*t9;
+    const long double t16 = t1*p[3];
+    const long double t17 = t16*p[2];
+    const long double t18 = t15*t17;
     const long double t19 = t18*y[3];
-    const long double t20 = t7 + t19*y[2] + t2*((1.0L/2.0L)*p[5] + (1.0L/8.0L)*t1) + t3*((1.0L/2.0L)*p[4] + t0*t4 + (1.0L/8.0L)*t0*p[0]) - t11;
+    const long double t20 = t12 + t8 + t19*y[2] + t3*((1.0L/2.0L)*p[5] + (1.0L/8.0L)*t2) + t4*((1.0L/2.0L)*p[4] + t0*t1 + (1.0L/8.0L)*t0*p[0]);
     E[0] = t20;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (t20 - t20);
@@ -661,7 +655,7 @@ int compound_energy_batch_l(long n, const long double *restrict y, long y_stride
     return all;
 }
 
-/* compound_positions (double). Total ops: 12 */
+/* compound_positions (double). Total ops: 11 */
 int compound_positions(const double *restrict y, const double *restrict p, double *restrict pos)
 {
     int status = COMPOUND_STATUS_OK;
@@ -676,21 +670,21 @@ int compound_positions(const double *restrict y, const double *restrict p, doubl
     }
     const double t0 = lane_sin[0];
     const double t2 = lane_cos[0];
-    const double t4 = lane_sin[1];
-    const double t6 = lane_cos[1];
+    const double t5 = lane_sin[1];
+    const double t7 = lane_cos[1];
     const double t1 = t0*p[2];
     const double t3 = t2*p[2];
-    const double t5 = t4*p[3];
-    const double t7 = t6*p[3];
-    const double t8 = -t3;
-    const double t9 = t1 + t5;
-    const double t10 = -t3 - t7;
+    const double t4 = -t3;
+    const double t6 = t5*p[3];
+    const double t8 = t7*p[3];
+    const double t9 = t1 + t6;
+    const double t10 = t4 - t8;
     pos[0] = t1;
-    pos[1] = t8;
+    pos[1] = t4;
     pos[2] = t9;
     pos[3] = t10;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t1 - t1) + (t8 - t8) + (t9 - t9) + (t10 - t10);
+    check = (t1 - t1) + (t4 - t4) + (t9 - t9) + (t10 - t10);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -711,7 +705,7 @@ int compound_positions_batch(long n, const double *restrict y, long y_stride, co
     return all;
 }
 
-/* compound_positions_f (float). Total ops: 12 */
+/* compound_positions_f (float). Total ops: 11 */
 int compound_positions_f(const float *restrict y, const float *restrict p, float *restrict pos)
 {
     int status = COMPOUND_STATUS_OK;
@@ -720,19 +714,19 @@ int compound_positions_f(const float *restrict y, const float *restrict p, float
     const float t1 = t0*p[2];
     const float t2 = cosf(y[0]);
     const float t3 = t2*p[2];
-    const float t4 = sinf(y[1]);
-    const float t5 = t4*p[3];
-    const float t6 = cosf(y[1]);
-    const float t7 = t6*p[3];
-    const float t8 = -t3;
-    const float t9 = t1 + t5;
-    const float t10 = -t3 - t7;
+    const float t4 = -t3;
+    const float t5 = sinf(y[1]);
+    const float t6 = t5*p[3];
+    const float t7 = cosf(y[1]);
+    const float t8 = t7*p[3];
+    const float t9 = t1 + t6;
+    const float t10 = t4 - t8;
     pos[0] = t1;
-    pos[1] = t8;
+    pos[1] = t4;
     pos[2] = t9;
     pos[3] = t10;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t1 - t1) + (t8 - t8) + (t9 - t9) + (t10 - t10);
+    check = (t1 - t1) + (t4 - t4) + (t9 - t9) + (t10 - t10);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -753,7 +747,7 @@ int compound_positions_batch_f(long n, const float *restrict y, long y_stride, c
     return all;
 }
 
-/* compound_positions_l (long double). Total ops: 12 */
+/* compound_positions_l (long double). Total ops: 11 */
 int compound_positions_l(const long double *restrict y, const long double *restrict p, long double *restrict pos)
 {
     int status = COMPOUND_STATUS_OK;
@@ -762,19 +756,19 @@ int compound_positions_l(const long double *restrict y, const long double *restr
     const long double t1 = t0*p[2];
     const long double t2 = cosl(y[0]);
     const long double t3 = t2*p[2];
-    const long double t4 = sinl(y[1]);
-    const long double t5 = t4*p[3];
-    const long double t6 = cosl(y[1]);
-    const long double t7 = t6*p[3];
-    const long double t8 = -t3;
-    const long double t9 = t1 + t5;
-    const long double t10 = -t3 - t7;
+    const long double t4 = -t3;
+    const long double t5 = sinl(y[1]);
+    const long double t6 = t5*p[3];
+    const long double t7 = cosl(y[1]);
+    const long double t8 = t7*p[3];
+    const long double t9 = t1 + t6;
+    const long double t10 = t4 - t8;
     pos[0] = t1;
-    pos[1] = t8;
+    pos[1] = t4;
     pos[2] = t9;
     pos[3] = t10;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t1 - t1) + (t8 - t8) + (t9 - t9) + (t10 - t10);
+    check = (t1 - t1) + (t4 - t4) + (t9 - t9) + (t10 - t10);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -932,7 +926,7 @@ int compound_velocities_batch_l(long n, const long double *restrict y, long y_st
     return all;
 }
 
-/* compound_jacobian (double). Total ops: 107 */
+/* compound_jacobian (double). Total ops: 101 */
 int compound_jacobian(const double *restrict y, const double *restrict p, double *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
@@ -945,51 +939,51 @@ int compound_jacobian(const double *restrict y, const double *restrict p, double
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t0 = lane_sin[0];
-    const double t1 = lane_sin[1];
-    const double t2 = lane_cos[0];
-    const double t3 = lane_cos[1];
+    const double t0 = lane_cos[0];
+    const double t1 = lane_cos[1];
+    const double t2 = lane_sin[0];
+    const double t3 = lane_sin[1];
     const double t4 = t0*t1 + t2*t3;
-    const double t5 = (1.0/2.0)*p[2];
-    const double t6 = p[3]*p[1];
-    const double t7 = t5*t6;
-    const double M01 = t4*t7;
-    const double t8 = y[2]*y[2];
-    const double t9 = t0*t3 - t1*t2;
-    const double t10 = t7*t9;
-    const double t11 = p[1]*p[3]*p[3];
-    const double M11 = p[5] + (1.0/4.0)*t11;
-    const double t12 = p[6]*(p[0] + 2*p[1]);
-    const double t13 = y[3]*y[3];
-    const double t14 = t13*t6;
-    const double F0 = -t5*(t0*t12 + t14*t9);
-    const double t15 = p[6]*t1;
-    const double t16 = (1.0/2.0)*p[1];
-    const double t17 = t16*p[3];
-    const double F1 = t17*(t8*t9*p[2] - t15);
-    const double t18 = p[2]*p[2];
-    const double M00 = p[4] + t18*(p[1] + (1.0/4.0)*p[0]);
+    const double t5 = y[3]*y[3];
+    const double t6 = t5*p[3]*p[1];
+    const double t7 = p[6]*(p[0] + 2*p[1]);
+    const double t8 = (1.0/2.0)*p[2];
+    const double t9 = (1.0/2.0)*p[1];
+    const double t10 = t9*p[3];
+    const double t11 = t10*p[2];
+    const double t12 = t1*t2 - t0*t3;
+    const double t13 = t11*t12;
+    const double t14 = p[2]*p[2];
+    const double M00 = p[4] + t14*(p[1] + (1.0/4.0)*p[0]);
+    const double M01 = t11*t4;
+    const double F0 = -t8*(t12*t6 + t2*t7);
+    const double t15 = y[2]*y[2];
+    const double t16 = t15*p[2];
+    const double F1 = t10*(t12*t16 - p[6]*t3);
+    const double t17 = p[1]*p[3]*p[3];
+    const double M11 = p[5] + (1.0/4.0)*t17;
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
-    const double qdd0 = rdet*(F0*M11 - F1*M01);
-    const double t19 = qdd0*t10;
-    const double t20 = t19 + M01*t8;
     const double qdd1 = rdet*(F1*M00 - F0*M01);
-    const double t21 = qdd1*t10;
-    const double t22 = t21 - t5*(t12*t2 + t14*t4);
-    const double t23 = (1.0/2.0)*t13*t4*p[2]*p[3]*p[1] - t21;
-    const double t24 = (1.0/2.0)*p[3]*p[1]*(-p[6]*t3 - t4*t8*p[2]) - t19;
+    const double t18 = qdd1*t13;
+    const double t19 = t18 - t8*(t0*t7 + t4*t6);
+    const double qdd0 = rdet*(F0*M11 - F1*M01);
+    const double t20 = qdd0*t13;
+    const double t21 = t16*t4;
+    const double t22 = t20 + t10*t21;
+    const double t23 = M01*t5 - t18;
+    const double t24 = t10*(-t21 - p[6]*t1) - t20;
     const double t25 = M01*rdet;
-    const double t26 = t6*t9*p[2];
+    const double t26 = t12*p[2]*p[3]*p[1];
     const double t27 = t26*y[2];
     const double t28 = M11*rdet;
     const double t29 = t26*y[3];
     const double t30 = M00*rdet;
-    const double t31 = rdet*(M11*t22 - M01*t20);
+    const double t31 = rdet*(M11*t19 - M01*t22);
     const double t32 = rdet*(M11*t23 - M01*t24);
     const double t33 = -t25*t27;
     const double t34 = -t28*t29;
-    const double t35 = rdet*(M00*t20 - M01*t22);
+    const double t35 = rdet*(M00*t22 - M01*t19);
     const double t36 = rdet*(M00*t24 - M01*t23);
     const double t37 = t27*t30;
     const double t38 = t25*t29;
@@ -1032,56 +1026,56 @@ int compound_jacobian_batch(long n, const double *restrict y, long y_stride, con
     return all;
 }
 
-/* compound_jacobian_f (float). Total ops: 107 */
+/* compound_jacobian_f (float). Total ops: 101 */
 int compound_jacobian_f(const float *restrict y, const float *restrict p, float *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
     float check;
-    const float t0 = sinf(y[0]);
-    const float t1 = sinf(y[1]);
-    const float t2 = cosf(y[0]);
-    const float t3 = cosf(y[1]);
+    const float t0 = cosf(y[0]);
+    const float t1 = cosf(y[1]);
+    const float t2 = sinf(y[0]);
+    const float t3 = sinf(y[1]);
     const float t4 = t0*t1 + t2*t3;
-    const float t5 = (1.0F/2.0F)*p[2];
-    const float t6 = p[3]*p[1];
-    const float t7 = t5*t6;
-    const float M01 = t4*t7;
-    const float t8 = y[2]*y[2];
-    const float t9 = t0*t3 - t1*t2;
-    const float t10 = t7*t9;
-    const float t11 = p[1]*p[3]*p[3];
-    const float M11 = p[5] + (1.0F/4.0F)*t11;
-    const float t12 = p[6]*(p[0] + 2*p[1]);
-    const float t13 = y[3]*y[3];
-    const float t14 = t13*t6;
-    const float F0 = -t5*(t0*t12 + t14*t9);
-    const float t15 = p[6]*t1;
-    const float t16 = (1.0F/2.0F)*p[1];
-    const float t17 = t16*p[3];
-    const float F1 = t17*(t8*t9*p[2] - t15);
-    const float t18 = p[2]*p[2];
-    const float M00 = p[4] + t18*(p[1] + (1.0F/4.0F)*p[0]);
+    const float t5 = y[3]*y[3];
+    const float t6 = t5*p[3]*p[1];
+    const float t7 = p[6]*(p[0] + 2*p[1]);
+    const float t8 = (1.0F/2.0F)*p[2];
+    const float t9 = (1.0F/2.0F)*p[1];
+    const float t10 = t9*p[3];
+    const float t11 = t10*p[2];
+    const float t12 = t1*t2 - t0*t3;
+    const float t13 = t11*t12;
+    const float t14 = p[2]*p[2];
+    const float M00 = p[4] + t14*(p[1] + (1.0F/4.0F)*p[0]);
+    const float M01 = t11*t4;
+    const float F0 = -t8*(t12*t6 + t2*t7);
+    const float t15 = y[2]*y[2];
+    const float t16 = t15*p[2];
+    const float F1 = t10*(t12*t16 - p[6]*t3);
+    const float t17 = p[1]*p[3]*p[3];
+    const float M11 = p[5] + (1.0F/4.0F)*t17;
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
-    const float qdd0 = rdet*(F0*M11 - F1*M01);
-    const float t19 = qdd0*t10;
-    const float t20 = t19 + M01*t8;
     const float qdd1 = rdet*(F1*M00 - F0*M01);
-    const float t21 = qdd1*t10;
-    const float t22 = t21 - t5*(t12*t2 + t14*t4);
-    const float t23 = (1.0F/2.0F)*t13*t4*p[2]*p[3]*p[1] - t21;
-    const float t24 = (1.0F/2.0F)*p[3]*p[1]*(-p[6]*t3 - t4*t8*p[2]) - t19;
+    const float t18 = qdd1*t13;
+    const float t19 = t18 - t8*(t0*t7 + t4*t6);
+    const float qdd0 = rdet*(F0*M11 - F1*M01);
+    const float t20 = qdd0*t13;
+    const float t21 = t16*t4;
+    const float t22 = t20 + t10*t21;
+    const float t23 = M01*t5 - t18;
+    const float t24 = t10*(-t21 - p[6]*t1) - t20;
     const float t25 = M01*rdet;
-    const float t26 = t6*t9*p[2];
+    const float t26 = t12*p[2]*p[3]*p[1];
     const float t27 = t26*y[2];
     const float t28 = M11*rdet;
     const float t29 = t26*y[3];
     const float t30 = M00*rdet;
-    const float t31 = rdet*(M11*t22 - M01*t20);
+    const float t31 = rdet*(M11*t19 - M01*t22);
     const float t32 = rdet*(M11*t23 - M01*t24);
     const float t33 = -t25*t27;
     const float t34 = -t28*t29;
-    const float t35 = rdet*(M00*t20 - M01*t22);
+    const float t35 = rdet*(M00*t22 - M01*t19);
     const float t36 = rdet*(M00*t24 - M01*t23);
     const float t37 = t27*t30;
     const float t38 = t25*t29;
@@ -1124,56 +1118,56 @@ int compound_jacobian_batch_f(long n, const float *restrict y, long y_stride, co
     return all;
 }
 
-/* compound_jacobian_l (long double). Total ops: 107 */
+/* compound_jacobian_l (long double). Total ops: 101 */
 int compound_jacobian_l(const long double *restrict y, const long double *restrict p, long double *restrict J)
 {
     int status = COMPOUND_STATUS_OK;
     long double check;
-    const long double t0 = sinl(y[0]);
-    const long double t1 = sinl(y[1]);
-    const long double t2 = cosl(y[0]);
-    const long double t3 = cosl(y[1]);
+    const long double t0 = cosl(y[0]);
+    const long double t1 = cosl(y[1]);
+    const long double t2 = sinl(y[0]);
+    const long double t3 = sinl(y[1]);
     const long double t4 = t0*t1 + t2*t3;
-    const long double t5 = (1.0L/2.0L)*p[2];
-    const long double t6 = p[3]*p[1];
-    const long double t7 = t5*t6;
-    const long double M01 = t4*t7;
-    const long double t8 = y[2]*y[2];
-    const long double t9 = t0*t3 - t1*t2;
-    const long double t10 = t7*t9;
-    const long double t11 = p[1]*p[3]*p[3];
-    const long double M11 = p[5] + (1.0L/4.0L)*t11;
-    const long double t12 = p[6]*(p[0] + 2*p[1]);
-    const long double t13 = y[3]*y[3];
-    const long double t14 = t13*t6;
-    const long double F0 = -t5*(t0*t12 + t14*t9);
-    const long double t15 = p[6]*t1;
-    const long double t16 = (1.0L/2.0L)*p[1];
-    const long double t17 = t16*p[3];
-    const long double F1 = t17*(t8*t9*p[2] - t15);
-    const long double t18 = p[2]*p[2];
-    const long double M00 = p[4] + t18*(p[1] + (1.0L/4.0L)*p[0]);
+    const long double t5 = y[3]*y[3];
+    const long double t6 = t5*p[3]*p[1];
+    const long double t7 = p[6]*(p[0] + 2*p[1]);
+    const long double t8 = (1.0L/2.0L)*p[2];
+    const long double t9 = (1.0L/2.0L)*p[1];
+    const long double t10 = t9*p[3];
+    const long double t11 = t10*p[2];
+    const long double t12 = t1*t2 - t0*t3;
+    const long double t13 = t11*t12;
+    const long double t14 = p[2]*p[2];
+    const long double M00 = p[4] + t14*(p[1] + (1.0L/4.0L)*p[0]);
+    const long double M01 = t11*t4;
+    const long double F0 = -t8*(t12*t6 + t2*t7);
+    const long double t15 = y[2]*y[2];
+    const long double t16 = t15*p[2];
+    const long double F1 = t10*(t12*t16 - p[6]*t3);
+    const long double t17 = p[1]*p[3]*p[3];
+    const long double M11 = p[5] + (1.0L/4.0L)*t17;
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
-    const long double qdd0 = rdet*(F0*M11 - F1*M01);
-    const long double t19 = qdd0*t10;
-    const long double t20 = t19 + M01*t8;
     const long double qdd1 = rdet*(F1*M00 - F0*M01);
-    const long double t21 = qdd1*t10;
-    const long double t22 = t21 - t5*(t12*t2 + t14*t4);
-    const long double t23 = (1.0L/2.0L)*t13*t4*p[2]*p[3]*p[1] - t21;
-    const long double t24 = (1.0L/2.0L)*p[3]*p[1]*(-p[6]*t3 - t4*t8*p[2]) - t19;
+    const long double t18 = qdd1*t13;
+    const long double t19 = t18 - t8*(t0*t7 + t4*t6);
+    const long double qdd0 = rdet*(F0*M11 - F1*M01);
+    const long double t20 = qdd0*t13;
+    const long double t21 = t16*t4;
+    const long double t22 = t20 + t10*t21;
+    const long double t23 = M01*t5 - t18;
+    const long double t24 = t10*(-t21 - p[6]*t1) - t20;
     const long double t25 = M01*rdet;
-    const long double t26 = t6*t9*p[2];
+    const long double t26 = t12*p[2]*p[3]*p[1];
     const long double t27 = t26*y[2];
     const long double t28 = M11*rdet;
     const long double t29 = t26*y[3];
     const long double t30 = M00*rdet;
-    const long double t31 = rdet*(M11*t22 - M01*t20);
+    const long double t31 = rdet*(M11*t19 - M01*t22);
     const long double t32 = rdet*(M11*t23 - M01*t24);
     const long double t33 = -t25*t27;
     const long double t34 = -t28*t29;
-    const long double t35 = rdet*(M00*t20 - M01*t22);
+    const long double t35 = rdet*(M00*t22 - M01*t19);
     const long double t36 = rdet*(M00*t24 - M01*t23);
     const long double t37 = t27*t30;
     const long double t38 = t25*t29;
@@ -1216,7 +1210,7 @@ int compound_jacobian_batch_l(long n, const long double *restrict y, long y_stri
     return all;
 }
 
-/* compound_hamiltonian_rhs (double). Total ops: 50 */
+/* compound_hamiltonian_rhs (double). Total ops: 49 */
 int compound_hamiltonian_rhs(const double *restrict x, const double *restrict p, double *restrict xdot)
 {
     int status = COMPOUND_STATUS_OK;
@@ -1229,14 +1223,14 @@ int compound_hamiltonian_rhs(const double *restrict x, const double *restrict p,
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t0 = lane_sin[0];
-    const double t1 = lane_sin[1];
-    const double t2 = lane_cos[0];
-    const double t3 = lane_cos[1];
+    const double t0 = lane_cos[0];
+    const double t1 = lane_cos[1];
+    const double t2 = lane_sin[0];
+    const double t3 = lane_sin[1];
     const double t4 = t0*t1 + t2*t3;
-    const double t5 = (1.0/2.0)*p[2];
-    const double t6 = p[3]*p[1];
-    const double t7 = t5*t6;
+    const double t5 = (1.0/2.0)*p[1];
+    const double t6 = t5*p[3];
+    const double t7 = t6*p[2];
     const double M01 = t4*t7;
     const double t8 = p[1]*p[3]*p[3];
     const double M11 = p[5] + (1.0/4.0)*t8;
@@ -1247,22 +1241,21 @@ int compound_hamiltonian_rhs(const double *restrict x, const double *restrict p,
     const double v0 = rdet*(M11*x[2] - M01*x[3]);
     const double v1 = rdet*(M00*x[3] - M01*x[2]);
     const double t10 = p[6]*(p[1] + (1.0/2.0)*p[0]);
-    const double t11 = t0*p[2];
-    const double t12 = t0*t3 - t1*t2;
+    const double t11 = t2*p[2];
+    const double t12 = t1*t2 - t0*t3;
     const double t13 = t12*t7;
     const double t14 = t13*v1;
     const double t15 = t14*v0;
-    const double t16 = p[6]*t1;
-    const double t17 = (1.0/2.0)*p[1];
-    const double t18 = t17*p[3];
-    const double t19 = -t15 - t10*t11;
-    const double t20 = t15 - t16*t18;
+    const double t16 = p[6]*t5;
+    const double t17 = t3*p[3];
+    const double t18 = -t15 - t10*t11;
+    const double t19 = t15 - t16*t17;
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = t19;
-    xdot[3] = t20;
+    xdot[2] = t18;
+    xdot[3] = t19;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (v0 - v0) + (v1 - v1) + (t19 - t19) + (t20 - t20);
+    check = (v0 - v0) + (v1 - v1) + (t18 - t18) + (t19 - t19);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1283,19 +1276,19 @@ int compound_hamiltonian_rhs_batch(long n, const double *restrict x, long x_stri
     return all;
 }
 
-/* compound_hamiltonian_rhs_f (float). Total ops: 50 */
+/* compound_hamiltonian_rhs_f (float). Total ops: 49 */
 int compound_hamiltonian_rhs_f(const float *restrict x, const float *restrict p, float *restrict xdot)
 {
     int status = COMPOUND_STATUS_OK;
     float check;
-    const float t0 = sinf(x[0]);
-    const float t1 = sinf(x[1]);
-    const float t2 = cosf(x[0]);
-    const float t3 = cosf(x[1]);
+    const float t0 = cosf(x[0]);
+    const float t1 = cosf(x[1]);
+    const float t2 = sinf(x[0]);
+    const float t3 = sinf(x[1]);
     const float t4 = t0*t1 + t2*t3;
-    const float t5 = (1.0F/2.0F)*p[2];
-    const float t6 = p[3]*p[1];
-    const float t7 = t5*t6;
+    const float t5 = (1.0F/2.0F)*p[1];
+    const float t6 = t5*p[3];
+    const float t7 = t6*p[2];
     const float M01 = t4*t7;
     const float t8 = p[1]*p[3]*p[3];
     const float M11 = p[5] + (1.0F/4.0F)*t8;
@@ -1306,22 +1299,21 @@ int compound_hamiltonian_rhs_f(const float *restrict x, const float *restrict p,
     const float v0 = rdet*(M11*x[2] - M01*x[3]);
     const float v1 = rdet*(M00*x[3] - M01*x[2]);
     const float t10 = p[6]*(p[1] + (1.0F/2.0F)*p[0]);
-    const float t11 = t0*p[2];
-    const float t12 = t0*t3 - t1*t2;
+    const float t11 = t2*p[2];
+    const float t12 = t1*t2 - t0*t3;
     const float t13 = t12*t7;
     const float t14 = t13*v1;
     const float t15 = t14*v0;
-    const float t16 = p[6]*t1;
-    const float t17 = (1.0F/2.0F)*p[1];
-    const float t18 = t17*p[3];
-    const float t19 = -t15 - t10*t11;
-    const float t20 = t15 - t16*t18;
+    const float t16 = p[6]*t5;
+    const float t17 = t3*p[3];
+    const float t18 = -t15 - t10*t11;
+    const float t19 = t15 - t16*t17;
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = t19;
-    xdot[3] = t20;
+    xdot[2] = t18;
+    xdot[3] = t19;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (v0 - v0) + (v1 - v1) + (t19 - t19) + (t20 - t20);
+    check = (v0 - v0) + (v1 - v1) + (t18 - t18) + (t19 - t19);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1342,19 +1334,19 @@ int compound_hamiltonian_rhs_batch_f(long n, const float *restrict x, long x_str
     return all;
 }
 
-/* compound_hamiltonian_rhs_l (long double). Total ops: 50 */
+/* compound_hamiltonian_rhs_l (long double). Total ops: 49 */
 int compound_hamiltonian_rhs_l(const long double *restrict x, const long double *restrict p, long double *restrict xdot)
 {
     int status = COMPOUND_STATUS_OK;
     long double check;
-    const long double t0 = sinl(x[0]);
-    const long double t1 = sinl(x[1]);
-    const long double t2 = cosl(x[0]);
-    const long double t3 = cosl(x[1]);
+    const long double t0 = cosl(x[0]);
+    const long double t1 = cosl(x[1]);
+    const long double t2 = sinl(x[0]);
+    const long double t3 = sinl(x[1]);
     const long double t4 = t0*t1 + t2*t3;
-    const long double t5 = (1.0L/2.0L)*p[2];
-    const long double t6 = p[3]*p[1];
-    const long double t7 = t5*t6;
+    const long double t5 = (1.0L/2.0L)*p[1];
+    const long double t6 = t5*p[3];
+    const long double t7 = t6*p[2];
     const long double M01 = t4*t7;
     const long double t8 = p[1]*p[3]*p[3];
     const long double M11 = p[5] + (1.0L/4.0L)*t8;
@@ -1365,22 +1357,21 @@ int compound_hamiltonian_rhs_l(const long double *restrict x, const long double 
     const long double v0 = rdet*(M11*x[2] - M01*x[3]);
     const long double v1 = rdet*(M00*x[3] - M01*x[2]);
     const long double t10 = p[6]*(p[1] + (1.0L/2.0L)*p[0]);
-    const long double t11 = t0*p[2];
-    const long double t12 = t0*t3 - t1*t2;
+    const long double t11 = t2*p[2];
+    const long double t12 = t1*t2 - t0*t3;
     const long double t13 = t12*t7;
     const long double t14 = t13*v1;
     const long double t15 = t14*v0;
-    const long double t16 = p[6]*t1;
-    const long double t17 = (1.0L/2.0L)*p[1];
-    const long double t18 = t17*p[3];
-    const long double t19 = -t15 - t10*t11;
-    const long double t20 = t15 - t16*t18;
+    const long double t16 = p[6]*t5;
+    const long double t17 = t3*p[3];
+    const long double t18 = -t15 - t10*t11;
+    const long double t19 = t15 - t16*t17;
     xdot[0] = v0;
     xdot[1] = v1;
-    xdot[2] = t19;
-    xdot[3] = t20;
+    xdot[2] = t18;
+    xdot[3] = t19;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (v0 - v0) + (v1 - v1) + (t19 - t19) + (t20 - t20);
+    check = (v0 - v0) + (v1 - v1) + (t18 - t18) + (t19 - t19);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1414,54 +1405,64 @@ int compound_hamiltonian_jacobian(const double *restrict x, const double *restri
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t0 = lane_sin[0];
-    const double t1 = lane_sin[1];
-    const double t2 = lane_cos[0];
-    const double t3 = lane_cos[1];
-    const double t4 = t0*t3 - t1*t2;
-    const double t5 = (1.0/2.0)*p[2];
-    const double t6 = p[3]*p[1];
-    const double t7 = t5*t6;
-    const double t8 = t4*t7;
-    const double t9 = t0*t1 + t2*t3;
-    const double M01 = t7*t9;
-    const double t10 = p[1]*p[3]*p[3];
-    const double M11 = p[5] + (1.0/4.0)*t10;
-    const double t11 = p[2]*p[2];
-    const double M00 = p[4] + t11*(p[1] + (1.0/4.0)*p[0]);
+    const double t3 = lane_cos[0];
+    const double t4 = lane_cos[1];
+    const double t5 = lane_sin[0];
+    const double t6 = lane_sin[1];
+    const double t0 = (1.0/2.0)*p[1];
+    const double t1 = t0*p[3];
+    const double t2 = t1*p[2];
+    const double t7 = t4*t5 - t3*t6;
+    const double t8 = t2*t7;
+    const double t9 = p[2]*p[2];
+    const double M00 = p[4] + t9*(p[1] + (1.0/4.0)*p[0]);
+    const double t10 = t3*t4 + t5*t6;
+    const double M01 = t10*t2;
+    const double t11 = p[1]*p[3]*p[3];
+    const double M11 = p[5] + (1.0/4.0)*t11;
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
-    const double v0 = rdet*(M11*x[2] - M01*x[3]);
-    const double t12 = t8*v0;
     const double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const double t13 = M01*t12 - (1.0/2.0)*M11*t4*v1*p[2]*p[3]*p[1];
-    const double dv0_0 = -rdet*t13;
-    const double dv0_1 = rdet*t13;
+    const double t12 = t8*v1;
+    const double t13 = M11*t12;
+    const double v0 = rdet*(M11*x[2] - M01*x[3]);
+    const double t14 = t8*v0;
+    const double t15 = M01*t14;
+    const double dv0_0 = rdet*(t13 - t15);
+    const double dv0_1 = rdet*(t15 - t13);
     const double dv0_2 = M11*rdet;
-    const double t14 = M01*rdet;
-    const double dv0_3 = -t14;
-    const double t15 = t8*v1;
-    const double t16 = M00*t12 - M01*t15;
-    const double dv1_0 = rdet*t16;
-    const double dv1_1 = -rdet*t16;
+    const double t16 = M01*rdet;
+    const double dv0_3 = -t16;
+    const double t17 = M00*t14;
+    const double t18 = M01*t12;
+    const double dv1_0 = rdet*(t17 - t18);
+    const double dv1_1 = rdet*(t18 - t17);
     const double dv1_2 = dv0_3;
     const double dv1_3 = M00*rdet;
-    const double t17 = t2*p[2];
-    const double t18 = p[6]*(p[1] + (1.0/2.0)*p[0]);
-    const double t19 = t17*t18;
-    const double t20 = M01*v0*v1;
-    const double t21 = t20 + dv0_0*t15 + dv1_0*t12;
-    const double t22 = dv0_1*t15 + dv1_1*t12 - t20;
-    const double t23 = dv0_2*t15 + dv1_2*t12;
-    const double t24 = dv0_3*t15 + dv1_3*t12;
-    const double t25 = (1.0/2.0)*p[1];
-    const double t26 = t3*p[3];
-    const double t27 = -p[6]*t25*t26;
-    const double t28 = -t19 - t21;
-    const double t29 = -t22;
-    const double t30 = -t23;
-    const double t31 = -t24;
-    const double t32 = t22 + t27;
+    const double t19 = t3*p[2];
+    const double t20 = p[6]*(p[1] + (1.0/2.0)*p[0]);
+    const double t21 = -t19*t20;
+    const double t22 = M01*v0*v1;
+    const double t23 = -t22;
+    const double t24 = dv0_0*t12;
+    const double t25 = dv1_0*t14;
+    const double t26 = dv0_1*t12;
+    const double t27 = dv1_1*t14;
+    const double t28 = dv0_2*t12;
+    const double t29 = dv1_2*t14;
+    const double t30 = dv0_3*t12;
+    const double t31 = dv1_3*t14;
+    const double t32 = t4*p[3];
+    const double t33 = p[6]*t0;
+    const double t34 = -t32*t33;
+    const double t35 = t21 + t23 - t24 - t25;
+    const double t36 = t22 - t26 - t27;
+    const double t37 = -t28 - t29;
+    const double t38 = -t30 - t31;
+    const double t39 = t22 + t24 + t25;
+    const double t40 = t23 + t26 + t27 + t34;
+    const double t41 = t28 + t29;
+    const double t42 = t30 + t31;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1470,19 +1471,19 @@ int compound_hamiltonian_jacobian(const double *restrict x, const double *restri
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = t28;
-    J[9] = t29;
-    J[10] = t30;
-    J[11] = t31;
-    J[12] = t21;
-    J[13] = t32;
-    J[14] = t23;
-    J[15] = t24;
+    J[8] = t35;
+    J[9] = t36;
+    J[10] = t37;
+    J[11] = t38;
+    J[12] = t39;
+    J[13] = t40;
+    J[14] = t41;
+    J[15] = t42;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
-        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t28 - t28) +
-        (t29 - t29) + (t30 - t30) + (t31 - t31) + (t21 - t21) + (t32 - t32) + (t23 - t23) +
-        (t24 - t24);
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t35 - t35) +
+        (t36 - t36) + (t37 - t37) + (t38 - t38) + (t39 - t39) + (t40 - t40) + (t41 - t41) +
+        (t42 - t42);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1508,54 +1509,64 @@ int compound_hamiltonian_jacobian_f(const float *restrict x, const float *restri
 {
     int status = COMPOUND_STATUS_OK;
     float check;
-    const float t0 = sinf(x[0]);
-    const float t1 = sinf(x[1]);
-    const float t2 = cosf(x[0]);
-    const float t3 = cosf(x[1]);
-    const float t4 = t0*t3 - t1*t2;
-    const float t5 = (1.0F/2.0F)*p[2];
-    const float t6 = p[3]*p[1];
-    const float t7 = t5*t6;
-    const float t8 = t4*t7;
-    const float t9 = t0*t1 + t2*t3;
-    const float M01 = t7*t9;
-    const float t10 = p[1]*p[3]*p[3];
-    const float M11 = p[5] + (1.0F/4.0F)*t10;
-    const float t11 = p[2]*p[2];
-    const float M00 = p[4] + t11*(p[1] + (1.0F/4.0F)*p[0]);
+    const float t0 = (1.0F/2.0F)*p[1];
+    const float t1 = t0*p[3];
+    const float t2 = t1*p[2];
+    const float t3 = cosf(x[0]);
+    const float t4 = cosf(x[1]);
+    const float t5 = sinf(x[0]);
+    const float t6 = sinf(x[1]);
+    const float t7 = t4*t5 - t3*t6;
+    const float t8 = t2*t7;
+    const float t9 = p[2]*p[2];
+    const float M00 = p[4] + t9*(p[1] + (1.0F/4.0F)*p[0]);
+    const float t10 = t3*t4 + t5*t6;
+    const float M01 = t10*t2;
+    const float t11 = p[1]*p[3]*p[3];
+    const float M11 = p[5] + (1.0F/4.0F)*t11;
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
-    const float v0 = rdet*(M11*x[2] - M01*x[3]);
-    const float t12 = t8*v0;
     const float v1 = rdet*(M00*x[3] - M01*x[2]);
-    const float t13 = M01*t12 - (1.0F/2.0F)*M11*t4*v1*p[2]*p[3]*p[1];
-    const float dv0_0 = -rdet*t13;
-    const float dv0_1 = rdet*t13;
+    const float t12 = t8*v1;
+    const float t13 = M11*t12;
+    const float v0 = rdet*(M11*x[2] - M01*x[3]);
+    const float t14 = t8*v0;
+    const float t15 = M01*t14;
+    const float dv0_0 = rdet*(t13 - t15);
+    const float dv0_1 = rdet*(t15 - t13);
     const float dv0_2 = M11*rdet;
-    const float t14 = M01*rdet;
-    const float dv0_3 = -t14;
-    const float t15 = t8*v1;
-    const float t16 = M00*t12 - M01*t15;
-    const float dv1_0 = rdet*t16;
-    const float dv1_1 = -rdet*t16;
+    const float t16 = M01*rdet;
+    const float dv0_3 = -t16;
+    const float t17 = M00*t14;
+    const float t18 = M01*t12;
+    const float dv1_0 = rdet*(t17 - t18);
+    const float dv1_1 = rdet*(t18 - t17);
     const float dv1_2 = dv0_3;
     const float dv1_3 = M00*rdet;
-    const float t17 = t2*p[2];
-    const float t18 = p[6]*(p[1] + (1.0F/2.0F)*p[0]);
-    const float t19 = t17*t18;
-    const float t20 = M01*v0*v1;
-    const float t21 = t20 + dv0_0*t15 + dv1_0*t12;
-    const float t22 = dv0_1*t15 + dv1_1*t12 - t20;
-    const float t23 = dv0_2*t15 + dv1_2*t12;
-    const float t24 = dv0_3*t15 + dv1_3*t12;
-    const float t25 = (1.0F/2.0F)*p[1];
-    const float t26 = t3*p[3];
-    const float t27 = -p[6]*t25*t26;
-    const float t28 = -t19 - t21;
-    const float t29 = -t22;
-    const float t30 = -t23;
-    const float t31 = -t24;
-    const float t32 = t22 + t27;
+    const float t19 = t3*p[2];
+    const float t20 = p[6]*(p[1] + (1.0F/2.0F)*p[0]);
+    const float t21 = -t19*t20;
+    const float t22 = M01*v0*v1;
+    const float t23 = -t22;
+    const float t24 = dv0_0*t12;
+    const float t25 = dv1_0*t14;
+    const float t26 = dv0_1*t12;
+    const float t27 = dv1_1*t14;
+    const float t28 = dv0_2*t12;
+    const float t29 = dv1_2*t14;
+    const float t30 = dv0_3*t12;
+    const float t31 = dv1_3*t14;
+    const float t32 = t4*p[3];
+    const float t33 = p[6]*t0;
+    const float t34 = -t32*t33;
+    const float t35 = t21 + t23 - t24 - t25;
+    const float t36 = t22 - t26 - t27;
+    const float t37 = -t28 - t29;
+    const float t38 = -t30 - t31;
+    const float t39 = t22 + t24 + t25;
+    const float t40 = t23 + t26 + t27 + t34;
+    const float t41 = t28 + t29;
+    const float t42 = t30 + t31;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1564,19 +1575,19 @@ int compound_hamiltonian_jacobian_f(const float *restrict x, const float *restri
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = t28;
-    J[9] = t29;
-    J[10] = t30;
-    J[11] = t31;
-    J[12] = t21;
-    J[13] = t32;
-    J[14] = t23;
-    J[15] = t24;
+    J[8] = t35;
+    J[9] = t36;
+    J[10] = t37;
+    J[11] = t38;
+    J[12] = t39;
+    J[13] = t40;
+    J[14] = t41;
+    J[15] = t42;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
-        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t28 - t28) +
-        (t29 - t29) + (t30 - t30) + (t31 - t31) + (t21 - t21) + (t32 - t32) + (t23 - t23) +
-        (t24 - t24);
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t35 - t35) +
+        (t36 - t36) + (t37 - t37) + (t38 - t38) + (t39 - t39) + (t40 - t40) + (t41 - t41) +
+        (t42 - t42);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1602,54 +1613,64 @@ int compound_hamiltonian_jacobian_l(const long double *restrict x, const long do
 {
     int status = COMPOUND_STATUS_OK;
     long double check;
-    const long double t0 = sinl(x[0]);
-    const long double t1 = sinl(x[1]);
-    const long double t2 = cosl(x[0]);
-    const long double t3 = cosl(x[1]);
-    const long double t4 = t0*t3 - t1*t2;
-    const long double t5 = (1.0L/2.0L)*p[2];
-    const long double t6 = p[3]*p[1];
-    const long double t7 = t5*t6;
-    const long double t8 = t4*t7;
-    const long double t9 = t0*t1 + t2*t3;
-    const long double M01 = t7*t9;
-    const long double t10 = p[1]*p[3]*p[3];
-    const long double M11 = p[5] + (1.0L/4.0L)*t10;
-    const long double t11 = p[2]*p[2];
-    const long double M00 = p[4] + t11*(p[1] + (1.0L/4.0L)*p[0]);
+    const long double t0 = (1.0L/2.0L)*p[1];
+    const long double t1 = t0*p[3];
+    const long double t2 = t1*p[2];
+    const long double t3 = cosl(x[0]);
+    const long double t4 = cosl(x[1]);
+    const long double t5 = sinl(x[0]);
+    const long double t6 = sinl(x[1]);
+    const long double t7 = t4*t5 - t3*t6;
+    const long double t8 = t2*t7;
+    const long double t9 = p[2]*p[2];
+    const long double M00 = p[4] + t9*(p[1] + (1.0L/4.0L)*p[0]);
+    const long double t10 = t3*t4 + t5*t6;
+    const long double M01 = t10*t2;
+    const long double t11 = p[1]*p[3]*p[3];
+    const long double M11 = p[5] + (1.0L/4.0L)*t11;
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
-    const long double v0 = rdet*(M11*x[2] - M01*x[3]);
-    const long double t12 = t8*v0;
     const long double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const long double t13 = M01*t12 - (1.0L/2.0L)*M11*t4*v1*p[2]*p[3]*p[1];
-    const long double dv0_0 = -rdet*t13;
-    const long double dv0_1 = rdet*t13;
+    const long double t12 = t8*v1;
+    const long double t13 = M11*t12;
+    const long double v0 = rdet*(M11*x[2] - M01*x[3]);
+    const long double t14 = t8*v0;
+    const long double t15 = M01*t14;
+    const long double dv0_0 = rdet*(t13 - t15);
+    const long double dv0_1 = rdet*(t15 - t13);
     const long double dv0_2 = M11*rdet;
-    const long double t14 = M01*rdet;
-    const long double dv0_3 = -t14;
-    const long double t15 = t8*v1;
-    const long double t16 = M00*t12 - M01*t15;
-    const long double dv1_0 = rdet*t16;
-    const long double dv1_1 = -rdet*t16;
+    const long double t16 = M01*rdet;
+    const long double dv0_3 = -t16;
+    const long double t17 = M00*t14;
+    const long double t18 = M01*t12;
+    const long double dv1_0 = rdet*(t17 - t18);
+    const long double dv1_1 = rdet*(t18 - t17);
     const long double dv1_2 = dv0_3;
     const long double dv1_3 = M00*rdet;
-    const long double t17 = t2*p[2];
-    const long double t18 = p[6]*(p[1] + (1.0L/2.0L)*p[0]);
-    const long double t19 = t17*t18;
-    const long double t20 = M01*v0*v1;
-    const long double t21 = t20 + dv0_0*t15 + dv1_0*t12;
-    const long double t22 = dv0_1*t15 + dv1_1*t12 - t20;
-    const long double t23 = dv0_2*t15 + dv1_2*t12;
-    const long double t24 = dv0_3*t15 + dv1_3*t12;
-    const long double t25 = (1.0L/2.0L)*p[1];
-    const long double t26 = t3*p[3];
-    const long double t27 = -p[6]*t25*t26;
-    const long double t28 = -t19 - t21;
-    const long double t29 = -t22;
-    const long double t30 = -t23;
-    const long double t31 = -t24;
-    const long double t32 = t22 + t27;
+    const long double t19 = t3*p[2];
+    const long double t20 = p[6]*(p[1] + (1.0L/2.0L)*p[0]);
+    const long double t21 = -t19*t20;
+    const long double t22 = M01*v0*v1;
+    const long double t23 = -t22;
+    const long double t24 = dv0_0*t12;
+    const long double t25 = dv1_0*t14;
+    const long double t26 = dv0_1*t12;
+    const long double t27 = dv1_1*t14;
+    const long double t28 = dv0_2*t12;
+    const long double t29 = dv1_2*t14;
+    const long double t30 = dv0_3*t12;
+    const long double t31 = dv1_3*t14;
+    const long double t32 = t4*p[3];
+    const long double t33 = p[6]*t0;
+    const long double t34 = -t32*t33;
+    const long double t35 = t21 + t23 - t24 - t25;
+    const long double t36 = t22 - t26 - t27;
+    const long double t37 = -t28 - t29;
+    const long double t38 = -t30 - t31;
+    const long double t39 = t22 + t24 + t25;
+    const long double t40 = t23 + t26 + t27 + t34;
+    const long double t41 = t28 + t29;
+    const long double t42 = t30 + t31;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1658,19 +1679,19 @@ int compound_hamiltonian_jacobian_l(const long double *restrict x, const long do
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = t28;
-    J[9] = t29;
-    J[10] = t30;
-    J[11] = t31;
-    J[12] = t21;
-    J[13] = t32;
-    J[14] = t23;
-    J[15] = t24;
+    J[8] = t35;
+    J[9] = t36;
+    J[10] = t37;
+    J[11] = t38;
+    J[12] = t39;
+    J[13] = t40;
+    J[14] = t41;
+    J[15] = t42;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
-        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t28 - t28) +
-        (t29 - t29) + (t30 - t30) + (t31 - t31) + (t21 - t21) + (t32 - t32) + (t23 - t23) +
-        (t24 - t24);
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t35 - t35) +
+        (t36 - t36) + (t37 - t37) + (t38 - t38) + (t39 - t39) + (t40 - t40) + (t41 - t41) +
+        (t42 - t42);
     if (isnan(check)) {
         status |= COMPOUND_STATUS_NONFINITE;
     }
@@ -1704,16 +1725,16 @@ int compound_to_canonical(const double *restrict y, const double *restrict p, do
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t2 = lane_sin[0];
-    const double t3 = lane_sin[1];
-    const double t4 = lane_cos[0];
-    const double t5 = lane_cos[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
+    const double t4 = lane_sin[0];
+    const double t5 = lane_sin[1];
     const double t0 = p[2]*p[2];
     const double t1 = p[4] + t0*(p[1] + (1.0/4.0)*p[0]);
     const double t6 = t2*t3 + t4*t5;
-    const double t7 = (1.0/2.0)*p[2];
-    const double t8 = p[3]*p[1];
-    const double t9 = t7*t8;
+    const double t7 = (1.0/2.0)*p[1];
+    const double t8 = t7*p[3];
+    const double t9 = t8*p[2];
     const double t10 = t6*t9;
     const double t11 = t10*y[3];
     const double t12 = p[1]*p[3]*p[3];
@@ -1753,14 +1774,14 @@ int compound_to_canonical_f(const float *restrict y, const float *restrict p, fl
     float check;
     const float t0 = p[2]*p[2];
     const float t1 = p[4] + t0*(p[1] + (1.0F/4.0F)*p[0]);
-    const float t2 = sinf(y[0]);
-    const float t3 = sinf(y[1]);
-    const float t4 = cosf(y[0]);
-    const float t5 = cosf(y[1]);
+    const float t2 = cosf(y[0]);
+    const float t3 = cosf(y[1]);
+    const float t4 = sinf(y[0]);
+    const float t5 = sinf(y[1]);
     const float t6 = t2*t3 + t4*t5;
-    const float t7 = (1.0F/2.0F)*p[2];
-    const float t8 = p[3]*p[1];
-    const float t9 = t7*t8;
+    const float t7 = (1.0F/2.0F)*p[1];
+    const float t8 = t7*p[3];
+    const float t9 = t8*p[2];
     const float t10 = t6*t9;
     const float t11 = t10*y[3];
     const float t12 = p[1]*p[3]*p[3];
@@ -1800,14 +1821,14 @@ int compound_to_canonical_l(const long double *restrict y, const long double *re
     long double check;
     const long double t0 = p[2]*p[2];
     const long double t1 = p[4] + t0*(p[1] + (1.0L/4.0L)*p[0]);
-    const long double t2 = sinl(y[0]);
-    const long double t3 = sinl(y[1]);
-    const long double t4 = cosl(y[0]);
-    const long double t5 = cosl(y[1]);
+    const long double t2 = cosl(y[0]);
+    const long double t3 = cosl(y[1]);
+    const long double t4 = sinl(y[0]);
+    const long double t5 = sinl(y[1]);
     const long double t6 = t2*t3 + t4*t5;
-    const long double t7 = (1.0L/2.0L)*p[2];
-    const long double t8 = p[3]*p[1];
-    const long double t9 = t7*t8;
+    const long double t7 = (1.0L/2.0L)*p[1];
+    const long double t8 = t7*p[3];
+    const long double t9 = t8*p[2];
     const long double t10 = t6*t9;
     const long double t11 = t10*y[3];
     const long double t12 = p[1]*p[3]*p[3];
@@ -1853,14 +1874,14 @@ int compound_from_canonical(const double *restrict x, const double *restrict p, 
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t0 = lane_sin[0];
-    const double t1 = lane_sin[1];
-    const double t2 = lane_cos[0];
-    const double t3 = lane_cos[1];
+    const double t0 = lane_cos[0];
+    const double t1 = lane_cos[1];
+    const double t2 = lane_sin[0];
+    const double t3 = lane_sin[1];
     const double t4 = t0*t1 + t2*t3;
-    const double t5 = (1.0/2.0)*p[2];
-    const double t6 = p[3]*p[1];
-    const double t7 = t5*t6;
+    const double t5 = (1.0/2.0)*p[1];
+    const double t6 = t5*p[3];
+    const double t7 = t6*p[2];
     const double M01 = t4*t7;
     const double t8 = p[1]*p[3]*p[3];
     const double M11 = p[5] + (1.0/4.0)*t8;
@@ -1901,14 +1922,14 @@ int compound_from_canonical_f(const float *restrict x, const float *restrict p, 
 {
     int status = COMPOUND_STATUS_OK;
     float check;
-    const float t0 = sinf(x[0]);
-    const float t1 = sinf(x[1]);
-    const float t2 = cosf(x[0]);
-    const float t3 = cosf(x[1]);
+    const float t0 = cosf(x[0]);
+    const float t1 = cosf(x[1]);
+    const float t2 = sinf(x[0]);
+    const float t3 = sinf(x[1]);
     const float t4 = t0*t1 + t2*t3;
-    const float t5 = (1.0F/2.0F)*p[2];
-    const float t6 = p[3]*p[1];
-    const float t7 = t5*t6;
+    const float t5 = (1.0F/2.0F)*p[1];
+    const float t6 = t5*p[3];
+    const float t7 = t6*p[2];
     const float M01 = t4*t7;
     const float t8 = p[1]*p[3]*p[3];
     const float M11 = p[5] + (1.0F/4.0F)*t8;
@@ -1949,14 +1970,14 @@ int compound_from_canonical_l(const long double *restrict x, const long double *
 {
     int status = COMPOUND_STATUS_OK;
     long double check;
-    const long double t0 = sinl(x[0]);
-    const long double t1 = sinl(x[1]);
-    const long double t2 = cosl(x[0]);
-    const long double t3 = cosl(x[1]);
+    const long double t0 = cosl(x[0]);
+    const long double t1 = cosl(x[1]);
+    const long double t2 = sinl(x[0]);
+    const long double t3 = sinl(x[1]);
     const long double t4 = t0*t1 + t2*t3;
-    const long double t5 = (1.0L/2.0L)*p[2];
-    const long double t6 = p[3]*p[1];
-    const long double t7 = t5*t6;
+    const long double t5 = (1.0L/2.0L)*p[1];
+    const long double t6 = t5*p[3];
+    const long double t7 = t6*p[2];
     const long double M01 = t4*t7;
     const long double t8 = p[1]*p[3]*p[3];
     const long double M11 = p[5] + (1.0L/4.0L)*t8;

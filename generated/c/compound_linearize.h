@@ -56,7 +56,7 @@ extern const char *const compound_linearize_param_names[COMPOUND_LINEARIZE_N_PAR
  *   in  y[4]: the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
  *   in  p[7]: the parameters: (m1, m2, l1, l2, L1, L2, g)
  *   out A[16]: A = df/dy, row-major
- * Total ops: 107
+ * Total ops: 101
  */
 #define COMPOUND_LINEARIZE_Y_SIZE 4
 #define COMPOUND_LINEARIZE_Y_RANK 1

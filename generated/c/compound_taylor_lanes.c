@@ -78,7 +78,7 @@
 #else
 #define DERIVE_LANES_INLINE static inline
 #endif
-#define DERIVE_LANES_USES_ADD 1
+#define DERIVE_LANES_USES_ADD 0
 #define DERIVE_LANES_USES_SUB 1
 #define DERIVE_LANES_USES_SCALE 1
 #define DERIVE_LANES_USES_SHIFT 0
@@ -114,8 +114,8 @@ static void compound_lconstants(R (*C)[L], int l, const R *p)
     C[3][l] = p[3]*p[1];
     C[4][l] = -(1.0/2.0)*p[2];
     C[5][l] = -(1.0/2.0)*p[2]*(p[5] + (1.0/4.0)*p[1]*p[3]*p[3]);
-    C[6][l] = p[2];
-    C[7][l] = p[6];
+    C[6][l] = -p[6];
+    C[7][l] = p[2];
     C[8][l] = (1.0/2.0)*p[3]*p[1];
     C[9][l] = (1.0/2.0)*p[3]*p[1]*(p[4] + p[2]*p[2]*(p[1] + (1.0/4.0)*p[0]));
 }
@@ -127,16 +127,16 @@ static void compound_lconstants(R (*C)[L], int l, const R *p)
 static void compound_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     static const int HA0[15] = {
-        0, 0, 1, 3, 2, 0, 12, 6, 7, 8, 13, 14, 0, 0, 1
+        1, 0, 1, 3, 2, 0, 12, 6, 7, 8, 13, 14, 0, 0, 1
     };
     static const int HA1[15] = {
-        1, 13, 14, 0, 0, 12, 1, 0, 4, 8, 7, 7, 5, 1, 2
+        0, 13, 14, 0, 0, 12, 1, 0, 4, 8, 7, 7, 5, 1, 2
     };
     static const int TA0[15] = {
-        1, 2, 5, 5, 2, 3, 6, 0, 5, 7, 8, 9, 8, 9, 10
+        1, 2, 5, 5, 2, 3, 6, 0, 1, 7, 8, 9, 8, 9, 10
     };
     static const int TA1[15] = {
-        2, 7, 3, 4, 3, 6, 0, 4, 1, 5, 9, 6, 6, 11, 12
+        2, 6, 3, 4, 3, 7, 0, 4, 5, 5, 9, 6, 6, 11, 12
     };
     R H[15][ORDER_DIM * L];     /* nodes read at every order */
     R T[15][L];                 /* nodes read at this order only */
@@ -154,8 +154,7 @@ static void compound_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R 
         for (u = 6; u < 7; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
         for (u = 4; u < 6; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
         for (u = 6; u < 7; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 7; u < 8; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 8; u < 9; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 7; u < 9; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
         for (u = 7; u < 8; ++u) { LANES_CSUB(H[u] + k * L, C[HA1[u]], T[HA0[u]], k); }
         for (u = 8; u < 10; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
         for (u = 9; u < 11; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
@@ -180,7 +179,7 @@ static void compound_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R 
     (void)bad;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        LANES_SUB(H[0] + k * L, X[0] + k * L, X[1] + k * L);
+        LANES_SUB(H[0] + k * L, X[1] + k * L, X[0] + k * L);
         LANES_SINCOS(H[1], H[2], H[0], k);
         LANES_SCALE(H[3] + k * L, C[1], H[2] + k * L);
         LANES_SQUARE(T[0], H[3], k);
@@ -190,15 +189,15 @@ static void compound_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R 
         LANES_SQUARE(H[7] + k * L, X[3], k);
         LANES_MUL(T[2], H[1], H[7], k);
         LANES_SCALE(T[3], C[3], T[2]);
-        LANES_ADD(T[4], T[1], T[3]);
+        LANES_SUB(T[4], T[1], T[3]);
         LANES_SCALE(H[8] + k * L, C[4], T[4]);
         LANES_SCALE(T[5], C[5], T[4]);
-        LANES_SQUARE(H[9] + k * L, X[2], k);
-        LANES_MUL(T[6], H[1], H[9], k);
-        LANES_SCALE(T[7], C[6], T[6]);
-        LANES_SINCOS(H[10], H[11], X[1], k);
-        LANES_SCALE(T[8], C[7], H[10] + k * L);
-        LANES_SUB(T[9], T[7], T[8]);
+        LANES_SINCOS(H[9], H[10], X[1], k);
+        LANES_SCALE(T[6], C[6], H[9] + k * L);
+        LANES_SQUARE(H[11] + k * L, X[2], k);
+        LANES_MUL(T[7], H[1], H[11], k);
+        LANES_SCALE(T[8], C[7], T[7]);
+        LANES_SUB(T[9], T[6], T[8]);
         LANES_SCALE(H[12] + k * L, C[8], T[9]);
         LANES_MUL(T[10], H[12], H[3], k);
         LANES_SUB(T[11], T[5], T[10]);
@@ -247,8 +246,8 @@ static void compound_lconstants_f(R (*C)[L], int l, const R *p)
     C[3][l] = p[3]*p[1];
     C[4][l] = -(1.0F/2.0F)*p[2];
     C[5][l] = -(1.0F/2.0F)*p[2]*(p[5] + (1.0F/4.0F)*p[1]*p[3]*p[3]);
-    C[6][l] = p[2];
-    C[7][l] = p[6];
+    C[6][l] = -p[6];
+    C[7][l] = p[2];
     C[8][l] = (1.0F/2.0F)*p[3]*p[1];
     C[9][l] = (1.0F/2.0F)*p[3]*p[1]*(p[4] + p[2]*p[2]*(p[1] + (1.0F/4.0F)*p[0]));
 }
@@ -260,16 +259,16 @@ static void compound_lconstants_f(R (*C)[L], int l, const R *p)
 static void compound_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     static const int HA0[15] = {
-        0, 0, 1, 3, 2, 0, 12, 6, 7, 8, 13, 14, 0, 0, 1
+        1, 0, 1, 3, 2, 0, 12, 6, 7, 8, 13, 14, 0, 0, 1
     };
     static const int HA1[15] = {
-        1, 13, 14, 0, 0, 12, 1, 0, 4, 8, 7, 7, 5, 1, 2
+        0, 13, 14, 0, 0, 12, 1, 0, 4, 8, 7, 7, 5, 1, 2
     };
     static const int TA0[15] = {
-        1, 2, 5, 5, 2, 3, 6, 0, 5, 7, 8, 9, 8, 9, 10
+        1, 2, 5, 5, 2, 3, 6, 0, 1, 7, 8, 9, 8, 9, 10
     };
     static const int TA1[15] = {
-        2, 7, 3, 4, 3, 6, 0, 4, 1, 5, 9, 6, 6, 11, 12
+        2, 6, 3, 4, 3, 7, 0, 4, 5, 5, 9, 6, 6, 11, 12
     };
     R H[15][ORDER_DIM * L];     /* nodes read at every order */
     R T[15][L];                 /* nodes read at this order only */
@@ -287,8 +286,7 @@ static void compound_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, 
         for (u = 6; u < 7; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
         for (u = 4; u < 6; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
         for (u = 6; u < 7; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 7; u < 8; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 8; u < 9; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 7; u < 9; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
         for (u = 7; u < 8; ++u) { LANES_CSUB(H[u] + k * L, C[HA1[u]], T[HA0[u]], k); }
         for (u = 8; u < 10; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
         for (u = 9; u < 11; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
@@ -313,7 +311,7 @@ static void compound_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, 
     (void)bad;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        LANES_SUB(H[0] + k * L, X[0] + k * L, X[1] + k * L);
+        LANES_SUB(H[0] + k * L, X[1] + k * L, X[0] + k * L);
         LANES_SINCOS(H[1], H[2], H[0], k);
         LANES_SCALE(H[3] + k * L, C[1], H[2] + k * L);
         LANES_SQUARE(T[0], H[3], k);
@@ -323,15 +321,15 @@ static void compound_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, 
         LANES_SQUARE(H[7] + k * L, X[3], k);
         LANES_MUL(T[2], H[1], H[7], k);
         LANES_SCALE(T[3], C[3], T[2]);
-        LANES_ADD(T[4], T[1], T[3]);
+        LANES_SUB(T[4], T[1], T[3]);
         LANES_SCALE(H[8] + k * L, C[4], T[4]);
         LANES_SCALE(T[5], C[5], T[4]);
-        LANES_SQUARE(H[9] + k * L, X[2], k);
-        LANES_MUL(T[6], H[1], H[9], k);
-        LANES_SCALE(T[7], C[6], T[6]);
-        LANES_SINCOS(H[10], H[11], X[1], k);
-        LANES_SCALE(T[8], C[7], H[10] + k * L);
-        LANES_SUB(T[9], T[7], T[8]);
+        LANES_SINCOS(H[9], H[10], X[1], k);
+        LANES_SCALE(T[6], C[6], H[9] + k * L);
+        LANES_SQUARE(H[11] + k * L, X[2], k);
+        LANES_MUL(T[7], H[1], H[11], k);
+        LANES_SCALE(T[8], C[7], T[7]);
+        LANES_SUB(T[9], T[6], T[8]);
         LANES_SCALE(H[12] + k * L, C[8], T[9]);
         LANES_MUL(T[10], H[12], H[3], k);
         LANES_SUB(T[11], T[5], T[10]);
@@ -380,8 +378,8 @@ static void compound_lconstants_l(R (*C)[L], int l, const R *p)
     C[3][l] = p[3]*p[1];
     C[4][l] = -(1.0L/2.0L)*p[2];
     C[5][l] = -(1.0L/2.0L)*p[2]*(p[5] + (1.0L/4.0L)*p[1]*p[3]*p[3]);
-    C[6][l] = p[2];
-    C[7][l] = p[6];
+    C[6][l] = -p[6];
+    C[7][l] = p[2];
     C[8][l] = (1.0L/2.0L)*p[3]*p[1];
     C[9][l] = (1.0L/2.0L)*p[3]*p[1]*(p[4] + p[2]*p[2]*(p[1] + (1.0L/4.0L)*p[0]));
 }
@@ -393,16 +391,16 @@ static void compound_lconstants_l(R (*C)[L], int l, const R *p)
 static void compound_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
     static const int HA0[15] = {
-        0, 0, 1, 3, 2, 0, 12, 6, 7, 8, 13, 14, 0, 0, 1
+        1, 0, 1, 3, 2, 0, 12, 6, 7, 8, 13, 14, 0, 0, 1
     };
     static const int HA1[15] = {
-        1, 13, 14, 0, 0, 12, 1, 0, 4, 8, 7, 7, 5, 1, 2
+        0, 13, 14, 0, 0, 12, 1, 0, 4, 8, 7, 7, 5, 1, 2
     };
     static const int TA0[15] = {
-        1, 2, 5, 5, 2, 3, 6, 0, 5, 7, 8, 9, 8, 9, 10
+        1, 2, 5, 5, 2, 3, 6, 0, 1, 7, 8, 9, 8, 9, 10
     };
     static const int TA1[15] = {
-        2, 7, 3, 4, 3, 6, 0, 4, 1, 5, 9, 6, 6, 11, 12
+        2, 6, 3, 4, 3, 7, 0, 4, 5, 5, 9, 6, 6, 11, 12
     };
     R H[15][ORDER_DIM * L];     /* nodes read at every order */
     R T[15][L];                 /* nodes read at this order only */
@@ -420,8 +418,7 @@ static void compound_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, 
         for (u = 6; u < 7; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
         for (u = 4; u < 6; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
         for (u = 6; u < 7; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 7; u < 8; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 8; u < 9; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 7; u < 9; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
         for (u = 7; u < 8; ++u) { LANES_CSUB(H[u] + k * L, C[HA1[u]], T[HA0[u]], k); }
         for (u = 8; u < 10; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
         for (u = 9; u < 11; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
@@ -446,7 +443,7 @@ static void compound_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, 
     (void)bad;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        LANES_SUB(H[0] + k * L, X[0] + k * L, X[1] + k * L);
+        LANES_SUB(H[0] + k * L, X[1] + k * L, X[0] + k * L);
         LANES_SINCOS(H[1], H[2], H[0], k);
         LANES_SCALE(H[3] + k * L, C[1], H[2] + k * L);
         LANES_SQUARE(T[0], H[3], k);
@@ -456,15 +453,15 @@ static void compound_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, 
         LANES_SQUARE(H[7] + k * L, X[3], k);
         LANES_MUL(T[2], H[1], H[7], k);
         LANES_SCALE(T[3], C[3], T[2]);
-        LANES_ADD(T[4], T[1], T[3]);
+        LANES_SUB(T[4], T[1], T[3]);
         LANES_SCALE(H[8] + k * L, C[4], T[4]);
         LANES_SCALE(T[5], C[5], T[4]);
-        LANES_SQUARE(H[9] + k * L, X[2], k);
-        LANES_MUL(T[6], H[1], H[9], k);
-        LANES_SCALE(T[7], C[6], T[6]);
-        LANES_SINCOS(H[10], H[11], X[1], k);
-        LANES_SCALE(T[8], C[7], H[10] + k * L);
-        LANES_SUB(T[9], T[7], T[8]);
+        LANES_SINCOS(H[9], H[10], X[1], k);
+        LANES_SCALE(T[6], C[6], H[9] + k * L);
+        LANES_SQUARE(H[11] + k * L, X[2], k);
+        LANES_MUL(T[7], H[1], H[11], k);
+        LANES_SCALE(T[8], C[7], T[7]);
+        LANES_SUB(T[9], T[6], T[8]);
         LANES_SCALE(H[12] + k * L, C[8], T[9]);
         LANES_MUL(T[10], H[12], H[3], k);
         LANES_SUB(T[11], T[5], T[10]);

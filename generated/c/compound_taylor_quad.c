@@ -121,13 +121,13 @@
 static int compound_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     static const int A0[NODES] = {
-        0, 0, 0, 0, 0, 0, 1, 3, 2, 4, 5, 6, 9, 9, 31, 12,
-        13, 14, 10, 16, 17, 18, 18, 19, 19, 23, 21, 22, 24, 27, 28, 4,
+        0, 0, 0, 0, 1, 0, 1, 3, 2, 4, 5, 6, 9, 9, 31, 12,
+        13, 14, 10, 11, 17, 18, 18, 19, 19, 23, 21, 22, 24, 27, 28, 4,
         0, 1
     };
     static const int A1[NODES] = {
-        0, 0, 0, 0, 1, 32, 33, 0, 0, 31, 2, 7, 7, 8, 1, 3,
-        6, 0, 15, 11, 0, 4, 5, 8, 9, 14, 14, 25, 26, 20, 20, 9,
+        0, 0, 0, 0, 0, 32, 33, 0, 0, 31, 2, 6, 7, 8, 1, 3,
+        7, 0, 15, 16, 0, 4, 5, 8, 9, 14, 14, 25, 26, 20, 20, 9,
         5, 6
     };
     R J[NODES][ORDER_DIM];
@@ -143,8 +143,8 @@ static int compound_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted
     C[3] = T_MUL(p[3], p[1]);
     C[4] = T_NEG(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]));
     C[5] = T_NEG(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]), T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3])))));
-    C[6] = p[2];
-    C[7] = p[6];
+    C[6] = T_NEG(p[6]);
+    C[7] = p[2];
     C[8] = T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[3]), p[1]);
     C[9] = T_MUL(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[3]), p[1]), T_ADD(p[4], T_MUL(T_MUL(p[2], p[2]), T_ADD(p[1], T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0])))));
     (void)sine_min;
@@ -160,8 +160,7 @@ static int compound_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted
         for (u = 12; u < 14; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         for (u = 14; u < 17; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
         for (u = 17; u < 18; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
-        for (u = 18; u < 19; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 19; u < 20; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 18; u < 20; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
         for (u = 20; u < 21; ++u) { J[u][k] = k == 0 ? T_SUB(C[A1[u]], J[A0[u]][0]) : T_NEG(J[A0[u]][k]); }
         for (u = 21; u < 25; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
         for (u = 25; u < 27; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
@@ -196,14 +195,14 @@ static int compound_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted
     C[3] = T_MUL(p[3], p[1]);
     C[4] = T_NEG(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]));
     C[5] = T_NEG(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[2]), T_ADD(p[5], T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(4)), p[1]), T_MUL(p[3], p[3])))));
-    C[6] = p[2];
-    C[7] = p[6];
+    C[6] = T_NEG(p[6]);
+    C[7] = p[2];
     C[8] = T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[3]), p[1]);
     C[9] = T_MUL(T_MUL(T_MUL(T_DIV(T_INT(1), T_INT(2)), p[3]), p[1]), T_ADD(p[4], T_MUL(T_MUL(p[2], p[2]), T_ADD(p[1], T_MUL(T_DIV(T_INT(1), T_INT(4)), p[0])))));
     (void)sine_min;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        J[4][k] = T_SUB(X[0][k], X[1][k]);
+        J[4][k] = T_SUB(X[1][k], X[0][k]);
         TAYLOR_SINCOS(J[5], J[6], J[4], k);
         J[7][k] = T_MUL(C[1], J[6][k]);
         J[8][k] = TAYLOR_SQUARE(J[7], k);
@@ -213,14 +212,14 @@ static int compound_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted
         J[13][k] = TAYLOR_SQUARE(X[3], k);
         J[14][k] = TAYLOR_MUL(J[5], J[13], k);
         J[15][k] = T_MUL(C[3], J[14][k]);
-        J[16][k] = T_ADD(J[12][k], J[15][k]);
+        J[16][k] = T_SUB(J[12][k], J[15][k]);
         J[17][k] = T_MUL(C[4], J[16][k]);
         J[18][k] = T_MUL(C[5], J[16][k]);
-        J[19][k] = TAYLOR_SQUARE(X[2], k);
-        J[20][k] = TAYLOR_MUL(J[5], J[19], k);
-        J[21][k] = T_MUL(C[6], J[20][k]);
-        TAYLOR_SINCOS(J[22], J[23], X[1], k);
-        J[24][k] = T_MUL(C[7], J[22][k]);
+        TAYLOR_SINCOS(J[19], J[20], X[1], k);
+        J[21][k] = T_MUL(C[6], J[19][k]);
+        J[22][k] = TAYLOR_SQUARE(X[2], k);
+        J[23][k] = TAYLOR_MUL(J[5], J[22], k);
+        J[24][k] = T_MUL(C[7], J[23][k]);
         J[25][k] = T_SUB(J[21][k], J[24][k]);
         J[26][k] = T_MUL(C[8], J[25][k]);
         J[27][k] = TAYLOR_MUL(J[26], J[7], k);

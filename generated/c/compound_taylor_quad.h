@@ -2,7 +2,7 @@
  *
  * compound: Taylor's method for the kernels of compound.h (Compound double pendulum: two rods, centres of mass at their middles), in IEEE binary128 (__float128) (suffix _q).
  *
- * The rhs is decomposed into 34 elementary operations (1 add, 3 cos, 1 csub, 2 div, 4 mul, 9 scale, 3 sin, 3 square, 4 sub, 4 var)
+ * The rhs is decomposed into 34 elementary operations (3 cos, 1 csub, 2 div, 4 mul, 9 scale, 3 sin, 3 square, 5 sub, 4 var)
  * with 10 constants per step (expressions of the parameters); the Taylor
  * coefficients of the solution come from the recurrence of each operation (automatic
  * differentiation, derive/codegen/taylor.py).  Order and step from the

@@ -54,26 +54,26 @@ int planar_rhs(const double *restrict y, const double *restrict p, double *restr
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t0 = lane_sin[0];
-    const double t1 = lane_sin[1];
-    const double t2 = lane_cos[0];
-    const double t3 = lane_cos[1];
+    const double t0 = lane_cos[0];
+    const double t1 = lane_cos[1];
+    const double t2 = lane_sin[0];
+    const double t3 = lane_sin[1];
     const double t4 = t0*t1 + t2*t3;
     const double t5 = p[3]*p[1];
-    const double t6 = t4*t5;
-    const double M01 = t6*p[2];
+    const double t6 = t5*p[2];
+    const double M01 = t4*t6;
     const double M11 = p[1]*p[3]*p[3];
-    const double t7 = p[0] + p[1];
-    const double t8 = p[4]*t7;
-    const double t9 = y[3]*y[3];
-    const double t10 = t0*t3 - t1*t2;
-    const double t11 = t10*t5;
-    const double F0 = -p[2]*(t0*t8 + t11*t9);
-    const double t12 = p[4]*t1;
-    const double t13 = y[2]*y[2];
-    const double F1 = t5*(t10*t13*p[2] - t12);
+    const double t7 = t1*t2 - t0*t3;
+    const double t8 = y[3]*y[3];
+    const double t9 = t5*t8;
+    const double t10 = p[0] + p[1];
+    const double t11 = p[4]*t10;
+    const double F0 = -p[2]*(t11*t2 + t7*t9);
+    const double t12 = y[2]*y[2];
+    const double t13 = t12*p[2];
+    const double F1 = t5*(t13*t7 - p[4]*t3);
     const double t14 = p[2]*p[2];
-    const double M00 = t14*t7;
+    const double M00 = t10*t14;
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
     const double qdd0 = rdet*(F0*M11 - F1*M01);
@@ -109,26 +109,26 @@ int planar_rhs_f(const float *restrict y, const float *restrict p, float *restri
 {
     int status = PLANAR_STATUS_OK;
     float check;
-    const float t0 = sinf(y[0]);
-    const float t1 = sinf(y[1]);
-    const float t2 = cosf(y[0]);
-    const float t3 = cosf(y[1]);
+    const float t0 = cosf(y[0]);
+    const float t1 = cosf(y[1]);
+    const float t2 = sinf(y[0]);
+    const float t3 = sinf(y[1]);
     const float t4 = t0*t1 + t2*t3;
     const float t5 = p[3]*p[1];
-    const float t6 = t4*t5;
-    const float M01 = t6*p[2];
+    const float t6 = t5*p[2];
+    const float M01 = t4*t6;
     const float M11 = p[1]*p[3]*p[3];
-    const float t7 = p[0] + p[1];
-    const float t8 = p[4]*t7;
-    const float t9 = y[3]*y[3];
-    const float t10 = t0*t3 - t1*t2;
-    const float t11 = t10*t5;
-    const float F0 = -p[2]*(t0*t8 + t11*t9);
-    const float t12 = p[4]*t1;
-    const float t13 = y[2]*y[2];
-    const float F1 = t5*(t10*t13*p[2] - t12);
+    const float t7 = t1*t2 - t0*t3;
+    const float t8 = y[3]*y[3];
+    const float t9 = t5*t8;
+    const float t10 = p[0] + p[1];
+    const float t11 = p[4]*t10;
+    const float F0 = -p[2]*(t11*t2 + t7*t9);
+    const float t12 = y[2]*y[2];
+    const float t13 = t12*p[2];
+    const float F1 = t5*(t13*t7 - p[4]*t3);
     const float t14 = p[2]*p[2];
-    const float M00 = t14*t7;
+    const float M00 = t10*t14;
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
     const float qdd0 = rdet*(F0*M11 - F1*M01);
@@ -164,26 +164,26 @@ int planar_rhs_l(const long double *restrict y, const long double *restrict p, l
 {
     int status = PLANAR_STATUS_OK;
     long double check;
-    const long double t0 = sinl(y[0]);
-    const long double t1 = sinl(y[1]);
-    const long double t2 = cosl(y[0]);
-    const long double t3 = cosl(y[1]);
+    const long double t0 = cosl(y[0]);
+    const long double t1 = cosl(y[1]);
+    const long double t2 = sinl(y[0]);
+    const long double t3 = sinl(y[1]);
     const long double t4 = t0*t1 + t2*t3;
     const long double t5 = p[3]*p[1];
-    const long double t6 = t4*t5;
-    const long double M01 = t6*p[2];
+    const long double t6 = t5*p[2];
+    const long double M01 = t4*t6;
     const long double M11 = p[1]*p[3]*p[3];
-    const long double t7 = p[0] + p[1];
-    const long double t8 = p[4]*t7;
-    const long double t9 = y[3]*y[3];
-    const long double t10 = t0*t3 - t1*t2;
-    const long double t11 = t10*t5;
-    const long double F0 = -p[2]*(t0*t8 + t11*t9);
-    const long double t12 = p[4]*t1;
-    const long double t13 = y[2]*y[2];
-    const long double F1 = t5*(t10*t13*p[2] - t12);
+    const long double t7 = t1*t2 - t0*t3;
+    const long double t8 = y[3]*y[3];
+    const long double t9 = t5*t8;
+    const long double t10 = p[0] + p[1];
+    const long double t11 = p[4]*t10;
+    const long double F0 = -p[2]*(t11*t2 + t7*t9);
+    const long double t12 = y[2]*y[2];
+    const long double t13 = t12*p[2];
+    const long double F1 = t5*(t13*t7 - p[4]*t3);
     const long double t14 = p[2]*p[2];
-    const long double M00 = t14*t7;
+    const long double M00 = t10*t14;
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
     const long double qdd0 = rdet*(F0*M11 - F1*M01);
@@ -227,17 +227,17 @@ int planar_mass_matrix(const double *restrict y, const double *restrict p, doubl
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t2 = lane_sin[0];
-    const double t3 = lane_sin[1];
-    const double t4 = lane_cos[0];
-    const double t5 = lane_cos[1];
+    const double t2 = lane_cos[0];
+    const double t3 = lane_cos[1];
+    const double t4 = lane_sin[0];
+    const double t5 = lane_sin[1];
     const double t0 = p[2]*p[2];
     const double t1 = p[0] + p[1];
     const double M00 = t0*t1;
     const double t6 = t2*t3 + t4*t5;
     const double t7 = p[3]*p[1];
-    const double t8 = t6*t7;
-    const double M01 = t8*p[2];
+    const double t8 = t7*p[2];
+    const double M01 = t6*t8;
     const double M11 = p[1]*p[3]*p[3];
     M[0] = M00;
     M[1] = M01;
@@ -273,14 +273,14 @@ int planar_mass_matrix_f(const float *restrict y, const float *restrict p, float
     const float t0 = p[2]*p[2];
     const float t1 = p[0] + p[1];
     const float M00 = t0*t1;
-    const float t2 = sinf(y[0]);
-    const float t3 = sinf(y[1]);
-    const float t4 = cosf(y[0]);
-    const float t5 = cosf(y[1]);
+    const float t2 = cosf(y[0]);
+    const float t3 = cosf(y[1]);
+    const float t4 = sinf(y[0]);
+    const float t5 = sinf(y[1]);
     const float t6 = t2*t3 + t4*t5;
     const float t7 = p[3]*p[1];
-    const float t8 = t6*t7;
-    const float M01 = t8*p[2];
+    const float t8 = t7*p[2];
+    const float M01 = t6*t8;
     const float M11 = p[1]*p[3]*p[3];
     M[0] = M00;
     M[1] = M01;
@@ -316,14 +316,14 @@ int planar_mass_matrix_l(const long double *restrict y, const long double *restr
     const long double t0 = p[2]*p[2];
     const long double t1 = p[0] + p[1];
     const long double M00 = t0*t1;
-    const long double t2 = sinl(y[0]);
-    const long double t3 = sinl(y[1]);
-    const long double t4 = cosl(y[0]);
-    const long double t5 = cosl(y[1]);
+    const long double t2 = cosl(y[0]);
+    const long double t3 = cosl(y[1]);
+    const long double t4 = sinl(y[0]);
+    const long double t5 = sinl(y[1]);
     const long double t6 = t2*t3 + t4*t5;
     const long double t7 = p[3]*p[1];
-    const long double t8 = t6*t7;
-    const long double M01 = t8*p[2];
+    const long double t8 = t7*p[2];
+    const long double M01 = t6*t8;
     const long double M11 = p[1]*p[3]*p[3];
     M[0] = M00;
     M[1] = M01;
@@ -365,19 +365,19 @@ int planar_forcing(const double *restrict y, const double *restrict p, double *r
         lane_cos[lane] = cos(lane_angle[lane]);
     }
     const double t0 = lane_sin[0];
-    const double t5 = lane_sin[1];
-    const double t6 = lane_cos[0];
-    const double t7 = lane_cos[1];
-    const double t1 = p[0] + p[1];
-    const double t2 = p[4]*t1;
-    const double t3 = y[3]*y[3];
-    const double t4 = p[3]*p[1];
-    const double t8 = t0*t7 - t5*t6;
-    const double t9 = t4*t8;
-    const double t10 = -p[2]*(t0*t2 + t3*t9);
-    const double t11 = p[4]*t5;
-    const double t12 = y[2]*y[2];
-    const double t13 = t4*(t12*t8*p[2] - t11);
+    const double t1 = lane_cos[0];
+    const double t2 = lane_cos[1];
+    const double t3 = lane_sin[1];
+    const double t4 = t0*t2 - t1*t3;
+    const double t5 = p[3]*p[1];
+    const double t6 = y[3]*y[3];
+    const double t7 = t5*t6;
+    const double t8 = p[0] + p[1];
+    const double t9 = p[4]*t8;
+    const double t10 = -p[2]*(t0*t9 + t4*t7);
+    const double t11 = y[2]*y[2];
+    const double t12 = t11*p[2];
+    const double t13 = t5*(t12*t4 - p[4]*t3);
     F[0] = t10;
     F[1] = t13;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
@@ -408,19 +408,19 @@ int planar_forcing_f(const float *restrict y, const float *restrict p, float *re
     int status = PLANAR_STATUS_OK;
     float check;
     const float t0 = sinf(y[0]);
-    const float t1 = p[0] + p[1];
-    const float t2 = p[4]*t1;
-    const float t3 = y[3]*y[3];
-    const float t4 = p[3]*p[1];
-    const float t5 = sinf(y[1]);
-    const float t6 = cosf(y[0]);
-    const float t7 = cosf(y[1]);
-    const float t8 = t0*t7 - t5*t6;
-    const float t9 = t4*t8;
-    const float t10 = -p[2]*(t0*t2 + t3*t9);
-    const float t11 = p[4]*t5;
-    const float t12 = y[2]*y[2];
-    const float t13 = t4*(t12*t8*p[2] - t11);
+    const float t1 = cosf(y[0]);
+    const float t2 = cosf(y[1]);
+    const float t3 = sinf(y[1]);
+    const float t4 = t0*t2 - t1*t3;
+    const float t5 = p[3]*p[1];
+    const float t6 = y[3]*y[3];
+    const float t7 = t5*t6;
+    const float t8 = p[0] + p[1];
+    const float t9 = p[4]*t8;
+    const float t10 = -p[2]*(t0*t9 + t4*t7);
+    const float t11 = y[2]*y[2];
+    const float t12 = t11*p[2];
+    const float t13 = t5*(t12*t4 - p[4]*t3);
     F[0] = t10;
     F[1] = t13;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
@@ -451,19 +451,19 @@ int planar_forcing_l(const long double *restrict y, const long double *restrict 
     int status = PLANAR_STATUS_OK;
     long double check;
     const long double t0 = sinl(y[0]);
-    const long double t1 = p[0] + p[1];
-    const long double t2 = p[4]*t1;
-    const long double t3 = y[3]*y[3];
-    const long double t4 = p[3]*p[1];
-    const long double t5 = sinl(y[1]);
-    const long double t6 = cosl(y[0]);
-    const long double t7 = cosl(y[1]);
-    const long double t8 = t0*t7 - t5*t6;
-    const long double t9 = t4*t8;
-    const long double t10 = -p[2]*(t0*t2 + t3*t9);
-    const long double t11 = p[4]*t5;
-    const long double t12 = y[2]*y[2];
-    const long double t13 = t4*(t12*t8*p[2] - t11);
+    const long double t1 = cosl(y[0]);
+    const long double t2 = cosl(y[1]);
+    const long double t3 = sinl(y[1]);
+    const long double t4 = t0*t2 - t1*t3;
+    const long double t5 = p[3]*p[1];
+    const long double t6 = y[3]*y[3];
+    const long double t7 = t5*t6;
+    const long double t8 = p[0] + p[1];
+    const long double t9 = p[4]*t8;
+    const long double t10 = -p[2]*(t0*t9 + t4*t7);
+    const long double t11 = y[2]*y[2];
+    const long double t12 = t11*p[2];
+    const long double t13 = t5*(t12*t4 - p[4]*t3);
     F[0] = t10;
     F[1] = t13;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
@@ -488,12 +488,12 @@ int planar_forcing_batch_l(long n, const long double *restrict y, long y_stride,
     return all;
 }
 
-/* planar_energy (double). Total ops: 36 */
+/* planar_energy (double). Total ops: 37 */
 int planar_energy(const double *restrict y, const double *restrict p, double *restrict E)
 {
     int status = PLANAR_STATUS_OK;
     double check;
-    const double lane_angle[2] = { y[1], y[0] };
+    const double lane_angle[2] = { y[0], y[1] };
     double lane_sin[2], lane_cos[2];
     int lane;
     PLANAR_SIMD
@@ -501,30 +501,31 @@ int planar_energy(const double *restrict y, const double *restrict p, double *re
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t3 = lane_cos[0];
+    const double t5 = lane_cos[0];
     const double t8 = lane_cos[1];
+    const double t12 = lane_sin[0];
     const double t13 = lane_sin[1];
-    const double t14 = lane_sin[0];
     const double t0 = p[1]*p[3]*p[3];
     const double t1 = y[3]*y[3];
     const double t2 = y[2]*y[2];
-    const double t4 = t3*p[3];
-    const double t5 = -p[4]*t4*p[1];
-    const double t6 = p[0] + p[1];
-    const double t7 = p[4]*t6;
-    const double t9 = t8*p[2];
-    const double t10 = t7*t9;
-    const double t11 = p[2]*p[2];
-    const double t12 = (1.0/2.0)*t11;
-    const double t15 = t13*t14 + t3*t8;
-    const double t16 = p[3]*p[1];
-    const double t17 = t15*t16;
-    const double t18 = t17*p[2];
-    const double t19 = t18*y[3];
-    const double t20 = t5 + t19*y[2] + t2*(t12*p[0] + t12*p[1]) + (1.0/2.0)*t0*t1 - t10;
-    E[0] = t20;
+    const double t3 = p[0] + p[1];
+    const double t4 = p[4]*t3;
+    const double t6 = t5*p[2];
+    const double t7 = -t4*t6;
+    const double t9 = t8*p[3];
+    const double t10 = p[4]*p[1];
+    const double t11 = -t10*t9;
+    const double t14 = t12*t13 + t5*t8;
+    const double t15 = p[3]*p[1];
+    const double t16 = t15*p[2];
+    const double t17 = t14*t16;
+    const double t18 = t17*y[3];
+    const double t19 = p[2]*p[2];
+    const double t20 = (1.0/2.0)*t19;
+    const double t21 = t11 + t7 + t18*y[2] + t2*(t20*p[0] + t20*p[1]) + (1.0/2.0)*t0*t1;
+    E[0] = t21;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t20 - t20);
+    check = (t21 - t21);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -545,7 +546,7 @@ int planar_energy_batch(long n, const double *restrict y, long y_stride, const d
     return all;
 }
 
-/* planar_energy_f (float). Total ops: 36 */
+/* planar_energy_f (float). Total ops: 37 */
 int planar_energy_f(const float *restrict y, const float *restrict p, float *restrict E)
 {
     int status = PLANAR_STATUS_OK;
@@ -553,27 +554,28 @@ int planar_energy_f(const float *restrict y, const float *restrict p, float *res
     const float t0 = p[1]*p[3]*p[3];
     const float t1 = y[3]*y[3];
     const float t2 = y[2]*y[2];
-    const float t3 = cosf(y[1]);
-    const float t4 = t3*p[3];
-    const float t5 = -p[4]*t4*p[1];
-    const float t6 = p[0] + p[1];
-    const float t7 = p[4]*t6;
-    const float t8 = cosf(y[0]);
-    const float t9 = t8*p[2];
-    const float t10 = t7*t9;
-    const float t11 = p[2]*p[2];
-    const float t12 = (1.0F/2.0F)*t11;
-    const float t13 = sinf(y[0]);
-    const float t14 = sinf(y[1]);
-    const float t15 = t13*t14 + t3*t8;
-    const float t16 = p[3]*p[1];
-    const float t17 = t15*t16;
-    const float t18 = t17*p[2];
-    const float t19 = t18*y[3];
-    const float t20 = t5 + t19*y[2] + t2*(t12*p[0] + t12*p[1]) + (1.0F/2.0F)*t0*t1 - t10;
-    E[0] = t20;
+    const float t3 = p[0] + p[1];
+    const float t4 = p[4]*t3;
+    const float t5 = cosf(y[0]);
+    const float t6 = t5*p[2];
+    const float t7 = -t4*t6;
+    const float t8 = cosf(y[1]);
+    const float t9 = t8*p[3];
+    const float t10 = p[4]*p[1];
+    const float t11 = -t10*t9;
+    const float t12 = sinf(y[0]);
+    const float t13 = sinf(y[1]);
+    const float t14 = t12*t13 + t5*t8;
+    const float t15 = p[3]*p[1];
+    const float t16 = t15*p[2];
+    const float t17 = t14*t16;
+    const float t18 = t17*y[3];
+    const float t19 = p[2]*p[2];
+    const float t20 = (1.0F/2.0F)*t19;
+    const float t21 = t11 + t7 + t18*y[2] + t2*(t20*p[0] + t20*p[1]) + (1.0F/2.0F)*t0*t1;
+    E[0] = t21;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t20 - t20);
+    check = (t21 - t21);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -594,7 +596,7 @@ int planar_energy_batch_f(long n, const float *restrict y, long y_stride, const 
     return all;
 }
 
-/* planar_energy_l (long double). Total ops: 36 */
+/* planar_energy_l (long double). Total ops: 37 */
 int planar_energy_l(const long double *restrict y, const long double *restrict p, long double *restrict E)
 {
     int status = PLANAR_STATUS_OK;
@@ -602,27 +604,28 @@ int planar_energy_l(const long double *restrict y, const long double *restrict p
     const long double t0 = p[1]*p[3]*p[3];
     const long double t1 = y[3]*y[3];
     const long double t2 = y[2]*y[2];
-    const long double t3 = cosl(y[1]);
-    const long double t4 = t3*p[3];
-    const long double t5 = -p[4]*t4*p[1];
-    const long double t6 = p[0] + p[1];
-    const long double t7 = p[4]*t6;
-    const long double t8 = cosl(y[0]);
-    const long double t9 = t8*p[2];
-    const long double t10 = t7*t9;
-    const long double t11 = p[2]*p[2];
-    const long double t12 = (1.0L/2.0L)*t11;
-    const long double t13 = sinl(y[0]);
-    const long double t14 = sinl(y[1]);
-    const long double t15 = t13*t14 + t3*t8;
-    const long double t16 = p[3]*p[1];
-    const long double t17 = t15*t16;
-    const long double t18 = t17*p[2];
-    const long double t19 = t18*y[3];
-    const long double t20 = t5 + t19*y[2] + t2*(t12*p[0] + t12*p[1]) + (1.0L/2.0L)*t0*t1 - t10;
-    E[0] = t20;
+    const long double t3 = p[0] + p[1];
+    const long double t4 = p[4]*t3;
+    const long double t5 = cosl(y[0]);
+    const long double t6 = t5*p[2];
+    const long double t7 = -t4*t6;
+    const long double t8 = cosl(y[1]);
+    const long double t9 = t8*p[3];
+    const long double t10 = p[4]*p[1];
+    const long double t11 = -t10*t9;
+    const long double t12 = sinl(y[0]);
+    const long double t13 = sinl(y[1]);
+    const long double t14 = t12*t13 + t5*t8;
+    const long double t15 = p[3]*p[1];
+    const long double t16 = t15*p[2];
+    const long double t17 = t14*t16;
+    const long double t18 = t17*y[3];
+    const long double t19 = p[2]*p[2];
+    const long double t20 = (1.0L/2.0L)*t19;
+    const long double t21 = t11 + t7 + t18*y[2] + t2*(t20*p[0] + t20*p[1]) + (1.0L/2.0L)*t0*t1;
+    E[0] = t21;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t20 - t20);
+    check = (t21 - t21);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -643,7 +646,7 @@ int planar_energy_batch_l(long n, const long double *restrict y, long y_stride, 
     return all;
 }
 
-/* planar_positions (double). Total ops: 12 */
+/* planar_positions (double). Total ops: 11 */
 int planar_positions(const double *restrict y, const double *restrict p, double *restrict pos)
 {
     int status = PLANAR_STATUS_OK;
@@ -658,21 +661,21 @@ int planar_positions(const double *restrict y, const double *restrict p, double 
     }
     const double t0 = lane_sin[0];
     const double t2 = lane_cos[0];
-    const double t4 = lane_sin[1];
-    const double t6 = lane_cos[1];
+    const double t5 = lane_sin[1];
+    const double t7 = lane_cos[1];
     const double t1 = t0*p[2];
     const double t3 = t2*p[2];
-    const double t5 = t4*p[3];
-    const double t7 = t6*p[3];
-    const double t8 = -t3;
-    const double t9 = t1 + t5;
-    const double t10 = -t3 - t7;
+    const double t4 = -t3;
+    const double t6 = t5*p[3];
+    const double t8 = t7*p[3];
+    const double t9 = t1 + t6;
+    const double t10 = t4 - t8;
     pos[0] = t1;
-    pos[1] = t8;
+    pos[1] = t4;
     pos[2] = t9;
     pos[3] = t10;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t1 - t1) + (t8 - t8) + (t9 - t9) + (t10 - t10);
+    check = (t1 - t1) + (t4 - t4) + (t9 - t9) + (t10 - t10);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -693,7 +696,7 @@ int planar_positions_batch(long n, const double *restrict y, long y_stride, cons
     return all;
 }
 
-/* planar_positions_f (float). Total ops: 12 */
+/* planar_positions_f (float). Total ops: 11 */
 int planar_positions_f(const float *restrict y, const float *restrict p, float *restrict pos)
 {
     int status = PLANAR_STATUS_OK;
@@ -702,19 +705,19 @@ int planar_positions_f(const float *restrict y, const float *restrict p, float *
     const float t1 = t0*p[2];
     const float t2 = cosf(y[0]);
     const float t3 = t2*p[2];
-    const float t4 = sinf(y[1]);
-    const float t5 = t4*p[3];
-    const float t6 = cosf(y[1]);
-    const float t7 = t6*p[3];
-    const float t8 = -t3;
-    const float t9 = t1 + t5;
-    const float t10 = -t3 - t7;
+    const float t4 = -t3;
+    const float t5 = sinf(y[1]);
+    const float t6 = t5*p[3];
+    const float t7 = cosf(y[1]);
+    const float t8 = t7*p[3];
+    const float t9 = t1 + t6;
+    const float t10 = t4 - t8;
     pos[0] = t1;
-    pos[1] = t8;
+    pos[1] = t4;
     pos[2] = t9;
     pos[3] = t10;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t1 - t1) + (t8 - t8) + (t9 - t9) + (t10 - t10);
+    check = (t1 - t1) + (t4 - t4) + (t9 - t9) + (t10 - t10);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -735,7 +738,7 @@ int planar_positions_batch_f(long n, const float *restrict y, long y_stride, con
     return all;
 }
 
-/* planar_positions_l (long double). Total ops: 12 */
+/* planar_positions_l (long double). Total ops: 11 */
 int planar_positions_l(const long double *restrict y, const long double *restrict p, long double *restrict pos)
 {
     int status = PLANAR_STATUS_OK;
@@ -744,19 +747,19 @@ int planar_positions_l(const long double *restrict y, const long double *restric
     const long double t1 = t0*p[2];
     const long double t2 = cosl(y[0]);
     const long double t3 = t2*p[2];
-    const long double t4 = sinl(y[1]);
-    const long double t5 = t4*p[3];
-    const long double t6 = cosl(y[1]);
-    const long double t7 = t6*p[3];
-    const long double t8 = -t3;
-    const long double t9 = t1 + t5;
-    const long double t10 = -t3 - t7;
+    const long double t4 = -t3;
+    const long double t5 = sinl(y[1]);
+    const long double t6 = t5*p[3];
+    const long double t7 = cosl(y[1]);
+    const long double t8 = t7*p[3];
+    const long double t9 = t1 + t6;
+    const long double t10 = t4 - t8;
     pos[0] = t1;
-    pos[1] = t8;
+    pos[1] = t4;
     pos[2] = t9;
     pos[3] = t10;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t1 - t1) + (t8 - t8) + (t9 - t9) + (t10 - t10);
+    check = (t1 - t1) + (t4 - t4) + (t9 - t9) + (t10 - t10);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -914,7 +917,7 @@ int planar_velocities_batch_l(long n, const long double *restrict y, long y_stri
     return all;
 }
 
-/* planar_jacobian (double). Total ops: 95 */
+/* planar_jacobian (double). Total ops: 90 */
 int planar_jacobian(const double *restrict y, const double *restrict p, double *restrict J)
 {
     int status = PLANAR_STATUS_OK;
@@ -927,52 +930,53 @@ int planar_jacobian(const double *restrict y, const double *restrict p, double *
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t1 = lane_sin[0];
-    const double t2 = lane_sin[1];
-    const double t3 = lane_cos[0];
-    const double t4 = lane_cos[1];
-    const double t0 = p[3]*p[1];
-    const double t5 = t1*t4 - t2*t3;
-    const double t6 = t0*t5;
-    const double t7 = t6*p[2];
-    const double t8 = t1*t2 + t3*t4;
-    const double t9 = t0*t8;
-    const double M01 = t9*p[2];
+    const double t0 = lane_cos[0];
+    const double t3 = lane_cos[1];
+    const double t4 = lane_sin[0];
+    const double t5 = lane_sin[1];
+    const double t1 = p[0] + p[1];
+    const double t2 = p[4]*t1;
+    const double t6 = t0*t3 + t4*t5;
+    const double t7 = p[3]*p[1];
+    const double t8 = y[3]*y[3];
+    const double t9 = t7*t8;
+    const double t10 = t6*t9;
+    const double t11 = t7*p[2];
+    const double t12 = t3*t4 - t0*t5;
+    const double t13 = t11*t12;
+    const double t14 = p[2]*p[2];
+    const double M00 = t1*t14;
+    const double M01 = t11*t6;
+    const double F0 = -p[2]*(t12*t9 + t2*t4);
+    const double t15 = y[2]*y[2];
+    const double t16 = t15*p[2];
+    const double F1 = t7*(t12*t16 - p[4]*t5);
     const double M11 = p[1]*p[3]*p[3];
-    const double t10 = p[0] + p[1];
-    const double t11 = p[4]*t10;
-    const double t12 = y[3]*y[3];
-    const double F0 = -p[2]*(t1*t11 + t12*t6);
-    const double t13 = p[4]*t2;
-    const double t14 = y[2]*y[2];
-    const double F1 = t0*(t14*t5*p[2] - t13);
-    const double t15 = p[2]*p[2];
-    const double M00 = t10*t15;
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
-    const double qdd0 = rdet*(F0*M11 - F1*M01);
-    const double t16 = qdd0*t7;
-    const double t17 = t14*t8*p[2];
-    const double t18 = t16 + t0*t17;
     const double qdd1 = rdet*(F1*M00 - F0*M01);
-    const double t19 = qdd1*t7;
-    const double t20 = t19 - p[2]*(t11*t3 + t12*t9);
-    const double t21 = t12*t8*p[2]*p[3]*p[1] - t19;
-    const double t22 = p[3]*p[1]*(-t17 - p[4]*t4) - t16;
-    const double t23 = M01*rdet;
-    const double t24 = 2*t7;
-    const double t25 = t24*y[2];
-    const double t26 = M11*rdet;
-    const double t27 = t24*y[3];
-    const double t28 = M00*rdet;
-    const double t29 = rdet*(M11*t20 - M01*t18);
-    const double t30 = rdet*(M11*t21 - M01*t22);
-    const double t31 = -t23*t25;
-    const double t32 = -t26*t27;
-    const double t33 = rdet*(M00*t18 - M01*t20);
-    const double t34 = rdet*(M00*t22 - M01*t21);
-    const double t35 = t25*t28;
-    const double t36 = t23*t27;
+    const double t17 = qdd1*t13;
+    const double t18 = t17 - p[2]*(t10 + t0*t2);
+    const double qdd0 = rdet*(F0*M11 - F1*M01);
+    const double t19 = qdd0*t13;
+    const double t20 = t16*t6;
+    const double t21 = t19 + t20*t7;
+    const double t22 = t10*p[2] - t17;
+    const double t23 = t7*(-t20 - p[4]*t3) - t19;
+    const double t24 = M01*rdet;
+    const double t25 = 2*t13;
+    const double t26 = t25*y[2];
+    const double t27 = M11*rdet;
+    const double t28 = t25*y[3];
+    const double t29 = M00*rdet;
+    const double t30 = rdet*(M11*t18 - M01*t21);
+    const double t31 = rdet*(M11*t22 - M01*t23);
+    const double t32 = -t24*t26;
+    const double t33 = -t27*t28;
+    const double t34 = rdet*(M00*t21 - M01*t18);
+    const double t35 = rdet*(M00*t23 - M01*t22);
+    const double t36 = t26*t29;
+    const double t37 = t24*t28;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -981,17 +985,17 @@ int planar_jacobian(const double *restrict y, const double *restrict p, double *
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = t29;
-    J[9] = t30;
-    J[10] = t31;
-    J[11] = t32;
-    J[12] = t33;
-    J[13] = t34;
-    J[14] = t35;
-    J[15] = t36;
+    J[8] = t30;
+    J[9] = t31;
+    J[10] = t32;
+    J[11] = t33;
+    J[12] = t34;
+    J[13] = t35;
+    J[14] = t36;
+    J[15] = t37;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t29 - t29) + (t30 - t30) + (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) +
-        (t35 - t35) + (t36 - t36);
+    check = (t30 - t30) + (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) +
+        (t36 - t36) + (t37 - t37);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1012,57 +1016,58 @@ int planar_jacobian_batch(long n, const double *restrict y, long y_stride, const
     return all;
 }
 
-/* planar_jacobian_f (float). Total ops: 95 */
+/* planar_jacobian_f (float). Total ops: 90 */
 int planar_jacobian_f(const float *restrict y, const float *restrict p, float *restrict J)
 {
     int status = PLANAR_STATUS_OK;
     float check;
-    const float t0 = p[3]*p[1];
-    const float t1 = sinf(y[0]);
-    const float t2 = sinf(y[1]);
-    const float t3 = cosf(y[0]);
-    const float t4 = cosf(y[1]);
-    const float t5 = t1*t4 - t2*t3;
-    const float t6 = t0*t5;
-    const float t7 = t6*p[2];
-    const float t8 = t1*t2 + t3*t4;
-    const float t9 = t0*t8;
-    const float M01 = t9*p[2];
+    const float t0 = cosf(y[0]);
+    const float t1 = p[0] + p[1];
+    const float t2 = p[4]*t1;
+    const float t3 = cosf(y[1]);
+    const float t4 = sinf(y[0]);
+    const float t5 = sinf(y[1]);
+    const float t6 = t0*t3 + t4*t5;
+    const float t7 = p[3]*p[1];
+    const float t8 = y[3]*y[3];
+    const float t9 = t7*t8;
+    const float t10 = t6*t9;
+    const float t11 = t7*p[2];
+    const float t12 = t3*t4 - t0*t5;
+    const float t13 = t11*t12;
+    const float t14 = p[2]*p[2];
+    const float M00 = t1*t14;
+    const float M01 = t11*t6;
+    const float F0 = -p[2]*(t12*t9 + t2*t4);
+    const float t15 = y[2]*y[2];
+    const float t16 = t15*p[2];
+    const float F1 = t7*(t12*t16 - p[4]*t5);
     const float M11 = p[1]*p[3]*p[3];
-    const float t10 = p[0] + p[1];
-    const float t11 = p[4]*t10;
-    const float t12 = y[3]*y[3];
-    const float F0 = -p[2]*(t1*t11 + t12*t6);
-    const float t13 = p[4]*t2;
-    const float t14 = y[2]*y[2];
-    const float F1 = t0*(t14*t5*p[2] - t13);
-    const float t15 = p[2]*p[2];
-    const float M00 = t10*t15;
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
-    const float qdd0 = rdet*(F0*M11 - F1*M01);
-    const float t16 = qdd0*t7;
-    const float t17 = t14*t8*p[2];
-    const float t18 = t16 + t0*t17;
     const float qdd1 = rdet*(F1*M00 - F0*M01);
-    const float t19 = qdd1*t7;
-    const float t20 = t19 - p[2]*(t11*t3 + t12*t9);
-    const float t21 = t12*t8*p[2]*p[3]*p[1] - t19;
-    const float t22 = p[3]*p[1]*(-t17 - p[4]*t4) - t16;
-    const float t23 = M01*rdet;
-    const float t24 = 2*t7;
-    const float t25 = t24*y[2];
-    const float t26 = M11*rdet;
-    const float t27 = t24*y[3];
-    const float t28 = M00*rdet;
-    const float t29 = rdet*(M11*t20 - M01*t18);
-    const float t30 = rdet*(M11*t21 - M01*t22);
-    const float t31 = -t23*t25;
-    const float t32 = -t26*t27;
-    const float t33 = rdet*(M00*t18 - M01*t20);
-    const float t34 = rdet*(M00*t22 - M01*t21);
-    const float t35 = t25*t28;
-    const float t36 = t23*t27;
+    const float t17 = qdd1*t13;
+    const float t18 = t17 - p[2]*(t10 + t0*t2);
+    const float qdd0 = rdet*(F0*M11 - F1*M01);
+    const float t19 = qdd0*t13;
+    const float t20 = t16*t6;
+    const float t21 = t19 + t20*t7;
+    const float t22 = t10*p[2] - t17;
+    const float t23 = t7*(-t20 - p[4]*t3) - t19;
+    const float t24 = M01*rdet;
+    const float t25 = 2*t13;
+    const float t26 = t25*y[2];
+    const float t27 = M11*rdet;
+    const float t28 = t25*y[3];
+    const float t29 = M00*rdet;
+    const float t30 = rdet*(M11*t18 - M01*t21);
+    const float t31 = rdet*(M11*t22 - M01*t23);
+    const float t32 = -t24*t26;
+    const float t33 = -t27*t28;
+    const float t34 = rdet*(M00*t21 - M01*t18);
+    const float t35 = rdet*(M00*t23 - M01*t22);
+    const float t36 = t26*t29;
+    const float t37 = t24*t28;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -1071,17 +1076,17 @@ int planar_jacobian_f(const float *restrict y, const float *restrict p, float *r
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = t29;
-    J[9] = t30;
-    J[10] = t31;
-    J[11] = t32;
-    J[12] = t33;
-    J[13] = t34;
-    J[14] = t35;
-    J[15] = t36;
+    J[8] = t30;
+    J[9] = t31;
+    J[10] = t32;
+    J[11] = t33;
+    J[12] = t34;
+    J[13] = t35;
+    J[14] = t36;
+    J[15] = t37;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t29 - t29) + (t30 - t30) + (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) +
-        (t35 - t35) + (t36 - t36);
+    check = (t30 - t30) + (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) +
+        (t36 - t36) + (t37 - t37);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1102,57 +1107,58 @@ int planar_jacobian_batch_f(long n, const float *restrict y, long y_stride, cons
     return all;
 }
 
-/* planar_jacobian_l (long double). Total ops: 95 */
+/* planar_jacobian_l (long double). Total ops: 90 */
 int planar_jacobian_l(const long double *restrict y, const long double *restrict p, long double *restrict J)
 {
     int status = PLANAR_STATUS_OK;
     long double check;
-    const long double t0 = p[3]*p[1];
-    const long double t1 = sinl(y[0]);
-    const long double t2 = sinl(y[1]);
-    const long double t3 = cosl(y[0]);
-    const long double t4 = cosl(y[1]);
-    const long double t5 = t1*t4 - t2*t3;
-    const long double t6 = t0*t5;
-    const long double t7 = t6*p[2];
-    const long double t8 = t1*t2 + t3*t4;
-    const long double t9 = t0*t8;
-    const long double M01 = t9*p[2];
+    const long double t0 = cosl(y[0]);
+    const long double t1 = p[0] + p[1];
+    const long double t2 = p[4]*t1;
+    const long double t3 = cosl(y[1]);
+    const long double t4 = sinl(y[0]);
+    const long double t5 = sinl(y[1]);
+    const long double t6 = t0*t3 + t4*t5;
+    const long double t7 = p[3]*p[1];
+    const long double t8 = y[3]*y[3];
+    const long double t9 = t7*t8;
+    const long double t10 = t6*t9;
+    const long double t11 = t7*p[2];
+    const long double t12 = t3*t4 - t0*t5;
+    const long double t13 = t11*t12;
+    const long double t14 = p[2]*p[2];
+    const long double M00 = t1*t14;
+    const long double M01 = t11*t6;
+    const long double F0 = -p[2]*(t12*t9 + t2*t4);
+    const long double t15 = y[2]*y[2];
+    const long double t16 = t15*p[2];
+    const long double F1 = t7*(t12*t16 - p[4]*t5);
     const long double M11 = p[1]*p[3]*p[3];
-    const long double t10 = p[0] + p[1];
-    const long double t11 = p[4]*t10;
-    const long double t12 = y[3]*y[3];
-    const long double F0 = -p[2]*(t1*t11 + t12*t6);
-    const long double t13 = p[4]*t2;
-    const long double t14 = y[2]*y[2];
-    const long double F1 = t0*(t14*t5*p[2] - t13);
-    const long double t15 = p[2]*p[2];
-    const long double M00 = t10*t15;
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
-    const long double qdd0 = rdet*(F0*M11 - F1*M01);
-    const long double t16 = qdd0*t7;
-    const long double t17 = t14*t8*p[2];
-    const long double t18 = t16 + t0*t17;
     const long double qdd1 = rdet*(F1*M00 - F0*M01);
-    const long double t19 = qdd1*t7;
-    const long double t20 = t19 - p[2]*(t11*t3 + t12*t9);
-    const long double t21 = t12*t8*p[2]*p[3]*p[1] - t19;
-    const long double t22 = p[3]*p[1]*(-t17 - p[4]*t4) - t16;
-    const long double t23 = M01*rdet;
-    const long double t24 = 2*t7;
-    const long double t25 = t24*y[2];
-    const long double t26 = M11*rdet;
-    const long double t27 = t24*y[3];
-    const long double t28 = M00*rdet;
-    const long double t29 = rdet*(M11*t20 - M01*t18);
-    const long double t30 = rdet*(M11*t21 - M01*t22);
-    const long double t31 = -t23*t25;
-    const long double t32 = -t26*t27;
-    const long double t33 = rdet*(M00*t18 - M01*t20);
-    const long double t34 = rdet*(M00*t22 - M01*t21);
-    const long double t35 = t25*t28;
-    const long double t36 = t23*t27;
+    const long double t17 = qdd1*t13;
+    const long double t18 = t17 - p[2]*(t10 + t0*t2);
+    const long double qdd0 = rdet*(F0*M11 - F1*M01);
+    const long double t19 = qdd0*t13;
+    const long double t20 = t16*t6;
+    const long double t21 = t19 + t20*t7;
+    const long double t22 = t10*p[2] - t17;
+    const long double t23 = t7*(-t20 - p[4]*t3) - t19;
+    const long double t24 = M01*rdet;
+    const long double t25 = 2*t13;
+    const long double t26 = t25*y[2];
+    const long double t27 = M11*rdet;
+    const long double t28 = t25*y[3];
+    const long double t29 = M00*rdet;
+    const long double t30 = rdet*(M11*t18 - M01*t21);
+    const long double t31 = rdet*(M11*t22 - M01*t23);
+    const long double t32 = -t24*t26;
+    const long double t33 = -t27*t28;
+    const long double t34 = rdet*(M00*t21 - M01*t18);
+    const long double t35 = rdet*(M00*t23 - M01*t22);
+    const long double t36 = t26*t29;
+    const long double t37 = t24*t28;
     J[0] = 0;
     J[1] = 0;
     J[2] = 1;
@@ -1161,17 +1167,17 @@ int planar_jacobian_l(const long double *restrict y, const long double *restrict
     J[5] = 0;
     J[6] = 0;
     J[7] = 1;
-    J[8] = t29;
-    J[9] = t30;
-    J[10] = t31;
-    J[11] = t32;
-    J[12] = t33;
-    J[13] = t34;
-    J[14] = t35;
-    J[15] = t36;
+    J[8] = t30;
+    J[9] = t31;
+    J[10] = t32;
+    J[11] = t33;
+    J[12] = t34;
+    J[13] = t35;
+    J[14] = t36;
+    J[15] = t37;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t29 - t29) + (t30 - t30) + (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) +
-        (t35 - t35) + (t36 - t36);
+    check = (t30 - t30) + (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) +
+        (t36 - t36) + (t37 - t37);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1205,14 +1211,14 @@ int planar_hamiltonian_rhs(const double *restrict x, const double *restrict p, d
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t0 = lane_sin[0];
-    const double t1 = lane_sin[1];
-    const double t2 = lane_cos[0];
-    const double t3 = lane_cos[1];
+    const double t0 = lane_cos[0];
+    const double t1 = lane_cos[1];
+    const double t2 = lane_sin[0];
+    const double t3 = lane_sin[1];
     const double t4 = t0*t1 + t2*t3;
     const double t5 = p[3]*p[1];
-    const double t6 = t4*t5;
-    const double M01 = t6*p[2];
+    const double t6 = t5*p[2];
+    const double M01 = t4*t6;
     const double M11 = p[1]*p[3]*p[3];
     const double t7 = p[2]*p[2];
     const double t8 = p[0] + p[1];
@@ -1222,15 +1228,15 @@ int planar_hamiltonian_rhs(const double *restrict x, const double *restrict p, d
     const double v0 = rdet*(M11*x[2] - M01*x[3]);
     const double v1 = rdet*(M00*x[3] - M01*x[2]);
     const double t9 = p[4]*t8;
-    const double t10 = t0*p[2];
-    const double t11 = t0*t3 - t1*t2;
-    const double t12 = t11*t5;
-    const double t13 = t12*p[2];
+    const double t10 = t2*p[2];
+    const double t11 = t1*t2 - t0*t3;
+    const double t12 = t11*t6;
+    const double t13 = t12*v0;
     const double t14 = t13*v1;
-    const double t15 = t14*v0;
-    const double t16 = p[4]*t1;
-    const double t17 = -t15 - t10*t9;
-    const double t18 = t15 - t16*t5;
+    const double t15 = p[4]*p[1];
+    const double t16 = t3*p[3];
+    const double t17 = -t14 - t10*t9;
+    const double t18 = t14 - t15*t16;
     xdot[0] = v0;
     xdot[1] = v1;
     xdot[2] = t17;
@@ -1262,14 +1268,14 @@ int planar_hamiltonian_rhs_f(const float *restrict x, const float *restrict p, f
 {
     int status = PLANAR_STATUS_OK;
     float check;
-    const float t0 = sinf(x[0]);
-    const float t1 = sinf(x[1]);
-    const float t2 = cosf(x[0]);
-    const float t3 = cosf(x[1]);
+    const float t0 = cosf(x[0]);
+    const float t1 = cosf(x[1]);
+    const float t2 = sinf(x[0]);
+    const float t3 = sinf(x[1]);
     const float t4 = t0*t1 + t2*t3;
     const float t5 = p[3]*p[1];
-    const float t6 = t4*t5;
-    const float M01 = t6*p[2];
+    const float t6 = t5*p[2];
+    const float M01 = t4*t6;
     const float M11 = p[1]*p[3]*p[3];
     const float t7 = p[2]*p[2];
     const float t8 = p[0] + p[1];
@@ -1279,15 +1285,15 @@ int planar_hamiltonian_rhs_f(const float *restrict x, const float *restrict p, f
     const float v0 = rdet*(M11*x[2] - M01*x[3]);
     const float v1 = rdet*(M00*x[3] - M01*x[2]);
     const float t9 = p[4]*t8;
-    const float t10 = t0*p[2];
-    const float t11 = t0*t3 - t1*t2;
-    const float t12 = t11*t5;
-    const float t13 = t12*p[2];
+    const float t10 = t2*p[2];
+    const float t11 = t1*t2 - t0*t3;
+    const float t12 = t11*t6;
+    const float t13 = t12*v0;
     const float t14 = t13*v1;
-    const float t15 = t14*v0;
-    const float t16 = p[4]*t1;
-    const float t17 = -t15 - t10*t9;
-    const float t18 = t15 - t16*t5;
+    const float t15 = p[4]*p[1];
+    const float t16 = t3*p[3];
+    const float t17 = -t14 - t10*t9;
+    const float t18 = t14 - t15*t16;
     xdot[0] = v0;
     xdot[1] = v1;
     xdot[2] = t17;
@@ -1319,14 +1325,14 @@ int planar_hamiltonian_rhs_l(const long double *restrict x, const long double *r
 {
     int status = PLANAR_STATUS_OK;
     long double check;
-    const long double t0 = sinl(x[0]);
-    const long double t1 = sinl(x[1]);
-    const long double t2 = cosl(x[0]);
-    const long double t3 = cosl(x[1]);
+    const long double t0 = cosl(x[0]);
+    const long double t1 = cosl(x[1]);
+    const long double t2 = sinl(x[0]);
+    const long double t3 = sinl(x[1]);
     const long double t4 = t0*t1 + t2*t3;
     const long double t5 = p[3]*p[1];
-    const long double t6 = t4*t5;
-    const long double M01 = t6*p[2];
+    const long double t6 = t5*p[2];
+    const long double M01 = t4*t6;
     const long double M11 = p[1]*p[3]*p[3];
     const long double t7 = p[2]*p[2];
     const long double t8 = p[0] + p[1];
@@ -1336,15 +1342,15 @@ int planar_hamiltonian_rhs_l(const long double *restrict x, const long double *r
     const long double v0 = rdet*(M11*x[2] - M01*x[3]);
     const long double v1 = rdet*(M00*x[3] - M01*x[2]);
     const long double t9 = p[4]*t8;
-    const long double t10 = t0*p[2];
-    const long double t11 = t0*t3 - t1*t2;
-    const long double t12 = t11*t5;
-    const long double t13 = t12*p[2];
+    const long double t10 = t2*p[2];
+    const long double t11 = t1*t2 - t0*t3;
+    const long double t12 = t11*t6;
+    const long double t13 = t12*v0;
     const long double t14 = t13*v1;
-    const long double t15 = t14*v0;
-    const long double t16 = p[4]*t1;
-    const long double t17 = -t15 - t10*t9;
-    const long double t18 = t15 - t16*t5;
+    const long double t15 = p[4]*p[1];
+    const long double t16 = t3*p[3];
+    const long double t17 = -t14 - t10*t9;
+    const long double t18 = t14 - t15*t16;
     xdot[0] = v0;
     xdot[1] = v1;
     xdot[2] = t17;
@@ -1371,7 +1377,7 @@ int planar_hamiltonian_rhs_batch_l(long n, const long double *restrict x, long x
     return all;
 }
 
-/* planar_hamiltonian_jacobian (double). Total ops: 83 */
+/* planar_hamiltonian_jacobian (double). Total ops: 84 */
 int planar_hamiltonian_jacobian(const double *restrict x, const double *restrict p, double *restrict J)
 {
     int status = PLANAR_STATUS_OK;
@@ -1384,53 +1390,63 @@ int planar_hamiltonian_jacobian(const double *restrict x, const double *restrict
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t0 = lane_sin[0];
-    const double t1 = lane_sin[1];
     const double t2 = lane_cos[0];
     const double t3 = lane_cos[1];
-    const double t4 = t0*t3 - t1*t2;
-    const double t5 = p[3]*p[1];
-    const double t6 = t4*t5;
-    const double t7 = t6*p[2];
-    const double t8 = t0*t1 + t2*t3;
-    const double t9 = t5*t8;
-    const double M01 = t9*p[2];
+    const double t4 = lane_sin[0];
+    const double t5 = lane_sin[1];
+    const double t0 = p[3]*p[1];
+    const double t1 = t0*p[2];
+    const double t6 = t3*t4 - t2*t5;
+    const double t7 = t1*t6;
+    const double t8 = p[2]*p[2];
+    const double t9 = p[0] + p[1];
+    const double M00 = t8*t9;
+    const double t10 = t2*t3 + t4*t5;
+    const double M01 = t1*t10;
     const double M11 = p[1]*p[3]*p[3];
-    const double t10 = p[2]*p[2];
-    const double t11 = p[0] + p[1];
-    const double M00 = t10*t11;
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
-    const double v0 = rdet*(M11*x[2] - M01*x[3]);
-    const double t12 = t7*v0;
     const double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const double t13 = M01*t12 - M11*t4*v1*p[2]*p[3]*p[1];
-    const double dv0_0 = -rdet*t13;
-    const double dv0_1 = rdet*t13;
+    const double t11 = t7*v1;
+    const double t12 = M11*t11;
+    const double v0 = rdet*(M11*x[2] - M01*x[3]);
+    const double t13 = t7*v0;
+    const double t14 = M01*t13;
+    const double dv0_0 = rdet*(t12 - t14);
+    const double dv0_1 = rdet*(t14 - t12);
     const double dv0_2 = M11*rdet;
-    const double t14 = M01*rdet;
-    const double dv0_3 = -t14;
-    const double t15 = t7*v1;
-    const double t16 = M00*t12 - M01*t15;
-    const double dv1_0 = rdet*t16;
-    const double dv1_1 = -rdet*t16;
+    const double t15 = M01*rdet;
+    const double dv0_3 = -t15;
+    const double t16 = M00*t13;
+    const double t17 = M01*t11;
+    const double dv1_0 = rdet*(t16 - t17);
+    const double dv1_1 = rdet*(t17 - t16);
     const double dv1_2 = dv0_3;
     const double dv1_3 = M00*rdet;
-    const double t17 = p[4]*t11;
-    const double t18 = t2*p[2];
-    const double t19 = t17*t18;
-    const double t20 = M01*v0*v1;
-    const double t21 = t20 + dv0_0*t15 + dv1_0*t12;
-    const double t22 = dv0_1*t15 + dv1_1*t12 - t20;
-    const double t23 = dv0_2*t15 + dv1_2*t12;
-    const double t24 = dv0_3*t15 + dv1_3*t12;
-    const double t25 = t3*p[3];
-    const double t26 = -p[4]*t25*p[1];
-    const double t27 = -t19 - t21;
-    const double t28 = -t22;
-    const double t29 = -t23;
-    const double t30 = -t24;
-    const double t31 = t22 + t26;
+    const double t18 = p[4]*t9;
+    const double t19 = t2*p[2];
+    const double t20 = -t18*t19;
+    const double t21 = M01*v0*v1;
+    const double t22 = -t21;
+    const double t23 = dv0_0*t11;
+    const double t24 = dv1_0*t13;
+    const double t25 = dv0_1*t11;
+    const double t26 = dv1_1*t13;
+    const double t27 = dv0_2*t11;
+    const double t28 = dv1_2*t13;
+    const double t29 = dv0_3*t11;
+    const double t30 = dv1_3*t13;
+    const double t31 = t3*p[3];
+    const double t32 = p[4]*p[1];
+    const double t33 = -t31*t32;
+    const double t34 = t20 + t22 - t23 - t24;
+    const double t35 = t21 - t25 - t26;
+    const double t36 = -t27 - t28;
+    const double t37 = -t29 - t30;
+    const double t38 = t21 + t23 + t24;
+    const double t39 = t22 + t25 + t26 + t33;
+    const double t40 = t27 + t28;
+    const double t41 = t29 + t30;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1439,19 +1455,19 @@ int planar_hamiltonian_jacobian(const double *restrict x, const double *restrict
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = t27;
-    J[9] = t28;
-    J[10] = t29;
-    J[11] = t30;
-    J[12] = t21;
-    J[13] = t31;
-    J[14] = t23;
-    J[15] = t24;
+    J[8] = t34;
+    J[9] = t35;
+    J[10] = t36;
+    J[11] = t37;
+    J[12] = t38;
+    J[13] = t39;
+    J[14] = t40;
+    J[15] = t41;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
-        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t27 - t27) +
-        (t28 - t28) + (t29 - t29) + (t30 - t30) + (t21 - t21) + (t31 - t31) + (t23 - t23) +
-        (t24 - t24);
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t34 - t34) +
+        (t35 - t35) + (t36 - t36) + (t37 - t37) + (t38 - t38) + (t39 - t39) + (t40 - t40) +
+        (t41 - t41);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1472,58 +1488,68 @@ int planar_hamiltonian_jacobian_batch(long n, const double *restrict x, long x_s
     return all;
 }
 
-/* planar_hamiltonian_jacobian_f (float). Total ops: 83 */
+/* planar_hamiltonian_jacobian_f (float). Total ops: 84 */
 int planar_hamiltonian_jacobian_f(const float *restrict x, const float *restrict p, float *restrict J)
 {
     int status = PLANAR_STATUS_OK;
     float check;
-    const float t0 = sinf(x[0]);
-    const float t1 = sinf(x[1]);
+    const float t0 = p[3]*p[1];
+    const float t1 = t0*p[2];
     const float t2 = cosf(x[0]);
     const float t3 = cosf(x[1]);
-    const float t4 = t0*t3 - t1*t2;
-    const float t5 = p[3]*p[1];
-    const float t6 = t4*t5;
-    const float t7 = t6*p[2];
-    const float t8 = t0*t1 + t2*t3;
-    const float t9 = t5*t8;
-    const float M01 = t9*p[2];
+    const float t4 = sinf(x[0]);
+    const float t5 = sinf(x[1]);
+    const float t6 = t3*t4 - t2*t5;
+    const float t7 = t1*t6;
+    const float t8 = p[2]*p[2];
+    const float t9 = p[0] + p[1];
+    const float M00 = t8*t9;
+    const float t10 = t2*t3 + t4*t5;
+    const float M01 = t1*t10;
     const float M11 = p[1]*p[3]*p[3];
-    const float t10 = p[2]*p[2];
-    const float t11 = p[0] + p[1];
-    const float M00 = t10*t11;
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
-    const float v0 = rdet*(M11*x[2] - M01*x[3]);
-    const float t12 = t7*v0;
     const float v1 = rdet*(M00*x[3] - M01*x[2]);
-    const float t13 = M01*t12 - M11*t4*v1*p[2]*p[3]*p[1];
-    const float dv0_0 = -rdet*t13;
-    const float dv0_1 = rdet*t13;
+    const float t11 = t7*v1;
+    const float t12 = M11*t11;
+    const float v0 = rdet*(M11*x[2] - M01*x[3]);
+    const float t13 = t7*v0;
+    const float t14 = M01*t13;
+    const float dv0_0 = rdet*(t12 - t14);
+    const float dv0_1 = rdet*(t14 - t12);
     const float dv0_2 = M11*rdet;
-    const float t14 = M01*rdet;
-    const float dv0_3 = -t14;
-    const float t15 = t7*v1;
-    const float t16 = M00*t12 - M01*t15;
-    const float dv1_0 = rdet*t16;
-    const float dv1_1 = -rdet*t16;
+    const float t15 = M01*rdet;
+    const float dv0_3 = -t15;
+    const float t16 = M00*t13;
+    const float t17 = M01*t11;
+    const float dv1_0 = rdet*(t16 - t17);
+    const float dv1_1 = rdet*(t17 - t16);
     const float dv1_2 = dv0_3;
     const float dv1_3 = M00*rdet;
-    const float t17 = p[4]*t11;
-    const float t18 = t2*p[2];
-    const float t19 = t17*t18;
-    const float t20 = M01*v0*v1;
-    const float t21 = t20 + dv0_0*t15 + dv1_0*t12;
-    const float t22 = dv0_1*t15 + dv1_1*t12 - t20;
-    const float t23 = dv0_2*t15 + dv1_2*t12;
-    const float t24 = dv0_3*t15 + dv1_3*t12;
-    const float t25 = t3*p[3];
-    const float t26 = -p[4]*t25*p[1];
-    const float t27 = -t19 - t21;
-    const float t28 = -t22;
-    const float t29 = -t23;
-    const float t30 = -t24;
-    const float t31 = t22 + t26;
+    const float t18 = p[4]*t9;
+    const float t19 = t2*p[2];
+    const float t20 = -t18*t19;
+    const float t21 = M01*v0*v1;
+    const float t22 = -t21;
+    const float t23 = dv0_0*t11;
+    const float t24 = dv1_0*t13;
+    const float t25 = dv0_1*t11;
+    const float t26 = dv1_1*t13;
+    const float t27 = dv0_2*t11;
+    const float t28 = dv1_2*t13;
+    const float t29 = dv0_3*t11;
+    const float t30 = dv1_3*t13;
+    const float t31 = t3*p[3];
+    const float t32 = p[4]*p[1];
+    const float t33 = -t31*t32;
+    const float t34 = t20 + t22 - t23 - t24;
+    const float t35 = t21 - t25 - t26;
+    const float t36 = -t27 - t28;
+    const float t37 = -t29 - t30;
+    const float t38 = t21 + t23 + t24;
+    const float t39 = t22 + t25 + t26 + t33;
+    const float t40 = t27 + t28;
+    const float t41 = t29 + t30;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1532,19 +1558,19 @@ int planar_hamiltonian_jacobian_f(const float *restrict x, const float *restrict
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = t27;
-    J[9] = t28;
-    J[10] = t29;
-    J[11] = t30;
-    J[12] = t21;
-    J[13] = t31;
-    J[14] = t23;
-    J[15] = t24;
+    J[8] = t34;
+    J[9] = t35;
+    J[10] = t36;
+    J[11] = t37;
+    J[12] = t38;
+    J[13] = t39;
+    J[14] = t40;
+    J[15] = t41;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
-        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t27 - t27) +
-        (t28 - t28) + (t29 - t29) + (t30 - t30) + (t21 - t21) + (t31 - t31) + (t23 - t23) +
-        (t24 - t24);
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t34 - t34) +
+        (t35 - t35) + (t36 - t36) + (t37 - t37) + (t38 - t38) + (t39 - t39) + (t40 - t40) +
+        (t41 - t41);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1565,58 +1591,68 @@ int planar_hamiltonian_jacobian_batch_f(long n, const float *restrict x, long x_
     return all;
 }
 
-/* planar_hamiltonian_jacobian_l (long double). Total ops: 83 */
+/* planar_hamiltonian_jacobian_l (long double). Total ops: 84 */
 int planar_hamiltonian_jacobian_l(const long double *restrict x, const long double *restrict p, long double *restrict J)
 {
     int status = PLANAR_STATUS_OK;
     long double check;
-    const long double t0 = sinl(x[0]);
-    const long double t1 = sinl(x[1]);
+    const long double t0 = p[3]*p[1];
+    const long double t1 = t0*p[2];
     const long double t2 = cosl(x[0]);
     const long double t3 = cosl(x[1]);
-    const long double t4 = t0*t3 - t1*t2;
-    const long double t5 = p[3]*p[1];
-    const long double t6 = t4*t5;
-    const long double t7 = t6*p[2];
-    const long double t8 = t0*t1 + t2*t3;
-    const long double t9 = t5*t8;
-    const long double M01 = t9*p[2];
+    const long double t4 = sinl(x[0]);
+    const long double t5 = sinl(x[1]);
+    const long double t6 = t3*t4 - t2*t5;
+    const long double t7 = t1*t6;
+    const long double t8 = p[2]*p[2];
+    const long double t9 = p[0] + p[1];
+    const long double M00 = t8*t9;
+    const long double t10 = t2*t3 + t4*t5;
+    const long double M01 = t1*t10;
     const long double M11 = p[1]*p[3]*p[3];
-    const long double t10 = p[2]*p[2];
-    const long double t11 = p[0] + p[1];
-    const long double M00 = t10*t11;
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
-    const long double v0 = rdet*(M11*x[2] - M01*x[3]);
-    const long double t12 = t7*v0;
     const long double v1 = rdet*(M00*x[3] - M01*x[2]);
-    const long double t13 = M01*t12 - M11*t4*v1*p[2]*p[3]*p[1];
-    const long double dv0_0 = -rdet*t13;
-    const long double dv0_1 = rdet*t13;
+    const long double t11 = t7*v1;
+    const long double t12 = M11*t11;
+    const long double v0 = rdet*(M11*x[2] - M01*x[3]);
+    const long double t13 = t7*v0;
+    const long double t14 = M01*t13;
+    const long double dv0_0 = rdet*(t12 - t14);
+    const long double dv0_1 = rdet*(t14 - t12);
     const long double dv0_2 = M11*rdet;
-    const long double t14 = M01*rdet;
-    const long double dv0_3 = -t14;
-    const long double t15 = t7*v1;
-    const long double t16 = M00*t12 - M01*t15;
-    const long double dv1_0 = rdet*t16;
-    const long double dv1_1 = -rdet*t16;
+    const long double t15 = M01*rdet;
+    const long double dv0_3 = -t15;
+    const long double t16 = M00*t13;
+    const long double t17 = M01*t11;
+    const long double dv1_0 = rdet*(t16 - t17);
+    const long double dv1_1 = rdet*(t17 - t16);
     const long double dv1_2 = dv0_3;
     const long double dv1_3 = M00*rdet;
-    const long double t17 = p[4]*t11;
-    const long double t18 = t2*p[2];
-    const long double t19 = t17*t18;
-    const long double t20 = M01*v0*v1;
-    const long double t21 = t20 + dv0_0*t15 + dv1_0*t12;
-    const long double t22 = dv0_1*t15 + dv1_1*t12 - t20;
-    const long double t23 = dv0_2*t15 + dv1_2*t12;
-    const long double t24 = dv0_3*t15 + dv1_3*t12;
-    const long double t25 = t3*p[3];
-    const long double t26 = -p[4]*t25*p[1];
-    const long double t27 = -t19 - t21;
-    const long double t28 = -t22;
-    const long double t29 = -t23;
-    const long double t30 = -t24;
-    const long double t31 = t22 + t26;
+    const long double t18 = p[4]*t9;
+    const long double t19 = t2*p[2];
+    const long double t20 = -t18*t19;
+    const long double t21 = M01*v0*v1;
+    const long double t22 = -t21;
+    const long double t23 = dv0_0*t11;
+    const long double t24 = dv1_0*t13;
+    const long double t25 = dv0_1*t11;
+    const long double t26 = dv1_1*t13;
+    const long double t27 = dv0_2*t11;
+    const long double t28 = dv1_2*t13;
+    const long double t29 = dv0_3*t11;
+    const long double t30 = dv1_3*t13;
+    const long double t31 = t3*p[3];
+    const long double t32 = p[4]*p[1];
+    const long double t33 = -t31*t32;
+    const long double t34 = t20 + t22 - t23 - t24;
+    const long double t35 = t21 - t25 - t26;
+    const long double t36 = -t27 - t28;
+    const long double t37 = -t29 - t30;
+    const long double t38 = t21 + t23 + t24;
+    const long double t39 = t22 + t25 + t26 + t33;
+    const long double t40 = t27 + t28;
+    const long double t41 = t29 + t30;
     J[0] = dv0_0;
     J[1] = dv0_1;
     J[2] = dv0_2;
@@ -1625,19 +1661,19 @@ int planar_hamiltonian_jacobian_l(const long double *restrict x, const long doub
     J[5] = dv1_1;
     J[6] = dv1_2;
     J[7] = dv1_3;
-    J[8] = t27;
-    J[9] = t28;
-    J[10] = t29;
-    J[11] = t30;
-    J[12] = t21;
-    J[13] = t31;
-    J[14] = t23;
-    J[15] = t24;
+    J[8] = t34;
+    J[9] = t35;
+    J[10] = t36;
+    J[11] = t37;
+    J[12] = t38;
+    J[13] = t39;
+    J[14] = t40;
+    J[15] = t41;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
     check = (dv0_0 - dv0_0) + (dv0_1 - dv0_1) + (dv0_2 - dv0_2) + (dv0_3 - dv0_3) +
-        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t27 - t27) +
-        (t28 - t28) + (t29 - t29) + (t30 - t30) + (t21 - t21) + (t31 - t31) + (t23 - t23) +
-        (t24 - t24);
+        (dv1_0 - dv1_0) + (dv1_1 - dv1_1) + (dv1_2 - dv1_2) + (dv1_3 - dv1_3) + (t34 - t34) +
+        (t35 - t35) + (t36 - t36) + (t37 - t37) + (t38 - t38) + (t39 - t39) + (t40 - t40) +
+        (t41 - t41);
     if (isnan(check)) {
         status |= PLANAR_STATUS_NONFINITE;
     }
@@ -1671,17 +1707,17 @@ int planar_to_canonical(const double *restrict y, const double *restrict p, doub
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t3 = lane_sin[0];
-    const double t4 = lane_sin[1];
-    const double t5 = lane_cos[0];
-    const double t6 = lane_cos[1];
+    const double t3 = lane_cos[0];
+    const double t4 = lane_cos[1];
+    const double t5 = lane_sin[0];
+    const double t6 = lane_sin[1];
     const double t0 = p[2]*p[2];
     const double t1 = p[0] + p[1];
     const double t2 = t0*t1;
     const double t7 = t3*t4 + t5*t6;
     const double t8 = p[3]*p[1];
-    const double t9 = t7*t8;
-    const double t10 = t9*p[2];
+    const double t9 = t8*p[2];
+    const double t10 = t7*t9;
     const double t11 = t10*y[3];
     const double t12 = p[1]*p[3]*p[3];
     const double t13 = t11 + t2*y[2];
@@ -1720,14 +1756,14 @@ int planar_to_canonical_f(const float *restrict y, const float *restrict p, floa
     const float t0 = p[2]*p[2];
     const float t1 = p[0] + p[1];
     const float t2 = t0*t1;
-    const float t3 = sinf(y[0]);
-    const float t4 = sinf(y[1]);
-    const float t5 = cosf(y[0]);
-    const float t6 = cosf(y[1]);
+    const float t3 = cosf(y[0]);
+    const float t4 = cosf(y[1]);
+    const float t5 = sinf(y[0]);
+    const float t6 = sinf(y[1]);
     const float t7 = t3*t4 + t5*t6;
     const float t8 = p[3]*p[1];
-    const float t9 = t7*t8;
-    const float t10 = t9*p[2];
+    const float t9 = t8*p[2];
+    const float t10 = t7*t9;
     const float t11 = t10*y[3];
     const float t12 = p[1]*p[3]*p[3];
     const float t13 = t11 + t2*y[2];
@@ -1766,14 +1802,14 @@ int planar_to_canonical_l(const long double *restrict y, const long double *rest
     const long double t0 = p[2]*p[2];
     const long double t1 = p[0] + p[1];
     const long double t2 = t0*t1;
-    const long double t3 = sinl(y[0]);
-    const long double t4 = sinl(y[1]);
-    const long double t5 = cosl(y[0]);
-    const long double t6 = cosl(y[1]);
+    const long double t3 = cosl(y[0]);
+    const long double t4 = cosl(y[1]);
+    const long double t5 = sinl(y[0]);
+    const long double t6 = sinl(y[1]);
     const long double t7 = t3*t4 + t5*t6;
     const long double t8 = p[3]*p[1];
-    const long double t9 = t7*t8;
-    const long double t10 = t9*p[2];
+    const long double t9 = t8*p[2];
+    const long double t10 = t7*t9;
     const long double t11 = t10*y[3];
     const long double t12 = p[1]*p[3]*p[3];
     const long double t13 = t11 + t2*y[2];
@@ -1817,14 +1853,14 @@ int planar_from_canonical(const double *restrict x, const double *restrict p, do
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t0 = lane_sin[0];
-    const double t1 = lane_sin[1];
-    const double t2 = lane_cos[0];
-    const double t3 = lane_cos[1];
+    const double t0 = lane_cos[0];
+    const double t1 = lane_cos[1];
+    const double t2 = lane_sin[0];
+    const double t3 = lane_sin[1];
     const double t4 = t0*t1 + t2*t3;
     const double t5 = p[3]*p[1];
-    const double t6 = t4*t5;
-    const double M01 = t6*p[2];
+    const double t6 = t5*p[2];
+    const double M01 = t4*t6;
     const double M11 = p[1]*p[3]*p[3];
     const double t7 = p[2]*p[2];
     const double t8 = p[0] + p[1];
@@ -1864,14 +1900,14 @@ int planar_from_canonical_f(const float *restrict x, const float *restrict p, fl
 {
     int status = PLANAR_STATUS_OK;
     float check;
-    const float t0 = sinf(x[0]);
-    const float t1 = sinf(x[1]);
-    const float t2 = cosf(x[0]);
-    const float t3 = cosf(x[1]);
+    const float t0 = cosf(x[0]);
+    const float t1 = cosf(x[1]);
+    const float t2 = sinf(x[0]);
+    const float t3 = sinf(x[1]);
     const float t4 = t0*t1 + t2*t3;
     const float t5 = p[3]*p[1];
-    const float t6 = t4*t5;
-    const float M01 = t6*p[2];
+    const float t6 = t5*p[2];
+    const float M01 = t4*t6;
     const float M11 = p[1]*p[3]*p[3];
     const float t7 = p[2]*p[2];
     const float t8 = p[0] + p[1];
@@ -1911,14 +1947,14 @@ int planar_from_canonical_l(const long double *restrict x, const long double *re
 {
     int status = PLANAR_STATUS_OK;
     long double check;
-    const long double t0 = sinl(x[0]);
-    const long double t1 = sinl(x[1]);
-    const long double t2 = cosl(x[0]);
-    const long double t3 = cosl(x[1]);
+    const long double t0 = cosl(x[0]);
+    const long double t1 = cosl(x[1]);
+    const long double t2 = sinl(x[0]);
+    const long double t3 = sinl(x[1]);
     const long double t4 = t0*t1 + t2*t3;
     const long double t5 = p[3]*p[1];
-    const long double t6 = t4*t5;
-    const long double M01 = t6*p[2];
+    const long double t6 = t5*p[2];
+    const long double M01 = t4*t6;
     const long double M11 = p[1]*p[3]*p[3];
     const long double t7 = p[2]*p[2];
     const long double t8 = p[0] + p[1];

@@ -38,7 +38,7 @@ const char *const planar_linearize_param_names[PLANAR_LINEARIZE_N_PARAMS] = {
     "m1", "m2", "l1", "l2", "g"
 };
 
-/* planar_linearize (double). Total ops: 95 */
+/* planar_linearize (double). Total ops: 90 */
 int planar_linearize(const double *restrict y, const double *restrict p, double *restrict A)
 {
     int status = PLANAR_LINEARIZE_STATUS_OK;
@@ -51,52 +51,53 @@ int planar_linearize(const double *restrict y, const double *restrict p, double 
         lane_sin[lane] = sin(lane_angle[lane]);
         lane_cos[lane] = cos(lane_angle[lane]);
     }
-    const double t1 = lane_sin[0];
-    const double t2 = lane_sin[1];
-    const double t3 = lane_cos[0];
-    const double t4 = lane_cos[1];
-    const double t0 = p[3]*p[1];
-    const double t5 = t1*t4 - t2*t3;
-    const double t6 = t0*t5;
-    const double t7 = t6*p[2];
-    const double t8 = t1*t2 + t3*t4;
-    const double t9 = t0*t8;
-    const double M01 = t9*p[2];
+    const double t0 = lane_cos[0];
+    const double t3 = lane_cos[1];
+    const double t4 = lane_sin[0];
+    const double t5 = lane_sin[1];
+    const double t1 = p[0] + p[1];
+    const double t2 = p[4]*t1;
+    const double t6 = t0*t3 + t4*t5;
+    const double t7 = p[3]*p[1];
+    const double t8 = y[3]*y[3];
+    const double t9 = t7*t8;
+    const double t10 = t6*t9;
+    const double t11 = t7*p[2];
+    const double t12 = t3*t4 - t0*t5;
+    const double t13 = t11*t12;
+    const double t14 = p[2]*p[2];
+    const double M00 = t1*t14;
+    const double M01 = t11*t6;
+    const double F0 = -p[2]*(t12*t9 + t2*t4);
+    const double t15 = y[2]*y[2];
+    const double t16 = t15*p[2];
+    const double F1 = t7*(t12*t16 - p[4]*t5);
     const double M11 = p[1]*p[3]*p[3];
-    const double t10 = p[0] + p[1];
-    const double t11 = p[4]*t10;
-    const double t12 = y[3]*y[3];
-    const double F0 = -p[2]*(t1*t11 + t12*t6);
-    const double t13 = p[4]*t2;
-    const double t14 = y[2]*y[2];
-    const double F1 = t0*(t14*t5*p[2] - t13);
-    const double t15 = p[2]*p[2];
-    const double M00 = t10*t15;
     const double det = M00*M11 - M01*M01;
     const double rdet = 1.0/det;
-    const double qdd0 = rdet*(F0*M11 - F1*M01);
-    const double t16 = qdd0*t7;
-    const double t17 = t14*t8*p[2];
-    const double t18 = t16 + t0*t17;
     const double qdd1 = rdet*(F1*M00 - F0*M01);
-    const double t19 = qdd1*t7;
-    const double t20 = t19 - p[2]*(t11*t3 + t12*t9);
-    const double t21 = t12*t8*p[2]*p[3]*p[1] - t19;
-    const double t22 = p[3]*p[1]*(-t17 - p[4]*t4) - t16;
-    const double t23 = M01*rdet;
-    const double t24 = 2*t7;
-    const double t25 = t24*y[2];
-    const double t26 = M11*rdet;
-    const double t27 = t24*y[3];
-    const double t28 = M00*rdet;
-    const double t29 = rdet*(M11*t20 - M01*t18);
-    const double t30 = rdet*(M11*t21 - M01*t22);
-    const double t31 = -t23*t25;
-    const double t32 = -t26*t27;
-    const double t33 = rdet*(M00*t18 - M01*t20);
-    const double t34 = rdet*(M00*t22 - M01*t21);
-    const double t35 = t25*t28;
-    const double t36 = t23*t27;
+    const double t17 = qdd1*t13;
+    const double t18 = t17 - p[2]*(t10 + t0*t2);
+    const double qdd0 = rdet*(F0*M11 - F1*M01);
+    const double t19 = qdd0*t13;
+    const double t20 = t16*t6;
+    const double t21 = t19 + t20*t7;
+    const double t22 = t10*p[2] - t17;
+    const double t23 = t7*(-t20 - p[4]*t3) - t19;
+    const double t24 = M01*rdet;
+    const double t25 = 2*t13;
+    const double t26 = t25*y[2];
+    const double t27 = M11*rdet;
+    const double t28 = t25*y[3];
+    const double t29 = M00*rdet;
+    const double t30 = rdet*(M11*t18 - M01*t21);
+    const double t31 = rdet*(M11*t22 - M01*t23);
+    const double t32 = -t24*t26;
+    const double t33 = -t27*t28;
+    const double t34 = rdet*(M00*t21 - M01*t18);
+    const double t35 = rdet*(M00*t23 - M01*t22);
+    const double t36 = t26*t29;
+    const double t37 = t24*t28;
     A[0] = 0;
     A[1] = 0;
     A[2] = 1;
@@ -105,17 +106,17 @@ int planar_linearize(const double *restrict y, const double *restrict p, double 
     A[5] = 0;
     A[6] = 0;
     A[7] = 1;
-    A[8] = t29;
-    A[9] = t30;
-    A[10] = t31;
-    A[11] = t32;
-    A[12] = t33;
-    A[13] = t34;
-    A[14] = t35;
-    A[15] = t36;
+    A[8] = t30;
+    A[9] = t31;
+    A[10] = t32;
+    A[11] = t33;
+    A[12] = t34;
+    A[13] = t35;
+    A[14] = t36;
+    A[15] = t37;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t29 - t29) + (t30 - t30) + (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) +
-        (t35 - t35) + (t36 - t36);
+    check = (t30 - t30) + (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) +
+        (t36 - t36) + (t37 - t37);
     if (isnan(check)) {
         status |= PLANAR_LINEARIZE_STATUS_NONFINITE;
     }
@@ -136,57 +137,58 @@ int planar_linearize_batch(long n, const double *restrict y, long y_stride, cons
     return all;
 }
 
-/* planar_linearize_f (float). Total ops: 95 */
+/* planar_linearize_f (float). Total ops: 90 */
 int planar_linearize_f(const float *restrict y, const float *restrict p, float *restrict A)
 {
     int status = PLANAR_LINEARIZE_STATUS_OK;
     float check;
-    const float t0 = p[3]*p[1];
-    const float t1 = sinf(y[0]);
-    const float t2 = sinf(y[1]);
-    const float t3 = cosf(y[0]);
-    const float t4 = cosf(y[1]);
-    const float t5 = t1*t4 - t2*t3;
-    const float t6 = t0*t5;
-    const float t7 = t6*p[2];
-    const float t8 = t1*t2 + t3*t4;
-    const float t9 = t0*t8;
-    const float M01 = t9*p[2];
+    const float t0 = cosf(y[0]);
+    const float t1 = p[0] + p[1];
+    const float t2 = p[4]*t1;
+    const float t3 = cosf(y[1]);
+    const float t4 = sinf(y[0]);
+    const float t5 = sinf(y[1]);
+    const float t6 = t0*t3 + t4*t5;
+    const float t7 = p[3]*p[1];
+    const float t8 = y[3]*y[3];
+    const float t9 = t7*t8;
+    const float t10 = t6*t9;
+    const float t11 = t7*p[2];
+    const float t12 = t3*t4 - t0*t5;
+    const float t13 = t11*t12;
+    const float t14 = p[2]*p[2];
+    const float M00 = t1*t14;
+    const float M01 = t11*t6;
+    const float F0 = -p[2]*(t12*t9 + t2*t4);
+    const float t15 = y[2]*y[2];
+    const float t16 = t15*p[2];
+    const float F1 = t7*(t12*t16 - p[4]*t5);
     const float M11 = p[1]*p[3]*p[3];
-    const float t10 = p[0] + p[1];
-    const float t11 = p[4]*t10;
-    const float t12 = y[3]*y[3];
-    const float F0 = -p[2]*(t1*t11 + t12*t6);
-    const float t13 = p[4]*t2;
-    const float t14 = y[2]*y[2];
-    const float F1 = t0*(t14*t5*p[2] - t13);
-    const float t15 = p[2]*p[2];
-    const float M00 = t10*t15;
     const float det = M00*M11 - M01*M01;
     const float rdet = 1.0F/det;
-    const float qdd0 = rdet*(F0*M11 - F1*M01);
-    const float t16 = qdd0*t7;
-    const float t17 = t14*t8*p[2];
-    const float t18 = t16 + t0*t17;
     const float qdd1 = rdet*(F1*M00 - F0*M01);
-    const float t19 = qdd1*t7;
-    const float t20 = t19 - p[2]*(t11*t3 + t12*t9);
-    const float t21 = t12*t8*p[2]*p[3]*p[1] - t19;
-    const float t22 = p[3]*p[1]*(-t17 - p[4]*t4) - t16;
-    const float t23 = M01*rdet;
-    const float t24 = 2*t7;
-    const float t25 = t24*y[2];
-    const float t26 = M11*rdet;
-    const float t27 = t24*y[3];
-    const float t28 = M00*rdet;
-    const float t29 = rdet*(M11*t20 - M01*t18);
-    const float t30 = rdet*(M11*t21 - M01*t22);
-    const float t31 = -t23*t25;
-    const float t32 = -t26*t27;
-    const float t33 = rdet*(M00*t18 - M01*t20);
-    const float t34 = rdet*(M00*t22 - M01*t21);
-    const float t35 = t25*t28;
-    const float t36 = t23*t27;
+    const float t17 = qdd1*t13;
+    const float t18 = t17 - p[2]*(t10 + t0*t2);
+    const float qdd0 = rdet*(F0*M11 - F1*M01);
+    const float t19 = qdd0*t13;
+    const float t20 = t16*t6;
+    const float t21 = t19 + t20*t7;
+    const float t22 = t10*p[2] - t17;
+    const float t23 = t7*(-t20 - p[4]*t3) - t19;
+    const float t24 = M01*rdet;
+    const float t25 = 2*t13;
+    const float t26 = t25*y[2];
+    const float t27 = M11*rdet;
+    const float t28 = t25*y[3];
+    const float t29 = M00*rdet;
+    const float t30 = rdet*(M11*t18 - M01*t21);
+    const float t31 = rdet*(M11*t22 - M01*t23);
+    const float t32 = -t24*t26;
+    const float t33 = -t27*t28;
+    const float t34 = rdet*(M00*t21 - M01*t18);
+    const float t35 = rdet*(M00*t23 - M01*t22);
+    const float t36 = t26*t29;
+    const float t37 = t24*t28;
     A[0] = 0;
     A[1] = 0;
     A[2] = 1;
@@ -195,17 +197,17 @@ int planar_linearize_f(const float *restrict y, const float *restrict p, float *
     A[5] = 0;
     A[6] = 0;
     A[7] = 1;
-    A[8] = t29;
-    A[9] = t30;
-    A[10] = t31;
-    A[11] = t32;
-    A[12] = t33;
-    A[13] = t34;
-    A[14] = t35;
-    A[15] = t36;
+    A[8] = t30;
+    A[9] = t31;
+    A[10] = t32;
+    A[11] = t33;
+    A[12] = t34;
+    A[13] = t35;
+    A[14] = t36;
+    A[15] = t37;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t29 - t29) + (t30 - t30) + (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) +
-        (t35 - t35) + (t36 - t36);
+    check = (t30 - t30) + (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) +
+        (t36 - t36) + (t37 - t37);
     if (isnan(check)) {
         status |= PLANAR_LINEARIZE_STATUS_NONFINITE;
     }
@@ -226,57 +228,58 @@ int planar_linearize_batch_f(long n, const float *restrict y, long y_stride, con
     return all;
 }
 
-/* planar_linearize_l (long double). Total ops: 95 */
+/* planar_linearize_l (long double). Total ops: 90 */
 int planar_linearize_l(const long double *restrict y, const long double *restrict p, long double *restrict A)
 {
     int status = PLANAR_LINEARIZE_STATUS_OK;
     long double check;
-    const long double t0 = p[3]*p[1];
-    const long double t1 = sinl(y[0]);
-    const long double t2 = sinl(y[1]);
-    const long double t3 = cosl(y[0]);
-    const long double t4 = cosl(y[1]);
-    const long double t5 = t1*t4 - t2*t3;
-    const long double t6 = t0*t5;
-    const long double t7 = t6*p[2];
-    const long double t8 = t1*t2 + t3*t4;
-    const long double t9 = t0*t8;
-    const long double M01 = t9*p[2];
+    const long double t0 = cosl(y[0]);
+    const long double t1 = p[0] + p[1];
+    const long double t2 = p[4]*t1;
+    const long double t3 = cosl(y[1]);
+    const long double t4 = sinl(y[0]);
+    const long double t5 = sinl(y[1]);
+    const long double t6 = t0*t3 + t4*t5;
+    const long double t7 = p[3]*p[1];
+    const long double t8 = y[3]*y[3];
+    const long double t9 = t7*t8;
+    const long double t10 = t6*t9;
+    const long double t11 = t7*p[2];
+    const long double t12 = t3*t4 - t0*t5;
+    const long double t13 = t11*t12;
+    const long double t14 = p[2]*p[2];
+    const long double M00 = t1*t14;
+    const long double M01 = t11*t6;
+    const long double F0 = -p[2]*(t12*t9 + t2*t4);
+    const long double t15 = y[2]*y[2];
+    const long double t16 = t15*p[2];
+    const long double F1 = t7*(t12*t16 - p[4]*t5);
     const long double M11 = p[1]*p[3]*p[3];
-    const long double t10 = p[0] + p[1];
-    const long double t11 = p[4]*t10;
-    const long double t12 = y[3]*y[3];
-    const long double F0 = -p[2]*(t1*t11 + t12*t6);
-    const long double t13 = p[4]*t2;
-    const long double t14 = y[2]*y[2];
-    const long double F1 = t0*(t14*t5*p[2] - t13);
-    const long double t15 = p[2]*p[2];
-    const long double M00 = t10*t15;
     const long double det = M00*M11 - M01*M01;
     const long double rdet = 1.0L/det;
-    const long double qdd0 = rdet*(F0*M11 - F1*M01);
-    const long double t16 = qdd0*t7;
-    const long double t17 = t14*t8*p[2];
-    const long double t18 = t16 + t0*t17;
     const long double qdd1 = rdet*(F1*M00 - F0*M01);
-    const long double t19 = qdd1*t7;
-    const long double t20 = t19 - p[2]*(t11*t3 + t12*t9);
-    const long double t21 = t12*t8*p[2]*p[3]*p[1] - t19;
-    const long double t22 = p[3]*p[1]*(-t17 - p[4]*t4) - t16;
-    const long double t23 = M01*rdet;
-    const long double t24 = 2*t7;
-    const long double t25 = t24*y[2];
-    const long double t26 = M11*rdet;
-    const long double t27 = t24*y[3];
-    const long double t28 = M00*rdet;
-    const long double t29 = rdet*(M11*t20 - M01*t18);
-    const long double t30 = rdet*(M11*t21 - M01*t22);
-    const long double t31 = -t23*t25;
-    const long double t32 = -t26*t27;
-    const long double t33 = rdet*(M00*t18 - M01*t20);
-    const long double t34 = rdet*(M00*t22 - M01*t21);
-    const long double t35 = t25*t28;
-    const long double t36 = t23*t27;
+    const long double t17 = qdd1*t13;
+    const long double t18 = t17 - p[2]*(t10 + t0*t2);
+    const long double qdd0 = rdet*(F0*M11 - F1*M01);
+    const long double t19 = qdd0*t13;
+    const long double t20 = t16*t6;
+    const long double t21 = t19 + t20*t7;
+    const long double t22 = t10*p[2] - t17;
+    const long double t23 = t7*(-t20 - p[4]*t3) - t19;
+    const long double t24 = M01*rdet;
+    const long double t25 = 2*t13;
+    const long double t26 = t25*y[2];
+    const long double t27 = M11*rdet;
+    const long double t28 = t25*y[3];
+    const long double t29 = M00*rdet;
+    const long double t30 = rdet*(M11*t18 - M01*t21);
+    const long double t31 = rdet*(M11*t22 - M01*t23);
+    const long double t32 = -t24*t26;
+    const long double t33 = -t27*t28;
+    const long double t34 = rdet*(M00*t21 - M01*t18);
+    const long double t35 = rdet*(M00*t23 - M01*t22);
+    const long double t36 = t26*t29;
+    const long double t37 = t24*t28;
     A[0] = 0;
     A[1] = 0;
     A[2] = 1;
@@ -285,17 +288,17 @@ int planar_linearize_l(const long double *restrict y, const long double *restric
     A[5] = 0;
     A[6] = 0;
     A[7] = 1;
-    A[8] = t29;
-    A[9] = t30;
-    A[10] = t31;
-    A[11] = t32;
-    A[12] = t33;
-    A[13] = t34;
-    A[14] = t35;
-    A[15] = t36;
+    A[8] = t30;
+    A[9] = t31;
+    A[10] = t32;
+    A[11] = t33;
+    A[12] = t34;
+    A[13] = t35;
+    A[14] = t36;
+    A[15] = t37;
     /* x - x is 0 for finite x and NaN for infinite or NaN x */
-    check = (t29 - t29) + (t30 - t30) + (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) +
-        (t35 - t35) + (t36 - t36);
+    check = (t30 - t30) + (t31 - t31) + (t32 - t32) + (t33 - t33) + (t34 - t34) + (t35 - t35) +
+        (t36 - t36) + (t37 - t37);
     if (isnan(check)) {
         status |= PLANAR_LINEARIZE_STATUS_NONFINITE;
     }

@@ -56,7 +56,7 @@ extern const char *const planar_linearize_param_names[PLANAR_LINEARIZE_N_PARAMS]
  *   in  y[4]: the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out A[16]: A = df/dy, row-major
- * Total ops: 95
+ * Total ops: 90
  */
 #define PLANAR_LINEARIZE_Y_SIZE 4
 #define PLANAR_LINEARIZE_Y_RANK 1

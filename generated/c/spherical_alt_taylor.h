@@ -2,7 +2,7 @@
  *
  * spherical_alt: Taylor's method for the kernels of spherical_alt.h (Double spherical pendulum, second chart (vartheta, varphi)), in double (no suffix), float (suffix _f), long double (suffix _l) and double-double (suffix _dd).
  *
- * The rhs is decomposed into 166 elementary operations (5 add, 5 cos, 8 div, 60 mul, 28 scale, 2 shift, 5 sin, 10 square, 35 sub, 8 var)
+ * The rhs is decomposed into 159 elementary operations (9 add, 5 cos, 2 csub, 7 div, 60 mul, 22 scale, 5 sin, 10 square, 31 sub, 8 var)
  * with 9 constants per step (expressions of the parameters); the Taylor
  * coefficients of the solution come from the recurrence of each operation (automatic
  * differentiation, derive/codegen/taylor.py).  Order and step from the

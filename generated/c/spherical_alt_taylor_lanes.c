@@ -81,8 +81,8 @@
 #define DERIVE_LANES_USES_ADD 1
 #define DERIVE_LANES_USES_SUB 1
 #define DERIVE_LANES_USES_SCALE 1
-#define DERIVE_LANES_USES_SHIFT 1
-#define DERIVE_LANES_USES_CSUB 0
+#define DERIVE_LANES_USES_SHIFT 0
+#define DERIVE_LANES_USES_CSUB 1
 #define DERIVE_LANES_USES_MUL 1
 #define DERIVE_LANES_USES_SQUARE 1
 #define DERIVE_LANES_USES_DIV 1
@@ -110,7 +110,7 @@ static void spherical_alt_lconstants(R (*C)[L], int l, const R *p)
 {
     C[0][l] = p[2]*p[3];
     C[1][l] = -1;
-    C[2][l] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[2][l] = p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
     C[3][l] = p[2]*p[2]*(p[0] + p[1])/p[1];
     C[4][l] = 2;
     C[5][l] = p[4]*p[2]*(p[0] + p[1])/p[1];
@@ -125,104 +125,109 @@ static void spherical_alt_lconstants(R (*C)[L], int l, const R *p)
  * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
 static void spherical_alt_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    static const int HA0[58] = {
-        2, 0, 1, 3, 1, 5, 7, 6, 4, 4, 1, 0, 1, 0, 0, 1,
-        9, 53, 1, 54, 53, 16, 11, 0, 12, 21, 19, 19, 6, 18, 35, 46,
-        52, 53, 48, 61, 63, 64, 62, 71, 71, 80, 82, 81, 84, 86, 87, 88,
-        89, 90, 91, 98, 99, 2, 4, 0, 1, 3
+    static const int HA0[59] = {
+        2, 0, 1, 3, 1, 5, 7, 4, 1, 0, 0, 2, 1, 3, 7, 56,
+        54, 56, 0, 1, 1, 0, 55, 56, 17, 9, 22, 22, 22, 22, 19, 18,
+        25, 33, 44, 50, 51, 33, 52, 53, 56, 54, 57, 64, 67, 72, 39, 75,
+        79, 80, 81, 82, 84, 91, 2, 4, 0, 1, 3
     };
-    static const int HA1[58] = {
-        53, 55, 56, 57, 3, 0, 0, 0, 0, 54, 5, 6, 8, 7, 4, 4,
-        0, 6, 53, 0, 54, 55, 54, 54, 1, 53, 5, 15, 14, 29, 0, 34,
-        42, 37, 25, 27, 58, 47, 43, 25, 33, 72, 65, 73, 67, 41, 43, 41,
-        41, 43, 43, 1, 0, 0, 9, 1, 2, 3
+    static const int HA1[59] = {
+        54, 56, 57, 58, 3, 0, 0, 55, 5, 6, 4, 0, 4, 0, 0, 3,
+        6, 54, 56, 54, 13, 11, 0, 14, 14, 1, 6, 19, 12, 10, 12, 14,
+        0, 32, 32, 38, 20, 52, 44, 27, 22, 40, 21, 68, 69, 59, 43, 58,
+        43, 44, 44, 43, 1, 0, 0, 7, 1, 2, 3
     };
-    static const int TA0[100] = {
-        7, 5, 1, 10, 55, 53, 0, 10, 12, 15, 57, 56, 53, 11, 18, 14,
-        11, 13, 3, 4, 5, 7, 8, 9, 19, 21, 20, 21, 22, 23, 20, 21,
-        11, 24, 24, 2, 28, 30, 14, 15, 26, 8, 27, 24, 31, 32, 33, 41,
-        34, 18, 13, 7, 44, 45, 30, 30, 30, 49, 51, 50, 54, 55, 56, 57,
-        59, 21, 19, 24, 19, 33, 32, 60, 35, 38, 36, 37, 30, 24, 30, 21,
-        39, 40, 74, 69, 75, 70, 83, 85, 31, 35, 34, 38, 35, 39, 38, 40,
-        47, 49, 93, 95
+    static const int TA0[92] = {
+        7, 5, 6, 4, 1, 56, 54, 58, 57, 54, 55, 8, 18, 9, 19, 8,
+        20, 10, 15, 9, 21, 5, 6, 22, 23, 4, 15, 23, 10, 24, 8, 25,
+        23, 24, 26, 11, 27, 13, 28, 29, 25, 29, 26, 30, 31, 32, 32, 32,
+        11, 41, 42, 43, 45, 46, 47, 48, 49, 55, 23, 22, 25, 22, 36, 35,
+        37, 32, 25, 38, 39, 41, 40, 42, 62, 32, 23, 71, 70, 63, 45, 37,
+        76, 77, 34, 47, 48, 33, 41, 38, 41, 51, 85, 87
     };
-    static const int TA1[100] = {
-        6, 4, 0, 55, 2, 3, 55, 9, 9, 55, 7, 8, 16, 17, 54, 17,
-        16, 16, 3, 5, 7, 0, 0, 3, 0, 0, 55, 19, 55, 55, 14, 22,
-        16, 0, 2, 26, 0, 0, 25, 25, 18, 28, 55, 19, 15, 23, 1, 0,
-        1, 36, 39, 29, 10, 17, 0, 24, 21, 38, 0, 40, 2, 1, 1, 19,
-        20, 32, 32, 33, 33, 6, 3, 1, 0, 0, 6, 3, 37, 37, 36, 36,
-        31, 34, 76, 77, 78, 79, 66, 68, 42, 42, 44, 44, 45, 45, 46, 46,
-        92, 94, 48, 50
+    static const int TA1[92] = {
+        6, 4, 0, 0, 0, 2, 3, 7, 8, 14, 17, 15, 55, 16, 55, 14,
+        7, 16, 12, 14, 7, 5, 7, 0, 0, 10, 16, 22, 24, 12, 18, 0,
+        2, 1, 18, 30, 5, 31, 56, 54, 22, 13, 17, 19, 1, 0, 25, 23,
+        34, 36, 7, 39, 2, 1, 1, 28, 37, 35, 35, 35, 36, 36, 6, 3,
+        34, 40, 40, 33, 0, 0, 3, 6, 66, 42, 42, 65, 73, 74, 46, 45,
+        60, 61, 47, 46, 83, 49, 50, 50, 49, 78, 86, 88
     };
-    R H[58][ORDER_DIM * L];     /* nodes read at every order */
-    R T[100][L];                 /* nodes read at this order only */
+    R H[59][ORDER_DIM * L];     /* nodes read at every order */
+    R T[92][L];                 /* nodes read at this order only */
     const int order = SPHERICAL_ALT_TAYLOR_ORDER ? SPHERICAL_ALT_TAYLOR_ORDER : order_wanted;
     int k, u;
     for (k = 0; k < order; ++k) {
         for (u = 0; u < 4; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
         for (u = 4; u < 5; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
-        for (u = 5; u < 9; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 5; u < 7; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
         for (u = 0; u < 2; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA1[u]], k); }
-        for (u = 9; u < 10; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
-        for (u = 2; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 10; u < 14; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 14; u < 16; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 16; u < 18; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
-        for (u = 3; u < 10; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 18; u < 19; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 10; u < 12; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 12; u < 18; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 19; u < 20; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
-        for (u = 20; u < 24; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 18; u < 24; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 24; u < 25; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 24; u < 26; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 26; u < 31; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 25; u < 28; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 28; u < 29; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 31; u < 32; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 32; u < 33; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 33; u < 34; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 34; u < 35; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
-        for (u = 35; u < 36; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 36; u < 38; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 38; u < 44; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 29; u < 30; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
-        for (u = 44; u < 46; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 46; u < 49; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 30; u < 31; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 49; u < 51; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 51; u < 52; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 52; u < 54; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 31; u < 35; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 54; u < 55; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 55; u < 57; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 2; u < 4; ++u) { LANES_SQUARE(T[u], X[TA0[u]], k); }
+        for (u = 7; u < 8; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 4; u < 5; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 8; u < 10; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 10; u < 14; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 14; u < 17; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 17; u < 22; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 5; u < 7; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 7; u < 9; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 9; u < 21; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 22; u < 23; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 23; u < 25; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 21; u < 23; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 25; u < 26; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 23; u < 25; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 25; u < 27; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 27; u < 30; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 26; u < 30; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 30; u < 32; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 30; u < 31; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 31; u < 32; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 32; u < 33; ++u) { LANES_CSUB(T[u], C[TA1[u]], T[TA0[u]], k); }
+        for (u = 33; u < 34; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 32; u < 33; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 34; u < 41; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 41; u < 42; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 42; u < 44; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 44; u < 45; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 45; u < 46; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 46; u < 48; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 48; u < 50; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 50; u < 52; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 33; u < 34; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 34; u < 35; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 52; u < 53; ++u) { LANES_CSUB(T[u], C[TA1[u]], T[TA0[u]], k); }
+        for (u = 53; u < 55; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 55; u < 57; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 35; u < 37; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 37; u < 39; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 39; u < 42; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
         for (u = 57; u < 58; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 58; u < 59; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 59; u < 60; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 60; u < 61; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
-        for (u = 61; u < 63; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 63; u < 65; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 65; u < 69; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 69; u < 71; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 71; u < 72; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 35; u < 39; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 39; u < 41; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 72; u < 74; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 74; u < 76; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 76; u < 80; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 80; u < 82; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 82; u < 86; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 41; u < 45; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 86; u < 88; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 88; u < 92; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 45; u < 47; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
-        for (u = 47; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
-        for (u = 92; u < 96; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 96; u < 98; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
-        for (u = 98; u < 100; ++u) { LANES_SUB(T[u], T[TA0[u]], H[TA1[u]] + k * L); }
-        for (u = 51; u < 53; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 58; u < 62; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 62; u < 64; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 64; u < 68; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 68; u < 70; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 42; u < 43; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 70; u < 71; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 43; u < 45; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 71; u < 72; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 72; u < 73; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 73; u < 75; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 75; u < 78; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 45; u < 46; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 46; u < 47; ++u) { LANES_DIV(H[u], H[HA0[u]] + k * L, H[HA1[u]], k); }
+        for (u = 47; u < 48; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 78; u < 80; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 80; u < 82; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 82; u < 84; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 48; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 51; u < 52; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 84; u < 85; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 85; u < 89; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 89; u < 90; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 52; u < 53; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 90; u < 92; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 53; u < 54; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
         if (k == 0) {
             LANES_GUARD(bad, H[1] + k * L, sine_min);
             LANES_GUARD(bad, H[0] + k * L, sine_min);
@@ -231,18 +236,18 @@ static void spherical_alt_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wante
         LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
         LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
-        LANES_OUT(X[4] + (k + 1) * L, T[96], k);
-        LANES_OUT(X[5] + (k + 1) * L, H[51] + k * L, k);
-        LANES_OUT(X[6] + (k + 1) * L, T[97], k);
-        LANES_OUT(X[7] + (k + 1) * L, H[52] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[89], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[52] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[90], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[53] + k * L, k);
     }
 }
 #else
 /* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_alt_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    R H[58][ORDER_DIM * L];     /* nodes read at every order */
-    R T[100][L];                 /* nodes read at this order only */
+    R H[59][ORDER_DIM * L];     /* nodes read at every order */
+    R T[92][L];                 /* nodes read at this order only */
     const int order = SPHERICAL_ALT_TAYLOR_ORDER ? SPHERICAL_ALT_TAYLOR_ORDER : order_wanted;
     int k;
     TAYLOR_UNROLL
@@ -257,149 +262,142 @@ static void spherical_alt_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wante
         LANES_SCALE(T[2], C[1], T[1]);
         LANES_SCALE(H[7] + k * L, C[0], H[4] + k * L);
         LANES_SQUARE(T[3], H[7], k);
-        LANES_SHIFT(T[4], T[3], C[2], k);
-        LANES_SUB(H[8] + k * L, T[2], T[4]);
+        LANES_CSUB(T[4], C[2], T[3], k);
+        LANES_ADD(H[8] + k * L, T[2], T[4]);
         LANES_SINCOS(H[9], H[10], X[0], k);
-        LANES_MUL(T[5], H[9], H[0], k);
-        LANES_MUL(H[11] + k * L, H[1], H[4], k);
-        LANES_MUL(T[6], H[11], H[10], k);
-        LANES_ADD(T[7], T[5], T[6]);
-        LANES_SCALE(H[12] + k * L, C[0], T[7]);
-        LANES_SQUARE(T[8], H[12], k);
-        LANES_SHIFT(T[9], T[8], C[2], k);
-        LANES_SCALE(T[10], C[1], T[9]);
-        LANES_MUL(H[13] + k * L, H[5], H[10], k);
-        LANES_SQUARE(T[11], H[13], k);
-        LANES_SUB(H[14] + k * L, T[10], T[11]);
+        LANES_MUL(H[11] + k * L, H[10], H[5], k);
+        LANES_SQUARE(T[5], H[11], k);
+        LANES_SCALE(T[6], C[1], T[5]);
+        LANES_MUL(T[7], H[9], H[0], k);
+        LANES_MUL(H[12] + k * L, H[10], H[1], k);
+        LANES_MUL(T[8], H[4], H[12], k);
+        LANES_ADD(T[9], T[7], T[8]);
+        LANES_SCALE(H[13] + k * L, C[0], T[9]);
+        LANES_SQUARE(T[10], H[13], k);
+        LANES_CSUB(T[11], C[2], T[10], k);
+        LANES_ADD(H[14] + k * L, T[6], T[11]);
         LANES_MUL(T[12], H[14], H[8], k);
-        LANES_MUL(T[13], H[12], H[6], k);
+        LANES_MUL(T[13], H[13], H[6], k);
         LANES_SCALE(T[14], C[1], T[13]);
-        LANES_MUL(T[15], H[13], H[7], k);
+        LANES_MUL(T[15], H[11], H[7], k);
         LANES_SUB(H[15] + k * L, T[14], T[15]);
         LANES_SQUARE(T[16], H[15], k);
         LANES_SUB(H[16] + k * L, T[12], T[16]);
         LANES_SQUARE(H[17] + k * L, X[5], k);
         LANES_MUL(H[18] + k * L, H[9], H[17], k);
-        LANES_MUL(T[17], H[18], H[10], k);
-        LANES_SCALE(T[18], C[3], T[17]);
-        LANES_SQUARE(H[19] + k * L, X[7], k);
-        LANES_MUL(H[20] + k * L, H[0], H[19], k);
-        LANES_MUL(H[21] + k * L, H[20], H[4], k);
-        LANES_MUL(T[19], H[21], H[10], k);
-        LANES_SCALE(T[20], C[0], T[19]);
-        LANES_ADD(T[21], T[18], T[20]);
-        LANES_MUL(T[22], X[7], X[6], k);
-        LANES_SCALE(H[22] + k * L, C[4], T[22]);
-        LANES_MUL(H[23] + k * L, H[13], H[1], k);
-        LANES_MUL(T[23], H[22], H[23], k);
-        LANES_SUB(T[24], T[21], T[23]);
-        LANES_SINCOS(H[24], H[25], X[1], k);
-        LANES_MUL(T[25], H[10], H[24], k);
-        LANES_SCALE(T[26], C[5], T[25]);
-        LANES_SUB(T[27], T[24], T[26]);
-        LANES_SQUARE(H[26] + k * L, X[6], k);
-        LANES_MUL(H[27] + k * L, H[9], H[1], k);
-        LANES_MUL(H[28] + k * L, H[0], H[4], k);
-        LANES_MUL(T[28], H[28], H[10], k);
-        LANES_SUB(H[29] + k * L, H[27] + k * L, T[28]);
-        LANES_MUL(T[29], H[26], H[29], k);
-        LANES_SCALE(T[30], C[0], T[29]);
-        LANES_SUB(H[30] + k * L, T[27], T[30]);
-        LANES_SCALE(T[31], C[6], H[30] + k * L);
-        LANES_SCALE(H[31] + k * L, C[6], H[1] + k * L);
-        LANES_MUL(T[32], H[20], H[31], k);
-        LANES_MUL(T[33], X[5], X[4], k);
-        LANES_SCALE(H[32] + k * L, C[4], T[33]);
-        LANES_MUL(T[34], H[32], H[23], k);
-        LANES_ADD(T[35], T[32], T[34]);
-        LANES_MUL(H[33] + k * L, H[7], H[17], k);
-        LANES_MUL(T[36], H[33], H[27], k);
-        LANES_ADD(T[37], T[35], T[36]);
-        LANES_SINCOS(H[34], H[35], X[3], k);
-        LANES_MUL(T[38], H[1], H[34], k);
-        LANES_SCALE(T[39], C[7], T[38]);
-        LANES_SUB(T[40], T[37], T[39]);
-        LANES_SQUARE(H[36] + k * L, X[4], k);
-        LANES_MUL(T[41], H[0], H[10], k);
-        LANES_MUL(T[42], H[27], H[4], k);
-        LANES_SUB(H[37] + k * L, T[41], T[42]);
-        LANES_MUL(T[43], H[36], H[37], k);
-        LANES_SCALE(T[44], C[0], T[43]);
-        LANES_SUB(H[38] + k * L, T[40], T[44]);
-        LANES_MUL(T[45], H[12], H[38], k);
-        LANES_SUB(T[46], T[31], T[45]);
-        LANES_MUL(T[47], H[18], H[3], k);
-        LANES_SCALE(T[48], C[0], T[47]);
-        LANES_MUL(H[39] + k * L, H[9], H[36], k);
-        LANES_MUL(T[49], H[39], H[3], k);
-        LANES_SCALE(T[50], C[0], T[49]);
-        LANES_ADD(T[51], T[48], T[50]);
-        LANES_MUL(T[52], H[22], H[31], k);
-        LANES_SUB(T[53], T[51], T[52]);
-        LANES_SCALE(T[54], C[7], H[35] + k * L);
-        LANES_SUB(T[55], T[53], T[54]);
-        LANES_MUL(H[40] + k * L, H[7], H[32], k);
-        LANES_MUL(T[56], H[40], H[10], k);
-        LANES_SUB(H[41] + k * L, T[55], T[56]);
-        LANES_MUL(T[57], H[13], H[41], k);
-        LANES_SUB(H[42] + k * L, T[46], T[57]);
-        LANES_MUL(T[58], H[8], H[42], k);
-        LANES_DIV(H[43], T[58], H[16], k);
-        LANES_SCALE(T[59], C[8], H[25] + k * L);
-        LANES_MUL(T[60], H[20], H[5], k);
-        LANES_SUB(T[61], T[59], T[60]);
-        LANES_MUL(T[62], H[32], H[10], k);
-        LANES_SCALE(T[63], C[3], T[62]);
-        LANES_SUB(T[64], T[61], T[63]);
-        LANES_MUL(H[44] + k * L, H[0], H[26], k);
-        LANES_MUL(T[65], H[44], H[5], k);
-        LANES_SUB(T[66], T[64], T[65]);
-        LANES_MUL(T[67], H[11], H[22], k);
-        LANES_SCALE(T[68], C[0], T[67]);
-        LANES_SUB(H[45] + k * L, T[66], T[68]);
-        LANES_SCALE(T[69], C[6], H[45] + k * L);
-        LANES_MUL(T[70], H[6], H[38], k);
-        LANES_SUB(T[71], T[69], T[70]);
-        LANES_MUL(T[72], H[7], H[41], k);
-        LANES_SUB(T[73], T[71], T[72]);
-        LANES_DIV(H[46], T[73], H[16], k);
-        LANES_MUL(T[74], H[15], H[46], k);
-        LANES_SUB(T[75], H[43] + k * L, T[74]);
-        LANES_MUL(T[76], H[14], H[46], k);
-        LANES_MUL(T[77], H[15], H[42], k);
-        LANES_DIV(H[47], T[77], H[16], k);
-        LANES_SUB(T[78], T[76], H[47] + k * L);
-        LANES_DIV(H[48], T[78], H[9], k);
-        LANES_SCALE(T[79], C[1], T[4]);
-        LANES_SUB(H[49] + k * L, T[79], T[11]);
-        LANES_SUB(H[50] + k * L, T[10], T[1]);
-        LANES_MUL(T[80], H[50], H[49], k);
-        LANES_MUL(T[81], H[12], H[13], k);
-        LANES_SCALE(T[82], C[1], T[81]);
-        LANES_MUL(T[83], H[6], H[7], k);
-        LANES_SUB(H[51] + k * L, T[82], T[83]);
-        LANES_SQUARE(T[84], H[51], k);
-        LANES_SUB(H[52] + k * L, T[80], T[84]);
-        LANES_SCALE(T[85], C[3], H[38] + k * L);
-        LANES_MUL(T[86], H[12], H[30], k);
-        LANES_SUB(T[87], T[85], T[86]);
-        LANES_MUL(T[88], H[6], H[45], k);
-        LANES_SUB(H[53] + k * L, T[87], T[88]);
-        LANES_MUL(T[89], H[49], H[53], k);
-        LANES_DIV(H[54], T[89], H[52], k);
-        LANES_SCALE(T[90], C[3], H[41] + k * L);
-        LANES_MUL(T[91], H[13], H[30], k);
-        LANES_SUB(T[92], T[90], T[91]);
-        LANES_MUL(T[93], H[7], H[45], k);
-        LANES_SUB(T[94], T[92], T[93]);
-        LANES_DIV(H[55], T[94], H[52], k);
-        LANES_MUL(T[95], H[51], H[55], k);
-        LANES_SUB(T[96], H[54] + k * L, T[95]);
-        LANES_MUL(T[97], H[50], H[55], k);
-        LANES_MUL(T[98], H[51], H[53], k);
-        LANES_DIV(H[56], T[98], H[52], k);
-        LANES_SUB(T[99], T[97], H[56] + k * L);
-        LANES_DIV(H[57], T[99], H[0], k);
+        LANES_SCALE(H[19] + k * L, C[3], H[10] + k * L);
+        LANES_MUL(T[17], H[18], H[19], k);
+        LANES_SQUARE(H[20] + k * L, X[7], k);
+        LANES_MUL(H[21] + k * L, H[0], H[10], k);
+        LANES_MUL(H[22] + k * L, H[7], H[20], k);
+        LANES_MUL(T[18], H[22], H[21], k);
+        LANES_ADD(T[19], T[17], T[18]);
+        LANES_MUL(T[20], X[7], X[6], k);
+        LANES_SCALE(H[23] + k * L, C[4], T[20]);
+        LANES_MUL(H[24] + k * L, H[12], H[5], k);
+        LANES_MUL(T[21], H[23], H[24], k);
+        LANES_SUB(T[22], T[19], T[21]);
+        LANES_SQUARE(T[23], X[6], k);
+        LANES_SCALE(H[25] + k * L, C[0], T[23]);
+        LANES_MUL(H[26] + k * L, H[9], H[1], k);
+        LANES_MUL(T[24], H[21], H[4], k);
+        LANES_SUB(H[27] + k * L, H[26] + k * L, T[24]);
+        LANES_MUL(T[25], H[25], H[27], k);
+        LANES_SUB(T[26], T[22], T[25]);
+        LANES_SINCOS(H[28], H[29], X[1], k);
+        LANES_MUL(T[27], H[10], H[28], k);
+        LANES_SCALE(T[28], C[5], T[27]);
+        LANES_SUB(H[30] + k * L, T[26], T[28]);
+        LANES_SCALE(T[29], C[6], H[30] + k * L);
+        LANES_MUL(T[30], X[5], X[4], k);
+        LANES_SCALE(H[31] + k * L, C[4], T[30]);
+        LANES_MUL(T[31], H[24], H[31], k);
+        LANES_MUL(H[32] + k * L, H[0], H[20], k);
+        LANES_SCALE(H[33] + k * L, C[6], H[1] + k * L);
+        LANES_MUL(T[32], H[32], H[33], k);
+        LANES_ADD(T[33], T[31], T[32]);
+        LANES_MUL(H[34] + k * L, H[7], H[26], k);
+        LANES_MUL(T[34], H[34], H[17], k);
+        LANES_ADD(T[35], T[33], T[34]);
+        LANES_SQUARE(T[36], X[4], k);
+        LANES_SCALE(H[35] + k * L, C[0], T[36]);
+        LANES_MUL(T[37], H[26], H[4], k);
+        LANES_SUB(H[36] + k * L, H[21] + k * L, T[37]);
+        LANES_MUL(T[38], H[35], H[36], k);
+        LANES_SUB(T[39], T[35], T[38]);
+        LANES_SINCOS(H[37], H[38], X[3], k);
+        LANES_MUL(T[40], H[1], H[37], k);
+        LANES_SCALE(T[41], C[7], T[40]);
+        LANES_SUB(H[39] + k * L, T[39], T[41]);
+        LANES_MUL(T[42], H[13], H[39], k);
+        LANES_SUB(T[43], T[29], T[42]);
+        LANES_MUL(T[44], H[18], H[5], k);
+        LANES_MUL(H[40] + k * L, H[9], H[35], k);
+        LANES_MUL(T[45], H[40], H[3], k);
+        LANES_ADD(T[46], T[44], T[45]);
+        LANES_MUL(T[47], H[23], H[33], k);
+        LANES_SUB(T[48], T[46], T[47]);
+        LANES_SCALE(T[49], C[7], H[38] + k * L);
+        LANES_SUB(T[50], T[48], T[49]);
+        LANES_MUL(H[41] + k * L, H[7], H[31], k);
+        LANES_MUL(T[51], H[41], H[10], k);
+        LANES_SUB(H[42] + k * L, T[50], T[51]);
+        LANES_MUL(T[52], H[11], H[42], k);
+        LANES_SUB(H[43] + k * L, T[43], T[52]);
+        LANES_MUL(T[53], H[8], H[43], k);
+        LANES_DIV(H[44], T[53], H[16], k);
+        LANES_SCALE(T[54], C[8], H[29] + k * L);
+        LANES_MUL(T[55], H[19], H[31], k);
+        LANES_SUB(T[56], T[54], T[55]);
+        LANES_MUL(T[57], H[32], H[5], k);
+        LANES_SUB(T[58], T[56], T[57]);
+        LANES_MUL(H[45] + k * L, H[7], H[23], k);
+        LANES_MUL(T[59], H[45], H[1], k);
+        LANES_SUB(T[60], T[58], T[59]);
+        LANES_MUL(H[46] + k * L, H[0], H[25], k);
+        LANES_MUL(T[61], H[46], H[3], k);
+        LANES_SUB(H[47] + k * L, T[60], T[61]);
+        LANES_SCALE(T[62], C[6], H[47] + k * L);
+        LANES_MUL(T[63], H[6], H[39], k);
+        LANES_SUB(T[64], T[62], T[63]);
+        LANES_MUL(T[65], H[7], H[42], k);
+        LANES_SUB(H[48] + k * L, T[64], T[65]);
+        LANES_DIV(H[49], H[15] + k * L, H[16], k);
+        LANES_MUL(T[66], H[48], H[49], k);
+        LANES_SUB(T[67], H[44] + k * L, T[66]);
+        LANES_MUL(T[68], H[14], H[48], k);
+        LANES_DIV(H[50], T[68], H[16], k);
+        LANES_MUL(T[69], H[43], H[49], k);
+        LANES_SUB(T[70], H[50] + k * L, T[69]);
+        LANES_DIV(H[51], T[70], H[9], k);
+        LANES_ADD(H[52] + k * L, T[6], T[4]);
+        LANES_ADD(H[53] + k * L, T[11], T[2]);
+        LANES_MUL(T[71], H[53], H[52], k);
+        LANES_MUL(T[72], H[13], H[11], k);
+        LANES_SCALE(T[73], C[1], T[72]);
+        LANES_MUL(T[74], H[6], H[7], k);
+        LANES_SUB(H[54] + k * L, T[73], T[74]);
+        LANES_SQUARE(T[75], H[54], k);
+        LANES_SUB(H[55] + k * L, T[71], T[75]);
+        LANES_SCALE(T[76], C[3], H[39] + k * L);
+        LANES_MUL(T[77], H[13], H[30], k);
+        LANES_SUB(T[78], T[76], T[77]);
+        LANES_MUL(T[79], H[6], H[47], k);
+        LANES_SUB(T[80], T[78], T[79]);
+        LANES_DIV(H[56], T[80], H[55], k);
+        LANES_MUL(T[81], H[52], H[56], k);
+        LANES_SCALE(T[82], C[3], H[42] + k * L);
+        LANES_MUL(T[83], H[11], H[30], k);
+        LANES_SUB(T[84], T[82], T[83]);
+        LANES_MUL(T[85], H[7], H[47], k);
+        LANES_SUB(T[86], T[84], T[85]);
+        LANES_DIV(H[57], T[86], H[55], k);
+        LANES_MUL(T[87], H[54], H[57], k);
+        LANES_SUB(T[88], T[81], T[87]);
+        LANES_MUL(T[89], H[53], H[57], k);
+        LANES_MUL(T[90], H[54], H[56], k);
+        LANES_SUB(T[91], T[89], T[90]);
+        LANES_DIV(H[58], T[91], H[0], k);
         if (k == 0) {
             LANES_GUARD(bad, H[9] + k * L, sine_min);
             LANES_GUARD(bad, H[0] + k * L, sine_min);
@@ -408,10 +406,10 @@ static void spherical_alt_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wante
         LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
         LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
-        LANES_OUT(X[4] + (k + 1) * L, T[75], k);
-        LANES_OUT(X[5] + (k + 1) * L, H[48] + k * L, k);
-        LANES_OUT(X[6] + (k + 1) * L, T[96], k);
-        LANES_OUT(X[7] + (k + 1) * L, H[57] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[67], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[51] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[88], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[58] + k * L, k);
     }
 }
 #endif
@@ -444,7 +442,7 @@ static void spherical_alt_lconstants_f(R (*C)[L], int l, const R *p)
 {
     C[0][l] = p[2]*p[3];
     C[1][l] = -1;
-    C[2][l] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[2][l] = p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
     C[3][l] = p[2]*p[2]*(p[0] + p[1])/p[1];
     C[4][l] = 2;
     C[5][l] = p[4]*p[2]*(p[0] + p[1])/p[1];
@@ -459,104 +457,109 @@ static void spherical_alt_lconstants_f(R (*C)[L], int l, const R *p)
  * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
 static void spherical_alt_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    static const int HA0[58] = {
-        2, 0, 1, 3, 1, 5, 7, 6, 4, 4, 1, 0, 1, 0, 0, 1,
-        9, 53, 1, 54, 53, 16, 11, 0, 12, 21, 19, 19, 6, 18, 35, 46,
-        52, 53, 48, 61, 63, 64, 62, 71, 71, 80, 82, 81, 84, 86, 87, 88,
-        89, 90, 91, 98, 99, 2, 4, 0, 1, 3
+    static const int HA0[59] = {
+        2, 0, 1, 3, 1, 5, 7, 4, 1, 0, 0, 2, 1, 3, 7, 56,
+        54, 56, 0, 1, 1, 0, 55, 56, 17, 9, 22, 22, 22, 22, 19, 18,
+        25, 33, 44, 50, 51, 33, 52, 53, 56, 54, 57, 64, 67, 72, 39, 75,
+        79, 80, 81, 82, 84, 91, 2, 4, 0, 1, 3
     };
-    static const int HA1[58] = {
-        53, 55, 56, 57, 3, 0, 0, 0, 0, 54, 5, 6, 8, 7, 4, 4,
-        0, 6, 53, 0, 54, 55, 54, 54, 1, 53, 5, 15, 14, 29, 0, 34,
-        42, 37, 25, 27, 58, 47, 43, 25, 33, 72, 65, 73, 67, 41, 43, 41,
-        41, 43, 43, 1, 0, 0, 9, 1, 2, 3
+    static const int HA1[59] = {
+        54, 56, 57, 58, 3, 0, 0, 55, 5, 6, 4, 0, 4, 0, 0, 3,
+        6, 54, 56, 54, 13, 11, 0, 14, 14, 1, 6, 19, 12, 10, 12, 14,
+        0, 32, 32, 38, 20, 52, 44, 27, 22, 40, 21, 68, 69, 59, 43, 58,
+        43, 44, 44, 43, 1, 0, 0, 7, 1, 2, 3
     };
-    static const int TA0[100] = {
-        7, 5, 1, 10, 55, 53, 0, 10, 12, 15, 57, 56, 53, 11, 18, 14,
-        11, 13, 3, 4, 5, 7, 8, 9, 19, 21, 20, 21, 22, 23, 20, 21,
-        11, 24, 24, 2, 28, 30, 14, 15, 26, 8, 27, 24, 31, 32, 33, 41,
-        34, 18, 13, 7, 44, 45, 30, 30, 30, 49, 51, 50, 54, 55, 56, 57,
-        59, 21, 19, 24, 19, 33, 32, 60, 35, 38, 36, 37, 30, 24, 30, 21,
-        39, 40, 74, 69, 75, 70, 83, 85, 31, 35, 34, 38, 35, 39, 38, 40,
-        47, 49, 93, 95
+    static const int TA0[92] = {
+        7, 5, 6, 4, 1, 56, 54, 58, 57, 54, 55, 8, 18, 9, 19, 8,
+        20, 10, 15, 9, 21, 5, 6, 22, 23, 4, 15, 23, 10, 24, 8, 25,
+        23, 24, 26, 11, 27, 13, 28, 29, 25, 29, 26, 30, 31, 32, 32, 32,
+        11, 41, 42, 43, 45, 46, 47, 48, 49, 55, 23, 22, 25, 22, 36, 35,
+        37, 32, 25, 38, 39, 41, 40, 42, 62, 32, 23, 71, 70, 63, 45, 37,
+        76, 77, 34, 47, 48, 33, 41, 38, 41, 51, 85, 87
     };
-    static const int TA1[100] = {
-        6, 4, 0, 55, 2, 3, 55, 9, 9, 55, 7, 8, 16, 17, 54, 17,
-        16, 16, 3, 5, 7, 0, 0, 3, 0, 0, 55, 19, 55, 55, 14, 22,
-        16, 0, 2, 26, 0, 0, 25, 25, 18, 28, 55, 19, 15, 23, 1, 0,
-        1, 36, 39, 29, 10, 17, 0, 24, 21, 38, 0, 40, 2, 1, 1, 19,
-        20, 32, 32, 33, 33, 6, 3, 1, 0, 0, 6, 3, 37, 37, 36, 36,
-        31, 34, 76, 77, 78, 79, 66, 68, 42, 42, 44, 44, 45, 45, 46, 46,
-        92, 94, 48, 50
+    static const int TA1[92] = {
+        6, 4, 0, 0, 0, 2, 3, 7, 8, 14, 17, 15, 55, 16, 55, 14,
+        7, 16, 12, 14, 7, 5, 7, 0, 0, 10, 16, 22, 24, 12, 18, 0,
+        2, 1, 18, 30, 5, 31, 56, 54, 22, 13, 17, 19, 1, 0, 25, 23,
+        34, 36, 7, 39, 2, 1, 1, 28, 37, 35, 35, 35, 36, 36, 6, 3,
+        34, 40, 40, 33, 0, 0, 3, 6, 66, 42, 42, 65, 73, 74, 46, 45,
+        60, 61, 47, 46, 83, 49, 50, 50, 49, 78, 86, 88
     };
-    R H[58][ORDER_DIM * L];     /* nodes read at every order */
-    R T[100][L];                 /* nodes read at this order only */
+    R H[59][ORDER_DIM * L];     /* nodes read at every order */
+    R T[92][L];                 /* nodes read at this order only */
     const int order = SPHERICAL_ALT_TAYLOR_ORDER ? SPHERICAL_ALT_TAYLOR_ORDER : order_wanted;
     int k, u;
     for (k = 0; k < order; ++k) {
         for (u = 0; u < 4; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
         for (u = 4; u < 5; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
-        for (u = 5; u < 9; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 5; u < 7; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
         for (u = 0; u < 2; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA1[u]], k); }
-        for (u = 9; u < 10; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
-        for (u = 2; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 10; u < 14; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 14; u < 16; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 16; u < 18; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
-        for (u = 3; u < 10; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 18; u < 19; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 10; u < 12; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 12; u < 18; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 19; u < 20; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
-        for (u = 20; u < 24; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 18; u < 24; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 24; u < 25; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 24; u < 26; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 26; u < 31; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 25; u < 28; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 28; u < 29; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 31; u < 32; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 32; u < 33; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 33; u < 34; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 34; u < 35; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
-        for (u = 35; u < 36; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 36; u < 38; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 38; u < 44; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 29; u < 30; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
-        for (u = 44; u < 46; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 46; u < 49; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 30; u < 31; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 49; u < 51; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 51; u < 52; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 52; u < 54; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 31; u < 35; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 54; u < 55; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 55; u < 57; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 2; u < 4; ++u) { LANES_SQUARE(T[u], X[TA0[u]], k); }
+        for (u = 7; u < 8; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 4; u < 5; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 8; u < 10; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 10; u < 14; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 14; u < 17; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 17; u < 22; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 5; u < 7; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 7; u < 9; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 9; u < 21; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 22; u < 23; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 23; u < 25; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 21; u < 23; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 25; u < 26; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 23; u < 25; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 25; u < 27; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 27; u < 30; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 26; u < 30; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 30; u < 32; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 30; u < 31; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 31; u < 32; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 32; u < 33; ++u) { LANES_CSUB(T[u], C[TA1[u]], T[TA0[u]], k); }
+        for (u = 33; u < 34; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 32; u < 33; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 34; u < 41; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 41; u < 42; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 42; u < 44; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 44; u < 45; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 45; u < 46; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 46; u < 48; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 48; u < 50; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 50; u < 52; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 33; u < 34; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 34; u < 35; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 52; u < 53; ++u) { LANES_CSUB(T[u], C[TA1[u]], T[TA0[u]], k); }
+        for (u = 53; u < 55; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 55; u < 57; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 35; u < 37; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 37; u < 39; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 39; u < 42; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
         for (u = 57; u < 58; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 58; u < 59; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 59; u < 60; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 60; u < 61; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
-        for (u = 61; u < 63; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 63; u < 65; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 65; u < 69; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 69; u < 71; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 71; u < 72; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 35; u < 39; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 39; u < 41; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 72; u < 74; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 74; u < 76; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 76; u < 80; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 80; u < 82; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 82; u < 86; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 41; u < 45; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 86; u < 88; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 88; u < 92; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 45; u < 47; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
-        for (u = 47; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
-        for (u = 92; u < 96; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 96; u < 98; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
-        for (u = 98; u < 100; ++u) { LANES_SUB(T[u], T[TA0[u]], H[TA1[u]] + k * L); }
-        for (u = 51; u < 53; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 58; u < 62; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 62; u < 64; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 64; u < 68; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 68; u < 70; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 42; u < 43; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 70; u < 71; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 43; u < 45; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 71; u < 72; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 72; u < 73; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 73; u < 75; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 75; u < 78; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 45; u < 46; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 46; u < 47; ++u) { LANES_DIV(H[u], H[HA0[u]] + k * L, H[HA1[u]], k); }
+        for (u = 47; u < 48; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 78; u < 80; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 80; u < 82; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 82; u < 84; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 48; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 51; u < 52; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 84; u < 85; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 85; u < 89; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 89; u < 90; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 52; u < 53; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 90; u < 92; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 53; u < 54; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
         if (k == 0) {
             LANES_GUARD(bad, H[1] + k * L, sine_min);
             LANES_GUARD(bad, H[0] + k * L, sine_min);
@@ -565,18 +568,18 @@ static void spherical_alt_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
         LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
-        LANES_OUT(X[4] + (k + 1) * L, T[96], k);
-        LANES_OUT(X[5] + (k + 1) * L, H[51] + k * L, k);
-        LANES_OUT(X[6] + (k + 1) * L, T[97], k);
-        LANES_OUT(X[7] + (k + 1) * L, H[52] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[89], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[52] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[90], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[53] + k * L, k);
     }
 }
 #else
 /* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_alt_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    R H[58][ORDER_DIM * L];     /* nodes read at every order */
-    R T[100][L];                 /* nodes read at this order only */
+    R H[59][ORDER_DIM * L];     /* nodes read at every order */
+    R T[92][L];                 /* nodes read at this order only */
     const int order = SPHERICAL_ALT_TAYLOR_ORDER ? SPHERICAL_ALT_TAYLOR_ORDER : order_wanted;
     int k;
     TAYLOR_UNROLL
@@ -591,149 +594,142 @@ static void spherical_alt_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_SCALE(T[2], C[1], T[1]);
         LANES_SCALE(H[7] + k * L, C[0], H[4] + k * L);
         LANES_SQUARE(T[3], H[7], k);
-        LANES_SHIFT(T[4], T[3], C[2], k);
-        LANES_SUB(H[8] + k * L, T[2], T[4]);
+        LANES_CSUB(T[4], C[2], T[3], k);
+        LANES_ADD(H[8] + k * L, T[2], T[4]);
         LANES_SINCOS(H[9], H[10], X[0], k);
-        LANES_MUL(T[5], H[9], H[0], k);
-        LANES_MUL(H[11] + k * L, H[1], H[4], k);
-        LANES_MUL(T[6], H[11], H[10], k);
-        LANES_ADD(T[7], T[5], T[6]);
-        LANES_SCALE(H[12] + k * L, C[0], T[7]);
-        LANES_SQUARE(T[8], H[12], k);
-        LANES_SHIFT(T[9], T[8], C[2], k);
-        LANES_SCALE(T[10], C[1], T[9]);
-        LANES_MUL(H[13] + k * L, H[5], H[10], k);
-        LANES_SQUARE(T[11], H[13], k);
-        LANES_SUB(H[14] + k * L, T[10], T[11]);
+        LANES_MUL(H[11] + k * L, H[10], H[5], k);
+        LANES_SQUARE(T[5], H[11], k);
+        LANES_SCALE(T[6], C[1], T[5]);
+        LANES_MUL(T[7], H[9], H[0], k);
+        LANES_MUL(H[12] + k * L, H[10], H[1], k);
+        LANES_MUL(T[8], H[4], H[12], k);
+        LANES_ADD(T[9], T[7], T[8]);
+        LANES_SCALE(H[13] + k * L, C[0], T[9]);
+        LANES_SQUARE(T[10], H[13], k);
+        LANES_CSUB(T[11], C[2], T[10], k);
+        LANES_ADD(H[14] + k * L, T[6], T[11]);
         LANES_MUL(T[12], H[14], H[8], k);
-        LANES_MUL(T[13], H[12], H[6], k);
+        LANES_MUL(T[13], H[13], H[6], k);
         LANES_SCALE(T[14], C[1], T[13]);
-        LANES_MUL(T[15], H[13], H[7], k);
+        LANES_MUL(T[15], H[11], H[7], k);
         LANES_SUB(H[15] + k * L, T[14], T[15]);
         LANES_SQUARE(T[16], H[15], k);
         LANES_SUB(H[16] + k * L, T[12], T[16]);
         LANES_SQUARE(H[17] + k * L, X[5], k);
         LANES_MUL(H[18] + k * L, H[9], H[17], k);
-        LANES_MUL(T[17], H[18], H[10], k);
-        LANES_SCALE(T[18], C[3], T[17]);
-        LANES_SQUARE(H[19] + k * L, X[7], k);
-        LANES_MUL(H[20] + k * L, H[0], H[19], k);
-        LANES_MUL(H[21] + k * L, H[20], H[4], k);
-        LANES_MUL(T[19], H[21], H[10], k);
-        LANES_SCALE(T[20], C[0], T[19]);
-        LANES_ADD(T[21], T[18], T[20]);
-        LANES_MUL(T[22], X[7], X[6], k);
-        LANES_SCALE(H[22] + k * L, C[4], T[22]);
-        LANES_MUL(H[23] + k * L, H[13], H[1], k);
-        LANES_MUL(T[23], H[22], H[23], k);
-        LANES_SUB(T[24], T[21], T[23]);
-        LANES_SINCOS(H[24], H[25], X[1], k);
-        LANES_MUL(T[25], H[10], H[24], k);
-        LANES_SCALE(T[26], C[5], T[25]);
-        LANES_SUB(T[27], T[24], T[26]);
-        LANES_SQUARE(H[26] + k * L, X[6], k);
-        LANES_MUL(H[27] + k * L, H[9], H[1], k);
-        LANES_MUL(H[28] + k * L, H[0], H[4], k);
-        LANES_MUL(T[28], H[28], H[10], k);
-        LANES_SUB(H[29] + k * L, H[27] + k * L, T[28]);
-        LANES_MUL(T[29], H[26], H[29], k);
-        LANES_SCALE(T[30], C[0], T[29]);
-        LANES_SUB(H[30] + k * L, T[27], T[30]);
-        LANES_SCALE(T[31], C[6], H[30] + k * L);
-        LANES_SCALE(H[31] + k * L, C[6], H[1] + k * L);
-        LANES_MUL(T[32], H[20], H[31], k);
-        LANES_MUL(T[33], X[5], X[4], k);
-        LANES_SCALE(H[32] + k * L, C[4], T[33]);
-        LANES_MUL(T[34], H[32], H[23], k);
-        LANES_ADD(T[35], T[32], T[34]);
-        LANES_MUL(H[33] + k * L, H[7], H[17], k);
-        LANES_MUL(T[36], H[33], H[27], k);
-        LANES_ADD(T[37], T[35], T[36]);
-        LANES_SINCOS(H[34], H[35], X[3], k);
-        LANES_MUL(T[38], H[1], H[34], k);
-        LANES_SCALE(T[39], C[7], T[38]);
-        LANES_SUB(T[40], T[37], T[39]);
-        LANES_SQUARE(H[36] + k * L, X[4], k);
-        LANES_MUL(T[41], H[0], H[10], k);
-        LANES_MUL(T[42], H[27], H[4], k);
-        LANES_SUB(H[37] + k * L, T[41], T[42]);
-        LANES_MUL(T[43], H[36], H[37], k);
-        LANES_SCALE(T[44], C[0], T[43]);
-        LANES_SUB(H[38] + k * L, T[40], T[44]);
-        LANES_MUL(T[45], H[12], H[38], k);
-        LANES_SUB(T[46], T[31], T[45]);
-        LANES_MUL(T[47], H[18], H[3], k);
-        LANES_SCALE(T[48], C[0], T[47]);
-        LANES_MUL(H[39] + k * L, H[9], H[36], k);
-        LANES_MUL(T[49], H[39], H[3], k);
-        LANES_SCALE(T[50], C[0], T[49]);
-        LANES_ADD(T[51], T[48], T[50]);
-        LANES_MUL(T[52], H[22], H[31], k);
-        LANES_SUB(T[53], T[51], T[52]);
-        LANES_SCALE(T[54], C[7], H[35] + k * L);
-        LANES_SUB(T[55], T[53], T[54]);
-        LANES_MUL(H[40] + k * L, H[7], H[32], k);
-        LANES_MUL(T[56], H[40], H[10], k);
-        LANES_SUB(H[41] + k * L, T[55], T[56]);
-        LANES_MUL(T[57], H[13], H[41], k);
-        LANES_SUB(H[42] + k * L, T[46], T[57]);
-        LANES_MUL(T[58], H[8], H[42], k);
-        LANES_DIV(H[43], T[58], H[16], k);
-        LANES_SCALE(T[59], C[8], H[25] + k * L);
-        LANES_MUL(T[60], H[20], H[5], k);
-        LANES_SUB(T[61], T[59], T[60]);
-        LANES_MUL(T[62], H[32], H[10], k);
-        LANES_SCALE(T[63], C[3], T[62]);
-        LANES_SUB(T[64], T[61], T[63]);
-        LANES_MUL(H[44] + k * L, H[0], H[26], k);
-        LANES_MUL(T[65], H[44], H[5], k);
-        LANES_SUB(T[66], T[64], T[65]);
-        LANES_MUL(T[67], H[11], H[22], k);
-        LANES_SCALE(T[68], C[0], T[67]);
-        LANES_SUB(H[45] + k * L, T[66], T[68]);
-        LANES_SCALE(T[69], C[6], H[45] + k * L);
-        LANES_MUL(T[70], H[6], H[38], k);
-        LANES_SUB(T[71], T[69], T[70]);
-        LANES_MUL(T[72], H[7], H[41], k);
-        LANES_SUB(T[73], T[71], T[72]);
-        LANES_DIV(H[46], T[73], H[16], k);
-        LANES_MUL(T[74], H[15], H[46], k);
-        LANES_SUB(T[75], H[43] + k * L, T[74]);
-        LANES_MUL(T[76], H[14], H[46], k);
-        LANES_MUL(T[77], H[15], H[42], k);
-        LANES_DIV(H[47], T[77], H[16], k);
-        LANES_SUB(T[78], T[76], H[47] + k * L);
-        LANES_DIV(H[48], T[78], H[9], k);
-        LANES_SCALE(T[79], C[1], T[4]);
-        LANES_SUB(H[49] + k * L, T[79], T[11]);
-        LANES_SUB(H[50] + k * L, T[10], T[1]);
-        LANES_MUL(T[80], H[50], H[49], k);
-        LANES_MUL(T[81], H[12], H[13], k);
-        LANES_SCALE(T[82], C[1], T[81]);
-        LANES_MUL(T[83], H[6], H[7], k);
-        LANES_SUB(H[51] + k * L, T[82], T[83]);
-        LANES_SQUARE(T[84], H[51], k);
-        LANES_SUB(H[52] + k * L, T[80], T[84]);
-        LANES_SCALE(T[85], C[3], H[38] + k * L);
-        LANES_MUL(T[86], H[12], H[30], k);
-        LANES_SUB(T[87], T[85], T[86]);
-        LANES_MUL(T[88], H[6], H[45], k);
-        LANES_SUB(H[53] + k * L, T[87], T[88]);
-        LANES_MUL(T[89], H[49], H[53], k);
-        LANES_DIV(H[54], T[89], H[52], k);
-        LANES_SCALE(T[90], C[3], H[41] + k * L);
-        LANES_MUL(T[91], H[13], H[30], k);
-        LANES_SUB(T[92], T[90], T[91]);
-        LANES_MUL(T[93], H[7], H[45], k);
-        LANES_SUB(T[94], T[92], T[93]);
-        LANES_DIV(H[55], T[94], H[52], k);
-        LANES_MUL(T[95], H[51], H[55], k);
-        LANES_SUB(T[96], H[54] + k * L, T[95]);
-        LANES_MUL(T[97], H[50], H[55], k);
-        LANES_MUL(T[98], H[51], H[53], k);
-        LANES_DIV(H[56], T[98], H[52], k);
-        LANES_SUB(T[99], T[97], H[56] + k * L);
-        LANES_DIV(H[57], T[99], H[0], k);
+        LANES_SCALE(H[19] + k * L, C[3], H[10] + k * L);
+        LANES_MUL(T[17], H[18], H[19], k);
+        LANES_SQUARE(H[20] + k * L, X[7], k);
+        LANES_MUL(H[21] + k * L, H[0], H[10], k);
+        LANES_MUL(H[22] + k * L, H[7], H[20], k);
+        LANES_MUL(T[18], H[22], H[21], k);
+        LANES_ADD(T[19], T[17], T[18]);
+        LANES_MUL(T[20], X[7], X[6], k);
+        LANES_SCALE(H[23] + k * L, C[4], T[20]);
+        LANES_MUL(H[24] + k * L, H[12], H[5], k);
+        LANES_MUL(T[21], H[23], H[24], k);
+        LANES_SUB(T[22], T[19], T[21]);
+        LANES_SQUARE(T[23], X[6], k);
+        LANES_SCALE(H[25] + k * L, C[0], T[23]);
+        LANES_MUL(H[26] + k * L, H[9], H[1], k);
+        LANES_MUL(T[24], H[21], H[4], k);
+        LANES_SUB(H[27] + k * L, H[26] + k * L, T[24]);
+        LANES_MUL(T[25], H[25], H[27], k);
+        LANES_SUB(T[26], T[22], T[25]);
+        LANES_SINCOS(H[28], H[29], X[1], k);
+        LANES_MUL(T[27], H[10], H[28], k);
+        LANES_SCALE(T[28], C[5], T[27]);
+        LANES_SUB(H[30] + k * L, T[26], T[28]);
+        LANES_SCALE(T[29], C[6], H[30] + k * L);
+        LANES_MUL(T[30], X[5], X[4], k);
+        LANES_SCALE(H[31] + k * L, C[4], T[30]);
+        LANES_MUL(T[31], H[24], H[31], k);
+        LANES_MUL(H[32] + k * L, H[0], H[20], k);
+        LANES_SCALE(H[33] + k * L, C[6], H[1] + k * L);
+        LANES_MUL(T[32], H[32], H[33], k);
+        LANES_ADD(T[33], T[31], T[32]);
+        LANES_MUL(H[34] + k * L, H[7], H[26], k);
+        LANES_MUL(T[34], H[34], H[17], k);
+        LANES_ADD(T[35], T[33], T[34]);
+        LANES_SQUARE(T[36], X[4], k);
+        LANES_SCALE(H[35] + k * L, C[0], T[36]);
+        LANES_MUL(T[37], H[26], H[4], k);
+        LANES_SUB(H[36] + k * L, H[21] + k * L, T[37]);
+        LANES_MUL(T[38], H[35], H[36], k);
+        LANES_SUB(T[39], T[35], T[38]);
+        LANES_SINCOS(H[37], H[38], X[3], k);
+        LANES_MUL(T[40], H[1], H[37], k);
+        LANES_SCALE(T[41], C[7], T[40]);
+        LANES_SUB(H[39] + k * L, T[39], T[41]);
+        LANES_MUL(T[42], H[13], H[39], k);
+        LANES_SUB(T[43], T[29], T[42]);
+        LANES_MUL(T[44], H[18], H[5], k);
+        LANES_MUL(H[40] + k * L, H[9], H[35], k);
+        LANES_MUL(T[45], H[40], H[3], k);
+        LANES_ADD(T[46], T[44], T[45]);
+        LANES_MUL(T[47], H[23], H[33], k);
+        LANES_SUB(T[48], T[46], T[47]);
+        LANES_SCALE(T[49], C[7], H[38] + k * L);
+        LANES_SUB(T[50], T[48], T[49]);
+        LANES_MUL(H[41] + k * L, H[7], H[31], k);
+        LANES_MUL(T[51], H[41], H[10], k);
+        LANES_SUB(H[42] + k * L, T[50], T[51]);
+        LANES_MUL(T[52], H[11], H[42], k);
+        LANES_SUB(H[43] + k * L, T[43], T[52]);
+        LANES_MUL(T[53], H[8], H[43], k);
+        LANES_DIV(H[44], T[53], H[16], k);
+        LANES_SCALE(T[54], C[8], H[29] + k * L);
+        LANES_MUL(T[55], H[19], H[31], k);
+        LANES_SUB(T[56], T[54], T[55]);
+        LANES_MUL(T[57], H[32], H[5], k);
+        LANES_SUB(T[58], T[56], T[57]);
+        LANES_MUL(H[45] + k * L, H[7], H[23], k);
+        LANES_MUL(T[59], H[45], H[1], k);
+        LANES_SUB(T[60], T[58], T[59]);
+        LANES_MUL(H[46] + k * L, H[0], H[25], k);
+        LANES_MUL(T[61], H[46], H[3], k);
+        LANES_SUB(H[47] + k * L, T[60], T[61]);
+        LANES_SCALE(T[62], C[6], H[47] + k * L);
+        LANES_MUL(T[63], H[6], H[39], k);
+        LANES_SUB(T[64], T[62], T[63]);
+        LANES_MUL(T[65], H[7], H[42], k);
+        LANES_SUB(H[48] + k * L, T[64], T[65]);
+        LANES_DIV(H[49], H[15] + k * L, H[16], k);
+        LANES_MUL(T[66], H[48], H[49], k);
+        LANES_SUB(T[67], H[44] + k * L, T[66]);
+        LANES_MUL(T[68], H[14], H[48], k);
+        LANES_DIV(H[50], T[68], H[16], k);
+        LANES_MUL(T[69], H[43], H[49], k);
+        LANES_SUB(T[70], H[50] + k * L, T[69]);
+        LANES_DIV(H[51], T[70], H[9], k);
+        LANES_ADD(H[52] + k * L, T[6], T[4]);
+        LANES_ADD(H[53] + k * L, T[11], T[2]);
+        LANES_MUL(T[71], H[53], H[52], k);
+        LANES_MUL(T[72], H[13], H[11], k);
+        LANES_SCALE(T[73], C[1], T[72]);
+        LANES_MUL(T[74], H[6], H[7], k);
+        LANES_SUB(H[54] + k * L, T[73], T[74]);
+        LANES_SQUARE(T[75], H[54], k);
+        LANES_SUB(H[55] + k * L, T[71], T[75]);
+        LANES_SCALE(T[76], C[3], H[39] + k * L);
+        LANES_MUL(T[77], H[13], H[30], k);
+        LANES_SUB(T[78], T[76], T[77]);
+        LANES_MUL(T[79], H[6], H[47], k);
+        LANES_SUB(T[80], T[78], T[79]);
+        LANES_DIV(H[56], T[80], H[55], k);
+        LANES_MUL(T[81], H[52], H[56], k);
+        LANES_SCALE(T[82], C[3], H[42] + k * L);
+        LANES_MUL(T[83], H[11], H[30], k);
+        LANES_SUB(T[84], T[82], T[83]);
+        LANES_MUL(T[85], H[7], H[47], k);
+        LANES_SUB(T[86], T[84], T[85]);
+        LANES_DIV(H[57], T[86], H[55], k);
+        LANES_MUL(T[87], H[54], H[57], k);
+        LANES_SUB(T[88], T[81], T[87]);
+        LANES_MUL(T[89], H[53], H[57], k);
+        LANES_MUL(T[90], H[54], H[56], k);
+        LANES_SUB(T[91], T[89], T[90]);
+        LANES_DIV(H[58], T[91], H[0], k);
         if (k == 0) {
             LANES_GUARD(bad, H[9] + k * L, sine_min);
             LANES_GUARD(bad, H[0] + k * L, sine_min);
@@ -742,10 +738,10 @@ static void spherical_alt_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
         LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
-        LANES_OUT(X[4] + (k + 1) * L, T[75], k);
-        LANES_OUT(X[5] + (k + 1) * L, H[48] + k * L, k);
-        LANES_OUT(X[6] + (k + 1) * L, T[96], k);
-        LANES_OUT(X[7] + (k + 1) * L, H[57] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[67], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[51] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[88], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[58] + k * L, k);
     }
 }
 #endif
@@ -778,7 +774,7 @@ static void spherical_alt_lconstants_l(R (*C)[L], int l, const R *p)
 {
     C[0][l] = p[2]*p[3];
     C[1][l] = -1;
-    C[2][l] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[2][l] = p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
     C[3][l] = p[2]*p[2]*(p[0] + p[1])/p[1];
     C[4][l] = 2;
     C[5][l] = p[4]*p[2]*(p[0] + p[1])/p[1];
@@ -793,104 +789,109 @@ static void spherical_alt_lconstants_l(R (*C)[L], int l, const R *p)
  * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
 static void spherical_alt_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    static const int HA0[58] = {
-        2, 0, 1, 3, 1, 5, 7, 6, 4, 4, 1, 0, 1, 0, 0, 1,
-        9, 53, 1, 54, 53, 16, 11, 0, 12, 21, 19, 19, 6, 18, 35, 46,
-        52, 53, 48, 61, 63, 64, 62, 71, 71, 80, 82, 81, 84, 86, 87, 88,
-        89, 90, 91, 98, 99, 2, 4, 0, 1, 3
+    static const int HA0[59] = {
+        2, 0, 1, 3, 1, 5, 7, 4, 1, 0, 0, 2, 1, 3, 7, 56,
+        54, 56, 0, 1, 1, 0, 55, 56, 17, 9, 22, 22, 22, 22, 19, 18,
+        25, 33, 44, 50, 51, 33, 52, 53, 56, 54, 57, 64, 67, 72, 39, 75,
+        79, 80, 81, 82, 84, 91, 2, 4, 0, 1, 3
     };
-    static const int HA1[58] = {
-        53, 55, 56, 57, 3, 0, 0, 0, 0, 54, 5, 6, 8, 7, 4, 4,
-        0, 6, 53, 0, 54, 55, 54, 54, 1, 53, 5, 15, 14, 29, 0, 34,
-        42, 37, 25, 27, 58, 47, 43, 25, 33, 72, 65, 73, 67, 41, 43, 41,
-        41, 43, 43, 1, 0, 0, 9, 1, 2, 3
+    static const int HA1[59] = {
+        54, 56, 57, 58, 3, 0, 0, 55, 5, 6, 4, 0, 4, 0, 0, 3,
+        6, 54, 56, 54, 13, 11, 0, 14, 14, 1, 6, 19, 12, 10, 12, 14,
+        0, 32, 32, 38, 20, 52, 44, 27, 22, 40, 21, 68, 69, 59, 43, 58,
+        43, 44, 44, 43, 1, 0, 0, 7, 1, 2, 3
     };
-    static const int TA0[100] = {
-        7, 5, 1, 10, 55, 53, 0, 10, 12, 15, 57, 56, 53, 11, 18, 14,
-        11, 13, 3, 4, 5, 7, 8, 9, 19, 21, 20, 21, 22, 23, 20, 21,
-        11, 24, 24, 2, 28, 30, 14, 15, 26, 8, 27, 24, 31, 32, 33, 41,
-        34, 18, 13, 7, 44, 45, 30, 30, 30, 49, 51, 50, 54, 55, 56, 57,
-        59, 21, 19, 24, 19, 33, 32, 60, 35, 38, 36, 37, 30, 24, 30, 21,
-        39, 40, 74, 69, 75, 70, 83, 85, 31, 35, 34, 38, 35, 39, 38, 40,
-        47, 49, 93, 95
+    static const int TA0[92] = {
+        7, 5, 6, 4, 1, 56, 54, 58, 57, 54, 55, 8, 18, 9, 19, 8,
+        20, 10, 15, 9, 21, 5, 6, 22, 23, 4, 15, 23, 10, 24, 8, 25,
+        23, 24, 26, 11, 27, 13, 28, 29, 25, 29, 26, 30, 31, 32, 32, 32,
+        11, 41, 42, 43, 45, 46, 47, 48, 49, 55, 23, 22, 25, 22, 36, 35,
+        37, 32, 25, 38, 39, 41, 40, 42, 62, 32, 23, 71, 70, 63, 45, 37,
+        76, 77, 34, 47, 48, 33, 41, 38, 41, 51, 85, 87
     };
-    static const int TA1[100] = {
-        6, 4, 0, 55, 2, 3, 55, 9, 9, 55, 7, 8, 16, 17, 54, 17,
-        16, 16, 3, 5, 7, 0, 0, 3, 0, 0, 55, 19, 55, 55, 14, 22,
-        16, 0, 2, 26, 0, 0, 25, 25, 18, 28, 55, 19, 15, 23, 1, 0,
-        1, 36, 39, 29, 10, 17, 0, 24, 21, 38, 0, 40, 2, 1, 1, 19,
-        20, 32, 32, 33, 33, 6, 3, 1, 0, 0, 6, 3, 37, 37, 36, 36,
-        31, 34, 76, 77, 78, 79, 66, 68, 42, 42, 44, 44, 45, 45, 46, 46,
-        92, 94, 48, 50
+    static const int TA1[92] = {
+        6, 4, 0, 0, 0, 2, 3, 7, 8, 14, 17, 15, 55, 16, 55, 14,
+        7, 16, 12, 14, 7, 5, 7, 0, 0, 10, 16, 22, 24, 12, 18, 0,
+        2, 1, 18, 30, 5, 31, 56, 54, 22, 13, 17, 19, 1, 0, 25, 23,
+        34, 36, 7, 39, 2, 1, 1, 28, 37, 35, 35, 35, 36, 36, 6, 3,
+        34, 40, 40, 33, 0, 0, 3, 6, 66, 42, 42, 65, 73, 74, 46, 45,
+        60, 61, 47, 46, 83, 49, 50, 50, 49, 78, 86, 88
     };
-    R H[58][ORDER_DIM * L];     /* nodes read at every order */
-    R T[100][L];                 /* nodes read at this order only */
+    R H[59][ORDER_DIM * L];     /* nodes read at every order */
+    R T[92][L];                 /* nodes read at this order only */
     const int order = SPHERICAL_ALT_TAYLOR_ORDER ? SPHERICAL_ALT_TAYLOR_ORDER : order_wanted;
     int k, u;
     for (k = 0; k < order; ++k) {
         for (u = 0; u < 4; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
         for (u = 4; u < 5; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
-        for (u = 5; u < 9; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 5; u < 7; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
         for (u = 0; u < 2; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA1[u]], k); }
-        for (u = 9; u < 10; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
-        for (u = 2; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 10; u < 14; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 14; u < 16; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 16; u < 18; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
-        for (u = 3; u < 10; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 18; u < 19; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 10; u < 12; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 12; u < 18; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 19; u < 20; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
-        for (u = 20; u < 24; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 18; u < 24; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 24; u < 25; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 24; u < 26; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 26; u < 31; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 25; u < 28; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 28; u < 29; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 31; u < 32; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 32; u < 33; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 33; u < 34; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 34; u < 35; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
-        for (u = 35; u < 36; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 36; u < 38; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 38; u < 44; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 29; u < 30; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
-        for (u = 44; u < 46; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 46; u < 49; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 30; u < 31; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 49; u < 51; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 51; u < 52; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 52; u < 54; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 31; u < 35; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 54; u < 55; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 55; u < 57; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 2; u < 4; ++u) { LANES_SQUARE(T[u], X[TA0[u]], k); }
+        for (u = 7; u < 8; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 4; u < 5; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 8; u < 10; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 10; u < 14; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 14; u < 17; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 17; u < 22; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 5; u < 7; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 7; u < 9; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 9; u < 21; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 22; u < 23; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 23; u < 25; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 21; u < 23; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 25; u < 26; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 23; u < 25; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 25; u < 27; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 27; u < 30; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 26; u < 30; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 30; u < 32; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 30; u < 31; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 31; u < 32; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 32; u < 33; ++u) { LANES_CSUB(T[u], C[TA1[u]], T[TA0[u]], k); }
+        for (u = 33; u < 34; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 32; u < 33; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 34; u < 41; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 41; u < 42; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 42; u < 44; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 44; u < 45; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 45; u < 46; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 46; u < 48; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 48; u < 50; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 50; u < 52; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 33; u < 34; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 34; u < 35; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 52; u < 53; ++u) { LANES_CSUB(T[u], C[TA1[u]], T[TA0[u]], k); }
+        for (u = 53; u < 55; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 55; u < 57; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 35; u < 37; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 37; u < 39; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 39; u < 42; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
         for (u = 57; u < 58; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 58; u < 59; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 59; u < 60; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 60; u < 61; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
-        for (u = 61; u < 63; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 63; u < 65; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 65; u < 69; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 69; u < 71; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 71; u < 72; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 35; u < 39; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 39; u < 41; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 72; u < 74; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 74; u < 76; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 76; u < 80; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 80; u < 82; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 82; u < 86; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 41; u < 45; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 86; u < 88; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 88; u < 92; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 45; u < 47; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
-        for (u = 47; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
-        for (u = 92; u < 96; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 96; u < 98; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
-        for (u = 98; u < 100; ++u) { LANES_SUB(T[u], T[TA0[u]], H[TA1[u]] + k * L); }
-        for (u = 51; u < 53; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 58; u < 62; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 62; u < 64; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 64; u < 68; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 68; u < 70; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 42; u < 43; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 70; u < 71; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 43; u < 45; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 71; u < 72; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 72; u < 73; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 73; u < 75; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 75; u < 78; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 45; u < 46; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 46; u < 47; ++u) { LANES_DIV(H[u], H[HA0[u]] + k * L, H[HA1[u]], k); }
+        for (u = 47; u < 48; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 78; u < 80; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 80; u < 82; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 82; u < 84; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 48; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 51; u < 52; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 84; u < 85; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 85; u < 89; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 89; u < 90; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
+        for (u = 52; u < 53; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 90; u < 92; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 53; u < 54; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
         if (k == 0) {
             LANES_GUARD(bad, H[1] + k * L, sine_min);
             LANES_GUARD(bad, H[0] + k * L, sine_min);
@@ -899,18 +900,18 @@ static void spherical_alt_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
         LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
-        LANES_OUT(X[4] + (k + 1) * L, T[96], k);
-        LANES_OUT(X[5] + (k + 1) * L, H[51] + k * L, k);
-        LANES_OUT(X[6] + (k + 1) * L, T[97], k);
-        LANES_OUT(X[7] + (k + 1) * L, H[52] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[89], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[52] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[90], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[53] + k * L, k);
     }
 }
 #else
 /* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_alt_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    R H[58][ORDER_DIM * L];     /* nodes read at every order */
-    R T[100][L];                 /* nodes read at this order only */
+    R H[59][ORDER_DIM * L];     /* nodes read at every order */
+    R T[92][L];                 /* nodes read at this order only */
     const int order = SPHERICAL_ALT_TAYLOR_ORDER ? SPHERICAL_ALT_TAYLOR_ORDER : order_wanted;
     int k;
     TAYLOR_UNROLL
@@ -925,149 +926,142 @@ static void spherical_alt_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_SCALE(T[2], C[1], T[1]);
         LANES_SCALE(H[7] + k * L, C[0], H[4] + k * L);
         LANES_SQUARE(T[3], H[7], k);
-        LANES_SHIFT(T[4], T[3], C[2], k);
-        LANES_SUB(H[8] + k * L, T[2], T[4]);
+        LANES_CSUB(T[4], C[2], T[3], k);
+        LANES_ADD(H[8] + k * L, T[2], T[4]);
         LANES_SINCOS(H[9], H[10], X[0], k);
-        LANES_MUL(T[5], H[9], H[0], k);
-        LANES_MUL(H[11] + k * L, H[1], H[4], k);
-        LANES_MUL(T[6], H[11], H[10], k);
-        LANES_ADD(T[7], T[5], T[6]);
-        LANES_SCALE(H[12] + k * L, C[0], T[7]);
-        LANES_SQUARE(T[8], H[12], k);
-        LANES_SHIFT(T[9], T[8], C[2], k);
-        LANES_SCALE(T[10], C[1], T[9]);
-        LANES_MUL(H[13] + k * L, H[5], H[10], k);
-        LANES_SQUARE(T[11], H[13], k);
-        LANES_SUB(H[14] + k * L, T[10], T[11]);
+        LANES_MUL(H[11] + k * L, H[10], H[5], k);
+        LANES_SQUARE(T[5], H[11], k);
+        LANES_SCALE(T[6], C[1], T[5]);
+        LANES_MUL(T[7], H[9], H[0], k);
+        LANES_MUL(H[12] + k * L, H[10], H[1], k);
+        LANES_MUL(T[8], H[4], H[12], k);
+        LANES_ADD(T[9], T[7], T[8]);
+        LANES_SCALE(H[13] + k * L, C[0], T[9]);
+        LANES_SQUARE(T[10], H[13], k);
+        LANES_CSUB(T[11], C[2], T[10], k);
+        LANES_ADD(H[14] + k * L, T[6], T[11]);
         LANES_MUL(T[12], H[14], H[8], k);
-        LANES_MUL(T[13], H[12], H[6], k);
+        LANES_MUL(T[13], H[13], H[6], k);
         LANES_SCALE(T[14], C[1], T[13]);
-        LANES_MUL(T[15], H[13], H[7], k);
+        LANES_MUL(T[15], H[11], H[7], k);
         LANES_SUB(H[15] + k * L, T[14], T[15]);
         LANES_SQUARE(T[16], H[15], k);
         LANES_SUB(H[16] + k * L, T[12], T[16]);
         LANES_SQUARE(H[17] + k * L, X[5], k);
         LANES_MUL(H[18] + k * L, H[9], H[17], k);
-        LANES_MUL(T[17], H[18], H[10], k);
-        LANES_SCALE(T[18], C[3], T[17]);
-        LANES_SQUARE(H[19] + k * L, X[7], k);
-        LANES_MUL(H[20] + k * L, H[0], H[19], k);
-        LANES_MUL(H[21] + k * L, H[20], H[4], k);
-        LANES_MUL(T[19], H[21], H[10], k);
-        LANES_SCALE(T[20], C[0], T[19]);
-        LANES_ADD(T[21], T[18], T[20]);
-        LANES_MUL(T[22], X[7], X[6], k);
-        LANES_SCALE(H[22] + k * L, C[4], T[22]);
-        LANES_MUL(H[23] + k * L, H[13], H[1], k);
-        LANES_MUL(T[23], H[22], H[23], k);
-        LANES_SUB(T[24], T[21], T[23]);
-        LANES_SINCOS(H[24], H[25], X[1], k);
-        LANES_MUL(T[25], H[10], H[24], k);
-        LANES_SCALE(T[26], C[5], T[25]);
-        LANES_SUB(T[27], T[24], T[26]);
-        LANES_SQUARE(H[26] + k * L, X[6], k);
-        LANES_MUL(H[27] + k * L, H[9], H[1], k);
-        LANES_MUL(H[28] + k * L, H[0], H[4], k);
-        LANES_MUL(T[28], H[28], H[10], k);
-        LANES_SUB(H[29] + k * L, H[27] + k * L, T[28]);
-        LANES_MUL(T[29], H[26], H[29], k);
-        LANES_SCALE(T[30], C[0], T[29]);
-        LANES_SUB(H[30] + k * L, T[27], T[30]);
-        LANES_SCALE(T[31], C[6], H[30] + k * L);
-        LANES_SCALE(H[31] + k * L, C[6], H[1] + k * L);
-        LANES_MUL(T[32], H[20], H[31], k);
-        LANES_MUL(T[33], X[5], X[4], k);
-        LANES_SCALE(H[32] + k * L, C[4], T[33]);
-        LANES_MUL(T[34], H[32], H[23], k);
-        LANES_ADD(T[35], T[32], T[34]);
-        LANES_MUL(H[33] + k * L, H[7], H[17], k);
-        LANES_MUL(T[36], H[33], H[27], k);
-        LANES_ADD(T[37], T[35], T[36]);
-        LANES_SINCOS(H[34], H[35], X[3], k);
-        LANES_MUL(T[38], H[1], H[34], k);
-        LANES_SCALE(T[39], C[7], T[38]);
-        LANES_SUB(T[40], T[37], T[39]);
-        LANES_SQUARE(H[36] + k * L, X[4], k);
-        LANES_MUL(T[41], H[0], H[10], k);
-        LANES_MUL(T[42], H[27], H[4], k);
-        LANES_SUB(H[37] + k * L, T[41], T[42]);
-        LANES_MUL(T[43], H[36], H[37], k);
-        LANES_SCALE(T[44], C[0], T[43]);
-        LANES_SUB(H[38] + k * L, T[40], T[44]);
-        LANES_MUL(T[45], H[12], H[38], k);
-        LANES_SUB(T[46], T[31], T[45]);
-        LANES_MUL(T[47], H[18], H[3], k);
-        LANES_SCALE(T[48], C[0], T[47]);
-        LANES_MUL(H[39] + k * L, H[9], H[36], k);
-        LANES_MUL(T[49], H[39], H[3], k);
-        LANES_SCALE(T[50], C[0], T[49]);
-        LANES_ADD(T[51], T[48], T[50]);
-        LANES_MUL(T[52], H[22], H[31], k);
-        LANES_SUB(T[53], T[51], T[52]);
-        LANES_SCALE(T[54], C[7], H[35] + k * L);
-        LANES_SUB(T[55], T[53], T[54]);
-        LANES_MUL(H[40] + k * L, H[7], H[32], k);
-        LANES_MUL(T[56], H[40], H[10], k);
-        LANES_SUB(H[41] + k * L, T[55], T[56]);
-        LANES_MUL(T[57], H[13], H[41], k);
-        LANES_SUB(H[42] + k * L, T[46], T[57]);
-        LANES_MUL(T[58], H[8], H[42], k);
-        LANES_DIV(H[43], T[58], H[16], k);
-        LANES_SCALE(T[59], C[8], H[25] + k * L);
-        LANES_MUL(T[60], H[20], H[5], k);
-        LANES_SUB(T[61], T[59], T[60]);
-        LANES_MUL(T[62], H[32], H[10], k);
-        LANES_SCALE(T[63], C[3], T[62]);
-        LANES_SUB(T[64], T[61], T[63]);
-        LANES_MUL(H[44] + k * L, H[0], H[26], k);
-        LANES_MUL(T[65], H[44], H[5], k);
-        LANES_SUB(T[66], T[64], T[65]);
-        LANES_MUL(T[67], H[11], H[22], k);
-        LANES_SCALE(T[68], C[0], T[67]);
-        LANES_SUB(H[45] + k * L, T[66], T[68]);
-        LANES_SCALE(T[69], C[6], H[45] + k * L);
-        LANES_MUL(T[70], H[6], H[38], k);
-        LANES_SUB(T[71], T[69], T[70]);
-        LANES_MUL(T[72], H[7], H[41], k);
-        LANES_SUB(T[73], T[71], T[72]);
-        LANES_DIV(H[46], T[73], H[16], k);
-        LANES_MUL(T[74], H[15], H[46], k);
-        LANES_SUB(T[75], H[43] + k * L, T[74]);
-        LANES_MUL(T[76], H[14], H[46], k);
-        LANES_MUL(T[77], H[15], H[42], k);
-        LANES_DIV(H[47], T[77], H[16], k);
-        LANES_SUB(T[78], T[76], H[47] + k * L);
-        LANES_DIV(H[48], T[78], H[9], k);
-        LANES_SCALE(T[79], C[1], T[4]);
-        LANES_SUB(H[49] + k * L, T[79], T[11]);
-        LANES_SUB(H[50] + k * L, T[10], T[1]);
-        LANES_MUL(T[80], H[50], H[49], k);
-        LANES_MUL(T[81], H[12], H[13], k);
-        LANES_SCALE(T[82], C[1], T[81]);
-        LANES_MUL(T[83], H[6], H[7], k);
-        LANES_SUB(H[51] + k * L, T[82], T[83]);
-        LANES_SQUARE(T[84], H[51], k);
-        LANES_SUB(H[52] + k * L, T[80], T[84]);
-        LANES_SCALE(T[85], C[3], H[38] + k * L);
-        LANES_MUL(T[86], H[12], H[30], k);
-        LANES_SUB(T[87], T[85], T[86]);
-        LANES_MUL(T[88], H[6], H[45], k);
-        LANES_SUB(H[53] + k * L, T[87], T[88]);
-        LANES_MUL(T[89], H[49], H[53], k);
-        LANES_DIV(H[54], T[89], H[52], k);
-        LANES_SCALE(T[90], C[3], H[41] + k * L);
-        LANES_MUL(T[91], H[13], H[30], k);
-        LANES_SUB(T[92], T[90], T[91]);
-        LANES_MUL(T[93], H[7], H[45], k);
-        LANES_SUB(T[94], T[92], T[93]);
-        LANES_DIV(H[55], T[94], H[52], k);
-        LANES_MUL(T[95], H[51], H[55], k);
-        LANES_SUB(T[96], H[54] + k * L, T[95]);
-        LANES_MUL(T[97], H[50], H[55], k);
-        LANES_MUL(T[98], H[51], H[53], k);
-        LANES_DIV(H[56], T[98], H[52], k);
-        LANES_SUB(T[99], T[97], H[56] + k * L);
-        LANES_DIV(H[57], T[99], H[0], k);
+        LANES_SCALE(H[19] + k * L, C[3], H[10] + k * L);
+        LANES_MUL(T[17], H[18], H[19], k);
+        LANES_SQUARE(H[20] + k * L, X[7], k);
+        LANES_MUL(H[21] + k * L, H[0], H[10], k);
+        LANES_MUL(H[22] + k * L, H[7], H[20], k);
+        LANES_MUL(T[18], H[22], H[21], k);
+        LANES_ADD(T[19], T[17], T[18]);
+        LANES_MUL(T[20], X[7], X[6], k);
+        LANES_SCALE(H[23] + k * L, C[4], T[20]);
+        LANES_MUL(H[24] + k * L, H[12], H[5], k);
+        LANES_MUL(T[21], H[23], H[24], k);
+        LANES_SUB(T[22], T[19], T[21]);
+        LANES_SQUARE(T[23], X[6], k);
+        LANES_SCALE(H[25] + k * L, C[0], T[23]);
+        LANES_MUL(H[26] + k * L, H[9], H[1], k);
+        LANES_MUL(T[24], H[21], H[4], k);
+        LANES_SUB(H[27] + k * L, H[26] + k * L, T[24]);
+        LANES_MUL(T[25], H[25], H[27], k);
+        LANES_SUB(T[26], T[22], T[25]);
+        LANES_SINCOS(H[28], H[29], X[1], k);
+        LANES_MUL(T[27], H[10], H[28], k);
+        LANES_SCALE(T[28], C[5], T[27]);
+        LANES_SUB(H[30] + k * L, T[26], T[28]);
+        LANES_SCALE(T[29], C[6], H[30] + k * L);
+        LANES_MUL(T[30], X[5], X[4], k);
+        LANES_SCALE(H[31] + k * L, C[4], T[30]);
+        LANES_MUL(T[31], H[24], H[31], k);
+        LANES_MUL(H[32] + k * L, H[0], H[20], k);
+        LANES_SCALE(H[33] + k * L, C[6], H[1] + k * L);
+        LANES_MUL(T[32], H[32], H[33], k);
+        LANES_ADD(T[33], T[31], T[32]);
+        LANES_MUL(H[34] + k * L, H[7], H[26], k);
+        LANES_MUL(T[34], H[34], H[17], k);
+        LANES_ADD(T[35], T[33], T[34]);
+        LANES_SQUARE(T[36], X[4], k);
+        LANES_SCALE(H[35] + k * L, C[0], T[36]);
+        LANES_MUL(T[37], H[26], H[4], k);
+        LANES_SUB(H[36] + k * L, H[21] + k * L, T[37]);
+        LANES_MUL(T[38], H[35], H[36], k);
+        LANES_SUB(T[39], T[35], T[38]);
+        LANES_SINCOS(H[37], H[38], X[3], k);
+        LANES_MUL(T[40], H[1], H[37], k);
+        LANES_SCALE(T[41], C[7], T[40]);
+        LANES_SUB(H[39] + k * L, T[39], T[41]);
+        LANES_MUL(T[42], H[13], H[39], k);
+        LANES_SUB(T[43], T[29], T[42]);
+        LANES_MUL(T[44], H[18], H[5], k);
+        LANES_MUL(H[40] + k * L, H[9], H[35], k);
+        LANES_MUL(T[45], H[40], H[3], k);
+        LANES_ADD(T[46], T[44], T[45]);
+        LANES_MUL(T[47], H[23], H[33], k);
+        LANES_SUB(T[48], T[46], T[47]);
+        LANES_SCALE(T[49], C[7], H[38] + k * L);
+        LANES_SUB(T[50], T[48], T[49]);
+        LANES_MUL(H[41] + k * L, H[7], H[31], k);
+        LANES_MUL(T[51], H[41], H[10], k);
+        LANES_SUB(H[42] + k * L, T[50], T[51]);
+        LANES_MUL(T[52], H[11], H[42], k);
+        LANES_SUB(H[43] + k * L, T[43], T[52]);
+        LANES_MUL(T[53], H[8], H[43], k);
+        LANES_DIV(H[44], T[53], H[16], k);
+        LANES_SCALE(T[54], C[8], H[29] + k * L);
+        LANES_MUL(T[55], H[19], H[31], k);
+        LANES_SUB(T[56], T[54], T[55]);
+        LANES_MUL(T[57], H[32], H[5], k);
+        LANES_SUB(T[58], T[56], T[57]);
+        LANES_MUL(H[45] + k * L, H[7], H[23], k);
+        LANES_MUL(T[59], H[45], H[1], k);
+        LANES_SUB(T[60], T[58], T[59]);
+        LANES_MUL(H[46] + k * L, H[0], H[25], k);
+        LANES_MUL(T[61], H[46], H[3], k);
+        LANES_SUB(H[47] + k * L, T[60], T[61]);
+        LANES_SCALE(T[62], C[6], H[47] + k * L);
+        LANES_MUL(T[63], H[6], H[39], k);
+        LANES_SUB(T[64], T[62], T[63]);
+        LANES_MUL(T[65], H[7], H[42], k);
+        LANES_SUB(H[48] + k * L, T[64], T[65]);
+        LANES_DIV(H[49], H[15] + k * L, H[16], k);
+        LANES_MUL(T[66], H[48], H[49], k);
+        LANES_SUB(T[67], H[44] + k * L, T[66]);
+        LANES_MUL(T[68], H[14], H[48], k);
+        LANES_DIV(H[50], T[68], H[16], k);
+        LANES_MUL(T[69], H[43], H[49], k);
+        LANES_SUB(T[70], H[50] + k * L, T[69]);
+        LANES_DIV(H[51], T[70], H[9], k);
+        LANES_ADD(H[52] + k * L, T[6], T[4]);
+        LANES_ADD(H[53] + k * L, T[11], T[2]);
+        LANES_MUL(T[71], H[53], H[52], k);
+        LANES_MUL(T[72], H[13], H[11], k);
+        LANES_SCALE(T[73], C[1], T[72]);
+        LANES_MUL(T[74], H[6], H[7], k);
+        LANES_SUB(H[54] + k * L, T[73], T[74]);
+        LANES_SQUARE(T[75], H[54], k);
+        LANES_SUB(H[55] + k * L, T[71], T[75]);
+        LANES_SCALE(T[76], C[3], H[39] + k * L);
+        LANES_MUL(T[77], H[13], H[30], k);
+        LANES_SUB(T[78], T[76], T[77]);
+        LANES_MUL(T[79], H[6], H[47], k);
+        LANES_SUB(T[80], T[78], T[79]);
+        LANES_DIV(H[56], T[80], H[55], k);
+        LANES_MUL(T[81], H[52], H[56], k);
+        LANES_SCALE(T[82], C[3], H[42] + k * L);
+        LANES_MUL(T[83], H[11], H[30], k);
+        LANES_SUB(T[84], T[82], T[83]);
+        LANES_MUL(T[85], H[7], H[47], k);
+        LANES_SUB(T[86], T[84], T[85]);
+        LANES_DIV(H[57], T[86], H[55], k);
+        LANES_MUL(T[87], H[54], H[57], k);
+        LANES_SUB(T[88], T[81], T[87]);
+        LANES_MUL(T[89], H[53], H[57], k);
+        LANES_MUL(T[90], H[54], H[56], k);
+        LANES_SUB(T[91], T[89], T[90]);
+        LANES_DIV(H[58], T[91], H[0], k);
         if (k == 0) {
             LANES_GUARD(bad, H[9] + k * L, sine_min);
             LANES_GUARD(bad, H[0] + k * L, sine_min);
@@ -1076,10 +1070,10 @@ static void spherical_alt_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wan
         LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
         LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
-        LANES_OUT(X[4] + (k + 1) * L, T[75], k);
-        LANES_OUT(X[5] + (k + 1) * L, H[48] + k * L, k);
-        LANES_OUT(X[6] + (k + 1) * L, T[96], k);
-        LANES_OUT(X[7] + (k + 1) * L, H[57] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[67], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[51] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[88], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[58] + k * L, k);
     }
 }
 #endif

@@ -56,7 +56,7 @@ extern const char *const spherical_rot_linearize_param_names[SPHERICAL_ROT_LINEA
  *   in  y[8]: the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out A[64]: A = df/dy, row-major
- * Total ops: 721
+ * Total ops: 670
  */
 #define SPHERICAL_ROT_LINEARIZE_Y_SIZE 8
 #define SPHERICAL_ROT_LINEARIZE_Y_RANK 1

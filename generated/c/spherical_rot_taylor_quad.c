@@ -37,7 +37,7 @@
 /* No unrolling: each binary128 operation is a call into libquadmath, which unrolling does
  * not speed up, while it makes the compile many times longer */
 #define TAYLOR_UNROLL
-#define NODES 166
+#define NODES 159
 #define NCONST 9
 
 /* The library's view of this model (derive_taylor.h lists what it needs). */
@@ -122,29 +122,27 @@ static int spherical_rot_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_w
 {
     static const int A0[NODES] = {
         0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 1, 3, 1, 5, 7, 6,
-        4, 7, 5, 12, 9, 9, 8, 9, 8, 17, 18, 19, 161, 165, 164, 21,
-        163, 9, 161, 8, 21, 23, 26, 161, 161, 27, 22, 8, 22, 33, 25, 22,
-        24, 162, 31, 32, 34, 36, 37, 38, 39, 49, 41, 40, 41, 42, 41, 43,
-        49, 49, 40, 35, 30, 53, 56, 57, 20, 61, 66, 25, 26, 64, 16, 65,
-        56, 33, 69, 68, 70, 72, 78, 71, 50, 44, 15, 82, 83, 84, 88, 91,
-        92, 87, 85, 85, 85, 90, 89, 98, 99, 96, 100, 95, 94, 102, 41, 49,
-        56, 49, 103, 104, 108, 109, 106, 114, 114, 115, 118, 116, 117, 85, 56, 85,
-        41, 119, 120, 123, 105, 124, 107, 129, 131, 132, 130, 133, 134, 93, 115, 97,
-        118, 137, 140, 141, 142, 143, 144, 115, 119, 118, 120, 147, 152, 149, 154, 156,
-        158, 2, 12, 0, 1, 3
+        4, 7, 5, 12, 9, 9, 8, 17, 15, 18, 16, 19, 156, 154, 158, 157,
+        156, 8, 9, 156, 154, 9, 8, 154, 156, 155, 21, 32, 33, 22, 34, 21,
+        37, 23, 28, 22, 38, 155, 35, 36, 39, 53, 40, 20, 47, 40, 53, 23,
+        43, 53, 53, 53, 34, 33, 31, 56, 57, 58, 59, 62, 24, 65, 26, 66,
+        67, 56, 64, 60, 70, 71, 74, 74, 74, 42, 82, 73, 83, 84, 85, 86,
+        87, 88, 89, 90, 92, 93, 73, 95, 96, 98, 99, 97, 40, 53, 56, 53,
+        101, 100, 102, 74, 56, 103, 104, 107, 105, 106, 114, 112, 117, 120, 74, 40,
+        125, 123, 121, 113, 104, 128, 130, 131, 129, 102, 94, 133, 137, 134, 135, 138,
+        140, 91, 107, 103, 107, 143, 145, 147, 144, 151, 2, 12, 0, 1, 3
     };
     static const int A1[NODES] = {
-        0, 0, 0, 0, 0, 0, 0, 0, 161, 163, 164, 165, 3, 0, 0, 0,
-        0, 6, 4, 162, 8, 13, 14, 16, 15, 4, 4, 0, 6, 7, 8, 163,
-        10, 161, 11, 163, 19, 19, 163, 27, 162, 163, 162, 162, 28, 162, 28, 27,
-        27, 0, 3, 5, 7, 0, 0, 3, 1, 0, 0, 163, 49, 163, 161, 163,
-        13, 26, 25, 45, 47, 54, 0, 2, 59, 0, 0, 62, 62, 33, 67, 163,
-        49, 63, 46, 55, 1, 0, 0, 1, 73, 76, 81, 29, 48, 71, 75, 79,
-        74, 58, 0, 56, 41, 0, 77, 2, 1, 6, 1, 3, 51, 52, 95, 95,
-        96, 96, 1, 60, 101, 86, 80, 58, 70, 0, 0, 6, 3, 117, 117, 116,
-        116, 93, 97, 125, 126, 127, 128, 121, 110, 111, 122, 112, 113, 136, 136, 139,
-        139, 135, 138, 135, 135, 138, 138, 145, 145, 146, 146, 151, 148, 153, 150, 9,
-        8, 8, 19, 9, 10, 11
+        0, 0, 0, 0, 0, 0, 0, 0, 154, 156, 157, 158, 3, 0, 0, 0,
+        0, 6, 4, 155, 8, 13, 14, 4, 0, 4, 0, 0, 3, 6, 7, 8,
+        154, 156, 154, 10, 11, 26, 24, 27, 27, 32, 28, 27, 155, 29, 155, 27,
+        19, 29, 25, 27, 19, 0, 5, 7, 1, 0, 0, 41, 48, 53, 14, 43,
+        25, 34, 25, 23, 44, 46, 50, 0, 2, 1, 0, 33, 68, 13, 69, 156,
+        154, 53, 45, 49, 51, 1, 0, 56, 40, 75, 77, 72, 30, 80, 72, 2,
+        1, 1, 63, 78, 79, 52, 95, 85, 61, 76, 55, 81, 100, 100, 101, 101,
+        6, 3, 94, 106, 106, 91, 0, 0, 54, 3, 118, 116, 119, 6, 120, 120,
+        115, 109, 126, 127, 122, 108, 110, 111, 132, 129, 133, 132, 122, 124, 124, 122,
+        139, 141, 142, 142, 141, 136, 146, 148, 9, 8, 8, 19, 9, 10, 11
     };
     R J[NODES][ORDER_DIM];
     R C[NCONST];
@@ -155,7 +153,7 @@ static int spherical_rot_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_w
     }
     C[0] = T_MUL(p[2], p[3]);
     C[1] = T_INT(-1);
-    C[2] = T_NEG(T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]));
+    C[2] = T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]);
     C[3] = T_DIV(T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1])), p[1]);
     C[4] = T_INT(2);
     C[5] = T_DIV(T_MUL(T_MUL(p[4], p[2]), T_ADD(p[0], p[1])), p[1]);
@@ -171,51 +169,55 @@ static int spherical_rot_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_w
         for (u = 13; u < 17; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
         for (u = 17; u < 19; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         for (u = 19; u < 20; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
-        for (u = 20; u < 25; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 25; u < 27; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 27; u < 31; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 31; u < 39; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 39; u < 49; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 49; u < 56; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 20; u < 23; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 23; u < 27; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 27; u < 32; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 32; u < 39; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 39; u < 53; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 53; u < 56; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
         for (u = 56; u < 57; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
         for (u = 57; u < 59; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
-        for (u = 59; u < 67; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 67; u < 69; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 69; u < 70; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 70; u < 71; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
-        for (u = 71; u < 72; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
-        for (u = 72; u < 73; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 59; u < 61; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 61; u < 68; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 68; u < 71; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 71; u < 72; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 72; u < 73; ++u) { J[u][k] = k == 0 ? T_SUB(C[A1[u]], J[A0[u]][0]) : T_NEG(J[A0[u]][k]); }
         for (u = 73; u < 75; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 75; u < 81; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 81; u < 84; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 84; u < 88; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 88; u < 90; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 90; u < 91; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 91; u < 93; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 93; u < 98; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 98; u < 99; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
-        for (u = 99; u < 101; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 101; u < 102; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 102; u < 103; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 103; u < 104; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
-        for (u = 104; u < 108; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 108; u < 110; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 110; u < 114; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 114; u < 115; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 115; u < 119; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 119; u < 121; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 121; u < 123; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
-        for (u = 123; u < 125; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 125; u < 129; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 129; u < 131; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 131; u < 135; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 135; u < 141; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 141; u < 145; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 145; u < 147; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
-        for (u = 147; u < 151; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
-        for (u = 151; u < 155; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 155; u < 159; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 159; u < 161; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 75; u < 82; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 82; u < 83; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 83; u < 85; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 85; u < 86; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 86; u < 87; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 87; u < 89; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 89; u < 92; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 92; u < 94; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 94; u < 95; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 95; u < 96; ++u) { J[u][k] = k == 0 ? T_SUB(C[A1[u]], J[A0[u]][0]) : T_NEG(J[A0[u]][k]); }
+        for (u = 96; u < 98; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 98; u < 102; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 102; u < 104; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 104; u < 108; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 108; u < 112; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 112; u < 114; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 114; u < 118; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 118; u < 120; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 120; u < 121; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 121; u < 122; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 122; u < 125; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 125; u < 126; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 126; u < 128; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 128; u < 132; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 132; u < 133; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 133; u < 136; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 136; u < 138; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 138; u < 140; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 140; u < 143; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 143; u < 144; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 144; u < 145; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 145; u < 149; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 149; u < 152; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 152; u < 153; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 153; u < 154; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
         if (k == 0 && (!(T_ABS(J[9][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
             return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
         }
@@ -223,10 +225,10 @@ static int spherical_rot_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_w
         J[1][k + 1] = T_DIVI(J[5][k], k + 1);
         J[2][k + 1] = T_DIVI(J[6][k], k + 1);
         J[3][k + 1] = T_DIVI(J[7][k], k + 1);
-        J[4][k + 1] = T_DIVI(J[155][k], k + 1);
-        J[5][k + 1] = T_DIVI(J[159][k], k + 1);
-        J[6][k + 1] = T_DIVI(J[157][k], k + 1);
-        J[7][k + 1] = T_DIVI(J[160][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[149][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[152][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[150][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[153][k], k + 1);
     }
     for (i = 0; i < N; ++i) {
         for (k = 1; k <= order; ++k) {
@@ -248,7 +250,7 @@ static int spherical_rot_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_w
     }
     C[0] = T_MUL(p[2], p[3]);
     C[1] = T_INT(-1);
-    C[2] = T_NEG(T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]));
+    C[2] = T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]);
     C[3] = T_DIV(T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1])), p[1]);
     C[4] = T_INT(2);
     C[5] = T_DIV(T_MUL(T_MUL(p[4], p[2]), T_ADD(p[0], p[1])), p[1]);
@@ -267,149 +269,142 @@ static int spherical_rot_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_w
         J[17][k] = T_MUL(C[1], J[16][k]);
         J[18][k] = T_MUL(C[0], J[12][k]);
         J[19][k] = TAYLOR_SQUARE(J[18], k);
-        J[20][k] = T_ADD(J[19][k], k == 0 ? C[2] : T_INT(0));
-        J[21][k] = T_SUB(J[17][k], J[20][k]);
+        J[20][k] = k == 0 ? T_SUB(C[2], J[19][0]) : T_NEG(J[19][k]);
+        J[21][k] = T_ADD(J[17][k], J[20][k]);
         TAYLOR_SINCOS(J[22], J[23], X[0], k);
-        J[24][k] = TAYLOR_MUL(J[22], J[8], k);
-        J[25][k] = TAYLOR_MUL(J[9], J[12], k);
-        J[26][k] = TAYLOR_MUL(J[25], J[23], k);
-        J[27][k] = T_ADD(J[24][k], J[26][k]);
-        J[28][k] = T_MUL(C[0], J[27][k]);
-        J[29][k] = TAYLOR_SQUARE(J[28], k);
-        J[30][k] = T_ADD(J[29][k], k == 0 ? C[2] : T_INT(0));
-        J[31][k] = T_MUL(C[1], J[30][k]);
-        J[32][k] = TAYLOR_MUL(J[13], J[23], k);
-        J[33][k] = TAYLOR_SQUARE(J[32], k);
-        J[34][k] = T_SUB(J[31][k], J[33][k]);
+        J[24][k] = TAYLOR_MUL(J[23], J[13], k);
+        J[25][k] = TAYLOR_SQUARE(J[24], k);
+        J[26][k] = T_MUL(C[1], J[25][k]);
+        J[27][k] = TAYLOR_MUL(J[22], J[8], k);
+        J[28][k] = TAYLOR_MUL(J[23], J[9], k);
+        J[29][k] = TAYLOR_MUL(J[12], J[28], k);
+        J[30][k] = T_ADD(J[27][k], J[29][k]);
+        J[31][k] = T_MUL(C[0], J[30][k]);
+        J[32][k] = TAYLOR_SQUARE(J[31], k);
+        J[33][k] = k == 0 ? T_SUB(C[2], J[32][0]) : T_NEG(J[32][k]);
+        J[34][k] = T_ADD(J[26][k], J[33][k]);
         J[35][k] = TAYLOR_MUL(J[34], J[21], k);
-        J[36][k] = TAYLOR_MUL(J[28], J[15], k);
+        J[36][k] = TAYLOR_MUL(J[31], J[15], k);
         J[37][k] = T_MUL(C[1], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[32], J[18], k);
+        J[38][k] = TAYLOR_MUL(J[24], J[18], k);
         J[39][k] = T_SUB(J[37][k], J[38][k]);
         J[40][k] = TAYLOR_SQUARE(J[39], k);
         J[41][k] = T_SUB(J[35][k], J[40][k]);
         J[42][k] = TAYLOR_SQUARE(X[5], k);
         J[43][k] = TAYLOR_MUL(J[22], J[42], k);
-        J[44][k] = TAYLOR_MUL(J[43], J[23], k);
-        J[45][k] = T_MUL(C[3], J[44][k]);
+        J[44][k] = T_MUL(C[3], J[23][k]);
+        J[45][k] = TAYLOR_MUL(J[43], J[44], k);
         J[46][k] = TAYLOR_SQUARE(X[7], k);
-        J[47][k] = TAYLOR_MUL(J[8], J[46], k);
-        J[48][k] = TAYLOR_MUL(J[47], J[12], k);
-        J[49][k] = TAYLOR_MUL(J[48], J[23], k);
-        J[50][k] = T_MUL(C[0], J[49][k]);
-        J[51][k] = T_ADD(J[45][k], J[50][k]);
-        J[52][k] = TAYLOR_MUL(X[7], X[6], k);
-        J[53][k] = T_MUL(C[4], J[52][k]);
-        J[54][k] = TAYLOR_MUL(J[32], J[9], k);
-        J[55][k] = TAYLOR_MUL(J[53], J[54], k);
-        J[56][k] = T_SUB(J[51][k], J[55][k]);
-        TAYLOR_SINCOS(J[57], J[58], X[1], k);
-        J[59][k] = TAYLOR_MUL(J[23], J[57], k);
-        J[60][k] = T_MUL(C[5], J[59][k]);
-        J[61][k] = T_SUB(J[56][k], J[60][k]);
-        J[62][k] = TAYLOR_SQUARE(X[6], k);
-        J[63][k] = TAYLOR_MUL(J[22], J[9], k);
-        J[64][k] = TAYLOR_MUL(J[8], J[12], k);
-        J[65][k] = TAYLOR_MUL(J[64], J[23], k);
-        J[66][k] = T_SUB(J[63][k], J[65][k]);
-        J[67][k] = TAYLOR_MUL(J[62], J[66], k);
-        J[68][k] = T_MUL(C[0], J[67][k]);
-        J[69][k] = T_SUB(J[61][k], J[68][k]);
-        J[70][k] = T_MUL(C[6], J[69][k]);
-        J[71][k] = T_MUL(C[6], J[9][k]);
-        J[72][k] = TAYLOR_MUL(J[47], J[71], k);
-        J[73][k] = TAYLOR_MUL(X[5], X[4], k);
-        J[74][k] = T_MUL(C[4], J[73][k]);
-        J[75][k] = TAYLOR_MUL(J[74], J[54], k);
-        J[76][k] = T_ADD(J[72][k], J[75][k]);
-        J[77][k] = TAYLOR_MUL(J[18], J[42], k);
-        J[78][k] = TAYLOR_MUL(J[77], J[63], k);
-        J[79][k] = T_ADD(J[76][k], J[78][k]);
-        TAYLOR_SINCOS(J[80], J[81], X[3], k);
-        J[82][k] = TAYLOR_MUL(J[9], J[80], k);
-        J[83][k] = T_MUL(C[7], J[82][k]);
-        J[84][k] = T_SUB(J[79][k], J[83][k]);
-        J[85][k] = TAYLOR_SQUARE(X[4], k);
-        J[86][k] = TAYLOR_MUL(J[8], J[23], k);
-        J[87][k] = TAYLOR_MUL(J[63], J[12], k);
-        J[88][k] = T_SUB(J[86][k], J[87][k]);
-        J[89][k] = TAYLOR_MUL(J[85], J[88], k);
-        J[90][k] = T_MUL(C[0], J[89][k]);
-        J[91][k] = T_SUB(J[84][k], J[90][k]);
-        J[92][k] = TAYLOR_MUL(J[28], J[91], k);
-        J[93][k] = T_SUB(J[70][k], J[92][k]);
-        J[94][k] = TAYLOR_MUL(J[43], J[11], k);
-        J[95][k] = T_MUL(C[0], J[94][k]);
-        J[96][k] = TAYLOR_MUL(J[22], J[85], k);
-        J[97][k] = TAYLOR_MUL(J[96], J[11], k);
-        J[98][k] = T_MUL(C[0], J[97][k]);
-        J[99][k] = T_ADD(J[95][k], J[98][k]);
-        J[100][k] = TAYLOR_MUL(J[53], J[71], k);
-        J[101][k] = T_SUB(J[99][k], J[100][k]);
-        J[102][k] = T_MUL(C[7], J[81][k]);
-        J[103][k] = T_SUB(J[101][k], J[102][k]);
-        J[104][k] = TAYLOR_MUL(J[18], J[74], k);
-        J[105][k] = TAYLOR_MUL(J[104], J[23], k);
-        J[106][k] = T_SUB(J[103][k], J[105][k]);
-        J[107][k] = TAYLOR_MUL(J[32], J[106], k);
-        J[108][k] = T_SUB(J[93][k], J[107][k]);
-        J[109][k] = TAYLOR_MUL(J[21], J[108], k);
-        J[110][k] = TAYLOR_DIV(J[109][k], J[41], J[110], k);
-        J[111][k] = T_MUL(C[8], J[58][k]);
-        J[112][k] = TAYLOR_MUL(J[47], J[13], k);
-        J[113][k] = T_SUB(J[111][k], J[112][k]);
-        J[114][k] = TAYLOR_MUL(J[74], J[23], k);
-        J[115][k] = T_MUL(C[3], J[114][k]);
-        J[116][k] = T_SUB(J[113][k], J[115][k]);
-        J[117][k] = TAYLOR_MUL(J[8], J[62], k);
-        J[118][k] = TAYLOR_MUL(J[117], J[13], k);
-        J[119][k] = T_SUB(J[116][k], J[118][k]);
-        J[120][k] = TAYLOR_MUL(J[25], J[53], k);
-        J[121][k] = T_MUL(C[0], J[120][k]);
-        J[122][k] = T_SUB(J[119][k], J[121][k]);
-        J[123][k] = T_MUL(C[6], J[122][k]);
-        J[124][k] = TAYLOR_MUL(J[15], J[91], k);
-        J[125][k] = T_SUB(J[123][k], J[124][k]);
-        J[126][k] = TAYLOR_MUL(J[18], J[106], k);
-        J[127][k] = T_SUB(J[125][k], J[126][k]);
-        J[128][k] = TAYLOR_DIV(J[127][k], J[41], J[128], k);
-        J[129][k] = TAYLOR_MUL(J[39], J[128], k);
-        J[130][k] = T_SUB(J[110][k], J[129][k]);
-        J[131][k] = TAYLOR_MUL(J[34], J[128], k);
-        J[132][k] = TAYLOR_MUL(J[39], J[108], k);
-        J[133][k] = TAYLOR_DIV(J[132][k], J[41], J[133], k);
-        J[134][k] = T_SUB(J[131][k], J[133][k]);
-        J[135][k] = TAYLOR_DIV(J[134][k], J[22], J[135], k);
-        J[136][k] = T_MUL(C[1], J[20][k]);
-        J[137][k] = T_SUB(J[136][k], J[33][k]);
-        J[138][k] = T_SUB(J[31][k], J[16][k]);
-        J[139][k] = TAYLOR_MUL(J[138], J[137], k);
-        J[140][k] = TAYLOR_MUL(J[28], J[32], k);
-        J[141][k] = T_MUL(C[1], J[140][k]);
-        J[142][k] = TAYLOR_MUL(J[15], J[18], k);
-        J[143][k] = T_SUB(J[141][k], J[142][k]);
-        J[144][k] = TAYLOR_SQUARE(J[143], k);
-        J[145][k] = T_SUB(J[139][k], J[144][k]);
-        J[146][k] = T_MUL(C[3], J[91][k]);
-        J[147][k] = TAYLOR_MUL(J[28], J[69], k);
-        J[148][k] = T_SUB(J[146][k], J[147][k]);
-        J[149][k] = TAYLOR_MUL(J[15], J[122], k);
-        J[150][k] = T_SUB(J[148][k], J[149][k]);
-        J[151][k] = TAYLOR_MUL(J[137], J[150], k);
-        J[152][k] = TAYLOR_DIV(J[151][k], J[145], J[152], k);
-        J[153][k] = T_MUL(C[3], J[106][k]);
-        J[154][k] = TAYLOR_MUL(J[32], J[69], k);
-        J[155][k] = T_SUB(J[153][k], J[154][k]);
-        J[156][k] = TAYLOR_MUL(J[18], J[122], k);
+        J[47][k] = TAYLOR_MUL(J[8], J[23], k);
+        J[48][k] = TAYLOR_MUL(J[18], J[46], k);
+        J[49][k] = TAYLOR_MUL(J[48], J[47], k);
+        J[50][k] = T_ADD(J[45][k], J[49][k]);
+        J[51][k] = TAYLOR_MUL(X[7], X[6], k);
+        J[52][k] = T_MUL(C[4], J[51][k]);
+        J[53][k] = TAYLOR_MUL(J[28], J[13], k);
+        J[54][k] = TAYLOR_MUL(J[52], J[53], k);
+        J[55][k] = T_SUB(J[50][k], J[54][k]);
+        J[56][k] = TAYLOR_SQUARE(X[6], k);
+        J[57][k] = T_MUL(C[0], J[56][k]);
+        J[58][k] = TAYLOR_MUL(J[22], J[9], k);
+        J[59][k] = TAYLOR_MUL(J[47], J[12], k);
+        J[60][k] = T_SUB(J[58][k], J[59][k]);
+        J[61][k] = TAYLOR_MUL(J[57], J[60], k);
+        J[62][k] = T_SUB(J[55][k], J[61][k]);
+        TAYLOR_SINCOS(J[63], J[64], X[1], k);
+        J[65][k] = TAYLOR_MUL(J[23], J[63], k);
+        J[66][k] = T_MUL(C[5], J[65][k]);
+        J[67][k] = T_SUB(J[62][k], J[66][k]);
+        J[68][k] = T_MUL(C[6], J[67][k]);
+        J[69][k] = TAYLOR_MUL(X[5], X[4], k);
+        J[70][k] = T_MUL(C[4], J[69][k]);
+        J[71][k] = TAYLOR_MUL(J[53], J[70], k);
+        J[72][k] = TAYLOR_MUL(J[8], J[46], k);
+        J[73][k] = T_MUL(C[6], J[9][k]);
+        J[74][k] = TAYLOR_MUL(J[72], J[73], k);
+        J[75][k] = T_ADD(J[71][k], J[74][k]);
+        J[76][k] = TAYLOR_MUL(J[18], J[58], k);
+        J[77][k] = TAYLOR_MUL(J[76], J[42], k);
+        J[78][k] = T_ADD(J[75][k], J[77][k]);
+        J[79][k] = TAYLOR_SQUARE(X[4], k);
+        J[80][k] = T_MUL(C[0], J[79][k]);
+        J[81][k] = TAYLOR_MUL(J[58], J[12], k);
+        J[82][k] = T_SUB(J[47][k], J[81][k]);
+        J[83][k] = TAYLOR_MUL(J[80], J[82], k);
+        J[84][k] = T_SUB(J[78][k], J[83][k]);
+        TAYLOR_SINCOS(J[85], J[86], X[3], k);
+        J[87][k] = TAYLOR_MUL(J[9], J[85], k);
+        J[88][k] = T_MUL(C[7], J[87][k]);
+        J[89][k] = T_SUB(J[84][k], J[88][k]);
+        J[90][k] = TAYLOR_MUL(J[31], J[89], k);
+        J[91][k] = T_SUB(J[68][k], J[90][k]);
+        J[92][k] = TAYLOR_MUL(J[43], J[13], k);
+        J[93][k] = TAYLOR_MUL(J[22], J[80], k);
+        J[94][k] = TAYLOR_MUL(J[93], J[11], k);
+        J[95][k] = T_ADD(J[92][k], J[94][k]);
+        J[96][k] = TAYLOR_MUL(J[52], J[73], k);
+        J[97][k] = T_SUB(J[95][k], J[96][k]);
+        J[98][k] = T_MUL(C[7], J[86][k]);
+        J[99][k] = T_SUB(J[97][k], J[98][k]);
+        J[100][k] = TAYLOR_MUL(J[18], J[70], k);
+        J[101][k] = TAYLOR_MUL(J[100], J[23], k);
+        J[102][k] = T_SUB(J[99][k], J[101][k]);
+        J[103][k] = TAYLOR_MUL(J[24], J[102], k);
+        J[104][k] = T_SUB(J[91][k], J[103][k]);
+        J[105][k] = TAYLOR_MUL(J[21], J[104], k);
+        J[106][k] = TAYLOR_DIV(J[105][k], J[41], J[106], k);
+        J[107][k] = T_MUL(C[8], J[64][k]);
+        J[108][k] = TAYLOR_MUL(J[44], J[70], k);
+        J[109][k] = T_SUB(J[107][k], J[108][k]);
+        J[110][k] = TAYLOR_MUL(J[72], J[13], k);
+        J[111][k] = T_SUB(J[109][k], J[110][k]);
+        J[112][k] = TAYLOR_MUL(J[18], J[52], k);
+        J[113][k] = TAYLOR_MUL(J[112], J[9], k);
+        J[114][k] = T_SUB(J[111][k], J[113][k]);
+        J[115][k] = TAYLOR_MUL(J[8], J[57], k);
+        J[116][k] = TAYLOR_MUL(J[115], J[11], k);
+        J[117][k] = T_SUB(J[114][k], J[116][k]);
+        J[118][k] = T_MUL(C[6], J[117][k]);
+        J[119][k] = TAYLOR_MUL(J[15], J[89], k);
+        J[120][k] = T_SUB(J[118][k], J[119][k]);
+        J[121][k] = TAYLOR_MUL(J[18], J[102], k);
+        J[122][k] = T_SUB(J[120][k], J[121][k]);
+        J[123][k] = TAYLOR_DIV(J[39][k], J[41], J[123], k);
+        J[124][k] = TAYLOR_MUL(J[122], J[123], k);
+        J[125][k] = T_SUB(J[106][k], J[124][k]);
+        J[126][k] = TAYLOR_MUL(J[34], J[122], k);
+        J[127][k] = TAYLOR_DIV(J[126][k], J[41], J[127], k);
+        J[128][k] = TAYLOR_MUL(J[104], J[123], k);
+        J[129][k] = T_SUB(J[127][k], J[128][k]);
+        J[130][k] = TAYLOR_DIV(J[129][k], J[22], J[130], k);
+        J[131][k] = T_ADD(J[26][k], J[20][k]);
+        J[132][k] = T_ADD(J[33][k], J[17][k]);
+        J[133][k] = TAYLOR_MUL(J[132], J[131], k);
+        J[134][k] = TAYLOR_MUL(J[31], J[24], k);
+        J[135][k] = T_MUL(C[1], J[134][k]);
+        J[136][k] = TAYLOR_MUL(J[15], J[18], k);
+        J[137][k] = T_SUB(J[135][k], J[136][k]);
+        J[138][k] = TAYLOR_SQUARE(J[137], k);
+        J[139][k] = T_SUB(J[133][k], J[138][k]);
+        J[140][k] = T_MUL(C[3], J[89][k]);
+        J[141][k] = TAYLOR_MUL(J[31], J[67], k);
+        J[142][k] = T_SUB(J[140][k], J[141][k]);
+        J[143][k] = TAYLOR_MUL(J[15], J[117], k);
+        J[144][k] = T_SUB(J[142][k], J[143][k]);
+        J[145][k] = TAYLOR_DIV(J[144][k], J[139], J[145], k);
+        J[146][k] = TAYLOR_MUL(J[131], J[145], k);
+        J[147][k] = T_MUL(C[3], J[102][k]);
+        J[148][k] = TAYLOR_MUL(J[24], J[67], k);
+        J[149][k] = T_SUB(J[147][k], J[148][k]);
+        J[150][k] = TAYLOR_MUL(J[18], J[117], k);
+        J[151][k] = T_SUB(J[149][k], J[150][k]);
+        J[152][k] = TAYLOR_DIV(J[151][k], J[139], J[152], k);
+        J[153][k] = TAYLOR_MUL(J[137], J[152], k);
+        J[154][k] = T_SUB(J[146][k], J[153][k]);
+        J[155][k] = TAYLOR_MUL(J[132], J[152], k);
+        J[156][k] = TAYLOR_MUL(J[137], J[145], k);
         J[157][k] = T_SUB(J[155][k], J[156][k]);
-        J[158][k] = TAYLOR_DIV(J[157][k], J[145], J[158], k);
-        J[159][k] = TAYLOR_MUL(J[143], J[158], k);
-        J[160][k] = T_SUB(J[152][k], J[159][k]);
-        J[161][k] = TAYLOR_MUL(J[138], J[158], k);
-        J[162][k] = TAYLOR_MUL(J[143], J[150], k);
-        J[163][k] = TAYLOR_DIV(J[162][k], J[145], J[163], k);
-        J[164][k] = T_SUB(J[161][k], J[163][k]);
-        J[165][k] = TAYLOR_DIV(J[164][k], J[8], J[165], k);
+        J[158][k] = TAYLOR_DIV(J[157][k], J[8], J[158], k);
         if (k == 0 && (!(T_ABS(J[22][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
             return SPHERICAL_ROT_INTEGRATE_CHART_SINGULAR;
         }
@@ -417,10 +412,10 @@ static int spherical_rot_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_w
         X[1][k + 1] = T_DIVI(X[5][k], k + 1);
         X[2][k + 1] = T_DIVI(X[6][k], k + 1);
         X[3][k + 1] = T_DIVI(X[7][k], k + 1);
-        X[4][k + 1] = T_DIVI(J[130][k], k + 1);
-        X[5][k + 1] = T_DIVI(J[135][k], k + 1);
-        X[6][k + 1] = T_DIVI(J[160][k], k + 1);
-        X[7][k + 1] = T_DIVI(J[165][k], k + 1);
+        X[4][k + 1] = T_DIVI(J[125][k], k + 1);
+        X[5][k + 1] = T_DIVI(J[130][k], k + 1);
+        X[6][k + 1] = T_DIVI(J[154][k], k + 1);
+        X[7][k + 1] = T_DIVI(J[158][k], k + 1);
     }
     return SPHERICAL_ROT_INTEGRATE_OK;
 }

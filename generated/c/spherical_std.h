@@ -57,7 +57,7 @@ extern const char *const spherical_std_param_names[SPHERICAL_STD_N_PARAMS];
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out ydot[8]: y' in state order
- * Total ops: 185
+ * Total ops: 175
  */
 #define SPHERICAL_STD_RHS_Y_SIZE 8
 #define SPHERICAL_STD_RHS_Y_RANK 1
@@ -78,7 +78,7 @@ int spherical_std_rhs_batch_l(long n, const long double *restrict y, long y_stri
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out M[16]: M, row-major
- * Total ops: 33
+ * Total ops: 34
  */
 #define SPHERICAL_STD_MASS_MATRIX_Y_SIZE 8
 #define SPHERICAL_STD_MASS_MATRIX_Y_RANK 1
@@ -101,7 +101,7 @@ int spherical_std_mass_matrix_batch_l(long n, const long double *restrict y, lon
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out F[4]: F
- * Total ops: 88
+ * Total ops: 87
  */
 #define SPHERICAL_STD_FORCING_Y_SIZE 8
 #define SPHERICAL_STD_FORCING_Y_RANK 1
@@ -122,7 +122,7 @@ int spherical_std_forcing_batch_l(long n, const long double *restrict y, long y_
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out E[1]: T + V
- * Total ops: 71
+ * Total ops: 70
  */
 #define SPHERICAL_STD_ENERGY_Y_SIZE 8
 #define SPHERICAL_STD_ENERGY_Y_RANK 1
@@ -144,7 +144,7 @@ int spherical_std_energy_batch_l(long n, const long double *restrict y, long y_s
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out pos[6]: tip k, axis j at [k][j]
- * Total ops: 23
+ * Total ops: 22
  */
 #define SPHERICAL_STD_POSITIONS_Y_SIZE 8
 #define SPHERICAL_STD_POSITIONS_Y_RANK 1
@@ -168,7 +168,7 @@ int spherical_std_positions_batch_l(long n, const long double *restrict y, long 
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out vel[6]: tip k, axis j at [k][j]
- * Total ops: 44
+ * Total ops: 39
  */
 #define SPHERICAL_STD_VELOCITIES_Y_SIZE 8
 #define SPHERICAL_STD_VELOCITIES_Y_RANK 1
@@ -192,7 +192,7 @@ int spherical_std_velocities_batch_l(long n, const long double *restrict y, long
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out J[64]: row-major
- * Total ops: 694
+ * Total ops: 633
  */
 #define SPHERICAL_STD_JACOBIAN_Y_SIZE 8
 #define SPHERICAL_STD_JACOBIAN_Y_RANK 1
@@ -234,7 +234,7 @@ int spherical_std_polar_sines_batch_l(long n, const long double *restrict y, lon
  *
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   out y_out[8]: state of 'spherical_alt'
- * Total ops: 86
+ * Total ops: 82
  */
 #define SPHERICAL_STD_TO_SPHERICAL_ALT_Y_SIZE 8
 #define SPHERICAL_STD_TO_SPHERICAL_ALT_Y_RANK 1
@@ -253,7 +253,7 @@ int spherical_std_to_spherical_alt_batch_l(long n, const long double *restrict y
  *
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   out y_out[8]: state of 'spherical_rot'
- * Total ops: 86
+ * Total ops: 82
  */
 #define SPHERICAL_STD_TO_SPHERICAL_ROT_Y_SIZE 8
 #define SPHERICAL_STD_TO_SPHERICAL_ROT_Y_RANK 1

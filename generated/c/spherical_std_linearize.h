@@ -56,7 +56,7 @@ extern const char *const spherical_std_linearize_param_names[SPHERICAL_STD_LINEA
  *   in  y[8]: the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
  *   in  p[5]: the parameters: (m1, m2, l1, l2, g)
  *   out A[64]: A = df/dy, row-major
- * Total ops: 694
+ * Total ops: 633
  */
 #define SPHERICAL_STD_LINEARIZE_Y_SIZE 8
 #define SPHERICAL_STD_LINEARIZE_Y_RANK 1

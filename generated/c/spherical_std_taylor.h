@@ -2,7 +2,7 @@
  *
  * spherical_std: Taylor's method for the kernels of spherical_std.h (Double spherical pendulum, standard chart (theta, phi)), in double (no suffix), float (suffix _f), long double (suffix _l) and double-double (suffix _dd).
  *
- * The rhs is decomposed into 155 elementary operations (5 add, 3 cos, 8 div, 58 mul, 25 scale, 2 shift, 3 sin, 10 square, 33 sub, 8 var)
+ * The rhs is decomposed into 149 elementary operations (9 add, 3 cos, 2 csub, 6 div, 58 mul, 21 scale, 3 sin, 10 square, 29 sub, 8 var)
  * with 8 constants per step (expressions of the parameters); the Taylor
  * coefficients of the solution come from the recurrence of each operation (automatic
  * differentiation, derive/codegen/taylor.py).  Order and step from the

@@ -81,8 +81,8 @@
 #define DERIVE_LANES_USES_ADD 1
 #define DERIVE_LANES_USES_SUB 1
 #define DERIVE_LANES_USES_SCALE 1
-#define DERIVE_LANES_USES_SHIFT 1
-#define DERIVE_LANES_USES_CSUB 0
+#define DERIVE_LANES_USES_SHIFT 0
+#define DERIVE_LANES_USES_CSUB 1
 #define DERIVE_LANES_USES_MUL 1
 #define DERIVE_LANES_USES_SQUARE 1
 #define DERIVE_LANES_USES_DIV 1
@@ -110,7 +110,7 @@ static void spherical_std_lconstants(R (*C)[L], int l, const R *p)
 {
     C[0][l] = p[2]*p[3];
     C[1][l] = -1;
-    C[2][l] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[2][l] = p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
     C[3][l] = p[2]*p[2]*(p[0] + p[1])/p[1];
     C[4][l] = 2;
     C[5][l] = p[4]*p[2]*(p[0] + p[1])/p[1];
@@ -124,281 +124,274 @@ static void spherical_std_lconstants(R (*C)[L], int l, const R *p)
  * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
 static void spherical_std_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    static const int HA0[54] = {
-        2, 0, 1, 5, 7, 6, 4, 2, 1, 0, 0, 0, 1, 7, 51, 1,
-        52, 51, 13, 9, 0, 1, 8, 18, 16, 16, 6, 15, 28, 39, 45, 46,
-        41, 54, 56, 57, 55, 64, 64, 73, 75, 74, 77, 79, 80, 81, 82, 83,
-        84, 91, 92, 2, 2, 0
+    static const int HA0[52] = {
+        1, 2, 0, 7, 5, 4, 0, 0, 2, 1, 1, 6, 51, 50, 50, 1,
+        2, 1, 49, 11, 2, 11, 2, 6, 18, 18, 18, 18, 16, 15, 17, 27,
+        25, 45, 46, 47, 47, 48, 51, 49, 52, 59, 62, 71, 74, 75, 76, 86,
+        88, 0, 2, 0
     };
-    static const int HA1[54] = {
-        51, 53, 3, 0, 0, 0, 0, 52, 3, 4, 5, 4, 4, 0, 6, 51,
-        0, 52, 53, 52, 52, 13, 1, 51, 3, 12, 10, 21, 0, 27, 36, 31,
-        17, 19, 3, 40, 37, 17, 26, 65, 58, 66, 60, 39, 41, 39, 39, 41,
-        41, 1, 0, 0, 7, 1
+    static const int HA1[52] = {
+        3, 50, 51, 0, 0, 0, 49, 4, 0, 4, 3, 0, 3, 6, 51, 51,
+        50, 8, 0, 51, 12, 14, 11, 1, 3, 16, 9, 7, 8, 10, 0, 25,
+        38, 32, 14, 27, 38, 18, 44, 34, 4, 63, 64, 41, 41, 42, 42, 2,
+        1, 6, 1, 2
     };
-    static const int TA0[93] = {
-        7, 5, 1, 1, 0, 8, 0, 12, 51, 9, 15, 11, 9, 10, 5, 7,
-        16, 18, 17, 18, 19, 20, 3, 6, 17, 12, 22, 16, 2, 22, 20, 24,
-        11, 12, 24, 6, 25, 22, 25, 26, 35, 27, 14, 9, 5, 29, 38, 28,
-        28, 28, 42, 44, 43, 47, 48, 49, 50, 52, 18, 16, 22, 16, 31, 30,
-        53, 33, 36, 34, 35, 28, 22, 28, 18, 37, 38, 67, 62, 68, 63, 76,
-        78, 29, 33, 32, 36, 33, 37, 36, 38, 45, 47, 86, 88
+    static const int TA0[89] = {
+        7, 5, 6, 2, 2, 1, 50, 49, 15, 10, 16, 7, 12, 10, 17, 18,
+        19, 3, 19, 20, 7, 9, 4, 5, 12, 15, 23, 16, 24, 8, 25, 5,
+        26, 27, 23, 21, 22, 24, 26, 30, 30, 30, 28, 35, 31, 36, 37, 39,
+        40, 41, 42, 43, 50, 19, 18, 23, 18, 34, 33, 35, 30, 23, 36, 37,
+        39, 38, 40, 57, 30, 19, 66, 67, 65, 58, 70, 72, 73, 37, 35, 32,
+        37, 31, 39, 36, 39, 79, 78, 81, 83
     };
-    static const int TA1[93] = {
-        6, 4, 0, 5, 7, 53, 53, 53, 13, 14, 52, 14, 13, 13, 3, 3,
-        0, 0, 53, 16, 53, 53, 21, 21, 11, 1, 0, 2, 18, 23, 0, 0,
-        23, 23, 15, 26, 53, 16, 15, 1, 0, 1, 30, 33, 27, 11, 13, 0,
-        22, 18, 32, 0, 34, 2, 1, 1, 51, 4, 30, 30, 31, 31, 6, 3,
-        1, 0, 0, 6, 3, 35, 35, 34, 34, 29, 32, 69, 70, 71, 72, 59,
-        61, 40, 40, 42, 42, 43, 43, 44, 44, 85, 87, 46, 48
+    static const int TA1[89] = {
+        6, 4, 0, 1, 5, 7, 11, 14, 49, 13, 49, 13, 9, 11, 6, 0,
+        0, 7, 18, 4, 21, 21, 22, 22, 1, 1, 0, 2, 15, 28, 4, 29,
+        51, 50, 18, 9, 23, 13, 2, 0, 23, 19, 19, 30, 0, 11, 33, 1,
+        1, 1, 20, 5, 29, 33, 33, 34, 34, 6, 3, 32, 38, 38, 31, 0,
+        0, 3, 6, 61, 40, 40, 60, 54, 68, 69, 53, 55, 56, 43, 43, 44,
+        44, 45, 46, 46, 45, 77, 80, 82, 84
     };
-    R H[54][ORDER_DIM * L];     /* nodes read at every order */
-    R T[93][L];                 /* nodes read at this order only */
+    R H[52][ORDER_DIM * L];     /* nodes read at every order */
+    R T[89][L];                 /* nodes read at this order only */
     const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
     int k, u;
     for (k = 0; k < order; ++k) {
-        for (u = 0; u < 2; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
-        for (u = 2; u < 3; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
-        for (u = 3; u < 7; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 0; u < 1; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 1; u < 3; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 3; u < 6; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
         for (u = 0; u < 2; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA1[u]], k); }
-        for (u = 7; u < 8; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
-        for (u = 2; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 8; u < 11; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 11; u < 13; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 3; u < 5; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 13; u < 15; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
-        for (u = 5; u < 8; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 15; u < 16; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 8; u < 14; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 16; u < 17; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
-        for (u = 17; u < 22; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 14; u < 16; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 22; u < 23; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 16; u < 18; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 18; u < 25; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 23; u < 26; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 26; u < 27; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 2; u < 3; ++u) { LANES_SQUARE(T[u], X[TA0[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 3; u < 4; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 7; u < 10; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 4; u < 6; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 10; u < 11; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 11; u < 14; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 14; u < 18; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 18; u < 19; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 6; u < 15; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 19; u < 23; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 15; u < 17; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 23; u < 24; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 17; u < 18; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 18; u < 24; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 24; u < 28; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 28; u < 30; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 24; u < 25; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
         for (u = 25; u < 26; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
         for (u = 26; u < 27; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 27; u < 28; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
-        for (u = 28; u < 30; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 30; u < 32; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 32; u < 38; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 27; u < 28; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
-        for (u = 38; u < 39; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 39; u < 42; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 28; u < 29; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 30; u < 31; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 27; u < 28; ++u) { LANES_CSUB(T[u], C[TA1[u]], T[TA0[u]], k); }
+        for (u = 28; u < 35; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 35; u < 37; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 37; u < 38; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 38; u < 39; ++u) { LANES_CSUB(T[u], C[TA1[u]], T[TA0[u]], k); }
+        for (u = 39; u < 40; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 40; u < 42; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
         for (u = 42; u < 44; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 44; u < 45; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 44; u < 45; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
         for (u = 45; u < 47; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 29; u < 33; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 47; u < 48; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 48; u < 50; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 50; u < 51; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 51; u < 52; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 52; u < 53; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 53; u < 54; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
-        for (u = 54; u < 56; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 56; u < 58; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 58; u < 62; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 62; u < 64; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 64; u < 65; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 33; u < 37; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 37; u < 39; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 65; u < 67; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 67; u < 69; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 69; u < 73; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 73; u < 75; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 75; u < 79; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 39; u < 43; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 79; u < 81; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 81; u < 85; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 43; u < 45; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
-        for (u = 45; u < 49; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
-        for (u = 85; u < 89; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 89; u < 91; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
-        for (u = 91; u < 93; ++u) { LANES_SUB(T[u], T[TA0[u]], H[TA1[u]] + k * L); }
-        for (u = 49; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 31; u < 32; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 32; u < 33; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 47; u < 50; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 50; u < 52; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 33; u < 35; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 35; u < 37; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 37; u < 40; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 52; u < 53; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 53; u < 57; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 57; u < 59; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 59; u < 63; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 63; u < 65; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 40; u < 41; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 65; u < 66; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 41; u < 43; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 66; u < 67; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 67; u < 68; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 68; u < 70; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 70; u < 74; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 74; u < 77; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 43; u < 44; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 44; u < 47; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 77; u < 79; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 79; u < 85; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 85; u < 89; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 47; u < 49; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
         if (k == 0) {
+            LANES_GUARD(bad, H[2] + k * L, sine_min);
             LANES_GUARD(bad, H[1] + k * L, sine_min);
-            LANES_GUARD(bad, H[0] + k * L, sine_min);
         }
         LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
         LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
         LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
-        LANES_OUT(X[4] + (k + 1) * L, T[89], k);
-        LANES_OUT(X[5] + (k + 1) * L, H[49] + k * L, k);
-        LANES_OUT(X[6] + (k + 1) * L, T[90], k);
-        LANES_OUT(X[7] + (k + 1) * L, H[50] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[85], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[47] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[87], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[48] + k * L, k);
     }
 }
 #else
 /* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_std_ljet(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    R H[54][ORDER_DIM * L];     /* nodes read at every order */
-    R T[93][L];                 /* nodes read at this order only */
+    R H[52][ORDER_DIM * L];     /* nodes read at every order */
+    R T[89][L];                 /* nodes read at this order only */
     const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
     int k;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        LANES_SINCOS(H[0], H[1], X[2], k);
-        LANES_SUB(H[2] + k * L, X[1] + k * L, X[3] + k * L);
-        LANES_SINCOS(H[3], H[4], H[2], k);
-        LANES_SCALE(H[5] + k * L, C[0], H[3] + k * L);
-        LANES_MUL(T[0], H[1], H[5], k);
-        LANES_SCALE(H[6] + k * L, C[1], T[0]);
-        LANES_SQUARE(T[1], H[6], k);
-        LANES_SCALE(T[2], C[1], T[1]);
-        LANES_SCALE(H[7] + k * L, C[0], H[4] + k * L);
+        LANES_SUB(H[0] + k * L, X[1] + k * L, X[3] + k * L);
+        LANES_SINCOS(H[1], H[2], H[0], k);
+        LANES_SCALE(H[3] + k * L, C[0], H[2] + k * L);
+        LANES_SQUARE(T[0], H[3], k);
+        LANES_SCALE(T[1], C[1], T[0]);
+        LANES_SINCOS(H[4], H[5], X[2], k);
+        LANES_SCALE(H[6] + k * L, C[0], H[1] + k * L);
+        LANES_MUL(T[2], H[5], H[6], k);
+        LANES_SCALE(H[7] + k * L, C[1], T[2]);
         LANES_SQUARE(T[3], H[7], k);
-        LANES_SHIFT(T[4], T[3], C[2], k);
-        LANES_SUB(H[8] + k * L, T[2], T[4]);
+        LANES_CSUB(T[4], C[2], T[3], k);
+        LANES_ADD(H[8] + k * L, T[1], T[4]);
         LANES_SINCOS(H[9], H[10], X[0], k);
-        LANES_MUL(T[5], H[9], H[0], k);
-        LANES_MUL(H[11] + k * L, H[1], H[4], k);
-        LANES_MUL(T[6], H[11], H[10], k);
+        LANES_MUL(T[5], H[9], H[4], k);
+        LANES_MUL(H[11] + k * L, H[5], H[10], k);
+        LANES_MUL(T[6], H[2], H[11], k);
         LANES_ADD(T[7], T[5], T[6]);
         LANES_SCALE(H[12] + k * L, C[0], T[7]);
         LANES_SQUARE(T[8], H[12], k);
-        LANES_SHIFT(T[9], T[8], C[2], k);
-        LANES_SCALE(T[10], C[1], T[9]);
-        LANES_MUL(H[13] + k * L, H[5], H[10], k);
-        LANES_SQUARE(T[11], H[13], k);
-        LANES_SUB(H[14] + k * L, T[10], T[11]);
+        LANES_SCALE(T[9], C[1], T[8]);
+        LANES_MUL(H[13] + k * L, H[6], H[10], k);
+        LANES_SQUARE(T[10], H[13], k);
+        LANES_CSUB(T[11], C[2], T[10], k);
+        LANES_ADD(H[14] + k * L, T[9], T[11]);
         LANES_MUL(T[12], H[14], H[8], k);
-        LANES_MUL(T[13], H[12], H[6], k);
+        LANES_MUL(T[13], H[12], H[7], k);
         LANES_SCALE(T[14], C[1], T[13]);
-        LANES_MUL(T[15], H[13], H[7], k);
+        LANES_MUL(T[15], H[13], H[3], k);
         LANES_SUB(H[15] + k * L, T[14], T[15]);
         LANES_SQUARE(T[16], H[15], k);
         LANES_SUB(H[16] + k * L, T[12], T[16]);
-        LANES_SQUARE(H[17] + k * L, X[5], k);
-        LANES_MUL(H[18] + k * L, H[9], H[17], k);
-        LANES_MUL(T[17], H[18], H[10], k);
-        LANES_SCALE(T[18], C[3], T[17]);
-        LANES_SQUARE(H[19] + k * L, X[7], k);
-        LANES_MUL(H[20] + k * L, H[0], H[19], k);
-        LANES_MUL(H[21] + k * L, H[20], H[4], k);
-        LANES_MUL(T[19], H[21], H[10], k);
-        LANES_SCALE(T[20], C[0], T[19]);
-        LANES_ADD(T[21], T[18], T[20]);
-        LANES_MUL(T[22], X[7], X[6], k);
-        LANES_SCALE(H[22] + k * L, C[4], T[22]);
-        LANES_MUL(H[23] + k * L, H[13], H[1], k);
-        LANES_MUL(T[23], H[22], H[23], k);
-        LANES_SUB(T[24], T[21], T[23]);
-        LANES_SQUARE(H[24] + k * L, X[6], k);
-        LANES_MUL(H[25] + k * L, H[9], H[1], k);
-        LANES_MUL(H[26] + k * L, H[0], H[4], k);
-        LANES_MUL(T[25], H[26], H[10], k);
-        LANES_SUB(H[27] + k * L, H[25] + k * L, T[25]);
-        LANES_MUL(T[26], H[24], H[27], k);
-        LANES_SCALE(T[27], C[0], T[26]);
-        LANES_SUB(T[28], T[24], T[27]);
-        LANES_SCALE(T[29], C[5], H[9] + k * L);
-        LANES_SUB(H[28] + k * L, T[28], T[29]);
-        LANES_SCALE(T[30], C[6], H[28] + k * L);
-        LANES_SCALE(H[29] + k * L, C[6], H[1] + k * L);
-        LANES_MUL(T[31], H[20], H[29], k);
-        LANES_MUL(T[32], X[5], X[4], k);
-        LANES_SCALE(H[30] + k * L, C[4], T[32]);
-        LANES_MUL(T[33], H[30], H[23], k);
-        LANES_ADD(T[34], T[31], T[33]);
-        LANES_MUL(H[31] + k * L, H[7], H[17], k);
-        LANES_MUL(T[35], H[31], H[25], k);
-        LANES_ADD(T[36], T[34], T[35]);
-        LANES_SCALE(T[37], C[7], H[0] + k * L);
-        LANES_SUB(T[38], T[36], T[37]);
-        LANES_SQUARE(H[32] + k * L, X[4], k);
-        LANES_MUL(T[39], H[0], H[10], k);
-        LANES_MUL(T[40], H[25], H[4], k);
-        LANES_SUB(H[33] + k * L, T[39], T[40]);
-        LANES_MUL(T[41], H[32], H[33], k);
-        LANES_SCALE(T[42], C[0], T[41]);
-        LANES_SUB(H[34] + k * L, T[38], T[42]);
-        LANES_MUL(T[43], H[12], H[34], k);
-        LANES_SUB(T[44], T[30], T[43]);
-        LANES_MUL(H[35] + k * L, H[9], H[5], k);
-        LANES_MUL(T[45], H[17], H[35], k);
-        LANES_MUL(T[46], H[32], H[35], k);
-        LANES_ADD(T[47], T[45], T[46]);
-        LANES_MUL(T[48], H[22], H[29], k);
-        LANES_SUB(T[49], T[47], T[48]);
-        LANES_MUL(H[36] + k * L, H[7], H[30], k);
-        LANES_MUL(T[50], H[36], H[10], k);
-        LANES_SUB(H[37] + k * L, T[49], T[50]);
-        LANES_MUL(T[51], H[13], H[37], k);
-        LANES_SUB(H[38] + k * L, T[44], T[51]);
-        LANES_MUL(T[52], H[8], H[38], k);
-        LANES_DIV(H[39], T[52], H[16], k);
-        LANES_MUL(T[53], H[20], H[5], k);
-        LANES_SCALE(T[54], C[1], T[53]);
-        LANES_MUL(T[55], H[30], H[10], k);
-        LANES_SCALE(T[56], C[3], T[55]);
-        LANES_SUB(T[57], T[54], T[56]);
-        LANES_MUL(H[40] + k * L, H[0], H[24], k);
-        LANES_MUL(T[58], H[40], H[5], k);
-        LANES_SUB(T[59], T[57], T[58]);
-        LANES_MUL(T[60], H[11], H[22], k);
-        LANES_SCALE(T[61], C[0], T[60]);
-        LANES_SUB(H[41] + k * L, T[59], T[61]);
-        LANES_SCALE(T[62], C[6], H[41] + k * L);
-        LANES_MUL(T[63], H[6], H[34], k);
-        LANES_SUB(T[64], T[62], T[63]);
-        LANES_MUL(T[65], H[7], H[37], k);
-        LANES_SUB(T[66], T[64], T[65]);
-        LANES_DIV(H[42], T[66], H[16], k);
-        LANES_MUL(T[67], H[15], H[42], k);
-        LANES_SUB(T[68], H[39] + k * L, T[67]);
-        LANES_MUL(T[69], H[14], H[42], k);
-        LANES_MUL(T[70], H[15], H[38], k);
-        LANES_DIV(H[43], T[70], H[16], k);
-        LANES_SUB(T[71], T[69], H[43] + k * L);
-        LANES_DIV(H[44], T[71], H[9], k);
-        LANES_SCALE(T[72], C[1], T[4]);
-        LANES_SUB(H[45] + k * L, T[72], T[11]);
-        LANES_SUB(H[46] + k * L, T[10], T[1]);
-        LANES_MUL(T[73], H[46], H[45], k);
-        LANES_MUL(T[74], H[12], H[13], k);
-        LANES_SCALE(T[75], C[1], T[74]);
-        LANES_MUL(T[76], H[6], H[7], k);
-        LANES_SUB(H[47] + k * L, T[75], T[76]);
-        LANES_SQUARE(T[77], H[47], k);
-        LANES_SUB(H[48] + k * L, T[73], T[77]);
-        LANES_SCALE(T[78], C[3], H[34] + k * L);
-        LANES_MUL(T[79], H[12], H[28], k);
-        LANES_SUB(T[80], T[78], T[79]);
-        LANES_MUL(T[81], H[6], H[41], k);
-        LANES_SUB(H[49] + k * L, T[80], T[81]);
-        LANES_MUL(T[82], H[45], H[49], k);
-        LANES_DIV(H[50], T[82], H[48], k);
-        LANES_SCALE(T[83], C[3], H[37] + k * L);
-        LANES_MUL(T[84], H[13], H[28], k);
-        LANES_SUB(T[85], T[83], T[84]);
-        LANES_MUL(T[86], H[7], H[41], k);
-        LANES_SUB(T[87], T[85], T[86]);
-        LANES_DIV(H[51], T[87], H[48], k);
-        LANES_MUL(T[88], H[47], H[51], k);
-        LANES_SUB(T[89], H[50] + k * L, T[88]);
-        LANES_MUL(T[90], H[46], H[51], k);
-        LANES_MUL(T[91], H[47], H[49], k);
-        LANES_DIV(H[52], T[91], H[48], k);
-        LANES_SUB(T[92], T[90], H[52] + k * L);
-        LANES_DIV(H[53], T[92], H[0], k);
+        LANES_SQUARE(H[17] + k * L, X[7], k);
+        LANES_MUL(H[18] + k * L, H[4], H[10], k);
+        LANES_MUL(H[19] + k * L, H[3], H[17], k);
+        LANES_MUL(T[17], H[19], H[18], k);
+        LANES_SCALE(H[20] + k * L, C[3], H[10] + k * L);
+        LANES_SQUARE(H[21] + k * L, X[5], k);
+        LANES_MUL(H[22] + k * L, H[9], H[20], k);
+        LANES_MUL(T[18], H[22], H[21], k);
+        LANES_ADD(T[19], T[17], T[18]);
+        LANES_MUL(T[20], X[7], X[6], k);
+        LANES_SCALE(H[23] + k * L, C[4], T[20]);
+        LANES_MUL(H[24] + k * L, H[6], H[11], k);
+        LANES_MUL(T[21], H[23], H[24], k);
+        LANES_SUB(T[22], T[19], T[21]);
+        LANES_SQUARE(T[23], X[6], k);
+        LANES_SCALE(H[25] + k * L, C[0], T[23]);
+        LANES_MUL(H[26] + k * L, H[9], H[5], k);
+        LANES_MUL(T[24], H[18], H[2], k);
+        LANES_SUB(H[27] + k * L, H[26] + k * L, T[24]);
+        LANES_MUL(T[25], H[25], H[27], k);
+        LANES_SUB(T[26], T[22], T[25]);
+        LANES_SCALE(T[27], C[5], H[9] + k * L);
+        LANES_SUB(H[28] + k * L, T[26], T[27]);
+        LANES_SCALE(T[28], C[6], H[28] + k * L);
+        LANES_MUL(T[29], X[5], X[4], k);
+        LANES_SCALE(H[29] + k * L, C[4], T[29]);
+        LANES_MUL(T[30], H[29], H[24], k);
+        LANES_MUL(H[30] + k * L, H[4], H[17], k);
+        LANES_SCALE(H[31] + k * L, C[6], H[5] + k * L);
+        LANES_MUL(T[31], H[30], H[31], k);
+        LANES_ADD(T[32], T[30], T[31]);
+        LANES_MUL(H[32] + k * L, H[3], H[26], k);
+        LANES_MUL(T[33], H[32], H[21], k);
+        LANES_ADD(T[34], T[32], T[33]);
+        LANES_SCALE(T[35], C[7], H[4] + k * L);
+        LANES_SUB(T[36], T[34], T[35]);
+        LANES_SQUARE(H[33] + k * L, X[4], k);
+        LANES_MUL(T[37], H[26], H[2], k);
+        LANES_SUB(H[34] + k * L, H[18] + k * L, T[37]);
+        LANES_MUL(T[38], H[33], H[34], k);
+        LANES_SCALE(T[39], C[0], T[38]);
+        LANES_SUB(H[35] + k * L, T[36], T[39]);
+        LANES_MUL(T[40], H[12], H[35], k);
+        LANES_SUB(T[41], T[28], T[40]);
+        LANES_MUL(H[36] + k * L, H[9], H[6], k);
+        LANES_MUL(T[42], H[21], H[36], k);
+        LANES_MUL(T[43], H[33], H[36], k);
+        LANES_ADD(T[44], T[42], T[43]);
+        LANES_MUL(T[45], H[23], H[31], k);
+        LANES_SUB(T[46], T[44], T[45]);
+        LANES_MUL(H[37] + k * L, H[3], H[29], k);
+        LANES_MUL(T[47], H[37], H[10], k);
+        LANES_SUB(H[38] + k * L, T[46], T[47]);
+        LANES_MUL(T[48], H[13], H[38], k);
+        LANES_SUB(T[49], T[41], T[48]);
+        LANES_DIV(H[39], T[49], H[16], k);
+        LANES_MUL(T[50], H[8], H[39], k);
+        LANES_MUL(T[51], H[20], H[29], k);
+        LANES_SCALE(T[52], C[1], T[51]);
+        LANES_MUL(T[53], H[30], H[6], k);
+        LANES_SUB(T[54], T[52], T[53]);
+        LANES_MUL(H[40] + k * L, H[3], H[23], k);
+        LANES_MUL(T[55], H[40], H[5], k);
+        LANES_SUB(T[56], T[54], T[55]);
+        LANES_MUL(H[41] + k * L, H[4], H[25], k);
+        LANES_MUL(T[57], H[41], H[1], k);
+        LANES_SUB(H[42] + k * L, T[56], T[57]);
+        LANES_SCALE(T[58], C[6], H[42] + k * L);
+        LANES_MUL(T[59], H[7], H[35], k);
+        LANES_SUB(T[60], T[58], T[59]);
+        LANES_MUL(T[61], H[3], H[38], k);
+        LANES_SUB(T[62], T[60], T[61]);
+        LANES_DIV(H[43], T[62], H[16], k);
+        LANES_MUL(T[63], H[15], H[43], k);
+        LANES_SUB(T[64], T[50], T[63]);
+        LANES_MUL(T[65], H[14], H[43], k);
+        LANES_MUL(T[66], H[15], H[39], k);
+        LANES_SUB(T[67], T[65], T[66]);
+        LANES_DIV(H[44], T[67], H[9], k);
+        LANES_ADD(H[45] + k * L, T[11], T[1]);
+        LANES_ADD(H[46] + k * L, T[9], T[4]);
+        LANES_MUL(T[68], H[46], H[45], k);
+        LANES_MUL(T[69], H[12], H[13], k);
+        LANES_SCALE(T[70], C[1], T[69]);
+        LANES_MUL(T[71], H[7], H[3], k);
+        LANES_SUB(H[47] + k * L, T[70], T[71]);
+        LANES_SQUARE(T[72], H[47], k);
+        LANES_SUB(H[48] + k * L, T[68], T[72]);
+        LANES_SCALE(T[73], C[3], H[35] + k * L);
+        LANES_MUL(T[74], H[12], H[28], k);
+        LANES_SUB(T[75], T[73], T[74]);
+        LANES_MUL(T[76], H[7], H[42], k);
+        LANES_SUB(T[77], T[75], T[76]);
+        LANES_DIV(H[49], T[77], H[48], k);
+        LANES_MUL(T[78], H[45], H[49], k);
+        LANES_SCALE(T[79], C[3], H[38] + k * L);
+        LANES_MUL(T[80], H[13], H[28], k);
+        LANES_SUB(T[81], T[79], T[80]);
+        LANES_MUL(T[82], H[3], H[42], k);
+        LANES_SUB(T[83], T[81], T[82]);
+        LANES_DIV(H[50], T[83], H[48], k);
+        LANES_MUL(T[84], H[47], H[50], k);
+        LANES_SUB(T[85], T[78], T[84]);
+        LANES_MUL(T[86], H[46], H[50], k);
+        LANES_MUL(T[87], H[47], H[49], k);
+        LANES_SUB(T[88], T[86], T[87]);
+        LANES_DIV(H[51], T[88], H[4], k);
         if (k == 0) {
             LANES_GUARD(bad, H[9] + k * L, sine_min);
-            LANES_GUARD(bad, H[0] + k * L, sine_min);
+            LANES_GUARD(bad, H[4] + k * L, sine_min);
         }
         LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
         LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
         LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
-        LANES_OUT(X[4] + (k + 1) * L, T[68], k);
+        LANES_OUT(X[4] + (k + 1) * L, T[64], k);
         LANES_OUT(X[5] + (k + 1) * L, H[44] + k * L, k);
-        LANES_OUT(X[6] + (k + 1) * L, T[89], k);
-        LANES_OUT(X[7] + (k + 1) * L, H[53] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[85], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[51] + k * L, k);
     }
 }
 #endif
@@ -431,7 +424,7 @@ static void spherical_std_lconstants_f(R (*C)[L], int l, const R *p)
 {
     C[0][l] = p[2]*p[3];
     C[1][l] = -1;
-    C[2][l] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[2][l] = p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
     C[3][l] = p[2]*p[2]*(p[0] + p[1])/p[1];
     C[4][l] = 2;
     C[5][l] = p[4]*p[2]*(p[0] + p[1])/p[1];
@@ -445,281 +438,274 @@ static void spherical_std_lconstants_f(R (*C)[L], int l, const R *p)
  * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
 static void spherical_std_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    static const int HA0[54] = {
-        2, 0, 1, 5, 7, 6, 4, 2, 1, 0, 0, 0, 1, 7, 51, 1,
-        52, 51, 13, 9, 0, 1, 8, 18, 16, 16, 6, 15, 28, 39, 45, 46,
-        41, 54, 56, 57, 55, 64, 64, 73, 75, 74, 77, 79, 80, 81, 82, 83,
-        84, 91, 92, 2, 2, 0
+    static const int HA0[52] = {
+        1, 2, 0, 7, 5, 4, 0, 0, 2, 1, 1, 6, 51, 50, 50, 1,
+        2, 1, 49, 11, 2, 11, 2, 6, 18, 18, 18, 18, 16, 15, 17, 27,
+        25, 45, 46, 47, 47, 48, 51, 49, 52, 59, 62, 71, 74, 75, 76, 86,
+        88, 0, 2, 0
     };
-    static const int HA1[54] = {
-        51, 53, 3, 0, 0, 0, 0, 52, 3, 4, 5, 4, 4, 0, 6, 51,
-        0, 52, 53, 52, 52, 13, 1, 51, 3, 12, 10, 21, 0, 27, 36, 31,
-        17, 19, 3, 40, 37, 17, 26, 65, 58, 66, 60, 39, 41, 39, 39, 41,
-        41, 1, 0, 0, 7, 1
+    static const int HA1[52] = {
+        3, 50, 51, 0, 0, 0, 49, 4, 0, 4, 3, 0, 3, 6, 51, 51,
+        50, 8, 0, 51, 12, 14, 11, 1, 3, 16, 9, 7, 8, 10, 0, 25,
+        38, 32, 14, 27, 38, 18, 44, 34, 4, 63, 64, 41, 41, 42, 42, 2,
+        1, 6, 1, 2
     };
-    static const int TA0[93] = {
-        7, 5, 1, 1, 0, 8, 0, 12, 51, 9, 15, 11, 9, 10, 5, 7,
-        16, 18, 17, 18, 19, 20, 3, 6, 17, 12, 22, 16, 2, 22, 20, 24,
-        11, 12, 24, 6, 25, 22, 25, 26, 35, 27, 14, 9, 5, 29, 38, 28,
-        28, 28, 42, 44, 43, 47, 48, 49, 50, 52, 18, 16, 22, 16, 31, 30,
-        53, 33, 36, 34, 35, 28, 22, 28, 18, 37, 38, 67, 62, 68, 63, 76,
-        78, 29, 33, 32, 36, 33, 37, 36, 38, 45, 47, 86, 88
+    static const int TA0[89] = {
+        7, 5, 6, 2, 2, 1, 50, 49, 15, 10, 16, 7, 12, 10, 17, 18,
+        19, 3, 19, 20, 7, 9, 4, 5, 12, 15, 23, 16, 24, 8, 25, 5,
+        26, 27, 23, 21, 22, 24, 26, 30, 30, 30, 28, 35, 31, 36, 37, 39,
+        40, 41, 42, 43, 50, 19, 18, 23, 18, 34, 33, 35, 30, 23, 36, 37,
+        39, 38, 40, 57, 30, 19, 66, 67, 65, 58, 70, 72, 73, 37, 35, 32,
+        37, 31, 39, 36, 39, 79, 78, 81, 83
     };
-    static const int TA1[93] = {
-        6, 4, 0, 5, 7, 53, 53, 53, 13, 14, 52, 14, 13, 13, 3, 3,
-        0, 0, 53, 16, 53, 53, 21, 21, 11, 1, 0, 2, 18, 23, 0, 0,
-        23, 23, 15, 26, 53, 16, 15, 1, 0, 1, 30, 33, 27, 11, 13, 0,
-        22, 18, 32, 0, 34, 2, 1, 1, 51, 4, 30, 30, 31, 31, 6, 3,
-        1, 0, 0, 6, 3, 35, 35, 34, 34, 29, 32, 69, 70, 71, 72, 59,
-        61, 40, 40, 42, 42, 43, 43, 44, 44, 85, 87, 46, 48
+    static const int TA1[89] = {
+        6, 4, 0, 1, 5, 7, 11, 14, 49, 13, 49, 13, 9, 11, 6, 0,
+        0, 7, 18, 4, 21, 21, 22, 22, 1, 1, 0, 2, 15, 28, 4, 29,
+        51, 50, 18, 9, 23, 13, 2, 0, 23, 19, 19, 30, 0, 11, 33, 1,
+        1, 1, 20, 5, 29, 33, 33, 34, 34, 6, 3, 32, 38, 38, 31, 0,
+        0, 3, 6, 61, 40, 40, 60, 54, 68, 69, 53, 55, 56, 43, 43, 44,
+        44, 45, 46, 46, 45, 77, 80, 82, 84
     };
-    R H[54][ORDER_DIM * L];     /* nodes read at every order */
-    R T[93][L];                 /* nodes read at this order only */
+    R H[52][ORDER_DIM * L];     /* nodes read at every order */
+    R T[89][L];                 /* nodes read at this order only */
     const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
     int k, u;
     for (k = 0; k < order; ++k) {
-        for (u = 0; u < 2; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
-        for (u = 2; u < 3; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
-        for (u = 3; u < 7; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 0; u < 1; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 1; u < 3; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 3; u < 6; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
         for (u = 0; u < 2; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA1[u]], k); }
-        for (u = 7; u < 8; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
-        for (u = 2; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 8; u < 11; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 11; u < 13; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 3; u < 5; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 13; u < 15; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
-        for (u = 5; u < 8; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 15; u < 16; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 8; u < 14; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 16; u < 17; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
-        for (u = 17; u < 22; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 14; u < 16; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 22; u < 23; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 16; u < 18; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 18; u < 25; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 23; u < 26; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 26; u < 27; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 2; u < 3; ++u) { LANES_SQUARE(T[u], X[TA0[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 3; u < 4; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 7; u < 10; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 4; u < 6; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 10; u < 11; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 11; u < 14; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 14; u < 18; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 18; u < 19; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 6; u < 15; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 19; u < 23; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 15; u < 17; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 23; u < 24; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 17; u < 18; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 18; u < 24; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 24; u < 28; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 28; u < 30; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 24; u < 25; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
         for (u = 25; u < 26; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
         for (u = 26; u < 27; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 27; u < 28; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
-        for (u = 28; u < 30; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 30; u < 32; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 32; u < 38; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 27; u < 28; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
-        for (u = 38; u < 39; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 39; u < 42; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 28; u < 29; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 30; u < 31; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 27; u < 28; ++u) { LANES_CSUB(T[u], C[TA1[u]], T[TA0[u]], k); }
+        for (u = 28; u < 35; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 35; u < 37; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 37; u < 38; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 38; u < 39; ++u) { LANES_CSUB(T[u], C[TA1[u]], T[TA0[u]], k); }
+        for (u = 39; u < 40; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 40; u < 42; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
         for (u = 42; u < 44; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 44; u < 45; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 44; u < 45; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
         for (u = 45; u < 47; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 29; u < 33; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 47; u < 48; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 48; u < 50; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 50; u < 51; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 51; u < 52; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 52; u < 53; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 53; u < 54; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
-        for (u = 54; u < 56; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 56; u < 58; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 58; u < 62; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 62; u < 64; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 64; u < 65; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 33; u < 37; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 37; u < 39; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 65; u < 67; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 67; u < 69; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 69; u < 73; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 73; u < 75; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 75; u < 79; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 39; u < 43; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 79; u < 81; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 81; u < 85; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 43; u < 45; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
-        for (u = 45; u < 49; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
-        for (u = 85; u < 89; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 89; u < 91; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
-        for (u = 91; u < 93; ++u) { LANES_SUB(T[u], T[TA0[u]], H[TA1[u]] + k * L); }
-        for (u = 49; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 31; u < 32; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 32; u < 33; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 47; u < 50; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 50; u < 52; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 33; u < 35; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 35; u < 37; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 37; u < 40; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 52; u < 53; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 53; u < 57; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 57; u < 59; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 59; u < 63; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 63; u < 65; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 40; u < 41; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 65; u < 66; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 41; u < 43; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 66; u < 67; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 67; u < 68; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 68; u < 70; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 70; u < 74; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 74; u < 77; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 43; u < 44; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 44; u < 47; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 77; u < 79; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 79; u < 85; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 85; u < 89; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 47; u < 49; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
         if (k == 0) {
+            LANES_GUARD(bad, H[2] + k * L, sine_min);
             LANES_GUARD(bad, H[1] + k * L, sine_min);
-            LANES_GUARD(bad, H[0] + k * L, sine_min);
         }
         LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
         LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
         LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
-        LANES_OUT(X[4] + (k + 1) * L, T[89], k);
-        LANES_OUT(X[5] + (k + 1) * L, H[49] + k * L, k);
-        LANES_OUT(X[6] + (k + 1) * L, T[90], k);
-        LANES_OUT(X[7] + (k + 1) * L, H[50] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[85], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[47] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[87], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[48] + k * L, k);
     }
 }
 #else
 /* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_std_ljet_f(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    R H[54][ORDER_DIM * L];     /* nodes read at every order */
-    R T[93][L];                 /* nodes read at this order only */
+    R H[52][ORDER_DIM * L];     /* nodes read at every order */
+    R T[89][L];                 /* nodes read at this order only */
     const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
     int k;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        LANES_SINCOS(H[0], H[1], X[2], k);
-        LANES_SUB(H[2] + k * L, X[1] + k * L, X[3] + k * L);
-        LANES_SINCOS(H[3], H[4], H[2], k);
-        LANES_SCALE(H[5] + k * L, C[0], H[3] + k * L);
-        LANES_MUL(T[0], H[1], H[5], k);
-        LANES_SCALE(H[6] + k * L, C[1], T[0]);
-        LANES_SQUARE(T[1], H[6], k);
-        LANES_SCALE(T[2], C[1], T[1]);
-        LANES_SCALE(H[7] + k * L, C[0], H[4] + k * L);
+        LANES_SUB(H[0] + k * L, X[1] + k * L, X[3] + k * L);
+        LANES_SINCOS(H[1], H[2], H[0], k);
+        LANES_SCALE(H[3] + k * L, C[0], H[2] + k * L);
+        LANES_SQUARE(T[0], H[3], k);
+        LANES_SCALE(T[1], C[1], T[0]);
+        LANES_SINCOS(H[4], H[5], X[2], k);
+        LANES_SCALE(H[6] + k * L, C[0], H[1] + k * L);
+        LANES_MUL(T[2], H[5], H[6], k);
+        LANES_SCALE(H[7] + k * L, C[1], T[2]);
         LANES_SQUARE(T[3], H[7], k);
-        LANES_SHIFT(T[4], T[3], C[2], k);
-        LANES_SUB(H[8] + k * L, T[2], T[4]);
+        LANES_CSUB(T[4], C[2], T[3], k);
+        LANES_ADD(H[8] + k * L, T[1], T[4]);
         LANES_SINCOS(H[9], H[10], X[0], k);
-        LANES_MUL(T[5], H[9], H[0], k);
-        LANES_MUL(H[11] + k * L, H[1], H[4], k);
-        LANES_MUL(T[6], H[11], H[10], k);
+        LANES_MUL(T[5], H[9], H[4], k);
+        LANES_MUL(H[11] + k * L, H[5], H[10], k);
+        LANES_MUL(T[6], H[2], H[11], k);
         LANES_ADD(T[7], T[5], T[6]);
         LANES_SCALE(H[12] + k * L, C[0], T[7]);
         LANES_SQUARE(T[8], H[12], k);
-        LANES_SHIFT(T[9], T[8], C[2], k);
-        LANES_SCALE(T[10], C[1], T[9]);
-        LANES_MUL(H[13] + k * L, H[5], H[10], k);
-        LANES_SQUARE(T[11], H[13], k);
-        LANES_SUB(H[14] + k * L, T[10], T[11]);
+        LANES_SCALE(T[9], C[1], T[8]);
+        LANES_MUL(H[13] + k * L, H[6], H[10], k);
+        LANES_SQUARE(T[10], H[13], k);
+        LANES_CSUB(T[11], C[2], T[10], k);
+        LANES_ADD(H[14] + k * L, T[9], T[11]);
         LANES_MUL(T[12], H[14], H[8], k);
-        LANES_MUL(T[13], H[12], H[6], k);
+        LANES_MUL(T[13], H[12], H[7], k);
         LANES_SCALE(T[14], C[1], T[13]);
-        LANES_MUL(T[15], H[13], H[7], k);
+        LANES_MUL(T[15], H[13], H[3], k);
         LANES_SUB(H[15] + k * L, T[14], T[15]);
         LANES_SQUARE(T[16], H[15], k);
         LANES_SUB(H[16] + k * L, T[12], T[16]);
-        LANES_SQUARE(H[17] + k * L, X[5], k);
-        LANES_MUL(H[18] + k * L, H[9], H[17], k);
-        LANES_MUL(T[17], H[18], H[10], k);
-        LANES_SCALE(T[18], C[3], T[17]);
-        LANES_SQUARE(H[19] + k * L, X[7], k);
-        LANES_MUL(H[20] + k * L, H[0], H[19], k);
-        LANES_MUL(H[21] + k * L, H[20], H[4], k);
-        LANES_MUL(T[19], H[21], H[10], k);
-        LANES_SCALE(T[20], C[0], T[19]);
-        LANES_ADD(T[21], T[18], T[20]);
-        LANES_MUL(T[22], X[7], X[6], k);
-        LANES_SCALE(H[22] + k * L, C[4], T[22]);
-        LANES_MUL(H[23] + k * L, H[13], H[1], k);
-        LANES_MUL(T[23], H[22], H[23], k);
-        LANES_SUB(T[24], T[21], T[23]);
-        LANES_SQUARE(H[24] + k * L, X[6], k);
-        LANES_MUL(H[25] + k * L, H[9], H[1], k);
-        LANES_MUL(H[26] + k * L, H[0], H[4], k);
-        LANES_MUL(T[25], H[26], H[10], k);
-        LANES_SUB(H[27] + k * L, H[25] + k * L, T[25]);
-        LANES_MUL(T[26], H[24], H[27], k);
-        LANES_SCALE(T[27], C[0], T[26]);
-        LANES_SUB(T[28], T[24], T[27]);
-        LANES_SCALE(T[29], C[5], H[9] + k * L);
-        LANES_SUB(H[28] + k * L, T[28], T[29]);
-        LANES_SCALE(T[30], C[6], H[28] + k * L);
-        LANES_SCALE(H[29] + k * L, C[6], H[1] + k * L);
-        LANES_MUL(T[31], H[20], H[29], k);
-        LANES_MUL(T[32], X[5], X[4], k);
-        LANES_SCALE(H[30] + k * L, C[4], T[32]);
-        LANES_MUL(T[33], H[30], H[23], k);
-        LANES_ADD(T[34], T[31], T[33]);
-        LANES_MUL(H[31] + k * L, H[7], H[17], k);
-        LANES_MUL(T[35], H[31], H[25], k);
-        LANES_ADD(T[36], T[34], T[35]);
-        LANES_SCALE(T[37], C[7], H[0] + k * L);
-        LANES_SUB(T[38], T[36], T[37]);
-        LANES_SQUARE(H[32] + k * L, X[4], k);
-        LANES_MUL(T[39], H[0], H[10], k);
-        LANES_MUL(T[40], H[25], H[4], k);
-        LANES_SUB(H[33] + k * L, T[39], T[40]);
-        LANES_MUL(T[41], H[32], H[33], k);
-        LANES_SCALE(T[42], C[0], T[41]);
-        LANES_SUB(H[34] + k * L, T[38], T[42]);
-        LANES_MUL(T[43], H[12], H[34], k);
-        LANES_SUB(T[44], T[30], T[43]);
-        LANES_MUL(H[35] + k * L, H[9], H[5], k);
-        LANES_MUL(T[45], H[17], H[35], k);
-        LANES_MUL(T[46], H[32], H[35], k);
-        LANES_ADD(T[47], T[45], T[46]);
-        LANES_MUL(T[48], H[22], H[29], k);
-        LANES_SUB(T[49], T[47], T[48]);
-        LANES_MUL(H[36] + k * L, H[7], H[30], k);
-        LANES_MUL(T[50], H[36], H[10], k);
-        LANES_SUB(H[37] + k * L, T[49], T[50]);
-        LANES_MUL(T[51], H[13], H[37], k);
-        LANES_SUB(H[38] + k * L, T[44], T[51]);
-        LANES_MUL(T[52], H[8], H[38], k);
-        LANES_DIV(H[39], T[52], H[16], k);
-        LANES_MUL(T[53], H[20], H[5], k);
-        LANES_SCALE(T[54], C[1], T[53]);
-        LANES_MUL(T[55], H[30], H[10], k);
-        LANES_SCALE(T[56], C[3], T[55]);
-        LANES_SUB(T[57], T[54], T[56]);
-        LANES_MUL(H[40] + k * L, H[0], H[24], k);
-        LANES_MUL(T[58], H[40], H[5], k);
-        LANES_SUB(T[59], T[57], T[58]);
-        LANES_MUL(T[60], H[11], H[22], k);
-        LANES_SCALE(T[61], C[0], T[60]);
-        LANES_SUB(H[41] + k * L, T[59], T[61]);
-        LANES_SCALE(T[62], C[6], H[41] + k * L);
-        LANES_MUL(T[63], H[6], H[34], k);
-        LANES_SUB(T[64], T[62], T[63]);
-        LANES_MUL(T[65], H[7], H[37], k);
-        LANES_SUB(T[66], T[64], T[65]);
-        LANES_DIV(H[42], T[66], H[16], k);
-        LANES_MUL(T[67], H[15], H[42], k);
-        LANES_SUB(T[68], H[39] + k * L, T[67]);
-        LANES_MUL(T[69], H[14], H[42], k);
-        LANES_MUL(T[70], H[15], H[38], k);
-        LANES_DIV(H[43], T[70], H[16], k);
-        LANES_SUB(T[71], T[69], H[43] + k * L);
-        LANES_DIV(H[44], T[71], H[9], k);
-        LANES_SCALE(T[72], C[1], T[4]);
-        LANES_SUB(H[45] + k * L, T[72], T[11]);
-        LANES_SUB(H[46] + k * L, T[10], T[1]);
-        LANES_MUL(T[73], H[46], H[45], k);
-        LANES_MUL(T[74], H[12], H[13], k);
-        LANES_SCALE(T[75], C[1], T[74]);
-        LANES_MUL(T[76], H[6], H[7], k);
-        LANES_SUB(H[47] + k * L, T[75], T[76]);
-        LANES_SQUARE(T[77], H[47], k);
-        LANES_SUB(H[48] + k * L, T[73], T[77]);
-        LANES_SCALE(T[78], C[3], H[34] + k * L);
-        LANES_MUL(T[79], H[12], H[28], k);
-        LANES_SUB(T[80], T[78], T[79]);
-        LANES_MUL(T[81], H[6], H[41], k);
-        LANES_SUB(H[49] + k * L, T[80], T[81]);
-        LANES_MUL(T[82], H[45], H[49], k);
-        LANES_DIV(H[50], T[82], H[48], k);
-        LANES_SCALE(T[83], C[3], H[37] + k * L);
-        LANES_MUL(T[84], H[13], H[28], k);
-        LANES_SUB(T[85], T[83], T[84]);
-        LANES_MUL(T[86], H[7], H[41], k);
-        LANES_SUB(T[87], T[85], T[86]);
-        LANES_DIV(H[51], T[87], H[48], k);
-        LANES_MUL(T[88], H[47], H[51], k);
-        LANES_SUB(T[89], H[50] + k * L, T[88]);
-        LANES_MUL(T[90], H[46], H[51], k);
-        LANES_MUL(T[91], H[47], H[49], k);
-        LANES_DIV(H[52], T[91], H[48], k);
-        LANES_SUB(T[92], T[90], H[52] + k * L);
-        LANES_DIV(H[53], T[92], H[0], k);
+        LANES_SQUARE(H[17] + k * L, X[7], k);
+        LANES_MUL(H[18] + k * L, H[4], H[10], k);
+        LANES_MUL(H[19] + k * L, H[3], H[17], k);
+        LANES_MUL(T[17], H[19], H[18], k);
+        LANES_SCALE(H[20] + k * L, C[3], H[10] + k * L);
+        LANES_SQUARE(H[21] + k * L, X[5], k);
+        LANES_MUL(H[22] + k * L, H[9], H[20], k);
+        LANES_MUL(T[18], H[22], H[21], k);
+        LANES_ADD(T[19], T[17], T[18]);
+        LANES_MUL(T[20], X[7], X[6], k);
+        LANES_SCALE(H[23] + k * L, C[4], T[20]);
+        LANES_MUL(H[24] + k * L, H[6], H[11], k);
+        LANES_MUL(T[21], H[23], H[24], k);
+        LANES_SUB(T[22], T[19], T[21]);
+        LANES_SQUARE(T[23], X[6], k);
+        LANES_SCALE(H[25] + k * L, C[0], T[23]);
+        LANES_MUL(H[26] + k * L, H[9], H[5], k);
+        LANES_MUL(T[24], H[18], H[2], k);
+        LANES_SUB(H[27] + k * L, H[26] + k * L, T[24]);
+        LANES_MUL(T[25], H[25], H[27], k);
+        LANES_SUB(T[26], T[22], T[25]);
+        LANES_SCALE(T[27], C[5], H[9] + k * L);
+        LANES_SUB(H[28] + k * L, T[26], T[27]);
+        LANES_SCALE(T[28], C[6], H[28] + k * L);
+        LANES_MUL(T[29], X[5], X[4], k);
+        LANES_SCALE(H[29] + k * L, C[4], T[29]);
+        LANES_MUL(T[30], H[29], H[24], k);
+        LANES_MUL(H[30] + k * L, H[4], H[17], k);
+        LANES_SCALE(H[31] + k * L, C[6], H[5] + k * L);
+        LANES_MUL(T[31], H[30], H[31], k);
+        LANES_ADD(T[32], T[30], T[31]);
+        LANES_MUL(H[32] + k * L, H[3], H[26], k);
+        LANES_MUL(T[33], H[32], H[21], k);
+        LANES_ADD(T[34], T[32], T[33]);
+        LANES_SCALE(T[35], C[7], H[4] + k * L);
+        LANES_SUB(T[36], T[34], T[35]);
+        LANES_SQUARE(H[33] + k * L, X[4], k);
+        LANES_MUL(T[37], H[26], H[2], k);
+        LANES_SUB(H[34] + k * L, H[18] + k * L, T[37]);
+        LANES_MUL(T[38], H[33], H[34], k);
+        LANES_SCALE(T[39], C[0], T[38]);
+        LANES_SUB(H[35] + k * L, T[36], T[39]);
+        LANES_MUL(T[40], H[12], H[35], k);
+        LANES_SUB(T[41], T[28], T[40]);
+        LANES_MUL(H[36] + k * L, H[9], H[6], k);
+        LANES_MUL(T[42], H[21], H[36], k);
+        LANES_MUL(T[43], H[33], H[36], k);
+        LANES_ADD(T[44], T[42], T[43]);
+        LANES_MUL(T[45], H[23], H[31], k);
+        LANES_SUB(T[46], T[44], T[45]);
+        LANES_MUL(H[37] + k * L, H[3], H[29], k);
+        LANES_MUL(T[47], H[37], H[10], k);
+        LANES_SUB(H[38] + k * L, T[46], T[47]);
+        LANES_MUL(T[48], H[13], H[38], k);
+        LANES_SUB(T[49], T[41], T[48]);
+        LANES_DIV(H[39], T[49], H[16], k);
+        LANES_MUL(T[50], H[8], H[39], k);
+        LANES_MUL(T[51], H[20], H[29], k);
+        LANES_SCALE(T[52], C[1], T[51]);
+        LANES_MUL(T[53], H[30], H[6], k);
+        LANES_SUB(T[54], T[52], T[53]);
+        LANES_MUL(H[40] + k * L, H[3], H[23], k);
+        LANES_MUL(T[55], H[40], H[5], k);
+        LANES_SUB(T[56], T[54], T[55]);
+        LANES_MUL(H[41] + k * L, H[4], H[25], k);
+        LANES_MUL(T[57], H[41], H[1], k);
+        LANES_SUB(H[42] + k * L, T[56], T[57]);
+        LANES_SCALE(T[58], C[6], H[42] + k * L);
+        LANES_MUL(T[59], H[7], H[35], k);
+        LANES_SUB(T[60], T[58], T[59]);
+        LANES_MUL(T[61], H[3], H[38], k);
+        LANES_SUB(T[62], T[60], T[61]);
+        LANES_DIV(H[43], T[62], H[16], k);
+        LANES_MUL(T[63], H[15], H[43], k);
+        LANES_SUB(T[64], T[50], T[63]);
+        LANES_MUL(T[65], H[14], H[43], k);
+        LANES_MUL(T[66], H[15], H[39], k);
+        LANES_SUB(T[67], T[65], T[66]);
+        LANES_DIV(H[44], T[67], H[9], k);
+        LANES_ADD(H[45] + k * L, T[11], T[1]);
+        LANES_ADD(H[46] + k * L, T[9], T[4]);
+        LANES_MUL(T[68], H[46], H[45], k);
+        LANES_MUL(T[69], H[12], H[13], k);
+        LANES_SCALE(T[70], C[1], T[69]);
+        LANES_MUL(T[71], H[7], H[3], k);
+        LANES_SUB(H[47] + k * L, T[70], T[71]);
+        LANES_SQUARE(T[72], H[47], k);
+        LANES_SUB(H[48] + k * L, T[68], T[72]);
+        LANES_SCALE(T[73], C[3], H[35] + k * L);
+        LANES_MUL(T[74], H[12], H[28], k);
+        LANES_SUB(T[75], T[73], T[74]);
+        LANES_MUL(T[76], H[7], H[42], k);
+        LANES_SUB(T[77], T[75], T[76]);
+        LANES_DIV(H[49], T[77], H[48], k);
+        LANES_MUL(T[78], H[45], H[49], k);
+        LANES_SCALE(T[79], C[3], H[38] + k * L);
+        LANES_MUL(T[80], H[13], H[28], k);
+        LANES_SUB(T[81], T[79], T[80]);
+        LANES_MUL(T[82], H[3], H[42], k);
+        LANES_SUB(T[83], T[81], T[82]);
+        LANES_DIV(H[50], T[83], H[48], k);
+        LANES_MUL(T[84], H[47], H[50], k);
+        LANES_SUB(T[85], T[78], T[84]);
+        LANES_MUL(T[86], H[46], H[50], k);
+        LANES_MUL(T[87], H[47], H[49], k);
+        LANES_SUB(T[88], T[86], T[87]);
+        LANES_DIV(H[51], T[88], H[4], k);
         if (k == 0) {
             LANES_GUARD(bad, H[9] + k * L, sine_min);
-            LANES_GUARD(bad, H[0] + k * L, sine_min);
+            LANES_GUARD(bad, H[4] + k * L, sine_min);
         }
         LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
         LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
         LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
-        LANES_OUT(X[4] + (k + 1) * L, T[68], k);
+        LANES_OUT(X[4] + (k + 1) * L, T[64], k);
         LANES_OUT(X[5] + (k + 1) * L, H[44] + k * L, k);
-        LANES_OUT(X[6] + (k + 1) * L, T[89], k);
-        LANES_OUT(X[7] + (k + 1) * L, H[53] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[85], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[51] + k * L, k);
     }
 }
 #endif
@@ -752,7 +738,7 @@ static void spherical_std_lconstants_l(R (*C)[L], int l, const R *p)
 {
     C[0][l] = p[2]*p[3];
     C[1][l] = -1;
-    C[2][l] = -p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
+    C[2][l] = p[2]*p[2]*p[3]*p[3]*(p[0] + p[1])/p[1];
     C[3][l] = p[2]*p[2]*(p[0] + p[1])/p[1];
     C[4][l] = 2;
     C[5][l] = p[4]*p[2]*(p[0] + p[1])/p[1];
@@ -766,281 +752,274 @@ static void spherical_std_lconstants_l(R (*C)[L], int l, const R *p)
  * tables HA0, HA1, ... (a segment in H) and TA0, TA1, ... (in T). */
 static void spherical_std_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    static const int HA0[54] = {
-        2, 0, 1, 5, 7, 6, 4, 2, 1, 0, 0, 0, 1, 7, 51, 1,
-        52, 51, 13, 9, 0, 1, 8, 18, 16, 16, 6, 15, 28, 39, 45, 46,
-        41, 54, 56, 57, 55, 64, 64, 73, 75, 74, 77, 79, 80, 81, 82, 83,
-        84, 91, 92, 2, 2, 0
+    static const int HA0[52] = {
+        1, 2, 0, 7, 5, 4, 0, 0, 2, 1, 1, 6, 51, 50, 50, 1,
+        2, 1, 49, 11, 2, 11, 2, 6, 18, 18, 18, 18, 16, 15, 17, 27,
+        25, 45, 46, 47, 47, 48, 51, 49, 52, 59, 62, 71, 74, 75, 76, 86,
+        88, 0, 2, 0
     };
-    static const int HA1[54] = {
-        51, 53, 3, 0, 0, 0, 0, 52, 3, 4, 5, 4, 4, 0, 6, 51,
-        0, 52, 53, 52, 52, 13, 1, 51, 3, 12, 10, 21, 0, 27, 36, 31,
-        17, 19, 3, 40, 37, 17, 26, 65, 58, 66, 60, 39, 41, 39, 39, 41,
-        41, 1, 0, 0, 7, 1
+    static const int HA1[52] = {
+        3, 50, 51, 0, 0, 0, 49, 4, 0, 4, 3, 0, 3, 6, 51, 51,
+        50, 8, 0, 51, 12, 14, 11, 1, 3, 16, 9, 7, 8, 10, 0, 25,
+        38, 32, 14, 27, 38, 18, 44, 34, 4, 63, 64, 41, 41, 42, 42, 2,
+        1, 6, 1, 2
     };
-    static const int TA0[93] = {
-        7, 5, 1, 1, 0, 8, 0, 12, 51, 9, 15, 11, 9, 10, 5, 7,
-        16, 18, 17, 18, 19, 20, 3, 6, 17, 12, 22, 16, 2, 22, 20, 24,
-        11, 12, 24, 6, 25, 22, 25, 26, 35, 27, 14, 9, 5, 29, 38, 28,
-        28, 28, 42, 44, 43, 47, 48, 49, 50, 52, 18, 16, 22, 16, 31, 30,
-        53, 33, 36, 34, 35, 28, 22, 28, 18, 37, 38, 67, 62, 68, 63, 76,
-        78, 29, 33, 32, 36, 33, 37, 36, 38, 45, 47, 86, 88
+    static const int TA0[89] = {
+        7, 5, 6, 2, 2, 1, 50, 49, 15, 10, 16, 7, 12, 10, 17, 18,
+        19, 3, 19, 20, 7, 9, 4, 5, 12, 15, 23, 16, 24, 8, 25, 5,
+        26, 27, 23, 21, 22, 24, 26, 30, 30, 30, 28, 35, 31, 36, 37, 39,
+        40, 41, 42, 43, 50, 19, 18, 23, 18, 34, 33, 35, 30, 23, 36, 37,
+        39, 38, 40, 57, 30, 19, 66, 67, 65, 58, 70, 72, 73, 37, 35, 32,
+        37, 31, 39, 36, 39, 79, 78, 81, 83
     };
-    static const int TA1[93] = {
-        6, 4, 0, 5, 7, 53, 53, 53, 13, 14, 52, 14, 13, 13, 3, 3,
-        0, 0, 53, 16, 53, 53, 21, 21, 11, 1, 0, 2, 18, 23, 0, 0,
-        23, 23, 15, 26, 53, 16, 15, 1, 0, 1, 30, 33, 27, 11, 13, 0,
-        22, 18, 32, 0, 34, 2, 1, 1, 51, 4, 30, 30, 31, 31, 6, 3,
-        1, 0, 0, 6, 3, 35, 35, 34, 34, 29, 32, 69, 70, 71, 72, 59,
-        61, 40, 40, 42, 42, 43, 43, 44, 44, 85, 87, 46, 48
+    static const int TA1[89] = {
+        6, 4, 0, 1, 5, 7, 11, 14, 49, 13, 49, 13, 9, 11, 6, 0,
+        0, 7, 18, 4, 21, 21, 22, 22, 1, 1, 0, 2, 15, 28, 4, 29,
+        51, 50, 18, 9, 23, 13, 2, 0, 23, 19, 19, 30, 0, 11, 33, 1,
+        1, 1, 20, 5, 29, 33, 33, 34, 34, 6, 3, 32, 38, 38, 31, 0,
+        0, 3, 6, 61, 40, 40, 60, 54, 68, 69, 53, 55, 56, 43, 43, 44,
+        44, 45, 46, 46, 45, 77, 80, 82, 84
     };
-    R H[54][ORDER_DIM * L];     /* nodes read at every order */
-    R T[93][L];                 /* nodes read at this order only */
+    R H[52][ORDER_DIM * L];     /* nodes read at every order */
+    R T[89][L];                 /* nodes read at this order only */
     const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
     int k, u;
     for (k = 0; k < order; ++k) {
-        for (u = 0; u < 2; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
-        for (u = 2; u < 3; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
-        for (u = 3; u < 7; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
+        for (u = 0; u < 1; ++u) { LANES_SUB(H[u] + k * L, X[HA0[u]] + k * L, X[HA1[u]] + k * L); }
+        for (u = 1; u < 3; ++u) { LANES_SINCOS(H[u], H[HA1[u]], X[HA0[u]], k); }
+        for (u = 3; u < 6; ++u) { LANES_SQUARE(H[u] + k * L, X[HA0[u]], k); }
         for (u = 0; u < 2; ++u) { LANES_MUL(T[u], X[TA0[u]], X[TA1[u]], k); }
-        for (u = 7; u < 8; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
-        for (u = 2; u < 3; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 8; u < 11; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 11; u < 13; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 3; u < 5; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 13; u < 15; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
-        for (u = 5; u < 8; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 15; u < 16; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 8; u < 14; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 16; u < 17; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
-        for (u = 17; u < 22; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 14; u < 16; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 22; u < 23; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
-        for (u = 16; u < 18; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 18; u < 25; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 23; u < 26; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
-        for (u = 26; u < 27; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 2; u < 3; ++u) { LANES_SQUARE(T[u], X[TA0[u]], k); }
+        for (u = 6; u < 7; ++u) { LANES_SINCOS(H[u], H[HA1[u]], H[HA0[u]], k); }
+        for (u = 3; u < 4; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 7; u < 10; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 4; u < 6; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 10; u < 11; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 11; u < 14; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 14; u < 18; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 18; u < 19; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], H[HA0[u]] + k * L); }
+        for (u = 6; u < 15; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 19; u < 23; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 15; u < 17; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 23; u < 24; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 17; u < 18; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 18; u < 24; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 24; u < 28; ++u) { LANES_MUL(H[u] + k * L, H[HA0[u]], H[HA1[u]], k); }
+        for (u = 28; u < 30; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
+        for (u = 24; u < 25; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
         for (u = 25; u < 26; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
         for (u = 26; u < 27; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 27; u < 28; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
-        for (u = 28; u < 30; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 30; u < 32; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 32; u < 38; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 27; u < 28; ++u) { LANES_SUB(H[u] + k * L, H[HA0[u]] + k * L, T[HA1[u]]); }
-        for (u = 38; u < 39; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 39; u < 42; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 28; u < 29; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 30; u < 31; ++u) { LANES_SCALE(H[u] + k * L, C[HA1[u]], T[HA0[u]]); }
+        for (u = 27; u < 28; ++u) { LANES_CSUB(T[u], C[TA1[u]], T[TA0[u]], k); }
+        for (u = 28; u < 35; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 35; u < 37; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 37; u < 38; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 38; u < 39; ++u) { LANES_CSUB(T[u], C[TA1[u]], T[TA0[u]], k); }
+        for (u = 39; u < 40; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 40; u < 42; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
         for (u = 42; u < 44; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 44; u < 45; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 44; u < 45; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
         for (u = 45; u < 47; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 29; u < 33; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 47; u < 48; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 48; u < 50; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 50; u < 51; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 51; u < 52; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 52; u < 53; ++u) { LANES_ADD(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 53; u < 54; ++u) { LANES_SHIFT(T[u], T[TA0[u]], C[TA1[u]], k); }
-        for (u = 54; u < 56; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 56; u < 58; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 58; u < 62; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 62; u < 64; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 64; u < 65; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
-        for (u = 33; u < 37; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 37; u < 39; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 65; u < 67; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
-        for (u = 67; u < 69; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
-        for (u = 69; u < 73; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 73; u < 75; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 75; u < 79; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 39; u < 43; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
-        for (u = 79; u < 81; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
-        for (u = 81; u < 85; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 43; u < 45; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
-        for (u = 45; u < 49; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
-        for (u = 85; u < 89; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
-        for (u = 89; u < 91; ++u) { LANES_SUB(T[u], H[TA0[u]] + k * L, T[TA1[u]]); }
-        for (u = 91; u < 93; ++u) { LANES_SUB(T[u], T[TA0[u]], H[TA1[u]] + k * L); }
-        for (u = 49; u < 51; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 31; u < 32; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 32; u < 33; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 47; u < 50; ++u) { LANES_SCALE(T[u], C[TA1[u]], T[TA0[u]]); }
+        for (u = 50; u < 52; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 33; u < 35; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 35; u < 37; ++u) { LANES_ADD(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 37; u < 40; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 52; u < 53; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 53; u < 57; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 57; u < 59; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 59; u < 63; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 63; u < 65; ++u) { LANES_SQUARE(T[u], H[TA0[u]], k); }
+        for (u = 40; u < 41; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 65; u < 66; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 41; u < 43; ++u) { LANES_SUB(H[u] + k * L, T[HA0[u]], T[HA1[u]]); }
+        for (u = 66; u < 67; ++u) { LANES_SCALE(T[u], C[TA1[u]], H[TA0[u]] + k * L); }
+        for (u = 67; u < 68; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 68; u < 70; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 70; u < 74; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 74; u < 77; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 43; u < 44; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 44; u < 47; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
+        for (u = 77; u < 79; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 79; u < 85; ++u) { LANES_MUL(T[u], H[TA0[u]], H[TA1[u]], k); }
+        for (u = 85; u < 89; ++u) { LANES_SUB(T[u], T[TA0[u]], T[TA1[u]]); }
+        for (u = 47; u < 49; ++u) { LANES_DIV(H[u], T[HA0[u]], H[HA1[u]], k); }
         if (k == 0) {
+            LANES_GUARD(bad, H[2] + k * L, sine_min);
             LANES_GUARD(bad, H[1] + k * L, sine_min);
-            LANES_GUARD(bad, H[0] + k * L, sine_min);
         }
         LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
         LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
         LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
-        LANES_OUT(X[4] + (k + 1) * L, T[89], k);
-        LANES_OUT(X[5] + (k + 1) * L, H[49] + k * L, k);
-        LANES_OUT(X[6] + (k + 1) * L, T[90], k);
-        LANES_OUT(X[7] + (k + 1) * L, H[50] + k * L, k);
+        LANES_OUT(X[4] + (k + 1) * L, T[85], k);
+        LANES_OUT(X[5] + (k + 1) * L, H[47] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[87], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[48] + k * L, k);
     }
 }
 #else
 /* X[i][1..order] from X[i][0] in every lane, unrolled: the recurrences, order by order. */
 static void spherical_std_ljet_l(R (*X)[ORDER_DIM * L], R (*C)[L], int order_wanted, R sine_min, int *bad)
 {
-    R H[54][ORDER_DIM * L];     /* nodes read at every order */
-    R T[93][L];                 /* nodes read at this order only */
+    R H[52][ORDER_DIM * L];     /* nodes read at every order */
+    R T[89][L];                 /* nodes read at this order only */
     const int order = SPHERICAL_STD_TAYLOR_ORDER ? SPHERICAL_STD_TAYLOR_ORDER : order_wanted;
     int k;
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        LANES_SINCOS(H[0], H[1], X[2], k);
-        LANES_SUB(H[2] + k * L, X[1] + k * L, X[3] + k * L);
-        LANES_SINCOS(H[3], H[4], H[2], k);
-        LANES_SCALE(H[5] + k * L, C[0], H[3] + k * L);
-        LANES_MUL(T[0], H[1], H[5], k);
-        LANES_SCALE(H[6] + k * L, C[1], T[0]);
-        LANES_SQUARE(T[1], H[6], k);
-        LANES_SCALE(T[2], C[1], T[1]);
-        LANES_SCALE(H[7] + k * L, C[0], H[4] + k * L);
+        LANES_SUB(H[0] + k * L, X[1] + k * L, X[3] + k * L);
+        LANES_SINCOS(H[1], H[2], H[0], k);
+        LANES_SCALE(H[3] + k * L, C[0], H[2] + k * L);
+        LANES_SQUARE(T[0], H[3], k);
+        LANES_SCALE(T[1], C[1], T[0]);
+        LANES_SINCOS(H[4], H[5], X[2], k);
+        LANES_SCALE(H[6] + k * L, C[0], H[1] + k * L);
+        LANES_MUL(T[2], H[5], H[6], k);
+        LANES_SCALE(H[7] + k * L, C[1], T[2]);
         LANES_SQUARE(T[3], H[7], k);
-        LANES_SHIFT(T[4], T[3], C[2], k);
-        LANES_SUB(H[8] + k * L, T[2], T[4]);
+        LANES_CSUB(T[4], C[2], T[3], k);
+        LANES_ADD(H[8] + k * L, T[1], T[4]);
         LANES_SINCOS(H[9], H[10], X[0], k);
-        LANES_MUL(T[5], H[9], H[0], k);
-        LANES_MUL(H[11] + k * L, H[1], H[4], k);
-        LANES_MUL(T[6], H[11], H[10], k);
+        LANES_MUL(T[5], H[9], H[4], k);
+        LANES_MUL(H[11] + k * L, H[5], H[10], k);
+        LANES_MUL(T[6], H[2], H[11], k);
         LANES_ADD(T[7], T[5], T[6]);
         LANES_SCALE(H[12] + k * L, C[0], T[7]);
         LANES_SQUARE(T[8], H[12], k);
-        LANES_SHIFT(T[9], T[8], C[2], k);
-        LANES_SCALE(T[10], C[1], T[9]);
-        LANES_MUL(H[13] + k * L, H[5], H[10], k);
-        LANES_SQUARE(T[11], H[13], k);
-        LANES_SUB(H[14] + k * L, T[10], T[11]);
+        LANES_SCALE(T[9], C[1], T[8]);
+        LANES_MUL(H[13] + k * L, H[6], H[10], k);
+        LANES_SQUARE(T[10], H[13], k);
+        LANES_CSUB(T[11], C[2], T[10], k);
+        LANES_ADD(H[14] + k * L, T[9], T[11]);
         LANES_MUL(T[12], H[14], H[8], k);
-        LANES_MUL(T[13], H[12], H[6], k);
+        LANES_MUL(T[13], H[12], H[7], k);
         LANES_SCALE(T[14], C[1], T[13]);
-        LANES_MUL(T[15], H[13], H[7], k);
+        LANES_MUL(T[15], H[13], H[3], k);
         LANES_SUB(H[15] + k * L, T[14], T[15]);
         LANES_SQUARE(T[16], H[15], k);
         LANES_SUB(H[16] + k * L, T[12], T[16]);
-        LANES_SQUARE(H[17] + k * L, X[5], k);
-        LANES_MUL(H[18] + k * L, H[9], H[17], k);
-        LANES_MUL(T[17], H[18], H[10], k);
-        LANES_SCALE(T[18], C[3], T[17]);
-        LANES_SQUARE(H[19] + k * L, X[7], k);
-        LANES_MUL(H[20] + k * L, H[0], H[19], k);
-        LANES_MUL(H[21] + k * L, H[20], H[4], k);
-        LANES_MUL(T[19], H[21], H[10], k);
-        LANES_SCALE(T[20], C[0], T[19]);
-        LANES_ADD(T[21], T[18], T[20]);
-        LANES_MUL(T[22], X[7], X[6], k);
-        LANES_SCALE(H[22] + k * L, C[4], T[22]);
-        LANES_MUL(H[23] + k * L, H[13], H[1], k);
-        LANES_MUL(T[23], H[22], H[23], k);
-        LANES_SUB(T[24], T[21], T[23]);
-        LANES_SQUARE(H[24] + k * L, X[6], k);
-        LANES_MUL(H[25] + k * L, H[9], H[1], k);
-        LANES_MUL(H[26] + k * L, H[0], H[4], k);
-        LANES_MUL(T[25], H[26], H[10], k);
-        LANES_SUB(H[27] + k * L, H[25] + k * L, T[25]);
-        LANES_MUL(T[26], H[24], H[27], k);
-        LANES_SCALE(T[27], C[0], T[26]);
-        LANES_SUB(T[28], T[24], T[27]);
-        LANES_SCALE(T[29], C[5], H[9] + k * L);
-        LANES_SUB(H[28] + k * L, T[28], T[29]);
-        LANES_SCALE(T[30], C[6], H[28] + k * L);
-        LANES_SCALE(H[29] + k * L, C[6], H[1] + k * L);
-        LANES_MUL(T[31], H[20], H[29], k);
-        LANES_MUL(T[32], X[5], X[4], k);
-        LANES_SCALE(H[30] + k * L, C[4], T[32]);
-        LANES_MUL(T[33], H[30], H[23], k);
-        LANES_ADD(T[34], T[31], T[33]);
-        LANES_MUL(H[31] + k * L, H[7], H[17], k);
-        LANES_MUL(T[35], H[31], H[25], k);
-        LANES_ADD(T[36], T[34], T[35]);
-        LANES_SCALE(T[37], C[7], H[0] + k * L);
-        LANES_SUB(T[38], T[36], T[37]);
-        LANES_SQUARE(H[32] + k * L, X[4], k);
-        LANES_MUL(T[39], H[0], H[10], k);
-        LANES_MUL(T[40], H[25], H[4], k);
-        LANES_SUB(H[33] + k * L, T[39], T[40]);
-        LANES_MUL(T[41], H[32], H[33], k);
-        LANES_SCALE(T[42], C[0], T[41]);
-        LANES_SUB(H[34] + k * L, T[38], T[42]);
-        LANES_MUL(T[43], H[12], H[34], k);
-        LANES_SUB(T[44], T[30], T[43]);
-        LANES_MUL(H[35] + k * L, H[9], H[5], k);
-        LANES_MUL(T[45], H[17], H[35], k);
-        LANES_MUL(T[46], H[32], H[35], k);
-        LANES_ADD(T[47], T[45], T[46]);
-        LANES_MUL(T[48], H[22], H[29], k);
-        LANES_SUB(T[49], T[47], T[48]);
-        LANES_MUL(H[36] + k * L, H[7], H[30], k);
-        LANES_MUL(T[50], H[36], H[10], k);
-        LANES_SUB(H[37] + k * L, T[49], T[50]);
-        LANES_MUL(T[51], H[13], H[37], k);
-        LANES_SUB(H[38] + k * L, T[44], T[51]);
-        LANES_MUL(T[52], H[8], H[38], k);
-        LANES_DIV(H[39], T[52], H[16], k);
-        LANES_MUL(T[53], H[20], H[5], k);
-        LANES_SCALE(T[54], C[1], T[53]);
-        LANES_MUL(T[55], H[30], H[10], k);
-        LANES_SCALE(T[56], C[3], T[55]);
-        LANES_SUB(T[57], T[54], T[56]);
-        LANES_MUL(H[40] + k * L, H[0], H[24], k);
-        LANES_MUL(T[58], H[40], H[5], k);
-        LANES_SUB(T[59], T[57], T[58]);
-        LANES_MUL(T[60], H[11], H[22], k);
-        LANES_SCALE(T[61], C[0], T[60]);
-        LANES_SUB(H[41] + k * L, T[59], T[61]);
-        LANES_SCALE(T[62], C[6], H[41] + k * L);
-        LANES_MUL(T[63], H[6], H[34], k);
-        LANES_SUB(T[64], T[62], T[63]);
-        LANES_MUL(T[65], H[7], H[37], k);
-        LANES_SUB(T[66], T[64], T[65]);
-        LANES_DIV(H[42], T[66], H[16], k);
-        LANES_MUL(T[67], H[15], H[42], k);
-        LANES_SUB(T[68], H[39] + k * L, T[67]);
-        LANES_MUL(T[69], H[14], H[42], k);
-        LANES_MUL(T[70], H[15], H[38], k);
-        LANES_DIV(H[43], T[70], H[16], k);
-        LANES_SUB(T[71], T[69], H[43] + k * L);
-        LANES_DIV(H[44], T[71], H[9], k);
-        LANES_SCALE(T[72], C[1], T[4]);
-        LANES_SUB(H[45] + k * L, T[72], T[11]);
-        LANES_SUB(H[46] + k * L, T[10], T[1]);
-        LANES_MUL(T[73], H[46], H[45], k);
-        LANES_MUL(T[74], H[12], H[13], k);
-        LANES_SCALE(T[75], C[1], T[74]);
-        LANES_MUL(T[76], H[6], H[7], k);
-        LANES_SUB(H[47] + k * L, T[75], T[76]);
-        LANES_SQUARE(T[77], H[47], k);
-        LANES_SUB(H[48] + k * L, T[73], T[77]);
-        LANES_SCALE(T[78], C[3], H[34] + k * L);
-        LANES_MUL(T[79], H[12], H[28], k);
-        LANES_SUB(T[80], T[78], T[79]);
-        LANES_MUL(T[81], H[6], H[41], k);
-        LANES_SUB(H[49] + k * L, T[80], T[81]);
-        LANES_MUL(T[82], H[45], H[49], k);
-        LANES_DIV(H[50], T[82], H[48], k);
-        LANES_SCALE(T[83], C[3], H[37] + k * L);
-        LANES_MUL(T[84], H[13], H[28], k);
-        LANES_SUB(T[85], T[83], T[84]);
-        LANES_MUL(T[86], H[7], H[41], k);
-        LANES_SUB(T[87], T[85], T[86]);
-        LANES_DIV(H[51], T[87], H[48], k);
-        LANES_MUL(T[88], H[47], H[51], k);
-        LANES_SUB(T[89], H[50] + k * L, T[88]);
-        LANES_MUL(T[90], H[46], H[51], k);
-        LANES_MUL(T[91], H[47], H[49], k);
-        LANES_DIV(H[52], T[91], H[48], k);
-        LANES_SUB(T[92], T[90], H[52] + k * L);
-        LANES_DIV(H[53], T[92], H[0], k);
+        LANES_SQUARE(H[17] + k * L, X[7], k);
+        LANES_MUL(H[18] + k * L, H[4], H[10], k);
+        LANES_MUL(H[19] + k * L, H[3], H[17], k);
+        LANES_MUL(T[17], H[19], H[18], k);
+        LANES_SCALE(H[20] + k * L, C[3], H[10] + k * L);
+        LANES_SQUARE(H[21] + k * L, X[5], k);
+        LANES_MUL(H[22] + k * L, H[9], H[20], k);
+        LANES_MUL(T[18], H[22], H[21], k);
+        LANES_ADD(T[19], T[17], T[18]);
+        LANES_MUL(T[20], X[7], X[6], k);
+        LANES_SCALE(H[23] + k * L, C[4], T[20]);
+        LANES_MUL(H[24] + k * L, H[6], H[11], k);
+        LANES_MUL(T[21], H[23], H[24], k);
+        LANES_SUB(T[22], T[19], T[21]);
+        LANES_SQUARE(T[23], X[6], k);
+        LANES_SCALE(H[25] + k * L, C[0], T[23]);
+        LANES_MUL(H[26] + k * L, H[9], H[5], k);
+        LANES_MUL(T[24], H[18], H[2], k);
+        LANES_SUB(H[27] + k * L, H[26] + k * L, T[24]);
+        LANES_MUL(T[25], H[25], H[27], k);
+        LANES_SUB(T[26], T[22], T[25]);
+        LANES_SCALE(T[27], C[5], H[9] + k * L);
+        LANES_SUB(H[28] + k * L, T[26], T[27]);
+        LANES_SCALE(T[28], C[6], H[28] + k * L);
+        LANES_MUL(T[29], X[5], X[4], k);
+        LANES_SCALE(H[29] + k * L, C[4], T[29]);
+        LANES_MUL(T[30], H[29], H[24], k);
+        LANES_MUL(H[30] + k * L, H[4], H[17], k);
+        LANES_SCALE(H[31] + k * L, C[6], H[5] + k * L);
+        LANES_MUL(T[31], H[30], H[31], k);
+        LANES_ADD(T[32], T[30], T[31]);
+        LANES_MUL(H[32] + k * L, H[3], H[26], k);
+        LANES_MUL(T[33], H[32], H[21], k);
+        LANES_ADD(T[34], T[32], T[33]);
+        LANES_SCALE(T[35], C[7], H[4] + k * L);
+        LANES_SUB(T[36], T[34], T[35]);
+        LANES_SQUARE(H[33] + k * L, X[4], k);
+        LANES_MUL(T[37], H[26], H[2], k);
+        LANES_SUB(H[34] + k * L, H[18] + k * L, T[37]);
+        LANES_MUL(T[38], H[33], H[34], k);
+        LANES_SCALE(T[39], C[0], T[38]);
+        LANES_SUB(H[35] + k * L, T[36], T[39]);
+        LANES_MUL(T[40], H[12], H[35], k);
+        LANES_SUB(T[41], T[28], T[40]);
+        LANES_MUL(H[36] + k * L, H[9], H[6], k);
+        LANES_MUL(T[42], H[21], H[36], k);
+        LANES_MUL(T[43], H[33], H[36], k);
+        LANES_ADD(T[44], T[42], T[43]);
+        LANES_MUL(T[45], H[23], H[31], k);
+        LANES_SUB(T[46], T[44], T[45]);
+        LANES_MUL(H[37] + k * L, H[3], H[29], k);
+        LANES_MUL(T[47], H[37], H[10], k);
+        LANES_SUB(H[38] + k * L, T[46], T[47]);
+        LANES_MUL(T[48], H[13], H[38], k);
+        LANES_SUB(T[49], T[41], T[48]);
+        LANES_DIV(H[39], T[49], H[16], k);
+        LANES_MUL(T[50], H[8], H[39], k);
+        LANES_MUL(T[51], H[20], H[29], k);
+        LANES_SCALE(T[52], C[1], T[51]);
+        LANES_MUL(T[53], H[30], H[6], k);
+        LANES_SUB(T[54], T[52], T[53]);
+        LANES_MUL(H[40] + k * L, H[3], H[23], k);
+        LANES_MUL(T[55], H[40], H[5], k);
+        LANES_SUB(T[56], T[54], T[55]);
+        LANES_MUL(H[41] + k * L, H[4], H[25], k);
+        LANES_MUL(T[57], H[41], H[1], k);
+        LANES_SUB(H[42] + k * L, T[56], T[57]);
+        LANES_SCALE(T[58], C[6], H[42] + k * L);
+        LANES_MUL(T[59], H[7], H[35], k);
+        LANES_SUB(T[60], T[58], T[59]);
+        LANES_MUL(T[61], H[3], H[38], k);
+        LANES_SUB(T[62], T[60], T[61]);
+        LANES_DIV(H[43], T[62], H[16], k);
+        LANES_MUL(T[63], H[15], H[43], k);
+        LANES_SUB(T[64], T[50], T[63]);
+        LANES_MUL(T[65], H[14], H[43], k);
+        LANES_MUL(T[66], H[15], H[39], k);
+        LANES_SUB(T[67], T[65], T[66]);
+        LANES_DIV(H[44], T[67], H[9], k);
+        LANES_ADD(H[45] + k * L, T[11], T[1]);
+        LANES_ADD(H[46] + k * L, T[9], T[4]);
+        LANES_MUL(T[68], H[46], H[45], k);
+        LANES_MUL(T[69], H[12], H[13], k);
+        LANES_SCALE(T[70], C[1], T[69]);
+        LANES_MUL(T[71], H[7], H[3], k);
+        LANES_SUB(H[47] + k * L, T[70], T[71]);
+        LANES_SQUARE(T[72], H[47], k);
+        LANES_SUB(H[48] + k * L, T[68], T[72]);
+        LANES_SCALE(T[73], C[3], H[35] + k * L);
+        LANES_MUL(T[74], H[12], H[28], k);
+        LANES_SUB(T[75], T[73], T[74]);
+        LANES_MUL(T[76], H[7], H[42], k);
+        LANES_SUB(T[77], T[75], T[76]);
+        LANES_DIV(H[49], T[77], H[48], k);
+        LANES_MUL(T[78], H[45], H[49], k);
+        LANES_SCALE(T[79], C[3], H[38] + k * L);
+        LANES_MUL(T[80], H[13], H[28], k);
+        LANES_SUB(T[81], T[79], T[80]);
+        LANES_MUL(T[82], H[3], H[42], k);
+        LANES_SUB(T[83], T[81], T[82]);
+        LANES_DIV(H[50], T[83], H[48], k);
+        LANES_MUL(T[84], H[47], H[50], k);
+        LANES_SUB(T[85], T[78], T[84]);
+        LANES_MUL(T[86], H[46], H[50], k);
+        LANES_MUL(T[87], H[47], H[49], k);
+        LANES_SUB(T[88], T[86], T[87]);
+        LANES_DIV(H[51], T[88], H[4], k);
         if (k == 0) {
             LANES_GUARD(bad, H[9] + k * L, sine_min);
-            LANES_GUARD(bad, H[0] + k * L, sine_min);
+            LANES_GUARD(bad, H[4] + k * L, sine_min);
         }
         LANES_OUT(X[0] + (k + 1) * L, X[4] + k * L, k);
         LANES_OUT(X[1] + (k + 1) * L, X[5] + k * L, k);
         LANES_OUT(X[2] + (k + 1) * L, X[6] + k * L, k);
         LANES_OUT(X[3] + (k + 1) * L, X[7] + k * L, k);
-        LANES_OUT(X[4] + (k + 1) * L, T[68], k);
+        LANES_OUT(X[4] + (k + 1) * L, T[64], k);
         LANES_OUT(X[5] + (k + 1) * L, H[44] + k * L, k);
-        LANES_OUT(X[6] + (k + 1) * L, T[89], k);
-        LANES_OUT(X[7] + (k + 1) * L, H[53] + k * L, k);
+        LANES_OUT(X[6] + (k + 1) * L, T[85], k);
+        LANES_OUT(X[7] + (k + 1) * L, H[51] + k * L, k);
     }
 }
 #endif

@@ -4,8 +4,8 @@
  * (suffix _f), double (no suffix) and long double (suffix _l).
  *
  * The Taylor jet of SPHERICAL_STD_TAYLOR_LANES trajectories (default 4) is computed at
- * once, lane index innermost (J[node][k][lane], 155 nodes), so each recurrence is a loop
- * over the lanes that the compiler vectorises; at order 12 a jet is 12194 additions,
+ * once, lane index innermost (J[node][k][lane], 149 nodes), so each recurrence is a loop
+ * over the lanes that the compiler vectorises; at order 12 a jet is 11864 additions,
  * multiplications and divisions a lane.  Each lane has its own parameters, step, time,
  * dense output and counters; a lane whose trajectory ends takes the next one of the
  * batch.  Every lane does the arithmetic of spherical_std_taylor, operation by operation, so
@@ -16,7 +16,7 @@
  * -DSPHERICAL_STD_TAYLOR_COMPACT=0 or 1 for the jet's form: unrolled by default up to order 9,
  * compact past it), and -DSPHERICAL_STD_TAYLOR_LANES=L (1 to 64) to choose the lanes; SIMD flags
  * (-mavx2, -mavx512f, ...) let the compiler use the machine's vector registers.  Stack use
- * of a call: about 62 x (order + 1) x L values (the states and the nodes read at
+ * of a call: about 60 x (order + 1) x L values (the states and the nodes read at
  * every order; the others hold one order).  The order unrolled, each type takes a while
  * to compile: -DSPHERICAL_STD_TAYLOR_LANES_ONLY=k compiles only one (1: double, 2: float, 3: long double).
  *

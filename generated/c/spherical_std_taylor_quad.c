@@ -37,7 +37,7 @@
 /* No unrolling: each binary128 operation is a call into libquadmath, which unrolling does
  * not speed up, while it makes the compile many times longer */
 #define TAYLOR_UNROLL
-#define NODES 155
+#define NODES 149
 #define NCONST 8
 
 /* The library's view of this model (derive_taylor.h lists what it needs). */
@@ -121,28 +121,28 @@
 static int spherical_std_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_wanted, S sine_min)
 {
     static const int A0[NODES] = {
-        0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 1, 5, 7, 6, 4, 7,
-        5, 10, 9, 9, 8, 8, 15, 9, 16, 8, 17, 152, 19, 9, 8, 24,
-        152, 152, 26, 20, 8, 20, 29, 9, 22, 20, 21, 153, 28, 31, 32, 41,
-        43, 34, 33, 34, 35, 34, 36, 43, 11, 14, 43, 33, 30, 46, 48, 18,
-        56, 52, 59, 22, 24, 55, 14, 58, 46, 29, 47, 61, 63, 70, 62, 44,
-        37, 13, 64, 74, 75, 79, 82, 83, 78, 76, 76, 76, 81, 80, 89, 90,
-        87, 91, 86, 85, 93, 34, 43, 46, 43, 94, 95, 99, 100, 97, 105, 105,
-        106, 109, 107, 108, 76, 46, 76, 34, 110, 111, 114, 96, 115, 98, 120, 122,
-        123, 121, 124, 125, 84, 106, 88, 109, 128, 131, 132, 133, 134, 135, 106, 110,
-        109, 111, 138, 143, 140, 145, 147, 149, 2, 10, 0
+        0, 0, 0, 0, 0, 0, 0, 0, 1, 2, 0, 7, 5, 6, 4, 7,
+        5, 8, 10, 9, 15, 13, 10, 16, 9, 17, 148, 147, 147, 9, 10, 9,
+        146, 147, 146, 25, 10, 25, 29, 19, 30, 10, 20, 26, 19, 31, 32, 35,
+        33, 43, 18, 35, 32, 36, 20, 23, 32, 12, 14, 32, 32, 30, 29, 46,
+        50, 48, 47, 52, 21, 56, 14, 59, 60, 48, 55, 57, 49, 65, 64, 64,
+        64, 67, 74, 66, 70, 75, 76, 63, 78, 79, 80, 81, 82, 85, 86, 88,
+        88, 89, 91, 92, 90, 35, 32, 48, 32, 94, 93, 95, 64, 48, 96, 97,
+        100, 98, 99, 107, 105, 110, 113, 64, 35, 118, 116, 114, 106, 121, 123, 124,
+        122, 125, 126, 127, 97, 95, 87, 97, 83, 100, 96, 100, 134, 133, 136, 138,
+        141, 143, 8, 2, 0
     };
     static const int A1[NODES] = {
-        0, 0, 0, 0, 0, 0, 0, 0, 152, 154, 3, 0, 0, 0, 0, 6,
-        4, 153, 8, 11, 12, 13, 4, 5, 4, 7, 0, 6, 154, 152, 154, 154,
-        26, 153, 154, 153, 153, 27, 153, 26, 27, 26, 26, 0, 3, 3, 1, 1,
-        0, 0, 154, 43, 154, 152, 154, 11, 39, 39, 24, 22, 38, 0, 2, 50,
-        57, 0, 0, 53, 53, 29, 60, 154, 43, 54, 45, 1, 0, 0, 1, 65,
-        68, 73, 40, 42, 62, 67, 71, 66, 49, 0, 46, 34, 0, 69, 2, 1,
-        6, 1, 3, 92, 25, 86, 86, 87, 87, 1, 51, 23, 77, 72, 49, 61,
-        0, 0, 6, 3, 108, 108, 107, 107, 84, 88, 116, 117, 118, 119, 112, 101,
-        102, 113, 103, 104, 127, 127, 130, 130, 126, 129, 126, 126, 129, 129, 136, 136,
-        137, 137, 142, 139, 144, 141, 9, 8, 8, 17, 9
+        0, 0, 0, 0, 0, 0, 0, 0, 3, 147, 148, 0, 0, 0, 0, 6,
+        4, 146, 9, 11, 4, 0, 5, 4, 7, 0, 3, 6, 148, 148, 147, 21,
+        0, 25, 28, 148, 26, 28, 146, 27, 146, 25, 27, 23, 25, 17, 0, 0,
+        1, 1, 34, 32, 11, 12, 37, 37, 30, 41, 41, 23, 20, 38, 40, 1,
+        0, 0, 2, 29, 61, 12, 62, 148, 147, 32, 39, 58, 44, 2, 0, 48,
+        35, 53, 69, 63, 0, 42, 72, 77, 1, 1, 1, 54, 24, 71, 45, 66,
+        77, 51, 68, 84, 73, 93, 93, 94, 94, 6, 3, 87, 99, 99, 83, 0,
+        0, 22, 3, 111, 109, 112, 6, 113, 113, 108, 102, 119, 120, 101, 103, 104,
+        115, 115, 117, 117, 128, 128, 129, 129, 130, 131, 131, 130, 132, 135, 137, 139,
+        10, 9, 17, 9, 10
     };
     R J[NODES][ORDER_DIM];
     R C[NCONST];
@@ -153,7 +153,7 @@ static int spherical_std_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_w
     }
     C[0] = T_MUL(p[2], p[3]);
     C[1] = T_INT(-1);
-    C[2] = T_NEG(T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]));
+    C[2] = T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]);
     C[3] = T_DIV(T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1])), p[1]);
     C[4] = T_INT(2);
     C[5] = T_DIV(T_MUL(T_MUL(p[4], p[2]), T_ADD(p[0], p[1])), p[1]);
@@ -163,66 +163,67 @@ static int spherical_std_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_w
         J[i][0] = X[i][0];
     }
     for (k = 0; k < order; ++k) {
-        for (u = 8; u < 10; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
-        for (u = 10; u < 11; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 8; u < 9; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 9; u < 11; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
         for (u = 11; u < 15; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
         for (u = 15; u < 17; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
         for (u = 17; u < 18; ++u) { TAYLOR_SINCOS(J[u], J[A1[u]], J[A0[u]], k); }
-        for (u = 18; u < 22; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 22; u < 26; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 26; u < 28; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 18; u < 20; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 20; u < 25; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 25; u < 28; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
         for (u = 28; u < 32; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 32; u < 43; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 43; u < 46; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 46; u < 48; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 48; u < 50; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
-        for (u = 50; u < 60; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 60; u < 61; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 61; u < 62; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
-        for (u = 62; u < 63; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
-        for (u = 63; u < 65; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 65; u < 67; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 67; u < 73; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 73; u < 75; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 75; u < 79; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 79; u < 81; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 81; u < 82; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 82; u < 84; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 84; u < 89; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 89; u < 90; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
-        for (u = 90; u < 92; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 92; u < 93; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 93; u < 94; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 94; u < 95; ++u) { J[u][k] = T_ADD(J[A0[u]][k], k == 0 ? C[A1[u]] : T_INT(0)); }
-        for (u = 95; u < 99; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 99; u < 101; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 32; u < 33; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 33; u < 46; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 46; u < 48; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 48; u < 50; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 50; u < 51; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 51; u < 61; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 61; u < 63; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 63; u < 65; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 65; u < 66; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 66; u < 67; ++u) { J[u][k] = k == 0 ? T_SUB(C[A1[u]], J[A0[u]][0]) : T_NEG(J[A0[u]][k]); }
+        for (u = 67; u < 74; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 74; u < 76; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 76; u < 77; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 77; u < 78; ++u) { J[u][k] = k == 0 ? T_SUB(C[A1[u]], J[A0[u]][0]) : T_NEG(J[A0[u]][k]); }
+        for (u = 78; u < 79; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 79; u < 81; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 81; u < 84; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 84; u < 85; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 85; u < 87; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 87; u < 88; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 88; u < 91; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 91; u < 95; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 95; u < 97; ++u) { J[u][k] = T_ADD(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 97; u < 101; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
         for (u = 101; u < 105; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 105; u < 106; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 106; u < 110; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 110; u < 112; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 112; u < 114; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
-        for (u = 114; u < 116; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
-        for (u = 116; u < 120; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 120; u < 122; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 122; u < 126; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 126; u < 132; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 132; u < 136; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 136; u < 138; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
-        for (u = 138; u < 142; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
-        for (u = 142; u < 146; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
-        for (u = 146; u < 150; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
-        for (u = 150; u < 152; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
-        if (k == 0 && (!(T_ABS(J[9][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
+        for (u = 105; u < 107; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 107; u < 111; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 111; u < 113; ++u) { J[u][k] = TAYLOR_SQUARE(J[A0[u]], k); }
+        for (u = 113; u < 114; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 114; u < 115; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 115; u < 118; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 118; u < 119; ++u) { J[u][k] = T_MUL(C[A1[u]], J[A0[u]][k]); }
+        for (u = 119; u < 121; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 121; u < 125; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 125; u < 128; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 128; u < 129; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 129; u < 132; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        for (u = 132; u < 134; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 134; u < 140; ++u) { J[u][k] = TAYLOR_MUL(J[A0[u]], J[A1[u]], k); }
+        for (u = 140; u < 144; ++u) { J[u][k] = T_SUB(J[A0[u]][k], J[A1[u]][k]); }
+        for (u = 144; u < 146; ++u) { J[u][k] = TAYLOR_DIV(J[A0[u]][k], J[A1[u]], J[u], k); }
+        if (k == 0 && (!(T_ABS(J[10][0]) >= sine_min) || !(T_ABS(J[9][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }
         J[0][k + 1] = T_DIVI(J[4][k], k + 1);
         J[1][k + 1] = T_DIVI(J[5][k], k + 1);
         J[2][k + 1] = T_DIVI(J[6][k], k + 1);
         J[3][k + 1] = T_DIVI(J[7][k], k + 1);
-        J[4][k + 1] = T_DIVI(J[146][k], k + 1);
-        J[5][k + 1] = T_DIVI(J[150][k], k + 1);
-        J[6][k + 1] = T_DIVI(J[148][k], k + 1);
-        J[7][k + 1] = T_DIVI(J[151][k], k + 1);
+        J[4][k + 1] = T_DIVI(J[140][k], k + 1);
+        J[5][k + 1] = T_DIVI(J[144][k], k + 1);
+        J[6][k + 1] = T_DIVI(J[142][k], k + 1);
+        J[7][k + 1] = T_DIVI(J[145][k], k + 1);
     }
     for (i = 0; i < N; ++i) {
         for (k = 1; k <= order; ++k) {
@@ -244,7 +245,7 @@ static int spherical_std_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_w
     }
     C[0] = T_MUL(p[2], p[3]);
     C[1] = T_INT(-1);
-    C[2] = T_NEG(T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]));
+    C[2] = T_DIV(T_MUL(T_MUL(T_MUL(p[2], p[2]), T_MUL(p[3], p[3])), T_ADD(p[0], p[1])), p[1]);
     C[3] = T_DIV(T_MUL(T_MUL(p[2], p[2]), T_ADD(p[0], p[1])), p[1]);
     C[4] = T_INT(2);
     C[5] = T_DIV(T_MUL(T_MUL(p[4], p[2]), T_ADD(p[0], p[1])), p[1]);
@@ -252,161 +253,155 @@ static int spherical_std_taylor_jet_q(R (*X)[ORDER_DIM], const R *p, int order_w
     C[7] = T_MUL(p[4], p[3]);
     TAYLOR_UNROLL
     for (k = 0; k < order; ++k) {
-        TAYLOR_SINCOS(J[8], J[9], X[2], k);
-        J[10][k] = T_SUB(X[1][k], X[3][k]);
-        TAYLOR_SINCOS(J[11], J[12], J[10], k);
-        J[13][k] = T_MUL(C[0], J[11][k]);
-        J[14][k] = TAYLOR_MUL(J[9], J[13], k);
-        J[15][k] = T_MUL(C[1], J[14][k]);
-        J[16][k] = TAYLOR_SQUARE(J[15], k);
-        J[17][k] = T_MUL(C[1], J[16][k]);
-        J[18][k] = T_MUL(C[0], J[12][k]);
+        J[8][k] = T_SUB(X[1][k], X[3][k]);
+        TAYLOR_SINCOS(J[9], J[10], J[8], k);
+        J[11][k] = T_MUL(C[0], J[10][k]);
+        J[12][k] = TAYLOR_SQUARE(J[11], k);
+        J[13][k] = T_MUL(C[1], J[12][k]);
+        TAYLOR_SINCOS(J[14], J[15], X[2], k);
+        J[16][k] = T_MUL(C[0], J[9][k]);
+        J[17][k] = TAYLOR_MUL(J[15], J[16], k);
+        J[18][k] = T_MUL(C[1], J[17][k]);
         J[19][k] = TAYLOR_SQUARE(J[18], k);
-        J[20][k] = T_ADD(J[19][k], k == 0 ? C[2] : T_INT(0));
-        J[21][k] = T_SUB(J[17][k], J[20][k]);
+        J[20][k] = k == 0 ? T_SUB(C[2], J[19][0]) : T_NEG(J[19][k]);
+        J[21][k] = T_ADD(J[13][k], J[20][k]);
         TAYLOR_SINCOS(J[22], J[23], X[0], k);
-        J[24][k] = TAYLOR_MUL(J[22], J[8], k);
-        J[25][k] = TAYLOR_MUL(J[9], J[12], k);
-        J[26][k] = TAYLOR_MUL(J[25], J[23], k);
+        J[24][k] = TAYLOR_MUL(J[22], J[14], k);
+        J[25][k] = TAYLOR_MUL(J[15], J[23], k);
+        J[26][k] = TAYLOR_MUL(J[10], J[25], k);
         J[27][k] = T_ADD(J[24][k], J[26][k]);
         J[28][k] = T_MUL(C[0], J[27][k]);
         J[29][k] = TAYLOR_SQUARE(J[28], k);
-        J[30][k] = T_ADD(J[29][k], k == 0 ? C[2] : T_INT(0));
-        J[31][k] = T_MUL(C[1], J[30][k]);
-        J[32][k] = TAYLOR_MUL(J[13], J[23], k);
-        J[33][k] = TAYLOR_SQUARE(J[32], k);
-        J[34][k] = T_SUB(J[31][k], J[33][k]);
+        J[30][k] = T_MUL(C[1], J[29][k]);
+        J[31][k] = TAYLOR_MUL(J[16], J[23], k);
+        J[32][k] = TAYLOR_SQUARE(J[31], k);
+        J[33][k] = k == 0 ? T_SUB(C[2], J[32][0]) : T_NEG(J[32][k]);
+        J[34][k] = T_ADD(J[30][k], J[33][k]);
         J[35][k] = TAYLOR_MUL(J[34], J[21], k);
-        J[36][k] = TAYLOR_MUL(J[28], J[15], k);
+        J[36][k] = TAYLOR_MUL(J[28], J[18], k);
         J[37][k] = T_MUL(C[1], J[36][k]);
-        J[38][k] = TAYLOR_MUL(J[32], J[18], k);
+        J[38][k] = TAYLOR_MUL(J[31], J[11], k);
         J[39][k] = T_SUB(J[37][k], J[38][k]);
         J[40][k] = TAYLOR_SQUARE(J[39], k);
         J[41][k] = T_SUB(J[35][k], J[40][k]);
-        J[42][k] = TAYLOR_SQUARE(X[5], k);
-        J[43][k] = TAYLOR_MUL(J[22], J[42], k);
-        J[44][k] = TAYLOR_MUL(J[43], J[23], k);
-        J[45][k] = T_MUL(C[3], J[44][k]);
-        J[46][k] = TAYLOR_SQUARE(X[7], k);
-        J[47][k] = TAYLOR_MUL(J[8], J[46], k);
-        J[48][k] = TAYLOR_MUL(J[47], J[12], k);
-        J[49][k] = TAYLOR_MUL(J[48], J[23], k);
-        J[50][k] = T_MUL(C[0], J[49][k]);
-        J[51][k] = T_ADD(J[45][k], J[50][k]);
-        J[52][k] = TAYLOR_MUL(X[7], X[6], k);
-        J[53][k] = T_MUL(C[4], J[52][k]);
-        J[54][k] = TAYLOR_MUL(J[32], J[9], k);
-        J[55][k] = TAYLOR_MUL(J[53], J[54], k);
-        J[56][k] = T_SUB(J[51][k], J[55][k]);
-        J[57][k] = TAYLOR_SQUARE(X[6], k);
-        J[58][k] = TAYLOR_MUL(J[22], J[9], k);
-        J[59][k] = TAYLOR_MUL(J[8], J[12], k);
-        J[60][k] = TAYLOR_MUL(J[59], J[23], k);
-        J[61][k] = T_SUB(J[58][k], J[60][k]);
-        J[62][k] = TAYLOR_MUL(J[57], J[61], k);
-        J[63][k] = T_MUL(C[0], J[62][k]);
-        J[64][k] = T_SUB(J[56][k], J[63][k]);
-        J[65][k] = T_MUL(C[5], J[22][k]);
-        J[66][k] = T_SUB(J[64][k], J[65][k]);
-        J[67][k] = T_MUL(C[6], J[66][k]);
-        J[68][k] = T_MUL(C[6], J[9][k]);
-        J[69][k] = TAYLOR_MUL(J[47], J[68], k);
-        J[70][k] = TAYLOR_MUL(X[5], X[4], k);
-        J[71][k] = T_MUL(C[4], J[70][k]);
-        J[72][k] = TAYLOR_MUL(J[71], J[54], k);
-        J[73][k] = T_ADD(J[69][k], J[72][k]);
-        J[74][k] = TAYLOR_MUL(J[18], J[42], k);
-        J[75][k] = TAYLOR_MUL(J[74], J[58], k);
-        J[76][k] = T_ADD(J[73][k], J[75][k]);
-        J[77][k] = T_MUL(C[7], J[8][k]);
-        J[78][k] = T_SUB(J[76][k], J[77][k]);
-        J[79][k] = TAYLOR_SQUARE(X[4], k);
-        J[80][k] = TAYLOR_MUL(J[8], J[23], k);
-        J[81][k] = TAYLOR_MUL(J[58], J[12], k);
-        J[82][k] = T_SUB(J[80][k], J[81][k]);
-        J[83][k] = TAYLOR_MUL(J[79], J[82], k);
-        J[84][k] = T_MUL(C[0], J[83][k]);
-        J[85][k] = T_SUB(J[78][k], J[84][k]);
-        J[86][k] = TAYLOR_MUL(J[28], J[85], k);
-        J[87][k] = T_SUB(J[67][k], J[86][k]);
-        J[88][k] = TAYLOR_MUL(J[22], J[13], k);
-        J[89][k] = TAYLOR_MUL(J[42], J[88], k);
-        J[90][k] = TAYLOR_MUL(J[79], J[88], k);
-        J[91][k] = T_ADD(J[89][k], J[90][k]);
-        J[92][k] = TAYLOR_MUL(J[53], J[68], k);
-        J[93][k] = T_SUB(J[91][k], J[92][k]);
-        J[94][k] = TAYLOR_MUL(J[18], J[71], k);
-        J[95][k] = TAYLOR_MUL(J[94], J[23], k);
-        J[96][k] = T_SUB(J[93][k], J[95][k]);
-        J[97][k] = TAYLOR_MUL(J[32], J[96], k);
-        J[98][k] = T_SUB(J[87][k], J[97][k]);
-        J[99][k] = TAYLOR_MUL(J[21], J[98], k);
-        J[100][k] = TAYLOR_DIV(J[99][k], J[41], J[100], k);
-        J[101][k] = TAYLOR_MUL(J[47], J[13], k);
-        J[102][k] = T_MUL(C[1], J[101][k]);
-        J[103][k] = TAYLOR_MUL(J[71], J[23], k);
-        J[104][k] = T_MUL(C[3], J[103][k]);
+        J[42][k] = TAYLOR_SQUARE(X[7], k);
+        J[43][k] = TAYLOR_MUL(J[14], J[23], k);
+        J[44][k] = TAYLOR_MUL(J[11], J[42], k);
+        J[45][k] = TAYLOR_MUL(J[44], J[43], k);
+        J[46][k] = T_MUL(C[3], J[23][k]);
+        J[47][k] = TAYLOR_SQUARE(X[5], k);
+        J[48][k] = TAYLOR_MUL(J[22], J[46], k);
+        J[49][k] = TAYLOR_MUL(J[48], J[47], k);
+        J[50][k] = T_ADD(J[45][k], J[49][k]);
+        J[51][k] = TAYLOR_MUL(X[7], X[6], k);
+        J[52][k] = T_MUL(C[4], J[51][k]);
+        J[53][k] = TAYLOR_MUL(J[16], J[25], k);
+        J[54][k] = TAYLOR_MUL(J[52], J[53], k);
+        J[55][k] = T_SUB(J[50][k], J[54][k]);
+        J[56][k] = TAYLOR_SQUARE(X[6], k);
+        J[57][k] = T_MUL(C[0], J[56][k]);
+        J[58][k] = TAYLOR_MUL(J[22], J[15], k);
+        J[59][k] = TAYLOR_MUL(J[43], J[10], k);
+        J[60][k] = T_SUB(J[58][k], J[59][k]);
+        J[61][k] = TAYLOR_MUL(J[57], J[60], k);
+        J[62][k] = T_SUB(J[55][k], J[61][k]);
+        J[63][k] = T_MUL(C[5], J[22][k]);
+        J[64][k] = T_SUB(J[62][k], J[63][k]);
+        J[65][k] = T_MUL(C[6], J[64][k]);
+        J[66][k] = TAYLOR_MUL(X[5], X[4], k);
+        J[67][k] = T_MUL(C[4], J[66][k]);
+        J[68][k] = TAYLOR_MUL(J[67], J[53], k);
+        J[69][k] = TAYLOR_MUL(J[14], J[42], k);
+        J[70][k] = T_MUL(C[6], J[15][k]);
+        J[71][k] = TAYLOR_MUL(J[69], J[70], k);
+        J[72][k] = T_ADD(J[68][k], J[71][k]);
+        J[73][k] = TAYLOR_MUL(J[11], J[58], k);
+        J[74][k] = TAYLOR_MUL(J[73], J[47], k);
+        J[75][k] = T_ADD(J[72][k], J[74][k]);
+        J[76][k] = T_MUL(C[7], J[14][k]);
+        J[77][k] = T_SUB(J[75][k], J[76][k]);
+        J[78][k] = TAYLOR_SQUARE(X[4], k);
+        J[79][k] = TAYLOR_MUL(J[58], J[10], k);
+        J[80][k] = T_SUB(J[43][k], J[79][k]);
+        J[81][k] = TAYLOR_MUL(J[78], J[80], k);
+        J[82][k] = T_MUL(C[0], J[81][k]);
+        J[83][k] = T_SUB(J[77][k], J[82][k]);
+        J[84][k] = TAYLOR_MUL(J[28], J[83], k);
+        J[85][k] = T_SUB(J[65][k], J[84][k]);
+        J[86][k] = TAYLOR_MUL(J[22], J[16], k);
+        J[87][k] = TAYLOR_MUL(J[47], J[86], k);
+        J[88][k] = TAYLOR_MUL(J[78], J[86], k);
+        J[89][k] = T_ADD(J[87][k], J[88][k]);
+        J[90][k] = TAYLOR_MUL(J[52], J[70], k);
+        J[91][k] = T_SUB(J[89][k], J[90][k]);
+        J[92][k] = TAYLOR_MUL(J[11], J[67], k);
+        J[93][k] = TAYLOR_MUL(J[92], J[23], k);
+        J[94][k] = T_SUB(J[91][k], J[93][k]);
+        J[95][k] = TAYLOR_MUL(J[31], J[94], k);
+        J[96][k] = T_SUB(J[85][k], J[95][k]);
+        J[97][k] = TAYLOR_DIV(J[96][k], J[41], J[97], k);
+        J[98][k] = TAYLOR_MUL(J[21], J[97], k);
+        J[99][k] = TAYLOR_MUL(J[46], J[67], k);
+        J[100][k] = T_MUL(C[1], J[99][k]);
+        J[101][k] = TAYLOR_MUL(J[69], J[16], k);
+        J[102][k] = T_SUB(J[100][k], J[101][k]);
+        J[103][k] = TAYLOR_MUL(J[11], J[52], k);
+        J[104][k] = TAYLOR_MUL(J[103], J[15], k);
         J[105][k] = T_SUB(J[102][k], J[104][k]);
-        J[106][k] = TAYLOR_MUL(J[8], J[57], k);
-        J[107][k] = TAYLOR_MUL(J[106], J[13], k);
+        J[106][k] = TAYLOR_MUL(J[14], J[57], k);
+        J[107][k] = TAYLOR_MUL(J[106], J[9], k);
         J[108][k] = T_SUB(J[105][k], J[107][k]);
-        J[109][k] = TAYLOR_MUL(J[25], J[53], k);
-        J[110][k] = T_MUL(C[0], J[109][k]);
-        J[111][k] = T_SUB(J[108][k], J[110][k]);
-        J[112][k] = T_MUL(C[6], J[111][k]);
-        J[113][k] = TAYLOR_MUL(J[15], J[85], k);
-        J[114][k] = T_SUB(J[112][k], J[113][k]);
-        J[115][k] = TAYLOR_MUL(J[18], J[96], k);
-        J[116][k] = T_SUB(J[114][k], J[115][k]);
-        J[117][k] = TAYLOR_DIV(J[116][k], J[41], J[117], k);
-        J[118][k] = TAYLOR_MUL(J[39], J[117], k);
-        J[119][k] = T_SUB(J[100][k], J[118][k]);
-        J[120][k] = TAYLOR_MUL(J[34], J[117], k);
-        J[121][k] = TAYLOR_MUL(J[39], J[98], k);
-        J[122][k] = TAYLOR_DIV(J[121][k], J[41], J[122], k);
-        J[123][k] = T_SUB(J[120][k], J[122][k]);
-        J[124][k] = TAYLOR_DIV(J[123][k], J[22], J[124], k);
-        J[125][k] = T_MUL(C[1], J[20][k]);
-        J[126][k] = T_SUB(J[125][k], J[33][k]);
-        J[127][k] = T_SUB(J[31][k], J[16][k]);
-        J[128][k] = TAYLOR_MUL(J[127], J[126], k);
-        J[129][k] = TAYLOR_MUL(J[28], J[32], k);
-        J[130][k] = T_MUL(C[1], J[129][k]);
-        J[131][k] = TAYLOR_MUL(J[15], J[18], k);
+        J[109][k] = T_MUL(C[6], J[108][k]);
+        J[110][k] = TAYLOR_MUL(J[18], J[83], k);
+        J[111][k] = T_SUB(J[109][k], J[110][k]);
+        J[112][k] = TAYLOR_MUL(J[11], J[94], k);
+        J[113][k] = T_SUB(J[111][k], J[112][k]);
+        J[114][k] = TAYLOR_DIV(J[113][k], J[41], J[114], k);
+        J[115][k] = TAYLOR_MUL(J[39], J[114], k);
+        J[116][k] = T_SUB(J[98][k], J[115][k]);
+        J[117][k] = TAYLOR_MUL(J[34], J[114], k);
+        J[118][k] = TAYLOR_MUL(J[39], J[97], k);
+        J[119][k] = T_SUB(J[117][k], J[118][k]);
+        J[120][k] = TAYLOR_DIV(J[119][k], J[22], J[120], k);
+        J[121][k] = T_ADD(J[33][k], J[13][k]);
+        J[122][k] = T_ADD(J[30][k], J[20][k]);
+        J[123][k] = TAYLOR_MUL(J[122], J[121], k);
+        J[124][k] = TAYLOR_MUL(J[28], J[31], k);
+        J[125][k] = T_MUL(C[1], J[124][k]);
+        J[126][k] = TAYLOR_MUL(J[18], J[11], k);
+        J[127][k] = T_SUB(J[125][k], J[126][k]);
+        J[128][k] = TAYLOR_SQUARE(J[127], k);
+        J[129][k] = T_SUB(J[123][k], J[128][k]);
+        J[130][k] = T_MUL(C[3], J[83][k]);
+        J[131][k] = TAYLOR_MUL(J[28], J[64], k);
         J[132][k] = T_SUB(J[130][k], J[131][k]);
-        J[133][k] = TAYLOR_SQUARE(J[132], k);
-        J[134][k] = T_SUB(J[128][k], J[133][k]);
-        J[135][k] = T_MUL(C[3], J[85][k]);
-        J[136][k] = TAYLOR_MUL(J[28], J[66], k);
-        J[137][k] = T_SUB(J[135][k], J[136][k]);
-        J[138][k] = TAYLOR_MUL(J[15], J[111], k);
+        J[133][k] = TAYLOR_MUL(J[18], J[108], k);
+        J[134][k] = T_SUB(J[132][k], J[133][k]);
+        J[135][k] = TAYLOR_DIV(J[134][k], J[129], J[135], k);
+        J[136][k] = TAYLOR_MUL(J[121], J[135], k);
+        J[137][k] = T_MUL(C[3], J[94][k]);
+        J[138][k] = TAYLOR_MUL(J[31], J[64], k);
         J[139][k] = T_SUB(J[137][k], J[138][k]);
-        J[140][k] = TAYLOR_MUL(J[126], J[139], k);
-        J[141][k] = TAYLOR_DIV(J[140][k], J[134], J[141], k);
-        J[142][k] = T_MUL(C[3], J[96][k]);
-        J[143][k] = TAYLOR_MUL(J[32], J[66], k);
-        J[144][k] = T_SUB(J[142][k], J[143][k]);
-        J[145][k] = TAYLOR_MUL(J[18], J[111], k);
-        J[146][k] = T_SUB(J[144][k], J[145][k]);
-        J[147][k] = TAYLOR_DIV(J[146][k], J[134], J[147], k);
-        J[148][k] = TAYLOR_MUL(J[132], J[147], k);
-        J[149][k] = T_SUB(J[141][k], J[148][k]);
-        J[150][k] = TAYLOR_MUL(J[127], J[147], k);
-        J[151][k] = TAYLOR_MUL(J[132], J[139], k);
-        J[152][k] = TAYLOR_DIV(J[151][k], J[134], J[152], k);
-        J[153][k] = T_SUB(J[150][k], J[152][k]);
-        J[154][k] = TAYLOR_DIV(J[153][k], J[8], J[154], k);
-        if (k == 0 && (!(T_ABS(J[22][0]) >= sine_min) || !(T_ABS(J[8][0]) >= sine_min))) {
+        J[140][k] = TAYLOR_MUL(J[11], J[108], k);
+        J[141][k] = T_SUB(J[139][k], J[140][k]);
+        J[142][k] = TAYLOR_DIV(J[141][k], J[129], J[142], k);
+        J[143][k] = TAYLOR_MUL(J[127], J[142], k);
+        J[144][k] = T_SUB(J[136][k], J[143][k]);
+        J[145][k] = TAYLOR_MUL(J[122], J[142], k);
+        J[146][k] = TAYLOR_MUL(J[127], J[135], k);
+        J[147][k] = T_SUB(J[145][k], J[146][k]);
+        J[148][k] = TAYLOR_DIV(J[147][k], J[14], J[148], k);
+        if (k == 0 && (!(T_ABS(J[22][0]) >= sine_min) || !(T_ABS(J[14][0]) >= sine_min))) {
             return SPHERICAL_STD_INTEGRATE_CHART_SINGULAR;
         }
         X[0][k + 1] = T_DIVI(X[4][k], k + 1);
         X[1][k + 1] = T_DIVI(X[5][k], k + 1);
         X[2][k + 1] = T_DIVI(X[6][k], k + 1);
         X[3][k + 1] = T_DIVI(X[7][k], k + 1);
-        X[4][k + 1] = T_DIVI(J[119][k], k + 1);
-        X[5][k + 1] = T_DIVI(J[124][k], k + 1);
-        X[6][k + 1] = T_DIVI(J[149][k], k + 1);
-        X[7][k + 1] = T_DIVI(J[154][k], k + 1);
+        X[4][k + 1] = T_DIVI(J[116][k], k + 1);
+        X[5][k + 1] = T_DIVI(J[120][k], k + 1);
+        X[6][k + 1] = T_DIVI(J[144][k], k + 1);
+        X[7][k + 1] = T_DIVI(J[148][k], k + 1);
     }
     return SPHERICAL_STD_INTEGRATE_OK;
 }

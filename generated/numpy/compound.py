@@ -63,33 +63,32 @@ def rhs(y, p):
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    t5 = (1/2)*l1
-    t6 = l2*m2
-    t7 = t5*t6
+    t5 = (1/2)*m2
+    t6 = t5*l2
+    del t5
+    t7 = t6*l1
     M01 = t7*t4
     del t4, t7
     t8 = m2*l2*l2
     M11 = L2 + (1/4)*t8
     del t8
-    t9 = g*(m1 + 2*m2)
-    t10 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t9 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
     del cos_theta1, cos_theta2
-    t11 = theta2_dot*theta2_dot
-    t12 = t6*t11
-    del t11, t6
-    F0 = (-t5)*((t9*sin_theta1 + t10*t12))
-    del sin_theta1, t12, t5, t9
-    t13 = g*sin_theta2
-    del sin_theta2
+    t10 = theta2_dot*theta2_dot
+    t11 = (l2*m2)*t10
+    del t10
+    t12 = g*(m1 + 2*m2)
+    t13 = (1/2)*l1
+    F0 = (-t13)*((t12*sin_theta1 + t11*t9))
+    del sin_theta1, t11, t12, t13
     t14 = theta1_dot*theta1_dot
-    t15 = (1/2)*m2
-    t16 = t15*l2
-    del t15
-    F1 = t16*((l1*t10*t14 - t13))
-    del t10, t13, t14, t16
-    t17 = l1*l1
-    M00 = L1 + t17*(m2 + (1/4)*m1)
-    del t17
+    t15 = l1*t14
+    del t14
+    F1 = t6*((t15*t9 - g*sin_theta2))
+    del sin_theta2, t15, t6, t9
+    t16 = l1*l1
+    M00 = L1 + t16*(m2 + (1/4)*m1)
+    del t16
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
@@ -143,10 +142,11 @@ def mass_matrix(y, p):
     del rho_theta2, tan_half_sq_theta2
     t5 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
-    t6 = (1/2)*l1
-    t7 = l2*m2
-    t8 = t6*t7
-    del t6, t7
+    t6 = (1/2)*m2
+    t7 = t6*l2
+    del t6
+    t8 = t7*l1
+    del t7
     M01 = t8*t5
     del t5, t8
     t9 = m2*l2*l2
@@ -188,8 +188,6 @@ def forcing(y, p):
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
-    t1 = (1/2)*l1
-    t2 = g*(m1 + 2*m2)
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -197,27 +195,28 @@ def forcing(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t6 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t4 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
     del cos_theta1, cos_theta2
-    t7 = l2*m2
-    t8 = theta2_dot*theta2_dot
-    t9 = t7*t8
-    del t7, t8
-    t10 = (-t1)*((t2*sin_theta1 + t6*t9))
-    del sin_theta1, t1, t2, t9
-    t11 = g*sin_theta2
-    del sin_theta2
-    t12 = theta1_dot*theta1_dot
-    t13 = (1/2)*m2
-    t14 = t13*l2
-    del t13
-    t15 = t14*((l1*t12*t6 - t11))
-    del t11, t12, t14, t6
-    F = numpy.empty(shape + (2,), dtype)
-    F[..., 0] = t10
+    t5 = theta2_dot*theta2_dot
+    t6 = (l2*m2)*t5
+    del t5
+    t7 = g*(m1 + 2*m2)
+    t8 = (1/2)*l1
+    t9 = (-t8)*((t7*sin_theta1 + t4*t6))
+    del sin_theta1, t6, t7, t8
+    t10 = (1/2)*m2
+    t11 = t10*l2
     del t10
-    F[..., 1] = t15
-    del t15
+    t12 = theta1_dot*theta1_dot
+    t13 = l1*t12
+    del t12
+    t14 = t11*((t13*t4 - g*sin_theta2))
+    del sin_theta2, t11, t13, t4
+    F = numpy.empty(shape + (2,), dtype)
+    F[..., 0] = t9
+    del t9
+    F[..., 1] = t14
+    del t14
     return F
 
 
@@ -242,20 +241,10 @@ def energy(y, p):
     L2 = p[..., 5]
     g = p[..., 6]
     t0 = l1*l1
-    t1 = m2*l2*l2
-    t2 = theta2_dot*theta2_dot
-    t3 = theta1_dot*theta1_dot
-    t4 = (1/2)*m2
-    tan_half_theta2 = numpy.tan(0.5*theta2)
-    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
-    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*rho_theta2*tan_half_theta2
-    del tan_half_theta2
-    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
-    del rho_theta2, tan_half_sq_theta2
-    t6 = l2*cos_theta2
-    t7 = (-g*t4)*t6
-    del t6
+    t1 = (1/2)*m2
+    t2 = m2*l2*l2
+    t3 = theta2_dot*theta2_dot
+    t4 = theta1_dot*theta1_dot
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -263,22 +252,32 @@ def energy(y, p):
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
-    t9 = l1*cos_theta1
-    t10 = g*(m2 + (1/2)*m1)
-    t11 = t10*t9
-    del t10, t9
-    t14 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t6 = l1*cos_theta1
+    t7 = g*(m2 + (1/2)*m1)
+    t8 = (-t7)*t6
+    del t6, t7
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t10 = l2*cos_theta2
+    t11 = g*t1
+    t12 = (-t11)*t10
+    del t10, t11
+    t15 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
-    t15 = (1/2)*l1
-    t16 = l2*m2
-    t17 = t15*t16
-    del t15, t16
-    t18 = t17*t14
-    del t14, t17
+    t16 = t1*l2
+    t17 = t16*l1
+    del t16
+    t18 = t17*t15
+    del t15, t17
     t19 = t18*theta2_dot
     del t18
-    t20 = t7 + t19*theta1_dot + (((1/2)*L2 + (1/8)*t1))*t2 + (((1/2)*L1 + t0*t4 + (1/8)*t0*m1))*t3 - t11
-    del t0, t1, t11, t19, t2, t3, t4, t7
+    t20 = t12 + t8 + t19*theta1_dot + (((1/2)*L2 + (1/8)*t2))*t3 + (((1/2)*L1 + t0*t1 + (1/8)*t0*m1))*t4
+    del t0, t1, t12, t19, t2, t3, t4, t8
     E = numpy.empty(shape + (), dtype)
     E[...] = t20
     del t20
@@ -292,7 +291,7 @@ def positions(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns pos: (..., 2, 2) tip k, axis j at [k][j]
-    Total ops: 12
+    Total ops: 11
     """
     (y, p), shape, dtype = _prepare("positions", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -310,6 +309,8 @@ def positions(y, p):
     del sin_theta1
     t3 = l1*cos_theta1
     del cos_theta1
+    t4 = -t3
+    del t3
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -317,20 +318,19 @@ def positions(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t5 = l2*sin_theta2
+    t6 = l2*sin_theta2
     del sin_theta2
-    t7 = l2*cos_theta2
+    t8 = l2*cos_theta2
     del cos_theta2
-    t8 = -t3
-    t9 = t1 + t5
-    del t5
-    t10 = -t3 - t7
-    del t3, t7
+    t9 = t1 + t6
+    del t6
+    t10 = t4 - t8
+    del t8
     pos = numpy.empty(shape + (2, 2), dtype)
     pos[..., 0, 0] = t1
     del t1
-    pos[..., 0, 1] = t8
-    del t8
+    pos[..., 0, 1] = t4
+    del t4
     pos[..., 1, 0] = t9
     del t9
     pos[..., 1, 1] = t10
@@ -403,7 +403,7 @@ def jacobian(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns J: (..., 4, 4) row-major
-    Total ops: 107
+    Total ops: 101
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -432,65 +432,66 @@ def jacobian(y, p):
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    t5 = (1/2)*l1
-    t6 = l2*m2
-    t7 = t5*t6
-    M01 = t7*t4
-    t8 = theta1_dot*theta1_dot
-    t9 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    t10 = t7*t9
-    del t7
-    t11 = m2*l2*l2
-    M11 = L2 + (1/4)*t11
+    t5 = theta2_dot*theta2_dot
+    t6 = (l2*m2)*t5
+    t7 = g*(m1 + 2*m2)
+    t8 = (1/2)*l1
+    t9 = (1/2)*m2
+    t10 = t9*l2
+    del t9
+    t11 = t10*l1
+    t12 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t13 = t11*t12
+    t14 = l1*l1
+    M00 = L1 + t14*(m2 + (1/4)*m1)
+    del t14
+    M01 = t11*t4
     del t11
-    t12 = g*(m1 + 2*m2)
-    t13 = theta2_dot*theta2_dot
-    t14 = t6*t13
-    F0 = (-t5)*((t12*sin_theta1 + t14*t9))
+    F0 = (-t8)*((t7*sin_theta1 + t12*t6))
     del sin_theta1
-    t15 = g*sin_theta2
+    t15 = theta1_dot*theta1_dot
+    t16 = l1*t15
+    del t15
+    F1 = t10*((t12*t16 - g*sin_theta2))
     del sin_theta2
-    t16 = (1/2)*m2
-    t17 = t16*l2
-    del t16
-    F1 = t17*((l1*t8*t9 - t15))
-    del t15, t17
-    t18 = l1*l1
-    M00 = L1 + t18*(m2 + (1/4)*m1)
-    del t18
+    t17 = m2*l2*l2
+    M11 = L2 + (1/4)*t17
+    del t17
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
-    qdd0 = rdet*(M11*F0 - F1*M01)
-    t19 = qdd0*t10
-    del qdd0
-    t20 = t19 + M01*t8
     qdd1 = rdet*(M00*F1 - F0*M01)
+    t18 = qdd1*t13
+    del qdd1
+    t19 = t18 - t8*(t7*cos_theta1 + t4*t6)
+    del cos_theta1, t6, t7, t8
+    qdd0 = rdet*(M11*F0 - F1*M01)
     del F0, F1
-    t21 = qdd1*t10
-    del qdd1, t10
-    t22 = t21 - t5*(t12*cos_theta1 + t14*t4)
-    del cos_theta1, t12, t14, t5
-    t23 = ((1/2)*l1*l2*m2)*t13*t4 - t21
-    del t13, t21
-    t24 = ((1/2)*l2*m2)*((-cos_theta2*g - t4*t8*l1)) - t19
-    del cos_theta2, t19, t4, t8
+    t20 = qdd0*t13
+    del qdd0, t13
+    t21 = t16*t4
+    del t16, t4
+    t22 = t20 + t10*t21
+    t23 = M01*t5 - t18
+    del t18, t5
+    t24 = t10*((-t21 - cos_theta2*g)) - t20
+    del cos_theta2, t10, t20, t21
     t25 = M01*rdet
-    t26 = (t6*l1)*t9
-    del t6, t9
+    t26 = (l1*l2*m2)*t12
+    del t12
     t27 = t26*theta1_dot
     t28 = M11*rdet
     t29 = t26*theta2_dot
     del t26
     t30 = M00*rdet
-    t31 = rdet*(M11*t22 - M01*t20)
+    t31 = rdet*(M11*t19 - M01*t22)
     t32 = rdet*(M11*t23 - M01*t24)
     del M11
     t33 = -t25*t27
     t34 = -t28*t29
     del t28
-    t35 = rdet*(M00*t20 - M01*t22)
-    del t20, t22
+    t35 = rdet*(M00*t22 - M01*t19)
+    del t19, t22
     t36 = rdet*(M00*t24 - M01*t23)
     del M00, M01, rdet, t23, t24
     t37 = t27*t30
@@ -532,7 +533,7 @@ def hamiltonian_rhs(x, p):
     x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns xdot: (..., 4) x' in canonical order
-    Total ops: 50
+    Total ops: 49
     """
     (x, p), shape, dtype = _prepare("hamiltonian_rhs", (x, 4, "x"), (p, 7, "p"))
     theta1 = x[..., 0]
@@ -561,10 +562,10 @@ def hamiltonian_rhs(x, p):
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    t5 = (1/2)*l1
-    t6 = l2*m2
-    t7 = t5*t6
-    del t5, t6
+    t5 = (1/2)*m2
+    t6 = t5*l2
+    t7 = t6*l1
+    del t6
     M01 = t7*t4
     del t4
     t8 = m2*l2*l2
@@ -590,24 +591,23 @@ def hamiltonian_rhs(x, p):
     del t13
     t15 = t14*v0
     del t14
-    t16 = g*sin_theta2
+    t16 = g*t5
+    del t5
+    t17 = l2*sin_theta2
     del sin_theta2
-    t17 = (1/2)*m2
-    t18 = t17*l2
-    del t17
-    t19 = -t15 - t10*t11
+    t18 = -t15 - t10*t11
     del t10, t11
-    t20 = t15 - t16*t18
-    del t15, t16, t18
+    t19 = t15 - t16*t17
+    del t15, t16, t17
     xdot = numpy.empty(shape + (4,), dtype)
     xdot[..., 0] = v0
     del v0
     xdot[..., 1] = v1
     del v1
-    xdot[..., 2] = t19
+    xdot[..., 2] = t18
+    del t18
+    xdot[..., 3] = t19
     del t19
-    xdot[..., 3] = t20
-    del t20
     return xdot
 
 
@@ -632,6 +632,10 @@ def hamiltonian_jacobian(x, p):
     L1 = p[..., 4]
     L2 = p[..., 5]
     g = p[..., 6]
+    t0 = (1/2)*m2
+    t1 = t0*l2
+    t2 = t1*l1
+    del t1
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -646,72 +650,82 @@ def hamiltonian_jacobian(x, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t4 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    t5 = (1/2)*l1
-    t6 = l2*m2
-    t7 = t5*t6
-    del t5, t6
-    t8 = t7*t4
-    t9 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t7 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t8 = t2*t7
+    del t7
+    t9 = l1*l1
+    M00 = L1 + t9*(m2 + (1/4)*m1)
+    del t9
+    t10 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del sin_theta1, sin_theta2
-    M01 = t7*t9
-    del t7, t9
-    t10 = m2*l2*l2
-    M11 = L2 + (1/4)*t10
-    del t10
-    t11 = l1*l1
-    M00 = L1 + t11*(m2 + (1/4)*m1)
+    M01 = t2*t10
+    del t10, t2
+    t11 = m2*l2*l2
+    M11 = L2 + (1/4)*t11
     del t11
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
-    v0 = rdet*(M11*p_theta1 - M01*p_theta2)
-    t12 = t8*v0
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
-    t13 = M01*t12 - (1/2)*M11*t4*v1*l1*l2*m2
-    del t4
-    dv0_0 = -rdet*t13
-    dv0_1 = rdet*t13
-    del t13
+    t12 = t8*v1
+    t13 = M11*t12
+    v0 = rdet*(M11*p_theta1 - M01*p_theta2)
+    t14 = t8*v0
+    del t8
+    t15 = M01*t14
+    dv0_0 = rdet*(t13 - t15)
+    dv0_1 = rdet*(t15 - t13)
+    del t13, t15
     dv0_2 = M11*rdet
     del M11
-    t14 = M01*rdet
-    dv0_3 = -t14
-    del t14
-    t15 = t8*v1
-    del t8
-    t16 = M00*t12 - M01*t15
-    dv1_0 = rdet*t16
-    dv1_1 = -rdet*t16
+    t16 = M01*rdet
+    dv0_3 = -t16
     del t16
+    t17 = M00*t14
+    t18 = M01*t12
+    dv1_0 = rdet*(t17 - t18)
+    dv1_1 = rdet*(t18 - t17)
+    del t17, t18
     dv1_2 = dv0_3
     dv1_3 = M00*rdet
     del M00, rdet
-    t17 = l1*cos_theta1
+    t19 = l1*cos_theta1
     del cos_theta1
-    t18 = g*(m2 + (1/2)*m1)
-    t19 = t18*t17
-    del t17, t18
-    t20 = M01*v0*v1
+    t20 = g*(m2 + (1/2)*m1)
+    t21 = (-t20)*t19
+    del t19, t20
+    t22 = M01*v0*v1
     del M01, v0, v1
-    t21 = t20 + dv0_0*t15 + dv1_0*t12
-    t22 = dv0_1*t15 + dv1_1*t12 - t20
-    del t20
-    t23 = dv0_2*t15 + dv1_2*t12
-    t24 = dv0_3*t15 + dv1_3*t12
-    del t12, t15
-    t25 = (1/2)*m2
-    t26 = l2*cos_theta2
+    t23 = -t22
+    t24 = dv0_0*t12
+    t25 = dv1_0*t14
+    t26 = dv0_1*t12
+    t27 = dv1_1*t14
+    t28 = dv0_2*t12
+    t29 = dv1_2*t14
+    t30 = dv0_3*t12
+    del t12
+    t31 = dv1_3*t14
+    del t14
+    t32 = l2*cos_theta2
     del cos_theta2
-    t27 = (-g*t25)*t26
-    del t25, t26
-    t28 = -t19 - t21
-    del t19
-    t29 = -t22
-    t30 = -t23
-    t31 = -t24
-    t32 = t22 + t27
-    del t22, t27
+    t33 = g*t0
+    del t0
+    t34 = (-t33)*t32
+    del t32, t33
+    t35 = t21 + t23 - t24 - t25
+    del t21
+    t36 = t22 - t26 - t27
+    t37 = -t28 - t29
+    t38 = -t30 - t31
+    t39 = t22 + t24 + t25
+    del t22, t24, t25
+    t40 = t23 + t26 + t27 + t34
+    del t23, t26, t27, t34
+    t41 = t28 + t29
+    del t28, t29
+    t42 = t30 + t31
+    del t30, t31
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = dv0_0
     del dv0_0
@@ -729,22 +743,22 @@ def hamiltonian_jacobian(x, p):
     del dv1_2
     J[..., 1, 3] = dv1_3
     del dv1_3
-    J[..., 2, 0] = t28
-    del t28
-    J[..., 2, 1] = t29
-    del t29
-    J[..., 2, 2] = t30
-    del t30
-    J[..., 2, 3] = t31
-    del t31
-    J[..., 3, 0] = t21
-    del t21
-    J[..., 3, 1] = t32
-    del t32
-    J[..., 3, 2] = t23
-    del t23
-    J[..., 3, 3] = t24
-    del t24
+    J[..., 2, 0] = t35
+    del t35
+    J[..., 2, 1] = t36
+    del t36
+    J[..., 2, 2] = t37
+    del t37
+    J[..., 2, 3] = t38
+    del t38
+    J[..., 3, 0] = t39
+    del t39
+    J[..., 3, 1] = t40
+    del t40
+    J[..., 3, 2] = t41
+    del t41
+    J[..., 3, 3] = t42
+    del t42
     return J
 
 
@@ -786,10 +800,11 @@ def to_canonical(y, p):
     del rho_theta2, tan_half_sq_theta2
     t6 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
-    t7 = (1/2)*l1
-    t8 = l2*m2
-    t9 = t7*t8
-    del t7, t8
+    t7 = (1/2)*m2
+    t8 = t7*l2
+    del t7
+    t9 = t8*l1
+    del t8
     t10 = t9*t6
     del t6, t9
     t11 = t10*theta2_dot
@@ -845,10 +860,11 @@ def from_canonical(x, p):
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
-    t5 = (1/2)*l1
-    t6 = l2*m2
-    t7 = t5*t6
-    del t5, t6
+    t5 = (1/2)*m2
+    t6 = t5*l2
+    del t5
+    t7 = t6*l1
+    del t6
     M01 = t7*t4
     del t4, t7
     t8 = m2*l2*l2

@@ -33,7 +33,7 @@ def linearize(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 7) the parameters: (m1, m2, l1, l2, L1, L2, g)
     returns A: (..., 4, 4) A = df/dy, row-major
-    Total ops: 107
+    Total ops: 101
     """
     (y, p), shape, dtype = _prepare("linearize", (y, 4, "y"), (p, 7, "p"))
     theta1 = y[..., 0]
@@ -62,65 +62,66 @@ def linearize(y, p):
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    t5 = (1/2)*l1
-    t6 = l2*m2
-    t7 = t5*t6
-    M01 = t7*t4
-    t8 = theta1_dot*theta1_dot
-    t9 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    t10 = t7*t9
-    del t7
-    t11 = m2*l2*l2
-    M11 = L2 + (1/4)*t11
+    t5 = theta2_dot*theta2_dot
+    t6 = (l2*m2)*t5
+    t7 = g*(m1 + 2*m2)
+    t8 = (1/2)*l1
+    t9 = (1/2)*m2
+    t10 = t9*l2
+    del t9
+    t11 = t10*l1
+    t12 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t13 = t11*t12
+    t14 = l1*l1
+    M00 = L1 + t14*(m2 + (1/4)*m1)
+    del t14
+    M01 = t11*t4
     del t11
-    t12 = g*(m1 + 2*m2)
-    t13 = theta2_dot*theta2_dot
-    t14 = t6*t13
-    F0 = (-t5)*((t12*sin_theta1 + t14*t9))
+    F0 = (-t8)*((t7*sin_theta1 + t12*t6))
     del sin_theta1
-    t15 = g*sin_theta2
+    t15 = theta1_dot*theta1_dot
+    t16 = l1*t15
+    del t15
+    F1 = t10*((t12*t16 - g*sin_theta2))
     del sin_theta2
-    t16 = (1/2)*m2
-    t17 = t16*l2
-    del t16
-    F1 = t17*((l1*t8*t9 - t15))
-    del t15, t17
-    t18 = l1*l1
-    M00 = L1 + t18*(m2 + (1/4)*m1)
-    del t18
+    t17 = m2*l2*l2
+    M11 = L2 + (1/4)*t17
+    del t17
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
-    qdd0 = rdet*(M11*F0 - F1*M01)
-    t19 = qdd0*t10
-    del qdd0
-    t20 = t19 + M01*t8
     qdd1 = rdet*(M00*F1 - F0*M01)
+    t18 = qdd1*t13
+    del qdd1
+    t19 = t18 - t8*(t7*cos_theta1 + t4*t6)
+    del cos_theta1, t6, t7, t8
+    qdd0 = rdet*(M11*F0 - F1*M01)
     del F0, F1
-    t21 = qdd1*t10
-    del qdd1, t10
-    t22 = t21 - t5*(t12*cos_theta1 + t14*t4)
-    del cos_theta1, t12, t14, t5
-    t23 = ((1/2)*l1*l2*m2)*t13*t4 - t21
-    del t13, t21
-    t24 = ((1/2)*l2*m2)*((-cos_theta2*g - t4*t8*l1)) - t19
-    del cos_theta2, t19, t4, t8
+    t20 = qdd0*t13
+    del qdd0, t13
+    t21 = t16*t4
+    del t16, t4
+    t22 = t20 + t10*t21
+    t23 = M01*t5 - t18
+    del t18, t5
+    t24 = t10*((-t21 - cos_theta2*g)) - t20
+    del cos_theta2, t10, t20, t21
     t25 = M01*rdet
-    t26 = (t6*l1)*t9
-    del t6, t9
+    t26 = (l1*l2*m2)*t12
+    del t12
     t27 = t26*theta1_dot
     t28 = M11*rdet
     t29 = t26*theta2_dot
     del t26
     t30 = M00*rdet
-    t31 = rdet*(M11*t22 - M01*t20)
+    t31 = rdet*(M11*t19 - M01*t22)
     t32 = rdet*(M11*t23 - M01*t24)
     del M11
     t33 = -t25*t27
     t34 = -t28*t29
     del t28
-    t35 = rdet*(M00*t20 - M01*t22)
-    del t20, t22
+    t35 = rdet*(M00*t22 - M01*t19)
+    del t19, t22
     t36 = rdet*(M00*t24 - M01*t23)
     del M00, M01, rdet, t23, t24
     t37 = t27*t30

@@ -24,16 +24,15 @@ def rk4(y, p, h, nsteps):
     if y.ndim != 2 or y.shape[0] != N_STATES:
         raise ValueError(f"y must have shape ({N_STATES}, B), got {y.shape}")
     m1, m2, l1, l2, L1, L2, g, = (float(v) for v in numpy.asarray(p, numpy.float64).reshape(N_PARAMS))
-    t5 = (1/2)*l1
-    t6 = l2*m2
-    t7 = t5*t6
+    t5 = (1/2)*m2
+    t6 = t5*l2
+    t7 = t6*l1
     t8 = m2*l2*l2
     M11 = L2 + (1/4)*t8
-    t9 = g*(m1 + 2*m2)
-    t15 = (1/2)*m2
-    t16 = t15*l2
-    t17 = l1*l1
-    M00 = L1 + t17*(m2 + (1/4)*m1)
+    t12 = g*(m1 + 2*m2)
+    t13 = (1/2)*l1
+    t16 = l1*l1
+    M00 = L1 + t16*(m2 + (1/4)*m1)
 
     def f(s, out):
         theta1, theta2, theta1_dot, theta2_dot, = s
@@ -49,13 +48,13 @@ def rk4(y, p, h, nsteps):
         cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
         t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
         M01 = t7*t4
-        t10 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-        t11 = theta2_dot*theta2_dot
-        t12 = t6*t11
-        F0 = (-t5)*((t9*sin_theta1 + t10*t12))
-        t13 = g*sin_theta2
+        t9 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+        t10 = theta2_dot*theta2_dot
+        t11 = (l2*m2)*t10
+        F0 = (-t13)*((t12*sin_theta1 + t11*t9))
         t14 = theta1_dot*theta1_dot
-        F1 = t16*((l1*t10*t14 - t13))
+        t15 = l1*t14
+        F1 = t6*((t15*t9 - g*sin_theta2))
         det = (M00*M11) - M01*M01
         rdet = 1.0/det
         qdd0 = rdet*(M11*F0 - F1*M01)

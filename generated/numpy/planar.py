@@ -62,27 +62,27 @@ def rhs(y, p):
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     t5 = l2*m2
-    t6 = t5*t4
-    del t4
-    M01 = l1*t6
-    del t6
+    t6 = t5*l1
+    M01 = t6*t4
+    del t4, t6
     M11 = m2*l2*l2
-    t7 = m1 + m2
-    t8 = g*t7
-    t9 = theta2_dot*theta2_dot
-    t10 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t7 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
     del cos_theta1, cos_theta2
-    t11 = t5*t10
-    F0 = (-l1)*((t8*sin_theta1 + t11*t9))
-    del sin_theta1, t11, t8, t9
-    t12 = g*sin_theta2
-    del sin_theta2
-    t13 = theta1_dot*theta1_dot
-    F1 = t5*((l1*t10*t13 - t12))
-    del t10, t12, t13, t5
+    t8 = theta2_dot*theta2_dot
+    t9 = t5*t8
+    del t8
+    t10 = m1 + m2
+    t11 = g*t10
+    F0 = (-l1)*((t11*sin_theta1 + t7*t9))
+    del sin_theta1, t11, t9
+    t12 = theta1_dot*theta1_dot
+    t13 = l1*t12
+    del t12
+    F1 = t5*((t13*t7 - g*sin_theta2))
+    del sin_theta2, t13, t5, t7
     t14 = l1*l1
-    M00 = t14*t7
-    del t14, t7
+    M00 = t10*t14
+    del t10, t14
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
@@ -136,10 +136,10 @@ def mass_matrix(y, p):
     t6 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
     t7 = l2*m2
-    t8 = t7*t6
-    del t6, t7
-    M01 = l1*t8
-    del t8
+    t8 = t7*l1
+    del t7
+    M01 = t8*t6
+    del t6, t8
     M11 = m2*l2*l2
     M = numpy.empty(shape + (2, 2), dtype)
     M[..., 0, 0] = M00
@@ -177,11 +177,6 @@ def forcing(y, p):
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
-    t1 = m1 + m2
-    t2 = g*t1
-    del t1
-    t3 = theta2_dot*theta2_dot
-    t4 = l2*m2
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -189,16 +184,22 @@ def forcing(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t8 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t4 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
     del cos_theta1, cos_theta2
-    t9 = t4*t8
-    t10 = (-l1)*((t2*sin_theta1 + t3*t9))
-    del sin_theta1, t2, t3, t9
-    t11 = g*sin_theta2
-    del sin_theta2
-    t12 = theta1_dot*theta1_dot
-    t13 = t4*((l1*t12*t8 - t11))
-    del t11, t12, t4, t8
+    t5 = l2*m2
+    t6 = theta2_dot*theta2_dot
+    t7 = t5*t6
+    del t6
+    t8 = m1 + m2
+    t9 = g*t8
+    del t8
+    t10 = (-l1)*((t9*sin_theta1 + t4*t7))
+    del sin_theta1, t7, t9
+    t11 = theta1_dot*theta1_dot
+    t12 = l1*t11
+    del t11
+    t13 = t5*((t12*t4 - g*sin_theta2))
+    del sin_theta2, t12, t4, t5
     F = numpy.empty(shape + (2,), dtype)
     F[..., 0] = t10
     del t10
@@ -213,7 +214,7 @@ def energy(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns E: (...) T + V
-    Total ops: 36
+    Total ops: 37
     """
     (y, p), shape, dtype = _prepare("energy", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -228,19 +229,9 @@ def energy(y, p):
     t0 = m2*l2*l2
     t1 = theta2_dot*theta2_dot
     t2 = theta1_dot*theta1_dot
-    tan_half_theta2 = numpy.tan(0.5*theta2)
-    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
-    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
-    sin_theta2 = 2*rho_theta2*tan_half_theta2
-    del tan_half_theta2
-    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
-    del rho_theta2, tan_half_sq_theta2
-    t4 = l2*cos_theta2
-    t5 = (-g*m2)*t4
-    del t4
-    t6 = m1 + m2
-    t7 = g*t6
-    del t6
+    t3 = m1 + m2
+    t4 = g*t3
+    del t3
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -248,26 +239,37 @@ def energy(y, p):
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
-    t9 = l1*cos_theta1
-    t10 = t7*t9
-    del t7, t9
-    t11 = l1*l1
-    t12 = (1/2)*t11
-    del t11
-    t15 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t6 = l1*cos_theta1
+    t7 = (-t4)*t6
+    del t4, t6
+    tan_half_theta2 = numpy.tan(0.5*theta2)
+    tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
+    rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
+    sin_theta2 = 2*rho_theta2*tan_half_theta2
+    del tan_half_theta2
+    cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
+    del rho_theta2, tan_half_sq_theta2
+    t9 = l2*cos_theta2
+    t10 = g*m2
+    t11 = (-t10)*t9
+    del t10, t9
+    t14 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
-    t16 = l2*m2
-    t17 = t16*t15
-    del t15, t16
-    t18 = l1*t17
+    t15 = l2*m2
+    t16 = t15*l1
+    del t15
+    t17 = t16*t14
+    del t14, t16
+    t18 = t17*theta2_dot
     del t17
-    t19 = t18*theta2_dot
-    del t18
-    t20 = t5 + t19*theta1_dot + ((t12*m1 + t12*m2))*t2 + ((1/2)*t0)*t1 - t10
-    del t0, t1, t10, t12, t19, t2, t5
+    t19 = l1*l1
+    t20 = (1/2)*t19
+    del t19
+    t21 = t11 + t7 + t18*theta1_dot + ((t20*m1 + t20*m2))*t2 + ((1/2)*t0)*t1
+    del t0, t1, t11, t18, t2, t20, t7
     E = numpy.empty(shape + (), dtype)
-    E[...] = t20
-    del t20
+    E[...] = t21
+    del t21
     return E
 
 
@@ -278,7 +280,7 @@ def positions(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns pos: (..., 2, 2) tip k, axis j at [k][j]
-    Total ops: 12
+    Total ops: 11
     """
     (y, p), shape, dtype = _prepare("positions", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -296,6 +298,8 @@ def positions(y, p):
     del sin_theta1
     t3 = l1*cos_theta1
     del cos_theta1
+    t4 = -t3
+    del t3
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -303,20 +307,19 @@ def positions(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t5 = l2*sin_theta2
+    t6 = l2*sin_theta2
     del sin_theta2
-    t7 = l2*cos_theta2
+    t8 = l2*cos_theta2
     del cos_theta2
-    t8 = -t3
-    t9 = t1 + t5
-    del t5
-    t10 = -t3 - t7
-    del t3, t7
+    t9 = t1 + t6
+    del t6
+    t10 = t4 - t8
+    del t8
     pos = numpy.empty(shape + (2, 2), dtype)
     pos[..., 0, 0] = t1
     del t1
-    pos[..., 0, 1] = t8
-    del t8
+    pos[..., 0, 1] = t4
+    del t4
     pos[..., 1, 0] = t9
     del t9
     pos[..., 1, 1] = t10
@@ -389,7 +392,7 @@ def jacobian(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 4, 4) row-major
-    Total ops: 95
+    Total ops: 90
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -401,7 +404,6 @@ def jacobian(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = l2*m2
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -409,6 +411,8 @@ def jacobian(y, p):
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
+    t1 = m1 + m2
+    t2 = g*t1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -416,68 +420,69 @@ def jacobian(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t5 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    t6 = t0*t5
-    t7 = l1*t6
-    t8 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    t9 = t0*t8
-    M01 = l1*t9
+    t6 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t7 = l2*m2
+    t8 = theta2_dot*theta2_dot
+    t9 = t7*t8
+    del t8
+    t10 = t6*t9
+    t11 = t7*l1
+    t12 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t13 = t11*t12
+    t14 = l1*l1
+    M00 = t1*t14
+    del t1, t14
+    M01 = t11*t6
+    del t11
+    F0 = (-l1)*((t2*sin_theta1 + t12*t9))
+    del sin_theta1, t9
+    t15 = theta1_dot*theta1_dot
+    t16 = l1*t15
+    del t15
+    F1 = t7*((t12*t16 - g*sin_theta2))
+    del sin_theta2, t12
     M11 = m2*l2*l2
-    t10 = m1 + m2
-    t11 = g*t10
-    t12 = theta2_dot*theta2_dot
-    F0 = (-l1)*((t11*sin_theta1 + t12*t6))
-    del sin_theta1, t6
-    t13 = g*sin_theta2
-    del sin_theta2
-    t14 = theta1_dot*theta1_dot
-    F1 = t0*((l1*t14*t5 - t13))
-    del t13, t5
-    t15 = l1*l1
-    M00 = t10*t15
-    del t10, t15
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
-    qdd0 = rdet*(M11*F0 - F1*M01)
-    t16 = qdd0*t7
-    del qdd0
-    t17 = l1*t14*t8
-    del t14
-    t18 = t16 + t0*t17
-    del t0
     qdd1 = rdet*(M00*F1 - F0*M01)
-    del F0, F1
-    t19 = qdd1*t7
+    t17 = qdd1*t13
     del qdd1
-    t20 = t19 - l1*(t11*cos_theta1 + t12*t9)
-    del cos_theta1, t11, t9
-    t21 = (l1*l2*m2)*t12*t8 - t19
-    del t12, t19, t8
-    t22 = (l2*m2)*((-t17 - cos_theta2*g)) - t16
-    del cos_theta2, t16, t17
-    t23 = M01*rdet
-    t24 = 2*t7
-    del t7
-    t25 = t24*theta1_dot
-    t26 = M11*rdet
-    t27 = t24*theta2_dot
-    del t24
-    t28 = M00*rdet
-    t29 = rdet*(M11*t20 - M01*t18)
-    t30 = rdet*(M11*t21 - M01*t22)
+    t18 = t17 - l1*(t10 + t2*cos_theta1)
+    del cos_theta1, t2
+    qdd0 = rdet*(M11*F0 - F1*M01)
+    del F0, F1
+    t19 = qdd0*t13
+    del qdd0
+    t20 = t16*t6
+    del t16, t6
+    t21 = t19 + t7*t20
+    t22 = l1*t10 - t17
+    del t10, t17
+    t23 = t7*((-t20 - cos_theta2*g)) - t19
+    del cos_theta2, t19, t20, t7
+    t24 = M01*rdet
+    t25 = 2*t13
+    del t13
+    t26 = t25*theta1_dot
+    t27 = M11*rdet
+    t28 = t25*theta2_dot
+    del t25
+    t29 = M00*rdet
+    t30 = rdet*(M11*t18 - M01*t21)
+    t31 = rdet*(M11*t22 - M01*t23)
     del M11
-    t31 = -t23*t25
-    t32 = -t26*t27
-    del t26
-    t33 = rdet*(M00*t18 - M01*t20)
-    del t18, t20
-    t34 = rdet*(M00*t22 - M01*t21)
-    del M00, M01, rdet, t21, t22
-    t35 = t25*t28
-    del t25, t28
-    t36 = t23*t27
-    del t23, t27
+    t32 = -t24*t26
+    t33 = -t27*t28
+    del t27
+    t34 = rdet*(M00*t21 - M01*t18)
+    del t18, t21
+    t35 = rdet*(M00*t23 - M01*t22)
+    del M00, M01, rdet, t22, t23
+    t36 = t26*t29
+    del t26, t29
+    t37 = t24*t28
+    del t24, t28
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -487,22 +492,22 @@ def jacobian(y, p):
     J[..., 1, 1] = 0
     J[..., 1, 2] = 0
     J[..., 1, 3] = 1
-    J[..., 2, 0] = t29
-    del t29
-    J[..., 2, 1] = t30
+    J[..., 2, 0] = t30
     del t30
-    J[..., 2, 2] = t31
+    J[..., 2, 1] = t31
     del t31
-    J[..., 2, 3] = t32
+    J[..., 2, 2] = t32
     del t32
-    J[..., 3, 0] = t33
+    J[..., 2, 3] = t33
     del t33
-    J[..., 3, 1] = t34
+    J[..., 3, 0] = t34
     del t34
-    J[..., 3, 2] = t35
+    J[..., 3, 1] = t35
     del t35
-    J[..., 3, 3] = t36
+    J[..., 3, 2] = t36
     del t36
+    J[..., 3, 3] = t37
+    del t37
     return J
 
 
@@ -541,10 +546,10 @@ def hamiltonian_rhs(x, p):
     del rho_theta2, tan_half_sq_theta2
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     t5 = l2*m2
-    t6 = t5*t4
+    t6 = t5*l1
+    del t5
+    M01 = t6*t4
     del t4
-    M01 = l1*t6
-    del t6
     M11 = m2*l2*l2
     t7 = l1*l1
     t8 = m1 + m2
@@ -562,20 +567,19 @@ def hamiltonian_rhs(x, p):
     t10 = l1*sin_theta1
     t11 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1
-    t12 = t5*t11
-    del t11
-    t13 = l1*t12
+    t12 = t6*t11
+    del t11, t6
+    t13 = t12*v0
     del t12
     t14 = t13*v1
     del t13
-    t15 = t14*v0
-    del t14
-    t16 = g*sin_theta2
+    t15 = g*m2
+    t16 = l2*sin_theta2
     del sin_theta2
-    t17 = -t15 - t10*t9
+    t17 = -t14 - t10*t9
     del t10, t9
-    t18 = t15 - t16*t5
-    del t15, t16, t5
+    t18 = t14 - t15*t16
+    del t14, t15, t16
     xdot = numpy.empty(shape + (4,), dtype)
     xdot[..., 0] = v0
     del v0
@@ -595,7 +599,7 @@ def hamiltonian_jacobian(x, p):
     x: (..., 4) the canonical state: coordinates, then their momenta: (theta1, theta2, p_theta1, p_theta2)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 4, 4) row-major
-    Total ops: 83
+    Total ops: 84
     """
     (x, p), shape, dtype = _prepare("hamiltonian_jacobian", (x, 4, "x"), (p, 5, "p"))
     theta1 = x[..., 0]
@@ -607,6 +611,9 @@ def hamiltonian_jacobian(x, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
+    t0 = l2*m2
+    t1 = t0*l1
+    del t0
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -621,72 +628,81 @@ def hamiltonian_jacobian(x, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t4 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    t5 = l2*m2
-    t6 = t5*t4
-    t7 = l1*t6
+    t6 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t7 = t1*t6
     del t6
-    t8 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t8 = l1*l1
+    t9 = m1 + m2
+    M00 = t8*t9
+    del t8
+    t10 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del sin_theta1, sin_theta2
-    t9 = t5*t8
-    del t5, t8
-    M01 = l1*t9
-    del t9
+    M01 = t1*t10
+    del t1, t10
     M11 = m2*l2*l2
-    t10 = l1*l1
-    t11 = m1 + m2
-    M00 = t10*t11
-    del t10
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
-    v0 = rdet*(M11*p_theta1 - M01*p_theta2)
-    t12 = t7*v0
     v1 = rdet*(M00*p_theta2 - M01*p_theta1)
-    t13 = M01*t12 - M11*t4*v1*l1*l2*m2
-    del t4
-    dv0_0 = -rdet*t13
-    dv0_1 = rdet*t13
-    del t13
+    t11 = t7*v1
+    t12 = M11*t11
+    v0 = rdet*(M11*p_theta1 - M01*p_theta2)
+    t13 = t7*v0
+    del t7
+    t14 = M01*t13
+    dv0_0 = rdet*(t12 - t14)
+    dv0_1 = rdet*(t14 - t12)
+    del t12, t14
     dv0_2 = M11*rdet
     del M11
-    t14 = M01*rdet
-    dv0_3 = -t14
-    del t14
-    t15 = t7*v1
-    del t7
-    t16 = M00*t12 - M01*t15
-    dv1_0 = rdet*t16
-    dv1_1 = -rdet*t16
-    del t16
+    t15 = M01*rdet
+    dv0_3 = -t15
+    del t15
+    t16 = M00*t13
+    t17 = M01*t11
+    dv1_0 = rdet*(t16 - t17)
+    dv1_1 = rdet*(t17 - t16)
+    del t16, t17
     dv1_2 = dv0_3
     dv1_3 = M00*rdet
     del M00, rdet
-    t17 = g*t11
-    del t11
-    t18 = l1*cos_theta1
+    t18 = g*t9
+    del t9
+    t19 = l1*cos_theta1
     del cos_theta1
-    t19 = t17*t18
-    del t17, t18
-    t20 = M01*v0*v1
+    t20 = (-t18)*t19
+    del t18, t19
+    t21 = M01*v0*v1
     del M01, v0, v1
-    t21 = t20 + dv0_0*t15 + dv1_0*t12
-    t22 = dv0_1*t15 + dv1_1*t12 - t20
-    del t20
-    t23 = dv0_2*t15 + dv1_2*t12
-    t24 = dv0_3*t15 + dv1_3*t12
-    del t12, t15
-    t25 = l2*cos_theta2
+    t22 = -t21
+    t23 = dv0_0*t11
+    t24 = dv1_0*t13
+    t25 = dv0_1*t11
+    t26 = dv1_1*t13
+    t27 = dv0_2*t11
+    t28 = dv1_2*t13
+    t29 = dv0_3*t11
+    del t11
+    t30 = dv1_3*t13
+    del t13
+    t31 = l2*cos_theta2
     del cos_theta2
-    t26 = (-g*m2)*t25
-    del t25
-    t27 = -t19 - t21
-    del t19
-    t28 = -t22
-    t29 = -t23
-    t30 = -t24
-    t31 = t22 + t26
-    del t22, t26
+    t32 = g*m2
+    t33 = (-t32)*t31
+    del t31, t32
+    t34 = t20 + t22 - t23 - t24
+    del t20
+    t35 = t21 - t25 - t26
+    t36 = -t27 - t28
+    t37 = -t29 - t30
+    t38 = t21 + t23 + t24
+    del t21, t23, t24
+    t39 = t22 + t25 + t26 + t33
+    del t22, t25, t26, t33
+    t40 = t27 + t28
+    del t27, t28
+    t41 = t29 + t30
+    del t29, t30
     J = numpy.empty(shape + (4, 4), dtype)
     J[..., 0, 0] = dv0_0
     del dv0_0
@@ -704,22 +720,22 @@ def hamiltonian_jacobian(x, p):
     del dv1_2
     J[..., 1, 3] = dv1_3
     del dv1_3
-    J[..., 2, 0] = t27
-    del t27
-    J[..., 2, 1] = t28
-    del t28
-    J[..., 2, 2] = t29
-    del t29
-    J[..., 2, 3] = t30
-    del t30
-    J[..., 3, 0] = t21
-    del t21
-    J[..., 3, 1] = t31
-    del t31
-    J[..., 3, 2] = t23
-    del t23
-    J[..., 3, 3] = t24
-    del t24
+    J[..., 2, 0] = t34
+    del t34
+    J[..., 2, 1] = t35
+    del t35
+    J[..., 2, 2] = t36
+    del t36
+    J[..., 2, 3] = t37
+    del t37
+    J[..., 3, 0] = t38
+    del t38
+    J[..., 3, 1] = t39
+    del t39
+    J[..., 3, 2] = t40
+    del t40
+    J[..., 3, 3] = t41
+    del t41
     return J
 
 
@@ -761,10 +777,10 @@ def to_canonical(y, p):
     t7 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
     t8 = l2*m2
-    t9 = t8*t7
-    del t7, t8
-    t10 = l1*t9
-    del t9
+    t9 = t8*l1
+    del t8
+    t10 = t9*t7
+    del t7, t9
     t11 = t10*theta2_dot
     t12 = m2*l2*l2
     t13 = t11 + t2*theta1_dot
@@ -815,10 +831,10 @@ def from_canonical(x, p):
     t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
     del cos_theta1, cos_theta2, sin_theta1, sin_theta2
     t5 = l2*m2
-    t6 = t5*t4
-    del t4, t5
-    M01 = l1*t6
-    del t6
+    t6 = t5*l1
+    del t5
+    M01 = t6*t4
+    del t4, t6
     M11 = m2*l2*l2
     t7 = l1*l1
     t8 = m1 + m2

@@ -33,7 +33,7 @@ def linearize(y, p):
     y: (..., 4) the state: coordinates, then their rates: (theta1, theta2, theta1_dot, theta2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns A: (..., 4, 4) A = df/dy, row-major
-    Total ops: 95
+    Total ops: 90
     """
     (y, p), shape, dtype = _prepare("linearize", (y, 4, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -45,7 +45,6 @@ def linearize(y, p):
     l1 = p[..., 2]
     l2 = p[..., 3]
     g = p[..., 4]
-    t0 = l2*m2
     tan_half_theta1 = numpy.tan(0.5*theta1)
     tan_half_sq_theta1 = tan_half_theta1*tan_half_theta1
     rho_theta1 = 1.0/(1 + tan_half_sq_theta1)
@@ -53,6 +52,8 @@ def linearize(y, p):
     del tan_half_theta1
     cos_theta1 = rho_theta1*(1 - tan_half_sq_theta1)
     del rho_theta1, tan_half_sq_theta1
+    t1 = m1 + m2
+    t2 = g*t1
     tan_half_theta2 = numpy.tan(0.5*theta2)
     tan_half_sq_theta2 = tan_half_theta2*tan_half_theta2
     rho_theta2 = 1.0/(1 + tan_half_sq_theta2)
@@ -60,68 +61,69 @@ def linearize(y, p):
     del tan_half_theta2
     cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
     del rho_theta2, tan_half_sq_theta2
-    t5 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-    t6 = t0*t5
-    t7 = l1*t6
-    t8 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-    t9 = t0*t8
-    M01 = l1*t9
+    t6 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
+    t7 = l2*m2
+    t8 = theta2_dot*theta2_dot
+    t9 = t7*t8
+    del t8
+    t10 = t6*t9
+    t11 = t7*l1
+    t12 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+    t13 = t11*t12
+    t14 = l1*l1
+    M00 = t1*t14
+    del t1, t14
+    M01 = t11*t6
+    del t11
+    F0 = (-l1)*((t2*sin_theta1 + t12*t9))
+    del sin_theta1, t9
+    t15 = theta1_dot*theta1_dot
+    t16 = l1*t15
+    del t15
+    F1 = t7*((t12*t16 - g*sin_theta2))
+    del sin_theta2, t12
     M11 = m2*l2*l2
-    t10 = m1 + m2
-    t11 = g*t10
-    t12 = theta2_dot*theta2_dot
-    F0 = (-l1)*((t11*sin_theta1 + t12*t6))
-    del sin_theta1, t6
-    t13 = g*sin_theta2
-    del sin_theta2
-    t14 = theta1_dot*theta1_dot
-    F1 = t0*((l1*t14*t5 - t13))
-    del t13, t5
-    t15 = l1*l1
-    M00 = t10*t15
-    del t10, t15
     det = (M00*M11) - M01*M01
     rdet = 1.0/det
     del det
-    qdd0 = rdet*(M11*F0 - F1*M01)
-    t16 = qdd0*t7
-    del qdd0
-    t17 = l1*t14*t8
-    del t14
-    t18 = t16 + t0*t17
-    del t0
     qdd1 = rdet*(M00*F1 - F0*M01)
-    del F0, F1
-    t19 = qdd1*t7
+    t17 = qdd1*t13
     del qdd1
-    t20 = t19 - l1*(t11*cos_theta1 + t12*t9)
-    del cos_theta1, t11, t9
-    t21 = (l1*l2*m2)*t12*t8 - t19
-    del t12, t19, t8
-    t22 = (l2*m2)*((-t17 - cos_theta2*g)) - t16
-    del cos_theta2, t16, t17
-    t23 = M01*rdet
-    t24 = 2*t7
-    del t7
-    t25 = t24*theta1_dot
-    t26 = M11*rdet
-    t27 = t24*theta2_dot
-    del t24
-    t28 = M00*rdet
-    t29 = rdet*(M11*t20 - M01*t18)
-    t30 = rdet*(M11*t21 - M01*t22)
+    t18 = t17 - l1*(t10 + t2*cos_theta1)
+    del cos_theta1, t2
+    qdd0 = rdet*(M11*F0 - F1*M01)
+    del F0, F1
+    t19 = qdd0*t13
+    del qdd0
+    t20 = t16*t6
+    del t16, t6
+    t21 = t19 + t7*t20
+    t22 = l1*t10 - t17
+    del t10, t17
+    t23 = t7*((-t20 - cos_theta2*g)) - t19
+    del cos_theta2, t19, t20, t7
+    t24 = M01*rdet
+    t25 = 2*t13
+    del t13
+    t26 = t25*theta1_dot
+    t27 = M11*rdet
+    t28 = t25*theta2_dot
+    del t25
+    t29 = M00*rdet
+    t30 = rdet*(M11*t18 - M01*t21)
+    t31 = rdet*(M11*t22 - M01*t23)
     del M11
-    t31 = -t23*t25
-    t32 = -t26*t27
-    del t26
-    t33 = rdet*(M00*t18 - M01*t20)
-    del t18, t20
-    t34 = rdet*(M00*t22 - M01*t21)
-    del M00, M01, rdet, t21, t22
-    t35 = t25*t28
-    del t25, t28
-    t36 = t23*t27
-    del t23, t27
+    t32 = -t24*t26
+    t33 = -t27*t28
+    del t27
+    t34 = rdet*(M00*t21 - M01*t18)
+    del t18, t21
+    t35 = rdet*(M00*t23 - M01*t22)
+    del M00, M01, rdet, t22, t23
+    t36 = t26*t29
+    del t26, t29
+    t37 = t24*t28
+    del t24, t28
     A = numpy.empty(shape + (4, 4), dtype)
     A[..., 0, 0] = 0
     A[..., 0, 1] = 0
@@ -131,20 +133,20 @@ def linearize(y, p):
     A[..., 1, 1] = 0
     A[..., 1, 2] = 0
     A[..., 1, 3] = 1
-    A[..., 2, 0] = t29
-    del t29
-    A[..., 2, 1] = t30
+    A[..., 2, 0] = t30
     del t30
-    A[..., 2, 2] = t31
+    A[..., 2, 1] = t31
     del t31
-    A[..., 2, 3] = t32
+    A[..., 2, 2] = t32
     del t32
-    A[..., 3, 0] = t33
+    A[..., 2, 3] = t33
     del t33
-    A[..., 3, 1] = t34
+    A[..., 3, 0] = t34
     del t34
-    A[..., 3, 2] = t35
+    A[..., 3, 1] = t35
     del t35
-    A[..., 3, 3] = t36
+    A[..., 3, 2] = t36
     del t36
+    A[..., 3, 3] = t37
+    del t37
     return A

@@ -25,11 +25,12 @@ def rk4(y, p, h, nsteps):
         raise ValueError(f"y must have shape ({N_STATES}, B), got {y.shape}")
     m1, m2, l1, l2, g, = (float(v) for v in numpy.asarray(p, numpy.float64).reshape(N_PARAMS))
     t5 = l2*m2
+    t6 = t5*l1
     M11 = m2*l2*l2
-    t7 = m1 + m2
-    t8 = g*t7
+    t10 = m1 + m2
+    t11 = g*t10
     t14 = l1*l1
-    M00 = t14*t7
+    M00 = t10*t14
 
     def f(s, out):
         theta1, theta2, theta1_dot, theta2_dot, = s
@@ -44,15 +45,14 @@ def rk4(y, p, h, nsteps):
         sin_theta2 = 2*rho_theta2*tan_half_theta2
         cos_theta2 = rho_theta2*(1 - tan_half_sq_theta2)
         t4 = cos_theta1*cos_theta2 + sin_theta1*sin_theta2
-        t6 = t5*t4
-        M01 = l1*t6
-        t9 = theta2_dot*theta2_dot
-        t10 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
-        t11 = t5*t10
-        F0 = (-l1)*((t8*sin_theta1 + t11*t9))
-        t12 = g*sin_theta2
-        t13 = theta1_dot*theta1_dot
-        F1 = t5*((l1*t10*t13 - t12))
+        M01 = t6*t4
+        t7 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
+        t8 = theta2_dot*theta2_dot
+        t9 = t5*t8
+        F0 = (-l1)*((t11*sin_theta1 + t7*t9))
+        t12 = theta1_dot*theta1_dot
+        t13 = l1*t12
+        F1 = t5*((t13*t7 - g*sin_theta2))
         det = (M00*M11) - M01*M01
         rdet = 1.0/det
         qdd0 = rdet*(M11*F0 - F1*M01)

@@ -36,7 +36,7 @@ def rhs(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns ydot: (..., 8) y' in state order
-    Total ops: 203
+    Total ops: 189
     """
     (y, p), shape, dtype = _prepare("rhs", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -85,6 +85,7 @@ def rhs(y, p):
     t8 = l2*cos_vartheta2
     t9 = l1*t8
     t10 = t6*t9
+    del t9
     Q10 = -t10
     del t10
     t11 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
@@ -93,120 +94,136 @@ def rhs(y, p):
     t14 = l1*cos_vartheta1
     t15 = l2*t14
     Q01 = t15*t6
-    t16 = Q01*Q01
-    t17 = 1.0/m2
-    t18 = l1*l1
-    t19 = m1 + m2
-    t20 = t18*t19
-    Aa = t17*t20
+    del t15
+    t16 = -Q01*Q01
+    t17 = sin_vartheta1*sin_vartheta2
+    t18 = cos_vartheta1*cos_vartheta2
+    t19 = t11*t18
+    t20 = t17 + t19
+    del t17, t19
+    Q00 = t12*t20
     del t20
-    AaAb = Aa*Ab
-    t21 = -AaAb
-    del AaAb
-    t22 = sin_vartheta1*sin_vartheta2
-    t23 = cos_vartheta1*cos_vartheta2
-    t24 = t22 + t11*t23
-    del t22, t23
-    Q00 = t12*t24
+    t21 = 1.0/m2
+    t22 = l1*l1
+    t23 = m1 + m2
+    t24 = t22*t23
+    del t22
+    Aa = t21*t24
     del t24
-    t25 = t21 + Q00*Q00
-    D1_00 = -t16 - t25
+    AaAb = Aa*Ab
+    t25 = AaAb - Q00*Q00
+    D1_00 = t16 + t25
     D1_01 = -Q00*Q10 - Q01*Q11
-    t26 = Q10*Q10
-    t27 = t21 + Q11*Q11
-    del t21
-    D1_11 = -t26 - t27
+    t26 = -Q10*Q10
+    t27 = AaAb - Q11*Q11
+    del AaAb
+    D1_11 = t26 + t27
     rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t28 = g*t19
+    t28 = g*t23
+    del t23
     t29 = t28*cos_varphi1
     del cos_varphi1
-    t30 = t17*l1
+    t30 = t12*t6
     t31 = 2*varphi1_dot
-    t32 = cos_vartheta1*vartheta1_dot
-    t33 = Aa*t32
-    del t32
-    t34 = 2*varphi2_dot
-    t35 = t11*t9
-    del t9
-    t36 = t34*t35
-    del t35
-    t37 = varphi2_dot*varphi2_dot
-    t38 = sin_vartheta2*t37
-    t39 = t12*t6
-    t40 = vartheta2_dot*vartheta2_dot
-    t41 = t12*t40
+    t32 = varphi2_dot*varphi2_dot
+    t33 = sin_vartheta2*t32
+    t34 = vartheta2_dot*vartheta2_dot
+    t35 = sin_vartheta2*t34
+    t36 = t21*l1
+    t37 = cos_vartheta1*vartheta1_dot
+    t38 = Aa*t37
+    del t37
+    t39 = 2*varphi2_dot
+    t40 = t8*vartheta2_dot
+    t41 = t39*t40
     del t40
-    t42 = t41*t6
-    f1 = -sin_vartheta2*t42 - t29*t30 - t31*t33 - t36*vartheta2_dot - t38*t39
-    del t29, t30, t33, t36, t38, t39, t42
-    t43 = g*sin_varphi2
+    t42 = t11*t41
+    del t41
+    f1 = -t29*t36 - t30*t33 - t30*t35 - t31*t38 - t42*l1
+    del t29, t33, t35, t36, t38, t42
+    t43 = vartheta1_dot*vartheta1_dot
+    t44 = cos_vartheta1*sin_vartheta2
+    t45 = cos_vartheta2*sin_vartheta1
+    t46 = t11*t45
+    t47 = t12*((t44 - t46))
+    t48 = 2*vartheta1_dot
+    t49 = t48*varphi1_dot
+    del t48
+    t50 = t18*t30
+    del t18, t30
+    t51 = Ab*t32
+    t52 = g*sin_varphi2
     del sin_varphi2
-    t44 = cos_vartheta2*sin_vartheta2
-    t45 = varphi1_dot*varphi1_dot
-    t46 = cos_vartheta2*sin_vartheta1
-    t47 = t45*t46
-    t48 = t14*vartheta1_dot
-    t49 = t31*t48
-    del t31, t48
-    t50 = t49*t6
-    del t49
-    t51 = vartheta1_dot*vartheta1_dot
-    t52 = t11*t46
+    t53 = cos_vartheta2*sin_vartheta2
+    t54 = varphi1_dot*varphi1_dot
+    t55 = t46*t54
     del t46
-    t53 = t12*((cos_vartheta1*sin_vartheta2 - t52))
-    del t12, t52
-    f2 = Q11*t47 + t50*t8 + Ab*t37*t44 - t43*t8 - t51*t53
-    del t43, t44, t47, t50, t53
-    t54 = g*cos_varphi2
+    f2 = t12*t55 + t49*t50 + t51*t53 - t43*t47 - t52*t8
+    del t47, t49, t51, t52, t53, t55, t8
+    t56 = l1*sin_vartheta1
+    t57 = t56*t6
+    del t56, t6
+    t58 = t54*t57
+    t59 = t43*t57
+    del t43, t57
+    t60 = l2*t11
+    t61 = t14*vartheta1_dot
+    t62 = t31*t61
+    del t31, t61
+    t63 = g*cos_varphi2
     del cos_varphi2
-    t55 = cos_vartheta2*vartheta2_dot
-    t56 = Ab*t34
-    t57 = t11*t15
-    del t15
-    t58 = 2*vartheta1_dot
-    t59 = t57*t58
-    del t57, t58
-    f3 = (l1*l2)*sin_vartheta1*t45*t6 + (l1*l2)*sin_vartheta1*t51*t6 - t54*l2 - t55*t56 - t59*varphi1_dot
-    del t51, t54, t55, t56, t59
-    t60 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t61 = t28*sin_varphi1
+    t64 = 2*Ab
+    t65 = cos_vartheta2*vartheta2_dot
+    del cos_vartheta2
+    t66 = t64*t65
+    del t64, t65
+    f3 = l2*t58 + l2*t59 - t60*t62 - t63*l2 - t66*varphi2_dot
+    del t58, t59, t60, t62, t63, t66
+    t67 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    t68 = t11*t44
+    del t11, t44
+    t69 = t45 - t68
+    del t45
+    t70 = t12*t32
+    del t32
+    t71 = t12*t34
+    del t12, t34
+    t72 = t21*t14
+    del t14, t21
+    t73 = t28*sin_varphi1
     del sin_varphi1, t28
-    t62 = t17*t14
-    t63 = t8*vartheta2_dot
-    del t8
-    t64 = t34*t63
-    del t34, t63
-    t65 = t14*t64
-    del t14, t64
-    t66 = cos_vartheta1*sin_vartheta2
-    t67 = cos_vartheta2*sin_vartheta1 - t11*t66
-    del cos_vartheta2, t66
-    f0 = (t17*t18*t19)*cos_vartheta1*sin_vartheta1*t45 + (l1*l2)*cos_vartheta1*sin_vartheta2*t11*t37 - t41*t67 - t6*t65 - t61*t62
-    del cos_vartheta1, t11, t17, t18, t19, t37, t41, t45, t6, t61, t62, t65, t67
-    t68 = Ab*f0 - Q00*f2 - Q01*f3
-    del Ab
-    qdd0 = D1_11*rD1*t68 - D1_01*t60
+    t74 = Aa*cos_vartheta1
+    del cos_vartheta1
+    t75 = t39*t50
+    del t39, t50
+    t76 = sin_vartheta1*t54
+    del t54
+    f0 = t68*t70 + t74*t76 - t69*t71 - t72*t73 - t75*vartheta2_dot
+    del t68, t69, t70, t71, t72, t73, t74, t75, t76
+    t77 = rD1*(Ab*f0 - Q00*f2 - Q01*f3)
+    del Ab, rD1
+    qdd0 = D1_11*t77 - D1_01*t67
     del D1_11
-    xr1 = D1_00*t60 - D1_01*rD1*t68
-    del D1_00, D1_01, rD1, t60, t68
+    xr1 = D1_00*t67 - D1_01*t77
+    del D1_00, D1_01, t67, t77
     rs1 = 1.0/sin_vartheta1
     del sin_vartheta1
     qdd1 = rs1*xr1
     del rs1, xr1
-    D2_00 = -t25 - t26
+    D2_00 = t25 + t26
     del t25, t26
     D2_01 = -Q00*Q01 - Q10*Q11
-    D2_11 = -t16 - t27
+    D2_11 = t16 + t27
     del t16, t27
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t69 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t78 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
     del Q01, Q11, f3
-    t70 = Aa*f2 - Q00*f0 - Q10*f1
-    del Aa, Q00, Q10, f0, f1, f2
-    qdd2 = D2_11*rD2*t70 - D2_01*t69
+    t79 = rD2*(Aa*f2 - Q00*f0 - Q10*f1)
+    del Aa, Q00, Q10, f0, f1, f2, rD2
+    qdd2 = D2_11*t79 - D2_01*t78
     del D2_11
-    xr3 = D2_00*t69 - D2_01*rD2*t70
-    del D2_00, D2_01, rD2, t69, t70
+    xr3 = D2_00*t78 - D2_01*t79
+    del D2_00, D2_01, t78, t79
     rs3 = 1.0/sin_vartheta2
     del sin_vartheta2
     qdd3 = rs3*xr3
@@ -233,7 +250,7 @@ def mass_matrix(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns M: (..., 4, 4) M, row-major
-    Total ops: 40
+    Total ops: 38
     """
     (y, p), shape, dtype = _prepare("mass_matrix", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -279,23 +296,23 @@ def mass_matrix(y, p):
     del rho_varphi2, tan_half_sq_varphi2
     t9 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
     t12 = cos_vartheta1*cos_vartheta2
-    t13 = t4 + t12*t9
+    t13 = t12*t9
     del t12
-    t14 = l1*l2
-    t15 = t14*t13
+    t14 = t13 + t4
     del t13
-    M02 = m2*t15
+    t15 = l2*m2
+    t16 = t15*l1
     del t15
-    t16 = cos_vartheta1*sin_vartheta2
+    M02 = t16*t14
+    del t14
+    t17 = cos_vartheta1*sin_vartheta2
     del cos_vartheta1
-    t17 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    t18 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
     del cos_varphi1, cos_varphi2, sin_varphi1, sin_varphi2
-    t18 = t14*t17
-    del t17
-    t19 = m2*t18
+    t19 = t16*t18
     del t18
-    M03 = t16*t19
-    del t16
+    M03 = t17*t19
+    del t17
     t20 = sin_vartheta1*sin_vartheta1
     M11 = M00*t20
     del t20
@@ -305,19 +322,17 @@ def mass_matrix(y, p):
     del t19, t21
     M12 = -t22
     del t22
-    t23 = t14*t9
-    del t14, t9
-    t24 = t23*t4
-    del t23, t4
-    M13 = m2*t24
+    t23 = t4*t9
+    del t4, t9
+    M13 = t16*t23
+    del t16, t23
+    t24 = l2*l2
+    M22 = t24*m2
     del t24
-    t25 = l2*l2
-    M22 = t25*m2
-    del t25
-    t26 = sin_vartheta2*sin_vartheta2
+    t25 = sin_vartheta2*sin_vartheta2
     del sin_vartheta2
-    M33 = M22*t26
-    del t26
+    M33 = M22*t25
+    del t25
     M = numpy.empty(shape + (4, 4), dtype)
     M[..., 0, 0] = M00
     del M00
@@ -352,7 +367,7 @@ def forcing(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns F: (..., 4) F
-    Total ops: 104
+    Total ops: 99
     """
     (y, p), shape, dtype = _prepare("forcing", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -383,6 +398,9 @@ def forcing(y, p):
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
+    t3 = cos_vartheta1*cos_vartheta2
+    t4 = l1*cos_vartheta1
+    t6 = cos_vartheta2*sin_vartheta1
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
@@ -397,60 +415,72 @@ def forcing(y, p):
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
-    t7 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
-    t9 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
-    t10 = g*t0
-    t11 = t10*sin_varphi1
+    t11 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
+    t13 = cos_vartheta1*sin_vartheta2
+    t14 = t11*t13
+    t15 = varphi2_dot*varphi2_dot
+    t16 = l2*m2
+    t17 = 2*varphi2_dot
+    t18 = t17*vartheta2_dot
+    t19 = g*t0
+    t20 = t19*sin_varphi1
+    t21 = varphi1_dot*varphi1_dot
+    t22 = sin_vartheta1*t21
+    t23 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
     del sin_varphi1
-    t12 = varphi1_dot*varphi1_dot
-    t13 = varphi2_dot*varphi2_dot
-    t14 = vartheta2_dot*vartheta2_dot
-    t16 = cos_vartheta2*sin_vartheta1
-    t17 = l2*m2
-    t18 = l2*cos_vartheta2
-    t19 = t18*vartheta2_dot
-    t20 = 2*varphi2_dot
-    t21 = t19*t20
-    del t19, t20
-    t22 = m2*t21
-    t23 = t10*cos_varphi1
-    del cos_varphi1, t10
-    t24 = sin_vartheta2*t13
-    t25 = 2*varphi1_dot
-    t26 = l1*cos_vartheta1
-    t27 = t26*vartheta1_dot
-    del t26
-    t28 = t25*t27
-    del t25, t27
-    t29 = t17*sin_vartheta2
-    t30 = l1*sin_vartheta1
-    t31 = cos_vartheta1*sin_vartheta2
-    t32 = g*sin_varphi2
-    del sin_varphi2
-    t33 = t28*t9
-    t34 = t16*t7
-    t35 = vartheta1_dot*vartheta1_dot
-    t36 = l1*t35
-    t37 = g*cos_varphi2
-    del cos_varphi2
-    t38 = t28*t7
-    t39 = l1*(((t0*l1)*cos_vartheta1*sin_vartheta1*t12 + (l2*m2)*cos_vartheta1*sin_vartheta2*t13*t7 + (l2*m2)*cos_vartheta1*sin_vartheta2*t14*t7 - cos_vartheta1*t11 - cos_vartheta1*t22*t9 - t14*t16*t17))
-    del cos_vartheta1, sin_vartheta2, t11, t13, t16
-    t40 = -t30*(t23 + t0*t28 + t22*t7 + t14*t29*t9 + t17*t24*t9)
-    del t0, t14, t22, t23, t28, t30, t7
-    t41 = t17*((cos_vartheta2*t33 + t18*t24 + t34*t36 + l1*t12*t34 - cos_vartheta2*t32 - t31*t36))
-    del cos_vartheta2, t17, t18, t24, t31, t32, t33, t34, t36
-    t42 = t29*(l1*sin_vartheta1*t12*t9 + l1*sin_vartheta1*t35*t9 - t21 - t37 - t38)
-    del sin_vartheta1, t12, t21, t29, t35, t37, t38, t9
-    F = numpy.empty(shape + (4,), dtype)
-    F[..., 0] = t39
+    t24 = t16*t23
+    t25 = vartheta2_dot*vartheta2_dot
+    t26 = t16*t25
+    t27 = t19*cos_varphi1
+    del cos_varphi1, t19
+    t28 = l1*sin_vartheta1
+    del sin_vartheta1
+    t29 = t4*vartheta1_dot
+    t30 = 2*varphi1_dot
+    t31 = t29*t30
+    del t29, t30
+    t32 = sin_vartheta2*t15
+    t33 = l2*cos_vartheta2
+    t34 = t33*vartheta2_dot
+    t35 = t17*t34
+    del t17, t34
+    t36 = t11*t35
+    t37 = t16*sin_vartheta2
+    del sin_vartheta2
+    t38 = t11*t6
+    t39 = 2*vartheta1_dot
+    t40 = t39*varphi1_dot
     del t39
-    F[..., 1] = t40
-    del t40
-    F[..., 2] = t41
-    del t41
-    F[..., 3] = t42
-    del t42
+    t41 = l1*t23
+    t42 = g*sin_varphi2
+    del sin_varphi2
+    t43 = t21*t38
+    t44 = vartheta1_dot*vartheta1_dot
+    t45 = l1*t44
+    t46 = t23*t28
+    t47 = t21*t46
+    del t21
+    t48 = t44*t46
+    del t44, t46
+    t49 = g*cos_varphi2
+    del cos_varphi2
+    t50 = l1*((t14*t26 + t0*t22*t4 + t16*t14*t15 - cos_vartheta1*t20 - t26*t6 - t18*t24*t3))
+    del cos_vartheta1, t14, t15, t18, t20, t22, t26, t4, t6
+    t51 = -t28*(t27 + t0*t31 + t24*t32 + m2*t36 + t23*t25*t37)
+    del t0, t23, t24, t25, t27, t28, t36
+    t52 = t16*((t32*t33 + t38*t45 + l1*t43 + t3*t40*t41 - cos_vartheta2*t42 - t13*t45))
+    del cos_vartheta2, t13, t16, t3, t32, t33, t38, t40, t41, t42, t43, t45
+    t53 = t37*(t47 + t48 - t35 - t49 - t11*t31)
+    del t11, t31, t35, t37, t47, t48, t49
+    F = numpy.empty(shape + (4,), dtype)
+    F[..., 0] = t50
+    del t50
+    F[..., 1] = t51
+    del t51
+    F[..., 2] = t52
+    del t52
+    F[..., 3] = t53
+    del t53
     return F
 
 
@@ -460,7 +490,7 @@ def energy(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns E: (...) T + V
-    Total ops: 82
+    Total ops: 76
     """
     (y, p), shape, dtype = _prepare("energy", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -506,65 +536,66 @@ def energy(y, p):
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
     t7 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
-    t8 = l1*l2
-    t9 = varphi1_dot*varphi1_dot
-    t10 = varphi2_dot*varphi2_dot
-    t12 = l2*cos_vartheta2
-    t13 = t12*vartheta2_dot
-    del t12
-    t14 = vartheta2_dot*vartheta2_dot
-    t16 = l1*cos_vartheta1
-    t17 = t16*vartheta1_dot
-    del t16
-    t18 = vartheta1_dot*vartheta1_dot
-    t19 = cos_vartheta1*sin_vartheta2
+    t10 = cos_vartheta1*cos_vartheta2
+    t11 = t10*t7
+    del t10
+    t12 = vartheta2_dot*vartheta2_dot
+    t13 = varphi2_dot*varphi2_dot
+    t14 = varphi1_dot*varphi1_dot
+    t15 = vartheta1_dot*vartheta1_dot
+    t16 = cos_vartheta1*sin_vartheta2
     del cos_vartheta1
-    t20 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    t17 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
     del cos_varphi1, cos_varphi2
-    t21 = t8*t20
-    del t20
-    t22 = m2*t21
-    del t21
-    t23 = t19*t22
-    del t19
-    t24 = sin_vartheta1*sin_vartheta1
-    t25 = cos_vartheta2*sin_vartheta1
-    del cos_vartheta2
-    t26 = t22*t25
-    del t22, t25
-    t27 = t8*t7
-    t28 = t2*t27
+    t18 = l2*m2
+    t19 = t18*l1
+    del t18
+    t20 = t19*t17
+    del t17
+    t21 = t16*t20
+    del t16
+    t22 = sin_vartheta1*sin_vartheta1
+    t23 = t2*t7
+    del t7
+    t24 = t19*t23
+    del t23
+    t25 = l2*l2
+    t26 = t25*m2
+    del t25
+    t27 = sin_vartheta2*sin_vartheta2
+    t28 = t26*t27
     del t27
-    t29 = m2*t28
-    del t28
-    t30 = l2*l2
-    t31 = t30*m2
+    t29 = l1*l1
+    t30 = (1/2)*t29
+    del t29
+    t31 = t30*m1 + t30*m2
     del t30
-    t32 = sin_vartheta2*sin_vartheta2
-    t33 = t31*t32
+    t32 = m1 + m2
+    t33 = g*t32
     del t32
-    t34 = sin_varphi2*sin_vartheta2
+    t34 = sin_varphi1*sin_vartheta1
+    del sin_varphi1
+    t35 = l1*t34
+    del t34
+    t36 = t33*t35
+    del t33, t35
+    t37 = sin_varphi2*sin_vartheta2
     del sin_varphi2, sin_vartheta2
-    t35 = l2*m2
-    t36 = m1 + m2
-    t37 = g*t36
-    del t36
-    t38 = sin_varphi1*sin_vartheta1
-    del sin_varphi1, sin_vartheta1
-    t39 = l1*t38
+    t38 = l2*t37
+    del t37
+    t39 = g*t38
     del t38
-    t40 = t37*t39
-    del t37, t39
-    t41 = l1*l1
-    t42 = (1/2)*t41
-    del t41
-    t43 = t42*m1 + t42*m2
-    del t42
-    t44 = t40 + t43*t18 + (1/2)*t10*t33 + ((1/2)*t31)*t14 + (g*t35)*t34 + t23*varphi2_dot*vartheta1_dot + t43*t24*t9 + t29*varphi1_dot*varphi2_dot + m2*t13*t17*t7 + (t8*m2)*t2*vartheta1_dot*vartheta2_dot - t26*varphi1_dot*vartheta2_dot
-    del t10, t13, t14, t17, t18, t2, t23, t24, t26, t29, t31, t33, t34, t35, t40, t43, t7, t8, t9
+    t40 = cos_vartheta2*sin_vartheta1
+    del cos_vartheta2, sin_vartheta1
+    t41 = t20*t40
+    del t20, t40
+    t42 = t19*vartheta1_dot*vartheta2_dot
+    del t19
+    t43 = t36 + t11*t42 + t31*t15 + t2*t42 + m2*t39 + ((1/2)*t26)*t12 + (1/2)*t13*t28 + t31*t14*t22 + t21*varphi2_dot*vartheta1_dot + t24*varphi1_dot*varphi2_dot - t41*varphi1_dot*vartheta2_dot
+    del t11, t12, t13, t14, t15, t2, t21, t22, t24, t26, t28, t31, t36, t39, t41, t42
     E = numpy.empty(shape + (), dtype)
-    E[...] = t44
-    del t44
+    E[...] = t43
+    del t43
     return E
 
 
@@ -661,7 +692,7 @@ def velocities(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns vel: (..., 2, 3) tip k, axis j at [k][j]
-    Total ops: 46
+    Total ops: 40
     """
     (y, p), shape, dtype = _prepare("velocities", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -684,6 +715,8 @@ def velocities(y, p):
     t1 = l1*sin_vartheta1
     t2 = t1*vartheta1_dot
     del t1
+    t3 = -t2
+    del t2
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
@@ -694,18 +727,18 @@ def velocities(y, p):
     t6 = sin_varphi1*sin_vartheta1
     t7 = l1*t6
     del t6
-    t8 = t7*varphi1_dot - cos_varphi1*cos_vartheta1*vartheta1_dot*l1
-    del t7
     t9 = l1*cos_vartheta1
     del cos_vartheta1
     t10 = t9*vartheta1_dot
     del t9
-    t11 = cos_varphi1*sin_vartheta1
+    t11 = cos_varphi1*t10 - t7*varphi1_dot
+    del t7
+    t12 = cos_varphi1*sin_vartheta1
     del cos_varphi1, sin_vartheta1
-    t12 = l1*t11
-    del t11
-    t13 = sin_varphi1*t10 + t12*varphi1_dot
-    del sin_varphi1, t10, t12
+    t13 = l1*t12
+    del t12
+    t14 = sin_varphi1*t10 + t13*varphi1_dot
+    del sin_varphi1, t10, t13
     tan_half_vartheta2 = numpy.tan(0.5*vartheta2)
     tan_half_sq_vartheta2 = tan_half_vartheta2*tan_half_vartheta2
     rho_vartheta2 = 1.0/(1 + tan_half_sq_vartheta2)
@@ -713,7 +746,9 @@ def velocities(y, p):
     del tan_half_vartheta2
     cos_vartheta2 = rho_vartheta2*(1 - tan_half_sq_vartheta2)
     del rho_vartheta2, tan_half_sq_vartheta2
-    t15 = sin_vartheta2*vartheta2_dot
+    t16 = sin_vartheta2*vartheta2_dot
+    t17 = l2*t16
+    del t16
     tan_half_varphi2 = numpy.tan(0.5*varphi2)
     tan_half_sq_varphi2 = tan_half_varphi2*tan_half_varphi2
     rho_varphi2 = 1.0/(1 + tan_half_sq_varphi2)
@@ -721,31 +756,30 @@ def velocities(y, p):
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
-    t19 = sin_varphi2*sin_vartheta2
-    t20 = l2*t19
-    del t19
-    t21 = l2*cos_vartheta2
-    t22 = t21*vartheta2_dot
-    del t21
-    t23 = cos_varphi2*sin_vartheta2
-    del sin_vartheta2
-    t24 = l2*t23
+    t20 = sin_varphi2*sin_vartheta2
+    t21 = l2*t20
+    del t20
+    t23 = l2*cos_vartheta2
+    del cos_vartheta2
+    t24 = t23*vartheta2_dot
     del t23
-    t25 = -t2
-    t26 = -t8
-    t27 = -t2 - t15*l2
-    del t15, t2
-    t28 = l2*cos_varphi2*cos_vartheta2*vartheta2_dot - t8 - t20*varphi2_dot
-    del cos_varphi2, cos_vartheta2, t20, t8
-    t29 = t13 + sin_varphi2*t22 + t24*varphi2_dot
-    del sin_varphi2, t22, t24
-    vel = numpy.empty(shape + (2, 3), dtype)
-    vel[..., 0, 0] = t25
+    t25 = cos_varphi2*sin_vartheta2
+    del sin_vartheta2
+    t26 = l2*t25
     del t25
-    vel[..., 0, 1] = t26
-    del t26
-    vel[..., 0, 2] = t13
-    del t13
+    t27 = t3 - t17
+    del t17
+    t28 = t11 + cos_varphi2*t24 - t21*varphi2_dot
+    del cos_varphi2, t21
+    t29 = t14 + sin_varphi2*t24 + t26*varphi2_dot
+    del sin_varphi2, t24, t26
+    vel = numpy.empty(shape + (2, 3), dtype)
+    vel[..., 0, 0] = t3
+    del t3
+    vel[..., 0, 1] = t11
+    del t11
+    vel[..., 0, 2] = t14
+    del t14
     vel[..., 1, 0] = t27
     del t27
     vel[..., 1, 1] = t28
@@ -762,7 +796,7 @@ def jacobian(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns J: (..., 8, 8) row-major
-    Total ops: 721
+    Total ops: 670
     """
     (y, p), shape, dtype = _prepare("jacobian", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -795,6 +829,12 @@ def jacobian(y, p):
     t2 = 1.0/m2
     t3 = l1*l1
     t4 = m1 + m2
+    t5 = t3*t4
+    del t3
+    Aa = t2*t5
+    del t5
+    t6 = varphi1_dot*varphi1_dot
+    t7 = sin_vartheta1*sin_vartheta2
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
@@ -809,309 +849,360 @@ def jacobian(y, p):
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
-    t9 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
-    t11 = l1*cos_vartheta1
-    t12 = l2*t11
-    Q01 = t12*t9
-    t13 = varphi1_dot*varphi1_dot
-    t14 = vartheta1_dot*vartheta1_dot
-    t15 = l1*l2
-    t16 = t15*t9
-    t17 = sin_vartheta1*t16
-    t18 = sin_vartheta1*vartheta1_dot
-    t19 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
-    Q11 = t15*t19
-    t20 = 2*varphi1_dot
-    t21 = Q11*t20
+    t12 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
+    t13 = t12*t7
+    t15 = cos_vartheta1*cos_vartheta1
+    t16 = g*t4
+    del t4
+    t17 = sin_varphi1*sin_vartheta1
+    t18 = l1*t17
+    del t17
+    t19 = t16*t18
+    del t18
+    t21 = cos_vartheta1*cos_vartheta2
+    t22 = t13 + t21
+    t23 = l1*l2
+    t24 = varphi2_dot*varphi2_dot
+    t25 = t23*t24
+    t26 = vartheta2_dot*vartheta2_dot
+    t27 = t23*t26
+    t28 = cos_vartheta1*sin_vartheta2
+    t29 = cos_vartheta2*sin_vartheta1
+    t30 = t12*t29
+    t31 = t23*((t28 - t30))
+    t32 = 2*varphi2_dot
+    t33 = t32*vartheta2_dot
+    t34 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    t35 = l1*sin_vartheta1
+    t36 = t34*t35
+    t37 = l2*t36
+    t38 = t23*t34
+    t39 = t29*t38
+    t40 = l1*cos_vartheta1
+    t41 = l2*t40
+    Q01 = t34*t41
+    Q11 = t23*t12
+    t42 = l2*cos_vartheta2
+    t43 = l1*t42
+    t44 = t34*t43
+    Q10 = -t44
+    t45 = -Q10*Q10
+    t46 = t12*t21
+    t47 = t46 + t7
+    Q00 = t23*t47
+    del t47
     Ab = l2*l2
-    t23 = l2*cos_vartheta2
-    t24 = l1*t23
-    t25 = t24*t9
-    Q10 = -t25
-    t26 = Q01*Q01
-    t27 = t3*t4
-    Aa = t2*t27
-    del t27
     AaAb = Aa*Ab
-    t28 = -AaAb
-    del AaAb
-    t29 = sin_vartheta1*sin_vartheta2
-    t30 = cos_vartheta1*cos_vartheta2
-    t31 = t29 + t19*t30
-    Q00 = t15*t31
-    t32 = t28 + Q00*Q00
-    D1_00 = -t26 - t32
-    D1_01 = -Q00*Q10 - Q01*Q11
-    t33 = Q10*Q10
-    t34 = t28 + Q11*Q11
-    del t28
-    D1_11 = -t33 - t34
-    rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t35 = g*t4
-    t36 = t35*cos_varphi1
-    del cos_varphi1
-    t37 = t2*l1
-    t38 = cos_vartheta1*vartheta1_dot
-    t39 = Aa*t38
-    del t38
-    t40 = 2*varphi2_dot
-    t41 = t19*t24
-    del t24
-    t42 = t40*t41
-    t43 = varphi2_dot*varphi2_dot
-    t44 = sin_vartheta2*t43
-    t45 = vartheta2_dot*vartheta2_dot
-    t46 = t15*t45
-    t47 = t46*t9
-    f1 = -sin_vartheta2*t47 - t16*t44 - t20*t39 - t36*t37 - t42*vartheta2_dot
-    t48 = g*sin_varphi2
-    t49 = cos_vartheta2*sin_vartheta2
-    t50 = cos_vartheta2*sin_vartheta1
-    t51 = t13*t50
-    t52 = t11*vartheta1_dot
-    t53 = t20*t52
-    t54 = t53*t9
-    t55 = t19*t50
-    t56 = t15*((cos_vartheta1*sin_vartheta2 - t55))
-    del t55
-    f2 = Q11*t51 + t23*t54 + Ab*t43*t49 - t14*t56 - t23*t48
-    del t48, t54
-    t57 = g*cos_varphi2
-    del cos_varphi2
-    t58 = cos_vartheta2*vartheta2_dot
-    t59 = Ab*t40
-    t60 = t12*t19
-    del t12
-    t61 = 2*vartheta1_dot
-    t62 = t60*t61
-    f3 = (l1*l2)*sin_vartheta1*t13*t9 + (l1*l2)*sin_vartheta1*t14*t9 - t57*l2 - t58*t59 - t62*varphi1_dot
-    t63 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t64 = t35*sin_varphi1
-    t65 = t2*t11
-    t66 = t23*vartheta2_dot
-    t67 = t40*t66
-    t68 = t11*t67
-    del t67
-    t69 = cos_vartheta1*sin_vartheta2
-    t70 = cos_vartheta2*sin_vartheta1 - t19*t69
-    f0 = (t2*t3*t4)*cos_vartheta1*sin_vartheta1*t13 + (l1*l2)*cos_vartheta1*sin_vartheta2*t19*t43 - t46*t70 - t64*t65 - t68*t9
-    t71 = Ab*f0 - Q00*f2 - Q01*f3
-    qdd0 = D1_11*rD1*t71 - D1_01*t63
-    t72 = Q01*t13 + Q01*t14 + qdd0*t17 + t18*t21
-    t73 = t61*varphi1_dot
-    t74 = t16*t50
-    t75 = -t31
-    del t31
-    t76 = t15*t14
-    t77 = (l1*l2)*cos_vartheta1*cos_vartheta2*t13*t19 - qdd0*t56 - t73*t74 - t75*t76
-    t78 = (2*Ab*t2*t3*t4)*sin_vartheta1*varphi1_dot*vartheta1_dot - Q10*t77 - Q11*t72
-    t79 = D1_01*rD1
-    t80 = cos_vartheta1*cos_vartheta1
-    t81 = sin_varphi1*sin_vartheta1
-    del sin_varphi1
-    t82 = l1*t81
-    del t81
-    t83 = t35*t82
-    del t35, t82
-    D2_00 = -t32 - t33
-    del t32, t33
+    t48 = AaAb - Q00*Q00
+    D2_00 = t45 + t48
     D2_01 = -Q00*Q01 - Q10*Q11
-    D2_11 = -t26 - t34
-    del t26, t34
+    t49 = -Q01*Q01
+    t50 = AaAb - Q11*Q11
+    del AaAb
+    D2_11 = t49 + t50
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t84 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
-    del f3
-    t85 = Aa*f2 - Q00*f0 - Q10*f1
-    del f0, f1, f2
-    xr3 = D2_00*t84 - D2_01*rD2*t85
-    t86 = t16*xr3
-    t87 = t40*vartheta2_dot
-    t88 = t30 + t19*t29
-    del t30
-    qdd2 = D2_11*rD2*t85 - D2_01*t84
-    del t84, t85
-    t89 = sin_vartheta1*t86 + t2*t83 + t74*t87 + Aa*t13*((-1) + 2*t80) - qdd2*t56 - t46*t88 - Q11*t29*t43
-    del t74, t80, t83
-    t90 = Ab*t89 - Q00*t77 - Q01*t72
-    xr1 = D1_00*t63 - D1_01*rD1*t71
-    del D1_01, t63, t71
-    t91 = t16*xr1
-    t92 = t91 + Q01*t73 + Q11*sin_vartheta1*t13 + Q11*sin_vartheta1*t14 - qdd0*t60
-    del t14
-    t93 = t19*t53
-    del t53
-    t94 = t11*t23*t9
-    t95 = qdd0*t94 + t23*t93 + t41*xr1 - t16*t51 - t50*t76*t9
-    del t51, t93
-    t96 = t86 + qdd2*t41 + t25*t87 - Q11*t44 - Q11*sin_vartheta2*t45
-    del t44, t86, t87
-    t97 = t96 + t37*t64
-    del t37, t64
-    t98 = Ab*t97 - Q10*t95 - Q11*t92
-    t99 = t16*t69
-    t100 = t19*t68 + t43*t99 + t47*t69 + t60*xr3 - qdd2*t94
-    del t47, t68
-    t101 = -t100 - t36*t65
-    del t36, t65
-    t102 = Ab*t101 - Q00*t95 - Q01*t92
-    t103 = sin_vartheta2*vartheta2_dot
-    t104 = t103*t59
-    t105 = sin_vartheta2*t16
-    t106 = (2*l1*l2)*sin_vartheta2*t19*varphi2_dot*vartheta2_dot - qdd2*t105 - t25*t43 - t25*t45
-    del t25, t45
-    t107 = Q11*t29
+    t51 = t12*t28
+    t52 = t29 - t51
     del t29
-    t108 = cos_vartheta2*cos_vartheta2
-    t109 = t15*t70
-    del t15, t70
-    t110 = Ab*t43*((-1) + 2*t108) + (g*l2)*sin_varphi2*sin_vartheta2 - qdd0*t109 - sin_vartheta2*t91 - t107*t13 - t73*t99 - t76*t88
-    del qdd0, t107, t108, t13, t73, t76, t88, t91, t99
-    t111 = Ab*t106 - Q10*t110 - Q11*t104
-    t112 = (l1*l2)*cos_vartheta1*cos_vartheta2*t19*t43 + (2*l1*l2)*cos_vartheta1*sin_vartheta2*t9*varphi2_dot*vartheta2_dot - qdd2*t109 - t46*t75
-    del qdd2, t19, t43, t46, t75
-    t113 = Ab*t112 - Q00*t110 - Q01*t104
-    del t104
-    t114 = -t96
-    del t96
-    t115 = (g*l2)*sin_varphi2 - t92
-    del sin_varphi2
-    t116 = -t95 - t23*t57
-    del t57
-    t117 = Ab*t114 - Q10*t116 - Q11*t115
-    t118 = Ab*t100 - Q00*t116 - Q01*t115
-    t119 = (2*l1*l2)*sin_vartheta1*t9*vartheta1_dot - t20*t60
-    del t60
-    t120 = t20*t94 - t56*t61
-    del t56, t61
-    t121 = -Q00*t120 - Q01*t119
-    t122 = Aa*cos_vartheta1
-    t123 = t122*t20
-    t124 = -Ab*t123 - Q10*t120 - Q11*t119
-    t125 = 2*t39
-    del t39
-    t126 = t17*t20 - t62
-    del t17, t62
-    t127 = 2*t9
-    del t9
-    t128 = t21*t50 + t127*t23*t52
-    del t21, t23, t50, t52
-    t129 = -Ab*t125 - Q10*t128 - Q11*t126
-    t130 = (2*Ab*t2*t3*t4)*cos_vartheta1*sin_vartheta1*varphi1_dot - Q00*t128 - Q01*t126
-    del t2, t3, t4
-    t131 = cos_vartheta2*t59
-    t132 = -t42 - 2*t103*t16
-    del t103, t16, t42
-    t133 = Ab*t132 + Q11*t131
-    t134 = 2*vartheta2_dot
-    t135 = -t109*t134 - t40*t94
-    del t109, t94
-    t136 = Ab*t135 + Q01*t131
-    t137 = Ab*t58
+    t53 = t2*t40
+    t54 = t16*sin_varphi1
+    del sin_varphi1
+    t55 = Aa*cos_vartheta1
+    t56 = t21*t38
+    del t21
+    t57 = t32*t56
+    t58 = sin_vartheta1*t6
+    f0 = t25*t51 + t55*t58 - t27*t52 - t53*t54 - t57*vartheta2_dot
     del t58
-    t138 = 2*t137
-    t139 = t49*t59
-    del t49, t59
-    t140 = -t105*t40 - t134*t41
-    del t105, t134, t41
-    t141 = Ab*t140 + Q11*t138 - Q10*t139
-    t142 = 2*Q01
-    t143 = Q11*t40*t69 - t11*t127*t66
-    del t11, t127, t40, t66, t69
-    t144 = Ab*t143 + t137*t142 - Q00*t139
-    del t137, t139
+    t59 = t16*cos_varphi1
+    del cos_varphi1, t16
+    t60 = 2*varphi1_dot
+    t61 = sin_vartheta2*t24
+    t62 = sin_vartheta2*t26
+    t63 = t2*l1
+    t64 = cos_vartheta1*vartheta1_dot
+    t65 = Aa*t64
+    del t64
+    t66 = t42*vartheta2_dot
+    t67 = t32*t66
+    t68 = t12*t67
+    f1 = -t38*t61 - t38*t62 - t59*t63 - t60*t65 - t68*l1
+    del t68
+    t69 = t36*t6
+    t70 = vartheta1_dot*vartheta1_dot
+    t71 = t36*t70
+    del t36
+    t72 = l2*t12
+    t73 = t40*vartheta1_dot
+    del t40
+    t74 = t60*t73
+    t75 = g*cos_varphi2
+    del cos_varphi2
+    t76 = 2*Ab
+    t77 = cos_vartheta2*vartheta2_dot
+    t78 = t76*t77
+    f3 = l2*t69 + l2*t71 - t72*t74 - t75*l2 - t78*varphi2_dot
+    del t69, t71
+    t79 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t80 = 2*vartheta1_dot
+    t81 = t80*varphi1_dot
+    t82 = Ab*t24
+    t83 = g*sin_varphi2
+    t84 = cos_vartheta2*sin_vartheta2
+    t85 = t30*t6
+    f2 = t23*t85 + t56*t81 + t82*t84 - t31*t70 - t42*t83
+    del t85
+    t86 = rD2*(Aa*f2 - Q00*f0 - Q10*f1)
+    qdd2 = D2_11*t86 - D2_01*t79
+    xr3 = D2_00*t79 - D2_01*t86
+    del t79, t86
+    t87 = t2*t19 + t33*t39 + t37*xr3 + Aa*t6*((-1) + 2*t15) - qdd2*t31 - t13*t25 - t22*t27
+    del t15, t19, t2
+    t88 = -t46 - t7
+    del t7
+    t89 = t23*t6
+    t90 = t23*t70
+    D1_00 = t48 + t49
+    del t48, t49
+    D1_01 = -Q00*Q10 - Q01*Q11
+    D1_11 = t45 + t50
+    del t45, t50
+    rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
+    t91 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    del f1
+    t92 = rD1*(Ab*f0 - Q00*f2 - Q01*f3)
+    del f0, f2, f3
+    qdd0 = D1_11*t92 - D1_01*t91
+    t93 = t46*t89 - qdd0*t31 - t39*t81 - t88*t90
+    t94 = t35*vartheta1_dot
+    t95 = Q01*t6 + Q01*t70 + qdd0*t37 + t60*t72*t94
+    t96 = Ab*t87 - Q00*t93 - Q01*t95
+    t97 = sin_vartheta1*vartheta1_dot
+    t98 = Aa*t60*t97
+    del t97
+    t99 = rD1*(Ab*t98 - Q10*t93 - Q11*t95)
+    t100 = D1_11*rD1
+    t101 = qdd2*t56
+    t102 = t12*t41
+    del t41
+    t103 = t102*xr3
+    t104 = t28*t38
+    del t28
+    t105 = t104*t24
+    t106 = t104*t26
+    t107 = t23*t32
+    t108 = t107*t46*vartheta2_dot
+    t109 = t101 - t103 - t105 - t106 - t108 - t53*t59
+    del t53, t59
+    t110 = t12*t43
+    del t43
+    xr1 = D1_00*t91 - D1_01*t92
+    del t91, t92
+    t111 = t110*xr1
+    t112 = qdd0*t56
+    t113 = t23*t46*t81
+    t114 = t39*t6
+    t115 = t39*t70
+    del t39
+    t116 = t111 + t112 + t113 - t114 - t115
+    t117 = t38*xr1
+    t118 = t35*t72
+    del t35
+    t119 = t118*t6
+    del t6
+    t120 = t118*t70
+    del t118, t70
+    t121 = l2*t34
+    t122 = t121*t74
+    del t74
+    t123 = qdd0*t102
+    t124 = t117 + t119 + t120 + t122 - t123
+    t125 = Ab*t109 - Q00*t116 - Q01*t124
+    t126 = t38*xr3
+    t127 = qdd2*t110
+    t128 = l1*t34
+    t129 = t128*t67
+    del t128, t67
+    t130 = Q11*t61
+    del t61
+    t131 = Q11*t62
+    del t62
+    t132 = t126 + t127 + t129 + t63*t54 - t130 - t131
+    del t54, t63
+    t133 = Ab*t132 - Q10*t116 - Q11*t124
+    t134 = D1_01*rD1
+    t135 = cos_vartheta2*cos_vartheta2
+    t136 = t23*t52
+    del t52
+    t137 = sin_varphi2*sin_vartheta2
+    del sin_varphi2
+    t138 = l2*t137
+    del t137
+    t139 = g*t138
+    del t138
+    t140 = t139 + t82*((-1) + 2*t135) - qdd0*t136 - sin_vartheta2*t117 - t104*t81 - t13*t89 - t22*t90
+    del qdd0, t13, t135, t139, t22, t81, t82, t89, t90
+    t141 = sin_vartheta2*vartheta2_dot
+    t142 = l2*t141
+    t143 = sin_vartheta2*t38
+    del t38
+    t144 = l1*t12*t142*t32 - qdd2*t143 - t24*t44 - t26*t44
+    del t24, t26, t44
+    t145 = t76*varphi2_dot
+    t146 = t141*t145
+    t147 = Ab*t144 - Q10*t140 - Q11*t146
+    t148 = t104*t33 + t25*t46 - qdd2*t136 - t27*t88
+    del qdd2, t104, t25, t27, t33, t46, t88
+    t149 = t76*Q01
+    t150 = rD1*(Ab*t148 - Q00*t140 - t141*t149*varphi2_dot)
+    del t141
+    t151 = t114 + t115 - t111 - t112 - t113 - t42*t75
+    del t111, t112, t113, t114, t115, t42, t75
+    t152 = t123 + l2*t83 - t117 - t119 - t120 - t122
+    del t117, t119, t120, t122, t123, t83
+    t153 = t130 + t131 - t126 - t127 - t129
+    del t126, t127, t129, t130, t131
+    t154 = Ab*t153 - Q10*t151 - Q11*t152
+    t155 = t103 + t105 + t106 + t108 - t101
+    del t101, t103, t105, t106, t108
+    t156 = rD1*(Ab*t155 - Q00*t151 - Q01*t152)
+    t157 = t56*t60 - t31*t80
+    del t31
+    t158 = 2*t121*t94 - t102*t60
+    del t102, t121, t94
+    t159 = -Q00*t157 - Q01*t158
+    t160 = t55*t60
+    del t55
+    t161 = Ab*t160
+    t162 = rD1*(-t161 - Q10*t157 - Q11*t158)
+    t163 = t56*t80 + t23*t30*t60
+    del t23, t30, t80
+    t164 = t37*t60 - 2*t72*t73
+    del t37, t60, t72, t73
+    t165 = sin_vartheta1*t161 - Q00*t163 - Q01*t164
+    del t161
+    t166 = 2*t65
+    del t65
+    t167 = rD1*(-Ab*t166 - Q10*t163 - Q11*t164)
+    t168 = 2*vartheta2_dot
+    t169 = -t57 - t136*t168
+    del t136, t57
+    t170 = cos_vartheta2*varphi2_dot
+    t171 = Ab*t169 + t149*t170
+    t172 = 2*l1
+    t173 = -t110*t32 - t142*t172*t34
+    del t110, t142, t34
+    t174 = t76*t170
+    del t170, t76
+    t175 = Ab*t173 + Q11*t174
+    t176 = t107*t51 - t168*t56
+    del t107, t168, t51, t56
+    t177 = t145*t84
+    del t145, t84
+    t178 = Ab*t176 + t149*t77 - Q00*t177
+    del t149, t77
+    t179 = -t143*t32 - t12*t172*t66
+    del t12, t143, t172, t32, t66
+    t180 = Ab*t179 + Q11*t78 - Q10*t177
+    del Ab
     rs1 = 1.0/sin_vartheta1
     qdd1 = rs1*xr1
     del xr1
-    t145 = D1_00*rD1
-    t146 = Aa*t18*t20
-    del t18, t20
-    t147 = Aa*t72 - Q01*t89 - Q11*t146
-    del t72
-    t148 = D2_01*rD2
-    del D2_01
-    t149 = Aa*t77 - Q00*t89 - Q10*t146
-    del t146, t77, t89
-    t150 = Aa*t92 - Q01*t101 - Q11*t97
-    del t92
-    t151 = Aa*t95 - Q00*t101 - Q10*t97
-    del t101, t95, t97
-    t152 = (2*Aa*Ab)*sin_vartheta2*varphi2_dot*vartheta2_dot - Q01*t112 - Q11*t106
-    t153 = Aa*t110 - Q00*t112 - Q10*t106
-    del t106, t110, t112
-    t154 = Aa*t115 - Q01*t100 - Q11*t114
-    del t115
-    t155 = Aa*t116 - Q00*t100 - Q10*t114
-    del t100, t114, t116
-    t156 = Aa*t119 + Q11*t123
-    del t119
-    t157 = Aa*t120 + Q10*t123
-    del t120
-    t158 = Aa*t126 + Q11*t125 - sin_vartheta1*t122*t142*varphi1_dot
-    del t122, t126, t142
-    t159 = Aa*t128 + Q10*t125 - Q00*sin_vartheta1*t123
-    del sin_vartheta1, t123, t125, t128
-    t160 = -Q00*t135 - Q10*t132
-    t161 = -Aa*t131 - Q01*t135 - Q11*t132
-    del t131, t132, t135
-    t162 = -Aa*t138 - Q01*t143 - Q11*t140
-    del Q01, Q11, t138
-    t163 = (2*Aa*Ab)*cos_vartheta2*sin_vartheta2*varphi2_dot - Q00*t143 - Q10*t140
-    del Aa, Ab, Q00, Q10, t140, t143
-    t164 = D2_00*rD2
+    t181 = D1_00*rD1
+    del rD1
+    t182 = Aa*t93 - Q00*t87 - Q10*t98
+    del t93
+    t183 = Aa*t95 - Q01*t87 - Q11*t98
+    del t87, t95, t98
+    t184 = D2_01*rD2
+    t185 = D2_11*rD2
+    t186 = Aa*t116 - Q00*t109 - Q10*t132
+    del t116
+    t187 = Aa*t124 - Q01*t109 - Q11*t132
+    del t109, t124, t132
+    t188 = Aa*t140 - Q00*t148 - Q10*t144
+    del t140
+    t189 = Aa*t146 - Q01*t148 - Q11*t144
+    del t144, t146, t148
+    t190 = Aa*t151 - Q00*t155 - Q10*t153
+    del t151
+    t191 = Aa*t152 - Q01*t155 - Q11*t153
+    del t152, t153, t155
+    t192 = Aa*t157 + Q10*t160
+    del t157
+    t193 = rD2*(Aa*t158 + Q11*t160)
+    del t158
+    t194 = sin_vartheta1*t160
+    del sin_vartheta1, t160
+    t195 = Aa*t163 + Q10*t166 - Q00*t194
+    del t163
+    t196 = Aa*t164 + Q11*t166 - Q01*t194
+    del t164, t166, t194
+    t197 = -Q00*t169 - Q10*t173
+    t198 = -Aa*t174 - Q01*t169 - Q11*t173
+    del t169, t173, t174
+    t199 = -Aa*t78 - Q01*t176 - Q11*t179
+    del Q01, Q11, t78
+    t200 = rD2*(Aa*t177 - Q00*t176 - Q10*t179)
+    del Aa, Q00, Q10, t176, t177, t179
+    t201 = D2_00*rD2
+    del rD2
     rs3 = 1.0/sin_vartheta2
     del sin_vartheta2
     qdd3 = rs3*xr3
     del xr3
-    t165 = D1_11*rD1*t90 - t78*t79
-    t166 = D1_11*rD1*t102 - t79*t98
-    t167 = D1_11*rD1*t113 - t111*t79
-    t168 = D1_11*rD1*t118 - t117*t79
-    t169 = D1_11*rD1*t121 - t124*t79
-    t170 = D1_11*rD1*t130 - t129*t79
-    t171 = D1_11*rD1*t136 - t133*t79
-    t172 = D1_11*rD1*t144 - t141*t79
+    t202 = t100*t96 - D1_01*t99
+    t203 = t100*t125 - t133*t134
+    t204 = D1_11*t150 - t134*t147
+    t205 = D1_11*t156 - t134*t154
     del D1_11
-    t173 = rs1*(D1_00*rD1*t78 - cos_vartheta1*qdd1 - t79*t90)
-    del D1_00, cos_vartheta1, qdd1, rD1, t78, t90
-    t174 = rs1*(t145*t98 - t102*t79)
-    del t102, t98
-    t175 = rs1*(t111*t145 - t113*t79)
-    del t111, t113
-    t176 = rs1*(t117*t145 - t118*t79)
-    del t117, t118
-    t177 = rs1*(t124*t145 - t121*t79)
-    del t121, t124
-    t178 = rs1*(t129*t145 - t130*t79)
-    del t129, t130
-    t179 = rs1*(t133*t145 - t136*t79)
-    del t133, t136
-    t180 = rs1*(t141*t145 - t144*t79)
-    del rs1, t141, t144, t145, t79
-    t181 = D2_11*rD2*t149 - t147*t148
-    t182 = D2_11*rD2*t151 - t148*t150
-    t183 = D2_11*rD2*t153 - t148*t152
-    t184 = D2_11*rD2*t155 - t148*t154
-    t185 = D2_11*rD2*t157 - t148*t156
-    t186 = D2_11*rD2*t159 - t148*t158
-    t187 = D2_11*rD2*t160 - t148*t161
-    t188 = D2_11*rD2*t163 - t148*t162
+    t206 = t100*t159 - D1_01*t162
+    t207 = t100*t165 - D1_01*t167
+    t208 = t100*t171 - t134*t175
+    t209 = t100*t178 - t134*t180
+    del t100
+    t210 = rs1*(D1_00*t99 - cos_vartheta1*qdd1 - t134*t96)
+    del cos_vartheta1, qdd1, t96, t99
+    t211 = rs1*(t133*t181 - t125*t134)
+    del t125, t133
+    t212 = rs1*(t147*t181 - D1_01*t150)
+    del t147, t150
+    t213 = rs1*(t154*t181 - D1_01*t156)
+    del D1_01, t154, t156
+    t214 = rs1*(D1_00*t162 - t134*t159)
+    del t159, t162
+    t215 = rs1*(D1_00*t167 - t134*t165)
+    del D1_00, t165, t167
+    t216 = rs1*(t175*t181 - t134*t171)
+    del t171, t175
+    t217 = rs1*(t180*t181 - t134*t178)
+    del rs1, t134, t178, t180, t181
+    t218 = t182*t185 - t183*t184
+    t219 = t185*t186 - t184*t187
+    t220 = t185*t188 - t184*t189
+    t221 = t185*t190 - t184*t191
+    t222 = t185*t192 - D2_01*t193
+    t223 = t185*t195 - t184*t196
+    t224 = t185*t197 - t184*t198
+    del t185
+    t225 = D2_11*t200 - t184*t199
     del D2_11
-    t189 = rs3*(t147*t164 - t148*t149)
-    del t147, t149
-    t190 = rs3*(t150*t164 - t148*t151)
-    del t150, t151
-    t191 = rs3*(D2_00*rD2*t152 - cos_vartheta2*qdd3 - t148*t153)
-    del D2_00, cos_vartheta2, qdd3, rD2, t152, t153
-    t192 = rs3*(t154*t164 - t148*t155)
-    del t154, t155
-    t193 = rs3*(t156*t164 - t148*t157)
-    del t156, t157
-    t194 = rs3*(t158*t164 - t148*t159)
-    del t158, t159
-    t195 = rs3*(t161*t164 - t148*t160)
-    del t160, t161
-    t196 = rs3*(t162*t164 - t148*t163)
-    del rs3, t148, t162, t163, t164
+    t226 = rs3*(t183*t201 - t182*t184)
+    del t182, t183
+    t227 = rs3*(t187*t201 - t184*t186)
+    del t186, t187
+    t228 = rs3*(t189*t201 - cos_vartheta2*qdd3 - t184*t188)
+    del cos_vartheta2, qdd3, t188, t189
+    t229 = rs3*(t191*t201 - t184*t190)
+    del t190, t191
+    t230 = rs3*(D2_00*t193 - t184*t192)
+    del D2_00, t192, t193
+    t231 = rs3*(t196*t201 - t184*t195)
+    del t195, t196
+    t232 = rs3*(t198*t201 - t184*t197)
+    del t184, t197, t198
+    t233 = rs3*(t199*t201 - D2_01*t200)
+    del D2_01, rs3, t199, t200, t201
     J = numpy.empty(shape + (8, 8), dtype)
     J[..., 0, 0] = 0
     J[..., 0, 1] = 0
@@ -1145,70 +1236,70 @@ def jacobian(y, p):
     J[..., 3, 5] = 0
     J[..., 3, 6] = 0
     J[..., 3, 7] = 1
-    J[..., 4, 0] = t165
-    del t165
-    J[..., 4, 1] = t166
-    del t166
-    J[..., 4, 2] = t167
-    del t167
-    J[..., 4, 3] = t168
-    del t168
-    J[..., 4, 4] = t169
-    del t169
-    J[..., 4, 5] = t170
-    del t170
-    J[..., 4, 6] = t171
-    del t171
-    J[..., 4, 7] = t172
-    del t172
-    J[..., 5, 0] = t173
-    del t173
-    J[..., 5, 1] = t174
-    del t174
-    J[..., 5, 2] = t175
-    del t175
-    J[..., 5, 3] = t176
-    del t176
-    J[..., 5, 4] = t177
-    del t177
-    J[..., 5, 5] = t178
-    del t178
-    J[..., 5, 6] = t179
-    del t179
-    J[..., 5, 7] = t180
-    del t180
-    J[..., 6, 0] = t181
-    del t181
-    J[..., 6, 1] = t182
-    del t182
-    J[..., 6, 2] = t183
-    del t183
-    J[..., 6, 3] = t184
-    del t184
-    J[..., 6, 4] = t185
-    del t185
-    J[..., 6, 5] = t186
-    del t186
-    J[..., 6, 6] = t187
-    del t187
-    J[..., 6, 7] = t188
-    del t188
-    J[..., 7, 0] = t189
-    del t189
-    J[..., 7, 1] = t190
-    del t190
-    J[..., 7, 2] = t191
-    del t191
-    J[..., 7, 3] = t192
-    del t192
-    J[..., 7, 4] = t193
-    del t193
-    J[..., 7, 5] = t194
-    del t194
-    J[..., 7, 6] = t195
-    del t195
-    J[..., 7, 7] = t196
-    del t196
+    J[..., 4, 0] = t202
+    del t202
+    J[..., 4, 1] = t203
+    del t203
+    J[..., 4, 2] = t204
+    del t204
+    J[..., 4, 3] = t205
+    del t205
+    J[..., 4, 4] = t206
+    del t206
+    J[..., 4, 5] = t207
+    del t207
+    J[..., 4, 6] = t208
+    del t208
+    J[..., 4, 7] = t209
+    del t209
+    J[..., 5, 0] = t210
+    del t210
+    J[..., 5, 1] = t211
+    del t211
+    J[..., 5, 2] = t212
+    del t212
+    J[..., 5, 3] = t213
+    del t213
+    J[..., 5, 4] = t214
+    del t214
+    J[..., 5, 5] = t215
+    del t215
+    J[..., 5, 6] = t216
+    del t216
+    J[..., 5, 7] = t217
+    del t217
+    J[..., 6, 0] = t218
+    del t218
+    J[..., 6, 1] = t219
+    del t219
+    J[..., 6, 2] = t220
+    del t220
+    J[..., 6, 3] = t221
+    del t221
+    J[..., 6, 4] = t222
+    del t222
+    J[..., 6, 5] = t223
+    del t223
+    J[..., 6, 6] = t224
+    del t224
+    J[..., 6, 7] = t225
+    del t225
+    J[..., 7, 0] = t226
+    del t226
+    J[..., 7, 1] = t227
+    del t227
+    J[..., 7, 2] = t228
+    del t228
+    J[..., 7, 3] = t229
+    del t229
+    J[..., 7, 4] = t230
+    del t230
+    J[..., 7, 5] = t231
+    del t231
+    J[..., 7, 6] = t232
+    del t232
+    J[..., 7, 7] = t233
+    del t233
     return J
 
 
@@ -1249,7 +1340,7 @@ def to_spherical_rot(y):
 
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     returns y_out: (..., 8) state of 'spherical_rot'
-    Total ops: 82
+    Total ops: 80
     """
     (y,), shape, dtype = _prepare("to_spherical_rot", (y, 8, "y"))
     vartheta1 = y[..., 0]
@@ -1318,6 +1409,19 @@ def to_spherical_rot(y):
     spherical_rot_varphi2 = numpy.arctan2(t17, cos_vartheta2)
     t18 = sin_vartheta1*vartheta1_dot
     del sin_vartheta1
+    t19 = cos_vartheta1*vartheta1_dot
+    del cos_vartheta1
+    t20 = cos_varphi1*t19
+    del cos_varphi1
+    t21 = t16*varphi1_dot
+    del t16
+    t22 = t20 - t21
+    del t20, t21
+    t23 = t6*varphi1_dot
+    del t6
+    t24 = sin_varphi1*t19
+    del sin_varphi1, t19
+    t25 = t23 + t24
     tan_half_spherical_rot_varphi1 = numpy.tan(0.5*spherical_rot_varphi1)
     tan_half_sq_spherical_rot_varphi1 = tan_half_spherical_rot_varphi1*tan_half_spherical_rot_varphi1
     rho_spherical_rot_varphi1 = 1.0/(1 + tan_half_sq_spherical_rot_varphi1)
@@ -1325,19 +1429,21 @@ def to_spherical_rot(y):
     del tan_half_spherical_rot_varphi1
     cos_spherical_rot_varphi1 = rho_spherical_rot_varphi1*(1 - tan_half_sq_spherical_rot_varphi1)
     del rho_spherical_rot_varphi1, tan_half_sq_spherical_rot_varphi1
-    t21 = t16*varphi1_dot
-    del t16
-    t22 = cos_varphi1*cos_vartheta1*vartheta1_dot - t21
-    del cos_varphi1, t21
-    t24 = t6*varphi1_dot
-    del t6
-    t25 = cos_vartheta1*vartheta1_dot
-    del cos_vartheta1
-    t26 = sin_varphi1*t25
-    del sin_varphi1, t25
-    t27 = t24 + t26
-    t28 = sin_vartheta2*vartheta2_dot
+    t29 = sin_vartheta2*vartheta2_dot
     del sin_vartheta2
+    t30 = cos_vartheta2*vartheta2_dot
+    del cos_vartheta2
+    t31 = cos_varphi2*t30
+    del cos_varphi2
+    t32 = t17*varphi2_dot
+    del t17
+    t33 = t31 - t32
+    del t31, t32
+    t34 = t14*varphi2_dot
+    del t14
+    t35 = sin_varphi2*t30
+    del sin_varphi2, t30
+    t36 = t34 + t35
     tan_half_spherical_rot_varphi2 = numpy.tan(0.5*spherical_rot_varphi2)
     tan_half_sq_spherical_rot_varphi2 = tan_half_spherical_rot_varphi2*tan_half_spherical_rot_varphi2
     rho_spherical_rot_varphi2 = 1.0/(1 + tan_half_sq_spherical_rot_varphi2)
@@ -1345,25 +1451,14 @@ def to_spherical_rot(y):
     del tan_half_spherical_rot_varphi2
     cos_spherical_rot_varphi2 = rho_spherical_rot_varphi2*(1 - tan_half_sq_spherical_rot_varphi2)
     del rho_spherical_rot_varphi2, tan_half_sq_spherical_rot_varphi2
-    t31 = t17*varphi2_dot
-    del t17
-    t32 = cos_varphi2*cos_vartheta2*vartheta2_dot - t31
-    del cos_varphi2, t31
-    t34 = t14*varphi2_dot
-    del t14
-    t35 = cos_vartheta2*vartheta2_dot
-    del cos_vartheta2
-    t36 = sin_varphi2*t35
-    del sin_varphi2, t35
-    t37 = t34 + t36
-    t38 = cos_spherical_rot_vartheta1*sin_spherical_rot_varphi1*t27 - sin_spherical_rot_vartheta1*t22 - cos_spherical_rot_varphi1*cos_spherical_rot_vartheta1*t18
-    del cos_spherical_rot_vartheta1, t22, t27
-    t39 = (cos_spherical_rot_varphi1*t24 + cos_spherical_rot_varphi1*t26 + sin_spherical_rot_varphi1*t18)/sin_spherical_rot_vartheta1
-    del cos_spherical_rot_varphi1, sin_spherical_rot_varphi1, sin_spherical_rot_vartheta1, t18, t24, t26
-    t40 = cos_spherical_rot_vartheta2*sin_spherical_rot_varphi2*t37 - sin_spherical_rot_vartheta2*t32 - cos_spherical_rot_varphi2*cos_spherical_rot_vartheta2*t28
-    del cos_spherical_rot_vartheta2, t32, t37
-    t41 = (cos_spherical_rot_varphi2*t34 + cos_spherical_rot_varphi2*t36 + sin_spherical_rot_varphi2*t28)/sin_spherical_rot_vartheta2
-    del cos_spherical_rot_varphi2, sin_spherical_rot_varphi2, sin_spherical_rot_vartheta2, t28, t34, t36
+    t40 = cos_spherical_rot_vartheta1*sin_spherical_rot_varphi1*t25 - sin_spherical_rot_vartheta1*t22 - cos_spherical_rot_varphi1*cos_spherical_rot_vartheta1*t18
+    del cos_spherical_rot_vartheta1, t22, t25
+    t41 = (cos_spherical_rot_varphi1*t23 + cos_spherical_rot_varphi1*t24 + sin_spherical_rot_varphi1*t18)/sin_spherical_rot_vartheta1
+    del cos_spherical_rot_varphi1, sin_spherical_rot_varphi1, sin_spherical_rot_vartheta1, t18, t23, t24
+    t42 = cos_spherical_rot_vartheta2*sin_spherical_rot_varphi2*t36 - sin_spherical_rot_vartheta2*t33 - cos_spherical_rot_varphi2*cos_spherical_rot_vartheta2*t29
+    del cos_spherical_rot_vartheta2, t33, t36
+    t43 = (cos_spherical_rot_varphi2*t34 + cos_spherical_rot_varphi2*t35 + sin_spherical_rot_varphi2*t29)/sin_spherical_rot_vartheta2
+    del cos_spherical_rot_varphi2, sin_spherical_rot_varphi2, sin_spherical_rot_vartheta2, t29, t34, t35
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_rot_vartheta1
     del spherical_rot_vartheta1
@@ -1373,14 +1468,14 @@ def to_spherical_rot(y):
     del spherical_rot_vartheta2
     y_out[..., 3] = spherical_rot_varphi2
     del spherical_rot_varphi2
-    y_out[..., 4] = t38
-    del t38
-    y_out[..., 5] = t39
-    del t39
-    y_out[..., 6] = t40
+    y_out[..., 4] = t40
     del t40
-    y_out[..., 7] = t41
+    y_out[..., 5] = t41
     del t41
+    y_out[..., 6] = t42
+    del t42
+    y_out[..., 7] = t43
+    del t43
     return y_out
 
 
@@ -1390,7 +1485,7 @@ def to_spherical_std(y):
 
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     returns y_out: (..., 8) state of 'spherical_std'
-    Total ops: 86
+    Total ops: 82
     """
     (y,), shape, dtype = _prepare("to_spherical_std", (y, 8, "y"))
     vartheta1 = y[..., 0]
@@ -1459,17 +1554,19 @@ def to_spherical_std(y):
     spherical_std_phi2 = numpy.arctan2(t17, cos_vartheta2)
     t18 = sin_vartheta1*vartheta1_dot
     del sin_vartheta1
-    t19 = t6*varphi1_dot
-    del t6
-    t20 = cos_varphi1*cos_vartheta1*vartheta1_dot - t19
-    t21 = t16*varphi1_dot
-    del t16
-    t22 = cos_vartheta1*vartheta1_dot
+    t19 = cos_vartheta1*vartheta1_dot
     del cos_vartheta1
-    t23 = sin_varphi1*t22
-    del sin_varphi1
-    t24 = t21 + t23
-    del t21, t23
+    t20 = cos_varphi1*t19
+    del cos_varphi1
+    t21 = t6*varphi1_dot
+    del t6
+    t22 = t20 - t21
+    t23 = t16*varphi1_dot
+    del t16
+    t24 = sin_varphi1*t19
+    del sin_varphi1, t19
+    t25 = t23 + t24
+    del t23, t24
     tan_half_spherical_std_phi1 = numpy.tan(0.5*spherical_std_phi1)
     tan_half_sq_spherical_std_phi1 = tan_half_spherical_std_phi1*tan_half_spherical_std_phi1
     rho_spherical_std_phi1 = 1.0/(1 + tan_half_sq_spherical_std_phi1)
@@ -1477,19 +1574,21 @@ def to_spherical_std(y):
     del tan_half_spherical_std_phi1
     cos_spherical_std_phi1 = rho_spherical_std_phi1*(1 - tan_half_sq_spherical_std_phi1)
     del rho_spherical_std_phi1, tan_half_sq_spherical_std_phi1
-    t28 = sin_vartheta2*vartheta2_dot
+    t29 = sin_vartheta2*vartheta2_dot
     del sin_vartheta2
-    t29 = t14*varphi2_dot
-    del t14
-    t30 = cos_varphi2*cos_vartheta2*vartheta2_dot - t29
-    t31 = t17*varphi2_dot
-    del t17
-    t32 = cos_vartheta2*vartheta2_dot
+    t30 = cos_vartheta2*vartheta2_dot
     del cos_vartheta2
-    t33 = sin_varphi2*t32
-    del sin_varphi2
-    t34 = t31 + t33
-    del t31, t33
+    t31 = cos_varphi2*t30
+    del cos_varphi2
+    t32 = t14*varphi2_dot
+    del t14
+    t33 = t31 - t32
+    t34 = t17*varphi2_dot
+    del t17
+    t35 = sin_varphi2*t30
+    del sin_varphi2, t30
+    t36 = t34 + t35
+    del t34, t35
     tan_half_spherical_std_phi2 = numpy.tan(0.5*spherical_std_phi2)
     tan_half_sq_spherical_std_phi2 = tan_half_spherical_std_phi2*tan_half_spherical_std_phi2
     rho_spherical_std_phi2 = 1.0/(1 + tan_half_sq_spherical_std_phi2)
@@ -1497,14 +1596,14 @@ def to_spherical_std(y):
     del tan_half_spherical_std_phi2
     cos_spherical_std_phi2 = rho_spherical_std_phi2*(1 - tan_half_sq_spherical_std_phi2)
     del rho_spherical_std_phi2, tan_half_sq_spherical_std_phi2
-    t38 = sin_spherical_std_theta1*t24 + cos_spherical_std_theta1*sin_spherical_std_phi1*t20 - cos_spherical_std_phi1*cos_spherical_std_theta1*t18
-    del cos_spherical_std_theta1, t20, t24
-    t39 = (sin_spherical_std_phi1*t18 + cos_spherical_std_phi1*cos_varphi1*t22 - cos_spherical_std_phi1*t19)/sin_spherical_std_theta1
-    del cos_spherical_std_phi1, cos_varphi1, sin_spherical_std_phi1, sin_spherical_std_theta1, t18, t19, t22
-    t40 = sin_spherical_std_theta2*t34 + cos_spherical_std_theta2*sin_spherical_std_phi2*t30 - cos_spherical_std_phi2*cos_spherical_std_theta2*t28
-    del cos_spherical_std_theta2, t30, t34
-    t41 = (sin_spherical_std_phi2*t28 + cos_spherical_std_phi2*cos_varphi2*t32 - cos_spherical_std_phi2*t29)/sin_spherical_std_theta2
-    del cos_spherical_std_phi2, cos_varphi2, sin_spherical_std_phi2, sin_spherical_std_theta2, t28, t29, t32
+    t40 = sin_spherical_std_theta1*t25 + cos_spherical_std_theta1*sin_spherical_std_phi1*t22 - cos_spherical_std_phi1*cos_spherical_std_theta1*t18
+    del cos_spherical_std_theta1, t22, t25
+    t41 = (cos_spherical_std_phi1*t20 + sin_spherical_std_phi1*t18 - cos_spherical_std_phi1*t21)/sin_spherical_std_theta1
+    del cos_spherical_std_phi1, sin_spherical_std_phi1, sin_spherical_std_theta1, t18, t20, t21
+    t42 = sin_spherical_std_theta2*t36 + cos_spherical_std_theta2*sin_spherical_std_phi2*t33 - cos_spherical_std_phi2*cos_spherical_std_theta2*t29
+    del cos_spherical_std_theta2, t33, t36
+    t43 = (cos_spherical_std_phi2*t31 + sin_spherical_std_phi2*t29 - cos_spherical_std_phi2*t32)/sin_spherical_std_theta2
+    del cos_spherical_std_phi2, sin_spherical_std_phi2, sin_spherical_std_theta2, t29, t31, t32
     y_out = numpy.empty(shape + (8,), dtype)
     y_out[..., 0] = spherical_std_theta1
     del spherical_std_theta1
@@ -1514,12 +1613,12 @@ def to_spherical_std(y):
     del spherical_std_theta2
     y_out[..., 3] = spherical_std_phi2
     del spherical_std_phi2
-    y_out[..., 4] = t38
-    del t38
-    y_out[..., 5] = t39
-    del t39
-    y_out[..., 6] = t40
+    y_out[..., 4] = t40
     del t40
-    y_out[..., 7] = t41
+    y_out[..., 5] = t41
     del t41
+    y_out[..., 6] = t42
+    del t42
+    y_out[..., 7] = t43
+    del t43
     return y_out

@@ -35,7 +35,7 @@ def linearize(y, p):
     y: (..., 8) the state: coordinates, then their rates: (vartheta1, varphi1, vartheta2, varphi2, vartheta1_dot, varphi1_dot, vartheta2_dot, varphi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns A: (..., 8, 8) A = df/dy, row-major
-    Total ops: 721
+    Total ops: 670
     """
     (y, p), shape, dtype = _prepare("linearize", (y, 8, "y"), (p, 5, "p"))
     vartheta1 = y[..., 0]
@@ -68,6 +68,12 @@ def linearize(y, p):
     t2 = 1.0/m2
     t3 = l1*l1
     t4 = m1 + m2
+    t5 = t3*t4
+    del t3
+    Aa = t2*t5
+    del t5
+    t6 = varphi1_dot*varphi1_dot
+    t7 = sin_vartheta1*sin_vartheta2
     tan_half_varphi1 = numpy.tan(0.5*varphi1)
     tan_half_sq_varphi1 = tan_half_varphi1*tan_half_varphi1
     rho_varphi1 = 1.0/(1 + tan_half_sq_varphi1)
@@ -82,309 +88,360 @@ def linearize(y, p):
     del tan_half_varphi2
     cos_varphi2 = rho_varphi2*(1 - tan_half_sq_varphi2)
     del rho_varphi2, tan_half_sq_varphi2
-    t9 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
-    t11 = l1*cos_vartheta1
-    t12 = l2*t11
-    Q01 = t12*t9
-    t13 = varphi1_dot*varphi1_dot
-    t14 = vartheta1_dot*vartheta1_dot
-    t15 = l1*l2
-    t16 = t15*t9
-    t17 = sin_vartheta1*t16
-    t18 = sin_vartheta1*vartheta1_dot
-    t19 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
-    Q11 = t15*t19
-    t20 = 2*varphi1_dot
-    t21 = Q11*t20
+    t12 = cos_varphi1*cos_varphi2 + sin_varphi1*sin_varphi2
+    t13 = t12*t7
+    t15 = cos_vartheta1*cos_vartheta1
+    t16 = g*t4
+    del t4
+    t17 = sin_varphi1*sin_vartheta1
+    t18 = l1*t17
+    del t17
+    t19 = t16*t18
+    del t18
+    t21 = cos_vartheta1*cos_vartheta2
+    t22 = t13 + t21
+    t23 = l1*l2
+    t24 = varphi2_dot*varphi2_dot
+    t25 = t23*t24
+    t26 = vartheta2_dot*vartheta2_dot
+    t27 = t23*t26
+    t28 = cos_vartheta1*sin_vartheta2
+    t29 = cos_vartheta2*sin_vartheta1
+    t30 = t12*t29
+    t31 = t23*((t28 - t30))
+    t32 = 2*varphi2_dot
+    t33 = t32*vartheta2_dot
+    t34 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
+    t35 = l1*sin_vartheta1
+    t36 = t34*t35
+    t37 = l2*t36
+    t38 = t23*t34
+    t39 = t29*t38
+    t40 = l1*cos_vartheta1
+    t41 = l2*t40
+    Q01 = t34*t41
+    Q11 = t23*t12
+    t42 = l2*cos_vartheta2
+    t43 = l1*t42
+    t44 = t34*t43
+    Q10 = -t44
+    t45 = -Q10*Q10
+    t46 = t12*t21
+    t47 = t46 + t7
+    Q00 = t23*t47
+    del t47
     Ab = l2*l2
-    t23 = l2*cos_vartheta2
-    t24 = l1*t23
-    t25 = t24*t9
-    Q10 = -t25
-    t26 = Q01*Q01
-    t27 = t3*t4
-    Aa = t2*t27
-    del t27
     AaAb = Aa*Ab
-    t28 = -AaAb
-    del AaAb
-    t29 = sin_vartheta1*sin_vartheta2
-    t30 = cos_vartheta1*cos_vartheta2
-    t31 = t29 + t19*t30
-    Q00 = t15*t31
-    t32 = t28 + Q00*Q00
-    D1_00 = -t26 - t32
-    D1_01 = -Q00*Q10 - Q01*Q11
-    t33 = Q10*Q10
-    t34 = t28 + Q11*Q11
-    del t28
-    D1_11 = -t33 - t34
-    rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t35 = g*t4
-    t36 = t35*cos_varphi1
-    del cos_varphi1
-    t37 = t2*l1
-    t38 = cos_vartheta1*vartheta1_dot
-    t39 = Aa*t38
-    del t38
-    t40 = 2*varphi2_dot
-    t41 = t19*t24
-    del t24
-    t42 = t40*t41
-    t43 = varphi2_dot*varphi2_dot
-    t44 = sin_vartheta2*t43
-    t45 = vartheta2_dot*vartheta2_dot
-    t46 = t15*t45
-    t47 = t46*t9
-    f1 = -sin_vartheta2*t47 - t16*t44 - t20*t39 - t36*t37 - t42*vartheta2_dot
-    t48 = g*sin_varphi2
-    t49 = cos_vartheta2*sin_vartheta2
-    t50 = cos_vartheta2*sin_vartheta1
-    t51 = t13*t50
-    t52 = t11*vartheta1_dot
-    t53 = t20*t52
-    t54 = t53*t9
-    t55 = t19*t50
-    t56 = t15*((cos_vartheta1*sin_vartheta2 - t55))
-    del t55
-    f2 = Q11*t51 + t23*t54 + Ab*t43*t49 - t14*t56 - t23*t48
-    del t48, t54
-    t57 = g*cos_varphi2
-    del cos_varphi2
-    t58 = cos_vartheta2*vartheta2_dot
-    t59 = Ab*t40
-    t60 = t12*t19
-    del t12
-    t61 = 2*vartheta1_dot
-    t62 = t60*t61
-    f3 = (l1*l2)*sin_vartheta1*t13*t9 + (l1*l2)*sin_vartheta1*t14*t9 - t57*l2 - t58*t59 - t62*varphi1_dot
-    t63 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t64 = t35*sin_varphi1
-    t65 = t2*t11
-    t66 = t23*vartheta2_dot
-    t67 = t40*t66
-    t68 = t11*t67
-    del t67
-    t69 = cos_vartheta1*sin_vartheta2
-    t70 = cos_vartheta2*sin_vartheta1 - t19*t69
-    f0 = (t2*t3*t4)*cos_vartheta1*sin_vartheta1*t13 + (l1*l2)*cos_vartheta1*sin_vartheta2*t19*t43 - t46*t70 - t64*t65 - t68*t9
-    t71 = Ab*f0 - Q00*f2 - Q01*f3
-    qdd0 = D1_11*rD1*t71 - D1_01*t63
-    t72 = Q01*t13 + Q01*t14 + qdd0*t17 + t18*t21
-    t73 = t61*varphi1_dot
-    t74 = t16*t50
-    t75 = -t31
-    del t31
-    t76 = t15*t14
-    t77 = (l1*l2)*cos_vartheta1*cos_vartheta2*t13*t19 - qdd0*t56 - t73*t74 - t75*t76
-    t78 = (2*Ab*t2*t3*t4)*sin_vartheta1*varphi1_dot*vartheta1_dot - Q10*t77 - Q11*t72
-    t79 = D1_01*rD1
-    t80 = cos_vartheta1*cos_vartheta1
-    t81 = sin_varphi1*sin_vartheta1
-    del sin_varphi1
-    t82 = l1*t81
-    del t81
-    t83 = t35*t82
-    del t35, t82
-    D2_00 = -t32 - t33
-    del t32, t33
+    t48 = AaAb - Q00*Q00
+    D2_00 = t45 + t48
     D2_01 = -Q00*Q01 - Q10*Q11
-    D2_11 = -t26 - t34
-    del t26, t34
+    t49 = -Q01*Q01
+    t50 = AaAb - Q11*Q11
+    del AaAb
+    D2_11 = t49 + t50
     rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t84 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
-    del f3
-    t85 = Aa*f2 - Q00*f0 - Q10*f1
-    del f0, f1, f2
-    xr3 = D2_00*t84 - D2_01*rD2*t85
-    t86 = t16*xr3
-    t87 = t40*vartheta2_dot
-    t88 = t30 + t19*t29
-    del t30
-    qdd2 = D2_11*rD2*t85 - D2_01*t84
-    del t84, t85
-    t89 = sin_vartheta1*t86 + t2*t83 + t74*t87 + Aa*t13*((-1) + 2*t80) - qdd2*t56 - t46*t88 - Q11*t29*t43
-    del t74, t80, t83
-    t90 = Ab*t89 - Q00*t77 - Q01*t72
-    xr1 = D1_00*t63 - D1_01*rD1*t71
-    del D1_01, t63, t71
-    t91 = t16*xr1
-    t92 = t91 + Q01*t73 + Q11*sin_vartheta1*t13 + Q11*sin_vartheta1*t14 - qdd0*t60
-    del t14
-    t93 = t19*t53
-    del t53
-    t94 = t11*t23*t9
-    t95 = qdd0*t94 + t23*t93 + t41*xr1 - t16*t51 - t50*t76*t9
-    del t51, t93
-    t96 = t86 + qdd2*t41 + t25*t87 - Q11*t44 - Q11*sin_vartheta2*t45
-    del t44, t86, t87
-    t97 = t96 + t37*t64
-    del t37, t64
-    t98 = Ab*t97 - Q10*t95 - Q11*t92
-    t99 = t16*t69
-    t100 = t19*t68 + t43*t99 + t47*t69 + t60*xr3 - qdd2*t94
-    del t47, t68
-    t101 = -t100 - t36*t65
-    del t36, t65
-    t102 = Ab*t101 - Q00*t95 - Q01*t92
-    t103 = sin_vartheta2*vartheta2_dot
-    t104 = t103*t59
-    t105 = sin_vartheta2*t16
-    t106 = (2*l1*l2)*sin_vartheta2*t19*varphi2_dot*vartheta2_dot - qdd2*t105 - t25*t43 - t25*t45
-    del t25, t45
-    t107 = Q11*t29
+    t51 = t12*t28
+    t52 = t29 - t51
     del t29
-    t108 = cos_vartheta2*cos_vartheta2
-    t109 = t15*t70
-    del t15, t70
-    t110 = Ab*t43*((-1) + 2*t108) + (g*l2)*sin_varphi2*sin_vartheta2 - qdd0*t109 - sin_vartheta2*t91 - t107*t13 - t73*t99 - t76*t88
-    del qdd0, t107, t108, t13, t73, t76, t88, t91, t99
-    t111 = Ab*t106 - Q10*t110 - Q11*t104
-    t112 = (l1*l2)*cos_vartheta1*cos_vartheta2*t19*t43 + (2*l1*l2)*cos_vartheta1*sin_vartheta2*t9*varphi2_dot*vartheta2_dot - qdd2*t109 - t46*t75
-    del qdd2, t19, t43, t46, t75
-    t113 = Ab*t112 - Q00*t110 - Q01*t104
-    del t104
-    t114 = -t96
-    del t96
-    t115 = (g*l2)*sin_varphi2 - t92
-    del sin_varphi2
-    t116 = -t95 - t23*t57
-    del t57
-    t117 = Ab*t114 - Q10*t116 - Q11*t115
-    t118 = Ab*t100 - Q00*t116 - Q01*t115
-    t119 = (2*l1*l2)*sin_vartheta1*t9*vartheta1_dot - t20*t60
-    del t60
-    t120 = t20*t94 - t56*t61
-    del t56, t61
-    t121 = -Q00*t120 - Q01*t119
-    t122 = Aa*cos_vartheta1
-    t123 = t122*t20
-    t124 = -Ab*t123 - Q10*t120 - Q11*t119
-    t125 = 2*t39
-    del t39
-    t126 = t17*t20 - t62
-    del t17, t62
-    t127 = 2*t9
-    del t9
-    t128 = t21*t50 + t127*t23*t52
-    del t21, t23, t50, t52
-    t129 = -Ab*t125 - Q10*t128 - Q11*t126
-    t130 = (2*Ab*t2*t3*t4)*cos_vartheta1*sin_vartheta1*varphi1_dot - Q00*t128 - Q01*t126
-    del t2, t3, t4
-    t131 = cos_vartheta2*t59
-    t132 = -t42 - 2*t103*t16
-    del t103, t16, t42
-    t133 = Ab*t132 + Q11*t131
-    t134 = 2*vartheta2_dot
-    t135 = -t109*t134 - t40*t94
-    del t109, t94
-    t136 = Ab*t135 + Q01*t131
-    t137 = Ab*t58
+    t53 = t2*t40
+    t54 = t16*sin_varphi1
+    del sin_varphi1
+    t55 = Aa*cos_vartheta1
+    t56 = t21*t38
+    del t21
+    t57 = t32*t56
+    t58 = sin_vartheta1*t6
+    f0 = t25*t51 + t55*t58 - t27*t52 - t53*t54 - t57*vartheta2_dot
     del t58
-    t138 = 2*t137
-    t139 = t49*t59
-    del t49, t59
-    t140 = -t105*t40 - t134*t41
-    del t105, t134, t41
-    t141 = Ab*t140 + Q11*t138 - Q10*t139
-    t142 = 2*Q01
-    t143 = Q11*t40*t69 - t11*t127*t66
-    del t11, t127, t40, t66, t69
-    t144 = Ab*t143 + t137*t142 - Q00*t139
-    del t137, t139
+    t59 = t16*cos_varphi1
+    del cos_varphi1, t16
+    t60 = 2*varphi1_dot
+    t61 = sin_vartheta2*t24
+    t62 = sin_vartheta2*t26
+    t63 = t2*l1
+    t64 = cos_vartheta1*vartheta1_dot
+    t65 = Aa*t64
+    del t64
+    t66 = t42*vartheta2_dot
+    t67 = t32*t66
+    t68 = t12*t67
+    f1 = -t38*t61 - t38*t62 - t59*t63 - t60*t65 - t68*l1
+    del t68
+    t69 = t36*t6
+    t70 = vartheta1_dot*vartheta1_dot
+    t71 = t36*t70
+    del t36
+    t72 = l2*t12
+    t73 = t40*vartheta1_dot
+    del t40
+    t74 = t60*t73
+    t75 = g*cos_varphi2
+    del cos_varphi2
+    t76 = 2*Ab
+    t77 = cos_vartheta2*vartheta2_dot
+    t78 = t76*t77
+    f3 = l2*t69 + l2*t71 - t72*t74 - t75*l2 - t78*varphi2_dot
+    del t69, t71
+    t79 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
+    t80 = 2*vartheta1_dot
+    t81 = t80*varphi1_dot
+    t82 = Ab*t24
+    t83 = g*sin_varphi2
+    t84 = cos_vartheta2*sin_vartheta2
+    t85 = t30*t6
+    f2 = t23*t85 + t56*t81 + t82*t84 - t31*t70 - t42*t83
+    del t85
+    t86 = rD2*(Aa*f2 - Q00*f0 - Q10*f1)
+    qdd2 = D2_11*t86 - D2_01*t79
+    xr3 = D2_00*t79 - D2_01*t86
+    del t79, t86
+    t87 = t2*t19 + t33*t39 + t37*xr3 + Aa*t6*((-1) + 2*t15) - qdd2*t31 - t13*t25 - t22*t27
+    del t15, t19, t2
+    t88 = -t46 - t7
+    del t7
+    t89 = t23*t6
+    t90 = t23*t70
+    D1_00 = t48 + t49
+    del t48, t49
+    D1_01 = -Q00*Q10 - Q01*Q11
+    D1_11 = t45 + t50
+    del t45, t50
+    rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
+    t91 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    del f1
+    t92 = rD1*(Ab*f0 - Q00*f2 - Q01*f3)
+    del f0, f2, f3
+    qdd0 = D1_11*t92 - D1_01*t91
+    t93 = t46*t89 - qdd0*t31 - t39*t81 - t88*t90
+    t94 = t35*vartheta1_dot
+    t95 = Q01*t6 + Q01*t70 + qdd0*t37 + t60*t72*t94
+    t96 = Ab*t87 - Q00*t93 - Q01*t95
+    t97 = sin_vartheta1*vartheta1_dot
+    t98 = Aa*t60*t97
+    del t97
+    t99 = rD1*(Ab*t98 - Q10*t93 - Q11*t95)
+    t100 = D1_11*rD1
+    t101 = qdd2*t56
+    t102 = t12*t41
+    del t41
+    t103 = t102*xr3
+    t104 = t28*t38
+    del t28
+    t105 = t104*t24
+    t106 = t104*t26
+    t107 = t23*t32
+    t108 = t107*t46*vartheta2_dot
+    t109 = t101 - t103 - t105 - t106 - t108 - t53*t59
+    del t53, t59
+    t110 = t12*t43
+    del t43
+    xr1 = D1_00*t91 - D1_01*t92
+    del t91, t92
+    t111 = t110*xr1
+    t112 = qdd0*t56
+    t113 = t23*t46*t81
+    t114 = t39*t6
+    t115 = t39*t70
+    del t39
+    t116 = t111 + t112 + t113 - t114 - t115
+    t117 = t38*xr1
+    t118 = t35*t72
+    del t35
+    t119 = t118*t6
+    del t6
+    t120 = t118*t70
+    del t118, t70
+    t121 = l2*t34
+    t122 = t121*t74
+    del t74
+    t123 = qdd0*t102
+    t124 = t117 + t119 + t120 + t122 - t123
+    t125 = Ab*t109 - Q00*t116 - Q01*t124
+    t126 = t38*xr3
+    t127 = qdd2*t110
+    t128 = l1*t34
+    t129 = t128*t67
+    del t128, t67
+    t130 = Q11*t61
+    del t61
+    t131 = Q11*t62
+    del t62
+    t132 = t126 + t127 + t129 + t63*t54 - t130 - t131
+    del t54, t63
+    t133 = Ab*t132 - Q10*t116 - Q11*t124
+    t134 = D1_01*rD1
+    t135 = cos_vartheta2*cos_vartheta2
+    t136 = t23*t52
+    del t52
+    t137 = sin_varphi2*sin_vartheta2
+    del sin_varphi2
+    t138 = l2*t137
+    del t137
+    t139 = g*t138
+    del t138
+    t140 = t139 + t82*((-1) + 2*t135) - qdd0*t136 - sin_vartheta2*t117 - t104*t81 - t13*t89 - t22*t90
+    del qdd0, t13, t135, t139, t22, t81, t82, t89, t90
+    t141 = sin_vartheta2*vartheta2_dot
+    t142 = l2*t141
+    t143 = sin_vartheta2*t38
+    del t38
+    t144 = l1*t12*t142*t32 - qdd2*t143 - t24*t44 - t26*t44
+    del t24, t26, t44
+    t145 = t76*varphi2_dot
+    t146 = t141*t145
+    t147 = Ab*t144 - Q10*t140 - Q11*t146
+    t148 = t104*t33 + t25*t46 - qdd2*t136 - t27*t88
+    del qdd2, t104, t25, t27, t33, t46, t88
+    t149 = t76*Q01
+    t150 = rD1*(Ab*t148 - Q00*t140 - t141*t149*varphi2_dot)
+    del t141
+    t151 = t114 + t115 - t111 - t112 - t113 - t42*t75
+    del t111, t112, t113, t114, t115, t42, t75
+    t152 = t123 + l2*t83 - t117 - t119 - t120 - t122
+    del t117, t119, t120, t122, t123, t83
+    t153 = t130 + t131 - t126 - t127 - t129
+    del t126, t127, t129, t130, t131
+    t154 = Ab*t153 - Q10*t151 - Q11*t152
+    t155 = t103 + t105 + t106 + t108 - t101
+    del t101, t103, t105, t106, t108
+    t156 = rD1*(Ab*t155 - Q00*t151 - Q01*t152)
+    t157 = t56*t60 - t31*t80
+    del t31
+    t158 = 2*t121*t94 - t102*t60
+    del t102, t121, t94
+    t159 = -Q00*t157 - Q01*t158
+    t160 = t55*t60
+    del t55
+    t161 = Ab*t160
+    t162 = rD1*(-t161 - Q10*t157 - Q11*t158)
+    t163 = t56*t80 + t23*t30*t60
+    del t23, t30, t80
+    t164 = t37*t60 - 2*t72*t73
+    del t37, t60, t72, t73
+    t165 = sin_vartheta1*t161 - Q00*t163 - Q01*t164
+    del t161
+    t166 = 2*t65
+    del t65
+    t167 = rD1*(-Ab*t166 - Q10*t163 - Q11*t164)
+    t168 = 2*vartheta2_dot
+    t169 = -t57 - t136*t168
+    del t136, t57
+    t170 = cos_vartheta2*varphi2_dot
+    t171 = Ab*t169 + t149*t170
+    t172 = 2*l1
+    t173 = -t110*t32 - t142*t172*t34
+    del t110, t142, t34
+    t174 = t76*t170
+    del t170, t76
+    t175 = Ab*t173 + Q11*t174
+    t176 = t107*t51 - t168*t56
+    del t107, t168, t51, t56
+    t177 = t145*t84
+    del t145, t84
+    t178 = Ab*t176 + t149*t77 - Q00*t177
+    del t149, t77
+    t179 = -t143*t32 - t12*t172*t66
+    del t12, t143, t172, t32, t66
+    t180 = Ab*t179 + Q11*t78 - Q10*t177
+    del Ab
     rs1 = 1.0/sin_vartheta1
     qdd1 = rs1*xr1
     del xr1
-    t145 = D1_00*rD1
-    t146 = Aa*t18*t20
-    del t18, t20
-    t147 = Aa*t72 - Q01*t89 - Q11*t146
-    del t72
-    t148 = D2_01*rD2
-    del D2_01
-    t149 = Aa*t77 - Q00*t89 - Q10*t146
-    del t146, t77, t89
-    t150 = Aa*t92 - Q01*t101 - Q11*t97
-    del t92
-    t151 = Aa*t95 - Q00*t101 - Q10*t97
-    del t101, t95, t97
-    t152 = (2*Aa*Ab)*sin_vartheta2*varphi2_dot*vartheta2_dot - Q01*t112 - Q11*t106
-    t153 = Aa*t110 - Q00*t112 - Q10*t106
-    del t106, t110, t112
-    t154 = Aa*t115 - Q01*t100 - Q11*t114
-    del t115
-    t155 = Aa*t116 - Q00*t100 - Q10*t114
-    del t100, t114, t116
-    t156 = Aa*t119 + Q11*t123
-    del t119
-    t157 = Aa*t120 + Q10*t123
-    del t120
-    t158 = Aa*t126 + Q11*t125 - sin_vartheta1*t122*t142*varphi1_dot
-    del t122, t126, t142
-    t159 = Aa*t128 + Q10*t125 - Q00*sin_vartheta1*t123
-    del sin_vartheta1, t123, t125, t128
-    t160 = -Q00*t135 - Q10*t132
-    t161 = -Aa*t131 - Q01*t135 - Q11*t132
-    del t131, t132, t135
-    t162 = -Aa*t138 - Q01*t143 - Q11*t140
-    del Q01, Q11, t138
-    t163 = (2*Aa*Ab)*cos_vartheta2*sin_vartheta2*varphi2_dot - Q00*t143 - Q10*t140
-    del Aa, Ab, Q00, Q10, t140, t143
-    t164 = D2_00*rD2
+    t181 = D1_00*rD1
+    del rD1
+    t182 = Aa*t93 - Q00*t87 - Q10*t98
+    del t93
+    t183 = Aa*t95 - Q01*t87 - Q11*t98
+    del t87, t95, t98
+    t184 = D2_01*rD2
+    t185 = D2_11*rD2
+    t186 = Aa*t116 - Q00*t109 - Q10*t132
+    del t116
+    t187 = Aa*t124 - Q01*t109 - Q11*t132
+    del t109, t124, t132
+    t188 = Aa*t140 - Q00*t148 - Q10*t144
+    del t140
+    t189 = Aa*t146 - Q01*t148 - Q11*t144
+    del t144, t146, t148
+    t190 = Aa*t151 - Q00*t155 - Q10*t153
+    del t151
+    t191 = Aa*t152 - Q01*t155 - Q11*t153
+    del t152, t153, t155
+    t192 = Aa*t157 + Q10*t160
+    del t157
+    t193 = rD2*(Aa*t158 + Q11*t160)
+    del t158
+    t194 = sin_vartheta1*t160
+    del sin_vartheta1, t160
+    t195 = Aa*t163 + Q10*t166 - Q00*t194
+    del t163
+    t196 = Aa*t164 + Q11*t166 - Q01*t194
+    del t164, t166, t194
+    t197 = -Q00*t169 - Q10*t173
+    t198 = -Aa*t174 - Q01*t169 - Q11*t173
+    del t169, t173, t174
+    t199 = -Aa*t78 - Q01*t176 - Q11*t179
+    del Q01, Q11, t78
+    t200 = rD2*(Aa*t177 - Q00*t176 - Q10*t179)
+    del Aa, Q00, Q10, t176, t177, t179
+    t201 = D2_00*rD2
+    del rD2
     rs3 = 1.0/sin_vartheta2
     del sin_vartheta2
     qdd3 = rs3*xr3
     del xr3
-    t165 = D1_11*rD1*t90 - t78*t79
-    t166 = D1_11*rD1*t102 - t79*t98
-    t167 = D1_11*rD1*t113 - t111*t79
-    t168 = D1_11*rD1*t118 - t117*t79
-    t169 = D1_11*rD1*t121 - t124*t79
-    t170 = D1_11*rD1*t130 - t129*t79
-    t171 = D1_11*rD1*t136 - t133*t79
-    t172 = D1_11*rD1*t144 - t141*t79
+    t202 = t100*t96 - D1_01*t99
+    t203 = t100*t125 - t133*t134
+    t204 = D1_11*t150 - t134*t147
+    t205 = D1_11*t156 - t134*t154
     del D1_11
-    t173 = rs1*(D1_00*rD1*t78 - cos_vartheta1*qdd1 - t79*t90)
-    del D1_00, cos_vartheta1, qdd1, rD1, t78, t90
-    t174 = rs1*(t145*t98 - t102*t79)
-    del t102, t98
-    t175 = rs1*(t111*t145 - t113*t79)
-    del t111, t113
-    t176 = rs1*(t117*t145 - t118*t79)
-    del t117, t118
-    t177 = rs1*(t124*t145 - t121*t79)
-    del t121, t124
-    t178 = rs1*(t129*t145 - t130*t79)
-    del t129, t130
-    t179 = rs1*(t133*t145 - t136*t79)
-    del t133, t136
-    t180 = rs1*(t141*t145 - t144*t79)
-    del rs1, t141, t144, t145, t79
-    t181 = D2_11*rD2*t149 - t147*t148
-    t182 = D2_11*rD2*t151 - t148*t150
-    t183 = D2_11*rD2*t153 - t148*t152
-    t184 = D2_11*rD2*t155 - t148*t154
-    t185 = D2_11*rD2*t157 - t148*t156
-    t186 = D2_11*rD2*t159 - t148*t158
-    t187 = D2_11*rD2*t160 - t148*t161
-    t188 = D2_11*rD2*t163 - t148*t162
+    t206 = t100*t159 - D1_01*t162
+    t207 = t100*t165 - D1_01*t167
+    t208 = t100*t171 - t134*t175
+    t209 = t100*t178 - t134*t180
+    del t100
+    t210 = rs1*(D1_00*t99 - cos_vartheta1*qdd1 - t134*t96)
+    del cos_vartheta1, qdd1, t96, t99
+    t211 = rs1*(t133*t181 - t125*t134)
+    del t125, t133
+    t212 = rs1*(t147*t181 - D1_01*t150)
+    del t147, t150
+    t213 = rs1*(t154*t181 - D1_01*t156)
+    del D1_01, t154, t156
+    t214 = rs1*(D1_00*t162 - t134*t159)
+    del t159, t162
+    t215 = rs1*(D1_00*t167 - t134*t165)
+    del D1_00, t165, t167
+    t216 = rs1*(t175*t181 - t134*t171)
+    del t171, t175
+    t217 = rs1*(t180*t181 - t134*t178)
+    del rs1, t134, t178, t180, t181
+    t218 = t182*t185 - t183*t184
+    t219 = t185*t186 - t184*t187
+    t220 = t185*t188 - t184*t189
+    t221 = t185*t190 - t184*t191
+    t222 = t185*t192 - D2_01*t193
+    t223 = t185*t195 - t184*t196
+    t224 = t185*t197 - t184*t198
+    del t185
+    t225 = D2_11*t200 - t184*t199
     del D2_11
-    t189 = rs3*(t147*t164 - t148*t149)
-    del t147, t149
-    t190 = rs3*(t150*t164 - t148*t151)
-    del t150, t151
-    t191 = rs3*(D2_00*rD2*t152 - cos_vartheta2*qdd3 - t148*t153)
-    del D2_00, cos_vartheta2, qdd3, rD2, t152, t153
-    t192 = rs3*(t154*t164 - t148*t155)
-    del t154, t155
-    t193 = rs3*(t156*t164 - t148*t157)
-    del t156, t157
-    t194 = rs3*(t158*t164 - t148*t159)
-    del t158, t159
-    t195 = rs3*(t161*t164 - t148*t160)
-    del t160, t161
-    t196 = rs3*(t162*t164 - t148*t163)
-    del rs3, t148, t162, t163, t164
+    t226 = rs3*(t183*t201 - t182*t184)
+    del t182, t183
+    t227 = rs3*(t187*t201 - t184*t186)
+    del t186, t187
+    t228 = rs3*(t189*t201 - cos_vartheta2*qdd3 - t184*t188)
+    del cos_vartheta2, qdd3, t188, t189
+    t229 = rs3*(t191*t201 - t184*t190)
+    del t190, t191
+    t230 = rs3*(D2_00*t193 - t184*t192)
+    del D2_00, t192, t193
+    t231 = rs3*(t196*t201 - t184*t195)
+    del t195, t196
+    t232 = rs3*(t198*t201 - t184*t197)
+    del t184, t197, t198
+    t233 = rs3*(t199*t201 - D2_01*t200)
+    del D2_01, rs3, t199, t200, t201
     A = numpy.empty(shape + (8, 8), dtype)
     A[..., 0, 0] = 0
     A[..., 0, 1] = 0
@@ -418,68 +475,68 @@ def linearize(y, p):
     A[..., 3, 5] = 0
     A[..., 3, 6] = 0
     A[..., 3, 7] = 1
-    A[..., 4, 0] = t165
-    del t165
-    A[..., 4, 1] = t166
-    del t166
-    A[..., 4, 2] = t167
-    del t167
-    A[..., 4, 3] = t168
-    del t168
-    A[..., 4, 4] = t169
-    del t169
-    A[..., 4, 5] = t170
-    del t170
-    A[..., 4, 6] = t171
-    del t171
-    A[..., 4, 7] = t172
-    del t172
-    A[..., 5, 0] = t173
-    del t173
-    A[..., 5, 1] = t174
-    del t174
-    A[..., 5, 2] = t175
-    del t175
-    A[..., 5, 3] = t176
-    del t176
-    A[..., 5, 4] = t177
-    del t177
-    A[..., 5, 5] = t178
-    del t178
-    A[..., 5, 6] = t179
-    del t179
-    A[..., 5, 7] = t180
-    del t180
-    A[..., 6, 0] = t181
-    del t181
-    A[..., 6, 1] = t182
-    del t182
-    A[..., 6, 2] = t183
-    del t183
-    A[..., 6, 3] = t184
-    del t184
-    A[..., 6, 4] = t185
-    del t185
-    A[..., 6, 5] = t186
-    del t186
-    A[..., 6, 6] = t187
-    del t187
-    A[..., 6, 7] = t188
-    del t188
-    A[..., 7, 0] = t189
-    del t189
-    A[..., 7, 1] = t190
-    del t190
-    A[..., 7, 2] = t191
-    del t191
-    A[..., 7, 3] = t192
-    del t192
-    A[..., 7, 4] = t193
-    del t193
-    A[..., 7, 5] = t194
-    del t194
-    A[..., 7, 6] = t195
-    del t195
-    A[..., 7, 7] = t196
-    del t196
+    A[..., 4, 0] = t202
+    del t202
+    A[..., 4, 1] = t203
+    del t203
+    A[..., 4, 2] = t204
+    del t204
+    A[..., 4, 3] = t205
+    del t205
+    A[..., 4, 4] = t206
+    del t206
+    A[..., 4, 5] = t207
+    del t207
+    A[..., 4, 6] = t208
+    del t208
+    A[..., 4, 7] = t209
+    del t209
+    A[..., 5, 0] = t210
+    del t210
+    A[..., 5, 1] = t211
+    del t211
+    A[..., 5, 2] = t212
+    del t212
+    A[..., 5, 3] = t213
+    del t213
+    A[..., 5, 4] = t214
+    del t214
+    A[..., 5, 5] = t215
+    del t215
+    A[..., 5, 6] = t216
+    del t216
+    A[..., 5, 7] = t217
+    del t217
+    A[..., 6, 0] = t218
+    del t218
+    A[..., 6, 1] = t219
+    del t219
+    A[..., 6, 2] = t220
+    del t220
+    A[..., 6, 3] = t221
+    del t221
+    A[..., 6, 4] = t222
+    del t222
+    A[..., 6, 5] = t223
+    del t223
+    A[..., 6, 6] = t224
+    del t224
+    A[..., 6, 7] = t225
+    del t225
+    A[..., 7, 0] = t226
+    del t226
+    A[..., 7, 1] = t227
+    del t227
+    A[..., 7, 2] = t228
+    del t228
+    A[..., 7, 3] = t229
+    del t229
+    A[..., 7, 4] = t230
+    del t230
+    A[..., 7, 5] = t231
+    del t231
+    A[..., 7, 6] = t232
+    del t232
+    A[..., 7, 7] = t233
+    del t233
     return A

@@ -35,7 +35,7 @@ def linearize(y, p):
     y: (..., 8) the state: coordinates, then their rates: (theta1, phi1, theta2, phi2, theta1_dot, phi1_dot, theta2_dot, phi2_dot)
     p: (..., 5) the parameters: (m1, m2, l1, l2, g)
     returns A: (..., 8, 8) A = df/dy, row-major
-    Total ops: 694
+    Total ops: 633
     """
     (y, p), shape, dtype = _prepare("linearize", (y, 8, "y"), (p, 5, "p"))
     theta1 = y[..., 0]
@@ -68,303 +68,348 @@ def linearize(y, p):
     t2 = 1.0/m2
     t3 = l1*l1
     t4 = m1 + m2
-    t5 = phi1 - phi2
-    tan_half_t5 = numpy.tan(0.5*t5)
+    t5 = t3*t4
+    del t3
+    Aa = t2*t5
     del t5
-    tan_half_sq_t5 = tan_half_t5*tan_half_t5
-    rho_t5 = 1.0/(1 + tan_half_sq_t5)
-    sin_t5 = 2*rho_t5*tan_half_t5
-    del tan_half_t5
-    cos_t5 = rho_t5*(1 - tan_half_sq_t5)
-    del rho_t5, tan_half_sq_t5
-    t8 = l1*cos_theta1
-    t9 = l2*t8
-    Q01 = sin_t5*t9
-    t10 = phi1_dot*phi1_dot
-    t11 = theta1_dot*theta1_dot
-    t12 = l1*l2
-    t13 = t12*sin_t5
-    t14 = sin_theta1*t13
-    t15 = sin_theta1*theta1_dot
-    Q11 = t12*cos_t5
-    t17 = 2*phi1_dot
-    t18 = Q11*t17
-    Ab = l2*l2
-    t20 = l2*cos_theta2
-    t21 = l1*t20
-    t22 = sin_t5*t21
-    Q10 = -t22
-    t23 = Q01*Q01
-    t24 = t3*t4
-    Aa = t2*t24
-    del t24
-    AaAb = Aa*Ab
-    t25 = -AaAb
-    del AaAb
-    t26 = sin_theta1*sin_theta2
-    t27 = cos_theta1*cos_theta2
-    t28 = t26 + cos_t5*t27
-    Q00 = t12*t28
-    t29 = t25 + Q00*Q00
-    D1_00 = -t23 - t29
-    D1_01 = -Q00*Q10 - Q01*Q11
-    t30 = Q10*Q10
-    t31 = t25 + Q11*Q11
-    del t25
-    D1_11 = -t30 - t31
-    rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
-    t32 = phi2_dot*phi2_dot
-    t33 = sin_theta2*t32
-    t34 = theta2_dot*theta2_dot
-    t35 = t12*t34
-    t36 = sin_t5*t35
-    t37 = 2*phi2_dot
-    t38 = cos_t5*t21
-    del t21
-    t39 = t37*t38
-    t40 = cos_theta1*theta1_dot
-    t41 = Aa*t40
-    del t40
-    f1 = -sin_theta2*t36 - t13*t33 - t17*t41 - t39*theta2_dot
-    t42 = g*sin_theta2
-    t43 = cos_theta2*sin_theta2
-    t44 = cos_theta2*sin_theta1
-    t45 = t10*t44
-    t46 = t8*theta1_dot
-    t47 = t17*t46
-    t48 = sin_t5*t47
-    t49 = cos_t5*t44
-    t50 = t12*((cos_theta1*sin_theta2 - t49))
-    del t49
-    f2 = Q11*t45 + t20*t48 + Ab*t32*t43 - t11*t50 - t42*l2
-    del t42, t48
-    t51 = cos_theta2*theta2_dot
-    t52 = Ab*t37
-    t53 = sin_theta1*t10
-    t54 = t12*t11
-    t55 = sin_t5*t54
-    t56 = cos_t5*t9
-    del t9
-    t57 = 2*theta1_dot
-    t58 = t56*t57
-    f3 = sin_theta1*t55 + t13*t53 - phi1_dot*t58 - t51*t52
-    t59 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
-    t60 = g*t4
-    t61 = t60*sin_theta1
-    t62 = t20*theta2_dot
-    t63 = t37*t62
-    t64 = t63*t8
-    del t63
-    t65 = cos_theta1*sin_theta2
-    t66 = t44 - cos_t5*t65
-    f0 = (l1*l2)*cos_t5*cos_theta1*sin_theta2*t32 + (t2*t3*t4)*cos_theta1*sin_theta1*t10 - sin_t5*t64 - t35*t66 - t2*t61*l1
-    del t61
-    t67 = Ab*f0 - Q00*f2 - Q01*f3
-    qdd0 = D1_11*rD1*t67 - D1_01*t59
-    t68 = Q01*t10 + Q01*t11 + qdd0*t14 + t15*t18
-    t69 = phi1_dot*t57
-    t70 = -t28
-    del t28
-    t71 = (l1*l2)*cos_t5*cos_theta1*cos_theta2*t10 - qdd0*t50 - t54*t70 - t13*t44*t69
-    t72 = (2*Ab*t2*t3*t4)*phi1_dot*sin_theta1*theta1_dot - Q10*t71 - Q11*t68
-    t73 = D1_01*rD1
-    t74 = cos_theta1*cos_theta1
-    t75 = t60*t8
-    del t60
-    t76 = t27 + cos_t5*t26
-    del t27
-    D2_00 = -t29 - t30
-    del t29, t30
-    D2_01 = -Q00*Q01 - Q10*Q11
-    D2_11 = -t23 - t31
-    del t23, t31
-    rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
-    t77 = rD2*(Aa*f3 - Q01*f0 - Q11*f1)
-    del f3
-    t78 = Aa*f2 - Q00*f0 - Q10*f1
-    del f0, f1, f2
-    qdd2 = D2_11*rD2*t78 - D2_01*t77
-    xr3 = D2_00*t77 - D2_01*rD2*t78
-    del t77, t78
-    t79 = (l1*l2)*sin_t5*sin_theta1*xr3 + (t2*t3*t4)*t10*((-1) + 2*t74) + (2*l1*l2)*cos_theta2*phi2_dot*sin_t5*sin_theta1*theta2_dot - qdd2*t50 - t2*t75 - t35*t76 - Q11*t26*t32
-    del t74, t75
-    t80 = Ab*t79 - Q00*t71 - Q01*t68
-    xr1 = D1_00*t59 - D1_01*rD1*t67
-    del D1_01, t59, t67
-    t81 = t13*xr1
-    t82 = t81 + Q01*t69 + Q11*t53 + Q11*sin_theta1*t11 - qdd0*t56
-    del t11, t53
-    t83 = t37*theta2_dot
-    t84 = qdd2*t38 + t13*xr3 + t22*t83 - Q11*t33 - Q11*sin_theta2*t34
-    del t33
-    t85 = cos_t5*t47
-    del t47
-    t86 = t20*t8
-    t87 = sin_t5*t86
-    t88 = qdd0*t87 + t20*t85 + t38*xr1 - t13*t45 - t44*t55
-    del t45, t55, t85
-    t89 = Ab*t84 - Q10*t88 - Q11*t82
-    t90 = t13*t65
-    t91 = cos_t5*t64 + t32*t90 + t36*t65 + t56*xr3 - cos_theta1*cos_theta2*qdd2*sin_t5*l1*l2
-    del t36, t64
-    t92 = -t91
-    t93 = Ab*t92 - Q00*t88 - Q01*t82
-    t94 = sin_theta2*theta2_dot
-    t95 = t52*t94
-    t96 = sin_theta2*t13
-    t97 = (2*l1*l2)*cos_t5*phi2_dot*sin_theta2*theta2_dot - qdd2*t96 - t22*t32 - t22*t34
-    del t22, t34
-    t98 = Q11*t26
-    del t26
-    t99 = cos_theta2*cos_theta2
-    t100 = g*t20
-    t101 = t12*t66
-    del t12, t66
-    t102 = Ab*t32*((-1) + 2*t99) - t100 - qdd0*t101 - sin_theta2*t81 - t10*t98 - t54*t76 - t69*t90
-    del qdd0, t10, t100, t54, t69, t76, t81, t98, t99
-    t103 = Ab*t97 - Q10*t102 - Q11*t95
-    t104 = t83*t90 + cos_t5*t32*t86 - qdd2*t101 - t35*t70
-    del cos_t5, qdd2, t32, t35, t70, t83, t86, t90
-    t105 = Ab*t104 - Q00*t102 - Q01*t95
-    del t95
-    t106 = -t84
-    t107 = -t82
-    t108 = -t88
-    t109 = Ab*t106 - Q10*t108 - Q11*t107
-    t110 = Ab*t91 - Q00*t108 - Q01*t107
-    t111 = (2*l1*l2)*sin_t5*sin_theta1*theta1_dot - t17*t56
-    del t56
-    t112 = t17*t87 - t50*t57
-    del t50, t57
-    t113 = -Q00*t112 - Q01*t111
-    t114 = Aa*cos_theta1
-    t115 = t114*t17
-    t116 = -Ab*t115 - Q10*t112 - Q11*t111
-    t117 = 2*t41
-    del t41
-    t118 = t14*t17 - t58
-    del t14, t58
-    t119 = 2*sin_t5
-    del sin_t5
-    t120 = t18*t44 + t119*t20*t46
-    del t18, t20, t44, t46
-    t121 = -Ab*t117 - Q10*t120 - Q11*t118
-    t122 = (2*Ab*t2*t3*t4)*cos_theta1*phi1_dot*sin_theta1 - Q00*t120 - Q01*t118
-    del t2, t3, t4
-    t123 = cos_theta2*t52
-    t124 = -t39 - 2*t13*t94
-    del t13, t39, t94
-    t125 = Ab*t124 + Q11*t123
-    t126 = 2*theta2_dot
-    t127 = -t101*t126 - t37*t87
-    del t101, t87
-    t128 = Ab*t127 + Q01*t123
-    t129 = Ab*t51
+    t6 = sin_theta1*sin_theta2
+    t7 = phi1_dot*phi1_dot
+    t9 = cos_theta1*cos_theta1
+    t10 = phi1 - phi2
+    tan_half_t10 = numpy.tan(0.5*t10)
+    del t10
+    tan_half_sq_t10 = tan_half_t10*tan_half_t10
+    rho_t10 = 1.0/(1 + tan_half_sq_t10)
+    sin_t10 = 2*rho_t10*tan_half_t10
+    del tan_half_t10
+    cos_t10 = rho_t10*(1 - tan_half_sq_t10)
+    del rho_t10, tan_half_sq_t10
+    t13 = cos_theta1*cos_theta2
+    t14 = t13 + cos_t10*t6
+    t15 = l1*l2
+    Q11 = t15*cos_t10
+    t16 = phi2_dot*phi2_dot
+    t17 = Q11*t16
+    t18 = theta2_dot*theta2_dot
+    t19 = t15*t18
+    t20 = cos_theta1*sin_theta2
+    t21 = cos_theta2*sin_theta1
+    t22 = cos_t10*t21
+    t23 = t15*((t20 - t22))
+    del t22
+    t25 = t15*sin_t10
+    t26 = t21*t25
+    t27 = 2*theta2_dot
+    t28 = phi2_dot*t27
+    t29 = l1*cos_theta1
+    t30 = g*t4
+    del t4
+    t31 = t30*t29
+    t32 = l1*sin_theta1
+    t33 = sin_t10*t32
+    t34 = l2*t33
+    t35 = cos_t10*t13
+    Q00 = t15*((t35 + t6))
+    t36 = l2*cos_theta2
+    t37 = l1*t36
+    t38 = sin_t10*t37
+    Q10 = -t38
+    t39 = cos_t10*t20
+    t40 = t21 - t39
+    del t39
+    t41 = Aa*cos_theta1
+    t42 = t13*t25
+    t43 = t27*t42
+    t44 = sin_theta1*t7
+    f0 = t17*t20 + t41*t44 - phi2_dot*t43 - t19*t40 - t2*t30*t32
+    del t30, t44
+    t45 = 2*phi1_dot
+    t46 = sin_t10*t19
+    t47 = t36*theta2_dot
+    t48 = 2*phi2_dot
+    t49 = t47*t48
+    t50 = sin_theta2*t16
+    t51 = cos_theta1*theta1_dot
+    t52 = Aa*t51
     del t51
-    t130 = 2*t129
-    t131 = t43*t52
-    del t43, t52
-    t132 = -t126*t38 - t37*t96
-    del t126, t38, t96
-    t133 = Ab*t132 + Q11*t130 - Q10*t131
-    t134 = 2*Q01
-    t135 = Q11*t37*t65 - t119*t62*t8
-    del t119, t37, t62, t65, t8
-    t136 = Ab*t135 + t129*t134 - Q00*t131
-    del t129, t131
+    t53 = l1*cos_t10
+    f1 = -sin_theta2*t46 - t25*t50 - t45*t52 - t49*t53
+    t54 = theta1_dot*theta1_dot
+    t55 = Q11*t7
+    t56 = 2*theta1_dot
+    t57 = phi1_dot*t56
+    Ab = l2*l2
+    t58 = Ab*t16
+    t59 = cos_theta2*sin_theta2
+    t60 = g*sin_theta2
+    f2 = t21*t55 + t42*t57 + t58*t59 - t23*t54 - t60*l2
+    del t60
+    t61 = Aa*f2 - Q00*f0 - Q10*f1
+    t62 = l2*t29
+    del t29
+    Q01 = sin_t10*t62
+    t63 = t33*t7
+    t64 = t33*t54
+    del t33
+    t65 = 2*Ab
+    t66 = t65*phi2_dot
+    t67 = cos_t10*t62
+    del t62
+    t68 = t56*t67
+    t69 = cos_theta2*theta2_dot
+    f3 = l2*t63 + l2*t64 - phi1_dot*t68 - t66*t69
+    del t63, t64
+    t70 = Aa*f3 - Q01*f0 - Q11*f1
+    D2_01 = -Q00*Q01 - Q10*Q11
+    t71 = -Q10*Q10
+    AaAb = Aa*Ab
+    t72 = AaAb - Q00*Q00
+    D2_00 = t71 + t72
+    t73 = -Q01*Q01
+    t74 = AaAb - Q11*Q11
+    del AaAb
+    D2_11 = t73 + t74
+    rD2 = 1.0/(D2_00*D2_11 - D2_01*D2_01)
+    t75 = D2_01*rD2
+    t76 = D2_11*rD2
+    del D2_11
+    qdd2 = t61*t76 - t70*t75
+    t77 = D2_00*rD2
+    xr3 = t70*t77 - t61*t75
+    del t61, t70
+    t78 = t26*t28 + t34*xr3 + Aa*t7*((-1) + 2*t9) - qdd2*t23 - t14*t19 - t17*t6 - t2*t31
+    del t2, t31, t9
+    t79 = -t35 - t6
+    del t35
+    t80 = t15*t54
+    D1_00 = t72 + t73
+    del t72, t73
+    D1_01 = -Q00*Q10 - Q01*Q11
+    D1_11 = t71 + t74
+    del t71, t74
+    rD1 = 1.0/(D1_00*D1_11 - D1_01*D1_01)
+    t81 = rD1*(Ab*f1 - Q10*f2 - Q11*f3)
+    del f1
+    t82 = rD1*(Ab*f0 - Q00*f2 - Q01*f3)
+    del f0, f2, f3
+    qdd0 = D1_11*t82 - D1_01*t81
+    t83 = t13*t55 - qdd0*t23 - t26*t57 - t79*t80
+    t84 = t32*theta1_dot
+    t85 = l2*cos_t10
+    t86 = Q01*t54 + Q01*t7 + qdd0*t34 + t45*t84*t85
+    t87 = Ab*t78 - Q00*t83 - Q01*t86
+    t88 = sin_theta1*theta1_dot
+    t89 = Aa*t45*t88
+    del t88
+    t90 = Ab*t89 - Q10*t83 - Q11*t86
+    t91 = D1_01*rD1
+    t92 = D1_11*rD1
+    del D1_11
+    t93 = qdd2*t25
+    t94 = t13*t93
+    t95 = t67*xr3
+    t96 = t20*t25
+    t97 = t16*t96
+    t98 = t20*t46
+    del t46
+    t99 = Q11*t13
+    t100 = t28*t99
+    del t99
+    t101 = t94 - t100 - t95 - t97 - t98
+    t102 = cos_t10*t37
+    del t37
+    xr1 = D1_00*t81 - D1_01*t82
+    del t81, t82
+    t103 = t102*xr1
+    t104 = qdd0*t42
+    t105 = t13*t57
+    t106 = Q11*t105
+    del t105
+    t107 = t26*t7
+    del t26
+    t108 = sin_t10*t21*t80
+    t109 = t103 + t104 + t106 - t107 - t108
+    t110 = t25*xr1
+    t111 = t32*t85
+    del t32, t85
+    t112 = t111*t7
+    del t7
+    t113 = t111*t54
+    del t111, t54
+    t114 = Q01*t57
+    t115 = qdd0*t67
+    t116 = t110 + t112 + t113 + t114 - t115
+    t117 = Ab*t101 - Q00*t109 - Q01*t116
+    t118 = t25*xr3
+    t119 = qdd2*t102
+    t120 = l1*sin_t10
+    t121 = t120*t49
+    del t120, t49
+    t122 = Q11*t50
+    del t50
+    t123 = Q11*sin_theta2*t18
+    t124 = t118 + t119 + t121 - t122 - t123
+    t125 = Ab*t124 - Q10*t109 - Q11*t116
+    t126 = t15*t40
+    del t15, t40
+    t127 = t13*t17 + t28*t96 - qdd2*t126 - t19*t79
+    del qdd2, t13, t17, t19, t28, t79
+    t128 = cos_theta2*cos_theta2
+    t129 = g*t36
+    del t36
+    t130 = t58*((-1) + 2*t128) - t129 - qdd0*t126 - sin_theta2*t110 - t14*t80 - t55*t6 - t57*t96
+    del qdd0, t128, t129, t14, t55, t57, t58, t6, t80, t96
+    t131 = sin_theta2*theta2_dot
+    t132 = t131*t66
+    t133 = Ab*t127 - Q00*t130 - Q01*t132
+    t134 = l2*t131
+    del t131
+    t135 = l1*t134
+    del t134
+    t136 = cos_t10*t135*t48 - sin_theta2*t93 - t16*t38 - t18*t38
+    del cos_t10, t16, t18, t38, t93
+    t137 = rD1*(Ab*t136 - Q10*t130 - Q11*t132)
+    t138 = t100 + t95 + t97 + t98 - t94
+    del t100, t94, t95, t97, t98
+    t139 = t107 + t108 - t103 - t104 - t106
+    del t103, t104, t106, t107, t108
+    t140 = t115 - t110 - t112 - t113 - t114
+    del t110, t112, t113, t114, t115
+    t141 = Ab*t138 - Q00*t139 - Q01*t140
+    t142 = t122 + t123 - t118 - t119 - t121
+    del t118, t119, t121, t122, t123
+    t143 = Ab*t142 - Q10*t139 - Q11*t140
+    t144 = t42*t45 - t23*t56
+    del t23
+    t145 = 2*sin_t10
+    del sin_t10
+    t146 = l2*t145*t84 - t45*t67
+    del t67, t84
+    t147 = -Q00*t144 - Q01*t146
+    t148 = t41*t45
+    del t41
+    t149 = Ab*t148
+    t150 = rD1*(-t149 - Q10*t144 - Q11*t146)
+    t151 = t42*t56 + Q11*t21*t45
+    del t21, t56
+    t152 = t34*t45 - t68
+    del t34, t45, t68
+    t153 = sin_theta1*t149 - Q00*t151 - Q01*t152
+    del t149
+    t154 = 2*t52
+    del t52
+    t155 = -Ab*t154 - Q10*t151 - Q11*t152
+    t156 = -t126*t27 - t42*t48
+    del t126, t27, t42
+    t157 = cos_theta2*t66
+    t158 = Ab*t156 + Q01*t157
+    t159 = -t102*t48 - t135*t145
+    del t102, t135, t145
+    t160 = rD1*(Ab*t159 + Q11*t157)
+    t161 = Q11*t20*t48 - t43
+    del t20, t43
+    t162 = t59*t66
+    del t59, t66
+    t163 = t65*t69
+    del t65, t69
+    t164 = Ab*t161 + Q01*t163 - Q00*t162
+    t165 = -2*t47*t53 - sin_theta2*t25*t48
+    del t25, t47, t48, t53
+    t166 = rD1*(Ab*t165 + Q11*t163 - Q10*t162)
+    del Ab
+    t167 = D1_00*rD1
+    del rD1
     rs1 = 1.0/sin_theta1
     qdd1 = rs1*xr1
     del xr1
-    t137 = D1_00*rD1
-    t138 = Aa*t15*t17
-    del t15, t17
-    t139 = Aa*t68 - Q01*t79 - Q11*t138
-    del t68
-    t140 = D2_01*rD2
-    del D2_01
-    t141 = Aa*t71 - Q00*t79 - Q10*t138
-    del t138, t71, t79
-    t142 = Aa*t82 - Q01*t92 - Q11*t84
-    del t82
-    t143 = Aa*t88 - Q00*t92 - Q10*t84
-    del t84, t88, t92
-    t144 = (2*Aa*Ab)*phi2_dot*sin_theta2*theta2_dot - Q01*t104 - Q11*t97
-    t145 = Aa*t102 - Q00*t104 - Q10*t97
-    del t102, t104, t97
-    t146 = Aa*t107 - Q01*t91 - Q11*t106
-    del t107
-    t147 = Aa*t108 - Q00*t91 - Q10*t106
-    del t106, t108, t91
-    t148 = Aa*t111 + Q11*t115
-    del t111
-    t149 = Aa*t112 + Q10*t115
-    del t112
-    t150 = Aa*t118 + Q11*t117 - phi1_dot*sin_theta1*t114*t134
-    del t114, t118, t134
-    t151 = Aa*t120 + Q10*t117 - Q00*sin_theta1*t115
-    del sin_theta1, t115, t117, t120
-    t152 = -Q00*t127 - Q10*t124
-    t153 = -Aa*t123 - Q01*t127 - Q11*t124
-    del t123, t124, t127
-    t154 = -Aa*t130 - Q01*t135 - Q11*t132
-    del Q01, Q11, t130
-    t155 = (2*Aa*Ab)*cos_theta2*phi2_dot*sin_theta2 - Q00*t135 - Q10*t132
-    del Aa, Ab, Q00, Q10, t132, t135
-    t156 = D2_00*rD2
+    t168 = Aa*t83 - Q00*t78 - Q10*t89
+    del t83
+    t169 = Aa*t86 - Q01*t78 - Q11*t89
+    del t78, t86, t89
+    t170 = Aa*t109 - Q00*t101 - Q10*t124
+    del t109
+    t171 = Aa*t116 - Q01*t101 - Q11*t124
+    del t101, t116, t124
+    t172 = Aa*t130 - Q00*t127 - Q10*t136
+    del t130
+    t173 = Aa*t132 - Q01*t127 - Q11*t136
+    del t127, t132, t136
+    t174 = Aa*t139 - Q00*t138 - Q10*t142
+    del t139
+    t175 = Aa*t140 - Q01*t138 - Q11*t142
+    del t138, t140, t142
+    t176 = Aa*t144 + Q10*t148
+    del t144
+    t177 = Aa*t146 + Q11*t148
+    del t146
+    t178 = sin_theta1*t148
+    del sin_theta1, t148
+    t179 = Aa*t151 + Q10*t154 - Q00*t178
+    del t151
+    t180 = rD2*(Aa*t152 + Q11*t154 - Q01*t178)
+    del rD2, t152, t154, t178
+    t181 = -Q00*t156 - Q10*t159
+    t182 = -Aa*t157 - Q01*t156 - Q11*t159
+    del t156, t157, t159
+    t183 = Aa*t162 - Q00*t161 - Q10*t165
+    del Q00, Q10, t162
+    t184 = -Aa*t163 - Q01*t161 - Q11*t165
+    del Aa, Q01, Q11, t161, t163, t165
     rs3 = 1.0/sin_theta2
     del sin_theta2
     qdd3 = rs3*xr3
     del xr3
-    t157 = D1_11*rD1*t80 - t72*t73
-    t158 = D1_11*rD1*t93 - t73*t89
-    t159 = D1_11*rD1*t105 - t103*t73
-    t160 = D1_11*rD1*t110 - t109*t73
-    t161 = D1_11*rD1*t113 - t116*t73
-    t162 = D1_11*rD1*t122 - t121*t73
-    t163 = D1_11*rD1*t128 - t125*t73
-    t164 = D1_11*rD1*t136 - t133*t73
-    del D1_11
-    t165 = rs1*(D1_00*rD1*t72 - cos_theta1*qdd1 - t73*t80)
-    del D1_00, cos_theta1, qdd1, rD1, t72, t80
-    t166 = rs1*(t137*t89 - t73*t93)
-    del t89, t93
-    t167 = rs1*(t103*t137 - t105*t73)
-    del t103, t105
-    t168 = rs1*(t109*t137 - t110*t73)
-    del t109, t110
-    t169 = rs1*(t116*t137 - t113*t73)
-    del t113, t116
-    t170 = rs1*(t121*t137 - t122*t73)
-    del t121, t122
-    t171 = rs1*(t125*t137 - t128*t73)
-    del t125, t128
-    t172 = rs1*(t133*t137 - t136*t73)
-    del rs1, t133, t136, t137, t73
-    t173 = D2_11*rD2*t141 - t139*t140
-    t174 = D2_11*rD2*t143 - t140*t142
-    t175 = D2_11*rD2*t145 - t140*t144
-    t176 = D2_11*rD2*t147 - t140*t146
-    t177 = D2_11*rD2*t149 - t140*t148
-    t178 = D2_11*rD2*t151 - t140*t150
-    t179 = D2_11*rD2*t152 - t140*t153
-    t180 = D2_11*rD2*t155 - t140*t154
-    del D2_11
-    t181 = rs3*(t139*t156 - t140*t141)
-    del t139, t141
-    t182 = rs3*(t142*t156 - t140*t143)
-    del t142, t143
-    t183 = rs3*(D2_00*rD2*t144 - cos_theta2*qdd3 - t140*t145)
-    del D2_00, cos_theta2, qdd3, rD2, t144, t145
-    t184 = rs3*(t146*t156 - t140*t147)
-    del t146, t147
-    t185 = rs3*(t148*t156 - t140*t149)
-    del t148, t149
-    t186 = rs3*(t150*t156 - t140*t151)
-    del t150, t151
-    t187 = rs3*(t153*t156 - t140*t152)
-    del t152, t153
-    t188 = rs3*(t154*t156 - t140*t155)
-    del rs3, t140, t154, t155, t156
+    t185 = t87*t92 - t90*t91
+    t186 = t117*t92 - t125*t91
+    t187 = t133*t92 - D1_01*t137
+    t188 = t141*t92 - t143*t91
+    t189 = t147*t92 - D1_01*t150
+    t190 = t153*t92 - t155*t91
+    t191 = t158*t92 - D1_01*t160
+    t192 = t164*t92 - D1_01*t166
+    del D1_01, t92
+    t193 = rs1*(t167*t90 - cos_theta1*qdd1 - t87*t91)
+    del cos_theta1, qdd1, t87, t90
+    t194 = rs1*(t125*t167 - t117*t91)
+    del t117, t125
+    t195 = rs1*(D1_00*t137 - t133*t91)
+    del t133, t137
+    t196 = rs1*(t143*t167 - t141*t91)
+    del t141, t143
+    t197 = rs1*(D1_00*t150 - t147*t91)
+    del t147, t150
+    t198 = rs1*(t155*t167 - t153*t91)
+    del t153, t155, t167
+    t199 = rs1*(D1_00*t160 - t158*t91)
+    del t158, t160
+    t200 = rs1*(D1_00*t166 - t164*t91)
+    del D1_00, rs1, t164, t166, t91
+    t201 = t168*t76 - t169*t75
+    t202 = t170*t76 - t171*t75
+    t203 = t172*t76 - t173*t75
+    t204 = t174*t76 - t175*t75
+    t205 = t176*t76 - t177*t75
+    t206 = t179*t76 - D2_01*t180
+    del D2_01
+    t207 = t181*t76 - t182*t75
+    t208 = t183*t76 - t184*t75
+    del t76
+    t209 = rs3*(t169*t77 - t168*t75)
+    del t168, t169
+    t210 = rs3*(t171*t77 - t170*t75)
+    del t170, t171
+    t211 = rs3*(t173*t77 - cos_theta2*qdd3 - t172*t75)
+    del cos_theta2, qdd3, t172, t173
+    t212 = rs3*(t175*t77 - t174*t75)
+    del t174, t175
+    t213 = rs3*(t177*t77 - t176*t75)
+    del t176, t177
+    t214 = rs3*(D2_00*t180 - t179*t75)
+    del D2_00, t179, t180
+    t215 = rs3*(t182*t77 - t181*t75)
+    del t181, t182
+    t216 = rs3*(t184*t77 - t183*t75)
+    del rs3, t183, t184, t75, t77
     A = numpy.empty(shape + (8, 8), dtype)
     A[..., 0, 0] = 0
     A[..., 0, 1] = 0
@@ -398,68 +443,68 @@ def linearize(y, p):
     A[..., 3, 5] = 0
     A[..., 3, 6] = 0
     A[..., 3, 7] = 1
-    A[..., 4, 0] = t157
-    del t157
-    A[..., 4, 1] = t158
-    del t158
-    A[..., 4, 2] = t159
-    del t159
-    A[..., 4, 3] = t160
-    del t160
-    A[..., 4, 4] = t161
-    del t161
-    A[..., 4, 5] = t162
-    del t162
-    A[..., 4, 6] = t163
-    del t163
-    A[..., 4, 7] = t164
-    del t164
-    A[..., 5, 0] = t165
-    del t165
-    A[..., 5, 1] = t166
-    del t166
-    A[..., 5, 2] = t167
-    del t167
-    A[..., 5, 3] = t168
-    del t168
-    A[..., 5, 4] = t169
-    del t169
-    A[..., 5, 5] = t170
-    del t170
-    A[..., 5, 6] = t171
-    del t171
-    A[..., 5, 7] = t172
-    del t172
-    A[..., 6, 0] = t173
-    del t173
-    A[..., 6, 1] = t174
-    del t174
-    A[..., 6, 2] = t175
-    del t175
-    A[..., 6, 3] = t176
-    del t176
-    A[..., 6, 4] = t177
-    del t177
-    A[..., 6, 5] = t178
-    del t178
-    A[..., 6, 6] = t179
-    del t179
-    A[..., 6, 7] = t180
-    del t180
-    A[..., 7, 0] = t181
-    del t181
-    A[..., 7, 1] = t182
-    del t182
-    A[..., 7, 2] = t183
-    del t183
-    A[..., 7, 3] = t184
-    del t184
-    A[..., 7, 4] = t185
+    A[..., 4, 0] = t185
     del t185
-    A[..., 7, 5] = t186
+    A[..., 4, 1] = t186
     del t186
-    A[..., 7, 6] = t187
+    A[..., 4, 2] = t187
     del t187
-    A[..., 7, 7] = t188
+    A[..., 4, 3] = t188
     del t188
+    A[..., 4, 4] = t189
+    del t189
+    A[..., 4, 5] = t190
+    del t190
+    A[..., 4, 6] = t191
+    del t191
+    A[..., 4, 7] = t192
+    del t192
+    A[..., 5, 0] = t193
+    del t193
+    A[..., 5, 1] = t194
+    del t194
+    A[..., 5, 2] = t195
+    del t195
+    A[..., 5, 3] = t196
+    del t196
+    A[..., 5, 4] = t197
+    del t197
+    A[..., 5, 5] = t198
+    del t198
+    A[..., 5, 6] = t199
+    del t199
+    A[..., 5, 7] = t200
+    del t200
+    A[..., 6, 0] = t201
+    del t201
+    A[..., 6, 1] = t202
+    del t202
+    A[..., 6, 2] = t203
+    del t203
+    A[..., 6, 3] = t204
+    del t204
+    A[..., 6, 4] = t205
+    del t205
+    A[..., 6, 5] = t206
+    del t206
+    A[..., 6, 6] = t207
+    del t207
+    A[..., 6, 7] = t208
+    del t208
+    A[..., 7, 0] = t209
+    del t209
+    A[..., 7, 1] = t210
+    del t210
+    A[..., 7, 2] = t211
+    del t211
+    A[..., 7, 3] = t212
+    del t212
+    A[..., 7, 4] = t213
+    del t213
+    A[..., 7, 5] = t214
+    del t214
+    A[..., 7, 6] = t215
+    del t215
+    A[..., 7, 7] = t216
+    del t216
     return A

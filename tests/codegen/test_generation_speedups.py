@@ -14,7 +14,10 @@ from derive.codegen import sources, taylor
 from derive.codegen.printers import CPrinter, CVariantPrinter, PyNumPyPrinter, shared_printer
 from derive.derivation.derivation import derive
 from derive.model import model_names
-from derive.derivation.symbolic import Derivatives, MatrixDerivatives
+from derive.codegen import emit
+from derive.codegen.solve import ImplicitDerivative
+from derive.codegen.spec import dynamics
+from derive.derivation.symbolic import Derivatives, MatrixDerivatives, engine_cse
 
 x, y, z = sp.symbols("x y z", real=True)
 EXPRESSIONS = [
@@ -73,6 +76,79 @@ def test_what_symengine_leaves_unevaluated_is_sympys():
     assert d.diff(0, x) == e[0].diff(x) and not d.diff(0, x).has(sp.Derivative)
     assert d.diff(1, x) == e[1].diff(x)          # a Dummy comes back as itself
     assert d.diff(0, z) == 0
+
+
+@pytest.mark.parametrize("model", ["examples/models/triple.toml", "examples/models/triple_spherical.toml",
+                                   "examples/models/four_bar.toml"])
+def test_the_jacobian_summed_in_symengine_is_summed_in_sympy(model):
+    """ImplicitDerivative: dq''/dy_k and its stages, summed and solved in SymEngine, are the
+    expressions SymPy's arithmetic gives, symbol for symbol (a loop's augmented system too)."""
+    d = derive(model)
+    dyn = dynamics(d)
+    x = getattr(dyn, "unknowns", None) or dyn.qdd
+    engine = ImplicitDerivative(dyn.M, dyn.F, dyn.mass)
+    sympy_only = ImplicitDerivative(dyn.M, dyn.F, dyn.mass, engine=False)
+    assert engine.names is not None and sympy_only.names is None
+    for yk in d.symbols.state:
+        assert engine.solve(yk, x) == sympy_only.solve(yk, x)
+
+
+@pytest.mark.parametrize("model", ["planar", "spherical_std", "examples/models/triple.toml",
+                                   "examples/models/driven_pivot.toml", "examples/models/pendulum_tree.toml"])
+def test_the_velocities_kernel_is_sympys_jacobian_times_the_rates(model):
+    """The velocities kernel's expressions (SymEngine's, symbolic.by_engine) are
+    expand((d pos / dq) q' + d pos / dt) written with SymPy's matrices."""
+    from derive.codegen.spec import model_spec
+    from derive.derivation.symbols import t
+    d = derive(model)
+    s = d.symbols
+    q, qd = sp.Matrix(s.q), sp.Matrix(s.qd)
+    expected = [sp.expand(c) for tip in d.tips for c in tip.jacobian(q) * qd + tip.diff(t)]
+    (kernel,) = [k for k in model_spec(d).kernels if k.name == "velocities"]
+    assert list(kernel.outputs[0].exprs) == expected
+
+
+@pytest.mark.parametrize("model", ["planar", "spherical_std", "examples/models/triple.toml",
+                                   "examples/models/four_bar.toml"])
+def test_symengines_cse_gives_back_the_roots(model, monkeypatch):
+    """The one CSE pass of a model's files (SymEngine's): the replacements substituted back
+    into the reduced expressions give every root again; each replacement uses only those
+    before it, and they are numbered in order."""
+    seen = []
+
+    def keep(roots, symbols):
+        roots = list(roots)
+        found = engine_cse(roots, symbols)
+        seen.append((roots, found))
+        return found
+
+    monkeypatch.setattr(emit, "engine_cse", keep)
+    sources._both_files.cache_clear()
+    try:
+        sources.kernels(model)
+    finally:
+        sources._both_files.cache_clear()
+    (roots, found), = seen
+    assert found is not None
+    replacements, reduced = found
+    assert [s.name for s, _ in replacements] == [f"_cse{i}" for i in range(len(replacements))]
+    full: dict = {}
+    for s, e in replacements:
+        assert e.free_symbols & {t for t, _ in replacements} <= full.keys()
+        full[s] = e.xreplace(full)
+    for root, r in zip(roots, reduced, strict=True):
+        assert sp.expand(root - r.xreplace(full)) == 0
+
+
+def test_what_symengines_cse_cannot_take_goes_to_sympy():
+    """A root with a node the converters do not take (abs, a Float of 30 digits): no
+    SymEngine CSE (None), and cse_file's fallback, sympy.cse, is used."""
+    t = (sp.Symbol(f"t{i}") for i in range(9))
+    assert engine_cse([sp.Abs(x + y) * sp.sin(x + y)], t) is None
+    assert engine_cse([sp.Float("0.1", 30) * sp.sin(x + y)], t) is None
+    replacements, reduced = engine_cse([sp.Float(0.1) * sp.sin(x + y) + sp.atan2(y, x)], t)
+    assert reduced[0].xreplace(dict(replacements)).xreplace(dict(replacements)) == \
+        sp.Float(0.1) * sp.sin(x + y) + sp.atan2(y, x)
 
 
 @pytest.mark.parametrize("model", ["planar", "examples/models/cart_pole.toml"])

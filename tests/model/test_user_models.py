@@ -81,6 +81,42 @@ def test_planar_chains_conserve_energy_in_c_and_numpy(tmp_path, n):
     assert np.max(np.abs(k.rhs(y, p)[:, n:] - ref) / np.maximum(1, np.abs(ref))) < 1e-12
 
 
+def test_a_force_with_abs_goes_through_sympys_cse(tmp_path, monkeypatch):
+    """Quadratic air drag, -c q' |q'|: SymEngine's converters take no abs, so the file's one
+    CSE pass is SymPy's (emit.cse_file's fallback); the C rhs is still M^-1 F of the
+    derivation's own M and F, lambdified."""
+    import sympy as sp
+    from derive.codegen import emit, sources
+    from derive.derivation.derivation import derive as derivation
+    from derive.derivation.symbolic import engine_cse
+    from derive.runtime.simulate import resolve_model
+    passes = []
+
+    def keep(roots, symbols):
+        passes.append(engine_cse(roots, symbols))
+        return passes[-1]
+
+    monkeypatch.setattr(emit, "engine_cse", keep)
+    monkeypatch.setenv("DERIVE_CACHE_DIR", str(tmp_path / "cache"))      # rendered here, now
+    sources._both_files.cache_clear()
+    forces = ('[forces]\ntheta1 = "-c*theta1_dot*abs(theta1_dot)"\n'
+              'theta3 = "-c*theta3_dot*abs(theta3_dot)"\n')
+    path = write(tmp_path, "dragged3", chain("dragged3", 3, forces, '"m1", "m2", "m3", "l1", "l2", "l3", "g", "c"'))
+    name = resolve_model(str(path))
+    k = load(name)
+    assert passes and all(found is None for found in passes)     # the kernels, Taylor's jet
+    d = derivation(name)
+    s = d.symbols
+    args = list(s.q) + list(s.qd), list(s.params)
+    M, F = sp.lambdify(args, d.M, "numpy"), sp.lambdify(args, list(d.F), "numpy")
+    p = np.array([1.0, 0.7, 1.2, 1.0, 0.8, 0.6, 9.81, 0.3])
+    rng = np.random.default_rng(3)
+    for y in np.concatenate([rng.uniform(-3, 3, (20, 3)), rng.uniform(-2, 2, (20, 3))], axis=1):
+        ref = np.linalg.solve(np.array(M(y, p), dtype=float), np.array(F(y, p), dtype=float))
+        assert np.allclose(k.rhs(y[None], p)[0, 3:], ref, rtol=1e-12, atol=1e-12)
+    sources._both_files.cache_clear()
+
+
 def test_the_hamiltonian_form_of_a_triple_pendulum(tmp_path):
     """Beyond two coordinates there is no closed-form M^-1: the code solves M q' = p."""
     load_model(EXAMPLES / "triple.toml")
