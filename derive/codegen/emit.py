@@ -16,6 +16,7 @@ from pathlib import Path
 
 import jinja2
 import sympy as sp
+from sympy.core.basic import _args_sortkey
 
 from ..derivation.symbolic import engine_cse
 from ..errors import PackageDataError
@@ -52,6 +53,43 @@ def _free_names(exprs) -> set[sp.Symbol]:
 
 
 _PLAIN = (sp.Add, sp.Mul, sp.Pow, sp.Function)
+
+
+def renamed(expr, names: dict, memo: dict):
+    """expr.xreplace(names) for a renaming (symbols to symbols, one to one), the same
+    expression with its arguments in the same order, built without SymPy's evaluation.
+
+    A renaming changes no term's coefficient and merges no terms, only where each name
+    sorts: a sum or product is its renamed arguments sorted as SymPy sorts them
+    (``_args_sortkey``), every other node is rebuilt as usual.  `memo` keeps each node's
+    result for this `names`.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> a, b, t0, t1 = sp.symbols("a b t0 t1")
+    >>> e = 2*b*sp.sin(a) + a**2*b
+    >>> names = {a: t1, b: t0}
+    >>> renamed(e, names, {}), renamed(e, names, {}).args == e.xreplace(names).args
+    (t0*t1**2 + 2*t0*sin(t1), True)
+    """
+    found = memo.get(expr)
+    if found is not None:
+        return found
+    if expr.is_Symbol:
+        found = names.get(expr, expr)
+    elif not expr.args:
+        found = expr
+    else:
+        args = tuple(renamed(a, names, memo) for a in expr.args)
+        if args == expr.args:
+            found = expr
+        elif expr.is_Add or expr.is_Mul:
+            found = expr.func._from_args(sorted(args, key=_args_sortkey))
+        else:
+            found = expr.func(*args)
+    memo[expr] = found
+    return found
 
 
 @lru_cache(maxsize=1 << 18)
@@ -257,7 +295,7 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None, compound_angles: bo
 
     bodies = []
     counted: dict = {}          # kernels share assignments (stages, the linearize file's A): counted once
-    renamed: dict = {}          # a kernel's renamed assignments, by what shapes them
+    done_renaming: dict = {}    # a kernel's renamed assignments, by what shapes them
     subcounts: dict = {}
 
     def count(e) -> int:
@@ -294,8 +332,9 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None, compound_angles: bo
                 alias[target] = sym
         owner = {v: k_ for k_, v in alias.items()}
         order = [alias.get(s, s) for s in order if not (s in owner and defs[s] == owner[s])]
-        local = {s: defs[owner[s]].xreplace(alias) for s in owner}
-        mine = [e.xreplace(alias) for e in mine]
+        aliased: dict = {}
+        local = {s: renamed(defs[owner[s]], alias, aliased) for s in owner}
+        mine = [renamed(e, alias, aliased) for e in mine]
         # every output and guard becomes a name or a number: stored once, checked
         # from registers (no reload of the output array), printed once
         lifted: dict[sp.Expr, sp.Symbol] = {}
@@ -315,11 +354,12 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None, compound_angles: bo
         both = {a: rename.get(b, b) for a, b in alias.items()}
         both.update((a, b) for a, b in rename.items() if a not in both)
         key = (tuple(order), tuple(both.items()), tuple(local.items()))
-        if key not in renamed:      # the linearize file's A: the jacobian kernel's assignments again
-            renamed[key] = [(rename.get(s, s), local[s].xreplace(rename) if s in local else defs[s].xreplace(both))
-                            for s in order]
-        assignments = renamed[key]
-        mine = [sp.sympify(e).xreplace(rename) for e in mine]
+        by_rename, by_both = {}, {}
+        if key not in done_renaming:      # the linearize file's A: the jacobian kernel's assignments again
+            done_renaming[key] = [(rename.get(s, s), renamed(local[s], rename, by_rename) if s in local
+                                   else renamed(defs[s], both, by_both)) for s in order]
+        assignments = done_renaming[key]
+        mine = [renamed(sp.sympify(e), rename, by_rename) for e in mine]
         guards = mine[:len(k.guards)]
         outputs, i = [], len(k.guards)
         for out in k.outputs:

@@ -29,6 +29,7 @@ whole pass to ``sympy.cse``.
 from __future__ import annotations
 
 import sympy as sp
+from sympy.core.basic import _args_sortkey
 
 import symengine as se
 from symengine.lib import symengine_wrapper as _wrapper
@@ -231,9 +232,16 @@ def _to_engine(roots, symbols: dict, memo: dict) -> list:
     return [convert(r) for r in roots]
 
 
-def _from_engine(exprs, symbols: dict, memo: dict) -> list[sp.Expr]:
-    """SymEngine expressions as SymPy's (with SymPy's automatic evaluation), each distinct
-    node converted once (`memo`); `symbols` maps SymEngine's symbols to SymPy's."""
+def _from_engine(exprs, symbols: dict, memo: dict, evaluate: bool = False) -> list[sp.Expr]:
+    """SymEngine expressions as SymPy's, each distinct node converted once (`memo`);
+    `symbols` maps SymEngine's symbols to SymPy's.
+
+    Each node is the one SymPy's automatic evaluation makes of it (`evaluate` builds every
+    one so, as the tests do to compare).  A sum or product whose terms came back as they
+    went (a sum no sum, a product no product, one number at most, no coefficient to
+    spread over a sum) is SymEngine's flat canonical form already: its terms sorted as
+    SymPy sorts them (``_args_sortkey``) are what evaluation gives, without its cost, the
+    largest part of the round trip."""
     w = _wrapper
 
     def convert(e):
@@ -242,9 +250,13 @@ def _from_engine(exprs, symbols: dict, memo: dict) -> list[sp.Expr]:
             return found
         kind = type(e)
         if kind is w.Add:
-            found = sp.Add(*[convert(a) for a in e.args])
+            args = [convert(a) for a in e.args]
+            found = sp.Add._from_args(sorted(args, key=_args_sortkey)) if not evaluate and _flat(args, "is_Add") \
+                else sp.Add(*args)
         elif kind is w.Mul:
-            found = sp.Mul(*[convert(a) for a in e.args])
+            args = [convert(a) for a in e.args]
+            found = sp.Mul._from_args(sorted(args, key=_args_sortkey)) if not evaluate and _flat(args, "is_Mul") \
+                and not (len(args) == 2 and any(a.is_Add for a in args)) else sp.Mul(*args)
         elif kind is w.Pow:
             base, exp = e.args
             found = sp.Pow(convert(base), convert(exp))
@@ -260,6 +272,20 @@ def _from_engine(exprs, symbols: dict, memo: dict) -> list[sp.Expr]:
         return found
 
     return [convert(e) for e in exprs]
+
+
+def _flat(args: list, nested: str) -> bool:
+    """No term that evaluation would merge: none of the node's own kind (`nested`), one
+    number at most, no constant (sqrt(2), pi) and no exp (products of them combine)."""
+    numbers = 0
+    for a in args:
+        if getattr(a, nested) or isinstance(a, sp.exp):
+            return False
+        if a.is_number:
+            if not a.is_Number:
+                return False
+            numbers += 1
+    return numbers <= 1
 
 
 def by_engine(compute, *groups) -> list[sp.Expr]:

@@ -140,6 +140,44 @@ def test_symengines_cse_gives_back_the_roots(model, monkeypatch):
         assert sp.expand(root - r.xreplace(full)) == 0
 
 
+@pytest.mark.parametrize("model", _models())
+def test_symengines_results_come_back_as_sympys_evaluation_builds_them(model):
+    """The converter's shortcut (a flat sum or product: its terms sorted, not evaluated)
+    gives the expression SymPy's evaluation gives, argument for argument, for what the
+    generator brings back: the CSE of every kernel's roots, and their expansions."""
+    import symengine as se
+    from derive.derivation.symbolic import EngineNames, _from_engine
+    spec, _ = sources.kernels(model)
+    roots = [sp.sympify(e) for k in spec.kernels for e in [e for _, e in k.stages] + list(k.guards)
+             + [e for out in k.outputs for e in out.exprs]]
+    names = EngineNames()
+    engine = names.engine(roots)
+    replacements, reduced = se.cse(engine)
+    back = dict(names.back)
+    back.update((t, sp.Symbol(f"_cse{i}")) for i, (t, _) in enumerate(replacements))
+    exprs = [e for _, e in replacements] + list(reduced) + [se.expand(r) for r in engine] + engine
+    fast, evaluated = _from_engine(exprs, back, {}), _from_engine(exprs, back, {}, evaluate=True)
+    assert fast == evaluated
+    # the roots themselves, back (a derivation's -(a + b) from factor_terms comes back as -a - b)
+    assert all(a == b or sp.expand(a - b) == 0 for a, b in zip(fast[-len(roots):], roots, strict=True))
+
+
+@pytest.mark.parametrize("model", ["planar", "spherical_std", "examples/models/triple.toml",
+                                   "examples/models/four_bar.toml"])
+def test_a_renaming_is_sympys_xreplace_argument_for_argument(model):
+    """emit.renamed, which sorts a renamed sum or product instead of evaluating it, gives
+    xreplace's expression for every assignment of the model's kernels, with the temporaries
+    renamed in reverse order (every sum and product re-sorted)."""
+    _, bodies = sources.kernels(model)
+    assignments = [e for body in bodies for _, e in body.assignments]
+    temporaries = sorted({s for e in assignments for s in e.free_symbols
+                          if s.name[0] == "t" and s.name[1:].isdigit()}, key=lambda s: int(s.name[1:]))
+    names = dict(zip(temporaries, reversed(temporaries)))
+    memo: dict = {}
+    for e in assignments:
+        assert emit.renamed(e, names, memo) == e.xreplace(names)
+
+
 def test_what_symengines_cse_cannot_take_goes_to_sympy():
     """A root with a node the converters do not take (abs, a Float of 30 digits): no
     SymEngine CSE (None), and cse_file's fallback, sympy.cse, is used."""
