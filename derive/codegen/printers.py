@@ -371,8 +371,7 @@ class PyNumPyPrinter(SlotPrinting, NumPyPrinter):
             return self._product_text(coeff, var)
         c = self._product_text(coeff, const)
         text = c if (len(const) == 1 and coeff == 1 and const[0].is_Atom) else f"({c})"
-        v = self._product_text(sp.S.One, var)
-        return f"{text}*{v}" if len(var) > 1 or not var[0].is_Add else f"{text}*({v})"
+        return f"{text}*{self._product_text(sp.S.One, var)}"
 
     def _print_Add(self, expr, order=None):
         if not self._varying or not self._varies(expr):
@@ -382,7 +381,7 @@ class PyNumPyPrinter(SlotPrinting, NumPyPrinter):
         parts = []
         if const:
             c = self._sum_text(const)
-            parts.append(c if len(const) == 1 and const[0].is_Atom and not _negative(const[0]) else f"({c})")
+            parts.append(c if len(const) == 1 and const[0].is_Atom else f"({c})")
         parts += [self._print(t) for t in terms if self._varies(t) and not _negative(t)]
         text = " + ".join(parts)
         for t in terms:

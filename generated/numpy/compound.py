@@ -79,12 +79,12 @@ def rhs(y, p):
     del t10
     t12 = g*(m1 + 2*m2)
     t13 = (1/2)*l1
-    F0 = (-t13)*((t12*sin_theta1 + t11*t9))
+    F0 = (-t13)*(t12*sin_theta1 + t11*t9)
     del sin_theta1, t11, t12, t13
     t14 = theta1_dot*theta1_dot
     t15 = l1*t14
     del t14
-    F1 = t6*((t15*t9 - g*sin_theta2))
+    F1 = t6*(t15*t9 - g*sin_theta2)
     del sin_theta2, t15, t6, t9
     t16 = l1*l1
     M00 = L1 + t16*(m2 + (1/4)*m1)
@@ -202,7 +202,7 @@ def forcing(y, p):
     del t5
     t7 = g*(m1 + 2*m2)
     t8 = (1/2)*l1
-    t9 = (-t8)*((t7*sin_theta1 + t4*t6))
+    t9 = (-t8)*(t7*sin_theta1 + t4*t6)
     del sin_theta1, t6, t7, t8
     t10 = (1/2)*m2
     t11 = t10*l2
@@ -210,7 +210,7 @@ def forcing(y, p):
     t12 = theta1_dot*theta1_dot
     t13 = l1*t12
     del t12
-    t14 = t11*((t13*t4 - g*sin_theta2))
+    t14 = t11*(t13*t4 - g*sin_theta2)
     del sin_theta2, t11, t13, t4
     F = numpy.empty(shape + (2,), dtype)
     F[..., 0] = t9
@@ -447,12 +447,12 @@ def jacobian(y, p):
     del t14
     M01 = t11*t4
     del t11
-    F0 = (-t8)*((t7*sin_theta1 + t12*t6))
+    F0 = (-t8)*(t7*sin_theta1 + t12*t6)
     del sin_theta1
     t15 = theta1_dot*theta1_dot
     t16 = l1*t15
     del t15
-    F1 = t10*((t12*t16 - g*sin_theta2))
+    F1 = t10*(t12*t16 - g*sin_theta2)
     del sin_theta2
     t17 = m2*l2*l2
     M11 = L2 + (1/4)*t17
@@ -474,7 +474,7 @@ def jacobian(y, p):
     t22 = t20 + t10*t21
     t23 = M01*t5 - t18
     del t18, t5
-    t24 = t10*((-t21 - cos_theta2*g)) - t20
+    t24 = t10*(-t21 - cos_theta2*g) - t20
     del cos_theta2, t10, t20, t21
     t25 = M01*rdet
     t26 = (l1*l2*m2)*t12

@@ -77,12 +77,12 @@ def linearize(y, p):
     del t14
     M01 = t11*t4
     del t11
-    F0 = (-t8)*((t7*sin_theta1 + t12*t6))
+    F0 = (-t8)*(t7*sin_theta1 + t12*t6)
     del sin_theta1
     t15 = theta1_dot*theta1_dot
     t16 = l1*t15
     del t15
-    F1 = t10*((t12*t16 - g*sin_theta2))
+    F1 = t10*(t12*t16 - g*sin_theta2)
     del sin_theta2
     t17 = m2*l2*l2
     M11 = L2 + (1/4)*t17
@@ -104,7 +104,7 @@ def linearize(y, p):
     t22 = t20 + t10*t21
     t23 = M01*t5 - t18
     del t18, t5
-    t24 = t10*((-t21 - cos_theta2*g)) - t20
+    t24 = t10*(-t21 - cos_theta2*g) - t20
     del cos_theta2, t10, t20, t21
     t25 = M01*rdet
     t26 = (l1*l2*m2)*t12

@@ -51,10 +51,10 @@ def rk4(y, p, h, nsteps):
         t9 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
         t10 = theta2_dot*theta2_dot
         t11 = (l2*m2)*t10
-        F0 = (-t13)*((t12*sin_theta1 + t11*t9))
+        F0 = (-t13)*(t12*sin_theta1 + t11*t9)
         t14 = theta1_dot*theta1_dot
         t15 = l1*t14
-        F1 = t6*((t15*t9 - g*sin_theta2))
+        F1 = t6*(t15*t9 - g*sin_theta2)
         det = (M00*M11) - M01*M01
         rdet = 1.0/det
         qdd0 = rdet*(M11*F0 - F1*M01)

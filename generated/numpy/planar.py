@@ -73,12 +73,12 @@ def rhs(y, p):
     del t8
     t10 = m1 + m2
     t11 = g*t10
-    F0 = (-l1)*((t11*sin_theta1 + t7*t9))
+    F0 = (-l1)*(t11*sin_theta1 + t7*t9)
     del sin_theta1, t11, t9
     t12 = theta1_dot*theta1_dot
     t13 = l1*t12
     del t12
-    F1 = t5*((t13*t7 - g*sin_theta2))
+    F1 = t5*(t13*t7 - g*sin_theta2)
     del sin_theta2, t13, t5, t7
     t14 = l1*l1
     M00 = t10*t14
@@ -193,12 +193,12 @@ def forcing(y, p):
     t8 = m1 + m2
     t9 = g*t8
     del t8
-    t10 = (-l1)*((t9*sin_theta1 + t4*t7))
+    t10 = (-l1)*(t9*sin_theta1 + t4*t7)
     del sin_theta1, t7, t9
     t11 = theta1_dot*theta1_dot
     t12 = l1*t11
     del t11
-    t13 = t5*((t12*t4 - g*sin_theta2))
+    t13 = t5*(t12*t4 - g*sin_theta2)
     del sin_theta2, t12, t4, t5
     F = numpy.empty(shape + (2,), dtype)
     F[..., 0] = t10
@@ -434,12 +434,12 @@ def jacobian(y, p):
     del t1, t14
     M01 = t11*t6
     del t11
-    F0 = (-l1)*((t2*sin_theta1 + t12*t9))
+    F0 = (-l1)*(t2*sin_theta1 + t12*t9)
     del sin_theta1, t9
     t15 = theta1_dot*theta1_dot
     t16 = l1*t15
     del t15
-    F1 = t7*((t12*t16 - g*sin_theta2))
+    F1 = t7*(t12*t16 - g*sin_theta2)
     del sin_theta2, t12
     M11 = m2*l2*l2
     det = (M00*M11) - M01*M01
@@ -459,7 +459,7 @@ def jacobian(y, p):
     t21 = t19 + t7*t20
     t22 = l1*t10 - t17
     del t10, t17
-    t23 = t7*((-t20 - cos_theta2*g)) - t19
+    t23 = t7*(-t20 - cos_theta2*g) - t19
     del cos_theta2, t19, t20, t7
     t24 = M01*rdet
     t25 = 2*t13

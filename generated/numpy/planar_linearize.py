@@ -75,12 +75,12 @@ def linearize(y, p):
     del t1, t14
     M01 = t11*t6
     del t11
-    F0 = (-l1)*((t2*sin_theta1 + t12*t9))
+    F0 = (-l1)*(t2*sin_theta1 + t12*t9)
     del sin_theta1, t9
     t15 = theta1_dot*theta1_dot
     t16 = l1*t15
     del t15
-    F1 = t7*((t12*t16 - g*sin_theta2))
+    F1 = t7*(t12*t16 - g*sin_theta2)
     del sin_theta2, t12
     M11 = m2*l2*l2
     det = (M00*M11) - M01*M01
@@ -100,7 +100,7 @@ def linearize(y, p):
     t21 = t19 + t7*t20
     t22 = l1*t10 - t17
     del t10, t17
-    t23 = t7*((-t20 - cos_theta2*g)) - t19
+    t23 = t7*(-t20 - cos_theta2*g) - t19
     del cos_theta2, t19, t20, t7
     t24 = M01*rdet
     t25 = 2*t13

@@ -49,10 +49,10 @@ def rk4(y, p, h, nsteps):
         t7 = cos_theta2*sin_theta1 - cos_theta1*sin_theta2
         t8 = theta2_dot*theta2_dot
         t9 = t5*t8
-        F0 = (-l1)*((t11*sin_theta1 + t7*t9))
+        F0 = (-l1)*(t11*sin_theta1 + t7*t9)
         t12 = theta1_dot*theta1_dot
         t13 = l1*t12
-        F1 = t5*((t13*t7 - g*sin_theta2))
+        F1 = t5*(t13*t7 - g*sin_theta2)
         det = (M00*M11) - M01*M01
         rdet = 1.0/det
         qdd0 = rdet*(M11*F0 - F1*M01)

@@ -145,7 +145,7 @@ def rhs(y, p):
     t44 = cos_vartheta1*sin_vartheta2
     t45 = cos_vartheta2*sin_vartheta1
     t46 = t11*t45
-    t47 = t12*((t44 - t46))
+    t47 = t12*(t44 - t46)
     t48 = 2*vartheta1_dot
     t49 = t48*varphi1_dot
     del t48
@@ -464,11 +464,11 @@ def forcing(y, p):
     del t44, t46
     t49 = g*cos_varphi2
     del cos_varphi2
-    t50 = l1*((t14*t26 + t0*t22*t4 + t16*t14*t15 - cos_vartheta1*t20 - t26*t6 - t18*t24*t3))
+    t50 = l1*(t14*t26 + t0*t22*t4 + t16*t14*t15 - cos_vartheta1*t20 - t26*t6 - t18*t24*t3)
     del cos_vartheta1, t14, t15, t18, t20, t22, t26, t4, t6
     t51 = -t28*(t27 + t0*t31 + t24*t32 + m2*t36 + t23*t25*t37)
     del t0, t23, t24, t25, t27, t28, t36
-    t52 = t16*((t32*t33 + t38*t45 + l1*t43 + t3*t40*t41 - cos_vartheta2*t42 - t13*t45))
+    t52 = t16*(t32*t33 + t38*t45 + l1*t43 + t3*t40*t41 - cos_vartheta2*t42 - t13*t45)
     del cos_vartheta2, t13, t16, t3, t32, t33, t38, t40, t41, t42, t43, t45
     t53 = t37*(t47 + t48 - t35 - t49 - t11*t31)
     del t11, t31, t35, t37, t47, t48, t49
@@ -869,7 +869,7 @@ def jacobian(y, p):
     t28 = cos_vartheta1*sin_vartheta2
     t29 = cos_vartheta2*sin_vartheta1
     t30 = t12*t29
-    t31 = t23*((t28 - t30))
+    t31 = t23*(t28 - t30)
     t32 = 2*varphi2_dot
     t33 = t32*vartheta2_dot
     t34 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
@@ -956,7 +956,7 @@ def jacobian(y, p):
     qdd2 = D2_11*t86 - D2_01*t79
     xr3 = D2_00*t79 - D2_01*t86
     del t79, t86
-    t87 = t2*t19 + t33*t39 + t37*xr3 + Aa*t6*((-1) + 2*t15) - qdd2*t31 - t13*t25 - t22*t27
+    t87 = t2*t19 + t33*t39 + t37*xr3 + Aa*t6*(-1 + 2*t15) - qdd2*t31 - t13*t25 - t22*t27
     del t15, t19, t2
     t88 = -t46 - t7
     del t7
@@ -1040,7 +1040,7 @@ def jacobian(y, p):
     del t137
     t139 = g*t138
     del t138
-    t140 = t139 + t82*((-1) + 2*t135) - qdd0*t136 - sin_vartheta2*t117 - t104*t81 - t13*t89 - t22*t90
+    t140 = t139 + t82*(-1 + 2*t135) - qdd0*t136 - sin_vartheta2*t117 - t104*t81 - t13*t89 - t22*t90
     del qdd0, t13, t135, t139, t22, t81, t82, t89, t90
     t141 = sin_vartheta2*vartheta2_dot
     t142 = l2*t141

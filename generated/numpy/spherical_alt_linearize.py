@@ -108,7 +108,7 @@ def linearize(y, p):
     t28 = cos_vartheta1*sin_vartheta2
     t29 = cos_vartheta2*sin_vartheta1
     t30 = t12*t29
-    t31 = t23*((t28 - t30))
+    t31 = t23*(t28 - t30)
     t32 = 2*varphi2_dot
     t33 = t32*vartheta2_dot
     t34 = cos_varphi2*sin_varphi1 - cos_varphi1*sin_varphi2
@@ -195,7 +195,7 @@ def linearize(y, p):
     qdd2 = D2_11*t86 - D2_01*t79
     xr3 = D2_00*t79 - D2_01*t86
     del t79, t86
-    t87 = t2*t19 + t33*t39 + t37*xr3 + Aa*t6*((-1) + 2*t15) - qdd2*t31 - t13*t25 - t22*t27
+    t87 = t2*t19 + t33*t39 + t37*xr3 + Aa*t6*(-1 + 2*t15) - qdd2*t31 - t13*t25 - t22*t27
     del t15, t19, t2
     t88 = -t46 - t7
     del t7
@@ -279,7 +279,7 @@ def linearize(y, p):
     del t137
     t139 = g*t138
     del t138
-    t140 = t139 + t82*((-1) + 2*t135) - qdd0*t136 - sin_vartheta2*t117 - t104*t81 - t13*t89 - t22*t90
+    t140 = t139 + t82*(-1 + 2*t135) - qdd0*t136 - sin_vartheta2*t117 - t104*t81 - t13*t89 - t22*t90
     del qdd0, t13, t135, t139, t22, t81, t82, t89, t90
     t141 = sin_vartheta2*vartheta2_dot
     t142 = l2*t141

@@ -92,7 +92,7 @@ def rhs(y, p):
     t14 = sin_theta1*sin_theta2
     t15 = cos_theta1*cos_theta2
     t16 = cos_t2*t15
-    Q00 = t9*((t14 + t16))
+    Q00 = t9*(t14 + t16)
     del t14, t16
     t17 = 1.0/m2
     t18 = l1*l1
@@ -133,7 +133,7 @@ def rhs(y, p):
     t38 = theta1_dot*theta1_dot
     t39 = cos_theta1*sin_theta2
     t40 = cos_t2*t37
-    t41 = t9*((t39 - t40))
+    t41 = t9*(t39 - t40)
     del t40, t9
     t42 = phi1_dot*phi1_dot
     t43 = Q11*t42
@@ -281,7 +281,7 @@ def mass_matrix(y, p):
     t10 = cos_t5*t9
     del t9
     t11 = l1*l2
-    t12 = t11*((t10 + t4))
+    t12 = t11*(t10 + t4)
     del t10
     M02 = m2*t12
     del t12
@@ -436,11 +436,11 @@ def forcing(y, p):
     t42 = t16*t41
     t43 = t39*t41
     del t39, t41
-    t44 = l1*((t11*t22 + t0*t17*t5 + t18*t11*t12 - sin_theta1*t15 - t22*t6 - t14*t20*t4))
+    t44 = l1*(t11*t22 + t0*t17*t5 + t18*t11*t12 - sin_theta1*t15 - t22*t6 - t14*t20*t4)
     del sin_theta1, t11, t12, t14, t15, t17, t22, t4, t5, t6
     t45 = -t23*(t0*t32 + t20*t28 + m2*cos_t7*t27 + sin_t7*t21*t29)
     del sin_t7, t0, t20, t21, t23
-    t46 = t18*((t24*t28 + t33*t40 + t36*t37 + l1*t16*t33 - t38 - t10*t40))
+    t46 = t18*(t24*t28 + t33*t40 + t36*t37 + l1*t16*t33 - t38 - t10*t40)
     del t10, t16, t18, t24, t28, t33, t36, t37, t38, t40
     t47 = t29*(t42 + t43 - t27 - cos_t7*t32)
     del cos_t7, t27, t29, t32, t42, t43
@@ -816,7 +816,7 @@ def jacobian(y, p):
     t20 = cos_theta1*sin_theta2
     t21 = cos_theta2*sin_theta1
     t22 = cos_t10*t21
-    t23 = t15*((t20 - t22))
+    t23 = t15*(t20 - t22)
     del t22
     t25 = t15*sin_t10
     t26 = t21*t25
@@ -830,7 +830,7 @@ def jacobian(y, p):
     t33 = sin_t10*t32
     t34 = l2*t33
     t35 = cos_t10*t13
-    Q00 = t15*((t35 + t6))
+    Q00 = t15*(t35 + t6)
     t36 = l2*cos_theta2
     t37 = l1*t36
     t38 = sin_t10*t37
@@ -898,7 +898,7 @@ def jacobian(y, p):
     t77 = D2_00*rD2
     xr3 = t70*t77 - t61*t75
     del t61, t70
-    t78 = t26*t28 + t34*xr3 + Aa*t7*((-1) + 2*t9) - qdd2*t23 - t14*t19 - t17*t6 - t2*t31
+    t78 = t26*t28 + t34*xr3 + Aa*t7*(-1 + 2*t9) - qdd2*t23 - t14*t19 - t17*t6 - t2*t31
     del t2, t31, t9
     t79 = -t35 - t6
     del t35
@@ -978,7 +978,7 @@ def jacobian(y, p):
     t128 = cos_theta2*cos_theta2
     t129 = g*t36
     del t36
-    t130 = t58*((-1) + 2*t128) - t129 - qdd0*t126 - sin_theta2*t110 - t14*t80 - t55*t6 - t57*t96
+    t130 = t58*(-1 + 2*t128) - t129 - qdd0*t126 - sin_theta2*t110 - t14*t80 - t55*t6 - t57*t96
     del qdd0, t128, t129, t14, t55, t57, t58, t6, t80, t96
     t131 = sin_theta2*theta2_dot
     t132 = t131*t66

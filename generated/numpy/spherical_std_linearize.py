@@ -95,7 +95,7 @@ def linearize(y, p):
     t20 = cos_theta1*sin_theta2
     t21 = cos_theta2*sin_theta1
     t22 = cos_t10*t21
-    t23 = t15*((t20 - t22))
+    t23 = t15*(t20 - t22)
     del t22
     t25 = t15*sin_t10
     t26 = t21*t25
@@ -109,7 +109,7 @@ def linearize(y, p):
     t33 = sin_t10*t32
     t34 = l2*t33
     t35 = cos_t10*t13
-    Q00 = t15*((t35 + t6))
+    Q00 = t15*(t35 + t6)
     t36 = l2*cos_theta2
     t37 = l1*t36
     t38 = sin_t10*t37
@@ -177,7 +177,7 @@ def linearize(y, p):
     t77 = D2_00*rD2
     xr3 = t70*t77 - t61*t75
     del t61, t70
-    t78 = t26*t28 + t34*xr3 + Aa*t7*((-1) + 2*t9) - qdd2*t23 - t14*t19 - t17*t6 - t2*t31
+    t78 = t26*t28 + t34*xr3 + Aa*t7*(-1 + 2*t9) - qdd2*t23 - t14*t19 - t17*t6 - t2*t31
     del t2, t31, t9
     t79 = -t35 - t6
     del t35
@@ -257,7 +257,7 @@ def linearize(y, p):
     t128 = cos_theta2*cos_theta2
     t129 = g*t36
     del t36
-    t130 = t58*((-1) + 2*t128) - t129 - qdd0*t126 - sin_theta2*t110 - t14*t80 - t55*t6 - t57*t96
+    t130 = t58*(-1 + 2*t128) - t129 - qdd0*t126 - sin_theta2*t110 - t14*t80 - t55*t6 - t57*t96
     del qdd0, t128, t129, t14, t55, t57, t58, t6, t80, t96
     t131 = sin_theta2*theta2_dot
     t132 = t131*t66
