@@ -135,7 +135,11 @@ class Derivatives:
         return self._converted[i]
 
     def diff(self, i: int, var: sp.Symbol) -> sp.Expr:
-        """d exprs[i] / d var, as SymPy's ``exprs[i].diff(var)`` gives it."""
+        """d exprs[i] / d var, as SymPy's ``exprs[i].diff(var)`` gives it, where it exists:
+        sign's derivative (SymPy's 2*DiracDelta) is zero off its jump (`almost_everywhere`)."""
+        return almost_everywhere(self._diff(i, var))
+
+    def _diff(self, i: int, var: sp.Symbol) -> sp.Expr:
         e = self.exprs[i]
         if var not in e.free_symbols:
             return sp.S.Zero
@@ -161,6 +165,27 @@ class Derivatives:
         if var not in self.exprs[i].free_symbols:
             return se.Integer(0)
         return self.names.engine([self.exprs[i]])[0].diff(self.names.forward[var])
+
+
+def almost_everywhere(expr: sp.Expr) -> sp.Expr:
+    """`expr` with every DiracDelta taken as zero: a derivative where it exists.
+
+    A model's force may hold sign (Coulomb friction, -mu*sign(theta1_dot)); its derivative
+    is zero everywhere but at the jump, where it has none, and SymPy writes it 2*DiracDelta,
+    which no language prints.  The Jacobian and linearisation kernels take it as zero, the
+    derivative almost everywhere (a Newton iteration or a linearisation at the jump itself
+    sees the friction as constant).
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> v = sp.Symbol("v", real=True)
+    >>> almost_everywhere(sp.diff(-3*sp.sign(v) - v**2, v))
+    -2*v
+    """
+    if not expr.has(sp.DiracDelta):
+        return expr
+    return expr.replace(lambda e: isinstance(e, sp.DiracDelta), lambda e: sp.S.Zero)
 
 
 class MatrixDerivatives:

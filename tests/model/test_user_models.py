@@ -81,10 +81,12 @@ def test_planar_chains_conserve_energy_in_c_and_numpy(tmp_path, n):
     assert np.max(np.abs(k.rhs(y, p)[:, n:] - ref) / np.maximum(1, np.abs(ref))) < 1e-12
 
 
-def test_a_force_with_abs_goes_through_sympys_cse(tmp_path, monkeypatch):
-    """Quadratic air drag, -c q' |q'|: SymEngine's converters take no abs, so the file's one
-    CSE pass is SymPy's (emit.cse_file's fallback); the C rhs is still M^-1 F of the
-    derivation's own M and F, lambdified."""
+def test_friction_with_abs_and_sign_goes_through_sympy(tmp_path, monkeypatch):
+    """Quadratic air drag, -c q' |q'|, and Coulomb friction, -mu sign(q'): SymEngine's
+    converters take neither, so the file's one CSE pass is SymPy's (emit.cse_file's
+    fallback); the C rhs is still M^-1 F of the derivation's own M and F, lambdified, and
+    the Jacobian the central difference of the rhs away from the friction's jump (sign's
+    derivative taken as zero there, symbolic.almost_everywhere: no DiracDelta to print)."""
     import sympy as sp
     from derive.codegen import emit, sources
     from derive.derivation.derivation import derive as derivation
@@ -99,21 +101,28 @@ def test_a_force_with_abs_goes_through_sympys_cse(tmp_path, monkeypatch):
     monkeypatch.setattr(emit, "engine_cse", keep)
     monkeypatch.setenv("DERIVE_CACHE_DIR", str(tmp_path / "cache"))      # rendered here, now
     sources._both_files.cache_clear()
-    forces = ('[forces]\ntheta1 = "-c*theta1_dot*abs(theta1_dot)"\n'
+    forces = ('[forces]\ntheta1 = "-c*theta1_dot*abs(theta1_dot) - mu*sign(theta1_dot)"\n'
               'theta3 = "-c*theta3_dot*abs(theta3_dot)"\n')
-    path = write(tmp_path, "dragged3", chain("dragged3", 3, forces, '"m1", "m2", "m3", "l1", "l2", "l3", "g", "c"'))
+    path = write(tmp_path, "dragged3", chain("dragged3", 3, forces,
+                                             '"m1", "m2", "m3", "l1", "l2", "l3", "g", "c", "mu"'))
     name = resolve_model(str(path))
     k = load(name)
-    assert passes and all(found is None for found in passes)     # the kernels, Taylor's jet
+    assert passes and all(found is None for found in passes)
     d = derivation(name)
     s = d.symbols
     args = list(s.q) + list(s.qd), list(s.params)
     M, F = sp.lambdify(args, d.M, "numpy"), sp.lambdify(args, list(d.F), "numpy")
-    p = np.array([1.0, 0.7, 1.2, 1.0, 0.8, 0.6, 9.81, 0.3])
+    p = np.array([1.0, 0.7, 1.2, 1.0, 0.8, 0.6, 9.81, 0.3, 0.4])
     rng = np.random.default_rng(3)
-    for y in np.concatenate([rng.uniform(-3, 3, (20, 3)), rng.uniform(-2, 2, (20, 3))], axis=1):
+    states = np.concatenate([rng.uniform(-3, 3, (20, 3)), rng.uniform(0.3, 2, (20, 3)) * rng.choice([-1, 1], (20, 3))],
+                            axis=1)
+    for y in states:
         ref = np.linalg.solve(np.array(M(y, p), dtype=float), np.array(F(y, p), dtype=float))
         assert np.allclose(k.rhs(y[None], p)[0, 3:], ref, rtol=1e-12, atol=1e-12)
+    eps = 1e-6
+    J = k.jacobian(states, p)
+    Jn = np.stack([(k.rhs(states + eps * e, p) - k.rhs(states - eps * e, p)) / (2 * eps) for e in np.eye(6)], axis=-1)
+    assert np.all(np.isfinite(J)) and np.max(np.abs(J - Jn)) < 1e-5 * max(1, np.max(np.abs(J)))
     sources._both_files.cache_clear()
 
 
