@@ -55,6 +55,26 @@ def _free_names(exprs) -> set[sp.Symbol]:
 _PLAIN = (sp.Add, sp.Mul, sp.Pow, sp.Function)
 
 
+def replaced(expr, rules: dict, memo: dict):
+    """expr.xreplace(rules), each node of the roots once (`memo`, kept across the roots of
+    a file for this `rules`: they share most of their subtrees, which xreplace walks anew
+    for each root)."""
+    if not rules:
+        return expr
+    found = memo.get(expr)
+    if found is not None:
+        return found
+    if expr in rules:
+        found = rules[expr]
+    elif not expr.args:
+        found = expr
+    else:
+        args = tuple(replaced(a, rules, memo) for a in expr.args)
+        found = expr if args == expr.args else expr.func(*args)
+    memo[expr] = found
+    return found
+
+
 def renamed(expr, names: dict, memo: dict):
     """expr.xreplace(names) for a renaming (symbols to symbols, one to one), the same
     expression with its arguments in the same order, built without SymPy's evaluation.
@@ -282,7 +302,8 @@ def cse_file(spec: ModelSpec, also: ModelSpec | None = None, compound_angles: bo
     memo: dict = {}
     varies = _Varies(varying)
     angles = compound_angle_rewrites(spec) if compound_angles else {}
-    roots = [collect_constants(sp.sympify(r).xreplace(angles), varying, memo, varies) for r in roots]
+    rewritten: dict = {}
+    roots = [collect_constants(replaced(sp.sympify(r), angles, rewritten), varying, memo, varies) for r in roots]
 
     fresh = _numbered("_cse")
     found = engine_cse(roots, fresh)        # SymEngine's (derivation/symbolic.py), else SymPy's
