@@ -8,8 +8,11 @@ For planar chains of n point masses (n = 3, 5, 8, 12 by default), in one run:
    with `--backend numpy` alone (NumPy's files: lambdify's kind of output); against
    sympy.physics.mechanics' KanesMethod + lambdify (cse=True) of the same chain (the
    PyDy n-pendulum), also a fresh process, wall time.  Both include the interpreter's
-   start and the imports.  Each side runs --repeat times (3), in turn, and the median
-   is printed.  The growth exponent of each is fitted over the sizes run.
+   start and the imports, each with its modules' bytecode as an installed package has it
+   (pip compiles it at install; a checkout's may be stale, and none is written where
+   PYTHONDONTWRITEBYTECODE is set): every process of the benchmark keeps it under one
+   temporary PYTHONPYCACHEPREFIX, filled by a warm-up run of each side that is not
+   counted.  Each side runs --repeat times (3), in turn, and the median is printed.  The growth exponent of each is fitted over the sizes run.
 2. **the rhs**: the operations of derive's rhs kernel after CSE (its L D L^T solve
    included) against Kane's M and F after CSE plus a dense LU solve (2/3 n^3 + 2 n^2
    operations); and the time of one call of derive.scipy_rhs (the public API, compiled C)
@@ -41,6 +44,15 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+BYTECODE = tempfile.TemporaryDirectory(prefix="derive-scale-bytecode-")
+
+
+def _env(**extra: str) -> dict:
+    """The environment of every process the benchmark starts: the modules' bytecode written
+    and read under one prefix of its own (module docstring), `extra` added."""
+    env = dict(os.environ, PYTHONPYCACHEPREFIX=BYTECODE.name, **extra)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
 
 
 def chain_file(n: int, folder: Path) -> Path:
@@ -99,7 +111,8 @@ KANE = textwrap.dedent("""
 def kane_cold(n: int) -> dict:
     """KanesMethod + lambdify in a fresh process: wall time, in-process time, ops after CSE."""
     t0 = time.perf_counter()
-    run = subprocess.run([sys.executable, "-c", KANE, str(n)], capture_output=True, text=True, check=True)
+    run = subprocess.run([sys.executable, "-c", KANE, str(n)], capture_output=True, text=True, check=True,
+                         env=_env())
     wall = time.perf_counter() - t0
     return {"wall": wall, **json.loads(run.stdout.splitlines()[-1])}
 
@@ -121,7 +134,7 @@ def derive_cold(model: Path, out: Path, *backends: str) -> float:
     """`derive generate FILE --out DIR [--backend B ...]` in a fresh process on an empty
     cache: wall time (every backend when none is named)."""
     with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, DERIVE_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
+        env = _env(DERIVE_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
         chosen = [arg for b in backends for arg in ("--backend", b)]
         t0 = time.perf_counter()
         subprocess.run([sys.executable, "-m", "derive", "generate", str(model), "--out", str(out), *chosen],
@@ -204,12 +217,12 @@ def taylor_first_runs(n: int, model: Path) -> tuple[float, float, float]:
     """(derive s, heyoka s, relative difference of the final states)."""
     y0, p = json.dumps(list(initial_state(n))), json.dumps(list(parameters(n)))
     with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, DERIVE_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
+        env = _env(DERIVE_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
         t0 = time.perf_counter()
         ours = _checked([sys.executable, "-c", TAYLOR, str(model), y0, p], env=env)
         ours_wall = time.perf_counter() - t0
     t0 = time.perf_counter()
-    theirs = _checked([sys.executable, "-c", HEYOKA, str(n), y0, p])
+    theirs = _checked([sys.executable, "-c", HEYOKA, str(n), y0, p], env=_env())
     theirs_wall = time.perf_counter() - t0
     a, b = (np.array(json.loads(r.stdout.splitlines()[-1])["y"]) for r in (ours, theirs))
     return ours_wall, theirs_wall, float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
@@ -241,6 +254,9 @@ def main(argv=None) -> int:
         if args.links:
             print(f"{'n':>3} {'derive+generate':>16} {'numpy only':>11} {'Kane+lambdify':>14} {'ratio':>12}   {'ops derive':>10} "
                   f"{'ops Kane+LU':>11}   {'rhs derive':>10} {'rhs Kane':>9} {'ratio':>6} {'agree':>8}")
+        if args.links:          # the warm-up: each side's bytecode written (_env), not counted
+            derive_cold(chain_file(3, folder), folder / "warm-up")
+            kane_cold(3)
         for n in args.links:
             model = chain_file(n, folder)
             # each side args.repeat times, taken in turn (derive, numpy only, Kane, derive, ...)

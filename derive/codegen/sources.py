@@ -155,12 +155,13 @@ def _end_early_pool(terminate: bool = False) -> None:
         pool.join()
 
 
-# A model with this many states or more (a 5-link planar chain has 10) starts the
+# A model with this many states or more (a 6-link planar chain has 12) starts the
 # backends' early work (Backend.early_work: what needs the model's spec but not the
 # kernels' CSE) in a worker while the CSE runs: the C backend's Taylor jet with whole
-# angles, 0.05 s at 5 links and 0.2-0.3 s at 12 taken off the longest worker's path.
-# Smaller models render in one process (a worker costs more than it saves).
-EARLY_STATES = 10
+# angles, 0.2-0.3 s at 12 links taken off the longest worker's path.  Smaller models
+# render in one process: a cold `derive generate` of a 5-link chain took 4% longer with
+# the worker than without it, an 8-link chain 2% less, a 12-link chain 4% less.
+EARLY_STATES = 12
 _EARLY_POOL: list = []
 
 
