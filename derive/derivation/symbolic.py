@@ -12,7 +12,7 @@ result brought back:
 * common subexpressions (`engine_cse`): the one CSE pass over a generated file's kernels
   (codegen/emit.py).  On a 12-link chain's 1560 roots SymEngine's cse takes 0.07 s where
   ``sympy.cse`` takes 0.75 s, and leaves fewer operations (10823 against 11919); the
-  round trip, by the converters below, costs 0.2 s.
+  round trip, by the converters below, costs less than a tenth of a second more.
 
 The result is SymPy's own: each symbol is renamed to a plain one on the way in (SymEngine
 keeps no assumptions, and a Dummy would come back as another Dummy) and renamed back on
@@ -21,10 +21,11 @@ the expression SymPy's diff gives (tests/codegen/test_generation_speedups.py com
 catalogue and chains).  What SymEngine cannot take or give back exactly (an unevaluated
 derivative: of abs or sign, say) is done by SymPy instead.
 
-The CSE's converters go node by node with a memo (the roots of a file share most of their
-nodes), to and from the node types listed in `_FUNCTIONS`; an expression with any other
-node (Abs, Piecewise, a Float of other than double precision, a user's function) leaves the
-whole pass to ``sympy.cse``.
+The converters of `EngineNames` go node by node with a memo (the roots of a file share most
+of their nodes), to and from the node types listed in `_FUNCTIONS`; an expression with any
+other node (abs, sign, Piecewise, a Float of other than double precision, a user's
+function) leaves that work to SymPy: the CSE pass to ``sympy.cse``, a `by_engine` formula
+and the Jacobian's sums to SymPy's arithmetic.
 """
 from __future__ import annotations
 

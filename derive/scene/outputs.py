@@ -199,7 +199,8 @@ def _pyplot():
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt    # the plot extra, imported when a figure is drawn
     except ImportError:
-        raise SceneError("'output.plots' needs matplotlib: pip install -e '.[plot]'") from None
+        raise SceneError("'output.plots' needs matplotlib (derive's 'plot' extra): "
+                         "pip install 'matplotlib>=3.7'") from None
     return plt
 
 
