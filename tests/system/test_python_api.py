@@ -21,7 +21,8 @@ from derive.derivation import derive as derivation_of
 from derive.codegen import backends, generate
 from derive.codegen.backends import default_names
 from derive.codegen.backends import jax as jax_backend
-from derive.codegen import opcount
+from derive.codegen import emit, opcount
+from derive.derivation import symbolic
 from derive import errors as errors_module
 from derive.measurement import trust as trust_module
 from derive.report import document, equations as equations_module
@@ -40,7 +41,8 @@ PLANAR = {"m1": 1.0, "m2": 1.3, "l1": 0.9, "l2": 1.1, "g": 9.81}
 # class (issue 26, items 4 and 5); document's pdflatex example compiles a PDF twice: the slow tier
 DOCTESTED = [api, equations_module, pytest.param(document, marks=pytest.mark.slow), result_module,
              backends, generate, jax_backend, errors_module, simulate_module, ensemble_module,
-             scipy_rhs_module, trust_module, linearize_module, loop_state_module, sweep_module, opcount]
+             scipy_rhs_module, trust_module, linearize_module, loop_state_module, sweep_module, opcount,
+             emit, symbolic]
 
 
 @pytest.mark.parametrize("module", DOCTESTED, ids=lambda m: m.__name__)
