@@ -55,10 +55,16 @@ def _free_names(exprs) -> set[sp.Symbol]:
 _PLAIN = (sp.Add, sp.Mul, sp.Pow, sp.Function)
 
 
-def replaced(expr, rules: dict, memo: dict):
+def replaced(expr, rules: dict, memo: dict, renaming: bool = False):
     """expr.xreplace(rules), each node of the roots once (`memo`, kept across the roots of
     a file for this `rules`: they share most of their subtrees, which xreplace walks anew
-    for each root)."""
+    for each root).
+
+    A `renaming` (rules from symbols to symbols, one to one) changes no term's coefficient
+    and merges no terms, only where each name sorts: a sum or product is then its renamed
+    arguments sorted as SymPy sorts them (``_args_sortkey``), without the cost of SymPy's
+    evaluation; every other node is rebuilt as usual.
+    """
     if not rules:
         return expr
     found = memo.get(expr)
@@ -69,20 +75,20 @@ def replaced(expr, rules: dict, memo: dict):
     elif not expr.args:
         found = expr
     else:
-        args = tuple(replaced(a, rules, memo) for a in expr.args)
-        found = expr if args == expr.args else expr.func(*args)
+        args = tuple(replaced(a, rules, memo, renaming) for a in expr.args)
+        if args == expr.args:
+            found = expr
+        elif renaming and (expr.is_Add or expr.is_Mul):
+            found = expr.func._from_args(sorted(args, key=_args_sortkey))
+        else:
+            found = expr.func(*args)
     memo[expr] = found
     return found
 
 
 def renamed(expr, names: dict, memo: dict):
     """expr.xreplace(names) for a renaming (symbols to symbols, one to one), the same
-    expression with its arguments in the same order, built without SymPy's evaluation.
-
-    A renaming changes no term's coefficient and merges no terms, only where each name
-    sorts: a sum or product is its renamed arguments sorted as SymPy sorts them
-    (``_args_sortkey``), every other node is rebuilt as usual.  `memo` keeps each node's
-    result for this `names`.
+    expression with its arguments in the same order: `replaced` with renaming=True.
 
     Examples
     --------
@@ -93,23 +99,7 @@ def renamed(expr, names: dict, memo: dict):
     >>> renamed(e, names, {}), renamed(e, names, {}).args == e.xreplace(names).args
     (t0*t1**2 + 2*t0*sin(t1), True)
     """
-    found = memo.get(expr)
-    if found is not None:
-        return found
-    if expr.is_Symbol:
-        found = names.get(expr, expr)
-    elif not expr.args:
-        found = expr
-    else:
-        args = tuple(renamed(a, names, memo) for a in expr.args)
-        if args == expr.args:
-            found = expr
-        elif expr.is_Add or expr.is_Mul:
-            found = expr.func._from_args(sorted(args, key=_args_sortkey))
-        else:
-            found = expr.func(*args)
-    memo[expr] = found
-    return found
+    return replaced(expr, names, memo, renaming=True)
 
 
 @lru_cache(maxsize=1 << 18)

@@ -68,6 +68,12 @@ class EngineNames:
         """SymEngine expressions of this namespace as SymPy's (SymPy's automatic evaluation)."""
         return _from_engine(exprs, self.back, self._from)
 
+    @property
+    def nodes(self) -> dict:
+        """Every SymPy node converted so far -> its SymEngine node, in post-order (a node
+        after its arguments, the arguments in SymPy's order)."""
+        return self._to
+
     def declare(self, symbols) -> None:
         """Name `symbols` in this order (those not named yet)."""
         for symbol in symbols:
@@ -165,7 +171,7 @@ class Derivatives:
         node types EngineNames converts (`EngineNames.engine` of them all succeeds)."""
         if var not in self.exprs[i].free_symbols:
             return se.Integer(0)
-        return self.names.engine([self.exprs[i]])[0].diff(self.names.forward[var])
+        return self._engine(i).diff(self.names.forward[var])
 
 
 def almost_everywhere(expr: sp.Expr) -> sp.Expr:
@@ -377,7 +383,7 @@ def engine_cse(roots, symbols) -> tuple[list[tuple[sp.Symbol, sp.Expr]], list[sp
     names.declare(sorted(set().union(*(r.free_symbols for r in roots)), key=sp.default_sort_key))
     try:
         replacements, reduced = se.cse(names.engine(roots))
-        replacements = _reading_order(replacements, names._to)
+        replacements = _reading_order(replacements, names.nodes)
         for temporary, _ in replacements:
             names.back[temporary] = next(symbols)
         converted = names.sympy([e for _, e in replacements] + list(reduced))
